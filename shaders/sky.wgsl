@@ -1,0 +1,39 @@
+// Procedural gradient sky with a sun disc, drawn as one full-screen triangle.
+// Each pixel's ray is built from the same intrinsics the labels use.
+
+struct SkyOut {
+    @builtin(position) position: vec4<f32>,
+};
+
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> SkyOut {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    var out: SkyOut;
+    // Depth 0 is the far end in reversed-Z.
+    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    return out;
+}
+
+fn sky_radiance(dir: vec3<f32>) -> vec3<f32> {
+    let up = dir.y;
+    var col: vec3<f32>;
+    if (up >= 0.0) {
+        col = mix(frame.horizon.rgb, frame.zenith.rgb, pow(up, 0.45));
+    } else {
+        // Below the horizon: a hazy ground that fades into the horizon colour.
+        col = mix(frame.horizon.rgb * 0.85, frame.ground.rgb, clamp(-up * 6.0, 0.0, 1.0));
+    }
+    let cos_sun = dot(dir, frame.sun_dir_world.xyz);
+    // Disc of ~0.6° angular radius plus a soft glow.
+    let disc = smoothstep(0.99993, 0.99996, cos_sun);
+    let glow = pow(max(cos_sun, 0.0), 64.0) * 0.35;
+    return col + frame.sun_color.rgb * (disc * 20.0 + glow);
+}
+
+@fragment
+fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
+    let k = frame.intrinsics;
+    let ray_cam = vec3<f32>((in.position.x - k.z) / k.x, (in.position.y - k.w) / k.y, 1.0);
+    let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
+    return vec4<f32>(linear_to_srgb(sky_radiance(dir)), 1.0);
+}

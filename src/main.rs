@@ -1,0 +1,168 @@
+//! The `swarmshot` command line: batch, check, frame, assets.
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use swarmshot::batch::{self, BatchOptions, FrameMaker};
+use swarmshot::preset::Placement;
+use swarmshot::render::GpuContext;
+
+#[derive(Parser)]
+#[command(name = "swarmshot", version, about = "Synthetic training data for UAV-swarm detection")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render every frame of a preset into an image/label dataset.
+    Batch {
+        /// The RON preset.
+        preset: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Make only the first N frames.
+        #[arg(long)]
+        limit: Option<u64>,
+        /// Replace an existing dataset in a non-empty folder.
+        #[arg(long)]
+        overwrite: bool,
+        /// Image encoder threads (default: one per spare core).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
+    /// Validate a preset and print what it will make.
+    Check {
+        preset: PathBuf,
+    },
+    /// Render one frame alone to an image file.
+    Frame {
+        preset: PathBuf,
+        /// Frame index (0-based).
+        #[arg(long, default_value_t = 0)]
+        index: u64,
+        /// Output image (.png or .jpg).
+        #[arg(long)]
+        out: PathBuf,
+        /// Draw the label boxes on the image.
+        #[arg(long)]
+        overlay: bool,
+    },
+    /// Regenerate the built-in models into assets/models/.
+    Assets {
+        #[arg(long, default_value = "assets/models")]
+        dir: PathBuf,
+    },
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Batch { preset, out, limit, overwrite, threads } => {
+            let preset = batch::load_preset(&preset)?;
+            let ctx = GpuContext::headless()?;
+            let total = limit.map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
+            let bar = ProgressBar::new(total);
+            bar.set_style(
+                ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
+                    .context("progress template")?,
+            );
+            let options = BatchOptions { out_dir: out, limit, overwrite, encoder_threads: threads };
+            let cancel = AtomicBool::new(false);
+            let report = batch::run_batch(&preset, &options, &ctx, &cancel, |p| {
+                bar.set_position(p.done);
+                bar.set_message(format!("{:.1} images/s", p.images_per_s()));
+            })?;
+            bar.finish();
+            let s = &report.stats;
+            println!(
+                "wrote {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.1} s ({:.2} images/s) on {}",
+                s.frames,
+                s.frames_per_split[0],
+                s.frames_per_split[1],
+                s.frames_per_split[2],
+                s.boxes,
+                s.small,
+                s.medium,
+                s.large,
+                report.out_dir.display(),
+                report.elapsed.as_secs_f64(),
+                s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9),
+                ctx.describe()
+            );
+        }
+        Command::Check { preset: path } => {
+            let preset = batch::load_preset(&path)?;
+            let maker = FrameMaker::new(preset.clone())?;
+            let (w, h) = preset.image_size();
+            println!("preset {} is valid", path.display());
+            println!("frames: {}", preset.frame_count());
+            println!("image: {w}×{h}, {:?}, MSAA {}", preset.output.image_format, preset.render.msaa);
+            match &preset.placement {
+                Placement::Structured { x_count, y_count, z_count, load_factor } => {
+                    let spacing = load_factor * preset.max_model_size_m();
+                    println!(
+                        "placement: structured grid {x_count}×{y_count}×{z_count} = {} drones per frame, spacing {spacing:.3} m, volume {:.3} × {:.3} × {:.3} m",
+                        x_count * y_count * z_count,
+                        f64::from(x_count - 1) * spacing,
+                        f64::from(y_count - 1) * spacing,
+                        f64::from(z_count - 1) * spacing,
+                    );
+                }
+                Placement::Randomized { count: (lo, hi), volume, min_separation_m } => {
+                    println!("placement: randomized, {lo}–{hi} drones per frame (mean {:.1}), volume {volume:?}, min separation {min_separation_m} m", (f64::from(*lo) + f64::from(*hi)) / 2.0);
+                }
+            }
+            let sample = preset.frame_count().min(200);
+            let mut boxes = 0usize;
+            let mut drones = 0usize;
+            for i in 0..sample {
+                let (scene, labels) = maker.frame(i)?;
+                drones += scene.drones.len();
+                boxes += labels.len();
+            }
+            if sample > 0 {
+                println!(
+                    "estimated from the first {sample} frames: {:.2} drones and {:.2} labelled boxes per frame",
+                    drones as f64 / sample as f64,
+                    boxes as f64 / sample as f64
+                );
+            }
+            for (spec, model) in preset.models.iter().zip(&maker.models) {
+                println!("model {}: {} triangles, {} hull vertices, size {} m, class {}", spec.source, model.indices.len() / 3, model.hull.len(), spec.size_m, spec.class);
+                for w in &model.warnings {
+                    println!("  warning: {w}");
+                }
+            }
+        }
+        Command::Frame { preset, index, out, overlay } => {
+            let preset = batch::load_preset(&preset)?;
+            let maker = FrameMaker::new(preset)?;
+            let ctx = GpuContext::headless()?;
+            let (scene, labels, mut rgba) = batch::render_single(&maker, &ctx, index)?;
+            let (w, h) = (scene.camera.width, scene.camera.height);
+            if overlay {
+                batch::draw_overlay(&mut rgba, w, h, &labels);
+            }
+            let image = image::RgbaImage::from_raw(w, h, rgba).context("frame buffer size")?;
+            image::DynamicImage::ImageRgba8(image).to_rgb8().save(&out).with_context(|| format!("writing {}", out.display()))?;
+            println!("frame {index} ({} split): {} drones, {} boxes -> {}", scene.split.as_str(), scene.drones.len(), labels.len(), out.display());
+        }
+        Command::Assets { dir } => {
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            for name in swarmshot::assets::BUILTIN_NAMES {
+                let bytes = swarmshot::assets::generate_glb(name).context("built-in generator")?;
+                let path = dir.join(format!("{name}.glb"));
+                std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+                println!("wrote {} ({} bytes)", path.display(), bytes.len());
+            }
+        }
+    }
+    Ok(())
+}

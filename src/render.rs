@@ -1,0 +1,456 @@
+//! The wgpu renderer: one module used by the batch runner, the CLI's `frame`
+//! command and the tests (and by the GUI preview). It knows nothing of any UI.
+//!
+//! Long-lived state (pipelines, uploaded meshes) lives in [`Renderer`];
+//! per-frame data (one uniform block, one instance buffer) is rewritten each
+//! frame. [`Renderer::encode`] draws a [`FrameScene`] into any colour view of
+//! the right size, so the preview and the batch output are the same pixels by
+//! construction; [`Renderer::render_rgba`] adds an offscreen target and a
+//! row-padded readback.
+
+use std::borrow::Cow;
+
+use glam::{DMat4, Mat4, Vec4};
+use wgpu::util::DeviceExt;
+
+use crate::model::{CpuModel, Vertex};
+use crate::preset::Sky;
+use crate::scene::FrameScene;
+
+/// The colour format of every target: sRGB is encoded in the shaders (see STACK.md).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(
+        "no GPU adapter found (WGPU_BACKEND={backend}): install Mesa's software Vulkan driver (mesa-vulkan-drivers) or a GPU driver: {reason}"
+    )]
+    NoAdapter { backend: String, reason: String },
+    #[error("cannot open the GPU device: {0}")]
+    Device(String),
+    #[error("render.resolution: {width}×{height} exceeds this adapter's largest texture side of {limit} px")]
+    TooLarge { width: u32, height: u32, limit: u32 },
+    #[error("reading the frame back from the GPU failed: {0}")]
+    Readback(String),
+}
+
+/// A device and queue, from a headless adapter or handed in by a host (eframe).
+#[derive(Clone)]
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    pub max_texture_side: u32,
+}
+
+impl GpuContext {
+    /// Open a headless adapter; honours `WGPU_BACKEND` (vulkan, gl, …). Fails
+    /// loudly when none is found — callers never fall back to "no rendering".
+    pub fn headless() -> Result<Self, RenderError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            ..Default::default()
+        }))
+        .map_err(|e| RenderError::NoAdapter {
+            backend: std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "(default)".into()),
+            reason: e.to_string(),
+        })?;
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("swarmshot device"),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| RenderError::Device(e.to_string()))?;
+        Ok(Self { device, queue, adapter_info: adapter.get_info(), max_texture_side: limits.max_texture_dimension_2d })
+    }
+
+    /// "lavapipe (Vulkan)" and the like, for logs and reports.
+    pub fn describe(&self) -> String {
+        format!("{} ({:?})", self.adapter_info.name, self.adapter_info.backend)
+    }
+}
+
+/// Per-frame uniforms; layout matches `shaders/common.wgsl` `Frame`.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FrameUniforms {
+    clip_from_camera: [[f32; 4]; 4],
+    world_from_camera: [[f32; 4]; 4],
+    intrinsics: [f32; 4],
+    sun_dir_world: [f32; 4],
+    sun_color: [f32; 4],
+    zenith: [f32; 4],
+    horizon: [f32; 4],
+    ground: [f32; 4],
+}
+
+impl FrameUniforms {
+    fn new(scene: &FrameScene, sky: &Sky) -> Self {
+        let cam = &scene.camera;
+        let world_from_camera = Mat4::from_mat3(cam.camera_from_world.transpose().as_mat3());
+        let f = cam.focal_px() as f32;
+        let c = cam.principal_point().as_vec2();
+        let Sky::Gradient { zenith, horizon, .. } = sky;
+        let rgb = |(r, g, b): (f32, f32, f32)| [r, g, b, 1.0];
+        let sun = scene.sun_direction.as_vec3();
+        // Sun colour warms and dims towards the horizon.
+        let elevation = sun.y.clamp(-1.0, 1.0);
+        let warm = (1.0 - elevation).powi(3);
+        let strength = (elevation * 4.0 + 0.3).clamp(0.0, 1.0) * 1.6;
+        Self {
+            clip_from_camera: cam.clip_from_camera().to_cols_array_2d(),
+            world_from_camera: world_from_camera.to_cols_array_2d(),
+            intrinsics: [f, f, c.x, c.y],
+            sun_dir_world: sun.extend(0.0).to_array(),
+            sun_color: [strength, strength * (1.0 - 0.35 * warm), strength * (1.0 - 0.65 * warm), 1.0],
+            zenith: rgb(*zenith),
+            horizon: rgb(*horizon),
+            ground: [horizon.0 * 0.35, horizon.1 * 0.33, horizon.2 * 0.28, 1.0],
+        }
+    }
+}
+
+struct GpuMesh {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+}
+
+/// An offscreen target of one size and sample count, with its readback buffer.
+struct Target {
+    width: u32,
+    height: u32,
+    msaa: u32,
+    /// Multisampled colour, only when msaa > 1.
+    msaa_color: Option<wgpu::TextureView>,
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth: wgpu::TextureView,
+    readback: wgpu::Buffer,
+    padded_row: u32,
+}
+
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    max_texture_side: u32,
+    frame_buffer: wgpu::Buffer,
+    frame_bind_group: wgpu::BindGroup,
+    layout: wgpu::PipelineLayout,
+    shaders: (wgpu::ShaderModule, wgpu::ShaderModule),
+    /// Pipelines per sample count: (sky, drone).
+    pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
+    meshes: Vec<GpuMesh>,
+    instances: Option<wgpu::Buffer>,
+    target: Option<Target>,
+}
+
+/// WGSL sources, each with the shared header prepended.
+pub fn shader_sources() -> [(&'static str, String); 2] {
+    let common = include_str!("../shaders/common.wgsl");
+    [
+        ("sky.wgsl", format!("{common}\n{}", include_str!("../shaders/sky.wgsl"))),
+        ("drone.wgsl", format!("{common}\n{}", include_str!("../shaders/drone.wgsl"))),
+    ]
+}
+
+impl Renderer {
+    /// Build pipelines and upload the models (index = model index in the preset).
+    pub fn new(ctx: &GpuContext, models: &[CpuModel]) -> Self {
+        let device = ctx.device.clone();
+        let frame_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame uniforms layout"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame uniforms"),
+            layout: &frame_bgl,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("swarmshot pipeline layout"),
+            bind_group_layouts: &[Some(&frame_bgl)],
+            immediate_size: 0,
+        });
+        let [(sky_name, sky_src), (drone_name, drone_src)] = shader_sources();
+        let module = |label: &str, src: String| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)) })
+        };
+        let shaders = (module(sky_name, sky_src), module(drone_name, drone_src));
+        let meshes = models
+            .iter()
+            .map(|m| GpuMesh {
+                vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(&format!("{} vertices", m.name)),
+                    contents: bytemuck::cast_slice(&m.vertices),
+                    usage: wgpu::BufferUsages::VERTEX,
+                }),
+                indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(&format!("{} indices", m.name)),
+                    contents: bytemuck::cast_slice(&m.indices),
+                    usage: wgpu::BufferUsages::INDEX,
+                }),
+                index_count: m.indices.len() as u32,
+            })
+            .collect();
+        Self {
+            device,
+            queue: ctx.queue.clone(),
+            max_texture_side: ctx.max_texture_side,
+            frame_buffer,
+            frame_bind_group,
+            layout,
+            shaders,
+            pipelines: Vec::new(),
+            meshes,
+            instances: None,
+            target: None,
+        }
+    }
+
+    fn pipelines(&mut self, msaa: u32) -> usize {
+        if let Some(i) = self.pipelines.iter().position(|p| p.0 == msaa) {
+            return i;
+        }
+        let multisample = wgpu::MultisampleState { count: msaa, ..Default::default() };
+        let color = [Some(wgpu::ColorTargetState { format: COLOR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+        let depth = |write: bool, compare| wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(write),
+            depth_compare: Some(compare),
+            stencil: Default::default(),
+            bias: Default::default(),
+        };
+        let sky = self.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("sky pipeline"),
+            layout: Some(&self.layout),
+            vertex: wgpu::VertexState { module: &self.shaders.0, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(depth(false, wgpu::CompareFunction::Always)),
+            multisample,
+            fragment: Some(wgpu::FragmentState { module: &self.shaders.0, entry_point: Some("fs_main"), compilation_options: Default::default(), targets: &color }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
+        let instance_attrs = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4];
+        let buffers = [
+            Some(wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<Vertex>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &vertex_attrs }),
+            Some(wgpu::VertexBufferLayout { array_stride: 64, step_mode: wgpu::VertexStepMode::Instance, attributes: &instance_attrs }),
+        ];
+        let drone = self.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("drone pipeline"),
+            layout: Some(&self.layout),
+            vertex: wgpu::VertexState { module: &self.shaders.1, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &buffers },
+            // Thin parts (rotor discs, wings) are seen from both sides: no culling.
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(depth(true, wgpu::CompareFunction::Greater)),
+            multisample,
+            fragment: Some(wgpu::FragmentState { module: &self.shaders.1, entry_point: Some("fs_main"), compilation_options: Default::default(), targets: &color }),
+            multiview_mask: None,
+            cache: None,
+        });
+        self.pipelines.push((msaa, sky, drone));
+        self.pipelines.len() - 1
+    }
+
+    /// Write the frame's uniforms and instances (camera_from_model, built in f64).
+    fn upload(&mut self, scene: &FrameScene, sky: &Sky) -> Vec<(usize, std::ops::Range<u32>)> {
+        self.queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&FrameUniforms::new(scene, sky)));
+        let cam = &scene.camera;
+        let camera_from_world_rot = glam::DMat3::from(cam.camera_from_world);
+        let mut order: Vec<usize> = (0..scene.drones.len()).collect();
+        order.sort_by_key(|&i| scene.drones[i].model);
+        let mut data: Vec<[f32; 16]> = Vec::with_capacity(order.len());
+        let mut ranges: Vec<(usize, std::ops::Range<u32>)> = Vec::new();
+        for &i in &order {
+            let d = &scene.drones[i];
+            let translation = cam.camera_from_world_point(d.position);
+            let m = DMat4::from_mat3_translation(camera_from_world_rot * glam::DMat3::from_quat(d.rotation) * d.size_m, translation);
+            let idx = data.len() as u32;
+            data.push(m.as_mat4().to_cols_array());
+            match ranges.last_mut() {
+                Some((model, r)) if *model == d.model => r.end = idx + 1,
+                _ => ranges.push((d.model, idx..idx + 1)),
+            }
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        let needed = (bytes.len() as u64).max(64);
+        if self.instances.as_ref().is_none_or(|b| b.size() < needed) {
+            self.instances = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("drone instances"),
+                size: needed.next_power_of_two(),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        if let Some(buf) = &self.instances
+            && !bytes.is_empty()
+        {
+            self.queue.write_buffer(buf, 0, bytes);
+        }
+        ranges
+    }
+
+    /// Encode the frame into `color` (which is `msaa`-sampled; `resolve` is the
+    /// single-sample view to resolve into when msaa > 1). `depth` must match `color`.
+    pub fn encode(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &FrameScene,
+        sky: &Sky,
+        msaa: u32,
+        color: &wgpu::TextureView,
+        resolve: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+    ) {
+        let ranges = self.upload(scene, sky);
+        let p = self.pipelines(msaa);
+        let (_, sky_pipeline, drone_pipeline) = &self.pipelines[p];
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("frame pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: color,
+                depth_slice: None,
+                resolve_target: resolve,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                // Reversed-Z: 0 is infinitely far.
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.frame_bind_group, &[]);
+        pass.set_pipeline(sky_pipeline);
+        pass.draw(0..3, 0..1);
+        if let Some(instances) = &self.instances
+            && !ranges.is_empty()
+        {
+            pass.set_pipeline(drone_pipeline);
+            pass.set_vertex_buffer(1, instances.slice(..));
+            for (model, range) in ranges {
+                let mesh = &self.meshes[model];
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, range);
+            }
+        }
+    }
+
+    fn ensure_target(&mut self, width: u32, height: u32, msaa: u32) -> Result<(), RenderError> {
+        if width == 0 || height == 0 || width > self.max_texture_side || height > self.max_texture_side {
+            return Err(RenderError::TooLarge { width, height, limit: self.max_texture_side });
+        }
+        if self.target.as_ref().is_some_and(|t| t.width == width && t.height == height && t.msaa == msaa) {
+            return Ok(());
+        }
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let texture = |label: &str, format, samples, usage| {
+            self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = texture("frame colour", COLOR_FORMAT, 1, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::TEXTURE_BINDING);
+        let msaa_color = (msaa > 1).then(|| texture("frame colour (msaa)", COLOR_FORMAT, msaa, wgpu::TextureUsages::RENDER_ATTACHMENT).create_view(&Default::default()));
+        let depth = texture("frame depth", DEPTH_FORMAT, msaa, wgpu::TextureUsages::RENDER_ATTACHMENT).create_view(&Default::default());
+        let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame readback"),
+            size: u64::from(padded_row) * u64::from(height),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let color_view = color.create_view(&Default::default());
+        self.target = Some(Target { width, height, msaa, msaa_color, color, color_view, depth, readback, padded_row });
+        Ok(())
+    }
+
+    /// Render offscreen and read back tightly packed RGBA8 (sRGB-encoded) pixels.
+    pub fn render_rgba(&mut self, scene: &FrameScene, sky: &Sky, msaa: u32) -> Result<Vec<u8>, RenderError> {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        self.ensure_target(width, height, msaa)?;
+        let target = self.target.take().ok_or_else(|| RenderError::Readback("no target".into()))?;
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        match &target.msaa_color {
+            Some(ms) => self.encode(&mut encoder, scene, sky, msaa, ms, Some(&target.color_view), &target.depth),
+            None => self.encode(&mut encoder, scene, sky, msaa, &target.color_view, None, &target.depth),
+        }
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo { texture: &target.color, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &target.readback,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(target.padded_row), rows_per_image: Some(height) },
+            },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        self.queue.submit([encoder.finish()]);
+        let result = read_buffer(&self.device, &target.readback, width, height, target.padded_row);
+        self.target = Some(target);
+        result
+    }
+}
+
+/// Map a padded readback buffer and strip the row padding.
+fn read_buffer(device: &wgpu::Device, buffer: &wgpu::Buffer, width: u32, height: u32, padded_row: u32) -> Result<Vec<u8>, RenderError> {
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Readback(e.to_string()))?;
+    rx.recv().map_err(|e| RenderError::Readback(e.to_string()))?.map_err(|e| RenderError::Readback(e.to_string()))?;
+    let row = (width * 4) as usize;
+    let mut out = Vec::with_capacity(row * height as usize);
+    {
+        let view = slice.get_mapped_range().map_err(|e| RenderError::Readback(e.to_string()))?;
+        for y in 0..height as usize {
+            let start = y * padded_row as usize;
+            out.extend_from_slice(&view[start..start + row]);
+        }
+    }
+    buffer.unmap();
+    Ok(out)
+}
+
+/// Linear-to-sRGB as the shaders do it (used by tests that predict pixels).
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let x = c.clamp(0.0, 1.0);
+    if x <= 0.003_130_8 { x * 12.92 } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+}
+
+#[allow(dead_code)]
+fn _assert_layout() {
+    // FrameUniforms must be a multiple of 16 bytes for WGSL uniform layout.
+    const _: () = assert!(std::mem::size_of::<FrameUniforms>() % 16 == 0);
+    let _ = Vec4::ZERO;
+}
