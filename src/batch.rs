@@ -74,7 +74,13 @@ impl FrameMaker {
         }
         settings.min_visible_pixels = 0;
         settings.min_visible_fraction = 0.0;
-        let labels = label_frame(&scene, &self.geometry, &self.class_of_model, &settings, None);
+        let labels = label_frame(
+            &scene,
+            &self.geometry,
+            &self.class_of_model,
+            &settings,
+            None,
+        );
         Ok((scene, labels))
     }
 

@@ -248,7 +248,12 @@ pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option
             let x = col as f64;
             let (b, n) = &mut out[id as usize - 1];
             *n += 1;
-            let nb = b.get_or_insert(PixelBox { x0: x, y0: y, x1: x + 1.0, y1: y + 1.0 });
+            let nb = b.get_or_insert(PixelBox {
+                x0: x,
+                y0: y,
+                x1: x + 1.0,
+                y1: y + 1.0,
+            });
             nb.x0 = nb.x0.min(x);
             nb.y0 = nb.y0.min(y);
             nb.x1 = nb.x1.max(x + 1.0);
@@ -264,14 +269,21 @@ pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option
 /// layers and whether each drone overlaps any other.
 pub fn overlap_layers(boxes: &[Option<PixelBox>]) -> (Vec<Vec<usize>>, Vec<bool>) {
     const TILE: f64 = 64.0;
-    let pad = |b: &PixelBox| PixelBox { x0: b.x0 - 1.0, y0: b.y0 - 1.0, x1: b.x1 + 1.0, y1: b.y1 + 1.0 };
-    let overlaps = |a: &PixelBox, b: &PixelBox| a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+    let pad = |b: &PixelBox| PixelBox {
+        x0: b.x0 - 1.0,
+        y0: b.y0 - 1.0,
+        x1: b.x1 + 1.0,
+        y1: b.y1 + 1.0,
+    };
+    let overlaps =
+        |a: &PixelBox, b: &PixelBox| a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
     let tiles_of = |b: &PixelBox| {
         let (tx0, ty0) = ((b.x0 / TILE).floor() as i64, (b.y0 / TILE).floor() as i64);
         let (tx1, ty1) = ((b.x1 / TILE).floor() as i64, (b.y1 / TILE).floor() as i64);
         (ty0..=ty1).flat_map(move |ty| (tx0..=tx1).map(move |tx| (tx, ty)))
     };
-    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> =
+        std::collections::HashMap::new();
     for (i, b) in boxes.iter().enumerate() {
         if let Some(b) = b {
             for t in tiles_of(&pad(b)) {
@@ -289,7 +301,10 @@ pub fn overlap_layers(boxes: &[Option<PixelBox>]) -> (Vec<Vec<usize>>, Vec<bool>
         let mut seen = std::collections::HashSet::new();
         for t in tiles_of(&pb) {
             for &j in grid.get(&t).into_iter().flatten() {
-                if j != i && seen.insert(j) && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj))) {
+                if j != i
+                    && seen.insert(j)
+                    && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj)))
+                {
                     overlapping[i] = true;
                     if let Some(l) = layer_of[j] {
                         taken.insert(l);

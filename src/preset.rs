@@ -649,11 +649,19 @@ impl Preset {
                 v.push(&field, e.to_string());
             }
         }
-        for (i, z) in self.camera.z.values().iter().enumerate() {
-            if *z == 0.0 {
-                v.push("camera.z", format!("value #{i} is {z}; CameraZ must be non-zero (the camera would sit at the centre)"));
-                break;
+        let has_zero = |r: SweepRange| {
+            let Ok(n) = r.count() else { return false };
+            if r.start == r.end || r.step == 0.0 {
+                return r.start == 0.0;
             }
+            let i = (-r.start / r.step).round();
+            i >= 0.0 && (i as u64) < n && r.value(i as u64) == 0.0
+        };
+        if has_zero(self.camera.x) && has_zero(self.camera.y) && has_zero(self.camera.z) {
+            v.push(
+                "camera.z",
+                "CameraX, CameraY and CameraZ are all 0 in some frame: the camera would sit at the centre it looks at".into(),
+            );
         }
         v.check(
             self.camera.fov_y_deg.is_finite()

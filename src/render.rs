@@ -201,6 +201,14 @@ pub struct Renderer {
     /// The instance-id pass, created on first use (presets that need no
     /// visibility never build it).
     ids: Option<IdPass>,
+    counts: PassCounts,
+}
+
+/// How many passes a renderer has run (for tests and benchmarks).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassCounts {
+    pub color: u64,
+    pub ids: u64,
 }
 
 /// WGSL sources, each with the shared header prepended.
@@ -295,7 +303,18 @@ impl Renderer {
             instances: None,
             target: None,
             ids: None,
+            counts: PassCounts::default(),
         }
+    }
+
+    /// Passes run so far.
+    pub fn pass_counts(&self) -> PassCounts {
+        self.counts
+    }
+
+    /// Whether the instance-id pipeline has been built (it is only built on first use).
+    pub fn has_id_pipeline(&self) -> bool {
+        self.ids.is_some()
     }
 
     fn pipelines(&mut self, msaa: u32) -> usize {
@@ -459,6 +478,7 @@ impl Renderer {
         } = *views;
         self.upload_uniforms(scene, sky);
         let ranges = self.upload_instances(scene, &|_| true);
+        self.counts.color += 1;
         let p = self.pipelines(msaa);
         let (_, sky_pipeline, drone_pipeline) = &self.pipelines[p];
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -704,7 +724,13 @@ struct IdPass {
     pipeline: wgpu::RenderPipeline,
     width: u32,
     height: u32,
-    target: Option<(wgpu::Texture, wgpu::TextureView, wgpu::TextureView, wgpu::Buffer, u32)>,
+    target: Option<(
+        wgpu::Texture,
+        wgpu::TextureView,
+        wgpu::TextureView,
+        wgpu::Buffer,
+        u32,
+    )>,
 }
 
 impl Renderer {
@@ -785,7 +811,10 @@ impl Renderer {
         include: &dyn Fn(usize) -> bool,
     ) -> Result<IdImage, RenderError> {
         let (width, height) = (scene.camera.width, scene.camera.height);
-        if width == 0 || height == 0 || width > self.max_texture_side || height > self.max_texture_side
+        if width == 0
+            || height == 0
+            || width > self.max_texture_side
+            || height > self.max_texture_side
         {
             return Err(RenderError::TooLarge {
                 width,
@@ -796,6 +825,7 @@ impl Renderer {
         self.upload_uniforms(scene, sky);
         let ranges = self.upload_instances(scene, include);
         self.id_pass();
+        self.counts.ids += 1;
         let Some(mut pass) = self.ids.take() else {
             return Err(RenderError::Readback("no id pass".into()));
         };

@@ -23,7 +23,10 @@ pub fn measure(
     let n = scene.drones.len();
     let ids = renderer.render_ids(scene, sky, &|_| true)?;
     let seen = pixel_stats(&ids, n);
-    let (w, h) = (f64::from(scene.camera.width), f64::from(scene.camera.height));
+    let (w, h) = (
+        f64::from(scene.camera.width),
+        f64::from(scene.camera.height),
+    );
     let boxes: Vec<Option<PixelBox>> = scene
         .drones
         .iter()
@@ -53,10 +56,12 @@ pub fn measure(
     Ok(seen
         .into_iter()
         .zip(unoccluded)
-        .map(|((visible_box, visible_pixels), unoccluded_pixels)| Visibility {
-            visible_box,
-            visible_pixels,
-            unoccluded_pixels,
-        })
+        .map(
+            |((visible_box, visible_pixels), unoccluded_pixels)| Visibility {
+                visible_box,
+                visible_pixels,
+                unoccluded_pixels,
+            },
+        )
         .collect())
 }

@@ -158,7 +158,9 @@ fn invalid_values_name_their_field() {
 
     let mut p = base.clone();
     p.camera.z = SweepRange::new(-1.0, 1.0, 1.0);
-    assert_rejected(&p, "camera.z", "non-zero");
+    p.camera.x = SweepRange::fixed(0.0);
+    p.camera.y = SweepRange::fixed(0.0);
+    assert_rejected(&p, "camera.z", "centre");
 
     let mut p = base.clone();
     p.output.split.train = 0.9;
