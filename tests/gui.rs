@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui_wgpu;
 use egui::accesskit::Role;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT as _, Queryable};
 use egui_kittest::{Harness, SnapshotOptions};
 use swarmshot::app::runner::BatchOutcome;
 use swarmshot::app::{StartOptions, SwarmshotApp};
@@ -282,7 +282,7 @@ fn cancel_leaves_a_consistent_dataset_and_parameters_are_locked_meanwhile() {
 fn snapshot_options() -> SnapshotOptions {
     // lavapipe is deterministic run to run; the slack covers font/rasteriser
     // differences between Mesa builds.
-    SnapshotOptions::new().threshold(2.0).failed_pixel_count_threshold(2000)
+    SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
 }
 
 /// Hide what changes run to run: the status bar (render time, adapter name).

@@ -504,8 +504,11 @@ impl SwarmshotApp {
                 commands.push(Command::SaveAs);
             }
             ui.separator();
-            let file = self.session.preset_path.as_ref().map_or_else(|| "not saved".into(), |p| p.display().to_string());
-            ui.label(format!("{} ({file})", self.session.preset.name));
+            let (file, full) = match &self.session.preset_path {
+                Some(p) => (p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned()), p.display().to_string()),
+                None => ("not saved".into(), "this preset has no file yet".into()),
+            };
+            ui.label(format!("{} ({file})", self.session.preset.name)).on_hover_text(full);
             if self.session.is_dirty() {
                 ui.label(RichText::new("• unsaved changes").color(ui.visuals().warn_fg_color));
             }
@@ -730,7 +733,9 @@ impl SwarmshotApp {
             self.preview_error.as_ref().map(|e| format!("Preview failed: {}", e.message))
         };
         if let Some(message) = message {
-            painter.text(rect.center(), egui::Align2::CENTER_CENTER, message, egui::FontId::proportional(16.0), ui.visuals().error_fg_color);
+            let colour = ui.visuals().error_fg_color;
+            let area = Rect::from_center_size(rect.center(), Vec2::new(rect.width() * 0.9, 60.0));
+            ui.put(area, egui::Label::new(RichText::new(message).size(16.0).color(colour).background_color(Color32::from_black_alpha(160))));
         }
     }
 }

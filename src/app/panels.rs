@@ -48,7 +48,7 @@ impl<'a> Form<'a> {
 }
 
 pub fn error_label(ui: &mut Ui, message: &str) {
-    ui.label(RichText::new(format!("⚠ {message}")).color(ui.visuals().error_fg_color));
+    ui.label(RichText::new(message).color(ui.visuals().error_fg_color));
 }
 
 /// `label  [number]` on one line; the label names the field (for screen readers and tests).
