@@ -29,7 +29,15 @@ fn harness(preset: Option<PathBuf>) -> Harness<'static, SwarmshotApp> {
     Harness::builder()
         .with_size([1400.0, 880.0])
         .wgpu_setup(setup)
-        .build_eframe(move |cc| SwarmshotApp::new(cc, StartOptions { preset, restore_session: false }))
+        .build_eframe(move |cc| {
+            SwarmshotApp::new(
+                cc,
+                StartOptions {
+                    preset,
+                    restore_session: false,
+                },
+            )
+        })
 }
 
 /// Step the UI until `done` holds (the workers answer asynchronously).
@@ -42,7 +50,10 @@ fn wait_for(h: &mut Harness<'_, SwarmshotApp>, what: &str, done: impl Fn(&Swarms
             h.step();
             return;
         }
-        assert!(start.elapsed() < WAIT, "timed out after {WAIT:?} waiting for {what}");
+        assert!(
+            start.elapsed() < WAIT,
+            "timed out after {WAIT:?} waiting for {what}"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
 }
@@ -53,7 +64,10 @@ fn settled(app: &SwarmshotApp) -> bool {
 
 /// The preview pane's pixels in the last rendered window image.
 fn preview_pixels(h: &mut Harness<'_, SwarmshotApp>) -> image::RgbaImage {
-    let rect = h.state().preview_rect().expect("the preview pane was drawn");
+    let rect = h
+        .state()
+        .preview_rect()
+        .expect("the preview pane was drawn");
     let ppp = h.ctx.pixels_per_point();
     let image = h.render().expect("render the window");
     let (x, y) = ((rect.min.x * ppp) as u32, (rect.min.y * ppp) as u32);
@@ -63,7 +77,10 @@ fn preview_pixels(h: &mut Harness<'_, SwarmshotApp>) -> image::RgbaImage {
 
 fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
     assert_eq!(a.dimensions(), b.dimensions());
-    a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 8)).count()
+    a.pixels()
+        .zip(b.pixels())
+        .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 8))
+        .count()
 }
 
 fn write_preset(dir: &Path, name: &str, ron: &str) -> PathBuf {
@@ -93,28 +110,43 @@ fn xcount_and_camera_z_change_the_summary_and_the_preview() {
     let before = preview_pixels(&mut h);
 
     h.get_by_label("XCount").set_value_accesskit(5.0);
-    wait_for(&mut h, "the preview and summary after XCount = 5", |app| settled(app) && app.summary().is_some_and(|s| s.drones_max == 45));
+    wait_for(&mut h, "the preview and summary after XCount = 5", |app| {
+        settled(app) && app.summary().is_some_and(|s| s.drones_max == 45)
+    });
     h.get_by_label("Drones per frame: 45");
     let after = preview_pixels(&mut h);
     let changed = differing_pixels(&before, &after);
-    assert!(changed > 200, "the preview changed in only {changed} pixels after XCount 3 → 5");
-    assert!(h.state().session().is_dirty(), "an edit marks the preset unsaved");
+    assert!(
+        changed > 200,
+        "the preview changed in only {changed} pixels after XCount 3 → 5"
+    );
+    assert!(
+        h.state().session().is_dirty(),
+        "an edit marks the preset unsaved"
+    );
     h.get_by_label("• unsaved changes");
 
     // CameraZ 1..2 step 0.5 is three frames.
     h.get_by_label("CameraZ end").set_value_accesskit(2.0);
     h.get_by_label("CameraZ step").set_value_accesskit(0.5);
-    wait_for(&mut h, "three frames", |app| settled(app) && app.summary().is_some_and(|s| s.frames == 3));
+    wait_for(&mut h, "three frames", |app| {
+        settled(app) && app.summary().is_some_and(|s| s.frames == 3)
+    });
     h.get_by_label("Frames: 3");
     h.get_by_label("frame 1 of 3");
     // Scrub to the last frame: the camera moves back, the picture changes.
     let first = preview_pixels(&mut h);
     h.get_by_label("Frame").set_value_accesskit(2.0);
-    wait_for(&mut h, "frame 3", |app| settled(app) && app.preview_key().is_some_and(|k| k.frame == 2));
+    wait_for(&mut h, "frame 3", |app| {
+        settled(app) && app.preview_key().is_some_and(|k| k.frame == 2)
+    });
     h.get_by_label("frame 3 of 3");
     h.get_by_label_contains("CameraZ 2 ·");
     let last = preview_pixels(&mut h);
-    assert!(differing_pixels(&first, &last) > 200, "scrubbing to frame 3 did not change the preview");
+    assert!(
+        differing_pixels(&first, &last) > 200,
+        "scrubbing to frame 3 did not change the preview"
+    );
 }
 
 #[test]
@@ -133,7 +165,11 @@ fn an_invalid_step_shows_its_message_at_the_widget() {
     h.key_press(egui::Key::Enter);
     h.run_steps(3);
 
-    assert_eq!(h.state().session().preset.camera.z.step, -0.4, "the typed value reached the preset");
+    assert_eq!(
+        h.state().session().preset.camera.z.step,
+        -0.4,
+        "the typed value reached the preset"
+    );
     let errors = h.state().errors();
     assert_eq!(errors.len(), 1, "{errors:?}");
     assert_eq!(errors[0].field, "camera.z.step");
@@ -141,8 +177,16 @@ fn an_invalid_step_shows_its_message_at_the_widget() {
     // Shown right under the CameraZ row, not somewhere else.
     let step = h.get_by_label("CameraZ step").rect();
     let at = message.rect();
-    assert!(at.top() >= step.bottom() - 1.0 && at.top() - step.bottom() < 30.0, "message at {at:?}, CameraZ step at {step:?}");
-    assert!(h.get_by_role_and_label(Role::Button, "Generate").accesskit_node().is_disabled(), "Generate is disabled while the preset is invalid");
+    assert!(
+        at.top() >= step.bottom() - 1.0 && at.top() - step.bottom() < 30.0,
+        "message at {at:?}, CameraZ step at {step:?}"
+    );
+    assert!(
+        h.get_by_role_and_label(Role::Button, "Generate")
+            .accesskit_node()
+            .is_disabled(),
+        "Generate is disabled while the preset is invalid"
+    );
     h.get_by_label_contains("Preview paused");
 
     // Fixing it removes the message.
@@ -195,7 +239,9 @@ fn generate_writes_the_same_dataset_as_the_cli() {
     h.run_steps(2);
     h.get_by_role_and_label(Role::Button, "Generate").click();
     h.run_steps(2);
-    wait_for(&mut h, "the batch to finish", |app| !app.batch_running() && app.batch_outcome().is_some());
+    wait_for(&mut h, "the batch to finish", |app| {
+        !app.batch_running() && app.batch_outcome().is_some()
+    });
     match h.state().batch_outcome() {
         Some(BatchOutcome::Done(report)) => {
             assert!(!report.cancelled);
@@ -215,17 +261,36 @@ fn generate_writes_the_same_dataset_as_the_cli() {
     // The CLI on the same preset file writes byte-identical labels.
     let cli_out = dir.path().join("from-cli");
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
-        .args(["batch", preset.to_str().unwrap(), "--out", cli_out.to_str().unwrap()])
+        .args([
+            "batch",
+            preset.to_str().unwrap(),
+            "--out",
+            cli_out.to_str().unwrap(),
+        ])
         .status()
         .unwrap();
     assert!(status.success());
     assert_eq!(files_under(&cli_out.join("images"), "png"), images);
     for rel in labels.iter().map(|p| Path::new("labels").join(p)).chain(
-        ["manifest.jsonl", "preset.lock.ron", "stats.json", "annotations/instances_train.json", "annotations/instances_val.json", "annotations/instances_test.json"]
-            .map(PathBuf::from),
+        [
+            "manifest.jsonl",
+            "preset.lock.ron",
+            "stats.json",
+            "annotations/instances_train.json",
+            "annotations/instances_val.json",
+            "annotations/instances_test.json",
+        ]
+        .map(PathBuf::from),
     ) {
-        let (a, b) = (std::fs::read(gui_out.join(&rel)).unwrap(), std::fs::read(cli_out.join(&rel)).unwrap());
-        assert!(a == b, "{} differs between the app and the CLI", rel.display());
+        let (a, b) = (
+            std::fs::read(gui_out.join(&rel)).unwrap(),
+            std::fs::read(cli_out.join(&rel)).unwrap(),
+        );
+        assert!(
+            a == b,
+            "{} differs between the app and the CLI",
+            rel.display()
+        );
     }
 }
 
@@ -234,7 +299,10 @@ fn cancel_leaves_a_consistent_dataset_and_parameters_are_locked_meanwhile() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     // 10 001 frames: far more than can finish before Cancel.
-    let long = TINY.replace("(start: 1.0, end: 2.0, step: 0.5)", "(start: 1.0, end: 101.0, step: 0.01)");
+    let long = TINY.replace(
+        "(start: 1.0, end: 2.0, step: 0.5)",
+        "(start: 1.0, end: 101.0, step: 0.01)",
+    );
     let preset = write_preset(dir.path(), "long.ron", &long);
     let out = dir.path().join("out");
     let mut h = harness(Some(preset));
@@ -244,13 +312,27 @@ fn cancel_leaves_a_consistent_dataset_and_parameters_are_locked_meanwhile() {
     h.get_by_role_and_label(Role::Button, "Generate").click();
     h.run_steps(2);
     assert!(h.state().batch_running());
-    assert!(h.get_by_label("XCount").accesskit_node().is_disabled(), "parameter widgets are locked during a batch");
-    assert!(h.get_by_label("CameraZ step").accesskit_node().is_disabled());
+    assert!(
+        h.get_by_label("XCount").accesskit_node().is_disabled(),
+        "parameter widgets are locked during a batch"
+    );
+    assert!(
+        h.get_by_label("CameraZ step")
+            .accesskit_node()
+            .is_disabled()
+    );
     h.get_by_label_contains("images/s");
-    wait_for(&mut h, "a few frames", |_| std::fs::read_dir(out.join("images/train")).map(|d| d.count()).unwrap_or(0) >= 3);
+    wait_for(&mut h, "a few frames", |_| {
+        std::fs::read_dir(out.join("images/train"))
+            .map(|d| d.count())
+            .unwrap_or(0)
+            >= 3
+    });
     h.get_by_role_and_label(Role::Button, "Cancel").click();
     h.run_steps(2);
-    wait_for(&mut h, "the cancelled batch to end", |app| !app.batch_running());
+    wait_for(&mut h, "the cancelled batch to end", |app| {
+        !app.batch_running()
+    });
     let frames = match h.state().batch_outcome() {
         Some(BatchOutcome::Done(report)) => {
             assert!(report.cancelled);
@@ -259,21 +341,32 @@ fn cancel_leaves_a_consistent_dataset_and_parameters_are_locked_meanwhile() {
         Some(BatchOutcome::Failed(e)) => panic!("batch failed: {e}"),
         None => unreachable!(),
     };
-    assert!(frames >= 3 && frames < 10_001, "{frames} frames");
+    assert!((3..10_001).contains(&frames), "{frames} frames");
     h.get_by_label_contains("Cancelled:");
-    assert!(!h.get_by_label("XCount").accesskit_node().is_disabled(), "parameters unlock after the batch");
+    assert!(
+        !h.get_by_label("XCount").accesskit_node().is_disabled(),
+        "parameters unlock after the batch"
+    );
 
     let images = files_under(&out.join("images"), "png");
     let labels = files_under(&out.join("labels"), "txt");
     assert_eq!(images.len() as u64, frames);
-    assert_eq!(stems(&images), stems(&labels), "every written image has its label file");
+    assert_eq!(
+        stems(&images),
+        stems(&labels),
+        "every written image has its label file"
+    );
     let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
     assert_eq!(manifest.lines().count() as u64, frames);
     let coco_images: u64 = ["train", "val", "test"]
         .iter()
         .map(|s| {
-            let text = std::fs::read_to_string(out.join(format!("annotations/instances_{s}.json"))).unwrap();
-            serde_json::from_str::<serde_json::Value>(&text).unwrap()["images"].as_array().unwrap().len() as u64
+            let text = std::fs::read_to_string(out.join(format!("annotations/instances_{s}.json")))
+                .unwrap();
+            serde_json::from_str::<serde_json::Value>(&text).unwrap()["images"]
+                .as_array()
+                .unwrap()
+                .len() as u64
         })
         .sum();
     assert_eq!(coco_images, frames);
@@ -282,7 +375,9 @@ fn cancel_leaves_a_consistent_dataset_and_parameters_are_locked_meanwhile() {
 fn snapshot_options() -> SnapshotOptions {
     // lavapipe is deterministic run to run; the slack covers font/rasteriser
     // differences between Mesa builds.
-    SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
+    SnapshotOptions::new()
+        .threshold(2.0)
+        .max_failed_pixels(2000)
 }
 
 /// Hide what changes run to run: the status bar (render time, adapter name).
@@ -290,7 +385,10 @@ fn mask_status_bar(h: &mut Harness<'_, SwarmshotApp>) {
     let status = h.get_by_label_contains("preview ").rect();
     let width = h.ctx.content_rect().width();
     let bottom = h.ctx.content_rect().bottom();
-    h.mask(egui::Rect::from_min_max(egui::pos2(0.0, status.top() - 4.0), egui::pos2(width, bottom)));
+    h.mask(egui::Rect::from_min_max(
+        egui::pos2(0.0, status.top() - 4.0),
+        egui::pos2(width, bottom),
+    ));
 }
 
 #[test]
@@ -304,7 +402,12 @@ fn main_window_snapshots() {
     h.snapshot_options("main_window", &snapshot_options());
 
     h.get_by_label("Inspect").click();
-    wait_for(&mut h, "the inspect view", |app| settled(app) && app.preview_key().is_some_and(|k| matches!(k.view, swarmshot::app::preview::PreviewView::Inspect(_))));
+    wait_for(&mut h, "the inspect view", |app| {
+        settled(app)
+            && app
+                .preview_key()
+                .is_some_and(|k| matches!(k.view, swarmshot::app::preview::PreviewView::Inspect(_)))
+    });
     mask_status_bar(&mut h);
     h.snapshot_options("inspect_view", &snapshot_options());
 }

@@ -31,7 +31,10 @@ use crate::batch::BatchOptions;
 use crate::preset::{FieldError, ModelSource, ModelSpec, PRESET_VERSION, Preset};
 use crate::render::GpuContext;
 use panels::{Form, error_label, group_digits};
-use preview::{Orbit, PreviewError, PreviewFrame, PreviewKey, PreviewRenderer, PreviewRequest, PreviewResult, PreviewView};
+use preview::{
+    Orbit, PreviewError, PreviewFrame, PreviewKey, PreviewRenderer, PreviewRequest, PreviewResult,
+    PreviewView,
+};
 use runner::{BatchOutcome, BatchRun};
 use summary::{Summary, SummaryMaker, SummaryRequest};
 use worker::LatestWorker;
@@ -108,22 +111,35 @@ pub enum Command {
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
 pub fn read_preset(path: &Path) -> Result<Preset, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read preset {}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read preset {}: {e}", path.display()))?;
     let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
     if preset.version > PRESET_VERSION {
-        return Err(format!("preset {}: version {} is newer than this swarmshot understands ({PRESET_VERSION})", path.display(), preset.version));
+        return Err(format!(
+            "preset {}: version {} is newer than this swarmshot understands ({PRESET_VERSION})",
+            path.display(),
+            preset.version
+        ));
     }
     Ok(preset)
 }
 
 /// The example presets shipped in the repository's presets/ folder.
 pub fn example_presets() -> Vec<PathBuf> {
-    let dirs = [PathBuf::from("presets"), Path::new(env!("CARGO_MANIFEST_DIR")).join("presets")];
+    let dirs = [
+        PathBuf::from("presets"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("presets"),
+    ];
     let Some(dir) = dirs.iter().find(|d| d.is_dir()) else {
         return Vec::new();
     };
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map(|entries| entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|x| x == "ron")).collect())
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+                .collect()
+        })
         .unwrap_or_default();
     files.sort();
     files
@@ -132,12 +148,27 @@ pub fn example_presets() -> Vec<PathBuf> {
 /// Open the app window (blocks until it is closed).
 pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
     let options = eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default().with_title(APP_NAME).with_inner_size([1400.0, 880.0]).with_min_inner_size([900.0, 560.0]),
+        viewport: egui::ViewportBuilder::default()
+            .with_title(APP_NAME)
+            .with_inner_size([1400.0, 880.0])
+            .with_min_inner_size([900.0, 560.0]),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
-    eframe::run_native(APP_NAME, options, Box::new(move |cc| Ok(Box::new(SwarmshotApp::new(cc, StartOptions { preset, restore_session: true })))))
-        .map_err(|e| anyhow::anyhow!("cannot open the swarmshot window: {e}"))
+    eframe::run_native(
+        APP_NAME,
+        options,
+        Box::new(move |cc| {
+            Ok(Box::new(SwarmshotApp::new(
+                cc,
+                StartOptions {
+                    preset,
+                    restore_session: true,
+                },
+            )))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("cannot open the swarmshot window: {e}"))
 }
 
 /// The app: session data plus everything derived from it.
@@ -171,7 +202,9 @@ impl SwarmshotApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: StartOptions) -> Self {
         let mut notices = Vec::new();
         let mut session = if options.restore_session {
-            cc.storage.and_then(|s| eframe::get_value::<Session>(s, eframe::APP_KEY)).unwrap_or_default()
+            cc.storage
+                .and_then(|s| eframe::get_value::<Session>(s, eframe::APP_KEY))
+                .unwrap_or_default()
         } else {
             Session::default()
         };
@@ -195,17 +228,27 @@ impl SwarmshotApp {
         let preview_worker = match &gpu {
             Some((ctx, _)) => {
                 let mut renderer = PreviewRenderer::new(ctx.clone());
-                LatestWorker::spawn("swarmshot preview", wake.clone(), move |request: PreviewRequest| renderer.render(&request))
-                    .map_err(|e| notices.push(format!("cannot start the preview thread: {e}")))
-                    .ok()
+                LatestWorker::spawn(
+                    "swarmshot preview",
+                    wake.clone(),
+                    move |request: PreviewRequest| renderer.render(&request),
+                )
+                .map_err(|e| notices.push(format!("cannot start the preview thread: {e}")))
+                .ok()
             }
             None => {
-                notices.push("eframe gave no wgpu device: the preview and Generate need the wgpu renderer".into());
+                notices.push(
+                    "eframe gave no wgpu device: the preview and Generate need the wgpu renderer"
+                        .into(),
+                );
                 None
             }
         };
         let mut maker = SummaryMaker::default();
-        let summary_worker = LatestWorker::spawn("swarmshot summary", wake, move |request: SummaryRequest| maker.estimate(&request))
+        let summary_worker =
+            LatestWorker::spawn("swarmshot summary", wake, move |request: SummaryRequest| {
+                maker.estimate(&request)
+            })
             .map_err(|e| notices.push(format!("cannot start the summary thread: {e}")))
             .ok();
         Self {
@@ -258,7 +301,9 @@ impl SwarmshotApp {
 
     /// The picture on screen answers the newest request (nothing in flight).
     pub fn preview_is_current(&self) -> bool {
-        self.preview_sent.is_some() && (self.preview_key() == self.preview_sent || self.preview_error.as_ref().map(|e| e.key) == self.preview_sent)
+        self.preview_sent.is_some()
+            && (self.preview_key() == self.preview_sent
+                || self.preview_error.as_ref().map(|e| e.key) == self.preview_sent)
     }
 
     /// Where the preview pane drew its picture in the last pass, in points.
@@ -275,7 +320,8 @@ impl SwarmshotApp {
     }
 
     pub fn summary_is_current(&self) -> bool {
-        self.summary().is_some_and(|s| s.generation == self.generation)
+        self.summary()
+            .is_some_and(|s| s.generation == self.generation)
     }
 
     pub fn batch_running(&self) -> bool {
@@ -301,7 +347,12 @@ impl SwarmshotApp {
         self.seen = Some(self.session.preset.clone());
         self.errors = self.session.preset.validate().err().unwrap_or_default();
         let mut resolved = self.session.preset.clone();
-        let base = self.session.preset_path.as_deref().and_then(Path::parent).unwrap_or(Path::new("."));
+        let base = self
+            .session
+            .preset_path
+            .as_deref()
+            .and_then(Path::parent)
+            .unwrap_or(Path::new("."));
         resolved.resolve_paths(base);
         self.resolved = Arc::new(resolved);
         let frames = self.resolved.frame_count();
@@ -311,21 +362,38 @@ impl SwarmshotApp {
         if self.errors.is_empty()
             && let Some(worker) = &self.summary_worker
         {
-            worker.submit(SummaryRequest { generation: self.generation, preset: Arc::clone(&self.resolved) });
+            worker.submit(SummaryRequest {
+                generation: self.generation,
+                preset: Arc::clone(&self.resolved),
+            });
         }
         ctx.request_repaint();
     }
 
     /// Ask for a preview when what it depends on changed (and the preset is valid).
     fn request_preview(&mut self) {
-        let Some(worker) = &self.preview_worker else { return };
+        let Some(worker) = &self.preview_worker else {
+            return;
+        };
         if !self.errors.is_empty() || self.preview_size_px.contains(&0) {
             return;
         }
-        let view = if self.session.inspect { PreviewView::Inspect(self.session.orbit) } else { PreviewView::Camera };
-        let key = PreviewKey { generation: self.generation, frame: self.session.frame, size_px: self.preview_size_px, view };
+        let view = if self.session.inspect {
+            PreviewView::Inspect(self.session.orbit)
+        } else {
+            PreviewView::Camera
+        };
+        let key = PreviewKey {
+            generation: self.generation,
+            frame: self.session.frame,
+            size_px: self.preview_size_px,
+            view,
+        };
         if self.preview_sent != Some(key) {
-            worker.submit(PreviewRequest { key, preset: Arc::clone(&self.resolved) });
+            worker.submit(PreviewRequest {
+                key,
+                preset: Arc::clone(&self.resolved),
+            });
             self.preview_sent = Some(key);
         }
     }
@@ -353,16 +421,33 @@ impl SwarmshotApp {
 
     /// Point the preview's egui texture at a freshly rendered wgpu texture.
     fn show_texture(&mut self, view: &wgpu::TextureView) {
-        let Some((ctx, render_state)) = &self.gpu else { return };
+        let Some((ctx, render_state)) = &self.gpu else {
+            return;
+        };
         let mut renderer = render_state.renderer.write();
         match self.preview_texture {
-            Some(id) => renderer.update_egui_texture_from_wgpu_texture(&ctx.device, view, wgpu::FilterMode::Linear, id),
-            None => self.preview_texture = Some(renderer.register_native_texture(&ctx.device, view, wgpu::FilterMode::Linear)),
+            Some(id) => renderer.update_egui_texture_from_wgpu_texture(
+                &ctx.device,
+                view,
+                wgpu::FilterMode::Linear,
+                id,
+            ),
+            None => {
+                self.preview_texture = Some(renderer.register_native_texture(
+                    &ctx.device,
+                    view,
+                    wgpu::FilterMode::Linear,
+                ))
+            }
         }
     }
 
     fn update_title(&mut self, ctx: &egui::Context) {
-        let file = self.session.preset_path.as_ref().map_or_else(|| "not saved".to_string(), |p| p.display().to_string());
+        let file = self
+            .session
+            .preset_path
+            .as_ref()
+            .map_or_else(|| "not saved".to_string(), |p| p.display().to_string());
         let marker = if self.session.is_dirty() { " •" } else { "" };
         let title = format!("{}{marker} ({file}) — {APP_NAME}", self.session.preset.name);
         if title != self.title {
@@ -383,7 +468,9 @@ impl SwarmshotApp {
                 self.session.frame = 0;
             }
             Command::Open if !locked => {
-                let mut dialog = rfd::FileDialog::new().add_filter("swarmshot preset", &["ron"]).set_title("Open preset");
+                let mut dialog = rfd::FileDialog::new()
+                    .add_filter("swarmshot preset", &["ron"])
+                    .set_title("Open preset");
                 if let Some(dir) = example_presets().first().and_then(|p| p.parent()) {
                     dialog = dialog.set_directory(dir);
                 }
@@ -401,17 +488,32 @@ impl SwarmshotApp {
             },
             Command::SaveAs => {
                 let name = format!("{}.ron", self.session.preset.name.trim());
-                if let Some(path) = rfd::FileDialog::new().add_filter("swarmshot preset", &["ron"]).set_title("Save preset as").set_file_name(name).save_file() {
+                if let Some(path) = rfd::FileDialog::new()
+                    .add_filter("swarmshot preset", &["ron"])
+                    .set_title("Save preset as")
+                    .set_file_name(name)
+                    .save_file()
+                {
                     self.save_to(&path);
                 }
             }
             Command::AddGltf if !locked => {
-                if let Some(path) = rfd::FileDialog::new().add_filter("glTF model", &["gltf", "glb"]).set_title("Add glTF model").pick_file() {
-                    self.session.preset.models.push(ModelSpec { source: ModelSource::File(path), ..ModelSpec::default() });
+                if let Some(path) = rfd::FileDialog::new()
+                    .add_filter("glTF model", &["gltf", "glb"])
+                    .set_title("Add glTF model")
+                    .pick_file()
+                {
+                    self.session.preset.models.push(ModelSpec {
+                        source: ModelSource::File(path),
+                        ..ModelSpec::default()
+                    });
                 }
             }
             Command::BrowseOutDir if !locked => {
-                if let Some(dir) = rfd::FileDialog::new().set_title("Output folder").pick_folder() {
+                if let Some(dir) = rfd::FileDialog::new()
+                    .set_title("Output folder")
+                    .pick_folder()
+                {
                     self.session.out_dir = dir.display().to_string();
                 }
             }
@@ -423,7 +525,8 @@ impl SwarmshotApp {
             }
             Command::OpenOutputFolder(dir) => {
                 if let Err(e) = open::that_detached(&dir) {
-                    self.notices.push(format!("cannot open {}: {e}", dir.display()));
+                    self.notices
+                        .push(format!("cannot open {}: {e}", dir.display()));
                 }
             }
             // Preset edits while a batch runs are ignored: the widgets are disabled anyway.
@@ -432,19 +535,27 @@ impl SwarmshotApp {
     }
 
     fn save_to(&mut self, path: &Path) {
-        let text = format!("// swarmshot preset (RON), written by the swarmshot app\n{}\n", self.session.preset.to_ron());
+        let text = format!(
+            "// swarmshot preset (RON), written by the swarmshot app\n{}\n",
+            self.session.preset.to_ron()
+        );
         match std::fs::write(path, text) {
             Ok(()) => {
                 self.session.preset_path = Some(path.to_owned());
                 self.session.saved = Some(self.session.preset.clone());
             }
-            Err(e) => self.notices.push(format!("cannot save preset {}: {e}", path.display())),
+            Err(e) => self
+                .notices
+                .push(format!("cannot save preset {}: {e}", path.display())),
         }
     }
 
     fn generate(&mut self, ctx: &egui::Context) {
         if !self.errors.is_empty() {
-            self.notices.push(format!("cannot generate: the preset has {} problem(s), shown in the panels", self.errors.len()));
+            self.notices.push(format!(
+                "cannot generate: the preset has {} problem(s), shown in the panels",
+                self.errors.len()
+            ));
             return;
         }
         let Some((gpu, _)) = &self.gpu else {
@@ -452,19 +563,29 @@ impl SwarmshotApp {
             return;
         };
         if self.session.out_dir.trim().is_empty() {
-            self.notices.push("cannot generate: choose an output folder (Output panel)".into());
+            self.notices
+                .push("cannot generate: choose an output folder (Output panel)".into());
             return;
         }
         // The snapshot: later edits cannot reach the running batch.
         let preset = (*self.resolved).clone();
-        let options = BatchOptions { out_dir: PathBuf::from(self.session.out_dir.trim()), limit: None, overwrite: self.session.overwrite, encoder_threads: 0 };
+        let options = BatchOptions {
+            out_dir: PathBuf::from(self.session.out_dir.trim()),
+            limit: None,
+            overwrite: self.session.overwrite,
+            encoder_threads: 0,
+        };
         let wake_ctx = ctx.clone();
-        match BatchRun::start(preset, options, gpu.clone(), move || wake_ctx.request_repaint()) {
+        match BatchRun::start(preset, options, gpu.clone(), move || {
+            wake_ctx.request_repaint()
+        }) {
             Ok(run) => {
                 self.batch = Some(run);
                 self.batch_outcome = None;
             }
-            Err(e) => self.notices.push(format!("cannot start the batch thread: {e}")),
+            Err(e) => self
+                .notices
+                .push(format!("cannot start the batch thread: {e}")),
         }
     }
 
@@ -476,10 +597,18 @@ impl SwarmshotApp {
             ui.strong(APP_NAME);
             ui.separator();
             ui.add_enabled_ui(!locked, |ui| {
-                if ui.button("New").on_hover_text("Start from the default preset").clicked() {
+                if ui
+                    .button("New")
+                    .on_hover_text("Start from the default preset")
+                    .clicked()
+                {
                     commands.push(Command::New);
                 }
-                if ui.button("Open…").on_hover_text("Open a .ron preset").clicked() {
+                if ui
+                    .button("Open…")
+                    .on_hover_text("Open a .ron preset")
+                    .clicked()
+                {
                     commands.push(Command::Open);
                 }
                 ui.menu_button("Examples", |ui| {
@@ -488,8 +617,15 @@ impl SwarmshotApp {
                         ui.label("no presets/ folder found");
                     }
                     for path in examples {
-                        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-                        if ui.button(name).on_hover_text(path.display().to_string()).clicked() {
+                        let name = path
+                            .file_stem()
+                            .map(|s| s.to_string_lossy().into_owned())
+                            .unwrap_or_default();
+                        if ui
+                            .button(name)
+                            .on_hover_text(path.display().to_string())
+                            .clicked()
+                        {
                             commands.push(Command::OpenPath(path));
                         }
                     }
@@ -497,18 +633,33 @@ impl SwarmshotApp {
                 .response
                 .on_hover_text("Open one of the example presets in presets/");
             });
-            if ui.button("Save").on_hover_text("Save the preset to its file").clicked() {
+            if ui
+                .button("Save")
+                .on_hover_text("Save the preset to its file")
+                .clicked()
+            {
                 commands.push(Command::Save);
             }
-            if ui.button("Save As…").on_hover_text("Save the preset to a new file").clicked() {
+            if ui
+                .button("Save As…")
+                .on_hover_text("Save the preset to a new file")
+                .clicked()
+            {
                 commands.push(Command::SaveAs);
             }
             ui.separator();
             let (file, full) = match &self.session.preset_path {
-                Some(p) => (p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned()), p.display().to_string()),
+                Some(p) => (
+                    p.file_name().map_or_else(
+                        || p.display().to_string(),
+                        |f| f.to_string_lossy().into_owned(),
+                    ),
+                    p.display().to_string(),
+                ),
                 None => ("not saved".into(), "this preset has no file yet".into()),
             };
-            ui.label(format!("{} ({file})", self.session.preset.name)).on_hover_text(full);
+            ui.label(format!("{} ({file})", self.session.preset.name))
+                .on_hover_text(full);
             if self.session.is_dirty() {
                 ui.label(RichText::new("• unsaved changes").color(ui.visuals().warn_fg_color));
             }
@@ -517,7 +668,11 @@ impl SwarmshotApp {
         for (i, notice) in self.notices.iter().enumerate() {
             ui.horizontal(|ui| {
                 error_label(ui, notice);
-                if ui.small_button("Dismiss").on_hover_text("Hide this message").clicked() {
+                if ui
+                    .small_button("Dismiss")
+                    .on_hover_text("Hide this message")
+                    .clicked()
+                {
                     dismiss = Some(i);
                 }
             });
@@ -530,25 +685,78 @@ impl SwarmshotApp {
     fn parameters_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let errors = self.errors.clone();
         let mut form = Form::new(&errors);
-        let load_error = self.preview_error.as_ref().filter(|e| e.models).map(|e| e.message.clone());
+        let load_error = self
+            .preview_error
+            .as_ref()
+            .filter(|e| e.models)
+            .map(|e| e.message.clone());
         let s = &mut self.session;
         panels::general_ui(ui, &mut s.preset, &mut form);
         let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
-            egui::CollapsingHeader::new(title).default_open(true).show(ui, |ui| add(ui)).header_response.on_hover_text(tip);
+            egui::CollapsingHeader::new(title)
+                .default_open(true)
+                .show(ui, |ui| add(ui))
+                .header_response
+                .on_hover_text(tip);
         };
-        section(ui, "Models", "The UAV models instantiated in every frame, with their real size", &mut |ui| {
-            panels::models_ui(ui, &mut s.preset, &mut form, load_error.as_deref(), commands);
+        section(
+            ui,
+            "Models",
+            "The UAV models instantiated in every frame, with their real size",
+            &mut |ui| {
+                panels::models_ui(
+                    ui,
+                    &mut s.preset,
+                    &mut form,
+                    load_error.as_deref(),
+                    commands,
+                );
+            },
+        );
+        section(
+            ui,
+            "Placement",
+            "How drones are placed in the observation volume",
+            &mut |ui| panels::placement_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Attitude",
+            "Random roll/pitch/yaw of each drone",
+            &mut |ui| panels::attitude_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Camera",
+            "Camera translation sweeps; the camera always faces the volume's centre",
+            &mut |ui| {
+                panels::camera_ui(ui, &mut s.preset, &mut form);
+            },
+        );
+        section(
+            ui,
+            "Scene rotation",
+            "Rotation sweeps of the whole swarm",
+            &mut |ui| panels::plane_ui(ui, &mut s.preset, &mut form),
+        );
+        section(ui, "Skybox", "The background environment", &mut |ui| {
+            panels::skybox_ui(ui, &mut s.preset, &mut form)
         });
-        section(ui, "Placement", "How drones are placed in the observation volume", &mut |ui| panels::placement_ui(ui, &mut s.preset, &mut form));
-        section(ui, "Attitude", "Random roll/pitch/yaw of each drone", &mut |ui| panels::attitude_ui(ui, &mut s.preset, &mut form));
-        section(ui, "Camera", "Camera translation sweeps; the camera always faces the volume's centre", &mut |ui| {
-            panels::camera_ui(ui, &mut s.preset, &mut form);
-        });
-        section(ui, "Scene rotation", "Rotation sweeps of the whole swarm", &mut |ui| panels::plane_ui(ui, &mut s.preset, &mut form));
-        section(ui, "Skybox", "The background environment", &mut |ui| panels::skybox_ui(ui, &mut s.preset, &mut form));
-        section(ui, "Output", "Resolution, file formats, split and folder", &mut |ui| {
-            panels::output_ui(ui, &mut s.preset, &mut form, &mut s.out_dir, &mut s.overwrite, commands);
-        });
+        section(
+            ui,
+            "Output",
+            "Resolution, file formats, split and folder",
+            &mut |ui| {
+                panels::output_ui(
+                    ui,
+                    &mut s.preset,
+                    &mut form,
+                    &mut s.out_dir,
+                    &mut s.overwrite,
+                    commands,
+                );
+            },
+        );
         form.rest(ui);
     }
 
@@ -557,7 +765,10 @@ impl SwarmshotApp {
         let frames = self.resolved.frame_count();
         ui.label(format!("Frames: {}", group_digits(frames)));
         if !self.errors.is_empty() {
-            error_label(ui, &format!("{} problem(s) in the parameters", self.errors.len()));
+            error_label(
+                ui,
+                &format!("{} problem(s) in the parameters", self.errors.len()),
+            );
             return;
         }
         match &self.summary {
@@ -566,13 +777,30 @@ impl SwarmshotApp {
             }
             Some(Err(e)) => error_label(ui, e),
             Some(Ok(s)) => {
-                let drones = if s.drones_min == s.drones_max { format!("{}", s.drones_min) } else { format!("{}–{} (mean {:.1})", s.drones_min, s.drones_max, s.drones_mean()) };
+                let drones = if s.drones_min == s.drones_max {
+                    format!("{}", s.drones_min)
+                } else {
+                    format!(
+                        "{}–{} (mean {:.1})",
+                        s.drones_min,
+                        s.drones_max,
+                        s.drones_mean()
+                    )
+                };
                 ui.label(format!("Drones per frame: {drones}"));
                 let [small, medium, large] = s.size_shares().map(|x| x * 100.0);
-                ui.label(format!("Boxes per frame: {:.1}", s.stats.boxes as f64 / s.sampled_frames.max(1) as f64));
-                ui.label(format!("Small {small:.0}% · medium {medium:.0}% · large {large:.0}%"))
-                    .on_hover_text("Share of boxes with √(w·h) < 32 px, 32–96 px and > 96 px");
-                ui.weak(format!("estimated from the geometry of {} sampled frames", s.sampled_frames));
+                ui.label(format!(
+                    "Boxes per frame: {:.1}",
+                    s.stats.boxes as f64 / s.sampled_frames.max(1) as f64
+                ));
+                ui.label(format!(
+                    "Small {small:.0}% · medium {medium:.0}% · large {large:.0}%"
+                ))
+                .on_hover_text("Share of boxes with √(w·h) < 32 px, 32–96 px and > 96 px");
+                ui.weak(format!(
+                    "estimated from the geometry of {} sampled frames",
+                    s.sampled_frames
+                ));
                 if s.generation != self.generation {
                     ui.weak("updating…");
                 }
@@ -585,38 +813,82 @@ impl SwarmshotApp {
         match &self.batch {
             None => {
                 let ready = self.errors.is_empty() && self.gpu.is_some();
-                if ui.add_enabled(ready, egui::Button::new("Generate")).on_hover_text("Render every frame with its labels into the output folder").clicked() {
+                if ui
+                    .add_enabled(ready, egui::Button::new("Generate"))
+                    .on_hover_text("Render every frame with its labels into the output folder")
+                    .clicked()
+                {
                     commands.push(Command::Generate);
                 }
             }
             Some(batch) => {
                 let status = batch.status();
                 let fraction = status.done as f32 / status.total.max(1) as f32;
-                ui.add(egui::ProgressBar::new(fraction).text(format!("{} / {} frames", group_digits(status.done), group_digits(status.total))));
+                ui.add(egui::ProgressBar::new(fraction).text(format!(
+                    "{} / {} frames",
+                    group_digits(status.done),
+                    group_digits(status.total)
+                )));
                 let eta = status.eta.map_or_else(|| "–".to_string(), format_duration);
                 ui.label(format!("{:.1} images/s · ETA {eta}", status.images_per_s));
                 if status.cancelling {
                     ui.weak("cancelling: finishing the frames in flight…");
-                } else if ui.button("Cancel").on_hover_text("Stop after the frames in flight; every written image keeps its labels").clicked() {
+                } else if ui
+                    .button("Cancel")
+                    .on_hover_text(
+                        "Stop after the frames in flight; every written image keeps its labels",
+                    )
+                    .clicked()
+                {
                     commands.push(Command::Cancel);
                 }
-                ui.weak(format!("writing to {} ({})", batch.out_dir.display(), format_duration(batch.elapsed())));
+                ui.weak(format!(
+                    "writing to {} ({})",
+                    batch.out_dir.display(),
+                    format_duration(batch.elapsed())
+                ));
             }
         }
         match &self.batch_outcome {
             None => {}
-            Some(BatchOutcome::Failed(message)) => error_label(ui, &format!("batch failed: {message}")),
+            Some(BatchOutcome::Failed(message)) => {
+                error_label(ui, &format!("batch failed: {message}"))
+            }
             Some(BatchOutcome::Done(report)) => {
                 let s = &report.stats;
-                let head = if report.cancelled { "Cancelled" } else { "Finished" };
-                ui.label(RichText::new(format!("{head}: {} frames in {}", group_digits(s.frames), format_duration(report.elapsed))).strong());
-                ui.label(format!("train {} · val {} · test {}", s.frames_per_split[0], s.frames_per_split[1], s.frames_per_split[2]));
-                ui.label(format!("{} boxes: small {} · medium {} · large {}", s.boxes, s.small, s.medium, s.large));
-                ui.label(format!("{:.2} images/s", s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9)));
+                let head = if report.cancelled {
+                    "Cancelled"
+                } else {
+                    "Finished"
+                };
+                ui.label(
+                    RichText::new(format!(
+                        "{head}: {} frames in {}",
+                        group_digits(s.frames),
+                        format_duration(report.elapsed)
+                    ))
+                    .strong(),
+                );
+                ui.label(format!(
+                    "train {} · val {} · test {}",
+                    s.frames_per_split[0], s.frames_per_split[1], s.frames_per_split[2]
+                ));
+                ui.label(format!(
+                    "{} boxes: small {} · medium {} · large {}",
+                    s.boxes, s.small, s.medium, s.large
+                ));
+                ui.label(format!(
+                    "{:.2} images/s",
+                    s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9)
+                ));
                 if report.cancelled {
                     ui.weak("every written image has its labels");
                 }
-                if ui.button("Open output folder").on_hover_text(report.out_dir.display().to_string()).clicked() {
+                if ui
+                    .button("Open output folder")
+                    .on_hover_text(report.out_dir.display().to_string())
+                    .clicked()
+                {
                     commands.push(Command::OpenOutputFolder(report.out_dir.clone()));
                 }
             }
@@ -628,7 +900,8 @@ impl SwarmshotApp {
             match &self.preview {
                 Some(p) => {
                     let [w, h] = p.key.size_px;
-                    ui.label(format!("preview {:.1} ms at {w}×{h}", p.render_ms)).on_hover_text("Last preview render: frame build + encode + GPU");
+                    ui.label(format!("preview {:.1} ms at {w}×{h}", p.render_ms))
+                        .on_hover_text("Last preview render: frame build + encode + GPU");
                 }
                 None => {
                     ui.label("no preview yet");
@@ -641,7 +914,10 @@ impl SwarmshotApp {
                 ui.weak(ctx.describe());
             }
             if !self.errors.is_empty() {
-                ui.label(RichText::new(format!("{} problem(s)", self.errors.len())).color(ui.visuals().error_fg_color));
+                ui.label(
+                    RichText::new(format!("{} problem(s)", self.errors.len()))
+                        .color(ui.visuals().error_fg_color),
+                );
             }
         });
     }
@@ -649,7 +925,11 @@ impl SwarmshotApp {
     fn preview_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count();
         ui.horizontal(|ui| {
-            ui.label(format!("frame {} of {}", group_digits(self.session.frame + 1), group_digits(frames)));
+            ui.label(format!(
+                "frame {} of {}",
+                group_digits(self.session.frame + 1),
+                group_digits(frames)
+            ));
             if frames > 1 {
                 let max = frames - 1;
                 ui.spacing_mut().slider_width = (ui.available_width() - 40.0).max(100.0);
@@ -676,10 +956,18 @@ impl SwarmshotApp {
         });
         ui.label(sweep_line.unwrap_or_else(|| " ".into()));
         ui.horizontal(|ui| {
-            ui.checkbox(&mut self.session.show_boxes, "Boxes").on_hover_text("Draw the label boxes this frame gets");
-            ui.checkbox(&mut self.session.inspect, "Inspect").on_hover_text("Orbit around the scene: volume, drones and the sweep's camera positions");
+            ui.checkbox(&mut self.session.show_boxes, "Boxes")
+                .on_hover_text("Draw the label boxes this frame gets");
+            ui.checkbox(&mut self.session.inspect, "Inspect")
+                .on_hover_text(
+                    "Orbit around the scene: volume, drones and the sweep's camera positions",
+                );
             if self.session.inspect {
-                if ui.button("Reset view").on_hover_text("Back to the default orbit").clicked() {
+                if ui
+                    .button("Reset view")
+                    .on_hover_text("Back to the default orbit")
+                    .clicked()
+                {
                     self.session.orbit = Orbit::default();
                 }
                 ui.weak("drag to orbit, scroll to zoom");
@@ -695,7 +983,10 @@ impl SwarmshotApp {
         }
         let ppp = ui.ctx().pixels_per_point();
         let scale = ((size.x * ppp) / out_w.max(1) as f32).min(1.0);
-        self.preview_size_px = [((out_w as f32 * scale).round() as u32).max(1), ((out_h as f32 * scale).round() as u32).max(1)];
+        self.preview_size_px = [
+            ((out_w as f32 * scale).round() as u32).max(1),
+            ((out_h as f32 * scale).round() as u32).max(1),
+        ];
         if size.x < 8.0 || size.y < 8.0 {
             self.preview_size_px = [0, 0];
             return;
@@ -705,8 +996,17 @@ impl SwarmshotApp {
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_gray(20));
         if let (Some(frame), Some(texture)) = (&self.preview, self.preview_texture) {
-            let tint = if self.errors.is_empty() { Color32::WHITE } else { Color32::from_gray(90) };
-            painter.image(texture, rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), tint);
+            let tint = if self.errors.is_empty() {
+                Color32::WHITE
+            } else {
+                Color32::from_gray(90)
+            };
+            painter.image(
+                texture,
+                rect,
+                Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+                tint,
+            );
             match &frame.inspect {
                 None if self.session.show_boxes => draw_boxes(&painter, rect, frame, out_w),
                 None => {}
@@ -723,19 +1023,34 @@ impl SwarmshotApp {
             if response.hovered() {
                 let scroll = ui.input(|i| i.smooth_scroll_delta.y);
                 if scroll != 0.0 {
-                    self.session.orbit.zoom = (self.session.orbit.zoom * (-f64::from(scroll) * 0.002).exp()).clamp(0.02, 10.0);
+                    self.session.orbit.zoom = (self.session.orbit.zoom
+                        * (-f64::from(scroll) * 0.002).exp())
+                    .clamp(0.02, 10.0);
                 }
             }
         }
         let message = if !self.errors.is_empty() {
-            Some(format!("Preview paused: fix the {} problem(s) shown in the panels", self.errors.len()))
+            Some(format!(
+                "Preview paused: fix the {} problem(s) shown in the panels",
+                self.errors.len()
+            ))
         } else {
-            self.preview_error.as_ref().map(|e| format!("Preview failed: {}", e.message))
+            self.preview_error
+                .as_ref()
+                .map(|e| format!("Preview failed: {}", e.message))
         };
         if let Some(message) = message {
             let colour = ui.visuals().error_fg_color;
             let area = Rect::from_center_size(rect.center(), Vec2::new(rect.width() * 0.9, 60.0));
-            ui.put(area, egui::Label::new(RichText::new(message).size(16.0).color(colour).background_color(Color32::from_black_alpha(160))));
+            ui.put(
+                area,
+                egui::Label::new(
+                    RichText::new(message)
+                        .size(16.0)
+                        .color(colour)
+                        .background_color(Color32::from_black_alpha(160)),
+                ),
+            );
         }
     }
 }
@@ -751,7 +1066,11 @@ impl Session {
 
 fn format_duration(d: Duration) -> String {
     let s = d.as_secs();
-    if s >= 3600 { format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60) } else { format!("{}:{:02}", s / 60, s % 60) }
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
 }
 
 /// The label boxes, from output pixels to the pane.
@@ -770,7 +1089,9 @@ fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: 
 
 /// The inspect view's overlay: volume box, sweep camera positions, this frame's camera.
 fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
-    let Some(geometry) = &frame.inspect else { return };
+    let Some(geometry) = &frame.inspect else {
+        return;
+    };
     let camera = &frame.camera;
     let scale = rect.width() / camera.width.max(1) as f32;
     let to_screen = |p: DVec3| -> Option<Pos2> {
@@ -799,14 +1120,23 @@ fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
         }
     }
     if let (Some(cam), Some(centre)) = (to_screen(geometry.frame_camera), to_screen(DVec3::ZERO)) {
-        painter.line_segment([cam, centre], Stroke::new(1.0, Color32::from_rgb(255, 80, 80)));
+        painter.line_segment(
+            [cam, centre],
+            Stroke::new(1.0, Color32::from_rgb(255, 80, 80)),
+        );
         painter.circle_filled(cam, 5.0, Color32::from_rgb(255, 80, 80));
     }
     let legend = format!(
         "white: observation volume · yellow: {} sweep camera position(s) · red: this frame's camera",
         group_digits(geometry.sweep_cameras_total)
     );
-    painter.text(rect.left_bottom() + Vec2::new(6.0, -6.0), egui::Align2::LEFT_BOTTOM, legend, egui::FontId::proportional(12.0), Color32::WHITE);
+    painter.text(
+        rect.left_bottom() + Vec2::new(6.0, -6.0),
+        egui::Align2::LEFT_BOTTOM,
+        legend,
+        egui::FontId::proportional(12.0),
+        Color32::WHITE,
+    );
 }
 
 impl eframe::App for SwarmshotApp {
@@ -818,16 +1148,22 @@ impl eframe::App for SwarmshotApp {
         let locked = self.batch.is_some();
         egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui, &mut commands));
         egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui));
-        egui::Panel::left("parameters").resizable(true).default_size(430.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
-                ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, &mut commands));
+        egui::Panel::left("parameters")
+            .resizable(true)
+            .default_size(430.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, &mut commands));
+                });
             });
-        });
-        egui::Panel::right("summary").resizable(true).default_size(250.0).show(ui, |ui| {
-            self.summary_ui(ui);
-            ui.separator();
-            self.batch_ui(ui, &mut commands);
-        });
+        egui::Panel::right("summary")
+            .resizable(true)
+            .default_size(250.0)
+            .show(ui, |ui| {
+                self.summary_ui(ui);
+                ui.separator();
+                self.batch_ui(ui, &mut commands);
+            });
         egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
         for command in commands {
             self.apply(command, &ctx);

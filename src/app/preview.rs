@@ -49,7 +49,11 @@ pub struct Orbit {
 
 impl Default for Orbit {
     fn default() -> Self {
-        Self { yaw_deg: 40.0, pitch_deg: 25.0, zoom: 1.0 }
+        Self {
+            yaw_deg: 40.0,
+            pitch_deg: 25.0,
+            zoom: 1.0,
+        }
     }
 }
 
@@ -139,28 +143,60 @@ pub struct PreviewRenderer {
 
 impl PreviewRenderer {
     pub fn new(ctx: GpuContext) -> Self {
-        Self { ctx, loaded: None, targets: None }
+        Self {
+            ctx,
+            loaded: None,
+            targets: None,
+        }
     }
 
     /// Build, render and wait for one preview.
     pub fn render(&mut self, request: &PreviewRequest) -> PreviewResult {
         let start = Instant::now();
         let key = request.key;
-        let fail = |message: String, models: bool| PreviewError { key, message, models };
+        let fail = |message: String, models: bool| PreviewError {
+            key,
+            message,
+            models,
+        };
         let preset = &*request.preset;
         let [width, height] = key.size_px;
-        if width == 0 || height == 0 || width > self.ctx.max_texture_side || height > self.ctx.max_texture_side {
-            return Err(fail(format!("preview size {width}×{height} is outside this adapter's 1..{} px", self.ctx.max_texture_side), false));
+        if width == 0
+            || height == 0
+            || width > self.ctx.max_texture_side
+            || height > self.ctx.max_texture_side
+        {
+            return Err(fail(
+                format!(
+                    "preview size {width}×{height} is outside this adapter's 1..{} px",
+                    self.ctx.max_texture_side
+                ),
+                false,
+            ));
         }
-        if self.loaded.as_ref().is_none_or(|l| l.models != preset.models) {
+        if self
+            .loaded
+            .as_ref()
+            .is_none_or(|l| l.models != preset.models)
+        {
             self.loaded = None;
             let maker = FrameMaker::new(preset.clone()).map_err(|e| fail(e.to_string(), true))?;
             let renderer = Renderer::new(&self.ctx, &maker.models);
-            self.loaded = Some(Loaded { models: preset.models.clone(), maker, renderer });
+            self.loaded = Some(Loaded {
+                models: preset.models.clone(),
+                maker,
+                renderer,
+            });
         }
-        let loaded = self.loaded.as_mut().ok_or_else(|| fail("models are not loaded".into(), true))?;
+        let loaded = self
+            .loaded
+            .as_mut()
+            .ok_or_else(|| fail("models are not loaded".into(), true))?;
         loaded.maker.preset = preset.clone();
-        let (scene, labels) = loaded.maker.frame(key.frame).map_err(|e| fail(e.to_string(), false))?;
+        let (scene, labels) = loaded
+            .maker
+            .frame(key.frame)
+            .map_err(|e| fail(e.to_string(), false))?;
 
         let (camera, inspect) = match key.view {
             PreviewView::Camera => {
@@ -171,7 +207,10 @@ impl PreviewRenderer {
             }
             PreviewView::Inspect(orbit) => {
                 let geometry = inspect_geometry(preset, &scene);
-                (orbit_camera(&orbit, &geometry, &scene, width, height), Some(geometry))
+                (
+                    orbit_camera(&orbit, &geometry, &scene, width, height),
+                    Some(geometry),
+                )
             }
         };
         let mut drawn = scene.clone();
@@ -181,7 +220,11 @@ impl PreviewRenderer {
         let (msaa_color, depth) = self.targets(key.size_px, msaa);
         let texture = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("preview colour"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -190,22 +233,57 @@ impl PreviewRenderer {
             view_formats: &[],
         });
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let mut encoder = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("preview") });
-        let loaded = self.loaded.as_mut().ok_or_else(|| fail("models are not loaded".into(), true))?;
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("preview"),
+            });
+        let loaded = self
+            .loaded
+            .as_mut()
+            .ok_or_else(|| fail("models are not loaded".into(), true))?;
         match &msaa_color {
-            Some(ms) => loaded.renderer.encode(&mut encoder, &drawn, &preset.sky, msaa, ms, Some(&view), &depth),
-            None => loaded.renderer.encode(&mut encoder, &drawn, &preset.sky, msaa, &view, None, &depth),
+            Some(ms) => loaded.renderer.encode(
+                &mut encoder,
+                &drawn,
+                &preset.sky,
+                msaa,
+                ms,
+                Some(&view),
+                &depth,
+            ),
+            None => {
+                loaded
+                    .renderer
+                    .encode(&mut encoder, &drawn, &preset.sky, msaa, &view, None, &depth)
+            }
         }
         let submission = self.ctx.queue.submit([encoder.finish()]);
         self.ctx
             .device
-            .poll(wgpu::PollType::Wait { submission_index: Some(submission), timeout: None })
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(submission),
+                timeout: None,
+            })
             .map_err(|e| fail(format!("waiting for the preview render: {e}"), false))?;
-        Ok(PreviewFrame { key, texture: view, scene, labels, camera, inspect, render_ms: start.elapsed().as_secs_f64() * 1e3 })
+        Ok(PreviewFrame {
+            key,
+            texture: view,
+            scene,
+            labels,
+            camera,
+            inspect,
+            render_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
     }
 
     /// MSAA colour (when msaa > 1) and depth views of this size, reused while the size holds.
-    fn targets(&mut self, size_px: [u32; 2], msaa: u32) -> (Option<wgpu::TextureView>, wgpu::TextureView) {
+    fn targets(
+        &mut self,
+        size_px: [u32; 2],
+        msaa: u32,
+    ) -> (Option<wgpu::TextureView>, wgpu::TextureView) {
         let targets = match self.targets.take() {
             Some(t) if t.size_px == size_px && t.msaa == msaa => t,
             _ => {
@@ -214,7 +292,11 @@ impl PreviewRenderer {
                     device
                         .create_texture(&wgpu::TextureDescriptor {
                             label: Some(label),
-                            size: wgpu::Extent3d { width: size_px[0], height: size_px[1], depth_or_array_layers: 1 },
+                            size: wgpu::Extent3d {
+                                width: size_px[0],
+                                height: size_px[1],
+                                depth_or_array_layers: 1,
+                            },
                             mip_level_count: 1,
                             sample_count: samples,
                             dimension: wgpu::TextureDimension::D2,
@@ -224,9 +306,15 @@ impl PreviewRenderer {
                         })
                         .create_view(&wgpu::TextureViewDescriptor::default())
                 };
-                let msaa_color = (msaa > 1).then(|| texture("preview colour (msaa)", COLOR_FORMAT, msaa));
+                let msaa_color =
+                    (msaa > 1).then(|| texture("preview colour (msaa)", COLOR_FORMAT, msaa));
                 let depth = texture("preview depth", DEPTH_FORMAT, msaa);
-                Targets { size_px, msaa, msaa_color, depth }
+                Targets {
+                    size_px,
+                    msaa,
+                    msaa_color,
+                    depth,
+                }
             }
         };
         let views = (targets.msaa_color.clone(), targets.depth.clone());
@@ -238,13 +326,24 @@ impl PreviewRenderer {
 /// Half extent of the (unrotated) observation volume of a frame.
 fn volume_half_extent(preset: &Preset, scene: &FrameScene) -> DVec3 {
     match &preset.placement {
-        Placement::Structured { x_count, y_count, z_count, load_factor } => {
+        Placement::Structured {
+            x_count,
+            y_count,
+            z_count,
+            load_factor,
+        } => {
             let spacing = load_factor * preset.max_model_size_m();
             let cells = |n: &u32| f64::from(n.saturating_sub(1));
             DVec3::new(cells(x_count), cells(y_count), cells(z_count)) * spacing * 0.5
         }
-        Placement::Randomized { volume: Volume::Box { size_m: (x, y, z) }, .. } => DVec3::new(*x, *y, *z) * 0.5,
-        Placement::Randomized { volume: Volume::Density { per_m3 }, .. } => {
+        Placement::Randomized {
+            volume: Volume::Box { size_m: (x, y, z) },
+            ..
+        } => DVec3::new(*x, *y, *z) * 0.5,
+        Placement::Randomized {
+            volume: Volume::Density { per_m3 },
+            ..
+        } => {
             let n = scene.drones.len() as f64 + f64::from(scene.placement_shortfall);
             DVec3::splat((n / per_m3).cbrt() * 0.5)
         }
@@ -268,15 +367,32 @@ pub fn inspect_geometry(preset: &Preset, scene: &FrameScene) -> InspectGeometry 
         .step_by(usize::try_from(stride).unwrap_or(usize::MAX))
         .map(|i| {
             let d = decode_mixed_radix(i, &radices);
-            camera_position(axes[0].value(d[0]), axes[1].value(d[1]), axes[2].value(d[2]), scene.volume_radius_m, preset.camera.fov_y_deg)
+            camera_position(
+                axes[0].value(d[0]),
+                axes[1].value(d[1]),
+                axes[2].value(d[2]),
+                scene.volume_radius_m,
+                preset.camera.fov_y_deg,
+            )
         })
         .collect();
-    InspectGeometry { volume_corners, sweep_cameras, sweep_cameras_total: total, frame_camera: scene.camera.position }
+    InspectGeometry {
+        volume_corners,
+        sweep_cameras,
+        sweep_cameras_total: total,
+        frame_camera: scene.camera.position,
+    }
 }
 
 /// The orbit camera: looks at the volume's centre from a distance that fits
 /// every sweep camera (scaled by `zoom`).
-pub fn orbit_camera(orbit: &Orbit, geometry: &InspectGeometry, scene: &FrameScene, width: u32, height: u32) -> Camera {
+pub fn orbit_camera(
+    orbit: &Orbit,
+    geometry: &InspectGeometry,
+    scene: &FrameScene,
+    width: u32,
+    height: u32,
+) -> Camera {
     let reach = geometry
         .sweep_cameras
         .iter()
@@ -285,10 +401,18 @@ pub fn orbit_camera(orbit: &Orbit, geometry: &InspectGeometry, scene: &FrameScen
         .map(|p| p.length())
         .fold(scene.volume_radius_m, f64::max)
         .max(1e-3);
-    let half_fov = (INSPECT_FOV_Y_DEG.to_radians() * 0.5).min(f64::from(width) / f64::from(height.max(1)) * INSPECT_FOV_Y_DEG.to_radians() * 0.5);
+    let half_fov = (INSPECT_FOV_Y_DEG.to_radians() * 0.5)
+        .min(f64::from(width) / f64::from(height.max(1)) * INSPECT_FOV_Y_DEG.to_radians() * 0.5);
     let distance = reach / half_fov.sin() * 1.05 * orbit.zoom.clamp(0.02, 10.0);
-    let (yaw, pitch) = (orbit.yaw_deg.to_radians(), orbit.pitch_deg.clamp(-89.0, 89.0).to_radians());
-    let position = DVec3::new(pitch.cos() * yaw.sin(), pitch.sin(), pitch.cos() * yaw.cos()) * distance;
+    let (yaw, pitch) = (
+        orbit.yaw_deg.to_radians(),
+        orbit.pitch_deg.clamp(-89.0, 89.0).to_radians(),
+    );
+    let position = DVec3::new(
+        pitch.cos() * yaw.sin(),
+        pitch.sin(),
+        pitch.cos() * yaw.cos(),
+    ) * distance;
     Camera {
         width,
         height,

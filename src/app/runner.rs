@@ -44,25 +44,41 @@ pub struct BatchStatus {
 
 impl BatchRun {
     /// Start `preset` (already snapshotted and path-resolved) into `options.out_dir`.
-    pub fn start(preset: Preset, options: BatchOptions, gpu: GpuContext, wake: impl Fn() + Send + Sync + 'static) -> std::io::Result<Self> {
+    pub fn start(
+        preset: Preset,
+        options: BatchOptions,
+        gpu: GpuContext,
+        wake: impl Fn() + Send + Sync + 'static,
+    ) -> std::io::Result<Self> {
         let cancel = Arc::new(AtomicBool::new(false));
         let progress = Arc::new(Mutex::new(None));
         let (tx, result) = crossbeam_channel::bounded(1);
-        let total = options.limit.map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
+        let total = options
+            .limit
+            .map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
         let out_dir = options.out_dir.clone();
         let (thread_cancel, thread_progress) = (Arc::clone(&cancel), Arc::clone(&progress));
-        std::thread::Builder::new().name("swarmshot batch".into()).spawn(move || {
-            let outcome = run_batch(&preset, &options, &gpu, &thread_cancel, |p| {
-                if let Ok(mut slot) = thread_progress.lock() {
-                    *slot = Some(p);
-                }
+        std::thread::Builder::new()
+            .name("swarmshot batch".into())
+            .spawn(move || {
+                let outcome = run_batch(&preset, &options, &gpu, &thread_cancel, |p| {
+                    if let Ok(mut slot) = thread_progress.lock() {
+                        *slot = Some(p);
+                    }
+                    wake();
+                })
+                .map_err(|e| format!("{e:#}"));
+                let _ = tx.send(outcome);
                 wake();
-            })
-            .map_err(|e| format!("{e:#}"));
-            let _ = tx.send(outcome);
-            wake();
-        })?;
-        Ok(Self { cancel, progress, result, total, out_dir, started: Instant::now() })
+            })?;
+        Ok(Self {
+            cancel,
+            progress,
+            result,
+            total,
+            out_dir,
+            started: Instant::now(),
+        })
     }
 
     /// Ask the batch to stop after the frames already in the pipeline.
@@ -75,8 +91,15 @@ impl BatchRun {
         let done = p.map_or(0, |p| p.done);
         let images_per_s = p.map_or(0.0, |p| p.images_per_s());
         let remaining = self.total.saturating_sub(done);
-        let eta = (images_per_s > 0.0).then(|| Duration::from_secs_f64(remaining as f64 / images_per_s));
-        BatchStatus { done, total: self.total, images_per_s, eta, cancelling: self.cancel.load(Ordering::Relaxed) }
+        let eta =
+            (images_per_s > 0.0).then(|| Duration::from_secs_f64(remaining as f64 / images_per_s));
+        BatchStatus {
+            done,
+            total: self.total,
+            images_per_s,
+            eta,
+            cancelling: self.cancel.load(Ordering::Relaxed),
+        }
     }
 
     pub fn elapsed(&self) -> Duration {
@@ -89,7 +112,9 @@ impl BatchRun {
             Ok(Ok(report)) => Some(BatchOutcome::Done(report)),
             Ok(Err(message)) => Some(BatchOutcome::Failed(message)),
             Err(crossbeam_channel::TryRecvError::Empty) => None,
-            Err(crossbeam_channel::TryRecvError::Disconnected) => Some(BatchOutcome::Failed("the batch thread stopped without a result".into())),
+            Err(crossbeam_channel::TryRecvError::Disconnected) => Some(BatchOutcome::Failed(
+                "the batch thread stopped without a result".into(),
+            )),
         }
     }
 }

@@ -38,7 +38,11 @@ impl Summary {
     /// Shares of small, medium and large boxes (0 when there are none).
     pub fn size_shares(&self) -> [f64; 3] {
         let n = self.stats.boxes.max(1) as f64;
-        [self.stats.small as f64 / n, self.stats.medium as f64 / n, self.stats.large as f64 / n]
+        [
+            self.stats.small as f64 / n,
+            self.stats.medium as f64 / n,
+            self.stats.large as f64 / n,
+        ]
     }
 }
 
@@ -51,7 +55,11 @@ pub struct SummaryMaker {
 impl SummaryMaker {
     pub fn estimate(&mut self, request: &SummaryRequest) -> Result<Summary, String> {
         let preset = &*request.preset;
-        if self.loaded.as_ref().is_none_or(|(models, _)| *models != preset.models) {
+        if self
+            .loaded
+            .as_ref()
+            .is_none_or(|(models, _)| *models != preset.models)
+        {
             self.loaded = None;
             let maker = FrameMaker::new(preset.clone()).map_err(|e| e.to_string())?;
             self.loaded = Some((preset.models.clone(), maker));
@@ -64,7 +72,9 @@ impl SummaryMaker {
         let (mut drones_min, mut drones_max) = (usize::MAX, 0);
         for k in 0..sampled_frames {
             // Evenly spaced over the sweep; u128 so the product cannot overflow.
-            let index = u64::try_from(u128::from(k) * u128::from(frames) / u128::from(sampled_frames)).unwrap_or(0);
+            let index =
+                u64::try_from(u128::from(k) * u128::from(frames) / u128::from(sampled_frames))
+                    .unwrap_or(0);
             let (scene, labels) = maker.frame(index).map_err(|e| e.to_string())?;
             drones_min = drones_min.min(scene.drones.len());
             drones_max = drones_max.max(scene.drones.len());
@@ -73,6 +83,13 @@ impl SummaryMaker {
         if sampled_frames == 0 {
             drones_min = 0;
         }
-        Ok(Summary { generation: request.generation, frames, sampled_frames, drones_min, drones_max, stats })
+        Ok(Summary {
+            generation: request.generation,
+            frames,
+            sampled_frames,
+            drones_min,
+            drones_max,
+            stats,
+        })
     }
 }

@@ -16,21 +16,30 @@ pub struct LatestWorker<Req, Resp> {
 
 impl<Req: Send + 'static, Resp: Send + 'static> LatestWorker<Req, Resp> {
     /// Start the thread; it ends when this handle is dropped.
-    pub fn spawn(name: &str, wake: impl Fn() + Send + 'static, mut work: impl FnMut(Req) -> Resp + Send + 'static) -> std::io::Result<Self> {
+    pub fn spawn(
+        name: &str,
+        wake: impl Fn() + Send + 'static,
+        mut work: impl FnMut(Req) -> Resp + Send + 'static,
+    ) -> std::io::Result<Self> {
         let (requests, request_rx) = crossbeam_channel::unbounded::<Req>();
         let (response_tx, responses) = crossbeam_channel::unbounded::<Resp>();
-        std::thread::Builder::new().name(name.to_owned()).spawn(move || {
-            while let Ok(mut request) = request_rx.recv() {
-                while let Ok(newer) = request_rx.try_recv() {
-                    request = newer;
+        std::thread::Builder::new()
+            .name(name.to_owned())
+            .spawn(move || {
+                while let Ok(mut request) = request_rx.recv() {
+                    while let Ok(newer) = request_rx.try_recv() {
+                        request = newer;
+                    }
+                    if response_tx.send(work(request)).is_err() {
+                        break;
+                    }
+                    wake();
                 }
-                if response_tx.send(work(request)).is_err() {
-                    break;
-                }
-                wake();
-            }
-        })?;
-        Ok(Self { requests, responses })
+            })?;
+        Ok(Self {
+            requests,
+            responses,
+        })
     }
 
     /// Queue a request; older unserved requests are skipped.
