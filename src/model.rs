@@ -42,7 +42,10 @@ pub struct CpuModel {
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
     #[error("cannot read model {}: {source}", file.display())]
-    Io { file: PathBuf, source: std::io::Error },
+    Io {
+        file: PathBuf,
+        source: std::io::Error,
+    },
     #[error("model {}: not a valid glTF file: {reason}", file.display())]
     Parse { file: PathBuf, reason: String },
     #[error("model {} requires the glTF extension {extension}, which swarmshot does not support{}", file.display(), hint(extension))]
@@ -50,7 +53,12 @@ pub enum ModelError {
     #[error("model {}: cannot load buffer data: {reason}", file.display())]
     Buffer { file: PathBuf, reason: String },
     #[error("model {}: mesh \"{mesh}\" primitive {primitive}: {reason}", file.display())]
-    Primitive { file: PathBuf, mesh: String, primitive: usize, reason: String },
+    Primitive {
+        file: PathBuf,
+        mesh: String,
+        primitive: usize,
+        reason: String,
+    },
     #[error("model {} has no triangles to draw", file.display())]
     NoTriangles { file: PathBuf },
     #[error("model {}: geometry is degenerate or not finite (span {span})", file.display())]
@@ -72,23 +80,54 @@ const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_unlit", "KHR_texture_transf
 
 /// Load a .gltf or .glb file from disk.
 pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
-    let bytes = std::fs::read(path).map_err(|source| ModelError::Io { file: path.to_owned(), source })?;
-    let name = path.file_stem().map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
+    let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+        file: path.to_owned(),
+        source,
+    })?;
+    let name = path
+        .file_stem()
+        .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
     load_bytes(&bytes, path.parent(), path, &name)
 }
 
 /// Load glTF from bytes; `base_dir` resolves external buffers, `file` names the source in errors.
-pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, file: &Path, name: &str) -> Result<CpuModel, ModelError> {
-    let parse = |e: gltf::Error| ModelError::Parse { file: file.to_owned(), reason: e.to_string() };
+pub fn load_bytes(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    file: &Path,
+    name: &str,
+) -> Result<CpuModel, ModelError> {
+    let parse = |e: gltf::Error| ModelError::Parse {
+        file: file.to_owned(),
+        reason: e.to_string(),
+    };
     let unvalidated = gltf::Gltf::from_slice_without_validation(bytes).map_err(parse)?;
-    if let Some(ext) = unvalidated.document.extensions_required().find(|e| !SUPPORTED_REQUIRED.contains(e)) {
-        return Err(ModelError::UnsupportedExtension { file: file.to_owned(), extension: ext.to_string() });
+    if let Some(ext) = unvalidated
+        .document
+        .extensions_required()
+        .find(|e| !SUPPORTED_REQUIRED.contains(e))
+    {
+        return Err(ModelError::UnsupportedExtension {
+            file: file.to_owned(),
+            extension: ext.to_string(),
+        });
     }
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(parse)?;
-    let buffers = gltf::import_buffers(&document, base_dir, blob)
-        .map_err(|e| ModelError::Buffer { file: file.to_owned(), reason: buffer_reason(&document, e) })?;
-    let mut builder = Flattener { file, buffers: &buffers, vertices: Vec::new(), indices: Vec::new(), warnings: Vec::new() };
-    let scene = document.default_scene().or_else(|| document.scenes().next());
+    let buffers =
+        gltf::import_buffers(&document, base_dir, blob).map_err(|e| ModelError::Buffer {
+            file: file.to_owned(),
+            reason: buffer_reason(&document, e),
+        })?;
+    let mut builder = Flattener {
+        file,
+        buffers: &buffers,
+        vertices: Vec::new(),
+        indices: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next());
     match scene {
         Some(scene) => {
             for node in scene.nodes() {
@@ -102,7 +141,12 @@ pub fn load_bytes(bytes: &[u8], base_dir: Option<&Path>, file: &Path, name: &str
             }
         }
     }
-    let Flattener { vertices, indices, warnings, .. } = builder;
+    let Flattener {
+        vertices,
+        indices,
+        warnings,
+        ..
+    } = builder;
     finish(name, vertices, indices, warnings, file)
 }
 
@@ -114,7 +158,11 @@ fn buffer_reason(document: &gltf::Document, e: gltf::Error) -> String {
             _ => None,
         })
         .collect();
-    if uris.is_empty() { e.to_string() } else { format!("{e} (buffers: {})", uris.join(", ")) }
+    if uris.is_empty() {
+        e.to_string()
+    } else {
+        format!("{e} (buffers: {})", uris.join(", "))
+    }
 }
 
 struct Flattener<'a> {
@@ -139,34 +187,56 @@ impl Flattener<'_> {
     }
 
     fn mesh(&mut self, mesh: &gltf::Mesh<'_>, world: DMat4) -> Result<(), ModelError> {
-        let mesh_name = mesh.name().map_or_else(|| format!("#{}", mesh.index()), str::to_string);
+        let mesh_name = mesh
+            .name()
+            .map_or_else(|| format!("#{}", mesh.index()), str::to_string);
         let normal_matrix = DMat3::from_mat4(world).inverse().transpose();
         let flips = DMat3::from_mat4(world).determinant() < 0.0;
         for (p, primitive) in mesh.primitives().enumerate() {
-            let err = |reason: String| ModelError::Primitive { file: self.file.to_owned(), mesh: mesh_name.clone(), primitive: p, reason };
+            let err = |reason: String| ModelError::Primitive {
+                file: self.file.to_owned(),
+                mesh: mesh_name.clone(),
+                primitive: p,
+                reason,
+            };
             use gltf::mesh::Mode;
             let mode = primitive.mode();
-            if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
                 self.warnings.push(format!("mesh \"{mesh_name}\" primitive {p}: {mode:?} skipped (only triangles are drawn)"));
                 continue;
             }
             let buffers = self.buffers;
             let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            let positions: Vec<[f32; 3]> = reader.read_positions().ok_or_else(|| err("no POSITION attribute".into()))?.collect();
+            let positions: Vec<[f32; 3]> = reader
+                .read_positions()
+                .ok_or_else(|| err("no POSITION attribute".into()))?
+                .collect();
             if positions.is_empty() {
                 continue;
             }
             let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(Iterator::collect);
-            let colors: Option<Vec<[f32; 4]>> = reader.read_colors(0).map(|c| c.into_rgba_f32().collect());
-            let factor = primitive.material().pbr_metallic_roughness().base_color_factor();
+            let colors: Option<Vec<[f32; 4]>> =
+                reader.read_colors(0).map(|c| c.into_rgba_f32().collect());
+            let factor = primitive
+                .material()
+                .pbr_metallic_roughness()
+                .base_color_factor();
             let raw_indices: Vec<u32> = match reader.read_indices() {
                 Some(ix) => ix.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
             };
             if let Some(bad) = raw_indices.iter().find(|&&i| i as usize >= positions.len()) {
-                return Err(err(format!("index {bad} is out of range for {} vertices", positions.len())));
+                return Err(err(format!(
+                    "index {bad} is out of range for {} vertices",
+                    positions.len()
+                )));
             }
-            if normals.as_ref().is_some_and(|n| n.len() != positions.len()) || colors.as_ref().is_some_and(|c| c.len() != positions.len()) {
+            if normals.as_ref().is_some_and(|n| n.len() != positions.len())
+                || colors.as_ref().is_some_and(|c| c.len() != positions.len())
+            {
                 return Err(err("attribute counts differ from the POSITION count".into()));
             }
             let triangles = triangulate(mode, &raw_indices);
@@ -181,7 +251,12 @@ impl Flattener<'_> {
                 self.vertices.push(Vertex {
                     position: p.as_vec3().to_array(),
                     normal: n.as_vec3().to_array(),
-                    color: [c[0] * factor[0], c[1] * factor[1], c[2] * factor[2], c[3] * factor[3]],
+                    color: [
+                        c[0] * factor[0],
+                        c[1] * factor[1],
+                        c[2] * factor[2],
+                        c[3] * factor[3],
+                    ],
                 });
             }
             let start = self.indices.len();
@@ -190,7 +265,11 @@ impl Flattener<'_> {
                 self.indices.extend(tri.map(|i| base + i));
             }
             if normals.is_none() {
-                compute_normals(&mut self.vertices[base as usize..], &self.indices[start..], base);
+                compute_normals(
+                    &mut self.vertices[base as usize..],
+                    &self.indices[start..],
+                    base,
+                );
             }
         }
         Ok(())
@@ -203,12 +282,22 @@ fn triangulate(mode: gltf::mesh::Mode, ix: &[u32]) -> Vec<[u32; 3]> {
     let tris: Vec<[u32; 3]> = match mode {
         Mode::Triangles => ix.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
         Mode::TriangleStrip => (0..ix.len().saturating_sub(2))
-            .map(|i| if i % 2 == 0 { [ix[i], ix[i + 1], ix[i + 2]] } else { [ix[i + 1], ix[i], ix[i + 2]] })
+            .map(|i| {
+                if i % 2 == 0 {
+                    [ix[i], ix[i + 1], ix[i + 2]]
+                } else {
+                    [ix[i + 1], ix[i], ix[i + 2]]
+                }
+            })
             .collect(),
-        Mode::TriangleFan => (1..ix.len().saturating_sub(1)).map(|i| [ix[0], ix[i], ix[i + 1]]).collect(),
+        Mode::TriangleFan => (1..ix.len().saturating_sub(1))
+            .map(|i| [ix[0], ix[i], ix[i + 1]])
+            .collect(),
         _ => Vec::new(),
     };
-    tris.into_iter().filter(|[a, b, c]| a != b && b != c && a != c).collect()
+    tris.into_iter()
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .collect()
 }
 
 /// Area-weighted smooth normals for a primitive that has none.
@@ -228,9 +317,17 @@ fn compute_normals(vertices: &mut [Vertex], indices: &[u32], base: u32) {
 }
 
 /// Centre, scale to a unit span, and compute the hull.
-fn finish(name: &str, mut vertices: Vec<Vertex>, indices: Vec<u32>, warnings: Vec<String>, file: &Path) -> Result<CpuModel, ModelError> {
+fn finish(
+    name: &str,
+    mut vertices: Vec<Vertex>,
+    indices: Vec<u32>,
+    warnings: Vec<String>,
+    file: &Path,
+) -> Result<CpuModel, ModelError> {
     if indices.is_empty() {
-        return Err(ModelError::NoTriangles { file: file.to_owned() });
+        return Err(ModelError::NoTriangles {
+            file: file.to_owned(),
+        });
     }
     // Bounds over the vertices that triangles use.
     let mut lo = DVec3::splat(f64::INFINITY);
@@ -242,7 +339,10 @@ fn finish(name: &str, mut vertices: Vec<Vertex>, indices: Vec<u32>, warnings: Ve
     }
     let span = (hi - lo).max_element();
     if !(span.is_finite() && span > 0.0) {
-        return Err(ModelError::Degenerate { file: file.to_owned(), span });
+        return Err(ModelError::Degenerate {
+            file: file.to_owned(),
+            span,
+        });
     }
     let centre = (lo + hi) * 0.5;
     for v in &mut vertices {
@@ -284,7 +384,11 @@ pub fn convex_hull_vertices(points: &[DVec3]) -> Vec<DVec3> {
     match chull::ConvexHullWrapper::try_new(&input, None) {
         Ok(hull) => {
             let (vertices, _) = hull.vertices_indices();
-            let out: Vec<DVec3> = vertices.iter().filter(|v| v.len() == 3).map(|v| DVec3::new(v[0], v[1], v[2])).collect();
+            let out: Vec<DVec3> = vertices
+                .iter()
+                .filter(|v| v.len() == 3)
+                .map(|v| DVec3::new(v[0], v[1], v[2]))
+                .collect();
             if out.len() >= 4 { out } else { points.to_vec() }
         }
         Err(_) => points.to_vec(),
@@ -308,15 +412,28 @@ mod tests {
         let hull = convex_hull_vertices(&pts);
         // Corners must be present; the body centre must not.
         for c in [DVec3::ZERO, DVec3::ONE, DVec3::new(1.0, 0.0, 1.0)] {
-            assert!(hull.iter().any(|h| (*h - c).length() < 1e-12), "{c} missing");
+            assert!(
+                hull.iter().any(|h| (*h - c).length() < 1e-12),
+                "{c} missing"
+            );
         }
-        assert!(!hull.iter().any(|h| (*h - DVec3::splat(0.5)).length() < 1e-12));
+        assert!(
+            !hull
+                .iter()
+                .any(|h| (*h - DVec3::splat(0.5)).length() < 1e-12)
+        );
     }
 
     #[test]
     fn strips_and_fans_triangulate() {
         use gltf::mesh::Mode;
-        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]), vec![[0, 1, 2], [2, 1, 3]]);
-        assert_eq!(triangulate(Mode::TriangleFan, &[0, 1, 2, 3]), vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(
+            triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]),
+            vec![[0, 1, 2], [2, 1, 3]]
+        );
+        assert_eq!(
+            triangulate(Mode::TriangleFan, &[0, 1, 2, 3]),
+            vec![[0, 1, 2], [0, 2, 3]]
+        );
     }
 }
