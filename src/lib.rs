@@ -5,8 +5,10 @@
 //! [`labels`] module boxes it geometrically; the [`render`] module draws it
 //! with wgpu; the [`output`] writers store image, labels and manifest;
 //! [`batch`] runs that pipeline for every frame. The renderer knows nothing of
-//! any UI, and the writers know nothing of rendering.
+//! any UI, and the writers know nothing of rendering. The desktop app
+//! ([`app`]) edits presets and drives the same preview renderer and batch.
 
+pub mod app;
 pub mod assets;
 pub mod batch;
 pub mod bench;

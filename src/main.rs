@@ -1,4 +1,5 @@
-//! The `swarmshot` command line: batch, check, frame, assets.
+//! The `swarmshot` command line: batch, check, frame, bench, assets, and the
+//! desktop app (`swarmshot gui [PRESET]`, or `swarmshot` with no arguments).
 
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
@@ -18,12 +19,18 @@ use swarmshot::render::GpuContext;
     about = "Synthetic training data for UAV-swarm detection"
 )]
 struct Cli {
+    /// With no subcommand, the desktop app opens.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 #[derive(Subcommand)]
 enum Command {
+    /// Open the desktop app (the default when no subcommand is given).
+    Gui {
+        /// A RON preset to open (default: the last session's preset).
+        preset: Option<PathBuf>,
+    },
     /// Render every frame of a preset into an image/label dataset.
     Batch {
         /// The RON preset.
@@ -91,7 +98,11 @@ enum BenchCommand {
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {
+    let Some(command) = cli.command else {
+        return swarmshot::app::run(None);
+    };
+    match command {
+        Command::Gui { preset } => swarmshot::app::run(preset)?,
         Command::Batch {
             preset,
             out,

@@ -19,7 +19,8 @@ use crate::scene::FrameScene;
 
 /// The colour format of every target: sRGB is encoded in the shaders (see STACK.md).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
-const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The depth format [`Renderer::encode`] expects (reversed-Z).
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {

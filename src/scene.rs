@@ -110,6 +110,24 @@ fn model_radius(size_m: f64) -> f64 {
     size_m * 3f64.sqrt() * 0.5
 }
 
+/// The camera centre for sweep values (CameraX, CameraY, CameraZ): X and Y in
+/// units of the volume radius R, Z in units of the distance at which the
+/// sphere of radius R just fits the vertical field of view.
+pub fn camera_position(
+    camera_x: f64,
+    camera_y: f64,
+    camera_z: f64,
+    volume_radius_m: f64,
+    fov_y_deg: f64,
+) -> DVec3 {
+    let d_fit = volume_radius_m / (fov_y_deg.to_radians() * 0.5).sin();
+    DVec3::new(
+        camera_x * volume_radius_m,
+        camera_y * volume_radius_m,
+        camera_z * d_fit,
+    )
+}
+
 /// Build frame `index` of `preset`.
 pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError> {
     let radices = preset.frame_radices()?;
@@ -157,13 +175,14 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
 
     let (width, height) = preset.image_size();
     let fov_y_deg = preset.camera.fov_y_deg;
-    let d_fit = volume_radius_m / (fov_y_deg.to_radians() * 0.5).sin();
-    let position = DVec3::new(
-        sweep.CameraX * volume_radius_m,
-        sweep.CameraY * volume_radius_m,
-        sweep.CameraZ * d_fit,
+    let position = camera_position(
+        sweep.CameraX,
+        sweep.CameraY,
+        sweep.CameraZ,
+        volume_radius_m,
+        fov_y_deg,
     );
-    // CameraZ ≠ 0 is validated, so the camera never sits on the centre; fall back to identity if it ever does.
+    // Validation keeps the camera off the centre; fall back to identity if it ever sits there.
     let camera_from_world = look_at_cv(position, DVec3::ZERO).unwrap_or(glam::DMat3::IDENTITY);
     let min_size = preset
         .models

@@ -1,0 +1,1202 @@
+//! The desktop authoring app (issue 3): eframe + egui with the wgpu renderer.
+//!
+//! Data flow: the [`Session`] (plain serde data, restored by eframe
+//! persistence) holds the preset being edited. After each UI pass the app
+//! notices a changed preset, bumps a generation number, validates it and asks
+//! two latest-wins workers ([`worker::LatestWorker`]) for a new preview
+//! ([`preview`]) and a new summary ([`summary`]). "Generate" snapshots the
+//! preset and hands it to [`runner::BatchRun`], which runs the same
+//! `run_batch` as `swarmshot batch` on a background thread. The UI thread
+//! only polls channels, so it never waits on a render or a batch.
+//!
+//! Panels are `*_ui` functions in [`panels`]; actions that reach beyond the
+//! preset (file dialogs, Generate) are [`Command`]s applied after the pass.
+
+pub mod panels;
+pub mod preview;
+pub mod runner;
+pub mod summary;
+pub mod worker;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use eframe::egui_wgpu;
+use egui::{Color32, Pos2, Rect, RichText, Sense, Stroke, Ui, Vec2};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use crate::batch::BatchOptions;
+use crate::preset::{FieldError, ModelSource, ModelSpec, PRESET_VERSION, Preset};
+use crate::render::GpuContext;
+use panels::{Form, error_label, group_digits};
+use preview::{
+    Orbit, PreviewError, PreviewFrame, PreviewKey, PreviewRenderer, PreviewRequest, PreviewResult,
+    PreviewView,
+};
+use runner::{BatchOutcome, BatchRun};
+use summary::{Summary, SummaryMaker, SummaryRequest};
+use worker::LatestWorker;
+
+/// Window title and persistence key.
+pub const APP_NAME: &str = "swarmshot";
+
+/// What a user saves between sessions (eframe persistence).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Session {
+    pub preset: Preset,
+    /// The file the preset was opened from or saved to.
+    pub preset_path: Option<PathBuf>,
+    /// The preset as on disk, for the unsaved-changes marker.
+    pub saved: Option<Preset>,
+    /// Where Generate writes.
+    pub out_dir: String,
+    pub overwrite: bool,
+    /// Selected frame index (0-based).
+    pub frame: u64,
+    pub show_boxes: bool,
+    pub inspect: bool,
+    pub orbit: Orbit,
+}
+
+impl Default for Session {
+    fn default() -> Self {
+        Self {
+            preset: Preset::default(),
+            preset_path: None,
+            saved: None,
+            out_dir: "swarmshot-dataset".into(),
+            overwrite: false,
+            frame: 0,
+            show_boxes: true,
+            inspect: false,
+            orbit: Orbit::default(),
+        }
+    }
+}
+
+impl Session {
+    /// The preset differs from the file it came from (or was never saved).
+    pub fn is_dirty(&self) -> bool {
+        self.saved.as_ref() != Some(&self.preset)
+    }
+}
+
+/// How the app starts.
+#[derive(Clone, Debug, Default)]
+pub struct StartOptions {
+    /// Open this preset file instead of the last session's preset.
+    pub preset: Option<PathBuf>,
+    /// Restore the last session from eframe's storage.
+    pub restore_session: bool,
+}
+
+/// Actions that reach beyond the panel that triggers them, applied after the UI pass.
+#[must_use]
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    New,
+    Open,
+    OpenPath(PathBuf),
+    Save,
+    SaveAs,
+    AddGltf,
+    BrowseOutDir,
+    Generate,
+    Cancel,
+    OpenOutputFolder(PathBuf),
+}
+
+/// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
+pub fn read_preset(path: &Path) -> Result<Preset, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read preset {}: {e}", path.display()))?;
+    let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
+    if preset.version > PRESET_VERSION {
+        return Err(format!(
+            "preset {}: version {} is newer than this swarmshot understands ({PRESET_VERSION})",
+            path.display(),
+            preset.version
+        ));
+    }
+    Ok(preset)
+}
+
+/// The example presets shipped in the repository's presets/ folder.
+pub fn example_presets() -> Vec<PathBuf> {
+    let dirs = [
+        PathBuf::from("presets"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("presets"),
+    ];
+    let Some(dir) = dirs.iter().find(|d| d.is_dir()) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+                .collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    files
+}
+
+/// Open the app window (blocks until it is closed).
+pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title(APP_NAME)
+            .with_inner_size([1400.0, 880.0])
+            .with_min_inner_size([900.0, 560.0]),
+        renderer: eframe::Renderer::Wgpu,
+        ..Default::default()
+    };
+    eframe::run_native(
+        APP_NAME,
+        options,
+        Box::new(move |cc| {
+            Ok(Box::new(SwarmshotApp::new(
+                cc,
+                StartOptions {
+                    preset,
+                    restore_session: true,
+                },
+            )))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("cannot open the swarmshot window: {e}"))
+}
+
+/// The app: session data plus everything derived from it.
+pub struct SwarmshotApp {
+    session: Session,
+    gpu: Option<(GpuContext, egui_wgpu::RenderState)>,
+    /// The preset the derived state below belongs to.
+    seen: Option<Preset>,
+    generation: u64,
+    errors: Vec<FieldError>,
+    /// `session.preset` with model paths resolved against the preset's folder.
+    resolved: Arc<Preset>,
+    preview_worker: Option<LatestWorker<PreviewRequest, PreviewResult>>,
+    preview: Option<PreviewFrame>,
+    preview_texture: Option<egui::TextureId>,
+    preview_error: Option<PreviewError>,
+    preview_sent: Option<PreviewKey>,
+    preview_size_px: [u32; 2],
+    /// Where the preview was drawn in the last pass (points).
+    preview_rect: Option<Rect>,
+    summary_worker: Option<LatestWorker<SummaryRequest, Result<Summary, String>>>,
+    summary: Option<Result<Summary, String>>,
+    batch: Option<BatchRun>,
+    batch_outcome: Option<BatchOutcome>,
+    /// Problems with files and dialogs, shown in a banner until dismissed.
+    notices: Vec<String>,
+    title: String,
+}
+
+impl SwarmshotApp {
+    pub fn new(cc: &eframe::CreationContext<'_>, options: StartOptions) -> Self {
+        let mut notices = Vec::new();
+        let mut session = if options.restore_session {
+            cc.storage
+                .and_then(|s| eframe::get_value::<Session>(s, eframe::APP_KEY))
+                .unwrap_or_default()
+        } else {
+            Session::default()
+        };
+        if let Some(path) = &options.preset {
+            match read_preset(path) {
+                Ok(preset) => session.load(preset, path.clone()),
+                Err(e) => notices.push(e),
+            }
+        }
+        let gpu = cc.wgpu_render_state.as_ref().map(|rs| {
+            let ctx = GpuContext {
+                device: rs.device.clone(),
+                queue: rs.queue.clone(),
+                adapter_info: rs.adapter.get_info(),
+                max_texture_side: rs.device.limits().max_texture_dimension_2d,
+            };
+            (ctx, rs.clone())
+        });
+        let egui_ctx = cc.egui_ctx.clone();
+        let wake = move || egui_ctx.request_repaint();
+        let preview_worker = match &gpu {
+            Some((ctx, _)) => {
+                let mut renderer = PreviewRenderer::new(ctx.clone());
+                LatestWorker::spawn(
+                    "swarmshot preview",
+                    wake.clone(),
+                    move |request: PreviewRequest| renderer.render(&request),
+                )
+                .map_err(|e| notices.push(format!("cannot start the preview thread: {e}")))
+                .ok()
+            }
+            None => {
+                notices.push(
+                    "eframe gave no wgpu device: the preview and Generate need the wgpu renderer"
+                        .into(),
+                );
+                None
+            }
+        };
+        let mut maker = SummaryMaker::default();
+        let summary_worker =
+            LatestWorker::spawn("swarmshot summary", wake, move |request: SummaryRequest| {
+                maker.estimate(&request)
+            })
+            .map_err(|e| notices.push(format!("cannot start the summary thread: {e}")))
+            .ok();
+        Self {
+            resolved: Arc::new(session.preset.clone()),
+            session,
+            gpu,
+            seen: None,
+            generation: 0,
+            errors: Vec::new(),
+            preview_worker,
+            preview: None,
+            preview_texture: None,
+            preview_error: None,
+            preview_sent: None,
+            preview_size_px: [0, 0],
+            preview_rect: None,
+            summary_worker,
+            summary: None,
+            batch: None,
+            batch_outcome: None,
+            notices,
+            title: String::new(),
+        }
+    }
+
+    // ---- accessors for tests and the benchmark -------------------------------------------
+
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    pub fn session_mut(&mut self) -> &mut Session {
+        &mut self.session
+    }
+
+    /// Validation messages of the current preset.
+    pub fn errors(&self) -> &[FieldError] {
+        &self.errors
+    }
+
+    /// The key of the picture on screen, if any.
+    pub fn preview_key(&self) -> Option<PreviewKey> {
+        self.preview.as_ref().map(|p| p.key)
+    }
+
+    /// Last preview render time (build + encode + GPU), milliseconds.
+    pub fn preview_render_ms(&self) -> Option<f64> {
+        self.preview.as_ref().map(|p| p.render_ms)
+    }
+
+    /// The picture on screen answers the newest request (nothing in flight).
+    pub fn preview_is_current(&self) -> bool {
+        self.preview_sent.is_some()
+            && (self.preview_key() == self.preview_sent
+                || self.preview_error.as_ref().map(|e| e.key) == self.preview_sent)
+    }
+
+    /// Where the preview pane drew its picture in the last pass, in points.
+    pub fn preview_rect(&self) -> Option<Rect> {
+        self.preview_rect
+    }
+
+    pub fn preview_error(&self) -> Option<&str> {
+        self.preview_error.as_ref().map(|e| e.message.as_str())
+    }
+
+    pub fn summary(&self) -> Option<&Summary> {
+        self.summary.as_ref().and_then(|s| s.as_ref().ok())
+    }
+
+    pub fn summary_is_current(&self) -> bool {
+        self.summary()
+            .is_some_and(|s| s.generation == self.generation)
+    }
+
+    pub fn batch_running(&self) -> bool {
+        self.batch.is_some()
+    }
+
+    pub fn batch_outcome(&self) -> Option<&BatchOutcome> {
+        self.batch_outcome.as_ref()
+    }
+
+    pub fn notices(&self) -> &[String] {
+        &self.notices
+    }
+
+    // ---- derived state --------------------------------------------------------------------
+
+    /// Re-derive validation, the resolved preset and the summary after a preset edit.
+    fn sync(&mut self, ctx: &egui::Context) {
+        if self.seen.as_ref() == Some(&self.session.preset) {
+            return;
+        }
+        self.generation += 1;
+        self.seen = Some(self.session.preset.clone());
+        self.errors = self.session.preset.validate().err().unwrap_or_default();
+        let mut resolved = self.session.preset.clone();
+        let base = self
+            .session
+            .preset_path
+            .as_deref()
+            .and_then(Path::parent)
+            .unwrap_or(Path::new("."));
+        resolved.resolve_paths(base);
+        self.resolved = Arc::new(resolved);
+        let frames = self.resolved.frame_count();
+        if self.session.frame >= frames {
+            self.session.frame = frames.saturating_sub(1);
+        }
+        if self.errors.is_empty()
+            && let Some(worker) = &self.summary_worker
+        {
+            worker.submit(SummaryRequest {
+                generation: self.generation,
+                preset: Arc::clone(&self.resolved),
+            });
+        }
+        ctx.request_repaint();
+    }
+
+    /// Ask for a preview when what it depends on changed (and the preset is valid).
+    fn request_preview(&mut self) {
+        let Some(worker) = &self.preview_worker else {
+            return;
+        };
+        if !self.errors.is_empty() || self.preview_size_px.contains(&0) {
+            return;
+        }
+        let view = if self.session.inspect {
+            PreviewView::Inspect(self.session.orbit)
+        } else {
+            PreviewView::Camera
+        };
+        let key = PreviewKey {
+            generation: self.generation,
+            frame: self.session.frame,
+            size_px: self.preview_size_px,
+            view,
+        };
+        if self.preview_sent != Some(key) {
+            worker.submit(PreviewRequest {
+                key,
+                preset: Arc::clone(&self.resolved),
+            });
+            self.preview_sent = Some(key);
+        }
+    }
+
+    /// Take what the workers and the batch thread finished.
+    fn poll(&mut self) {
+        if let Some(result) = self.preview_worker.as_ref().and_then(LatestWorker::latest) {
+            match result {
+                Ok(frame) => {
+                    self.show_texture(&frame.texture);
+                    self.preview_error = None;
+                    self.preview = Some(frame);
+                }
+                Err(e) => self.preview_error = Some(e),
+            }
+        }
+        if let Some(summary) = self.summary_worker.as_ref().and_then(LatestWorker::latest) {
+            self.summary = Some(summary);
+        }
+        if let Some(outcome) = self.batch.as_ref().and_then(BatchRun::finished) {
+            self.batch = None;
+            self.batch_outcome = Some(outcome);
+        }
+    }
+
+    /// Point the preview's egui texture at a freshly rendered wgpu texture.
+    fn show_texture(&mut self, view: &wgpu::TextureView) {
+        let Some((ctx, render_state)) = &self.gpu else {
+            return;
+        };
+        let mut renderer = render_state.renderer.write();
+        match self.preview_texture {
+            Some(id) => renderer.update_egui_texture_from_wgpu_texture(
+                &ctx.device,
+                view,
+                wgpu::FilterMode::Linear,
+                id,
+            ),
+            None => {
+                self.preview_texture = Some(renderer.register_native_texture(
+                    &ctx.device,
+                    view,
+                    wgpu::FilterMode::Linear,
+                ))
+            }
+        }
+    }
+
+    fn update_title(&mut self, ctx: &egui::Context) {
+        let file = self
+            .session
+            .preset_path
+            .as_ref()
+            .map_or_else(|| "not saved".to_string(), |p| p.display().to_string());
+        let marker = if self.session.is_dirty() { " •" } else { "" };
+        let title = format!("{}{marker} ({file}) — {APP_NAME}", self.session.preset.name);
+        if title != self.title {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
+            self.title = title;
+        }
+    }
+
+    // ---- commands -------------------------------------------------------------------------
+
+    fn apply(&mut self, command: Command, ctx: &egui::Context) {
+        let locked = self.batch.is_some();
+        match command {
+            Command::New if !locked => {
+                self.session.preset = Preset::default();
+                self.session.preset_path = None;
+                self.session.saved = None;
+                self.session.frame = 0;
+            }
+            Command::Open if !locked => {
+                let mut dialog = rfd::FileDialog::new()
+                    .add_filter("swarmshot preset", &["ron"])
+                    .set_title("Open preset");
+                if let Some(dir) = example_presets().first().and_then(|p| p.parent()) {
+                    dialog = dialog.set_directory(dir);
+                }
+                if let Some(path) = dialog.pick_file() {
+                    self.apply(Command::OpenPath(path), ctx);
+                }
+            }
+            Command::OpenPath(path) if !locked => match read_preset(&path) {
+                Ok(preset) => self.session.load(preset, path),
+                Err(e) => self.notices.push(e),
+            },
+            Command::Save => match self.session.preset_path.clone() {
+                Some(path) => self.save_to(&path),
+                None => self.apply(Command::SaveAs, ctx),
+            },
+            Command::SaveAs => {
+                let name = format!("{}.ron", self.session.preset.name.trim());
+                if let Some(path) = rfd::FileDialog::new()
+                    .add_filter("swarmshot preset", &["ron"])
+                    .set_title("Save preset as")
+                    .set_file_name(name)
+                    .save_file()
+                {
+                    self.save_to(&path);
+                }
+            }
+            Command::AddGltf if !locked => {
+                if let Some(path) = rfd::FileDialog::new()
+                    .add_filter("glTF model", &["gltf", "glb"])
+                    .set_title("Add glTF model")
+                    .pick_file()
+                {
+                    self.session.preset.models.push(ModelSpec {
+                        source: ModelSource::File(path),
+                        ..ModelSpec::default()
+                    });
+                }
+            }
+            Command::BrowseOutDir if !locked => {
+                if let Some(dir) = rfd::FileDialog::new()
+                    .set_title("Output folder")
+                    .pick_folder()
+                {
+                    self.session.out_dir = dir.display().to_string();
+                }
+            }
+            Command::Generate if !locked => self.generate(ctx),
+            Command::Cancel => {
+                if let Some(batch) = &self.batch {
+                    batch.cancel();
+                }
+            }
+            Command::OpenOutputFolder(dir) => {
+                if let Err(e) = open::that_detached(&dir) {
+                    self.notices
+                        .push(format!("cannot open {}: {e}", dir.display()));
+                }
+            }
+            // Preset edits while a batch runs are ignored: the widgets are disabled anyway.
+            _ => {}
+        }
+    }
+
+    fn save_to(&mut self, path: &Path) {
+        let text = format!(
+            "// swarmshot preset (RON), written by the swarmshot app\n{}\n",
+            self.session.preset.to_ron()
+        );
+        match std::fs::write(path, text) {
+            Ok(()) => {
+                self.session.preset_path = Some(path.to_owned());
+                self.session.saved = Some(self.session.preset.clone());
+            }
+            Err(e) => self
+                .notices
+                .push(format!("cannot save preset {}: {e}", path.display())),
+        }
+    }
+
+    fn generate(&mut self, ctx: &egui::Context) {
+        if !self.errors.is_empty() {
+            self.notices.push(format!(
+                "cannot generate: the preset has {} problem(s), shown in the panels",
+                self.errors.len()
+            ));
+            return;
+        }
+        let Some((gpu, _)) = &self.gpu else {
+            self.notices.push("cannot generate: no wgpu device".into());
+            return;
+        };
+        if self.session.out_dir.trim().is_empty() {
+            self.notices
+                .push("cannot generate: choose an output folder (Output panel)".into());
+            return;
+        }
+        // The snapshot: later edits cannot reach the running batch.
+        let preset = (*self.resolved).clone();
+        let options = BatchOptions {
+            out_dir: PathBuf::from(self.session.out_dir.trim()),
+            limit: None,
+            overwrite: self.session.overwrite,
+            encoder_threads: 0,
+        };
+        let wake_ctx = ctx.clone();
+        match BatchRun::start(preset, options, gpu.clone(), move || {
+            wake_ctx.request_repaint()
+        }) {
+            Ok(run) => {
+                self.batch = Some(run);
+                self.batch_outcome = None;
+            }
+            Err(e) => self
+                .notices
+                .push(format!("cannot start the batch thread: {e}")),
+        }
+    }
+
+    // ---- panels ---------------------------------------------------------------------------
+
+    fn menu_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        let locked = self.batch.is_some();
+        ui.horizontal(|ui| {
+            ui.strong(APP_NAME);
+            ui.separator();
+            ui.add_enabled_ui(!locked, |ui| {
+                if ui
+                    .button("New")
+                    .on_hover_text("Start from the default preset")
+                    .clicked()
+                {
+                    commands.push(Command::New);
+                }
+                if ui
+                    .button("Open…")
+                    .on_hover_text("Open a .ron preset")
+                    .clicked()
+                {
+                    commands.push(Command::Open);
+                }
+                ui.menu_button("Examples", |ui| {
+                    let examples = example_presets();
+                    if examples.is_empty() {
+                        ui.label("no presets/ folder found");
+                    }
+                    for path in examples {
+                        let name = path
+                            .file_stem()
+                            .map(|s| s.to_string_lossy().into_owned())
+                            .unwrap_or_default();
+                        if ui
+                            .button(name)
+                            .on_hover_text(path.display().to_string())
+                            .clicked()
+                        {
+                            commands.push(Command::OpenPath(path));
+                        }
+                    }
+                })
+                .response
+                .on_hover_text("Open one of the example presets in presets/");
+            });
+            if ui
+                .button("Save")
+                .on_hover_text("Save the preset to its file")
+                .clicked()
+            {
+                commands.push(Command::Save);
+            }
+            if ui
+                .button("Save As…")
+                .on_hover_text("Save the preset to a new file")
+                .clicked()
+            {
+                commands.push(Command::SaveAs);
+            }
+            ui.separator();
+            let (file, full) = match &self.session.preset_path {
+                Some(p) => (
+                    p.file_name().map_or_else(
+                        || p.display().to_string(),
+                        |f| f.to_string_lossy().into_owned(),
+                    ),
+                    p.display().to_string(),
+                ),
+                None => ("not saved".into(), "this preset has no file yet".into()),
+            };
+            ui.label(format!("{} ({file})", self.session.preset.name))
+                .on_hover_text(full);
+            if self.session.is_dirty() {
+                ui.label(RichText::new("• unsaved changes").color(ui.visuals().warn_fg_color));
+            }
+        });
+        let mut dismiss = None;
+        for (i, notice) in self.notices.iter().enumerate() {
+            ui.horizontal(|ui| {
+                error_label(ui, notice);
+                if ui
+                    .small_button("Dismiss")
+                    .on_hover_text("Hide this message")
+                    .clicked()
+                {
+                    dismiss = Some(i);
+                }
+            });
+        }
+        if let Some(i) = dismiss {
+            self.notices.remove(i);
+        }
+    }
+
+    fn parameters_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        let errors = self.errors.clone();
+        let mut form = Form::new(&errors);
+        let load_error = self
+            .preview_error
+            .as_ref()
+            .filter(|e| e.models)
+            .map(|e| e.message.clone());
+        let s = &mut self.session;
+        panels::general_ui(ui, &mut s.preset, &mut form);
+        let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
+            egui::CollapsingHeader::new(title)
+                .default_open(true)
+                .show(ui, |ui| add(ui))
+                .header_response
+                .on_hover_text(tip);
+        };
+        section(
+            ui,
+            "Models",
+            "The UAV models instantiated in every frame, with their real size",
+            &mut |ui| {
+                panels::models_ui(
+                    ui,
+                    &mut s.preset,
+                    &mut form,
+                    load_error.as_deref(),
+                    commands,
+                );
+            },
+        );
+        section(
+            ui,
+            "Placement",
+            "How drones are placed in the observation volume",
+            &mut |ui| panels::placement_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Attitude",
+            "Random roll/pitch/yaw of each drone",
+            &mut |ui| panels::attitude_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Camera",
+            "Camera translation sweeps; the camera always faces the volume's centre",
+            &mut |ui| {
+                panels::camera_ui(ui, &mut s.preset, &mut form);
+            },
+        );
+        section(
+            ui,
+            "Scene rotation",
+            "Rotation sweeps of the whole swarm",
+            &mut |ui| panels::plane_ui(ui, &mut s.preset, &mut form),
+        );
+        section(ui, "Skybox", "The background environment", &mut |ui| {
+            panels::skybox_ui(ui, &mut s.preset, &mut form)
+        });
+        section(
+            ui,
+            "Output",
+            "Resolution, file formats, split and folder",
+            &mut |ui| {
+                panels::output_ui(
+                    ui,
+                    &mut s.preset,
+                    &mut form,
+                    &mut s.out_dir,
+                    &mut s.overwrite,
+                    commands,
+                );
+            },
+        );
+        form.rest(ui);
+    }
+
+    fn summary_ui(&mut self, ui: &mut Ui) {
+        ui.heading("Summary");
+        let frames = self.resolved.frame_count();
+        ui.label(format!("Frames: {}", group_digits(frames)));
+        if !self.errors.is_empty() {
+            error_label(
+                ui,
+                &format!("{} problem(s) in the parameters", self.errors.len()),
+            );
+            return;
+        }
+        match &self.summary {
+            None => {
+                ui.weak("estimating…");
+            }
+            Some(Err(e)) => error_label(ui, e),
+            Some(Ok(s)) => {
+                let drones = if s.drones_min == s.drones_max {
+                    format!("{}", s.drones_min)
+                } else {
+                    format!(
+                        "{}–{} (mean {:.1})",
+                        s.drones_min,
+                        s.drones_max,
+                        s.drones_mean()
+                    )
+                };
+                ui.label(format!("Drones per frame: {drones}"));
+                let [small, medium, large] = s.size_shares().map(|x| x * 100.0);
+                ui.label(format!(
+                    "Boxes per frame: {:.1}",
+                    s.stats.boxes as f64 / s.sampled_frames.max(1) as f64
+                ));
+                ui.label(format!(
+                    "Small {small:.0}% · medium {medium:.0}% · large {large:.0}%"
+                ))
+                .on_hover_text("Share of boxes with √(w·h) < 32 px, 32–96 px and > 96 px");
+                ui.weak(format!(
+                    "estimated from the geometry of {} sampled frames",
+                    s.sampled_frames
+                ));
+                if s.generation != self.generation {
+                    ui.weak("updating…");
+                }
+            }
+        }
+    }
+
+    fn batch_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        ui.heading("Batch");
+        match &self.batch {
+            None => {
+                let ready = self.errors.is_empty() && self.gpu.is_some();
+                if ui
+                    .add_enabled(ready, egui::Button::new("Generate"))
+                    .on_hover_text("Render every frame with its labels into the output folder")
+                    .clicked()
+                {
+                    commands.push(Command::Generate);
+                }
+            }
+            Some(batch) => {
+                let status = batch.status();
+                let fraction = status.done as f32 / status.total.max(1) as f32;
+                ui.add(egui::ProgressBar::new(fraction).text(format!(
+                    "{} / {} frames",
+                    group_digits(status.done),
+                    group_digits(status.total)
+                )));
+                let eta = status.eta.map_or_else(|| "–".to_string(), format_duration);
+                ui.label(format!("{:.1} images/s · ETA {eta}", status.images_per_s));
+                if status.cancelling {
+                    ui.weak("cancelling: finishing the frames in flight…");
+                } else if ui
+                    .button("Cancel")
+                    .on_hover_text(
+                        "Stop after the frames in flight; every written image keeps its labels",
+                    )
+                    .clicked()
+                {
+                    commands.push(Command::Cancel);
+                }
+                ui.weak(format!(
+                    "writing to {} ({})",
+                    batch.out_dir.display(),
+                    format_duration(batch.elapsed())
+                ));
+            }
+        }
+        match &self.batch_outcome {
+            None => {}
+            Some(BatchOutcome::Failed(message)) => {
+                error_label(ui, &format!("batch failed: {message}"))
+            }
+            Some(BatchOutcome::Done(report)) => {
+                let s = &report.stats;
+                let head = if report.cancelled {
+                    "Cancelled"
+                } else {
+                    "Finished"
+                };
+                ui.label(
+                    RichText::new(format!(
+                        "{head}: {} frames in {}",
+                        group_digits(s.frames),
+                        format_duration(report.elapsed)
+                    ))
+                    .strong(),
+                );
+                ui.label(format!(
+                    "train {} · val {} · test {}",
+                    s.frames_per_split[0], s.frames_per_split[1], s.frames_per_split[2]
+                ));
+                ui.label(format!(
+                    "{} boxes: small {} · medium {} · large {}",
+                    s.boxes, s.small, s.medium, s.large
+                ));
+                ui.label(format!(
+                    "{:.2} images/s",
+                    s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9)
+                ));
+                if report.cancelled {
+                    ui.weak("every written image has its labels");
+                }
+                if ui
+                    .button("Open output folder")
+                    .on_hover_text(report.out_dir.display().to_string())
+                    .clicked()
+                {
+                    commands.push(Command::OpenOutputFolder(report.out_dir.clone()));
+                }
+            }
+        }
+    }
+
+    fn status_ui(&self, ui: &mut Ui) {
+        ui.horizontal(|ui| {
+            match &self.preview {
+                Some(p) => {
+                    let [w, h] = p.key.size_px;
+                    ui.label(format!("preview {:.1} ms at {w}×{h}", p.render_ms))
+                        .on_hover_text("Last preview render: frame build + encode + GPU");
+                }
+                None => {
+                    ui.label("no preview yet");
+                }
+            }
+            if !self.preview_is_current() && self.errors.is_empty() {
+                ui.spinner();
+            }
+            if let Some((ctx, _)) = &self.gpu {
+                ui.weak(ctx.describe());
+            }
+            if !self.errors.is_empty() {
+                ui.label(
+                    RichText::new(format!("{} problem(s)", self.errors.len()))
+                        .color(ui.visuals().error_fg_color),
+                );
+            }
+        });
+    }
+
+    fn preview_ui(&mut self, ui: &mut Ui) {
+        let frames = self.resolved.frame_count();
+        ui.horizontal(|ui| {
+            ui.label(format!(
+                "frame {} of {}",
+                group_digits(self.session.frame + 1),
+                group_digits(frames)
+            ));
+            if frames > 1 {
+                let max = frames - 1;
+                ui.spacing_mut().slider_width = (ui.available_width() - 40.0).max(100.0);
+                ui.add(egui::Slider::new(&mut self.session.frame, 0..=max).show_value(false))
+                    .accessible_name("Frame")
+                    .on_hover_text("Scrub through the sweep: every frame the batch will make");
+            }
+        });
+        let sweep_line = self.preview.as_ref().filter(|p| p.key.frame == self.session.frame && p.key.generation == self.generation).map(|p| {
+            let s = &p.scene.sweep;
+            format!(
+                "CameraX {} · CameraY {} · CameraZ {} · PlaneRX {}° · PlaneRY {}° · PlaneRZ {}° · repeat {} · {} split · {} drones, {} boxes",
+                s.CameraX,
+                s.CameraY,
+                s.CameraZ,
+                s.PlaneRX,
+                s.PlaneRY,
+                s.PlaneRZ,
+                s.repeat,
+                p.scene.split.as_str(),
+                p.scene.drones.len(),
+                p.labels.iter().filter(|l| l.is_kept()).count()
+            )
+        });
+        ui.label(sweep_line.unwrap_or_else(|| " ".into()));
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.session.show_boxes, "Boxes")
+                .on_hover_text("Draw the label boxes this frame gets");
+            ui.checkbox(&mut self.session.inspect, "Inspect")
+                .on_hover_text(
+                    "Orbit around the scene: volume, drones and the sweep's camera positions",
+                );
+            if self.session.inspect {
+                if ui
+                    .button("Reset view")
+                    .on_hover_text("Back to the default orbit")
+                    .clicked()
+                {
+                    self.session.orbit = Orbit::default();
+                }
+                ui.weak("drag to orbit, scroll to zoom");
+            }
+        });
+
+        let (out_w, out_h) = self.resolved.image_size();
+        let aspect = out_w.max(1) as f32 / out_h.max(1) as f32;
+        let avail = ui.available_size();
+        let mut size = Vec2::new(avail.x, avail.x / aspect);
+        if size.y > avail.y {
+            size = Vec2::new(avail.y * aspect, avail.y);
+        }
+        let ppp = ui.ctx().pixels_per_point();
+        let scale = ((size.x * ppp) / out_w.max(1) as f32).min(1.0);
+        self.preview_size_px = [
+            ((out_w as f32 * scale).round() as u32).max(1),
+            ((out_h as f32 * scale).round() as u32).max(1),
+        ];
+        if size.x < 8.0 || size.y < 8.0 {
+            self.preview_size_px = [0, 0];
+            return;
+        }
+        let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
+        self.preview_rect = Some(rect);
+        let painter = ui.painter_at(rect);
+        painter.rect_filled(rect, 0.0, Color32::from_gray(20));
+        if let (Some(frame), Some(texture)) = (&self.preview, self.preview_texture) {
+            let tint = if self.errors.is_empty() {
+                Color32::WHITE
+            } else {
+                Color32::from_gray(90)
+            };
+            painter.image(
+                texture,
+                rect,
+                Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+                tint,
+            );
+            match &frame.inspect {
+                None if self.session.show_boxes => draw_boxes(&painter, rect, frame, out_w),
+                None => {}
+                Some(_) => draw_inspect(&painter, rect, frame),
+            }
+        }
+        if self.session.inspect {
+            if response.dragged() {
+                let d = response.drag_delta();
+                let orbit = &mut self.session.orbit;
+                orbit.yaw_deg -= f64::from(d.x) * 0.4;
+                orbit.pitch_deg = (orbit.pitch_deg + f64::from(d.y) * 0.4).clamp(-89.0, 89.0);
+            }
+            if response.hovered() {
+                let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+                if scroll != 0.0 {
+                    self.session.orbit.zoom = (self.session.orbit.zoom
+                        * (-f64::from(scroll) * 0.002).exp())
+                    .clamp(0.02, 10.0);
+                }
+            }
+        }
+        let message = if !self.errors.is_empty() {
+            Some(format!(
+                "Preview paused: fix the {} problem(s) shown in the panels",
+                self.errors.len()
+            ))
+        } else {
+            self.preview_error
+                .as_ref()
+                .map(|e| format!("Preview failed: {}", e.message))
+        };
+        if let Some(message) = message {
+            let colour = ui.visuals().error_fg_color;
+            let area = Rect::from_center_size(rect.center(), Vec2::new(rect.width() * 0.9, 60.0));
+            ui.put(
+                area,
+                egui::Label::new(
+                    RichText::new(message)
+                        .size(16.0)
+                        .color(colour)
+                        .background_color(Color32::from_black_alpha(160)),
+                ),
+            );
+        }
+    }
+}
+
+impl Session {
+    fn load(&mut self, preset: Preset, path: PathBuf) {
+        self.saved = Some(preset.clone());
+        self.preset = preset;
+        self.preset_path = Some(path);
+        self.frame = 0;
+    }
+}
+
+fn format_duration(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
+}
+
+/// The label boxes, from output pixels to the pane.
+fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: u32) {
+    let scale = rect.width() / out_w.max(1) as f32;
+    let kept = Stroke::new(1.5, Color32::from_rgb(255, 60, 60));
+    let crowd = Stroke::new(1.0, Color32::from_rgb(255, 190, 40));
+    for label in &frame.labels {
+        // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
+        let stroke = match label.status {
+            crate::labels::LabelStatus::Kept => kept,
+            crate::labels::LabelStatus::Crowd => crowd,
+            crate::labels::LabelStatus::Filtered => continue,
+        };
+        let b = &label.bbox;
+        let r = Rect::from_min_max(
+            rect.min + Vec2::new(b.x0 as f32, b.y0 as f32) * scale,
+            rect.min + Vec2::new(b.x1 as f32, b.y1 as f32) * scale,
+        );
+        painter.rect_stroke(r.expand(1.0), 0.0, stroke, egui::StrokeKind::Outside);
+    }
+}
+
+/// The inspect view's overlay: volume box, sweep camera positions, this frame's camera.
+fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
+    let Some(geometry) = &frame.inspect else {
+        return;
+    };
+    let camera = &frame.camera;
+    let scale = rect.width() / camera.width.max(1) as f32;
+    let to_screen = |p: DVec3| -> Option<Pos2> {
+        let pc = camera.camera_from_world_point(p);
+        if pc.z < camera.near_m {
+            return None;
+        }
+        let uv = camera.project_camera_point(pc)?;
+        Some(rect.min + Vec2::new(uv.x as f32, uv.y as f32) * scale)
+    };
+    let volume = Stroke::new(1.0, Color32::from_rgb(230, 230, 230));
+    let corners = &geometry.volume_corners;
+    for i in 0..8 {
+        for bit in [1, 2, 4] {
+            let j = i | bit;
+            if j != i
+                && let (Some(a), Some(b)) = (to_screen(corners[i]), to_screen(corners[j]))
+            {
+                painter.line_segment([a, b], volume);
+            }
+        }
+    }
+    for p in &geometry.sweep_cameras {
+        if let Some(s) = to_screen(*p) {
+            painter.circle_filled(s, 2.5, Color32::from_rgb(255, 210, 60));
+        }
+    }
+    if let (Some(cam), Some(centre)) = (to_screen(geometry.frame_camera), to_screen(DVec3::ZERO)) {
+        painter.line_segment(
+            [cam, centre],
+            Stroke::new(1.0, Color32::from_rgb(255, 80, 80)),
+        );
+        painter.circle_filled(cam, 5.0, Color32::from_rgb(255, 80, 80));
+    }
+    let legend = format!(
+        "white: observation volume · yellow: {} sweep camera position(s) · red: this frame's camera",
+        group_digits(geometry.sweep_cameras_total)
+    );
+    painter.text(
+        rect.left_bottom() + Vec2::new(6.0, -6.0),
+        egui::Align2::LEFT_BOTTOM,
+        legend,
+        egui::FontId::proportional(12.0),
+        Color32::WHITE,
+    );
+}
+
+impl eframe::App for SwarmshotApp {
+    fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        self.poll();
+        self.sync(&ctx);
+        let mut commands = Vec::new();
+        let locked = self.batch.is_some();
+        egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui, &mut commands));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui));
+        egui::Panel::left("parameters")
+            .resizable(true)
+            .default_size(430.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, &mut commands));
+                });
+            });
+        egui::Panel::right("summary")
+            .resizable(true)
+            .default_size(250.0)
+            .show(ui, |ui| {
+                self.summary_ui(ui);
+                ui.separator();
+                self.batch_ui(ui, &mut commands);
+            });
+        egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
+        for command in commands {
+            self.apply(command, &ctx);
+        }
+        self.sync(&ctx);
+        self.request_preview();
+        self.update_title(&ctx);
+    }
+
+    fn save(&mut self, storage: &mut dyn eframe::Storage) {
+        eframe::set_value(storage, eframe::APP_KEY, &self.session);
+    }
+}
+
+impl Drop for SwarmshotApp {
+    /// Closing the window mid-batch cancels it and waits for the frames in
+    /// flight, so the dataset on disk stays consistent.
+    fn drop(&mut self) {
+        if let Some(batch) = self.batch.take() {
+            batch.cancel();
+            for _ in 0..600 {
+                if batch.finished().is_some() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
+    }
+}

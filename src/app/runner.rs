@@ -1,0 +1,120 @@
+//! The batch runner behind "Generate": [`crate::batch::run_batch`] (the same
+//! code path as `swarmshot batch`) on a background thread, with shared
+//! progress, a cancel flag and the result handed back through a channel.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::Receiver;
+
+use crate::batch::{BatchOptions, BatchReport, Progress, run_batch};
+use crate::preset::Preset;
+use crate::render::GpuContext;
+
+/// A batch in flight.
+pub struct BatchRun {
+    cancel: Arc<AtomicBool>,
+    progress: Arc<Mutex<Option<Progress>>>,
+    result: Receiver<Result<BatchReport, String>>,
+    /// Frames this batch will make.
+    pub total: u64,
+    pub out_dir: PathBuf,
+    started: Instant,
+}
+
+/// How a batch ended.
+pub enum BatchOutcome {
+    /// Finished or cancelled; the dataset on disk is consistent either way.
+    Done(BatchReport),
+    /// The error chain, outermost first.
+    Failed(String),
+}
+
+/// A progress snapshot for the UI.
+#[derive(Clone, Copy, Debug)]
+pub struct BatchStatus {
+    pub done: u64,
+    pub total: u64,
+    pub images_per_s: f64,
+    pub eta: Option<Duration>,
+    pub cancelling: bool,
+}
+
+impl BatchRun {
+    /// Start `preset` (already snapshotted and path-resolved) into `options.out_dir`.
+    pub fn start(
+        preset: Preset,
+        options: BatchOptions,
+        gpu: GpuContext,
+        wake: impl Fn() + Send + Sync + 'static,
+    ) -> std::io::Result<Self> {
+        let cancel = Arc::new(AtomicBool::new(false));
+        let progress = Arc::new(Mutex::new(None));
+        let (tx, result) = crossbeam_channel::bounded(1);
+        let total = options
+            .limit
+            .map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
+        let out_dir = options.out_dir.clone();
+        let (thread_cancel, thread_progress) = (Arc::clone(&cancel), Arc::clone(&progress));
+        std::thread::Builder::new()
+            .name("swarmshot batch".into())
+            .spawn(move || {
+                let outcome = run_batch(&preset, &options, &gpu, &thread_cancel, |p| {
+                    if let Ok(mut slot) = thread_progress.lock() {
+                        *slot = Some(p);
+                    }
+                    wake();
+                })
+                .map_err(|e| format!("{e:#}"));
+                let _ = tx.send(outcome);
+                wake();
+            })?;
+        Ok(Self {
+            cancel,
+            progress,
+            result,
+            total,
+            out_dir,
+            started: Instant::now(),
+        })
+    }
+
+    /// Ask the batch to stop after the frames already in the pipeline.
+    pub fn cancel(&self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
+
+    pub fn status(&self) -> BatchStatus {
+        let p = self.progress.lock().ok().and_then(|p| *p);
+        let done = p.map_or(0, |p| p.done);
+        let images_per_s = p.map_or(0.0, |p| p.images_per_s());
+        let remaining = self.total.saturating_sub(done);
+        let eta =
+            (images_per_s > 0.0).then(|| Duration::from_secs_f64(remaining as f64 / images_per_s));
+        BatchStatus {
+            done,
+            total: self.total,
+            images_per_s,
+            eta,
+            cancelling: self.cancel.load(Ordering::Relaxed),
+        }
+    }
+
+    pub fn elapsed(&self) -> Duration {
+        self.started.elapsed()
+    }
+
+    /// The outcome, once the batch thread has finished.
+    pub fn finished(&self) -> Option<BatchOutcome> {
+        match self.result.try_recv() {
+            Ok(Ok(report)) => Some(BatchOutcome::Done(report)),
+            Ok(Err(message)) => Some(BatchOutcome::Failed(message)),
+            Err(crossbeam_channel::TryRecvError::Empty) => None,
+            Err(crossbeam_channel::TryRecvError::Disconnected) => Some(BatchOutcome::Failed(
+                "the batch thread stopped without a result".into(),
+            )),
+        }
+    }
+}

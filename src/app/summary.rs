@@ -1,0 +1,95 @@
+//! The Summary panel's numbers, from geometry alone: frames are built and
+//! labelled with [`FrameMaker::frame`] (no rendering) on an evenly spaced
+//! sample, and counted with the writer's own [`DatasetStats`], so the
+//! small/medium/large split uses the same √(w·h) thresholds as stats.json.
+
+use std::sync::Arc;
+
+use crate::batch::FrameMaker;
+use crate::output::DatasetStats;
+use crate::preset::{ModelSpec, Preset};
+
+/// Frames sampled for the estimate.
+pub const SUMMARY_SAMPLE_FRAMES: u64 = 48;
+
+pub struct SummaryRequest {
+    pub generation: u64,
+    /// The preset with model paths resolved.
+    pub preset: Arc<Preset>,
+}
+
+/// Estimated dataset shape.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    pub generation: u64,
+    pub frames: u64,
+    pub sampled_frames: u64,
+    pub drones_min: usize,
+    pub drones_max: usize,
+    /// Counts over the sampled frames (boxes, small/medium/large, drones placed).
+    pub stats: DatasetStats,
+}
+
+impl Summary {
+    pub fn drones_mean(&self) -> f64 {
+        self.stats.drones_placed as f64 / self.sampled_frames.max(1) as f64
+    }
+
+    /// Shares of small, medium and large boxes (0 when there are none).
+    pub fn size_shares(&self) -> [f64; 3] {
+        let n = self.stats.boxes.max(1) as f64;
+        [
+            self.stats.small as f64 / n,
+            self.stats.medium as f64 / n,
+            self.stats.large as f64 / n,
+        ]
+    }
+}
+
+/// Builds summaries, keeping the loaded models between requests.
+#[derive(Default)]
+pub struct SummaryMaker {
+    loaded: Option<(Vec<ModelSpec>, FrameMaker)>,
+}
+
+impl SummaryMaker {
+    pub fn estimate(&mut self, request: &SummaryRequest) -> Result<Summary, String> {
+        let preset = &*request.preset;
+        if self
+            .loaded
+            .as_ref()
+            .is_none_or(|(models, _)| *models != preset.models)
+        {
+            self.loaded = None;
+            let maker = FrameMaker::new(preset.clone()).map_err(|e| e.to_string())?;
+            self.loaded = Some((preset.models.clone(), maker));
+        }
+        let (_, maker) = self.loaded.as_mut().ok_or("models are not loaded")?;
+        maker.preset = preset.clone();
+        let frames = preset.frame_count();
+        let sampled_frames = frames.min(SUMMARY_SAMPLE_FRAMES);
+        let mut stats = DatasetStats::default();
+        let (mut drones_min, mut drones_max) = (usize::MAX, 0);
+        for k in 0..sampled_frames {
+            // Evenly spaced over the sweep; u128 so the product cannot overflow.
+            let index =
+                u64::try_from(u128::from(k) * u128::from(frames) / u128::from(sampled_frames))
+                    .unwrap_or(0);
+            let (scene, labels) = maker.frame(index).map_err(|e| e.to_string())?;
+            drones_min = drones_min.min(scene.drones.len());
+            drones_max = drones_max.max(scene.drones.len());
+            stats.add(&scene, &labels);
+        }
+        if sampled_frames == 0 {
+            drones_min = 0;
+        }
+        Ok(Summary {
+            generation: request.generation,
+            frames,
+            sampled_frames,
+            drones_min,
+            drones_max,
+            stats,
+        })
+    }
+}
