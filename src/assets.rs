@@ -57,7 +57,9 @@ impl MeshBuilder {
 
     /// Add a flat-shaded quad (counter-clockwise seen from the normal side).
     fn quad(&mut self, mat: usize, corners: [Vec3; 4]) {
-        let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize_or_zero();
+        let n = (corners[1] - corners[0])
+            .cross(corners[2] - corners[0])
+            .normalize_or_zero();
         let (pos, nor, idx) = &mut self.parts[mat];
         let base = pos.len() as u32;
         pos.extend(corners);
@@ -69,12 +71,42 @@ impl MeshBuilder {
     pub fn cuboid(&mut self, mat: usize, centre: Vec3, half: Vec3, rot: Quat) {
         let c = |x: f32, y: f32, z: f32| centre + rot * (half * Vec3::new(x, y, z));
         let faces = [
-            [c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)],
-            [c(-1., -1., 1.), c(-1., 1., 1.), c(-1., 1., -1.), c(-1., -1., -1.)],
-            [c(-1., 1., -1.), c(-1., 1., 1.), c(1., 1., 1.), c(1., 1., -1.)],
-            [c(-1., -1., 1.), c(-1., -1., -1.), c(1., -1., -1.), c(1., -1., 1.)],
-            [c(-1., -1., 1.), c(1., -1., 1.), c(1., 1., 1.), c(-1., 1., 1.)],
-            [c(1., -1., -1.), c(-1., -1., -1.), c(-1., 1., -1.), c(1., 1., -1.)],
+            [
+                c(1., -1., -1.),
+                c(1., 1., -1.),
+                c(1., 1., 1.),
+                c(1., -1., 1.),
+            ],
+            [
+                c(-1., -1., 1.),
+                c(-1., 1., 1.),
+                c(-1., 1., -1.),
+                c(-1., -1., -1.),
+            ],
+            [
+                c(-1., 1., -1.),
+                c(-1., 1., 1.),
+                c(1., 1., 1.),
+                c(1., 1., -1.),
+            ],
+            [
+                c(-1., -1., 1.),
+                c(-1., -1., -1.),
+                c(1., -1., -1.),
+                c(1., -1., 1.),
+            ],
+            [
+                c(-1., -1., 1.),
+                c(1., -1., 1.),
+                c(1., 1., 1.),
+                c(-1., 1., 1.),
+            ],
+            [
+                c(1., -1., -1.),
+                c(-1., -1., -1.),
+                c(-1., 1., -1.),
+                c(1., 1., -1.),
+            ],
         ];
         for f in faces {
             self.quad(mat, f);
@@ -82,7 +114,15 @@ impl MeshBuilder {
     }
 
     /// A closed cylinder along the rotated Y axis with `segments` sides.
-    pub fn cylinder(&mut self, mat: usize, centre: Vec3, radius: f32, height: f32, segments: u32, rot: Quat) {
+    pub fn cylinder(
+        &mut self,
+        mat: usize,
+        centre: Vec3,
+        radius: f32,
+        height: f32,
+        segments: u32,
+        rot: Quat,
+    ) {
         let h = height * 0.5;
         let ring = |i: u32| {
             let a = TAU * i as f32 / segments as f32;
@@ -126,13 +166,19 @@ impl MeshBuilder {
             if idx.is_empty() {
                 continue;
             }
-            let (lo, hi) = pos.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            let (lo, hi) = pos
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(*p), hi.max(*p))
+                });
             let pv = push_view(&mut bin, bytemuck::cast_slice(pos), 34962);
             let nv = push_view(&mut bin, bytemuck::cast_slice(nor), 34962);
             let iv = push_view(&mut bin, bytemuck::cast_slice(idx), 34963);
             let a = accessors.len();
-            accessors.push(json!({"bufferView": pv, "componentType": 5126, "count": pos.len(), "type": "VEC3",
-                "min": lo.to_array(), "max": hi.to_array()}));
+            accessors.push(
+                json!({"bufferView": pv, "componentType": 5126, "count": pos.len(), "type": "VEC3",
+                "min": lo.to_array(), "max": hi.to_array()}),
+            );
             accessors.push(json!({"bufferView": nv, "componentType": 5126, "count": nor.len(), "type": "VEC3"}));
             accessors.push(json!({"bufferView": iv, "componentType": 5125, "count": idx.len(), "type": "SCALAR"}));
             primitives.push(json!({"attributes": {"POSITION": a, "NORMAL": a + 1}, "indices": a + 2, "material": m}));
@@ -159,7 +205,11 @@ impl MeshBuilder {
         });
         let json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
         let glb = gltf::binary::Glb {
-            header: gltf::binary::Header { magic: *b"glTF", version: 2, length: 0 },
+            header: gltf::binary::Header {
+                magic: *b"glTF",
+                version: 2,
+                length: 0,
+            },
             json: Cow::Owned(json_bytes),
             bin: Some(Cow::Owned(bin)),
         };
@@ -167,11 +217,36 @@ impl MeshBuilder {
     }
 }
 
-const CARBON: Material = Material { name: "carbon", base_color: [0.05, 0.05, 0.055, 1.0], metallic: 0.1, roughness: 0.5 };
-const SHELL_GREY: Material = Material { name: "shell", base_color: [0.45, 0.46, 0.48, 1.0], metallic: 0.0, roughness: 0.4 };
-const MOTOR: Material = Material { name: "motor", base_color: [0.3, 0.3, 0.32, 1.0], metallic: 0.8, roughness: 0.3 };
-const ROTOR: Material = Material { name: "rotor", base_color: [0.12, 0.12, 0.13, 1.0], metallic: 0.0, roughness: 0.6 };
-const ACCENT_RED: Material = Material { name: "accent", base_color: [0.7, 0.08, 0.05, 1.0], metallic: 0.0, roughness: 0.5 };
+const CARBON: Material = Material {
+    name: "carbon",
+    base_color: [0.05, 0.05, 0.055, 1.0],
+    metallic: 0.1,
+    roughness: 0.5,
+};
+const SHELL_GREY: Material = Material {
+    name: "shell",
+    base_color: [0.45, 0.46, 0.48, 1.0],
+    metallic: 0.0,
+    roughness: 0.4,
+};
+const MOTOR: Material = Material {
+    name: "motor",
+    base_color: [0.3, 0.3, 0.32, 1.0],
+    metallic: 0.8,
+    roughness: 0.3,
+};
+const ROTOR: Material = Material {
+    name: "rotor",
+    base_color: [0.12, 0.12, 0.13, 1.0],
+    metallic: 0.0,
+    roughness: 0.6,
+};
+const ACCENT_RED: Material = Material {
+    name: "accent",
+    base_color: [0.7, 0.08, 0.05, 1.0],
+    metallic: 0.0,
+    roughness: 0.5,
+};
 
 /// An X-configuration quadcopter, ~0.35 m motor-to-motor plus props, +Z forward.
 fn quad_x() -> MeshBuilder {
@@ -182,20 +257,61 @@ fn quad_x() -> MeshBuilder {
     let rotor = b.material(ROTOR);
     let accent = b.material(ACCENT_RED);
     // Body and battery.
-    b.cuboid(shell, Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.045, 0.022, 0.075), Quat::IDENTITY);
-    b.cuboid(carbon, Vec3::new(0.0, 0.030, -0.005), Vec3::new(0.030, 0.010, 0.050), Quat::IDENTITY);
-    b.cuboid(accent, Vec3::new(0.0, 0.0, 0.080), Vec3::new(0.015, 0.012, 0.008), Quat::IDENTITY);
+    b.cuboid(
+        shell,
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(0.045, 0.022, 0.075),
+        Quat::IDENTITY,
+    );
+    b.cuboid(
+        carbon,
+        Vec3::new(0.0, 0.030, -0.005),
+        Vec3::new(0.030, 0.010, 0.050),
+        Quat::IDENTITY,
+    );
+    b.cuboid(
+        accent,
+        Vec3::new(0.0, 0.0, 0.080),
+        Vec3::new(0.015, 0.012, 0.008),
+        Quat::IDENTITY,
+    );
     let arm_len = 0.125;
     for k in 0..4 {
         let angle = FRAC_PI_4 + k as f32 * std::f32::consts::FRAC_PI_2;
         let dir = Vec3::new(angle.sin(), 0.0, angle.cos());
         let rot = Quat::from_rotation_y(angle);
-        b.cuboid(carbon, dir * (arm_len * 0.5 + 0.02), Vec3::new(0.009, 0.007, arm_len * 0.5), rot);
+        b.cuboid(
+            carbon,
+            dir * (arm_len * 0.5 + 0.02),
+            Vec3::new(0.009, 0.007, arm_len * 0.5),
+            rot,
+        );
         let tip = dir * (arm_len + 0.02);
-        b.cylinder(motor, tip + Vec3::Y * 0.012, 0.014, 0.024, 12, Quat::IDENTITY);
-        b.cylinder(rotor, tip + Vec3::Y * 0.027, 0.064, 0.003, 24, Quat::IDENTITY);
+        b.cylinder(
+            motor,
+            tip + Vec3::Y * 0.012,
+            0.014,
+            0.024,
+            12,
+            Quat::IDENTITY,
+        );
+        b.cylinder(
+            rotor,
+            tip + Vec3::Y * 0.027,
+            0.064,
+            0.003,
+            24,
+            Quat::IDENTITY,
+        );
         // Landing legs under the front and rear arms.
-        b.cylinder(carbon, dir * 0.06 + Vec3::new(0.0, -0.045, 0.0), 0.004, 0.05, 6, Quat::IDENTITY);
+        b.cylinder(
+            carbon,
+            dir * 0.06 + Vec3::new(0.0, -0.045, 0.0),
+            0.004,
+            0.05,
+            6,
+            Quat::IDENTITY,
+        );
     }
     b
 }
@@ -209,7 +325,10 @@ mod tests {
         for name in BUILTIN_NAMES {
             let generated = generate_glb(name).expect("builtin has a generator");
             let shipped = builtin_glb(name).expect("builtin is embedded");
-            assert!(generated == shipped, "assets/models/{name}.glb is stale: run `cargo run -- assets`");
+            assert!(
+                generated == shipped,
+                "assets/models/{name}.glb is stale: run `cargo run -- assets`"
+            );
         }
     }
 }

@@ -27,7 +27,10 @@ pub fn load_models(preset: &Preset) -> Result<Vec<CpuModel>, ModelError> {
         .map(|spec| match &spec.source {
             ModelSource::Builtin(name) => {
                 let file = PathBuf::from(format!("builtin:{name}"));
-                let bytes = crate::assets::builtin_glb(name).ok_or_else(|| ModelError::Parse { file: file.clone(), reason: "no such built-in model".into() })?;
+                let bytes = crate::assets::builtin_glb(name).ok_or_else(|| ModelError::Parse {
+                    file: file.clone(),
+                    reason: "no such built-in model".into(),
+                })?;
                 model::load_bytes(bytes, None, &file, name)
             }
             ModelSource::File(path) => model::load_file(path),
@@ -48,21 +51,39 @@ impl FrameMaker {
         let models = load_models(&preset)?;
         let geometry = models.iter().map(LabelGeometry::from).collect();
         let (_, class_of_model) = preset.classes();
-        Ok(Self { preset, models, geometry, class_of_model })
+        Ok(Self {
+            preset,
+            models,
+            geometry,
+            class_of_model,
+        })
     }
 
     /// Scene and labels of one frame (no rendering).
-    pub fn frame(&self, index: u64) -> Result<(FrameScene, Vec<DroneLabel>), crate::scene::FrameError> {
+    pub fn frame(
+        &self,
+        index: u64,
+    ) -> Result<(FrameScene, Vec<DroneLabel>), crate::scene::FrameError> {
         let scene = build_frame(&self.preset, index)?;
-        let labels = label_frame(&scene, &self.geometry, &self.class_of_model, &self.preset.labels);
+        let labels = label_frame(
+            &scene,
+            &self.geometry,
+            &self.class_of_model,
+            &self.preset.labels,
+        );
         Ok((scene, labels))
     }
 
     pub fn model_names(&self) -> Vec<String> {
-        self.preset.models.iter().zip(&self.models).map(|(spec, m)| match &spec.source {
-            ModelSource::Builtin(name) => name.clone(),
-            ModelSource::File(_) => m.name.clone(),
-        }).collect()
+        self.preset
+            .models
+            .iter()
+            .zip(&self.models)
+            .map(|(spec, m)| match &spec.source {
+                ModelSource::Builtin(name) => name.clone(),
+                ModelSource::File(_) => m.name.clone(),
+            })
+            .collect()
     }
 }
 
@@ -78,7 +99,12 @@ pub struct BatchOptions {
 
 impl BatchOptions {
     pub fn new(out_dir: impl Into<PathBuf>) -> Self {
-        Self { out_dir: out_dir.into(), limit: None, overwrite: false, encoder_threads: 0 }
+        Self {
+            out_dir: out_dir.into(),
+            limit: None,
+            overwrite: false,
+            encoder_threads: 0,
+        }
     }
 }
 
@@ -118,10 +144,23 @@ struct Encoded {
 }
 
 /// Run a batch. `cancel` may be set from another thread at any time.
-pub fn run_batch(preset: &Preset, options: &BatchOptions, ctx: &GpuContext, cancel: &AtomicBool, mut on_progress: impl FnMut(Progress) + Send) -> anyhow::Result<BatchReport> {
+pub fn run_batch(
+    preset: &Preset,
+    options: &BatchOptions,
+    ctx: &GpuContext,
+    cancel: &AtomicBool,
+    mut on_progress: impl FnMut(Progress) + Send,
+) -> anyhow::Result<BatchReport> {
     let maker = FrameMaker::new(preset.clone())?;
-    let total = options.limit.map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
-    let mut writer = DatasetWriter::create(&options.out_dir, preset, maker.model_names(), options.overwrite)?;
+    let total = options
+        .limit
+        .map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
+    let mut writer = DatasetWriter::create(
+        &options.out_dir,
+        preset,
+        maker.model_names(),
+        options.overwrite,
+    )?;
     let mut renderer = Renderer::new(ctx, &maker.models);
     let msaa = preset.render.msaa;
     let format = preset.output.image_format;
@@ -141,7 +180,13 @@ pub fn run_batch(preset: &Preset, options: &BatchOptions, ctx: &GpuContext, canc
             s.spawn(move || {
                 for r in rx {
                     let (w, h) = (r.scene.camera.width, r.scene.camera.height);
-                    let msg = encode_image(&r.rgba, w, h, format).map(|bytes| Encoded { scene: r.scene, labels: r.labels, bytes }).map_err(anyhow::Error::from);
+                    let msg = encode_image(&r.rgba, w, h, format)
+                        .map(|bytes| Encoded {
+                            scene: r.scene,
+                            labels: r.labels,
+                            bytes,
+                        })
+                        .map_err(anyhow::Error::from);
                     if tx.send(msg).is_err() {
                         break;
                     }
@@ -171,7 +216,11 @@ pub fn run_batch(preset: &Preset, options: &BatchOptions, ctx: &GpuContext, canc
                         first_error = Some(err.into());
                     }
                     next += 1;
-                    on_progress(Progress { done: next, total, elapsed: start.elapsed() });
+                    on_progress(Progress {
+                        done: next,
+                        total,
+                        elapsed: start.elapsed(),
+                    });
                 }
             }
             match first_error {
@@ -188,8 +237,14 @@ pub fn run_batch(preset: &Preset, options: &BatchOptions, ctx: &GpuContext, canc
             }
             let step = (|| -> anyhow::Result<Rendered> {
                 let (scene, labels) = maker.frame(index)?;
-                let rgba = renderer.render_rgba(&scene, &preset.sky, msaa).with_context(|| format!("rendering frame {index}"))?;
-                Ok(Rendered { scene, labels, rgba })
+                let rgba = renderer
+                    .render_rgba(&scene, &preset.sky, msaa)
+                    .with_context(|| format!("rendering frame {index}"))?;
+                Ok(Rendered {
+                    scene,
+                    labels,
+                    rgba,
+                })
             })();
             match step {
                 Ok(r) => {
@@ -204,17 +259,28 @@ pub fn run_batch(preset: &Preset, options: &BatchOptions, ctx: &GpuContext, canc
             }
         }
         drop(to_encode);
-        let sink_result = sink.join().unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
+        let sink_result = sink
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
         (sink_result, cancelled, render_result)
     });
     render_result?;
     let (writer, _written) = stats?;
     let stats = writer.finish()?;
-    Ok(BatchReport { stats, cancelled, elapsed: start.elapsed(), out_dir: options.out_dir.clone() })
+    Ok(BatchReport {
+        stats,
+        cancelled,
+        elapsed: start.elapsed(),
+        out_dir: options.out_dir.clone(),
+    })
 }
 
 /// Render one frame alone to RGBA (for `swarmshot frame` and the preview).
-pub fn render_single(maker: &FrameMaker, ctx: &GpuContext, index: u64) -> anyhow::Result<(FrameScene, Vec<DroneLabel>, Vec<u8>)> {
+pub fn render_single(
+    maker: &FrameMaker,
+    ctx: &GpuContext,
+    index: u64,
+) -> anyhow::Result<(FrameScene, Vec<DroneLabel>, Vec<u8>)> {
     let (scene, labels) = maker.frame(index)?;
     let mut renderer = Renderer::new(ctx, &maker.models);
     let rgba = renderer.render_rgba(&scene, &maker.preset.sky, maker.preset.render.msaa)?;

@@ -39,7 +39,11 @@ impl Camera {
     pub fn k(&self) -> DMat3 {
         let f = self.focal_px();
         let c = self.principal_point();
-        DMat3::from_cols(DVec3::new(f, 0.0, 0.0), DVec3::new(0.0, f, 0.0), DVec3::new(c.x, c.y, 1.0))
+        DMat3::from_cols(
+            DVec3::new(f, 0.0, 0.0),
+            DVec3::new(0.0, f, 0.0),
+            DVec3::new(c.x, c.y, 1.0),
+        )
     }
 
     /// t = −R·C.
@@ -93,7 +97,8 @@ mod tests {
             height: 480,
             fov_y_deg: 60.0,
             position: DVec3::new(1.0, 2.0, 10.0),
-            camera_from_world: crate::math::look_at_cv(DVec3::new(1.0, 2.0, 10.0), DVec3::ZERO).expect("look-at"),
+            camera_from_world: crate::math::look_at_cv(DVec3::new(1.0, 2.0, 10.0), DVec3::ZERO)
+                .expect("look-at"),
             near_m: 0.01,
         }
     }
@@ -102,13 +107,20 @@ mod tests {
     fn gpu_clip_transform_lands_on_the_same_pixel_as_k() {
         let cam = camera();
         let m = cam.clip_from_camera();
-        for p in [DVec3::new(0.3, -0.2, 5.0), DVec3::new(-2.0, 1.0, 30.0), DVec3::new(0.0, 0.0, 0.5)] {
+        for p in [
+            DVec3::new(0.3, -0.2, 5.0),
+            DVec3::new(-2.0, 1.0, 30.0),
+            DVec3::new(0.0, 0.0, 0.5),
+        ] {
             let uv = cam.project_camera_point(p).expect("in front");
             let clip = m * p.as_vec3().extend(1.0);
             let ndc = clip.truncate() / clip.w;
             let u = (f64::from(ndc.x) + 1.0) * 0.5 * 640.0;
             let v = (1.0 - f64::from(ndc.y)) * 0.5 * 480.0;
-            assert!((u - uv.x).abs() < 1e-3 && (v - uv.y).abs() < 1e-3, "{u},{v} vs {uv}");
+            assert!(
+                (u - uv.x).abs() < 1e-3 && (v - uv.y).abs() < 1e-3,
+                "{u},{v} vs {uv}"
+            );
             assert!((f64::from(ndc.z) - 0.01 / p.z).abs() < 1e-6);
         }
     }

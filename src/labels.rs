@@ -40,18 +40,37 @@ impl PixelBox {
     }
     /// Intersection with the image rectangle [0, W] × [0, H].
     pub fn clip(&self, width: f64, height: f64) -> Self {
-        Self { x0: self.x0.clamp(0.0, width), y0: self.y0.clamp(0.0, height), x1: self.x1.clamp(0.0, width), y1: self.y1.clamp(0.0, height) }
+        Self {
+            x0: self.x0.clamp(0.0, width),
+            y0: self.y0.clamp(0.0, height),
+            x1: self.x1.clamp(0.0, width),
+            y1: self.y1.clamp(0.0, height),
+        }
     }
     pub fn iou(&self, other: &Self) -> f64 {
-        let inter = Self { x0: self.x0.max(other.x0), y0: self.y0.max(other.y0), x1: self.x1.min(other.x1), y1: self.y1.min(other.y1) };
-        let i = if inter.width() > 0.0 && inter.height() > 0.0 { inter.area() } else { 0.0 };
+        let inter = Self {
+            x0: self.x0.max(other.x0),
+            y0: self.y0.max(other.y0),
+            x1: self.x1.min(other.x1),
+            y1: self.y1.min(other.y1),
+        };
+        let i = if inter.width() > 0.0 && inter.height() > 0.0 {
+            inter.area()
+        } else {
+            0.0
+        };
         let u = self.area() + other.area() - i;
         if u > 0.0 { i / u } else { 0.0 }
     }
     fn from_points(points: impl IntoIterator<Item = DVec2>) -> Option<Self> {
         let mut b: Option<Self> = None;
         for p in points {
-            let nb = b.get_or_insert(Self { x0: p.x, y0: p.y, x1: p.x, y1: p.y });
+            let nb = b.get_or_insert(Self {
+                x0: p.x,
+                y0: p.y,
+                x1: p.x,
+                y1: p.y,
+            });
             nb.x0 = nb.x0.min(p.x);
             nb.y0 = nb.y0.min(p.y);
             nb.x1 = nb.x1.max(p.x);
@@ -70,7 +89,10 @@ pub struct LabelGeometry {
 
 impl From<&crate::model::CpuModel> for LabelGeometry {
     fn from(m: &crate::model::CpuModel) -> Self {
-        Self { hull: m.hull.clone(), aabb: m.aabb }
+        Self {
+            hull: m.hull.clone(),
+            aabb: m.aabb,
+        }
     }
 }
 
@@ -100,7 +122,10 @@ pub fn project_clipped(camera: &Camera, points_cam: &[DVec3]) -> Option<PixelBox
     if front.is_empty() {
         return None;
     }
-    let mut projected: Vec<DVec2> = front.iter().filter_map(|p| camera.project_camera_point(*p)).collect();
+    let mut projected: Vec<DVec2> = front
+        .iter()
+        .filter_map(|p| camera.project_camera_point(*p))
+        .collect();
     for a in &front {
         for b in &back {
             let t = (a.z - near) / (a.z - b.z);
@@ -110,11 +135,18 @@ pub fn project_clipped(camera: &Camera, points_cam: &[DVec3]) -> Option<PixelBox
         }
     }
     let b = PixelBox::from_points(projected)?;
-    [b.x0, b.y0, b.x1, b.y1].iter().all(|v| v.is_finite()).then_some(b)
+    [b.x0, b.y0, b.x1, b.y1]
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(b)
 }
 
 /// Camera-frame positions of a drone's model-space points.
-fn to_camera(camera: &Camera, drone: &DronePose, points: impl Iterator<Item = DVec3>) -> Vec<DVec3> {
+fn to_camera(
+    camera: &Camera,
+    drone: &DronePose,
+    points: impl Iterator<Item = DVec3>,
+) -> Vec<DVec3> {
     // R·(p − C) = R·(position − C) + (R·q)·(s·v): the large translation is taken once, in f64.
     let centre = camera.camera_from_world_point(drone.position);
     let rot = camera.camera_from_world * DMat3::from_quat(drone.rotation);
@@ -127,34 +159,56 @@ pub fn amodal_box(camera: &Camera, drone: &DronePose, geom: &LabelGeometry) -> O
 }
 
 /// The paper's box: the 8 corners of the world AABB of the placed local box.
-pub fn paper_aabb_box(camera: &Camera, drone: &DronePose, geom: &LabelGeometry) -> Option<PixelBox> {
+pub fn paper_aabb_box(
+    camera: &Camera,
+    drone: &DronePose,
+    geom: &LabelGeometry,
+) -> Option<PixelBox> {
     let (lo, hi) = geom.aabb;
     let rot = DMat3::from_quat(drone.rotation);
     let mut wlo = DVec3::splat(f64::INFINITY);
     let mut whi = DVec3::splat(f64::NEG_INFINITY);
     for i in 0..8 {
-        let c = DVec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+        let c = DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
         let w = rot * (c * drone.size_m);
         wlo = wlo.min(w);
         whi = whi.max(w);
     }
     let corners = (0..8).map(|i| {
-        DVec3::new(if i & 1 == 0 { wlo.x } else { whi.x }, if i & 2 == 0 { wlo.y } else { whi.y }, if i & 4 == 0 { wlo.z } else { whi.z })
+        DVec3::new(
+            if i & 1 == 0 { wlo.x } else { whi.x },
+            if i & 2 == 0 { wlo.y } else { whi.y },
+            if i & 4 == 0 { wlo.z } else { whi.z },
+        )
     });
     let centre = camera.camera_from_world_point(drone.position);
-    let pts: Vec<DVec3> = corners.map(|c| centre + camera.camera_from_world * c).collect();
+    let pts: Vec<DVec3> = corners
+        .map(|c| centre + camera.camera_from_world * c)
+        .collect();
     project_clipped(camera, &pts)
 }
 
 /// Label every drone of a frame; drones out of view or smaller than
 /// `min_box_px` after clipping are left out.
-pub fn label_frame(scene: &FrameScene, geometry: &[LabelGeometry], class_of_model: &[usize], settings: &LabelSettings) -> Vec<DroneLabel> {
+pub fn label_frame(
+    scene: &FrameScene,
+    geometry: &[LabelGeometry],
+    class_of_model: &[usize],
+    settings: &LabelSettings,
+) -> Vec<DroneLabel> {
     let cam = &scene.camera;
     let (w, h) = (f64::from(cam.width), f64::from(cam.height));
     let mut out = Vec::new();
     for (i, drone) in scene.drones.iter().enumerate() {
         let geom = &geometry[drone.model];
-        let (Some(amodal), Some(paper)) = (amodal_box(cam, drone, geom), paper_aabb_box(cam, drone, geom)) else {
+        let (Some(amodal), Some(paper)) = (
+            amodal_box(cam, drone, geom),
+            paper_aabb_box(cam, drone, geom),
+        ) else {
             continue;
         };
         let chosen = match settings.box_method {
@@ -162,7 +216,11 @@ pub fn label_frame(scene: &FrameScene, geometry: &[LabelGeometry], class_of_mode
             BoxMethod::PaperAabb => paper,
         };
         let bbox = chosen.clip(w, h);
-        if bbox.width() <= 0.0 || bbox.height() <= 0.0 || bbox.width() < settings.min_box_px || bbox.height() < settings.min_box_px {
+        if bbox.width() <= 0.0
+            || bbox.height() <= 0.0
+            || bbox.width() < settings.min_box_px
+            || bbox.height() < settings.min_box_px
+        {
             continue;
         }
         out.push(DroneLabel {

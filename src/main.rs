@@ -12,7 +12,11 @@ use swarmshot::preset::Placement;
 use swarmshot::render::GpuContext;
 
 #[derive(Parser)]
-#[command(name = "swarmshot", version, about = "Synthetic training data for UAV-swarm detection")]
+#[command(
+    name = "swarmshot",
+    version,
+    about = "Synthetic training data for UAV-swarm detection"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -38,9 +42,7 @@ enum Command {
         threads: usize,
     },
     /// Validate a preset and print what it will make.
-    Check {
-        preset: PathBuf,
-    },
+    Check { preset: PathBuf },
     /// Render one frame alone to an image file.
     Frame {
         preset: PathBuf,
@@ -64,16 +66,29 @@ enum Command {
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Batch { preset, out, limit, overwrite, threads } => {
+        Command::Batch {
+            preset,
+            out,
+            limit,
+            overwrite,
+            threads,
+        } => {
             let preset = batch::load_preset(&preset)?;
             let ctx = GpuContext::headless()?;
             let total = limit.map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
             let bar = ProgressBar::new(total);
             bar.set_style(
-                ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
-                    .context("progress template")?,
+                ProgressStyle::with_template(
+                    "{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}",
+                )
+                .context("progress template")?,
             );
-            let options = BatchOptions { out_dir: out, limit, overwrite, encoder_threads: threads };
+            let options = BatchOptions {
+                out_dir: out,
+                limit,
+                overwrite,
+                encoder_threads: threads,
+            };
             let cancel = AtomicBool::new(false);
             let report = batch::run_batch(&preset, &options, &ctx, &cancel, |p| {
                 bar.set_position(p.done);
@@ -103,9 +118,17 @@ fn main() -> anyhow::Result<()> {
             let (w, h) = preset.image_size();
             println!("preset {} is valid", path.display());
             println!("frames: {}", preset.frame_count());
-            println!("image: {w}×{h}, {:?}, MSAA {}", preset.output.image_format, preset.render.msaa);
+            println!(
+                "image: {w}×{h}, {:?}, MSAA {}",
+                preset.output.image_format, preset.render.msaa
+            );
             match &preset.placement {
-                Placement::Structured { x_count, y_count, z_count, load_factor } => {
+                Placement::Structured {
+                    x_count,
+                    y_count,
+                    z_count,
+                    load_factor,
+                } => {
                     let spacing = load_factor * preset.max_model_size_m();
                     println!(
                         "placement: structured grid {x_count}×{y_count}×{z_count} = {} drones per frame, spacing {spacing:.3} m, volume {:.3} × {:.3} × {:.3} m",
@@ -115,8 +138,15 @@ fn main() -> anyhow::Result<()> {
                         f64::from(z_count - 1) * spacing,
                     );
                 }
-                Placement::Randomized { count: (lo, hi), volume, min_separation_m } => {
-                    println!("placement: randomized, {lo}–{hi} drones per frame (mean {:.1}), volume {volume:?}, min separation {min_separation_m} m", (f64::from(*lo) + f64::from(*hi)) / 2.0);
+                Placement::Randomized {
+                    count: (lo, hi),
+                    volume,
+                    min_separation_m,
+                } => {
+                    println!(
+                        "placement: randomized, {lo}–{hi} drones per frame (mean {:.1}), volume {volume:?}, min separation {min_separation_m} m",
+                        (f64::from(*lo) + f64::from(*hi)) / 2.0
+                    );
                 }
             }
             let sample = preset.frame_count().min(200);
@@ -135,13 +165,25 @@ fn main() -> anyhow::Result<()> {
                 );
             }
             for (spec, model) in preset.models.iter().zip(&maker.models) {
-                println!("model {}: {} triangles, {} hull vertices, size {} m, class {}", spec.source, model.indices.len() / 3, model.hull.len(), spec.size_m, spec.class);
+                println!(
+                    "model {}: {} triangles, {} hull vertices, size {} m, class {}",
+                    spec.source,
+                    model.indices.len() / 3,
+                    model.hull.len(),
+                    spec.size_m,
+                    spec.class
+                );
                 for w in &model.warnings {
                     println!("  warning: {w}");
                 }
             }
         }
-        Command::Frame { preset, index, out, overlay } => {
+        Command::Frame {
+            preset,
+            index,
+            out,
+            overlay,
+        } => {
             let preset = batch::load_preset(&preset)?;
             let maker = FrameMaker::new(preset)?;
             let ctx = GpuContext::headless()?;
@@ -151,15 +193,25 @@ fn main() -> anyhow::Result<()> {
                 batch::draw_overlay(&mut rgba, w, h, &labels);
             }
             let image = image::RgbaImage::from_raw(w, h, rgba).context("frame buffer size")?;
-            image::DynamicImage::ImageRgba8(image).to_rgb8().save(&out).with_context(|| format!("writing {}", out.display()))?;
-            println!("frame {index} ({} split): {} drones, {} boxes -> {}", scene.split.as_str(), scene.drones.len(), labels.len(), out.display());
+            image::DynamicImage::ImageRgba8(image)
+                .to_rgb8()
+                .save(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
+            println!(
+                "frame {index} ({} split): {} drones, {} boxes -> {}",
+                scene.split.as_str(),
+                scene.drones.len(),
+                labels.len(),
+                out.display()
+            );
         }
         Command::Assets { dir } => {
             std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
             for name in swarmshot::assets::BUILTIN_NAMES {
                 let bytes = swarmshot::assets::generate_glb(name).context("built-in generator")?;
                 let path = dir.join(format!("{name}.glb"));
-                std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+                std::fs::write(&path, &bytes)
+                    .with_context(|| format!("writing {}", path.display()))?;
                 println!("wrote {} ({} bytes)", path.display(), bytes.len());
             }
         }

@@ -45,7 +45,11 @@ impl EulerDeg {
             // Gimbal lock: roll folds into yaw. With θ = ±90°, m.x_axis = (cos(ψ∓φ), 0, −sin(ψ∓φ)).
             ((-m.x_axis.z).atan2(m.x_axis.x), 0.0)
         };
-        Self { roll: roll.to_degrees(), pitch: pitch.to_degrees(), yaw: yaw.to_degrees() }
+        Self {
+            roll: roll.to_degrees(),
+            pitch: pitch.to_degrees(),
+            yaw: yaw.to_degrees(),
+        }
     }
 }
 
@@ -90,7 +94,11 @@ pub fn look_at_cv(eye: DVec3, target: DVec3) -> Option<DMat3> {
     let mut right = forward.cross(world_up);
     if right.length_squared() < 1e-18 {
         // Straight above (forward = −Y) or below (forward = +Y).
-        let fallback_up = if forward.y < 0.0 { DVec3::NEG_Z } else { DVec3::Z };
+        let fallback_up = if forward.y < 0.0 {
+            DVec3::NEG_Z
+        } else {
+            DVec3::Z
+        };
         right = forward.cross(fallback_up);
     }
     let right = right.normalize();
@@ -104,27 +112,59 @@ mod tests {
     use super::*;
 
     fn mat_close(a: DMat3, b: DMat3, tol: f64) -> bool {
-        a.to_cols_array().iter().zip(b.to_cols_array()).all(|(x, y)| (x - y).abs() < tol)
+        a.to_cols_array()
+            .iter()
+            .zip(b.to_cols_array())
+            .all(|(x, y)| (x - y).abs() < tol)
     }
 
     #[test]
     fn euler_order_is_yaw_pitch_roll_intrinsic() {
         // Yaw 90° turns the nose (+Z) to +X.
-        let q = EulerDeg { roll: 0.0, pitch: 0.0, yaw: 90.0 }.to_quat();
+        let q = EulerDeg {
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 90.0,
+        }
+        .to_quat();
         assert!((q * DVec3::Z - DVec3::X).length() < 1e-12);
         // Pitch is about the body's X after yaw: yaw 90 then pitch 90 turns the nose down (−Y).
-        let q = EulerDeg { roll: 0.0, pitch: 90.0, yaw: 90.0 }.to_quat();
+        let q = EulerDeg {
+            roll: 0.0,
+            pitch: 90.0,
+            yaw: 90.0,
+        }
+        .to_quat();
         assert!((q * DVec3::Z - DVec3::NEG_Y).length() < 1e-12);
         // Roll is about the body's Z (nose axis): it leaves the nose alone.
-        let q = EulerDeg { roll: 30.0, pitch: 10.0, yaw: 20.0 }.to_quat();
-        let q_no_roll = EulerDeg { roll: 0.0, pitch: 10.0, yaw: 20.0 }.to_quat();
+        let q = EulerDeg {
+            roll: 30.0,
+            pitch: 10.0,
+            yaw: 20.0,
+        }
+        .to_quat();
+        let q_no_roll = EulerDeg {
+            roll: 0.0,
+            pitch: 10.0,
+            yaw: 20.0,
+        }
+        .to_quat();
         assert!((q * DVec3::Z - q_no_roll * DVec3::Z).length() < 1e-12);
     }
 
     #[test]
     fn euler_round_trip_including_gimbal_lock() {
-        for &(r, p, y) in &[(10.0, 20.0, 30.0), (-170.0, 89.0, 179.0), (45.0, 90.0, 10.0), (5.0, -90.0, -60.0)] {
-            let e = EulerDeg { roll: r, pitch: p, yaw: y };
+        for &(r, p, y) in &[
+            (10.0, 20.0, 30.0),
+            (-170.0, 89.0, 179.0),
+            (45.0, 90.0, 10.0),
+            (5.0, -90.0, -60.0),
+        ] {
+            let e = EulerDeg {
+                roll: r,
+                pitch: p,
+                yaw: y,
+            };
             let back = EulerDeg::from_quat(e.to_quat());
             let m0 = DMat3::from_quat(e.to_quat());
             let m1 = DMat3::from_quat(back.to_quat());
@@ -134,7 +174,11 @@ mod tests {
 
     #[test]
     fn look_at_is_a_rotation_even_straight_down() {
-        for eye in [DVec3::new(0.0, 10.0, 0.0), DVec3::new(0.0, -10.0, 0.0), DVec3::new(3.0, 1.0, 5.0)] {
+        for eye in [
+            DVec3::new(0.0, 10.0, 0.0),
+            DVec3::new(0.0, -10.0, 0.0),
+            DVec3::new(3.0, 1.0, 5.0),
+        ] {
             let m = look_at_cv(eye, DVec3::ZERO).expect("distinct points");
             assert!((m.determinant() - 1.0).abs() < 1e-12);
             assert!(mat_close(m * m.transpose(), DMat3::IDENTITY, 1e-12));
@@ -147,7 +191,12 @@ mod tests {
 
     #[test]
     fn slerp_is_stable_for_equal_and_opposite_quaternions() {
-        let q = EulerDeg { roll: 1.0, pitch: 2.0, yaw: 3.0 }.to_quat();
+        let q = EulerDeg {
+            roll: 1.0,
+            pitch: 2.0,
+            yaw: 3.0,
+        }
+        .to_quat();
         let r = slerp(q, q, 0.5);
         assert!(r.is_finite() && (r.length() - 1.0).abs() < 1e-12);
         // -q is the same rotation: the shortest arc is no motion at all.

@@ -16,45 +16,91 @@ use crate::preset::{ImageFormat, LabelFormat, Preset};
 use crate::scene::{FrameScene, SplitName};
 
 /// Files and folders a dataset consists of (what `--overwrite` replaces).
-const OWNED: &[&str] = &["images", "labels", "annotations", "manifest.jsonl", "data.yaml", "preset.lock.ron", "stats.json"];
+const OWNED: &[&str] = &[
+    "images",
+    "labels",
+    "annotations",
+    "manifest.jsonl",
+    "data.yaml",
+    "preset.lock.ron",
+    "stats.json",
+];
 const LOCK_FILE: &str = "preset.lock.ron";
 
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error(
         "output folder {} is not empty and is not an earlier output of this preset; choose another folder or pass --overwrite",
         path.display()
     )]
     NotEmpty { path: PathBuf },
     #[error("encoding {format} failed: {reason}")]
-    Encode { format: &'static str, reason: String },
+    Encode {
+        format: &'static str,
+        reason: String,
+    },
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
-    move |source| OutputError::Io { path: path.to_owned(), source }
+    move |source| OutputError::Io {
+        path: path.to_owned(),
+        source,
+    }
 }
 
 /// Encode tightly packed RGBA8 pixels as JPEG or PNG (alpha dropped).
-pub fn encode_image(rgba: &[u8], width: u32, height: u32, format: ImageFormat) -> Result<Vec<u8>, OutputError> {
-    let rgb: Vec<u8> = rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+pub fn encode_image(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    format: ImageFormat,
+) -> Result<Vec<u8>, OutputError> {
+    let rgb: Vec<u8> = rgba
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
     match format {
         ImageFormat::Jpeg { quality } => {
             let mut out = Vec::with_capacity(rgb.len() / 8);
             let encoder = jpeg_encoder::Encoder::new(&mut out, quality);
             let (w, h) = (u16::try_from(width), u16::try_from(height));
             let (Ok(w), Ok(h)) = (w, h) else {
-                return Err(OutputError::Encode { format: "JPEG", reason: format!("{width}×{height} exceeds JPEG's 65535 px side") });
+                return Err(OutputError::Encode {
+                    format: "JPEG",
+                    reason: format!("{width}×{height} exceeds JPEG's 65535 px side"),
+                });
             };
-            encoder.encode(&rgb, w, h, jpeg_encoder::ColorType::Rgb).map_err(|e| OutputError::Encode { format: "JPEG", reason: e.to_string() })?;
+            encoder
+                .encode(&rgb, w, h, jpeg_encoder::ColorType::Rgb)
+                .map_err(|e| OutputError::Encode {
+                    format: "JPEG",
+                    reason: e.to_string(),
+                })?;
             Ok(out)
         }
         ImageFormat::Png => {
             let mut out = Vec::new();
-            let encoder = image::codecs::png::PngEncoder::new_with_quality(&mut out, image::codecs::png::CompressionType::Fast, image::codecs::png::FilterType::Adaptive);
-            image::ImageEncoder::write_image(encoder, &rgb, width, height, image::ExtendedColorType::Rgb8)
-                .map_err(|e| OutputError::Encode { format: "PNG", reason: e.to_string() })?;
+            let encoder = image::codecs::png::PngEncoder::new_with_quality(
+                &mut out,
+                image::codecs::png::CompressionType::Fast,
+                image::codecs::png::FilterType::Adaptive,
+            );
+            image::ImageEncoder::write_image(
+                encoder,
+                &rgb,
+                width,
+                height,
+                image::ExtendedColorType::Rgb8,
+            )
+            .map_err(|e| OutputError::Encode {
+                format: "PNG",
+                reason: e.to_string(),
+            })?;
             Ok(out)
         }
     }
@@ -127,13 +173,20 @@ pub struct DatasetWriter {
 impl DatasetWriter {
     /// Prepare `root`: refuse a non-empty folder that is not an earlier output
     /// of the same preset (unless `overwrite`), create the layout and write the lock.
-    pub fn create(root: &Path, preset: &Preset, model_names: Vec<String>, overwrite: bool) -> Result<Self, OutputError> {
+    pub fn create(
+        root: &Path,
+        preset: &Preset,
+        model_names: Vec<String>,
+        overwrite: bool,
+    ) -> Result<Self, OutputError> {
         let lock = preset.to_ron();
         if root.exists() {
             let non_empty = fs::read_dir(root).map_err(io(root))?.next().is_some();
             let same_preset = fs::read_to_string(root.join(LOCK_FILE)).is_ok_and(|old| old == lock);
             if non_empty && !same_preset && !overwrite {
-                return Err(OutputError::NotEmpty { path: root.to_owned() });
+                return Err(OutputError::NotEmpty {
+                    path: root.to_owned(),
+                });
             }
             if non_empty {
                 for name in OWNED {
@@ -166,10 +219,13 @@ impl DatasetWriter {
             let mut parts = Vec::new();
             for split in SplitName::ALL {
                 let images_path = dir.join(format!(".instances_{}.images.part", split.as_str()));
-                let annotations_path = dir.join(format!(".instances_{}.annotations.part", split.as_str()));
+                let annotations_path =
+                    dir.join(format!(".instances_{}.annotations.part", split.as_str()));
                 parts.push(CocoParts {
                     images: BufWriter::new(File::create(&images_path).map_err(io(&images_path))?),
-                    annotations: BufWriter::new(File::create(&annotations_path).map_err(io(&annotations_path))?),
+                    annotations: BufWriter::new(
+                        File::create(&annotations_path).map_err(io(&annotations_path))?,
+                    ),
                     images_path,
                     annotations_path,
                     n_images: 0,
@@ -181,7 +237,16 @@ impl DatasetWriter {
             None
         };
         let (classes, _) = preset.classes();
-        Ok(Self { root: root.to_owned(), image_format: preset.output.image_format, yolo, classes, model_names, manifest, coco, stats: DatasetStats::default() })
+        Ok(Self {
+            root: root.to_owned(),
+            image_format: preset.output.image_format,
+            yolo,
+            classes,
+            model_names,
+            manifest,
+            coco,
+            stats: DatasetStats::default(),
+        })
     }
 
     /// File stem of a frame: its zero-padded index.
@@ -191,24 +256,48 @@ impl DatasetWriter {
 
     /// Relative path of a frame's image.
     pub fn image_rel_path(&self, scene: &FrameScene) -> String {
-        format!("images/{}/{}.{}", scene.split.as_str(), Self::stem(scene.index), self.image_format.extension())
+        format!(
+            "images/{}/{}.{}",
+            scene.split.as_str(),
+            Self::stem(scene.index),
+            self.image_format.extension()
+        )
     }
 
     /// Write one frame's image bytes and all of its labels.
-    pub fn write_frame(&mut self, scene: &FrameScene, labels: &[DroneLabel], image: &[u8]) -> Result<(), OutputError> {
+    pub fn write_frame(
+        &mut self,
+        scene: &FrameScene,
+        labels: &[DroneLabel],
+        image: &[u8],
+    ) -> Result<(), OutputError> {
         let rel = self.image_rel_path(scene);
         let image_path = self.root.join(&rel);
         fs::write(&image_path, image).map_err(io(&image_path))?;
-        let (w, h) = (f64::from(scene.camera.width), f64::from(scene.camera.height));
+        let (w, h) = (
+            f64::from(scene.camera.width),
+            f64::from(scene.camera.height),
+        );
         if self.yolo {
             let mut text = String::new();
             for l in labels {
                 let b = &l.bbox;
                 let cx = (b.x0 + b.x1) * 0.5 / w;
                 let cy = (b.y0 + b.y1) * 0.5 / h;
-                text.push_str(&format!("{} {:.6} {:.6} {:.6} {:.6}\n", l.class_id, cx, cy, b.width() / w, b.height() / h));
+                text.push_str(&format!(
+                    "{} {:.6} {:.6} {:.6} {:.6}\n",
+                    l.class_id,
+                    cx,
+                    cy,
+                    b.width() / w,
+                    b.height() / h
+                ));
             }
-            let path = self.root.join("labels").join(scene.split.as_str()).join(format!("{}.txt", Self::stem(scene.index)));
+            let path = self
+                .root
+                .join("labels")
+                .join(scene.split.as_str())
+                .join(format!("{}.txt", Self::stem(scene.index)));
             fs::write(&path, text).map_err(io(&path))?;
         }
         if let Some(parts) = &mut self.coco {
@@ -247,16 +336,30 @@ impl DatasetWriter {
         let manifest_path = self.root.join("manifest.jsonl");
         self.manifest.flush().map_err(io(&manifest_path))?;
         if let Some(parts) = self.coco.take() {
-            let categories: Vec<_> = self.classes.iter().enumerate().map(|(i, n)| json!({"id": i + 1, "name": n, "supercategory": "uav"})).collect();
+            let categories: Vec<_> = self
+                .classes
+                .iter()
+                .enumerate()
+                .map(|(i, n)| json!({"id": i + 1, "name": n, "supercategory": "uav"}))
+                .collect();
             for (split, mut part) in SplitName::ALL.into_iter().zip(parts) {
                 part.images.flush().map_err(io(&part.images_path))?;
-                part.annotations.flush().map_err(io(&part.annotations_path))?;
+                part.annotations
+                    .flush()
+                    .map_err(io(&part.annotations_path))?;
                 drop((part.images, part.annotations));
-                let path = self.root.join("annotations").join(format!("instances_{}.json", split.as_str()));
+                let path = self
+                    .root
+                    .join("annotations")
+                    .join(format!("instances_{}.json", split.as_str()));
                 let mut out = BufWriter::new(File::create(&path).map_err(io(&path))?);
                 let head = json!({"description": "swarmshot synthetic UAV swarm dataset", "version": env!("CARGO_PKG_VERSION")});
                 let write_all = |out: &mut BufWriter<File>| -> std::io::Result<()> {
-                    write!(out, "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {},\n\"images\": [\n", serde_json::Value::from(categories.clone()))?;
+                    write!(
+                        out,
+                        "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {},\n\"images\": [\n",
+                        serde_json::Value::from(categories.clone())
+                    )?;
                     std::io::copy(&mut File::open(&part.images_path)?, out)?;
                     write!(out, "\n],\n\"annotations\": [\n")?;
                     std::io::copy(&mut File::open(&part.annotations_path)?, out)?;
@@ -271,17 +374,29 @@ impl DatasetWriter {
         }
         if self.yolo {
             let abs = fs::canonicalize(&self.root).map_err(io(&self.root))?;
-            let mut yaml = String::from("# Ultralytics YOLO dataset written by swarmshot. `path` is absolute so any working directory resolves it.\n");
-            yaml.push_str(&format!("path: {}\n", serde_json::Value::from(abs.to_string_lossy().into_owned())));
+            let mut yaml = String::from(
+                "# Ultralytics YOLO dataset written by swarmshot. `path` is absolute so any working directory resolves it.\n",
+            );
+            yaml.push_str(&format!(
+                "path: {}\n",
+                serde_json::Value::from(abs.to_string_lossy().into_owned())
+            ));
             yaml.push_str("train: images/train\nval: images/val\ntest: images/test\nnames:\n");
             for (i, name) in self.classes.iter().enumerate() {
-                yaml.push_str(&format!("  {i}: {}\n", serde_json::Value::from(name.clone())));
+                yaml.push_str(&format!(
+                    "  {i}: {}\n",
+                    serde_json::Value::from(name.clone())
+                ));
             }
             let path = self.root.join("data.yaml");
             fs::write(&path, yaml).map_err(io(&path))?;
         }
         let path = self.root.join("stats.json");
-        fs::write(&path, serde_json::to_string_pretty(&self.stats).unwrap_or_default()).map_err(io(&path))?;
+        fs::write(
+            &path,
+            serde_json::to_string_pretty(&self.stats).unwrap_or_default(),
+        )
+        .map_err(io(&path))?;
         Ok(self.stats)
     }
 }
@@ -292,7 +407,13 @@ fn xywh(b: &PixelBox) -> [f64; 4] {
 
 /// One manifest line: the frame's index, seed, split, sweep values, camera
 /// (K, R, t) and every drone's model, pose and label.
-pub fn manifest_line(scene: &FrameScene, labels: &[DroneLabel], image: &str, model_names: &[String], classes: &[String]) -> String {
+pub fn manifest_line(
+    scene: &FrameScene,
+    labels: &[DroneLabel],
+    image: &str,
+    model_names: &[String],
+    classes: &[String],
+) -> String {
     let cam = &scene.camera;
     let rows = |m: glam::DMat3| {
         let t = m.transpose();

@@ -96,7 +96,11 @@ pub struct ModelSpec {
 
 impl Default for ModelSpec {
     fn default() -> Self {
-        Self { source: ModelSource::Builtin("quad_x".into()), size_m: 0.35, class: "uav".into() }
+        Self {
+            source: ModelSource::Builtin("quad_x".into()),
+            size_m: 0.35,
+            class: "uav".into(),
+        }
     }
 }
 
@@ -104,7 +108,12 @@ impl Default for ModelSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Placement {
     /// A regular grid of XCount × YCount × ZCount drones, spaced LoadFactor × model size apart.
-    Structured { x_count: u32, y_count: u32, z_count: u32, load_factor: f64 },
+    Structured {
+        x_count: u32,
+        y_count: u32,
+        z_count: u32,
+        load_factor: f64,
+    },
     /// Uniform random positions in the observation volume, at least `min_separation_m` apart.
     Randomized {
         /// Inclusive range of drones per frame.
@@ -117,7 +126,11 @@ pub enum Placement {
 
 impl Default for Placement {
     fn default() -> Self {
-        Self::Randomized { count: (1, 15), volume: Volume::default(), min_separation_m: 0.7 }
+        Self::Randomized {
+            count: (1, 15),
+            volume: Volume::default(),
+            min_separation_m: 0.7,
+        }
     }
 }
 
@@ -132,7 +145,9 @@ pub enum Volume {
 
 impl Default for Volume {
     fn default() -> Self {
-        Self::Box { size_m: (20.0, 10.0, 20.0) }
+        Self::Box {
+            size_m: (20.0, 10.0, 20.0),
+        }
     }
 }
 
@@ -147,7 +162,11 @@ pub struct AttitudeRanges {
 
 impl Default for AttitudeRanges {
     fn default() -> Self {
-        Self { roll_deg: (-15.0, 15.0), pitch_deg: (-15.0, 15.0), yaw_deg: (-180.0, 180.0) }
+        Self {
+            roll_deg: (-15.0, 15.0),
+            pitch_deg: (-15.0, 15.0),
+            yaw_deg: (-180.0, 180.0),
+        }
     }
 }
 
@@ -217,7 +236,10 @@ pub enum Resolution {
     Qhd,
     /// 4096 × 2160
     Uhd4k,
-    Custom { width: u32, height: u32 },
+    Custom {
+        width: u32,
+        height: u32,
+    },
 }
 
 impl Resolution {
@@ -241,7 +263,10 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { resolution: Resolution::FullHd, msaa: 4 }
+        Self {
+            resolution: Resolution::FullHd,
+            msaa: 4,
+        }
     }
 }
 
@@ -265,7 +290,10 @@ pub struct LabelSettings {
 
 impl Default for LabelSettings {
     fn default() -> Self {
-        Self { box_method: BoxMethod::Amodal, min_box_px: 2.0 }
+        Self {
+            box_method: BoxMethod::Amodal,
+            min_box_px: 2.0,
+        }
     }
 }
 
@@ -303,7 +331,11 @@ pub struct Split {
 
 impl Default for Split {
     fn default() -> Self {
-        Self { train: 0.7, val: 0.1, test: 0.2 }
+        Self {
+            train: 0.7,
+            val: 0.1,
+            test: 0.2,
+        }
     }
 }
 
@@ -342,17 +374,27 @@ impl fmt::Display for FieldError {
 #[derive(Debug, thiserror::Error)]
 pub enum PresetError {
     #[error("cannot read preset {}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("preset {}: {message}", path.display())]
     Parse { path: PathBuf, message: String },
     #[error("preset {} is invalid:\n{}", path.display(), list(errors))]
-    Invalid { path: PathBuf, errors: Vec<FieldError> },
+    Invalid {
+        path: PathBuf,
+        errors: Vec<FieldError>,
+    },
     #[error("preset {}: version {found} is newer than this swarmshot understands ({PRESET_VERSION})", path.display())]
     Version { path: PathBuf, found: u32 },
 }
 
 fn list(errors: &[FieldError]) -> String {
-    errors.iter().map(|e| format!("  - {e}")).collect::<Vec<_>>().join("\n")
+    errors
+        .iter()
+        .map(|e| format!("  - {e}"))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 impl Preset {
@@ -366,21 +408,34 @@ impl Preset {
 
     /// Pretty RON text of this preset.
     pub fn to_ron(&self) -> String {
-        let config = ron::ser::PrettyConfig::new().depth_limit(4).struct_names(false);
+        let config = ron::ser::PrettyConfig::new()
+            .depth_limit(4)
+            .struct_names(false);
         // Serialising plain data to a String cannot fail; fall back to compact form if it did.
-        ron::ser::to_string_pretty(self, config).unwrap_or_else(|e| format!("// serialisation failed: {e}"))
+        ron::ser::to_string_pretty(self, config)
+            .unwrap_or_else(|e| format!("// serialisation failed: {e}"))
     }
 
     /// Read, parse and validate a preset file.
     pub fn load(path: &Path) -> Result<Self, PresetError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| PresetError::Io { path: path.to_owned(), source })?;
-        let preset = Self::from_ron(&text)
-            .map_err(|message| PresetError::Parse { path: path.to_owned(), message })?;
+        let text = std::fs::read_to_string(path).map_err(|source| PresetError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let preset = Self::from_ron(&text).map_err(|message| PresetError::Parse {
+            path: path.to_owned(),
+            message,
+        })?;
         if preset.version > PRESET_VERSION {
-            return Err(PresetError::Version { path: path.to_owned(), found: preset.version });
+            return Err(PresetError::Version {
+                path: path.to_owned(),
+                found: preset.version,
+            });
         }
-        preset.validate().map_err(|errors| PresetError::Invalid { path: path.to_owned(), errors })?;
+        preset.validate().map_err(|errors| PresetError::Invalid {
+            path: path.to_owned(),
+            errors,
+        })?;
         Ok(preset)
     }
 
@@ -438,24 +493,53 @@ impl Preset {
     /// Every invalid value, each naming its field.
     pub fn validate(&self) -> Result<(), Vec<FieldError>> {
         let mut v = Validator::default();
-        v.check(self.version >= 1, "version", || format!("{} is not a preset version (use {PRESET_VERSION})", self.version));
+        v.check(self.version >= 1, "version", || {
+            format!(
+                "{} is not a preset version (use {PRESET_VERSION})",
+                self.version
+            )
+        });
         if self.models.is_empty() {
             v.push("models", "at least one model is needed".into());
         }
         for (i, m) in self.models.iter().enumerate() {
             v.positive(&format!("models[{i}].size_m"), m.size_m, "metres");
-            v.check(m.size_m <= 1000.0, &format!("models[{i}].size_m"), || format!("{} m is larger than the 1000 m limit", m.size_m));
-            v.check(!m.class.trim().is_empty(), &format!("models[{i}].class"), || "class name is empty".into());
+            v.check(m.size_m <= 1000.0, &format!("models[{i}].size_m"), || {
+                format!("{} m is larger than the 1000 m limit", m.size_m)
+            });
+            v.check(
+                !m.class.trim().is_empty(),
+                &format!("models[{i}].class"),
+                || "class name is empty".into(),
+            );
             if let ModelSource::Builtin(name) = &m.source {
-                v.check(crate::assets::builtin_glb(name).is_some(), &format!("models[{i}].source"), || {
-                    format!("no built-in model \"{name}\" (built-ins: {})", crate::assets::BUILTIN_NAMES.join(", "))
-                });
+                v.check(
+                    crate::assets::builtin_glb(name).is_some(),
+                    &format!("models[{i}].source"),
+                    || {
+                        format!(
+                            "no built-in model \"{name}\" (built-ins: {})",
+                            crate::assets::BUILTIN_NAMES.join(", ")
+                        )
+                    },
+                );
             }
         }
         match &self.placement {
-            Placement::Structured { x_count, y_count, z_count, load_factor } => {
-                for (name, c) in [("x_count", x_count), ("y_count", y_count), ("z_count", z_count)] {
-                    v.check(*c >= 1, &format!("placement.{name}"), || format!("{c} drones along an axis; must be at least 1"));
+            Placement::Structured {
+                x_count,
+                y_count,
+                z_count,
+                load_factor,
+            } => {
+                for (name, c) in [
+                    ("x_count", x_count),
+                    ("y_count", y_count),
+                    ("z_count", z_count),
+                ] {
+                    v.check(*c >= 1, &format!("placement.{name}"), || {
+                        format!("{c} drones along an axis; must be at least 1")
+                    });
                 }
                 let total = u64::from(*x_count) * u64::from(*y_count) * u64::from(*z_count);
                 v.check(total <= MAX_DRONES_PER_FRAME, "placement", || {
@@ -465,22 +549,40 @@ impl Preset {
                     format!("{load_factor} is out of range [1, 1e6]: below 1 the grid spacing is smaller than a drone and drones overlap")
                 });
             }
-            Placement::Randomized { count: (lo, hi), volume, min_separation_m } => {
-                v.check(*lo >= 1, "placement.count", || format!("minimum count {lo} must be at least 1"));
-                v.check(hi >= lo, "placement.count", || format!("({lo}, {hi}): maximum must be ≥ minimum"));
-                v.check(u64::from(*hi) <= MAX_DRONES_PER_FRAME, "placement.count", || format!("{hi} drones is more than the limit of {MAX_DRONES_PER_FRAME}"));
-                v.check(min_separation_m.is_finite() && *min_separation_m >= 0.0, "placement.min_separation_m", || {
-                    format!("{min_separation_m} must be a finite distance ≥ 0 m")
+            Placement::Randomized {
+                count: (lo, hi),
+                volume,
+                min_separation_m,
+            } => {
+                v.check(*lo >= 1, "placement.count", || {
+                    format!("minimum count {lo} must be at least 1")
                 });
+                v.check(hi >= lo, "placement.count", || {
+                    format!("({lo}, {hi}): maximum must be ≥ minimum")
+                });
+                v.check(
+                    u64::from(*hi) <= MAX_DRONES_PER_FRAME,
+                    "placement.count",
+                    || format!("{hi} drones is more than the limit of {MAX_DRONES_PER_FRAME}"),
+                );
+                v.check(
+                    min_separation_m.is_finite() && *min_separation_m >= 0.0,
+                    "placement.min_separation_m",
+                    || format!("{min_separation_m} must be a finite distance ≥ 0 m"),
+                );
                 match volume {
                     Volume::Box { size_m: (x, y, z) } => {
                         for (axis, s) in [("x", x), ("y", y), ("z", z)] {
-                            v.check(s.is_finite() && *s >= 0.0 && *s <= 1e6, &format!("placement.volume.size_m.{axis}"), || {
-                                format!("{s} is out of range [0, 1e6] metres")
-                            });
+                            v.check(
+                                s.is_finite() && *s >= 0.0 && *s <= 1e6,
+                                &format!("placement.volume.size_m.{axis}"),
+                                || format!("{s} is out of range [0, 1e6] metres"),
+                            );
                         }
                     }
-                    Volume::Density { per_m3 } => v.positive("placement.volume.per_m3", *per_m3, "drones per m³"),
+                    Volume::Density { per_m3 } => {
+                        v.positive("placement.volume.per_m3", *per_m3, "drones per m³")
+                    }
                 }
                 if v.errors.is_empty() {
                     let fraction = Self::packing_fraction(*hi, volume, *min_separation_m);
@@ -494,16 +596,24 @@ impl Preset {
                 }
             }
         }
-        for (name, (lo, hi)) in [("roll_deg", self.attitude.roll_deg), ("pitch_deg", self.attitude.pitch_deg), ("yaw_deg", self.attitude.yaw_deg)] {
-            v.check(lo.is_finite() && hi.is_finite() && lo <= hi && lo >= -360.0 && hi <= 360.0, &format!("attitude.{name}"), || {
-                format!("({lo}, {hi}) must be finite degrees with min ≤ max within [-360, 360]")
-            });
+        for (name, (lo, hi)) in [
+            ("roll_deg", self.attitude.roll_deg),
+            ("pitch_deg", self.attitude.pitch_deg),
+            ("yaw_deg", self.attitude.yaw_deg),
+        ] {
+            v.check(
+                lo.is_finite() && hi.is_finite() && lo <= hi && lo >= -360.0 && hi <= 360.0,
+                &format!("attitude.{name}"),
+                || format!("({lo}, {hi}) must be finite degrees with min ≤ max within [-360, 360]"),
+            );
         }
         for (name, range) in self.sweep_axes() {
             if let Err(e) = range.count() {
                 let field = match e {
                     SweepError::NotFinite { .. } | SweepError::TooMany { .. } => name.to_string(),
-                    SweepError::ZeroStep { .. } | SweepError::WrongSign { .. } => format!("{name}.step"),
+                    SweepError::ZeroStep { .. } | SweepError::WrongSign { .. } => {
+                        format!("{name}.step")
+                    }
                 };
                 v.push(&field, e.to_string());
             }
@@ -514,41 +624,96 @@ impl Preset {
                 break;
             }
         }
-        v.check(self.camera.fov_y_deg.is_finite() && self.camera.fov_y_deg > 0.5 && self.camera.fov_y_deg < 170.0, "camera.fov_y_deg", || {
-            format!("{} is out of range (0.5, 170) degrees", self.camera.fov_y_deg)
+        v.check(
+            self.camera.fov_y_deg.is_finite()
+                && self.camera.fov_y_deg > 0.5
+                && self.camera.fov_y_deg < 170.0,
+            "camera.fov_y_deg",
+            || {
+                format!(
+                    "{} is out of range (0.5, 170) degrees",
+                    self.camera.fov_y_deg
+                )
+            },
+        );
+        v.check(self.repeats >= 1, "repeats", || {
+            format!("{} must be at least 1", self.repeats)
         });
-        v.check(self.repeats >= 1, "repeats", || format!("{} must be at least 1", self.repeats));
         let frames = self.frame_count();
-        v.check(frames <= MAX_FRAMES, "camera/plane sweeps × repeats", || format!("{frames} frames is more than the limit of {MAX_FRAMES}"));
-        let Sky::Gradient { sun_elevation_deg, sun_azimuth_deg, zenith, horizon } = &self.sky;
-        v.check(sun_elevation_deg.is_finite() && (-90.0..=90.0).contains(sun_elevation_deg), "sky.sun_elevation_deg", || {
-            format!("{sun_elevation_deg} is out of range [-90, 90]")
+        v.check(
+            frames <= MAX_FRAMES,
+            "camera/plane sweeps × repeats",
+            || format!("{frames} frames is more than the limit of {MAX_FRAMES}"),
+        );
+        let Sky::Gradient {
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            zenith,
+            horizon,
+        } = &self.sky;
+        v.check(
+            sun_elevation_deg.is_finite() && (-90.0..=90.0).contains(sun_elevation_deg),
+            "sky.sun_elevation_deg",
+            || format!("{sun_elevation_deg} is out of range [-90, 90]"),
+        );
+        v.check(sun_azimuth_deg.is_finite(), "sky.sun_azimuth_deg", || {
+            format!("{sun_azimuth_deg} must be finite")
         });
-        v.check(sun_azimuth_deg.is_finite(), "sky.sun_azimuth_deg", || format!("{sun_azimuth_deg} must be finite"));
         for (name, (r, g, b)) in [("zenith", zenith), ("horizon", horizon)] {
-            v.check([r, g, b].iter().all(|c| c.is_finite() && **c >= 0.0 && **c <= 100.0), &format!("sky.{name}"), || {
-                format!("({r}, {g}, {b}) must be linear RGB in [0, 100]")
-            });
+            v.check(
+                [r, g, b]
+                    .iter()
+                    .all(|c| c.is_finite() && **c >= 0.0 && **c <= 100.0),
+                &format!("sky.{name}"),
+                || format!("({r}, {g}, {b}) must be linear RGB in [0, 100]"),
+            );
         }
         let (w, h) = self.image_size();
         for (name, side) in [("width", w), ("height", h)] {
-            v.check((1..=MAX_IMAGE_SIDE).contains(&side), &format!("render.resolution.{name}"), || format!("{side} px is out of range [1, {MAX_IMAGE_SIDE}]"));
+            v.check(
+                (1..=MAX_IMAGE_SIDE).contains(&side),
+                &format!("render.resolution.{name}"),
+                || format!("{side} px is out of range [1, {MAX_IMAGE_SIDE}]"),
+            );
         }
-        v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || format!("{} is not supported; use 1 or 4", self.render.msaa));
-        v.check(self.labels.min_box_px.is_finite() && self.labels.min_box_px >= 0.0, "labels.min_box_px", || {
-            format!("{} must be a finite number of pixels ≥ 0", self.labels.min_box_px)
+        v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || {
+            format!("{} is not supported; use 1 or 4", self.render.msaa)
         });
+        v.check(
+            self.labels.min_box_px.is_finite() && self.labels.min_box_px >= 0.0,
+            "labels.min_box_px",
+            || {
+                format!(
+                    "{} must be a finite number of pixels ≥ 0",
+                    self.labels.min_box_px
+                )
+            },
+        );
         if let ImageFormat::Jpeg { quality } = self.output.image_format {
-            v.check((1..=100).contains(&quality), "output.image_format.quality", || format!("{quality} is out of range [1, 100]"));
+            v.check(
+                (1..=100).contains(&quality),
+                "output.image_format.quality",
+                || format!("{quality} is out of range [1, 100]"),
+            );
         }
         let s = &self.output.split;
         let parts = [("train", s.train), ("val", s.val), ("test", s.test)];
         for (name, share) in parts {
-            v.check(share.is_finite() && (0.0..=1.0).contains(&share), &format!("output.split.{name}"), || format!("{share} is out of range [0, 1]"));
+            v.check(
+                share.is_finite() && (0.0..=1.0).contains(&share),
+                &format!("output.split.{name}"),
+                || format!("{share} is out of range [0, 1]"),
+            );
         }
         let sum = s.train + s.val + s.test;
-        v.check((sum - 1.0).abs() < 1e-6, "output.split", || format!("shares sum to {sum}; they must sum to 1"));
-        if v.errors.is_empty() { Ok(()) } else { Err(v.errors) }
+        v.check((sum - 1.0).abs() < 1e-6, "output.split", || {
+            format!("shares sum to {sum}; they must sum to 1")
+        });
+        if v.errors.is_empty() {
+            Ok(())
+        } else {
+            Err(v.errors)
+        }
     }
 
     /// Share of the volume taken by `n` balls of diameter `separation`, for the
@@ -558,7 +723,13 @@ impl Preset {
         match volume {
             Volume::Box { size_m: (x, y, z) } => {
                 let v = x * y * z;
-                if n <= 1 { 0.0 } else if v <= 0.0 { if separation > 0.0 { f64::INFINITY } else { 0.0 } } else { f64::from(n) * ball / v }
+                if n <= 1 {
+                    0.0
+                } else if v <= 0.0 {
+                    if separation > 0.0 { f64::INFINITY } else { 0.0 }
+                } else {
+                    f64::from(n) * ball / v
+                }
             }
             Volume::Density { per_m3 } => per_m3 * ball,
         }
@@ -572,7 +743,10 @@ struct Validator {
 
 impl Validator {
     fn push(&mut self, field: &str, message: String) {
-        self.errors.push(FieldError { field: field.to_string(), message });
+        self.errors.push(FieldError {
+            field: field.to_string(),
+            message,
+        });
     }
 
     fn check(&mut self, ok: bool, field: &str, message: impl FnOnce() -> String) {
@@ -582,7 +756,9 @@ impl Validator {
     }
 
     fn positive(&mut self, field: &str, value: f64, unit: &str) {
-        self.check(value.is_finite() && value > 0.0, field, || format!("{value} must be a finite number > 0 ({unit})"));
+        self.check(value.is_finite() && value > 0.0, field, || {
+            format!("{value} must be a finite number > 0 ({unit})")
+        });
     }
 }
 

@@ -8,7 +8,10 @@
 //! construction; [`Renderer::render_rgba`] adds an offscreen target and a
 //! row-padded readback.
 
+mod material;
+
 use std::borrow::Cow;
+use std::ops::Range;
 
 use glam::{DMat4, Mat4, Vec4};
 use wgpu::util::DeviceExt;
@@ -29,7 +32,9 @@ pub enum RenderError {
     NoAdapter { backend: String, reason: String },
     #[error("cannot open the GPU device: {0}")]
     Device(String),
-    #[error("render.resolution: {width}×{height} exceeds this adapter's largest texture side of {limit} px")]
+    #[error(
+        "render.resolution: {width}×{height} exceeds this adapter's largest texture side of {limit} px"
+    )]
     TooLarge { width: u32, height: u32, limit: u32 },
     #[error("reading the frame back from the GPU failed: {0}")]
     Readback(String),
@@ -48,7 +53,8 @@ impl GpuContext {
     /// Open a headless adapter; honours `WGPU_BACKEND` (vulkan, gl, …). Fails
     /// loudly when none is found — callers never fall back to "no rendering".
     pub fn headless() -> Result<Self, RenderError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             ..Default::default()
@@ -64,12 +70,20 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;
-        Ok(Self { device, queue, adapter_info: adapter.get_info(), max_texture_side: limits.max_texture_dimension_2d })
+        Ok(Self {
+            device,
+            queue,
+            adapter_info: adapter.get_info(),
+            max_texture_side: limits.max_texture_dimension_2d,
+        })
     }
 
     /// "lavapipe (Vulkan)" and the like, for logs and reports.
     pub fn describe(&self) -> String {
-        format!("{} ({:?})", self.adapter_info.name, self.adapter_info.backend)
+        format!(
+            "{} ({:?})",
+            self.adapter_info.name, self.adapter_info.backend
+        )
     }
 }
 
@@ -93,7 +107,9 @@ impl FrameUniforms {
         let world_from_camera = Mat4::from_mat3(cam.camera_from_world.transpose().as_mat3());
         let f = cam.focal_px() as f32;
         let c = cam.principal_point().as_vec2();
-        let Sky::Gradient { zenith, horizon, .. } = sky;
+        let Sky::Gradient {
+            zenith, horizon, ..
+        } = sky;
         let rgb = |(r, g, b): (f32, f32, f32)| [r, g, b, 1.0];
         let sun = scene.sun_direction.as_vec3();
         // Sun colour warms and dims towards the horizon.
@@ -105,7 +121,12 @@ impl FrameUniforms {
             world_from_camera: world_from_camera.to_cols_array_2d(),
             intrinsics: [f, f, c.x, c.y],
             sun_dir_world: sun.extend(0.0).to_array(),
-            sun_color: [strength, strength * (1.0 - 0.35 * warm), strength * (1.0 - 0.65 * warm), 1.0],
+            sun_color: [
+                strength,
+                strength * (1.0 - 0.35 * warm),
+                strength * (1.0 - 0.65 * warm),
+                1.0,
+            ],
             zenith: rgb(*zenith),
             horizon: rgb(*horizon),
             ground: [horizon.0 * 0.35, horizon.1 * 0.33, horizon.2 * 0.28, 1.0],
@@ -116,7 +137,9 @@ impl FrameUniforms {
 struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
-    index_count: u32,
+    /// Index ranges with their texture bind group (`None`: the white one).
+    draws: Vec<(Range<u32>, Option<usize>)>,
+    textures: Vec<wgpu::BindGroup>,
 }
 
 /// An offscreen target of one size and sample count, with its readback buffer.
@@ -140,6 +163,8 @@ pub struct Renderer {
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
     layout: wgpu::PipelineLayout,
+    drone_layout: wgpu::PipelineLayout,
+    white_texture: wgpu::BindGroup,
     shaders: (wgpu::ShaderModule, wgpu::ShaderModule),
     /// Pipelines per sample count: (sky, drone).
     pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
@@ -152,8 +177,14 @@ pub struct Renderer {
 pub fn shader_sources() -> [(&'static str, String); 2] {
     let common = include_str!("../shaders/common.wgsl");
     [
-        ("sky.wgsl", format!("{common}\n{}", include_str!("../shaders/sky.wgsl"))),
-        ("drone.wgsl", format!("{common}\n{}", include_str!("../shaders/drone.wgsl"))),
+        (
+            "sky.wgsl",
+            format!("{common}\n{}", include_str!("../shaders/sky.wgsl")),
+        ),
+        (
+            "drone.wgsl",
+            format!("{common}\n{}", include_str!("../shaders/drone.wgsl")),
+        ),
     ]
 }
 
@@ -183,16 +214,29 @@ impl Renderer {
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame uniforms"),
             layout: &frame_bgl,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() }],
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame_buffer.as_entire_binding(),
+            }],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("swarmshot pipeline layout"),
             bind_group_layouts: &[Some(&frame_bgl)],
             immediate_size: 0,
         });
+        let material_bgl = material::bind_group_layout(&device);
+        let drone_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("drone pipeline layout"),
+            bind_group_layouts: &[Some(&frame_bgl), Some(&material_bgl)],
+            immediate_size: 0,
+        });
+        let white_texture = material::white(&device, &ctx.queue, &material_bgl);
         let [(sky_name, sky_src), (drone_name, drone_src)] = shader_sources();
         let module = |label: &str, src: String| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(label), source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)) })
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
+            })
         };
         let shaders = (module(sky_name, sky_src), module(drone_name, drone_src));
         let meshes = models
@@ -208,7 +252,24 @@ impl Renderer {
                     contents: bytemuck::cast_slice(&m.indices),
                     usage: wgpu::BufferUsages::INDEX,
                 }),
-                index_count: m.indices.len() as u32,
+                draws: m
+                    .draws
+                    .iter()
+                    .map(|d| (d.indices.clone(), d.texture))
+                    .collect(),
+                textures: m
+                    .textures
+                    .iter()
+                    .map(|t| {
+                        material::upload(
+                            &device,
+                            &ctx.queue,
+                            &material_bgl,
+                            t,
+                            &format!("{} texture {}", m.name, t.name),
+                        )
+                    })
+                    .collect(),
             })
             .collect();
         Self {
@@ -218,6 +279,8 @@ impl Renderer {
             frame_buffer,
             frame_bind_group,
             layout,
+            drone_layout,
+            white_texture,
             shaders,
             pipelines: Vec::new(),
             meshes,
@@ -230,8 +293,15 @@ impl Renderer {
         if let Some(i) = self.pipelines.iter().position(|p| p.0 == msaa) {
             return i;
         }
-        let multisample = wgpu::MultisampleState { count: msaa, ..Default::default() };
-        let color = [Some(wgpu::ColorTargetState { format: COLOR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+        let multisample = wgpu::MultisampleState {
+            count: msaa,
+            ..Default::default()
+        };
+        let color = [Some(wgpu::ColorTargetState {
+            format: COLOR_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
         let depth = |write: bool, compare| wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
             depth_write_enabled: Some(write),
@@ -239,42 +309,81 @@ impl Renderer {
             stencil: Default::default(),
             bias: Default::default(),
         };
-        let sky = self.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("sky pipeline"),
-            layout: Some(&self.layout),
-            vertex: wgpu::VertexState { module: &self.shaders.0, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(depth(false, wgpu::CompareFunction::Always)),
-            multisample,
-            fragment: Some(wgpu::FragmentState { module: &self.shaders.0, entry_point: Some("fs_main"), compilation_options: Default::default(), targets: &color }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
+        let sky = self
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("sky pipeline"),
+                layout: Some(&self.layout),
+                vertex: wgpu::VertexState {
+                    module: &self.shaders.0,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: Some(depth(false, wgpu::CompareFunction::Always)),
+                multisample,
+                fragment: Some(wgpu::FragmentState {
+                    module: &self.shaders.0,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &color,
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 7 => Float32x2, 8 => Float32x4];
         let instance_attrs = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4];
         let buffers = [
-            Some(wgpu::VertexBufferLayout { array_stride: std::mem::size_of::<Vertex>() as u64, step_mode: wgpu::VertexStepMode::Vertex, attributes: &vertex_attrs }),
-            Some(wgpu::VertexBufferLayout { array_stride: 64, step_mode: wgpu::VertexStepMode::Instance, attributes: &instance_attrs }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &vertex_attrs,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: 64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &instance_attrs,
+            }),
         ];
-        let drone = self.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("drone pipeline"),
-            layout: Some(&self.layout),
-            vertex: wgpu::VertexState { module: &self.shaders.1, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &buffers },
-            // Thin parts (rotor discs, wings) are seen from both sides: no culling.
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(depth(true, wgpu::CompareFunction::Greater)),
-            multisample,
-            fragment: Some(wgpu::FragmentState { module: &self.shaders.1, entry_point: Some("fs_main"), compilation_options: Default::default(), targets: &color }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let drone = self
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("drone pipeline"),
+                layout: Some(&self.drone_layout),
+                vertex: wgpu::VertexState {
+                    module: &self.shaders.1,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &buffers,
+                },
+                // Thin parts (rotor discs, wings) are seen from both sides: no culling.
+                primitive: wgpu::PrimitiveState {
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(depth(true, wgpu::CompareFunction::Greater)),
+                multisample,
+                fragment: Some(wgpu::FragmentState {
+                    module: &self.shaders.1,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &color,
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
         self.pipelines.push((msaa, sky, drone));
         self.pipelines.len() - 1
     }
 
     /// Write the frame's uniforms and instances (camera_from_model, built in f64).
     fn upload(&mut self, scene: &FrameScene, sky: &Sky) -> Vec<(usize, std::ops::Range<u32>)> {
-        self.queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&FrameUniforms::new(scene, sky)));
+        self.queue.write_buffer(
+            &self.frame_buffer,
+            0,
+            bytemuck::bytes_of(&FrameUniforms::new(scene, sky)),
+        );
         let cam = &scene.camera;
         let camera_from_world_rot = glam::DMat3::from(cam.camera_from_world);
         let mut order: Vec<usize> = (0..scene.drones.len()).collect();
@@ -284,7 +393,10 @@ impl Renderer {
         for &i in &order {
             let d = &scene.drones[i];
             let translation = cam.camera_from_world_point(d.position);
-            let m = DMat4::from_mat3_translation(camera_from_world_rot * glam::DMat3::from_quat(d.rotation) * d.size_m, translation);
+            let m = DMat4::from_mat3_translation(
+                camera_from_world_rot * glam::DMat3::from_quat(d.rotation) * d.size_m,
+                translation,
+            );
             let idx = data.len() as u32;
             data.push(m.as_mat4().to_cols_array());
             match ranges.last_mut() {
@@ -331,12 +443,18 @@ impl Renderer {
                 view: color,
                 depth_slice: None,
                 resolve_target: resolve,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: depth,
                 // Reversed-Z: 0 is infinitely far.
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
                 stencil_ops: None,
             }),
             timestamp_writes: None,
@@ -355,19 +473,41 @@ impl Renderer {
                 let mesh = &self.meshes[model];
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.index_count, 0, range);
+                for (indices, texture) in &mesh.draws {
+                    let bind_group = texture
+                        .and_then(|t| mesh.textures.get(t))
+                        .unwrap_or(&self.white_texture);
+                    pass.set_bind_group(1, bind_group, &[]);
+                    pass.draw_indexed(indices.clone(), 0, range.clone());
+                }
             }
         }
     }
 
     fn ensure_target(&mut self, width: u32, height: u32, msaa: u32) -> Result<(), RenderError> {
-        if width == 0 || height == 0 || width > self.max_texture_side || height > self.max_texture_side {
-            return Err(RenderError::TooLarge { width, height, limit: self.max_texture_side });
+        if width == 0
+            || height == 0
+            || width > self.max_texture_side
+            || height > self.max_texture_side
+        {
+            return Err(RenderError::TooLarge {
+                width,
+                height,
+                limit: self.max_texture_side,
+            });
         }
-        if self.target.as_ref().is_some_and(|t| t.width == width && t.height == height && t.msaa == msaa) {
+        if self
+            .target
+            .as_ref()
+            .is_some_and(|t| t.width == width && t.height == height && t.msaa == msaa)
+        {
             return Ok(());
         }
-        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
         let texture = |label: &str, format, samples, usage| {
             self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -380,10 +520,32 @@ impl Renderer {
                 view_formats: &[],
             })
         };
-        let color = texture("frame colour", COLOR_FORMAT, 1, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::TEXTURE_BINDING);
-        let msaa_color = (msaa > 1).then(|| texture("frame colour (msaa)", COLOR_FORMAT, msaa, wgpu::TextureUsages::RENDER_ATTACHMENT).create_view(&Default::default()));
-        let depth = texture("frame depth", DEPTH_FORMAT, msaa, wgpu::TextureUsages::RENDER_ATTACHMENT).create_view(&Default::default());
-        let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let color = texture(
+            "frame colour",
+            COLOR_FORMAT,
+            1,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let msaa_color = (msaa > 1).then(|| {
+            texture(
+                "frame colour (msaa)",
+                COLOR_FORMAT,
+                msaa,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            )
+            .create_view(&Default::default())
+        });
+        let depth = texture(
+            "frame depth",
+            DEPTH_FORMAT,
+            msaa,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        )
+        .create_view(&Default::default());
+        let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame readback"),
             size: u64::from(padded_row) * u64::from(height),
@@ -391,48 +553,117 @@ impl Renderer {
             mapped_at_creation: false,
         });
         let color_view = color.create_view(&Default::default());
-        self.target = Some(Target { width, height, msaa, msaa_color, color, color_view, depth, readback, padded_row });
+        self.target = Some(Target {
+            width,
+            height,
+            msaa,
+            msaa_color,
+            color,
+            color_view,
+            depth,
+            readback,
+            padded_row,
+        });
         Ok(())
     }
 
     /// Render offscreen and read back tightly packed RGBA8 (sRGB-encoded) pixels.
-    pub fn render_rgba(&mut self, scene: &FrameScene, sky: &Sky, msaa: u32) -> Result<Vec<u8>, RenderError> {
+    pub fn render_rgba(
+        &mut self,
+        scene: &FrameScene,
+        sky: &Sky,
+        msaa: u32,
+    ) -> Result<Vec<u8>, RenderError> {
         let (width, height) = (scene.camera.width, scene.camera.height);
         self.ensure_target(width, height, msaa)?;
-        let target = self.target.take().ok_or_else(|| RenderError::Readback("no target".into()))?;
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        let target = self
+            .target
+            .take()
+            .ok_or_else(|| RenderError::Readback("no target".into()))?;
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
         match &target.msaa_color {
-            Some(ms) => self.encode(&mut encoder, scene, sky, msaa, ms, Some(&target.color_view), &target.depth),
-            None => self.encode(&mut encoder, scene, sky, msaa, &target.color_view, None, &target.depth),
+            Some(ms) => self.encode(
+                &mut encoder,
+                scene,
+                sky,
+                msaa,
+                ms,
+                Some(&target.color_view),
+                &target.depth,
+            ),
+            None => self.encode(
+                &mut encoder,
+                scene,
+                sky,
+                msaa,
+                &target.color_view,
+                None,
+                &target.depth,
+            ),
         }
         encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo { texture: &target.color, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyTextureInfo {
+                texture: &target.color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
             wgpu::TexelCopyBufferInfo {
                 buffer: &target.readback,
-                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(target.padded_row), rows_per_image: Some(height) },
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(target.padded_row),
+                    rows_per_image: Some(height),
+                },
             },
-            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
         );
         self.queue.submit([encoder.finish()]);
-        let result = read_buffer(&self.device, &target.readback, width, height, target.padded_row);
+        let result = read_buffer(
+            &self.device,
+            &target.readback,
+            width,
+            height,
+            target.padded_row,
+        );
         self.target = Some(target);
         result
     }
 }
 
 /// Map a padded readback buffer and strip the row padding.
-fn read_buffer(device: &wgpu::Device, buffer: &wgpu::Buffer, width: u32, height: u32, padded_row: u32) -> Result<Vec<u8>, RenderError> {
+fn read_buffer(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    width: u32,
+    height: u32,
+    padded_row: u32,
+) -> Result<Vec<u8>, RenderError> {
     let slice = buffer.slice(..);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| RenderError::Readback(e.to_string()))?;
-    rx.recv().map_err(|e| RenderError::Readback(e.to_string()))?.map_err(|e| RenderError::Readback(e.to_string()))?;
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
     let row = (width * 4) as usize;
     let mut out = Vec::with_capacity(row * height as usize);
     {
-        let view = slice.get_mapped_range().map_err(|e| RenderError::Readback(e.to_string()))?;
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
         for y in 0..height as usize {
             let start = y * padded_row as usize;
             out.extend_from_slice(&view[start..start + row]);
@@ -445,7 +676,11 @@ fn read_buffer(device: &wgpu::Device, buffer: &wgpu::Buffer, width: u32, height:
 /// Linear-to-sRGB as the shaders do it (used by tests that predict pixels).
 pub fn linear_to_srgb(c: f32) -> f32 {
     let x = c.clamp(0.0, 1.0);
-    if x <= 0.003_130_8 { x * 12.92 } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+    if x <= 0.003_130_8 {
+        x * 12.92
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 #[allow(dead_code)]

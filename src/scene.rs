@@ -96,7 +96,11 @@ pub enum FrameError {
 
 /// Unit vector towards the sun: azimuth from +Z towards +X, elevation above the horizon.
 pub fn sun_direction(sky: &Sky) -> DVec3 {
-    let Sky::Gradient { sun_elevation_deg, sun_azimuth_deg, .. } = sky;
+    let Sky::Gradient {
+        sun_elevation_deg,
+        sun_azimuth_deg,
+        ..
+    } = sky;
     let (el, az) = (sun_elevation_deg.to_radians(), sun_azimuth_deg.to_radians());
     DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
 }
@@ -116,12 +120,24 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
     let d = decode_mixed_radix(index, &radices);
     let axes = preset.sweep_axes();
     let v = |k: usize| axes[k].1.value(d[k]);
-    let sweep = SweepValues { CameraX: v(0), CameraY: v(1), CameraZ: v(2), PlaneRX: v(3), PlaneRY: v(4), PlaneRZ: v(5), repeat: d[6] };
+    let sweep = SweepValues {
+        CameraX: v(0),
+        CameraY: v(1),
+        CameraZ: v(2),
+        PlaneRX: v(3),
+        PlaneRY: v(4),
+        PlaneRZ: v(5),
+        repeat: d[6],
+    };
 
     let frame_seed = seed::frame_seed(preset.seed, index);
     let mut rng = seed::frame_rng(preset.seed, index);
     let (local, half_extent, shortfall) = place(preset, &mut rng);
-    let max_radius = preset.models.iter().map(|m| model_radius(m.size_m)).fold(0.0, f64::max);
+    let max_radius = preset
+        .models
+        .iter()
+        .map(|m| model_radius(m.size_m))
+        .fold(0.0, f64::max);
     let volume_radius_m = half_extent.length() + max_radius;
 
     let plane = plane_rotation(sweep.PlaneRX, sweep.PlaneRY, sweep.PlaneRZ);
@@ -142,11 +158,26 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
     let (width, height) = preset.image_size();
     let fov_y_deg = preset.camera.fov_y_deg;
     let d_fit = volume_radius_m / (fov_y_deg.to_radians() * 0.5).sin();
-    let position = DVec3::new(sweep.CameraX * volume_radius_m, sweep.CameraY * volume_radius_m, sweep.CameraZ * d_fit);
+    let position = DVec3::new(
+        sweep.CameraX * volume_radius_m,
+        sweep.CameraY * volume_radius_m,
+        sweep.CameraZ * d_fit,
+    );
     // CameraZ ≠ 0 is validated, so the camera never sits on the centre; fall back to identity if it ever does.
     let camera_from_world = look_at_cv(position, DVec3::ZERO).unwrap_or(glam::DMat3::IDENTITY);
-    let min_size = preset.models.iter().map(|m| m.size_m).fold(f64::INFINITY, f64::min);
-    let camera = Camera { width, height, fov_y_deg, position, camera_from_world, near_m: (min_size * 0.01).clamp(1e-5, 0.05) };
+    let min_size = preset
+        .models
+        .iter()
+        .map(|m| m.size_m)
+        .fold(f64::INFINITY, f64::min);
+    let camera = Camera {
+        width,
+        height,
+        fov_y_deg,
+        position,
+        camera_from_world,
+        near_m: (min_size * 0.01).clamp(1e-5, 0.05),
+    };
 
     let u = seed::split_uniform(preset.seed, index);
     let s = &preset.output.split;
@@ -181,7 +212,11 @@ fn sample_attitude<R: Rng>(rng: &mut R, ranges: &AttitudeRanges) -> DQuat {
 }
 
 fn sample_range(rng: &mut impl Rng, (lo, hi): (f64, f64)) -> f64 {
-    if hi > lo { rng.random_range(lo..=hi) } else { lo }
+    if hi > lo {
+        rng.random_range(lo..=hi)
+    } else {
+        lo
+    }
 }
 
 /// Drones in the unrotated volume: (model, position, attitude), the volume's
@@ -190,7 +225,12 @@ fn place(preset: &Preset, rng: &mut impl Rng) -> (Vec<(usize, DVec3, DQuat)>, DV
     let n_models = preset.models.len().max(1);
     let attitude = |rng: &mut _| sample_attitude(rng, &preset.attitude);
     match &preset.placement {
-        Placement::Structured { x_count, y_count, z_count, load_factor } => {
+        Placement::Structured {
+            x_count,
+            y_count,
+            z_count,
+            load_factor,
+        } => {
             let spacing = load_factor * preset.max_model_size_m();
             let counts = IVec3::new(*x_count as i32, *y_count as i32, *z_count as i32);
             let half = (counts - 1).as_dvec3() * spacing * 0.5;
@@ -206,8 +246,16 @@ fn place(preset: &Preset, rng: &mut impl Rng) -> (Vec<(usize, DVec3, DQuat)>, DV
             }
             (out, half, 0)
         }
-        Placement::Randomized { count: (lo, hi), volume, min_separation_m } => {
-            let n = if hi > lo { rng.random_range(*lo..=*hi) } else { *lo };
+        Placement::Randomized {
+            count: (lo, hi),
+            volume,
+            min_separation_m,
+        } => {
+            let n = if hi > lo {
+                rng.random_range(*lo..=*hi)
+            } else {
+                *lo
+            };
             let size = match volume {
                 Volume::Box { size_m: (x, y, z) } => DVec3::new(*x, *y, *z),
                 Volume::Density { per_m3 } => DVec3::splat((f64::from(n) / per_m3).cbrt()),
@@ -252,7 +300,10 @@ struct SeparationGrid {
 
 impl SeparationGrid {
     fn new(separation: f64) -> Self {
-        Self { separation, cells: HashMap::new() }
+        Self {
+            separation,
+            cells: HashMap::new(),
+        }
     }
 
     fn cell(&self, p: DVec3) -> IVec3 {

@@ -32,11 +32,17 @@ impl Default for SweepRange {
 /// Why a range cannot be enumerated.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SweepError {
-    #[error("start, end and step must be finite numbers (got start={start}, end={end}, step={step})")]
+    #[error(
+        "start, end and step must be finite numbers (got start={start}, end={end}, step={step})"
+    )]
     NotFinite { start: f64, end: f64, step: f64 },
-    #[error("step is 0 but start ({start}) differs from end ({end}); use a step with the sign of end − start")]
+    #[error(
+        "step is 0 but start ({start}) differs from end ({end}); use a step with the sign of end − start"
+    )]
     ZeroStep { start: f64, end: f64 },
-    #[error("step {step} points away from end (start={start}, end={end}); the step must have the sign of end − start")]
+    #[error(
+        "step {step} points away from end (start={start}, end={end}); the step must have the sign of end − start"
+    )]
     WrongSign { start: f64, end: f64, step: f64 },
     #[error("range has {count} values, more than the limit of {limit}")]
     TooMany { count: f64, limit: u64 },
@@ -45,7 +51,11 @@ pub enum SweepError {
 impl SweepRange {
     /// A range with a single value.
     pub const fn fixed(value: f64) -> Self {
-        Self { start: value, end: value, step: 0.0 }
+        Self {
+            start: value,
+            end: value,
+            step: 0.0,
+        }
     }
 
     pub const fn new(start: f64, end: f64, step: f64) -> Self {
@@ -70,7 +80,10 @@ impl SweepRange {
         }
         let n = (steps + COUNT_EPSILON).floor() + 1.0;
         if !n.is_finite() || n > MAX_AXIS_VALUES as f64 {
-            return Err(SweepError::TooMany { count: n, limit: MAX_AXIS_VALUES });
+            return Err(SweepError::TooMany {
+                count: n,
+                limit: MAX_AXIS_VALUES,
+            });
         }
         Ok(n as u64)
     }
@@ -127,10 +140,22 @@ mod tests {
 
     #[test]
     fn invalid_ranges_are_rejected() {
-        assert!(matches!(SweepRange::new(0.0, 1.0, 0.0).count(), Err(SweepError::ZeroStep { .. })));
-        assert!(matches!(SweepRange::new(0.0, 1.0, -0.1).count(), Err(SweepError::WrongSign { .. })));
-        assert!(matches!(SweepRange::new(f64::NAN, 1.0, 0.1).count(), Err(SweepError::NotFinite { .. })));
-        assert!(matches!(SweepRange::new(0.0, 1e12, 1e-3).count(), Err(SweepError::TooMany { .. })));
+        assert!(matches!(
+            SweepRange::new(0.0, 1.0, 0.0).count(),
+            Err(SweepError::ZeroStep { .. })
+        ));
+        assert!(matches!(
+            SweepRange::new(0.0, 1.0, -0.1).count(),
+            Err(SweepError::WrongSign { .. })
+        ));
+        assert!(matches!(
+            SweepRange::new(f64::NAN, 1.0, 0.1).count(),
+            Err(SweepError::NotFinite { .. })
+        ));
+        assert!(matches!(
+            SweepRange::new(0.0, 1e12, 1e-3).count(),
+            Err(SweepError::TooMany { .. })
+        ));
         assert_eq!(SweepRange::new(2.0, 2.0, 0.0).count(), Ok(1));
     }
 
