@@ -5,9 +5,9 @@ struct VertexInput {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
-    @location(7) uv: vec2<f32>,
+    @location(8) uv: vec2<f32>,
     // metallic, roughness, unlit (0/1), alpha cutoff (0: opaque)
-    @location(8) material: vec4<f32>,
+    @location(9) material: vec4<f32>,
 };
 
 // The draw range's base colour texture (1×1 white when untextured).

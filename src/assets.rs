@@ -291,7 +291,7 @@ impl MeshBuilder {
         let mut accessors = Vec::new();
         let mut primitives = Vec::new();
         let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| {
-            while bin.len() % 4 != 0 {
+            while !bin.len().is_multiple_of(4) {
                 bin.push(0);
             }
             views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target}));
@@ -319,7 +319,7 @@ impl MeshBuilder {
             accessors.push(json!({"bufferView": iv, "componentType": 5125, "count": idx.len(), "type": "SCALAR"}));
             primitives.push(json!({"attributes": {"POSITION": a, "NORMAL": a + 1}, "indices": a + 2, "material": m}));
         }
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let materials: Vec<_> = self

@@ -15,7 +15,7 @@ use anyhow::Context;
 use crate::labels::{DroneLabel, LabelGeometry, label_frame};
 use crate::model::{self, CpuModel, ModelError};
 use crate::output::{DatasetStats, DatasetWriter, encode_image};
-use crate::preset::{ModelSource, Preset};
+use crate::preset::{BoxMethod, ModelSource, Preset};
 use crate::render::{GpuContext, Renderer};
 use crate::scene::{FrameScene, build_frame};
 
@@ -59,19 +59,55 @@ impl FrameMaker {
         })
     }
 
-    /// Scene and labels of one frame (no rendering).
+    /// Scene and geometric labels of one frame, without rendering: an
+    /// estimate for previews and statistics. `Visible` boxes and visibility
+    /// filters need pixels, so here they fall back to `Amodal` boxes with no
+    /// visibility filter; [`FrameMaker::labels`] gives the exact labels.
     pub fn frame(
         &self,
         index: u64,
     ) -> Result<(FrameScene, Vec<DroneLabel>), crate::scene::FrameError> {
         let scene = build_frame(&self.preset, index)?;
+        let mut settings = self.preset.labels.clone();
+        if settings.box_method == BoxMethod::Visible {
+            settings.box_method = BoxMethod::Amodal;
+        }
+        settings.min_visible_pixels = 0;
+        settings.min_visible_fraction = 0.0;
         let labels = label_frame(
             &scene,
             &self.geometry,
             &self.class_of_model,
-            &self.preset.labels,
+            &settings,
+            None,
         );
         Ok((scene, labels))
+    }
+
+    /// The exact labels of a scene: runs the instance-id passes when the
+    /// preset's label settings need them, and only then.
+    pub fn labels(
+        &self,
+        renderer: &mut Renderer,
+        scene: &FrameScene,
+    ) -> Result<Vec<DroneLabel>, crate::render::RenderError> {
+        let visibility = if self.preset.labels.needs_id_pass() {
+            Some(crate::visibility::measure(
+                renderer,
+                scene,
+                &self.preset.sky,
+                &self.geometry,
+            )?)
+        } else {
+            None
+        };
+        Ok(label_frame(
+            scene,
+            &self.geometry,
+            &self.class_of_model,
+            &self.preset.labels,
+            visibility.as_deref(),
+        ))
     }
 
     pub fn model_names(&self) -> Vec<String> {
@@ -236,7 +272,10 @@ pub fn run_batch(
                 break;
             }
             let step = (|| -> anyhow::Result<Rendered> {
-                let (scene, labels) = maker.frame(index)?;
+                let scene = build_frame(&maker.preset, index)?;
+                let labels = maker
+                    .labels(&mut renderer, &scene)
+                    .with_context(|| format!("labelling frame {index}"))?;
                 let rgba = renderer
                     .render_rgba(&scene, &preset.sky, msaa)
                     .with_context(|| format!("rendering frame {index}"))?;
@@ -281,8 +320,9 @@ pub fn render_single(
     ctx: &GpuContext,
     index: u64,
 ) -> anyhow::Result<(FrameScene, Vec<DroneLabel>, Vec<u8>)> {
-    let (scene, labels) = maker.frame(index)?;
+    let scene = build_frame(&maker.preset, index)?;
     let mut renderer = Renderer::new(ctx, &maker.models);
+    let labels = maker.labels(&mut renderer, &scene)?;
     let rgba = renderer.render_rgba(&scene, &maker.preset.sky, maker.preset.render.msaa)?;
     Ok((scene, labels, rgba))
 }
@@ -296,7 +336,7 @@ pub fn draw_overlay(rgba: &mut [u8], width: u32, height: u32, labels: &[DroneLab
             rgba[i..i + 4].copy_from_slice(&colour);
         }
     };
-    for l in labels {
+    for l in labels.iter().filter(|l| l.is_kept()) {
         let b = &l.bbox;
         let (x0, y0) = (b.x0.floor() as i64 - 1, b.y0.floor() as i64 - 1);
         let (x1, y1) = (b.x1.ceil() as i64, b.y1.ceil() as i64);

@@ -58,7 +58,7 @@ impl Camera {
 
     /// Camera-frame point → continuous pixel coordinates; `None` at or behind z = 0.
     pub fn project_camera_point(&self, p: DVec3) -> Option<DVec2> {
-        if !(p.z > 0.0) {
+        if p.z.is_nan() || p.z <= 0.0 {
             return None;
         }
         let f = self.focal_px();

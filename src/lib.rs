@@ -19,3 +19,4 @@ pub mod render;
 pub mod scene;
 pub mod seed;
 pub mod sweep;
+pub mod visibility;

@@ -155,7 +155,7 @@ fn main() -> anyhow::Result<()> {
             for i in 0..sample {
                 let (scene, labels) = maker.frame(i)?;
                 drones += scene.drones.len();
-                boxes += labels.len();
+                boxes += labels.iter().filter(|l| l.is_kept()).count();
             }
             if sample > 0 {
                 println!(
@@ -201,7 +201,7 @@ fn main() -> anyhow::Result<()> {
                 "frame {index} ({} split): {} drones, {} boxes -> {}",
                 scene.split.as_str(),
                 scene.drones.len(),
-                labels.len(),
+                labels.iter().filter(|l| l.is_kept()).count(),
                 out.display()
             );
         }

@@ -33,18 +33,21 @@ impl EulerDeg {
     /// yaw and roll is 0. Compare rotations, not angles.
     pub fn from_quat(q: DQuat) -> Self {
         let m = DMat3::from_quat(q.normalize());
-        // m = Ry(ψ) Rx(θ) Rz(φ). Its third row's... use the column layout:
-        // m.z_axis = Ry Rx e_z = (sinψ cosθ, −sinθ, cosψ cosθ)
-        // m.x_axis.y = cosθ sinφ, m.y_axis.y = cosθ cosφ
-        let sin_pitch = (-m.z_axis.y).clamp(-1.0, 1.0);
-        let pitch = sin_pitch.asin();
-        let cos_pitch = (m.z_axis.x * m.z_axis.x + m.z_axis.z * m.z_axis.z).sqrt();
-        let (yaw, roll) = if cos_pitch > 1e-9 {
-            (m.z_axis.x.atan2(m.z_axis.z), m.x_axis.y.atan2(m.y_axis.y))
+        // m = Ry(ψ) Rx(θ) Rz(φ), so m·e_z = (sinψ cosθ, −sinθ, cosψ cosθ).
+        // θ from atan2 (well conditioned even at ±90°, unlike asin), ψ from the
+        // nose direction, then φ from what is left, R_z(φ) = (Ry(ψ) Rx(θ))ᵀ m, so
+        // any error in ψ near gimbal lock is absorbed by φ instead of showing in
+        // the rotation.
+        let horizontal = m.z_axis.x.hypot(m.z_axis.z);
+        let pitch = (-m.z_axis.y).atan2(horizontal);
+        let yaw = if horizontal > 1e-12 {
+            m.z_axis.x.atan2(m.z_axis.z)
         } else {
-            // Gimbal lock: roll folds into yaw. With θ = ±90°, m.x_axis = (cos(ψ∓φ), 0, −sin(ψ∓φ)).
-            ((-m.x_axis.z).atan2(m.x_axis.x), 0.0)
+            // Gimbal lock: the whole turn about the vertical goes into yaw.
+            (-m.x_axis.z).atan2(m.x_axis.x)
         };
+        let rest = (DMat3::from_rotation_y(yaw) * DMat3::from_rotation_x(pitch)).transpose() * m;
+        let roll = rest.x_axis.y.atan2(rest.x_axis.x);
         Self {
             roll: roll.to_degrees(),
             pitch: pitch.to_degrees(),

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::json;
 
-use crate::labels::{DroneLabel, PixelBox};
+use crate::labels::{DroneLabel, LabelStatus, PixelBox};
 use crate::preset::{ImageFormat, LabelFormat, Preset};
 use crate::scene::{FrameScene, SplitName};
 
@@ -126,6 +126,10 @@ pub struct DatasetStats {
     pub medium: u64,
     pub large: u64,
     pub truncated: u64,
+    /// Filtered drones kept as COCO ignore regions.
+    pub crowd: u64,
+    /// Drones in front of the camera that got no training box.
+    pub filtered: u64,
     pub drones_placed: u64,
 }
 
@@ -135,6 +139,17 @@ impl DatasetStats {
         self.frames_per_split[scene.split as usize] += 1;
         self.drones_placed += scene.drones.len() as u64;
         for l in labels {
+            match l.status {
+                LabelStatus::Kept => {}
+                LabelStatus::Crowd => {
+                    self.crowd += 1;
+                    continue;
+                }
+                LabelStatus::Filtered => {
+                    self.filtered += 1;
+                    continue;
+                }
+            }
             self.boxes += 1;
             let s = l.bbox.area().sqrt();
             if s < 32.0 {
@@ -280,7 +295,8 @@ impl DatasetWriter {
         );
         if self.yolo {
             let mut text = String::new();
-            for l in labels {
+            // YOLO has no ignore flag: crowd regions stay out of its files.
+            for l in labels.iter().filter(|l| l.is_kept()) {
                 let b = &l.bbox;
                 let cx = (b.x0 + b.x1) * 0.5 / w;
                 let cy = (b.y0 + b.y1) * 0.5 / h;
@@ -307,21 +323,27 @@ impl DatasetWriter {
             let img = json!({"id": image_id, "file_name": rel.trim_start_matches("images/"), "width": scene.camera.width, "height": scene.camera.height});
             write!(part.images, "{sep}{img}").map_err(io(&part.images_path))?;
             part.n_images += 1;
-            for l in labels {
+            for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
                 let b = &l.bbox;
                 let sep = if part.n_annotations == 0 { "" } else { ",\n" };
                 part.n_annotations += 1;
-                let ann = json!({
+                let mut ann = json!({
                     "id": part.n_annotations,
                     "image_id": image_id,
                     "category_id": l.class_id + 1,
                     "bbox": [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())],
                     "area": r6(b.area()),
-                    "iscrowd": 0,
+                    "iscrowd": u8::from(l.status == LabelStatus::Crowd),
                     "truncated": l.truncated,
                     "amodal_bbox": xywh(&l.amodal),
                     "paper_aabb_bbox": xywh(&l.paper_aabb),
                 });
+                if let Some(v) = &l.visibility {
+                    ann["visible_pixels"] = v.visible_pixels.into();
+                    ann["unoccluded_pixels"] = v.unoccluded_pixels.into();
+                    ann["visible_fraction"] = r6(v.fraction()).into();
+                    ann["visible_bbox"] = v.visible_box.as_ref().map(xywh).into();
+                }
                 write!(part.annotations, "{sep}{ann}").map_err(io(&part.annotations_path))?;
             }
         }
@@ -438,7 +460,12 @@ pub fn manifest_line(
                     "amodal_xyxy": box_xyxy(&l.amodal),
                     "paper_aabb_xyxy": box_xyxy(&l.paper_aabb),
                     "truncated": l.truncated,
+                    "status": l.status,
                     "distance_m": (l.distance_m * 1e6).round() / 1e6,
+                    "visible_xyxy": l.visibility.and_then(|v| v.visible_box).as_ref().map(box_xyxy),
+                    "visible_pixels": l.visibility.map(|v| v.visible_pixels),
+                    "unoccluded_pixels": l.visibility.map(|v| v.unoccluded_pixels),
+                    "visible_fraction": l.visibility.map(|v| r6(v.fraction())),
                 })),
             })
         })

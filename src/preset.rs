@@ -273,27 +273,58 @@ impl Default for RenderSettings {
 /// How a drone's 2D box is computed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum BoxMethod {
-    /// Min/max of the projected convex hull: the tight amodal box.
+    /// Min/max of the drone's visible pixels in an instance-id pass: pixel-exact,
+    /// occlusion-aware. The default for training.
     #[default]
+    Visible,
+    /// Min/max of the projected convex hull: the tight amodal box (occluded parts included).
     Amodal,
     /// The paper's method: project the 8 corners of the world axis-aligned box.
     PaperAabb,
+}
+
+/// What happens to a drone that fails a filter (too small, too occluded, or
+/// not visible at all although it projects into the image).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FilteredDrones {
+    /// Written nowhere.
+    #[default]
+    Drop,
+    /// Kept in COCO as `iscrowd: 1` (trainers ignore the region); left out of YOLO files.
+    Crowd,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LabelSettings {
     pub box_method: BoxMethod,
-    /// Boxes narrower or shorter than this (after clipping to the image) are dropped.
+    /// Boxes narrower or shorter than this (after clipping to the image) are filtered.
     pub min_box_px: f64,
+    /// Drones with fewer visible pixels are filtered (0: off).
+    pub min_visible_pixels: u64,
+    /// Drones with a smaller visible fraction (visible / unoccluded pixels) are filtered (0: off).
+    pub min_visible_fraction: f64,
+    pub filtered: FilteredDrones,
 }
 
 impl Default for LabelSettings {
     fn default() -> Self {
         Self {
-            box_method: BoxMethod::Amodal,
+            box_method: BoxMethod::Visible,
             min_box_px: 2.0,
+            min_visible_pixels: 0,
+            min_visible_fraction: 0.0,
+            filtered: FilteredDrones::Drop,
         }
+    }
+}
+
+impl LabelSettings {
+    /// Whether labelling needs the instance-id pass (visible boxes or visibility filters).
+    pub fn needs_id_pass(&self) -> bool {
+        self.box_method == BoxMethod::Visible
+            || self.min_visible_pixels > 0
+            || self.min_visible_fraction > 0.0
     }
 }
 
@@ -618,11 +649,19 @@ impl Preset {
                 v.push(&field, e.to_string());
             }
         }
-        for (i, z) in self.camera.z.values().iter().enumerate() {
-            if *z == 0.0 {
-                v.push("camera.z", format!("value #{i} is {z}; CameraZ must be non-zero (the camera would sit at the centre)"));
-                break;
+        let has_zero = |r: SweepRange| {
+            let Ok(n) = r.count() else { return false };
+            if r.start == r.end || r.step == 0.0 {
+                return r.start == 0.0;
             }
+            let i = (-r.start / r.step).round();
+            i >= 0.0 && (i as u64) < n && r.value(i as u64) == 0.0
+        };
+        if has_zero(self.camera.x) && has_zero(self.camera.y) && has_zero(self.camera.z) {
+            v.push(
+                "camera.z",
+                "CameraX, CameraY and CameraZ are all 0 in some frame: the camera would sit at the centre it looks at".into(),
+            );
         }
         v.check(
             self.camera.fov_y_deg.is_finite()
@@ -640,11 +679,7 @@ impl Preset {
             format!("{} must be at least 1", self.repeats)
         });
         let frames = self.frame_count();
-        v.check(
-            frames <= MAX_FRAMES,
-            "camera/plane sweeps × repeats",
-            || format!("{frames} frames is more than the limit of {MAX_FRAMES}"),
-        );
+        v.check(frames <= MAX_FRAMES, "frames", || format!("camera sweeps × plane sweeps × repeats = {frames} frames, more than the limit of {MAX_FRAMES}"));
         let Sky::Gradient {
             sun_elevation_deg,
             sun_azimuth_deg,
@@ -686,6 +721,17 @@ impl Preset {
                 format!(
                     "{} must be a finite number of pixels ≥ 0",
                     self.labels.min_box_px
+                )
+            },
+        );
+        v.check(
+            self.labels.min_visible_fraction.is_finite()
+                && (0.0..=1.0).contains(&self.labels.min_visible_fraction),
+            "labels.min_visible_fraction",
+            || {
+                format!(
+                    "{} is out of range [0, 1]",
+                    self.labels.min_visible_fraction
                 )
             },
         );

@@ -13,7 +13,7 @@ mod material;
 use std::borrow::Cow;
 use std::ops::Range;
 
-use glam::{DMat4, Mat4, Vec4};
+use glam::{DMat4, Mat4};
 use wgpu::util::DeviceExt;
 
 use crate::model::{CpuModel, Vertex};
@@ -134,9 +134,44 @@ impl FrameUniforms {
     }
 }
 
+/// The views one frame is drawn into.
+#[derive(Clone, Copy)]
+pub struct FrameViews<'a> {
+    /// Colour attachment, `msaa`-sampled, format [`COLOR_FORMAT`].
+    pub color: &'a wgpu::TextureView,
+    /// Single-sample view to resolve into when `msaa > 1`.
+    pub resolve: Option<&'a wgpu::TextureView>,
+    /// `Depth32Float`, same size and sample count as `color`.
+    pub depth: &'a wgpu::TextureView,
+    /// Sample count: 1 or 4.
+    pub msaa: u32,
+}
+
+/// Per-instance data; layout matches `INSTANCE_ATTRS` (locations 3–7).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct InstanceRaw {
+    camera_from_model: [f32; 16],
+    /// Drone index + 1 (0 is the sky in the id pass).
+    id: u32,
+    _pad: [u32; 3],
+}
+
+const INSTANCE_ATTRS: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Uint32];
+
+/// An instance-id image: `ids[y·width + x]` is the index + 1 of the drone seen
+/// at pixel (x, y) (its centre sampled, no anti-aliasing), 0 where sky.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IdImage {
+    pub width: u32,
+    pub height: u32,
+    pub ids: Vec<u32>,
+}
+
 struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
+    index_count: u32,
     /// Index ranges with their texture bind group (`None`: the white one).
     draws: Vec<(Range<u32>, Option<usize>)>,
     textures: Vec<wgpu::BindGroup>,
@@ -163,6 +198,7 @@ pub struct Renderer {
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
     layout: wgpu::PipelineLayout,
+    /// Frame uniforms + the material's texture (`@group(1)` of drone.wgsl).
     drone_layout: wgpu::PipelineLayout,
     white_texture: wgpu::BindGroup,
     shaders: (wgpu::ShaderModule, wgpu::ShaderModule),
@@ -171,10 +207,21 @@ pub struct Renderer {
     meshes: Vec<GpuMesh>,
     instances: Option<wgpu::Buffer>,
     target: Option<Target>,
+    /// The instance-id pass, created on first use (presets that need no
+    /// visibility never build it).
+    ids: Option<IdPass>,
+    counts: PassCounts,
+}
+
+/// How many passes a renderer has run (for tests and benchmarks).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassCounts {
+    pub color: u64,
+    pub ids: u64,
 }
 
 /// WGSL sources, each with the shared header prepended.
-pub fn shader_sources() -> [(&'static str, String); 2] {
+pub fn shader_sources() -> [(&'static str, String); 3] {
     let common = include_str!("../shaders/common.wgsl");
     [
         (
@@ -184,6 +231,10 @@ pub fn shader_sources() -> [(&'static str, String); 2] {
         (
             "drone.wgsl",
             format!("{common}\n{}", include_str!("../shaders/drone.wgsl")),
+        ),
+        (
+            "ids.wgsl",
+            format!("{common}\n{}", include_str!("../shaders/ids.wgsl")),
         ),
     ]
 }
@@ -231,7 +282,7 @@ impl Renderer {
             immediate_size: 0,
         });
         let white_texture = material::white(&device, &ctx.queue, &material_bgl);
-        let [(sky_name, sky_src), (drone_name, drone_src)] = shader_sources();
+        let [(sky_name, sky_src), (drone_name, drone_src), _] = shader_sources();
         let module = |label: &str, src: String| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
@@ -252,22 +303,14 @@ impl Renderer {
                     contents: bytemuck::cast_slice(&m.indices),
                     usage: wgpu::BufferUsages::INDEX,
                 }),
-                draws: m
-                    .draws
-                    .iter()
-                    .map(|d| (d.indices.clone(), d.texture))
-                    .collect(),
+                index_count: m.indices.len() as u32,
+                draws: m.draws.iter().map(|d| (d.indices.clone(), d.texture)).collect(),
                 textures: m
                     .textures
                     .iter()
                     .map(|t| {
-                        material::upload(
-                            &device,
-                            &ctx.queue,
-                            &material_bgl,
-                            t,
-                            &format!("{} texture {}", m.name, t.name),
-                        )
+                        let label = format!("{} texture {}", m.name, t.name);
+                        material::upload(&device, &ctx.queue, &material_bgl, t, &label)
                     })
                     .collect(),
             })
@@ -286,7 +329,19 @@ impl Renderer {
             meshes,
             instances: None,
             target: None,
+            ids: None,
+            counts: PassCounts::default(),
         }
+    }
+
+    /// Passes run so far.
+    pub fn pass_counts(&self) -> PassCounts {
+        self.counts
+    }
+
+    /// Whether the instance-id pipeline has been built (it is only built on first use).
+    pub fn has_id_pipeline(&self) -> bool {
+        self.ids.is_some()
     }
 
     fn pipelines(&mut self, msaa: u32) -> usize {
@@ -332,8 +387,8 @@ impl Renderer {
                 multiview_mask: None,
                 cache: None,
             });
-        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 7 => Float32x2, 8 => Float32x4];
-        let instance_attrs = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4];
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 8 => Float32x2, 9 => Float32x4];
+        let instance_attrs = INSTANCE_ATTRS;
         let buffers = [
             Some(wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<Vertex>() as u64,
@@ -341,7 +396,7 @@ impl Renderer {
                 attributes: &vertex_attrs,
             }),
             Some(wgpu::VertexBufferLayout {
-                array_stride: 64,
+                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
                 step_mode: wgpu::VertexStepMode::Instance,
                 attributes: &instance_attrs,
             }),
@@ -377,35 +432,47 @@ impl Renderer {
         self.pipelines.len() - 1
     }
 
-    /// Write the frame's uniforms and instances (camera_from_model, built in f64).
-    fn upload(&mut self, scene: &FrameScene, sky: &Sky) -> Vec<(usize, std::ops::Range<u32>)> {
+    /// Write the frame's uniforms.
+    fn upload_uniforms(&mut self, scene: &FrameScene, sky: &Sky) {
         self.queue.write_buffer(
             &self.frame_buffer,
             0,
             bytemuck::bytes_of(&FrameUniforms::new(scene, sky)),
         );
+    }
+
+    /// Write the instances of the drones `include` accepts (camera_from_model
+    /// built in f64), grouped by model; returns each model's instance range.
+    fn upload_instances(
+        &mut self,
+        scene: &FrameScene,
+        include: &dyn Fn(usize) -> bool,
+    ) -> Vec<(usize, std::ops::Range<u32>)> {
         let cam = &scene.camera;
-        let camera_from_world_rot = glam::DMat3::from(cam.camera_from_world);
-        let mut order: Vec<usize> = (0..scene.drones.len()).collect();
+        let mut order: Vec<usize> = (0..scene.drones.len()).filter(|&i| include(i)).collect();
         order.sort_by_key(|&i| scene.drones[i].model);
-        let mut data: Vec<[f32; 16]> = Vec::with_capacity(order.len());
+        let mut data: Vec<InstanceRaw> = Vec::with_capacity(order.len());
         let mut ranges: Vec<(usize, std::ops::Range<u32>)> = Vec::new();
         for &i in &order {
             let d = &scene.drones[i];
             let translation = cam.camera_from_world_point(d.position);
             let m = DMat4::from_mat3_translation(
-                camera_from_world_rot * glam::DMat3::from_quat(d.rotation) * d.size_m,
+                cam.camera_from_world * glam::DMat3::from_quat(d.rotation) * d.size_m,
                 translation,
             );
             let idx = data.len() as u32;
-            data.push(m.as_mat4().to_cols_array());
+            data.push(InstanceRaw {
+                camera_from_model: m.as_mat4().to_cols_array(),
+                id: i as u32 + 1,
+                _pad: [0; 3],
+            });
             match ranges.last_mut() {
                 Some((model, r)) if *model == d.model => r.end = idx + 1,
                 _ => ranges.push((d.model, idx..idx + 1)),
             }
         }
         let bytes: &[u8] = bytemuck::cast_slice(&data);
-        let needed = (bytes.len() as u64).max(64);
+        let needed = (bytes.len() as u64).max(256);
         if self.instances.as_ref().is_none_or(|b| b.size() < needed) {
             self.instances = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("drone instances"),
@@ -422,19 +489,23 @@ impl Renderer {
         ranges
     }
 
-    /// Encode the frame into `color` (which is `msaa`-sampled; `resolve` is the
-    /// single-sample view to resolve into when msaa > 1). `depth` must match `color`.
+    /// Encode the frame into `views` (any views of the scene camera's size).
     pub fn encode(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         scene: &FrameScene,
         sky: &Sky,
-        msaa: u32,
-        color: &wgpu::TextureView,
-        resolve: Option<&wgpu::TextureView>,
-        depth: &wgpu::TextureView,
+        views: &FrameViews<'_>,
     ) {
-        let ranges = self.upload(scene, sky);
+        let FrameViews {
+            color,
+            resolve,
+            depth,
+            msaa,
+        } = *views;
+        self.upload_uniforms(scene, sky);
+        let ranges = self.upload_instances(scene, &|_| true);
+        self.counts.color += 1;
         let p = self.pipelines(msaa);
         let (_, sky_pipeline, drone_pipeline) = &self.pipelines[p];
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -585,26 +656,21 @@ impl Renderer {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
-        match &target.msaa_color {
-            Some(ms) => self.encode(
-                &mut encoder,
-                scene,
-                sky,
+        let views = match &target.msaa_color {
+            Some(ms) => FrameViews {
+                color: ms,
+                resolve: Some(&target.color_view),
+                depth: &target.depth,
                 msaa,
-                ms,
-                Some(&target.color_view),
-                &target.depth,
-            ),
-            None => self.encode(
-                &mut encoder,
-                scene,
-                sky,
+            },
+            None => FrameViews {
+                color: &target.color_view,
+                resolve: None,
+                depth: &target.depth,
                 msaa,
-                &target.color_view,
-                None,
-                &target.depth,
-            ),
-        }
+            },
+        };
+        self.encode(&mut encoder, scene, sky, &views);
         encoder.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
                 texture: &target.color,
@@ -683,9 +749,250 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-#[allow(dead_code)]
-fn _assert_layout() {
-    // FrameUniforms must be a multiple of 16 bytes for WGSL uniform layout.
-    const _: () = assert!(std::mem::size_of::<FrameUniforms>() % 16 == 0);
-    let _ = Vec4::ZERO;
+// FrameUniforms must be a multiple of 16 bytes for WGSL uniform layout.
+const _: () = assert!(std::mem::size_of::<FrameUniforms>().is_multiple_of(16));
+
+/// Pipeline and target of the instance-id pass.
+struct IdPass {
+    pipeline: wgpu::RenderPipeline,
+    width: u32,
+    height: u32,
+    target: Option<(
+        wgpu::Texture,
+        wgpu::TextureView,
+        wgpu::TextureView,
+        wgpu::Buffer,
+        u32,
+    )>,
+}
+
+impl Renderer {
+    fn id_pass(&mut self) -> &mut IdPass {
+        if self.ids.is_none() {
+            let [_, _, (name, src)] = shader_sources();
+            let module = self
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(name),
+                    source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
+                });
+            let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3];
+            let buffers = [
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<Vertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &vertex_attrs,
+                }),
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<InstanceRaw>() as u64,
+                    step_mode: wgpu::VertexStepMode::Instance,
+                    attributes: &INSTANCE_ATTRS,
+                }),
+            ];
+            let pipeline = self
+                .device
+                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some("instance-id pipeline"),
+                    layout: Some(&self.layout),
+                    vertex: wgpu::VertexState {
+                        module: &module,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &buffers,
+                    },
+                    primitive: wgpu::PrimitiveState {
+                        cull_mode: None,
+                        ..Default::default()
+                    },
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(wgpu::CompareFunction::Greater),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: wgpu::MultisampleState::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &module,
+                        entry_point: Some("fs_main"),
+                        compilation_options: Default::default(),
+                        targets: &[Some(wgpu::ColorTargetState {
+                            format: wgpu::TextureFormat::R32Uint,
+                            blend: None,
+                            write_mask: wgpu::ColorWrites::ALL,
+                        })],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                });
+            self.ids = Some(IdPass {
+                pipeline,
+                width: 0,
+                height: 0,
+                target: None,
+            });
+        }
+        self.ids.as_mut().expect("just created")
+    }
+
+    /// Render the instance ids of the drones `include` accepts (all others are
+    /// left out, so they occlude nothing) and read them back.
+    pub fn render_ids(
+        &mut self,
+        scene: &FrameScene,
+        sky: &Sky,
+        include: &dyn Fn(usize) -> bool,
+    ) -> Result<IdImage, RenderError> {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        if width == 0
+            || height == 0
+            || width > self.max_texture_side
+            || height > self.max_texture_side
+        {
+            return Err(RenderError::TooLarge {
+                width,
+                height,
+                limit: self.max_texture_side,
+            });
+        }
+        self.upload_uniforms(scene, sky);
+        let ranges = self.upload_instances(scene, include);
+        self.id_pass();
+        self.counts.ids += 1;
+        let Some(mut pass) = self.ids.take() else {
+            return Err(RenderError::Readback("no id pass".into()));
+        };
+        let result = self.draw_ids(&mut pass, ranges, width, height);
+        self.ids = Some(pass);
+        result
+    }
+
+    fn draw_ids(
+        &self,
+        pass: &mut IdPass,
+        ranges: Vec<(usize, std::ops::Range<u32>)>,
+        width: u32,
+        height: u32,
+    ) -> Result<IdImage, RenderError> {
+        let device = &self.device;
+        if pass.target.is_none() || pass.width != width || pass.height != height {
+            let size = wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            };
+            let texture = |label: &str, format, usage| {
+                device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+            };
+            let ids = texture(
+                "instance ids",
+                wgpu::TextureFormat::R32Uint,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            );
+            let ids_view = ids.create_view(&Default::default());
+            let depth = texture(
+                "instance-id depth",
+                DEPTH_FORMAT,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            )
+            .create_view(&Default::default());
+            let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+                * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("instance-id readback"),
+                size: u64::from(padded_row) * u64::from(height),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            pass.target = Some((ids, ids_view, depth, readback, padded_row));
+            pass.width = width;
+            pass.height = height;
+        }
+        let IdPass {
+            pipeline,
+            target: Some((texture, view, depth, readback, padded_row)),
+            ..
+        } = pass
+        else {
+            return Err(RenderError::Readback("no id target".into()));
+        };
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("instance ids"),
+        });
+        {
+            let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("instance-id pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if let Some(instances) = &self.instances
+                && !ranges.is_empty()
+            {
+                rp.set_bind_group(0, &self.frame_bind_group, &[]);
+                rp.set_pipeline(pipeline);
+                rp.set_vertex_buffer(1, instances.slice(..));
+                for (model, range) in ranges {
+                    let mesh = &self.meshes[model];
+                    rp.set_vertex_buffer(0, mesh.vertices.slice(..));
+                    rp.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                    rp.draw_indexed(0..mesh.index_count, 0, range);
+                }
+            }
+        }
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(*padded_row),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.queue.submit([encoder.finish()]);
+        let bytes = read_buffer(&self.device, readback, width, height, *padded_row)?;
+        Ok(IdImage {
+            width,
+            height,
+            ids: bytemuck::pod_collect_to_vec(&bytes),
+        })
+    }
 }

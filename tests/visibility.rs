@@ -1,0 +1,222 @@
+//! Visible boxes and visibility from the instance-id pass: agreement with a
+//! 4× reference on single drones, fractions against per-drone renders in a
+//! crafted overlap, filters, and only running the passes a preset needs.
+
+mod common;
+
+use glam::DVec3;
+use swarmshot::batch::FrameMaker;
+use swarmshot::labels::{LabelStatus, PixelBox, pixel_stats};
+use swarmshot::math::{EulerDeg, look_at_cv};
+use swarmshot::preset::{BoxMethod, FilteredDrones, Placement, Preset, Resolution};
+use swarmshot::render::Renderer;
+use swarmshot::scene::{DronePose, FrameScene, build_frame};
+use swarmshot::sweep::SweepRange;
+use swarmshot::visibility;
+
+fn single_drone_preset() -> Preset {
+    let mut p = Preset::default();
+    p.placement = Placement::Structured {
+        x_count: 1,
+        y_count: 1,
+        z_count: 1,
+        load_factor: 1.0,
+    };
+    p.render.resolution = Resolution::Custom {
+        width: 320,
+        height: 180,
+    };
+    p.render.msaa = 1;
+    p.camera.z = SweepRange::fixed(1.0);
+    p.camera.y = SweepRange::new(-0.6, 0.6, 0.6);
+    p.attitude.roll_deg = (-80.0, 80.0);
+    p.attitude.pitch_deg = (-80.0, 80.0);
+    p.repeats = 4;
+    p
+}
+
+fn upscaled(scene: &FrameScene, k: u32) -> FrameScene {
+    let mut s = scene.clone();
+    s.camera.width *= k;
+    s.camera.height *= k;
+    s
+}
+
+#[test]
+fn single_drones_agree_with_a_4x_reference_and_paper_boxes_are_looser() {
+    let ctx = common::gpu();
+    let p = single_drone_preset();
+    let maker = FrameMaker::new(p.clone()).expect("models");
+    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let (mut iou_amodal, mut iou_paper, mut n) = (0.0, 0.0, 0.0);
+    for index in 0..p.frame_count() {
+        let scene = build_frame(&p, index).expect("frame");
+        let labels = maker.labels(&mut renderer, &scene).expect("labels");
+        assert_eq!(labels.len(), 1);
+        let l = &labels[0];
+        assert_eq!(l.status, LabelStatus::Kept);
+        let big = upscaled(&scene, 4);
+        let ids = renderer
+            .render_ids(&big, &p.sky, &|_| true)
+            .expect("4x ids");
+        let r = pixel_stats(&ids, 1)[0].0.expect("visible at 4x");
+        let reference = PixelBox {
+            x0: r.x0 / 4.0,
+            y0: r.y0 / 4.0,
+            x1: r.x1 / 4.0,
+            y1: r.y1 / 4.0,
+        };
+        let visible = l
+            .visibility
+            .and_then(|v| v.visible_box)
+            .expect("visible box");
+        assert_eq!(l.bbox, visible, "Visible is the default method");
+        for (name, b) in [("visible", visible), ("amodal", l.amodal)] {
+            for (edge, a, r) in [
+                ("x0", b.x0, reference.x0),
+                ("y0", b.y0, reference.y0),
+                ("x1", b.x1, reference.x1),
+                ("y1", b.y1, reference.y1),
+            ] {
+                assert!(
+                    (a - r).abs() <= 1.0,
+                    "frame {index}: {name} {edge} {a:.2} vs 4× reference {r:.2}"
+                );
+            }
+        }
+        iou_amodal += l.amodal.iou(&reference);
+        iou_paper += l.paper_aabb.iou(&reference);
+        n += 1.0;
+        // Nothing occludes a lone drone.
+        let v = l.visibility.expect("measured");
+        assert_eq!(v.visible_pixels, v.unoccluded_pixels);
+        assert!(v.visible_pixels > 0);
+    }
+    let (iou_amodal, iou_paper) = (iou_amodal / n, iou_paper / n);
+    assert!(iou_amodal > 0.85, "amodal mean IoU {iou_amodal}");
+    assert!(
+        iou_paper < iou_amodal - 0.1,
+        "paper boxes should be looser: {iou_paper} vs {iou_amodal}"
+    );
+}
+
+fn crafted_overlap(p: &Preset) -> FrameScene {
+    let mut scene = build_frame(p, 0).expect("frame");
+    let eye = DVec3::new(0.0, 0.0, 6.0);
+    scene.camera.position = eye;
+    scene.camera.camera_from_world = look_at_cv(eye, DVec3::ZERO).expect("look-at");
+    scene.camera.fov_y_deg = 12.0;
+    let pose = |x: f64, y: f64, z: f64, yaw: f64| {
+        let e = EulerDeg {
+            roll: 10.0,
+            pitch: 25.0,
+            yaw,
+        };
+        DronePose {
+            model: 0,
+            position: DVec3::new(x, y, z),
+            rotation: e.to_quat(),
+            euler_deg: e,
+            size_m: 0.35,
+        }
+    };
+    scene.drones = vec![
+        pose(0.0, 0.0, 1.0, 20.0),    // nearest, in the middle
+        pose(0.12, 0.03, 0.0, 60.0),  // partly behind the first
+        pose(-0.1, -0.02, -1.0, 0.0), // behind both
+        pose(0.45, 0.2, 0.5, 45.0),   // apart from the others
+    ];
+    scene
+}
+
+#[test]
+fn visible_fractions_match_rendering_each_drone_alone() {
+    let ctx = common::gpu();
+    let mut p = single_drone_preset();
+    p.render.resolution = Resolution::Custom {
+        width: 480,
+        height: 270,
+    };
+    let maker = FrameMaker::new(p.clone()).expect("models");
+    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let scene = crafted_overlap(&p);
+    let vis = visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry).expect("measure");
+    let all = renderer.render_ids(&scene, &p.sky, &|_| true).expect("ids");
+    let nonzero = all.ids.iter().filter(|&&id| id != 0).count() as u64;
+    assert_eq!(vis.iter().map(|v| v.visible_pixels).sum::<u64>(), nonzero);
+    for (i, v) in vis.iter().enumerate() {
+        let alone = renderer
+            .render_ids(&scene, &p.sky, &|j| j == i)
+            .expect("alone");
+        let count = alone.ids.iter().filter(|&&id| id == i as u32 + 1).count() as u64;
+        assert_eq!(v.unoccluded_pixels, count, "drone {i}");
+        let seen = all.ids.iter().filter(|&&id| id == i as u32 + 1).count() as u64;
+        assert_eq!(v.visible_pixels, seen, "drone {i}");
+    }
+    assert!(vis[0].fraction() == 1.0, "the nearest drone is whole");
+    assert!(
+        vis[1].fraction() < 0.95 && vis[1].fraction() > 0.0,
+        "drone 1 is partly hidden: {}",
+        vis[1].fraction()
+    );
+    assert!(vis[2].fraction() < vis[1].fraction() + 0.5);
+    assert_eq!(vis[3].fraction(), 1.0);
+}
+
+#[test]
+fn visibility_filters_drop_or_mark_crowd() {
+    let ctx = common::gpu();
+    let mut p = single_drone_preset();
+    p.render.resolution = Resolution::Custom {
+        width: 480,
+        height: 270,
+    };
+    p.labels.min_visible_fraction = 0.9;
+    for (policy, expected) in [
+        (FilteredDrones::Drop, LabelStatus::Filtered),
+        (FilteredDrones::Crowd, LabelStatus::Crowd),
+    ] {
+        p.labels.filtered = policy;
+        let maker = FrameMaker::new(p.clone()).expect("models");
+        let mut renderer = Renderer::new(&ctx, &maker.models);
+        let scene = crafted_overlap(&p);
+        let labels = maker.labels(&mut renderer, &scene).expect("labels");
+        let hidden = labels
+            .iter()
+            .find(|l| l.drone == 1)
+            .expect("drone 1 is in front of the camera");
+        assert_eq!(hidden.status, expected);
+        assert!(
+            labels
+                .iter()
+                .find(|l| l.drone == 0)
+                .is_some_and(|l| l.is_kept())
+        );
+    }
+}
+
+#[test]
+fn only_the_passes_a_preset_needs_run() {
+    let ctx = common::gpu();
+    let mut p = single_drone_preset();
+    p.labels.box_method = BoxMethod::Amodal;
+    let maker = FrameMaker::new(p.clone()).expect("models");
+    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let scene = build_frame(&p, 0).expect("frame");
+    maker.labels(&mut renderer, &scene).expect("labels");
+    renderer.render_rgba(&scene, &p.sky, 1).expect("render");
+    assert_eq!(renderer.pass_counts().ids, 0);
+    assert!(
+        !renderer.has_id_pipeline(),
+        "no id pipeline for an Amodal preset"
+    );
+
+    p.labels.min_visible_pixels = 5; // a visibility filter needs the id pass
+    let maker = FrameMaker::new(p.clone()).expect("models");
+    maker.labels(&mut renderer, &scene).expect("labels");
+    assert_eq!(
+        renderer.pass_counts().ids,
+        1,
+        "a lone drone needs one id pass"
+    );
+}
