@@ -97,6 +97,7 @@ impl FrameMaker {
                 scene,
                 &self.preset.sky,
                 &self.geometry,
+                self.preset.labels.id_scale,
             )?)
         } else {
             None

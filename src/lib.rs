@@ -9,6 +9,7 @@
 
 pub mod assets;
 pub mod batch;
+pub mod bench;
 pub mod camera;
 pub mod labels;
 pub mod math;

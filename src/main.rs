@@ -56,10 +56,36 @@ enum Command {
         #[arg(long)]
         overlay: bool,
     },
+    /// Benchmarks that produce the tables in docs/ (run a release build).
+    Bench {
+        #[command(subcommand)]
+        which: BenchCommand,
+    },
     /// Regenerate the built-in models into assets/models/.
     Assets {
         #[arg(long, default_value = "assets/models")]
         dir: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Label error of each box method against a 4× id-pass reference, next to run time;
+    /// then frame time by resolution × MSAA × passes on the quickstart scene.
+    Accuracy {
+        /// Frames per scene family.
+        #[arg(long, default_value_t = 12)]
+        frames: u32,
+        #[arg(long, default_value_t = 960)]
+        width: u32,
+        #[arg(long, default_value_t = 540)]
+        height: u32,
+        /// Where to write the error-against-time plot (PNG).
+        #[arg(long, default_value = "docs/img/accuracy.png")]
+        plot: PathBuf,
+        /// Frames timed per resolution × MSAA × passes cell.
+        #[arg(long, default_value_t = 9)]
+        timing_frames: u64,
     },
 }
 
@@ -204,6 +230,32 @@ fn main() -> anyhow::Result<()> {
                 labels.iter().filter(|l| l.is_kept()).count(),
                 out.display()
             );
+        }
+        Command::Bench {
+            which:
+                BenchCommand::Accuracy {
+                    frames,
+                    width,
+                    height,
+                    plot,
+                    timing_frames,
+                },
+        } => {
+            let ctx = GpuContext::headless()?;
+            eprintln!("adapter: {}", ctx.describe());
+            let acc = swarmshot::bench::accuracy(&ctx, frames, width, height)?;
+            let quickstart = batch::load_preset(std::path::Path::new(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/presets/quickstart.ron"
+            )))?;
+            let timing = swarmshot::bench::timings(&ctx, &quickstart, timing_frames)?;
+            print!("{}", swarmshot::bench::markdown(&acc, &timing));
+            if let Some(dir) = plot.parent() {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("creating {}", dir.display()))?;
+            }
+            swarmshot::bench::plot(&acc, &plot)?;
+            eprintln!("plot written to {}", plot.display());
         }
         Command::Assets { dir } => {
             std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;

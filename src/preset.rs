@@ -305,6 +305,9 @@ pub struct LabelSettings {
     /// Drones with a smaller visible fraction (visible / unoccluded pixels) are filtered (0: off).
     pub min_visible_fraction: f64,
     pub filtered: FilteredDrones,
+    /// Resolution factor of the instance-id passes: 1 (pixel-exact at the
+    /// output size), 2 or 4 (supersampled, sub-pixel visible boxes; costs scale²).
+    pub id_scale: u32,
 }
 
 impl Default for LabelSettings {
@@ -315,6 +318,7 @@ impl Default for LabelSettings {
             min_visible_pixels: 0,
             min_visible_fraction: 0.0,
             filtered: FilteredDrones::Drop,
+            id_scale: 1,
         }
     }
 }
@@ -734,6 +738,11 @@ impl Preset {
                     self.labels.min_visible_fraction
                 )
             },
+        );
+        v.check(
+            matches!(self.labels.id_scale, 1 | 2 | 4),
+            "labels.id_scale",
+            || format!("{} is not supported; use 1, 2 or 4", self.labels.id_scale),
         );
         if let ImageFormat::Jpeg { quality } = self.output.image_format {
             v.check(

@@ -13,13 +13,29 @@ use crate::preset::Sky;
 use crate::render::{RenderError, Renderer};
 use crate::scene::FrameScene;
 
-/// Measure every drone of `scene`.
+/// Measure every drone of `scene`, with the id passes rendered at `scale` ×
+/// the output resolution (1 = pixel-exact at the output resolution; 2 or 4
+/// supersample: boxes are divided by `scale`, pixel counts stay in id-pass
+/// pixels, so fractions are unaffected).
 pub fn measure(
     renderer: &mut Renderer,
     scene: &FrameScene,
     sky: &Sky,
     geometry: &[LabelGeometry],
+    scale: u32,
 ) -> Result<Vec<Visibility>, RenderError> {
+    let scale = scale.max(1);
+    let scaled;
+    let scene = if scale == 1 {
+        scene
+    } else {
+        // Scaling W and H scales K with them: the same view, finer pixels.
+        let mut s = scene.clone();
+        s.camera.width *= scale;
+        s.camera.height *= scale;
+        scaled = s;
+        &scaled
+    };
     let n = scene.drones.len();
     let ids = renderer.render_ids(scene, sky, &|_| true)?;
     let seen = pixel_stats(&ids, n);
@@ -53,12 +69,18 @@ pub fn measure(
             unoccluded[m] = stats[m].1;
         }
     }
+    let k = f64::from(scale);
     Ok(seen
         .into_iter()
         .zip(unoccluded)
         .map(
             |((visible_box, visible_pixels), unoccluded_pixels)| Visibility {
-                visible_box,
+                visible_box: visible_box.map(|b| PixelBox {
+                    x0: b.x0 / k,
+                    y0: b.y0 / k,
+                    x1: b.x1 / k,
+                    y1: b.y1 / k,
+                }),
                 visible_pixels,
                 unoccluded_pixels,
             },

@@ -140,7 +140,8 @@ fn visible_fractions_match_rendering_each_drone_alone() {
     let maker = FrameMaker::new(p.clone()).expect("models");
     let mut renderer = Renderer::new(&ctx, &maker.models);
     let scene = crafted_overlap(&p);
-    let vis = visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry).expect("measure");
+    let vis =
+        visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry, 1).expect("measure");
     let all = renderer.render_ids(&scene, &p.sky, &|_| true).expect("ids");
     let nonzero = all.ids.iter().filter(|&&id| id != 0).count() as u64;
     assert_eq!(vis.iter().map(|v| v.visible_pixels).sum::<u64>(), nonzero);
@@ -219,4 +220,29 @@ fn only_the_passes_a_preset_needs_run() {
         1,
         "a lone drone needs one id pass"
     );
+}
+
+#[test]
+fn supersampled_id_pass_refines_the_same_box() {
+    let ctx = common::gpu();
+    let p = single_drone_preset();
+    let maker = FrameMaker::new(p.clone()).expect("models");
+    let mut renderer = Renderer::new(&ctx, &maker.models);
+    for index in 0..p.frame_count() {
+        let scene = build_frame(&p, index).expect("frame");
+        let one =
+            visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry, 1).expect("1x")[0];
+        let two =
+            visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry, 2).expect("2x")[0];
+        let (a, b) = (
+            one.visible_box.expect("1x box"),
+            two.visible_box.expect("2x box"),
+        );
+        for (x, y) in [(a.x0, b.x0), (a.y0, b.y0), (a.x1, b.x1), (a.y1, b.y1)] {
+            assert!((x - y).abs() <= 1.0, "frame {index}: 1× {a:?} vs 2× {b:?}");
+        }
+        // Four times the pixels at 2×, give or take the edges.
+        let ratio = two.visible_pixels as f64 / one.visible_pixels as f64;
+        assert!((2.5..6.0).contains(&ratio), "{ratio}");
+    }
 }

@@ -1,0 +1,407 @@
+//! Benchmarks that produce the tables in docs/: label error against run time
+//! (`swarmshot bench accuracy`) and frame time by resolution × MSAA × passes
+//! (part of the same report). Run them from a release build.
+//!
+//! The reference box of a drone is its visible box in an instance-id pass
+//! rendered at 4× the output resolution (divided by 4). Each method's box is
+//! compared with it edge by edge (|Δ| in output pixels) and by IoU, over
+//! every drone that is visible in the reference.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context;
+
+use crate::batch::FrameMaker;
+use crate::labels::{PixelBox, pixel_stats};
+use crate::preset::{BoxMethod, FilteredDrones, Placement, Preset, Resolution, Volume};
+use crate::render::{GpuContext, Renderer};
+use crate::scene::build_frame;
+use crate::sweep::SweepRange;
+
+/// One scene family of the accuracy report.
+pub struct BenchScene {
+    pub name: &'static str,
+    pub preset: Preset,
+}
+
+/// The fixed scenes: single drones at many attitudes, dense overlapping
+/// swarms, tiny distant drones; `frames` each, at `width`×`height`.
+pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> {
+    let base = |seed: u64| {
+        let mut p = Preset::default();
+        p.seed = seed;
+        p.render.resolution = Resolution::Custom { width, height };
+        p.labels.min_box_px = 0.0;
+        p.labels.filtered = FilteredDrones::Drop;
+        p.attitude.roll_deg = (-60.0, 60.0);
+        p.attitude.pitch_deg = (-60.0, 60.0);
+        p.repeats = frames;
+        p
+    };
+    let mut single = base(11);
+    single.placement = Placement::Structured {
+        x_count: 1,
+        y_count: 1,
+        z_count: 1,
+        load_factor: 1.0,
+    };
+    single.camera.z = SweepRange::fixed(1.5);
+    let mut dense = base(12);
+    dense.placement = Placement::Randomized {
+        count: (40, 60),
+        volume: Volume::Box {
+            size_m: (3.0, 1.5, 3.0),
+        },
+        min_separation_m: 0.36,
+    };
+    let mut tiny = base(13);
+    tiny.placement = Placement::Randomized {
+        count: (10, 20),
+        volume: Volume::Box {
+            size_m: (150.0, 60.0, 150.0),
+        },
+        min_separation_m: 2.0,
+    };
+    vec![
+        BenchScene {
+            name: "single drones",
+            preset: single,
+        },
+        BenchScene {
+            name: "dense swarm",
+            preset: dense,
+        },
+        BenchScene {
+            name: "tiny distant",
+            preset: tiny,
+        },
+    ]
+}
+
+/// A box method as benchmarked: the method plus, for `Visible`, the id-pass scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MethodSetting {
+    pub method: BoxMethod,
+    pub id_scale: u32,
+}
+
+impl MethodSetting {
+    pub fn label(&self) -> String {
+        match self.method {
+            BoxMethod::Visible => format!("Visible (id pass {}×)", self.id_scale),
+            BoxMethod::Amodal => "Amodal".into(),
+            BoxMethod::PaperAabb => "PaperAabb".into(),
+        }
+    }
+}
+
+/// One row of the accuracy table.
+#[derive(Clone, Debug)]
+pub struct AccuracyRow {
+    pub scene: &'static str,
+    pub setting: MethodSetting,
+    pub msaa: u32,
+    pub boxes: usize,
+    pub mean_edge_px: f64,
+    pub worst_edge_px: f64,
+    pub mean_iou: f64,
+    /// Colour pass + labels, per frame.
+    pub frame_ms: f64,
+    /// Labelling alone (geometry and any id passes), per box.
+    pub label_us_per_box: f64,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Run the accuracy benchmark.
+pub fn accuracy(
+    ctx: &GpuContext,
+    frames: u32,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<Vec<AccuracyRow>> {
+    let settings = [
+        MethodSetting {
+            method: BoxMethod::PaperAabb,
+            id_scale: 1,
+        },
+        MethodSetting {
+            method: BoxMethod::Amodal,
+            id_scale: 1,
+        },
+        MethodSetting {
+            method: BoxMethod::Visible,
+            id_scale: 1,
+        },
+        MethodSetting {
+            method: BoxMethod::Visible,
+            id_scale: 2,
+        },
+    ];
+    let mut rows = Vec::new();
+    for scene_def in accuracy_scenes(frames, width, height) {
+        let maker = FrameMaker::new(scene_def.preset.clone())?;
+        let mut renderer = Renderer::new(ctx, &maker.models);
+        // References first (4× id pass per frame).
+        let mut references: Vec<Vec<Option<PixelBox>>> = Vec::new();
+        let n_frames = scene_def.preset.frame_count();
+        for index in 0..n_frames {
+            let scene = build_frame(&scene_def.preset, index)?;
+            let mut big = scene.clone();
+            big.camera.width *= 4;
+            big.camera.height *= 4;
+            let ids = renderer.render_ids(&big, &scene_def.preset.sky, &|_| true)?;
+            references.push(
+                pixel_stats(&ids, scene.drones.len())
+                    .into_iter()
+                    .map(|(b, _)| {
+                        b.map(|b| PixelBox {
+                            x0: b.x0 / 4.0,
+                            y0: b.y0 / 4.0,
+                            x1: b.x1 / 4.0,
+                            y1: b.y1 / 4.0,
+                        })
+                    })
+                    .collect(),
+            );
+        }
+        for setting in settings {
+            for msaa in [1, 4] {
+                let mut preset = scene_def.preset.clone();
+                preset.labels.box_method = setting.method;
+                preset.labels.id_scale = setting.id_scale;
+                preset.render.msaa = msaa;
+                let maker = FrameMaker::new(preset.clone())?;
+                // Warm-up: pipelines and targets are built on first use.
+                let warm = build_frame(&preset, 0)?;
+                maker.labels(&mut renderer, &warm)?;
+                renderer.render_rgba(&warm, &preset.sky, msaa)?;
+                let (mut edges, mut ious, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
+                let (mut frame_ms, mut label_ms, mut boxes) = (0.0, 0.0, 0usize);
+                for index in 0..n_frames {
+                    let scene = build_frame(&preset, index)?;
+                    let t = Instant::now();
+                    let labels = maker.labels(&mut renderer, &scene)?;
+                    let l_ms = ms(t);
+                    let t = Instant::now();
+                    renderer.render_rgba(&scene, &preset.sky, msaa)?;
+                    frame_ms += ms(t) + l_ms;
+                    label_ms += l_ms;
+                    for l in &labels {
+                        let Some(reference) = references[index as usize][l.drone] else {
+                            continue;
+                        };
+                        let b = match setting.method {
+                            BoxMethod::Visible => match l.visibility.and_then(|v| v.visible_box) {
+                                Some(b) => b,
+                                None => continue,
+                            },
+                            BoxMethod::Amodal => l.amodal.clip(f64::from(width), f64::from(height)),
+                            BoxMethod::PaperAabb => {
+                                l.paper_aabb.clip(f64::from(width), f64::from(height))
+                            }
+                        };
+                        boxes += 1;
+                        for (a, r) in [
+                            (b.x0, reference.x0),
+                            (b.y0, reference.y0),
+                            (b.x1, reference.x1),
+                            (b.y1, reference.y1),
+                        ] {
+                            let e = (a - r).abs();
+                            worst = worst.max(e);
+                            edges.push(e);
+                        }
+                        ious.push(b.iou(&reference));
+                    }
+                }
+                let mean = |v: &[f64]| {
+                    if v.is_empty() {
+                        f64::NAN
+                    } else {
+                        v.iter().sum::<f64>() / v.len() as f64
+                    }
+                };
+                rows.push(AccuracyRow {
+                    scene: scene_def.name,
+                    setting,
+                    msaa,
+                    boxes,
+                    mean_edge_px: mean(&edges),
+                    worst_edge_px: worst,
+                    mean_iou: mean(&ious),
+                    frame_ms: frame_ms / n_frames as f64,
+                    label_us_per_box: label_ms * 1e3 / boxes.max(1) as f64,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// One row of the frame-time table.
+#[derive(Clone, Debug)]
+pub struct TimingRow {
+    pub width: u32,
+    pub height: u32,
+    pub msaa: u32,
+    pub passes: &'static str,
+    pub frame_ms: f64,
+}
+
+/// Median frame time of the quickstart-like scene by resolution × MSAA × passes.
+pub fn timings(ctx: &GpuContext, preset: &Preset, frames: u64) -> anyhow::Result<Vec<TimingRow>> {
+    let mut rows = Vec::new();
+    for (width, height) in [(960, 540), (1920, 1080), (4096, 2160)] {
+        for msaa in [1, 4] {
+            for (passes, method) in [
+                ("colour", BoxMethod::Amodal),
+                ("colour + id", BoxMethod::Visible),
+            ] {
+                let mut p = preset.clone();
+                p.render.resolution = Resolution::Custom { width, height };
+                p.render.msaa = msaa;
+                p.labels.box_method = method;
+                let maker = FrameMaker::new(p.clone())?;
+                let mut renderer = Renderer::new(ctx, &maker.models);
+                let mut times = Vec::new();
+                for index in 0..frames.min(p.frame_count()) {
+                    let scene = build_frame(&p, index)?;
+                    let t = Instant::now();
+                    maker.labels(&mut renderer, &scene)?;
+                    renderer.render_rgba(&scene, &p.sky, msaa)?;
+                    times.push(ms(t));
+                }
+                times.sort_by(f64::total_cmp);
+                // The first frame builds pipelines and targets: drop it when there are others.
+                let times = if times.len() > 2 {
+                    &times[..times.len() - 1]
+                } else {
+                    &times[..]
+                };
+                rows.push(TimingRow {
+                    width,
+                    height,
+                    msaa,
+                    passes,
+                    frame_ms: times[times.len() / 2],
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Markdown tables of both reports.
+pub fn markdown(acc: &[AccuracyRow], timing: &[TimingRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| scene | box method | MSAA | boxes | mean edge error (px) | worst edge error (px) | mean IoU | ms / frame | µs / box (labels) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    for r in acc {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {}× | {} | {:.3} | {:.2} | {:.3} | {:.1} | {:.1} |",
+            r.scene,
+            r.setting.label(),
+            r.msaa,
+            r.boxes,
+            r.mean_edge_px,
+            r.worst_edge_px,
+            r.mean_iou,
+            r.frame_ms,
+            r.label_us_per_box
+        );
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "| resolution | MSAA | passes | ms / frame (median) |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for r in timing {
+        let _ = writeln!(
+            s,
+            "| {}×{} | {}× | {} | {:.1} |",
+            r.width, r.height, r.msaa, r.passes, r.frame_ms
+        );
+    }
+    s
+}
+
+/// Plot mean edge error against frame time, one series per box method.
+pub fn plot(acc: &[AccuracyRow], path: &Path) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let font = [
+        "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+        "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    ]
+    .iter()
+    .find_map(|p| std::fs::read(p).ok())
+    .context("the plot needs the DejaVu Sans font (Debian: fonts-dejavu-core)")?;
+    let font: &'static [u8] = Box::leak(font.into_boxed_slice());
+    plotters::style::register_font("sans-serif", FontStyle::Normal, font)
+        .map_err(|_| anyhow::anyhow!("invalid font file"))?;
+    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let max_t = acc.iter().map(|r| r.frame_ms).fold(1.0, f64::max) * 1.1;
+    let max_e = acc
+        .iter()
+        .map(|r| r.mean_edge_px)
+        .filter(|e| e.is_finite())
+        .fold(0.1, f64::max)
+        * 1.15;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "Label error against run time (lavapipe, release build)",
+            ("sans-serif", 22),
+        )
+        .margin(14)
+        .x_label_area_size(44)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..max_t, 0.0..max_e)?;
+    chart
+        .configure_mesh()
+        .x_desc("ms per frame (colour pass + labels)")
+        .y_desc("mean edge error vs 4× reference (px)")
+        .label_style(("sans-serif", 14))
+        .draw()?;
+    let colours = [RED, BLUE, GREEN, MAGENTA];
+    let labels: Vec<String> = {
+        let mut v: Vec<String> = acc.iter().map(|r| r.setting.label()).collect();
+        v.dedup();
+        let mut seen = Vec::new();
+        for l in v {
+            if !seen.contains(&l) {
+                seen.push(l);
+            }
+        }
+        seen
+    };
+    for (k, label) in labels.iter().enumerate() {
+        let colour = colours[k % colours.len()];
+        let pts: Vec<(f64, f64)> = acc
+            .iter()
+            .filter(|r| &r.setting.label() == label && r.mean_edge_px.is_finite())
+            .map(|r| (r.frame_ms, r.mean_edge_px))
+            .collect();
+        chart
+            .draw_series(
+                pts.iter()
+                    .map(|&(x, y)| Circle::new((x, y), 6, colour.filled())),
+            )?
+            .label(label.as_str())
+            .legend(move |(x, y)| Circle::new((x + 8, y), 6, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 15))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
