@@ -651,10 +651,11 @@ fn decode_rgb32f(file: &Path) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentE
         }
     }
     for c in rgb.iter_mut() {
-        if !c.is_finite() || *c < 0.0 {
+        // NaN and negative radiance become 0; +∞ and huge values the largest f16.
+        if c.is_nan() || *c < 0.0 {
             *c = 0.0;
         }
-        *c = c.min(65_000.0); // the largest finite f16
+        *c = c.min(65_000.0);
     }
     let (w, h) = rgb.dimensions();
     if w == 0 || h == 0 {
