@@ -550,6 +550,7 @@ impl RotorcraftMaterials {
 
 /// `n` arms at `first_deg` + k·360/n (yaw from +Z towards +X), each with a motor and a rotor;
 /// `coaxial` adds a second, lower rotor under each motor.
+#[allow(clippy::too_many_arguments)] // one call per airframe reads better with the layout spelled out
 fn rotor_arms(
     b: &mut MeshBuilder,
     m: &RotorcraftMaterials,
@@ -1049,14 +1050,32 @@ mod tests {
         let mut shapes = Vec::new();
         for name in BUILTIN_NAMES {
             let bytes = builtin_glb(name).expect("embedded");
-            let m = crate::model::load_bytes(bytes, None, std::path::Path::new(name), name).expect("loads");
-            assert!(m.triangle_count() > 300, "{name}: {} triangles", m.triangle_count());
+            let m = crate::model::load_bytes(bytes, None, std::path::Path::new(name), name)
+                .expect("loads");
+            assert!(
+                m.triangle_count() > 300,
+                "{name}: {} triangles",
+                m.triangle_count()
+            );
             assert!(m.warnings.is_empty(), "{name}: {:?}", m.warnings);
-            let colours: std::collections::BTreeSet<[u32; 3]> = m.vertices.iter().map(|v| [v.color[0], v.color[1], v.color[2]].map(f32::to_bits)).collect();
-            assert!(colours.len() >= 4, "{name}: only {} materials", colours.len());
+            let colours: std::collections::BTreeSet<[u32; 3]> = m
+                .vertices
+                .iter()
+                .map(|v| [v.color[0], v.color[1], v.color[2]].map(f32::to_bits))
+                .collect();
+            assert!(
+                colours.len() >= 4,
+                "{name}: only {} materials",
+                colours.len()
+            );
             let (lo, hi) = m.aabb;
             let e = hi - lo;
-            shapes.push(((e.x * 20.0).round() as i64, (e.y * 20.0).round() as i64, (e.z * 20.0).round() as i64, m.triangle_count()));
+            shapes.push((
+                (e.x * 20.0).round() as i64,
+                (e.y * 20.0).round() as i64,
+                (e.z * 20.0).round() as i64,
+                m.triangle_count(),
+            ));
         }
         let distinct: std::collections::BTreeSet<_> = shapes.iter().collect();
         assert_eq!(distinct.len(), BUILTIN_NAMES.len(), "{shapes:?}");

@@ -162,7 +162,6 @@ impl EnvironmentName {
                 near: Silhouette::TreeLine,
                 near_height_deg: 1.0,
                 near_albedo: [0.02, 0.04, 0.03],
-                ..base
             },
             Self::SmallHarbour => EnvironmentStyle {
                 sun_elevation_deg: 30.0,
@@ -213,6 +212,9 @@ pub struct FrameEnvironment {
     pub choice: usize,
     pub sun_elevation_deg: f64,
     pub sun_azimuth_deg: f64,
+    /// The random turn of the environment about the vertical (already in
+    /// `sun_azimuth_deg`; image skies also turn their pixels by it).
+    pub azimuth_offset_deg: f64,
     /// Fraction of the sky covered by clouds, [0, 1] (procedural skies).
     pub cloud_cover: f64,
     /// Atmospheric turbidity, [1.7, 10] (procedural skies).
@@ -243,6 +245,7 @@ fn nominal(sky: &Sky) -> FrameEnvironment {
         choice: 0,
         sun_elevation_deg: el,
         sun_azimuth_deg: az,
+        azimuth_offset_deg: 0.0,
         cloud_cover: cloud,
         turbidity,
         pattern_seed: seed.unwrap_or(0),
@@ -320,7 +323,8 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
             let choice = ((choice_u * choices.len() as f64) as usize).min(choices.len() - 1);
             let mut env = nominal(&choices[choice]);
             env.choice = choice;
-            env.sun_azimuth_deg += lerp(*azimuth_offset_deg, az_u);
+            env.azimuth_offset_deg = lerp(*azimuth_offset_deg, az_u);
+            env.sun_azimuth_deg += env.azimuth_offset_deg;
             let is_image = matches!(choices[choice], Sky::Image { .. });
             if let (Some(range), false) = (sun_elevation_deg, is_image) {
                 env.sun_elevation_deg = lerp(*range, el_u);
@@ -384,7 +388,7 @@ pub fn resolve<'a>(sky: &'a Sky, env: &FrameEnvironment) -> ResolvedSky<'a> {
         } => ResolvedSky::Image {
             source,
             exposure: 2f32.powf(*exposure_ev as f32),
-            rotation_deg: *rotation_deg,
+            rotation_deg: rotation_deg + env.azimuth_offset_deg,
         },
         Sky::Random { choices, .. } => match choices.get(env.choice) {
             Some(choice) if !matches!(choice, Sky::Random { .. }) => resolve(choice, env),
