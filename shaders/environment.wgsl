@@ -21,7 +21,8 @@ struct Env {
     ground_b: vec4<f32>,
     // rgb albedo, w: height (rad).
     far: vec4<f32>,
-    // x: snow caps, y: near silhouette kind, z: near height (rad).
+    // x: snow caps, y: near silhouette kind, z: near height (rad),
+    // w: full-resolution pixels per pixel of the environment pass.
     far_params: vec4<f32>,
     near: vec4<f32>,
     // Display-linear sunlight and sky ambient (what lights the drones).
@@ -33,6 +34,9 @@ struct Env {
 @group(1) @binding(1) var env_equirect: texture_2d<f32>;
 @group(1) @binding(2) var env_cube: texture_cube<f32>;
 @group(1) @binding(3) var env_sampler: sampler;
+// The procedural environment rendered at reduced resolution (fs_environment), and its clamping sampler.
+@group(1) @binding(4) var env_half: texture_2d<f32>;
+@group(1) @binding(5) var env_half_sampler: sampler;
 
 const TAU: f32 = 6.2831853;
 
@@ -151,10 +155,15 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
         let cover = env.sun_color.w;
         if (cover > 0.001) {
             let uv = vec2<f32>(dir.x, dir.z) / (dir.y + 0.05) * 0.9 + seed;
-            let n = fbm(uv, 5);
             let threshold = mix(0.72, 0.22, cover);
+            // The first two octaves decide most pixels; the last three add at most 0.25.
+            let coarse = fbm(uv, 2);
+            var n = coarse;
+            if (coarse + 0.25 > threshold) {
+                n = coarse + 0.25 * fbm(uv * 4.0804 + vec2<f32>(70.2, 37.5), 3);
+            }
             let density = smoothstep(threshold, threshold + 0.2, n);
-            let toward_sun = fbm(uv + vec2<f32>(sun.x, sun.z) * 0.12, 3);
+            let toward_sun = fbm(uv + vec2<f32>(sun.x, sun.z) * 0.12, 2);
             let self_shadow = clamp(1.0 - (toward_sun - n) * 2.5, 0.45, 1.15);
             let silver = pow(max(cos_sun, 0.0), 12.0);
             let cloud = (ambient * 0.85 + light * 0.5 * (0.6 + silver)) * self_shadow * (1.0 - 0.35 * density);

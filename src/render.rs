@@ -523,6 +523,16 @@ impl Renderer {
             msaa,
         } = *views;
         self.upload_uniforms(scene, sky);
+        if sky::SkyGpu::is_procedural(sky, &scene.environment) {
+            let size = (scene.camera.width, scene.camera.height);
+            self.sky.encode_environment(
+                &self.device,
+                encoder,
+                (&self.shaders.0, &self.sky_layout),
+                &self.frame_bind_group,
+                size,
+            );
+        }
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;
         let p = self.pipelines(msaa);

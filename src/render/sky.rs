@@ -3,6 +3,12 @@
 //! image (plus a default one with 1×1 placeholders for the gradient and
 //! procedural skies). [`SkyGpu::prepare`] turns a frame's environment into
 //! the uniforms and the drones' [`Lighting`].
+//!
+//! Procedural environments are drawn at half resolution per axis into an
+//! RGBA16F target by their own pass ([`SkyGpu::encode_environment`]) and
+//! sampled bilinearly by the sky pass: a quarter of the shading work, and the
+//! sky pass itself then costs what the gradient costs. The environment is
+//! soft (clouds, haze, distant silhouettes); drones stay at full resolution.
 
 use glam::Vec3;
 use wgpu::util::DeviceExt;
@@ -36,13 +42,22 @@ const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 16 * 16);
 pub(super) struct SkyGpu {
     pub(super) layout: wgpu::BindGroupLayout,
     uniforms: wgpu::Buffer,
+    /// Placeholders only: the gradient sky and the environment pass itself.
     default_group: wgpu::BindGroup,
+    /// The half-resolution environment target (width, height) and the group that samples it.
+    half: Option<(u32, u32, wgpu::TextureView, wgpu::BindGroup)>,
     /// Per uploaded image: its bind group and CPU summary (for lighting).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
     placeholder_2d: wgpu::TextureView,
     placeholder_cube: wgpu::TextureView,
     sampler: wgpu::Sampler,
+    half_sampler: wgpu::Sampler,
+    /// The pipeline of `fs_environment`, built on first use.
+    pipeline: Option<wgpu::RenderPipeline>,
 }
+
+/// Full-resolution pixels per environment-pass pixel, per axis.
+const HALF_SCALE: u32 = 2;
 
 fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
     rgb.chunks_exact(3)
@@ -63,6 +78,12 @@ impl SkyGpu {
             },
             count: None,
         };
+        let sampler_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("environment layout"),
             entries: &[
@@ -78,12 +99,9 @@ impl SkyGpu {
                 },
                 texture_entry(1, wgpu::TextureViewDimension::D2),
                 texture_entry(2, wgpu::TextureViewDimension::Cube),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                sampler_entry(3),
+                texture_entry(4, wgpu::TextureViewDimension::D2),
+                sampler_entry(5),
             ],
         });
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
@@ -101,6 +119,12 @@ impl SkyGpu {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
+        let half_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("environment upsampler"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
         let placeholder_2d = Self::texture(device, queue, "sky placeholder", 1, 1, 1, &[0.0; 3])
             .create_view(&Default::default());
         let placeholder_cube =
@@ -114,19 +138,21 @@ impl SkyGpu {
             device,
             &layout,
             &uniforms,
-            &sampler,
-            "environment (procedural)",
-            &placeholder_2d,
-            &placeholder_cube,
+            (&sampler, &half_sampler),
+            "environment (placeholders)",
+            [&placeholder_2d, &placeholder_cube, &placeholder_2d],
         );
         Self {
             layout,
             uniforms,
             default_group,
+            half: None,
             images: Vec::new(),
             placeholder_2d,
             placeholder_cube,
             sampler,
+            half_sampler,
+            pipeline: None,
         }
     }
 
@@ -171,10 +197,9 @@ impl SkyGpu {
             device,
             &self.layout,
             &self.uniforms,
-            &self.sampler,
+            (&self.sampler, &self.half_sampler),
             label,
-            equirect,
-            cube,
+            [equirect, cube, &self.placeholder_2d],
         )
     }
 
@@ -213,6 +238,113 @@ impl SkyGpu {
         }
     }
 
+    /// Whether a frame's environment needs the environment pass.
+    pub(super) fn is_procedural(sky: &Sky, env: &FrameEnvironment) -> bool {
+        matches!(
+            environment::resolve(sky, env),
+            ResolvedSky::Procedural { .. }
+        )
+    }
+
+    /// Draw the procedural environment of the uniforms just written into the
+    /// half-resolution target (resized to the frame's `width`×`height` as needed).
+    pub(super) fn encode_environment(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        frame_bind_group: &wgpu::BindGroup,
+        (width, height): (u32, u32),
+    ) {
+        let (w, h) = (
+            width.div_ceil(HALF_SCALE).max(1),
+            height.div_ceil(HALF_SCALE).max(1),
+        );
+        if self
+            .half
+            .as_ref()
+            .is_none_or(|(hw, hh, _, _)| (*hw, *hh) != (w, h))
+        {
+            let view = device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("environment (half resolution)"),
+                    size: wgpu::Extent3d {
+                        width: w,
+                        height: h,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba16Float,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default());
+            let group = make_bind_group(
+                device,
+                &self.layout,
+                &self.uniforms,
+                (&self.sampler, &self.half_sampler),
+                "environment (procedural)",
+                [&self.placeholder_2d, &self.placeholder_cube, &view],
+            );
+            self.half = Some((w, h, view, group));
+        }
+        let pipeline = self.pipeline.get_or_insert_with(|| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("environment pipeline"),
+                layout: Some(layout),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some("fs_environment"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: wgpu::TextureFormat::Rgba16Float,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        });
+        let Some((_, _, view, _)) = &self.half else {
+            return;
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("environment pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, frame_bind_group, &[]);
+        // The placeholder group: the target cannot be sampled while it is drawn.
+        pass.set_bind_group(1, &self.default_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+
     /// The bind group a frame's environment draws with.
     pub(super) fn bind_group_for(&self, sky: &Sky, env: &FrameEnvironment) -> &wgpu::BindGroup {
         match environment::resolve(sky, env) {
@@ -221,7 +353,11 @@ impl SkyGpu {
                 .iter()
                 .find(|(_, image)| image.source == *source)
                 .map_or(&self.default_group, |(g, _)| g),
-            _ => &self.default_group,
+            ResolvedSky::Procedural { .. } => self
+                .half
+                .as_ref()
+                .map_or(&self.default_group, |(_, _, _, g)| g),
+            ResolvedSky::Gradient { .. } => &self.default_group,
         }
     }
 
@@ -279,7 +415,7 @@ impl SkyGpu {
                     if style.snow_caps { 1.0 } else { 0.0 },
                     style.near as u32 as f32,
                     style.near_height_deg.to_radians(),
-                    0.0,
+                    HALF_SCALE as f32,
                 ];
                 u.near = rgb(style.near_albedo, 0.0);
                 u.light = rgb(lighting.sun_color, 0.0);
@@ -325,10 +461,9 @@ fn make_bind_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     uniforms: &wgpu::Buffer,
-    sampler: &wgpu::Sampler,
+    (sampler, half_sampler): (&wgpu::Sampler, &wgpu::Sampler),
     label: &str,
-    equirect: &wgpu::TextureView,
-    cube: &wgpu::TextureView,
+    [equirect, cube, half]: [&wgpu::TextureView; 3],
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
@@ -349,6 +484,14 @@ fn make_bind_group(
             wgpu::BindGroupEntry {
                 binding: 3,
                 resource: wgpu::BindingResource::Sampler(sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::TextureView(half),
+            },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: wgpu::BindingResource::Sampler(half_sampler),
             },
         ],
     })
