@@ -348,12 +348,13 @@ pub fn plot(acc: &[AccuracyRow], path: &Path) -> anyhow::Result<()> {
     let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;
     let max_t = acc.iter().map(|r| r.frame_ms).fold(1.0, f64::max) * 1.1;
-    let max_e = acc
-        .iter()
-        .map(|r| r.mean_edge_px)
-        .filter(|e| e.is_finite())
-        .fold(0.1, f64::max)
-        * 1.15;
+    let finite = || {
+        acc.iter()
+            .map(|r| r.mean_edge_px)
+            .filter(|e| e.is_finite() && *e > 0.0)
+    };
+    let max_e = finite().fold(0.1, f64::max) * 2.0;
+    let min_e = finite().fold(max_e, f64::min) / 2.0;
     let mut chart = ChartBuilder::on(&root)
         .caption(
             "Label error against run time (lavapipe, release build)",
@@ -362,11 +363,11 @@ pub fn plot(acc: &[AccuracyRow], path: &Path) -> anyhow::Result<()> {
         .margin(14)
         .x_label_area_size(44)
         .y_label_area_size(60)
-        .build_cartesian_2d(0.0..max_t, 0.0..max_e)?;
+        .build_cartesian_2d(0.0..max_t, (min_e..max_e).log_scale())?;
     chart
         .configure_mesh()
         .x_desc("ms per frame (colour pass + labels)")
-        .y_desc("mean edge error vs 4× reference (px)")
+        .y_desc("mean edge error vs 4× reference (px, log)")
         .label_style(("sans-serif", 14))
         .draw()?;
     let colours = [RED, BLUE, GREEN, MAGENTA];
@@ -383,16 +384,21 @@ pub fn plot(acc: &[AccuracyRow], path: &Path) -> anyhow::Result<()> {
     };
     for (k, label) in labels.iter().enumerate() {
         let colour = colours[k % colours.len()];
-        let pts: Vec<(f64, f64)> = acc
+        // Filled: MSAA 1×; hollow: MSAA 4× (same boxes, slower colour pass).
+        let pts: Vec<(f64, f64, bool)> = acc
             .iter()
             .filter(|r| &r.setting.label() == label && r.mean_edge_px.is_finite())
-            .map(|r| (r.frame_ms, r.mean_edge_px))
+            .map(|r| (r.frame_ms, r.mean_edge_px, r.msaa == 1))
             .collect();
         chart
-            .draw_series(
-                pts.iter()
-                    .map(|&(x, y)| Circle::new((x, y), 6, colour.filled())),
-            )?
+            .draw_series(pts.iter().map(|&(x, y, filled)| {
+                let style = if filled {
+                    colour.filled()
+                } else {
+                    colour.stroke_width(2)
+                };
+                Circle::new((x, y), 6, style)
+            }))?
             .label(label.as_str())
             .legend(move |(x, y)| Circle::new((x + 8, y), 6, colour.filled()));
     }

@@ -189,19 +189,22 @@ fn main() -> anyhow::Result<()> {
                     );
                 }
             }
+            // Geometry only (no rendering): amodal boxes stand in for visible ones.
             let sample = preset.frame_count().min(200);
-            let mut boxes = 0usize;
-            let mut drones = 0usize;
+            let mut stats = swarmshot::output::DatasetStats::default();
             for i in 0..sample {
                 let (scene, labels) = maker.frame(i)?;
-                drones += scene.drones.len();
-                boxes += labels.iter().filter(|l| l.is_kept()).count();
+                stats.add(&scene, &labels);
             }
             if sample > 0 {
+                let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;
                 println!(
-                    "estimated from the first {sample} frames: {:.2} drones and {:.2} labelled boxes per frame",
-                    drones as f64 / sample as f64,
-                    boxes as f64 / sample as f64
+                    "estimated from the first {sample} frames (geometry only): {:.2} drones and {:.2} boxes per frame; small {:.1} % / medium {:.1} % / large {:.1} % (√(w·h) < 32, 32–96, > 96 px)",
+                    stats.drones_placed as f64 / sample as f64,
+                    stats.boxes as f64 / sample as f64,
+                    share(stats.small),
+                    share(stats.medium),
+                    share(stats.large),
                 );
             }
             for (spec, model) in preset.models.iter().zip(&maker.models) {

@@ -473,3 +473,21 @@ fn label_geometry_of_a_rotated_drone_is_inside_its_paper_box() {
         );
     }
 }
+
+#[test]
+fn resolution_beyond_the_adapter_limit_is_a_named_error() {
+    let ctx = common::gpu();
+    let p = common::tiny_preset();
+    let maker = FrameMaker::new(p.clone()).expect("models");
+    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let mut scene = build_frame(&p, 0).expect("frame");
+    scene.camera.width = ctx.max_texture_side + 1;
+    let err = renderer
+        .render_rgba(&scene, &p.sky, 1)
+        .expect_err("too large");
+    assert!(err.to_string().contains("render.resolution"), "{err}");
+    let err = renderer
+        .render_ids(&scene, &p.sky, &|_| true)
+        .expect_err("too large");
+    assert!(err.to_string().contains("render.resolution"), "{err}");
+}
