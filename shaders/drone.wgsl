@@ -5,7 +5,14 @@ struct VertexInput {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
+    @location(8) uv: vec2<f32>,
+    // metallic, roughness, unlit (0/1), alpha cutoff (0: opaque)
+    @location(9) material: vec4<f32>,
 };
+
+// The draw range's base colour texture (1×1 white when untextured).
+@group(1) @binding(0) var base_color_texture: texture_2d<f32>;
+@group(1) @binding(1) var base_color_sampler: sampler;
 
 struct Instance {
     @location(3) c0: vec4<f32>,
@@ -18,6 +25,9 @@ struct VsOut {
     @builtin(position) position: vec4<f32>,
     @location(0) normal_cam: vec3<f32>,
     @location(1) color: vec4<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) material: vec4<f32>,
+    @location(4) position_cam: vec3<f32>,
 };
 
 @vertex
@@ -29,20 +39,44 @@ fn vs_main(v: VertexInput, inst: Instance) -> VsOut {
     // Rotation × uniform scale: the matrix itself transforms normals.
     out.normal_cam = (camera_from_model * vec4<f32>(v.normal, 0.0)).xyz;
     out.color = v.color;
+    out.uv = v.uv;
+    out.material = v.material;
+    out.position_cam = p_cam.xyz;
     return out;
 }
 
+const PI: f32 = 3.14159265;
+
 @fragment
 fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    let base = in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
+    if (in.material.w > 0.0 && base.a < in.material.w) {
+        discard;
+    }
+    if (in.material.z > 0.5) {
+        // KHR_materials_unlit: the base colour as it is.
+        return vec4<f32>(linear_to_srgb(base.rgb), 1.0);
+    }
     var n_cam = normalize(in.normal_cam);
     if (!front) {
         n_cam = -n_cam;
     }
     let n = normalize((frame.world_from_camera * vec4<f32>(n_cam, 0.0)).xyz);
+    let v = normalize((frame.world_from_camera * vec4<f32>(-in.position_cam, 0.0)).xyz);
     let l = frame.sun_dir_world.xyz;
-    let diffuse = max(dot(n, l), 0.0) * frame.sun_color.rgb;
+    let metallic = clamp(in.material.x, 0.0, 1.0);
+    let roughness = clamp(in.material.y, 0.05, 1.0);
+    let n_dot_l = max(dot(n, l), 0.0);
     // Hemispheric ambient: sky from above, ground bounce from below.
     let ambient = mix(frame.ground.rgb, frame.zenith.rgb * 0.6 + frame.horizon.rgb * 0.4, n.y * 0.5 + 0.5);
-    let lit = in.color.rgb * (diffuse + ambient);
+    let diffuse_color = base.rgb * (1.0 - metallic);
+    let f0 = mix(vec3<f32>(0.04), base.rgb, metallic);
+    // Normalised Blinn-Phong lobe with the shininess that matches GGX roughness.
+    let h = normalize(l + v);
+    let shininess = max(2.0 / (roughness * roughness * roughness * roughness) - 2.0, 1.0);
+    let fresnel = f0 + (1.0 - f0) * pow(1.0 - max(dot(h, v), 0.0), 5.0);
+    let specular = fresnel * ((shininess + 8.0) / (8.0 * PI)) * pow(max(dot(n, h), 0.0), shininess) * n_dot_l;
+    let ambient_specular = f0 * ambient * (1.0 - roughness * 0.7);
+    let lit = diffuse_color * (n_dot_l * frame.sun_color.rgb + ambient) + specular * frame.sun_color.rgb + ambient_specular;
     return vec4<f32>(linear_to_srgb(lit), 1.0);
 }

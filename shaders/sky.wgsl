@@ -1,5 +1,6 @@
-// Procedural gradient sky with a sun disc, drawn as one full-screen triangle.
-// Each pixel's ray is built from the same intrinsics the labels use.
+// The environment behind the drones, drawn as one full-screen triangle: the
+// gradient sky with a sun disc (mode 0) or an environment from
+// environment.wgsl. Each pixel's ray is built from the same intrinsics the labels use.
 
 struct SkyOut {
     @builtin(position) position: vec4<f32>,
@@ -35,5 +36,25 @@ fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
     let k = frame.intrinsics;
     let ray_cam = vec3<f32>((in.position.x - k.z) / k.x, (in.position.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
-    return vec4<f32>(linear_to_srgb(sky_radiance(dir)), 1.0);
+    var col: vec3<f32>;
+    if (env.mode.x < 0.5) {
+        col = sky_radiance(dir);
+    } else if (env.mode.x < 1.5) {
+        // Drawn at reduced resolution by fs_environment; the principal point is the image centre.
+        let uv = in.position.xy / (2.0 * k.zw);
+        col = textureSampleLevel(env_half, env_half_sampler, uv, 0.0).rgb;
+    } else {
+        col = image_sky(dir);
+    }
+    return vec4<f32>(linear_to_srgb(col), 1.0);
+}
+
+// The procedural environment pass: each pixel stands for far_params.w × far_params.w full-resolution pixels.
+@fragment
+fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
+    let k = frame.intrinsics;
+    let p = in.position.xy * env.far_params.w;
+    let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
+    let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
+    return vec4<f32>(procedural_sky(dir), 1.0);
 }

@@ -6,18 +6,34 @@
 //! GLBs equal what the builder makes, byte for byte.
 
 use std::borrow::Cow;
-use std::f32::consts::{FRAC_PI_4, TAU};
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, TAU};
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec2, Vec3};
 use serde_json::json;
 
 /// Names of the built-in models, in the order they are offered.
-pub const BUILTIN_NAMES: &[&str] = &["quad_x"];
+pub const BUILTIN_NAMES: &[&str] = &[
+    "quad_x",
+    "quad_plus",
+    "hexacopter",
+    "octocopter",
+    "fixed_wing",
+    "flying_wing_vtol",
+    "coaxial_heli",
+    "heavy_lift",
+];
 
 /// The embedded GLB of a built-in model.
 pub fn builtin_glb(name: &str) -> Option<&'static [u8]> {
     match name {
         "quad_x" => Some(include_bytes!("../assets/models/quad_x.glb")),
+        "quad_plus" => Some(include_bytes!("../assets/models/quad_plus.glb")),
+        "hexacopter" => Some(include_bytes!("../assets/models/hexacopter.glb")),
+        "octocopter" => Some(include_bytes!("../assets/models/octocopter.glb")),
+        "fixed_wing" => Some(include_bytes!("../assets/models/fixed_wing.glb")),
+        "flying_wing_vtol" => Some(include_bytes!("../assets/models/flying_wing_vtol.glb")),
+        "coaxial_heli" => Some(include_bytes!("../assets/models/coaxial_heli.glb")),
+        "heavy_lift" => Some(include_bytes!("../assets/models/heavy_lift.glb")),
         _ => None,
     }
 }
@@ -26,6 +42,13 @@ pub fn builtin_glb(name: &str) -> Option<&'static [u8]> {
 pub fn generate_glb(name: &str) -> Option<Vec<u8>> {
     let builder = match name {
         "quad_x" => quad_x(),
+        "quad_plus" => quad_plus(),
+        "hexacopter" => hexacopter(),
+        "octocopter" => octocopter(),
+        "fixed_wing" => fixed_wing(),
+        "flying_wing_vtol" => flying_wing_vtol(),
+        "coaxial_heli" => coaxial_heli(),
+        "heavy_lift" => heavy_lift(),
         _ => return None,
     };
     Some(builder.to_glb(name))
@@ -146,6 +169,119 @@ impl MeshBuilder {
                 }
             }
         }
+    }
+
+    /// Connect closed rings of equal length with quads and cap both ends; each
+    /// face's winding is chosen so that its normal points away from the axis.
+    pub fn loft(&mut self, mat: usize, rings: &[Vec<Vec3>]) {
+        let centroid = |r: &[Vec3]| r.iter().copied().sum::<Vec3>() / r.len().max(1) as f32;
+        for pair in rings.windows(2) {
+            let (a, b) = (&pair[0], &pair[1]);
+            let axis_mid = (centroid(a) + centroid(b)) * 0.5;
+            let n = a.len().min(b.len());
+            for k in 0..n {
+                let k1 = (k + 1) % n;
+                let quad = [a[k], a[k1], b[k1], b[k]];
+                self.oriented_quad(mat, quad, axis_mid);
+            }
+        }
+        if let (Some(first), Some(second), Some(last), Some(before_last)) = (
+            rings.first(),
+            rings.get(1),
+            rings.last(),
+            rings.len().checked_sub(2).and_then(|i| rings.get(i)),
+        ) {
+            self.cap(mat, first, centroid(first) - centroid(second));
+            self.cap(mat, last, centroid(last) - centroid(before_last));
+        }
+    }
+
+    /// A quad whose winding makes its normal point away from `inside`.
+    fn oriented_quad(&mut self, mat: usize, q: [Vec3; 4], inside: Vec3) {
+        let n = (q[1] - q[0]).cross(q[2] - q[0]) + (q[2] - q[0]).cross(q[3] - q[0]);
+        if n.length_squared() < 1e-14 {
+            return;
+        }
+        let centre = (q[0] + q[1] + q[2] + q[3]) * 0.25;
+        if n.dot(centre - inside) >= 0.0 {
+            self.quad(mat, q);
+        } else {
+            self.quad(mat, [q[3], q[2], q[1], q[0]]);
+        }
+    }
+
+    /// A fan over a closed ring, facing `outward`.
+    fn cap(&mut self, mat: usize, ring: &[Vec3], outward: Vec3) {
+        let c = ring.iter().copied().sum::<Vec3>() / ring.len().max(1) as f32;
+        let normal = outward.normalize_or_zero();
+        if normal == Vec3::ZERO {
+            return;
+        }
+        let (pos, nor, idx) = &mut self.parts[mat];
+        let base = pos.len() as u32;
+        pos.push(c);
+        pos.extend(ring.iter().copied());
+        nor.extend(std::iter::repeat_n(normal, ring.len() + 1));
+        let n = ring.len() as u32;
+        for k in 0..n {
+            let (i, j) = (base + 1 + k, base + 1 + (k + 1) % n);
+            let face = (ring[k as usize] - c).cross(ring[((k + 1) % n) as usize] - c);
+            if face.length_squared() < 1e-14 {
+                continue;
+            }
+            if face.dot(normal) >= 0.0 {
+                idx.extend([base, i, j]);
+            } else {
+                idx.extend([base, j, i]);
+            }
+        }
+    }
+
+    /// A tapered fuselage along +Z: `stations` are (z, half width, half height, centre height).
+    pub fn fuselage(&mut self, mat: usize, stations: &[(f32, f32, f32, f32)], segments: u32) {
+        let rings: Vec<Vec<Vec3>> = stations
+            .iter()
+            .map(|&(z, rx, ry, y)| {
+                (0..segments)
+                    .map(|i| {
+                        let a = TAU * i as f32 / segments as f32;
+                        Vec3::new(a.cos() * rx.max(1e-3), y + a.sin() * ry.max(1e-3), z)
+                    })
+                    .collect()
+            })
+            .collect();
+        self.loft(mat, &rings);
+    }
+
+    /// A lifting surface built from symmetric NACA-00xx sections: each section
+    /// is (leading-edge point, chord); chords run along `chord_dir`, thickness
+    /// along `thickness_dir`.
+    pub fn airfoil_surface(
+        &mut self,
+        mat: usize,
+        sections: &[(Vec3, f32)],
+        chord_dir: Vec3,
+        thickness_dir: Vec3,
+        thickness: f32,
+    ) {
+        let rings: Vec<Vec<Vec3>> = sections
+            .iter()
+            .map(|&(le, chord)| airfoil_ring(le, chord, chord_dir, thickness_dir, thickness))
+            .collect();
+        self.loft(mat, &rings);
+    }
+
+    /// A rotor: hub cylinder and a thin translucent-looking disc (the blur of the blades).
+    pub fn rotor(&mut self, hub: usize, disc: usize, centre: Vec3, radius: f32, axis: Quat) {
+        self.cylinder(hub, centre, radius * 0.12, radius * 0.10, 10, axis);
+        self.cylinder(
+            disc,
+            centre + axis * (Vec3::Y * radius * 0.02),
+            radius,
+            radius * 0.02,
+            28,
+            axis,
+        );
     }
 
     /// Serialise as a self-contained GLB: one node, one mesh, one primitive per material.
@@ -316,6 +452,583 @@ fn quad_x() -> MeshBuilder {
     b
 }
 
+/// A closed symmetric NACA-00xx section (relative thickness `t`), leading edge at `le`.
+fn airfoil_ring(le: Vec3, chord: f32, chord_dir: Vec3, thickness_dir: Vec3, t: f32) -> Vec<Vec3> {
+    const STATIONS: [f32; 8] = [0.0, 0.03, 0.1, 0.22, 0.38, 0.56, 0.76, 1.0];
+    let half = |x: f32| {
+        5.0 * t
+            * (0.2969 * x.sqrt() - 0.1260 * x - 0.3516 * x * x + 0.2843 * x.powi(3)
+                - 0.1036 * x.powi(4))
+    };
+    let point = |x: f32, y: f32| le + chord_dir * (x * chord) + thickness_dir * (y * chord);
+    let mut ring = Vec::new();
+    // Upper surface from the trailing edge forward, then the lower surface back.
+    for &x in STATIONS.iter().rev() {
+        ring.push(point(x, half(x).max(0.004)));
+    }
+    for &x in STATIONS.iter().skip(1) {
+        ring.push(point(x, -half(x).max(0.004)));
+    }
+    ring
+}
+
+const WHITE: Material = Material {
+    name: "white shell",
+    base_color: [0.80, 0.80, 0.78, 1.0],
+    metallic: 0.0,
+    roughness: 0.35,
+};
+const ORANGE: Material = Material {
+    name: "orange",
+    base_color: [0.85, 0.32, 0.04, 1.0],
+    metallic: 0.0,
+    roughness: 0.45,
+};
+const YELLOW: Material = Material {
+    name: "yellow",
+    base_color: [0.85, 0.62, 0.05, 1.0],
+    metallic: 0.0,
+    roughness: 0.4,
+};
+const DARK_GREY: Material = Material {
+    name: "dark grey",
+    base_color: [0.16, 0.17, 0.18, 1.0],
+    metallic: 0.2,
+    roughness: 0.5,
+};
+const OLIVE: Material = Material {
+    name: "olive",
+    base_color: [0.22, 0.26, 0.14, 1.0],
+    metallic: 0.0,
+    roughness: 0.6,
+};
+const FOAM_GREY: Material = Material {
+    name: "foam grey",
+    base_color: [0.52, 0.54, 0.55, 1.0],
+    metallic: 0.0,
+    roughness: 0.75,
+};
+const BLUE: Material = Material {
+    name: "blue",
+    base_color: [0.06, 0.18, 0.55, 1.0],
+    metallic: 0.1,
+    roughness: 0.4,
+};
+const ALUMINIUM: Material = Material {
+    name: "aluminium",
+    base_color: [0.7, 0.7, 0.72, 1.0],
+    metallic: 0.9,
+    roughness: 0.35,
+};
+const GLASS: Material = Material {
+    name: "canopy",
+    base_color: [0.05, 0.08, 0.12, 1.0],
+    metallic: 0.0,
+    roughness: 0.1,
+};
+
+/// Materials shared by the multirotor builders.
+struct RotorcraftMaterials {
+    body: usize,
+    arm: usize,
+    motor: usize,
+    rotor: usize,
+    accent: usize,
+}
+
+impl RotorcraftMaterials {
+    fn new(b: &mut MeshBuilder, body: Material, arm: Material, accent: Material) -> Self {
+        Self {
+            body: b.material(body),
+            arm: b.material(arm),
+            motor: b.material(MOTOR),
+            rotor: b.material(ROTOR),
+            accent: b.material(accent),
+        }
+    }
+}
+
+/// `n` arms at `first_deg` + k·360/n (yaw from +Z towards +X), each with a motor and a rotor;
+/// `coaxial` adds a second, lower rotor under each motor.
+#[allow(clippy::too_many_arguments)] // one call per airframe reads better with the layout spelled out
+fn rotor_arms(
+    b: &mut MeshBuilder,
+    m: &RotorcraftMaterials,
+    n: u32,
+    first_deg: f32,
+    arm_len: f32,
+    arm_half: Vec2,
+    prop_radius: f32,
+    coaxial: bool,
+) {
+    for k in 0..n {
+        let angle = first_deg.to_radians() + TAU * k as f32 / n as f32;
+        let dir = Vec3::new(angle.sin(), 0.0, angle.cos());
+        let rot = Quat::from_rotation_y(angle);
+        b.cuboid(
+            m.arm,
+            dir * (arm_len * 0.5),
+            Vec3::new(arm_half.x, arm_half.y, arm_len * 0.5),
+            rot,
+        );
+        let tip = dir * arm_len;
+        let motor_r = prop_radius * 0.2;
+        b.cylinder(
+            m.motor,
+            tip + Vec3::Y * (arm_half.y + motor_r * 0.8),
+            motor_r,
+            motor_r * 1.6,
+            12,
+            Quat::IDENTITY,
+        );
+        b.rotor(
+            m.motor,
+            m.rotor,
+            tip + Vec3::Y * (arm_half.y + motor_r * 1.8),
+            prop_radius,
+            Quat::IDENTITY,
+        );
+        if coaxial {
+            b.cylinder(
+                m.motor,
+                tip - Vec3::Y * (arm_half.y + motor_r * 0.8),
+                motor_r,
+                motor_r * 1.6,
+                12,
+                Quat::IDENTITY,
+            );
+            b.rotor(
+                m.motor,
+                m.rotor,
+                tip - Vec3::Y * (arm_half.y + motor_r * 1.8),
+                prop_radius,
+                Quat::IDENTITY,
+            );
+        }
+    }
+}
+
+/// Two skids on struts under the body.
+fn skids(b: &mut MeshBuilder, mat: usize, half_track: f32, length: f32, height: f32, tube_r: f32) {
+    for side in [-1.0f32, 1.0] {
+        let x = side * half_track;
+        b.cylinder(
+            mat,
+            Vec3::new(x, -height, 0.0),
+            tube_r,
+            length,
+            8,
+            Quat::from_rotation_x(FRAC_PI_2),
+        );
+        for z in [-0.3f32, 0.3] {
+            let top = Vec3::new(x * 0.6, 0.0, z * length);
+            let bottom = Vec3::new(x, -height, z * length);
+            let mid = (top + bottom) * 0.5;
+            let tilt = Quat::from_rotation_arc(Vec3::Y, (top - bottom).normalize());
+            b.cylinder(mat, mid, tube_r * 0.8, (top - bottom).length(), 6, tilt);
+        }
+    }
+}
+
+/// A +-configuration quadcopter (one arm forward), white with an orange nose arm.
+fn quad_plus() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let m = RotorcraftMaterials::new(&mut b, WHITE, DARK_GREY, ORANGE);
+    b.cylinder(m.body, Vec3::ZERO, 0.06, 0.045, 16, Quat::IDENTITY);
+    b.cylinder(m.body, Vec3::Y * 0.03, 0.045, 0.02, 16, Quat::IDENTITY);
+    rotor_arms(
+        &mut b,
+        &m,
+        4,
+        0.0,
+        0.17,
+        Vec2::new(0.01, 0.008),
+        0.075,
+        false,
+    );
+    b.cuboid(
+        m.accent,
+        Vec3::new(0.0, 0.012, 0.09),
+        Vec3::new(0.012, 0.004, 0.04),
+        Quat::IDENTITY,
+    );
+    for k in 0..4 {
+        let a = FRAC_PI_4 + k as f32 * FRAC_PI_2;
+        b.cylinder(
+            m.arm,
+            Vec3::new(a.sin() * 0.05, -0.045, a.cos() * 0.05),
+            0.004,
+            0.05,
+            6,
+            Quat::IDENTITY,
+        );
+    }
+    b
+}
+
+/// A hexacopter (~0.55 m motor to motor): round hull, red accents, skid landing gear.
+fn hexacopter() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let m = RotorcraftMaterials::new(&mut b, DARK_GREY, CARBON, ACCENT_RED);
+    b.cylinder(
+        m.body,
+        Vec3::ZERO,
+        0.09,
+        0.05,
+        6,
+        Quat::from_rotation_y(0.0),
+    );
+    b.fuselage(
+        m.accent,
+        &[
+            (-0.05, 0.05, 0.001, 0.03),
+            (-0.03, 0.06, 0.025, 0.03),
+            (0.03, 0.06, 0.025, 0.03),
+            (0.05, 0.04, 0.001, 0.03),
+        ],
+        12,
+    );
+    rotor_arms(
+        &mut b,
+        &m,
+        6,
+        30.0,
+        0.27,
+        Vec2::new(0.012, 0.01),
+        0.11,
+        false,
+    );
+    skids(&mut b, m.arm, 0.09, 0.26, 0.12, 0.006);
+    b
+}
+
+/// An octocopter (~0.9 m): dark body, yellow arms' tips, camera gimbal, tall gear.
+fn octocopter() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let m = RotorcraftMaterials::new(&mut b, DARK_GREY, CARBON, YELLOW);
+    b.cylinder(
+        m.body,
+        Vec3::ZERO,
+        0.13,
+        0.05,
+        8,
+        Quat::from_rotation_y(TAU / 16.0),
+    );
+    b.cylinder(m.accent, Vec3::Y * 0.035, 0.08, 0.02, 16, Quat::IDENTITY);
+    rotor_arms(
+        &mut b,
+        &m,
+        8,
+        22.5,
+        0.42,
+        Vec2::new(0.014, 0.012),
+        0.13,
+        false,
+    );
+    for k in 0..8 {
+        let a = (22.5f32).to_radians() + TAU * k as f32 / 8.0;
+        b.cuboid(
+            m.accent,
+            Vec3::new(a.sin(), 0.0, a.cos()) * 0.36,
+            Vec3::new(0.016, 0.014, 0.03),
+            Quat::from_rotation_y(a),
+        );
+    }
+    // Gimbal and camera under the body.
+    b.cylinder(
+        m.motor,
+        Vec3::new(0.0, -0.06, 0.04),
+        0.012,
+        0.05,
+        8,
+        Quat::IDENTITY,
+    );
+    b.cuboid(
+        m.arm,
+        Vec3::new(0.0, -0.1, 0.05),
+        Vec3::new(0.035, 0.03, 0.035),
+        Quat::IDENTITY,
+    );
+    skids(&mut b, m.arm, 0.14, 0.4, 0.22, 0.008);
+    b
+}
+
+/// A coaxial X8 heavy lifter (~1.3 m): four arms with two rotors each, payload box, tall gear.
+fn heavy_lift() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let m = RotorcraftMaterials::new(&mut b, BLUE, ALUMINIUM, YELLOW);
+    b.cuboid(
+        m.body,
+        Vec3::ZERO,
+        Vec3::new(0.14, 0.06, 0.2),
+        Quat::IDENTITY,
+    );
+    b.cuboid(
+        m.arm,
+        Vec3::Y * 0.075,
+        Vec3::new(0.09, 0.015, 0.12),
+        Quat::IDENTITY,
+    );
+    rotor_arms(&mut b, &m, 4, 45.0, 0.6, Vec2::new(0.02, 0.02), 0.24, true);
+    // Payload crate under the body.
+    b.cuboid(
+        m.accent,
+        Vec3::new(0.0, -0.2, 0.0),
+        Vec3::new(0.12, 0.08, 0.12),
+        Quat::IDENTITY,
+    );
+    b.cylinder(
+        m.arm,
+        Vec3::new(0.0, -0.09, 0.0),
+        0.01,
+        0.06,
+        6,
+        Quat::IDENTITY,
+    );
+    skids(&mut b, m.arm, 0.24, 0.6, 0.32, 0.012);
+    b
+}
+
+/// A conventional fixed-wing UAV (~2 m span): tapered fuselage, dihedral wing, T-less tail, tractor prop.
+fn fixed_wing() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let shell = b.material(WHITE);
+    let accent = b.material(ACCENT_RED);
+    let canopy = b.material(GLASS);
+    let motor = b.material(MOTOR);
+    let rotor = b.material(ROTOR);
+    // Fuselage along +Z (nose forward): (z, half width, half height, centre height).
+    b.fuselage(
+        shell,
+        &[
+            (0.62, 0.02, 0.02, 0.0),
+            (0.55, 0.06, 0.065, 0.0),
+            (0.3, 0.075, 0.085, 0.01),
+            (0.0, 0.07, 0.08, 0.01),
+            (-0.4, 0.04, 0.05, 0.02),
+            (-0.8, 0.018, 0.025, 0.04),
+        ],
+        14,
+    );
+    b.fuselage(
+        canopy,
+        &[
+            (0.42, 0.03, 0.01, 0.07),
+            (0.36, 0.045, 0.04, 0.07),
+            (0.16, 0.045, 0.04, 0.075),
+            (0.05, 0.02, 0.01, 0.075),
+        ],
+        10,
+    );
+    // Main wing: root chord 0.3 m, tip chord 0.16 m, 1 m half span, 3° dihedral.
+    let dihedral = 0.05;
+    let wing =
+        |x: f32, chord: f32, y: f32| (Vec3::new(x, 0.03 + y, 0.14 - (0.3 - chord) * 0.3), chord);
+    b.airfoil_surface(
+        shell,
+        &[
+            wing(-1.0, 0.16, dihedral),
+            wing(-0.08, 0.3, 0.0),
+            wing(0.08, 0.3, 0.0),
+            wing(1.0, 0.16, dihedral),
+        ],
+        Vec3::NEG_Z,
+        Vec3::Y,
+        0.12,
+    );
+    // Red wing tips.
+    for side in [-1.0f32, 1.0] {
+        b.airfoil_surface(
+            accent,
+            &[
+                (Vec3::new(side * 1.0, 0.03 + dihedral, 0.098), 0.16),
+                (Vec3::new(side * 1.03, 0.03 + dihedral, 0.095), 0.15),
+            ],
+            Vec3::NEG_Z,
+            Vec3::Y,
+            0.12,
+        );
+    }
+    // Tail: horizontal stabiliser and fin.
+    b.airfoil_surface(
+        shell,
+        &[
+            (Vec3::new(-0.32, 0.04, -0.62), 0.14),
+            (Vec3::new(0.0, 0.04, -0.6), 0.18),
+            (Vec3::new(0.32, 0.04, -0.62), 0.14),
+        ],
+        Vec3::NEG_Z,
+        Vec3::Y,
+        0.1,
+    );
+    b.airfoil_surface(
+        accent,
+        &[
+            (Vec3::new(0.0, 0.05, -0.58), 0.22),
+            (Vec3::new(0.0, 0.3, -0.7), 0.13),
+        ],
+        Vec3::NEG_Z,
+        Vec3::X,
+        0.1,
+    );
+    // Tractor propeller on the nose.
+    let spin = Quat::from_rotation_x(FRAC_PI_2);
+    b.cylinder(motor, Vec3::new(0.0, 0.0, 0.64), 0.025, 0.04, 12, spin);
+    b.rotor(motor, rotor, Vec3::new(0.0, 0.0, 0.67), 0.16, spin);
+    b
+}
+
+/// A flying-wing VTOL (~1.6 m span): swept wing, two booms with four lift rotors, pusher prop.
+fn flying_wing_vtol() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let skin = b.material(FOAM_GREY);
+    let accent = b.material(OLIVE);
+    let boom = b.material(CARBON);
+    let motor = b.material(MOTOR);
+    let rotor = b.material(ROTOR);
+    // Centre body.
+    b.fuselage(
+        skin,
+        &[
+            (0.34, 0.02, 0.02, 0.0),
+            (0.28, 0.08, 0.05, 0.0),
+            (0.0, 0.1, 0.06, 0.0),
+            (-0.25, 0.07, 0.04, 0.0),
+            (-0.32, 0.03, 0.02, 0.0),
+        ],
+        12,
+    );
+    // Swept wing: 30° sweep, root chord 0.45 m, tip chord 0.2 m.
+    let sweep = 0.5f32;
+    let section = |x: f32, chord: f32| (Vec3::new(x, 0.0, 0.2 - x.abs() * sweep), chord);
+    b.airfoil_surface(
+        skin,
+        &[
+            section(-0.8, 0.2),
+            section(-0.1, 0.45),
+            section(0.1, 0.45),
+            section(0.8, 0.2),
+        ],
+        Vec3::NEG_Z,
+        Vec3::Y,
+        0.1,
+    );
+    // Winglets.
+    for side in [-1.0f32, 1.0] {
+        let le = Vec3::new(side * 0.8, 0.0, 0.2 - 0.8 * sweep);
+        b.airfoil_surface(
+            accent,
+            &[(le, 0.2), (le + Vec3::new(side * 0.02, 0.14, -0.08), 0.12)],
+            Vec3::NEG_Z,
+            Vec3::X,
+            0.08,
+        );
+    }
+    // Booms with front and rear lift rotors.
+    for side in [-1.0f32, 1.0] {
+        let x = side * 0.38;
+        b.cylinder(
+            boom,
+            Vec3::new(x, -0.02, -0.05),
+            0.014,
+            0.95,
+            10,
+            Quat::from_rotation_x(FRAC_PI_2),
+        );
+        for z in [0.42f32, -0.52] {
+            b.cylinder(motor, Vec3::new(x, 0.0, z), 0.022, 0.04, 12, Quat::IDENTITY);
+            b.rotor(motor, rotor, Vec3::new(x, 0.03, z), 0.19, Quat::IDENTITY);
+        }
+    }
+    // Pusher propeller at the trailing edge.
+    let spin = Quat::from_rotation_x(FRAC_PI_2);
+    b.cylinder(motor, Vec3::new(0.0, 0.0, -0.34), 0.02, 0.04, 12, spin);
+    b.rotor(motor, rotor, Vec3::new(0.0, 0.0, -0.37), 0.12, spin);
+    b
+}
+
+/// A coaxial helicopter UAV (~1.2 m rotor): pod fuselage, tail boom with fin, two stacked rotors, skids.
+fn coaxial_heli() -> MeshBuilder {
+    let mut b = MeshBuilder::default();
+    let shell = b.material(YELLOW);
+    let canopy = b.material(GLASS);
+    let dark = b.material(DARK_GREY);
+    let motor = b.material(MOTOR);
+    let rotor = b.material(ROTOR);
+    b.fuselage(
+        shell,
+        &[
+            (0.32, 0.02, 0.03, 0.0),
+            (0.26, 0.09, 0.1, 0.0),
+            (0.05, 0.11, 0.12, 0.01),
+            (-0.15, 0.08, 0.09, 0.02),
+            (-0.25, 0.03, 0.035, 0.04),
+        ],
+        14,
+    );
+    b.fuselage(
+        canopy,
+        &[
+            (0.3, 0.03, 0.03, 0.03),
+            (0.24, 0.085, 0.08, 0.04),
+            (0.12, 0.09, 0.08, 0.05),
+            (0.08, 0.03, 0.02, 0.05),
+        ],
+        10,
+    );
+    // Tail boom and fin.
+    b.fuselage(
+        dark,
+        &[(-0.22, 0.022, 0.022, 0.04), (-0.75, 0.012, 0.012, 0.07)],
+        8,
+    );
+    b.airfoil_surface(
+        shell,
+        &[
+            (Vec3::new(0.0, 0.05, -0.66), 0.12),
+            (Vec3::new(0.0, 0.2, -0.76), 0.08),
+        ],
+        Vec3::NEG_Z,
+        Vec3::X,
+        0.12,
+    );
+    b.airfoil_surface(
+        shell,
+        &[
+            (Vec3::new(-0.1, 0.07, -0.66), 0.08),
+            (Vec3::new(0.1, 0.07, -0.66), 0.08),
+        ],
+        Vec3::NEG_Z,
+        Vec3::Y,
+        0.12,
+    );
+    // Mast and two counter-rotating rotors.
+    b.cylinder(
+        motor,
+        Vec3::new(0.0, 0.19, 0.02),
+        0.018,
+        0.16,
+        10,
+        Quat::IDENTITY,
+    );
+    b.rotor(
+        motor,
+        rotor,
+        Vec3::new(0.0, 0.16, 0.02),
+        0.6,
+        Quat::IDENTITY,
+    );
+    b.rotor(
+        motor,
+        rotor,
+        Vec3::new(0.0, 0.26, 0.02),
+        0.6,
+        Quat::IDENTITY,
+    );
+    skids(&mut b, dark, 0.12, 0.45, 0.18, 0.008);
+    b
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -330,5 +1043,42 @@ mod tests {
                 "assets/models/{name}.glb is stale: run `cargo run -- assets`"
             );
         }
+    }
+
+    #[test]
+    fn builtins_load_as_distinct_multi_material_drones() {
+        let mut shapes = Vec::new();
+        for name in BUILTIN_NAMES {
+            let bytes = builtin_glb(name).expect("embedded");
+            let m = crate::model::load_bytes(bytes, None, std::path::Path::new(name), name)
+                .expect("loads");
+            assert!(
+                m.triangle_count() > 300,
+                "{name}: {} triangles",
+                m.triangle_count()
+            );
+            assert!(m.warnings.is_empty(), "{name}: {:?}", m.warnings);
+            let colours: std::collections::BTreeSet<[u32; 3]> = m
+                .vertices
+                .iter()
+                .map(|v| [v.color[0], v.color[1], v.color[2]].map(f32::to_bits))
+                .collect();
+            assert!(
+                colours.len() >= 4,
+                "{name}: only {} materials",
+                colours.len()
+            );
+            let (lo, hi) = m.aabb;
+            let e = hi - lo;
+            shapes.push((
+                (e.x * 20.0).round() as i64,
+                (e.y * 20.0).round() as i64,
+                (e.z * 20.0).round() as i64,
+                m.triangle_count(),
+            ));
+        }
+        let distinct: std::collections::BTreeSet<_> = shapes.iter().collect();
+        assert_eq!(distinct.len(), BUILTIN_NAMES.len(), "{shapes:?}");
+        assert_eq!(BUILTIN_NAMES.len(), 8);
     }
 }

@@ -198,7 +198,7 @@ pub fn run_batch(
         maker.model_names(),
         options.overwrite,
     )?;
-    let mut renderer = Renderer::new(ctx, &maker.models);
+    let mut renderer = make_renderer(&maker, ctx)?;
     let msaa = preset.render.msaa;
     let format = preset.output.image_format;
     let threads = if options.encoder_threads == 0 {
@@ -315,6 +315,15 @@ pub fn run_batch(
     })
 }
 
+/// A renderer with the maker's models and the sky images its preset
+/// references (read here, and only those).
+pub fn make_renderer(maker: &FrameMaker, ctx: &GpuContext) -> anyhow::Result<Renderer> {
+    let assets = crate::environment::EnvironmentAssets::load(&maker.preset.sky)?;
+    let mut renderer = Renderer::new(ctx, &maker.models);
+    renderer.set_environment(&assets);
+    Ok(renderer)
+}
+
 /// Render one frame alone to RGBA (for `swarmshot frame` and the preview).
 pub fn render_single(
     maker: &FrameMaker,
@@ -322,7 +331,7 @@ pub fn render_single(
     index: u64,
 ) -> anyhow::Result<(FrameScene, Vec<DroneLabel>, Vec<u8>)> {
     let scene = build_frame(&maker.preset, index)?;
-    let mut renderer = Renderer::new(ctx, &maker.models);
+    let mut renderer = make_renderer(maker, ctx)?;
     let labels = maker.labels(&mut renderer, &scene)?;
     let rgba = renderer.render_rgba(&scene, &maker.preset.sky, maker.preset.render.msaa)?;
     Ok((scene, labels, rgba))

@@ -16,7 +16,7 @@ use anyhow::Context;
 use crate::batch::FrameMaker;
 use crate::labels::{PixelBox, pixel_stats};
 use crate::preset::{BoxMethod, FilteredDrones, Placement, Preset, Resolution, Volume};
-use crate::render::{GpuContext, Renderer};
+use crate::render::GpuContext;
 use crate::scene::build_frame;
 use crate::sweep::SweepRange;
 
@@ -145,7 +145,7 @@ pub fn accuracy(
     let mut rows = Vec::new();
     for scene_def in accuracy_scenes(frames, width, height) {
         let maker = FrameMaker::new(scene_def.preset.clone())?;
-        let mut renderer = Renderer::new(ctx, &maker.models);
+        let mut renderer = crate::batch::make_renderer(&maker, ctx)?;
         // References first (4× id pass per frame).
         let mut references: Vec<Vec<Option<PixelBox>>> = Vec::new();
         let n_frames = scene_def.preset.frame_count();
@@ -267,7 +267,7 @@ pub fn timings(ctx: &GpuContext, preset: &Preset, frames: u64) -> anyhow::Result
                 p.render.msaa = msaa;
                 p.labels.box_method = method;
                 let maker = FrameMaker::new(p.clone())?;
-                let mut renderer = Renderer::new(ctx, &maker.models);
+                let mut renderer = crate::batch::make_renderer(&maker, ctx)?;
                 let mut times = Vec::new();
                 for index in 0..frames.min(p.frame_count()) {
                     let scene = build_frame(&p, index)?;

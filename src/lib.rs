@@ -13,6 +13,8 @@ pub mod assets;
 pub mod batch;
 pub mod bench;
 pub mod camera;
+pub mod environment;
+pub mod gallery;
 pub mod labels;
 pub mod math;
 pub mod model;

@@ -73,6 +73,20 @@ enum Command {
         #[arg(long, default_value = "assets/models")]
         dir: PathBuf,
     },
+    /// Render the built-in models' contact sheet and one frame per named environment.
+    Gallery {
+        /// Output folder for models.png and env-NAME.jpg.
+        #[arg(long, default_value = "docs/img")]
+        out: PathBuf,
+        /// Environment frame size.
+        #[arg(long, default_value_t = 480)]
+        width: u32,
+        #[arg(long, default_value_t = 270)]
+        height: u32,
+        /// Instead of pictures: median 1080p frame time, gradient sky vs each environment.
+        #[arg(long)]
+        bench: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -270,6 +284,54 @@ fn main() -> anyhow::Result<()> {
             }
             swarmshot::bench::plot(&acc, &plot)?;
             eprintln!("plot written to {}", plot.display());
+        }
+        Command::Gallery {
+            out,
+            width,
+            height,
+            bench,
+        } => {
+            use swarmshot::gallery;
+            let ctx = GpuContext::headless()?;
+            if bench {
+                let frames = 20;
+                let gradient =
+                    gallery::environment_preset(swarmshot::preset::Sky::default(), 1920, 1080);
+                println!(
+                    "1920x1080, MSAA 4, 8 drones, median of {frames} frames on {}",
+                    ctx.describe()
+                );
+                println!(
+                    "gradient sky: {:.1} ms",
+                    gallery::median_frame_ms(&ctx, &gradient, frames)?
+                );
+                for name in swarmshot::environment::EnvironmentName::ALL {
+                    let p =
+                        gallery::environment_preset(gallery::fixed_environment(name), 1920, 1080);
+                    println!(
+                        "{}: {:.1} ms",
+                        name.as_str(),
+                        gallery::median_frame_ms(&ctx, &p, frames)?
+                    );
+                }
+                return Ok(());
+            }
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
+            let path = out.join("models.png");
+            sheet
+                .save(&path)
+                .with_context(|| format!("writing {}", path.display()))?;
+            println!("wrote {}", path.display());
+            for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
+                let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
+                let path = out.join(format!("env-{}.jpg", name.as_str()));
+                image::DynamicImage::ImageRgba8(img)
+                    .to_rgb8()
+                    .save(&path)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                println!("wrote {}", path.display());
+            }
         }
         Command::Assets { dir } => {
             std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;

@@ -7,10 +7,23 @@
 //! vertex colours are baked per vertex, and the result is centred on its
 //! bounding-box centre and scaled so that its largest span is 1. A placed
 //! drone is then `translate · rotate · scale(size_m)` of this model.
+//!
+//! Materials: base colour factor × vertex colour is baked per vertex, the
+//! base colour texture (PNG/JPEG, with its sampler's wrap modes and
+//! `KHR_texture_transform` baked into the UVs) is kept per draw range, and
+//! metallic/roughness factors, `KHR_materials_unlit` and the alpha cutoff of
+//! `MASK` materials travel per vertex. Triangles are grouped by texture so a
+//! model costs one draw call per distinct texture. `EXT_mesh_gpu_instancing`
+//! nodes are expanded into copies. Points and lines are skipped with a warning;
+//! a texture that cannot be decoded is dropped with a warning (the factor
+//! colour remains). Everything else that is wrong is a typed [`ModelError`]
+//! naming the file — never a panic, never a silently empty model.
 
+use std::collections::BTreeMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use glam::{DMat3, DMat4, DVec3, Vec3};
+use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 
 /// One vertex as the GPU sees it (`shaders/drone.wgsl`, `VertexInput`).
 #[repr(C)]
@@ -20,23 +33,68 @@ pub struct Vertex {
     pub normal: [f32; 3],
     /// Linear RGBA base colour (material factor × vertex colour).
     pub color: [f32; 4],
+    /// Base colour texture coordinates (`KHR_texture_transform` applied).
+    pub uv: [f32; 2],
+    /// Metallic factor, roughness factor, unlit (0 or 1), alpha cutoff (0: opaque).
+    pub material: [f32; 4],
 }
+
+/// How a texture repeats outside [0, 1] (the glTF sampler's wrapS / wrapT).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WrapMode {
+    Repeat,
+    MirroredRepeat,
+    ClampToEdge,
+}
+
+/// A decoded base colour texture: sRGB-encoded RGBA8, at most [`MAX_TEXTURE_SIDE`] a side.
+#[derive(Clone, Debug)]
+pub struct CpuTexture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+    /// (u, v) wrap modes.
+    pub wrap: [WrapMode; 2],
+}
+
+/// A run of indices drawn with one texture (`None`: untextured).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DrawRange {
+    pub indices: Range<u32>,
+    pub texture: Option<usize>,
+}
+
+/// Textures are downscaled to this side: drones are small in the frame, so
+/// larger textures only cost memory.
+pub const MAX_TEXTURE_SIDE: u32 = 1024;
 
 /// A model ready to upload and to label: unit largest span, centred at the origin.
 #[derive(Clone, Debug)]
 pub struct CpuModel {
     pub name: String,
     pub vertices: Vec<Vertex>,
-    /// Triangle list, counter-clockwise front faces.
+    /// Triangle list, counter-clockwise front faces, grouped by texture.
     pub indices: Vec<u32>,
+    /// The index ranges and the texture each is drawn with; they cover `indices`.
+    pub draws: Vec<DrawRange>,
+    /// Base colour textures referenced by `draws`.
+    pub textures: Vec<CpuTexture>,
     /// Convex hull vertices (normalised model space); projecting these gives the same box as projecting every vertex.
     pub hull: Vec<DVec3>,
     /// Normalised bounding box, min and max.
     pub aabb: (DVec3, DVec3),
     /// Largest span of the file's geometry, in the file's units.
     pub source_span: f64,
-    /// What was skipped while loading (points, lines…).
+    /// What was skipped while loading (points, lines, undecodable textures…).
     pub warnings: Vec<String>,
+}
+
+impl CpuModel {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -63,6 +121,8 @@ pub enum ModelError {
     NoTriangles { file: PathBuf },
     #[error("model {}: geometry is degenerate or not finite (span {span})", file.display())]
     Degenerate { file: PathBuf, span: f64 },
+    #[error("model {}: the glTF reader failed on malformed data ({reason})", file.display())]
+    Malformed { file: PathBuf, reason: String },
 }
 
 fn hint(extension: &str) -> &'static str {
@@ -90,8 +150,34 @@ pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
     load_bytes(&bytes, path.parent(), path, &name)
 }
 
-/// Load glTF from bytes; `base_dir` resolves external buffers, `file` names the source in errors.
+/// Load glTF from bytes; `base_dir` resolves external buffers and images,
+/// `file` names the source in errors.
 pub fn load_bytes(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    file: &Path,
+    name: &str,
+) -> Result<CpuModel, ModelError> {
+    // The gltf crate indexes buffers with values it has not bounds-checked in a
+    // few places (image buffer views, sparse indices); a panic there must not
+    // take the generator down, so it becomes a typed error like any other.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        load_bytes_inner(bytes, base_dir, file, name)
+    }));
+    result.unwrap_or_else(|panic| {
+        let reason = panic
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| panic.downcast_ref::<&str>().map(|s| (*s).to_string()))
+            .unwrap_or_else(|| "internal error".into());
+        Err(ModelError::Malformed {
+            file: file.to_owned(),
+            reason,
+        })
+    })
+}
+
+fn load_bytes_inner(
     bytes: &[u8],
     base_dir: Option<&Path>,
     file: &Path,
@@ -120,9 +206,13 @@ pub fn load_bytes(
         })?;
     let mut builder = Flattener {
         file,
+        document: &document,
+        base_dir,
         buffers: &buffers,
         vertices: Vec::new(),
-        indices: Vec::new(),
+        buckets: BTreeMap::new(),
+        textures: Vec::new(),
+        texture_slots: BTreeMap::new(),
         warnings: Vec::new(),
     };
     let scene = document
@@ -131,7 +221,7 @@ pub fn load_bytes(
     match scene {
         Some(scene) => {
             for node in scene.nodes() {
-                builder.node(&node, DMat4::IDENTITY)?;
+                builder.node(&node, DMat4::IDENTITY, 0)?;
             }
         }
         None => {
@@ -143,11 +233,24 @@ pub fn load_bytes(
     }
     let Flattener {
         vertices,
-        indices,
+        buckets,
+        textures,
         warnings,
         ..
     } = builder;
-    finish(name, vertices, indices, warnings, file)
+    // Group triangles by texture: one draw call per distinct texture.
+    let mut indices = Vec::new();
+    let mut draws = Vec::new();
+    for (texture, ix) in buckets {
+        let start = indices.len() as u32;
+        indices.extend(ix);
+        draws.push(DrawRange {
+            indices: start..indices.len() as u32,
+            texture,
+        });
+    }
+    draws.retain(|d| !d.indices.is_empty());
+    finish(name, vertices, indices, draws, textures, warnings, file)
 }
 
 fn buffer_reason(document: &gltf::Document, e: gltf::Error) -> String {
@@ -165,25 +268,163 @@ fn buffer_reason(document: &gltf::Document, e: gltf::Error) -> String {
     }
 }
 
+/// Node hierarchies deeper than this are refused (a cycle, or hostile input).
+const MAX_NODE_DEPTH: usize = 256;
+/// Expanded geometry beyond this many vertices is refused rather than exhausting memory.
+const MAX_VERTICES: usize = 50_000_000;
+
 struct Flattener<'a> {
     file: &'a Path,
+    document: &'a gltf::Document,
+    base_dir: Option<&'a Path>,
     buffers: &'a [gltf::buffer::Data],
     vertices: Vec<Vertex>,
-    indices: Vec<u32>,
+    /// Triangle indices per texture slot.
+    buckets: BTreeMap<Option<usize>, Vec<u32>>,
+    textures: Vec<CpuTexture>,
+    /// (image, sampler) → slot in `textures` (None: could not be decoded).
+    texture_slots: BTreeMap<(usize, Option<usize>), Option<usize>>,
     warnings: Vec<String>,
 }
 
 impl Flattener<'_> {
-    fn node(&mut self, node: &gltf::Node<'_>, parent: DMat4) -> Result<(), ModelError> {
+    fn node(
+        &mut self,
+        node: &gltf::Node<'_>,
+        parent: DMat4,
+        depth: usize,
+    ) -> Result<(), ModelError> {
+        if depth > MAX_NODE_DEPTH {
+            return Err(ModelError::Malformed {
+                file: self.file.to_owned(),
+                reason: format!("node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)"),
+            });
+        }
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         let world = parent * local;
         if let Some(mesh) = node.mesh() {
-            self.mesh(&mesh, world)?;
+            match self.gpu_instances(node)? {
+                Some(instances) => {
+                    for instance in instances {
+                        self.mesh(&mesh, world * instance)?;
+                    }
+                }
+                None => self.mesh(&mesh, world)?,
+            }
         }
         for child in node.children() {
-            self.node(&child, world)?;
+            self.node(&child, world, depth + 1)?;
         }
         Ok(())
+    }
+
+    /// The per-instance transforms of an `EXT_mesh_gpu_instancing` node, if it has them.
+    fn gpu_instances(&mut self, node: &gltf::Node<'_>) -> Result<Option<Vec<DMat4>>, ModelError> {
+        let Some(attributes) = node
+            .extension_value("EXT_mesh_gpu_instancing")
+            .and_then(|e| e.get("attributes"))
+            .and_then(|a| a.as_object())
+        else {
+            return Ok(None);
+        };
+        let (file, document, buffers) = (self.file, self.document, self.buffers);
+        let err = |reason: String| ModelError::Malformed {
+            file: file.to_owned(),
+            reason: format!("EXT_mesh_gpu_instancing on node {}: {reason}", node.index()),
+        };
+        let get = |b: gltf::Buffer<'_>| buffers.get(b.index()).map(|d| &d.0[..]);
+        let read = |semantic: &str,
+                    dims: gltf::accessor::Dimensions|
+         -> Result<Option<Vec<[f32; 4]>>, ModelError> {
+            let Some(i) = attributes.get(semantic).and_then(serde_json::Value::as_u64) else {
+                return Ok(None);
+            };
+            let a = document
+                .accessors()
+                .nth(i as usize)
+                .ok_or_else(|| err(format!("{semantic} accessor {i} does not exist")))?;
+            if a.data_type() != gltf::accessor::DataType::F32 || a.dimensions() != dims {
+                return Err(err(format!("{semantic} must be a float {dims:?} accessor")));
+            }
+            let out = if dims == gltf::accessor::Dimensions::Vec4 {
+                gltf::accessor::Iter::<[f32; 4]>::new(a, get).map(Iterator::collect)
+            } else {
+                gltf::accessor::Iter::<[f32; 3]>::new(a, get)
+                    .map(|it| it.map(|[x, y, z]| [x, y, z, 0.0]).collect())
+            };
+            out.map(Some)
+                .ok_or_else(|| err(format!("{semantic} data is missing")))
+        };
+        let translations = read("TRANSLATION", gltf::accessor::Dimensions::Vec3)?;
+        let rotations = read("ROTATION", gltf::accessor::Dimensions::Vec4)?;
+        let scales = read("SCALE", gltf::accessor::Dimensions::Vec3)?;
+        let count = [&translations, &rotations, &scales]
+            .iter()
+            .filter_map(|v| v.as_ref().map(Vec::len))
+            .max();
+        let Some(count) = count else { return Ok(None) };
+        let at = |v: &Option<Vec<[f32; 4]>>, i: usize| {
+            v.as_ref().and_then(|v| v.get(i)).map(|x| x.map(f64::from))
+        };
+        let instances = (0..count)
+            .map(|i| {
+                let t = at(&translations, i).map_or(DVec3::ZERO, |t| DVec3::new(t[0], t[1], t[2]));
+                let r =
+                    at(&rotations, i).map_or(DQuat::IDENTITY, |r| DQuat::from_array(r).normalize());
+                let s = at(&scales, i).map_or(DVec3::ONE, |s| DVec3::new(s[0], s[1], s[2]));
+                DMat4::from_scale_rotation_translation(s, r, t)
+            })
+            .collect();
+        Ok(Some(instances))
+    }
+
+    /// The texture slot of a glTF texture, decoding it on first use.
+    fn texture_slot(&mut self, texture: &gltf::Texture<'_>) -> Option<usize> {
+        let image = texture.source();
+        let key = (image.index(), texture.sampler().index());
+        if let Some(slot) = self.texture_slots.get(&key) {
+            return *slot;
+        }
+        let label = image
+            .name()
+            .or(texture.name())
+            .map_or_else(|| format!("image #{}", image.index()), str::to_string);
+        let base = self.base_dir.unwrap_or(Path::new("."));
+        let slot = match gltf::image::Data::from_source(image.source(), Some(base), self.buffers) {
+            Ok(data) => {
+                match to_rgba8(&data) {
+                    Some(rgba) => {
+                        let sampler = texture.sampler();
+                        let wrap = |w: gltf::texture::WrappingMode| match w {
+                            gltf::texture::WrappingMode::Repeat => WrapMode::Repeat,
+                            gltf::texture::WrappingMode::MirroredRepeat => WrapMode::MirroredRepeat,
+                            gltf::texture::WrappingMode::ClampToEdge => WrapMode::ClampToEdge,
+                        };
+                        let (width, height, rgba8) = limit_size(data.width, data.height, rgba);
+                        self.textures.push(CpuTexture {
+                            name: label,
+                            width,
+                            height,
+                            rgba8,
+                            wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+                        });
+                        Some(self.textures.len() - 1)
+                    }
+                    None => {
+                        self.warnings.push(format!("texture {label}: unsupported pixel format {:?}; base colour factor used", data.format));
+                        None
+                    }
+                }
+            }
+            Err(e) => {
+                self.warnings.push(format!(
+                    "texture {label} cannot be decoded ({e}); base colour factor used"
+                ));
+                None
+            }
+        };
+        self.texture_slots.insert(key, slot);
+        slot
     }
 
     fn mesh(&mut self, mesh: &gltf::Mesh<'_>, world: DMat4) -> Result<(), ModelError> {
@@ -217,13 +458,51 @@ impl Flattener<'_> {
             if positions.is_empty() {
                 continue;
             }
+            if self.vertices.len() + positions.len() > MAX_VERTICES {
+                return Err(err(format!(
+                    "more than {MAX_VERTICES} vertices after expanding instances"
+                )));
+            }
             let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(Iterator::collect);
             let colors: Option<Vec<[f32; 4]>> =
                 reader.read_colors(0).map(|c| c.into_rgba_f32().collect());
-            let factor = primitive
-                .material()
-                .pbr_metallic_roughness()
-                .base_color_factor();
+            let material = primitive.material();
+            let pbr = material.pbr_metallic_roughness();
+            let factor = pbr.base_color_factor();
+            let cutoff = match material.alpha_mode() {
+                gltf::material::AlphaMode::Mask => material.alpha_cutoff().unwrap_or(0.5).max(1e-6),
+                _ => 0.0,
+            };
+            let material_params = [
+                pbr.metallic_factor(),
+                pbr.roughness_factor(),
+                if material.unlit() { 1.0 } else { 0.0 },
+                cutoff,
+            ];
+            // Base colour texture: its UV set (possibly overridden by the transform) and the transform itself.
+            let mut texture = None;
+            let mut uvs: Option<Vec<[f32; 2]>> = None;
+            if let Some(info) = pbr.base_color_texture() {
+                let transform = info.texture_transform();
+                let set = transform
+                    .as_ref()
+                    .and_then(|t| t.tex_coord())
+                    .unwrap_or(info.tex_coord());
+                match reader.read_tex_coords(set) {
+                    Some(tc) => {
+                        let mut coords: Vec<[f32; 2]> = tc.into_f32().collect();
+                        if let Some(t) = &transform {
+                            let m = uv_transform(t.offset(), t.rotation(), t.scale());
+                            for uv in &mut coords {
+                                *uv = m(*uv);
+                            }
+                        }
+                        texture = self.texture_slot(&info.texture());
+                        uvs = Some(coords);
+                    }
+                    None => self.warnings.push(format!("mesh \"{mesh_name}\" primitive {p}: base colour texture uses TEXCOORD_{set}, which is missing; texture skipped")),
+                }
+            }
             let raw_indices: Vec<u32> = match reader.read_indices() {
                 Some(ix) => ix.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
@@ -234,8 +513,10 @@ impl Flattener<'_> {
                     positions.len()
                 )));
             }
-            if normals.as_ref().is_some_and(|n| n.len() != positions.len())
-                || colors.as_ref().is_some_and(|c| c.len() != positions.len())
+            let n = positions.len();
+            if normals.as_ref().is_some_and(|v| v.len() != n)
+                || colors.as_ref().is_some_and(|v| v.len() != n)
+                || uvs.as_ref().is_some_and(|v| v.len() != n)
             {
                 return Err(err("attribute counts differ from the POSITION count".into()));
             }
@@ -257,22 +538,114 @@ impl Flattener<'_> {
                         c[2] * factor[2],
                         c[3] * factor[3],
                     ],
+                    uv: uvs.as_ref().map_or([0.0; 2], |u| u[i]),
+                    material: material_params,
                 });
             }
-            let start = self.indices.len();
+            let bucket = self.buckets.entry(texture).or_default();
+            let start = bucket.len();
             for [a, b, c] in triangles {
                 let tri = if flips { [a, c, b] } else { [a, b, c] };
-                self.indices.extend(tri.map(|i| base + i));
+                bucket.extend(tri.map(|i| base + i));
             }
             if normals.is_none() {
-                compute_normals(
-                    &mut self.vertices[base as usize..],
-                    &self.indices[start..],
-                    base,
-                );
+                compute_normals(&mut self.vertices[base as usize..], &bucket[start..], base);
             }
         }
         Ok(())
+    }
+}
+
+/// The KHR_texture_transform matrix `translation · rotation · scale` as a function on UVs.
+fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> impl Fn([f32; 2]) -> [f32; 2] {
+    let (sin, cos) = rotation.sin_cos();
+    move |[u, v]| {
+        let (su, sv) = (u * scale[0], v * scale[1]);
+        [
+            cos * su - sin * sv + offset[0],
+            sin * su + cos * sv + offset[1],
+        ]
+    }
+}
+
+/// Any decoded glTF image as RGBA8 (16-bit channels keep their high byte).
+fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<u8>> {
+    use gltf::image::Format;
+    let px = &data.pixels;
+    let f32_to_u8 = |c: &[u8]| {
+        (f32::from_le_bytes([c[0], c[1], c[2], c[3]]).clamp(0.0, 1.0) * 255.0).round() as u8
+    };
+    let out: Vec<u8> = match data.format {
+        Format::R8 => px.iter().flat_map(|&r| [r, r, r, 255]).collect(),
+        Format::R8G8 => px
+            .chunks_exact(2)
+            .flat_map(|c| [c[0], c[0], c[0], c[1]])
+            .collect(),
+        Format::R8G8B8 => px
+            .chunks_exact(3)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect(),
+        Format::R8G8B8A8 => px.clone(),
+        Format::R16 => px
+            .chunks_exact(2)
+            .flat_map(|c| [c[1], c[1], c[1], 255])
+            .collect(),
+        Format::R16G16 => px
+            .chunks_exact(4)
+            .flat_map(|c| [c[1], c[1], c[1], c[3]])
+            .collect(),
+        Format::R16G16B16 => px
+            .chunks_exact(6)
+            .flat_map(|c| [c[1], c[3], c[5], 255])
+            .collect(),
+        Format::R16G16B16A16 => px
+            .chunks_exact(8)
+            .flat_map(|c| [c[1], c[3], c[5], c[7]])
+            .collect(),
+        Format::R32G32B32FLOAT => px
+            .chunks_exact(12)
+            .flat_map(|c| {
+                [
+                    f32_to_u8(&c[0..4]),
+                    f32_to_u8(&c[4..8]),
+                    f32_to_u8(&c[8..12]),
+                    255,
+                ]
+            })
+            .collect(),
+        Format::R32G32B32A32FLOAT => px
+            .chunks_exact(16)
+            .flat_map(|c| {
+                [
+                    f32_to_u8(&c[0..4]),
+                    f32_to_u8(&c[4..8]),
+                    f32_to_u8(&c[8..12]),
+                    f32_to_u8(&c[12..16]),
+                ]
+            })
+            .collect(),
+    };
+    (out.len() == data.width as usize * data.height as usize * 4 && !out.is_empty()).then_some(out)
+}
+
+/// Downscale to at most [`MAX_TEXTURE_SIDE`] a side.
+fn limit_size(width: u32, height: u32, rgba: Vec<u8>) -> (u32, u32, Vec<u8>) {
+    let side = width.max(height);
+    if side <= MAX_TEXTURE_SIDE {
+        return (width, height, rgba);
+    }
+    let scale = f64::from(MAX_TEXTURE_SIDE) / f64::from(side);
+    let (w, h) = (
+        ((f64::from(width) * scale).round() as u32).max(1),
+        ((f64::from(height) * scale).round() as u32).max(1),
+    );
+    match image::RgbaImage::from_raw(width, height, rgba) {
+        Some(img) => (
+            w,
+            h,
+            image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle).into_raw(),
+        ),
+        None => (1, 1, vec![255; 4]),
     }
 }
 
@@ -321,6 +694,8 @@ fn finish(
     name: &str,
     mut vertices: Vec<Vertex>,
     indices: Vec<u32>,
+    draws: Vec<DrawRange>,
+    textures: Vec<CpuTexture>,
     warnings: Vec<String>,
     file: &Path,
 ) -> Result<CpuModel, ModelError> {
@@ -334,11 +709,17 @@ fn finish(
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     for &i in &indices {
         let p = DVec3::from(vertices[i as usize].position.map(f64::from));
+        if !p.is_finite() {
+            return Err(ModelError::Degenerate {
+                file: file.to_owned(),
+                span: f64::NAN,
+            });
+        }
         lo = lo.min(p);
         hi = hi.max(p);
     }
     let span = (hi - lo).max_element();
-    if !(span.is_finite() && span > 0.0) {
+    if !(span.is_finite() && span > 0.0 && lo.is_finite() && hi.is_finite()) {
         return Err(ModelError::Degenerate {
             file: file.to_owned(),
             span,
@@ -355,6 +736,8 @@ fn finish(
         name: name.to_string(),
         vertices,
         indices,
+        draws,
+        textures,
         hull,
         aabb: ((lo - centre) / span, (hi - centre) / span),
         source_span: span,

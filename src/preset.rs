@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::environment::EnvironmentName;
 use crate::sweep::{SweepError, SweepRange};
 
 /// The preset format version this build writes and reads.
@@ -215,6 +216,255 @@ pub enum Sky {
         zenith: (f32, f32, f32),
         horizon: (f32, f32, f32),
     },
+    /// One of the seven named procedural environments (`EnvironmentName`):
+    /// a Preetham sky, clouds, ground and horizon. Unset fields take the
+    /// environment's own values.
+    Procedural {
+        environment: EnvironmentName,
+        #[serde(default)]
+        sun_elevation_deg: Option<f64>,
+        #[serde(default)]
+        sun_azimuth_deg: Option<f64>,
+        /// Atmospheric turbidity, [1.7, 10] (2 = very clear, 6+ = hazy).
+        #[serde(default)]
+        turbidity: Option<f64>,
+        /// Fraction of the sky under cloud, [0, 1].
+        #[serde(default)]
+        cloud_cover: Option<f64>,
+        /// Seed of the cloud/ground pattern; unset: a new pattern every frame.
+        #[serde(default)]
+        seed: Option<u32>,
+        /// Exposure compensation in stops.
+        #[serde(default)]
+        exposure_ev: f64,
+    },
+    /// An equirectangular image (.hdr, .exr, .png, .jpg) or six cubemap faces.
+    /// The sun that lights the drones is given in the image's frame (azimuth
+    /// 0 = the image's centre column) and turns with `rotation_deg`.
+    Image {
+        source: SkyImageSource,
+        /// Exposure in stops (HDR values are then tone mapped).
+        #[serde(default)]
+        exposure_ev: f64,
+        /// Turns the image about the vertical axis (same sense as the sun azimuth).
+        #[serde(default)]
+        rotation_deg: f64,
+        #[serde(default = "default_image_sun_elevation")]
+        sun_elevation_deg: f64,
+        #[serde(default)]
+        sun_azimuth_deg: f64,
+    },
+    /// Per frame: pick one of `choices`, add a random azimuth offset, and
+    /// replace the sun elevation and cloud cover by draws from the ranges given.
+    Random {
+        choices: Vec<Sky>,
+        #[serde(default)]
+        azimuth_offset_deg: (f64, f64),
+        #[serde(default)]
+        sun_elevation_deg: Option<(f64, f64)>,
+        #[serde(default)]
+        cloud_cover: Option<(f64, f64)>,
+    },
+}
+
+fn default_image_sun_elevation() -> f64 {
+    45.0
+}
+
+/// Where an image sky's pixels come from; relative paths are relative to the preset file.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum SkyImageSource {
+    /// One equirectangular (2:1 latitude/longitude) image, top row = zenith.
+    Equirect(PathBuf),
+    /// Six square faces in the OpenGL cubemap convention (+X, −X, +Y up, −Y, +Z, −Z).
+    Cubemap {
+        px: PathBuf,
+        nx: PathBuf,
+        py: PathBuf,
+        ny: PathBuf,
+        pz: PathBuf,
+        nz: PathBuf,
+    },
+}
+
+impl SkyImageSource {
+    fn paths_mut(&mut self) -> Vec<&mut PathBuf> {
+        match self {
+            Self::Equirect(p) => vec![p],
+            Self::Cubemap {
+                px,
+                nx,
+                py,
+                ny,
+                pz,
+                nz,
+            } => vec![px, nx, py, ny, pz, nz],
+        }
+    }
+}
+
+impl Sky {
+    /// A named procedural environment with all its defaults.
+    pub fn procedural(environment: EnvironmentName) -> Self {
+        Self::Procedural {
+            environment,
+            sun_elevation_deg: None,
+            sun_azimuth_deg: None,
+            turbidity: None,
+            cloud_cover: None,
+            seed: None,
+            exposure_ev: 0.0,
+        }
+    }
+
+    /// Every image this sky references, each once, in order of first appearance.
+    pub fn image_sources(&self) -> Vec<&SkyImageSource> {
+        let mut out: Vec<&SkyImageSource> = Vec::new();
+        let mut visit = vec![self];
+        while let Some(sky) = visit.pop() {
+            match sky {
+                Sky::Image { source, .. } if !out.contains(&source) => out.push(source),
+                Sky::Random { choices, .. } => visit.extend(choices.iter().rev()),
+                _ => {}
+            }
+        }
+        out
+    }
+
+    fn resolve_paths(&mut self, base_dir: &Path) {
+        match self {
+            Sky::Image { source, .. } => {
+                for path in source.paths_mut() {
+                    if path.is_relative() {
+                        *path = base_dir.join(&*path);
+                    }
+                }
+            }
+            Sky::Random { choices, .. } => {
+                choices.iter_mut().for_each(|c| c.resolve_paths(base_dir))
+            }
+            _ => {}
+        }
+    }
+
+    /// Push every invalid value of this sky, fields named under `field`.
+    fn validate_into(&self, v: &mut Validator, field: &str, nested: bool) {
+        let range = |v: &mut Validator, name: &str, value: f64, lo: f64, hi: f64| {
+            v.check(
+                value.is_finite() && (lo..=hi).contains(&value),
+                &format!("{field}.{name}"),
+                || format!("{value} is out of range [{lo}, {hi}]"),
+            );
+        };
+        match self {
+            Sky::Gradient {
+                sun_elevation_deg,
+                sun_azimuth_deg,
+                zenith,
+                horizon,
+            } => {
+                range(v, "sun_elevation_deg", *sun_elevation_deg, -90.0, 90.0);
+                v.check(
+                    sun_azimuth_deg.is_finite(),
+                    &format!("{field}.sun_azimuth_deg"),
+                    || format!("{sun_azimuth_deg} must be finite"),
+                );
+                for (name, (r, g, b)) in [("zenith", zenith), ("horizon", horizon)] {
+                    v.check(
+                        [r, g, b]
+                            .iter()
+                            .all(|c| c.is_finite() && **c >= 0.0 && **c <= 100.0),
+                        &format!("{field}.{name}"),
+                        || format!("({r}, {g}, {b}) must be linear RGB in [0, 100]"),
+                    );
+                }
+            }
+            Sky::Procedural {
+                sun_elevation_deg,
+                sun_azimuth_deg,
+                turbidity,
+                cloud_cover,
+                exposure_ev,
+                ..
+            } => {
+                if let Some(e) = sun_elevation_deg {
+                    range(v, "sun_elevation_deg", *e, -10.0, 90.0);
+                }
+                if let Some(a) = sun_azimuth_deg {
+                    range(v, "sun_azimuth_deg", *a, -3600.0, 3600.0);
+                }
+                if let Some(t) = turbidity {
+                    range(v, "turbidity", *t, 1.7, 10.0);
+                }
+                if let Some(c) = cloud_cover {
+                    range(v, "cloud_cover", *c, 0.0, 1.0);
+                }
+                range(v, "exposure_ev", *exposure_ev, -10.0, 10.0);
+            }
+            Sky::Image {
+                source,
+                exposure_ev,
+                rotation_deg,
+                sun_elevation_deg,
+                sun_azimuth_deg,
+            } => {
+                range(v, "exposure_ev", *exposure_ev, -20.0, 20.0);
+                range(v, "rotation_deg", *rotation_deg, -3600.0, 3600.0);
+                range(v, "sun_elevation_deg", *sun_elevation_deg, -90.0, 90.0);
+                range(v, "sun_azimuth_deg", *sun_azimuth_deg, -3600.0, 3600.0);
+                let mut source = source.clone();
+                for path in source.paths_mut() {
+                    v.check(
+                        !path.as_os_str().is_empty(),
+                        &format!("{field}.source"),
+                        || "image path is empty".into(),
+                    );
+                }
+            }
+            Sky::Random {
+                choices,
+                azimuth_offset_deg,
+                sun_elevation_deg,
+                cloud_cover,
+            } => {
+                if nested {
+                    v.push(
+                        field,
+                        "a Random sky cannot be one of another Random sky's choices".into(),
+                    );
+                }
+                if choices.is_empty() {
+                    v.push(
+                        &format!("{field}.choices"),
+                        "at least one choice is needed".into(),
+                    );
+                }
+                let pair = |v: &mut Validator, name: &str, (a, b): (f64, f64), lo: f64, hi: f64| {
+                    v.check(
+                        a.is_finite() && b.is_finite() && lo <= a && a <= b && b <= hi,
+                        &format!("{field}.{name}"),
+                        || format!("({a}, {b}) must be an ordered (min, max) within [{lo}, {hi}]"),
+                    );
+                };
+                pair(
+                    v,
+                    "azimuth_offset_deg",
+                    *azimuth_offset_deg,
+                    -3600.0,
+                    3600.0,
+                );
+                if let Some(r) = sun_elevation_deg {
+                    pair(v, "sun_elevation_deg", *r, -10.0, 90.0);
+                }
+                if let Some(r) = cloud_cover {
+                    pair(v, "cloud_cover", *r, 0.0, 1.0);
+                }
+                for (i, c) in choices.iter().enumerate() {
+                    c.validate_into(v, &format!("{field}.choices[{i}]"), true);
+                }
+            }
+        }
+    }
 }
 
 impl Default for Sky {
@@ -476,6 +726,7 @@ impl Preset {
 
     /// Model files resolved against the directory of the preset file.
     pub fn resolve_paths(&mut self, base_dir: &Path) {
+        self.sky.resolve_paths(base_dir);
         for model in &mut self.models {
             if let ModelSource::File(path) = &mut model.source
                 && path.is_relative()
@@ -684,29 +935,7 @@ impl Preset {
         });
         let frames = self.frame_count();
         v.check(frames <= MAX_FRAMES, "frames", || format!("camera sweeps × plane sweeps × repeats = {frames} frames, more than the limit of {MAX_FRAMES}"));
-        let Sky::Gradient {
-            sun_elevation_deg,
-            sun_azimuth_deg,
-            zenith,
-            horizon,
-        } = &self.sky;
-        v.check(
-            sun_elevation_deg.is_finite() && (-90.0..=90.0).contains(sun_elevation_deg),
-            "sky.sun_elevation_deg",
-            || format!("{sun_elevation_deg} is out of range [-90, 90]"),
-        );
-        v.check(sun_azimuth_deg.is_finite(), "sky.sun_azimuth_deg", || {
-            format!("{sun_azimuth_deg} must be finite")
-        });
-        for (name, (r, g, b)) in [("zenith", zenith), ("horizon", horizon)] {
-            v.check(
-                [r, g, b]
-                    .iter()
-                    .all(|c| c.is_finite() && **c >= 0.0 && **c <= 100.0),
-                &format!("sky.{name}"),
-                || format!("({r}, {g}, {b}) must be linear RGB in [0, 100]"),
-            );
-        }
+        self.sky.validate_into(&mut v, "sky", false);
         let (w, h) = self.image_size();
         for (name, side) in [("width", w), ("height", h)] {
             v.check(

@@ -8,11 +8,16 @@
 //! construction; [`Renderer::render_rgba`] adds an offscreen target and a
 //! row-padded readback.
 
+mod material;
+mod sky;
+
 use std::borrow::Cow;
+use std::ops::Range;
 
 use glam::{DMat4, Mat4};
 use wgpu::util::DeviceExt;
 
+use crate::environment::{EnvironmentAssets, Lighting};
 use crate::model::{CpuModel, Vertex};
 use crate::preset::Sky;
 use crate::scene::FrameScene;
@@ -100,34 +105,22 @@ struct FrameUniforms {
 }
 
 impl FrameUniforms {
-    fn new(scene: &FrameScene, sky: &Sky) -> Self {
+    fn new(scene: &FrameScene, lighting: &Lighting) -> Self {
         let cam = &scene.camera;
         let world_from_camera = Mat4::from_mat3(cam.camera_from_world.transpose().as_mat3());
         let f = cam.focal_px() as f32;
         let c = cam.principal_point().as_vec2();
-        let Sky::Gradient {
-            zenith, horizon, ..
-        } = sky;
-        let rgb = |(r, g, b): (f32, f32, f32)| [r, g, b, 1.0];
+        let rgb = |[r, g, b]: [f32; 3]| [r, g, b, 1.0];
         let sun = scene.sun_direction.as_vec3();
-        // Sun colour warms and dims towards the horizon.
-        let elevation = sun.y.clamp(-1.0, 1.0);
-        let warm = (1.0 - elevation).powi(3);
-        let strength = (elevation * 4.0 + 0.3).clamp(0.0, 1.0) * 1.6;
         Self {
             clip_from_camera: cam.clip_from_camera().to_cols_array_2d(),
             world_from_camera: world_from_camera.to_cols_array_2d(),
             intrinsics: [f, f, c.x, c.y],
             sun_dir_world: sun.extend(0.0).to_array(),
-            sun_color: [
-                strength,
-                strength * (1.0 - 0.35 * warm),
-                strength * (1.0 - 0.65 * warm),
-                1.0,
-            ],
-            zenith: rgb(*zenith),
-            horizon: rgb(*horizon),
-            ground: [horizon.0 * 0.35, horizon.1 * 0.33, horizon.2 * 0.28, 1.0],
+            sun_color: rgb(lighting.sun_color),
+            zenith: rgb(lighting.zenith),
+            horizon: rgb(lighting.horizon),
+            ground: rgb(lighting.ground),
         }
     }
 }
@@ -170,6 +163,9 @@ struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
+    /// Index ranges with their texture bind group (`None`: the white one).
+    draws: Vec<(Range<u32>, Option<usize>)>,
+    textures: Vec<wgpu::BindGroup>,
 }
 
 /// An offscreen target of one size and sample count, with its readback buffer.
@@ -193,6 +189,12 @@ pub struct Renderer {
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
     layout: wgpu::PipelineLayout,
+    /// Frame uniforms + the material's texture (`@group(1)` of drone.wgsl).
+    drone_layout: wgpu::PipelineLayout,
+    /// Frame uniforms + the environment (`@group(1)` of sky.wgsl).
+    sky_layout: wgpu::PipelineLayout,
+    sky: sky::SkyGpu,
+    white_texture: wgpu::BindGroup,
     shaders: (wgpu::ShaderModule, wgpu::ShaderModule),
     /// Pipelines per sample count: (sky, drone).
     pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
@@ -218,7 +220,11 @@ pub fn shader_sources() -> [(&'static str, String); 3] {
     [
         (
             "sky.wgsl",
-            format!("{common}\n{}", include_str!("../shaders/sky.wgsl")),
+            format!(
+                "{common}\n{}\n{}",
+                include_str!("../shaders/environment.wgsl"),
+                include_str!("../shaders/sky.wgsl")
+            ),
         ),
         (
             "drone.wgsl",
@@ -267,6 +273,19 @@ impl Renderer {
             bind_group_layouts: &[Some(&frame_bgl)],
             immediate_size: 0,
         });
+        let material_bgl = material::bind_group_layout(&device);
+        let drone_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("drone pipeline layout"),
+            bind_group_layouts: &[Some(&frame_bgl), Some(&material_bgl)],
+            immediate_size: 0,
+        });
+        let white_texture = material::white(&device, &ctx.queue, &material_bgl);
+        let sky = sky::SkyGpu::new(&device, &ctx.queue);
+        let sky_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sky pipeline layout"),
+            bind_group_layouts: &[Some(&frame_bgl), Some(&sky.layout)],
+            immediate_size: 0,
+        });
         let [(sky_name, sky_src), (drone_name, drone_src), _] = shader_sources();
         let module = |label: &str, src: String| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -289,6 +308,19 @@ impl Renderer {
                     usage: wgpu::BufferUsages::INDEX,
                 }),
                 index_count: m.indices.len() as u32,
+                draws: m
+                    .draws
+                    .iter()
+                    .map(|d| (d.indices.clone(), d.texture))
+                    .collect(),
+                textures: m
+                    .textures
+                    .iter()
+                    .map(|t| {
+                        let label = format!("{} texture {}", m.name, t.name);
+                        material::upload(&device, &ctx.queue, &material_bgl, t, &label)
+                    })
+                    .collect(),
             })
             .collect();
         Self {
@@ -298,6 +330,10 @@ impl Renderer {
             frame_buffer,
             frame_bind_group,
             layout,
+            drone_layout,
+            sky_layout,
+            sky,
+            white_texture,
             shaders,
             pipelines: Vec::new(),
             meshes,
@@ -342,7 +378,7 @@ impl Renderer {
             .device
             .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("sky pipeline"),
-                layout: Some(&self.layout),
+                layout: Some(&self.sky_layout),
                 vertex: wgpu::VertexState {
                     module: &self.shaders.0,
                     entry_point: Some("vs_main"),
@@ -361,7 +397,7 @@ impl Renderer {
                 multiview_mask: None,
                 cache: None,
             });
-        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 8 => Float32x2, 9 => Float32x4];
         let instance_attrs = INSTANCE_ATTRS;
         let buffers = [
             Some(wgpu::VertexBufferLayout {
@@ -379,7 +415,7 @@ impl Renderer {
             .device
             .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some("drone pipeline"),
-                layout: Some(&self.layout),
+                layout: Some(&self.drone_layout),
                 vertex: wgpu::VertexState {
                     module: &self.shaders.1,
                     entry_point: Some("vs_main"),
@@ -406,13 +442,23 @@ impl Renderer {
         self.pipelines.len() - 1
     }
 
-    /// Write the frame's uniforms.
+    /// Write the frame's uniforms: the camera, and the environment's sky and lighting.
     fn upload_uniforms(&mut self, scene: &FrameScene, sky: &Sky) {
+        let sun = scene.sun_direction.as_vec3();
+        let lighting = self.sky.prepare(&self.queue, sky, &scene.environment, sun);
         self.queue.write_buffer(
             &self.frame_buffer,
             0,
-            bytemuck::bytes_of(&FrameUniforms::new(scene, sky)),
+            bytemuck::bytes_of(&FrameUniforms::new(scene, &lighting)),
         );
+    }
+
+    /// Upload the sky images of the preset's environment (see
+    /// [`EnvironmentAssets::load`]); frames whose sky names an image that was
+    /// not uploaded draw the default gradient.
+    pub fn set_environment(&mut self, assets: &EnvironmentAssets) {
+        self.sky
+            .set_images(&self.device, &self.queue, assets, self.max_texture_side);
     }
 
     /// Write the instances of the drones `include` accepts (camera_from_model
@@ -478,6 +524,16 @@ impl Renderer {
             msaa,
         } = *views;
         self.upload_uniforms(scene, sky);
+        if sky::SkyGpu::is_procedural(sky, &scene.environment) {
+            let size = (scene.camera.width, scene.camera.height);
+            self.sky.encode_environment(
+                &self.device,
+                encoder,
+                (&self.shaders.0, &self.sky_layout),
+                &self.frame_bind_group,
+                size,
+            );
+        }
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;
         let p = self.pipelines(msaa);
@@ -507,6 +563,7 @@ impl Renderer {
             multiview_mask: None,
         });
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
+        pass.set_bind_group(1, self.sky.bind_group_for(sky, &scene.environment), &[]);
         pass.set_pipeline(sky_pipeline);
         pass.draw(0..3, 0..1);
         if let Some(instances) = &self.instances
@@ -518,7 +575,13 @@ impl Renderer {
                 let mesh = &self.meshes[model];
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.index_count, 0, range);
+                for (indices, texture) in &mesh.draws {
+                    let bind_group = texture
+                        .and_then(|t| mesh.textures.get(t))
+                        .unwrap_or(&self.white_texture);
+                    pass.set_bind_group(1, bind_group, &[]);
+                    pass.draw_indexed(indices.clone(), 0, range.clone());
+                }
             }
         }
     }

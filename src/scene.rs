@@ -5,6 +5,8 @@
 //! Draw order from the frame's sampler (see `seed`): the drone count
 //! (randomized mode), then per drone its model, its position (retried until
 //! it keeps the minimum separation), then roll, pitch, yaw.
+//! The environment (sky choice, sun, clouds) draws from a separately salted
+//! stream (`environment::frame_environment`), so it never shifts these.
 
 use std::collections::HashMap;
 
@@ -13,6 +15,7 @@ use rand::Rng;
 use serde::Serialize;
 
 use crate::camera::Camera;
+use crate::environment::FrameEnvironment;
 use crate::math::{EulerDeg, look_at_cv, plane_rotation};
 use crate::preset::{AttitudeRanges, Placement, Preset, Sky, Volume};
 use crate::seed;
@@ -78,8 +81,10 @@ pub struct FrameScene {
     pub sweep: SweepValues,
     pub camera: Camera,
     pub drones: Vec<DronePose>,
-    /// Unit vector towards the sun, world frame.
+    /// Unit vector towards the sun, world frame (`environment.sun_direction()`).
     pub sun_direction: DVec3,
+    /// The frame's environment draws (which sky, sun, clouds, pattern seed).
+    pub environment: FrameEnvironment,
     /// Radius R of the observation volume's bounding sphere (drone extent included).
     pub volume_radius_m: f64,
     /// Drones that randomized placement could not fit at the minimum separation.
@@ -94,15 +99,11 @@ pub enum FrameError {
     Sweep(#[from] crate::sweep::SweepError),
 }
 
-/// Unit vector towards the sun: azimuth from +Z towards +X, elevation above the horizon.
+/// Unit vector towards the sun of a sky without its per-frame randomisation
+/// (azimuth from +Z towards +X, elevation above the horizon). A frame's own
+/// sun is `FrameScene::sun_direction`.
 pub fn sun_direction(sky: &Sky) -> DVec3 {
-    let Sky::Gradient {
-        sun_elevation_deg,
-        sun_azimuth_deg,
-        ..
-    } = sky;
-    let (el, az) = (sun_elevation_deg.to_radians(), sun_azimuth_deg.to_radians());
-    DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos())
+    crate::environment::nominal_sun_direction(sky)
 }
 
 /// The bounding-sphere radius of a model of largest span `size_m` centred on its box.
@@ -198,6 +199,8 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
         near_m: (min_size * 0.01).clamp(1e-5, 0.05),
     };
 
+    // The environment draws come from their own salted stream (see `environment`).
+    let environment = crate::environment::frame_environment(&preset.sky, preset.seed, index);
     let u = seed::split_uniform(preset.seed, index);
     let s = &preset.output.split;
     let split = if u < s.train {
@@ -215,7 +218,8 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
         sweep,
         camera,
         drones,
-        sun_direction: sun_direction(&preset.sky),
+        sun_direction: environment.sun_direction(),
+        environment,
         volume_radius_m,
         placement_shortfall: shortfall,
     })

@@ -123,6 +123,8 @@ pub type PreviewResult = Result<PreviewFrame, PreviewError>;
 
 struct Loaded {
     models: Vec<ModelSpec>,
+    /// The sky images uploaded to `renderer` (only what the preset references).
+    sky_images: Vec<crate::preset::SkyImageSource>,
     maker: FrameMaker,
     renderer: Renderer,
 }
@@ -184,9 +186,19 @@ impl PreviewRenderer {
             let renderer = Renderer::new(&self.ctx, &maker.models);
             self.loaded = Some(Loaded {
                 models: preset.models.clone(),
+                sky_images: Vec::new(),
                 maker,
                 renderer,
             });
+        }
+        if let Some(loaded) = self.loaded.as_mut() {
+            let wanted: Vec<_> = preset.sky.image_sources().into_iter().cloned().collect();
+            if wanted != loaded.sky_images {
+                let assets = crate::environment::EnvironmentAssets::load(&preset.sky)
+                    .map_err(|e| fail(e.to_string(), true))?;
+                loaded.renderer.set_environment(&assets);
+                loaded.sky_images = wanted;
+            }
         }
         let loaded = self
             .loaded

@@ -1,0 +1,184 @@
+//! Pictures of what ships: a contact sheet of the built-in models and one
+//! frame per named environment (for docs/, the golden-image tests and the
+//! environment benchmark). Everything is rendered by the ordinary renderer
+//! from ordinary presets, so these images show exactly what datasets get.
+
+use std::time::Instant;
+
+use glam::{DQuat, DVec3};
+
+use crate::assets::BUILTIN_NAMES;
+use crate::batch::{FrameMaker, make_renderer};
+use crate::environment::EnvironmentName;
+use crate::math::{EulerDeg, look_at_cv};
+use crate::preset::{ModelSource, ModelSpec, Placement, Preset, Resolution, Sky, Volume};
+use crate::render::GpuContext;
+use crate::scene::{DronePose, build_frame};
+use crate::sweep::SweepRange;
+
+/// The preset of one environment picture: a small mixed swarm seen level with
+/// the horizon, so sky, clouds, silhouettes and ground are all in view.
+pub fn environment_preset(sky: Sky, width: u32, height: u32) -> Preset {
+    let models = ["quad_x", "fixed_wing", "hexacopter", "heavy_lift"]
+        .iter()
+        .map(|n| ModelSpec {
+            source: ModelSource::Builtin((*n).into()),
+            size_m: 1.0,
+            class: "uav".into(),
+        })
+        .collect();
+    let mut p = Preset {
+        name: "environment".into(),
+        seed: 11,
+        models,
+        sky,
+        ..Preset::default()
+    };
+    p.placement = Placement::Randomized {
+        count: (8, 8),
+        volume: Volume::Box {
+            size_m: (10.0, 3.0, 10.0),
+        },
+        min_separation_m: 2.0,
+    };
+    p.camera.y = SweepRange::fixed(0.15);
+    p.camera.z = SweepRange::fixed(1.0);
+    p.camera.fov_y_deg = 60.0;
+    p.render.resolution = Resolution::Custom { width, height };
+    p.render.msaa = 4;
+    p
+}
+
+/// A named environment with a fixed pattern seed (for pictures and golden images).
+pub fn fixed_environment(name: EnvironmentName) -> Sky {
+    match Sky::procedural(name) {
+        Sky::Procedural {
+            environment,
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            turbidity,
+            cloud_cover,
+            exposure_ev,
+            ..
+        } => Sky::Procedural {
+            environment,
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            turbidity,
+            cloud_cover,
+            seed: Some(7),
+            exposure_ev,
+        },
+        other => other,
+    }
+}
+
+/// Render frame 0 of `preset` to RGBA.
+pub fn render_preset(ctx: &GpuContext, preset: &Preset) -> anyhow::Result<Vec<u8>> {
+    let maker = FrameMaker::new(preset.clone())?;
+    let scene = build_frame(preset, 0)?;
+    let mut renderer = make_renderer(&maker, ctx)?;
+    Ok(renderer.render_rgba(&scene, &preset.sky, preset.render.msaa)?)
+}
+
+/// One frame per named environment, at `width`×`height`.
+pub fn environment_frames(
+    ctx: &GpuContext,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<Vec<(EnvironmentName, Vec<u8>)>> {
+    EnvironmentName::ALL
+        .iter()
+        .map(|&name| {
+            Ok((
+                name,
+                render_preset(
+                    ctx,
+                    &environment_preset(fixed_environment(name), width, height),
+                )?,
+            ))
+        })
+        .collect()
+}
+
+/// A `columns`-wide contact sheet of the built-in models, each 1 m across,
+/// seen from 30° above at a three-quarter angle over the default gradient sky.
+pub fn model_contact_sheet(
+    ctx: &GpuContext,
+    tile: u32,
+    columns: u32,
+) -> anyhow::Result<image::RgbaImage> {
+    let models = BUILTIN_NAMES
+        .iter()
+        .map(|n| ModelSpec {
+            source: ModelSource::Builtin((*n).into()),
+            size_m: 1.0,
+            class: (*n).into(),
+        })
+        .collect();
+    let mut preset = Preset {
+        models,
+        ..Preset::default()
+    };
+    preset.placement = Placement::Structured {
+        x_count: 1,
+        y_count: 1,
+        z_count: 1,
+        load_factor: 1.0,
+    };
+    preset.render.resolution = Resolution::Custom {
+        width: tile,
+        height: tile,
+    };
+    preset.sky = Sky::Gradient {
+        sun_elevation_deg: 55.0,
+        sun_azimuth_deg: 150.0,
+        zenith: (0.30, 0.42, 0.62),
+        horizon: (0.75, 0.8, 0.86),
+    };
+    let maker = FrameMaker::new(preset.clone())?;
+    let mut renderer = make_renderer(&maker, ctx)?;
+    let rows = (BUILTIN_NAMES.len() as u32).div_ceil(columns);
+    let mut sheet = image::RgbaImage::new(tile * columns, tile * rows);
+    for (i, _) in BUILTIN_NAMES.iter().enumerate() {
+        let mut scene = build_frame(&preset, 0)?;
+        let eye = DVec3::new(1.0, 0.95, 1.35).normalize() * 2.3;
+        scene.camera.position = eye;
+        scene.camera.fov_y_deg = 32.0;
+        scene.camera.near_m = 0.01;
+        scene.camera.camera_from_world =
+            look_at_cv(eye, DVec3::ZERO).unwrap_or(glam::DMat3::IDENTITY);
+        let rotation = DQuat::IDENTITY;
+        scene.drones = vec![DronePose {
+            model: i,
+            position: DVec3::ZERO,
+            rotation,
+            euler_deg: EulerDeg::from_quat(rotation),
+            size_m: 1.0,
+        }];
+        let rgba = renderer.render_rgba(&scene, &preset.sky, 4)?;
+        let img = image::RgbaImage::from_raw(tile, tile, rgba)
+            .ok_or_else(|| anyhow::anyhow!("tile size"))?;
+        let (x, y) = ((i as u32 % columns) * tile, (i as u32 / columns) * tile);
+        image::imageops::replace(&mut sheet, &img, i64::from(x), i64::from(y));
+    }
+    Ok(sheet)
+}
+
+/// Median render time (ms, frame rendered and read back) of frame 0 of `preset` over `frames` renders.
+pub fn median_frame_ms(ctx: &GpuContext, preset: &Preset, frames: usize) -> anyhow::Result<f64> {
+    let maker = FrameMaker::new(preset.clone())?;
+    let scene = build_frame(preset, 0)?;
+    let mut renderer = make_renderer(&maker, ctx)?;
+    renderer.render_rgba(&scene, &preset.sky, preset.render.msaa)?; // warm-up: pipelines, targets
+    let mut times: Vec<f64> = (0..frames.max(1))
+        .map(|_| {
+            let start = Instant::now();
+            renderer
+                .render_rgba(&scene, &preset.sky, preset.render.msaa)
+                .map(|_| start.elapsed().as_secs_f64() * 1000.0)
+        })
+        .collect::<Result<_, _>>()?;
+    times.sort_by(f64::total_cmp);
+    Ok(times[times.len() / 2])
+}

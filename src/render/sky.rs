@@ -1,0 +1,498 @@
+//! GPU side of the environments (`@group(1)` of the sky pipeline): one
+//! uniform block rewritten per frame, and one bind group per uploaded sky
+//! image (plus a default one with 1×1 placeholders for the gradient and
+//! procedural skies). [`SkyGpu::prepare`] turns a frame's environment into
+//! the uniforms and the drones' [`Lighting`].
+//!
+//! Procedural environments are drawn at half resolution per axis into an
+//! RGBA16F target by their own pass ([`SkyGpu::encode_environment`]) and
+//! sampled bilinearly by the sky pass: a quarter of the shading work, and the
+//! sky pass itself then costs what the gradient costs. The environment is
+//! soft (clouds, haze, distant silhouettes); drones stay at full resolution.
+
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use crate::environment::{
+    self, EnvironmentAssets, FrameEnvironment, Lighting, Preetham, ResolvedSky, SkyImage,
+    SkyImageKind,
+};
+use crate::preset::Sky;
+
+/// Layout matches `Env` in `shaders/environment.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct EnvUniforms {
+    mode: [f32; 4],
+    sun_color: [f32; 4],
+    perez: [[f32; 4]; 5],
+    zenith_yxy: [f32; 4],
+    pattern: [f32; 4],
+    ground_a: [f32; 4],
+    ground_b: [f32; 4],
+    far: [f32; 4],
+    far_params: [f32; 4],
+    near: [f32; 4],
+    light: [f32; 4],
+    ambient: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 16 * 16);
+
+pub(super) struct SkyGpu {
+    pub(super) layout: wgpu::BindGroupLayout,
+    uniforms: wgpu::Buffer,
+    /// Placeholders only: the gradient sky and the environment pass itself.
+    default_group: wgpu::BindGroup,
+    /// The half-resolution environment target (width, height) and the group that samples it.
+    half: Option<(u32, u32, wgpu::TextureView, wgpu::BindGroup)>,
+    /// Per uploaded image: its bind group and CPU summary (for lighting).
+    images: Vec<(wgpu::BindGroup, SkyImage)>,
+    placeholder_2d: wgpu::TextureView,
+    placeholder_cube: wgpu::TextureView,
+    sampler: wgpu::Sampler,
+    half_sampler: wgpu::Sampler,
+    /// The pipeline of `fs_environment`, built on first use.
+    pipeline: Option<wgpu::RenderPipeline>,
+}
+
+/// Full-resolution pixels per environment-pass pixel, per axis.
+const HALF_SCALE: u32 = 2;
+
+fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
+    rgb.chunks_exact(3)
+        .flat_map(|p| [p[0], p[1], p[2], 1.0])
+        .map(half::f16::from_f32)
+        .collect()
+}
+
+impl SkyGpu {
+    pub(super) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let texture_entry = |binding, view_dimension| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let sampler_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("environment layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                texture_entry(1, wgpu::TextureViewDimension::D2),
+                texture_entry(2, wgpu::TextureViewDimension::Cube),
+                sampler_entry(3),
+                texture_entry(4, wgpu::TextureViewDimension::D2),
+                sampler_entry(5),
+            ],
+        });
+        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("environment uniforms"),
+            size: std::mem::size_of::<EnvUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("environment sampler"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            address_mode_w: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let half_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("environment upsampler"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let placeholder_2d = Self::texture(device, queue, "sky placeholder", 1, 1, 1, &[0.0; 3])
+            .create_view(&Default::default());
+        let placeholder_cube =
+            Self::texture(device, queue, "sky cube placeholder", 1, 1, 6, &[0.0; 18]).create_view(
+                &wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::Cube),
+                    ..Default::default()
+                },
+            );
+        let default_group = make_bind_group(
+            device,
+            &layout,
+            &uniforms,
+            (&sampler, &half_sampler),
+            "environment (placeholders)",
+            [&placeholder_2d, &placeholder_cube, &placeholder_2d],
+        );
+        Self {
+            layout,
+            uniforms,
+            default_group,
+            half: None,
+            images: Vec::new(),
+            placeholder_2d,
+            placeholder_cube,
+            sampler,
+            half_sampler,
+            pipeline: None,
+        }
+    }
+
+    fn texture(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        label: &str,
+        width: u32,
+        height: u32,
+        layers: u32,
+        rgb: &[f32],
+    ) -> wgpu::Texture {
+        device.create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: layers,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&f16_rgba(rgb)),
+        )
+    }
+
+    fn bind_group(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        equirect: &wgpu::TextureView,
+        cube: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        make_bind_group(
+            device,
+            &self.layout,
+            &self.uniforms,
+            (&self.sampler, &self.half_sampler),
+            label,
+            [equirect, cube, &self.placeholder_2d],
+        )
+    }
+
+    /// Upload the preset's sky images (replacing any uploaded before).
+    pub(super) fn set_images(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        assets: &EnvironmentAssets,
+        max_side: u32,
+    ) {
+        self.images.clear();
+        for (i, image) in assets.images.iter().enumerate() {
+            let label = format!("sky image {i}");
+            let group = match &image.kind {
+                SkyImageKind::Equirect { width, height, rgb }
+                    if (*width).max(*height) <= max_side =>
+                {
+                    let view = Self::texture(device, queue, &label, *width, *height, 1, rgb)
+                        .create_view(&Default::default());
+                    self.bind_group(device, &label, &view, &self.placeholder_cube)
+                }
+                SkyImageKind::Cubemap { side, faces } if *side <= max_side => {
+                    let view =
+                        Self::texture(device, queue, &label, *side, *side, 6, &faces.concat())
+                            .create_view(&wgpu::TextureViewDescriptor {
+                                dimension: Some(wgpu::TextureViewDimension::Cube),
+                                ..Default::default()
+                            });
+                    self.bind_group(device, &label, &self.placeholder_2d, &view)
+                }
+                // Larger than the adapter allows (EnvironmentAssets already caps at 4096).
+                _ => self.default_group.clone(),
+            };
+            self.images.push((group, image.clone()));
+        }
+    }
+
+    /// Whether a frame's environment needs the environment pass.
+    pub(super) fn is_procedural(sky: &Sky, env: &FrameEnvironment) -> bool {
+        matches!(
+            environment::resolve(sky, env),
+            ResolvedSky::Procedural { .. }
+        )
+    }
+
+    /// Draw the procedural environment of the uniforms just written into the
+    /// half-resolution target (resized to the frame's `width`×`height` as needed).
+    pub(super) fn encode_environment(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        frame_bind_group: &wgpu::BindGroup,
+        (width, height): (u32, u32),
+    ) {
+        let (w, h) = (
+            width.div_ceil(HALF_SCALE).max(1),
+            height.div_ceil(HALF_SCALE).max(1),
+        );
+        if self
+            .half
+            .as_ref()
+            .is_none_or(|(hw, hh, _, _)| (*hw, *hh) != (w, h))
+        {
+            let view = device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("environment (half resolution)"),
+                    size: wgpu::Extent3d {
+                        width: w,
+                        height: h,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba16Float,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default());
+            let group = make_bind_group(
+                device,
+                &self.layout,
+                &self.uniforms,
+                (&self.sampler, &self.half_sampler),
+                "environment (procedural)",
+                [&self.placeholder_2d, &self.placeholder_cube, &view],
+            );
+            self.half = Some((w, h, view, group));
+        }
+        let pipeline = self.pipeline.get_or_insert_with(|| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("environment pipeline"),
+                layout: Some(layout),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some("fs_environment"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: wgpu::TextureFormat::Rgba16Float,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        });
+        let Some((_, _, view, _)) = &self.half else {
+            return;
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("environment pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, frame_bind_group, &[]);
+        // The placeholder group: the target cannot be sampled while it is drawn.
+        pass.set_bind_group(1, &self.default_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// The bind group a frame's environment draws with.
+    pub(super) fn bind_group_for(&self, sky: &Sky, env: &FrameEnvironment) -> &wgpu::BindGroup {
+        match environment::resolve(sky, env) {
+            ResolvedSky::Image { source, .. } => self
+                .images
+                .iter()
+                .find(|(_, image)| image.source == *source)
+                .map_or(&self.default_group, |(g, _)| g),
+            ResolvedSky::Procedural { .. } => self
+                .half
+                .as_ref()
+                .map_or(&self.default_group, |(_, _, _, g)| g),
+            ResolvedSky::Gradient { .. } => &self.default_group,
+        }
+    }
+
+    /// Write the frame's environment uniforms and return the drones' lighting.
+    pub(super) fn prepare(
+        &self,
+        queue: &wgpu::Queue,
+        sky: &Sky,
+        env: &FrameEnvironment,
+        sun: Vec3,
+    ) -> Lighting {
+        let mut u = EnvUniforms::default();
+        let resolved = environment::resolve(sky, env);
+        let lighting = match resolved {
+            ResolvedSky::Gradient { zenith, horizon } => {
+                environment::gradient_lighting(sun, zenith, horizon)
+            }
+            ResolvedSky::Procedural { style, exposure } => {
+                let lighting = environment::procedural_lighting(&style, env, exposure);
+                let model = Preetham::new(env.turbidity as f32, sun);
+                let t = environment::sun_transmittance(
+                    env.turbidity as f32,
+                    sun.y.clamp(-1.0, 1.0).asin(),
+                );
+                u.mode = [1.0, environment::SKY_EXPOSURE * exposure, 0.0, 0.0];
+                u.sun_color = [t.x, t.y, t.z, env.cloud_cover.clamp(0.0, 1.0) as f32];
+                for (k, row) in model.perez.iter().enumerate() {
+                    u.perez[k] = [row[0], row[1], row[2], 0.0];
+                }
+                // Fog visibility shrinks with turbidity.
+                let visibility_m = 9000.0 / env.turbidity.max(1.0) as f32;
+                u.zenith_yxy = [
+                    model.zenith[0],
+                    model.zenith[1],
+                    model.zenith[2],
+                    visibility_m,
+                ];
+                // Pattern offsets from the seed, kept small for f32 noise precision.
+                let seed = env.pattern_seed;
+                let offset = [
+                    (seed & 0xffff) as f32 / 65536.0 * 97.0,
+                    (seed >> 16) as f32 / 65536.0 * 89.0,
+                ];
+                u.pattern = [
+                    offset[0],
+                    offset[1],
+                    style.ground as u32 as f32,
+                    style.far as u32 as f32,
+                ];
+                let rgb = |c: [f32; 3], w: f32| [c[0], c[1], c[2], w];
+                u.ground_a = rgb(style.ground_albedo[0], 0.0);
+                u.ground_b = rgb(style.ground_albedo[1], 0.0);
+                u.far = rgb(style.far_albedo, style.far_height_deg.to_radians());
+                u.far_params = [
+                    if style.snow_caps { 1.0 } else { 0.0 },
+                    style.near as u32 as f32,
+                    style.near_height_deg.to_radians(),
+                    HALF_SCALE as f32,
+                ];
+                u.near = rgb(style.near_albedo, 0.0);
+                u.light = rgb(lighting.sun_color, 0.0);
+                u.ambient = rgb(lighting.zenith, 0.0);
+                lighting
+            }
+            ResolvedSky::Image {
+                source,
+                exposure,
+                rotation_deg,
+            } => {
+                let uploaded = self
+                    .images
+                    .iter()
+                    .find(|(_, image)| image.source == *source);
+                match uploaded {
+                    Some((_, image)) => {
+                        let mode = match image.kind {
+                            SkyImageKind::Equirect { .. } => 2.0,
+                            SkyImageKind::Cubemap { .. } => 3.0,
+                        };
+                        u.mode = [
+                            mode,
+                            exposure,
+                            if image.hdr { 1.0 } else { 0.0 },
+                            (rotation_deg as f32).to_radians(),
+                        ];
+                        image.lighting(sun, exposure)
+                    }
+                    // Not uploaded (the host did not call `set_environment`): the default gradient, never a panic.
+                    None => {
+                        environment::gradient_lighting(sun, [0.10, 0.25, 0.60], [0.62, 0.74, 0.88])
+                    }
+                }
+            }
+        };
+        queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
+        lighting
+    }
+}
+
+fn make_bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    uniforms: &wgpu::Buffer,
+    (sampler, half_sampler): (&wgpu::Sampler, &wgpu::Sampler),
+    label: &str,
+    [equirect, cube, half]: [&wgpu::TextureView; 3],
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniforms.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(equirect),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::TextureView(cube),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::TextureView(half),
+            },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: wgpu::BindingResource::Sampler(half_sampler),
+            },
+        ],
+    })
+}
