@@ -178,8 +178,7 @@ struct Target {
     color: wgpu::Texture,
     color_view: wgpu::TextureView,
     depth: wgpu::TextureView,
-    readback: wgpu::Buffer,
-    padded_row: u32,
+    readback: Readback,
 }
 
 pub struct Renderer {
@@ -646,14 +645,7 @@ impl Renderer {
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         )
         .create_view(&Default::default());
-        let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("frame readback"),
-            size: u64::from(padded_row) * u64::from(height),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let readback = Readback::new(&self.device, "frame readback", width, height);
         let color_view = color.create_view(&Default::default());
         self.target = Some(Target {
             width,
@@ -664,7 +656,6 @@ impl Renderer {
             color_view,
             depth,
             readback,
-            padded_row,
         });
         Ok(())
     }
@@ -702,72 +693,93 @@ impl Renderer {
             },
         };
         self.encode(&mut encoder, scene, sky, &views);
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &target.color,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &target.readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(target.padded_row),
-                    rows_per_image: Some(height),
-                },
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
+        target.readback.copy_from(&mut encoder, &target.color);
         self.queue.submit([encoder.finish()]);
-        let result = read_buffer(
-            &self.device,
-            &target.readback,
-            width,
-            height,
-            target.padded_row,
-        );
+        let result = target.readback.read(&self.device);
         self.target = Some(target);
         result
     }
 }
 
-/// Map a padded readback buffer and strip the row padding.
-fn read_buffer(
-    device: &wgpu::Device,
-    buffer: &wgpu::Buffer,
+/// A mappable buffer that receives a 4-byte-per-pixel texture with rows padded
+/// to `COPY_BYTES_PER_ROW_ALIGNMENT`, and gives it back tightly packed.
+struct Readback {
+    buffer: wgpu::Buffer,
     width: u32,
     height: u32,
     padded_row: u32,
-) -> Result<Vec<u8>, RenderError> {
-    let slice = buffer.slice(..);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
-    rx.recv()
-        .map_err(|e| RenderError::Readback(e.to_string()))?
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
-    let row = (width * 4) as usize;
-    let mut out = Vec::with_capacity(row * height as usize);
-    {
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
-        for y in 0..height as usize {
-            let start = y * padded_row as usize;
-            out.extend_from_slice(&view[start..start + row]);
+}
+
+impl Readback {
+    fn new(device: &wgpu::Device, label: &str, width: u32, height: u32) -> Self {
+        let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: u64::from(padded_row) * u64::from(height),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            buffer,
+            width,
+            height,
+            padded_row,
         }
     }
-    buffer.unmap();
-    Ok(out)
+
+    /// Record the copy of `texture` (same size, 4 bytes per pixel) into this buffer.
+    fn copy_from(&self, encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture) {
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded_row),
+                    rows_per_image: Some(self.height),
+                },
+            },
+            wgpu::Extent3d {
+                width: self.width,
+                height: self.height,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+
+    /// Wait for the GPU, map, and strip the row padding.
+    fn read(&self, device: &wgpu::Device) -> Result<Vec<u8>, RenderError> {
+        let slice = self.buffer.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| RenderError::Readback(e.to_string()))?
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let row = (self.width * 4) as usize;
+        let mut out = Vec::with_capacity(row * self.height as usize);
+        {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| RenderError::Readback(e.to_string()))?;
+            for y in 0..self.height as usize {
+                let start = y * self.padded_row as usize;
+                out.extend_from_slice(&view[start..start + row]);
+            }
+        }
+        self.buffer.unmap();
+        Ok(out)
+    }
 }
 
 /// Linear-to-sRGB as the shaders do it (used by tests that predict pixels).
@@ -788,12 +800,12 @@ struct IdPass {
     pipeline: wgpu::RenderPipeline,
     width: u32,
     height: u32,
+    /// Id texture, its view, depth view, readback.
     target: Option<(
         wgpu::Texture,
         wgpu::TextureView,
         wgpu::TextureView,
-        wgpu::Buffer,
-        u32,
+        Readback,
     )>,
 }
 
@@ -936,21 +948,14 @@ impl Renderer {
                 wgpu::TextureUsages::RENDER_ATTACHMENT,
             )
             .create_view(&Default::default());
-            let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-                * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-            let readback = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("instance-id readback"),
-                size: u64::from(padded_row) * u64::from(height),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            pass.target = Some((ids, ids_view, depth, readback, padded_row));
+            let readback = Readback::new(device, "instance-id readback", width, height);
+            pass.target = Some((ids, ids_view, depth, readback));
             pass.width = width;
             pass.height = height;
         }
         let IdPass {
             pipeline,
-            target: Some((texture, view, depth, readback, padded_row)),
+            target: Some((texture, view, depth, readback)),
             ..
         } = pass
         else {
@@ -997,29 +1002,9 @@ impl Renderer {
                 }
             }
         }
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(*padded_row),
-                    rows_per_image: Some(height),
-                },
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
+        readback.copy_from(&mut encoder, texture);
         self.queue.submit([encoder.finish()]);
-        let bytes = read_buffer(&self.device, readback, width, height, *padded_row)?;
+        let bytes = readback.read(&self.device)?;
         Ok(IdImage {
             width,
             height,
