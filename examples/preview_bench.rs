@@ -20,7 +20,6 @@ use std::time::{Duration, Instant};
 
 use swarmshot::app::preview::{PreviewKey, PreviewRenderer, PreviewRequest, PreviewView};
 use swarmshot::app::{StartOptions, SwarmshotApp};
-use swarmshot::batch::load_preset;
 use swarmshot::preset::{Placement, Preset};
 use swarmshot::render::GpuContext;
 
@@ -153,7 +152,7 @@ fn end_to_end(
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let quickstart_path = root.join("presets/quickstart.ron");
-    let quickstart = load_preset(&quickstart_path).unwrap();
+    let quickstart = Preset::open(&quickstart_path).unwrap();
     let ctx = GpuContext::headless().unwrap();
     println!("adapter: {}", ctx.describe());
     let mut renderer = PreviewRenderer::new(ctx);

@@ -1,27 +1,23 @@
 //! swarmshot: synthetic training data for UAV-swarm detection.
 //!
-//! Data flows one way: a [`preset::Preset`] (plain serde data) and a frame
-//! index give a [`scene::FrameScene`] (`scene::build_frame`, pure); the
-//! [`labels`] module boxes it geometrically; the [`render`] module draws it
-//! with wgpu; the [`output`] writers store image, labels and manifest;
-//! [`batch`] runs that pipeline for every frame. The renderer knows nothing of
-//! any UI, and the writers know nothing of rendering. The desktop app
-//! ([`app`]) edits presets and drives the same preview renderer and batch.
+//! One way through the house: a validated [`preset::Preset`] (plain serde
+//! data) and a frame index give a [`scene::FrameScene`] (pure; the sky is
+//! resolved by [`sky`] and the models come from [`model`]); [`render`] draws
+//! it with wgpu and measures what each drone shows; [`annotate`] turns poses
+//! and those measurements into labels; [`write`] stores image, labels and
+//! manifest. [`pipeline::FramePipeline`] runs those stages for one frame, and
+//! every caller — the batch, the `frame` command, the desktop app's preview,
+//! the benchmarks and the gallery — makes frames through it. Dependencies run
+//! one way: preset → sky/model → scene → render → annotate → write →
+//! pipeline → CLI/app. See docs/architecture.md.
 
+pub mod annotate;
 pub mod app;
-pub mod assets;
-pub mod batch;
-pub mod bench;
-pub mod camera;
-pub mod environment;
-pub mod gallery;
-pub mod labels;
-pub mod math;
 pub mod model;
-pub mod output;
+pub mod pipeline;
 pub mod preset;
 pub mod render;
 pub mod scene;
-pub mod seed;
-pub mod sweep;
-pub mod visibility;
+pub mod sky;
+pub mod tools;
+pub mod write;

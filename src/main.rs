@@ -1,16 +1,18 @@
-//! The `swarmshot` command line: batch, check, frame, bench, assets, and the
-//! desktop app (`swarmshot gui [PRESET]`, or `swarmshot` with no arguments).
+//! The `swarmshot` command line: batch, check, frame, bench, assets, gallery,
+//! and the desktop app (`swarmshot gui [PRESET]`, or `swarmshot` with no
+//! arguments). Every command that makes frames goes through
+//! [`swarmshot::pipeline::FramePipeline`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use swarmshot::batch::{self, BatchOptions, FrameMaker};
-use swarmshot::preset::Placement;
+use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::render::GpuContext;
+use swarmshot::tools::{bench, gallery};
 
 #[derive(Parser)]
 #[command(
@@ -47,19 +49,24 @@ enum Command {
         /// Image encoder threads (default: one per spare core).
         #[arg(long, default_value_t = 0)]
         threads: usize,
+        /// Print each stage's share of the time at the end.
+        #[arg(long)]
+        timings: bool,
     },
     /// Validate a preset and print what it will make.
     Check { preset: PathBuf },
-    /// Render one frame alone to an image file.
+    /// Make one frame alone, exactly as the batch writes it: the image (the
+    /// preset's format and quality), its YOLO labels (.txt) and its manifest record (.json).
     Frame {
         preset: PathBuf,
         /// Frame index (0-based).
         #[arg(long, default_value_t = 0)]
         index: u64,
-        /// Output image (.png or .jpg).
+        /// Output image; its extension must match the preset's image format
+        /// (.jpg for JPEG, .png for PNG). The labels go beside it.
         #[arg(long)]
         out: PathBuf,
-        /// Draw the label boxes on the image.
+        /// Draw the label boxes on the image (the image then differs from the batch's).
         #[arg(long)]
         overlay: bool,
     },
@@ -111,154 +118,35 @@ enum BenchCommand {
 }
 
 fn main() -> anyhow::Result<()> {
-    let cli = Cli::parse();
-    let Some(command) = cli.command else {
+    let Some(command) = Cli::parse().command else {
         return swarmshot::app::run(None);
     };
     match command {
-        Command::Gui { preset } => swarmshot::app::run(preset)?,
+        Command::Gui { preset } => swarmshot::app::run(preset),
         Command::Batch {
             preset,
             out,
             limit,
             overwrite,
             threads,
-        } => {
-            let preset = batch::load_preset(&preset)?;
-            let ctx = GpuContext::headless()?;
-            let total = limit.map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
-            let bar = ProgressBar::new(total);
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}",
-                )
-                .context("progress template")?,
-            );
-            let options = BatchOptions {
+            timings,
+        } => batch(
+            &preset,
+            BatchOptions {
                 out_dir: out,
                 limit,
                 overwrite,
                 encoder_threads: threads,
-            };
-            let cancel = AtomicBool::new(false);
-            let report = batch::run_batch(&preset, &options, &ctx, &cancel, |p| {
-                bar.set_position(p.done);
-                bar.set_message(format!("{:.1} images/s", p.images_per_s()));
-            })?;
-            bar.finish();
-            let s = &report.stats;
-            println!(
-                "wrote {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.1} s ({:.2} images/s) on {}",
-                s.frames,
-                s.frames_per_split[0],
-                s.frames_per_split[1],
-                s.frames_per_split[2],
-                s.boxes,
-                s.small,
-                s.medium,
-                s.large,
-                report.out_dir.display(),
-                report.elapsed.as_secs_f64(),
-                s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9),
-                ctx.describe()
-            );
-        }
-        Command::Check { preset: path } => {
-            let preset = batch::load_preset(&path)?;
-            let maker = FrameMaker::new(preset.clone())?;
-            let (w, h) = preset.image_size();
-            println!("preset {} is valid", path.display());
-            println!("frames: {}", preset.frame_count());
-            println!(
-                "image: {w}×{h}, {:?}, MSAA {}",
-                preset.output.image_format, preset.render.msaa
-            );
-            match &preset.placement {
-                Placement::Structured {
-                    x_count,
-                    y_count,
-                    z_count,
-                    load_factor,
-                } => {
-                    let spacing = load_factor * preset.max_model_size_m();
-                    println!(
-                        "placement: structured grid {x_count}×{y_count}×{z_count} = {} drones per frame, spacing {spacing:.3} m, volume {:.3} × {:.3} × {:.3} m",
-                        x_count * y_count * z_count,
-                        f64::from(x_count - 1) * spacing,
-                        f64::from(y_count - 1) * spacing,
-                        f64::from(z_count - 1) * spacing,
-                    );
-                }
-                Placement::Randomized {
-                    count: (lo, hi),
-                    volume,
-                    min_separation_m,
-                } => {
-                    println!(
-                        "placement: randomized, {lo}–{hi} drones per frame (mean {:.1}), volume {volume:?}, min separation {min_separation_m} m",
-                        (f64::from(*lo) + f64::from(*hi)) / 2.0
-                    );
-                }
-            }
-            // Geometry only (no rendering): amodal boxes stand in for visible ones.
-            let sample = preset.frame_count().min(200);
-            let mut stats = swarmshot::output::DatasetStats::default();
-            for i in 0..sample {
-                let (scene, labels) = maker.frame(i)?;
-                stats.add(&scene, &labels);
-            }
-            if sample > 0 {
-                let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;
-                println!(
-                    "estimated from the first {sample} frames (geometry only): {:.2} drones and {:.2} boxes per frame; small {:.1} % / medium {:.1} % / large {:.1} % (√(w·h) < 32, 32–96, > 96 px)",
-                    stats.drones_placed as f64 / sample as f64,
-                    stats.boxes as f64 / sample as f64,
-                    share(stats.small),
-                    share(stats.medium),
-                    share(stats.large),
-                );
-            }
-            for (spec, model) in preset.models.iter().zip(&maker.models) {
-                println!(
-                    "model {}: {} triangles, {} hull vertices, size {} m, class {}",
-                    spec.source,
-                    model.indices.len() / 3,
-                    model.hull.len(),
-                    spec.size_m,
-                    spec.class
-                );
-                for w in &model.warnings {
-                    println!("  warning: {w}");
-                }
-            }
-        }
+            },
+            timings,
+        ),
+        Command::Check { preset } => check(&preset),
         Command::Frame {
             preset,
             index,
             out,
             overlay,
-        } => {
-            let preset = batch::load_preset(&preset)?;
-            let maker = FrameMaker::new(preset)?;
-            let ctx = GpuContext::headless()?;
-            let (scene, labels, mut rgba) = batch::render_single(&maker, &ctx, index)?;
-            let (w, h) = (scene.camera.width, scene.camera.height);
-            if overlay {
-                batch::draw_overlay(&mut rgba, w, h, &labels);
-            }
-            let image = image::RgbaImage::from_raw(w, h, rgba).context("frame buffer size")?;
-            image::DynamicImage::ImageRgba8(image)
-                .to_rgb8()
-                .save(&out)
-                .with_context(|| format!("writing {}", out.display()))?;
-            println!(
-                "frame {index} ({} split): {} drones, {} boxes -> {}",
-                scene.split.as_str(),
-                scene.drones.len(),
-                labels.iter().filter(|l| l.is_kept()).count(),
-                out.display()
-            );
-        }
+        } => frame(&preset, index, &out, overlay),
         Command::Bench {
             which:
                 BenchCommand::Accuracy {
@@ -268,81 +156,236 @@ fn main() -> anyhow::Result<()> {
                     plot,
                     timing_frames,
                 },
-        } => {
-            let ctx = GpuContext::headless()?;
-            eprintln!("adapter: {}", ctx.describe());
-            let acc = swarmshot::bench::accuracy(&ctx, frames, width, height)?;
-            let quickstart = batch::load_preset(std::path::Path::new(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/presets/quickstart.ron"
-            )))?;
-            let timing = swarmshot::bench::timings(&ctx, &quickstart, timing_frames)?;
-            print!("{}", swarmshot::bench::markdown(&acc, &timing));
-            if let Some(dir) = plot.parent() {
-                std::fs::create_dir_all(dir)
-                    .with_context(|| format!("creating {}", dir.display()))?;
-            }
-            swarmshot::bench::plot(&acc, &plot)?;
-            eprintln!("plot written to {}", plot.display());
-        }
+        } => bench_accuracy(frames, (width, height), &plot, timing_frames),
+        Command::Gallery { bench: true, .. } => gallery_bench(),
         Command::Gallery {
-            out,
-            width,
-            height,
-            bench,
-        } => {
-            use swarmshot::gallery;
-            let ctx = GpuContext::headless()?;
-            if bench {
-                let frames = 20;
-                let gradient =
-                    gallery::environment_preset(swarmshot::preset::Sky::default(), 1920, 1080);
-                println!(
-                    "1920x1080, MSAA 4, 8 drones, median of {frames} frames on {}",
-                    ctx.describe()
-                );
-                println!(
-                    "gradient sky: {:.1} ms",
-                    gallery::median_frame_ms(&ctx, &gradient, frames)?
-                );
-                for name in swarmshot::environment::EnvironmentName::ALL {
-                    let p =
-                        gallery::environment_preset(gallery::fixed_environment(name), 1920, 1080);
-                    println!(
-                        "{}: {:.1} ms",
-                        name.as_str(),
-                        gallery::median_frame_ms(&ctx, &p, frames)?
-                    );
-                }
-                return Ok(());
-            }
-            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
-            let path = out.join("models.png");
-            sheet
-                .save(&path)
-                .with_context(|| format!("writing {}", path.display()))?;
-            println!("wrote {}", path.display());
-            for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
-                let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
-                let path = out.join(format!("env-{}.jpg", name.as_str()));
-                image::DynamicImage::ImageRgba8(img)
-                    .to_rgb8()
-                    .save(&path)
-                    .with_context(|| format!("writing {}", path.display()))?;
-                println!("wrote {}", path.display());
-            }
+            out, width, height, ..
+        } => gallery_pictures(&out, width, height),
+        Command::Assets { dir } => assets(&dir),
+    }
+}
+
+fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<()> {
+    let pipeline = FramePipeline::open(preset)?;
+    let ctx = GpuContext::headless()?;
+    let total = options
+        .limit
+        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
+            .context("progress template")?,
+    );
+    let cancel = AtomicBool::new(false);
+    let report = run_batch(&pipeline, &options, &ctx, &cancel, |p| {
+        bar.set_position(p.done);
+        bar.set_message(format!("{:.1} images/s", p.images_per_s()));
+    })?;
+    bar.finish();
+    let s = &report.stats;
+    println!(
+        "wrote {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.1} s ({:.2} images/s) on {}",
+        s.frames,
+        s.frames_per_split[0],
+        s.frames_per_split[1],
+        s.frames_per_split[2],
+        s.boxes,
+        s.small,
+        s.medium,
+        s.large,
+        report.out_dir.display(),
+        report.elapsed.as_secs_f64(),
+        s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9),
+        ctx.describe()
+    );
+    if timings {
+        println!("{}", report.times.describe(s.frames, report.elapsed));
+    }
+    Ok(())
+}
+
+fn check(path: &Path) -> anyhow::Result<()> {
+    let pipeline = FramePipeline::open(path)?;
+    let preset = pipeline.preset();
+    let (w, h) = preset.image_size();
+    println!("preset {} is valid", path.display());
+    println!("frames: {}", pipeline.frame_count());
+    println!(
+        "image: {w}×{h}, {:?}, MSAA {}",
+        preset.output.image_format, preset.render.msaa
+    );
+    println!(
+        "placement: {}",
+        swarmshot::scene::placement::describe(preset)
+    );
+    // Geometry only (no rendering): amodal boxes stand in for visible ones.
+    let sample = pipeline.frame_count().min(200);
+    let mut stats = swarmshot::write::DatasetStats::default();
+    for i in 0..sample {
+        let scene = pipeline.scene(i)?;
+        stats.add(&scene, &pipeline.estimate_labels(&scene));
+    }
+    if sample > 0 {
+        let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;
+        println!(
+            "estimated from the first {sample} frames (geometry only): {:.2} drones and {:.2} boxes per frame; small {:.1} % / medium {:.1} % / large {:.1} % (√(w·h) < 32, 32–96, > 96 px)",
+            stats.drones_placed as f64 / sample as f64,
+            stats.boxes as f64 / sample as f64,
+            share(stats.small),
+            share(stats.medium),
+            share(stats.large),
+        );
+    }
+    for (spec, model) in preset.models.iter().zip(&pipeline.assets().models) {
+        println!(
+            "model {}: {} triangles, {} hull vertices, size {} m, class {}",
+            spec.source,
+            model.indices.len() / 3,
+            model.hull.len(),
+            spec.size_m,
+            spec.class
+        );
+        for w in &model.warnings {
+            println!("  warning: {w}");
         }
-        Command::Assets { dir } => {
-            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-            for name in swarmshot::assets::BUILTIN_NAMES {
-                let bytes = swarmshot::assets::generate_glb(name).context("built-in generator")?;
-                let path = dir.join(format!("{name}.glb"));
-                std::fs::write(&path, &bytes)
-                    .with_context(|| format!("writing {}", path.display()))?;
-                println!("wrote {} ({} bytes)", path.display(), bytes.len());
-            }
-        }
+    }
+    Ok(())
+}
+
+/// A batch of one: the image bytes the batch writes for frame `index`, its YOLO
+/// label file and its manifest record, beside `out`.
+fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result<()> {
+    let pipeline = FramePipeline::open(preset)?;
+    let format = pipeline.preset().output.image_format;
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let accepted: &[&str] = match format {
+        swarmshot::preset::ImageFormat::Jpeg { .. } => &["jpg", "jpeg"],
+        swarmshot::preset::ImageFormat::Png => &["png"],
+    };
+    if !ext.as_deref().is_some_and(|e| accepted.contains(&e)) {
+        anyhow::bail!(
+            "--out {}: the preset writes {} images (output.image_format); name the file .{}",
+            out.display(),
+            format.extension().to_uppercase(),
+            format.extension()
+        );
+    }
+    if index >= pipeline.frame_count() {
+        anyhow::bail!(
+            "--index {index}: the preset has {} frames (0..{})",
+            pipeline.frame_count(),
+            pipeline.frame_count()
+        );
+    }
+    let ctx = GpuContext::headless()?;
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut frame = pipeline.make(&mut renderer, index)?;
+    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+    if overlay {
+        swarmshot::annotate::overlay::draw_overlay(&mut frame.rgba, w, h, &frame.labels);
+    }
+    let bytes = swarmshot::write::encode_image(&frame.rgba, w, h, format)?;
+    let record = swarmshot::write::manifest_line(
+        &frame.scene,
+        &frame.labels,
+        &swarmshot::write::image_rel_path(&frame.scene, format),
+        pipeline.model_names(),
+        pipeline.classes(),
+    );
+    let labels = swarmshot::write::yolo::label_text(&frame.scene, &frame.labels);
+    let (txt, json) = (out.with_extension("txt"), out.with_extension("json"));
+    swarmshot::write::write_atomic(out, &bytes)?;
+    swarmshot::write::write_atomic(&txt, labels.as_bytes())?;
+    swarmshot::write::write_atomic(&json, format!("{record}\n").as_bytes())?;
+    println!(
+        "frame {index} ({} split): {} drones, {} boxes -> {} (+ {}, {})",
+        frame.scene.split.as_str(),
+        frame.scene.drones.len(),
+        frame.labels.iter().filter(|l| l.is_kept()).count(),
+        out.display(),
+        txt.display(),
+        json.display()
+    );
+    Ok(())
+}
+
+fn bench_accuracy(
+    frames: u32,
+    (width, height): (u32, u32),
+    plot: &Path,
+    timing_frames: u64,
+) -> anyhow::Result<()> {
+    let ctx = GpuContext::headless()?;
+    eprintln!("adapter: {}", ctx.describe());
+    let acc = bench::accuracy(&ctx, frames, width, height)?;
+    let quickstart = FramePipeline::open(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/presets/quickstart.ron"
+    )))?;
+    let timing = bench::timings(&ctx, quickstart.preset(), timing_frames)?;
+    print!("{}", bench::markdown(&acc, &timing));
+    if let Some(dir) = plot.parent() {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    bench::plot(&acc, plot)?;
+    eprintln!("plot written to {}", plot.display());
+    Ok(())
+}
+
+fn gallery_bench() -> anyhow::Result<()> {
+    let ctx = GpuContext::headless()?;
+    let frames = 20;
+    let gradient = gallery::environment_preset(swarmshot::preset::Sky::default(), 1920, 1080);
+    println!(
+        "1920x1080, MSAA 4, 8 drones, median of {frames} frames on {}",
+        ctx.describe()
+    );
+    println!(
+        "gradient sky: {:.1} ms",
+        gallery::median_frame_ms(&ctx, &gradient, frames)?
+    );
+    for name in swarmshot::preset::EnvironmentName::ALL {
+        let p = gallery::environment_preset(gallery::fixed_environment(name), 1920, 1080);
+        println!(
+            "{}: {:.1} ms",
+            name.as_str(),
+            gallery::median_frame_ms(&ctx, &p, frames)?
+        );
+    }
+    Ok(())
+}
+
+fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
+    let ctx = GpuContext::headless()?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
+    let path = out.join("models.png");
+    sheet
+        .save(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
+    for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
+        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
+        let path = out.join(format!("env-{}.jpg", name.as_str()));
+        image::DynamicImage::ImageRgba8(img)
+            .to_rgb8()
+            .save(&path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn assets(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for name in swarmshot::model::builtin::NAMES {
+        let bytes = swarmshot::tools::assets::generate_glb(name).context("built-in generator")?;
+        let path = dir.join(format!("{name}.glb"));
+        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {} ({} bytes)", path.display(), bytes.len());
     }
     Ok(())
 }

@@ -6,14 +6,13 @@ mod common;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use swarmshot::batch::{BatchOptions, FrameMaker, render_single, run_batch};
+use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::Preset;
-use swarmshot::render::Renderer;
 
-fn run(preset: &Preset, dir: &Path) -> swarmshot::batch::BatchReport {
+fn run(preset: &Preset, dir: &Path) -> swarmshot::pipeline::BatchReport {
     let ctx = common::gpu();
     run_batch(
-        preset,
+        &FramePipeline::new(preset.clone()).expect("pipeline"),
         &BatchOptions::new(dir),
         &ctx,
         &AtomicBool::new(false),
@@ -60,9 +59,9 @@ fn tiny_batch_writes_a_consistent_dataset() {
         .collect();
     assert_eq!(lines.len() as u64, frames);
 
-    let maker = FrameMaker::new(preset.clone()).expect("models");
+    let maker = FramePipeline::new(preset.clone()).expect("models");
     let ctx = common::gpu();
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let mut renderer = maker.renderer(&ctx);
     let mut boxes_seen = 0;
     for (i, line) in lines.iter().enumerate() {
         assert_eq!(line["index"], i as u64);
@@ -87,10 +86,10 @@ fn tiny_batch_writes_a_consistent_dataset() {
         }
         boxes_seen += boxes.len();
         // The same frame without drones: pixels outside every box must be this sky.
-        let (mut scene, _) = maker.frame(i as u64).expect("frame");
+        let (mut scene, _) = maker.plan(i as u64).expect("frame");
         scene.drones.clear();
         let sky = renderer
-            .render_rgba(&scene, &preset.sky, preset.render.msaa)
+            .render_rgba(&scene, preset.render.msaa)
             .expect("render");
         let px = |x: u32, y: u32| -> (&[u8], &[u8]) {
             let o = ((y * 320 + x) * 4) as usize;
@@ -199,16 +198,18 @@ fn same_preset_gives_byte_identical_labels_and_manifest() {
     assert!(compared as u64 > preset.frame_count());
 
     // Any frame made alone has the same labels as in the batch.
-    let maker = FrameMaker::new(preset.clone()).expect("models");
+    let maker = FramePipeline::new(preset.clone()).expect("models");
     let ctx = common::gpu();
-    let (scene, labels, _) = render_single(&maker, &ctx, 5).expect("single frame");
+    let mut renderer = maker.renderer(&ctx);
+    let frame = maker.make(&mut renderer, 5).expect("single frame");
+    let (scene, labels) = (frame.scene, frame.labels);
     let manifest = std::fs::read_to_string(a.path().join("manifest.jsonl")).expect("manifest");
     let line = manifest.lines().nth(5).expect("line 5");
     let names = maker.model_names();
     let (classes, _) = preset.classes();
     let image = format!("images/{}/{:08}.png", scene.split.as_str(), 5);
     assert_eq!(
-        swarmshot::output::manifest_line(&scene, &labels, &image, &names, &classes),
+        swarmshot::write::manifest_line(&scene, &labels, &image, names, &classes),
         line
     );
 }
@@ -221,25 +222,53 @@ fn refuses_foreign_non_empty_folder_unless_overwrite() {
     let ctx = common::gpu();
     let mut opts = BatchOptions::new(dir.path());
     opts.limit = Some(2);
-    let err =
-        run_batch(&preset, &opts, &ctx, &AtomicBool::new(false), |_| {}).expect_err("must refuse");
+    let err = run_batch(
+        &FramePipeline::new(preset.clone()).expect("pipeline"),
+        &opts,
+        &ctx,
+        &AtomicBool::new(false),
+        |_| {},
+    )
+    .expect_err("must refuse");
     assert!(err.to_string().contains("not empty"), "{err}");
     assert!(!dir.path().join("manifest.jsonl").exists());
 
     opts.overwrite = true;
-    run_batch(&preset, &opts, &ctx, &AtomicBool::new(false), |_| {}).expect("overwrite works");
+    run_batch(
+        &FramePipeline::new(preset.clone()).expect("pipeline"),
+        &opts,
+        &ctx,
+        &AtomicBool::new(false),
+        |_| {},
+    )
+    .expect("overwrite works");
     assert_eq!(
         std::fs::read_to_string(dir.path().join("notes.txt")).expect("user file kept"),
         "mine"
     );
     // Re-running the same preset into its own output needs no flag.
     opts.overwrite = false;
-    let report =
-        run_batch(&preset, &opts, &ctx, &AtomicBool::new(false), |_| {}).expect("own output");
+    let report = run_batch(
+        &FramePipeline::new(preset.clone()).expect("pipeline"),
+        &opts,
+        &ctx,
+        &AtomicBool::new(false),
+        |_| {},
+    )
+    .expect("own output");
     assert_eq!(report.stats.frames, 2);
     let mut other = preset.clone();
     other.seed += 1;
-    assert!(run_batch(&other, &opts, &ctx, &AtomicBool::new(false), |_| {}).is_err());
+    assert!(
+        run_batch(
+            &FramePipeline::new(other.clone()).expect("pipeline"),
+            &opts,
+            &ctx,
+            &AtomicBool::new(false),
+            |_| {}
+        )
+        .is_err()
+    );
 }
 
 #[test]
@@ -249,7 +278,7 @@ fn cancel_leaves_every_image_with_its_label() {
     let ctx = common::gpu();
     let cancel = AtomicBool::new(false);
     let report = run_batch(
-        &preset,
+        &FramePipeline::new(preset.clone()).expect("pipeline"),
         &BatchOptions::new(dir.path()),
         &ctx,
         &cancel,

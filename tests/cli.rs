@@ -84,3 +84,70 @@ fn frame_and_batch_write_files() {
     let manifest = std::fs::read_to_string(data.join("manifest.jsonl")).expect("manifest");
     assert_eq!(manifest.lines().count(), 3);
 }
+
+/// `frame` is a batch of one: frame K's image bytes, YOLO lines and manifest
+/// record equal what `batch` writes for K (JPEG, so quality and chroma count).
+#[test]
+fn frame_writes_exactly_what_the_batch_writes() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut p = common::tiny_preset();
+    p.output.image_format = swarmshot::preset::ImageFormat::Jpeg { quality: 85 };
+    p.render.msaa = 4;
+    let preset = dir.path().join("tiny.ron");
+    std::fs::write(&preset, p.to_ron()).expect("write preset");
+    let data = dir.path().join("data");
+    let mut batch = swarmshot();
+    batch
+        .arg("batch")
+        .arg(&preset)
+        .args(["--limit", "6", "--out"])
+        .arg(&data);
+    assert!(batch.status().expect("batch runs").success());
+    let manifest = std::fs::read_to_string(data.join("manifest.jsonl")).expect("manifest");
+    for index in [2u64, 5] {
+        let jpg = dir.path().join(format!("f{index}.jpg"));
+        let mut frame = swarmshot();
+        frame
+            .arg("frame")
+            .arg(&preset)
+            .args(["--index", &index.to_string(), "--out"])
+            .arg(&jpg);
+        assert!(frame.status().expect("frame runs").success());
+        let line: serde_json::Value =
+            serde_json::from_str(manifest.lines().nth(index as usize).expect("line"))
+                .expect("json");
+        let image = line["image"].as_str().expect("image path");
+        assert_eq!(
+            std::fs::read(&jpg).expect("frame image"),
+            std::fs::read(data.join(image)).expect("batch image"),
+            "frame {index}: image bytes differ from the batch's"
+        );
+        let labels = data
+            .join(image.replace("images/", "labels/"))
+            .with_extension("txt");
+        assert_eq!(
+            std::fs::read_to_string(jpg.with_extension("txt")).expect("frame labels"),
+            std::fs::read_to_string(labels).expect("batch labels")
+        );
+        assert_eq!(
+            std::fs::read_to_string(jpg.with_extension("json")).expect("frame record"),
+            format!("{}\n", manifest.lines().nth(index as usize).expect("line"))
+        );
+    }
+    // An extension that does not match the preset's format is refused before anything is written.
+    let png = dir.path().join("wrong.png");
+    let out = swarmshot()
+        .arg("frame")
+        .arg(&preset)
+        .args(["--out"])
+        .arg(&png)
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("image_format"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!png.exists());
+}

@@ -4,13 +4,13 @@
 
 use std::path::{Path, PathBuf};
 
-use swarmshot::environment::{
+use swarmshot::preset::{Preset, Sky, SkyImageSource};
+use swarmshot::render::GpuContext;
+use swarmshot::sky::{
     EnvironmentAssets, EnvironmentError, EnvironmentName, FrameEnvironment, SkyImageKind,
     frame_environment, procedural_lighting,
 };
-use swarmshot::gallery::{environment_preset, fixed_environment, render_preset};
-use swarmshot::preset::{Preset, Sky, SkyImageSource};
-use swarmshot::render::GpuContext;
+use swarmshot::tools::gallery::{environment_preset, fixed_environment, render_preset};
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -283,7 +283,7 @@ fn cubemap_faces_are_drawn_in_their_directions_and_bad_faces_are_named() {
         },
         min_separation_m: 0.0,
     };
-    preset.camera.y = swarmshot::sweep::SweepRange::fixed(0.0);
+    preset.camera.y = swarmshot::preset::sweep::SweepRange::fixed(0.0);
     let rgba = render_preset(&gpu(), &preset).expect("render");
     // The camera sits on +Z looking at the origin, i.e. along −Z: the centre shows the nz face.
     let centre = ((H / 2 * W + W / 2) * 4) as usize;

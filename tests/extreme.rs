@@ -4,15 +4,13 @@
 mod common;
 
 use glam::{DMat3, DQuat, DVec3};
-use swarmshot::batch::FrameMaker;
-use swarmshot::labels::{
-    LabelGeometry, LabelStatus, amodal_box, label_frame, paper_aabb_box, pixel_stats,
-};
-use swarmshot::math::{EulerDeg, look_at_cv, slerp};
+use swarmshot::annotate::{LabelGeometry, LabelStatus, amodal_box, label_frame, paper_aabb_box};
+use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::sweep::SweepRange;
 use swarmshot::preset::{BoxMethod, LabelSettings, Placement, Preset, Resolution, Volume};
-use swarmshot::render::Renderer;
+use swarmshot::render::visibility::pixel_stats;
+use swarmshot::scene::math::{EulerDeg, look_at_cv, slerp};
 use swarmshot::scene::{DronePose, FrameScene, build_frame};
-use swarmshot::sweep::SweepRange;
 
 fn mat_close(a: DMat3, b: DMat3, tol: f64) -> bool {
     a.to_cols_array()
@@ -95,8 +93,8 @@ fn camera_straight_above_and_below_is_a_proper_rotation() {
         // The centre is dead ahead.
         let dir = r * (-scene.camera.position).normalize();
         assert!((dir - DVec3::Z).length() < 1e-12);
-        let maker = FrameMaker::new(p.clone()).expect("models");
-        let (_, labels) = maker.frame(0).expect("labels");
+        let maker = FramePipeline::new(p.clone()).expect("models");
+        let (_, labels) = maker.plan(0).expect("labels");
         assert_eq!(
             labels.len(),
             scene.drones.len(),
@@ -111,7 +109,7 @@ fn camera_straight_above_and_below_is_a_proper_rotation() {
     }
 }
 
-fn finite_box(b: &swarmshot::labels::PixelBox) -> bool {
+fn finite_box(b: &swarmshot::annotate::PixelBox) -> bool {
     [b.x0, b.y0, b.x1, b.y1].iter().all(|v| v.is_finite()) && b.x0 <= b.x1 && b.y0 <= b.y1
 }
 
@@ -128,8 +126,8 @@ fn camera_z_from_1e_minus_3_to_1e4() {
     for z in [1e-3, 1e4] {
         p.camera.z = SweepRange::fixed(z);
         p.camera.y = SweepRange::fixed(0.0);
-        let maker = FrameMaker::new(p.clone()).expect("models");
-        let (scene, labels) = maker.frame(0).expect("frame");
+        let maker = FramePipeline::new(p.clone()).expect("models");
+        let (scene, labels) = maker.plan(0).expect("frame");
         for l in &labels {
             assert!(finite_box(&l.amodal) && finite_box(&l.bbox), "{l:?}");
             assert!(
@@ -177,8 +175,8 @@ fn drone(position: DVec3, size_m: f64) -> DronePose {
 #[test]
 fn drones_crossing_the_near_plane_or_behind_the_camera() {
     let p = common::tiny_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let geom = &maker.geometry[0];
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let geom = &maker.assets().geometry[0];
     // Camera at the origin looking down −Z (world); camera x = world +X.
     let eye = DVec3::ZERO;
     let target = DVec3::new(0.0, 0.0, -1.0);
@@ -200,7 +198,7 @@ fn drones_crossing_the_near_plane_or_behind_the_camera() {
     assert!(paper_aabb_box(&scene.camera, &behind, geom).is_none());
     let labels = label_frame(
         &scene,
-        &maker.geometry,
+        &maker.assets().geometry,
         &[0],
         &LabelSettings {
             box_method: BoxMethod::Amodal,
@@ -219,7 +217,7 @@ fn drones_crossing_the_near_plane_or_behind_the_camera() {
     let scene = scene_with(&p, eye, target, vec![straddle]);
     let labels = label_frame(
         &scene,
-        &maker.geometry,
+        &maker.assets().geometry,
         &[0],
         &LabelSettings {
             box_method: BoxMethod::Amodal,
@@ -229,7 +227,7 @@ fn drones_crossing_the_near_plane_or_behind_the_camera() {
     );
     assert_eq!(
         labels[0].bbox,
-        swarmshot::labels::PixelBox {
+        swarmshot::annotate::PixelBox {
             x0: 0.0,
             y0: 0.0,
             x1: 320.0,
@@ -243,8 +241,8 @@ fn one_pixel_drone_and_frame_filling_drone() {
     let ctx = common::gpu();
     let mut p = common::tiny_preset();
     p.labels.min_box_px = 0.0;
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     let f = 90.0 / (p.camera.fov_y_deg.to_radians() / 2.0).tan();
     // 0.35 m spanning ~1 px: distance = f·size.
     let tiny = drone(DVec3::new(0.0, 0.0, -0.35 * f), 0.35);
@@ -266,7 +264,7 @@ fn one_pixel_drone_and_frame_filling_drone() {
     assert!(l.truncated);
     assert_eq!(
         l.bbox,
-        swarmshot::labels::PixelBox {
+        swarmshot::annotate::PixelBox {
             x0: 0.0,
             y0: 0.0,
             x1: 320.0,
@@ -281,8 +279,8 @@ fn one_pixel_drone_and_frame_filling_drone() {
 fn reversed_z_separates_drones_one_metre_apart_at_five_kilometres() {
     let ctx = common::gpu();
     let p = common::tiny_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     let target = DVec3::new(0.0, 0.0, -1.0);
     // 0.35 m drones (thin and wide seen from the side), 1 m apart in depth, 5 km away.
     let near = drone(DVec3::new(0.0, 0.0, -5000.0), 0.35);
@@ -294,7 +292,7 @@ fn reversed_z_separates_drones_one_metre_apart_at_five_kilometres() {
         let near_id = if order[0] == near { 1 } else { 2 };
         let mut scene = scene_with(&p, DVec3::ZERO, target, order);
         scene.camera.fov_y_deg = 0.025; // a long lens: ~80 px per metre at 5 km
-        let ids = renderer.render_ids(&scene, &p.sky, &|_| true).expect("ids");
+        let ids = renderer.render_ids(&scene, &|_| true).expect("ids");
         let stats = pixel_stats(&ids, 2);
         let (near_box, near_px) = stats[near_id as usize - 1];
         let (_, far_px) = stats[2 - near_id as usize];
@@ -304,7 +302,7 @@ fn reversed_z_separates_drones_one_metre_apart_at_five_kilometres() {
         );
         // Wherever the near drone covers a pixel on its own, the pair shows the near drone: no z-fighting.
         let alone = renderer
-            .render_ids(&scene, &p.sky, &|i| i + 1 == near_id as usize)
+            .render_ids(&scene, &|i| i + 1 == near_id as usize)
             .expect("ids");
         assert!(near_box.is_some());
         let mut contested = 0;
@@ -318,7 +316,7 @@ fn reversed_z_separates_drones_one_metre_apart_at_five_kilometres() {
             }
         }
         let far_alone = renderer
-            .render_ids(&scene, &p.sky, &|i| i + 1 != near_id as usize)
+            .render_ids(&scene, &|i| i + 1 != near_id as usize)
             .expect("ids");
         let overlap = alone
             .ids
@@ -390,8 +388,8 @@ fn millimetre_and_kilometre_models() {
             min_separation_m: size * 2.0,
         };
         assert!(p.validate().is_ok(), "{:?}", p.validate());
-        let maker = FrameMaker::new(p.clone()).expect("models");
-        let mut renderer = Renderer::new(&ctx, &maker.models);
+        let maker = FramePipeline::new(p.clone()).expect("models");
+        let mut renderer = maker.renderer(&ctx);
         let scene = build_frame(&p, 0).expect("frame");
         let labels = maker.labels(&mut renderer, &scene).expect("labels");
         assert_eq!(
@@ -451,8 +449,8 @@ fn float_steps_count_without_accumulated_error() {
 fn label_geometry_of_a_rotated_drone_is_inside_its_paper_box() {
     // Sanity across many attitudes: amodal ⊆ paper box, both finite.
     let p = common::tiny_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let geom: &LabelGeometry = &maker.geometry[0];
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let geom: &LabelGeometry = &maker.assets().geometry[0];
     let scene = build_frame(&p, 0).expect("frame");
     for k in 0..200 {
         let e = EulerDeg {
@@ -478,16 +476,14 @@ fn label_geometry_of_a_rotated_drone_is_inside_its_paper_box() {
 fn resolution_beyond_the_adapter_limit_is_a_named_error() {
     let ctx = common::gpu();
     let p = common::tiny_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     let mut scene = build_frame(&p, 0).expect("frame");
     scene.camera.width = ctx.max_texture_side + 1;
-    let err = renderer
-        .render_rgba(&scene, &p.sky, 1)
-        .expect_err("too large");
+    let err = renderer.render_rgba(&scene, 1).expect_err("too large");
     assert!(err.to_string().contains("render.resolution"), "{err}");
     let err = renderer
-        .render_ids(&scene, &p.sky, &|_| true)
+        .render_ids(&scene, &|_| true)
         .expect_err("too large");
     assert!(err.to_string().contains("render.resolution"), "{err}");
 }

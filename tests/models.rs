@@ -163,7 +163,7 @@ fn broken_files_give_errors_naming_the_file() {
 
 #[test]
 fn builtin_quad_loads_through_the_gltf_path() {
-    let bytes = swarmshot::assets::builtin_glb("quad_x").expect("embedded");
+    let bytes = swarmshot::model::builtin::glb("quad_x").expect("embedded");
     let m = swarmshot::model::load_bytes(bytes, None, Path::new("builtin:quad_x"), "quad_x")
         .expect("loads");
     assert!(m.indices.len() / 3 > 100);

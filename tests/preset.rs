@@ -5,8 +5,8 @@ mod common;
 
 use std::path::Path;
 
+use swarmshot::preset::sweep::SweepRange;
 use swarmshot::preset::{ImageFormat, Placement, Preset, Resolution, Volume};
-use swarmshot::sweep::SweepRange;
 
 fn errors_of(p: &Preset) -> Vec<String> {
     match p.validate() {

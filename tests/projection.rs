@@ -4,12 +4,11 @@
 mod common;
 
 use glam::{DMat3, DVec3};
-use swarmshot::batch::FrameMaker;
-use swarmshot::labels::{PixelBox, amodal_box};
+use swarmshot::annotate::{PixelBox, amodal_box};
+use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::sweep::SweepRange;
 use swarmshot::preset::{Placement, Preset, Resolution};
-use swarmshot::render::Renderer;
 use swarmshot::scene::build_frame;
-use swarmshot::sweep::SweepRange;
 
 /// Independent projection: build K, R, t from first principles (forward to the
 /// origin, right = forward × up, down = forward × right) and apply Eq. 8.
@@ -63,8 +62,8 @@ fn camera_matches_an_independent_k_r_t() {
 #[test]
 fn hull_box_equals_brute_force_over_every_vertex() {
     let p = common::tiny_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let model = &maker.models[0];
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let model = &maker.assets().models[0];
     assert!(
         model.hull.len() < model.vertices.len(),
         "the hull should be a reduction"
@@ -72,8 +71,8 @@ fn hull_box_equals_brute_force_over_every_vertex() {
     for index in 0..p.frame_count() {
         let scene = build_frame(&p, index).expect("frame");
         for d in &scene.drones {
-            let hull = amodal_box(&scene.camera, d, &maker.geometry[0]).expect("in view");
-            let mut all = swarmshot::labels::LabelGeometry::from(model);
+            let hull = amodal_box(&scene.camera, d, &maker.assets().geometry[0]).expect("in view");
+            let mut all = swarmshot::annotate::LabelGeometry::from(model);
             all.hull = model
                 .vertices
                 .iter()
@@ -136,15 +135,15 @@ fn rendered_silhouette_matches_the_amodal_box() {
     p.camera.y = SweepRange::fixed(0.4);
     p.attitude.yaw_deg = (-180.0, 180.0);
     p.repeats = 6;
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     for index in 0..p.frame_count() {
-        let (scene, labels) = maker.frame(index).expect("frame");
+        let (scene, labels) = maker.plan(index).expect("frame");
         assert_eq!(labels.len(), 1);
-        let image = renderer.render_rgba(&scene, &p.sky, 1).expect("render");
+        let image = renderer.render_rgba(&scene, 1).expect("render");
         let mut empty = scene.clone();
         empty.drones.clear();
-        let sky = renderer.render_rgba(&empty, &p.sky, 1).expect("render");
+        let sky = renderer.render_rgba(&empty, 1).expect("render");
         let seen = diff_box(&image, &sky, 480).expect("the drone is visible");
         let b = labels[0].bbox;
         for (name, px, label) in [

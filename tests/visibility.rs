@@ -5,14 +5,13 @@
 mod common;
 
 use glam::DVec3;
-use swarmshot::batch::FrameMaker;
-use swarmshot::labels::{LabelStatus, PixelBox, pixel_stats};
-use swarmshot::math::{EulerDeg, look_at_cv};
+use swarmshot::annotate::{LabelStatus, PixelBox};
+use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::sweep::SweepRange;
 use swarmshot::preset::{BoxMethod, FilteredDrones, Placement, Preset, Resolution};
-use swarmshot::render::Renderer;
+use swarmshot::render::visibility::{self, pixel_stats};
+use swarmshot::scene::math::{EulerDeg, look_at_cv};
 use swarmshot::scene::{DronePose, FrameScene, build_frame};
-use swarmshot::sweep::SweepRange;
-use swarmshot::visibility;
 
 fn single_drone_preset() -> Preset {
     let mut p = Preset::default();
@@ -46,8 +45,8 @@ fn upscaled(scene: &FrameScene, k: u32) -> FrameScene {
 fn single_drones_agree_with_a_4x_reference_and_paper_boxes_are_looser() {
     let ctx = common::gpu();
     let p = single_drone_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     let (mut iou_amodal, mut iou_paper, mut n) = (0.0, 0.0, 0.0);
     for index in 0..p.frame_count() {
         let scene = build_frame(&p, index).expect("frame");
@@ -56,9 +55,7 @@ fn single_drones_agree_with_a_4x_reference_and_paper_boxes_are_looser() {
         let l = &labels[0];
         assert_eq!(l.status, LabelStatus::Kept);
         let big = upscaled(&scene, 4);
-        let ids = renderer
-            .render_ids(&big, &p.sky, &|_| true)
-            .expect("4x ids");
+        let ids = renderer.render_ids(&big, &|_| true).expect("4x ids");
         let r = pixel_stats(&ids, 1)[0].0.expect("visible at 4x");
         let reference = PixelBox {
             x0: r.x0 / 4.0,
@@ -137,18 +134,16 @@ fn visible_fractions_match_rendering_each_drone_alone() {
         width: 480,
         height: 270,
     };
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     let scene = crafted_overlap(&p);
     let vis =
-        visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry, 1).expect("measure");
-    let all = renderer.render_ids(&scene, &p.sky, &|_| true).expect("ids");
+        visibility::measure(&mut renderer, &scene, &maker.assets().geometry, 1).expect("measure");
+    let all = renderer.render_ids(&scene, &|_| true).expect("ids");
     let nonzero = all.ids.iter().filter(|&&id| id != 0).count() as u64;
     assert_eq!(vis.iter().map(|v| v.visible_pixels).sum::<u64>(), nonzero);
     for (i, v) in vis.iter().enumerate() {
-        let alone = renderer
-            .render_ids(&scene, &p.sky, &|j| j == i)
-            .expect("alone");
+        let alone = renderer.render_ids(&scene, &|j| j == i).expect("alone");
         let count = alone.ids.iter().filter(|&&id| id == i as u32 + 1).count() as u64;
         assert_eq!(v.unoccluded_pixels, count, "drone {i}");
         let seen = all.ids.iter().filter(|&&id| id == i as u32 + 1).count() as u64;
@@ -178,8 +173,8 @@ fn visibility_filters_drop_or_mark_crowd() {
         (FilteredDrones::Crowd, LabelStatus::Crowd),
     ] {
         p.labels.filtered = policy;
-        let maker = FrameMaker::new(p.clone()).expect("models");
-        let mut renderer = Renderer::new(&ctx, &maker.models);
+        let maker = FramePipeline::new(p.clone()).expect("models");
+        let mut renderer = maker.renderer(&ctx);
         let scene = crafted_overlap(&p);
         let labels = maker.labels(&mut renderer, &scene).expect("labels");
         let hidden = labels
@@ -201,11 +196,11 @@ fn only_the_passes_a_preset_needs_run() {
     let ctx = common::gpu();
     let mut p = single_drone_preset();
     p.labels.box_method = BoxMethod::Amodal;
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     let scene = build_frame(&p, 0).expect("frame");
     maker.labels(&mut renderer, &scene).expect("labels");
-    renderer.render_rgba(&scene, &p.sky, 1).expect("render");
+    renderer.render_rgba(&scene, 1).expect("render");
     assert_eq!(renderer.pass_counts().ids, 0);
     assert!(
         !renderer.has_id_pipeline(),
@@ -213,7 +208,7 @@ fn only_the_passes_a_preset_needs_run() {
     );
 
     p.labels.min_visible_pixels = 5; // a visibility filter needs the id pass
-    let maker = FrameMaker::new(p.clone()).expect("models");
+    let maker = FramePipeline::new(p.clone()).expect("models");
     maker.labels(&mut renderer, &scene).expect("labels");
     assert_eq!(
         renderer.pass_counts().ids,
@@ -226,14 +221,14 @@ fn only_the_passes_a_preset_needs_run() {
 fn supersampled_id_pass_refines_the_same_box() {
     let ctx = common::gpu();
     let p = single_drone_preset();
-    let maker = FrameMaker::new(p.clone()).expect("models");
-    let mut renderer = Renderer::new(&ctx, &maker.models);
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
     for index in 0..p.frame_count() {
         let scene = build_frame(&p, index).expect("frame");
         let one =
-            visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry, 1).expect("1x")[0];
+            visibility::measure(&mut renderer, &scene, &maker.assets().geometry, 1).expect("1x")[0];
         let two =
-            visibility::measure(&mut renderer, &scene, &p.sky, &maker.geometry, 2).expect("2x")[0];
+            visibility::measure(&mut renderer, &scene, &maker.assets().geometry, 2).expect("2x")[0];
         let (a, b) = (
             one.visible_box.expect("1x box"),
             two.visible_box.expect("2x box"),

@@ -27,7 +27,7 @@ use egui::{Color32, Pos2, Rect, RichText, Sense, Stroke, Ui, Vec2};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::batch::BatchOptions;
+use crate::pipeline::BatchOptions;
 use crate::preset::{FieldError, ModelSource, ModelSpec, PRESET_VERSION, Preset};
 use crate::render::GpuContext;
 use panels::{Form, error_label, group_digits};
@@ -1081,9 +1081,9 @@ fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: 
     for label in &frame.labels {
         // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
         let stroke = match label.status {
-            crate::labels::LabelStatus::Kept => kept,
-            crate::labels::LabelStatus::Crowd => crowd,
-            crate::labels::LabelStatus::Filtered => continue,
+            crate::annotate::LabelStatus::Kept => kept,
+            crate::annotate::LabelStatus::Crowd => crowd,
+            crate::annotate::LabelStatus::Filtered => continue,
         };
         let b = &label.bbox;
         let r = Rect::from_min_max(

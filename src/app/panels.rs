@@ -11,12 +11,12 @@
 use egui::{DragValue, Response, RichText, Ui};
 
 use super::Command;
-use crate::assets::BUILTIN_NAMES;
+use crate::model::builtin::NAMES as BUILTIN_NAMES;
+use crate::preset::sweep::SweepRange;
 use crate::preset::{
     BoxMethod, FieldError, ImageFormat, LabelFormat, ModelSource, ModelSpec, Placement, Preset,
     Resolution, Sky, Volume,
 };
-use crate::sweep::SweepRange;
 
 /// The validation messages of the preset being edited, and which of them a widget has shown.
 pub struct Form<'a> {
@@ -490,7 +490,7 @@ pub fn plane_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 }
 
 pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
-    use crate::environment::EnvironmentName;
+    use crate::sky::EnvironmentName;
     // The paper's seven skyboxes (procedural), the gradient, and what only a preset file can say.
     let current = match &preset.sky {
         Sky::Gradient { .. } => "Gradient".to_string(),

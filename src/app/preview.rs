@@ -11,7 +11,7 @@
 //! UI swaps the new one in with `update_egui_texture_from_wgpu_texture`.
 //!
 //! The picture matches the batch output: the frame is built by the same
-//! `FrameMaker`, and only the camera's pixel size is changed to the pane size
+//! [`FramePipeline`], and only the camera's pixel size is changed to the pane size
 //! (same aspect ratio), so the intrinsics scale with it (focal length ∝ height,
 //! principal point at the centre). Labels stay in output pixels; the overlay
 //! scales them. This module knows nothing of egui, so the benchmark drives it
@@ -23,14 +23,14 @@ use std::time::Instant;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::batch::FrameMaker;
-use crate::camera::Camera;
-use crate::labels::DroneLabel;
-use crate::math::{look_at_cv, plane_rotation};
-use crate::preset::{ModelSpec, Placement, Preset, Volume};
+use crate::annotate::DroneLabel;
+use crate::pipeline::FramePipeline;
+use crate::preset::Preset;
+use crate::preset::sweep::decode_mixed_radix;
 use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, FrameViews, GpuContext, Renderer};
-use crate::scene::{FrameScene, build_frame, camera_position};
-use crate::sweep::decode_mixed_radix;
+use crate::scene::camera::Camera;
+use crate::scene::math::{look_at_cv, plane_rotation};
+use crate::scene::{FrameScene, camera_position};
 
 /// At most this many sweep camera positions are drawn in the inspect view.
 pub const MAX_INSPECT_CAMERAS: u64 = 2000;
@@ -121,11 +121,9 @@ pub struct PreviewError {
 
 pub type PreviewResult = Result<PreviewFrame, PreviewError>;
 
+/// The pipeline of the previewed preset and a renderer holding its assets.
 struct Loaded {
-    models: Vec<ModelSpec>,
-    /// The sky images uploaded to `renderer` (only what the preset references).
-    sky_images: Vec<crate::preset::SkyImageSource>,
-    maker: FrameMaker,
+    pipeline: FramePipeline,
     renderer: Renderer,
 }
 
@@ -176,40 +174,30 @@ impl PreviewRenderer {
                 false,
             ));
         }
-        if self
-            .loaded
-            .as_ref()
-            .is_none_or(|l| l.models != preset.models)
-        {
-            self.loaded = None;
-            let maker = FrameMaker::new(preset.clone()).map_err(|e| fail(e.to_string(), true))?;
-            let renderer = Renderer::new(&self.ctx, &maker.models);
-            self.loaded = Some(Loaded {
-                models: preset.models.clone(),
-                sky_images: Vec::new(),
-                maker,
-                renderer,
-            });
-        }
-        if let Some(loaded) = self.loaded.as_mut() {
-            let wanted: Vec<_> = preset.sky.image_sources().into_iter().cloned().collect();
-            if wanted != loaded.sky_images {
-                let assets = crate::environment::EnvironmentAssets::load(&preset.sky)
-                    .map_err(|e| fail(e.to_string(), true))?;
-                loaded.renderer.set_environment(&assets);
-                loaded.sky_images = wanted;
+        // Keep the renderer while the edit leaves the models and sky images alone.
+        let loaded = match self.loaded.take() {
+            Some(l) if l.pipeline.assets().serve(preset) => Loaded {
+                pipeline: l
+                    .pipeline
+                    .update(preset.clone())
+                    .map_err(|e| fail(e.to_string(), false))?,
+                renderer: l.renderer,
+            },
+            _ => {
+                let pipeline =
+                    FramePipeline::new(preset.clone()).map_err(|e| fail(e.to_string(), true))?;
+                let renderer = pipeline.renderer(&self.ctx);
+                Loaded { pipeline, renderer }
             }
-        }
-        let loaded = self
-            .loaded
-            .as_mut()
-            .ok_or_else(|| fail("models are not loaded".into(), true))?;
-        loaded.maker.preset = preset.clone();
-        let scene =
-            build_frame(&loaded.maker.preset, key.frame).map_err(|e| fail(e.to_string(), false))?;
-        // The exact labels the batch writes (id passes included when the preset needs them).
+        };
+        let loaded = self.loaded.insert(loaded);
+        let scene = loaded
+            .pipeline
+            .scene(key.frame)
+            .map_err(|e| fail(e.to_string(), false))?;
+        // The exact labels the batch writes (visibility measured when the preset needs it).
         let labels = loaded
-            .maker
+            .pipeline
             .labels(&mut loaded.renderer, &scene)
             .map_err(|e| fail(e.to_string(), false))?;
 
@@ -272,9 +260,7 @@ impl PreviewRenderer {
                 msaa,
             },
         };
-        loaded
-            .renderer
-            .encode(&mut encoder, &drawn, &preset.sky, &views);
+        loaded.renderer.encode(&mut encoder, &drawn, &views);
         let submission = self.ctx.queue.submit([encoder.finish()]);
         self.ctx
             .device
@@ -339,36 +325,9 @@ impl PreviewRenderer {
     }
 }
 
-/// Half extent of the (unrotated) observation volume of a frame.
-fn volume_half_extent(preset: &Preset, scene: &FrameScene) -> DVec3 {
-    match &preset.placement {
-        Placement::Structured {
-            x_count,
-            y_count,
-            z_count,
-            load_factor,
-        } => {
-            let spacing = load_factor * preset.max_model_size_m();
-            let cells = |n: &u32| f64::from(n.saturating_sub(1));
-            DVec3::new(cells(x_count), cells(y_count), cells(z_count)) * spacing * 0.5
-        }
-        Placement::Randomized {
-            volume: Volume::Box { size_m: (x, y, z) },
-            ..
-        } => DVec3::new(*x, *y, *z) * 0.5,
-        Placement::Randomized {
-            volume: Volume::Density { per_m3 },
-            ..
-        } => {
-            let n = scene.drones.len() as f64 + f64::from(scene.placement_shortfall);
-            DVec3::splat((n / per_m3).cbrt() * 0.5)
-        }
-    }
-}
-
 /// The volume box, the sweep's camera positions and the frame's camera, in world metres.
 pub fn inspect_geometry(preset: &Preset, scene: &FrameScene) -> InspectGeometry {
-    let half = volume_half_extent(preset, scene);
+    let half = scene.volume_half_extent_m;
     let s = &scene.sweep;
     let rotation = plane_rotation(s.PlaneRX, s.PlaneRY, s.PlaneRZ);
     let volume_corners = std::array::from_fn(|i| {

@@ -1,4 +1,4 @@
-//! The batch runner behind "Generate": [`crate::batch::run_batch`] (the same
+//! The batch runner behind "Generate": [`crate::pipeline::run_batch`] (the same
 //! code path as `swarmshot batch`) on a background thread, with shared
 //! progress, a cancel flag and the result handed back through a channel.
 
@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::Receiver;
 
-use crate::batch::{BatchOptions, BatchReport, Progress, run_batch};
+use crate::pipeline::{BatchOptions, BatchReport, FramePipeline, Progress, run_batch};
 use crate::preset::Preset;
 use crate::render::GpuContext;
 
@@ -61,13 +61,17 @@ impl BatchRun {
         std::thread::Builder::new()
             .name("swarmshot batch".into())
             .spawn(move || {
-                let outcome = run_batch(&preset, &options, &gpu, &thread_cancel, |p| {
-                    if let Ok(mut slot) = thread_progress.lock() {
-                        *slot = Some(p);
-                    }
-                    wake();
-                })
-                .map_err(|e| format!("{e:#}"));
+                let outcome = FramePipeline::new(preset)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|pipeline| {
+                        run_batch(&pipeline, &options, &gpu, &thread_cancel, |p| {
+                            if let Ok(mut slot) = thread_progress.lock() {
+                                *slot = Some(p);
+                            }
+                            wake();
+                        })
+                    })
+                    .map_err(|e| format!("{e:#}"));
                 let _ = tx.send(outcome);
                 wake();
             })?;

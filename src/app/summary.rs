@@ -1,13 +1,13 @@
 //! The Summary panel's numbers, from geometry alone: frames are built and
-//! labelled with [`FrameMaker::frame`] (no rendering) on an evenly spaced
+//! labelled with [`FramePipeline::estimate_labels`] (no rendering) on an evenly spaced
 //! sample, and counted with the writer's own [`DatasetStats`], so the
 //! small/medium/large split uses the same √(w·h) thresholds as stats.json.
 
 use std::sync::Arc;
 
-use crate::batch::FrameMaker;
-use crate::output::DatasetStats;
-use crate::preset::{ModelSpec, Preset};
+use crate::pipeline::FramePipeline;
+use crate::preset::Preset;
+use crate::write::DatasetStats;
 
 /// Frames sampled for the estimate.
 pub const SUMMARY_SAMPLE_FRAMES: u64 = 48;
@@ -49,23 +49,19 @@ impl Summary {
 /// Builds summaries, keeping the loaded models between requests.
 #[derive(Default)]
 pub struct SummaryMaker {
-    loaded: Option<(Vec<ModelSpec>, FrameMaker)>,
+    pipeline: Option<FramePipeline>,
 }
 
 impl SummaryMaker {
     pub fn estimate(&mut self, request: &SummaryRequest) -> Result<Summary, String> {
         let preset = &*request.preset;
-        if self
-            .loaded
-            .as_ref()
-            .is_none_or(|(models, _)| *models != preset.models)
-        {
-            self.loaded = None;
-            let maker = FrameMaker::new(preset.clone()).map_err(|e| e.to_string())?;
-            self.loaded = Some((preset.models.clone(), maker));
+        // Reuses the loaded models while the edit leaves them alone.
+        let pipeline = match self.pipeline.take() {
+            Some(p) => p.update(preset.clone()),
+            None => FramePipeline::new(preset.clone()),
         }
-        let (_, maker) = self.loaded.as_mut().ok_or("models are not loaded")?;
-        maker.preset = preset.clone();
+        .map_err(|e| e.to_string())?;
+        let pipeline = self.pipeline.insert(pipeline);
         let frames = preset.frame_count();
         let sampled_frames = frames.min(SUMMARY_SAMPLE_FRAMES);
         let mut stats = DatasetStats::default();
@@ -75,7 +71,8 @@ impl SummaryMaker {
             let index =
                 u64::try_from(u128::from(k) * u128::from(frames) / u128::from(sampled_frames))
                     .unwrap_or(0);
-            let (scene, labels) = maker.frame(index).map_err(|e| e.to_string())?;
+            let scene = pipeline.scene(index).map_err(|e| e.to_string())?;
+            let labels = pipeline.estimate_labels(&scene);
             drones_min = drones_min.min(scene.drones.len());
             drones_max = drones_max.max(scene.drones.len());
             stats.add(&scene, &labels);

@@ -13,11 +13,9 @@
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-use crate::environment::{
-    self, EnvironmentAssets, FrameEnvironment, Lighting, Preetham, ResolvedSky, SkyImage,
-    SkyImageKind,
+use crate::sky::{
+    self, EnvironmentAssets, FrameEnvironment, FrameSky, Lighting, Preetham, SkyImage, SkyImageKind,
 };
-use crate::preset::Sky;
 
 /// Layout matches `Env` in `shaders/environment.wgsl`.
 #[repr(C)]
@@ -239,11 +237,8 @@ impl SkyGpu {
     }
 
     /// Whether a frame's environment needs the environment pass.
-    pub(super) fn is_procedural(sky: &Sky, env: &FrameEnvironment) -> bool {
-        matches!(
-            environment::resolve(sky, env),
-            ResolvedSky::Procedural { .. }
-        )
+    pub(super) fn is_procedural(sky: &FrameSky) -> bool {
+        matches!(sky, FrameSky::Procedural { .. })
     }
 
     /// Draw the procedural environment of the uniforms just written into the
@@ -346,18 +341,17 @@ impl SkyGpu {
     }
 
     /// The bind group a frame's environment draws with.
-    pub(super) fn bind_group_for(&self, sky: &Sky, env: &FrameEnvironment) -> &wgpu::BindGroup {
-        match environment::resolve(sky, env) {
-            ResolvedSky::Image { source, .. } => self
+    pub(super) fn bind_group_for(&self, sky: &FrameSky) -> &wgpu::BindGroup {
+        match sky {
+            FrameSky::Image { image, .. } => self
                 .images
-                .iter()
-                .find(|(_, image)| image.source == *source)
+                .get(*image)
                 .map_or(&self.default_group, |(g, _)| g),
-            ResolvedSky::Procedural { .. } => self
+            FrameSky::Procedural { .. } => self
                 .half
                 .as_ref()
                 .map_or(&self.default_group, |(_, _, _, g)| g),
-            ResolvedSky::Gradient { .. } => &self.default_group,
+            FrameSky::Gradient { .. } => &self.default_group,
         }
     }
 
@@ -365,24 +359,22 @@ impl SkyGpu {
     pub(super) fn prepare(
         &self,
         queue: &wgpu::Queue,
-        sky: &Sky,
+        sky: &FrameSky,
         env: &FrameEnvironment,
         sun: Vec3,
     ) -> Lighting {
         let mut u = EnvUniforms::default();
-        let resolved = environment::resolve(sky, env);
-        let lighting = match resolved {
-            ResolvedSky::Gradient { zenith, horizon } => {
-                environment::gradient_lighting(sun, zenith, horizon)
-            }
-            ResolvedSky::Procedural { style, exposure } => {
-                let lighting = environment::procedural_lighting(&style, env, exposure);
+        let lighting = match *sky {
+            FrameSky::Gradient { zenith, horizon } => sky::gradient_lighting(sun, zenith, horizon),
+            FrameSky::Procedural {
+                environment: name,
+                exposure,
+            } => {
+                let style = name.style();
+                let lighting = sky::procedural_lighting(&style, env, exposure);
                 let model = Preetham::new(env.turbidity as f32, sun);
-                let t = environment::sun_transmittance(
-                    env.turbidity as f32,
-                    sun.y.clamp(-1.0, 1.0).asin(),
-                );
-                u.mode = [1.0, environment::SKY_EXPOSURE * exposure, 0.0, 0.0];
+                let t = sky::sun_transmittance(env.turbidity as f32, sun.y.clamp(-1.0, 1.0).asin());
+                u.mode = [1.0, sky::SKY_EXPOSURE * exposure, 0.0, 0.0];
                 u.sun_color = [t.x, t.y, t.z, env.cloud_cover.clamp(0.0, 1.0) as f32];
                 for (k, row) in model.perez.iter().enumerate() {
                     u.perez[k] = [row[0], row[1], row[2], 0.0];
@@ -422,16 +414,12 @@ impl SkyGpu {
                 u.ambient = rgb(lighting.zenith, 0.0);
                 lighting
             }
-            ResolvedSky::Image {
-                source,
+            FrameSky::Image {
+                image,
                 exposure,
                 rotation_deg,
             } => {
-                let uploaded = self
-                    .images
-                    .iter()
-                    .find(|(_, image)| image.source == *source);
-                match uploaded {
+                match self.images.get(image) {
                     Some((_, image)) => {
                         let mode = match image.kind {
                             SkyImageKind::Equirect { .. } => 2.0,
@@ -447,7 +435,7 @@ impl SkyGpu {
                     }
                     // Not uploaded (the host did not call `set_environment`): the default gradient, never a panic.
                     None => {
-                        environment::gradient_lighting(sun, [0.10, 0.25, 0.60], [0.62, 0.74, 0.88])
+                        sky::gradient_lighting(sun, sky::FALLBACK_ZENITH, sky::FALLBACK_HORIZON)
                     }
                 }
             }

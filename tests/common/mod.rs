@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
+use swarmshot::preset::sweep::SweepRange;
 use swarmshot::preset::{ImageFormat, Placement, Preset, Resolution, Volume};
 use swarmshot::render::GpuContext;
-use swarmshot::sweep::SweepRange;
 
 /// The headless adapter CI installs (lavapipe). Panics with the reason if none
 /// is found: a rendering test must never pass by skipping.

@@ -11,8 +11,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::environment::EnvironmentName;
-use crate::sweep::{SweepError, SweepRange};
+pub mod sweep;
+mod validate;
+
+use sweep::{SweepError, SweepRange};
 
 /// The preset format version this build writes and reads.
 pub const PRESET_VERSION: u32 = 1;
@@ -204,6 +206,47 @@ pub struct PlaneSweep {
     pub ry: SweepRange,
     pub rz: SweepRange,
 }
+
+/// The paper's seven Unity skyboxes, as procedural environments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum EnvironmentName {
+    Daytime,
+    Sunset,
+    BeautifulPasture,
+    SnowyBridge,
+    SmallHarbour,
+    Tellsplatte,
+    CountryRoad,
+}
+
+impl EnvironmentName {
+    pub const ALL: [Self; 7] = [
+        Self::Daytime,
+        Self::Sunset,
+        Self::BeautifulPasture,
+        Self::SnowyBridge,
+        Self::SmallHarbour,
+        Self::Tellsplatte,
+        Self::CountryRoad,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Daytime => "Daytime",
+            Self::Sunset => "Sunset",
+            Self::BeautifulPasture => "BeautifulPasture",
+            Self::SnowyBridge => "SnowyBridge",
+            Self::SmallHarbour => "SmallHarbour",
+            Self::Tellsplatte => "Tellsplatte",
+            Self::CountryRoad => "CountryRoad",
+        }
+    }
+}
+
+/// Linear RGB of the default gradient sky at the zenith and the horizon (also
+/// what a frame draws when its sky has nothing to show).
+pub const DEFAULT_ZENITH: (f32, f32, f32) = (0.10, 0.25, 0.60);
+pub const DEFAULT_HORIZON: (f32, f32, f32) = (0.62, 0.74, 0.88);
 
 /// The background environment.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -472,8 +515,8 @@ impl Default for Sky {
         Self::Gradient {
             sun_elevation_deg: 40.0,
             sun_azimuth_deg: 135.0,
-            zenith: (0.10, 0.25, 0.60),
-            horizon: (0.62, 0.74, 0.88),
+            zenith: DEFAULT_ZENITH,
+            horizon: DEFAULT_HORIZON,
         }
     }
 }
@@ -724,6 +767,14 @@ impl Preset {
         Ok(preset)
     }
 
+    /// Read, parse and validate a preset file, with its model and sky paths
+    /// resolved against the file's folder: what every command runs.
+    pub fn open(path: &Path) -> Result<Self, PresetError> {
+        let mut preset = Self::load(path)?;
+        preset.resolve_paths(path.parent().unwrap_or(Path::new(".")));
+        Ok(preset)
+    }
+
     /// Model files resolved against the directory of the preset file.
     pub fn resolve_paths(&mut self, base_dir: &Path) {
         self.sky.resolve_paths(base_dir);
@@ -776,230 +827,6 @@ impl Preset {
         self.models.iter().map(|m| m.size_m).fold(0.0, f64::max)
     }
 
-    /// Every invalid value, each naming its field.
-    pub fn validate(&self) -> Result<(), Vec<FieldError>> {
-        let mut v = Validator::default();
-        v.check(self.version >= 1, "version", || {
-            format!(
-                "{} is not a preset version (use {PRESET_VERSION})",
-                self.version
-            )
-        });
-        if self.models.is_empty() {
-            v.push("models", "at least one model is needed".into());
-        }
-        for (i, m) in self.models.iter().enumerate() {
-            v.positive(&format!("models[{i}].size_m"), m.size_m, "metres");
-            v.check(m.size_m <= 1000.0, &format!("models[{i}].size_m"), || {
-                format!("{} m is larger than the 1000 m limit", m.size_m)
-            });
-            v.check(
-                !m.class.trim().is_empty(),
-                &format!("models[{i}].class"),
-                || "class name is empty".into(),
-            );
-            if let ModelSource::Builtin(name) = &m.source {
-                v.check(
-                    crate::assets::builtin_glb(name).is_some(),
-                    &format!("models[{i}].source"),
-                    || {
-                        format!(
-                            "no built-in model \"{name}\" (built-ins: {})",
-                            crate::assets::BUILTIN_NAMES.join(", ")
-                        )
-                    },
-                );
-            }
-        }
-        match &self.placement {
-            Placement::Structured {
-                x_count,
-                y_count,
-                z_count,
-                load_factor,
-            } => {
-                for (name, c) in [
-                    ("x_count", x_count),
-                    ("y_count", y_count),
-                    ("z_count", z_count),
-                ] {
-                    v.check(*c >= 1, &format!("placement.{name}"), || {
-                        format!("{c} drones along an axis; must be at least 1")
-                    });
-                }
-                let total = u64::from(*x_count) * u64::from(*y_count) * u64::from(*z_count);
-                v.check(total <= MAX_DRONES_PER_FRAME, "placement", || {
-                    format!("{x_count}×{y_count}×{z_count} = {total} drones per frame, more than the limit of {MAX_DRONES_PER_FRAME}")
-                });
-                v.check(load_factor.is_finite() && *load_factor >= 1.0 && *load_factor <= 1e6, "placement.load_factor", || {
-                    format!("{load_factor} is out of range [1, 1e6]: below 1 the grid spacing is smaller than a drone and drones overlap")
-                });
-            }
-            Placement::Randomized {
-                count: (lo, hi),
-                volume,
-                min_separation_m,
-            } => {
-                v.check(*lo >= 1, "placement.count", || {
-                    format!("minimum count {lo} must be at least 1")
-                });
-                v.check(hi >= lo, "placement.count", || {
-                    format!("({lo}, {hi}): maximum must be ≥ minimum")
-                });
-                v.check(
-                    u64::from(*hi) <= MAX_DRONES_PER_FRAME,
-                    "placement.count",
-                    || format!("{hi} drones is more than the limit of {MAX_DRONES_PER_FRAME}"),
-                );
-                v.check(
-                    min_separation_m.is_finite() && *min_separation_m >= 0.0,
-                    "placement.min_separation_m",
-                    || format!("{min_separation_m} must be a finite distance ≥ 0 m"),
-                );
-                match volume {
-                    Volume::Box { size_m: (x, y, z) } => {
-                        for (axis, s) in [("x", x), ("y", y), ("z", z)] {
-                            v.check(
-                                s.is_finite() && *s >= 0.0 && *s <= 1e6,
-                                &format!("placement.volume.size_m.{axis}"),
-                                || format!("{s} is out of range [0, 1e6] metres"),
-                            );
-                        }
-                    }
-                    Volume::Density { per_m3 } => {
-                        v.positive("placement.volume.per_m3", *per_m3, "drones per m³")
-                    }
-                }
-                if v.errors.is_empty() {
-                    let fraction = Self::packing_fraction(*hi, volume, *min_separation_m);
-                    v.check(fraction <= MAX_PACKING_FRACTION, "placement.min_separation_m", || {
-                        format!(
-                            "{hi} drones {min_separation_m} m apart fill {:.0}% of the volume; at most {:.0}% can be placed at random (enlarge the volume or lower the count or separation)",
-                            fraction * 100.0,
-                            MAX_PACKING_FRACTION * 100.0
-                        )
-                    });
-                }
-            }
-        }
-        for (name, (lo, hi)) in [
-            ("roll_deg", self.attitude.roll_deg),
-            ("pitch_deg", self.attitude.pitch_deg),
-            ("yaw_deg", self.attitude.yaw_deg),
-        ] {
-            v.check(
-                lo.is_finite() && hi.is_finite() && lo <= hi && lo >= -360.0 && hi <= 360.0,
-                &format!("attitude.{name}"),
-                || format!("({lo}, {hi}) must be finite degrees with min ≤ max within [-360, 360]"),
-            );
-        }
-        for (name, range) in self.sweep_axes() {
-            if let Err(e) = range.count() {
-                let field = match e {
-                    SweepError::NotFinite { .. } | SweepError::TooMany { .. } => name.to_string(),
-                    SweepError::ZeroStep { .. } | SweepError::WrongSign { .. } => {
-                        format!("{name}.step")
-                    }
-                };
-                v.push(&field, e.to_string());
-            }
-        }
-        let has_zero = |r: SweepRange| {
-            let Ok(n) = r.count() else { return false };
-            if r.start == r.end || r.step == 0.0 {
-                return r.start == 0.0;
-            }
-            let i = (-r.start / r.step).round();
-            i >= 0.0 && (i as u64) < n && r.value(i as u64) == 0.0
-        };
-        if has_zero(self.camera.x) && has_zero(self.camera.y) && has_zero(self.camera.z) {
-            v.push(
-                "camera.z",
-                "CameraX, CameraY and CameraZ are all 0 in some frame: the camera would sit at the centre it looks at".into(),
-            );
-        }
-        v.check(
-            self.camera.fov_y_deg.is_finite()
-                && self.camera.fov_y_deg > 0.5
-                && self.camera.fov_y_deg < 170.0,
-            "camera.fov_y_deg",
-            || {
-                format!(
-                    "{} is out of range (0.5, 170) degrees",
-                    self.camera.fov_y_deg
-                )
-            },
-        );
-        v.check(self.repeats >= 1, "repeats", || {
-            format!("{} must be at least 1", self.repeats)
-        });
-        let frames = self.frame_count();
-        v.check(frames <= MAX_FRAMES, "frames", || format!("camera sweeps × plane sweeps × repeats = {frames} frames, more than the limit of {MAX_FRAMES}"));
-        self.sky.validate_into(&mut v, "sky", false);
-        let (w, h) = self.image_size();
-        for (name, side) in [("width", w), ("height", h)] {
-            v.check(
-                (1..=MAX_IMAGE_SIDE).contains(&side),
-                &format!("render.resolution.{name}"),
-                || format!("{side} px is out of range [1, {MAX_IMAGE_SIDE}]"),
-            );
-        }
-        v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || {
-            format!("{} is not supported; use 1 or 4", self.render.msaa)
-        });
-        v.check(
-            self.labels.min_box_px.is_finite() && self.labels.min_box_px >= 0.0,
-            "labels.min_box_px",
-            || {
-                format!(
-                    "{} must be a finite number of pixels ≥ 0",
-                    self.labels.min_box_px
-                )
-            },
-        );
-        v.check(
-            self.labels.min_visible_fraction.is_finite()
-                && (0.0..=1.0).contains(&self.labels.min_visible_fraction),
-            "labels.min_visible_fraction",
-            || {
-                format!(
-                    "{} is out of range [0, 1]",
-                    self.labels.min_visible_fraction
-                )
-            },
-        );
-        v.check(
-            matches!(self.labels.id_scale, 1 | 2 | 4),
-            "labels.id_scale",
-            || format!("{} is not supported; use 1, 2 or 4", self.labels.id_scale),
-        );
-        if let ImageFormat::Jpeg { quality } = self.output.image_format {
-            v.check(
-                (1..=100).contains(&quality),
-                "output.image_format.quality",
-                || format!("{quality} is out of range [1, 100]"),
-            );
-        }
-        let s = &self.output.split;
-        let parts = [("train", s.train), ("val", s.val), ("test", s.test)];
-        for (name, share) in parts {
-            v.check(
-                share.is_finite() && (0.0..=1.0).contains(&share),
-                &format!("output.split.{name}"),
-                || format!("{share} is out of range [0, 1]"),
-            );
-        }
-        let sum = s.train + s.val + s.test;
-        v.check((sum - 1.0).abs() < 1e-6, "output.split", || {
-            format!("shares sum to {sum}; they must sum to 1")
-        });
-        if v.errors.is_empty() {
-            Ok(())
-        } else {
-            Err(v.errors)
-        }
-    }
-
     /// Share of the volume taken by `n` balls of diameter `separation`, for the
     /// largest count the preset asks for.
     fn packing_fraction(n: u32, volume: &Volume, separation: f64) -> f64 {
@@ -1021,7 +848,7 @@ impl Preset {
 }
 
 #[derive(Default)]
-struct Validator {
+pub(crate) struct Validator {
     errors: Vec<FieldError>,
 }
 

@@ -7,14 +7,14 @@ use std::time::Instant;
 
 use glam::{DQuat, DVec3};
 
-use crate::assets::BUILTIN_NAMES;
-use crate::batch::{FrameMaker, make_renderer};
-use crate::environment::EnvironmentName;
-use crate::math::{EulerDeg, look_at_cv};
+use crate::model::builtin::NAMES as BUILTIN_NAMES;
+use crate::pipeline::FramePipeline;
+use crate::preset::sweep::SweepRange;
 use crate::preset::{ModelSource, ModelSpec, Placement, Preset, Resolution, Sky, Volume};
 use crate::render::GpuContext;
-use crate::scene::{DronePose, build_frame};
-use crate::sweep::SweepRange;
+use crate::scene::DronePose;
+use crate::scene::math::{EulerDeg, look_at_cv};
+use crate::sky::EnvironmentName;
 
 /// The preset of one environment picture: a small mixed swarm seen level with
 /// the horizon, so sky, clouds, silhouettes and ground are all in view.
@@ -75,10 +75,9 @@ pub fn fixed_environment(name: EnvironmentName) -> Sky {
 
 /// Render frame 0 of `preset` to RGBA.
 pub fn render_preset(ctx: &GpuContext, preset: &Preset) -> anyhow::Result<Vec<u8>> {
-    let maker = FrameMaker::new(preset.clone())?;
-    let scene = build_frame(preset, 0)?;
-    let mut renderer = make_renderer(&maker, ctx)?;
-    Ok(renderer.render_rgba(&scene, &preset.sky, preset.render.msaa)?)
+    let pipeline = FramePipeline::new(preset.clone())?;
+    let mut renderer = pipeline.renderer(ctx);
+    Ok(pipeline.make(&mut renderer, 0)?.rgba)
 }
 
 /// One frame per named environment, at `width`×`height`.
@@ -136,12 +135,12 @@ pub fn model_contact_sheet(
         zenith: (0.30, 0.42, 0.62),
         horizon: (0.75, 0.8, 0.86),
     };
-    let maker = FrameMaker::new(preset.clone())?;
-    let mut renderer = make_renderer(&maker, ctx)?;
+    let pipeline = FramePipeline::new(preset)?;
+    let mut renderer = pipeline.renderer(ctx);
     let rows = (BUILTIN_NAMES.len() as u32).div_ceil(columns);
     let mut sheet = image::RgbaImage::new(tile * columns, tile * rows);
     for (i, _) in BUILTIN_NAMES.iter().enumerate() {
-        let mut scene = build_frame(&preset, 0)?;
+        let mut scene = pipeline.scene(0)?;
         let eye = DVec3::new(1.0, 0.95, 1.35).normalize() * 2.3;
         scene.camera.position = eye;
         scene.camera.fov_y_deg = 32.0;
@@ -156,7 +155,7 @@ pub fn model_contact_sheet(
             euler_deg: EulerDeg::from_quat(rotation),
             size_m: 1.0,
         }];
-        let rgba = renderer.render_rgba(&scene, &preset.sky, 4)?;
+        let rgba = pipeline.make_scene(&mut renderer, scene)?.rgba;
         let img = image::RgbaImage::from_raw(tile, tile, rgba)
             .ok_or_else(|| anyhow::anyhow!("tile size"))?;
         let (x, y) = ((i as u32 % columns) * tile, (i as u32 / columns) * tile);
@@ -167,15 +166,14 @@ pub fn model_contact_sheet(
 
 /// Median render time (ms, frame rendered and read back) of frame 0 of `preset` over `frames` renders.
 pub fn median_frame_ms(ctx: &GpuContext, preset: &Preset, frames: usize) -> anyhow::Result<f64> {
-    let maker = FrameMaker::new(preset.clone())?;
-    let scene = build_frame(preset, 0)?;
-    let mut renderer = make_renderer(&maker, ctx)?;
-    renderer.render_rgba(&scene, &preset.sky, preset.render.msaa)?; // warm-up: pipelines, targets
+    let pipeline = FramePipeline::new(preset.clone())?;
+    let mut renderer = pipeline.renderer(ctx);
+    pipeline.make(&mut renderer, 0)?; // warm-up: pipelines, targets
     let mut times: Vec<f64> = (0..frames.max(1))
         .map(|_| {
             let start = Instant::now();
-            renderer
-                .render_rgba(&scene, &preset.sky, preset.render.msaa)
+            pipeline
+                .make(&mut renderer, 0)
                 .map(|_| start.elapsed().as_secs_f64() * 1000.0)
         })
         .collect::<Result<_, _>>()?;

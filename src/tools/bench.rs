@@ -13,12 +13,12 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::batch::FrameMaker;
-use crate::labels::{PixelBox, pixel_stats};
+use crate::annotate::PixelBox;
+use crate::pipeline::FramePipeline;
+use crate::preset::sweep::SweepRange;
 use crate::preset::{BoxMethod, FilteredDrones, Placement, Preset, Resolution, Volume};
 use crate::render::GpuContext;
-use crate::scene::build_frame;
-use crate::sweep::SweepRange;
+use crate::render::visibility::pixel_stats;
 
 /// One scene family of the accuracy report.
 pub struct BenchScene {
@@ -144,17 +144,17 @@ pub fn accuracy(
     ];
     let mut rows = Vec::new();
     for scene_def in accuracy_scenes(frames, width, height) {
-        let maker = FrameMaker::new(scene_def.preset.clone())?;
-        let mut renderer = crate::batch::make_renderer(&maker, ctx)?;
+        let base = FramePipeline::new(scene_def.preset.clone())?;
+        let mut renderer = base.renderer(ctx);
         // References first (4× id pass per frame).
         let mut references: Vec<Vec<Option<PixelBox>>> = Vec::new();
         let n_frames = scene_def.preset.frame_count();
         for index in 0..n_frames {
-            let scene = build_frame(&scene_def.preset, index)?;
+            let scene = base.scene(index)?;
             let mut big = scene.clone();
             big.camera.width *= 4;
             big.camera.height *= 4;
-            let ids = renderer.render_ids(&big, &scene_def.preset.sky, &|_| true)?;
+            let ids = renderer.render_ids(&big, &|_| true)?;
             references.push(
                 pixel_stats(&ids, scene.drones.len())
                     .into_iter()
@@ -175,20 +175,18 @@ pub fn accuracy(
                 preset.labels.box_method = setting.method;
                 preset.labels.id_scale = setting.id_scale;
                 preset.render.msaa = msaa;
-                let maker = FrameMaker::new(preset.clone())?;
+                let pipeline = base.update(preset)?;
                 // Warm-up: pipelines and targets are built on first use.
-                let warm = build_frame(&preset, 0)?;
-                maker.labels(&mut renderer, &warm)?;
-                renderer.render_rgba(&warm, &preset.sky, msaa)?;
+                pipeline.make(&mut renderer, 0)?;
                 let (mut edges, mut ious, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
                 let (mut frame_ms, mut label_ms, mut boxes) = (0.0, 0.0, 0usize);
                 for index in 0..n_frames {
-                    let scene = build_frame(&preset, index)?;
+                    let scene = pipeline.scene(index)?;
                     let t = Instant::now();
-                    let labels = maker.labels(&mut renderer, &scene)?;
+                    let labels = pipeline.labels(&mut renderer, &scene)?;
                     let l_ms = ms(t);
                     let t = Instant::now();
-                    renderer.render_rgba(&scene, &preset.sky, msaa)?;
+                    renderer.render_rgba(&scene, msaa)?;
                     frame_ms += ms(t) + l_ms;
                     label_ms += l_ms;
                     for l in &labels {
@@ -266,14 +264,13 @@ pub fn timings(ctx: &GpuContext, preset: &Preset, frames: u64) -> anyhow::Result
                 p.render.resolution = Resolution::Custom { width, height };
                 p.render.msaa = msaa;
                 p.labels.box_method = method;
-                let maker = FrameMaker::new(p.clone())?;
-                let mut renderer = crate::batch::make_renderer(&maker, ctx)?;
+                let pipeline = FramePipeline::new(p)?;
+                let mut renderer = pipeline.renderer(ctx);
                 let mut times = Vec::new();
-                for index in 0..frames.min(p.frame_count()) {
-                    let scene = build_frame(&p, index)?;
+                for index in 0..frames.min(pipeline.frame_count()) {
+                    let scene = pipeline.scene(index)?;
                     let t = Instant::now();
-                    maker.labels(&mut renderer, &scene)?;
-                    renderer.render_rgba(&scene, &p.sky, msaa)?;
+                    pipeline.make_scene(&mut renderer, scene)?;
                     times.push(ms(t));
                 }
                 times.sort_by(f64::total_cmp);

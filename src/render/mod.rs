@@ -10,6 +10,7 @@
 
 mod material;
 mod sky;
+pub mod visibility;
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -17,10 +18,9 @@ use std::ops::Range;
 use glam::{DMat4, Mat4};
 use wgpu::util::DeviceExt;
 
-use crate::environment::{EnvironmentAssets, Lighting};
 use crate::model::{CpuModel, Vertex};
-use crate::preset::Sky;
 use crate::scene::FrameScene;
+use crate::sky::{EnvironmentAssets, Lighting};
 
 /// The colour format of every target: sRGB is encoded in the shaders (see STACK.md).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -215,23 +215,23 @@ pub struct PassCounts {
 
 /// WGSL sources, each with the shared header prepended.
 pub fn shader_sources() -> [(&'static str, String); 3] {
-    let common = include_str!("../shaders/common.wgsl");
+    let common = include_str!("../../shaders/common.wgsl");
     [
         (
             "sky.wgsl",
             format!(
                 "{common}\n{}\n{}",
-                include_str!("../shaders/environment.wgsl"),
-                include_str!("../shaders/sky.wgsl")
+                include_str!("../../shaders/environment.wgsl"),
+                include_str!("../../shaders/sky.wgsl")
             ),
         ),
         (
             "drone.wgsl",
-            format!("{common}\n{}", include_str!("../shaders/drone.wgsl")),
+            format!("{common}\n{}", include_str!("../../shaders/drone.wgsl")),
         ),
         (
             "ids.wgsl",
-            format!("{common}\n{}", include_str!("../shaders/ids.wgsl")),
+            format!("{common}\n{}", include_str!("../../shaders/ids.wgsl")),
         ),
     ]
 }
@@ -442,9 +442,11 @@ impl Renderer {
     }
 
     /// Write the frame's uniforms: the camera, and the environment's sky and lighting.
-    fn upload_uniforms(&mut self, scene: &FrameScene, sky: &Sky) {
+    fn upload_uniforms(&mut self, scene: &FrameScene) {
         let sun = scene.sun_direction.as_vec3();
-        let lighting = self.sky.prepare(&self.queue, sky, &scene.environment, sun);
+        let lighting = self
+            .sky
+            .prepare(&self.queue, &scene.sky, &scene.environment, sun);
         self.queue.write_buffer(
             &self.frame_buffer,
             0,
@@ -513,7 +515,6 @@ impl Renderer {
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         scene: &FrameScene,
-        sky: &Sky,
         views: &FrameViews<'_>,
     ) {
         let FrameViews {
@@ -522,8 +523,8 @@ impl Renderer {
             depth,
             msaa,
         } = *views;
-        self.upload_uniforms(scene, sky);
-        if sky::SkyGpu::is_procedural(sky, &scene.environment) {
+        self.upload_uniforms(scene);
+        if sky::SkyGpu::is_procedural(&scene.sky) {
             let size = (scene.camera.width, scene.camera.height);
             self.sky.encode_environment(
                 &self.device,
@@ -562,7 +563,7 @@ impl Renderer {
             multiview_mask: None,
         });
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
-        pass.set_bind_group(1, self.sky.bind_group_for(sky, &scene.environment), &[]);
+        pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);
         pass.set_pipeline(sky_pipeline);
         pass.draw(0..3, 0..1);
         if let Some(instances) = &self.instances
@@ -661,12 +662,7 @@ impl Renderer {
     }
 
     /// Render offscreen and read back tightly packed RGBA8 (sRGB-encoded) pixels.
-    pub fn render_rgba(
-        &mut self,
-        scene: &FrameScene,
-        sky: &Sky,
-        msaa: u32,
-    ) -> Result<Vec<u8>, RenderError> {
+    pub fn render_rgba(&mut self, scene: &FrameScene, msaa: u32) -> Result<Vec<u8>, RenderError> {
         let (width, height) = (scene.camera.width, scene.camera.height);
         self.ensure_target(width, height, msaa)?;
         let target = self
@@ -692,7 +688,7 @@ impl Renderer {
                 msaa,
             },
         };
-        self.encode(&mut encoder, scene, sky, &views);
+        self.encode(&mut encoder, scene, &views);
         target.readback.copy_from(&mut encoder, &target.color);
         self.queue.submit([encoder.finish()]);
         let result = target.readback.read(&self.device);
@@ -883,7 +879,6 @@ impl Renderer {
     pub fn render_ids(
         &mut self,
         scene: &FrameScene,
-        sky: &Sky,
         include: &dyn Fn(usize) -> bool,
     ) -> Result<IdImage, RenderError> {
         let (width, height) = (scene.camera.width, scene.camera.height);
@@ -898,7 +893,7 @@ impl Renderer {
                 limit: self.max_texture_side,
             });
         }
-        self.upload_uniforms(scene, sky);
+        self.upload_uniforms(scene);
         let ranges = self.upload_instances(scene, include);
         self.id_pass();
         self.counts.ids += 1;

@@ -5,10 +5,11 @@
 //! calls [`frame_environment`] (pure: its draws come from a stream salted
 //! apart from the scene's, so adding a random sky never changes existing
 //! drone placements) to get a [`FrameEnvironment`]: which choice, the sun's
-//! elevation/azimuth, cloud cover, turbidity and the pattern seed. The
-//! renderer combines both with [`resolve`] into a [`ResolvedSky`] and asks
-//! [`lighting`] for the drones' sun colour and ambient terms, so the sun that
-//! lights the drones is the one drawn in the sky.
+//! elevation/azimuth, cloud cover, turbidity and the pattern seed, and
+//! [`resolve`]s both into the frame's [`FrameSky`] (plain scene data). The
+//! renderer draws that and asks the lighting functions for the drones' sun
+//! colour and ambient terms, so the sun that lights the drones is the one
+//! drawn in the sky.
 //!
 //! The procedural sky is Preetham et al. 1999 ("A Practical Analytic Model
 //! for Daylight"), evaluated here for the lighting and in
@@ -26,21 +27,10 @@ use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};
 use rand::Rng;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use crate::preset::{Sky, SkyImageSource};
-
-/// The paper's seven Unity skyboxes, as procedural environments.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum EnvironmentName {
-    Daytime,
-    Sunset,
-    BeautifulPasture,
-    SnowyBridge,
-    SmallHarbour,
-    Tellsplatte,
-    CountryRoad,
-}
+pub use crate::preset::EnvironmentName;
+use crate::preset::{DEFAULT_HORIZON, DEFAULT_ZENITH, Sky, SkyImageSource};
 
 /// What covers the ground plane.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,28 +73,6 @@ pub struct EnvironmentStyle {
 }
 
 impl EnvironmentName {
-    pub const ALL: [Self; 7] = [
-        Self::Daytime,
-        Self::Sunset,
-        Self::BeautifulPasture,
-        Self::SnowyBridge,
-        Self::SmallHarbour,
-        Self::Tellsplatte,
-        Self::CountryRoad,
-    ];
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Daytime => "Daytime",
-            Self::Sunset => "Sunset",
-            Self::BeautifulPasture => "BeautifulPasture",
-            Self::SnowyBridge => "SnowyBridge",
-            Self::SmallHarbour => "SmallHarbour",
-            Self::Tellsplatte => "Tellsplatte",
-            Self::CountryRoad => "CountryRoad",
-        }
-    }
-
     /// The environment's look and default sun.
     pub fn style(self) -> EnvironmentStyle {
         const GRASS: [[f32; 3]; 2] = [[0.07, 0.16, 0.035], [0.16, 0.22, 0.06]];
@@ -301,8 +269,8 @@ pub fn nominal_sun_direction(sky: &Sky) -> DVec3 {
 /// stream: choice, azimuth offset, elevation, cloud cover, pattern seed — all
 /// five are always drawn, so changing one range never shifts the others.
 pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnvironment {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::seed::mix64(
-        crate::seed::frame_seed(preset_seed, index) ^ ENVIRONMENT_SALT,
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::scene::seed::mix64(
+        crate::scene::seed::frame_seed(preset_seed, index) ^ ENVIRONMENT_SALT,
     ));
     let u = |rng: &mut rand_chacha::ChaCha8Rng| rng.random::<f64>();
     let (choice_u, az_u, el_u, cloud_u, seed) = (
@@ -345,30 +313,47 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
     }
 }
 
-/// A frame's sky as the renderer draws it.
-#[derive(Clone, Copy, Debug)]
-pub enum ResolvedSky<'a> {
+/// A frame's sky as the renderer draws it: plain data, resolved from the
+/// preset's sky and the frame's draws (the chosen `Random` entry, the turned
+/// image), so the renderer never sees the preset.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum FrameSky {
     Gradient {
         zenith: [f32; 3],
         horizon: [f32; 3],
     },
     Procedural {
-        style: EnvironmentStyle,
+        environment: EnvironmentName,
         exposure: f32,
     },
     Image {
-        source: &'a SkyImageSource,
+        /// Index into the preset's sky images (`Sky::image_sources` order).
+        image: usize,
         exposure: f32,
         rotation_deg: f64,
     },
 }
 
+/// Zenith and horizon colours of the gradient that stands in for a sky that cannot be drawn.
+pub const FALLBACK_ZENITH: [f32; 3] = [DEFAULT_ZENITH.0, DEFAULT_ZENITH.1, DEFAULT_ZENITH.2];
+pub const FALLBACK_HORIZON: [f32; 3] = [DEFAULT_HORIZON.0, DEFAULT_HORIZON.1, DEFAULT_HORIZON.2];
+
+/// The gradient that stands in when a `Random` sky has nothing to choose.
+const FALLBACK_GRADIENT: FrameSky = FrameSky::Gradient {
+    zenith: FALLBACK_ZENITH,
+    horizon: FALLBACK_HORIZON,
+};
+
 /// The concrete sky of a frame: the preset's description with the frame's choice applied.
-pub fn resolve<'a>(sky: &'a Sky, env: &FrameEnvironment) -> ResolvedSky<'a> {
+pub fn resolve(sky: &Sky, env: &FrameEnvironment) -> FrameSky {
+    resolve_within(sky, sky, env)
+}
+
+fn resolve_within(root: &Sky, sky: &Sky, env: &FrameEnvironment) -> FrameSky {
     match sky {
         Sky::Gradient {
             zenith, horizon, ..
-        } => ResolvedSky::Gradient {
+        } => FrameSky::Gradient {
             zenith: [zenith.0, zenith.1, zenith.2],
             horizon: [horizon.0, horizon.1, horizon.2],
         },
@@ -376,8 +361,8 @@ pub fn resolve<'a>(sky: &'a Sky, env: &FrameEnvironment) -> ResolvedSky<'a> {
             environment,
             exposure_ev,
             ..
-        } => ResolvedSky::Procedural {
-            style: environment.style(),
+        } => FrameSky::Procedural {
+            environment: *environment,
             exposure: 2f32.powf(*exposure_ev as f32),
         },
         Sky::Image {
@@ -385,17 +370,19 @@ pub fn resolve<'a>(sky: &'a Sky, env: &FrameEnvironment) -> ResolvedSky<'a> {
             exposure_ev,
             rotation_deg,
             ..
-        } => ResolvedSky::Image {
-            source,
-            exposure: 2f32.powf(*exposure_ev as f32),
-            rotation_deg: rotation_deg + env.azimuth_offset_deg,
+        } => match root.image_sources().iter().position(|s| *s == source) {
+            Some(image) => FrameSky::Image {
+                image,
+                exposure: 2f32.powf(*exposure_ev as f32),
+                rotation_deg: rotation_deg + env.azimuth_offset_deg,
+            },
+            None => FALLBACK_GRADIENT,
         },
         Sky::Random { choices, .. } => match choices.get(env.choice) {
-            Some(choice) if !matches!(choice, Sky::Random { .. }) => resolve(choice, env),
-            _ => ResolvedSky::Gradient {
-                zenith: [0.10, 0.25, 0.60],
-                horizon: [0.62, 0.74, 0.88],
-            },
+            Some(choice) if !matches!(choice, Sky::Random { .. }) => {
+                resolve_within(root, choice, env)
+            }
+            _ => FALLBACK_GRADIENT,
         },
     }
 }

@@ -19,6 +19,8 @@
 //! colour remains). Everything else that is wrong is a typed [`ModelError`]
 //! naming the file — never a panic, never a silently empty model.
 
+pub mod builtin;
+
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};

@@ -97,8 +97,11 @@ mod tests {
             height: 480,
             fov_y_deg: 60.0,
             position: DVec3::new(1.0, 2.0, 10.0),
-            camera_from_world: crate::math::look_at_cv(DVec3::new(1.0, 2.0, 10.0), DVec3::ZERO)
-                .expect("look-at"),
+            camera_from_world: crate::scene::math::look_at_cv(
+                DVec3::new(1.0, 2.0, 10.0),
+                DVec3::ZERO,
+            )
+            .expect("look-at"),
             near_m: 0.01,
         }
     }

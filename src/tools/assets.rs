@@ -1,6 +1,6 @@
-//! Built-in UAV models: a small mesh builder whose output is written as GLB
-//! into `assets/models/` and embedded in the binary, then loaded through the
-//! same glTF path as user models (`model::load_bytes`).
+//! The generator of the built-in UAV models: a small mesh builder whose output
+//! is written as GLB into `assets/models/` (the table in `model::builtin`
+//! embeds those files), then loaded through the same glTF path as user models.
 //!
 //! `swarmshot assets` regenerates the files; a test checks that the committed
 //! GLBs equal what the builder makes, byte for byte.
@@ -10,33 +10,6 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, TAU};
 
 use glam::{Quat, Vec2, Vec3};
 use serde_json::json;
-
-/// Names of the built-in models, in the order they are offered.
-pub const BUILTIN_NAMES: &[&str] = &[
-    "quad_x",
-    "quad_plus",
-    "hexacopter",
-    "octocopter",
-    "fixed_wing",
-    "flying_wing_vtol",
-    "coaxial_heli",
-    "heavy_lift",
-];
-
-/// The embedded GLB of a built-in model.
-pub fn builtin_glb(name: &str) -> Option<&'static [u8]> {
-    match name {
-        "quad_x" => Some(include_bytes!("../assets/models/quad_x.glb")),
-        "quad_plus" => Some(include_bytes!("../assets/models/quad_plus.glb")),
-        "hexacopter" => Some(include_bytes!("../assets/models/hexacopter.glb")),
-        "octocopter" => Some(include_bytes!("../assets/models/octocopter.glb")),
-        "fixed_wing" => Some(include_bytes!("../assets/models/fixed_wing.glb")),
-        "flying_wing_vtol" => Some(include_bytes!("../assets/models/flying_wing_vtol.glb")),
-        "coaxial_heli" => Some(include_bytes!("../assets/models/coaxial_heli.glb")),
-        "heavy_lift" => Some(include_bytes!("../assets/models/heavy_lift.glb")),
-        _ => None,
-    }
-}
 
 /// Build the GLB of a built-in model from code (what `assets/models/NAME.glb` must contain).
 pub fn generate_glb(name: &str) -> Option<Vec<u8>> {
@@ -1032,6 +1005,7 @@ fn coaxial_heli() -> MeshBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::builtin::{NAMES as BUILTIN_NAMES, glb as builtin_glb};
 
     #[test]
     fn builtin_glbs_match_the_generator() {

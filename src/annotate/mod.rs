@@ -1,0 +1,124 @@
+//! Labels from poses and pixels: the one place where the box method is
+//! chosen. `Amodal` and `PaperAabb` boxes come from the scene's geometry
+//! ([`crate::scene::projection`]); `Visible` boxes and the visibility filters
+//! from what the renderer measured ([`crate::render::visibility`]).
+
+pub mod overlay;
+
+use serde::Serialize;
+
+use crate::preset::{BoxMethod, LabelSettings};
+use crate::render::visibility::Visibility;
+use crate::scene::FrameScene;
+pub use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box, paper_aabb_box};
+
+/// One labelled drone.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DroneLabel {
+    /// Index of the drone in the frame's `drones`.
+    pub drone: usize,
+    /// Class index (0-based, order of first appearance among the preset's models).
+    pub class_id: usize,
+    /// The box written to the label files: the chosen method's box within the image.
+    pub bbox: PixelBox,
+    /// Tight projected silhouette box, unclipped.
+    pub amodal: PixelBox,
+    /// The paper's projected-AABB box, unclipped.
+    pub paper_aabb: PixelBox,
+    /// The amodal box leaves the image.
+    pub truncated: bool,
+    /// Distance from the camera centre to the drone centre, metres.
+    pub distance_m: f64,
+    /// Id-pass measurements, when the preset asked for them.
+    pub visibility: Option<Visibility>,
+    pub status: LabelStatus,
+}
+
+/// What the writers do with a drone's label.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LabelStatus {
+    /// A training box: written to YOLO and COCO.
+    Kept,
+    /// Failed a filter; written to COCO as `iscrowd: 1` only.
+    Crowd,
+    /// Failed a filter; recorded in the manifest only.
+    Filtered,
+}
+
+impl DroneLabel {
+    /// A training box (YOLO and COCO).
+    pub fn is_kept(&self) -> bool {
+        self.status == LabelStatus::Kept
+    }
+}
+
+/// Label every drone of a frame that is in front of the camera. Drones that
+/// fail a filter (smaller than `min_box_px`, below the visibility thresholds,
+/// or not visible at all) get status `Crowd` or `Filtered` according to
+/// `settings.filtered`; only `Kept` labels are training boxes. `visibility` is required for
+/// [`BoxMethod::Visible`] and the visibility filters (`None` treats every
+/// drone as invisible then).
+pub fn label_frame(
+    scene: &FrameScene,
+    geometry: &[LabelGeometry],
+    class_of_model: &[usize],
+    settings: &LabelSettings,
+    visibility: Option<&[Visibility]>,
+) -> Vec<DroneLabel> {
+    use crate::preset::FilteredDrones;
+    let cam = &scene.camera;
+    let (w, h) = (f64::from(cam.width), f64::from(cam.height));
+    let mut out = Vec::new();
+    for (i, drone) in scene.drones.iter().enumerate() {
+        let geom = &geometry[drone.model];
+        let (Some(amodal), Some(paper)) = (
+            amodal_box(cam, drone, geom),
+            paper_aabb_box(cam, drone, geom),
+        ) else {
+            continue;
+        };
+        let amodal_in_image = amodal.clip(w, h);
+        let vis = visibility.and_then(|v| v.get(i)).copied();
+        let chosen = match settings.box_method {
+            BoxMethod::Visible => vis.and_then(|v| v.visible_box),
+            BoxMethod::Amodal => Some(amodal_in_image),
+            BoxMethod::PaperAabb => Some(paper.clip(w, h)),
+        };
+        let big_enough = |b: &PixelBox| {
+            b.width() > 0.0
+                && b.height() > 0.0
+                && b.width() >= settings.min_box_px
+                && b.height() >= settings.min_box_px
+        };
+        let visible_enough = !settings.needs_id_pass()
+            || vis.is_some_and(|v| {
+                v.visible_pixels > 0
+                    && v.visible_pixels >= settings.min_visible_pixels
+                    && v.fraction() >= settings.min_visible_fraction
+            });
+        let keep = chosen.as_ref().is_some_and(big_enough) && visible_enough;
+        let amodal_shows = amodal_in_image.width() > 0.0 && amodal_in_image.height() > 0.0;
+        let status = if keep {
+            LabelStatus::Kept
+        } else if settings.filtered == FilteredDrones::Crowd && amodal_shows {
+            LabelStatus::Crowd
+        } else {
+            LabelStatus::Filtered
+        };
+        // Kept: the chosen box; otherwise the best box there is (for crowd regions and the manifest).
+        let bbox = chosen.filter(|b| b.area() > 0.0).unwrap_or(amodal_in_image);
+        out.push(DroneLabel {
+            drone: i,
+            class_id: class_of_model[drone.model],
+            bbox,
+            amodal,
+            paper_aabb: paper,
+            truncated: amodal_in_image != amodal,
+            distance_m: (drone.position - cam.position).length(),
+            visibility: vis,
+            status,
+        });
+    }
+    out
+}

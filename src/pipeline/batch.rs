@@ -1,0 +1,237 @@
+//! The batch: every frame of a preset through the [`FramePipeline`] and into
+//! a dataset folder.
+//!
+//! Three stages on bounded queues, so memory stays flat in the batch length:
+//! the calling thread makes frames in index order (scene → render → labels);
+//! a pool of encoder threads turns pixels into JPEG/PNG bytes; one sink thread
+//! writes each frame's image, labels and manifest line in index order.
+//! Cancelling stops feeding new frames and drains the queues, so every
+//! written image has its labels. [`StageTimes`] records where the time went.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use super::{Frame, FramePipeline};
+use crate::annotate::DroneLabel;
+use crate::render::GpuContext;
+use crate::scene::FrameScene;
+use crate::write::{DatasetStats, DatasetWriter, encode_image};
+
+#[derive(Clone, Debug)]
+pub struct BatchOptions {
+    pub out_dir: PathBuf,
+    /// Make only the first N frames.
+    pub limit: Option<u64>,
+    pub overwrite: bool,
+    /// Image encoder threads (0 = one per spare core).
+    pub encoder_threads: usize,
+}
+
+impl BatchOptions {
+    pub fn new(out_dir: impl Into<PathBuf>) -> Self {
+        Self {
+            out_dir: out_dir.into(),
+            limit: None,
+            overwrite: false,
+            encoder_threads: 0,
+        }
+    }
+}
+
+/// Progress reported after each written frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    pub done: u64,
+    pub total: u64,
+    pub elapsed: Duration,
+}
+
+impl Progress {
+    pub fn images_per_s(&self) -> f64 {
+        self.done as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+/// Busy time of each stage, summed over frames (the encoder's over all its threads).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StageTimes {
+    /// Scene, render, readback and labels (the calling thread).
+    pub make: Duration,
+    /// Image encoding.
+    pub encode: Duration,
+    /// Files written by the sink.
+    pub write: Duration,
+}
+
+impl StageTimes {
+    /// One line: each stage's busy time per frame and its share of the wall time.
+    pub fn describe(&self, frames: u64, wall: Duration) -> String {
+        let per = |d: Duration| d.as_secs_f64() * 1e3 / frames.max(1) as f64;
+        let share = |d: Duration| 100.0 * d.as_secs_f64() / wall.as_secs_f64().max(1e-9);
+        format!(
+            "per frame: make {:.1} ms ({:.0} % of wall), encode {:.1} ms ({:.0} %), write {:.1} ms ({:.0} %)",
+            per(self.make),
+            share(self.make),
+            per(self.encode),
+            share(self.encode),
+            per(self.write),
+            share(self.write),
+        )
+    }
+}
+
+/// What a finished (or cancelled) batch wrote.
+#[derive(Clone, Debug)]
+pub struct BatchReport {
+    pub stats: DatasetStats,
+    pub cancelled: bool,
+    pub elapsed: Duration,
+    pub out_dir: PathBuf,
+    pub times: StageTimes,
+}
+
+struct Encoded {
+    scene: FrameScene,
+    labels: Vec<DroneLabel>,
+    bytes: Vec<u8>,
+    encode: Duration,
+}
+
+/// Run a batch. `cancel` may be set from another thread at any time.
+pub fn run_batch(
+    pipeline: &FramePipeline,
+    options: &BatchOptions,
+    ctx: &GpuContext,
+    cancel: &AtomicBool,
+    mut on_progress: impl FnMut(Progress) + Send,
+) -> anyhow::Result<BatchReport> {
+    let preset = pipeline.preset();
+    let total = options
+        .limit
+        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    let mut writer = DatasetWriter::create(
+        &options.out_dir,
+        preset,
+        pipeline.model_names().to_vec(),
+        options.overwrite,
+    )?;
+    let mut renderer = pipeline.renderer(ctx);
+    let format = preset.output.image_format;
+    let threads = if options.encoder_threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1))
+    } else {
+        options.encoder_threads
+    };
+    let start = Instant::now();
+    let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
+    let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
+
+    let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
+        for _ in 0..threads {
+            let rx = encode_rx.clone();
+            let tx = to_sink.clone();
+            s.spawn(move || {
+                for frame in rx {
+                    let t = Instant::now();
+                    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+                    let msg = encode_image(&frame.rgba, w, h, format)
+                        .map(|bytes| Encoded {
+                            scene: frame.scene,
+                            labels: frame.labels,
+                            bytes,
+                            encode: t.elapsed(),
+                        })
+                        .map_err(anyhow::Error::from);
+                    if tx.send(msg).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(to_sink);
+        drop(encode_rx);
+        // The sink: reorder by index and write.
+        let sink = s.spawn(
+            move || -> anyhow::Result<(DatasetWriter, Duration, Duration)> {
+                let mut pending: BTreeMap<u64, Encoded> = BTreeMap::new();
+                let mut next = 0u64;
+                let mut first_error = None;
+                let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
+                for msg in sink_rx {
+                    match msg {
+                        Ok(e) => {
+                            pending.insert(e.scene.index, e);
+                        }
+                        Err(e) => {
+                            first_error.get_or_insert(e);
+                        }
+                    }
+                    while let Some(e) = pending.remove(&next) {
+                        encode += e.encode;
+                        let t = Instant::now();
+                        if first_error.is_none()
+                            && let Err(err) = writer.write_frame(&e.scene, &e.labels, &e.bytes)
+                        {
+                            first_error = Some(err.into());
+                        }
+                        write += t.elapsed();
+                        next += 1;
+                        on_progress(Progress {
+                            done: next,
+                            total,
+                            elapsed: start.elapsed(),
+                        });
+                    }
+                }
+                match first_error {
+                    Some(e) => Err(e),
+                    None => Ok((writer, encode, write)),
+                }
+            },
+        );
+        let mut make_result = Ok(());
+        let mut cancelled = false;
+        let mut make_time = Duration::ZERO;
+        for index in 0..total {
+            if cancel.load(Ordering::Relaxed) {
+                cancelled = true;
+                break;
+            }
+            let t = Instant::now();
+            let made = pipeline.make(&mut renderer, index);
+            make_time += t.elapsed();
+            match made {
+                Ok(frame) => {
+                    if to_encode.send(frame).is_err() {
+                        break; // the sink failed; its error is reported below
+                    }
+                }
+                Err(e) => {
+                    make_result = Err(e);
+                    break;
+                }
+            }
+        }
+        drop(to_encode);
+        let sink_result = sink
+            .join()
+            .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
+        (sink_result, cancelled, make_result, make_time)
+    });
+    make_result?;
+    let (writer, encode, write) = sink_result?;
+    let stats = writer.finish()?;
+    Ok(BatchReport {
+        stats,
+        cancelled,
+        elapsed: start.elapsed(),
+        out_dir: options.out_dir.clone(),
+        times: StageTimes {
+            make: make_time,
+            encode,
+            write,
+        },
+    })
+}

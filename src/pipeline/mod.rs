@@ -1,0 +1,298 @@
+//! The one way a frame is made.
+//!
+//! A [`FramePipeline`] is built once from a validated preset: it loads the
+//! models and sky images the preset names (and only those) into [`Assets`],
+//! and from then on a frame index goes straight through
+//! scene ([`crate::scene::build_frame`]) → render + measure
+//! ([`crate::render::Renderer`]) → labels ([`crate::annotate::label_frame`]).
+//! The batch ([`batch::run_batch`]), the `frame` command, the desktop app's
+//! preview, the benchmarks and the gallery all call it; none of them rebuilds
+//! that chain or reaches into its parts.
+//!
+//! The pipeline holds CPU data only. GPU state lives in a [`Renderer`] made by
+//! [`FramePipeline::renderer`] for the pipeline's assets, so one pipeline can
+//! feed renderers on several devices, and a host (the preview) can keep its
+//! renderer while the preset changes as long as the assets stay the same.
+
+pub mod batch;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::annotate::{DroneLabel, label_frame};
+use crate::model::{self, CpuModel, ModelError};
+use crate::preset::{BoxMethod, FieldError, LabelSettings, ModelSource, ModelSpec, Preset};
+use crate::render::visibility::{self, Visibility};
+use crate::render::{GpuContext, RenderError, Renderer};
+use crate::scene::projection::LabelGeometry;
+use crate::scene::{FrameError, FrameScene, build_frame};
+use crate::sky::{EnvironmentAssets, EnvironmentError};
+
+pub use batch::{BatchOptions, BatchReport, Progress, run_batch};
+
+/// Why a pipeline could not be built or a frame not made.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    #[error("the preset is invalid:\n{}", list(.0))]
+    Invalid(Vec<FieldError>),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error(transparent)]
+    Sky(#[from] EnvironmentError),
+    #[error(transparent)]
+    Frame(#[from] FrameError),
+    #[error("frame {index}: {source}")]
+    Render { index: u64, source: RenderError },
+}
+
+fn list(errors: &[FieldError]) -> String {
+    errors
+        .iter()
+        .map(|e| format!("  - {e}"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// What a preset loads from disk: its models (preset order) and sky images
+/// (`Sky::image_sources` order). Shared between pipelines of presets that
+/// name the same files, so editing other fields never reloads them.
+#[derive(Debug)]
+pub struct Assets {
+    specs: Vec<ModelSpec>,
+    pub models: Vec<CpuModel>,
+    pub geometry: Vec<LabelGeometry>,
+    pub sky: EnvironmentAssets,
+}
+
+impl Assets {
+    /// Load every model and sky image the preset names, and only those.
+    pub fn load(preset: &Preset) -> Result<Self, PipelineError> {
+        let models = preset
+            .models
+            .iter()
+            .map(|spec| load_model(&spec.source))
+            .collect::<Result<Vec<_>, _>>()?;
+        let geometry = models.iter().map(LabelGeometry::from).collect();
+        Ok(Self {
+            specs: preset.models.clone(),
+            models,
+            geometry,
+            sky: EnvironmentAssets::load(&preset.sky)?,
+        })
+    }
+
+    /// Whether these assets are exactly what `preset` names.
+    pub fn serve(&self, preset: &Preset) -> bool {
+        self.specs == preset.models
+            && preset
+                .sky
+                .image_sources()
+                .into_iter()
+                .eq(self.sky.images.iter().map(|i| &i.source))
+    }
+}
+
+/// Load one model from its preset source (a built-in name or a glTF file).
+pub fn load_model(source: &ModelSource) -> Result<CpuModel, ModelError> {
+    match source {
+        ModelSource::Builtin(name) => {
+            let file = PathBuf::from(format!("builtin:{name}"));
+            let bytes = model::builtin::glb(name).ok_or_else(|| ModelError::Parse {
+                file: file.clone(),
+                reason: "no such built-in model".into(),
+            })?;
+            model::load_bytes(bytes, None, &file, name)
+        }
+        ModelSource::File(path) => model::load_file(path),
+    }
+}
+
+/// One made frame: its scene, its labels and its pixels.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub scene: FrameScene,
+    pub labels: Vec<DroneLabel>,
+    /// Tightly packed RGBA8, sRGB-encoded, `scene.camera.width × height`.
+    pub rgba: Vec<u8>,
+}
+
+/// Frame index → scene → pixels and labels, for one validated preset.
+#[derive(Clone, Debug)]
+pub struct FramePipeline {
+    preset: Preset,
+    assets: Arc<Assets>,
+    classes: Vec<String>,
+    class_of_model: Vec<usize>,
+    model_names: Vec<String>,
+}
+
+impl FramePipeline {
+    /// Validate `preset` and load what it names.
+    pub fn new(preset: Preset) -> Result<Self, PipelineError> {
+        preset.validate().map_err(PipelineError::Invalid)?;
+        let assets = Arc::new(Assets::load(&preset)?);
+        Ok(Self::with_assets(preset, assets))
+    }
+
+    /// Open a preset file (paths resolved against its folder) and build its pipeline.
+    pub fn open(path: &Path) -> anyhow::Result<Self> {
+        Ok(Self::new(Preset::open(path)?)?)
+    }
+
+    /// The pipeline of an edited preset: reuses this pipeline's assets when
+    /// the edit did not change which models or sky images it names.
+    pub fn update(&self, preset: Preset) -> Result<Self, PipelineError> {
+        preset.validate().map_err(PipelineError::Invalid)?;
+        let assets = if self.assets.serve(&preset) {
+            self.assets.clone()
+        } else {
+            Arc::new(Assets::load(&preset)?)
+        };
+        Ok(Self::with_assets(preset, assets))
+    }
+
+    fn with_assets(preset: Preset, assets: Arc<Assets>) -> Self {
+        let (classes, class_of_model) = preset.classes();
+        let model_names = preset
+            .models
+            .iter()
+            .zip(&assets.models)
+            .map(|(spec, m)| match &spec.source {
+                ModelSource::Builtin(name) => name.clone(),
+                ModelSource::File(_) => m.name.clone(),
+            })
+            .collect();
+        Self {
+            preset,
+            assets,
+            classes,
+            class_of_model,
+            model_names,
+        }
+    }
+
+    pub fn preset(&self) -> &Preset {
+        &self.preset
+    }
+
+    pub fn assets(&self) -> &Arc<Assets> {
+        &self.assets
+    }
+
+    /// Number of frames the preset makes.
+    pub fn frame_count(&self) -> u64 {
+        self.preset.frame_count()
+    }
+
+    /// Class names, in label order.
+    pub fn classes(&self) -> &[String] {
+        &self.classes
+    }
+
+    /// Each model's name as written to the manifest (preset order).
+    pub fn model_names(&self) -> &[String] {
+        &self.model_names
+    }
+
+    /// The scene of frame `index` (pure: no GPU, no file).
+    pub fn scene(&self, index: u64) -> Result<FrameScene, FrameError> {
+        build_frame(&self.preset, index)
+    }
+
+    /// A renderer holding this pipeline's models and sky images on `ctx`'s device.
+    pub fn renderer(&self, ctx: &GpuContext) -> Renderer {
+        let mut renderer = Renderer::new(ctx, &self.assets.models);
+        renderer.set_environment(&self.assets.sky);
+        renderer
+    }
+
+    /// Labels from geometry alone, without rendering: an estimate for
+    /// previews and statistics. `Visible` boxes and the visibility filters
+    /// need pixels, so here `Visible` stands in as `Amodal` and the filters
+    /// are off; [`FramePipeline::make`] gives the exact labels.
+    pub fn estimate_labels(&self, scene: &FrameScene) -> Vec<DroneLabel> {
+        let settings = LabelSettings {
+            box_method: match self.preset.labels.box_method {
+                BoxMethod::Visible => BoxMethod::Amodal,
+                other => other,
+            },
+            min_visible_pixels: 0,
+            min_visible_fraction: 0.0,
+            ..self.preset.labels.clone()
+        };
+        label_frame(
+            scene,
+            &self.assets.geometry,
+            &self.class_of_model,
+            &settings,
+            None,
+        )
+    }
+
+    /// Scene and estimated labels of frame `index`, without rendering
+    /// (see [`FramePipeline::estimate_labels`]).
+    pub fn plan(&self, index: u64) -> Result<(FrameScene, Vec<DroneLabel>), FrameError> {
+        let scene = self.scene(index)?;
+        let labels = self.estimate_labels(&scene);
+        Ok((scene, labels))
+    }
+
+    /// The exact labels of `scene`: runs the renderer's visibility
+    /// measurement when the preset's label settings need it, and only then.
+    pub fn labels(
+        &self,
+        renderer: &mut Renderer,
+        scene: &FrameScene,
+    ) -> Result<Vec<DroneLabel>, RenderError> {
+        let measured = self.measure(renderer, scene)?;
+        Ok(label_frame(
+            scene,
+            &self.assets.geometry,
+            &self.class_of_model,
+            &self.preset.labels,
+            measured.as_deref(),
+        ))
+    }
+
+    fn measure(
+        &self,
+        renderer: &mut Renderer,
+        scene: &FrameScene,
+    ) -> Result<Option<Vec<Visibility>>, RenderError> {
+        if !self.preset.labels.needs_id_pass() {
+            return Ok(None);
+        }
+        visibility::measure(
+            renderer,
+            scene,
+            &self.assets.geometry,
+            self.preset.labels.id_scale,
+        )
+        .map(Some)
+    }
+
+    /// Make frame `index`: scene, exact labels and pixels.
+    pub fn make(&self, renderer: &mut Renderer, index: u64) -> Result<Frame, PipelineError> {
+        let scene = self.scene(index)?;
+        self.make_scene(renderer, scene)
+    }
+
+    /// Labels and pixels of a scene built by [`FramePipeline::scene`].
+    pub fn make_scene(
+        &self,
+        renderer: &mut Renderer,
+        scene: FrameScene,
+    ) -> Result<Frame, PipelineError> {
+        let index = scene.index;
+        let render_error = |source| PipelineError::Render { index, source };
+        let labels = self.labels(renderer, &scene).map_err(render_error)?;
+        let rgba = renderer
+            .render_rgba(&scene, self.preset.render.msaa)
+            .map_err(render_error)?;
+        Ok(Frame {
+            scene,
+            labels,
+            rgba,
+        })
+    }
+}

@@ -1,0 +1,197 @@
+//! Visibility from instance-id passes: each drone's visible box, visible
+//! pixel count and unoccluded pixel count.
+//!
+//! One id pass over the whole swarm gives every drone's visible pixels. A
+//! drone whose (padded) amodal box overlaps no other drone's cannot be
+//! occluded, so its unoccluded count is its visible count. The others are
+//! split into layers of mutually non-overlapping drones (`labels::overlap_layers`);
+//! rendering each layer alone gives their unoccluded counts exactly. A sparse
+//! swarm costs one pass; a dense one a pass per layer.
+
+use serde::Serialize;
+
+use crate::render::{RenderError, Renderer};
+use crate::scene::FrameScene;
+use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box};
+
+/// Measure every drone of `scene`, with the id passes rendered at `scale` ×
+/// the output resolution (1 = pixel-exact at the output resolution; 2 or 4
+/// supersample: boxes are divided by `scale`, pixel counts stay in id-pass
+/// pixels, so fractions are unaffected).
+pub fn measure(
+    renderer: &mut Renderer,
+    scene: &FrameScene,
+    geometry: &[LabelGeometry],
+    scale: u32,
+) -> Result<Vec<Visibility>, RenderError> {
+    let scale = scale.max(1);
+    let scaled;
+    let scene = if scale == 1 {
+        scene
+    } else {
+        // Scaling W and H scales K with them: the same view, finer pixels.
+        let mut s = scene.clone();
+        s.camera.width *= scale;
+        s.camera.height *= scale;
+        scaled = s;
+        &scaled
+    };
+    let n = scene.drones.len();
+    let ids = renderer.render_ids(scene, &|_| true)?;
+    let seen = pixel_stats(&ids, n);
+    let (w, h) = (
+        f64::from(scene.camera.width),
+        f64::from(scene.camera.height),
+    );
+    let boxes: Vec<Option<PixelBox>> = scene
+        .drones
+        .iter()
+        .map(|d| {
+            amodal_box(&scene.camera, d, &geometry[d.model])
+                .map(|b| b.clip(w, h))
+                .filter(|b| b.width() > 0.0 && b.height() > 0.0)
+        })
+        .collect();
+    let (layers, overlapping) = overlap_layers(&boxes);
+    let mut unoccluded: Vec<u64> = seen.iter().map(|(_, count)| *count).collect();
+    for layer in layers {
+        let members: Vec<usize> = layer.into_iter().filter(|&i| overlapping[i]).collect();
+        if members.is_empty() {
+            continue;
+        }
+        let mut include = vec![false; n];
+        for &m in &members {
+            include[m] = true;
+        }
+        let alone = renderer.render_ids(scene, &|i| include[i])?;
+        let stats = pixel_stats(&alone, n);
+        for m in members {
+            unoccluded[m] = stats[m].1;
+        }
+    }
+    let k = f64::from(scale);
+    Ok(seen
+        .into_iter()
+        .zip(unoccluded)
+        .map(
+            |((visible_box, visible_pixels), unoccluded_pixels)| Visibility {
+                visible_box: visible_box.map(|b| PixelBox {
+                    x0: b.x0 / k,
+                    y0: b.y0 / k,
+                    x1: b.x1 / k,
+                    y1: b.y1 / k,
+                }),
+                visible_pixels,
+                unoccluded_pixels,
+            },
+        )
+        .collect())
+}
+
+/// What the instance-id pass saw of one drone.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Visibility {
+    /// Min/max of the drone's visible pixels ([x, x+1) × [y, y+1) each), `None` if none is visible.
+    pub visible_box: Option<PixelBox>,
+    /// Pixels where this drone is the nearest surface.
+    pub visible_pixels: u64,
+    /// Pixels the drone would cover if nothing were in front of it.
+    pub unoccluded_pixels: u64,
+}
+
+impl Visibility {
+    /// visible / unoccluded (0 when the drone covers no pixel centre at all).
+    pub fn fraction(&self) -> f64 {
+        if self.unoccluded_pixels == 0 {
+            0.0
+        } else {
+            self.visible_pixels as f64 / self.unoccluded_pixels as f64
+        }
+    }
+}
+
+/// Per-drone pixel box and pixel count from an id image (ids are drone index + 1).
+pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option<PixelBox>, u64)> {
+    let mut out: Vec<(Option<PixelBox>, u64)> = vec![(None, 0); n_drones];
+    for (row, line) in ids.ids.chunks_exact(ids.width as usize).enumerate() {
+        let y = row as f64;
+        for (col, &id) in line.iter().enumerate() {
+            if id == 0 || id as usize > n_drones {
+                continue;
+            }
+            let x = col as f64;
+            let (b, n) = &mut out[id as usize - 1];
+            *n += 1;
+            let nb = b.get_or_insert(PixelBox {
+                x0: x,
+                y0: y,
+                x1: x + 1.0,
+                y1: y + 1.0,
+            });
+            nb.x0 = nb.x0.min(x);
+            nb.y0 = nb.y0.min(y);
+            nb.x1 = nb.x1.max(x + 1.0);
+            nb.y1 = nb.y1.max(y + 1.0);
+        }
+    }
+    out
+}
+
+/// Greedy layering of drones by screen overlap: drones in one layer have
+/// disjoint (1-px padded) boxes, so rendering a layer alone shows each of its
+/// drones unoccluded. Drones with `None` boxes get no layer. Returns the
+/// layers and whether each drone overlaps any other.
+pub fn overlap_layers(boxes: &[Option<PixelBox>]) -> (Vec<Vec<usize>>, Vec<bool>) {
+    const TILE: f64 = 64.0;
+    let pad = |b: &PixelBox| PixelBox {
+        x0: b.x0 - 1.0,
+        y0: b.y0 - 1.0,
+        x1: b.x1 + 1.0,
+        y1: b.y1 + 1.0,
+    };
+    let overlaps =
+        |a: &PixelBox, b: &PixelBox| a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+    let tiles_of = |b: &PixelBox| {
+        let (tx0, ty0) = ((b.x0 / TILE).floor() as i64, (b.y0 / TILE).floor() as i64);
+        let (tx1, ty1) = ((b.x1 / TILE).floor() as i64, (b.y1 / TILE).floor() as i64);
+        (ty0..=ty1).flat_map(move |ty| (tx0..=tx1).map(move |tx| (tx, ty)))
+    };
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> =
+        std::collections::HashMap::new();
+    for (i, b) in boxes.iter().enumerate() {
+        if let Some(b) = b {
+            for t in tiles_of(&pad(b)) {
+                grid.entry(t).or_default().push(i);
+            }
+        }
+    }
+    let mut layer_of: Vec<Option<usize>> = vec![None; boxes.len()];
+    let mut overlapping = vec![false; boxes.len()];
+    let mut layers: Vec<Vec<usize>> = Vec::new();
+    for (i, b) in boxes.iter().enumerate() {
+        let Some(b) = b else { continue };
+        let pb = pad(b);
+        let mut taken = std::collections::BTreeSet::new();
+        let mut seen = std::collections::HashSet::new();
+        for t in tiles_of(&pb) {
+            for &j in grid.get(&t).into_iter().flatten() {
+                if j != i
+                    && seen.insert(j)
+                    && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj)))
+                {
+                    overlapping[i] = true;
+                    if let Some(l) = layer_of[j] {
+                        taken.insert(l);
+                    }
+                }
+            }
+        }
+        let layer = (0..).find(|l| !taken.contains(l)).unwrap_or(0);
+        if layer == layers.len() {
+            layers.push(Vec::new());
+        }
+        layers[layer].push(i);
+        layer_of[i] = Some(layer);
+    }
+    (layers, overlapping)
+}

@@ -1,0 +1,6 @@
+//! Developer tools that drive the pipeline: the benchmarks behind docs/, the
+//! gallery pictures, and the generator of the built-in models.
+
+pub mod assets;
+pub mod bench;
+pub mod gallery;

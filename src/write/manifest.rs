@@ -1,0 +1,119 @@
+//! The pose manifest: one JSON line per frame with the frame's index, seed,
+//! split, sweep values, camera (K, R, t) and every drone's model, pose and label.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use super::{FormatWriter, FrameRecord, OutputError, box_xyxy, io, r6};
+use crate::annotate::DroneLabel;
+use crate::scene::FrameScene;
+
+/// File name of the manifest in the dataset folder.
+pub const FILE: &str = "manifest.jsonl";
+
+/// Streams `manifest.jsonl`.
+pub struct ManifestWriter {
+    path: PathBuf,
+    out: BufWriter<File>,
+    model_names: Vec<String>,
+    classes: Vec<String>,
+}
+
+impl ManifestWriter {
+    pub fn create(
+        root: &Path,
+        model_names: Vec<String>,
+        classes: Vec<String>,
+    ) -> Result<Self, OutputError> {
+        let path = root.join(FILE);
+        let out = BufWriter::new(File::create(&path).map_err(io(&path))?);
+        Ok(Self {
+            path,
+            out,
+            model_names,
+            classes,
+        })
+    }
+}
+
+impl FormatWriter for ManifestWriter {
+    fn frame(&mut self, record: &FrameRecord<'_>) -> Result<(), OutputError> {
+        let line = manifest_line(
+            record.scene,
+            record.labels,
+            record.image,
+            &self.model_names,
+            &self.classes,
+        );
+        writeln!(self.out, "{line}").map_err(io(&self.path))
+    }
+
+    fn finish(mut self: Box<Self>, _dataset: &super::DatasetInfo) -> Result<(), OutputError> {
+        self.out.flush().map_err(io(&self.path))
+    }
+}
+
+/// One manifest line: the frame's index, seed, split, sweep values, camera
+/// (K, R, t) and every drone's model, pose and label.
+pub fn manifest_line(
+    scene: &FrameScene,
+    labels: &[DroneLabel],
+    image: &str,
+    model_names: &[String],
+    classes: &[String],
+) -> String {
+    let cam = &scene.camera;
+    let rows = |m: glam::DMat3| {
+        let t = m.transpose();
+        [t.x_axis, t.y_axis, t.z_axis].map(|r| r.to_array().map(|v| (v * 1e12).round() / 1e12))
+    };
+    let drones: Vec<_> = scene
+        .drones
+        .iter()
+        .enumerate()
+        .map(|(i, d)| {
+            let label = labels.iter().find(|l| l.drone == i);
+            let q = d.rotation;
+            json!({
+                "model": model_names.get(d.model),
+                "class": label.map(|l| classes[l.class_id].clone()),
+                "position_m": d.position.to_array().map(|v| (v * 1e9).round() / 1e9),
+                "quaternion_xyzw": q.to_array().map(|v| (v * 1e12).round() / 1e12),
+                "euler_deg": {"roll": r6(d.euler_deg.roll), "pitch": r6(d.euler_deg.pitch), "yaw": r6(d.euler_deg.yaw)},
+                "size_m": d.size_m,
+                "label": label.map(|l| json!({
+                    "bbox_xyxy": box_xyxy(&l.bbox),
+                    "amodal_xyxy": box_xyxy(&l.amodal),
+                    "paper_aabb_xyxy": box_xyxy(&l.paper_aabb),
+                    "truncated": l.truncated,
+                    "status": l.status,
+                    "distance_m": (l.distance_m * 1e6).round() / 1e6,
+                    "visible_xyxy": l.visibility.and_then(|v| v.visible_box).as_ref().map(box_xyxy),
+                    "visible_pixels": l.visibility.map(|v| v.visible_pixels),
+                    "unoccluded_pixels": l.visibility.map(|v| v.unoccluded_pixels),
+                    "visible_fraction": l.visibility.map(|v| r6(v.fraction())),
+                })),
+            })
+        })
+        .collect();
+    let s = &scene.sweep;
+    json!({
+        "index": scene.index,
+        "seed": scene.seed,
+        "split": scene.split,
+        "image": image,
+        "sweep": {"CameraX": s.CameraX, "CameraY": s.CameraY, "CameraZ": s.CameraZ, "PlaneRX": s.PlaneRX, "PlaneRY": s.PlaneRY, "PlaneRZ": s.PlaneRZ, "repeat": s.repeat},
+        "camera": {
+            "width": cam.width, "height": cam.height, "fov_y_deg": cam.fov_y_deg,
+            "K": rows(cam.k()), "R": rows(cam.camera_from_world), "t": cam.t().to_array().map(|v| (v * 1e9).round() / 1e9),
+            "position_m": cam.position.to_array().map(|v| (v * 1e9).round() / 1e9), "near_m": cam.near_m,
+        },
+        "volume_radius_m": (scene.volume_radius_m * 1e9).round() / 1e9,
+        "placement_shortfall": scene.placement_shortfall,
+        "drones": drones,
+    })
+    .to_string()
+}
