@@ -19,6 +19,8 @@ struct Instance {
     @location(4) c1: vec4<f32>,
     @location(5) c2: vec4<f32>,
     @location(6) c3: vec4<f32>,
+    // Drone index + 1 (0 is the background in the id target).
+    @location(7) id: u32,
 };
 
 struct VsOut {
@@ -28,6 +30,7 @@ struct VsOut {
     @location(2) uv: vec2<f32>,
     @location(3) material: vec4<f32>,
     @location(4) position_cam: vec3<f32>,
+    @location(5) @interpolate(flat) id: u32,
 };
 
 @vertex
@@ -42,6 +45,7 @@ fn vs_main(v: VertexInput, inst: Instance) -> VsOut {
     out.uv = v.uv;
     out.material = v.material;
     out.position_cam = p_cam.xyz;
+    out.id = inst.id;
     return out;
 }
 
@@ -49,6 +53,27 @@ const PI: f32 = 3.14159265;
 
 @fragment
 fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    return shade(in, front);
+}
+
+struct ColorAndId {
+    @location(0) color: vec4<f32>,
+    // The instance id as f32 (exact below 2^24) in an R32Float target, which
+    // WebGPU multisamples everywhere (R32Uint it does not).
+    @location(1) id: f32,
+};
+
+// Colour and instance id from one fragment: the id target follows the colour
+// pass's samples and alpha-cutoff discards by construction.
+@fragment
+fn fs_ids(in: VsOut, @builtin(front_facing) front: bool) -> ColorAndId {
+    var out: ColorAndId;
+    out.color = shade(in, front);
+    out.id = f32(in.id);
+    return out;
+}
+
+fn shade(in: VsOut, front: bool) -> vec4<f32> {
     let base = in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
     if (in.material.w > 0.0 && base.a < in.material.w) {
         discard;

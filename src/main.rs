@@ -115,6 +115,16 @@ enum BenchCommand {
         #[arg(long, default_value_t = 9)]
         timing_frames: u64,
     },
+    /// Median ms per frame (render + labels, no encode) and peak RSS: 15 drones
+    /// at 1080p and 4K, 1 500 drones at 1080p, and the peer scene.
+    Frames {
+        /// Frames timed per scene (the first, which builds pipelines, is left out).
+        #[arg(long, default_value_t = 12)]
+        frames: u64,
+        /// The peer scene's preset (skipped when its files are missing).
+        #[arg(long, default_value = "presets/bench/peer.ron")]
+        peer: PathBuf,
+    },
 }
 
 fn main() -> anyhow::Result<()> {
@@ -157,6 +167,9 @@ fn main() -> anyhow::Result<()> {
                     timing_frames,
                 },
         } => bench_accuracy(frames, (width, height), &plot, timing_frames),
+        Command::Bench {
+            which: BenchCommand::Frames { frames, peer },
+        } => bench_frames(frames, &peer),
         Command::Gallery { bench: true, .. } => gallery_bench(),
         Command::Gallery {
             out, width, height, ..
@@ -332,6 +345,26 @@ fn bench_accuracy(
     }
     bench::plot(&acc, plot)?;
     eprintln!("plot written to {}", plot.display());
+    Ok(())
+}
+
+fn bench_frames(frames: u64, peer: &Path) -> anyhow::Result<()> {
+    let ctx = GpuContext::headless()?;
+    eprintln!("adapter: {}", ctx.describe());
+    let quickstart = FramePipeline::open(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/presets/quickstart.ron"
+    )))?;
+    let peer = match FramePipeline::open(peer) {
+        Ok(p) => Some(p.preset().clone()),
+        Err(e) => {
+            eprintln!("peer scene skipped: {e:#}");
+            None
+        }
+    };
+    let scenes = bench::frame_scenes(quickstart.preset(), peer);
+    let rows = bench::frames(&ctx, scenes, frames)?;
+    print!("{}", bench::frames_markdown(&rows));
     Ok(())
 }
 

@@ -13,7 +13,16 @@ fn every_shader_validates() {
         )
         .validate(&module)
         .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-        for entry in ["vs_main", "fs_main"] {
+        let compute = module
+            .entry_points
+            .iter()
+            .any(|e| e.stage == naga::ShaderStage::Compute);
+        let entries: &[&str] = if compute {
+            &["cs_main"]
+        } else {
+            &["vs_main", "fs_main"]
+        };
+        for &entry in entries {
             assert!(
                 module.entry_points.iter().any(|e| e.name == entry),
                 "{name} lacks {entry}"

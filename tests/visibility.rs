@@ -137,8 +137,7 @@ fn visible_fractions_match_rendering_each_drone_alone() {
     let maker = FramePipeline::new(p.clone()).expect("models");
     let mut renderer = maker.renderer(&ctx);
     let scene = crafted_overlap(&p);
-    let vis =
-        visibility::measure(&mut renderer, &scene, &maker.assets().geometry, 1).expect("measure");
+    let vis = visibility::measure(&mut renderer, &scene, 1, 1).expect("measure");
     let all = renderer.render_ids(&scene, &|_| true).expect("ids");
     let nonzero = all.ids.iter().filter(|&&id| id != 0).count() as u64;
     assert_eq!(vis.iter().map(|v| v.visible_pixels).sum::<u64>(), nonzero);
@@ -225,10 +224,8 @@ fn supersampled_id_pass_refines_the_same_box() {
     let mut renderer = maker.renderer(&ctx);
     for index in 0..p.frame_count() {
         let scene = build_frame(&p, index).expect("frame");
-        let one =
-            visibility::measure(&mut renderer, &scene, &maker.assets().geometry, 1).expect("1x")[0];
-        let two =
-            visibility::measure(&mut renderer, &scene, &maker.assets().geometry, 2).expect("2x")[0];
+        let one = visibility::measure(&mut renderer, &scene, 1, 1).expect("1x")[0];
+        let two = visibility::measure(&mut renderer, &scene, 1, 2).expect("2x")[0];
         let (a, b) = (
             one.visible_box.expect("1x box"),
             two.visible_box.expect("2x box"),

@@ -23,7 +23,7 @@ use crate::annotate::{DroneLabel, label_frame};
 use crate::model::{self, CpuModel, ModelError};
 use crate::preset::{BoxMethod, FieldError, LabelSettings, ModelSource, ModelSpec, Preset};
 use crate::render::visibility::{self, Visibility};
-use crate::render::{GpuContext, RenderError, Renderer};
+use crate::render::{GpuContext, RenderError, RenderRequest, Renderer};
 use crate::scene::projection::LabelGeometry;
 use crate::scene::{FrameError, FrameScene, build_frame};
 use crate::sky::{EnvironmentAssets, EnvironmentError};
@@ -265,7 +265,7 @@ impl FramePipeline {
         visibility::measure(
             renderer,
             scene,
-            &self.assets.geometry,
+            self.preset.render.msaa,
             self.preset.labels.id_scale,
         )
         .map(Some)
@@ -285,10 +285,30 @@ impl FramePipeline {
     ) -> Result<Frame, PipelineError> {
         let index = scene.index;
         let render_error = |source| PipelineError::Render { index, source };
-        let labels = self.labels(renderer, &scene).map_err(render_error)?;
-        let rgba = renderer
-            .render_rgba(&scene, self.preset.render.msaa)
+        // One pass draws the drones for both the picture and the visibility,
+        // unless a supersampled measurement (id_scale > 1) is asked for.
+        let labels_settings = &self.preset.labels;
+        let together = labels_settings.needs_id_pass() && labels_settings.id_scale <= 1;
+        let request = RenderRequest {
+            msaa: self.preset.render.msaa,
+            color: true,
+            visibility: together,
+        };
+        let frame = renderer
+            .render_frame(&scene, &request)
             .map_err(render_error)?;
+        let labels = if together {
+            label_frame(
+                &scene,
+                &self.assets.geometry,
+                &self.class_of_model,
+                labels_settings,
+                frame.visibility.as_deref(),
+            )
+        } else {
+            self.labels(renderer, &scene).map_err(render_error)?
+        };
+        let rgba = frame.rgba;
         Ok(Frame {
             scene,
             labels,

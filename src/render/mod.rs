@@ -3,14 +3,22 @@
 //!
 //! Long-lived state (pipelines, uploaded meshes) lives in [`Renderer`];
 //! per-frame data (one uniform block, one instance buffer) is rewritten each
-//! frame. [`Renderer::encode`] draws a [`FrameScene`] into any colour view of
-//! the right size, so the preview and the batch output are the same pixels by
-//! construction; [`Renderer::render_rgba`] adds an offscreen target and a
-//! row-padded readback.
+//! frame. [`Renderer::render_frame`] is the pipeline's one call: it draws
+//! only the screen regions the drones can touch over a cached background and
+//! measures visibility from the same samples (`frame.rs`, `ids.rs`,
+//! `regions.rs`). [`Renderer::encode`] draws a whole [`FrameScene`] into any
+//! colour view of the right size (the preview); [`Renderer::render_rgba`] is
+//! that full-frame path offscreen, with a row-padded readback.
 
+mod frame;
+mod ids;
 mod material;
+pub mod regions;
 mod sky;
 pub mod visibility;
+
+pub use frame::{RenderRequest, RenderedFrame};
+pub use ids::MAX_DRONES;
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -20,6 +28,7 @@ use wgpu::util::DeviceExt;
 
 use crate::model::{CpuModel, Vertex};
 use crate::scene::FrameScene;
+use crate::scene::projection::LabelGeometry;
 use crate::sky::{EnvironmentAssets, Lighting};
 
 /// The colour format of every target: sRGB is encoded in the shaders (see STACK.md).
@@ -41,6 +50,8 @@ pub enum RenderError {
     TooLarge { width: u32, height: u32, limit: u32 },
     #[error("reading the frame back from the GPU failed: {0}")]
     Readback(String),
+    #[error("{count} drones in one frame: instance ids are exact up to {limit}")]
+    TooManyDrones { count: usize, limit: usize },
 }
 
 /// A device and queue, from a headless adapter or handed in by a host (eframe).
@@ -150,8 +161,26 @@ struct InstanceRaw {
 
 const INSTANCE_ATTRS: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Uint32];
 
+impl InstanceRaw {
+    /// Drone `i` of `scene`: camera_from_model built in f64, id `i + 1`.
+    fn new(scene: &FrameScene, i: usize) -> Self {
+        let cam = &scene.camera;
+        let d = &scene.drones[i];
+        let translation = cam.camera_from_world_point(d.position);
+        let m = DMat4::from_mat3_translation(
+            cam.camera_from_world * glam::DMat3::from_quat(d.rotation) * d.size_m,
+            translation,
+        );
+        Self {
+            camera_from_model: m.as_mat4().to_cols_array(),
+            id: i as u32 + 1,
+            _pad: [0; 3],
+        }
+    }
+}
+
 /// An instance-id image: `ids[y·width + x]` is the index + 1 of the drone seen
-/// at pixel (x, y) (its centre sampled, no anti-aliasing), 0 where sky.
+/// at pixel (x, y) (its centre sampled, one sample per pixel), 0 where sky.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IdImage {
     pub width: u32,
@@ -162,7 +191,6 @@ pub struct IdImage {
 struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
-    index_count: u32,
     /// Index ranges with their texture bind group (`None`: the white one).
     draws: Vec<(Range<u32>, Option<usize>)>,
     textures: Vec<wgpu::BindGroup>,
@@ -187,7 +215,6 @@ pub struct Renderer {
     max_texture_side: u32,
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
-    layout: wgpu::PipelineLayout,
     /// Frame uniforms + the material's texture (`@group(1)` of drone.wgsl).
     drone_layout: wgpu::PipelineLayout,
     /// Frame uniforms + the environment (`@group(1)` of sky.wgsl).
@@ -198,11 +225,15 @@ pub struct Renderer {
     /// Pipelines per sample count: (sky, drone).
     pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
     meshes: Vec<GpuMesh>,
+    /// Each model's hull: where its drones can put pixels.
+    geometry: Vec<LabelGeometry>,
     instances: Option<wgpu::Buffer>,
+    /// The full-frame path's target ([`Renderer::render_rgba`]).
     target: Option<Target>,
-    /// The instance-id pass, created on first use (presets that need no
-    /// visibility never build it).
-    ids: Option<IdPass>,
+    /// Region rendering and the id layer, created on first use.
+    regions: Option<frame::RegionState>,
+    /// Draw only the drones' regions (false: the whole frame as one region).
+    use_regions: bool,
     counts: PassCounts,
 }
 
@@ -213,8 +244,9 @@ pub struct PassCounts {
     pub ids: u64,
 }
 
-/// WGSL sources, each with the shared header prepended.
-pub fn shader_sources() -> [(&'static str, String); 3] {
+/// WGSL sources, each with the shared header prepended (the id reduction
+/// once per sample count it is built for).
+pub fn shader_sources() -> [(&'static str, String); 6] {
     let common = include_str!("../../shaders/common.wgsl");
     [
         (
@@ -230,9 +262,15 @@ pub fn shader_sources() -> [(&'static str, String); 3] {
             format!("{common}\n{}", include_str!("../../shaders/drone.wgsl")),
         ),
         (
-            "ids.wgsl",
-            format!("{common}\n{}", include_str!("../../shaders/ids.wgsl")),
+            "regions.wgsl",
+            format!("{common}\n{}", include_str!("../../shaders/regions.wgsl")),
         ),
+        (
+            "resolve.wgsl",
+            include_str!("../../shaders/resolve.wgsl").into(),
+        ),
+        ("id_reduce.wgsl (1 sample)", ids::reduce_source(1)),
+        ("id_reduce.wgsl (4 samples)", ids::reduce_source(4)),
     ]
 }
 
@@ -267,11 +305,6 @@ impl Renderer {
                 resource: frame_buffer.as_entire_binding(),
             }],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("swarmshot pipeline layout"),
-            bind_group_layouts: &[Some(&frame_bgl)],
-            immediate_size: 0,
-        });
         let material_bgl = material::bind_group_layout(&device);
         let drone_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("drone pipeline layout"),
@@ -285,7 +318,7 @@ impl Renderer {
             bind_group_layouts: &[Some(&frame_bgl), Some(&sky.layout)],
             immediate_size: 0,
         });
-        let [(sky_name, sky_src), (drone_name, drone_src), _] = shader_sources();
+        let [(sky_name, sky_src), (drone_name, drone_src), ..] = shader_sources();
         let module = |label: &str, src: String| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
@@ -306,7 +339,6 @@ impl Renderer {
                     contents: bytemuck::cast_slice(&m.indices),
                     usage: wgpu::BufferUsages::INDEX,
                 }),
-                index_count: m.indices.len() as u32,
                 draws: m
                     .draws
                     .iter()
@@ -328,7 +360,6 @@ impl Renderer {
             max_texture_side: ctx.max_texture_side,
             frame_buffer,
             frame_bind_group,
-            layout,
             drone_layout,
             sky_layout,
             sky,
@@ -336,9 +367,11 @@ impl Renderer {
             shaders,
             pipelines: Vec::new(),
             meshes,
+            geometry: models.iter().map(LabelGeometry::from).collect(),
             instances: None,
             target: None,
-            ids: None,
+            regions: None,
+            use_regions: true,
             counts: PassCounts::default(),
         }
     }
@@ -348,9 +381,33 @@ impl Renderer {
         self.counts
     }
 
-    /// Whether the instance-id pipeline has been built (it is only built on first use).
+    /// Whether the id reduction has been built (it is only built on first use).
     pub fn has_id_pipeline(&self) -> bool {
-        self.ids.is_some()
+        self.regions
+            .as_ref()
+            .is_some_and(frame::RegionState::has_reducer)
+    }
+
+    /// Draw only the drones' screen regions (the default), or the whole frame
+    /// as one region (`false`: for tests and benchmarks that compare the two).
+    pub fn set_regions(&mut self, on: bool) {
+        self.use_regions = on;
+    }
+
+    /// A named error for sizes the adapter cannot render.
+    fn check_size(&self, width: u32, height: u32) -> Result<(), RenderError> {
+        if width == 0
+            || height == 0
+            || width > self.max_texture_side
+            || height > self.max_texture_side
+        {
+            return Err(RenderError::TooLarge {
+                width,
+                height,
+                limit: self.max_texture_side,
+            });
+        }
+        Ok(())
     }
 
     fn pipelines(&mut self, msaa: u32) -> usize {
@@ -396,8 +453,21 @@ impl Renderer {
                 multiview_mask: None,
                 cache: None,
             });
+        let drone = self.drone_pipeline("drone pipeline", msaa, "fs_main", &color);
+        self.pipelines.push((msaa, sky, drone));
+        self.pipelines.len() - 1
+    }
+
+    /// The drone pipeline for `msaa` samples with fragment entry `entry`
+    /// writing `targets` (colour, or colour + instance id).
+    fn drone_pipeline(
+        &self,
+        label: &str,
+        msaa: u32,
+        entry: &str,
+        targets: &[Option<wgpu::ColorTargetState>],
+    ) -> wgpu::RenderPipeline {
         let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 8 => Float32x2, 9 => Float32x4];
-        let instance_attrs = INSTANCE_ATTRS;
         let buffers = [
             Some(wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<Vertex>() as u64,
@@ -407,13 +477,12 @@ impl Renderer {
             Some(wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<InstanceRaw>() as u64,
                 step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &instance_attrs,
+                attributes: &INSTANCE_ATTRS,
             }),
         ];
-        let drone = self
-            .device
+        self.device
             .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("drone pipeline"),
+                label: Some(label),
                 layout: Some(&self.drone_layout),
                 vertex: wgpu::VertexState {
                     module: &self.shaders.1,
@@ -426,32 +495,39 @@ impl Renderer {
                     cull_mode: None,
                     ..Default::default()
                 },
-                depth_stencil: Some(depth(true, wgpu::CompareFunction::Greater)),
-                multisample,
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: wgpu::MultisampleState {
+                    count: msaa,
+                    ..Default::default()
+                },
                 fragment: Some(wgpu::FragmentState {
                     module: &self.shaders.1,
-                    entry_point: Some("fs_main"),
+                    entry_point: Some(entry),
                     compilation_options: Default::default(),
-                    targets: &color,
+                    targets,
                 }),
                 multiview_mask: None,
                 cache: None,
-            });
-        self.pipelines.push((msaa, sky, drone));
-        self.pipelines.len() - 1
+            })
     }
 
-    /// Write the frame's uniforms: the camera, and the environment's sky and lighting.
-    fn upload_uniforms(&mut self, scene: &FrameScene) {
+    /// Write the frame's uniforms: the camera, and the environment's sky and
+    /// lighting; returns the frame uniforms written.
+    fn upload_uniforms(&mut self, scene: &FrameScene) -> FrameUniforms {
         let sun = scene.sun_direction.as_vec3();
         let lighting = self
             .sky
             .prepare(&self.queue, &scene.sky, &scene.environment, sun);
-        self.queue.write_buffer(
-            &self.frame_buffer,
-            0,
-            bytemuck::bytes_of(&FrameUniforms::new(scene, &lighting)),
-        );
+        let uniforms = FrameUniforms::new(scene, &lighting);
+        self.queue
+            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
+        uniforms
     }
 
     /// Upload the sky images of the preset's environment (see
@@ -460,6 +536,9 @@ impl Renderer {
     pub fn set_environment(&mut self, assets: &EnvironmentAssets) {
         self.sky
             .set_images(&self.device, &self.queue, assets, self.max_texture_side);
+        if let Some(state) = &mut self.regions {
+            state.forget_backgrounds();
+        }
     }
 
     /// Write the instances of the drones `include` accepts (camera_from_model
@@ -469,30 +548,26 @@ impl Renderer {
         scene: &FrameScene,
         include: &dyn Fn(usize) -> bool,
     ) -> Vec<(usize, std::ops::Range<u32>)> {
-        let cam = &scene.camera;
         let mut order: Vec<usize> = (0..scene.drones.len()).filter(|&i| include(i)).collect();
         order.sort_by_key(|&i| scene.drones[i].model);
         let mut data: Vec<InstanceRaw> = Vec::with_capacity(order.len());
         let mut ranges: Vec<(usize, std::ops::Range<u32>)> = Vec::new();
         for &i in &order {
-            let d = &scene.drones[i];
-            let translation = cam.camera_from_world_point(d.position);
-            let m = DMat4::from_mat3_translation(
-                cam.camera_from_world * glam::DMat3::from_quat(d.rotation) * d.size_m,
-                translation,
-            );
+            let model = scene.drones[i].model;
             let idx = data.len() as u32;
-            data.push(InstanceRaw {
-                camera_from_model: m.as_mat4().to_cols_array(),
-                id: i as u32 + 1,
-                _pad: [0; 3],
-            });
+            data.push(InstanceRaw::new(scene, i));
             match ranges.last_mut() {
-                Some((model, r)) if *model == d.model => r.end = idx + 1,
-                _ => ranges.push((d.model, idx..idx + 1)),
+                Some((m, r)) if *m == model => r.end = idx + 1,
+                _ => ranges.push((model, idx..idx + 1)),
             }
         }
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        self.write_instances(&data);
+        ranges
+    }
+
+    /// Write instance data into the (reused, grown as needed) instance buffer.
+    fn write_instances(&mut self, data: &[InstanceRaw]) {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
         let needed = (bytes.len() as u64).max(256);
         if self.instances.as_ref().is_none_or(|b| b.size() < needed) {
             self.instances = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -507,7 +582,6 @@ impl Renderer {
         {
             self.queue.write_buffer(buf, 0, bytes);
         }
-        ranges
     }
 
     /// Encode the frame into `views` (any views of the scene camera's size).
@@ -587,17 +661,7 @@ impl Renderer {
     }
 
     fn ensure_target(&mut self, width: u32, height: u32, msaa: u32) -> Result<(), RenderError> {
-        if width == 0
-            || height == 0
-            || width > self.max_texture_side
-            || height > self.max_texture_side
-        {
-            return Err(RenderError::TooLarge {
-                width,
-                height,
-                limit: self.max_texture_side,
-            });
-        }
+        self.check_size(width, height)?;
         if self
             .target
             .as_ref()
@@ -751,31 +815,46 @@ impl Readback {
 
     /// Wait for the GPU, map, and strip the row padding.
     fn read(&self, device: &wgpu::Device) -> Result<Vec<u8>, RenderError> {
-        let slice = self.buffer.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| RenderError::Readback(e.to_string()))?
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
         let row = (self.width * 4) as usize;
-        let mut out = Vec::with_capacity(row * self.height as usize);
-        {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let len = u64::from(self.padded_row) * u64::from(self.height);
+        read_mapped(device, &self.buffer, len, |view| {
+            let mut out = Vec::with_capacity(row * self.height as usize);
             for y in 0..self.height as usize {
                 let start = y * self.padded_row as usize;
                 out.extend_from_slice(&view[start..start + row]);
             }
-        }
-        self.buffer.unmap();
-        Ok(out)
+            out
+        })
     }
+}
+
+/// Map the first `len` bytes of `buffer`, wait for the GPU, hand them to
+/// `f`, and unmap (the buffer is reused by the next frame).
+fn read_mapped<T>(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    len: u64,
+    f: impl FnOnce(&[u8]) -> T,
+) -> Result<T, RenderError> {
+    let slice = buffer.slice(..len);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let out = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        f(&view)
+    };
+    buffer.unmap();
+    Ok(out)
 }
 
 /// Linear-to-sRGB as the shaders do it (used by tests that predict pixels).
@@ -790,220 +869,3 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 
 // FrameUniforms must be a multiple of 16 bytes for WGSL uniform layout.
 const _: () = assert!(std::mem::size_of::<FrameUniforms>().is_multiple_of(16));
-
-/// Pipeline and target of the instance-id pass.
-struct IdPass {
-    pipeline: wgpu::RenderPipeline,
-    width: u32,
-    height: u32,
-    /// Id texture, its view, depth view, readback.
-    target: Option<(
-        wgpu::Texture,
-        wgpu::TextureView,
-        wgpu::TextureView,
-        Readback,
-    )>,
-}
-
-impl Renderer {
-    fn id_pass(&mut self) -> &mut IdPass {
-        if self.ids.is_none() {
-            let [_, _, (name, src)] = shader_sources();
-            let module = self
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(name),
-                    source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
-                });
-            let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3];
-            let buffers = [
-                Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Vertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &vertex_attrs,
-                }),
-                Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<InstanceRaw>() as u64,
-                    step_mode: wgpu::VertexStepMode::Instance,
-                    attributes: &INSTANCE_ATTRS,
-                }),
-            ];
-            let pipeline = self
-                .device
-                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some("instance-id pipeline"),
-                    layout: Some(&self.layout),
-                    vertex: wgpu::VertexState {
-                        module: &module,
-                        entry_point: Some("vs_main"),
-                        compilation_options: Default::default(),
-                        buffers: &buffers,
-                    },
-                    primitive: wgpu::PrimitiveState {
-                        cull_mode: None,
-                        ..Default::default()
-                    },
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(true),
-                        depth_compare: Some(wgpu::CompareFunction::Greater),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
-                    multisample: wgpu::MultisampleState::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module: &module,
-                        entry_point: Some("fs_main"),
-                        compilation_options: Default::default(),
-                        targets: &[Some(wgpu::ColorTargetState {
-                            format: wgpu::TextureFormat::R32Uint,
-                            blend: None,
-                            write_mask: wgpu::ColorWrites::ALL,
-                        })],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                });
-            self.ids = Some(IdPass {
-                pipeline,
-                width: 0,
-                height: 0,
-                target: None,
-            });
-        }
-        self.ids.as_mut().expect("just created")
-    }
-
-    /// Render the instance ids of the drones `include` accepts (all others are
-    /// left out, so they occlude nothing) and read them back.
-    pub fn render_ids(
-        &mut self,
-        scene: &FrameScene,
-        include: &dyn Fn(usize) -> bool,
-    ) -> Result<IdImage, RenderError> {
-        let (width, height) = (scene.camera.width, scene.camera.height);
-        if width == 0
-            || height == 0
-            || width > self.max_texture_side
-            || height > self.max_texture_side
-        {
-            return Err(RenderError::TooLarge {
-                width,
-                height,
-                limit: self.max_texture_side,
-            });
-        }
-        self.upload_uniforms(scene);
-        let ranges = self.upload_instances(scene, include);
-        self.id_pass();
-        self.counts.ids += 1;
-        let Some(mut pass) = self.ids.take() else {
-            return Err(RenderError::Readback("no id pass".into()));
-        };
-        let result = self.draw_ids(&mut pass, ranges, width, height);
-        self.ids = Some(pass);
-        result
-    }
-
-    fn draw_ids(
-        &self,
-        pass: &mut IdPass,
-        ranges: Vec<(usize, std::ops::Range<u32>)>,
-        width: u32,
-        height: u32,
-    ) -> Result<IdImage, RenderError> {
-        let device = &self.device;
-        if pass.target.is_none() || pass.width != width || pass.height != height {
-            let size = wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            };
-            let texture = |label: &str, format, usage| {
-                device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-            };
-            let ids = texture(
-                "instance ids",
-                wgpu::TextureFormat::R32Uint,
-                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            );
-            let ids_view = ids.create_view(&Default::default());
-            let depth = texture(
-                "instance-id depth",
-                DEPTH_FORMAT,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-            )
-            .create_view(&Default::default());
-            let readback = Readback::new(device, "instance-id readback", width, height);
-            pass.target = Some((ids, ids_view, depth, readback));
-            pass.width = width;
-            pass.height = height;
-        }
-        let IdPass {
-            pipeline,
-            target: Some((texture, view, depth, readback)),
-            ..
-        } = pass
-        else {
-            return Err(RenderError::Readback("no id target".into()));
-        };
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("instance ids"),
-        });
-        {
-            let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("instance-id pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(0.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            if let Some(instances) = &self.instances
-                && !ranges.is_empty()
-            {
-                rp.set_bind_group(0, &self.frame_bind_group, &[]);
-                rp.set_pipeline(pipeline);
-                rp.set_vertex_buffer(1, instances.slice(..));
-                for (model, range) in ranges {
-                    let mesh = &self.meshes[model];
-                    rp.set_vertex_buffer(0, mesh.vertices.slice(..));
-                    rp.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                    rp.draw_indexed(0..mesh.index_count, 0, range);
-                }
-            }
-        }
-        readback.copy_from(&mut encoder, texture);
-        self.queue.submit([encoder.finish()]);
-        let bytes = readback.read(&self.device)?;
-        Ok(IdImage {
-            width,
-            height,
-            ids: bytemuck::pod_collect_to_vec(&bytes),
-        })
-    }
-}

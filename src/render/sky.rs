@@ -52,6 +52,8 @@ pub(super) struct SkyGpu {
     half_sampler: wgpu::Sampler,
     /// The pipeline of `fs_environment`, built on first use.
     pipeline: Option<wgpu::RenderPipeline>,
+    /// The uniforms last written (part of the background cache key).
+    written: EnvUniforms,
 }
 
 /// Full-resolution pixels per environment-pass pixel, per axis.
@@ -151,6 +153,7 @@ impl SkyGpu {
             sampler,
             half_sampler,
             pipeline: None,
+            written: EnvUniforms::default(),
         }
     }
 
@@ -357,7 +360,7 @@ impl SkyGpu {
 
     /// Write the frame's environment uniforms and return the drones' lighting.
     pub(super) fn prepare(
-        &self,
+        &mut self,
         queue: &wgpu::Queue,
         sky: &FrameSky,
         env: &FrameEnvironment,
@@ -441,7 +444,13 @@ impl SkyGpu {
             }
         };
         queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
+        self.written = u;
         lighting
+    }
+
+    /// The bytes of the uniforms last written by [`SkyGpu::prepare`].
+    pub(super) fn uniform_bytes(&self) -> &[u8] {
+        bytemuck::bytes_of(&self.written)
     }
 }
 

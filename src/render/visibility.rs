@@ -1,27 +1,30 @@
-//! Visibility from instance-id passes: each drone's visible box, visible
-//! pixel count and unoccluded pixel count.
+//! Visibility: each drone's visible box, visible pixel count and unoccluded
+//! pixel count, as the picture shows them.
 //!
-//! One id pass over the whole swarm gives every drone's visible pixels. A
-//! drone whose (padded) amodal box overlaps no other drone's cannot be
-//! occluded, so its unoccluded count is its visible count. The others are
-//! split into layers of mutually non-overlapping drones (`labels::overlap_layers`);
-//! rendering each layer alone gives their unoccluded counts exactly. A sparse
-//! swarm costs one pass; a dense one a pass per layer.
+//! The renderer measures them in the colour pass itself
+//! ([`Renderer::render_frame`] with `visibility`): the instance ids share the
+//! colour pass's samples, and a pixel counts for every drone any of its
+//! samples shows, so a thin leg that colours a pixel through one MSAA sample
+//! is inside the box, and a sliver that colours no pixel is not. A drone
+//! whose (padded) amodal box overlaps no other drone's cannot be occluded, so
+//! its unoccluded count is its visible count; the others are split into
+//! layers of mutually non-overlapping drones ([`overlap_layers`]) and each
+//! layer is drawn alone. A sparse swarm costs no extra pass.
 
 use serde::Serialize;
 
-use crate::render::{RenderError, Renderer};
+use crate::render::{RenderError, RenderRequest, Renderer};
 use crate::scene::FrameScene;
-use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box};
+use crate::scene::projection::PixelBox;
 
-/// Measure every drone of `scene`, with the id passes rendered at `scale` ×
-/// the output resolution (1 = pixel-exact at the output resolution; 2 or 4
-/// supersample: boxes are divided by `scale`, pixel counts stay in id-pass
-/// pixels, so fractions are unaffected).
+/// Measure every drone of `scene` with `msaa` samples per pixel, at `scale` ×
+/// the output resolution (1: the output's own pixels, as the picture shows
+/// them; 2 or 4 supersample: boxes are divided by `scale`, pixel counts stay
+/// in measured pixels, so fractions are unaffected).
 pub fn measure(
     renderer: &mut Renderer,
     scene: &FrameScene,
-    geometry: &[LabelGeometry],
+    msaa: u32,
     scale: u32,
 ) -> Result<Vec<Visibility>, RenderError> {
     let scale = scale.max(1);
@@ -36,66 +39,38 @@ pub fn measure(
         scaled = s;
         &scaled
     };
-    let n = scene.drones.len();
-    let ids = renderer.render_ids(scene, &|_| true)?;
-    let seen = pixel_stats(&ids, n);
-    let (w, h) = (
-        f64::from(scene.camera.width),
-        f64::from(scene.camera.height),
-    );
-    let boxes: Vec<Option<PixelBox>> = scene
-        .drones
-        .iter()
-        .map(|d| {
-            amodal_box(&scene.camera, d, &geometry[d.model])
-                .map(|b| b.clip(w, h))
-                .filter(|b| b.width() > 0.0 && b.height() > 0.0)
-        })
-        .collect();
-    let (layers, overlapping) = overlap_layers(&boxes);
-    let mut unoccluded: Vec<u64> = seen.iter().map(|(_, count)| *count).collect();
-    for layer in layers {
-        let members: Vec<usize> = layer.into_iter().filter(|&i| overlapping[i]).collect();
-        if members.is_empty() {
-            continue;
-        }
-        let mut include = vec![false; n];
-        for &m in &members {
-            include[m] = true;
-        }
-        let alone = renderer.render_ids(scene, &|i| include[i])?;
-        let stats = pixel_stats(&alone, n);
-        for m in members {
-            unoccluded[m] = stats[m].1;
-        }
-    }
+    let request = RenderRequest {
+        msaa,
+        color: false,
+        visibility: true,
+    };
+    let measured = renderer
+        .render_frame(scene, &request)?
+        .visibility
+        .unwrap_or_default();
     let k = f64::from(scale);
-    Ok(seen
+    Ok(measured
         .into_iter()
-        .zip(unoccluded)
-        .map(
-            |((visible_box, visible_pixels), unoccluded_pixels)| Visibility {
-                visible_box: visible_box.map(|b| PixelBox {
-                    x0: b.x0 / k,
-                    y0: b.y0 / k,
-                    x1: b.x1 / k,
-                    y1: b.y1 / k,
-                }),
-                visible_pixels,
-                unoccluded_pixels,
-            },
-        )
+        .map(|v| Visibility {
+            visible_box: v.visible_box.map(|b| PixelBox {
+                x0: b.x0 / k,
+                y0: b.y0 / k,
+                x1: b.x1 / k,
+                y1: b.y1 / k,
+            }),
+            ..v
+        })
         .collect())
 }
 
-/// What the instance-id pass saw of one drone.
+/// What the colour pass's samples show of one drone.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Visibility {
     /// Min/max of the drone's visible pixels ([x, x+1) × [y, y+1) each), `None` if none is visible.
     pub visible_box: Option<PixelBox>,
-    /// Pixels where this drone is the nearest surface.
+    /// Pixels where this drone is the nearest surface in at least one sample.
     pub visible_pixels: u64,
-    /// Pixels the drone would cover if nothing were in front of it.
+    /// Pixels the drone would cover (in at least one sample) if nothing were in front of it.
     pub unoccluded_pixels: u64,
 }
 

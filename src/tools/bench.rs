@@ -56,6 +56,19 @@ pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> 
         },
         min_separation_m: 0.36,
     };
+    // Like the quickstart's small boxes: 10–30 px drones at any attitude
+    // (thin legs and edge-on rotors), some overlapping.
+    let mut small = base(14);
+    small.placement = Placement::Randomized {
+        count: (10, 15),
+        volume: Volume::Box {
+            size_m: (8.0, 4.0, 8.0),
+        },
+        min_separation_m: 0.7,
+    };
+    small.attitude.roll_deg = (-90.0, 90.0);
+    small.attitude.pitch_deg = (-90.0, 90.0);
+    small.camera.z = SweepRange::fixed(f64::from(width.min(1920)) / 1920.0 * 0.9);
     let mut tiny = base(13);
     tiny.placement = Placement::Randomized {
         count: (10, 20),
@@ -76,6 +89,10 @@ pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> 
         BenchScene {
             name: "tiny distant",
             preset: tiny,
+        },
+        BenchScene {
+            name: "small (10–30 px)",
+            preset: small,
         },
     ]
 }
@@ -107,9 +124,11 @@ pub struct AccuracyRow {
     pub mean_edge_px: f64,
     pub worst_edge_px: f64,
     pub mean_iou: f64,
-    /// Colour pass + labels, per frame.
+    /// Picture + labels (`FramePipeline::make_scene`: one pass draws the
+    /// drones for both when the method needs visibility), per frame.
     pub frame_ms: f64,
-    /// Labelling alone (geometry and any id passes), per box.
+    /// Labels alone (`FramePipeline::labels`: geometry, plus the
+    /// visibility-only pass when the method needs it), per box.
     pub label_us_per_box: f64,
 }
 
@@ -183,12 +202,11 @@ pub fn accuracy(
                 for index in 0..n_frames {
                     let scene = pipeline.scene(index)?;
                     let t = Instant::now();
-                    let labels = pipeline.labels(&mut renderer, &scene)?;
-                    let l_ms = ms(t);
+                    pipeline.labels(&mut renderer, &scene)?;
+                    label_ms += ms(t);
                     let t = Instant::now();
-                    renderer.render_rgba(&scene, msaa)?;
-                    frame_ms += ms(t) + l_ms;
-                    label_ms += l_ms;
+                    let labels = pipeline.make_scene(&mut renderer, scene)?.labels;
+                    frame_ms += ms(t);
                     for l in &labels {
                         let Some(reference) = references[index as usize][l.drone] else {
                             continue;
@@ -264,6 +282,11 @@ pub fn timings(ctx: &GpuContext, preset: &Preset, frames: u64) -> anyhow::Result
                 p.render.resolution = Resolution::Custom { width, height };
                 p.render.msaa = msaa;
                 p.labels.box_method = method;
+                if method != BoxMethod::Visible {
+                    // The visibility filters need ids too: off, so "colour" is colour alone.
+                    p.labels.min_visible_pixels = 0;
+                    p.labels.min_visible_fraction = 0.0;
+                }
                 let pipeline = FramePipeline::new(p)?;
                 let mut renderer = pipeline.renderer(ctx);
                 let mut times = Vec::new();
@@ -407,4 +430,112 @@ pub fn plot(acc: &[AccuracyRow], path: &Path) -> anyhow::Result<()> {
         .draw()?;
     root.present()?;
     Ok(())
+}
+
+/// One scene of `swarmshot bench frames`.
+#[derive(Clone, Debug)]
+pub struct FrameRow {
+    pub scene: String,
+    pub drones: usize,
+    pub frames: usize,
+    /// Median of `FramePipeline::make_scene` (picture + labels, no encode), first frame left out.
+    pub median_ms: f64,
+    /// The process's peak resident memory after the scene (Linux `VmHWM`).
+    pub peak_rss_mib: Option<f64>,
+}
+
+/// The scenes of issue 9's frame-time targets: 15 drones at 1080p and 4K
+/// (from the quickstart), 1 500 drones at 1080p, and the peer scene when given.
+pub fn frame_scenes(quickstart: &Preset, peer: Option<Preset>) -> Vec<(String, Preset)> {
+    let with = |count: u32, size_m: (f64, f64, f64), width: u32, height: u32| {
+        let mut p = quickstart.clone();
+        p.placement = Placement::Randomized {
+            count: (count, count),
+            volume: Volume::Box { size_m },
+            min_separation_m: 0.5,
+        };
+        p.render.resolution = Resolution::Custom { width, height };
+        p
+    };
+    let mut scenes = vec![
+        (
+            "15 drones, 1920×1080".to_string(),
+            with(15, (8.0, 4.0, 8.0), 1920, 1080),
+        ),
+        (
+            "15 drones, 3840×2160".to_string(),
+            with(15, (8.0, 4.0, 8.0), 3840, 2160),
+        ),
+        (
+            "1 500 drones, 1920×1080".to_string(),
+            with(1500, (40.0, 20.0, 40.0), 1920, 1080),
+        ),
+    ];
+    if let Some(peer) = peer {
+        scenes.push(("peer (15 cf2.glb, HDR sky)".to_string(), peer));
+    }
+    scenes
+}
+
+fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+/// Median frame time (picture + labels, no encode) of each scene over `frames` frames.
+pub fn frames(
+    ctx: &GpuContext,
+    scenes: Vec<(String, Preset)>,
+    frames: u64,
+) -> anyhow::Result<Vec<FrameRow>> {
+    let mut rows = Vec::new();
+    for (name, preset) in scenes {
+        let pipeline = FramePipeline::new(preset)?;
+        let mut renderer = pipeline.renderer(ctx);
+        let mut times = Vec::new();
+        let mut drones = 0;
+        let count = frames.min(pipeline.frame_count()).max(2);
+        for index in 0..count {
+            let scene = pipeline.scene(index % pipeline.frame_count())?;
+            drones = drones.max(scene.drones.len());
+            let t = Instant::now();
+            pipeline.make_scene(&mut renderer, scene)?;
+            if index > 0 {
+                // The first frame builds pipelines and targets.
+                times.push(ms(t));
+            }
+        }
+        times.sort_by(f64::total_cmp);
+        rows.push(FrameRow {
+            scene: name,
+            drones,
+            frames: times.len(),
+            median_ms: times[times.len() / 2],
+            peak_rss_mib: peak_rss_mib(),
+        });
+    }
+    Ok(rows)
+}
+
+/// The `bench frames` table.
+pub fn frames_markdown(rows: &[FrameRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| scene | drones | frames | ms / frame (median, render + labels) | peak RSS (MiB) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|");
+    for r in rows {
+        let rss = r
+            .peak_rss_mib
+            .map_or_else(|| "–".to_string(), |m| format!("{m:.0}"));
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.1} | {} |",
+            r.scene, r.drones, r.frames, r.median_ms, rss
+        );
+    }
+    s
 }

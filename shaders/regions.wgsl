@@ -1,0 +1,36 @@
+// Region rendering (prepended: common.wgsl). Every frame draws only the
+// screen regions its drones can touch, on full-size targets that are never
+// cleared: `fs_main` "clears" a scissored region by writing the cached
+// background (one value for every sample of a pixel, as the sky pass itself
+// gives: it shades once per pixel at the pixel centre), instance id 0 and
+// depth 0 (far, reversed-Z); `fs_resolve` averages a region's samples into
+// the single-sample colour target, as the hardware resolve does.
+
+// Full-resolution background (the cached sky), single-sample.
+@group(0) @binding(0) var background: texture_2d<f32>;
+
+struct RegionOut {
+    @builtin(position) position: vec4<f32>,
+};
+
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> RegionOut {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    var out: RegionOut;
+    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    return out;
+}
+
+struct BackgroundOut {
+    @location(0) color: vec4<f32>,
+    // The instance id (0: no drone), held in an R32Float target (exact below 2^24).
+    @location(1) id: f32,
+};
+
+@fragment
+fn fs_main(in: RegionOut) -> BackgroundOut {
+    var out: BackgroundOut;
+    out.color = textureLoad(background, vec2<i32>(in.position.xy), 0);
+    out.id = 0.0;
+    return out;
+}

@@ -1,0 +1,904 @@
+//! Frames drawn region by region: the cost of a frame grows with the pixels
+//! its drones cover, not with the frame.
+//!
+//! Per size and sample count, full-size targets are allocated once and never
+//! cleared: colour (multisampled when MSAA > 1), the instance ids
+//! ([`super::ids`]), depth, the single-sample colour and the background.
+//! The background (sky or environment) depends only on what the sky shader
+//! reads: it is drawn once per distinct (frame uniforms, environment
+//! uniforms, sky bind group, size) without MSAA — the sky shades once per
+//! pixel at its centre, so an MSAA sky resolves to the very same value —
+//! and read back once into a CPU copy.
+//!
+//! A frame then only touches its regions ([`super::regions`]): merged,
+//! padded boxes of the drones' projected hulls. In each region (a scissor
+//! rect) the background is drawn at far depth with id 0 (the region's
+//! "clear"), then the drones, with the same full-frame projection as a
+//! full render, so rasterisation is bit-identical to one; the regions are
+//! resolved by a shader (the mean of the samples), reduced to per-drone
+//! visibility on the GPU, read back into reused buffers and pasted onto the
+//! CPU copy of the background.
+
+use std::borrow::Cow;
+
+use super::ids::{self, IdReducer, IdStats};
+use super::regions::{self, Rect, Region, RegionDraws};
+use super::visibility::{Visibility, overlap_layers};
+use super::{
+    COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, IdImage, InstanceRaw, Readback, RenderError,
+    Renderer, read_mapped,
+};
+use crate::scene::FrameScene;
+use crate::scene::projection::PixelBox;
+use crate::sky::FrameSky;
+
+/// What [`Renderer::render_frame`] is asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderRequest {
+    /// Samples per pixel: 1 or 4.
+    pub msaa: u32,
+    /// Produce the picture (false: visibility only, e.g. for a preview's labels).
+    pub color: bool,
+    /// Measure each drone's visibility from the same samples.
+    pub visibility: bool,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderedFrame {
+    /// Tightly packed RGBA8, sRGB-encoded; empty when colour was not asked for.
+    pub rgba: Vec<u8>,
+    /// Per drone (scene order), when asked for.
+    pub visibility: Option<Vec<Visibility>>,
+}
+
+/// Pipelines of the region passes for one sample count.
+struct RegionPipelines {
+    msaa: u32,
+    background: wgpu::RenderPipeline,
+    drone: wgpu::RenderPipeline,
+    resolve: Option<wgpu::RenderPipeline>,
+    /// Built on first use: presets that need no visibility never build it.
+    reducer: Option<IdReducer>,
+}
+
+/// Full-size targets of one size and sample count, and the cached background.
+struct FrameTargets {
+    width: u32,
+    height: u32,
+    msaa: u32,
+    msaa_color: Option<wgpu::TextureView>,
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    ids: wgpu::Texture,
+    ids_view: wgpu::TextureView,
+    depth: wgpu::TextureView,
+    background: wgpu::Texture,
+    background_view: wgpu::TextureView,
+    background_group: wgpu::BindGroup,
+    resolve_group: Option<wgpu::BindGroup>,
+    /// What the cached background was drawn from (see [`background_key`]).
+    background_key: Option<Vec<u8>>,
+    background_rgba: Vec<u8>,
+    /// Full-frame readback (background, id images).
+    readback: Readback,
+    /// Readback of the regions, grown as needed and reused.
+    regions_readback: Option<wgpu::Buffer>,
+}
+
+/// Long-lived state of region rendering, built on first use.
+pub(super) struct RegionState {
+    background_layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    regions_module: wgpu::ShaderModule,
+    resolve_module: wgpu::ShaderModule,
+    sky_background: Option<wgpu::RenderPipeline>,
+    pipelines: Vec<RegionPipelines>,
+    /// Most recently used last; at most [`MAX_TARGETS`].
+    targets: Vec<FrameTargets>,
+    pub(super) background_draws: u64,
+}
+
+/// Target sets kept at once (e.g. a frame size and its id-pass size).
+const MAX_TARGETS: usize = 2;
+
+fn texture_layout(device: &wgpu::Device, label: &str, multisampled: bool) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled,
+            },
+            count: None,
+        }],
+    })
+}
+
+fn texture_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    view: &wgpu::TextureView,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::TextureView(view),
+        }],
+    })
+}
+
+impl RegionState {
+    pub(super) fn new(device: &wgpu::Device) -> Self {
+        let [.., (_, regions_src), (_, resolve_src), _, _] = super::shader_sources();
+        let module = |label: &str, src: String| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
+            })
+        };
+        Self {
+            background_layout: texture_layout(device, "region background layout", false),
+            resolve_layout: texture_layout(device, "region resolve layout", true),
+            regions_module: module("regions.wgsl", regions_src),
+            resolve_module: module("resolve.wgsl", resolve_src),
+            sky_background: None,
+            pipelines: Vec::new(),
+            targets: Vec::new(),
+            background_draws: 0,
+        }
+    }
+
+    pub(super) fn has_reducer(&self) -> bool {
+        self.pipelines.iter().any(|p| p.reducer.is_some())
+    }
+
+    /// Drop every cached background (the sky images changed).
+    pub(super) fn forget_backgrounds(&mut self) {
+        for t in &mut self.targets {
+            t.background_key = None;
+        }
+    }
+}
+
+/// Round `n` up to the copy row alignment.
+fn padded_row(bytes: u32) -> u32 {
+    bytes.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
+}
+
+impl Renderer {
+    /// Render `scene` region by region: the picture (equal to a full-frame
+    /// render of the same meshes within one 8-bit level) and/or each drone's
+    /// visibility, measured from the colour pass's own samples.
+    pub fn render_frame(
+        &mut self,
+        scene: &FrameScene,
+        request: &RenderRequest,
+    ) -> Result<RenderedFrame, RenderError> {
+        self.check_size(scene.camera.width, scene.camera.height)?;
+        if scene.drones.len() >= ids::MAX_DRONES {
+            return Err(RenderError::TooManyDrones {
+                count: scene.drones.len(),
+                limit: ids::MAX_DRONES - 1,
+            });
+        }
+        let mut state = match self.regions.take() {
+            Some(s) => s,
+            None => RegionState::new(&self.device),
+        };
+        let result = self.render_regions(&mut state, scene, request);
+        self.regions = Some(state);
+        result
+    }
+
+    /// How many times the background was drawn (cache misses), for tests and benchmarks.
+    pub fn background_draws(&self) -> u64 {
+        self.regions.as_ref().map_or(0, |s| s.background_draws)
+    }
+
+    fn region_pipelines(&self, state: &mut RegionState, msaa: u32) -> usize {
+        if let Some(i) = state.pipelines.iter().position(|p| p.msaa == msaa) {
+            return i;
+        }
+        let device = &self.device;
+        let multisample = wgpu::MultisampleState {
+            count: msaa,
+            ..Default::default()
+        };
+        let targets = [
+            Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: ids::ID_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ];
+        let depth = |compare| wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(compare),
+            stencil: Default::default(),
+            bias: Default::default(),
+        };
+        let background_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("region background pipeline layout"),
+            bind_group_layouts: &[Some(&state.background_layout)],
+            immediate_size: 0,
+        });
+        let background = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("region background pipeline"),
+            layout: Some(&background_layout),
+            vertex: wgpu::VertexState {
+                module: &state.regions_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(depth(wgpu::CompareFunction::Always)),
+            multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: &state.regions_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let drone = self.drone_pipeline("drone + id pipeline", msaa, "fs_ids", &targets);
+        let resolve = (msaa > 1).then(|| {
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("region resolve pipeline layout"),
+                bind_group_layouts: &[Some(&state.resolve_layout)],
+                immediate_size: 0,
+            });
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("region resolve pipeline"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &state.resolve_module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &state.resolve_module,
+                    entry_point: Some("fs_main"),
+                    compilation_options: Default::default(),
+                    targets: &targets[..1],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        });
+        state.pipelines.push(RegionPipelines {
+            msaa,
+            background,
+            drone,
+            resolve,
+            reducer: None,
+        });
+        state.pipelines.len() - 1
+    }
+
+    fn frame_targets(&self, state: &mut RegionState, width: u32, height: u32, msaa: u32) -> usize {
+        if let Some(i) = state
+            .targets
+            .iter()
+            .position(|t| t.width == width && t.height == height && t.msaa == msaa)
+        {
+            // Most recently used last.
+            let t = state.targets.remove(i);
+            state.targets.push(t);
+            return state.targets.len() - 1;
+        }
+        if state.targets.len() >= MAX_TARGETS {
+            state.targets.remove(0);
+        }
+        let device = &self.device;
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let texture = |label: &str, format, samples, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let copy = wgpu::TextureUsages::COPY_SRC;
+        let bind = wgpu::TextureUsages::TEXTURE_BINDING;
+        let color = texture("region colour", COLOR_FORMAT, 1, attachment | copy);
+        let color_view = color.create_view(&Default::default());
+        let msaa_color = (msaa > 1).then(|| {
+            texture(
+                "region colour (msaa)",
+                COLOR_FORMAT,
+                msaa,
+                attachment | bind,
+            )
+            .create_view(&Default::default())
+        });
+        let ids = texture(
+            "instance ids",
+            ids::ID_FORMAT,
+            msaa,
+            attachment | bind | copy,
+        );
+        let ids_view = ids.create_view(&Default::default());
+        let depth = texture("region depth", DEPTH_FORMAT, msaa, attachment)
+            .create_view(&Default::default());
+        let background = texture("background", COLOR_FORMAT, 1, attachment | bind | copy);
+        let background_view = background.create_view(&Default::default());
+        let background_group = texture_group(
+            device,
+            "region background",
+            &state.background_layout,
+            &background_view,
+        );
+        let resolve_group = msaa_color
+            .as_ref()
+            .map(|v| texture_group(device, "region resolve", &state.resolve_layout, v));
+        state.targets.push(FrameTargets {
+            width,
+            height,
+            msaa,
+            msaa_color,
+            color,
+            color_view,
+            ids,
+            ids_view,
+            depth,
+            background,
+            background_view,
+            background_group,
+            resolve_group,
+            background_key: None,
+            background_rgba: Vec::new(),
+            readback: Readback::new(device, "frame readback (full)", width, height),
+            regions_readback: None,
+        });
+        state.targets.len() - 1
+    }
+
+    /// The bytes the sky shader reads, plus what its bind group and size are.
+    fn background_key(
+        &self,
+        uniforms: &FrameUniforms,
+        sky: &FrameSky,
+        size: (u32, u32),
+    ) -> Vec<u8> {
+        let group: u64 = match sky {
+            FrameSky::Gradient { .. } => 0,
+            FrameSky::Procedural { .. } => 1,
+            FrameSky::Image { image, .. } => 2 + *image as u64,
+        };
+        let mut key = bytemuck::bytes_of(uniforms).to_vec();
+        key.extend_from_slice(self.sky.uniform_bytes());
+        key.extend_from_slice(&group.to_le_bytes());
+        key.extend_from_slice(&size.0.to_le_bytes());
+        key.extend_from_slice(&size.1.to_le_bytes());
+        key
+    }
+
+    /// Draw the sky into the background texture (no MSAA) and read it back.
+    fn draw_background(
+        &mut self,
+        state: &mut RegionState,
+        t: usize,
+        scene: &FrameScene,
+    ) -> Result<(), RenderError> {
+        if state.sky_background.is_none() {
+            state.sky_background = Some(self.device.create_render_pipeline(
+                &wgpu::RenderPipelineDescriptor {
+                    label: Some("background sky pipeline"),
+                    layout: Some(&self.sky_layout),
+                    vertex: wgpu::VertexState {
+                        module: &self.shaders.0,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &[],
+                    },
+                    primitive: wgpu::PrimitiveState::default(),
+                    depth_stencil: None,
+                    multisample: wgpu::MultisampleState::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &self.shaders.0,
+                        entry_point: Some("fs_main"),
+                        compilation_options: Default::default(),
+                        targets: &[Some(wgpu::ColorTargetState {
+                            format: COLOR_FORMAT,
+                            blend: None,
+                            write_mask: wgpu::ColorWrites::ALL,
+                        })],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                },
+            ));
+        }
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("background"),
+            });
+        let target = &state.targets[t];
+        if super::sky::SkyGpu::is_procedural(&scene.sky) {
+            self.sky.encode_environment(
+                &self.device,
+                &mut encoder,
+                (&self.shaders.0, &self.sky_layout),
+                &self.frame_bind_group,
+                (target.width, target.height),
+            );
+        }
+        if let Some(pipeline) = &state.sky_background {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("background pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &target.background_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);
+            pass.draw(0..3, 0..1);
+        }
+        target.readback.copy_from(&mut encoder, &target.background);
+        self.queue.submit([encoder.finish()]);
+        let rgba = target.readback.read(&self.device)?;
+        state.targets[t].background_rgba = rgba;
+        state.background_draws += 1;
+        Ok(())
+    }
+
+    /// Instances of `regions` (drone index + 1 as id), appended to `data`, with their draws.
+    fn region_draws(
+        scene: &FrameScene,
+        regions: &[Region],
+        data: &mut Vec<InstanceRaw>,
+    ) -> Vec<RegionDraws> {
+        regions
+            .iter()
+            .map(|region| {
+                let mut order = region.drones.clone();
+                order.sort_by_key(|&i| scene.drones[i].model);
+                let mut draws: Vec<(usize, std::ops::Range<u32>)> = Vec::new();
+                for i in order {
+                    let idx = data.len() as u32;
+                    data.push(InstanceRaw::new(scene, i));
+                    let model = scene.drones[i].model;
+                    match draws.last_mut() {
+                        Some((m, r)) if *m == model => r.end = idx + 1,
+                        _ => draws.push((model, idx..idx + 1)),
+                    }
+                }
+                RegionDraws {
+                    rect: region.rect,
+                    draws,
+                }
+            })
+            .collect()
+    }
+
+    /// One render pass over `regions`: background, then drones, per scissored region.
+    fn encode_region_pass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        pipes: &RegionPipelines,
+        target: &FrameTargets,
+        regions: &[RegionDraws],
+        label: &str,
+    ) {
+        let load = wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        };
+        let color = target.msaa_color.as_ref().unwrap_or(&target.color_view);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[
+                Some(wgpu::RenderPassColorAttachment {
+                    view: color,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &target.ids_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &target.depth,
+                depth_ops: Some(load),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        for region in regions {
+            let r = region.rect;
+            pass.set_scissor_rect(r.x0, r.y0, r.width(), r.height());
+            pass.set_pipeline(&pipes.background);
+            pass.set_bind_group(0, &target.background_group, &[]);
+            pass.draw(0..3, 0..1);
+            let Some(instances) = &self.instances else {
+                continue;
+            };
+            if region.draws.is_empty() {
+                continue;
+            }
+            pass.set_pipeline(&pipes.drone);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_vertex_buffer(1, instances.slice(..));
+            for (model, range) in &region.draws {
+                let Some(mesh) = self.meshes.get(*model) else {
+                    continue;
+                };
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                for (indices, texture) in &mesh.draws {
+                    let bind_group = texture
+                        .and_then(|t| mesh.textures.get(t))
+                        .unwrap_or(&self.white_texture);
+                    pass.set_bind_group(1, bind_group, &[]);
+                    pass.draw_indexed(indices.clone(), 0, range.clone());
+                }
+            }
+        }
+    }
+
+    fn render_regions(
+        &mut self,
+        state: &mut RegionState,
+        scene: &FrameScene,
+        request: &RenderRequest,
+    ) -> Result<RenderedFrame, RenderError> {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let msaa = request.msaa.max(1);
+        let n = scene.drones.len();
+        let uniforms = self.upload_uniforms(scene);
+        let p = self.region_pipelines(state, msaa);
+        let t = self.frame_targets(state, width, height, msaa);
+        if request.color {
+            let key = self.background_key(&uniforms, &scene.sky, (width, height));
+            if state.targets[t].background_key.as_ref() != Some(&key) {
+                self.draw_background(state, t, scene)?;
+                state.targets[t].background_key = Some(key);
+            }
+        }
+        let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
+        let whole = |members: Vec<usize>| {
+            let drones: Vec<usize> = members
+                .into_iter()
+                .filter(|&i| rects[i].is_some())
+                .collect();
+            vec![Region {
+                rect: Rect::full(width, height),
+                drones,
+            }]
+        };
+        let main = if self.use_regions {
+            regions::merge(&rects, 0..n)
+        } else {
+            whole((0..n).collect())
+        };
+        // Unoccluded counts: layers of drones whose boxes are apart, each drawn alone.
+        let (layers, overlapping) = if request.visibility {
+            let clipped: Vec<Option<PixelBox>> = boxes
+                .iter()
+                .map(|b| {
+                    b.map(|b| b.clip(f64::from(width), f64::from(height)))
+                        .filter(|b| b.width() > 0.0 && b.height() > 0.0)
+                })
+                .collect();
+            let (layers, overlapping) = overlap_layers(&clipped);
+            let layers: Vec<Vec<Region>> = layers
+                .into_iter()
+                .map(|l| {
+                    l.into_iter()
+                        .filter(|&i| overlapping[i])
+                        .collect::<Vec<_>>()
+                })
+                .filter(|l| !l.is_empty())
+                .map(|l| {
+                    if self.use_regions {
+                        regions::merge(&rects, l)
+                    } else {
+                        whole(l)
+                    }
+                })
+                .collect();
+            (layers, overlapping)
+        } else {
+            (Vec::new(), vec![false; n])
+        };
+        let mut data = Vec::new();
+        let main_draws = Self::region_draws(scene, &main, &mut data);
+        let layer_draws: Vec<Vec<RegionDraws>> = layers
+            .iter()
+            .map(|l| Self::region_draws(scene, l, &mut data))
+            .collect();
+        self.write_instances(&data);
+        if request.color {
+            self.counts.color += 1;
+        }
+        let rects_of = |draws: &[RegionDraws]| draws.iter().map(|d| d.rect).collect::<Vec<Rect>>();
+        let main_rects = rects_of(&main_draws);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame (regions)"),
+            });
+        {
+            let pipes = &state.pipelines[p];
+            let target = &state.targets[t];
+            self.encode_region_pass(&mut encoder, pipes, target, &main_draws, "region pass");
+            if request.color
+                && let (Some(resolve), Some(group)) = (&pipes.resolve, &target.resolve_group)
+                && !main_rects.is_empty()
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("region resolve pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &target.color_view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Load,
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(resolve);
+                pass.set_bind_group(0, group, &[]);
+                for r in &main_rects {
+                    pass.set_scissor_rect(r.x0, r.y0, r.width(), r.height());
+                    pass.draw(0..3, 0..1);
+                }
+            }
+        }
+        // Copy the regions before any layer pass draws over them (with MSAA 1
+        // the colour target is the one copied). Layout: (offset, padded row) per rect.
+        let mut layout: Vec<(u64, u32)> = Vec::with_capacity(main_rects.len());
+        if request.color {
+            let mut size = 0u64;
+            for r in &main_rects {
+                let row = padded_row(r.width() * 4);
+                layout.push((size, row));
+                size += u64::from(row) * u64::from(r.height());
+                size = size.next_multiple_of(256);
+            }
+            let target = &mut state.targets[t];
+            if size > 0
+                && target
+                    .regions_readback
+                    .as_ref()
+                    .is_none_or(|b| b.size() < size)
+            {
+                target.regions_readback =
+                    Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("region readback"),
+                        size: size.next_power_of_two(),
+                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }));
+            }
+            if let Some(buffer) = &target.regions_readback {
+                for (r, &(offset, row)) in main_rects.iter().zip(&layout) {
+                    encoder.copy_texture_to_buffer(
+                        wgpu::TexelCopyTextureInfo {
+                            texture: &target.color,
+                            mip_level: 0,
+                            origin: wgpu::Origin3d {
+                                x: r.x0,
+                                y: r.y0,
+                                z: 0,
+                            },
+                            aspect: wgpu::TextureAspect::All,
+                        },
+                        wgpu::TexelCopyBufferInfo {
+                            buffer,
+                            layout: wgpu::TexelCopyBufferLayout {
+                                offset,
+                                bytes_per_row: Some(row),
+                                rows_per_image: Some(r.height()),
+                            },
+                        },
+                        wgpu::Extent3d {
+                            width: r.width(),
+                            height: r.height(),
+                            depth_or_array_layers: 1,
+                        },
+                    );
+                }
+            }
+        }
+        if request.visibility {
+            self.counts.ids += 1 + layer_draws.len() as u64;
+            let pipes = &mut state.pipelines[p];
+            let reducer = pipes
+                .reducer
+                .get_or_insert_with(|| IdReducer::new(&self.device, msaa));
+            let layer_rects: Vec<Vec<Rect>> = layer_draws.iter().map(|l| rects_of(l)).collect();
+            let mut passes: Vec<(&[Rect], u32)> = vec![(main_rects.as_slice(), 0)];
+            passes.extend(layer_rects.iter().map(|r| (r.as_slice(), 1)));
+            reducer.prepare(&self.device, &self.queue, n, &passes, 2);
+            let pipes = &state.pipelines[p];
+            let target = &state.targets[t];
+            if let Some(reducer) = &pipes.reducer {
+                reducer.encode_clear(&mut encoder);
+                reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, 0);
+                for (k, layer) in layer_draws.iter().enumerate() {
+                    self.encode_region_pass(&mut encoder, pipes, target, layer, "layer pass");
+                    reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, k + 1);
+                }
+                reducer.encode_copy(&mut encoder);
+            }
+        }
+        self.queue.submit([encoder.finish()]);
+        let target = &state.targets[t];
+        let rgba = if request.color {
+            let mut rgba = target.background_rgba.clone();
+            if let (Some(buffer), Some(&(last, row))) = (&target.regions_readback, layout.last()) {
+                let len =
+                    last + u64::from(row) * u64::from(main_rects.last().map_or(0, |r| r.height()));
+                read_mapped(&self.device, buffer, len, |bytes| {
+                    let stride = width as usize * 4;
+                    for (r, &(offset, row)) in main_rects.iter().zip(&layout) {
+                        let w = r.width() as usize * 4;
+                        for y in 0..r.height() as usize {
+                            let src = offset as usize + y * row as usize;
+                            let dst = (r.y0 as usize + y) * stride + r.x0 as usize * 4;
+                            rgba[dst..dst + w].copy_from_slice(&bytes[src..src + w]);
+                        }
+                    }
+                })?;
+            } else {
+                // Nothing to paste; still wait for the submission (the queue stays in step).
+                self.device
+                    .poll(wgpu::PollType::wait_indefinitely())
+                    .map_err(|e| RenderError::Readback(e.to_string()))?;
+            }
+            rgba
+        } else {
+            Vec::new()
+        };
+        let visibility = if request.visibility {
+            let words = match state.pipelines[p]
+                .reducer
+                .as_ref()
+                .and_then(|r| r.readback())
+            {
+                Some((buffer, len)) => ids::read_words(&self.device, buffer, len)?,
+                None => vec![0; n * 10],
+            };
+            let seen = IdReducer::decode(&words, n, 0);
+            let alone = IdReducer::decode(&words, n, 1);
+            Some(
+                (0..n)
+                    .map(|i| {
+                        visibility_of(seen[i], if overlapping[i] { alone[i] } else { seen[i] })
+                    })
+                    .collect(),
+            )
+        } else {
+            None
+        };
+        Ok(RenderedFrame { rgba, visibility })
+    }
+
+    /// Render the instance ids of the drones `include` accepts (all others
+    /// are left out, so they occlude nothing), one sample per pixel (the
+    /// pixel centre), and read the whole id image back (tests, benchmarks).
+    pub fn render_ids(
+        &mut self,
+        scene: &FrameScene,
+        include: &dyn Fn(usize) -> bool,
+    ) -> Result<IdImage, RenderError> {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        self.check_size(width, height)?;
+        let mut state = match self.regions.take() {
+            Some(s) => s,
+            None => RegionState::new(&self.device),
+        };
+        let result = self.render_id_image(&mut state, scene, include);
+        self.regions = Some(state);
+        result
+    }
+
+    fn render_id_image(
+        &mut self,
+        state: &mut RegionState,
+        scene: &FrameScene,
+        include: &dyn Fn(usize) -> bool,
+    ) -> Result<IdImage, RenderError> {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        self.upload_uniforms(scene);
+        let p = self.region_pipelines(state, 1);
+        let t = self.frame_targets(state, width, height, 1);
+        let region = Region {
+            rect: Rect::full(width, height),
+            drones: (0..scene.drones.len()).filter(|&i| include(i)).collect(),
+        };
+        let mut data = Vec::new();
+        let draws = Self::region_draws(scene, &[region], &mut data);
+        self.write_instances(&data);
+        self.counts.ids += 1;
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("instance ids"),
+            });
+        let target = &state.targets[t];
+        self.encode_region_pass(&mut encoder, &state.pipelines[p], target, &draws, "id pass");
+        target.readback.copy_from(&mut encoder, &target.ids);
+        self.queue.submit([encoder.finish()]);
+        let bytes = target.readback.read(&self.device)?;
+        let values: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(IdImage {
+            width,
+            height,
+            ids: values.into_iter().map(|v| v as u32).collect(),
+        })
+    }
+}
+
+fn visibility_of(seen: IdStats, alone: IdStats) -> Visibility {
+    Visibility {
+        visible_box: seen.rect.map(|r| PixelBox {
+            x0: f64::from(r.x0),
+            y0: f64::from(r.y0),
+            x1: f64::from(r.x1),
+            y1: f64::from(r.y1),
+        }),
+        visible_pixels: seen.pixels,
+        unoccluded_pixels: alone.pixels,
+    }
+}

@@ -1,0 +1,176 @@
+//! Region rendering equals full-frame rendering: every pixel within one 8-bit
+//! level of the full-frame path (`render_rgba`: the whole sky redrawn, the
+//! hardware resolve), and visibility identical to a reduction over the whole
+//! frame. Over a gradient sky, a procedural environment, an image sky, MSAA
+//! 1× and 4×, drones cut by the image border and by the near plane, and no
+//! drones; and the background is drawn once for frames that share it.
+
+mod common;
+
+use glam::DVec3;
+use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::sweep::SweepRange;
+use swarmshot::preset::{
+    EnvironmentName, Placement, Preset, Resolution, Sky, SkyImageSource, Volume,
+};
+use swarmshot::render::{RenderRequest, Renderer};
+use swarmshot::scene::FrameScene;
+
+fn preset(sky: Sky, msaa: u32) -> Preset {
+    let mut p = Preset::default();
+    p.seed = 5;
+    p.render.resolution = Resolution::Custom {
+        width: 400,
+        height: 240,
+    };
+    p.render.msaa = msaa;
+    p.placement = Placement::Randomized {
+        count: (8, 14),
+        // Wider than the view: some drones are cut by the border.
+        volume: Volume::Box {
+            size_m: (14.0, 5.0, 8.0),
+        },
+        min_separation_m: 0.5,
+    };
+    p.camera.z = SweepRange::fixed(0.35);
+    p.repeats = 3;
+    p.sky = sky;
+    p
+}
+
+/// An equirect sky image written to a temporary folder (no third-party file needed).
+fn image_sky(dir: &std::path::Path) -> Sky {
+    let (w, h) = (256u32, 128u32);
+    let img = image::RgbImage::from_fn(w, h, |x, y| {
+        let v = (y * 255 / h) as u8;
+        image::Rgb([v, (x * 255 / w) as u8, 255 - v / 2])
+    });
+    let path = dir.join("sky.png");
+    img.save(&path).expect("write sky image");
+    Sky::Image {
+        source: SkyImageSource::Equirect(path),
+        exposure_ev: 0.0,
+        rotation_deg: 30.0,
+        sun_elevation_deg: 40.0,
+        sun_azimuth_deg: 10.0,
+    }
+}
+
+fn assert_close(a: &[u8], b: &[u8], what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    let worst = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| x.abs_diff(*y))
+        .max()
+        .unwrap_or(0);
+    assert!(worst <= 1, "{what}: a pixel differs by {worst} levels");
+}
+
+fn check(renderer: &mut Renderer, scene: &FrameScene, msaa: u32, what: &str) {
+    let request = RenderRequest {
+        msaa,
+        color: true,
+        visibility: true,
+    };
+    let regions = renderer.render_frame(scene, &request).expect("regions");
+    let full = renderer.render_rgba(scene, msaa).expect("full frame");
+    assert_close(&regions.rgba, &full, what);
+    renderer.set_regions(false);
+    let whole = renderer.render_frame(scene, &request).expect("whole frame");
+    renderer.set_regions(true);
+    assert_close(&whole.rgba, &full, what);
+    assert_eq!(regions.visibility, whole.visibility, "{what}: visibility");
+}
+
+#[test]
+fn regions_equal_full_frames_over_skies_msaa_and_edges() {
+    let ctx = common::gpu();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let skies = [
+        ("gradient", Preset::default().sky),
+        (
+            "procedural",
+            Sky::Procedural {
+                environment: EnvironmentName::BeautifulPasture,
+                sun_elevation_deg: None,
+                sun_azimuth_deg: None,
+                turbidity: None,
+                cloud_cover: Some(0.6),
+                seed: Some(3),
+                exposure_ev: 0.0,
+            },
+        ),
+        ("image", image_sky(dir.path())),
+    ];
+    let (mut truncated, mut drones) = (0, 0);
+    for (name, sky) in skies {
+        for msaa in [1, 4] {
+            let pipeline = FramePipeline::new(preset(sky.clone(), msaa)).expect("preset");
+            let mut renderer = pipeline.renderer(&ctx);
+            for index in 0..pipeline.frame_count() {
+                let scene = pipeline.scene(index).expect("scene");
+                let labels = pipeline.estimate_labels(&scene);
+                truncated += labels.iter().filter(|l| l.truncated).count();
+                drones += scene.drones.len();
+                check(
+                    &mut renderer,
+                    &scene,
+                    msaa,
+                    &format!("{name}, msaa {msaa}, frame {index}"),
+                );
+            }
+            // No drones: the background alone.
+            let mut empty = pipeline.scene(0).expect("scene");
+            empty.drones.clear();
+            check(
+                &mut renderer,
+                &empty,
+                msaa,
+                &format!("{name}, msaa {msaa}, no drones"),
+            );
+            // A drone crossing the near plane, filling much of the frame.
+            let mut close = pipeline.scene(1).expect("scene");
+            close.drones.truncate(1);
+            let forward = close.camera.camera_from_world.transpose() * DVec3::Z;
+            close.drones[0].position = close.camera.position + forward * close.camera.near_m * 1.5;
+            close.drones[0].size_m = 1.0;
+            check(
+                &mut renderer,
+                &close,
+                msaa,
+                &format!("{name}, msaa {msaa}, near plane"),
+            );
+        }
+    }
+    assert!(
+        drones > 40 && truncated > 3,
+        "{drones} drones, {truncated} truncated"
+    );
+}
+
+#[test]
+fn frames_that_share_a_camera_pose_draw_the_background_once() {
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(preset(Preset::default().sky, 4)).expect("preset");
+    let mut renderer = pipeline.renderer(&ctx);
+    let request = RenderRequest {
+        msaa: 4,
+        color: true,
+        visibility: false,
+    };
+    // repeats = 3: frames 0..3 share the camera pose and the sky.
+    for index in 0..3 {
+        let scene = pipeline.scene(index).expect("scene");
+        renderer.render_frame(&scene, &request).expect("render");
+    }
+    assert_eq!(renderer.background_draws(), 1);
+    let mut turned = pipeline.scene(0).expect("scene");
+    turned.camera.fov_y_deg += 1.0;
+    renderer.render_frame(&turned, &request).expect("render");
+    assert_eq!(
+        renderer.background_draws(),
+        2,
+        "another fov is another background"
+    );
+}
