@@ -276,15 +276,16 @@ fn cubemap_faces_are_drawn_in_their_directions_and_bad_faces_are_named() {
         sun_azimuth_deg: 0.0,
     };
     let mut preset: Preset = environment_preset(sky, W, H);
-    preset.placement = swarmshot::preset::Placement::Randomized {
-        count: (0, 0),
-        volume: swarmshot::preset::Volume::Box {
-            size_m: (1.0, 1.0, 1.0),
-        },
-        min_separation_m: 0.0,
-    };
     preset.camera.y = swarmshot::preset::sweep::SweepRange::fixed(0.0);
-    let rgba = render_preset(&gpu(), &preset).expect("render");
+    // The sky alone: frame 0 with its drones taken out.
+    let pipeline = swarmshot::pipeline::FramePipeline::new(preset).expect("pipeline");
+    let mut renderer = pipeline.renderer(&gpu());
+    let mut scene = pipeline.scene(0).expect("scene");
+    scene.drones.clear();
+    let rgba = pipeline
+        .make_scene(&mut renderer, scene)
+        .expect("render")
+        .rgba;
     // The camera sits on +Z looking at the origin, i.e. along −Z: the centre shows the nz face.
     let centre = ((H / 2 * W + W / 2) * 4) as usize;
     assert_eq!(
