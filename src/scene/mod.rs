@@ -15,10 +15,10 @@ pub mod camera;
 pub mod math;
 pub mod placement;
 pub mod projection;
-pub mod seed;
 
 use crate::preset::sweep::decode_mixed_radix;
 use crate::preset::{Preset, Sky};
+use crate::seed;
 use crate::sky::{FrameEnvironment, FrameSky};
 use camera::Camera;
 use math::{EulerDeg, look_at_cv, plane_rotation};
