@@ -18,6 +18,8 @@ struct Parts {
     annotations: AppendFile,
     n_images: u64,
     n_annotations: u64,
+    /// The counters as the last checkpoint holds them.
+    saved: (u64, u64),
 }
 
 /// Writes the three COCO files.
@@ -48,11 +50,13 @@ impl CocoWriter {
                     .copied()
                     .unwrap_or(0)
             };
+            let (n_images, n_annotations) = (count("images"), count("annotations"));
             parts.push(Parts {
                 images,
                 annotations,
-                n_images: count("images"),
-                n_annotations: count("annotations"),
+                n_images,
+                n_annotations,
+                saved: (n_images, n_annotations),
             });
         }
         Ok(Self { parts })
@@ -108,12 +112,16 @@ impl FormatWriter for CocoWriter {
         for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
             part.images.save(checkpoint);
             part.annotations.save(checkpoint);
-            checkpoint
-                .counters
-                .insert(counter(split, "images"), part.n_images);
-            checkpoint
-                .counters
-                .insert(counter(split, "annotations"), part.n_annotations);
+            // Only what changed: this frame's split.
+            if part.saved != (part.n_images, part.n_annotations) {
+                part.saved = (part.n_images, part.n_annotations);
+                checkpoint
+                    .counters
+                    .insert(counter(split, "images"), part.n_images);
+                checkpoint
+                    .counters
+                    .insert(counter(split, "annotations"), part.n_annotations);
+            }
         }
     }
 

@@ -88,9 +88,11 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 pub struct Checkpoint {
     /// Frames `0..next` are complete.
     pub next: u64,
-    /// Length of every append-only file, by path relative to the folder.
+    /// Length of the append-only files, by path relative to the folder (in
+    /// the ledger: those that changed since the checkpoint before; a file
+    /// never listed is empty).
     pub files: BTreeMap<String, u64>,
-    /// Writers' counters (COCO ids).
+    /// Writers' counters (COCO ids; in the ledger, those that changed).
     pub counters: BTreeMap<String, u64>,
     pub stats: DatasetStats,
 }
@@ -179,6 +181,46 @@ fn temp_rel(rel: &str) -> String {
     }
 }
 
+/// Refuse `root` if an entry the dataset needs is a link, is in the way, or
+/// is a file swarmshot did not write (not in `owned`).
+fn preflight(root: &Path, needed: &[String], owned: &HashSet<String>) -> Result<(), OutputError> {
+    for rel in needed {
+        let parts: Vec<&str> = rel.split('/').filter(|p| !p.is_empty()).collect();
+        let mut prefix = String::new();
+        for (i, part) in parts.iter().enumerate() {
+            if !prefix.is_empty() {
+                prefix.push('/');
+            }
+            prefix.push_str(part);
+            let want_dir = i + 1 < parts.len() || rel.ends_with('/');
+            let path = root.join(&prefix);
+            match lstat(&path)? {
+                None => break,
+                Some(m) if m.file_type().is_symlink() => {
+                    return Err(refused(
+                        path,
+                        "is a symbolic link; swarmshot never follows one in its output folder",
+                    ));
+                }
+                Some(m) if want_dir && !m.is_dir() => {
+                    return Err(refused(path, "is in the way of a folder swarmshot needs"));
+                }
+                Some(m) if !want_dir && !m.is_file() => {
+                    return Err(refused(path, "is not a regular file"));
+                }
+                Some(_) if !want_dir && !owned.contains(rel) => {
+                    return Err(refused(
+                        path,
+                        "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+    }
+    Ok(())
+}
+
 /// What a ledger says, read from disk.
 struct LedgerScan {
     run: RunId,
@@ -203,11 +245,16 @@ impl Folder {
     /// run's files when `mode.overwrite`, and say where to start.
     ///
     /// `run.frames == None` (only with `mode.resume`) takes the locked frame count.
+    ///
+    /// `needed` lists the dataset's fixed entries (folders end in `/`): each
+    /// one that exists must be a real folder, or a regular file the earlier
+    /// run wrote, or the folder is refused before anything is written.
     pub fn open(
         root: &Path,
         preset_hash: u64,
         frames: Option<u64>,
         mode: OpenMode,
+        needed: &[String],
     ) -> Result<(Self, Start, RunId), OutputError> {
         if mode.overwrite && mode.resume {
             return Err(OutputError::Conflict);
@@ -243,8 +290,10 @@ impl Folder {
                 frames: frames.unwrap_or(0),
                 preset_hash,
             };
+            preflight(root, needed, &HashSet::new())?;
             return Ok((Self::fresh(root, run)?, Start::Fresh, run));
         };
+        preflight(root, needed, &scan.owned)?;
         let frames = frames.unwrap_or(scan.run.frames);
         let run = RunId {
             frames,
@@ -385,7 +434,13 @@ impl Folder {
                         .is_ok_and(|m| m.file_type().is_file() && m.len() >= len)
                 });
                 if files_there && long_enough {
-                    scan.checkpoint = Some(cp);
+                    // A checkpoint lists only what changed since the one before.
+                    let mut merged = scan.checkpoint.take().unwrap_or_default();
+                    merged.next = cp.next;
+                    merged.files.extend(cp.files);
+                    merged.counters.extend(cp.counters);
+                    merged.stats = cp.stats;
+                    scan.checkpoint = Some(merged);
                     scan.good_end = offset;
                     scan.later_claims.clear();
                     frame_files.clear();
@@ -521,7 +576,7 @@ impl Folder {
     }
 
     /// Check that `rel` may be (re)written: absent, or a regular file this run owns.
-    fn check_target(&self, rel: &str) -> Result<(), OutputError> {
+    pub fn check_target(&self, rel: &str) -> Result<(), OutputError> {
         let path = self.root.join(rel);
         match lstat(&path)? {
             None => Ok(()),
@@ -573,6 +628,7 @@ impl Folder {
             w.flush()?;
             drop(w);
             file.sync_all()?;
+            stall_if_asked(rel);
             fs::rename(&tmp, &path)
         })();
         if result.is_err() {
@@ -659,6 +715,18 @@ impl Folder {
     }
 }
 
+/// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_BEFORE_RENAME`
+/// set to a path relative to the dataset folder, the batch sleeps after that
+/// file's temporary copy is written and before it is renamed into place, so a
+/// test can kill the process at exactly that point.
+fn stall_if_asked(rel: &str) {
+    static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+    let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_BEFORE_RENAME").ok());
+    if at.as_deref() == Some(rel) {
+        std::thread::sleep(std::time::Duration::from_secs(300));
+    }
+}
+
 /// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
 fn write_new_then_rename(
     root: &Path,
@@ -716,8 +784,10 @@ impl AppendFile {
 
     /// Record this file's length in `checkpoint` (the frame is complete).
     pub fn save(&mut self, checkpoint: &mut Checkpoint) {
-        self.committed = self.len;
-        checkpoint.files.insert(self.rel.clone(), self.len);
+        if self.len != self.committed {
+            self.committed = self.len;
+            checkpoint.files.insert(self.rel.clone(), self.len);
+        }
     }
 
     /// Cut the file back to its last checkpoint (after a failed frame).

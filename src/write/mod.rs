@@ -200,6 +200,31 @@ impl DatasetWriter {
         options: WriterOptions,
     ) -> Result<Self, OutputError> {
         let lock = preset.to_ron();
+        let (yolo, coco) = (
+            preset.output.label_formats.contains(&LabelFormat::Yolo),
+            preset.output.label_formats.contains(&LabelFormat::Coco),
+        );
+        let mut needed = vec![
+            LOCK_FILE.to_owned(),
+            manifest::FILE.to_owned(),
+            "stats.json".to_owned(),
+        ];
+        for split in SplitName::ALL.map(SplitName::as_str) {
+            needed.push(format!("images/{split}/"));
+            if yolo {
+                needed.push(format!("labels/{split}/"));
+            }
+            if coco {
+                needed.push(format!("annotations/instances_{split}.json"));
+                needed.push(format!("annotations/.instances_{split}.images.part"));
+                needed.push(format!("annotations/.instances_{split}.annotations.part"));
+            }
+        }
+        if yolo {
+            needed.push("data.yaml".to_owned());
+        }
+        // Every entry is checked before anything is written or rendered: a
+        // link or a file swarmshot did not write is refused now, not after hours.
         let (mut folder, start, run) = Folder::open(
             root,
             fnv1a64(lock.as_bytes()),
@@ -208,6 +233,7 @@ impl DatasetWriter {
                 overwrite: options.overwrite,
                 resume: options.resume,
             },
+            &needed,
         )?;
         let (checkpoint, done) = match start {
             Start::Fresh => (Checkpoint::default(), false),
@@ -223,7 +249,7 @@ impl DatasetWriter {
             }
             // Whole files first, then the append-only records: a manifest
             // line never names a label file that is not there yet.
-            if preset.output.label_formats.contains(&LabelFormat::Yolo) {
+            if yolo {
                 formats.push(Box::new(yolo::YoloWriter::create(&mut folder)?));
             }
             formats.push(Box::new(manifest::ManifestWriter::open(
@@ -232,7 +258,7 @@ impl DatasetWriter {
                 model_names,
                 classes.clone(),
             )?));
-            if preset.output.label_formats.contains(&LabelFormat::Coco) {
+            if coco {
                 formats.push(Box::new(coco::CocoWriter::open(&mut folder, &checkpoint)?));
             }
         }
