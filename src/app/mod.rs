@@ -573,6 +573,7 @@ impl SwarmshotApp {
             out_dir: PathBuf::from(self.session.out_dir.trim()),
             limit: None,
             overwrite: self.session.overwrite,
+            resume: false,
             encoder_threads: 0,
         };
         let wake_ctx = ctx.clone();
