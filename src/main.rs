@@ -113,10 +113,11 @@ enum BenchCommand {
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     let Some(command) = cli.command else {
-        return swarmshot::app::run(None);
+        swarmshot::app::run_or_exit(None);
+        return Ok(());
     };
     match command {
-        Command::Gui { preset } => swarmshot::app::run(preset)?,
+        Command::Gui { preset } => swarmshot::app::run_or_exit(preset),
         Command::Batch {
             preset,
             out,
