@@ -127,10 +127,14 @@ enum BenchCommand {
 
 fn main() -> anyhow::Result<()> {
     let Some(command) = Cli::parse().command else {
-        return swarmshot::app::run(None);
+        swarmshot::app::run_or_exit(None);
+        return Ok(());
     };
     match command {
-        Command::Gui { preset } => swarmshot::app::run(preset),
+        Command::Gui { preset } => {
+            swarmshot::app::run_or_exit(preset);
+            Ok(())
+        }
         Command::Batch {
             preset,
             out,

@@ -261,6 +261,7 @@ use rand::SeedableRng;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     #[test]
     fn preetham_sky_is_blue_at_noon_and_warm_near_the_horizon_at_sunset() {
