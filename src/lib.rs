@@ -18,6 +18,7 @@ pub mod pipeline;
 pub mod preset;
 pub mod render;
 pub mod scene;
+pub mod seed;
 pub mod sky;
 pub mod tools;
 pub mod write;

@@ -43,9 +43,17 @@ enum Command {
         /// Make only the first N frames.
         #[arg(long)]
         limit: Option<u64>,
-        /// Replace an existing dataset in a non-empty folder.
-        #[arg(long)]
+        /// Delete an earlier run's own files in the folder and start again
+        /// (files swarmshot did not write are kept). Also lets the batch write
+        /// into a non-empty folder that holds no swarmshot run.
+        #[arg(long, conflicts_with = "resume")]
         overwrite: bool,
+        /// Continue an interrupted run in --out from its first incomplete
+        /// frame (the preset must be the locked one; without --limit, the
+        /// earlier run's frame count is kept). Rerunning the same command
+        /// without --resume also continues it.
+        #[arg(long)]
+        resume: bool,
         /// Image encoder threads (default: one per spare core).
         #[arg(long, default_value_t = 0)]
         threads: usize,
@@ -129,15 +137,20 @@ enum BenchCommand {
 
 fn main() -> anyhow::Result<()> {
     let Some(command) = Cli::parse().command else {
-        return swarmshot::app::run(None);
+        swarmshot::app::run_or_exit(None);
+        return Ok(());
     };
     match command {
-        Command::Gui { preset } => swarmshot::app::run(preset),
+        Command::Gui { preset } => {
+            swarmshot::app::run_or_exit(preset);
+            Ok(())
+        }
         Command::Batch {
             preset,
             out,
             limit,
             overwrite,
+            resume,
             threads,
             timings,
         } => batch(
@@ -146,6 +159,7 @@ fn main() -> anyhow::Result<()> {
                 out_dir: out,
                 limit,
                 overwrite,
+                resume,
                 encoder_threads: threads,
             },
             timings,
@@ -191,6 +205,7 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     );
     let cancel = AtomicBool::new(false);
     let report = run_batch(&pipeline, &options, &ctx, &cancel, |p| {
+        bar.set_length(p.total);
         bar.set_position(p.done);
         bar.set_message(format!("{:.1} images/s", p.images_per_s()));
     })?;

@@ -1,5 +1,5 @@
 //! Environments: golden images of the seven procedural environments, image
-//! skies from the shared HDR/EXR files, cubemaps, clamping, validation and
+//! skies from the bundled HDR/EXR files (tests/data), cubemaps, clamping, validation and
 //! per-frame randomisation. Regenerate the goldens with `UPDATE_GOLDEN=1`.
 
 use std::path::{Path, PathBuf};
@@ -17,7 +17,7 @@ fn root() -> &'static Path {
 }
 
 fn testdata(rel: &str) -> PathBuf {
-    root().join("../shared/testdata").join(rel)
+    root().join("tests/data").join(rel)
 }
 
 fn gpu() -> GpuContext {
@@ -142,7 +142,7 @@ fn the_environment_sun_lights_the_drones() {
 }
 
 #[test]
-fn shared_hdr_and_exr_skies_load_clamped_and_render() {
+fn bundled_hdr_and_exr_skies_load_clamped_and_render() {
     let ctx = gpu();
     let mut files: Vec<PathBuf> = ["sky/polyhaven_cc0", "sky/blender_cc0"]
         .iter()
@@ -155,7 +155,13 @@ fn shared_hdr_and_exr_skies_load_clamped_and_render() {
         .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("hdr" | "exr")))
         .collect();
     files.sort();
-    assert_eq!(files.len(), 5, "{files:?}");
+    // One Radiance .hdr and one OpenEXR: tests/data/README.md.
+    let ext = |p: &PathBuf| p.extension().and_then(|e| e.to_str()).map(str::to_owned);
+    assert_eq!(
+        files.iter().map(ext).collect::<Vec<_>>(),
+        [Some("exr".to_owned()), Some("hdr".to_owned())],
+        "{files:?}"
+    );
     for file in &files {
         let sky = Sky::Image {
             source: SkyImageSource::Equirect(file.clone()),
@@ -276,15 +282,16 @@ fn cubemap_faces_are_drawn_in_their_directions_and_bad_faces_are_named() {
         sun_azimuth_deg: 0.0,
     };
     let mut preset: Preset = environment_preset(sky, W, H);
-    preset.placement = swarmshot::preset::Placement::Randomized {
-        count: (0, 0),
-        volume: swarmshot::preset::Volume::Box {
-            size_m: (1.0, 1.0, 1.0),
-        },
-        min_separation_m: 0.0,
-    };
     preset.camera.y = swarmshot::preset::sweep::SweepRange::fixed(0.0);
-    let rgba = render_preset(&gpu(), &preset).expect("render");
+    // The sky alone: frame 0 with its drones taken out.
+    let pipeline = swarmshot::pipeline::FramePipeline::new(preset).expect("pipeline");
+    let mut renderer = pipeline.renderer(&gpu());
+    let mut scene = pipeline.scene(0).expect("scene");
+    scene.drones.clear();
+    let rgba = pipeline
+        .make_scene(&mut renderer, scene)
+        .expect("render")
+        .rgba;
     // The camera sits on +Z looking at the origin, i.e. along −Z: the centre shows the nz face.
     let centre = ((H / 2 * W + W / 2) * 4) as usize;
     assert_eq!(
@@ -332,7 +339,7 @@ fn only_referenced_images_are_loaded_and_missing_ones_are_named() {
             .images
             .is_empty()
     );
-    let hdr = testdata("sky/polyhaven_cc0/quarry_01_1k.hdr");
+    let hdr = testdata("sky/polyhaven_cc0/venice_sunset_1k.hdr");
     let image = |p: PathBuf| Sky::Image {
         source: SkyImageSource::Equirect(p),
         exposure_ev: 0.0,

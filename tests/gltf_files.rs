@@ -1,4 +1,4 @@
-//! glTF loading against the real third-party files in ../shared/testdata and
+//! glTF loading against the real third-party files in tests/data and
 //! against small broken or unusual files written into a tempdir.
 
 use std::path::{Path, PathBuf};
@@ -7,7 +7,7 @@ use swarmshot::model::{CpuModel, ModelError, WrapMode, load_file};
 
 fn testdata(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/testdata")
+        .join("tests/data")
         .join(rel)
 }
 
@@ -77,14 +77,15 @@ fn assert_sane(path: &Path, m: &CpuModel) {
 }
 
 #[test]
-fn every_shared_gltf_file_loads_or_fails_with_its_documented_error() {
+fn every_bundled_gltf_file_loads_or_fails_with_its_documented_error() {
     let mut files = Vec::new();
     gltf_files(&testdata("gltf"), &mut files);
     gltf_files(&testdata("uav"), &mut files);
-    assert!(
-        files.len() >= 25,
-        "expected the shared test files, found {}",
-        files.len()
+    // 15 Khronos samples (one Draco variant among them) and 2 UAV models: tests/data/README.md.
+    assert_eq!(
+        files.len(),
+        17,
+        "expected the bundled test files, found {files:?}"
     );
     let (mut loaded, mut draco) = (0, 0);
     for path in &files {
@@ -118,8 +119,8 @@ fn every_shared_gltf_file_loads_or_fails_with_its_documented_error() {
             loaded += 1;
         }
     }
-    assert_eq!(draco, 2);
-    assert!(loaded >= 23, "{loaded}");
+    assert_eq!(draco, 1);
+    assert_eq!(loaded, 16);
 }
 
 fn load(rel: &str) -> CpuModel {

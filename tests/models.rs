@@ -1,4 +1,4 @@
-//! Every shared glTF/UAV file loads into a drawable model, or fails with its
+//! Every bundled glTF/UAV file (tests/data) loads into a drawable model, or fails with its
 //! typed error; broken files fail with an error naming the file.
 
 mod common;
@@ -25,16 +25,18 @@ fn gltf_files(dir: &Path) -> Vec<PathBuf> {
 }
 
 #[test]
-fn every_shared_model_loads_or_fails_typed() {
+fn every_bundled_model_loads_or_fails_typed() {
     let files: Vec<PathBuf> = [common::testdata("gltf"), common::testdata("uav")]
         .iter()
         .flat_map(|d| gltf_files(d))
         .collect();
-    assert!(
-        files.len() >= 25,
-        "expected the shared test data, found {} files",
-        files.len()
+    // 15 Khronos samples (one Draco variant among them) and 2 UAV models: tests/data/README.md.
+    assert_eq!(
+        files.len(),
+        17,
+        "expected the bundled test data, found {files:?}"
     );
+    let mut draco = 0;
     for file in files {
         let is_draco = file.to_string_lossy().contains("Draco");
         match load_file(&file) {
@@ -77,10 +79,15 @@ fn every_shared_model_loads_or_fails_typed() {
                 );
                 assert_eq!(extension, "KHR_draco_mesh_compression");
                 assert_eq!(f, file);
+                draco += 1;
             }
             Err(e) => panic!("{} failed: {e}", file.display()),
         }
     }
+    assert_eq!(
+        draco, 1,
+        "the Draco variant must be among the files and fail typed"
+    );
 }
 
 #[test]

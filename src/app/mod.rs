@@ -11,9 +11,20 @@
 //!
 //! Panels are `*_ui` functions in [`panels`]; actions that reach beyond the
 //! preset (file dialogs, Generate) are [`Command`]s applied after the pass.
+//! Typed values are committed on Enter, focus loss or a pause
+//! ([`history::CommitGate`]); committed presets feed the undo history
+//! ([`history::EditHistory`]). Replacing an edited preset asks first
+//! ([`prompt`]); file dialogs are native where they work, in-app elsewhere
+//! ([`files`]).
 
+mod batch_panel;
+pub mod files;
+pub mod history;
+mod keys;
 pub mod panels;
 pub mod preview;
+pub mod problems;
+pub mod prompt;
 pub mod runner;
 pub mod summary;
 pub mod worker;
@@ -30,11 +41,14 @@ use serde::{Deserialize, Serialize};
 use crate::pipeline::BatchOptions;
 use crate::preset::{FieldError, ModelSource, ModelSpec, PRESET_VERSION, Preset};
 use crate::render::GpuContext;
-use panels::{Form, error_label, group_digits};
+use files::{DialogBackend, FileChoice, FileDialogs, FilePurpose};
+use history::{CommitGate, EditHistory, Gate};
+use panels::{Form, error_label, format_to_step, group_digits};
 use preview::{
     Orbit, PreviewError, PreviewFrame, PreviewKey, PreviewRenderer, PreviewRequest, PreviewResult,
     PreviewView,
 };
+use prompt::{Answer, Replace};
 use runner::{BatchOutcome, BatchRun};
 use summary::{Summary, SummaryMaker, SummaryRequest};
 use worker::LatestWorker;
@@ -59,6 +73,9 @@ pub struct Session {
     pub show_boxes: bool,
     pub inspect: bool,
     pub orbit: Orbit,
+    /// The side panels are expanded.
+    pub show_parameters: bool,
+    pub show_summary: bool,
 }
 
 impl Default for Session {
@@ -73,6 +90,8 @@ impl Default for Session {
             show_boxes: true,
             inspect: false,
             orbit: Orbit::default(),
+            show_parameters: true,
+            show_summary: true,
         }
     }
 }
@@ -98,8 +117,11 @@ pub struct StartOptions {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
     New,
+    /// The Open dialog.
     Open,
     OpenPath(PathBuf),
+    /// An example from presets/, opened as an untitled copy.
+    OpenExample(PathBuf),
     Save,
     SaveAs,
     AddGltf,
@@ -107,6 +129,14 @@ pub enum Command {
     Generate,
     Cancel,
     OpenOutputFolder(PathBuf),
+    Undo,
+    Redo,
+    /// Open the section holding this field and scroll its message into view.
+    ShowProblem(String),
+    /// Move the frame slider by this many frames (clamped).
+    StepFrame(i64),
+    FirstFrame,
+    LastFrame,
 }
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
@@ -145,6 +175,62 @@ pub fn example_presets() -> Vec<PathBuf> {
     files
 }
 
+/// `swarmshot` and `swarmshot gui`: open the window, or print one line saying
+/// why not and exit with status 1 (no winit internals, no backtrace).
+///
+/// Without a display a bad preset path is reported first: it is the error the
+/// user can fix from where they are.
+pub fn run_or_exit(preset: Option<PathBuf>) {
+    let fail = |message: String| -> ! {
+        eprintln!("swarmshot: {message}");
+        std::process::exit(1)
+    };
+    if let Some(why) = no_display() {
+        if let Some(path) = &preset
+            && let Err(e) = read_preset(path)
+        {
+            fail(e);
+        }
+        fail(why);
+    }
+    if let Err(e) = run(preset) {
+        fail(format!("{e:#}"));
+    }
+}
+
+/// Why no window can open here, when that is known without trying.
+fn no_display() -> Option<String> {
+    let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+    (cfg!(all(unix, not(target_os = "macos"))) && !set("DISPLAY") && !set("WAYLAND_DISPLAY"))
+        .then(|| {
+            "no display: the desktop app needs an X11 or Wayland session (DISPLAY and WAYLAND_DISPLAY are unset); \
+             the command line works without one (swarmshot --help)"
+                .to_string()
+        })
+}
+
+/// winit's errors name its own source file ("os error at /…/winit-…/src/…rs:42: …"):
+/// keep only what it says.
+fn window_error(error: &eframe::Error) -> String {
+    let text = error.to_string();
+    let short = match text.find("os error at ") {
+        Some(start) => {
+            let rest = &text[start + "os error at ".len()..];
+            // Skip "PATH:LINE: " to the message.
+            let message = rest
+                .split_once(".rs:")
+                .and_then(|(_, after)| after.split_once(": "))
+                .map_or(rest, |(_, message)| message);
+            format!("{}{message}", &text[..start])
+        }
+        None => text,
+    };
+    let display = std::env::var("DISPLAY")
+        .or_else(|_| std::env::var("WAYLAND_DISPLAY"))
+        .unwrap_or_default();
+    format!("cannot open the swarmshot window on display \"{display}\": {short}")
+}
+
 /// Open the app window (blocks until it is closed).
 pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
     let options = eframe::NativeOptions {
@@ -168,7 +254,7 @@ pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
             )))
         }),
     )
-    .map_err(|e| anyhow::anyhow!("cannot open the swarmshot window: {e}"))
+    .map_err(|e| anyhow::anyhow!(window_error(&e)))
 }
 
 /// The app: session data plus everything derived from it.
@@ -196,6 +282,19 @@ pub struct SwarmshotApp {
     /// Problems with files and dialogs, shown in a banner until dismissed.
     notices: Vec<String>,
     title: String,
+    dialogs: FileDialogs,
+    history: EditHistory,
+    gate: CommitGate,
+    /// The unsaved-changes prompt is open for this replacement.
+    prompt: Option<Replace>,
+    /// Run this once the preset was saved through Save As.
+    after_save: Option<Replace>,
+    /// The user answered the prompt for closing: let the window close.
+    allow_close: bool,
+    /// A Problems link was clicked: scroll to this field's message.
+    scroll_to: Option<String>,
+    /// The frame slider's id (arrow keys step frames while it or nothing has focus).
+    frame_slider: Option<egui::Id>,
 }
 
 impl SwarmshotApp {
@@ -225,6 +324,7 @@ impl SwarmshotApp {
         });
         let egui_ctx = cc.egui_ctx.clone();
         let wake = move || egui_ctx.request_repaint();
+        let dialogs = FileDialogs::new(DialogBackend::from_env(), wake.clone());
         let preview_worker = match &gpu {
             Some((ctx, _)) => {
                 let mut renderer = PreviewRenderer::new(ctx.clone());
@@ -271,7 +371,21 @@ impl SwarmshotApp {
             batch_outcome: None,
             notices,
             title: String::new(),
+            dialogs,
+            history: EditHistory::default(),
+            gate: CommitGate::default(),
+            prompt: None,
+            after_save: None,
+            allow_close: false,
+            scroll_to: None,
+            frame_slider: None,
         }
+    }
+
+    /// Use this kind of file dialog from now on (tests pin the in-app browser).
+    pub fn use_file_dialogs(&mut self, backend: DialogBackend, ctx: &egui::Context) {
+        let ctx = ctx.clone();
+        self.dialogs = FileDialogs::new(backend, move || ctx.request_repaint());
     }
 
     // ---- accessors for tests and the benchmark -------------------------------------------
@@ -336,11 +450,38 @@ impl SwarmshotApp {
         &self.notices
     }
 
+    /// The window title.
+    pub fn title(&self) -> &str {
+        &self.title
+    }
+
+    /// Bumped once per committed preset edit: every preview and summary request carries it.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// The in-app file browser, while it is open.
+    pub fn file_browser(&self) -> Option<&files::FileBrowser> {
+        self.dialogs.browser()
+    }
+
+    /// The unsaved-changes prompt, while it is open.
+    pub fn prompt(&self) -> Option<&Replace> {
+        self.prompt.as_ref()
+    }
+
     // ---- derived state --------------------------------------------------------------------
 
     /// Re-derive validation, the resolved preset and the summary after a preset edit.
     fn sync(&mut self, ctx: &egui::Context) {
         if self.seen.as_ref() == Some(&self.session.preset) {
+            return;
+        }
+        // Typing "55" on the way to "5" must not build a 495-drone grid first.
+        let typing = ctx.text_edit_focused();
+        let now = ctx.input(|i| i.time);
+        if let Gate::Wait(seconds) = self.gate.check(typing, &self.session.preset, now) {
+            ctx.request_repaint_after(Duration::from_secs_f64(seconds));
             return;
         }
         self.generation += 1;
@@ -355,8 +496,10 @@ impl SwarmshotApp {
             .unwrap_or(Path::new("."));
         resolved.resolve_paths(base);
         self.resolved = Arc::new(resolved);
+        // While the preset is invalid the frame count means nothing: keep the
+        // frame, so a value that is briefly invalid does not send it back to 1.
         let frames = self.resolved.frame_count();
-        if self.session.frame >= frames {
+        if self.errors.is_empty() && self.session.frame >= frames {
             self.session.frame = frames.saturating_sub(1);
         }
         if self.errors.is_empty()
@@ -448,7 +591,11 @@ impl SwarmshotApp {
             .preset_path
             .as_ref()
             .map_or_else(|| "not saved".to_string(), |p| p.display().to_string());
-        let marker = if self.session.is_dirty() { " •" } else { "" };
+        let marker = if self.session.is_dirty() {
+            " • unsaved changes"
+        } else {
+            ""
+        };
         let title = format!("{}{marker} ({file}) — {APP_NAME}", self.session.preset.name);
         if title != self.title {
             ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
@@ -461,62 +608,19 @@ impl SwarmshotApp {
     fn apply(&mut self, command: Command, ctx: &egui::Context) {
         let locked = self.batch.is_some();
         match command {
-            Command::New if !locked => {
-                self.session.preset = Preset::default();
-                self.session.preset_path = None;
-                self.session.saved = None;
-                self.session.frame = 0;
-            }
-            Command::Open if !locked => {
-                let mut dialog = rfd::FileDialog::new()
-                    .add_filter("swarmshot preset", &["ron"])
-                    .set_title("Open preset");
-                if let Some(dir) = example_presets().first().and_then(|p| p.parent()) {
-                    dialog = dialog.set_directory(dir);
-                }
-                if let Some(path) = dialog.pick_file() {
-                    self.apply(Command::OpenPath(path), ctx);
-                }
-            }
-            Command::OpenPath(path) if !locked => match read_preset(&path) {
-                Ok(preset) => self.session.load(preset, path),
-                Err(e) => self.notices.push(e),
-            },
+            Command::New if !locked => self.guard(Replace::New, ctx),
+            Command::Open if !locked => self.open_dialog(FilePurpose::OpenPreset, ctx),
+            Command::OpenPath(path) if !locked => self.guard(Replace::Path(path), ctx),
+            Command::OpenExample(path) if !locked => self.guard(Replace::Example(path), ctx),
             Command::Save => match self.session.preset_path.clone() {
-                Some(path) => self.save_to(&path),
-                None => self.apply(Command::SaveAs, ctx),
-            },
-            Command::SaveAs => {
-                let name = format!("{}.ron", self.session.preset.name.trim());
-                if let Some(path) = rfd::FileDialog::new()
-                    .add_filter("swarmshot preset", &["ron"])
-                    .set_title("Save preset as")
-                    .set_file_name(name)
-                    .save_file()
-                {
+                Some(path) => {
                     self.save_to(&path);
                 }
-            }
-            Command::AddGltf if !locked => {
-                if let Some(path) = rfd::FileDialog::new()
-                    .add_filter("glTF model", &["gltf", "glb"])
-                    .set_title("Add glTF model")
-                    .pick_file()
-                {
-                    self.session.preset.models.push(ModelSpec {
-                        source: ModelSource::File(path),
-                        ..ModelSpec::default()
-                    });
-                }
-            }
-            Command::BrowseOutDir if !locked => {
-                if let Some(dir) = rfd::FileDialog::new()
-                    .set_title("Output folder")
-                    .pick_folder()
-                {
-                    self.session.out_dir = dir.display().to_string();
-                }
-            }
+                None => self.apply(Command::SaveAs, ctx),
+            },
+            Command::SaveAs => self.open_dialog(FilePurpose::SavePreset, ctx),
+            Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
+            Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
             Command::Generate if !locked => self.generate(ctx),
             Command::Cancel => {
                 if let Some(batch) = &self.batch {
@@ -525,16 +629,160 @@ impl SwarmshotApp {
             }
             Command::OpenOutputFolder(dir) => {
                 if let Err(e) = open::that_detached(&dir) {
-                    self.notices
-                        .push(format!("cannot open {}: {e}", dir.display()));
+                    self.notices.push(format!(
+                        "No file manager could open {} ({e}). Use \"Copy path\" under Batch instead.",
+                        dir.display()
+                    ));
                 }
+            }
+            Command::Undo if !locked => {
+                if let Some(preset) = self.history.undo(&self.session.preset) {
+                    self.session.preset = preset;
+                }
+            }
+            Command::Redo if !locked => {
+                if let Some(preset) = self.history.redo(&self.session.preset) {
+                    self.session.preset = preset;
+                }
+            }
+            Command::ShowProblem(field) => {
+                self.session.show_parameters = true;
+                self.scroll_to = Some(field);
+            }
+            Command::StepFrame(delta) => {
+                let last = self.resolved.frame_count().saturating_sub(1);
+                self.session.frame = self.session.frame.saturating_add_signed(delta).min(last);
+            }
+            Command::FirstFrame => self.session.frame = 0,
+            Command::LastFrame => {
+                self.session.frame = self.resolved.frame_count().saturating_sub(1)
             }
             // Preset edits while a batch runs are ignored: the widgets are disabled anyway.
             _ => {}
         }
     }
 
-    fn save_to(&mut self, path: &Path) {
+    /// Replace the preset, asking first when it has unsaved changes.
+    fn guard(&mut self, replace: Replace, ctx: &egui::Context) {
+        if self.session.is_dirty() {
+            self.prompt = Some(replace);
+        } else {
+            self.replace(replace, ctx);
+        }
+    }
+
+    fn replace(&mut self, replace: Replace, ctx: &egui::Context) {
+        match replace {
+            Replace::New => self.session.load_untitled(Preset::default()),
+            Replace::Path(path) => match read_preset(&path) {
+                Ok(preset) => self.session.load(preset, path),
+                Err(e) => return self.notices.push(e),
+            },
+            Replace::Example(path) => match read_preset(&path) {
+                Ok(mut preset) => {
+                    // An untitled copy: Save asks for a new file, so the shipped
+                    // example is never overwritten; its model and sky paths are
+                    // made absolute so the copy still finds them.
+                    preset.resolve_paths(path.parent().unwrap_or(Path::new(".")));
+                    self.session.load_untitled(preset);
+                }
+                Err(e) => return self.notices.push(e),
+            },
+            Replace::Close => {
+                self.allow_close = true;
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                return;
+            }
+        }
+        self.history.clear();
+    }
+
+    /// The user answered the unsaved-changes prompt.
+    fn answer(&mut self, answer: Answer, ctx: &egui::Context) {
+        let Some(replace) = self.prompt.take() else {
+            return;
+        };
+        match answer {
+            Answer::Save => match self.session.preset_path.clone() {
+                Some(path) => {
+                    if self.save_to(&path) {
+                        self.replace(replace, ctx);
+                    }
+                }
+                None => {
+                    self.after_save = Some(replace);
+                    self.open_dialog(FilePurpose::SavePreset, ctx);
+                }
+            },
+            Answer::Discard => self.replace(replace, ctx),
+            Answer::Cancel => {}
+        }
+    }
+
+    /// The folder dialogs start in: the preset's, else the working directory.
+    fn preset_dir(&self) -> PathBuf {
+        self.session
+            .preset_path
+            .as_deref()
+            .and_then(Path::parent)
+            .filter(|d| !d.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_owned)
+    }
+
+    fn open_dialog(&mut self, purpose: FilePurpose, ctx: &egui::Context) {
+        let (start, name) = match purpose {
+            FilePurpose::SavePreset => {
+                let name = match &self.session.preset_path {
+                    Some(p) => p.file_name().map(|f| f.to_string_lossy().into_owned()),
+                    None => Some(format!("{}.ron", self.session.preset.name.trim())),
+                };
+                (self.preset_dir(), name)
+            }
+            FilePurpose::OutputFolder => {
+                let out = PathBuf::from(self.session.out_dir.trim());
+                let start = if out.is_dir() {
+                    out
+                } else {
+                    out.parent()
+                        .filter(|p| p.is_dir())
+                        .map_or_else(|| self.preset_dir(), Path::to_owned)
+                };
+                (start, None)
+            }
+            FilePurpose::OpenPreset | FilePurpose::AddModel => (self.preset_dir(), None),
+        };
+        let ctx = ctx.clone();
+        self.dialogs
+            .open(purpose, &start, name, move || ctx.request_repaint());
+    }
+
+    /// A dialog returned a path.
+    fn chosen(&mut self, choice: FileChoice, ctx: &egui::Context) {
+        let FileChoice { purpose, path } = choice;
+        match purpose {
+            FilePurpose::OpenPreset => self.apply(Command::OpenPath(path), ctx),
+            FilePurpose::SavePreset => {
+                if self.save_to(&path)
+                    && let Some(replace) = self.after_save.take()
+                {
+                    self.replace(replace, ctx);
+                }
+            }
+            FilePurpose::AddModel if self.batch.is_none() => {
+                self.session.preset.models.push(ModelSpec {
+                    source: ModelSource::File(path),
+                    ..ModelSpec::default()
+                });
+            }
+            FilePurpose::OutputFolder if self.batch.is_none() => {
+                self.session.out_dir = path.display().to_string();
+            }
+            _ => {}
+        }
+    }
+
+    /// Write the preset; false (with a notice) when it could not be written.
+    fn save_to(&mut self, path: &Path) -> bool {
         let text = format!(
             "// swarmshot preset (RON), written by the swarmshot app\n{}\n",
             self.session.preset.to_ron()
@@ -543,10 +791,13 @@ impl SwarmshotApp {
             Ok(()) => {
                 self.session.preset_path = Some(path.to_owned());
                 self.session.saved = Some(self.session.preset.clone());
+                true
             }
-            Err(e) => self
-                .notices
-                .push(format!("cannot save preset {}: {e}", path.display())),
+            Err(e) => {
+                self.notices
+                    .push(format!("cannot save preset {}: {e}", path.display()));
+                false
+            }
         }
     }
 
@@ -573,6 +824,7 @@ impl SwarmshotApp {
             out_dir: PathBuf::from(self.session.out_dir.trim()),
             limit: None,
             overwrite: self.session.overwrite,
+            resume: false,
             encoder_threads: 0,
         };
         let wake_ctx = ctx.clone();
@@ -599,14 +851,14 @@ impl SwarmshotApp {
             ui.add_enabled_ui(!locked, |ui| {
                 if ui
                     .button("New")
-                    .on_hover_text("Start from the default preset")
+                    .on_hover_text("Start from the default preset (Ctrl+N)")
                     .clicked()
                 {
                     commands.push(Command::New);
                 }
                 if ui
                     .button("Open…")
-                    .on_hover_text("Open a .ron preset")
+                    .on_hover_text("Open a .ron preset (Ctrl+O)")
                     .clicked()
                 {
                     commands.push(Command::Open);
@@ -623,30 +875,55 @@ impl SwarmshotApp {
                             .unwrap_or_default();
                         if ui
                             .button(name)
-                            .on_hover_text(path.display().to_string())
+                            .on_hover_text(format!(
+                                "Open a copy of {}; Save asks where to keep it",
+                                path.display()
+                            ))
                             .clicked()
                         {
-                            commands.push(Command::OpenPath(path));
+                            commands.push(Command::OpenExample(path));
                         }
                     }
                 })
                 .response
-                .on_hover_text("Open one of the example presets in presets/");
+                .on_hover_text("Open a copy of one of the example presets in presets/");
             });
             if ui
                 .button("Save")
-                .on_hover_text("Save the preset to its file")
+                .on_hover_text("Save the preset to its file (Ctrl+S)")
                 .clicked()
             {
                 commands.push(Command::Save);
             }
             if ui
                 .button("Save As…")
-                .on_hover_text("Save the preset to a new file")
+                .on_hover_text("Save the preset to a new file (Ctrl+Shift+S)")
                 .clicked()
             {
                 commands.push(Command::SaveAs);
             }
+            ui.add_enabled_ui(!locked, |ui| {
+                let preset = &self.session.preset;
+                if ui
+                    .add_enabled(self.history.can_undo(preset), egui::Button::new("Undo"))
+                    .on_hover_text("Undo the last preset edit (Ctrl+Z)")
+                    .clicked()
+                {
+                    commands.push(Command::Undo);
+                }
+                if ui
+                    .add_enabled(self.history.can_redo(preset), egui::Button::new("Redo"))
+                    .on_hover_text("Redo what Undo took back (Ctrl+Shift+Z)")
+                    .clicked()
+                {
+                    commands.push(Command::Redo);
+                }
+            });
+            ui.separator();
+            ui.toggle_value(&mut self.session.show_parameters, "Parameters")
+                .on_hover_text("Show or hide the parameter panel");
+            ui.toggle_value(&mut self.session.show_summary, "Summary")
+                .on_hover_text("Show or hide the Summary and Batch panel");
             ui.separator();
             let (file, full) = match &self.session.preset_path {
                 Some(p) => (
@@ -684,7 +961,9 @@ impl SwarmshotApp {
 
     fn parameters_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let errors = self.errors.clone();
-        let mut form = Form::new(&errors);
+        let scroll_to = self.scroll_to.clone();
+        let open_section = scroll_to.as_deref().and_then(problems::section_of);
+        let mut form = Form::new(&errors, scroll_to.as_deref());
         let load_error = self
             .preview_error
             .as_ref()
@@ -693,8 +972,11 @@ impl SwarmshotApp {
         let s = &mut self.session;
         panels::general_ui(ui, &mut s.preset, &mut form);
         let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
+            // A Problems link opens the section that holds its field.
+            let open = (open_section == Some(title)).then_some(true);
             egui::CollapsingHeader::new(title)
                 .default_open(true)
+                .open(open)
                 .show(ui, |ui| add(ui))
                 .header_response
                 .on_hover_text(tip);
@@ -758,6 +1040,10 @@ impl SwarmshotApp {
             },
         );
         form.rest(ui);
+        let wanted = self.scroll_to.as_deref();
+        if form.scrolled() || !errors.iter().any(|e| Some(e.field.as_str()) == wanted) {
+            self.scroll_to = None;
+        }
     }
 
     fn summary_ui(&mut self, ui: &mut Ui) {
@@ -765,17 +1051,16 @@ impl SwarmshotApp {
         let frames = self.resolved.frame_count();
         ui.label(format!("Frames: {}", group_digits(frames)));
         if !self.errors.is_empty() {
-            error_label(
-                ui,
-                &format!("{} problem(s) in the parameters", self.errors.len()),
-            );
+            ui.weak("paused until the problems below are fixed");
             return;
         }
         match &self.summary {
             None => {
                 ui.weak("estimating…");
             }
-            Some(Err(e)) => error_label(ui, e),
+            Some(Err(e)) => {
+                error_label(ui, e);
+            }
             Some(Ok(s)) => {
                 let drones = if s.drones_min == s.drones_max {
                     format!("{}", s.drones_min)
@@ -803,93 +1088,6 @@ impl SwarmshotApp {
                 ));
                 if s.generation != self.generation {
                     ui.weak("updating…");
-                }
-            }
-        }
-    }
-
-    fn batch_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
-        ui.heading("Batch");
-        match &self.batch {
-            None => {
-                let ready = self.errors.is_empty() && self.gpu.is_some();
-                if ui
-                    .add_enabled(ready, egui::Button::new("Generate"))
-                    .on_hover_text("Render every frame with its labels into the output folder")
-                    .clicked()
-                {
-                    commands.push(Command::Generate);
-                }
-            }
-            Some(batch) => {
-                let status = batch.status();
-                let fraction = status.done as f32 / status.total.max(1) as f32;
-                ui.add(egui::ProgressBar::new(fraction).text(format!(
-                    "{} / {} frames",
-                    group_digits(status.done),
-                    group_digits(status.total)
-                )));
-                let eta = status.eta.map_or_else(|| "–".to_string(), format_duration);
-                ui.label(format!("{:.1} images/s · ETA {eta}", status.images_per_s));
-                if status.cancelling {
-                    ui.weak("cancelling: finishing the frames in flight…");
-                } else if ui
-                    .button("Cancel")
-                    .on_hover_text(
-                        "Stop after the frames in flight; every written image keeps its labels",
-                    )
-                    .clicked()
-                {
-                    commands.push(Command::Cancel);
-                }
-                ui.weak(format!(
-                    "writing to {} ({})",
-                    batch.out_dir.display(),
-                    format_duration(batch.elapsed())
-                ));
-            }
-        }
-        match &self.batch_outcome {
-            None => {}
-            Some(BatchOutcome::Failed(message)) => {
-                error_label(ui, &format!("batch failed: {message}"))
-            }
-            Some(BatchOutcome::Done(report)) => {
-                let s = &report.stats;
-                let head = if report.cancelled {
-                    "Cancelled"
-                } else {
-                    "Finished"
-                };
-                ui.label(
-                    RichText::new(format!(
-                        "{head}: {} frames in {}",
-                        group_digits(s.frames),
-                        format_duration(report.elapsed)
-                    ))
-                    .strong(),
-                );
-                ui.label(format!(
-                    "train {} · val {} · test {}",
-                    s.frames_per_split[0], s.frames_per_split[1], s.frames_per_split[2]
-                ));
-                ui.label(format!(
-                    "{} boxes: small {} · medium {} · large {}",
-                    s.boxes, s.small, s.medium, s.large
-                ));
-                ui.label(format!(
-                    "{:.2} images/s",
-                    s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9)
-                ));
-                if report.cancelled {
-                    ui.weak("every written image has its labels");
-                }
-                if ui
-                    .button("Open output folder")
-                    .on_hover_text(report.out_dir.display().to_string())
-                    .clicked()
-                {
-                    commands.push(Command::OpenOutputFolder(report.out_dir.clone()));
                 }
             }
         }
@@ -933,31 +1131,30 @@ impl SwarmshotApp {
             if frames > 1 {
                 let max = frames - 1;
                 ui.spacing_mut().slider_width = (ui.available_width() - 40.0).max(100.0);
-                ui.add(egui::Slider::new(&mut self.session.frame, 0..=max).show_value(false))
+                let slider = ui
+                    .add_enabled(
+                        self.errors.is_empty(),
+                        egui::Slider::new(&mut self.session.frame, 0..=max).show_value(false),
+                    )
                     .accessible_name("Frame")
-                    .on_hover_text("Scrub through the sweep: every frame the batch will make");
+                    .on_hover_text(
+                        "Scrub through the sweep: every frame the batch will make (← → Home End)",
+                    );
+                self.frame_slider = Some(slider.id);
             }
         });
-        let sweep_line = self.preview.as_ref().filter(|p| p.key.frame == self.session.frame && p.key.generation == self.generation).map(|p| {
-            let s = &p.scene.sweep;
-            format!(
-                "CameraX {} · CameraY {} · CameraZ {} · PlaneRX {}° · PlaneRY {}° · PlaneRZ {}° · repeat {} · {} split · {} drones, {} boxes",
-                s.CameraX,
-                s.CameraY,
-                s.CameraZ,
-                s.PlaneRX,
-                s.PlaneRY,
-                s.PlaneRZ,
-                s.repeat,
-                p.scene.split.as_str(),
-                p.scene.drones.len(),
-                p.labels.iter().filter(|l| l.is_kept()).count()
-            )
-        });
+        let sweep_line = self
+            .preview
+            .as_ref()
+            .filter(|p| p.key.frame == self.session.frame && p.key.generation == self.generation)
+            .map(|p| sweep_line(p, &self.resolved));
         ui.label(sweep_line.unwrap_or_else(|| " ".into()));
         ui.horizontal(|ui| {
             ui.checkbox(&mut self.session.show_boxes, "Boxes")
                 .on_hover_text("Draw the label boxes this frame gets");
+            if self.session.show_boxes && !self.session.inspect {
+                box_legend_ui(ui);
+            }
             ui.checkbox(&mut self.session.inspect, "Inspect")
                 .on_hover_text(
                     "Orbit around the scene: volume, drones and the sweep's camera positions",
@@ -1030,9 +1227,12 @@ impl SwarmshotApp {
             }
         }
         let message = if !self.errors.is_empty() {
+            let first = &self.errors[0];
             Some(format!(
-                "Preview paused: fix the {} problem(s) shown in the panels",
-                self.errors.len()
+                "Preview paused: {} problem(s), first {} ({}). See Problems on the right.",
+                self.errors.len(),
+                problems::field_label(&first.field),
+                first.message
             ))
         } else {
             self.preview_error
@@ -1062,6 +1262,48 @@ impl Session {
         self.preset_path = Some(path);
         self.frame = 0;
     }
+
+    /// A preset with no file yet (New, an example's copy); nothing is unsaved until it is edited.
+    fn load_untitled(&mut self, preset: Preset) {
+        self.saved = Some(preset.clone());
+        self.preset = preset;
+        self.preset_path = None;
+        self.frame = 0;
+    }
+}
+
+/// "CameraX 0 · … · CameraZ 1.2 · … · 14 drones, 14 boxes", values to their step's precision.
+fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
+    let s = &frame.scene.sweep;
+    let (c, p) = (&preset.camera, &preset.plane);
+    format!(
+        "CameraX {} · CameraY {} · CameraZ {} · PlaneRX {}° · PlaneRY {}° · PlaneRZ {}° · repeat {} · {} split · {} drones, {} boxes",
+        format_to_step(s.CameraX, &c.x),
+        format_to_step(s.CameraY, &c.y),
+        format_to_step(s.CameraZ, &c.z),
+        format_to_step(s.PlaneRX, &p.rx),
+        format_to_step(s.PlaneRY, &p.ry),
+        format_to_step(s.PlaneRZ, &p.rz),
+        s.repeat,
+        frame.scene.split.as_str(),
+        frame.scene.drones.len(),
+        frame.labels.iter().filter(|l| l.is_kept()).count()
+    )
+}
+
+/// Training boxes are red and COCO crowd regions amber, as [`draw_boxes`] draws them.
+const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
+const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
+
+fn box_legend_ui(ui: &mut Ui) {
+    ui.label(RichText::new("■").color(BOX_KEPT))
+        .on_hover_text("A box written to the labels");
+    ui.weak("label box");
+    ui.label(RichText::new("■").color(BOX_CROWD))
+        .on_hover_text(
+            "A filtered drone kept as a COCO iscrowd region (Output → Filtered drones: COCO crowd); trainers ignore it",
+        );
+    ui.weak("crowd region (ignored)");
 }
 
 fn format_duration(d: Duration) -> String {
@@ -1076,8 +1318,8 @@ fn format_duration(d: Duration) -> String {
 /// The label boxes, from output pixels to the pane.
 fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: u32) {
     let scale = rect.width() / out_w.max(1) as f32;
-    let kept = Stroke::new(1.5, Color32::from_rgb(255, 60, 60));
-    let crowd = Stroke::new(1.0, Color32::from_rgb(255, 190, 40));
+    let kept = Stroke::new(1.5, BOX_KEPT);
+    let crowd = Stroke::new(1.0, BOX_CROWD);
     for label in &frame.labels {
         // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
         let stroke = match label.status {
@@ -1150,38 +1392,93 @@ impl eframe::App for SwarmshotApp {
     fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.poll();
+        self.close_requested(&ctx);
+        let mut commands = self.shortcut_commands(&ctx);
         self.sync(&ctx);
-        let mut commands = Vec::new();
-        let locked = self.batch.is_some();
-        egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui, &mut commands));
-        egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui));
-        egui::Panel::left("parameters")
-            .resizable(true)
-            .default_size(430.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| {
-                    ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, &mut commands));
-                });
-            });
-        egui::Panel::right("summary")
-            .resizable(true)
-            .default_size(250.0)
-            .show(ui, |ui| {
-                self.summary_ui(ui);
-                ui.separator();
-                self.batch_ui(ui, &mut commands);
-            });
-        egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
+        self.panels_ui(ui, &mut commands);
+        if let Some(choice) = self.dialogs.show(&ctx) {
+            self.chosen(choice, &ctx);
+        } else if !self.dialogs.is_open() {
+            // A Save As for the prompt was cancelled: nothing more to do.
+            self.after_save = None;
+        }
+        if let Some(replace) = &self.prompt
+            && let Some(answer) = prompt::prompt_ui(&ctx, &self.session.preset.name, replace)
+        {
+            self.answer(answer, &ctx);
+        }
         for command in commands {
             self.apply(command, &ctx);
         }
         self.sync(&ctx);
+        if let Some(committed) = &self.seen {
+            self.history.feed(ctx.input(|i| i.time), committed);
+        }
         self.request_preview();
         self.update_title(&ctx);
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
         eframe::set_value(storage, eframe::APP_KEY, &self.session);
+    }
+}
+
+impl SwarmshotApp {
+    /// Closing the window with unsaved changes asks first.
+    fn close_requested(&mut self, ctx: &egui::Context) {
+        if ctx.input(|i| i.viewport().close_requested())
+            && !self.allow_close
+            && self.session.is_dirty()
+        {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.prompt = Some(Replace::Close);
+        }
+    }
+
+    /// Shortcuts, unless a dialog or the prompt has the keyboard.
+    fn shortcut_commands(&self, ctx: &egui::Context) -> Vec<Command> {
+        if self.prompt.is_some() || self.dialogs.is_open() {
+            return Vec::new();
+        }
+        let focused = ctx.memory(|m| m.focused());
+        let frame_keys = focused.is_none() || focused == self.frame_slider;
+        keys::shortcuts(ctx, ctx.text_edit_focused(), frame_keys)
+    }
+
+    /// The panels: menu, status, the collapsible parameters and summary, the preview.
+    fn panels_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        let locked = self.batch.is_some();
+        egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui, commands));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui));
+        let mut show_parameters = self.session.show_parameters;
+        egui::Panel::left("parameters")
+            .resizable(true)
+            .default_size(430.0)
+            .show_collapsible(ui, &mut show_parameters, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, commands));
+                });
+            });
+        self.session.show_parameters = show_parameters;
+        let mut show_summary = self.session.show_summary;
+        egui::Panel::right("summary")
+            .resizable(true)
+            .default_size(250.0)
+            .show_collapsible(ui, &mut show_summary, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    self.summary_ui(ui);
+                    ui.separator();
+                    if let Some(field) = problems::problems_ui(ui, &self.errors) {
+                        commands.push(Command::ShowProblem(field));
+                    }
+                    if !self.errors.is_empty() {
+                        ui.separator();
+                    }
+                    self.batch_ui(ui, commands);
+                });
+            });
+        self.session.show_summary = show_summary;
+        egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
     }
 }
 

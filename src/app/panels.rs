@@ -22,13 +22,18 @@ use crate::preset::{
 pub struct Form<'a> {
     errors: &'a [FieldError],
     shown: Vec<bool>,
+    /// Scroll this field's message into view (a Problems link was clicked).
+    scroll_to: Option<&'a str>,
+    scrolled: bool,
 }
 
 impl<'a> Form<'a> {
-    pub fn new(errors: &'a [FieldError]) -> Self {
+    pub fn new(errors: &'a [FieldError], scroll_to: Option<&'a str>) -> Self {
         Self {
             errors,
             shown: vec![false; errors.len()],
+            scroll_to,
+            scrolled: false,
         }
     }
 
@@ -37,7 +42,8 @@ impl<'a> Form<'a> {
         for (i, e) in self.errors.iter().enumerate() {
             if fields.contains(&e.field.as_str()) {
                 self.shown[i] = true;
-                error_label(ui, &e.message);
+                let response = error_label(ui, &e.message);
+                self.scroll_if_wanted(&e.field, &response);
             }
         }
     }
@@ -47,14 +53,28 @@ impl<'a> Form<'a> {
         for (i, e) in self.errors.iter().enumerate() {
             if !self.shown[i] {
                 self.shown[i] = true;
-                error_label(ui, &e.to_string());
+                let response = error_label(ui, &e.to_string());
+                self.scroll_if_wanted(&e.field, &response);
             }
+        }
+    }
+
+    /// Whether the wanted message was scrolled to in this pass.
+    pub fn scrolled(&self) -> bool {
+        self.scrolled
+    }
+
+    fn scroll_if_wanted(&mut self, field: &str, response: &Response) {
+        if !self.scrolled && self.scroll_to == Some(field) {
+            response.scroll_to_me(Some(egui::Align::Center));
+            response.clone().highlight();
+            self.scrolled = true;
         }
     }
 }
 
-pub fn error_label(ui: &mut Ui, message: &str) {
-    ui.label(RichText::new(message).color(ui.visuals().error_fg_color));
+pub fn error_label(ui: &mut Ui, message: &str) -> Response {
+    ui.label(RichText::new(message).color(ui.visuals().error_fg_color))
 }
 
 /// `label  [number]` on one line; the label names the field (for screen readers and tests).
@@ -134,6 +154,28 @@ pub fn group_digits(n: u64) -> String {
         out.push(c);
     }
     out
+}
+
+/// `value` with as many decimals as `range`'s start and step have (at most 6),
+/// so 0.6 + 3·0.2 reads "1.2", not "1.2000000000000002".
+pub fn format_to_step(value: f64, range: &SweepRange) -> String {
+    let decimals = |x: f64| {
+        let text = format!("{:.6}", x.abs());
+        let fraction = text.split('.').nth(1).unwrap_or("");
+        fraction.trim_end_matches('0').len()
+    };
+    let places = decimals(range.start).max(decimals(range.step));
+    let text = format!("{value:.places$}");
+    // No "-0" for a value that rounds to zero.
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
 }
 
 /// The general fields above the panels: name, seed, repeats.
@@ -632,6 +674,15 @@ pub fn output_ui(
     overwrite: &mut bool,
     commands: &mut Vec<Command>,
 ) {
+    resolution_ui(ui, preset, form);
+    file_formats_ui(ui, preset, form);
+    split_ui(ui, preset, form);
+    boxes_ui(ui, preset, form);
+    folder_ui(ui, out_dir, overwrite, commands);
+}
+
+/// Resolution (named or custom) and MSAA.
+fn resolution_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let r = &mut preset.render;
     let name = |res: Resolution| match res {
         Resolution::FullHd => "Full HD 1920×1080".to_string(),
@@ -680,7 +731,10 @@ pub fn output_ui(
             .on_hover_text("4 samples per pixel");
     });
     form.messages(ui, &["render.msaa"]);
+}
 
+/// JPEG/PNG and the annotation formats.
+fn file_formats_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let o = &mut preset.output;
     ui.horizontal(|ui| {
         ui.label("Images").on_hover_text("Image file format");
@@ -732,6 +786,11 @@ pub fn output_ui(
             }
         }
     });
+}
+
+/// The train/val/test shares.
+fn split_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    let o = &mut preset.output;
     ui.horizontal(|ui| {
         let tip = "Share of frames in each split; the three must sum to 1";
         ui.label("Split").on_hover_text(tip);
@@ -754,6 +813,10 @@ pub fn output_ui(
             "output.split.test",
         ],
     );
+}
+
+/// Box method, size and visibility filters, what happens to filtered drones, id pass scale.
+fn boxes_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     ui.horizontal(|ui| {
         ui.label("Boxes")
             .on_hover_text("How each drone's 2D box is computed");
@@ -814,6 +877,10 @@ pub fn output_ui(
         }
     });
     form.messages(ui, &["labels.id_scale"]);
+}
+
+/// Where Generate writes, and whether it may replace another dataset there.
+fn folder_ui(ui: &mut Ui, out_dir: &mut String, overwrite: &mut bool, commands: &mut Vec<Command>) {
     ui.horizontal(|ui| {
         let label = ui
             .label("Output folder")

@@ -174,23 +174,9 @@ impl PreviewRenderer {
                 false,
             ));
         }
-        // Keep the renderer while the edit leaves the models and sky images alone.
-        let loaded = match self.loaded.take() {
-            Some(l) if l.pipeline.assets().serve(preset) => Loaded {
-                pipeline: l
-                    .pipeline
-                    .update(preset.clone())
-                    .map_err(|e| fail(e.to_string(), false))?,
-                renderer: l.renderer,
-            },
-            _ => {
-                let pipeline =
-                    FramePipeline::new(preset.clone()).map_err(|e| fail(e.to_string(), true))?;
-                let renderer = pipeline.renderer(&self.ctx);
-                Loaded { pipeline, renderer }
-            }
-        };
-        let loaded = self.loaded.insert(loaded);
+        let loaded = self
+            .load(preset)
+            .map_err(|(message, models)| fail(message, models))?;
         let scene = loaded
             .pipeline
             .scene(key.frame)
@@ -201,21 +187,7 @@ impl PreviewRenderer {
             .labels(&mut loaded.renderer, &scene)
             .map_err(|e| fail(e.to_string(), false))?;
 
-        let (camera, inspect) = match key.view {
-            PreviewView::Camera => {
-                let mut camera = scene.camera;
-                camera.width = width;
-                camera.height = height;
-                (camera, None)
-            }
-            PreviewView::Inspect(orbit) => {
-                let geometry = inspect_geometry(preset, &scene);
-                (
-                    orbit_camera(&orbit, &geometry, &scene, width, height),
-                    Some(geometry),
-                )
-            }
-        };
+        let (camera, inspect) = view_camera(preset, &scene, key.view, width, height);
         let mut drawn = scene.clone();
         drawn.camera = camera;
 
@@ -280,6 +252,28 @@ impl PreviewRenderer {
         })
     }
 
+    /// The pipeline of `preset` and its renderer: kept while an edit leaves
+    /// the models and sky images alone, rebuilt otherwise. Errors say whether
+    /// loading the models failed.
+    fn load(&mut self, preset: &Preset) -> Result<&mut Loaded, (String, bool)> {
+        let loaded = match self.loaded.take() {
+            Some(l) if l.pipeline.assets().serve(preset) => Loaded {
+                pipeline: l
+                    .pipeline
+                    .update(preset.clone())
+                    .map_err(|e| (e.to_string(), false))?,
+                renderer: l.renderer,
+            },
+            _ => {
+                let pipeline =
+                    FramePipeline::new(preset.clone()).map_err(|e| (e.to_string(), true))?;
+                let renderer = pipeline.renderer(&self.ctx);
+                Loaded { pipeline, renderer }
+            }
+        };
+        Ok(self.loaded.insert(loaded))
+    }
+
     /// MSAA colour (when msaa > 1) and depth views of this size, reused while the size holds.
     fn targets(
         &mut self,
@@ -322,6 +316,33 @@ impl PreviewRenderer {
         let views = (targets.msaa_color.clone(), targets.depth.clone());
         self.targets = Some(targets);
         views
+    }
+}
+
+/// The camera a preview of `view` draws with: the frame's own camera at the
+/// pane's pixel size (same aspect, so the intrinsics scale with it), or the
+/// inspect view's orbit camera with its scene geometry.
+fn view_camera(
+    preset: &Preset,
+    scene: &FrameScene,
+    view: PreviewView,
+    width: u32,
+    height: u32,
+) -> (Camera, Option<InspectGeometry>) {
+    match view {
+        PreviewView::Camera => {
+            let mut camera = scene.camera;
+            camera.width = width;
+            camera.height = height;
+            (camera, None)
+        }
+        PreviewView::Inspect(orbit) => {
+            let geometry = inspect_geometry(preset, scene);
+            (
+                orbit_camera(&orbit, &geometry, scene, width, height),
+                Some(geometry),
+            )
+        }
     }
 }
 

@@ -6,7 +6,12 @@
 //! a pool of encoder threads turns pixels into JPEG/PNG bytes; one sink thread
 //! writes each frame's image, labels and manifest line in index order.
 //! Cancelling stops feeding new frames and drains the queues, so every
-//! written image has its labels. [`StageTimes`] records where the time went.
+//! written image has its labels. The first write error stops every stage at
+//! once and removes the frame in flight, so the folder holds exactly the
+//! complete frames. A folder holding an earlier run of the same preset and
+//! frame count is continued from its first incomplete frame (see
+//! `crate::write::folder` and docs/reliability.md). [`StageTimes`] records
+//! where the time went.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -17,14 +22,18 @@ use super::{Frame, FramePipeline};
 use crate::annotate::DroneLabel;
 use crate::render::GpuContext;
 use crate::scene::FrameScene;
-use crate::write::{DatasetStats, DatasetWriter, encode_image};
+use crate::write::{DatasetStats, DatasetWriter, WriterOptions, encode_image};
 
 #[derive(Clone, Debug)]
 pub struct BatchOptions {
     pub out_dir: PathBuf,
     /// Make only the first N frames.
     pub limit: Option<u64>,
+    /// Delete an earlier run's own files in the folder and start again.
     pub overwrite: bool,
+    /// Require an earlier run of the same preset in the folder and continue
+    /// it; with no `limit`, the earlier run's frame count is kept.
+    pub resume: bool,
     /// Image encoder threads (0 = one per spare core).
     pub encoder_threads: usize,
 }
@@ -35,6 +44,7 @@ impl BatchOptions {
             out_dir: out_dir.into(),
             limit: None,
             overwrite: false,
+            resume: false,
             encoder_threads: 0,
         }
     }
@@ -82,7 +92,8 @@ impl StageTimes {
     }
 }
 
-/// What a finished (or cancelled) batch wrote.
+/// What a finished (or cancelled) batch wrote (counting frames an earlier,
+/// continued run wrote).
 #[derive(Clone, Debug)]
 pub struct BatchReport {
     pub stats: DatasetStats,
@@ -108,15 +119,34 @@ pub fn run_batch(
     mut on_progress: impl FnMut(Progress) + Send,
 ) -> anyhow::Result<BatchReport> {
     let preset = pipeline.preset();
-    let total = options
-        .limit
-        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
-    let mut writer = DatasetWriter::create(
+    let count = pipeline.frame_count();
+    let frames = match (options.limit, options.resume) {
+        (None, true) => None,
+        (limit, _) => Some(limit.map_or(count, |n| n.min(count))),
+    };
+    let mut writer = DatasetWriter::open(
         &options.out_dir,
         preset,
         pipeline.model_names().to_vec(),
-        options.overwrite,
+        WriterOptions {
+            frames,
+            overwrite: options.overwrite,
+            resume: options.resume,
+        },
     )?;
+    let first = writer.next_frame();
+    let total = writer.total().min(count);
+    let start = Instant::now();
+    if first >= total {
+        let stats = writer.finish()?;
+        return Ok(BatchReport {
+            stats,
+            cancelled: false,
+            elapsed: start.elapsed(),
+            out_dir: options.out_dir.clone(),
+            times: StageTimes::default(),
+        });
+    }
     let mut renderer = pipeline.renderer(ctx);
     let format = preset.output.image_format;
     let threads = if options.encoder_threads == 0 {
@@ -124,7 +154,7 @@ pub fn run_batch(
     } else {
         options.encoder_threads
     };
-    let start = Instant::now();
+    let failed = AtomicBool::new(false);
     let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
     let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
 
@@ -152,29 +182,32 @@ pub fn run_batch(
         }
         drop(to_sink);
         drop(encode_rx);
-        // The sink: reorder by index and write.
+        // The sink: reorder by index and write; the first error stops it.
+        let failed = &failed;
         let sink = s.spawn(
             move || -> anyhow::Result<(DatasetWriter, Duration, Duration)> {
                 let mut pending: BTreeMap<u64, Encoded> = BTreeMap::new();
-                let mut next = 0u64;
-                let mut first_error = None;
+                let mut next = first;
                 let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
+                let stop = |e: anyhow::Error| {
+                    failed.store(true, Ordering::Relaxed);
+                    Err(e)
+                };
                 for msg in sink_rx {
                     match msg {
                         Ok(e) => {
                             pending.insert(e.scene.index, e);
                         }
-                        Err(e) => {
-                            first_error.get_or_insert(e);
-                        }
+                        Err(e) => return stop(e),
                     }
                     while let Some(e) = pending.remove(&next) {
                         encode += e.encode;
                         let t = Instant::now();
-                        if first_error.is_none()
-                            && let Err(err) = writer.write_frame(&e.scene, &e.labels, &e.bytes)
-                        {
-                            first_error = Some(err.into());
+                        if let Err(err) = writer.write_frame(&e.scene, &e.labels, &e.bytes) {
+                            writer.rollback();
+                            return stop(anyhow::Error::from(err).context(format!(
+                                "writing frame {next} failed; the frames before it are complete, and the same command with --resume continues from it"
+                            )));
                         }
                         write += t.elapsed();
                         next += 1;
@@ -185,16 +218,16 @@ pub fn run_batch(
                         });
                     }
                 }
-                match first_error {
-                    Some(e) => Err(e),
-                    None => Ok((writer, encode, write)),
-                }
+                Ok((writer, encode, write))
             },
         );
         let mut make_result = Ok(());
         let mut cancelled = false;
         let mut make_time = Duration::ZERO;
-        for index in 0..total {
+        for index in first..total {
+            if failed.load(Ordering::Relaxed) {
+                break; // the sink failed; its error is reported below
+            }
             if cancel.load(Ordering::Relaxed) {
                 cancelled = true;
                 break;
@@ -220,8 +253,8 @@ pub fn run_batch(
             .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
         (sink_result, cancelled, make_result, make_time)
     });
-    make_result?;
     let (writer, encode, write) = sink_result?;
+    make_result?;
     let stats = writer.finish()?;
     Ok(BatchReport {
         stats,

@@ -15,10 +15,10 @@ pub mod camera;
 pub mod math;
 pub mod placement;
 pub mod projection;
-pub mod seed;
 
 use crate::preset::sweep::decode_mixed_radix;
 use crate::preset::{Preset, Sky};
+use crate::seed;
 use crate::sky::{FrameEnvironment, FrameSky};
 use camera::Camera;
 use math::{EulerDeg, look_at_cv, plane_rotation};
@@ -127,27 +127,11 @@ pub fn camera_position(
     )
 }
 
-/// Build frame `index` of `preset`.
+/// Build frame `index` of `preset`: sweep values from the index, drones
+/// from the frame's own RNG, the camera aimed at the volume's centre, the sky
+/// from its own salted stream, the split from the split draw.
 pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError> {
-    let radices = preset.frame_radices()?;
-    let count = radices.iter().product::<u64>();
-    if index >= count {
-        return Err(FrameError::OutOfRange { index, count });
-    }
-    let d = decode_mixed_radix(index, &radices);
-    let axes = preset.sweep_axes();
-    let v = |k: usize| axes[k].1.value(d[k]);
-    let sweep = SweepValues {
-        CameraX: v(0),
-        CameraY: v(1),
-        CameraZ: v(2),
-        PlaneRX: v(3),
-        PlaneRY: v(4),
-        PlaneRZ: v(5),
-        repeat: d[6],
-    };
-
-    let frame_seed = seed::frame_seed(preset.seed, index);
+    let sweep = sweep_values(preset, index)?;
     let mut rng = seed::frame_rng(preset.seed, index);
     let placed = placement::place(preset, &mut rng);
     let volume_radius_m = placed.half_extent.length() + placement::max_model_radius(preset);
@@ -167,7 +151,49 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
             }
         })
         .collect();
+    let camera = frame_camera(preset, &sweep, volume_radius_m);
+    // The environment draws come from their own salted stream (see `sky`).
+    let environment = crate::sky::frame_environment(&preset.sky, preset.seed, index);
 
+    Ok(FrameScene {
+        index,
+        seed: seed::frame_seed(preset.seed, index),
+        split: split_of(preset, index),
+        sweep,
+        camera,
+        drones,
+        sun_direction: environment.sun_direction(),
+        sky: crate::sky::resolve(&preset.sky, &environment),
+        environment,
+        volume_radius_m,
+        volume_half_extent_m: placed.half_extent,
+        placement_shortfall: placed.shortfall,
+    })
+}
+
+/// The sweep values of frame `index` (the index decoded in mixed radix, CameraX outermost).
+pub fn sweep_values(preset: &Preset, index: u64) -> Result<SweepValues, FrameError> {
+    let radices = preset.frame_radices()?;
+    let count = radices.iter().product::<u64>();
+    if index >= count {
+        return Err(FrameError::OutOfRange { index, count });
+    }
+    let d = decode_mixed_radix(index, &radices);
+    let axes = preset.sweep_axes();
+    let v = |k: usize| axes[k].1.value(d[k]);
+    Ok(SweepValues {
+        CameraX: v(0),
+        CameraY: v(1),
+        CameraZ: v(2),
+        PlaneRX: v(3),
+        PlaneRY: v(4),
+        PlaneRZ: v(5),
+        repeat: d[6],
+    })
+}
+
+/// The frame's camera: placed by the sweep values relative to the volume, looking at its centre.
+fn frame_camera(preset: &Preset, sweep: &SweepValues, volume_radius_m: f64) -> Camera {
     let (width, height) = preset.image_size();
     let fov_y_deg = preset.camera.fov_y_deg;
     let position = camera_position(
@@ -184,39 +210,25 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
         .iter()
         .map(|m| m.size_m)
         .fold(f64::INFINITY, f64::min);
-    let camera = Camera {
+    Camera {
         width,
         height,
         fov_y_deg,
         position,
         camera_from_world,
         near_m: (min_size * 0.01).clamp(1e-5, 0.05),
-    };
+    }
+}
 
-    // The environment draws come from their own salted stream (see `environment`).
-    let environment = crate::sky::frame_environment(&preset.sky, preset.seed, index);
+/// The split of frame `index`, from its split draw and the preset's shares.
+fn split_of(preset: &Preset, index: u64) -> SplitName {
     let u = seed::split_uniform(preset.seed, index);
     let s = &preset.output.split;
-    let split = if u < s.train {
+    if u < s.train {
         SplitName::Train
     } else if u < s.train + s.val {
         SplitName::Val
     } else {
         SplitName::Test
-    };
-
-    Ok(FrameScene {
-        index,
-        seed: frame_seed,
-        split,
-        sweep,
-        camera,
-        drones,
-        sun_direction: environment.sun_direction(),
-        sky: crate::sky::resolve(&preset.sky, &environment),
-        environment,
-        volume_radius_m,
-        volume_half_extent_m: placed.half_extent,
-        placement_shortfall: placed.shortfall,
-    })
+    }
 }

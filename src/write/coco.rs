@@ -1,75 +1,87 @@
 //! COCO: `annotations/instances_{split}.json`. Image and annotation records
-//! are streamed through part files and assembled at the end, so memory stays
-//! flat at a million frames.
+//! are appended to part files (`annotations/.instances_{split}.*.part`) as
+//! frames are written and assembled at the end, so memory stays flat at a
+//! million frames and a resumed run assembles the same bytes. The parts are
+//! deleted once the whole dataset is written.
 
-use std::fs::{self, File};
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::Write;
 
 use serde_json::json;
 
-use super::{DatasetInfo, FormatWriter, FrameRecord, OutputError, io, r6, xywh};
+use super::folder::AppendFile;
+use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, r6, xywh};
 use crate::annotate::LabelStatus;
 use crate::scene::SplitName;
 
 struct Parts {
-    images: BufWriter<File>,
-    annotations: BufWriter<File>,
-    images_path: PathBuf,
-    annotations_path: PathBuf,
+    images: AppendFile,
+    annotations: AppendFile,
     n_images: u64,
     n_annotations: u64,
+    /// The counters as the last checkpoint holds them.
+    saved: (u64, u64),
 }
 
 /// Writes the three COCO files.
 pub struct CocoWriter {
-    dir: PathBuf,
     parts: Vec<Parts>,
 }
 
+fn counter(split: SplitName, what: &str) -> String {
+    format!("coco.{}.{what}", split.as_str())
+}
+
 impl CocoWriter {
-    pub fn create(root: &Path) -> Result<Self, OutputError> {
-        let dir = root.join("annotations");
-        fs::create_dir_all(&dir).map_err(io(&dir))?;
+    /// Open the part files, cut back to `checkpoint` (created when new).
+    pub fn open(folder: &mut Folder, checkpoint: &Checkpoint) -> Result<Self, OutputError> {
+        folder.ensure_dir("annotations")?;
         let mut parts = Vec::new();
         for split in SplitName::ALL {
-            let images_path = dir.join(format!(".instances_{}.images.part", split.as_str()));
-            let annotations_path =
-                dir.join(format!(".instances_{}.annotations.part", split.as_str()));
+            let mut open = |what: &str| {
+                let rel = format!("annotations/.instances_{}.{what}.part", split.as_str());
+                let len = checkpoint.files.get(&rel).copied().unwrap_or(0);
+                folder.open_append(&rel, len)
+            };
+            let (images, annotations) = (open("images")?, open("annotations")?);
+            let count = |what| {
+                checkpoint
+                    .counters
+                    .get(&counter(split, what))
+                    .copied()
+                    .unwrap_or(0)
+            };
+            let (n_images, n_annotations) = (count("images"), count("annotations"));
             parts.push(Parts {
-                images: BufWriter::new(File::create(&images_path).map_err(io(&images_path))?),
-                annotations: BufWriter::new(
-                    File::create(&annotations_path).map_err(io(&annotations_path))?,
-                ),
-                images_path,
-                annotations_path,
-                n_images: 0,
-                n_annotations: 0,
+                images,
+                annotations,
+                n_images,
+                n_annotations,
+                saved: (n_images, n_annotations),
             });
         }
-        Ok(Self { dir, parts })
+        Ok(Self { parts })
     }
 }
 
 impl FormatWriter for CocoWriter {
-    fn frame(&mut self, record: &FrameRecord<'_>) -> Result<(), OutputError> {
+    fn frame(&mut self, _folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
         let scene = record.scene;
         let part = &mut self.parts[scene.split as usize];
         let image_id = scene.index + 1;
         let sep = if part.n_images == 0 { "" } else { ",\n" };
         let img = json!({"id": image_id, "file_name": record.image.trim_start_matches("images/"), "width": scene.camera.width, "height": scene.camera.height});
-        write!(part.images, "{sep}{img}").map_err(io(&part.images_path))?;
-        part.n_images += 1;
+        let mut n_annotations = part.n_annotations;
+        let mut anns = String::new();
         for l in record
             .labels
             .iter()
             .filter(|l| l.status != LabelStatus::Filtered)
         {
             let b = &l.bbox;
-            let sep = if part.n_annotations == 0 { "" } else { ",\n" };
-            part.n_annotations += 1;
+            let sep = if n_annotations == 0 { "" } else { ",\n" };
+            n_annotations += 1;
             let mut ann = json!({
-                "id": part.n_annotations,
+                "id": n_annotations,
                 "image_id": image_id,
                 "category_id": l.class_id + 1,
                 "bbox": [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())],
@@ -85,43 +97,70 @@ impl FormatWriter for CocoWriter {
                 ann["visible_fraction"] = r6(v.fraction()).into();
                 ann["visible_bbox"] = v.visible_box.as_ref().map(xywh).into();
             }
-            write!(part.annotations, "{sep}{ann}").map_err(io(&part.annotations_path))?;
+            anns.push_str(&format!("{sep}{ann}"));
         }
+        part.images.append(format!("{sep}{img}").as_bytes())?;
+        part.n_images += 1;
+        if !anns.is_empty() {
+            part.annotations.append(anns.as_bytes())?;
+        }
+        part.n_annotations = n_annotations;
         Ok(())
     }
 
-    fn finish(self: Box<Self>, dataset: &DatasetInfo) -> Result<(), OutputError> {
+    fn save(&mut self, checkpoint: &mut Checkpoint) {
+        for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
+            part.images.save(checkpoint);
+            part.annotations.save(checkpoint);
+            // Only what changed: this frame's split.
+            if part.saved != (part.n_images, part.n_annotations) {
+                part.saved = (part.n_images, part.n_annotations);
+                checkpoint
+                    .counters
+                    .insert(counter(split, "images"), part.n_images);
+                checkpoint
+                    .counters
+                    .insert(counter(split, "annotations"), part.n_annotations);
+            }
+        }
+    }
+
+    fn rollback(&mut self) {
+        for part in &mut self.parts {
+            part.images.rollback();
+            part.annotations.rollback();
+        }
+    }
+
+    fn finish(&mut self, folder: &mut Folder, dataset: &DatasetInfo) -> Result<(), OutputError> {
         let categories: Vec<_> = dataset
             .classes
             .iter()
             .enumerate()
             .map(|(i, n)| json!({"id": i + 1, "name": n, "supercategory": "uav"}))
             .collect();
-        for (split, mut part) in SplitName::ALL.into_iter().zip(self.parts) {
-            part.images.flush().map_err(io(&part.images_path))?;
-            part.annotations
-                .flush()
-                .map_err(io(&part.annotations_path))?;
-            drop((part.images, part.annotations));
-            let path = self.dir.join(format!("instances_{}.json", split.as_str()));
-            let mut out = BufWriter::new(File::create(&path).map_err(io(&path))?);
-            let head = json!({"description": "swarmshot synthetic UAV swarm dataset", "version": env!("CARGO_PKG_VERSION")});
-            let write_all = |out: &mut BufWriter<File>| -> std::io::Result<()> {
+        let head = json!({"description": "swarmshot synthetic UAV swarm dataset", "version": env!("CARGO_PKG_VERSION")});
+        for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
+            let rel = format!("annotations/instances_{}.json", split.as_str());
+            folder.write_file_with(&rel, |out| {
                 write!(
                     out,
                     "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {},\n\"images\": [\n",
                     serde_json::Value::from(categories.clone())
                 )?;
-                std::io::copy(&mut File::open(&part.images_path)?, out)?;
+                part.images.copy_to(out)?;
                 write!(out, "\n],\n\"annotations\": [\n")?;
-                std::io::copy(&mut File::open(&part.annotations_path)?, out)?;
-                writeln!(out, "\n]}}")?;
-                out.flush()
-            };
-            write_all(&mut out).map_err(io(&path))?;
-            for p in [&part.images_path, &part.annotations_path] {
-                fs::remove_file(p).map_err(io(p))?;
-            }
+                part.annotations.copy_to(out)?;
+                writeln!(out, "\n]}}")
+            })?;
+        }
+        Ok(())
+    }
+
+    fn cleanup(&mut self, folder: &mut Folder) -> Result<(), OutputError> {
+        for part in &self.parts {
+            folder.remove(part.images.rel())?;
+            folder.remove(part.annotations.rel())?;
         }
         Ok(())
     }

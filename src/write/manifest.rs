@@ -1,38 +1,35 @@
 //! The pose manifest: one JSON line per frame with the frame's index, seed,
 //! split, sweep values, camera (K, R, t) and every drone's model, pose and label.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
-
 use serde_json::json;
 
-use super::{FormatWriter, FrameRecord, OutputError, box_xyxy, io, r6};
+use super::folder::AppendFile;
+use super::{Checkpoint, Folder, FormatWriter, FrameRecord, OutputError, box_xyxy, r6};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
 
 /// File name of the manifest in the dataset folder.
 pub const FILE: &str = "manifest.jsonl";
 
-/// Streams `manifest.jsonl`.
+/// Appends `manifest.jsonl`, one whole line per frame; a resumed run cuts it
+/// back to the last checkpoint's length, so it is never torn.
 pub struct ManifestWriter {
-    path: PathBuf,
-    out: BufWriter<File>,
+    out: AppendFile,
     model_names: Vec<String>,
     classes: Vec<String>,
 }
 
 impl ManifestWriter {
-    pub fn create(
-        root: &Path,
+    /// Open the manifest, cut back to `checkpoint` (created when new).
+    pub fn open(
+        folder: &mut Folder,
+        checkpoint: &Checkpoint,
         model_names: Vec<String>,
         classes: Vec<String>,
     ) -> Result<Self, OutputError> {
-        let path = root.join(FILE);
-        let out = BufWriter::new(File::create(&path).map_err(io(&path))?);
+        let len = checkpoint.files.get(FILE).copied().unwrap_or(0);
         Ok(Self {
-            path,
-            out,
+            out: folder.open_append(FILE, len)?,
             model_names,
             classes,
         })
@@ -40,19 +37,32 @@ impl ManifestWriter {
 }
 
 impl FormatWriter for ManifestWriter {
-    fn frame(&mut self, record: &FrameRecord<'_>) -> Result<(), OutputError> {
-        let line = manifest_line(
+    fn frame(&mut self, _folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
+        let mut line = manifest_line(
             record.scene,
             record.labels,
             record.image,
             &self.model_names,
             &self.classes,
         );
-        writeln!(self.out, "{line}").map_err(io(&self.path))
+        line.push('\n');
+        self.out.append(line.as_bytes())
     }
 
-    fn finish(mut self: Box<Self>, _dataset: &super::DatasetInfo) -> Result<(), OutputError> {
-        self.out.flush().map_err(io(&self.path))
+    fn save(&mut self, checkpoint: &mut Checkpoint) {
+        self.out.save(checkpoint);
+    }
+
+    fn rollback(&mut self) {
+        self.out.rollback();
+    }
+
+    fn finish(
+        &mut self,
+        _folder: &mut Folder,
+        _dataset: &super::DatasetInfo,
+    ) -> Result<(), OutputError> {
+        self.out.sync()
     }
 }
 

@@ -8,6 +8,7 @@
 //! new file with a [`FormatWriter`] and one line in [`DatasetWriter::create`].
 
 pub mod coco;
+pub mod folder;
 pub mod image;
 pub mod manifest;
 pub mod stats;
@@ -19,7 +20,9 @@ use std::path::{Path, PathBuf};
 use crate::annotate::{DroneLabel, PixelBox};
 use crate::preset::{ImageFormat, LabelFormat, Preset};
 use crate::scene::{FrameScene, SplitName};
+use folder::fnv1a64;
 
+pub use folder::{Checkpoint, Folder, OpenMode, Start};
 pub use image::encode_image;
 pub use manifest::manifest_line;
 pub use stats::DatasetStats;
@@ -37,10 +40,25 @@ pub struct DatasetInfo {
     pub classes: Vec<String>,
 }
 
-/// A writer of one label format: fed every frame in index order, then finished once.
+/// A writer of one label format: fed every frame in index order, then
+/// finished. It writes only through the [`Folder`], and saves in each
+/// [`Checkpoint`] what a resumed run needs to continue it byte for byte.
 pub trait FormatWriter: Send {
-    fn frame(&mut self, record: &FrameRecord<'_>) -> Result<(), OutputError>;
-    fn finish(self: Box<Self>, dataset: &DatasetInfo) -> Result<(), OutputError>;
+    /// Whole files this format writes for the frame (claimed before its image).
+    fn frame_files(&self, _scene: &FrameScene) -> Vec<String> {
+        Vec::new()
+    }
+    fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError>;
+    /// The frame is complete: record file lengths and counters.
+    fn save(&mut self, _checkpoint: &mut Checkpoint) {}
+    /// A frame failed: cut append-only files back to the last checkpoint.
+    fn rollback(&mut self) {}
+    /// Write the end files (from what is on disk, so a resumed run gets the same bytes).
+    fn finish(&mut self, folder: &mut Folder, dataset: &DatasetInfo) -> Result<(), OutputError>;
+    /// The whole dataset is written: delete working files.
+    fn cleanup(&mut self, _folder: &mut Folder) -> Result<(), OutputError> {
+        Ok(())
+    }
 }
 
 /// Write `bytes` to `path` atomically: a temporary file in the same folder,
@@ -83,16 +101,6 @@ pub fn image_rel_path(scene: &FrameScene, format: ImageFormat) -> String {
     )
 }
 
-/// Files and folders a dataset consists of (what `--overwrite` replaces).
-const OWNED: &[&str] = &[
-    "images",
-    "labels",
-    "annotations",
-    "manifest.jsonl",
-    "data.yaml",
-    "preset.lock.ron",
-    "stats.json",
-];
 const LOCK_FILE: &str = "preset.lock.ron";
 
 #[derive(Debug, thiserror::Error)]
@@ -103,10 +111,33 @@ pub enum OutputError {
         source: std::io::Error,
     },
     #[error(
-        "output folder {} is not empty and is not an earlier output of this preset; choose another folder or pass --overwrite",
+        "output folder {} is not empty and holds no swarmshot run; choose another folder, or pass --overwrite to write into it (files swarmshot did not write are kept, and a name it needs that is taken is refused)",
         path.display()
     )]
     NotEmpty { path: PathBuf },
+    #[error(
+        "output folder {} holds {what}; choose another folder, or pass --overwrite to delete that run's own files (files swarmshot did not write are kept) and start again",
+        path.display()
+    )]
+    OtherRun { path: PathBuf, what: String },
+    #[error(
+        "nothing to resume in {}: it holds no swarmshot run (no .swarmshot-ledger); run without --resume",
+        path.display()
+    )]
+    NothingToResume { path: PathBuf },
+    #[error(
+        "--resume and --overwrite exclude each other: --resume continues the earlier run, --overwrite deletes it"
+    )]
+    Conflict,
+    #[error(
+        "{}: {reason}; swarmshot writes only inside its output folder and only entries it created: move it away or choose another folder",
+        path.display()
+    )]
+    Refused { path: PathBuf, reason: String },
+    #[error("{}: the ledger cannot be read: {reason}", path.display())]
+    Ledger { path: PathBuf, reason: String },
+    #[error("frame {got} came before frame {expected}: frames are written in index order")]
+    OutOfOrder { expected: u64, got: u64 },
     #[error("encoding {format} failed: {reason}")]
     Encode {
         format: &'static str,
@@ -130,67 +161,127 @@ pub(crate) fn box_xyxy(b: &PixelBox) -> [f64; 4] {
     [r6(b.x0), r6(b.y0), r6(b.x1), r6(b.y1)]
 }
 
-/// Writes one dataset folder. Call [`DatasetWriter::write_frame`] in index order, then [`DatasetWriter::finish`].
+/// How [`DatasetWriter::open`] treats the folder.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriterOptions {
+    /// Frames this run makes; `None` (with `resume`) takes the locked run's count.
+    pub frames: Option<u64>,
+    /// Delete an earlier run's own files and start again.
+    pub overwrite: bool,
+    /// Require an earlier run of the same preset in the folder and continue it.
+    pub resume: bool,
+}
+
+/// Writes one dataset folder: call [`DatasetWriter::write_frame`] for frames
+/// [`DatasetWriter::next_frame`]`..`[`DatasetWriter::total`] in index order,
+/// then [`DatasetWriter::finish`]. After a write error call
+/// [`DatasetWriter::rollback`]: the folder then holds exactly the complete
+/// frames, and a later run continues it.
 pub struct DatasetWriter {
-    root: PathBuf,
+    folder: Folder,
     image_format: ImageFormat,
     classes: Vec<String>,
     formats: Vec<Box<dyn FormatWriter>>,
     stats: DatasetStats,
+    next: u64,
+    total: u64,
+    /// An earlier run finished this dataset; nothing is left to write.
+    done: bool,
 }
 
 impl DatasetWriter {
-    /// Prepare `root`: refuse a non-empty folder that is not an earlier output
-    /// of the same preset (unless `overwrite`), create the layout and write the lock.
-    pub fn create(
+    /// Open `root` for `preset` (see [`Folder::open`]): a new run, the
+    /// continuation of an earlier run of the same preset and frame count, or
+    /// a refusal that says how to proceed.
+    pub fn open(
         root: &Path,
         preset: &Preset,
         model_names: Vec<String>,
-        overwrite: bool,
+        options: WriterOptions,
     ) -> Result<Self, OutputError> {
         let lock = preset.to_ron();
-        if root.exists() {
-            let non_empty = fs::read_dir(root).map_err(io(root))?.next().is_some();
-            let same_preset = fs::read_to_string(root.join(LOCK_FILE)).is_ok_and(|old| old == lock);
-            if non_empty && !same_preset && !overwrite {
-                return Err(OutputError::NotEmpty {
-                    path: root.to_owned(),
-                });
+        let (yolo, coco) = (
+            preset.output.label_formats.contains(&LabelFormat::Yolo),
+            preset.output.label_formats.contains(&LabelFormat::Coco),
+        );
+        let mut needed = vec![
+            LOCK_FILE.to_owned(),
+            manifest::FILE.to_owned(),
+            "stats.json".to_owned(),
+        ];
+        for split in SplitName::ALL.map(SplitName::as_str) {
+            needed.push(format!("images/{split}/"));
+            if yolo {
+                needed.push(format!("labels/{split}/"));
             }
-            if non_empty {
-                for name in OWNED {
-                    let p = root.join(name);
-                    if p.is_dir() {
-                        fs::remove_dir_all(&p).map_err(io(&p))?;
-                    } else if p.exists() {
-                        fs::remove_file(&p).map_err(io(&p))?;
-                    }
-                }
+            if coco {
+                needed.push(format!("annotations/instances_{split}.json"));
+                needed.push(format!("annotations/.instances_{split}.images.part"));
+                needed.push(format!("annotations/.instances_{split}.annotations.part"));
             }
         }
-        for split in SplitName::ALL {
-            let dir = root.join("images").join(split.as_str());
-            fs::create_dir_all(&dir).map_err(io(&dir))?;
+        if yolo {
+            needed.push("data.yaml".to_owned());
         }
-        let lock_path = root.join(LOCK_FILE);
-        fs::write(&lock_path, &lock).map_err(io(&lock_path))?;
+        // Every entry is checked before anything is written or rendered: a
+        // link or a file swarmshot did not write is refused now, not after hours.
+        let (mut folder, start, run) = Folder::open(
+            root,
+            fnv1a64(lock.as_bytes()),
+            options.frames,
+            OpenMode {
+                overwrite: options.overwrite,
+                resume: options.resume,
+            },
+            &needed,
+        )?;
+        let (checkpoint, done) = match start {
+            Start::Fresh => (Checkpoint::default(), false),
+            Start::Resume { checkpoint, done } => (checkpoint, done),
+        };
         let (classes, _) = preset.classes();
-        let mut formats: Vec<Box<dyn FormatWriter>> = vec![Box::new(
-            manifest::ManifestWriter::create(root, model_names, classes.clone())?,
-        )];
-        for format in &preset.output.label_formats {
-            formats.push(match format {
-                LabelFormat::Yolo => Box::new(yolo::YoloWriter::create(root)?),
-                LabelFormat::Coco => Box::new(coco::CocoWriter::create(root)?),
-            });
+        let mut formats: Vec<Box<dyn FormatWriter>> = Vec::new();
+        if !done {
+            // A killed run may have lost the lock: it is rewritten, the same bytes.
+            folder.write_file(LOCK_FILE, lock.as_bytes())?;
+            for split in SplitName::ALL {
+                folder.ensure_dir(&format!("images/{}", split.as_str()))?;
+            }
+            // Whole files first, then the append-only records: a manifest
+            // line never names a label file that is not there yet.
+            if yolo {
+                formats.push(Box::new(yolo::YoloWriter::create(&mut folder)?));
+            }
+            formats.push(Box::new(manifest::ManifestWriter::open(
+                &mut folder,
+                &checkpoint,
+                model_names,
+                classes.clone(),
+            )?));
+            if coco {
+                formats.push(Box::new(coco::CocoWriter::open(&mut folder, &checkpoint)?));
+            }
         }
         Ok(Self {
-            root: root.to_owned(),
+            folder,
             image_format: preset.output.image_format,
             classes,
             formats,
-            stats: DatasetStats::default(),
+            stats: checkpoint.stats,
+            next: checkpoint.next,
+            total: run.frames,
+            done,
         })
+    }
+
+    /// The first frame not yet written.
+    pub fn next_frame(&self) -> u64 {
+        self.next
+    }
+
+    /// Frames of this run.
+    pub fn total(&self) -> u64 {
+        self.total
     }
 
     /// Relative path of a frame's image.
@@ -198,42 +289,81 @@ impl DatasetWriter {
         image_rel_path(scene, self.image_format)
     }
 
-    /// Write one frame's image bytes and all of its labels.
+    /// Write one frame: claim its files, write its image, then its label
+    /// files, manifest line and COCO records, then its checkpoint.
     pub fn write_frame(
         &mut self,
         scene: &FrameScene,
         labels: &[DroneLabel],
         image: &[u8],
     ) -> Result<(), OutputError> {
+        if scene.index != self.next || self.done {
+            return Err(OutputError::OutOfOrder {
+                expected: self.next,
+                got: scene.index,
+            });
+        }
         let rel = self.image_rel_path(scene);
-        let image_path = self.root.join(&rel);
-        fs::write(&image_path, image).map_err(io(&image_path))?;
+        let mut files = vec![rel.clone()];
+        for format in &self.formats {
+            files.extend(format.frame_files(scene));
+        }
+        self.folder.claim_frame(&files)?;
+        self.folder.write_file(&rel, image)?;
         let record = FrameRecord {
             scene,
             labels,
             image: &rel,
         };
         for format in &mut self.formats {
-            format.frame(&record)?;
+            format.frame(&mut self.folder, &record)?;
         }
-        self.stats.add(scene, labels);
+        let mut stats = self.stats.clone();
+        stats.add(scene, labels);
+        let mut checkpoint = Checkpoint {
+            next: self.next + 1,
+            stats,
+            ..Checkpoint::default()
+        };
+        for format in &mut self.formats {
+            format.save(&mut checkpoint);
+        }
+        self.folder.commit(&checkpoint)?;
+        self.stats = checkpoint.stats;
+        self.next += 1;
         Ok(())
     }
 
-    /// Finish every format (COCO assembled, data.yaml written) and write stats.json.
-    pub fn finish(self) -> Result<DatasetStats, OutputError> {
-        let info = DatasetInfo {
-            classes: self.classes,
-        };
-        for format in self.formats {
-            format.finish(&info)?;
+    /// After a failed [`DatasetWriter::write_frame`]: delete the frame's
+    /// files and cut the manifest and COCO records back, so the folder holds
+    /// exactly the frames before it.
+    pub fn rollback(&mut self) {
+        self.folder.drop_frame();
+        for format in &mut self.formats {
+            format.rollback();
         }
-        let path = self.root.join("stats.json");
-        fs::write(
-            &path,
-            serde_json::to_string_pretty(&self.stats).unwrap_or_default(),
-        )
-        .map_err(io(&path))?;
+    }
+
+    /// Write the end files (COCO assembled, data.yaml, stats.json). When every
+    /// frame is written, mark the run done and delete the working files.
+    pub fn finish(mut self) -> Result<DatasetStats, OutputError> {
+        if self.done {
+            return Ok(self.stats);
+        }
+        let info = DatasetInfo {
+            classes: std::mem::take(&mut self.classes),
+        };
+        for format in &mut self.formats {
+            format.finish(&mut self.folder, &info)?;
+        }
+        let stats = serde_json::to_string_pretty(&self.stats).unwrap_or_default();
+        self.folder.write_file("stats.json", stats.as_bytes())?;
+        if self.next == self.total {
+            self.folder.mark_done()?;
+            for format in &mut self.formats {
+                format.cleanup(&mut self.folder)?;
+            }
+        }
         Ok(self.stats)
     }
 }

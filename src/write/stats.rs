@@ -4,7 +4,7 @@ use crate::annotate::{DroneLabel, LabelStatus};
 use crate::scene::FrameScene;
 
 /// Counts gathered while writing.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DatasetStats {
     pub frames: u64,
     pub frames_per_split: [u64; 3],

@@ -2,9 +2,8 @@
 //! and `data.yaml` naming the splits and classes.
 
 use std::fs;
-use std::path::{Path, PathBuf};
 
-use super::{DatasetInfo, FormatWriter, FrameRecord, OutputError, io};
+use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, io};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
 
@@ -32,36 +31,40 @@ pub fn label_text(scene: &FrameScene, labels: &[DroneLabel]) -> String {
     text
 }
 
-/// Writes the YOLO label files and `data.yaml`.
-pub struct YoloWriter {
-    root: PathBuf,
+/// A frame's label file relative to the dataset folder.
+pub fn label_rel_path(scene: &FrameScene) -> String {
+    format!(
+        "labels/{}/{}.txt",
+        scene.split.as_str(),
+        super::stem(scene.index)
+    )
 }
 
+/// Writes the YOLO label files and `data.yaml`.
+pub struct YoloWriter;
+
 impl YoloWriter {
-    pub fn create(root: &Path) -> Result<Self, OutputError> {
+    pub fn create(folder: &mut Folder) -> Result<Self, OutputError> {
         for split in crate::scene::SplitName::ALL {
-            let dir = root.join("labels").join(split.as_str());
-            fs::create_dir_all(&dir).map_err(io(&dir))?;
+            folder.ensure_dir(&format!("labels/{}", split.as_str()))?;
         }
-        Ok(Self {
-            root: root.to_owned(),
-        })
+        Ok(Self)
     }
 }
 
 impl FormatWriter for YoloWriter {
-    fn frame(&mut self, record: &FrameRecord<'_>) -> Result<(), OutputError> {
-        let scene = record.scene;
-        let path = self
-            .root
-            .join("labels")
-            .join(scene.split.as_str())
-            .join(format!("{}.txt", super::stem(scene.index)));
-        fs::write(&path, label_text(scene, record.labels)).map_err(io(&path))
+    fn frame_files(&self, scene: &FrameScene) -> Vec<String> {
+        vec![label_rel_path(scene)]
     }
 
-    fn finish(self: Box<Self>, dataset: &DatasetInfo) -> Result<(), OutputError> {
-        let abs = fs::canonicalize(&self.root).map_err(io(&self.root))?;
+    fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
+        let text = label_text(record.scene, record.labels);
+        folder.write_file(&label_rel_path(record.scene), text.as_bytes())
+    }
+
+    fn finish(&mut self, folder: &mut Folder, dataset: &DatasetInfo) -> Result<(), OutputError> {
+        let root = folder.root().to_owned();
+        let abs = fs::canonicalize(&root).map_err(io(&root))?;
         let mut yaml = String::from(
             "# Ultralytics YOLO dataset written by swarmshot. `path` is absolute so any working directory resolves it.\n",
         );
@@ -76,7 +79,6 @@ impl FormatWriter for YoloWriter {
                 serde_json::Value::from(name.clone())
             ));
         }
-        let path = self.root.join("data.yaml");
-        fs::write(&path, yaml).map_err(io(&path))
+        folder.write_file("data.yaml", yaml.as_bytes())
     }
 }

@@ -16,10 +16,10 @@ pub fn gpu() -> GpuContext {
     }
 }
 
-/// Path into ../shared/testdata.
+/// Path into tests/data, the bundled third-party files (see tests/data/README.md).
 pub fn testdata(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/testdata")
+        .join("tests/data")
         .join(rel)
 }
 

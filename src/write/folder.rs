@@ -1,0 +1,816 @@
+//! The dataset folder as swarmshot owns it: every entry it creates is first
+//! recorded in a ledger, it never writes through a symbolic link, and it
+//! deletes only what the ledger lists.
+//!
+//! # The ledger (`.swarmshot-ledger`)
+//!
+//! A text file at the folder's top, one record per line, only ever appended
+//! (whole lines; a torn last line is cut off when the folder is opened again):
+//!
+//! ```text
+//! swarmshot-ledger 1 frames=120 preset=fnv1a64:0123456789abcdef   header: the run
+//! *preset.lock.ron            a dataset file or folder (`/` at the end) this run made
+//! +images/train/00000000.png  a file of the frame in flight
+//! ={"next":1,...}             checkpoint: frames below `next` are complete
+//! !done                       COCO, data.yaml and stats.json are written
+//! ```
+//!
+//! A claim (`*`, `+`) is written and flushed to disk before its file is
+//! created, so every file swarmshot made is listed, and `--overwrite` can
+//! delete exactly those. A checkpoint is written after the frame's image,
+//! labels and manifest line; it records the length of every append-only file
+//! (manifest, COCO record parts) and the writers' counters, so a resumed run
+//! cuts those files back to the last complete frame and carries on from there
+//! exactly as an uninterrupted run would have.
+//!
+//! # What is checked
+//!
+//! Before any create, rename or delete, the entry is looked at without
+//! following links (`symlink_metadata`): a symbolic link, or an entry that is
+//! not in the ledger, is refused with its path. New files are made under a
+//! temporary name with `create_new` (which never follows a link), flushed and
+//! renamed over the final name (a rename replaces a link, never follows it).
+//! Files opened again (to append or read) are checked to be the very file
+//! that was looked at (same device and inode). Folders are made one level at
+//! a time with `create_dir`, which refuses an existing link.
+
+use std::collections::{BTreeMap, HashSet};
+use std::fs::{self, File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::os::unix::fs::MetadataExt;
+use std::path::{Path, PathBuf};
+
+use super::{DatasetStats, OutputError, io};
+
+/// File name of the ledger in the dataset folder.
+pub const LEDGER: &str = ".swarmshot-ledger";
+const LEDGER_VERSION: u32 = 1;
+
+/// What a run is: its frame count and its locked preset's hash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RunId {
+    pub frames: u64,
+    pub preset_hash: u64,
+}
+
+impl RunId {
+    fn header(&self) -> String {
+        format!(
+            "swarmshot-ledger {LEDGER_VERSION} frames={} preset=fnv1a64:{:016x}\n",
+            self.frames, self.preset_hash
+        )
+    }
+
+    fn parse(line: &str) -> Option<Self> {
+        let mut words = line.split(' ');
+        if words.next()? != "swarmshot-ledger" || words.next()? != "1" {
+            return None;
+        }
+        let frames = words.next()?.strip_prefix("frames=")?.parse().ok()?;
+        let hash = words.next()?.strip_prefix("preset=fnv1a64:")?;
+        let preset_hash = u64::from_str_radix(hash, 16).ok()?;
+        Some(Self {
+            frames,
+            preset_hash,
+        })
+    }
+}
+
+/// FNV-1a, 64 bit: a stable hash of the locked preset's text.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// The state after the last complete frame: enough to continue exactly.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    /// Frames `0..next` are complete.
+    pub next: u64,
+    /// Length of the append-only files, by path relative to the folder (in
+    /// the ledger: those that changed since the checkpoint before; a file
+    /// never listed is empty).
+    pub files: BTreeMap<String, u64>,
+    /// Writers' counters (COCO ids; in the ledger, those that changed).
+    pub counters: BTreeMap<String, u64>,
+    pub stats: DatasetStats,
+}
+
+/// How to treat an earlier run found in the folder.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct OpenMode {
+    /// Delete the earlier run's own files and start again.
+    pub overwrite: bool,
+    /// Require an earlier run of the same preset and continue it.
+    pub resume: bool,
+}
+
+/// Where an opened folder starts.
+#[derive(Debug)]
+pub enum Start {
+    /// Nothing written yet.
+    Fresh,
+    /// Frames below `checkpoint.next` are complete (`done`: the end files too).
+    Resume { checkpoint: Checkpoint, done: bool },
+}
+
+/// A dataset folder opened for one run. See the module docs.
+pub struct Folder {
+    root: PathBuf,
+    ledger: File,
+    /// Entries listed in the ledger that may be replaced or deleted.
+    owned: HashSet<String>,
+    /// Files of the frame in flight (claimed, maybe partly written).
+    frame_claims: Vec<String>,
+    /// Folders already checked to be real folders.
+    dirs_ok: HashSet<String>,
+}
+
+fn refused(path: PathBuf, reason: &str) -> OutputError {
+    OutputError::Refused {
+        path,
+        reason: reason.into(),
+    }
+}
+
+/// Look at `path` without following a link: `None` if it does not exist.
+fn lstat(path: &Path) -> Result<Option<fs::Metadata>, OutputError> {
+    match fs::symlink_metadata(path) {
+        Ok(m) => Ok(Some(m)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(io(path)(e)),
+    }
+}
+
+/// Open an existing regular file at `path` (read, and append if `append`)
+/// and make sure it is the entry `symlink_metadata` saw, not a link's target.
+fn open_checked(path: &Path, append: bool) -> Result<File, OutputError> {
+    let Some(seen) = lstat(path)? else {
+        return Err(io(path)(std::io::ErrorKind::NotFound.into()));
+    };
+    if seen.file_type().is_symlink() {
+        return Err(refused(
+            path.to_owned(),
+            "is a symbolic link; swarmshot never follows one in its output folder",
+        ));
+    }
+    if !seen.is_file() {
+        return Err(refused(path.to_owned(), "is not a regular file"));
+    }
+    let file = OpenOptions::new()
+        .read(true)
+        .append(append)
+        .open(path)
+        .map_err(io(path))?;
+    let opened = file.metadata().map_err(io(path))?;
+    if (opened.dev(), opened.ino()) != (seen.dev(), seen.ino()) {
+        return Err(refused(
+            path.to_owned(),
+            "changed while it was being opened (replaced by a link?)",
+        ));
+    }
+    Ok(file)
+}
+
+/// The temporary name a file is written under before it is renamed into place.
+fn temp_rel(rel: &str) -> String {
+    match rel.rsplit_once('/') {
+        Some((dir, name)) => format!("{dir}/.{name}.tmp"),
+        None => format!(".{rel}.tmp"),
+    }
+}
+
+/// Refuse `root` if an entry the dataset needs is a link, is in the way, or
+/// is a file swarmshot did not write (not in `owned`).
+fn preflight(root: &Path, needed: &[String], owned: &HashSet<String>) -> Result<(), OutputError> {
+    for rel in needed {
+        let parts: Vec<&str> = rel.split('/').filter(|p| !p.is_empty()).collect();
+        let mut prefix = String::new();
+        for (i, part) in parts.iter().enumerate() {
+            if !prefix.is_empty() {
+                prefix.push('/');
+            }
+            prefix.push_str(part);
+            let want_dir = i + 1 < parts.len() || rel.ends_with('/');
+            let path = root.join(&prefix);
+            match lstat(&path)? {
+                None => break,
+                Some(m) if m.file_type().is_symlink() => {
+                    return Err(refused(
+                        path,
+                        "is a symbolic link; swarmshot never follows one in its output folder",
+                    ));
+                }
+                Some(m) if want_dir && !m.is_dir() => {
+                    return Err(refused(path, "is in the way of a folder swarmshot needs"));
+                }
+                Some(m) if !want_dir && !m.is_file() => {
+                    return Err(refused(path, "is not a regular file"));
+                }
+                Some(_) if !want_dir && !owned.contains(rel) => {
+                    return Err(refused(
+                        path,
+                        "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What a ledger says, read from disk.
+struct LedgerScan {
+    run: RunId,
+    /// Valid bytes: everything up to the last complete line.
+    prefix_len: usize,
+    /// Byte offset just after the last trusted checkpoint (or the header).
+    good_end: usize,
+    checkpoint: Option<Checkpoint>,
+    done: bool,
+    owned: HashSet<String>,
+    /// Claim lines after `good_end` (kept when the ledger is cut back).
+    later_claims: Vec<String>,
+}
+
+impl Folder {
+    /// The folder's top.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// Open `root` for a run: refuse what is not ours, delete the earlier
+    /// run's files when `mode.overwrite`, and say where to start.
+    ///
+    /// `run.frames == None` (only with `mode.resume`) takes the locked frame count.
+    ///
+    /// `needed` lists the dataset's fixed entries (folders end in `/`): each
+    /// one that exists must be a real folder, or a regular file the earlier
+    /// run wrote, or the folder is refused before anything is written.
+    pub fn open(
+        root: &Path,
+        preset_hash: u64,
+        frames: Option<u64>,
+        mode: OpenMode,
+        needed: &[String],
+    ) -> Result<(Self, Start, RunId), OutputError> {
+        if mode.overwrite && mode.resume {
+            return Err(OutputError::Conflict);
+        }
+        match lstat(root)? {
+            None => fs::create_dir_all(root).map_err(io(root))?,
+            Some(_) => {
+                // The folder the user named may itself be a link; what is inside may not.
+                let m = fs::metadata(root).map_err(io(root))?;
+                if !m.is_dir() {
+                    return Err(refused(root.to_owned(), "is not a folder"));
+                }
+            }
+        }
+        let ledger_path = root.join(LEDGER);
+        let scan = match lstat(&ledger_path)? {
+            None => None,
+            Some(_) => Some(Self::scan(root)?),
+        };
+        let Some(scan) = scan else {
+            if mode.resume {
+                return Err(OutputError::NothingToResume {
+                    path: root.to_owned(),
+                });
+            }
+            let empty = fs::read_dir(root).map_err(io(root))?.next().is_none();
+            if !empty && !mode.overwrite {
+                return Err(OutputError::NotEmpty {
+                    path: root.to_owned(),
+                });
+            }
+            let run = RunId {
+                frames: frames.unwrap_or(0),
+                preset_hash,
+            };
+            preflight(root, needed, &HashSet::new())?;
+            return Ok((Self::fresh(root, run)?, Start::Fresh, run));
+        };
+        preflight(root, needed, &scan.owned)?;
+        let frames = frames.unwrap_or(scan.run.frames);
+        let run = RunId {
+            frames,
+            preset_hash,
+        };
+        if scan.run == run && !mode.overwrite {
+            let folder = Self::continue_from(root, &scan)?;
+            let start = match scan.checkpoint {
+                Some(checkpoint) => Start::Resume {
+                    checkpoint,
+                    done: scan.done,
+                },
+                None => Start::Resume {
+                    checkpoint: Checkpoint::default(),
+                    done: false,
+                },
+            };
+            return Ok((folder, start, run));
+        }
+        if !mode.overwrite {
+            let what = if scan.run.preset_hash != preset_hash {
+                "a run of a different preset (its preset.lock.ron differs)".to_owned()
+            } else {
+                format!(
+                    "a run of this preset with {} frames, and this run makes {frames} (--limit differs)",
+                    scan.run.frames
+                )
+            };
+            return Err(OutputError::OtherRun {
+                path: root.to_owned(),
+                what,
+            });
+        }
+        Self::delete_run(root)?;
+        Ok((Self::fresh(root, run)?, Start::Fresh, run))
+    }
+
+    /// A new ledger holding only the header.
+    fn fresh(root: &Path, run: RunId) -> Result<Self, OutputError> {
+        let path = root.join(LEDGER);
+        if lstat(&path)?.is_some() {
+            return Err(refused(
+                path,
+                "exists although no earlier run was found; remove it by hand",
+            ));
+        }
+        write_new_then_rename(root, LEDGER, run.header().as_bytes(), false)?;
+        let ledger = open_checked(&path, true)?;
+        Ok(Self {
+            root: root.to_owned(),
+            ledger,
+            owned: HashSet::from([LEDGER.to_owned()]),
+            frame_claims: Vec::new(),
+            dirs_ok: HashSet::new(),
+        })
+    }
+
+    /// Cut the ledger back to its last trusted checkpoint (keeping every
+    /// claim after it) and open it to append.
+    fn continue_from(root: &Path, scan: &LedgerScan) -> Result<Self, OutputError> {
+        let path = root.join(LEDGER);
+        let mut bytes = Vec::new();
+        open_checked(&path, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        if scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
+            let mut text = bytes[..scan.good_end].to_vec();
+            for claim in &scan.later_claims {
+                text.extend_from_slice(claim.as_bytes());
+                text.push(b'\n');
+            }
+            write_new_then_rename(root, LEDGER, &text, true)?;
+        }
+        let ledger = open_checked(&path, true)?;
+        let mut owned = scan.owned.clone();
+        owned.insert(LEDGER.to_owned());
+        Ok(Self {
+            root: root.to_owned(),
+            ledger,
+            owned,
+            frame_claims: Vec::new(),
+            dirs_ok: HashSet::new(),
+        })
+    }
+
+    /// Read the ledger: the run, the last checkpoint whose frames' files all
+    /// exist and whose append-only files are long enough, and every claim.
+    fn scan(root: &Path) -> Result<LedgerScan, OutputError> {
+        let path = root.join(LEDGER);
+        let mut bytes = Vec::new();
+        open_checked(&path, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let text = String::from_utf8_lossy(&bytes[..prefix_len]);
+        let corrupt = |reason: &str| OutputError::Ledger {
+            path: path.clone(),
+            reason: reason.into(),
+        };
+        let mut lines = text.split_inclusive('\n');
+        let header = lines.next().ok_or_else(|| corrupt("it is empty"))?;
+        let run = RunId::parse(header.trim_end())
+            .ok_or_else(|| corrupt("its first line is not a swarmshot-ledger 1 header"))?;
+        let mut scan = LedgerScan {
+            run,
+            prefix_len,
+            good_end: header.len(),
+            checkpoint: None,
+            done: false,
+            owned: HashSet::new(),
+            later_claims: Vec::new(),
+        };
+        let mut offset = header.len();
+        let mut frame_files: Vec<String> = Vec::new();
+        let mut broken = false;
+        for line in lines {
+            offset += line.len();
+            let line = line.trim_end_matches('\n');
+            if let Some(rel) = line.strip_prefix('*') {
+                scan.owned.insert(rel.to_owned());
+                scan.later_claims.push(line.to_owned());
+            } else if let Some(rel) = line.strip_prefix('+') {
+                frame_files.push(rel.to_owned());
+                scan.later_claims.push(line.to_owned());
+            } else if let Some(json) = line.strip_prefix('=') {
+                if broken {
+                    continue;
+                }
+                let Ok(cp) = serde_json::from_str::<Checkpoint>(json) else {
+                    broken = true;
+                    continue;
+                };
+                let files_there = frame_files.iter().all(|rel| {
+                    fs::symlink_metadata(root.join(rel)).is_ok_and(|m| m.file_type().is_file())
+                });
+                let long_enough = cp.files.iter().all(|(rel, &len)| {
+                    fs::symlink_metadata(root.join(rel))
+                        .is_ok_and(|m| m.file_type().is_file() && m.len() >= len)
+                });
+                if files_there && long_enough {
+                    // A checkpoint lists only what changed since the one before.
+                    let mut merged = scan.checkpoint.take().unwrap_or_default();
+                    merged.next = cp.next;
+                    merged.files.extend(cp.files);
+                    merged.counters.extend(cp.counters);
+                    merged.stats = cp.stats;
+                    scan.checkpoint = Some(merged);
+                    scan.good_end = offset;
+                    scan.later_claims.clear();
+                    frame_files.clear();
+                } else {
+                    broken = true;
+                }
+            } else if line == "!done" {
+                if !broken
+                    && scan
+                        .checkpoint
+                        .as_ref()
+                        .is_some_and(|cp| cp.next == scan.run.frames)
+                {
+                    scan.done = true;
+                    scan.good_end = offset;
+                    scan.later_claims.clear();
+                }
+            } else {
+                return Err(corrupt(&format!("it holds an unknown line {line:?}")));
+            }
+        }
+        scan.owned.extend(frame_files);
+        Ok(scan)
+    }
+
+    /// Delete every file and folder an earlier run's ledger lists (files
+    /// first, then folders that are empty), then the ledger itself. Links and
+    /// entries that are not regular files are left alone.
+    fn delete_run(root: &Path) -> Result<(), OutputError> {
+        let path = root.join(LEDGER);
+        let mut bytes = Vec::new();
+        open_checked(&path, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        let text = String::from_utf8_lossy(&bytes);
+        let mut dirs = Vec::new();
+        for line in text.lines() {
+            let Some(rel) = line.strip_prefix('*').or_else(|| line.strip_prefix('+')) else {
+                continue;
+            };
+            if rel.is_empty() || rel.split('/').any(|c| c == "..") || rel.starts_with('/') {
+                continue;
+            }
+            if let Some(dir) = rel.strip_suffix('/') {
+                dirs.push(dir.to_owned());
+                continue;
+            }
+            for r in [rel.to_owned(), temp_rel(rel)] {
+                let p = root.join(&r);
+                if lstat(&p)?.is_some_and(|m| m.file_type().is_file()) {
+                    fs::remove_file(&p).map_err(io(&p))?;
+                }
+            }
+        }
+        for dir in dirs.iter().rev() {
+            let p = root.join(dir);
+            if lstat(&p)?.is_some_and(|m| m.file_type().is_dir()) {
+                // Not empty: it holds files swarmshot did not write; keep them.
+                let _ = fs::remove_dir(&p);
+            }
+        }
+        fs::remove_file(&path).map_err(io(&path))
+    }
+
+    /// Append whole lines to the ledger; `sync` flushes them to disk first.
+    fn ledger_append(&mut self, text: &str, sync: bool) -> Result<(), OutputError> {
+        let path = self.root.join(LEDGER);
+        self.ledger.write_all(text.as_bytes()).map_err(io(&path))?;
+        if sync {
+            self.ledger.sync_data().map_err(io(&path))?;
+        }
+        Ok(())
+    }
+
+    /// Record `rels` as dataset files (`*`) before they are created.
+    pub fn claim(&mut self, rels: &[&str]) -> Result<(), OutputError> {
+        let new: Vec<&str> = rels
+            .iter()
+            .copied()
+            .filter(|r| !self.owned.contains(*r))
+            .collect();
+        if new.is_empty() {
+            return Ok(());
+        }
+        let text: String = new.iter().map(|r| format!("*{r}\n")).collect();
+        self.ledger_append(&text, true)?;
+        self.owned.extend(new.into_iter().map(str::to_owned));
+        Ok(())
+    }
+
+    /// Record the files of the frame in flight (`+`) before they are created.
+    pub fn claim_frame(&mut self, rels: &[String]) -> Result<(), OutputError> {
+        let text: String = rels.iter().map(|r| format!("+{r}\n")).collect();
+        self.ledger_append(&text, true)?;
+        self.frame_claims.extend(rels.iter().cloned());
+        Ok(())
+    }
+
+    fn is_ours(&self, rel: &str) -> bool {
+        self.owned.contains(rel) || self.frame_claims.iter().any(|c| c == rel)
+    }
+
+    /// Make sure folder `rel` (and each folder above it) is a real folder,
+    /// creating and claiming the missing ones.
+    pub fn ensure_dir(&mut self, rel: &str) -> Result<(), OutputError> {
+        let mut prefix = String::new();
+        for part in rel.split('/').filter(|p| !p.is_empty()) {
+            if !prefix.is_empty() {
+                prefix.push('/');
+            }
+            prefix.push_str(part);
+            if self.dirs_ok.contains(&prefix) {
+                continue;
+            }
+            let path = self.root.join(&prefix);
+            match lstat(&path)? {
+                Some(m) if m.file_type().is_dir() => {}
+                Some(m) if m.file_type().is_symlink() => {
+                    return Err(refused(
+                        path,
+                        "is a symbolic link; swarmshot never follows one in its output folder",
+                    ));
+                }
+                Some(_) => return Err(refused(path, "is in the way of a folder swarmshot needs")),
+                None => {
+                    self.claim(&[&format!("{prefix}/")])?;
+                    fs::create_dir(&path).map_err(io(&path))?;
+                }
+            }
+            self.dirs_ok.insert(prefix.clone());
+        }
+        Ok(())
+    }
+
+    /// Check that `rel` may be (re)written: absent, or a regular file this run owns.
+    pub fn check_target(&self, rel: &str) -> Result<(), OutputError> {
+        let path = self.root.join(rel);
+        match lstat(&path)? {
+            None => Ok(()),
+            Some(m) if m.file_type().is_symlink() => Err(refused(
+                path,
+                "is a symbolic link; swarmshot never follows one in its output folder",
+            )),
+            Some(m) if !m.file_type().is_file() => Err(refused(path, "is not a regular file")),
+            Some(_) if !self.is_ours(rel) => Err(refused(
+                path,
+                "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
+            )),
+            Some(_) => Ok(()),
+        }
+    }
+
+    /// Write a whole file atomically: claim it, write a temporary file in the
+    /// same folder, flush it to disk, rename it over `rel`.
+    pub fn write_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
+        self.write_file_with(rel, |w| w.write_all(bytes))
+    }
+
+    /// [`Folder::write_file`] with the contents streamed by `fill`.
+    pub fn write_file_with(
+        &mut self,
+        rel: &str,
+        fill: impl FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()>,
+    ) -> Result<(), OutputError> {
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        self.check_target(rel)?;
+        if !self.is_ours(rel) {
+            self.claim(&[rel])?;
+        }
+        let path = self.root.join(rel);
+        let tmp = self.root.join(temp_rel(rel));
+        if let Some(m) = lstat(&tmp)? {
+            // A temporary file of ours left by a killed run.
+            if !m.file_type().is_file() {
+                return Err(refused(tmp, "is in the way of swarmshot's temporary file"));
+            }
+            fs::remove_file(&tmp).map_err(io(&tmp))?;
+        }
+        let result = (|| {
+            let file = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+            let mut w = std::io::BufWriter::new(&file);
+            fill(&mut w)?;
+            w.flush()?;
+            drop(w);
+            file.sync_all()?;
+            stall_if_asked(rel);
+            fs::rename(&tmp, &path)
+        })();
+        if result.is_err() {
+            let _ = fs::remove_file(&tmp);
+        }
+        result.map_err(io(&path))
+    }
+
+    /// Open an append-only file at `rel`, cut back to `len` bytes (created
+    /// and claimed when missing and `len` is 0).
+    pub fn open_append(&mut self, rel: &str, len: u64) -> Result<AppendFile, OutputError> {
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        self.check_target(rel)?;
+        let path = self.root.join(rel);
+        let file = if lstat(&path)?.is_none() {
+            if len != 0 {
+                return Err(OutputError::Ledger {
+                    path: path.clone(),
+                    reason: format!("is missing but the ledger says it held {len} bytes"),
+                });
+            }
+            self.claim(&[rel])?;
+            OpenOptions::new()
+                .read(true)
+                .append(true)
+                .create_new(true)
+                .open(&path)
+                .map_err(io(&path))?
+        } else {
+            let file = open_checked(&path, true)?;
+            file.set_len(len).map_err(io(&path))?;
+            file
+        };
+        Ok(AppendFile {
+            rel: rel.to_owned(),
+            path,
+            file,
+            len,
+            committed: len,
+        })
+    }
+
+    /// Delete a file this run owns (nothing if it is missing or not a regular file).
+    pub fn remove(&mut self, rel: &str) -> Result<(), OutputError> {
+        if !self.is_ours(rel) {
+            return Ok(());
+        }
+        let path = self.root.join(rel);
+        if lstat(&path)?.is_some_and(|m| m.file_type().is_file()) {
+            fs::remove_file(&path).map_err(io(&path))?;
+        }
+        Ok(())
+    }
+
+    /// Frame complete: write its checkpoint.
+    pub fn commit(&mut self, checkpoint: &Checkpoint) -> Result<(), OutputError> {
+        let json = serde_json::to_string(checkpoint).map_err(|e| OutputError::Ledger {
+            path: self.root.join(LEDGER),
+            reason: e.to_string(),
+        })?;
+        self.ledger_append(&format!("={json}\n"), false)?;
+        self.frame_claims.clear();
+        Ok(())
+    }
+
+    /// The end files are written.
+    pub fn mark_done(&mut self) -> Result<(), OutputError> {
+        self.ledger_append("!done\n", true)
+    }
+
+    /// After a failed frame: delete the files of the frame in flight (the
+    /// checkpoint before it still describes the folder).
+    pub fn drop_frame(&mut self) {
+        for rel in std::mem::take(&mut self.frame_claims) {
+            for r in [temp_rel(&rel), rel] {
+                let p = self.root.join(&r);
+                if fs::symlink_metadata(&p).is_ok_and(|m| m.file_type().is_file()) {
+                    let _ = fs::remove_file(&p);
+                }
+            }
+        }
+    }
+}
+
+/// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_BEFORE_RENAME`
+/// set to a path relative to the dataset folder, the batch sleeps after that
+/// file's temporary copy is written and before it is renamed into place, so a
+/// test can kill the process at exactly that point.
+fn stall_if_asked(rel: &str) {
+    static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+    let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_BEFORE_RENAME").ok());
+    if at.as_deref() == Some(rel) {
+        std::thread::sleep(std::time::Duration::from_secs(300));
+    }
+}
+
+/// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
+fn write_new_then_rename(
+    root: &Path,
+    rel: &str,
+    bytes: &[u8],
+    replace: bool,
+) -> Result<(), OutputError> {
+    let path = root.join(rel);
+    let tmp = root.join(temp_rel(rel));
+    if replace {
+        open_checked(&path, false)?;
+    }
+    if lstat(&tmp)?.is_some_and(|m| m.file_type().is_file()) {
+        fs::remove_file(&tmp).map_err(io(&tmp))?;
+    }
+    let result = (|| {
+        let mut file = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        fs::rename(&tmp, &path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result.map_err(io(&path))
+}
+
+/// An append-only file (the manifest, COCO record parts): whole records
+/// appended, cut back to the last checkpoint on resume or failure.
+pub struct AppendFile {
+    rel: String,
+    path: PathBuf,
+    file: File,
+    len: u64,
+    committed: u64,
+}
+
+impl AppendFile {
+    /// Append `bytes` (one or more whole records).
+    pub fn append(&mut self, bytes: &[u8]) -> Result<(), OutputError> {
+        (&self.file).write_all(bytes).map_err(io(&self.path))?;
+        self.len += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Bytes written so far.
+    pub fn len(&self) -> u64 {
+        self.len
+    }
+
+    /// Whether nothing has been written.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Record this file's length in `checkpoint` (the frame is complete).
+    pub fn save(&mut self, checkpoint: &mut Checkpoint) {
+        if self.len != self.committed {
+            self.committed = self.len;
+            checkpoint.files.insert(self.rel.clone(), self.len);
+        }
+    }
+
+    /// Cut the file back to its last checkpoint (after a failed frame).
+    pub fn rollback(&mut self) {
+        if self.file.set_len(self.committed).is_ok() {
+            self.len = self.committed;
+        }
+    }
+
+    /// Copy the whole file into `out`.
+    pub fn copy_to(&mut self, out: &mut impl Write) -> std::io::Result<()> {
+        self.file.seek(SeekFrom::Start(0))?;
+        std::io::copy(&mut (&self.file).take(self.len), out)?;
+        Ok(())
+    }
+
+    /// Flush the file to disk.
+    pub fn sync(&mut self) -> Result<(), OutputError> {
+        self.file.sync_data().map_err(io(&self.path))
+    }
+
+    /// Path relative to the folder.
+    pub fn rel(&self) -> &str {
+        &self.rel
+    }
+}
