@@ -1295,11 +1295,22 @@ fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
 const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
 const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
 
+/// A small outlined square in a box colour (the default fonts have no "■").
+fn swatch(ui: &mut Ui, colour: Color32) -> egui::Response {
+    let (rect, response) = ui.allocate_exact_size(Vec2::splat(11.0), Sense::hover());
+    ui.painter().rect_stroke(
+        rect.shrink(1.0),
+        0.0,
+        Stroke::new(2.0, colour),
+        egui::StrokeKind::Inside,
+    );
+    response
+}
+
 fn box_legend_ui(ui: &mut Ui) {
-    ui.label(RichText::new("■").color(BOX_KEPT))
-        .on_hover_text("A box written to the labels");
+    swatch(ui, BOX_KEPT).on_hover_text("A box written to the labels");
     ui.weak("label box");
-    ui.label(RichText::new("■").color(BOX_CROWD))
+    swatch(ui, BOX_CROWD)
         .on_hover_text(
             "A filtered drone kept as a COCO iscrowd region (Output → Filtered drones: COCO crowd); trainers ignore it",
         );
