@@ -7,8 +7,14 @@ scripts/setup.sh
 cargo build --release --locked
 bin=./target/release/swarmshot
 out=$(mktemp -d)
-echo "== quickstart batch (108 frames, 1920x1080, MSAA 4, Visible boxes, JPEG q85)"
-$bin batch presets/quickstart.ron --out "$out/quickstart"
+trap 'rm -rf "$out"' EXIT
+echo "== quickstart batch (108 frames, 1920x1080, MSAA 4, Visible boxes, JPEG q85, YOLO + COCO + manifest)"
+$bin batch presets/quickstart.ron --out "$out/quickstart" --timings
+echo "== the same preset at 4K (36 frames)"
+$bin batch presets/bench/quickstart_4k.ron --out "$out/quickstart4k" --limit 36 --timings
+echo "== peer scene (15 Crazyflies, HDR sky, 20 frames)"
+$bin batch presets/bench/peer.ron --out "$out/peer" --timings
+echo "== render + labels per frame: 15 drones at 1080p and 4K, 1 500 drones, the peer scene"
+$bin bench frames
 echo "== accuracy and frame-time tables"
 $bin bench accuracy --plot docs/img/accuracy.png
-rm -rf "$out"

@@ -254,6 +254,27 @@ fn sigkill_at_any_point_then_resume_is_byte_identical() {
         run_ok(&file, &out, &["--resume"]);
         assert_same_dataset(&reference, &out, "killed during COCO writing");
     }
+
+    // A finished run, rerun with or without --resume, writes nothing.
+    let stamps = |dir: &Path| -> Vec<(PathBuf, std::time::SystemTime)> {
+        files_under(dir)
+            .into_iter()
+            .map(|r| {
+                let t = std::fs::symlink_metadata(dir.join(&r))
+                    .and_then(|m| m.modified())
+                    .expect("mtime");
+                (r, t)
+            })
+            .collect()
+    };
+    let before = stamps(&reference);
+    run_ok(&file, &reference, &[]);
+    run_ok(&file, &reference, &["--resume"]);
+    assert_eq!(
+        stamps(&reference),
+        before,
+        "a finished run was written again"
+    );
 }
 
 #[test]

@@ -406,6 +406,8 @@ impl Folder {
             owned: HashSet::new(),
             later_claims: Vec::new(),
         };
+        // A finished run deleted its COCO parts: its checkpoints are not checked against files.
+        let finished = text.trim_end().ends_with("\n!done");
         let mut offset = header.len();
         let mut frame_files: Vec<String> = Vec::new();
         let mut broken = false;
@@ -426,14 +428,18 @@ impl Folder {
                     broken = true;
                     continue;
                 };
-                let files_there = frame_files.iter().all(|rel| {
-                    fs::symlink_metadata(root.join(rel)).is_ok_and(|m| m.file_type().is_file())
-                });
-                let long_enough = cp.files.iter().all(|(rel, &len)| {
-                    fs::symlink_metadata(root.join(rel))
-                        .is_ok_and(|m| m.file_type().is_file() && m.len() >= len)
-                });
-                if files_there && long_enough {
+                let files_there = || {
+                    frame_files.iter().all(|rel| {
+                        fs::symlink_metadata(root.join(rel)).is_ok_and(|m| m.file_type().is_file())
+                    })
+                };
+                let long_enough = || {
+                    cp.files.iter().all(|(rel, &len)| {
+                        fs::symlink_metadata(root.join(rel))
+                            .is_ok_and(|m| m.file_type().is_file() && m.len() >= len)
+                    })
+                };
+                if finished || (files_there() && long_enough()) {
                     // A checkpoint lists only what changed since the one before.
                     let mut merged = scan.checkpoint.take().unwrap_or_default();
                     merged.next = cp.next;

@@ -4,8 +4,12 @@
 //! locked preset ([`DatasetWriter`]).
 //!
 //! Frames are written in index order by one sink, so label files, COCO ids and
-//! the manifest are byte-identical run to run. Adding a label format is one
-//! new file with a [`FormatWriter`] and one line in [`DatasetWriter::create`].
+//! the manifest are byte-identical run to run. Every file goes through the
+//! [`Folder`] ([`folder`]): claimed in the folder's ledger before it exists,
+//! never written through a symbolic link, written atomically or appended
+//! whole records at a time, and checkpointed per frame so an interrupted run
+//! continues byte for byte (docs/reliability.md). Adding a label format is
+//! one new file with a [`FormatWriter`] and one line in [`DatasetWriter::open`].
 
 pub mod coco;
 pub mod folder;
@@ -241,7 +245,12 @@ impl DatasetWriter {
         };
         let (classes, _) = preset.classes();
         let mut formats: Vec<Box<dyn FormatWriter>> = Vec::new();
-        if !done {
+        if done {
+            // A run killed after its "done" mark may have left its COCO parts.
+            for rel in needed.iter().filter(|r| r.ends_with(".part")) {
+                folder.remove(rel)?;
+            }
+        } else {
             // A killed run may have lost the lock: it is rewritten, the same bytes.
             folder.write_file(LOCK_FILE, lock.as_bytes())?;
             for split in SplitName::ALL {
