@@ -23,7 +23,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use swarmshot::model::CpuModel;
 use swarmshot::pipeline::{FramePipeline, load_model};
-use swarmshot::preset::{ModelSource, Preset, Resolution};
+use swarmshot::preset::{Preset, Resolution};
 use swarmshot::render::{RenderRequest, Renderer};
 use swarmshot::scene::math::{EulerDeg, look_at_cv};
 use swarmshot::scene::projection::{LabelGeometry, amodal_box};

@@ -116,11 +116,11 @@ mod tests {
         assert!(matches!(gate.check(true, &preset, 1.5), Gate::Wait(_)));
         // 0.8 s after the last keystroke, not after the first.
         assert!(matches!(gate.check(true, &preset, 2.2), Gate::Wait(_)));
-        assert_eq!(gate.check(true, &preset, 2.31), Gate::Commit);
+        assert_eq!(gate.check(true, &preset, 2.4), Gate::Commit);
         preset.seed = 5;
-        assert!(matches!(gate.check(true, &preset, 2.4), Gate::Wait(_)));
+        assert!(matches!(gate.check(true, &preset, 2.5), Gate::Wait(_)));
         // Enter or focus loss: commit at once.
-        assert_eq!(gate.check(false, &preset, 2.5), Gate::Commit);
+        assert_eq!(gate.check(false, &preset, 2.6), Gate::Commit);
     }
 
     #[test]

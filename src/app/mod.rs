@@ -1295,25 +1295,25 @@ fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
 const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
 const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
 
-/// A small outlined square in a box colour (the default fonts have no "■").
-fn swatch(ui: &mut Ui, colour: Color32) -> egui::Response {
-    let (rect, response) = ui.allocate_exact_size(Vec2::splat(11.0), Sense::hover());
-    ui.painter().rect_stroke(
-        rect.shrink(1.0),
-        0.0,
-        Stroke::new(2.0, colour),
-        egui::StrokeKind::Inside,
-    );
-    response
-}
-
 fn box_legend_ui(ui: &mut Ui) {
-    swatch(ui, BOX_KEPT).on_hover_text("A box written to the labels");
-    ui.weak("label box");
-    swatch(ui, BOX_CROWD)
-        .on_hover_text(
-            "A filtered drone kept as a COCO iscrowd region (Output → Filtered drones: COCO crowd); trainers ignore it",
+    // Painted swatches: the default fonts have no "■".
+    let swatch = |ui: &mut Ui, colour: Color32, tip: &str| {
+        let (rect, response) = ui.allocate_exact_size(Vec2::splat(10.0), Sense::hover());
+        ui.painter().rect_stroke(
+            rect,
+            0.0,
+            Stroke::new(2.0, colour),
+            egui::StrokeKind::Inside,
         );
+        response.on_hover_text(tip);
+    };
+    swatch(ui, BOX_KEPT, "A box written to the labels");
+    ui.weak("label box");
+    swatch(
+        ui,
+        BOX_CROWD,
+        "A filtered drone kept as a COCO iscrowd region (Output → Filtered drones: COCO crowd); trainers ignore it",
+    );
     ui.weak("crowd region (ignored)");
 }
 
