@@ -225,7 +225,7 @@ fn sigkill_at_any_point_then_resume_is_byte_identical() {
     {
         let out = tmp.path().join("killed-before-label");
         let child = batch_cmd(&file, &out, &[])
-            .env("SWARMSHOT_STALL_BEFORE_RENAME", &mid_label)
+            .env("SWARMSHOT_STALL_AT", &mid_label)
             .spawn()
             .expect("spawn");
         let tmp_label = out.join(mid_label.replace("00000020.txt", ".00000020.txt.tmp"));
@@ -236,15 +236,28 @@ fn sigkill_at_any_point_then_resume_is_byte_identical() {
         assert_same_dataset(&reference, &out, "killed before a label");
     }
 
+    // After a frame's manifest line and COCO records, before its checkpoint:
+    // the resume must cut them back.
+    {
+        let out = tmp.path().join("killed-before-checkpoint");
+        let child = batch_cmd(&file, &out, &[])
+            .env("SWARMSHOT_STALL_AT", "checkpoint:20")
+            .spawn()
+            .expect("spawn");
+        let manifest = out.join("manifest.jsonl");
+        kill_when(child, "before a checkpoint", || {
+            std::fs::read_to_string(&manifest).is_ok_and(|m| m.lines().count() == 21)
+        });
+        run_ok(&file, &out, &["--resume"]);
+        assert_same_dataset(&reference, &out, "killed before a checkpoint");
+    }
+
     // During COCO writing: instances_train.json is in place, instances_val.json
     // is being written.
     {
         let out = tmp.path().join("killed-in-coco");
         let child = batch_cmd(&file, &out, &[])
-            .env(
-                "SWARMSHOT_STALL_BEFORE_RENAME",
-                "annotations/instances_val.json",
-            )
+            .env("SWARMSHOT_STALL_AT", "annotations/instances_val.json")
             .spawn()
             .expect("spawn");
         let marker = out.join("annotations/.instances_val.json.tmp");

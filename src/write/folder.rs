@@ -697,6 +697,7 @@ impl Folder {
             path: self.root.join(LEDGER),
             reason: e.to_string(),
         })?;
+        stall_if_asked(&format!("checkpoint:{}", checkpoint.next.saturating_sub(1)));
         self.ledger_append(&format!("={json}\n"), false)?;
         self.frame_claims.clear();
         Ok(())
@@ -721,14 +722,15 @@ impl Folder {
     }
 }
 
-/// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_BEFORE_RENAME`
-/// set to a path relative to the dataset folder, the batch sleeps after that
-/// file's temporary copy is written and before it is renamed into place, so a
-/// test can kill the process at exactly that point.
-fn stall_if_asked(rel: &str) {
+/// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_AT` set to a
+/// path relative to the dataset folder, the batch sleeps after that file's
+/// temporary copy is written and before it is renamed into place; set to
+/// `checkpoint:N`, after frame N's files and records are written and before
+/// its checkpoint. A test kills the process there.
+fn stall_if_asked(point: &str) {
     static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
-    let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_BEFORE_RENAME").ok());
-    if at.as_deref() == Some(rel) {
+    let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_AT").ok());
+    if at.as_deref() == Some(point) {
         std::thread::sleep(std::time::Duration::from_secs(300));
     }
 }
