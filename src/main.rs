@@ -57,6 +57,9 @@ enum Command {
         /// Image encoder threads (default: one per spare core).
         #[arg(long, default_value_t = 0)]
         threads: usize,
+        /// Frames made at once, each by its own renderer (default 1; more can help on a real GPU).
+        #[arg(long, default_value_t = 0)]
+        makers: usize,
         /// Print each stage's share of the time at the end.
         #[arg(long)]
         timings: bool,
@@ -152,6 +155,7 @@ fn main() -> anyhow::Result<()> {
             overwrite,
             resume,
             threads,
+            makers,
             timings,
         } => batch(
             &preset,
@@ -161,6 +165,7 @@ fn main() -> anyhow::Result<()> {
                 overwrite,
                 resume,
                 encoder_threads: threads,
+                makers,
             },
             timings,
         ),

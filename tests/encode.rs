@@ -2,8 +2,8 @@
 //! nearly the same pixels, carries the preset's quality and chroma subsampling,
 //! and is byte-identical run to run; bad input is a named error.
 
-use swarmshot::write::{OutputError, encode_image};
 use swarmshot::preset::ImageFormat;
+use swarmshot::write::{OutputError, encode_image};
 
 /// A sky-like frame: a vertical blue gradient, mild deterministic noise, and a
 /// few small dark "drones" with sharp edges. RGBA8, alpha 255.
@@ -148,7 +148,12 @@ fn odd_sizes_encode_and_bad_input_is_a_named_error() {
     let rgba = frame(8, 8);
     for (bytes, w, h, format) in [
         (&rgba[..], 8, 9, ImageFormat::Jpeg { quality: 85 }),
-        (&rgba[..rgba.len() - 1], 8, 8, ImageFormat::Jpeg { quality: 85 }),
+        (
+            &rgba[..rgba.len() - 1],
+            8,
+            8,
+            ImageFormat::Jpeg { quality: 85 },
+        ),
         (&rgba[..], 8, 9, ImageFormat::Png),
         (&[][..], 0, 0, ImageFormat::Jpeg { quality: 85 }),
         (&rgba[..], 8, 8, ImageFormat::Jpeg { quality: 0 }),

@@ -826,6 +826,7 @@ impl SwarmshotApp {
             overwrite: self.session.overwrite,
             resume: false,
             encoder_threads: 0,
+            makers: 0,
         };
         let wake_ctx = ctx.clone();
         match BatchRun::start(preset, options, gpu.clone(), move || {

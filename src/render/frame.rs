@@ -477,8 +477,8 @@ impl Renderer {
             pass.draw(0..3, 0..1);
         }
         target.readback.copy_from(&mut encoder, &target.background);
-        self.queue.submit([encoder.finish()]);
-        let rgba = target.readback.read(&self.device)?;
+        let submitted = self.queue.submit([encoder.finish()]);
+        let rgba = target.readback.read(&self.device, submitted)?;
         state.targets[t].background_rgba = rgba;
         state.background_draws += 1;
         Ok(())
@@ -782,14 +782,14 @@ impl Renderer {
                 reducer.encode_copy(&mut encoder);
             }
         }
-        self.queue.submit([encoder.finish()]);
+        let submitted = self.queue.submit([encoder.finish()]);
         let target = &state.targets[t];
         let rgba = if request.color {
             let mut rgba = target.background_rgba.clone();
             if let (Some(buffer), Some(&(last, row))) = (&target.regions_readback, layout.last()) {
                 let len =
                     last + u64::from(row) * u64::from(main_rects.last().map_or(0, |r| r.height()));
-                read_mapped(&self.device, buffer, len, |bytes| {
+                read_mapped(&self.device, submitted.clone(), buffer, len, |bytes| {
                     let stride = width as usize * 4;
                     for (r, &(offset, row)) in main_rects.iter().zip(&layout) {
                         let w = r.width() as usize * 4;
@@ -803,7 +803,10 @@ impl Renderer {
             } else {
                 // Nothing to paste; still wait for the submission (the queue stays in step).
                 self.device
-                    .poll(wgpu::PollType::wait_indefinitely())
+                    .poll(wgpu::PollType::Wait {
+                        submission_index: Some(submitted.clone()),
+                        timeout: None,
+                    })
                     .map_err(|e| RenderError::Readback(e.to_string()))?;
             }
             rgba
@@ -816,7 +819,7 @@ impl Renderer {
                 .as_ref()
                 .and_then(|r| r.readback())
             {
-                Some((buffer, len)) => ids::read_words(&self.device, buffer, len)?,
+                Some((buffer, len)) => ids::read_words(&self.device, submitted, buffer, len)?,
                 None => vec![0; n * 10],
             };
             let seen = IdReducer::decode(&words, n, 0);
@@ -879,8 +882,8 @@ impl Renderer {
         let target = &state.targets[t];
         self.encode_region_pass(&mut encoder, &state.pipelines[p], target, &draws, "id pass");
         target.readback.copy_from(&mut encoder, &target.ids);
-        self.queue.submit([encoder.finish()]);
-        let bytes = target.readback.read(&self.device)?;
+        let submitted = self.queue.submit([encoder.finish()]);
+        let bytes = target.readback.read(&self.device, submitted)?;
         let values: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
         Ok(IdImage {
             width,

@@ -329,9 +329,10 @@ impl IdReducer {
 /// Map `buffer[..len]`, wait, and copy it out as u32 words.
 pub(super) fn read_words(
     device: &wgpu::Device,
+    submitted: wgpu::SubmissionIndex,
     buffer: &wgpu::Buffer,
     len: u64,
 ) -> Result<Vec<u32>, RenderError> {
-    let bytes = read_mapped(device, buffer, len, |b| b.to_vec())?;
+    let bytes = read_mapped(device, submitted, buffer, len, |b| b.to_vec())?;
     Ok(bytemuck::pod_collect_to_vec(&bytes))
 }

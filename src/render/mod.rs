@@ -754,8 +754,8 @@ impl Renderer {
         };
         self.encode(&mut encoder, scene, &views);
         target.readback.copy_from(&mut encoder, &target.color);
-        self.queue.submit([encoder.finish()]);
-        let result = target.readback.read(&self.device);
+        let submitted = self.queue.submit([encoder.finish()]);
+        let result = target.readback.read(&self.device, submitted);
         self.target = Some(target);
         result
     }
@@ -814,10 +814,14 @@ impl Readback {
     }
 
     /// Wait for the GPU, map, and strip the row padding.
-    fn read(&self, device: &wgpu::Device) -> Result<Vec<u8>, RenderError> {
+    fn read(
+        &self,
+        device: &wgpu::Device,
+        submitted: wgpu::SubmissionIndex,
+    ) -> Result<Vec<u8>, RenderError> {
         let row = (self.width * 4) as usize;
         let len = u64::from(self.padded_row) * u64::from(self.height);
-        read_mapped(device, &self.buffer, len, |view| {
+        read_mapped(device, submitted, &self.buffer, len, |view| {
             let mut out = Vec::with_capacity(row * self.height as usize);
             for y in 0..self.height as usize {
                 let start = y * self.padded_row as usize;
@@ -828,10 +832,13 @@ impl Readback {
     }
 }
 
-/// Map the first `len` bytes of `buffer`, wait for the GPU, hand them to
-/// `f`, and unmap (the buffer is reused by the next frame).
+/// Map the first `len` bytes of `buffer`, wait for the GPU to finish
+/// `submitted` (only it: other renderers on the device keep their own
+/// submissions in flight), hand the bytes to `f`, and unmap (the buffer is
+/// reused by the next frame).
 fn read_mapped<T>(
     device: &wgpu::Device,
+    submitted: wgpu::SubmissionIndex,
     buffer: &wgpu::Buffer,
     len: u64,
     f: impl FnOnce(&[u8]) -> T,
@@ -842,7 +849,10 @@ fn read_mapped<T>(
         let _ = tx.send(r);
     });
     device
-        .poll(wgpu::PollType::wait_indefinitely())
+        .poll(wgpu::PollType::Wait {
+            submission_index: Some(submitted),
+            timeout: None,
+        })
         .map_err(|e| RenderError::Readback(e.to_string()))?;
     rx.recv()
         .map_err(|e| RenderError::Readback(e.to_string()))?
