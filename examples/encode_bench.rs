@@ -10,8 +10,8 @@
 
 use std::time::Instant;
 
-use swarmshot::write::encode_image;
 use swarmshot::preset::ImageFormat;
+use swarmshot::write::encode_image;
 
 fn synthetic(width: u32, height: u32) -> Vec<u8> {
     let mut state = 0x9e37_79b9_u32;

@@ -9,7 +9,8 @@
 //! writes each frame's image, labels and manifest line in index order.
 //! A frame does not depend on which maker made it or on what that maker
 //! made before, so the output is the same for any number of makers.
-//! Cancelling stops feeding new frames and drains the queues, so every
+//! Cancelling stops making frames and writing them (frames made but not yet
+//! written are dropped: `--resume` remakes them), so every
 //! written image has its labels. The first write error stops every stage at
 //! once and removes the frame in flight, so the folder holds exactly the
 //! complete frames. A folder holding an earlier run of the same preset and
@@ -205,7 +206,7 @@ pub fn run_batch(
         // The sink: reorder by index and write; the first error stops it.
         let failed = &failed;
         let sink = s.spawn(
-            move || -> anyhow::Result<(DatasetWriter, Duration, Duration)> {
+            move || -> anyhow::Result<(DatasetWriter, Duration, Duration, bool)> {
                 let mut pending: BTreeMap<u64, Encoded> = BTreeMap::new();
                 let mut next = first;
                 let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
@@ -221,6 +222,10 @@ pub fn run_batch(
                         Err(e) => return stop(e),
                     }
                     while let Some(e) = pending.remove(&next) {
+                        if cancel.load(Ordering::Relaxed) {
+                            // Frames made but not yet written are dropped: a resume remakes them.
+                            return Ok((writer, encode, write, true));
+                        }
                         encode += e.encode;
                         let t = Instant::now();
                         if let Err(err) = writer.write_frame(&e.scene, &e.labels, &e.bytes) {
@@ -238,7 +243,7 @@ pub fn run_batch(
                         });
                     }
                 }
-                Ok((writer, encode, write))
+                Ok((writer, encode, write, false))
             },
         );
         // The makers: each takes the next index until the batch ends, fails or is cancelled.
@@ -304,7 +309,8 @@ pub fn run_batch(
             .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
         (sink_result, cancelled, make_result, make_time)
     });
-    let (writer, encode, write) = sink_result?;
+    let (writer, encode, write, sink_cancelled) = sink_result?;
+    let cancelled = cancelled || sink_cancelled;
     make_result?;
     let stats = writer.finish()?;
     Ok(BatchReport {

@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::annotate::{DroneLabel, label_frame};
+use crate::model::lod::{self, Lod};
 use crate::model::{self, CpuModel, ModelError};
 use crate::preset::{BoxMethod, FieldError, LabelSettings, ModelSource, ModelSpec, Preset};
 use crate::render::visibility::{self, Visibility};
@@ -60,6 +61,8 @@ fn list(errors: &[FieldError]) -> String {
 pub struct Assets {
     specs: Vec<ModelSpec>,
     pub models: Vec<CpuModel>,
+    /// Each model's levels of detail (finest first), built once at load.
+    pub lods: Vec<Vec<Lod>>,
     pub geometry: Vec<LabelGeometry>,
     pub sky: EnvironmentAssets,
 }
@@ -73,9 +76,20 @@ impl Assets {
             .map(|spec| load_model(&spec.source))
             .collect::<Result<Vec<_>, _>>()?;
         let geometry = models.iter().map(LabelGeometry::from).collect();
+        let lods = if preset.render.lod_error_px > 0.0 {
+            preset
+                .models
+                .iter()
+                .zip(&models)
+                .map(|(spec, m)| load_lods(&spec.source, m))
+                .collect::<Result<Vec<_>, _>>()?
+        } else {
+            Vec::new()
+        };
         Ok(Self {
             specs: preset.models.clone(),
             models,
+            lods,
             geometry,
             sky: EnvironmentAssets::load(&preset.sky)?,
         })
@@ -84,6 +98,7 @@ impl Assets {
     /// Whether these assets are exactly what `preset` names.
     pub fn serve(&self, preset: &Preset) -> bool {
         self.specs == preset.models
+            && (preset.render.lod_error_px <= 0.0 || !self.lods.is_empty())
             && preset
                 .sky
                 .image_sources()
@@ -105,6 +120,32 @@ pub fn load_model(source: &ModelSource) -> Result<CpuModel, ModelError> {
         }
         ModelSource::File(path) => model::load_file(path),
     }
+}
+
+/// The levels of detail of a loaded model. A built-in model's are built
+/// once per process and shared (they never change).
+fn load_lods(source: &ModelSource, model: &CpuModel) -> Result<Vec<Lod>, ModelError> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static BUILTIN: OnceLock<Mutex<HashMap<String, Vec<Lod>>>> = OnceLock::new();
+    let build = || {
+        lod::build_lods(model).map_err(|e| ModelError::Parse {
+            file: PathBuf::from(&model.name),
+            reason: e.to_string(),
+        })
+    };
+    let ModelSource::Builtin(name) = source else {
+        return build();
+    };
+    let cache = BUILTIN.get_or_init(Default::default);
+    if let Some(lods) = cache.lock().ok().and_then(|c| c.get(name).cloned()) {
+        return Ok(lods);
+    }
+    let lods = build()?;
+    if let Ok(mut c) = cache.lock() {
+        c.insert(name.clone(), lods.clone());
+    }
+    Ok(lods)
 }
 
 /// One made frame: its scene, its labels and its pixels.
@@ -201,7 +242,12 @@ impl FramePipeline {
 
     /// A renderer holding this pipeline's models and sky images on `ctx`'s device.
     pub fn renderer(&self, ctx: &GpuContext) -> Renderer {
-        let mut renderer = Renderer::new(ctx, &self.assets.models);
+        let mut renderer = Renderer::with_lods(
+            ctx,
+            &self.assets.models,
+            &self.assets.lods,
+            self.preset.render.lod_error_px,
+        );
         renderer.set_environment(&self.assets.sky);
         renderer
     }

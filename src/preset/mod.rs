@@ -552,13 +552,22 @@ pub struct RenderSettings {
     pub resolution: Resolution,
     /// Multisample anti-aliasing: 1 (off) or 4.
     pub msaa: u32,
+    /// Level of detail: a drone is drawn with the coarsest simplified mesh
+    /// whose silhouette lies within this many pixels of the full mesh's
+    /// (0: every drone at full detail). Labels' amodal boxes always come
+    /// from the full mesh; visible boxes follow the pixels drawn.
+    pub lod_error_px: f64,
 }
+
+/// The silhouette error a level of detail may add, by default (pixels).
+pub const DEFAULT_LOD_ERROR_PX: f64 = 0.5;
 
 impl Default for RenderSettings {
     fn default() -> Self {
         Self {
             resolution: Resolution::FullHd,
             msaa: 4,
+            lod_error_px: DEFAULT_LOD_ERROR_PX,
         }
     }
 }

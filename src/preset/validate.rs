@@ -204,6 +204,10 @@ impl Preset {
                 || format!("{side} px is out of range [1, {MAX_IMAGE_SIDE}]"),
             );
         }
+        let lod = self.render.lod_error_px;
+        v.check((0.0..=4.0).contains(&lod), "render.lod_error_px", || {
+            format!("{lod} is outside 0–4 px (0 draws every drone at full detail)")
+        });
         v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || {
             format!("{} is not supported; use 1 or 4", self.render.msaa)
         });

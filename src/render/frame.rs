@@ -486,6 +486,7 @@ impl Renderer {
 
     /// Instances of `regions` (drone index + 1 as id), appended to `data`, with their draws.
     fn region_draws(
+        &self,
         scene: &FrameScene,
         regions: &[Region],
         data: &mut Vec<InstanceRaw>,
@@ -493,16 +494,19 @@ impl Renderer {
         regions
             .iter()
             .map(|region| {
-                let mut order = region.drones.clone();
-                order.sort_by_key(|&i| scene.drones[i].model);
-                let mut draws: Vec<(usize, std::ops::Range<u32>)> = Vec::new();
-                for i in order {
+                let mut order: Vec<(super::MeshLevel, usize)> = region
+                    .drones
+                    .iter()
+                    .map(|&i| ((scene.drones[i].model, self.level_of(scene, i)), i))
+                    .collect();
+                order.sort_unstable();
+                let mut draws: Vec<(super::MeshLevel, std::ops::Range<u32>)> = Vec::new();
+                for (key, i) in order {
                     let idx = data.len() as u32;
                     data.push(InstanceRaw::new(scene, i));
-                    let model = scene.drones[i].model;
                     match draws.last_mut() {
-                        Some((m, r)) if *m == model => r.end = idx + 1,
-                        _ => draws.push((model, idx..idx + 1)),
+                        Some((k, r)) if *k == key => r.end = idx + 1,
+                        _ => draws.push((key, idx..idx + 1)),
                     }
                 }
                 RegionDraws {
@@ -573,13 +577,17 @@ impl Renderer {
             pass.set_pipeline(&pipes.drone);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_vertex_buffer(1, instances.slice(..));
-            for (model, range) in &region.draws {
-                let Some(mesh) = self.meshes.get(*model) else {
+            for ((model, level), range) in &region.draws {
+                let Some((mesh, lod)) = self
+                    .meshes
+                    .get(*model)
+                    .and_then(|m| Some((m, m.levels.get(*level)?)))
+                else {
                     continue;
                 };
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (indices, texture) in &mesh.draws {
+                for (indices, texture) in &lod.draws {
                     let bind_group = texture
                         .and_then(|t| mesh.textures.get(t))
                         .unwrap_or(&self.white_texture);
@@ -656,10 +664,10 @@ impl Renderer {
             (Vec::new(), vec![false; n])
         };
         let mut data = Vec::new();
-        let main_draws = Self::region_draws(scene, &main, &mut data);
+        let main_draws = self.region_draws(scene, &main, &mut data);
         let layer_draws: Vec<Vec<RegionDraws>> = layers
             .iter()
-            .map(|l| Self::region_draws(scene, l, &mut data))
+            .map(|l| self.region_draws(scene, l, &mut data))
             .collect();
         self.write_instances(&data);
         if request.color {
@@ -871,7 +879,7 @@ impl Renderer {
             drones: (0..scene.drones.len()).filter(|&i| include(i)).collect(),
         };
         let mut data = Vec::new();
-        let draws = Self::region_draws(scene, &[region], &mut data);
+        let draws = self.region_draws(scene, &[region], &mut data);
         self.write_instances(&data);
         self.counts.ids += 1;
         let mut encoder = self

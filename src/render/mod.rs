@@ -26,6 +26,7 @@ use std::ops::Range;
 use glam::{DMat4, Mat4};
 use wgpu::util::DeviceExt;
 
+use crate::model::lod::Lod;
 use crate::model::{CpuModel, Vertex};
 use crate::scene::FrameScene;
 use crate::scene::projection::LabelGeometry;
@@ -190,11 +191,23 @@ pub struct IdImage {
 
 struct GpuMesh {
     vertices: wgpu::Buffer,
+    /// Every level's indices, level 0 (the full mesh) first.
     indices: wgpu::Buffer,
-    /// Index ranges with their texture bind group (`None`: the white one).
-    draws: Vec<(Range<u32>, Option<usize>)>,
+    /// Levels of detail, finest first (see [`crate::model::lod`]).
+    levels: Vec<GpuLevel>,
     textures: Vec<wgpu::BindGroup>,
 }
+
+/// One level of detail of a [`GpuMesh`].
+struct GpuLevel {
+    /// Bound of the silhouette error, in model units (0 for level 0).
+    error: f32,
+    /// Index ranges with their texture bind group (`None`: the white one).
+    draws: Vec<(Range<u32>, Option<usize>)>,
+}
+
+/// What one instanced draw shares: a model and its level of detail.
+pub(crate) type MeshLevel = (usize, usize);
 
 /// An offscreen target of one size and sample count, with its readback buffer.
 struct Target {
@@ -234,6 +247,8 @@ pub struct Renderer {
     regions: Option<frame::RegionState>,
     /// Draw only the drones' regions (false: the whole frame as one region).
     use_regions: bool,
+    /// Silhouette error allowed to a level of detail, in pixels (0: full detail).
+    lod_error_px: f64,
     counts: PassCounts,
 }
 
@@ -275,8 +290,22 @@ pub fn shader_sources() -> [(&'static str, String); 6] {
 }
 
 impl Renderer {
-    /// Build pipelines and upload the models (index = model index in the preset).
+    /// Build pipelines and upload the models (index = model index in the
+    /// preset), drawn at full detail.
     pub fn new(ctx: &GpuContext, models: &[CpuModel]) -> Self {
+        Self::with_lods(ctx, models, &[], 0.0)
+    }
+
+    /// Like [`Renderer::new`], with each model's chain of levels of detail
+    /// (`lods[m]`, from [`crate::model::lod::build_lods`]; a model without
+    /// one is drawn at full detail): each drone is drawn with the coarsest
+    /// level whose silhouette error stays within `max_error_px` pixels.
+    pub fn with_lods(
+        ctx: &GpuContext,
+        models: &[CpuModel],
+        lods: &[Vec<Lod>],
+        max_error_px: f64,
+    ) -> Self {
         let device = ctx.device.clone();
         let frame_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("frame uniforms layout"),
@@ -328,30 +357,51 @@ impl Renderer {
         let shaders = (module(sky_name, sky_src), module(drone_name, drone_src));
         let meshes = models
             .iter()
-            .map(|m| GpuMesh {
-                vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(&format!("{} vertices", m.name)),
-                    contents: bytemuck::cast_slice(&m.vertices),
-                    usage: wgpu::BufferUsages::VERTEX,
-                }),
-                indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(&format!("{} indices", m.name)),
-                    contents: bytemuck::cast_slice(&m.indices),
-                    usage: wgpu::BufferUsages::INDEX,
-                }),
-                draws: m
-                    .draws
-                    .iter()
-                    .map(|d| (d.indices.clone(), d.texture))
-                    .collect(),
-                textures: m
-                    .textures
-                    .iter()
-                    .map(|t| {
-                        let label = format!("{} texture {}", m.name, t.name);
-                        material::upload(&device, &ctx.queue, &material_bgl, t, &label)
-                    })
-                    .collect(),
+            .enumerate()
+            .map(|(k, m)| {
+                // Level 0 is the model's own mesh; coarser levels follow in one index buffer.
+                let mut indices = m.indices.clone();
+                let mut levels = vec![GpuLevel {
+                    error: 0.0,
+                    draws: m
+                        .draws
+                        .iter()
+                        .map(|d| (d.indices.clone(), d.texture))
+                        .collect(),
+                }];
+                for lod in lods.get(k).map_or(&[][..], |l| l.get(1..).unwrap_or(&[])) {
+                    let base = indices.len() as u32;
+                    indices.extend_from_slice(&lod.indices);
+                    levels.push(GpuLevel {
+                        error: lod.error,
+                        draws: lod
+                            .draws
+                            .iter()
+                            .map(|d| (d.indices.start + base..d.indices.end + base, d.texture))
+                            .collect(),
+                    });
+                }
+                GpuMesh {
+                    vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some(&format!("{} vertices", m.name)),
+                        contents: bytemuck::cast_slice(&m.vertices),
+                        usage: wgpu::BufferUsages::VERTEX,
+                    }),
+                    indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some(&format!("{} indices", m.name)),
+                        contents: bytemuck::cast_slice(&indices),
+                        usage: wgpu::BufferUsages::INDEX,
+                    }),
+                    levels,
+                    textures: m
+                        .textures
+                        .iter()
+                        .map(|t| {
+                            let label = format!("{} texture {}", m.name, t.name);
+                            material::upload(&device, &ctx.queue, &material_bgl, t, &label)
+                        })
+                        .collect(),
+                }
             })
             .collect();
         Self {
@@ -372,8 +422,51 @@ impl Renderer {
             target: None,
             regions: None,
             use_regions: true,
+            lod_error_px: if max_error_px.is_finite() {
+                max_error_px.max(0.0)
+            } else {
+                0.0
+            },
             counts: PassCounts::default(),
         }
+    }
+
+    /// The level of detail drone `i` of `scene` is drawn with: the coarsest
+    /// whose error, scaled by the drone's size over the depth of its nearest
+    /// possible point, is within the renderer's pixel budget (level 0 when
+    /// any part of the drone may be at or behind the camera plane).
+    fn level_of(&self, scene: &FrameScene, i: usize) -> usize {
+        let d = &scene.drones[i];
+        let Some(mesh) = self.meshes.get(d.model) else {
+            return 0;
+        };
+        if self.lod_error_px <= 0.0 || mesh.levels.len() < 2 {
+            return 0;
+        }
+        let cam = &scene.camera;
+        let nearest = cam.camera_from_world_point(d.position).z - d.size_m * 0.5 * 3f64.sqrt();
+        if nearest.is_nan() || nearest <= cam.near_m {
+            return 0;
+        }
+        let px_per_unit = d.size_m * cam.focal_px() / nearest;
+        // The coarsest level within the budget (errors grow with the level).
+        mesh.levels
+            .iter()
+            .rposition(|l| f64::from(l.error) * px_per_unit <= self.lod_error_px)
+            .unwrap_or(0)
+    }
+
+    /// Triangles drawn per level of detail, over the drones of `scene` (for benchmarks).
+    pub fn level_histogram(&self, scene: &FrameScene) -> Vec<usize> {
+        let mut counts = Vec::new();
+        for i in 0..scene.drones.len() {
+            let level = self.level_of(scene, i);
+            if counts.len() <= level {
+                counts.resize(level + 1, 0);
+            }
+            counts[level] += 1;
+        }
+        counts
     }
 
     /// Passes run so far.
@@ -547,18 +640,20 @@ impl Renderer {
         &mut self,
         scene: &FrameScene,
         include: &dyn Fn(usize) -> bool,
-    ) -> Vec<(usize, std::ops::Range<u32>)> {
-        let mut order: Vec<usize> = (0..scene.drones.len()).filter(|&i| include(i)).collect();
-        order.sort_by_key(|&i| scene.drones[i].model);
+    ) -> Vec<(MeshLevel, std::ops::Range<u32>)> {
+        let mut order: Vec<(MeshLevel, usize)> = (0..scene.drones.len())
+            .filter(|&i| include(i))
+            .map(|i| ((scene.drones[i].model, self.level_of(scene, i)), i))
+            .collect();
+        order.sort_unstable();
         let mut data: Vec<InstanceRaw> = Vec::with_capacity(order.len());
-        let mut ranges: Vec<(usize, std::ops::Range<u32>)> = Vec::new();
-        for &i in &order {
-            let model = scene.drones[i].model;
+        let mut ranges: Vec<(MeshLevel, std::ops::Range<u32>)> = Vec::new();
+        for &(key, i) in &order {
             let idx = data.len() as u32;
             data.push(InstanceRaw::new(scene, i));
             match ranges.last_mut() {
-                Some((m, r)) if *m == model => r.end = idx + 1,
-                _ => ranges.push((model, idx..idx + 1)),
+                Some((k, r)) if *k == key => r.end = idx + 1,
+                _ => ranges.push((key, idx..idx + 1)),
             }
         }
         self.write_instances(&data);
@@ -645,11 +740,11 @@ impl Renderer {
         {
             pass.set_pipeline(drone_pipeline);
             pass.set_vertex_buffer(1, instances.slice(..));
-            for (model, range) in ranges {
+            for ((model, level), range) in ranges {
                 let mesh = &self.meshes[model];
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (indices, texture) in &mesh.draws {
+                for (indices, texture) in &mesh.levels[level].draws {
                     let bind_group = texture
                         .and_then(|t| mesh.textures.get(t))
                         .unwrap_or(&self.white_texture);

@@ -132,7 +132,8 @@ pub fn merge(rects: &[Option<Rect>], members: impl IntoIterator<Item = usize>) -
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RegionDraws {
     pub rect: Rect,
-    pub draws: Vec<(usize, Range<u32>)>,
+    /// Instance ranges per (model, level of detail).
+    pub draws: Vec<((usize, usize), Range<u32>)>,
 }
 
 #[cfg(test)]
