@@ -31,15 +31,22 @@ fn sky_radiance(dir: vec3<f32>) -> vec3<f32> {
     return col + frame.sun_color.rgb * (disc * 20.0 + glow);
 }
 
+// The sky mode fixed when the pipeline is built (as `Env.mode.x`), or -1 to
+// read it from the uniforms. A fixed mode lets the shader compiler drop the
+// other branches: a software rasteriser such as lavapipe otherwise runs
+// every branch for every pixel under a lane mask.
+override SKY_MODE: f32 = -1.0;
+
 @fragment
 fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
     let k = frame.intrinsics;
     let ray_cam = vec3<f32>((in.position.x - k.z) / k.x, (in.position.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
+    let mode = select(env.mode.x, SKY_MODE, SKY_MODE >= 0.0);
     var col: vec3<f32>;
-    if (env.mode.x < 0.5) {
+    if (mode < 0.5) {
         col = sky_radiance(dir);
-    } else if (env.mode.x < 1.5) {
+    } else if (mode < 1.5) {
         // Drawn at reduced resolution by fs_environment; the principal point is the image centre.
         let uv = in.position.xy / (2.0 * k.zw);
         col = textureSampleLevel(env_half, env_half_sampler, uv, 0.0).rgb;

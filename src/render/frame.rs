@@ -92,7 +92,8 @@ pub(super) struct RegionState {
     resolve_layout: wgpu::BindGroupLayout,
     regions_module: wgpu::ShaderModule,
     resolve_module: wgpu::ShaderModule,
-    sky_background: Option<wgpu::RenderPipeline>,
+    /// The background sky pipeline per sky mode (see `SKY_MODE` in sky.wgsl).
+    sky_background: Vec<(u32, wgpu::RenderPipeline)>,
     pipelines: Vec<RegionPipelines>,
     /// Most recently used last; at most [`MAX_TARGETS`].
     targets: Vec<FrameTargets>,
@@ -148,7 +149,7 @@ impl RegionState {
             resolve_layout: texture_layout(device, "region resolve layout", true),
             regions_module: module("regions.wgsl", regions_src),
             resolve_module: module("resolve.wgsl", resolve_src),
-            sky_background: None,
+            sky_background: Vec::new(),
             pipelines: Vec::new(),
             targets: Vec::new(),
             background_draws: 0,
@@ -410,9 +411,16 @@ impl Renderer {
         t: usize,
         scene: &FrameScene,
     ) -> Result<(), RenderError> {
-        if state.sky_background.is_none() {
-            state.sky_background = Some(self.device.create_render_pipeline(
-                &wgpu::RenderPipelineDescriptor {
+        let mode = self.sky.mode();
+        if !state
+            .sky_background
+            .iter()
+            .any(|(m, _)| *m == mode.to_bits())
+        {
+            let constants = [("SKY_MODE", f64::from(mode))];
+            let pipeline = self
+                .device
+                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some("background sky pipeline"),
                     layout: Some(&self.sky_layout),
                     vertex: wgpu::VertexState {
@@ -427,7 +435,10 @@ impl Renderer {
                     fragment: Some(wgpu::FragmentState {
                         module: &self.shaders.0,
                         entry_point: Some("fs_main"),
-                        compilation_options: Default::default(),
+                        compilation_options: wgpu::PipelineCompilationOptions {
+                            constants: &constants,
+                            ..Default::default()
+                        },
                         targets: &[Some(wgpu::ColorTargetState {
                             format: COLOR_FORMAT,
                             blend: None,
@@ -436,8 +447,8 @@ impl Renderer {
                     }),
                     multiview_mask: None,
                     cache: None,
-                },
-            ));
+                });
+            state.sky_background.push((mode.to_bits(), pipeline));
         }
         let mut encoder = self
             .device
@@ -454,7 +465,11 @@ impl Renderer {
                 (target.width, target.height),
             );
         }
-        if let Some(pipeline) = &state.sky_background {
+        if let Some((_, pipeline)) = state
+            .sky_background
+            .iter()
+            .find(|(m, _)| *m == mode.to_bits())
+        {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("background pass"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {

@@ -452,6 +452,12 @@ impl SkyGpu {
     pub(super) fn uniform_bytes(&self) -> &[u8] {
         bytemuck::bytes_of(&self.written)
     }
+
+    /// The sky mode last written (`Env.mode.x`: 0 gradient, 1 procedural,
+    /// 2 equirect, 3 cubemap), to specialise the background pipeline with.
+    pub(super) fn mode(&self) -> f32 {
+        self.written.mode[0]
+    }
 }
 
 fn make_bind_group(
