@@ -151,10 +151,25 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // `{:#}`: the message and its causes on one line, never a backtrace
             // (RUST_BACKTRACE is for bugs, not for a user's typo).
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", one_line(&e));
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, each cause added only when the
+/// message does not already quote it (typed errors often include their source).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(&text) {
+            line = format!("{line}: {text}");
+        }
+    }
+    line
 }
 
 fn run() -> anyhow::Result<()> {
@@ -219,7 +234,8 @@ fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow::Result<()
     let limits = swarmshot::preset::DeviceLimits {
         max_texture_side: ctx.max_texture_side,
         max_buffer_bytes: ctx.device.limits().max_buffer_size,
-        memory_bytes: available_memory_bytes(),
+        // A frame may use three quarters of what is free; the rest is the encoders' and the system's.
+        memory_bytes: available_memory_bytes().map(|b| b / 4 * 3),
     };
     pipeline.preset().check_limits(&limits).map_err(|errors| {
         let list: Vec<String> = errors.iter().map(|e| format!("  - {e}")).collect();

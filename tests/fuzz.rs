@@ -99,7 +99,10 @@ fn exercise_preset(text: &str) -> Result<(), TestCaseError> {
         memory_bytes: Some(1 << 32),
     });
     let back = Preset::from_ron(&preset.to_ron());
-    prop_assert!(back.is_ok(), "a valid preset's RON does not parse: {back:?}");
+    prop_assert!(
+        back.is_ok(),
+        "a valid preset's RON does not parse: {back:?}"
+    );
     let small = match &preset.placement {
         Placement::Randomized { count, .. } => count.1 <= 64,
         Placement::Structured {
@@ -119,12 +122,58 @@ fn exercise_preset(text: &str) -> Result<(), TestCaseError> {
 /// Tokens a mutation may splice in: field and variant names, numbers at the
 /// edges of their types, brackets and separators.
 const TOKENS: &[&str] = &[
-    "(", ")", "[", "]", ",", ":", "\"", "0", "-0.0", "1", "-1", "1e308", "-1e308", "1e-320",
-    "inf", "NaN", "4294967295", "4294967296", "18446744073709551615", "-9223372036854775808",
-    "0.5", "Some(", "None", "true", "x_count", "count", "size_m", "min_separation_m",
-    "per_m3", "start", "end", "step", "fov_y_deg", "msaa", "id_scale", "width", "height",
-    "quality", "repeats", "choices", "Random(", "Structured(", "Randomized(", "Density(",
-    "Box(", "Custom(", "Image(", "Equirect(", "Procedural(", "environment", "//", "/*",
+    "(",
+    ")",
+    "[",
+    "]",
+    ",",
+    ":",
+    "\"",
+    "0",
+    "-0.0",
+    "1",
+    "-1",
+    "1e308",
+    "-1e308",
+    "1e-320",
+    "inf",
+    "NaN",
+    "4294967295",
+    "4294967296",
+    "18446744073709551615",
+    "-9223372036854775808",
+    "0.5",
+    "Some(",
+    "None",
+    "true",
+    "x_count",
+    "count",
+    "size_m",
+    "min_separation_m",
+    "per_m3",
+    "start",
+    "end",
+    "step",
+    "fov_y_deg",
+    "msaa",
+    "id_scale",
+    "width",
+    "height",
+    "quality",
+    "repeats",
+    "choices",
+    "Random(",
+    "Structured(",
+    "Randomized(",
+    "Density(",
+    "Box(",
+    "Custom(",
+    "Image(",
+    "Equirect(",
+    "Procedural(",
+    "environment",
+    "//",
+    "/*",
 ];
 
 #[derive(Clone, Debug)]
@@ -139,8 +188,11 @@ fn edit_strategy() -> impl Strategy<Value = Edit> {
     prop_oneof![
         (any::<usize>(), 1..16usize).prop_map(|(at, len)| Edit::Delete { at, len }),
         (any::<usize>(), any::<usize>()).prop_map(|(at, token)| Edit::Insert { at, token }),
-        (any::<usize>(), 1..8usize, any::<usize>())
-            .prop_map(|(at, len, token)| Edit::Replace { at, len, token }),
+        (any::<usize>(), 1..8usize, any::<usize>()).prop_map(|(at, len, token)| Edit::Replace {
+            at,
+            len,
+            token
+        }),
         any::<usize>().prop_map(|at| Edit::Truncate { at }),
     ]
 }
@@ -180,9 +232,8 @@ fn mutate_text(text: &str, edits: &[Edit]) -> String {
 /// The loader on `bytes`: no panic may escape and it must finish promptly.
 fn exercise_glb(bytes: &[u8]) -> Result<(), TestCaseError> {
     let start = Instant::now();
-    let result = std::panic::catch_unwind(|| {
-        model::load_bytes(bytes, None, Path::new("fuzz.glb"), "fuzz")
-    });
+    let result =
+        std::panic::catch_unwind(|| model::load_bytes(bytes, None, Path::new("fuzz.glb"), "fuzz"));
     let elapsed = start.elapsed();
     prop_assert!(result.is_ok(), "a panic escaped the glTF loader");
     prop_assert!(
@@ -191,7 +242,10 @@ fn exercise_glb(bytes: &[u8]) -> Result<(), TestCaseError> {
     );
     if let Ok(Err(e)) = result {
         let msg = e.to_string();
-        prop_assert!(msg.contains("fuzz.glb"), "error does not name the file: {msg}");
+        prop_assert!(
+            msg.contains("fuzz.glb"),
+            "error does not name the file: {msg}"
+        );
     }
     Ok(())
 }
@@ -357,9 +411,16 @@ fn a_panic_inside_the_gltf_reader_is_one_typed_error_without_its_text() {
         Path::new("hostile.glb"),
         "h",
     ) {
-        Err(e @ (ModelError::Primitive { .. } | ModelError::Malformed { .. } | ModelError::Parse { .. })) => {
+        Err(
+            e @ (ModelError::Primitive { .. }
+            | ModelError::Malformed { .. }
+            | ModelError::Parse { .. }),
+        ) => {
             let msg = e.to_string();
-            assert!(msg.contains("hostile.glb") && !msg.contains("panicked at"), "{msg}");
+            assert!(
+                msg.contains("hostile.glb") && !msg.contains("panicked at"),
+                "{msg}"
+            );
         }
         other => panic!("{other:?}"),
     }

@@ -49,10 +49,9 @@ fn the_loader_bakes_the_texture_transform_into_vertex_uvs() {
         .as_array_mut()
         .expect("views")
         .push(serde_json::json!({"buffer": 0, "byteOffset": uv_offset, "byteLength": 24}));
-    json["accessors"]
-        .as_array_mut()
-        .expect("accessors")
-        .push(serde_json::json!({"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"}));
+    json["accessors"].as_array_mut().expect("accessors").push(
+        serde_json::json!({"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"}),
+    );
     json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = serde_json::json!(2);
     json["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
     json["extensionsUsed"] = serde_json::json!(["KHR_texture_transform"]);
@@ -84,8 +83,12 @@ fn two_skeletons(with_joints: bool) -> Vec<u8> {
         views.push(serde_json::json!({"buffer": 0, "byteOffset": j, "byteLength": 12}));
         views.push(serde_json::json!({"buffer": 0, "byteOffset": w, "byteLength": 48}));
         let accessors = json["accessors"].as_array_mut().expect("accessors");
-        accessors.push(serde_json::json!({"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC4"}));
-        accessors.push(serde_json::json!({"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC4"}));
+        accessors.push(
+            serde_json::json!({"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC4"}),
+        );
+        accessors.push(
+            serde_json::json!({"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC4"}),
+        );
         let attributes = &mut json["meshes"][0]["primitives"][0]["attributes"];
         attributes["JOINTS_0"] = serde_json::json!(2);
         attributes["WEIGHTS_0"] = serde_json::json!(3);

@@ -152,13 +152,12 @@ pub const MAX_MODEL_FILE_BYTES: u64 = 512 << 20;
 /// Load a .gltf or .glb file from disk: a regular file of at most
 /// [`MAX_MODEL_FILE_BYTES`] (FIFOs and devices are refused unopened).
 pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
-    let bytes =
-        crate::preset::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(|source| {
-            ModelError::Io {
-                file: path.to_owned(),
-                source,
-            }
-        })?;
+    let bytes = crate::preset::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(|source| {
+        ModelError::Io {
+            file: path.to_owned(),
+            source,
+        }
+    })?;
     let name = path
         .file_stem()
         .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
@@ -336,7 +335,9 @@ fn check_external_files(
         let path = base_dir.unwrap_or(Path::new(".")).join(&decoded);
         let meta = std::fs::metadata(&path);
         let problem = match &meta {
-            Ok(m) if !m.is_file() => Some("not a regular file (a FIFO, device or folder)".to_string()),
+            Ok(m) if !m.is_file() => {
+                Some("not a regular file (a FIFO, device or folder)".to_string())
+            }
             Ok(m) if m.len() > MAX_MODEL_FILE_BYTES => Some(format!(
                 "{} bytes is larger than the {MAX_MODEL_FILE_BYTES}-byte limit",
                 m.len()
@@ -576,11 +577,7 @@ impl Flattener<'_> {
         let (file, buffers) = (self.file, self.buffers);
         let err = |reason: String| ModelError::Malformed {
             file: file.to_owned(),
-            reason: format!(
-                "node {} skin {}: {reason}",
-                node_label(node),
-                skin.index()
-            ),
+            reason: format!("node {} skin {}: {reason}", node_label(node), skin.index()),
         };
         let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
         let inverse_bind: Vec<DMat4> = match skin.inverse_bind_matrices() {
@@ -749,7 +746,10 @@ impl Flattener<'_> {
                             let joints: Vec<[u16; 4]> = joints.into_u16().collect();
                             let weights: Vec<[f32; 4]> = weights.into_f32().collect();
                             if joints.len() != n || weights.len() != n {
-                                return Err(err("JOINTS_0/WEIGHTS_0 counts differ from the POSITION count".into()));
+                                return Err(err(
+                                    "JOINTS_0/WEIGHTS_0 counts differ from the POSITION count"
+                                        .into(),
+                                ));
                             }
                             let mut out = Vec::with_capacity(n);
                             for (j, w) in joints.iter().zip(&weights) {
@@ -765,7 +765,11 @@ impl Flattener<'_> {
                                     m += *jm * f64::from(weight);
                                     total += f64::from(weight);
                                 }
-                                out.push(if total > 0.0 { m * (1.0 / total) } else { world });
+                                out.push(if total > 0.0 {
+                                    m * (1.0 / total)
+                                } else {
+                                    world
+                                });
                             }
                             if let Some(first) = out.first() {
                                 flips = DMat3::from_mat4(*first).determinant() < 0.0;
@@ -892,8 +896,18 @@ fn check_accessor(
         let indices = sparse.indices();
         let values = sparse.values();
         let parts = [
-            ("sparse indices", indices.view(), indices.offset(), indices.index_type().size()),
-            ("sparse values", values.view(), values.offset(), accessor.size()),
+            (
+                "sparse indices",
+                indices.view(),
+                indices.offset(),
+                indices.index_type().size(),
+            ),
+            (
+                "sparse values",
+                values.view(),
+                values.offset(),
+                accessor.size(),
+            ),
         ];
         for (what, view, offset, size) in parts {
             let length = view_fits(&view)?;

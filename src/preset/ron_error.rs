@@ -200,9 +200,19 @@ mod tests {
     fn paths_follow_brackets_keys_and_list_indices() {
         let text = "(\n  camera: (x: (start: 1.0), fovy_deg: 2.0),\n  output: (label_formats: [Yolo, Cocoa]),\n)";
         // `fovy_deg` on line 2.
-        let col = text.lines().nth(1).and_then(|l| l.find("fovy")).unwrap_or(0) + 1;
+        let col = text
+            .lines()
+            .nth(1)
+            .and_then(|l| l.find("fovy"))
+            .unwrap_or(0)
+            + 1;
         assert_eq!(field_path(text, 2, col, false), "camera");
-        let col = text.lines().nth(2).and_then(|l| l.find("Cocoa")).unwrap_or(0) + 1;
+        let col = text
+            .lines()
+            .nth(2)
+            .and_then(|l| l.find("Cocoa"))
+            .unwrap_or(0)
+            + 1;
         assert_eq!(field_path(text, 3, col, true), "output.label_formats[1]");
     }
 

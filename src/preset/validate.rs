@@ -6,7 +6,7 @@ use super::*;
 /// Frames the batch may hold between rendering and encoding (its bounded queues).
 pub const QUEUED_FRAMES: u64 = 8;
 /// The most memory one frame may need, whatever the machine ([`Preset::frame_memory_bytes`]).
-pub const MAX_FRAME_MEMORY_BYTES: u64 = 16 << 30;
+pub const MAX_FRAME_MEMORY_BYTES: u64 = 8 << 30;
 
 /// What a device offers, as plain numbers (the caller reads them from its adapter).
 #[derive(Clone, Copy, Debug)]
@@ -15,7 +15,7 @@ pub struct DeviceLimits {
     pub max_texture_side: u32,
     /// `max_buffer_size`.
     pub max_buffer_bytes: u64,
-    /// Memory available to the process, if known.
+    /// Memory one frame may use (the CLI passes ¾ of `MemAvailable`), if known.
     pub memory_bytes: Option<u64>,
 }
 
