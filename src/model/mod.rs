@@ -186,7 +186,7 @@ pub fn load_bytes(
     result.unwrap_or_else(|_| {
         Err(ModelError::Malformed {
             file: file.to_owned(),
-            reason: "the glTF reader panicked on it; an accessor, buffer view or image points outside its data".into(),
+            reason: "a panic inside the gltf crate: an accessor, buffer view or image points outside its data".into(),
         })
     })
 }
