@@ -664,6 +664,22 @@ impl Flattener<'_> {
             let buffers = self.buffers;
             for (semantic, accessor) in primitive.attributes() {
                 check_accessor(&accessor, &semantic.to_string(), buffers).map_err(&err)?;
+                // Positions and normals are read as float triples only.
+                use gltf::accessor::{DataType, Dimensions};
+                if matches!(
+                    semantic,
+                    gltf::Semantic::Positions | gltf::Semantic::Normals
+                ) && (accessor.data_type() != DataType::F32
+                    || accessor.dimensions() != Dimensions::Vec3)
+                {
+                    return Err(err(format!(
+                        "accessor {} ({}) must be float VEC3, not {:?} {:?}",
+                        accessor.index(),
+                        semantic.to_string(),
+                        accessor.data_type(),
+                        accessor.dimensions()
+                    )));
+                }
             }
             if let Some(accessor) = primitive.indices() {
                 check_accessor(&accessor, "indices", buffers).map_err(&err)?;
