@@ -34,7 +34,7 @@ fn texture_rotation_turns_uvs_counter_clockwise_in_v_down_uv_space() {
     assert_close(trs([0.0, 1.0]), [3.5, 0.25]);
     // The TextureTransformTest "Rotation" material (rotation 0.3926991 = 22.5°):
     // the sample viewer's matrix (columns (cos, −sin), (sin, cos)).
-    let r = 0.392_699_1_f32;
+    let r = std::f32::consts::FRAC_PI_8;
     let m = model::uv_transform([0.0, 0.0], r, [1.0, 1.0]);
     let (s, c) = r.sin_cos();
     assert_close(m([0.3, 0.7]), [c * 0.3 + s * 0.7, -s * 0.3 + c * 0.7]);

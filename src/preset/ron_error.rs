@@ -121,18 +121,14 @@ fn field_path(text: &str, line: usize, col: usize, with_key: bool) -> String {
                     index: 0,
                 });
             }
-            b')' | b']' | b'}' => {
-                if stack.len() > 1 {
-                    stack.pop();
-                }
+            b')' | b']' | b'}' if stack.len() > 1 => {
+                stack.pop();
             }
-            b',' => {
-                if let Some(top) = stack.last_mut()
-                    && top.list
-                {
-                    top.index += 1;
-                }
-            }
+            b',' => stack
+                .last_mut()
+                .into_iter()
+                .filter(|top| top.list)
+                .for_each(|top| top.index += 1),
             c if c.is_ascii_alphabetic() || c == b'_' => {
                 let start = i;
                 while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {

@@ -57,11 +57,11 @@ pub fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
     json["asset"] = serde_json::json!({"version": "2.0"});
     json["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
     let mut j = json.to_string().into_bytes();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + j.len() + 8 + b.len();
