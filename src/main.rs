@@ -138,7 +138,44 @@ enum BenchCommand {
     },
 }
 
-fn main() -> anyhow::Result<()> {
+/// The most image encoder threads `--threads` accepts.
+const MAX_THREADS: usize = 256;
+
+fn main() -> std::process::ExitCode {
+    // A panic the glTF loader catches becomes its typed error; nothing else is printed for it.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !swarmshot::model::in_guarded_load() {
+            default_hook(info);
+        }
+    }));
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            // `{:#}`: the message and its causes on one line, never a backtrace
+            // (RUST_BACKTRACE is for bugs, not for a user's typo).
+            eprintln!("error: {}", one_line(&e));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error and its causes on one line, each cause added only when the
+/// message does not already quote it (typed errors often include their source).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(&text) {
+            line = format!("{line}: {text}");
+        }
+    }
+    line
+}
+
+fn run() -> anyhow::Result<()> {
     let Some(command) = Cli::parse().command else {
         swarmshot::app::run_or_exit(None);
         return Ok(());
@@ -197,9 +234,53 @@ fn main() -> anyhow::Result<()> {
     }
 }
 
+/// Refuse what the adapter cannot do before anything is written; print the preset's warnings.
+fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow::Result<()> {
+    let limits = swarmshot::preset::DeviceLimits {
+        max_texture_side: ctx.max_texture_side,
+        max_buffer_bytes: ctx.device.limits().max_buffer_size,
+        // A frame may use three quarters of what is free; the rest is the encoders' and the system's.
+        memory_bytes: available_memory_bytes().map(|b| b / 4 * 3),
+    };
+    pipeline.preset().check_limits(&limits).map_err(|errors| {
+        let list: Vec<String> = errors.iter().map(|e| format!("  - {e}")).collect();
+        anyhow::anyhow!(
+            "the preset asks more than {} can do:\n{}",
+            ctx.describe(),
+            list.join("\n")
+        )
+    })
+}
+
+/// `MemAvailable` from /proc/meminfo (Linux), in bytes.
+fn available_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+/// Print the preset's warnings (overlapping drones and the like) to stderr.
+fn print_warnings(pipeline: &FramePipeline) {
+    for w in pipeline.preset().warnings() {
+        eprintln!("warning: {w}");
+    }
+}
+
 fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<()> {
+    if options.limit == Some(0) {
+        anyhow::bail!("--limit 0: the batch would make no frame; give at least 1");
+    }
+    if options.encoder_threads > MAX_THREADS {
+        anyhow::bail!(
+            "--threads {}: at most {MAX_THREADS} encoder threads (0: one per spare core)",
+            options.encoder_threads
+        );
+    }
     let pipeline = FramePipeline::open(preset)?;
+    print_warnings(&pipeline);
     let ctx = GpuContext::headless()?;
+    device_check(&pipeline, &ctx)?;
     let total = options
         .limit
         .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
@@ -241,7 +322,16 @@ fn check(path: &Path) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(path)?;
     let preset = pipeline.preset();
     let (w, h) = preset.image_size();
+    // Everything the batch loads (models, sky images) is loaded above; the
+    // adapter's limits are checked here too when one is found.
+    match GpuContext::headless() {
+        Ok(ctx) => device_check(&pipeline, &ctx)?,
+        Err(e) => eprintln!("warning: {e:#}; the adapter's limits were not checked"),
+    }
     println!("preset {} is valid", path.display());
+    for w in preset.warnings() {
+        println!("warning: {w}");
+    }
     println!("frames: {}", pipeline.frame_count());
     println!(
         "image: {w}×{h}, {:?}, MSAA {}",
@@ -268,6 +358,11 @@ fn check(path: &Path) -> anyhow::Result<()> {
             share(stats.medium),
             share(stats.large),
         );
+        if stats.boxes == 0 {
+            println!(
+                "warning: none of the first {sample} frames would get a single box (drones too small, too far or out of view?)"
+            );
+        }
     }
     for (spec, model) in preset.models.iter().zip(&pipeline.assets().models) {
         println!(
@@ -313,7 +408,9 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
             pipeline.frame_count()
         );
     }
+    print_warnings(&pipeline);
     let ctx = GpuContext::headless()?;
+    device_check(&pipeline, &ctx)?;
     let mut renderer = pipeline.renderer(&ctx);
     let mut frame = pipeline.make(&mut renderer, index)?;
     let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);

@@ -126,6 +126,12 @@ pub enum ModelError {
     Degenerate { file: PathBuf, span: f64 },
     #[error("model {}: the glTF reader failed on malformed data ({reason})", file.display())]
     Malformed { file: PathBuf, reason: String },
+    #[error("model {}: the node graph expands to more than {limit} node instances (reached at node {node}); nodes shared by several parents form a DAG, and glTF node hierarchies must be trees", file.display())]
+    NodeGraph {
+        file: PathBuf,
+        node: usize,
+        limit: usize,
+    },
 }
 
 fn hint(extension: &str) -> &'static str {
@@ -141,11 +147,17 @@ fn hint(extension: &str) -> &'static str {
 /// Required extensions we can draw correctly.
 const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_unlit", "KHR_texture_transform"];
 
-/// Load a .gltf or .glb file from disk.
+/// The largest model file (and each external buffer or image it names) read.
+pub const MAX_MODEL_FILE_BYTES: u64 = 512 << 20;
+
+/// Load a .gltf or .glb file from disk: a regular file of at most
+/// [`MAX_MODEL_FILE_BYTES`] (FIFOs and devices are refused unopened).
 pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
-    let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
-        file: path.to_owned(),
-        source,
+    let bytes = crate::preset::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(|source| {
+        ModelError::Io {
+            file: path.to_owned(),
+            source,
+        }
     })?;
     let name = path
         .file_stem()
@@ -164,20 +176,30 @@ pub fn load_bytes(
     // The gltf crate indexes buffers with values it has not bounds-checked in a
     // few places (image buffer views, sparse indices); a panic there must not
     // take the generator down, so it becomes a typed error like any other.
+    // The panic's text names the gltf crate's internals, not the file's
+    // problem, so it is not shown; the binary's panic hook stays quiet while
+    // [`in_guarded_load`] holds.
+    let was = GUARDED.with(|g| g.replace(true));
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         load_bytes_inner(bytes, base_dir, file, name)
     }));
-    result.unwrap_or_else(|panic| {
-        let reason = panic
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| panic.downcast_ref::<&str>().map(|s| (*s).to_string()))
-            .unwrap_or_else(|| "internal error".into());
+    GUARDED.with(|g| g.set(was));
+    result.unwrap_or_else(|_| {
         Err(ModelError::Malformed {
             file: file.to_owned(),
-            reason,
+            reason: "a panic inside the gltf crate: an accessor, buffer view or image points outside its data".into(),
         })
     })
+}
+
+thread_local! {
+    static GUARDED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether this thread is inside a glTF load whose panics become
+/// [`ModelError::Malformed`] (a panic hook stays quiet for those).
+pub fn in_guarded_load() -> bool {
+    GUARDED.with(std::cell::Cell::get)
 }
 
 fn load_bytes_inner(
@@ -202,6 +224,7 @@ fn load_bytes_inner(
         });
     }
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(parse)?;
+    check_external_files(&document, base_dir, file)?;
     let buffers =
         gltf::import_buffers(&document, base_dir, blob).map_err(|e| ModelError::Buffer {
             file: file.to_owned(),
@@ -217,6 +240,8 @@ fn load_bytes_inner(
         textures: Vec::new(),
         texture_slots: BTreeMap::new(),
         warnings: Vec::new(),
+        visits: 0,
+        parents: parents(&document),
     };
     let scene = document
         .default_scene()
@@ -271,8 +296,93 @@ fn buffer_reason(document: &gltf::Document, e: gltf::Error) -> String {
     }
 }
 
+/// Each node's parent: the first node that lists it as a child.
+fn parents(document: &gltf::Document) -> Vec<Option<usize>> {
+    let mut parents = vec![None; document.nodes().len()];
+    for node in document.nodes() {
+        for child in node.children() {
+            if let Some(slot) = parents.get_mut(child.index())
+                && slot.is_none()
+                && child.index() != node.index()
+            {
+                *slot = Some(node.index());
+            }
+        }
+    }
+    parents
+}
+
+/// Every buffer and image a .gltf names by a file URI must be a regular file
+/// of at most [`MAX_MODEL_FILE_BYTES`], checked before the glTF reader opens
+/// it (a URI naming a FIFO or `/dev/zero` would block or grow without end).
+fn check_external_files(
+    document: &gltf::Document,
+    base_dir: Option<&Path>,
+    file: &Path,
+) -> Result<(), ModelError> {
+    let buffer_uris = document.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(uri) => Some(uri),
+        gltf::buffer::Source::Bin => None,
+    });
+    let image_uris = document.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some(uri),
+        gltf::image::Source::View { .. } => None,
+    });
+    for uri in buffer_uris.chain(image_uris) {
+        if uri.starts_with("data:") || uri.contains("://") {
+            continue;
+        }
+        let decoded = percent_decode(uri);
+        let path = base_dir.unwrap_or(Path::new(".")).join(&decoded);
+        let meta = std::fs::metadata(&path);
+        let problem = match &meta {
+            Ok(m) if !m.is_file() => {
+                Some("not a regular file (a FIFO, device or folder)".to_string())
+            }
+            Ok(m) if m.len() > MAX_MODEL_FILE_BYTES => Some(format!(
+                "{} bytes is larger than the {MAX_MODEL_FILE_BYTES}-byte limit",
+                m.len()
+            )),
+            // A missing file is reported by the reader, naming the buffer.
+            _ => None,
+        };
+        if let Some(problem) = problem {
+            return Err(ModelError::Buffer {
+                file: file.to_owned(),
+                reason: format!("{} (from URI \"{uri}\"): {problem}", path.display()),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// `%20` and friends in a relative URI, as the glTF reader decodes them.
+fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%'
+            && let Some(v) = uri
+                .get(i + 1..i + 3)
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+        {
+            out.push(v);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
 /// Node hierarchies deeper than this are refused (a cycle, or hostile input).
 const MAX_NODE_DEPTH: usize = 256;
+/// Node instances visited while flattening the scene. glTF requires the
+/// nodes to form trees, but a file whose nodes share children (a DAG) would
+/// expand exponentially with depth: it is refused once this many are visited.
+pub const MAX_NODE_VISITS: usize = 100_000;
 /// Expanded geometry beyond this many vertices is refused rather than exhausting memory.
 const MAX_VERTICES: usize = 50_000_000;
 
@@ -288,6 +398,18 @@ struct Flattener<'a> {
     /// (image, sampler) → slot in `textures` (None: could not be decoded).
     texture_slots: BTreeMap<(usize, Option<usize>), Option<usize>>,
     warnings: Vec<String>,
+    /// Node instances visited so far (bounded by [`MAX_NODE_VISITS`]).
+    visits: usize,
+    /// Each node's parent (the first node listing it as a child), for joint world matrices.
+    parents: Vec<Option<usize>>,
+}
+
+/// `"name" (#3)` or `#3`, for messages.
+fn node_label(node: &gltf::Node<'_>) -> String {
+    match node.name() {
+        Some(name) => format!("\"{name}\" (#{})", node.index()),
+        None => format!("#{}", node.index()),
+    }
 }
 
 impl Flattener<'_> {
@@ -303,9 +425,21 @@ impl Flattener<'_> {
                 reason: format!("node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)"),
             });
         }
+        self.visits += 1;
+        if self.visits > MAX_NODE_VISITS {
+            return Err(ModelError::NodeGraph {
+                file: self.file.to_owned(),
+                node: node.index(),
+                limit: MAX_NODE_VISITS,
+            });
+        }
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         let world = parent * local;
-        if let Some(mesh) = node.mesh() {
+        if let (Some(mesh), Some(skin)) = (node.mesh(), node.skin()) {
+            let joints = self.skin_matrices(node, &skin)?;
+            let label = node_label(node);
+            self.skinned_mesh(&mesh, world, Some((joints.as_slice(), label.as_str())))?;
+        } else if let Some(mesh) = node.mesh() {
             match self.gpu_instances(node)? {
                 Some(instances) => {
                     for instance in instances {
@@ -431,11 +565,87 @@ impl Flattener<'_> {
     }
 
     fn mesh(&mut self, mesh: &gltf::Mesh<'_>, world: DMat4) -> Result<(), ModelError> {
+        self.skinned_mesh(mesh, world, None)
+    }
+
+    /// The joint matrices `world(joint) · inverseBind(joint)` of a node's
+    /// skin: the pose the file's node transforms put the skeleton in.
+    fn skin_matrices(
+        &mut self,
+        node: &gltf::Node<'_>,
+        skin: &gltf::Skin<'_>,
+    ) -> Result<Vec<DMat4>, ModelError> {
+        let (file, buffers) = (self.file, self.buffers);
+        let err = |reason: String| ModelError::Malformed {
+            file: file.to_owned(),
+            reason: format!("node {} skin {}: {reason}", node_label(node), skin.index()),
+        };
+        let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
+        let inverse_bind: Vec<DMat4> = match skin.inverse_bind_matrices() {
+            Some(accessor) => {
+                check_accessor(&accessor, "inverseBindMatrices", buffers).map_err(&err)?;
+                skin.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]))
+                    .read_inverse_bind_matrices()
+                    .ok_or_else(|| err("inverse bind matrices cannot be read".into()))?
+                    .map(|m| DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from))))
+                    .collect()
+            }
+            None => vec![DMat4::IDENTITY; joints.len()],
+        };
+        if inverse_bind.len() < joints.len() {
+            return Err(err(format!(
+                "{} inverse bind matrices for {} joints",
+                inverse_bind.len(),
+                joints.len()
+            )));
+        }
+        joints
+            .iter()
+            .zip(&inverse_bind)
+            .map(|(&joint, ibm)| Ok(self.node_world(joint).map_err(&err)? * *ibm))
+            .collect()
+    }
+
+    /// A node's world matrix: the product of its ancestors' transforms (the
+    /// first parent that lists it, for a file that breaks the tree rule).
+    fn node_world(&self, index: usize) -> Result<DMat4, String> {
+        let mut m = DMat4::IDENTITY;
+        let mut at = Some(index);
+        let mut depth = 0;
+        while let Some(i) = at {
+            depth += 1;
+            if depth > MAX_NODE_DEPTH {
+                return Err(format!(
+                    "joint node {index} has more than {MAX_NODE_DEPTH} ancestors (a cycle?)"
+                ));
+            }
+            let node = self
+                .document
+                .nodes()
+                .nth(i)
+                .ok_or_else(|| format!("joint node {i} does not exist"))?;
+            let local =
+                DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+            m = local * m;
+            at = self.parents.get(i).copied().flatten();
+        }
+        Ok(m)
+    }
+
+    /// Bake one mesh instance: with `skin` (joint matrices), each vertex is
+    /// moved by its weighted joints, as glTF skinning asks (the node's own
+    /// transform is then not used); without, by `world`.
+    fn skinned_mesh(
+        &mut self,
+        mesh: &gltf::Mesh<'_>,
+        world: DMat4,
+        skin: Option<(&[DMat4], &str)>,
+    ) -> Result<(), ModelError> {
         let mesh_name = mesh
             .name()
             .map_or_else(|| format!("#{}", mesh.index()), str::to_string);
         let normal_matrix = DMat3::from_mat4(world).inverse().transpose();
-        let flips = DMat3::from_mat4(world).determinant() < 0.0;
+        let mut flips = DMat3::from_mat4(world).determinant() < 0.0;
         for (p, primitive) in mesh.primitives().enumerate() {
             let err = |reason: String| ModelError::Primitive {
                 file: self.file.to_owned(),
@@ -453,6 +663,28 @@ impl Flattener<'_> {
                 continue;
             }
             let buffers = self.buffers;
+            for (semantic, accessor) in primitive.attributes() {
+                check_accessor(&accessor, &semantic.to_string(), buffers).map_err(&err)?;
+                // Positions and normals are read as float triples only.
+                use gltf::accessor::{DataType, Dimensions};
+                if matches!(
+                    semantic,
+                    gltf::Semantic::Positions | gltf::Semantic::Normals
+                ) && (accessor.data_type() != DataType::F32
+                    || accessor.dimensions() != Dimensions::Vec3)
+                {
+                    return Err(err(format!(
+                        "accessor {} ({}) must be float VEC3, not {:?} {:?}",
+                        accessor.index(),
+                        semantic.to_string(),
+                        accessor.data_type(),
+                        accessor.dimensions()
+                    )));
+                }
+            }
+            if let Some(accessor) = primitive.indices() {
+                check_accessor(&accessor, "indices", buffers).map_err(&err)?;
+            }
             let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             let positions: Vec<[f32; 3]> = reader
                 .read_positions()
@@ -523,13 +755,63 @@ impl Flattener<'_> {
             {
                 return Err(err("attribute counts differ from the POSITION count".into()));
             }
+            // Per-vertex skinning matrices: Σ weight · joint matrix.
+            let skinning: Option<Vec<DMat4>> = match skin {
+                Some((joint_matrices, node)) => {
+                    match (reader.read_joints(0), reader.read_weights(0)) {
+                        (Some(joints), Some(weights)) => {
+                            let joints: Vec<[u16; 4]> = joints.into_u16().collect();
+                            let weights: Vec<[f32; 4]> = weights.into_f32().collect();
+                            if joints.len() != n || weights.len() != n {
+                                return Err(err(
+                                    "JOINTS_0/WEIGHTS_0 counts differ from the POSITION count"
+                                        .into(),
+                                ));
+                            }
+                            let mut out = Vec::with_capacity(n);
+                            for (j, w) in joints.iter().zip(&weights) {
+                                let mut m = DMat4::ZERO;
+                                let mut total = 0.0;
+                                for (&joint, &weight) in j.iter().zip(w) {
+                                    if weight == 0.0 {
+                                        continue;
+                                    }
+                                    let jm = joint_matrices.get(usize::from(joint)).ok_or_else(|| {
+                                        err(format!("node {node}: joint {joint} is out of range for its skin's {} joints", joint_matrices.len()))
+                                    })?;
+                                    m += *jm * f64::from(weight);
+                                    total += f64::from(weight);
+                                }
+                                out.push(if total > 0.0 {
+                                    m * (1.0 / total)
+                                } else {
+                                    world
+                                });
+                            }
+                            if let Some(first) = out.first() {
+                                flips = DMat3::from_mat4(*first).determinant() < 0.0;
+                            }
+                            Some(out)
+                        }
+                        _ => {
+                            self.warnings.push(format!("node {node}: mesh \"{mesh_name}\" primitive {p} has a skin but no JOINTS_0/WEIGHTS_0; drawn with the node's transform"));
+                            None
+                        }
+                    }
+                }
+                None => None,
+            };
             let triangles = triangulate(mode, &raw_indices);
             let base = self.vertices.len() as u32;
             for (i, pos) in positions.iter().enumerate() {
-                let p = world.transform_point3(DVec3::from(pos.map(f64::from)));
+                let (m, nm) = match &skinning {
+                    Some(s) => (s[i], DMat3::from_mat4(s[i]).inverse().transpose()),
+                    None => (world, normal_matrix),
+                };
+                let p = m.transform_point3(DVec3::from(pos.map(f64::from)));
                 let n = normals
                     .as_ref()
-                    .map(|n| (normal_matrix * DVec3::from(n[i].map(f64::from))).normalize_or_zero())
+                    .map(|n| (nm * DVec3::from(n[i].map(f64::from))).normalize_or_zero())
                     .unwrap_or(DVec3::ZERO);
                 let c = colors.as_ref().map_or([1.0; 4], |c| c[i]);
                 self.vertices.push(Vertex {
@@ -560,15 +842,102 @@ impl Flattener<'_> {
 }
 
 /// The KHR_texture_transform matrix `translation · rotation · scale` as a function on UVs.
-fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> impl Fn([f32; 2]) -> [f32; 2] {
+///
+/// glTF's UV space has v pointing down, and `rotation` turns the UVs
+/// counter-clockwise *as seen in that space*: (1, 0) goes to (0, −1) for a
+/// quarter turn. The rotation matrix is therefore `[cos sin; −sin cos]`
+/// (rows), the transpose of the GLSL listing in the extension's README, which
+/// is counter-clockwise only in a v-up space (KhronosGroup/glTF#1563; the
+/// sample viewer, three.js, Babylon.js and Blender all use this one).
+pub fn uv_transform(
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+) -> impl Fn([f32; 2]) -> [f32; 2] {
     let (sin, cos) = rotation.sin_cos();
     move |[u, v]| {
         let (su, sv) = (u * scale[0], v * scale[1]);
         [
-            cos * su - sin * sv + offset[0],
-            sin * su + cos * sv + offset[1],
+            cos * su + sin * sv + offset[0],
+            -sin * su + cos * sv + offset[1],
         ]
     }
+}
+
+/// A named error if `accessor` (used as `semantic`) reads past the end of
+/// its buffer view, or its view past the end of its buffer's data. The glTF
+/// reader answers such an accessor with "no data", which would otherwise
+/// read as a missing attribute.
+fn check_accessor(
+    accessor: &gltf::Accessor<'_>,
+    semantic: &str,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), String> {
+    let index = accessor.index();
+    let out = |what: String| format!("accessor {index} ({semantic}) is out of bounds: {what}");
+    let view_fits = |view: &gltf::buffer::View<'_>| -> Result<usize, String> {
+        let data = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
+        let end = view.offset().checked_add(view.length());
+        if end.is_none_or(|end| end > data) {
+            return Err(out(format!(
+                "its buffer view {} spans bytes {}..{} of buffer {}, which holds {data} bytes",
+                view.index(),
+                view.offset(),
+                end.map_or_else(|| "overflow".into(), |e| e.to_string()),
+                view.buffer().index()
+            )));
+        }
+        Ok(view.length())
+    };
+    let count = accessor.count();
+    if let Some(view) = accessor.view() {
+        let length = view_fits(&view)?;
+        let size = accessor.size();
+        let stride = view.stride().unwrap_or(size);
+        let end = count
+            .checked_sub(1)
+            .and_then(|n| n.checked_mul(stride))
+            .and_then(|n| n.checked_add(size))
+            .and_then(|n| n.checked_add(accessor.offset()));
+        if count > 0 && end.is_none_or(|end| end > length) {
+            return Err(out(format!(
+                "{count} elements of {size} bytes (stride {stride}) from byte {} need {} bytes of buffer view {}, which has {length}",
+                accessor.offset(),
+                end.map_or_else(|| "more than 2⁶⁴".into(), |e| e.to_string()),
+                view.index()
+            )));
+        }
+    }
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        let indices = sparse.indices();
+        let values = sparse.values();
+        let parts = [
+            (
+                "sparse indices",
+                indices.view(),
+                indices.offset(),
+                indices.index_type().size(),
+            ),
+            (
+                "sparse values",
+                values.view(),
+                values.offset(),
+                accessor.size(),
+            ),
+        ];
+        for (what, view, offset, size) in parts {
+            let length = view_fits(&view)?;
+            let end = n.checked_mul(size).and_then(|b| b.checked_add(offset));
+            if end.is_none_or(|end| end > length) {
+                return Err(out(format!(
+                    "{what}: {n} × {size} bytes from byte {offset} overrun buffer view {} ({length} bytes)",
+                    view.index()
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Any decoded glTF image as RGBA8 (16-bit channels keep their high byte).

@@ -11,8 +11,11 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+mod ron_error;
 pub mod sweep;
 mod validate;
+
+pub use validate::{DeviceLimits, MAX_FRAME_MEMORY_BYTES, QUEUED_FRAMES};
 
 use sweep::{SweepError, SweepRange};
 
@@ -24,12 +27,14 @@ pub const MAX_FRAMES: u64 = 100_000_000;
 pub const MAX_DRONES_PER_FRAME: u64 = 1_000_000;
 /// The largest image side we accept before asking the adapter.
 pub const MAX_IMAGE_SIDE: u32 = 16_384;
+/// The largest preset file read.
+pub const MAX_PRESET_BYTES: u64 = 16 << 20;
 /// Randomized placement refuses presets whose spheres of minimum separation
 /// would fill more than this share of the volume (random packing jams near 0.38).
 pub const MAX_PACKING_FRACTION: f64 = 0.25;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct Preset {
     /// Preset format version ([`PRESET_VERSION`]).
     pub version: u32,
@@ -71,6 +76,7 @@ impl Default for Preset {
 
 /// Where a model comes from.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum ModelSource {
     /// A model that ships with swarmshot (`assets/models/NAME.glb`), e.g. `Builtin("quad_x")`.
     Builtin(String),
@@ -88,7 +94,7 @@ impl fmt::Display for ModelSource {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ModelSpec {
     pub source: ModelSource,
     /// The model is scaled so that its largest span is this many metres.
@@ -109,6 +115,7 @@ impl Default for ModelSpec {
 
 /// The paper's two placement modes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Placement {
     /// A regular grid of XCount × YCount × ZCount drones, spaced LoadFactor × model size apart.
     Structured {
@@ -139,6 +146,7 @@ impl Default for Placement {
 
 /// The observation volume W of randomized placement, centred at the origin.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Volume {
     /// A box of the given size in metres (x, y, z).
     Box { size_m: (f64, f64, f64) },
@@ -156,7 +164,7 @@ impl Default for Volume {
 
 /// Per-drone attitude ranges in degrees, each an inclusive (min, max).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct AttitudeRanges {
     pub roll_deg: (f64, f64),
     pub pitch_deg: (f64, f64),
@@ -175,7 +183,7 @@ impl Default for AttitudeRanges {
 
 /// CameraX/Y/Z sweeps (relative units, see docs/conventions.md) and the lens.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct CameraSweep {
     /// CameraX: sideways offset in units of the swarm radius R.
     pub x: SweepRange,
@@ -200,7 +208,7 @@ impl Default for CameraSweep {
 
 /// PlaneRX/RY/RZ: rotation of the whole swarm about the volume's centre, degrees.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct PlaneSweep {
     pub rx: SweepRange,
     pub ry: SweepRange,
@@ -250,6 +258,7 @@ pub const DEFAULT_HORIZON: (f32, f32, f32) = (0.62, 0.74, 0.88);
 
 /// The background environment.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Sky {
     /// A procedural gradient sky with a sun disc; the sun also lights the drones.
     Gradient {
@@ -316,6 +325,7 @@ fn default_image_sun_elevation() -> f64 {
 
 /// Where an image sky's pixels come from; relative paths are relative to the preset file.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum SkyImageSource {
     /// One equirectangular (2:1 latitude/longitude) image, top row = zenith.
     Equirect(PathBuf),
@@ -522,6 +532,7 @@ impl Default for Sky {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Resolution {
     /// 1920 × 1080
     FullHd,
@@ -547,7 +558,7 @@ impl Resolution {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct RenderSettings {
     pub resolution: Resolution,
     /// Multisample anti-aliasing: 1 (off) or 4.
@@ -597,7 +608,7 @@ pub enum FilteredDrones {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct LabelSettings {
     pub box_method: BoxMethod,
     /// Boxes narrower or shorter than this (after clipping to the image) are filtered.
@@ -635,6 +646,7 @@ impl LabelSettings {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum ImageFormat {
     Jpeg { quality: u8 },
     Png,
@@ -659,7 +671,7 @@ pub enum LabelFormat {
 
 /// Shares of frames that go to each split; they must sum to 1.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct Split {
     pub train: f64,
     pub val: f64,
@@ -677,7 +689,7 @@ impl Default for Split {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct OutputSettings {
     pub image_format: ImageFormat,
     pub label_formats: Vec<LabelFormat>,
@@ -691,6 +703,62 @@ impl Default for OutputSettings {
             label_formats: vec![LabelFormat::Yolo, LabelFormat::Coco],
             split: Split::default(),
         }
+    }
+}
+
+/// Read a file the user named (preset, model, buffer, sky image): a regular
+/// file (or a link to one) of at most `max_bytes`. FIFOs, devices such as
+/// `/dev/zero`, sockets and folders are refused before they are opened, so a
+/// read never blocks or grows without end; the cap is enforced while reading
+/// too, in case the file grows.
+pub fn read_input_file(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, ErrorKind, Read};
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        let kind = file_kind(&meta);
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!("{kind}, not a regular file"),
+        ));
+    }
+    let too_large = |n: u64| {
+        Error::new(
+            ErrorKind::InvalidData,
+            format!("{n} bytes is larger than the {max_bytes}-byte limit for this kind of file"),
+        )
+    };
+    if meta.len() > max_bytes {
+        return Err(too_large(meta.len()));
+    }
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
+    std::fs::File::open(path)?
+        .take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+fn file_kind(meta: &std::fs::Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if meta.is_dir() {
+        "a folder"
+    } else {
+        "a special file"
     }
 }
 
@@ -736,11 +804,15 @@ fn list(errors: &[FieldError]) -> String {
 
 impl Preset {
     /// Parse RON text (no validation).
+    ///
+    /// Unknown fields and variants are refused, named with their path and the
+    /// nearest known name ("unknown field `fovy_deg` in `camera`; did you mean
+    /// `fov_y_deg`?").
     pub fn from_ron(text: &str) -> Result<Self, String> {
         ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
             .from_str(text)
-            .map_err(|e| e.to_string())
+            .map_err(|e| ron_error::describe(text, &e))
     }
 
     /// Pretty RON text of this preset.
@@ -755,9 +827,16 @@ impl Preset {
 
     /// Read, parse and validate a preset file.
     pub fn load(path: &Path) -> Result<Self, PresetError> {
-        let text = std::fs::read_to_string(path).map_err(|source| PresetError::Io {
+        let io = |source| PresetError::Io {
             path: path.to_owned(),
             source,
+        };
+        let bytes = read_input_file(path, MAX_PRESET_BYTES).map_err(io)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            io(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("not UTF-8 text ({e})"),
+            ))
         })?;
         let preset = Self::from_ron(&text).map_err(|message| PresetError::Parse {
             path: path.to_owned(),

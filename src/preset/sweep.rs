@@ -16,7 +16,7 @@ pub const MAX_AXIS_VALUES: u64 = 1_000_000;
 
 /// One swept parameter: `start`, `end`, `step` (the paper's start/end/step triplets).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SweepRange {
     pub start: f64,
     pub end: f64,

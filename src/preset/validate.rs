@@ -3,6 +3,30 @@
 
 use super::*;
 
+/// Frames the batch may hold between rendering and encoding (its bounded queues).
+pub const QUEUED_FRAMES: u64 = 8;
+/// The most memory one frame may need, whatever the machine ([`Preset::frame_memory_bytes`]).
+pub const MAX_FRAME_MEMORY_BYTES: u64 = 8 << 30;
+
+/// What a device offers, as plain numbers (the caller reads them from its adapter).
+#[derive(Clone, Copy, Debug)]
+pub struct DeviceLimits {
+    /// `max_texture_dimension_2d`.
+    pub max_texture_side: u32,
+    /// `max_buffer_size`.
+    pub max_buffer_bytes: u64,
+    /// Memory one frame may use (the CLI passes ¾ of `MemAvailable`), if known.
+    pub memory_bytes: Option<u64>,
+}
+
+fn gib(bytes: u64) -> String {
+    if bytes >= 1 << 30 {
+        format!("{:.1} GiB", bytes as f64 / f64::from(1u32 << 30))
+    } else {
+        format!("{:.1} MiB", bytes as f64 / f64::from(1u32 << 20))
+    }
+}
+
 impl Preset {
     /// Check every field; all problems at once, each with its field path.
     pub fn validate(&self) -> Result<(), Vec<FieldError>> {
@@ -75,8 +99,11 @@ impl Preset {
                         format!("{c} drones along an axis; must be at least 1")
                     });
                 }
-                let total = u64::from(*x_count) * u64::from(*y_count) * u64::from(*z_count);
-                v.check(total <= MAX_DRONES_PER_FRAME, "placement", || {
+                let total = u64::from(*x_count)
+                    .checked_mul(u64::from(*y_count))
+                    .and_then(|n| n.checked_mul(u64::from(*z_count)));
+                v.check(total.is_some_and(|n| n <= MAX_DRONES_PER_FRAME), "placement", || {
+                    let total = total.map_or_else(|| "more than 2⁶⁴".to_string(), |n| n.to_string());
                     format!("{x_count}×{y_count}×{z_count} = {total} drones per frame, more than the limit of {MAX_DRONES_PER_FRAME}")
                 });
                 v.check(load_factor.is_finite() && *load_factor >= 1.0 && *load_factor <= 1e6, "placement.load_factor", || {
@@ -115,8 +142,24 @@ impl Preset {
                         }
                     }
                     Volume::Density { per_m3 } => {
-                        v.positive("placement.volume.per_m3", *per_m3, "drones per m³")
+                        v.positive("placement.volume.per_m3", *per_m3, "drones per m³");
+                        // The cube holding the largest count must stay a finite, bounded size.
+                        let side = (f64::from(*hi) / per_m3).cbrt();
+                        v.check(
+                            per_m3.is_nan() || *per_m3 <= 0.0 || (side.is_finite() && side <= 1e6),
+                            "placement.volume.per_m3",
+                            || format!("{per_m3} drones per m³ puts {hi} drones in a cube {side:.3e} m wide, larger than the 1e6 m limit"),
+                        );
                     }
+                }
+                if let Volume::Box { size_m } = volume
+                    && *size_m == (0.0, 0.0, 0.0)
+                    && *hi > 1
+                {
+                    v.push(
+                        "placement.volume.size_m",
+                        format!("the volume is a point (0 × 0 × 0 m): up to {hi} drones would all sit at the same spot; give it a size"),
+                    );
                 }
                 if v.errors.is_empty() {
                     let fraction = Self::packing_fraction(*hi, volume, *min_separation_m);
@@ -211,6 +254,115 @@ impl Preset {
         v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || {
             format!("{} is not supported; use 1 or 4", self.render.msaa)
         });
+        match self.frame_memory_bytes() {
+            Some(bytes) if bytes <= MAX_FRAME_MEMORY_BYTES => {}
+            bytes => v.push(
+                "render.resolution",
+                format!(
+                    "{w}×{h} with MSAA {} and id scale {} needs about {} of memory per frame, more than the {} limit",
+                    self.render.msaa,
+                    self.labels.id_scale,
+                    bytes.map_or_else(|| "more than 2⁶⁴ bytes".into(), gib),
+                    gib(MAX_FRAME_MEMORY_BYTES)
+                ),
+            ),
+        }
+    }
+
+    /// About how many bytes of memory making one frame needs (GPU targets,
+    /// readback and the batch's queued frames), or `None` if it overflows.
+    /// An estimate that errs high: colour and depth per MSAA sample, the
+    /// resolved colour, the id layer and its depth at `id_scale`², the
+    /// readback copy and [`QUEUED_FRAMES`] frames waiting for the encoders.
+    pub fn frame_memory_bytes(&self) -> Option<u64> {
+        let (w, h) = self.image_size();
+        let pixels = u64::from(w).checked_mul(u64::from(h))?;
+        let msaa = u64::from(self.render.msaa.max(1));
+        let id = u64::from(self.labels.id_scale.max(1)).checked_pow(2)?;
+        let per_pixel = msaa
+            .checked_mul(8)?
+            .checked_add(id.checked_mul(msaa)?.checked_mul(8)?)?
+            .checked_add(4 + 4)?
+            .checked_add(4 * QUEUED_FRAMES)?;
+        pixels.checked_mul(per_pixel)
+    }
+
+    /// Check the preset against what the device can do (texture side, buffer
+    /// size) and the memory there is; every problem named by its field.
+    pub fn check_limits(&self, limits: &DeviceLimits) -> Result<(), Vec<FieldError>> {
+        let mut v = Validator::default();
+        let (w, h) = self.image_size();
+        let id_scale = self.labels.id_scale.max(1);
+        for (name, side) in [("width", w), ("height", h)] {
+            let needed = u64::from(side) * u64::from(id_scale);
+            v.check(
+                needed <= u64::from(limits.max_texture_side),
+                &format!("render.resolution.{name}"),
+                || {
+                    format!(
+                        "{side} px (× id scale {id_scale} = {needed}) is more than this adapter's largest texture side, {} px",
+                        limits.max_texture_side
+                    )
+                },
+            );
+        }
+        // The readback buffer holds one RGBA8 frame with rows padded to 256 bytes.
+        let row = (u64::from(w) * 4).div_ceil(256) * 256;
+        let readback = row * u64::from(h);
+        v.check(
+            readback <= limits.max_buffer_bytes,
+            "render.resolution",
+            || {
+                format!(
+                    "{w}×{h} needs a {} readback buffer, more than this adapter's largest buffer, {}",
+                    gib(readback),
+                    gib(limits.max_buffer_bytes)
+                )
+            },
+        );
+        if let (Some(available), Some(needed)) = (limits.memory_bytes, self.frame_memory_bytes()) {
+            v.check(needed <= available, "render.resolution", || {
+                format!(
+                    "{w}×{h} with MSAA {} needs about {} of memory per frame, but only {} is available",
+                    self.render.msaa,
+                    gib(needed),
+                    gib(available)
+                )
+            });
+        }
+        if v.errors.is_empty() {
+            Ok(())
+        } else {
+            Err(v.errors)
+        }
+    }
+
+    /// What is allowed but probably not meant: drones that can overlap, a
+    /// scene with no room. Printed loudly by `check`, `batch` and `frame`.
+    pub fn warnings(&self) -> Vec<FieldError> {
+        let mut v = Validator::default();
+        let span = self.max_model_size_m();
+        match &self.placement {
+            Placement::Randomized {
+                count: (_, hi),
+                volume,
+                min_separation_m,
+            } if *hi > 1 => {
+                v.check(
+                    *min_separation_m >= span,
+                    "placement.min_separation_m",
+                    || format!("{min_separation_m} m is smaller than the largest drone's span ({span} m): drones can overlap and their boxes merge; raise it to at least {span}"),
+                );
+                if let Volume::Density { per_m3 } = volume {
+                    let spacing = per_m3.powf(-1.0 / 3.0);
+                    v.check(spacing >= span, "placement.volume.per_m3", || {
+                        format!("{per_m3} drones per m³ leaves {spacing:.3} m per drone, less than the largest drone's span ({span} m): drones crowd and overlap")
+                    });
+                }
+            }
+            _ => {}
+        }
+        v.errors
     }
 
     /// Label settings.

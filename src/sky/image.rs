@@ -23,6 +23,9 @@ pub enum EnvironmentError {
     },
 }
 
+/// The largest sky image file read.
+pub const MAX_SKY_FILE_BYTES: u64 = 1 << 30;
+
 /// Largest side of an uploaded sky image; larger images are downscaled on load.
 pub const MAX_SKY_SIDE: u32 = 4096;
 
@@ -56,8 +59,14 @@ fn decode_rgb32f(file: &Path) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentE
         file: file.to_owned(),
         reason,
     };
-    let reader = image::ImageReader::open(file)
-        .map_err(|e| err(e.to_string()))?
+    // A regular file of bounded size only: a FIFO or /dev/zero is refused unopened.
+    let bytes =
+        crate::preset::read_input_file(file, MAX_SKY_FILE_BYTES).map_err(|e| err(e.to_string()))?;
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+    if let Ok(format) = image::ImageFormat::from_path(file) {
+        reader.set_format(format);
+    }
+    let reader = reader
         .with_guessed_format()
         .map_err(|e| err(e.to_string()))?;
     let hdr = matches!(

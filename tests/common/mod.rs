@@ -49,3 +49,61 @@ pub fn tiny_preset() -> Preset {
     p.output.image_format = ImageFormat::Png;
     p
 }
+
+/// A binary glTF (GLB) from its JSON document and BIN chunk (padded as the
+/// format asks); the document's single buffer is the BIN chunk.
+pub fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = json.clone();
+    json["asset"] = serde_json::json!({"version": "2.0"});
+    json["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
+    let mut j = json.to_string().into_bytes();
+    while !j.len().is_multiple_of(4) {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while !b.len().is_multiple_of(4) {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(j);
+    out.extend((b.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(b);
+    out
+}
+
+/// Little-endian bytes of f32 values.
+pub fn f32_le(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// One triangle's buffer (3 positions, then 3 u16 indices) and the glTF parts
+/// that describe it: accessor 0 = POSITION, accessor 1 = indices, mesh 0.
+pub fn triangle_gltf() -> (serde_json::Value, Vec<u8>) {
+    let mut bin = f32_le(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    for i in [0u16, 1, 2] {
+        bin.extend(i.to_le_bytes());
+    }
+    let json = serde_json::json!({
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 6}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}
+        ],
+        "meshes": [{"name": "tri", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    (json, bin)
+}
