@@ -20,6 +20,7 @@ impl Preset {
         self.validate_render(&mut v);
         self.validate_labels(&mut v);
         self.validate_output(&mut v);
+        self.validate_motion(&mut v);
         if v.errors.is_empty() {
             Ok(())
         } else {
@@ -83,6 +84,7 @@ impl Preset {
                     format!("{load_factor} is out of range [1, 1e6]: below 1 the grid spacing is smaller than a drone and drones overlap")
                 });
             }
+            Placement::Formation(f) => f.validate_into(v, "placement"),
             Placement::Randomized {
                 count: (lo, hi),
                 volume,
@@ -116,6 +118,9 @@ impl Preset {
                     }
                     Volume::Density { per_m3 } => {
                         v.positive("placement.volume.per_m3", *per_m3, "drones per m³")
+                    }
+                    Volume::DensitySweep { size_m, per_m3 } => {
+                        super::formation::validate_density_sweep(v, *size_m, *per_m3)
                     }
                 }
                 if v.errors.is_empty() {
