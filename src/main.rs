@@ -246,6 +246,15 @@ fn check(path: &Path) -> anyhow::Result<()> {
         "placement: {}",
         swarmshot::scene::placement::describe(preset)
     );
+    if let Some(seq) = &preset.sequence {
+        let len = preset.sequence_len();
+        println!(
+            "sequences: {} of T + 1 = {len} frames ({:?} camera, {} fps), MOT ground truth in mot/",
+            pipeline.frame_count() / len,
+            seq.camera,
+            seq.frame_rate
+        );
+    }
     // Geometry only (no rendering): amodal boxes stand in for visible ones.
     let sample = pipeline.frame_count().min(200);
     let mut stats = swarmshot::write::DatasetStats::default();
