@@ -178,9 +178,9 @@ fn sequences_write_mot_ground_truth_matching_the_yolo_labels() {
             );
             let drones = f["drones"].as_array().expect("drones");
             for (row, y) in in_frame.iter().zip(&yolo) {
-                for k in 0..4 {
+                for (g, v) in row.bbox.iter().zip(y) {
                     assert!(
-                        (row.bbox[k] - y[k]).abs() < 1e-3,
+                        (g - v).abs() < 1e-3,
                         "frame {t} id {}: gt {:?} vs YOLO {y:?}",
                         row.id,
                         row.bbox

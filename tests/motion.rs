@@ -145,26 +145,28 @@ fn formations_are_deterministic_in_the_frame_seed() {
     }
 }
 
-/// Solve the 5×5 system `m·x = b` by Gaussian elimination with pivoting.
-fn solve5(mut m: [[f64; 5]; 5], mut b: [f64; 5]) -> [f64; 5] {
+/// Solve the 5×5 system `m·x = b` by Gaussian elimination with partial pivoting.
+fn solve5(m: [[f64; 5]; 5], b: [f64; 5]) -> [f64; 5] {
+    // The augmented matrix [m | b].
+    let mut a: [[f64; 6]; 5] =
+        std::array::from_fn(|r| std::array::from_fn(|c| if c < 5 { m[r][c] } else { b[r] }));
     for col in 0..5 {
         let pivot = (col..5)
-            .max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
             .expect("rows");
-        m.swap(col, pivot);
-        b.swap(col, pivot);
-        for row in col + 1..5 {
-            let f = m[row][col] / m[col][col];
-            for k in col..5 {
-                m[row][k] -= f * m[col][k];
+        a.swap(col, pivot);
+        let top = a[col];
+        for row in a.iter_mut().skip(col + 1) {
+            let f = row[col] / top[col];
+            for (x, t) in row.iter_mut().zip(top.iter()) {
+                *x -= f * t;
             }
-            b[row] -= f * b[col];
         }
     }
     let mut x = [0.0; 5];
     for row in (0..5).rev() {
-        let s: f64 = (row + 1..5).map(|k| m[row][k] * x[k]).sum();
-        x[row] = (b[row] - s) / m[row][row];
+        let s: f64 = (row + 1..5).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (a[row][5] - s) / a[row][row];
     }
     x
 }
@@ -382,4 +384,22 @@ fn density_is_swept_with_the_volume_held_fixed() {
     }
     let errors = bad.validate().expect_err("ρ = 0");
     assert!(errors.iter().any(|e| e.field == "placement.volume.per_m3"));
+}
+
+#[test]
+fn the_formation_sequence_preset_loads_and_round_trips() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/formation_sequence.ron");
+    let p = Preset::load(&path).expect("presets/formation_sequence.ron is valid");
+    assert!(matches!(p.placement, Placement::Formation(_)));
+    assert_eq!(p.sequence.as_ref().map(|s| s.steps), Some(24));
+    assert_eq!(p.frame_count(), 100);
+    let again = Preset::from_ron(&p.to_ron()).expect("its lock parses");
+    assert_eq!(again, p);
+    // A preset without the new fields writes none of them into its lock.
+    let lock = Preset::default().to_ron();
+    assert!(
+        !lock.contains("sequence") && !lock.contains("absolute"),
+        "{lock}"
+    );
 }
