@@ -195,11 +195,11 @@ impl FormatWriter for CocoWriter {
                     serde_json::Value::from(categories.clone())
                 )?;
                 if let Some(videos) = &mut part.videos {
-                    write!(out, "\"videos\": [\n")?;
+                    writeln!(out, "\"videos\": [")?;
                     videos.copy_to(out)?;
                     write!(out, "\n],\n")?;
                 }
-                write!(out, "\"images\": [\n")?;
+                writeln!(out, "\"images\": [")?;
                 part.images.copy_to(out)?;
                 write!(out, "\n],\n\"annotations\": [\n")?;
                 part.annotations.copy_to(out)?;
