@@ -341,6 +341,15 @@ fn check(path: &Path) -> anyhow::Result<()> {
         "placement: {}",
         swarmshot::scene::placement::describe(preset)
     );
+    if let Some(seq) = &preset.sequence {
+        let len = preset.sequence_len();
+        println!(
+            "sequences: {} of T + 1 = {len} frames ({:?} camera, {} fps), MOT ground truth in mot/",
+            pipeline.frame_count() / len,
+            seq.camera,
+            seq.frame_rate
+        );
+    }
     // Geometry only (no rendering): amodal boxes stand in for visible ones.
     let sample = pipeline.frame_count().min(200);
     let mut stats = swarmshot::write::DatasetStats::default();
@@ -526,6 +535,25 @@ fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {}", path.display());
     }
+    for (name, rgba) in gallery::formation_frames(&ctx, width, height)? {
+        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
+        let path = out.join(format!("formation-{name}.jpg"));
+        image::DynamicImage::ImageRgba8(img)
+            .to_rgb8()
+            .save(&path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    let sequence =
+        swarmshot::preset::Preset::from_ron(include_str!("../presets/formation_sequence.ron"))
+            .map_err(|e| anyhow::anyhow!("presets/formation_sequence.ron: {e}"))?;
+    let strip = gallery::sequence_strip(&ctx, &sequence, 5, width / 2, height / 2)?;
+    let path = out.join("sequence-strip.jpg");
+    image::DynamicImage::ImageRgba8(strip)
+        .to_rgb8()
+        .save(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
     Ok(())
 }
 

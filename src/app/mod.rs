@@ -1129,6 +1129,16 @@ impl SwarmshotApp {
                 group_digits(self.session.frame + 1),
                 group_digits(frames)
             ));
+            // Sequence mode: scrubbing moves the swarm; say where in its sequence the frame is.
+            if let Some(seq) = crate::scene::SequenceFrame::of(&self.resolved, self.session.frame) {
+                ui.label(format!(
+                    "· sequence {} · step {} of {}",
+                    group_digits(seq.id + 1),
+                    seq.step,
+                    seq.steps
+                ))
+                .on_hover_text("Each sweep point is a sequence of T + 1 frames; t = 0..=T");
+            }
             if frames > 1 {
                 let max = frames - 1;
                 ui.spacing_mut().slider_width = (ui.available_width() - 40.0).max(100.0);

@@ -11,10 +11,14 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub mod formation;
 mod ron_error;
 pub mod sweep;
 mod validate;
 
+pub use formation::{
+    AbsoluteCamera, Formation, FormationShape, Motion, SequenceCamera, SequenceSpec,
+};
 pub use validate::{DeviceLimits, MAX_FRAME_MEMORY_BYTES, QUEUED_FRAMES};
 
 use sweep::{SweepError, SweepRange};
@@ -52,6 +56,9 @@ pub struct Preset {
     pub render: RenderSettings,
     pub labels: LabelSettings,
     pub output: OutputSettings,
+    /// Sequence mode (issue 12): each sweep point becomes `steps + 1` frames of motion.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sequence: Option<SequenceSpec>,
 }
 
 impl Default for Preset {
@@ -70,6 +77,7 @@ impl Default for Preset {
             render: RenderSettings::default(),
             labels: LabelSettings::default(),
             output: OutputSettings::default(),
+            sequence: None,
         }
     }
 }
@@ -132,6 +140,9 @@ pub enum Placement {
         /// Centre-to-centre distance no two drones come closer than.
         min_separation_m: f64,
     },
+    /// A named formation (line abreast, column, echelon, wedge, ring, sphere
+    /// shell, clusters) with its heading and jitter.
+    Formation(Formation),
 }
 
 impl Default for Placement {
@@ -152,6 +163,13 @@ pub enum Volume {
     Box { size_m: (f64, f64, f64) },
     /// A cube whose volume gives the density ρ = N / V (drones per cubic metre).
     Density { per_m3: f64 },
+    /// A box of fixed size whose density ρ is swept like CameraX/Y/Z: each
+    /// frame holds N = round(ρ·V) drones (at least 1) and `count` is not used,
+    /// so density and apparent size vary independently.
+    DensitySweep {
+        size_m: (f64, f64, f64),
+        per_m3: SweepRange,
+    },
 }
 
 impl Default for Volume {
@@ -193,6 +211,9 @@ pub struct CameraSweep {
     pub z: SweepRange,
     /// Vertical field of view.
     pub fov_y_deg: f64,
+    /// An absolute pose in metres; when set, CameraX/Y/Z are not used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub absolute: Option<AbsoluteCamera>,
 }
 
 impl Default for CameraSweep {
@@ -202,6 +223,7 @@ impl Default for CameraSweep {
             y: SweepRange::fixed(0.0),
             z: SweepRange::fixed(1.0),
             fov_y_deg: 50.0,
+            absolute: None,
         }
     }
 }
@@ -881,8 +903,9 @@ impl Preset {
     }
 
     /// The sweep axes in nesting order (outermost first): CameraX, CameraY,
-    /// CameraZ, PlaneRX, PlaneRY, PlaneRZ.
-    pub fn sweep_axes(&self) -> [(&'static str, SweepRange); 6] {
+    /// CameraZ, PlaneRX, PlaneRY, PlaneRZ, then the density ρ of a
+    /// `DensitySweep` volume (one value, unused, otherwise).
+    pub fn sweep_axes(&self) -> [(&'static str, SweepRange); 7] {
         [
             ("camera.x", self.camera.x),
             ("camera.y", self.camera.y),
@@ -890,17 +913,41 @@ impl Preset {
             ("plane.rx", self.plane.rx),
             ("plane.ry", self.plane.ry),
             ("plane.rz", self.plane.rz),
+            (
+                "placement.volume.per_m3",
+                self.density_sweep().unwrap_or(SweepRange::fixed(0.0)),
+            ),
         ]
     }
 
-    /// Radices of the frame index: the six sweep axes, then the repeat count.
-    pub fn frame_radices(&self) -> Result<[u64; 7], SweepError> {
-        let mut r = [1u64; 7];
+    /// The density sweep of a `DensitySweep` volume.
+    pub fn density_sweep(&self) -> Option<SweepRange> {
+        match &self.placement {
+            Placement::Randomized {
+                volume: Volume::DensitySweep { per_m3, .. },
+                ..
+            } => Some(*per_m3),
+            _ => None,
+        }
+    }
+
+    /// Radices of the frame index: the seven sweep axes, the repeat count,
+    /// then the step t of a sequence (T + 1 frames; 1 without sequences).
+    pub fn frame_radices(&self) -> Result<[u64; 9], SweepError> {
+        let mut r = [1u64; 9];
         for (slot, (_, range)) in r.iter_mut().zip(self.sweep_axes()) {
             *slot = range.count()?;
         }
-        r[6] = u64::from(self.repeats.max(1));
+        r[7] = u64::from(self.repeats.max(1));
+        r[8] = self.sequence_len();
         Ok(r)
+    }
+
+    /// Frames per sequence: T + 1 in sequence mode, else 1.
+    pub fn sequence_len(&self) -> u64 {
+        self.sequence
+            .as_ref()
+            .map_or(1, |s| u64::from(s.steps.max(1)) + 1)
     }
 
     /// Total number of frames (0 if a sweep is invalid).
@@ -931,6 +978,7 @@ impl Preset {
                 }
             }
             Volume::Density { per_m3 } => per_m3 * ball,
+            Volume::DensitySweep { per_m3, .. } => per_m3.start.max(per_m3.end) * ball,
         }
     }
 }

@@ -44,6 +44,7 @@ impl Preset {
         self.validate_render(&mut v);
         self.validate_labels(&mut v);
         self.validate_output(&mut v);
+        self.validate_motion(&mut v);
         if v.errors.is_empty() {
             Ok(())
         } else {
@@ -110,6 +111,7 @@ impl Preset {
                     format!("{load_factor} is out of range [1, 1e6]: below 1 the grid spacing is smaller than a drone and drones overlap")
                 });
             }
+            Placement::Formation(f) => f.validate_into(v, "placement"),
             Placement::Randomized {
                 count: (lo, hi),
                 volume,
@@ -150,6 +152,9 @@ impl Preset {
                             "placement.volume.per_m3",
                             || format!("{per_m3} drones per m³ puts {hi} drones in a cube {side:.3e} m wide, larger than the 1e6 m limit"),
                         );
+                    }
+                    Volume::DensitySweep { size_m, per_m3 } => {
+                        super::formation::validate_density_sweep(v, *size_m, *per_m3)
                     }
                 }
                 if let Volume::Box { size_m } = volume

@@ -13,6 +13,7 @@ use serde::Serialize;
 
 pub mod camera;
 pub mod math;
+pub mod motion;
 pub mod placement;
 pub mod projection;
 
@@ -53,6 +54,9 @@ pub struct SweepValues {
     pub PlaneRX: f64,
     pub PlaneRY: f64,
     pub PlaneRZ: f64,
+    /// The swept density ρ of a `DensitySweep` volume (drones per m³).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density_per_m3: Option<f64>,
     pub repeat: u64,
 }
 
@@ -92,6 +96,42 @@ pub struct FrameScene {
     pub volume_half_extent_m: DVec3,
     /// Drones that randomized placement could not fit at the minimum separation.
     pub placement_shortfall: u32,
+    /// Where the frame sits in its sequence (sequence mode only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sequence: Option<SequenceFrame>,
+    /// The point the camera looks at, world metres.
+    pub look_at: DVec3,
+    /// The camera is the preset's absolute pose (`camera.absolute`), not the relative sweep.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub camera_absolute: bool,
+}
+
+/// A frame's place in its sequence. Drone `i` of every frame of a sequence
+/// is the same drone: its track id is `i + 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct SequenceFrame {
+    /// The sequence's number: frame index / (T + 1).
+    pub id: u64,
+    /// The step t in 0..=T.
+    pub step: u64,
+    /// T.
+    pub steps: u64,
+    /// Index of the sequence's first frame.
+    pub first_index: u64,
+}
+
+impl SequenceFrame {
+    /// The sequence of frame `index` (`None` without sequence mode).
+    pub fn of(preset: &Preset, index: u64) -> Option<Self> {
+        preset.sequence.as_ref()?;
+        let len = preset.sequence_len();
+        Some(Self {
+            id: index / len,
+            step: index % len,
+            steps: len - 1,
+            first_index: index - index % len,
+        })
+    }
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -130,15 +170,48 @@ pub fn camera_position(
 /// Build frame `index` of `preset`: sweep values from the index, drones
 /// from the frame's own RNG, the camera aimed at the volume's centre, the sky
 /// from its own salted stream, the split from the split draw.
+///
+/// In sequence mode every draw (placement, motion, sky, split) belongs to the
+/// sequence: it comes from the RNG of the sequence's first frame, so frame
+/// `index` is still made alone from (seed, index).
 pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError> {
     let sweep = sweep_values(preset, index)?;
-    let mut rng = seed::frame_rng(preset.seed, index);
-    let placed = placement::place(preset, &mut rng);
-    let volume_radius_m = placed.half_extent.length() + placement::max_model_radius(preset);
-
+    let sequence = SequenceFrame::of(preset, index);
+    let draw_index = sequence.map_or(index, |s| s.first_index);
+    let mut rng = seed::frame_rng(preset.seed, draw_index);
+    let placed = placement::place(preset, sweep.density_per_m3, &mut rng);
+    let model_radius = placement::max_model_radius(preset);
+    let mut half_extent = placed.half_extent;
     let plane = plane_rotation(sweep.PlaneRX, sweep.PlaneRY, sweep.PlaneRZ);
-    let drones = placed
-        .drones
+    // The unrotated states of this frame, and the shift of the swarm's centre since step 0.
+    let (states, shift): (Vec<(usize, DVec3, glam::DQuat)>, DVec3) =
+        match (&preset.sequence, sequence) {
+            (Some(spec), Some(seq)) => {
+                let initial: Vec<_> = placed.drones.iter().map(|d| (d.1, d.2)).collect();
+                let ends = motion::endpoints(&initial, &spec.motion, &mut rng);
+                // A box about the centre that holds both ends holds every step (eq. 4 is linear).
+                half_extent = ends
+                    .iter()
+                    .fold(half_extent, |h, e| h.max(e.p0.abs()).max(e.p_t.abs()));
+                let n = ends.len().max(1) as f64;
+                let mut shift = DVec3::ZERO;
+                let states = placed
+                    .drones
+                    .iter()
+                    .zip(&ends)
+                    .map(|(d, e)| {
+                        let (p, q) = e.at(seq.step, seq.steps);
+                        shift += (p - e.p0) / n;
+                        (d.0, p, q)
+                    })
+                    .collect();
+                (states, shift)
+            }
+            _ => (placed.drones, DVec3::ZERO),
+        };
+    let volume_radius_m = half_extent.length() + model_radius;
+
+    let drones = states
         .into_iter()
         .map(|(model, position, rotation)| {
             let rotation = (plane * rotation).normalize();
@@ -151,23 +224,31 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
             }
         })
         .collect();
-    let camera = frame_camera(preset, &sweep, volume_radius_m);
+    let follow = matches!(
+        preset.sequence.as_ref().map(|s| s.camera),
+        Some(crate::preset::SequenceCamera::Follow)
+    );
+    let shift = if follow { plane * shift } else { DVec3::ZERO };
+    let camera = frame_camera(preset, &sweep, volume_radius_m, shift);
     // The environment draws come from their own salted stream (see `sky`).
-    let environment = crate::sky::frame_environment(&preset.sky, preset.seed, index);
+    let environment = crate::sky::frame_environment(&preset.sky, preset.seed, draw_index);
 
     Ok(FrameScene {
         index,
-        seed: seed::frame_seed(preset.seed, index),
-        split: split_of(preset, index),
+        seed: seed::frame_seed(preset.seed, draw_index),
+        split: split_of(preset, sequence.map_or(index, |s| s.id)),
         sweep,
-        camera,
+        look_at: camera.1,
+        camera: camera.0,
         drones,
         sun_direction: environment.sun_direction(),
         sky: crate::sky::resolve(&preset.sky, &environment),
         environment,
         volume_radius_m,
-        volume_half_extent_m: placed.half_extent,
+        volume_half_extent_m: half_extent,
         placement_shortfall: placed.shortfall,
+        sequence,
+        camera_absolute: preset.camera.absolute.is_some(),
     })
 }
 
@@ -188,39 +269,56 @@ pub fn sweep_values(preset: &Preset, index: u64) -> Result<SweepValues, FrameErr
         PlaneRX: v(3),
         PlaneRY: v(4),
         PlaneRZ: v(5),
-        repeat: d[6],
+        density_per_m3: preset.density_sweep().map(|_| v(6)),
+        repeat: d[7],
     })
 }
 
-/// The frame's camera: placed by the sweep values relative to the volume, looking at its centre.
-fn frame_camera(preset: &Preset, sweep: &SweepValues, volume_radius_m: f64) -> Camera {
+/// The frame's camera and the point it looks at: placed by the sweep values
+/// relative to the volume and looking at its centre, or at the preset's
+/// absolute pose; both moved by `shift` (the swarm's, for a following camera).
+fn frame_camera(
+    preset: &Preset,
+    sweep: &SweepValues,
+    volume_radius_m: f64,
+    shift: DVec3,
+) -> (Camera, DVec3) {
     let (width, height) = preset.image_size();
     let fov_y_deg = preset.camera.fov_y_deg;
-    let position = camera_position(
-        sweep.CameraX,
-        sweep.CameraY,
-        sweep.CameraZ,
-        volume_radius_m,
-        fov_y_deg,
-    );
-    // Validation keeps the camera off the centre; fall back to identity if it ever sits there.
-    let camera_from_world = look_at_cv(position, DVec3::ZERO).unwrap_or(glam::DMat3::IDENTITY);
+    let (position, target) = match &preset.camera.absolute {
+        Some(a) => (DVec3::from(a.position_m), DVec3::from(a.look_at_m)),
+        None => (
+            camera_position(
+                sweep.CameraX,
+                sweep.CameraY,
+                sweep.CameraZ,
+                volume_radius_m,
+                fov_y_deg,
+            ),
+            DVec3::ZERO,
+        ),
+    };
+    let (position, target) = (position + shift, target + shift);
+    // Validation keeps the camera off the point it looks at; fall back to identity if it ever sits there.
+    let camera_from_world = look_at_cv(position, target).unwrap_or(glam::DMat3::IDENTITY);
     let min_size = preset
         .models
         .iter()
         .map(|m| m.size_m)
         .fold(f64::INFINITY, f64::min);
-    Camera {
+    let camera = Camera {
         width,
         height,
         fov_y_deg,
         position,
         camera_from_world,
         near_m: (min_size * 0.01).clamp(1e-5, 0.05),
-    }
+    };
+    (camera, target)
 }
 
-/// The split of frame `index`, from its split draw and the preset's shares.
+/// The split of frame `index` (of sequence `index` in sequence mode), from
+/// its split draw and the preset's shares.
 fn split_of(preset: &Preset, index: u64) -> SplitName {
     let u = seed::split_uniform(preset.seed, index);
     let s = &preset.output.split;

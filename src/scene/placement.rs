@@ -8,7 +8,7 @@ use glam::{DQuat, DVec3, IVec3};
 use rand::Rng;
 
 use super::math::EulerDeg;
-use crate::preset::{AttitudeRanges, Placement, Preset, Volume};
+use crate::preset::{AttitudeRanges, Formation, FormationShape, Placement, Preset, Volume};
 
 /// Attempts per drone before randomized placement gives up on it.
 const PLACEMENT_ATTEMPTS: u32 = 200;
@@ -67,7 +67,10 @@ fn grid_half_extent(counts: [u32; 3], spacing: f64) -> DVec3 {
 /// Size of a randomized volume holding `n` drones.
 fn random_volume_size(volume: &Volume, n: u32) -> DVec3 {
     match volume {
-        Volume::Box { size_m: (x, y, z) } => DVec3::new(*x, *y, *z),
+        Volume::Box { size_m: (x, y, z) }
+        | Volume::DensitySweep {
+            size_m: (x, y, z), ..
+        } => DVec3::new(*x, *y, *z),
         Volume::Density { per_m3 } => DVec3::splat((f64::from(n) / per_m3).cbrt()),
     }
 }
@@ -99,11 +102,24 @@ pub fn describe(preset: &Preset) -> String {
             "randomized, {lo}–{hi} drones per frame (mean {:.1}), volume {volume:?}, min separation {min_separation_m} m",
             (f64::from(*lo) + f64::from(*hi)) / 2.0
         ),
+        Placement::Formation(f) => {
+            let span = preset.max_model_size_m();
+            format!(
+                "formation {:?}, {} drones per frame, spacing {:.3} m, heading {:?}°, min separation {:.3} m",
+                f.shape,
+                f.count,
+                f.spacing * span,
+                f.heading_deg,
+                f.min_separation * span
+            )
+        }
     }
 }
 
-/// Place the drones of one frame in the unrotated volume, drawing from `rng`.
-pub fn place(preset: &Preset, rng: &mut impl Rng) -> Placed {
+/// Place the drones of one frame in the unrotated volume, drawing from `rng`;
+/// `density_per_m3` is the frame's swept density of a `DensitySweep` volume,
+/// which fixes the count at round(ρ·V) (at least 1) without a draw.
+pub fn place(preset: &Preset, density_per_m3: Option<f64>, rng: &mut impl Rng) -> Placed {
     let n_models = preset.models.len().max(1);
     let attitude = |rng: &mut _| sample_attitude(rng, &preset.attitude);
     match &preset.placement {
@@ -137,10 +153,15 @@ pub fn place(preset: &Preset, rng: &mut impl Rng) -> Placed {
             volume,
             min_separation_m,
         } => {
-            let n = if hi > lo {
-                rng.random_range(*lo..=*hi)
-            } else {
-                *lo
+            let n = match (volume, density_per_m3) {
+                (
+                    Volume::DensitySweep {
+                        size_m: (x, y, z), ..
+                    },
+                    Some(rho),
+                ) => (rho * x * y * z).round().clamp(1.0, f64::from(u32::MAX)) as u32,
+                _ if hi > lo => rng.random_range(*lo..=*hi),
+                _ => *lo,
             };
             let half = random_volume_size(volume, n) * 0.5;
             let sep = *min_separation_m;
@@ -175,6 +196,219 @@ pub fn place(preset: &Preset, rng: &mut impl Rng) -> Placed {
                 shortfall,
             }
         }
+        Placement::Formation(f) => place_formation(f, preset.max_model_size_m(), n_models, rng),
+    }
+}
+
+/// Positions of the unjittered shape in the formation frame (forward +Z,
+/// right +X, up +Y), centred on the origin, in metres for neighbours `d`
+/// metres apart. `Clustered` has no fixed rule (see [`place_formation`]).
+pub fn formation_shape(shape: &FormationShape, n: u32, d: f64) -> Vec<DVec3> {
+    let c = |i: u32| f64::from(i) - f64::from(n.saturating_sub(1)) * 0.5;
+    let points: Vec<DVec3> = match shape {
+        FormationShape::LineAbreast => (0..n).map(|i| DVec3::X * c(i) * d).collect(),
+        FormationShape::Column => (0..n).map(|i| DVec3::NEG_Z * c(i) * d).collect(),
+        FormationShape::Echelon { angle_deg } => {
+            let a = angle_deg.to_radians();
+            let u = DVec3::new(a.sin(), 0.0, -a.cos());
+            (0..n).map(|i| u * c(i) * d).collect()
+        }
+        FormationShape::Wedge { half_angle_deg } => {
+            let a = half_angle_deg.to_radians();
+            (0..n)
+                .map(|i| {
+                    let arm = f64::from(i.div_ceil(2));
+                    let side = if i % 2 == 1 { -1.0 } else { 1.0 };
+                    DVec3::new(side * arm * d * a.sin(), 0.0, -arm * d * a.cos())
+                })
+                .collect()
+        }
+        FormationShape::Ring { tilt_deg } => {
+            let r = if n < 2 {
+                0.0
+            } else {
+                d / (2.0 * (std::f64::consts::PI / f64::from(n)).sin())
+            };
+            let tilt = DQuat::from_rotation_x(tilt_deg.to_radians());
+            (0..n)
+                .map(|i| {
+                    let t = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+                    tilt * DVec3::new(r * t.cos(), 0.0, r * t.sin())
+                })
+                .collect()
+        }
+        FormationShape::SphereShell => {
+            let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let unit: Vec<DVec3> = (0..n)
+                .map(|i| {
+                    let y = 1.0 - 2.0 * (f64::from(i) + 0.5) / f64::from(n);
+                    let r = (1.0 - y * y).max(0.0).sqrt();
+                    let phi = golden * f64::from(i);
+                    DVec3::new(r * phi.cos(), y, r * phi.sin())
+                })
+                .collect();
+            // The radius that puts the nearest two exactly `d` apart.
+            let radius = min_pair_distance(&unit).map_or(0.0, |m| d / m);
+            unit.into_iter().map(|p| p * radius).collect()
+        }
+        FormationShape::Clustered { .. } => Vec::new(),
+    };
+    centre_box(points)
+}
+
+/// Move points so that their bounding box is centred on the origin.
+fn centre_box(points: Vec<DVec3>) -> Vec<DVec3> {
+    let Some(first) = points.first() else {
+        return points;
+    };
+    let (lo, hi) = points
+        .iter()
+        .fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let mid = (lo + hi) * 0.5;
+    points.into_iter().map(|p| p - mid).collect()
+}
+
+/// The smallest distance between two of `points` (`None` for fewer than two),
+/// by a hash grid whose cell grows until the nearest pair falls in adjacent cells.
+pub fn min_pair_distance(points: &[DVec3]) -> Option<f64> {
+    if points.len() < 2 {
+        return None;
+    }
+    let (lo, hi) = points.iter().fold((points[0], points[0]), |(lo, hi), p| {
+        (lo.min(*p), hi.max(*p))
+    });
+    let extent = (hi - lo).max_element();
+    if extent <= 0.0 {
+        return Some(0.0);
+    }
+    // Start near the mean spacing of points filling a cube of that extent.
+    let mut cell = (extent / (points.len() as f64).cbrt()).max(extent * 1e-9);
+    loop {
+        let mut cells: HashMap<IVec3, Vec<DVec3>> = HashMap::new();
+        let mut best = f64::INFINITY;
+        for p in points {
+            let c = ((*p - lo) / cell).floor().as_ivec3();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        if let Some(qs) = cells.get(&(c + IVec3::new(dx, dy, dz))) {
+                            for q in qs {
+                                best = best.min(q.distance(*p));
+                            }
+                        }
+                    }
+                }
+            }
+            cells.entry(c).or_default().push(*p);
+        }
+        // Any pair closer than `cell` lies in adjacent cells, so `best` is exact then.
+        if best <= cell || cell > extent * 2.0 {
+            return Some(best);
+        }
+        cell *= 2.0;
+    }
+}
+
+/// A uniform point in the ball of radius `r` (rejection from the cube).
+fn sample_ball(rng: &mut impl Rng, r: f64) -> DVec3 {
+    loop {
+        let p = DVec3::new(
+            sample_range(rng, (-1.0, 1.0)),
+            sample_range(rng, (-1.0, 1.0)),
+            sample_range(rng, (-1.0, 1.0)),
+        );
+        if p.length_squared() <= 1.0 {
+            return p * r;
+        }
+    }
+}
+
+/// Place a formation: draw its heading, then per drone its model, its
+/// position jitter (x, y, z) and its attitude jitter (roll, pitch, yaw).
+/// `Clustered` draws its group centres after the heading, then per drone its
+/// model, its position in its group (retried until it keeps the separation;
+/// a drone that never fits is a shortfall) and its attitude jitter.
+/// `span` is the largest model span in metres.
+pub fn place_formation(f: &Formation, span: f64, n_models: usize, rng: &mut impl Rng) -> Placed {
+    let heading = DQuat::from_rotation_y(sample_range(rng, f.heading_deg).to_radians());
+    let d = f.spacing * span;
+    let jitter = f.position_jitter * span;
+    let mut out = Vec::with_capacity(f.count as usize);
+    let mut shortfall = 0;
+    if let FormationShape::Clustered {
+        clusters,
+        cluster_gap,
+    } = f.shape
+    {
+        let k = clusters.clamp(1, f.count.max(1));
+        let sep = f.spacing.max(f.min_separation) * span;
+        let sizes: Vec<u32> = (0..k)
+            .map(|j| f.count / k + u32::from(j < f.count % k))
+            .collect();
+        let largest = sizes.iter().copied().max().unwrap_or(1);
+        // Groups hold their drones' separation balls at a fifth of their volume.
+        let radius = 0.5 * sep * (f64::from(largest) / 0.2).cbrt();
+        let centre_gap = 2.0 * radius + cluster_gap * span;
+        let half = 0.5 * centre_gap * (f64::from(k) / 0.2).cbrt();
+        let mut centres_grid = SeparationGrid::new(centre_gap);
+        let mut centres = Vec::with_capacity(k as usize);
+        for j in 0..k {
+            let mut placed = None;
+            for _ in 0..PLACEMENT_ATTEMPTS {
+                let p = DVec3::new(
+                    sample_range(rng, (-half, half)),
+                    sample_range(rng, (-half, half)) * 0.5,
+                    sample_range(rng, (-half, half)),
+                );
+                if centres_grid.is_free(p) {
+                    placed = Some(p);
+                    break;
+                }
+            }
+            // Out of the drawn cube, in a row: never overlaps a drawn group.
+            let p = placed.unwrap_or_else(|| DVec3::X * (half + centre_gap * (f64::from(j) + 1.0)));
+            centres_grid.insert(p);
+            centres.push(p);
+        }
+        let mut grid = SeparationGrid::new(sep);
+        for (centre, size) in centres.iter().zip(&sizes) {
+            for _ in 0..*size {
+                let model = rng.random_range(0..n_models);
+                let mut placed = None;
+                for _ in 0..PLACEMENT_ATTEMPTS {
+                    let p = heading * (*centre + sample_ball(rng, radius));
+                    if grid.is_free(p) {
+                        placed = Some(p);
+                        break;
+                    }
+                }
+                match placed {
+                    Some(p) => {
+                        grid.insert(p);
+                        let q = heading * sample_attitude(rng, &f.attitude_jitter);
+                        out.push((model, p, q.normalize()));
+                    }
+                    None => shortfall += 1,
+                }
+            }
+        }
+    } else {
+        for p in formation_shape(&f.shape, f.count, d) {
+            let model = rng.random_range(0..n_models);
+            let offset = DVec3::new(
+                sample_range(rng, (-jitter, jitter)),
+                sample_range(rng, (-jitter, jitter)),
+                sample_range(rng, (-jitter, jitter)),
+            );
+            let q = heading * sample_attitude(rng, &f.attitude_jitter);
+            out.push((model, heading * p + offset, q.normalize()));
+        }
+    }
+    let half_extent = out.iter().fold(DVec3::ZERO, |h, (_, p, _)| h.max(p.abs()));
+    Placed {
+        drones: out,
+        half_extent,
+        shortfall,
     }
 }
 

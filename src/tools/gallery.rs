@@ -10,7 +10,9 @@ use glam::{DQuat, DVec3};
 use crate::model::builtin::NAMES as BUILTIN_NAMES;
 use crate::pipeline::FramePipeline;
 use crate::preset::sweep::SweepRange;
-use crate::preset::{ModelSource, ModelSpec, Placement, Preset, Resolution, Sky, Volume};
+use crate::preset::{
+    Formation, FormationShape, ModelSource, ModelSpec, Placement, Preset, Resolution, Sky, Volume,
+};
 use crate::render::GpuContext;
 use crate::scene::DronePose;
 use crate::scene::math::{EulerDeg, look_at_cv};
@@ -179,4 +181,85 @@ pub fn median_frame_ms(ctx: &GpuContext, preset: &Preset, frames: usize) -> anyh
         .collect::<Result<_, _>>()?;
     times.sort_by(f64::total_cmp);
     Ok(times[times.len() / 2])
+}
+
+/// The preset of one formation picture (docs/motion.md): twelve drones 1 m
+/// across, seen from above at an angle so the shape reads at a glance.
+pub fn formation_preset(shape: FormationShape, width: u32, height: u32) -> Preset {
+    let mut p = Preset {
+        name: format!("formation-{}", shape.name()),
+        seed: 5,
+        models: vec![ModelSpec {
+            source: ModelSource::Builtin("quad_x".into()),
+            size_m: 1.0,
+            class: "uav".into(),
+        }],
+        ..Preset::default()
+    };
+    let count = if matches!(shape, FormationShape::SphereShell) {
+        40
+    } else {
+        12
+    };
+    p.placement = Placement::Formation(Formation {
+        shape,
+        count,
+        spacing: 3.0,
+        heading_deg: (0.0, 0.0),
+        position_jitter: 0.0,
+        attitude_jitter: crate::preset::AttitudeRanges::zero(),
+        min_separation: 1.0,
+    });
+    p.camera.x = SweepRange::fixed(0.35);
+    p.camera.y = SweepRange::fixed(0.7);
+    p.camera.z = SweepRange::fixed(0.85);
+    p.camera.fov_y_deg = 50.0;
+    p.render.resolution = Resolution::Custom { width, height };
+    p.render.msaa = 4;
+    p
+}
+
+/// One frame per formation shape.
+pub fn formation_frames(
+    ctx: &GpuContext,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<Vec<(&'static str, Vec<u8>)>> {
+    FormationShape::all()
+        .into_iter()
+        .map(|shape| {
+            let name = shape.name();
+            Ok((
+                name,
+                render_preset(ctx, &formation_preset(shape, width, height))?,
+            ))
+        })
+        .collect()
+}
+
+/// A strip of `frames` evenly spaced frames of one sequence of
+/// `presets/formation_sequence.ron`'s kind: a wedge turning and banking past
+/// a fixed camera, each tile `width`×`height`.
+pub fn sequence_strip(
+    ctx: &GpuContext,
+    preset: &Preset,
+    frames: u32,
+    width: u32,
+    height: u32,
+) -> anyhow::Result<image::RgbaImage> {
+    let mut p = preset.clone();
+    p.render.resolution = Resolution::Custom { width, height };
+    let pipeline = FramePipeline::new(p)?;
+    let mut renderer = pipeline.renderer(ctx);
+    let len = pipeline.preset().sequence_len();
+    let mut strip = image::RgbaImage::new(width * frames, height);
+    for k in 0..frames {
+        let index = (u64::from(k) * (len - 1)) / u64::from(frames.max(2) - 1);
+        let mut frame = pipeline.make(&mut renderer, index)?;
+        crate::annotate::overlay::draw_overlay(&mut frame.rgba, width, height, &frame.labels);
+        let img = image::RgbaImage::from_raw(width, height, frame.rgba)
+            .ok_or_else(|| anyhow::anyhow!("tile size"))?;
+        image::imageops::replace(&mut strip, &img, i64::from(k * width), 0);
+    }
+    Ok(strip)
 }

@@ -16,6 +16,8 @@ use crate::scene::SplitName;
 struct Parts {
     images: AppendFile,
     annotations: AppendFile,
+    /// Sequence mode: the `videos` records (one per sequence, at its first frame).
+    videos: Option<AppendFile>,
     n_images: u64,
     n_annotations: u64,
     /// The counters as the last checkpoint holds them.
@@ -27,13 +29,22 @@ pub struct CocoWriter {
     parts: Vec<Parts>,
 }
 
+/// Track ids of video v are v·10⁶ + 1 .. (a frame holds at most 10⁶ drones).
+pub const TRACKS_PER_VIDEO: u64 = 1_000_000;
+
 fn counter(split: SplitName, what: &str) -> String {
     format!("coco.{}.{what}", split.as_str())
 }
 
 impl CocoWriter {
     /// Open the part files, cut back to `checkpoint` (created when new).
-    pub fn open(folder: &mut Folder, checkpoint: &Checkpoint) -> Result<Self, OutputError> {
+    /// With `sequences`, images and annotations carry the video fields of
+    /// TAO and COCO-VID and each split file lists its `videos`.
+    pub fn open(
+        folder: &mut Folder,
+        checkpoint: &Checkpoint,
+        sequences: bool,
+    ) -> Result<Self, OutputError> {
         folder.ensure_dir("annotations")?;
         let mut parts = Vec::new();
         for split in SplitName::ALL {
@@ -43,6 +54,11 @@ impl CocoWriter {
                 folder.open_append(&rel, len)
             };
             let (images, annotations) = (open("images")?, open("annotations")?);
+            let videos = if sequences {
+                Some(open("videos")?)
+            } else {
+                None
+            };
             let count = |what| {
                 checkpoint
                     .counters
@@ -54,6 +70,7 @@ impl CocoWriter {
             parts.push(Parts {
                 images,
                 annotations,
+                videos,
                 n_images,
                 n_annotations,
                 saved: (n_images, n_annotations),
@@ -69,7 +86,15 @@ impl FormatWriter for CocoWriter {
         let part = &mut self.parts[scene.split as usize];
         let image_id = scene.index + 1;
         let sep = if part.n_images == 0 { "" } else { ",\n" };
-        let img = json!({"id": image_id, "file_name": record.image.trim_start_matches("images/"), "width": scene.camera.width, "height": scene.camera.height});
+        let mut img = json!({"id": image_id, "file_name": record.image.trim_start_matches("images/"), "width": scene.camera.width, "height": scene.camera.height});
+        // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
+        // mmtracking's CocoVID, `frame_index` for TAO).
+        let video = scene.sequence.map(|seq| (seq.id + 1, seq));
+        if let Some((video_id, seq)) = video {
+            img["video_id"] = video_id.into();
+            img["frame_id"] = seq.step.into();
+            img["frame_index"] = seq.step.into();
+        }
         let mut n_annotations = part.n_annotations;
         let mut anns = String::new();
         for l in record
@@ -91,6 +116,13 @@ impl FormatWriter for CocoWriter {
                 "amodal_bbox": xywh(&l.amodal),
                 "paper_aabb_bbox": xywh(&l.paper_aabb),
             });
+            if let Some((video_id, _)) = video {
+                // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
+                let track_id = video_id * TRACKS_PER_VIDEO + l.drone as u64 + 1;
+                ann["video_id"] = video_id.into();
+                ann["track_id"] = track_id.into();
+                ann["instance_id"] = track_id.into();
+            }
             if let Some(v) = &l.visibility {
                 ann["visible_pixels"] = v.visible_pixels.into();
                 ann["unoccluded_pixels"] = v.unoccluded_pixels.into();
@@ -98,6 +130,14 @@ impl FormatWriter for CocoWriter {
                 ann["visible_bbox"] = v.visible_box.as_ref().map(xywh).into();
             }
             anns.push_str(&format!("{sep}{ann}"));
+        }
+        if let (Some(videos), Some((video_id, seq))) = (&mut part.videos, video)
+            && seq.step == 0
+        {
+            let sep = if videos.is_empty() { "" } else { ",\n" };
+            let name = super::mot::sequence_name(seq.id);
+            let v = json!({"id": video_id, "name": name, "width": scene.camera.width, "height": scene.camera.height, "length": seq.steps + 1});
+            videos.append(format!("{sep}{v}").as_bytes())?;
         }
         part.images.append(format!("{sep}{img}").as_bytes())?;
         part.n_images += 1;
@@ -112,6 +152,9 @@ impl FormatWriter for CocoWriter {
         for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
             part.images.save(checkpoint);
             part.annotations.save(checkpoint);
+            if let Some(videos) = &mut part.videos {
+                videos.save(checkpoint);
+            }
             // Only what changed: this frame's split.
             if part.saved != (part.n_images, part.n_annotations) {
                 part.saved = (part.n_images, part.n_annotations);
@@ -129,6 +172,9 @@ impl FormatWriter for CocoWriter {
         for part in &mut self.parts {
             part.images.rollback();
             part.annotations.rollback();
+            if let Some(videos) = &mut part.videos {
+                videos.rollback();
+            }
         }
     }
 
@@ -145,9 +191,15 @@ impl FormatWriter for CocoWriter {
             folder.write_file_with(&rel, |out| {
                 write!(
                     out,
-                    "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {},\n\"images\": [\n",
+                    "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {},\n",
                     serde_json::Value::from(categories.clone())
                 )?;
+                if let Some(videos) = &mut part.videos {
+                    writeln!(out, "\"videos\": [")?;
+                    videos.copy_to(out)?;
+                    write!(out, "\n],\n")?;
+                }
+                writeln!(out, "\"images\": [")?;
                 part.images.copy_to(out)?;
                 write!(out, "\n],\n\"annotations\": [\n")?;
                 part.annotations.copy_to(out)?;
@@ -161,6 +213,9 @@ impl FormatWriter for CocoWriter {
         for part in &self.parts {
             folder.remove(part.images.rel())?;
             folder.remove(part.annotations.rel())?;
+            if let Some(videos) = &part.videos {
+                folder.remove(videos.rel())?;
+            }
         }
         Ok(())
     }

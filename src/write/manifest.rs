@@ -110,7 +110,7 @@ pub fn manifest_line(
         })
         .collect();
     let s = &scene.sweep;
-    json!({
+    let mut line = json!({
         "index": scene.index,
         "seed": scene.seed,
         "split": scene.split,
@@ -124,6 +124,31 @@ pub fn manifest_line(
         "volume_radius_m": (scene.volume_radius_m * 1e9).round() / 1e9,
         "placement_shortfall": scene.placement_shortfall,
         "drones": drones,
-    })
-    .to_string()
+    });
+    // Sequence mode and the absolute camera add fields; other frames keep their bytes.
+    if let Some(seq) = scene.sequence {
+        line["sequence"] = json!({"id": seq.id, "name": super::mot::sequence_name(seq.id), "frame": seq.step + 1, "step": seq.step, "steps": seq.steps, "first_index": seq.first_index});
+        if let Some(list) = line["drones"].as_array_mut() {
+            for (i, d) in list.iter_mut().enumerate() {
+                d["track_id"] = (i as u64 + 1).into();
+            }
+        }
+    }
+    if let Some(rho) = s.density_per_m3 {
+        line["sweep"]["density_per_m3"] = rho.into();
+    }
+    if scene.sequence.is_some() || scene.camera_absolute {
+        line["camera"]["look_at_m"] = scene
+            .look_at
+            .to_array()
+            .map(|v| (v * 1e9).round() / 1e9)
+            .into();
+        line["camera"]["mode"] = if scene.camera_absolute {
+            "absolute"
+        } else {
+            "relative"
+        }
+        .into();
+    }
+    line.to_string()
 }

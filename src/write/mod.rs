@@ -15,6 +15,7 @@ pub mod coco;
 pub mod folder;
 pub mod image;
 pub mod manifest;
+pub mod mot;
 pub mod stats;
 pub mod yolo;
 
@@ -227,6 +228,15 @@ impl DatasetWriter {
         if yolo {
             needed.push("data.yaml".to_owned());
         }
+        let sequences = preset.sequence.is_some();
+        if sequences {
+            needed.push("mot/".to_owned());
+            if coco {
+                for split in SplitName::ALL.map(SplitName::as_str) {
+                    needed.push(format!("annotations/.instances_{split}.videos.part"));
+                }
+            }
+        }
         // Every entry is checked before anything is written or rendered: a
         // link or a file swarmshot did not write is refused now, not after hours.
         let (mut folder, start, run) = Folder::open(
@@ -268,7 +278,18 @@ impl DatasetWriter {
                 classes.clone(),
             )?));
             if coco {
-                formats.push(Box::new(coco::CocoWriter::open(&mut folder, &checkpoint)?));
+                formats.push(Box::new(coco::CocoWriter::open(
+                    &mut folder,
+                    &checkpoint,
+                    sequences,
+                )?));
+            }
+            if sequences {
+                formats.push(Box::new(mot::MotWriter::open(
+                    &mut folder,
+                    &checkpoint,
+                    preset,
+                )?));
             }
         }
         Ok(Self {
