@@ -111,6 +111,7 @@ fn exercise_preset(text: &str) -> Result<(), TestCaseError> {
             z_count,
             ..
         } => u64::from(*x_count) * u64::from(*y_count) * u64::from(*z_count) <= 64,
+        Placement::Formation(f) => f.count <= 64,
     };
     if small && preset.frame_count() > 0 {
         let _ = swarmshot::scene::build_frame(&preset, 0);
