@@ -178,11 +178,14 @@ pub fn run_batch(
     let stop_making = AtomicBool::new(false);
     let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
     let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
+    // Encoded frames' pixel buffers, back to the makers for reuse.
+    let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<Vec<u8>>(makers * 2);
 
     let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
         for _ in 0..threads {
             let rx = encode_rx.clone();
             let tx = to_sink.clone();
+            let recycle = recycle_tx.clone();
             s.spawn(move || {
                 for frame in rx {
                     let t = Instant::now();
@@ -195,6 +198,8 @@ pub fn run_batch(
                             encode: t.elapsed(),
                         })
                         .map_err(anyhow::Error::from);
+                    // The pixels go back to a maker for a later frame (dropped when none waits).
+                    let _ = recycle.try_send(frame.rgba);
                     if tx.send(msg).is_err() {
                         break;
                     }
@@ -250,6 +255,7 @@ pub fn run_batch(
         let makers: Vec<_> = (0..makers)
             .map(|_| {
                 let to_encode = to_encode.clone();
+                let recycled = recycle_rx.clone();
                 let (next_index, stop_making) = (&next_index, &stop_making);
                 s.spawn(move || -> (anyhow::Result<()>, bool, Duration) {
                     let mut renderer = pipeline.renderer(ctx);
@@ -264,6 +270,9 @@ pub fn run_batch(
                         let index = next_index.fetch_add(1, Ordering::Relaxed);
                         if index >= total {
                             return (Ok(()), false, busy);
+                        }
+                        while let Ok(buffer) = recycled.try_recv() {
+                            renderer.recycle(buffer);
                         }
                         let t = Instant::now();
                         let made = pipeline.make(&mut renderer, index);

@@ -808,7 +808,7 @@ impl Renderer {
         let submitted = self.queue.submit([encoder.finish()]);
         let target = &state.targets[t];
         let rgba = if request.color {
-            let mut rgba = target.background_rgba.clone();
+            let mut rgba = self.frame_buffer(&target.background_rgba);
             if let (Some(buffer), Some(&(last, row))) = (&target.regions_readback, layout.last()) {
                 let len =
                     last + u64::from(row) * u64::from(main_rects.last().map_or(0, |r| r.height()));

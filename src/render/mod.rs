@@ -250,6 +250,10 @@ pub struct Renderer {
     /// Silhouette error allowed to a level of detail, in pixels (0: full detail).
     lod_error_px: f64,
     counts: PassCounts,
+    /// Frame buffers handed back by the caller ([`Renderer::recycle`]), reused
+    /// for the next frames' pixels: a fresh 4K frame (35 MB) is page-faulted
+    /// in anew on every allocation.
+    spare: Vec<Vec<u8>>,
 }
 
 /// How many passes a renderer has run (for tests and benchmarks).
@@ -428,6 +432,7 @@ impl Renderer {
                 0.0
             },
             counts: PassCounts::default(),
+            spare: Vec::new(),
         }
     }
 
@@ -467,6 +472,22 @@ impl Renderer {
             counts[level] += 1;
         }
         counts
+    }
+
+    /// Hand back a frame's pixel buffer once it is no longer needed, so a
+    /// later frame can reuse its memory (at most two are kept).
+    pub fn recycle(&mut self, buffer: Vec<u8>) {
+        if self.spare.len() < 2 {
+            self.spare.push(buffer);
+        }
+    }
+
+    /// A buffer holding a copy of `pixels`, reusing a recycled one when there is one.
+    fn frame_buffer(&mut self, pixels: &[u8]) -> Vec<u8> {
+        let mut buffer = self.spare.pop().unwrap_or_default();
+        buffer.clear();
+        buffer.extend_from_slice(pixels);
+        buffer
     }
 
     /// Passes run so far.
