@@ -16,5 +16,7 @@ echo "== peer scene (15 Crazyflies, HDR sky, 20 frames)"
 $bin batch presets/bench/peer.ron --out "$out/peer" --timings
 echo "== render + labels per frame: 15 drones at 1080p and 4K, 1 500 drones, the peer scene"
 $bin bench frames
+echo "== the peer scene with levels of detail off"
+$bin bench frames --peer presets/bench/peer_nolod.ron
 echo "== accuracy and frame-time tables"
 $bin bench accuracy --plot docs/img/accuracy.png
