@@ -135,6 +135,9 @@ enum BenchCommand {
         /// The peer scene's preset (skipped when its files are missing).
         #[arg(long, default_value = "presets/bench/peer.ron")]
         peer: PathBuf,
+        /// Time only the scenes whose name contains this text (e.g. "1 500", "3840", "peer").
+        #[arg(long)]
+        scene: Option<String>,
     },
 }
 
@@ -224,8 +227,13 @@ fn run() -> anyhow::Result<()> {
                 },
         } => bench_accuracy(frames, (width, height), &plot, timing_frames),
         Command::Bench {
-            which: BenchCommand::Frames { frames, peer },
-        } => bench_frames(frames, &peer),
+            which:
+                BenchCommand::Frames {
+                    frames,
+                    peer,
+                    scene,
+                },
+        } => bench_frames(frames, &peer, scene.as_deref()),
         Command::Gallery { bench: true, .. } => gallery_bench(),
         Command::Gallery {
             out, width, height, ..
@@ -474,7 +482,7 @@ fn bench_accuracy(
     Ok(())
 }
 
-fn bench_frames(frames: u64, peer: &Path) -> anyhow::Result<()> {
+fn bench_frames(frames: u64, peer: &Path, only: Option<&str>) -> anyhow::Result<()> {
     let ctx = GpuContext::headless()?;
     eprintln!("adapter: {}", ctx.describe());
     let quickstart = FramePipeline::open(Path::new(concat!(
@@ -488,7 +496,11 @@ fn bench_frames(frames: u64, peer: &Path) -> anyhow::Result<()> {
             None
         }
     };
-    let scenes = bench::frame_scenes(quickstart.preset(), peer);
+    let mut scenes = bench::frame_scenes(quickstart.preset(), peer);
+    if let Some(only) = only {
+        scenes.retain(|(name, _)| name.contains(only));
+        anyhow::ensure!(!scenes.is_empty(), "--scene {only:?} matches no scene");
+    }
     let rows = bench::frames(&ctx, scenes, frames)?;
     print!("{}", bench::frames_markdown(&rows));
     Ok(())

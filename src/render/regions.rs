@@ -128,12 +128,21 @@ pub fn merge(rects: &[Option<Rect>], members: impl IntoIterator<Item = usize>) -
     regions
 }
 
-/// Instance ranges of one region, per model.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RegionDraws {
-    pub rect: Rect,
-    /// Instance ranges per (model, level of detail).
+/// What one pass draws: its regions' rects, and the instance ranges of all
+/// their drones per (model, level of detail). Regions share no pixel and a
+/// drone's samples lie inside its region, so the drones of every region are
+/// drawn together, one instanced draw per (model, level).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PassDraws {
+    pub rects: Vec<Rect>,
     pub draws: Vec<((usize, usize), Range<u32>)>,
+}
+
+impl PassDraws {
+    /// The smallest rect holding every region (None: no region).
+    pub fn bounds(&self) -> Option<Rect> {
+        self.rects.iter().copied().reduce(|a, b| a.union(&b))
+    }
 }
 
 #[cfg(test)]
