@@ -22,7 +22,7 @@
 use std::borrow::Cow;
 
 use super::ids::{self, IdReducer, IdStats};
-use super::regions::{self, PassDraws, Rect, Region};
+use super::regions::{self, PassDraws, Rect};
 use super::visibility::{Visibility, overlap_layers};
 use super::{
     COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, IdImage, InstanceRaw, Readback, RenderError,
@@ -499,17 +499,17 @@ impl Renderer {
         Ok(())
     }
 
-    /// Instances of the drones of `regions` (drone index + 1 as id), appended
-    /// to `data`, grouped by (model, level of detail), with the regions' rects.
+    /// A pass over the disjoint `rects` drawing `drones`: their instances
+    /// (drone index + 1 as id) appended to `data`, grouped by (model, level
+    /// of detail).
     fn region_draws(
         &self,
         scene: &FrameScene,
-        regions: &[Region],
+        (rects, drones): (Vec<Rect>, Vec<usize>),
         data: &mut Vec<InstanceRaw>,
     ) -> PassDraws {
-        let mut order: Vec<(super::MeshLevel, usize)> = regions
+        let mut order: Vec<(super::MeshLevel, usize)> = drones
             .iter()
-            .flat_map(|r| &r.drones)
             .map(|&i| ((scene.drones[i].model, self.level_of(scene, i)), i))
             .collect();
         order.sort_unstable();
@@ -522,10 +522,7 @@ impl Renderer {
                 _ => draws.push((key, idx..idx + 1)),
             }
         }
-        PassDraws {
-            rects: regions.iter().map(|r| r.rect).collect(),
-            draws,
-        }
+        PassDraws { rects, draws }
     }
 
     /// One render pass over a pass's regions: each region's background (its
@@ -611,21 +608,19 @@ impl Renderer {
             }
         }
         let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
-        let whole = |members: Vec<usize>| {
-            let drones: Vec<usize> = members
-                .into_iter()
-                .filter(|&i| rects[i].is_some())
-                .collect();
-            vec![Region {
-                rect: Rect::full(width, height),
-                drones,
-            }]
+        // A pass's pixels (disjoint rects) and its drones.
+        let pass_of = |members: Vec<usize>| -> (Vec<Rect>, Vec<usize>) {
+            if self.use_regions {
+                regions::cover(&rects, members)
+            } else {
+                let drones = members
+                    .into_iter()
+                    .filter(|&i| rects[i].is_some())
+                    .collect();
+                (vec![Rect::full(width, height)], drones)
+            }
         };
-        let main = if self.use_regions {
-            regions::merge(&rects, 0..n)
-        } else {
-            whole((0..n).collect())
-        };
+        let main = pass_of((0..n).collect());
         // Unoccluded counts: layers of drones whose boxes are apart, each drawn alone.
         let (layers, overlapping) = if request.visibility {
             let clipped: Vec<Option<PixelBox>> = boxes
@@ -636,7 +631,7 @@ impl Renderer {
                 })
                 .collect();
             let (layers, overlapping) = overlap_layers(&clipped);
-            let layers: Vec<Vec<Region>> = layers
+            let layers: Vec<(Vec<Rect>, Vec<usize>)> = layers
                 .into_iter()
                 .map(|l| {
                     l.into_iter()
@@ -644,22 +639,16 @@ impl Renderer {
                         .collect::<Vec<_>>()
                 })
                 .filter(|l| !l.is_empty())
-                .map(|l| {
-                    if self.use_regions {
-                        regions::merge(&rects, l)
-                    } else {
-                        whole(l)
-                    }
-                })
+                .map(pass_of)
                 .collect();
             (layers, overlapping)
         } else {
             (Vec::new(), vec![false; n])
         };
         let mut data = Vec::new();
-        let main_draws = self.region_draws(scene, &main, &mut data);
+        let main_draws = self.region_draws(scene, main, &mut data);
         let layer_draws: Vec<PassDraws> = layers
-            .iter()
+            .into_iter()
             .map(|l| self.region_draws(scene, l, &mut data))
             .collect();
         self.write_instances(&data);
@@ -867,12 +856,9 @@ impl Renderer {
         self.upload_uniforms(scene);
         let p = self.region_pipelines(state, 1);
         let t = self.frame_targets(state, width, height, 1);
-        let region = Region {
-            rect: Rect::full(width, height),
-            drones: (0..scene.drones.len()).filter(|&i| include(i)).collect(),
-        };
+        let drones = (0..scene.drones.len()).filter(|&i| include(i)).collect();
         let mut data = Vec::new();
-        let draws = self.region_draws(scene, &[region], &mut data);
+        let draws = self.region_draws(scene, (vec![Rect::full(width, height)], drones), &mut data);
         self.write_instances(&data);
         self.counts.ids += 1;
         let mut encoder = self
