@@ -63,6 +63,12 @@ enum Command {
         /// Print each stage's share of the time at the end.
         #[arg(long)]
         timings: bool,
+        /// Plan only: every label from geometry, no rendering and no GPU;
+        /// writes labels, COCO, manifest, stats and PLAN.txt but no images and
+        /// no data.yaml (Visible boxes are estimated by amodal ones; see
+        /// docs/datasets.md). --threads sets the planning threads.
+        #[arg(long, conflicts_with = "makers")]
+        labels_only: bool,
     },
     /// Validate a preset and print what it will make.
     Check { preset: PathBuf },
@@ -192,8 +198,30 @@ fn run() -> anyhow::Result<()> {
             overwrite,
             resume,
             threads,
+            makers: _,
+            timings,
+            labels_only: true,
+        } => plan(
+            &preset,
+            swarmshot::pipeline::PlanOptions {
+                out_dir: out,
+                limit,
+                overwrite,
+                resume,
+                threads,
+            },
+            timings,
+        ),
+        Command::Batch {
+            preset,
+            out,
+            limit,
+            overwrite,
+            resume,
+            threads,
             makers,
             timings,
+            labels_only: false,
         } => batch(
             &preset,
             BatchOptions {
@@ -314,6 +342,67 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     );
     if timings {
         println!("{}", report.times.describe(s.frames, report.elapsed));
+    }
+    Ok(())
+}
+
+/// `batch --labels-only`: the plan, from geometry alone.
+fn plan(
+    preset: &Path,
+    options: swarmshot::pipeline::PlanOptions,
+    timings: bool,
+) -> anyhow::Result<()> {
+    if options.limit == Some(0) {
+        anyhow::bail!("--limit 0: the plan would hold no frame; give at least 1");
+    }
+    if options.threads > MAX_THREADS {
+        anyhow::bail!(
+            "--threads {}: at most {MAX_THREADS} planning threads (0: one per core)",
+            options.threads
+        );
+    }
+    let pipeline = FramePipeline::open(preset)?;
+    print_warnings(&pipeline);
+    let total = options
+        .limit
+        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
+            .context("progress template")?,
+    );
+    let cancel = AtomicBool::new(false);
+    let report = swarmshot::pipeline::run_plan(&pipeline, &options, &cancel, |p| {
+        bar.set_length(p.total);
+        bar.set_position(p.done);
+        bar.set_message(format!("{:.0} frames/s", p.images_per_s()));
+    })?;
+    bar.finish();
+    let s = &report.stats;
+    println!(
+        "planned {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
+        s.frames,
+        s.frames_per_split[0],
+        s.frames_per_split[1],
+        s.frames_per_split[2],
+        s.boxes,
+        s.small,
+        s.medium,
+        s.large,
+        report.out_dir.display(),
+        report.elapsed.as_secs_f64(),
+        report.frames_per_s(),
+    );
+    if report.estimated {
+        println!(
+            "note: the preset asks for Visible boxes or visibility filters, which need pixels: these boxes are ESTIMATES (amodal boxes within the image, no visibility filter); a rendered run's differ on partly hidden drones"
+        );
+    }
+    if timings {
+        println!(
+            "{:.1} µs per frame of wall time",
+            report.elapsed.as_secs_f64() * 1e6 / report.planned.max(1) as f64
+        );
     }
     Ok(())
 }
