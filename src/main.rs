@@ -72,6 +72,20 @@ enum Command {
     },
     /// Validate a preset and print what it will make.
     Check { preset: PathBuf },
+    /// The paper's Table 2 for a dataset or labels-only plan (images,
+    /// resolution, instances, UAVs per image, small/medium/large) with
+    /// per-split, per-model, per-environment and per-distance breakdowns,
+    /// read from its manifest; writes histogram PNGs.
+    Stats {
+        /// The dataset folder (`swarmshot batch --out`, with or without --labels-only).
+        dir: PathBuf,
+        /// Where the histogram PNGs go (default: DIR/stats-plots).
+        #[arg(long)]
+        plots: Option<PathBuf>,
+        /// Print the statistics as JSON (the numbers of the batch's stats.json) instead.
+        #[arg(long)]
+        json: bool,
+    },
     /// Make one frame alone, exactly as the batch writes it: the image (the
     /// preset's format and quality), its YOLO labels (.txt) and its manifest record (.json).
     Frame {
@@ -235,6 +249,7 @@ fn run() -> anyhow::Result<()> {
             timings,
         ),
         Command::Check { preset } => check(&preset),
+        Command::Stats { dir, plots, json } => stats(&dir, plots, json),
         Command::Frame {
             preset,
             index,
@@ -407,6 +422,30 @@ fn plan(
     Ok(())
 }
 
+fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
+    let stats = swarmshot::write::stats::read_dataset(dir)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&stats)?);
+        return Ok(());
+    }
+    println!(
+        "{} ({})",
+        dir.display(),
+        if stats.labels_only {
+            "labels-only plan: no images"
+        } else {
+            "rendered dataset"
+        }
+    );
+    println!("boxes: {}", stats.boxes_from);
+    print!("{}", stats.table());
+    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
+    for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn check(path: &Path) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(path)?;
     let preset = pipeline.preset();
@@ -444,7 +483,7 @@ fn check(path: &Path) -> anyhow::Result<()> {
     let mut stats = swarmshot::write::DatasetStats::default();
     for i in 0..sample {
         let scene = pipeline.scene(i)?;
-        stats.add(&scene, &pipeline.estimate_labels(&scene));
+        stats.add(&scene, &pipeline.estimate_labels(&scene), pipeline.model_names());
     }
     if sample > 0 {
         let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;

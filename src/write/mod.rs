@@ -30,7 +30,7 @@ use folder::fnv1a64;
 pub use folder::{Checkpoint, Folder, OpenMode, Start};
 pub use image::encode_image;
 pub use manifest::manifest_line;
-pub use stats::DatasetStats;
+pub use stats::{DatasetStats, StatsError};
 
 /// One frame as the format writers see it.
 pub struct FrameRecord<'a> {
@@ -273,6 +273,8 @@ pub struct DatasetWriter {
     /// An earlier run finished this dataset; nothing is left to write.
     done: bool,
     labels_only: bool,
+    /// `stats.json`'s `boxes_from`.
+    boxes_from: String,
 }
 
 impl DatasetWriter {
@@ -399,6 +401,7 @@ impl DatasetWriter {
             total: run.frames,
             done,
             labels_only,
+            boxes_from: boxes_from(preset, labels_only),
         })
     }
 
@@ -454,7 +457,7 @@ impl DatasetWriter {
             format.frame(&mut self.folder, &record)?;
         }
         let mut stats = self.stats.clone();
-        stats.add(scene, labels);
+        stats.add(scene, labels, &self.text.model_names);
         let mut checkpoint = Checkpoint {
             next: self.next + 1,
             stats,
@@ -504,7 +507,7 @@ impl DatasetWriter {
             for format in &mut self.formats {
                 format.frame(&mut self.folder, &record)?;
             }
-            stats.add(scene, labels);
+            stats.add(scene, labels, &self.text.model_names);
         }
         let mut checkpoint = Checkpoint {
             next: self.next + frames.len() as u64,
@@ -543,6 +546,8 @@ impl DatasetWriter {
         for format in &mut self.formats {
             format.finish(&mut self.folder, &info)?;
         }
+        self.stats.labels_only = self.labels_only;
+        self.stats.boxes_from = self.boxes_from.clone();
         let stats = serde_json::to_string_pretty(&self.stats).unwrap_or_default();
         self.folder.write_file("stats.json", stats.as_bytes())?;
         if self.next == self.total {
@@ -580,4 +585,19 @@ fn plan_readme(preset: &Preset) -> String {
          never continued by a rendered run, nor the other way round).\n",
         preset.name
     )
+}
+
+/// Where a dataset's training boxes come from, for `stats.json`.
+pub(crate) fn boxes_from(preset: &Preset, labels_only: bool) -> String {
+    use crate::preset::BoxMethod;
+    match (preset.labels.box_method, labels_only) {
+        (BoxMethod::Visible, false) => "Visible (measured from the id pass)".into(),
+        (BoxMethod::Visible, true) => {
+            "Visible ESTIMATED by Amodal boxes within the image (labels-only plan: no pixels, no visibility filter)".into()
+        }
+        (method, true) if preset.labels.needs_id_pass() => format!(
+            "{method:?} (labels-only plan: the visibility filters did not run)"
+        ),
+        (method, _) => format!("{method:?} (geometry: exact)"),
+    }
 }
