@@ -483,7 +483,11 @@ fn check(path: &Path) -> anyhow::Result<()> {
     let mut stats = swarmshot::write::DatasetStats::default();
     for i in 0..sample {
         let scene = pipeline.scene(i)?;
-        stats.add(&scene, &pipeline.estimate_labels(&scene), pipeline.model_names());
+        stats.add(
+            &scene,
+            &pipeline.estimate_labels(&scene),
+            pipeline.model_names(),
+        );
     }
     if sample > 0 {
         let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;

@@ -250,7 +250,12 @@ impl DatasetStats {
     /// Fewest, mean and most training boxes per frame (the paper's "UAVs per image").
     pub fn boxes_per_frame_range(&self) -> (u32, f64, u32) {
         let min = self.boxes_per_frame.keys().next().copied().unwrap_or(0);
-        let max = self.boxes_per_frame.keys().next_back().copied().unwrap_or(0);
+        let max = self
+            .boxes_per_frame
+            .keys()
+            .next_back()
+            .copied()
+            .unwrap_or(0);
         (min, self.boxes as f64 / self.frames.max(1) as f64, max)
     }
 
@@ -269,14 +274,27 @@ impl DatasetStats {
         let resolutions: Vec<String> = self
             .resolutions
             .iter()
-            .map(|(r, n)| if self.resolutions.len() == 1 { r.clone() } else { format!("{r} ({n})") })
+            .map(|(r, n)| {
+                if self.resolutions.len() == 1 {
+                    r.clone()
+                } else {
+                    format!("{r} ({n})")
+                }
+            })
             .collect();
         let _ = writeln!(s, "| quantity | value |\n|---|---|");
         let _ = writeln!(s, "| images | {} |", self.frames);
         let _ = writeln!(s, "| resolution | {} |", resolutions.join(", "));
         let _ = writeln!(s, "| instances (training boxes) | {} |", self.boxes);
-        let _ = writeln!(s, "| UAVs per image (min / mean / max) | {min} / {mean:.2} / {max} |");
-        let _ = writeln!(s, "| small (√(w·h) < 32 px) | {small:.1} % ({}) |", self.small);
+        let _ = writeln!(
+            s,
+            "| UAVs per image (min / mean / max) | {min} / {mean:.2} / {max} |"
+        );
+        let _ = writeln!(
+            s,
+            "| small (√(w·h) < 32 px) | {small:.1} % ({}) |",
+            self.small
+        );
         let _ = writeln!(s, "| medium (32–96 px) | {medium:.1} % ({}) |", self.medium);
         let _ = writeln!(s, "| large (> 96 px) | {large:.1} % ({}) |", self.large);
         let _ = writeln!(
@@ -293,7 +311,11 @@ impl DatasetStats {
             );
             for (name, b) in map {
                 let [sm, me, la] = b.shares_percent();
-                let images = if frames { format!("{} | ", b.frames) } else { String::new() };
+                let images = if frames {
+                    format!("{} | ", b.frames)
+                } else {
+                    String::new()
+                };
                 let _ = writeln!(
                     s,
                     "| {name} | {images}{} | {sm:.1} % | {me:.1} % | {la:.1} % |",
@@ -398,11 +420,10 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
         move |source| StatsError::Io { path, source }
     };
     let lock = std::fs::read_to_string(&lock_path).map_err(io(&lock_path))?;
-    let preset =
-        crate::preset::Preset::from_ron(&lock).map_err(|reason| StatsError::BadLock {
-            path: lock_path.clone(),
-            reason,
-        })?;
+    let preset = crate::preset::Preset::from_ron(&lock).map_err(|reason| StatsError::BadLock {
+        path: lock_path.clone(),
+        reason,
+    })?;
     let file = std::fs::File::open(&manifest_path).map_err(io(&manifest_path))?;
     let mut stats = DatasetStats::default();
     let mut line = String::new();
@@ -473,7 +494,12 @@ pub fn write_histograms(
         source,
     })?;
     let per_frame: Vec<u64> = {
-        let max = stats.boxes_per_frame.keys().next_back().copied().unwrap_or(0) as usize;
+        let max = stats
+            .boxes_per_frame
+            .keys()
+            .next_back()
+            .copied()
+            .unwrap_or(0) as usize;
         let mut v = vec![0; max + 1];
         for (&k, &n) in &stats.boxes_per_frame {
             v[k as usize] = n;
@@ -558,7 +584,10 @@ fn draw_histogram(
         let x0 = left + (i as f64 * bar) as i32;
         let x1 = (left + ((i + 1) as f64 * bar) as i32 - 1).max(x0);
         let y = bottom - (c as f64 / max * f64::from(bottom - top)) as i32;
-        root.draw(&Rectangle::new([(x0, y), (x1, bottom)], BLUE.mix(0.7).filled()))?;
+        root.draw(&Rectangle::new(
+            [(x0, y), (x1, bottom)],
+            BLUE.mix(0.7).filled(),
+        ))?;
     }
     root.draw(&PathElement::new(
         vec![(left, top), (left, bottom), (right, bottom)],
@@ -566,11 +595,23 @@ fn draw_histogram(
     ))?;
     if font {
         let style = ("sans-serif", 16).into_font();
-        root.draw(&Text::new(title.to_owned(), (left, 15), ("sans-serif", 20).into_font()))?;
-        root.draw(&Text::new(format!("{}", max as u64), (5, top), style.clone()))?;
+        root.draw(&Text::new(
+            title.to_owned(),
+            (left, 15),
+            ("sans-serif", 20).into_font(),
+        ))?;
+        root.draw(&Text::new(
+            format!("{}", max as u64),
+            (5, top),
+            style.clone(),
+        ))?;
         root.draw(&Text::new("0".to_owned(), (50, bottom - 8), style.clone()))?;
         let last = n * bin_width;
-        root.draw(&Text::new(format!("0 {unit}"), (left, bottom + 10), style.clone()))?;
+        root.draw(&Text::new(
+            format!("0 {unit}"),
+            (left, bottom + 10),
+            style.clone(),
+        ))?;
         root.draw(&Text::new(
             format!("{last} {unit}"),
             (right - 90, bottom + 10),
