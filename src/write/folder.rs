@@ -112,7 +112,10 @@ pub enum Start {
     /// Nothing written yet.
     Fresh,
     /// Frames below `checkpoint.next` are complete (`done`: the end files too).
-    Resume { checkpoint: Checkpoint, done: bool },
+    Resume {
+        checkpoint: Box<Checkpoint>,
+        done: bool,
+    },
 }
 
 /// A dataset folder opened for one run. See the module docs.
@@ -306,11 +309,11 @@ impl Folder {
             let folder = Self::continue_from(root, &scan)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
-                    checkpoint,
+                    checkpoint: Box::new(checkpoint),
                     done: scan.done,
                 },
                 None => Start::Resume {
-                    checkpoint: Checkpoint::default(),
+                    checkpoint: Box::default(),
                     done: false,
                 },
             };

@@ -345,7 +345,7 @@ impl DatasetWriter {
         )?;
         let (checkpoint, done) = match start {
             Start::Fresh => (Checkpoint::default(), false),
-            Start::Resume { checkpoint, done } => (checkpoint, done),
+            Start::Resume { checkpoint, done } => (*checkpoint, done),
         };
         let (classes, _) = preset.classes();
         let text = TextContext::new(preset, model_names.clone());
