@@ -145,6 +145,7 @@ pub fn run_batch(
             frames,
             overwrite: options.overwrite,
             resume: options.resume,
+            labels_only: false,
         },
     )?;
     let first = writer.next_frame();
