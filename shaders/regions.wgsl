@@ -1,6 +1,6 @@
 // Region rendering (prepended: common.wgsl). Every frame draws only the
 // screen regions its drones can touch, on full-size targets that are never
-// cleared: `fs_main` "clears" a scissored region by writing the cached
+// cleared: `fs_main` "clears" a region by writing the cached
 // background (one value for every sample of a pixel, as the sky pass itself
 // gives: it shades once per pixel at the pixel centre), instance id 0 and
 // depth 0 (far, reversed-Z); `fs_resolve` averages a region's samples into
@@ -13,11 +13,13 @@ struct RegionOut {
     @builtin(position) position: vec4<f32>,
 };
 
+// One instance per rect, in normalised device coordinates (x0, y0, x1, y1):
+// two triangles whose edges lie on pixel boundaries, so they cover exactly
+// the rect's pixels and samples.
 @vertex
-fn vs_main(@builtin(vertex_index) i: u32) -> RegionOut {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+fn vs_main(@builtin(vertex_index) i: u32, @location(0) rect: vec4<f32>) -> RegionOut {
     var out: RegionOut;
-    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    out.position = vec4<f32>(rect_corner(rect, i), 0.0, 1.0);
     return out;
 }
 

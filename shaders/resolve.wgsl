@@ -1,5 +1,5 @@
-// Resolve of scissored regions: the mean of a pixel's samples, as a
-// multisample resolve of a UNORM target computes it.
+// Resolve of regions (one rect per instance, as in regions.wgsl): the mean of
+// a pixel's samples, as a multisample resolve of a UNORM target computes it.
 
 @group(0) @binding(0) var samples: texture_multisampled_2d<f32>;
 
@@ -8,10 +8,9 @@ struct ResolveOut {
 };
 
 @vertex
-fn vs_main(@builtin(vertex_index) i: u32) -> ResolveOut {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+fn vs_main(@builtin(vertex_index) i: u32, @location(0) rect: vec4<f32>) -> ResolveOut {
     var out: ResolveOut;
-    out.position = vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+    out.position = vec4<f32>(rect_corner(rect, i), 0.0, 1.0);
     return out;
 }
 

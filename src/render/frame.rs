@@ -97,7 +97,27 @@ pub(super) struct RegionState {
     pipelines: Vec<RegionPipelines>,
     /// Most recently used last; at most [`MAX_TARGETS`].
     targets: Vec<FrameTargets>,
+    /// The frame's rects of every pass, one instance each (see `rect.wgsl`).
+    rects: Option<wgpu::Buffer>,
     pub(super) background_draws: u64,
+}
+
+/// Per-instance layout of a rect: (x0, y0, x1, y1) in normalised device coordinates.
+const RECT_ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x4];
+
+fn rect_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: 16,
+        step_mode: wgpu::VertexStepMode::Instance,
+        attributes: &RECT_ATTRS,
+    }
+}
+
+/// A pixel rect in normalised device coordinates (y up), for `rect.wgsl`.
+fn rect_ndc(r: &Rect, width: u32, height: u32) -> [f32; 4] {
+    let x = |v: u32| (f64::from(v) / f64::from(width) * 2.0 - 1.0) as f32;
+    let y = |v: u32| (1.0 - f64::from(v) / f64::from(height) * 2.0) as f32;
+    [x(r.x0), y(r.y0), x(r.x1), y(r.y1)]
 }
 
 /// Target sets kept at once (e.g. a frame size and its id-pass size).
@@ -152,6 +172,7 @@ impl RegionState {
             sky_background: Vec::new(),
             pipelines: Vec::new(),
             targets: Vec::new(),
+            rects: None,
             background_draws: 0,
         }
     }
@@ -243,7 +264,7 @@ impl Renderer {
                 module: &state.regions_module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
-                buffers: &[],
+                buffers: &[Some(rect_buffer_layout())],
             },
             primitive: wgpu::PrimitiveState::default(),
             depth_stencil: Some(depth(wgpu::CompareFunction::Always)),
@@ -271,7 +292,7 @@ impl Renderer {
                     module: &state.resolve_module,
                     entry_point: Some("vs_main"),
                     compilation_options: Default::default(),
-                    buffers: &[],
+                    buffers: &[Some(rect_buffer_layout())],
                 },
                 primitive: wgpu::PrimitiveState::default(),
                 depth_stencil: None,
@@ -499,6 +520,36 @@ impl Renderer {
         Ok(())
     }
 
+    /// Write the rects of `passes` into the (reused, grown as needed) rect
+    /// buffer, one after the other, and note where each pass's begin.
+    fn upload_rects(
+        &self,
+        state: &mut RegionState,
+        passes: &mut [&mut PassDraws],
+        (width, height): (u32, u32),
+    ) {
+        let mut data: Vec<[f32; 4]> = Vec::new();
+        for pass in passes.iter_mut() {
+            pass.first_rect = data.len() as u32;
+            data.extend(pass.rects.iter().map(|r| rect_ndc(r, width, height)));
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        let needed = (bytes.len() as u64).max(256);
+        if state.rects.as_ref().is_none_or(|b| b.size() < needed) {
+            state.rects = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("region rects"),
+                size: needed.next_power_of_two(),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        if let Some(buffer) = &state.rects
+            && !bytes.is_empty()
+        {
+            self.queue.write_buffer(buffer, 0, bytes);
+        }
+    }
+
     /// A pass over the disjoint `rects` drawing `drones`: their instances
     /// (drone index + 1 as id) appended to `data`, grouped by (model, level
     /// of detail).
@@ -522,7 +573,11 @@ impl Renderer {
                 _ => draws.push((key, idx..idx + 1)),
             }
         }
-        PassDraws { rects, draws }
+        PassDraws {
+            rects,
+            first_rect: 0,
+            draws,
+        }
     }
 
     /// One render pass over a pass's regions: each region's background (its
@@ -530,8 +585,7 @@ impl Renderer {
     fn encode_region_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        pipes: &RegionPipelines,
-        target: &FrameTargets,
+        (pipes, target, rects): (&RegionPipelines, &FrameTargets, Option<&wgpu::Buffer>),
         draws: &PassDraws,
         label: &str,
     ) {
@@ -569,12 +623,13 @@ impl Renderer {
             occlusion_query_set: None,
             multiview_mask: None,
         });
+        let Some(rect_buffer) = rects else {
+            return;
+        };
         pass.set_pipeline(&pipes.background);
         pass.set_bind_group(0, &target.background_group, &[]);
-        for r in &draws.rects {
-            pass.set_scissor_rect(r.x0, r.y0, r.width(), r.height());
-            pass.draw(0..3, 0..1);
-        }
+        pass.set_vertex_buffer(0, rect_buffer.slice(..));
+        pass.draw(0..6, draws.rect_instances());
         let (Some(instances), Some(bounds)) = (&self.instances, draws.bounds()) else {
             return;
         };
@@ -646,12 +701,15 @@ impl Renderer {
             (Vec::new(), vec![false; n])
         };
         let mut data = Vec::new();
-        let main_draws = self.region_draws(scene, main, &mut data);
-        let layer_draws: Vec<PassDraws> = layers
+        let mut main_draws = self.region_draws(scene, main, &mut data);
+        let mut layer_draws: Vec<PassDraws> = layers
             .into_iter()
             .map(|l| self.region_draws(scene, l, &mut data))
             .collect();
         self.write_instances(&data);
+        let mut passes: Vec<&mut PassDraws> = vec![&mut main_draws];
+        passes.extend(layer_draws.iter_mut());
+        self.upload_rects(state, &mut passes, (width, height));
         if request.color {
             self.counts.color += 1;
         }
@@ -664,9 +722,16 @@ impl Renderer {
         {
             let pipes = &state.pipelines[p];
             let target = &state.targets[t];
-            self.encode_region_pass(&mut encoder, pipes, target, &main_draws, "region pass");
+            let rects = state.rects.as_ref();
+            self.encode_region_pass(
+                &mut encoder,
+                (pipes, target, rects),
+                &main_draws,
+                "region pass",
+            );
             if request.color
-                && let (Some(resolve), Some(group)) = (&pipes.resolve, &target.resolve_group)
+                && let (Some(resolve), Some(group), Some(rects)) =
+                    (&pipes.resolve, &target.resolve_group, rects)
                 && !main_rects.is_empty()
             {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -687,10 +752,8 @@ impl Renderer {
                 });
                 pass.set_pipeline(resolve);
                 pass.set_bind_group(0, group, &[]);
-                for r in &main_rects {
-                    pass.set_scissor_rect(r.x0, r.y0, r.width(), r.height());
-                    pass.draw(0..3, 0..1);
-                }
+                pass.set_vertex_buffer(0, rects.slice(..));
+                pass.draw(0..6, main_draws.rect_instances());
             }
         }
         // Copy the regions before any layer pass draws over them (with MSAA 1
@@ -766,7 +829,12 @@ impl Renderer {
                 reducer.encode_clear(&mut encoder);
                 reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, 0);
                 for (k, layer) in layer_draws.iter().enumerate() {
-                    self.encode_region_pass(&mut encoder, pipes, target, layer, "layer pass");
+                    self.encode_region_pass(
+                        &mut encoder,
+                        (pipes, target, state.rects.as_ref()),
+                        layer,
+                        "layer pass",
+                    );
                     reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, k + 1);
                 }
                 reducer.encode_copy(&mut encoder);
@@ -858,8 +926,10 @@ impl Renderer {
         let t = self.frame_targets(state, width, height, 1);
         let drones = (0..scene.drones.len()).filter(|&i| include(i)).collect();
         let mut data = Vec::new();
-        let draws = self.region_draws(scene, (vec![Rect::full(width, height)], drones), &mut data);
+        let mut draws =
+            self.region_draws(scene, (vec![Rect::full(width, height)], drones), &mut data);
         self.write_instances(&data);
+        self.upload_rects(state, &mut [&mut draws], (width, height));
         self.counts.ids += 1;
         let mut encoder = self
             .device
@@ -867,7 +937,12 @@ impl Renderer {
                 label: Some("instance ids"),
             });
         let target = &state.targets[t];
-        self.encode_region_pass(&mut encoder, &state.pipelines[p], target, &draws, "id pass");
+        self.encode_region_pass(
+            &mut encoder,
+            (&state.pipelines[p], target, state.rects.as_ref()),
+            &draws,
+            "id pass",
+        );
         target.readback.copy_from(&mut encoder, &target.ids);
         let submitted = self.queue.submit([encoder.finish()]);
         let bytes = target.readback.read(&self.device, submitted)?;

@@ -310,6 +310,7 @@ pub struct PassCounts {
 /// once per sample count it is built for).
 pub fn shader_sources() -> [(&'static str, String); 6] {
     let common = include_str!("../../shaders/common.wgsl");
+    let rect = include_str!("../../shaders/rect.wgsl");
     [
         (
             "sky.wgsl",
@@ -325,11 +326,14 @@ pub fn shader_sources() -> [(&'static str, String); 6] {
         ),
         (
             "regions.wgsl",
-            format!("{common}\n{}", include_str!("../../shaders/regions.wgsl")),
+            format!(
+                "{common}\n{rect}\n{}",
+                include_str!("../../shaders/regions.wgsl")
+            ),
         ),
         (
             "resolve.wgsl",
-            include_str!("../../shaders/resolve.wgsl").into(),
+            format!("{rect}\n{}", include_str!("../../shaders/resolve.wgsl")),
         ),
         ("id_reduce.wgsl (1 sample)", ids::reduce_source(1)),
         ("id_reduce.wgsl (4 samples)", ids::reduce_source(4)),

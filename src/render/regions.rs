@@ -182,10 +182,17 @@ pub fn cover(
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct PassDraws {
     pub rects: Vec<Rect>,
+    /// Where the rects begin in the frame's rect buffer (instances of `rect.wgsl`).
+    pub first_rect: u32,
     pub draws: Vec<((usize, usize), Range<u32>)>,
 }
 
 impl PassDraws {
+    /// The rects' instance range in the frame's rect buffer.
+    pub fn rect_instances(&self) -> Range<u32> {
+        self.first_rect..self.first_rect + self.rects.len() as u32
+    }
+
     /// The smallest rect holding every rect of the pass (None: none).
     pub fn bounds(&self) -> Option<Rect> {
         self.rects.iter().copied().reduce(|a, b| a.union(&b))
