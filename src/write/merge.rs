@@ -302,7 +302,7 @@ mod tests {
     fn counts_add_in_arrays_and_maps_and_other_numbers_are_refused() {
         let mut a = serde_json::json!({"frames": 2, "per": [1, 2, 3], "by": {"x": 1}});
         let b = serde_json::json!({"frames": 3, "per": [1, 1, 1], "by": {"x": 1, "y": 4}});
-        add_counts(&mut a, &b, "").unwrap();
+        add_counts(&mut a, &b, "").expect("counts add");
         assert_eq!(
             a,
             serde_json::json!({"frames": 5, "per": [2, 3, 4], "by": {"x": 2, "y": 4}})

@@ -301,7 +301,7 @@ mod tests {
                         let r = Shard { index, count }.range(frames, unit);
                         assert_eq!(r.start, next, "{frames} {unit} {count}");
                         assert!(r.start <= r.end);
-                        assert!(r.start % unit == 0, "a sequence is cut");
+                        assert!(r.start.is_multiple_of(unit), "a sequence is cut");
                         next = r.end;
                     }
                     assert_eq!(next, frames);
