@@ -491,3 +491,87 @@ fn a_killed_merge_or_shard_continues_to_the_same_bytes() {
         );
     }
 }
+
+#[test]
+fn a_copied_dataset_names_only_paths_that_resolve() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path(), &sequence_preset(), "p.ron");
+    let made = tmp.path().join("made-here");
+    batch(&file, &made, &[]);
+    let moved = tmp.path().join("elsewhere/moved");
+    std::fs::create_dir(tmp.path().join("elsewhere")).expect("mkdir");
+    // As a user copies it (empty split folders included).
+    let cp = Command::new("cp")
+        .arg("-a")
+        .arg(&made)
+        .arg(&moved)
+        .status()
+        .expect("cp");
+    assert!(cp.success());
+    let old = std::fs::canonicalize(&made).expect("canonical");
+    std::fs::remove_dir_all(&made).expect("remove the original");
+    let old = old.to_string_lossy().into_owned();
+    for rel in files_under(&moved) {
+        let bytes = std::fs::read(moved.join(&rel)).expect("read");
+        assert!(
+            !String::from_utf8_lossy(&bytes).contains(&old),
+            "{} names the folder it was made in",
+            rel.display()
+        );
+    }
+    // data.yaml: no `path`, so Ultralytics takes its folder as the root.
+    let yaml = std::fs::read_to_string(moved.join("data.yaml")).expect("data.yaml");
+    let mut splits = 0;
+    for line in yaml.lines() {
+        assert!(!line.starts_with("path:"), "{yaml}");
+        for key in ["train: ", "val: ", "test: "] {
+            if let Some(dir) = line.strip_prefix(key) {
+                assert!(moved.join(dir).is_dir(), "{dir} does not resolve");
+                splits += 1;
+            }
+        }
+    }
+    assert_eq!(splits, 3, "{yaml}");
+    // COCO file_name under images/, manifest image under the folder.
+    let mut named = 0;
+    for split in ["train", "val", "test"] {
+        let coco: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(moved.join(format!("annotations/instances_{split}.json")))
+                .expect("coco"),
+        )
+        .expect("coco parses");
+        for img in coco["images"].as_array().expect("images") {
+            let name = img["file_name"].as_str().expect("file_name");
+            assert!(!Path::new(name).is_absolute());
+            assert!(moved.join("images").join(name).is_file(), "{name}");
+            named += 1;
+        }
+    }
+    let manifest = std::fs::read_to_string(moved.join("manifest.jsonl")).expect("manifest");
+    for line in manifest.lines() {
+        let v: serde_json::Value = serde_json::from_str(line).expect("line");
+        let image = v["image"].as_str().expect("image");
+        assert!(moved.join(image).is_file(), "{image}");
+    }
+    assert_eq!(named, manifest.lines().count());
+    // MOT: imDir is relative to the sequence's folder.
+    let mut sequences = 0;
+    for rel in files_under(&moved) {
+        if rel.file_name().is_some_and(|n| n == "seqinfo.ini") {
+            let ini = std::fs::read_to_string(moved.join(&rel)).expect("seqinfo");
+            let field = |k: &str| {
+                ini.lines()
+                    .find_map(|l| l.strip_prefix(k))
+                    .unwrap_or_else(|| panic!("{k} missing"))
+                    .to_owned()
+            };
+            let seq_dir = moved.join(rel.parent().expect("parent"));
+            let im_dir = seq_dir.join(field("imDir="));
+            let first: u64 = field("firstIndex=").parse().expect("firstIndex");
+            let image = im_dir.join(format!("{first:08}{}", field("imExt=")));
+            assert!(image.is_file(), "{} does not resolve", image.display());
+            sequences += 1;
+        }
+    }
+    assert_eq!(sequences, 3);
+}
