@@ -401,6 +401,13 @@ fn check(path: &Path) -> anyhow::Result<()> {
         println!("warning: {w}");
     }
     println!("frames: {}", pipeline.frame_count());
+    if let Some(groups) = swarmshot::scene::split::groups(preset) {
+        let [train, val, test] = swarmshot::scene::split::group_counts(preset, groups);
+        println!(
+            "split by {:?}: {groups} groups, {train} train / {val} val / {test} test",
+            preset.output.split.by
+        );
+    }
     println!(
         "image: {w}×{h}, {:?}, MSAA {}",
         preset.output.image_format, preset.render.msaa

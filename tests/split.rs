@@ -188,3 +188,23 @@ fn a_split_left_without_a_group_is_warned_about() {
             .all(|w| !w.to_string().contains("split"))
     );
 }
+
+#[test]
+fn check_prints_the_groups_per_split() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = swept();
+    p.output.split.by = SplitBy::CameraPose;
+    let file = tmp.path().join("p.ron");
+    std::fs::write(&file, p.to_ron()).expect("preset");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+        .arg("check")
+        .arg(&file)
+        .output()
+        .expect("run swarmshot check");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("split by CameraPose: 12 groups, 8 train / 2 val / 2 test"),
+        "{out}"
+    );
+}
