@@ -32,8 +32,8 @@ if [ "${1:-}" = stop ]; then
   exit 0
 fi
 
-if [ -z "${SWARMSHOT_SLURM_DIR:-}" ] && command -v sinfo >/dev/null 2>&1 \
-  && [ -z "${SLURM_CONF:-}" ] && timeout 5 sinfo -h >/dev/null 2>&1; then
+if [ -z "${SWARMSHOT_SLURM_DIR:-}" ] && [ -z "${SLURM_CONF:-}" ] && [ -f /etc/slurm/slurm.conf ] \
+  && command -v sinfo >/dev/null 2>&1 && timeout 10 sinfo -h >/dev/null 2>&1; then
   echo "slurm_local: a Slurm cluster already answers (sinfo); using it" >&2
   exit 0
 fi

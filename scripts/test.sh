@@ -17,7 +17,8 @@ else
 fi
 # A one-node Slurm (munged, slurmctld, slurmd) for tests/slurm.rs; here the Slurm test
 # must run, so a Slurm that does not come up fails the check.
-eval "$(scripts/slurm_local.sh)"
+slurm_env=$(scripts/slurm_local.sh)   # (an assignment, so its failure stops the check)
+eval "$slurm_env"
 trap 'scripts/slurm_local.sh stop' EXIT
 export SWARMSHOT_REQUIRE_SLURM=1
 cargo test --locked --no-fail-fast
