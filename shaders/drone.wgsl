@@ -11,6 +11,11 @@ struct VertexInput {
 };
 
 // The draw range's base colour texture (1×1 white when untextured).
+// Whether this pipeline draws alpha-masked materials. Pipelines for the
+// others set it false: a shader without `discard` lets the depth test run
+// before shading.
+override ALPHA_MASK: bool = true;
+
 @group(1) @binding(0) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(1) var base_color_sampler: sampler;
 
@@ -75,7 +80,7 @@ fn fs_ids(in: VsOut, @builtin(front_facing) front: bool) -> ColorAndId {
 
 fn shade(in: VsOut, front: bool) -> vec4<f32> {
     let base = in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
-    if (in.material.w > 0.0 && base.a < in.material.w) {
+    if (ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w) {
         discard;
     }
     if (in.material.z > 0.5) {

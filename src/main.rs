@@ -64,11 +64,17 @@ enum Command {
         /// Print each stage's share of the time at the end.
         #[arg(long)]
         timings: bool,
+        /// Plan only: every label from geometry, no rendering and no GPU;
+        /// writes labels, COCO, manifest, stats and PLAN.txt but no images and
+        /// no data.yaml (Visible boxes are estimated by amodal ones; see
+        /// docs/datasets.md). --threads sets the planning threads.
+        #[arg(long, conflicts_with = "makers")]
+        labels_only: bool,
         /// Make only shard K of N (K from 0) of the frames, for `swarmshot
         /// merge` to join: K/N, or `auto` from a Slurm job array
         /// (SLURM_ARRAY_TASK_ID …), or `auto/N` in a Kubernetes Indexed Job
         /// (JOB_COMPLETION_INDEX). See docs/scale.md.
-        #[arg(long, value_name = "K/N|auto|auto/N")]
+        #[arg(long, value_name = "K/N|auto|auto/N", conflicts_with = "labels_only")]
         shard: Option<String>,
     },
     /// Join the folders of `batch --shard K/N` runs into the dataset one
@@ -86,6 +92,20 @@ enum Command {
     },
     /// Validate a preset and print what it will make.
     Check { preset: PathBuf },
+    /// The paper's Table 2 for a dataset or labels-only plan (images,
+    /// resolution, instances, UAVs per image, small/medium/large) with
+    /// per-split, per-model, per-environment and per-distance breakdowns,
+    /// read from its manifest; writes histogram PNGs.
+    Stats {
+        /// The dataset folder (`swarmshot batch --out`, with or without --labels-only).
+        dir: PathBuf,
+        /// Where the histogram PNGs go (default: DIR/stats-plots).
+        #[arg(long)]
+        plots: Option<PathBuf>,
+        /// Print the statistics as JSON (the numbers of the batch's stats.json) instead.
+        #[arg(long)]
+        json: bool,
+    },
     /// Make one frame alone, exactly as the batch writes it: the image (the
     /// preset's format and quality), its YOLO labels (.txt) and its manifest record (.json).
     Frame {
@@ -155,6 +175,9 @@ enum BenchCommand {
         /// The peer scene's preset (skipped when its files are missing).
         #[arg(long, default_value = "presets/bench/peer.ron")]
         peer: PathBuf,
+        /// Time only the scenes whose name contains this text (e.g. "1 500", "3840", "peer").
+        #[arg(long)]
+        scene: Option<String>,
     },
 }
 
@@ -208,9 +231,32 @@ fn run() -> anyhow::Result<()> {
             overwrite,
             resume,
             threads,
+            makers: _,
+            timings,
+            labels_only: true,
+            shard: _,
+        } => plan(
+            &preset,
+            swarmshot::pipeline::PlanOptions {
+                out_dir: out,
+                limit,
+                overwrite,
+                resume,
+                threads,
+            },
+            timings,
+        ),
+        Command::Batch {
+            preset,
+            out,
+            limit,
+            overwrite,
+            resume,
+            threads,
             makers,
             timings,
             shard,
+            labels_only: false,
         } => batch(
             &preset,
             BatchOptions {
@@ -232,6 +278,7 @@ fn run() -> anyhow::Result<()> {
             overwrite,
         } => merge(&out, &shards, overwrite),
         Command::Check { preset } => check(&preset),
+        Command::Stats { dir, plots, json } => stats(&dir, plots, json),
         Command::Frame {
             preset,
             index,
@@ -249,8 +296,13 @@ fn run() -> anyhow::Result<()> {
                 },
         } => bench_accuracy(frames, (width, height), &plot, timing_frames),
         Command::Bench {
-            which: BenchCommand::Frames { frames, peer },
-        } => bench_frames(frames, &peer),
+            which:
+                BenchCommand::Frames {
+                    frames,
+                    peer,
+                    scene,
+                },
+        } => bench_frames(frames, &peer, scene.as_deref()),
         Command::Gallery { bench: true, .. } => gallery_bench(),
         Command::Gallery {
             out, width, height, ..
@@ -358,6 +410,91 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     Ok(())
 }
 
+/// `batch --labels-only`: the plan, from geometry alone.
+fn plan(
+    preset: &Path,
+    options: swarmshot::pipeline::PlanOptions,
+    timings: bool,
+) -> anyhow::Result<()> {
+    if options.limit == Some(0) {
+        anyhow::bail!("--limit 0: the plan would hold no frame; give at least 1");
+    }
+    if options.threads > MAX_THREADS {
+        anyhow::bail!(
+            "--threads {}: at most {MAX_THREADS} planning threads (0: one per core)",
+            options.threads
+        );
+    }
+    let pipeline = FramePipeline::open(preset)?;
+    print_warnings(&pipeline);
+    let total = options
+        .limit
+        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
+            .context("progress template")?,
+    );
+    let cancel = AtomicBool::new(false);
+    let report = swarmshot::pipeline::run_plan(&pipeline, &options, &cancel, |p| {
+        bar.set_length(p.total);
+        bar.set_position(p.done);
+        bar.set_message(format!("{:.0} frames/s", p.images_per_s()));
+    })?;
+    bar.finish();
+    let s = &report.stats;
+    println!(
+        "planned {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
+        s.frames,
+        s.frames_per_split[0],
+        s.frames_per_split[1],
+        s.frames_per_split[2],
+        s.boxes,
+        s.small,
+        s.medium,
+        s.large,
+        report.out_dir.display(),
+        report.elapsed.as_secs_f64(),
+        report.frames_per_s(),
+    );
+    if report.estimated {
+        println!(
+            "note: the preset asks for Visible boxes or visibility filters, which need pixels: these boxes are ESTIMATES (amodal boxes within the image, no visibility filter); a rendered run's differ on partly hidden drones"
+        );
+    }
+    if timings {
+        println!(
+            "{:.1} µs per frame of wall time",
+            report.elapsed.as_secs_f64() * 1e6 / report.planned.max(1) as f64
+        );
+    }
+    Ok(())
+}
+
+fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
+    let stats = swarmshot::write::stats::read_dataset(dir)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&stats)?);
+        return Ok(());
+    }
+    println!(
+        "{} ({})",
+        dir.display(),
+        if stats.labels_only {
+            "labels-only plan: no images"
+        } else {
+            "rendered dataset"
+        }
+    );
+    println!("boxes: {}", stats.boxes_from);
+    print!("{}", stats.table());
+    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
+    for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
     let r = swarmshot::write::merge::merge(out, shards, overwrite)?;
@@ -430,7 +567,11 @@ fn check(path: &Path) -> anyhow::Result<()> {
     let mut stats = swarmshot::write::DatasetStats::default();
     for i in 0..sample {
         let scene = pipeline.scene(i)?;
-        stats.add(&scene, &pipeline.estimate_labels(&scene));
+        stats.add(
+            &scene,
+            &pipeline.estimate_labels(&scene),
+            pipeline.model_names(),
+        );
     }
     if sample > 0 {
         let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;
@@ -549,7 +690,7 @@ fn bench_accuracy(
     Ok(())
 }
 
-fn bench_frames(frames: u64, peer: &Path) -> anyhow::Result<()> {
+fn bench_frames(frames: u64, peer: &Path, only: Option<&str>) -> anyhow::Result<()> {
     let ctx = GpuContext::headless()?;
     eprintln!("adapter: {}", ctx.describe());
     let quickstart = FramePipeline::open(Path::new(concat!(
@@ -563,7 +704,11 @@ fn bench_frames(frames: u64, peer: &Path) -> anyhow::Result<()> {
             None
         }
     };
-    let scenes = bench::frame_scenes(quickstart.preset(), peer);
+    let mut scenes = bench::frame_scenes(quickstart.preset(), peer);
+    if let Some(only) = only {
+        scenes.retain(|(name, _)| name.contains(only));
+        anyhow::ensure!(!scenes.is_empty(), "--scene {only:?} matches no scene");
+    }
     let rows = bench::frames(&ctx, scenes, frames)?;
     print!("{}", bench::frames_markdown(&rows));
     Ok(())

@@ -24,6 +24,21 @@ pub const fn frame_seed(preset_seed: u64, frame_index: u64) -> u64 {
     mix64(preset_seed ^ mix64(frame_index.wrapping_add(GOLDEN_GAMMA)))
 }
 
+/// Salt of the re-draw seeds (`labels.min_labelled`).
+const REDRAW_SALT: u64 = 0x5245_4452_4157_5F5F; // "REDRAW__"
+
+/// The seed of re-draw `attempt` (1, 2, …) of a frame that had too few
+/// labelled drones: `mix64(frame_seed ⊕ mix64(attempt ⊕ salt))`. Attempt 0 is
+/// the frame seed itself.
+pub const fn redraw_seed(preset_seed: u64, frame_index: u64, attempt: u32) -> u64 {
+    let base = frame_seed(preset_seed, frame_index);
+    if attempt == 0 {
+        base
+    } else {
+        mix64(base ^ mix64(attempt as u64 ^ REDRAW_SALT))
+    }
+}
+
 /// The sampler for one frame.
 pub fn frame_rng(preset_seed: u64, frame_index: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(frame_seed(preset_seed, frame_index))
@@ -40,7 +55,7 @@ pub const SPLIT_BLOCK: u64 = 100;
 pub fn split_uniform(preset_seed: u64, frame_index: u64) -> f64 {
     use rand::seq::SliceRandom;
     let block = frame_index / SPLIT_BLOCK;
-    let mut order: Vec<u64> = (0..SPLIT_BLOCK).collect();
+    let mut order: [u64; SPLIT_BLOCK as usize] = std::array::from_fn(|i| i as u64);
     let mut rng = ChaCha8Rng::seed_from_u64(mix64(preset_seed ^ SPLIT_SALT) ^ mix64(block));
     order.shuffle(&mut rng);
     let rank = order[(frame_index % SPLIT_BLOCK) as usize];

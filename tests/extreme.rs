@@ -382,6 +382,7 @@ fn millimetre_and_kilometre_models() {
         };
         p.placement = Placement::Randomized {
             count: (4, 4),
+            count_distribution: Default::default(),
             volume: Volume::Box {
                 size_m: (size * 10.0, size * 5.0, size * 10.0),
             },

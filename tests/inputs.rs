@@ -339,6 +339,7 @@ fn degenerate_scenes_are_errors_or_loud_warnings() {
     let mut p = common::tiny_preset();
     p.placement = Placement::Randomized {
         count: (1, 5),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (0.0, 0.0, 0.0),
         },
@@ -348,6 +349,7 @@ fn degenerate_scenes_are_errors_or_loud_warnings() {
 
     p.placement = Placement::Randomized {
         count: (1, 5),
+        count_distribution: Default::default(),
         volume: Volume::Density { per_m3: 1e-30 },
         min_separation_m: 0.5,
     };
@@ -356,6 +358,7 @@ fn degenerate_scenes_are_errors_or_loud_warnings() {
     // Separation smaller than the drone: allowed, but said.
     p.placement = Placement::Randomized {
         count: (2, 5),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (6.0, 3.0, 6.0),
         },

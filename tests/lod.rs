@@ -21,6 +21,7 @@ fn preset(lod_error_px: f64) -> Preset {
     }];
     p.placement = Placement::Randomized {
         count: (12, 12),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (12.0, 5.0, 12.0),
         },

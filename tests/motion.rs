@@ -353,6 +353,7 @@ fn density_is_swept_with_the_volume_held_fixed() {
     let mut p = Preset::default();
     p.placement = Placement::Randomized {
         count: (1, 1),
+        count_distribution: Default::default(),
         volume: swarmshot::preset::Volume::DensitySweep {
             size_m: (20.0, 10.0, 20.0),
             per_m3: SweepRange::new(0.001, 0.004, 0.001),

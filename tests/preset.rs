@@ -122,6 +122,7 @@ fn invalid_values_name_their_field() {
     let mut p = base.clone();
     p.placement = Placement::Randomized {
         count: (0, 3),
+        count_distribution: Default::default(),
         volume: Volume::default(),
         min_separation_m: 0.5,
     };
@@ -130,6 +131,7 @@ fn invalid_values_name_their_field() {
     let mut p = base.clone();
     p.placement = Placement::Randomized {
         count: (500, 500),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (2.0, 2.0, 2.0),
         },

@@ -26,6 +26,7 @@ fn preset(sky: Sky, msaa: u32) -> Preset {
     p.render.msaa = msaa;
     p.placement = Placement::Randomized {
         count: (8, 14),
+        count_distribution: Default::default(),
         // Wider than the view: some drones are cut by the border.
         volume: Volume::Box {
             size_m: (14.0, 5.0, 8.0),

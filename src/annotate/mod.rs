@@ -35,7 +35,7 @@ pub struct DroneLabel {
 }
 
 /// What the writers do with a drone's label.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LabelStatus {
     /// A training box: written to YOLO and COCO.

@@ -359,9 +359,10 @@ pub fn placement_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             count,
             volume,
             min_separation_m,
+            ..
         } => {
             ui.horizontal(|ui| {
-                let tip = "Drones per frame, drawn uniformly from this inclusive range";
+                let tip = "Drones per frame: this inclusive range, drawn by the preset's count_distribution (uniform unless the preset names one)";
                 ui.label("Count").on_hover_text(tip);
                 ui.add(DragValue::new(&mut count.0).prefix("min ").speed(0.1))
                     .accessible_name("Count min")

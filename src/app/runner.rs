@@ -27,7 +27,7 @@ pub struct BatchRun {
 /// How a batch ended.
 pub enum BatchOutcome {
     /// Finished or cancelled; the dataset on disk is consistent either way.
-    Done(BatchReport),
+    Done(Box<BatchReport>),
     /// The error chain, outermost first.
     Failed(String),
 }
@@ -113,7 +113,7 @@ impl BatchRun {
     /// The outcome, once the batch thread has finished.
     pub fn finished(&self) -> Option<BatchOutcome> {
         match self.result.try_recv() {
-            Ok(Ok(report)) => Some(BatchOutcome::Done(report)),
+            Ok(Ok(report)) => Some(BatchOutcome::Done(Box::new(report))),
             Ok(Err(message)) => Some(BatchOutcome::Failed(message)),
             Err(crossbeam_channel::TryRecvError::Empty) => None,
             Err(crossbeam_channel::TryRecvError::Disconnected) => Some(BatchOutcome::Failed(

@@ -75,7 +75,7 @@ impl SummaryMaker {
             let labels = pipeline.estimate_labels(&scene);
             drones_min = drones_min.min(scene.drones.len());
             drones_max = drones_max.max(scene.drones.len());
-            stats.add(&scene, &labels);
+            stats.add(&scene, &labels, pipeline.model_names());
         }
         if sampled_frames == 0 {
             drones_min = 0;

@@ -204,7 +204,7 @@ fn simplify_level(
         indices.extend_from_slice(&out);
         draws.push(DrawRange {
             indices: start..indices.len() as u32,
-            texture: draw.texture,
+            ..draw.clone()
         });
     }
     let lod = Lod {
@@ -851,10 +851,14 @@ mod tests {
             DrawRange {
                 indices: 0..half,
                 texture: Some(0),
+                double_sided: false,
+                alpha_mask: false,
             },
             DrawRange {
                 indices: half..end,
                 texture: Some(1),
+                double_sided: false,
+                alpha_mask: false,
             },
         ];
         let range_of = |i: u32| model.indices[..half as usize].contains(&i);

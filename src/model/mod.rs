@@ -61,11 +61,18 @@ pub struct CpuTexture {
     pub wrap: [WrapMode; 2],
 }
 
-/// A run of indices drawn with one texture (`None`: untextured).
+/// A run of indices drawn with one texture (`None`: untextured) and one
+/// kind of surface.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DrawRange {
     pub indices: Range<u32>,
     pub texture: Option<usize>,
+    /// glTF `doubleSided`: back faces are drawn (with flipped normals).
+    /// Otherwise they are culled, as the glTF specification asks.
+    pub double_sided: bool,
+    /// glTF `alphaMode: MASK`: fragments below the cutoff are discarded.
+    /// Draws without it use a pipeline with no discard (early depth test).
+    pub alpha_mask: bool,
 }
 
 /// Textures are downscaled to this side: drones are small in the frame, so
@@ -266,15 +273,17 @@ fn load_bytes_inner(
         warnings,
         ..
     } = builder;
-    // Group triangles by texture: one draw call per distinct texture.
+    // Group triangles by texture and surface: one draw call per distinct pair.
     let mut indices = Vec::new();
     let mut draws = Vec::new();
-    for (texture, ix) in buckets {
+    for ((texture, double_sided, alpha_mask), ix) in buckets {
         let start = indices.len() as u32;
         indices.extend(ix);
         draws.push(DrawRange {
             indices: start..indices.len() as u32,
             texture,
+            double_sided,
+            alpha_mask,
         });
     }
     draws.retain(|d| !d.indices.is_empty());
@@ -393,7 +402,8 @@ struct Flattener<'a> {
     buffers: &'a [gltf::buffer::Data],
     vertices: Vec<Vertex>,
     /// Triangle indices per texture slot.
-    buckets: BTreeMap<Option<usize>, Vec<u32>>,
+    /// Triangle indices per (texture, double-sided, alpha mask).
+    buckets: BTreeMap<(Option<usize>, bool, bool), Vec<u32>>,
     textures: Vec<CpuTexture>,
     /// (image, sampler) → slot in `textures` (None: could not be decoded).
     texture_slots: BTreeMap<(usize, Option<usize>), Option<usize>>,
@@ -827,7 +837,10 @@ impl Flattener<'_> {
                     material: material_params,
                 });
             }
-            let bucket = self.buckets.entry(texture).or_default();
+            let bucket = self
+                .buckets
+                .entry((texture, material.double_sided(), cutoff > 0.0))
+                .or_default();
             let start = bucket.len();
             for [a, b, c] in triangles {
                 let tri = if flips { [a, c, b] } else { [a, b, c] };

@@ -150,6 +150,7 @@ pub fn run_batch(
             overwrite: options.overwrite,
             resume: options.resume,
             shard: options.shard,
+            labels_only: false,
         },
     )?;
     let first = writer.next_frame();

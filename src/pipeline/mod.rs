@@ -15,6 +15,7 @@
 //! renderer while the preset changes as long as the assets stay the same.
 
 pub mod batch;
+pub mod plan;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -26,10 +27,11 @@ use crate::preset::{BoxMethod, FieldError, LabelSettings, ModelSource, ModelSpec
 use crate::render::visibility::{self, Visibility};
 use crate::render::{GpuContext, RenderError, RenderRequest, Renderer};
 use crate::scene::projection::LabelGeometry;
-use crate::scene::{FrameError, FrameScene, build_frame};
+use crate::scene::{FrameError, FrameScene, MAX_DRAWS, build_frame, build_frame_draw};
 use crate::sky::{EnvironmentAssets, EnvironmentError};
 
 pub use batch::{BatchOptions, BatchReport, Progress, run_batch};
+pub use plan::{PlanOptions, PlanReport, run_plan};
 
 /// Why a pipeline could not be built or a frame not made.
 #[derive(Debug, thiserror::Error)]
@@ -235,9 +237,39 @@ impl FramePipeline {
         &self.model_names
     }
 
-    /// The scene of frame `index` (pure: no GPU, no file).
+    /// The scene of frame `index` (pure: no GPU, no file). With
+    /// `labels.min_labelled` set, the first draw whose geometry gives that
+    /// many kept boxes (see [`FramePipeline::plan`]).
     pub fn scene(&self, index: u64) -> Result<FrameScene, FrameError> {
-        build_frame(&self.preset, index)
+        self.plan_draws(index, false).map(|(scene, _)| scene)
+    }
+
+    /// Draw frame `index` until its estimated labels hold
+    /// `labels.min_labelled` kept boxes (at most [`MAX_DRAWS`] draws); the
+    /// labels come back when asked for or computed anyway.
+    fn plan_draws(
+        &self,
+        index: u64,
+        want_labels: bool,
+    ) -> Result<(FrameScene, Option<Vec<DroneLabel>>), FrameError> {
+        let wanted = self.preset.labels.min_labelled;
+        if wanted == 0 {
+            let scene = build_frame(&self.preset, index)?;
+            let labels = want_labels.then(|| self.estimate_labels(&scene));
+            return Ok((scene, labels));
+        }
+        for attempt in 0..MAX_DRAWS {
+            let scene = build_frame_draw(&self.preset, index, attempt)?;
+            let labels = self.estimate_labels(&scene);
+            if labels.iter().filter(|l| l.is_kept()).count() >= wanted as usize {
+                return Ok((scene, Some(labels)));
+            }
+        }
+        Err(FrameError::TooFewLabelled {
+            index,
+            wanted,
+            attempts: MAX_DRAWS,
+        })
     }
 
     /// A renderer holding this pipeline's models and sky images on `ctx`'s device.
@@ -278,8 +310,8 @@ impl FramePipeline {
     /// Scene and estimated labels of frame `index`, without rendering
     /// (see [`FramePipeline::estimate_labels`]).
     pub fn plan(&self, index: u64) -> Result<(FrameScene, Vec<DroneLabel>), FrameError> {
-        let scene = self.scene(index)?;
-        let labels = self.estimate_labels(&scene);
+        let (scene, labels) = self.plan_draws(index, true)?;
+        let labels = labels.unwrap_or_else(|| self.estimate_labels(&scene));
         Ok((scene, labels))
     }
 

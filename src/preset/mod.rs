@@ -136,6 +136,9 @@ pub enum Placement {
     Randomized {
         /// Inclusive range of drones per frame.
         count: (u32, u32),
+        /// How the count is drawn within `count` (uniform unless given).
+        #[serde(default, skip_serializing_if = "CountDistribution::is_uniform")]
+        count_distribution: CountDistribution,
         volume: Volume,
         /// Centre-to-centre distance no two drones come closer than.
         min_separation_m: f64,
@@ -149,9 +152,37 @@ impl Default for Placement {
     fn default() -> Self {
         Self::Randomized {
             count: (1, 15),
+            count_distribution: CountDistribution::Uniform,
             volume: Volume::default(),
             min_separation_m: 0.7,
         }
+    }
+}
+
+/// How randomized placement draws a frame's drone count within its
+/// inclusive `count: (min, max)`. Every distribution other than `Uniform` is
+/// truncated to (min, max): it is the distribution conditioned on
+/// min ≤ n ≤ max (never piled onto the ends), drawn by inverting its CDF
+/// with one uniform number from the frame's own sampler.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum CountDistribution {
+    /// Every count in (min, max) equally likely (one `random_range` draw; the default).
+    #[default]
+    Uniform,
+    /// Listed counts with relative weights, e.g. `Table([(1, 3.0), (2, 2.0), (5, 1.0)])`;
+    /// counts not listed are never drawn.
+    Table(Vec<(u32, f64)>),
+    /// P(n) ∝ λⁿ / n!, with λ = `mean` (the mean before truncation).
+    Poisson { mean: f64 },
+    /// P(n) ∝ (1 − p)^(n − min): each further drone with probability 1 − p.
+    Geometric { p: f64 },
+}
+
+impl CountDistribution {
+    /// Whether this is the default uniform draw.
+    pub fn is_uniform(&self) -> bool {
+        *self == Self::Uniform
     }
 }
 
@@ -643,6 +674,15 @@ pub struct LabelSettings {
     /// Resolution factor of the instance-id passes: 1 (pixel-exact at the
     /// output size), 2 or 4 (supersampled, sub-pixel visible boxes; costs scale²).
     pub id_scale: u32,
+    /// A frame whose geometry gives fewer kept boxes than this is drawn again
+    /// (its placement re-seeded from (seed, index, attempt); 0: off). See
+    /// docs/conventions.md, "Randomness".
+    #[serde(skip_serializing_if = "is_zero")]
+    pub min_labelled: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 impl Default for LabelSettings {
@@ -654,6 +694,7 @@ impl Default for LabelSettings {
             min_visible_fraction: 0.0,
             filtered: FilteredDrones::Drop,
             id_scale: 1,
+            min_labelled: 0,
         }
     }
 }

@@ -114,9 +114,11 @@ impl Preset {
             Placement::Formation(f) => f.validate_into(v, "placement"),
             Placement::Randomized {
                 count: (lo, hi),
+                count_distribution,
                 volume,
                 min_separation_m,
             } => {
+                validate_count_distribution(v, (*lo, *hi), count_distribution, volume);
                 v.check(*lo >= 1, "placement.count", || {
                     format!("minimum count {lo} must be at least 1")
                 });
@@ -352,6 +354,7 @@ impl Preset {
                 count: (_, hi),
                 volume,
                 min_separation_m,
+                ..
             } if *hi > 1 => {
                 v.check(
                     *min_separation_m >= span,
@@ -420,6 +423,29 @@ impl Preset {
             "labels.id_scale",
             || format!("{} is not supported; use 1, 2 or 4", self.labels.id_scale),
         );
+        let wanted = self.labels.min_labelled;
+        if wanted > 0 {
+            let most = match &self.placement {
+                Placement::Structured {
+                    x_count,
+                    y_count,
+                    z_count,
+                    ..
+                } => u64::from(*x_count) * u64::from(*y_count) * u64::from(*z_count),
+                Placement::Randomized {
+                    volume: Volume::DensitySweep { .. },
+                    ..
+                } => u64::MAX,
+                Placement::Randomized { count: (_, hi), .. } => u64::from(*hi),
+                Placement::Formation(f) => u64::from(f.count),
+            };
+            v.check(u64::from(wanted) <= most, "labels.min_labelled", || {
+                format!("{wanted} labelled drones per frame, but the placement puts at most {most} in a frame")
+            });
+            v.check(self.sequence.is_none(), "labels.min_labelled", || {
+                "is not supported in sequence mode (a sequence's draws belong to its first frame); set it to 0".into()
+            });
+        }
     }
 
     /// Image format and split shares.
@@ -444,5 +470,76 @@ impl Preset {
         v.check((sum - 1.0).abs() < 1e-6, "output.split", || {
             format!("shares sum to {sum}; they must sum to 1")
         });
+    }
+}
+
+/// The count distribution of randomized placement: its parameters, and
+/// every table row within the count range.
+fn validate_count_distribution(
+    v: &mut Validator,
+    (lo, hi): (u32, u32),
+    dist: &CountDistribution,
+    volume: &Volume,
+) {
+    let field = "placement.count_distribution";
+    if dist.is_uniform() {
+        return;
+    }
+    if matches!(volume, Volume::DensitySweep { .. }) {
+        v.push(
+            field,
+            "a DensitySweep volume fixes each frame's count from the swept density; remove count_distribution".into(),
+        );
+        return;
+    }
+    let span = u64::from(hi.saturating_sub(lo)) + 1;
+    v.check(
+        span <= u64::from(crate::scene::placement::MAX_COUNT_SPAN),
+        "placement.count",
+        || {
+            format!(
+                "({lo}, {hi}) spans {span} counts; a count_distribution may span at most {}",
+                crate::scene::placement::MAX_COUNT_SPAN
+            )
+        },
+    );
+    match dist {
+        CountDistribution::Uniform => {}
+        CountDistribution::Table(rows) => {
+            if rows.is_empty() {
+                v.push(field, "the table lists no count".into());
+            }
+            let mut seen = std::collections::BTreeSet::new();
+            for (i, (n, w)) in rows.iter().enumerate() {
+                let row = format!("{field}[{i}]");
+                v.check((lo..=hi).contains(n), &row, || {
+                    format!("count {n} is outside placement.count ({lo}, {hi})")
+                });
+                v.check(w.is_finite() && *w >= 0.0, &row, || {
+                    format!("weight {w} must be a finite number ≥ 0")
+                });
+                v.check(seen.insert(*n), &row, || {
+                    format!("count {n} is listed twice")
+                });
+            }
+            let total: f64 = rows.iter().map(|r| r.1).filter(|w| w.is_finite()).sum();
+            v.check(rows.is_empty() || total > 0.0, field, || {
+                "the weights sum to 0: no count could be drawn".into()
+            });
+        }
+        CountDistribution::Poisson { mean } => {
+            v.check(
+                mean.is_finite() && *mean > 0.0 && *mean <= 1e6,
+                &format!("{field}.mean"),
+                || format!("{mean} is out of range (0, 1e6]"),
+            );
+        }
+        CountDistribution::Geometric { p } => {
+            v.check(
+                p.is_finite() && *p > 0.0 && *p <= 1.0,
+                &format!("{field}.p"),
+                || format!("{p} is out of range (0, 1]"),
+            );
+        }
     }
 }

@@ -22,7 +22,7 @@
 use std::borrow::Cow;
 
 use super::ids::{self, IdReducer, IdStats};
-use super::regions::{self, Rect, Region, RegionDraws};
+use super::regions::{self, PassDraws, Rect};
 use super::visibility::{Visibility, overlap_layers};
 use super::{
     COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, IdImage, InstanceRaw, Readback, RenderError,
@@ -56,7 +56,7 @@ pub struct RenderedFrame {
 struct RegionPipelines {
     msaa: u32,
     background: wgpu::RenderPipeline,
-    drone: wgpu::RenderPipeline,
+    drone: super::DronePipelines,
     resolve: Option<wgpu::RenderPipeline>,
     /// Built on first use: presets that need no visibility never build it.
     reducer: Option<IdReducer>,
@@ -499,49 +499,47 @@ impl Renderer {
         Ok(())
     }
 
-    /// Instances of `regions` (drone index + 1 as id), appended to `data`, with their draws.
+    /// A pass over the disjoint `rects` drawing `drones`: their instances
+    /// (drone index + 1 as id) appended to `data`, grouped by (model, level
+    /// of detail).
     fn region_draws(
         &self,
         scene: &FrameScene,
-        regions: &[Region],
+        (rects, drones): (Vec<Rect>, Vec<usize>),
         data: &mut Vec<InstanceRaw>,
-    ) -> Vec<RegionDraws> {
-        regions
+    ) -> PassDraws {
+        let mut order: Vec<(super::MeshLevel, usize)> = drones
             .iter()
-            .map(|region| {
-                let mut order: Vec<(super::MeshLevel, usize)> = region
-                    .drones
-                    .iter()
-                    .map(|&i| ((scene.drones[i].model, self.level_of(scene, i)), i))
-                    .collect();
-                order.sort_unstable();
-                let mut draws: Vec<(super::MeshLevel, std::ops::Range<u32>)> = Vec::new();
-                for (key, i) in order {
-                    let idx = data.len() as u32;
-                    data.push(InstanceRaw::new(scene, i));
-                    match draws.last_mut() {
-                        Some((k, r)) if *k == key => r.end = idx + 1,
-                        _ => draws.push((key, idx..idx + 1)),
-                    }
-                }
-                RegionDraws {
-                    rect: region.rect,
-                    draws,
-                }
-            })
-            .collect()
+            .map(|&i| ((scene.drones[i].model, self.level_of(scene, i)), i))
+            .collect();
+        order.sort_unstable();
+        let mut draws: Vec<(super::MeshLevel, std::ops::Range<u32>)> = Vec::new();
+        for (key, i) in order {
+            let idx = data.len() as u32;
+            data.push(InstanceRaw::new(scene, i));
+            match draws.last_mut() {
+                Some((k, r)) if *k == key => r.end = idx + 1,
+                _ => draws.push((key, idx..idx + 1)),
+            }
+        }
+        PassDraws { rects, draws }
     }
 
-    /// One render pass over `regions`: background, then drones, per scissored region.
+    /// One render pass over a pass's regions: each region's background (its
+    /// "clear"), then the drones of all regions.
     fn encode_region_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         pipes: &RegionPipelines,
         target: &FrameTargets,
-        regions: &[RegionDraws],
+        draws: &PassDraws,
         label: &str,
     ) {
         let load = wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        };
+        let load_color = wgpu::Operations {
             load: wgpu::LoadOp::Load,
             store: wgpu::StoreOp::Store,
         };
@@ -553,19 +551,13 @@ impl Renderer {
                     view: color,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
+                    ops: load_color,
                 }),
                 Some(wgpu::RenderPassColorAttachment {
                     view: &target.ids_view,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
+                    ops: load_color,
                 }),
             ],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
@@ -577,40 +569,23 @@ impl Renderer {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        for region in regions {
-            let r = region.rect;
+        pass.set_pipeline(&pipes.background);
+        pass.set_bind_group(0, &target.background_group, &[]);
+        for r in &draws.rects {
             pass.set_scissor_rect(r.x0, r.y0, r.width(), r.height());
-            pass.set_pipeline(&pipes.background);
-            pass.set_bind_group(0, &target.background_group, &[]);
             pass.draw(0..3, 0..1);
-            let Some(instances) = &self.instances else {
-                continue;
-            };
-            if region.draws.is_empty() {
-                continue;
-            }
-            pass.set_pipeline(&pipes.drone);
-            pass.set_bind_group(0, &self.frame_bind_group, &[]);
-            pass.set_vertex_buffer(1, instances.slice(..));
-            for ((model, level), range) in &region.draws {
-                let Some((mesh, lod)) = self
-                    .meshes
-                    .get(*model)
-                    .and_then(|m| Some((m, m.levels.get(*level)?)))
-                else {
-                    continue;
-                };
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (indices, texture) in &lod.draws {
-                    let bind_group = texture
-                        .and_then(|t| mesh.textures.get(t))
-                        .unwrap_or(&self.white_texture);
-                    pass.set_bind_group(1, bind_group, &[]);
-                    pass.draw_indexed(indices.clone(), 0, range.clone());
-                }
-            }
         }
+        let (Some(instances), Some(bounds)) = (&self.instances, draws.bounds()) else {
+            return;
+        };
+        if draws.draws.is_empty() {
+            return;
+        }
+        // The scissor only bounds the work: each drone stays inside its region.
+        pass.set_scissor_rect(bounds.x0, bounds.y0, bounds.width(), bounds.height());
+        pass.set_bind_group(0, &self.frame_bind_group, &[]);
+        pass.set_vertex_buffer(1, instances.slice(..));
+        self.draw_drones(&mut pass, &pipes.drone, &draws.draws);
     }
 
     fn render_regions(
@@ -633,21 +608,19 @@ impl Renderer {
             }
         }
         let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
-        let whole = |members: Vec<usize>| {
-            let drones: Vec<usize> = members
-                .into_iter()
-                .filter(|&i| rects[i].is_some())
-                .collect();
-            vec![Region {
-                rect: Rect::full(width, height),
-                drones,
-            }]
+        // A pass's pixels (disjoint rects) and its drones.
+        let pass_of = |members: Vec<usize>| -> (Vec<Rect>, Vec<usize>) {
+            if self.use_regions {
+                regions::cover(&rects, members)
+            } else {
+                let drones = members
+                    .into_iter()
+                    .filter(|&i| rects[i].is_some())
+                    .collect();
+                (vec![Rect::full(width, height)], drones)
+            }
         };
-        let main = if self.use_regions {
-            regions::merge(&rects, 0..n)
-        } else {
-            whole((0..n).collect())
-        };
+        let main = pass_of((0..n).collect());
         // Unoccluded counts: layers of drones whose boxes are apart, each drawn alone.
         let (layers, overlapping) = if request.visibility {
             let clipped: Vec<Option<PixelBox>> = boxes
@@ -658,7 +631,7 @@ impl Renderer {
                 })
                 .collect();
             let (layers, overlapping) = overlap_layers(&clipped);
-            let layers: Vec<Vec<Region>> = layers
+            let layers: Vec<(Vec<Rect>, Vec<usize>)> = layers
                 .into_iter()
                 .map(|l| {
                     l.into_iter()
@@ -666,30 +639,23 @@ impl Renderer {
                         .collect::<Vec<_>>()
                 })
                 .filter(|l| !l.is_empty())
-                .map(|l| {
-                    if self.use_regions {
-                        regions::merge(&rects, l)
-                    } else {
-                        whole(l)
-                    }
-                })
+                .map(pass_of)
                 .collect();
             (layers, overlapping)
         } else {
             (Vec::new(), vec![false; n])
         };
         let mut data = Vec::new();
-        let main_draws = self.region_draws(scene, &main, &mut data);
-        let layer_draws: Vec<Vec<RegionDraws>> = layers
-            .iter()
+        let main_draws = self.region_draws(scene, main, &mut data);
+        let layer_draws: Vec<PassDraws> = layers
+            .into_iter()
             .map(|l| self.region_draws(scene, l, &mut data))
             .collect();
         self.write_instances(&data);
         if request.color {
             self.counts.color += 1;
         }
-        let rects_of = |draws: &[RegionDraws]| draws.iter().map(|d| d.rect).collect::<Vec<Rect>>();
-        let main_rects = rects_of(&main_draws);
+        let main_rects = main_draws.rects.clone();
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -789,9 +755,10 @@ impl Renderer {
             let reducer = pipes
                 .reducer
                 .get_or_insert_with(|| IdReducer::new(&self.device, msaa));
-            let layer_rects: Vec<Vec<Rect>> = layer_draws.iter().map(|l| rects_of(l)).collect();
+            let layer_rects: Vec<&[Rect]> =
+                layer_draws.iter().map(|l| l.rects.as_slice()).collect();
             let mut passes: Vec<(&[Rect], u32)> = vec![(main_rects.as_slice(), 0)];
-            passes.extend(layer_rects.iter().map(|r| (r.as_slice(), 1)));
+            passes.extend(layer_rects.iter().map(|r| (*r, 1)));
             reducer.prepare(&self.device, &self.queue, n, &passes, 2);
             let pipes = &state.pipelines[p];
             let target = &state.targets[t];
@@ -889,12 +856,9 @@ impl Renderer {
         self.upload_uniforms(scene);
         let p = self.region_pipelines(state, 1);
         let t = self.frame_targets(state, width, height, 1);
-        let region = Region {
-            rect: Rect::full(width, height),
-            drones: (0..scene.drones.len()).filter(|&i| include(i)).collect(),
-        };
+        let drones = (0..scene.drones.len()).filter(|&i| include(i)).collect();
         let mut data = Vec::new();
-        let draws = self.region_draws(scene, &[region], &mut data);
+        let draws = self.region_draws(scene, (vec![Rect::full(width, height)], drones), &mut data);
         self.write_instances(&data);
         self.counts.ids += 1;
         let mut encoder = self

@@ -202,9 +202,50 @@ struct GpuMesh {
 struct GpuLevel {
     /// Bound of the silhouette error, in model units (0 for level 0).
     error: f32,
-    /// Index ranges with their texture bind group (`None`: the white one).
-    draws: Vec<(Range<u32>, Option<usize>)>,
+    draws: Vec<GpuDraw>,
 }
+
+/// An index range drawn with one texture bind group (`None`: the white one)
+/// and the pipeline variant its surface needs.
+struct GpuDraw {
+    indices: Range<u32>,
+    texture: Option<usize>,
+    surface: Surface,
+}
+
+/// What a draw's material asks of the drone pipeline: back faces culled
+/// unless double-sided (as glTF specifies), and the alpha test only for
+/// masked materials (without `discard` the depth test runs before shading).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Surface {
+    double_sided: bool,
+    alpha_mask: bool,
+}
+
+impl Surface {
+    const ALL: [Surface; 4] = [
+        Surface::of(false, false),
+        Surface::of(true, false),
+        Surface::of(false, true),
+        Surface::of(true, true),
+    ];
+    const fn of(double_sided: bool, alpha_mask: bool) -> Self {
+        Self {
+            double_sided,
+            alpha_mask,
+        }
+    }
+    fn from_draw(d: &crate::model::DrawRange) -> Self {
+        Self::of(d.double_sided, d.alpha_mask)
+    }
+    fn index(self) -> usize {
+        usize::from(self.double_sided) | usize::from(self.alpha_mask) << 1
+    }
+}
+
+/// A drone pipeline (one fragment entry, sample count and targets) in the
+/// variants the renderer's meshes use, indexed by [`Surface::index`].
+pub(crate) struct DronePipelines([Option<wgpu::RenderPipeline>; 4]);
 
 /// What one instanced draw shares: a model and its level of detail.
 pub(crate) type MeshLevel = (usize, usize);
@@ -236,7 +277,9 @@ pub struct Renderer {
     white_texture: wgpu::BindGroup,
     shaders: (wgpu::ShaderModule, wgpu::ShaderModule),
     /// Pipelines per sample count: (sky, drone).
-    pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
+    pipelines: Vec<(u32, wgpu::RenderPipeline, DronePipelines)>,
+    /// The surface kinds the meshes' draws use: the drone pipeline variants to build.
+    surfaces: [bool; 4],
     meshes: Vec<GpuMesh>,
     /// Each model's hull: where its drones can put pixels.
     geometry: Vec<LabelGeometry>,
@@ -365,24 +408,21 @@ impl Renderer {
             .map(|(k, m)| {
                 // Level 0 is the model's own mesh; coarser levels follow in one index buffer.
                 let mut indices = m.indices.clone();
+                let gpu_draw = |d: &crate::model::DrawRange, base: u32| GpuDraw {
+                    indices: d.indices.start + base..d.indices.end + base,
+                    texture: d.texture,
+                    surface: Surface::from_draw(d),
+                };
                 let mut levels = vec![GpuLevel {
                     error: 0.0,
-                    draws: m
-                        .draws
-                        .iter()
-                        .map(|d| (d.indices.clone(), d.texture))
-                        .collect(),
+                    draws: m.draws.iter().map(|d| gpu_draw(d, 0)).collect(),
                 }];
                 for lod in lods.get(k).map_or(&[][..], |l| l.get(1..).unwrap_or(&[])) {
                     let base = indices.len() as u32;
                     indices.extend_from_slice(&lod.indices);
                     levels.push(GpuLevel {
                         error: lod.error,
-                        draws: lod
-                            .draws
-                            .iter()
-                            .map(|d| (d.indices.start + base..d.indices.end + base, d.texture))
-                            .collect(),
+                        draws: lod.draws.iter().map(|d| gpu_draw(d, base)).collect(),
                     });
                 }
                 GpuMesh {
@@ -407,7 +447,11 @@ impl Renderer {
                         .collect(),
                 }
             })
-            .collect();
+            .collect::<Vec<GpuMesh>>();
+        let mut surfaces = [false; 4];
+        for d in meshes.iter().flat_map(|m| &m.levels).flat_map(|l| &l.draws) {
+            surfaces[d.surface.index()] = true;
+        }
         Self {
             device,
             queue: ctx.queue.clone(),
@@ -420,6 +464,7 @@ impl Renderer {
             white_texture,
             shaders,
             pipelines: Vec::new(),
+            surfaces,
             meshes,
             geometry: models.iter().map(LabelGeometry::from).collect(),
             instances: None,
@@ -572,15 +617,16 @@ impl Renderer {
         self.pipelines.len() - 1
     }
 
-    /// The drone pipeline for `msaa` samples with fragment entry `entry`
-    /// writing `targets` (colour, or colour + instance id).
+    /// The drone pipelines for `msaa` samples with fragment entry `entry`
+    /// writing `targets` (colour, or colour + instance id), in the surface
+    /// variants this renderer's meshes use.
     fn drone_pipeline(
         &self,
         label: &str,
         msaa: u32,
         entry: &str,
         targets: &[Option<wgpu::ColorTargetState>],
-    ) -> wgpu::RenderPipeline {
+    ) -> DronePipelines {
         let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 8 => Float32x2, 9 => Float32x4];
         let buffers = [
             Some(wgpu::VertexBufferLayout {
@@ -594,41 +640,88 @@ impl Renderer {
                 attributes: &INSTANCE_ATTRS,
             }),
         ];
-        self.device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&self.drone_layout),
-                vertex: wgpu::VertexState {
-                    module: &self.shaders.1,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &buffers,
-                },
-                // Thin parts (rotor discs, wings) are seen from both sides: no culling.
-                primitive: wgpu::PrimitiveState {
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: wgpu::MultisampleState {
-                    count: msaa,
-                    ..Default::default()
-                },
-                fragment: Some(wgpu::FragmentState {
-                    module: &self.shaders.1,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let variant = |surface: Surface| {
+            let constants = [("ALPHA_MASK", if surface.alpha_mask { 1.0 } else { 0.0 })];
+            self.device
+                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&self.drone_layout),
+                    vertex: wgpu::VertexState {
+                        module: &self.shaders.1,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &buffers,
+                    },
+                    // glTF: single-sided materials cull back faces (meshes are
+                    // counter-clockwise, negative scales already flipped).
+                    primitive: wgpu::PrimitiveState {
+                        front_face: wgpu::FrontFace::Ccw,
+                        cull_mode: (!surface.double_sided).then_some(wgpu::Face::Back),
+                        ..Default::default()
+                    },
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(wgpu::CompareFunction::Greater),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: wgpu::MultisampleState {
+                        count: msaa,
+                        ..Default::default()
+                    },
+                    fragment: Some(wgpu::FragmentState {
+                        module: &self.shaders.1,
+                        entry_point: Some(entry),
+                        compilation_options: wgpu::PipelineCompilationOptions {
+                            constants: &constants,
+                            ..Default::default()
+                        },
+                        targets,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+        };
+        DronePipelines(Surface::ALL.map(|k| self.surfaces[k.index()].then(|| variant(k))))
+    }
+
+    /// Draw instance ranges (instances bound at vertex buffer slot 1, frame
+    /// uniforms at group 0), each with its level's draws and their pipelines.
+    fn draw_drones(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipelines: &DronePipelines,
+        ranges: &[(MeshLevel, Range<u32>)],
+    ) {
+        let mut bound: Option<usize> = None;
+        for ((model, level), range) in ranges {
+            let Some((mesh, lod)) = self
+                .meshes
+                .get(*model)
+                .and_then(|m| Some((m, m.levels.get(*level)?)))
+            else {
+                continue;
+            };
+            pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+            pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+            for draw in &lod.draws {
+                let k = draw.surface.index();
+                let Some(pipeline) = &pipelines.0[k] else {
+                    continue;
+                };
+                if bound != Some(k) {
+                    pass.set_pipeline(pipeline);
+                    bound = Some(k);
+                }
+                let bind_group = draw
+                    .texture
+                    .and_then(|t| mesh.textures.get(t))
+                    .unwrap_or(&self.white_texture);
+                pass.set_bind_group(1, bind_group, &[]);
+                pass.draw_indexed(draw.indices.clone(), 0, range.clone());
+            }
+        }
     }
 
     /// Write the frame's uniforms: the camera, and the environment's sky and
@@ -759,20 +852,8 @@ impl Renderer {
         if let Some(instances) = &self.instances
             && !ranges.is_empty()
         {
-            pass.set_pipeline(drone_pipeline);
             pass.set_vertex_buffer(1, instances.slice(..));
-            for ((model, level), range) in ranges {
-                let mesh = &self.meshes[model];
-                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                for (indices, texture) in &mesh.levels[level].draws {
-                    let bind_group = texture
-                        .and_then(|t| mesh.textures.get(t))
-                        .unwrap_or(&self.white_texture);
-                    pass.set_bind_group(1, bind_group, &[]);
-                    pass.draw_indexed(indices.clone(), 0, range.clone());
-                }
-            }
+            self.draw_drones(&mut pass, drone_pipeline, &ranges);
         }
     }
 

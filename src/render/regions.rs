@@ -3,9 +3,10 @@
 //! A drone's rasterised samples lie inside the projection of its convex hull,
 //! whose bounding box is its amodal box ([`amodal_box`]: near-plane clipping
 //! included). That box, padded by [`PAD_PX`] and rounded out to whole pixels,
-//! is the drone's rect; rects that overlap are merged until no two regions
-//! share a pixel, so each region can be "cleared" (background, id 0, far
-//! depth) and drawn on its own, and each pixel is reduced exactly once.
+//! is the drone's rect. A pass covers the union of its drones' rects with
+//! disjoint rects ([`cover`]: exactly the union, not its bounding box), so
+//! each of them is "cleared" (background, id 0, far depth) before the drones
+//! are drawn, and each pixel is resolved, read back and reduced exactly once.
 
 use std::ops::Range;
 
@@ -100,40 +101,95 @@ pub fn drone_rects(
         .unzip()
 }
 
-/// One region to draw and the drones inside it.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Region {
-    pub rect: Rect,
-    pub drones: Vec<usize>,
-}
-
-/// Merge the rects of the drones `members` until no two regions overlap.
-pub fn merge(rects: &[Option<Rect>], members: impl IntoIterator<Item = usize>) -> Vec<Region> {
-    let mut regions: Vec<Region> = Vec::new();
+/// The pixels of the drones `members` as disjoint rects covering exactly the
+/// union of their rects (not its bounding box: a swarm spread over the frame
+/// covers a fraction of it), and those drones (the ones with a rect).
+///
+/// The union is cut into bands between the rects' y edges; in each band the
+/// x intervals of the rects crossing it are merged, and an interval equal to
+/// one in the band above extends that rect downwards.
+pub fn cover(
+    rects: &[Option<Rect>],
+    members: impl IntoIterator<Item = usize>,
+) -> (Vec<Rect>, Vec<usize>) {
+    let mut drones = Vec::new();
+    let mut items = Vec::new();
     for i in members {
-        let Some(mut rect) = rects.get(i).copied().flatten() else {
-            continue;
-        };
-        let mut drones = vec![i];
-        while let Some(j) = regions.iter().position(|r| r.rect.overlaps(&rect)) {
-            let other = regions.swap_remove(j);
-            rect = rect.union(&other.rect);
-            drones.extend(other.drones);
+        if let Some(r) = rects.get(i).copied().flatten() {
+            drones.push(i);
+            items.push(r);
         }
-        regions.push(Region { rect, drones });
     }
-    for r in &mut regions {
-        r.drones.sort_unstable();
+    drones.sort_unstable();
+    items.sort_unstable_by_key(|r| r.y0);
+    let mut ys: Vec<u32> = items.iter().flat_map(|r| [r.y0, r.y1]).collect();
+    ys.sort_unstable();
+    ys.dedup();
+    let mut out: Vec<Rect> = Vec::new();
+    // Rects of `out` that end where the current band starts.
+    let mut open: Vec<usize> = Vec::new();
+    let mut active: Vec<Rect> = Vec::new();
+    let mut intervals: Vec<(u32, u32)> = Vec::new();
+    let mut next = 0;
+    for band in ys.windows(2) {
+        let (ya, yb) = (band[0], band[1]);
+        active.retain(|r| r.y1 > ya);
+        while let Some(r) = items.get(next).filter(|r| r.y0 <= ya) {
+            active.push(*r);
+            next += 1;
+        }
+        intervals.clear();
+        intervals.extend(active.iter().map(|r| (r.x0, r.x1)));
+        intervals.sort_unstable();
+        let mut merged: Vec<(u32, u32)> = Vec::with_capacity(intervals.len());
+        for &(a, b) in &intervals {
+            match merged.last_mut() {
+                Some((_, end)) if a <= *end => *end = (*end).max(b),
+                _ => merged.push((a, b)),
+            }
+        }
+        let mut still_open = Vec::with_capacity(merged.len());
+        for (x0, x1) in merged {
+            match open
+                .iter()
+                .copied()
+                .find(|&k| out[k].x0 == x0 && out[k].x1 == x1)
+            {
+                Some(k) => {
+                    out[k].y1 = yb;
+                    still_open.push(k);
+                }
+                None => {
+                    out.push(Rect {
+                        x0,
+                        y0: ya,
+                        x1,
+                        y1: yb,
+                    });
+                    still_open.push(out.len() - 1);
+                }
+            }
+        }
+        open = still_open;
     }
-    regions
+    (out, drones)
 }
 
-/// Instance ranges of one region, per model.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RegionDraws {
-    pub rect: Rect,
-    /// Instance ranges per (model, level of detail).
+/// What one pass draws: its disjoint rects, and the instance ranges of its
+/// drones per (model, level of detail). A drone's samples lie inside its own
+/// rect, so all drones are drawn together after every rect is cleared, one
+/// instanced draw per (model, level).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PassDraws {
+    pub rects: Vec<Rect>,
     pub draws: Vec<((usize, usize), Range<u32>)>,
+}
+
+impl PassDraws {
+    /// The smallest rect holding every rect of the pass (None: none).
+    pub fn bounds(&self) -> Option<Rect> {
+        self.rects.iter().copied().reduce(|a, b| a.union(&b))
+    }
 }
 
 #[cfg(test)]
@@ -145,31 +201,49 @@ mod tests {
     }
 
     #[test]
-    fn merged_regions_are_disjoint_and_cover_every_rect() {
-        let rects = vec![
-            r(0, 0, 10, 10),
-            r(5, 5, 20, 20),
-            r(30, 0, 40, 5),
-            None,
-            r(19, 19, 31, 21),
-            r(100, 100, 101, 101),
-        ];
-        let regions = merge(&rects, 0..rects.len());
-        for (a, ra) in regions.iter().enumerate() {
-            for rb in &regions[a + 1..] {
-                assert!(!ra.rect.overlaps(&rb.rect), "{ra:?} {rb:?}");
+    fn cover_is_disjoint_and_exactly_the_union() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for case in 0..200 {
+            let n = rng.random_range(0..40);
+            let side = if case % 2 == 0 { 64 } else { 160 };
+            let rects: Vec<Option<Rect>> = (0..n)
+                .map(|_| {
+                    if rng.random_bool(0.1) {
+                        return None;
+                    }
+                    let x0 = rng.random_range(0..side - 1);
+                    let y0 = rng.random_range(0..side - 1);
+                    let x1 = rng.random_range(x0 + 1..=(x0 + 30).min(side));
+                    let y1 = rng.random_range(y0 + 1..=(y0 + 30).min(side));
+                    Some(Rect { x0, y0, x1, y1 })
+                })
+                .collect();
+            let (cover, drones) = cover(&rects, 0..n);
+            let with_rect: Vec<usize> = (0..n).filter(|&i| rects[i].is_some()).collect();
+            assert_eq!(drones, with_rect);
+            for (a, ra) in cover.iter().enumerate() {
+                assert!(ra.area() > 0);
+                for rb in &cover[a + 1..] {
+                    assert!(!ra.overlaps(rb), "case {case}: {ra:?} {rb:?}");
+                }
+            }
+            // Pixel by pixel: inside some rect ⇔ inside the cover.
+            let inside = |rs: &mut dyn Iterator<Item = Rect>, x: u32, y: u32| {
+                rs.filter(|r| r.x0 <= x && x < r.x1 && r.y0 <= y && y < r.y1)
+                    .count()
+                    > 0
+            };
+            for y in 0..side {
+                for x in 0..side {
+                    assert_eq!(
+                        inside(&mut rects.iter().flatten().copied(), x, y),
+                        inside(&mut cover.iter().copied(), x, y),
+                        "case {case}: pixel ({x}, {y})"
+                    );
+                }
             }
         }
-        for (i, rect) in rects.iter().enumerate() {
-            let Some(rect) = rect else { continue };
-            let region = regions
-                .iter()
-                .find(|g| g.drones.contains(&i))
-                .expect("every drone with a rect is in a region");
-            assert!(region.rect.union(rect) == region.rect);
-        }
-        // 0, 1, 4 and (through 4) 2 chain together; 5 stays alone.
-        assert_eq!(regions.len(), 2);
     }
 
     #[test]

@@ -91,6 +91,8 @@ pub struct FrameScene {
     pub environment: FrameEnvironment,
     /// The sky the renderer draws: the preset's sky with those draws applied.
     pub sky: FrameSky,
+    /// The environment's name (a `Random` sky's choice; see `sky::environment_name`).
+    pub environment_name: String,
     /// Radius R of the observation volume's bounding sphere (drone extent included).
     pub volume_radius_m: f64,
     /// Half extent of the observation volume before the scene rotation, metres.
@@ -105,6 +107,14 @@ pub struct FrameScene {
     /// The camera is the preset's absolute pose (`camera.absolute`), not the relative sweep.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub camera_absolute: bool,
+    /// Which draw of the placement this is: 0, or the re-draw that gave the
+    /// frame `labels.min_labelled` boxes (`seed` is then that draw's seed).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub redraw: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// A frame's place in its sequence. Drone `i` of every frame of a sequence
@@ -119,6 +129,16 @@ pub struct SequenceFrame {
     pub steps: u64,
     /// Index of the sequence's first frame.
     pub first_index: u64,
+}
+
+impl FrameScene {
+    /// Indices of the models present in the frame, each once, in preset order.
+    pub fn models_present(&self) -> Vec<usize> {
+        let mut models: Vec<usize> = self.drones.iter().map(|d| d.model).collect();
+        models.sort_unstable();
+        models.dedup();
+        models
+    }
 }
 
 impl SequenceFrame {
@@ -141,7 +161,18 @@ pub enum FrameError {
     OutOfRange { index: u64, count: u64 },
     #[error("the preset's sweeps are invalid: {0}")]
     Sweep(#[from] crate::preset::sweep::SweepError),
+    #[error(
+        "frame {index}: no draw of {attempts} gave at least labels.min_labelled = {wanted} labelled drones; lower labels.min_labelled, or bring the camera closer (camera.z) or the drones into view"
+    )]
+    TooFewLabelled {
+        index: u64,
+        wanted: u32,
+        attempts: u32,
+    },
 }
+
+/// The most draws of a frame `labels.min_labelled` makes (the first included).
+pub const MAX_DRAWS: u32 = 100;
 
 /// Unit vector towards the sun of a sky without its per-frame randomisation
 /// (azimuth from +Z towards +X, elevation above the horizon). A frame's own
@@ -176,10 +207,23 @@ pub fn camera_position(
 /// sequence: it comes from the RNG of the sequence's first frame, so frame
 /// `index` is still made alone from (seed, index).
 pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError> {
+    build_frame_draw(preset, index, 0)
+}
+
+/// Draw `attempt` of frame `index`: attempt 0 is [`build_frame`]; a later
+/// attempt re-seeds the placement (count, models, positions, attitudes) from
+/// [`seed::redraw_seed`] and keeps everything else: sweep values, camera
+/// sweep point, sky draws and split. Used by `labels.min_labelled`.
+pub fn build_frame_draw(
+    preset: &Preset,
+    index: u64,
+    attempt: u32,
+) -> Result<FrameScene, FrameError> {
     let sweep = sweep_values(preset, index)?;
     let sequence = SequenceFrame::of(preset, index);
     let draw_index = sequence.map_or(index, |s| s.first_index);
-    let mut rng = seed::frame_rng(preset.seed, draw_index);
+    let frame_seed = seed::redraw_seed(preset.seed, draw_index, attempt);
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(frame_seed);
     let placed = placement::place(preset, sweep.density_per_m3, &mut rng);
     let model_radius = placement::max_model_radius(preset);
     let mut half_extent = placed.half_extent;
@@ -236,7 +280,7 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
 
     Ok(FrameScene {
         index,
-        seed: seed::frame_seed(preset.seed, draw_index),
+        seed: frame_seed,
         split: split::split_of(preset, index, sequence, &environment),
         sweep,
         look_at: camera.1,
@@ -244,12 +288,14 @@ pub fn build_frame(preset: &Preset, index: u64) -> Result<FrameScene, FrameError
         drones,
         sun_direction: environment.sun_direction(),
         sky: crate::sky::resolve(&preset.sky, &environment),
+        environment_name: crate::sky::environment_name(&preset.sky, &environment),
         environment,
         volume_radius_m,
         volume_half_extent_m: half_extent,
         placement_shortfall: placed.shortfall,
         sequence,
         camera_absolute: preset.camera.absolute.is_some(),
+        redraw: attempt,
     })
 }
 

@@ -8,7 +8,9 @@ use glam::{DQuat, DVec3, IVec3};
 use rand::Rng;
 
 use super::math::EulerDeg;
-use crate::preset::{AttitudeRanges, Formation, FormationShape, Placement, Preset, Volume};
+use crate::preset::{
+    AttitudeRanges, CountDistribution, Formation, FormationShape, Placement, Preset, Volume,
+};
 
 /// Attempts per drone before randomized placement gives up on it.
 const PLACEMENT_ATTEMPTS: u32 = 200;
@@ -28,6 +30,89 @@ fn sample_range(rng: &mut impl Rng, (lo, hi): (f64, f64)) -> f64 {
     } else {
         lo
     }
+}
+
+/// The most counts a non-uniform distribution may span (max − min + 1):
+/// its probabilities are computed per frame.
+pub const MAX_COUNT_SPAN: u32 = 100_000;
+
+/// Relative weight of count `n` under `dist` (truncated to (lo, hi) by the
+/// caller), as ln w so a Poisson of large mean neither overflows nor underflows.
+fn log_weight(dist: &CountDistribution, lo: u32, n: u32) -> f64 {
+    match dist {
+        CountDistribution::Uniform => 0.0,
+        CountDistribution::Table(rows) => rows
+            .iter()
+            .filter(|(k, _)| *k == n)
+            .map(|(_, w)| *w)
+            .sum::<f64>()
+            .ln(),
+        // ln(λⁿ / n!) = n ln λ − ln Γ(n + 1).
+        CountDistribution::Poisson { mean } => f64::from(n) * mean.ln() - ln_factorial(n),
+        CountDistribution::Geometric { p } => f64::from(n - lo) * (1.0 - p).ln(),
+    }
+}
+
+fn ln_factorial(n: u32) -> f64 {
+    (2..=n).map(|k| f64::from(k).ln()).sum()
+}
+
+/// Each count in lo..=hi with its probability under `dist` truncated to (lo, hi).
+pub fn count_probabilities(lo: u32, hi: u32, dist: &CountDistribution) -> Vec<(u32, f64)> {
+    let hi = hi.max(lo).min(lo.saturating_add(MAX_COUNT_SPAN - 1));
+    let logs: Vec<(u32, f64)> = (lo..=hi).map(|n| (n, log_weight(dist, lo, n))).collect();
+    let top = logs.iter().map(|l| l.1).fold(f64::NEG_INFINITY, f64::max);
+    if !top.is_finite() {
+        return vec![(lo, 1.0)];
+    }
+    let weights: Vec<(u32, f64)> = logs.iter().map(|&(n, l)| (n, (l - top).exp())).collect();
+    let total: f64 = weights.iter().map(|w| w.1).sum();
+    weights.into_iter().map(|(n, w)| (n, w / total)).collect()
+}
+
+/// The expected count under `dist` truncated to (lo, hi).
+pub fn count_mean(lo: u32, hi: u32, dist: &CountDistribution) -> f64 {
+    count_probabilities(lo, hi, dist)
+        .iter()
+        .map(|&(n, p)| f64::from(n) * p)
+        .sum()
+}
+
+fn describe_distribution(dist: &CountDistribution) -> String {
+    match dist {
+        CountDistribution::Uniform => "uniform".into(),
+        CountDistribution::Table(rows) => format!("table of {} counts", rows.len()),
+        CountDistribution::Poisson { mean } => format!("Poisson λ = {mean}, truncated"),
+        CountDistribution::Geometric { p } => format!("geometric p = {p}, truncated"),
+    }
+}
+
+/// A frame's drone count in lo..=hi. `Uniform` is one `random_range` draw
+/// (hi > lo) or none; the others invert the truncated CDF with one uniform
+/// number in [0, 1).
+pub fn draw_count(rng: &mut impl Rng, lo: u32, hi: u32, dist: &CountDistribution) -> u32 {
+    if let CountDistribution::Uniform = dist {
+        return if hi > lo {
+            rng.random_range(lo..=hi)
+        } else {
+            lo
+        };
+    }
+    let u: f64 = rng.random();
+    let probabilities = count_probabilities(lo, hi, dist);
+    let mut cumulative = 0.0;
+    for &(n, p) in &probabilities {
+        cumulative += p;
+        if u < cumulative {
+            return n;
+        }
+    }
+    // Rounding left the sum a hair under 1: the last count with any weight.
+    probabilities
+        .iter()
+        .rev()
+        .find(|p| p.1 > 0.0)
+        .map_or(lo, |p| p.0)
 }
 
 /// Drones placed in the unrotated volume.
@@ -96,11 +181,13 @@ pub fn describe(preset: &Preset) -> String {
         }
         Placement::Randomized {
             count: (lo, hi),
+            count_distribution,
             volume,
             min_separation_m,
         } => format!(
-            "randomized, {lo}–{hi} drones per frame (mean {:.1}), volume {volume:?}, min separation {min_separation_m} m",
-            (f64::from(*lo) + f64::from(*hi)) / 2.0
+            "randomized, {lo}–{hi} drones per frame ({}, mean {:.2}), volume {volume:?}, min separation {min_separation_m} m",
+            describe_distribution(count_distribution),
+            count_mean(*lo, *hi, count_distribution)
         ),
         Placement::Formation(f) => {
             let span = preset.max_model_size_m();
@@ -150,6 +237,7 @@ pub fn place(preset: &Preset, density_per_m3: Option<f64>, rng: &mut impl Rng) -
         }
         Placement::Randomized {
             count: (lo, hi),
+            count_distribution,
             volume,
             min_separation_m,
         } => {
@@ -160,8 +248,7 @@ pub fn place(preset: &Preset, density_per_m3: Option<f64>, rng: &mut impl Rng) -
                     },
                     Some(rho),
                 ) => (rho * x * y * z).round().clamp(1.0, f64::from(u32::MAX)) as u32,
-                _ if hi > lo => rng.random_range(*lo..=*hi),
-                _ => *lo,
+                _ => draw_count(rng, *lo, *hi, count_distribution),
             };
             let half = random_volume_size(volume, n) * 0.5;
             let sep = *min_separation_m;
@@ -412,17 +499,47 @@ pub fn place_formation(f: &Formation, span: f64, n_models: usize, rng: &mut impl
     }
 }
 
+/// A multiply-rotate hasher for grid cells: the separation test hashes 27
+/// cells per try, and SipHash's flood resistance buys nothing here (the
+/// keys are our own). Which cells hold which points does not depend on it.
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        crate::seed::mix64(self.0)
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_i32(&mut self, v: i32) {
+        self.write_u64(u64::from(v as u32));
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0 ^ v)
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .rotate_left(23);
+    }
+}
+
+type CellMap = HashMap<IVec3, Vec<DVec3>, std::hash::BuildHasherDefault<CellHasher>>;
+
 /// A hash grid of cell size = separation, so the separation test looks at 27 cells.
 struct SeparationGrid {
     separation: f64,
-    cells: HashMap<IVec3, Vec<DVec3>>,
+    cells: CellMap,
 }
 
 impl SeparationGrid {
     fn new(separation: f64) -> Self {
         Self {
             separation,
-            cells: HashMap::new(),
+            cells: CellMap::default(),
         }
     }
 

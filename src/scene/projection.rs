@@ -100,6 +100,22 @@ impl From<&crate::model::CpuModel> for LabelGeometry {
 /// Project a point set given in camera coordinates, clipped at the near plane.
 pub fn project_clipped(camera: &Camera, points_cam: &[DVec3]) -> Option<PixelBox> {
     let near = camera.near_m;
+    // The common case, every point in front: the same arithmetic as
+    // `Camera::project_camera_point` with the focal length taken once and
+    // nothing allocated (a labels-only plan projects millions of hulls).
+    if !points_cam.is_empty() && points_cam.iter().all(|p| p.z >= near && p.z > 0.0) {
+        let f = camera.focal_px();
+        let c = camera.principal_point();
+        let b = PixelBox::from_points(
+            points_cam
+                .iter()
+                .map(|p| DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y)),
+        )?;
+        return [b.x0, b.y0, b.x1, b.y1]
+            .iter()
+            .all(|v| v.is_finite())
+            .then_some(b);
+    }
     let (front, back): (Vec<DVec3>, Vec<DVec3>) = points_cam.iter().partition(|p| p.z >= near);
     if front.is_empty() {
         return None;

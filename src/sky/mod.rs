@@ -213,6 +213,32 @@ const FALLBACK_GRADIENT: FrameSky = FrameSky::Gradient {
     horizon: FALLBACK_HORIZON,
 };
 
+/// The name of the environment a frame shows, for breakdowns: the chosen
+/// sky of a `Random` sky, then `Gradient`, the procedural environment's name
+/// (`Daytime`, …) or `Image:` and the image's file name.
+pub fn environment_name(sky: &Sky, env: &FrameEnvironment) -> String {
+    let chosen = match sky {
+        Sky::Random { choices, .. } => choices.get(env.choice).unwrap_or(sky),
+        other => other,
+    };
+    match chosen {
+        Sky::Gradient { .. } => "Gradient".into(),
+        Sky::Procedural { environment, .. } => environment.as_str().into(),
+        Sky::Image { source, .. } => {
+            let path = match source {
+                crate::preset::SkyImageSource::Equirect(p) => p,
+                crate::preset::SkyImageSource::Cubemap { px, .. } => px,
+            };
+            let name = path.file_name().map_or_else(
+                || path.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            format!("Image:{name}")
+        }
+        Sky::Random { .. } => "Random".into(),
+    }
+}
+
 /// The concrete sky of a frame: the preset's description with the frame's choice applied.
 pub fn resolve(sky: &Sky, env: &FrameEnvironment) -> FrameSky {
     resolve_within(sky, sky, env)

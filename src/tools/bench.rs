@@ -51,6 +51,7 @@ pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> 
     let mut dense = base(12);
     dense.placement = Placement::Randomized {
         count: (40, 60),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (3.0, 1.5, 3.0),
         },
@@ -61,6 +62,7 @@ pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> 
     let mut small = base(14);
     small.placement = Placement::Randomized {
         count: (10, 15),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (8.0, 4.0, 8.0),
         },
@@ -72,6 +74,7 @@ pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> 
     let mut tiny = base(13);
     tiny.placement = Placement::Randomized {
         count: (10, 20),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (150.0, 60.0, 150.0),
         },
@@ -451,6 +454,7 @@ pub fn frame_scenes(quickstart: &Preset, peer: Option<Preset>) -> Vec<(String, P
         let mut p = quickstart.clone();
         p.placement = Placement::Randomized {
             count: (count, count),
+            count_distribution: Default::default(),
             volume: Volume::Box { size_m },
             min_separation_m: 0.5,
         };

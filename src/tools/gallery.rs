@@ -38,6 +38,7 @@ pub fn environment_preset(sky: Sky, width: u32, height: u32) -> Preset {
     };
     p.placement = Placement::Randomized {
         count: (8, 8),
+        count_distribution: Default::default(),
         volume: Volume::Box {
             size_m: (10.0, 3.0, 10.0),
         },

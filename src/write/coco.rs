@@ -81,66 +81,138 @@ impl CocoWriter {
     }
 }
 
+// COCO records as plain structs, fields in byte order of their names (the
+// order a sorted JSON map writes them), serialised straight to text.
+
+#[derive(serde::Serialize)]
+struct ImageRecord<'a> {
+    environment: &'a str,
+    file_name: &'a str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    frame_id: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    frame_index: Option<u64>,
+    height: u32,
+    id: u64,
+    models: Vec<&'a str>,
+    sweep: super::manifest::SweepRecord,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    video_id: Option<u64>,
+    width: u32,
+}
+
+/// An annotation without its `id` (the writer numbers them per split file).
+#[derive(serde::Serialize)]
+struct AnnotationRecord {
+    amodal_bbox: [f64; 4],
+    area: f64,
+    bbox: [f64; 4],
+    category_id: usize,
+    image_id: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    instance_id: Option<u64>,
+    iscrowd: u8,
+    paper_aabb_bbox: [f64; 4],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    track_id: Option<u64>,
+    truncated: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    unoccluded_pixels: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    video_id: Option<u64>,
+    /// `Some(None)` writes `null`: measured, nothing visible.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    visible_bbox: Option<Option<[f64; 4]>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    visible_fraction: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    visible_pixels: Option<u64>,
+}
+
+/// A frame's COCO image record and its annotation records (filtered
+/// drones have none), as [`super::FrameText`] holds them: each annotation
+/// without its `id` and opening brace, since ids run on per split file.
+/// Image ids are frame index + 1. Pure, so a plan formats on every core.
+pub fn frame_records(
+    scene: &crate::scene::FrameScene,
+    labels: &[crate::annotate::DroneLabel],
+    image: &str,
+    model_names: &[String],
+) -> (String, Vec<String>) {
+    let image_id = scene.index + 1;
+    // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
+    // mmtracking's CocoVID, `frame_index` for TAO).
+    let video = scene.sequence.map(|seq| (seq.id + 1, seq));
+    // What varies per frame rides along, so results can be broken down per scene.
+    let img = ImageRecord {
+        environment: &scene.environment_name,
+        file_name: image.trim_start_matches("images/"),
+        frame_id: video.map(|(_, seq)| seq.step),
+        frame_index: video.map(|(_, seq)| seq.step),
+        height: scene.camera.height,
+        id: image_id,
+        models: super::manifest::models_present(scene, model_names),
+        sweep: super::manifest::sweep_record(scene),
+        video_id: video.map(|(id, _)| id),
+        width: scene.camera.width,
+    };
+    let annotations = labels
+        .iter()
+        .filter(|l| l.status != LabelStatus::Filtered)
+        .map(|l| {
+            let b = &l.bbox;
+            // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
+            let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
+            let v = l.visibility.as_ref();
+            let ann = AnnotationRecord {
+                amodal_bbox: xywh(&l.amodal),
+                area: r6(b.area()),
+                bbox: [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())],
+                category_id: l.class_id + 1,
+                image_id,
+                instance_id: track_id,
+                iscrowd: u8::from(l.status == LabelStatus::Crowd),
+                paper_aabb_bbox: xywh(&l.paper_aabb),
+                track_id,
+                truncated: l.truncated,
+                unoccluded_pixels: v.map(|v| v.unoccluded_pixels),
+                video_id: video.map(|(id, _)| id),
+                visible_bbox: v.map(|v| v.visible_box.as_ref().map(xywh)),
+                visible_fraction: v.map(|v| r6(v.fraction())),
+                visible_pixels: v.map(|v| v.visible_pixels),
+            };
+            // The writer opens the object with its id.
+            let text = serde_json::to_string(&ann).unwrap_or_default();
+            text.strip_prefix('{').unwrap_or(&text).to_owned()
+        })
+        .collect();
+    (serde_json::to_string(&img).unwrap_or_default(), annotations)
+}
+
 impl FormatWriter for CocoWriter {
     fn frame(&mut self, _folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
+        use std::fmt::Write as _;
         let scene = record.scene;
         let part = &mut self.parts[scene.split as usize];
-        let image_id = scene.index + 1;
         let sep = if part.n_images == 0 { "" } else { ",\n" };
-        let mut img = json!({"id": image_id, "file_name": record.image.trim_start_matches("images/"), "width": scene.camera.width, "height": scene.camera.height});
-        // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
-        // mmtracking's CocoVID, `frame_index` for TAO).
-        let video = scene.sequence.map(|seq| (seq.id + 1, seq));
-        if let Some((video_id, seq)) = video {
-            img["video_id"] = video_id.into();
-            img["frame_id"] = seq.step.into();
-            img["frame_index"] = seq.step.into();
-        }
         let mut n_annotations = part.n_annotations;
         let mut anns = String::new();
-        for l in record
-            .labels
-            .iter()
-            .filter(|l| l.status != LabelStatus::Filtered)
-        {
-            let b = &l.bbox;
+        for rest in &record.text.coco_annotations {
             let sep = if n_annotations == 0 { "" } else { ",\n" };
             n_annotations += 1;
-            let mut ann = json!({
-                "id": n_annotations,
-                "image_id": image_id,
-                "category_id": l.class_id + 1,
-                "bbox": [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())],
-                "area": r6(b.area()),
-                "iscrowd": u8::from(l.status == LabelStatus::Crowd),
-                "truncated": l.truncated,
-                "amodal_bbox": xywh(&l.amodal),
-                "paper_aabb_bbox": xywh(&l.paper_aabb),
-            });
-            if let Some((video_id, _)) = video {
-                // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
-                let track_id = video_id * TRACKS_PER_VIDEO + l.drone as u64 + 1;
-                ann["video_id"] = video_id.into();
-                ann["track_id"] = track_id.into();
-                ann["instance_id"] = track_id.into();
-            }
-            if let Some(v) = &l.visibility {
-                ann["visible_pixels"] = v.visible_pixels.into();
-                ann["unoccluded_pixels"] = v.unoccluded_pixels.into();
-                ann["visible_fraction"] = r6(v.fraction()).into();
-                ann["visible_bbox"] = v.visible_box.as_ref().map(xywh).into();
-            }
-            anns.push_str(&format!("{sep}{ann}"));
+            // Writing into a String cannot fail.
+            let _ = write!(anns, "{sep}{{\"id\":{n_annotations},{rest}");
         }
-        if let (Some(videos), Some((video_id, seq))) = (&mut part.videos, video)
+        if let (Some(videos), Some(seq)) = (&mut part.videos, scene.sequence)
             && seq.step == 0
         {
             let sep = if videos.is_empty() { "" } else { ",\n" };
             let name = super::mot::sequence_name(seq.id);
-            let v = json!({"id": video_id, "name": name, "width": scene.camera.width, "height": scene.camera.height, "length": seq.steps + 1});
+            let v = json!({"id": seq.id + 1, "name": name, "width": scene.camera.width, "height": scene.camera.height, "length": seq.steps + 1});
             videos.append(format!("{sep}{v}").as_bytes())?;
         }
-        part.images.append(format!("{sep}{img}").as_bytes())?;
+        part.images
+            .append(format!("{sep}{}", record.text.coco_image).as_bytes())?;
         part.n_images += 1;
         if !anns.is_empty() {
             part.annotations.append(anns.as_bytes())?;
@@ -186,7 +258,11 @@ impl FormatWriter for CocoWriter {
             .enumerate()
             .map(|(i, n)| json!({"id": i + 1, "name": n, "supercategory": "uav"}))
             .collect();
-        let head = json!({"description": "swarmshot synthetic UAV swarm dataset", "version": env!("CARGO_PKG_VERSION")});
+        let head = if dataset.labels_only {
+            json!({"description": "swarmshot labels-only plan: NO IMAGES were rendered (file_name is the image a rendered run writes); boxes from geometry, Visible boxes estimated by amodal ones", "version": env!("CARGO_PKG_VERSION"), "labels_only": true})
+        } else {
+            json!({"description": "swarmshot synthetic UAV swarm dataset", "version": env!("CARGO_PKG_VERSION")})
+        };
         for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
             let rel = format!("annotations/instances_{}.json", split.as_str());
             folder.write_file_with(&rel, |out| {
@@ -256,9 +332,25 @@ impl FormatWriter for CocoWriter {
                             _ => {
                                 let sep = if part.n_annotations == 0 { "" } else { ",\n" };
                                 part.n_annotations += 1;
-                                value["id"] = part.n_annotations.into();
+                                let n = part.n_annotations;
+                                // The writer puts `"id"` first; the rest stays as it is.
+                                let renumbered = match record
+                                    .strip_prefix("{\"id\":")
+                                    .and_then(|r| r.split_once(','))
+                                {
+                                    Some((digits, rest))
+                                        if !digits.is_empty()
+                                            && digits.bytes().all(|b| b.is_ascii_digit()) =>
+                                    {
+                                        format!("{{\"id\":{n},{rest}")
+                                    }
+                                    _ => {
+                                        value["id"] = n.into();
+                                        value.to_string()
+                                    }
+                                };
                                 part.annotations
-                                    .append(format!("{sep}{value}").as_bytes())?;
+                                    .append(format!("{sep}{renumbered}").as_bytes())?;
                             }
                         }
                     }

@@ -196,7 +196,10 @@ pub enum Start {
     /// Nothing written yet.
     Fresh,
     /// Frames below `checkpoint.next` are complete (`done`: the end files too).
-    Resume { checkpoint: Checkpoint, done: bool },
+    Resume {
+        checkpoint: Box<Checkpoint>,
+        done: bool,
+    },
 }
 
 /// A dataset folder opened for one run. See the module docs.
@@ -209,6 +212,9 @@ pub struct Folder {
     frame_claims: Vec<String>,
     /// Folders already checked to be real folders.
     dirs_ok: HashSet<String>,
+    /// Frame claims and frame files are flushed to disk one by one (a
+    /// labels-only plan turns this off: see `set_durable_frames`).
+    durable_frames: bool,
 }
 
 fn refused(path: PathBuf, reason: &str) -> OutputError {
@@ -390,11 +396,11 @@ impl Folder {
             let folder = Self::continue_from(root, &scan)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
-                    checkpoint,
+                    checkpoint: Box::new(checkpoint),
                     done: scan.done,
                 },
                 None => Start::Resume {
-                    checkpoint: Checkpoint::default(),
+                    checkpoint: Box::default(),
                     done: false,
                 },
             };
@@ -441,6 +447,7 @@ impl Folder {
             owned: HashSet::from([LEDGER.to_owned()]),
             frame_claims: Vec::new(),
             dirs_ok: HashSet::new(),
+            durable_frames: true,
         })
     }
 
@@ -469,6 +476,7 @@ impl Folder {
             owned,
             frame_claims: Vec::new(),
             dirs_ok: HashSet::new(),
+            durable_frames: true,
         })
     }
 
@@ -631,10 +639,24 @@ impl Folder {
         Ok(())
     }
 
+    /// Frame claims and frame files written without a flush to disk each
+    /// (`false`: a labels-only plan, thousands of small files a second).
+    /// A claim still reaches the ledger before its file is created, so a
+    /// killed process leaves every file it made listed; the end files
+    /// (COCO, stats, the done mark) are still flushed.
+    pub fn set_durable_frames(&mut self, durable: bool) {
+        self.durable_frames = durable;
+    }
+
     /// Record the files of the frame in flight (`+`) before they are created.
     pub fn claim_frame(&mut self, rels: &[String]) -> Result<(), OutputError> {
-        let text: String = rels.iter().map(|r| format!("+{r}\n")).collect();
-        self.ledger_append(&text, true)?;
+        let mut text = String::with_capacity(rels.iter().map(|r| r.len() + 2).sum());
+        for r in rels {
+            text.push('+');
+            text.push_str(r);
+            text.push('\n');
+        }
+        self.ledger_append(&text, self.durable_frames)?;
         self.frame_claims.extend(rels.iter().cloned());
         Ok(())
     }
@@ -697,6 +719,26 @@ impl Folder {
     /// same folder, flush it to disk, rename it over `rel`.
     pub fn write_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
         self.write_file_with(rel, |w| w.write_all(bytes))
+    }
+
+    /// A frame file of a labels-only plan (already claimed with
+    /// [`Folder::claim_frame`], frames not durable): created in place with
+    /// `create_new`, which never follows a link nor replaces an entry, and not
+    /// flushed. Anything already at `rel` (a resumed plan's frame in flight)
+    /// goes the careful way of [`Folder::write_file`].
+    pub fn write_frame_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
+        if self.durable_frames {
+            return self.write_file(rel, bytes);
+        }
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        let path = self.root.join(rel);
+        match OpenOptions::new().write(true).create_new(true).open(&path) {
+            Ok(mut file) => file.write_all(bytes).map_err(io(&path)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => self.write_file(rel, bytes),
+            Err(e) => Err(io(&path)(e)),
+        }
     }
 
     /// [`Folder::write_file`] with the contents streamed by `fill`.

@@ -194,6 +194,7 @@ pub fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> Result<MergeRep
             overwrite,
             resume: false,
             shard: None,
+            labels_only: false,
         },
     )?;
     let resumed_at = writer.next_frame();
@@ -272,9 +273,13 @@ fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), String> {
             *a = total.into();
             Ok(())
         }
-        (Value::Array(a), Value::Array(b)) if a.len() == b.len() => {
-            for (i, (x, y)) in a.iter_mut().zip(b).enumerate() {
-                add_counts(x, y, &format!("{at}[{i}]"))?;
+        // Histograms: bin by bin (a bin one side lacks counts 0).
+        (Value::Array(a), Value::Array(b)) => {
+            for (i, y) in b.iter().enumerate() {
+                match a.get_mut(i) {
+                    Some(x) => add_counts(x, y, &format!("{at}[{i}]"))?,
+                    None => a.push(y.clone()),
+                }
             }
             Ok(())
         }
@@ -289,8 +294,18 @@ fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), String> {
             }
             Ok(())
         }
-        (Value::Null, Value::Null) => Ok(()),
-        (a, b) => Err(format!("{at} differs in shape ({a} and {b})")),
+        // Labels of the whole run (how boxes were made, …): the same in every
+        // shard; the empty running sum takes the first shard's.
+        (a @ (Value::String(_) | Value::Bool(_) | Value::Null), b) if a == b => Ok(()),
+        (a, b) if *a == Value::String(String::new()) || *a == Value::Bool(false) || a.is_null() => {
+            if b.is_string() || b.is_boolean() {
+                *a = b.clone();
+                Ok(())
+            } else {
+                Err(format!("{at} differs in shape ({a} and {b})"))
+            }
+        }
+        (a, b) => Err(format!("{at} differs between shards ({a} and {b})")),
     }
 }
 
@@ -309,7 +324,16 @@ mod tests {
         );
         let mut c = serde_json::json!({"mean": 1.5});
         assert!(add_counts(&mut c, &serde_json::json!({"mean": 2.0}), "").is_err());
+        // Histograms of different lengths add bin by bin.
         let mut d = serde_json::json!({"per": [1, 2]});
-        assert!(add_counts(&mut d, &serde_json::json!({"per": [1]}), "").is_err());
+        add_counts(&mut d, &serde_json::json!({"per": [1, 0, 5]}), "").expect("bins add");
+        assert_eq!(d, serde_json::json!({"per": [2, 2, 5]}));
+        // Labels of the run: taken when empty, equal afterwards, else refused.
+        let mut e = serde_json::json!({"from": "", "plan": false});
+        let f = serde_json::json!({"from": "Visible", "plan": false});
+        add_counts(&mut e, &f, "").expect("labels");
+        add_counts(&mut e, &f, "").expect("labels again");
+        assert_eq!(e, f);
+        assert!(add_counts(&mut e, &serde_json::json!({"from": "Amodal"}), "").is_err());
     }
 }

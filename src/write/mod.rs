@@ -32,7 +32,7 @@ use folder::fnv1a64;
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
 pub use image::encode_image;
 pub use manifest::manifest_line;
-pub use stats::DatasetStats;
+pub use stats::{DatasetStats, StatsError};
 
 /// One frame as the format writers see it.
 pub struct FrameRecord<'a> {
@@ -40,11 +40,76 @@ pub struct FrameRecord<'a> {
     pub labels: &'a [DroneLabel],
     /// The image's path relative to the dataset folder (`images/{split}/NAME.ext`).
     pub image: &'a str,
+    /// The frame's records as text, formatted by [`TextContext::frame_text`].
+    pub text: &'a FrameText,
+}
+
+/// A frame's records as text: everything the writers write for it that
+/// depends on the frame alone. Made by [`TextContext::frame_text`], which
+/// needs no writer state, so a labels-only plan formats frames on every
+/// core and its one writer thread only appends bytes.
+#[derive(Clone, Debug, Default)]
+pub struct FrameText {
+    /// The YOLO label file (empty when the preset writes no YOLO).
+    pub yolo: String,
+    /// The manifest line, without its newline.
+    pub manifest: String,
+    /// The COCO image record.
+    pub coco_image: String,
+    /// The COCO annotation records, each a JSON object without its `id`
+    /// and its opening brace: the writer puts `{"id":N,` in front.
+    pub coco_annotations: Vec<String>,
+}
+
+/// What formatting a frame's records needs besides the frame: the preset's
+/// names and formats. Cheap to clone; shared by the threads of a plan.
+#[derive(Clone, Debug)]
+pub struct TextContext {
+    pub model_names: Vec<String>,
+    pub classes: Vec<String>,
+    pub image_format: ImageFormat,
+    pub yolo: bool,
+    pub coco: bool,
+}
+
+impl TextContext {
+    /// The context of `preset` with the models' names as the manifest writes them.
+    pub fn new(preset: &Preset, model_names: Vec<String>) -> Self {
+        Self {
+            model_names,
+            classes: preset.classes().0,
+            image_format: preset.output.image_format,
+            yolo: preset.output.label_formats.contains(&LabelFormat::Yolo),
+            coco: preset.output.label_formats.contains(&LabelFormat::Coco),
+        }
+    }
+
+    /// Every record of one frame as text (pure: the same bytes on any thread).
+    pub fn frame_text(&self, scene: &FrameScene, labels: &[DroneLabel]) -> FrameText {
+        let image = image_rel_path(scene, self.image_format);
+        let (coco_image, coco_annotations) = if self.coco {
+            coco::frame_records(scene, labels, &image, &self.model_names)
+        } else {
+            (String::new(), Vec::new())
+        };
+        FrameText {
+            yolo: if self.yolo {
+                yolo::label_text(scene, labels)
+            } else {
+                String::new()
+            },
+            manifest: manifest_line(scene, labels, &image, &self.model_names, &self.classes),
+            coco_image,
+            coco_annotations,
+        }
+    }
 }
 
 /// What the format writers need at the end.
 pub struct DatasetInfo {
     pub classes: Vec<String>,
+    /// A labels-only plan: no images were rendered (see [`WriterOptions::labels_only`]).
+    pub labels_only: bool,
 }
 
 /// A writer of one label format: fed every frame in index order, then
@@ -188,7 +253,21 @@ pub struct WriterOptions {
     pub resume: bool,
     /// Make only shard K of N of the frames (the unit: a sequence in sequence mode).
     pub shard: Option<shard::Shard>,
+    /// A labels-only plan (`batch --labels-only`): labels, COCO, manifest
+    /// and stats from geometry, no images and no data.yaml. Its ledger names
+    /// it a plan, so a rendered run never continues it (nor it a rendered
+    /// run); its frame files are not flushed to disk one by one (see
+    /// [`DatasetWriter::write_plan_frames`]).
+    pub labels_only: bool,
 }
+
+/// What a labels-only plan appends to the locked preset's text before
+/// hashing it for the ledger: a plan and a rendered run of the same preset
+/// are different runs.
+const PLAN_MARK: &str = "\n// swarmshot labels-only plan\n";
+
+/// The file at the top of a labels-only plan that says what the folder is.
+pub const PLAN_README: &str = "PLAN.txt";
 
 /// Writes one dataset folder: call [`DatasetWriter::write_frame`] for frames
 /// [`DatasetWriter::next_frame`]`..`[`DatasetWriter::total`] in index order,
@@ -197,6 +276,7 @@ pub struct WriterOptions {
 /// frames, and a later run continues it.
 pub struct DatasetWriter {
     folder: Folder,
+    text: TextContext,
     image_format: ImageFormat,
     classes: Vec<String>,
     formats: Vec<Box<dyn FormatWriter>>,
@@ -210,6 +290,9 @@ pub struct DatasetWriter {
     done: bool,
     /// The dataset's fixed entries (lock, manifest, COCO files, …).
     needed: Vec<String>,
+    labels_only: bool,
+    /// `stats.json`'s `boxes_from`.
+    boxes_from: String,
 }
 
 impl DatasetWriter {
@@ -227,13 +310,19 @@ impl DatasetWriter {
             preset.output.label_formats.contains(&LabelFormat::Yolo),
             preset.output.label_formats.contains(&LabelFormat::Coco),
         );
+        let labels_only = options.labels_only;
         let mut needed = vec![
             LOCK_FILE.to_owned(),
             manifest::FILE.to_owned(),
             "stats.json".to_owned(),
         ];
+        if labels_only {
+            needed.push(PLAN_README.to_owned());
+        }
         for split in SplitName::ALL.map(SplitName::as_str) {
-            needed.push(format!("images/{split}/"));
+            if !labels_only {
+                needed.push(format!("images/{split}/"));
+            }
             if yolo {
                 needed.push(format!("labels/{split}/"));
             }
@@ -243,7 +332,7 @@ impl DatasetWriter {
                 needed.push(format!("annotations/.instances_{split}.annotations.part"));
             }
         }
-        if yolo {
+        if yolo && !labels_only {
             needed.push("data.yaml".to_owned());
         }
         let sequences = preset.sequence.is_some();
@@ -257,9 +346,14 @@ impl DatasetWriter {
         }
         // Every entry is checked before anything is written or rendered: a
         // link or a file swarmshot did not write is refused now, not after hours.
+        let run_text = if labels_only {
+            format!("{lock}{PLAN_MARK}")
+        } else {
+            lock.clone()
+        };
         let (mut folder, start, run) = Folder::open(
             root,
-            fnv1a64(lock.as_bytes()),
+            fnv1a64(run_text.as_bytes()),
             options.frames,
             OpenMode {
                 overwrite: options.overwrite,
@@ -273,11 +367,12 @@ impl DatasetWriter {
         )?;
         let (mut checkpoint, done) = match start {
             Start::Fresh => (Checkpoint::default(), false),
-            Start::Resume { checkpoint, done } => (checkpoint, done),
+            Start::Resume { checkpoint, done } => (*checkpoint, done),
         };
         // A shard starts at its first frame.
         checkpoint.next = checkpoint.next.max(run.start());
         let (classes, _) = preset.classes();
+        let text = TextContext::new(preset, model_names.clone());
         let mut formats: Vec<Box<dyn FormatWriter>> = Vec::new();
         if done {
             // A run killed after its "done" mark may have left its COCO parts.
@@ -287,8 +382,13 @@ impl DatasetWriter {
         } else {
             // A killed run may have lost the lock: it is rewritten, the same bytes.
             folder.write_file(LOCK_FILE, lock.as_bytes())?;
-            for split in SplitName::ALL {
-                folder.ensure_dir(&format!("images/{}", split.as_str()))?;
+            if labels_only {
+                folder.set_durable_frames(false);
+                folder.write_file(PLAN_README, plan_readme(preset).as_bytes())?;
+            } else {
+                for split in SplitName::ALL {
+                    folder.ensure_dir(&format!("images/{}", split.as_str()))?;
+                }
             }
             // Whole files first, then the append-only records: a manifest
             // line never names a label file that is not there yet.
@@ -298,8 +398,6 @@ impl DatasetWriter {
             formats.push(Box::new(manifest::ManifestWriter::open(
                 &mut folder,
                 &checkpoint,
-                model_names,
-                classes.clone(),
             )?));
             if coco {
                 formats.push(Box::new(coco::CocoWriter::open(
@@ -318,6 +416,7 @@ impl DatasetWriter {
         }
         Ok(Self {
             folder,
+            text,
             image_format: preset.output.image_format,
             classes,
             formats,
@@ -327,6 +426,8 @@ impl DatasetWriter {
             start: run.start(),
             done,
             needed,
+            labels_only,
+            boxes_from: boxes_from(preset, labels_only),
         })
     }
 
@@ -344,6 +445,11 @@ impl DatasetWriter {
     /// The first frame of this run (0, or with `--shard` its range's start).
     pub fn start(&self) -> u64 {
         self.start
+    }
+
+    /// How this dataset formats a frame's records ([`TextContext::frame_text`]).
+    pub fn text_context(&self) -> &TextContext {
+        &self.text
     }
 
     /// Relative path of a frame's image.
@@ -372,16 +478,18 @@ impl DatasetWriter {
         }
         self.folder.claim_frame(&files)?;
         self.folder.write_file(&rel, image)?;
+        let text = self.text.frame_text(scene, labels);
         let record = FrameRecord {
             scene,
             labels,
             image: &rel,
+            text: &text,
         };
         for format in &mut self.formats {
             format.frame(&mut self.folder, &record)?;
         }
         let mut stats = self.stats.clone();
-        stats.add(scene, labels);
+        stats.add(scene, labels, &self.text.model_names);
         let mut checkpoint = Checkpoint {
             next: self.next + 1,
             stats,
@@ -393,6 +501,57 @@ impl DatasetWriter {
         self.folder.commit(&checkpoint)?;
         self.stats = checkpoint.stats;
         self.next += 1;
+        Ok(())
+    }
+
+    /// Write consecutive frames of a labels-only plan (no images): their
+    /// files are claimed in one ledger record, written without a flush to
+    /// disk each, and one checkpoint follows the last. A plan killed midway
+    /// continues from its last checkpoint like a rendered run; only a power
+    /// loss can cost it more than the frames in flight (it is remade in
+    /// seconds). Formats and stats are the rendered batch's, frame by frame.
+    pub fn write_plan_frames(
+        &mut self,
+        frames: &[(FrameScene, Vec<DroneLabel>, FrameText)],
+    ) -> Result<(), OutputError> {
+        let mut files = Vec::new();
+        for (i, (scene, _, _)) in frames.iter().enumerate() {
+            if scene.index != self.next + i as u64 || self.done || !self.labels_only {
+                return Err(OutputError::OutOfOrder {
+                    expected: self.next + i as u64,
+                    got: scene.index,
+                });
+            }
+            for format in &self.formats {
+                files.extend(format.frame_files(scene));
+            }
+        }
+        self.folder.claim_frame(&files)?;
+        let mut stats = self.stats.clone();
+        for (scene, labels, text) in frames {
+            let rel = self.image_rel_path(scene);
+            let record = FrameRecord {
+                scene,
+                labels,
+                image: &rel,
+                text,
+            };
+            for format in &mut self.formats {
+                format.frame(&mut self.folder, &record)?;
+            }
+            stats.add(scene, labels, &self.text.model_names);
+        }
+        let mut checkpoint = Checkpoint {
+            next: self.next + frames.len() as u64,
+            stats,
+            ..Checkpoint::default()
+        };
+        for format in &mut self.formats {
+            format.save(&mut checkpoint);
+        }
+        self.folder.commit(&checkpoint)?;
+        self.stats = checkpoint.stats;
+        self.next += frames.len() as u64;
         Ok(())
     }
 
@@ -469,10 +628,13 @@ impl DatasetWriter {
         }
         let info = DatasetInfo {
             classes: std::mem::take(&mut self.classes),
+            labels_only: self.labels_only,
         };
         for format in &mut self.formats {
             format.finish(&mut self.folder, &info)?;
         }
+        self.stats.labels_only = self.labels_only;
+        self.stats.boxes_from = self.boxes_from.clone();
         let stats = serde_json::to_string_pretty(&self.stats).unwrap_or_default();
         self.folder.write_file("stats.json", stats.as_bytes())?;
         if self.next == self.total {
@@ -487,4 +649,42 @@ impl DatasetWriter {
 
 pub(crate) fn xywh(b: &PixelBox) -> [f64; 4] {
     [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())]
+}
+
+/// `PLAN.txt`: what a labels-only plan folder is and is not.
+fn plan_readme(preset: &Preset) -> String {
+    let visible = if preset.labels.needs_id_pass() {
+        "This preset asks for Visible boxes or visibility filters, which need pixels: here every\n\
+         box is the AMODAL box within the image and no visibility filter ran, so these labels are\n\
+         an ESTIMATE (stats.json: \"visible_boxes\": \"estimated\"). A rendered run's boxes are\n\
+         tighter on partly hidden drones, and filtered drones are missing from it.\n"
+    } else {
+        "The preset's boxes (Amodal or PaperAabb) come from geometry alone: every label line,\n\
+         COCO box and manifest box here is exactly what the rendered batch writes.\n"
+    };
+    format!(
+        "swarmshot labels-only plan of preset \"{}\" (swarmshot batch --labels-only).\n\n\
+         NO IMAGES were rendered: there is no images/ folder and no data.yaml, so this folder\n\
+         is not a training set. The COCO files' image records name the images a rendered run\n\
+         would write (their \"info\" says labels_only). Use it to look at the distribution\n\
+         before rendering: swarmshot stats DIR.\n\n{visible}\n\
+         Render the dataset with swarmshot batch PRESET --out OTHER_DIR (a plan folder is\n\
+         never continued by a rendered run, nor the other way round).\n",
+        preset.name
+    )
+}
+
+/// Where a dataset's training boxes come from, for `stats.json`.
+pub(crate) fn boxes_from(preset: &Preset, labels_only: bool) -> String {
+    use crate::preset::BoxMethod;
+    match (preset.labels.box_method, labels_only) {
+        (BoxMethod::Visible, false) => "Visible (measured from the id pass)".into(),
+        (BoxMethod::Visible, true) => {
+            "Visible ESTIMATED by Amodal boxes within the image (labels-only plan: no pixels, no visibility filter)".into()
+        }
+        (method, true) if preset.labels.needs_id_pass() => format!(
+            "{method:?} (labels-only plan: the visibility filters did not run)"
+        ),
+        (method, _) => format!("{method:?} (geometry: exact)"),
+    }
 }

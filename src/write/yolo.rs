@@ -1,6 +1,8 @@
 //! Ultralytics YOLO: `labels/{split}/NAME.txt` beside `images/{split}/NAME.ext`,
 //! and `data.yaml` naming the splits and classes.
 
+use std::fmt::Write as _;
+
 use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
@@ -17,14 +19,16 @@ pub fn label_text(scene: &FrameScene, labels: &[DroneLabel]) -> String {
         let b = &l.bbox;
         let cx = (b.x0 + b.x1) * 0.5 / w;
         let cy = (b.y0 + b.y1) * 0.5 / h;
-        text.push_str(&format!(
-            "{} {:.6} {:.6} {:.6} {:.6}\n",
+        // Writing into a String cannot fail.
+        let _ = writeln!(
+            text,
+            "{} {:.6} {:.6} {:.6} {:.6}",
             l.class_id,
             cx,
             cy,
             b.width() / w,
             b.height() / h
-        ));
+        );
     }
     text
 }
@@ -56,11 +60,14 @@ impl FormatWriter for YoloWriter {
     }
 
     fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
-        let text = label_text(record.scene, record.labels);
-        folder.write_file(&label_rel_path(record.scene), text.as_bytes())
+        folder.write_frame_file(&label_rel_path(record.scene), record.text.yolo.as_bytes())
     }
 
     fn finish(&mut self, folder: &mut Folder, dataset: &DatasetInfo) -> Result<(), OutputError> {
+        if dataset.labels_only {
+            // No images: a data.yaml would point Ultralytics at empty folders.
+            return Ok(());
+        }
         folder.write_file("data.yaml", data_yaml(&dataset.classes).as_bytes())
     }
 }

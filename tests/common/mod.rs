@@ -30,6 +30,7 @@ pub fn tiny_preset() -> Preset {
         seed: 7,
         placement: Placement::Randomized {
             count: (3, 6),
+            count_distribution: Default::default(),
             volume: Volume::Box {
                 size_m: (6.0, 3.0, 6.0),
             },

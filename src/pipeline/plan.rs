@@ -1,0 +1,196 @@
+//! The labels-only plan (`swarmshot batch --labels-only`): every frame's
+//! scene and labels from geometry ([`FramePipeline::plan`]), without the GPU,
+//! written by the batch's own writers (labels, COCO, manifest, stats; no
+//! images, no data.yaml).
+//!
+//! Frames are planned in chunks of [`CHUNK`] consecutive indices by one
+//! worker per core; one sink writes the chunks in index order, so the output
+//! does not depend on the number of workers. Amodal and PaperAabb boxes are
+//! exactly the rendered batch's; `Visible` boxes are estimated by amodal ones
+//! and the visibility filters do not run (see [`FramePipeline::estimate_labels`]).
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use super::{FramePipeline, Progress};
+use crate::annotate::DroneLabel;
+use crate::scene::FrameScene;
+use crate::write::{DatasetStats, DatasetWriter, FrameText, WriterOptions};
+
+/// Frames planned by one worker at a time (and written under one checkpoint).
+pub const CHUNK: u64 = 256;
+
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    pub out_dir: PathBuf,
+    /// Plan only the first N frames.
+    pub limit: Option<u64>,
+    /// Delete an earlier plan's own files in the folder and start again.
+    pub overwrite: bool,
+    /// Require an earlier plan of the same preset in the folder and continue it.
+    pub resume: bool,
+    /// Planning threads (0: one per core).
+    pub threads: usize,
+}
+
+impl PlanOptions {
+    pub fn new(out_dir: impl Into<PathBuf>) -> Self {
+        Self {
+            out_dir: out_dir.into(),
+            limit: None,
+            overwrite: false,
+            resume: false,
+            threads: 0,
+        }
+    }
+}
+
+/// What a finished (or cancelled) plan wrote.
+#[derive(Clone, Debug)]
+pub struct PlanReport {
+    pub stats: DatasetStats,
+    pub cancelled: bool,
+    pub elapsed: Duration,
+    pub out_dir: PathBuf,
+    /// Frames this run planned (an earlier, continued run's not counted).
+    pub planned: u64,
+    /// Boxes are estimates: the preset asks for `Visible` boxes or visibility filters.
+    pub estimated: bool,
+}
+
+impl PlanReport {
+    /// Frames planned per second of this run.
+    pub fn frames_per_s(&self) -> f64 {
+        self.planned as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+type Chunk = Vec<(FrameScene, Vec<DroneLabel>, FrameText)>;
+
+/// Plan every frame (or the first `limit`) of `pipeline`'s preset into `options.out_dir`.
+pub fn run_plan(
+    pipeline: &FramePipeline,
+    options: &PlanOptions,
+    cancel: &AtomicBool,
+    mut on_progress: impl FnMut(Progress) + Send,
+) -> anyhow::Result<PlanReport> {
+    let count = pipeline.frame_count();
+    let frames = match (options.limit, options.resume) {
+        (None, true) => None,
+        (limit, _) => Some(limit.map_or(count, |n| n.min(count))),
+    };
+    let mut writer = DatasetWriter::open(
+        &options.out_dir,
+        pipeline.preset(),
+        pipeline.model_names().to_vec(),
+        WriterOptions {
+            frames,
+            overwrite: options.overwrite,
+            resume: options.resume,
+            labels_only: true,
+            shard: None,
+        },
+    )?;
+    let first = writer.next_frame();
+    let total = writer.total().min(count);
+    let start = Instant::now();
+    let threads = if options.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        options.threads
+    };
+    let next_chunk = AtomicU64::new(0);
+    let failed = AtomicBool::new(false);
+    let chunks = (total.saturating_sub(first)).div_ceil(CHUNK);
+    let (tx, rx) = crossbeam_channel::bounded::<(u64, anyhow::Result<Chunk>)>(threads * 2);
+    let context = writer.text_context().clone();
+    let (sink_result, cancelled) = std::thread::scope(|s| {
+        for _ in 0..threads {
+            let tx = tx.clone();
+            let context = &context;
+            let (next_chunk, failed) = (&next_chunk, &failed);
+            s.spawn(move || {
+                loop {
+                    if failed.load(Ordering::Relaxed) || cancel.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    let c = next_chunk.fetch_add(1, Ordering::Relaxed);
+                    if c >= chunks {
+                        return;
+                    }
+                    let lo = first + c * CHUNK;
+                    let hi = (lo + CHUNK).min(total);
+                    let planned: anyhow::Result<Chunk> = (lo..hi)
+                        .map(|i| {
+                            let (scene, labels) = pipeline.plan(i)?;
+                            let text = context.frame_text(&scene, &labels);
+                            Ok((scene, labels, text))
+                        })
+                        .collect();
+                    if tx.send((c, planned)).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        let failed = &failed;
+        let sink = s.spawn(move || -> (anyhow::Result<DatasetWriter>, bool) {
+            let mut pending: BTreeMap<u64, Chunk> = BTreeMap::new();
+            let mut next = 0u64;
+            for (c, planned) in rx {
+                match planned {
+                    Ok(chunk) => {
+                        pending.insert(c, chunk);
+                    }
+                    Err(e) => {
+                        failed.store(true, Ordering::Relaxed);
+                        return (Err(e), false);
+                    }
+                }
+                while let Some(chunk) = pending.remove(&next) {
+                    if cancel.load(Ordering::Relaxed) {
+                        return (Ok(writer), true);
+                    }
+                    if let Err(e) = writer.write_plan_frames(&chunk) {
+                        failed.store(true, Ordering::Relaxed);
+                        writer.rollback();
+                        return (
+                            Err(anyhow::Error::from(e).context(format!(
+                                "writing frames from {} failed; the same command with --resume continues the plan",
+                                first + next * CHUNK
+                            ))),
+                            false,
+                        );
+                    }
+                    next += 1;
+                    on_progress(Progress {
+                        done: writer.next_frame(),
+                        total,
+                        elapsed: start.elapsed(),
+                    });
+                }
+            }
+            (Ok(writer), cancel.load(Ordering::Relaxed))
+        });
+        sink.join().unwrap_or_else(|_| {
+            (
+                Err(anyhow::anyhow!("the plan's writer thread panicked")),
+                false,
+            )
+        })
+    });
+    let writer = sink_result?;
+    let planned = writer.next_frame() - first;
+    let stats = writer.finish()?;
+    Ok(PlanReport {
+        stats,
+        cancelled,
+        elapsed: start.elapsed(),
+        out_dir: options.out_dir.clone(),
+        planned,
+        estimated: pipeline.preset().labels.needs_id_pass(),
+    })
+}
