@@ -12,6 +12,7 @@
 //! pipeline → CLI/app. See docs/architecture.md.
 
 pub mod annotate;
+#[cfg(feature = "app")]
 pub mod app;
 pub mod model;
 pub mod pipeline;

@@ -13,6 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::render::GpuContext;
 use swarmshot::tools::{bench, gallery};
+use swarmshot::write::shard::Shard;
 
 #[derive(Parser)]
 #[command(
@@ -69,6 +70,25 @@ enum Command {
         /// docs/datasets.md). --threads sets the planning threads.
         #[arg(long, conflicts_with = "makers")]
         labels_only: bool,
+        /// Make only shard K of N (K from 0) of the frames, for `swarmshot
+        /// merge` to join: K/N, or `auto` from a Slurm job array
+        /// (SLURM_ARRAY_TASK_ID …), or `auto/N` in a Kubernetes Indexed Job
+        /// (JOB_COMPLETION_INDEX). See docs/scale.md.
+        #[arg(long, value_name = "K/N|auto|auto/N", conflicts_with = "labels_only")]
+        shard: Option<String>,
+    },
+    /// Join the folders of `batch --shard K/N` runs into the dataset one
+    /// process makes (images and labels hard-linked, COCO ids numbered on,
+    /// manifests and statistics joined); run again after an interruption, it continues.
+    Merge {
+        /// Output folder for the merged dataset (created if missing).
+        out: PathBuf,
+        /// The shard folders, every shard 0..N-1 of one run, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Delete an earlier run's own files in OUT and start again.
+        #[arg(long)]
+        overwrite: bool,
     },
     /// Validate a preset and print what it will make.
     Check { preset: PathBuf },
@@ -200,14 +220,10 @@ fn one_line(e: &anyhow::Error) -> String {
 
 fn run() -> anyhow::Result<()> {
     let Some(command) = Cli::parse().command else {
-        swarmshot::app::run_or_exit(None);
-        return Ok(());
+        return gui(None);
     };
     match command {
-        Command::Gui { preset } => {
-            swarmshot::app::run_or_exit(preset);
-            Ok(())
-        }
+        Command::Gui { preset } => gui(preset),
         Command::Batch {
             preset,
             out,
@@ -218,6 +234,7 @@ fn run() -> anyhow::Result<()> {
             makers: _,
             timings,
             labels_only: true,
+            shard: _,
         } => plan(
             &preset,
             swarmshot::pipeline::PlanOptions {
@@ -238,6 +255,7 @@ fn run() -> anyhow::Result<()> {
             threads,
             makers,
             timings,
+            shard,
             labels_only: false,
         } => batch(
             &preset,
@@ -248,9 +266,17 @@ fn run() -> anyhow::Result<()> {
                 resume,
                 encoder_threads: threads,
                 makers,
+                shard: shard
+                    .map(|s| Shard::parse(&s, |name| std::env::var(name).ok()))
+                    .transpose()?,
             },
             timings,
         ),
+        Command::Merge {
+            out,
+            shards,
+            overwrite,
+        } => merge(&out, &shards, overwrite),
         Command::Check { preset } => check(&preset),
         Command::Stats { dir, plots, json } => stats(&dir, plots, json),
         Command::Frame {
@@ -283,6 +309,21 @@ fn run() -> anyhow::Result<()> {
         } => gallery_pictures(&out, width, height),
         Command::Assets { dir } => assets(&dir),
     }
+}
+
+/// The desktop app, when this binary was built with it (the `app` feature, on by default).
+#[cfg(feature = "app")]
+fn gui(preset: Option<PathBuf>) -> anyhow::Result<()> {
+    swarmshot::app::run_or_exit(preset);
+    Ok(())
+}
+
+/// A headless build (`--no-default-features`) has no desktop app.
+#[cfg(not(feature = "app"))]
+fn gui(_preset: Option<PathBuf>) -> anyhow::Result<()> {
+    anyhow::bail!(
+        "this swarmshot was built without the desktop app (cargo build --no-default-features, for cluster nodes); `swarmshot gui` needs a build with the default features. The batch, check, frame, merge and bench commands are all here: see swarmshot --help"
+    )
 }
 
 /// Refuse what the adapter cannot do before anything is written; print the preset's warnings.
@@ -454,6 +495,34 @@ fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
+    let t = std::time::Instant::now();
+    let r = swarmshot::write::merge::merge(out, shards, overwrite)?;
+    let s = &r.stats;
+    let before = if r.shards_before > 0 {
+        format!(
+            " ({} joined by an earlier, interrupted merge)",
+            r.shards_before
+        )
+    } else {
+        String::new()
+    };
+    println!(
+        "merged {} shards{before} into {}: {} frames ({} train / {} val / {} test), {} boxes; {} files hard-linked, {} copied, in {:.1} s",
+        r.shards,
+        out.display(),
+        s.frames,
+        s.frames_per_split[0],
+        s.frames_per_split[1],
+        s.frames_per_split[2],
+        s.boxes,
+        r.linked,
+        r.copied,
+        t.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
 fn check(path: &Path) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(path)?;
     let preset = pipeline.preset();
@@ -469,6 +538,13 @@ fn check(path: &Path) -> anyhow::Result<()> {
         println!("warning: {w}");
     }
     println!("frames: {}", pipeline.frame_count());
+    if let Some(groups) = swarmshot::scene::split::groups(preset) {
+        let [train, val, test] = swarmshot::scene::split::group_counts(preset, groups);
+        println!(
+            "split by {:?}: {groups} groups, {train} train / {val} val / {test} test",
+            preset.output.split.by
+        );
+    }
     println!(
         "image: {w}×{h}, {:?}, MSAA {}",
         preset.output.image_format, preset.render.msaa

@@ -62,6 +62,35 @@ pub fn split_uniform(preset_seed: u64, frame_index: u64) -> f64 {
     (rank as f64 + 0.5) / SPLIT_BLOCK as f64
 }
 
+/// A seeded bijection of `0..n` (n ≥ 1; 0 when n ≤ 1): a four-round Feistel
+/// network on the smallest even number of bits that holds n − 1, walked
+/// until it lands below n ("cycle walking", under four steps on average).
+/// O(1) per element, so a group's rank needs no table of all groups.
+pub fn permute(key: u64, x: u64, n: u64) -> u64 {
+    if n <= 1 {
+        return 0;
+    }
+    let bits = (64 - (n - 1).leading_zeros()).next_multiple_of(2).max(2);
+    let half = bits / 2;
+    let mask = if half == 32 {
+        u64::from(u32::MAX)
+    } else {
+        (1u64 << half) - 1
+    };
+    let mut y = x;
+    loop {
+        let (mut left, mut right) = (y >> half, y & mask);
+        for round in 0..4u64 {
+            let f = mix64(key ^ mix64(right ^ (round << 60) ^ GOLDEN_GAMMA)) & mask;
+            (left, right) = (right, left ^ f);
+        }
+        y = (left << half) | right;
+        if y < n {
+            return y;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -75,6 +104,21 @@ mod tests {
         let set: std::collections::BTreeSet<_> = a.iter().collect();
         assert_eq!(set.len(), a.len());
         assert_ne!(frame_seed(42, 0), frame_seed(43, 0));
+    }
+
+    #[test]
+    fn permute_is_a_bijection_for_any_size() {
+        for n in [1u64, 2, 3, 7, 10, 64, 100, 1000, 4097] {
+            let mut seen: Vec<u64> = (0..n).map(|x| permute(42, x, n)).collect();
+            seen.sort_unstable();
+            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "n = {n}");
+        }
+        let a: Vec<u64> = (0..100).map(|x| permute(1, x, 100)).collect();
+        let b: Vec<u64> = (0..100).map(|x| permute(2, x, 100)).collect();
+        assert_ne!(a, b);
+        assert_ne!(a, (0..100).collect::<Vec<_>>());
+        // Large domains stay in range.
+        assert!(permute(3, u64::MAX - 1, u64::MAX) < u64::MAX);
     }
 
     #[test]

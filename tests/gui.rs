@@ -2,6 +2,7 @@
 //! renderer (Vulkan pinned: lavapipe on CI). A missing adapter makes the
 //! harness panic ("Failed to create render state"): these tests never pass
 //! without rendering.
+#![cfg(feature = "app")]
 #![allow(clippy::unwrap_used)]
 
 use std::collections::BTreeSet;

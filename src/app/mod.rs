@@ -827,6 +827,7 @@ impl SwarmshotApp {
             resume: false,
             encoder_threads: 0,
             makers: 0,
+            shard: None,
         };
         let wake_ctx = ctx.clone();
         match BatchRun::start(preset, options, gpu.clone(), move || {

@@ -27,6 +27,7 @@ use super::{Frame, FramePipeline};
 use crate::annotate::DroneLabel;
 use crate::render::GpuContext;
 use crate::scene::FrameScene;
+use crate::write::shard::Shard;
 use crate::write::{DatasetStats, DatasetWriter, WriterOptions, encode_image};
 
 #[derive(Clone, Debug)]
@@ -43,6 +44,8 @@ pub struct BatchOptions {
     pub encoder_threads: usize,
     /// Frames made at once, each by its own renderer (0 = [`DEFAULT_MAKERS`]).
     pub makers: usize,
+    /// Make only shard K of N of the frames (`--shard`, see `crate::write::shard`).
+    pub shard: Option<Shard>,
 }
 
 /// Makers by default. On lavapipe (2 cores) a second maker made the
@@ -59,6 +62,7 @@ impl BatchOptions {
             resume: false,
             encoder_threads: 0,
             makers: 0,
+            shard: None,
         }
     }
 }
@@ -145,11 +149,14 @@ pub fn run_batch(
             frames,
             overwrite: options.overwrite,
             resume: options.resume,
+            shard: options.shard,
             labels_only: false,
         },
     )?;
     let first = writer.next_frame();
     let total = writer.total().min(count);
+    // Progress counts this run's frames (a shard's, with --shard).
+    let (done_before, run_frames) = (writer.start(), total.saturating_sub(writer.start()));
     let start = Instant::now();
     if first >= total {
         let stats = writer.finish()?;
@@ -243,8 +250,8 @@ pub fn run_batch(
                         write += t.elapsed();
                         next += 1;
                         on_progress(Progress {
-                            done: next,
-                            total,
+                            done: next - done_before,
+                            total: run_frames,
                             elapsed: start.elapsed(),
                         });
                     }

@@ -90,6 +90,7 @@ pub fn run_plan(
             overwrite: options.overwrite,
             resume: options.resume,
             labels_only: true,
+            shard: None,
         },
     )?;
     let first = writer.next_frame();

@@ -739,6 +739,10 @@ pub struct Split {
     pub train: f64,
     pub val: f64,
     pub test: f64,
+    /// What is kept together in one split (see `scene::split`); `Frame`
+    /// (the default) is left out of the locked preset, so it keeps its bytes.
+    #[serde(skip_serializing_if = "SplitBy::is_frame")]
+    pub by: SplitBy,
 }
 
 impl Default for Split {
@@ -747,7 +751,30 @@ impl Default for Split {
             train: 0.7,
             val: 0.1,
             test: 0.2,
+            by: SplitBy::Frame,
         }
+    }
+}
+
+/// The groups a split keeps whole, so that no val or test frame shares its
+/// group with a train frame (docs/conventions.md, "Splits").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum SplitBy {
+    /// Each frame (each sequence, in sequence mode) on its own: exact shares per 100.
+    #[default]
+    Frame,
+    /// Frames with the same camera sweep values (CameraX, CameraY, CameraZ).
+    CameraPose,
+    /// Frames with the same environment (the `Random` sky's choice).
+    Environment,
+    /// Frames with the same sweep point: every swept value alike, only `repeat` differs.
+    SweepPoint,
+}
+
+impl SplitBy {
+    /// The default, per-frame split (left out of the locked preset).
+    pub fn is_frame(&self) -> bool {
+        *self == Self::Frame
     }
 }
 

@@ -370,6 +370,28 @@ impl Preset {
             }
             _ => {}
         }
+        if let Some(groups) = crate::scene::split::groups(self) {
+            let counts = crate::scene::split::group_counts(self, groups);
+            let s = &self.output.split;
+            let empty: Vec<&str> = ["train", "val", "test"]
+                .into_iter()
+                .zip(counts)
+                .zip([s.train, s.val, s.test])
+                .filter(|((_, n), share)| *n == 0 && *share > 0.0)
+                .map(|((name, _), _)| name)
+                .collect();
+            v.check(empty.is_empty(), "output.split.by", || {
+                format!(
+                    "{:?} makes {groups} group{} ({} train / {} val / {} test): {} gets no frame; sweep more values or split by something finer",
+                    s.by,
+                    if groups == 1 { "" } else { "s" },
+                    counts[0],
+                    counts[1],
+                    counts[2],
+                    empty.join(" and ")
+                )
+            });
+        }
         v.errors
     }
 

@@ -16,6 +16,7 @@ pub mod math;
 pub mod motion;
 pub mod placement;
 pub mod projection;
+pub mod split;
 
 use crate::preset::sweep::decode_mixed_radix;
 use crate::preset::{Preset, Sky};
@@ -280,7 +281,7 @@ pub fn build_frame_draw(
     Ok(FrameScene {
         index,
         seed: frame_seed,
-        split: split_of(preset, sequence.map_or(index, |s| s.id)),
+        split: split::split_of(preset, index, sequence, &environment),
         sweep,
         look_at: camera.1,
         camera: camera.0,
@@ -361,18 +362,4 @@ fn frame_camera(
         near_m: (min_size * 0.01).clamp(1e-5, 0.05),
     };
     (camera, target)
-}
-
-/// The split of frame `index` (of sequence `index` in sequence mode), from
-/// its split draw and the preset's shares.
-fn split_of(preset: &Preset, index: u64) -> SplitName {
-    let u = seed::split_uniform(preset.seed, index);
-    let s = &preset.output.split;
-    if u < s.train {
-        SplitName::Train
-    } else if u < s.train + s.val {
-        SplitName::Val
-    } else {
-        SplitName::Test
-    }
 }

@@ -4,7 +4,8 @@
 //! million frames and a resumed run assembles the same bytes. The parts are
 //! deleted once the whole dataset is written.
 
-use std::io::Write;
+use std::io::{BufRead, Write};
+use std::path::Path;
 
 use serde_json::json;
 
@@ -281,6 +282,80 @@ impl FormatWriter for CocoWriter {
                 part.annotations.copy_to(out)?;
                 writeln!(out, "\n]}}")
             })?;
+        }
+        Ok(())
+    }
+
+    /// The shard's records follow, as they are, but for the annotation ids:
+    /// numbered on from this split's last one, as a single run numbers them
+    /// (image, video and track ids are global already).
+    fn merge_shard(&mut self, _folder: &mut Folder, shard: &Path) -> Result<(), OutputError> {
+        for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
+            let path = shard.join(format!("annotations/instances_{}.json", split.as_str()));
+            let bad = |reason: String| OutputError::Shard {
+                path: path.clone(),
+                reason,
+            };
+            let file = std::fs::File::open(&path).map_err(super::io(&path))?;
+            let mut section = "";
+            for (n, line) in std::io::BufReader::new(file).lines().enumerate() {
+                let line = line.map_err(super::io(&path))?;
+                match line.as_str() {
+                    "\"videos\": [" => section = "videos",
+                    "\"images\": [" => section = "images",
+                    "\"annotations\": [" => section = "annotations",
+                    "]," | "]}" => section = "",
+                    "" => {}
+                    _ if section.is_empty() => {}
+                    record => {
+                        let record = record.strip_suffix(',').unwrap_or(record);
+                        let mut value: serde_json::Value = serde_json::from_str(record)
+                            .map_err(|e| bad(format!("line {}: {e}", n + 1)))?;
+                        if !value.is_object() {
+                            return Err(bad(format!("line {}: not a record", n + 1)));
+                        }
+                        match section {
+                            "videos" => {
+                                let Some(videos) = &mut part.videos else {
+                                    return Err(bad(
+                                        "holds videos, but this dataset has no sequences".into(),
+                                    ));
+                                };
+                                let sep = if videos.is_empty() { "" } else { ",\n" };
+                                videos.append(format!("{sep}{record}").as_bytes())?;
+                            }
+                            "images" => {
+                                let sep = if part.n_images == 0 { "" } else { ",\n" };
+                                part.images.append(format!("{sep}{record}").as_bytes())?;
+                                part.n_images += 1;
+                            }
+                            _ => {
+                                let sep = if part.n_annotations == 0 { "" } else { ",\n" };
+                                part.n_annotations += 1;
+                                let n = part.n_annotations;
+                                // The writer puts `"id"` first; the rest stays as it is.
+                                let renumbered = match record
+                                    .strip_prefix("{\"id\":")
+                                    .and_then(|r| r.split_once(','))
+                                {
+                                    Some((digits, rest))
+                                        if !digits.is_empty()
+                                            && digits.bytes().all(|b| b.is_ascii_digit()) =>
+                                    {
+                                        format!("{{\"id\":{n},{rest}")
+                                    }
+                                    _ => {
+                                        value["id"] = n.into();
+                                        value.to_string()
+                                    }
+                                };
+                                part.annotations
+                                    .append(format!("{sep}{renumbered}").as_bytes())?;
+                            }
+                        }
+                    }
+                }
+            }
         }
         Ok(())
     }

@@ -40,23 +40,66 @@ use std::io::{Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
+use super::shard::Shard;
 use super::{DatasetStats, OutputError, io};
 
 /// File name of the ledger in the dataset folder.
 pub const LEDGER: &str = ".swarmshot-ledger";
 const LEDGER_VERSION: u32 = 1;
 
-/// What a run is: its frame count and its locked preset's hash.
+/// What a run is: its frame count, its locked preset's hash, and for a
+/// shard (`--shard K/N`) which shard and its frame range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RunId {
     pub frames: u64,
     pub preset_hash: u64,
+    pub shard: Option<ShardRun>,
+}
+
+/// A shard's part of a run: shard K of N makes frames `start..end`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShardRun {
+    pub shard: Shard,
+    pub start: u64,
+    pub end: u64,
+}
+
+/// How a run with `--shard` cuts its frames: the shard and the unit
+/// (one frame, or a sequence) its range is made of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShardPlan {
+    pub shard: Shard,
+    pub unit: u64,
+}
+
+impl ShardPlan {
+    fn run(self, frames: u64) -> ShardRun {
+        let r = self.shard.range(frames, self.unit);
+        ShardRun {
+            shard: self.shard,
+            start: r.start,
+            end: r.end,
+        }
+    }
 }
 
 impl RunId {
+    /// The first frame this run makes.
+    pub fn start(&self) -> u64 {
+        self.shard.map_or(0, |s| s.start)
+    }
+
+    /// One past the last frame this run makes.
+    pub fn end(&self) -> u64 {
+        self.shard.map_or(self.frames, |s| s.end)
+    }
+
     fn header(&self) -> String {
+        let shard = self.shard.map_or(String::new(), |s| {
+            format!(" shard={} range={}..{}", s.shard, s.start, s.end)
+        });
         format!(
-            "swarmshot-ledger {LEDGER_VERSION} frames={} preset=fnv1a64:{:016x}\n",
+            "swarmshot-ledger {LEDGER_VERSION} frames={} preset=fnv1a64:{:016x}{shard}\n",
             self.frames, self.preset_hash
         )
     }
@@ -69,11 +112,50 @@ impl RunId {
         let frames = words.next()?.strip_prefix("frames=")?.parse().ok()?;
         let hash = words.next()?.strip_prefix("preset=fnv1a64:")?;
         let preset_hash = u64::from_str_radix(hash, 16).ok()?;
+        let shard = match words.next() {
+            None => None,
+            Some(word) => {
+                let (index, count) = word.strip_prefix("shard=")?.split_once('/')?;
+                let (start, end) = words.next()?.strip_prefix("range=")?.split_once("..")?;
+                Some(ShardRun {
+                    shard: Shard {
+                        index: index.parse().ok()?,
+                        count: count.parse().ok()?,
+                    },
+                    start: start.parse().ok()?,
+                    end: end.parse().ok()?,
+                })
+            }
+        };
+        if words.next().is_some() {
+            return None;
+        }
         Some(Self {
             frames,
             preset_hash,
+            shard,
         })
     }
+
+    /// What a refusal says this run is.
+    fn describe(&self) -> String {
+        match self.shard {
+            None => format!("{} frames", self.frames),
+            Some(s) => format!(
+                "{} frames, shard {} (frames {}..{})",
+                self.frames, s.shard, s.start, s.end
+            ),
+        }
+    }
+}
+
+/// What the ledger of `root` says the run is (`None`: no ledger).
+pub fn read_run(root: &Path) -> Result<Option<(RunId, bool)>, OutputError> {
+    if lstat(&root.join(LEDGER))?.is_none() {
+        return Ok(None);
+    }
+    let scan = Folder::scan(root)?;
+    Ok(Some((scan.run, scan.done)))
 }
 
 /// FNV-1a, 64 bit: a stable hash of the locked preset's text.
@@ -104,6 +186,8 @@ pub struct OpenMode {
     pub overwrite: bool,
     /// Require an earlier run of the same preset and continue it.
     pub resume: bool,
+    /// Make only one shard's frames (`--shard K/N`).
+    pub shard: Option<ShardPlan>,
 }
 
 /// Where an opened folder starts.
@@ -292,9 +376,11 @@ impl Folder {
                     path: root.to_owned(),
                 });
             }
+            let frames = frames.unwrap_or(0);
             let run = RunId {
-                frames: frames.unwrap_or(0),
+                frames,
                 preset_hash,
+                shard: mode.shard.map(|p| p.run(frames)),
             };
             preflight(root, needed, &HashSet::new())?;
             return Ok((Self::fresh(root, run)?, Start::Fresh, run));
@@ -304,6 +390,7 @@ impl Folder {
         let run = RunId {
             frames,
             preset_hash,
+            shard: mode.shard.map(|p| p.run(frames)),
         };
         if scan.run == run && !mode.overwrite {
             let folder = Self::continue_from(root, &scan)?;
@@ -322,6 +409,12 @@ impl Folder {
         if !mode.overwrite {
             let what = if scan.run.preset_hash != preset_hash {
                 "a run of a different preset (its preset.lock.ron differs)".to_owned()
+            } else if scan.run.shard != run.shard {
+                format!(
+                    "a run of this preset with {}, and this run makes {} (--shard differs)",
+                    scan.run.describe(),
+                    run.describe()
+                )
             } else {
                 format!(
                     "a run of this preset with {} frames, and this run makes {frames} (--limit differs)",
@@ -466,7 +559,8 @@ impl Folder {
                     && scan
                         .checkpoint
                         .as_ref()
-                        .is_some_and(|cp| cp.next == scan.run.frames)
+                        .map_or(scan.run.start(), |cp| cp.next)
+                        == scan.run.end()
                 {
                     scan.done = true;
                     scan.good_end = offset;
@@ -683,6 +777,74 @@ impl Folder {
             let _ = fs::remove_file(&tmp);
         }
         result.map_err(io(&path))
+    }
+
+    /// Put the file `src` (outside the folder: a shard's file, for `swarmshot
+    /// merge`) at `rel`: a hard link when the file system allows one, else a
+    /// copy flushed to disk; made under the temporary name and renamed into
+    /// place like every other file. Returns whether it was linked.
+    pub fn link_file(&mut self, rel: &str, src: &Path) -> Result<bool, OutputError> {
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        self.check_target(rel)?;
+        if !self.is_ours(rel) {
+            self.claim(&[rel])?;
+        }
+        let Some(seen) = lstat(src)?.filter(|m| m.file_type().is_file()) else {
+            return Err(refused(
+                src.to_owned(),
+                "is not a regular file (a link or a folder where a shard's file should be)",
+            ));
+        };
+        let path = self.root.join(rel);
+        // Linked by an interrupted merge already (a rename onto another link
+        // of the same file would do nothing and leave the temporary name).
+        if lstat(&path)?.is_some_and(|m| (m.dev(), m.ino()) == (seen.dev(), seen.ino())) {
+            return Ok(true);
+        }
+        let tmp = self.root.join(temp_rel(rel));
+        if let Some(m) = lstat(&tmp)? {
+            if !m.file_type().is_file() {
+                return Err(refused(tmp, "is in the way of swarmshot's temporary file"));
+            }
+            fs::remove_file(&tmp).map_err(io(&tmp))?;
+        }
+        // linkat without AT_SYMLINK_FOLLOW: `src` was just seen to be a regular file.
+        let linked = fs::hard_link(src, &tmp).is_ok();
+        let result = (|| {
+            if !linked {
+                let mut from = open_checked(src, false).map_err(std::io::Error::other)?;
+                let mut to = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+                std::io::copy(&mut from, &mut to)?;
+                to.sync_all()?;
+            }
+            stall_if_asked(rel);
+            fs::rename(&tmp, &path)
+        })();
+        if result.is_err() {
+            let _ = fs::remove_file(&tmp);
+        }
+        result.map_err(io(&path))?;
+        Ok(linked)
+    }
+
+    /// Every file (not folder) the ledger of `root` lists (`*` and `+`
+    /// claims), sorted: what `swarmshot merge` takes from a finished shard.
+    pub fn listed_files(root: &Path) -> Result<std::collections::BTreeSet<String>, OutputError> {
+        let path = root.join(LEDGER);
+        let mut bytes = Vec::new();
+        open_checked(&path, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        let text = String::from_utf8_lossy(&bytes);
+        Ok(text
+            .lines()
+            .filter_map(|line| line.strip_prefix('*').or_else(|| line.strip_prefix('+')))
+            .filter(|rel| !rel.is_empty() && !rel.ends_with('/') && *rel != LEDGER)
+            .filter(|rel| !rel.starts_with('/') && !rel.split('/').any(|c| c == ".."))
+            .map(str::to_owned)
+            .collect())
     }
 
     /// Open an append-only file at `rel`, cut back to `len` bytes (created

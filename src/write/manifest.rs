@@ -51,6 +51,23 @@ impl FormatWriter for ManifestWriter {
     ) -> Result<(), OutputError> {
         self.out.sync()
     }
+
+    /// The shard's lines follow, as they are (whatever fields they carry).
+    fn merge_shard(
+        &mut self,
+        _folder: &mut Folder,
+        shard: &std::path::Path,
+    ) -> Result<(), OutputError> {
+        let path = shard.join(FILE);
+        let bytes = std::fs::read(&path).map_err(super::io(&path))?;
+        if !bytes.is_empty() && !bytes.ends_with(b"\n") {
+            return Err(OutputError::Shard {
+                path,
+                reason: "ends in a torn line; is the shard finished?".into(),
+            });
+        }
+        self.out.append(&bytes)
+    }
 }
 
 // The manifest's records as plain structs, fields in byte order of their

@@ -15,7 +15,9 @@ pub mod coco;
 pub mod folder;
 pub mod image;
 pub mod manifest;
+pub mod merge;
 pub mod mot;
+pub mod shard;
 pub mod stats;
 pub mod yolo;
 
@@ -27,7 +29,7 @@ use crate::preset::{ImageFormat, LabelFormat, Preset};
 use crate::scene::{FrameScene, SplitName};
 use folder::fnv1a64;
 
-pub use folder::{Checkpoint, Folder, OpenMode, Start};
+pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
 pub use image::encode_image;
 pub use manifest::manifest_line;
 pub use stats::{DatasetStats, StatsError};
@@ -129,6 +131,13 @@ pub trait FormatWriter: Send {
     fn cleanup(&mut self, _folder: &mut Folder) -> Result<(), OutputError> {
         Ok(())
     }
+    /// `swarmshot merge`: append a finished shard's records (the shard's
+    /// frames follow the frames written so far). Per-frame files (images,
+    /// label files) are linked by [`DatasetWriter::merge_shard`]; a format
+    /// with records in shared files (manifest, COCO) appends them here.
+    fn merge_shard(&mut self, _folder: &mut Folder, _shard: &Path) -> Result<(), OutputError> {
+        Ok(())
+    }
 }
 
 /// Write `bytes` to `path` atomically: a temporary file in the same folder,
@@ -208,6 +217,8 @@ pub enum OutputError {
     Ledger { path: PathBuf, reason: String },
     #[error("frame {got} came before frame {expected}: frames are written in index order")]
     OutOfOrder { expected: u64, got: u64 },
+    #[error("{}: {reason}", path.display())]
+    Shard { path: PathBuf, reason: String },
     #[error("encoding {format} failed: {reason}")]
     Encode {
         format: &'static str,
@@ -240,6 +251,8 @@ pub struct WriterOptions {
     pub overwrite: bool,
     /// Require an earlier run of the same preset in the folder and continue it.
     pub resume: bool,
+    /// Make only shard K of N of the frames (the unit: a sequence in sequence mode).
+    pub shard: Option<shard::Shard>,
     /// A labels-only plan (`batch --labels-only`): labels, COCO, manifest
     /// and stats from geometry, no images and no data.yaml. Its ledger names
     /// it a plan, so a rendered run never continues it (nor it a rendered
@@ -269,9 +282,14 @@ pub struct DatasetWriter {
     formats: Vec<Box<dyn FormatWriter>>,
     stats: DatasetStats,
     next: u64,
+    /// One past the last frame of this run (of its shard, with `--shard`).
     total: u64,
+    /// The first frame of this run (of its shard, with `--shard`).
+    start: u64,
     /// An earlier run finished this dataset; nothing is left to write.
     done: bool,
+    /// The dataset's fixed entries (lock, manifest, COCO files, …).
+    needed: Vec<String>,
     labels_only: bool,
     /// `stats.json`'s `boxes_from`.
     boxes_from: String,
@@ -340,13 +358,19 @@ impl DatasetWriter {
             OpenMode {
                 overwrite: options.overwrite,
                 resume: options.resume,
+                shard: options.shard.map(|shard| ShardPlan {
+                    shard,
+                    unit: preset.sequence_len(),
+                }),
             },
             &needed,
         )?;
-        let (checkpoint, done) = match start {
+        let (mut checkpoint, done) = match start {
             Start::Fresh => (Checkpoint::default(), false),
             Start::Resume { checkpoint, done } => (*checkpoint, done),
         };
+        // A shard starts at its first frame.
+        checkpoint.next = checkpoint.next.max(run.start());
         let (classes, _) = preset.classes();
         let text = TextContext::new(preset, model_names.clone());
         let mut formats: Vec<Box<dyn FormatWriter>> = Vec::new();
@@ -398,8 +422,10 @@ impl DatasetWriter {
             formats,
             stats: checkpoint.stats,
             next: checkpoint.next,
-            total: run.frames,
+            total: run.end(),
+            start: run.start(),
             done,
+            needed,
             labels_only,
             boxes_from: boxes_from(preset, labels_only),
         })
@@ -410,9 +436,15 @@ impl DatasetWriter {
         self.next
     }
 
-    /// Frames of this run.
+    /// One past the last frame of this run: its frame count, or with
+    /// `--shard` the end of its shard's range.
     pub fn total(&self) -> u64 {
         self.total
+    }
+
+    /// The first frame of this run (0, or with `--shard` its range's start).
+    pub fn start(&self) -> u64 {
+        self.start
     }
 
     /// How this dataset formats a frame's records ([`TextContext::frame_text`]).
@@ -521,6 +553,61 @@ impl DatasetWriter {
         self.stats = checkpoint.stats;
         self.next += frames.len() as u64;
         Ok(())
+    }
+
+    /// `swarmshot merge`: append the finished shard in `dir`, whose frames
+    /// `start..end` follow the frames written so far. Its per-frame files
+    /// (every file its ledger lists but the dataset's fixed entries: images,
+    /// label files, MOT files) are hard-linked or copied in, each format
+    /// appends its records, the statistics are added, and one checkpoint
+    /// marks the shard complete (a killed merge continues from the shard
+    /// after the last complete one). Returns the files linked and copied.
+    pub fn merge_shard(
+        &mut self,
+        dir: &Path,
+        start: u64,
+        end: u64,
+        stats: &DatasetStats,
+    ) -> Result<(u64, u64), OutputError> {
+        if start != self.next || self.done || end > self.total {
+            return Err(OutputError::OutOfOrder {
+                expected: self.next,
+                got: start,
+            });
+        }
+        let files: Vec<String> = Folder::listed_files(dir)?
+            .into_iter()
+            .filter(|rel| !self.needed.contains(rel) && !rel.ends_with(".tmp"))
+            .collect();
+        self.folder.claim_frame(&files)?;
+        let (mut linked, mut copied) = (0, 0);
+        for rel in &files {
+            if self.folder.link_file(rel, &dir.join(rel))? {
+                linked += 1;
+            } else {
+                copied += 1;
+            }
+        }
+        for format in &mut self.formats {
+            format.merge_shard(&mut self.folder, dir)?;
+        }
+        let mut checkpoint = Checkpoint {
+            next: end,
+            stats: stats.clone(),
+            ..Checkpoint::default()
+        };
+        for format in &mut self.formats {
+            format.save(&mut checkpoint);
+        }
+        self.folder.commit(&checkpoint)?;
+        self.stats = checkpoint.stats;
+        self.next = end;
+        Ok((linked, copied))
+    }
+
+    /// The statistics of the frames written so far.
+    pub fn stats(&self) -> &DatasetStats {
+        &self.stats
     }
 
     /// After a failed [`DatasetWriter::write_frame`]: delete the frame's

@@ -2,9 +2,8 @@
 //! and `data.yaml` naming the splits and classes.
 
 use std::fmt::Write as _;
-use std::fs;
 
-use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, io};
+use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
 
@@ -69,22 +68,27 @@ impl FormatWriter for YoloWriter {
             // No images: a data.yaml would point Ultralytics at empty folders.
             return Ok(());
         }
-        let root = folder.root().to_owned();
-        let abs = fs::canonicalize(&root).map_err(io(&root))?;
-        let mut yaml = String::from(
-            "# Ultralytics YOLO dataset written by swarmshot. `path` is absolute so any working directory resolves it.\n",
-        );
-        yaml.push_str(&format!(
-            "path: {}\n",
-            serde_json::Value::from(abs.to_string_lossy().into_owned())
-        ));
-        yaml.push_str("train: images/train\nval: images/val\ntest: images/test\nnames:\n");
-        for (i, name) in dataset.classes.iter().enumerate() {
-            yaml.push_str(&format!(
-                "  {i}: {}\n",
-                serde_json::Value::from(name.clone())
-            ));
-        }
-        folder.write_file("data.yaml", yaml.as_bytes())
+        folder.write_file("data.yaml", data_yaml(&dataset.classes).as_bytes())
     }
+}
+
+/// `data.yaml` with no `path:` key, so the dataset stays valid wherever it
+/// is copied or moved. Ultralytics' `check_det_dataset` (ultralytics/data/
+/// utils.py) takes the dataset root from `path`, or when `path` is missing
+/// from the folder that holds the YAML file (`Path(data["yaml_file"]).parent`),
+/// and joins train/val/test to it. A relative `path` would be resolved
+/// against the working directory (or `datasets_dir`), not the YAML's folder,
+/// so none is written. docs/scale.md, README.
+pub fn data_yaml(classes: &[String]) -> String {
+    let mut yaml = String::from(
+        "# Ultralytics YOLO dataset written by swarmshot. No `path`: Ultralytics then takes the folder\n# holding this file as the dataset root, so the folder can be copied or moved.\n",
+    );
+    yaml.push_str("train: images/train\nval: images/val\ntest: images/test\nnames:\n");
+    for (i, name) in classes.iter().enumerate() {
+        yaml.push_str(&format!(
+            "  {i}: {}\n",
+            serde_json::Value::from(name.clone())
+        ));
+    }
+    yaml
 }
