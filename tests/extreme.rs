@@ -256,8 +256,10 @@ fn one_pixel_drone_and_frame_filling_drone() {
     );
     let v = l.visibility.expect("measured");
     assert!(v.visible_pixels <= 2);
-    // Filling the frame: 3 m drone 0.5 m away.
-    let huge = drone(DVec3::new(0.0, 0.0, -0.5), 3.0);
+    // Filling the frame: a 1.5 m drone 0.5 m away, the camera just outside its
+    // body (from inside a body only back faces face the camera, and glTF's
+    // single-sided materials cull them).
+    let huge = drone(DVec3::new(0.0, 0.0, -0.5), 1.5);
     let scene = scene_with(&p, DVec3::ZERO, DVec3::new(0.0, 0.0, -1.0), vec![huge]);
     let labels = maker.labels(&mut renderer, &scene).expect("labels");
     let l = &labels[0];
