@@ -233,7 +233,8 @@ impl FormatWriter for CocoWriter {
             }
             part.n_annotations += 1;
             part.annotations.append(b"{\"id\":")?;
-            part.annotations.append(decimal(part.n_annotations, &mut id))?;
+            part.annotations
+                .append(decimal(part.n_annotations, &mut id))?;
             part.annotations.append(b",")?;
             part.annotations.append(rest.as_bytes())?;
         }
