@@ -52,7 +52,7 @@ impl CocoWriter {
             let mut open = |what: &str| {
                 let rel = format!("annotations/.instances_{}.{what}.part", split.as_str());
                 let len = checkpoint.files.get(&rel).copied().unwrap_or(0);
-                folder.open_append(&rel, len)
+                Ok::<_, OutputError>(folder.open_append(&rel, len)?.buffered())
             };
             let (images, annotations) = (open("images")?, open("annotations")?);
             let videos = if sequences {
@@ -131,14 +131,15 @@ struct AnnotationRecord {
 
 /// A frame's COCO image record and its annotation records (filtered
 /// drones have none), as [`super::FrameText`] holds them: each annotation
-/// without its `id` and opening brace, since ids run on per split file.
-/// Image ids are frame index + 1. Pure, so a plan formats on every core.
+/// without its `id` and opening brace, since ids run on per split file,
+/// and ended by a newline (compact JSON holds none). Image ids are frame
+/// index + 1. Pure, so a plan formats on every core.
 pub fn frame_records(
     scene: &crate::scene::FrameScene,
     labels: &[crate::annotate::DroneLabel],
     image: &str,
     model_names: &[String],
-) -> (String, Vec<String>) {
+) -> (String, String) {
     let image_id = scene.index + 1;
     // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
     // mmtracking's CocoVID, `frame_index` for TAO).
@@ -156,10 +157,10 @@ pub fn frame_records(
         video_id: video.map(|(id, _)| id),
         width: scene.camera.width,
     };
-    let annotations = labels
-        .iter()
-        .filter(|l| l.status != LabelStatus::Filtered)
-        .map(|l| {
+    let mut annotations = Vec::with_capacity(320 * labels.len());
+    let mut one = Vec::with_capacity(512);
+    for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
+        {
             let b = &l.bbox;
             // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
             let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
@@ -181,28 +182,38 @@ pub fn frame_records(
                 visible_fraction: v.map(|v| r6(v.fraction())),
                 visible_pixels: v.map(|v| v.visible_pixels),
             };
-            // The writer opens the object with its id.
-            let text = serde_json::to_string(&ann).unwrap_or_default();
-            text.strip_prefix('{').unwrap_or(&text).to_owned()
-        })
-        .collect();
-    (serde_json::to_string(&img).unwrap_or_default(), annotations)
+            // The writer opens the object with its id. Plain data: serde_json
+            // cannot fail here (non-finite numbers become null).
+            one.clear();
+            if serde_json::to_writer(&mut one, &ann).is_ok() {
+                annotations.extend_from_slice(one.strip_prefix(b"{").unwrap_or(&one));
+                annotations.push(b'\n');
+            }
+        }
+    }
+    (
+        serde_json::to_string(&img).unwrap_or_default(),
+        String::from_utf8(annotations).unwrap_or_default(),
+    )
+}
+
+/// `n` in decimal, as `{n}` formats it, in `buf`.
+fn decimal(mut n: u64, buf: &mut [u8; 20]) -> &[u8] {
+    let mut at = buf.len();
+    loop {
+        at -= 1;
+        buf[at] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            return &buf[at..];
+        }
+    }
 }
 
 impl FormatWriter for CocoWriter {
     fn frame(&mut self, _folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
-        use std::fmt::Write as _;
         let scene = record.scene;
         let part = &mut self.parts[scene.split as usize];
-        let sep = if part.n_images == 0 { "" } else { ",\n" };
-        let mut n_annotations = part.n_annotations;
-        let mut anns = String::new();
-        for rest in &record.text.coco_annotations {
-            let sep = if n_annotations == 0 { "" } else { ",\n" };
-            n_annotations += 1;
-            // Writing into a String cannot fail.
-            let _ = write!(anns, "{sep}{{\"id\":{n_annotations},{rest}");
-        }
         if let (Some(videos), Some(seq)) = (&mut part.videos, scene.sequence)
             && seq.step == 0
         {
@@ -211,13 +222,34 @@ impl FormatWriter for CocoWriter {
             let v = json!({"id": seq.id + 1, "name": name, "width": scene.camera.width, "height": scene.camera.height, "length": seq.steps + 1});
             videos.append(format!("{sep}{v}").as_bytes())?;
         }
-        part.images
-            .append(format!("{sep}{}", record.text.coco_image).as_bytes())?;
-        part.n_images += 1;
-        if !anns.is_empty() {
-            part.annotations.append(anns.as_bytes())?;
+        if part.n_images != 0 {
+            part.images.append(b",\n")?;
         }
-        part.n_annotations = n_annotations;
+        part.images.append(record.text.coco_image.as_bytes())?;
+        part.n_images += 1;
+        let mut id = [0u8; 20];
+        for rest in record.text.coco_annotations.split_terminator('\n') {
+            if part.n_annotations != 0 {
+                part.annotations.append(b",\n")?;
+            }
+            part.n_annotations += 1;
+            part.annotations.append(b"{\"id\":")?;
+            part.annotations
+                .append(decimal(part.n_annotations, &mut id))?;
+            part.annotations.append(b",")?;
+            part.annotations.append(rest.as_bytes())?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), OutputError> {
+        for part in &mut self.parts {
+            part.images.flush()?;
+            part.annotations.flush()?;
+            if let Some(videos) = &mut part.videos {
+                videos.flush()?;
+            }
+        }
         Ok(())
     }
 
@@ -369,5 +401,18 @@ impl FormatWriter for CocoWriter {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decimal;
+
+    #[test]
+    fn decimal_is_display() {
+        let mut buf = [0u8; 20];
+        for n in [0, 1, 9, 10, 99, 100, 12_345, 1_000_000, u64::MAX] {
+            assert_eq!(decimal(n, &mut buf), n.to_string().as_bytes());
+        }
     }
 }

@@ -22,18 +22,19 @@ impl ManifestWriter {
     pub fn open(folder: &mut Folder, checkpoint: &Checkpoint) -> Result<Self, OutputError> {
         let len = checkpoint.files.get(FILE).copied().unwrap_or(0);
         Ok(Self {
-            out: folder.open_append(FILE, len)?,
+            out: folder.open_append(FILE, len)?.buffered(),
         })
     }
 }
 
 impl FormatWriter for ManifestWriter {
     fn frame(&mut self, _folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
-        let line = &record.text.manifest;
-        let mut bytes = Vec::with_capacity(line.len() + 1);
-        bytes.extend_from_slice(line.as_bytes());
-        bytes.push(b'\n');
-        self.out.append(&bytes)
+        self.out.append(record.text.manifest.as_bytes())?;
+        self.out.append(b"\n")
+    }
+
+    fn flush(&mut self) -> Result<(), OutputError> {
+        self.out.flush()
     }
 
     fn save(&mut self, checkpoint: &mut Checkpoint) {

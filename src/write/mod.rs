@@ -57,8 +57,9 @@ pub struct FrameText {
     /// The COCO image record.
     pub coco_image: String,
     /// The COCO annotation records, each a JSON object without its `id`
-    /// and its opening brace: the writer puts `{"id":N,` in front.
-    pub coco_annotations: Vec<String>,
+    /// and its opening brace (the writer puts `{"id":N,` in front), each
+    /// ended by a newline.
+    pub coco_annotations: String,
 }
 
 /// What formatting a frame's records needs besides the frame: the preset's
@@ -90,7 +91,7 @@ impl TextContext {
         let (coco_image, coco_annotations) = if self.coco {
             coco::frame_records(scene, labels, &image, &self.model_names)
         } else {
-            (String::new(), Vec::new())
+            (String::new(), String::new())
         };
         FrameText {
             yolo: if self.yolo {
@@ -121,6 +122,10 @@ pub trait FormatWriter: Send {
         Vec::new()
     }
     fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError>;
+    /// Write what [`FormatWriter::frame`] buffered (called before every [`FormatWriter::save`]).
+    fn flush(&mut self) -> Result<(), OutputError> {
+        Ok(())
+    }
     /// The frame is complete: record file lengths and counters.
     fn save(&mut self, _checkpoint: &mut Checkpoint) {}
     /// A frame failed: cut append-only files back to the last checkpoint.
@@ -488,6 +493,9 @@ impl DatasetWriter {
         for format in &mut self.formats {
             format.frame(&mut self.folder, &record)?;
         }
+        for format in &mut self.formats {
+            format.flush()?;
+        }
         let mut stats = self.stats.clone();
         stats.add(scene, labels, &self.text.model_names);
         let mut checkpoint = Checkpoint {
@@ -540,6 +548,9 @@ impl DatasetWriter {
                 format.frame(&mut self.folder, &record)?;
             }
             stats.add(scene, labels, &self.text.model_names);
+        }
+        for format in &mut self.formats {
+            format.flush()?;
         }
         let mut checkpoint = Checkpoint {
             next: self.next + frames.len() as u64,
