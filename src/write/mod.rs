@@ -602,6 +602,9 @@ impl DatasetWriter {
         for format in &mut self.formats {
             format.merge_shard(&mut self.folder, dir)?;
         }
+        for format in &mut self.formats {
+            format.flush()?;
+        }
         let mut checkpoint = Checkpoint {
             next: end,
             stats: stats.clone(),
