@@ -359,6 +359,32 @@ fn print_warnings(pipeline: &FramePipeline) {
     }
 }
 
+/// The progress bar of a batch or plan of `limit` frames (all when None).
+fn frames_bar(pipeline: &FramePipeline, limit: Option<u64>) -> anyhow::Result<ProgressBar> {
+    let total = limit.map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
+            .context("progress template")?,
+    );
+    Ok(bar)
+}
+
+/// "N frames (train / val / test), B boxes (small / medium / large)" of a finished run.
+fn frames_and_boxes(s: &swarmshot::write::DatasetStats) -> String {
+    format!(
+        "{} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {})",
+        s.frames,
+        s.frames_per_split[0],
+        s.frames_per_split[1],
+        s.frames_per_split[2],
+        s.boxes,
+        s.small,
+        s.medium,
+        s.large,
+    )
+}
+
 fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<()> {
     if options.limit == Some(0) {
         anyhow::bail!("--limit 0: the batch would make no frame; give at least 1");
@@ -373,14 +399,7 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     print_warnings(&pipeline);
     let ctx = GpuContext::headless()?;
     device_check(&pipeline, &ctx)?;
-    let total = options
-        .limit
-        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
-    let bar = ProgressBar::new(total);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
-            .context("progress template")?,
-    );
+    let bar = frames_bar(&pipeline, options.limit)?;
     let cancel = AtomicBool::new(false);
     let report = run_batch(&pipeline, &options, &ctx, &cancel, |p| {
         bar.set_length(p.total);
@@ -390,15 +409,8 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     bar.finish();
     let s = &report.stats;
     println!(
-        "wrote {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.1} s ({:.2} images/s) on {}",
-        s.frames,
-        s.frames_per_split[0],
-        s.frames_per_split[1],
-        s.frames_per_split[2],
-        s.boxes,
-        s.small,
-        s.medium,
-        s.large,
+        "wrote {} to {} in {:.1} s ({:.2} images/s) on {}",
+        frames_and_boxes(s),
         report.out_dir.display(),
         report.elapsed.as_secs_f64(),
         s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9),
@@ -427,14 +439,7 @@ fn plan(
     }
     let pipeline = FramePipeline::open(preset)?;
     print_warnings(&pipeline);
-    let total = options
-        .limit
-        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
-    let bar = ProgressBar::new(total);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
-            .context("progress template")?,
-    );
+    let bar = frames_bar(&pipeline, options.limit)?;
     let cancel = AtomicBool::new(false);
     let report = swarmshot::pipeline::run_plan(&pipeline, &options, &cancel, |p| {
         bar.set_length(p.total);
@@ -444,15 +449,8 @@ fn plan(
     bar.finish();
     let s = &report.stats;
     println!(
-        "planned {} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {}) to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
-        s.frames,
-        s.frames_per_split[0],
-        s.frames_per_split[1],
-        s.frames_per_split[2],
-        s.boxes,
-        s.small,
-        s.medium,
-        s.large,
+        "planned {} to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
+        frames_and_boxes(s),
         report.out_dir.display(),
         report.elapsed.as_secs_f64(),
         report.frames_per_s(),
