@@ -127,6 +127,15 @@ struct Encoded {
     encode: Duration,
 }
 
+/// The frame count a run asks its writer for: the first `limit` of `count`,
+/// or None (the locked run's own) when resuming without a limit.
+pub(crate) fn frames_asked(count: u64, limit: Option<u64>, resume: bool) -> Option<u64> {
+    match (limit, resume) {
+        (None, true) => None,
+        (limit, _) => Some(limit.map_or(count, |n| n.min(count))),
+    }
+}
+
 /// Run a batch. `cancel` may be set from another thread at any time.
 pub fn run_batch(
     pipeline: &FramePipeline,
@@ -137,10 +146,7 @@ pub fn run_batch(
 ) -> anyhow::Result<BatchReport> {
     let preset = pipeline.preset();
     let count = pipeline.frame_count();
-    let frames = match (options.limit, options.resume) {
-        (None, true) => None,
-        (limit, _) => Some(limit.map_or(count, |n| n.min(count))),
-    };
+    let frames = frames_asked(count, options.limit, options.resume);
     let mut writer = DatasetWriter::open(
         &options.out_dir,
         preset,

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use super::batch::frames_asked;
 use super::{FramePipeline, Progress};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
@@ -77,10 +78,7 @@ pub fn run_plan(
     mut on_progress: impl FnMut(Progress) + Send,
 ) -> anyhow::Result<PlanReport> {
     let count = pipeline.frame_count();
-    let frames = match (options.limit, options.resume) {
-        (None, true) => None,
-        (limit, _) => Some(limit.map_or(count, |n| n.min(count))),
-    };
+    let frames = frames_asked(count, options.limit, options.resume);
     let mut writer = DatasetWriter::open(
         &options.out_dir,
         pipeline.preset(),

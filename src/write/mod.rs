@@ -493,23 +493,9 @@ impl DatasetWriter {
         for format in &mut self.formats {
             format.frame(&mut self.folder, &record)?;
         }
-        for format in &mut self.formats {
-            format.flush()?;
-        }
         let mut stats = self.stats.clone();
         stats.add(scene, labels, &self.text.model_names);
-        let mut checkpoint = Checkpoint {
-            next: self.next + 1,
-            stats,
-            ..Checkpoint::default()
-        };
-        for format in &mut self.formats {
-            format.save(&mut checkpoint);
-        }
-        self.folder.commit(&checkpoint)?;
-        self.stats = checkpoint.stats;
-        self.next += 1;
-        Ok(())
+        self.checkpoint(self.next + 1, stats)
     }
 
     /// Write consecutive frames of a labels-only plan (no images): their
@@ -549,11 +535,17 @@ impl DatasetWriter {
             }
             stats.add(scene, labels, &self.text.model_names);
         }
+        self.checkpoint(self.next + frames.len() as u64, stats)
+    }
+
+    /// Make the frames before `next` durable: every format writes its buffered
+    /// bytes and records its length, and one checkpoint with `stats` is committed.
+    fn checkpoint(&mut self, next: u64, stats: DatasetStats) -> Result<(), OutputError> {
         for format in &mut self.formats {
             format.flush()?;
         }
         let mut checkpoint = Checkpoint {
-            next: self.next + frames.len() as u64,
+            next,
             stats,
             ..Checkpoint::default()
         };
@@ -562,7 +554,7 @@ impl DatasetWriter {
         }
         self.folder.commit(&checkpoint)?;
         self.stats = checkpoint.stats;
-        self.next += frames.len() as u64;
+        self.next = next;
         Ok(())
     }
 
@@ -602,20 +594,7 @@ impl DatasetWriter {
         for format in &mut self.formats {
             format.merge_shard(&mut self.folder, dir)?;
         }
-        for format in &mut self.formats {
-            format.flush()?;
-        }
-        let mut checkpoint = Checkpoint {
-            next: end,
-            stats: stats.clone(),
-            ..Checkpoint::default()
-        };
-        for format in &mut self.formats {
-            format.save(&mut checkpoint);
-        }
-        self.folder.commit(&checkpoint)?;
-        self.stats = checkpoint.stats;
-        self.next = end;
+        self.checkpoint(end, stats.clone())?;
         Ok((linked, copied))
     }
 
