@@ -15,6 +15,9 @@ struct VertexInput {
 // others set it false: a shader without `discard` lets the depth test run
 // before shading.
 override ALPHA_MASK: bool = true;
+// Whether this pipeline draws textured ranges; the others skip the fetch of
+// the 1×1 white texture (a product with exactly 1.0: the same colour).
+override TEXTURED: bool = true;
 
 @group(1) @binding(0) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(1) var base_color_sampler: sampler;
@@ -33,7 +36,8 @@ struct VsOut {
     @location(0) normal_cam: vec3<f32>,
     @location(1) color: vec4<f32>,
     @location(2) uv: vec2<f32>,
-    @location(3) material: vec4<f32>,
+    // Constant over a primitive (a glTF material): not interpolated.
+    @location(3) @interpolate(flat) material: vec4<f32>,
     @location(4) position_cam: vec3<f32>,
     @location(5) @interpolate(flat) id: u32,
 };
@@ -79,7 +83,10 @@ fn fs_ids(in: VsOut, @builtin(front_facing) front: bool) -> ColorAndId {
 }
 
 fn shade(in: VsOut, front: bool) -> vec4<f32> {
-    let base = in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
+    var base = in.color;
+    if (TEXTURED) {
+        base = in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
+    }
     if (ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w) {
         discard;
     }

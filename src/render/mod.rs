@@ -214,38 +214,52 @@ struct GpuDraw {
 }
 
 /// What a draw's material asks of the drone pipeline: back faces culled
-/// unless double-sided (as glTF specifies), and the alpha test only for
-/// masked materials (without `discard` the depth test runs before shading).
+/// unless double-sided (as glTF specifies), the alpha test only for masked
+/// materials (without `discard` the depth test runs before shading), and the
+/// texture fetch only for textured ones (untextured ranges would multiply by
+/// the 1×1 white texture's exact 1.0: same bytes, a sampler run per fragment).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Surface {
     double_sided: bool,
     alpha_mask: bool,
+    textured: bool,
 }
 
 impl Surface {
-    const ALL: [Surface; 4] = [
-        Surface::of(false, false),
-        Surface::of(true, false),
-        Surface::of(false, true),
-        Surface::of(true, true),
-    ];
-    const fn of(double_sided: bool, alpha_mask: bool) -> Self {
+    const COUNT: usize = 8;
+    const ALL: [Surface; Self::COUNT] = {
+        let mut all = [Surface::of(0); Self::COUNT];
+        let mut i = 0;
+        while i < Self::COUNT {
+            all[i] = Surface::of(i);
+            i += 1;
+        }
+        all
+    };
+    const fn of(index: usize) -> Self {
         Self {
-            double_sided,
-            alpha_mask,
+            double_sided: index & 1 != 0,
+            alpha_mask: index & 2 != 0,
+            textured: index & 4 != 0,
         }
     }
     fn from_draw(d: &crate::model::DrawRange) -> Self {
-        Self::of(d.double_sided, d.alpha_mask)
+        Self {
+            double_sided: d.double_sided,
+            alpha_mask: d.alpha_mask,
+            textured: d.texture.is_some(),
+        }
     }
     fn index(self) -> usize {
-        usize::from(self.double_sided) | usize::from(self.alpha_mask) << 1
+        usize::from(self.double_sided)
+            | usize::from(self.alpha_mask) << 1
+            | usize::from(self.textured) << 2
     }
 }
 
 /// A drone pipeline (one fragment entry, sample count and targets) in the
 /// variants the renderer's meshes use, indexed by [`Surface::index`].
-pub(crate) struct DronePipelines([Option<wgpu::RenderPipeline>; 4]);
+pub(crate) struct DronePipelines([Option<wgpu::RenderPipeline>; Surface::COUNT]);
 
 /// What one instanced draw shares: a model and its level of detail.
 pub(crate) type MeshLevel = (usize, usize);
@@ -279,7 +293,7 @@ pub struct Renderer {
     /// Pipelines per sample count: (sky, drone).
     pipelines: Vec<(u32, wgpu::RenderPipeline, DronePipelines)>,
     /// The surface kinds the meshes' draws use: the drone pipeline variants to build.
-    surfaces: [bool; 4],
+    surfaces: [bool; Surface::COUNT],
     meshes: Vec<GpuMesh>,
     /// Each model's hull: where its drones can put pixels.
     geometry: Vec<LabelGeometry>,
@@ -452,7 +466,7 @@ impl Renderer {
                 }
             })
             .collect::<Vec<GpuMesh>>();
-        let mut surfaces = [false; 4];
+        let mut surfaces = [false; Surface::COUNT];
         for d in meshes.iter().flat_map(|m| &m.levels).flat_map(|l| &l.draws) {
             surfaces[d.surface.index()] = true;
         }
@@ -645,7 +659,11 @@ impl Renderer {
             }),
         ];
         let variant = |surface: Surface| {
-            let constants = [("ALPHA_MASK", if surface.alpha_mask { 1.0 } else { 0.0 })];
+            let flag = |on: bool| if on { 1.0 } else { 0.0 };
+            let constants = [
+                ("ALPHA_MASK", flag(surface.alpha_mask)),
+                ("TEXTURED", flag(surface.textured)),
+            ];
             self.device
                 .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some(label),
