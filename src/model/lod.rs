@@ -2,9 +2,11 @@
 //! rule that picks one for a drone from its projected size.
 //!
 //! [`build_lods`] runs once per model at load. Level 0 is the model's own
-//! mesh; each further level asks meshoptimizer (the `meshopt` crate) for half
-//! the triangles of the level before, simplifying every draw range apart so
-//! each triangle keeps its texture. Levels are index buffers into the model's
+//! mesh; each further level asks meshoptimizer (the `meshopt` crate) for 70 %
+//! of the triangles of the level before, simplifying every draw range apart
+//! so each triangle keeps its texture, and the levels that [`pick`] would
+//! never choose (more triangles than a coarser level of no larger error) are
+//! dropped once their error bounds are known. Levels are index buffers into the model's
 //! one vertex buffer, so the GPU keeps a single vertex buffer per model and
 //! a level is an index range plus its draw ranges.
 //!
@@ -90,9 +92,18 @@ pub const MIN_TRIANGLES: usize = 48;
 const MIN_PROGRESS: f64 = 0.9;
 /// At most this many levels (level 0 included).
 const MAX_LEVELS: usize = 16;
+/// At most this many simplified levels are made (each needs its error bound).
+const MAX_CANDIDATES: usize = 24;
+/// Each candidate level asks meshoptimizer for this fraction of the
+/// triangles of the one before. Halving left gaps where one step jumps from
+/// a few hundredths of the span to a fifth (quad_x: 378 triangles at 0.024,
+/// then 188 at 0.188, as its rotor discs collapse), so drones that could use
+/// 256 triangles drew 378; finer steps cost more bounds to compute at load.
+const LEVEL_STEP: f64 = 0.7;
 
 /// Build the LOD chain of a model: level 0 is the model's own mesh (error 0),
-/// each further level has about half the triangles of the one before.
+/// each further level has at most [`MIN_PROGRESS`] of the triangles of the one
+/// before and a larger error bound.
 pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
     validate(model)?;
     let full = Lod {
@@ -117,18 +128,19 @@ pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
         .collect();
     let full_surface = Surface::new(&positions, &model.indices);
     let total = model.triangle_count();
+    // Candidates, each with LEVEL_STEP of the triangles of the one before,
+    // down to a few dozen; `keep_useful` drops the ones `pick` would never
+    // choose once their error bounds are known.
     let mut lods = vec![full];
-    while lods.len() < MAX_LEVELS {
-        let previous = lods.last().map_or(total, Lod::triangle_count);
-        if previous <= MIN_TRIANGLES {
-            break;
-        }
-        let fraction = (previous / 2) as f64 / total as f64;
-        let (level, _simplifier_error) = simplify_level(model, &adapter, &locks, fraction);
+    let mut previous = total;
+    while lods.len() <= MAX_CANDIDATES && previous > MIN_TRIANGLES {
+        let fraction = (previous as f64 * LEVEL_STEP).floor() / total as f64;
+        let level = simplify_level(model, &adapter, &locks, fraction);
         let count = level.triangle_count();
         if count == 0 || count as f64 > MIN_PROGRESS * previous as f64 {
             break;
         }
+        previous = count;
         lods.push(level);
     }
     // Each level's error bound on its own, the levels spread over the cores
@@ -167,7 +179,37 @@ pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
         // A worker panicked: keep only the full mesh rather than trust a missing bound.
         lods.truncate(1);
     }
-    Ok(lods)
+    Ok(keep_useful(lods))
+}
+
+/// From levels ordered finest first (level 0 the full mesh), the ones
+/// [`pick`] can use well: each coarser level has fewer triangles (by
+/// [`MIN_PROGRESS`] at least) and a larger error than the one before — a
+/// level with more triangles than a coarser one of no larger error is never
+/// the best choice — and at most [`MAX_LEVELS`] of them.
+fn keep_useful(lods: Vec<Lod>) -> Vec<Lod> {
+    // Walking from the coarsest, keep the levels whose error is below every
+    // coarser one's (the Pareto front of triangles against error).
+    let mut front: Vec<Lod> = Vec::new();
+    for level in lods.into_iter().rev() {
+        if front
+            .last()
+            .is_none_or(|coarser| level.error < coarser.error)
+        {
+            front.push(level);
+        }
+    }
+    front.reverse();
+    let mut kept: Vec<Lod> = Vec::new();
+    for level in front {
+        let enough = kept.last().is_none_or(|finer| {
+            level.triangle_count() as f64 <= MIN_PROGRESS * finer.triangle_count() as f64
+        });
+        if enough && kept.len() < MAX_LEVELS {
+            kept.push(level);
+        }
+    }
+    kept
 }
 
 /// Every draw range simplified to `fraction` of its triangles.
@@ -176,30 +218,20 @@ fn simplify_level(
     adapter: &VertexDataAdapter<'_>,
     locks: &[SimplifyVertex],
     fraction: f64,
-) -> (Lod, f32) {
+) -> Lod {
     let mut indices = Vec::new();
     let mut draws = Vec::new();
-    let mut error = 0.0f32;
     let options =
         SimplifyOptions::ErrorAbsolute | SimplifyOptions::Permissive | SimplifyOptions::Prune;
     for draw in &model.draws {
         let source = &model.indices[draw.indices.start as usize..draw.indices.end as usize];
         let triangles = source.len() / 3;
         let target = ((triangles as f64 * fraction).round() as usize).clamp(1, triangles);
-        let mut range_error = 0.0f32;
-        let out = meshopt::simplify_with_locks(
-            source,
-            adapter,
-            locks,
-            target * 3,
-            1.0,
-            options,
-            Some(&mut range_error),
-        );
+        let out =
+            meshopt::simplify_with_locks(source, adapter, locks, target * 3, 1.0, options, None);
         if out.is_empty() {
             continue;
         }
-        error = error.max(range_error);
         let start = indices.len() as u32;
         indices.extend_from_slice(&out);
         draws.push(DrawRange {
@@ -207,12 +239,11 @@ fn simplify_level(
             ..draw.clone()
         });
     }
-    let lod = Lod {
+    Lod {
         indices,
         draws,
         error: f32::INFINITY,
-    };
-    (lod, error)
+    }
 }
 
 /// Per-vertex simplifier flags. A position used by more than one draw range
@@ -819,6 +850,8 @@ mod tests {
                     "{name}"
                 );
                 assert!(coarser.error.is_finite() && coarser.error > 0.0, "{name}");
+                // A coarser level of no larger error would make the finer one useless.
+                assert!(coarser.error > finer.error, "{name}");
             }
             for lod in &lods {
                 assert!(lod.indices.len().is_multiple_of(3) && !lod.indices.is_empty());
@@ -873,6 +906,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn only_levels_pick_can_use_are_kept() {
+        let level = |triangles: usize, error: f32| Lod {
+            indices: vec![0; triangles * 3],
+            draws: Vec::new(),
+            error,
+        };
+        let counts = |lods: &[Lod]| lods.iter().map(Lod::triangle_count).collect::<Vec<_>>();
+        // 300 is dominated by 200 (fewer triangles, smaller error); 190 keeps
+        // more than 90 % of 200's triangles; 20 is the coarsest.
+        let kept = keep_useful(vec![
+            level(1000, 0.0),
+            level(500, 0.01),
+            level(300, 0.05),
+            level(200, 0.04),
+            level(190, 0.06),
+            level(20, 0.3),
+        ]);
+        assert_eq!(counts(&kept), [1000, 500, 200, 20]);
+        // Never more than MAX_LEVELS.
+        let many: Vec<Lod> = (0..40)
+            .map(|k| level(10_000 >> (k / 4).min(12), k as f32 / 100.0))
+            .collect();
+        assert!(keep_useful(many).len() <= MAX_LEVELS);
     }
 
     #[test]
