@@ -82,11 +82,31 @@ fn fs_ids(in: VsOut, @builtin(front_facing) front: bool) -> ColorAndId {
     return out;
 }
 
-fn shade(in: VsOut, front: bool) -> vec4<f32> {
-    var base = in.color;
-    if (TEXTURED) {
-        base = in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
+struct IdOnly {
+    @location(1) id: f32,
+};
+
+// The instance id alone, for passes that only count pixels (the drones of an
+// overlap layer drawn alone): the same coverage and alpha-cutoff discards as
+// `fs_ids`, without the lighting.
+@fragment
+fn fs_layer(in: VsOut) -> IdOnly {
+    let base = base_color(in);
+    if (ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w) {
+        discard;
     }
+    return IdOnly(f32(in.id));
+}
+
+fn base_color(in: VsOut) -> vec4<f32> {
+    if (TEXTURED) {
+        return in.color * textureSample(base_color_texture, base_color_sampler, in.uv);
+    }
+    return in.color;
+}
+
+fn shade(in: VsOut, front: bool) -> vec4<f32> {
+    let base = base_color(in);
     if (ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w) {
         discard;
     }

@@ -3,7 +3,8 @@
 // cleared: `fs_main` "clears" a region by writing the cached
 // background (one value for every sample of a pixel, as the sky pass itself
 // gives: it shades once per pixel at the pixel centre), instance id 0 and
-// depth 0 (far, reversed-Z); `fs_resolve` averages a region's samples into
+// depth 0 (far, reversed-Z); `fs_clear_ids` does the same without colour,
+// for passes that only count pixels; `fs_resolve` averages a region's samples into
 // the single-sample colour target, as the hardware resolve does.
 
 // Full-resolution background (the cached sky), single-sample.
@@ -35,4 +36,15 @@ fn fs_main(in: RegionOut) -> BackgroundOut {
     out.color = textureLoad(background, vec2<i32>(in.position.xy), 0);
     out.id = 0.0;
     return out;
+}
+
+struct IdOnly {
+    @location(1) id: f32,
+};
+
+// A region "cleared" in the instance-id target only (and depth, by the
+// quad's far z), for passes that count pixels without drawing colour.
+@fragment
+fn fs_clear_ids(in: RegionOut) -> IdOnly {
+    return IdOnly(0.0);
 }

@@ -57,6 +57,10 @@ struct RegionPipelines {
     msaa: u32,
     background: wgpu::RenderPipeline,
     drone: super::DronePipelines,
+    /// The same two for passes that write instance ids only (overlap layers,
+    /// id images): no colour attachment, no lighting.
+    ids_background: wgpu::RenderPipeline,
+    ids_drone: super::DronePipelines,
     resolve: Option<wgpu::RenderPipeline>,
     /// Built on first use: presets that need no visibility never build it.
     reducer: Option<IdReducer>,
@@ -257,28 +261,35 @@ impl Renderer {
             bind_group_layouts: &[Some(&state.background_layout)],
             immediate_size: 0,
         });
-        let background = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("region background pipeline"),
-            layout: Some(&background_layout),
-            vertex: wgpu::VertexState {
-                module: &state.regions_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(rect_buffer_layout())],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(depth(wgpu::CompareFunction::Always)),
-            multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: &state.regions_module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let background_pipeline = |label: &str, entry: &str, targets: &[_]| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&background_layout),
+                vertex: wgpu::VertexState {
+                    module: &state.regions_module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(rect_buffer_layout())],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: Some(depth(wgpu::CompareFunction::Always)),
+                multisample,
+                fragment: Some(wgpu::FragmentState {
+                    module: &state.regions_module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let background = background_pipeline("region background pipeline", "fs_main", &targets);
         let drone = self.drone_pipeline("drone + id pipeline", msaa, "fs_ids", &targets);
+        let id_targets = [None, targets[1].clone()];
+        let ids_background =
+            background_pipeline("region id background pipeline", "fs_clear_ids", &id_targets);
+        let ids_drone = self.drone_pipeline("drone id pipeline", msaa, "fs_layer", &id_targets);
         let resolve = (msaa > 1).then(|| {
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("region resolve pipeline layout"),
@@ -311,6 +322,8 @@ impl Renderer {
             msaa,
             background,
             drone,
+            ids_background,
+            ids_drone,
             resolve,
             reducer: None,
         });
@@ -581,42 +594,41 @@ impl Renderer {
     }
 
     /// One render pass over a pass's regions: each region's background (its
-    /// "clear"), then the drones of all regions.
+    /// "clear"), then the drones of all regions. Without `color` the pass
+    /// writes instance ids (and depth) only: no colour target, no lighting.
     fn encode_region_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         (pipes, target, rects): (&RegionPipelines, &FrameTargets, Option<&wgpu::Buffer>),
         draws: &PassDraws,
-        label: &str,
+        (label, color): (&str, bool),
     ) {
         let load = wgpu::Operations {
             load: wgpu::LoadOp::Load,
             store: wgpu::StoreOp::Store,
         };
-        let load_color = wgpu::Operations {
+        let attachment = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: load,
+            })
+        };
+        let depth_ops = wgpu::Operations {
             load: wgpu::LoadOp::Load,
             store: wgpu::StoreOp::Store,
         };
-        let color = target.msaa_color.as_ref().unwrap_or(&target.color_view);
+        let color_view = target.msaa_color.as_ref().unwrap_or(&target.color_view);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
             color_attachments: &[
-                Some(wgpu::RenderPassColorAttachment {
-                    view: color,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: load_color,
-                }),
-                Some(wgpu::RenderPassColorAttachment {
-                    view: &target.ids_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: load_color,
-                }),
+                color.then(|| attachment(color_view)).flatten(),
+                attachment(&target.ids_view),
             ],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &target.depth,
-                depth_ops: Some(load),
+                depth_ops: Some(depth_ops),
                 stencil_ops: None,
             }),
             timestamp_writes: None,
@@ -626,7 +638,12 @@ impl Renderer {
         let Some(rect_buffer) = rects else {
             return;
         };
-        pass.set_pipeline(&pipes.background);
+        let (background, drone) = if color {
+            (&pipes.background, &pipes.drone)
+        } else {
+            (&pipes.ids_background, &pipes.ids_drone)
+        };
+        pass.set_pipeline(background);
         pass.set_bind_group(0, &target.background_group, &[]);
         pass.set_vertex_buffer(0, rect_buffer.slice(..));
         pass.draw(0..6, draws.rect_instances());
@@ -640,7 +657,7 @@ impl Renderer {
         pass.set_scissor_rect(bounds.x0, bounds.y0, bounds.width(), bounds.height());
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
         pass.set_vertex_buffer(1, instances.slice(..));
-        self.draw_drones(&mut pass, &pipes.drone, &draws.draws);
+        self.draw_drones(&mut pass, drone, &draws.draws);
     }
 
     fn render_regions(
@@ -727,7 +744,7 @@ impl Renderer {
                 &mut encoder,
                 (pipes, target, rects),
                 &main_draws,
-                "region pass",
+                ("region pass", request.color),
             );
             if request.color
                 && let (Some(resolve), Some(group), Some(rects)) =
@@ -833,7 +850,7 @@ impl Renderer {
                         &mut encoder,
                         (pipes, target, state.rects.as_ref()),
                         layer,
-                        "layer pass",
+                        ("layer pass", false),
                     );
                     reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, k + 1);
                 }
@@ -941,7 +958,7 @@ impl Renderer {
             &mut encoder,
             (&state.pipelines[p], target, state.rects.as_ref()),
             &draws,
-            "id pass",
+            ("id pass", false),
         );
         target.readback.copy_from(&mut encoder, &target.ids);
         let submitted = self.queue.submit([encoder.finish()]);
