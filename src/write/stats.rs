@@ -247,6 +247,87 @@ impl DatasetStats {
         *self.boxes_per_frame.entry(kept).or_default() += 1;
     }
 
+    /// Add the counts of `other` (statistics of other frames) to these: the
+    /// same statistics as adding its frames one by one after these
+    /// (every field is a count). A plan's workers count their chunks and
+    /// its writer merges them. `labels_only` and `boxes_from` stay these.
+    pub fn merge(&mut self, other: &DatasetStats) {
+        // Destructured, so a field added later cannot be forgotten here.
+        let DatasetStats {
+            frames,
+            frames_per_split,
+            boxes,
+            small,
+            medium,
+            large,
+            truncated,
+            crowd,
+            filtered,
+            drones_placed,
+            labels_only: _,
+            boxes_from: _,
+            resolutions,
+            boxes_per_frame,
+            size_histogram,
+            distance_histogram,
+            per_split,
+            per_model,
+            per_environment,
+            per_distance,
+        } = other;
+        self.frames += frames;
+        for (a, b) in self.frames_per_split.iter_mut().zip(frames_per_split) {
+            *a += b;
+        }
+        self.boxes += boxes;
+        self.small += small;
+        self.medium += medium;
+        self.large += large;
+        self.truncated += truncated;
+        self.crowd += crowd;
+        self.filtered += filtered;
+        self.drones_placed += drones_placed;
+        for (k, n) in resolutions {
+            *self.resolutions.entry(k.clone()).or_default() += n;
+        }
+        for (k, n) in boxes_per_frame {
+            *self.boxes_per_frame.entry(*k).or_default() += n;
+        }
+        for (mine, theirs) in [
+            (&mut self.size_histogram, size_histogram),
+            (&mut self.distance_histogram, distance_histogram),
+        ] {
+            if mine.len() < theirs.len() {
+                mine.resize(theirs.len(), 0);
+            }
+            for (a, b) in mine.iter_mut().zip(theirs) {
+                *a += b;
+            }
+        }
+        for (mine, theirs) in [
+            (&mut self.per_split, per_split),
+            (&mut self.per_model, per_model),
+            (&mut self.per_environment, per_environment),
+            (&mut self.per_distance, per_distance),
+        ] {
+            for (k, b) in theirs {
+                let a = mine.entry(k.clone()).or_default();
+                let Breakdown {
+                    frames,
+                    boxes,
+                    small,
+                    medium,
+                    large,
+                } = b;
+                a.frames += frames;
+                a.boxes += boxes;
+                a.small += small;
+                a.medium += medium;
+                a.large += large;
+            }
+        }
+    }
+
     /// Fewest, mean and most training boxes per frame (the paper's "UAVs per image").
     pub fn boxes_per_frame_range(&self) -> (u32, f64, u32) {
         let min = self.boxes_per_frame.keys().next().copied().unwrap_or(0);
