@@ -10,7 +10,7 @@ use std::path::Path;
 use serde_json::json;
 
 use super::folder::AppendFile;
-use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, r6, xywh};
+use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::LabelStatus;
 use crate::scene::SplitName;
 
@@ -96,7 +96,10 @@ pub fn write_frame_records(
     image: &str,
     model_names: &[String],
 ) {
-    use super::json::Json;
+    use super::json::{Decimals, Json};
+    let xywh = |j: &mut Json<'_>, b: &crate::annotate::PixelBox| {
+        j.rounded_all(&[b.x0, b.y0, b.width(), b.height()], Decimals::Six);
+    };
     let image_id = scene.index + 1;
     // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
     // mmtracking's CocoVID, `frame_index` for TAO).
@@ -138,11 +141,11 @@ pub fn write_frame_records(
         let v = l.visibility.as_ref();
         // The writer opens the object with its id.
         j.raw(b"\"amodal_bbox\":");
-        j.f64s(&xywh(&l.amodal));
+        xywh(j, &l.amodal);
         j.raw(b",\"area\":");
-        j.f64(r6(b.area()));
+        j.rounded(b.area(), Decimals::Six);
         j.raw(b",\"bbox\":");
-        j.f64s(&[r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())]);
+        xywh(j, b);
         j.raw(b",\"category_id\":");
         j.u64(l.class_id as u64 + 1);
         j.raw(b",\"image_id\":");
@@ -157,7 +160,7 @@ pub fn write_frame_records(
             b",\"iscrowd\":0"
         });
         j.raw(b",\"paper_aabb_bbox\":");
-        j.f64s(&xywh(&l.paper_aabb));
+        xywh(j, &l.paper_aabb);
         if let Some(track) = track_id {
             j.raw(b",\"track_id\":");
             j.u64(track);
@@ -175,11 +178,11 @@ pub fn write_frame_records(
         if let Some(v) = v {
             j.raw(b",\"visible_bbox\":");
             match &v.visible_box {
-                Some(vb) => j.f64s(&xywh(vb)),
+                Some(vb) => xywh(j, vb),
                 None => j.raw(b"null"),
             }
             j.raw(b",\"visible_fraction\":");
-            j.f64(r6(v.fraction()));
+            j.rounded(v.fraction(), Decimals::Six);
             j.raw(b",\"visible_pixels\":");
             j.u64(v.visible_pixels);
         }

@@ -27,6 +27,70 @@ impl Json<'_> {
         }
     }
 
+    /// `x` rounded to `k` decimals (`(x · 10^k).round() / 10^k`, the
+    /// manifest's r6, r9 and r12) as [`Json::f64`] writes that value. Where
+    /// the rounded value is at least 1e-5 (serde_json's fixed notation) and
+    /// small enough that no two k-decimal numbers share a float, its
+    /// shortest form is the decimal n / 10^k itself: written from the
+    /// integer n without a float printer. Anything else takes [`Json::f64`].
+    pub fn rounded(&mut self, x: f64, k: Decimals) {
+        let (scale, unit) = k.scale();
+        let n = (x * scale).round();
+        let a = n.abs();
+        // ≥ 1e-5 · 10^k, and below 2^51: the float's spacing is under half of 10^-k.
+        if !(a >= scale * 1e-5 && a < 2_251_799_813_685_248.0) {
+            self.f64(n / scale);
+            return;
+        }
+        let u = a as u64;
+        let mut buf = [b'0'; 48];
+        let mut at = 0;
+        if n < 0.0 {
+            buf[0] = b'-';
+            at = 1;
+        }
+        at += integer_digits(&mut buf[at..], u / unit);
+        buf[at] = b'.';
+        at += 1;
+        let frac = u % unit;
+        if frac == 0 {
+            // The zero after the point: buf is all zeros there.
+            at += 1;
+        } else {
+            let start = at;
+            // Six digits at a time (10^6 < 2^32): no division by a variable.
+            let (hi, lo) = ((frac / 1_000_000) as u32, (frac % 1_000_000) as u32);
+            match k {
+                Decimals::Six => six_digits(&mut buf[at..], lo),
+                Decimals::Nine => {
+                    three_digits(&mut buf[at..], hi);
+                    six_digits(&mut buf[at + 3..], lo);
+                }
+                Decimals::Twelve => {
+                    six_digits(&mut buf[at..], hi);
+                    six_digits(&mut buf[at + 6..], lo);
+                }
+            }
+            at += k as usize;
+            while at > start && buf[at - 1] == b'0' {
+                at -= 1;
+            }
+        }
+        self.out.extend_from_slice(&buf[..at]);
+    }
+
+    /// `[a,b,…]` of floats, each [`Json::rounded`].
+    pub fn rounded_all(&mut self, xs: &[f64], k: Decimals) {
+        self.out.push(b'[');
+        for (i, &x) in xs.iter().enumerate() {
+            if i > 0 {
+                self.out.push(b',');
+            }
+            self.rounded(x, k);
+        }
+        self.out.push(b']');
+    }
+
     pub fn u64(&mut self, v: u64) {
         let _ = CompactFormatter.write_u64(self.out, v);
     }
@@ -38,18 +102,76 @@ impl Json<'_> {
     pub fn str(&mut self, s: &str) {
         write_str(self.out, s);
     }
+}
 
-    /// `[a,b,…]` of floats.
-    pub fn f64s(&mut self, vs: &[f64]) {
-        self.out.push(b'[');
-        for (i, &v) in vs.iter().enumerate() {
-            if i > 0 {
-                self.out.push(b',');
-            }
-            self.f64(v);
+/// The decimals the records round to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Decimals {
+    Six = 6,
+    Nine = 9,
+    Twelve = 12,
+}
+
+impl Decimals {
+    /// 10^k as a float (what the rounding multiplies by) and as an integer.
+    fn scale(self) -> (f64, u64) {
+        match self {
+            Self::Six => (1e6, 1_000_000),
+            Self::Nine => (1e9, 1_000_000_000),
+            Self::Twelve => (1e12, 1_000_000_000_000),
         }
-        self.out.push(b']');
     }
+}
+
+/// "00" … "99".
+const PAIRS: [u8; 200] = {
+    let mut t = [0u8; 200];
+    let mut i = 0;
+    while i < 100 {
+        t[2 * i] = b'0' + (i / 10) as u8;
+        t[2 * i + 1] = b'0' + (i % 10) as u8;
+        i += 1;
+    }
+    t
+};
+
+fn two_digits(buf: &mut [u8], v: u32) {
+    let i = 2 * (v as usize % 100);
+    buf[..2].copy_from_slice(&PAIRS[i..i + 2]);
+}
+
+/// `v` < 1000 as exactly three digits.
+fn three_digits(buf: &mut [u8], v: u32) {
+    buf[0] = b'0' + (v / 100 % 10) as u8;
+    two_digits(&mut buf[1..], v % 100);
+}
+
+/// `v` < 10^6 as exactly six digits.
+fn six_digits(buf: &mut [u8], v: u32) {
+    two_digits(buf, v / 10_000);
+    two_digits(&mut buf[2..], v / 100 % 100);
+    two_digits(&mut buf[4..], v % 100);
+}
+
+/// `v` in decimal at the start of `buf` (at least 20 bytes); returns its length.
+fn integer_digits(buf: &mut [u8], mut v: u64) -> usize {
+    let mut digits = [0u8; 20];
+    let mut at = digits.len();
+    while v >= 100 {
+        at -= 2;
+        two_digits(&mut digits[at..], (v % 100) as u32);
+        v /= 100;
+    }
+    if v >= 10 {
+        at -= 2;
+        two_digits(&mut digits[at..], v as u32);
+    } else {
+        at -= 1;
+        digits[at] = b'0' + v as u8;
+    }
+    let len = digits.len() - at;
+    buf[..len].copy_from_slice(&digits[at..]);
+    len
 }
 
 /// Whether serde_json escapes any byte of `s` (`"`, `\` and controls below 0x20).
@@ -173,7 +295,7 @@ mod tests {
             -1e9,
             4503599627370496.5,
             960.0,
-            1919.999_999_5,
+            1_919.999_999_5,
             0.000_000_5,
             0.000_001_5,
         ];
@@ -236,6 +358,52 @@ mod tests {
     }
 
     #[test]
+    fn rounded_numbers_are_serde_jsons_bytes_of_the_rounded_value() {
+        let r = |x: f64, scale: f64| (x * scale).round() / scale;
+        let mut xs = odd_floats();
+        // Every magnitude about each threshold: 1e-5, 2^51 / 10^k, and integers.
+        for e in -20..20 {
+            let p = 10f64.powi(e);
+            for m in [
+                1.0,
+                0.999_999_9,
+                1.000_000_1,
+                0.5,
+                2.5,
+                9.999_999_5,
+                1.234_567_890_123_4,
+            ] {
+                xs.extend([m * p, -m * p]);
+            }
+        }
+        for k in [
+            2_251_799_813_685_248.0,
+            2_251_799_813_685_247.0,
+            4_503_599_627_370_496.0,
+        ] {
+            for scale in [1e6, 1e9, 1e12] {
+                xs.extend([k / scale, (k + 3.0) / scale, -(k - 1.0) / scale]);
+            }
+        }
+        for (k, scale) in [
+            (Decimals::Six, 1e6),
+            (Decimals::Nine, 1e9),
+            (Decimals::Twelve, 1e12),
+        ] {
+            for &x in &xs {
+                let mut out = Vec::new();
+                Json { out: &mut out }.rounded(x, k);
+                let serde = serde_json::to_vec(&r(x, scale)).expect("a float serialises");
+                assert_eq!(
+                    String::from_utf8_lossy(&out),
+                    String::from_utf8_lossy(&serde),
+                    "{x:e} to {k:?} decimals"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn fixed6_is_std_formatting() {
         for v in odd_floats() {
             let mut out = Vec::new();
@@ -248,10 +416,13 @@ mod tests {
         }
     }
 
-    /// Varied frames: two presets (one with sequences), every label status,
+    /// A frame, its labels, the model names and the classes.
+    type VariedFrame = (FrameScene, Vec<DroneLabel>, Vec<String>, Vec<String>);
+
+    /// Varied frames: three presets (one with sequences), every label status,
     /// with and without visibility, odd and non-finite numbers, names that
     /// need escapes, out-of-range model indices, labels out of drone order.
-    fn varied_frames() -> Vec<(FrameScene, Vec<DroneLabel>, Vec<String>, Vec<String>)> {
+    fn varied_frames() -> Vec<VariedFrame> {
         let presets = [
             include_str!("../../presets/quickstart.ron"),
             include_str!("../../presets/formation_sequence.ron"),

@@ -2,8 +2,8 @@
 //! split, sweep values, camera (K, R, t) and every drone's model, pose and label.
 
 use super::folder::AppendFile;
-use super::json::Json;
-use super::{Checkpoint, Folder, FormatWriter, FrameRecord, OutputError, box_xyxy, r6};
+use super::json::{Decimals, Json};
+use super::{Checkpoint, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
 
@@ -70,14 +70,6 @@ impl FormatWriter for ManifestWriter {
     }
 }
 
-fn r9(v: f64) -> f64 {
-    (v * 1e9).round() / 1e9
-}
-
-fn r12(v: f64) -> f64 {
-    (v * 1e12).round() / 1e12
-}
-
 /// One manifest line: the frame's index, seed, split, sweep values,
 /// environment, camera (K, R, t) and every drone's model, pose and label.
 pub fn manifest_line(
@@ -114,7 +106,7 @@ pub fn write_manifest_line(
             if i > 0 {
                 j.raw(b",");
             }
-            j.f64s(&row.to_array().map(r12));
+            j.rounded_all(&row.to_array(), Decimals::Twelve);
         }
         j.raw(b"]");
     };
@@ -130,7 +122,7 @@ pub fn write_manifest_line(
     j.u64(cam.height.into());
     if look {
         j.raw(b",\"look_at_m\":");
-        j.f64s(&scene.look_at.to_array().map(r9));
+        j.rounded_all(&scene.look_at.to_array(), Decimals::Nine);
         j.raw(if scene.camera_absolute {
             b",\"mode\":\"absolute\""
         } else {
@@ -140,9 +132,9 @@ pub fn write_manifest_line(
     j.raw(b",\"near_m\":");
     j.f64(cam.near_m);
     j.raw(b",\"position_m\":");
-    j.f64s(&cam.position.to_array().map(r9));
+    j.rounded_all(&cam.position.to_array(), Decimals::Nine);
     j.raw(b",\"t\":");
-    j.f64s(&cam.t().to_array().map(r9));
+    j.rounded_all(&cam.t().to_array(), Decimals::Nine);
     j.raw(b",\"width\":");
     j.u64(cam.width.into());
     j.raw(b"},\"drones\":[");
@@ -183,7 +175,7 @@ pub fn write_manifest_line(
     j.raw(b"\",\"sweep\":");
     write_sweep(&mut j, scene);
     j.raw(b",\"volume_radius_m\":");
-    j.f64(r9(scene.volume_radius_m));
+    j.rounded(scene.volume_radius_m, Decimals::Nine);
     j.raw(b"}");
 }
 
@@ -231,11 +223,11 @@ fn write_drones(
             None => j.raw(b"null"),
         }
         j.raw(b",\"euler_deg\":{\"pitch\":");
-        j.f64(r6(d.euler_deg.pitch));
+        j.rounded(d.euler_deg.pitch, Decimals::Six);
         j.raw(b",\"roll\":");
-        j.f64(r6(d.euler_deg.roll));
+        j.rounded(d.euler_deg.roll, Decimals::Six);
         j.raw(b",\"yaw\":");
-        j.f64(r6(d.euler_deg.yaw));
+        j.rounded(d.euler_deg.yaw, Decimals::Six);
         j.raw(b"},\"label\":");
         match label {
             Some(l) => write_label(j, l),
@@ -247,9 +239,9 @@ fn write_drones(
             None => j.raw(b"null"),
         }
         j.raw(b",\"position_m\":");
-        j.f64s(&d.position.to_array().map(r9));
+        j.rounded_all(&d.position.to_array(), Decimals::Nine);
         j.raw(b",\"quaternion_xyzw\":");
-        j.f64s(&d.rotation.to_array().map(r12));
+        j.rounded_all(&d.rotation.to_array(), Decimals::Twelve);
         j.raw(b",\"size_m\":");
         j.f64(d.size_m);
         if with_tracks {
@@ -262,13 +254,13 @@ fn write_drones(
 
 fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
     j.raw(b"{\"amodal_xyxy\":");
-    j.f64s(&box_xyxy(&l.amodal));
+    write_xyxy(j, &l.amodal);
     j.raw(b",\"bbox_xyxy\":");
-    j.f64s(&box_xyxy(&l.bbox));
+    write_xyxy(j, &l.bbox);
     j.raw(b",\"distance_m\":");
-    j.f64(r6(l.distance_m));
+    j.rounded(l.distance_m, Decimals::Six);
     j.raw(b",\"paper_aabb_xyxy\":");
-    j.f64s(&box_xyxy(&l.paper_aabb));
+    write_xyxy(j, &l.paper_aabb);
     j.raw(b",\"status\":");
     j.raw(status_json(l.status));
     j.raw(b",\"truncated\":");
@@ -281,7 +273,7 @@ fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
     }
     j.raw(b",\"visible_fraction\":");
     match v {
-        Some(v) => j.f64(r6(v.fraction())),
+        Some(v) => j.rounded(v.fraction(), Decimals::Six),
         None => j.raw(b"null"),
     }
     j.raw(b",\"visible_pixels\":");
@@ -291,10 +283,15 @@ fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
     }
     j.raw(b",\"visible_xyxy\":");
     match v.and_then(|v| v.visible_box) {
-        Some(b) => j.f64s(&box_xyxy(&b)),
+        Some(b) => write_xyxy(j, &b),
         None => j.raw(b"null"),
     }
     j.raw(b"}");
+}
+
+/// A box's corners `[x0,y0,x1,y1]`, each rounded to 1e-6 px (`box_xyxy`).
+fn write_xyxy(j: &mut Json<'_>, b: &crate::annotate::PixelBox) {
+    j.rounded_all(&[b.x0, b.y0, b.x1, b.y1], Decimals::Six);
 }
 
 /// A label status as serde writes it (`rename_all = "lowercase"`).
@@ -338,17 +335,17 @@ fn write_environment(j: &mut Json<'_>, scene: &FrameScene) {
     j.raw(b"{\"choice\":");
     j.u64(e.choice as u64);
     j.raw(b",\"cloud_cover\":");
-    j.f64(r6(e.cloud_cover));
+    j.rounded(e.cloud_cover, Decimals::Six);
     j.raw(b",\"name\":");
     j.str(&scene.environment_name);
     j.raw(b",\"pattern_seed\":");
     j.u64(e.pattern_seed.into());
     j.raw(b",\"sun_azimuth_deg\":");
-    j.f64(r6(e.sun_azimuth_deg));
+    j.rounded(e.sun_azimuth_deg, Decimals::Six);
     j.raw(b",\"sun_elevation_deg\":");
-    j.f64(r6(e.sun_elevation_deg));
+    j.rounded(e.sun_elevation_deg, Decimals::Six);
     j.raw(b",\"turbidity\":");
-    j.f64(r6(e.turbidity));
+    j.rounded(e.turbidity, Decimals::Six);
     j.raw(b"}");
 }
 
@@ -399,10 +396,17 @@ pub fn models_present<'a>(scene: &FrameScene, model_names: &'a [String]) -> Vec<
 pub(crate) mod reference {
     use serde::Serialize;
 
-    use super::{r9, r12};
     use crate::annotate::DroneLabel;
     use crate::scene::FrameScene;
     use crate::write::{box_xyxy, r6};
+
+    fn r9(v: f64) -> f64 {
+        (v * 1e9).round() / 1e9
+    }
+
+    fn r12(v: f64) -> f64 {
+        (v * 1e12).round() / 1e12
+    }
 
     // The manifest's records as plain structs, fields in byte order of their
     // names (the order a sorted JSON map writes them), serialised straight to

@@ -731,6 +731,7 @@ impl DatasetWriter {
     }
 }
 
+#[cfg(test)]
 pub(crate) fn xywh(b: &PixelBox) -> [f64; 4] {
     [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())]
 }
