@@ -34,7 +34,7 @@ impl Json<'_> {
     /// shortest form is the decimal n / 10^k itself: written from the
     /// integer n without a float printer. Anything else takes [`Json::f64`].
     pub fn rounded(&mut self, x: f64, k: Decimals) {
-        let (scale, unit) = k.scale();
+        let scale = k.scale();
         let n = (x * scale).round();
         let a = n.abs();
         // ≥ 1e-5 · 10^k, and below 2^51: the float's spacing is under half of 10^-k.
@@ -49,10 +49,15 @@ impl Json<'_> {
             buf[0] = b'-';
             at = 1;
         }
-        at += integer_digits(&mut buf[at..], u / unit);
+        // Constant divisors: multiplications, not divisions.
+        let (int, frac) = match k {
+            Decimals::Six => (u / 1_000_000, u % 1_000_000),
+            Decimals::Nine => (u / 1_000_000_000, u % 1_000_000_000),
+            Decimals::Twelve => (u / 1_000_000_000_000, u % 1_000_000_000_000),
+        };
+        at += integer_digits(&mut buf[at..], int);
         buf[at] = b'.';
         at += 1;
-        let frac = u % unit;
         if frac == 0 {
             // The zero after the point: buf is all zeros there.
             at += 1;
@@ -113,12 +118,12 @@ pub(crate) enum Decimals {
 }
 
 impl Decimals {
-    /// 10^k as a float (what the rounding multiplies by) and as an integer.
-    fn scale(self) -> (f64, u64) {
+    /// 10^k, what the rounding multiplies by.
+    fn scale(self) -> f64 {
         match self {
-            Self::Six => (1e6, 1_000_000),
-            Self::Nine => (1e9, 1_000_000_000),
-            Self::Twelve => (1e12, 1_000_000_000_000),
+            Self::Six => 1e6,
+            Self::Nine => 1e9,
+            Self::Twelve => 1e12,
         }
     }
 }
