@@ -532,7 +532,7 @@ impl DatasetWriter {
         self.start
     }
 
-    /// How this dataset formats a frame's records ([`TextContext::frame_text`]).
+    /// How this dataset formats a frame's records ([`TextContext::push_frame`]).
     pub fn text_context(&self) -> &TextContext {
         &self.text
     }

@@ -15,7 +15,7 @@ pub fn label_text(scene: &FrameScene, labels: &[DroneLabel]) -> String {
 }
 
 /// [`label_text`] appended to `out`: the numbers as `{:.6}` formats them
-/// ([`super::json::fixed6`]), without the formatting machinery.
+/// (exact integer arithmetic, tested against `format!`), without the formatting machinery.
 pub fn write_label_text(out: &mut Vec<u8>, scene: &FrameScene, labels: &[DroneLabel]) {
     use super::json::{decimal, fixed6};
     let (w, h) = (
