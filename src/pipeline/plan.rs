@@ -18,7 +18,7 @@ use super::batch::frames_asked;
 use super::{FramePipeline, Progress};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
-use crate::write::{DatasetStats, DatasetWriter, FrameText, WriterOptions};
+use crate::write::{DatasetStats, DatasetWriter, FrameTexts, WriterOptions};
 
 /// Frames planned by one worker at a time (and written under one checkpoint).
 pub const CHUNK: u64 = 256;
@@ -68,7 +68,15 @@ impl PlanReport {
     }
 }
 
-type Chunk = Vec<(FrameScene, Vec<DroneLabel>, FrameText)>;
+/// Consecutive frames planned by one worker: scenes and labels, their
+/// records as text and their statistics. The writer hands each chunk back
+/// once written, so its buffers are reused and formatting allocates nothing.
+#[derive(Default)]
+struct Chunk {
+    frames: Vec<(FrameScene, Vec<DroneLabel>)>,
+    texts: FrameTexts,
+    stats: DatasetStats,
+}
 
 /// Plan every frame (or the first `limit`) of `pipeline`'s preset into `options.out_dir`.
 pub fn run_plan(
@@ -103,10 +111,13 @@ pub fn run_plan(
     let failed = AtomicBool::new(false);
     let chunks = (total.saturating_sub(first)).div_ceil(CHUNK);
     let (tx, rx) = crossbeam_channel::bounded::<(u64, anyhow::Result<Chunk>)>(threads * 2);
+    // Written chunks go back to the workers to be filled again.
+    let (spare_tx, spare_rx) = crossbeam_channel::unbounded::<Chunk>();
     let context = writer.text_context().clone();
     let (sink_result, cancelled) = std::thread::scope(|s| {
         for _ in 0..threads {
             let tx = tx.clone();
+            let spare_rx = spare_rx.clone();
             let context = &context;
             let (next_chunk, failed) = (&next_chunk, &failed);
             s.spawn(move || {
@@ -120,14 +131,18 @@ pub fn run_plan(
                     }
                     let lo = first + c * CHUNK;
                     let hi = (lo + CHUNK).min(total);
-                    let planned: anyhow::Result<Chunk> = (lo..hi)
-                        .map(|i| {
-                            let (scene, labels) = pipeline.plan(i)?;
-                            let text = context.frame_text(&scene, &labels);
-                            Ok((scene, labels, text))
-                        })
-                        .collect();
-                    if tx.send((c, planned)).is_err() {
+                    let mut chunk = spare_rx.try_recv().unwrap_or_default();
+                    chunk.frames.clear();
+                    chunk.texts.clear();
+                    chunk.stats = DatasetStats::default();
+                    let planned = (lo..hi).try_for_each(|i| {
+                        let (scene, labels) = pipeline.plan(i)?;
+                        context.push_frame(&mut chunk.texts, &scene, &labels);
+                        chunk.stats.add(&scene, &labels, &context.model_names);
+                        chunk.frames.push((scene, labels));
+                        anyhow::Ok(())
+                    });
+                    if tx.send((c, planned.map(|()| chunk))).is_err() {
                         return;
                     }
                 }
@@ -152,7 +167,9 @@ pub fn run_plan(
                     if cancel.load(Ordering::Relaxed) {
                         return (Ok(writer), true);
                     }
-                    if let Err(e) = writer.write_plan_frames(&chunk) {
+                    if let Err(e) =
+                        writer.write_plan_frames(&chunk.frames, &chunk.texts, &chunk.stats)
+                    {
                         failed.store(true, Ordering::Relaxed);
                         writer.rollback();
                         return (
@@ -164,6 +181,8 @@ pub fn run_plan(
                         );
                     }
                     next += 1;
+                    // The workers may have finished: a chunk nobody takes is dropped.
+                    let _ = spare_tx.send(chunk);
                     on_progress(Progress {
                         done: writer.next_frame(),
                         total,

@@ -10,7 +10,7 @@ use std::path::Path;
 use serde_json::json;
 
 use super::folder::AppendFile;
-use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, r6, xywh};
+use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::LabelStatus;
 use crate::scene::SplitName;
 
@@ -81,120 +81,113 @@ impl CocoWriter {
     }
 }
 
-// COCO records as plain structs, fields in byte order of their names (the
-// order a sorted JSON map writes them), serialised straight to text.
-
-#[derive(serde::Serialize)]
-struct ImageRecord<'a> {
-    environment: &'a str,
-    file_name: &'a str,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    frame_id: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    frame_index: Option<u64>,
-    height: u32,
-    id: u64,
-    models: Vec<&'a str>,
-    sweep: super::manifest::SweepRecord,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    video_id: Option<u64>,
-    width: u32,
-}
-
-/// An annotation without its `id` (the writer numbers them per split file).
-#[derive(serde::Serialize)]
-struct AnnotationRecord {
-    amodal_bbox: [f64; 4],
-    area: f64,
-    bbox: [f64; 4],
-    category_id: usize,
-    image_id: u64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    instance_id: Option<u64>,
-    iscrowd: u8,
-    paper_aabb_bbox: [f64; 4],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    track_id: Option<u64>,
-    truncated: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    unoccluded_pixels: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    video_id: Option<u64>,
-    /// `Some(None)` writes `null`: measured, nothing visible.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    visible_bbox: Option<Option<[f64; 4]>>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    visible_fraction: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    visible_pixels: Option<u64>,
-}
-
-/// A frame's COCO image record and its annotation records (filtered
-/// drones have none), as [`super::FrameText`] holds them: each annotation
-/// without its `id` and opening brace, since ids run on per split file,
-/// and ended by a newline (compact JSON holds none). Image ids are frame
-/// index + 1. Pure, so a plan formats on every core.
-pub fn frame_records(
+/// A frame's COCO image record (appended to `image_out`) and its annotation
+/// records (to `annotations_out`; filtered drones have none), as
+/// [`super::FrameText`] holds them: each annotation without its `id` and
+/// opening brace, since ids run on per split file, and ended by a newline
+/// (compact JSON holds none). Image ids are frame index + 1. Fields in byte
+/// order of their names, the bytes serde_json writes for the same records
+/// (the tests compare them). Pure, so a plan formats on every core.
+pub fn write_frame_records(
+    image_out: &mut Vec<u8>,
+    annotations_out: &mut Vec<u8>,
     scene: &crate::scene::FrameScene,
     labels: &[crate::annotate::DroneLabel],
     image: &str,
     model_names: &[String],
-) -> (String, String) {
+) {
+    use super::json::{Decimals, Json};
+    let xywh = |j: &mut Json<'_>, b: &crate::annotate::PixelBox| {
+        j.rounded_all(&[b.x0, b.y0, b.width(), b.height()], Decimals::Six);
+    };
     let image_id = scene.index + 1;
     // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
     // mmtracking's CocoVID, `frame_index` for TAO).
     let video = scene.sequence.map(|seq| (seq.id + 1, seq));
     // What varies per frame rides along, so results can be broken down per scene.
-    let img = ImageRecord {
-        environment: &scene.environment_name,
-        file_name: image.trim_start_matches("images/"),
-        frame_id: video.map(|(_, seq)| seq.step),
-        frame_index: video.map(|(_, seq)| seq.step),
-        height: scene.camera.height,
-        id: image_id,
-        models: super::manifest::models_present(scene, model_names),
-        sweep: super::manifest::sweep_record(scene),
-        video_id: video.map(|(id, _)| id),
-        width: scene.camera.width,
-    };
-    let mut annotations = Vec::with_capacity(320 * labels.len());
-    let mut one = Vec::with_capacity(512);
-    for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
-        {
-            let b = &l.bbox;
-            // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
-            let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
-            let v = l.visibility.as_ref();
-            let ann = AnnotationRecord {
-                amodal_bbox: xywh(&l.amodal),
-                area: r6(b.area()),
-                bbox: [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())],
-                category_id: l.class_id + 1,
-                image_id,
-                instance_id: track_id,
-                iscrowd: u8::from(l.status == LabelStatus::Crowd),
-                paper_aabb_bbox: xywh(&l.paper_aabb),
-                track_id,
-                truncated: l.truncated,
-                unoccluded_pixels: v.map(|v| v.unoccluded_pixels),
-                video_id: video.map(|(id, _)| id),
-                visible_bbox: v.map(|v| v.visible_box.as_ref().map(xywh)),
-                visible_fraction: v.map(|v| r6(v.fraction())),
-                visible_pixels: v.map(|v| v.visible_pixels),
-            };
-            // The writer opens the object with its id. Plain data: serde_json
-            // cannot fail here (non-finite numbers become null).
-            one.clear();
-            if serde_json::to_writer(&mut one, &ann).is_ok() {
-                annotations.extend_from_slice(one.strip_prefix(b"{").unwrap_or(&one));
-                annotations.push(b'\n');
-            }
-        }
+    let j = &mut Json { out: image_out };
+    j.raw(b"{\"environment\":");
+    j.str(&scene.environment_name);
+    j.raw(b",\"file_name\":");
+    j.str(image.trim_start_matches("images/"));
+    if let Some((_, seq)) = video {
+        j.raw(b",\"frame_id\":");
+        j.u64(seq.step);
+        j.raw(b",\"frame_index\":");
+        j.u64(seq.step);
     }
-    (
-        serde_json::to_string(&img).unwrap_or_default(),
-        String::from_utf8(annotations).unwrap_or_default(),
-    )
+    j.raw(b",\"height\":");
+    j.u64(scene.camera.height.into());
+    j.raw(b",\"id\":");
+    j.u64(image_id);
+    j.raw(b",\"models\":");
+    super::manifest::write_models_present(j, scene, model_names);
+    j.raw(b",\"sweep\":");
+    super::manifest::write_sweep(j, scene);
+    if let Some((id, _)) = video {
+        j.raw(b",\"video_id\":");
+        j.u64(id);
+    }
+    j.raw(b",\"width\":");
+    j.u64(scene.camera.width.into());
+    j.raw(b"}");
+    let j = &mut Json {
+        out: annotations_out,
+    };
+    for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
+        let b = &l.bbox;
+        // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
+        let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
+        let v = l.visibility.as_ref();
+        // The writer opens the object with its id.
+        j.raw(b"\"amodal_bbox\":");
+        xywh(j, &l.amodal);
+        j.raw(b",\"area\":");
+        j.rounded(b.area(), Decimals::Six);
+        j.raw(b",\"bbox\":");
+        xywh(j, b);
+        j.raw(b",\"category_id\":");
+        j.u64(l.class_id as u64 + 1);
+        j.raw(b",\"image_id\":");
+        j.u64(image_id);
+        if let Some(track) = track_id {
+            j.raw(b",\"instance_id\":");
+            j.u64(track);
+        }
+        j.raw(if l.status == LabelStatus::Crowd {
+            b",\"iscrowd\":1"
+        } else {
+            b",\"iscrowd\":0"
+        });
+        j.raw(b",\"paper_aabb_bbox\":");
+        xywh(j, &l.paper_aabb);
+        if let Some(track) = track_id {
+            j.raw(b",\"track_id\":");
+            j.u64(track);
+        }
+        j.raw(b",\"truncated\":");
+        j.bool(l.truncated);
+        if let Some(v) = v {
+            j.raw(b",\"unoccluded_pixels\":");
+            j.u64(v.unoccluded_pixels);
+        }
+        if let Some((id, _)) = video {
+            j.raw(b",\"video_id\":");
+            j.u64(id);
+        }
+        if let Some(v) = v {
+            j.raw(b",\"visible_bbox\":");
+            match &v.visible_box {
+                Some(vb) => xywh(j, vb),
+                None => j.raw(b"null"),
+            }
+            j.raw(b",\"visible_fraction\":");
+            j.rounded(v.fraction(), Decimals::Six);
+            j.raw(b",\"visible_pixels\":");
+            j.u64(v.visible_pixels);
+        }
+        j.raw(b"}\n");
+    }
 }
 
 /// `n` in decimal, as `{n}` formats it, in `buf`.
@@ -225,10 +218,15 @@ impl FormatWriter for CocoWriter {
         if part.n_images != 0 {
             part.images.append(b",\n")?;
         }
-        part.images.append(record.text.coco_image.as_bytes())?;
+        part.images.append(record.text.coco_image)?;
         part.n_images += 1;
         let mut id = [0u8; 20];
-        for rest in record.text.coco_annotations.split_terminator('\n') {
+        for rest in record
+            .text
+            .coco_annotations
+            .split(|&b| b == b'\n')
+            .filter(|r| !r.is_empty())
+        {
             if part.n_annotations != 0 {
                 part.annotations.append(b",\n")?;
             }
@@ -237,7 +235,7 @@ impl FormatWriter for CocoWriter {
             part.annotations
                 .append(decimal(part.n_annotations, &mut id))?;
             part.annotations.append(b",")?;
-            part.annotations.append(rest.as_bytes())?;
+            part.annotations.append(rest)?;
         }
         Ok(())
     }
@@ -401,6 +399,131 @@ impl FormatWriter for CocoWriter {
             }
         }
         Ok(())
+    }
+}
+
+/// The records as serde writes them: the reference the tests compare the
+/// hand-written records with, over varied frames.
+#[cfg(test)]
+pub(crate) mod reference {
+    use super::TRACKS_PER_VIDEO;
+    use crate::annotate::LabelStatus;
+    use crate::write::{r6, xywh};
+
+    // COCO records as plain structs, fields in byte order of their names (the
+    // order a sorted JSON map writes them), serialised straight to text.
+
+    #[derive(serde::Serialize)]
+    struct ImageRecord<'a> {
+        environment: &'a str,
+        file_name: &'a str,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        frame_id: Option<u64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        frame_index: Option<u64>,
+        height: u32,
+        id: u64,
+        models: Vec<&'a str>,
+        sweep: crate::write::manifest::reference::SweepRecord,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        video_id: Option<u64>,
+        width: u32,
+    }
+
+    /// An annotation without its `id` (the writer numbers them per split file).
+    #[derive(serde::Serialize)]
+    struct AnnotationRecord {
+        amodal_bbox: [f64; 4],
+        area: f64,
+        bbox: [f64; 4],
+        category_id: usize,
+        image_id: u64,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        instance_id: Option<u64>,
+        iscrowd: u8,
+        paper_aabb_bbox: [f64; 4],
+        #[serde(skip_serializing_if = "Option::is_none")]
+        track_id: Option<u64>,
+        truncated: bool,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        unoccluded_pixels: Option<u64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        video_id: Option<u64>,
+        /// `Some(None)` writes `null`: measured, nothing visible.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        visible_bbox: Option<Option<[f64; 4]>>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        visible_fraction: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        visible_pixels: Option<u64>,
+    }
+
+    /// A frame's COCO image record and its annotation records (filtered
+    /// drones have none), as [`super::FrameText`] holds them: each annotation
+    /// without its `id` and opening brace, since ids run on per split file,
+    /// and ended by a newline (compact JSON holds none). Image ids are frame
+    /// index + 1. Pure, so a plan formats on every core.
+    pub fn frame_records(
+        scene: &crate::scene::FrameScene,
+        labels: &[crate::annotate::DroneLabel],
+        image: &str,
+        model_names: &[String],
+    ) -> (String, String) {
+        let image_id = scene.index + 1;
+        // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
+        // mmtracking's CocoVID, `frame_index` for TAO).
+        let video = scene.sequence.map(|seq| (seq.id + 1, seq));
+        // What varies per frame rides along, so results can be broken down per scene.
+        let img = ImageRecord {
+            environment: &scene.environment_name,
+            file_name: image.trim_start_matches("images/"),
+            frame_id: video.map(|(_, seq)| seq.step),
+            frame_index: video.map(|(_, seq)| seq.step),
+            height: scene.camera.height,
+            id: image_id,
+            models: crate::write::manifest::models_present(scene, model_names),
+            sweep: crate::write::manifest::reference::sweep_record(scene),
+            video_id: video.map(|(id, _)| id),
+            width: scene.camera.width,
+        };
+        let mut annotations = Vec::with_capacity(320 * labels.len());
+        let mut one = Vec::with_capacity(512);
+        for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
+            {
+                let b = &l.bbox;
+                // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
+                let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
+                let v = l.visibility.as_ref();
+                let ann = AnnotationRecord {
+                    amodal_bbox: xywh(&l.amodal),
+                    area: r6(b.area()),
+                    bbox: [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())],
+                    category_id: l.class_id + 1,
+                    image_id,
+                    instance_id: track_id,
+                    iscrowd: u8::from(l.status == LabelStatus::Crowd),
+                    paper_aabb_bbox: xywh(&l.paper_aabb),
+                    track_id,
+                    truncated: l.truncated,
+                    unoccluded_pixels: v.map(|v| v.unoccluded_pixels),
+                    video_id: video.map(|(id, _)| id),
+                    visible_bbox: v.map(|v| v.visible_box.as_ref().map(xywh)),
+                    visible_fraction: v.map(|v| r6(v.fraction())),
+                    visible_pixels: v.map(|v| v.visible_pixels),
+                };
+                // The writer opens the object with its id. Plain data: serde_json
+                // cannot fail here (non-finite numbers become null).
+                one.clear();
+                if serde_json::to_writer(&mut one, &ann).is_ok() {
+                    annotations.extend_from_slice(one.strip_prefix(b"{").unwrap_or(&one));
+                    annotations.push(b'\n');
+                }
+            }
+        }
+        (
+            serde_json::to_string(&img).unwrap_or_default(),
+            String::from_utf8(annotations).unwrap_or_default(),
+        )
     }
 }
 

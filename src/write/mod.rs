@@ -14,6 +14,7 @@
 pub mod coco;
 pub mod folder;
 pub mod image;
+pub(crate) mod json;
 pub mod manifest;
 pub mod merge;
 pub mod mot;
@@ -40,26 +41,81 @@ pub struct FrameRecord<'a> {
     pub labels: &'a [DroneLabel],
     /// The image's path relative to the dataset folder (`images/{split}/NAME.ext`).
     pub image: &'a str,
-    /// The frame's records as text, formatted by [`TextContext::frame_text`].
-    pub text: &'a FrameText,
+    /// The frame's records as text, formatted by [`TextContext::push_frame`].
+    pub text: FrameText<'a>,
 }
 
 /// A frame's records as text: everything the writers write for it that
-/// depends on the frame alone. Made by [`TextContext::frame_text`], which
-/// needs no writer state, so a labels-only plan formats frames on every
-/// core and its one writer thread only appends bytes.
-#[derive(Clone, Debug, Default)]
-pub struct FrameText {
+/// depends on the frame alone, held by a [`FrameTexts`]. Formatted by
+/// [`TextContext::push_frame`], which needs no writer state, so a
+/// labels-only plan formats frames on every core and its one writer
+/// thread only appends bytes.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameText<'a> {
     /// The YOLO label file (empty when the preset writes no YOLO).
-    pub yolo: String,
+    pub yolo: &'a [u8],
     /// The manifest line, without its newline.
-    pub manifest: String,
-    /// The COCO image record.
-    pub coco_image: String,
+    pub manifest: &'a [u8],
+    /// The COCO image record (empty when the preset writes no COCO).
+    pub coco_image: &'a [u8],
     /// The COCO annotation records, each a JSON object without its `id`
     /// and its opening brace (the writer puts `{"id":N,` in front), each
     /// ended by a newline.
-    pub coco_annotations: String,
+    pub coco_annotations: &'a [u8],
+}
+
+/// The records of consecutive frames as text, in buffers kept from chunk
+/// to chunk ([`FrameTexts::clear`] keeps their memory): formatting a frame
+/// allocates nothing once they have grown.
+#[derive(Clone, Debug, Default)]
+pub struct FrameTexts {
+    yolo: Vec<u8>,
+    manifest: Vec<u8>,
+    coco_images: Vec<u8>,
+    coco_annotations: Vec<u8>,
+    /// Each frame's end in the four buffers.
+    ends: Vec<[usize; 4]>,
+    /// The image path of the frame being formatted.
+    image: String,
+}
+
+impl FrameTexts {
+    /// Forget the frames, keep the memory.
+    pub fn clear(&mut self) {
+        self.yolo.clear();
+        self.manifest.clear();
+        self.coco_images.clear();
+        self.coco_annotations.clear();
+        self.ends.clear();
+    }
+
+    /// Frames held.
+    pub fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    /// The records of the `i`th frame held (empty past the last).
+    pub fn get(&self, i: usize) -> FrameText<'_> {
+        let (Some(end), start) = (
+            self.ends.get(i),
+            i.checked_sub(1)
+                .and_then(|p| self.ends.get(p))
+                .copied()
+                .unwrap_or_default(),
+        ) else {
+            return FrameText::default();
+        };
+        FrameText {
+            yolo: &self.yolo[start[0]..end[0]],
+            manifest: &self.manifest[start[1]..end[1]],
+            coco_image: &self.coco_images[start[2]..end[2]],
+            coco_annotations: &self.coco_annotations[start[3]..end[3]],
+        }
+    }
 }
 
 /// What formatting a frame's records needs besides the frame: the preset's
@@ -85,24 +141,45 @@ impl TextContext {
         }
     }
 
-    /// Every record of one frame as text (pure: the same bytes on any thread).
-    pub fn frame_text(&self, scene: &FrameScene, labels: &[DroneLabel]) -> FrameText {
-        let image = image_rel_path(scene, self.image_format);
-        let (coco_image, coco_annotations) = if self.coco {
-            coco::frame_records(scene, labels, &image, &self.model_names)
-        } else {
-            (String::new(), String::new())
-        };
-        FrameText {
-            yolo: if self.yolo {
-                yolo::label_text(scene, labels)
-            } else {
-                String::new()
-            },
-            manifest: manifest_line(scene, labels, &image, &self.model_names, &self.classes),
-            coco_image,
-            coco_annotations,
+    /// Append every record of one frame to `texts` (pure: the same bytes on any thread).
+    pub fn push_frame(&self, texts: &mut FrameTexts, scene: &FrameScene, labels: &[DroneLabel]) {
+        use std::fmt::Write as _;
+        texts.image.clear();
+        // Writing into a String cannot fail.
+        let _ = write!(
+            texts.image,
+            "images/{}/{:08}.{}",
+            scene.split.as_str(),
+            scene.index,
+            self.image_format.extension()
+        );
+        if self.coco {
+            coco::write_frame_records(
+                &mut texts.coco_images,
+                &mut texts.coco_annotations,
+                scene,
+                labels,
+                &texts.image,
+                &self.model_names,
+            );
         }
+        if self.yolo {
+            yolo::write_label_text(&mut texts.yolo, scene, labels);
+        }
+        manifest::write_manifest_line(
+            &mut texts.manifest,
+            scene,
+            labels,
+            &texts.image,
+            &self.model_names,
+            &self.classes,
+        );
+        texts.ends.push([
+            texts.yolo.len(),
+            texts.manifest.len(),
+            texts.coco_images.len(),
+            texts.coco_annotations.len(),
+        ]);
     }
 }
 
@@ -282,6 +359,8 @@ pub const PLAN_README: &str = "PLAN.txt";
 pub struct DatasetWriter {
     folder: Folder,
     text: TextContext,
+    /// The rendered frame's records (the buffers kept from frame to frame).
+    texts: FrameTexts,
     image_format: ImageFormat,
     classes: Vec<String>,
     formats: Vec<Box<dyn FormatWriter>>,
@@ -422,6 +501,7 @@ impl DatasetWriter {
         Ok(Self {
             folder,
             text,
+            texts: FrameTexts::default(),
             image_format: preset.output.image_format,
             classes,
             formats,
@@ -452,7 +532,7 @@ impl DatasetWriter {
         self.start
     }
 
-    /// How this dataset formats a frame's records ([`TextContext::frame_text`]).
+    /// How this dataset formats a frame's records ([`TextContext::push_frame`]).
     pub fn text_context(&self) -> &TextContext {
         &self.text
     }
@@ -483,12 +563,13 @@ impl DatasetWriter {
         }
         self.folder.claim_frame(&files)?;
         self.folder.write_file(&rel, image)?;
-        let text = self.text.frame_text(scene, labels);
+        self.texts.clear();
+        self.text.push_frame(&mut self.texts, scene, labels);
         let record = FrameRecord {
             scene,
             labels,
             image: &rel,
-            text: &text,
+            text: self.texts.get(0),
         };
         for format in &mut self.formats {
             format.frame(&mut self.folder, &record)?;
@@ -499,6 +580,8 @@ impl DatasetWriter {
     }
 
     /// Write consecutive frames of a labels-only plan (no images): their
+    /// records formatted in `texts` (frame by frame, [`TextContext::push_frame`])
+    /// and `stats` their statistics ([`DatasetStats::add`] over them). Their
     /// files are claimed in one ledger record, written without a flush to
     /// disk each, and one checkpoint follows the last. A plan killed midway
     /// continues from its last checkpoint like a rendered run; only a power
@@ -506,10 +589,12 @@ impl DatasetWriter {
     /// seconds). Formats and stats are the rendered batch's, frame by frame.
     pub fn write_plan_frames(
         &mut self,
-        frames: &[(FrameScene, Vec<DroneLabel>, FrameText)],
+        frames: &[(FrameScene, Vec<DroneLabel>)],
+        texts: &FrameTexts,
+        stats: &DatasetStats,
     ) -> Result<(), OutputError> {
         let mut files = Vec::new();
-        for (i, (scene, _, _)) in frames.iter().enumerate() {
+        for (i, (scene, _)) in frames.iter().enumerate() {
             if scene.index != self.next + i as u64 || self.done || !self.labels_only {
                 return Err(OutputError::OutOfOrder {
                     expected: self.next + i as u64,
@@ -520,22 +605,28 @@ impl DatasetWriter {
                 files.extend(format.frame_files(scene));
             }
         }
+        if texts.len() != frames.len() {
+            return Err(OutputError::OutOfOrder {
+                expected: self.next + texts.len() as u64,
+                got: self.next + frames.len() as u64,
+            });
+        }
         self.folder.claim_frame(&files)?;
-        let mut stats = self.stats.clone();
-        for (scene, labels, text) in frames {
+        for (i, (scene, labels)) in frames.iter().enumerate() {
             let rel = self.image_rel_path(scene);
             let record = FrameRecord {
                 scene,
                 labels,
                 image: &rel,
-                text,
+                text: texts.get(i),
             };
             for format in &mut self.formats {
                 format.frame(&mut self.folder, &record)?;
             }
-            stats.add(scene, labels, &self.text.model_names);
         }
-        self.checkpoint(self.next + frames.len() as u64, stats)
+        let mut sum = self.stats.clone();
+        sum.merge(stats);
+        self.checkpoint(self.next + frames.len() as u64, sum)
     }
 
     /// Make the frames before `next` durable: every format writes its buffered
@@ -640,6 +731,7 @@ impl DatasetWriter {
     }
 }
 
+#[cfg(test)]
 pub(crate) fn xywh(b: &PixelBox) -> [f64; 4] {
     [r6(b.x0), r6(b.y0), r6(b.width()), r6(b.height())]
 }

@@ -133,15 +133,31 @@ pub struct BoxFacts<'a> {
     pub distance_m: f64,
 }
 
-fn distance_group(d: f64) -> String {
-    let mut lo = 0.0;
-    for hi in DISTANCE_GROUPS_M {
-        if d < hi {
-            return format!("{lo:>3}–{hi} m");
+fn distance_group(d: f64) -> &'static str {
+    static NAMES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    let names = NAMES.get_or_init(|| {
+        let mut lo = 0.0;
+        let mut names = Vec::new();
+        for hi in DISTANCE_GROUPS_M {
+            names.push(format!("{lo:>3}–{hi} m"));
+            lo = hi;
         }
-        lo = hi;
+        names.push(format!("≥ {lo} m"));
+        names
+    });
+    let group = DISTANCE_GROUPS_M
+        .iter()
+        .position(|&hi| d < hi)
+        .unwrap_or(DISTANCE_GROUPS_M.len());
+    names.get(group).map_or("", String::as_str)
+}
+
+/// Count into `map[key]`, made 0 first when missing (the key is copied only then).
+fn count_in(map: &mut BTreeMap<String, Breakdown>, key: &str, count: impl FnOnce(&mut Breakdown)) {
+    match map.get_mut(key) {
+        Some(b) => count(b),
+        None => count(map.entry(key.to_owned()).or_default()),
     }
-    format!("≥ {lo} m")
 }
 
 impl DatasetStats {
@@ -190,16 +206,10 @@ impl DatasetStats {
             .resolutions
             .entry(format!("{}×{}", frame.width, frame.height))
             .or_default() += 1;
-        let split = self
-            .per_split
-            .entry(frame.split.as_str().to_owned())
-            .or_default();
-        split.frames += 1;
-        let environment = self
-            .per_environment
-            .entry(frame.environment.to_owned())
-            .or_default();
-        environment.frames += 1;
+        count_in(&mut self.per_split, frame.split.as_str(), |b| b.frames += 1);
+        count_in(&mut self.per_environment, frame.environment, |b| {
+            b.frames += 1
+        });
         let mut kept = 0u32;
         for b in boxes {
             match b.status {
@@ -235,16 +245,93 @@ impl DatasetStats {
             {
                 group.add_box(size);
             }
-            self.per_model
-                .entry(b.model.to_owned())
-                .or_default()
-                .add_box(size);
-            self.per_distance
-                .entry(distance_group(b.distance_m))
-                .or_default()
-                .add_box(size);
+            count_in(&mut self.per_model, b.model, |g| g.add_box(size));
+            count_in(&mut self.per_distance, distance_group(b.distance_m), |g| {
+                g.add_box(size)
+            });
         }
         *self.boxes_per_frame.entry(kept).or_default() += 1;
+    }
+
+    /// Add the counts of `other` (statistics of other frames) to these: the
+    /// same statistics as adding its frames one by one after these
+    /// (every field is a count). A plan's workers count their chunks and
+    /// its writer merges them. `labels_only` and `boxes_from` stay these.
+    pub fn merge(&mut self, other: &DatasetStats) {
+        // Destructured, so a field added later cannot be forgotten here.
+        let DatasetStats {
+            frames,
+            frames_per_split,
+            boxes,
+            small,
+            medium,
+            large,
+            truncated,
+            crowd,
+            filtered,
+            drones_placed,
+            labels_only: _,
+            boxes_from: _,
+            resolutions,
+            boxes_per_frame,
+            size_histogram,
+            distance_histogram,
+            per_split,
+            per_model,
+            per_environment,
+            per_distance,
+        } = other;
+        self.frames += frames;
+        for (a, b) in self.frames_per_split.iter_mut().zip(frames_per_split) {
+            *a += b;
+        }
+        self.boxes += boxes;
+        self.small += small;
+        self.medium += medium;
+        self.large += large;
+        self.truncated += truncated;
+        self.crowd += crowd;
+        self.filtered += filtered;
+        self.drones_placed += drones_placed;
+        for (k, n) in resolutions {
+            *self.resolutions.entry(k.clone()).or_default() += n;
+        }
+        for (k, n) in boxes_per_frame {
+            *self.boxes_per_frame.entry(*k).or_default() += n;
+        }
+        for (mine, theirs) in [
+            (&mut self.size_histogram, size_histogram),
+            (&mut self.distance_histogram, distance_histogram),
+        ] {
+            if mine.len() < theirs.len() {
+                mine.resize(theirs.len(), 0);
+            }
+            for (a, b) in mine.iter_mut().zip(theirs) {
+                *a += b;
+            }
+        }
+        for (mine, theirs) in [
+            (&mut self.per_split, per_split),
+            (&mut self.per_model, per_model),
+            (&mut self.per_environment, per_environment),
+            (&mut self.per_distance, per_distance),
+        ] {
+            for (k, b) in theirs {
+                let a = mine.entry(k.clone()).or_default();
+                let Breakdown {
+                    frames,
+                    boxes,
+                    small,
+                    medium,
+                    large,
+                } = b;
+                a.frames += frames;
+                a.boxes += boxes;
+                a.small += small;
+                a.medium += medium;
+                a.large += large;
+            }
+        }
     }
 
     /// Fewest, mean and most training boxes per frame (the paper's "UAVs per image").

@@ -1,8 +1,6 @@
 //! Ultralytics YOLO: `labels/{split}/NAME.txt` beside `images/{split}/NAME.ext`,
 //! and `data.yaml` naming the splits and classes.
 
-use std::fmt::Write as _;
-
 use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
@@ -10,27 +8,31 @@ use crate::scene::FrameScene;
 /// One line per training box: `class cx cy w h`, normalised to the image size.
 /// YOLO has no ignore flag, so crowd regions stay out of its files.
 pub fn label_text(scene: &FrameScene, labels: &[DroneLabel]) -> String {
+    let mut text = Vec::with_capacity(48 * labels.len());
+    write_label_text(&mut text, scene, labels);
+    // Only ASCII digits, signs, points, spaces and newlines were written.
+    String::from_utf8(text).unwrap_or_default()
+}
+
+/// [`label_text`] appended to `out`: the numbers as `{:.6}` formats them
+/// (exact integer arithmetic, tested against `format!`), without the formatting machinery.
+pub fn write_label_text(out: &mut Vec<u8>, scene: &FrameScene, labels: &[DroneLabel]) {
+    use super::json::{decimal, fixed6};
     let (w, h) = (
         f64::from(scene.camera.width),
         f64::from(scene.camera.height),
     );
-    let mut text = String::new();
     for l in labels.iter().filter(|l| l.is_kept()) {
         let b = &l.bbox;
         let cx = (b.x0 + b.x1) * 0.5 / w;
         let cy = (b.y0 + b.y1) * 0.5 / h;
-        // Writing into a String cannot fail.
-        let _ = writeln!(
-            text,
-            "{} {:.6} {:.6} {:.6} {:.6}",
-            l.class_id,
-            cx,
-            cy,
-            b.width() / w,
-            b.height() / h
-        );
+        decimal(out, l.class_id as u64);
+        for v in [cx, cy, b.width() / w, b.height() / h] {
+            out.push(b' ');
+            fixed6(out, v);
+        }
+        out.push(b'\n');
     }
-    text
 }
 
 /// A frame's label file relative to the dataset folder.
@@ -60,7 +62,7 @@ impl FormatWriter for YoloWriter {
     }
 
     fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
-        folder.write_frame_file(&label_rel_path(record.scene), record.text.yolo.as_bytes())
+        folder.write_frame_file(&label_rel_path(record.scene), record.text.yolo)
     }
 
     fn finish(&mut self, folder: &mut Folder, dataset: &DatasetInfo) -> Result<(), OutputError> {
