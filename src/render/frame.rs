@@ -623,7 +623,7 @@ impl Renderer {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
             color_attachments: &[
-                color.then(|| attachment(color_view)).flatten(),
+                if color { attachment(color_view) } else { None },
                 attachment(&target.ids_view),
             ],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {

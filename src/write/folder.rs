@@ -579,19 +579,9 @@ impl Folder {
     /// entries that are not regular files are left alone.
     fn delete_run(root: &Path) -> Result<(), OutputError> {
         let path = root.join(LEDGER);
-        let mut bytes = Vec::new();
-        open_checked(&path, false)?
-            .read_to_end(&mut bytes)
-            .map_err(io(&path))?;
-        let text = String::from_utf8_lossy(&bytes);
         let mut dirs = Vec::new();
-        for line in text.lines() {
-            let Some(rel) = line.strip_prefix('*').or_else(|| line.strip_prefix('+')) else {
-                continue;
-            };
-            if rel.is_empty() || rel.split('/').any(|c| c == "..") || rel.starts_with('/') {
-                continue;
-            }
+        for rel in Self::claims(root)? {
+            let rel = rel.as_str();
             if let Some(dir) = rel.strip_suffix('/') {
                 dirs.push(dir.to_owned());
                 continue;
@@ -832,17 +822,26 @@ impl Folder {
     /// Every file (not folder) the ledger of `root` lists (`*` and `+`
     /// claims), sorted: what `swarmshot merge` takes from a finished shard.
     pub fn listed_files(root: &Path) -> Result<std::collections::BTreeSet<String>, OutputError> {
+        Ok(Self::claims(root)?
+            .into_iter()
+            .filter(|rel| !rel.ends_with('/') && rel != LEDGER)
+            .collect())
+    }
+
+    /// The paths the ledger of `root` claims (`*` and `+` lines; folders end
+    /// in `/`), in ledger order, leaving out any that could reach outside
+    /// `root` (absolute, or with a `..` component).
+    fn claims(root: &Path) -> Result<Vec<String>, OutputError> {
         let path = root.join(LEDGER);
         let mut bytes = Vec::new();
         open_checked(&path, false)?
             .read_to_end(&mut bytes)
             .map_err(io(&path))?;
-        let text = String::from_utf8_lossy(&bytes);
-        Ok(text
+        Ok(String::from_utf8_lossy(&bytes)
             .lines()
             .filter_map(|line| line.strip_prefix('*').or_else(|| line.strip_prefix('+')))
-            .filter(|rel| !rel.is_empty() && !rel.ends_with('/') && *rel != LEDGER)
-            .filter(|rel| !rel.starts_with('/') && !rel.split('/').any(|c| c == ".."))
+            .filter(|rel| !rel.is_empty() && !rel.starts_with('/'))
+            .filter(|rel| !rel.split('/').any(|c| c == ".."))
             .map(str::to_owned)
             .collect())
     }
