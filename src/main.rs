@@ -11,6 +11,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
+use swarmshot::preset::Preset;
 use swarmshot::render::GpuContext;
 use swarmshot::tools::{bench, gallery};
 use swarmshot::write::shard::Shard;
@@ -691,18 +692,20 @@ fn bench_accuracy(
 fn bench_frames(frames: u64, peer: &Path, only: Option<&str>) -> anyhow::Result<()> {
     let ctx = GpuContext::headless()?;
     eprintln!("adapter: {}", ctx.describe());
-    let quickstart = FramePipeline::open(Path::new(concat!(
+    // Presets only: each scene's pipeline (and its models' levels of detail)
+    // is built by `bench::frames`, so a scene left out by --scene costs nothing.
+    let quickstart = Preset::open(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/presets/quickstart.ron"
     )))?;
-    let peer = match FramePipeline::open(peer) {
-        Ok(p) => Some(p.preset().clone()),
+    let peer = match Preset::open(peer) {
+        Ok(p) => Some(p),
         Err(e) => {
             eprintln!("peer scene skipped: {e:#}");
             None
         }
     };
-    let mut scenes = bench::frame_scenes(quickstart.preset(), peer);
+    let mut scenes = bench::frame_scenes(&quickstart, peer);
     if let Some(only) = only {
         scenes.retain(|(name, _)| name.contains(only));
         anyhow::ensure!(!scenes.is_empty(), "--scene {only:?} matches no scene");
@@ -762,9 +765,8 @@ fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {}", path.display());
     }
-    let sequence =
-        swarmshot::preset::Preset::from_ron(include_str!("../presets/formation_sequence.ron"))
-            .map_err(|e| anyhow::anyhow!("presets/formation_sequence.ron: {e}"))?;
+    let sequence = Preset::from_ron(include_str!("../presets/formation_sequence.ron"))
+        .map_err(|e| anyhow::anyhow!("presets/formation_sequence.ron: {e}"))?;
     let strip = gallery::sequence_strip(&ctx, &sequence, 5, width / 2, height / 2)?;
     let path = out.join("sequence-strip.jpg");
     image::DynamicImage::ImageRgba8(strip)
