@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use super::{Frame, FramePipeline};
 use crate::annotate::DroneLabel;
-use crate::render::GpuContext;
+use crate::render::{GpuContext, Painted};
 use crate::scene::FrameScene;
 use crate::write::shard::Shard;
 use crate::write::{DatasetStats, DatasetWriter, WriterOptions, encode_image};
@@ -193,7 +193,7 @@ pub fn run_batch(
     let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
     let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
     // Encoded frames' pixel buffers, back to the makers for reuse.
-    let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<Vec<u8>>(makers * 2);
+    let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(makers * 2);
 
     let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
         for _ in 0..threads {
@@ -213,7 +213,7 @@ pub fn run_batch(
                         })
                         .map_err(anyhow::Error::from);
                     // The pixels go back to a maker for a later frame (dropped when none waits).
-                    let _ = recycle.try_send(frame.rgba);
+                    let _ = recycle.try_send((frame.rgba, frame.painted));
                     if tx.send(msg).is_err() {
                         break;
                     }
@@ -285,8 +285,8 @@ pub fn run_batch(
                         if index >= total {
                             return (Ok(()), false, busy);
                         }
-                        while let Ok(buffer) = recycled.try_recv() {
-                            renderer.recycle(buffer);
+                        while let Ok((buffer, painted)) = recycled.try_recv() {
+                            renderer.recycle(buffer, painted);
                         }
                         let t = Instant::now();
                         let made = pipeline.make(&mut renderer, index);

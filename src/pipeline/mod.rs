@@ -25,7 +25,7 @@ use crate::model::lod::{self, Lod};
 use crate::model::{self, CpuModel, ModelError};
 use crate::preset::{BoxMethod, FieldError, LabelSettings, ModelSource, ModelSpec, Preset};
 use crate::render::visibility::{self, Visibility};
-use crate::render::{GpuContext, RenderError, RenderRequest, Renderer};
+use crate::render::{GpuContext, Painted, RenderError, RenderRequest, Renderer};
 use crate::scene::projection::LabelGeometry;
 use crate::scene::{FrameError, FrameScene, MAX_DRAWS, build_frame, build_frame_draw};
 use crate::sky::{EnvironmentAssets, EnvironmentError};
@@ -157,6 +157,8 @@ pub struct Frame {
     pub labels: Vec<DroneLabel>,
     /// Tightly packed RGBA8, sRGB-encoded, `scene.camera.width × height`.
     pub rgba: Vec<u8>,
+    /// What `rgba` holds, for [`Renderer::recycle`].
+    pub painted: Painted,
 }
 
 /// Frame index → scene → pixels and labels, for one validated preset.
@@ -386,11 +388,11 @@ impl FramePipeline {
         } else {
             self.labels(renderer, &scene).map_err(render_error)?
         };
-        let rgba = frame.rgba;
         Ok(Frame {
             scene,
             labels,
-            rgba,
+            rgba: frame.rgba,
+            painted: frame.painted,
         })
     }
 }

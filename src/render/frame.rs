@@ -15,13 +15,15 @@
 //! rect) the background is drawn at far depth with id 0 (the region's
 //! "clear"), then the drones, with the same full-frame projection as a
 //! full render, so rasterisation is bit-identical to one; the regions are
-//! resolved by a shader (the mean of the samples), reduced to per-drone
-//! visibility on the GPU, read back into reused buffers and pasted onto the
-//! CPU copy of the background.
+//! resolved by a shader (the mean of the samples, and the id samples side by
+//! side), read back into one reused buffer, pasted onto the CPU copy of the
+//! background and reduced to per-drone visibility on the CPU
+//! ([`ids::tally`]).
 
 use std::borrow::Cow;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::ids::{self, IdReducer, IdStats};
+use super::ids::{self, IdStats, Tally};
 use super::regions::{self, PassDraws, Rect};
 use super::visibility::{Visibility, overlap_layers};
 use super::{
@@ -48,9 +50,25 @@ pub struct RenderRequest {
 pub struct RenderedFrame {
     /// Tightly packed RGBA8, sRGB-encoded; empty when colour was not asked for.
     pub rgba: Vec<u8>,
+    /// Which background `rgba` holds and where this frame painted over it:
+    /// hand both back with [`Renderer::recycle`] and a later frame over the
+    /// same background restores only these rects instead of copying it whole.
+    pub painted: Painted,
     /// Per drone (scene order), when asked for.
     pub visibility: Option<Vec<Visibility>>,
 }
+
+/// What a frame's pixel buffer holds: the cached background `background`
+/// (a process-wide generation number; 0: none) with `rects` painted over it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Painted {
+    pub(super) background: u64,
+    pub(super) rects: Vec<Rect>,
+}
+
+/// Generation numbers of drawn backgrounds, unique in the process, so a
+/// buffer recycled into another renderer never matches its background.
+static BACKGROUNDS: AtomicU64 = AtomicU64::new(1);
 
 /// Pipelines of the region passes for one sample count.
 struct RegionPipelines {
@@ -61,9 +79,19 @@ struct RegionPipelines {
     /// id images): no colour attachment, no lighting.
     ids_background: wgpu::RenderPipeline,
     ids_drone: super::DronePipelines,
+    /// The colour resolve (MSAA only).
     resolve: Option<wgpu::RenderPipeline>,
-    /// Built on first use: presets that need no visibility never build it.
-    reducer: Option<IdReducer>,
+    /// The id resolves (MSAA only), built on first use: presets that need no
+    /// visibility never build them.
+    id_resolve: Option<IdResolve>,
+}
+
+/// Resolves that write a pixel's id samples side by side (`resolve.wgsl`).
+struct IdResolve {
+    /// Ids only (overlap layers, frames without colour).
+    ids: wgpu::RenderPipeline,
+    /// Colour and ids in one pass (the main pass of a frame with both).
+    color_ids: wgpu::RenderPipeline,
 }
 
 /// Full-size targets of one size and sample count, and the cached background.
@@ -81,12 +109,17 @@ struct FrameTargets {
     background_view: wgpu::TextureView,
     background_group: wgpu::BindGroup,
     resolve_group: Option<wgpu::BindGroup>,
+    /// Single-sample target of the id samples side by side (MSAA only),
+    /// allocated on first use.
+    id_samples: Option<(wgpu::Texture, wgpu::TextureView)>,
     /// What the cached background was drawn from (see [`background_key`]).
     background_key: Option<Vec<u8>>,
     background_rgba: Vec<u8>,
+    /// Generation of the cached background (see [`Painted`]).
+    background_generation: u64,
     /// Full-frame readback (background, id images).
     readback: Readback,
-    /// Readback of the regions, grown as needed and reused.
+    /// Readback of the regions (colour and ids), grown as needed and reused.
     regions_readback: Option<wgpu::Buffer>,
 }
 
@@ -104,6 +137,8 @@ pub(super) struct RegionState {
     /// The frame's rects of every pass, one instance each (see `rect.wgsl`).
     rects: Option<wgpu::Buffer>,
     pub(super) background_draws: u64,
+    /// Whether any frame has measured visibility (for tests).
+    id_readback: bool,
 }
 
 /// Per-instance layout of a rect: (x0, y0, x1, y1) in normalised device coordinates.
@@ -143,6 +178,24 @@ fn texture_layout(device: &wgpu::Device, label: &str, multisampled: bool) -> wgp
     })
 }
 
+/// The resolve's inputs: the multisampled colour and id targets.
+fn resolve_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let entry = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: true,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("region resolve layout"),
+        entries: &[entry(0), entry(1)],
+    })
+}
+
 fn texture_group(
     device: &wgpu::Device,
     label: &str,
@@ -161,7 +214,7 @@ fn texture_group(
 
 impl RegionState {
     pub(super) fn new(device: &wgpu::Device) -> Self {
-        let [.., (_, regions_src), (_, resolve_src), _, _] = super::shader_sources();
+        let [.., (_, regions_src), (_, resolve_src)] = super::shader_sources();
         let module = |label: &str, src: String| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
@@ -170,7 +223,7 @@ impl RegionState {
         };
         Self {
             background_layout: texture_layout(device, "region background layout", false),
-            resolve_layout: texture_layout(device, "region resolve layout", true),
+            resolve_layout: resolve_layout(device),
             regions_module: module("regions.wgsl", regions_src),
             resolve_module: module("resolve.wgsl", resolve_src),
             sky_background: Vec::new(),
@@ -178,11 +231,12 @@ impl RegionState {
             targets: Vec::new(),
             rects: None,
             background_draws: 0,
+            id_readback: false,
         }
     }
 
-    pub(super) fn has_reducer(&self) -> bool {
-        self.pipelines.iter().any(|p| p.reducer.is_some())
+    pub(super) fn has_id_readback(&self) -> bool {
+        self.id_readback
     }
 
     /// Drop every cached background (the sky images changed).
@@ -291,32 +345,7 @@ impl Renderer {
             background_pipeline("region id background pipeline", "fs_clear_ids", &id_targets);
         let ids_drone = self.drone_pipeline("drone id pipeline", msaa, "fs_layer", &id_targets);
         let resolve = (msaa > 1).then(|| {
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("region resolve pipeline layout"),
-                bind_group_layouts: &[Some(&state.resolve_layout)],
-                immediate_size: 0,
-            });
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("region resolve pipeline"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &state.resolve_module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(rect_buffer_layout())],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &state.resolve_module,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &targets[..1],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+            self.resolve_pipeline(state, "region resolve pipeline", "fs_main", &targets[..1])
         });
         state.pipelines.push(RegionPipelines {
             msaa,
@@ -325,9 +354,100 @@ impl Renderer {
             ids_background,
             ids_drone,
             resolve,
-            reducer: None,
+            id_resolve: None,
         });
         state.pipelines.len() - 1
+    }
+
+    fn resolve_pipeline(
+        &self,
+        state: &RegionState,
+        label: &str,
+        entry: &str,
+        targets: &[Option<wgpu::ColorTargetState>],
+    ) -> wgpu::RenderPipeline {
+        let device = &self.device;
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("region resolve pipeline layout"),
+            bind_group_layouts: &[Some(&state.resolve_layout)],
+            immediate_size: 0,
+        });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &state.resolve_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(rect_buffer_layout())],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &state.resolve_module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    /// Set up what reading ids back needs: with MSAA, the id resolves and
+    /// the single-sample target of id samples.
+    fn prepare_id_readback(&self, state: &mut RegionState, p: usize, t: usize) {
+        state.id_readback = true;
+        if state.pipelines[p].msaa <= 1 {
+            return;
+        }
+        if state.pipelines[p].id_resolve.is_none() {
+            let color = Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            });
+            let id_samples = Some(wgpu::ColorTargetState {
+                format: ids::ID_SAMPLES_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            });
+            let id_resolve = IdResolve {
+                ids: self.resolve_pipeline(
+                    state,
+                    "region id resolve pipeline",
+                    "fs_ids",
+                    &[None, id_samples.clone()],
+                ),
+                color_ids: self.resolve_pipeline(
+                    state,
+                    "region colour + id resolve pipeline",
+                    "fs_main_ids",
+                    &[color, id_samples],
+                ),
+            };
+            state.pipelines[p].id_resolve = Some(id_resolve);
+        }
+        let target = &mut state.targets[t];
+        if target.id_samples.is_none() {
+            let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("id samples"),
+                size: wgpu::Extent3d {
+                    width: target.width,
+                    height: target.height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ids::ID_SAMPLES_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            target.id_samples = Some((texture, view));
+        }
     }
 
     fn frame_targets(&self, state: &mut RegionState, width: u32, height: u32, msaa: u32) -> usize {
@@ -393,9 +513,22 @@ impl Renderer {
             &state.background_layout,
             &background_view,
         );
-        let resolve_group = msaa_color
-            .as_ref()
-            .map(|v| texture_group(device, "region resolve", &state.resolve_layout, v));
+        let resolve_group = msaa_color.as_ref().map(|color| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("region resolve"),
+                layout: &state.resolve_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(color),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&ids_view),
+                    },
+                ],
+            })
+        });
         state.targets.push(FrameTargets {
             width,
             height,
@@ -410,8 +543,10 @@ impl Renderer {
             background_view,
             background_group,
             resolve_group,
+            id_samples: None,
             background_key: None,
             background_rgba: Vec::new(),
+            background_generation: 0,
             readback: Readback::new(device, "frame readback (full)", width, height),
             regions_readback: None,
         });
@@ -529,6 +664,7 @@ impl Renderer {
         let submitted = self.queue.submit([encoder.finish()]);
         let rgba = target.readback.read(&self.device, submitted)?;
         state.targets[t].background_rgba = rgba;
+        state.targets[t].background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
         state.background_draws += 1;
         Ok(())
     }
@@ -730,7 +866,41 @@ impl Renderer {
         if request.color {
             self.counts.color += 1;
         }
-        let main_rects = main_draws.rects.clone();
+        if request.visibility {
+            self.counts.ids += 1 + layer_draws.len() as u64;
+            self.prepare_id_readback(state, p, t);
+        }
+        // Where each read-back rect lands in the one readback buffer: the
+        // main pass's colour, then the ids of the main pass and of each layer.
+        let mut size = 0u64;
+        let color_reads = if request.color {
+            plan_reads(&main_draws.rects, 4, &mut size)
+        } else {
+            Vec::new()
+        };
+        let id_reads: Vec<Vec<Read>> = if request.visibility {
+            let bpp = ids::id_bytes_per_pixel(msaa);
+            std::iter::once(&main_draws)
+                .chain(&layer_draws)
+                .map(|pass| plan_reads(&pass.rects, bpp, &mut size))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let target = &mut state.targets[t];
+        if size > 0
+            && target
+                .regions_readback
+                .as_ref()
+                .is_none_or(|b| b.size() < size)
+        {
+            target.regions_readback = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("region readback"),
+                size: size.next_power_of_two(),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -740,176 +910,118 @@ impl Renderer {
             let pipes = &state.pipelines[p];
             let target = &state.targets[t];
             let rects = state.rects.as_ref();
+            let readback = target.regions_readback.as_ref();
+            // With MSAA 1 the passes draw straight into the targets read back.
+            let id_source = match &target.id_samples {
+                Some((texture, _)) if msaa > 1 => texture,
+                _ => &target.ids,
+            };
             self.encode_region_pass(
                 &mut encoder,
                 (pipes, target, rects),
                 &main_draws,
                 ("region pass", request.color),
             );
-            if request.color
-                && let (Some(resolve), Some(group), Some(rects)) =
-                    (&pipes.resolve, &target.resolve_group, rects)
-                && !main_rects.is_empty()
-            {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("region resolve pass"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &target.color_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Load,
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                pass.set_pipeline(resolve);
-                pass.set_bind_group(0, group, &[]);
-                pass.set_vertex_buffer(0, rects.slice(..));
-                pass.draw(0..6, main_draws.rect_instances());
-            }
-        }
-        // Copy the regions before any layer pass draws over them (with MSAA 1
-        // the colour target is the one copied). Layout: (offset, padded row) per rect.
-        let mut layout: Vec<(u64, u32)> = Vec::with_capacity(main_rects.len());
-        if request.color {
-            let mut size = 0u64;
-            for r in &main_rects {
-                let row = padded_row(r.width() * 4);
-                layout.push((size, row));
-                size += u64::from(row) * u64::from(r.height());
-                size = size.next_multiple_of(256);
-            }
-            let target = &mut state.targets[t];
-            if size > 0
-                && target
-                    .regions_readback
-                    .as_ref()
-                    .is_none_or(|b| b.size() < size)
-            {
-                target.regions_readback =
-                    Some(self.device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("region readback"),
-                        size: size.next_power_of_two(),
-                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    }));
-            }
-            if let Some(buffer) = &target.regions_readback {
-                for (r, &(offset, row)) in main_rects.iter().zip(&layout) {
-                    encoder.copy_texture_to_buffer(
-                        wgpu::TexelCopyTextureInfo {
-                            texture: &target.color,
-                            mip_level: 0,
-                            origin: wgpu::Origin3d {
-                                x: r.x0,
-                                y: r.y0,
-                                z: 0,
-                            },
-                            aspect: wgpu::TextureAspect::All,
-                        },
-                        wgpu::TexelCopyBufferInfo {
-                            buffer,
-                            layout: wgpu::TexelCopyBufferLayout {
-                                offset,
-                                bytes_per_row: Some(row),
-                                rows_per_image: Some(r.height()),
-                            },
-                        },
-                        wgpu::Extent3d {
-                            width: r.width(),
-                            height: r.height(),
-                            depth_or_array_layers: 1,
-                        },
-                    );
+            encode_resolve(
+                &mut encoder,
+                (pipes, target, rects),
+                &main_draws,
+                (request.color, request.visibility),
+            );
+            if let Some(buffer) = readback {
+                encode_reads(&mut encoder, &target.color, buffer, &color_reads);
+                if let Some(reads) = id_reads.first() {
+                    encode_reads(&mut encoder, id_source, buffer, reads);
                 }
             }
-        }
-        if request.visibility {
-            self.counts.ids += 1 + layer_draws.len() as u64;
-            let pipes = &mut state.pipelines[p];
-            let reducer = pipes
-                .reducer
-                .get_or_insert_with(|| IdReducer::new(&self.device, msaa));
-            let layer_rects: Vec<&[Rect]> =
-                layer_draws.iter().map(|l| l.rects.as_slice()).collect();
-            let mut passes: Vec<(&[Rect], u32)> = vec![(main_rects.as_slice(), 0)];
-            passes.extend(layer_rects.iter().map(|r| (*r, 1)));
-            reducer.prepare(&self.device, &self.queue, n, &passes, 2);
-            let pipes = &state.pipelines[p];
-            let target = &state.targets[t];
-            if let Some(reducer) = &pipes.reducer {
-                reducer.encode_clear(&mut encoder);
-                reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, 0);
-                for (k, layer) in layer_draws.iter().enumerate() {
-                    self.encode_region_pass(
-                        &mut encoder,
-                        (pipes, target, state.rects.as_ref()),
-                        layer,
-                        ("layer pass", false),
-                    );
-                    reducer.encode_reduce(&self.device, &mut encoder, &target.ids_view, k + 1);
+            for (layer, reads) in layer_draws.iter().zip(id_reads.iter().skip(1)) {
+                self.encode_region_pass(
+                    &mut encoder,
+                    (pipes, target, rects),
+                    layer,
+                    ("layer pass", false),
+                );
+                encode_resolve(&mut encoder, (pipes, target, rects), layer, (false, true));
+                if let Some(buffer) = readback {
+                    encode_reads(&mut encoder, id_source, buffer, reads);
                 }
-                reducer.encode_copy(&mut encoder);
             }
         }
         let submitted = self.queue.submit([encoder.finish()]);
         let target = &state.targets[t];
-        let rgba = if request.color {
-            let mut rgba = self.frame_buffer(&target.background_rgba);
-            if let (Some(buffer), Some(&(last, row))) = (&target.regions_readback, layout.last()) {
-                let len =
-                    last + u64::from(row) * u64::from(main_rects.last().map_or(0, |r| r.height()));
-                read_mapped(&self.device, submitted.clone(), buffer, len, |bytes| {
+        let (mut rgba, painted) = if request.color {
+            let painted = Painted {
+                background: target.background_generation,
+                rects: main_draws.rects.clone(),
+            };
+            (
+                self.frame_buffer(&target.background_rgba, painted.background, width),
+                painted,
+            )
+        } else {
+            (Vec::new(), Painted::default())
+        };
+        // Per drone: what the frame shows of it, and what it shows alone
+        // (drones that overlap no other are alone in the main pass).
+        let mut seen = vec![Tally::default(); n];
+        let mut alone = vec![Tally::default(); n];
+        match &target.regions_readback {
+            Some(buffer) if size > 0 => {
+                read_mapped(&self.device, submitted, buffer, size, |bytes| {
                     let stride = width as usize * 4;
-                    for (r, &(offset, row)) in main_rects.iter().zip(&layout) {
-                        let w = r.width() as usize * 4;
-                        for y in 0..r.height() as usize {
-                            let src = offset as usize + y * row as usize;
-                            let dst = (r.y0 as usize + y) * stride + r.x0 as usize * 4;
+                    for read in &color_reads {
+                        let w = read.rect.width() as usize * 4;
+                        for y in 0..read.rect.height() as usize {
+                            let src = read.offset as usize + y * read.row as usize;
+                            let dst =
+                                (read.rect.y0 as usize + y) * stride + read.rect.x0 as usize * 4;
                             rgba[dst..dst + w].copy_from_slice(&bytes[src..src + w]);
                         }
                     }
+                    for (k, reads) in id_reads.iter().enumerate() {
+                        let tallies = if k == 0 { &mut seen } else { &mut alone };
+                        for read in reads {
+                            ids::tally(
+                                &bytes[read.offset as usize..],
+                                read.row as usize,
+                                &read.rect,
+                                msaa,
+                                tallies,
+                            );
+                        }
+                    }
                 })?;
-            } else {
-                // Nothing to paste; still wait for the submission (the queue stays in step).
+            }
+            _ => {
+                // Nothing to read; still wait for the submission (the queue stays in step).
                 self.device
                     .poll(wgpu::PollType::Wait {
-                        submission_index: Some(submitted.clone()),
+                        submission_index: Some(submitted),
                         timeout: None,
                     })
                     .map_err(|e| RenderError::Readback(e.to_string()))?;
             }
-            rgba
-        } else {
-            Vec::new()
-        };
-        let visibility = if request.visibility {
-            let words = match state.pipelines[p]
-                .reducer
-                .as_ref()
-                .and_then(|r| r.readback())
-            {
-                Some((buffer, len)) => ids::read_words(&self.device, submitted, buffer, len)?,
-                None => vec![0; n * 10],
-            };
-            let seen = IdReducer::decode(&words, n, 0);
-            let alone = IdReducer::decode(&words, n, 1);
-            Some(
-                (0..n)
-                    .map(|i| {
-                        visibility_of(seen[i], if overlapping[i] { alone[i] } else { seen[i] })
-                    })
-                    .collect(),
-            )
-        } else {
-            None
-        };
-        Ok(RenderedFrame { rgba, visibility })
+        }
+        let visibility = request.visibility.then(|| {
+            (0..n)
+                .map(|i| {
+                    let seen = seen[i].stats();
+                    visibility_of(
+                        seen,
+                        if overlapping[i] {
+                            alone[i].stats()
+                        } else {
+                            seen
+                        },
+                    )
+                })
+                .collect()
+        });
+        Ok(RenderedFrame {
+            rgba,
+            painted,
+            visibility,
+        })
     }
 
     /// Render the instance ids of the drones `include` accepts (all others
@@ -970,6 +1082,130 @@ impl Renderer {
             ids: values.into_iter().map(|v| v as u32).collect(),
         })
     }
+}
+
+/// One rect read back: where its rows start in the readback buffer, and
+/// their (padded) length in bytes.
+struct Read {
+    rect: Rect,
+    offset: u64,
+    row: u32,
+}
+
+/// Lay `rects` (`bpp` bytes a pixel) out one after the other from `*size`.
+fn plan_reads(rects: &[Rect], bpp: u32, size: &mut u64) -> Vec<Read> {
+    rects
+        .iter()
+        .map(|&rect| {
+            let row = padded_row(rect.width() * bpp);
+            let read = Read {
+                rect,
+                offset: *size,
+                row,
+            };
+            *size = (*size + u64::from(row) * u64::from(rect.height())).next_multiple_of(256);
+            read
+        })
+        .collect()
+}
+
+/// Copy each of `reads` from `texture` into `buffer`.
+fn encode_reads(
+    encoder: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    buffer: &wgpu::Buffer,
+    reads: &[Read],
+) {
+    for read in reads {
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: read.rect.x0,
+                    y: read.rect.y0,
+                    z: 0,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: read.offset,
+                    bytes_per_row: Some(read.row),
+                    rows_per_image: Some(read.rect.height()),
+                },
+            },
+            wgpu::Extent3d {
+                width: read.rect.width(),
+                height: read.rect.height(),
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+}
+
+/// Resolve a pass's rects (MSAA only): the colour samples' mean into the
+/// colour target and/or the id samples side by side into the id-samples
+/// target, in one pass.
+fn encode_resolve(
+    encoder: &mut wgpu::CommandEncoder,
+    (pipes, target, rects): (&RegionPipelines, &FrameTargets, Option<&wgpu::Buffer>),
+    draws: &PassDraws,
+    (color, ids): (bool, bool),
+) {
+    let (Some(group), Some(rects)) = (&target.resolve_group, rects) else {
+        return;
+    };
+    if draws.rects.is_empty() {
+        return;
+    }
+    let id_resolve = pipes.id_resolve.as_ref();
+    let id_view = target.id_samples.as_ref().map(|(_, view)| view);
+    let (pipeline, color_view, id_view) = match (color, ids) {
+        (true, false) => (pipes.resolve.as_ref(), Some(&target.color_view), None),
+        (true, true) => (
+            id_resolve.map(|r| &r.color_ids),
+            Some(&target.color_view),
+            id_view,
+        ),
+        (false, true) => (id_resolve.map(|r| &r.ids), None, id_view),
+        (false, false) => return,
+    };
+    let Some(pipeline) = pipeline else {
+        return;
+    };
+    if ids && id_view.is_none() {
+        return;
+    }
+    let attachment = |view| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })
+    };
+    // As many attachments as the pipeline has targets.
+    let attachments = [
+        color_view.and_then(attachment),
+        id_view.and_then(attachment),
+    ];
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("region resolve pass"),
+        color_attachments: &attachments[..if ids { 2 } else { 1 }],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, group, &[]);
+    pass.set_vertex_buffer(0, rects.slice(..));
+    pass.draw(0..6, draws.rect_instances());
 }
 
 fn visibility_of(seen: IdStats, alone: IdStats) -> Visibility {

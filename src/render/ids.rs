@@ -1,6 +1,5 @@
 //! The instance-id layer: its multisampled target, and the reduction of that
-//! target to per-drone visibility on the GPU (`shaders/id_reduce.wgsl`), so
-//! no id image is read back, only 20 bytes per drone.
+//! target to per-drone visibility.
 //!
 //! The id target is drawn in the colour pass (a second colour attachment of
 //! the drone pipeline, same fragment shader, same samples), so the ids follow
@@ -8,43 +7,24 @@
 //! discard in both, and a pixel "shows" a drone when any of its samples does.
 //! The format is `R32Float` holding the id (exact below 2^24): WebGPU
 //! guarantees 4× multisampling for it, not for `R32Uint`.
-
-use std::borrow::Cow;
+//!
+//! With MSAA the region resolve (`shaders/resolve.wgsl`) writes each pixel's
+//! id samples side by side into a single-sample `RGBA32Float` target, read
+//! back with the picture's regions; without MSAA the id target itself is read
+//! back. [`tally`] then counts, on the CPU, each drone's pixels and its box.
 
 use super::regions::Rect;
-use super::{RenderError, read_mapped};
 
 /// Format of the id target.
 pub(super) const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 /// Ids are stored as f32: exact up to this many drones.
 pub const MAX_DRONES: usize = 1 << 24;
-/// Side of the square tiles of the reduction (the compute workgroup).
-const TILE: u32 = 8;
-/// Words per drone in a stats block: count, !x0, !y0, x1, y1.
-const WORDS: usize = 5;
-/// Uniform blocks of the reduction are bound at offsets of this many bytes.
-const PARAMS_STRIDE: u64 = 256;
+/// Format of the single-sample target holding a pixel's four id samples.
+pub(super) const ID_SAMPLES_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-/// The reduction shader for `samples` samples per pixel.
-pub(super) fn reduce_source(samples: u32) -> String {
-    let texture = if samples > 1 {
-        "texture_multisampled_2d<f32>"
-    } else {
-        "texture_2d<f32>"
-    };
-    format!(
-        "const SAMPLES: u32 = {samples}u;\nalias IdTexture = {texture};\n{}",
-        include_str!("../../shaders/id_reduce.wgsl")
-    )
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    tile_offset: u32,
-    tile_count: u32,
-    stats_base: u32,
-    drones: u32,
+/// Bytes per pixel of the ids read back for `samples` samples per pixel.
+pub(super) fn id_bytes_per_pixel(samples: u32) -> u32 {
+    if samples > 1 { 16 } else { 4 }
 }
 
 /// Per-drone results of one reduction: pixel count and pixel box (exclusive ends).
@@ -54,285 +34,164 @@ pub struct IdStats {
     pub rect: Option<Rect>,
 }
 
-/// The reduction pipeline for one sample count, and its reused buffers.
-pub(super) struct IdReducer {
-    layout: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
-    tiles: Option<wgpu::Buffer>,
-    params: Option<wgpu::Buffer>,
-    stats: Option<wgpu::Buffer>,
-    readback: Option<wgpu::Buffer>,
-    /// This frame's dispatches: (params offset, tile count).
-    dispatches: Vec<(u64, u32)>,
-    stats_words: usize,
+/// Per-drone running totals of a tally: pixel count and box (exclusive ends).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tally {
+    pixels: u64,
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
 }
 
-/// Grow `slot` to hold at least `size` bytes.
-fn ensure_buffer(
-    device: &wgpu::Device,
-    slot: &mut Option<wgpu::Buffer>,
-    label: &str,
-    size: u64,
-    usage: wgpu::BufferUsages,
-) {
-    if slot.as_ref().is_none_or(|b| b.size() < size) {
-        *slot = Some(device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size: size.max(256).next_power_of_two(),
-            usage,
-            mapped_at_creation: false,
-        }));
-    }
-}
-
-impl IdReducer {
-    pub(super) fn new(device: &wgpu::Device, samples: u32) -> Self {
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("id reduction layout"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: samples > 1,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(
-                            std::mem::size_of::<Params>() as u64
-                        ),
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("id reduction pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("id_reduce.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(Cow::Owned(reduce_source(samples))),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("id reduction pipeline"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("cs_main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+impl Default for Tally {
+    fn default() -> Self {
         Self {
-            layout,
-            pipeline,
-            tiles: None,
-            params: None,
-            stats: None,
-            readback: None,
-            dispatches: Vec::new(),
-            stats_words: 0,
+            pixels: 0,
+            x0: u32::MAX,
+            y0: u32::MAX,
+            x1: 0,
+            y1: 0,
         }
     }
+}
 
-    /// Upload the tiles of each reduction of this frame: `passes[k]` is
-    /// reduced into stats block `blocks[k]` (of `drones` drones each).
-    pub(super) fn prepare(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        drones: usize,
-        passes: &[(&[Rect], u32)],
-        blocks: u32,
-    ) {
-        let mut tiles: Vec<[u32; 4]> = Vec::new();
-        let mut params: Vec<u8> = Vec::new();
-        self.dispatches.clear();
-        for (k, (rects, block)) in passes.iter().enumerate() {
-            let offset = tiles.len() as u32;
-            tiles.extend(rects.iter().flat_map(|r| r.tiles(TILE)));
-            let p = Params {
-                tile_offset: offset,
-                tile_count: tiles.len() as u32 - offset,
-                stats_base: block * (drones * WORDS) as u32,
-                drones: drones as u32,
-            };
-            params.resize(k * PARAMS_STRIDE as usize, 0);
-            params.extend_from_slice(bytemuck::bytes_of(&p));
-            self.dispatches
-                .push((k as u64 * PARAMS_STRIDE, p.tile_count));
-        }
-        if tiles.is_empty() {
-            tiles.push([0; 4]);
-        }
-        self.stats_words = drones * WORDS * blocks as usize;
-        let stats_bytes = (self.stats_words as u64 * 4).max(4);
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        ensure_buffer(
-            device,
-            &mut self.tiles,
-            "id reduction tiles",
-            (tiles.len() * 16) as u64,
-            storage,
-        );
-        ensure_buffer(
-            device,
-            &mut self.params,
-            "id reduction params",
-            params.len().max(1) as u64,
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
-        ensure_buffer(
-            device,
-            &mut self.stats,
-            "id reduction stats",
-            stats_bytes,
-            storage | wgpu::BufferUsages::COPY_SRC,
-        );
-        ensure_buffer(
-            device,
-            &mut self.readback,
-            "id reduction readback",
-            stats_bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        if let Some(b) = &self.tiles {
-            queue.write_buffer(b, 0, bytemuck::cast_slice(&tiles));
-        }
-        if let (Some(b), false) = (&self.params, params.is_empty()) {
-            queue.write_buffer(b, 0, &params);
-        }
+impl Tally {
+    fn add(&mut self, x: u32, y: u32) {
+        self.pixels += 1;
+        self.x0 = self.x0.min(x);
+        self.y0 = self.y0.min(y);
+        self.x1 = self.x1.max(x + 1);
+        self.y1 = self.y1.max(y + 1);
     }
 
-    /// Zero the stats (before the first reduction of the frame).
-    pub(super) fn encode_clear(&self, encoder: &mut wgpu::CommandEncoder) {
-        if let Some(stats) = &self.stats {
-            encoder.clear_buffer(
-                stats,
-                0,
-                Some((self.stats_words as u64 * 4).max(4).next_multiple_of(4)),
-            );
+    pub(super) fn stats(&self) -> IdStats {
+        IdStats {
+            pixels: self.pixels,
+            rect: (self.pixels > 0).then_some(Rect {
+                x0: self.x0,
+                y0: self.y0,
+                x1: self.x1,
+                y1: self.y1,
+            }),
         }
     }
+}
 
-    /// Reduce the id target (`ids`, this reducer's sample count) over pass `k`'s tiles.
-    pub(super) fn encode_reduce(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        ids: &wgpu::TextureView,
-        k: usize,
-    ) {
-        let (Some(tiles), Some(params), Some(stats), Some(&(offset, count))) = (
-            &self.tiles,
-            &self.params,
-            &self.stats,
-            self.dispatches.get(k),
-        ) else {
-            return;
-        };
-        if count == 0 {
-            return;
+/// Count the pixels of `rect` (its id samples read back: `samples` f32 per
+/// pixel, rows `row` bytes apart) into `tallies` (drone `id - 1`): each pixel
+/// counts once for every distinct drone any of its samples shows, and widens
+/// that drone's box. Id 0 (no drone) and ids past `tallies` are ignored.
+pub(super) fn tally(bytes: &[u8], row: usize, rect: &Rect, samples: u32, tallies: &mut [Tally]) {
+    let n = tallies.len() as u32;
+    let mut record = |id: u32, x: u32, y: u32| {
+        if id != 0 && id <= n {
+            tallies[(id - 1) as usize].add(x, y);
         }
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("id reduction"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(ids),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: tiles.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: stats.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: params,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<Params>() as u64),
-                    }),
-                },
-            ],
-        });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("id reduction pass"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &group, &[offset as u32]);
-        pass.dispatch_workgroups(count.min(65535), count.div_ceil(65535), 1);
-    }
-
-    /// Copy the stats into the mappable buffer (after the last reduction).
-    pub(super) fn encode_copy(&self, encoder: &mut wgpu::CommandEncoder) {
-        if let (Some(stats), Some(readback)) = (&self.stats, &self.readback)
-            && self.stats_words > 0
-        {
-            encoder.copy_buffer_to_buffer(stats, 0, readback, 0, self.stats_words as u64 * 4);
+    };
+    let id = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u32;
+    let pixel = id_bytes_per_pixel(samples) as usize;
+    let width = rect.width() as usize;
+    for (dy, line) in bytes.chunks(row).take(rect.height() as usize).enumerate() {
+        let y = rect.y0 + dy as u32;
+        for (dx, p) in line[..width * pixel].chunks_exact(pixel).enumerate() {
+            let x = rect.x0 + dx as u32;
+            if samples == 1 || p[..4] == p[4..8] && p[..8] == p[8..] {
+                // One sample, or four equal ones (a pixel inside one surface).
+                record(id(p), x, y);
+                continue;
+            }
+            let [a, b, c, d] = [id(p), id(&p[4..]), id(&p[8..]), id(&p[12..])];
+            record(a, x, y);
+            if b != a {
+                record(b, x, y);
+            }
+            if c != a && c != b {
+                record(c, x, y);
+            }
+            if d != a && d != b && d != c {
+                record(d, x, y);
+            }
         }
     }
+}
 
-    /// The mappable buffer and the bytes of this frame in it.
-    pub(super) fn readback(&self) -> Option<(&wgpu::Buffer, u64)> {
-        self.readback
-            .as_ref()
-            .filter(|_| self.stats_words > 0)
-            .map(|b| (b, self.stats_words as u64 * 4))
-    }
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-    /// Decode block `block` of mapped stats words.
-    pub(super) fn decode(words: &[u32], drones: usize, block: usize) -> Vec<IdStats> {
-        let base = block * drones * WORDS;
-        (0..drones)
-            .map(|i| {
-                let w = &words[base + i * WORDS..base + (i + 1) * WORDS];
-                IdStats {
-                    pixels: u64::from(w[0]),
-                    rect: (w[0] > 0).then(|| Rect {
-                        x0: !w[1],
-                        y0: !w[2],
-                        x1: w[3],
-                        y1: w[4],
-                    }),
-                }
-            })
+    fn pixels(values: &[[f32; 4]]) -> Vec<u8> {
+        values
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
             .collect()
     }
-}
 
-/// Map `buffer[..len]`, wait, and copy it out as u32 words.
-pub(super) fn read_words(
-    device: &wgpu::Device,
-    submitted: wgpu::SubmissionIndex,
-    buffer: &wgpu::Buffer,
-    len: u64,
-) -> Result<Vec<u32>, RenderError> {
-    let bytes = read_mapped(device, submitted, buffer, len, |b| b.to_vec())?;
-    Ok(bytemuck::pod_collect_to_vec(&bytes))
+    #[test]
+    fn a_pixel_counts_once_per_distinct_drone_of_its_samples() {
+        // A 3×1 rect at (10, 20): a pixel inside drone 1, an edge pixel
+        // shared by drones 1 and 2 (and the background), a background pixel.
+        let rect = Rect {
+            x0: 10,
+            y0: 20,
+            x1: 13,
+            y1: 21,
+        };
+        let bytes = pixels(&[[1.0; 4], [2.0, 0.0, 1.0, 2.0], [0.0; 4]]);
+        let mut tallies = vec![Tally::default(); 2];
+        tally(&bytes, bytes.len(), &rect, 4, &mut tallies);
+        let one = tallies[0].stats();
+        let two = tallies[1].stats();
+        assert_eq!(one.pixels, 2);
+        assert_eq!(
+            one.rect,
+            Some(Rect {
+                x0: 10,
+                y0: 20,
+                x1: 12,
+                y1: 21
+            })
+        );
+        assert_eq!(two.pixels, 1, "two samples of drone 2 count one pixel");
+        assert_eq!(
+            two.rect,
+            Some(Rect {
+                x0: 11,
+                y0: 20,
+                x1: 12,
+                y1: 21
+            })
+        );
+    }
+
+    #[test]
+    fn rows_are_read_at_their_stride_and_stray_ids_are_ignored() {
+        // Two rows of two one-sample pixels, rows padded to 16 bytes.
+        let rect = Rect {
+            x0: 0,
+            y0: 5,
+            x1: 2,
+            y1: 7,
+        };
+        let mut bytes = Vec::new();
+        for row in [[0.0f32, 7.0], [1.0, 1.0]] {
+            bytes.extend(row.iter().flat_map(|v| v.to_le_bytes()));
+            bytes.extend([0xAB; 8]); // padding, never read as ids
+        }
+        let mut tallies = vec![Tally::default(); 1];
+        tally(&bytes, 16, &rect, 1, &mut tallies);
+        let one = tallies[0].stats();
+        assert_eq!(one.pixels, 2, "id 7 is past the frame's one drone");
+        assert_eq!(
+            one.rect,
+            Some(Rect {
+                x0: 0,
+                y0: 6,
+                x1: 2,
+                y1: 7
+            })
+        );
+        assert_eq!(Tally::default().stats().rect, None);
+    }
 }

@@ -17,7 +17,7 @@ pub mod regions;
 mod sky;
 pub mod visibility;
 
-pub use frame::{RenderRequest, RenderedFrame};
+pub use frame::{Painted, RenderRequest, RenderedFrame};
 pub use ids::MAX_DRONES;
 
 use std::borrow::Cow;
@@ -310,7 +310,7 @@ pub struct Renderer {
     /// Frame buffers handed back by the caller ([`Renderer::recycle`]), reused
     /// for the next frames' pixels: a fresh 4K frame (35 MB) is page-faulted
     /// in anew on every allocation.
-    spare: Vec<Vec<u8>>,
+    spare: Vec<(Vec<u8>, Painted)>,
 }
 
 /// How many passes a renderer has run (for tests and benchmarks).
@@ -322,7 +322,7 @@ pub struct PassCounts {
 
 /// WGSL sources, each with the shared header prepended (the id reduction
 /// once per sample count it is built for).
-pub fn shader_sources() -> [(&'static str, String); 6] {
+pub fn shader_sources() -> [(&'static str, String); 4] {
     let common = include_str!("../../shaders/common.wgsl");
     let rect = include_str!("../../shaders/rect.wgsl");
     [
@@ -349,8 +349,6 @@ pub fn shader_sources() -> [(&'static str, String); 6] {
             "resolve.wgsl",
             format!("{rect}\n{}", include_str!("../../shaders/resolve.wgsl")),
         ),
-        ("id_reduce.wgsl (1 sample)", ids::reduce_source(1)),
-        ("id_reduce.wgsl (4 samples)", ids::reduce_source(4)),
     ]
 }
 
@@ -537,19 +535,34 @@ impl Renderer {
         counts
     }
 
-    /// Hand back a frame's pixel buffer once it is no longer needed, so a
-    /// later frame can reuse its memory (at most two are kept).
-    pub fn recycle(&mut self, buffer: Vec<u8>) {
+    /// Hand back a frame's pixel buffer, unchanged, with what it holds
+    /// ([`RenderedFrame::painted`]), once it is no longer needed, so a later
+    /// frame can reuse its memory (at most two are kept).
+    pub fn recycle(&mut self, buffer: Vec<u8>, painted: Painted) {
         if self.spare.len() < 2 {
-            self.spare.push(buffer);
+            self.spare.push((buffer, painted));
         }
     }
 
-    /// A buffer holding a copy of `pixels`, reusing a recycled one when there is one.
-    fn frame_buffer(&mut self, pixels: &[u8]) -> Vec<u8> {
-        let mut buffer = self.spare.pop().unwrap_or_default();
-        buffer.clear();
-        buffer.extend_from_slice(pixels);
+    /// A buffer holding `background` (generation `generation`, rows of
+    /// `width` pixels), reusing a recycled one when there is one: one that
+    /// already holds the same background gets back only the rects painted
+    /// over it, any other a full copy.
+    fn frame_buffer(&mut self, background: &[u8], generation: u64, width: u32) -> Vec<u8> {
+        let (mut buffer, painted) = self.spare.pop().unwrap_or_default();
+        if generation != 0 && painted.background == generation && buffer.len() == background.len() {
+            let stride = width as usize * 4;
+            for r in &painted.rects {
+                let (x0, x1) = (r.x0 as usize * 4, r.x1 as usize * 4);
+                for y in r.y0 as usize..r.y1 as usize {
+                    let row = y * stride;
+                    buffer[row + x0..row + x1].copy_from_slice(&background[row + x0..row + x1]);
+                }
+            }
+        } else {
+            buffer.clear();
+            buffer.extend_from_slice(background);
+        }
         buffer
     }
 
@@ -558,11 +571,12 @@ impl Renderer {
         self.counts
     }
 
-    /// Whether the id reduction has been built (it is only built on first use).
+    /// Whether the id readback (its resolve pipelines and targets) has been
+    /// set up: only on the first frame that measures visibility.
     pub fn has_id_pipeline(&self) -> bool {
         self.regions
             .as_ref()
-            .is_some_and(frame::RegionState::has_reducer)
+            .is_some_and(frame::RegionState::has_id_readback)
     }
 
     /// Draw only the drones' screen regions (the default), or the whole frame
