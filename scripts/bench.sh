@@ -10,11 +10,11 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 echo "== quickstart batch (108 frames, 1920x1080, MSAA 4, Visible boxes, JPEG q85, YOLO + COCO + manifest)"
 $bin batch presets/quickstart.ron --out "$out/quickstart" --timings
-echo "== the same preset at 4K (36 frames)"
-$bin batch presets/bench/quickstart_4k.ron --out "$out/quickstart4k" --limit 36 --timings
+echo "== the same preset at 4K (the same 108 frames)"
+$bin batch presets/bench/quickstart_4k.ron --out "$out/quickstart4k" --timings
 echo "== peer scene (15 Crazyflies, HDR sky, 20 frames)"
 $bin batch presets/bench/peer.ron --out "$out/peer" --timings
-echo "== render + labels per frame: 15 drones at 1080p and 4K, 1 500 drones, the peer scene"
+echo "== render + labels per frame: 15 drones at 1080p (every camera pose; the nearest) and 4K, 1 500 drones, the peer scene"
 $bin bench frames
 echo "== the peer scene with levels of detail off"
 $bin bench frames --peer presets/bench/peer_nolod.ron

@@ -170,9 +170,11 @@ enum BenchCommand {
     /// Median ms per frame (render + labels, no encode) and peak RSS: 15 drones
     /// at 1080p and 4K, 1 500 drones at 1080p, and the peer scene.
     Frames {
-        /// Frames timed per scene (the first, which builds pipelines, is left out).
-        #[arg(long, default_value_t = 12)]
-        frames: u64,
+        /// At most this many frames per scene (default: every frame of the
+        /// 15-drone and peer scenes, 12 of the 1 500-drone one); the first,
+        /// which builds pipelines, is left out of the median.
+        #[arg(long)]
+        frames: Option<u64>,
         /// The peer scene's preset (skipped when its files are missing).
         #[arg(long, default_value = "presets/bench/peer.ron")]
         peer: PathBuf,
@@ -689,7 +691,7 @@ fn bench_accuracy(
     Ok(())
 }
 
-fn bench_frames(frames: u64, peer: &Path, only: Option<&str>) -> anyhow::Result<()> {
+fn bench_frames(frames: Option<u64>, peer: &Path, only: Option<&str>) -> anyhow::Result<()> {
     let ctx = GpuContext::headless()?;
     eprintln!("adapter: {}", ctx.describe());
     // Presets only: each scene's pipeline (and its models' levels of detail)
@@ -707,7 +709,7 @@ fn bench_frames(frames: u64, peer: &Path, only: Option<&str>) -> anyhow::Result<
     };
     let mut scenes = bench::frame_scenes(&quickstart, peer);
     if let Some(only) = only {
-        scenes.retain(|(name, _)| name.contains(only));
+        scenes.retain(|(name, ..)| name.contains(only));
         anyhow::ensure!(!scenes.is_empty(), "--scene {only:?} matches no scene");
     }
     let rows = bench::frames(&ctx, scenes, frames)?;

@@ -175,3 +175,43 @@ fn frames_that_share_a_camera_pose_draw_the_background_once() {
         "another fov is another background"
     );
 }
+
+/// A frame buffer handed back to the renderer is reused: over the same
+/// background only the rects the previous frame painted are restored, over
+/// any other background (another pose, another renderer's) it is copied
+/// whole. Either way each frame equals the same frame made in a fresh buffer.
+#[test]
+fn recycled_frame_buffers_make_the_same_frames() {
+    let ctx = common::gpu();
+    let mut p = preset(Preset::default().sky, 4);
+    p.camera.y = SweepRange::new(-0.2, 0.2, 0.2); // three poses, 9 frames
+    let pipeline = FramePipeline::new(p).expect("preset");
+    let request = RenderRequest {
+        msaa: 4,
+        color: true,
+        visibility: true,
+    };
+    let mut fresh = pipeline.renderer(&ctx);
+    let mut reusing = pipeline.renderer(&ctx);
+    let mut other = pipeline.renderer(&ctx);
+    // repeats = 3: frames 0..3 share a camera pose, 3..6 the next one.
+    for index in 0..6 {
+        let scene = pipeline.scene(index).expect("scene");
+        let expected = fresh.render_frame(&scene, &request).expect("render");
+        let got = reusing.render_frame(&scene, &request).expect("render");
+        assert_eq!(got.rgba, expected.rgba, "frame {index}");
+        assert_eq!(got.visibility, expected.visibility, "frame {index}");
+        if index % 2 == 0 {
+            reusing.recycle(got.rgba, got.painted);
+        } else {
+            // Another renderer's frame over another background (a wider
+            // view), with its own drones painted: it must not pass for ours.
+            let mut wide = pipeline.scene(index + 1).expect("scene");
+            wide.camera.fov_y_deg += 10.0;
+            let foreign = other.render_frame(&wide, &request).expect("render");
+            assert_ne!(foreign.rgba, got.rgba);
+            reusing.recycle(foreign.rgba, foreign.painted);
+        }
+    }
+    assert_eq!(reusing.background_draws(), 2);
+}

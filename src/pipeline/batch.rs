@@ -193,7 +193,10 @@ pub fn run_batch(
     let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
     let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
     // Encoded frames' pixel buffers, back to the makers for reuse.
-    let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(makers * 2);
+    // Room for every frame in flight (being made, queued, being encoded), so
+    // no buffer is dropped and allocated again.
+    let (recycle_tx, recycle_rx) =
+        crossbeam_channel::bounded::<(Vec<u8>, Painted)>(makers + threads * 3);
 
     let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
         for _ in 0..threads {

@@ -352,6 +352,12 @@ pub fn shader_sources() -> [(&'static str, String); 4] {
     ]
 }
 
+/// Recycled frame buffers a renderer keeps: as many as a batch has frames in
+/// flight beyond the one being made (two queued for an encoder, one being
+/// encoded, one waiting to be handed back), so none is freed and allocated
+/// again (a 4K buffer is 35 MB of fresh pages).
+pub const SPARE_FRAMES: usize = 4;
+
 impl Renderer {
     /// Build pipelines and upload the models (index = model index in the
     /// preset), drawn at full detail.
@@ -537,9 +543,9 @@ impl Renderer {
 
     /// Hand back a frame's pixel buffer, unchanged, with what it holds
     /// ([`RenderedFrame::painted`]), once it is no longer needed, so a later
-    /// frame can reuse its memory (at most two are kept).
+    /// frame can reuse its memory (at most [`SPARE_FRAMES`] are kept).
     pub fn recycle(&mut self, buffer: Vec<u8>, painted: Painted) {
-        if self.spare.len() < 2 {
+        if self.spare.len() < SPARE_FRAMES {
             self.spare.push((buffer, painted));
         }
     }

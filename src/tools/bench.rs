@@ -296,7 +296,8 @@ pub fn timings(ctx: &GpuContext, preset: &Preset, frames: u64) -> anyhow::Result
                 for index in 0..frames.min(pipeline.frame_count()) {
                     let scene = pipeline.scene(index)?;
                     let t = Instant::now();
-                    pipeline.make_scene(&mut renderer, scene)?;
+                    let frame = pipeline.make_scene(&mut renderer, scene)?;
+                    renderer.recycle(frame.rgba, frame.painted);
                     times.push(ms(t));
                 }
                 times.sort_by(f64::total_cmp);
@@ -447,9 +448,16 @@ pub struct FrameRow {
     pub peak_rss_mib: Option<f64>,
 }
 
+/// One scene of `swarmshot bench frames`: its name, preset, and how many of
+/// its frames are timed (from frame 0, in order, as a batch makes them).
+pub type FrameScene = (String, Preset, u64);
+
 /// The scenes of issue 9's frame-time targets: 15 drones at 1080p and 4K
-/// (from the quickstart), 1 500 drones at 1080p, and the peer scene when given.
-pub fn frame_scenes(quickstart: &Preset, peer: Option<Preset>) -> Vec<(String, Preset)> {
+/// (the quickstart's camera sweep and swarm volume, every frame: each camera
+/// pose, hence each drone size the dataset has, as often as the batch makes
+/// it), the same at the sweep's nearest camera alone (its largest drones),
+/// 1 500 drones at 1080p (12 frames), and the peer scene when given.
+pub fn frame_scenes(quickstart: &Preset, peer: Option<Preset>) -> Vec<FrameScene> {
     let with = |count: u32, size_m: (f64, f64, f64), width: u32, height: u32| {
         let mut p = quickstart.clone();
         p.placement = Placement::Randomized {
@@ -461,22 +469,33 @@ pub fn frame_scenes(quickstart: &Preset, peer: Option<Preset>) -> Vec<(String, P
         p.render.resolution = Resolution::Custom { width, height };
         p
     };
+    let swarm = |width, height| with(15, (8.0, 4.0, 8.0), width, height);
+    let mut nearest = swarm(1920, 1080);
+    nearest.camera.z = SweepRange::fixed(nearest.camera.z.start);
+    let all = |p: Preset| {
+        let n = p.frame_count();
+        (p, n)
+    };
+    let (hd, hd_frames) = all(swarm(1920, 1080));
+    let (uhd, uhd_frames) = all(swarm(3840, 2160));
+    let (near, near_frames) = all(nearest);
     let mut scenes = vec![
+        ("15 drones, 1920×1080".to_string(), hd, hd_frames),
         (
-            "15 drones, 1920×1080".to_string(),
-            with(15, (8.0, 4.0, 8.0), 1920, 1080),
+            "15 drones, 1920×1080, nearest camera".to_string(),
+            near,
+            near_frames,
         ),
-        (
-            "15 drones, 3840×2160".to_string(),
-            with(15, (8.0, 4.0, 8.0), 3840, 2160),
-        ),
+        ("15 drones, 3840×2160".to_string(), uhd, uhd_frames),
         (
             "1 500 drones, 1920×1080".to_string(),
             with(1500, (40.0, 20.0, 40.0), 1920, 1080),
+            12,
         ),
     ];
     if let Some(peer) = peer {
-        scenes.push(("peer (15 cf2.glb, HDR sky)".to_string(), peer));
+        let n = peer.frame_count();
+        scenes.push(("peer (15 cf2.glb, HDR sky)".to_string(), peer, n));
     }
     scenes
 }
@@ -488,24 +507,27 @@ fn peak_rss_mib() -> Option<f64> {
     Some(kib / 1024.0)
 }
 
-/// Median frame time (picture + labels, no encode) of each scene over `frames` frames.
+/// Median frame time (picture + labels, no encode) of each scene, over its
+/// frames (at most `max_frames` when given). Each frame's pixels are handed
+/// back to the renderer as the batch's encoders do.
 pub fn frames(
     ctx: &GpuContext,
-    scenes: Vec<(String, Preset)>,
-    frames: u64,
+    scenes: Vec<FrameScene>,
+    max_frames: Option<u64>,
 ) -> anyhow::Result<Vec<FrameRow>> {
     let mut rows = Vec::new();
-    for (name, preset) in scenes {
+    for (name, preset, frames) in scenes {
         let pipeline = FramePipeline::new(preset)?;
         let mut renderer = pipeline.renderer(ctx);
         let mut times = Vec::new();
         let mut drones = 0;
-        let count = frames.min(pipeline.frame_count()).max(2);
+        let count = max_frames.unwrap_or(frames).min(frames).max(2);
         for index in 0..count {
             let scene = pipeline.scene(index % pipeline.frame_count())?;
             drones = drones.max(scene.drones.len());
             let t = Instant::now();
-            pipeline.make_scene(&mut renderer, scene)?;
+            let frame = pipeline.make_scene(&mut renderer, scene)?;
+            renderer.recycle(frame.rgba, frame.painted);
             if index > 0 {
                 // The first frame builds pipelines and targets.
                 times.push(ms(t));
