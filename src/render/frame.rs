@@ -100,8 +100,8 @@ struct FrameTargets {
     height: u32,
     msaa: u32,
     msaa_color: Option<wgpu::TextureView>,
-    color: wgpu::Texture,
-    color_view: wgpu::TextureView,
+    /// The single-sample colour target MSAA 1 draws into.
+    single: Option<(wgpu::Texture, wgpu::TextureView)>,
     ids: wgpu::Texture,
     ids_view: wgpu::TextureView,
     depth: wgpu::TextureView,
@@ -109,9 +109,8 @@ struct FrameTargets {
     background_view: wgpu::TextureView,
     background_group: wgpu::BindGroup,
     resolve_group: Option<wgpu::BindGroup>,
-    /// Single-sample target of the id samples side by side (MSAA only),
-    /// allocated on first use.
-    id_samples: Option<(wgpu::Texture, wgpu::TextureView)>,
+    /// Where the resolves write (MSAA only).
+    atlas: Atlas,
     /// What the cached background was drawn from (see [`background_key`]).
     background_key: Option<Vec<u8>>,
     background_rgba: Vec<u8>,
@@ -121,6 +120,71 @@ struct FrameTargets {
     readback: Readback,
     /// Readback of the regions (colour and ids), grown as needed and reused.
     regions_readback: Option<wgpu::Buffer>,
+}
+
+/// The compact target the resolves write (MSAA only): a pass's rects packed
+/// in shelves ([`regions::pack_shelves`]) as wide as the frame and as tall as
+/// they need, the resolved colour and/or the id samples side by side, copied
+/// from here into the readback buffer. Passes reuse it one after the other;
+/// it grows as needed and never shrinks.
+#[derive(Default)]
+struct Atlas {
+    rows: u32,
+    color: Option<(wgpu::Texture, wgpu::TextureView)>,
+    ids: Option<(wgpu::Texture, wgpu::TextureView)>,
+}
+
+impl Atlas {
+    /// At least `rows` rows (of `width` pixels) of the parts asked for.
+    fn ensure(&mut self, device: &wgpu::Device, width: u32, rows: u32, color: bool, ids: bool) {
+        if rows > self.rows {
+            self.rows = rows.next_multiple_of(64);
+            // Reallocated at the new size below, as far as still wanted.
+            let had = (self.color.take().is_some(), self.ids.take().is_some());
+            return self.ensure(device, width, 0, color || had.0, ids || had.1);
+        }
+        let texture = |label: &str, format| {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height: self.rows,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            (texture, view)
+        };
+        if color && self.color.is_none() {
+            self.color = Some(texture("resolve atlas (colour)", COLOR_FORMAT));
+        }
+        if ids && self.ids.is_none() {
+            self.ids = Some(texture(
+                "resolve atlas (id samples)",
+                ids::ID_SAMPLES_FORMAT,
+            ));
+        }
+    }
+}
+
+/// Per-instance layout of a resolve rect: its place in the atlas (x0, y0,
+/// x1, y1 in the atlas's normalised device coordinates), then the whole-pixel
+/// offset (dx, dy) from there to the rect in the frame.
+const RESOLVE_ATTRS: [wgpu::VertexAttribute; 2] =
+    wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x2];
+
+fn resolve_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: 24,
+        step_mode: wgpu::VertexStepMode::Instance,
+        attributes: &RESOLVE_ATTRS,
+    }
 }
 
 /// Long-lived state of region rendering, built on first use.
@@ -136,6 +200,8 @@ pub(super) struct RegionState {
     targets: Vec<FrameTargets>,
     /// The frame's rects of every pass, one instance each (see `rect.wgsl`).
     rects: Option<wgpu::Buffer>,
+    /// The frame's resolve rects of every pass (see `resolve.wgsl`).
+    resolve_rects: Option<wgpu::Buffer>,
     pub(super) background_draws: u64,
     /// Whether any frame has measured visibility (for tests).
     id_readback: bool,
@@ -230,6 +296,7 @@ impl RegionState {
             pipelines: Vec::new(),
             targets: Vec::new(),
             rects: None,
+            resolve_rects: None,
             background_draws: 0,
             id_readback: false,
         }
@@ -379,7 +446,7 @@ impl Renderer {
                 module: &state.resolve_module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
-                buffers: &[Some(rect_buffer_layout())],
+                buffers: &[Some(resolve_buffer_layout())],
             },
             primitive: wgpu::PrimitiveState::default(),
             depth_stencil: None,
@@ -395,9 +462,8 @@ impl Renderer {
         })
     }
 
-    /// Set up what reading ids back needs: with MSAA, the id resolves and
-    /// the single-sample target of id samples.
-    fn prepare_id_readback(&self, state: &mut RegionState, p: usize, t: usize) {
+    /// Set up what reading ids back needs: with MSAA, the id resolves.
+    fn prepare_id_readback(&self, state: &mut RegionState, p: usize) {
         state.id_readback = true;
         if state.pipelines[p].msaa <= 1 {
             return;
@@ -428,25 +494,6 @@ impl Renderer {
                 ),
             };
             state.pipelines[p].id_resolve = Some(id_resolve);
-        }
-        let target = &mut state.targets[t];
-        if target.id_samples.is_none() {
-            let texture = self.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("id samples"),
-                size: wgpu::Extent3d {
-                    width: target.width,
-                    height: target.height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: ids::ID_SAMPLES_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
-            target.id_samples = Some((texture, view));
         }
     }
 
@@ -485,8 +532,11 @@ impl Renderer {
         let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let copy = wgpu::TextureUsages::COPY_SRC;
         let bind = wgpu::TextureUsages::TEXTURE_BINDING;
-        let color = texture("region colour", COLOR_FORMAT, 1, attachment | copy);
-        let color_view = color.create_view(&Default::default());
+        let single = (msaa <= 1).then(|| {
+            let color = texture("region colour", COLOR_FORMAT, 1, attachment | copy);
+            let view = color.create_view(&Default::default());
+            (color, view)
+        });
         let msaa_color = (msaa > 1).then(|| {
             texture(
                 "region colour (msaa)",
@@ -534,8 +584,7 @@ impl Renderer {
             height,
             msaa,
             msaa_color,
-            color,
-            color_view,
+            single,
             ids,
             ids_view,
             depth,
@@ -543,7 +592,7 @@ impl Renderer {
             background_view,
             background_group,
             resolve_group,
-            id_samples: None,
+            atlas: Atlas::default(),
             background_key: None,
             background_rgba: Vec::new(),
             background_generation: 0,
@@ -699,6 +748,57 @@ impl Renderer {
         }
     }
 
+    /// Write each pass's resolve rects (its rects' `places` in an atlas of
+    /// `atlas` = (width, rows) pixels, and the offsets back to the frame) into
+    /// the (reused, grown as needed) resolve rect buffer; returns where each
+    /// pass's begin.
+    fn upload_resolve_rects(
+        &self,
+        state: &mut RegionState,
+        passes: &[&PassDraws],
+        places: &[Vec<(u32, u32)>],
+        (width, rows): (u32, u32),
+    ) -> Vec<u32> {
+        let mut data: Vec<[f32; 6]> = Vec::new();
+        let mut first = Vec::with_capacity(passes.len());
+        for (pass, places) in passes.iter().zip(places) {
+            first.push(data.len() as u32);
+            for (r, &(x, y)) in pass.rects.iter().zip(places) {
+                let place = Rect {
+                    x0: x,
+                    y0: y,
+                    x1: x + r.width(),
+                    y1: y + r.height(),
+                };
+                let [x0, y0, x1, y1] = rect_ndc(&place, width, rows);
+                // Whole pixels, exact in f32 below 2^24.
+                let dx = f64::from(r.x0) - f64::from(x);
+                let dy = f64::from(r.y0) - f64::from(y);
+                data.push([x0, y0, x1, y1, dx as f32, dy as f32]);
+            }
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&data);
+        let needed = (bytes.len() as u64).max(256);
+        if state
+            .resolve_rects
+            .as_ref()
+            .is_none_or(|b| b.size() < needed)
+        {
+            state.resolve_rects = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("resolve rects"),
+                size: needed.next_power_of_two(),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        if let Some(buffer) = &state.resolve_rects
+            && !bytes.is_empty()
+        {
+            self.queue.write_buffer(buffer, 0, bytes);
+        }
+        first
+    }
+
     /// A pass over the disjoint `rects` drawing `drones`: their instances
     /// (drone index + 1 as id) appended to `data`, grouped by (model, level
     /// of detail).
@@ -755,7 +855,13 @@ impl Renderer {
             load: wgpu::LoadOp::Load,
             store: wgpu::StoreOp::Store,
         };
-        let color_view = target.msaa_color.as_ref().unwrap_or(&target.color_view);
+        let Some(color_view) = target
+            .msaa_color
+            .as_ref()
+            .or(target.single.as_ref().map(|(_, view)| view))
+        else {
+            return;
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
             color_attachments: &[
@@ -868,21 +974,52 @@ impl Renderer {
         }
         if request.visibility {
             self.counts.ids += 1 + layer_draws.len() as u64;
-            self.prepare_id_readback(state, p, t);
+            self.prepare_id_readback(state, p);
         }
+        // With MSAA each pass is resolved into the atlas and read from there;
+        // without, the passes draw straight into the targets read back.
+        let resolved = msaa > 1;
+        let all_passes: Vec<&PassDraws> =
+            std::iter::once(&main_draws).chain(&layer_draws).collect();
+        let packed: Vec<(Vec<(u32, u32)>, u32)> = all_passes
+            .iter()
+            .map(|pass| {
+                if resolved {
+                    regions::pack_shelves(&pass.rects, width)
+                } else {
+                    (pass.rects.iter().map(|r| (r.x0, r.y0)).collect(), 0)
+                }
+            })
+            .collect();
+        let rows = packed.iter().map(|(_, rows)| *rows).max().unwrap_or(0);
+        let places: Vec<Vec<(u32, u32)>> = packed.into_iter().map(|(places, _)| places).collect();
+        let first_resolve = if resolved {
+            state.targets[t].atlas.ensure(
+                &self.device,
+                width,
+                rows,
+                request.color,
+                request.visibility,
+            );
+            let rows = state.targets[t].atlas.rows;
+            self.upload_resolve_rects(state, &all_passes, &places, (width, rows))
+        } else {
+            Vec::new()
+        };
         // Where each read-back rect lands in the one readback buffer: the
         // main pass's colour, then the ids of the main pass and of each layer.
         let mut size = 0u64;
         let color_reads = if request.color {
-            plan_reads(&main_draws.rects, 4, &mut size)
+            plan_reads(&main_draws.rects, &places[0], 4, &mut size)
         } else {
             Vec::new()
         };
         let id_reads: Vec<Vec<Read>> = if request.visibility {
             let bpp = ids::id_bytes_per_pixel(msaa);
-            std::iter::once(&main_draws)
-                .chain(&layer_draws)
-                .map(|pass| plan_reads(&pass.rects, bpp, &mut size))
+            all_passes
+                .iter()
+                .zip(&places)
+                .map(|(pass, places)| plan_reads(&pass.rects, places, bpp, &mut size))
                 .collect()
         } else {
             Vec::new()
@@ -910,41 +1047,53 @@ impl Renderer {
             let pipes = &state.pipelines[p];
             let target = &state.targets[t];
             let rects = state.rects.as_ref();
+            let resolve_rects = state.resolve_rects.as_ref();
             let readback = target.regions_readback.as_ref();
-            // With MSAA 1 the passes draw straight into the targets read back.
-            let id_source = match &target.id_samples {
-                Some((texture, _)) if msaa > 1 => texture,
-                _ => &target.ids,
+            let (color_source, id_source) = if resolved {
+                (
+                    target.atlas.color.as_ref().map(|(t, _)| t),
+                    target.atlas.ids.as_ref().map(|(t, _)| t),
+                )
+            } else {
+                (target.single.as_ref().map(|(t, _)| t), Some(&target.ids))
             };
+            let resolve = |encoder: &mut wgpu::CommandEncoder, k: usize, asked: (bool, bool)| {
+                if let (Some(buffer), Some(&first)) = (resolve_rects, first_resolve.get(k)) {
+                    let count = all_passes[k].rects.len() as u32;
+                    encode_resolve(
+                        encoder,
+                        (pipes, target, buffer),
+                        first..first + count,
+                        asked,
+                    );
+                }
+            };
+            let read =
+                |encoder: &mut wgpu::CommandEncoder, source: Option<&wgpu::Texture>, reads| {
+                    if let (Some(buffer), Some(source)) = (readback, source) {
+                        encode_reads(encoder, source, buffer, reads);
+                    }
+                };
             self.encode_region_pass(
                 &mut encoder,
                 (pipes, target, rects),
                 &main_draws,
                 ("region pass", request.color),
             );
-            encode_resolve(
-                &mut encoder,
-                (pipes, target, rects),
-                &main_draws,
-                (request.color, request.visibility),
-            );
-            if let Some(buffer) = readback {
-                encode_reads(&mut encoder, &target.color, buffer, &color_reads);
-                if let Some(reads) = id_reads.first() {
-                    encode_reads(&mut encoder, id_source, buffer, reads);
-                }
+            resolve(&mut encoder, 0, (request.color, request.visibility));
+            read(&mut encoder, color_source, &color_reads);
+            if let Some(reads) = id_reads.first() {
+                read(&mut encoder, id_source, reads);
             }
-            for (layer, reads) in layer_draws.iter().zip(id_reads.iter().skip(1)) {
+            for (k, (layer, reads)) in layer_draws.iter().zip(id_reads.iter().skip(1)).enumerate() {
                 self.encode_region_pass(
                     &mut encoder,
                     (pipes, target, rects),
                     layer,
                     ("layer pass", false),
                 );
-                encode_resolve(&mut encoder, (pipes, target, rects), layer, (false, true));
-                if let Some(buffer) = readback {
-                    encode_reads(&mut encoder, id_source, buffer, reads);
-                }
+                resolve(&mut encoder, k + 1, (false, true));
+                read(&mut encoder, id_source, reads);
             }
         }
         let submitted = self.queue.submit([encoder.finish()]);
@@ -1084,22 +1233,27 @@ impl Renderer {
     }
 }
 
-/// One rect read back: where its rows start in the readback buffer, and
-/// their (padded) length in bytes.
+/// One rect read back: the frame rect, where it is in the texture copied
+/// (the atlas, or the frame itself), where its rows start in the readback
+/// buffer, and their (padded) length in bytes.
 struct Read {
     rect: Rect,
+    origin: (u32, u32),
     offset: u64,
     row: u32,
 }
 
-/// Lay `rects` (`bpp` bytes a pixel) out one after the other from `*size`.
-fn plan_reads(rects: &[Rect], bpp: u32, size: &mut u64) -> Vec<Read> {
+/// Lay `rects` (`bpp` bytes a pixel; in the texture at `places`) out one
+/// after the other in the readback buffer from `*size`.
+fn plan_reads(rects: &[Rect], places: &[(u32, u32)], bpp: u32, size: &mut u64) -> Vec<Read> {
     rects
         .iter()
-        .map(|&rect| {
+        .zip(places)
+        .map(|(&rect, &origin)| {
             let row = padded_row(rect.width() * bpp);
             let read = Read {
                 rect,
+                origin,
                 offset: *size,
                 row,
             };
@@ -1122,8 +1276,8 @@ fn encode_reads(
                 texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d {
-                    x: read.rect.x0,
-                    y: read.rect.y0,
+                    x: read.origin.0,
+                    y: read.origin.1,
                     z: 0,
                 },
                 aspect: wgpu::TextureAspect::All,
@@ -1145,39 +1299,37 @@ fn encode_reads(
     }
 }
 
-/// Resolve a pass's rects (MSAA only): the colour samples' mean into the
-/// colour target and/or the id samples side by side into the id-samples
-/// target, in one pass.
+/// Resolve a pass's rects (MSAA only) into the atlas: the colour samples'
+/// mean and/or the id samples side by side, in one pass. `instances` are the
+/// pass's rects in the resolve rect buffer.
 fn encode_resolve(
     encoder: &mut wgpu::CommandEncoder,
-    (pipes, target, rects): (&RegionPipelines, &FrameTargets, Option<&wgpu::Buffer>),
-    draws: &PassDraws,
+    (pipes, target, resolve_rects): (&RegionPipelines, &FrameTargets, &wgpu::Buffer),
+    instances: std::ops::Range<u32>,
     (color, ids): (bool, bool),
 ) {
-    let (Some(group), Some(rects)) = (&target.resolve_group, rects) else {
+    let Some(group) = &target.resolve_group else {
         return;
     };
-    if draws.rects.is_empty() {
+    if instances.is_empty() {
         return;
     }
     let id_resolve = pipes.id_resolve.as_ref();
-    let id_view = target.id_samples.as_ref().map(|(_, view)| view);
-    let (pipeline, color_view, id_view) = match (color, ids) {
-        (true, false) => (pipes.resolve.as_ref(), Some(&target.color_view), None),
-        (true, true) => (
-            id_resolve.map(|r| &r.color_ids),
-            Some(&target.color_view),
-            id_view,
-        ),
-        (false, true) => (id_resolve.map(|r| &r.ids), None, id_view),
+    let color_view = target.atlas.color.as_ref().map(|(_, view)| view);
+    let id_view = target.atlas.ids.as_ref().map(|(_, view)| view);
+    let pipeline = match (color, ids) {
+        (true, false) => pipes.resolve.as_ref(),
+        (true, true) => id_resolve.map(|r| &r.color_ids),
+        (false, true) => id_resolve.map(|r| &r.ids),
         (false, false) => return,
     };
-    let Some(pipeline) = pipeline else {
+    let (Some(pipeline), true, true) = (
+        pipeline,
+        !color || color_view.is_some(),
+        !ids || id_view.is_some(),
+    ) else {
         return;
     };
-    if ids && id_view.is_none() {
-        return;
-    }
     let attachment = |view| {
         Some(wgpu::RenderPassColorAttachment {
             view,
@@ -1191,8 +1343,8 @@ fn encode_resolve(
     };
     // As many attachments as the pipeline has targets.
     let attachments = [
-        color_view.and_then(attachment),
-        id_view.and_then(attachment),
+        color_view.filter(|_| color).and_then(attachment),
+        id_view.filter(|_| ids).and_then(attachment),
     ];
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("region resolve pass"),
@@ -1204,8 +1356,8 @@ fn encode_resolve(
     });
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, group, &[]);
-    pass.set_vertex_buffer(0, rects.slice(..));
-    pass.draw(0..6, draws.rect_instances());
+    pass.set_vertex_buffer(0, resolve_rects.slice(..));
+    pass.draw(0..6, instances);
 }
 
 fn visibility_of(seen: IdStats, alone: IdStats) -> Visibility {

@@ -56,16 +56,6 @@ impl Rect {
             y1: self.y1.max(other.y1),
         }
     }
-    /// Tiles of at most `size`×`size` pixels covering the rect, as (x0, y0, x1, y1).
-    pub fn tiles(&self, size: u32) -> impl Iterator<Item = [u32; 4]> + '_ {
-        (self.y0..self.y1)
-            .step_by(size as usize)
-            .flat_map(move |y| {
-                (self.x0..self.x1)
-                    .step_by(size as usize)
-                    .map(move |x| [x, y, (x + size).min(self.x1), (y + size).min(self.y1)])
-            })
-    }
 }
 
 /// The pixels a drone with amodal box `b` can touch, within a `width`×`height` image.
@@ -199,6 +189,27 @@ impl PassDraws {
     }
 }
 
+/// Places for `rects` in an atlas `width` pixels wide, in shelves: left to
+/// right in the given order, a new shelf below the tallest of the last when
+/// the next rect does not fit. Returns each rect's top-left corner in the
+/// atlas and the rows used. Every rect must be at most `width` wide.
+pub fn pack_shelves(rects: &[Rect], width: u32) -> (Vec<(u32, u32)>, u32) {
+    let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
+    let places = rects
+        .iter()
+        .map(|r| {
+            if x + r.width() > width {
+                (x, y, shelf) = (0, y + shelf, 0);
+            }
+            let place = (x, y);
+            x += r.width();
+            shelf = shelf.max(r.height());
+            place
+        })
+        .collect();
+    (places, y + shelf)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -272,19 +283,33 @@ mod tests {
     }
 
     #[test]
-    fn tiles_cover_a_rect_once() {
-        let rect = Rect {
-            x0: 3,
-            y0: 4,
-            x1: 20,
-            y1: 13,
+    fn shelves_hold_every_rect_apart_within_the_width() {
+        let r = |x0, y0, w, h| Rect {
+            x0,
+            y0,
+            x1: x0 + w,
+            y1: y0 + h,
         };
-        let tiles: Vec<[u32; 4]> = rect.tiles(8).collect();
-        let area: u64 = tiles
+        let rects = [
+            r(5, 5, 40, 10),
+            r(900, 3, 50, 30),
+            r(0, 0, 20, 5),
+            r(7, 7, 100, 8),
+        ];
+        let (places, rows) = pack_shelves(&rects, 100);
+        let placed: Vec<Rect> = rects
             .iter()
-            .map(|t| u64::from(t[2] - t[0]) * u64::from(t[3] - t[1]))
-            .sum();
-        assert_eq!(area, rect.area());
-        assert_eq!(tiles.len(), 3 * 2);
+            .zip(&places)
+            .map(|(rect, &(x, y))| r(x, y, rect.width(), rect.height()))
+            .collect();
+        for (i, a) in placed.iter().enumerate() {
+            assert!(a.x1 <= 100 && a.y1 <= rows, "{a:?} outside 100×{rows}");
+            for b in &placed[i + 1..] {
+                assert!(!a.overlaps(b), "{a:?} and {b:?}");
+            }
+        }
+        // 40 + 50 fit one shelf (30 rows), 20 the next (5 rows), 100 a third.
+        assert_eq!(places, vec![(0, 0), (40, 0), (0, 30), (0, 35)]);
+        assert_eq!(rows, 43);
     }
 }
