@@ -2,8 +2,8 @@
 //! its drones cover, not with the frame.
 //!
 //! Per size and sample count, full-size targets are allocated once and never
-//! cleared: colour (multisampled when MSAA > 1), the instance ids
-//! ([`super::ids`]), depth, the single-sample colour and the background.
+//! cleared: colour (multisampled with MSAA, else single-sample), the
+//! instance ids ([`super::ids`]), depth and the background.
 //! The background (sky or environment) depends only on what the sky shader
 //! reads: it is drawn once per distinct (frame uniforms, environment
 //! uniforms, sky bind group, size) without MSAA — the sky shades once per
@@ -14,11 +14,12 @@
 //! padded boxes of the drones' projected hulls. In each region (a scissor
 //! rect) the background is drawn at far depth with id 0 (the region's
 //! "clear"), then the drones, with the same full-frame projection as a
-//! full render, so rasterisation is bit-identical to one; the regions are
-//! resolved by a shader (the mean of the samples, and the id samples side by
-//! side), read back into one reused buffer, pasted onto the CPU copy of the
-//! background and reduced to per-drone visibility on the CPU
-//! ([`ids::tally`]).
+//! full render, so rasterisation is bit-identical to one; with MSAA the
+//! regions are resolved by a shader (the mean of the samples, and the id
+//! samples side by side) into a compact atlas ([`Atlas`]); they are read back
+//! into one reused buffer, pasted into the frame's buffer (which already
+//! holds the background: [`Painted`]) and reduced to per-drone visibility on
+//! the CPU ([`ids::tally`]).
 
 use std::borrow::Cow;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -137,6 +138,9 @@ struct Atlas {
 impl Atlas {
     /// At least `rows` rows (of `width` pixels) of the parts asked for.
     fn ensure(&mut self, device: &wgpu::Device, width: u32, rows: u32, color: bool, ids: bool) {
+        if rows == 0 && self.rows == 0 {
+            return; // nothing to resolve yet (a frame without drones)
+        }
         if rows > self.rows {
             self.rows = rows.next_multiple_of(64);
             // Reallocated at the new size below, as far as still wanted.
@@ -984,10 +988,12 @@ impl Renderer {
         let packed: Vec<(Vec<(u32, u32)>, u32)> = all_passes
             .iter()
             .map(|pass| {
-                if resolved {
-                    regions::pack_shelves(&pass.rects, width)
-                } else {
-                    (pass.rects.iter().map(|r| (r.x0, r.y0)).collect(), 0)
+                let in_place = || (pass.rects.iter().map(|r| (r.x0, r.y0)).collect(), height);
+                match resolved.then(|| regions::pack_shelves(&pass.rects, width)) {
+                    // Never taller than the frame: rects that pack worse stay where they are.
+                    Some((places, rows)) if rows <= height => (places, rows),
+                    Some(_) => in_place(),
+                    None => (in_place().0, 0),
                 }
             })
             .collect();

@@ -189,24 +189,25 @@ impl PassDraws {
     }
 }
 
-/// Places for `rects` in an atlas `width` pixels wide, in shelves: left to
-/// right in the given order, a new shelf below the tallest of the last when
-/// the next rect does not fit. Returns each rect's top-left corner in the
-/// atlas and the rows used. Every rect must be at most `width` wide.
+/// Places for `rects` in an atlas `width` pixels wide, in shelves (next fit,
+/// tallest first: left to right, a new shelf below the last when the next
+/// rect does not fit). Returns each rect's top-left corner in the atlas, in
+/// the order given, and the rows used. Every rect must be at most `width`
+/// wide.
 pub fn pack_shelves(rects: &[Rect], width: u32) -> (Vec<(u32, u32)>, u32) {
+    let mut order: Vec<usize> = (0..rects.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(rects[i].height()));
+    let mut places = vec![(0, 0); rects.len()];
     let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
-    let places = rects
-        .iter()
-        .map(|r| {
-            if x + r.width() > width {
-                (x, y, shelf) = (0, y + shelf, 0);
-            }
-            let place = (x, y);
-            x += r.width();
-            shelf = shelf.max(r.height());
-            place
-        })
-        .collect();
+    for i in order {
+        let r = &rects[i];
+        if x + r.width() > width {
+            (x, y, shelf) = (0, y + shelf, 0);
+        }
+        places[i] = (x, y);
+        x += r.width();
+        shelf = shelf.max(r.height());
+    }
     (places, y + shelf)
 }
 
@@ -308,8 +309,9 @@ mod tests {
                 assert!(!a.overlaps(b), "{a:?} and {b:?}");
             }
         }
-        // 40 + 50 fit one shelf (30 rows), 20 the next (5 rows), 100 a third.
-        assert_eq!(places, vec![(0, 0), (40, 0), (0, 30), (0, 35)]);
+        // Tallest first: 50 and 40 share a shelf (30 rows), 100 takes the
+        // next (8 rows), 20 a third (5 rows).
+        assert_eq!(places, vec![(50, 0), (0, 0), (0, 38), (0, 30)]);
         assert_eq!(rows, 43);
     }
 }
