@@ -735,21 +735,12 @@ impl Renderer {
             pass.first_rect = data.len() as u32;
             data.extend(pass.rects.iter().map(|r| rect_ndc(r, width, height)));
         }
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
-        let needed = (bytes.len() as u64).max(256);
-        if state.rects.as_ref().is_none_or(|b| b.size() < needed) {
-            state.rects = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("region rects"),
-                size: needed.next_power_of_two(),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
-        }
-        if let Some(buffer) = &state.rects
-            && !bytes.is_empty()
-        {
-            self.queue.write_buffer(buffer, 0, bytes);
-        }
+        super::write_vertices(
+            (&self.device, &self.queue),
+            &mut state.rects,
+            "region rects",
+            bytemuck::cast_slice(&data),
+        );
     }
 
     /// Write each pass's resolve rects (its rects' `places` in an atlas of
@@ -781,25 +772,12 @@ impl Renderer {
                 data.push([x0, y0, x1, y1, dx as f32, dy as f32]);
             }
         }
-        let bytes: &[u8] = bytemuck::cast_slice(&data);
-        let needed = (bytes.len() as u64).max(256);
-        if state
-            .resolve_rects
-            .as_ref()
-            .is_none_or(|b| b.size() < needed)
-        {
-            state.resolve_rects = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("resolve rects"),
-                size: needed.next_power_of_two(),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
-        }
-        if let Some(buffer) = &state.resolve_rects
-            && !bytes.is_empty()
-        {
-            self.queue.write_buffer(buffer, 0, bytes);
-        }
+        super::write_vertices(
+            (&self.device, &self.queue),
+            &mut state.resolve_rects,
+            "resolve rects",
+            bytemuck::cast_slice(&data),
+        );
         first
     }
 

@@ -819,20 +819,12 @@ impl Renderer {
     /// Write instance data into the (reused, grown as needed) instance buffer.
     fn write_instances(&mut self, data: &[InstanceRaw]) {
         let bytes: &[u8] = bytemuck::cast_slice(data);
-        let needed = (bytes.len() as u64).max(256);
-        if self.instances.as_ref().is_none_or(|b| b.size() < needed) {
-            self.instances = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("drone instances"),
-                size: needed.next_power_of_two(),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
-        }
-        if let Some(buf) = &self.instances
-            && !bytes.is_empty()
-        {
-            self.queue.write_buffer(buf, 0, bytes);
-        }
+        write_vertices(
+            (&self.device, &self.queue),
+            &mut self.instances,
+            "drone instances",
+            bytes,
+        );
     }
 
     /// Encode the frame into `views` (any views of the scene camera's size).
@@ -1104,6 +1096,30 @@ fn read_mapped<T>(
     };
     buffer.unmap();
     Ok(out)
+}
+
+/// Write `bytes` at the start of the vertex buffer in `slot`, reused from
+/// frame to frame and replaced by one twice as large when too small.
+fn write_vertices(
+    (device, queue): (&wgpu::Device, &wgpu::Queue),
+    slot: &mut Option<wgpu::Buffer>,
+    label: &str,
+    bytes: &[u8],
+) {
+    let needed = (bytes.len() as u64).max(256);
+    if slot.as_ref().is_none_or(|b| b.size() < needed) {
+        *slot = Some(device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: needed.next_power_of_two(),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }));
+    }
+    if let Some(buffer) = slot
+        && !bytes.is_empty()
+    {
+        queue.write_buffer(buffer, 0, bytes);
+    }
 }
 
 /// Linear-to-sRGB as the shaders do it (used by tests that predict pixels).
