@@ -193,10 +193,11 @@ pub fn run_batch(
     let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
     let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
     // Encoded frames' pixel buffers, back to the makers for reuse.
-    // Room for every frame in flight (being made, queued, being encoded), so
-    // no buffer is dropped and allocated again.
-    let (recycle_tx, recycle_rx) =
-        crossbeam_channel::bounded::<(Vec<u8>, Painted)>(makers + threads * 3);
+    // Frames in flight: being made, queued for an encoder, being encoded.
+    // The channel and each maker's spares hold that many, so no buffer is
+    // dropped and allocated again.
+    let in_flight = makers + threads * 3;
+    let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
 
     let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
         for _ in 0..threads {
@@ -276,6 +277,7 @@ pub fn run_batch(
                 let (next_index, stop_making) = (&next_index, &stop_making);
                 s.spawn(move || -> (anyhow::Result<()>, bool, Duration) {
                     let mut renderer = pipeline.renderer(ctx);
+                    renderer.keep_spares(in_flight);
                     let mut busy = Duration::ZERO;
                     loop {
                         if failed.load(Ordering::Relaxed) || stop_making.load(Ordering::Relaxed) {

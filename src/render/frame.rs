@@ -229,14 +229,29 @@ fn rect_ndc(r: &Rect, width: u32, height: u32) -> [f32; 4] {
     [x(r.x0), y(r.y0), x(r.x1), y(r.y1)]
 }
 
+/// A colour target of `format`, written whole, without blending.
+fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    Some(wgpu::ColorTargetState {
+        format,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
+    })
+}
+
 /// Target sets kept at once (e.g. a frame size and its id-pass size).
 const MAX_TARGETS: usize = 2;
 
-fn texture_layout(device: &wgpu::Device, label: &str, multisampled: bool) -> wgpu::BindGroupLayout {
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &[wgpu::BindGroupLayoutEntry {
-            binding: 0,
+/// A layout of `bindings` unfilterable float textures (bindings 0, 1, …)
+/// read by fragment shaders.
+fn texture_layout(
+    device: &wgpu::Device,
+    label: &str,
+    multisampled: bool,
+    bindings: u32,
+) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..bindings)
+        .map(|binding| wgpu::BindGroupLayoutEntry {
+            binding,
             visibility: wgpu::ShaderStages::FRAGMENT,
             ty: wgpu::BindingType::Texture {
                 sample_type: wgpu::TextureSampleType::Float { filterable: false },
@@ -244,25 +259,11 @@ fn texture_layout(device: &wgpu::Device, label: &str, multisampled: bool) -> wgp
                 multisampled,
             },
             count: None,
-        }],
-    })
-}
-
-/// The resolve's inputs: the multisampled colour and id targets.
-fn resolve_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let entry = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: true,
-        },
-        count: None,
-    };
+        })
+        .collect();
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("region resolve layout"),
-        entries: &[entry(0), entry(1)],
+        label: Some(label),
+        entries: &entries,
     })
 }
 
@@ -292,8 +293,9 @@ impl RegionState {
             })
         };
         Self {
-            background_layout: texture_layout(device, "region background layout", false),
-            resolve_layout: resolve_layout(device),
+            background_layout: texture_layout(device, "region background layout", false, 1),
+            // The resolve's inputs: the multisampled colour and id targets.
+            resolve_layout: texture_layout(device, "region resolve layout", true, 2),
             regions_module: module("regions.wgsl", regions_src),
             resolve_module: module("resolve.wgsl", resolve_src),
             sky_background: Vec::new(),
@@ -362,18 +364,7 @@ impl Renderer {
             count: msaa,
             ..Default::default()
         };
-        let targets = [
-            Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-            Some(wgpu::ColorTargetState {
-                format: ids::ID_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }),
-        ];
+        let targets = [color_target(COLOR_FORMAT), color_target(ids::ID_FORMAT)];
         let depth = |compare| wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
             depth_write_enabled: Some(true),
@@ -473,16 +464,8 @@ impl Renderer {
             return;
         }
         if state.pipelines[p].id_resolve.is_none() {
-            let color = Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            });
-            let id_samples = Some(wgpu::ColorTargetState {
-                format: ids::ID_SAMPLES_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            });
+            let color = color_target(COLOR_FORMAT);
+            let id_samples = color_target(ids::ID_SAMPLES_FORMAT);
             let id_resolve = IdResolve {
                 ids: self.resolve_pipeline(
                     state,
@@ -661,11 +644,7 @@ impl Renderer {
                             constants: &constants,
                             ..Default::default()
                         },
-                        targets: &[Some(wgpu::ColorTargetState {
-                            format: COLOR_FORMAT,
-                            blend: None,
-                            write_mask: wgpu::ColorWrites::ALL,
-                        })],
+                        targets: &[color_target(COLOR_FORMAT)],
                     }),
                     multiview_mask: None,
                     cache: None,

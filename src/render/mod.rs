@@ -311,6 +311,7 @@ pub struct Renderer {
     /// for the next frames' pixels: a fresh 4K frame (35 MB) is page-faulted
     /// in anew on every allocation.
     spare: Vec<(Vec<u8>, Painted)>,
+    spare_limit: usize,
 }
 
 /// How many passes a renderer has run (for tests and benchmarks).
@@ -351,12 +352,6 @@ pub fn shader_sources() -> [(&'static str, String); 4] {
         ),
     ]
 }
-
-/// Recycled frame buffers a renderer keeps: as many as a batch has frames in
-/// flight beyond the one being made (two queued for an encoder, one being
-/// encoded, one waiting to be handed back), so none is freed and allocated
-/// again (a 4K buffer is 35 MB of fresh pages).
-pub const SPARE_FRAMES: usize = 4;
 
 impl Renderer {
     /// Build pipelines and upload the models (index = model index in the
@@ -500,6 +495,7 @@ impl Renderer {
             },
             counts: PassCounts::default(),
             spare: Vec::new(),
+            spare_limit: 2,
         }
     }
 
@@ -543,11 +539,19 @@ impl Renderer {
 
     /// Hand back a frame's pixel buffer, unchanged, with what it holds
     /// ([`RenderedFrame::painted`]), once it is no longer needed, so a later
-    /// frame can reuse its memory (at most [`SPARE_FRAMES`] are kept).
+    /// frame can reuse its memory (at most [`Renderer::keep_spares`] are kept).
     pub fn recycle(&mut self, buffer: Vec<u8>, painted: Painted) {
-        if self.spare.len() < SPARE_FRAMES {
+        if self.spare.len() < self.spare_limit {
             self.spare.push((buffer, painted));
         }
+    }
+
+    /// Keep up to `n` recycled buffers (2 unless set): as many as a caller
+    /// has frames in flight, so none is freed and allocated again (a 4K
+    /// buffer is 35 MB of fresh pages).
+    pub fn keep_spares(&mut self, n: usize) {
+        self.spare_limit = n;
+        self.spare.truncate(n);
     }
 
     /// A buffer holding `background` (generation `generation`, rows of
