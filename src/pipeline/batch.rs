@@ -28,7 +28,7 @@ use crate::annotate::DroneLabel;
 use crate::render::{GpuContext, Painted};
 use crate::scene::FrameScene;
 use crate::write::shard::Shard;
-use crate::write::{DatasetStats, DatasetWriter, WriterOptions, encode_image};
+use crate::write::{DatasetStats, DatasetWriter, ImageEncoder, Unchanged, WriterOptions};
 
 #[derive(Clone, Debug)]
 pub struct BatchOptions {
@@ -199,6 +199,9 @@ pub fn run_batch(
     let in_flight = makers + threads * 3;
     let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
 
+    // One encoder for all threads: JPEG frames over the same background
+    // share its unpainted rows (write/jpeg.rs).
+    let encoder = &ImageEncoder::new(format);
     let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
         for _ in 0..threads {
             let rx = encode_rx.clone();
@@ -208,7 +211,13 @@ pub fn run_batch(
                 for frame in rx {
                     let t = Instant::now();
                     let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
-                    let msg = encode_image(&frame.rgba, w, h, format)
+                    let changed = frame.painted.changed_rows();
+                    let unchanged = Unchanged {
+                        background: frame.painted.background(),
+                        changed: &changed,
+                    };
+                    let msg = encoder
+                        .encode(&frame.rgba, w, h, Some(unchanged))
                         .map(|bytes| Encoded {
                             scene: frame.scene,
                             labels: frame.labels,

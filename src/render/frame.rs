@@ -67,6 +67,20 @@ pub struct Painted {
     pub(super) rects: Vec<Rect>,
 }
 
+impl Painted {
+    /// The background's key: unique in the process to one drawn background
+    /// (0: the buffer holds none).
+    pub fn background(&self) -> u64 {
+        self.background
+    }
+
+    /// The pixel rows this frame painted over its background; everywhere
+    /// else its pixels are the background's.
+    pub fn changed_rows(&self) -> Vec<std::ops::Range<u32>> {
+        self.rects.iter().map(|r| r.y0..r.y1).collect()
+    }
+}
+
 /// Generation numbers of drawn backgrounds, unique in the process, so a
 /// buffer recycled into another renderer never matches its background.
 static BACKGROUNDS: AtomicU64 = AtomicU64::new(1);

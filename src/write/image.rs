@@ -1,15 +1,17 @@
 //! Image encoding: the preset's format, quality and chroma, nothing else.
 //!
-//! JPEG goes through libjpeg-turbo (the `turbojpeg` crate) straight from the
-//! RGBA buffer (read as RGBX, no conversion copy): baseline, default Huffman
-//! tables and the accurate integer DCT, whose SIMD and plain-C paths give the
-//! same bytes, so the output is identical on every machine. Chroma is 4:2:0
-//! below quality 90 and 4:4:4 from 90 up. It measured ≈ 3× faster than
-//! jpeg-encoder on a 1080p frame (docs/benchmarks.md).
+//! JPEG goes through libjpeg-turbo straight from the RGBA buffer (read as
+//! RGBX, no conversion copy): baseline, default Huffman tables, the accurate
+//! integer DCT (whose SIMD and plain-C paths give the same bytes, so the
+//! output is identical on every machine) and a restart marker after every
+//! MCU row, which lets [`ImageEncoder`] reuse the compressed rows a frame
+//! shares with others over the same background ([`super::jpeg`]). Chroma is
+//! 4:2:0 below quality 90 and 4:4:4 from 90 up.
 
 use crate::preset::ImageFormat;
 
 use super::OutputError;
+use super::jpeg::{JpegEncoder, Unchanged};
 
 /// Encode tightly packed RGBA8 pixels as JPEG or PNG (alpha dropped).
 pub fn encode_image(
@@ -18,70 +20,74 @@ pub fn encode_image(
     height: u32,
     format: ImageFormat,
 ) -> Result<Vec<u8>, OutputError> {
-    let name = match format {
-        ImageFormat::Jpeg { .. } => "JPEG",
-        ImageFormat::Png => "PNG",
-    };
-    let encode_error = |reason: String| OutputError::Encode {
-        format: name,
-        reason,
-    };
-    let (w, h) = (width as usize, height as usize);
-    if w.checked_mul(h).and_then(|n| n.checked_mul(4)) != Some(rgba.len()) {
-        return Err(encode_error(format!(
-            "{} bytes is not a {width}×{height} RGBA8 image",
-            rgba.len()
-        )));
+    ImageEncoder::new(format).encode(rgba, width, height, None)
+}
+
+/// An encoder for one format, shared by a batch's encoder threads: JPEG
+/// frames over a shared background reuse its unpainted rows. The bytes are
+/// those of [`encode_image`] whatever was reused.
+pub struct ImageEncoder {
+    /// `None`: PNG.
+    jpeg: Option<JpegEncoder>,
+}
+
+impl ImageEncoder {
+    pub fn new(format: ImageFormat) -> Self {
+        let jpeg = match format {
+            ImageFormat::Jpeg { quality } => Some(JpegEncoder::new(quality)),
+            ImageFormat::Png => None,
+        };
+        Self { jpeg }
     }
-    match format {
-        ImageFormat::Jpeg { quality } => {
-            if w == 0 || h == 0 || w > 65_535 || h > 65_535 {
-                return Err(encode_error(format!(
-                    "{width}×{height} is outside JPEG's 1–65535 px sides"
-                )));
-            }
-            let tj = |e: turbojpeg::Error| encode_error(e.to_string());
-            let mut compressor = turbojpeg::Compressor::new().map_err(tj)?;
-            compressor.set_quality(i32::from(quality)).map_err(tj)?;
-            compressor
-                .set_subsamp(if quality < 90 {
-                    turbojpeg::Subsamp::Sub2x2
-                } else {
-                    turbojpeg::Subsamp::None
-                })
-                .map_err(tj)?;
-            let image = turbojpeg::Image {
-                pixels: rgba,
-                width: w,
-                pitch: 4 * w,
-                height: h,
-                format: turbojpeg::PixelFormat::RGBX,
-            };
-            compressor.compress_to_vec(image).map_err(tj)
+
+    /// Encode one frame; `unchanged` says what it shares with others.
+    pub fn encode(
+        &self,
+        rgba: &[u8],
+        width: u32,
+        height: u32,
+        unchanged: Option<Unchanged<'_>>,
+    ) -> Result<Vec<u8>, OutputError> {
+        if let Some(jpeg) = &self.jpeg {
+            return jpeg
+                .encode(rgba, width, height, unchanged)
+                .map_err(|reason| OutputError::Encode {
+                    format: "JPEG",
+                    reason,
+                });
         }
-        ImageFormat::Png => {
-            let rgb: Vec<u8> = rgba
-                .chunks_exact(4)
-                .flat_map(|p| [p[0], p[1], p[2]])
-                .collect();
-            let mut out = Vec::new();
-            let encoder = image::codecs::png::PngEncoder::new_with_quality(
-                &mut out,
-                image::codecs::png::CompressionType::Fast,
-                image::codecs::png::FilterType::Adaptive,
-            );
-            image::ImageEncoder::write_image(
-                encoder,
-                &rgb,
-                width,
-                height,
-                image::ExtendedColorType::Rgb8,
-            )
-            .map_err(|e| OutputError::Encode {
+        // PNG.
+        if (width as usize)
+            .checked_mul(height as usize)
+            .and_then(|n| n.checked_mul(4))
+            != Some(rgba.len())
+        {
+            return Err(OutputError::Encode {
                 format: "PNG",
-                reason: e.to_string(),
-            })?;
-            Ok(out)
+                reason: format!("{} bytes is not a {width}×{height} RGBA8 image", rgba.len()),
+            });
         }
+        let rgb: Vec<u8> = rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        let mut out = Vec::new();
+        let encoder = image::codecs::png::PngEncoder::new_with_quality(
+            &mut out,
+            image::codecs::png::CompressionType::Fast,
+            image::codecs::png::FilterType::Adaptive,
+        );
+        image::ImageEncoder::write_image(
+            encoder,
+            &rgb,
+            width,
+            height,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|e| OutputError::Encode {
+            format: "PNG",
+            reason: e.to_string(),
+        })?;
+        Ok(out)
     }
 }

@@ -14,6 +14,7 @@
 pub mod coco;
 pub mod folder;
 pub mod image;
+pub mod jpeg;
 pub(crate) mod json;
 pub mod manifest;
 pub mod merge;
@@ -31,7 +32,8 @@ use crate::scene::{FrameScene, SplitName};
 use folder::fnv1a64;
 
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
-pub use image::encode_image;
+pub use image::{ImageEncoder, encode_image};
+pub use jpeg::Unchanged;
 pub use manifest::manifest_line;
 pub use stats::{DatasetStats, StatsError};
 
