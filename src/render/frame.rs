@@ -708,8 +708,14 @@ impl Renderer {
         }
         target.readback.copy_from(&mut encoder, &target.background);
         let submitted = self.queue.submit([encoder.finish()]);
-        let rgba = target.readback.read(&self.device, submitted)?;
+        // Into the previous background's memory: frame buffers copy from it,
+        // and the new generation below tells them it changed.
+        let mut rgba = std::mem::take(&mut state.targets[t].background_rgba);
+        let read = state.targets[t]
+            .readback
+            .read_into(&self.device, submitted, &mut rgba);
         state.targets[t].background_rgba = rgba;
+        read?;
         state.targets[t].background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
         state.background_draws += 1;
         Ok(())

@@ -1054,15 +1054,28 @@ impl Readback {
         device: &wgpu::Device,
         submitted: wgpu::SubmissionIndex,
     ) -> Result<Vec<u8>, RenderError> {
+        let mut out = Vec::new();
+        self.read_into(device, submitted, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Readback::read`] into `out`, reusing its memory (a 4K image is
+    /// 35 MB: fresh pages cost more than the copy).
+    fn read_into(
+        &self,
+        device: &wgpu::Device,
+        submitted: wgpu::SubmissionIndex,
+        out: &mut Vec<u8>,
+    ) -> Result<(), RenderError> {
         let row = (self.width * 4) as usize;
         let len = u64::from(self.padded_row) * u64::from(self.height);
         read_mapped(device, submitted, &self.buffer, len, |view| {
-            let mut out = Vec::with_capacity(row * self.height as usize);
+            out.clear();
+            out.reserve(row * self.height as usize);
             for y in 0..self.height as usize {
                 let start = y * self.padded_row as usize;
                 out.extend_from_slice(&view[start..start + row]);
             }
-            out
         })
     }
 }
