@@ -519,6 +519,48 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+        /// Any size, quality and sequence of painted row bands over one
+        /// background: the spliced bytes are those of a whole compress.
+        #[test]
+        fn any_painted_rows_give_the_whole_compress(
+            width in 1u32..140,
+            height in 1u32..90,
+            quality in proptest::sample::select(vec![40u8, 85, 89, 90, 100]),
+            frames in proptest::collection::vec(
+                proptest::collection::vec((0u32..100, 0u32..100, 1u32..40, 1u32..30), 0..4),
+                1..5,
+            ),
+        ) {
+            let encoder = JpegEncoder::new(quality);
+            let background = picture(width, height, 9, &[]);
+            for (k, blobs) in frames.iter().enumerate() {
+                let blobs: Vec<(u32, u32, u32, u32)> = blobs
+                    .iter()
+                    .map(|&(x, y, w, h)| {
+                        let (x0, y0) = (x % width, y % height);
+                        (x0, y0, (x0 + w).min(width), (y0 + h).min(height))
+                    })
+                    .collect();
+                let painted = picture(width, height, 50 + k as u32, &blobs);
+                let mut rgba = background.clone();
+                for &(x0, y0, x1, y1) in &blobs {
+                    for y in y0..y1 {
+                        let row = (y * width) as usize * 4;
+                        let (a, b) = (row + x0 as usize * 4, row + x1 as usize * 4);
+                        rgba[a..b].copy_from_slice(&painted[a..b]);
+                    }
+                }
+                let changed: Vec<Range<u32>> = blobs.iter().map(|b| b.1..b.3).collect();
+                let reused = encoder
+                    .encode(&rgba, width, height, Some(Unchanged { background: 3, changed: &changed }))
+                    .unwrap();
+                proptest::prop_assert!(reused == compress(&rgba, width, height, quality).unwrap());
+            }
+        }
+    }
+
     #[test]
     fn a_wrong_key_would_show_stale_rows() {
         // The reuse is real: claiming a background the frame does not hold
