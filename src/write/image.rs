@@ -11,7 +11,7 @@
 use crate::preset::ImageFormat;
 
 use super::OutputError;
-use super::jpeg::{JpegEncoder, Unchanged};
+use super::jpeg::{JpegEncoder, Unchanged, check_rgba};
 
 /// Encode tightly packed RGBA8 pixels as JPEG or PNG (alpha dropped).
 pub fn encode_image(
@@ -57,16 +57,10 @@ impl ImageEncoder {
                 });
         }
         // PNG.
-        if (width as usize)
-            .checked_mul(height as usize)
-            .and_then(|n| n.checked_mul(4))
-            != Some(rgba.len())
-        {
-            return Err(OutputError::Encode {
-                format: "PNG",
-                reason: format!("{} bytes is not a {width}×{height} RGBA8 image", rgba.len()),
-            });
-        }
+        check_rgba(rgba, width, height).map_err(|reason| OutputError::Encode {
+            format: "PNG",
+            reason,
+        })?;
         let rgb: Vec<u8> = rgba
             .chunks_exact(4)
             .flat_map(|p| [p[0], p[1], p[2]])

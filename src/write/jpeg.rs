@@ -43,6 +43,11 @@ fn check(rgba: &[u8], width: u32, height: u32) -> Result<(), String> {
             "{width}×{height} is outside JPEG's 1–65535 px sides"
         ));
     }
+    check_rgba(rgba, width, height)
+}
+
+/// That `rgba` holds exactly `width`×`height` RGBA8 pixels (every format's check).
+pub(super) fn check_rgba(rgba: &[u8], width: u32, height: u32) -> Result<(), String> {
     if (width as usize)
         .checked_mul(height as usize)
         .and_then(|n| n.checked_mul(4))
@@ -377,8 +382,11 @@ mod tj {
             pitch: usize,
             height: u32,
         ) -> Result<Vec<u8>, String> {
-            let needed = (height as usize - 1) * pitch + width as usize * 4;
-            if height == 0 || pixels.len() < needed || pitch < width as usize * 4 {
+            let needed = (height as usize)
+                .checked_sub(1)
+                .and_then(|rows| rows.checked_mul(pitch))
+                .and_then(|n| n.checked_add(width as usize * 4));
+            if needed.is_none_or(|n| pixels.len() < n) || pitch < width as usize * 4 {
                 return Err(format!(
                     "{} bytes do not hold {width}×{height} RGBX pixels",
                     pixels.len()
@@ -569,28 +577,12 @@ mod tests {
         let encoder = JpegEncoder::new(85);
         let a = picture(width, height, 1, &[]);
         let b = picture(width, height, 2, &[(0, 0, width, height)]);
-        let first = encoder
-            .encode(
-                &a,
-                width,
-                height,
-                Some(Unchanged {
-                    background: 5,
-                    changed: &[],
-                }),
-            )
-            .unwrap();
-        let stale = encoder
-            .encode(
-                &b,
-                width,
-                height,
-                Some(Unchanged {
-                    background: 5,
-                    changed: &[],
-                }),
-            )
-            .unwrap();
+        let unchanged = Some(Unchanged {
+            background: 5,
+            changed: &[],
+        });
+        let first = encoder.encode(&a, width, height, unchanged).unwrap();
+        let stale = encoder.encode(&b, width, height, unchanged).unwrap();
         assert_eq!(first, stale);
         assert_ne!(stale, compress(&b, width, height, 85).unwrap());
     }
