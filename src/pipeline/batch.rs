@@ -28,7 +28,7 @@ use crate::annotate::DroneLabel;
 use crate::render::{GpuContext, Painted};
 use crate::scene::FrameScene;
 use crate::write::shard::Shard;
-use crate::write::{DatasetStats, DatasetWriter, ImageEncoder, Unchanged, WriterOptions};
+use crate::write::{Area, DatasetStats, DatasetWriter, ImageEncoder, Unchanged, WriterOptions};
 
 #[derive(Clone, Debug)]
 pub struct BatchOptions {
@@ -200,7 +200,7 @@ pub fn run_batch(
     let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
 
     // One encoder for all threads: JPEG frames over the same background
-    // share its unpainted rows (write/jpeg.rs).
+    // share its unpainted tiles (write/jpeg.rs).
     let encoder = &ImageEncoder::new(format);
     let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
         for _ in 0..threads {
@@ -211,7 +211,12 @@ pub fn run_batch(
                 for frame in rx {
                     let t = Instant::now();
                     let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
-                    let changed = frame.painted.changed_rows();
+                    let changed: Vec<Area> = (frame.painted.rects().iter())
+                        .map(|r| Area {
+                            x: r.x0..r.x1,
+                            y: r.y0..r.y1,
+                        })
+                        .collect();
                     let unchanged = Unchanged {
                         background: frame.painted.background(),
                         changed: &changed,

@@ -74,10 +74,10 @@ impl Painted {
         self.background
     }
 
-    /// The pixel rows this frame painted over its background; everywhere
-    /// else its pixels are the background's.
-    pub fn changed_rows(&self) -> Vec<std::ops::Range<u32>> {
-        self.rects.iter().map(|r| r.y0..r.y1).collect()
+    /// The rects this frame painted over its background; everywhere else
+    /// its pixels are the background's.
+    pub fn rects(&self) -> &[Rect] {
+        &self.rects
     }
 }
 

@@ -3,9 +3,10 @@
 //! JPEG goes through libjpeg-turbo straight from the RGBA buffer (read as
 //! RGBX, no conversion copy): baseline, default Huffman tables, the accurate
 //! integer DCT (whose SIMD and plain-C paths give the same bytes, so the
-//! output is identical on every machine) and a restart marker after every
-//! MCU row, which lets [`ImageEncoder`] reuse the compressed rows a frame
-//! shares with others over the same background ([`super::jpeg`]). Chroma is
+//! output is identical on every machine) and a restart marker every few
+//! MCUs (tiles of about 512 × 16 px), which lets [`ImageEncoder`] reuse the
+//! compressed tiles a frame shares with others over the same background
+//! ([`super::jpeg`]). Chroma is
 //! 4:2:0 below quality 90 and 4:4:4 from 90 up.
 
 use crate::preset::ImageFormat;
@@ -24,7 +25,7 @@ pub fn encode_image(
 }
 
 /// An encoder for one format, shared by a batch's encoder threads: JPEG
-/// frames over a shared background reuse its unpainted rows. The bytes are
+/// frames over a shared background reuse its unpainted tiles. The bytes are
 /// those of [`encode_image`] whatever was reused.
 pub struct ImageEncoder {
     /// `None`: PNG.

@@ -33,7 +33,7 @@ use folder::fnv1a64;
 
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
 pub use image::{ImageEncoder, encode_image};
-pub use jpeg::Unchanged;
+pub use jpeg::{Area, Unchanged};
 pub use manifest::manifest_line;
 pub use stats::{DatasetStats, StatsError};
 
