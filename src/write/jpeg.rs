@@ -811,9 +811,9 @@ mod tests {
     }
 
     #[test]
-    fn a_wrong_key_would_show_stale_rows() {
+    fn a_wrong_key_would_show_stale_tiles() {
         // The reuse is real: claiming a background the frame does not hold
-        // gives the old rows back (so the test above checks something).
+        // gives the old tiles back (so the tests above check something).
         let (width, height) = (96, 64);
         let encoder = JpegEncoder::new(85);
         let a = picture(width, height, 1, &[]);
