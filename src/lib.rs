@@ -20,6 +20,7 @@ pub mod preset;
 pub mod render;
 pub mod scene;
 pub mod seed;
+pub mod sensor;
 pub mod sky;
 pub mod tools;
 pub mod write;

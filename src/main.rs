@@ -643,6 +643,7 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
     if overlay {
         swarmshot::annotate::overlay::draw_overlay(&mut frame.rgba, w, h, &frame.labels);
     }
+    let format = pipeline.image_format(&frame.scene);
     let bytes = swarmshot::write::encode_image(&frame.rgba, w, h, format)?;
     let record = swarmshot::write::manifest_line(
         &frame.scene,

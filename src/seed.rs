@@ -39,6 +39,16 @@ pub const fn redraw_seed(preset_seed: u64, frame_index: u64, attempt: u32) -> u6
     }
 }
 
+/// Salt of the camera model's draws (issue 21).
+const CAMERA_SALT: u64 = 0x4341_4D45_5241_5F4D; // "CAMERA_M"
+
+/// The camera model's seed of frame `frame_index`:
+/// `mix64(frame_seed ⊕ CAMERA_SALT)`. Its own stream, so turning the
+/// camera model on changes none of the scene's draws.
+pub const fn camera_seed(preset_seed: u64, frame_index: u64) -> u64 {
+    mix64(frame_seed(preset_seed, frame_index) ^ CAMERA_SALT)
+}
+
 /// The sampler for one frame.
 pub fn frame_rng(preset_seed: u64, frame_index: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(frame_seed(preset_seed, frame_index))

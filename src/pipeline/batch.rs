@@ -221,8 +221,14 @@ pub fn run_batch(
                         background: frame.painted.background(),
                         changed: &changed,
                     };
-                    let msg = encoder
-                        .encode(&frame.rgba, w, h, Some(unchanged))
+                    // A frame through the camera model may have its own JPEG quality.
+                    let frame_format = pipeline.image_format(&frame.scene);
+                    let bytes = if frame_format == format {
+                        encoder.encode(&frame.rgba, w, h, Some(unchanged))
+                    } else {
+                        crate::write::encode_image(&frame.rgba, w, h, frame_format)
+                    };
+                    let msg = bytes
                         .map(|bytes| Encoded {
                             scene: frame.scene,
                             labels: frame.labels,

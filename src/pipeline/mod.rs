@@ -23,11 +23,14 @@ use std::sync::Arc;
 use crate::annotate::{DroneLabel, label_frame};
 use crate::model::lod::{self, Lod};
 use crate::model::{self, CpuModel, ModelError};
-use crate::preset::{BoxMethod, FieldError, LabelSettings, ModelSource, ModelSpec, Preset};
+use crate::preset::{
+    BoxMethod, FieldError, ImageFormat, LabelSettings, ModelSource, ModelSpec, Preset,
+};
 use crate::render::visibility::{self, Visibility};
-use crate::render::{GpuContext, Painted, RenderError, RenderRequest, Renderer};
-use crate::scene::projection::LabelGeometry;
+use crate::render::{GpuContext, Painted, RenderError, RenderRequest, RenderedFrame, Renderer};
+use crate::scene::projection::{LabelGeometry, PixelBox};
 use crate::scene::{FrameError, FrameScene, MAX_DRAWS, build_frame, build_frame_draw};
+use crate::sensor::{self, CameraDraw, PixelRect};
 use crate::sky::{EnvironmentAssets, EnvironmentError};
 
 pub use batch::{BatchOptions, BatchReport, Progress, run_batch};
@@ -46,6 +49,8 @@ pub enum PipelineError {
     Frame(#[from] FrameError),
     #[error("frame {index}: {source}")]
     Render { index: u64, source: RenderError },
+    #[error("frame {index}: the camera model's first compression failed: {reason}")]
+    Camera { index: u64, reason: String },
 }
 
 fn list(errors: &[FieldError]) -> String {
@@ -374,25 +379,125 @@ impl FramePipeline {
             color: true,
             visibility: together,
         };
-        let frame = renderer
+        let mut frame = renderer
             .render_frame(&scene, &request)
             .map_err(render_error)?;
-        let labels = if together {
-            label_frame(
-                &scene,
-                &self.assets.geometry,
-                &self.class_of_model,
-                labels_settings,
-                frame.visibility.as_deref(),
-            )
+        let mut measured = if together {
+            frame.visibility.take()
         } else {
-            self.labels(renderer, &scene).map_err(render_error)?
+            self.measure(renderer, &scene).map_err(render_error)?
         };
+        let (rgba, painted) = match &scene.camera_model {
+            None => (frame.rgba, frame.painted),
+            Some(draw) => {
+                let rgba = self.through_camera(renderer, &scene, draw, &frame, &mut measured)?;
+                // The renderer's buffer (background and all) goes back to it untouched.
+                renderer.recycle(frame.rgba, frame.painted);
+                (rgba, Painted::default())
+            }
+        };
+        let labels = label_frame(
+            &scene,
+            &self.assets.geometry,
+            &self.class_of_model,
+            labels_settings,
+            measured.as_deref(),
+        );
         Ok(Frame {
             scene,
             labels,
-            rgba: frame.rgba,
-            painted: frame.painted,
+            rgba,
+            painted,
         })
+    }
+}
+
+impl FramePipeline {
+    /// The format frame `scene` is written in: the preset's, with the
+    /// camera model's drawn JPEG quality when it has one.
+    pub fn image_format(&self, scene: &FrameScene) -> ImageFormat {
+        match (self.preset.output.image_format, scene.camera_model) {
+            (
+                ImageFormat::Jpeg { .. },
+                Some(CameraDraw {
+                    jpeg_quality: Some(quality),
+                    ..
+                }),
+            ) => ImageFormat::Jpeg { quality },
+            (format, _) => format,
+        }
+    }
+
+    /// The rendered frame through the camera model `draw` (a new buffer),
+    /// and each measured drone's visibility as the camera shows it: the
+    /// pixels where the drone changes the noise-free camera image by at
+    /// least one 8-bit level against the drone-free background under the
+    /// same draw (docs/conventions.md, "The camera model and the labels").
+    fn through_camera(
+        &self,
+        renderer: &Renderer,
+        scene: &FrameScene,
+        draw: &CameraDraw,
+        frame: &RenderedFrame,
+        measured: &mut Option<Vec<Visibility>>,
+    ) -> Result<Vec<u8>, PipelineError> {
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        if let Some(vis) = measured.as_mut() {
+            let background = renderer.background_pixels(&frame.painted);
+            for v in vis.iter_mut() {
+                let (Some(b), Some(background)) = (v.visible_box, background) else {
+                    continue;
+                };
+                let near = PixelRect {
+                    x0: b.x0.floor().max(0.0) as u32,
+                    y0: b.y0.floor().max(0.0) as u32,
+                    x1: b.x1.ceil().max(0.0) as u32,
+                    y1: b.y1.ceil().max(0.0) as u32,
+                };
+                *v = camera_visibility(
+                    v,
+                    sensor::changed_pixels(&frame.rgba, background, (w, h), draw, near),
+                );
+            }
+        }
+        let mut rgba = sensor::apply(&frame.rgba, w, h, draw);
+        if let Some(quality) = draw.recompress_quality {
+            rgba = crate::write::jpeg_round_trip(&rgba, w, h, quality).map_err(|e| {
+                PipelineError::Camera {
+                    index: scene.index,
+                    reason: e.to_string(),
+                }
+            })?;
+        }
+        Ok(rgba)
+    }
+}
+
+/// A drone's visibility through the camera: the changed pixels' box and
+/// count; the unoccluded count scaled by the same factor, so the visible
+/// fraction stays the rendered one (occlusion, not blur).
+fn camera_visibility(rendered: &Visibility, changed: Option<(PixelRect, u64)>) -> Visibility {
+    let Some((r, count)) = changed else {
+        return Visibility {
+            visible_box: None,
+            visible_pixels: 0,
+            unoccluded_pixels: rendered.unoccluded_pixels,
+        };
+    };
+    let unoccluded = if rendered.visible_pixels > 0 {
+        let scaled = u128::from(rendered.unoccluded_pixels) * u128::from(count);
+        u64::try_from(scaled.div_ceil(u128::from(rendered.visible_pixels))).unwrap_or(u64::MAX)
+    } else {
+        rendered.unoccluded_pixels
+    };
+    Visibility {
+        visible_box: Some(PixelBox {
+            x0: f64::from(r.x0),
+            y0: f64::from(r.y0),
+            x1: f64::from(r.x1),
+            y1: f64::from(r.y1),
+        }),
+        visible_pixels: count,
+        unoccluded_pixels: unoccluded.max(count),
     }
 }

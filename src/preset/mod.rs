@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub mod camera_model;
 pub mod formation;
 mod ron_error;
 pub mod sweep;
@@ -59,6 +60,9 @@ pub struct Preset {
     /// Sequence mode (issue 12): each sweep point becomes `steps + 1` frames of motion.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sequence: Option<SequenceSpec>,
+    /// The camera model (issue 21): optics, sensor and image processing after rendering; off when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_model: Option<camera_model::CameraModel>,
 }
 
 impl Default for Preset {
@@ -78,6 +82,7 @@ impl Default for Preset {
             labels: LabelSettings::default(),
             output: OutputSettings::default(),
             sequence: None,
+            camera_model: None,
         }
     }
 }

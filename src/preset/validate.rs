@@ -45,6 +45,9 @@ impl Preset {
         self.validate_labels(&mut v);
         self.validate_output(&mut v);
         self.validate_motion(&mut v);
+        if let Some(c) = &self.camera_model {
+            c.validate(self, &mut v);
+        }
         if v.errors.is_empty() {
             Ok(())
         } else {

@@ -364,6 +364,23 @@ impl Renderer {
         result
     }
 
+    /// The drone-free pixels (RGBA8, the whole frame) of the background a
+    /// frame's buffer holds (`painted`), while this renderer still caches
+    /// it: outside `painted.rects()` they equal the frame's, inside them
+    /// they are what the frame shows without its drones. `None` when the
+    /// buffer holds no background or it was replaced since.
+    pub fn background_pixels(&self, painted: &Painted) -> Option<&[u8]> {
+        if painted.background == 0 {
+            return None;
+        }
+        self.regions
+            .as_ref()?
+            .targets
+            .iter()
+            .find(|t| t.background_generation == painted.background)
+            .map(|t| t.background_rgba.as_slice())
+    }
+
     /// How many times the background was drawn (cache misses), for tests and benchmarks.
     pub fn background_draws(&self) -> u64 {
         self.regions.as_ref().map_or(0, |s| s.background_draws)

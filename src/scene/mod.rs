@@ -111,6 +111,9 @@ pub struct FrameScene {
     /// frame `labels.min_labelled` boxes (`seed` is then that draw's seed).
     #[serde(skip_serializing_if = "is_zero")]
     pub redraw: u32,
+    /// The camera model's draws (only when the preset has `camera_model`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_model: Option<crate::sensor::CameraDraw>,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -296,6 +299,8 @@ pub fn build_frame_draw(
         sequence,
         camera_absolute: preset.camera.absolute.is_some(),
         redraw: attempt,
+        camera_model: (preset.camera_model.as_ref())
+            .map(|m| crate::sensor::draw(m, preset.seed, index)),
     })
 }
 

@@ -24,6 +24,33 @@ pub fn encode_image(
     ImageEncoder::new(format).encode(rgba, width, height, None)
 }
 
+/// `rgba` compressed as JPEG at `quality` (as [`encode_image`] would) and
+/// decompressed again by libjpeg-turbo: the camera model's first
+/// compression. RGBA8 of the same size, alpha 255.
+pub fn jpeg_round_trip(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    quality: u8,
+) -> Result<Vec<u8>, OutputError> {
+    let jpeg = encode_image(rgba, width, height, ImageFormat::Jpeg { quality })?;
+    let image = turbojpeg::decompress(&jpeg, turbojpeg::PixelFormat::RGBA).map_err(|e| {
+        OutputError::Encode {
+            format: "JPEG",
+            reason: format!("decoding the first compression: {e}"),
+        }
+    })?;
+    if (image.width, image.height) != (width as usize, height as usize)
+        || image.pitch != width as usize * 4
+    {
+        return Err(OutputError::Encode {
+            format: "JPEG",
+            reason: "the first compression decoded to another size".into(),
+        });
+    }
+    Ok(image.pixels)
+}
+
 /// An encoder for one format, shared by a batch's encoder threads: JPEG
 /// frames over a shared background reuse its unpainted tiles. The bytes are
 /// those of [`encode_image`] whatever was reused.

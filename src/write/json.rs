@@ -495,6 +495,21 @@ mod tests {
                         scene.environment_name = "sky \"x\"\t\\".to_owned();
                         scene.camera_absolute = true;
                         scene.redraw = 3;
+                        scene.camera_model = Some(crate::sensor::CameraDraw {
+                            exposure_ev: pick(),
+                            white_balance_red: f64::NAN,
+                            white_balance_blue: pick(),
+                            psf: crate::sensor::PsfDraw::Gaussian { sigma_px: pick() },
+                            vignetting: -0.0,
+                            ca_red_scale: pick(),
+                            ca_blue_scale: 1.000_000_7,
+                            shot_noise_gain: pick(),
+                            read_noise_levels: f64::INFINITY,
+                            sensor_scale: Some(pick()),
+                            jpeg_quality: Some(73),
+                            recompress_quality: None,
+                            noise_seed: u64::MAX,
+                        });
                         scene.placement_shortfall = 2;
                         for d in &mut scene.drones {
                             d.size_m = pick();
@@ -518,6 +533,13 @@ mod tests {
                             d.model = 1;
                         }
                         classes.truncate(1);
+                        scene.camera_model = Some(crate::sensor::CameraDraw {
+                            psf: crate::sensor::PsfDraw::Disc { radius_px: pick() },
+                            sensor_scale: None,
+                            jpeg_quality: None,
+                            recompress_quality: Some(40),
+                            ..crate::sensor::draw(&Default::default(), 3, index)
+                        });
                         for l in &mut labels {
                             l.class_id = 0;
                         }

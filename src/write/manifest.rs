@@ -137,7 +137,12 @@ pub fn write_manifest_line(
     j.rounded_all(&cam.t().to_array(), Decimals::Nine);
     j.raw(b",\"width\":");
     j.u64(cam.width.into());
-    j.raw(b"},\"drones\":[");
+    j.raw(b"}");
+    if let Some(c) = &scene.camera_model {
+        j.raw(b",\"camera_model\":");
+        write_camera_model(&mut j, c);
+    }
+    j.raw(b",\"drones\":[");
     write_drones(&mut j, scene, labels, model_names, classes);
     j.raw(b"],\"environment\":");
     write_environment(&mut j, scene);
@@ -329,6 +334,56 @@ pub(crate) fn write_sweep(j: &mut Json<'_>, scene: &FrameScene) {
     j.raw(b"}");
 }
 
+/// The camera model's draws of the frame (issue 21), keys in byte order.
+fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
+    use crate::sensor::PsfDraw;
+    j.raw(b"{\"ca_blue_scale\":");
+    j.rounded(c.ca_blue_scale, Decimals::Six);
+    j.raw(b",\"ca_red_scale\":");
+    j.rounded(c.ca_red_scale, Decimals::Six);
+    j.raw(b",\"exposure_ev\":");
+    j.rounded(c.exposure_ev, Decimals::Six);
+    if let Some(q) = c.jpeg_quality {
+        j.raw(b",\"jpeg_quality\":");
+        j.u64(q.into());
+    }
+    j.raw(b",\"noise_seed\":");
+    j.u64(c.noise_seed);
+    j.raw(b",\"psf\":");
+    match c.psf {
+        PsfDraw::None => j.raw(b"{\"kind\":\"none\"}"),
+        PsfDraw::Gaussian { sigma_px } => {
+            j.raw(b"{\"kind\":\"gaussian\",\"sigma_px\":");
+            j.rounded(sigma_px, Decimals::Six);
+            j.raw(b"}");
+        }
+        PsfDraw::Disc { radius_px } => {
+            j.raw(b"{\"kind\":\"disc\",\"radius_px\":");
+            j.rounded(radius_px, Decimals::Six);
+            j.raw(b"}");
+        }
+    }
+    j.raw(b",\"read_noise_levels\":");
+    j.rounded(c.read_noise_levels, Decimals::Six);
+    if let Some(q) = c.recompress_quality {
+        j.raw(b",\"recompress_quality\":");
+        j.u64(q.into());
+    }
+    if let Some(s) = c.sensor_scale {
+        j.raw(b",\"sensor_scale\":");
+        j.rounded(s, Decimals::Six);
+    }
+    j.raw(b",\"shot_noise_gain\":");
+    j.rounded(c.shot_noise_gain, Decimals::Six);
+    j.raw(b",\"vignetting\":");
+    j.rounded(c.vignetting, Decimals::Six);
+    j.raw(b",\"white_balance_blue\":");
+    j.rounded(c.white_balance_blue, Decimals::Six);
+    j.raw(b",\"white_balance_red\":");
+    j.rounded(c.white_balance_red, Decimals::Six);
+    j.raw(b"}");
+}
+
 /// The environment the frame shows (a `Random` sky's choice by name) and its draws.
 fn write_environment(j: &mut Json<'_>, scene: &FrameScene) {
     let e = &scene.environment;
@@ -415,6 +470,8 @@ pub(crate) mod reference {
     #[derive(Serialize)]
     struct Line<'a> {
         camera: CameraRecord,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        camera_model: Option<serde_json::Value>,
         drones: Vec<DroneRecord<'a>>,
         environment: EnvironmentRecord<'a>,
         image: &'a str,
@@ -597,6 +654,7 @@ pub(crate) mod reference {
                 t: cam.t().to_array().map(r9),
                 width: cam.width,
             },
+            camera_model: scene.camera_model.as_ref().map(camera_model_record),
             drones,
             environment: environment_record(scene),
             image,
@@ -624,6 +682,44 @@ pub(crate) mod reference {
             return String::new();
         }
         String::from_utf8(out).unwrap_or_default()
+    }
+
+    /// The camera model's draws as a sorted JSON map.
+    fn camera_model_record(c: &crate::sensor::CameraDraw) -> serde_json::Value {
+        use crate::sensor::PsfDraw;
+        let psf = match c.psf {
+            PsfDraw::None => serde_json::json!({"kind": "none"}),
+            PsfDraw::Gaussian { sigma_px } => {
+                serde_json::json!({"kind": "gaussian", "sigma_px": r6(sigma_px)})
+            }
+            PsfDraw::Disc { radius_px } => {
+                serde_json::json!({"kind": "disc", "radius_px": r6(radius_px)})
+            }
+        };
+        let mut v = serde_json::json!({
+            "ca_blue_scale": r6(c.ca_blue_scale),
+            "ca_red_scale": r6(c.ca_red_scale),
+            "exposure_ev": r6(c.exposure_ev),
+            "noise_seed": c.noise_seed,
+            "psf": psf,
+            "read_noise_levels": r6(c.read_noise_levels),
+            "shot_noise_gain": r6(c.shot_noise_gain),
+            "vignetting": r6(c.vignetting),
+            "white_balance_blue": r6(c.white_balance_blue),
+            "white_balance_red": r6(c.white_balance_red),
+        });
+        if let Some(map) = v.as_object_mut() {
+            if let Some(q) = c.jpeg_quality {
+                map.insert("jpeg_quality".into(), q.into());
+            }
+            if let Some(q) = c.recompress_quality {
+                map.insert("recompress_quality".into(), q.into());
+            }
+            if let Some(s) = c.sensor_scale {
+                map.insert("sensor_scale".into(), r6(s).into());
+            }
+        }
+        v
     }
 
     /// The frame's sweep values by the paper's names (with the swept density

@@ -32,7 +32,7 @@ use crate::scene::{FrameScene, SplitName};
 use folder::fnv1a64;
 
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
-pub use image::{ImageEncoder, encode_image};
+pub use image::{ImageEncoder, encode_image, jpeg_round_trip};
 pub use jpeg::{Area, Unchanged};
 pub use manifest::manifest_line;
 pub use stats::{DatasetStats, StatsError};

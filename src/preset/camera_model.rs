@@ -1,0 +1,142 @@
+//! The camera model's preset section (`camera_model: Some((...))`): plain
+//! serde data, one `(min, max)` range per parameter, drawn per frame by
+//! [`crate::sensor::draw`] (a fixed value is `(v, v)`). Validation names each
+//! field by its path. The processing itself lives in [`crate::sensor`];
+//! docs/realism.md, "The camera model", describes every field.
+
+use serde::{Deserialize, Serialize};
+
+use super::{ImageFormat, Preset, Validator};
+
+/// The camera between the rendered scene and the written file: optics,
+/// sensor and image processing. Every parameter is a range drawn per frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraModel {
+    /// Exposure change in stops (EV): linear light × 2^EV before the sensor clips.
+    pub exposure_ev: (f64, f64),
+    /// White balance gain of the red channel (relative to green).
+    pub white_balance_red: (f64, f64),
+    /// White balance gain of the blue channel (relative to green).
+    pub white_balance_blue: (f64, f64),
+    /// The optics' point spread function.
+    pub psf: Psf,
+    /// Light lost at the image corner (0: none, 0.3: corners at 70 %), falling off as r².
+    pub vignetting: (f64, f64),
+    /// Lateral chromatic aberration: the red image's radial scale relative to green (1: none).
+    pub ca_red_scale: (f64, f64),
+    /// The blue image's radial scale relative to green (1: none).
+    pub ca_blue_scale: (f64, f64),
+    /// Shot noise: variance in (linear 8-bit levels)² per linear 8-bit level of signal.
+    pub shot_noise_gain: (f64, f64),
+    /// Read noise σ in linear 8-bit levels.
+    pub read_noise_levels: (f64, f64),
+    /// Sensor side / output side, in (0, 1]: the picture is sampled by a
+    /// coarser sensor and scaled back up (`None`: the sensor has the output's pixels).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_scale: Option<(f64, f64)>,
+    /// JPEG quality drawn per frame, in place of `output.image_format`'s (JPEG output only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jpeg_quality: Option<(u8, u8)>,
+    /// A first JPEG compression at this quality (encoded and decoded once) before the final write.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recompress_quality: Option<(u8, u8)>,
+}
+
+impl Default for CameraModel {
+    /// A camera that changes nothing but the noise-free rounding: every
+    /// range at its neutral value.
+    fn default() -> Self {
+        Self {
+            exposure_ev: (0.0, 0.0),
+            white_balance_red: (1.0, 1.0),
+            white_balance_blue: (1.0, 1.0),
+            psf: Psf::None,
+            vignetting: (0.0, 0.0),
+            ca_red_scale: (1.0, 1.0),
+            ca_blue_scale: (1.0, 1.0),
+            shot_noise_gain: (0.0, 0.0),
+            read_noise_levels: (0.0, 0.0),
+            sensor_scale: None,
+            jpeg_quality: None,
+            recompress_quality: None,
+        }
+    }
+}
+
+/// The optics' point spread function, its size drawn per frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Psf {
+    /// A perfect lens.
+    #[default]
+    None,
+    /// A Gaussian of standard deviation `sigma_px` output pixels (support ±⌈3σ⌉).
+    Gaussian { sigma_px: (f64, f64) },
+    /// Defocus: a uniform disc of radius `radius_px` output pixels.
+    Disc { radius_px: (f64, f64) },
+}
+
+/// The largest PSF size accepted (pixels): beyond it a frame is a flat smear.
+pub const MAX_PSF_PX: f64 = 64.0;
+
+impl CameraModel {
+    pub(super) fn validate(&self, preset: &Preset, v: &mut Validator) {
+        let p = "camera_model";
+        let range = |v: &mut Validator, name: &str, r: (f64, f64), lo: f64, hi: f64| {
+            let field = format!("{p}.{name}");
+            let ok = r.0.is_finite() && r.1.is_finite();
+            v.check(ok && r.0 <= r.1, &field, || {
+                format!(
+                    "({}, {}) is not a range (min, max) of finite numbers with min ≤ max",
+                    r.0, r.1
+                )
+            });
+            v.check(!ok || (r.0 >= lo && r.1 <= hi), &field, || {
+                format!("({}, {}) leaves [{lo}, {hi}]", r.0, r.1)
+            });
+        };
+        range(v, "exposure_ev", self.exposure_ev, -10.0, 10.0);
+        range(v, "white_balance_red", self.white_balance_red, 0.05, 20.0);
+        range(v, "white_balance_blue", self.white_balance_blue, 0.05, 20.0);
+        match &self.psf {
+            Psf::None => {}
+            Psf::Gaussian { sigma_px } => {
+                range(v, "psf.sigma_px", *sigma_px, 0.0, MAX_PSF_PX);
+            }
+            Psf::Disc { radius_px } => {
+                range(v, "psf.radius_px", *radius_px, 0.0, MAX_PSF_PX);
+            }
+        }
+        range(v, "vignetting", self.vignetting, 0.0, 1.0);
+        range(v, "ca_red_scale", self.ca_red_scale, 0.9, 1.1);
+        range(v, "ca_blue_scale", self.ca_blue_scale, 0.9, 1.1);
+        range(v, "shot_noise_gain", self.shot_noise_gain, 0.0, 1000.0);
+        range(v, "read_noise_levels", self.read_noise_levels, 0.0, 255.0);
+        if let Some(s) = self.sensor_scale {
+            range(v, "sensor_scale", s, 0.0, 1.0);
+            v.check(!(s.0 <= 0.0), &format!("{p}.sensor_scale"), || {
+                format!("{} must be > 0 (the sensor's side over the output's)", s.0)
+            });
+        }
+        for (name, q) in [
+            ("jpeg_quality", self.jpeg_quality),
+            ("recompress_quality", self.recompress_quality),
+        ] {
+            if let Some((lo, hi)) = q {
+                v.check(
+                    (1..=100).contains(&lo) && (1..=100).contains(&hi) && lo <= hi,
+                    &format!("{p}.{name}"),
+                    || format!("({lo}, {hi}) is not a range (min, max) within [1, 100]"),
+                );
+            }
+        }
+        if self.jpeg_quality.is_some() {
+            v.check(
+                matches!(preset.output.image_format, ImageFormat::Jpeg { .. }),
+                &format!("{p}.jpeg_quality"),
+                || "needs output.image_format Jpeg (the preset writes PNG)".into(),
+            );
+        }
+    }
+}

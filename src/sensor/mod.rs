@@ -1,0 +1,249 @@
+//! The camera model (issue 21): what a real camera does to the rendered
+//! scene between the light arriving and the file being written — optics,
+//! sensor and image processing — as a CPU stage between rendering and
+//! encoding. Off unless the preset has `camera_model: Some(...)`; a preset
+//! without it never reaches this module.
+//!
+//! It owns the per-frame draw of the preset's ranges ([`draw`] →
+//! [`CameraDraw`], plain data recorded in the manifest), the processing of
+//! a frame ([`apply`]), and the labels' view of it ([`changed_pixels`]:
+//! which pixels a drone changes in the noise-free camera image). It knows
+//! presets (for the ranges) and seeds, nothing of the GPU, scenes or files.
+//!
+//! The chain, in linear light (sRGB decoded with a 256-entry table), each
+//! stage skipped when its draw is neutral:
+//!
+//! 1. exposure and white balance: × 2^EV × (R, 1, B) gains (folded into the
+//!    decode table);
+//! 2. lateral chromatic aberration: the red and blue images scaled radially
+//!    about the image centre by their drawn scale relative to green
+//!    (bilinear resampling);
+//! 3. the optics' PSF: a Gaussian of σ px truncated at ±⌈3σ⌉ px (weights
+//!    renormalised; separable), or a defocus disc of radius r px (the
+//!    pixels whose centres lie within r of the pixel's, equal weights);
+//! 4. vignetting: × (1 − v·ρ²), ρ the distance to the centre over the
+//!    half-diagonal;
+//! 5. the sensor grid, when `sensor_scale` < 1: the output is averaged
+//!    into sensor pixels (a box filter over each sensor pixel's footprint:
+//!    output columns ⌊jW/w⌋ … ⌊(j+1)W/w⌋ − 1, rows likewise), and the
+//!    sensor picture is scaled back to the output size bilinearly
+//!    (pixel centres aligned, edges clamped) after step 7;
+//! 6. the sensor clips the signal at its full well (linear 1.0) and below 0;
+//! 7. noise, per sensor pixel and channel: Poisson–Gaussian in linear
+//!    8-bit-equivalent levels, variance = gain·signal + read², the normal
+//!    deviate from a counter-based hash of (frame noise seed, pixel index)
+//!    ([`noise`]); then clipped to [0, 1] again;
+//! 8. sRGB encoding (a 65 536-entry table on the linear value).
+//!
+//! Every stage reads its input at absolute pixel coordinates clamped to the
+//! image, so running the chain on a window of the frame gives, inside the
+//! window shrunk by [`CameraDraw::reach_px`], exactly the bytes the whole
+//! frame gets there: the labels use that to compare a drone's neighbourhood
+//! with and without the drone. Rows are split over rayon's threads; every
+//! pixel's value depends only on the input and the draw, never on the split.
+
+mod noise;
+mod stages;
+
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+
+use crate::preset::camera_model::{CameraModel, Psf};
+
+pub use stages::{apply, develop};
+
+/// The camera parameters of one frame, drawn from the preset's ranges.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CameraDraw {
+    pub exposure_ev: f64,
+    pub white_balance_red: f64,
+    pub white_balance_blue: f64,
+    pub psf: PsfDraw,
+    pub vignetting: f64,
+    pub ca_red_scale: f64,
+    pub ca_blue_scale: f64,
+    /// Variance (linear 8-bit levels²) per linear 8-bit level of signal.
+    pub shot_noise_gain: f64,
+    /// Read noise σ, linear 8-bit levels.
+    pub read_noise_levels: f64,
+    /// Sensor side / output side (`None`: the output's own pixels).
+    pub sensor_scale: Option<f64>,
+    /// The quality the frame is written with (`None`: `output.image_format`'s).
+    pub jpeg_quality: Option<u8>,
+    /// The quality of the first compression (`None`: none).
+    pub recompress_quality: Option<u8>,
+    /// Seed of the per-pixel noise.
+    pub noise_seed: u64,
+}
+
+/// The drawn point spread function.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum PsfDraw {
+    None,
+    Gaussian { sigma_px: f64 },
+    Disc { radius_px: f64 },
+}
+
+impl PsfDraw {
+    /// The kernel's half-width in pixels: ⌈3σ⌉ for a Gaussian, ⌊r⌋ for a disc.
+    pub fn support_px(self) -> u32 {
+        match self {
+            Self::None => 0,
+            Self::Gaussian { sigma_px } => (3.0 * sigma_px).ceil().max(0.0) as u32,
+            Self::Disc { radius_px } => radius_px.floor().max(0.0) as u32,
+        }
+    }
+}
+
+/// Draw frame `frame_index`'s camera from `model`, with the camera model's
+/// own seed ([`crate::seed::camera_seed`]): the scene's draws do not move.
+/// Fields are drawn in declaration order, each uniform on its range.
+pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDraw {
+    let seed = crate::seed::camera_seed(preset_seed, frame_index);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut pick = |(lo, hi): (f64, f64)| {
+        if hi > lo {
+            rng.random_range(lo..=hi)
+        } else {
+            lo
+        }
+    };
+    let exposure_ev = pick(model.exposure_ev);
+    let white_balance_red = pick(model.white_balance_red);
+    let white_balance_blue = pick(model.white_balance_blue);
+    let psf = match model.psf {
+        Psf::None => PsfDraw::None,
+        Psf::Gaussian { sigma_px } => PsfDraw::Gaussian {
+            sigma_px: pick(sigma_px),
+        },
+        Psf::Disc { radius_px } => PsfDraw::Disc {
+            radius_px: pick(radius_px),
+        },
+    };
+    let vignetting = pick(model.vignetting);
+    let ca_red_scale = pick(model.ca_red_scale);
+    let ca_blue_scale = pick(model.ca_blue_scale);
+    let shot_noise_gain = pick(model.shot_noise_gain);
+    let read_noise_levels = pick(model.read_noise_levels);
+    let sensor_scale = model.sensor_scale.map(&mut pick);
+    let mut pick_q = |q: Option<(u8, u8)>| {
+        q.map(|(lo, hi)| {
+            if hi > lo {
+                rng.random_range(lo..=hi)
+            } else {
+                lo
+            }
+        })
+    };
+    let jpeg_quality = pick_q(model.jpeg_quality);
+    let recompress_quality = pick_q(model.recompress_quality);
+    CameraDraw {
+        exposure_ev,
+        white_balance_red,
+        white_balance_blue,
+        psf,
+        vignetting,
+        ca_red_scale,
+        ca_blue_scale,
+        shot_noise_gain,
+        read_noise_levels,
+        sensor_scale,
+        jpeg_quality,
+        recompress_quality,
+        noise_seed: crate::seed::mix64(seed ^ 0x4E4F_4953_455F_5345), // "NOISE_SE"
+    }
+}
+
+impl CameraDraw {
+    /// The sensor's size for a `width`×`height` output (each side ≥ 1).
+    pub fn sensor_size(&self, width: u32, height: u32) -> (u32, u32) {
+        match self.sensor_scale {
+            Some(s) if s < 1.0 => {
+                let side = |n: u32| ((f64::from(n) * s).round() as u32).clamp(1, n);
+                (side(width), side(height))
+            }
+            _ => (width, height),
+        }
+    }
+
+    /// How far (pixels) a change of one input pixel can move in the output:
+    /// the PSF's support, the largest chromatic-aberration shift plus the
+    /// bilinear tap, and two sensor pixels' footprints for the resampling.
+    pub fn reach_px(&self, width: u32, height: u32) -> u32 {
+        let half_diagonal = (f64::from(width).hypot(f64::from(height))) / 2.0;
+        let shift = [self.ca_red_scale, self.ca_blue_scale]
+            .iter()
+            .map(|s| (1.0 - 1.0 / s).abs() * half_diagonal)
+            .fold(0.0, f64::max);
+        let ca = if shift > 0.0 {
+            shift.ceil() as u32 + 2
+        } else {
+            0
+        };
+        let (sw, sh) = self.sensor_size(width, height);
+        let resample = if (sw, sh) == (width, height) {
+            0
+        } else {
+            2 * width.div_ceil(sw).max(height.div_ceil(sh)) + 2
+        };
+        self.psf.support_px() + ca + resample
+    }
+}
+
+/// A pixel rectangle `[x0, x1) × [y0, y1)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+/// What a drone shows through the camera: the box and number of pixels
+/// where the noise-free camera image of `frame` differs by at least one
+/// 8-bit level (any channel) from that of `background` (the same frame
+/// without drones) under the same draw, searched within `near` (the
+/// drone's rendered visible box) grown by [`CameraDraw::reach_px`].
+/// `None` when no pixel changes. Both images are `width`×`height` RGBA8.
+pub fn changed_pixels(
+    frame: &[u8],
+    background: &[u8],
+    (width, height): (u32, u32),
+    draw: &CameraDraw,
+    near: PixelRect,
+) -> Option<(PixelRect, u64)> {
+    let reach = draw.reach_px(width, height);
+    let grow = |r: PixelRect, by: u32| PixelRect {
+        x0: r.x0.saturating_sub(by),
+        y0: r.y0.saturating_sub(by),
+        x1: r.x1.saturating_add(by).min(width),
+        y1: r.y1.saturating_add(by).min(height),
+    };
+    let area = grow(near, reach);
+    if area.x0 >= area.x1 || area.y0 >= area.y1 {
+        return None;
+    }
+    let a = develop(frame, width, height, draw, area, false);
+    let b = develop(background, width, height, draw, area, false);
+    let w = (area.x1 - area.x0) as usize;
+    let mut found: Option<PixelRect> = None;
+    let mut count = 0u64;
+    for (i, (pa, pb)) in a.chunks_exact(4).zip(b.chunks_exact(4)).enumerate() {
+        if pa[..3] == pb[..3] {
+            continue;
+        }
+        count += 1;
+        let (x, y) = (area.x0 + (i % w) as u32, area.y0 + (i / w) as u32);
+        let r = found.get_or_insert(PixelRect {
+            x0: x,
+            y0: y,
+            x1: x + 1,
+            y1: y + 1,
+        });
+        r.x0 = r.x0.min(x);
+        r.y0 = r.y0.min(y);
+        r.x1 = r.x1.max(x + 1);
+        r.y1 = r.y1.max(y + 1);
+    }
+    found.map(|r| (r, count))
+}

@@ -1,0 +1,500 @@
+//! The camera model's stages on planes of linear f32 (one per channel)
+//! covering a window of the image, in the order the module docs give.
+//! Every stage reads its source at absolute coordinates clamped to the
+//! source's window (which is clamped to the image), so a window's pixels
+//! farther than [`CameraDraw::reach_px`] from its inner edges equal the
+//! whole frame's.
+
+use std::sync::OnceLock;
+
+use rayon::prelude::*;
+
+use super::{CameraDraw, PixelRect, PsfDraw, noise};
+
+/// A window `[x0, x1) × [y0, y1)` in absolute pixels of some grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Win {
+    x0: i64,
+    y0: i64,
+    x1: i64,
+    y1: i64,
+}
+
+impl Win {
+    fn w(self) -> usize {
+        (self.x1 - self.x0).max(0) as usize
+    }
+    fn h(self) -> usize {
+        (self.y1 - self.y0).max(0) as usize
+    }
+}
+
+/// One channel over a window.
+struct Plane {
+    win: Win,
+    data: Vec<f32>,
+}
+
+impl Plane {
+    /// Row `y` (absolute, clamped into the window).
+    #[inline]
+    fn row(&self, y: i64) -> &[f32] {
+        let y = (y.clamp(self.win.y0, self.win.y1 - 1) - self.win.y0) as usize;
+        let w = self.win.w();
+        &self.data[y * w..(y + 1) * w]
+    }
+
+    /// Column index of absolute `x`, clamped into the window.
+    #[inline]
+    fn col(&self, x: i64) -> usize {
+        (x.clamp(self.win.x0, self.win.x1 - 1) - self.win.x0) as usize
+    }
+}
+
+/// A plane over `win` whose rows `f(absolute y, row)` fills, rows in parallel.
+fn rows(win: Win, f: impl Fn(i64, &mut [f32]) + Sync) -> Plane {
+    let w = win.w();
+    let mut data = vec![0f32; w * win.h()];
+    if w > 0 {
+        data.par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(r, row)| f(win.y0 + r as i64, row));
+    }
+    Plane { win, data }
+}
+
+/// sRGB 8-bit → linear light.
+fn decode_table() -> &'static [f32; 256] {
+    static T: OnceLock<[f32; 256]> = OnceLock::new();
+    T.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let c = i as f64 / 255.0;
+            let l = if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            };
+            l as f32
+        })
+    })
+}
+
+/// Entries of the encoding table: linear [0, 1] in steps of 1/65535.
+const ENCODE_STEPS: usize = 65_536;
+
+/// Linear light (index = round(l·65535)) → sRGB 8-bit.
+fn encode_table() -> &'static [u8] {
+    static T: OnceLock<Vec<u8>> = OnceLock::new();
+    T.get_or_init(|| {
+        (0..ENCODE_STEPS)
+            .map(|i| {
+                let l = i as f64 / (ENCODE_STEPS - 1) as f64;
+                let c = if l <= 0.003_130_8 {
+                    12.92 * l
+                } else {
+                    1.055 * l.powf(1.0 / 2.4) - 0.055
+                };
+                (c * 255.0).round().clamp(0.0, 255.0) as u8
+            })
+            .collect()
+    })
+}
+
+#[inline]
+fn encode(table: &[u8], l: f32) -> u8 {
+    // l is in [0, 1] (clipped by the sensor); NaN would map to 0.
+    table[((l * (ENCODE_STEPS - 1) as f32 + 0.5) as usize).min(ENCODE_STEPS - 1)]
+}
+
+/// The whole frame through the camera, noise included: RGBA8 of the same
+/// size, alpha kept.
+pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
+    let full = PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: width,
+        y1: height,
+    };
+    develop(rgba, width, height, draw, full, true)
+}
+
+/// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
+/// `rgba` through the camera `draw`, with or without noise. Computed from a
+/// window of the input `reach_px` wider than `out`, so they are the bytes
+/// the whole frame gets there.
+pub fn develop(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    draw: &CameraDraw,
+    out: PixelRect,
+    noisy: bool,
+) -> Vec<u8> {
+    let (wi, hi) = (i64::from(width), i64::from(height));
+    let out = Win {
+        x0: i64::from(out.x0).clamp(0, wi),
+        y0: i64::from(out.y0).clamp(0, hi),
+        x1: i64::from(out.x1).clamp(0, wi),
+        y1: i64::from(out.y1).clamp(0, hi),
+    };
+    if out.w() == 0 || out.h() == 0 || rgba.len() < (width as usize) * (height as usize) * 4 {
+        return Vec::new();
+    }
+    let reach = i64::from(draw.reach_px(width, height));
+    let win = Win {
+        x0: (out.x0 - reach).max(0),
+        y0: (out.y0 - reach).max(0),
+        x1: (out.x1 + reach).min(wi),
+        y1: (out.y1 + reach).min(hi),
+    };
+    let centre = (f64::from(width) / 2.0, f64::from(height) / 2.0);
+
+    // 1. Decode, with exposure and white balance folded into the table.
+    let exposure = 2f64.powf(draw.exposure_ev);
+    let gains = [
+        exposure * draw.white_balance_red,
+        exposure,
+        exposure * draw.white_balance_blue,
+    ];
+    let table = decode_table();
+    let mut planes: [Plane; 3] = std::array::from_fn(|c| {
+        let lut: [f32; 256] = std::array::from_fn(|i| (f64::from(table[i]) * gains[c]) as f32);
+        rows(win, |y, row| {
+            let start = (y as usize * width as usize + win.x0 as usize) * 4 + c;
+            for (o, px) in row.iter_mut().zip(rgba[start..].iter().step_by(4)) {
+                *o = lut[*px as usize];
+            }
+        })
+    });
+
+    // 2. Lateral chromatic aberration: red and blue scaled about the centre.
+    for (c, scale) in [(0, draw.ca_red_scale), (2, draw.ca_blue_scale)] {
+        if scale != 1.0 && scale.is_finite() && scale > 0.0 {
+            planes[c] = radial(&planes[c], scale, centre);
+        }
+    }
+
+    // 3. The PSF.
+    match draw.psf {
+        PsfDraw::Gaussian { sigma_px } if draw.psf.support_px() > 0 && sigma_px > 0.0 => {
+            let weights = gaussian_weights(sigma_px);
+            for p in &mut planes {
+                *p = gaussian(p, &weights);
+            }
+        }
+        PsfDraw::Disc { radius_px } if draw.psf.support_px() > 0 => {
+            for p in &mut planes {
+                *p = disc(p, radius_px);
+            }
+        }
+        _ => {}
+    }
+
+    // 4. Vignetting.
+    if draw.vignetting > 0.0 {
+        let corner2 = centre.0 * centre.0 + centre.1 * centre.1;
+        let dx2: Vec<f64> = (win.x0..win.x1)
+            .map(|x| (x as f64 + 0.5 - centre.0).powi(2))
+            .collect();
+        for p in &mut planes {
+            let w = p.win.w();
+            p.data.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
+                let dy2 = ((win.y0 + r as i64) as f64 + 0.5 - centre.1).powi(2);
+                for (v, dx2) in row.iter_mut().zip(&dx2) {
+                    *v *= (1.0 - draw.vignetting * (dx2 + dy2) / corner2) as f32;
+                }
+            });
+        }
+    }
+
+    // 5. The sensor grid.
+    let (sw, sh) = draw.sensor_size(width, height);
+    let resampled = (sw, sh) != (width, height);
+    let swin = if resampled {
+        let (sw, sh) = (i64::from(sw), i64::from(sh));
+        let s = Win {
+            x0: win.x0 * sw / wi,
+            y0: win.y0 * sh / hi,
+            x1: ((win.x1 * sw + wi - 1) / wi).min(sw),
+            y1: ((win.y1 * sh + hi - 1) / hi).min(sh),
+        };
+        for p in &mut planes {
+            *p = box_down(p, s, (wi, hi), (sw, sh));
+        }
+        s
+    } else {
+        win
+    };
+
+    // 6–7. Full well, noise, clipping.
+    let noise_on = noisy && (draw.shot_noise_gain > 0.0 || draw.read_noise_levels > 0.0);
+    if noise_on {
+        sensor_noise(&mut planes, swin, u64::from(sw), draw);
+    } else {
+        for p in &mut planes {
+            p.data.par_iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
+        }
+    }
+
+    // 5 (continued). Back to the output grid, over `out` only.
+    let planes: [Plane; 3] = if resampled {
+        let [a, b, c] = planes;
+        [a, b, c].map(|p| bilinear_up(&p, out, (wi, hi), (i64::from(sw), i64::from(sh))))
+    } else {
+        planes
+    };
+
+    // 8. Encode `out`.
+    let enc = encode_table();
+    let ow = out.w();
+    let mut bytes = vec![0u8; ow * out.h() * 4];
+    bytes
+        .par_chunks_mut(ow * 4)
+        .enumerate()
+        .for_each(|(r, line)| {
+            let y = out.y0 + r as i64;
+            let src: [&[f32]; 3] = std::array::from_fn(|c| {
+                let row = planes[c].row(y);
+                let x0 = planes[c].col(out.x0);
+                &row[x0..x0 + ow]
+            });
+            let alpha = (y as usize * width as usize + out.x0 as usize) * 4 + 3;
+            for (i, px) in line.chunks_exact_mut(4).enumerate() {
+                px[0] = encode(enc, src[0][i]);
+                px[1] = encode(enc, src[1][i]);
+                px[2] = encode(enc, src[2][i]);
+                px[3] = rgba[alpha + i * 4];
+            }
+        });
+    bytes
+}
+
+/// The plane magnified by `scale` about `centre` (bilinear).
+fn radial(p: &Plane, scale: f64, centre: (f64, f64)) -> Plane {
+    let inv = 1.0 / scale;
+    rows(p.win, |y, row| {
+        let v = centre.1 + (y as f64 + 0.5 - centre.1) * inv - 0.5;
+        let (yi, fy) = (v.floor() as i64, (v - v.floor()) as f32);
+        let (r0, r1) = (p.row(yi), p.row(yi + 1));
+        for (i, o) in row.iter_mut().enumerate() {
+            let x = p.win.x0 + i as i64;
+            let u = centre.0 + (x as f64 + 0.5 - centre.0) * inv - 0.5;
+            let (xi, fx) = (u.floor() as i64, (u - u.floor()) as f32);
+            let (c0, c1) = (p.col(xi), p.col(xi + 1));
+            let top = r0[c0] + (r0[c1] - r0[c0]) * fx;
+            let bottom = r1[c0] + (r1[c1] - r1[c0]) * fx;
+            *o = top + (bottom - top) * fy;
+        }
+    })
+}
+
+/// Normalised Gaussian weights for offsets −⌈3σ⌉ … ⌈3σ⌉.
+fn gaussian_weights(sigma_px: f64) -> Vec<f32> {
+    let r = (3.0 * sigma_px).ceil() as i64;
+    let raw: Vec<f64> = (-r..=r)
+        .map(|k| (-(k * k) as f64 / (2.0 * sigma_px * sigma_px)).exp())
+        .collect();
+    let sum: f64 = raw.iter().sum();
+    raw.iter().map(|w| (w / sum) as f32).collect()
+}
+
+/// Separable convolution with `weights` (odd length), edges clamped.
+fn gaussian(p: &Plane, weights: &[f32]) -> Plane {
+    let r = (weights.len() / 2) as i64;
+    let w = p.win.w();
+    // Horizontal, through a row padded with clamped edge values.
+    let across = rows(p.win, |y, row| {
+        let src = p.row(y);
+        let padded: Vec<f32> = (p.win.x0 - r..p.win.x1 + r)
+            .map(|x| src[p.col(x)])
+            .collect();
+        for (k, &wk) in weights.iter().enumerate() {
+            for (o, s) in row.iter_mut().zip(&padded[k..k + w]) {
+                *o += wk * s;
+            }
+        }
+    });
+    // Vertical: a weighted sum of whole rows (vectorises).
+    rows(p.win, |y, row| {
+        for (k, &wk) in weights.iter().enumerate() {
+            let src = across.row(y + k as i64 - r);
+            for (o, s) in row.iter_mut().zip(src) {
+                *o += wk * s;
+            }
+        }
+    })
+}
+
+/// A uniform disc: the pixels whose centres lie within `radius_px`, summed
+/// row by row from prefix sums (O(radius) per pixel), edges clamped.
+fn disc(p: &Plane, radius_px: f64) -> Plane {
+    let r = radius_px.floor() as i64;
+    let spans: Vec<i64> = (-r..=r)
+        .map(|dy| {
+            let rest = radius_px * radius_px - (dy * dy) as f64;
+            if rest >= 0.0 {
+                rest.sqrt().floor() as i64
+            } else {
+                -1
+            }
+        })
+        .collect();
+    let count: i64 = spans.iter().map(|h| 2 * h + 1).sum();
+    let norm = 1.0 / count as f64;
+    let w = p.win.w();
+    // Per source row: prefix sums of the row padded by r clamped values.
+    let prefix: Vec<Vec<f64>> = (p.win.y0..p.win.y1)
+        .into_par_iter()
+        .map(|y| {
+            let src = p.row(y);
+            let mut acc = 0.0;
+            let mut out = Vec::with_capacity(w + 2 * r as usize + 1);
+            out.push(0.0);
+            for x in p.win.x0 - r..p.win.x1 + r {
+                acc += f64::from(src[p.col(x)]);
+                out.push(acc);
+            }
+            out
+        })
+        .collect();
+    let row_of = |y: i64| &prefix[(y.clamp(p.win.y0, p.win.y1 - 1) - p.win.y0) as usize];
+    rows(p.win, |y, row| {
+        let mut sums = vec![0f64; w];
+        for (k, &hw) in spans.iter().enumerate() {
+            if hw < 0 {
+                continue;
+            }
+            let pre = row_of(y + k as i64 - r);
+            let (lo, hi) = ((r - hw) as usize, (r + hw + 1) as usize);
+            for (i, s) in sums.iter_mut().enumerate() {
+                *s += pre[i + hi] - pre[i + lo];
+            }
+        }
+        for (o, s) in row.iter_mut().zip(sums) {
+            *o = (s * norm) as f32;
+        }
+    })
+}
+
+/// First output pixel of sensor pixel `j` on a side of `n` output and `m` sensor pixels.
+#[inline]
+fn footprint_start(j: i64, n: i64, m: i64) -> i64 {
+    j * n / m
+}
+
+/// Box-filter the plane (output grid) into the sensor window `s`.
+fn box_down(p: &Plane, s: Win, (w, h): (i64, i64), (sw, sh): (i64, i64)) -> Plane {
+    // Horizontal: sensor columns over the source's rows.
+    let across = rows(
+        Win {
+            x0: s.x0,
+            x1: s.x1,
+            y0: p.win.y0,
+            y1: p.win.y1,
+        },
+        |y, row| {
+            let src = p.row(y);
+            for (i, o) in row.iter_mut().enumerate() {
+                let j = s.x0 + i as i64;
+                let (a, b) = (footprint_start(j, w, sw), footprint_start(j + 1, w, sw));
+                let sum: f32 = (a..b.max(a + 1)).map(|x| src[p.col(x)]).sum();
+                *o = sum / (b.max(a + 1) - a) as f32;
+            }
+        },
+    );
+    rows(s, |j, row| {
+        let (a, b) = (footprint_start(j, h, sh), footprint_start(j + 1, h, sh));
+        let b = b.max(a + 1);
+        for y in a..b {
+            for (o, v) in row.iter_mut().zip(across.row(y)) {
+                *o += v;
+            }
+        }
+        let n = (b - a) as f32;
+        for o in row.iter_mut() {
+            *o /= n;
+        }
+    })
+}
+
+/// Bilinear from the sensor grid (`sw`×`sh`) back to output window `out`.
+fn bilinear_up(p: &Plane, out: Win, (w, h): (i64, i64), (sw, sh): (i64, i64)) -> Plane {
+    let tap = |x: i64, n: i64, m: i64| {
+        let u = (x as f64 + 0.5) * m as f64 / n as f64 - 0.5;
+        let i = u.floor();
+        (i as i64, (u - i) as f32)
+    };
+    let cols: Vec<(usize, usize, f32)> = (out.x0..out.x1)
+        .map(|x| {
+            let (i, f) = tap(x, w, sw);
+            (
+                p.col(i.clamp(0, sw - 1)),
+                p.col((i + 1).clamp(0, sw - 1)),
+                f,
+            )
+        })
+        .collect();
+    rows(out, |y, row| {
+        let (j, fy) = tap(y, h, sh);
+        let (r0, r1) = (p.row(j.clamp(0, sh - 1)), p.row((j + 1).clamp(0, sh - 1)));
+        for (o, &(c0, c1, fx)) in row.iter_mut().zip(&cols) {
+            let top = r0[c0] + (r0[c1] - r0[c0]) * fx;
+            let bottom = r1[c0] + (r1[c1] - r1[c0]) * fx;
+            *o = top + (bottom - top) * fy;
+        }
+    })
+}
+
+/// Clip at the full well, add Poisson–Gaussian noise (variance in linear
+/// 8-bit levels² = gain·signal + read²), clip again. Pixel indices are the
+/// sensor's (row-major over a sensor `sensor_w` wide).
+fn sensor_noise(planes: &mut [Plane; 3], s: Win, sensor_w: u64, draw: &CameraDraw) {
+    let table = noise::table();
+    let gain = draw.shot_noise_gain as f32;
+    let read2 = (draw.read_noise_levels * draw.read_noise_levels) as f32;
+    let w = s.w();
+    let [p0, p1, p2] = planes;
+    p0.data
+        .par_chunks_mut(w)
+        .zip(p1.data.par_chunks_mut(w))
+        .zip(p2.data.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, ((a, b), c))| {
+            let y = (s.y0 + r as i64) as u64;
+            let first = y * sensor_w + s.x0 as u64;
+            for (i, ((a, b), c)) in a.iter_mut().zip(b).zip(c).enumerate() {
+                let bits = noise::bits(draw.noise_seed, first + i as u64);
+                for (ch, v) in [a, b, c].into_iter().enumerate() {
+                    let signal = v.clamp(0.0, 1.0);
+                    // σ in linear units: sqrt(gain·(255·signal) + read²) / 255.
+                    let sigma = (gain * 255.0 * signal + read2).sqrt() / 255.0;
+                    *v = (signal + sigma * noise::normal(table, bits, ch)).clamp(0.0, 1.0);
+                }
+            }
+        });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::*;
+    use super::*;
+
+    fn neutral() -> CameraDraw {
+        draw(&crate::preset::camera_model::CameraModel::default(), 1, 0)
+    }
+
+    #[test]
+    fn a_neutral_camera_returns_the_input() {
+        let (w, h) = (37u32, 11u32);
+        let rgba: Vec<u8> = (0..w * h * 4).map(|i| (i * 7 % 256) as u8).collect();
+        assert_eq!(apply(&rgba, w, h, &neutral()), rgba);
+    }
+
+    #[test]
+    fn the_encoding_table_inverts_the_decoding_table() {
+        let (d, e) = (decode_table(), encode_table());
+        for v in 0..=255u8 {
+            assert_eq!(encode(e, d[v as usize]), v);
+        }
+    }
+}
