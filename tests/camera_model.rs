@@ -1,0 +1,563 @@
+//! The camera model (src/sensor/): measured noise and blur against the set
+//! values, extremes, determinism, and the labels under the camera model
+//! against a drone-free frame made with the same camera draws (lavapipe).
+
+mod common;
+
+use swarmshot::preset::camera_model::{CameraModel, Psf};
+use swarmshot::preset::{BoxMethod, Preset};
+use swarmshot::sensor::{self, CameraDraw, PixelRect, PsfDraw};
+
+fn neutral() -> CameraDraw {
+    sensor::draw(&CameraModel::default(), 1, 0)
+}
+
+fn flat(w: u32, h: u32, v: u8) -> Vec<u8> {
+    (0..w * h).flat_map(|_| [v, v, v, 255]).collect()
+}
+
+fn srgb_to_linear(c: f64) -> f64 {
+    let c = c / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn linear_to_srgb(l: f64) -> f64 {
+    255.0
+        * if l <= 0.003_130_8 {
+            12.92 * l
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        }
+}
+
+fn std_dev(xs: impl Iterator<Item = f64> + Clone) -> f64 {
+    let n = xs.clone().count() as f64;
+    let m = xs.clone().sum::<f64>() / n;
+    (xs.map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt()
+}
+
+#[test]
+fn measured_noise_is_the_set_noise_within_5_percent() {
+    let (w, h) = (512u32, 512u32);
+    let level = 140u8;
+    let signal = srgb_to_linear(f64::from(level));
+    // The output is sRGB: the linear σ times the curve's slope at the signal,
+    // plus the quantisation's 1/12 level² (σ large enough that it is small).
+    let slope = (linear_to_srgb(signal + 1e-4) - linear_to_srgb(signal - 1e-4)) / 2e-4;
+    for (gain, read) in [(0.0, 3.0), (0.05, 0.0), (0.02, 2.0)] {
+        let draw = CameraDraw {
+            shot_noise_gain: gain,
+            read_noise_levels: read,
+            ..neutral()
+        };
+        let out = sensor::apply(&flat(w, h, level), w, h, &draw);
+        let set_linear_levels = (gain * 255.0 * signal + read * read).sqrt();
+        let expected = ((slope * set_linear_levels / 255.0).powi(2) + 1.0 / 12.0).sqrt();
+        for c in 0..3 {
+            let measured = std_dev(out.iter().skip(c).step_by(4).map(|&v| f64::from(v)));
+            assert!(
+                (measured / expected - 1.0).abs() < 0.05,
+                "gain {gain}, read {read}, channel {c}: σ {measured:.3} levels, set {expected:.3}"
+            );
+        }
+        // Noise is per pixel: neighbours are uncorrelated.
+        let g: Vec<f64> = out
+            .iter()
+            .skip(1)
+            .step_by(4)
+            .map(|&v| f64::from(v))
+            .collect();
+        let m = g.iter().sum::<f64>() / g.len() as f64;
+        let var = g.iter().map(|x| (x - m).powi(2)).sum::<f64>();
+        let cov: f64 = g.windows(2).map(|p| (p[0] - m) * (p[1] - m)).sum();
+        assert!(
+            (cov / var).abs() < 0.02,
+            "neighbour correlation {}",
+            cov / var
+        );
+    }
+    // Shot noise grows with the signal: a brighter flat frame is noisier.
+    let draw = CameraDraw {
+        shot_noise_gain: 0.2,
+        ..neutral()
+    };
+    let sigma_at = |v: u8| {
+        let out = sensor::apply(&flat(256, 256, v), 256, 256, &draw);
+        std_dev(out.iter().step_by(4).map(|&v| srgb_to_linear(f64::from(v))))
+    };
+    assert!(sigma_at(200) > 1.5 * sigma_at(60));
+}
+
+/// σ of the edge spread: the linear profile across a vertical step edge is
+/// the PSF's cumulative; its derivative's second moment is σ².
+fn edge_sigma(out: &[u8], w: u32, h: u32) -> f64 {
+    let y = h / 2;
+    let profile: Vec<f64> = (0..w)
+        .map(|x| srgb_to_linear(f64::from(out[((y * w + x) * 4 + 1) as usize])))
+        .collect();
+    let d: Vec<f64> = profile.windows(2).map(|p| p[1] - p[0]).collect();
+    let total: f64 = d.iter().sum();
+    let mean = d.iter().enumerate().map(|(i, v)| i as f64 * v).sum::<f64>() / total;
+    (d.iter()
+        .enumerate()
+        .map(|(i, v)| (i as f64 - mean).powi(2) * v)
+        .sum::<f64>()
+        / total)
+        .sqrt()
+}
+
+#[test]
+fn a_blurred_edge_has_the_set_sigma_within_10_percent() {
+    let (w, h) = (96u32, 16u32);
+    let edge: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let v = if i % w < w / 2 { 30 } else { 220 };
+            [v, v, v, 255]
+        })
+        .collect();
+    assert!(edge_sigma(&edge, w, h) < 0.1, "the sharp edge");
+    for sigma_px in [1.0, 2.0, 4.5] {
+        let draw = CameraDraw {
+            psf: PsfDraw::Gaussian { sigma_px },
+            ..neutral()
+        };
+        let measured = edge_sigma(&sensor::apply(&edge, w, h, &draw), w, h);
+        assert!(
+            (measured / sigma_px - 1.0).abs() < 0.1,
+            "σ set {sigma_px}, measured {measured:.3}"
+        );
+    }
+    // A disc of radius r has σ = r/2 across an edge (for a continuous disc).
+    let draw = CameraDraw {
+        psf: PsfDraw::Disc { radius_px: 6.0 },
+        ..neutral()
+    };
+    let measured = edge_sigma(&sensor::apply(&edge, w, h, &draw), w, h);
+    assert!((measured / 3.0 - 1.0).abs() < 0.1, "disc: {measured:.3}");
+}
+
+fn extreme_draws() -> Vec<(&'static str, CameraDraw)> {
+    let n = neutral();
+    vec![
+        ("zero noise", n),
+        (
+            "huge blur",
+            CameraDraw {
+                psf: PsfDraw::Gaussian { sigma_px: 64.0 },
+                ..n
+            },
+        ),
+        (
+            "huge disc",
+            CameraDraw {
+                psf: PsfDraw::Disc { radius_px: 64.0 },
+                ..n
+            },
+        ),
+        (
+            "white",
+            CameraDraw {
+                exposure_ev: 10.0,
+                ..n
+            },
+        ),
+        (
+            "black",
+            CameraDraw {
+                exposure_ev: -10.0,
+                ..n
+            },
+        ),
+        (
+            "1 px sensor",
+            CameraDraw {
+                sensor_scale: Some(1e-6),
+                ..n
+            },
+        ),
+        (
+            "everything",
+            CameraDraw {
+                exposure_ev: 1.5,
+                white_balance_red: 1.3,
+                white_balance_blue: 0.7,
+                psf: PsfDraw::Gaussian { sigma_px: 1.2 },
+                vignetting: 1.0,
+                ca_red_scale: 1.01,
+                ca_blue_scale: 0.99,
+                shot_noise_gain: 50.0,
+                read_noise_levels: 255.0,
+                sensor_scale: Some(0.37),
+                ..n
+            },
+        ),
+    ]
+}
+
+#[test]
+fn extremes_give_images_and_windows_that_match_the_whole_frame() {
+    let (w, h) = (67u32, 41u32);
+    let rgba: Vec<u8> = (0..w * h * 4)
+        .map(|i| ((i * 31 + i / 7) % 256) as u8)
+        .collect();
+    for (name, draw) in extreme_draws() {
+        let out = sensor::apply(&rgba, w, h, &draw);
+        assert_eq!(out.len(), rgba.len(), "{name}");
+        let clean = |r: PixelRect| sensor::develop(&rgba, w, h, &draw, r, false);
+        let full = clean(PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+        });
+        // A window of the noise-free image is exactly those pixels of the whole one.
+        let r = PixelRect {
+            x0: 20,
+            y0: 9,
+            x1: 33,
+            y1: 30,
+        };
+        let part = clean(r);
+        for y in r.y0..r.y1 {
+            let a = &full[((y * w + r.x0) * 4) as usize..((y * w + r.x1) * 4) as usize];
+            let b = &part[((y - r.y0) * (r.x1 - r.x0) * 4) as usize..][..a.len()];
+            assert_eq!(a, b, "{name}: row {y}");
+        }
+        match name {
+            "white" | "black" => {
+                // A flat mid-grey frame clips to white at +10 EV and to black at −10 EV.
+                let grey = sensor::apply(&flat(w, h, 100), w, h, &draw);
+                let v = if name == "white" { 255 } else { 0 };
+                assert!(grey.chunks(4).all(|p| p[..3] == [v, v, v]), "{name}");
+            }
+            "1 px sensor" => assert!(full.chunks(4).all(|p| p[..3] == full[..3]), "one value"),
+            "zero noise" => assert_eq!(out, rgba),
+            _ => {}
+        }
+    }
+}
+
+#[test]
+fn draws_follow_the_ranges_and_the_seed() {
+    let model = CameraModel {
+        exposure_ev: (-1.0, 1.0),
+        psf: Psf::Gaussian {
+            sigma_px: (0.5, 1.5),
+        },
+        read_noise_levels: (2.0, 2.0),
+        jpeg_quality: Some((60, 95)),
+        ..CameraModel::default()
+    };
+    let draws: Vec<CameraDraw> = (0..200).map(|i| sensor::draw(&model, 7, i)).collect();
+    assert!(draws.iter().all(|d| (-1.0..=1.0).contains(&d.exposure_ev)));
+    assert!(draws.iter().all(|d| d.read_noise_levels == 2.0));
+    assert!(
+        draws
+            .iter()
+            .all(|d| d.jpeg_quality.is_some_and(|q| (60..=95).contains(&q)))
+    );
+    assert!(
+        draws.iter().any(|d| d.exposure_ev > 0.5) && draws.iter().any(|d| d.exposure_ev < -0.5)
+    );
+    assert_eq!(draws[3], sensor::draw(&model, 7, 3));
+    assert_ne!(draws[3], sensor::draw(&model, 8, 3));
+    assert_ne!(draws[3].noise_seed, draws[4].noise_seed);
+}
+
+#[test]
+fn invalid_ranges_are_named() {
+    let mut p = Preset::default();
+    p.camera_model = Some(CameraModel {
+        exposure_ev: (1.0, -1.0),
+        psf: Psf::Disc {
+            radius_px: (0.0, 1000.0),
+        },
+        sensor_scale: Some((0.0, 0.5)),
+        read_noise_levels: (f64::NAN, 1.0),
+        recompress_quality: Some((0, 50)),
+        ..CameraModel::default()
+    });
+    let errors = p.validate().expect_err("invalid");
+    let fields: Vec<&str> = errors.iter().map(|e| e.field.as_str()).collect();
+    for f in [
+        "camera_model.exposure_ev",
+        "camera_model.psf.radius_px",
+        "camera_model.sensor_scale",
+        "camera_model.read_noise_levels",
+        "camera_model.recompress_quality",
+    ] {
+        assert!(fields.contains(&f), "{f} missing from {fields:?}");
+    }
+    // And the RON spelling parses.
+    let text = r#"(camera_model: Some((exposure_ev: (-0.5, 0.5), psf: Gaussian(sigma_px: (0.6, 1.2)),
+        read_noise_levels: (1.0, 2.0), jpeg_quality: Some((70, 90)))))"#;
+    let p = Preset::from_ron(text).expect("parses");
+    assert!(p.validate().is_ok());
+    assert!(Preset::from_ron("(camera_model: Some((exposure: (0.0, 0.0))))").is_err());
+}
+
+/// One drone, labelled by its visible box, through a blurring, noisy camera.
+fn blurred_preset(sigma_px: f64) -> Preset {
+    use swarmshot::preset::sweep::SweepRange;
+    use swarmshot::preset::{Placement, Resolution};
+    let mut p = Preset::default();
+    p.placement = Placement::Structured {
+        x_count: 1,
+        y_count: 1,
+        z_count: 1,
+        load_factor: 1.0,
+    };
+    p.render.resolution = Resolution::Custom {
+        width: 240,
+        height: 160,
+    };
+    p.render.msaa = 4;
+    p.camera.z = SweepRange::fixed(1.5);
+    p.camera.y = SweepRange::new(-0.6, 0.6, 1.2);
+    p.repeats = 1;
+    p.labels.box_method = BoxMethod::Visible;
+    p.camera_model = Some(CameraModel {
+        psf: Psf::Gaussian {
+            sigma_px: (sigma_px, sigma_px),
+        },
+        exposure_ev: (0.3, 0.3),
+        vignetting: (0.2, 0.2),
+        ca_red_scale: (1.002, 1.002),
+        read_noise_levels: (2.0, 2.0),
+        ..CameraModel::default()
+    });
+    p
+}
+
+fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(PixelRect, u64)> {
+    let mut found: Option<PixelRect> = None;
+    let mut n = 0;
+    for (i, (pa, pb)) in a.chunks(4).zip(b.chunks(4)).enumerate() {
+        if pa[..3] != pb[..3] {
+            n += 1;
+            let (x, y) = ((i as u32) % w, (i as u32) / w);
+            let r = found.get_or_insert(PixelRect {
+                x0: x,
+                y0: y,
+                x1: x + 1,
+                y1: y + 1,
+            });
+            r.x0 = r.x0.min(x);
+            r.y0 = r.y0.min(y);
+            r.x1 = r.x1.max(x + 1);
+            r.y1 = r.y1.max(y + 1);
+        }
+    }
+    found.map(|r| (r, n))
+}
+
+/// The visible box under the camera model is the box of the pixels where the
+/// noise-free camera image of the frame differs by ≥ 1 level from that of the
+/// same frame without its drone, under the same draws.
+#[test]
+fn visible_boxes_under_blur_are_the_pixels_a_drone_changes() {
+    let ctx = common::gpu();
+    let (mut checked, mut invisible) = (0, 0);
+    for sigma_px in [0.0, 1.5, 6.0, 40.0] {
+        for exposure in [0.3, -10.0, 10.0] {
+            let mut p = blurred_preset(sigma_px);
+            if let Some(c) = &mut p.camera_model {
+                c.exposure_ev = (exposure, exposure);
+            }
+            let pipeline = swarmshot::pipeline::FramePipeline::new(p.clone()).expect("pipeline");
+            let mut renderer = pipeline.renderer(&ctx);
+            for index in 0..p.frame_count() {
+                let frame = pipeline.make(&mut renderer, index).expect("frame");
+                let draw = frame.scene.camera_model.expect("drawn");
+                let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+                // The same scene rendered plainly, with and without its drone.
+                let mut plain = frame.scene.clone();
+                plain.camera_model = None;
+                let with = pipeline
+                    .make_scene(&mut renderer, plain.clone())
+                    .expect("plain");
+                let mut empty = plain;
+                empty.drones.clear();
+                let without = pipeline.make_scene(&mut renderer, empty).expect("empty");
+                let full = PixelRect {
+                    x0: 0,
+                    y0: 0,
+                    x1: w,
+                    y1: h,
+                };
+                let a = sensor::develop(&with.rgba, w, h, &draw, full, false);
+                let b = sensor::develop(&without.rgba, w, h, &draw, full, false);
+                let truth = changed_box(&a, &b, w);
+                let label = &frame.labels[0];
+                let vis = label.visibility.expect("measured");
+                let case = format!("σ {sigma_px}, EV {exposure}, frame {index}");
+                match truth {
+                    Some((r, n)) => {
+                        let b = vis.visible_box.expect(&case);
+                        assert_eq!(
+                            [b.x0, b.y0, b.x1, b.y1],
+                            [r.x0, r.y0, r.x1, r.y1].map(f64::from),
+                            "{case}"
+                        );
+                        assert_eq!(vis.visible_pixels, n, "{case}");
+                        assert!(label.is_kept(), "{case}");
+                        assert_eq!(label.bbox, b, "{case}");
+                    }
+                    None => {
+                        invisible += 1;
+                        assert_eq!(vis.visible_box, None, "{case}");
+                        assert_eq!(vis.visible_pixels, 0, "{case}");
+                        assert!(!label.is_kept(), "{case}: an invisible drone is dropped");
+                    }
+                }
+                if sigma_px < 10.0 && exposure == 0.3 {
+                    assert!(truth.is_some(), "{case}: a visible drone");
+                }
+                // Blur spreads the drone: at a normal exposure its camera box holds the rendered one.
+                if exposure != 0.3 {
+                } else if let (Some((r, _)), Some(rb)) =
+                    (truth, with.labels[0].visibility.and_then(|v| v.visible_box))
+                {
+                    assert!(
+                        f64::from(r.x0) <= rb.x0 && f64::from(r.x1) >= rb.x1,
+                        "{case}"
+                    );
+                }
+                // The amodal box stays geometric.
+                assert_eq!(label.amodal, with.labels[0].amodal, "{case}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 8);
+    // Some draws hide the drone below one level (a dark exposure, a huge blur).
+    assert!(
+        invisible > 0 && invisible < checked,
+        "{invisible} of {checked}"
+    );
+}
+
+fn camera_preset() -> Preset {
+    let mut p = common::tiny_preset();
+    p.labels.box_method = BoxMethod::Visible;
+    p.output.image_format = swarmshot::preset::ImageFormat::Jpeg { quality: 85 };
+    p.camera_model = Some(CameraModel {
+        exposure_ev: (-0.5, 0.5),
+        white_balance_red: (0.9, 1.1),
+        psf: Psf::Gaussian {
+            sigma_px: (0.5, 1.5),
+        },
+        vignetting: (0.0, 0.3),
+        ca_blue_scale: (0.998, 1.002),
+        shot_noise_gain: (0.0, 0.05),
+        read_noise_levels: (0.5, 2.0),
+        sensor_scale: Some((0.6, 0.9)),
+        jpeg_quality: Some((60, 95)),
+        recompress_quality: Some((70, 90)),
+        ..CameraModel::default()
+    });
+    p
+}
+
+#[test]
+fn the_stage_gives_the_same_bytes_on_1_and_3_threads() {
+    let p = camera_preset();
+    let ctx = common::gpu();
+    let pipeline = swarmshot::pipeline::FramePipeline::new(p.clone()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let frame = pipeline.make(&mut renderer, 1).expect("frame");
+    let mut plain = frame.scene.clone();
+    plain.camera_model = None;
+    let raw = pipeline.make_scene(&mut renderer, plain).expect("plain");
+    let draw = frame.scene.camera_model.expect("drawn");
+    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+    let on = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("pool")
+            .install(|| sensor::apply(&raw.rgba, w, h, &draw))
+    };
+    let one = on(1);
+    assert_eq!(one, on(3));
+    assert_ne!(one, raw.rgba, "the camera changed the picture");
+}
+
+#[test]
+fn batches_with_the_camera_model_are_deterministic_and_frame_equals_batch() {
+    use std::sync::atomic::AtomicBool;
+    use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
+    let p = camera_preset();
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
+    let (a, b) = (
+        tempfile::tempdir().expect("dir"),
+        tempfile::tempdir().expect("dir"),
+    );
+    run_batch(
+        &pipeline,
+        &BatchOptions::new(a.path()),
+        &ctx,
+        &AtomicBool::new(false),
+        |_| {},
+    )
+    .expect("batch");
+    let mut options = BatchOptions::new(b.path());
+    options.makers = 3;
+    options.encoder_threads = 2;
+    run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
+    let manifest = std::fs::read_to_string(a.path().join("manifest.jsonl")).expect("manifest");
+    assert_eq!(
+        manifest,
+        std::fs::read_to_string(b.path().join("manifest.jsonl")).expect("manifest")
+    );
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut qualities = std::collections::BTreeSet::new();
+    for index in 0..p.frame_count() {
+        let frame = pipeline.make(&mut renderer, index).expect("frame");
+        let format = pipeline.image_format(&frame.scene);
+        let swarmshot::preset::ImageFormat::Jpeg { quality } = format else {
+            panic!("JPEG")
+        };
+        qualities.insert(quality);
+        let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+        let bytes = swarmshot::write::encode_image(&frame.rgba, w, h, format).expect("encode");
+        let rel = swarmshot::write::image_rel_path(&frame.scene, format);
+        let (x, y) = (
+            std::fs::read(a.path().join(&rel)).expect("image"),
+            std::fs::read(b.path().join(&rel)).expect("image"),
+        );
+        assert!(x == bytes, "frame {index}: `frame` differs from the batch");
+        assert!(x == y, "frame {index}: differs between runs");
+        // The manifest records the draws.
+        let line = manifest.lines().nth(index as usize).expect("line");
+        let record: serde_json::Value = serde_json::from_str(line).expect("json");
+        assert_eq!(
+            record["camera_model"]["jpeg_quality"].as_u64(),
+            Some(u64::from(quality))
+        );
+    }
+    assert!(
+        qualities.len() > 1,
+        "the quality is drawn per frame: {qualities:?}"
+    );
+}
+
+#[test]
+fn the_camera_model_leaves_the_scene_draws_alone() {
+    let mut p = common::tiny_preset();
+    let off: Vec<_> = (0..p.frame_count())
+        .map(|i| swarmshot::scene::build_frame(&p, i).expect("frame"))
+        .collect();
+    p.camera_model = Some(CameraModel::default());
+    for (i, a) in off.iter().enumerate() {
+        let mut b = swarmshot::scene::build_frame(&p, i as u64).expect("frame");
+        assert!(b.camera_model.is_some());
+        b.camera_model = None;
+        assert_eq!(a, &b);
+    }
+}
