@@ -11,7 +11,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+pub mod appearance;
+pub mod atmosphere;
 pub mod formation;
+pub mod observer;
 mod ron_error;
 pub mod sweep;
 mod validate;
@@ -59,6 +62,12 @@ pub struct Preset {
     /// Sequence mode (issue 12): each sweep point becomes `steps + 1` frames of motion.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sequence: Option<SequenceSpec>,
+    /// Haze with range on every drone (issue 21; docs/realism.md). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub atmosphere: Option<atmosphere::Atmosphere>,
+    /// Drone materials drawn per drone (issue 21; docs/realism.md). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub appearance: Option<appearance::Appearance>,
 }
 
 impl Default for Preset {
@@ -78,6 +87,8 @@ impl Default for Preset {
             labels: LabelSettings::default(),
             output: OutputSettings::default(),
             sequence: None,
+            atmosphere: None,
+            appearance: None,
         }
     }
 }
@@ -245,6 +256,9 @@ pub struct CameraSweep {
     /// An absolute pose in metres; when set, CameraX/Y/Z are not used.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub absolute: Option<AbsoluteCamera>,
+    /// A ground observer's camera looking up at the swarm (docs/realism.md); when set, CameraX/Y/Z are not used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observer: Option<observer::ObserverCamera>,
 }
 
 impl Default for CameraSweep {
@@ -255,6 +269,7 @@ impl Default for CameraSweep {
             z: SweepRange::fixed(1.0),
             fov_y_deg: 50.0,
             absolute: None,
+            observer: None,
         }
     }
 }

@@ -45,6 +45,18 @@ impl Preset {
         self.validate_labels(&mut v);
         self.validate_output(&mut v);
         self.validate_motion(&mut v);
+        if let Some(a) = &self.atmosphere {
+            a.validate_into(&mut v);
+        }
+        if let Some(a) = &self.appearance {
+            a.validate_into(&mut v);
+        }
+        if let Some(o) = &self.camera.observer {
+            o.validate_into(&mut v);
+            v.check(self.camera.absolute.is_none(), "camera.observer", || {
+                "cannot be combined with camera.absolute: choose one camera".into()
+            });
+        }
         if v.errors.is_empty() {
             Ok(())
         } else {
