@@ -179,7 +179,31 @@ struct InstanceRaw {
     look_material: [f32; 4],
 }
 
-const INSTANCE_ATTRS: [wgpu::VertexAttribute; 8] = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Uint32, 10 => Float32x4, 11 => Float32x4, 12 => Float32x4];
+const INSTANCE_ATTRS: [wgpu::VertexAttribute; 8] = {
+    const fn attr(
+        shader_location: u32,
+        offset: u64,
+        format: wgpu::VertexFormat,
+    ) -> wgpu::VertexAttribute {
+        wgpu::VertexAttribute {
+            format,
+            offset,
+            shader_location,
+        }
+    }
+    use wgpu::VertexFormat::{Float32x4, Uint32};
+    // Offsets as laid out by `InstanceRaw` (the id's padding skipped).
+    [
+        attr(3, 0, Float32x4),
+        attr(4, 16, Float32x4),
+        attr(5, 32, Float32x4),
+        attr(6, 48, Float32x4),
+        attr(7, 64, Uint32),
+        attr(10, 80, Float32x4),
+        attr(11, 96, Float32x4),
+        attr(12, 112, Float32x4),
+    ]
+};
 
 impl InstanceRaw {
     /// Drone `i` of `scene`: camera_from_model built in f64, id `i + 1`.
@@ -1186,5 +1210,7 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+const _: () = assert!(std::mem::offset_of!(InstanceRaw, air) == 80);
+const _: () = assert!(std::mem::offset_of!(InstanceRaw, look_material) == 112);
 // FrameUniforms must be a multiple of 16 bytes for WGSL uniform layout.
 const _: () = assert!(std::mem::size_of::<FrameUniforms>().is_multiple_of(16));
