@@ -11,6 +11,8 @@ struct Frame {
     zenith: vec4<f32>,
     horizon: vec4<f32>,
     ground: vec4<f32>,
+    // x: 1 with an atmosphere (haze on the drones), y: 3.912 / visibility (per metre).
+    atmosphere: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;

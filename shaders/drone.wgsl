@@ -29,6 +29,12 @@ struct Instance {
     @location(6) c3: vec4<f32>,
     // Drone index + 1 (0 is the background in the id target).
     @location(7) id: u32,
+    // Air light towards the drone (rgb); w: 1 when set, else the frame's horizon.
+    @location(10) air: vec4<f32>,
+    // Drawn base colour (rgb); w: 1 when the drone has a drawn look.
+    @location(11) look: vec4<f32>,
+    // Drawn metalness, roughness, emission factor.
+    @location(12) look_material: vec4<f32>,
 };
 
 struct VsOut {
@@ -40,6 +46,9 @@ struct VsOut {
     @location(3) @interpolate(flat) material: vec4<f32>,
     @location(4) position_cam: vec3<f32>,
     @location(5) @interpolate(flat) id: u32,
+    @location(6) @interpolate(flat) air: vec4<f32>,
+    @location(7) @interpolate(flat) look: vec4<f32>,
+    @location(8) @interpolate(flat) look_material: vec4<f32>,
 };
 
 @vertex
@@ -55,6 +64,9 @@ fn vs_main(v: VertexInput, inst: Instance) -> VsOut {
     out.material = v.material;
     out.position_cam = p_cam.xyz;
     out.id = inst.id;
+    out.air = inst.air;
+    out.look = inst.look;
+    out.look_material = inst.look_material;
     return out;
 }
 
@@ -105,14 +117,33 @@ fn base_color(in: VsOut) -> vec4<f32> {
     return in.color;
 }
 
+// Haze with range (Koschmieder), in linear light: L0·t + L_air·(1 − t),
+// t = exp(−3.912·d/V) with d this surface point's distance from the camera.
+fn hazed(in: VsOut, lit: vec3<f32>) -> vec3<f32> {
+    if (frame.atmosphere.x < 0.5) {
+        return lit;
+    }
+    let t = exp(-frame.atmosphere.y * length(in.position_cam));
+    let air = select(frame.horizon.rgb, in.air.rgb, in.air.w > 0.5);
+    return lit * t + air * (1.0 - t);
+}
+
 fn shade(in: VsOut, front: bool) -> vec4<f32> {
-    let base = base_color(in);
+    var base = base_color(in);
     if (ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w) {
         discard;
     }
-    if (in.material.z > 0.5) {
+    var material = in.material;
+    var emission = vec3<f32>(0.0);
+    if (in.look.w > 0.5) {
+        // The drone's drawn look replaces its model's colour and surface.
+        base = vec4<f32>(in.look.rgb, base.a);
+        material = vec4<f32>(in.look_material.x, in.look_material.y, 0.0, material.w);
+        emission = in.look.rgb * in.look_material.z;
+    }
+    if (material.z > 0.5) {
         // KHR_materials_unlit: the base colour as it is.
-        return vec4<f32>(linear_to_srgb(base.rgb), 1.0);
+        return vec4<f32>(linear_to_srgb(hazed(in, base.rgb)), 1.0);
     }
     var n_cam = normalize(in.normal_cam);
     if (!front) {
@@ -121,8 +152,8 @@ fn shade(in: VsOut, front: bool) -> vec4<f32> {
     let n = normalize((frame.world_from_camera * vec4<f32>(n_cam, 0.0)).xyz);
     let v = normalize((frame.world_from_camera * vec4<f32>(-in.position_cam, 0.0)).xyz);
     let l = frame.sun_dir_world.xyz;
-    let metallic = clamp(in.material.x, 0.0, 1.0);
-    let roughness = clamp(in.material.y, 0.05, 1.0);
+    let metallic = clamp(material.x, 0.0, 1.0);
+    let roughness = clamp(material.y, 0.05, 1.0);
     let n_dot_l = max(dot(n, l), 0.0);
     // Hemispheric ambient: sky from above, ground bounce from below.
     let ambient = mix(frame.ground.rgb, frame.zenith.rgb * 0.6 + frame.horizon.rgb * 0.4, n.y * 0.5 + 0.5);
@@ -134,6 +165,6 @@ fn shade(in: VsOut, front: bool) -> vec4<f32> {
     let fresnel = f0 + (1.0 - f0) * pow(1.0 - max(dot(h, v), 0.0), 5.0);
     let specular = fresnel * ((shininess + 8.0) / (8.0 * PI)) * pow(max(dot(n, h), 0.0), shininess) * n_dot_l;
     let ambient_specular = f0 * ambient * (1.0 - roughness * 0.7);
-    let lit = diffuse_color * (n_dot_l * frame.sun_color.rgb + ambient) + specular * frame.sun_color.rgb + ambient_specular;
-    return vec4<f32>(linear_to_srgb(lit), 1.0);
+    let lit = diffuse_color * (n_dot_l * frame.sun_color.rgb + ambient) + specular * frame.sun_color.rgb + ambient_specular + emission;
+    return vec4<f32>(linear_to_srgb(hazed(in, lit)), 1.0);
 }

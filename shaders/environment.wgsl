@@ -24,6 +24,8 @@ struct Env {
     // x: snow caps, y: near silhouette kind, z: near height (rad),
     // w: full-resolution pixels per pixel of the environment pass.
     far_params: vec4<f32>,
+    // rgb albedo; w: 1 when the frame has an atmosphere (ground_a.w, ground_b.w:
+    // the far and near silhouettes' haze; zenith_yxy.w: V / 3.912).
     near: vec4<f32>,
     // Display-linear sunlight and sky ambient (what lights the drones).
     light: vec4<f32>,
@@ -180,11 +182,12 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
                 let snow = vec3<f32>(0.85, 0.87, 0.9) * (light * max(sun.y, 0.0) * 0.5 + ambient);
                 c = mix(c, snow, smoothstep(0.6, 0.75, elevation / max(far_h, 1e-4)));
             }
-            col = mix(c, haze, 0.55);
+            // With an atmosphere (near.w = 1): the haze of its distance (ground_a.w).
+            col = mix(c, haze, select(0.55, env.ground_a.w, env.near.w > 0.5));
         }
         let near_h = silhouette_height(env.far_params.y, env.far_params.z, az_c, seed * 0.013 + vec2<f32>(5.0, 3.0));
         if (elevation < near_h) {
-            col = mix(env.near.rgb * (light * max(sun.y, 0.0) * 0.5 + ambient * 0.7), haze, 0.25);
+            col = mix(env.near.rgb * (light * max(sun.y, 0.0) * 0.5 + ambient * 0.7), haze, select(0.25, env.ground_b.w, env.near.w > 0.5));
         }
     } else {
         // Ground plane 60 m below the camera.

@@ -54,6 +54,18 @@ pub fn frame_rng(preset_seed: u64, frame_index: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(frame_seed(preset_seed, frame_index))
 }
 
+/// Salts of the realism draws (issue 21): each its own stream, so turning one
+/// on never shifts the placement, the sky or another's draws.
+pub const ATMOSPHERE_SALT: u64 = 0x4154_4D4F_5350_4852; // "ATMOSPHR"
+pub const APPEARANCE_SALT: u64 = 0x4150_5045_4152_4E43; // "APPEARNC"
+pub const OBSERVER_SALT: u64 = 0x4F42_5345_5256_4552; // "OBSERVER"
+
+/// A frame's sampler of one salted stream: ChaCha8 seeded with
+/// `mix64(frame_seed ⊕ mix64(salt))`.
+pub fn salted_rng(preset_seed: u64, frame_index: u64, salt: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(mix64(frame_seed(preset_seed, frame_index) ^ mix64(salt)))
+}
+
 /// Frames are split in blocks of this many consecutive indices.
 pub const SPLIT_BLOCK: u64 = 100;
 

@@ -12,7 +12,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 pub mod camera_model;
+pub mod appearance;
+pub mod atmosphere;
 pub mod formation;
+pub mod observer;
 mod ron_error;
 pub mod sweep;
 mod validate;
@@ -63,6 +66,12 @@ pub struct Preset {
     /// The camera model (issue 21): optics, sensor and image processing after rendering; off when `None`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_model: Option<camera_model::CameraModel>,
+    /// Haze with range on every drone (issue 21; docs/realism.md). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub atmosphere: Option<atmosphere::Atmosphere>,
+    /// Drone materials drawn per drone (issue 21; docs/realism.md). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub appearance: Option<appearance::Appearance>,
 }
 
 impl Default for Preset {
@@ -83,6 +92,8 @@ impl Default for Preset {
             output: OutputSettings::default(),
             sequence: None,
             camera_model: None,
+            atmosphere: None,
+            appearance: None,
         }
     }
 }
@@ -250,6 +261,9 @@ pub struct CameraSweep {
     /// An absolute pose in metres; when set, CameraX/Y/Z are not used.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub absolute: Option<AbsoluteCamera>,
+    /// A ground observer's camera looking up at the swarm (docs/realism.md); when set, CameraX/Y/Z are not used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observer: Option<observer::ObserverCamera>,
 }
 
 impl Default for CameraSweep {
@@ -260,6 +274,7 @@ impl Default for CameraSweep {
             z: SweepRange::fixed(1.0),
             fov_y_deg: 50.0,
             absolute: None,
+            observer: None,
         }
     }
 }

@@ -48,6 +48,18 @@ impl Preset {
         if let Some(c) = &self.camera_model {
             c.validate(self, &mut v);
         }
+        if let Some(a) = &self.atmosphere {
+            a.validate_into(&mut v);
+        }
+        if let Some(a) = &self.appearance {
+            a.validate_into(&mut v);
+        }
+        if let Some(o) = &self.camera.observer {
+            o.validate_into(&mut v);
+            v.check(self.camera.absolute.is_none(), "camera.observer", || {
+                "cannot be combined with camera.absolute: choose one camera".into()
+            });
+        }
         if v.errors.is_empty() {
             Ok(())
         } else {

@@ -11,6 +11,7 @@
 //! that full-frame path offscreen, with a row-padded readback.
 
 mod frame;
+mod haze;
 mod ids;
 mod material;
 pub mod regions;
@@ -114,6 +115,8 @@ struct FrameUniforms {
     zenith: [f32; 4],
     horizon: [f32; 4],
     ground: [f32; 4],
+    /// x: 1 when the frame has an atmosphere (haze on the drones), y: 3.912 / V (per metre).
+    atmosphere: [f32; 4],
 }
 
 impl FrameUniforms {
@@ -133,6 +136,15 @@ impl FrameUniforms {
             zenith: rgb(lighting.zenith),
             horizon: rgb(lighting.horizon),
             ground: rgb(lighting.ground),
+            atmosphere: match scene.atmosphere {
+                Some(a) => [
+                    1.0,
+                    (crate::scene::realism::KOSCHMIEDER / a.visibility_m) as f32,
+                    0.0,
+                    0.0,
+                ],
+                None => [0.0; 4],
+            },
         }
     }
 }
@@ -150,7 +162,7 @@ pub struct FrameViews<'a> {
     pub msaa: u32,
 }
 
-/// Per-instance data; layout matches `INSTANCE_ATTRS` (locations 3–7).
+/// Per-instance data; layout matches `INSTANCE_ATTRS` (locations 3–7, 10–12).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct InstanceRaw {
@@ -158,9 +170,40 @@ struct InstanceRaw {
     /// Drone index + 1 (0 is the sky in the id pass).
     id: u32,
     _pad: [u32; 3],
+    /// The air light towards the drone (rgb, display-linear); w: 1 when set
+    /// (else the shader takes the frame's horizon term). Used only when the frame has an atmosphere.
+    air: [f32; 4],
+    /// The drawn base colour (rgb, linear); w: 1 when the drone has a drawn look.
+    look: [f32; 4],
+    /// The drawn look's metalness, roughness, emission factor; w unused.
+    look_material: [f32; 4],
 }
 
-const INSTANCE_ATTRS: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![3 => Float32x4, 4 => Float32x4, 5 => Float32x4, 6 => Float32x4, 7 => Uint32];
+const INSTANCE_ATTRS: [wgpu::VertexAttribute; 8] = {
+    const fn attr(
+        shader_location: u32,
+        offset: u64,
+        format: wgpu::VertexFormat,
+    ) -> wgpu::VertexAttribute {
+        wgpu::VertexAttribute {
+            format,
+            offset,
+            shader_location,
+        }
+    }
+    use wgpu::VertexFormat::{Float32x4, Uint32};
+    // Offsets as laid out by `InstanceRaw` (the id's padding skipped).
+    [
+        attr(3, 0, Float32x4),
+        attr(4, 16, Float32x4),
+        attr(5, 32, Float32x4),
+        attr(6, 48, Float32x4),
+        attr(7, 64, Uint32),
+        attr(10, 80, Float32x4),
+        attr(11, 96, Float32x4),
+        attr(12, 112, Float32x4),
+    ]
+};
 
 impl InstanceRaw {
     /// Drone `i` of `scene`: camera_from_model built in f64, id `i + 1`.
@@ -172,10 +215,24 @@ impl InstanceRaw {
             cam.camera_from_world * glam::DMat3::from_quat(d.rotation) * d.size_m,
             translation,
         );
+        let air = match scene.atmosphere.and_then(|_| haze::airlight(scene, i)) {
+            Some([r, g, b]) => [r, g, b, 1.0],
+            None => [0.0; 4],
+        };
+        let (look, look_material) = match scene.looks.get(i) {
+            Some(l) => (
+                [l.albedo[0], l.albedo[1], l.albedo[2], 1.0],
+                [l.metalness, l.roughness, l.emissive, 0.0],
+            ),
+            None => ([0.0; 4], [0.0; 4]),
+        };
         Self {
             camera_from_model: m.as_mat4().to_cols_array(),
             id: i as u32 + 1,
             _pad: [0; 3],
+            air,
+            look,
+            look_material,
         }
     }
 }
@@ -774,9 +831,13 @@ impl Renderer {
     /// lighting; returns the frame uniforms written.
     fn upload_uniforms(&mut self, scene: &FrameScene) -> FrameUniforms {
         let sun = scene.sun_direction.as_vec3();
-        let lighting = self
-            .sky
-            .prepare(&self.queue, &scene.sky, &scene.environment, sun);
+        let lighting = self.sky.prepare(
+            &self.queue,
+            &scene.sky,
+            &scene.environment,
+            sun,
+            scene.atmosphere.map(|a| a.visibility_m),
+        );
         let uniforms = FrameUniforms::new(scene, &lighting);
         self.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
@@ -1149,5 +1210,7 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+const _: () = assert!(std::mem::offset_of!(InstanceRaw, air) == 80);
+const _: () = assert!(std::mem::offset_of!(InstanceRaw, look_material) == 112);
 // FrameUniforms must be a multiple of 16 bytes for WGSL uniform layout.
 const _: () = assert!(std::mem::size_of::<FrameUniforms>().is_multiple_of(16));

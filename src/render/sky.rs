@@ -56,6 +56,11 @@ pub(super) struct SkyGpu {
     written: EnvUniforms,
 }
 
+/// Distances (metres) the far silhouette (hills, mountains, skyline) and the
+/// near one (tree line) stand for when a frame's atmosphere hazes them.
+const FAR_SILHOUETTE_M: f64 = 8_000.0;
+const NEAR_SILHOUETTE_M: f64 = 600.0;
+
 /// Full-resolution pixels per environment-pass pixel, per axis.
 const HALF_SCALE: u32 = 2;
 
@@ -365,6 +370,7 @@ impl SkyGpu {
         sky: &FrameSky,
         env: &FrameEnvironment,
         sun: Vec3,
+        atmosphere_visibility_m: Option<f64>,
     ) -> Lighting {
         let mut u = EnvUniforms::default();
         let lighting = match *sky {
@@ -413,6 +419,15 @@ impl SkyGpu {
                     HALF_SCALE as f32,
                 ];
                 u.near = rgb(style.near_albedo, 0.0);
+                if let Some(v) = atmosphere_visibility_m {
+                    // The frame's atmosphere: the ground's fog and the silhouettes'
+                    // haze follow the same Koschmieder law as the drones'.
+                    let k = crate::scene::realism::KOSCHMIEDER;
+                    u.zenith_yxy[3] = (v / k) as f32;
+                    u.ground_a[3] = 1.0 - (-k * FAR_SILHOUETTE_M / v).exp() as f32;
+                    u.ground_b[3] = 1.0 - (-k * NEAR_SILHOUETTE_M / v).exp() as f32;
+                    u.near[3] = 1.0;
+                }
                 u.light = rgb(lighting.sun_color, 0.0);
                 u.ambient = rgb(lighting.zenith, 0.0);
                 lighting

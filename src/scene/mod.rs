@@ -16,6 +16,7 @@ pub mod math;
 pub mod motion;
 pub mod placement;
 pub mod projection;
+pub mod realism;
 pub mod split;
 
 use crate::preset::sweep::decode_mixed_radix;
@@ -114,6 +115,12 @@ pub struct FrameScene {
     /// The camera model's draws (only when the preset has `camera_model`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub camera_model: Option<crate::sensor::CameraDraw>,
+    /// The frame's atmosphere (`atmosphere` in the preset); `None`: no haze on the drones.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub atmosphere: Option<realism::FrameAtmosphere>,
+    /// Each drone's material (`appearance` in the preset), in drone order; empty: the models' own.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub looks: Vec<realism::DroneLook>,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -259,7 +266,7 @@ pub fn build_frame_draw(
         };
     let volume_radius_m = half_extent.length() + model_radius;
 
-    let drones = states
+    let drones: Vec<DronePose> = states
         .into_iter()
         .map(|(model, position, rotation)| {
             let rotation = (plane * rotation).normalize();
@@ -277,7 +284,11 @@ pub fn build_frame_draw(
         Some(crate::preset::SequenceCamera::Follow)
     );
     let shift = if follow { plane * shift } else { DVec3::ZERO };
-    let camera = frame_camera(preset, &sweep, volume_radius_m, shift);
+    let camera = frame_camera(preset, &sweep, volume_radius_m, shift, draw_index);
+    let looks = match &preset.appearance {
+        Some(a) => realism::drone_looks(a, preset.seed, draw_index, drones.len()),
+        None => Vec::new(),
+    };
     // The environment draws come from their own salted stream (see `sky`).
     let environment = crate::sky::frame_environment(&preset.sky, preset.seed, draw_index);
 
@@ -301,6 +312,8 @@ pub fn build_frame_draw(
         redraw: attempt,
         camera_model: (preset.camera_model.as_ref())
             .map(|m| crate::sensor::draw(m, preset.seed, index)),
+        atmosphere: realism::frame_atmosphere(preset, draw_index),
+        looks,
     })
 }
 
@@ -334,12 +347,15 @@ fn frame_camera(
     sweep: &SweepValues,
     volume_radius_m: f64,
     shift: DVec3,
+    draw_index: u64,
 ) -> (Camera, DVec3) {
     let (width, height) = preset.image_size();
     let fov_y_deg = preset.camera.fov_y_deg;
-    let (position, target) = match &preset.camera.absolute {
-        Some(a) => (DVec3::from(a.position_m), DVec3::from(a.look_at_m)),
-        None => (
+    let focal_px = f64::from(height) * 0.5 / (fov_y_deg.to_radians() * 0.5).tan();
+    let (position, target) = match (&preset.camera.observer, &preset.camera.absolute) {
+        (Some(o), _) => realism::observer_pose(o, preset, draw_index, focal_px),
+        (None, Some(a)) => (DVec3::from(a.position_m), DVec3::from(a.look_at_m)),
+        (None, None) => (
             camera_position(
                 sweep.CameraX,
                 sweep.CameraY,
