@@ -708,6 +708,67 @@ fn undo_restores_a_value_and_redo_brings_it_back() {
 }
 
 #[test]
+fn a_slow_drag_is_one_undo_step() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    assert_eq!(x_count(h.state()), 3);
+    let mut at = h.get_by_label("XCount").rect().center();
+    h.hover_at(at);
+    h.run_steps(1);
+    h.drag_at(at);
+    h.run_steps(1);
+    // Four moves, each followed by a pause longer than the history's 0.5 s
+    // (each harness step is 0.25 s of egui time).
+    let mut seen = vec![3];
+    for _ in 0..4 {
+        at.x += 20.0;
+        h.hover_at(at);
+        h.run_steps(4);
+        seen.push(x_count(h.state()));
+    }
+    h.drop_at(at);
+    h.run_steps(4);
+    let dragged = x_count(h.state());
+    assert!(dragged > 3, "the drag did not change XCount: {seen:?}");
+    assert!(
+        seen.windows(2).filter(|w| w[0] != w[1]).count() >= 3,
+        "the drag paused on at least three values: {seen:?}"
+    );
+    h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::Z]);
+    h.run_steps(2);
+    assert_eq!(
+        x_count(h.state()),
+        3,
+        "one undo after a slow drag ({seen:?}) goes back to before it"
+    );
+    assert!(!h.state().session().is_dirty());
+}
+
+#[test]
+fn a_missing_preset_is_named_and_leaves_nothing_unsaved() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-preset.ron");
+    let mut h = harness(Some(missing.clone()));
+    h.run_steps(2);
+    let notices = h.state().notices().join("\n");
+    assert!(
+        notices.contains(&format!("preset {} does not exist", missing.display())),
+        "{notices}"
+    );
+    assert!(!notices.contains("os error"), "{notices}");
+    h.get_by_label_contains("no-such-preset.ron does not exist");
+    assert!(!h.state().session().is_dirty());
+    assert!(
+        !h.state().title().contains("unsaved"),
+        "{}",
+        h.state().title()
+    );
+}
+
+#[test]
 fn a_problem_link_scrolls_to_its_field() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let mut h = harness(Some(quickstart()));
@@ -726,8 +787,8 @@ fn a_problem_link_scrolls_to_its_field() {
     // The disabled Generate says why.
     let generate = h.get_by_role_and_label(Role::Button, "Generate");
     assert!(generate.accesskit_node().is_disabled());
-    h.get_by_label_contains("Fix the 1 problem(s)");
-    h.get_by_label_contains("Preview paused: 1 problem(s), first Split");
+    h.get_by_label_contains("Fix the 1 problem listed");
+    h.get_by_label_contains("Preview paused: 1 problem, first Split");
 
     h.get_by_label(&format!("Split: {}", errors[0].message))
         .click();

@@ -165,6 +165,9 @@ fn outcome_headline(report: &BatchReport) -> String {
     }
 }
 
+/// Seconds "Copied" stays next to Copy path.
+const COPIED_SHOWN_S: f64 = 2.0;
+
 /// The output folder as selectable text, with Copy path and Open output folder.
 fn output_path_ui(ui: &mut Ui, dir: &Path, commands: &mut Vec<Command>) {
     let shown = dir.canonicalize().unwrap_or_else(|_| dir.to_owned());
@@ -173,12 +176,23 @@ fn output_path_ui(ui: &mut Ui, dir: &Path, commands: &mut Vec<Command>) {
     ui.add(egui::Label::new(RichText::new(&path).monospace()).selectable(true))
         .on_hover_text("Select to copy, or use Copy path");
     ui.horizontal(|ui| {
-        if ui
+        let copy = ui
             .button("Copy path")
-            .on_hover_text("Put the output folder's path on the clipboard")
-            .clicked()
-        {
+            .on_hover_text("Put the output folder's path on the clipboard");
+        // "Copied" shows for a moment after the click.
+        let copied_at = copy.id.with("copied at");
+        let now = ui.input(|i| i.time);
+        if copy.clicked() {
             ui.ctx().copy_text(path.clone());
+            ui.data_mut(|d| d.insert_temp(copied_at, now));
+        }
+        if let Some(at) = ui.data(|d| d.get_temp::<f64>(copied_at)) {
+            let left = COPIED_SHOWN_S - (now - at);
+            if left > 0.0 {
+                ui.weak("Copied");
+                ui.ctx()
+                    .request_repaint_after(std::time::Duration::from_secs_f64(left));
+            }
         }
         if ui
             .button("Open output folder")

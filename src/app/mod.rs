@@ -86,7 +86,8 @@ impl Default for Session {
         Self {
             preset: Preset::default(),
             preset_path: None,
-            saved: None,
+            // A fresh default preset has nothing unsaved until it is edited.
+            saved: Some(Preset::default()),
             out_dir: "swarmshot-dataset".into(),
             overwrite: false,
             trial: false,
@@ -146,8 +147,19 @@ pub enum Command {
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
 pub fn read_preset(path: &Path) -> Result<Preset, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read preset {}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => format!("preset {} does not exist", path.display()),
+        std::io::ErrorKind::PermissionDenied => {
+            format!(
+                "preset {}: permission denied (cannot read it)",
+                path.display()
+            )
+        }
+        std::io::ErrorKind::IsADirectory => {
+            format!("preset {} is a folder, not a preset file", path.display())
+        }
+        _ => format!("cannot read preset {}: {e}", path.display()),
+    })?;
     let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
     if preset.version > PRESET_VERSION {
         return Err(format!(
@@ -638,8 +650,13 @@ impl SwarmshotApp {
             }
             Command::OpenOutputFolder(dir) => {
                 if let Err(e) = open::that_detached(&dir) {
+                    let why = if e.kind() == std::io::ErrorKind::NotFound {
+                        "no program to open folders is installed (xdg-open is missing)"
+                    } else {
+                        "no file manager is set up to open folders here"
+                    };
                     self.notices.push(format!(
-                        "No file manager could open {} ({e}). Use \"Copy path\" under Batch instead.",
+                        "Cannot open {}: {why}. Use \"Copy path\" under Batch and open it yourself.",
                         dir.display()
                     ));
                 }
@@ -1160,7 +1177,7 @@ impl SwarmshotApp {
                     )
                     .accessible_name("Frame")
                     .on_hover_text(
-                        "Scrub through the sweep: every frame the batch will make (← → Home End)",
+                        "Scrub through the sweep: every frame the batch will make (Left and Right arrow keys, Home, End)",
                     );
                 self.frame_slider = Some(slider.id);
             }
@@ -1334,7 +1351,7 @@ fn box_legend_ui(ui: &mut Ui) {
     swatch(
         ui,
         BOX_CROWD,
-        "A filtered drone kept as a COCO iscrowd region (Output → Filtered drones: COCO crowd); trainers ignore it",
+        "A filtered drone kept as a COCO iscrowd region (Output panel, Filtered drones: COCO crowd); trainers ignore it",
     );
     ui.weak("crowd region (ignored)");
 }
@@ -1449,7 +1466,12 @@ impl eframe::App for SwarmshotApp {
             self.apply(command, &ctx);
         }
         self.sync(&ctx);
-        if let Some(committed) = &self.seen {
+        // A drag is one undo step however slow: the history sees its value
+        // once the pointer lets go, not at each pause along the way.
+        let dragging = ctx.dragged_id().is_some() || ctx.input(|i| i.pointer.any_down());
+        if let Some(committed) = &self.seen
+            && !dragging
+        {
             self.history.feed(ctx.input(|i| i.time), committed);
         }
         self.forget_stale_failure();
