@@ -225,6 +225,13 @@ fn run() -> anyhow::Result<()> {
     let Some(command) = Cli::parse().command else {
         return gui(None);
     };
+    if !matches!(command, Command::Gui { .. }) {
+        // SAFETY: still one thread: nothing has been spawned before this point.
+        #[allow(unsafe_code)]
+        unsafe {
+            swarmshot::render::quiet_headless_vulkan()
+        };
+    }
     match command {
         Command::Gui { preset } => gui(preset),
         Command::Batch {

@@ -151,3 +151,37 @@ fn frame_writes_exactly_what_the_batch_writes() {
     );
     assert!(!png.exists());
 }
+
+/// Commands that open no window print nothing from the window system: with the
+/// Vulkan backend and `XDG_RUNTIME_DIR` unset, Mesa's device-select layer made
+/// libwayland print "error: XDG_RUNTIME_DIR is invalid or not set" twice.
+#[test]
+fn check_and_batch_print_nothing_on_stderr_without_xdg_runtime_dir() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let preset = dir.path().join("tiny.ron");
+    std::fs::write(&preset, common::tiny_preset().to_ron()).expect("write preset");
+    let quiet = |args: &[&std::ffi::OsStr]| {
+        let out = swarmshot()
+            .args(args)
+            .env_remove("XDG_RUNTIME_DIR")
+            .env_remove("NODEVICE_SELECT")
+            .env_remove("MESA_VK_DEVICE_SELECT")
+            .env_remove("DRI_PRIME")
+            .env("WGPU_BACKEND", "vulkan")
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {err}");
+        assert!(err.is_empty(), "{args:?} printed on stderr: {err}");
+    };
+    quiet(&["check".as_ref(), preset.as_os_str()]);
+    let out = dir.path().join("out");
+    quiet(&[
+        "batch".as_ref(),
+        preset.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--limit".as_ref(),
+        "2".as_ref(),
+    ]);
+}

@@ -254,7 +254,7 @@ fn generate_writes_the_same_dataset_as_the_cli() {
         Some(BatchOutcome::Failed(e)) => panic!("batch failed: {e}"),
         None => unreachable!(),
     }
-    h.get_by_label_contains("Finished: 6 frames");
+    h.get_by_label_contains("Finished: made 6 frames in");
     h.get_by_role_and_label(Role::Button, "Open output folder");
 
     let images = files_under(&gui_out.join("images"), "png");
@@ -296,6 +296,122 @@ fn generate_writes_the_same_dataset_as_the_cli() {
             rel.display()
         );
     }
+}
+
+fn click_generate_and_wait(h: &mut Harness<'_, SwarmshotApp>) {
+    h.get_by_role_and_label(Role::Button, "Generate").click();
+    h.run_steps(2);
+    wait_for(h, "the batch to end", |app| {
+        !app.batch_running() && app.batch_outcome().is_some()
+    });
+}
+
+fn report(h: &Harness<'_, SwarmshotApp>) -> swarmshot::pipeline::BatchReport {
+    match h.state().batch_outcome() {
+        Some(BatchOutcome::Done(report)) => (**report).clone(),
+        Some(BatchOutcome::Failed(e)) => panic!("batch failed: {e}"),
+        None => panic!("no batch outcome"),
+    }
+}
+
+#[test]
+fn a_trial_run_writes_its_frames_and_a_second_generate_has_nothing_to_do() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut h = harness(Some(write_preset(dir.path(), "tiny.ron", TINY)));
+    wait_for(&mut h, "the first preview", settled);
+
+    // A failure is shown, and goes once the preset changes.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "not a folder").unwrap();
+    h.state_mut().session_mut().out_dir = file.display().to_string();
+    h.run_steps(2);
+    click_generate_and_wait(&mut h);
+    assert!(matches!(
+        h.state().batch_outcome(),
+        Some(BatchOutcome::Failed(_))
+    ));
+    h.get_by_label_contains("Batch failed");
+    h.get_by_label("XCount").set_value_accesskit(3.0);
+    h.run_steps(3);
+    assert!(
+        h.query_by_label_contains("Batch failed").is_none(),
+        "the failure's message stayed after the preset changed"
+    );
+    assert!(h.state().batch_outcome().is_none());
+
+    // Trial run: the first 2 of 6 frames.
+    h.state_mut().session_mut().out_dir = out.display().to_string();
+    h.get_by_label("Trial run: first").click();
+    h.run_steps(1);
+    h.get_by_label("Trial frames").set_value_accesskit(2.0);
+    h.run_steps(2);
+    click_generate_and_wait(&mut h);
+    let first = report(&h);
+    assert_eq!((first.made, first.stats.frames), (2, 2));
+    assert_eq!(files_under(&out.join("images"), "png").len(), 2);
+    h.get_by_label_contains("Finished: made 2 frames in");
+    h.get_by_label_contains("images/s)");
+
+    // Again on the finished folder: nothing to do, and no rate.
+    click_generate_and_wait(&mut h);
+    let again = report(&h);
+    assert!(again.already_complete(), "{again:?}");
+    assert_eq!(again.made, 0);
+    h.get_by_label_contains("Already complete — nothing to do");
+    assert!(
+        h.query_by_label_contains("images/s").is_none(),
+        "a run that made nothing shows a rate"
+    );
+    assert_eq!(files_under(&out.join("images"), "png").len(), 2);
+}
+
+#[test]
+fn generate_after_cancel_says_where_it_resumed_and_rates_only_its_frames() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    // 51 × 2 = 102 frames.
+    let preset = TINY.replace(
+        "(start: 1.0, end: 2.0, step: 0.5)",
+        "(start: 1.0, end: 2.0, step: 0.02)",
+    );
+    let out = dir.path().join("out");
+    let mut h = harness(Some(write_preset(dir.path(), "resume.ron", &preset)));
+    wait_for(&mut h, "the first preview", settled);
+    h.state_mut().session_mut().out_dir = out.display().to_string();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Button, "Generate").click();
+    h.run_steps(2);
+    wait_for(&mut h, "a few frames", |_| {
+        std::fs::read_dir(out.join("images/train"))
+            .map(|d| d.count())
+            .unwrap_or(0)
+            >= 2
+    });
+    h.get_by_role_and_label(Role::Button, "Cancel").click();
+    h.run_steps(2);
+    wait_for(&mut h, "the cancelled batch to end", |app| {
+        !app.batch_running()
+    });
+    let cancelled = report(&h);
+    assert!(cancelled.cancelled, "the batch finished before Cancel");
+    let kept = cancelled.stats.frames;
+    assert!((2..102).contains(&kept), "{kept}");
+
+    click_generate_and_wait(&mut h);
+    let resumed = report(&h);
+    assert!(!resumed.cancelled);
+    assert_eq!(resumed.resumed_at(), Some(kept));
+    assert_eq!(resumed.made, 102 - kept);
+    assert_eq!(resumed.stats.frames, 102);
+    h.get_by_label_contains(&format!(
+        "Finished: resumed at frame {}, made {} frames in",
+        kept + 1,
+        102 - kept
+    ));
+    let rate = resumed.made as f64 / resumed.elapsed.as_secs_f64();
+    h.get_by_label_contains(&format!("({rate:.1} images/s)"));
 }
 
 #[test]
@@ -592,6 +708,67 @@ fn undo_restores_a_value_and_redo_brings_it_back() {
 }
 
 #[test]
+fn a_slow_drag_is_one_undo_step() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    assert_eq!(x_count(h.state()), 3);
+    let mut at = h.get_by_label("XCount").rect().center();
+    h.hover_at(at);
+    h.run_steps(1);
+    h.drag_at(at);
+    h.run_steps(1);
+    // Four moves, each followed by a pause longer than the history's 0.5 s
+    // (each harness step is 0.25 s of egui time).
+    let mut seen = vec![3];
+    for _ in 0..4 {
+        at.x += 20.0;
+        h.hover_at(at);
+        h.run_steps(4);
+        seen.push(x_count(h.state()));
+    }
+    h.drop_at(at);
+    h.run_steps(4);
+    let dragged = x_count(h.state());
+    assert!(dragged > 3, "the drag did not change XCount: {seen:?}");
+    assert!(
+        seen.windows(2).filter(|w| w[0] != w[1]).count() >= 3,
+        "the drag paused on at least three values: {seen:?}"
+    );
+    h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::Z]);
+    h.run_steps(2);
+    assert_eq!(
+        x_count(h.state()),
+        3,
+        "one undo after a slow drag ({seen:?}) goes back to before it"
+    );
+    assert!(!h.state().session().is_dirty());
+}
+
+#[test]
+fn a_missing_preset_is_named_and_leaves_nothing_unsaved() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-preset.ron");
+    let mut h = harness(Some(missing.clone()));
+    h.run_steps(2);
+    let notices = h.state().notices().join("\n");
+    assert!(
+        notices.contains(&format!("preset {} does not exist", missing.display())),
+        "{notices}"
+    );
+    assert!(!notices.contains("os error"), "{notices}");
+    h.get_by_label_contains("no-such-preset.ron does not exist");
+    assert!(!h.state().session().is_dirty());
+    assert!(
+        !h.state().title().contains("unsaved"),
+        "{}",
+        h.state().title()
+    );
+}
+
+#[test]
 fn a_problem_link_scrolls_to_its_field() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let mut h = harness(Some(quickstart()));
@@ -610,8 +787,8 @@ fn a_problem_link_scrolls_to_its_field() {
     // The disabled Generate says why.
     let generate = h.get_by_role_and_label(Role::Button, "Generate");
     assert!(generate.accesskit_node().is_disabled());
-    h.get_by_label_contains("Fix the 1 problem(s)");
-    h.get_by_label_contains("Preview paused: 1 problem(s), first Split");
+    h.get_by_label_contains("Fix the 1 problem listed");
+    h.get_by_label_contains("Preview paused: 1 problem, first Split");
 
     h.get_by_label(&format!("Split: {}", errors[0].message))
         .click();

@@ -180,3 +180,9 @@ fn invalid_values_name_their_field() {
     p.attitude.pitch_deg = (10.0, -10.0);
     assert_rejected(&p, "attitude.pitch_deg", "min ≤ max");
 }
+
+#[test]
+fn a_count_range_upside_down_says_so_in_words() {
+    let p = Preset::from_ron("(placement: Randomized(count: (1, 0)))").expect("parses");
+    assert_rejected(&p, "placement.count", "minimum 1 is more than maximum 0");
+}

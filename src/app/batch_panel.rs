@@ -8,14 +8,17 @@ use egui::{RichText, Ui};
 
 use super::panels::{error_label, group_digits};
 use super::runner::{BatchOutcome, BatchRun};
-use super::{Command, SwarmshotApp, format_duration};
+use super::{Command, SwarmshotApp, format_duration, problems};
 use crate::pipeline::BatchReport;
 
 impl SwarmshotApp {
     pub(super) fn batch_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         ui.heading("Batch");
         match &self.batch {
-            None => self.generate_ui(ui, commands),
+            None => {
+                self.trial_ui(ui);
+                self.generate_ui(ui, commands);
+            }
             Some(batch) => progress_ui(ui, batch, commands),
         }
         match &self.batch_outcome {
@@ -31,8 +34,8 @@ impl SwarmshotApp {
     fn generate_blocked(&self) -> Option<String> {
         if !self.errors.is_empty() {
             Some(format!(
-                "Fix the {} problem(s) listed under Problems first",
-                self.errors.len()
+                "Fix the {} listed under Problems first",
+                problems::count_problems(self.errors.len())
             ))
         } else if self.gpu.is_none() {
             Some("No wgpu device: the app started without the wgpu renderer".into())
@@ -41,6 +44,36 @@ impl SwarmshotApp {
         } else {
             None
         }
+    }
+
+    /// "Trial run: first N frames", the CLI's `--limit`.
+    fn trial_ui(&mut self, ui: &mut Ui) {
+        let frames = self.resolved.frame_count().max(1);
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.session.trial, "Trial run: first")
+                .on_hover_text(
+                    "Make only the first frames, as `swarmshot batch --limit N` does; \
+                     a later Generate without it continues the same folder only with Overwrite",
+                );
+            ui.add_enabled(
+                self.session.trial,
+                egui::DragValue::new(&mut self.session.trial_frames).range(1..=frames),
+            )
+            .accessible_name("Trial frames")
+            .on_hover_text("How many frames the trial run makes, from frame 1");
+            ui.label(if self.session.trial_frames == 1 {
+                "frame"
+            } else {
+                "frames"
+            });
+        });
+    }
+
+    /// The frames Generate asks for: the trial's first N, or all.
+    pub(super) fn batch_limit(&self) -> Option<u64> {
+        self.session
+            .trial
+            .then_some(self.session.trial_frames.max(1))
     }
 
     fn generate_ui(&self, ui: &mut Ui, commands: &mut Vec<Command>) {
@@ -87,19 +120,7 @@ fn progress_ui(ui: &mut Ui, batch: &BatchRun, commands: &mut Vec<Command>) {
 /// What a finished (or cancelled) batch wrote, and where.
 fn outcome_ui(ui: &mut Ui, report: &BatchReport, commands: &mut Vec<Command>) {
     let s = &report.stats;
-    let head = if report.cancelled {
-        "Cancelled"
-    } else {
-        "Finished"
-    };
-    ui.label(
-        RichText::new(format!(
-            "{head}: {} frames in {}",
-            group_digits(s.frames),
-            format_duration(report.elapsed)
-        ))
-        .strong(),
-    );
+    ui.label(RichText::new(outcome_headline(report)).strong());
     ui.label(format!(
         "train {} · val {} · test {}",
         s.frames_per_split[0], s.frames_per_split[1], s.frames_per_split[2]
@@ -108,15 +129,44 @@ fn outcome_ui(ui: &mut Ui, report: &BatchReport, commands: &mut Vec<Command>) {
         "{} boxes: small {} · medium {} · large {}",
         s.boxes, s.small, s.medium, s.large
     ));
-    ui.label(format!(
-        "{:.2} images/s",
-        s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9)
-    ));
     if report.cancelled {
         ui.weak("every written image has its labels");
     }
     output_path_ui(ui, &report.out_dir, commands);
 }
+
+/// One honest line: what this run made, from where, how fast (over the frames it made).
+fn outcome_headline(report: &BatchReport) -> String {
+    if report.already_complete() {
+        return format!(
+            "Already complete — nothing to do: the folder holds all {} frames",
+            group_digits(report.stats.frames)
+        );
+    }
+    let made = format!(
+        "made {} {} in {} ({:.1} images/s)",
+        group_digits(report.made),
+        if report.made == 1 { "frame" } else { "frames" },
+        format_duration(report.elapsed),
+        report.images_per_s()
+    );
+    let head = if report.cancelled {
+        "Cancelled"
+    } else {
+        "Finished"
+    };
+    match report.resumed_at() {
+        // Frames are numbered from 1 in the app, as under the preview.
+        Some(first) => format!(
+            "{head}: resumed at frame {}, {made}",
+            group_digits(first + 1)
+        ),
+        None => format!("{head}: {made}"),
+    }
+}
+
+/// Seconds "Copied" stays next to Copy path.
+const COPIED_SHOWN_S: f64 = 2.0;
 
 /// The output folder as selectable text, with Copy path and Open output folder.
 fn output_path_ui(ui: &mut Ui, dir: &Path, commands: &mut Vec<Command>) {
@@ -126,12 +176,23 @@ fn output_path_ui(ui: &mut Ui, dir: &Path, commands: &mut Vec<Command>) {
     ui.add(egui::Label::new(RichText::new(&path).monospace()).selectable(true))
         .on_hover_text("Select to copy, or use Copy path");
     ui.horizontal(|ui| {
-        if ui
+        let copy = ui
             .button("Copy path")
-            .on_hover_text("Put the output folder's path on the clipboard")
-            .clicked()
-        {
+            .on_hover_text("Put the output folder's path on the clipboard");
+        // "Copied" shows for a moment after the click.
+        let copied_at = copy.id.with("copied at");
+        let now = ui.input(|i| i.time);
+        if copy.clicked() {
             ui.ctx().copy_text(path.clone());
+            ui.data_mut(|d| d.insert_temp(copied_at, now));
+        }
+        if let Some(at) = ui.data(|d| d.get_temp::<f64>(copied_at)) {
+            let left = COPIED_SHOWN_S - (now - at);
+            if left > 0.0 {
+                ui.weak("Copied");
+                ui.ctx()
+                    .request_repaint_after(std::time::Duration::from_secs_f64(left));
+            }
         }
         if ui
             .button("Open output folder")

@@ -2,7 +2,8 @@
 //!
 //! [`EditHistory`] wraps egui's [`Undoer`]: it is fed the committed preset
 //! every pass and makes an undo point once the preset stayed unchanged for a
-//! moment, so a drag is one step, not a hundred. [`CommitGate`] holds edits
+//! moment, so a drag is one step, not a hundred (the app does not feed it
+//! while the pointer is held, so a slow drag with pauses is one step too). [`CommitGate`] holds edits
 //! back while the user is typing in a field: the preset is committed (and
 //! validated, previewed, summarised) on Enter, on focus loss, or after a short
 //! pause, never at every keystroke.

@@ -68,6 +68,9 @@ pub struct Session {
     /// Where Generate writes.
     pub out_dir: String,
     pub overwrite: bool,
+    /// Generate makes only the first `trial_frames` frames (the CLI's `--limit`).
+    pub trial: bool,
+    pub trial_frames: u64,
     /// Selected frame index (0-based).
     pub frame: u64,
     pub show_boxes: bool,
@@ -83,9 +86,12 @@ impl Default for Session {
         Self {
             preset: Preset::default(),
             preset_path: None,
-            saved: None,
+            // A fresh default preset has nothing unsaved until it is edited.
+            saved: Some(Preset::default()),
             out_dir: "swarmshot-dataset".into(),
             overwrite: false,
+            trial: false,
+            trial_frames: 10,
             frame: 0,
             show_boxes: true,
             inspect: false,
@@ -141,8 +147,19 @@ pub enum Command {
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
 pub fn read_preset(path: &Path) -> Result<Preset, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read preset {}: {e}", path.display()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => format!("preset {} does not exist", path.display()),
+        std::io::ErrorKind::PermissionDenied => {
+            format!(
+                "preset {}: permission denied (cannot read it)",
+                path.display()
+            )
+        }
+        std::io::ErrorKind::IsADirectory => {
+            format!("preset {} is a folder, not a preset file", path.display())
+        }
+        _ => format!("cannot read preset {}: {e}", path.display()),
+    })?;
     let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
     if preset.version > PRESET_VERSION {
         return Err(format!(
@@ -279,6 +296,9 @@ pub struct SwarmshotApp {
     summary: Option<Result<Summary, String>>,
     batch: Option<BatchRun>,
     batch_outcome: Option<BatchOutcome>,
+    /// What the last Generate was asked for (preset generation, folder,
+    /// overwrite, limit): a failure's message goes once any of them changes.
+    batch_inputs: Option<BatchInputs>,
     /// Problems with files and dialogs, shown in a banner until dismissed.
     notices: Vec<String>,
     title: String,
@@ -369,6 +389,7 @@ impl SwarmshotApp {
             summary: None,
             batch: None,
             batch_outcome: None,
+            batch_inputs: None,
             notices,
             title: String::new(),
             dialogs,
@@ -629,8 +650,13 @@ impl SwarmshotApp {
             }
             Command::OpenOutputFolder(dir) => {
                 if let Err(e) = open::that_detached(&dir) {
+                    let why = if e.kind() == std::io::ErrorKind::NotFound {
+                        "no program to open folders is installed (xdg-open is missing)"
+                    } else {
+                        "no file manager is set up to open folders here"
+                    };
                     self.notices.push(format!(
-                        "No file manager could open {} ({e}). Use \"Copy path\" under Batch instead.",
+                        "Cannot open {}: {why}. Use \"Copy path\" under Batch and open it yourself.",
                         dir.display()
                     ));
                 }
@@ -804,8 +830,8 @@ impl SwarmshotApp {
     fn generate(&mut self, ctx: &egui::Context) {
         if !self.errors.is_empty() {
             self.notices.push(format!(
-                "cannot generate: the preset has {} problem(s), shown in the panels",
-                self.errors.len()
+                "cannot generate: the preset has {}, shown in the panels",
+                problems::count_problems(self.errors.len())
             ));
             return;
         }
@@ -822,7 +848,7 @@ impl SwarmshotApp {
         let preset = (*self.resolved).clone();
         let options = BatchOptions {
             out_dir: PathBuf::from(self.session.out_dir.trim()),
-            limit: None,
+            limit: self.batch_limit(),
             overwrite: self.session.overwrite,
             resume: false,
             encoder_threads: 0,
@@ -836,6 +862,7 @@ impl SwarmshotApp {
             Ok(run) => {
                 self.batch = Some(run);
                 self.batch_outcome = None;
+                self.batch_inputs = Some(self.batch_inputs_now());
             }
             Err(e) => self
                 .notices
@@ -1115,7 +1142,7 @@ impl SwarmshotApp {
             }
             if !self.errors.is_empty() {
                 ui.label(
-                    RichText::new(format!("{} problem(s)", self.errors.len()))
+                    RichText::new(problems::count_problems(self.errors.len()))
                         .color(ui.visuals().error_fg_color),
                 );
             }
@@ -1150,7 +1177,7 @@ impl SwarmshotApp {
                     )
                     .accessible_name("Frame")
                     .on_hover_text(
-                        "Scrub through the sweep: every frame the batch will make (← → Home End)",
+                        "Scrub through the sweep: every frame the batch will make (Left and Right arrow keys, Home, End)",
                     );
                 self.frame_slider = Some(slider.id);
             }
@@ -1241,8 +1268,8 @@ impl SwarmshotApp {
         let message = if !self.errors.is_empty() {
             let first = &self.errors[0];
             Some(format!(
-                "Preview paused: {} problem(s), first {} ({}). See Problems on the right.",
-                self.errors.len(),
+                "Preview paused: {}, first {} ({}). See Problems on the right.",
+                problems::count_problems(self.errors.len()),
                 problems::field_label(&first.field),
                 first.message
             ))
@@ -1324,7 +1351,7 @@ fn box_legend_ui(ui: &mut Ui) {
     swatch(
         ui,
         BOX_CROWD,
-        "A filtered drone kept as a COCO iscrowd region (Output → Filtered drones: COCO crowd); trainers ignore it",
+        "A filtered drone kept as a COCO iscrowd region (Output panel, Filtered drones: COCO crowd); trainers ignore it",
     );
     ui.weak("crowd region (ignored)");
 }
@@ -1399,8 +1426,13 @@ fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
         painter.circle_filled(cam, 5.0, Color32::from_rgb(255, 80, 80));
     }
     let legend = format!(
-        "white: observation volume · yellow: {} sweep camera position(s) · red: this frame's camera",
-        group_digits(geometry.sweep_cameras_total)
+        "white: observation volume · yellow: {} {} · red: this frame's camera",
+        group_digits(geometry.sweep_cameras_total),
+        if geometry.sweep_cameras_total == 1 {
+            "sweep camera position"
+        } else {
+            "sweep camera positions"
+        }
     );
     painter.text(
         rect.left_bottom() + Vec2::new(6.0, -6.0),
@@ -1434,9 +1466,15 @@ impl eframe::App for SwarmshotApp {
             self.apply(command, &ctx);
         }
         self.sync(&ctx);
-        if let Some(committed) = &self.seen {
+        // A drag is one undo step however slow: the history sees its value
+        // once the pointer lets go, not at each pause along the way.
+        let dragging = ctx.dragged_id().is_some() || ctx.input(|i| i.pointer.any_down());
+        if let Some(committed) = &self.seen
+            && !dragging
+        {
             self.history.feed(ctx.input(|i| i.time), committed);
         }
+        self.forget_stale_failure();
         self.request_preview();
         self.update_title(&ctx);
     }
@@ -1446,7 +1484,29 @@ impl eframe::App for SwarmshotApp {
     }
 }
 
+/// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
+type BatchInputs = (u64, String, bool, Option<u64>);
+
 impl SwarmshotApp {
+    fn batch_inputs_now(&self) -> BatchInputs {
+        (
+            self.generation,
+            self.session.out_dir.trim().to_owned(),
+            self.session.overwrite,
+            self.batch_limit(),
+        )
+    }
+
+    /// A "Batch failed" message speaks of the inputs it failed on: once the
+    /// preset, the folder, Overwrite or the trial run changed it is gone.
+    fn forget_stale_failure(&mut self) {
+        if matches!(self.batch_outcome, Some(BatchOutcome::Failed(_)))
+            && self.batch_inputs.as_ref() != Some(&self.batch_inputs_now())
+        {
+            self.batch_outcome = None;
+        }
+    }
+
     /// Closing the window with unsaved changes asks first.
     fn close_requested(&mut self, ctx: &egui::Context) {
         if ctx.input(|i| i.viewport().close_requested())

@@ -85,25 +85,52 @@ fn number_row<N: egui::emath::Numeric>(
     tip: &str,
     speed: f64,
 ) -> Response {
+    number_row_in(ui, value, name, tip, speed, "")
+}
+
+/// [`number_row`] for an angle: the number shows its unit, °.
+fn angle_row(ui: &mut Ui, value: &mut f64, name: &str, tip: &str, speed: f64) -> Response {
+    number_row_in(ui, value, name, tip, speed, "°")
+}
+
+/// [`number_row`] with a unit after the number (`"°"`, `" m"`; `""` for none).
+fn number_row_in<N: egui::emath::Numeric>(
+    ui: &mut Ui,
+    value: &mut N,
+    name: &str,
+    tip: &str,
+    speed: f64,
+    unit: &str,
+) -> Response {
     ui.horizontal(|ui| {
         let label = ui.label(name).on_hover_text(tip);
-        ui.add(DragValue::new(value).speed(speed))
+        ui.add(DragValue::new(value).speed(speed).suffix(unit))
             .labelled_by(label.id)
             .on_hover_text(tip)
     })
     .inner
 }
 
-/// `label  min [..] max [..]` for an inclusive (min, max) pair.
+/// `label  min [..] max [..]` for an inclusive (min, max) pair of angles (°).
 fn range_row(ui: &mut Ui, value: &mut (f64, f64), name: &str, tip: &str, speed: f64) {
     ui.horizontal(|ui| {
         ui.label(name).on_hover_text(tip);
-        ui.add(DragValue::new(&mut value.0).speed(speed).prefix("min "))
-            .accessible_name(format!("{name} min"))
-            .on_hover_text(tip);
-        ui.add(DragValue::new(&mut value.1).speed(speed).prefix("max "))
-            .accessible_name(format!("{name} max"))
-            .on_hover_text(tip);
+        ui.add(
+            DragValue::new(&mut value.0)
+                .speed(speed)
+                .prefix("min ")
+                .suffix("°"),
+        )
+        .accessible_name(format!("{name} min"))
+        .on_hover_text(tip);
+        ui.add(
+            DragValue::new(&mut value.1)
+                .speed(speed)
+                .prefix("max ")
+                .suffix("°"),
+        )
+        .accessible_name(format!("{name} max"))
+        .on_hover_text(tip);
     });
 }
 
@@ -124,10 +151,17 @@ fn sweep_row(
             ("end", &mut range.end),
             ("step", &mut range.step),
         ] {
+            // PlaneRX/RY/RZ sweep angles; CameraX/Y/Z are relative units.
+            let unit = if field.starts_with("plane.") {
+                "°"
+            } else {
+                ""
+            };
             ui.add(
                 DragValue::new(value)
                     .speed(speed)
-                    .prefix(format!("{part} ")),
+                    .prefix(format!("{part} "))
+                    .suffix(unit),
             )
             .accessible_name(format!("{name} {part}"))
             .on_hover_text(format!("{name} {part}: {tip}"));
@@ -510,7 +544,7 @@ fn formation_ui(ui: &mut Ui, f: &mut Formation, form: &mut Form<'_>) {
     });
     match &mut f.shape {
         FormationShape::Echelon { angle_deg } => {
-            number_row(
+            angle_row(
                 ui,
                 angle_deg,
                 "Echelon angle",
@@ -519,7 +553,7 @@ fn formation_ui(ui: &mut Ui, f: &mut Formation, form: &mut Form<'_>) {
             );
         }
         FormationShape::Wedge { half_angle_deg } => {
-            number_row(
+            angle_row(
                 ui,
                 half_angle_deg,
                 "Wedge half angle",
@@ -528,7 +562,7 @@ fn formation_ui(ui: &mut Ui, f: &mut Formation, form: &mut Form<'_>) {
             );
         }
         FormationShape::Ring { tilt_deg } => {
-            number_row(
+            angle_row(
                 ui,
                 tilt_deg,
                 "Ring tilt",
@@ -617,14 +651,14 @@ pub fn sequence_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
                     .on_hover_text(tip);
             }
         });
-        number_row(
+        angle_row(
             ui,
             &mut seq.motion.turn_deg,
             "Turn",
             "Turn of the formation about the vertical, degrees",
             1.0,
         );
-        number_row(
+        angle_row(
             ui,
             &mut seq.motion.bank_deg,
             "Bank",
@@ -705,7 +739,7 @@ pub fn camera_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         "relative distance: 1 = the swarm just fills the view",
         0.01,
     );
-    number_row(
+    angle_row(
         ui,
         &mut c.fov_y_deg,
         "Field of view",
@@ -790,7 +824,7 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             horizon,
         } => {
             ui.label("Gradient sky with a sun disc; the sun also lights the drones");
-            number_row(
+            angle_row(
                 ui,
                 sun_elevation_deg,
                 "Sun elevation",
@@ -798,7 +832,7 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
                 0.5,
             );
             form.messages(ui, &["sky.sun_elevation_deg"]);
-            number_row(
+            angle_row(
                 ui,
                 sun_azimuth_deg,
                 "Sun azimuth",
@@ -835,7 +869,7 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         } => {
             let style = environment.style();
             let mut elevation = sun_elevation_deg.unwrap_or(style.sun_elevation_deg);
-            if number_row(
+            if angle_row(
                 ui,
                 &mut elevation,
                 "Sun elevation",
@@ -848,7 +882,7 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             }
             form.messages(ui, &["sky.sun_elevation_deg"]);
             let mut azimuth = sun_azimuth_deg.unwrap_or(style.sun_azimuth_deg);
-            if number_row(
+            if angle_row(
                 ui,
                 &mut azimuth,
                 "Sun azimuth",
@@ -1096,13 +1130,19 @@ fn boxes_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 
 /// Where Generate writes, and whether it may replace another dataset there.
 fn folder_ui(ui: &mut Ui, out_dir: &mut String, overwrite: &mut bool, commands: &mut Vec<Command>) {
+    // Generate opens the folder as typed, so a relative one is taken from the working directory.
+    let tip = match std::env::current_dir() {
+        Ok(cwd) => format!(
+            "Where Generate writes the dataset. A relative path is relative to the folder swarmshot was started in: {}",
+            cwd.display()
+        ),
+        Err(_) => "Where Generate writes the dataset. A relative path is relative to the folder swarmshot was started in".to_string(),
+    };
     ui.horizontal(|ui| {
-        let label = ui
-            .label("Output folder")
-            .on_hover_text("Where Generate writes the dataset");
+        let label = ui.label("Output folder").on_hover_text(&tip);
         ui.add(egui::TextEdit::singleline(out_dir).desired_width(180.0))
             .labelled_by(label.id)
-            .on_hover_text("Where Generate writes the dataset");
+            .on_hover_text(&tip);
         if ui
             .button("Browse…")
             .on_hover_text("Choose the output folder")

@@ -17,6 +17,16 @@ pub const SECTIONS: [&str; 7] = [
     "Output",
 ];
 
+/// "1 problem", "3 problems".
+pub fn count_problems(n: usize) -> String {
+    plural(n, "problem", "problems")
+}
+
+/// `n` and the noun in its number: "1 frame", "2 frames".
+pub fn plural(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
 /// The section that shows `field` (`None`: the general fields above the sections).
 pub fn section_of(field: &str) -> Option<&'static str> {
     let head = field.split(['.', '[']).next().unwrap_or(field);

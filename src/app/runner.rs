@@ -16,7 +16,9 @@ use crate::render::GpuContext;
 /// A batch in flight.
 pub struct BatchRun {
     cancel: Arc<AtomicBool>,
-    progress: Arc<Mutex<Option<Progress>>>,
+    /// The latest progress, and how many of its `done` frames this run made
+    /// (a continued run's first report already counts the earlier run's frames).
+    progress: Arc<Mutex<Option<(Progress, u64)>>>,
     result: Receiver<Result<BatchReport, String>>,
     /// Frames this batch will make.
     pub total: u64,
@@ -64,9 +66,13 @@ impl BatchRun {
                 let outcome = FramePipeline::new(preset)
                     .map_err(anyhow::Error::from)
                     .and_then(|pipeline| {
+                        // Reports come once per written frame: the first one
+                        // counts every frame before it as made earlier.
+                        let mut before: Option<u64> = None;
                         run_batch(&pipeline, &options, &gpu, &thread_cancel, |p| {
+                            let earlier = *before.get_or_insert(p.done.saturating_sub(1));
                             if let Ok(mut slot) = thread_progress.lock() {
-                                *slot = Some(p);
+                                *slot = Some((p, p.done.saturating_sub(earlier)));
                             }
                             wake();
                         })
@@ -92,8 +98,11 @@ impl BatchRun {
 
     pub fn status(&self) -> BatchStatus {
         let p = self.progress.lock().ok().and_then(|p| *p);
-        let done = p.map_or(0, |p| p.done);
-        let images_per_s = p.map_or(0.0, |p| p.images_per_s());
+        let done = p.map_or(0, |(p, _)| p.done);
+        // Over the frames this run made, not those an earlier run left.
+        let images_per_s = p.map_or(0.0, |(p, made)| {
+            made as f64 / p.elapsed.as_secs_f64().max(1e-9)
+        });
         let remaining = self.total.saturating_sub(done);
         let eta =
             (images_per_s > 0.0).then(|| Duration::from_secs_f64(remaining as f64 / images_per_s));

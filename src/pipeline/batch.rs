@@ -118,6 +118,31 @@ pub struct BatchReport {
     pub elapsed: Duration,
     pub out_dir: PathBuf,
     pub times: StageTimes,
+    /// The first frame of this run's range (0, or its shard's start).
+    pub start_frame: u64,
+    /// The first frame this run made: above `start_frame` when it continued an
+    /// earlier, interrupted run of the same preset in the folder.
+    pub first_frame: u64,
+    /// Frames this run wrote (`stats` counts the earlier run's too): the
+    /// numerator of any rate. 0 when the folder was already complete.
+    pub made: u64,
+}
+
+impl BatchReport {
+    /// The folder already held every frame: nothing was made.
+    pub fn already_complete(&self) -> bool {
+        !self.cancelled && self.made == 0
+    }
+
+    /// The frame index this run continued from, when it continued an earlier run.
+    pub fn resumed_at(&self) -> Option<u64> {
+        (self.first_frame > self.start_frame).then_some(self.first_frame)
+    }
+
+    /// Frames made per second of this run (0 when none were made).
+    pub fn images_per_s(&self) -> f64 {
+        self.made as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
 }
 
 struct Encoded {
@@ -172,6 +197,9 @@ pub fn run_batch(
             elapsed: start.elapsed(),
             out_dir: options.out_dir.clone(),
             times: StageTimes::default(),
+            start_frame: done_before,
+            first_frame: first,
+            made: 0,
         });
     }
     let makers = if options.makers == 0 {
@@ -360,6 +388,7 @@ pub fn run_batch(
     let (writer, encode, write, sink_cancelled) = sink_result?;
     let cancelled = cancelled || sink_cancelled;
     make_result?;
+    let made = writer.next_frame().saturating_sub(first);
     let stats = writer.finish()?;
     Ok(BatchReport {
         stats,
@@ -371,5 +400,8 @@ pub fn run_batch(
             encode,
             write,
         },
+        start_frame: done_before,
+        first_frame: first,
+        made,
     })
 }

@@ -138,7 +138,7 @@ impl Preset {
                     format!("minimum count {lo} must be at least 1")
                 });
                 v.check(hi >= lo, "placement.count", || {
-                    format!("({lo}, {hi}): maximum must be ≥ minimum")
+                    format!("minimum {lo} is more than maximum {hi}")
                 });
                 v.check(
                     u64::from(*hi) <= MAX_DRONES_PER_FRAME,

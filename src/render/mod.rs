@@ -56,6 +56,34 @@ pub enum RenderError {
     TooManyDrones { count: usize, limit: usize },
 }
 
+/// Turn off Mesa's Vulkan device-select layer for a process that opens no window.
+///
+/// wgpu enables every window-system extension the driver offers
+/// (`VK_KHR_wayland_surface` included) on every instance, headless or not. When
+/// that extension is enabled, Mesa's implicit `VK_LAYER_MESA_device_select`
+/// calls `wl_display_connect` while the physical devices are enumerated to find
+/// the GPU a Wayland compositor runs on; without `XDG_RUNTIME_DIR` libwayland
+/// prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.`
+/// (once per enumeration) even though nothing failed. A headless process has no
+/// compositor to match, so the layer has nothing to choose: its documented
+/// switch `NODEVICE_SELECT=1` (the `disable_environment` of its loader manifest)
+/// skips it. A value the user set is kept, and so is the layer when the user asks
+/// it for a device (`MESA_VK_DEVICE_SELECT`, `DRI_PRIME`).
+///
+/// # Safety
+/// Changes the process environment: call it before any other thread exists
+/// (first thing in `main`), as [`std::env::set_var`] requires.
+#[allow(unsafe_code)]
+pub unsafe fn quiet_headless_vulkan() {
+    let wants_layer = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"]
+        .iter()
+        .any(|name| std::env::var_os(name).is_some());
+    if !wants_layer {
+        // SAFETY: the caller guarantees no other thread reads or writes the environment.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 /// A device and queue, from a headless adapter or handed in by a host (eframe).
 #[derive(Clone)]
 pub struct GpuContext {
