@@ -18,6 +18,7 @@ fn preset(lod_error_px: f64) -> Preset {
         source: ModelSource::Builtin("octocopter".into()),
         size_m: 0.6,
         class: "uav".into(),
+        ..ModelSpec::default()
     }];
     p.placement = Placement::Randomized {
         count: (12, 12),

@@ -62,6 +62,7 @@ fn pixels_front_and_back(glb: &[u8], msaa: u32) -> (u64, u64) {
             source: ModelSource::File(file.clone()),
             size_m: 1.0,
             class: "quad".into(),
+            ..ModelSpec::default()
         }];
         p.placement = Placement::Structured {
             x_count: 1,

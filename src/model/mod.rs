@@ -21,12 +21,15 @@
 
 pub mod builtin;
 pub mod lod;
+pub mod uri;
 
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
+
+pub use uri::UriPolicy;
 
 /// One vertex as the GPU sees it (`shaders/drone.wgsl`, `VertexInput`).
 #[repr(C)]
@@ -160,6 +163,11 @@ pub const MAX_MODEL_FILE_BYTES: u64 = 512 << 20;
 /// Load a .gltf or .glb file from disk: a regular file of at most
 /// [`MAX_MODEL_FILE_BYTES`] (FIFOs and devices are refused unopened).
 pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
+    load_file_with(path, UriPolicy::default())
+}
+
+/// [`load_file`] with a policy for the files its URIs may name.
+pub fn load_file_with(path: &Path, policy: UriPolicy) -> Result<CpuModel, ModelError> {
     let bytes = crate::preset::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(|source| {
         ModelError::Io {
             file: path.to_owned(),
@@ -169,7 +177,7 @@ pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
     let name = path
         .file_stem()
         .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
-    load_bytes(&bytes, path.parent(), path, &name)
+    load_bytes_with(&bytes, path.parent(), path, &name, policy)
 }
 
 /// Load glTF from bytes; `base_dir` resolves external buffers and images,
@@ -180,6 +188,17 @@ pub fn load_bytes(
     file: &Path,
     name: &str,
 ) -> Result<CpuModel, ModelError> {
+    load_bytes_with(bytes, base_dir, file, name, UriPolicy::default())
+}
+
+/// [`load_bytes`] with a policy for the files its URIs may name.
+pub fn load_bytes_with(
+    bytes: &[u8],
+    base_dir: Option<&Path>,
+    file: &Path,
+    name: &str,
+    policy: UriPolicy,
+) -> Result<CpuModel, ModelError> {
     // The gltf crate indexes buffers with values it has not bounds-checked in a
     // few places (image buffer views, sparse indices); a panic there must not
     // take the generator down, so it becomes a typed error like any other.
@@ -188,7 +207,7 @@ pub fn load_bytes(
     // [`in_guarded_load`] holds.
     let was = GUARDED.with(|g| g.replace(true));
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        load_bytes_inner(bytes, base_dir, file, name)
+        load_bytes_inner(bytes, base_dir, file, name, policy)
     }));
     GUARDED.with(|g| g.set(was));
     result.unwrap_or_else(|_| {
@@ -214,6 +233,7 @@ fn load_bytes_inner(
     base_dir: Option<&Path>,
     file: &Path,
     name: &str,
+    policy: UriPolicy,
 ) -> Result<CpuModel, ModelError> {
     let parse = |e: gltf::Error| ModelError::Parse {
         file: file.to_owned(),
@@ -231,16 +251,13 @@ fn load_bytes_inner(
         });
     }
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(parse)?;
-    check_external_files(&document, base_dir, file)?;
-    let buffers =
-        gltf::import_buffers(&document, base_dir, blob).map_err(|e| ModelError::Buffer {
-            file: file.to_owned(),
-            reason: buffer_reason(&document, e),
-        })?;
+    check_external_files(&document, base_dir, file, policy)?;
+    let buffers = load_buffers(&document, base_dir, blob, file, policy)?;
     let mut builder = Flattener {
         file,
         document: &document,
         base_dir,
+        policy,
         buffers: &buffers,
         vertices: Vec::new(),
         buckets: BTreeMap::new(),
@@ -321,48 +338,186 @@ fn parents(document: &gltf::Document) -> Vec<Option<usize>> {
     parents
 }
 
-/// Every buffer and image a .gltf names by a file URI must be a regular file
-/// of at most [`MAX_MODEL_FILE_BYTES`], checked before the glTF reader opens
-/// it (a URI naming a FIFO or `/dev/zero` would block or grow without end).
+/// Every buffer and image a .gltf names by a file URI must lie in the
+/// model's folder (unless `policy` allows more) and be a regular file of at
+/// most [`MAX_MODEL_FILE_BYTES`], checked before anything is read (a URI
+/// naming a FIFO or `/dev/zero` would block or grow without end).
 fn check_external_files(
     document: &gltf::Document,
     base_dir: Option<&Path>,
     file: &Path,
+    policy: UriPolicy,
 ) -> Result<(), ModelError> {
     let buffer_uris = document.buffers().filter_map(|b| match b.source() {
-        gltf::buffer::Source::Uri(uri) => Some(uri),
+        gltf::buffer::Source::Uri(uri) => Some(("buffer", b.index(), uri)),
         gltf::buffer::Source::Bin => None,
     });
     let image_uris = document.images().filter_map(|i| match i.source() {
-        gltf::image::Source::Uri { uri, .. } => Some(uri),
+        gltf::image::Source::Uri { uri, .. } => Some(("image", i.index(), uri)),
         gltf::image::Source::View { .. } => None,
     });
-    for uri in buffer_uris.chain(image_uris) {
-        if uri.starts_with("data:") || uri.contains("://") {
-            continue;
-        }
-        let decoded = percent_decode(uri);
-        let path = base_dir.unwrap_or(Path::new(".")).join(&decoded);
-        let meta = std::fs::metadata(&path);
-        let problem = match &meta {
-            Ok(m) if !m.is_file() => {
-                Some("not a regular file (a FIFO, device or folder)".to_string())
-            }
-            Ok(m) if m.len() > MAX_MODEL_FILE_BYTES => Some(format!(
-                "{} bytes is larger than the {MAX_MODEL_FILE_BYTES}-byte limit",
-                m.len()
-            )),
-            // A missing file is reported by the reader, naming the buffer.
-            _ => None,
+    for (what, index, uri) in buffer_uris.chain(image_uris) {
+        let err = |problem: String| ModelError::Buffer {
+            file: file.to_owned(),
+            reason: format!("{what} {index} (URI \"{}\"): {problem}", short_uri(uri)),
         };
-        if let Some(problem) = problem {
-            return Err(ModelError::Buffer {
-                file: file.to_owned(),
-                reason: format!("{} (from URI \"{uri}\"): {problem}", path.display()),
-            });
+        match uri::resolve(uri, base_dir, policy).map_err(err)? {
+            uri::Target::Data => {}
+            uri::Target::File(path) => {
+                if path.exists() {
+                    uri::open_regular(&path, MAX_MODEL_FILE_BYTES)
+                        .map_err(|e| err(format!("{}: {e}", path.display())))?;
+                }
+                // A missing file is reported when the buffer is read, naming it.
+            }
         }
     }
     Ok(())
+}
+
+/// A URI for a message: data URIs and very long ones cut short.
+fn short_uri(uri: &str) -> String {
+    const MAX_CHARS: usize = 120;
+    if uri.starts_with("data:") {
+        return "data:…".into();
+    }
+    let cleaned = crate::preset::printable(uri);
+    if cleaned.chars().count() > MAX_CHARS {
+        format!("{}…", cleaned.chars().take(MAX_CHARS).collect::<String>())
+    } else {
+        cleaned
+    }
+}
+
+/// Every buffer's bytes: the GLB's binary chunk, a data URI (decoded by the
+/// glTF reader), or a file in the model's folder read up to its `byteLength`.
+fn load_buffers(
+    document: &gltf::Document,
+    base_dir: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+    file: &Path,
+    policy: UriPolicy,
+) -> Result<Vec<gltf::buffer::Data>, ModelError> {
+    let mut out = Vec::with_capacity(document.buffers().len());
+    for buffer in document.buffers() {
+        let err = |reason: String| ModelError::Buffer {
+            file: file.to_owned(),
+            reason,
+        };
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Uri(u) => match uri::resolve(u, base_dir, policy) {
+                Ok(uri::Target::File(path)) => {
+                    let length = buffer.length() as u64;
+                    if length > MAX_MODEL_FILE_BYTES {
+                        return Err(err(format!(
+                            "buffer {} declares {length} bytes, more than the {MAX_MODEL_FILE_BYTES}-byte limit",
+                            buffer.index()
+                        )));
+                    }
+                    uri::read_bounded(&path, length).map_err(|e| {
+                        err(format!(
+                            "buffer {} (URI \"{}\"): {}: {e}",
+                            buffer.index(),
+                            short_uri(u),
+                            path.display()
+                        ))
+                    })?
+                }
+                Ok(uri::Target::Data) => {
+                    gltf::buffer::Data::from_source(buffer.source(), None)
+                        .map_err(|e| err(buffer_reason(document, e)))?
+                        .0
+                }
+                Err(problem) => {
+                    return Err(err(format!(
+                        "buffer {} (URI \"{}\"): {problem}",
+                        buffer.index(),
+                        short_uri(u)
+                    )));
+                }
+            },
+            gltf::buffer::Source::Bin => blob
+                .take()
+                .ok_or_else(|| err(buffer_reason(document, gltf::Error::MissingBlob)))?,
+        };
+        // The reader pads every buffer to a multiple of four bytes.
+        while data.len() % 4 != 0 {
+            data.push(0);
+        }
+        if data.len() < buffer.length() {
+            return Err(err(buffer_reason(
+                document,
+                gltf::Error::BufferLength {
+                    buffer: buffer.index(),
+                    expected: buffer.length(),
+                    actual: data.len(),
+                },
+            )));
+        }
+        out.push(gltf::buffer::Data(data));
+    }
+    Ok(out)
+}
+
+/// An image's decoded pixels: from a buffer view or a data URI (by the glTF
+/// reader), or from a file in the model's folder read with a bound and
+/// decoded as the glTF reader would (the same `image` crate, the same formats).
+fn image_data(
+    source: gltf::image::Source<'_>,
+    base_dir: Option<&Path>,
+    buffers: &[gltf::buffer::Data],
+    policy: UriPolicy,
+) -> Result<gltf::image::Data, String> {
+    let gltf::image::Source::Uri { uri: u, mime_type } = source else {
+        return gltf::image::Data::from_source(source, Some(Path::new(".")), buffers)
+            .map_err(|e| e.to_string());
+    };
+    let path = match uri::resolve(u, base_dir, policy)? {
+        uri::Target::Data => {
+            return gltf::image::Data::from_source(source, Some(Path::new(".")), buffers)
+                .map_err(|e| e.to_string());
+        }
+        uri::Target::File(path) => path,
+    };
+    let encoded = uri::read_bounded(&path, MAX_MODEL_FILE_BYTES)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    use image::ImageFormat::{Jpeg, Png};
+    let format = match mime_type {
+        Some("image/png") => Some(Png),
+        Some("image/jpeg") => Some(Jpeg),
+        Some(_) => None,
+        None => match u.rsplit('.').next() {
+            Some("png") => Some(Png),
+            Some("jpg" | "jpeg") => Some(Jpeg),
+            _ => None,
+        },
+    };
+    let format = format.ok_or_else(|| gltf::Error::UnsupportedImageEncoding.to_string())?;
+    let decoded =
+        image::load_from_memory_with_format(&encoded, format).map_err(|e| e.to_string())?;
+    // As `gltf::image::Data::new` does.
+    use gltf::image::Format;
+    use image::DynamicImage as D;
+    let format = match &decoded {
+        D::ImageLuma8(_) => Format::R8,
+        D::ImageLumaA8(_) => Format::R8G8,
+        D::ImageRgb8(_) => Format::R8G8B8,
+        D::ImageRgba8(_) => Format::R8G8B8A8,
+        D::ImageLuma16(_) => Format::R16,
+        D::ImageLumaA16(_) => Format::R16G16,
+        D::ImageRgb16(_) => Format::R16G16B16,
+        D::ImageRgba16(_) => Format::R16G16B16A16,
+        D::ImageRgb32F(_) => Format::R32G32B32FLOAT,
+        D::ImageRgba32F(_) => Format::R32G32B32A32FLOAT,
+        _ => return Err("unsupported image pixel format".into()),
+    };
+    let (width, height) = (decoded.width(), decoded.height());
+    Ok(gltf::image::Data {
+        pixels: decoded.into_bytes(),
+        format,
+        width,
+        height,
+    })
 }
 
 /// `%20` and friends in a relative URI, as the glTF reader decodes them.
@@ -399,6 +554,7 @@ struct Flattener<'a> {
     file: &'a Path,
     document: &'a gltf::Document,
     base_dir: Option<&'a Path>,
+    policy: UriPolicy,
     buffers: &'a [gltf::buffer::Data],
     vertices: Vec<Vertex>,
     /// Triangle indices per texture slot.
@@ -536,8 +692,7 @@ impl Flattener<'_> {
             .name()
             .or(texture.name())
             .map_or_else(|| format!("image #{}", image.index()), str::to_string);
-        let base = self.base_dir.unwrap_or(Path::new("."));
-        let slot = match gltf::image::Data::from_source(image.source(), Some(base), self.buffers) {
+        let slot = match image_data(image.source(), self.base_dir, self.buffers, self.policy) {
             Ok(data) => {
                 match to_rgba8(&data) {
                     Some(rgba) => {
@@ -947,6 +1102,33 @@ fn check_accessor(
                     "{what}: {n} × {size} bytes from byte {offset} overrun buffer view {} ({length} bytes)",
                     view.index()
                 )));
+            }
+        }
+        if n > count {
+            return Err(format!(
+                "accessor {index} ({semantic}) has {n} sparse entries for {count} elements"
+            ));
+        }
+        // Each sparse index names an element to replace: it must be below the count.
+        let view = indices.view();
+        let data = buffers
+            .get(view.buffer().index())
+            .map_or(&[][..], |d| &d.0[..]);
+        let size = indices.index_type().size();
+        let start = view.offset() + indices.offset();
+        for k in 0..n {
+            let at = start + k * size;
+            let Some(bytes) = data.get(at..at + size) else {
+                break;
+            };
+            let value = bytes
+                .iter()
+                .rev()
+                .fold(0u64, |v, &b| (v << 8) | u64::from(b));
+            if value >= count as u64 {
+                return Err(format!(
+                    "accessor {index} ({semantic}): sparse index {value} (entry {k}) is out of range for {count} elements"
+                ));
             }
         }
     }

@@ -80,7 +80,7 @@ impl Assets {
         let models = preset
             .models
             .iter()
-            .map(|spec| load_model(&spec.source))
+            .map(|spec| load_model_spec(spec))
             .collect::<Result<Vec<_>, _>>()?;
         let geometry = models.iter().map(LabelGeometry::from).collect();
         let lods = if preset.render.lod_error_px > 0.0 {
@@ -126,6 +126,19 @@ pub fn load_model(source: &ModelSource) -> Result<CpuModel, ModelError> {
             model::load_bytes(bytes, None, &file, name)
         }
         ModelSource::File(path) => model::load_file(path),
+    }
+}
+
+/// Load one model as a preset names it, with the URI policy it asks for.
+pub fn load_model_spec(spec: &ModelSpec) -> Result<CpuModel, ModelError> {
+    match &spec.source {
+        ModelSource::File(path) => model::load_file_with(
+            path,
+            model::UriPolicy {
+                allow_outside_folder: spec.allow_uris_outside_folder,
+            },
+        ),
+        source @ ModelSource::Builtin(_) => load_model(source),
     }
 }
 

@@ -18,6 +18,9 @@ pub mod formation;
 pub mod observer;
 mod ron_error;
 pub mod sweep;
+pub mod text;
+
+pub use text::{printable, short_number};
 mod validate;
 
 pub use formation::{
@@ -125,6 +128,15 @@ pub struct ModelSpec {
     pub size_m: f64,
     /// Class name written into the labels.
     pub class: String,
+    /// Let a .gltf's buffer and image URIs name files outside the model's
+    /// folder (absolute paths, `file:` URIs, `..`, links out). Off: only
+    /// files inside the folder are read. Devices and FIFOs stay refused.
+    #[serde(skip_serializing_if = "is_false")]
+    pub allow_uris_outside_folder: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl Default for ModelSpec {
@@ -133,6 +145,7 @@ impl Default for ModelSpec {
             source: ModelSource::Builtin("quad_x".into()),
             size_m: 0.35,
             class: "uav".into(),
+            allow_uris_outside_folder: false,
         }
     }
 }
@@ -850,7 +863,8 @@ pub fn read_input_file(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> 
     Ok(bytes)
 }
 
-fn file_kind(meta: &std::fs::Metadata) -> &'static str {
+/// What a file that is not a regular file is, for messages.
+pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

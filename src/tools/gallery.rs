@@ -27,6 +27,7 @@ pub fn environment_preset(sky: Sky, width: u32, height: u32) -> Preset {
             source: ModelSource::Builtin((*n).into()),
             size_m: 1.0,
             class: "uav".into(),
+            ..ModelSpec::default()
         })
         .collect();
     let mut p = Preset {
@@ -116,6 +117,7 @@ pub fn model_contact_sheet(
             source: ModelSource::Builtin((*n).into()),
             size_m: 1.0,
             class: (*n).into(),
+            ..ModelSpec::default()
         })
         .collect();
     let mut preset = Preset {
@@ -194,6 +196,7 @@ pub fn formation_preset(shape: FormationShape, width: u32, height: u32) -> Prese
             source: ModelSource::Builtin("quad_x".into()),
             size_m: 1.0,
             class: "uav".into(),
+            ..ModelSpec::default()
         }],
         ..Preset::default()
     };

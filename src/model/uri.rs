@@ -1,0 +1,141 @@
+//! The files a .gltf names by URI (external buffers and images), confined to
+//! the model's folder and read with bounds.
+//!
+//! The glTF reader would open any path a URI names: `../../etc/passwd`,
+//! `/dev/zero`, `file:///dev/zero`, and read it to its end. Here every
+//! non-`data:` URI is resolved against the model's folder first: an absolute
+//! path, a `file:` URI, a `..` that climbs out of the folder, or a link whose
+//! target lies outside it is refused unless the preset allows it
+//! (`models[i].allow_uris_outside_folder`); whatever is allowed is then
+//! opened without blocking, the *opened* file's type is checked (a device,
+//! FIFO, socket or folder is refused however it was named), and at most the
+//! declared length is read (a buffer's `byteLength`, an image's
+//! [`super::MAX_MODEL_FILE_BYTES`]).
+
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
+
+/// Where a glTF's URIs may point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UriPolicy {
+    /// Absolute paths, `file:` URIs, `..` escapes and links out of the
+    /// model's folder are read (off by default). Devices and FIFOs stay refused.
+    pub allow_outside_folder: bool,
+}
+
+/// What a URI names.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Target {
+    /// `data:` (decoded by the glTF reader).
+    Data,
+    /// A file on disk, resolved.
+    File(PathBuf),
+}
+
+const HOW_TO_ALLOW: &str = "only files inside the model's folder are read; set `allow_uris_outside_folder: true` on the model in the preset to allow it";
+
+/// Resolve `uri` against `base_dir` (the folder holding the .gltf), or say
+/// why it may not be read.
+pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<Target, String> {
+    if uri.starts_with("data:") {
+        return Ok(Target::Data);
+    }
+    let Some(base) = base_dir else {
+        return Err("a model read from memory cannot name external files".into());
+    };
+    let outside = |what: &str| -> Result<Target, String> { Err(format!("{what}; {HOW_TO_ALLOW}")) };
+    if let Some(rest) = uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
+        if !policy.allow_outside_folder {
+            return outside("a `file:` URI names a file by absolute path");
+        }
+        let path = PathBuf::from(super::percent_decode(rest));
+        return checked_link(&path, base, policy).map(Target::File);
+    }
+    if uri.contains(':') {
+        return Err("unsupported URI scheme (only relative paths and data: URIs are read)".into());
+    }
+    let decoded = PathBuf::from(super::percent_decode(uri));
+    if decoded.is_absolute() {
+        if !policy.allow_outside_folder {
+            return outside("an absolute path is outside the model's folder");
+        }
+        return checked_link(&decoded, base, policy).map(Target::File);
+    }
+    // Lexically: a `..` may step back only into the folder.
+    let mut depth: usize = 0;
+    for c in decoded.components() {
+        match c {
+            Component::Normal(_) => depth += 1,
+            Component::ParentDir => match depth.checked_sub(1) {
+                Some(d) => depth = d,
+                None if policy.allow_outside_folder => {}
+                None => return outside("`..` leads out of the model's folder"),
+            },
+            Component::CurDir => {}
+            Component::RootDir | Component::Prefix(_) => {
+                if !policy.allow_outside_folder {
+                    return outside("an absolute path is outside the model's folder");
+                }
+            }
+        }
+    }
+    checked_link(&base.join(&decoded), base, policy).map(Target::File)
+}
+
+/// `path` itself, unless links lead it out of `base` (and that is not allowed).
+fn checked_link(path: &Path, base: &Path, policy: UriPolicy) -> Result<PathBuf, String> {
+    if policy.allow_outside_folder {
+        return Ok(path.to_owned());
+    }
+    // A missing file is reported when it is opened, naming the file.
+    let (Ok(real), Ok(real_base)) = (path.canonicalize(), base.canonicalize()) else {
+        return Ok(path.to_owned());
+    };
+    if real.starts_with(&real_base) {
+        Ok(path.to_owned())
+    } else {
+        Err(format!(
+            "a link leads out of the model's folder (to {}); {HOW_TO_ALLOW}",
+            real.display()
+        ))
+    }
+}
+
+/// Open `path` without blocking (a FIFO would block `open`) and check the
+/// opened file is a regular file of at most `max_bytes`.
+pub fn open_regular(path: &Path, max_bytes: u64) -> Result<(std::fs::File, u64), String> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(rustix::fs::OFlags::NONBLOCK.bits() as i32)
+        .open(path)
+        .map_err(|e| e.to_string())?;
+    let meta = file.metadata().map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err(format!(
+            "{}, not a regular file",
+            crate::preset::file_kind(&meta)
+        ));
+    }
+    if meta.len() > max_bytes {
+        return Err(format!(
+            "{} bytes is larger than the {max_bytes}-byte limit",
+            meta.len()
+        ));
+    }
+    Ok((file, meta.len()))
+}
+
+/// Read at most `take_bytes` of the regular file at `path` (itself at
+/// most [`super::MAX_MODEL_FILE_BYTES`]).
+pub fn read_bounded(path: &Path, take_bytes: u64) -> Result<Vec<u8>, String> {
+    let (file, len) = open_regular(path, super::MAX_MODEL_FILE_BYTES)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(len.min(take_bytes)).unwrap_or(0));
+    file.take(take_bytes)
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes)
+}

@@ -1,0 +1,182 @@
+//! Text a user typed, made safe to print and checked for limits: control
+//! characters escaped, long numbers shortened, names bounded, and class
+//! names that differ only by case, spaces or look-alike letters found.
+
+use std::fmt::Write as _;
+
+/// The longest class or preset name, in characters.
+pub const MAX_NAME_CHARS: usize = 64;
+
+/// `s` with every control character (and Unicode bidi override) written as
+/// an escape such as `\u{1b}`, so no raw escape byte reaches a terminal.
+pub fn printable(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        if is_unprintable(c) {
+            let _ = write!(out, "\\u{{{:x}}}", u32::from(c));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Control characters and the invisible format characters that reorder or
+/// hide text (bidi overrides and isolates, zero-width joiners, BOM).
+pub fn is_unprintable(c: char) -> bool {
+    c.is_control()
+        || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{feff}')
+}
+
+/// A number for a message: integers up to 12 digits as they are, larger or
+/// fractional magnitudes in 4 significant digits (`1.000e300`), never 300 digits.
+pub fn short_number(x: f64) -> String {
+    if !x.is_finite() {
+        return x.to_string();
+    }
+    let a = x.abs();
+    if x.fract() == 0.0 && a < 1e12 {
+        return format!("{x:.0}");
+    }
+    if (1e-4..1e12).contains(&a) {
+        // Up to 6 significant digits, trailing zeros cut.
+        let digits = 5_i32.saturating_sub(a.log10().floor() as i32).clamp(0, 9);
+        let s = format!("{x:.prec$}", prec = digits as usize);
+        let s = if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        };
+        return s;
+    }
+    format!("{x:.3e}")
+}
+
+/// Shorten any run of more than 15 digits in `message` (a number echoed
+/// from the input) to its first digits and its length.
+pub fn shorten_digit_runs(message: &str) -> String {
+    const MAX_DIGITS: usize = 15;
+    let mut out = String::with_capacity(message.len().min(4096));
+    let mut run = String::new();
+    let flush = |run: &mut String, out: &mut String| {
+        if run.len() > MAX_DIGITS {
+            let _ = write!(out, "{}…({} digits)", &run[..6], run.len());
+        } else {
+            out.push_str(run);
+        }
+        run.clear();
+    };
+    for c in message.chars() {
+        if c.is_ascii_digit() {
+            run.push(c);
+        } else {
+            flush(&mut run, &mut out);
+            out.push(c);
+        }
+    }
+    flush(&mut run, &mut out);
+    out
+}
+
+/// Why `name` (a class or preset name) is refused, if it is: empty, longer
+/// than [`MAX_NAME_CHARS`], or holding a control character.
+pub fn name_problem(name: &str) -> Option<String> {
+    let chars = name.chars().count();
+    if chars > MAX_NAME_CHARS {
+        let head: String = name.chars().take(24).collect();
+        return Some(format!(
+            "\"{}…\" is {} characters long, more than the limit of {MAX_NAME_CHARS}",
+            printable(&head),
+            short_number(chars as f64)
+        ));
+    }
+    if let Some(c) = name.chars().find(|&c| is_unprintable(c)) {
+        return Some(format!(
+            "\"{}\" holds the control character U+{:04X}; names must be printable text",
+            printable(name),
+            u32::from(c)
+        ));
+    }
+    None
+}
+
+/// The form two class names are compared in to find near-duplicates:
+/// trimmed, inner white space collapsed, lower case, and Cyrillic or Greek
+/// letters that look like Latin ones mapped to those.
+pub fn skeleton(name: &str) -> String {
+    let mut out = String::new();
+    let mut space = false;
+    for c in name.trim().chars() {
+        if c.is_whitespace() || c == '_' || c == '-' {
+            space = true;
+            continue;
+        }
+        if space && !out.is_empty() {
+            out.push(' ');
+        }
+        space = false;
+        for l in c.to_lowercase() {
+            out.push(confusable(l));
+        }
+    }
+    out
+}
+
+/// A Latin letter that a lower-case Cyrillic or Greek one is drawn like.
+fn confusable(c: char) -> char {
+    match c {
+        'а' | 'α' => 'a',
+        'в' | 'β' => 'b',
+        'с' | 'ϲ' => 'c',
+        'е' | 'ε' => 'e',
+        'һ' => 'h',
+        'і' | 'ι' => 'i',
+        'ј' => 'j',
+        'к' | 'κ' => 'k',
+        'м' => 'm',
+        'п' | 'η' => 'n',
+        'о' | 'ο' => 'o',
+        'р' | 'ρ' => 'p',
+        'ѕ' => 's',
+        'т' | 'τ' => 't',
+        'у' | 'υ' | 'γ' => 'y',
+        'ν' | 'ѵ' => 'v',
+        'х' | 'χ' => 'x',
+        'ԁ' => 'd',
+        'ԛ' => 'q',
+        'ԝ' | 'ω' => 'w',
+        _ => c,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_are_escaped() {
+        assert_eq!(printable("a\u{1b}[31mb"), "a\\u{1b}[31mb");
+        assert_eq!(printable("uav"), "uav");
+    }
+
+    #[test]
+    fn numbers_are_short() {
+        assert_eq!(short_number(42.0), "42");
+        assert_eq!(short_number(1e300), "1.000e300");
+        assert_eq!(short_number(0.25), "0.25");
+        assert_eq!(short_number(-1.5e-300), "-1.500e-300");
+        let long = format!("value {} here", "9".repeat(300));
+        let s = shorten_digit_runs(&long);
+        assert!(s.len() < 40 && s.contains("300 digits"), "{s}");
+    }
+
+    #[test]
+    fn near_duplicates_share_a_skeleton() {
+        let base = skeleton("uav");
+        for v in ["uav ", "UAV", " Uav", "u\u{0430}v"] {
+            assert_eq!(skeleton(v), base, "{v:?}");
+        }
+        assert_ne!(skeleton("uav2"), base);
+        assert_eq!(skeleton("big  bird"), skeleton("Big_Bird"));
+    }
+}
