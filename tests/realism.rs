@@ -337,3 +337,33 @@ fn bad_realism_fields_are_named() {
     let text = "(atmosphere: Some((visibility_m: (900, 900), fog: 1)))";
     assert!(ron::from_str::<Preset>(text).is_err());
 }
+
+#[test]
+fn drones_beyond_the_visibility_lose_their_label() {
+    let mut p = common::tiny_preset();
+    let plain = FramePipeline::new(p.clone()).expect("pipeline");
+    let (scene, labels) = plain.plan(0).expect("plan");
+    let distances: Vec<f64> = labels.iter().map(|l| l.distance_m).collect();
+    let mut sorted = distances.clone();
+    sorted.sort_by(f64::total_cmp);
+    // V between the nearest and the farthest drone.
+    let v = 0.5 * (sorted[0] + sorted[sorted.len() - 1]);
+    p.atmosphere = Some(Atmosphere {
+        visibility_m: (v, v),
+    });
+    let hazed = FramePipeline::new(p).expect("pipeline");
+    let (hazed_scene, hazed_labels) = hazed.plan(0).expect("plan");
+    assert_eq!(scene.drones, hazed_scene.drones);
+    for (a, b) in labels.iter().zip(&hazed_labels) {
+        if a.distance_m > v {
+            assert!(
+                !b.is_kept(),
+                "a drone at {} m beyond V = {v} m kept",
+                a.distance_m
+            );
+        } else {
+            assert_eq!(a.status, b.status);
+        }
+    }
+    assert!(labels.iter().any(|l| l.is_kept() && l.distance_m > v));
+}

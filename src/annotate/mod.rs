@@ -55,7 +55,7 @@ impl DroneLabel {
 
 /// Label every drone of a frame that is in front of the camera. Drones that
 /// fail a filter (smaller than `min_box_px`, below the visibility thresholds,
-/// or not visible at all) get status `Crowd` or `Filtered` according to
+/// not visible at all, or farther than the atmosphere's visibility V) get status `Crowd` or `Filtered` according to
 /// `settings.filtered`; only `Kept` labels are training boxes. `visibility` is required for
 /// [`BoxMethod::Visible`] and the visibility filters (`None` treats every
 /// drone as invisible then).
@@ -97,7 +97,13 @@ pub fn label_frame(
                     && v.visible_pixels >= settings.min_visible_pixels
                     && v.fraction() >= settings.min_visible_fraction
             });
-        let keep = chosen.as_ref().is_some_and(big_enough) && visible_enough;
+        let distance_m = (drone.position - cam.position).length();
+        // With an atmosphere, a drone farther than the visibility V keeps
+        // under 2 % of its contrast (Koschmieder's threshold): not seen.
+        let through_haze = scene
+            .atmosphere
+            .is_none_or(|a| distance_m <= a.visibility_m);
+        let keep = chosen.as_ref().is_some_and(big_enough) && visible_enough && through_haze;
         let amodal_shows = amodal_in_image.width() > 0.0 && amodal_in_image.height() > 0.0;
         let status = if keep {
             LabelStatus::Kept
@@ -115,7 +121,7 @@ pub fn label_frame(
             amodal,
             paper_aabb: paper,
             truncated: amodal_in_image != amodal,
-            distance_m: (drone.position - cam.position).length(),
+            distance_m,
             visibility: vis,
             status,
         });

@@ -42,16 +42,16 @@ impl Default for Appearance {
     fn default() -> Self {
         Self {
             palette: vec![
-                (DroneColor::White, 3.0),
+                (DroneColor::White, 4.0),
                 (DroneColor::LightGrey, 2.0),
-                (DroneColor::DarkGrey, 2.0),
+                (DroneColor::DarkGrey, 1.0),
                 (DroneColor::Black, 2.0),
                 (DroneColor::Coloured, 1.0),
             ],
             roughness: (0.3, 0.8),
             metalness: (0.0, 0.2),
-            emissive_share: 0.0,
-            emissive_strength: (0.5, 2.0),
+            emissive_share: 0.15,
+            emissive_strength: (0.3, 1.5),
         }
     }
 }
