@@ -126,10 +126,12 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// Every file under `dir` with its bytes (links as their target text).
+/// Every file under `dir` with its bytes (links as their target text),
+/// the lock file aside (a killed run's is taken over and deleted).
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
     files_under(dir)
         .into_iter()
+        .filter(|rel| rel != Path::new(".swarmshot-lock"))
         .map(|rel| {
             let p = dir.join(&rel);
             let bytes = match std::fs::read_link(&p) {
@@ -221,9 +223,9 @@ fn a_second_run_into_a_folder_in_use_is_refused_naming_the_process() {
         .env("SWARMSHOT_STALL_UNTIL", &go)
         .spawn()
         .expect("spawn");
-    wait_for(&mut first, "the first run's frames", || {
-        checkpoints(&out) >= 2
-    });
+    let stalled = tmp.path().join("go.stalled");
+    wait_for(&mut first, "the first run's stall", || stalled.exists());
+    let held = snapshot(&out);
     let pid = first.id();
     let held = snapshot(&out);
     for extra in [&[][..], &["--resume"], &["--overwrite"], &["--labels-only"]] {
@@ -234,7 +236,16 @@ fn a_second_run_into_a_folder_in_use_is_refused_naming_the_process() {
         );
     }
     // The refused runs left the folder exactly as the first run had it.
-    assert!(snapshot(&out) == held, "a refused run changed the folder");
+    let now = snapshot(&out);
+    let changed: Vec<_> = (now.iter().filter(|f| !held.contains(f)))
+        .map(|f| format!("now {} {}", f.0.display(), f.1.len()))
+        .chain(
+            held.iter()
+                .filter(|f| !now.contains(f))
+                .map(|f| format!("before {} {}", f.0.display(), f.1.len())),
+        )
+        .collect();
+    assert!(changed.is_empty(), "a refused run changed {changed:?}");
     std::fs::write(&go, "").expect("barrier");
     let o = first.wait_with_output().expect("wait");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -1151,12 +1151,19 @@ pub fn content_records(root: &Path) -> Result<BTreeMap<String, ContentRecord>, O
 /// `checkpoint:N`, after frame N's files and records are written and before
 /// its checkpoint. A test kills the process there. With
 /// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
-/// path exists (a barrier: tests/output_trust.rs runs a second batch meanwhile).
+/// path exists (a barrier: tests/output_trust.rs runs a second batch
+/// meanwhile), and says it has stopped by creating that path with
+/// `.stalled` added.
 fn stall_if_asked(point: &str) {
     static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
     let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_AT").ok());
     if at.as_deref() == Some(point) {
         let until = std::env::var_os("SWARMSHOT_STALL_UNTIL").map(PathBuf::from);
+        if let Some(until) = &until {
+            let mut stalled = until.clone().into_os_string();
+            stalled.push(".stalled");
+            let _ = fs::write(stalled, point);
+        }
         let start = std::time::Instant::now();
         while start.elapsed() < std::time::Duration::from_secs(300) {
             if until.as_ref().is_some_and(|p| p.exists()) {
