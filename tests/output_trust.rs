@@ -225,7 +225,6 @@ fn a_second_run_into_a_folder_in_use_is_refused_naming_the_process() {
         .expect("spawn");
     let stalled = tmp.path().join("go.stalled");
     wait_for(&mut first, "the first run's stall", || stalled.exists());
-    let held = snapshot(&out);
     let pid = first.id();
     let held = snapshot(&out);
     for extra in [&[][..], &["--resume"], &["--overwrite"], &["--labels-only"]] {
@@ -246,6 +245,8 @@ fn a_second_run_into_a_folder_in_use_is_refused_naming_the_process() {
         )
         .collect();
     assert!(changed.is_empty(), "a refused run changed {changed:?}");
+    let lock = std::fs::read_to_string(out.join(".swarmshot-lock")).expect("lock file");
+    assert_eq!(lock.trim(), pid.to_string(), "the lock names its holder");
     std::fs::write(&go, "").expect("barrier");
     let o = first.wait_with_output().expect("wait");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
