@@ -90,6 +90,10 @@ enum Command {
         /// Delete an earlier run's own files in OUT and start again.
         #[arg(long)]
         overwrite: bool,
+        /// Copy the shards' files instead of hard-linking them (later edits
+        /// to a shard then cannot change the merged dataset).
+        #[arg(long)]
+        copy: bool,
     },
     /// Validate a preset and print what it will make.
     Check { preset: PathBuf },
@@ -269,6 +273,7 @@ fn run() -> anyhow::Result<()> {
             labels_only: false,
         } => batch(
             &preset,
+            &shard,
             BatchOptions {
                 out_dir: out,
                 limit,
@@ -277,7 +282,8 @@ fn run() -> anyhow::Result<()> {
                 encoder_threads: threads,
                 makers,
                 shard: shard
-                    .map(|s| Shard::parse(&s, |name| std::env::var(name).ok()))
+                    .as_deref()
+                    .map(|s| Shard::parse(s, |name| std::env::var(name).ok()))
                     .transpose()?,
             },
             timings,
@@ -286,7 +292,8 @@ fn run() -> anyhow::Result<()> {
             out,
             shards,
             overwrite,
-        } => merge(&out, &shards, overwrite),
+            copy,
+        } => merge(&out, &shards, overwrite, copy),
         Command::Check { preset } => check(&preset),
         Command::Stats { dir, plots, json } => stats(&dir, plots, json),
         Command::Frame {
@@ -395,7 +402,34 @@ fn frames_and_boxes(s: &swarmshot::write::DatasetStats) -> String {
     )
 }
 
-fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<()> {
+/// A flag set by the first SIGINT or SIGTERM: the batch stops between frames
+/// (docs/reliability.md, "Clean stop"); a second signal ends the process at once.
+fn stop_on_signals() -> anyhow::Result<std::sync::Arc<AtomicBool>> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let flag = std::sync::Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        // Registered first, so it sees the flag as the earlier signal left it.
+        signal_hook::flag::register_conditional_shutdown(signal, 1, flag.clone())
+            .context("installing the signal handler")?;
+        signal_hook::flag::register(signal, flag.clone())
+            .context("installing the signal handler")?;
+    }
+    Ok(flag)
+}
+
+/// The refusal after a clean stop: what is complete and how to continue.
+fn stopped(done: u64, total: u64, resume: &str) -> anyhow::Error {
+    anyhow::anyhow!(
+        "stopped by SIGINT/SIGTERM after {done} of {total} frames: every frame before it is complete and checkpointed, nothing half-written is left; continue with: {resume}"
+    )
+}
+
+fn batch(
+    preset: &Path,
+    shard_arg: &Option<String>,
+    options: BatchOptions,
+    timings: bool,
+) -> anyhow::Result<()> {
     if options.limit == Some(0) {
         anyhow::bail!("--limit 0: the batch would make no frame; give at least 1");
     }
@@ -410,7 +444,7 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     let ctx = GpuContext::headless()?;
     device_check(&pipeline, &ctx)?;
     let bar = frames_bar(&pipeline, options.limit)?;
-    let cancel = AtomicBool::new(false);
+    let cancel = stop_on_signals()?;
     let report = run_batch(&pipeline, &options, &ctx, &cancel, |p| {
         bar.set_length(p.total);
         bar.set_position(p.done);
@@ -418,6 +452,20 @@ fn batch(preset: &Path, options: BatchOptions, timings: bool) -> anyhow::Result<
     })?;
     bar.finish();
     let s = &report.stats;
+    if report.cancelled {
+        let shard = shard_arg
+            .as_ref()
+            .map_or(String::new(), |k| format!(" --shard {k}"));
+        return Err(stopped(
+            s.frames,
+            bar.length().unwrap_or(0),
+            &format!(
+                "swarmshot batch {} --out {}{shard} --resume",
+                preset.display(),
+                report.out_dir.display()
+            ),
+        ));
+    }
     println!(
         "wrote {} to {} in {:.1} s ({:.2} images/s) on {}",
         frames_and_boxes(s),
@@ -450,7 +498,7 @@ fn plan(
     let pipeline = FramePipeline::open(preset)?;
     print_warnings(&pipeline);
     let bar = frames_bar(&pipeline, options.limit)?;
-    let cancel = AtomicBool::new(false);
+    let cancel = stop_on_signals()?;
     let report = swarmshot::pipeline::run_plan(&pipeline, &options, &cancel, |p| {
         bar.set_length(p.total);
         bar.set_position(p.done);
@@ -458,6 +506,17 @@ fn plan(
     })?;
     bar.finish();
     let s = &report.stats;
+    if report.cancelled {
+        return Err(stopped(
+            s.frames,
+            bar.length().unwrap_or(0),
+            &format!(
+                "swarmshot batch {} --out {} --labels-only --resume",
+                preset.display(),
+                report.out_dir.display()
+            ),
+        ));
+    }
     println!(
         "planned {} to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
         frames_and_boxes(s),
@@ -503,9 +562,9 @@ fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> anyhow::Result<()> {
+fn merge(out: &Path, shards: &[PathBuf], overwrite: bool, copy: bool) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
-    let r = swarmshot::write::merge::merge(out, shards, overwrite)?;
+    let r = swarmshot::write::merge::merge(out, shards, overwrite, copy)?;
     let s = &r.stats;
     let before = if r.shards_before > 0 {
         format!(

@@ -37,14 +37,17 @@
 use std::collections::{BTreeMap, HashSet};
 use std::fs::{self, File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
-use std::os::unix::fs::MetadataExt;
+use std::os::unix::fs::{FileExt, MetadataExt};
 use std::path::{Path, PathBuf};
 
 use super::shard::Shard;
+use super::tree::{Tree, hard_link_refused, link_refused};
 use super::{DatasetStats, OutputError, io};
 
 /// File name of the ledger in the dataset folder.
 pub const LEDGER: &str = ".swarmshot-ledger";
+/// File name of the lock file in the dataset folder (see [`FolderLock`]).
+pub const LOCK: &str = ".swarmshot-lock";
 const LEDGER_VERSION: u32 = 1;
 
 /// What a run is: its frame count, its locked preset's hash, and for a
@@ -165,6 +168,94 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
     })
 }
 
+/// One writer per folder: an exclusive `flock` on `.swarmshot-lock` in the
+/// folder, taken before anything else in it is read or written and held for
+/// the whole run. The kernel releases it when the process ends, however it
+/// ends, so a killed run never leaves the folder locked; the file holds the
+/// holder's process id for the refusal's message. A run that ends deletes the
+/// file while it still holds the lock (a run that opened the old file sees
+/// it gone and tries again), so a finished folder holds no lock file; one
+/// left by a killed run is taken over by the next.
+pub struct FolderLock {
+    file: File,
+    tree: Tree,
+}
+
+impl FolderLock {
+    /// Lock the folder `root` (it exists), or say which process holds it.
+    pub fn take(root: &Path) -> Result<Self, OutputError> {
+        let path = root.join(LOCK);
+        for _ in 0..8 {
+            let mut tree = Tree::open(root)?;
+            let fd = rustix::fs::openat(
+                tree.fd(),
+                LOCK,
+                rustix::fs::OFlags::RDWR
+                    | rustix::fs::OFlags::CREATE
+                    | rustix::fs::OFlags::NOFOLLOW
+                    | rustix::fs::OFlags::CLOEXEC
+                    | rustix::fs::OFlags::NONBLOCK,
+                rustix::fs::Mode::from_raw_mode(0o644),
+            )
+            .map_err(|e| match e {
+                rustix::io::Errno::LOOP => link_refused(path.clone()),
+                e => io(&path)(e.into()),
+            })?;
+            let file = File::from(fd);
+            let seen = file.metadata().map_err(io(&path))?;
+            if !seen.is_file() {
+                return Err(refused(path, "is not a regular file"));
+            }
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(fs::TryLockError::WouldBlock) => {
+                    let mut text = String::new();
+                    let _ = (&file).take(32).read_to_string(&mut text);
+                    return Err(OutputError::InUse {
+                        path: root.to_owned(),
+                        lock: path,
+                        pid: text.trim().parse().ok(),
+                    });
+                }
+                Err(fs::TryLockError::Error(e)) => return Err(io(&path)(e)),
+            }
+            // The file may have been deleted (or replaced) by the run that
+            // held it between our open and our lock: then lock the new one.
+            let now = tree.lstat(LOCK)?;
+            if now.is_none_or(|e| (e.dev, e.ino) != (seen.dev(), seen.ino())) {
+                continue;
+            }
+            if seen.nlink() != 1 {
+                return Err(hard_link_refused(path, seen.nlink()));
+            }
+            let pid = format!("{}\n", std::process::id());
+            file.set_len(0)
+                .and_then(|()| file.write_all_at(pid.as_bytes(), 0))
+                .map_err(io(&path))?;
+            return Ok(Self { file, tree });
+        }
+        Err(refused(
+            path,
+            "keeps being replaced while swarmshot tries to lock it",
+        ))
+    }
+}
+
+impl Drop for FolderLock {
+    fn drop(&mut self) {
+        let ours = Tree::identity(&self.file);
+        if self
+            .tree
+            .lstat(LOCK)
+            .ok()
+            .flatten()
+            .is_some_and(|e| Some((e.dev, e.ino)) == ours)
+        {
+            let _ = self.tree.remove_file(LOCK);
+        }
+    }
+}
+
 /// The state after the last complete frame: enough to continue exactly.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Checkpoint {
@@ -205,7 +296,12 @@ pub enum Start {
 /// A dataset folder opened for one run. See the module docs.
 pub struct Folder {
     root: PathBuf,
+    /// Held for the whole run (dropped last: fields drop in order).
     ledger: File,
+    /// The folder reached without following links (deletions, checks).
+    tree: Tree,
+    /// A shard run: its ledger gets content records when it finishes.
+    records: bool,
     /// Entries listed in the ledger that may be replaced or deleted.
     owned: HashSet<String>,
     /// Files of the frame in flight (claimed, maybe partly written).
@@ -215,6 +311,8 @@ pub struct Folder {
     /// Frame claims and frame files are flushed to disk one by one (a
     /// labels-only plan turns this off: see `set_durable_frames`).
     durable_frames: bool,
+    /// One writer per folder; released (and its file deleted) when the folder is dropped.
+    _lock: FolderLock,
 }
 
 fn refused(path: PathBuf, reason: &str) -> OutputError {
@@ -233,34 +331,11 @@ fn lstat(path: &Path) -> Result<Option<fs::Metadata>, OutputError> {
     }
 }
 
-/// Open an existing regular file at `path` (read, and append if `append`)
-/// and make sure it is the entry `symlink_metadata` saw, not a link's target.
-fn open_checked(path: &Path, append: bool) -> Result<File, OutputError> {
-    let Some(seen) = lstat(path)? else {
-        return Err(io(path)(std::io::ErrorKind::NotFound.into()));
-    };
-    if seen.file_type().is_symlink() {
-        return Err(refused(
-            path.to_owned(),
-            "is a symbolic link; swarmshot never follows one in its output folder",
-        ));
-    }
-    if !seen.is_file() {
-        return Err(refused(path.to_owned(), "is not a regular file"));
-    }
-    let file = OpenOptions::new()
-        .read(true)
-        .append(append)
-        .open(path)
-        .map_err(io(path))?;
-    let opened = file.metadata().map_err(io(path))?;
-    if (opened.dev(), opened.ino()) != (seen.dev(), seen.ino()) {
-        return Err(refused(
-            path.to_owned(),
-            "changed while it was being opened (replaced by a link?)",
-        ));
-    }
-    Ok(file)
+/// Open the existing regular file `rel` below `root` (read, and append if
+/// `append`) without following a link anywhere below `root`; a file opened
+/// to append must have a single name (no hard link to a file elsewhere).
+fn open_checked(root: &Path, rel: &str, append: bool) -> Result<File, OutputError> {
+    Tree::open(root)?.open_file(rel, append)
 }
 
 /// The temporary name a file is written under before it is renamed into place.
@@ -297,6 +372,9 @@ fn preflight(root: &Path, needed: &[String], owned: &HashSet<String>) -> Result<
                 }
                 Some(m) if !want_dir && !m.is_file() => {
                     return Err(refused(path, "is not a regular file"));
+                }
+                Some(m) if !want_dir && m.nlink() != 1 => {
+                    return Err(hard_link_refused(path, m.nlink()));
                 }
                 Some(_) if !want_dir && !owned.contains(rel) => {
                     return Err(refused(
@@ -359,6 +437,8 @@ impl Folder {
                 }
             }
         }
+        // Before anything in the folder is read or written.
+        let lock = FolderLock::take(root)?;
         let ledger_path = root.join(LEDGER);
         let scan = match lstat(&ledger_path)? {
             None => None,
@@ -370,7 +450,10 @@ impl Folder {
                     path: root.to_owned(),
                 });
             }
-            let empty = fs::read_dir(root).map_err(io(root))?.next().is_none();
+            // A lock file left by a killed run is swarmshot's own.
+            let empty = !fs::read_dir(root)
+                .map_err(io(root))?
+                .any(|e| e.map_or(true, |e| e.file_name() != LOCK));
             if !empty && !mode.overwrite {
                 return Err(OutputError::NotEmpty {
                     path: root.to_owned(),
@@ -383,7 +466,7 @@ impl Folder {
                 shard: mode.shard.map(|p| p.run(frames)),
             };
             preflight(root, needed, &HashSet::new())?;
-            return Ok((Self::fresh(root, run)?, Start::Fresh, run));
+            return Ok((Self::fresh(root, run, lock)?, Start::Fresh, run));
         };
         preflight(root, needed, &scan.owned)?;
         let frames = frames.unwrap_or(scan.run.frames);
@@ -393,7 +476,7 @@ impl Folder {
             shard: mode.shard.map(|p| p.run(frames)),
         };
         if scan.run == run && !mode.overwrite {
-            let folder = Self::continue_from(root, &scan)?;
+            let folder = Self::continue_from(root, &scan, lock)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
                     checkpoint: Box::new(checkpoint),
@@ -427,11 +510,11 @@ impl Folder {
             });
         }
         Self::delete_run(root)?;
-        Ok((Self::fresh(root, run)?, Start::Fresh, run))
+        Ok((Self::fresh(root, run, lock)?, Start::Fresh, run))
     }
 
     /// A new ledger holding only the header.
-    fn fresh(root: &Path, run: RunId) -> Result<Self, OutputError> {
+    fn fresh(root: &Path, run: RunId, lock: FolderLock) -> Result<Self, OutputError> {
         let path = root.join(LEDGER);
         if lstat(&path)?.is_some() {
             return Err(refused(
@@ -440,23 +523,30 @@ impl Folder {
             ));
         }
         write_new_then_rename(root, LEDGER, run.header().as_bytes(), false)?;
-        let ledger = open_checked(&path, true)?;
+        let ledger = open_checked(root, LEDGER, true)?;
         Ok(Self {
             root: root.to_owned(),
             ledger,
+            tree: Tree::open(root)?,
+            records: run.shard.is_some(),
             owned: HashSet::from([LEDGER.to_owned()]),
             frame_claims: Vec::new(),
             dirs_ok: HashSet::new(),
             durable_frames: true,
+            _lock: lock,
         })
     }
 
     /// Cut the ledger back to its last trusted checkpoint (keeping every
     /// claim after it) and open it to append.
-    fn continue_from(root: &Path, scan: &LedgerScan) -> Result<Self, OutputError> {
+    fn continue_from(
+        root: &Path,
+        scan: &LedgerScan,
+        lock: FolderLock,
+    ) -> Result<Self, OutputError> {
         let path = root.join(LEDGER);
         let mut bytes = Vec::new();
-        open_checked(&path, false)?
+        open_checked(root, LEDGER, false)?
             .read_to_end(&mut bytes)
             .map_err(io(&path))?;
         if scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
@@ -467,16 +557,19 @@ impl Folder {
             }
             write_new_then_rename(root, LEDGER, &text, true)?;
         }
-        let ledger = open_checked(&path, true)?;
+        let ledger = open_checked(root, LEDGER, true)?;
         let mut owned = scan.owned.clone();
         owned.insert(LEDGER.to_owned());
         Ok(Self {
             root: root.to_owned(),
             ledger,
+            tree: Tree::open(root)?,
+            records: scan.run.shard.is_some(),
             owned,
             frame_claims: Vec::new(),
             dirs_ok: HashSet::new(),
             durable_frames: true,
+            _lock: lock,
         })
     }
 
@@ -485,9 +578,10 @@ impl Folder {
     fn scan(root: &Path) -> Result<LedgerScan, OutputError> {
         let path = root.join(LEDGER);
         let mut bytes = Vec::new();
-        open_checked(&path, false)?
+        open_checked(root, LEDGER, false)?
             .read_to_end(&mut bytes)
             .map_err(io(&path))?;
+        let mut tree = Tree::open(root)?;
         let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         let text = String::from_utf8_lossy(&bytes[..prefix_len]);
         let corrupt = |reason: &str| OutputError::Ledger {
@@ -529,18 +623,29 @@ impl Folder {
                     broken = true;
                     continue;
                 };
-                let files_there = || {
-                    frame_files.iter().all(|rel| {
-                        fs::symlink_metadata(root.join(rel)).is_ok_and(|m| m.file_type().is_file())
-                    })
-                };
-                let long_enough = || {
-                    cp.files.iter().all(|(rel, &len)| {
-                        fs::symlink_metadata(root.join(rel))
-                            .is_ok_and(|m| m.file_type().is_file() && m.len() >= len)
-                    })
-                };
-                if finished || (files_there() && long_enough()) {
+                // A missing file means the run stopped before it: the
+                // checkpoint is not trusted. A link where a listed file
+                // should be (or in a folder above it) is refused now, before
+                // the ledger is cut back or anything is written.
+                let checked =
+                    |tree: &mut Tree, rel: &str, min_len: Option<u64>| match tree.lstat(rel)? {
+                        Some(e) if e.is_symlink() => Err(link_refused(root.join(rel))),
+                        Some(e) if min_len.is_some() && e.is_file() && e.links != 1 => {
+                            Err(hard_link_refused(root.join(rel), e.links))
+                        }
+                        Some(e) => Ok(e.is_file() && e.len >= min_len.unwrap_or(0)),
+                        None => Ok(false),
+                    };
+                let mut good = true;
+                if !finished {
+                    for rel in &frame_files {
+                        good &= checked(&mut tree, rel, None)?;
+                    }
+                    for (rel, &len) in &cp.files {
+                        good &= checked(&mut tree, rel, Some(len))?;
+                    }
+                }
+                if good {
                     // A checkpoint lists only what changed since the one before.
                     let mut merged = scan.checkpoint.take().unwrap_or_default();
                     merged.next = cp.next;
@@ -554,6 +659,8 @@ impl Folder {
                 } else {
                     broken = true;
                 }
+            } else if line.starts_with('%') {
+                // A finished shard's content records (see `mark_done`).
             } else if line == "!done" {
                 if !broken
                     && scan
@@ -577,28 +684,42 @@ impl Folder {
     /// Delete every file and folder an earlier run's ledger lists (files
     /// first, then folders that are empty), then the ledger itself. Links and
     /// entries that are not regular files are left alone.
+    ///
+    /// Every listed entry is first looked at without following links: a
+    /// link anywhere on a listed path (the entry itself or a folder above
+    /// it) refuses the whole deletion before anything is deleted. Then each
+    /// file is deleted relative to its folder's handle (`unlinkat`), so a
+    /// folder swapped for a link in between is never walked through.
     fn delete_run(root: &Path) -> Result<(), OutputError> {
         let path = root.join(LEDGER);
+        let claims = Self::claims(root)?;
+        let mut tree = Tree::open(root)?;
+        for rel in &claims {
+            let file = !rel.ends_with('/');
+            let names = if file {
+                vec![rel.clone(), temp_rel(rel)]
+            } else {
+                vec![rel.trim_end_matches('/').to_owned()]
+            };
+            for r in names {
+                if tree.lstat(&r)?.is_some_and(|e| e.is_symlink()) {
+                    return Err(link_refused(root.join(r)));
+                }
+            }
+        }
         let mut dirs = Vec::new();
-        for rel in Self::claims(root)? {
-            let rel = rel.as_str();
+        for rel in &claims {
             if let Some(dir) = rel.strip_suffix('/') {
                 dirs.push(dir.to_owned());
                 continue;
             }
-            for r in [rel.to_owned(), temp_rel(rel)] {
-                let p = root.join(&r);
-                if lstat(&p)?.is_some_and(|m| m.file_type().is_file()) {
-                    fs::remove_file(&p).map_err(io(&p))?;
-                }
+            for r in [rel.clone(), temp_rel(rel)] {
+                tree.remove_file(&r)?;
             }
         }
         for dir in dirs.iter().rev() {
-            let p = root.join(dir);
-            if lstat(&p)?.is_some_and(|m| m.file_type().is_dir()) {
-                // Not empty: it holds files swarmshot did not write; keep them.
-                let _ = fs::remove_dir(&p);
-            }
+            // Not empty: it holds files swarmshot did not write; keep them.
+            tree.remove_dir_if_empty(dir)?;
         }
         fs::remove_file(&path).map_err(io(&path))
     }
@@ -769,11 +890,20 @@ impl Folder {
         result.map_err(io(&path))
     }
 
-    /// Put the file `src` (outside the folder: a shard's file, for `swarmshot
-    /// merge`) at `rel`: a hard link when the file system allows one, else a
-    /// copy flushed to disk; made under the temporary name and renamed into
-    /// place like every other file. Returns whether it was linked.
-    pub fn link_file(&mut self, rel: &str, src: &Path) -> Result<bool, OutputError> {
+    /// Put the file `rel` of the shard `shard` (outside the folder, for
+    /// `swarmshot merge`) at `rel`: a hard link (`linkat` relative to the
+    /// shard folder's handle, never following a link) unless `copy` or the
+    /// file system refuses one, else a copy flushed to disk; made under the
+    /// temporary name and renamed into place like every other file. `seen`
+    /// is the (device, inode) the shard's file had when its content was
+    /// checked: a file replaced since is refused. Returns whether it was linked.
+    pub fn link_file(
+        &mut self,
+        rel: &str,
+        shard: &mut Tree,
+        seen: (u64, u64),
+        copy: bool,
+    ) -> Result<bool, OutputError> {
         if let Some((dir, _)) = rel.rsplit_once('/') {
             self.ensure_dir(dir)?;
         }
@@ -781,32 +911,46 @@ impl Folder {
         if !self.is_ours(rel) {
             self.claim(&[rel])?;
         }
-        let Some(seen) = lstat(src)?.filter(|m| m.file_type().is_file()) else {
-            return Err(refused(
-                src.to_owned(),
-                "is not a regular file (a link or a folder where a shard's file should be)",
-            ));
-        };
+        let src = shard.root().join(rel);
+        let replaced = || refused(src.clone(), "was replaced after its content was checked");
+        match shard.lstat(rel)? {
+            Some(e) if e.is_file() && (e.dev, e.ino) == seen => {}
+            Some(e) if e.is_symlink() => return Err(link_refused(src)),
+            Some(_) => return Err(replaced()),
+            None => return Err(refused(src, "is missing (the shard's ledger records it)")),
+        }
         let path = self.root.join(rel);
         // Linked by an interrupted merge already (a rename onto another link
         // of the same file would do nothing and leave the temporary name).
-        if lstat(&path)?.is_some_and(|m| (m.dev(), m.ino()) == (seen.dev(), seen.ino())) {
+        if !copy && lstat(&path)?.is_some_and(|m| (m.dev(), m.ino()) == seen) {
             return Ok(true);
         }
-        let tmp = self.root.join(temp_rel(rel));
+        let tmp_rel = temp_rel(rel);
+        let tmp = self.root.join(&tmp_rel);
         if let Some(m) = lstat(&tmp)? {
             if !m.file_type().is_file() {
                 return Err(refused(tmp, "is in the way of swarmshot's temporary file"));
             }
             fs::remove_file(&tmp).map_err(io(&tmp))?;
         }
-        // linkat without AT_SYMLINK_FOLLOW: `src` was just seen to be a regular file.
-        let linked = fs::hard_link(src, &tmp).is_ok();
+        let linked = !copy && shard.link_to(rel, &tmp).is_ok();
+        if linked && lstat(&tmp)?.is_none_or(|m| (m.dev(), m.ino()) != seen) {
+            let _ = fs::remove_file(&tmp);
+            return Err(replaced());
+        }
+        let mut from = if linked {
+            None
+        } else {
+            let from = shard.open_file(rel, false)?;
+            if Tree::identity(&from) != Some(seen) {
+                return Err(replaced());
+            }
+            Some(from)
+        };
         let result = (|| {
-            if !linked {
-                let mut from = open_checked(src, false).map_err(std::io::Error::other)?;
+            if let Some(from) = &mut from {
                 let mut to = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-                std::io::copy(&mut from, &mut to)?;
+                std::io::copy(from, &mut to)?;
                 to.sync_all()?;
             }
             stall_if_asked(rel);
@@ -834,7 +978,7 @@ impl Folder {
     fn claims(root: &Path) -> Result<Vec<String>, OutputError> {
         let path = root.join(LEDGER);
         let mut bytes = Vec::new();
-        open_checked(&path, false)?
+        open_checked(root, LEDGER, false)?
             .read_to_end(&mut bytes)
             .map_err(io(&path))?;
         Ok(String::from_utf8_lossy(&bytes)
@@ -869,7 +1013,7 @@ impl Folder {
                 .open(&path)
                 .map_err(io(&path))?
         } else {
-            let file = open_checked(&path, true)?;
+            let file = self.tree.open_file(rel, true)?;
             file.set_len(len).map_err(io(&path))?;
             file
         };
@@ -888,10 +1032,7 @@ impl Folder {
         if !self.is_ours(rel) {
             return Ok(());
         }
-        let path = self.root.join(rel);
-        if lstat(&path)?.is_some_and(|m| m.file_type().is_file()) {
-            fs::remove_file(&path).map_err(io(&path))?;
-        }
+        self.tree.remove_file(rel)?;
         Ok(())
     }
 
@@ -908,7 +1049,30 @@ impl Folder {
     }
 
     /// The end files are written.
+    ///
+    /// A shard run first records each of its files (`%SIZE blake3:HASH
+    /// PATH`, working files whose names start with `.` left out): `swarmshot
+    /// merge` checks every file it takes against these records.
     pub fn mark_done(&mut self) -> Result<(), OutputError> {
+        if self.records {
+            let mut text = String::new();
+            let mut seen = HashSet::new();
+            for rel in Self::claims(&self.root)? {
+                if rel.ends_with('/') || is_working_file(&rel) || !seen.insert(rel.clone()) {
+                    continue;
+                }
+                let Some(entry) = self.tree.lstat(&rel)? else {
+                    continue;
+                };
+                if !entry.is_file() {
+                    continue;
+                }
+                let mut file = self.tree.open_file(&rel, false)?;
+                let (len, hash) = content_record(&mut file).map_err(io(&self.root.join(&rel)))?;
+                text.push_str(&format!("%{len} blake3:{hash} {rel}\n"));
+            }
+            self.ledger_append(&text, false)?;
+        }
         self.ledger_append("!done\n", true)
     }
 
@@ -917,25 +1081,96 @@ impl Folder {
     pub fn drop_frame(&mut self) {
         for rel in std::mem::take(&mut self.frame_claims) {
             for r in [temp_rel(&rel), rel] {
-                let p = self.root.join(&r);
-                if fs::symlink_metadata(&p).is_ok_and(|m| m.file_type().is_file()) {
-                    let _ = fs::remove_file(&p);
-                }
+                let _ = self.tree.remove_file(&r);
             }
         }
     }
+}
+
+/// A swarmshot working file (the ledger, the lock, temporary files, COCO
+/// record parts): its name starts with `.`; never part of a finished dataset.
+pub fn is_working_file(rel: &str) -> bool {
+    rel.rsplit('/')
+        .next()
+        .is_some_and(|name| name.starts_with('.'))
+}
+
+/// A file's size and BLAKE3 hash (hex), read from its start.
+pub fn content_record(file: &mut File) -> std::io::Result<(u64, String)> {
+    file.seek(SeekFrom::Start(0))?;
+    let mut hasher = blake3::Hasher::new();
+    let len = std::io::copy(file, &mut hasher)?;
+    Ok((len, hasher.finalize().to_hex().to_string()))
+}
+
+/// What a finished shard's ledger records of one file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ContentRecord {
+    pub len: u64,
+    pub blake3: String,
+}
+
+/// The content records of the finished run in `root` (empty when the run
+/// recorded none: not a shard, or made by a swarmshot before records).
+pub fn content_records(root: &Path) -> Result<BTreeMap<String, ContentRecord>, OutputError> {
+    let path = root.join(LEDGER);
+    let mut bytes = Vec::new();
+    open_checked(root, LEDGER, false)?
+        .read_to_end(&mut bytes)
+        .map_err(io(&path))?;
+    let mut records = BTreeMap::new();
+    for line in String::from_utf8_lossy(&bytes).lines() {
+        if line.starts_with('=') {
+            // Records come after the last checkpoint; earlier ones belong to an older finish.
+            records.clear();
+        }
+        let Some(rest) = line.strip_prefix('%') else {
+            continue;
+        };
+        let bad = || OutputError::Ledger {
+            path: path.clone(),
+            reason: format!("it holds a malformed content record {line:?}"),
+        };
+        let (len, rest) = rest.split_once(' ').ok_or_else(bad)?;
+        let (hash, rel) = rest.split_once(' ').ok_or_else(bad)?;
+        let blake3 = hash.strip_prefix("blake3:").ok_or_else(bad)?;
+        records.insert(
+            rel.to_owned(),
+            ContentRecord {
+                len: len.parse().map_err(|_| bad())?,
+                blake3: blake3.to_owned(),
+            },
+        );
+    }
+    Ok(records)
 }
 
 /// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_AT` set to a
 /// path relative to the dataset folder, the batch sleeps after that file's
 /// temporary copy is written and before it is renamed into place; set to
 /// `checkpoint:N`, after frame N's files and records are written and before
-/// its checkpoint. A test kills the process there.
+/// its checkpoint. A test kills the process there. With
+/// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
+/// path exists (a barrier: tests/output_trust.rs runs a second batch
+/// meanwhile), and says it has stopped by creating that path with
+/// `.stalled` added.
 fn stall_if_asked(point: &str) {
     static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
     let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_AT").ok());
     if at.as_deref() == Some(point) {
-        std::thread::sleep(std::time::Duration::from_secs(300));
+        let until = std::env::var_os("SWARMSHOT_STALL_UNTIL").map(PathBuf::from);
+        if let Some(until) = &until {
+            let mut stalled = until.clone().into_os_string();
+            stalled.push(".stalled");
+            let _ = fs::write(stalled, point);
+        }
+        let start = std::time::Instant::now();
+        while start.elapsed() < std::time::Duration::from_secs(300) {
+            if until.as_ref().is_some_and(|p| p.exists()) {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
     }
 }
 
@@ -949,7 +1184,7 @@ fn write_new_then_rename(
     let path = root.join(rel);
     let tmp = root.join(temp_rel(rel));
     if replace {
-        open_checked(&path, false)?;
+        open_checked(root, rel, false)?;
     }
     if lstat(&tmp)?.is_some_and(|m| m.file_type().is_file()) {
         fs::remove_file(&tmp).map_err(io(&tmp))?;

@@ -10,13 +10,27 @@
 //! and MOT files are hard-linked (copied when OUT is on another file
 //! system), manifest lines and COCO records appended as they are, COCO
 //! annotation ids numbered on, statistics added. A killed merge run again
-//! continues after the last complete shard. Nothing is written into a shard.
+//! continues after the last complete shard. Nothing is written into a shard:
+//! an output folder inside a shard is refused.
+//!
+//! Before anything is written, every file of every shard is checked against
+//! the content record (size and BLAKE3 hash) its ledger got when the shard
+//! finished, reached without following a link (`super::tree`): a missing
+//! file is named as missing, a changed one as changed, a link as a link.
+//! `--copy` copies the files instead of hard-linking them, so later edits
+//! to a shard cannot reach the merged dataset.
 
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use super::folder::{LEDGER, fnv1a64, read_run};
+use std::collections::BTreeMap;
+
+use super::folder::{
+    ContentRecord, Folder, LEDGER, content_record, content_records, fnv1a64, is_working_file,
+    read_run,
+};
+use super::tree::Tree;
 use super::{DatasetStats, DatasetWriter, OutputError, ShardRun, WriterOptions};
 use crate::preset::Preset;
 
@@ -73,6 +87,21 @@ pub enum MergeError {
     #[error("{}: the output folder is one of the shards; choose a new folder for the merged dataset", path.display())]
     OutIsShard { path: PathBuf },
     #[error(
+        "{}: the output folder is inside shard {}; merge never writes into a shard: choose a folder outside every shard",
+        path.display(),
+        shard.display()
+    )]
+    OutInShard { path: PathBuf, shard: PathBuf },
+    #[error(
+        "{}: shard files differ from what its ledger recorded when the shard finished, so nothing was merged:\n  {}\nrun that shard again with `swarmshot batch … --shard K/N --overwrite`, or restore the files",
+        path.display(),
+        problems.join("\n  ")
+    )]
+    Tampered {
+        path: PathBuf,
+        problems: Vec<String>,
+    },
+    #[error(
         "{}: it holds a run stopped at frame {next}, which is not where a shard starts; choose another folder, or pass --overwrite",
         path.display()
     )]
@@ -92,7 +121,14 @@ struct ShardDir {
 
 /// Merge the finished shards `shards` into `out` (created if missing;
 /// `overwrite` deletes an earlier run's own files there first, as the batch's does).
-pub fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> Result<MergeReport, MergeError> {
+///
+/// `copy`: copy every file instead of hard-linking it.
+pub fn merge(
+    out: &Path,
+    shards: &[PathBuf],
+    overwrite: bool,
+    copy: bool,
+) -> Result<MergeReport, MergeError> {
     let mut dirs = Vec::new();
     for path in shards {
         let not = |reason: &str| MergeError::NotAShard {
@@ -178,13 +214,25 @@ pub fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> Result<MergeRep
             reason: format!("the last shard ends at frame {next}, the run has {frames}"),
         });
     }
-    let out_abs = std::fs::canonicalize(out).ok();
+    let out_abs = resolved(out);
     for d in &dirs {
-        if out_abs.is_some() && std::fs::canonicalize(&d.path).ok() == out_abs {
+        let shard_abs = std::fs::canonicalize(&d.path).map_err(super::io(&d.path))?;
+        if out_abs == shard_abs {
             return Err(MergeError::OutIsShard { path: out.into() });
+        }
+        if out_abs.starts_with(&shard_abs) {
+            return Err(MergeError::OutInShard {
+                path: out.into(),
+                shard: d.path.clone(),
+            });
         }
     }
     let preset = locked_preset(&dirs[0].path, preset_hash)?;
+    // Every shard checked before anything is written.
+    let checked: Vec<CheckedShard> = dirs
+        .iter()
+        .map(|d| check_shard(&d.path))
+        .collect::<Result<_, _>>()?;
     let mut writer = DatasetWriter::open(
         out,
         &preset,
@@ -212,18 +260,144 @@ pub fn merge(out: &Path, shards: &[PathBuf], overwrite: bool) -> Result<MergeRep
         linked: 0,
         copied: 0,
     };
-    for d in &dirs {
+    for (d, checked) in dirs.iter().zip(&checked) {
         if d.run.start < resumed_at || resumed_at == frames {
             report.shards_before += 1;
             continue;
         }
         let stats = add_stats(writer.stats(), &d.path)?;
-        let (linked, copied) = writer.merge_shard(&d.path, d.run.start, d.run.end, &stats)?;
+        let (linked, copied) =
+            writer.merge_shard(&d.path, d.run.start, d.run.end, &stats, checked, copy)?;
         report.linked += linked;
         report.copied += copied;
     }
     report.stats = writer.finish()?;
     Ok(report)
+}
+
+/// `path` made absolute with every link resolved, for a folder that may not
+/// exist yet: its nearest existing ancestor resolved, the rest appended.
+fn resolved(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
+    let mut rest = Vec::new();
+    let mut at = abs.as_path();
+    loop {
+        if let Ok(real) = std::fs::canonicalize(at) {
+            return rest.iter().rev().fold(real, |p, c| p.join(c));
+        }
+        match (at.parent(), at.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_owned());
+                at = parent;
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// A shard whose files all match their content records: each file merge
+/// takes, with the (device, inode) it had when it was checked.
+pub struct CheckedShard {
+    pub files: BTreeMap<String, (u64, u64)>,
+}
+
+/// Most problems listed in one refusal.
+const PROBLEMS_SHOWN: usize = 20;
+
+/// Check every file the ledger of shard `root` lists against its content
+/// record, without following a link: missing, changed, linked or unrecorded
+/// files are all listed in one refusal.
+fn check_shard(root: &Path) -> Result<CheckedShard, MergeError> {
+    let records = content_records(root)?;
+    if records.is_empty() {
+        return Err(MergeError::NotAShard {
+            path: root.to_owned(),
+            reason: "its ledger holds no content records (it was finished by a swarmshot before they were written); run the shard again with --overwrite".into(),
+        });
+    }
+    let mut tree = Tree::open(root)?;
+    let mut files = BTreeMap::new();
+    let mut problems = Vec::new();
+    let listed: std::collections::BTreeSet<String> = Folder::listed_files(root)?
+        .into_iter()
+        .filter(|rel| !is_working_file(rel))
+        .collect();
+    for rel in listed.iter().chain(records.keys()) {
+        if files.contains_key(rel) || problems.iter().any(|(r, _): &(String, _)| r == rel) {
+            continue;
+        }
+        match check_file(&mut tree, rel, records.get(rel)) {
+            Ok(Some(id)) => {
+                files.insert(rel.clone(), id);
+            }
+            Ok(None) => {}
+            Err(problem) => problems.push((rel.clone(), problem)),
+        }
+    }
+    if problems.is_empty() {
+        return Ok(CheckedShard { files });
+    }
+    let more = problems.len().saturating_sub(PROBLEMS_SHOWN);
+    let mut lines: Vec<String> = (problems.iter().take(PROBLEMS_SHOWN))
+        .map(|(rel, p)| format!("{rel}: {p}"))
+        .collect();
+    if more > 0 {
+        lines.push(format!("… and {more} more"));
+    }
+    Err(MergeError::Tampered {
+        path: root.to_owned(),
+        problems: lines,
+    })
+}
+
+/// One shard file against its record: its (device, inode) when it matches,
+/// `None` when it is neither recorded nor there (a file of a dropped frame).
+fn check_file(
+    tree: &mut Tree,
+    rel: &str,
+    record: Option<&ContentRecord>,
+) -> Result<Option<(u64, u64)>, String> {
+    let entry = match tree.lstat(rel) {
+        Ok(e) => e,
+        Err(e) => return Err(e.to_string()),
+    };
+    let Some(record) = record else {
+        return match entry {
+            None => Ok(None),
+            Some(_) => Err(
+                "is not in the content records written when the shard finished (added afterwards?)"
+                    .into(),
+            ),
+        };
+    };
+    let Some(entry) = entry else {
+        return Err(format!(
+            "is missing (the shard's ledger records {} bytes)",
+            record.len
+        ));
+    };
+    if entry.is_symlink() {
+        return Err("is a symbolic link; merge never follows one in a shard".into());
+    }
+    if !entry.is_file() {
+        return Err("is not a regular file".into());
+    }
+    let mut file = tree.open_file(rel, false).map_err(|e| e.to_string())?;
+    let (len, hash) = content_record(&mut file).map_err(|e| e.to_string())?;
+    if len != record.len {
+        return Err(format!(
+            "has changed since the shard finished ({len} bytes, {} recorded)",
+            record.len
+        ));
+    }
+    if hash != record.blake3 {
+        return Err(
+            "has changed since the shard finished (same size, different content hash)".into(),
+        );
+    }
+    Tree::identity(&file)
+        .map(Some)
+        .ok_or_else(|| "cannot be looked at".to_owned())
 }
 
 /// The shard's locked preset, checked against its ledger's hash and

@@ -21,6 +21,7 @@ pub mod merge;
 pub mod mot;
 pub mod shard;
 pub mod stats;
+pub mod tree;
 pub mod yolo;
 
 use std::fs;
@@ -297,6 +298,17 @@ pub enum OutputError {
         path.display()
     )]
     Refused { path: PathBuf, reason: String },
+    #[error(
+        "output folder {} is in use by {}: one run at a time writes a folder (it holds the lock on {}); wait for that run to end or stop it, then run again",
+        path.display(),
+        pid.map_or_else(|| "another swarmshot process".to_owned(), |p| format!("process {p}")),
+        lock.display()
+    )]
+    InUse {
+        path: PathBuf,
+        lock: PathBuf,
+        pid: Option<u32>,
+    },
     #[error("{}: the ledger cannot be read: {reason}", path.display())]
     Ledger { path: PathBuf, reason: String },
     #[error("frame {got} came before frame {expected}: frames are written in index order")]
@@ -664,6 +676,8 @@ impl DatasetWriter {
         start: u64,
         end: u64,
         stats: &DatasetStats,
+        checked: &merge::CheckedShard,
+        copy: bool,
     ) -> Result<(u64, u64), OutputError> {
         if start != self.next || self.done || end > self.total {
             return Err(OutputError::OutOfOrder {
@@ -671,14 +685,18 @@ impl DatasetWriter {
                 got: start,
             });
         }
-        let files: Vec<String> = Folder::listed_files(dir)?
-            .into_iter()
-            .filter(|rel| !self.needed.contains(rel) && !rel.ends_with(".tmp"))
+        let files: Vec<String> = (checked.files.keys())
+            .filter(|rel| !self.needed.contains(*rel))
+            .cloned()
             .collect();
         self.folder.claim_frame(&files)?;
+        let mut shard = tree::Tree::open(dir)?;
         let (mut linked, mut copied) = (0, 0);
         for rel in &files {
-            if self.folder.link_file(rel, &dir.join(rel))? {
+            if self
+                .folder
+                .link_file(rel, &mut shard, checked.files[rel], copy)?
+            {
                 linked += 1;
             } else {
                 copied += 1;
