@@ -176,9 +176,14 @@ pub fn fnv1a64(bytes: &[u8]) -> u64 {
 /// file while it still holds the lock (a run that opened the old file sees
 /// it gone and tries again), so a finished folder holds no lock file; one
 /// left by a killed run is taken over by the next.
+///
+/// On a file system without locks (`ENOLCK`, `EOPNOTSUPP`, `ENOSYS`: some
+/// NFS and Lustre mounts) the run goes on with a warning, the rule then
+/// being the user's, and the lock file is left in place.
 pub struct FolderLock {
     file: File,
     tree: Tree,
+    held: bool,
 }
 
 impl FolderLock {
@@ -217,6 +222,18 @@ impl FolderLock {
                         pid: text.trim().parse().ok(),
                     });
                 }
+                Err(fs::TryLockError::Error(e)) if no_locks_here(&e) => {
+                    eprintln!(
+                        "warning: {}: this file system does not support locks ({e}); one writer per folder is not enforced here: run one swarmshot at a time into {}",
+                        path.display(),
+                        root.display()
+                    );
+                    return Ok(Self {
+                        file,
+                        tree,
+                        held: false,
+                    });
+                }
                 Err(fs::TryLockError::Error(e)) => return Err(io(&path)(e)),
             }
             // The file may have been deleted (or replaced) by the run that
@@ -232,7 +249,11 @@ impl FolderLock {
             file.set_len(0)
                 .and_then(|()| file.write_all_at(pid.as_bytes(), 0))
                 .map_err(io(&path))?;
-            return Ok(Self { file, tree });
+            return Ok(Self {
+                file,
+                tree,
+                held: true,
+            });
         }
         Err(refused(
             path,
@@ -244,16 +265,25 @@ impl FolderLock {
 impl Drop for FolderLock {
     fn drop(&mut self) {
         let ours = Tree::identity(&self.file);
-        if self
-            .tree
-            .lstat(LOCK)
-            .ok()
-            .flatten()
-            .is_some_and(|e| Some((e.dev, e.ino)) == ours)
+        if self.held
+            && self
+                .tree
+                .lstat(LOCK)
+                .ok()
+                .flatten()
+                .is_some_and(|e| Some((e.dev, e.ino)) == ours)
         {
             let _ = self.tree.remove_file(LOCK);
         }
     }
+}
+
+/// The lock call failed because the file system has no locks, not because of a holder.
+fn no_locks_here(e: &std::io::Error) -> bool {
+    use rustix::io::Errno;
+    [Errno::NOLCK, Errno::OPNOTSUPP, Errno::NOSYS]
+        .iter()
+        .any(|n| e.raw_os_error() == Some(n.raw_os_error()))
 }
 
 /// The state after the last complete frame: enough to continue exactly.
