@@ -12,6 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::Preset;
+use swarmshot::preset::budget::human_bytes;
 use swarmshot::render::GpuContext;
 use swarmshot::tools::{bench, gallery};
 use swarmshot::write::shard::Shard;
@@ -204,7 +205,10 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // `{:#}`: the message and its causes on one line, never a backtrace
             // (RUST_BACKTRACE is for bugs, not for a user's typo).
-            eprintln!("error: {}", one_line(&e));
+            eprintln!(
+                "error: {}",
+                swarmshot::preset::text::for_terminal(&one_line(&e))
+            );
             std::process::ExitCode::FAILURE
         }
     }
@@ -372,7 +376,10 @@ fn available_memory_bytes() -> Option<u64> {
 /// Print the preset's warnings (overlapping drones and the like) to stderr.
 fn print_warnings(pipeline: &FramePipeline) {
     for w in pipeline.preset().warnings() {
-        eprintln!("warning: {w}");
+        eprintln!(
+            "warning: {}",
+            swarmshot::preset::text::for_terminal(&w.to_string())
+        );
     }
 }
 
@@ -441,6 +448,23 @@ fn batch(
     }
     let pipeline = FramePipeline::open(preset)?;
     print_warnings(&pipeline);
+    pipeline
+        .preset()
+        .check_render_budget()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let frames = frames_of_run(&pipeline, &options);
+    if frames == 0 {
+        eprintln!(
+            "warning: --shard {}/{}: this shard holds no frame of the {} there are (more shards than frames); it writes an empty dataset",
+            options.shard.map_or(0, |s| s.index),
+            options.shard.map_or(1, |s| s.count),
+            pipeline.frame_count()
+        );
+    }
+    print_empty_splits(pipeline.preset(), frames, &mut std::io::stderr());
+    if !options.resume {
+        check_free_space(&pipeline, &options.out_dir, frames)?;
+    }
     let ctx = GpuContext::headless()?;
     device_check(&pipeline, &ctx)?;
     let bar = frames_bar(&pipeline, options.limit)?;
@@ -476,6 +500,85 @@ fn batch(
     );
     if timings {
         println!("{}", report.times.describe(s.frames, report.elapsed));
+    }
+    Ok(())
+}
+
+/// The frames this run makes: `--limit` of them, of its shard with `--shard`.
+fn frames_of_run(pipeline: &FramePipeline, options: &BatchOptions) -> u64 {
+    let count = options
+        .limit
+        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    match options.shard {
+        Some(shard) => {
+            let unit = pipeline.preset().sequence_len().max(1);
+            let r = shard.range(count, unit);
+            r.end.saturating_sub(r.start)
+        }
+        None => count,
+    }
+}
+
+/// A warning for each split that gets no frame (counted for presets whose
+/// frames draw their split one by one; grouped splits warn in `warnings`).
+fn print_empty_splits(preset: &Preset, frames: u64, out: &mut dyn std::io::Write) {
+    const MAX_DRAWS: u64 = 10_000_000;
+    let Some(counts) = swarmshot::scene::split::frame_split_counts(preset, frames, MAX_DRAWS)
+    else {
+        return;
+    };
+    let s = &preset.output.split;
+    for ((name, n), share) in ["train", "val", "test"]
+        .into_iter()
+        .zip(counts)
+        .zip([s.train, s.val, s.test])
+    {
+        if n == 0 && share > 0.0 && frames > 0 {
+            let _ = writeln!(
+                out,
+                "warning: output.split.{name}: {share} of the frames, but the split draw gives it none of these {frames} ({} train / {} val / {} test); {}",
+                counts[0],
+                counts[1],
+                counts[2],
+                if name == "val" {
+                    "data.yaml then names the train images as val; change the seed or the shares, or make more frames"
+                } else {
+                    "change the seed or the shares, or make more frames"
+                }
+            );
+        }
+    }
+}
+
+/// Refuse, before anything is written, a run whose estimated size is
+/// more than the free space of the filesystem holding `out`.
+fn check_free_space(pipeline: &FramePipeline, out: &Path, frames: u64) -> anyhow::Result<()> {
+    let preset = pipeline.preset();
+    let drones = match &preset.placement {
+        swarmshot::preset::Placement::Randomized {
+            count: (lo, hi),
+            count_distribution,
+            volume,
+            ..
+        } if !matches!(volume, swarmshot::preset::Volume::DensitySweep { .. }) => {
+            swarmshot::scene::placement::count_mean(*lo, *hi, count_distribution)
+        }
+        _ => preset.max_drones_per_frame() as f64,
+    };
+    let disk = preset.disk_estimate(frames, drones);
+    let Some(free) = swarmshot::preset::budget::free_bytes(out) else {
+        return Ok(());
+    };
+    if disk.total_bytes() > free as f64 {
+        anyhow::bail!(
+            "--out {}: {frames} frames need about {} ({} images, {} labels, {} ledger), but the filesystem has {} free; free space, choose another folder, or make fewer frames (--limit, --shard)",
+            out.display(),
+            human_bytes(disk.total_bytes()),
+            human_bytes(disk.image_bytes),
+            human_bytes(disk.label_bytes),
+            human_bytes(disk.ledger_bytes),
+            human_bytes(free as f64),
+        );
     }
     Ok(())
 }
@@ -600,9 +703,15 @@ fn check(path: &Path) -> anyhow::Result<()> {
         Ok(ctx) => device_check(&pipeline, &ctx)?,
         Err(e) => eprintln!("warning: {e:#}; the adapter's limits were not checked"),
     }
-    println!("preset {} is valid", path.display());
+    println!(
+        "preset {} is valid",
+        swarmshot::preset::printable(&path.display().to_string())
+    );
     for w in preset.warnings() {
-        println!("warning: {w}");
+        println!(
+            "warning: {}",
+            swarmshot::preset::text::for_terminal(&w.to_string())
+        );
     }
     println!("frames: {}", pipeline.frame_count());
     if let Some(groups) = swarmshot::scene::split::groups(preset) {
@@ -629,9 +738,22 @@ fn check(path: &Path) -> anyhow::Result<()> {
             seq.frame_rate
         );
     }
-    // Geometry only (no rendering): amodal boxes stand in for visible ones.
-    let sample = pipeline.frame_count().min(200);
+    if let Err(e) = preset.check_render_budget() {
+        println!("warning: {e}; a rendered batch refuses this preset");
+    }
+    print_empty_splits(preset, pipeline.frame_count(), &mut std::io::stdout());
+    // Geometry only (no rendering): amodal boxes stand in for visible ones,
+    // from as many first frames as fit the sampling budget.
+    let sample = preset.check_sample_frames();
+    if sample == 0 && pipeline.frame_count() > 0 {
+        println!(
+            "estimate skipped: a frame holds up to {} drones, more than the {} drones `check` samples",
+            preset.max_drones_per_frame(),
+            swarmshot::preset::budget::CHECK_SAMPLE_DRONES
+        );
+    }
     let mut stats = swarmshot::write::DatasetStats::default();
+    let started = std::time::Instant::now();
     for i in 0..sample {
         let scene = pipeline.scene(i)?;
         stats.add(
@@ -639,7 +761,19 @@ fn check(path: &Path) -> anyhow::Result<()> {
             &pipeline.estimate_labels(&scene),
             pipeline.model_names(),
         );
+        // Progress when the estimate takes more than a second.
+        if started.elapsed().as_secs_f64() > 1.0 {
+            eprint!("\restimating boxes: frame {}/{sample}", i + 1);
+        }
     }
+    if started.elapsed().as_secs_f64() > 1.0 {
+        eprintln!();
+    }
+    let drones_per_frame = if sample > 0 {
+        stats.drones_placed as f64 / sample as f64
+    } else {
+        preset.max_drones_per_frame() as f64
+    };
     if sample > 0 {
         let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;
         println!(
@@ -656,6 +790,15 @@ fn check(path: &Path) -> anyhow::Result<()> {
             );
         }
     }
+    let disk = preset.disk_estimate(pipeline.frame_count(), drones_per_frame);
+    println!(
+        "disk: about {} for {} frames ({} images, {} labels, {} ledger; typical sizes measured on the quickstart, docs/reliability.md)",
+        human_bytes(disk.total_bytes()),
+        disk.frames,
+        human_bytes(disk.image_bytes),
+        human_bytes(disk.label_bytes),
+        human_bytes(disk.ledger_bytes),
+    );
     for (spec, model) in preset.models.iter().zip(&pipeline.assets().models) {
         println!(
             "model {}: {} triangles, {} hull vertices, size {} m, class {}",
@@ -663,10 +806,10 @@ fn check(path: &Path) -> anyhow::Result<()> {
             model.indices.len() / 3,
             model.hull.len(),
             spec.size_m,
-            spec.class
+            swarmshot::preset::printable(&spec.class)
         );
         for w in &model.warnings {
-            println!("  warning: {w}");
+            println!("  warning: {}", swarmshot::preset::text::for_terminal(w));
         }
     }
     Ok(())
@@ -676,6 +819,10 @@ fn check(path: &Path) -> anyhow::Result<()> {
 /// label file and its manifest record, beside `out`.
 fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(preset)?;
+    pipeline
+        .preset()
+        .check_render_budget()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let format = pipeline.preset().output.image_format;
     let ext = out
         .extension()

@@ -136,6 +136,12 @@ pub enum ModelError {
     Degenerate { file: PathBuf, span: f64 },
     #[error("model {}: the glTF reader failed on malformed data ({reason})", file.display())]
     Malformed { file: PathBuf, reason: String },
+    #[error("model {}: the file has {nodes} nodes, more than the limit of {limit} node instances a model may draw", file.display())]
+    TooManyNodes {
+        file: PathBuf,
+        nodes: usize,
+        limit: usize,
+    },
     #[error("model {}: the node graph expands to more than {limit} node instances (reached at node {node}); nodes shared by several parents form a DAG, and glTF node hierarchies must be trees", file.display())]
     NodeGraph {
         file: PathBuf,
@@ -593,6 +599,15 @@ impl Flattener<'_> {
         }
         self.visits += 1;
         if self.visits > MAX_NODE_VISITS {
+            let nodes = self.document.nodes().len();
+            if nodes > MAX_NODE_VISITS {
+                // Many nodes, not a graph that expands: say so.
+                return Err(ModelError::TooManyNodes {
+                    file: self.file.to_owned(),
+                    nodes,
+                    limit: MAX_NODE_VISITS,
+                });
+            }
             return Err(ModelError::NodeGraph {
                 file: self.file.to_owned(),
                 node: node.index(),

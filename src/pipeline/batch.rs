@@ -170,6 +170,10 @@ pub fn run_batch(
     mut on_progress: impl FnMut(Progress) + Send,
 ) -> anyhow::Result<BatchReport> {
     let preset = pipeline.preset();
+    // The frame's work budget, before the output folder is touched.
+    preset
+        .check_render_budget()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let count = pipeline.frame_count();
     let frames = frames_asked(count, options.limit, options.resume);
     let mut writer = DatasetWriter::open(

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 pub mod camera_model;
 pub mod appearance;
 pub mod atmosphere;
+pub mod budget;
 pub mod formation;
 pub mod observer;
 mod ron_error;
@@ -933,6 +934,8 @@ impl Preset {
     /// nearest known name ("unknown field `fovy_deg` in `camera`; did you mean
     /// `fov_y_deg`?").
     pub fn from_ron(text: &str) -> Result<Self, String> {
+        // A byte-order mark (editors on Windows write one) is not RON.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
             .from_str(text)

@@ -37,8 +37,50 @@ pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> String {
                 suggestion(found, expected, "variants")
             )
         }
-        _ => e.to_string(),
+        _ => match fraction_at(text, at.line, at.col) {
+            // `1.5` where an integer goes: RON stops after `1` and asks for a comma.
+            Some(number) => {
+                let path = field_path(text, at.line, at.col, true);
+                let place = if path.is_empty() {
+                    String::new()
+                } else {
+                    format!(" in `{path}`")
+                };
+                format!(
+                    "{position}: `{}`{place}: an integer (a whole number) was expected",
+                    super::text::printable(&number)
+                )
+            }
+            None => super::text::shorten_digit_runs(&e.to_string()),
+        },
     }
+}
+
+/// The number with a fractional part or exponent whose `.`/`e` is at
+/// (line, col), if that is where the parser stopped.
+fn fraction_at(text: &str, line: usize, col: usize) -> Option<String> {
+    let at = byte_offset(text, line, col);
+    let rest = text.get(at..)?;
+    if !(rest.starts_with('.') || rest.starts_with('e') || rest.starts_with('E')) {
+        return None;
+    }
+    let before = &text[..at];
+    let start = before
+        .rfind(|c: char| !(c.is_ascii_digit() || c == '-' || c == '+'))
+        .map_or(0, |i| i + 1);
+    if start == at || !before[start..].chars().any(|c| c.is_ascii_digit()) {
+        return None;
+    }
+    let end = rest
+        .find(|c: char| !(c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '+' | '_')))
+        .map_or(text.len(), |i| at + i);
+    let number = &text[start..end];
+    const MAX_CHARS: usize = 24;
+    Some(if number.chars().count() > MAX_CHARS {
+        format!("{}…", number.chars().take(MAX_CHARS).collect::<String>())
+    } else {
+        number.to_string()
+    })
 }
 
 /// "; did you mean `x`? (known fields: a, b, c)", or only the known list.

@@ -21,6 +21,13 @@ pub fn printable(s: &str) -> String {
     out
 }
 
+/// A message for the terminal: control characters escaped (new lines
+/// kept) and runs of more than 15 digits shortened.
+pub fn for_terminal(message: &str) -> String {
+    let lines: Vec<String> = message.split('\n').map(printable).collect();
+    shorten_digit_runs(&lines.join("\n"))
+}
+
 /// Control characters and the invisible format characters that reorder or
 /// hide text (bidi overrides and isolates, zero-width joiners, BOM).
 pub fn is_unprintable(c: char) -> bool {

@@ -37,6 +37,9 @@ impl Preset {
                 self.version
             )
         });
+        if let Some(problem) = super::text::name_problem(&self.name) {
+            v.push("name", problem);
+        }
         self.validate_models(&mut v);
         self.validate_placement(&mut v);
         self.validate_attitude(&mut v);
@@ -82,6 +85,9 @@ impl Preset {
                 &format!("models[{i}].class"),
                 || "class name is empty".into(),
             );
+            if let Some(problem) = super::text::name_problem(&m.class) {
+                v.push(&format!("models[{i}].class"), problem);
+            }
             if let ModelSource::Builtin(name) = &m.source {
                 v.check(
                     crate::model::builtin::glb(name).is_some(),
@@ -384,6 +390,23 @@ impl Preset {
                 }
             }
             _ => {}
+        }
+        // Class names that differ only by case, spaces or look-alike letters
+        // become separate classes: almost never what was meant.
+        let mut seen: Vec<(String, &str, usize)> = Vec::new();
+        for (i, m) in self.models.iter().enumerate() {
+            let skeleton = super::text::skeleton(&m.class);
+            match seen.iter().find(|(s, name, _)| *s == skeleton && *name != m.class) {
+                Some((_, name, j)) => v.push(
+                    &format!("models[{i}].class"),
+                    format!(
+                        "\"{}\" and \"{}\" (models[{j}].class) differ only by case, spaces or look-alike letters, yet become two classes; give both the same name",
+                        super::text::printable(&m.class),
+                        super::text::printable(name)
+                    ),
+                ),
+                None => seen.push((skeleton, &m.class, i)),
+            }
         }
         if let Some(groups) = crate::scene::split::groups(self) {
             let counts = crate::scene::split::group_counts(self, groups);

@@ -942,7 +942,7 @@ impl Renderer {
                         .filter(|b| b.width() > 0.0 && b.height() > 0.0)
                 })
                 .collect();
-            let (layers, overlapping) = overlap_layers(&clipped);
+            let (layers, overlapping) = overlap_layers(&clipped)?;
             let layers: Vec<(Vec<Rect>, Vec<usize>)> = layers
                 .into_iter()
                 .map(|l| {

@@ -54,6 +54,10 @@ pub enum RenderError {
     Readback(String),
     #[error("{count} drones in one frame: instance ids are exact up to {limit}")]
     TooManyDrones { count: usize, limit: usize },
+    #[error(
+        "{drones} drones in view overlap so densely on screen that sorting them into visibility layers needs more than {limit} box comparisons (the frame's work budget); spread them out, lower placement.count, or use labels.box_method: Amodal with no visibility filter"
+    )]
+    TooDense { drones: usize, limit: u64 },
 }
 
 /// Turn off Mesa's Vulkan device-select layer for a process that opens no window.

@@ -116,8 +116,16 @@ pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option
 /// disjoint (1-px padded) boxes, so rendering a layer alone shows each of its
 /// drones unoccluded. Drones with `None` boxes get no layer. Returns the
 /// layers and whether each drone overlaps any other.
-pub fn overlap_layers(boxes: &[Option<PixelBox>]) -> (Vec<Vec<usize>>, Vec<bool>) {
+///
+/// The work is bounded: past [`MAX_OVERLAP_TESTS`] box comparisons (drones
+/// piled on one spot, where every drone meets every other) it stops with
+/// [`RenderError::TooDense`](super::RenderError::TooDense) instead of running
+/// for hours.
+pub fn overlap_layers(
+    boxes: &[Option<PixelBox>],
+) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
     const TILE: f64 = 64.0;
+    let mut tests: u64 = 0;
     let pad = |b: &PixelBox| PixelBox {
         x0: b.x0 - 1.0,
         y0: b.y0 - 1.0,
@@ -149,7 +157,15 @@ pub fn overlap_layers(boxes: &[Option<PixelBox>]) -> (Vec<Vec<usize>>, Vec<bool>
         let mut taken = std::collections::BTreeSet::new();
         let mut seen = std::collections::HashSet::new();
         for t in tiles_of(&pb) {
-            for &j in grid.get(&t).into_iter().flatten() {
+            let near = grid.get(&t).map_or(&[][..], Vec::as_slice);
+            tests += near.len() as u64;
+            if tests > MAX_OVERLAP_TESTS {
+                return Err(super::RenderError::TooDense {
+                    drones: boxes.iter().filter(|b| b.is_some()).count(),
+                    limit: MAX_OVERLAP_TESTS,
+                });
+            }
+            for &j in near {
                 if j != i
                     && seen.insert(j)
                     && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj)))
@@ -168,5 +184,11 @@ pub fn overlap_layers(boxes: &[Option<PixelBox>]) -> (Vec<Vec<usize>>, Vec<bool>
         layers[layer].push(i);
         layer_of[i] = Some(layer);
     }
-    (layers, overlapping)
+    Ok((layers, overlapping))
 }
+
+/// The most box comparisons [`overlap_layers`] makes for one frame (about
+/// a second of work). Each drone is compared with the drones sharing its
+/// 64-px tiles: a few hundred drones in view need thousands, 10 000 drones
+/// crowded into a 320×180 image about 10⁷.
+pub const MAX_OVERLAP_TESTS: u64 = 20_000_000;

@@ -114,3 +114,36 @@ pub fn group_counts(preset: &Preset, groups: u64) -> [u64; 3] {
     let train_val = ((g * (s.train + s.val)).round() as u64).clamp(train, groups);
     [train, train_val - train, groups - train_val]
 }
+
+/// Frames per split (train, val, test) of the first `frames` frames when
+/// each frame (sequence) draws its own split (`SplitBy::Frame`), counted
+/// draw by draw; `None` for the grouped modes (see [`group_counts`]) or when
+/// there are more than `max_draws` draws to count.
+pub fn frame_split_counts(preset: &Preset, frames: u64, max_draws: u64) -> Option<[u64; 3]> {
+    if preset.output.split.by != SplitBy::Frame {
+        return None;
+    }
+    let len = if preset.sequence.is_some() {
+        preset.sequence_len().max(1)
+    } else {
+        1
+    };
+    let draws = frames.div_ceil(len);
+    if draws > max_draws {
+        return None;
+    }
+    let s = &preset.output.split;
+    let mut counts = [0u64; 3];
+    for draw in 0..draws {
+        let u = seed::split_uniform(preset.seed, draw);
+        let slot = if u < s.train {
+            0
+        } else if u < s.train + s.val {
+            1
+        } else {
+            2
+        };
+        counts[slot] += len.min(frames - draw * len);
+    }
+    Some(counts)
+}

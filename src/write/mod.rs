@@ -191,6 +191,8 @@ pub struct DatasetInfo {
     pub classes: Vec<String>,
     /// A labels-only plan: no images were rendered (see [`WriterOptions::labels_only`]).
     pub labels_only: bool,
+    /// Frames written per split (train, val, test): data.yaml names no empty split.
+    pub frames_per_split: [u64; 3],
 }
 
 /// A writer of one label format: fed every frame in index order, then
@@ -733,6 +735,7 @@ impl DatasetWriter {
         let info = DatasetInfo {
             classes: std::mem::take(&mut self.classes),
             labels_only: self.labels_only,
+            frames_per_split: self.stats.frames_per_split,
         };
         for format in &mut self.formats {
             format.finish(&mut self.folder, &info)?;

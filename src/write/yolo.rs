@@ -70,7 +70,10 @@ impl FormatWriter for YoloWriter {
             // No images: a data.yaml would point Ultralytics at empty folders.
             return Ok(());
         }
-        folder.write_file("data.yaml", data_yaml(&dataset.classes).as_bytes())
+        folder.write_file(
+            "data.yaml",
+            data_yaml_for_splits(&dataset.classes, dataset.frames_per_split).as_bytes(),
+        )
     }
 }
 
@@ -93,4 +96,69 @@ pub fn data_yaml(classes: &[String]) -> String {
         ));
     }
     yaml
+}
+
+/// [`data_yaml`] for a dataset whose splits hold `frames_per_split` frames
+/// (train, val, test): an empty split is never named, since Ultralytics
+/// refuses a `val` folder with no images. An empty `val` points at the train
+/// images (Ultralytics then validates on training data: the batch warns);
+/// an empty `test` is left out (it is optional); an empty `train` points at
+/// the first split that has frames. With every split filled it is exactly
+/// [`data_yaml`].
+pub fn data_yaml_for_splits(classes: &[String], frames_per_split: [u64; 3]) -> String {
+    let yaml = data_yaml(classes);
+    let [train, val, test] = frames_per_split;
+    if train > 0 && val > 0 && test > 0 {
+        return yaml;
+    }
+    let nonempty = ["train", "val", "test"]
+        .into_iter()
+        .zip(frames_per_split)
+        .find(|(_, n)| *n > 0)
+        .map_or("train", |(name, _)| name);
+    let train_to = if train > 0 { "train" } else { nonempty };
+    let val_to = if val > 0 { "val" } else { train_to };
+    let mut lines = format!("train: images/{train_to}\nval: images/{val_to}\n");
+    if test > 0 {
+        lines.push_str("test: images/test\n");
+    }
+    let note = format!(
+        "# Splits: {train} train / {val} val / {test} test frames; an empty split is not named{}.\n",
+        if val == 0 {
+            " (val points at the train images: validation on training data)"
+        } else {
+            ""
+        }
+    );
+    yaml.replace(
+        "train: images/train\nval: images/val\ntest: images/test\n",
+        &format!("{note}{lines}"),
+    )
+}
+
+#[cfg(test)]
+mod split_tests {
+    use super::*;
+
+    #[test]
+    fn data_yaml_never_names_an_empty_split() {
+        let classes = vec!["uav".to_string()];
+        assert_eq!(
+            data_yaml_for_splits(&classes, [7, 1, 2]),
+            data_yaml(&classes)
+        );
+        let y = data_yaml_for_splits(&classes, [75, 0, 25]);
+        assert!(
+            y.contains("val: images/train\n") && y.contains("test: images/test\n"),
+            "{y}"
+        );
+        assert!(!y.contains("images/val"), "{y}");
+        let y = data_yaml_for_splits(&classes, [75, 5, 0]);
+        assert!(
+            !y.contains("test:") && y.contains("val: images/val\n"),
+            "{y}"
+        );
+        let y = data_yaml_for_splits(&classes, [0, 0, 3]);
+        assert!(y.contains("train: images/test\nval: images/test\n"), "{y}");
+    }
 }

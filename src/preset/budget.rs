@@ -1,0 +1,162 @@
+//! Work and disk estimates made before a run starts: how many drones a frame
+//! can hold, whether a rendered frame stays within its work budget, how many
+//! frames `check` samples, and how much disk a dataset needs.
+
+use super::*;
+
+/// The most drones a rendered frame may hold (`batch`, `frame`, the app):
+/// rendering, visibility layers and label files grow with every drone, and
+/// a frame past this would run for minutes. Labels-only plans
+/// (`batch --labels-only`) take up to [`MAX_DRONES_PER_FRAME`].
+pub const MAX_RENDERED_DRONES_PER_FRAME: u64 = 100_000;
+
+/// `check` estimates boxes from the first frames whose drones add up to at
+/// most this many (at least one frame when a frame holds fewer).
+pub const CHECK_SAMPLE_DRONES: u64 = 200_000;
+
+/// Bytes per pixel of an image, measured on the quickstart preset's frames
+/// (gradient sky, 1920×1080: 62.7 kB a JPEG at quality 85, 206.8 kB a PNG).
+/// Image skies and busy environments compress less; the estimate is typical,
+/// not an upper bound.
+const JPEG_Q85_BYTES_PER_PIXEL: f64 = 0.030;
+const PNG_BYTES_PER_PIXEL: f64 = 0.10;
+/// Label bytes (YOLO, COCO, manifest) per frame and per drone placed,
+/// and the ledger's bytes per frame, measured on the same run (10 frames,
+/// 84 drones: 108.8 kB of labels, 14.2 kB of ledger).
+const LABEL_BYTES_PER_FRAME: f64 = 1500.0;
+const LABEL_BYTES_PER_DRONE: f64 = 1100.0;
+const LEDGER_BYTES_PER_FRAME: f64 = 1400.0;
+
+/// What a dataset of some frames needs on disk (an estimate).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiskEstimate {
+    pub frames: u64,
+    pub image_bytes: f64,
+    pub label_bytes: f64,
+    pub ledger_bytes: f64,
+}
+
+impl DiskEstimate {
+    /// Everything together.
+    pub fn total_bytes(&self) -> f64 {
+        self.image_bytes + self.label_bytes + self.ledger_bytes
+    }
+}
+
+/// Bytes for a message: `1.2 GiB`, `37.0 TiB`.
+pub fn human_bytes(bytes: f64) -> String {
+    const UNITS: [&str; 6] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB"];
+    let mut v = bytes.max(0.0);
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{v:.0} B")
+    } else {
+        format!("{v:.1} {}", UNITS[unit])
+    }
+}
+
+impl Preset {
+    /// The most drones any frame can hold (the count's upper end, the grid,
+    /// the formation, or the densest frame of a density sweep).
+    pub fn max_drones_per_frame(&self) -> u64 {
+        match &self.placement {
+            Placement::Structured {
+                x_count,
+                y_count,
+                z_count,
+                ..
+            } => u64::from(*x_count)
+                .saturating_mul(u64::from(*y_count))
+                .saturating_mul(u64::from(*z_count)),
+            Placement::Formation(f) => u64::from(f.count),
+            Placement::Randomized {
+                volume: Volume::DensitySweep { size_m, per_m3 },
+                ..
+            } => {
+                let most = (per_m3.start.max(per_m3.end) * size_m.0 * size_m.1 * size_m.2).round();
+                if most.is_finite() && most >= 1.0 {
+                    most.min(u64::MAX as f64) as u64
+                } else {
+                    1
+                }
+            }
+            Placement::Randomized { count: (_, hi), .. } => u64::from(*hi),
+        }
+    }
+
+    /// A rendered frame's work budget: at most
+    /// [`MAX_RENDERED_DRONES_PER_FRAME`] drones. Checked by `batch`, `frame`
+    /// and `check` before anything is rendered or written.
+    pub fn check_render_budget(&self) -> Result<(), FieldError> {
+        let most = self.max_drones_per_frame();
+        if most <= MAX_RENDERED_DRONES_PER_FRAME {
+            return Ok(());
+        }
+        Err(FieldError {
+            field: "placement".into(),
+            message: format!(
+                "up to {most} drones per frame is more than the {MAX_RENDERED_DRONES_PER_FRAME} a rendered frame may hold (its work budget: rendering, visibility and labels grow with every drone); lower the count, or plan the labels alone with `batch --labels-only` (up to {MAX_DRONES_PER_FRAME})"
+            ),
+        })
+    }
+
+    /// How many of the first frames `check` samples for its estimate: as
+    /// many as fit in [`CHECK_SAMPLE_DRONES`] drones (at most 200, and none
+    /// when a single frame holds more).
+    pub fn check_sample_frames(&self) -> u64 {
+        let per_frame = self.max_drones_per_frame().max(1);
+        (CHECK_SAMPLE_DRONES / per_frame)
+            .min(200)
+            .min(self.frame_count())
+    }
+
+    /// The disk a dataset of `frames` frames needs, estimated from the image
+    /// size and format and `drones_per_frame` (the mean drones in view).
+    pub fn disk_estimate(&self, frames: u64, drones_per_frame: f64) -> DiskEstimate {
+        let (w, h) = self.image_size();
+        let pixels = f64::from(w) * f64::from(h);
+        let per_pixel = match self.output.image_format {
+            // Roughly linear in quality between q50 (half) and q100 (three times).
+            ImageFormat::Jpeg { quality } => {
+                let q = f64::from(quality.clamp(1, 100));
+                JPEG_Q85_BYTES_PER_PIXEL
+                    * if q <= 85.0 {
+                        q / 85.0
+                    } else {
+                        1.0 + (q - 85.0) / 7.5
+                    }
+            }
+            ImageFormat::Png => PNG_BYTES_PER_PIXEL,
+        };
+        let n = frames as f64;
+        DiskEstimate {
+            frames,
+            image_bytes: n * pixels * per_pixel,
+            label_bytes: n
+                * (LABEL_BYTES_PER_FRAME + LABEL_BYTES_PER_DRONE * drones_per_frame.max(0.0)),
+            ledger_bytes: n * LEDGER_BYTES_PER_FRAME,
+        }
+    }
+}
+
+/// Free bytes for an unprivileged user on the filesystem holding `path`
+/// (or its nearest existing ancestor), from `statvfs` (rustix).
+pub fn free_bytes(path: &Path) -> Option<u64> {
+    let mut at = Some(path);
+    while let Some(p) = at {
+        let probe = if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        };
+        if let Ok(s) = rustix::fs::statvfs(probe) {
+            return Some(s.f_bavail.saturating_mul(s.f_frsize));
+        }
+        at = p.parent();
+    }
+    None
+}
