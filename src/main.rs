@@ -127,6 +127,27 @@ enum Command {
         #[arg(long)]
         overlay: bool,
     },
+    /// The domain-gap report: the same image statistics (noise, blur, gradients,
+    /// edges, sky colour, brightness, drone size, contrast and polarity, JPEG quality)
+    /// on a folder of real frames and on a swarmshot dataset, side by side with a verdict
+    /// each and proposed camera-model ranges (docs/realism.md).
+    Gap {
+        /// Folder of real frames (JPEG/PNG; YOLO labels in a sibling labels/ or beside them).
+        #[arg(long)]
+        real: PathBuf,
+        /// A swarmshot dataset folder (`swarmshot batch --out`).
+        #[arg(long)]
+        synthetic: PathBuf,
+        /// Write report.json, report.txt and histogram PNGs here (created if missing).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// At most N frames per side, evenly spaced in name order (0: all).
+        #[arg(long, default_value_t = 200)]
+        max_images: usize,
+        /// Print the report as JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Benchmarks that produce the tables in docs/ (run a release build).
     Bench {
         #[command(subcommand)]
@@ -300,6 +321,13 @@ fn run() -> anyhow::Result<()> {
         } => merge(&out, &shards, overwrite, copy),
         Command::Check { preset } => check(&preset),
         Command::Stats { dir, plots, json } => stats(&dir, plots, json),
+        Command::Gap {
+            real,
+            synthetic,
+            out,
+            max_images,
+            json,
+        } => gap(real, synthetic, out.as_deref(), max_images, json),
         Command::Frame {
             preset,
             index,
@@ -661,6 +689,31 @@ fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
     let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
     for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
         println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn gap(
+    real: PathBuf,
+    synthetic: PathBuf,
+    out: Option<&Path>,
+    max_images: usize,
+    json: bool,
+) -> anyhow::Result<()> {
+    let report = swarmshot::gap::run_report(&swarmshot::gap::GapOptions {
+        real,
+        synthetic,
+        max_images,
+    })?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report.table());
+    }
+    if let Some(out) = out {
+        for path in report.write(out)? {
+            eprintln!("wrote {}", path.display());
+        }
     }
     Ok(())
 }

@@ -633,8 +633,8 @@ pub fn write_histograms(
     Ok(written)
 }
 
-/// DejaVu Sans registered with plotters once, if the system has it.
-fn font() -> bool {
+/// DejaVu Sans registered with plotters once, if the system has it (also `gap`'s histograms).
+pub(crate) fn font() -> bool {
     static FONT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *FONT.get_or_init(|| {
         let Some(bytes) = [

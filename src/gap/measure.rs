@@ -1,0 +1,529 @@
+//! The per-frame and per-drone statistics of the domain-gap report, on one decoded frame.
+//!
+//! Everything is measured on luminance `Y = 0.299 R + 0.587 G + 0.114 B` (JPEG's Rec. 601
+//! weights) in 8-bit levels, as `f32`. See the module docs of [`crate::gap`] for what each
+//! number means; the functions here are the definitions.
+
+use image::{GrayImage, RgbImage};
+
+/// A labelled box in pixels, `[x0, x1) × [y0, y1)` (continuous coordinates, as YOLO's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelBox {
+    pub x0: f32,
+    pub y0: f32,
+    pub x1: f32,
+    pub y1: f32,
+}
+
+/// Side of the square tiles the flat-sky statistics are measured on.
+pub const TILE_PX: usize = 16;
+/// Height the gradient statistics scale the frame to.
+pub const GRADIENT_HEIGHT_PX: u32 = 540;
+/// Canny thresholds on imageproc's (unnormalised) Sobel magnitude at 540 px high:
+/// 20 and 40 are gradients of 2.5 and 5 levels per pixel.
+pub const CANNY_LOW: f32 = 20.0;
+pub const CANNY_HIGH: f32 = 40.0;
+/// An edge profile must rise by at least this many levels to count for the blur estimate.
+pub const BLUR_MIN_CONTRAST: f32 = 24.0;
+/// Longest half-profile walked from an edge's steepest step (pixels).
+const BLUR_MAX_HALF_PX: usize = 12;
+/// A frame needs this many flat tiles for its noise figures, and this many edges for its blur.
+const MIN_FLAT_TILES: usize = 4;
+const MIN_EDGES: usize = 5;
+
+/// Luminance plane in 8-bit levels.
+#[derive(Clone, Debug)]
+pub struct Luma {
+    pub width: usize,
+    pub height: usize,
+    pub y: Vec<f32>,
+}
+
+impl Luma {
+    pub fn from_rgb(rgb: &RgbImage) -> Self {
+        let y = rgb
+            .pixels()
+            .map(|p| 0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2]))
+            .collect();
+        Self {
+            width: rgb.width() as usize,
+            height: rgb.height() as usize,
+            y,
+        }
+    }
+
+    #[inline]
+    fn at(&self, x: usize, y: usize) -> f32 {
+        self.y[y * self.width + x]
+    }
+
+    /// Rounded to 8 bits, for imageproc's integer filters.
+    pub fn to_gray(&self) -> GrayImage {
+        let data = self
+            .y
+            .iter()
+            .map(|&v| v.round().clamp(0.0, 255.0) as u8)
+            .collect();
+        // Length matches by construction.
+        GrayImage::from_raw(self.width as u32, self.height as u32, data)
+            .unwrap_or_else(|| GrayImage::new(self.width as u32, self.height as u32))
+    }
+}
+
+/// Median of a slice by the grouped-data rule: when the middle value is tied (values on a
+/// grid, such as 8-bit levels), the median is interpolated within that value's bin
+/// `[max(v − w/2, floor), v + w/2]` (w the grid step; `floor` bounds a folded bin, 0 for
+/// absolute deviations), so that quantised data give the median of the underlying
+/// continuous values rather than the nearest grid point.
+pub fn grouped_median(values: &mut [f32], floor: f32) -> Option<f32> {
+    let n = values.len();
+    if n == 0 {
+        return None;
+    }
+    values.sort_by(f32::total_cmp);
+    let mid = n / 2;
+    let v = values[mid];
+    let lo = values.partition_point(|&a| a < v);
+    let hi = values.partition_point(|&a| a <= v);
+    let tied = hi - lo;
+    if tied <= 1 {
+        return Some(if n.is_multiple_of(2) {
+            0.5 * (values[mid - 1] + values[mid])
+        } else {
+            v
+        });
+    }
+    let below = if lo > 0 {
+        Some(v - values[lo - 1])
+    } else {
+        None
+    };
+    let above = if hi < n { Some(values[hi] - v) } else { None };
+    let w = match (below, above) {
+        (Some(a), Some(b)) => a.min(b),
+        (Some(a), None) => a,
+        (None, Some(b)) => b,
+        (None, None) => return Some(v),
+    };
+    let (lower, upper) = ((v - 0.5 * w).max(floor), v + 0.5 * w);
+    Some(lower + (upper - lower) * ((n as f32 * 0.5 - lo as f32) / tied as f32))
+}
+
+/// 1.4826 × the median absolute deviation (grouped medians), the σ of Gaussian data.
+pub fn robust_sigma(values: &[f32]) -> Option<f32> {
+    let mut v = values.to_vec();
+    let med = grouped_median(&mut v, f32::NEG_INFINITY)?;
+    let mut dev: Vec<f32> = values.iter().map(|&a| (a - med).abs()).collect();
+    Some(1.4826 * grouped_median(&mut dev, 0.0)?)
+}
+
+/// The flat-sky measurement of a frame.
+#[derive(Clone, Debug, Default)]
+pub struct FlatSky {
+    /// Tiles that passed the flatness test.
+    pub tiles: usize,
+    /// 1.4826·MAD of the high-pass over every flat tile.
+    pub noise_sigma: Option<f32>,
+    /// RMS of the same high-pass values.
+    pub highpass_rms: Option<f32>,
+    /// Mean colour (R, G, B) of the flat tiles in the upper half of the frame.
+    pub sky_rgb: Option<[f32; 3]>,
+}
+
+/// The 2×2 high-pass `(a − b − c + d)/2` over a tile of the 8-bit luminance plane (Y
+/// rounded to whole levels, as a codec stores it, so the values lie on a 0.5 grid and the
+/// grouped medians apply): it removes any plane (a smooth sky gradient) and has unit gain
+/// on white noise, so its σ is the noise σ.
+fn tile_highpass(l: &Luma, x0: usize, y0: usize, out: &mut Vec<f32>) {
+    let q = |x: usize, y: usize| l.at(x, y).round();
+    for y in y0..y0 + TILE_PX - 1 {
+        for x in x0..x0 + TILE_PX - 1 {
+            out.push(0.5 * (q(x, y) - q(x + 1, y) - q(x, y + 1) + q(x + 1, y + 1)));
+        }
+    }
+}
+
+/// Whether a tile is flat: the 16 means of its 4×4 sub-blocks lie within
+/// `2 + σ_tile` levels of their least-squares plane (σ_tile: the tile's own robust noise),
+/// so a smooth gradient passes and any edge, branch or cloud border fails.
+fn tile_is_flat(l: &Luma, x0: usize, y0: usize, hp: &[f32]) -> bool {
+    let mut means = [0f32; 16];
+    for (k, m) in means.iter_mut().enumerate() {
+        let (bx, by) = (x0 + (k % 4) * 4, y0 + (k / 4) * 4);
+        let mut s = 0.0;
+        for y in by..by + 4 {
+            for x in bx..bx + 4 {
+                s += l.at(x, y);
+            }
+        }
+        *m = s / 16.0;
+    }
+    let mean = means.iter().sum::<f32>() / 16.0;
+    if !(8.0..=247.0).contains(&mean) {
+        return false; // clipped tiles carry no noise
+    }
+    // Plane fit on the centred 4×4 grid: coordinates −1.5..1.5, Σu² = 20 per row → 80.
+    let (mut su, mut sv) = (0.0, 0.0);
+    for (k, &m) in means.iter().enumerate() {
+        let u = (k % 4) as f32 - 1.5;
+        let v = (k / 4) as f32 - 1.5;
+        su += u * (m - mean);
+        sv += v * (m - mean);
+    }
+    let (a, b) = (su / 20.0, sv / 20.0);
+    let worst = means
+        .iter()
+        .enumerate()
+        .map(|(k, &m)| (m - mean - a * ((k % 4) as f32 - 1.5) - b * ((k / 4) as f32 - 1.5)).abs())
+        .fold(0.0f32, f32::max);
+    let sigma = robust_sigma(hp).unwrap_or(0.0);
+    worst <= 2.0 + sigma
+}
+
+/// Flat-sky noise, high-pass RMS and sky colour. Tiles touching a drone box (grown by 8 px)
+/// are left out.
+pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
+    let mut all = Vec::new();
+    let mut hp = Vec::with_capacity(TILE_PX * TILE_PX);
+    let mut tiles = 0;
+    let mut sky = [0f64; 3];
+    let mut sky_n = 0u64;
+    for ty in 0..l.height / TILE_PX {
+        for tx in 0..l.width / TILE_PX {
+            let (x0, y0) = (tx * TILE_PX, ty * TILE_PX);
+            let near_drone = boxes.iter().any(|b| {
+                (x0 as f32) < b.x1 + 8.0
+                    && ((x0 + TILE_PX) as f32) > b.x0 - 8.0
+                    && (y0 as f32) < b.y1 + 8.0
+                    && ((y0 + TILE_PX) as f32) > b.y0 - 8.0
+            });
+            if near_drone {
+                continue;
+            }
+            hp.clear();
+            tile_highpass(l, x0, y0, &mut hp);
+            if !tile_is_flat(l, x0, y0, &hp) {
+                continue;
+            }
+            tiles += 1;
+            all.extend_from_slice(&hp);
+            if y0 + TILE_PX / 2 < l.height / 2 {
+                for y in y0..y0 + TILE_PX {
+                    for x in x0..x0 + TILE_PX {
+                        let p = rgb.get_pixel(x as u32, y as u32);
+                        for c in 0..3 {
+                            sky[c] += f64::from(p[c]);
+                        }
+                        sky_n += 1;
+                    }
+                }
+            }
+        }
+    }
+    let mut out = FlatSky {
+        tiles,
+        ..FlatSky::default()
+    };
+    if sky_n > 0 {
+        let n = sky_n as f64;
+        out.sky_rgb = Some([
+            (sky[0] / n) as f32,
+            (sky[1] / n) as f32,
+            (sky[2] / n) as f32,
+        ]);
+    }
+    if tiles >= MIN_FLAT_TILES {
+        out.noise_sigma = robust_sigma(&all);
+        let ss: f64 = all.iter().map(|&v| f64::from(v) * f64::from(v)).sum();
+        out.highpass_rms = Some((ss / all.len() as f64).sqrt() as f32);
+    }
+    out
+}
+
+/// HSV saturation (0–1) and hue (degrees, 0–360) of a colour.
+pub fn saturation_hue(rgb: [f32; 3]) -> (f32, f32) {
+    let [r, g, b] = rgb;
+    let max = r.max(g).max(b);
+    let min = r.min(g).min(b);
+    let delta = max - min;
+    let s = if max > 0.0 { delta / max } else { 0.0 };
+    if delta <= 0.0 {
+        return (s, 0.0);
+    }
+    let h = if max == r {
+        60.0 * ((g - b) / delta).rem_euclid(6.0)
+    } else if max == g {
+        60.0 * ((b - r) / delta + 2.0)
+    } else {
+        60.0 * ((r - g) / delta + 4.0)
+    };
+    (s, h)
+}
+
+/// The frame's luminance scaled to 540 px high (Triangle filter), as 8-bit grey.
+pub fn scaled_gray(l: &Luma) -> GrayImage {
+    let g = l.to_gray();
+    let h = GRADIENT_HEIGHT_PX;
+    let w = ((l.width as f64 * f64::from(h) / l.height.max(1) as f64).round() as u32).max(1);
+    image::imageops::resize(&g, w, h, image::imageops::FilterType::Triangle)
+}
+
+/// Mean Sobel magnitude (imageproc's Sobel divided by 8, so levels per pixel) at 540 px high.
+pub fn gradient_energy(g540: &GrayImage) -> f32 {
+    let gx = imageproc::gradients::horizontal_sobel(g540);
+    let gy = imageproc::gradients::vertical_sobel(g540);
+    let n = gx.as_raw().len().max(1);
+    let s: f64 = gx
+        .as_raw()
+        .iter()
+        .zip(gy.as_raw().iter())
+        .map(|(&a, &b)| (f64::from(a).powi(2) + f64::from(b).powi(2)).sqrt())
+        .sum();
+    (s / n as f64 / 8.0) as f32
+}
+
+/// Share of pixels imageproc's Canny (σ 1.4 smoothing, thresholds [`CANNY_LOW`],
+/// [`CANNY_HIGH`]) marks as edges, at 540 px high.
+pub fn canny_share(g540: &GrayImage) -> f32 {
+    let e = imageproc::edges::canny(g540, CANNY_LOW, CANNY_HIGH);
+    let n = e.as_raw().len().max(1);
+    e.as_raw().iter().filter(|&&v| v > 0).count() as f32 / n as f32
+}
+
+/// One edge's PSF σ: the edge's discrete derivative profile, taken across the edge along a
+/// row or column, is the PSF's line-spread function integrated over unit bins; its variance
+/// is σ² + 1/12 (Sheppard's correction), divided by the profile's slant (cos θ of the
+/// gradient to the scan axis).
+fn profile_sigma(d: &[f32], peak: usize) -> Option<(f32, f32)> {
+    let p = d[peak];
+    if p == 0.0 {
+        return None;
+    }
+    let sign = p.signum();
+    let floor = 0.02 * p.abs();
+    let walk = |step: isize| -> Option<usize> {
+        let mut k = peak as isize;
+        for _ in 0..BLUR_MAX_HALF_PX {
+            let next = k + step;
+            if next < 0 || next as usize >= d.len() {
+                return None; // ran off the image before the edge ended
+            }
+            let v = d[next as usize] * sign;
+            if v <= floor {
+                return Some(k as usize);
+            }
+            k = next;
+        }
+        None // still rising after BLUR_MAX_HALF_PX: a ramp, not an edge
+    };
+    let lo = walk(-1)?;
+    let hi = walk(1)?;
+    let (mut c, mut m1) = (0f64, 0f64);
+    for (k, &v) in d.iter().enumerate().take(hi + 1).skip(lo) {
+        let w = f64::from(v * sign);
+        c += w;
+        m1 += w * (k as f64 + 0.5);
+    }
+    if c < f64::from(BLUR_MIN_CONTRAST) {
+        return None;
+    }
+    let mu = m1 / c;
+    let var: f64 = d[lo..=hi]
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| f64::from(v * sign) * ((lo + i) as f64 + 0.5 - mu).powi(2))
+        .sum::<f64>()
+        / c;
+    Some((((var - 1.0 / 12.0).max(0.0)).sqrt() as f32, c as f32))
+}
+
+/// Per-edge PSF σ estimates (pixels) along every row and column: each local maximum of the
+/// step between neighbours that is the steepest within ±2 px, on an edge within 30° of
+/// the scan's normal (|g_along| ≥ 2 |g_across| by Sobel), rising by at least
+/// [`BLUR_MIN_CONTRAST`] levels with both tails reaching 2 % of the peak step within 12 px.
+pub fn edge_sigmas(l: &Luma, g: &GrayImage) -> Vec<f32> {
+    let gx = imageproc::gradients::horizontal_sobel(g);
+    let gy = imageproc::gradients::vertical_sobel(g);
+    let (w, h) = (l.width, l.height);
+    let mut out = Vec::new();
+    let mut d = Vec::new();
+    // Rows (edges across x), then columns (edges across y).
+    for axis in 0..2 {
+        let (lines, len) = if axis == 0 { (h, w) } else { (w, h) };
+        for line in 1..lines.saturating_sub(1) {
+            d.clear();
+            for k in 0..len.saturating_sub(1) {
+                let (a, b) = if axis == 0 {
+                    (l.at(k, line), l.at(k + 1, line))
+                } else {
+                    (l.at(line, k), l.at(line, k + 1))
+                };
+                d.push(b - a);
+            }
+            for k in 2..d.len().saturating_sub(2) {
+                let v = d[k].abs();
+                if v < 3.0 || (k - 2..=k + 2).any(|j| j != k && d[j].abs() > v) {
+                    continue;
+                }
+                if d[k - 1].abs() == v {
+                    continue; // a plateau of equal steps is counted once, at its right end
+                }
+                let (px, py) = if axis == 0 { (k, line) } else { (line, k) };
+                let a = f32::from(gx.get_pixel(px as u32, py as u32)[0]);
+                let b = f32::from(gy.get_pixel(px as u32, py as u32)[0]);
+                let (along, across) = if axis == 0 { (a, b) } else { (b, a) };
+                if along.abs() < 2.0 * across.abs() || along == 0.0 {
+                    continue;
+                }
+                let cos = along.abs() / (along * along + across * across).sqrt();
+                if let Some((s, _)) = profile_sigma(&d, k) {
+                    out.push(s * cos);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The frame's blur: the 25th percentile of its per-edge σ (the sharpest edges carry the
+/// PSF; soft edges of clouds or defocused trees are wider), or `None` with fewer than 5 edges.
+pub fn blur_sigma(mut sigmas: Vec<f32>) -> Option<f32> {
+    if sigmas.len() < MIN_EDGES {
+        return None;
+    }
+    sigmas.sort_by(f32::total_cmp);
+    Some(percentile_sorted(&sigmas, 0.25))
+}
+
+/// Linear-interpolated percentile of sorted data (`q` in 0–1).
+pub fn percentile_sorted(v: &[f32], q: f64) -> f32 {
+    if v.is_empty() {
+        return f32::NAN;
+    }
+    let pos = q * (v.len() - 1) as f64;
+    let i = pos.floor() as usize;
+    let f = (pos - i as f64) as f32;
+    if i + 1 < v.len() {
+        v[i] + f * (v[i + 1] - v[i])
+    } else {
+        v[i]
+    }
+}
+
+/// What one labelled drone shows against its background.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct DroneMeasure {
+    /// Median luminance of the ring around the box.
+    pub background: f32,
+    /// Signed deviation from the background of the box's most deviating pixel.
+    pub peak: f32,
+    /// √(pixels in the box deviating from the background by more than half the peak, on the
+    /// peak's side).
+    pub core_px: f32,
+    /// True when the peak is darker than the background.
+    pub darker: bool,
+    /// Mean 90 %→10 % fall distance of the deviation from the peak pixel outwards (left,
+    /// right, up, down; those that reach 10 %), pixels; `None` when no direction does.
+    pub edge_width_px: Option<f32>,
+}
+
+/// Measures a drone in its box against a ring around it: the ring is the box grown by
+/// half its larger side (at least 3 px, at most 32) on each side, minus the box, within
+/// the image. `None` for a box with no pixel or a ring under 8 pixels.
+pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
+    let (w, h) = (l.width as i64, l.height as i64);
+    let x0 = (b.x0.floor() as i64).clamp(0, w);
+    let y0 = (b.y0.floor() as i64).clamp(0, h);
+    let x1 = (b.x1.ceil() as i64).clamp(0, w);
+    let y1 = (b.y1.ceil() as i64).clamp(0, h);
+    if x1 <= x0 || y1 <= y0 {
+        return None;
+    }
+    let m = ((0.5 * (x1 - x0).max(y1 - y0) as f32).round() as i64).clamp(3, 32);
+    let (rx0, ry0, rx1, ry1) = (
+        (x0 - m).max(0),
+        (y0 - m).max(0),
+        (x1 + m).min(w),
+        (y1 + m).min(h),
+    );
+    let mut ring = Vec::new();
+    for y in ry0..ry1 {
+        for x in rx0..rx1 {
+            if x >= x0 && x < x1 && y >= y0 && y < y1 {
+                continue;
+            }
+            ring.push(l.at(x as usize, y as usize));
+        }
+    }
+    if ring.len() < 8 {
+        return None;
+    }
+    let background = grouped_median(&mut ring, f32::NEG_INFINITY)?;
+    let mut peak = 0f32;
+    let mut at = (x0, y0);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let dv = l.at(x as usize, y as usize) - background;
+            if dv.abs() > peak.abs() {
+                peak = dv;
+                at = (x, y);
+            }
+        }
+    }
+    let half = 0.5 * peak.abs();
+    let mut core = 0usize;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let dv = (l.at(x as usize, y as usize) - background) * peak.signum();
+            if peak != 0.0 && dv > half {
+                core += 1;
+            }
+        }
+    }
+    // Edge width: walk out from the peak until the deviation falls under 10 % of it.
+    let dev = |x: i64, y: i64| (l.at(x as usize, y as usize) - background) * peak.signum();
+    let p = peak.abs();
+    let mut widths = Vec::new();
+    if p > 0.0 {
+        for (sx, sy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+            let (mut x, mut y) = at;
+            let mut prev = p;
+            let mut t = 0f32;
+            let mut t90 = None;
+            loop {
+                let (nx, ny) = (x + sx, y + sy);
+                if nx < rx0 || nx >= rx1 || ny < ry0 || ny >= ry1 {
+                    break;
+                }
+                let v = dev(nx, ny);
+                // Position of a crossing of `level` between t (value prev) and t+1 (value v).
+                let cross = |level: f32| t + (prev - level) / (prev - v).max(1e-6);
+                if t90.is_none() && v < 0.9 * p {
+                    t90 = Some(cross(0.9 * p).max(t));
+                }
+                if v < 0.1 * p {
+                    if let Some(a) = t90 {
+                        widths.push(cross(0.1 * p) - a);
+                    }
+                    break;
+                }
+                prev = v;
+                t += 1.0;
+                x = nx;
+                y = ny;
+            }
+        }
+    }
+    let edge_width_px = if widths.is_empty() {
+        None
+    } else {
+        Some(widths.iter().sum::<f32>() / widths.len() as f32)
+    };
+    Some(DroneMeasure {
+        background,
+        peak,
+        core_px: (core as f32).sqrt(),
+        darker: peak < 0.0,
+        edge_width_px,
+    })
+}

@@ -1,0 +1,109 @@
+//! The domain-gap report (`swarmshot gap`): the same image statistics measured on a folder
+//! of real frames and on a swarmshot dataset, side by side, with a verdict per statistic and
+//! camera-model ranges that would move the dataset inside the real inter-quartile range.
+//!
+//! CPU only; knows nothing of presets, rendering or the GPU. [`measure`] holds the
+//! definitions, [`jpeg_quality`] reads quantisation tables, [`report`] walks the folders,
+//! aggregates, prints, and writes the JSON and histogram PNGs.
+//!
+//! What is measured, on luminance `Y = 0.299 R + 0.587 G + 0.114 B` in 8-bit levels
+//! (docs/realism.md has the same list for users):
+//!
+//! - **flat-sky noise σ**: the frame is cut into 16 px tiles; a tile is *flat* when the
+//!   means of its sixteen 4×4 sub-blocks lie within `2 + σ_tile` levels of their
+//!   least-squares plane, its mean is within 8–247 (not clipped), and it is at least 8 px
+//!   from every labelled box. Over the flat tiles, the high-pass `(a − b − c + d)/2` of each
+//!   2×2 neighbourhood of the 8-bit luminance plane (Y rounded to whole levels, as a codec
+//!   stores it) removes any smooth gradient and has unit gain on white noise; the noise σ
+//!   is 1.4826 × its median absolute deviation, the medians interpolated within their
+//!   0.5-level bins (so a sky whose high-pass is mostly 0 still gets a σ below 0.3 from the
+//!   share of zeros, rather than 0). At least 4 flat tiles, else no value for that frame.
+//! - **flat-sky high-pass RMS**: the RMS of the same values (noise plus fine texture).
+//! - **gradient energy**: the mean Sobel magnitude (imageproc, divided by 8: levels per
+//!   pixel) with the frame scaled to 540 px high.
+//! - **Canny edge share**: the share of pixels imageproc's Canny (thresholds 20/40)
+//!   marks, at 540 px high.
+//! - **sky saturation and hue**: HSV of the mean colour of the flat tiles in the upper half.
+//! - **mean brightness**: the mean of Y.
+//! - **blur σ**: the Gaussian PSF σ (pixels) from the sharpest edges: every row and column
+//!   is scanned for steps (the steepest within ±2 px, ≥ 3 levels, on an edge within 30° of
+//!   the scan's normal), the step profile is walked out until it falls to 2 % of its peak
+//!   (at most 12 px each way, rising ≥ 24 levels in all); its variance minus 1/12
+//!   (Sheppard) is σ², scaled by the edge's slant. The frame's blur is the 25th percentile.
+//! - **JPEG quality**: the IJG quality whose luminance table is nearest the file's.
+//! - per labelled drone, against a ring around its box (the box grown by half its larger
+//!   side, 3–32 px, minus the box): the **background** (ring median), the **peak** (the
+//!   most deviating pixel in the box), the **core size** √(pixels deviating by more than half
+//!   the peak on its side), **polarity** (darker than the ring or not), and for drones with
+//!   a 3–6 px core their **peak contrast** and **edge width** (the 90 %→10 % fall of the
+//!   deviation walking out from the peak pixel, averaged over four directions).
+
+pub mod jpeg_quality;
+pub mod measure;
+pub mod report;
+
+use image::RgbImage;
+use serde::Serialize;
+
+pub use measure::{DroneMeasure, PixelBox};
+pub use report::{GapError, GapOptions, Report, run as run_report};
+
+/// Every statistic of one frame (`None` where the frame gives no value).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FrameStats {
+    pub width: u32,
+    pub height: u32,
+    pub flat_tiles: usize,
+    pub noise_sigma: Option<f32>,
+    pub highpass_rms: Option<f32>,
+    pub gradient_energy: f32,
+    pub canny_edge_share: f32,
+    pub sky_saturation: Option<f32>,
+    pub sky_hue_deg: Option<f32>,
+    pub mean_brightness: f32,
+    pub blur_sigma_px: Option<f32>,
+    /// Number of edges the blur estimate used.
+    pub blur_edges: usize,
+    pub jpeg_quality: Option<u8>,
+    pub drones: Vec<DroneMeasure>,
+}
+
+/// Measures one decoded frame; `jpeg_bytes` are the file's bytes when it is a JPEG
+/// (for the quality estimate), `boxes` its labelled drones in pixels.
+pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8]>) -> FrameStats {
+    let l = measure::Luma::from_rgb(rgb);
+    let flat = measure::flat_sky(rgb, &l, boxes);
+    let (sky_saturation, sky_hue_deg) = match flat.sky_rgb {
+        Some(c) => {
+            let (s, h) = measure::saturation_hue(c);
+            (Some(s), Some(h))
+        }
+        None => (None, None),
+    };
+    let g540 = measure::scaled_gray(&l);
+    let gray = l.to_gray();
+    let edges = measure::edge_sigmas(&l, &gray);
+    let blur_edges = edges.len();
+    let n = l.y.len().max(1);
+    FrameStats {
+        width: rgb.width(),
+        height: rgb.height(),
+        flat_tiles: flat.tiles,
+        noise_sigma: flat.noise_sigma,
+        highpass_rms: flat.highpass_rms,
+        gradient_energy: measure::gradient_energy(&g540),
+        canny_edge_share: measure::canny_share(&g540),
+        sky_saturation,
+        sky_hue_deg,
+        mean_brightness: (l.y.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64) as f32,
+        blur_sigma_px: measure::blur_sigma(edges),
+        blur_edges,
+        jpeg_quality: jpeg_bytes
+            .and_then(jpeg_quality::estimate)
+            .map(|q| q.quality),
+        drones: boxes
+            .iter()
+            .filter_map(|&b| measure::measure_drone(&l, b))
+            .collect(),
+    }
+}

@@ -1,0 +1,978 @@
+//! `swarmshot gap`: reads the real folder and the dataset, measures every frame
+//! ([`super::measure_frame`]), summarises each statistic per side (median and inter-quartile
+//! range; shares with a 50 % Wilson interval), gives a verdict, proposes camera-model
+//! ranges, and writes `report.json`, `report.txt` and one histogram PNG per statistic.
+//!
+//! Every input problem (a missing folder, no images, an undecodable image, a malformed
+//! label line) is an error naming the file, found before anything is written. The output
+//! folder holds only the files named here, each written atomically.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::{FrameStats, PixelBox, measure_frame};
+
+/// Drones whose core is this size range (pixels) get the small-drone rows.
+pub const SMALL_CORE_PX: (f32, f32) = (3.0, 6.0);
+/// z for a 50 % two-sided interval: the share analogue of an inter-quartile range.
+const Z50: f64 = 0.674_489_75;
+/// Deepest folder level walked below a side's root.
+const MAX_DEPTH: usize = 8;
+
+/// What `swarmshot gap` was asked.
+#[derive(Clone, Debug)]
+pub struct GapOptions {
+    /// Folder of real frames (JPEG/PNG), with YOLO labels in a sibling `labels/` or beside them.
+    pub real: PathBuf,
+    /// A swarmshot dataset folder (its `images/` and `labels/`).
+    pub synthetic: PathBuf,
+    /// At most this many frames per side, evenly spaced in name order (0: all).
+    pub max_images: usize,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GapError {
+    #[error("{}: {reason}", path.display())]
+    Input { path: PathBuf, reason: String },
+    #[error("{}: line {line}: {reason}", path.display())]
+    Label {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+fn input(path: &Path, reason: impl Into<String>) -> GapError {
+    GapError::Input {
+        path: path.to_path_buf(),
+        reason: reason.into(),
+    }
+}
+
+/// One side's frames and what was measured on them.
+#[derive(Clone, Debug, Serialize)]
+pub struct Side {
+    /// The folder as given.
+    pub dir: String,
+    /// Images found; `frames` holds the ones measured (`--max-images`).
+    pub images_found: usize,
+    pub labelled_frames: usize,
+    pub frames: Vec<FrameRecord>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRecord {
+    /// Path relative to the side's folder.
+    pub file: String,
+    #[serde(flatten)]
+    pub stats: FrameStats,
+}
+
+/// A statistic summarised on one side.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Summary {
+    /// Median and inter-quartile range of `n` values.
+    Distribution {
+        n: usize,
+        median: f64,
+        q25: f64,
+        q75: f64,
+    },
+    /// `k` of `n` with a 50 % Wilson interval.
+    Share {
+        n: usize,
+        k: usize,
+        share: f64,
+        low: f64,
+        high: f64,
+    },
+}
+
+impl Summary {
+    fn centre(&self) -> f64 {
+        match *self {
+            Summary::Distribution { median, .. } => median,
+            Summary::Share { share, .. } => share,
+        }
+    }
+    fn range(&self) -> (f64, f64) {
+        match *self {
+            Summary::Distribution { q25, q75, .. } => (q25, q75),
+            Summary::Share { low, high, .. } => (low, high),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct StatRow {
+    pub key: &'static str,
+    pub name: &'static str,
+    pub unit: &'static str,
+    /// `frame` or `drone`: what one value is.
+    pub per: &'static str,
+    pub real: Option<Summary>,
+    pub synthetic: Option<Summary>,
+    /// `inside` (the synthetic median or share lies in the real IQR or interval),
+    /// `below`, `above`, or `n/a` when a side has no value.
+    pub verdict: &'static str,
+}
+
+/// A camera-model (or scene) change that would move a statistic inside the real range.
+#[derive(Clone, Debug, Serialize)]
+pub struct Proposal {
+    pub key: &'static str,
+    pub text: String,
+    /// The proposed parameter range, in the unit the text names.
+    pub range: Option<[f64; 2]>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub real: Side,
+    pub synthetic: Side,
+    pub statistics: Vec<StatRow>,
+    pub proposals: Vec<Proposal>,
+}
+
+enum Kind {
+    Frame(fn(&FrameStats) -> Option<f64>),
+    Drone(fn(&super::DroneMeasure) -> Option<f64>),
+    Share(fn(&super::DroneMeasure) -> Option<bool>),
+}
+
+struct Stat {
+    key: &'static str,
+    name: &'static str,
+    unit: &'static str,
+    kind: Kind,
+}
+
+fn small(d: &super::DroneMeasure) -> bool {
+    d.core_px >= SMALL_CORE_PX.0 && d.core_px <= SMALL_CORE_PX.1
+}
+
+fn stats() -> Vec<Stat> {
+    use Kind::*;
+    vec![
+        Stat {
+            key: "noise_sigma",
+            name: "flat-sky noise σ (1.4826·MAD of 2×2 high-pass)",
+            unit: "levels",
+            kind: Frame(|f| f.noise_sigma.map(f64::from)),
+        },
+        Stat {
+            key: "highpass_rms",
+            name: "flat-sky high-pass RMS",
+            unit: "levels",
+            kind: Frame(|f| f.highpass_rms.map(f64::from)),
+        },
+        Stat {
+            key: "gradient_energy",
+            name: "gradient energy (mean Sobel at 540 px high)",
+            unit: "levels/px",
+            kind: Frame(|f| Some(f64::from(f.gradient_energy))),
+        },
+        Stat {
+            key: "canny_edge_share",
+            name: "share of pixels that are Canny edges",
+            unit: "",
+            kind: Frame(|f| Some(f64::from(f.canny_edge_share))),
+        },
+        Stat {
+            key: "sky_saturation",
+            name: "sky saturation (HSV)",
+            unit: "",
+            kind: Frame(|f| f.sky_saturation.map(f64::from)),
+        },
+        Stat {
+            key: "sky_hue_deg",
+            name: "sky hue (HSV)",
+            unit: "deg",
+            kind: Frame(|f| f.sky_hue_deg.map(f64::from)),
+        },
+        Stat {
+            key: "mean_brightness",
+            name: "mean brightness",
+            unit: "levels",
+            kind: Frame(|f| Some(f64::from(f.mean_brightness))),
+        },
+        Stat {
+            key: "blur_sigma_px",
+            name: "blur: PSF σ of the sharpest edges (25th pct)",
+            unit: "px",
+            kind: Frame(|f| f.blur_sigma_px.map(f64::from)),
+        },
+        Stat {
+            key: "jpeg_quality",
+            name: "JPEG quality (from quantisation tables)",
+            unit: "",
+            kind: Frame(|f| f.jpeg_quality.map(f64::from)),
+        },
+        Stat {
+            key: "drone_core_px",
+            name: "drone core size √(pixels > half the peak)",
+            unit: "px",
+            kind: Drone(|d| Some(f64::from(d.core_px))),
+        },
+        Stat {
+            key: "drone_core_under_6px",
+            name: "share of drones with a core under 6 px",
+            unit: "",
+            kind: Share(|d| Some(d.core_px < 6.0)),
+        },
+        Stat {
+            key: "drone_darker",
+            name: "share of drones darker than their ring",
+            unit: "",
+            kind: Share(|d| (d.peak != 0.0).then_some(d.darker)),
+        },
+        Stat {
+            key: "small_drone_peak_contrast",
+            name: "peak contrast of 3–6 px drones",
+            unit: "levels",
+            kind: Drone(|d| small(d).then_some(f64::from(d.peak.abs()))),
+        },
+        Stat {
+            key: "small_drone_edge_width_px",
+            name: "edge width (90→10 %) of 3–6 px drones",
+            unit: "px",
+            kind: Drone(|d| {
+                if small(d) {
+                    d.edge_width_px.map(f64::from)
+                } else {
+                    None
+                }
+            }),
+        },
+    ]
+}
+
+fn values(side: &Side, kind: &Kind) -> Vec<f64> {
+    let mut v = Vec::new();
+    for f in &side.frames {
+        match kind {
+            Kind::Frame(g) => v.extend(g(&f.stats)),
+            Kind::Drone(g) => v.extend(f.stats.drones.iter().filter_map(g)),
+            Kind::Share(_) => {}
+        }
+    }
+    v.retain(|x| x.is_finite());
+    v
+}
+
+fn flags(side: &Side, g: fn(&super::DroneMeasure) -> Option<bool>) -> Vec<bool> {
+    side.frames
+        .iter()
+        .flat_map(|f| f.stats.drones.iter().filter_map(g))
+        .collect()
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    let pos = q * (sorted.len() - 1) as f64;
+    let i = pos.floor() as usize;
+    let f = pos - i as f64;
+    if i + 1 < sorted.len() {
+        sorted[i] + f * (sorted[i + 1] - sorted[i])
+    } else {
+        sorted[i]
+    }
+}
+
+/// Median and quartiles (linear interpolation between order statistics).
+pub fn distribution(values: &[f64]) -> Option<Summary> {
+    if values.is_empty() {
+        return None;
+    }
+    let mut s = values.to_vec();
+    s.sort_by(f64::total_cmp);
+    Some(Summary::Distribution {
+        n: s.len(),
+        median: percentile(&s, 0.5),
+        q25: percentile(&s, 0.25),
+        q75: percentile(&s, 0.75),
+    })
+}
+
+/// A share with its 50 % Wilson score interval.
+pub fn share(flags: &[bool]) -> Option<Summary> {
+    let n = flags.len();
+    if n == 0 {
+        return None;
+    }
+    let k = flags.iter().filter(|&&b| b).count();
+    let (nf, p) = (n as f64, k as f64 / n as f64);
+    let z2 = Z50 * Z50;
+    let centre = (p + z2 / (2.0 * nf)) / (1.0 + z2 / nf);
+    let half = Z50 / (1.0 + z2 / nf) * (p * (1.0 - p) / nf + z2 / (4.0 * nf * nf)).sqrt();
+    Some(Summary::Share {
+        n,
+        k,
+        share: p,
+        low: (centre - half).max(0.0),
+        high: (centre + half).min(1.0),
+    })
+}
+
+fn verdict(real: Option<Summary>, synthetic: Option<Summary>) -> &'static str {
+    match (real, synthetic) {
+        (Some(r), Some(s)) => {
+            let (lo, hi) = r.range();
+            let c = s.centre();
+            if c < lo {
+                "below"
+            } else if c > hi {
+                "above"
+            } else {
+                "inside"
+            }
+        }
+        _ => "n/a",
+    }
+}
+
+fn is_image(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "jpg" | "jpeg" | "png"))
+}
+
+fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), GapError> {
+    let rd = std::fs::read_dir(dir).map_err(|source| GapError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    for e in rd {
+        let e = e.map_err(|source| GapError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        let p = e.path();
+        if e.file_name().to_string_lossy().starts_with('.') {
+            continue;
+        }
+        let ft = e.file_type().map_err(|source| GapError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        if ft.is_dir() {
+            if depth < MAX_DEPTH {
+                walk(&p, depth + 1, out)?;
+            }
+        } else if ft.is_file() && is_image(&p) {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// The label file of an image: under a sibling `labels/` folder (the last `images`
+/// component of its path below `root` replaced by `labels`), else beside it; `.txt`.
+fn label_for(root: &Path, image: &Path) -> Option<PathBuf> {
+    let rel = image.strip_prefix(root).ok()?;
+    let comps: Vec<_> = rel.components().collect();
+    let mut candidates = Vec::new();
+    let root_is_images = root.file_name().is_some_and(|n| n == "images");
+    if let Some(i) = comps.iter().rposition(|c| c.as_os_str() == "images") {
+        let mut p = root.to_path_buf();
+        for (j, c) in comps.iter().enumerate() {
+            p.push(if j == i {
+                "labels".as_ref()
+            } else {
+                c.as_os_str()
+            });
+        }
+        candidates.push(p.with_extension("txt"));
+    } else if root_is_images && let Some(parent) = root.parent() {
+        candidates.push(parent.join("labels").join(rel).with_extension("txt"));
+    }
+    candidates.push(image.with_extension("txt"));
+    candidates.into_iter().find(|p| p.is_file())
+}
+
+/// YOLO rows `class cx cy w h` (normalised) → pixel boxes.
+fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, GapError> {
+    let meta = std::fs::metadata(path).map_err(|source| GapError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if meta.len() > 16 << 20 {
+        return Err(input(path, "label file over 16 MiB"));
+    }
+    let text = std::fs::read_to_string(path).map_err(|source| GapError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let bad = |reason: String| GapError::Label {
+            path: path.to_path_buf(),
+            line: i + 1,
+            reason,
+        };
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() != 5 {
+            return Err(bad(format!(
+                "expected 5 fields `class cx cy w h`, found {}",
+                f.len()
+            )));
+        }
+        let mut v = [0f32; 4];
+        for (k, s) in f[1..].iter().enumerate() {
+            v[k] = s
+                .parse::<f32>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| bad(format!("`{s}` is not a number")))?;
+        }
+        if v[2] < 0.0 || v[3] < 0.0 {
+            return Err(bad("negative box width or height".into()));
+        }
+        let (wf, hf) = (w as f32, h as f32);
+        out.push(PixelBox {
+            x0: (v[0] - 0.5 * v[2]) * wf,
+            x1: (v[0] + 0.5 * v[2]) * wf,
+            y0: (v[1] - 0.5 * v[3]) * hf,
+            y1: (v[1] + 0.5 * v[3]) * hf,
+        });
+    }
+    Ok(out)
+}
+
+/// Measures one side: every image under `dir` (sorted by path), at most `max` of them.
+fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError> {
+    if !dir.is_dir() {
+        return Err(input(dir, "not a folder"));
+    }
+    let root = if dataset {
+        let images = dir.join("images");
+        if !images.is_dir() {
+            return Err(input(
+                dir,
+                "not a swarmshot dataset: it has no images/ folder (`swarmshot batch --out` makes one)",
+            ));
+        }
+        images
+    } else {
+        dir.to_path_buf()
+    };
+    let mut images = Vec::new();
+    walk(&root, 0, &mut images)?;
+    images.sort();
+    if images.is_empty() {
+        return Err(input(&root, "no .jpg, .jpeg or .png image in it"));
+    }
+    let found = images.len();
+    let picked: Vec<PathBuf> = if max > 0 && found > max {
+        (0..max).map(|i| images[i * found / max].clone()).collect()
+    } else {
+        images
+    };
+    let mut frames = Vec::with_capacity(picked.len());
+    let mut labelled = 0;
+    for p in picked {
+        let bytes = std::fs::read(&p).map_err(|source| GapError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        let img = image::load_from_memory(&bytes)
+            .map_err(|e| input(&p, format!("cannot be decoded: {e}")))?
+            .to_rgb8();
+        let (w, h) = img.dimensions();
+        if w < 16 || h < 16 {
+            return Err(input(&p, format!("{w}×{h} is smaller than one 16 px tile")));
+        }
+        let boxes = match label_for(&root, &p) {
+            Some(lp) => {
+                labelled += 1;
+                read_labels(&lp, w, h)?
+            }
+            None => Vec::new(),
+        };
+        let is_jpeg = bytes.starts_with(&[0xFF, 0xD8]);
+        let stats = measure_frame(&img, &boxes, is_jpeg.then_some(bytes.as_slice()));
+        let file = p
+            .strip_prefix(dir)
+            .unwrap_or(&p)
+            .to_string_lossy()
+            .replace('\\', "/");
+        frames.push(FrameRecord { file, stats });
+    }
+    Ok(Side {
+        dir: dir.display().to_string(),
+        images_found: found,
+        labelled_frames: labelled,
+        frames,
+    })
+}
+
+/// Measures both sides and builds the report (nothing is written).
+pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
+    let real = measure_side(&opts.real, opts.max_images, false)?;
+    let synthetic = measure_side(&opts.synthetic, opts.max_images, true)?;
+    let mut statistics = Vec::new();
+    for s in stats() {
+        let (r, y) = match s.kind {
+            Kind::Share(g) => (share(&flags(&real, g)), share(&flags(&synthetic, g))),
+            ref k => (
+                distribution(&values(&real, k)),
+                distribution(&values(&synthetic, k)),
+            ),
+        };
+        statistics.push(StatRow {
+            key: s.key,
+            name: s.name,
+            unit: s.unit,
+            per: if matches!(s.kind, Kind::Frame(_)) {
+                "frame"
+            } else {
+                "drone"
+            },
+            real: r,
+            synthetic: y,
+            verdict: verdict(r, y),
+        });
+    }
+    let proposals = propose(&statistics);
+    Ok(Report {
+        real,
+        synthetic,
+        statistics,
+        proposals,
+    })
+}
+
+fn row<'a>(rows: &'a [StatRow], key: &str) -> Option<&'a StatRow> {
+    rows.iter().find(|r| r.key == key)
+}
+
+/// Added Gaussian σ that takes `have` (in quadrature) to `want`; 0 when already there.
+fn add_in_quadrature(want: f64, have: f64) -> f64 {
+    (want * want - have * have).max(0.0).sqrt()
+}
+
+fn propose(rows: &[StatRow]) -> Vec<Proposal> {
+    let mut out = Vec::new();
+    let dist = |key: &str| -> Option<(f64, f64, f64, &'static str)> {
+        let r = row(rows, key)?;
+        let (Some(real), Some(syn)) = (r.real, r.synthetic) else {
+            return None;
+        };
+        let (lo, hi) = real.range();
+        Some((lo, hi, syn.centre(), r.verdict))
+    };
+    for (key, what, unit) in [
+        ("noise_sigma", "noise: read σ", "levels"),
+        ("blur_sigma_px", "optics blur: Gaussian PSF σ", "px"),
+    ] {
+        if let Some((lo, hi, s, v)) = dist(key) {
+            let p = match v {
+                "below" => {
+                    let (a, b) = (add_in_quadrature(lo, s), add_in_quadrature(hi, s));
+                    Proposal {
+                        key: if key == "noise_sigma" {
+                            "noise"
+                        } else {
+                            "blur"
+                        },
+                        text: format!(
+                            "{what} {} – {} {unit} added (the dataset measures {} against the real {} – {}; added in quadrature{})",
+                            fmt(a),
+                            fmt(b),
+                            fmt(s),
+                            fmt(lo),
+                            fmt(hi),
+                            if key == "noise_sigma" {
+                                "; the encoder smooths some noise away, so aim at the upper end and measure again"
+                            } else {
+                                ""
+                            }
+                        ),
+                        range: Some([a, b]),
+                    }
+                }
+                "above" => Proposal {
+                    key: if key == "noise_sigma" {
+                        "noise"
+                    } else {
+                        "blur"
+                    },
+                    text: format!(
+                        "{what}: the dataset measures {} {unit}, above the real {} – {}: lower it",
+                        fmt(s),
+                        fmt(lo),
+                        fmt(hi)
+                    ),
+                    range: None,
+                },
+                _ => Proposal {
+                    key: if key == "noise_sigma" {
+                        "noise"
+                    } else {
+                        "blur"
+                    },
+                    text: format!("{what}: inside the real range ({} {unit}): keep", fmt(s)),
+                    range: None,
+                },
+            };
+            out.push(p);
+        }
+    }
+    if let Some(r) = row(rows, "jpeg_quality")
+        && let Some(real) = r.real
+    {
+        let (lo, hi) = real.range();
+        out.push(Proposal {
+            key: "jpeg_quality",
+            text: format!(
+                "JPEG quality {} – {} (the real files' IQR)",
+                lo.round(),
+                hi.round()
+            ),
+            range: Some([lo.round(), hi.round()]),
+        });
+    }
+    if let Some((lo, hi, s, v)) = dist("mean_brightness")
+        && v != "inside"
+        && s > 0.0
+    {
+        out.push(Proposal {
+            key: "exposure",
+            text: format!(
+                "exposure: scale brightness by ×{} – ×{} (real IQR {} – {} levels over the dataset's {}; a ratio of 8-bit levels: in linear light about its 2.2th power)",
+                fmt(lo / s),
+                fmt(hi / s),
+                fmt(lo),
+                fmt(hi),
+                fmt(s)
+            ),
+            range: Some([lo / s, hi / s]),
+        });
+    }
+    if let Some((lo, hi, s, v)) = dist("drone_core_px")
+        && v != "inside"
+        && lo > 0.0
+    {
+        out.push(Proposal {
+            key: "distance",
+            text: format!(
+                "drone size: cores of {} – {} px (real IQR) against the dataset's {}: scale camera distances by ×{} – ×{}",
+                fmt(lo),
+                fmt(hi),
+                fmt(s),
+                fmt(s / hi),
+                fmt(s / lo)
+            ),
+            range: Some([s / hi, s / lo]),
+        });
+    }
+    if let Some(r) = row(rows, "drone_darker")
+        && let (Some(real), Some(syn), "below" | "above") = (r.real, r.synthetic, r.verdict)
+    {
+        out.push(Proposal {
+            key: "appearance",
+            text: format!(
+                "appearance: {} % of the dataset's drones are darker than the sky behind them, against {} % of the real ones: {} light or sunlit drone materials",
+                (syn.centre() * 100.0).round(),
+                (real.centre() * 100.0).round(),
+                if r.verdict == "above" { "more" } else { "fewer" }
+            ),
+            range: None,
+        });
+    }
+    if let Some((lo, hi, s, v)) = dist("sky_saturation")
+        && v != "inside"
+        && s > 0.0
+    {
+        out.push(Proposal {
+            key: "sky_saturation",
+            text: format!(
+                "sky saturation: ×{} – ×{} (real {} – {} against the dataset's {})",
+                fmt(lo / s),
+                fmt(hi / s),
+                fmt(lo),
+                fmt(hi),
+                fmt(s)
+            ),
+            range: Some([lo / s, hi / s]),
+        });
+    }
+    out
+}
+
+/// A number with three significant figures or so.
+pub fn fmt(v: f64) -> String {
+    let a = v.abs();
+    if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 10.0 {
+        format!("{v:.1}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+fn cell(s: Option<Summary>) -> String {
+    match s {
+        None => "–".into(),
+        Some(Summary::Distribution {
+            n,
+            median,
+            q25,
+            q75,
+        }) => format!("{} [{} – {}] (n={n})", fmt(median), fmt(q25), fmt(q75)),
+        Some(Summary::Share {
+            n,
+            share,
+            low,
+            high,
+            ..
+        }) => format!(
+            "{:.0} % [{:.0} – {:.0}] (n={n})",
+            share * 100.0,
+            low * 100.0,
+            high * 100.0
+        ),
+    }
+}
+
+impl Report {
+    /// The side-by-side table, as printed.
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "real: {} ({} of {} images, {} labelled, {} drones)\nsynthetic: {} ({} of {} images, {} labelled, {} drones)\n\n",
+            self.real.dir,
+            self.real.frames.len(),
+            self.real.images_found,
+            self.real.labelled_frames,
+            self.real
+                .frames
+                .iter()
+                .map(|f| f.stats.drones.len())
+                .sum::<usize>(),
+            self.synthetic.dir,
+            self.synthetic.frames.len(),
+            self.synthetic.images_found,
+            self.synthetic.labelled_frames,
+            self.synthetic
+                .frames
+                .iter()
+                .map(|f| f.stats.drones.len())
+                .sum::<usize>(),
+        );
+        s += &format!(
+            "{:<48} {:<10} {:<32} {:<32} {}\n",
+            "statistic", "unit", "real median [IQR]", "synthetic median [IQR]", "verdict"
+        );
+        for r in &self.statistics {
+            s += &format!(
+                "{:<48} {:<10} {:<32} {:<32} {}\n",
+                r.name,
+                r.unit,
+                cell(r.real),
+                cell(r.synthetic),
+                r.verdict
+            );
+        }
+        s += "\n(shares: the interval is the 50 % Wilson interval; verdict: the synthetic median or share against the real range)\n";
+        if !self.proposals.is_empty() {
+            s += "\nproposed ranges:\n";
+            for p in &self.proposals {
+                s += &format!("- {}\n", p.text);
+            }
+        }
+        s
+    }
+
+    /// Writes `report.json`, `report.txt` and `hist_<statistic>.png` into `out` (created if
+    /// missing); returns the files written.
+    pub fn write(&self, out: &Path) -> Result<Vec<PathBuf>, GapError> {
+        if out.exists() && !out.is_dir() {
+            return Err(input(out, "exists and is not a folder"));
+        }
+        std::fs::create_dir_all(out).map_err(|source| GapError::Io {
+            path: out.to_path_buf(),
+            source,
+        })?;
+        let save = |name: &str, bytes: &[u8]| -> Result<PathBuf, GapError> {
+            let p = out.join(name);
+            crate::write::write_atomic(&p, bytes).map_err(|e| input(&p, e.to_string()))?;
+            Ok(p)
+        };
+        let mut written = Vec::new();
+        let json = serde_json::to_string_pretty(self)
+            .map_err(|e| input(&out.join("report.json"), e.to_string()))?;
+        written.push(save("report.json", json.as_bytes())?);
+        written.push(save("report.txt", self.table().as_bytes())?);
+        for s in stats() {
+            let (r, y) = match s.kind {
+                Kind::Share(_) => continue,
+                ref k => (values(&self.real, k), values(&self.synthetic, k)),
+            };
+            if r.is_empty() && y.is_empty() {
+                continue;
+            }
+            let name = format!("hist_{}.png", s.key);
+            let png = histogram_png(s.name, s.unit, &r, &y)
+                .map_err(|e| input(&out.join(&name), format!("plot failed: {e}")))?;
+            written.push(save(&name, &png)?);
+        }
+        Ok(written)
+    }
+}
+
+/// Real (blue) and synthetic (orange) histograms over shared bins, each normalised to its
+/// own count, encoded as PNG.
+fn histogram_png(
+    title: &str,
+    unit: &str,
+    real: &[f64],
+    synthetic: &[f64],
+) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    const BINS: usize = 24;
+    let (w, h) = (900u32, 500u32);
+    // The 2nd–98th percentile of both sides together, so a few outliers do not squash the
+    // rest; values beyond fall into the end bins.
+    let mut all: Vec<f64> = real.iter().chain(synthetic.iter()).copied().collect();
+    all.sort_by(f64::total_cmp);
+    let lo = percentile(&all, 0.02);
+    let mut hi = percentile(&all, 0.98);
+    if hi <= lo {
+        hi = lo + 1.0;
+    }
+    let bin = |v: f64| (((v - lo) / (hi - lo) * BINS as f64).max(0.0) as usize).min(BINS - 1);
+    let hist = |v: &[f64]| {
+        let mut c = [0f64; BINS];
+        for &x in v {
+            c[bin(x)] += 1.0;
+        }
+        let n = v.len().max(1) as f64;
+        c.map(|x| x / n)
+    };
+    let (hr, hs) = (hist(real), hist(synthetic));
+    let top = hr
+        .iter()
+        .chain(hs.iter())
+        .copied()
+        .fold(0.0, f64::max)
+        .max(1e-9);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (left, right, ptop, bottom) = (70i32, w as i32 - 20, 50i32, h as i32 - 50);
+        let bw = f64::from(right - left) / BINS as f64;
+        let orange = RGBColor(230, 120, 20);
+        for (k, (counts, color, shift)) in [(&hr, BLUE, 0.0), (&hs, orange, 0.5)].iter().enumerate()
+        {
+            let _ = k;
+            for (i, &c) in counts.iter().enumerate() {
+                if c <= 0.0 {
+                    continue;
+                }
+                let x0 = left + ((i as f64 + shift) * bw) as i32;
+                let x1 = (left + ((i as f64 + shift + 0.5) * bw) as i32 - 1).max(x0);
+                let y = bottom - (c / top * f64::from(bottom - ptop)) as i32;
+                root.draw(&Rectangle::new(
+                    [(x0, y), (x1, bottom)],
+                    color.mix(0.8).filled(),
+                ))?;
+            }
+        }
+        root.draw(&PathElement::new(
+            vec![(left, ptop), (left, bottom), (right, bottom)],
+            BLACK,
+        ))?;
+        if crate::write::stats::font() {
+            let style = ("sans-serif", 16).into_font();
+            root.draw(&Text::new(
+                title.to_owned(),
+                (left, 12),
+                ("sans-serif", 20).into_font(),
+            ))?;
+            root.draw(&Text::new(
+                format!("real (n={})", real.len()),
+                (right - 260, 40),
+                style.clone().color(&BLUE),
+            ))?;
+            root.draw(&Text::new(
+                format!("synthetic (n={})", synthetic.len()),
+                (right - 130, 40),
+                style.clone().color(&orange),
+            ))?;
+            root.draw(&Text::new(
+                format!("{} {unit}", fmt(lo)),
+                (left, bottom + 10),
+                style.clone(),
+            ))?;
+            root.draw(&Text::new(
+                format!("{} {unit}", fmt(hi)),
+                (right - 110, bottom + 10),
+                style.clone(),
+            ))?;
+            root.draw(&Text::new(
+                format!("{:.0} %", top * 100.0),
+                (5, ptop),
+                style,
+            ))?;
+        }
+        root.present()?;
+    }
+    let img = image::RgbImage::from_raw(w, h, buf).ok_or("plot buffer size")?;
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    Ok(png)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quartiles_interpolate_and_shares_bracket() {
+        let Some(Summary::Distribution {
+            median, q25, q75, ..
+        }) = distribution(&[4.0, 1.0, 3.0, 2.0, 5.0])
+        else {
+            panic!("no summary")
+        };
+        assert_eq!((median, q25, q75), (3.0, 2.0, 4.0));
+        let Some(Summary::Share {
+            share, low, high, ..
+        }) = share(&[true, true, true, false])
+        else {
+            panic!("no share")
+        };
+        assert_eq!(share, 0.75);
+        assert!(low < 0.75 && high > 0.75 && high < 1.0, "{low} {high}");
+        assert_eq!(
+            verdict(distribution(&[1.0, 2.0, 3.0]), distribution(&[0.5])),
+            "below"
+        );
+        assert_eq!(
+            verdict(distribution(&[1.0, 2.0, 3.0]), distribution(&[2.2])),
+            "inside"
+        );
+        assert_eq!(verdict(distribution(&[1.0, 2.0, 3.0]), None), "n/a");
+    }
+
+    #[test]
+    fn quadrature_proposal_reaches_the_target() {
+        let a = add_in_quadrature(2.0, 1.0);
+        assert!(((a * a + 1.0).sqrt() - 2.0).abs() < 1e-12);
+        assert_eq!(add_in_quadrature(1.0, 2.0), 0.0);
+    }
+}

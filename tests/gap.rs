@@ -1,0 +1,383 @@
+//! `swarmshot gap`, the domain-gap report: its statistics recover known parameters on
+//! synthetic frames (noise σ, PSF σ, blob polarity and core size, JPEG quality), and the
+//! command runs end to end on the bundled real frames against a tiny rendered dataset,
+//! deterministically.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use image::{Rgb, RgbImage};
+use rand::{Rng, SeedableRng};
+use swarmshot::gap::{PixelBox, measure_frame};
+
+fn swarmshot() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+}
+
+/// Standard normal by Box–Muller.
+fn normal(rng: &mut impl Rng) -> f64 {
+    let u1: f64 = rng.random_range(1e-12..1.0);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// Φ(x) through erf (Abramowitz–Stegun 7.1.26, |error| < 1.5e-7).
+fn phi(x: f64) -> f64 {
+    let z = x / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * z.abs());
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erf = 1.0 - poly * (-z * z).exp();
+    0.5 * (1.0 + if z >= 0.0 { erf } else { -erf })
+}
+
+fn grey(w: u32, h: u32, f: impl Fn(u32, u32) -> f64) -> RgbImage {
+    RgbImage::from_fn(w, h, |x, y| {
+        let v = f(x, y).round().clamp(0.0, 255.0) as u8;
+        Rgb([v, v, v])
+    })
+}
+
+#[test]
+fn noise_sigma_on_a_smooth_sky_is_recovered_within_10_percent() {
+    for (sigma, seed) in [(1.5f64, 1u64), (3.0, 2), (6.0, 3)] {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        // A smooth sky gradient (0.1 level/px across, 0.06 down) plus Gaussian noise.
+        let noise: Vec<f64> = (0..640 * 480).map(|_| sigma * normal(&mut rng)).collect();
+        let img = grey(640, 480, |x, y| {
+            70.0 + 0.1 * f64::from(x) + 0.06 * f64::from(y) + noise[(y * 640 + x) as usize]
+        });
+        let s = measure_frame(&img, &[], None);
+        let got = f64::from(s.noise_sigma.expect("flat tiles"));
+        assert!(
+            (got / sigma - 1.0).abs() < 0.10,
+            "set σ {sigma}, measured {got} over {} flat tiles",
+            s.flat_tiles
+        );
+        let rms = f64::from(s.highpass_rms.expect("rms"));
+        assert!((rms / sigma - 1.0).abs() < 0.10, "σ {sigma}: RMS {rms}");
+        assert!(s.flat_tiles > 1000, "every tile is flat: {}", s.flat_tiles);
+    }
+    // Clean: the same gradient without noise measures (nearly) nothing.
+    let clean = measure_frame(
+        &grey(640, 480, |x, y| {
+            70.0 + 0.1 * f64::from(x) + 0.06 * f64::from(y)
+        }),
+        &[],
+        None,
+    );
+    assert!(
+        clean.noise_sigma.expect("flat") < 0.4,
+        "{:?}",
+        clean.noise_sigma
+    );
+}
+
+#[test]
+fn tiles_with_structure_are_not_flat() {
+    // Left half flat, right half vertical stripes 8 px wide: only the left half's
+    // 20 × 30 tiles count.
+    let img = grey(640, 480, |x, _| {
+        if x < 320 || (x / 8) % 2 == 0 {
+            120.0
+        } else {
+            160.0
+        }
+    });
+    let s = measure_frame(&img, &[], None);
+    assert_eq!(s.flat_tiles, 20 * 30);
+    // And a drone box keeps the tiles around it out.
+    let b = PixelBox {
+        x0: 100.0,
+        y0: 100.0,
+        x1: 110.0,
+        y1: 110.0,
+    };
+    let s2 = measure_frame(&img, &[b], None);
+    assert!(
+        s2.flat_tiles < s.flat_tiles,
+        "{} vs {}",
+        s2.flat_tiles,
+        s.flat_tiles
+    );
+}
+
+/// An edge through (cx, cy) with normal at `angle_deg` from +x, blurred by a Gaussian PSF
+/// of σ, point-sampled at pixel centres: a + C·Φ(s/σ), s the signed distance.
+fn blurred_edge(sigma: f64, angle_deg: f64, noise: f64, seed: u64) -> RgbImage {
+    let (c, s) = (angle_deg.to_radians().cos(), angle_deg.to_radians().sin());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let n: Vec<f64> = (0..400 * 300).map(|_| noise * normal(&mut rng)).collect();
+    grey(400, 300, |x, y| {
+        let d = (f64::from(x) + 0.5 - 200.3) * c + (f64::from(y) + 0.5 - 150.0) * s;
+        50.0 + 150.0 * phi(d / sigma) + n[(y * 400 + x) as usize]
+    })
+}
+
+#[test]
+fn blur_sigma_of_a_gaussian_edge_is_recovered_within_10_percent() {
+    for sigma in [0.8, 1.2, 2.0, 3.0] {
+        for angle in [0.0, 12.0, 90.0] {
+            let s = measure_frame(&blurred_edge(sigma, angle, 0.0, 0), &[], None);
+            let got = f64::from(s.blur_sigma_px.expect("edges"));
+            assert!(
+                (got / sigma - 1.0).abs() < 0.10,
+                "σ {sigma} at {angle}°: measured {got} from {} edges",
+                s.blur_edges
+            );
+        }
+    }
+    // With a little sensor noise (σ 0.7 levels) the estimate still holds.
+    let s = measure_frame(&blurred_edge(1.5, 5.0, 0.7, 9), &[], None);
+    let got = f64::from(s.blur_sigma_px.expect("edges"));
+    assert!((got / 1.5 - 1.0).abs() < 0.10, "noisy edge: {got}");
+    // A flat frame has no edge, hence no blur figure.
+    assert_eq!(
+        measure_frame(&grey(200, 200, |_, _| 90.0), &[], None).blur_sigma_px,
+        None
+    );
+}
+
+#[test]
+fn blob_polarity_core_size_and_edge_width() {
+    // Sharp discs: every disc pixel deviates fully, so the core is √(disc pixels).
+    for (value, darker) in [(40.0, true), (235.0, false)] {
+        let inside = |x: u32, y: u32| {
+            let (dx, dy) = (f64::from(x) + 0.5 - 100.0, f64::from(y) + 0.5 - 80.0);
+            dx * dx + dy * dy <= 16.0
+        };
+        let img = grey(200, 160, |x, y| if inside(x, y) { value } else { 150.0 });
+        let count = (0..200)
+            .flat_map(|x| (0..160).map(move |y| (x, y)))
+            .filter(|&(x, y)| inside(x, y))
+            .count();
+        let b = PixelBox {
+            x0: 92.0,
+            y0: 72.0,
+            x1: 108.0,
+            y1: 88.0,
+        };
+        let s = measure_frame(&img, &[b], None);
+        let d = s.drones[0];
+        assert_eq!(d.darker, darker);
+        assert_eq!(d.background, 150.0);
+        assert!((d.peak.abs() - (value - 150.0).abs() as f32).abs() < 1e-3);
+        assert!(
+            (d.core_px - (count as f32).sqrt()).abs() < 1e-4,
+            "{} vs √{count}",
+            d.core_px
+        );
+    }
+    // A Gaussian spot of σ 2 px: the half-peak core has area 2π·σ²·ln 2 (core √ = 4.17 px),
+    // and the 90 %→10 % fall is (√(2 ln 10) − √(2 ln(1/0.9)))·σ = 1.687σ = 3.37 px.
+    let spot = grey(200, 160, |x, y| {
+        let (dx, dy) = (f64::from(x) - 100.0, f64::from(y) - 80.0);
+        150.0 - 90.0 * (-(dx * dx + dy * dy) / 8.0).exp()
+    });
+    let b = PixelBox {
+        x0: 92.0,
+        y0: 72.0,
+        x1: 109.0,
+        y1: 89.0,
+    };
+    let d = measure_frame(&spot, &[b], None).drones[0];
+    assert!(d.darker);
+    let core = (2.0 * std::f32::consts::PI * 4.0 * std::f32::consts::LN_2).sqrt();
+    assert!(
+        (d.core_px / core - 1.0).abs() < 0.10,
+        "core {} vs {core}",
+        d.core_px
+    );
+    let width = d.edge_width_px.expect("edge width");
+    assert!((width / 3.374 - 1.0).abs() < 0.10, "edge width {width}");
+}
+
+#[test]
+fn jpeg_quality_is_read_from_the_quantisation_tables() {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    let rgba: Vec<u8> = (0..128 * 96 * 4).map(|_| rng.random()).collect();
+    for q in [30u8, 50, 75, 85, 95] {
+        let jpeg = swarmshot::write::jpeg::compress(&rgba, 128, 96, q).expect("encode");
+        let est = swarmshot::gap::jpeg_quality::estimate(&jpeg).expect("a JPEG");
+        assert_eq!((est.quality, est.exact), (q, true), "libjpeg-turbo q{q}");
+    }
+    // The image crate's encoder uses the same IJG scaling.
+    let img = RgbImage::from_fn(64, 64, |x, y| Rgb([(x * 4) as u8, (y * 4) as u8, 90]));
+    let mut bytes = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, 70)
+        .encode_image(&img)
+        .expect("encode");
+    let est = swarmshot::gap::jpeg_quality::estimate(&bytes).expect("a JPEG");
+    assert_eq!(est.quality, 70);
+    // And measure_frame reports it.
+    assert_eq!(
+        measure_frame(&img, &[], Some(&bytes)).jpeg_quality,
+        Some(70)
+    );
+}
+
+/// A tiny JPEG dataset (4 frames of the tiny preset at quality 85).
+fn render_tiny_dataset(dir: &Path) {
+    let mut p = common::tiny_preset();
+    p.output.image_format = swarmshot::preset::ImageFormat::Jpeg { quality: 85 };
+    let preset = dir.join("tiny.ron");
+    std::fs::write(&preset, p.to_ron()).expect("preset");
+    let out = swarmshot()
+        .args(["batch"])
+        .arg(&preset)
+        .arg("--out")
+        .arg(dir.join("ds"))
+        .args(["--limit", "4"])
+        .output()
+        .expect("run batch");
+    assert!(
+        out.status.success(),
+        "batch failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn gap_cli_end_to_end_on_the_bundled_real_frames() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    render_tiny_dataset(tmp.path());
+    let real = common::testdata("real");
+    let run = |out: &Path| {
+        let o = swarmshot()
+            .args(["gap", "--real"])
+            .arg(&real)
+            .arg("--synthetic")
+            .arg(tmp.path().join("ds"))
+            .arg("--out")
+            .arg(out)
+            .output()
+            .expect("run gap");
+        assert!(
+            o.status.success(),
+            "gap failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let a = tmp.path().join("report-a");
+    let table = run(&a);
+    for row in [
+        "flat-sky noise σ",
+        "gradient energy",
+        "Canny edges",
+        "sky saturation",
+        "mean brightness",
+        "blur: PSF σ",
+        "JPEG quality",
+        "drone core size",
+        "darker than their ring",
+    ] {
+        assert!(table.contains(row), "no `{row}` row in:\n{table}");
+    }
+    assert!(
+        table.contains("(10 of 10 images, 10 labelled, 10 drones)"),
+        "{table}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("report.json")).expect("json"))
+            .expect("parse");
+    let stats = json["statistics"].as_array().expect("statistics");
+    assert!(stats.len() >= 14);
+    for s in stats {
+        assert!(
+            ["inside", "below", "above", "n/a"].contains(&s["verdict"].as_str().expect("verdict")),
+            "{s}"
+        );
+    }
+    let by_key = |k: &str| stats.iter().find(|s| s["key"] == k).expect(k).clone();
+    // The real frames are PNGs from H.264 video: no JPEG quality; the dataset's is 85.
+    let q = by_key("jpeg_quality");
+    assert!(q["real"].is_null());
+    assert_eq!(q["synthetic"]["median"], 85.0);
+    // Every real frame is labelled with one drone, and each is measured.
+    assert_eq!(by_key("drone_core_px")["real"]["n"], 10);
+    assert_eq!(json["real"]["frames"].as_array().expect("frames").len(), 10);
+    // Histograms are PNGs.
+    let pngs: Vec<_> = std::fs::read_dir(&a)
+        .expect("out")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    assert!(pngs.len() >= 8, "{pngs:?}");
+    for p in &pngs {
+        let img = image::open(p).expect("decodes");
+        assert_eq!(img.width(), 900);
+    }
+    // Deterministic: the same JSON again.
+    let b = tmp.path().join("report-b");
+    let table_b = run(&b);
+    assert_eq!(table, table_b);
+    assert_eq!(
+        std::fs::read(a.join("report.json")).expect("a"),
+        std::fs::read(b.join("report.json")).expect("b")
+    );
+}
+
+#[test]
+fn gap_cli_refuses_bad_input_before_writing() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let out = tmp.path().join("report");
+    // A missing folder is named.
+    let o = swarmshot()
+        .args(["gap", "--real", "/nonexistent/real", "--synthetic"])
+        .arg(tmp.path())
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("run");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/real"));
+    // A malformed label line is named with its file and line; nothing is written.
+    let real = tmp.path().join("real");
+    std::fs::create_dir_all(real.join("images")).expect("dir");
+    std::fs::create_dir_all(real.join("labels")).expect("dir");
+    grey(64, 64, |_, _| 100.0)
+        .save(real.join("images/a.png"))
+        .expect("png");
+    std::fs::write(
+        real.join("labels/a.txt"),
+        "0 0.5 0.5 0.1 0.1\n0 0.5 oops 0.1 0.1\n",
+    )
+    .expect("txt");
+    let ds = tmp.path().join("ds");
+    std::fs::create_dir_all(ds.join("images/train")).expect("dir");
+    grey(64, 64, |_, _| 100.0)
+        .save(ds.join("images/train/00000000.png"))
+        .expect("png");
+    let o = swarmshot()
+        .args(["gap", "--real"])
+        .arg(&real)
+        .arg("--synthetic")
+        .arg(&ds)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("run");
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("a.txt") && err.contains("line 2") && err.contains("oops"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing may be written on bad input");
+    // A folder that is not a dataset is refused as such.
+    std::fs::write(real.join("labels/a.txt"), "0 0.5 0.5 0.1 0.1\n").expect("txt");
+    let o = swarmshot()
+        .args(["gap", "--real"])
+        .arg(&real)
+        .arg("--synthetic")
+        .arg(real.join("labels"))
+        .output()
+        .expect("run");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no images/ folder"));
+}
