@@ -457,20 +457,28 @@ impl FramePipeline {
         let (w, h) = (scene.camera.width, scene.camera.height);
         if let Some(vis) = measured.as_mut() {
             let background = renderer.background_pixels(&frame.painted);
-            for v in vis.iter_mut() {
-                let (Some(b), Some(background)) = (v.visible_box, background) else {
+            let near: Vec<Option<PixelRect>> = vis
+                .iter()
+                .map(|v| {
+                    v.visible_box.map(|b| PixelRect {
+                        x0: b.x0.floor().max(0.0) as u32,
+                        y0: b.y0.floor().max(0.0) as u32,
+                        x1: b.x1.ceil().max(0.0) as u32,
+                        y1: b.y1.ceil().max(0.0) as u32,
+                    })
+                })
+                .collect();
+            for (i, v) in vis.iter_mut().enumerate() {
+                let (Some(own), Some(background)) = (near[i], background) else {
                     continue;
                 };
-                let near = PixelRect {
-                    x0: b.x0.floor().max(0.0) as u32,
-                    y0: b.y0.floor().max(0.0) as u32,
-                    x1: b.x1.ceil().max(0.0) as u32,
-                    y1: b.y1.ceil().max(0.0) as u32,
-                };
-                *v = camera_visibility(
-                    v,
-                    sensor::changed_pixels(&frame.rgba, background, (w, h), draw, near),
-                );
+                let others: Vec<PixelRect> = (near.iter().enumerate())
+                    .filter(|&(j, _)| j != i)
+                    .filter_map(|(_, r)| *r)
+                    .collect();
+                let changed =
+                    sensor::changed_pixels(&frame.rgba, background, (w, h), draw, own, &others);
+                *v = camera_visibility(v, changed);
             }
         }
         let mut rgba = sensor::apply(&frame.rgba, w, h, draw);

@@ -115,7 +115,7 @@ impl CameraModel {
         range(v, "read_noise_levels", self.read_noise_levels, 0.0, 255.0);
         if let Some(s) = self.sensor_scale {
             range(v, "sensor_scale", s, 0.0, 1.0);
-            v.check(!(s.0 <= 0.0), &format!("{p}.sensor_scale"), || {
+            v.check(s.0.is_nan() || s.0 > 0.0, &format!("{p}.sensor_scale"), || {
                 format!("{} must be > 0 (the sensor's side over the output's)", s.0)
             });
         }

@@ -204,13 +204,18 @@ pub struct PixelRect {
 /// 8-bit level (any channel) from that of `background` (the same frame
 /// without drones) under the same draw, searched within `near` (the
 /// drone's rendered visible box) grown by [`CameraDraw::reach_px`].
-/// `None` when no pixel changes. Both images are `width`×`height` RGBA8.
+/// A changed pixel that lies nearer to one of `others` (the other drones'
+/// rendered visible boxes; distance from the pixel's centre to the box)
+/// than to `near` belongs to that drone, not this one; at equal distance
+/// it counts for both. `None` when no pixel changes. Both images are
+/// `width`×`height` RGBA8.
 pub fn changed_pixels(
     frame: &[u8],
     background: &[u8],
     (width, height): (u32, u32),
     draw: &CameraDraw,
     near: PixelRect,
+    others: &[PixelRect],
 ) -> Option<(PixelRect, u64)> {
     let reach = draw.reach_px(width, height);
     let grow = |r: PixelRect, by: u32| PixelRect {
@@ -223,6 +228,15 @@ pub fn changed_pixels(
     if area.x0 >= area.x1 || area.y0 >= area.y1 {
         return None;
     }
+    // Only drones whose reach meets this area can claim its pixels.
+    let rivals: Vec<PixelRect> = others
+        .iter()
+        .filter(|o| {
+            let g = grow(**o, reach);
+            g.x0 < area.x1 && area.x0 < g.x1 && g.y0 < area.y1 && area.y0 < g.y1
+        })
+        .copied()
+        .collect();
     let a = develop(frame, width, height, draw, area, false);
     let b = develop(background, width, height, draw, area, false);
     let w = (area.x1 - area.x0) as usize;
@@ -232,8 +246,12 @@ pub fn changed_pixels(
         if pa[..3] == pb[..3] {
             continue;
         }
-        count += 1;
         let (x, y) = (area.x0 + (i % w) as u32, area.y0 + (i / w) as u32);
+        let own = distance2(near, x, y);
+        if rivals.iter().any(|o| distance2(*o, x, y) < own) {
+            continue;
+        }
+        count += 1;
         let r = found.get_or_insert(PixelRect {
             x0: x,
             y0: y,
@@ -246,4 +264,12 @@ pub fn changed_pixels(
         r.y1 = r.y1.max(y + 1);
     }
     found.map(|r| (r, count))
+}
+
+/// Squared distance from the centre of pixel (x, y) to the rect (0 inside).
+fn distance2(r: PixelRect, x: u32, y: u32) -> f64 {
+    let (px, py) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+    let dx = (f64::from(r.x0) - px).max(px - f64::from(r.x1)).max(0.0);
+    let dy = (f64::from(r.y0) - py).max(py - f64::from(r.y1)).max(0.0);
+    dx * dx + dy * dy
 }

@@ -269,18 +269,25 @@ pub fn develop(
     bytes
 }
 
-/// The plane magnified by `scale` about `centre` (bilinear).
+/// The plane magnified by `scale` about `centre` (bilinear). The map is
+/// separable (x′ depends on x alone, y′ on y), so the taps of each column
+/// are computed once.
 fn radial(p: &Plane, scale: f64, centre: (f64, f64)) -> Plane {
     let inv = 1.0 / scale;
+    let tap = |x: i64, c: f64| {
+        let u = c + (x as f64 + 0.5 - c) * inv - 0.5;
+        (u.floor() as i64, (u - u.floor()) as f32)
+    };
+    let cols: Vec<(usize, usize, f32)> = (p.win.x0..p.win.x1)
+        .map(|x| {
+            let (i, f) = tap(x, centre.0);
+            (p.col(i), p.col(i + 1), f)
+        })
+        .collect();
     rows(p.win, |y, row| {
-        let v = centre.1 + (y as f64 + 0.5 - centre.1) * inv - 0.5;
-        let (yi, fy) = (v.floor() as i64, (v - v.floor()) as f32);
+        let (yi, fy) = tap(y, centre.1);
         let (r0, r1) = (p.row(yi), p.row(yi + 1));
-        for (i, o) in row.iter_mut().enumerate() {
-            let x = p.win.x0 + i as i64;
-            let u = centre.0 + (x as f64 + 0.5 - centre.0) * inv - 0.5;
-            let (xi, fx) = (u.floor() as i64, (u - u.floor()) as f32);
-            let (c0, c1) = (p.col(xi), p.col(xi + 1));
+        for (o, &(c0, c1, fx)) in row.iter_mut().zip(&cols) {
             let top = r0[c0] + (r0[c1] - r0[c0]) * fx;
             let bottom = r1[c0] + (r1[c1] - r1[c0]) * fx;
             *o = top + (bottom - top) * fy;

@@ -105,11 +105,30 @@ pub fn accuracy_scenes(frames: u32, width: u32, height: u32) -> Vec<BenchScene> 
 pub struct MethodSetting {
     pub method: BoxMethod,
     pub id_scale: u32,
+    /// Through the benchmark's camera model ([`bench_camera`]): the visible
+    /// box is then the pixels the drone changes in the camera image.
+    pub camera: bool,
+}
+
+/// The camera of the accuracy benchmark's camera rows: a Gaussian lens
+/// blur of σ 1 px, read noise 1 level and a little shot noise.
+pub fn bench_camera() -> crate::preset::camera_model::CameraModel {
+    crate::preset::camera_model::CameraModel {
+        psf: crate::preset::camera_model::Psf::Gaussian {
+            sigma_px: (1.0, 1.0),
+        },
+        read_noise_levels: (1.0, 1.0),
+        shot_noise_gain: (0.02, 0.02),
+        ..Default::default()
+    }
 }
 
 impl MethodSetting {
     pub fn label(&self) -> String {
         match self.method {
+            BoxMethod::Visible if self.camera => {
+                format!("Visible (id pass {}×), camera σ 1 px", self.id_scale)
+            }
             BoxMethod::Visible => format!("Visible (id pass {}×)", self.id_scale),
             BoxMethod::Amodal => "Amodal".into(),
             BoxMethod::PaperAabb => "PaperAabb".into(),
@@ -150,18 +169,27 @@ pub fn accuracy(
         MethodSetting {
             method: BoxMethod::PaperAabb,
             id_scale: 1,
+            camera: false,
         },
         MethodSetting {
             method: BoxMethod::Amodal,
             id_scale: 1,
+            camera: false,
         },
         MethodSetting {
             method: BoxMethod::Visible,
             id_scale: 1,
+            camera: false,
         },
         MethodSetting {
             method: BoxMethod::Visible,
             id_scale: 2,
+            camera: false,
+        },
+        MethodSetting {
+            method: BoxMethod::Visible,
+            id_scale: 1,
+            camera: true,
         },
     ];
     let mut rows = Vec::new();
@@ -196,6 +224,7 @@ pub fn accuracy(
                 let mut preset = scene_def.preset.clone();
                 preset.labels.box_method = setting.method;
                 preset.labels.id_scale = setting.id_scale;
+                preset.camera_model = setting.camera.then(bench_camera);
                 preset.render.msaa = msaa;
                 let pipeline = base.update(preset)?;
                 // Warm-up: pipelines and targets are built on first use.

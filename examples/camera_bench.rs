@@ -1,0 +1,88 @@
+//! The camera model's cost per frame (src/sensor/), on the CPU alone: a
+//! 1920×1080 picture through `sensor::apply` with a typical draw (every
+//! stage on) and with noise alone; median of 30 runs after 3 warm-ups.
+//!
+//! `cargo run --release --no-default-features --example camera_bench`
+//! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads.
+
+use std::time::Instant;
+
+use swarmshot::preset::camera_model::CameraModel;
+use swarmshot::sensor::{self, CameraDraw, PsfDraw};
+
+fn median_ms(rgba: &[u8], (w, h): (u32, u32), draw: &CameraDraw) -> f64 {
+    for _ in 0..3 {
+        std::hint::black_box(sensor::apply(rgba, w, h, draw));
+    }
+    let mut times: Vec<f64> = (0..30)
+        .map(|_| {
+            let t = Instant::now();
+            std::hint::black_box(sensor::apply(rgba, w, h, draw));
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn main() {
+    let (w, h) = (1920u32, 1080u32);
+    // A sky gradient with some structure (the stage's cost does not depend on content).
+    let rgba: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let (x, y) = (i % w, i / w);
+            [
+                (90 + y / 12) as u8,
+                (130 + y / 10) as u8,
+                (200 + (x / 40) % 40) as u8,
+                255,
+            ]
+        })
+        .collect();
+    let neutral = sensor::draw(&CameraModel::default(), 1, 0);
+    let typical = CameraDraw {
+        exposure_ev: 0.2,
+        white_balance_red: 1.05,
+        white_balance_blue: 0.95,
+        psf: PsfDraw::Gaussian { sigma_px: 0.8 },
+        vignetting: 0.2,
+        ca_red_scale: 1.0005,
+        ca_blue_scale: 0.9995,
+        shot_noise_gain: 0.02,
+        read_noise_levels: 1.0,
+        ..neutral
+    };
+    let cases = [
+        ("neutral (decode + encode only)", neutral),
+        (
+            "noise only",
+            CameraDraw {
+                read_noise_levels: 1.0,
+                shot_noise_gain: 0.02,
+                ..neutral
+            },
+        ),
+        ("typical: every stage, Gaussian σ 0.8 px", typical),
+        (
+            "typical + sensor 0.75",
+            CameraDraw {
+                sensor_scale: Some(0.75),
+                ..typical
+            },
+        ),
+        (
+            "typical, disc r 3 px",
+            CameraDraw {
+                psf: PsfDraw::Disc { radius_px: 3.0 },
+                ..typical
+            },
+        ),
+    ];
+    println!(
+        "camera model, {w}×{h}, {} rayon threads, median of 30:",
+        rayon::current_num_threads()
+    );
+    for (name, draw) in cases {
+        println!("  {name}: {:.2} ms", median_ms(&rgba, (w, h), &draw));
+    }
+}
