@@ -632,7 +632,14 @@ impl Renderer {
             FrameSky::Procedural { .. } => 1,
             FrameSky::Image { image, .. } => 2 + *image as u64,
         };
-        let mut key = bytemuck::bytes_of(uniforms).to_vec();
+        // The sky shaders never read the atmosphere's slot (a procedural
+        // environment's fog is in its own uniforms): a new visibility alone
+        // keeps the background.
+        let sky_uniforms = FrameUniforms {
+            atmosphere: [0.0; 4],
+            ..*uniforms
+        };
+        let mut key = bytemuck::bytes_of(&sky_uniforms).to_vec();
         key.extend_from_slice(self.sky.uniform_bytes());
         key.extend_from_slice(&group.to_le_bytes());
         key.extend_from_slice(&size.0.to_le_bytes());
