@@ -232,7 +232,10 @@ impl PreviewRenderer {
                 msaa,
             },
         };
-        loaded.renderer.encode(&mut encoder, &drawn, &views);
+        loaded
+            .renderer
+            .encode(&mut encoder, &drawn, &views)
+            .map_err(|e| fail(e.to_string(), false))?;
         let submission = self.ctx.queue.submit([encoder.finish()]);
         self.ctx
             .device

@@ -1,6 +1,10 @@
 //! The batch runner behind "Generate": [`crate::pipeline::run_batch`] (the same
 //! code path as `swarmshot batch`) on a background thread, with shared
 //! progress, a cancel flag and the result handed back through a channel.
+//!
+//! The UI is woken at most [`WAKE_INTERVAL`] apart while frames come in
+//! (and always once at the end): a repaint per frame made the window's
+//! drawing, not the batch, set the pace (issue 23: 5–10× the CLI's time).
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -12,6 +16,36 @@ use crossbeam_channel::Receiver;
 use crate::pipeline::{BatchOptions, BatchReport, FramePipeline, Progress, run_batch};
 use crate::preset::Preset;
 use crate::render::GpuContext;
+
+/// The shortest time between two progress wake-ups of the UI (10 a second).
+pub const WAKE_INTERVAL: Duration = Duration::from_millis(100);
+
+/// Lets a wake-up through when at least `interval` passed since the last one let through.
+#[derive(Debug)]
+pub struct WakeThrottle {
+    interval: Duration,
+    last: Option<Instant>,
+}
+
+impl WakeThrottle {
+    pub fn new(interval: Duration) -> Self {
+        Self {
+            interval,
+            last: None,
+        }
+    }
+
+    /// Whether to wake the UI for progress seen at `now`.
+    pub fn due(&mut self, now: Instant) -> bool {
+        let due = self
+            .last
+            .is_none_or(|last| now.saturating_duration_since(last) >= self.interval);
+        if due {
+            self.last = Some(now);
+        }
+        due
+    }
+}
 
 /// A batch in flight.
 pub struct BatchRun {
@@ -63,6 +97,7 @@ impl BatchRun {
         std::thread::Builder::new()
             .name("swarmshot batch".into())
             .spawn(move || {
+                let mut throttle = WakeThrottle::new(WAKE_INTERVAL);
                 let outcome = FramePipeline::new(preset)
                     .map_err(anyhow::Error::from)
                     .and_then(|pipeline| {
@@ -74,7 +109,9 @@ impl BatchRun {
                             if let Ok(mut slot) = thread_progress.lock() {
                                 *slot = Some((p, p.done.saturating_sub(earlier)));
                             }
-                            wake();
+                            if throttle.due(Instant::now()) {
+                                wake();
+                            }
                         })
                     })
                     .map_err(|e| format!("{e:#}"));
@@ -129,5 +166,23 @@ impl BatchRun {
                 "the batch thread stopped without a result".into(),
             )),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wake_ups_are_at_least_an_interval_apart() {
+        let start = Instant::now();
+        let mut throttle = WakeThrottle::new(Duration::from_millis(100));
+        let at = |ms| start + Duration::from_millis(ms);
+        // Progress every 5 ms for one second: the first, then one per 100 ms.
+        let woken: Vec<u64> = (0..200)
+            .map(|k| k * 5)
+            .filter(|&ms| throttle.due(at(ms)))
+            .collect();
+        assert_eq!(woken, (0..10).map(|k| k * 100).collect::<Vec<_>>());
     }
 }
