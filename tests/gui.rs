@@ -768,6 +768,66 @@ fn a_missing_preset_is_named_and_leaves_nothing_unsaved() {
     );
 }
 
+/// Step until `done` holds, recording the selected frame at each step.
+fn play_until(
+    h: &mut Harness<'_, SwarmshotApp>,
+    what: &str,
+    done: impl Fn(&SwarmshotApp, &[u64]) -> bool,
+) -> Vec<u64> {
+    let start = Instant::now();
+    let mut frames = vec![h.state().session().frame];
+    loop {
+        h.step();
+        let frame = h.state().session().frame;
+        if frames.last() != Some(&frame) {
+            frames.push(frame);
+        }
+        if done(h.state(), &frames) {
+            return frames;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "timed out waiting for {what}: {frames:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn play_advances_frames_and_stops_at_the_end_unless_looping() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "tiny.ron", TINY)));
+    wait_for(&mut h, "the first preview", settled);
+    assert_eq!(h.state().session().frame, 0);
+
+    h.get_by_role_and_label(Role::Button, "Play").click();
+    let played = play_until(&mut h, "the end of the frames", |app, _| !app.is_playing());
+    assert_eq!(played, vec![0, 1, 2, 3, 4, 5], "one frame after another");
+    wait_for(&mut h, "the last frame's picture", |app| {
+        settled(app) && app.preview_key().is_some_and(|k| k.frame == 5)
+    });
+    assert!(!h.state().is_playing(), "stopped at the end");
+    h.get_by_label("frame 6 of 6");
+    h.get_by_role_and_label(Role::Button, "Play");
+
+    // Looping: from the last frame it starts again and goes round.
+    h.get_by_label("Loop").click();
+    h.run_steps(1);
+    h.get_by_role_and_label(Role::Button, "Play").click();
+    let looped = play_until(&mut h, "a second round", |_, frames| {
+        frames.iter().filter(|&&f| f == 0).count() >= 2
+    });
+    assert!(h.state().is_playing(), "looping keeps playing: {looped:?}");
+    assert!(looped.contains(&5), "{looped:?}");
+    h.get_by_role_and_label(Role::Button, "Pause").click();
+    h.run_steps(2);
+    assert!(!h.state().is_playing());
+    let paused_at = h.state().session().frame;
+    h.run_steps(4);
+    assert_eq!(h.state().session().frame, paused_at, "Pause stops");
+}
+
 #[test]
 fn a_problem_link_scrolls_to_its_field() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());

@@ -22,6 +22,7 @@ pub mod files;
 pub mod history;
 mod keys;
 pub mod panels;
+pub mod playback;
 pub mod preview;
 pub mod problems;
 pub mod prompt;
@@ -315,6 +316,8 @@ pub struct SwarmshotApp {
     scroll_to: Option<String>,
     /// The frame slider's id (arrow keys step frames while it or nothing has focus).
     frame_slider: Option<egui::Id>,
+    /// Play / pause / loop through the frames.
+    playback: playback::Playback,
 }
 
 impl SwarmshotApp {
@@ -400,6 +403,7 @@ impl SwarmshotApp {
             allow_close: false,
             scroll_to: None,
             frame_slider: None,
+            playback: playback::Playback::default(),
         }
     }
 
@@ -532,6 +536,46 @@ impl SwarmshotApp {
             });
         }
         ctx.request_repaint();
+    }
+
+    /// Playing: move to the frame that is due (see [`playback`]).
+    fn play_tick(&mut self, ctx: &egui::Context) {
+        if !self.playback.is_playing() {
+            return;
+        }
+        if !self.errors.is_empty() {
+            self.playback.pause();
+            return;
+        }
+        let frames = self.resolved.frame_count();
+        let rate_hz = self.play_rate_hz();
+        let shown = self
+            .preview_key()
+            .is_some_and(|k| k.frame == self.session.frame && k.generation == self.generation);
+        let now = ctx.input(|i| i.time);
+        let (frame, wake_s) = self
+            .playback
+            .tick(now, self.session.frame, frames, rate_hz, shown);
+        if let Some(frame) = frame {
+            self.session.frame = frame;
+            ctx.request_repaint();
+        }
+        if let Some(seconds) = wake_s {
+            ctx.request_repaint_after(Duration::from_secs_f64(seconds));
+        }
+    }
+
+    /// The sequence's frame rate; None (as fast as pictures come) without a sequence.
+    fn play_rate_hz(&self) -> Option<f64> {
+        self.resolved
+            .sequence
+            .as_ref()
+            .map(|s| f64::from(s.frame_rate))
+    }
+
+    /// Playback is running.
+    pub fn is_playing(&self) -> bool {
+        self.playback.is_playing()
     }
 
     /// Ask for a preview when what it depends on changed (and the preset is valid).
@@ -1152,6 +1196,9 @@ impl SwarmshotApp {
     fn preview_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count();
         ui.horizontal(|ui| {
+            if frames > 1 {
+                self.play_controls_ui(ui, frames);
+            }
             ui.label(format!(
                 "frame {} of {}",
                 group_digits(self.session.frame + 1),
@@ -1311,6 +1358,36 @@ impl Session {
     }
 }
 
+impl SwarmshotApp {
+    /// Play / Pause and Loop, left of the frame counter.
+    fn play_controls_ui(&mut self, ui: &mut Ui, frames: u64) {
+        let speed = match self.play_rate_hz() {
+            Some(rate) => format!(
+                "at the sequence's {rate} frames/s; frames are skipped when the preview is slower"
+            ),
+            None => "as fast as the preview renders them".into(),
+        };
+        let enabled = self.errors.is_empty();
+        if self.playback.is_playing() {
+            if ui
+                .button("Pause")
+                .on_hover_text("Stop playing at this frame")
+                .clicked()
+            {
+                self.playback.pause();
+            }
+        } else if ui
+            .add_enabled(enabled, egui::Button::new("Play"))
+            .on_hover_text(format!("Play the frames {speed}"))
+            .clicked()
+        {
+            self.session.frame = self.playback.play(self.session.frame, frames);
+        }
+        ui.checkbox(&mut self.playback.looping, "Loop")
+            .on_hover_text("Start again from the first frame after the last");
+    }
+}
+
 /// "CameraX 0 · … · CameraZ 1.2 · … · 14 drones, 14 boxes", values to their step's precision.
 fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
     let s = &frame.scene.sweep;
@@ -1450,6 +1527,7 @@ impl eframe::App for SwarmshotApp {
         self.close_requested(&ctx);
         let mut commands = self.shortcut_commands(&ctx);
         self.sync(&ctx);
+        self.play_tick(&ctx);
         self.panels_ui(ui, &mut commands);
         if let Some(choice) = self.dialogs.show(&ctx) {
             self.chosen(choice, &ctx);
