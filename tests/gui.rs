@@ -368,6 +368,62 @@ fn a_trial_run_writes_its_frames_and_a_second_generate_has_nothing_to_do() {
 }
 
 #[test]
+fn two_shards_made_in_the_app_merge_into_the_whole_dataset() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "tiny.ron", TINY)));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("Shard").click();
+    h.run_steps(1);
+    let mut made = 0;
+    for k in 1..=2u64 {
+        let out = dir.path().join(format!("shard{k}"));
+        h.state_mut().session_mut().out_dir = out.display().to_string();
+        h.get_by_label("Shard number").set_value_accesskit(k as f64);
+        h.run_steps(2);
+        click_generate_and_wait(&mut h);
+        let r = report(&h);
+        assert_eq!(r.made, 3, "shard {k} of 2 makes half the 6 frames");
+        made += files_under(&out.join("images"), "png").len();
+    }
+    assert_eq!(made, 6);
+
+    let merged = dir.path().join("merged");
+    {
+        let session = h.state_mut().session_mut();
+        session.out_dir = merged.display().to_string();
+        session.merge_shards = format!(
+            "{}\n{}\n",
+            dir.path().join("shard1").display(),
+            dir.path().join("shard2").display()
+        );
+    }
+    h.run_steps(1);
+    h.get_by_label("Merge shards").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Button, "Merge into the output folder")
+        .click();
+    h.run_steps(1);
+    wait_for(&mut h, "the merge", |app| app.merge_outcome().is_some());
+    match h.state().merge_outcome() {
+        Some(Ok(line)) => assert!(
+            line.contains("Merged 2 shards") && line.contains("6 frames"),
+            "{line}"
+        ),
+        other => panic!("merge failed: {other:?}"),
+    }
+    h.get_by_label_contains("Merged 2 shards");
+    assert_eq!(files_under(&merged.join("images"), "png").len(), 6);
+    assert_eq!(
+        std::fs::read_to_string(merged.join("manifest.jsonl"))
+            .unwrap()
+            .lines()
+            .count(),
+        6
+    );
+}
+
+#[test]
 fn generate_after_cancel_says_where_it_resumed_and_rates_only_its_frames() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();

@@ -72,6 +72,12 @@ pub struct Session {
     /// Generate makes only the first `trial_frames` frames (the CLI's `--limit`).
     pub trial: bool,
     pub trial_frames: u64,
+    /// Generate makes shard `shard_index` (from 0) of `shard_count` (`--shard K/N`).
+    pub shard: bool,
+    pub shard_index: u64,
+    pub shard_count: u64,
+    /// The shard folders Merge joins into `out_dir`, one per line.
+    pub merge_shards: String,
     /// Selected frame index (0-based).
     pub frame: u64,
     pub show_boxes: bool,
@@ -93,6 +99,10 @@ impl Default for Session {
             overwrite: false,
             trial: false,
             trial_frames: 10,
+            shard: false,
+            shard_index: 0,
+            shard_count: 2,
+            merge_shards: String::new(),
             frame: 0,
             show_boxes: true,
             inspect: false,
@@ -144,6 +154,8 @@ pub enum Command {
     StepFrame(i64),
     FirstFrame,
     LastFrame,
+    /// Join the shard folders named in the Batch panel into the output folder.
+    Merge,
 }
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
@@ -318,6 +330,9 @@ pub struct SwarmshotApp {
     frame_slider: Option<egui::Id>,
     /// Play / pause / loop through the frames.
     playback: playback::Playback,
+    /// A merge of shard folders in flight: its one-line report or error.
+    merge: Option<crossbeam_channel::Receiver<Result<String, String>>>,
+    merge_outcome: Option<Result<String, String>>,
 }
 
 impl SwarmshotApp {
@@ -404,6 +419,8 @@ impl SwarmshotApp {
             scroll_to: None,
             frame_slider: None,
             playback: playback::Playback::default(),
+            merge: None,
+            merge_outcome: None,
         }
     }
 
@@ -621,6 +638,10 @@ impl SwarmshotApp {
         if let Some(summary) = self.summary_worker.as_ref().and_then(LatestWorker::latest) {
             self.summary = Some(summary);
         }
+        if let Some(outcome) = self.merge.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            self.merge = None;
+            self.merge_outcome = Some(outcome);
+        }
         if let Some(outcome) = self.batch.as_ref().and_then(BatchRun::finished) {
             self.batch = None;
             self.batch_outcome = Some(outcome);
@@ -687,6 +708,7 @@ impl SwarmshotApp {
             Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
             Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
             Command::Generate if !locked => self.generate(ctx),
+            Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
             Command::Cancel => {
                 if let Some(batch) = &self.batch {
                     batch.cancel();
@@ -871,6 +893,49 @@ impl SwarmshotApp {
         }
     }
 
+    /// `swarmshot merge` on a background thread: shard folders into the output folder.
+    fn start_merge(&mut self, ctx: &egui::Context) {
+        let shards = self.merge_shard_dirs();
+        let out = PathBuf::from(self.session.out_dir.trim());
+        let overwrite = self.session.overwrite;
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let wake = ctx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("swarmshot merge".into())
+            .spawn(move || {
+                let result = crate::write::merge::merge(&out, &shards, overwrite)
+                    .map(|r| {
+                        format!(
+                            "Merged {} shards into {}: {} frames ({} train / {} val / {} test), {} boxes",
+                            r.shards,
+                            out.display(),
+                            group_digits(r.frames),
+                            r.stats.frames_per_split[0],
+                            r.stats.frames_per_split[1],
+                            r.stats.frames_per_split[2],
+                            r.stats.boxes
+                        )
+                    })
+                    .map_err(|e| format!("{e:#}"));
+                let _ = tx.send(result);
+                wake.request_repaint();
+            });
+        match spawned {
+            Ok(_) => {
+                self.merge = Some(rx);
+                self.merge_outcome = None;
+            }
+            Err(e) => self
+                .notices
+                .push(format!("cannot start the merge thread: {e}")),
+        }
+    }
+
+    /// A merge has finished; its report line or error.
+    pub fn merge_outcome(&self) -> Option<&Result<String, String>> {
+        self.merge_outcome.as_ref()
+    }
+
     fn generate(&mut self, ctx: &egui::Context) {
         if !self.errors.is_empty() {
             self.notices.push(format!(
@@ -897,7 +962,7 @@ impl SwarmshotApp {
             resume: false,
             encoder_threads: 0,
             makers: 0,
-            shard: None,
+            shard: self.batch_shard(),
         };
         let wake_ctx = ctx.clone();
         match BatchRun::start(preset, options, gpu.clone(), move || {
@@ -1563,7 +1628,13 @@ impl eframe::App for SwarmshotApp {
 }
 
 /// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
-type BatchInputs = (u64, String, bool, Option<u64>);
+type BatchInputs = (
+    u64,
+    String,
+    bool,
+    Option<u64>,
+    Option<crate::write::shard::Shard>,
+);
 
 impl SwarmshotApp {
     fn batch_inputs_now(&self) -> BatchInputs {
@@ -1572,6 +1643,7 @@ impl SwarmshotApp {
             self.session.out_dir.trim().to_owned(),
             self.session.overwrite,
             self.batch_limit(),
+            self.batch_shard(),
         )
     }
 
