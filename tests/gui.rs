@@ -368,6 +368,62 @@ fn a_trial_run_writes_its_frames_and_a_second_generate_has_nothing_to_do() {
 }
 
 #[test]
+fn two_shards_made_in_the_app_merge_into_the_whole_dataset() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "tiny.ron", TINY)));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("Shard").click();
+    h.run_steps(1);
+    let mut made = 0;
+    for k in 1..=2u64 {
+        let out = dir.path().join(format!("shard{k}"));
+        h.state_mut().session_mut().out_dir = out.display().to_string();
+        h.get_by_label("Shard number").set_value_accesskit(k as f64);
+        h.run_steps(2);
+        click_generate_and_wait(&mut h);
+        let r = report(&h);
+        assert_eq!(r.made, 3, "shard {k} of 2 makes half the 6 frames");
+        made += files_under(&out.join("images"), "png").len();
+    }
+    assert_eq!(made, 6);
+
+    let merged = dir.path().join("merged");
+    {
+        let session = h.state_mut().session_mut();
+        session.out_dir = merged.display().to_string();
+        session.merge_shards = format!(
+            "{}\n{}\n",
+            dir.path().join("shard1").display(),
+            dir.path().join("shard2").display()
+        );
+    }
+    h.run_steps(1);
+    h.get_by_label("Merge shards").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Button, "Merge into the output folder")
+        .click();
+    h.run_steps(1);
+    wait_for(&mut h, "the merge", |app| app.merge_outcome().is_some());
+    match h.state().merge_outcome() {
+        Some(Ok(line)) => assert!(
+            line.contains("Merged 2 shards") && line.contains("6 frames"),
+            "{line}"
+        ),
+        other => panic!("merge failed: {other:?}"),
+    }
+    h.get_by_label_contains("Merged 2 shards");
+    assert_eq!(files_under(&merged.join("images"), "png").len(), 6);
+    assert_eq!(
+        std::fs::read_to_string(merged.join("manifest.jsonl"))
+            .unwrap()
+            .lines()
+            .count(),
+        6
+    );
+}
+
+#[test]
 fn generate_after_cancel_says_where_it_resumed_and_rates_only_its_frames() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
@@ -766,6 +822,66 @@ fn a_missing_preset_is_named_and_leaves_nothing_unsaved() {
         "{}",
         h.state().title()
     );
+}
+
+/// Step until `done` holds, recording the selected frame at each step.
+fn play_until(
+    h: &mut Harness<'_, SwarmshotApp>,
+    what: &str,
+    done: impl Fn(&SwarmshotApp, &[u64]) -> bool,
+) -> Vec<u64> {
+    let start = Instant::now();
+    let mut frames = vec![h.state().session().frame];
+    loop {
+        h.step();
+        let frame = h.state().session().frame;
+        if frames.last() != Some(&frame) {
+            frames.push(frame);
+        }
+        if done(h.state(), &frames) {
+            return frames;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "timed out waiting for {what}: {frames:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn play_advances_frames_and_stops_at_the_end_unless_looping() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "tiny.ron", TINY)));
+    wait_for(&mut h, "the first preview", settled);
+    assert_eq!(h.state().session().frame, 0);
+
+    h.get_by_role_and_label(Role::Button, "Play").click();
+    let played = play_until(&mut h, "the end of the frames", |app, _| !app.is_playing());
+    assert_eq!(played, vec![0, 1, 2, 3, 4, 5], "one frame after another");
+    wait_for(&mut h, "the last frame's picture", |app| {
+        settled(app) && app.preview_key().is_some_and(|k| k.frame == 5)
+    });
+    assert!(!h.state().is_playing(), "stopped at the end");
+    h.get_by_label("frame 6 of 6");
+    h.get_by_role_and_label(Role::Button, "Play");
+
+    // Looping: from the last frame it starts again and goes round.
+    h.get_by_label("Loop").click();
+    h.run_steps(1);
+    h.get_by_role_and_label(Role::Button, "Play").click();
+    let looped = play_until(&mut h, "a second round", |_, frames| {
+        frames.iter().filter(|&&f| f == 0).count() >= 2
+    });
+    assert!(h.state().is_playing(), "looping keeps playing: {looped:?}");
+    assert!(looped.contains(&5), "{looped:?}");
+    h.get_by_role_and_label(Role::Button, "Pause").click();
+    h.run_steps(2);
+    assert!(!h.state().is_playing());
+    let paused_at = h.state().session().frame;
+    h.run_steps(4);
+    assert_eq!(h.state().session().frame, paused_at, "Pause stops");
 }
 
 #[test]

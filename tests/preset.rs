@@ -183,6 +183,15 @@ fn invalid_values_name_their_field() {
 
 #[test]
 fn a_count_range_upside_down_says_so_in_words() {
-    let p = Preset::from_ron("(placement: Randomized(count: (1, 0)))").expect("parses");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/presets/quickstart.ron"
+    ))
+    .expect("reads the quickstart");
+    let mut p = Preset::from_ron(&text).expect("parses");
+    let Placement::Randomized { count, .. } = &mut p.placement else {
+        panic!("the quickstart places drones at random");
+    };
+    *count = (1, 0);
     assert_rejected(&p, "placement.count", "minimum 1 is more than maximum 0");
 }

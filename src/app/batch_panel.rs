@@ -16,7 +16,9 @@ impl SwarmshotApp {
         ui.heading("Batch");
         match &self.batch {
             None => {
+                self.split_by_ui(ui);
                 self.trial_ui(ui);
+                self.shard_ui(ui);
                 self.generate_ui(ui, commands);
             }
             Some(batch) => progress_ui(ui, batch, commands),
@@ -27,6 +29,10 @@ impl SwarmshotApp {
                 error_label(ui, &format!("Batch failed: {}", gui_wording(message)));
             }
             Some(BatchOutcome::Done(report)) => outcome_ui(ui, report, commands),
+        }
+        if self.batch.is_none() {
+            ui.separator();
+            self.merge_ui(ui, commands);
         }
     }
 
@@ -67,6 +73,130 @@ impl SwarmshotApp {
                 "frames"
             });
         });
+    }
+
+    /// What each split keeps whole (`output.split.by`, a preset field).
+    fn split_by_ui(&mut self, ui: &mut Ui) {
+        use crate::preset::SplitBy;
+        let by = &mut self.session.preset.output.split.by;
+        let name = |b: SplitBy| match b {
+            SplitBy::Frame => "each frame",
+            SplitBy::CameraPose => "camera pose",
+            SplitBy::Environment => "environment",
+            SplitBy::SweepPoint => "sweep point",
+        };
+        ui.horizontal(|ui| {
+            let tip = "What a split keeps whole: no val or test frame shares its group with a train frame (output.split.by)";
+            ui.label("Split by").on_hover_text(tip);
+            egui::ComboBox::from_id_salt("split by")
+                .selected_text(name(*by))
+                .show_ui(ui, |ui| {
+                    for b in [
+                        SplitBy::Frame,
+                        SplitBy::CameraPose,
+                        SplitBy::Environment,
+                        SplitBy::SweepPoint,
+                    ] {
+                        ui.selectable_value(by, b, name(b));
+                    }
+                })
+                .response
+                .on_hover_text(tip);
+        });
+    }
+
+    /// "Shard K of N", the CLI's `--shard K/N` (K shown from 1).
+    fn shard_ui(&mut self, ui: &mut Ui) {
+        let s = &mut self.session;
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut s.shard, "Shard").on_hover_text(
+                "Make one part of the frames, as `swarmshot batch --shard K/N` does on a cluster; \
+                     join the finished shard folders with Merge below",
+            );
+            s.shard_count = s.shard_count.max(1);
+            let mut k = s.shard_index.min(s.shard_count - 1) + 1;
+            ui.add_enabled(
+                s.shard,
+                egui::DragValue::new(&mut k).range(1..=s.shard_count),
+            )
+            .accessible_name("Shard number")
+            .on_hover_text("Which shard this Generate makes (from 1)");
+            ui.label("of");
+            ui.add_enabled(
+                s.shard,
+                egui::DragValue::new(&mut s.shard_count).range(1..=10_000),
+            )
+            .accessible_name("Shard count")
+            .on_hover_text("How many shards the frames are cut into");
+            s.shard_index = (k - 1).min(s.shard_count - 1);
+        });
+    }
+
+    /// The shard Generate makes, if any (`--shard K/N`, K from 0).
+    pub(super) fn batch_shard(&self) -> Option<crate::write::shard::Shard> {
+        let s = &self.session;
+        s.shard.then(|| crate::write::shard::Shard {
+            index: s.shard_index.min(s.shard_count.max(1) - 1),
+            count: s.shard_count.max(1),
+        })
+    }
+
+    /// Merge: finished shard folders joined into the output folder (`swarmshot merge`).
+    pub(super) fn merge_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        egui::CollapsingHeader::new("Merge shards")
+            .default_open(false)
+            .show(ui, |ui| {
+                ui.label("Shard folders, one per line:");
+                ui.add(
+                    egui::TextEdit::multiline(&mut self.session.merge_shards)
+                        .desired_rows(3)
+                        .desired_width(f32::INFINITY),
+                )
+                .on_hover_text("The output folders of finished shards (relative paths are relative to the folder swarmshot was started in)");
+                let shards = self.merge_shard_dirs();
+                let blocked = if self.merge.is_some() {
+                    Some("merging…".to_string())
+                } else if shards.is_empty() {
+                    Some("Name the shard folders first".to_string())
+                } else if self.session.out_dir.trim().is_empty() {
+                    Some("Choose an output folder in the Output panel".to_string())
+                } else {
+                    None
+                };
+                let response = ui
+                    .add_enabled(blocked.is_none(), egui::Button::new("Merge into the output folder"))
+                    .on_hover_text(format!(
+                        "Join the shards into {} with the same code as `swarmshot merge` (files hard-linked where possible)",
+                        self.session.out_dir.trim()
+                    ));
+                match &blocked {
+                    Some(reason) => {
+                        ui.weak(reason.as_str());
+                    }
+                    None if response.clicked() => commands.push(Command::Merge),
+                    None => {}
+                }
+                match &self.merge_outcome {
+                    Some(Ok(line)) => {
+                        ui.label(line.as_str());
+                    }
+                    Some(Err(e)) => {
+                        error_label(ui, &format!("Merge failed: {}", gui_wording(e)));
+                    }
+                    None => {}
+                }
+            });
+    }
+
+    /// The shard folders named in the merge field.
+    pub(super) fn merge_shard_dirs(&self) -> Vec<std::path::PathBuf> {
+        self.session
+            .merge_shards
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+            .map(std::path::PathBuf::from)
+            .collect()
     }
 
     /// The frames Generate asks for: the trial's first N, or all.

@@ -22,6 +22,7 @@ pub mod files;
 pub mod history;
 mod keys;
 pub mod panels;
+pub mod playback;
 pub mod preview;
 pub mod problems;
 pub mod prompt;
@@ -71,6 +72,12 @@ pub struct Session {
     /// Generate makes only the first `trial_frames` frames (the CLI's `--limit`).
     pub trial: bool,
     pub trial_frames: u64,
+    /// Generate makes shard `shard_index` (from 0) of `shard_count` (`--shard K/N`).
+    pub shard: bool,
+    pub shard_index: u64,
+    pub shard_count: u64,
+    /// The shard folders Merge joins into `out_dir`, one per line.
+    pub merge_shards: String,
     /// Selected frame index (0-based).
     pub frame: u64,
     pub show_boxes: bool,
@@ -92,6 +99,10 @@ impl Default for Session {
             overwrite: false,
             trial: false,
             trial_frames: 10,
+            shard: false,
+            shard_index: 0,
+            shard_count: 2,
+            merge_shards: String::new(),
             frame: 0,
             show_boxes: true,
             inspect: false,
@@ -143,6 +154,8 @@ pub enum Command {
     StepFrame(i64),
     FirstFrame,
     LastFrame,
+    /// Join the shard folders named in the Batch panel into the output folder.
+    Merge,
 }
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
@@ -315,6 +328,11 @@ pub struct SwarmshotApp {
     scroll_to: Option<String>,
     /// The frame slider's id (arrow keys step frames while it or nothing has focus).
     frame_slider: Option<egui::Id>,
+    /// Play / pause / loop through the frames.
+    playback: playback::Playback,
+    /// A merge of shard folders in flight: its one-line report or error.
+    merge: Option<crossbeam_channel::Receiver<Result<String, String>>>,
+    merge_outcome: Option<Result<String, String>>,
 }
 
 impl SwarmshotApp {
@@ -400,6 +418,9 @@ impl SwarmshotApp {
             allow_close: false,
             scroll_to: None,
             frame_slider: None,
+            playback: playback::Playback::default(),
+            merge: None,
+            merge_outcome: None,
         }
     }
 
@@ -534,6 +555,46 @@ impl SwarmshotApp {
         ctx.request_repaint();
     }
 
+    /// Playing: move to the frame that is due (see [`playback`]).
+    fn play_tick(&mut self, ctx: &egui::Context) {
+        if !self.playback.is_playing() {
+            return;
+        }
+        if !self.errors.is_empty() {
+            self.playback.pause();
+            return;
+        }
+        let frames = self.resolved.frame_count();
+        let rate_hz = self.play_rate_hz();
+        let shown = self
+            .preview_key()
+            .is_some_and(|k| k.frame == self.session.frame && k.generation == self.generation);
+        let now = ctx.input(|i| i.time);
+        let (frame, wake_s) = self
+            .playback
+            .tick(now, self.session.frame, frames, rate_hz, shown);
+        if let Some(frame) = frame {
+            self.session.frame = frame;
+            ctx.request_repaint();
+        }
+        if let Some(seconds) = wake_s {
+            ctx.request_repaint_after(Duration::from_secs_f64(seconds));
+        }
+    }
+
+    /// The sequence's frame rate; None (as fast as pictures come) without a sequence.
+    fn play_rate_hz(&self) -> Option<f64> {
+        self.resolved
+            .sequence
+            .as_ref()
+            .map(|s| f64::from(s.frame_rate))
+    }
+
+    /// Playback is running.
+    pub fn is_playing(&self) -> bool {
+        self.playback.is_playing()
+    }
+
     /// Ask for a preview when what it depends on changed (and the preset is valid).
     fn request_preview(&mut self) {
         let Some(worker) = &self.preview_worker else {
@@ -576,6 +637,10 @@ impl SwarmshotApp {
         }
         if let Some(summary) = self.summary_worker.as_ref().and_then(LatestWorker::latest) {
             self.summary = Some(summary);
+        }
+        if let Some(outcome) = self.merge.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            self.merge = None;
+            self.merge_outcome = Some(outcome);
         }
         if let Some(outcome) = self.batch.as_ref().and_then(BatchRun::finished) {
             self.batch = None;
@@ -643,6 +708,7 @@ impl SwarmshotApp {
             Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
             Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
             Command::Generate if !locked => self.generate(ctx),
+            Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
             Command::Cancel => {
                 if let Some(batch) = &self.batch {
                     batch.cancel();
@@ -827,6 +893,49 @@ impl SwarmshotApp {
         }
     }
 
+    /// `swarmshot merge` on a background thread: shard folders into the output folder.
+    fn start_merge(&mut self, ctx: &egui::Context) {
+        let shards = self.merge_shard_dirs();
+        let out = PathBuf::from(self.session.out_dir.trim());
+        let overwrite = self.session.overwrite;
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let wake = ctx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("swarmshot merge".into())
+            .spawn(move || {
+                let result = crate::write::merge::merge(&out, &shards, overwrite)
+                    .map(|r| {
+                        format!(
+                            "Merged {} shards into {}: {} frames ({} train / {} val / {} test), {} boxes",
+                            r.shards,
+                            out.display(),
+                            group_digits(r.frames),
+                            r.stats.frames_per_split[0],
+                            r.stats.frames_per_split[1],
+                            r.stats.frames_per_split[2],
+                            r.stats.boxes
+                        )
+                    })
+                    .map_err(|e| format!("{e:#}"));
+                let _ = tx.send(result);
+                wake.request_repaint();
+            });
+        match spawned {
+            Ok(_) => {
+                self.merge = Some(rx);
+                self.merge_outcome = None;
+            }
+            Err(e) => self
+                .notices
+                .push(format!("cannot start the merge thread: {e}")),
+        }
+    }
+
+    /// A merge has finished; its report line or error.
+    pub fn merge_outcome(&self) -> Option<&Result<String, String>> {
+        self.merge_outcome.as_ref()
+    }
+
     fn generate(&mut self, ctx: &egui::Context) {
         if !self.errors.is_empty() {
             self.notices.push(format!(
@@ -853,7 +962,7 @@ impl SwarmshotApp {
             resume: false,
             encoder_threads: 0,
             makers: 0,
-            shard: None,
+            shard: self.batch_shard(),
         };
         let wake_ctx = ctx.clone();
         match BatchRun::start(preset, options, gpu.clone(), move || {
@@ -1152,6 +1261,9 @@ impl SwarmshotApp {
     fn preview_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count();
         ui.horizontal(|ui| {
+            if frames > 1 {
+                self.play_controls_ui(ui, frames);
+            }
             ui.label(format!(
                 "frame {} of {}",
                 group_digits(self.session.frame + 1),
@@ -1311,6 +1423,36 @@ impl Session {
     }
 }
 
+impl SwarmshotApp {
+    /// Play / Pause and Loop, left of the frame counter.
+    fn play_controls_ui(&mut self, ui: &mut Ui, frames: u64) {
+        let speed = match self.play_rate_hz() {
+            Some(rate) => format!(
+                "at the sequence's {rate} frames/s; frames are skipped when the preview is slower"
+            ),
+            None => "as fast as the preview renders them".into(),
+        };
+        let enabled = self.errors.is_empty();
+        if self.playback.is_playing() {
+            if ui
+                .button("Pause")
+                .on_hover_text("Stop playing at this frame")
+                .clicked()
+            {
+                self.playback.pause();
+            }
+        } else if ui
+            .add_enabled(enabled, egui::Button::new("Play"))
+            .on_hover_text(format!("Play the frames {speed}"))
+            .clicked()
+        {
+            self.session.frame = self.playback.play(self.session.frame, frames);
+        }
+        ui.checkbox(&mut self.playback.looping, "Loop")
+            .on_hover_text("Start again from the first frame after the last");
+    }
+}
+
 /// "CameraX 0 · … · CameraZ 1.2 · … · 14 drones, 14 boxes", values to their step's precision.
 fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
     let s = &frame.scene.sweep;
@@ -1450,6 +1592,7 @@ impl eframe::App for SwarmshotApp {
         self.close_requested(&ctx);
         let mut commands = self.shortcut_commands(&ctx);
         self.sync(&ctx);
+        self.play_tick(&ctx);
         self.panels_ui(ui, &mut commands);
         if let Some(choice) = self.dialogs.show(&ctx) {
             self.chosen(choice, &ctx);
@@ -1485,7 +1628,13 @@ impl eframe::App for SwarmshotApp {
 }
 
 /// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
-type BatchInputs = (u64, String, bool, Option<u64>);
+type BatchInputs = (
+    u64,
+    String,
+    bool,
+    Option<u64>,
+    Option<crate::write::shard::Shard>,
+);
 
 impl SwarmshotApp {
     fn batch_inputs_now(&self) -> BatchInputs {
@@ -1494,6 +1643,7 @@ impl SwarmshotApp {
             self.session.out_dir.trim().to_owned(),
             self.session.overwrite,
             self.batch_limit(),
+            self.batch_shard(),
         )
     }
 

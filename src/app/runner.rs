@@ -136,16 +136,18 @@ impl BatchRun {
     pub fn status(&self) -> BatchStatus {
         let p = self.progress.lock().ok().and_then(|p| *p);
         let done = p.map_or(0, |(p, _)| p.done);
+        // The batch's own count once it reports (a shard's frames, with a shard).
+        let total = p.map_or(self.total, |(p, _)| p.total);
         // Over the frames this run made, not those an earlier run left.
         let images_per_s = p.map_or(0.0, |(p, made)| {
             made as f64 / p.elapsed.as_secs_f64().max(1e-9)
         });
-        let remaining = self.total.saturating_sub(done);
+        let remaining = total.saturating_sub(done);
         let eta =
             (images_per_s > 0.0).then(|| Duration::from_secs_f64(remaining as f64 / images_per_s));
         BatchStatus {
             done,
-            total: self.total,
+            total,
             images_per_s,
             eta,
             cancelling: self.cancel.load(Ordering::Relaxed),
