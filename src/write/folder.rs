@@ -12,6 +12,7 @@
 //! *preset.lock.ron            a dataset file or folder (`/` at the end) this run made
 //! +images/train/00000000.png  a file of the frame in flight
 //! ={"next":1,...}             checkpoint: frames below `next` are complete
+//! %1817 blake3:… preset.lock.ron  a shard's content record (written just before !done)
 //! !done                       COCO, data.yaml and stats.json are written
 //! ```
 //!
@@ -23,11 +24,22 @@
 //! cuts those files back to the last complete frame and carries on from there
 //! exactly as an uninterrupted run would have.
 //!
+//! # One writer
+//!
+//! [`FolderLock`]: an exclusive `flock` on `.swarmshot-lock`, taken before
+//! anything else in the folder is read or written; a second run is refused
+//! naming the process that holds it.
+//!
 //! # What is checked
 //!
 //! Before any create, rename or delete, the entry is looked at without
-//! following links (`symlink_metadata`): a symbolic link, or an entry that is
-//! not in the ledger, is refused with its path. New files are made under a
+//! following links: a symbolic link, or an entry that is not in the ledger,
+//! is refused with its path. Reads, deletions and the ledger scan go through
+//! [`super::tree::Tree`] (every component opened with `O_NOFOLLOW` relative
+//! to its folder's handle), so a link at a folder above a listed entry is
+//! refused too; a file opened to append or cut back must have one name (no
+//! hard link). `--overwrite` and `--resume` check everything they will touch
+//! before they delete, cut back or write anything. New files are made under a
 //! temporary name with `create_new` (which never follows a link), flushed and
 //! renamed over the final name (a rename replaces a link, never follows it).
 //! Files opened again (to append or read) are checked to be the very file
@@ -1136,7 +1148,9 @@ pub fn content_record(file: &mut File) -> std::io::Result<(u64, String)> {
 /// What a finished shard's ledger records of one file.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ContentRecord {
+    /// Size in bytes.
     pub len: u64,
+    /// BLAKE3 hash of the contents, hex.
     pub blake3: String,
 }
 

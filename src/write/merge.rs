@@ -298,6 +298,7 @@ fn resolved(path: &Path) -> PathBuf {
 /// A shard whose files all match their content records: each file merge
 /// takes, with the (device, inode) it had when it was checked.
 pub struct CheckedShard {
+    /// Path relative to the shard → (device, inode) when it was checked.
     pub files: BTreeMap<String, (u64, u64)>,
 }
 

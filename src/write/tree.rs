@@ -18,9 +18,13 @@ use super::{OutputError, io};
 /// What an entry is, seen without following it.
 #[derive(Clone, Copy, Debug)]
 pub struct Entry {
+    /// File, folder, link, …
     pub kind: FileType,
+    /// Size in bytes.
     pub len: u64,
+    /// Number of names (hard links) of the file.
     pub links: u64,
+    /// Device and inode: the file's identity.
     pub dev: u64,
     pub ino: u64,
 }
@@ -39,14 +43,17 @@ impl Entry {
         }
     }
 
+    /// A regular file.
     pub fn is_file(&self) -> bool {
         self.kind == FileType::RegularFile
     }
 
+    /// A folder.
     pub fn is_dir(&self) -> bool {
         self.kind == FileType::Directory
     }
 
+    /// A symbolic link (never followed).
     pub fn is_symlink(&self) -> bool {
         self.kind == FileType::Symlink
     }
