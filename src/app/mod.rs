@@ -903,7 +903,7 @@ impl SwarmshotApp {
         let spawned = std::thread::Builder::new()
             .name("swarmshot merge".into())
             .spawn(move || {
-                let result = crate::write::merge::merge(&out, &shards, overwrite)
+                let result = crate::write::merge::merge(&out, &shards, overwrite, false)
                     .map(|r| {
                         format!(
                             "Merged {} shards into {}: {} frames ({} train / {} val / {} test), {} boxes",
