@@ -385,3 +385,15 @@ fn the_shipped_sequence_preset_fills_every_split() {
     }
     assert_eq!(by_frame, counts);
 }
+
+#[test]
+fn a_fraction_after_non_ascii_text_is_named_without_a_panic() {
+    let e = Preset::from_ron("(name: \"é\", placement: Randomized(count: (é1.5, 3)))")
+        .expect_err("not a preset");
+    assert!(!e.is_empty());
+    let e = Preset::from_ron("(placement: Randomized(count: (2, 7.25)))").expect_err("fraction");
+    assert!(
+        e.contains("an integer (a whole number) was expected"),
+        "{e}"
+    );
+}
