@@ -385,3 +385,51 @@ fn the_shipped_sequence_preset_fills_every_split() {
     }
     assert_eq!(by_frame, counts);
 }
+
+#[test]
+fn a_fraction_after_non_ascii_text_is_named_without_a_panic() {
+    let e = Preset::from_ron("(name: \"é\", placement: Randomized(count: (é1.5, 3)))")
+        .expect_err("not a preset");
+    assert!(!e.is_empty());
+    let e = Preset::from_ron("(placement: Randomized(count: (2, 7.25)))").expect_err("fraction");
+    assert!(
+        e.contains("an integer (a whole number) was expected"),
+        "{e}"
+    );
+}
+
+#[test]
+fn split_counts_match_the_frames_own_splits() {
+    let mut p = common::tiny_preset();
+    p.repeats = 3; // 4 sweep points × 3 = 12 frames
+    for frames in [1u64, 7, 12] {
+        let counts =
+            swarmshot::scene::split::frame_split_counts(&p, frames, u64::MAX).expect("by frame");
+        let mut by_frame = [0u64; 3];
+        for i in 0..frames {
+            by_frame[swarmshot::scene::build_frame(&p, i).expect("frame").split as usize] += 1;
+        }
+        assert_eq!(counts, by_frame, "{frames} frames");
+    }
+    // Whole blocks of 100 draws hold the shares exactly.
+    let mut p = common::tiny_preset();
+    p.repeats = 80; // 320 frames
+    let counts = swarmshot::scene::split::frame_split_counts(&p, 320, u64::MAX).expect("by frame");
+    let mut by_draw = [0u64; 3];
+    let s = &p.output.split;
+    for i in 0..320 {
+        let u = swarmshot::seed::split_uniform(p.seed, i);
+        by_draw[if u < s.train {
+            0
+        } else if u < s.train + s.val {
+            1
+        } else {
+            2
+        }] += 1;
+    }
+    assert_eq!(counts, by_draw);
+    assert_eq!(
+        swarmshot::scene::split::frame_split_counts(&p, 300, u64::MAX),
+        Some([210, 30, 60])
+    );
+}

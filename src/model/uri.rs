@@ -43,6 +43,12 @@ pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<
     let Some(base) = base_dir else {
         return Err("a model read from memory cannot name external files".into());
     };
+    // `model.gltf` in the working folder has an empty parent.
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
     let outside = |what: &str| -> Result<Target, String> { Err(format!("{what}; {HOW_TO_ALLOW}")) };
     if let Some(rest) = uri
         .strip_prefix("file://")

@@ -80,7 +80,7 @@ impl Assets {
         let models = preset
             .models
             .iter()
-            .map(|spec| load_model_spec(spec))
+            .map(load_model_spec)
             .collect::<Result<Vec<_>, _>>()?;
         let geometry = models.iter().map(LabelGeometry::from).collect();
         let lods = if preset.render.lod_error_px > 0.0 {
@@ -371,6 +371,10 @@ impl FramePipeline {
 
     /// Make frame `index`: scene, exact labels and pixels.
     pub fn make(&self, renderer: &mut Renderer, index: u64) -> Result<Frame, PipelineError> {
+        // A rendered frame's work budget (the app's preview included).
+        self.preset
+            .check_render_budget()
+            .map_err(|e| PipelineError::Invalid(vec![e]))?;
         let scene = self.scene(index)?;
         self.make_scene(renderer, scene)
     }

@@ -66,8 +66,10 @@ fn fraction_at(text: &str, line: usize, col: usize) -> Option<String> {
     }
     let before = &text[..at];
     let start = before
-        .rfind(|c: char| !(c.is_ascii_digit() || c == '-' || c == '+'))
-        .map_or(0, |i| i + 1);
+        .char_indices()
+        .rev()
+        .find(|&(_, c)| !(c.is_ascii_digit() || c == '-' || c == '+'))
+        .map_or(0, |(i, c)| i + c.len_utf8());
     if start == at || !before[start..].chars().any(|c| c.is_ascii_digit()) {
         return None;
     }

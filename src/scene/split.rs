@@ -116,9 +116,11 @@ pub fn group_counts(preset: &Preset, groups: u64) -> [u64; 3] {
 }
 
 /// Frames per split (train, val, test) of the first `frames` frames when
-/// each frame (sequence) draws its own split (`SplitBy::Frame`), counted
-/// draw by draw; `None` for the grouped modes (see [`group_counts`]) or when
-/// there are more than `max_draws` draws to count.
+/// each frame (sequence) draws its own split (`SplitBy::Frame`); `None` for
+/// the grouped modes (see [`group_counts`]) or when there are more than
+/// `max_draws` draws. Exact and cheap: every full block of
+/// [`seed::SPLIT_BLOCK`] draws holds each rank once, so only the last,
+/// partial block is drawn one by one.
 pub fn frame_split_counts(preset: &Preset, frames: u64, max_draws: u64) -> Option<[u64; 3]> {
     if preset.output.split.by != SplitBy::Frame {
         return None;
@@ -133,17 +135,30 @@ pub fn frame_split_counts(preset: &Preset, frames: u64, max_draws: u64) -> Optio
         return None;
     }
     let s = &preset.output.split;
-    let mut counts = [0u64; 3];
-    for draw in 0..draws {
-        let u = seed::split_uniform(preset.seed, draw);
-        let slot = if u < s.train {
+    let slot = |u: f64| {
+        if u < s.train {
             0
         } else if u < s.train + s.val {
             1
         } else {
             2
-        };
-        counts[slot] += len.min(frames - draw * len);
+        }
+    };
+    let block = seed::SPLIT_BLOCK;
+    let mut per_block = [0u64; 3];
+    for rank in 0..block {
+        per_block[slot((rank as f64 + 0.5) / block as f64)] += 1;
+    }
+    let full = draws / block;
+    let mut counts = per_block.map(|n| n * full * len);
+    for draw in full * block..draws {
+        counts[slot(seed::split_uniform(preset.seed, draw))] += len;
+    }
+    // The last sequence may be cut short by `frames`.
+    if let Some(last) = draws.checked_sub(1) {
+        let short = draws * len - frames;
+        let i = slot(seed::split_uniform(preset.seed, last));
+        counts[i] -= short;
     }
     Some(counts)
 }
