@@ -62,6 +62,20 @@ fn noise_sigma_on_a_smooth_sky_is_recovered_within_10_percent() {
         assert!((rms / sigma - 1.0).abs() < 0.10, "σ {sigma}: RMS {rms}");
         assert!(s.flat_tiles > 1000, "every tile is flat: {}", s.flat_tiles);
     }
+    // Under one level the 8-bit plane hides most of the noise; the estimate still orders
+    // quieter skies lower, and a constant sky reads 0.
+    let low: Vec<f32> = [0.15f64, 0.3, 0.45]
+        .iter()
+        .map(|&sigma| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+            let n: Vec<f64> = (0..320 * 240).map(|_| sigma * normal(&mut rng)).collect();
+            let img = grey(320, 240, |x, y| 100.2 + n[(y * 320 + x) as usize]);
+            measure_frame(&img, &[], None).noise_sigma.expect("flat")
+        })
+        .collect();
+    assert!(low[0] < low[1] && low[1] < low[2], "{low:?}");
+    let constant = measure_frame(&grey(320, 240, |_, _| 100.0), &[], None);
+    assert_eq!(constant.noise_sigma, Some(0.0));
     // Clean: the same gradient without noise measures (nearly) nothing.
     let clean = measure_frame(
         &grey(640, 480, |x, y| {

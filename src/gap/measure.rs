@@ -117,6 +117,49 @@ pub fn robust_sigma(values: &[f32]) -> Option<f32> {
     Some(1.4826 * grouped_median(&mut dev, 0.0)?)
 }
 
+/// Φ(x), the standard normal CDF, through erf (Abramowitz–Stegun 7.1.26, |error| < 1.5e-7).
+fn normal_cdf(x: f64) -> f64 {
+    let z = x.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * z);
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erf = 1.0 - poly * (-z * z).exp();
+    0.5 * (1.0 + if x >= 0.0 { erf } else { -erf })
+}
+
+/// σ of the flat-tile high-pass values (on the 0.5-level grid of the 8-bit Y plane): the
+/// grouped 1.4826·MAD, except when more than half the values are exactly 0 (noise well
+/// under one level): then the MAD lies inside the zero bin and the σ of a Gaussian that
+/// puts that share p₀ within ±0.25 is used, 0.25 / Φ⁻¹((1 + p₀)/2) (the two agree at
+/// p₀ = ½), so a quieter sky always reads lower, down to 0 for a constant one.
+pub fn quantised_sigma(hp: &[f32]) -> Option<f32> {
+    if hp.is_empty() {
+        return None;
+    }
+    let zeros = hp.iter().filter(|&&v| v == 0.0).count();
+    let p0 = zeros as f64 / hp.len() as f64;
+    if p0 <= 0.5 {
+        return robust_sigma(hp);
+    }
+    if zeros == hp.len() {
+        return Some(0.0);
+    }
+    // Φ⁻¹((1 + p₀)/2) by bisection on [0, 10].
+    let target = 0.5 * (1.0 + p0);
+    let (mut lo, mut hi) = (0.0f64, 10.0f64);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if normal_cdf(mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some((0.25 / (0.5 * (lo + hi))) as f32)
+}
+
 /// The flat-sky measurement of a frame.
 #[derive(Clone, Debug, Default)]
 pub struct FlatSky {
@@ -233,7 +276,7 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
         ]);
     }
     if tiles >= MIN_FLAT_TILES {
-        out.noise_sigma = robust_sigma(&all);
+        out.noise_sigma = quantised_sigma(&all);
         let ss: f64 = all.iter().map(|&v| f64::from(v) * f64::from(v)).sum();
         out.highpass_rms = Some((ss / all.len() as f64).sqrt() as f32);
     }

@@ -16,8 +16,9 @@
 //!   2×2 neighbourhood of the 8-bit luminance plane (Y rounded to whole levels, as a codec
 //!   stores it) removes any smooth gradient and has unit gain on white noise; the noise σ
 //!   is 1.4826 × its median absolute deviation, the medians interpolated within their
-//!   0.5-level bins (so a sky whose high-pass is mostly 0 still gets a σ below 0.3 from the
-//!   share of zeros, rather than 0). At least 4 flat tiles, else no value for that frame.
+//!   0.5-level bins; when more than half the values are 0 (noise well under a level), the
+//!   σ of a Gaussian with that share within ±0.25 ([`measure::quantised_sigma`]). At least 4
+//!   flat tiles, else no value for that frame.
 //! - **flat-sky high-pass RMS**: the RMS of the same values (noise plus fine texture).
 //! - **gradient energy**: the mean Sobel magnitude (imageproc, divided by 8: levels per
 //!   pixel) with the frame scaled to 540 px high.
