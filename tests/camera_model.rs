@@ -200,13 +200,24 @@ fn extreme_draws() -> Vec<(&'static str, CameraDraw)> {
 
 #[test]
 fn extremes_give_images_and_windows_that_match_the_whole_frame() {
-    let (w, h) = (67u32, 41u32);
+    let (w, h) = (67u32, 301u32);
     let rgba: Vec<u8> = (0..w * h * 4)
         .map(|i| ((i * 31 + i / 7) % 256) as u8)
         .collect();
     for (name, draw) in extreme_draws() {
         let out = sensor::apply(&rgba, w, h, &draw);
         assert_eq!(out.len(), rgba.len(), "{name}");
+        let whole = PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+        };
+        // `apply` works in bands of rows: the same bytes as the frame in one piece.
+        assert!(
+            out == sensor::develop(&rgba, w, h, &draw, whole, true),
+            "{name}"
+        );
         let clean = |r: PixelRect| sensor::develop(&rgba, w, h, &draw, r, false);
         let full = clean(PixelRect {
             x0: 0,

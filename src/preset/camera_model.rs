@@ -115,9 +115,11 @@ impl CameraModel {
         range(v, "read_noise_levels", self.read_noise_levels, 0.0, 255.0);
         if let Some(s) = self.sensor_scale {
             range(v, "sensor_scale", s, 0.0, 1.0);
-            v.check(s.0.is_nan() || s.0 > 0.0, &format!("{p}.sensor_scale"), || {
-                format!("{} must be > 0 (the sensor's side over the output's)", s.0)
-            });
+            v.check(
+                s.0.is_nan() || s.0 > 0.0,
+                &format!("{p}.sensor_scale"),
+                || format!("{} must be > 0 (the sensor's side over the output's)", s.0),
+            );
         }
         for (name, q) in [
             ("jpeg_quality", self.jpeg_quality),

@@ -106,16 +106,30 @@ fn encode(table: &[u8], l: f32) -> u8 {
     table[((l * (ENCODE_STEPS - 1) as f32 + 0.5) as usize).min(ENCODE_STEPS - 1)]
 }
 
+/// Output rows per band of [`apply`] (at least four reaches).
+const BAND_ROWS: u32 = 64;
+
 /// The whole frame through the camera, noise included: RGBA8 of the same
-/// size, alpha kept.
+/// size, alpha kept. Made in bands of rows, each [`develop`]ed from its
+/// own window (so a band's planes stay in cache), the bands in parallel:
+/// by the window property every band holds exactly the whole frame's
+/// bytes, and the noise is keyed on absolute pixel indices.
 pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
-    let full = PixelRect {
+    let band = BAND_ROWS.max(4 * draw.reach_px(width, height));
+    let rect = |y0: u32| PixelRect {
         x0: 0,
-        y0: 0,
+        y0,
         x1: width,
-        y1: height,
+        y1: y0.saturating_add(band).min(height),
     };
-    develop(rgba, width, height, draw, full, true)
+    if height <= band {
+        return develop(rgba, width, height, draw, rect(0), true);
+    }
+    let bands: Vec<Vec<u8>> = (0..height.div_ceil(band))
+        .into_par_iter()
+        .map(|b| develop(rgba, width, height, draw, rect(b * band), true))
+        .collect();
+    bands.concat()
 }
 
 /// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
