@@ -367,3 +367,46 @@ fn drones_beyond_the_visibility_lose_their_label() {
     }
     assert!(labels.iter().any(|l| l.is_kept() && l.distance_m > v));
 }
+
+#[test]
+fn the_procedural_ground_fogs_with_the_same_visibility() {
+    // A procedural environment seen looking 40° down at its ground (60 m
+    // below the camera, 80–170 m away in the lower half of the frame).
+    let mut f = fixture();
+    let mut s = f.base.clone();
+    s.drones.clear();
+    s.looks.clear();
+    s.camera.fov_y_deg = 60.0;
+    let down = DVec3::new(0.0, -40f64.to_radians().sin(), 40f64.to_radians().cos());
+    s.camera.camera_from_world = look_at_cv(DVec3::ZERO, down).expect("look-at");
+    s.camera.position = DVec3::ZERO;
+    s.sky = FrameSky::Procedural {
+        environment: swarmshot::preset::EnvironmentName::BeautifulPasture,
+        exposure: 1.0,
+    };
+    // The ground's green: G over the mean of R and B, averaged over the lower
+    // half (the haze colour is a grey-blue, the pasture green).
+    let green = |f: &mut FrameFixture, v: f64| {
+        let mut scene = s.clone();
+        scene.atmosphere = Some(FrameAtmosphere { visibility_m: v });
+        let rgba = render(f, &scene);
+        let lower = &rgba[160 * 70 * 4..];
+        let n = (lower.len() / 4) as f64;
+        let mean = |c: usize| lower.chunks_exact(4).map(|p| f64::from(p[c])).sum::<f64>() / n;
+        mean(1) - 0.5 * (mean(0) + mean(2))
+    };
+    let clear = green(&mut f, 1e6);
+    let hazy = green(&mut f, 300.0);
+    let thick = green(&mut f, 20.0);
+    eprintln!(
+        "ground green excess (levels): V = 1e6 m {clear:.1}, 300 m {hazy:.1}, 20 m {thick:.1}"
+    );
+    // Clear air shows the pasture; the fog grows with 3.912·d/V until the
+    // ground is the haze colour (no green left).
+    assert!(clear > 20.0, "{clear}");
+    assert!(
+        hazy < clear - 5.0 && hazy > thick + 5.0,
+        "{clear} {hazy} {thick}"
+    );
+    assert!(thick < 3.0, "{thick}");
+}
