@@ -36,7 +36,7 @@ struct Env {
 @group(1) @binding(1) var env_equirect: texture_2d<f32>;
 @group(1) @binding(2) var env_cube: texture_cube<f32>;
 @group(1) @binding(3) var env_sampler: sampler;
-// The procedural environment at full size, sRGB-encoded (fs_environment, enlarged on the CPU); its sampler is unused.
+// The procedural environment rendered at reduced resolution (fs_environment), and its clamping sampler.
 @group(1) @binding(4) var env_half: texture_2d<f32>;
 @group(1) @binding(5) var env_half_sampler: sampler;
 

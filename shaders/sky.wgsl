@@ -43,27 +43,25 @@ fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
     let ray_cam = vec3<f32>((in.position.x - k.z) / k.x, (in.position.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
     let mode = select(env.mode.x, SKY_MODE, SKY_MODE >= 0.0);
-    if (mode > 0.5 && mode < 1.5) {
-        // Shaded at reduced size by fs_environment and enlarged on the CPU
-        // (render/upsample.rs): already sRGB-encoded, copied pixel for pixel.
-        return vec4<f32>(textureLoad(env_half, vec2<i32>(in.position.xy), 0).rgb, 1.0);
-    }
     var col: vec3<f32>;
     if (mode < 0.5) {
         col = sky_radiance(dir);
+    } else if (mode < 1.5) {
+        // Drawn at reduced resolution by fs_environment; the principal point is the image centre.
+        let uv = in.position.xy / (2.0 * k.zw);
+        col = textureSampleLevel(env_half, env_half_sampler, uv, 0.0).rgb;
     } else {
         col = image_sky(dir);
     }
     return vec4<f32>(linear_to_srgb(col), 1.0);
 }
 
-// The procedural environment pass: each pixel stands for far_params.w × far_params.w
-// full-resolution pixels (its centre is theirs); written sRGB-encoded into an RGBA8 target.
+// The procedural environment pass: each pixel stands for far_params.w × far_params.w full-resolution pixels.
 @fragment
 fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
     let k = frame.intrinsics;
     let p = in.position.xy * env.far_params.w;
     let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
-    return vec4<f32>(linear_to_srgb(procedural_sky(dir)), 1.0);
+    return vec4<f32>(procedural_sky(dir), 1.0);
 }

@@ -232,10 +232,7 @@ impl PreviewRenderer {
                 msaa,
             },
         };
-        loaded
-            .renderer
-            .encode(&mut encoder, &drawn, &views)
-            .map_err(|e| fail(e.to_string(), false))?;
+        loaded.renderer.encode(&mut encoder, &drawn, &views);
         let submission = self.ctx.queue.submit([encoder.finish()]);
         self.ctx
             .device

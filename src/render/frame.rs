@@ -573,14 +573,7 @@ impl Renderer {
         let ids_view = ids.create_view(&Default::default());
         let depth = texture("region depth", DEPTH_FORMAT, msaa, attachment)
             .create_view(&Default::default());
-        // COPY_DST: a procedural environment arrives from the CPU (`environment_background`).
-        let upload = wgpu::TextureUsages::COPY_DST;
-        let background = texture(
-            "background",
-            COLOR_FORMAT,
-            1,
-            attachment | bind | copy | upload,
-        );
+        let background = texture("background", COLOR_FORMAT, 1, attachment | bind | copy);
         let background_view = background.create_view(&Default::default());
         let background_group = texture_group(
             device,
@@ -661,9 +654,6 @@ impl Renderer {
         t: usize,
         scene: &FrameScene,
     ) -> Result<(), RenderError> {
-        if super::sky::SkyGpu::is_procedural(&scene.sky) {
-            return self.environment_background(state, t);
-        }
         let mode = self.sky.mode();
         if !state
             .sky_background
@@ -705,6 +695,15 @@ impl Renderer {
                 label: Some("background"),
             });
         let target = &state.targets[t];
+        if super::sky::SkyGpu::is_procedural(&scene.sky) {
+            self.sky.encode_environment(
+                &self.device,
+                &mut encoder,
+                (&self.shaders.0, &self.sky_layout),
+                &self.frame_bind_group,
+                (target.width, target.height),
+            );
+        }
         if let Some((_, pipeline)) = state
             .sky_background
             .iter()
@@ -742,35 +741,6 @@ impl Renderer {
         state.targets[t].background_rgba = rgba;
         read?;
         state.targets[t].background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
-        state.background_draws += 1;
-        Ok(())
-    }
-
-    /// The procedural environment as the background: its bytes straight
-    /// from [`super::sky::SkyGpu::environment_rgba`] (no full-frame pass, no
-    /// full-frame readback), uploaded for the regions to draw from.
-    fn environment_background(
-        &mut self,
-        state: &mut RegionState,
-        t: usize,
-    ) -> Result<(), RenderError> {
-        let target = &mut state.targets[t];
-        let size = (target.width, target.height);
-        let drawn = self.sky.environment_rgba(
-            (&self.device, &self.queue),
-            (&self.shaders.0, &self.sky_layout),
-            &self.frame_bind_group,
-            size,
-            &mut target.background_rgba,
-        );
-        drawn?;
-        super::sky::write_rgba(
-            &self.queue,
-            &target.background,
-            &target.background_rgba,
-            size,
-        );
-        target.background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
         state.background_draws += 1;
         Ok(())
     }

@@ -16,7 +16,6 @@ mod ids;
 mod material;
 pub mod regions;
 mod sky;
-pub mod upsample;
 pub mod visibility;
 
 pub use frame::{Painted, RenderRequest, RenderedFrame};
@@ -402,8 +401,6 @@ pub struct Renderer {
     /// in anew on every allocation.
     spare: Vec<(Vec<u8>, Painted)>,
     spare_limit: usize,
-    /// The full-frame path's enlarged procedural environment (memory reused).
-    environment_rgba: Vec<u8>,
 }
 
 /// How many passes a renderer has run (for tests and benchmarks).
@@ -588,7 +585,6 @@ impl Renderer {
             counts: PassCounts::default(),
             spare: Vec::new(),
             spare_limit: 2,
-            environment_rgba: Vec::new(),
         }
     }
 
@@ -929,14 +925,12 @@ impl Renderer {
     }
 
     /// Encode the frame into `views` (any views of the scene camera's size).
-    /// A procedural environment is shaded, read back and uploaded first
-    /// (its own submission), hence the error.
     pub fn encode(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         scene: &FrameScene,
         views: &FrameViews<'_>,
-    ) -> Result<(), RenderError> {
+    ) {
         let FrameViews {
             color,
             resolve,
@@ -946,17 +940,13 @@ impl Renderer {
         self.upload_uniforms(scene);
         if sky::SkyGpu::is_procedural(&scene.sky) {
             let size = (scene.camera.width, scene.camera.height);
-            let mut rgba = std::mem::take(&mut self.environment_rgba);
-            self.sky.environment_rgba(
-                (&self.device, &self.queue),
+            self.sky.encode_environment(
+                &self.device,
+                encoder,
                 (&self.shaders.0, &self.sky_layout),
                 &self.frame_bind_group,
                 size,
-                &mut rgba,
-            )?;
-            self.sky
-                .upload_environment((&self.device, &self.queue), &rgba, size);
-            self.environment_rgba = rgba;
+            );
         }
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;
@@ -996,7 +986,6 @@ impl Renderer {
             pass.set_vertex_buffer(1, instances.slice(..));
             self.draw_drones(&mut pass, drone_pipeline, &ranges);
         }
-        Ok(())
     }
 
     fn ensure_target(&mut self, width: u32, height: u32, msaa: u32) -> Result<(), RenderError> {
@@ -1091,10 +1080,7 @@ impl Renderer {
                 msaa,
             },
         };
-        if let Err(e) = self.encode(&mut encoder, scene, &views) {
-            self.target = Some(target);
-            return Err(e);
-        }
+        self.encode(&mut encoder, scene, &views);
         target.readback.copy_from(&mut encoder, &target.color);
         let submitted = self.queue.submit([encoder.finish()]);
         let result = target.readback.read(&self.device, submitted);

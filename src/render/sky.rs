@@ -4,20 +4,15 @@
 //! procedural skies). [`SkyGpu::prepare`] turns a frame's environment into
 //! the uniforms and the drones' [`Lighting`].
 //!
-//! Procedural environments are shaded at reduced resolution ([`ENV_SCALE`]
-//! full-size pixels per pixel and axis) by their own pass, sRGB-encoded into
-//! an RGBA8 target, read back and enlarged on the CPU in exact integer
-//! arithmetic ([`super::upsample`]; [`SkyGpu::environment_rgba`]). The
-//! environment is soft (clouds, haze, distant silhouettes); drones stay at
-//! full resolution. The region path takes those bytes as its background as
-//! they are; the full-frame path uploads them ([`SkyGpu::upload_environment`])
-//! and its sky pass copies them pixel for pixel, so both paths show the same
-//! sky by construction, and no full-frame GPU pass shades it.
+//! Procedural environments are drawn at half resolution per axis into an
+//! RGBA16F target by their own pass ([`SkyGpu::encode_environment`]) and
+//! sampled bilinearly by the sky pass: a quarter of the shading work, and the
+//! sky pass itself then costs what the gradient costs. The environment is
+//! soft (clouds, haze, distant silhouettes); drones stay at full resolution.
 
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-use super::{COLOR_FORMAT, Readback, RenderError, upsample};
 use crate::sky::{
     self, EnvironmentAssets, FrameEnvironment, FrameSky, Lighting, Preetham, SkyImage, SkyImageKind,
 };
@@ -47,11 +42,8 @@ pub(super) struct SkyGpu {
     uniforms: wgpu::Buffer,
     /// Placeholders only: the gradient sky and the environment pass itself.
     default_group: wgpu::BindGroup,
-    /// The reduced-size environment target, its readback and last bytes.
-    low: Option<LowTarget>,
-    /// The full-size environment texture of the full-frame path (width,
-    /// height) and the group that binds it.
-    full: Option<(u32, u32, wgpu::Texture, wgpu::BindGroup)>,
+    /// The half-resolution environment target (width, height) and the group that samples it.
+    half: Option<(u32, u32, wgpu::TextureView, wgpu::BindGroup)>,
     /// Per uploaded image: its bind group and CPU summary (for lighting).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
     placeholder_2d: wgpu::TextureView,
@@ -70,16 +62,7 @@ const FAR_SILHOUETTE_M: f64 = 8_000.0;
 const NEAR_SILHOUETTE_M: f64 = 600.0;
 
 /// Full-resolution pixels per environment-pass pixel, per axis.
-pub(super) const ENV_SCALE: u32 = 2;
-
-/// The environment pass's target at reduced size.
-struct LowTarget {
-    size: (u32, u32),
-    texture: wgpu::Texture,
-    view: wgpu::TextureView,
-    readback: Readback,
-    rgba: Vec<u8>,
-}
+const HALF_SCALE: u32 = 2;
 
 fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
     rgb.chunks_exact(3)
@@ -168,8 +151,7 @@ impl SkyGpu {
             layout,
             uniforms,
             default_group,
-            low: None,
-            full: None,
+            half: None,
             images: Vec::new(),
             placeholder_2d,
             placeholder_cube,
@@ -267,43 +249,51 @@ impl SkyGpu {
         matches!(sky, FrameSky::Procedural { .. })
     }
 
-    /// Shade the procedural environment of the uniforms just written at
-    /// reduced size, read it back and enlarge it into `out`: `width`×`height`
-    /// tightly packed RGBA8, sRGB-encoded (what the colour target holds).
-    pub(super) fn environment_rgba(
+    /// Draw the procedural environment of the uniforms just written into the
+    /// half-resolution target (resized to the frame's `width`×`height` as needed).
+    pub(super) fn encode_environment(
         &mut self,
-        (device, queue): (&wgpu::Device, &wgpu::Queue),
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
         (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         frame_bind_group: &wgpu::BindGroup,
         (width, height): (u32, u32),
-        out: &mut Vec<u8>,
-    ) -> Result<(), RenderError> {
-        let size = (
-            width.div_ceil(ENV_SCALE).max(1),
-            height.div_ceil(ENV_SCALE).max(1),
+    ) {
+        let (w, h) = (
+            width.div_ceil(HALF_SCALE).max(1),
+            height.div_ceil(HALF_SCALE).max(1),
         );
-        if self.low.as_ref().is_none_or(|l| l.size != size) {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("environment (reduced size)"),
-                size: wgpu::Extent3d {
-                    width: size.0,
-                    height: size.1,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: COLOR_FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
-            self.low = Some(LowTarget {
-                size,
-                view: texture.create_view(&Default::default()),
-                readback: Readback::new(device, "environment readback", size.0, size.1),
-                texture,
-                rgba: Vec::new(),
-            });
+        if self
+            .half
+            .as_ref()
+            .is_none_or(|(hw, hh, _, _)| (*hw, *hh) != (w, h))
+        {
+            let view = device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("environment (half resolution)"),
+                    size: wgpu::Extent3d {
+                        width: w,
+                        height: h,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba16Float,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default());
+            let group = make_bind_group(
+                device,
+                &self.layout,
+                &self.uniforms,
+                (&self.sampler, &self.half_sampler),
+                "environment (procedural)",
+                [&self.placeholder_2d, &self.placeholder_cube, &view],
+            );
+            self.half = Some((w, h, view, group));
         }
         let pipeline = self.pipeline.get_or_insert_with(|| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -323,7 +313,7 @@ impl SkyGpu {
                     entry_point: Some("fs_environment"),
                     compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState {
-                        format: COLOR_FORMAT,
+                        format: wgpu::TextureFormat::Rgba16Float,
                         blend: None,
                         write_mask: wgpu::ColorWrites::ALL,
                     })],
@@ -332,82 +322,30 @@ impl SkyGpu {
                 cache: None,
             })
         });
-        let Some(low) = &mut self.low else {
-            return Err(RenderError::Readback("no environment target".into()));
+        let Some((_, _, view, _)) = &self.half else {
+            return;
         };
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("environment"),
-        });
-        {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("environment pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &low.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, frame_bind_group, &[]);
-            pass.set_bind_group(1, &self.default_group, &[]);
-            pass.draw(0..3, 0..1);
-        }
-        low.readback.copy_from(&mut encoder, &low.texture);
-        let submitted = queue.submit([encoder.finish()]);
-        low.readback.read_into(device, submitted, &mut low.rgba)?;
-        upsample::upsample_rgba8(&low.rgba, size, ENV_SCALE, (width, height), out);
-        Ok(())
-    }
-
-    /// Upload an environment from [`SkyGpu::environment_rgba`] for the
-    /// full-frame sky pass (which copies it pixel for pixel).
-    pub(super) fn upload_environment(
-        &mut self,
-        (device, queue): (&wgpu::Device, &wgpu::Queue),
-        rgba: &[u8],
-        (width, height): (u32, u32),
-    ) {
-        if self
-            .full
-            .as_ref()
-            .is_none_or(|(w, h, _, _)| (*w, *h) != (width, height))
-        {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("environment (full size)"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("environment pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
                 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: COLOR_FORMAT,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
-            let group = make_bind_group(
-                device,
-                &self.layout,
-                &self.uniforms,
-                (&self.sampler, &self.half_sampler),
-                "environment (procedural)",
-                [&self.placeholder_2d, &self.placeholder_cube, &view],
-            );
-            self.full = Some((width, height, texture, group));
-        }
-        if let Some((_, _, texture, _)) = &self.full {
-            write_rgba(queue, texture, rgba, (width, height));
-        }
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, frame_bind_group, &[]);
+        // The placeholder group: the target cannot be sampled while it is drawn.
+        pass.set_bind_group(1, &self.default_group, &[]);
+        pass.draw(0..3, 0..1);
     }
 
     /// The bind group a frame's environment draws with.
@@ -418,7 +356,7 @@ impl SkyGpu {
                 .get(*image)
                 .map_or(&self.default_group, |(g, _)| g),
             FrameSky::Procedural { .. } => self
-                .full
+                .half
                 .as_ref()
                 .map_or(&self.default_group, |(_, _, _, g)| g),
             FrameSky::Gradient { .. } => &self.default_group,
@@ -478,7 +416,7 @@ impl SkyGpu {
                     if style.snow_caps { 1.0 } else { 0.0 },
                     style.near as u32 as f32,
                     style.near_height_deg.to_radians(),
-                    ENV_SCALE as f32,
+                    HALF_SCALE as f32,
                 ];
                 u.near = rgb(style.near_albedo, 0.0);
                 if let Some(v) = atmosphere_visibility_m {
@@ -575,32 +513,4 @@ fn make_bind_group(
             },
         ],
     })
-}
-
-/// Write tightly packed RGBA8 `rgba` over the whole of `texture`.
-pub(super) fn write_rgba(
-    queue: &wgpu::Queue,
-    texture: &wgpu::Texture,
-    rgba: &[u8],
-    (width, height): (u32, u32),
-) {
-    queue.write_texture(
-        wgpu::TexelCopyTextureInfo {
-            texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        rgba,
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(width * 4),
-            rows_per_image: Some(height),
-        },
-        wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-    );
 }
