@@ -29,6 +29,8 @@ pub mod prompt;
 pub mod runner;
 pub mod summary;
 pub mod worker;
+#[cfg(all(unix, not(target_os = "macos")))]
+mod x11_focus;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -1586,8 +1588,9 @@ fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
 }
 
 impl eframe::App for SwarmshotApp {
-    fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
+        take_focus_on_click(&ctx, frame);
         self.poll();
         self.close_requested(&ctx);
         let mut commands = self.shortcut_commands(&ctx);
@@ -1625,6 +1628,19 @@ impl eframe::App for SwarmshotApp {
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
         eframe::set_value(storage, eframe::APP_KEY, &self.session);
     }
+}
+
+/// A click into a window without the keyboard gives it the keyboard, with or
+/// without a window manager (see `x11_focus`).
+fn take_focus_on_click(ctx: &egui::Context, frame: &eframe::Frame) {
+    let (pressed, focused) = ctx.input(|i| (i.pointer.any_pressed(), i.viewport().focused));
+    if pressed && focused != Some(true) {
+        ctx.send_viewport_cmd(egui::ViewportCommand::Focus);
+        #[cfg(all(unix, not(target_os = "macos")))]
+        x11_focus::take(frame);
+    }
+    #[cfg(not(all(unix, not(target_os = "macos"))))]
+    let _ = frame;
 }
 
 /// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
