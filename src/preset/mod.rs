@@ -11,10 +11,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-pub mod camera_model;
 pub mod appearance;
 pub mod atmosphere;
 pub mod budget;
+pub mod camera_model;
 pub mod formation;
 pub mod observer;
 mod ron_error;
