@@ -1038,3 +1038,90 @@ fn without_a_display_the_app_says_so_in_one_line() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains("no/such/preset.ron"), "{stderr}");
 }
+
+#[test]
+fn realism_sections_switch_their_preset_fields_on_and_off() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    assert!(h.state().session().preset.camera_model.is_none());
+    // The realism sections start collapsed: their checkboxes are hidden.
+    assert!(h.query_by_label("Camera model on").is_none());
+
+    h.get_by_label("Camera model").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Camera model on").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(
+        h.state().session().preset.camera_model,
+        Some(swarmshot::preset::camera_model::CameraModel::default()),
+        "ticking the box sets camera_model"
+    );
+    h.get_by_label("Exposure min").set_value_accesskit(-0.5);
+    h.run_steps(3);
+    let model = h.state().session().preset.camera_model.clone().unwrap();
+    assert_eq!(model.exposure_ev, (-0.5, 0.0));
+    h.get_by_label("Camera model on").click_accesskit();
+    h.run_steps(3);
+    assert!(
+        h.state().session().preset.camera_model.is_none(),
+        "unticking removes camera_model"
+    );
+    assert!(
+        !h.state().session().is_dirty(),
+        "on then off gives back the saved preset"
+    );
+
+    // The observer camera lives in the (open) Camera section.
+    h.get_by_label("Observer camera").click_accesskit();
+    h.run_steps(3);
+    let observer = h.state().session().preset.camera.observer.clone();
+    assert_eq!(
+        observer,
+        Some(swarmshot::preset::observer::ObserverCamera::default())
+    );
+    h.get_by_label("Distance max").set_value_accesskit(900.0);
+    h.run_steps(3);
+    let observer = h.state().session().preset.camera.observer.clone().unwrap();
+    assert_eq!(observer.distance_m.1, 900.0);
+}
+
+#[test]
+fn visibility_edits_reach_the_preset_and_a_bad_one_is_a_problem() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("Atmosphere").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Atmosphere on").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Visibility max")
+        .set_value_accesskit(20_000.0);
+    h.run_steps(3);
+    let atmosphere = h.state().session().preset.atmosphere.clone().unwrap();
+    assert_eq!(atmosphere.visibility_m, (5_000.0, 20_000.0));
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+
+    // min > max is refused by validation and listed under Problems.
+    h.get_by_label("Visibility min")
+        .set_value_accesskit(30_000.0);
+    h.run_steps(3);
+    let errors = h.state().errors().to_vec();
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert_eq!(errors[0].field, "atmosphere.visibility_m");
+    h.get_by_label("Problems (1)");
+    h.get_by_label(&format!("Visibility: {}", errors[0].message));
+    // And under its row.
+    let row = h.get_by_label("Visibility min").rect();
+    let message = h.get_by_label(&errors[0].message).rect();
+    assert!(
+        message.top() >= row.bottom() - 1.0 && message.top() - row.bottom() < 30.0,
+        "message at {message:?}, row at {row:?}"
+    );
+    h.get_by_label("Visibility min")
+        .set_value_accesskit(10_000.0);
+    h.run_steps(3);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+}

@@ -26,6 +26,7 @@ pub mod playback;
 pub mod preview;
 pub mod problems;
 pub mod prompt;
+pub mod realism_panels;
 pub mod runner;
 pub mod summary;
 pub mod worker;
@@ -1114,8 +1115,10 @@ impl SwarmshotApp {
         let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
             // A Problems link opens the section that holds its field.
             let open = (open_section == Some(title)).then_some(true);
+            // The realism sections start collapsed (most presets leave them off).
+            let default_open = !problems::REALISM_SECTIONS.contains(&title);
             egui::CollapsingHeader::new(title)
-                .default_open(true)
+                .default_open(default_open)
                 .open(open)
                 .show(ui, |ui| add(ui))
                 .header_response
@@ -1153,6 +1156,7 @@ impl SwarmshotApp {
             "Camera translation sweeps; the camera always faces the volume's centre",
             &mut |ui| {
                 panels::camera_ui(ui, &mut s.preset, &mut form);
+                realism_panels::observer_ui(ui, &mut s.preset, &mut form);
             },
         );
         section(
@@ -1164,6 +1168,24 @@ impl SwarmshotApp {
         section(ui, "Skybox", "The background environment", &mut |ui| {
             panels::skybox_ui(ui, &mut s.preset, &mut form)
         });
+        section(
+            ui,
+            "Camera model",
+            "Optics, sensor noise and image processing between the render and the file",
+            &mut |ui| realism_panels::camera_model_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Atmosphere",
+            "Haze with range on every object",
+            &mut |ui| realism_panels::atmosphere_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Drone appearance",
+            "Drone materials drawn per drone: colour, roughness, metalness, lights",
+            &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, &mut form),
+        );
         section(
             ui,
             "Output",
