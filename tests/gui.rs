@@ -1085,6 +1085,21 @@ fn realism_sections_switch_their_preset_fields_on_and_off() {
     h.run_steps(3);
     let observer = h.state().session().preset.camera.observer.clone().unwrap();
     assert_eq!(observer.distance_m.1, 900.0);
+
+    // Drone appearance: a palette weight edits its entry.
+    h.get_by_label("Drone appearance").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Drone appearance on").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Black").set_value_accesskit(0.0);
+    h.run_steps(3);
+    let appearance = h.state().session().preset.appearance.clone().unwrap();
+    let black = appearance
+        .palette
+        .iter()
+        .find(|(c, _)| *c == swarmshot::preset::appearance::DroneColor::Black);
+    assert_eq!(black.map(|(_, w)| *w), Some(0.0));
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
 }
 
 #[test]
@@ -1120,8 +1135,59 @@ fn visibility_edits_reach_the_preset_and_a_bad_one_is_a_problem() {
         message.top() >= row.bottom() - 1.0 && message.top() - row.bottom() < 30.0,
         "message at {message:?}, row at {row:?}"
     );
+    // Its Problems link opens the collapsed Atmosphere section again.
+    h.get_by_label("Atmosphere").click_accesskit();
+    h.run_steps(3);
+    assert!(h.query_by_label("Visibility min").is_none());
+    h.get_by_label(&format!("Visibility: {}", errors[0].message))
+        .click();
+    h.run_steps(4);
     h.get_by_label("Visibility min")
         .set_value_accesskit(10_000.0);
     h.run_steps(3);
     assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+}
+
+#[test]
+fn the_preview_shows_the_frame_through_the_camera_model() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let noisy = GRID.replace(
+        "render:",
+        "camera_model: Some((read_noise_levels: (20.0, 20.0), psf: Gaussian(sigma_px: (1.5, 1.5)))),\n    render:",
+    );
+    let mut h = harness(Some(write_preset(dir.path(), "noisy.ron", &noisy)));
+    wait_for(&mut h, "the clean preview", settled);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    let clean = preview_pixels(&mut h);
+
+    h.get_by_label("Through the camera").click_accesskit();
+    wait_for(&mut h, "the preview through the camera", |app| {
+        settled(app)
+            && app
+                .preview_key()
+                .is_some_and(|k| k.view == swarmshot::app::preview::PreviewView::ThroughCamera)
+    });
+    let through = preview_pixels(&mut h);
+    let changed = differing_pixels(&clean, &through);
+    let total = (clean.width() * clean.height()) as usize;
+    // Read noise σ = 20 levels moves most pixels by more than 8 levels.
+    assert!(
+        changed > total / 4,
+        "only {changed} of {total} pixels changed through the camera"
+    );
+
+    h.get_by_label("Through the camera").click_accesskit();
+    wait_for(&mut h, "the clean preview again", |app| {
+        settled(app)
+            && app
+                .preview_key()
+                .is_some_and(|k| k.view == swarmshot::app::preview::PreviewView::Camera)
+    });
+    let again = preview_pixels(&mut h);
+    assert_eq!(
+        differing_pixels(&clean, &again),
+        0,
+        "back to the clean render"
+    );
 }

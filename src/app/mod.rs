@@ -85,6 +85,8 @@ pub struct Session {
     pub frame: u64,
     pub show_boxes: bool,
     pub inspect: bool,
+    /// The preview shows the frame through the preset's camera model.
+    pub through_camera: bool,
     pub orbit: Orbit,
     /// The side panels are expanded.
     pub show_parameters: bool,
@@ -109,6 +111,7 @@ impl Default for Session {
             frame: 0,
             show_boxes: true,
             inspect: false,
+            through_camera: false,
             orbit: Orbit::default(),
             show_parameters: true,
             show_summary: true,
@@ -608,6 +611,8 @@ impl SwarmshotApp {
         }
         let view = if self.session.inspect {
             PreviewView::Inspect(self.session.orbit)
+        } else if self.session.through_camera && self.resolved.camera_model.is_some() {
+            PreviewView::ThroughCamera
         } else {
             PreviewView::Camera
         };
@@ -1329,6 +1334,16 @@ impl SwarmshotApp {
                 .on_hover_text("Draw the label boxes this frame gets");
             if self.session.show_boxes && !self.session.inspect {
                 box_legend_ui(ui);
+            }
+            if !self.session.inspect {
+                ui.add_enabled(
+                    self.resolved.camera_model.is_some(),
+                    egui::Checkbox::new(&mut self.session.through_camera, "Through the camera"),
+                )
+                .on_hover_text(
+                    "Show the frame through the camera model (noise, blur, JPEG, …) as the batch writes it, scaled to the pane; off: the clean render",
+                )
+                .on_disabled_hover_text("The preset has no camera model (Camera model section)");
             }
             ui.checkbox(&mut self.session.inspect, "Inspect")
                 .on_hover_text(
