@@ -1191,3 +1191,34 @@ fn the_preview_shows_the_frame_through_the_camera_model() {
         "back to the clean render"
     );
 }
+
+#[test]
+fn undo_turns_a_realism_stage_back_off() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("Atmosphere").click_accesskit();
+    h.run_steps(2);
+    h.get_by_label("Atmosphere on").click_accesskit();
+    // An edit becomes an undo step once it has held for half a second.
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(800) {
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(h.state().session().preset.atmosphere.is_some());
+    h.get_by_role_and_label(Role::Button, "Undo").click();
+    h.run_steps(2);
+    assert!(
+        h.state().session().preset.atmosphere.is_none(),
+        "Undo removes the atmosphere again"
+    );
+    assert!(!h.state().session().is_dirty());
+    h.get_by_role_and_label(Role::Button, "Redo").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().session().preset.atmosphere,
+        Some(swarmshot::preset::atmosphere::Atmosphere::default())
+    );
+}
