@@ -1038,3 +1038,187 @@ fn without_a_display_the_app_says_so_in_one_line() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains("no/such/preset.ron"), "{stderr}");
 }
+
+#[test]
+fn realism_sections_switch_their_preset_fields_on_and_off() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    assert!(h.state().session().preset.camera_model.is_none());
+    // The realism sections start collapsed: their checkboxes are hidden.
+    assert!(h.query_by_label("Camera model on").is_none());
+
+    h.get_by_label("Camera model").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Camera model on").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(
+        h.state().session().preset.camera_model,
+        Some(swarmshot::preset::camera_model::CameraModel::default()),
+        "ticking the box sets camera_model"
+    );
+    h.get_by_label("Exposure min").set_value_accesskit(-0.5);
+    h.run_steps(3);
+    let model = h.state().session().preset.camera_model.clone().unwrap();
+    assert_eq!(model.exposure_ev, (-0.5, 0.0));
+    h.get_by_label("Camera model on").click_accesskit();
+    h.run_steps(3);
+    assert!(
+        h.state().session().preset.camera_model.is_none(),
+        "unticking removes camera_model"
+    );
+    assert!(
+        !h.state().session().is_dirty(),
+        "on then off gives back the saved preset"
+    );
+
+    // The observer camera lives in the (open) Camera section.
+    h.get_by_label("Observer camera").click_accesskit();
+    h.run_steps(3);
+    let observer = h.state().session().preset.camera.observer.clone();
+    assert_eq!(
+        observer,
+        Some(swarmshot::preset::observer::ObserverCamera::default())
+    );
+    h.get_by_label("Distance max").set_value_accesskit(900.0);
+    h.run_steps(3);
+    let observer = h.state().session().preset.camera.observer.clone().unwrap();
+    assert_eq!(observer.distance_m.1, 900.0);
+
+    // Drone appearance: a palette weight edits its entry.
+    h.get_by_label("Drone appearance").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Drone appearance on").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Black").set_value_accesskit(0.0);
+    h.run_steps(3);
+    let appearance = h.state().session().preset.appearance.clone().unwrap();
+    let black = appearance
+        .palette
+        .iter()
+        .find(|(c, _)| *c == swarmshot::preset::appearance::DroneColor::Black);
+    assert_eq!(black.map(|(_, w)| *w), Some(0.0));
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+}
+
+#[test]
+fn visibility_edits_reach_the_preset_and_a_bad_one_is_a_problem() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("Atmosphere").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Atmosphere on").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Visibility max")
+        .set_value_accesskit(20_000.0);
+    h.run_steps(3);
+    let atmosphere = h.state().session().preset.atmosphere.clone().unwrap();
+    assert_eq!(atmosphere.visibility_m, (5_000.0, 20_000.0));
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+
+    // min > max is refused by validation and listed under Problems.
+    h.get_by_label("Visibility min")
+        .set_value_accesskit(30_000.0);
+    h.run_steps(3);
+    let errors = h.state().errors().to_vec();
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert_eq!(errors[0].field, "atmosphere.visibility_m");
+    h.get_by_label("Problems (1)");
+    h.get_by_label(&format!("Visibility: {}", errors[0].message));
+    // And under its row.
+    let row = h.get_by_label("Visibility min").rect();
+    let message = h.get_by_label(&errors[0].message).rect();
+    assert!(
+        message.top() >= row.bottom() - 1.0 && message.top() - row.bottom() < 30.0,
+        "message at {message:?}, row at {row:?}"
+    );
+    // Its Problems link opens the collapsed Atmosphere section again.
+    h.get_by_label("Atmosphere").click_accesskit();
+    h.run_steps(3);
+    assert!(h.query_by_label("Visibility min").is_none());
+    h.get_by_label(&format!("Visibility: {}", errors[0].message))
+        .click();
+    h.run_steps(4);
+    h.get_by_label("Visibility min")
+        .set_value_accesskit(10_000.0);
+    h.run_steps(3);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+}
+
+#[test]
+fn the_preview_shows_the_frame_through_the_camera_model() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let noisy = GRID.replace(
+        "render:",
+        "camera_model: Some((read_noise_levels: (20.0, 20.0), psf: Gaussian(sigma_px: (1.5, 1.5)))),\n    render:",
+    );
+    let mut h = harness(Some(write_preset(dir.path(), "noisy.ron", &noisy)));
+    wait_for(&mut h, "the clean preview", settled);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    let clean = preview_pixels(&mut h);
+
+    h.get_by_label("Through the camera").click_accesskit();
+    wait_for(&mut h, "the preview through the camera", |app| {
+        settled(app)
+            && app
+                .preview_key()
+                .is_some_and(|k| k.view == swarmshot::app::preview::PreviewView::ThroughCamera)
+    });
+    let through = preview_pixels(&mut h);
+    let changed = differing_pixels(&clean, &through);
+    let total = (clean.width() * clean.height()) as usize;
+    // Read noise σ = 20 levels moves most pixels by more than 8 levels.
+    assert!(
+        changed > total / 4,
+        "only {changed} of {total} pixels changed through the camera"
+    );
+
+    h.get_by_label("Through the camera").click_accesskit();
+    wait_for(&mut h, "the clean preview again", |app| {
+        settled(app)
+            && app
+                .preview_key()
+                .is_some_and(|k| k.view == swarmshot::app::preview::PreviewView::Camera)
+    });
+    let again = preview_pixels(&mut h);
+    assert_eq!(
+        differing_pixels(&clean, &again),
+        0,
+        "back to the clean render"
+    );
+}
+
+#[test]
+fn undo_turns_a_realism_stage_back_off() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("Atmosphere").click_accesskit();
+    h.run_steps(2);
+    h.get_by_label("Atmosphere on").click_accesskit();
+    // An edit becomes an undo step once it has held for half a second.
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(800) {
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(h.state().session().preset.atmosphere.is_some());
+    h.get_by_role_and_label(Role::Button, "Undo").click();
+    h.run_steps(2);
+    assert!(
+        h.state().session().preset.atmosphere.is_none(),
+        "Undo removes the atmosphere again"
+    );
+    assert!(!h.state().session().is_dirty());
+    h.get_by_role_and_label(Role::Button, "Redo").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().session().preset.atmosphere,
+        Some(swarmshot::preset::atmosphere::Atmosphere::default())
+    );
+}

@@ -26,6 +26,7 @@ pub mod playback;
 pub mod preview;
 pub mod problems;
 pub mod prompt;
+pub mod realism_panels;
 pub mod runner;
 pub mod summary;
 pub mod worker;
@@ -84,6 +85,8 @@ pub struct Session {
     pub frame: u64,
     pub show_boxes: bool,
     pub inspect: bool,
+    /// The preview shows the frame through the preset's camera model.
+    pub through_camera: bool,
     pub orbit: Orbit,
     /// The side panels are expanded.
     pub show_parameters: bool,
@@ -108,6 +111,7 @@ impl Default for Session {
             frame: 0,
             show_boxes: true,
             inspect: false,
+            through_camera: false,
             orbit: Orbit::default(),
             show_parameters: true,
             show_summary: true,
@@ -607,6 +611,8 @@ impl SwarmshotApp {
         }
         let view = if self.session.inspect {
             PreviewView::Inspect(self.session.orbit)
+        } else if self.session.through_camera && self.resolved.camera_model.is_some() {
+            PreviewView::ThroughCamera
         } else {
             PreviewView::Camera
         };
@@ -1114,8 +1120,10 @@ impl SwarmshotApp {
         let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
             // A Problems link opens the section that holds its field.
             let open = (open_section == Some(title)).then_some(true);
+            // The realism sections start collapsed (most presets leave them off).
+            let default_open = !problems::REALISM_SECTIONS.contains(&title);
             egui::CollapsingHeader::new(title)
-                .default_open(true)
+                .default_open(default_open)
                 .open(open)
                 .show(ui, |ui| add(ui))
                 .header_response
@@ -1153,6 +1161,7 @@ impl SwarmshotApp {
             "Camera translation sweeps; the camera always faces the volume's centre",
             &mut |ui| {
                 panels::camera_ui(ui, &mut s.preset, &mut form);
+                realism_panels::observer_ui(ui, &mut s.preset, &mut form);
             },
         );
         section(
@@ -1164,6 +1173,24 @@ impl SwarmshotApp {
         section(ui, "Skybox", "The background environment", &mut |ui| {
             panels::skybox_ui(ui, &mut s.preset, &mut form)
         });
+        section(
+            ui,
+            "Camera model",
+            "Optics, sensor noise and image processing between the render and the file",
+            &mut |ui| realism_panels::camera_model_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Atmosphere",
+            "Haze with range on every object",
+            &mut |ui| realism_panels::atmosphere_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Drone appearance",
+            "Drone materials drawn per drone: colour, roughness, metalness, lights",
+            &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, &mut form),
+        );
         section(
             ui,
             "Output",
@@ -1307,6 +1334,16 @@ impl SwarmshotApp {
                 .on_hover_text("Draw the label boxes this frame gets");
             if self.session.show_boxes && !self.session.inspect {
                 box_legend_ui(ui);
+            }
+            if !self.session.inspect {
+                ui.add_enabled(
+                    self.resolved.camera_model.is_some(),
+                    egui::Checkbox::new(&mut self.session.through_camera, "Through the camera"),
+                )
+                .on_hover_text(
+                    "Show the frame through the camera model (noise, blur, JPEG, …) as the batch writes it, scaled to the pane; off: the clean render",
+                )
+                .on_disabled_hover_text("The preset has no camera model (Camera model section)");
             }
             ui.checkbox(&mut self.session.inspect, "Inspect")
                 .on_hover_text(

@@ -94,7 +94,7 @@ fn angle_row(ui: &mut Ui, value: &mut f64, name: &str, tip: &str, speed: f64) ->
 }
 
 /// [`number_row`] with a unit after the number (`"°"`, `" m"`; `""` for none).
-fn number_row_in<N: egui::emath::Numeric>(
+pub(super) fn number_row_in<N: egui::emath::Numeric>(
     ui: &mut Ui,
     value: &mut N,
     name: &str,
@@ -113,13 +113,25 @@ fn number_row_in<N: egui::emath::Numeric>(
 
 /// `label  min [..] max [..]` for an inclusive (min, max) pair of angles (°).
 fn range_row(ui: &mut Ui, value: &mut (f64, f64), name: &str, tip: &str, speed: f64) {
+    range_row_in(ui, value, name, tip, speed, "°");
+}
+
+/// [`range_row`] with a unit after each number (`" m"`, `" px"`; `""` for none).
+pub(super) fn range_row_in<N: egui::emath::Numeric>(
+    ui: &mut Ui,
+    value: &mut (N, N),
+    name: &str,
+    tip: &str,
+    speed: f64,
+    unit: &str,
+) {
     ui.horizontal(|ui| {
         ui.label(name).on_hover_text(tip);
         ui.add(
             DragValue::new(&mut value.0)
                 .speed(speed)
                 .prefix("min ")
-                .suffix("°"),
+                .suffix(unit),
         )
         .accessible_name(format!("{name} min"))
         .on_hover_text(tip);
@@ -127,7 +139,7 @@ fn range_row(ui: &mut Ui, value: &mut (f64, f64), name: &str, tip: &str, speed: 
             DragValue::new(&mut value.1)
                 .speed(speed)
                 .prefix("max ")
-                .suffix("°"),
+                .suffix(unit),
         )
         .accessible_name(format!("{name} max"))
         .on_hover_text(tip);

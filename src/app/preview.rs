@@ -60,8 +60,12 @@ impl Default for Orbit {
 /// What the preview pane shows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PreviewView {
-    /// Exactly what the batch camera sees for the frame.
+    /// Exactly what the batch camera sees for the frame, before the camera model.
     Camera,
+    /// The batch camera's frame through the preset's camera model (noise,
+    /// blur, JPEG, …), applied on the CPU at the pane's size; the clean
+    /// picture when the preset has no camera model.
+    ThroughCamera,
     /// The scene from outside, with the volume and the sweep's camera positions.
     Inspect(Orbit),
 }
@@ -204,10 +208,60 @@ impl PreviewRenderer {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: COLOR_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        if key.view == PreviewView::ThroughCamera && drawn.camera_model.is_some() {
+            // The batch's own pipeline at the pane's size: render, read back,
+            // camera model on the CPU; the picture is uploaded as it comes.
+            let loaded = self
+                .loaded
+                .as_mut()
+                .ok_or_else(|| fail("models are not loaded".into(), true))?;
+            let made = loaded
+                .pipeline
+                .make_scene(&mut loaded.renderer, drawn)
+                .map_err(|e| fail(e.to_string(), false))?;
+            self.ctx.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                &made.rgba,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4 * width),
+                    rows_per_image: Some(height),
+                },
+                wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+            );
+            let submission = self.ctx.queue.submit([]);
+            self.ctx
+                .device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(submission),
+                    timeout: None,
+                })
+                .map_err(|e| fail(format!("waiting for the preview upload: {e}"), false))?;
+            return Ok(PreviewFrame {
+                key,
+                texture: view,
+                scene,
+                labels,
+                camera,
+                inspect,
+                render_ms: start.elapsed().as_secs_f64() * 1e3,
+            });
+        }
         let mut encoder = self
             .ctx
             .device
@@ -330,7 +384,7 @@ fn view_camera(
     height: u32,
 ) -> (Camera, Option<InspectGeometry>) {
     match view {
-        PreviewView::Camera => {
+        PreviewView::Camera | PreviewView::ThroughCamera => {
             let mut camera = scene.camera;
             camera.width = width;
             camera.height = height;

@@ -7,15 +7,21 @@ use egui::{RichText, Ui};
 use crate::preset::FieldError;
 
 /// The parameter sections, as titled in the left panel.
-pub const SECTIONS: [&str; 7] = [
+pub const SECTIONS: [&str; 10] = [
     "Models",
     "Placement",
     "Attitude",
     "Camera",
     "Scene rotation",
     "Skybox",
+    "Camera model",
+    "Atmosphere",
+    "Drone appearance",
     "Output",
 ];
+
+/// The sections of issue 21's realism stages: they start collapsed.
+pub const REALISM_SECTIONS: [&str; 3] = ["Camera model", "Atmosphere", "Drone appearance"];
 
 /// "1 problem", "3 problems".
 pub fn count_problems(n: usize) -> String {
@@ -37,6 +43,9 @@ pub fn section_of(field: &str) -> Option<&'static str> {
         "camera" => "Camera",
         "plane" => "Scene rotation",
         "sky" => "Skybox",
+        "camera_model" => "Camera model",
+        "atmosphere" => "Atmosphere",
+        "appearance" => "Drone appearance",
         "render" | "output" | "labels" => "Output",
         _ => return None,
     })
@@ -54,6 +63,38 @@ pub fn field_label(field: &str) -> String {
         ["camera", "y", ..] => sweep("CameraY"),
         ["camera", "z", ..] => sweep("CameraZ"),
         ["camera", "fov_y_deg"] => "Field of view".into(),
+        ["camera", "observer", part] => match *part {
+            "elevation_deg" => "Observer elevation".into(),
+            "azimuth_deg" => "Observer azimuth".into(),
+            "distance_m" => "Observer distance".into(),
+            "size_px" => "Observer apparent size".into(),
+            other => format!("Observer {other}"),
+        },
+        ["camera_model", "psf", "sigma_px"] => "Blur σ".into(),
+        ["camera_model", "psf", "radius_px"] => "Disc radius".into(),
+        ["camera_model", name] => match *name {
+            "exposure_ev" => "Exposure".into(),
+            "white_balance_red" => "White balance red".into(),
+            "white_balance_blue" => "White balance blue".into(),
+            "vignetting" => "Vignetting".into(),
+            "ca_red_scale" => "CA red scale".into(),
+            "ca_blue_scale" => "CA blue scale".into(),
+            "shot_noise_gain" => "Shot noise gain".into(),
+            "read_noise_levels" => "Read noise".into(),
+            "sensor_scale" => "Sensor scale".into(),
+            "jpeg_quality" => "Camera JPEG quality".into(),
+            "recompress_quality" => "Recompress quality".into(),
+            other => format!("Camera model {other}"),
+        },
+        ["atmosphere", "visibility_m"] => "Visibility".into(),
+        ["appearance", name] => match *name {
+            "palette" => "Palette weights".into(),
+            "roughness" => "Roughness".into(),
+            "metalness" => "Metalness".into(),
+            "emissive_share" => "Lights share".into(),
+            "emissive_strength" => "Light strength".into(),
+            other => format!("Appearance {other}"),
+        },
         ["plane", "rx", ..] => sweep("PlaneRX"),
         ["plane", "ry", ..] => sweep("PlaneRY"),
         ["plane", "rz", ..] => sweep("PlaneRZ"),
@@ -147,11 +188,21 @@ mod tests {
         assert_eq!(section_of("models[0].class"), Some("Models"));
         assert_eq!(section_of("labels.id_scale"), Some("Output"));
         assert_eq!(section_of("seed"), None);
+        assert_eq!(field_label("atmosphere.visibility_m"), "Visibility");
+        assert_eq!(field_label("camera_model.psf.sigma_px"), "Blur σ");
+        assert_eq!(
+            field_label("camera.observer.distance_m"),
+            "Observer distance"
+        );
+        assert_eq!(section_of("camera_model.exposure_ev"), Some("Camera model"));
+        assert_eq!(section_of("appearance.palette"), Some("Drone appearance"));
+        assert_eq!(section_of("camera.observer.size_px"), Some("Camera"));
         for field in [
             "camera.x",
             "sky.zenith",
             "placement.count",
             "attitude.yaw_deg",
+            "atmosphere.visibility_m",
         ] {
             assert!(SECTIONS.contains(&section_of(field).unwrap_or("none")));
         }
