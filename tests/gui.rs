@@ -343,10 +343,16 @@ fn a_trial_run_writes_its_frames_and_a_second_generate_has_nothing_to_do() {
 
     // Trial run: the first 2 of 6 frames.
     h.state_mut().session_mut().out_dir = out.display().to_string();
+    // Let the layout settle (the new folder changes the batch panel) before clicking.
+    wait_for(&mut h, "the preview after the edit", settled);
     h.get_by_label("Trial run: first").click();
-    h.run_steps(1);
+    wait_for(&mut h, "the trial run switched on", |app| {
+        app.session().trial
+    });
     h.get_by_label("Trial frames").set_value_accesskit(2.0);
-    h.run_steps(2);
+    wait_for(&mut h, "two trial frames", |app| {
+        app.session().trial_frames == 2
+    });
     click_generate_and_wait(&mut h);
     let first = report(&h);
     assert_eq!((first.made, first.stats.frames), (2, 2));
