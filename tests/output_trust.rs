@@ -11,11 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{
-    AttitudeRanges, Formation, FormationShape, ImageFormat, LabelFormat, Motion, Placement, Preset,
-    SequenceCamera, SequenceSpec,
-};
+use swarmshot::preset::{ImageFormat, LabelFormat, Preset};
 
 const BIN: &str = env!("CARGO_BIN_EXE_swarmshot");
 
@@ -26,46 +22,6 @@ fn preset(repeats: u32) -> Preset {
     p.output.image_format = ImageFormat::Jpeg { quality: 85 };
     p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
     p
-}
-
-/// 3 sequences of 5 frames (MOT files, COCO videos).
-fn sequence_preset() -> Preset {
-    let mut p = common::tiny_preset();
-    p.name = "mot".into();
-    p.placement = Placement::Formation(Formation {
-        shape: FormationShape::Wedge {
-            half_angle_deg: 40.0,
-        },
-        count: 4,
-        spacing: 4.0,
-        heading_deg: (-30.0, 30.0),
-        position_jitter: 0.1,
-        attitude_jitter: AttitudeRanges::zero(),
-        min_separation: 1.0,
-    });
-    p.camera.y = SweepRange::fixed(0.3);
-    p.camera.z = SweepRange::fixed(1.4);
-    p.plane.ry = SweepRange::fixed(0.0);
-    p.repeats = 3;
-    p.labels.min_box_px = 0.0;
-    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
-    p.sequence = Some(SequenceSpec {
-        steps: 4,
-        motion: Motion {
-            translate_m: (1.0, 0.5, -2.0),
-            turn_deg: 20.0,
-            ..Motion::default()
-        },
-        camera: SequenceCamera::Fixed,
-        frame_rate: 10,
-    });
-    p
-}
-
-fn preset_file(dir: &Path, preset: &Preset, name: &str) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, preset.to_ron()).expect("write preset");
-    path
 }
 
 fn command<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Command {
@@ -214,7 +170,7 @@ fn assert_valid(dir: &Path, frames: usize) {
 #[test]
 fn a_second_run_into_a_folder_in_use_is_refused_naming_the_process() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let p = preset_file(tmp.path(), &preset(3), "p.ron");
+    let p = common::preset_file(tmp.path(), &preset(3), "p.ron");
     let out = tmp.path().join("ds");
     let go = tmp.path().join("go");
     // The first run holds the folder at its third checkpoint until `go` exists.
@@ -266,7 +222,7 @@ fn a_second_run_into_a_folder_in_use_is_refused_naming_the_process() {
 #[test]
 fn overwrite_refuses_a_linked_folder_and_deletes_nothing_outside() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let p = preset_file(tmp.path(), &sequence_preset(), "p.ron");
+    let p = common::preset_file(tmp.path(), &common::sequence_preset(), "p.ron");
     let out = tmp.path().join("ds");
     ok(&batch_args(&p, &out, &[]));
     // The sequence dataset's `gt` folder replaced by a link to a folder outside.
@@ -329,7 +285,7 @@ fn killed_run(p: &Path, out: &Path) {
 #[test]
 fn a_refused_resume_writes_nothing_through_links_and_changes_nothing() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let p = preset_file(tmp.path(), &preset(3), "p.ron");
+    let p = common::preset_file(tmp.path(), &preset(3), "p.ron");
     let reference = tmp.path().join("ref");
     ok(&batch_args(&p, &reference, &[]));
 
@@ -398,7 +354,7 @@ fn copy_dir(from: &Path, to: &Path) {
 #[test]
 fn merge_checks_every_shard_file_and_never_writes_into_a_shard() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let p = preset_file(tmp.path(), &preset(2), "p.ron");
+    let p = common::preset_file(tmp.path(), &preset(2), "p.ron");
     let single = tmp.path().join("single");
     ok(&batch_args(&p, &single, &[]));
     let shards: Vec<PathBuf> = (0..2)
@@ -504,7 +460,7 @@ fn merge_checks_every_shard_file_and_never_writes_into_a_shard() {
 #[test]
 fn sigint_stops_cleanly_and_resume_is_byte_identical() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let p = preset_file(tmp.path(), &preset(60), "p.ron");
+    let p = common::preset_file(tmp.path(), &preset(60), "p.ron");
     let reference = tmp.path().join("ref");
     ok(&batch_args(&p, &reference, &[]));
     let out = tmp.path().join("ds");

@@ -23,12 +23,6 @@ fn preset() -> Preset {
     p
 }
 
-fn preset_file(dir: &Path, preset: &Preset, name: &str) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, preset.to_ron()).expect("write preset");
-    path
-}
-
 fn batch_cmd(preset: &Path, out: &Path, extra: &[&str]) -> Command {
     let mut cmd = Command::new(BIN);
     cmd.arg("batch")
@@ -185,7 +179,7 @@ fn assert_complete_pairs(dir: &Path) -> usize {
 fn sigkill_at_any_point_then_resume_is_byte_identical() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let p = preset();
-    let file = preset_file(tmp.path(), &p, "p.ron");
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
     let reference = tmp.path().join("reference");
     run_ok(&file, &reference, &[]);
     assert_eq!(
@@ -297,7 +291,7 @@ fn write_error_stops_at_once_leaves_complete_frames_and_resumes() {
     // COCO's record parts grow beside the manifest; without them the
     // manifest is the one file that outgrows the limit.
     p.output.label_formats = vec![LabelFormat::Yolo];
-    let file = preset_file(tmp.path(), &p, "p.ron");
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
     let reference = tmp.path().join("reference");
     run_ok(&file, &reference, &[]);
     // A file-size limit the manifest outgrows half-way, and nothing else does.
@@ -355,7 +349,7 @@ fn symlinks_in_the_output_folder_are_never_followed() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let mut p = preset();
     p.repeats = 1;
-    let file = preset_file(tmp.path(), &p, "p.ron");
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
     let outside = tmp.path().join("outside");
     std::fs::create_dir(&outside).expect("mkdir");
     for name in [
@@ -422,7 +416,7 @@ fn user_files_survive_with_and_without_overwrite() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let mut p = preset();
     p.repeats = 2;
-    let file = preset_file(tmp.path(), &p, "p.ron");
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
     let out = tmp.path().join("shared");
     let mine = [
         "notes.txt",
@@ -467,7 +461,7 @@ fn user_files_survive_with_and_without_overwrite() {
     // Another preset: refused, and with --overwrite only the run's own files go.
     let mut other = p.clone();
     other.seed += 1;
-    let other_file = preset_file(tmp.path(), &other, "other.ron");
+    let other_file = common::preset_file(tmp.path(), &other, "other.ron");
     let err = run_err(&other_file, &out, &[]);
     assert!(err.contains("different preset"), "{err}");
     let err = run_err(&other_file, &out, &["--resume"]);

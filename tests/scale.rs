@@ -12,11 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{
-    AttitudeRanges, Formation, FormationShape, LabelFormat, Motion, Placement, Preset,
-    SequenceCamera, SequenceSpec,
-};
+use swarmshot::preset::{LabelFormat, Preset};
 
 const BIN: &str = env!("CARGO_BIN_EXE_swarmshot");
 
@@ -26,46 +22,6 @@ fn preset() -> Preset {
     p.repeats = 3;
     p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
     p
-}
-
-/// 3 sequences of 5 frames (MOT files, COCO videos).
-fn sequence_preset() -> Preset {
-    let mut p = common::tiny_preset();
-    p.name = "mot".into();
-    p.placement = Placement::Formation(Formation {
-        shape: FormationShape::Wedge {
-            half_angle_deg: 40.0,
-        },
-        count: 4,
-        spacing: 4.0,
-        heading_deg: (-30.0, 30.0),
-        position_jitter: 0.1,
-        attitude_jitter: AttitudeRanges::zero(),
-        min_separation: 1.0,
-    });
-    p.camera.y = SweepRange::fixed(0.3);
-    p.camera.z = SweepRange::fixed(1.4);
-    p.plane.ry = SweepRange::fixed(0.0);
-    p.repeats = 3;
-    p.labels.min_box_px = 0.0;
-    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
-    p.sequence = Some(SequenceSpec {
-        steps: 4,
-        motion: Motion {
-            translate_m: (1.0, 0.5, -2.0),
-            turn_deg: 20.0,
-            ..Motion::default()
-        },
-        camera: SequenceCamera::Fixed,
-        frame_rate: 10,
-    });
-    p
-}
-
-fn preset_file(dir: &Path, preset: &Preset, name: &str) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, preset.to_ron()).expect("write preset");
-    path
 }
 
 fn command(args: &[&std::ffi::OsStr]) -> Command {
@@ -182,10 +138,10 @@ fn shards_merge_into_the_single_run_byte_for_byte() {
     for (name, p, n, extra) in [
         ("frames", preset(), 3u64, &[][..]),
         ("limit", preset(), 2, &["--limit", "7"][..]),
-        ("sequences", sequence_preset(), 3, &[][..]),
+        ("sequences", common::sequence_preset(), 3, &[][..]),
     ] {
         let dir = tmp.path().join(name);
-        let file = preset_file(tmp.path(), &p, &format!("{name}.ron"));
+        let file = common::preset_file(tmp.path(), &p, &format!("{name}.ron"));
         let single = dir.join("single");
         batch(&file, &single, extra);
         let parts = shards(&file, &dir, n, extra);
@@ -240,7 +196,7 @@ fn shards_merge_into_the_single_run_byte_for_byte() {
 fn merge_refuses_what_is_not_one_whole_finished_run() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let p = preset();
-    let file = preset_file(tmp.path(), &p, "p.ron");
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
     let parts = shards(&file, tmp.path(), 3, &["--limit", "6"]);
     let out = tmp.path().join("out");
 
@@ -258,7 +214,7 @@ fn merge_refuses_what_is_not_one_whole_finished_run() {
     // Another preset's shard.
     let mut other = p.clone();
     other.seed = 8;
-    let other_file = preset_file(tmp.path(), &other, "other.ron");
+    let other_file = common::preset_file(tmp.path(), &other, "other.ron");
     let foreign = tmp.path().join("foreign");
     batch(&other_file, &foreign, &["--limit", "6", "--shard", "2/3"]);
     let mixed = vec![parts[0].clone(), parts[1].clone(), foreign.clone()];
@@ -415,7 +371,7 @@ fn kill_when(mut child: Child, what: &str, ready: impl Fn() -> bool) {
 #[test]
 fn a_killed_merge_or_shard_continues_to_the_same_bytes() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let file = preset_file(tmp.path(), &preset(), "p.ron");
+    let file = common::preset_file(tmp.path(), &preset(), "p.ron");
     let single = tmp.path().join("single");
     batch(&file, &single, &[]);
     // Shard 1/3 (frames 4..8) killed before frame 5's checkpoint, then continued.
@@ -495,7 +451,7 @@ fn a_killed_merge_or_shard_continues_to_the_same_bytes() {
 #[test]
 fn a_copied_dataset_names_only_paths_that_resolve() {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let file = preset_file(tmp.path(), &sequence_preset(), "p.ron");
+    let file = common::preset_file(tmp.path(), &common::sequence_preset(), "p.ron");
     let made = tmp.path().join("made-here");
     batch(&file, &made, &[]);
     let moved = tmp.path().join("elsewhere/moved");

@@ -1,10 +1,13 @@
 //! Shared test fixtures: a GPU context that fails loudly, and small presets.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{ImageFormat, Placement, Preset, Resolution, Volume};
+use swarmshot::preset::{
+    AttitudeRanges, Formation, FormationShape, ImageFormat, LabelFormat, Motion, Placement, Preset,
+    Resolution, SequenceCamera, SequenceSpec, Volume,
+};
 use swarmshot::render::GpuContext;
 
 /// The headless adapter CI installs (lavapipe). Panics with the reason if none
@@ -107,4 +110,45 @@ pub fn triangle_gltf() -> (serde_json::Value, Vec<u8>) {
         "scene": 0
     });
     (json, bin)
+}
+
+/// 3 sequences of 5 frames (MOT files, COCO videos).
+pub fn sequence_preset() -> Preset {
+    let mut p = tiny_preset();
+    p.name = "mot".into();
+    p.placement = Placement::Formation(Formation {
+        shape: FormationShape::Wedge {
+            half_angle_deg: 40.0,
+        },
+        count: 4,
+        spacing: 4.0,
+        heading_deg: (-30.0, 30.0),
+        position_jitter: 0.1,
+        attitude_jitter: AttitudeRanges::zero(),
+        min_separation: 1.0,
+    });
+    p.camera.y = SweepRange::fixed(0.3);
+    p.camera.z = SweepRange::fixed(1.4);
+    p.plane.ry = SweepRange::fixed(0.0);
+    p.repeats = 3;
+    p.labels.min_box_px = 0.0;
+    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
+    p.sequence = Some(SequenceSpec {
+        steps: 4,
+        motion: Motion {
+            translate_m: (1.0, 0.5, -2.0),
+            turn_deg: 20.0,
+            ..Motion::default()
+        },
+        camera: SequenceCamera::Fixed,
+        frame_rate: 10,
+    });
+    p
+}
+
+/// Write `preset` as RON to `dir/name`.
+pub fn preset_file(dir: &Path, preset: &Preset, name: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, preset.to_ron()).expect("write preset");
+    path
 }
