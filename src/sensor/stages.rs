@@ -206,19 +206,7 @@ pub fn develop(
 
     // 4. Vignetting.
     if draw.vignetting > 0.0 {
-        let corner2 = centre.0 * centre.0 + centre.1 * centre.1;
-        let dx2: Vec<f64> = (win.x0..win.x1)
-            .map(|x| (x as f64 + 0.5 - centre.0).powi(2))
-            .collect();
-        for p in &mut planes {
-            let w = p.win.w();
-            p.data.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-                let dy2 = ((win.y0 + r as i64) as f64 + 0.5 - centre.1).powi(2);
-                for (v, dx2) in row.iter_mut().zip(&dx2) {
-                    *v *= (1.0 - draw.vignetting * (dx2 + dy2) / corner2) as f32;
-                }
-            });
-        }
+        vignette(&mut planes, win, centre, draw.vignetting);
     }
 
     // 5. The sensor grid.
@@ -259,6 +247,30 @@ pub fn develop(
     };
 
     // 8. Encode `out`.
+    encode_window(&planes, out, rgba, width)
+}
+
+/// Vignetting: each plane × (1 − strength·ρ²), ρ the distance of the pixel's
+/// centre to the image centre over the half-diagonal.
+fn vignette(planes: &mut [Plane; 3], win: Win, centre: (f64, f64), strength: f64) {
+    let corner2 = centre.0 * centre.0 + centre.1 * centre.1;
+    let dx2: Vec<f64> = (win.x0..win.x1)
+        .map(|x| (x as f64 + 0.5 - centre.0).powi(2))
+        .collect();
+    for p in planes.iter_mut() {
+        let w = p.win.w();
+        p.data.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
+            let dy2 = ((win.y0 + r as i64) as f64 + 0.5 - centre.1).powi(2);
+            for (v, dx2) in row.iter_mut().zip(&dx2) {
+                *v *= (1.0 - strength * (dx2 + dy2) / corner2) as f32;
+            }
+        });
+    }
+}
+
+/// The RGBA8 bytes of `out` from the linear planes (sRGB by the encode table),
+/// alpha taken from the input frame.
+fn encode_window(planes: &[Plane; 3], out: Win, rgba: &[u8], width: u32) -> Vec<u8> {
     let enc = encode_table();
     let ow = out.w();
     let mut bytes = vec![0u8; ow * out.h() * 4];
