@@ -15,6 +15,7 @@ pub mod annotate;
 #[cfg(feature = "app")]
 pub mod app;
 pub mod gap;
+pub mod input;
 pub mod model;
 pub mod pipeline;
 pub mod preset;

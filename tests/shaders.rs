@@ -20,7 +20,11 @@ fn every_shader_validates() {
             path.display()
         );
     }
-    assert!(files >= sources.len(), "{files} shader files for {} pipelines", sources.len());
+    assert!(
+        files >= sources.len(),
+        "{files} shader files for {} pipelines",
+        sources.len()
+    );
     for (name, src) in sources {
         let module = naga::front::wgsl::parse_str(&src)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));

@@ -174,7 +174,7 @@ pub fn load_file(path: &Path) -> Result<CpuModel, ModelError> {
 
 /// [`load_file`] with a policy for the files its URIs may name.
 pub fn load_file_with(path: &Path, policy: UriPolicy) -> Result<CpuModel, ModelError> {
-    let bytes = crate::preset::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(|source| {
+    let bytes = crate::input::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(|source| {
         ModelError::Io {
             file: path.to_owned(),
             source,

@@ -123,7 +123,7 @@ pub fn open_regular(path: &Path, max_bytes: u64) -> Result<(std::fs::File, u64),
     if !meta.is_file() {
         return Err(format!(
             "{}, not a regular file",
-            crate::preset::file_kind(&meta)
+            crate::input::file_kind(&meta)
         ));
     }
     if meta.len() > max_bytes {

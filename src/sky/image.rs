@@ -61,7 +61,7 @@ fn decode_rgb32f(file: &Path) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentE
     };
     // A regular file of bounded size only: a FIFO or /dev/zero is refused unopened.
     let bytes =
-        crate::preset::read_input_file(file, MAX_SKY_FILE_BYTES).map_err(|e| err(e.to_string()))?;
+        crate::input::read_input_file(file, MAX_SKY_FILE_BYTES).map_err(|e| err(e.to_string()))?;
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
     if let Ok(format) = image::ImageFormat::from_path(file) {
         reader.set_format(format);
