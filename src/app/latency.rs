@@ -62,6 +62,11 @@ impl LatencyMeter {
         timed
     }
 
+    /// No picture is being waited for: the newest one asked for is on screen.
+    pub fn idle(&self) -> bool {
+        self.asked.is_none()
+    }
+
     /// The newest latency, milliseconds.
     pub fn last_ms(&self) -> Option<f64> {
         self.recent_ms.back().copied()

@@ -61,6 +61,8 @@ use worker::LatestWorker;
 
 /// Window title and persistence key.
 pub const APP_NAME: &str = "swarmshot";
+/// The longest a committed preset's summary waits for its preview (see `request_summary`).
+const SUMMARY_DEFER: Duration = Duration::from_secs(1);
 
 /// What a user saves between sessions (eframe persistence).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -315,6 +317,8 @@ pub struct SwarmshotApp {
     preview_rect: Option<Rect>,
     /// Change → picture on screen, measured here (see [`latency`]).
     latency: latency::LatencyMeter,
+    /// A committed preset's summary is yet to be asked for (since then).
+    summary_due: Option<Instant>,
     /// When this UI pass started.
     pass_start: Instant,
     summary_worker: Option<LatestWorker<SummaryRequest, Result<Summary, String>>>,
@@ -418,6 +422,7 @@ impl SwarmshotApp {
             preview_size_px: [0, 0],
             preview_rect: None,
             latency: latency::LatencyMeter::default(),
+            summary_due: None,
             pass_start: Instant::now(),
             summary_worker,
             summary: None,
@@ -575,15 +580,36 @@ impl SwarmshotApp {
         if self.errors.is_empty() && self.session.frame >= frames {
             self.session.frame = frames.saturating_sub(1);
         }
-        if self.errors.is_empty()
-            && let Some(worker) = &self.summary_worker
-        {
+        // Asked for once this edit's picture is on screen (`request_summary`).
+        self.summary_due = self.errors.is_empty().then(Instant::now);
+        ctx.request_repaint();
+    }
+
+    /// Ask for the summary of the committed preset once the preview of it is on
+    /// screen (or failed, or none is coming), or after [`SUMMARY_DEFER`]: on two
+    /// cores its estimate would otherwise share the CPU with the preview render and
+    /// the window's paint of the picture, which the user waits for.
+    fn request_summary(&mut self, ctx: &egui::Context) {
+        let Some(since) = self.summary_due else {
+            return;
+        };
+        let preview_failed = self.preview_error.as_ref().map(|e| e.key) == self.preview_sent;
+        let no_preview = self
+            .preview_sent
+            .is_none_or(|k| k.generation != self.generation);
+        let waiting = !(self.latency.idle() || preview_failed || no_preview);
+        let left = SUMMARY_DEFER.saturating_sub(since.elapsed());
+        if waiting && !left.is_zero() {
+            ctx.request_repaint_after(left);
+            return;
+        }
+        self.summary_due = None;
+        if let Some(worker) = &self.summary_worker {
             worker.submit(SummaryRequest {
                 generation: self.generation,
                 preset: Arc::clone(&self.resolved),
             });
         }
-        ctx.request_repaint();
     }
 
     /// Playing: move to the frame that is due (see [`playback`]).
@@ -1313,7 +1339,9 @@ impl SwarmshotApp {
                 }
             }
             if !self.preview_is_current() && self.errors.is_empty() {
-                ui.spinner();
+                // Words, not a spinner: a spinner repaints the whole window every
+                // pass, which on a CPU renderer slows the render it waits for.
+                ui.weak("rendering…");
             }
             if let Some((ctx, _)) = &self.gpu {
                 ui.weak(ctx.describe());
@@ -1709,6 +1737,7 @@ impl eframe::App for SwarmshotApp {
         }
         self.forget_stale_failure();
         self.request_preview();
+        self.request_summary(&ctx);
         self.update_title(&ctx);
     }
 
