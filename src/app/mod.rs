@@ -19,8 +19,10 @@
 
 mod batch_panel;
 pub mod files;
+pub mod gap_panel;
 pub mod history;
 mod keys;
+pub mod latency;
 pub mod panels;
 pub mod playback;
 pub mod preview;
@@ -35,7 +37,7 @@ mod x11_focus;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use eframe::egui_wgpu;
 use egui::{Color32, Pos2, Rect, RichText, Sense, Stroke, Ui, Vec2};
@@ -59,6 +61,8 @@ use worker::LatestWorker;
 
 /// Window title and persistence key.
 pub const APP_NAME: &str = "swarmshot";
+/// The longest a committed preset's summary waits for its preview (see `request_summary`).
+const SUMMARY_DEFER: Duration = Duration::from_secs(1);
 
 /// What a user saves between sessions (eframe persistence).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -311,6 +315,12 @@ pub struct SwarmshotApp {
     preview_size_px: [u32; 2],
     /// Where the preview was drawn in the last pass (points).
     preview_rect: Option<Rect>,
+    /// Change → picture on screen, measured here (see [`latency`]).
+    latency: latency::LatencyMeter,
+    /// A committed preset's summary is yet to be asked for (since then).
+    summary_due: Option<Instant>,
+    /// When this UI pass started.
+    pass_start: Instant,
     summary_worker: Option<LatestWorker<SummaryRequest, Result<Summary, String>>>,
     summary: Option<Result<Summary, String>>,
     batch: Option<BatchRun>,
@@ -339,6 +349,8 @@ pub struct SwarmshotApp {
     /// A merge of shard folders in flight: its one-line report or error.
     merge: Option<crossbeam_channel::Receiver<Result<String, String>>>,
     merge_outcome: Option<Result<String, String>>,
+    /// The domain-gap report window.
+    gap: gap_panel::GapPanel,
 }
 
 impl SwarmshotApp {
@@ -409,6 +421,9 @@ impl SwarmshotApp {
             preview_sent: None,
             preview_size_px: [0, 0],
             preview_rect: None,
+            latency: latency::LatencyMeter::default(),
+            summary_due: None,
+            pass_start: Instant::now(),
             summary_worker,
             summary: None,
             batch: None,
@@ -427,6 +442,7 @@ impl SwarmshotApp {
             playback: playback::Playback::default(),
             merge: None,
             merge_outcome: None,
+            gap: gap_panel::GapPanel::default(),
         }
     }
 
@@ -454,6 +470,11 @@ impl SwarmshotApp {
     /// The key of the picture on screen, if any.
     pub fn preview_key(&self) -> Option<PreviewKey> {
         self.preview.as_ref().map(|p| p.key)
+    }
+
+    /// The measured time from a change to its picture on screen.
+    pub fn preview_latency(&self) -> &latency::LatencyMeter {
+        &self.latency
     }
 
     /// Last preview render time (build + encode + GPU), milliseconds.
@@ -513,6 +534,15 @@ impl SwarmshotApp {
         self.dialogs.browser()
     }
 
+    /// The domain-gap report window.
+    pub fn gap_panel(&self) -> &gap_panel::GapPanel {
+        &self.gap
+    }
+
+    pub fn gap_panel_mut(&mut self) -> &mut gap_panel::GapPanel {
+        &mut self.gap
+    }
+
     /// The unsaved-changes prompt, while it is open.
     pub fn prompt(&self) -> Option<&Replace> {
         self.prompt.as_ref()
@@ -550,15 +580,36 @@ impl SwarmshotApp {
         if self.errors.is_empty() && self.session.frame >= frames {
             self.session.frame = frames.saturating_sub(1);
         }
-        if self.errors.is_empty()
-            && let Some(worker) = &self.summary_worker
-        {
+        // Asked for once this edit's picture is on screen (`request_summary`).
+        self.summary_due = self.errors.is_empty().then(Instant::now);
+        ctx.request_repaint();
+    }
+
+    /// Ask for the summary of the committed preset once the preview of it is on
+    /// screen (or failed, or none is coming), or after [`SUMMARY_DEFER`]: on two
+    /// cores its estimate would otherwise share the CPU with the preview render and
+    /// the window's paint of the picture, which the user waits for.
+    fn request_summary(&mut self, ctx: &egui::Context) {
+        let Some(since) = self.summary_due else {
+            return;
+        };
+        let preview_failed = self.preview_error.as_ref().map(|e| e.key) == self.preview_sent;
+        let no_preview = self
+            .preview_sent
+            .is_none_or(|k| k.generation != self.generation);
+        let waiting = !(self.latency.idle() || preview_failed || no_preview);
+        let left = SUMMARY_DEFER.saturating_sub(since.elapsed());
+        if waiting && !left.is_zero() {
+            ctx.request_repaint_after(left);
+            return;
+        }
+        self.summary_due = None;
+        if let Some(worker) = &self.summary_worker {
             worker.submit(SummaryRequest {
                 generation: self.generation,
                 preset: Arc::clone(&self.resolved),
             });
         }
-        ctx.request_repaint();
     }
 
     /// Playing: move to the frame that is due (see [`playback`]).
@@ -628,15 +679,20 @@ impl SwarmshotApp {
                 preset: Arc::clone(&self.resolved),
             });
             self.preview_sent = Some(key);
+            self.latency.asked(key, self.pass_start);
         }
     }
 
     /// Take what the workers and the batch thread finished.
-    fn poll(&mut self) {
+    fn poll(&mut self, ctx: &egui::Context) {
         if let Some(result) = self.preview_worker.as_ref().and_then(LatestWorker::latest) {
             match result {
                 Ok(frame) => {
                     self.show_texture(&frame.texture);
+                    if self.latency.picture_taken(frame.key) {
+                        // The next pass starts once this one is on screen: it times it.
+                        ctx.request_repaint();
+                    }
                     self.preview_error = None;
                     self.preview = Some(frame);
                 }
@@ -1070,6 +1126,8 @@ impl SwarmshotApp {
                 .on_hover_text("Show or hide the parameter panel");
             ui.toggle_value(&mut self.session.show_summary, "Summary")
                 .on_hover_text("Show or hide the Summary and Batch panel");
+            ui.toggle_value(&mut self.gap.open, "Domain gap")
+                .on_hover_text("Compare real frames with this preset's frames (swarmshot gap)");
             ui.separator();
             let (file, full) = match &self.session.preset_path {
                 Some(p) => (
@@ -1267,13 +1325,23 @@ impl SwarmshotApp {
                     let [w, h] = p.key.size_px;
                     ui.label(format!("preview {:.1} ms at {w}×{h}", p.render_ms))
                         .on_hover_text("Last preview render: frame build + encode + GPU");
+                    if let (Some(last), Some((median, n))) =
+                        (self.latency.last_ms(), self.latency.median_ms())
+                    {
+                        ui.label(format!("on screen {last:.0} ms (median {median:.0} ms of {n})"))
+                            .on_hover_text(
+                                "From the change (an edit taken, another frame, a resize) to its picture on screen: render, hand-over and the window's own paint",
+                            );
+                    }
                 }
                 None => {
                     ui.label("no preview yet");
                 }
             }
             if !self.preview_is_current() && self.errors.is_empty() {
-                ui.spinner();
+                // Words, not a spinner: a spinner repaints the whole window every
+                // pass, which on a CPU renderer slows the render it waits for.
+                ui.weak("rendering…");
             }
             if let Some((ctx, _)) = &self.gpu {
                 ui.weak(ctx.describe());
@@ -1627,13 +1695,23 @@ fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
 impl eframe::App for SwarmshotApp {
     fn ui(&mut self, ui: &mut Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
+        self.pass_start = Instant::now();
+        self.latency.pass_started(self.pass_start);
         take_focus_on_click(&ctx, frame);
-        self.poll();
+        self.poll(&ctx);
         self.close_requested(&ctx);
         let mut commands = self.shortcut_commands(&ctx);
         self.sync(&ctx);
         self.play_tick(&ctx);
         self.panels_ui(ui, &mut commands);
+        self.gap.show(
+            &ctx,
+            gap_panel::GapInputs {
+                gpu: self.gpu.as_ref().map(|(g, _)| g),
+                preset: self.errors.is_empty().then(|| Arc::clone(&self.resolved)),
+                out_dir: &self.session.out_dir,
+            },
+        );
         if let Some(choice) = self.dialogs.show(&ctx) {
             self.chosen(choice, &ctx);
         } else if !self.dialogs.is_open() {
@@ -1659,6 +1737,7 @@ impl eframe::App for SwarmshotApp {
         }
         self.forget_stale_failure();
         self.request_preview();
+        self.request_summary(&ctx);
         self.update_title(&ctx);
     }
 

@@ -1197,7 +1197,9 @@ pub fn content_records(root: &Path) -> Result<BTreeMap<String, ContentRecord>, O
 /// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
 /// path exists (a barrier: tests/output_trust.rs runs a second batch
 /// meanwhile), and says it has stopped by creating that path with
-/// `.stalled` added.
+/// `.stalled` added. Only with the `test-hooks` feature, which `cargo test` turns on
+/// (Cargo.toml); shipped builds have no such hook.
+#[cfg(feature = "test-hooks")]
 fn stall_if_asked(point: &str) {
     static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
     let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_AT").ok());
@@ -1217,6 +1219,10 @@ fn stall_if_asked(point: &str) {
         }
     }
 }
+
+/// Without `test-hooks` (every shipped build) there is no fault injection.
+#[cfg(not(feature = "test-hooks"))]
+fn stall_if_asked(_point: &str) {}
 
 /// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
 fn write_new_then_rename(

@@ -1,0 +1,449 @@
+//! The domain-gap report in the app (issue 21 item 8): a window where the user names a
+//! folder of real frames and runs `swarmshot gap` ([`crate::gap::run_report`]) against
+//! either the current preset's first frames, made now into a temporary folder by the
+//! batch's own [`run_batch`], or a dataset folder already made. The work runs on its
+//! own thread; the window shows its progress, then the side-by-side table with each
+//! statistic's verdict and the proposed camera-model ranges.
+//!
+//! The temporary dataset is a folder this module creates under the system's temporary
+//! folder (a new name each run, never an existing folder) and removes once measured.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use crossbeam_channel::Receiver;
+use egui::{Color32, RichText, Ui};
+
+use crate::gap::report::{Summary, fmt};
+use crate::gap::{GapOptions, Report, run_report};
+use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
+use crate::preset::Preset;
+use crate::render::GpuContext;
+
+/// Frames of the preset made for the report unless the user asks otherwise.
+pub const DEFAULT_PRESET_FRAMES: u64 = 16;
+/// The most frames of the preset the window makes for one report.
+pub const MAX_PRESET_FRAMES: u64 = 500;
+
+/// What the report compares the real frames against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SyntheticSide {
+    /// The current preset's first N frames, made now.
+    PresetFrames,
+    /// A dataset folder (`swarmshot batch --out`, or the app's output folder).
+    Dataset,
+}
+
+/// A report in flight.
+struct Job {
+    /// What it is doing now, for the window.
+    stage: Arc<Mutex<String>>,
+    cancel: Arc<AtomicBool>,
+    result: Receiver<Result<Report, String>>,
+}
+
+/// The window's state.
+pub struct GapPanel {
+    pub open: bool,
+    /// Folder of real frames (YOLO labels in a sibling labels/ or beside them).
+    pub real_dir: String,
+    pub side: SyntheticSide,
+    pub preset_frames: u64,
+    /// The dataset folder for [`SyntheticSide::Dataset`].
+    pub dataset_dir: String,
+    /// At most this many frames per side (0: all).
+    pub max_images: usize,
+    job: Option<Job>,
+    outcome: Option<Result<Report, String>>,
+}
+
+impl Default for GapPanel {
+    fn default() -> Self {
+        Self {
+            open: false,
+            real_dir: String::new(),
+            side: SyntheticSide::PresetFrames,
+            preset_frames: DEFAULT_PRESET_FRAMES,
+            dataset_dir: String::new(),
+            max_images: 200,
+            job: None,
+            outcome: None,
+        }
+    }
+}
+
+/// What the window needs from the app to start a report.
+pub struct GapInputs<'a> {
+    pub gpu: Option<&'a GpuContext>,
+    /// The preset with model paths resolved; None while it is invalid.
+    pub preset: Option<Arc<Preset>>,
+    /// The batch panel's output folder, proposed for the dataset side.
+    pub out_dir: &'a str,
+}
+
+impl GapPanel {
+    /// The finished report, if the last run succeeded.
+    pub fn report(&self) -> Option<&Report> {
+        self.outcome.as_ref().and_then(|o| o.as_ref().ok())
+    }
+
+    /// The last run's error, if it failed.
+    pub fn error(&self) -> Option<&str> {
+        self.outcome
+            .as_ref()
+            .and_then(|o| o.as_ref().err())
+            .map(String::as_str)
+    }
+
+    /// A report is being made.
+    pub fn is_running(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// Take a finished job's result.
+    fn poll(&mut self) {
+        let Some(job) = &self.job else { return };
+        match job.result.try_recv() {
+            Ok(outcome) => {
+                self.outcome = Some(outcome);
+                self.job = None;
+            }
+            Err(crossbeam_channel::TryRecvError::Empty) => {}
+            Err(crossbeam_channel::TryRecvError::Disconnected) => {
+                self.outcome = Some(Err("the report thread stopped without a result".into()));
+                self.job = None;
+            }
+        }
+    }
+
+    /// The window (when open).
+    pub fn show(&mut self, ctx: &egui::Context, inputs: GapInputs<'_>) {
+        self.poll();
+        if !self.open {
+            return;
+        }
+        if self.dataset_dir.is_empty() {
+            self.dataset_dir = inputs.out_dir.to_owned();
+        }
+        let mut open = self.open;
+        egui::Window::new("Domain gap")
+            .open(&mut open)
+            .default_size([900.0, 560.0])
+            .vscroll(true)
+            .show(ctx, |ui| self.contents(ui, &inputs));
+        self.open = open;
+    }
+
+    fn contents(&mut self, ui: &mut Ui, inputs: &GapInputs<'_>) {
+        ui.label(
+            "Compares real frames with synthetic ones statistic by statistic (as `swarmshot gap`): noise, blur, edges, sky colour, JPEG quality, drone size and contrast. See docs/realism.md.",
+        );
+        let running = self.job.is_some();
+        ui.add_enabled_ui(!running, |ui| self.inputs_ui(ui));
+        ui.horizontal(|ui| {
+            let why_not = self.why_not(inputs);
+            let run = ui
+                .add_enabled(
+                    !running && why_not.is_none(),
+                    egui::Button::new("Run report"),
+                )
+                .on_hover_text("Measure both sides and show the table (runs in the background)");
+            if let Some(why) = &why_not
+                && !running
+            {
+                ui.weak(why.as_str());
+            }
+            if run.clicked() {
+                self.start(inputs, ui.ctx().clone());
+            }
+            if let Some(job) = &self.job {
+                ui.spinner();
+                let stage = job.stage.lock().map(|s| s.clone()).unwrap_or_default();
+                ui.label(stage);
+                if ui.button("Cancel").clicked() {
+                    job.cancel.store(true, Ordering::Relaxed);
+                }
+            }
+        });
+        ui.separator();
+        match &self.outcome {
+            Some(Ok(report)) => report_ui(ui, report),
+            Some(Err(e)) => {
+                ui.label(
+                    RichText::new(format!("Report failed: {e}")).color(ui.visuals().error_fg_color),
+                );
+            }
+            None => {}
+        }
+    }
+
+    fn inputs_ui(&mut self, ui: &mut Ui) {
+        egui::Grid::new("gap inputs").num_columns(2).show(ui, |ui| {
+            ui.label("Real frames folder");
+            ui.add(egui::TextEdit::singleline(&mut self.real_dir).desired_width(420.0))
+                .on_hover_text(
+                    "A folder of real JPEG/PNG frames; YOLO labels in a sibling labels/ folder or beside the images give the drone statistics",
+                );
+            ui.end_row();
+            ui.label("Synthetic frames");
+            ui.vertical(|ui| {
+                ui.horizontal(|ui| {
+                    ui.radio_value(&mut self.side, SyntheticSide::PresetFrames, "This preset: first")
+                        .on_hover_text("Make the preset's first frames now, as Generate makes them, into a temporary folder that is removed afterwards");
+                    ui.add(
+                        egui::DragValue::new(&mut self.preset_frames)
+                            .range(1..=MAX_PRESET_FRAMES),
+                    );
+                    ui.label("frames");
+                });
+                ui.horizontal(|ui| {
+                    ui.radio_value(&mut self.side, SyntheticSide::Dataset, "Dataset folder")
+                        .on_hover_text("A folder made by Generate or `swarmshot batch --out`");
+                    ui.add_enabled(
+                        self.side == SyntheticSide::Dataset,
+                        egui::TextEdit::singleline(&mut self.dataset_dir).desired_width(330.0),
+                    );
+                });
+            });
+            ui.end_row();
+            ui.label("At most");
+            ui.horizontal(|ui| {
+                ui.add(egui::DragValue::new(&mut self.max_images).range(0..=100_000));
+                ui.label("frames per side (0: all; evenly spaced in name order)");
+            });
+            ui.end_row();
+        });
+    }
+
+    /// Why a report cannot start now, in words.
+    fn why_not(&self, inputs: &GapInputs<'_>) -> Option<String> {
+        if self.real_dir.trim().is_empty() {
+            return Some("name the folder of real frames".into());
+        }
+        match self.side {
+            SyntheticSide::PresetFrames if inputs.preset.is_none() => {
+                Some("the preset has problems (see Problems)".into())
+            }
+            SyntheticSide::PresetFrames if inputs.gpu.is_none() => {
+                Some("no wgpu device to make frames with".into())
+            }
+            SyntheticSide::Dataset if self.dataset_dir.trim().is_empty() => {
+                Some("name the dataset folder".into())
+            }
+            _ => None,
+        }
+    }
+
+    /// Start the report on its own thread.
+    fn start(&mut self, inputs: &GapInputs<'_>, ctx: egui::Context) {
+        let stage = Arc::new(Mutex::new(String::new()));
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (tx, result) = crossbeam_channel::bounded(1);
+        let real = PathBuf::from(self.real_dir.trim());
+        let max_images = self.max_images;
+        let source = match self.side {
+            SyntheticSide::PresetFrames => match (inputs.preset.clone(), inputs.gpu.cloned()) {
+                (Some(preset), Some(gpu)) => Source::Preset {
+                    preset,
+                    gpu: Box::new(gpu),
+                    frames: self.preset_frames.clamp(1, MAX_PRESET_FRAMES),
+                },
+                _ => return,
+            },
+            SyntheticSide::Dataset => Source::Dataset(PathBuf::from(self.dataset_dir.trim())),
+        };
+        let (thread_stage, thread_cancel) = (Arc::clone(&stage), Arc::clone(&cancel));
+        let spawned = std::thread::Builder::new()
+            .name("swarmshot gap".into())
+            .spawn(move || {
+                let outcome = make_report(real, source, max_images, &thread_stage, &thread_cancel);
+                let _ = tx.send(outcome);
+                ctx.request_repaint();
+            });
+        match spawned {
+            Ok(_) => {
+                self.outcome = None;
+                self.job = Some(Job {
+                    stage,
+                    cancel,
+                    result,
+                });
+            }
+            Err(e) => self.outcome = Some(Err(format!("cannot start the report thread: {e}"))),
+        }
+    }
+}
+
+/// The synthetic side of a report job.
+enum Source {
+    Preset {
+        preset: Arc<Preset>,
+        gpu: Box<GpuContext>,
+        frames: u64,
+    },
+    Dataset(PathBuf),
+}
+
+/// A folder this run created under the system's temporary folder, removed on drop.
+struct TempDataset(PathBuf);
+
+impl TempDataset {
+    fn create() -> Result<Self, String> {
+        static RUN: AtomicU64 = AtomicU64::new(0);
+        let base = std::env::temp_dir();
+        for _ in 0..100 {
+            let n = RUN.fetch_add(1, Ordering::Relaxed);
+            let dir = base.join(format!("swarmshot-gap-{}-{n}", std::process::id()));
+            match std::fs::create_dir(&dir) {
+                Ok(()) => return Ok(Self(dir)),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => {
+                    return Err(format!(
+                        "cannot make a temporary folder in {}: {e}",
+                        base.display()
+                    ));
+                }
+            }
+        }
+        Err(format!(
+            "no free temporary folder name in {}",
+            base.display()
+        ))
+    }
+}
+
+impl Drop for TempDataset {
+    fn drop(&mut self) {
+        // Only this run's own folder, which holds only the batch's files.
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn set(stage: &Mutex<String>, text: String) {
+    if let Ok(mut s) = stage.lock() {
+        *s = text;
+    }
+}
+
+/// The report job: make the preset's frames if asked, then measure both sides.
+fn make_report(
+    real: PathBuf,
+    source: Source,
+    max_images: usize,
+    stage: &Mutex<String>,
+    cancel: &AtomicBool,
+) -> Result<Report, String> {
+    let (synthetic, _temp) = match source {
+        Source::Dataset(dir) => (dir, None),
+        Source::Preset {
+            preset,
+            gpu,
+            frames,
+        } => {
+            if !real.is_dir() {
+                // Found before any frame is made.
+                return Err(format!("{}: not a folder", real.display()));
+            }
+            let temp = TempDataset::create()?;
+            set(stage, format!("making {frames} frames of the preset…"));
+            let pipeline = FramePipeline::new((*preset).clone()).map_err(|e| format!("{e:#}"))?;
+            let mut options = BatchOptions::new(&temp.0);
+            options.limit = Some(frames);
+            run_batch(&pipeline, &options, &gpu, cancel, |p| {
+                set(
+                    stage,
+                    format!("making frames of the preset: {} of {}…", p.done, p.total),
+                );
+            })
+            .map_err(|e| format!("making the preset's frames: {e:#}"))?;
+            if cancel.load(Ordering::Relaxed) {
+                return Err("cancelled".into());
+            }
+            (temp.0.clone(), Some(temp))
+        }
+    };
+    set(stage, "measuring the real and the synthetic frames…".into());
+    run_report(&GapOptions {
+        real,
+        synthetic,
+        max_images,
+    })
+    .map_err(|e| e.to_string())
+}
+
+/// A summary cell: median [IQR] (n), or share [interval] (n).
+fn cell(s: Option<Summary>) -> String {
+    match s {
+        None => "–".into(),
+        Some(Summary::Distribution {
+            n,
+            median,
+            q25,
+            q75,
+        }) => format!("{} [{} – {}] (n={n})", fmt(median), fmt(q25), fmt(q75)),
+        Some(Summary::Share {
+            n,
+            share,
+            low,
+            high,
+            ..
+        }) => format!(
+            "{:.0} % [{:.0} – {:.0}] (n={n})",
+            share * 100.0,
+            low * 100.0,
+            high * 100.0
+        ),
+    }
+}
+
+/// The report's words with "→" spelled out: egui's default font has no arrows.
+pub fn plain(text: &str) -> String {
+    text.replace('→', " to ")
+}
+
+/// The side-by-side table, its verdicts and the proposed ranges.
+fn report_ui(ui: &mut Ui, report: &Report) {
+    for (name, side) in [("Real", &report.real), ("Synthetic", &report.synthetic)] {
+        let drones: usize = side.frames.iter().map(|f| f.stats.drones.len()).sum();
+        ui.label(format!(
+            "{name}: {} ({} of {} images measured, {} labelled, {drones} drones)",
+            side.dir,
+            side.frames.len(),
+            side.images_found,
+            side.labelled_frames
+        ));
+    }
+    ui.add_space(4.0);
+    egui::Grid::new("gap table")
+        .num_columns(5)
+        .striped(true)
+        .show(ui, |ui| {
+            for head in ["statistic", "unit", "real median [IQR]", "synthetic median [IQR]", "verdict"] {
+                ui.strong(head);
+            }
+            ui.end_row();
+            for row in &report.statistics {
+                ui.label(plain(row.name));
+                ui.label(plain(row.unit));
+                ui.label(cell(row.real));
+                ui.label(cell(row.synthetic));
+                let colour = match row.verdict {
+                    "inside" => Color32::from_rgb(80, 170, 80),
+                    "below" | "above" => Color32::from_rgb(220, 150, 40),
+                    _ => ui.visuals().weak_text_color(),
+                };
+                ui.label(RichText::new(row.verdict).color(colour))
+                    .on_hover_text("The synthetic median (or share) against the real inter-quartile range (or 50 % interval)");
+                ui.end_row();
+            }
+        });
+    ui.weak("Shares: the interval is the 50 % Wilson interval. Verdict: the synthetic median or share against the real range.");
+    if !report.proposals.is_empty() {
+        ui.add_space(4.0);
+        ui.strong("Proposed ranges");
+        for p in &report.proposals {
+            ui.label(format!("• {}", plain(&p.text)));
+        }
+    }
+}
