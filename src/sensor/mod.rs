@@ -42,6 +42,7 @@
 //! with and without the drone. Rows are split over rayon's threads; every
 //! pixel's value depends only on the input and the draw, never on the split.
 
+mod fused;
 mod noise;
 mod stages;
 
