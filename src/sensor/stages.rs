@@ -142,6 +142,27 @@ pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8>
     bands.concat()
 }
 
+/// [`apply`] on the plane path whatever the draw: the implementation before
+/// the fused sweep, the same bytes; kept for `examples/camera_bench.rs`'s
+/// before/after comparison.
+#[doc(hidden)]
+pub fn apply_planes(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
+    let band = BAND_ROWS.max(4 * draw.reach_px(width, height));
+    let bands: Vec<Vec<u8>> = (0..height.div_ceil(band))
+        .into_par_iter()
+        .map(|b| {
+            let rect = PixelRect {
+                x0: 0,
+                y0: b * band,
+                x1: width,
+                y1: (b * band).saturating_add(band).min(height),
+            };
+            develop_planes(rgba, width, height, draw, rect, true)
+        })
+        .collect();
+    bands.concat()
+}
+
 /// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
 /// `rgba` through the camera `draw`, with or without noise: the bytes the
 /// whole frame gets there. A sensor with the output's pixels takes the
