@@ -16,6 +16,7 @@
 
 pub mod batch;
 pub mod plan;
+mod streaks;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -459,17 +460,39 @@ impl FramePipeline {
         measured: &mut Option<Vec<Visibility>>,
     ) -> Result<Vec<u8>, PipelineError> {
         let (w, h) = (scene.camera.width, scene.camera.height);
+        // Motion blur (sequences): each drone smeared along its streak first.
+        let streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
+        let blurred = if streaks.iter().flatten().any(|s| s.moves()) {
+            let background = renderer.background_pixels(&frame.painted).ok_or_else(|| {
+                PipelineError::Camera {
+                    index: scene.index,
+                    reason: "motion blur: the drone-free background is not cached".into(),
+                }
+            })?;
+            let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
+            Some(sensor::motion::smear(
+                &frame.rgba,
+                background,
+                (w, h),
+                &list,
+            ))
+        } else {
+            None
+        };
+        let source: &[u8] = blurred.as_deref().unwrap_or(&frame.rgba);
         if let Some(vis) = measured.as_mut() {
             let background = renderer.background_pixels(&frame.painted);
             let near: Vec<Option<PixelRect>> = vis
                 .iter()
-                .map(|v| {
-                    v.visible_box.map(|b| PixelRect {
+                .enumerate()
+                .map(|(i, v)| {
+                    let own = v.visible_box.map(|b| PixelRect {
                         x0: b.x0.floor().max(0.0) as u32,
                         y0: b.y0.floor().max(0.0) as u32,
                         x1: b.x1.ceil().max(0.0) as u32,
                         y1: b.y1.ceil().max(0.0) as u32,
-                    })
+                    });
+                    streaks::grown(own, streaks.get(i).copied().flatten(), (w, h))
                 })
                 .collect();
             for (i, v) in vis.iter_mut().enumerate() {
@@ -481,11 +504,11 @@ impl FramePipeline {
                     .filter_map(|(_, r)| *r)
                     .collect();
                 let changed =
-                    sensor::changed_pixels(&frame.rgba, background, (w, h), draw, own, &others);
+                    sensor::changed_pixels(source, background, (w, h), draw, own, &others);
                 *v = camera_visibility(v, changed);
             }
         }
-        let mut rgba = sensor::apply(&frame.rgba, w, h, draw);
+        let mut rgba = sensor::apply(source, w, h, draw);
         if let Some(quality) = draw.recompress_quality {
             rgba = crate::write::jpeg_round_trip(&rgba, w, h, quality).map_err(|e| {
                 PipelineError::Camera {

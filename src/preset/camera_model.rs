@@ -41,6 +41,14 @@ pub struct CameraModel {
     /// A first JPEG compression at this quality (encoded and decoded once) before the final write.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub recompress_quality: Option<(u8, u8)>,
+    /// Motion blur (sequences only): how long the shutter is open, seconds,
+    /// at most one frame interval (1 / `sequence.frame_rate`); 0: no blur.
+    #[serde(skip_serializing_if = "is_zero_range")]
+    pub exposure_time_s: (f64, f64),
+}
+
+fn is_zero_range(r: &(f64, f64)) -> bool {
+    *r == (0.0, 0.0)
 }
 
 impl Default for CameraModel {
@@ -60,6 +68,7 @@ impl Default for CameraModel {
             sensor_scale: None,
             jpeg_quality: None,
             recompress_quality: None,
+            exposure_time_s: (0.0, 0.0),
         }
     }
 }
@@ -131,6 +140,25 @@ impl CameraModel {
                     &format!("{p}.{name}"),
                     || format!("({lo}, {hi}) is not a range (min, max) within [1, 100]"),
                 );
+            }
+        }
+        range(v, "exposure_time_s", self.exposure_time_s, 0.0, 1.0);
+        if self.exposure_time_s.1 > 0.0 {
+            let field = format!("{p}.exposure_time_s");
+            match &preset.sequence {
+                None => v.check(false, &field, || {
+                    "motion blur needs `sequence` (a still frame has no motion)".into()
+                }),
+                Some(seq) => v.check(
+                    self.exposure_time_s.1 * f64::from(seq.frame_rate) <= 1.0,
+                    &field,
+                    || {
+                        format!(
+                            "{} s is longer than a frame interval (1/{} s, sequence.frame_rate)",
+                            self.exposure_time_s.1, seq.frame_rate
+                        )
+                    },
+                ),
             }
         }
         if self.jpeg_quality.is_some() {

@@ -42,6 +42,8 @@
 //! with and without the drone. Rows are split over rayon's threads; every
 //! pixel's value depends only on the input and the draw, never on the split.
 
+mod fused;
+pub mod motion;
 mod noise;
 mod stages;
 
@@ -50,7 +52,7 @@ use serde::Serialize;
 
 use crate::preset::camera_model::{CameraModel, Psf};
 
-pub use stages::{apply, develop};
+pub use stages::{apply, apply_planes, develop};
 
 /// The camera parameters of one frame, drawn from the preset's ranges.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -74,6 +76,8 @@ pub struct CameraDraw {
     pub recompress_quality: Option<u8>,
     /// Seed of the per-pixel noise.
     pub noise_seed: u64,
+    /// How long the shutter is open, seconds (0: no motion blur; sequences only).
+    pub exposure_time_s: f64,
 }
 
 /// The drawn point spread function.
@@ -137,6 +141,11 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
     };
     let jpeg_quality = pick_q(model.jpeg_quality);
     let recompress_quality = pick_q(model.recompress_quality);
+    // Drawn last, and only when it is a range: the earlier draws stay put.
+    let exposure_time_s = match model.exposure_time_s {
+        (lo, hi) if hi > lo => rng.random_range(lo..=hi),
+        (lo, _) => lo,
+    };
     CameraDraw {
         exposure_ev,
         white_balance_red,
@@ -151,6 +160,7 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         jpeg_quality,
         recompress_quality,
         noise_seed: crate::seed::mix64(seed ^ 0x4E4F_4953_455F_5345), // "NOISE_SE"
+        exposure_time_s,
     }
 }
 

@@ -64,7 +64,7 @@ fn rows(win: Win, f: impl Fn(i64, &mut [f32]) + Sync) -> Plane {
 }
 
 /// sRGB 8-bit → linear light.
-fn decode_table() -> &'static [f32; 256] {
+pub(super) fn decode_table() -> &'static [f32; 256] {
     static T: OnceLock<[f32; 256]> = OnceLock::new();
     T.get_or_init(|| {
         std::array::from_fn(|i| {
@@ -83,7 +83,7 @@ fn decode_table() -> &'static [f32; 256] {
 const ENCODE_STEPS: usize = 65_536;
 
 /// Linear light (index = round(l·65535)) → sRGB 8-bit.
-fn encode_table() -> &'static [u8] {
+pub(super) fn encode_table() -> &'static [u8] {
     static T: OnceLock<Vec<u8>> = OnceLock::new();
     T.get_or_init(|| {
         (0..ENCODE_STEPS)
@@ -101,26 +101,36 @@ fn encode_table() -> &'static [u8] {
 }
 
 #[inline]
-fn encode(table: &[u8], l: f32) -> u8 {
+pub(super) fn encode(table: &[u8], l: f32) -> u8 {
     // l is in [0, 1] (clipped by the sensor); NaN would map to 0.
     table[((l * (ENCODE_STEPS - 1) as f32 + 0.5) as usize).min(ENCODE_STEPS - 1)]
 }
 
-/// Output rows per band of [`apply`] (at least four reaches).
+/// Output rows per band of [`apply`] on the plane path (at least four reaches).
 const BAND_ROWS: u32 = 64;
 
 /// The whole frame through the camera, noise included: RGBA8 of the same
-/// size, alpha kept. Made in bands of rows, each [`develop`]ed from its
-/// own window (so a band's planes stay in cache), the bands in parallel:
-/// by the window property every band holds exactly the whole frame's
-/// bytes, and the noise is keyed on absolute pixel indices.
+/// size, alpha kept. Made in bands of rows, the bands in parallel: on the
+/// fused path ([`super::fused`]) every read is clamped to the image; on the
+/// plane path (a sensor coarser than the output) each band is [`develop`]ed
+/// from its own window (so a band's planes stay in cache), and by the window
+/// property holds exactly the whole frame's bytes. The noise is keyed on
+/// absolute pixel indices either way.
 pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
+    let whole = PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: width,
+        y1: height,
+    };
+    if super::fused::handles(draw, width, height) {
+        return develop(rgba, width, height, draw, whole, true);
+    }
     let band = BAND_ROWS.max(4 * draw.reach_px(width, height));
     let rect = |y0: u32| PixelRect {
-        x0: 0,
         y0,
-        x1: width,
         y1: y0.saturating_add(band).min(height),
+        ..whole
     };
     if height <= band {
         return develop(rgba, width, height, draw, rect(0), true);
@@ -132,11 +142,61 @@ pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8>
     bands.concat()
 }
 
+/// [`apply`] on the plane path whatever the draw: the implementation before
+/// the fused sweep, the same bytes; kept for `examples/camera_bench.rs`'s
+/// before/after comparison.
+#[doc(hidden)]
+pub fn apply_planes(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
+    let band = BAND_ROWS.max(4 * draw.reach_px(width, height));
+    let bands: Vec<Vec<u8>> = (0..height.div_ceil(band))
+        .into_par_iter()
+        .map(|b| {
+            let rect = PixelRect {
+                x0: 0,
+                y0: b * band,
+                x1: width,
+                y1: (b * band).saturating_add(band).min(height),
+            };
+            develop_planes(rgba, width, height, draw, rect, true)
+        })
+        .collect();
+    bands.concat()
+}
+
 /// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
-/// `rgba` through the camera `draw`, with or without noise. Computed from a
-/// window of the input `reach_px` wider than `out`, so they are the bytes
-/// the whole frame gets there.
+/// `rgba` through the camera `draw`, with or without noise: the bytes the
+/// whole frame gets there. A sensor with the output's pixels takes the
+/// fused sweep ([`super::fused`]), a coarser one the planes below.
 pub fn develop(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    draw: &CameraDraw,
+    out: PixelRect,
+    noisy: bool,
+) -> Vec<u8> {
+    let (wi, hi) = (i64::from(width), i64::from(height));
+    let clamped = (
+        i64::from(out.x0).clamp(0, wi),
+        i64::from(out.y0).clamp(0, hi),
+        i64::from(out.x1).clamp(0, wi),
+        i64::from(out.y1).clamp(0, hi),
+    );
+    let empty = clamped.0 >= clamped.2 || clamped.1 >= clamped.3;
+    if empty || rgba.len() < (width as usize) * (height as usize) * 4 {
+        return Vec::new();
+    }
+    if super::fused::handles(draw, width, height) {
+        return super::fused::develop(rgba, (width, height), draw, clamped, noisy);
+    }
+    develop_planes(rgba, width, height, draw, out, noisy)
+}
+
+/// [`develop`] on planes of the window grown by the reach: every stage a
+/// pass over three f32 planes. Computed from a window of the input
+/// `reach_px` wider than `out`, so they are the bytes the whole frame gets
+/// there.
+pub(super) fn develop_planes(
     rgba: &[u8],
     width: u32,
     height: u32,
@@ -322,7 +382,7 @@ fn radial(p: &Plane, scale: f64, centre: (f64, f64)) -> Plane {
 }
 
 /// Normalised Gaussian weights for offsets −⌈3σ⌉ … ⌈3σ⌉.
-fn gaussian_weights(sigma_px: f64) -> Vec<f32> {
+pub(super) fn gaussian_weights(sigma_px: f64) -> Vec<f32> {
     let r = (3.0 * sigma_px).ceil() as i64;
     let raw: Vec<f64> = (-r..=r)
         .map(|k| (-(k * k) as f64 / (2.0 * sigma_px * sigma_px)).exp())
@@ -358,9 +418,9 @@ fn gaussian(p: &Plane, weights: &[f32]) -> Plane {
     })
 }
 
-/// A uniform disc: the pixels whose centres lie within `radius_px`, summed
-/// row by row from prefix sums (O(radius) per pixel), edges clamped.
-fn disc(p: &Plane, radius_px: f64) -> Plane {
+/// The half-widths of a disc's rows −⌊r⌋ … ⌊r⌋ (−1: an empty row) and
+/// 1 / its pixel count.
+pub(super) fn disc_spans(radius_px: f64) -> (Vec<i64>, f64) {
     let r = radius_px.floor() as i64;
     let spans: Vec<i64> = (-r..=r)
         .map(|dy| {
@@ -373,7 +433,14 @@ fn disc(p: &Plane, radius_px: f64) -> Plane {
         })
         .collect();
     let count: i64 = spans.iter().map(|h| 2 * h + 1).sum();
-    let norm = 1.0 / count as f64;
+    (spans, 1.0 / count as f64)
+}
+
+/// A uniform disc: the pixels whose centres lie within `radius_px`, summed
+/// row by row from prefix sums (O(radius) per pixel), edges clamped.
+fn disc(p: &Plane, radius_px: f64) -> Plane {
+    let r = radius_px.floor() as i64;
+    let (spans, norm) = disc_spans(radius_px);
     let w = p.win.w();
     // Per source row: prefix sums of the row padded by r clamped values.
     let prefix: Vec<Vec<f64>> = (p.win.y0..p.win.y1)

@@ -509,6 +509,7 @@ mod tests {
                             jpeg_quality: Some(73),
                             recompress_quality: None,
                             noise_seed: u64::MAX,
+                            exposure_time_s: 0.0,
                         });
                         scene.placement_shortfall = 2;
                         for d in &mut scene.drones {

@@ -350,6 +350,10 @@ fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
     j.rounded(c.ca_red_scale, Decimals::Six);
     j.raw(b",\"exposure_ev\":");
     j.rounded(c.exposure_ev, Decimals::Six);
+    if c.exposure_time_s > 0.0 {
+        j.raw(b",\"exposure_time_s\":");
+        j.rounded(c.exposure_time_s, Decimals::Six);
+    }
     if let Some(q) = c.jpeg_quality {
         j.raw(b",\"jpeg_quality\":");
         j.u64(q.into());
@@ -724,6 +728,9 @@ pub(crate) mod reference {
             }
             if let Some(s) = c.sensor_scale {
                 map.insert("sensor_scale".into(), r6(s).into());
+            }
+            if c.exposure_time_s > 0.0 {
+                map.insert("exposure_time_s".into(), r6(c.exposure_time_s).into());
             }
         }
         v

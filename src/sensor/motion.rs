@@ -1,0 +1,245 @@
+//! Motion blur for sequences (`camera_model.exposure_time_s`): while the
+//! shutter is open each drone's image moves by its streak, and the picture
+//! is the time average, in linear light, of the drone over the still
+//! background. Made on the CPU from the rendered frame and its drone-free
+//! background, before the rest of the camera chain.
+//!
+//! For a streak with shift s (pixels over the exposure, centred on the
+//! frame's time) and the drone's difference D = lin(frame) − lin(background)
+//! over its own rect, the blurred frame is
+//! `lin(background)(p) + (1/n)·Σₖ D(p − tₖ·s)`, tₖ = −½ … ½ in n ≥ 2 equal
+//! steps at most ½ px apart, D sampled bilinearly (0 outside the rect).
+//! A pixel inside several rects belongs to the first. The drone's own
+//! rotation during the exposure and the background's motion (a following
+//! camera) are not blurred. Pixels no streak reaches keep their bytes.
+
+use super::PixelRect;
+use super::stages::{decode_table, encode, encode_table};
+
+/// One drone's motion during the exposure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Streak {
+    /// Where the drone is drawn in the frame (its pixels differ from the
+    /// background only inside).
+    pub rect: PixelRect,
+    /// How far its image moves while the shutter is open, pixels (x, y).
+    pub shift_px: (f64, f64),
+}
+
+impl Streak {
+    /// Whether the streak moves the image at all (≥ 1/100 px).
+    pub fn moves(&self) -> bool {
+        self.shift_px.0.hypot(self.shift_px.1) >= 0.01
+            && self.shift_px.0.is_finite()
+            && self.shift_px.1.is_finite()
+    }
+
+    /// The pixels the streak can reach: its rect swept by ±shift/2 (plus the
+    /// bilinear tap), clamped to the `width`×`height` image.
+    pub fn swept(&self, width: u32, height: u32) -> PixelRect {
+        let (hx, hy) = (self.shift_px.0.abs() / 2.0, self.shift_px.1.abs() / 2.0);
+        let grow = |v: u32, by: f64, max: u32, up: bool| -> u32 {
+            let by = by.min(f64::from(u32::MAX / 4)).ceil() as u32 + 1;
+            if up {
+                v.saturating_add(by).min(max)
+            } else {
+                v.saturating_sub(by)
+            }
+        };
+        PixelRect {
+            x0: grow(self.rect.x0, hx, width, false),
+            y0: grow(self.rect.y0, hy, height, false),
+            x1: grow(self.rect.x1.min(width), hx, width, true),
+            y1: grow(self.rect.y1.min(height), hy, height, true),
+        }
+    }
+}
+
+/// Samples along a streak of `length_px`: at most ½ px apart, at least 2,
+/// at most 512.
+fn samples(length_px: f64) -> usize {
+    ((2.0 * length_px).ceil() as usize + 1).clamp(2, 512)
+}
+
+/// `frame` (RGBA8, `width`×`height`) with every moving streak blurred over
+/// `background` (the same frame without drones). Alpha is kept.
+pub fn smear(
+    frame: &[u8],
+    background: &[u8],
+    (width, height): (u32, u32),
+    streaks: &[Streak],
+) -> Vec<u8> {
+    let mut out = frame.to_vec();
+    let n_px = width as usize * height as usize;
+    if frame.len() < n_px * 4 || background.len() < n_px * 4 {
+        return out;
+    }
+    let dec = decode_table();
+    let enc = encode_table();
+    let lin = |buf: &[u8], i: usize| dec[buf[i] as usize];
+    let w = width as usize;
+    // Accumulated contributions over the bounding box of every swept rect.
+    let moving: Vec<&Streak> = streaks.iter().filter(|s| s.moves()).collect();
+    let Some(bbox) = moving
+        .iter()
+        .map(|s| s.swept(width, height))
+        .reduce(|a, b| PixelRect {
+            x0: a.x0.min(b.x0),
+            y0: a.y0.min(b.y0),
+            x1: a.x1.max(b.x1),
+            y1: a.y1.max(b.y1),
+        })
+    else {
+        return out;
+    };
+    let bw = (bbox.x1 - bbox.x0) as usize;
+    let bh = (bbox.y1.saturating_sub(bbox.y0)) as usize;
+    let mut acc = vec![0f32; bw * bh * 3];
+    let mut touched = vec![false; bw * bh];
+    let mut owned: Vec<PixelRect> = Vec::new();
+    for s in &moving {
+        let r = PixelRect {
+            x0: s.rect.x0.min(width),
+            y0: s.rect.y0.min(height),
+            x1: s.rect.x1.min(width),
+            y1: s.rect.y1.min(height),
+        };
+        let (rw, rh) = (
+            (r.x1.saturating_sub(r.x0)) as usize,
+            (r.y1.saturating_sub(r.y0)) as usize,
+        );
+        if rw == 0 || rh == 0 {
+            continue;
+        }
+        // D over the rect, 0 where an earlier streak owns the pixel.
+        let inside = |o: &PixelRect, x: u32, y: u32| x >= o.x0 && x < o.x1 && y >= o.y0 && y < o.y1;
+        let mut d = vec![0f32; rw * rh * 3];
+        for y in 0..rh {
+            for x in 0..rw {
+                let (ax, ay) = (r.x0 + x as u32, r.y0 + y as u32);
+                if owned.iter().any(|o| inside(o, ax, ay)) {
+                    continue;
+                }
+                let i = (ay as usize * w + ax as usize) * 4;
+                for c in 0..3 {
+                    d[(y * rw + x) * 3 + c] = lin(frame, i + c) - lin(background, i + c);
+                }
+            }
+        }
+        owned.push(r);
+        let sample = |x: f64, y: f64, c: usize| -> f32 {
+            // Bilinear in D's pixel-centre grid; 0 outside.
+            let (u, v) = (x - 0.5 - f64::from(r.x0), y - 0.5 - f64::from(r.y0));
+            let (i0, j0) = (u.floor(), v.floor());
+            let (fx, fy) = ((u - i0) as f32, (v - j0) as f32);
+            let at = |i: f64, j: f64| -> f32 {
+                if i < 0.0 || j < 0.0 || i >= rw as f64 || j >= rh as f64 {
+                    0.0
+                } else {
+                    d[(j as usize * rw + i as usize) * 3 + c]
+                }
+            };
+            let top = at(i0, j0) + (at(i0 + 1.0, j0) - at(i0, j0)) * fx;
+            let bottom = at(i0, j0 + 1.0) + (at(i0 + 1.0, j0 + 1.0) - at(i0, j0 + 1.0)) * fx;
+            top + (bottom - top) * fy
+        };
+        let n = samples(s.shift_px.0.hypot(s.shift_px.1));
+        let weight = 1.0 / n as f32;
+        let sw = s.swept(width, height);
+        for y in sw.y0..sw.y1 {
+            for x in sw.x0..sw.x1 {
+                let k = (y - bbox.y0) as usize * bw + (x - bbox.x0) as usize;
+                touched[k] = true;
+                for c in 0..3 {
+                    let mut sum = 0f32;
+                    for t in 0..n {
+                        let t = t as f64 / (n - 1) as f64 - 0.5;
+                        let (px, py) = (
+                            f64::from(x) + 0.5 - t * s.shift_px.0,
+                            f64::from(y) + 0.5 - t * s.shift_px.1,
+                        );
+                        sum += sample(px, py, c);
+                    }
+                    acc[k * 3 + c] += sum * weight;
+                }
+            }
+        }
+    }
+    for y in 0..bh {
+        for x in 0..bw {
+            let k = y * bw + x;
+            if !touched[k] {
+                continue;
+            }
+            let i = ((bbox.y0 as usize + y) * w + bbox.x0 as usize + x) * 4;
+            for c in 0..3 {
+                let v = lin(background, i + c) + acc[k * 3 + c];
+                out[i + c] = encode(enc, v.clamp(0.0, 1.0));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A dark square on a grey sky moved by 10 px: the streak is 10 px longer,
+    /// its mean light is kept, and a still streak changes nothing.
+    #[test]
+    fn a_streak_spreads_the_drone_along_its_motion() {
+        let (w, h) = (64u32, 32u32);
+        let bg: Vec<u8> = (0..w * h).flat_map(|_| [180, 190, 200, 255]).collect();
+        let mut frame = bg.clone();
+        for y in 12..20 {
+            for x in 20..28 {
+                let i = ((y * w + x) * 4) as usize;
+                frame[i..i + 3].copy_from_slice(&[20, 20, 20]);
+            }
+        }
+        let rect = PixelRect {
+            x0: 20,
+            y0: 12,
+            x1: 28,
+            y1: 20,
+        };
+        let still = Streak {
+            rect,
+            shift_px: (0.0, 0.0),
+        };
+        assert_eq!(smear(&frame, &bg, (w, h), &[still]), frame);
+        let out = smear(
+            &frame,
+            &bg,
+            (w, h),
+            &[Streak {
+                rect,
+                shift_px: (10.0, 0.0),
+            }],
+        );
+        let row = |buf: &[u8], y: u32| -> Vec<u8> {
+            (0..w).map(|x| buf[((y * w + x) * 4) as usize]).collect()
+        };
+        let changed: Vec<u32> = (0..w)
+            .filter(|&x| row(&out, 16)[x as usize] != 180)
+            .collect();
+        let (first, last) = (changed[0], *changed.last().expect("changed"));
+        // 8 px wide, moved 10 px (±5): pixels 15 … 32 change.
+        assert!(
+            (15..=16).contains(&first) && (31..=32).contains(&last),
+            "{first}..{last}"
+        );
+        // The light removed from the sky is the same (linear, within 1 %).
+        let dec = decode_table();
+        let deficit = |buf: &[u8]| -> f64 {
+            (0..w * h)
+                .map(|p| f64::from(dec[180] - dec[buf[(p * 4) as usize] as usize]))
+                .sum()
+        };
+        let (a, b) = (deficit(&frame), deficit(&out));
+        assert!((b / a - 1.0).abs() < 0.01, "{a} vs {b}");
+        // Rows outside the drone's rows are untouched.
+        assert_eq!(row(&out, 5), row(&frame, 5));
+    }
+}
