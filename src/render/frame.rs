@@ -957,7 +957,12 @@ impl Renderer {
                         .filter(|b| b.width() > 0.0 && b.height() > 0.0)
                 })
                 .collect();
-            let (layers, overlapping) = overlap_layers(&clipped)?;
+            let (layers, mut overlapping) = overlap_layers(&clipped)?;
+            // Scenery hides drones in the main pass only: every drone's
+            // unoccluded count then comes from a layer pass.
+            if scenery.is_some() {
+                overlapping = clipped.iter().map(Option::is_some).collect();
+            }
             let layers: Vec<(Vec<Rect>, Vec<usize>)> = layers
                 .into_iter()
                 .map(|l| {
