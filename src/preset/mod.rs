@@ -15,6 +15,7 @@ pub mod appearance;
 pub mod atmosphere;
 pub mod budget;
 pub mod camera_model;
+pub mod clutter;
 pub mod formation;
 pub mod observer;
 mod ron_error;
@@ -76,6 +77,9 @@ pub struct Preset {
     /// Drone materials drawn per drone (issue 21; docs/realism.md). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub appearance: Option<appearance::Appearance>,
+    /// Near-field scenery that occludes drones (issue 22; docs/realism.md, "Clutter"). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clutter: Option<clutter::Clutter>,
 }
 
 impl Default for Preset {
@@ -98,6 +102,7 @@ impl Default for Preset {
             camera_model: None,
             atmosphere: None,
             appearance: None,
+            clutter: None,
         }
     }
 }

@@ -223,12 +223,14 @@ pub(super) struct RegionState {
     pub(super) background_draws: u64,
     /// Whether any frame has measured visibility (for tests).
     id_readback: bool,
+    /// The near-field scenery's layer and pipelines (frames with clutter only).
+    scenery: Option<super::scenery::SceneryGpu>,
 }
 
 /// Per-instance layout of a rect: (x0, y0, x1, y1) in normalised device coordinates.
 const RECT_ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x4];
 
-fn rect_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
+pub(super) fn rect_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
     wgpu::VertexBufferLayout {
         array_stride: 16,
         step_mode: wgpu::VertexStepMode::Instance,
@@ -244,7 +246,7 @@ fn rect_ndc(r: &Rect, width: u32, height: u32) -> [f32; 4] {
 }
 
 /// A colour target of `format`, written whole, without blending.
-fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+pub(super) fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     Some(wgpu::ColorTargetState {
         format,
         blend: None,
@@ -319,6 +321,7 @@ impl RegionState {
             resolve_rects: None,
             background_draws: 0,
             id_readback: false,
+            scenery: None,
         }
     }
 
@@ -919,10 +922,15 @@ impl Renderer {
         let uniforms = self.upload_uniforms(scene);
         let p = self.region_pipelines(state, msaa);
         let t = self.frame_targets(state, width, height, msaa);
+        let scenery = self.prepare_scenery(&mut state.scenery, scene, &uniforms, msaa);
         if request.color {
-            let key = self.background_key(&uniforms, &scene.sky, (width, height));
+            let mut key = self.background_key(&uniforms, &scene.sky, (width, height));
+            key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
             if state.targets[t].background_key.as_ref() != Some(&key) {
                 self.draw_background(state, t, scene)?;
+                if let Some((_, layer)) = state.scenery.as_ref().and_then(|g| g.layer()) {
+                    super::scenery::composite(layer, &mut state.targets[t].background_rgba);
+                }
                 state.targets[t].background_key = Some(key);
             }
         }
@@ -949,7 +957,12 @@ impl Renderer {
                         .filter(|b| b.width() > 0.0 && b.height() > 0.0)
                 })
                 .collect();
-            let (layers, overlapping) = overlap_layers(&clipped)?;
+            let (layers, mut overlapping) = overlap_layers(&clipped)?;
+            // Scenery hides drones in the main pass only: every drone's
+            // unoccluded count then comes from a layer pass.
+            if scenery.is_some() {
+                overlapping = clipped.iter().map(Option::is_some).collect();
+            }
             let layers: Vec<(Vec<Rect>, Vec<usize>)> = layers
                 .into_iter()
                 .map(|l| {
@@ -1087,6 +1100,13 @@ impl Renderer {
                 &main_draws,
                 ("region pass", request.color),
             );
+            if let (Some(gpu), Some(rects), true) = (&state.scenery, rects, scenery.is_some()) {
+                let color_view = (target.msaa_color.as_ref())
+                    .or(target.single.as_ref().map(|(_, view)| view))
+                    .filter(|_| request.color);
+                let views = (color_view, &target.ids_view, &target.depth);
+                self.encode_scenery(gpu, &mut encoder, views, (rects, &main_draws, msaa));
+            }
             resolve(&mut encoder, 0, (request.color, request.visibility));
             read(&mut encoder, color_source, &color_reads);
             if let Some(reads) = id_reads.first() {

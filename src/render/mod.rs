@@ -15,6 +15,7 @@ mod haze;
 mod ids;
 mod material;
 pub mod regions;
+pub mod scenery;
 mod sky;
 pub mod visibility;
 

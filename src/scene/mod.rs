@@ -12,6 +12,7 @@ use glam::{DQuat, DVec3};
 use serde::Serialize;
 
 pub mod camera;
+pub mod clutter;
 pub mod math;
 pub mod motion;
 pub mod placement;
@@ -121,6 +122,9 @@ pub struct FrameScene {
     /// Each drone's material (`appearance` in the preset), in drone order; empty: the models' own.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub looks: Vec<realism::DroneLook>,
+    /// The frame's near-field scenery (`clutter` in the preset); `None`: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clutter: Option<clutter::FrameClutter>,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -291,6 +295,10 @@ pub fn build_frame_draw(
     };
     // The environment draws come from their own salted stream (see `sky`).
     let environment = crate::sky::frame_environment(&preset.sky, preset.seed, draw_index);
+    let clutter = (preset.clutter.as_ref()).map(|c| {
+        let sun = environment.sun_direction();
+        clutter::frame_clutter(c, preset.seed, draw_index, &camera.0, sun)
+    });
 
     Ok(FrameScene {
         index,
@@ -314,6 +322,7 @@ pub fn build_frame_draw(
             .map(|m| crate::sensor::draw(m, preset.seed, index)),
         atmosphere: realism::frame_atmosphere(preset, draw_index),
         looks,
+        clutter,
     })
 }
 

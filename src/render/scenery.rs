@@ -1,0 +1,552 @@
+//! Near-field scenery (issue 22 item 2): the frame's clutter primitives
+//! (`scene::clutter`) rasterised on the CPU into a layer that holds, per
+//! pixel, the scenery's colour, the bit mask of the MSAA samples it covers
+//! (the standard sample positions) and its depth; and the GPU side that uses
+//! it (`shaders/clutter.wgsl`).
+//!
+//! The layer is made once per distinct (scenery, camera, light, size,
+//! samples) and serves twice: composited into the cached background on the
+//! CPU (a sample is the scenery's or the sky's; the pixel is their mean, as
+//! the MSAA resolve computes it), and drawn over each region pass after the
+//! drones with its sample mask and depth, id 0, so the id samples the
+//! visibility tally reads lose exactly the drone samples the scenery hides.
+//! A frame without clutter never builds any of it.
+
+use std::borrow::Cow;
+use std::hash::{Hash, Hasher};
+
+use glam::{DVec2, DVec3};
+
+use super::regions::PassDraws;
+use super::{COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, Renderer, linear_to_srgb};
+use crate::scene::FrameScene;
+use crate::scene::camera::Camera;
+use crate::scene::clutter::{Primitive, Shape};
+
+/// Sample positions within a pixel: Vulkan's and D3D's standard 4× pattern,
+/// or the pixel centre.
+pub fn sample_offsets(samples: u32) -> &'static [(f64, f64)] {
+    if samples > 1 {
+        &[
+            (0.375, 0.125),
+            (0.875, 0.375),
+            (0.125, 0.625),
+            (0.625, 0.875),
+        ]
+    } else {
+        &[(0.5, 0.5)]
+    }
+}
+
+/// The rasterised scenery of one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClutterLayer {
+    pub width: u32,
+    pub height: u32,
+    pub samples: u32,
+    /// Per pixel (row-major): sRGB-encoded colour, alpha = the mask of the samples covered.
+    pub color: Vec<[u8; 4]>,
+    /// Per pixel: reversed-Z depth (near / z) of the nearest shape there; 0: none.
+    pub depth: Vec<f32>,
+}
+
+impl ClutterLayer {
+    /// The mask of the samples of pixel (x, y) the scenery covers.
+    pub fn mask(&self, x: u32, y: u32) -> u8 {
+        self.color[(y * self.width + x) as usize][3]
+    }
+
+    /// Pixels with at least one sample covered.
+    pub fn covered_pixels(&self) -> usize {
+        self.color.iter().filter(|c| c[3] != 0).count()
+    }
+}
+
+/// The light the scenery is shaded with (linear RGB) and the haze's 3.912 / V (0: none).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneryLight {
+    pub sun: [f32; 3],
+    pub ambient: [f32; 3],
+    pub horizon: [f32; 3],
+    pub extinction_per_m: f32,
+}
+
+impl SceneryLight {
+    fn from_uniforms(u: &FrameUniforms) -> Self {
+        let rgb = |v: [f32; 4], k: f32| [v[0] * k, v[1] * k, v[2] * k];
+        let (z, h, g) = (u.zenith, u.horizon, u.ground);
+        Self {
+            sun: rgb(u.sun_color, 1.0),
+            ambient: [0, 1, 2].map(|i| 0.5 * (0.6 * z[i] + 0.4 * h[i]) + 0.5 * g[i]),
+            horizon: rgb(h, 1.0),
+            extinction_per_m: if u.atmosphere[0] > 0.5 {
+                u.atmosphere[1]
+            } else {
+                0.0
+            },
+        }
+    }
+
+    fn color(&self, p: &Primitive, distance_m: f64) -> [u8; 3] {
+        let t = (-f64::from(self.extinction_per_m) * distance_m).exp() as f32;
+        [0, 1, 2].map(|i| {
+            let lit = p.albedo[i] * (p.sun_facing * self.sun[i] + self.ambient[i]);
+            let hazed = lit * t + self.horizon[i] * (1.0 - t);
+            (linear_to_srgb(hazed) * 255.0).round() as u8
+        })
+    }
+}
+
+/// The shape in pixels: a convex polygon and its reversed-Z depth, or `None` when behind the camera.
+fn project(camera: &Camera, shape: &Shape) -> Option<(Vec<DVec2>, f64)> {
+    let z_min = camera.near_m.max(0.05);
+    let f = camera.focal_px();
+    let c = camera.principal_point();
+    let to_px = |p: DVec3| DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y);
+    match shape {
+        Shape::Segment {
+            a,
+            b,
+            radius_a_m,
+            radius_b_m,
+        } => {
+            let (pa, pb) = (
+                camera.camera_from_world_point(*a),
+                camera.camera_from_world_point(*b),
+            );
+            if pa.z < z_min && pb.z < z_min {
+                return None;
+            }
+            // Clip an end behind the near distance (and its radius with it).
+            let clip = |p: DVec3, q: DVec3, r: f64, rq: f64| {
+                if p.z < z_min {
+                    let t = (z_min - p.z) / (q.z - p.z);
+                    (p.lerp(q, t), r + (rq - r) * t)
+                } else {
+                    (p, r)
+                }
+            };
+            let (pa, ra) = clip(pa, pb, *radius_a_m, *radius_b_m);
+            let (pb, rb) = clip(pb, pa, *radius_b_m, ra);
+            let (ua, ub) = (to_px(pa), to_px(pb));
+            let (wa, wb) = (f * ra / pa.z, f * rb / pb.z);
+            let d = ub - ua;
+            let n = if d.length() > 1e-9 {
+                DVec2::new(-d.y, d.x) / d.length()
+            } else {
+                DVec2::X
+            };
+            let depth = camera.near_m / pa.z.min(pb.z);
+            Some((
+                vec![ua + n * wa, ub + n * wb, ub - n * wb, ua - n * wa],
+                depth,
+            ))
+        }
+        Shape::Polygon(points) => {
+            let cam: Vec<DVec3> = points
+                .iter()
+                .map(|p| camera.camera_from_world_point(*p))
+                .collect();
+            // Sutherland–Hodgman against z = z_min.
+            let mut kept = Vec::with_capacity(cam.len() + 2);
+            for (i, &p) in cam.iter().enumerate() {
+                let q = cam[(i + 1) % cam.len()];
+                if p.z >= z_min {
+                    kept.push(p);
+                }
+                if (p.z >= z_min) != (q.z >= z_min) {
+                    kept.push(p.lerp(q, (z_min - p.z) / (q.z - p.z)));
+                }
+            }
+            if kept.len() < 3 {
+                return None;
+            }
+            let near_z = kept.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+            Some((
+                kept.into_iter().map(to_px).collect(),
+                camera.near_m / near_z,
+            ))
+        }
+    }
+}
+
+/// Rasterise `scene`'s clutter for `samples` samples per pixel, shaded with `light`.
+pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) -> ClutterLayer {
+    let camera = &scene.camera;
+    let (width, height) = (camera.width, camera.height);
+    let mut layer = ClutterLayer {
+        width,
+        height,
+        samples,
+        color: vec![[0; 4]; (width * height) as usize],
+        depth: vec![0.0; (width * height) as usize],
+    };
+    let offsets = sample_offsets(samples);
+    let Some(clutter) = &scene.clutter else {
+        return layer;
+    };
+    for p in &clutter.primitives {
+        let Some((poly, depth)) = project(camera, &p.shape) else {
+            continue;
+        };
+        let area: f64 = (0..poly.len())
+            .map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()]))
+            .sum();
+        if area.abs() < 1e-12 || !area.is_finite() {
+            continue;
+        }
+        let sign = area.signum();
+        let (lo, hi) = poly.iter().fold(
+            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let x0 = lo.x.floor().max(0.0) as u32;
+        let y0 = lo.y.floor().max(0.0) as u32;
+        let x1 = (hi.x.ceil().min(f64::from(width))).max(0.0) as u32;
+        let y1 = (hi.y.ceil().min(f64::from(height))).max(0.0) as u32;
+        if x0 >= x1 || y0 >= y1 {
+            continue;
+        }
+        let rgb = light.color(p, camera.near_m / depth);
+        let depth = depth as f32;
+        let edges: Vec<(DVec2, DVec2)> = (0..poly.len())
+            .map(|i| (poly[i], poly[(i + 1) % poly.len()] - poly[i]))
+            .collect();
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let mut mask = 0u8;
+                for (s, (ox, oy)) in offsets.iter().enumerate() {
+                    let q = DVec2::new(f64::from(x) + ox, f64::from(y) + oy);
+                    if edges.iter().all(|(a, e)| e.perp_dot(q - *a) * sign >= 0.0) {
+                        mask |= 1 << s;
+                    }
+                }
+                if mask == 0 {
+                    continue;
+                }
+                let i = (y * width + x) as usize;
+                let c = &mut layer.color[i];
+                c[3] |= mask;
+                if depth >= layer.depth[i] {
+                    layer.depth[i] = depth;
+                    c[..3].copy_from_slice(&rgb);
+                }
+            }
+        }
+    }
+    layer
+}
+
+/// The coverage of `scene`'s clutter (colours unlit): for tests and tools.
+pub fn rasterize(scene: &FrameScene, samples: u32) -> ClutterLayer {
+    rasterize_with(scene, samples, &SceneryLight::default())
+}
+
+/// Composite `layer` into a frame-sized RGBA8 background: each pixel the
+/// mean of its samples, the scenery's where covered and the sky's elsewhere.
+pub(super) fn composite(layer: &ClutterLayer, rgba: &mut [u8]) {
+    let n = layer.samples.max(1);
+    for (px, c) in rgba.chunks_exact_mut(4).zip(&layer.color) {
+        let k = c[3].count_ones();
+        if k == 0 {
+            continue;
+        }
+        for ch in 0..3 {
+            let sum = k * u32::from(c[ch]) + (n - k) * u32::from(px[ch]);
+            px[ch] = ((sum as f32 / n as f32).round()) as u8;
+        }
+    }
+}
+
+/// A cache key of what the layer depends on.
+fn layer_key(scene: &FrameScene, samples: u32, light: &SceneryLight) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let mut f = |v: f64| v.to_bits().hash(&mut h);
+    let cam = &scene.camera;
+    for v in cam
+        .position
+        .to_array()
+        .into_iter()
+        .chain(cam.camera_from_world.to_cols_array())
+    {
+        f(v);
+    }
+    f(cam.fov_y_deg);
+    f(cam.near_m);
+    let light_values = [light.sun, light.ambient, light.horizon].concat();
+    for v in light_values.into_iter().chain([light.extinction_per_m]) {
+        f(f64::from(v));
+    }
+    for p in scene.clutter.iter().flat_map(|c| &c.primitives) {
+        match &p.shape {
+            Shape::Segment {
+                a,
+                b,
+                radius_a_m,
+                radius_b_m,
+            } => {
+                for v in a.to_array().into_iter().chain(b.to_array()) {
+                    f(v);
+                }
+                f(*radius_a_m);
+                f(*radius_b_m);
+            }
+            Shape::Polygon(points) => {
+                for v in points.iter().flat_map(|p| p.to_array()) {
+                    f(v);
+                }
+            }
+        }
+        for v in p.albedo.into_iter().chain([p.sun_facing]) {
+            f(f64::from(v));
+        }
+    }
+    (cam.width, cam.height, samples).hash(&mut h);
+    h.finish()
+}
+
+/// The scenery's GPU state: the layer's textures and the overlay pipelines.
+pub(super) struct SceneryGpu {
+    layout: wgpu::BindGroupLayout,
+    module: wgpu::ShaderModule,
+    /// (samples, colour + ids, ids only).
+    pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
+    /// The uploaded layer's key, its size and bind group.
+    uploaded: Option<(u64, (u32, u32), wgpu::BindGroup)>,
+    /// The CPU layer (for the background composite).
+    layer: Option<ClutterLayer>,
+}
+
+impl SceneryGpu {
+    /// The uploaded layer's key and the layer.
+    pub(super) fn layer(&self) -> Option<(u64, &ClutterLayer)> {
+        Some((self.uploaded.as_ref()?.0, self.layer.as_ref()?))
+    }
+}
+
+impl Renderer {
+    /// Rasterise and upload the frame's scenery unless the same layer is
+    /// already there; `None` (and nothing built) without clutter.
+    pub(super) fn prepare_scenery(
+        &self,
+        slot: &mut Option<SceneryGpu>,
+        scene: &FrameScene,
+        uniforms: &FrameUniforms,
+        samples: u32,
+    ) -> Option<u64> {
+        let clutter = scene.clutter.as_ref()?;
+        if clutter.primitives.is_empty() {
+            return None;
+        }
+        let gpu = slot.get_or_insert_with(|| self.scenery_gpu());
+        self.scenery_pipelines(gpu, samples);
+        let light = SceneryLight::from_uniforms(uniforms);
+        let key = layer_key(scene, samples, &light);
+        if gpu.uploaded.as_ref().map(|u| u.0) == Some(key) {
+            return Some(key);
+        }
+        let layer = rasterize_with(scene, samples, &light);
+        let (width, height) = (layer.width, layer.height);
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let texture = |label: &str, format, bytes: &[u8], bpp: u32| {
+            let t = self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            self.queue.write_texture(
+                t.as_image_copy(),
+                bytes,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(width * bpp),
+                    rows_per_image: Some(height),
+                },
+                size,
+            );
+            t.create_view(&Default::default())
+        };
+        let color = texture(
+            "scenery colour",
+            wgpu::TextureFormat::Rgba8Unorm,
+            bytemuck::cast_slice(&layer.color),
+            4,
+        );
+        let depth = texture(
+            "scenery depth",
+            wgpu::TextureFormat::R32Float,
+            bytemuck::cast_slice(&layer.depth),
+            4,
+        );
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scenery layer"),
+            layout: &gpu.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&color),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&depth),
+                },
+            ],
+        });
+        gpu.uploaded = Some((key, (width, height), group));
+        gpu.layer = Some(layer);
+        Some(key)
+    }
+
+    fn scenery_gpu(&self) -> SceneryGpu {
+        let entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let layout = self
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("scenery layout"),
+                entries: &[entry(0), entry(1)],
+            });
+        let source = format!(
+            "{}\n{}",
+            include_str!("../../shaders/rect.wgsl"),
+            include_str!("../../shaders/clutter.wgsl")
+        );
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("clutter.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(Cow::Owned(source)),
+            });
+        SceneryGpu {
+            layout,
+            module,
+            pipelines: Vec::new(),
+            uploaded: None,
+            layer: None,
+        }
+    }
+
+    fn scenery_pipelines(&self, gpu: &mut SceneryGpu, samples: u32) -> usize {
+        if let Some(i) = gpu.pipelines.iter().position(|p| p.0 == samples) {
+            return i;
+        }
+        let layout = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("scenery pipeline layout"),
+                bind_group_layouts: &[Some(&gpu.layout)],
+                immediate_size: 0,
+            });
+        let color = super::frame::color_target(COLOR_FORMAT);
+        let id = super::frame::color_target(super::ids::ID_FORMAT);
+        let make = |label: &str, entry: &str, targets: &[Option<wgpu::ColorTargetState>]| {
+            self.device
+                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&layout),
+                    vertex: wgpu::VertexState {
+                        module: &gpu.module,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &[Some(super::frame::rect_buffer_layout())],
+                    },
+                    primitive: wgpu::PrimitiveState::default(),
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(wgpu::CompareFunction::Greater),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: wgpu::MultisampleState {
+                        count: samples,
+                        ..Default::default()
+                    },
+                    fragment: Some(wgpu::FragmentState {
+                        module: &gpu.module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        targets,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+        };
+        let with_color = make("scenery pipeline", "fs_main", &[color, id.clone()]);
+        let ids_only = make("scenery id pipeline", "fs_ids", &[None, id]);
+        gpu.pipelines.push((samples, with_color, ids_only));
+        gpu.pipelines.len() - 1
+    }
+
+    /// Draw the uploaded scenery over `draws`' rects, after their drones:
+    /// one pass loading the targets (`color`: the colour target too).
+    pub(super) fn encode_scenery(
+        &self,
+        gpu: &SceneryGpu,
+        encoder: &mut wgpu::CommandEncoder,
+        (color_view, ids_view, depth_view): (
+            Option<&wgpu::TextureView>,
+            &wgpu::TextureView,
+            &wgpu::TextureView,
+        ),
+        (rects, draws, samples): (&wgpu::Buffer, &PassDraws, u32),
+    ) {
+        let (Some((_, _, group)), Some((_, with_color, ids_only))) =
+            (&gpu.uploaded, gpu.pipelines.iter().find(|p| p.0 == samples))
+        else {
+            return;
+        };
+        let load = wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        };
+        let attachment = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: load,
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("scenery pass"),
+            color_attachments: &[color_view.and_then(attachment), attachment(ids_view)],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(if color_view.is_some() {
+            with_color
+        } else {
+            ids_only
+        });
+        pass.set_bind_group(0, group, &[]);
+        pass.set_vertex_buffer(0, rects.slice(..));
+        pass.draw(0..6, draws.rect_instances());
+    }
+}
