@@ -814,6 +814,7 @@ fn check(path: &Path) -> anyhow::Result<()> {
             &scene,
             &pipeline.estimate_labels(&scene),
             pipeline.model_names(),
+            pipeline.classes(),
         );
         // Progress when the estimate takes more than a second.
         if started.elapsed().as_secs_f64() > 1.0 {
@@ -1051,6 +1052,13 @@ fn assets(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for name in swarmshot::model::builtin::NAMES {
         let bytes = swarmshot::tools::assets::generate_glb(name).context("built-in generator")?;
+        let path = dir.join(format!("{name}.glb"));
+        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {} ({} bytes)", path.display(), bytes.len());
+    }
+    for name in swarmshot::model::confusers::NAMES {
+        let bytes =
+            swarmshot::tools::confusers::generate_glb(name).context("confuser generator")?;
         let path = dir.join(format!("{name}.glb"));
         std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {} ({} bytes)", path.display(), bytes.len());

@@ -1514,6 +1514,8 @@ fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
 /// Training boxes are red and COCO crowd regions amber, as [`draw_boxes`] draws them.
 const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
 const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
+/// Unlabelled hard negatives (confusers without a class): their own colour.
+const BOX_NEGATIVE: Color32 = Color32::from_rgb(60, 200, 255);
 
 fn box_legend_ui(ui: &mut Ui) {
     // Painted swatches: the default fonts have no "■".
@@ -1535,6 +1537,12 @@ fn box_legend_ui(ui: &mut Ui) {
         "A filtered drone kept as a COCO iscrowd region (Output panel, Filtered drones: COCO crowd); trainers ignore it",
     );
     ui.weak("crowd region (ignored)");
+    swatch(
+        ui,
+        BOX_NEGATIVE,
+        "An unlabelled hard negative (Confusers panel): in the manifest only, never in YOLO/COCO",
+    );
+    ui.weak("hard negative");
 }
 
 fn format_duration(d: Duration) -> String {
@@ -1551,12 +1559,14 @@ fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: 
     let scale = rect.width() / out_w.max(1) as f32;
     let kept = Stroke::new(1.5, BOX_KEPT);
     let crowd = Stroke::new(1.0, BOX_CROWD);
+    let negative = Stroke::new(1.0, BOX_NEGATIVE);
     for label in &frame.labels {
         // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
         let stroke = match label.status {
             crate::annotate::LabelStatus::Kept => kept,
             crate::annotate::LabelStatus::Crowd => crowd,
             crate::annotate::LabelStatus::Filtered => continue,
+            crate::annotate::LabelStatus::Negative => negative,
         };
         let b = &label.bbox;
         let r = Rect::from_min_max(

@@ -15,6 +15,7 @@ pub mod appearance;
 pub mod atmosphere;
 pub mod budget;
 pub mod camera_model;
+pub mod confusers;
 pub mod formation;
 pub mod observer;
 mod ron_error;
@@ -76,6 +77,9 @@ pub struct Preset {
     /// Drone materials drawn per drone (issue 21; docs/realism.md). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub appearance: Option<appearance::Appearance>,
+    /// Birds, aircraft and balloons around the swarm (issue 22; docs/negatives.md). Off when empty.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub confusers: Vec<confusers::Confuser>,
 }
 
 impl Default for Preset {
@@ -98,6 +102,7 @@ impl Default for Preset {
             camera_model: None,
             atmosphere: None,
             appearance: None,
+            confusers: Vec::new(),
         }
     }
 }
@@ -1129,6 +1134,33 @@ impl Preset {
                 }
             })
             .collect();
+        if self.confusers.is_empty() {
+            return (names, of_model);
+        }
+        self.with_confuser_classes(names, of_model)
+    }
+
+    /// [`Preset::classes`] with the labelled confusers' classes appended
+    /// (in entry order, each name once) and each confuser model slot's class;
+    /// a hard negative's slot gets the out-of-range index `names.len()`.
+    fn with_confuser_classes(
+        &self,
+        mut names: Vec<String>,
+        mut of_model: Vec<usize>,
+    ) -> (Vec<String>, Vec<usize>) {
+        let mut of_entry = Vec::with_capacity(self.confusers.len());
+        for c in &self.confusers {
+            of_entry.push(c.labelled_as.as_ref().map(|class| {
+                names.iter().position(|n| n == class).unwrap_or_else(|| {
+                    names.push(class.clone());
+                    names.len() - 1
+                })
+            }));
+        }
+        for (c, class) in self.confusers.iter().zip(of_entry) {
+            let slots = c.kind.model_names().len();
+            of_model.extend(std::iter::repeat_n(class.unwrap_or(names.len()), slots));
+        }
         (names, of_model)
     }
 }

@@ -3,4 +3,5 @@
 
 pub mod assets;
 pub mod bench;
+pub mod confusers;
 pub mod gallery;
