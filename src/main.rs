@@ -926,9 +926,13 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
     swarmshot::write::write_atomic(&txt, labels.as_bytes())?;
     swarmshot::write::write_atomic(&json, format!("{record}\n").as_bytes())?;
     println!(
-        "frame {index} ({} split): {} drones, {} boxes -> {} (+ {}, {})",
+        "frame {index} ({} split): {} drones{}, {} boxes -> {} (+ {}, {})",
         frame.scene.split.as_str(),
-        frame.scene.drones.len(),
+        frame.scene.drone_count(),
+        match frame.scene.confusers.len() {
+            0 => String::new(),
+            n => format!(" and {n} confusers"),
+        },
         frame.labels.iter().filter(|l| l.is_kept()).count(),
         out.display(),
         txt.display(),

@@ -470,7 +470,15 @@ fn helicopter() -> MeshBuilder {
         6,
         Quat::IDENTITY,
     );
-    b.rotor(dark, dark, Vec3::new(0.0, 1.6, 0.0), 5.5, Quat::IDENTITY);
+    // Four blades rather than a disc: a spinning rotor is nearly transparent; its blades show.
+    for k in 0..2 {
+        b.cuboid(
+            dark,
+            Vec3::new(0.0, 1.62, 0.0),
+            Vec3::new(5.5, 0.04, 0.16),
+            Quat::from_rotation_y(FRAC_PI_2 * k as f32 + 0.4),
+        );
+    }
     b.rotor(
         dark,
         dark,
