@@ -18,6 +18,7 @@
 //! ([`files`]).
 
 mod batch_panel;
+pub mod confuser_panel;
 pub mod files;
 pub mod history;
 mod keys;
@@ -1193,6 +1194,12 @@ impl SwarmshotApp {
         );
         section(
             ui,
+            "Confusers",
+            "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
+            &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
             "Output",
             "Resolution, file formats, split and folder",
             &mut |ui| {
@@ -1245,6 +1252,7 @@ impl SwarmshotApp {
                     "Boxes per frame: {:.1}",
                     s.stats.boxes as f64 / s.sampled_frames.max(1) as f64
                 ));
+                confuser_panel::summary_classes_ui(ui, &s.stats, s.sampled_frames);
                 ui.label(format!(
                     "Small {small:.0}% · medium {medium:.0}% · large {large:.0}%"
                 ))
