@@ -160,7 +160,7 @@ enum Command {
     },
     /// Render the built-in models' contact sheet and one frame per named environment.
     Gallery {
-        /// Output folder for models.png and env-NAME.jpg.
+        /// Output folder for models.png, confusers.png and env-NAME.jpg.
         #[arg(long, default_value = "docs/img")]
         out: PathBuf,
         /// Environment frame size.
@@ -1018,6 +1018,12 @@ fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
     let path = out.join("models.png");
+    sheet
+        .save(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
+    let sheet = swarmshot::tools::confuser_gallery::confuser_contact_sheet(&ctx, 160, 6)?;
+    let path = out.join("confusers.png");
     sheet
         .save(&path)
         .with_context(|| format!("writing {}", path.display()))?;
