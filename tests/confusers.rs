@@ -392,3 +392,52 @@ fn invalid_confusers_are_named_by_field_path() {
     let round = Preset::from_ron(&preset().to_ron()).expect("round trip");
     assert_eq!(round.confusers, preset().confusers);
 }
+
+/// In sequences the labelled birds are MOT tracks of their own class; the
+/// airliner (a negative) has a track id in the manifest but no MOT row.
+#[test]
+fn labelled_birds_are_tracked_in_mot_and_negatives_are_not() {
+    let mut p = common::sequence_preset();
+    p.confusers = vec![gulls(true), airliner()];
+    let dir = tempfile::tempdir().expect("tmp");
+    run(&p, dir.path());
+    let mut expected: BTreeMap<String, usize> = BTreeMap::new();
+    let mut negative_ids: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+    for f in manifest(dir.path()) {
+        let key = format!(
+            "mot/{}/{}/gt/gt.txt",
+            f["split"].as_str().expect("split"),
+            f["sequence"]["name"].as_str().expect("sequence name")
+        );
+        let records = (f["drones"].as_array().into_iter().flatten())
+            .chain(f["confusers"].as_array().into_iter().flatten());
+        let labelled = records
+            .filter(|r| matches!(status(r), Some("kept" | "crowd")))
+            .count();
+        *expected.entry(key.clone()).or_default() += labelled;
+        for c in f["confusers"].as_array().expect("confusers") {
+            if c["kind"] == "airliner" {
+                negative_ids
+                    .entry(key.clone())
+                    .or_default()
+                    .push(c["track_id"].as_u64().expect("track id"));
+            }
+        }
+    }
+    assert_eq!(expected.len(), 3, "three sequences");
+    let mut bird_rows = 0;
+    for (path, rows) in &expected {
+        let gt = std::fs::read_to_string(dir.path().join(path)).expect("gt.txt");
+        let lines: Vec<Vec<&str>> = gt.lines().map(|l| l.split(',').collect()).collect();
+        assert_eq!(lines.len(), *rows, "{path}");
+        for cols in &lines {
+            let id: u64 = cols[1].parse().expect("id");
+            assert!(
+                !negative_ids[path].contains(&id),
+                "{path}: negative track {id} in MOT"
+            );
+            bird_rows += usize::from(cols[7] == "2");
+        }
+    }
+    assert!(bird_rows > 0, "the gulls are class 2 rows");
+}
