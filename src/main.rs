@@ -160,7 +160,7 @@ enum Command {
     },
     /// Render the built-in models' contact sheet and one frame per named environment.
     Gallery {
-        /// Output folder for models.png and env-NAME.jpg.
+        /// Output folder for models.png, confusers.png and env-NAME.jpg.
         #[arg(long, default_value = "docs/img")]
         out: PathBuf,
         /// Environment frame size.
@@ -814,6 +814,7 @@ fn check(path: &Path) -> anyhow::Result<()> {
             &scene,
             &pipeline.estimate_labels(&scene),
             pipeline.model_names(),
+            pipeline.classes(),
         );
         // Progress when the estimate takes more than a second.
         if started.elapsed().as_secs_f64() > 1.0 {
@@ -925,9 +926,13 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
     swarmshot::write::write_atomic(&txt, labels.as_bytes())?;
     swarmshot::write::write_atomic(&json, format!("{record}\n").as_bytes())?;
     println!(
-        "frame {index} ({} split): {} drones, {} boxes -> {} (+ {}, {})",
+        "frame {index} ({} split): {} drones{}, {} boxes -> {} (+ {}, {})",
         frame.scene.split.as_str(),
-        frame.scene.drones.len(),
+        frame.scene.drone_count(),
+        match frame.scene.confusers.len() {
+            0 => String::new(),
+            n => format!(" and {n} confusers"),
+        },
         frame.labels.iter().filter(|l| l.is_kept()).count(),
         out.display(),
         txt.display(),
@@ -1017,6 +1022,12 @@ fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
         .save(&path)
         .with_context(|| format!("writing {}", path.display()))?;
     println!("wrote {}", path.display());
+    let sheet = swarmshot::tools::confuser_gallery::confuser_contact_sheet(&ctx, 160, 6)?;
+    let path = out.join("confusers.png");
+    sheet
+        .save(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
     for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
         let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
         let path = out.join(format!("env-{}.jpg", name.as_str()));
@@ -1051,6 +1062,13 @@ fn assets(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for name in swarmshot::model::builtin::NAMES {
         let bytes = swarmshot::tools::assets::generate_glb(name).context("built-in generator")?;
+        let path = dir.join(format!("{name}.glb"));
+        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {} ({} bytes)", path.display(), bytes.len());
+    }
+    for name in swarmshot::model::confusers::NAMES {
+        let bytes =
+            swarmshot::tools::confusers::generate_glb(name).context("confuser generator")?;
         let path = dir.join(format!("{name}.glb"));
         std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {} ({} bytes)", path.display(), bytes.len());

@@ -403,7 +403,7 @@ fn table2_preset_plans_within_the_papers_tolerances() {
     let mut stats = DatasetStats::default();
     for i in 0..400 {
         let (scene, labels) = pipeline.plan(i).expect("plan");
-        stats.add(&scene, &labels, pipeline.model_names());
+        stats.add(&scene, &labels, pipeline.model_names(), pipeline.classes());
     }
     let (min, mean, max) = stats.boxes_per_frame_range();
     let [small, medium, large] = stats.shares_percent();

@@ -44,12 +44,20 @@ pub enum LabelStatus {
     Crowd,
     /// Failed a filter; recorded in the manifest only.
     Filtered,
+    /// An unlabelled hard negative (a confuser, `labelled_as` absent):
+    /// recorded in the manifest only, never a training box or ignore region.
+    Negative,
 }
 
 impl DroneLabel {
     /// A training box (YOLO and COCO).
     pub fn is_kept(&self) -> bool {
         self.status == LabelStatus::Kept
+    }
+
+    /// Written to the detection and tracking labels (COCO, MOT): a training box or an ignore region.
+    pub fn is_detection_label(&self) -> bool {
+        matches!(self.status, LabelStatus::Kept | LabelStatus::Crowd)
     }
 }
 
@@ -105,7 +113,10 @@ pub fn label_frame(
             .is_none_or(|a| distance_m <= a.visibility_m);
         let keep = chosen.as_ref().is_some_and(big_enough) && visible_enough && through_haze;
         let amodal_shows = amodal_in_image.width() > 0.0 && amodal_in_image.height() > 0.0;
-        let status = if keep {
+        let negative = scene.confuser(i).is_some_and(|c| c.is_negative());
+        let status = if negative {
+            LabelStatus::Negative
+        } else if keep {
             LabelStatus::Kept
         } else if settings.filtered == FilteredDrones::Crowd && amodal_shows {
             LabelStatus::Crowd

@@ -2,9 +2,24 @@
 
 use super::DroneLabel;
 
-/// Draw 2-px outlines of the training boxes onto tightly packed RGBA pixels.
+/// Draw 2-px outlines of the training boxes (red) and of the unlabelled
+/// hard negatives (cyan, issue 22) onto tightly packed RGBA pixels.
 pub fn draw_overlay(rgba: &mut [u8], width: u32, height: u32, labels: &[DroneLabel]) {
-    let colour = [255u8, 40, 40, 255];
+    let kept = labels.iter().filter(|l| l.is_kept());
+    draw_boxes(rgba, width, height, kept, [255, 40, 40, 255]);
+    let negatives = labels
+        .iter()
+        .filter(|l| l.status == super::LabelStatus::Negative);
+    draw_boxes(rgba, width, height, negatives, [40, 210, 255, 255]);
+}
+
+fn draw_boxes<'a>(
+    rgba: &mut [u8],
+    width: u32,
+    height: u32,
+    labels: impl Iterator<Item = &'a DroneLabel>,
+    colour: [u8; 4],
+) {
     let mut put = |x: i64, y: i64| {
         if x >= 0 && y >= 0 && (x as u32) < width && (y as u32) < height {
             let i = ((y as u32 * width + x as u32) * 4) as usize;
@@ -13,7 +28,7 @@ pub fn draw_overlay(rgba: &mut [u8], width: u32, height: u32, labels: &[DroneLab
             }
         }
     };
-    for l in labels.iter().filter(|l| l.is_kept()) {
+    for l in labels {
         let b = &l.bbox;
         let (x0, y0) = (b.x0.floor() as i64 - 1, b.y0.floor() as i64 - 1);
         let (x1, y1) = (b.x1.ceil() as i64, b.y1.ceil() as i64);

@@ -18,6 +18,7 @@
 //! ([`files`]).
 
 mod batch_panel;
+pub mod confuser_panel;
 pub mod files;
 pub mod gap_panel;
 pub mod history;
@@ -1251,6 +1252,12 @@ impl SwarmshotApp {
         );
         section(
             ui,
+            "Confusers",
+            "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
+            &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
             "Output",
             "Resolution, file formats, split and folder",
             &mut |ui| {
@@ -1303,6 +1310,7 @@ impl SwarmshotApp {
                     "Boxes per frame: {:.1}",
                     s.stats.boxes as f64 / s.sampled_frames.max(1) as f64
                 ));
+                confuser_panel::summary_classes_ui(ui, &s.stats, s.sampled_frames);
                 ui.label(format!(
                     "Small {small:.0}% · medium {medium:.0}% · large {large:.0}%"
                 ))
@@ -1582,6 +1590,8 @@ fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
 /// Training boxes are red and COCO crowd regions amber, as [`draw_boxes`] draws them.
 const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
 const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
+/// Unlabelled hard negatives (confusers without a class): their own colour.
+const BOX_NEGATIVE: Color32 = Color32::from_rgb(60, 200, 255);
 
 fn box_legend_ui(ui: &mut Ui) {
     // Painted swatches: the default fonts have no "■".
@@ -1603,6 +1613,12 @@ fn box_legend_ui(ui: &mut Ui) {
         "A filtered drone kept as a COCO iscrowd region (Output panel, Filtered drones: COCO crowd); trainers ignore it",
     );
     ui.weak("crowd region (ignored)");
+    swatch(
+        ui,
+        BOX_NEGATIVE,
+        "An unlabelled hard negative (Confusers panel): in the manifest only, never in YOLO/COCO",
+    );
+    ui.weak("hard negative");
 }
 
 fn format_duration(d: Duration) -> String {
@@ -1619,12 +1635,14 @@ fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: 
     let scale = rect.width() / out_w.max(1) as f32;
     let kept = Stroke::new(1.5, BOX_KEPT);
     let crowd = Stroke::new(1.0, BOX_CROWD);
+    let negative = Stroke::new(1.0, BOX_NEGATIVE);
     for label in &frame.labels {
         // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
         let stroke = match label.status {
             crate::annotate::LabelStatus::Kept => kept,
             crate::annotate::LabelStatus::Crowd => crowd,
             crate::annotate::LabelStatus::Filtered => continue,
+            crate::annotate::LabelStatus::Negative => negative,
         };
         let b = &label.bbox;
         let r = Rect::from_min_max(

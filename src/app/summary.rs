@@ -73,9 +73,9 @@ impl SummaryMaker {
                     .unwrap_or(0);
             let scene = pipeline.scene(index).map_err(|e| e.to_string())?;
             let labels = pipeline.estimate_labels(&scene);
-            drones_min = drones_min.min(scene.drones.len());
-            drones_max = drones_max.max(scene.drones.len());
-            stats.add(&scene, &labels, pipeline.model_names());
+            drones_min = drones_min.min(scene.drone_count());
+            drones_max = drones_max.max(scene.drone_count());
+            stats.add(&scene, &labels, pipeline.model_names(), pipeline.classes());
         }
         if sampled_frames == 0 {
             drones_min = 0;

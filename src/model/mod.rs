@@ -20,6 +20,7 @@
 //! naming the file — never a panic, never a silently empty model.
 
 pub mod builtin;
+pub mod confusers;
 pub mod lod;
 pub mod uri;
 

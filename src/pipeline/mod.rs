@@ -68,6 +68,8 @@ fn list(errors: &[FieldError]) -> String {
 #[derive(Debug)]
 pub struct Assets {
     specs: Vec<ModelSpec>,
+    /// The confusers' built-in models after the preset's (`preset::confusers::model_slots`).
+    confuser_slots: Vec<String>,
     pub models: Vec<CpuModel>,
     /// Each model's levels of detail (finest first), built once at load.
     pub lods: Vec<Vec<Lod>>,
@@ -78,24 +80,27 @@ pub struct Assets {
 impl Assets {
     /// Load every model and sky image the preset names, and only those.
     pub fn load(preset: &Preset) -> Result<Self, PipelineError> {
-        let models = preset
-            .models
-            .iter()
-            .map(load_model_spec)
+        let confuser_slots = crate::preset::confusers::model_slots(&preset.confusers);
+        // Model k of the assets: the preset's models, then the confusers' slots.
+        let sources: Vec<ModelSource> = (preset.models.iter().map(|m| m.source.clone()))
+            .chain(confuser_slots.iter().cloned().map(ModelSource::Builtin))
+            .collect();
+        let models = (preset.models.iter().map(load_model_spec))
+            .chain(sources[preset.models.len()..].iter().map(load_model))
             .collect::<Result<Vec<_>, _>>()?;
         let geometry = models.iter().map(LabelGeometry::from).collect();
         let lods = if preset.render.lod_error_px > 0.0 {
-            preset
-                .models
+            sources
                 .iter()
                 .zip(&models)
-                .map(|(spec, m)| load_lods(&spec.source, m))
+                .map(|(source, m)| load_lods(source, m))
                 .collect::<Result<Vec<_>, _>>()?
         } else {
             Vec::new()
         };
         Ok(Self {
             specs: preset.models.clone(),
+            confuser_slots,
             models,
             lods,
             geometry,
@@ -106,6 +111,7 @@ impl Assets {
     /// Whether these assets are exactly what `preset` names.
     pub fn serve(&self, preset: &Preset) -> bool {
         self.specs == preset.models
+            && self.confuser_slots == crate::preset::confusers::model_slots(&preset.confusers)
             && (preset.render.lod_error_px <= 0.0 || !self.lods.is_empty())
             && preset
                 .sky
@@ -120,7 +126,8 @@ pub fn load_model(source: &ModelSource) -> Result<CpuModel, ModelError> {
     match source {
         ModelSource::Builtin(name) => {
             let file = PathBuf::from(format!("builtin:{name}"));
-            let bytes = model::builtin::glb(name).ok_or_else(|| ModelError::Parse {
+            let glb = model::builtin::glb(name).or_else(|| model::confusers::glb(name));
+            let bytes = glb.ok_or_else(|| ModelError::Parse {
                 file: file.clone(),
                 reason: "no such built-in model".into(),
             })?;
@@ -217,14 +224,12 @@ impl FramePipeline {
 
     fn with_assets(preset: Preset, assets: Arc<Assets>) -> Self {
         let (classes, class_of_model) = preset.classes();
-        let model_names = preset
-            .models
-            .iter()
-            .zip(&assets.models)
+        let model_names = (preset.models.iter().zip(&assets.models))
             .map(|(spec, m)| match &spec.source {
                 ModelSource::Builtin(name) => name.clone(),
                 ModelSource::File(_) => m.name.clone(),
             })
+            .chain(assets.confuser_slots.iter().cloned())
             .collect();
         Self {
             preset,

@@ -138,7 +138,9 @@ pub fn run_plan(
                     let planned = (lo..hi).try_for_each(|i| {
                         let (scene, labels) = pipeline.plan(i)?;
                         context.push_frame(&mut chunk.texts, &scene, &labels);
-                        chunk.stats.add(&scene, &labels, &context.model_names);
+                        chunk
+                            .stats
+                            .add(&scene, &labels, &context.model_names, &context.classes);
                         chunk.frames.push((scene, labels));
                         anyhow::Ok(())
                     });

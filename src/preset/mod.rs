@@ -16,6 +16,7 @@ pub mod atmosphere;
 pub mod budget;
 pub mod camera_model;
 pub mod clutter;
+pub mod confusers;
 pub mod formation;
 pub mod observer;
 mod ron_error;
@@ -80,6 +81,9 @@ pub struct Preset {
     /// Near-field scenery that occludes drones (issue 22; docs/realism.md, "Clutter"). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clutter: Option<clutter::Clutter>,
+    /// Birds, aircraft and balloons around the swarm (issue 22; docs/negatives.md). Off when empty.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub confusers: Vec<confusers::Confuser>,
 }
 
 impl Default for Preset {
@@ -103,6 +107,7 @@ impl Default for Preset {
             atmosphere: None,
             appearance: None,
             clutter: None,
+            confusers: Vec::new(),
         }
     }
 }
@@ -1077,6 +1082,33 @@ impl Preset {
                 }
             })
             .collect();
+        if self.confusers.is_empty() {
+            return (names, of_model);
+        }
+        self.with_confuser_classes(names, of_model)
+    }
+
+    /// [`Preset::classes`] with the labelled confusers' classes appended
+    /// (in entry order, each name once) and each confuser model slot's class;
+    /// a hard negative's slot gets the out-of-range index `names.len()`.
+    fn with_confuser_classes(
+        &self,
+        mut names: Vec<String>,
+        mut of_model: Vec<usize>,
+    ) -> (Vec<String>, Vec<usize>) {
+        let mut of_entry = Vec::with_capacity(self.confusers.len());
+        for c in &self.confusers {
+            of_entry.push(c.labelled_as.as_ref().map(|class| {
+                names.iter().position(|n| n == class).unwrap_or_else(|| {
+                    names.push(class.clone());
+                    names.len() - 1
+                })
+            }));
+        }
+        for (c, class) in self.confusers.iter().zip(of_entry) {
+            let slots = c.kind.model_names().len();
+            of_model.extend(std::iter::repeat_n(class.unwrap_or(names.len()), slots));
+        }
         (names, of_model)
     }
 }

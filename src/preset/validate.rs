@@ -60,6 +60,7 @@ impl Preset {
         if let Some(c) = &self.clutter {
             c.validate_into(&mut v);
         }
+        super::confusers::validate(&self.confusers, &mut v);
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);
             v.check(self.camera.absolute.is_none(), "camera.observer", || {

@@ -13,6 +13,7 @@ use serde::Serialize;
 
 pub mod camera;
 pub mod clutter;
+pub mod confusers;
 pub mod math;
 pub mod motion;
 pub mod placement;
@@ -125,6 +126,13 @@ pub struct FrameScene {
     /// The frame's near-field scenery (`clutter` in the preset); `None`: none.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clutter: Option<clutter::FrameClutter>,
+    /// The frame's confusers (`confusers` in the preset): the last
+    /// `confusers.len()` entries of `drones` are their poses, in this order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub confusers: Vec<confusers::ConfuserPose>,
+    /// The preset has confusers (even if this frame drew none): its datasets are multi-class.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub confusers_on: bool,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -146,9 +154,25 @@ pub struct SequenceFrame {
 }
 
 impl FrameScene {
-    /// Indices of the models present in the frame, each once, in preset order.
+    /// The number of real drones: `drones` before the confusers.
+    pub fn drone_count(&self) -> usize {
+        self.drones.len().saturating_sub(self.confusers.len())
+    }
+
+    /// The real drones (without the confusers appended to `drones`).
+    pub fn real_drones(&self) -> &[DronePose] {
+        &self.drones[..self.drone_count()]
+    }
+
+    /// The confuser placed as `drones[i]`, if that entry is one.
+    pub fn confuser(&self, i: usize) -> Option<&confusers::ConfuserPose> {
+        i.checked_sub(self.drone_count())
+            .and_then(|k| self.confusers.get(k))
+    }
+
+    /// Indices of the drone models present in the frame, each once, in preset order.
     pub fn models_present(&self) -> Vec<usize> {
-        let mut models: Vec<usize> = self.drones.iter().map(|d| d.model).collect();
+        let mut models: Vec<usize> = self.real_drones().iter().map(|d| d.model).collect();
         models.sort_unstable();
         models.dedup();
         models
@@ -270,7 +294,7 @@ pub fn build_frame_draw(
         };
     let volume_radius_m = half_extent.length() + model_radius;
 
-    let drones: Vec<DronePose> = states
+    let mut drones: Vec<DronePose> = states
         .into_iter()
         .map(|(model, position, rotation)| {
             let rotation = (plane * rotation).normalize();
@@ -292,6 +316,19 @@ pub fn build_frame_draw(
     let looks = match &preset.appearance {
         Some(a) => realism::drone_looks(a, preset.seed, draw_index, drones.len()),
         None => Vec::new(),
+    };
+    let confusers = if preset.confusers.is_empty() {
+        Vec::new()
+    } else {
+        let time_s = match (&preset.sequence, sequence) {
+            (Some(spec), Some(seq)) => seq.step as f64 / f64::from(spec.frame_rate.max(1)),
+            _ => 0.0,
+        };
+        let mut camera0 = camera.0;
+        camera0.position -= shift;
+        let (poses, confusers) = confusers::place(preset, &camera0, draw_index, time_s);
+        drones.extend(poses);
+        confusers
     };
     // The environment draws come from their own salted stream (see `sky`).
     let environment = crate::sky::frame_environment(&preset.sky, preset.seed, draw_index);
@@ -323,6 +360,8 @@ pub fn build_frame_draw(
         atmosphere: realism::frame_atmosphere(preset, draw_index),
         looks,
         clutter,
+        confusers,
+        confusers_on: !preset.confusers.is_empty(),
     })
 }
 

@@ -257,6 +257,14 @@ impl MeshBuilder {
         );
     }
 
+    /// The bounding box of every vertex added so far (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.parts.iter().flat_map(|p| p.0.iter()))
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            })
+    }
+
     /// Serialise as a self-contained GLB: one node, one mesh, one primitive per material.
     pub fn to_glb(&self, name: &str) -> Vec<u8> {
         let mut bin: Vec<u8> = Vec::new();

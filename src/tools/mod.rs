@@ -3,4 +3,6 @@
 
 pub mod assets;
 pub mod bench;
+pub mod confuser_gallery;
+pub mod confusers;
 pub mod gallery;

@@ -134,7 +134,7 @@ pub fn write_frame_records(
     let j = &mut Json {
         out: annotations_out,
     };
-    for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
+    for l in labels.iter().filter(|l| l.is_detection_label()) {
         let b = &l.bbox;
         // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
         let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
@@ -488,7 +488,7 @@ pub(crate) mod reference {
         };
         let mut annotations = Vec::with_capacity(320 * labels.len());
         let mut one = Vec::with_capacity(512);
-        for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
+        for l in labels.iter().filter(|l| l.is_detection_label()) {
             {
                 let b = &l.bbox;
                 // Track ids unique over the dataset: video id × 1e6 + the drone's track id.

@@ -642,8 +642,8 @@ mod tests {
             for chunk in frames.chunks(size) {
                 let mut part = DatasetStats::default();
                 for (scene, labels, names, _) in chunk {
-                    one_by_one.add(scene, labels, names);
-                    part.add(scene, labels, names);
+                    one_by_one.add(scene, labels, names, &[]);
+                    part.add(scene, labels, names, &[]);
                 }
                 merged.merge(&part);
             }
@@ -657,7 +657,7 @@ mod tests {
         // The varied frames reach every kind of count.
         let mut all = DatasetStats::default();
         for (scene, labels, names, _) in &frames {
-            all.add(scene, labels, names);
+            all.add(scene, labels, names, &[]);
         }
         assert!(all.crowd > 0 && all.filtered > 0 && all.truncated > 0 && all.per_model.len() > 1);
     }

@@ -149,6 +149,11 @@ pub fn write_manifest_line(
         j.raw(b",\"camera_model\":");
         write_camera_model(&mut j, c);
     }
+    if !scene.confusers.is_empty() {
+        j.raw(b",\"confusers\":[");
+        super::confusers::write_confusers(&mut j, scene, labels, model_names, classes);
+        j.raw(b"]");
+    }
     j.raw(b",\"drones\":[");
     write_drones(&mut j, scene, labels, model_names, classes);
     j.raw(b"],\"environment\":");
@@ -217,7 +222,7 @@ fn write_drones(
     };
     let mut cursor = 0;
     let with_tracks = scene.sequence.is_some();
-    for (i, d) in scene.drones.iter().enumerate() {
+    for (i, d) in scene.real_drones().iter().enumerate() {
         let label = if ordered {
             while cursor < labels.len() && labels[cursor].drone < i {
                 cursor += 1;
@@ -264,7 +269,7 @@ fn write_drones(
     }
 }
 
-fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
+pub(crate) fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
     j.raw(b"{\"amodal_xyxy\":");
     write_xyxy(j, &l.amodal);
     j.raw(b",\"bbox_xyxy\":");
@@ -313,6 +318,7 @@ pub(crate) fn status_json(status: crate::annotate::LabelStatus) -> &'static [u8]
         LabelStatus::Kept => b"\"kept\"",
         LabelStatus::Crowd => b"\"crowd\"",
         LabelStatus::Filtered => b"\"filtered\"",
+        LabelStatus::Negative => b"\"negative\"",
     }
 }
 
@@ -430,7 +436,7 @@ pub(crate) fn write_models_present(j: &mut Json<'_>, scene: &FrameScene, model_n
     };
     // Up to 64 models: a bit set, no allocation.
     let mut bits = 0u64;
-    if scene.drones.iter().all(|d| {
+    if scene.real_drones().iter().all(|d| {
         bits |= 1u64.checked_shl(d.model as u32).unwrap_or(0);
         d.model < 64
     }) {

@@ -12,6 +12,7 @@
 //! one new file with a [`FormatWriter`] and one line in [`DatasetWriter::open`].
 
 pub mod coco;
+pub mod confusers;
 pub mod folder;
 pub mod image;
 pub mod jpeg;
@@ -591,7 +592,7 @@ impl DatasetWriter {
             format.frame(&mut self.folder, &record)?;
         }
         let mut stats = self.stats.clone();
-        stats.add(scene, labels, &self.text.model_names);
+        stats.add(scene, labels, &self.text.model_names, &self.text.classes);
         self.checkpoint(self.next + 1, stats)
     }
 

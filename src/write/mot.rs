@@ -41,10 +41,7 @@ pub fn gt_lines(scene: &FrameScene, labels: &[DroneLabel]) -> String {
     let Some(seq) = scene.sequence else {
         return String::new();
     };
-    let mut kept: Vec<&DroneLabel> = labels
-        .iter()
-        .filter(|l| l.status != LabelStatus::Filtered)
-        .collect();
+    let mut kept: Vec<&DroneLabel> = labels.iter().filter(|l| l.is_detection_label()).collect();
     kept.sort_by_key(|l| l.drone);
     let mut text = String::new();
     for l in kept {

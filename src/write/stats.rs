@@ -111,6 +111,19 @@ pub struct DatasetStats {
     pub per_environment: BTreeMap<String, Breakdown>,
     /// Boxes by the drone's distance from the camera, "A–B m".
     pub per_distance: BTreeMap<String, Breakdown>,
+    /// Training boxes by class (presets with `confusers` only: a multi-class dataset).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub per_class: BTreeMap<String, Breakdown>,
+    /// Unlabelled hard negatives (confusers without a class) in front of the camera.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub negatives: u64,
+    /// Hard negatives by kind (their best box's size class).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub per_negative: BTreeMap<String, Breakdown>,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 /// One frame as the statistics see it (from a scene or a manifest line).
@@ -120,11 +133,16 @@ pub struct FrameFacts<'a> {
     pub height: u32,
     pub environment: &'a str,
     pub drones_placed: u64,
+    /// Count boxes by class too (the preset has confusers).
+    pub count_classes: bool,
 }
 
 /// One labelled drone as the statistics see it.
 pub struct BoxFacts<'a> {
+    /// The model's name (a confuser: its kind).
     pub model: &'a str,
+    /// The class name ("" when unknown or a hard negative).
+    pub class: &'a str,
     pub status: LabelStatus,
     /// The written box, `[x0, y0, x1, y1]` rounded to 1e-6 px as the files hold it.
     pub xyxy: [f64; 4],
@@ -162,16 +180,24 @@ fn count_in(map: &mut BTreeMap<String, Breakdown>, key: &str, count: impl FnOnce
 
 impl DatasetStats {
     /// Count one written frame (its scene and the labels written for it).
-    pub fn add(&mut self, scene: &FrameScene, labels: &[DroneLabel], model_names: &[String]) {
+    pub fn add(
+        &mut self,
+        scene: &FrameScene,
+        labels: &[DroneLabel],
+        model_names: &[String],
+        classes: &[String],
+    ) {
         let r6 = super::r6;
         let boxes: Vec<BoxFacts<'_>> = labels
             .iter()
             .map(|l| BoxFacts {
-                model: scene
-                    .drones
-                    .get(l.drone)
-                    .and_then(|d| model_names.get(d.model))
-                    .map_or("?", String::as_str),
+                model: match scene.confuser(l.drone) {
+                    Some(c) => c.kind.name(),
+                    None => (scene.drones.get(l.drone))
+                        .and_then(|d| model_names.get(d.model))
+                        .map_or("?", String::as_str),
+                },
+                class: classes.get(l.class_id).map_or("", String::as_str),
                 status: l.status,
                 xyxy: super::box_xyxy(&l.bbox),
                 truncated: l.truncated,
@@ -184,7 +210,8 @@ impl DatasetStats {
                 width: scene.camera.width,
                 height: scene.camera.height,
                 environment: &scene.environment_name,
-                drones_placed: scene.drones.len() as u64,
+                drones_placed: scene.drone_count() as u64,
+                count_classes: scene.confusers_on,
             },
             &boxes,
         );
@@ -222,6 +249,13 @@ impl DatasetStats {
                     self.filtered += 1;
                     continue;
                 }
+                LabelStatus::Negative => {
+                    self.negatives += 1;
+                    let [x0, y0, x1, y1] = b.xyxy;
+                    let size = ((x1 - x0) * (y1 - y0)).max(0.0).sqrt();
+                    count_in(&mut self.per_negative, b.model, |g| g.add_box(size));
+                    continue;
+                }
             }
             kept += 1;
             let [x0, y0, x1, y1] = b.xyxy;
@@ -246,6 +280,9 @@ impl DatasetStats {
                 group.add_box(size);
             }
             count_in(&mut self.per_model, b.model, |g| g.add_box(size));
+            if frame.count_classes {
+                count_in(&mut self.per_class, b.class, |g| g.add_box(size));
+            }
             count_in(&mut self.per_distance, distance_group(b.distance_m), |g| {
                 g.add_box(size)
             });
@@ -280,7 +317,11 @@ impl DatasetStats {
             per_model,
             per_environment,
             per_distance,
+            per_class,
+            negatives,
+            per_negative,
         } = other;
+        self.negatives += negatives;
         self.frames += frames;
         for (a, b) in self.frames_per_split.iter_mut().zip(frames_per_split) {
             *a += b;
@@ -315,6 +356,8 @@ impl DatasetStats {
             (&mut self.per_model, per_model),
             (&mut self.per_environment, per_environment),
             (&mut self.per_distance, per_distance),
+            (&mut self.per_class, per_class),
+            (&mut self.per_negative, per_negative),
         ] {
             for (k, b) in theirs {
                 let a = mine.entry(k.clone()).or_default();
@@ -414,6 +457,12 @@ impl DatasetStats {
         section("model", &self.per_model, false);
         section("environment", &self.per_environment, true);
         section("distance from camera", &self.per_distance, false);
+        if !self.per_class.is_empty() {
+            section("class", &self.per_class, false);
+        }
+        if self.negatives > 0 {
+            section("hard negative (manifest only)", &self.per_negative, false);
+        }
         s
     }
 }
@@ -456,6 +505,16 @@ struct ManifestFrame {
     #[serde(default)]
     environment: Option<ManifestEnvironment>,
     drones: Vec<ManifestDrone>,
+    /// Absent without confusers.
+    #[serde(default)]
+    confusers: Vec<ManifestConfuser>,
+}
+
+#[derive(serde::Deserialize)]
+struct ManifestConfuser {
+    kind: String,
+    class: Option<String>,
+    label: Option<ManifestLabel>,
 }
 
 #[derive(serde::Deserialize)]
@@ -472,7 +531,21 @@ struct ManifestEnvironment {
 #[derive(serde::Deserialize)]
 struct ManifestDrone {
     model: Option<String>,
+    #[serde(default)]
+    class: Option<String>,
     label: Option<ManifestLabel>,
+}
+
+/// A manifest record's box as the statistics see it.
+fn fact<'a>(model: &'a str, class: &'a Option<String>, l: &ManifestLabel) -> BoxFacts<'a> {
+    BoxFacts {
+        model,
+        class: class.as_deref().unwrap_or(""),
+        status: l.status,
+        xyxy: l.bbox_xyxy,
+        truncated: l.truncated,
+        distance_m: l.distance_m,
+    }
 }
 
 #[derive(serde::Deserialize)]
@@ -535,20 +608,16 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
             .into_iter()
             .find(|s| s.as_str() == frame.split)
             .ok_or_else(|| bad(format!("unknown split {:?}", frame.split)))?;
-        let boxes: Vec<BoxFacts<'_>> = frame
-            .drones
-            .iter()
-            .filter_map(|d| {
-                let l = d.label.as_ref()?;
-                Some(BoxFacts {
-                    model: d.model.as_deref().unwrap_or("?"),
-                    status: l.status,
-                    xyxy: l.bbox_xyxy,
-                    truncated: l.truncated,
-                    distance_m: l.distance_m,
-                })
-            })
-            .collect();
+        let drones = (frame.drones.iter()).filter_map(|d| {
+            Some(fact(
+                d.model.as_deref().unwrap_or("?"),
+                &d.class,
+                d.label.as_ref()?,
+            ))
+        });
+        let confusers = (frame.confusers.iter())
+            .filter_map(|c| Some(fact(&c.kind, &c.class, c.label.as_ref()?)));
+        let boxes: Vec<BoxFacts<'_>> = drones.chain(confusers).collect();
         stats.add_facts(
             &FrameFacts {
                 split,
@@ -559,6 +628,7 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
                     .as_ref()
                     .map_or("unknown", |e| e.name.as_str()),
                 drones_placed: frame.drones.len() as u64,
+                count_classes: !preset.confusers.is_empty(),
             },
             &boxes,
         );
