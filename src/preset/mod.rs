@@ -16,6 +16,7 @@ pub mod atmosphere;
 pub mod budget;
 pub mod camera_model;
 pub mod formation;
+pub mod masks;
 pub mod observer;
 mod ron_error;
 pub mod sweep;
@@ -818,6 +819,9 @@ pub struct OutputSettings {
     pub image_format: ImageFormat,
     pub label_formats: Vec<LabelFormat>,
     pub split: Split,
+    /// Masks and maps besides the boxes (all off: left out of the lock).
+    #[serde(skip_serializing_if = "masks::MaskOutputs::is_off")]
+    pub masks: masks::MaskOutputs,
 }
 
 impl Default for OutputSettings {
@@ -826,6 +830,7 @@ impl Default for OutputSettings {
             image_format: ImageFormat::Jpeg { quality: 85 },
             label_formats: vec![LabelFormat::Yolo, LabelFormat::Coco],
             split: Split::default(),
+            masks: masks::MaskOutputs::default(),
         }
     }
 }
