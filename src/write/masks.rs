@@ -4,7 +4,7 @@
 //! segmentation label file, the 16-bit instance PNG), and the
 //! [`MasksWriter`] that writes the per-frame files through the [`Folder`].
 
-use image::{ImageBuffer, Luma};
+use image::Luma;
 
 use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
 use crate::annotate::masks::FrameMasks;
@@ -109,34 +109,26 @@ fn outline(masks: &FrameMasks, d: usize) -> Option<Vec<(f64, f64)>> {
 }
 
 /// The instance image as a 16-bit grey PNG: 0 where no drone shows, else
-/// the drone's index + 1 (the manifest's `drone` + 1).
+/// the drone's index + 1 (the manifest's `drone` + 1), written in time
+/// proportional to the pixels drones cover ([`super::sparse_png`]).
 pub fn instance_png(masks: &FrameMasks) -> Result<Vec<u8>, OutputError> {
-    let encode_error = |reason: String| OutputError::Encode {
-        format: "instance PNG",
-        reason,
-    };
-    let (w, h) = (masks.width, masks.height);
-    let mut ids = vec![0u16; w as usize * h as usize];
-    for &(i, d) in &masks.instance {
-        let id = u16::try_from(d as usize + 1)
-            .ok()
-            .filter(|&id| usize::from(id) <= MAX_INSTANCE_ID)
-            .ok_or_else(|| encode_error(format!("drone {d} has no 16-bit instance id")))?;
-        if let Some(p) = ids.get_mut(i as usize) {
-            *p = id;
-        }
-    }
-    let img: ImageBuffer<Luma<u16>, Vec<u16>> = ImageBuffer::from_raw(w, h, ids)
-        .ok_or_else(|| encode_error(format!("{w}×{h} does not match its pixels")))?;
-    let mut bytes = Vec::new();
-    let encoder = image::codecs::png::PngEncoder::new_with_quality(
-        &mut bytes,
-        image::codecs::png::CompressionType::Fast,
-        image::codecs::png::FilterType::Adaptive,
-    );
-    img.write_with_encoder(encoder)
-        .map_err(|e| encode_error(e.to_string()))?;
-    Ok(bytes)
+    let pixels = (masks.instance.iter())
+        .map(|&(i, d)| {
+            u16::try_from(d as usize + 1)
+                .ok()
+                .filter(|&id| usize::from(id) <= MAX_INSTANCE_ID)
+                .map(|id| (i, id))
+                .ok_or_else(|| OutputError::Encode {
+                    format: "instance PNG",
+                    reason: format!("drone {d} has no 16-bit instance id"),
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(super::sparse_png::grey16(
+        masks.width,
+        masks.height,
+        &pixels,
+    ))
 }
 
 /// A frame's YOLO segmentation label file relative to the dataset folder.

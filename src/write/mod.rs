@@ -21,6 +21,7 @@ pub mod masks;
 pub mod merge;
 pub mod mot;
 pub mod shard;
+pub mod sparse_png;
 pub mod stats;
 pub mod tree;
 pub mod yolo;
