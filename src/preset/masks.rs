@@ -1,5 +1,5 @@
 //! `output.masks`: which per-object masks and per-frame maps a dataset
-//! gets besides its boxes (issue 22, docs/outputs.md "Masks and maps").
+//! gets besides its boxes (issue 22, docs/conventions.md "Masks and maps").
 //! All off by default; when all are off nothing of them is computed or
 //! written and the preset's locked text leaves the field out.
 

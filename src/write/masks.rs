@@ -1,4 +1,4 @@
-//! Masks and maps on disk (`output.masks`, docs/outputs.md "Masks and
+//! Masks and maps on disk (`output.masks`, docs/conventions.md "Masks and
 //! maps"): a frame's [`FrameMasks`] encoded on the encoder threads into
 //! [`EncodedMasks`] (COCO RLE strings for the COCO writer, the YOLO
 //! segmentation label file, the 16-bit instance PNG), and the
