@@ -3,7 +3,9 @@
 //! ([`crate::scene::projection`]); `Visible` boxes and the visibility filters
 //! from what the renderer measured ([`crate::render::visibility`]).
 
+pub mod masks;
 pub mod overlay;
+pub mod rle;
 
 use serde::Serialize;
 

@@ -149,6 +149,8 @@ struct Encoded {
     scene: FrameScene,
     labels: Vec<DroneLabel>,
     bytes: Vec<u8>,
+    /// The frame's masks, encoded (`output.masks`).
+    masks: Option<crate::write::masks::EncodedMasks>,
     encode: Duration,
 }
 
@@ -260,11 +262,17 @@ pub fn run_batch(
                     } else {
                         crate::write::encode_image(&frame.rgba, w, h, frame_format)
                     };
+                    let masks = frame.masks.as_ref().map(|m| {
+                        let outputs = &pipeline.preset().output.masks;
+                        crate::write::masks::encode(m, &frame.labels, outputs)
+                    });
                     let msg = bytes
-                        .map(|bytes| Encoded {
+                        .and_then(|bytes| Ok((bytes, masks.transpose()?)))
+                        .map(|(bytes, masks)| Encoded {
                             scene: frame.scene,
                             labels: frame.labels,
                             bytes,
+                            masks,
                             encode: t.elapsed(),
                         })
                         .map_err(anyhow::Error::from);
@@ -303,7 +311,7 @@ pub fn run_batch(
                         }
                         encode += e.encode;
                         let t = Instant::now();
-                        if let Err(err) = writer.write_frame(&e.scene, &e.labels, &e.bytes) {
+                        if let Err(err) = writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref()) {
                             writer.rollback();
                             return stop(anyhow::Error::from(err).context(format!(
                                 "writing frame {next} failed; the frames before it are complete, and the same command with --resume continues from it"

@@ -21,6 +21,7 @@ mod streaks;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::annotate::masks::FrameMasks;
 use crate::annotate::{DroneLabel, label_frame};
 use crate::model::lod::{self, Lod};
 use crate::model::{self, CpuModel, ModelError};
@@ -185,6 +186,8 @@ pub struct Frame {
     pub rgba: Vec<u8>,
     /// What `rgba` holds, for [`Renderer::recycle`].
     pub painted: Painted,
+    /// Each drone's visible pixels, when the preset asks for masks (`output.masks`).
+    pub masks: Option<FrameMasks>,
 }
 
 /// Frame index → scene → pixels and labels, for one validated preset.
@@ -396,7 +399,11 @@ impl FramePipeline {
         // One pass draws the drones for both the picture and the visibility,
         // unless a supersampled measurement (id_scale > 1) is asked for.
         let labels_settings = &self.preset.labels;
-        let together = labels_settings.needs_id_pass() && labels_settings.id_scale <= 1;
+        // Masks are the id pass's visible pixels (validation keeps id_scale at 1 for them).
+        let masks_on = self.preset.output.masks.any();
+        let together =
+            (labels_settings.needs_id_pass() || masks_on) && labels_settings.id_scale <= 1;
+        renderer.set_pixel_hits(masks_on);
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
             color: true,
@@ -410,10 +417,20 @@ impl FramePipeline {
         } else {
             self.measure(renderer, &scene).map_err(render_error)?
         };
+        let (w, h, n) = (scene.camera.width, scene.camera.height, scene.drones.len());
+        let mut masks = (frame.pixel_hits.take())
+            .filter(|_| masks_on)
+            .map(|hits| FrameMasks::from_hits(w, h, n, &hits));
         let (rgba, painted) = match &scene.camera_model {
             None => (frame.rgba, frame.painted),
             Some(draw) => {
-                let rgba = self.through_camera(renderer, &scene, draw, &frame, &mut measured)?;
+                let mut sets = masks.as_ref().map(|_| vec![Vec::new(); n]);
+                let rgba =
+                    self.through_camera(renderer, &scene, draw, &frame, &mut measured, &mut sets)?;
+                // Through the camera a drone's pixels are those it changes.
+                if let Some(sets) = sets {
+                    masks = Some(FrameMasks::from_sets(w, h, &sets));
+                }
                 // The renderer's buffer (background and all) goes back to it untouched.
                 renderer.recycle(frame.rgba, frame.painted);
                 (rgba, Painted::default())
@@ -431,6 +448,7 @@ impl FramePipeline {
             labels,
             rgba,
             painted,
+            masks,
         })
     }
 }
@@ -463,6 +481,7 @@ impl FramePipeline {
         draw: &CameraDraw,
         frame: &RenderedFrame,
         measured: &mut Option<Vec<Visibility>>,
+        sets: &mut Option<Vec<Vec<(u32, u32)>>>,
     ) -> Result<Vec<u8>, PipelineError> {
         let (w, h) = (scene.camera.width, scene.camera.height);
         // Motion blur (sequences): each drone smeared along its streak first.
@@ -487,6 +506,10 @@ impl FramePipeline {
         let source: &[u8] = blurred.as_deref().unwrap_or(&frame.rgba);
         if let Some(vis) = measured.as_mut() {
             let background = renderer.background_pixels(&frame.painted);
+            if background.is_none() {
+                // The rendered visibility stays, and so do the rendered masks.
+                *sets = None;
+            }
             let near: Vec<Option<PixelRect>> = vis
                 .iter()
                 .enumerate()
@@ -508,8 +531,19 @@ impl FramePipeline {
                     .filter(|&(j, _)| j != i)
                     .filter_map(|(_, r)| *r)
                     .collect();
-                let changed =
-                    sensor::changed_pixels(source, background, (w, h), draw, own, &others);
+                let mut set = sets.as_mut().and_then(|s| s.get_mut(i));
+                let changed = sensor::changed_pixels_each(
+                    source,
+                    background,
+                    (w, h),
+                    draw,
+                    (own, &others),
+                    &mut |x, y| {
+                        if let Some(set) = set.as_mut() {
+                            set.push((x, y));
+                        }
+                    },
+                );
                 *v = camera_visibility(v, changed);
             }
         }

@@ -18,6 +18,7 @@ pub mod camera_model;
 pub mod clutter;
 pub mod confusers;
 pub mod formation;
+pub mod masks;
 pub mod observer;
 mod ron_error;
 pub mod sweep;
@@ -828,6 +829,9 @@ pub struct OutputSettings {
     pub image_format: ImageFormat,
     pub label_formats: Vec<LabelFormat>,
     pub split: Split,
+    /// Masks and maps besides the boxes (all off: left out of the lock).
+    #[serde(skip_serializing_if = "masks::MaskOutputs::is_off")]
+    pub masks: masks::MaskOutputs,
 }
 
 impl Default for OutputSettings {
@@ -836,6 +840,7 @@ impl Default for OutputSettings {
             image_format: ImageFormat::Jpeg { quality: 85 },
             label_formats: vec![LabelFormat::Yolo, LabelFormat::Coco],
             split: Split::default(),
+            masks: masks::MaskOutputs::default(),
         }
     }
 }

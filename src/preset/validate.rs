@@ -48,6 +48,7 @@ impl Preset {
         self.validate_labels(&mut v);
         self.validate_output(&mut v);
         self.validate_motion(&mut v);
+        self.validate_masks(&mut v.errors);
         if let Some(c) = &self.camera_model {
             c.validate(self, &mut v);
         }

@@ -57,6 +57,9 @@ pub struct RenderedFrame {
     pub painted: Painted,
     /// Per drone (scene order), when asked for.
     pub visibility: Option<Vec<Visibility>>,
+    /// Each visible pixel's drones, with visibility when
+    /// [`Renderer::set_pixel_hits`] is on (row by row within each drawn rect).
+    pub pixel_hits: Option<Vec<ids::PixelHit>>,
 }
 
 /// What a frame's pixel buffer holds: the cached background `background`
@@ -1141,6 +1144,7 @@ impl Renderer {
         // (drones that overlap no other are alone in the main pass).
         let mut seen = vec![Tally::default(); n];
         let mut alone = vec![Tally::default(); n];
+        let mut hits = (request.visibility && self.keep_pixel_hits).then(Vec::new);
         match &target.regions_readback {
             Some(buffer) if size > 0 => {
                 read_mapped(&self.device, submitted, buffer, size, |bytes| {
@@ -1157,6 +1161,17 @@ impl Renderer {
                     for (k, reads) in id_reads.iter().enumerate() {
                         let tallies = if k == 0 { &mut seen } else { &mut alone };
                         for read in reads {
+                            if let (0, Some(hits)) = (k, hits.as_mut()) {
+                                let bytes = &bytes[read.offset as usize..];
+                                ids::collect_hits(
+                                    bytes,
+                                    read.row as usize,
+                                    &read.rect,
+                                    msaa,
+                                    n,
+                                    hits,
+                                );
+                            }
                             ids::tally(
                                 &bytes[read.offset as usize..],
                                 read.row as usize,
@@ -1197,6 +1212,7 @@ impl Renderer {
             rgba,
             painted,
             visibility,
+            pixel_hits: hits,
         })
     }
 

@@ -116,6 +116,61 @@ pub(super) fn tally(bytes: &[u8], row: usize, rect: &Rect, samples: u32, tallies
     }
 }
 
+/// One drone seen at one pixel: `samples` of the pixel's samples (1 to 4;
+/// 1 without MSAA) show drone `drone` (scene index). A pixel has one hit per
+/// distinct drone its samples show, so each drone's hits are exactly the
+/// pixels [`tally`] counts for it (its visible pixels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelHit {
+    pub x: u32,
+    pub y: u32,
+    pub drone: u32,
+    pub samples: u8,
+}
+
+/// The hits of `rect`'s pixels (read back as in [`tally`]) appended to
+/// `out`: one per pixel and distinct drone id in `1..=drones`.
+pub(super) fn collect_hits(
+    bytes: &[u8],
+    row: usize,
+    rect: &Rect,
+    samples: u32,
+    drones: usize,
+    out: &mut Vec<PixelHit>,
+) {
+    let id = |b: &[u8]| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u32;
+    let pixel = id_bytes_per_pixel(samples) as usize;
+    let width = rect.width() as usize;
+    for (dy, line) in bytes.chunks(row).take(rect.height() as usize).enumerate() {
+        let y = rect.y0 + dy as u32;
+        for (dx, p) in line[..width * pixel].chunks_exact(pixel).enumerate() {
+            let x = rect.x0 + dx as u32;
+            let ids: &[u8] = &p[..pixel];
+            let mut seen: [(u32, u8); 4] = [(0, 0); 4];
+            let mut n = 0;
+            for s in ids.chunks_exact(4) {
+                let v = id(s);
+                if v == 0 || v as usize > drones {
+                    continue;
+                }
+                match seen[..n].iter_mut().find(|(d, _)| *d == v) {
+                    Some((_, c)) => *c += 1,
+                    None => {
+                        seen[n] = (v, 1);
+                        n += 1;
+                    }
+                }
+            }
+            out.extend(seen[..n].iter().map(|&(v, c)| PixelHit {
+                x,
+                y,
+                drone: v - 1,
+                samples: c,
+            }));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,6 +218,32 @@ mod tests {
                 y1: 21
             })
         );
+    }
+
+    #[test]
+    fn hits_are_the_pixels_tally_counts() {
+        let rect = Rect {
+            x0: 10,
+            y0: 20,
+            x1: 13,
+            y1: 21,
+        };
+        let bytes = pixels(&[[1.0; 4], [2.0, 0.0, 1.0, 2.0], [0.0; 4]]);
+        let mut hits = Vec::new();
+        collect_hits(&bytes, bytes.len(), &rect, 4, 2, &mut hits);
+        let hit = |x, drone, samples| PixelHit {
+            x,
+            y: 20,
+            drone,
+            samples,
+        };
+        assert_eq!(hits, vec![hit(10, 0, 4), hit(11, 1, 2), hit(11, 0, 1)]);
+        let mut tallies = vec![Tally::default(); 2];
+        tally(&bytes, bytes.len(), &rect, 4, &mut tallies);
+        for (d, t) in tallies.iter().enumerate() {
+            let n = hits.iter().filter(|h| h.drone == d as u32).count() as u64;
+            assert_eq!(n, t.stats().pixels);
+        }
     }
 
     #[test]

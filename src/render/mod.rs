@@ -20,7 +20,7 @@ mod sky;
 pub mod visibility;
 
 pub use frame::{Painted, RenderRequest, RenderedFrame};
-pub use ids::MAX_DRONES;
+pub use ids::{MAX_DRONES, PixelHit};
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -394,6 +394,8 @@ pub struct Renderer {
     regions: Option<frame::RegionState>,
     /// Draw only the drones' regions (false: the whole frame as one region).
     use_regions: bool,
+    /// Keep each visible pixel's drones ([`RenderedFrame::pixel_hits`]) when measuring visibility.
+    keep_pixel_hits: bool,
     /// Silhouette error allowed to a level of detail, in pixels (0: full detail).
     lod_error_px: f64,
     counts: PassCounts,
@@ -578,6 +580,7 @@ impl Renderer {
             target: None,
             regions: None,
             use_regions: true,
+            keep_pixel_hits: false,
             lod_error_px: if max_error_px.is_finite() {
                 max_error_px.max(0.0)
             } else {
@@ -683,6 +686,12 @@ impl Renderer {
     /// as one region (`false`: for tests and benchmarks that compare the two).
     pub fn set_regions(&mut self, on: bool) {
         self.use_regions = on;
+    }
+
+    /// Keep, with a frame's measured visibility, the drones each pixel shows
+    /// ([`RenderedFrame::pixel_hits`]; for masks). Off by default: costs nothing then.
+    pub fn set_pixel_hits(&mut self, on: bool) {
+        self.keep_pixel_hits = on;
     }
 
     /// A named error for sizes the adapter cannot render.

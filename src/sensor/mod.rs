@@ -222,10 +222,30 @@ pub struct PixelRect {
 pub fn changed_pixels(
     frame: &[u8],
     background: &[u8],
-    (width, height): (u32, u32),
+    size: (u32, u32),
     draw: &CameraDraw,
     near: PixelRect,
     others: &[PixelRect],
+) -> Option<(PixelRect, u64)> {
+    changed_pixels_each(
+        frame,
+        background,
+        size,
+        draw,
+        (near, others),
+        &mut |_, _| {},
+    )
+}
+
+/// [`changed_pixels`], calling `each(x, y)` for every pixel it counts (row
+/// by row): the drone's visible pixel set through the camera (for masks).
+pub fn changed_pixels_each(
+    frame: &[u8],
+    background: &[u8],
+    (width, height): (u32, u32),
+    draw: &CameraDraw,
+    (near, others): (PixelRect, &[PixelRect]),
+    each: &mut dyn FnMut(u32, u32),
 ) -> Option<(PixelRect, u64)> {
     let reach = draw.reach_px(width, height);
     let grow = |r: PixelRect, by: u32| PixelRect {
@@ -262,6 +282,7 @@ pub fn changed_pixels(
             continue;
         }
         count += 1;
+        each(x, y);
         let r = found.get_or_insert(PixelRect {
             x0: x,
             y0: y,

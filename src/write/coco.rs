@@ -96,6 +96,22 @@ pub fn write_frame_records(
     image: &str,
     model_names: &[String],
 ) {
+    let frame = (scene, labels);
+    write_frame_records_with(image_out, annotations_out, frame, image, model_names, None);
+}
+
+/// [`write_frame_records`] with each drone's mask as a COCO RLE string
+/// (`rle[drone]`, `output.masks.coco_rle`): the annotation gets
+/// `"segmentation": {"counts": …, "size": [height, width]}` and its `area`
+/// is the mask's pixel count (the visible pixels) instead of the box's area.
+pub fn write_frame_records_with(
+    image_out: &mut Vec<u8>,
+    annotations_out: &mut Vec<u8>,
+    (scene, labels): (&crate::scene::FrameScene, &[crate::annotate::DroneLabel]),
+    image: &str,
+    model_names: &[String],
+    rle: Option<&[Option<String>]>,
+) {
     use super::json::{Decimals, Json};
     let xywh = |j: &mut Json<'_>, b: &crate::annotate::PixelBox| {
         j.rounded_all(&[b.x0, b.y0, b.width(), b.height()], Decimals::Six);
@@ -139,11 +155,15 @@ pub fn write_frame_records(
         // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
         let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
         let v = l.visibility.as_ref();
+        let segmentation = rle.and_then(|r| r.get(l.drone)).and_then(Option::as_ref);
         // The writer opens the object with its id.
         j.raw(b"\"amodal_bbox\":");
         xywh(j, &l.amodal);
         j.raw(b",\"area\":");
-        j.rounded(b.area(), Decimals::Six);
+        match (segmentation, v) {
+            (Some(_), Some(v)) => j.u64(v.visible_pixels),
+            _ => j.rounded(b.area(), Decimals::Six),
+        }
         j.raw(b",\"bbox\":");
         xywh(j, b);
         j.raw(b",\"category_id\":");
@@ -161,6 +181,15 @@ pub fn write_frame_records(
         });
         j.raw(b",\"paper_aabb_bbox\":");
         xywh(j, &l.paper_aabb);
+        if let Some(counts) = segmentation {
+            j.raw(b",\"segmentation\":{\"counts\":");
+            j.str(counts);
+            j.raw(b",\"size\":[");
+            j.u64(scene.camera.height.into());
+            j.raw(b",");
+            j.u64(scene.camera.width.into());
+            j.raw(b"]}");
+        }
         if let Some(track) = track_id {
             j.raw(b",\"track_id\":");
             j.u64(track);

@@ -18,9 +18,11 @@ pub mod image;
 pub mod jpeg;
 pub(crate) mod json;
 pub mod manifest;
+pub mod masks;
 pub mod merge;
 pub mod mot;
 pub mod shard;
+pub mod sparse_png;
 pub mod stats;
 pub mod tree;
 pub mod yolo;
@@ -47,6 +49,8 @@ pub struct FrameRecord<'a> {
     pub image: &'a str,
     /// The frame's records as text, formatted by [`TextContext::push_frame`].
     pub text: FrameText<'a>,
+    /// The frame's encoded masks, when the preset asks for masks and pixels were rendered.
+    pub masks: Option<&'a masks::EncodedMasks>,
 }
 
 /// A frame's records as text: everything the writers write for it that
@@ -147,6 +151,18 @@ impl TextContext {
 
     /// Append every record of one frame to `texts` (pure: the same bytes on any thread).
     pub fn push_frame(&self, texts: &mut FrameTexts, scene: &FrameScene, labels: &[DroneLabel]) {
+        self.push_frame_with(texts, scene, labels, None);
+    }
+
+    /// [`TextContext::push_frame`], with the frame's masks: their RLE goes
+    /// into the COCO annotations as `segmentation` (and `area`).
+    pub fn push_frame_with(
+        &self,
+        texts: &mut FrameTexts,
+        scene: &FrameScene,
+        labels: &[DroneLabel],
+        masks: Option<&masks::EncodedMasks>,
+    ) {
         use std::fmt::Write as _;
         texts.image.clear();
         // Writing into a String cannot fail.
@@ -158,13 +174,14 @@ impl TextContext {
             self.image_format.extension()
         );
         if self.coco {
-            coco::write_frame_records(
+            let rle = masks.map(|m| m.rle.as_slice()).filter(|r| !r.is_empty());
+            coco::write_frame_records_with(
                 &mut texts.coco_images,
                 &mut texts.coco_annotations,
-                scene,
-                labels,
+                (scene, labels),
                 &texts.image,
                 &self.model_names,
+                rle,
             );
         }
         if self.yolo {
@@ -436,6 +453,11 @@ impl DatasetWriter {
         if yolo && !labels_only {
             needed.push("data.yaml".to_owned());
         }
+        // Masks need pixels: a labels-only plan writes none.
+        let mask_files = !labels_only && preset.output.masks.any();
+        if mask_files {
+            needed.extend(masks::needed_entries(&preset.output.masks));
+        }
         let sequences = preset.sequence.is_some();
         if sequences {
             needed.push("mot/".to_owned());
@@ -495,6 +517,10 @@ impl DatasetWriter {
             // line never names a label file that is not there yet.
             if yolo {
                 formats.push(Box::new(yolo::YoloWriter::create(&mut folder)?));
+            }
+            let m = preset.output.masks;
+            if mask_files && (m.yolo_seg || m.instance_png) {
+                formats.push(Box::new(masks::MasksWriter::create(&mut folder, m)?));
             }
             formats.push(Box::new(manifest::ManifestWriter::open(
                 &mut folder,
@@ -567,6 +593,18 @@ impl DatasetWriter {
         labels: &[DroneLabel],
         image: &[u8],
     ) -> Result<(), OutputError> {
+        self.write_frame_with(scene, labels, image, None)
+    }
+
+    /// [`DatasetWriter::write_frame`] with the frame's encoded masks (the
+    /// preset's `output.masks`; required when it asks for mask files).
+    pub fn write_frame_with(
+        &mut self,
+        scene: &FrameScene,
+        labels: &[DroneLabel],
+        image: &[u8],
+        masks: Option<&masks::EncodedMasks>,
+    ) -> Result<(), OutputError> {
         if scene.index != self.next || self.done {
             return Err(OutputError::OutOfOrder {
                 expected: self.next,
@@ -581,12 +619,14 @@ impl DatasetWriter {
         self.folder.claim_frame(&files)?;
         self.folder.write_file(&rel, image)?;
         self.texts.clear();
-        self.text.push_frame(&mut self.texts, scene, labels);
+        self.text
+            .push_frame_with(&mut self.texts, scene, labels, masks);
         let record = FrameRecord {
             scene,
             labels,
             image: &rel,
             text: self.texts.get(0),
+            masks,
         };
         for format in &mut self.formats {
             format.frame(&mut self.folder, &record)?;
@@ -636,6 +676,7 @@ impl DatasetWriter {
                 labels,
                 image: &rel,
                 text: texts.get(i),
+                masks: None,
             };
             for format in &mut self.formats {
                 format.frame(&mut self.folder, &record)?;

@@ -1,0 +1,86 @@
+//! `output.masks`: which per-object masks and per-frame maps a dataset
+//! gets besides its boxes (issue 22, docs/conventions.md "Masks and maps").
+//! All off by default; when all are off nothing of them is computed or
+//! written and the preset's locked text leaves the field out.
+
+use serde::{Deserialize, Serialize};
+
+use super::{FieldError, LabelFormat, Preset};
+
+/// The masks and maps a preset asks for (`output.masks`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MaskOutputs {
+    /// COCO `segmentation` of every annotation: the object's visible pixels
+    /// as compressed RLE (pycocotools' string form), `area` = those pixels.
+    pub coco_rle: bool,
+    /// Ultralytics YOLO segmentation labels in `labels-seg/{split}/NAME.txt`:
+    /// one polygon (the largest outer contour of the visible pixels) per training box.
+    pub yolo_seg: bool,
+    /// A 16-bit grey PNG per frame in `masks/{split}/NAME.png`: 0 where no
+    /// drone shows, else the manifest's drone index + 1.
+    pub instance_png: bool,
+}
+
+impl MaskOutputs {
+    /// Nothing asked for (the default; left out of the locked preset).
+    pub fn is_off(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Whether any output needs each drone's visible pixels.
+    pub fn any(&self) -> bool {
+        !self.is_off()
+    }
+}
+
+/// The largest drone count an instance PNG can name (16-bit ids, 0 = none).
+pub const MAX_INSTANCE_ID: usize = u16::MAX as usize;
+
+impl Preset {
+    /// `output.masks`: each mask is the visible pixel set of the id pass at
+    /// the output's own resolution, so it needs `labels.id_scale: 1`; the
+    /// formats it adds to must be written; instance ids must fit 16 bits.
+    pub(super) fn validate_masks(&self, errors: &mut Vec<FieldError>) {
+        let m = &self.output.masks;
+        if m.is_off() {
+            return;
+        }
+        let mut push = |field: &str, message: String| {
+            errors.push(FieldError {
+                field: field.to_owned(),
+                message,
+            });
+        };
+        if self.labels.id_scale != 1 {
+            push(
+                "output.masks",
+                format!(
+                    "masks are the visible pixels at the output resolution; labels.id_scale is {}, set it to 1",
+                    self.labels.id_scale
+                ),
+            );
+        }
+        if m.coco_rle && !self.output.label_formats.contains(&LabelFormat::Coco) {
+            push(
+                "output.masks.coco_rle",
+                "is on but output.label_formats has no Coco; add Coco or turn coco_rle off".into(),
+            );
+        }
+        if m.yolo_seg && !self.output.label_formats.contains(&LabelFormat::Yolo) {
+            push(
+                "output.masks.yolo_seg",
+                "is on but output.label_formats has no Yolo; add Yolo or turn yolo_seg off".into(),
+            );
+        }
+        if m.instance_png && self.max_drones_per_frame() > MAX_INSTANCE_ID as u64 {
+            push(
+                "output.masks.instance_png",
+                format!(
+                    "a frame may hold {} drones; a 16-bit instance PNG names at most {MAX_INSTANCE_ID}",
+                    self.max_drones_per_frame()
+                ),
+            );
+        }
+    }
+}

@@ -1,0 +1,209 @@
+//! Masks and maps on disk (`output.masks`, docs/conventions.md "Masks and
+//! maps"): a frame's [`FrameMasks`] encoded on the encoder threads into
+//! [`EncodedMasks`] (COCO RLE strings for the COCO writer, the YOLO
+//! segmentation label file, the 16-bit instance PNG), and the
+//! [`MasksWriter`] that writes the per-frame files through the [`Folder`].
+
+use image::Luma;
+
+use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
+use crate::annotate::masks::FrameMasks;
+use crate::annotate::{DroneLabel, LabelStatus, rle};
+use crate::preset::masks::{MAX_INSTANCE_ID, MaskOutputs};
+use crate::scene::{FrameScene, SplitName};
+
+/// One frame's masks, ready to write.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EncodedMasks {
+    /// Per drone (scene order): its COCO RLE string (pycocotools' compressed
+    /// form), for the drones COCO annotates (`coco_rle` on; else empty).
+    pub rle: Vec<Option<String>>,
+    /// The YOLO segmentation label file (`yolo_seg` on).
+    pub yolo_seg: Option<Vec<u8>>,
+    /// The instance PNG (`instance_png` on).
+    pub instance_png: Option<Vec<u8>>,
+}
+
+/// Encode what `outputs` asks for of one frame's masks.
+pub fn encode(
+    masks: &FrameMasks,
+    labels: &[DroneLabel],
+    outputs: &MaskOutputs,
+) -> Result<EncodedMasks, OutputError> {
+    let len = u64::from(masks.width) * u64::from(masks.height);
+    let mut rle = Vec::new();
+    if outputs.coco_rle {
+        rle = vec![None; masks.pixels.len()];
+        for l in labels.iter().filter(|l| l.status != LabelStatus::Filtered) {
+            if let (Some(slot), Some(pixels)) = (rle.get_mut(l.drone), masks.pixels.get(l.drone)) {
+                *slot = Some(rle::to_coco_string(&rle::counts(pixels, len)));
+            }
+        }
+    }
+    Ok(EncodedMasks {
+        rle,
+        yolo_seg: outputs.yolo_seg.then(|| yolo_seg_text(masks, labels)),
+        instance_png: if outputs.instance_png {
+            Some(instance_png(masks)?)
+        } else {
+            None
+        },
+    })
+}
+
+/// One line per training box (the order of the YOLO detection file):
+/// `class x1 y1 x2 y2 …`, the vertices of the largest outer contour of the
+/// drone's visible pixels (imageproc's border following, the centres of
+/// the boundary pixels), normalised to the image size. A mask whose
+/// contour has fewer than three points (one or two pixels) gets its box's corners.
+pub fn yolo_seg_text(masks: &FrameMasks, labels: &[DroneLabel]) -> Vec<u8> {
+    use super::json::{decimal, fixed6};
+    let (w, h) = (f64::from(masks.width), f64::from(masks.height));
+    let mut out = Vec::new();
+    for l in labels.iter().filter(|l| l.is_kept()) {
+        let polygon = outline(masks, l.drone).unwrap_or_else(|| {
+            let b = &l.bbox;
+            vec![(b.x0, b.y0), (b.x1, b.y0), (b.x1, b.y1), (b.x0, b.y1)]
+        });
+        decimal(&mut out, l.class_id as u64);
+        for (x, y) in polygon {
+            out.push(b' ');
+            fixed6(&mut out, (x / w).clamp(0.0, 1.0));
+            out.push(b' ');
+            fixed6(&mut out, (y / h).clamp(0.0, 1.0));
+        }
+        out.push(b'\n');
+    }
+    out
+}
+
+/// The largest outer contour of drone `d`'s mask, as pixel-centre
+/// coordinates; `None` when it has fewer than three points.
+fn outline(masks: &FrameMasks, d: usize) -> Option<Vec<(f64, f64)>> {
+    let b = masks.bbox(d)?;
+    let (x0, y0) = (b.x0 as u32, b.y0 as u32);
+    // One pixel of background around the mask, so its border is traced whole.
+    let (cw, ch) = (b.width() as u32 + 2, b.height() as u32 + 2);
+    let mut crop = image::GrayImage::new(cw, ch);
+    let h = masks.height.max(1);
+    for &i in masks.pixels.get(d)? {
+        let (x, y) = (i / h, i % h);
+        crop.put_pixel(x - x0 + 1, y - y0 + 1, Luma([255]));
+    }
+    let contours = imageproc::contours::find_contours::<i32>(&crop);
+    let best = contours
+        .iter()
+        .filter(|c| c.border_type == imageproc::contours::BorderType::Outer)
+        .max_by_key(|c| c.points.len())?;
+    (best.points.len() >= 3).then(|| {
+        best.points
+            .iter()
+            .map(|p| {
+                (
+                    f64::from(x0) + f64::from(p.x - 1) + 0.5,
+                    f64::from(y0) + f64::from(p.y - 1) + 0.5,
+                )
+            })
+            .collect()
+    })
+}
+
+/// The instance image as a 16-bit grey PNG: 0 where no drone shows, else
+/// the drone's index + 1 (the manifest's `drone` + 1), written in time
+/// proportional to the pixels drones cover ([`super::sparse_png`]).
+pub fn instance_png(masks: &FrameMasks) -> Result<Vec<u8>, OutputError> {
+    let pixels = (masks.instance.iter())
+        .map(|&(i, d)| {
+            u16::try_from(d as usize + 1)
+                .ok()
+                .filter(|&id| usize::from(id) <= MAX_INSTANCE_ID)
+                .map(|id| (i, id))
+                .ok_or_else(|| OutputError::Encode {
+                    format: "instance PNG",
+                    reason: format!("drone {d} has no 16-bit instance id"),
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(super::sparse_png::grey16(
+        masks.width,
+        masks.height,
+        &pixels,
+    ))
+}
+
+/// A frame's YOLO segmentation label file relative to the dataset folder.
+pub fn yolo_seg_rel_path(scene: &FrameScene) -> String {
+    format!(
+        "labels-seg/{}/{}.txt",
+        scene.split.as_str(),
+        stem(scene.index)
+    )
+}
+
+/// A frame's instance PNG relative to the dataset folder.
+pub fn instance_rel_path(scene: &FrameScene) -> String {
+    format!("masks/{}/{}.png", scene.split.as_str(), stem(scene.index))
+}
+
+/// The folders a dataset with `outputs` holds besides the others (the ledger's fixed entries).
+pub fn needed_entries(outputs: &MaskOutputs) -> Vec<String> {
+    let mut needed = Vec::new();
+    for split in SplitName::ALL.map(SplitName::as_str) {
+        if outputs.yolo_seg {
+            needed.push(format!("labels-seg/{split}/"));
+        }
+        if outputs.instance_png {
+            needed.push(format!("masks/{split}/"));
+        }
+    }
+    needed
+}
+
+/// Writes the per-frame mask files (the COCO RLE rides in the COCO records).
+pub struct MasksWriter {
+    outputs: MaskOutputs,
+}
+
+impl MasksWriter {
+    /// The writer of `outputs`' files, with their folders made.
+    pub fn create(folder: &mut Folder, outputs: MaskOutputs) -> Result<Self, OutputError> {
+        for dir in needed_entries(&outputs) {
+            folder.ensure_dir(dir.trim_end_matches('/'))?;
+        }
+        Ok(Self { outputs })
+    }
+}
+
+impl FormatWriter for MasksWriter {
+    fn frame_files(&self, scene: &FrameScene) -> Vec<String> {
+        let mut files = Vec::new();
+        if self.outputs.yolo_seg {
+            files.push(yolo_seg_rel_path(scene));
+        }
+        if self.outputs.instance_png {
+            files.push(instance_rel_path(scene));
+        }
+        files
+    }
+
+    fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
+        let missing = || OutputError::Encode {
+            format: "masks",
+            reason: format!("frame {} came without its masks", record.scene.index),
+        };
+        let masks = record.masks.ok_or_else(missing)?;
+        if self.outputs.yolo_seg {
+            let text = masks.yolo_seg.as_deref().ok_or_else(missing)?;
+            folder.write_frame_file(&yolo_seg_rel_path(record.scene), text)?;
+        }
+        if self.outputs.instance_png {
+            let png = masks.instance_png.as_deref().ok_or_else(missing)?;
+            folder.write_frame_file(&instance_rel_path(record.scene), png)?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, _folder: &mut Folder, _dataset: &DatasetInfo) -> Result<(), OutputError> {
+        Ok(())
+    }
+}

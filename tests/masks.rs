@@ -1,0 +1,453 @@
+//! Masks and maps (`output.masks`, issue 22): COCO RLE read back with
+//! pycocotools' rules (a decoder written here), instance PNGs and YOLO
+//! segmentation labels checked against the manifest's visible pixels and
+//! boxes, through the camera model too; masks off adds nothing; deterministic.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use serde_json::Value;
+use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
+use swarmshot::preset::camera_model::{CameraModel, Psf};
+use swarmshot::preset::masks::MaskOutputs;
+use swarmshot::preset::{BoxMethod, FilteredDrones, LabelFormat, Placement, Preset, Volume};
+
+const ALL: MaskOutputs = MaskOutputs {
+    coco_rle: true,
+    yolo_seg: true,
+    instance_png: true,
+};
+
+/// The tiny preset, crowded (drones hide each other), 4× MSAA (pixels shared
+/// at edges), every drone in COCO (crowd instead of dropped).
+fn preset(masks: MaskOutputs) -> Preset {
+    let mut p = common::tiny_preset();
+    p.placement = Placement::Randomized {
+        count: (8, 14),
+        count_distribution: Default::default(),
+        volume: Volume::Box {
+            size_m: (3.0, 2.0, 3.0),
+        },
+        min_separation_m: 0.36,
+    };
+    p.render.msaa = 4;
+    p.labels.box_method = BoxMethod::Visible;
+    p.labels.filtered = FilteredDrones::Crowd;
+    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
+    p.output.masks = masks;
+    p
+}
+
+fn run(preset: &Preset, dir: &Path, frames: u64, encoder_threads: usize) {
+    let mut options = BatchOptions::new(dir);
+    options.limit = Some(frames);
+    options.encoder_threads = encoder_threads;
+    run_batch(
+        &FramePipeline::new(preset.clone()).expect("pipeline"),
+        &options,
+        &common::gpu(),
+        &AtomicBool::new(false),
+        |_| {},
+    )
+    .expect("batch runs");
+}
+
+fn json(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+/// pycocotools' `rleFrString` (maskApi.c), written from its C source:
+/// 5-bit groups offset by 48, 0x20 = more groups follow, 0x10 in the last
+/// group = negative, and from the fourth count on a difference from the
+/// count two before.
+fn rle_from_string(s: &str) -> Vec<u64> {
+    let b = s.as_bytes();
+    let mut counts: Vec<i64> = Vec::new();
+    let mut p = 0;
+    while p < b.len() {
+        let (mut x, mut k, mut more) = (0i64, 0, true);
+        while more {
+            let c = i64::from(b[p]) - 48;
+            x |= (c & 0x1f) << (5 * k);
+            more = c & 0x20 != 0;
+            p += 1;
+            k += 1;
+            if !more && c & 0x10 != 0 {
+                x |= -1i64 << (5 * k);
+            }
+        }
+        if counts.len() > 2 {
+            x += counts[counts.len() - 2];
+        }
+        counts.push(x);
+    }
+    counts
+        .into_iter()
+        .map(|c| u64::try_from(c).expect("count ≥ 0"))
+        .collect()
+}
+
+/// The mask's pixels (x, y): runs alternate background/object from a
+/// background run, over the image in column-major order (pycocotools' `rleDecode`).
+fn rle_pixels(counts: &[u64], height: u64, width: u64) -> Vec<(u64, u64)> {
+    assert_eq!(
+        counts.iter().sum::<u64>(),
+        height * width,
+        "runs cover the image"
+    );
+    let mut out = Vec::new();
+    let mut at = 0;
+    for (i, &c) in counts.iter().enumerate() {
+        if i % 2 == 1 {
+            out.extend((at..at + c).map(|k| (k / height, k % height)));
+        }
+        at += c;
+    }
+    out
+}
+
+fn bbox_of(pixels: &[(u64, u64)]) -> Option<[f64; 4]> {
+    let x0 = pixels.iter().map(|p| p.0).min()?;
+    let y0 = pixels.iter().map(|p| p.1).min()?;
+    let x1 = pixels.iter().map(|p| p.0 + 1).max()?;
+    let y1 = pixels.iter().map(|p| p.1 + 1).max()?;
+    Some([x0 as f64, y0 as f64, x1 as f64, y1 as f64])
+}
+
+/// Per frame index: the manifest's drones (each its `label`, or null).
+fn manifest(dir: &Path) -> BTreeMap<u64, Vec<Value>> {
+    std::fs::read_to_string(dir.join("manifest.jsonl"))
+        .expect("manifest")
+        .lines()
+        .map(|l| {
+            let v: Value = serde_json::from_str(l).expect("manifest line");
+            let drones = v["drones"].as_array().expect("drones").iter();
+            let labels = drones.map(|d| d["label"].clone()).collect();
+            (v["index"].as_u64().expect("index"), labels)
+        })
+        .collect()
+}
+
+/// Each COCO annotation as (frame index, the drone's place in the
+/// manifest, the annotation): annotations follow the manifest's labelled
+/// drones (kept or crowd) in order.
+fn annotations(dir: &Path, man: &BTreeMap<u64, Vec<Value>>) -> Vec<(u64, usize, Value)> {
+    let mut per_image: BTreeMap<u64, Vec<Value>> = BTreeMap::new();
+    for split in ["train", "val", "test"] {
+        let coco = json(&dir.join(format!("annotations/instances_{split}.json")));
+        for a in coco["annotations"].as_array().expect("annotations") {
+            let image = a["image_id"].as_u64().expect("image_id") - 1;
+            per_image.entry(image).or_default().push(a.clone());
+        }
+    }
+    let mut out = Vec::new();
+    for (index, anns) in per_image {
+        let drones: Vec<usize> = (man[&index].iter().enumerate())
+            .filter(|(_, l)| matches!(l["status"].as_str(), Some("kept" | "crowd")))
+            .map(|(i, _)| i)
+            .collect();
+        assert_eq!(drones.len(), anns.len(), "frame {index}");
+        out.extend(drones.into_iter().zip(anns).map(|(d, a)| (index, d, a)));
+    }
+    out
+}
+
+fn xyxy(v: &Value) -> Option<[f64; 4]> {
+    let a = v.as_array()?;
+    Some([0, 1, 2, 3].map(|i| a[i].as_f64().expect("number")))
+}
+
+/// Each annotated drone's mask (decoded from its RLE), per frame.
+type Masks = BTreeMap<(u64, usize), Vec<(u64, u64)>>;
+
+fn check_rle_against_manifest(dir: &Path) -> Masks {
+    let man = manifest(dir);
+    let mut masks = Masks::new();
+    let anns = annotations(dir, &man);
+    assert!(anns.len() >= 20, "{} annotations", anns.len());
+    for (index, drone, a) in anns {
+        let label = &man[&index][drone];
+        let seg = &a["segmentation"];
+        let size = seg["size"].as_array().expect("size");
+        let (h, w) = (
+            size[0].as_u64().expect("present"),
+            size[1].as_u64().expect("present"),
+        );
+        assert_eq!((w, h), (320, 180), "size is [height, width]");
+        let pixels = rle_pixels(
+            &rle_from_string(seg["counts"].as_str().expect("counts")),
+            h,
+            w,
+        );
+        let visible = label["visible_pixels"].as_u64().expect("visible_pixels");
+        assert_eq!(pixels.len() as u64, visible, "frame {index} drone {drone}");
+        assert_eq!(a["area"].as_u64(), Some(visible), "area = visible pixels");
+        assert_eq!(
+            bbox_of(&pixels),
+            xyxy(&label["visible_xyxy"]),
+            "frame {index} drone {drone}"
+        );
+        masks.insert((index, drone), pixels);
+    }
+    masks
+}
+
+#[test]
+fn rle_masks_are_the_visible_pixels_and_instance_ids_match_the_manifest() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    run(&preset(ALL), dir.path(), 6, 0);
+    let masks = check_rle_against_manifest(dir.path());
+    let man = manifest(dir.path());
+    // Which masks share a pixel with another (MSAA edges: a pixel counts for each drone it shows).
+    let mut owners: BTreeMap<(u64, (u64, u64)), Vec<usize>> = BTreeMap::new();
+    for ((index, drone), pixels) in &masks {
+        for p in pixels {
+            owners.entry((*index, *p)).or_default().push(*drone);
+        }
+    }
+    let mut alone_checked = 0;
+    for (&index, labels) in &man {
+        let split = ["train", "val", "test"]
+            .into_iter()
+            .find(|s| {
+                dir.path()
+                    .join(format!("masks/{s}/{index:08}.png"))
+                    .exists()
+            })
+            .expect("an instance PNG per frame");
+        let png = image::open(dir.path().join(format!("masks/{split}/{index:08}.png")))
+            .expect("PNG decodes");
+        let png = match png {
+            image::DynamicImage::ImageLuma16(g) => g,
+            other => panic!("instance PNG is {:?}, not 16-bit grey", other.color()),
+        };
+        assert_eq!(png.dimensions(), (320, 180));
+        let mut by_id: BTreeMap<usize, Vec<(u64, u64)>> = BTreeMap::new();
+        for (x, y, p) in png.enumerate_pixels() {
+            let (x, y) = (u64::from(x), u64::from(y));
+            let shown = owners.get(&(index, (x, y)));
+            if p.0[0] == 0 {
+                assert!(
+                    shown.is_none(),
+                    "frame {index} ({x}, {y}): a drone's pixel is 0"
+                );
+                continue;
+            }
+            let drone = usize::from(p.0[0]) - 1;
+            assert!(
+                drone < labels.len(),
+                "id {} past the manifest's drones",
+                p.0[0]
+            );
+            assert!(
+                shown.is_some_and(|o| o.contains(&drone)),
+                "frame {index} ({x}, {y}): id {} where that drone's mask is not",
+                p.0[0]
+            );
+            by_id.entry(drone).or_default().push((x, y));
+        }
+        for (drone, pixels) in &by_id {
+            let mask = &masks[&(index, *drone)];
+            let shares = mask.iter().any(|p| owners[&(index, *p)].len() > 1);
+            if !shares {
+                // A drone that shares no pixel: its id covers exactly its visible pixels.
+                let label = &labels[*drone];
+                assert_eq!(
+                    pixels.len() as u64,
+                    label["visible_pixels"].as_u64().expect("present")
+                );
+                assert_eq!(bbox_of(pixels), xyxy(&label["visible_xyxy"]));
+                alone_checked += 1;
+            }
+        }
+    }
+    assert!(alone_checked >= 10, "{alone_checked} drones checked whole");
+}
+
+#[test]
+fn yolo_segments_follow_the_detection_lines() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    run(&preset(ALL), dir.path(), 4, 0);
+    let mut polygons = 0;
+    for split in ["train", "val", "test"] {
+        let Ok(entries) = std::fs::read_dir(dir.path().join(format!("labels/{split}"))) else {
+            continue;
+        };
+        for e in entries {
+            let path = e.expect("entry").path();
+            let name = path
+                .file_name()
+                .expect("present")
+                .to_string_lossy()
+                .into_owned();
+            let det = std::fs::read_to_string(&path).expect("labels");
+            let seg =
+                std::fs::read_to_string(dir.path().join(format!("labels-seg/{split}/{name}")))
+                    .expect("a segmentation file beside each label file");
+            assert_eq!(det.lines().count(), seg.lines().count(), "{name}");
+            for (d, s) in det.lines().zip(seg.lines()) {
+                let d: Vec<f64> = d.split(' ').map(|v| v.parse().expect("present")).collect();
+                let s: Vec<f64> = s.split(' ').map(|v| v.parse().expect("present")).collect();
+                assert_eq!(d[0], s[0], "class");
+                let points = &s[1..];
+                assert!(
+                    points.len() >= 6 && points.len().is_multiple_of(2),
+                    "{name}: {s:?}"
+                );
+                let (x0, x1) = (d[1] - d[3] / 2.0, d[1] + d[3] / 2.0);
+                let (y0, y1) = (d[2] - d[4] / 2.0, d[2] + d[4] / 2.0);
+                for xy in points.chunks(2) {
+                    let eps = 2e-6;
+                    assert!(
+                        xy[0] >= x0 - eps && xy[0] <= x1 + eps,
+                        "{name}: x {} not in box",
+                        xy[0]
+                    );
+                    assert!(
+                        xy[1] >= y0 - eps && xy[1] <= y1 + eps,
+                        "{name}: y {} not in box",
+                        xy[1]
+                    );
+                }
+                polygons += 1;
+            }
+        }
+    }
+    assert!(polygons >= 10, "{polygons} polygons");
+}
+
+#[test]
+fn masks_through_the_camera_model_are_its_changed_pixels() {
+    let mut p = preset(MaskOutputs {
+        coco_rle: true,
+        ..MaskOutputs::default()
+    });
+    p.camera_model = Some(CameraModel {
+        psf: Psf::Gaussian {
+            sigma_px: (0.8, 0.8),
+        },
+        read_noise_levels: (2.0, 2.0),
+        ..CameraModel::default()
+    });
+    let dir = tempfile::tempdir().expect("tempdir");
+    run(&p, dir.path(), 3, 0);
+    // The manifest's visible pixels and boxes are the changed pixels there:
+    // the decoded masks must agree with them.
+    check_rle_against_manifest(dir.path());
+}
+
+/// Every file of a dataset folder, relative path → bytes.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("dir") {
+            let path = e.expect("entry").path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path
+                    .strip_prefix(dir)
+                    .expect("present")
+                    .to_string_lossy()
+                    .into_owned();
+                out.insert(rel, std::fs::read(&path).expect("file"));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn masks_off_adds_nothing_and_on_adds_only_masks() {
+    let (off, on) = (
+        tempfile::tempdir().expect("present"),
+        tempfile::tempdir().expect("present"),
+    );
+    run(&preset(MaskOutputs::default()), off.path(), 3, 0);
+    run(&preset(ALL), on.path(), 3, 0);
+    let (off_files, on_files) = (files(off.path()), files(on.path()));
+    let lock = String::from_utf8(off_files["preset.lock.ron"].clone()).expect("present");
+    assert!(
+        !lock.contains("masks"),
+        "an off preset's lock names no masks"
+    );
+    assert!(
+        String::from_utf8_lossy(&on_files["preset.lock.ron"]).contains("coco_rle: true"),
+        "an on preset's lock keeps them"
+    );
+    assert!(
+        !off_files
+            .keys()
+            .any(|f| f.starts_with("masks/") || f.starts_with("labels-seg/"))
+    );
+    for (rel, bytes) in &off_files {
+        if rel.starts_with("images/") || rel.starts_with("labels/") || rel == "manifest.jsonl" {
+            assert!(on_files[rel] == *bytes, "{rel} changed with masks on");
+        }
+    }
+    // COCO: the same records but for area and segmentation.
+    for split in ["train", "val", "test"] {
+        let rel = format!("annotations/instances_{split}.json");
+        let (mut a, mut b) = (json(&off.path().join(&rel)), json(&on.path().join(&rel)));
+        let off_anns = a["annotations"].as_array_mut().expect("present");
+        for ann in off_anns.iter_mut() {
+            assert!(
+                ann.get("segmentation").is_none(),
+                "masks off writes no segmentation"
+            );
+            let bb = xyxy(&ann["bbox"]).expect("present");
+            let area = ann["area"].as_f64().expect("present");
+            assert!(
+                (area - bb[2] * bb[3]).abs() < 1e-5,
+                "off: area is the box's"
+            );
+            ann.as_object_mut().expect("present").remove("area");
+        }
+        for ann in b["annotations"].as_array_mut().expect("present") {
+            let o = ann.as_object_mut().expect("present");
+            assert!(o.remove("segmentation").is_some());
+            o.remove("area");
+        }
+        assert_eq!(a, b, "{rel}");
+    }
+}
+
+#[test]
+fn masks_are_deterministic_across_runs_and_thread_counts() {
+    let (a, b) = (
+        tempfile::tempdir().expect("present"),
+        tempfile::tempdir().expect("present"),
+    );
+    run(&preset(ALL), a.path(), 4, 1);
+    run(&preset(ALL), b.path(), 4, 3);
+    let (fa, fb) = (files(a.path()), files(b.path()));
+    assert_eq!(fa.keys().collect::<Vec<_>>(), fb.keys().collect::<Vec<_>>());
+    assert!(fa.keys().any(|k| k.starts_with("masks/")));
+    for (rel, bytes) in &fa {
+        assert!(fb[rel] == *bytes, "{rel} differs between runs");
+    }
+}
+
+#[test]
+fn mask_settings_are_checked_with_their_field_paths() {
+    let mut p = preset(ALL);
+    p.labels.id_scale = 2;
+    p.output.label_formats = vec![LabelFormat::Yolo];
+    let errors = p.validate().expect_err("invalid");
+    let fields: Vec<&str> = errors.iter().map(|e| e.field.as_str()).collect();
+    assert!(fields.contains(&"output.masks"), "{fields:?}");
+    assert!(fields.contains(&"output.masks.coco_rle"), "{fields:?}");
+    assert!(!fields.contains(&"output.masks.yolo_seg"), "{fields:?}");
+    let err = Preset::from_ron("(output: (masks: (coco_rle: true, depht: true)))")
+        .expect_err("unknown field");
+    assert!(err.to_string().contains("depht"), "{err}");
+    let on = Preset::from_ron("(output: (masks: (instance_png: true)))").expect("parses");
+    assert!(on.output.masks.instance_png);
+    assert!(!on.output.masks.coco_rle && !on.output.masks.yolo_seg);
+    assert_eq!(Preset::from_ron(&on.to_ron()).expect("round trip"), on);
+}
