@@ -59,6 +59,7 @@ pub fn frame_rng(preset_seed: u64, frame_index: u64) -> ChaCha8Rng {
 pub const ATMOSPHERE_SALT: u64 = 0x4154_4D4F_5350_4852; // "ATMOSPHR"
 pub const APPEARANCE_SALT: u64 = 0x4150_5045_4152_4E43; // "APPEARNC"
 pub const OBSERVER_SALT: u64 = 0x4F42_5345_5256_4552; // "OBSERVER"
+pub const BACKPLATE_SALT: u64 = 0x4241_434B_504C_4154; // "BACKPLAT"
 
 /// A frame's sampler of one salted stream: ChaCha8 seeded with
 /// `mix64(frame_seed ⊕ mix64(salt))`.

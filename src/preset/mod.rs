@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod appearance;
 pub mod atmosphere;
+pub mod backplate;
 pub mod budget;
 pub mod camera_model;
 pub mod formation;
@@ -76,6 +77,9 @@ pub struct Preset {
     /// Drone materials drawn per drone (issue 21; docs/realism.md). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub appearance: Option<appearance::Appearance>,
+    /// Photographic backgrounds (issue 21; docs/realism.md). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backplate: Option<backplate::Backplate>,
 }
 
 impl Default for Preset {
@@ -98,6 +102,7 @@ impl Default for Preset {
             camera_model: None,
             atmosphere: None,
             appearance: None,
+            backplate: None,
         }
     }
 }
@@ -993,6 +998,11 @@ impl Preset {
     /// Model files resolved against the directory of the preset file.
     pub fn resolve_paths(&mut self, base_dir: &Path) {
         self.sky.resolve_paths(base_dir);
+        if let Some(b) = &mut self.backplate
+            && b.folder.is_relative()
+        {
+            b.folder = base_dir.join(&b.folder);
+        }
         for model in &mut self.models {
             if let ModelSource::File(path) = &mut model.source
                 && path.is_relative()

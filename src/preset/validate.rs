@@ -57,6 +57,9 @@ impl Preset {
         if let Some(a) = &self.appearance {
             a.validate_into(&mut v);
         }
+        if let Some(b) = &self.backplate {
+            b.validate_into(&mut v, self.camera.absolute.is_some());
+        }
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);
             v.check(self.camera.absolute.is_none(), "camera.observer", || {

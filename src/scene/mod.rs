@@ -11,6 +11,7 @@
 use glam::{DQuat, DVec3};
 use serde::Serialize;
 
+pub mod backplate;
 pub mod camera;
 pub mod math;
 pub mod motion;
@@ -121,6 +122,10 @@ pub struct FrameScene {
     /// Each drone's material (`appearance` in the preset), in drone order; empty: the models' own.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub looks: Vec<realism::DroneLook>,
+    /// The frame's photographic background (`backplate` in the preset; set
+    /// by `backplate::apply`, which the pipeline runs on every scene).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backplate: Option<backplate::FramePlate>,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -314,6 +319,7 @@ pub fn build_frame_draw(
             .map(|m| crate::sensor::draw(m, preset.seed, index)),
         atmosphere: realism::frame_atmosphere(preset, draw_index),
         looks,
+        backplate: None,
     })
 }
 

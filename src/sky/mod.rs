@@ -28,6 +28,7 @@ use rand::Rng;
 use serde::Serialize;
 
 mod image;
+pub mod plates;
 mod preetham;
 mod styles;
 
