@@ -13,14 +13,19 @@ use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::backplate::{Backplate, PlateHorizon};
 use swarmshot::preset::{Placement, Preset, Resolution, Volume};
 
-/// The four CC0 plates (320×256) of tests/data/plates.
+/// The output size of the tests' frames, and the rows a plate loses above it.
+const W: u32 = 640;
+const H: u32 = 360;
+const CROP: u32 = 76;
+
+/// The four CC0 plates (640×512) of tests/data/plates.
 fn plates_dir() -> PathBuf {
     common::testdata("plates")
 }
 
-/// A 320×180 preset over the test plates (a 320×256 plate covers it by
-/// dropping 38 rows above and below: no resampling, so the expected
-/// background is the decoded plate's rows 38..218).
+/// A 640×360 preset over the test plates (a 640×512 plate covers it by
+/// dropping 76 rows above and below: no resampling, so the expected
+/// background is the decoded plate's rows 76..436).
 fn plate_preset(folder: &Path, count: (u32, u32)) -> Preset {
     let mut p = common::tiny_preset();
     p.placement = Placement::Randomized {
@@ -32,8 +37,8 @@ fn plate_preset(folder: &Path, count: (u32, u32)) -> Preset {
         min_separation_m: 0.7,
     };
     p.render.resolution = Resolution::Custom {
-        width: 320,
-        height: 180,
+        width: W,
+        height: H,
     };
     p.camera.observer = Some(swarmshot::preset::observer::ObserverCamera {
         distance_m: (15.0, 30.0),
@@ -50,16 +55,16 @@ fn plate_preset(folder: &Path, count: (u32, u32)) -> Preset {
     p
 }
 
-/// The plate as the frame must show it, decoded here independently: rows 38..218, mirrored if asked.
+/// The plate as the frame must show it, decoded here independently: rows 76..436, mirrored if asked.
 fn expected_background(file: &str, flip: bool) -> Vec<u8> {
     let img = image::open(plates_dir().join(file))
         .expect("plate decodes")
         .to_rgba8();
-    assert_eq!(img.dimensions(), (320, 256));
-    let mut out = Vec::with_capacity(320 * 180 * 4);
-    for y in 38..218 {
-        for x in 0..320 {
-            let sx = if flip { 319 - x } else { x };
+    assert_eq!(img.dimensions(), (640, 512));
+    let mut out = Vec::with_capacity((W * H * 4) as usize);
+    for y in CROP..CROP + H {
+        for x in 0..W {
+            let sx = if flip { W - 1 - x } else { x };
             out.extend_from_slice(&img.get_pixel(sx, y).0);
         }
     }
@@ -95,8 +100,8 @@ fn shows_the_plate(ctx: &swarmshot::render::GpuContext, preset: Preset) {
         // Every pixel outside the drones' (amodal) boxes, one pixel of margin, is the plate's.
         let boxes: Vec<_> = frame.labels.iter().map(|l| l.amodal).collect();
         let mut outside = 0;
-        for y in 0..180usize {
-            for x in 0..320usize {
+        for y in 0..H as usize {
+            for x in 0..W as usize {
                 let near = boxes.iter().any(|b| {
                     x as f64 + 1.0 >= b.x0 - 1.0
                         && (x as f64) <= b.x1 + 1.0
@@ -104,7 +109,7 @@ fn shows_the_plate(ctx: &swarmshot::render::GpuContext, preset: Preset) {
                         && (y as f64) <= b.y1 + 1.0
                 });
                 if !near {
-                    let i = (y * 320 + x) * 4;
+                    let i = (y * W as usize + x) * 4;
                     assert_eq!(
                         frame.rgba[i..i + 4],
                         want[i..i + 4],
@@ -115,7 +120,7 @@ fn shows_the_plate(ctx: &swarmshot::render::GpuContext, preset: Preset) {
             }
         }
         assert!(
-            outside > 320 * 180 / 2,
+            outside > (W * H / 2) as usize,
             "frame {index}: {outside} pixels compared"
         );
         // And the drones did paint something.
@@ -143,7 +148,7 @@ fn visible_boxes_on_plates_are_exactly_the_pixels_the_drone_changes() {
             .enumerate()
         {
             if a != b {
-                let (x, y) = (i as u32 % 320, i as u32 / 320);
+                let (x, y) = (i as u32 % W, i as u32 / W);
                 (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
             }
         }
@@ -169,10 +174,10 @@ fn the_camera_has_the_plates_field_of_view_and_sees_the_horizon_on_its_row() {
         let scene = pipeline.scene(index).expect("scene");
         let plate = scene.backplate.clone().expect("plate");
         let cam = &scene.camera;
-        // No columns are cropped (320 of 320): the horizontal field of view is the plate's.
-        let hfov = 2.0 * (160.0 / cam.focal_px()).atan().to_degrees();
+        // No columns are cropped (640 of 640): the horizontal field of view is the plate's.
+        let hfov = 2.0 * (f64::from(W / 2) / cam.focal_px()).atan().to_degrees();
         assert!((hfov - 50.0).abs() < 1e-9, "frame {index}: hfov {hfov}");
-        // The sidecar's row, minus the 38 cropped rows.
+        // The sidecar's row, minus the cropped rows.
         let row: f64 =
             std::fs::read_to_string(plates_dir().join(plate.file.replace(".jpg", ".plate.ron")))
                 .expect("sidecar")
@@ -181,7 +186,7 @@ fn the_camera_has_the_plates_field_of_view_and_sees_the_horizon_on_its_row() {
                 .and_then(|s| s.split(')').next())
                 .and_then(|s| s.parse().ok())
                 .expect("a Row(..) in the sidecar");
-        let want_v = row * 256.0 - 38.0;
+        let want_v = row * 512.0 - f64::from(CROP);
         assert!((plate.horizon_row_px.expect("row") - want_v).abs() < 1e-9);
         // A far point on the horizon straight ahead projects onto that row.
         let ahead = scene.look_at - cam.position;
@@ -195,7 +200,11 @@ fn the_camera_has_the_plates_field_of_view_and_sees_the_horizon_on_its_row() {
             "frame {index}: v {} vs {want_v}",
             p.y
         );
-        assert!((p.x - 160.0).abs() < 0.01, "frame {index}: u {}", p.x);
+        assert!(
+            (p.x - f64::from(W / 2)).abs() < 0.01,
+            "frame {index}: u {}",
+            p.x
+        );
     }
 }
 
