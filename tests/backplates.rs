@@ -362,3 +362,70 @@ fn the_batch_refuses_a_bad_plate_before_writing_anything() {
     assert!(stderr.contains("broken.png"), "{stderr}");
     assert!(!out.exists(), "the batch wrote {}", out.display());
 }
+
+fn builtin_sky(name: &str) -> swarmshot::preset::Sky {
+    swarmshot::preset::Sky::Image {
+        source: swarmshot::preset::SkyImageSource::Builtin(name.into()),
+        exposure_ev: 0.0,
+        rotation_deg: 0.0,
+        sun_elevation_deg: 45.0,
+        sun_azimuth_deg: 0.0,
+    }
+}
+
+#[test]
+fn builtin_photographic_skies_load_render_and_take_the_drawn_turn_and_exposure() {
+    use swarmshot::sky::FrameSky;
+    let ctx = common::gpu();
+    let mean = |rgba: &[u8]| rgba.iter().map(|&c| f64::from(c)).sum::<f64>() / rgba.len() as f64;
+    for (name, _) in swarmshot::preset::BUILTIN_SKIES {
+        let mut p = common::tiny_preset();
+        p.sky = swarmshot::preset::Sky::Random {
+            choices: vec![builtin_sky(name)],
+            azimuth_offset_deg: (0.0, 360.0),
+            sun_elevation_deg: None,
+            cloud_cover: None,
+            exposure_ev: Some((-1.5, 1.5)),
+        };
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        assert_eq!(pipeline.assets().sky.images.len(), 1, "{name}");
+        let mut renderer = pipeline.renderer(&ctx);
+        let mut draws = Vec::new();
+        for index in 0..4 {
+            let scene = pipeline.scene(index).expect("scene");
+            let FrameSky::Image {
+                exposure,
+                rotation_deg,
+                ..
+            } = scene.sky
+            else {
+                panic!(
+                    "{name}: frame {index} is not the image sky: {:?}",
+                    scene.sky
+                );
+            };
+            let ev = scene.environment.exposure_offset_ev;
+            assert!((-1.5..=1.5).contains(&ev), "{name}: {ev}");
+            assert!((f64::from(exposure) - 2f64.powf(ev)).abs() < 1e-5);
+            assert_eq!(rotation_deg, scene.environment.azimuth_offset_deg);
+            draws.push((ev, rotation_deg));
+            // Brighter with more exposure: the same frame a stop darker and a stop brighter.
+            let at = |renderer: &mut swarmshot::render::Renderer, k: f32| {
+                let mut s = scene.clone();
+                s.drones.clear();
+                if let FrameSky::Image { exposure, .. } = &mut s.sky {
+                    *exposure *= k;
+                }
+                mean(&pipeline.make_scene(renderer, s).expect("frame").rgba)
+            };
+            let (dark, bright) = (at(&mut renderer, 0.5), at(&mut renderer, 2.0));
+            assert!(bright > dark + 2.0, "{name}: {dark} vs {bright}");
+        }
+        assert!(draws.windows(2).all(|w| w[0] != w[1]), "{name}: {draws:?}");
+    }
+    // An unknown name is refused naming the field.
+    let mut p = common::tiny_preset();
+    p.sky = builtin_sky("no_such_sky");
+    let e = error_of(p);
+    assert!(e.contains("sky.source") && e.contains("quarry_01"), "{e}");
+}

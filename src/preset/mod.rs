@@ -408,6 +408,10 @@ pub enum Sky {
         sun_elevation_deg: Option<(f64, f64)>,
         #[serde(default)]
         cloud_cover: Option<(f64, f64)>,
+        /// An exposure offset in stops drawn per frame and added to the chosen
+        /// sky's `exposure_ev` (image and procedural skies); absent: none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        exposure_ev: Option<(f64, f64)>,
     },
 }
 
@@ -430,7 +434,24 @@ pub enum SkyImageSource {
         pz: PathBuf,
         nz: PathBuf,
     },
+    /// A photographic sky shipped with swarmshot (`assets/skies/`, CC0):
+    /// one of [`BUILTIN_SKIES`], e.g. `Builtin("quarry_01")`.
+    Builtin(String),
 }
+
+/// The built-in photographic skies (`SkyImageSource::Builtin`): name and what it shows.
+/// Equirectangular Radiance HDR, 512×256, CC0 (Poly Haven; `assets/skies/SOURCE.txt`).
+pub const BUILTIN_SKIES: [(&str, &str); 3] = [
+    (
+        "quarry_01",
+        "daylight over a quarry: blue sky, cumulus, the sun high",
+    ),
+    (
+        "venice_sunset",
+        "sunset over the sea and a city skyline, the sun low",
+    ),
+    ("royal_esplanade", "overcast daylight over a city square"),
+];
 
 impl SkyImageSource {
     fn paths_mut(&mut self) -> Vec<&mut PathBuf> {
@@ -444,6 +465,7 @@ impl SkyImageSource {
                 pz,
                 nz,
             } => vec![px, nx, py, ny, pz, nz],
+            Self::Builtin(_) => Vec::new(),
         }
     }
 }
@@ -557,6 +579,16 @@ impl Sky {
                 range(v, "rotation_deg", *rotation_deg, -3600.0, 3600.0);
                 range(v, "sun_elevation_deg", *sun_elevation_deg, -90.0, 90.0);
                 range(v, "sun_azimuth_deg", *sun_azimuth_deg, -3600.0, 3600.0);
+                if let SkyImageSource::Builtin(name) = source {
+                    v.check(
+                        BUILTIN_SKIES.iter().any(|(n, _)| n == name),
+                        &format!("{field}.source"),
+                        || {
+                            let names: Vec<&str> = BUILTIN_SKIES.iter().map(|(n, _)| *n).collect();
+                            format!("no built-in sky {name:?} (there are {})", names.join(", "))
+                        },
+                    );
+                }
                 let mut source = source.clone();
                 for path in source.paths_mut() {
                     v.check(
@@ -571,6 +603,7 @@ impl Sky {
                 azimuth_offset_deg,
                 sun_elevation_deg,
                 cloud_cover,
+                exposure_ev,
             } => {
                 if nested {
                     v.push(
@@ -603,6 +636,9 @@ impl Sky {
                 }
                 if let Some(r) = cloud_cover {
                     pair(v, "cloud_cover", *r, 0.0, 1.0);
+                }
+                if let Some(r) = exposure_ev {
+                    pair(v, "exposure_ev", *r, -10.0, 10.0);
                 }
                 for (i, c) in choices.iter().enumerate() {
                     c.validate_into(v, &format!("{field}.choices[{i}]"), true);
