@@ -440,7 +440,7 @@ pub enum SkyImageSource {
 }
 
 /// The built-in photographic skies (`SkyImageSource::Builtin`): name and what it shows.
-/// Equirectangular Radiance HDR, 512×256, CC0 (Poly Haven; `assets/skies/SOURCE.txt`).
+/// Equirectangular HDR (Radiance 512×256, OpenEXR 1024×512), CC0 (Poly Haven; `assets/skies/SOURCE.txt`).
 pub const BUILTIN_SKIES: [(&str, &str); 3] = [
     (
         "quarry_01",
@@ -450,7 +450,10 @@ pub const BUILTIN_SKIES: [(&str, &str); 3] = [
         "venice_sunset",
         "sunset over the sea and a city skyline, the sun low",
     ),
-    ("royal_esplanade", "overcast daylight over a city square"),
+    (
+        "forest",
+        "a forest canopy from below: branches and leaves against the sky",
+    ),
 ];
 
 impl SkyImageSource {

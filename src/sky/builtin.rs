@@ -1,5 +1,5 @@
 //! The photographic skies shipped in the binary (`assets/skies/`, CC0 Poly
-//! Haven HDRIs at 512×256; licence and source beside them), named by
+//! Haven HDRIs; licence and source beside them), named by
 //! `SkyImageSource::Builtin` (the names and descriptions are
 //! `preset::BUILTIN_SKIES`).
 
@@ -14,9 +14,9 @@ pub fn sky(name: &str) -> Option<(&'static str, &'static [u8])> {
             "venice_sunset_512.hdr",
             include_bytes!("../../assets/skies/venice_sunset_512.hdr"),
         ),
-        "royal_esplanade" => (
-            "royal_esplanade_512.hdr",
-            include_bytes!("../../assets/skies/royal_esplanade_512.hdr"),
+        "forest" => (
+            "forest.exr",
+            include_bytes!("../../assets/skies/forest.exr"),
         ),
         _ => return None,
     })
@@ -28,10 +28,9 @@ mod tests {
     fn every_listed_builtin_sky_has_its_image() {
         for (name, _) in crate::preset::BUILTIN_SKIES {
             let (file, bytes) = super::sky(name).expect("listed sky is built in");
-            assert!(
-                file.ends_with(".hdr") && bytes.starts_with(b"#?RADIANCE"),
-                "{name}"
-            );
+            let radiance = file.ends_with(".hdr") && bytes.starts_with(b"#?RADIANCE");
+            let exr = file.ends_with(".exr") && bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]);
+            assert!(radiance || exr, "{name}");
         }
         assert!(super::sky("nope").is_none());
     }
