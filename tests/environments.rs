@@ -123,6 +123,7 @@ fn the_environment_sun_lights_the_drones() {
             cloud_cover: style.cloud_cover,
             turbidity: style.turbidity,
             pattern_seed: 0,
+            exposure_offset_ev: 0.0,
         };
         procedural_lighting(&style, &f, 1.0)
     };
@@ -356,6 +357,7 @@ fn only_referenced_images_are_loaded_and_missing_ones_are_named() {
         azimuth_offset_deg: (0.0, 0.0),
         sun_elevation_deg: None,
         cloud_cover: None,
+        exposure_ev: None,
     };
     assert_eq!(
         EnvironmentAssets::load(&random).expect("load").images.len(),
@@ -414,6 +416,7 @@ fn random_environments_do_not_change_the_drones() {
         azimuth_offset_deg: (0.0, 360.0),
         sun_elevation_deg: Some((10.0, 60.0)),
         cloud_cover: Some((0.0, 1.0)),
+        exposure_ev: None,
     };
     let scene_b = swarmshot::scene::build_frame(&a, 0).expect("frame");
     assert_eq!(scene_a.drones, scene_b.drones);

@@ -48,6 +48,8 @@ pub enum PipelineError {
     #[error(transparent)]
     Sky(#[from] EnvironmentError),
     #[error(transparent)]
+    Plate(#[from] crate::sky::plates::PlateError),
+    #[error(transparent)]
     Frame(#[from] FrameError),
     #[error("frame {index}: {source}")]
     Render { index: u64, source: RenderError },
@@ -76,6 +78,10 @@ pub struct Assets {
     pub lods: Vec<Vec<Lod>>,
     pub geometry: Vec<LabelGeometry>,
     pub sky: EnvironmentAssets,
+    /// The backplates (`preset.backplate`), resampled to the output size; empty without one.
+    pub plates: Vec<crate::sky::plates::Plate>,
+    /// What the plates were loaded for (the preset's backplate and output size).
+    plates_for: Option<(crate::preset::backplate::Backplate, (u32, u32))>,
 }
 
 impl Assets {
@@ -106,6 +112,11 @@ impl Assets {
             lods,
             geometry,
             sky: EnvironmentAssets::load(&preset.sky)?,
+            plates: match &preset.backplate {
+                Some(b) => crate::sky::plates::load_plates(b, preset.image_size())?,
+                None => Vec::new(),
+            },
+            plates_for: plates_key(preset),
         })
     }
 
@@ -119,7 +130,12 @@ impl Assets {
                 .image_sources()
                 .into_iter()
                 .eq(self.sky.images.iter().map(|i| &i.source))
+            && self.plates_for == plates_key(preset)
     }
+}
+
+fn plates_key(preset: &Preset) -> Option<(crate::preset::backplate::Backplate, (u32, u32))> {
+    (preset.backplate.clone()).map(|b| (b, preset.image_size()))
 }
 
 /// Load one model from its preset source (a built-in name or a glTF file).
@@ -282,13 +298,17 @@ impl FramePipeline {
         want_labels: bool,
     ) -> Result<(FrameScene, Option<Vec<DroneLabel>>), FrameError> {
         let wanted = self.preset.labels.min_labelled;
+        let plated = |mut scene: FrameScene| {
+            crate::scene::backplate::apply(&mut scene, &self.preset, &self.assets.plates);
+            scene
+        };
         if wanted == 0 {
-            let scene = build_frame(&self.preset, index)?;
+            let scene = plated(build_frame(&self.preset, index)?);
             let labels = want_labels.then(|| self.estimate_labels(&scene));
             return Ok((scene, labels));
         }
         for attempt in 0..MAX_DRAWS {
-            let scene = build_frame_draw(&self.preset, index, attempt)?;
+            let scene = plated(build_frame_draw(&self.preset, index, attempt)?);
             let labels = self.estimate_labels(&scene);
             if labels.iter().filter(|l| l.is_kept()).count() >= wanted as usize {
                 return Ok((scene, Some(labels)));
@@ -310,6 +330,7 @@ impl FramePipeline {
             self.preset.render.lod_error_px,
         );
         renderer.set_environment(&self.assets.sky);
+        renderer.set_backplates(&self.assets.plates);
         renderer
     }
 

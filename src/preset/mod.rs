@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod appearance;
 pub mod atmosphere;
+pub mod backplate;
 pub mod budget;
 pub mod camera_model;
 pub mod clutter;
@@ -85,6 +86,9 @@ pub struct Preset {
     /// Birds, aircraft and balloons around the swarm (issue 22; docs/negatives.md). Off when empty.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub confusers: Vec<confusers::Confuser>,
+    /// Photographic backgrounds (issue 21; docs/realism.md). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backplate: Option<backplate::Backplate>,
 }
 
 impl Default for Preset {
@@ -109,6 +113,7 @@ impl Default for Preset {
             appearance: None,
             clutter: None,
             confusers: Vec::new(),
+            backplate: None,
         }
     }
 }
@@ -414,6 +419,10 @@ pub enum Sky {
         sun_elevation_deg: Option<(f64, f64)>,
         #[serde(default)]
         cloud_cover: Option<(f64, f64)>,
+        /// An exposure offset in stops drawn per frame and added to the chosen
+        /// sky's `exposure_ev` (image and procedural skies); absent: none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        exposure_ev: Option<(f64, f64)>,
     },
 }
 
@@ -436,7 +445,27 @@ pub enum SkyImageSource {
         pz: PathBuf,
         nz: PathBuf,
     },
+    /// A photographic sky shipped with swarmshot (`assets/skies/`, CC0):
+    /// one of [`BUILTIN_SKIES`], e.g. `Builtin("quarry_01")`.
+    Builtin(String),
 }
+
+/// The built-in photographic skies (`SkyImageSource::Builtin`): name and what it shows.
+/// Equirectangular HDR (Radiance 512×256, OpenEXR 1024×512), CC0 (Poly Haven; `assets/skies/SOURCE.txt`).
+pub const BUILTIN_SKIES: [(&str, &str); 3] = [
+    (
+        "quarry_01",
+        "daylight over a quarry: blue sky, cumulus, the sun high",
+    ),
+    (
+        "venice_sunset",
+        "sunset over the sea and a city skyline, the sun low",
+    ),
+    (
+        "forest",
+        "a forest canopy from below: branches and leaves against the sky",
+    ),
+];
 
 impl SkyImageSource {
     fn paths_mut(&mut self) -> Vec<&mut PathBuf> {
@@ -450,6 +479,7 @@ impl SkyImageSource {
                 pz,
                 nz,
             } => vec![px, nx, py, ny, pz, nz],
+            Self::Builtin(_) => Vec::new(),
         }
     }
 }
@@ -563,6 +593,16 @@ impl Sky {
                 range(v, "rotation_deg", *rotation_deg, -3600.0, 3600.0);
                 range(v, "sun_elevation_deg", *sun_elevation_deg, -90.0, 90.0);
                 range(v, "sun_azimuth_deg", *sun_azimuth_deg, -3600.0, 3600.0);
+                if let SkyImageSource::Builtin(name) = source {
+                    v.check(
+                        BUILTIN_SKIES.iter().any(|(n, _)| n == name),
+                        &format!("{field}.source"),
+                        || {
+                            let names: Vec<&str> = BUILTIN_SKIES.iter().map(|(n, _)| *n).collect();
+                            format!("no built-in sky {name:?} (there are {})", names.join(", "))
+                        },
+                    );
+                }
                 let mut source = source.clone();
                 for path in source.paths_mut() {
                     v.check(
@@ -577,6 +617,7 @@ impl Sky {
                 azimuth_offset_deg,
                 sun_elevation_deg,
                 cloud_cover,
+                exposure_ev,
             } => {
                 if nested {
                     v.push(
@@ -609,6 +650,9 @@ impl Sky {
                 }
                 if let Some(r) = cloud_cover {
                     pair(v, "cloud_cover", *r, 0.0, 1.0);
+                }
+                if let Some(r) = exposure_ev {
+                    pair(v, "exposure_ev", *r, -10.0, 10.0);
                 }
                 for (i, c) in choices.iter().enumerate() {
                     c.validate_into(v, &format!("{field}.choices[{i}]"), true);
@@ -951,6 +995,11 @@ impl Preset {
     /// Model files resolved against the directory of the preset file.
     pub fn resolve_paths(&mut self, base_dir: &Path) {
         self.sky.resolve_paths(base_dir);
+        if let Some(b) = &mut self.backplate
+            && b.folder.is_relative()
+        {
+            b.folder = base_dir.join(&b.folder);
+        }
         for model in &mut self.models {
             if let ModelSource::File(path) = &mut model.source
                 && path.is_relative()

@@ -62,6 +62,9 @@ impl Preset {
             c.validate_into(&mut v);
         }
         super::confusers::validate(&self.confusers, &mut v);
+        if let Some(b) = &self.backplate {
+            b.validate_into(&mut v, self.camera.absolute.is_some());
+        }
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);
             v.check(self.camera.absolute.is_none(), "camera.observer", || {

@@ -579,7 +579,14 @@ impl Renderer {
         let ids_view = ids.create_view(&Default::default());
         let depth = texture("region depth", DEPTH_FORMAT, msaa, attachment)
             .create_view(&Default::default());
-        let background = texture("background", COLOR_FORMAT, 1, attachment | bind | copy);
+        // COPY_DST: a backplate's pixels are written, not drawn.
+        let upload = wgpu::TextureUsages::COPY_DST;
+        let background = texture(
+            "background",
+            COLOR_FORMAT,
+            1,
+            attachment | bind | copy | upload,
+        );
         let background_view = background.create_view(&Default::default());
         let background_group = texture_group(
             device,
@@ -660,6 +667,9 @@ impl Renderer {
         t: usize,
         scene: &FrameScene,
     ) -> Result<(), RenderError> {
+        if let Some(plate) = &scene.backplate {
+            return self.draw_plate_background(state, t, plate);
+        }
         let mode = self.sky.mode();
         if !state
             .sky_background
@@ -747,6 +757,29 @@ impl Renderer {
         state.targets[t].background_rgba = rgba;
         read?;
         state.targets[t].background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
+        state.background_draws += 1;
+        Ok(())
+    }
+
+    /// A backplate as the background: its pixels written into the texture
+    /// and kept as the CPU copy (no sky pass, no readback).
+    fn draw_plate_background(
+        &mut self,
+        state: &mut RegionState,
+        t: usize,
+        plate: &crate::scene::backplate::FramePlate,
+    ) -> Result<(), RenderError> {
+        let target = &mut state.targets[t];
+        let size = (target.width, target.height);
+        let mut rgba = std::mem::take(&mut target.background_rgba);
+        let made = self.plate_pixels(plate, size, &mut rgba);
+        if made.is_ok() {
+            self.upload_background(&target.background, &rgba, size);
+        }
+        target.background_rgba = rgba;
+        // A new generation even on failure: no buffer may match what was overwritten.
+        target.background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
+        made?;
         state.background_draws += 1;
         Ok(())
     }
@@ -927,7 +960,10 @@ impl Renderer {
         let t = self.frame_targets(state, width, height, msaa);
         let scenery = self.prepare_scenery(&mut state.scenery, scene, &uniforms, msaa);
         if request.color {
-            let mut key = self.background_key(&uniforms, &scene.sky, (width, height));
+            let mut key = match &scene.backplate {
+                Some(plate) => Self::plate_key(plate, (width, height)),
+                None => self.background_key(&uniforms, &scene.sky, (width, height)),
+            };
             key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
             if state.targets[t].background_key.as_ref() != Some(&key) {
                 self.draw_background(state, t, scene)?;

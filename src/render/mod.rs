@@ -14,6 +14,7 @@ mod frame;
 mod haze;
 mod ids;
 mod material;
+mod plate;
 pub mod regions;
 pub mod scenery;
 mod sky;
@@ -59,6 +60,8 @@ pub enum RenderError {
         "{drones} drones in view overlap so densely on screen that sorting them into visibility layers needs more than {limit} box comparisons (the frame's work budget); spread them out, lower placement.count, or use labels.box_method: Amodal with no visibility filter"
     )]
     TooDense { drones: usize, limit: u64 },
+    #[error("backplate: {0}")]
+    Backplate(String),
 }
 
 /// Turn off Mesa's Vulkan device-select layer for a process that opens no window.
@@ -404,6 +407,8 @@ pub struct Renderer {
     /// in anew on every allocation.
     spare: Vec<(Vec<u8>, Painted)>,
     spare_limit: usize,
+    /// The photographic backgrounds frames may name ([`Renderer::set_backplates`]).
+    backplates: Vec<crate::sky::plates::Plate>,
 }
 
 /// How many passes a renderer has run (for tests and benchmarks).
@@ -589,6 +594,7 @@ impl Renderer {
             counts: PassCounts::default(),
             spare: Vec::new(),
             spare_limit: 2,
+            backplates: Vec::new(),
         }
     }
 

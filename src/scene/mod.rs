@@ -11,6 +11,7 @@
 use glam::{DQuat, DVec3};
 use serde::Serialize;
 
+pub mod backplate;
 pub mod camera;
 pub mod clutter;
 pub mod confusers;
@@ -133,6 +134,10 @@ pub struct FrameScene {
     /// The preset has confusers (even if this frame drew none): its datasets are multi-class.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub confusers_on: bool,
+    /// The frame's photographic background (`backplate` in the preset; set
+    /// by `backplate::apply`, which the pipeline runs on every scene).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backplate: Option<backplate::FramePlate>,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -362,6 +367,7 @@ pub fn build_frame_draw(
         clutter,
         confusers,
         confusers_on: !preset.confusers.is_empty(),
+        backplate: None,
     })
 }
 

@@ -62,6 +62,18 @@ fn decode_rgb32f(file: &Path) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentE
     // A regular file of bounded size only: a FIFO or /dev/zero is refused unopened.
     let bytes =
         crate::input::read_input_file(file, MAX_SKY_FILE_BYTES).map_err(|e| err(e.to_string()))?;
+    decode_bytes(bytes, file)
+}
+
+/// Decode an image's bytes (`file` names it in errors and hints its format).
+fn decode_bytes(
+    bytes: Vec<u8>,
+    file: &Path,
+) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentError> {
+    let err = |reason: String| EnvironmentError::Image {
+        file: file.to_owned(),
+        reason,
+    };
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
     if let Ok(format) = image::ImageFormat::from_path(file) {
         reader.set_format(format);
@@ -110,11 +122,35 @@ fn decode_rgb32f(file: &Path) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentE
     Ok((w, h, rgb.into_raw(), hdr))
 }
 
-/// Load one sky image (equirectangular file or six cubemap faces).
+/// The pixels of an equirectangular source (a file or a built-in sky); `None` for a cubemap.
+#[allow(clippy::type_complexity)]
+fn equirect_pixels(
+    source: &SkyImageSource,
+) -> Result<Option<(u32, u32, Vec<f32>, bool)>, EnvironmentError> {
+    match source {
+        SkyImageSource::Equirect(path) => decode_rgb32f(path).map(Some),
+        SkyImageSource::Builtin(name) => {
+            let (file, bytes) =
+                super::builtin::sky(name).ok_or_else(|| EnvironmentError::Image {
+                    file: PathBuf::from(format!("builtin:{name}")),
+                    reason: "no such built-in sky".into(),
+                })?;
+            decode_bytes(bytes.to_vec(), Path::new(file)).map(Some)
+        }
+        SkyImageSource::Cubemap { .. } => Ok(None),
+    }
+}
+
+/// Load one sky image (equirectangular file, built-in sky or six cubemap faces).
 pub fn load_sky_image(source: &SkyImageSource) -> Result<SkyImage, EnvironmentError> {
     match source {
-        SkyImageSource::Equirect(path) => {
-            let (width, height, rgb, hdr) = decode_rgb32f(path)?;
+        SkyImageSource::Equirect(_) | SkyImageSource::Builtin(_) => {
+            let Some((width, height, rgb, hdr)) = equirect_pixels(source)? else {
+                return Err(EnvironmentError::Image {
+                    file: PathBuf::from("sky"),
+                    reason: "not an equirectangular source".into(),
+                });
+            };
             let rows = |r: std::ops::Range<u32>| mean_rows(&rgb, width, r);
             let (mean_upper, mean_lower) = (rows(0..height / 2), rows(height / 2..height));
             let brightest = brightest(&rgb);

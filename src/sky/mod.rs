@@ -27,7 +27,9 @@ use glam::DVec3;
 use rand::Rng;
 use serde::Serialize;
 
+mod builtin;
 mod image;
+pub mod plates;
 mod preetham;
 mod styles;
 
@@ -58,6 +60,13 @@ pub struct FrameEnvironment {
     pub turbidity: f64,
     /// Seed of the cloud, ground and silhouette patterns.
     pub pattern_seed: u32,
+    /// Exposure offset in stops drawn by a `Random` sky's `exposure_ev` (0: none).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub exposure_offset_ev: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl FrameEnvironment {
@@ -86,6 +95,7 @@ fn nominal(sky: &Sky) -> FrameEnvironment {
         cloud_cover: cloud,
         turbidity,
         pattern_seed: seed.unwrap_or(0),
+        exposure_offset_ev: 0.0,
     };
     match sky {
         Sky::Gradient {
@@ -135,8 +145,9 @@ pub fn nominal_sun_direction(sky: &Sky) -> DVec3 {
 }
 
 /// The environment of frame `index` (pure). Draw order from the environment
-/// stream: choice, azimuth offset, elevation, cloud cover, pattern seed — all
-/// five are always drawn, so changing one range never shifts the others.
+/// stream: choice, azimuth offset, elevation, cloud cover, pattern seed, exposure
+/// offset — all six are always drawn, so changing one range never shifts the
+/// others (the exposure comes last: skies without it draw as before).
 pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnvironment {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::seed::mix64(
         crate::seed::frame_seed(preset_seed, index) ^ ENVIRONMENT_SALT,
@@ -149,6 +160,7 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
         u(&mut rng),
         rng.random::<u32>(),
     );
+    let exposure_u = u(&mut rng);
     let lerp = |(lo, hi): (f64, f64), t: f64| lo + (hi - lo) * t;
     match sky {
         Sky::Random {
@@ -156,6 +168,7 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
             azimuth_offset_deg,
             sun_elevation_deg,
             cloud_cover,
+            exposure_ev,
         } if !choices.is_empty() => {
             let choice = ((choice_u * choices.len() as f64) as usize).min(choices.len() - 1);
             let mut env = nominal(&choices[choice]);
@@ -171,6 +184,9 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
             }
             if !matches!(&choices[choice], Sky::Procedural { seed: Some(_), .. }) {
                 env.pattern_seed = seed;
+            }
+            if let Some(range) = exposure_ev {
+                env.exposure_offset_ev = lerp(*range, exposure_u);
             }
             env
         }
@@ -228,6 +244,7 @@ pub fn environment_name(sky: &Sky, env: &FrameEnvironment) -> String {
             let path = match source {
                 crate::preset::SkyImageSource::Equirect(p) => p,
                 crate::preset::SkyImageSource::Cubemap { px, .. } => px,
+                crate::preset::SkyImageSource::Builtin(name) => return format!("Image:{name}"),
             };
             let name = path.file_name().map_or_else(
                 || path.display().to_string(),
@@ -258,7 +275,7 @@ fn resolve_within(root: &Sky, sky: &Sky, env: &FrameEnvironment) -> FrameSky {
             ..
         } => FrameSky::Procedural {
             environment: *environment,
-            exposure: 2f32.powf(*exposure_ev as f32),
+            exposure: 2f32.powf((exposure_ev + env.exposure_offset_ev) as f32),
         },
         Sky::Image {
             source,
@@ -268,7 +285,7 @@ fn resolve_within(root: &Sky, sky: &Sky, env: &FrameEnvironment) -> FrameSky {
         } => match root.image_sources().iter().position(|s| *s == source) {
             Some(image) => FrameSky::Image {
                 image,
-                exposure: 2f32.powf(*exposure_ev as f32),
+                exposure: 2f32.powf((exposure_ev + env.exposure_offset_ev) as f32),
                 rotation_deg: rotation_deg + env.azimuth_offset_deg,
             },
             None => FALLBACK_GRADIENT,
@@ -316,6 +333,7 @@ mod tests {
             azimuth_offset_deg: (0.0, 360.0),
             sun_elevation_deg: Some((10.0, 20.0)),
             cloud_cover: Some((0.2, 0.4)),
+            exposure_ev: None,
         };
         let envs: Vec<FrameEnvironment> = (0..200).map(|i| frame_environment(&sky, 7, i)).collect();
         let chosen: std::collections::BTreeSet<usize> = envs.iter().map(|e| e.choice).collect();

@@ -113,13 +113,23 @@ pub fn write_manifest_line(
     // Sequence mode and the absolute camera add fields; other frames keep their bytes.
     let look = scene.sequence.is_some() || scene.camera_absolute;
     // The atmosphere adds its field only when the preset has one.
+    j.raw(b"{");
     if let Some(a) = &scene.atmosphere {
-        j.raw(b"{\"atmosphere\":{\"visibility_m\":");
+        j.raw(b"\"atmosphere\":{\"visibility_m\":");
         j.rounded(a.visibility_m, Decimals::Nine);
-        j.raw(b"},\"camera\":{\"K\":");
-    } else {
-        j.raw(b"{\"camera\":{\"K\":");
+        j.raw(b"},");
     }
+    // A backplate adds its field only when the preset has one.
+    if let Some(p) = &scene.backplate {
+        j.raw(b"\"backplate\":{\"file\":");
+        j.str(&p.file);
+        j.raw(if p.flip {
+            b",\"flip\":true},"
+        } else {
+            b",\"flip\":false},"
+        });
+    }
+    j.raw(b"\"camera\":{\"K\":");
     matrix(&mut j, cam.k());
     j.raw(b",\"R\":");
     matrix(&mut j, cam.camera_from_world);

@@ -1,0 +1,95 @@
+//! Photographic backgrounds in the renderer: a frame whose scene names a
+//! backplate gets the plate's pixels (resampled to the frame's size when the
+//! loaded size differs, e.g. a preview pane; mirrored when the frame's draw
+//! says so) as its cached background instead of the sky pass. The drones
+//! are then drawn over it exactly as over a sky, so the id pass, the visible
+//! boxes and [`Renderer::background_pixels`] work unchanged.
+
+use crate::scene::backplate::FramePlate;
+use crate::sky::plates::{Plate, resample_cover};
+
+use super::{RenderError, Renderer};
+
+impl Renderer {
+    /// Hold the plates that frames may name (`FramePlate::plate` indexes
+    /// them); cached backgrounds are dropped.
+    pub fn set_backplates(&mut self, plates: &[Plate]) {
+        self.backplates = plates.to_vec();
+        if let Some(state) = &mut self.regions {
+            state.forget_backgrounds();
+        }
+    }
+
+    /// The background key of a plate frame: the plate, its mirroring and the size.
+    pub(super) fn plate_key(plate: &FramePlate, size: (u32, u32)) -> Vec<u8> {
+        let mut key = b"backplate".to_vec();
+        key.extend_from_slice(&(plate.plate as u64).to_le_bytes());
+        key.push(u8::from(plate.flip));
+        key.extend_from_slice(&size.0.to_le_bytes());
+        key.extend_from_slice(&size.1.to_le_bytes());
+        key
+    }
+
+    /// Write the plate's pixels at `size` (RGBA8) into `out`.
+    pub(super) fn plate_pixels(
+        &self,
+        plate: &FramePlate,
+        size: (u32, u32),
+        out: &mut Vec<u8>,
+    ) -> Result<(), RenderError> {
+        let loaded = self.backplates.get(plate.plate).ok_or_else(|| {
+            RenderError::Backplate(format!(
+                "the frame names backplate {} ({}), but the renderer holds {} plates",
+                plate.plate,
+                plate.file,
+                self.backplates.len()
+            ))
+        })?;
+        out.clear();
+        if loaded.size == size {
+            out.extend_from_slice(&loaded.rgba);
+        } else {
+            let image =
+                image::RgbaImage::from_raw(loaded.size.0, loaded.size.1, (*loaded.rgba).clone())
+                    .ok_or_else(|| {
+                        RenderError::Backplate("a backplate's pixels do not fill its size".into())
+                    })?;
+            out.extend_from_slice(&resample_cover(&image, size));
+        }
+        if plate.flip {
+            let row = size.0 as usize * 4;
+            for line in out.chunks_exact_mut(row) {
+                for x in 0..size.0 as usize / 2 {
+                    let (a, b) = (x * 4, row - 4 - x * 4);
+                    for c in 0..4 {
+                        line.swap(a + c, b + c);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Upload `rgba` (the frame's size) into `texture` (the cached background).
+    pub(super) fn upload_background(&self, texture: &wgpu::Texture, rgba: &[u8], size: (u32, u32)) {
+        self.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            rgba,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size.0 * 4),
+                rows_per_image: Some(size.1),
+            },
+            wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+}

@@ -1,0 +1,431 @@
+//! Photographic backgrounds (`backplate:`, issue 21 item 4): the plate is the
+//! frame's background pixel for pixel where no drone is, the camera agrees
+//! with the plate's field of view and horizon, the visible boxes are the
+//! pixels the drones change against it, the draw is deterministic, and bad
+//! folders or files are refused naming them before anything is written.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::backplate::{Backplate, PlateHorizon};
+use swarmshot::preset::{Placement, Preset, Resolution, Volume};
+
+/// The output size of the tests' frames, and the rows a plate loses above it.
+const W: u32 = 640;
+const H: u32 = 360;
+const CROP: u32 = 76;
+
+/// The four CC0 plates (640×512) of tests/data/plates.
+fn plates_dir() -> PathBuf {
+    common::testdata("plates")
+}
+
+/// A 640×360 preset over the test plates (a 640×512 plate covers it by
+/// dropping 76 rows above and below: no resampling, so the expected
+/// background is the decoded plate's rows 76..436).
+fn plate_preset(folder: &Path, count: (u32, u32)) -> Preset {
+    let mut p = common::tiny_preset();
+    p.placement = Placement::Randomized {
+        count,
+        count_distribution: Default::default(),
+        volume: Volume::Box {
+            size_m: (6.0, 3.0, 6.0),
+        },
+        min_separation_m: 0.7,
+    };
+    p.render.resolution = Resolution::Custom {
+        width: W,
+        height: H,
+    };
+    p.camera.observer = Some(swarmshot::preset::observer::ObserverCamera {
+        distance_m: (15.0, 30.0),
+        ..Default::default()
+    });
+    p.repeats = 6;
+    // Every drone keeps its label (the tests compare pixels with boxes).
+    p.labels.min_box_px = 0.0;
+    p.backplate = Some(Backplate {
+        folder: folder.to_owned(),
+        hfov_deg: 50.0,
+        ..Default::default()
+    });
+    p
+}
+
+/// The plate as the frame must show it, decoded here independently: rows 76..436, mirrored if asked.
+fn expected_background(file: &str, flip: bool) -> Vec<u8> {
+    let img = image::open(plates_dir().join(file))
+        .expect("plate decodes")
+        .to_rgba8();
+    assert_eq!(img.dimensions(), (640, 512));
+    let mut out = Vec::with_capacity((W * H * 4) as usize);
+    for y in CROP..CROP + H {
+        for x in 0..W {
+            let sx = if flip { W - 1 - x } else { x };
+            out.extend_from_slice(&img.get_pixel(sx, y).0);
+        }
+    }
+    out
+}
+
+#[test]
+fn plate_frames_show_the_plate_where_no_drone_is_and_it_is_the_drone_free_background() {
+    let ctx = common::gpu();
+    for msaa in [1, 4] {
+        let mut preset = plate_preset(&plates_dir(), (2, 4));
+        preset.render.msaa = msaa;
+        shows_the_plate(&ctx, preset);
+    }
+}
+
+fn shows_the_plate(ctx: &swarmshot::render::GpuContext, preset: Preset) {
+    let pipeline = FramePipeline::new(preset).expect("pipeline");
+    let mut renderer = pipeline.renderer(ctx);
+    let mut flips = [false; 2];
+    for index in 0..6 {
+        let frame = pipeline.make(&mut renderer, index).expect("frame");
+        let plate = frame.scene.backplate.clone().expect("a plate frame");
+        flips[usize::from(plate.flip)] = true;
+        let want = expected_background(&plate.file, plate.flip);
+        let background = renderer
+            .background_pixels(&frame.painted)
+            .expect("the background of a plate frame is known");
+        assert!(
+            background == want.as_slice(),
+            "frame {index}: background ≠ plate"
+        );
+        // Every pixel outside the drones' (amodal) boxes, one pixel of margin, is the plate's.
+        let boxes: Vec<_> = frame.labels.iter().map(|l| l.amodal).collect();
+        let mut outside = 0;
+        for y in 0..H as usize {
+            for x in 0..W as usize {
+                let near = boxes.iter().any(|b| {
+                    x as f64 + 1.0 >= b.x0 - 1.0
+                        && (x as f64) <= b.x1 + 1.0
+                        && y as f64 + 1.0 >= b.y0 - 1.0
+                        && (y as f64) <= b.y1 + 1.0
+                });
+                if !near {
+                    let i = (y * W as usize + x) * 4;
+                    assert_eq!(
+                        frame.rgba[i..i + 4],
+                        want[i..i + 4],
+                        "frame {index}: pixel ({x}, {y}) outside every drone"
+                    );
+                    outside += 1;
+                }
+            }
+        }
+        assert!(
+            outside > (W * H / 2) as usize,
+            "frame {index}: {outside} pixels compared"
+        );
+        // And the drones did paint something.
+        assert!(frame.rgba != want, "frame {index}: no drone drawn");
+    }
+    assert!(flips[0] || flips[1]);
+}
+
+#[test]
+fn visible_boxes_on_plates_are_exactly_the_pixels_the_drone_changes() {
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(plate_preset(&plates_dir(), (1, 1))).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut checked = 0;
+    for index in 0..8 {
+        let frame = pipeline.make(&mut renderer, index).expect("frame");
+        let background = renderer
+            .background_pixels(&frame.painted)
+            .expect("background");
+        let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+        for (i, (a, b)) in frame
+            .rgba
+            .chunks_exact(4)
+            .zip(background.chunks_exact(4))
+            .enumerate()
+        {
+            if a != b {
+                let (x, y) = (i as u32 % W, i as u32 / W);
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
+            }
+        }
+        let Some(label) = frame.labels.first() else {
+            assert_eq!(x0, u32::MAX, "frame {index}: pixels changed but no label");
+            continue;
+        };
+        let b = label.bbox;
+        assert_eq!(
+            (b.x0, b.y0, b.x1, b.y1),
+            (x0.into(), y0.into(), x1.into(), y1.into()),
+            "frame {index}: visible box vs changed pixels"
+        );
+        checked += 1;
+    }
+    assert!(checked >= 5, "only {checked} frames had a visible drone");
+}
+
+#[test]
+fn the_camera_has_the_plates_field_of_view_and_sees_the_horizon_on_its_row() {
+    let pipeline = FramePipeline::new(plate_preset(&plates_dir(), (2, 4))).expect("pipeline");
+    for index in 0..12 {
+        let scene = pipeline.scene(index).expect("scene");
+        let plate = scene.backplate.clone().expect("plate");
+        let cam = &scene.camera;
+        // No columns are cropped (640 of 640): the horizontal field of view is the plate's.
+        let hfov = 2.0 * (f64::from(W / 2) / cam.focal_px()).atan().to_degrees();
+        assert!((hfov - 50.0).abs() < 1e-9, "frame {index}: hfov {hfov}");
+        // The sidecar's row, minus the cropped rows.
+        let row: f64 =
+            std::fs::read_to_string(plates_dir().join(plate.file.replace(".jpg", ".plate.ron")))
+                .expect("sidecar")
+                .split("Row(")
+                .nth(1)
+                .and_then(|s| s.split(')').next())
+                .and_then(|s| s.parse().ok())
+                .expect("a Row(..) in the sidecar");
+        let want_v = row * 512.0 - f64::from(CROP);
+        assert!((plate.horizon_row_px.expect("row") - want_v).abs() < 1e-9);
+        // A far point on the horizon straight ahead projects onto that row.
+        let ahead = scene.look_at - cam.position;
+        let flat = DVec3::new(ahead.x, 0.0, ahead.z).normalize();
+        let far = DVec3::new(cam.position.x, 0.0, cam.position.z) + flat * 1e7;
+        let p = cam
+            .project_camera_point(cam.camera_from_world_point(far))
+            .expect("ahead of the camera");
+        assert!(
+            (p.y - want_v).abs() < 0.01,
+            "frame {index}: v {} vs {want_v}",
+            p.y
+        );
+        assert!(
+            (p.x - f64::from(W / 2)).abs() < 0.01,
+            "frame {index}: u {}",
+            p.x
+        );
+    }
+}
+
+#[test]
+fn the_plate_draw_is_deterministic_and_a_frame_made_alone_equals_the_batchs() {
+    let ctx = common::gpu();
+    let preset = plate_preset(&plates_dir(), (2, 4));
+    let a = FramePipeline::new(preset.clone()).expect("pipeline");
+    let b = FramePipeline::new(preset.clone()).expect("pipeline");
+    let mut files = std::collections::BTreeSet::new();
+    let mut flips = std::collections::BTreeSet::new();
+    for index in 0..preset.frame_count().min(40) {
+        let (sa, sb) = (a.scene(index).expect("a"), b.scene(index).expect("b"));
+        assert_eq!(sa, sb);
+        let p = sa.backplate.expect("plate");
+        files.insert(p.file);
+        flips.insert(p.flip);
+    }
+    assert!(files.len() >= 3, "{files:?}");
+    assert_eq!(flips.len(), 2);
+    // Frames 0..4 in order on one renderer; frame 3 alone on a fresh one.
+    let mut in_order = a.renderer(&ctx);
+    let batch: Vec<_> = (0..4)
+        .map(|i| a.make(&mut in_order, i).expect("frame").rgba)
+        .collect();
+    let mut fresh = b.renderer(&ctx);
+    assert!(b.make(&mut fresh, 3).expect("frame").rgba == batch[3]);
+    // Another seed draws other plates.
+    let mut other = preset.clone();
+    other.seed += 1;
+    let c = FramePipeline::new(other).expect("pipeline");
+    let differs = (0..8).any(|i| {
+        c.scene(i).expect("c").backplate.map(|p| (p.file, p.flip))
+            != a.scene(i).expect("a").backplate.map(|p| (p.file, p.flip))
+    });
+    assert!(differs);
+}
+
+fn error_of(preset: Preset) -> String {
+    match FramePipeline::new(preset) {
+        Ok(_) => panic!("the pipeline should refuse this preset"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// A PNG whose header says `w`×`h` (its pixel data is missing).
+fn png_header(w: u32, h: u32) -> Vec<u8> {
+    fn crc(bytes: &[u8]) -> u32 {
+        let mut c = 0xFFFF_FFFFu32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(w.to_be_bytes());
+    ihdr.extend(h.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    out.extend(13u32.to_be_bytes());
+    out.extend(&ihdr);
+    out.extend(crc(&ihdr).to_be_bytes());
+    out.extend(0u32.to_be_bytes());
+    out.extend(b"IDAT");
+    out.extend(crc(b"IDAT").to_be_bytes());
+    out
+}
+
+#[test]
+fn bad_plate_folders_and_files_are_refused_naming_them() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let folder = |name: &str| {
+        let d = tmp.path().join(name);
+        std::fs::create_dir_all(&d).expect("mkdir");
+        d
+    };
+    // Missing and empty folders name the folder.
+    let missing = tmp.path().join("no-such-folder");
+    let e = error_of(plate_preset(&missing, (1, 1)));
+    assert!(
+        e.contains("no-such-folder") && e.contains("backplate.folder"),
+        "{e}"
+    );
+    let empty = folder("empty");
+    std::fs::write(empty.join("README.txt"), "not a plate").expect("write");
+    let e = error_of(plate_preset(&empty, (1, 1)));
+    assert!(e.contains("empty") && e.contains("no .jpg"), "{e}");
+    // A file that is not an image, a tiny image, a huge one: each named.
+    let cases: [(&str, Vec<u8>, &str); 3] = [
+        ("garbage.jpg", b"not a jpeg at all".to_vec(), "garbage.jpg"),
+        ("tiny.png", Vec::new(), "smaller than the 64-pixel"),
+        (
+            "huge.png",
+            png_header(20_000, 20_000),
+            "larger than the 12000-pixel",
+        ),
+    ];
+    for (name, bytes, reason) in cases {
+        let d = folder(&format!("case-{name}"));
+        let path = d.join(name);
+        if name == "tiny.png" {
+            image::RgbaImage::new(16, 16).save(&path).expect("png");
+        } else {
+            std::fs::write(&path, bytes).expect("write");
+        }
+        let e = error_of(plate_preset(&d, (1, 1)));
+        assert!(e.contains(name) && e.contains(reason), "{name}: {e}");
+    }
+    // A bad sidecar names the sidecar.
+    let d = folder("sidecar");
+    std::fs::copy(plates_dir().join("V_DRONE_010.jpg"), d.join("a.jpg")).expect("copy");
+    std::fs::write(d.join("a.plate.ron"), "(hfov_deg: 500.0)").expect("write");
+    let e = error_of(plate_preset(&d, (1, 1)));
+    assert!(e.contains("a.plate.ron") && e.contains("hfov_deg"), "{e}");
+    // Validation names the field.
+    let mut p = plate_preset(&plates_dir(), (1, 1));
+    if let Some(b) = &mut p.backplate {
+        b.hfov_deg = 0.0;
+        b.horizon = PlateHorizon::Row(f64::NAN);
+    }
+    let e = error_of(p);
+    assert!(
+        e.contains("backplate.hfov_deg") && e.contains("backplate.horizon"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_batch_refuses_a_bad_plate_before_writing_anything() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let plates = tmp.path().join("plates");
+    std::fs::create_dir_all(&plates).expect("mkdir");
+    std::fs::write(plates.join("broken.png"), b"\x89PNG\r\n\x1a\nbroken").expect("write");
+    let preset = tmp.path().join("p.ron");
+    std::fs::write(
+        &preset,
+        "(name: \"plates\", backplate: Some((folder: \"plates\")))",
+    )
+    .expect("write");
+    let out = tmp.path().join("out");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+        .args(["batch", preset.to_str().expect("utf-8"), "--out"])
+        .arg(&out)
+        .output()
+        .expect("run");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(stderr.contains("broken.png"), "{stderr}");
+    assert!(!out.exists(), "the batch wrote {}", out.display());
+}
+
+fn builtin_sky(name: &str) -> swarmshot::preset::Sky {
+    swarmshot::preset::Sky::Image {
+        source: swarmshot::preset::SkyImageSource::Builtin(name.into()),
+        exposure_ev: 0.0,
+        rotation_deg: 0.0,
+        sun_elevation_deg: 45.0,
+        sun_azimuth_deg: 0.0,
+    }
+}
+
+#[test]
+fn builtin_photographic_skies_load_render_and_take_the_drawn_turn_and_exposure() {
+    use swarmshot::sky::FrameSky;
+    let ctx = common::gpu();
+    let mean = |rgba: &[u8]| rgba.iter().map(|&c| f64::from(c)).sum::<f64>() / rgba.len() as f64;
+    for (name, _) in swarmshot::preset::BUILTIN_SKIES {
+        let mut p = common::tiny_preset();
+        p.sky = swarmshot::preset::Sky::Random {
+            choices: vec![builtin_sky(name)],
+            azimuth_offset_deg: (0.0, 360.0),
+            sun_elevation_deg: None,
+            cloud_cover: None,
+            exposure_ev: Some((-1.5, 1.5)),
+        };
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        assert_eq!(pipeline.assets().sky.images.len(), 1, "{name}");
+        let mut renderer = pipeline.renderer(&ctx);
+        let mut draws = Vec::new();
+        for index in 0..4 {
+            let scene = pipeline.scene(index).expect("scene");
+            let FrameSky::Image {
+                exposure,
+                rotation_deg,
+                ..
+            } = scene.sky
+            else {
+                panic!(
+                    "{name}: frame {index} is not the image sky: {:?}",
+                    scene.sky
+                );
+            };
+            let ev = scene.environment.exposure_offset_ev;
+            assert!((-1.5..=1.5).contains(&ev), "{name}: {ev}");
+            assert!((f64::from(exposure) - 2f64.powf(ev)).abs() < 1e-5);
+            assert_eq!(rotation_deg, scene.environment.azimuth_offset_deg);
+            draws.push((ev, rotation_deg));
+            // Brighter with more exposure: the same frame a stop darker and a stop brighter.
+            let at = |renderer: &mut swarmshot::render::Renderer, k: f32| {
+                let mut s = scene.clone();
+                s.drones.clear();
+                if let FrameSky::Image { exposure, .. } = &mut s.sky {
+                    *exposure *= k;
+                }
+                mean(&pipeline.make_scene(renderer, s).expect("frame").rgba)
+            };
+            let (dark, bright) = (at(&mut renderer, 0.5), at(&mut renderer, 2.0));
+            assert!(bright > dark + 2.0, "{name}: {dark} vs {bright}");
+        }
+        assert!(draws.windows(2).all(|w| w[0] != w[1]), "{name}: {draws:?}");
+    }
+    // An unknown name is refused naming the field.
+    let mut p = common::tiny_preset();
+    p.sky = builtin_sky("no_such_sky");
+    let e = error_of(p);
+    assert!(e.contains("sky.source") && e.contains("quarry_01"), "{e}");
+}
