@@ -184,6 +184,29 @@ fn negatives_stay_out_of_yolo_and_coco_and_are_in_the_manifest_with_their_boxes(
     }
     assert_eq!(coco_counts, coco_per_image);
 
+    // Any frame made alone gives the batch's manifest line, confusers and all.
+    let pipeline = FramePipeline::new(preset()).expect("pipeline");
+    let ctx = common::gpu();
+    let mut renderer = pipeline.renderer(&ctx);
+    let lines: Vec<String> = std::fs::read_to_string(dir.path().join("manifest.jsonl"))
+        .expect("manifest")
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    for (i, batch_line) in lines.iter().enumerate() {
+        let frame = pipeline.make(&mut renderer, i as u64).expect("frame alone");
+        let image =
+            swarmshot::write::image_rel_path(&frame.scene, pipeline.image_format(&frame.scene));
+        let alone = swarmshot::write::manifest::manifest_line(
+            &frame.scene,
+            &frame.labels,
+            &image,
+            pipeline.model_names(),
+            pipeline.classes(),
+        );
+        assert_eq!(&alone, batch_line, "frame {i}");
+    }
+
     // `swarmshot stats` counts the classes and the negatives apart.
     let stats = swarmshot::write::stats::read_dataset(dir.path()).expect("stats");
     assert_eq!(stats.per_class["bird"].boxes, birds_kept);

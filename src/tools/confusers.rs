@@ -338,13 +338,20 @@ fn light_aircraft() -> MeshBuilder {
         Vec3::X,
         0.1,
     );
-    // Propeller disc on the nose.
-    b.rotor(
+    // Spinner and a two-blade propeller (a spinning prop is nearly transparent; its blades show).
+    b.cylinder(
         prop,
-        prop,
-        Vec3::new(0.0, 0.0, 4.1),
-        0.95,
+        Vec3::new(0.0, 0.0, 4.05),
+        0.15,
+        0.3,
+        8,
         Quat::from_rotation_x(FRAC_PI_2),
+    );
+    b.cuboid(
+        prop,
+        Vec3::new(0.0, 0.0, 4.2),
+        Vec3::new(0.06, 0.95, 0.03),
+        Quat::from_rotation_z(0.5),
     );
     b
 }
