@@ -19,6 +19,8 @@ const ALL: MaskOutputs = MaskOutputs {
     coco_rle: true,
     yolo_seg: true,
     instance_png: true,
+    depth: true,
+    depth_unit_mm: 1,
 };
 
 /// The tiny preset, crowded (drones hide each other), 4× MSAA (pixels shared
@@ -268,6 +270,88 @@ fn rle_masks_are_the_visible_pixels_and_instance_ids_match_the_manifest() {
     assert!(alone_checked >= 10, "{alone_checked} drones checked whole");
 }
 
+fn grey16(path: &Path) -> image::ImageBuffer<image::Luma<u16>, Vec<u16>> {
+    match image::open(path) {
+        Ok(image::DynamicImage::ImageLuma16(g)) => g,
+        Ok(other) => panic!("{} is {:?}, not 16-bit grey", path.display(), other.color()),
+        Err(e) => panic!("{}: {e}", path.display()),
+    }
+}
+
+/// A drone centre's camera-frame depth z from the manifest's R, t and position.
+fn centre_z(camera: &Value, position: &Value) -> f64 {
+    let r = &camera["R"][2];
+    let t = camera["t"][2].as_f64().expect("t");
+    (0..3)
+        .map(|k| r[k].as_f64().expect("R") * position[k].as_f64().expect("position"))
+        .sum::<f64>()
+        + t
+}
+
+#[test]
+fn depth_covers_the_instance_pixels_and_follows_each_drones_distance() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    run(&preset(ALL), dir.path(), 6, 0);
+    let mut drones_checked = 0;
+    let mut pairs_ordered = 0;
+    // Drones whose depths vary over their pixels: the surface, not one number per drone.
+    let mut surfaces = 0;
+    for line in std::fs::read_to_string(dir.path().join("manifest.jsonl"))
+        .expect("manifest")
+        .lines()
+    {
+        let frame: Value = serde_json::from_str(line).expect("line");
+        let index = frame["index"].as_u64().expect("index");
+        let split = frame["split"].as_str().expect("split");
+        let ids = grey16(&dir.path().join(format!("masks/{split}/{index:08}.png")));
+        let depth = grey16(&dir.path().join(format!("depth/{split}/{index:08}.png")));
+        let mut per_drone: BTreeMap<usize, Vec<u16>> = BTreeMap::new();
+        for (id, z) in ids.as_raw().iter().zip(depth.as_raw()) {
+            assert_eq!(
+                *id == 0,
+                *z == 0,
+                "frame {index}: depth exactly where ids are"
+            );
+            if *id > 0 {
+                per_drone.entry(usize::from(*id) - 1).or_default().push(*z);
+            }
+        }
+        let drones = frame["drones"].as_array().expect("drones");
+        // (centre z, median depth) in millimetres, per drone shown.
+        let mut seen: Vec<(f64, f64)> = Vec::new();
+        for (d, mut zs) in per_drone {
+            zs.sort_unstable();
+            let median = f64::from(zs[zs.len() / 2]);
+            if zs[zs.len() - 1] - zs[0] >= 5 {
+                surfaces += 1;
+            }
+            let drone = &drones[d];
+            let centre = 1000.0 * centre_z(&frame["camera"], &drone["position_m"]);
+            let half_span = 500.0 * drone["size_m"].as_f64().expect("size_m");
+            // The surface seen lies within the drone's half span of its centre.
+            assert!(
+                (median - centre).abs() <= half_span + 1.0,
+                "frame {index} drone {d}: median depth {median} mm, centre {centre} mm"
+            );
+            seen.push((centre, median));
+            drones_checked += 1;
+        }
+        // Monotone: a drone farther by more than a span has the larger depth.
+        for a in &seen {
+            for b in &seen {
+                if b.0 - a.0 > 350.0 {
+                    assert!(b.1 > a.1, "frame {index}: {a:?} against {b:?}");
+                    pairs_ordered += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        drones_checked >= 30 && pairs_ordered >= 30 && surfaces >= 10,
+        "{drones_checked} drones, {pairs_ordered} pairs, {surfaces} with a surface"
+    );
+}
+
 #[test]
 fn yolo_segments_follow_the_detection_lines() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -380,11 +464,11 @@ fn masks_off_adds_nothing_and_on_adds_only_masks() {
         String::from_utf8_lossy(&on_files["preset.lock.ron"]).contains("coco_rle: true"),
         "an on preset's lock keeps them"
     );
-    assert!(
-        !off_files
-            .keys()
-            .any(|f| f.starts_with("masks/") || f.starts_with("labels-seg/"))
-    );
+    assert!(!off_files.keys().any(|f| {
+        ["masks/", "labels-seg/", "depth/"]
+            .iter()
+            .any(|d| f.starts_with(d))
+    }));
     for (rel, bytes) in &off_files {
         if rel.starts_with("images/") || rel.starts_with("labels/") || rel == "manifest.jsonl" {
             assert!(on_files[rel] == *bytes, "{rel} changed with masks on");
@@ -437,12 +521,14 @@ fn masks_are_deterministic_across_runs_and_thread_counts() {
 fn mask_settings_are_checked_with_their_field_paths() {
     let mut p = preset(ALL);
     p.labels.id_scale = 2;
+    p.output.masks.depth_unit_mm = 0;
     p.output.label_formats = vec![LabelFormat::Yolo];
     let errors = p.validate().expect_err("invalid");
     let fields: Vec<&str> = errors.iter().map(|e| e.field.as_str()).collect();
     assert!(fields.contains(&"output.masks"), "{fields:?}");
     assert!(fields.contains(&"output.masks.coco_rle"), "{fields:?}");
     assert!(!fields.contains(&"output.masks.yolo_seg"), "{fields:?}");
+    assert!(fields.contains(&"output.masks.depth_unit_mm"), "{fields:?}");
     let err = Preset::from_ron("(output: (masks: (coco_rle: true, depht: true)))")
         .expect_err("unknown field");
     assert!(err.to_string().contains("depht"), "{err}");

@@ -8,7 +8,7 @@ use crate::render::PixelHit;
 use crate::scene::projection::PixelBox;
 
 /// A frame's masks.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameMasks {
     pub width: u32,
     pub height: u32,
@@ -19,6 +19,9 @@ pub struct FrameMasks {
     /// drone), ascending: the drone most of the pixel's samples show, the
     /// lower drone index on a tie.
     pub instance: Vec<(u32, u32)>,
+    /// The depth (metres, camera-frame z) at each pixel of `instance`, in
+    /// its order, when the preset asks for depth maps (else empty).
+    pub depth_m: Vec<f64>,
 }
 
 impl FrameMasks {
@@ -46,6 +49,7 @@ impl FrameMasks {
             height,
             pixels,
             instance,
+            depth_m: Vec::new(),
         }
     }
 

@@ -3,6 +3,7 @@
 //! ([`crate::scene::projection`]); `Visible` boxes and the visibility filters
 //! from what the renderer measured ([`crate::render::visibility`]).
 
+pub mod depth;
 pub mod masks;
 pub mod overlay;
 pub mod rle;

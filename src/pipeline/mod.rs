@@ -457,6 +457,9 @@ impl FramePipeline {
                 (rgba, Painted::default())
             }
         };
+        if let Some(m) = masks.as_mut().filter(|_| self.preset.output.masks.depth) {
+            m.depth_m = crate::annotate::depth::depth_m(&scene, &self.assets.models, m);
+        }
         let labels = label_frame(
             &scene,
             &self.assets.geometry,

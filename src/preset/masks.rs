@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::{FieldError, LabelFormat, Preset};
 
 /// The masks and maps a preset asks for (`output.masks`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MaskOutputs {
     /// COCO `segmentation` of every annotation: the object's visible pixels
@@ -20,6 +20,24 @@ pub struct MaskOutputs {
     /// A 16-bit grey PNG per frame in `masks/{split}/NAME.png`: 0 where no
     /// drone shows, else the manifest's drone index + 1.
     pub instance_png: bool,
+    /// A 16-bit grey PNG per frame in `depth/{split}/NAME.png`: at each
+    /// pixel of the instance image, the camera-frame depth z of the drone it
+    /// shows in units of `depth_unit_mm` (0: no drone; 65535: that far or farther).
+    pub depth: bool,
+    /// The depth map's unit in millimetres (1 to 1000; 1: depths up to 65.5 m).
+    pub depth_unit_mm: u32,
+}
+
+impl Default for MaskOutputs {
+    fn default() -> Self {
+        Self {
+            coco_rle: false,
+            yolo_seg: false,
+            instance_png: false,
+            depth: false,
+            depth_unit_mm: 1,
+        }
+    }
 }
 
 impl MaskOutputs {
@@ -30,7 +48,7 @@ impl MaskOutputs {
 
     /// Whether any output needs each drone's visible pixels.
     pub fn any(&self) -> bool {
-        !self.is_off()
+        self.coco_rle || self.yolo_seg || self.instance_png || self.depth
     }
 }
 
@@ -43,15 +61,21 @@ impl Preset {
     /// formats it adds to must be written; instance ids must fit 16 bits.
     pub(super) fn validate_masks(&self, errors: &mut Vec<FieldError>) {
         let m = &self.output.masks;
-        if m.is_off() {
-            return;
-        }
         let mut push = |field: &str, message: String| {
             errors.push(FieldError {
                 field: field.to_owned(),
                 message,
             });
         };
+        if !(1..=1000).contains(&m.depth_unit_mm) {
+            push(
+                "output.masks.depth_unit_mm",
+                format!("{} is out of range [1, 1000]", m.depth_unit_mm),
+            );
+        }
+        if !m.any() {
+            return;
+        }
         if self.labels.id_scale != 1 {
             push(
                 "output.masks",
@@ -73,7 +97,7 @@ impl Preset {
                 "is on but output.label_formats has no Yolo; add Yolo or turn yolo_seg off".into(),
             );
         }
-        if m.instance_png && self.max_drones_per_frame() > MAX_INSTANCE_ID as u64 {
+        if (m.instance_png || m.depth) && self.max_drones_per_frame() > MAX_INSTANCE_ID as u64 {
             push(
                 "output.masks.instance_png",
                 format!(

@@ -145,6 +145,19 @@ pub(super) fn collect_hits(
         let y = rect.y0 + dy as u32;
         for (dx, p) in line[..width * pixel].chunks_exact(pixel).enumerate() {
             let x = rect.x0 + dx as u32;
+            if samples == 1 || p[..4] == p[4..8] && p[..8] == p[8..] {
+                // One sample, or four equal ones: most pixels, the sky's included.
+                let v = id(p);
+                if v != 0 && v as usize <= drones {
+                    out.push(PixelHit {
+                        x,
+                        y,
+                        drone: v - 1,
+                        samples: samples as u8,
+                    });
+                }
+                continue;
+            }
             let ids: &[u8] = &p[..pixel];
             let mut seen: [(u32, u8); 4] = [(0, 0); 4];
             let mut n = 0;

@@ -22,6 +22,8 @@ pub struct EncodedMasks {
     pub yolo_seg: Option<Vec<u8>>,
     /// The instance PNG (`instance_png` on).
     pub instance_png: Option<Vec<u8>>,
+    /// The depth PNG (`depth` on).
+    pub depth_png: Option<Vec<u8>>,
 }
 
 /// Encode what `outputs` asks for of one frame's masks.
@@ -48,6 +50,9 @@ pub fn encode(
         } else {
             None
         },
+        depth_png: outputs
+            .depth
+            .then(|| depth_png(masks, outputs.depth_unit_mm)),
     })
 }
 
@@ -131,6 +136,22 @@ pub fn instance_png(masks: &FrameMasks) -> Result<Vec<u8>, OutputError> {
     ))
 }
 
+/// The depth map as a 16-bit grey PNG: at each pixel of the instance
+/// image, its depth in units of `unit_mm` millimetres, rounded, at least 1
+/// and at most 65535 (that far or farther); 0 where no drone shows.
+pub fn depth_png(masks: &FrameMasks, unit_mm: u32) -> Vec<u8> {
+    let unit_m = f64::from(unit_mm.max(1)) / 1000.0;
+    let pixels: Vec<(u32, u16)> = (masks.instance.iter().zip(&masks.depth_m))
+        .map(|(&(i, _), &z)| (i, (z / unit_m).round().clamp(1.0, 65_535.0) as u16))
+        .collect();
+    super::sparse_png::grey16(masks.width, masks.height, &pixels)
+}
+
+/// A frame's depth PNG relative to the dataset folder.
+pub fn depth_rel_path(scene: &FrameScene) -> String {
+    format!("depth/{}/{}.png", scene.split.as_str(), stem(scene.index))
+}
+
 /// A frame's YOLO segmentation label file relative to the dataset folder.
 pub fn yolo_seg_rel_path(scene: &FrameScene) -> String {
     format!(
@@ -154,6 +175,9 @@ pub fn needed_entries(outputs: &MaskOutputs) -> Vec<String> {
         }
         if outputs.instance_png {
             needed.push(format!("masks/{split}/"));
+        }
+        if outputs.depth {
+            needed.push(format!("depth/{split}/"));
         }
     }
     needed
@@ -183,6 +207,9 @@ impl FormatWriter for MasksWriter {
         if self.outputs.instance_png {
             files.push(instance_rel_path(scene));
         }
+        if self.outputs.depth {
+            files.push(depth_rel_path(scene));
+        }
         files
     }
 
@@ -199,6 +226,10 @@ impl FormatWriter for MasksWriter {
         if self.outputs.instance_png {
             let png = masks.instance_png.as_deref().ok_or_else(missing)?;
             folder.write_frame_file(&instance_rel_path(record.scene), png)?;
+        }
+        if self.outputs.depth {
+            let png = masks.depth_png.as_deref().ok_or_else(missing)?;
+            folder.write_frame_file(&depth_rel_path(record.scene), png)?;
         }
         Ok(())
     }

@@ -519,7 +519,7 @@ impl DatasetWriter {
                 formats.push(Box::new(yolo::YoloWriter::create(&mut folder)?));
             }
             let m = preset.output.masks;
-            if mask_files && (m.yolo_seg || m.instance_png) {
+            if mask_files && (m.yolo_seg || m.instance_png || m.depth) {
                 formats.push(Box::new(masks::MasksWriter::create(&mut folder, m)?));
             }
             formats.push(Box::new(manifest::ManifestWriter::open(

@@ -1,0 +1,189 @@
+//! The depth map of `output.masks.depth`: at every pixel of the instance
+//! image, the camera-frame depth z (metres along the optical axis) of the
+//! drone the pixel shows, from that drone's full-detail mesh rasterised on
+//! the CPU at the pixel centres (the nearest surface; triangles reaching
+//! behind the near plane are skipped). A pixel the drone shows only through
+//! an MSAA sample off its centre takes the nearest depth of its covered
+//! 8-neighbours, else the depth of the drone's centre. Only the drones'
+//! pixels are visited: the cost follows their screen area, not the frame's.
+
+use glam::{DVec2, DVec3};
+
+use super::masks::FrameMasks;
+use crate::model::CpuModel;
+use crate::scene::FrameScene;
+
+/// Depth (metres) of every pixel of `masks.instance`, in its order.
+pub fn depth_m(scene: &FrameScene, models: &[CpuModel], masks: &FrameMasks) -> Vec<f64> {
+    let width = masks.width.max(1);
+    let cam = &scene.camera;
+    // Pixels of each drone in the instance image, with their place in it.
+    let mut per_drone: Vec<Vec<(u32, u32, usize)>> = vec![Vec::new(); scene.drones.len()];
+    for (k, &(i, d)) in masks.instance.iter().enumerate() {
+        if let Some(list) = per_drone.get_mut(d as usize) {
+            list.push((i % width, i / width, k));
+        }
+    }
+    let mut out = vec![0.0; masks.instance.len()];
+    for (d, pixels) in per_drone.iter().enumerate() {
+        if pixels.is_empty() {
+            continue;
+        }
+        let drone = &scene.drones[d];
+        let centre_z = cam.camera_from_world_point(drone.position).z;
+        let Some(model) = models.get(drone.model) else {
+            for &(_, _, k) in pixels {
+                out[k] = centre_z;
+            }
+            continue;
+        };
+        let x0 = pixels.iter().map(|p| p.0).min().unwrap_or(0);
+        let y0 = pixels.iter().map(|p| p.1).min().unwrap_or(0);
+        let x1 = pixels.iter().map(|p| p.0 + 1).max().unwrap_or(0);
+        let y1 = pixels.iter().map(|p| p.1 + 1).max().unwrap_or(0);
+        let tile = Tile::raster(scene, d, model, (x0, y0, x1, y1));
+        for &(x, y, k) in pixels {
+            out[k] = tile.at(x, y).unwrap_or(centre_z);
+        }
+    }
+    out
+}
+
+/// A drone's nearest surface depth over a pixel rectangle.
+struct Tile {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    /// Nearest z per pixel centre (infinity: not covered).
+    z: Vec<f64>,
+}
+
+impl Tile {
+    fn raster(scene: &FrameScene, d: usize, model: &CpuModel, rect: (u32, u32, u32, u32)) -> Self {
+        let (x0, y0, x1, y1) = rect;
+        let (w, h) = (x1 - x0, y1 - y0);
+        let mut tile = Self {
+            x0,
+            y0,
+            w,
+            h,
+            z: vec![f64::INFINITY; (w as usize) * (h as usize)],
+        };
+        let cam = &scene.camera;
+        let drone = &scene.drones[d];
+        // Camera-frame vertices and their pixel positions.
+        let points: Vec<Option<(DVec2, f64)>> = (model.vertices.iter())
+            .map(|v| {
+                let local = DVec3::from(v.position.map(f64::from)) * drone.size_m;
+                let p = cam.camera_from_world_point(drone.position + drone.rotation * local);
+                (p.z > cam.near_m)
+                    .then(|| cam.project_camera_point(p).map(|uv| (uv, p.z)))
+                    .flatten()
+            })
+            .collect();
+        for tri in model.indices.chunks_exact(3) {
+            let corner = |i: u32| points.get(i as usize).copied().flatten();
+            if let (Some(a), Some(b), Some(c)) = (corner(tri[0]), corner(tri[1]), corner(tri[2])) {
+                tile.triangle([a, b, c]);
+            }
+        }
+        tile
+    }
+
+    /// Keep the nearest depth of the triangle at each pixel centre it covers
+    /// (either winding); 1/z is linear in screen space.
+    fn triangle(&mut self, v: [(DVec2, f64); 3]) {
+        let [(a, za), (b, zb), (c, zc)] = v;
+        let area = (b - a).perp_dot(c - a);
+        if area.abs() < 1e-12 {
+            return;
+        }
+        let lo = a.min(b).min(c);
+        let hi = a.max(b).max(c);
+        let (fx0, fy0) = (f64::from(self.x0), f64::from(self.y0));
+        let px0 = ((lo.x - 0.5).ceil().max(fx0)) as u32;
+        let py0 = ((lo.y - 0.5).ceil().max(fy0)) as u32;
+        let px1 = ((hi.x - 0.5).floor() + 1.0)
+            .min(fx0 + f64::from(self.w))
+            .max(0.0) as u32;
+        let py1 = ((hi.y - 0.5).floor() + 1.0)
+            .min(fy0 + f64::from(self.h))
+            .max(0.0) as u32;
+        for py in py0..py1 {
+            for px in px0..px1 {
+                let p = DVec2::new(f64::from(px) + 0.5, f64::from(py) + 0.5);
+                let wa = (c - b).perp_dot(p - b) / area;
+                let wb = (a - c).perp_dot(p - c) / area;
+                let wc = 1.0 - wa - wb;
+                if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                    continue;
+                }
+                let z = 1.0 / (wa / za + wb / zb + wc / zc);
+                let at = ((py - self.y0) * self.w + (px - self.x0)) as usize;
+                if z < self.z[at] {
+                    self.z[at] = z;
+                }
+            }
+        }
+    }
+
+    /// The depth at (x, y), else the nearest of its covered 8-neighbours.
+    fn at(&self, x: u32, y: u32) -> Option<f64> {
+        let get = |x: i64, y: i64| -> Option<f64> {
+            let (dx, dy) = (x - i64::from(self.x0), y - i64::from(self.y0));
+            if dx < 0 || dy < 0 || dx >= i64::from(self.w) || dy >= i64::from(self.h) {
+                return None;
+            }
+            let z = self.z[(dy as usize) * (self.w as usize) + dx as usize];
+            z.is_finite().then_some(z)
+        };
+        let (x, y) = (i64::from(x), i64::from(y));
+        get(x, y).or_else(|| {
+            (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
+                .filter_map(|(dx, dy)| get(x + dx, y + dy))
+                .min_by(f64::total_cmp)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_triangle_keeps_the_nearest_depth_at_covered_centres() {
+        let mut t = Tile {
+            x0: 0,
+            y0: 0,
+            w: 4,
+            h: 4,
+            z: vec![f64::INFINITY; 16],
+        };
+        // A flat triangle at z = 2 over the top-left half, then a nearer one at z = 1.
+        let v = |x: f64, y: f64, z: f64| (DVec2::new(x, y), z);
+        t.triangle([v(0.0, 0.0, 2.0), v(4.0, 0.0, 2.0), v(0.0, 4.0, 2.0)]);
+        assert_eq!(t.at(0, 0), Some(2.0));
+        assert!(t.z[15].is_infinite(), "(3.5, 3.5) is outside");
+        t.triangle([v(0.0, 0.0, 1.0), v(0.0, 2.0, 1.0), v(2.0, 0.0, 1.0)]);
+        assert_eq!(t.at(0, 0), Some(1.0));
+        assert_eq!(t.at(2, 1), Some(2.0));
+        assert_eq!(
+            t.at(2, 2),
+            Some(2.0),
+            "uncovered: its nearest covered neighbour"
+        );
+        assert_eq!(t.at(3, 3), None, "no covered neighbour");
+        // 1/z is linear on screen: halfway between z = 1 and z = 3 on screen is z = 1.5.
+        let mut s = Tile {
+            x0: 0,
+            y0: 0,
+            w: 2,
+            h: 1,
+            z: vec![f64::INFINITY; 2],
+        };
+        s.triangle([v(0.5, -10.0, 1.0), v(0.5, 10.0, 1.0), v(2.5, 0.5, 3.0)]);
+        assert!((s.z[1] - 1.5).abs() < 1e-9, "{}", s.z[1]);
+    }
+}
