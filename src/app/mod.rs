@@ -17,6 +17,7 @@
 //! ([`prompt`]); file dialogs are native where they work, in-app elsewhere
 //! ([`files`]).
 
+mod backplate_panel;
 mod batch_panel;
 pub mod files;
 pub mod history;
@@ -1190,6 +1191,12 @@ impl SwarmshotApp {
             "Drone appearance",
             "Drone materials drawn per drone: colour, roughness, metalness, lights",
             &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Backplates",
+            "Photographic backgrounds: a folder of your own frames of sky and horizon",
+            &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, &mut form),
         );
         section(
             ui,
