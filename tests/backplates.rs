@@ -429,3 +429,57 @@ fn builtin_photographic_skies_load_render_and_take_the_drawn_turn_and_exposure()
     let e = error_of(p);
     assert!(e.contains("sky.source") && e.contains("quarry_01"), "{e}");
 }
+
+#[test]
+fn drones_under_a_plate_take_its_ambient_light() {
+    let ctx = common::gpu();
+    // MSAA 1 (tiny_preset): a pixel a drone changes is all drone, no blend with the plate.
+    let pipeline = FramePipeline::new(plate_preset(&plates_dir(), (1, 1))).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let plates = &pipeline.assets().plates;
+    let light = |i: usize| {
+        let p = &plates[i];
+        p.mean_upper.iter().chain(&p.mean_lower).sum::<f32>()
+    };
+    let bright = (0..plates.len()).max_by(|&a, &b| light(a).total_cmp(&light(b)));
+    let dark = (0..plates.len()).min_by(|&a, &b| light(a).total_cmp(&light(b)));
+    let (bright, dark) = (bright.expect("plates"), dark.expect("plates"));
+    assert_ne!(
+        (plates[bright].mean_upper, plates[bright].mean_lower),
+        (plates[dark].mean_upper, plates[dark].mean_lower)
+    );
+    let mut compared = 0;
+    for index in 0..8 {
+        let scene = pipeline.scene(index).expect("scene");
+        let mut under = |plate: usize| {
+            let mut s = scene.clone();
+            if let Some(p) = &mut s.backplate {
+                p.plate = plate;
+            }
+            let frame = pipeline.make_scene(&mut renderer, s).expect("frame");
+            let background = renderer
+                .background_pixels(&frame.painted)
+                .expect("background")
+                .to_vec();
+            (frame.rgba, background)
+        };
+        let ((a, bg_a), (b, bg_b)) = (under(bright), under(dark));
+        let (mut sum_a, mut sum_b, mut n) = (0u64, 0u64, 0u64);
+        for i in (0..a.len()).step_by(4) {
+            if a[i..i + 3] != bg_a[i..i + 3] && b[i..i + 3] != bg_b[i..i + 3] {
+                sum_a += a[i..i + 3].iter().map(|&c| u64::from(c)).sum::<u64>();
+                sum_b += b[i..i + 3].iter().map(|&c| u64::from(c)).sum::<u64>();
+                n += 1;
+            }
+        }
+        if n >= 20 {
+            // The same drone, sun and sky: only the plate's ambient light differs.
+            assert_ne!(sum_a, sum_b, "frame {index}: over {n} pixels");
+            compared += 1;
+        }
+    }
+    assert!(
+        compared >= 3,
+        "only {compared} frames had a drone to compare"
+    );
+}

@@ -1228,3 +1228,44 @@ fn undo_turns_a_realism_stage_back_off() {
         Some(swarmshot::preset::atmosphere::Atmosphere::default())
     );
 }
+
+#[test]
+fn the_backplate_panel_edits_the_preset_and_a_bad_value_is_a_problem() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    // Room for the section: the open Camera section folds away.
+    h.get_by_label("Camera").click_accesskit();
+    h.run_steps(3);
+    // A realism section: collapsed until opened.
+    assert!(h.query_by_label("Backplates on").is_none());
+    h.get_by_label("Backplates").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Backplates on").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(
+        h.state().session().preset.backplate,
+        Some(swarmshot::preset::backplate::Backplate::default())
+    );
+    h.get_by_label("Horizontal field of view")
+        .set_value_accesskit(0.0);
+    h.run_steps(3);
+    let errors = h.state().errors().to_vec();
+    assert!(
+        errors.iter().any(|e| e.field == "backplate.hfov_deg"),
+        "{errors:?}"
+    );
+    h.get_by_label("Horizontal field of view")
+        .set_value_accesskit(55.0);
+    h.run_steps(3);
+    h.get_by_label("unknown").click_accesskit();
+    h.run_steps(3);
+    let b = h.state().session().preset.backplate.clone().unwrap();
+    assert_eq!(b.hfov_deg, 55.0);
+    assert_eq!(
+        b.horizon,
+        swarmshot::preset::backplate::PlateHorizon::Unknown
+    );
+    assert!(h.query_by_label("Elevation min").is_some());
+}

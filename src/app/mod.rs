@@ -17,6 +17,7 @@
 //! ([`prompt`]); file dialogs are native where they work, in-app elsewhere
 //! ([`files`]).
 
+mod backplate_panel;
 mod batch_panel;
 pub mod confuser_panel;
 pub mod files;
@@ -1255,6 +1256,12 @@ impl SwarmshotApp {
             "Confusers",
             "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
             &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Backplates",
+            "Photographic backgrounds: a folder of your own frames of sky and horizon",
+            &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, &mut form),
         );
         section(
             ui,

@@ -7,7 +7,7 @@ use egui::{RichText, Ui};
 use crate::preset::FieldError;
 
 /// The parameter sections, as titled in the left panel.
-pub const SECTIONS: [&str; 10] = [
+pub const SECTIONS: [&str; 11] = [
     "Models",
     "Placement",
     "Attitude",
@@ -17,11 +17,17 @@ pub const SECTIONS: [&str; 10] = [
     "Camera model",
     "Atmosphere",
     "Drone appearance",
+    "Backplates",
     "Output",
 ];
 
 /// The sections of issue 21's realism stages: they start collapsed.
-pub const REALISM_SECTIONS: [&str; 3] = ["Camera model", "Atmosphere", "Drone appearance"];
+pub const REALISM_SECTIONS: [&str; 4] = [
+    "Camera model",
+    "Atmosphere",
+    "Drone appearance",
+    "Backplates",
+];
 
 /// "1 problem", "3 problems".
 pub fn count_problems(n: usize) -> String {
@@ -46,6 +52,7 @@ pub fn section_of(field: &str) -> Option<&'static str> {
         "camera_model" => "Camera model",
         "atmosphere" => "Atmosphere",
         "appearance" => "Drone appearance",
+        "backplate" => "Backplates",
         "render" | "output" | "labels" => "Output",
         _ => return None,
     })
@@ -87,6 +94,15 @@ pub fn field_label(field: &str) -> String {
             other => format!("Camera model {other}"),
         },
         ["atmosphere", "visibility_m"] => "Visibility".into(),
+        ["backplate", name] => match *name {
+            "folder" => "Folder".into(),
+            "hfov_deg" => "Horizontal field of view".into(),
+            "horizon" => "Horizon".into(),
+            "elevation_deg" => "Elevation".into(),
+            "sun_elevation_deg" => "Sun elevation".into(),
+            "sun_azimuth_deg" => "Sun azimuth".into(),
+            other => format!("Backplate {other}"),
+        },
         ["appearance", name] => match *name {
             "palette" => "Palette weights".into(),
             "roughness" => "Roughness".into(),
@@ -196,6 +212,11 @@ mod tests {
         );
         assert_eq!(section_of("camera_model.exposure_ev"), Some("Camera model"));
         assert_eq!(section_of("appearance.palette"), Some("Drone appearance"));
+        assert_eq!(section_of("backplate.hfov_deg"), Some("Backplates"));
+        assert_eq!(
+            field_label("backplate.hfov_deg"),
+            "Horizontal field of view"
+        );
         assert_eq!(section_of("camera.observer.size_px"), Some("Camera"));
         for field in [
             "camera.x",

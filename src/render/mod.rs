@@ -879,13 +879,14 @@ impl Renderer {
     /// lighting; returns the frame uniforms written.
     fn upload_uniforms(&mut self, scene: &FrameScene) -> FrameUniforms {
         let sun = scene.sun_direction.as_vec3();
-        let lighting = self.sky.prepare(
+        let mut lighting = self.sky.prepare(
             &self.queue,
             &scene.sky,
             &scene.environment,
             sun,
             scene.atmosphere.map(|a| a.visibility_m),
         );
+        self.plate_lighting(scene, &mut lighting);
         let uniforms = FrameUniforms::new(scene, &lighting);
         self.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));

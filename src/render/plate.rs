@@ -5,7 +5,9 @@
 //! are then drawn over it exactly as over a sky, so the id pass, the visible
 //! boxes and [`Renderer::background_pixels`] work unchanged.
 
+use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
+use crate::sky::Lighting;
 use crate::sky::plates::{Plate, resample_cover};
 
 use super::{RenderError, Renderer};
@@ -18,6 +20,23 @@ impl Renderer {
         if let Some(state) = &mut self.regions {
             state.forget_backgrounds();
         }
+    }
+
+    /// Under a plate, the drones' ambient light is the plate's: its upper
+    /// half's mean colour from above, its lower half's from below (linear),
+    /// in place of the preset's sky (whose sun stays).
+    pub(super) fn plate_lighting(&self, scene: &FrameScene, lighting: &mut Lighting) {
+        let Some(plate) = (scene.backplate.as_ref()).and_then(|p| self.backplates.get(p.plate))
+        else {
+            return;
+        };
+        let (up, low) = (
+            glam::Vec3::from(plate.mean_upper),
+            glam::Vec3::from(plate.mean_lower),
+        );
+        lighting.zenith = up.to_array();
+        lighting.horizon = up.lerp(low, 0.3).to_array();
+        lighting.ground = low.to_array();
     }
 
     /// The background key of a plate frame: the plate, its mirroring and the size.

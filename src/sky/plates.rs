@@ -89,6 +89,33 @@ pub struct Plate {
     pub size: (u32, u32),
     /// Tightly packed RGBA8 (sRGB, alpha 255), `size.0 × size.1`.
     pub rgba: Arc<Vec<u8>>,
+    /// Mean linear colour of the upper and the lower half (the drones' ambient light).
+    pub mean_upper: [f32; 3],
+    pub mean_lower: [f32; 3],
+}
+
+/// Mean linear RGB of rows `rows` of an RGBA8 (sRGB) image `width` wide.
+fn mean_linear(rgba: &[u8], width: u32, rows: std::ops::Range<u32>) -> [f32; 3] {
+    let row = width as usize * 4;
+    let px = &rgba
+        [(rows.start as usize * row).min(rgba.len())..(rows.end as usize * row).min(rgba.len())];
+    let decode = |c: u8| {
+        let c = f64::from(c) / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let table: Vec<f64> = (0..=255u8).map(decode).collect();
+    let mut sum = [0f64; 3];
+    for p in px.chunks_exact(4) {
+        for c in 0..3 {
+            sum[c] += table[usize::from(p[c])];
+        }
+    }
+    let n = (px.len() / 4).max(1) as f64;
+    sum.map(|s| (s / n) as f32)
 }
 
 impl Plate {
@@ -267,12 +294,18 @@ pub fn load_plates(backplate: &Backplate, size: (u32, u32)) -> Result<Vec<Plate>
                 hfov_deg: sidecar.hfov_deg.unwrap_or(backplate.hfov_deg),
                 horizon: sidecar.horizon.unwrap_or(backplate.horizon),
             };
-            let rgba = Arc::new(resample_cover(&image, size));
+            let rgba = resample_cover(&image, size);
+            let (mean_upper, mean_lower) = (
+                mean_linear(&rgba, size.0, 0..size.1 / 2),
+                mean_linear(&rgba, size.0, size.1 / 2..size.1),
+            );
             Ok(Plate {
                 file,
                 geometry,
                 size,
-                rgba,
+                rgba: Arc::new(rgba),
+                mean_upper,
+                mean_lower,
             })
         })
         .collect()
