@@ -87,7 +87,12 @@ fn main() {
         rayon::current_num_threads()
     );
     for (name, draw) in cases {
-        let before = median_ms(sensor::apply_planes, &rgba, (w, h), &draw);
+        // CAMERA_BENCH_NOW=1: time `apply` alone (for profiling).
+        let before = if std::env::var_os("CAMERA_BENCH_NOW").is_some() {
+            f64::NAN
+        } else {
+            median_ms(sensor::apply_planes, &rgba, (w, h), &draw)
+        };
         let now = median_ms(sensor::apply, &rgba, (w, h), &draw);
         // The same bytes either way (the fused sweep reproduces the planes' arithmetic).
         let same = sensor::apply_planes(&rgba, w, h, &draw) == sensor::apply(&rgba, w, h, &draw);
