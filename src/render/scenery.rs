@@ -550,3 +550,80 @@ impl Renderer {
         pass.draw(0..6, draws.rect_instances());
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::clutter::FrameClutter;
+    use crate::scene::math::look_at_cv;
+
+    /// An 8×8 camera at the origin looking along +Z with f = 4 px, and one shape.
+    fn scene_with(shape: Shape) -> FrameScene {
+        let preset = crate::preset::Preset::default();
+        let mut scene = crate::scene::build_frame(&preset, 0).expect("frame");
+        scene.camera = Camera {
+            width: 8,
+            height: 8,
+            fov_y_deg: 90.0,
+            position: DVec3::ZERO,
+            camera_from_world: look_at_cv(DVec3::ZERO, DVec3::Z).expect("look-at"),
+            near_m: 0.01,
+        };
+        scene.clutter = Some(FrameClutter::from_primitives(vec![Primitive {
+            shape,
+            albedo: [0.5; 3],
+            sun_facing: 0.0,
+        }]));
+        scene
+    }
+
+    #[test]
+    fn a_square_covers_exactly_its_pixels_and_samples() {
+        // x in [-0.5, 0.5] m at 1 m is u in [2, 6]; y likewise (up in the world, up in the image).
+        let square = Shape::Polygon(vec![
+            DVec3::new(-0.5, -0.5, 1.0),
+            DVec3::new(0.5, -0.5, 1.0),
+            DVec3::new(0.5, 0.5, 1.0),
+            DVec3::new(-0.5, 0.5, 1.0),
+        ]);
+        let scene = scene_with(square);
+        for samples in [1, 4] {
+            let layer = rasterize(&scene, samples);
+            let full = if samples == 4 { 0b1111 } else { 1 };
+            for y in 0..8 {
+                for x in 0..8 {
+                    let inside = (2..6).contains(&x) && (2..6).contains(&y);
+                    assert_eq!(
+                        layer.mask(x, y),
+                        if inside { full } else { 0 },
+                        "({x}, {y})"
+                    );
+                }
+            }
+            assert_eq!(layer.covered_pixels(), 16);
+            assert!((layer.depth[(3 * 8 + 3) as usize] - 0.01).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_thin_segment_covers_some_samples_and_the_composite_is_their_mean() {
+        // A vertical wire 0.1 px wide through u = 4.375: only sample 0 (x + 0.375)
+        // of column 4 (world +X is the image's left: u = 4 − 4x).
+        let x = -(4.375 - 4.0) / 4.0;
+        let wire = Shape::Segment {
+            a: DVec3::new(x, -2.0, 1.0),
+            b: DVec3::new(x, 2.0, 1.0),
+            radius_a_m: 0.0125,
+            radius_b_m: 0.0125,
+        };
+        let layer = rasterize(&scene_with(wire), 4);
+        assert!((0..8).all(|y| layer.mask(4, y) == 0b0001));
+        assert_eq!(layer.covered_pixels(), 8);
+        let mut rgba = vec![200u8; 8 * 8 * 4];
+        composite(&layer, &mut rgba);
+        let c = layer.color[4][0];
+        let expected = ((f32::from(c) + 3.0 * 200.0) / 4.0).round() as u8;
+        assert_eq!(rgba[4 * 4], expected);
+        assert_eq!(rgba[3 * 4], 200, "an uncovered pixel keeps the sky");
+    }
+}
