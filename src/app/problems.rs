@@ -7,7 +7,7 @@ use egui::{RichText, Ui};
 use crate::preset::FieldError;
 
 /// The parameter sections, as titled in the left panel.
-pub const SECTIONS: [&str; 10] = [
+pub const SECTIONS: [&str; 11] = [
     "Models",
     "Placement",
     "Attitude",
@@ -17,11 +17,13 @@ pub const SECTIONS: [&str; 10] = [
     "Camera model",
     "Atmosphere",
     "Drone appearance",
+    "Clutter",
     "Output",
 ];
 
 /// The sections of issue 21's realism stages: they start collapsed.
-pub const REALISM_SECTIONS: [&str; 3] = ["Camera model", "Atmosphere", "Drone appearance"];
+pub const REALISM_SECTIONS: [&str; 4] =
+    ["Camera model", "Atmosphere", "Drone appearance", "Clutter"];
 
 /// "1 problem", "3 problems".
 pub fn count_problems(n: usize) -> String {
@@ -46,6 +48,7 @@ pub fn section_of(field: &str) -> Option<&'static str> {
         "camera_model" => "Camera model",
         "atmosphere" => "Atmosphere",
         "appearance" => "Drone appearance",
+        "clutter" => "Clutter",
         "render" | "output" | "labels" => "Output",
         _ => return None,
     })
