@@ -219,3 +219,89 @@ fn clutter_off_or_empty_leaves_the_frame_untouched() {
     let text = ron::to_string(&common::tiny_preset()).expect("ron");
     assert!(!text.contains("clutter"));
 }
+
+#[test]
+fn the_gpu_draws_the_layers_samples() {
+    // A thin diagonal wire across a close drone's region, MSAA 4: in the
+    // region (away from the drone's own pixels) the GPU resolves the wire's
+    // samples from the layer's masks; without the drone the same pixels are
+    // the CPU's composite of the mask. A GPU that ignored the sample mask
+    // (or wrote the wrong samples' count) moves them by tens of levels (83
+    // when the shader's mask was forced to all four samples).
+    let ctx = common::gpu();
+    let mut preset = one_drone();
+    preset.render.msaa = 4;
+    let pipeline = FramePipeline::new(preset).expect("preset");
+    let mut renderer = pipeline.renderer(&ctx);
+    let scene = pipeline.scene(0).expect("scene");
+    let mut wired = with_pole(&scene, 0.0, 0.0);
+    let right = scene.camera.camera_from_world.row(0);
+    let mid = (scene.camera.position + scene.drones[0].position) * 0.5;
+    let radius_m = 0.15 / scene.camera.focal_px() * (mid - scene.camera.position).length();
+    if let Some(c) = &mut wired.clutter {
+        c.primitives = (0..5)
+            .map(|k| Primitive {
+                shape: Shape::Segment {
+                    a: mid - (right + DVec3::Y * 0.6) * 100.0 + DVec3::Y * (f64::from(k) * 0.05),
+                    b: mid + (right + DVec3::Y * 0.6) * 100.0 + DVec3::Y * (f64::from(k) * 0.05),
+                    radius_a_m: radius_m,
+                    radius_b_m: radius_m,
+                },
+                albedo: [0.9, 0.9, 0.1],
+                sun_facing: 1.0,
+            })
+            .collect();
+    }
+    let request = RenderRequest {
+        msaa: 4,
+        color: true,
+        visibility: false,
+    };
+    let with = renderer.render_frame(&wired, &request).expect("render");
+    let rects = with.painted.rects().to_vec();
+    let mut empty = wired.clone();
+    empty.drones.clear();
+    let without = renderer
+        .render_frame(&empty, &request)
+        .expect("render")
+        .rgba;
+    let ids = renderer.render_ids(&scene, &|_| true).expect("ids");
+    let layer = scenery::rasterize(&wired, 4);
+    let w = ids.width as i64;
+    let near_drone = |x: i64, y: i64| {
+        (-2..=2).any(|dy| {
+            (-2..=2).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                u >= 0
+                    && v >= 0
+                    && u < w
+                    && v < ids.height as i64
+                    && ids.ids[(v * w + u) as usize] != 0
+            })
+        })
+    };
+    let (mut checked, mut worst) = (0, 0);
+    for r in &rects {
+        for y in r.y0..r.y1 {
+            for x in r.x0..r.x1 {
+                let m = layer.mask(x, y);
+                if m == 0 || m == 0b1111 || near_drone(i64::from(x), i64::from(y)) {
+                    continue;
+                }
+                let i = ((y * ids.width + x) * 4) as usize;
+                for c in 0..3 {
+                    worst = worst.max(with.rgba[i + c].abs_diff(without[i + c]));
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(
+        checked >= 10,
+        "only {checked} partly covered pixels in the region"
+    );
+    assert!(
+        worst <= 1,
+        "the GPU's wire differs from the layer by {worst} levels"
+    );
+}

@@ -1269,3 +1269,33 @@ fn the_backplate_panel_edits_the_preset_and_a_bad_value_is_a_problem() {
     );
     assert!(h.query_by_label("Elevation min").is_some());
 }
+
+#[test]
+fn the_clutter_panel_switches_the_scenery_on_and_edits_it() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    assert!(h.state().session().preset.clutter.is_none());
+    assert!(h.query_by_label("Clutter on").is_none(), "starts collapsed");
+    h.get_by_label("Clutter").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Clutter on").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(
+        h.state().session().preset.clutter,
+        Some(swarmshot::preset::clutter::Clutter::default()),
+        "ticking the box sets clutter"
+    );
+    h.get_by_label("Branch levels").set_value_accesskit(4.0);
+    h.run_steps(3);
+    let clutter = h.state().session().preset.clutter.clone().unwrap();
+    assert_eq!(clutter.trees.branch_levels, 4);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    h.get_by_label("Clutter on").click_accesskit();
+    h.run_steps(3);
+    assert!(
+        h.state().session().preset.clutter.is_none(),
+        "unticking removes clutter"
+    );
+}

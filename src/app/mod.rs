@@ -19,6 +19,7 @@
 
 mod backplate_panel;
 mod batch_panel;
+pub mod clutter_panel;
 pub mod confuser_panel;
 pub mod files;
 pub mod gap_panel;
@@ -1250,6 +1251,12 @@ impl SwarmshotApp {
             "Drone appearance",
             "Drone materials drawn per drone: colour, roughness, metalness, lights",
             &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, &mut form),
+        );
+        section(
+            ui,
+            "Clutter",
+            "Tree lines, bare trees, poles and wires, buildings that hide the drones behind them",
+            &mut |ui| clutter_panel::clutter_ui(ui, &mut s.preset, &mut form),
         );
         section(
             ui,

@@ -7,7 +7,7 @@ use egui::{RichText, Ui};
 use crate::preset::FieldError;
 
 /// The parameter sections, as titled in the left panel.
-pub const SECTIONS: [&str; 11] = [
+pub const SECTIONS: [&str; 12] = [
     "Models",
     "Placement",
     "Attitude",
@@ -17,15 +17,17 @@ pub const SECTIONS: [&str; 11] = [
     "Camera model",
     "Atmosphere",
     "Drone appearance",
+    "Clutter",
     "Backplates",
     "Output",
 ];
 
 /// The sections of issue 21's realism stages: they start collapsed.
-pub const REALISM_SECTIONS: [&str; 4] = [
+pub const REALISM_SECTIONS: [&str; 5] = [
     "Camera model",
     "Atmosphere",
     "Drone appearance",
+    "Clutter",
     "Backplates",
 ];
 
@@ -52,6 +54,7 @@ pub fn section_of(field: &str) -> Option<&'static str> {
         "camera_model" => "Camera model",
         "atmosphere" => "Atmosphere",
         "appearance" => "Drone appearance",
+        "clutter" => "Clutter",
         "backplate" => "Backplates",
         "render" | "output" | "labels" => "Output",
         _ => return None,

@@ -48,7 +48,12 @@ pub struct ClutterLayer {
     pub color: Vec<[u8; 4]>,
     /// Per pixel: reversed-Z depth (near / z) of the nearest shape there; 0: none.
     pub depth: Vec<f32>,
+    /// The shapes covered the frame more than [`MAX_OVERDRAW`] times over and the rest were left out.
+    pub truncated: bool,
 }
+
+/// The most sample writes a layer makes, in frames' worth of samples.
+pub const MAX_OVERDRAW: u64 = 64;
 
 impl ClutterLayer {
     /// The mask of the samples of pixel (x, y) the scenery covers.
@@ -180,12 +185,21 @@ pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) ->
         samples,
         color: vec![[0; 4]; (width * height) as usize],
         depth: vec![0.0; (width * height) as usize],
+        truncated: false,
     };
     let offsets = sample_offsets(samples);
     let Some(clutter) = &scene.clutter else {
         return layer;
     };
+    // Bounded work on any preset: past this much overdraw the remaining
+    // (farther-listed) shapes are left out and the layer says so.
+    let budget = MAX_OVERDRAW * u64::from(width) * u64::from(height) * offsets.len() as u64;
+    let mut written = 0u64;
     for p in &clutter.primitives {
+        if written > budget {
+            layer.truncated = true;
+            break;
+        }
         let Some((poly, depth)) = project(camera, &p.shape) else {
             continue;
         };
@@ -195,46 +209,64 @@ pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) ->
         if area.abs() < 1e-12 || !area.is_finite() {
             continue;
         }
-        let sign = area.signum();
         let (lo, hi) = poly.iter().fold(
             (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(*p), hi.max(*p)),
         );
-        let x0 = lo.x.floor().max(0.0) as u32;
         let y0 = lo.y.floor().max(0.0) as u32;
-        let x1 = (hi.x.ceil().min(f64::from(width))).max(0.0) as u32;
         let y1 = (hi.y.ceil().min(f64::from(height))).max(0.0) as u32;
-        if x0 >= x1 || y0 >= y1 {
+        if lo.x >= f64::from(width) || hi.x <= 0.0 || y0 >= y1 {
             continue;
         }
         let rgb = light.color(p, camera.near_m / depth);
         let depth = depth as f32;
-        let edges: Vec<(DVec2, DVec2)> = (0..poly.len())
-            .map(|i| (poly[i], poly[(i + 1) % poly.len()] - poly[i]))
-            .collect();
+        // Row by row, each sample row's span of the (convex) polygon: the
+        // work is the rows and the pixels covered, not the bounding box.
         for y in y0..y1 {
-            for x in x0..x1 {
-                let mut mask = 0u8;
-                for (s, (ox, oy)) in offsets.iter().enumerate() {
-                    let q = DVec2::new(f64::from(x) + ox, f64::from(y) + oy);
-                    if edges.iter().all(|(a, e)| e.perp_dot(q - *a) * sign >= 0.0) {
-                        mask |= 1 << s;
-                    }
-                }
-                if mask == 0 {
+            let row = (y * width) as usize;
+            for (s, (ox, oy)) in offsets.iter().enumerate() {
+                let Some((left, right)) = span(&poly, f64::from(y) + oy) else {
+                    continue;
+                };
+                let xa = (left - ox).ceil().max(0.0);
+                let xb = (right - ox).floor().min(f64::from(width) - 1.0);
+                if xa > xb {
                     continue;
                 }
-                let i = (y * width + x) as usize;
-                let c = &mut layer.color[i];
-                c[3] |= mask;
-                if depth >= layer.depth[i] {
-                    layer.depth[i] = depth;
-                    c[..3].copy_from_slice(&rgb);
+                written += (xb - xa) as u64 + 1;
+                for x in xa as usize..=xb as usize {
+                    let i = row + x;
+                    let c = &mut layer.color[i];
+                    c[3] |= 1 << s;
+                    if depth >= layer.depth[i] {
+                        layer.depth[i] = depth;
+                        c[..3].copy_from_slice(&rgb);
+                    }
                 }
             }
         }
     }
     layer
+}
+
+/// Where the convex polygon `poly` crosses the row `y`: its (left, right) x.
+fn span(poly: &[DVec2], y: f64) -> Option<(f64, f64)> {
+    let (mut left, mut right) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, &a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        if (a.y - y) * (b.y - y) > 0.0 {
+            continue; // both ends on one side
+        }
+        let (xa, xb) = if (b.y - a.y).abs() < 1e-12 {
+            (a.x.min(b.x), a.x.max(b.x))
+        } else {
+            let x = a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x);
+            (x, x)
+        };
+        left = left.min(xa);
+        right = right.max(xb);
+    }
+    (left <= right).then_some((left, right))
 }
 
 /// The coverage of `scene`'s clutter (colours unlit): for tests and tools.
@@ -548,5 +580,106 @@ impl Renderer {
         pass.set_bind_group(0, group, &[]);
         pass.set_vertex_buffer(0, rects.slice(..));
         pass.draw(0..6, draws.rect_instances());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::clutter::FrameClutter;
+    use crate::scene::math::look_at_cv;
+
+    /// An 8×8 camera at the origin looking along +Z with f = 4 px, and one shape.
+    fn scene_with(shape: Shape) -> FrameScene {
+        let preset = crate::preset::Preset::default();
+        let mut scene = crate::scene::build_frame(&preset, 0).expect("frame");
+        scene.camera = Camera {
+            width: 8,
+            height: 8,
+            fov_y_deg: 90.0,
+            position: DVec3::ZERO,
+            camera_from_world: look_at_cv(DVec3::ZERO, DVec3::Z).expect("look-at"),
+            near_m: 0.01,
+        };
+        scene.clutter = Some(FrameClutter::from_primitives(vec![Primitive {
+            shape,
+            albedo: [0.5; 3],
+            sun_facing: 0.0,
+        }]));
+        scene
+    }
+
+    #[test]
+    fn a_square_covers_exactly_its_pixels_and_samples() {
+        // x in [-0.5, 0.5] m at 1 m is u in [2, 6]; y likewise (up in the world, up in the image).
+        let square = Shape::Polygon(vec![
+            DVec3::new(-0.5, -0.5, 1.0),
+            DVec3::new(0.5, -0.5, 1.0),
+            DVec3::new(0.5, 0.5, 1.0),
+            DVec3::new(-0.5, 0.5, 1.0),
+        ]);
+        let scene = scene_with(square);
+        for samples in [1, 4] {
+            let layer = rasterize(&scene, samples);
+            let full = if samples == 4 { 0b1111 } else { 1 };
+            for y in 0..8 {
+                for x in 0..8 {
+                    let inside = (2..6).contains(&x) && (2..6).contains(&y);
+                    assert_eq!(
+                        layer.mask(x, y),
+                        if inside { full } else { 0 },
+                        "({x}, {y})"
+                    );
+                }
+            }
+            assert_eq!(layer.covered_pixels(), 16);
+            assert!((layer.depth[(3 * 8 + 3) as usize] - 0.01).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_thin_segment_covers_some_samples_and_the_composite_is_their_mean() {
+        // A vertical wire 0.1 px wide through u = 4.375: only sample 0 (x + 0.375)
+        // of column 4 (world +X is the image's left: u = 4 − 4x).
+        let x = -(4.375 - 4.0) / 4.0;
+        let wire = Shape::Segment {
+            a: DVec3::new(x, -2.0, 1.0),
+            b: DVec3::new(x, 2.0, 1.0),
+            radius_a_m: 0.0125,
+            radius_b_m: 0.0125,
+        };
+        let layer = rasterize(&scene_with(wire), 4);
+        assert!((0..8).all(|y| layer.mask(4, y) == 0b0001));
+        assert_eq!(layer.covered_pixels(), 8);
+        let mut rgba = vec![200u8; 8 * 8 * 4];
+        composite(&layer, &mut rgba);
+        let c = layer.color[4][0];
+        let expected = ((f32::from(c) + 3.0 * 200.0) / 4.0).round() as u8;
+        assert_eq!(rgba[4 * 4], expected);
+        assert_eq!(rgba[3 * 4], 200, "an uncovered pixel keeps the sky");
+    }
+
+    #[test]
+    fn overdraw_past_the_budget_is_left_out() {
+        let wall = Shape::Polygon(vec![
+            DVec3::new(-9.0, -9.0, 1.0),
+            DVec3::new(9.0, -9.0, 1.0),
+            DVec3::new(9.0, 9.0, 1.0),
+            DVec3::new(-9.0, 9.0, 1.0),
+        ]);
+        let mut scene = scene_with(wall);
+        let layer = rasterize(&scene, 4);
+        assert!(!layer.truncated);
+        assert_eq!(layer.covered_pixels(), 64);
+        if let Some(c) = &mut scene.clutter {
+            let one = c.primitives[0].clone();
+            c.primitives = vec![one; 1000];
+        }
+        let layer = rasterize(&scene, 4);
+        assert!(
+            layer.truncated,
+            "1000 frame-filling walls exceed {MAX_OVERDRAW}× overdraw"
+        );
+        assert_eq!(layer.covered_pixels(), 64);
     }
 }
