@@ -420,7 +420,7 @@ pub struct PassCounts {
 
 /// WGSL sources, each with the shared header prepended (the id reduction
 /// once per sample count it is built for).
-pub fn shader_sources() -> [(&'static str, String); 4] {
+pub fn shader_sources() -> [(&'static str, String); 5] {
     let common = include_str!("../../shaders/common.wgsl");
     let rect = include_str!("../../shaders/rect.wgsl");
     [
@@ -447,6 +447,7 @@ pub fn shader_sources() -> [(&'static str, String); 4] {
             "resolve.wgsl",
             format!("{rect}\n{}", include_str!("../../shaders/resolve.wgsl")),
         ),
+        ("clutter.wgsl", scenery::shader_source()),
     ]
 }
 

@@ -455,11 +455,7 @@ impl Renderer {
                 label: Some("scenery layout"),
                 entries: &[entry(0), entry(1)],
             });
-        let source = format!(
-            "{}\n{}",
-            include_str!("../../shaders/rect.wgsl"),
-            include_str!("../../shaders/clutter.wgsl")
-        );
+        let source = shader_source();
         let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -682,4 +678,13 @@ mod tests {
         );
         assert_eq!(layer.covered_pixels(), 64);
     }
+}
+
+/// The scenery shader as the renderer compiles it (also validated by tests/shaders.rs).
+pub(crate) fn shader_source() -> String {
+    format!(
+        "{}\n{}",
+        include_str!("../../shaders/rect.wgsl"),
+        include_str!("../../shaders/clutter.wgsl")
+    )
 }
