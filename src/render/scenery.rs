@@ -579,6 +579,15 @@ impl Renderer {
     }
 }
 
+/// The scenery shader as the renderer compiles it (also validated by tests/shaders.rs).
+pub(crate) fn shader_source() -> String {
+    format!(
+        "{}\n{}",
+        include_str!("../../shaders/rect.wgsl"),
+        include_str!("../../shaders/clutter.wgsl")
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -678,13 +687,4 @@ mod tests {
         );
         assert_eq!(layer.covered_pixels(), 64);
     }
-}
-
-/// The scenery shader as the renderer compiles it (also validated by tests/shaders.rs).
-pub(crate) fn shader_source() -> String {
-    format!(
-        "{}\n{}",
-        include_str!("../../shaders/rect.wgsl"),
-        include_str!("../../shaders/clutter.wgsl")
-    )
 }
