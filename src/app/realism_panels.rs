@@ -90,6 +90,22 @@ pub fn camera_model_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             "",
         ),
         (
+            &mut c.saturation,
+            "Saturation",
+            "saturation",
+            "Colour saturation of the camera's processing about each pixel's grey (1: unchanged, 0: grey, 1.2: a vivid look)",
+            0.01,
+            "×",
+        ),
+        (
+            &mut c.exposure_time_s,
+            "Exposure time",
+            "exposure_time_s",
+            "Motion blur in sequences: how long the shutter is open, at most one frame interval (0: none)",
+            0.001,
+            " s",
+        ),
+        (
             &mut c.ca_red_scale,
             "CA red scale",
             "ca_red_scale",

@@ -45,6 +45,15 @@ pub struct CameraModel {
     /// at most one frame interval (1 / `sequence.frame_rate`); 0: no blur.
     #[serde(skip_serializing_if = "is_zero_range")]
     pub exposure_time_s: (f64, f64),
+    /// Colour saturation of the camera's processing, in linear light about
+    /// each pixel's luminance (Rec. 709 weights): 1 leaves the colours, 0 is
+    /// grey, above 1 more saturated (a camera's "vivid" look). Drawn per frame.
+    #[serde(skip_serializing_if = "is_unit_range")]
+    pub saturation: (f64, f64),
+}
+
+fn is_unit_range(r: &(f64, f64)) -> bool {
+    *r == (1.0, 1.0)
 }
 
 fn is_zero_range(r: &(f64, f64)) -> bool {
@@ -69,6 +78,7 @@ impl Default for CameraModel {
             jpeg_quality: None,
             recompress_quality: None,
             exposure_time_s: (0.0, 0.0),
+            saturation: (1.0, 1.0),
         }
     }
 }
@@ -143,6 +153,7 @@ impl CameraModel {
             }
         }
         range(v, "exposure_time_s", self.exposure_time_s, 0.0, 1.0);
+        range(v, "saturation", self.saturation, 0.0, 4.0);
         if self.exposure_time_s.1 > 0.0 {
             let field = format!("{p}.exposure_time_s");
             match &preset.sequence {

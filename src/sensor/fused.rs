@@ -56,6 +56,8 @@ struct Chain<'a> {
     kernel: Kernel,
     /// Vignetting strength, image centre and squared half-diagonal.
     vignette: Option<(f64, (f64, f64), f64)>,
+    /// Saturation about the linear luminance (`None`: 1, unchanged).
+    saturation: Option<f32>,
     /// Shot gain, read noise², noise seed (when the output is noisy).
     noise: Option<(f32, f32, u64)>,
 }
@@ -134,6 +136,7 @@ impl<'a> Chain<'a> {
                 centre,
                 centre.0 * centre.0 + centre.1 * centre.1,
             )),
+            saturation: (draw.saturation != 1.0).then_some(draw.saturation as f32),
             noise: noise_on.then_some((
                 draw.shot_noise_gain as f32,
                 (draw.read_noise_levels * draw.read_noise_levels) as f32,
@@ -150,6 +153,7 @@ impl<'a> Chain<'a> {
             && self.ca == [None; 3]
             && matches!(self.kernel, Kernel::None)
             && self.vignette.is_none()
+            && self.saturation.is_none()
             && self.noise.is_none()
     }
 
@@ -463,6 +467,12 @@ impl Finish {
                 }
             }
         }
+        if let Some(s) = chain.saturation {
+            let [r, g, b] = &mut self.vals;
+            for ((r, g), b) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()) {
+                super::stages::saturate(s, r, g, b);
+            }
+        }
         if let Some((gain, read2, seed)) = chain.noise {
             let table = noise::table();
             let first = (y * chain.width + self.x0) as u64;
@@ -556,7 +566,48 @@ mod tests {
                 psf: PsfDraw::Gaussian { sigma_px: 0.2 },
                 ..typical
             },
+            CameraDraw {
+                saturation: 1.4,
+                ..typical
+            },
+            CameraDraw {
+                saturation: 0.0,
+                ..n
+            },
         ]
+    }
+
+    /// Saturation moves each pixel away from (or towards) its grey, leaves
+    /// greys alone, and 1 changes nothing.
+    #[test]
+    fn saturation_scales_the_distance_from_grey() {
+        let (w, h) = (16u32, 8u32);
+        let sky = [90u8, 140, 210, 255];
+        let grey = [128u8, 128, 128, 255];
+        let rgba: Vec<u8> = (0..w * h)
+            .flat_map(|i| if i % 2 == 0 { sky } else { grey })
+            .collect();
+        let whole = (0, 0, i64::from(w), i64::from(h));
+        let spread = |px: &[u8]| {
+            i32::from(*px.iter().take(3).max().unwrap_or(&0))
+                - i32::from(*px.iter().take(3).min().unwrap_or(&0))
+        };
+        let at = |s: f64| {
+            let d = CameraDraw {
+                saturation: s,
+                ..neutral()
+            };
+            super::develop(&rgba, (w, h), &d, whole, false)
+        };
+        assert_eq!(at(1.0), rgba, "saturation 1 is the identity");
+        let (more, none) = (at(1.3), at(0.0));
+        assert!(spread(&more[0..4]) > spread(&sky) + 10, "{:?}", &more[0..4]);
+        assert!(
+            spread(&none[0..4]) <= 1,
+            "saturation 0 is grey: {:?}",
+            &none[0..4]
+        );
+        assert_eq!(&more[4..8], &grey, "a grey pixel stays grey");
     }
 
     /// The fused sweep gives the plane path's bytes, noise included, on the

@@ -78,6 +78,8 @@ pub struct CameraDraw {
     pub noise_seed: u64,
     /// How long the shutter is open, seconds (0: no motion blur; sequences only).
     pub exposure_time_s: f64,
+    /// Saturation about each pixel's linear luminance (1: unchanged).
+    pub saturation: f64,
 }
 
 /// The drawn point spread function.
@@ -146,6 +148,11 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         (lo, hi) if hi > lo => rng.random_range(lo..=hi),
         (lo, _) => lo,
     };
+    // After it, and also only when a range: presets without it draw as before.
+    let saturation = match model.saturation {
+        (lo, hi) if hi > lo => rng.random_range(lo..=hi),
+        (lo, _) => lo,
+    };
     CameraDraw {
         exposure_ev,
         white_balance_red,
@@ -161,6 +168,7 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         recompress_quality,
         noise_seed: crate::seed::mix64(seed ^ 0x4E4F_4953_455F_5345), // "NOISE_SE"
         exposure_time_s,
+        saturation,
     }
 }
 

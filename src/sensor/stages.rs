@@ -269,6 +269,11 @@ pub(super) fn develop_planes(
         vignette(&mut planes, win, centre, draw.vignetting);
     }
 
+    // 4b. Saturation (the camera's processing), per pixel in linear light.
+    if draw.saturation != 1.0 {
+        saturate_planes(&mut planes, draw.saturation);
+    }
+
     // 5. The sensor grid.
     let (sw, sh) = draw.sensor_size(width, height);
     let resampled = (sw, sh) != (width, height);
@@ -312,6 +317,27 @@ pub(super) fn develop_planes(
 
 /// Vignetting: each plane × (1 − strength·ρ²), ρ the distance of the pixel's
 /// centre to the image centre over the half-diagonal.
+/// Saturation `s` about each pixel's linear luminance (Rec. 709 weights),
+/// on one pixel's three channels: the one formula both develop paths use.
+#[inline]
+pub(super) fn saturate(s: f32, r: &mut f32, g: &mut f32, b: &mut f32) {
+    let y = 0.2126 * *r + 0.7152 * *g + 0.0722 * *b;
+    *r = y + s * (*r - y);
+    *g = y + s * (*g - y);
+    *b = y + s * (*b - y);
+}
+
+/// [`saturate`] over the three planes.
+fn saturate_planes(planes: &mut [Plane; 3], s: f64) {
+    let s = s as f32;
+    let [r, g, b] = planes;
+    r.data
+        .par_iter_mut()
+        .zip(g.data.par_iter_mut())
+        .zip(b.data.par_iter_mut())
+        .for_each(|((r, g), b)| saturate(s, r, g, b));
+}
+
 fn vignette(planes: &mut [Plane; 3], win: Win, centre: (f64, f64), strength: f64) {
     let corner2 = centre.0 * centre.0 + centre.1 * centre.1;
     let dx2: Vec<f64> = (win.x0..win.x1)

@@ -510,6 +510,7 @@ mod tests {
                             recompress_quality: None,
                             noise_seed: u64::MAX,
                             exposure_time_s: 0.0,
+                            saturation: pick(),
                         });
                         scene.placement_shortfall = 2;
                         for d in &mut scene.drones {

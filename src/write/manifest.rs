@@ -396,6 +396,10 @@ fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
         j.raw(b",\"recompress_quality\":");
         j.u64(q.into());
     }
+    if c.saturation != 1.0 {
+        j.raw(b",\"saturation\":");
+        j.rounded(c.saturation, Decimals::Six);
+    }
     if let Some(s) = c.sensor_scale {
         j.raw(b",\"sensor_scale\":");
         j.rounded(s, Decimals::Six);
@@ -747,6 +751,9 @@ pub(crate) mod reference {
             }
             if c.exposure_time_s > 0.0 {
                 map.insert("exposure_time_s".into(), r6(c.exposure_time_s).into());
+            }
+            if c.saturation != 1.0 {
+                map.insert("saturation".into(), r6(c.saturation).into());
             }
         }
         v
