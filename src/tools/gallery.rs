@@ -124,6 +124,20 @@ pub fn model_contact_sheet(
         models,
         ..Preset::default()
     };
+    close_up_stage(&mut preset, tile);
+    let pipeline = FramePipeline::new(preset)?;
+    close_up_sheet(
+        ctx,
+        &pipeline,
+        (tile, columns),
+        DVec3::new(1.0, 0.95, 1.35),
+        0..BUILTIN_NAMES.len(),
+    )
+}
+
+/// A close-up sheet's preset settings: one object, `tile`-pixel square frames,
+/// the sheets' gradient sky.
+pub(crate) fn close_up_stage(preset: &mut Preset, tile: u32) {
     preset.placement = Placement::Structured {
         x_count: 1,
         y_count: 1,
@@ -140,13 +154,23 @@ pub fn model_contact_sheet(
         zenith: (0.30, 0.42, 0.62),
         horizon: (0.75, 0.8, 0.86),
     };
-    let pipeline = FramePipeline::new(preset)?;
+}
+
+/// A `columns`-wide sheet of `tile`-pixel tiles: model `models[i]` of
+/// `pipeline` alone, 1 m across at the origin, seen from 2.3 m along `eye_dir`.
+pub(crate) fn close_up_sheet(
+    ctx: &GpuContext,
+    pipeline: &FramePipeline,
+    (tile, columns): (u32, u32),
+    eye_dir: DVec3,
+    models: impl ExactSizeIterator<Item = usize>,
+) -> anyhow::Result<image::RgbaImage> {
     let mut renderer = pipeline.renderer(ctx);
-    let rows = (BUILTIN_NAMES.len() as u32).div_ceil(columns);
+    let rows = (models.len() as u32).div_ceil(columns);
     let mut sheet = image::RgbaImage::new(tile * columns, tile * rows);
-    for (i, _) in BUILTIN_NAMES.iter().enumerate() {
+    for (i, model) in models.enumerate() {
         let mut scene = pipeline.scene(0)?;
-        let eye = DVec3::new(1.0, 0.95, 1.35).normalize() * 2.3;
+        let eye = eye_dir.normalize() * 2.3;
         scene.camera.position = eye;
         scene.camera.fov_y_deg = 32.0;
         scene.camera.near_m = 0.01;
@@ -154,7 +178,7 @@ pub fn model_contact_sheet(
             look_at_cv(eye, DVec3::ZERO).unwrap_or(glam::DMat3::IDENTITY);
         let rotation = DQuat::IDENTITY;
         scene.drones = vec![DronePose {
-            model: i,
+            model,
             position: DVec3::ZERO,
             rotation,
             euler_deg: EulerDeg::from_quat(rotation),
