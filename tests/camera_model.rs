@@ -344,28 +344,6 @@ fn blurred_preset(sigma_px: f64) -> Preset {
     p
 }
 
-fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(PixelRect, u64)> {
-    let mut found: Option<PixelRect> = None;
-    let mut n = 0;
-    for (i, (pa, pb)) in a.chunks(4).zip(b.chunks(4)).enumerate() {
-        if pa[..3] != pb[..3] {
-            n += 1;
-            let (x, y) = ((i as u32) % w, (i as u32) / w);
-            let r = found.get_or_insert(PixelRect {
-                x0: x,
-                y0: y,
-                x1: x + 1,
-                y1: y + 1,
-            });
-            r.x0 = r.x0.min(x);
-            r.y0 = r.y0.min(y);
-            r.x1 = r.x1.max(x + 1);
-            r.y1 = r.y1.max(y + 1);
-        }
-    }
-    found.map(|r| (r, n))
-}
-
 /// The visible box under the camera model is the box of the pixels where the
 /// noise-free camera image of the frame differs by ≥ 1 level from that of the
 /// same frame without its drone, under the same draws.
@@ -402,7 +380,7 @@ fn visible_boxes_under_blur_are_the_pixels_a_drone_changes() {
                 };
                 let a = sensor::develop(&with.rgba, w, h, &draw, full, false);
                 let b = sensor::develop(&without.rgba, w, h, &draw, full, false);
-                let truth = changed_box(&a, &b, w);
+                let truth = common::changed_box(&a, &b, w);
                 let label = &frame.labels[0];
                 let vis = label.visibility.expect("measured");
                 let case = format!("σ {sigma_px}, EV {exposure}, frame {index}");

@@ -32,28 +32,6 @@ fn moving(exposure_s: f64) -> Preset {
     p
 }
 
-fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(PixelRect, u64)> {
-    let mut found: Option<PixelRect> = None;
-    let mut n = 0;
-    for (i, (pa, pb)) in a.chunks(4).zip(b.chunks(4)).enumerate() {
-        if pa[..3] != pb[..3] {
-            n += 1;
-            let (x, y) = ((i as u32) % w, (i as u32) / w);
-            let r = found.get_or_insert(PixelRect {
-                x0: x,
-                y0: y,
-                x1: x + 1,
-                y1: y + 1,
-            });
-            r.x0 = r.x0.min(x);
-            r.y0 = r.y0.min(y);
-            r.x1 = r.x1.max(x + 1);
-            r.y1 = r.y1.max(y + 1);
-        }
-    }
-    found.map(|r| (r, n))
-}
-
 #[test]
 fn a_moving_drone_streaks_and_its_box_is_the_pixels_it_changes() {
     let ctx = common::gpu();
@@ -90,7 +68,8 @@ fn a_moving_drone_streaks_and_its_box_is_the_pixels_it_changes() {
             y1: h,
         };
         let background = sensor::develop(&without.rgba, w, h, &draw, full, false);
-        let (truth, pixels) = changed_box(&frame.rgba, &background, w).expect("a visible drone");
+        let (truth, pixels) =
+            common::changed_box(&frame.rgba, &background, w).expect("a visible drone");
         let vis = frame.labels[0].visibility.expect("measured");
         let b = vis.visible_box.expect("visible");
         let case = format!("frame {index}");

@@ -152,3 +152,27 @@ pub fn preset_file(dir: &Path, preset: &Preset, name: &str) -> PathBuf {
     std::fs::write(&path, preset.to_ron()).expect("write preset");
     path
 }
+
+/// The box of the pixels where two RGBA8 frames of width `w` differ in colour, and how
+/// many there are (`None`: none differ).
+pub fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(swarmshot::sensor::PixelRect, u64)> {
+    let mut found: Option<swarmshot::sensor::PixelRect> = None;
+    let mut n = 0;
+    for (i, (pa, pb)) in a.chunks(4).zip(b.chunks(4)).enumerate() {
+        if pa[..3] != pb[..3] {
+            n += 1;
+            let (x, y) = ((i as u32) % w, (i as u32) / w);
+            let r = found.get_or_insert(swarmshot::sensor::PixelRect {
+                x0: x,
+                y0: y,
+                x1: x + 1,
+                y1: y + 1,
+            });
+            r.x0 = r.x0.min(x);
+            r.y0 = r.y0.min(y);
+            r.x1 = r.x1.max(x + 1);
+            r.y1 = r.y1.max(y + 1);
+        }
+    }
+    found.map(|r| (r, n))
+}
