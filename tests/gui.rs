@@ -7,57 +7,17 @@
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use eframe::egui_wgpu;
 use egui::accesskit::Role;
 use egui_kittest::kittest::{NodeT as _, Queryable};
 use egui_kittest::{Harness, SnapshotOptions};
+use swarmshot::app::SwarmshotApp;
 use swarmshot::app::runner::BatchOutcome;
-use swarmshot::app::{StartOptions, SwarmshotApp};
 
-/// One harness at a time: each owns a lavapipe device and 2 cores are shared.
-static GPU: Mutex<()> = Mutex::new(());
-
-const WAIT: Duration = Duration::from_secs(300);
-
-fn harness(preset: Option<PathBuf>) -> Harness<'static, SwarmshotApp> {
-    let mut setup = egui_kittest::wgpu::default_wgpu_setup();
-    if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut setup {
-        create.instance_descriptor.backends = wgpu::Backends::VULKAN;
-    }
-    Harness::builder()
-        .with_size([1400.0, 880.0])
-        .wgpu_setup(setup)
-        .build_eframe(move |cc| {
-            SwarmshotApp::new(
-                cc,
-                StartOptions {
-                    preset,
-                    restore_session: false,
-                },
-            )
-        })
-}
-
-/// Step the UI until `done` holds (the workers answer asynchronously).
-fn wait_for(h: &mut Harness<'_, SwarmshotApp>, what: &str, done: impl Fn(&SwarmshotApp) -> bool) {
-    let start = Instant::now();
-    loop {
-        h.step();
-        if done(h.state()) {
-            h.step();
-            h.step();
-            return;
-        }
-        assert!(
-            start.elapsed() < WAIT,
-            "timed out after {WAIT:?} waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
+#[path = "common/app.rs"]
+mod app_common;
+use app_common::{GPU, WAIT, harness, wait_for};
 
 fn settled(app: &SwarmshotApp) -> bool {
     app.preview_is_current() && app.summary_is_current()

@@ -6,55 +6,15 @@
 #![allow(clippy::unwrap_used)]
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-use eframe::egui_wgpu;
-use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use swarmshot::app::{StartOptions, SwarmshotApp};
+use swarmshot::app::SwarmshotApp;
 use swarmshot::preset::Placement;
 
-/// One harness at a time: each owns a lavapipe device and 2 cores are shared.
-static GPU: Mutex<()> = Mutex::new(());
-
-const WAIT: Duration = Duration::from_secs(300);
-
-fn harness(preset: PathBuf) -> Harness<'static, SwarmshotApp> {
-    let mut setup = egui_kittest::wgpu::default_wgpu_setup();
-    if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut setup {
-        create.instance_descriptor.backends = wgpu::Backends::VULKAN;
-    }
-    Harness::builder()
-        .with_size([1400.0, 880.0])
-        .wgpu_setup(setup)
-        .build_eframe(move |cc| {
-            SwarmshotApp::new(
-                cc,
-                StartOptions {
-                    preset: Some(preset),
-                    restore_session: false,
-                },
-            )
-        })
-}
-
-fn wait_for(h: &mut Harness<'_, SwarmshotApp>, what: &str, done: impl Fn(&SwarmshotApp) -> bool) {
-    let start = Instant::now();
-    loop {
-        h.step();
-        if done(h.state()) {
-            h.step();
-            h.step();
-            return;
-        }
-        assert!(
-            start.elapsed() < WAIT,
-            "timed out after {WAIT:?} waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
+#[path = "common/app.rs"]
+mod app_common;
+use app_common::{GPU, harness, wait_for};
 
 /// A small structured preset: 3×3×3 grid, 640×360, JPEG.
 const GRID: &str = r#"(
@@ -76,7 +36,7 @@ fn grid_preset(dir: &Path) -> PathBuf {
 fn an_edit_is_timed_to_its_picture_on_screen_and_the_status_bar_shows_it() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let mut h = harness(grid_preset(dir.path()));
+    let mut h = harness(Some(grid_preset(dir.path())));
     wait_for(
         &mut h,
         "the first preview",
@@ -117,7 +77,7 @@ fn an_edit_is_timed_to_its_picture_on_screen_and_the_status_bar_shows_it() {
 fn the_gap_window_shows_the_report_table_for_the_bundled_real_frames() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let mut h = harness(grid_preset(dir.path()));
+    let mut h = harness(Some(grid_preset(dir.path())));
     wait_for(
         &mut h,
         "the first preview",

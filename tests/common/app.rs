@@ -1,0 +1,57 @@
+//! The app's kittest harness, shared by tests/gui.rs and tests/gui_tools.rs
+//! (included with `#[path]`; not a test target of its own).
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use eframe::egui_wgpu;
+use egui_kittest::Harness;
+use swarmshot::app::{StartOptions, SwarmshotApp};
+
+/// One harness at a time: each owns a lavapipe device and 2 cores are shared.
+pub static GPU: Mutex<()> = Mutex::new(());
+
+pub const WAIT: Duration = Duration::from_secs(300);
+
+pub fn harness(preset: Option<PathBuf>) -> Harness<'static, SwarmshotApp> {
+    let mut setup = egui_kittest::wgpu::default_wgpu_setup();
+    if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut setup {
+        create.instance_descriptor.backends = wgpu::Backends::VULKAN;
+    }
+    Harness::builder()
+        .with_size([1400.0, 880.0])
+        .wgpu_setup(setup)
+        .build_eframe(move |cc| {
+            SwarmshotApp::new(
+                cc,
+                StartOptions {
+                    preset,
+                    restore_session: false,
+                },
+            )
+        })
+}
+
+/// Step the UI until `done` holds (the workers answer asynchronously).
+pub fn wait_for(
+    h: &mut Harness<'_, SwarmshotApp>,
+    what: &str,
+    done: impl Fn(&SwarmshotApp) -> bool,
+) {
+    let start = Instant::now();
+    loop {
+        h.step();
+        if done(h.state()) {
+            h.step();
+            h.step();
+            return;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "timed out after {WAIT:?} waiting for {what}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
