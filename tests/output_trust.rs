@@ -63,29 +63,10 @@ fn batch_args(preset: &Path, out: &Path, extra: &[&str]) -> Vec<std::ffi::OsStri
     args
 }
 
-/// Every file under `dir`, relative, sorted (links listed, not followed).
-fn files_under(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_owned()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).expect("read_dir") {
-            let p = e.expect("entry").path();
-            let m = std::fs::symlink_metadata(&p).expect("lstat");
-            if m.is_dir() {
-                stack.push(p)
-            } else {
-                out.push(p.strip_prefix(dir).expect("prefix").to_owned())
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 /// Every file under `dir` with its bytes (links as their target text),
 /// the lock file aside (a killed run's is taken over and deleted).
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    files_under(dir)
+    common::files_under(dir)
         .into_iter()
         .filter(|rel| rel != Path::new(".swarmshot-lock"))
         .map(|rel| {
@@ -114,8 +95,12 @@ fn bytes(dir: &Path, rel: &Path) -> Vec<u8> {
 /// `got` holds exactly the files of `want` (the ledger aside), byte for byte.
 fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
     let ledger = Path::new(".swarmshot-ledger");
-    let list =
-        |d: &Path| -> Vec<PathBuf> { files_under(d).into_iter().filter(|p| p != ledger).collect() };
+    let list = |d: &Path| -> Vec<PathBuf> {
+        common::files_under(d)
+            .into_iter()
+            .filter(|p| p != ledger)
+            .collect()
+    };
     let fw = list(want);
     assert_eq!(fw, list(got), "{what}: file lists differ");
     for rel in &fw {
@@ -312,7 +297,7 @@ fn a_refused_resume_writes_nothing_through_links_and_changes_nothing() {
     // An image replaced by a link: refused by name, the ledger keeps its checkpoints.
     let out2 = tmp.path().join("ds2");
     killed_run(&p, &out2);
-    let image = files_under(&out2)
+    let image = common::files_under(&out2)
         .into_iter()
         .find(|r| r.starts_with("images") && r.extension().is_some_and(|x| x == "jpg"))
         .expect("an image");
@@ -344,7 +329,7 @@ fn merge_args(out: &Path, shards: &[PathBuf], extra: &[&str]) -> Vec<std::ffi::O
 }
 
 fn copy_dir(from: &Path, to: &Path) {
-    for rel in files_under(from) {
+    for rel in common::files_under(from) {
         let dst = to.join(&rel);
         std::fs::create_dir_all(dst.parent().expect("parent")).expect("mkdir");
         std::fs::copy(from.join(&rel), dst).expect("copy");
@@ -373,7 +358,7 @@ fn merge_checks_every_shard_file_and_never_writes_into_a_shard() {
         copy_dir(&pristine.join(s.file_name().expect("name")), s);
     };
     let label = |s: &Path| {
-        files_under(s)
+        common::files_under(s)
             .into_iter()
             .find(|r| r.starts_with("labels") && r.extension().is_some_and(|x| x == "txt"))
             .expect("a label file")
@@ -427,7 +412,7 @@ fn merge_checks_every_shard_file_and_never_writes_into_a_shard() {
     restore(&shards[1]);
 
     // A deleted image is named as missing.
-    let image = files_under(&shards[0])
+    let image = common::files_under(&shards[0])
         .into_iter()
         .find(|r| r.starts_with("images"))
         .expect("an image");
@@ -483,7 +468,7 @@ fn sigint_stops_cleanly_and_resume_is_byte_identical() {
     );
     let frames = checkpoints(&out);
     assert!(frames < 240, "the batch finished before the signal");
-    for rel in files_under(&out) {
+    for rel in common::files_under(&out) {
         assert!(
             !rel.to_string_lossy().ends_with(".tmp"),
             "temporary file left: {}",

@@ -60,25 +60,6 @@ fn run_err(preset: &Path, out: &Path, extra: &[&str]) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// Every file under `dir`, relative, sorted (links listed, not followed).
-fn files_under(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_owned()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).expect("read_dir") {
-            let p = e.expect("entry").path();
-            let m = std::fs::symlink_metadata(&p).expect("lstat");
-            if m.is_dir() {
-                stack.push(p)
-            } else {
-                out.push(p.strip_prefix(dir).expect("prefix").to_owned())
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 /// A file's bytes, with the dataset's own absolute path (data.yaml) made neutral.
 fn bytes(dir: &Path, rel: &Path) -> Vec<u8> {
     let b = std::fs::read(dir.join(rel)).unwrap_or_else(|e| panic!("{}: {e}", rel.display()));
@@ -94,11 +75,11 @@ fn bytes(dir: &Path, rel: &Path) -> Vec<u8> {
 /// `got` holds exactly the files of `want` (the ledger aside), byte for byte.
 fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
     let ledger = Path::new(".swarmshot-ledger");
-    let fw: Vec<_> = files_under(want)
+    let fw: Vec<_> = common::files_under(want)
         .into_iter()
         .filter(|p| p != ledger)
         .collect();
-    let fg: Vec<_> = files_under(got)
+    let fg: Vec<_> = common::files_under(got)
         .into_iter()
         .filter(|p| p != ledger)
         .collect();
@@ -139,7 +120,7 @@ fn count_files(dir: &Path) -> usize {
 /// Every image has its label and the reverse, the manifest has one whole
 /// line per image, and no temporary file is left.
 fn assert_complete_pairs(dir: &Path) -> usize {
-    let files = files_under(dir);
+    let files = common::files_under(dir);
     let stems = |top: &str, ext: &str| -> Vec<String> {
         let mut v: Vec<String> = files
             .iter()
@@ -264,7 +245,7 @@ fn sigkill_at_any_point_then_resume_is_byte_identical() {
 
     // A finished run, rerun with or without --resume, writes nothing.
     let stamps = |dir: &Path| -> Vec<(PathBuf, std::time::SystemTime)> {
-        files_under(dir)
+        common::files_under(dir)
             .into_iter()
             .map(|r| {
                 let t = std::fs::symlink_metadata(dir.join(&r))
@@ -299,7 +280,7 @@ fn write_error_stops_at_once_leaves_complete_frames_and_resumes() {
         .expect("manifest")
         .len();
     let limit_kib = manifest_len / 2 / 1024;
-    for rel in files_under(&reference) {
+    for rel in common::files_under(&reference) {
         if rel != Path::new("manifest.jsonl") {
             let len = std::fs::metadata(reference.join(&rel)).expect("meta").len();
             assert!(
@@ -376,8 +357,12 @@ fn symlinks_in_the_output_folder_are_never_followed() {
             std::fs::symlink_metadata(&target).is_err(),
             "{name}: something was created through the link"
         );
-        assert_eq!(files_under(&outside), Vec::<PathBuf>::new());
-        assert_eq!(files_under(&out), vec![PathBuf::from(name)], "{name}");
+        assert_eq!(common::files_under(&outside), Vec::<PathBuf>::new());
+        assert_eq!(
+            common::files_under(&out),
+            vec![PathBuf::from(name)],
+            "{name}"
+        );
     }
 
     // A link at a frame's image in an interrupted run: refused, not followed.
@@ -408,7 +393,7 @@ fn symlinks_in_the_output_folder_are_never_followed() {
     let err = run_err(&file, &out, &["--resume"]);
     assert!(err.contains("symbolic link"), "{err}");
     assert!(std::fs::symlink_metadata(&target).is_err());
-    assert_eq!(files_under(&outside), Vec::<PathBuf>::new());
+    assert_eq!(common::files_under(&outside), Vec::<PathBuf>::new());
 }
 
 #[test]
@@ -472,10 +457,10 @@ fn user_files_survive_with_and_without_overwrite() {
     // The folder is now exactly the new run plus the user's files.
     let solo = tmp.path().join("solo");
     run_ok(&other_file, &solo, &["--limit", "3"]);
-    let mut expected: Vec<PathBuf> = files_under(&solo);
+    let mut expected: Vec<PathBuf> = common::files_under(&solo);
     expected.extend(mine.iter().map(PathBuf::from));
     expected.sort();
-    assert_eq!(files_under(&out), expected);
+    assert_eq!(common::files_under(&out), expected);
 }
 
 /// Frames in a dataset folder that also holds user files: images named by index.

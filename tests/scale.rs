@@ -79,30 +79,15 @@ fn merge_args<'a>(out: &'a Path, shards: &'a [PathBuf]) -> Vec<&'a std::ffi::OsS
     args
 }
 
-/// Every file under `dir`, relative, sorted (links listed, not followed).
-fn files_under(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_owned()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).expect("read_dir") {
-            let p = e.expect("entry").path();
-            let m = std::fs::symlink_metadata(&p).expect("lstat");
-            if m.is_dir() {
-                stack.push(p)
-            } else {
-                out.push(p.strip_prefix(dir).expect("prefix").to_owned())
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
 /// `got` holds exactly the files of `want` (the ledger aside), byte for byte.
 fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
     let ledger = Path::new(".swarmshot-ledger");
-    let list =
-        |d: &Path| -> Vec<PathBuf> { files_under(d).into_iter().filter(|p| p != ledger).collect() };
+    let list = |d: &Path| -> Vec<PathBuf> {
+        common::files_under(d)
+            .into_iter()
+            .filter(|p| p != ledger)
+            .collect()
+    };
     let fw = list(want);
     assert_eq!(fw, list(got), "{what}: file lists differ");
     for rel in &fw {
@@ -167,7 +152,7 @@ fn shards_merge_into_the_single_run_byte_for_byte() {
         assert!(said.contains(&format!("merged {n} shards")), "{said}");
         assert_same_dataset(&single, &out, name);
         // Images are hard links to the shards' (same file system here).
-        let img = files_under(&out)
+        let img = common::files_under(&out)
             .into_iter()
             .find(|p| p.starts_with("images"))
             .expect("an image");
@@ -344,7 +329,7 @@ fn merge_refuses_what_is_not_one_whole_finished_run() {
 }
 
 fn copy_dir(from: &Path, to: &Path) {
-    for rel in files_under(from) {
+    for rel in common::files_under(from) {
         let dest = to.join(&rel);
         std::fs::create_dir_all(dest.parent().expect("parent")).expect("mkdir");
         std::fs::copy(from.join(&rel), &dest).expect("copy");
@@ -412,7 +397,7 @@ fn a_killed_merge_or_shard_continues_to_the_same_bytes() {
     kill_when(child, "merge checkpoint:3", || {
         std::fs::read(out.join("manifest.jsonl")).is_ok_and(|m| m.len() == want.len())
     });
-    let shard1_image = files_under(&parts[1])
+    let shard1_image = common::files_under(&parts[1])
         .into_iter()
         .find(|p| p.starts_with("images"))
         .expect("an image of shard 1");
@@ -439,7 +424,7 @@ fn a_killed_merge_or_shard_continues_to_the_same_bytes() {
         .filter_map(|l| l.strip_prefix('*').or_else(|| l.strip_prefix('+')))
         .map(str::to_owned)
         .collect();
-    for rel in files_under(&out) {
+    for rel in common::files_under(&out) {
         let rel = rel.to_string_lossy().into_owned();
         assert!(
             rel == ".swarmshot-ledger" || listed.contains(&rel),
@@ -467,7 +452,7 @@ fn a_copied_dataset_names_only_paths_that_resolve() {
     let old = std::fs::canonicalize(&made).expect("canonical");
     std::fs::remove_dir_all(&made).expect("remove the original");
     let old = old.to_string_lossy().into_owned();
-    for rel in files_under(&moved) {
+    for rel in common::files_under(&moved) {
         let bytes = std::fs::read(moved.join(&rel)).expect("read");
         assert!(
             !String::from_utf8_lossy(&bytes).contains(&old),
@@ -516,7 +501,7 @@ fn a_copied_dataset_names_only_paths_that_resolve() {
     assert_eq!(named, manifest.lines().count());
     // MOT: imDir is relative to the sequence's folder.
     let mut sequences = 0;
-    for rel in files_under(&moved) {
+    for rel in common::files_under(&moved) {
         if rel.file_name().is_some_and(|n| n == "seqinfo.ini") {
             let ini = std::fs::read_to_string(moved.join(&rel)).expect("seqinfo");
             let field = |k: &str| {

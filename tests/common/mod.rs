@@ -176,3 +176,22 @@ pub fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(swarmshot::sensor::Pix
     }
     found.map(|r| (r, n))
 }
+
+/// Every file under `dir`, relative, sorted (links listed, not followed).
+pub fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("read_dir") {
+            let p = e.expect("entry").path();
+            let m = std::fs::symlink_metadata(&p).expect("lstat");
+            if m.is_dir() {
+                stack.push(p)
+            } else {
+                out.push(p.strip_prefix(dir).expect("prefix").to_owned())
+            }
+        }
+    }
+    out.sort();
+    out
+}
