@@ -14,8 +14,12 @@ use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::Preset;
 use swarmshot::preset::budget::human_bytes;
 use swarmshot::render::GpuContext;
-use swarmshot::tools::{bench, gallery};
 use swarmshot::write::shard::Shard;
+
+mod cli;
+use cli::tools::{
+    assets, bench_accuracy, bench_frames, gallery_bench, gallery_pictures, gap, merge, stats,
+};
 
 #[derive(Parser)]
 #[command(
@@ -43,9 +47,17 @@ enum Command {
         /// Output folder (created if missing).
         #[arg(long)]
         out: PathBuf,
-        /// Make only the first N frames.
+        /// Make only the first N frames (with --every: the first N of those).
         #[arg(long)]
         limit: Option<u64>,
+        /// A trial of every Kth frame: frames 0, K, 2K, … with their own
+        /// indices and names, each byte-identical to the full run's frame of
+        /// that index. --resume (or the same command again) continues the
+        /// trial; --resume without --every keeps the earlier trial's K; a
+        /// different K or --limit on the same folder is refused (--overwrite
+        /// starts again). Not with --shard, --labels-only or sequence presets.
+        #[arg(long, value_name = "K", conflicts_with = "labels_only")]
+        every: Option<u64>,
         /// Delete an earlier run's own files in the folder and start again
         /// (files swarmshot did not write are kept). Also lets the batch write
         /// into a non-empty folder that holds no swarmshot run.
@@ -113,7 +125,9 @@ enum Command {
         json: bool,
     },
     /// Make one frame alone, exactly as the batch writes it: the image (the
-    /// preset's format and quality), its YOLO labels (.txt) and its manifest record (.json).
+    /// preset's format and quality), its YOLO labels (.txt), its manifest
+    /// record (.json) and the masks output.masks asks for (.seg.txt,
+    /// .mask.png, .depth.png).
     Frame {
         preset: PathBuf,
         /// Frame index (0-based).
@@ -274,6 +288,7 @@ fn run() -> anyhow::Result<()> {
             timings,
             labels_only: true,
             shard: _,
+            every: _,
         } => plan(
             &preset,
             swarmshot::pipeline::PlanOptions {
@@ -295,6 +310,7 @@ fn run() -> anyhow::Result<()> {
             makers,
             timings,
             shard,
+            every,
             labels_only: false,
         } => batch(
             &preset,
@@ -310,6 +326,7 @@ fn run() -> anyhow::Result<()> {
                     .as_deref()
                     .map(|s| Shard::parse(s, |name| std::env::var(name).ok()))
                     .transpose()?,
+                every,
             },
             timings,
         ),
@@ -319,7 +336,7 @@ fn run() -> anyhow::Result<()> {
             overwrite,
             copy,
         } => merge(&out, &shards, overwrite, copy),
-        Command::Check { preset } => check(&preset),
+        Command::Check { preset } => cli::check::check(&preset),
         Command::Stats { dir, plots, json } => stats(&dir, plots, json),
         Command::Gap {
             real,
@@ -403,7 +420,7 @@ fn available_memory_bytes() -> Option<u64> {
 
 /// Print the preset's warnings (overlapping drones and the like) to stderr.
 fn print_warnings(pipeline: &FramePipeline) {
-    for w in pipeline.preset().warnings() {
+    for w in swarmshot::pipeline::check::warnings(pipeline.preset()) {
         eprintln!(
             "warning: {}",
             swarmshot::preset::text::for_terminal(&w.to_string())
@@ -411,9 +428,8 @@ fn print_warnings(pipeline: &FramePipeline) {
     }
 }
 
-/// The progress bar of a batch or plan of `limit` frames (all when None).
-fn frames_bar(pipeline: &FramePipeline, limit: Option<u64>) -> anyhow::Result<ProgressBar> {
-    let total = limit.map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+/// The progress bar of a batch or plan of `total` frames.
+fn frames_bar(total: u64) -> anyhow::Result<ProgressBar> {
     let bar = ProgressBar::new(total);
     bar.set_style(
         ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} frames  {msg}  ETA {eta}")
@@ -495,7 +511,7 @@ fn batch(
     }
     let ctx = GpuContext::headless()?;
     device_check(&pipeline, &ctx)?;
-    let bar = frames_bar(&pipeline, options.limit)?;
+    let bar = frames_bar(frames)?;
     let cancel = stop_on_signals()?;
     let report = run_batch(&pipeline, &options, &ctx, &cancel, |p| {
         bar.set_length(p.total);
@@ -532,11 +548,10 @@ fn batch(
     Ok(())
 }
 
-/// The frames this run makes: `--limit` of them, of its shard with `--shard`.
+/// The frames this run makes: `--limit` of them (of every Kth with
+/// `--every K`), of its shard with `--shard`.
 fn frames_of_run(pipeline: &FramePipeline, options: &BatchOptions) -> u64 {
-    let count = options
-        .limit
-        .map_or(pipeline.frame_count(), |n| n.min(pipeline.frame_count()));
+    let count = swarmshot::pipeline::batch::frames_of(pipeline.frame_count(), options);
     match options.shard {
         Some(shard) => {
             let unit = pipeline.preset().sequence_len().max(1);
@@ -629,7 +644,8 @@ fn plan(
     }
     let pipeline = FramePipeline::open(preset)?;
     print_warnings(&pipeline);
-    let bar = frames_bar(&pipeline, options.limit)?;
+    let count = pipeline.frame_count();
+    let bar = frames_bar(options.limit.map_or(count, |n| n.min(count)))?;
     let cancel = stop_on_signals()?;
     let report = swarmshot::pipeline::run_plan(&pipeline, &options, &cancel, |p| {
         bar.set_length(p.total);
@@ -670,231 +686,16 @@ fn plan(
     Ok(())
 }
 
-fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
-    let stats = swarmshot::write::stats::read_dataset(dir)?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&stats)?);
-        return Ok(());
-    }
-    println!(
-        "{} ({})",
-        dir.display(),
-        if stats.labels_only {
-            "labels-only plan: no images"
-        } else {
-            "rendered dataset"
-        }
-    );
-    println!("boxes: {}", stats.boxes_from);
-    print!("{}", stats.table());
-    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
-    for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
-        println!("wrote {}", path.display());
-    }
-    Ok(())
-}
-
-fn gap(
-    real: PathBuf,
-    synthetic: PathBuf,
-    out: Option<&Path>,
-    max_images: usize,
-    json: bool,
-) -> anyhow::Result<()> {
-    let report = swarmshot::gap::run_report(&swarmshot::gap::GapOptions {
-        real,
-        synthetic,
-        max_images,
-    })?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", report.table());
-    }
-    if let Some(out) = out {
-        for path in report.write(out)? {
-            eprintln!("wrote {}", path.display());
-        }
-    }
-    Ok(())
-}
-
-fn merge(out: &Path, shards: &[PathBuf], overwrite: bool, copy: bool) -> anyhow::Result<()> {
-    let t = std::time::Instant::now();
-    let r = swarmshot::write::merge::merge(out, shards, overwrite, copy)?;
-    let s = &r.stats;
-    let before = if r.shards_before > 0 {
-        format!(
-            " ({} joined by an earlier, interrupted merge)",
-            r.shards_before
-        )
-    } else {
-        String::new()
-    };
-    println!(
-        "merged {} shards{before} into {}: {} frames ({} train / {} val / {} test), {} boxes; {} files hard-linked, {} copied, in {:.1} s",
-        r.shards,
-        out.display(),
-        s.frames,
-        s.frames_per_split[0],
-        s.frames_per_split[1],
-        s.frames_per_split[2],
-        s.boxes,
-        r.linked,
-        r.copied,
-        t.elapsed().as_secs_f64()
-    );
-    Ok(())
-}
-
-fn check(path: &Path) -> anyhow::Result<()> {
-    let pipeline = FramePipeline::open(path)?;
-    let preset = pipeline.preset();
-    let (w, h) = preset.image_size();
-    // Everything the batch loads (models, sky images) is loaded above; the
-    // adapter's limits are checked here too when one is found.
-    match GpuContext::headless() {
-        Ok(ctx) => device_check(&pipeline, &ctx)?,
-        Err(e) => eprintln!("warning: {e:#}; the adapter's limits were not checked"),
-    }
-    println!(
-        "preset {} is valid",
-        swarmshot::preset::printable(&path.display().to_string())
-    );
-    for w in preset.warnings() {
-        println!(
-            "warning: {}",
-            swarmshot::preset::text::for_terminal(&w.to_string())
-        );
-    }
-    println!("frames: {}", pipeline.frame_count());
-    if let Some(groups) = swarmshot::scene::split::groups(preset) {
-        let [train, val, test] = swarmshot::scene::split::group_counts(preset, groups);
-        println!(
-            "split by {:?}: {groups} groups, {train} train / {val} val / {test} test",
-            preset.output.split.by
-        );
-    }
-    println!(
-        "image: {w}×{h}, {:?}, MSAA {}",
-        preset.output.image_format, preset.render.msaa
-    );
-    println!(
-        "placement: {}",
-        swarmshot::scene::placement::describe(preset)
-    );
-    if let Some(seq) = &preset.sequence {
-        let len = preset.sequence_len();
-        println!(
-            "sequences: {} of T + 1 = {len} frames ({:?} camera, {} fps), MOT ground truth in mot/",
-            pipeline.frame_count() / len,
-            seq.camera,
-            seq.frame_rate
-        );
-    }
-    if let Err(e) = preset.check_render_budget() {
-        println!("warning: {e}; a rendered batch refuses this preset");
-    }
-    print_empty_splits(preset, pipeline.frame_count(), &mut std::io::stdout());
-    // Geometry only (no rendering): amodal boxes stand in for visible ones,
-    // from as many first frames as fit the sampling budget.
-    let sample = preset.check_sample_frames();
-    if sample == 0 && pipeline.frame_count() > 0 {
-        println!(
-            "estimate skipped: a frame holds up to {} drones, more than the {} drones `check` samples",
-            preset.max_drones_per_frame(),
-            swarmshot::preset::budget::CHECK_SAMPLE_DRONES
-        );
-    }
-    let mut stats = swarmshot::write::DatasetStats::default();
-    let started = std::time::Instant::now();
-    for i in 0..sample {
-        let scene = pipeline.scene(i)?;
-        stats.add(
-            &scene,
-            &pipeline.estimate_labels(&scene),
-            pipeline.model_names(),
-            pipeline.classes(),
-        );
-        // Progress when the estimate takes more than a second.
-        if started.elapsed().as_secs_f64() > 1.0 {
-            eprint!("\restimating boxes: frame {}/{sample}", i + 1);
-        }
-    }
-    if started.elapsed().as_secs_f64() > 1.0 {
-        eprintln!();
-    }
-    let drones_per_frame = if sample > 0 {
-        stats.drones_placed as f64 / sample as f64
-    } else {
-        preset.max_drones_per_frame() as f64
-    };
-    if sample > 0 {
-        let share = |n: u64| 100.0 * n as f64 / stats.boxes.max(1) as f64;
-        println!(
-            "estimated from the first {sample} frames (geometry only): {:.2} drones and {:.2} boxes per frame; small {:.1} % / medium {:.1} % / large {:.1} % (√(w·h) < 32, 32–96, > 96 px)",
-            stats.drones_placed as f64 / sample as f64,
-            stats.boxes as f64 / sample as f64,
-            share(stats.small),
-            share(stats.medium),
-            share(stats.large),
-        );
-        if stats.boxes == 0 {
-            println!(
-                "warning: none of the first {sample} frames would get a single box (drones too small, too far or out of view?)"
-            );
-        }
-    }
-    let disk = preset.disk_estimate(pipeline.frame_count(), drones_per_frame);
-    println!(
-        "disk: about {} for {} frames ({} images, {} labels, {} ledger; typical sizes measured on the quickstart, docs/reliability.md)",
-        human_bytes(disk.total_bytes()),
-        disk.frames,
-        human_bytes(disk.image_bytes),
-        human_bytes(disk.label_bytes),
-        human_bytes(disk.ledger_bytes),
-    );
-    for (spec, model) in preset.models.iter().zip(&pipeline.assets().models) {
-        println!(
-            "model {}: {} triangles, {} hull vertices, size {} m, class {}",
-            spec.source,
-            model.indices.len() / 3,
-            model.hull.len(),
-            spec.size_m,
-            swarmshot::preset::printable(&spec.class)
-        );
-        for w in &model.warnings {
-            println!("  warning: {}", swarmshot::preset::text::for_terminal(w));
-        }
-    }
-    Ok(())
-}
-
-/// A batch of one: the image bytes the batch writes for frame `index`, its YOLO
-/// label file and its manifest record, beside `out`.
+/// A batch of one: the files the batch writes for frame `index` (image, YOLO
+/// labels, manifest record, and the masks `output.masks` asks for), beside `out`.
 fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(preset)?;
     pipeline
         .preset()
         .check_render_budget()
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let format = pipeline.preset().output.image_format;
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let accepted: &[&str] = match format {
-        swarmshot::preset::ImageFormat::Jpeg { .. } => &["jpg", "jpeg"],
-        swarmshot::preset::ImageFormat::Png => &["png"],
-    };
-    if !ext.as_deref().is_some_and(|e| accepted.contains(&e)) {
-        anyhow::bail!(
-            "--out {}: the preset writes {} images (output.image_format); name the file .{}",
-            out.display(),
-            format.extension().to_uppercase(),
-            format.extension()
-        );
-    }
+    swarmshot::write::single::check_image_name(out, pipeline.preset().output.image_format)
+        .map_err(anyhow::Error::msg)?;
     if index >= pipeline.frame_count() {
         anyhow::bail!(
             "--index {index}: the preset has {} frames (0..{})",
@@ -911,22 +712,26 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
     if overlay {
         swarmshot::annotate::overlay::draw_overlay(&mut frame.rgba, w, h, &frame.labels);
     }
-    let format = pipeline.image_format(&frame.scene);
-    let bytes = swarmshot::write::encode_image(&frame.rgba, w, h, format)?;
-    let record = swarmshot::write::manifest_line(
-        &frame.scene,
-        &frame.labels,
-        &swarmshot::write::image_rel_path(&frame.scene, format),
-        pipeline.model_names(),
-        pipeline.classes(),
-    );
-    let labels = swarmshot::write::yolo::label_text(&frame.scene, &frame.labels);
-    let (txt, json) = (out.with_extension("txt"), out.with_extension("json"));
-    swarmshot::write::write_atomic(out, &bytes)?;
-    swarmshot::write::write_atomic(&txt, labels.as_bytes())?;
-    swarmshot::write::write_atomic(&json, format!("{record}\n").as_bytes())?;
+    let written = swarmshot::write::single::write_lone_frame(
+        out,
+        &swarmshot::write::single::LoneFrame {
+            scene: &frame.scene,
+            labels: &frame.labels,
+            rgba: &frame.rgba,
+            masks: frame.masks.as_ref(),
+        },
+        &swarmshot::write::single::LoneFormat {
+            image: pipeline.image_format(&frame.scene),
+            masks: &pipeline.preset().output.masks,
+            model_names: pipeline.model_names(),
+            classes: pipeline.classes(),
+        },
+    )?;
+    let beside: Vec<String> = (written.iter().skip(1))
+        .map(|p| p.display().to_string())
+        .collect();
     println!(
-        "frame {index} ({} split): {} drones{}, {} boxes -> {} (+ {}, {})",
+        "frame {index} ({} split): {} drones{}, {} boxes -> {} (+ {})",
         frame.scene.split.as_str(),
         frame.scene.drone_count(),
         match frame.scene.confusers.len() {
@@ -935,143 +740,7 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
         },
         frame.labels.iter().filter(|l| l.is_kept()).count(),
         out.display(),
-        txt.display(),
-        json.display()
+        beside.join(", ")
     );
-    Ok(())
-}
-
-fn bench_accuracy(
-    frames: u32,
-    (width, height): (u32, u32),
-    plot: &Path,
-    timing_frames: u64,
-) -> anyhow::Result<()> {
-    let ctx = GpuContext::headless()?;
-    eprintln!("adapter: {}", ctx.describe());
-    let acc = bench::accuracy(&ctx, frames, width, height)?;
-    let quickstart = FramePipeline::open(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/presets/quickstart.ron"
-    )))?;
-    let timing = bench::timings(&ctx, quickstart.preset(), timing_frames)?;
-    print!("{}", bench::markdown(&acc, &timing));
-    if let Some(dir) = plot.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    bench::plot(&acc, plot)?;
-    eprintln!("plot written to {}", plot.display());
-    Ok(())
-}
-
-fn bench_frames(frames: Option<u64>, peer: &Path, only: Option<&str>) -> anyhow::Result<()> {
-    let ctx = GpuContext::headless()?;
-    eprintln!("adapter: {}", ctx.describe());
-    // Presets only: each scene's pipeline (and its models' levels of detail)
-    // is built by `bench::frames`, so a scene left out by --scene costs nothing.
-    let quickstart = Preset::open(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/presets/quickstart.ron"
-    )))?;
-    let peer = match Preset::open(peer) {
-        Ok(p) => Some(p),
-        Err(e) => {
-            eprintln!("peer scene skipped: {e:#}");
-            None
-        }
-    };
-    let mut scenes = bench::frame_scenes(&quickstart, peer);
-    if let Some(only) = only {
-        scenes.retain(|(name, ..)| name.contains(only));
-        anyhow::ensure!(!scenes.is_empty(), "--scene {only:?} matches no scene");
-    }
-    let rows = bench::frames(&ctx, scenes, frames)?;
-    print!("{}", bench::frames_markdown(&rows));
-    Ok(())
-}
-
-fn gallery_bench() -> anyhow::Result<()> {
-    let ctx = GpuContext::headless()?;
-    let frames = 20;
-    let gradient = gallery::environment_preset(swarmshot::preset::Sky::default(), 1920, 1080);
-    println!(
-        "1920x1080, MSAA 4, 8 drones, median of {frames} frames on {}",
-        ctx.describe()
-    );
-    println!(
-        "gradient sky: {:.1} ms",
-        gallery::median_frame_ms(&ctx, &gradient, frames)?
-    );
-    for name in swarmshot::preset::EnvironmentName::ALL {
-        let p = gallery::environment_preset(gallery::fixed_environment(name), 1920, 1080);
-        println!(
-            "{}: {:.1} ms",
-            name.as_str(),
-            gallery::median_frame_ms(&ctx, &p, frames)?
-        );
-    }
-    Ok(())
-}
-
-fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
-    let ctx = GpuContext::headless()?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
-    let path = out.join("models.png");
-    sheet
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
-    let sheet = swarmshot::tools::confuser_gallery::confuser_contact_sheet(&ctx, 160, 6)?;
-    let path = out.join("confusers.png");
-    sheet
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
-    for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
-        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
-        let path = out.join(format!("env-{}.jpg", name.as_str()));
-        image::DynamicImage::ImageRgba8(img)
-            .to_rgb8()
-            .save(&path)
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
-    }
-    for (name, rgba) in gallery::formation_frames(&ctx, width, height)? {
-        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
-        let path = out.join(format!("formation-{name}.jpg"));
-        image::DynamicImage::ImageRgba8(img)
-            .to_rgb8()
-            .save(&path)
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
-    }
-    let sequence = Preset::from_ron(include_str!("../presets/formation_sequence.ron"))
-        .map_err(|e| anyhow::anyhow!("presets/formation_sequence.ron: {e}"))?;
-    let strip = gallery::sequence_strip(&ctx, &sequence, 5, width / 2, height / 2)?;
-    let path = out.join("sequence-strip.jpg");
-    image::DynamicImage::ImageRgba8(strip)
-        .to_rgb8()
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
-    Ok(())
-}
-
-fn assets(dir: &Path) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    for name in swarmshot::model::builtin::NAMES {
-        let bytes = swarmshot::tools::assets::generate_glb(name).context("built-in generator")?;
-        let path = dir.join(format!("{name}.glb"));
-        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {} ({} bytes)", path.display(), bytes.len());
-    }
-    for name in swarmshot::model::confusers::NAMES {
-        let bytes =
-            swarmshot::tools::confusers::generate_glb(name).context("confuser generator")?;
-        let path = dir.join(format!("{name}.glb"));
-        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {} ({} bytes)", path.display(), bytes.len());
-    }
     Ok(())
 }

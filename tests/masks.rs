@@ -537,3 +537,63 @@ fn mask_settings_are_checked_with_their_field_paths() {
     assert!(!on.output.masks.coco_rle && !on.output.masks.yolo_seg);
     assert_eq!(Preset::from_ron(&on.to_ron()).expect("round trip"), on);
 }
+
+/// `swarmshot frame N` alone writes frame N's image, labels and masks with
+/// the bytes the batch writes for N (its mask files beside the image).
+#[test]
+fn frame_alone_writes_the_batchs_image_labels_and_masks() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = preset(ALL);
+    let preset_path = dir.path().join("masks.ron");
+    std::fs::write(&preset_path, p.to_ron()).expect("write preset");
+    let data = dir.path().join("data");
+    run(&p, &data, 4, 1);
+    let manifest = std::fs::read_to_string(data.join("manifest.jsonl")).expect("manifest");
+    for index in [1u64, 3] {
+        let png = dir.path().join(format!("f{index}.png"));
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+            .arg("frame")
+            .arg(&preset_path)
+            .args(["--index", &index.to_string(), "--out"])
+            .arg(&png)
+            .status()
+            .expect("frame runs");
+        assert!(status.success());
+        let line: Value = serde_json::from_str(manifest.lines().nth(index as usize).expect("line"))
+            .expect("json");
+        let split = line["split"].as_str().expect("split");
+        let stem = format!("{index:08}");
+        let pairs = [
+            (png.clone(), format!("images/{split}/{stem}.png")),
+            (
+                png.with_extension("txt"),
+                format!("labels/{split}/{stem}.txt"),
+            ),
+            (
+                dir.path().join(format!("f{index}.seg.txt")),
+                format!("labels-seg/{split}/{stem}.txt"),
+            ),
+            (
+                dir.path().join(format!("f{index}.mask.png")),
+                format!("masks/{split}/{stem}.png"),
+            ),
+            (
+                dir.path().join(format!("f{index}.depth.png")),
+                format!("depth/{split}/{stem}.png"),
+            ),
+        ];
+        for (alone, batch) in pairs {
+            let a = std::fs::read(&alone).unwrap_or_else(|e| panic!("{}: {e}", alone.display()));
+            let b = std::fs::read(data.join(&batch)).expect("batch file");
+            assert!(!b.is_empty(), "{batch}");
+            assert_eq!(
+                a,
+                b,
+                "frame {index}: {} differs from {batch}",
+                alone.display()
+            );
+        }
+        // An instance image that names drones: the frame has visible drones.
+        assert!(line["drones"].as_array().is_some_and(|d| !d.is_empty()));
+    }
+}

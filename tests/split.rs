@@ -166,7 +166,10 @@ fn the_per_frame_default_is_unchanged_and_left_out_of_the_lock() {
 fn a_split_left_without_a_group_is_warned_about() {
     let mut p = common::tiny_preset(); // 2 camera poses
     p.output.split.by = SplitBy::CameraPose;
-    let warnings: Vec<String> = p.warnings().iter().map(|w| w.to_string()).collect();
+    let warnings: Vec<String> = swarmshot::pipeline::check::warnings(&p)
+        .iter()
+        .map(|w| w.to_string())
+        .collect();
     assert!(
         warnings
             .iter()
@@ -174,7 +177,10 @@ fn a_split_left_without_a_group_is_warned_about() {
         "{warnings:?}"
     );
     p.output.split.by = SplitBy::Environment; // one sky: one group
-    let warnings: Vec<String> = p.warnings().iter().map(|w| w.to_string()).collect();
+    let warnings: Vec<String> = swarmshot::pipeline::check::warnings(&p)
+        .iter()
+        .map(|w| w.to_string())
+        .collect();
     assert!(
         warnings
             .iter()
@@ -182,8 +188,7 @@ fn a_split_left_without_a_group_is_warned_about() {
         "{warnings:?}"
     );
     assert!(
-        swept()
-            .warnings()
+        swarmshot::pipeline::check::warnings(&swept())
             .iter()
             .all(|w| !w.to_string().contains("split"))
     );

@@ -4,7 +4,7 @@
 //! camera model the pixels a drone changes). Built only when a preset asks
 //! for masks (`output.masks`); the writers encode them ([`crate::write::masks`]).
 
-use crate::render::PixelHit;
+use super::visibility::PixelHit;
 use crate::scene::projection::PixelBox;
 
 /// A frame's masks.

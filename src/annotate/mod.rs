@@ -1,19 +1,21 @@
 //! Labels from poses and pixels: the one place where the box method is
 //! chosen. `Amodal` and `PaperAabb` boxes come from the scene's geometry
 //! ([`crate::scene::projection`]); `Visible` boxes and the visibility filters
-//! from what the renderer measured ([`crate::render::visibility`]).
+//! from what the renderer measured ([`visibility`], plain data the renderer
+//! fills in; this module knows nothing of the GPU).
 
 pub mod depth;
 pub mod masks;
 pub mod overlay;
 pub mod rle;
+pub mod visibility;
 
 use serde::Serialize;
 
 use crate::preset::{BoxMethod, LabelSettings};
-use crate::render::visibility::Visibility;
 use crate::scene::FrameScene;
 pub use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box, paper_aabb_box};
+use visibility::Visibility;
 
 /// One labelled drone.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -567,7 +567,9 @@ impl SwarmshotApp {
         }
         self.generation += 1;
         self.seen = Some(self.session.preset.clone());
-        self.errors = self.session.preset.validate().err().unwrap_or_default();
+        self.errors = crate::pipeline::check::validate(&self.session.preset)
+            .err()
+            .unwrap_or_default();
         let mut resolved = self.session.preset.clone();
         let base = self
             .session
@@ -1030,6 +1032,7 @@ impl SwarmshotApp {
             encoder_threads: 0,
             makers: 0,
             shard: self.batch_shard(),
+            every: None,
         };
         let wake_ctx = ctx.clone();
         match BatchRun::start(preset, options, gpu.clone(), move || {

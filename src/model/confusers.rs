@@ -9,8 +9,8 @@
 //! the gliding pose, so the scene keeps a bird's body still and its size
 //! constant while its wings beat.
 
-/// Flap poses per bird: pose `k` shows phase `k / FLAP_POSES` of the beat.
-pub const FLAP_POSES: usize = 8;
+/// The poses' count and names are the preset's (its confuser kinds name their models).
+pub use crate::preset::confusers::{FLAP_POSES, bird_model};
 
 macro_rules! confusers {
     ($($name:literal),* $(,)?) => {
@@ -70,14 +70,6 @@ pub struct PoseFrame {
     pub centre: [f64; 3],
     /// Largest span.
     pub span: f64,
-}
-
-/// The model name of a bird species' pose (`None`: gliding).
-pub fn bird_model(species: &str, pose: Option<usize>) -> String {
-    match pose {
-        Some(k) => format!("bird_{species}_{}", k % FLAP_POSES),
-        None => format!("bird_{species}_glide"),
-    }
 }
 
 /// The frame of a bird pose (`None` for a model that is not a bird pose).

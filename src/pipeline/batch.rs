@@ -18,11 +18,11 @@
 //! `crate::write::folder` and docs/reliability.md). [`StageTimes`] records
 //! where the time went.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use super::sink::{Keyed, SinkEnd, write_in_order};
 use super::{Frame, FramePipeline};
 use crate::annotate::DroneLabel;
 use crate::render::{GpuContext, Painted};
@@ -33,7 +33,7 @@ use crate::write::{Area, DatasetStats, DatasetWriter, ImageEncoder, Unchanged, W
 #[derive(Clone, Debug)]
 pub struct BatchOptions {
     pub out_dir: PathBuf,
-    /// Make only the first N frames.
+    /// Make only the first N frames (of every `every`th, with `every`).
     pub limit: Option<u64>,
     /// Delete an earlier run's own files in the folder and start again.
     pub overwrite: bool,
@@ -46,6 +46,11 @@ pub struct BatchOptions {
     pub makers: usize,
     /// Make only shard K of N of the frames (`--shard`, see `crate::write::shard`).
     pub shard: Option<Shard>,
+    /// A trial of every Kth frame (`--every K`): frames `0, K, 2K, …` with
+    /// their own indices and names, each the full run's frame of that index;
+    /// `limit` then counts these frames. `None` is every frame for a new
+    /// run and the earlier trial's step for a resumed one (docs/datasets.md).
+    pub every: Option<u64>,
 }
 
 /// Makers by default. On lavapipe (2 cores) a second maker made the
@@ -63,6 +68,7 @@ impl BatchOptions {
             encoder_threads: 0,
             makers: 0,
             shard: None,
+            every: None,
         }
     }
 }
@@ -145,6 +151,7 @@ impl BatchReport {
     }
 }
 
+/// One frame through an encoder thread: what the sink writes.
 struct Encoded {
     scene: FrameScene,
     labels: Vec<DroneLabel>,
@@ -154,12 +161,68 @@ struct Encoded {
     encode: Duration,
 }
 
-/// The frame count a run asks its writer for: the first `limit` of `count`,
-/// or None (the locked run's own) when resuming without a limit.
-pub(crate) fn frames_asked(count: u64, limit: Option<u64>, resume: bool) -> Option<u64> {
+/// How one maker thread ended.
+struct MakerEnd {
+    /// Its first error (frames after it are never written).
+    result: anyhow::Result<()>,
+    /// It stopped because `cancel` was set.
+    cancelled: bool,
+    /// Time spent making frames.
+    busy: Duration,
+}
+
+/// What the sink thread hands back: the writer, to finish the dataset.
+struct SinkResult {
+    writer: DatasetWriter,
+    /// Encoding time of the written frames (over all encoder threads).
+    encode: Duration,
+    /// Time spent writing files.
+    write: Duration,
+    end: SinkEnd,
+}
+
+/// The makers' joint result.
+struct MakersResult {
+    result: anyhow::Result<()>,
+    cancelled: bool,
+    busy: Duration,
+}
+
+/// The frame span a run asks its writer for: one past the last frame index
+/// of the first `limit` frames of every `every`th of `count` (all with no
+/// limit), or None (the locked run's own) when resuming without a limit.
+pub(crate) fn frames_asked(
+    count: u64,
+    limit: Option<u64>,
+    every: u64,
+    resume: bool,
+) -> Option<u64> {
     match (limit, resume) {
         (None, true) => None,
-        (limit, _) => Some(limit.map_or(count, |n| n.min(count))),
+        (limit, _) => Some(limit.map_or(count, |n| n.saturating_mul(every.max(1)).min(count))),
+    }
+}
+
+/// The frames a run of `options` makes of `count` (before a shard cuts them):
+/// the first `limit` of frames `0, K, 2K, …` for `every: Some(K)`.
+pub fn frames_of(count: u64, options: &BatchOptions) -> u64 {
+    let every = options.every.unwrap_or(1).max(1);
+    frames_asked(count, options.limit, every, false)
+        .unwrap_or(count)
+        .div_ceil(every)
+}
+
+/// Refuse `every` where it cannot hold, before the folder is touched.
+fn check_every(options: &BatchOptions, preset: &crate::preset::Preset) -> anyhow::Result<()> {
+    match options.every {
+        Some(0) => anyhow::bail!("--every 0: the step between frames must be at least 1"),
+        Some(k) if k > 1 && options.shard.is_some() => anyhow::bail!(
+            "--every {k} with --shard: a trial of every {k}th frame runs in one process; leave out one of them"
+        ),
+        Some(k) if k > 1 && preset.sequence.is_some() => anyhow::bail!(
+            "--every {k}: the preset makes sequences (sequence), whose frames follow one another; use --limit for a trial"
+        ),
+        _ => Ok(()),
     }
 }
 
@@ -169,251 +232,330 @@ pub fn run_batch(
     options: &BatchOptions,
     ctx: &GpuContext,
     cancel: &AtomicBool,
-    mut on_progress: impl FnMut(Progress) + Send,
+    on_progress: impl FnMut(Progress) + Send,
 ) -> anyhow::Result<BatchReport> {
     let preset = pipeline.preset();
     // The frame's work budget, before the output folder is touched.
     preset
         .check_render_budget()
         .map_err(|e| anyhow::anyhow!("{e}"))?;
+    check_every(options, preset)?;
     let count = pipeline.frame_count();
-    let frames = frames_asked(count, options.limit, options.resume);
-    let mut writer = DatasetWriter::open(
+    // Only --resume takes the earlier trial's step; a new run says its own.
+    let every = match (options.every, options.resume) {
+        (None, true) => crate::write::folder::read_run(&options.out_dir)
+            .ok()
+            .flatten()
+            .map_or(1, |(run, _)| run.every),
+        (every, _) => every.unwrap_or(1).max(1),
+    };
+    let writer = DatasetWriter::open(
         &options.out_dir,
         preset,
         pipeline.model_names().to_vec(),
         WriterOptions {
-            frames,
+            frames: frames_asked(count, options.limit, every, options.resume),
             overwrite: options.overwrite,
             resume: options.resume,
             shard: options.shard,
+            every: Some(every),
             labels_only: false,
         },
     )?;
-    let first = writer.next_frame();
-    let total = writer.total().min(count);
-    // Progress counts this run's frames (a shard's, with --shard).
-    let (done_before, run_frames) = (writer.start(), total.saturating_sub(writer.start()));
-    let start = Instant::now();
-    if first >= total {
+    let run = RunSpan {
+        first: writer.next_frame(),
+        start: writer.start(),
+        total: writer.total().min(count),
+        every: writer.every(),
+        started: Instant::now(),
+    };
+    if run.first >= run.total {
         let stats = writer.finish()?;
-        return Ok(BatchReport {
+        return Ok(report(
+            options,
+            run,
             stats,
-            cancelled: false,
-            elapsed: start.elapsed(),
-            out_dir: options.out_dir.clone(),
-            times: StageTimes::default(),
-            start_frame: done_before,
-            first_frame: first,
-            made: 0,
-        });
+            StageTimes::default(),
+            (0, false),
+        ));
     }
+    let (sink, makers) = run_stages(pipeline, options, ctx, cancel, writer, run, on_progress);
+    let sink = sink?;
+    let cancelled = makers.cancelled || sink.end == SinkEnd::Cancelled;
+    makers.result?;
+    let made = sink.writer.next_frame().saturating_sub(run.first) / run.every;
+    let stats = sink.writer.finish()?;
+    let times = StageTimes {
+        make: makers.busy,
+        encode: sink.encode,
+        write: sink.write,
+    };
+    Ok(report(options, run, stats, times, (made, cancelled)))
+}
+
+/// The frames of this run: indices `first, first + every, …` below `total`
+/// (`start`: the run's first frame, before an earlier run continued), and
+/// when it started.
+#[derive(Clone, Copy, Debug)]
+struct RunSpan {
+    first: u64,
+    start: u64,
+    total: u64,
+    every: u64,
+    started: Instant,
+}
+
+impl RunSpan {
+    /// Frames left to make.
+    fn left(&self) -> u64 {
+        self.total.saturating_sub(self.first).div_ceil(self.every)
+    }
+}
+
+fn report(
+    options: &BatchOptions,
+    run: RunSpan,
+    stats: DatasetStats,
+    times: StageTimes,
+    (made, cancelled): (u64, bool),
+) -> BatchReport {
+    BatchReport {
+        stats,
+        cancelled,
+        elapsed: run.started.elapsed(),
+        out_dir: options.out_dir.clone(),
+        times,
+        start_frame: run.start,
+        first_frame: run.first,
+        made,
+    }
+}
+
+/// The three stages on their bounded queues: makers → encoders → the sink.
+fn run_stages(
+    pipeline: &FramePipeline,
+    options: &BatchOptions,
+    ctx: &GpuContext,
+    cancel: &AtomicBool,
+    mut writer: DatasetWriter,
+    run: RunSpan,
+    mut on_progress: impl FnMut(Progress) + Send,
+) -> (anyhow::Result<SinkResult>, MakersResult) {
     let makers = if options.makers == 0 {
         DEFAULT_MAKERS
     } else {
         options.makers
     }
-    .min(usize::try_from(total - first).unwrap_or(usize::MAX))
+    .min(usize::try_from(run.left()).unwrap_or(usize::MAX))
     .max(1);
-    let format = preset.output.image_format;
+    let format = pipeline.preset().output.image_format;
     let threads = if options.encoder_threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1))
     } else {
         options.encoder_threads
     };
-    let failed = AtomicBool::new(false);
-    let next_index = AtomicU64::new(first);
-    let stop_making = AtomicBool::new(false);
+    let failed = &AtomicBool::new(false);
+    let next_index = &AtomicU64::new(run.first);
+    let stop_making = &AtomicBool::new(false);
     let (to_encode, encode_rx) = crossbeam_channel::bounded::<Frame>(threads * 2);
-    let (to_sink, sink_rx) = crossbeam_channel::bounded::<anyhow::Result<Encoded>>(threads * 2);
+    let (to_sink, sink_rx) = crossbeam_channel::bounded::<Keyed<Encoded>>(threads * 2);
     // Encoded frames' pixel buffers, back to the makers for reuse.
     // Frames in flight: being made, queued for an encoder, being encoded.
     // The channel and each maker's spares hold that many, so no buffer is
     // dropped and allocated again.
     let in_flight = makers + threads * 3;
     let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
-
     // One encoder for all threads: JPEG frames over the same background
     // share its unpainted tiles (write/jpeg.rs).
     let encoder = &ImageEncoder::new(format);
-    let (sink_result, cancelled, make_result, make_time) = std::thread::scope(|s| {
+    let stages = &MakerStages {
+        pipeline,
+        ctx,
+        cancel,
+        failed,
+        stop_making,
+        next_index,
+        run,
+        in_flight,
+    };
+    std::thread::scope(|s| {
         for _ in 0..threads {
-            let rx = encode_rx.clone();
-            let tx = to_sink.clone();
-            let recycle = recycle_tx.clone();
+            let (rx, tx, recycle) = (encode_rx.clone(), to_sink.clone(), recycle_tx.clone());
             s.spawn(move || {
                 for frame in rx {
-                    let t = Instant::now();
-                    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
-                    let changed: Vec<Area> = (frame.painted.rects().iter())
-                        .map(|r| Area {
-                            x: r.x0..r.x1,
-                            y: r.y0..r.y1,
-                        })
-                        .collect();
-                    let unchanged = Unchanged {
-                        background: frame.painted.background(),
-                        changed: &changed,
-                    };
-                    // A frame through the camera model may have its own JPEG quality.
-                    let frame_format = pipeline.image_format(&frame.scene);
-                    let bytes = if frame_format == format {
-                        encoder.encode(&frame.rgba, w, h, Some(unchanged))
-                    } else {
-                        crate::write::encode_image(&frame.rgba, w, h, frame_format)
-                    };
-                    let masks = frame.masks.as_ref().map(|m| {
-                        let outputs = &pipeline.preset().output.masks;
-                        crate::write::masks::encode(m, &frame.labels, outputs)
-                    });
-                    let msg = bytes
-                        .and_then(|bytes| Ok((bytes, masks.transpose()?)))
-                        .map(|(bytes, masks)| Encoded {
-                            scene: frame.scene,
-                            labels: frame.labels,
-                            bytes,
-                            masks,
-                            encode: t.elapsed(),
-                        })
-                        .map_err(anyhow::Error::from);
+                    let key = frame.scene.index;
+                    let (item, pixels) = encode_frame(pipeline, encoder, frame);
                     // The pixels go back to a maker for a later frame (dropped when none waits).
-                    let _ = recycle.try_send((frame.rgba, frame.painted));
-                    if tx.send(msg).is_err() {
+                    let _ = recycle.try_send(pixels);
+                    if tx.send(Keyed { key, item }).is_err() {
                         break;
                     }
                 }
             });
         }
-        drop(to_sink);
-        drop(encode_rx);
-        // The sink: reorder by index and write; the first error stops it.
-        let failed = &failed;
-        let sink = s.spawn(
-            move || -> anyhow::Result<(DatasetWriter, Duration, Duration, bool)> {
-                let mut pending: BTreeMap<u64, Encoded> = BTreeMap::new();
-                let mut next = first;
-                let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
-                let stop = |e: anyhow::Error| {
-                    failed.store(true, Ordering::Relaxed);
-                    Err(e)
-                };
-                for msg in sink_rx {
-                    match msg {
-                        Ok(e) => {
-                            pending.insert(e.scene.index, e);
-                        }
-                        Err(e) => return stop(e),
-                    }
-                    while let Some(e) = pending.remove(&next) {
-                        if cancel.load(Ordering::Relaxed) {
-                            // Frames made but not yet written are dropped: a resume remakes them.
-                            return Ok((writer, encode, write, true));
-                        }
-                        encode += e.encode;
-                        let t = Instant::now();
-                        if let Err(err) = writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref()) {
-                            writer.rollback();
-                            return stop(anyhow::Error::from(err).context(format!(
-                                "writing frame {next} failed; the frames before it are complete, and the same command with --resume continues from it"
-                            )));
-                        }
-                        write += t.elapsed();
-                        next += 1;
-                        on_progress(Progress {
-                            done: next - done_before,
-                            total: run_frames,
-                            elapsed: start.elapsed(),
-                        });
-                    }
+        drop((to_sink, encode_rx));
+        let sink = s.spawn(move || {
+            let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
+            let end = write_in_order(sink_rx, (run.first, run.every), cancel, failed, |index, e: Encoded| {
+                encode += e.encode;
+                let t = Instant::now();
+                if let Err(err) = writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref()) {
+                    writer.rollback();
+                    return Err(anyhow::Error::from(err).context(format!(
+                        "writing frame {index} failed; the frames before it are complete, and the same command with --resume continues from it"
+                    )));
                 }
-                Ok((writer, encode, write, false))
-            },
-        );
-        // The makers: each takes the next index until the batch ends, fails or is cancelled.
+                write += t.elapsed();
+                on_progress(Progress {
+                    done: (index + run.every - run.start) / run.every,
+                    total: run.total.saturating_sub(run.start).div_ceil(run.every),
+                    elapsed: run.started.elapsed(),
+                });
+                Ok(())
+            });
+            end.map(|end| SinkResult { writer, encode, write, end })
+        });
         let makers: Vec<_> = (0..makers)
             .map(|_| {
-                let to_encode = to_encode.clone();
-                let recycled = recycle_rx.clone();
-                let (next_index, stop_making) = (&next_index, &stop_making);
-                s.spawn(move || -> (anyhow::Result<()>, bool, Duration) {
-                    let mut renderer = pipeline.renderer(ctx);
-                    renderer.keep_spares(in_flight);
-                    let mut busy = Duration::ZERO;
-                    loop {
-                        if failed.load(Ordering::Relaxed) || stop_making.load(Ordering::Relaxed) {
-                            return (Ok(()), false, busy); // the sink or another maker failed
-                        }
-                        if cancel.load(Ordering::Relaxed) {
-                            return (Ok(()), true, busy);
-                        }
-                        let index = next_index.fetch_add(1, Ordering::Relaxed);
-                        if index >= total {
-                            return (Ok(()), false, busy);
-                        }
-                        while let Ok((buffer, painted)) = recycled.try_recv() {
-                            renderer.recycle(buffer, painted);
-                        }
-                        let t = Instant::now();
-                        let made = pipeline.make(&mut renderer, index);
-                        busy += t.elapsed();
-                        match made {
-                            // A send fails only when the sink has stopped (its error is reported).
-                            Ok(frame) => {
-                                if to_encode.send(frame).is_err() {
-                                    return (Ok(()), false, busy);
-                                }
-                            }
-                            Err(e) => {
-                                // Frames after this one may be made, but the sink writes in
-                                // index order and so never writes past the gap.
-                                stop_making.store(true, Ordering::Relaxed);
-                                return (Err(e.into()), false, busy);
-                            }
-                        }
-                    }
-                })
+                let (to_encode, recycled) = (to_encode.clone(), recycle_rx.clone());
+                s.spawn(move || stages.make_frames(&to_encode, &recycled))
             })
             .collect();
         drop(to_encode);
-        let mut make_result = Ok(());
-        let mut cancelled = false;
-        let mut make_time = Duration::ZERO;
-        for maker in makers {
-            let (result, was_cancelled, busy) = maker.join().unwrap_or_else(|_| {
-                (
-                    Err(anyhow::anyhow!("a frame maker thread panicked")),
-                    false,
-                    Duration::ZERO,
-                )
-            });
-            make_time += busy;
-            cancelled |= was_cancelled;
-            if make_result.is_ok() {
-                make_result = result;
-            }
-        }
-        let sink_result = sink
+        let makers = join_makers(makers);
+        let sink = sink
             .join()
             .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
-        (sink_result, cancelled, make_result, make_time)
-    });
-    let (writer, encode, write, sink_cancelled) = sink_result?;
-    let cancelled = cancelled || sink_cancelled;
-    make_result?;
-    let made = writer.next_frame().saturating_sub(first);
-    let stats = writer.finish()?;
-    Ok(BatchReport {
-        stats,
-        cancelled,
-        elapsed: start.elapsed(),
-        out_dir: options.out_dir.clone(),
-        times: StageTimes {
-            make: make_time,
-            encode,
-            write,
-        },
-        start_frame: done_before,
-        first_frame: first,
-        made,
+        (sink, makers)
     })
+}
+
+/// Encode one frame's image (and masks): the sink's item, and the pixel
+/// buffer to hand back to a maker.
+fn encode_frame(
+    pipeline: &FramePipeline,
+    encoder: &ImageEncoder,
+    frame: Frame,
+) -> (anyhow::Result<Encoded>, (Vec<u8>, Painted)) {
+    let t = Instant::now();
+    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+    let changed: Vec<Area> = (frame.painted.rects().iter())
+        .map(|r| Area {
+            x: r.x0..r.x1,
+            y: r.y0..r.y1,
+        })
+        .collect();
+    let unchanged = Unchanged {
+        background: frame.painted.background(),
+        changed: &changed,
+    };
+    // A frame through the camera model may have its own JPEG quality.
+    let frame_format = pipeline.image_format(&frame.scene);
+    let bytes = if frame_format == pipeline.preset().output.image_format {
+        encoder.encode(&frame.rgba, w, h, Some(unchanged))
+    } else {
+        crate::write::encode_image(&frame.rgba, w, h, frame_format)
+    };
+    let masks = frame.masks.as_ref().map(|m| {
+        let outputs = &pipeline.preset().output.masks;
+        crate::write::masks::encode(m, &frame.labels, outputs)
+    });
+    let item = bytes
+        .and_then(|bytes| Ok((bytes, masks.transpose()?)))
+        .map(|(bytes, masks)| Encoded {
+            scene: frame.scene,
+            labels: frame.labels,
+            bytes,
+            masks,
+            encode: t.elapsed(),
+        })
+        .map_err(anyhow::Error::from);
+    (item, (frame.rgba, frame.painted))
+}
+
+/// What every maker thread shares.
+struct MakerStages<'a> {
+    pipeline: &'a FramePipeline,
+    ctx: &'a GpuContext,
+    cancel: &'a AtomicBool,
+    /// The sink failed: stop.
+    failed: &'a AtomicBool,
+    /// Another maker failed: stop.
+    stop_making: &'a AtomicBool,
+    /// The next frame index to take (in steps of `run.every`).
+    next_index: &'a AtomicU64,
+    run: RunSpan,
+    in_flight: usize,
+}
+
+impl MakerStages<'_> {
+    /// One maker: take the next index until the batch ends, fails or is cancelled.
+    fn make_frames(
+        &self,
+        to_encode: &crossbeam_channel::Sender<Frame>,
+        recycled: &crossbeam_channel::Receiver<(Vec<u8>, Painted)>,
+    ) -> MakerEnd {
+        let mut renderer = self.pipeline.renderer(self.ctx);
+        renderer.keep_spares(self.in_flight);
+        let mut busy = Duration::ZERO;
+        let end = |result, cancelled, busy| MakerEnd {
+            result,
+            cancelled,
+            busy,
+        };
+        loop {
+            if self.failed.load(Ordering::Relaxed) || self.stop_making.load(Ordering::Relaxed) {
+                return end(Ok(()), false, busy); // the sink or another maker failed
+            }
+            if self.cancel.load(Ordering::Relaxed) {
+                return end(Ok(()), true, busy);
+            }
+            let index = self.next_index.fetch_add(self.run.every, Ordering::Relaxed);
+            if index >= self.run.total {
+                return end(Ok(()), false, busy);
+            }
+            while let Ok((buffer, painted)) = recycled.try_recv() {
+                renderer.recycle(buffer, painted);
+            }
+            let t = Instant::now();
+            let made = self.pipeline.make(&mut renderer, index);
+            busy += t.elapsed();
+            match made {
+                // A send fails only when the sink has stopped (its error is reported).
+                Ok(frame) => {
+                    if to_encode.send(frame).is_err() {
+                        return end(Ok(()), false, busy);
+                    }
+                }
+                Err(e) => {
+                    // Frames after this one may be made, but the sink writes in
+                    // index order and so never writes past the gap.
+                    self.stop_making.store(true, Ordering::Relaxed);
+                    return end(Err(e.into()), false, busy);
+                }
+            }
+        }
+    }
+}
+
+/// Join the makers: the first error, whether any was cancelled, their busy time.
+fn join_makers(makers: Vec<std::thread::ScopedJoinHandle<'_, MakerEnd>>) -> MakersResult {
+    let mut joint = MakersResult {
+        result: Ok(()),
+        cancelled: false,
+        busy: Duration::ZERO,
+    };
+    for maker in makers {
+        let end = maker.join().unwrap_or_else(|_| MakerEnd {
+            result: Err(anyhow::anyhow!("a frame maker thread panicked")),
+            cancelled: false,
+            busy: Duration::ZERO,
+        });
+        joint.busy += end.busy;
+        joint.cancelled |= end.cancelled;
+        if joint.result.is_ok() {
+            joint.result = end.result;
+        }
+    }
+    joint
 }

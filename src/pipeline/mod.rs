@@ -15,20 +15,23 @@
 //! renderer while the preset changes as long as the assets stay the same.
 
 pub mod batch;
+pub mod check;
 pub mod plan;
+mod sink;
 mod streaks;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::annotate::masks::FrameMasks;
+use crate::annotate::visibility::Visibility;
 use crate::annotate::{DroneLabel, label_frame};
 use crate::model::lod::{self, Lod};
 use crate::model::{self, CpuModel, ModelError};
 use crate::preset::{
     BoxMethod, FieldError, ImageFormat, LabelSettings, ModelSource, ModelSpec, Preset,
 };
-use crate::render::visibility::{self, Visibility};
+use crate::render::visibility;
 use crate::render::{GpuContext, Painted, RenderError, RenderRequest, RenderedFrame, Renderer};
 use crate::scene::projection::{LabelGeometry, PixelBox};
 use crate::scene::{FrameError, FrameScene, MAX_DRAWS, build_frame, build_frame_draw};
@@ -219,7 +222,7 @@ pub struct FramePipeline {
 impl FramePipeline {
     /// Validate `preset` and load what it names.
     pub fn new(preset: Preset) -> Result<Self, PipelineError> {
-        preset.validate().map_err(PipelineError::Invalid)?;
+        check::validate(&preset).map_err(PipelineError::Invalid)?;
         let assets = Arc::new(Assets::load(&preset)?);
         Ok(Self::with_assets(preset, assets))
     }
@@ -232,7 +235,7 @@ impl FramePipeline {
     /// The pipeline of an edited preset: reuses this pipeline's assets when
     /// the edit did not change which models or sky images it names.
     pub fn update(&self, preset: Preset) -> Result<Self, PipelineError> {
-        preset.validate().map_err(PipelineError::Invalid)?;
+        check::validate(&preset).map_err(PipelineError::Invalid)?;
         let assets = if self.assets.serve(&preset) {
             self.assets.clone()
         } else {

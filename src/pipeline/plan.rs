@@ -9,12 +9,12 @@
 //! exactly the rendered batch's; `Visible` boxes are estimated by amodal ones
 //! and the visibility filters do not run (see [`FramePipeline::estimate_labels`]).
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use super::batch::frames_asked;
+use super::sink::{Keyed, SinkEnd, write_in_order};
 use super::{FramePipeline, Progress};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
@@ -83,11 +83,11 @@ pub fn run_plan(
     pipeline: &FramePipeline,
     options: &PlanOptions,
     cancel: &AtomicBool,
-    mut on_progress: impl FnMut(Progress) + Send,
+    on_progress: impl FnMut(Progress) + Send,
 ) -> anyhow::Result<PlanReport> {
     let count = pipeline.frame_count();
-    let frames = frames_asked(count, options.limit, options.resume);
-    let mut writer = DatasetWriter::open(
+    let frames = frames_asked(count, options.limit, 1, options.resume);
+    let writer = DatasetWriter::open(
         &options.out_dir,
         pipeline.preset(),
         pipeline.model_names().to_vec(),
@@ -97,6 +97,7 @@ pub fn run_plan(
             resume: options.resume,
             labels_only: true,
             shard: None,
+            every: None,
         },
     )?;
     let first = writer.next_frame();
@@ -107,101 +108,16 @@ pub fn run_plan(
     } else {
         options.threads
     };
-    let next_chunk = AtomicU64::new(0);
-    let failed = AtomicBool::new(false);
-    let chunks = (total.saturating_sub(first)).div_ceil(CHUNK);
-    let (tx, rx) = crossbeam_channel::bounded::<(u64, anyhow::Result<Chunk>)>(threads * 2);
-    // Written chunks go back to the workers to be filled again.
-    let (spare_tx, spare_rx) = crossbeam_channel::unbounded::<Chunk>();
-    let context = writer.text_context().clone();
-    let (sink_result, cancelled) = std::thread::scope(|s| {
-        for _ in 0..threads {
-            let tx = tx.clone();
-            let spare_rx = spare_rx.clone();
-            let context = &context;
-            let (next_chunk, failed) = (&next_chunk, &failed);
-            s.spawn(move || {
-                loop {
-                    if failed.load(Ordering::Relaxed) || cancel.load(Ordering::Relaxed) {
-                        return;
-                    }
-                    let c = next_chunk.fetch_add(1, Ordering::Relaxed);
-                    if c >= chunks {
-                        return;
-                    }
-                    let lo = first + c * CHUNK;
-                    let hi = (lo + CHUNK).min(total);
-                    let mut chunk = spare_rx.try_recv().unwrap_or_default();
-                    chunk.frames.clear();
-                    chunk.texts.clear();
-                    chunk.stats = DatasetStats::default();
-                    let planned = (lo..hi).try_for_each(|i| {
-                        let (scene, labels) = pipeline.plan(i)?;
-                        context.push_frame(&mut chunk.texts, &scene, &labels);
-                        chunk
-                            .stats
-                            .add(&scene, &labels, &context.model_names, &context.classes);
-                        chunk.frames.push((scene, labels));
-                        anyhow::Ok(())
-                    });
-                    if tx.send((c, planned.map(|()| chunk))).is_err() {
-                        return;
-                    }
-                }
-            });
-        }
-        drop(tx);
-        let failed = &failed;
-        let sink = s.spawn(move || -> (anyhow::Result<DatasetWriter>, bool) {
-            let mut pending: BTreeMap<u64, Chunk> = BTreeMap::new();
-            let mut next = 0u64;
-            for (c, planned) in rx {
-                match planned {
-                    Ok(chunk) => {
-                        pending.insert(c, chunk);
-                    }
-                    Err(e) => {
-                        failed.store(true, Ordering::Relaxed);
-                        return (Err(e), false);
-                    }
-                }
-                while let Some(chunk) = pending.remove(&next) {
-                    if cancel.load(Ordering::Relaxed) {
-                        return (Ok(writer), true);
-                    }
-                    if let Err(e) =
-                        writer.write_plan_frames(&chunk.frames, &chunk.texts, &chunk.stats)
-                    {
-                        failed.store(true, Ordering::Relaxed);
-                        writer.rollback();
-                        return (
-                            Err(anyhow::Error::from(e).context(format!(
-                                "writing frames from {} failed; the same command with --resume continues the plan",
-                                first + next * CHUNK
-                            ))),
-                            false,
-                        );
-                    }
-                    next += 1;
-                    // The workers may have finished: a chunk nobody takes is dropped.
-                    let _ = spare_tx.send(chunk);
-                    on_progress(Progress {
-                        done: writer.next_frame(),
-                        total,
-                        elapsed: start.elapsed(),
-                    });
-                }
-            }
-            (Ok(writer), cancel.load(Ordering::Relaxed))
-        });
-        sink.join().unwrap_or_else(|_| {
-            (
-                Err(anyhow::anyhow!("the plan's writer thread panicked")),
-                false,
-            )
-        })
-    });
+    let span = PlanSpan {
+        first,
+        total,
+        chunks: (total.saturating_sub(first)).div_ceil(CHUNK),
+        started: start,
+    };
+    let (sink_result, cancelled) =
+        plan_stages(pipeline, writer, span, threads, cancel, on_progress);
     let writer = sink_result?;
+    let cancelled = cancelled == SinkEnd::Cancelled || cancel.load(Ordering::Relaxed);
     let planned = writer.next_frame() - first;
     let stats = writer.finish()?;
     Ok(PlanReport {
@@ -212,4 +128,103 @@ pub fn run_plan(
         planned,
         estimated: pipeline.preset().labels.needs_id_pass(),
     })
+}
+
+/// The chunks of this plan: frames `first..total` in `chunks` chunks of [`CHUNK`].
+#[derive(Clone, Copy)]
+struct PlanSpan {
+    first: u64,
+    total: u64,
+    chunks: u64,
+    started: Instant,
+}
+
+/// The workers (one chunk at a time) and the ordered sink that writes them.
+fn plan_stages(
+    pipeline: &FramePipeline,
+    mut writer: DatasetWriter,
+    span: PlanSpan,
+    threads: usize,
+    cancel: &AtomicBool,
+    mut on_progress: impl FnMut(Progress) + Send,
+) -> (anyhow::Result<DatasetWriter>, SinkEnd) {
+    let next_chunk = &AtomicU64::new(0);
+    let failed = &AtomicBool::new(false);
+    let (tx, rx) = crossbeam_channel::bounded::<Keyed<Chunk>>(threads * 2);
+    // Written chunks go back to the workers to be filled again.
+    let (spare_tx, spare_rx) = crossbeam_channel::unbounded::<Chunk>();
+    let context = &writer.text_context().clone();
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            let (tx, spare_rx) = (tx.clone(), spare_rx.clone());
+            s.spawn(move || {
+                loop {
+                    if failed.load(Ordering::Relaxed) || cancel.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    let c = next_chunk.fetch_add(1, Ordering::Relaxed);
+                    if c >= span.chunks {
+                        return;
+                    }
+                    let lo = span.first + c * CHUNK;
+                    let hi = (lo + CHUNK).min(span.total);
+                    let chunk = spare_rx.try_recv().unwrap_or_default();
+                    let item = plan_chunk(pipeline, context, chunk, lo..hi);
+                    if tx.send(Keyed { key: c, item }).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        let sink = s.spawn(move || {
+            let end = write_in_order(rx, (0, 1), cancel, failed, |c, chunk: Chunk| {
+                if let Err(e) = writer.write_plan_frames(&chunk.frames, &chunk.texts, &chunk.stats) {
+                    writer.rollback();
+                    return Err(anyhow::Error::from(e).context(format!(
+                        "writing frames from {} failed; the same command with --resume continues the plan",
+                        span.first + c * CHUNK
+                    )));
+                }
+                // The workers may have finished: a chunk nobody takes is dropped.
+                let _ = spare_tx.send(chunk);
+                on_progress(Progress {
+                    done: writer.next_frame(),
+                    total: span.total,
+                    elapsed: span.started.elapsed(),
+                });
+                Ok(())
+            });
+            end.map(|end| (writer, end))
+        });
+        match sink.join() {
+            Ok(Ok((writer, end))) => (Ok(writer), end),
+            Ok(Err(e)) => (Err(e), SinkEnd::Drained),
+            Err(_) => (
+                Err(anyhow::anyhow!("the plan's writer thread panicked")),
+                SinkEnd::Drained,
+            ),
+        }
+    })
+}
+
+/// Plan frames `range` into `chunk` (its buffers reused).
+fn plan_chunk(
+    pipeline: &FramePipeline,
+    context: &crate::write::TextContext,
+    mut chunk: Chunk,
+    range: std::ops::Range<u64>,
+) -> anyhow::Result<Chunk> {
+    chunk.frames.clear();
+    chunk.texts.clear();
+    chunk.stats = DatasetStats::default();
+    for i in range {
+        let (scene, labels) = pipeline.plan(i)?;
+        context.push_frame(&mut chunk.texts, &scene, &labels);
+        chunk
+            .stats
+            .add(&scene, &labels, &context.model_names, &context.classes);
+        chunk.frames.push((scene, labels));
+    }
+    Ok(chunk)
 }

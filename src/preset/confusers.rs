@@ -106,9 +106,8 @@ impl ConfuserKind {
     }
 
     /// The built-in models of this kind: a bird's flap poses then its
-    /// gliding pose (`model::confusers::FLAP_POSES + 1` names), else one.
+    /// gliding pose ([`FLAP_POSES`] + 1 names), else one.
     pub fn model_names(self) -> Vec<String> {
-        use crate::model::confusers::{FLAP_POSES, bird_model};
         match self {
             Self::Bird(_) => (0..FLAP_POSES)
                 .map(Some)
@@ -117,6 +116,18 @@ impl ConfuserKind {
                 .collect(),
             other => vec![other.name().to_string()],
         }
+    }
+}
+
+/// Flap poses per bird: pose `k` shows phase `k / FLAP_POSES` of the beat
+/// (the built-in models `model::confusers` embeds, one per pose).
+pub const FLAP_POSES: usize = 8;
+
+/// The built-in model name of a bird species' pose (`None`: gliding).
+pub fn bird_model(species: &str, pose: Option<usize>) -> String {
+    match pose {
+        Some(k) => format!("bird_{species}_{}", k % FLAP_POSES),
+        None => format!("bird_{species}_glide"),
     }
 }
 

@@ -8,6 +8,10 @@ pub const QUEUED_FRAMES: u64 = 8;
 /// The most memory one frame may need, whatever the machine ([`Preset::frame_memory_bytes`]).
 pub const MAX_FRAME_MEMORY_BYTES: u64 = 8 << 30;
 
+/// The most counts a non-uniform count distribution may span (max − min + 1):
+/// its probabilities are computed per frame (`scene::placement`).
+pub const MAX_COUNT_SPAN: u32 = 100_000;
+
 /// What a device offers, as plain numbers (the caller reads them from its adapter).
 #[derive(Clone, Copy, Debug)]
 pub struct DeviceLimits {
@@ -78,7 +82,7 @@ impl Preset {
         }
     }
 
-    /// The model list: sizes, classes, built-in names.
+    /// The model list: sizes and classes (built-in names: `pipeline::check`).
     fn validate_models(&self, v: &mut Validator) {
         if self.models.is_empty() {
             v.push("models", "at least one model is needed".into());
@@ -95,18 +99,6 @@ impl Preset {
             );
             if let Some(problem) = super::text::name_problem(&m.class) {
                 v.push(&format!("models[{i}].class"), problem);
-            }
-            if let ModelSource::Builtin(name) = &m.source {
-                v.check(
-                    crate::model::builtin::glb(name).is_some(),
-                    &format!("models[{i}].source"),
-                    || {
-                        format!(
-                            "no built-in model \"{name}\" (built-ins: {})",
-                            crate::model::builtin::NAMES.join(", ")
-                        )
-                    },
-                );
             }
         }
     }
@@ -416,28 +408,6 @@ impl Preset {
                 None => seen.push((skeleton, &m.class, i)),
             }
         }
-        if let Some(groups) = crate::scene::split::groups(self) {
-            let counts = crate::scene::split::group_counts(self, groups);
-            let s = &self.output.split;
-            let empty: Vec<&str> = ["train", "val", "test"]
-                .into_iter()
-                .zip(counts)
-                .zip([s.train, s.val, s.test])
-                .filter(|((_, n), share)| *n == 0 && *share > 0.0)
-                .map(|((name, _), _)| name)
-                .collect();
-            v.check(empty.is_empty(), "output.split.by", || {
-                format!(
-                    "{:?} makes {groups} group{} ({} train / {} val / {} test): {} gets no frame; sweep more values or split by something finer",
-                    s.by,
-                    if groups == 1 { "" } else { "s" },
-                    counts[0],
-                    counts[1],
-                    counts[2],
-                    empty.join(" and ")
-                )
-            });
-        }
         v.errors
     }
 
@@ -539,16 +509,12 @@ fn validate_count_distribution(
         return;
     }
     let span = u64::from(hi.saturating_sub(lo)) + 1;
-    v.check(
-        span <= u64::from(crate::scene::placement::MAX_COUNT_SPAN),
-        "placement.count",
-        || {
-            format!(
-                "({lo}, {hi}) spans {span} counts; a count_distribution may span at most {}",
-                crate::scene::placement::MAX_COUNT_SPAN
-            )
-        },
-    );
+    v.check(span <= u64::from(MAX_COUNT_SPAN), "placement.count", || {
+        format!(
+            "({lo}, {hi}) spans {span} counts; a count_distribution may span at most {}",
+            MAX_COUNT_SPAN
+        )
+    });
     match dist {
         CountDistribution::Uniform => {}
         CountDistribution::Table(rows) => {

@@ -116,17 +116,9 @@ pub(super) fn tally(bytes: &[u8], row: usize, rect: &Rect, samples: u32, tallies
     }
 }
 
-/// One drone seen at one pixel: `samples` of the pixel's samples (1 to 4;
-/// 1 without MSAA) show drone `drone` (scene index). A pixel has one hit per
-/// distinct drone its samples show, so each drone's hits are exactly the
-/// pixels [`tally`] counts for it (its visible pixels).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PixelHit {
-    pub x: u32,
-    pub y: u32,
-    pub drone: u32,
-    pub samples: u8,
-}
+/// One drone seen at one pixel (plain data, owned by `annotate`): each
+/// drone's hits are exactly the pixels [`tally`] counts for it.
+pub use crate::annotate::visibility::PixelHit;
 
 /// The hits of `rect`'s pixels (read back as in [`tally`]) appended to
 /// `out`: one per pixel and distinct drone id in `1..=drones`.

@@ -32,9 +32,8 @@ fn sample_range(rng: &mut impl Rng, (lo, hi): (f64, f64)) -> f64 {
     }
 }
 
-/// The most counts a non-uniform distribution may span (max − min + 1):
-/// its probabilities are computed per frame.
-pub const MAX_COUNT_SPAN: u32 = 100_000;
+/// The most counts a non-uniform distribution may span (a preset limit).
+pub use crate::preset::MAX_COUNT_SPAN;
 
 /// Relative weight of count `n` under `dist` (truncated to (lo, hi) by the
 /// caller), as ln w so a Poisson of large mean neither overflows nor underflows.

@@ -56,247 +56,23 @@ use super::shard::Shard;
 use super::tree::{Tree, hard_link_refused, link_refused};
 use super::{DatasetStats, OutputError, io};
 
+mod append;
+mod content;
+mod lock;
+mod run;
+mod scan;
+
+pub use append::AppendFile;
+pub use content::{ContentRecord, content_record, content_records};
+pub use lock::FolderLock;
+pub use run::{RunId, ShardPlan, ShardRun, fnv1a64, read_run};
+use scan::LedgerScan;
+
 /// File name of the ledger in the dataset folder.
 pub const LEDGER: &str = ".swarmshot-ledger";
 /// File name of the lock file in the dataset folder (see [`FolderLock`]).
 pub const LOCK: &str = ".swarmshot-lock";
 const LEDGER_VERSION: u32 = 1;
-
-/// What a run is: its frame count, its locked preset's hash, and for a
-/// shard (`--shard K/N`) which shard and its frame range.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RunId {
-    pub frames: u64,
-    pub preset_hash: u64,
-    pub shard: Option<ShardRun>,
-}
-
-/// A shard's part of a run: shard K of N makes frames `start..end`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ShardRun {
-    pub shard: Shard,
-    pub start: u64,
-    pub end: u64,
-}
-
-/// How a run with `--shard` cuts its frames: the shard and the unit
-/// (one frame, or a sequence) its range is made of.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ShardPlan {
-    pub shard: Shard,
-    pub unit: u64,
-}
-
-impl ShardPlan {
-    fn run(self, frames: u64) -> ShardRun {
-        let r = self.shard.range(frames, self.unit);
-        ShardRun {
-            shard: self.shard,
-            start: r.start,
-            end: r.end,
-        }
-    }
-}
-
-impl RunId {
-    /// The first frame this run makes.
-    pub fn start(&self) -> u64 {
-        self.shard.map_or(0, |s| s.start)
-    }
-
-    /// One past the last frame this run makes.
-    pub fn end(&self) -> u64 {
-        self.shard.map_or(self.frames, |s| s.end)
-    }
-
-    fn header(&self) -> String {
-        let shard = self.shard.map_or(String::new(), |s| {
-            format!(" shard={} range={}..{}", s.shard, s.start, s.end)
-        });
-        format!(
-            "swarmshot-ledger {LEDGER_VERSION} frames={} preset=fnv1a64:{:016x}{shard}\n",
-            self.frames, self.preset_hash
-        )
-    }
-
-    fn parse(line: &str) -> Option<Self> {
-        let mut words = line.split(' ');
-        if words.next()? != "swarmshot-ledger" || words.next()? != "1" {
-            return None;
-        }
-        let frames = words.next()?.strip_prefix("frames=")?.parse().ok()?;
-        let hash = words.next()?.strip_prefix("preset=fnv1a64:")?;
-        let preset_hash = u64::from_str_radix(hash, 16).ok()?;
-        let shard = match words.next() {
-            None => None,
-            Some(word) => {
-                let (index, count) = word.strip_prefix("shard=")?.split_once('/')?;
-                let (start, end) = words.next()?.strip_prefix("range=")?.split_once("..")?;
-                Some(ShardRun {
-                    shard: Shard {
-                        index: index.parse().ok()?,
-                        count: count.parse().ok()?,
-                    },
-                    start: start.parse().ok()?,
-                    end: end.parse().ok()?,
-                })
-            }
-        };
-        if words.next().is_some() {
-            return None;
-        }
-        Some(Self {
-            frames,
-            preset_hash,
-            shard,
-        })
-    }
-
-    /// What a refusal says this run is.
-    fn describe(&self) -> String {
-        match self.shard {
-            None => format!("{} frames", self.frames),
-            Some(s) => format!(
-                "{} frames, shard {} (frames {}..{})",
-                self.frames, s.shard, s.start, s.end
-            ),
-        }
-    }
-}
-
-/// What the ledger of `root` says the run is (`None`: no ledger).
-pub fn read_run(root: &Path) -> Result<Option<(RunId, bool)>, OutputError> {
-    if lstat(&root.join(LEDGER))?.is_none() {
-        return Ok(None);
-    }
-    let scan = Folder::scan(root)?;
-    Ok(Some((scan.run, scan.done)))
-}
-
-/// FNV-1a, 64 bit: a stable hash of the locked preset's text.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
-/// One writer per folder: an exclusive `flock` on `.swarmshot-lock` in the
-/// folder, taken before anything else in it is read or written and held for
-/// the whole run. The kernel releases it when the process ends, however it
-/// ends, so a killed run never leaves the folder locked; the file holds the
-/// holder's process id for the refusal's message. A run that ends deletes the
-/// file while it still holds the lock (a run that opened the old file sees
-/// it gone and tries again), so a finished folder holds no lock file; one
-/// left by a killed run is taken over by the next.
-///
-/// On a file system without locks (`ENOLCK`, `EOPNOTSUPP`, `ENOSYS`: some
-/// NFS and Lustre mounts) the run goes on with a warning, the rule then
-/// being the user's, and the lock file is left in place.
-pub struct FolderLock {
-    file: File,
-    tree: Tree,
-    held: bool,
-}
-
-impl FolderLock {
-    /// Lock the folder `root` (it exists), or say which process holds it.
-    pub fn take(root: &Path) -> Result<Self, OutputError> {
-        let path = root.join(LOCK);
-        for _ in 0..8 {
-            let mut tree = Tree::open(root)?;
-            let fd = rustix::fs::openat(
-                tree.fd(),
-                LOCK,
-                rustix::fs::OFlags::RDWR
-                    | rustix::fs::OFlags::CREATE
-                    | rustix::fs::OFlags::NOFOLLOW
-                    | rustix::fs::OFlags::CLOEXEC
-                    | rustix::fs::OFlags::NONBLOCK,
-                rustix::fs::Mode::from_raw_mode(0o644),
-            )
-            .map_err(|e| match e {
-                rustix::io::Errno::LOOP => link_refused(path.clone()),
-                e => io(&path)(e.into()),
-            })?;
-            let file = File::from(fd);
-            let seen = file.metadata().map_err(io(&path))?;
-            if !seen.is_file() {
-                return Err(refused(path, "is not a regular file"));
-            }
-            match file.try_lock() {
-                Ok(()) => {}
-                Err(fs::TryLockError::WouldBlock) => {
-                    let mut text = String::new();
-                    let _ = (&file).take(32).read_to_string(&mut text);
-                    return Err(OutputError::InUse {
-                        path: root.to_owned(),
-                        lock: path,
-                        pid: text.trim().parse().ok(),
-                    });
-                }
-                Err(fs::TryLockError::Error(e)) if no_locks_here(&e) => {
-                    eprintln!(
-                        "warning: {}: this file system does not support locks ({e}); one writer per folder is not enforced here: run one swarmshot at a time into {}",
-                        path.display(),
-                        root.display()
-                    );
-                    return Ok(Self {
-                        file,
-                        tree,
-                        held: false,
-                    });
-                }
-                Err(fs::TryLockError::Error(e)) => return Err(io(&path)(e)),
-            }
-            // The file may have been deleted (or replaced) by the run that
-            // held it between our open and our lock: then lock the new one.
-            let now = tree.lstat(LOCK)?;
-            if now.is_none_or(|e| (e.dev, e.ino) != (seen.dev(), seen.ino())) {
-                continue;
-            }
-            if seen.nlink() != 1 {
-                return Err(hard_link_refused(path, seen.nlink()));
-            }
-            let pid = format!("{}\n", std::process::id());
-            file.set_len(0)
-                .and_then(|()| file.write_all_at(pid.as_bytes(), 0))
-                .map_err(io(&path))?;
-            return Ok(Self {
-                file,
-                tree,
-                held: true,
-            });
-        }
-        Err(refused(
-            path,
-            "keeps being replaced while swarmshot tries to lock it",
-        ))
-    }
-}
-
-impl Drop for FolderLock {
-    fn drop(&mut self) {
-        let ours = Tree::identity(&self.file);
-        if self.held
-            && self
-                .tree
-                .lstat(LOCK)
-                .ok()
-                .flatten()
-                .is_some_and(|e| Some((e.dev, e.ino)) == ours)
-        {
-            let _ = self.tree.remove_file(LOCK);
-        }
-    }
-}
-
-/// The lock call failed because the file system has no locks, not because of a holder.
-fn no_locks_here(e: &std::io::Error) -> bool {
-    use rustix::io::Errno;
-    [Errno::NOLCK, Errno::OPNOTSUPP, Errno::NOSYS]
-        .iter()
-        .any(|n| e.raw_os_error() == Some(n.raw_os_error()))
-}
 
 /// The state after the last complete frame: enough to continue exactly.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
@@ -321,6 +97,9 @@ pub struct OpenMode {
     pub resume: bool,
     /// Make only one shard's frames (`--shard K/N`).
     pub shard: Option<ShardPlan>,
+    /// Make every Kth frame (`--every K`); `None` takes a resumed run's
+    /// step (and 1 for a new run).
+    pub every: Option<u64>,
 }
 
 /// Where an opened folder starts.
@@ -431,20 +210,6 @@ fn preflight(root: &Path, needed: &[String], owned: &HashSet<String>) -> Result<
     Ok(())
 }
 
-/// What a ledger says, read from disk.
-struct LedgerScan {
-    run: RunId,
-    /// Valid bytes: everything up to the last complete line.
-    prefix_len: usize,
-    /// Byte offset just after the last trusted checkpoint (or the header).
-    good_end: usize,
-    checkpoint: Option<Checkpoint>,
-    done: bool,
-    owned: HashSet<String>,
-    /// Claim lines after `good_end` (kept when the ledger is cut back).
-    later_claims: Vec<String>,
-}
-
 impl Folder {
     /// The folder's top.
     pub fn root(&self) -> &Path {
@@ -506,6 +271,7 @@ impl Folder {
                 frames,
                 preset_hash,
                 shard: mode.shard.map(|p| p.run(frames)),
+                every: mode.every.unwrap_or(1).max(1),
             };
             preflight(root, needed, &HashSet::new())?;
             return Ok((Self::fresh(root, run, lock)?, Start::Fresh, run));
@@ -516,6 +282,7 @@ impl Folder {
             frames,
             preset_hash,
             shard: mode.shard.map(|p| p.run(frames)),
+            every: mode.every.unwrap_or(scan.run.every).max(1),
         };
         if scan.run == run && !mode.overwrite {
             let folder = Self::continue_from(root, &scan, lock)?;
@@ -534,9 +301,21 @@ impl Folder {
         if !mode.overwrite {
             let what = if scan.run.preset_hash != preset_hash {
                 "a run of a different preset (its preset.lock.ron differs)".to_owned()
+            } else if scan.run.every != run.every {
+                format!(
+                    "a run of this preset with {}, and this run makes {} (--every differs; --resume without --every continues the earlier trial)",
+                    scan.run.describe(),
+                    run.describe()
+                )
             } else if scan.run.shard != run.shard {
                 format!(
                     "a run of this preset with {}, and this run makes {} (--shard differs)",
+                    scan.run.describe(),
+                    run.describe()
+                )
+            } else if run.every > 1 {
+                format!(
+                    "a run of this preset with {}, and this run makes {} (--limit differs)",
                     scan.run.describe(),
                     run.describe()
                 )
@@ -613,114 +392,6 @@ impl Folder {
             durable_frames: true,
             _lock: lock,
         })
-    }
-
-    /// Read the ledger: the run, the last checkpoint whose frames' files all
-    /// exist and whose append-only files are long enough, and every claim.
-    fn scan(root: &Path) -> Result<LedgerScan, OutputError> {
-        let path = root.join(LEDGER);
-        let mut bytes = Vec::new();
-        open_checked(root, LEDGER, false)?
-            .read_to_end(&mut bytes)
-            .map_err(io(&path))?;
-        let mut tree = Tree::open(root)?;
-        let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-        let text = String::from_utf8_lossy(&bytes[..prefix_len]);
-        let corrupt = |reason: &str| OutputError::Ledger {
-            path: path.clone(),
-            reason: reason.into(),
-        };
-        let mut lines = text.split_inclusive('\n');
-        let header = lines.next().ok_or_else(|| corrupt("it is empty"))?;
-        let run = RunId::parse(header.trim_end())
-            .ok_or_else(|| corrupt("its first line is not a swarmshot-ledger 1 header"))?;
-        let mut scan = LedgerScan {
-            run,
-            prefix_len,
-            good_end: header.len(),
-            checkpoint: None,
-            done: false,
-            owned: HashSet::new(),
-            later_claims: Vec::new(),
-        };
-        // A finished run deleted its COCO parts: its checkpoints are not checked against files.
-        let finished = text.trim_end().ends_with("\n!done");
-        let mut offset = header.len();
-        let mut frame_files: Vec<String> = Vec::new();
-        let mut broken = false;
-        for line in lines {
-            offset += line.len();
-            let line = line.trim_end_matches('\n');
-            if let Some(rel) = line.strip_prefix('*') {
-                scan.owned.insert(rel.to_owned());
-                scan.later_claims.push(line.to_owned());
-            } else if let Some(rel) = line.strip_prefix('+') {
-                frame_files.push(rel.to_owned());
-                scan.later_claims.push(line.to_owned());
-            } else if let Some(json) = line.strip_prefix('=') {
-                if broken {
-                    continue;
-                }
-                let Ok(cp) = serde_json::from_str::<Checkpoint>(json) else {
-                    broken = true;
-                    continue;
-                };
-                // A missing file means the run stopped before it: the
-                // checkpoint is not trusted. A link where a listed file
-                // should be (or in a folder above it) is refused now, before
-                // the ledger is cut back or anything is written.
-                let checked =
-                    |tree: &mut Tree, rel: &str, min_len: Option<u64>| match tree.lstat(rel)? {
-                        Some(e) if e.is_symlink() => Err(link_refused(root.join(rel))),
-                        Some(e) if min_len.is_some() && e.is_file() && e.links != 1 => {
-                            Err(hard_link_refused(root.join(rel), e.links))
-                        }
-                        Some(e) => Ok(e.is_file() && e.len >= min_len.unwrap_or(0)),
-                        None => Ok(false),
-                    };
-                let mut good = true;
-                if !finished {
-                    for rel in &frame_files {
-                        good &= checked(&mut tree, rel, None)?;
-                    }
-                    for (rel, &len) in &cp.files {
-                        good &= checked(&mut tree, rel, Some(len))?;
-                    }
-                }
-                if good {
-                    // A checkpoint lists only what changed since the one before.
-                    let mut merged = scan.checkpoint.take().unwrap_or_default();
-                    merged.next = cp.next;
-                    merged.files.extend(cp.files);
-                    merged.counters.extend(cp.counters);
-                    merged.stats = cp.stats;
-                    scan.checkpoint = Some(merged);
-                    scan.good_end = offset;
-                    scan.later_claims.clear();
-                    frame_files.clear();
-                } else {
-                    broken = true;
-                }
-            } else if line.starts_with('%') {
-                // A finished shard's content records (see `mark_done`).
-            } else if line == "!done" {
-                if !broken
-                    && scan
-                        .checkpoint
-                        .as_ref()
-                        .map_or(scan.run.start(), |cp| cp.next)
-                        == scan.run.end()
-                {
-                    scan.done = true;
-                    scan.good_end = offset;
-                    scan.later_claims.clear();
-                }
-            } else {
-                return Err(corrupt(&format!("it holds an unknown line {line:?}")));
-            }
-        }
-        scan.owned.extend(frame_files);
-        Ok(scan)
     }
 
     /// Delete every file and folder an earlier run's ledger lists (files
@@ -1137,58 +808,6 @@ pub fn is_working_file(rel: &str) -> bool {
         .is_some_and(|name| name.starts_with('.'))
 }
 
-/// A file's size and BLAKE3 hash (hex), read from its start.
-pub fn content_record(file: &mut File) -> std::io::Result<(u64, String)> {
-    file.seek(SeekFrom::Start(0))?;
-    let mut hasher = blake3::Hasher::new();
-    let len = std::io::copy(file, &mut hasher)?;
-    Ok((len, hasher.finalize().to_hex().to_string()))
-}
-
-/// What a finished shard's ledger records of one file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ContentRecord {
-    /// Size in bytes.
-    pub len: u64,
-    /// BLAKE3 hash of the contents, hex.
-    pub blake3: String,
-}
-
-/// The content records of the finished run in `root` (empty when the run
-/// recorded none: not a shard, or made by a swarmshot before records).
-pub fn content_records(root: &Path) -> Result<BTreeMap<String, ContentRecord>, OutputError> {
-    let path = root.join(LEDGER);
-    let mut bytes = Vec::new();
-    open_checked(root, LEDGER, false)?
-        .read_to_end(&mut bytes)
-        .map_err(io(&path))?;
-    let mut records = BTreeMap::new();
-    for line in String::from_utf8_lossy(&bytes).lines() {
-        if line.starts_with('=') {
-            // Records come after the last checkpoint; earlier ones belong to an older finish.
-            records.clear();
-        }
-        let Some(rest) = line.strip_prefix('%') else {
-            continue;
-        };
-        let bad = || OutputError::Ledger {
-            path: path.clone(),
-            reason: format!("it holds a malformed content record {line:?}"),
-        };
-        let (len, rest) = rest.split_once(' ').ok_or_else(bad)?;
-        let (hash, rel) = rest.split_once(' ').ok_or_else(bad)?;
-        let blake3 = hash.strip_prefix("blake3:").ok_or_else(bad)?;
-        records.insert(
-            rel.to_owned(),
-            ContentRecord {
-                len: len.parse().map_err(|_| bad())?,
-                blake3: blake3.to_owned(),
-            },
-        );
-    }
-    Ok(records)
-}
-
 /// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_AT` set to a
 /// path relative to the dataset folder, the batch sleeps after that file's
 /// temporary copy is written and before it is renamed into place; set to
@@ -1249,116 +868,4 @@ fn write_new_then_rename(
         let _ = fs::remove_file(&tmp);
     }
     result.map_err(io(&path))
-}
-
-/// An append-only file (the manifest, COCO record parts): whole records
-/// appended, cut back to the last checkpoint on resume or failure.
-pub struct AppendFile {
-    rel: String,
-    path: PathBuf,
-    file: File,
-    /// Bytes appended so far (on disk and in `buffer`).
-    len: u64,
-    committed: u64,
-    /// With [`AppendFile::buffered`]: appended bytes not yet written.
-    buffer: Option<Vec<u8>>,
-}
-
-/// A buffered [`AppendFile`] writes once this many bytes are pending.
-const APPEND_BUFFER: usize = 1 << 20;
-
-impl AppendFile {
-    /// Keep appended bytes in memory until [`AppendFile::flush`] (or a
-    /// megabyte is pending): one write per batch of records instead of one
-    /// per record. The owner flushes before [`AppendFile::save`].
-    pub fn buffered(mut self) -> Self {
-        self.buffer = Some(Vec::with_capacity(APPEND_BUFFER));
-        self
-    }
-
-    /// Append `bytes` (one or more whole records, or part of one that the
-    /// next calls finish before the file is saved).
-    pub fn append(&mut self, bytes: &[u8]) -> Result<(), OutputError> {
-        self.len += bytes.len() as u64;
-        match &mut self.buffer {
-            Some(buffer) => {
-                buffer.extend_from_slice(bytes);
-                if buffer.len() >= APPEND_BUFFER {
-                    self.flush()?;
-                }
-                Ok(())
-            }
-            None => (&self.file).write_all(bytes).map_err(io(&self.path)),
-        }
-    }
-
-    /// Write the buffered bytes (nothing when unbuffered).
-    pub fn flush(&mut self) -> Result<(), OutputError> {
-        if let Some(buffer) = &mut self.buffer
-            && !buffer.is_empty()
-        {
-            let result = (&self.file).write_all(buffer);
-            buffer.clear();
-            result.map_err(io(&self.path))?;
-        }
-        Ok(())
-    }
-
-    /// Bytes written so far.
-    pub fn len(&self) -> u64 {
-        self.len
-    }
-
-    /// Whether nothing has been written.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Record this file's length in `checkpoint` (the frame is complete;
-    /// a buffered file is flushed first).
-    pub fn save(&mut self, checkpoint: &mut Checkpoint) {
-        debug_assert!(
-            self.buffer.as_ref().is_none_or(Vec::is_empty),
-            "{} saved with unwritten bytes",
-            self.rel
-        );
-        if self.len != self.committed {
-            self.committed = self.len;
-            checkpoint.files.insert(self.rel.clone(), self.len);
-        }
-    }
-
-    /// Cut the file back to its last checkpoint (after a failed frame).
-    pub fn rollback(&mut self) {
-        if let Some(buffer) = &mut self.buffer {
-            buffer.clear();
-        }
-        if self.file.set_len(self.committed).is_ok() {
-            self.len = self.committed;
-        }
-    }
-
-    /// Copy the whole file into `out`.
-    pub fn copy_to(&mut self, out: &mut impl Write) -> std::io::Result<()> {
-        if let Some(buffer) = &mut self.buffer
-            && !buffer.is_empty()
-        {
-            (&self.file).write_all(buffer)?;
-            buffer.clear();
-        }
-        self.file.seek(SeekFrom::Start(0))?;
-        std::io::copy(&mut (&self.file).take(self.len), out)?;
-        Ok(())
-    }
-
-    /// Flush the file to disk.
-    pub fn sync(&mut self) -> Result<(), OutputError> {
-        self.flush()?;
-        self.file.sync_data().map_err(io(&self.path))
-    }
-
-    /// Path relative to the folder.
-    pub fn rel(&self) -> &str {
-        &self.rel
-    }
 }

@@ -259,9 +259,9 @@ pub(crate) fn fixed6(out: &mut Vec<u8>, v: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::annotate::visibility::Visibility;
     use crate::annotate::{DroneLabel, LabelStatus, PixelBox};
     use crate::preset::Preset;
-    use crate::render::visibility::Visibility;
     use crate::scene::FrameScene;
 
     /// Odd floats: signed zeros, subnormals, extremes, non-finite, ties.

@@ -129,33 +129,7 @@ pub fn merge(
     overwrite: bool,
     copy: bool,
 ) -> Result<MergeReport, MergeError> {
-    let mut dirs = Vec::new();
-    for path in shards {
-        let not = |reason: &str| MergeError::NotAShard {
-            path: path.clone(),
-            reason: reason.into(),
-        };
-        let Some((run, done)) = read_run(path)? else {
-            return Err(not(&format!("it holds no swarmshot run (no {LEDGER})")));
-        };
-        let Some(shard) = run.shard else {
-            return Err(not(
-                "its run was made without --shard (a whole dataset needs no merge)",
-            ));
-        };
-        if !done {
-            return Err(MergeError::Incomplete {
-                path: path.clone(),
-                shard: shard.shard.to_string(),
-            });
-        }
-        dirs.push(ShardDir {
-            path: path.clone(),
-            run: shard,
-            frames: run.frames,
-            preset_hash: run.preset_hash,
-        });
-    }
+    let mut dirs = read_shards(shards)?;
     let first = dirs.first().ok_or(MergeError::NoShards)?;
     for d in &dirs[1..] {
         let what = if d.preset_hash != first.preset_hash {
@@ -188,32 +162,7 @@ pub fn merge(
     }
     let count = dirs[0].run.shard.count;
     let (frames, preset_hash) = (dirs[0].frames, dirs[0].preset_hash);
-    let missing: Vec<String> = (0..count)
-        .filter(|k| !dirs.iter().any(|d| d.run.shard.index == *k))
-        .map(|k| format!("{k}/{count}"))
-        .collect();
-    if !missing.is_empty() {
-        return Err(MergeError::Missing { missing, count });
-    }
-    let mut next = 0;
-    for d in &dirs {
-        if d.run.start != next || d.run.end < d.run.start {
-            return Err(MergeError::Ranges {
-                path: d.path.clone(),
-                reason: format!(
-                    "shard {} holds frames {}..{}, but the shards before it end at {next}",
-                    d.run.shard, d.run.start, d.run.end
-                ),
-            });
-        }
-        next = d.run.end;
-    }
-    if next != frames {
-        return Err(MergeError::Ranges {
-            path: dirs[dirs.len() - 1].path.clone(),
-            reason: format!("the last shard ends at frame {next}, the run has {frames}"),
-        });
-    }
+    check_ranges(&dirs, count, frames)?;
     let out_abs = resolved(out);
     for d in &dirs {
         let shard_abs = std::fs::canonicalize(&d.path).map_err(super::io(&d.path))?;
@@ -242,6 +191,7 @@ pub fn merge(
             overwrite,
             resume: false,
             shard: None,
+            every: Some(1),
             labels_only: false,
         },
     )?;
@@ -273,6 +223,69 @@ pub fn merge(
     }
     report.stats = writer.finish()?;
     Ok(report)
+}
+
+/// Each shard folder's run, refused unless it is a finished shard.
+fn read_shards(shards: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
+    let mut dirs = Vec::new();
+    for path in shards {
+        let not = |reason: &str| MergeError::NotAShard {
+            path: path.clone(),
+            reason: reason.into(),
+        };
+        let Some((run, done)) = read_run(path)? else {
+            return Err(not(&format!("it holds no swarmshot run (no {LEDGER})")));
+        };
+        let Some(shard) = run.shard else {
+            return Err(not(
+                "its run was made without --shard (a whole dataset needs no merge)",
+            ));
+        };
+        if !done {
+            return Err(MergeError::Incomplete {
+                path: path.clone(),
+                shard: shard.shard.to_string(),
+            });
+        }
+        dirs.push(ShardDir {
+            path: path.clone(),
+            run: shard,
+            frames: run.frames,
+            preset_hash: run.preset_hash,
+        });
+    }
+    Ok(dirs)
+}
+
+/// Every shard `0..count` present, their ranges following one another up to `frames`.
+fn check_ranges(dirs: &[ShardDir], count: u64, frames: u64) -> Result<(), MergeError> {
+    let missing: Vec<String> = (0..count)
+        .filter(|k| !dirs.iter().any(|d| d.run.shard.index == *k))
+        .map(|k| format!("{k}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(MergeError::Missing { missing, count });
+    }
+    let mut next = 0;
+    for d in dirs {
+        if d.run.start != next || d.run.end < d.run.start {
+            return Err(MergeError::Ranges {
+                path: d.path.clone(),
+                reason: format!(
+                    "shard {} holds frames {}..{}, but the shards before it end at {next}",
+                    d.run.shard, d.run.start, d.run.end
+                ),
+            });
+        }
+        next = d.run.end;
+    }
+    if next != frames {
+        return Err(MergeError::Ranges {
+            path: dirs[dirs.len() - 1].path.clone(),
+            reason: format!("the last shard ends at frame {next}, the run has {frames}"),
+        });
+    }
+    Ok(())
 }
 
 /// `path` made absolute with every link resolved, for a folder that may not

@@ -22,6 +22,7 @@ pub mod masks;
 pub mod merge;
 pub mod mot;
 pub mod shard;
+pub mod single;
 pub mod sparse_png;
 pub mod stats;
 pub mod tree;
@@ -369,6 +370,9 @@ pub struct WriterOptions {
     pub resume: bool,
     /// Make only shard K of N of the frames (the unit: a sequence in sequence mode).
     pub shard: Option<shard::Shard>,
+    /// Make frames `0, K, 2K, …` below `frames` (`--every K`); `None` takes
+    /// a resumed run's step (1 for a new run).
+    pub every: Option<u64>,
     /// A labels-only plan (`batch --labels-only`): labels, COCO, manifest
     /// and stats from geometry, no images and no data.yaml. Its ledger names
     /// it a plan, so a rendered run never continues it (nor it a rendered
@@ -402,6 +406,8 @@ pub struct DatasetWriter {
     next: u64,
     /// One past the last frame of this run (of its shard, with `--shard`).
     total: u64,
+    /// The step between the frames this run writes (`--every`; 1: all).
+    every: u64,
     /// The first frame of this run (of its shard, with `--shard`).
     start: u64,
     /// An earlier run finished this dataset; nothing is left to write.
@@ -429,44 +435,9 @@ impl DatasetWriter {
             preset.output.label_formats.contains(&LabelFormat::Coco),
         );
         let labels_only = options.labels_only;
-        let mut needed = vec![
-            LOCK_FILE.to_owned(),
-            manifest::FILE.to_owned(),
-            "stats.json".to_owned(),
-        ];
-        if labels_only {
-            needed.push(PLAN_README.to_owned());
-        }
-        for split in SplitName::ALL.map(SplitName::as_str) {
-            if !labels_only {
-                needed.push(format!("images/{split}/"));
-            }
-            if yolo {
-                needed.push(format!("labels/{split}/"));
-            }
-            if coco {
-                needed.push(format!("annotations/instances_{split}.json"));
-                needed.push(format!("annotations/.instances_{split}.images.part"));
-                needed.push(format!("annotations/.instances_{split}.annotations.part"));
-            }
-        }
-        if yolo && !labels_only {
-            needed.push("data.yaml".to_owned());
-        }
-        // Masks need pixels: a labels-only plan writes none.
+        let needed = needed_entries(preset, labels_only);
         let mask_files = !labels_only && preset.output.masks.any();
-        if mask_files {
-            needed.extend(masks::needed_entries(&preset.output.masks));
-        }
         let sequences = preset.sequence.is_some();
-        if sequences {
-            needed.push("mot/".to_owned());
-            if coco {
-                for split in SplitName::ALL.map(SplitName::as_str) {
-                    needed.push(format!("annotations/.instances_{split}.videos.part"));
-                }
-            }
-        }
         // Every entry is checked before anything is written or rendered: a
         // link or a file swarmshot did not write is refused now, not after hours.
         let run_text = if labels_only {
@@ -485,6 +456,7 @@ impl DatasetWriter {
                     shard,
                     unit: preset.sequence_len(),
                 }),
+                every: options.every,
             },
             &needed,
         )?;
@@ -551,6 +523,7 @@ impl DatasetWriter {
             stats: checkpoint.stats,
             next: checkpoint.next,
             total: run.end(),
+            every: run.every,
             start: run.start(),
             done,
             needed,
@@ -573,6 +546,12 @@ impl DatasetWriter {
     /// The first frame of this run (0, or with `--shard` its range's start).
     pub fn start(&self) -> u64 {
         self.start
+    }
+
+    /// The step between the frames this run writes: `K` for `--every K`
+    /// (frames `0, K, 2K, …` below [`DatasetWriter::total`]), else 1.
+    pub fn every(&self) -> u64 {
+        self.every
     }
 
     /// How this dataset formats a frame's records ([`TextContext::push_frame`]).
@@ -633,7 +612,7 @@ impl DatasetWriter {
         }
         let mut stats = self.stats.clone();
         stats.add(scene, labels, &self.text.model_names, &self.text.classes);
-        self.checkpoint(self.next + 1, stats)
+        self.checkpoint(self.next + self.every, stats)
     }
 
     /// Write consecutive frames of a labels-only plan (no images): their
@@ -652,7 +631,8 @@ impl DatasetWriter {
     ) -> Result<(), OutputError> {
         let mut files = Vec::new();
         for (i, (scene, _)) in frames.iter().enumerate() {
-            if scene.index != self.next + i as u64 || self.done || !self.labels_only {
+            let trial = self.every != 1;
+            if scene.index != self.next + i as u64 || self.done || !self.labels_only || trial {
                 return Err(OutputError::OutOfOrder {
                     expected: self.next + i as u64,
                     got: scene.index,
@@ -786,7 +766,8 @@ impl DatasetWriter {
         self.stats.boxes_from = self.boxes_from.clone();
         let stats = serde_json::to_string_pretty(&self.stats).unwrap_or_default();
         self.folder.write_file("stats.json", stats.as_bytes())?;
-        if self.next == self.total {
+        // With `--every K` the last frame's successor may lie past the end.
+        if self.next >= self.total {
             self.folder.mark_done()?;
             for format in &mut self.formats {
                 format.cleanup(&mut self.folder)?;
@@ -794,6 +775,54 @@ impl DatasetWriter {
         }
         Ok(self.stats)
     }
+}
+
+/// The dataset's fixed entries (lock, manifest, COCO files, folders ending
+/// in `/`) for `preset`, checked before anything is written.
+fn needed_entries(preset: &Preset, labels_only: bool) -> Vec<String> {
+    let (yolo, coco) = (
+        preset.output.label_formats.contains(&LabelFormat::Yolo),
+        preset.output.label_formats.contains(&LabelFormat::Coco),
+    );
+    let mut needed = vec![
+        LOCK_FILE.to_owned(),
+        manifest::FILE.to_owned(),
+        "stats.json".to_owned(),
+    ];
+    if labels_only {
+        needed.push(PLAN_README.to_owned());
+    }
+    for split in SplitName::ALL.map(SplitName::as_str) {
+        if !labels_only {
+            needed.push(format!("images/{split}/"));
+        }
+        if yolo {
+            needed.push(format!("labels/{split}/"));
+        }
+        if coco {
+            needed.push(format!("annotations/instances_{split}.json"));
+            needed.push(format!("annotations/.instances_{split}.images.part"));
+            needed.push(format!("annotations/.instances_{split}.annotations.part"));
+        }
+    }
+    if yolo && !labels_only {
+        needed.push("data.yaml".to_owned());
+    }
+    // Masks need pixels: a labels-only plan writes none.
+    let mask_files = !labels_only && preset.output.masks.any();
+    if mask_files {
+        needed.extend(masks::needed_entries(&preset.output.masks));
+    }
+    let sequences = preset.sequence.is_some();
+    if sequences {
+        needed.push("mot/".to_owned());
+        if coco {
+            for split in SplitName::ALL.map(SplitName::as_str) {
+                needed.push(format!("annotations/.instances_{split}.videos.part"));
+            }
+        }
+    }
+    needed
 }
 
 #[cfg(test)]

@@ -1,0 +1,128 @@
+//! Reading the ledger back: the run, the last checkpoint whose frames' files
+//! are all there, and what the folder owns.
+
+use super::*;
+
+/// What a ledger says, read from disk.
+pub(super) struct LedgerScan {
+    pub(super) run: RunId,
+    /// Valid bytes: everything up to the last complete line.
+    pub(super) prefix_len: usize,
+    /// Byte offset just after the last trusted checkpoint (or the header).
+    pub(super) good_end: usize,
+    pub(super) checkpoint: Option<Checkpoint>,
+    pub(super) done: bool,
+    pub(super) owned: HashSet<String>,
+    /// Claim lines after `good_end` (kept when the ledger is cut back).
+    pub(super) later_claims: Vec<String>,
+}
+
+impl Folder {
+    /// Read the ledger: the run, the last checkpoint whose frames' files all
+    /// exist and whose append-only files are long enough, and every claim.
+    pub(super) fn scan(root: &Path) -> Result<LedgerScan, OutputError> {
+        let path = root.join(LEDGER);
+        let mut bytes = Vec::new();
+        open_checked(root, LEDGER, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        let mut tree = Tree::open(root)?;
+        let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let text = String::from_utf8_lossy(&bytes[..prefix_len]);
+        let corrupt = |reason: &str| OutputError::Ledger {
+            path: path.clone(),
+            reason: reason.into(),
+        };
+        let mut lines = text.split_inclusive('\n');
+        let header = lines.next().ok_or_else(|| corrupt("it is empty"))?;
+        let run = RunId::parse(header.trim_end())
+            .ok_or_else(|| corrupt("its first line is not a swarmshot-ledger 1 header"))?;
+        let mut scan = LedgerScan {
+            run,
+            prefix_len,
+            good_end: header.len(),
+            checkpoint: None,
+            done: false,
+            owned: HashSet::new(),
+            later_claims: Vec::new(),
+        };
+        // A finished run deleted its COCO parts: its checkpoints are not checked against files.
+        let finished = text.trim_end().ends_with("\n!done");
+        let mut offset = header.len();
+        let mut frame_files: Vec<String> = Vec::new();
+        let mut broken = false;
+        for line in lines {
+            offset += line.len();
+            let line = line.trim_end_matches('\n');
+            if let Some(rel) = line.strip_prefix('*') {
+                scan.owned.insert(rel.to_owned());
+                scan.later_claims.push(line.to_owned());
+            } else if let Some(rel) = line.strip_prefix('+') {
+                frame_files.push(rel.to_owned());
+                scan.later_claims.push(line.to_owned());
+            } else if let Some(json) = line.strip_prefix('=') {
+                if broken {
+                    continue;
+                }
+                let Ok(cp) = serde_json::from_str::<Checkpoint>(json) else {
+                    broken = true;
+                    continue;
+                };
+                // A missing file means the run stopped before it: the
+                // checkpoint is not trusted. A link where a listed file
+                // should be (or in a folder above it) is refused now, before
+                // the ledger is cut back or anything is written.
+                let checked =
+                    |tree: &mut Tree, rel: &str, min_len: Option<u64>| match tree.lstat(rel)? {
+                        Some(e) if e.is_symlink() => Err(link_refused(root.join(rel))),
+                        Some(e) if min_len.is_some() && e.is_file() && e.links != 1 => {
+                            Err(hard_link_refused(root.join(rel), e.links))
+                        }
+                        Some(e) => Ok(e.is_file() && e.len >= min_len.unwrap_or(0)),
+                        None => Ok(false),
+                    };
+                let mut good = true;
+                if !finished {
+                    for rel in &frame_files {
+                        good &= checked(&mut tree, rel, None)?;
+                    }
+                    for (rel, &len) in &cp.files {
+                        good &= checked(&mut tree, rel, Some(len))?;
+                    }
+                }
+                if good {
+                    // A checkpoint lists only what changed since the one before.
+                    let mut merged = scan.checkpoint.take().unwrap_or_default();
+                    merged.next = cp.next;
+                    merged.files.extend(cp.files);
+                    merged.counters.extend(cp.counters);
+                    merged.stats = cp.stats;
+                    scan.checkpoint = Some(merged);
+                    scan.good_end = offset;
+                    scan.later_claims.clear();
+                    frame_files.clear();
+                } else {
+                    broken = true;
+                }
+            } else if line.starts_with('%') {
+                // A finished shard's content records (see `mark_done`).
+            } else if line == "!done" {
+                if !broken
+                    && scan
+                        .checkpoint
+                        .as_ref()
+                        .map_or(scan.run.start(), |cp| cp.next)
+                        == scan.run.end()
+                {
+                    scan.done = true;
+                    scan.good_end = offset;
+                    scan.later_claims.clear();
+                }
+            } else {
+                return Err(corrupt(&format!("it holds an unknown line {line:?}")));
+            }
+        }
+        scan.owned.extend(frame_files);
+        Ok(scan)
+    }
+}

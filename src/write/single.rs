@@ -1,0 +1,116 @@
+//! One frame alone (`swarmshot frame`): the per-frame files the batch writes
+//! for that frame, with the same bytes, beside the image the user names
+//! instead of in a dataset folder: the image, its YOLO labels (`.txt`), its
+//! manifest record (`.json`), and what `output.masks` asks for (YOLO
+//! segmentation labels `.seg.txt`, instance PNG `.mask.png`, depth PNG
+//! `.depth.png`). Each file is written atomically; the COCO RLE lives only
+//! in a dataset's COCO files.
+
+use std::path::{Path, PathBuf};
+
+use super::{OutputError, encode_image, image_rel_path, manifest_line, masks, write_atomic, yolo};
+use crate::annotate::DroneLabel;
+use crate::annotate::masks::FrameMasks;
+use crate::preset::ImageFormat;
+use crate::preset::masks::MaskOutputs;
+use crate::scene::FrameScene;
+
+/// One made frame, as the writer needs it.
+pub struct LoneFrame<'a> {
+    pub scene: &'a FrameScene,
+    pub labels: &'a [DroneLabel],
+    /// Tightly packed RGBA8, `scene.camera` sized.
+    pub rgba: &'a [u8],
+    /// Each drone's visible pixels (present when `output.masks` asks for any).
+    pub masks: Option<&'a FrameMasks>,
+}
+
+/// What the preset says about a frame's files.
+pub struct LoneFormat<'a> {
+    /// The frame's image format (the camera model may draw its JPEG quality).
+    pub image: ImageFormat,
+    pub masks: &'a MaskOutputs,
+    pub model_names: &'a [String],
+    pub classes: &'a [String],
+}
+
+/// Refuse an output name whose extension does not match `format` (before
+/// anything is made or written).
+pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), String> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let accepted: &[&str] = match format {
+        ImageFormat::Jpeg { .. } => &["jpg", "jpeg"],
+        ImageFormat::Png => &["png"],
+    };
+    if ext.as_deref().is_some_and(|e| accepted.contains(&e)) {
+        return Ok(());
+    }
+    Err(format!(
+        "--out {}: the preset writes {} images (output.image_format); name the file .{}",
+        out.display(),
+        format.extension().to_uppercase(),
+        format.extension()
+    ))
+}
+
+/// The file beside `out` that holds `suffix` (`f.jpg` → `f.seg.txt`).
+fn beside(out: &Path, suffix: &str) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or_else(|| "frame".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}{suffix}"))
+}
+
+/// Write `frame`'s files: the image at `out`, the rest beside it. Returns
+/// every path written, the image first.
+pub fn write_lone_frame(
+    out: &Path,
+    frame: &LoneFrame<'_>,
+    format: &LoneFormat<'_>,
+) -> Result<Vec<PathBuf>, OutputError> {
+    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+    let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    files.push((
+        out.to_owned(),
+        encode_image(frame.rgba, w, h, format.image)?,
+    ));
+    files.push((
+        out.with_extension("txt"),
+        yolo::label_text(frame.scene, frame.labels).into_bytes(),
+    ));
+    let record = manifest_line(
+        frame.scene,
+        frame.labels,
+        &image_rel_path(frame.scene, format.image),
+        format.model_names,
+        format.classes,
+    );
+    files.push((
+        out.with_extension("json"),
+        format!("{record}\n").into_bytes(),
+    ));
+    if format.masks.any() {
+        let m = frame.masks.ok_or_else(|| OutputError::Encode {
+            format: "masks",
+            reason: format!("frame {} came without its masks", frame.scene.index),
+        })?;
+        let encoded = masks::encode(m, frame.labels, format.masks)?;
+        let named = [
+            (".seg.txt", encoded.yolo_seg),
+            (".mask.png", encoded.instance_png),
+            (".depth.png", encoded.depth_png),
+        ];
+        for (suffix, bytes) in named {
+            if let Some(bytes) = bytes {
+                files.push((beside(out, suffix), bytes));
+            }
+        }
+    }
+    for (path, bytes) in &files {
+        write_atomic(path, bytes)?;
+    }
+    Ok(files.into_iter().map(|(p, _)| p).collect())
+}
