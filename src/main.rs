@@ -562,35 +562,10 @@ fn frames_of_run(pipeline: &FramePipeline, options: &BatchOptions) -> u64 {
     }
 }
 
-/// A warning for each split that gets no frame (counted for presets whose
-/// frames draw their split one by one; grouped splits warn in `warnings`).
+/// A warning for each split that gets no frame ([`swarmshot::pipeline::check::empty_splits`]).
 fn print_empty_splits(preset: &Preset, frames: u64, out: &mut dyn std::io::Write) {
-    // Exact in O(100) whatever the count (`frame_split_counts`).
-    const MAX_DRAWS: u64 = u64::MAX;
-    let Some(counts) = swarmshot::scene::split::frame_split_counts(preset, frames, MAX_DRAWS)
-    else {
-        return;
-    };
-    let s = &preset.output.split;
-    for ((name, n), share) in ["train", "val", "test"]
-        .into_iter()
-        .zip(counts)
-        .zip([s.train, s.val, s.test])
-    {
-        if n == 0 && share > 0.0 && frames > 0 {
-            let _ = writeln!(
-                out,
-                "warning: output.split.{name}: {share} of the frames, but the split draw gives it none of these {frames} ({} train / {} val / {} test); {}",
-                counts[0],
-                counts[1],
-                counts[2],
-                if name == "val" {
-                    "data.yaml then names the train images as val; change the seed or the shares, or make more frames"
-                } else {
-                    "change the seed or the shares, or make more frames"
-                }
-            );
-        }
+    for w in swarmshot::pipeline::check::empty_splits(preset, frames) {
+        let _ = writeln!(out, "warning: {w}");
     }
 }
 
@@ -598,17 +573,7 @@ fn print_empty_splits(preset: &Preset, frames: u64, out: &mut dyn std::io::Write
 /// more than the free space of the filesystem holding `out`.
 fn check_free_space(pipeline: &FramePipeline, out: &Path, frames: u64) -> anyhow::Result<()> {
     let preset = pipeline.preset();
-    let drones = match &preset.placement {
-        swarmshot::preset::Placement::Randomized {
-            count: (lo, hi),
-            count_distribution,
-            volume,
-            ..
-        } if !matches!(volume, swarmshot::preset::Volume::DensitySweep { .. }) => {
-            swarmshot::scene::placement::count_mean(*lo, *hi, count_distribution)
-        }
-        _ => preset.max_drones_per_frame() as f64,
-    };
+    let drones = swarmshot::pipeline::check::mean_drones_per_frame(preset);
     let disk = preset.disk_estimate(frames, drones);
     let Some(free) = swarmshot::preset::budget::free_bytes(out) else {
         return Ok(());

@@ -29,8 +29,8 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
         );
     }
     println!("frames: {}", pipeline.frame_count());
-    if let Some(groups) = swarmshot::scene::split::groups(preset) {
-        let [train, val, test] = swarmshot::scene::split::group_counts(preset, groups);
+    let summary = swarmshot::pipeline::check::summary(preset);
+    if let Some((groups, [train, val, test])) = summary.split_groups {
         println!(
             "split by {:?}: {groups} groups, {train} train / {val} val / {test} test",
             preset.output.split.by
@@ -40,10 +40,7 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
         "image: {w}×{h}, {:?}, MSAA {}",
         preset.output.image_format, preset.render.msaa
     );
-    println!(
-        "placement: {}",
-        swarmshot::scene::placement::describe(preset)
-    );
+    println!("placement: {}", summary.placement);
     if let Some(seq) = &preset.sequence {
         let len = preset.sequence_len();
         println!(

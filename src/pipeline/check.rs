@@ -71,3 +71,68 @@ fn empty_split_groups(preset: &Preset) -> Option<FieldError> {
         ),
     })
 }
+
+/// What `swarmshot check` says of a preset besides its problems, from the
+/// stages that know it: the split groups and the placement.
+pub struct Summary {
+    /// With a grouped `output.split.by`: the groups and their train / val / test counts.
+    pub split_groups: Option<(u64, [u64; 3])>,
+    /// One line: what the placement makes per frame.
+    pub placement: String,
+}
+
+/// The [`Summary`] of `preset`.
+pub fn summary(preset: &Preset) -> Summary {
+    Summary {
+        split_groups: crate::scene::split::groups(preset)
+            .map(|g| (g, crate::scene::split::group_counts(preset, g))),
+        placement: crate::scene::placement::describe(preset),
+    }
+}
+
+/// A warning for each split that gets no frame of the first `frames`
+/// (counted for presets whose frames draw their split one by one; grouped
+/// splits warn in [`warnings`]). Exact in O(100) whatever the count.
+pub fn empty_splits(preset: &Preset, frames: u64) -> Vec<String> {
+    let Some(counts) = crate::scene::split::frame_split_counts(preset, frames, u64::MAX) else {
+        return Vec::new();
+    };
+    let s = &preset.output.split;
+    let mut out = Vec::new();
+    for ((name, n), share) in ["train", "val", "test"]
+        .into_iter()
+        .zip(counts)
+        .zip([s.train, s.val, s.test])
+    {
+        if n == 0 && share > 0.0 && frames > 0 {
+            out.push(format!(
+                "output.split.{name}: {share} of the frames, but the split draw gives it none of these {frames} ({} train / {} val / {} test); {}",
+                counts[0],
+                counts[1],
+                counts[2],
+                if name == "val" {
+                    "data.yaml then names the train images as val; change the seed or the shares, or make more frames"
+                } else {
+                    "change the seed or the shares, or make more frames"
+                }
+            ));
+        }
+    }
+    out
+}
+
+/// The drones a frame holds on average, for disk estimates: the count
+/// distribution's mean for randomized placement, else the most a frame holds.
+pub fn mean_drones_per_frame(preset: &Preset) -> f64 {
+    match &preset.placement {
+        crate::preset::Placement::Randomized {
+            count: (lo, hi),
+            count_distribution,
+            volume,
+            ..
+        } if !matches!(volume, crate::preset::Volume::DensitySweep { .. }) => {
+            crate::scene::placement::count_mean(*lo, *hi, count_distribution)
+        }
+        _ => preset.max_drones_per_frame() as f64,
+    }
+}
