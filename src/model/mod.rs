@@ -22,6 +22,7 @@
 pub mod builtin;
 pub mod confusers;
 pub mod lod;
+pub mod lod_cache;
 pub mod uri;
 
 use std::collections::BTreeMap;
