@@ -91,7 +91,7 @@ pub const MIN_TRIANGLES: usize = 48;
 /// A level that keeps more than this fraction of the previous level's triangles is not made.
 const MIN_PROGRESS: f64 = 0.9;
 /// At most this many levels (level 0 included).
-const MAX_LEVELS: usize = 16;
+pub(crate) const MAX_LEVELS: usize = 16;
 /// At most this many simplified levels are made (each needs its error bound).
 const MAX_CANDIDATES: usize = 24;
 /// Each candidate level asks meshoptimizer for this fraction of the
@@ -100,6 +100,18 @@ const MAX_CANDIDATES: usize = 24;
 /// then 188 at 0.188, as its rotor discs collapse), so drones that could use
 /// 256 triangles drew 378; finer steps cost more bounds to compute at load.
 const LEVEL_STEP: f64 = 0.7;
+
+/// The recipe of [`build_lods`], bumped whenever what it builds changes,
+/// so that [`super::lod_cache`] never returns levels of an older recipe.
+const RECIPE: u32 = 1;
+
+/// Everything besides the model that decides the levels (for the cache's key).
+pub(crate) fn settings() -> String {
+    format!(
+        "recipe {RECIPE}; min {MIN_TRIANGLES}, progress {MIN_PROGRESS}, levels {MAX_LEVELS}, \
+         candidates {MAX_CANDIDATES}, step {LEVEL_STEP}; meshopt 0.7, absolute+permissive+prune"
+    )
+}
 
 /// Build the LOD chain of a model: level 0 is the model's own mesh (error 0),
 /// each further level has at most [`MIN_PROGRESS`] of the triangles of the one

@@ -26,7 +26,7 @@ use std::sync::Arc;
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::visibility::Visibility;
 use crate::annotate::{DroneLabel, label_frame};
-use crate::model::lod::{self, Lod};
+use crate::model::lod::Lod;
 use crate::model::{self, CpuModel, ModelError};
 use crate::preset::{
     BoxMethod, FieldError, ImageFormat, LabelSettings, ModelSource, ModelSpec, Preset,
@@ -177,7 +177,7 @@ fn load_lods(source: &ModelSource, model: &CpuModel) -> Result<Vec<Lod>, ModelEr
     use std::sync::{Mutex, OnceLock};
     static BUILTIN: OnceLock<Mutex<HashMap<String, Vec<Lod>>>> = OnceLock::new();
     let build = || {
-        lod::build_lods(model).map_err(|e| ModelError::Parse {
+        crate::model::lod_cache::cached_lods(model).map_err(|e| ModelError::Parse {
             file: PathBuf::from(&model.name),
             reason: e.to_string(),
         })

@@ -102,8 +102,51 @@ pub(super) fn encode_table() -> &'static [u8] {
 
 #[inline]
 pub(super) fn encode(table: &[u8], l: f32) -> u8 {
-    // l is in [0, 1] (clipped by the sensor); NaN would map to 0.
-    table[((l * (ENCODE_STEPS - 1) as f32 + 0.5) as usize).min(ENCODE_STEPS - 1)]
+    table[encode_index(l) as usize]
+}
+
+/// The encode table's entry for linear `l` (in [0, 1], clipped by the
+/// sensor; NaN maps to 0).
+#[inline(always)]
+fn encode_index(l: f32) -> u32 {
+    ((l * (ENCODE_STEPS - 1) as f32 + 0.5) as u32).min(ENCODE_STEPS as u32 - 1)
+}
+
+/// One row of RGBA8 from three rows of linear values, alpha copied from
+/// `alpha` (every 4th byte, from the first pixel's alpha); `index` is
+/// working memory. The table indices are made in a loop that vectorises,
+/// the lookups in another.
+#[inline(always)]
+pub(super) fn encode_row(vals: [&[f32]; 3], alpha: &[u8], index: &mut Vec<u32>, line: &mut [u8]) {
+    let table = encode_table();
+    let n = line.len() / 4;
+    index.resize(n, 0);
+    for (c, v) in vals.into_iter().enumerate() {
+        for (i, &l) in index.iter_mut().zip(&v[..n]) {
+            *i = encode_index(l);
+        }
+        for (px, &i) in line[c..].iter_mut().step_by(4).zip(index.iter()) {
+            *px = table[i as usize & (ENCODE_STEPS - 1)];
+        }
+    }
+    for (px, &a) in line[3..].iter_mut().step_by(4).zip(alpha.iter().step_by(4)) {
+        *px = a;
+    }
+}
+
+/// Squared distance of the centre of pixel `x` (a column or a row) to the
+/// image centre's `c` on that axis, over the squared half-diagonal.
+#[inline]
+pub(super) fn radius2(x: i64, c: f64, corner2: f64) -> f32 {
+    ((x as f64 + 0.5 - c).powi(2) / corner2) as f32
+}
+
+/// Vignetting factors 1 − strength·ρ² of one row (ρ² = dx2 + dy2).
+#[inline(always)]
+pub(super) fn vignette_factors(strength: f32, dy2: f32, dx2: &[f32], out: &mut [f32]) {
+    for (f, dx2) in out.iter_mut().zip(dx2) {
+        *f = 1.0 - strength * (dx2 + dy2);
+    }
 }
 
 /// Output rows per band of [`apply`] on the plane path (at least four reaches).
@@ -319,7 +362,7 @@ pub(super) fn develop_planes(
 /// centre to the image centre over the half-diagonal.
 /// Saturation `s` about each pixel's linear luminance (Rec. 709 weights),
 /// on one pixel's three channels: the one formula both develop paths use.
-#[inline]
+#[inline(always)]
 pub(super) fn saturate(s: f32, r: &mut f32, g: &mut f32, b: &mut f32) {
     let y = 0.2126 * *r + 0.7152 * *g + 0.0722 * *b;
     *r = y + s * (*r - y);
@@ -340,15 +383,17 @@ fn saturate_planes(planes: &mut [Plane; 3], s: f64) {
 
 fn vignette(planes: &mut [Plane; 3], win: Win, centre: (f64, f64), strength: f64) {
     let corner2 = centre.0 * centre.0 + centre.1 * centre.1;
-    let dx2: Vec<f64> = (win.x0..win.x1)
-        .map(|x| (x as f64 + 0.5 - centre.0).powi(2))
+    let dx2: Vec<f32> = (win.x0..win.x1)
+        .map(|x| radius2(x, centre.0, corner2))
         .collect();
     for p in planes.iter_mut() {
         let w = p.win.w();
         p.data.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-            let dy2 = ((win.y0 + r as i64) as f64 + 0.5 - centre.1).powi(2);
-            for (v, dx2) in row.iter_mut().zip(&dx2) {
-                *v *= (1.0 - strength * (dx2 + dy2) / corner2) as f32;
+            let dy2 = radius2(win.y0 + r as i64, centre.1, corner2);
+            let mut factor = vec![0f32; w];
+            vignette_factors(strength as f32, dy2, &dx2, &mut factor);
+            for (v, f) in row.iter_mut().zip(&factor) {
+                *v *= f;
             }
         });
     }
@@ -357,7 +402,6 @@ fn vignette(planes: &mut [Plane; 3], win: Win, centre: (f64, f64), strength: f64
 /// The RGBA8 bytes of `out` from the linear planes (sRGB by the encode table),
 /// alpha taken from the input frame.
 fn encode_window(planes: &[Plane; 3], out: Win, rgba: &[u8], width: u32) -> Vec<u8> {
-    let enc = encode_table();
     let ow = out.w();
     let mut bytes = vec![0u8; ow * out.h() * 4];
     bytes
@@ -371,19 +415,15 @@ fn encode_window(planes: &[Plane; 3], out: Win, rgba: &[u8], width: u32) -> Vec<
                 &row[x0..x0 + ow]
             });
             let alpha = (y as usize * width as usize + out.x0 as usize) * 4 + 3;
-            for (i, px) in line.chunks_exact_mut(4).enumerate() {
-                px[0] = encode(enc, src[0][i]);
-                px[1] = encode(enc, src[1][i]);
-                px[2] = encode(enc, src[2][i]);
-                px[3] = rgba[alpha + i * 4];
-            }
+            encode_row(src, &rgba[alpha..alpha + ow * 4 - 3], &mut Vec::new(), line);
         });
     bytes
 }
 
 /// The plane magnified by `scale` about `centre` (bilinear). The map is
 /// separable (x′ depends on x alone, y′ on y), so the taps of each column
-/// are computed once.
+/// are computed once, and each row is the two source rows interpolated
+/// vertically, then horizontally.
 fn radial(p: &Plane, scale: f64, centre: (f64, f64)) -> Plane {
     let inv = 1.0 / scale;
     let tap = |x: i64, c: f64| {
@@ -398,13 +438,26 @@ fn radial(p: &Plane, scale: f64, centre: (f64, f64)) -> Plane {
         .collect();
     rows(p.win, |y, row| {
         let (yi, fy) = tap(y, centre.1);
-        let (r0, r1) = (p.row(yi), p.row(yi + 1));
-        for (o, &(c0, c1, fx)) in row.iter_mut().zip(&cols) {
-            let top = r0[c0] + (r0[c1] - r0[c0]) * fx;
-            let bottom = r1[c0] + (r1[c1] - r1[c0]) * fx;
-            *o = top + (bottom - top) * fy;
-        }
+        let mut mid = vec![0f32; p.win.w()];
+        lerp_rows(p.row(yi), p.row(yi + 1), fy, &mut mid);
+        taps_row(&mid, &cols, row);
     })
+}
+
+/// `out` = `r0` + (`r1` − `r0`)·`fy`, element by element (vectorises).
+#[inline(always)]
+pub(super) fn lerp_rows(r0: &[f32], r1: &[f32], fy: f32, out: &mut [f32]) {
+    for ((o, a), b) in out.iter_mut().zip(r0).zip(r1) {
+        *o = a + (b - a) * fy;
+    }
+}
+
+/// `out[i]` = `src[c0]` + (`src[c1]` − `src[c0]`)·`fx` for the taps (c0, c1, fx).
+#[inline(always)]
+pub(super) fn taps_row(src: &[f32], taps: &[(usize, usize, f32)], out: &mut [f32]) {
+    for (o, &(c0, c1, fx)) in out.iter_mut().zip(taps) {
+        *o = src[c0] + (src[c1] - src[c0]) * fx;
+    }
 }
 
 /// Normalised Gaussian weights for offsets −⌈3σ⌉ … ⌈3σ⌉.
@@ -575,7 +628,7 @@ fn bilinear_up(p: &Plane, out: Win, (w, h): (i64, i64), (sw, sh): (i64, i64)) ->
 /// 8-bit levels² = gain·signal + read²), clip again. Pixel indices are the
 /// sensor's (row-major over a sensor `sensor_w` wide).
 fn sensor_noise(planes: &mut [Plane; 3], s: Win, sensor_w: u64, draw: &CameraDraw) {
-    let table = noise::table();
+    let key = noise::Key::new(draw.noise_seed);
     let gain = draw.shot_noise_gain as f32;
     let read2 = (draw.read_noise_levels * draw.read_noise_levels) as f32;
     let w = s.w();
@@ -588,14 +641,11 @@ fn sensor_noise(planes: &mut [Plane; 3], s: Win, sensor_w: u64, draw: &CameraDra
         .for_each(|(r, ((a, b), c))| {
             let y = (s.y0 + r as i64) as u64;
             let first = y * sensor_w + s.x0 as u64;
-            for (i, ((a, b), c)) in a.iter_mut().zip(b).zip(c).enumerate() {
-                let bits = noise::bits(draw.noise_seed, first + i as u64);
-                for (ch, v) in [a, b, c].into_iter().enumerate() {
-                    let signal = v.clamp(0.0, 1.0);
-                    // σ in linear units: sqrt(gain·(255·signal) + read²) / 255.
-                    let sigma = (gain * 255.0 * signal + read2).sqrt() / 255.0;
-                    *v = (signal + sigma * noise::normal(table, bits, ch)).clamp(0.0, 1.0);
-                }
+            let mut devs = [vec![0f32; w], vec![0f32; w], vec![0f32; w]];
+            let [d0, d1, d2] = &mut devs;
+            noise::deviates(key, first, &mut Vec::new(), [d0, d1, d2]);
+            for (vals, d) in [a, b, c].into_iter().zip(&devs) {
+                noise::add(vals, d, gain, read2);
             }
         });
 }

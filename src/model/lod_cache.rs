@@ -1,0 +1,319 @@
+//! The levels of detail of a model, kept on disk between runs: building
+//! them ([`super::lod::build_lods`]: meshoptimizer plus a sampled Hausdorff
+//! bound per level) is most of the start-up of a preset with a detailed
+//! glTF model (≈ 2 s for 10 000 triangles), reading them back a few ms.
+//!
+//! The cache folder is `$SWARMSHOT_CACHE_DIR/lod` when that variable is
+//! set (empty or `off`: no cache at all, nothing read or written), else
+//! `lod` in swarmshot's folder of the user's cache folder (`dirs::cache_dir`:
+//! `~/.cache/swarmshot` on Linux, `~/Library/Caches/swarmshot` on macOS,
+//! `%LOCALAPPDATA%\swarmshot` on Windows). One file per model, named by its
+//! key: the BLAKE3 hash of the crate's version, the simplifier's settings
+//! and the model's vertex, index and draw-range bytes (everything the
+//! levels are computed from), so a changed model, setting or swarmshot
+//! version never meets an old file.
+//!
+//! Files are written atomically (a temporary file in the folder, then a
+//! rename) and read defensively: the magic, the key, the length and a
+//! BLAKE3 checksum of the contents must match, and every level must be
+//! whole triangles of in-range indices and draw ranges of the model; a file
+//! failing any check is ignored and rebuilt over. The cache never changes
+//! the levels: a hit returns exactly what a build returns (tested), so the
+//! outputs are the same with or without it. Failing to write (read-only
+//! home, full disk) only costs the next run the build.
+
+use std::path::{Path, PathBuf};
+
+use super::lod::{self, Lod, LodError};
+use super::{CpuModel, DrawRange};
+
+/// The variable that moves the cache folder (or turns it off: empty or `off`).
+pub const CACHE_ENV: &str = "SWARMSHOT_CACHE_DIR";
+
+/// Format of the files (bumped when the layout or the levels' recipe changes).
+const MAGIC: &[u8; 8] = b"SWLOD\x00\x00\x01";
+
+/// The model's levels of detail: read from the cache folder when a valid
+/// file for this model is there, else built and written there.
+pub fn cached_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+    cached_lods_in(cache_dir().as_deref(), model)
+}
+
+/// [`cached_lods`] with an explicit folder (`None`: build, no cache).
+pub fn cached_lods_in(dir: Option<&Path>, model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+    let Some(dir) = dir else {
+        return lod::build_lods(model);
+    };
+    let key = key(model);
+    let file = dir.join(file_name(&key));
+    if let Some(lods) = read(&file, &key, model) {
+        return Ok(lods);
+    }
+    let lods = lod::build_lods(model)?;
+    // A cache that cannot be written costs the next run the build, nothing else.
+    let _ = write(dir, &file, &encode(&key, &lods, model));
+    Ok(lods)
+}
+
+/// The cache folder, from [`CACHE_ENV`] or the user's cache folder.
+pub fn cache_dir() -> Option<PathBuf> {
+    match std::env::var_os(CACHE_ENV) {
+        Some(v) if v.is_empty() || v == "off" => None,
+        Some(v) => Some(PathBuf::from(v).join("lod")),
+        None => dirs::cache_dir().map(|d| d.join("swarmshot").join("lod")),
+    }
+}
+
+/// The file name of a key.
+pub fn file_name(key: &[u8; 32]) -> String {
+    let hex: String = key.iter().map(|b| format!("{b:02x}")).collect();
+    format!("{hex}.lod")
+}
+
+/// What the levels are computed from: the crate version, the simplifier's
+/// settings and the model's buffers.
+pub fn key(model: &CpuModel) -> [u8; 32] {
+    let mut h = blake3::Hasher::new();
+    h.update(MAGIC);
+    h.update(env!("CARGO_PKG_VERSION").as_bytes());
+    h.update(lod::settings().as_bytes());
+    h.update(&(model.vertices.len() as u64).to_le_bytes());
+    h.update(bytemuck::cast_slice(&model.vertices));
+    h.update(&(model.indices.len() as u64).to_le_bytes());
+    h.update(bytemuck::cast_slice(&model.indices));
+    h.update(&(model.draws.len() as u64).to_le_bytes());
+    for d in &model.draws {
+        h.update(&d.indices.start.to_le_bytes());
+        h.update(&d.indices.end.to_le_bytes());
+        h.update(&d.texture.map_or(u64::MAX, |t| t as u64).to_le_bytes());
+        h.update(&[u8::from(d.double_sided), u8::from(d.alpha_mask)]);
+    }
+    *h.finalize().as_bytes()
+}
+
+/// The file's bytes: magic, key, the levels after level 0 (each: error,
+/// index count, indices, draw count, draws as (source draw, start, end)),
+/// then the BLAKE3 hash of all that.
+pub fn encode(key: &[u8; 32], lods: &[Lod], model: &CpuModel) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(key);
+    let rest = lods.get(1..).unwrap_or_default();
+    out.extend_from_slice(&(rest.len() as u32).to_le_bytes());
+    for l in rest {
+        out.extend_from_slice(&l.error.to_le_bytes());
+        out.extend_from_slice(&(l.indices.len() as u32).to_le_bytes());
+        out.extend_from_slice(bytemuck::cast_slice(&l.indices));
+        out.extend_from_slice(&(l.draws.len() as u32).to_le_bytes());
+        for d in &l.draws {
+            // The model's draw range this one simplifies (same texture and flags).
+            let source = model
+                .draws
+                .iter()
+                .position(|m| same_look(m, d))
+                .unwrap_or(usize::MAX);
+            out.extend_from_slice(&(source as u32).to_le_bytes());
+            out.extend_from_slice(&d.indices.start.to_le_bytes());
+            out.extend_from_slice(&d.indices.end.to_le_bytes());
+        }
+    }
+    let sum = blake3::hash(&out);
+    out.extend_from_slice(sum.as_bytes());
+    out
+}
+
+fn same_look(a: &DrawRange, b: &DrawRange) -> bool {
+    a.texture == b.texture && a.double_sided == b.double_sided && a.alpha_mask == b.alpha_mask
+}
+
+/// The levels in `bytes` for `model`, or `None` when anything is off.
+pub fn decode(bytes: &[u8], key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>> {
+    let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(32)?)?;
+    if blake3::hash(body).as_bytes() != sum {
+        return None;
+    }
+    let mut r = Reader(body);
+    if r.take(8)? != MAGIC || r.take(32)? != key {
+        return None;
+    }
+    let mut lods = vec![Lod {
+        indices: model.indices.clone(),
+        draws: model.draws.clone(),
+        error: 0.0,
+    }];
+    for _ in 0..r.u32()? {
+        let error = f32::from_le_bytes(r.take(4)?.try_into().ok()?);
+        let n = r.u32()? as usize;
+        let indices: Vec<u32> = r
+            .take(n.checked_mul(4)?)?
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let mut draws = Vec::new();
+        for _ in 0..r.u32()? {
+            let source = model.draws.get(r.u32()? as usize)?;
+            let (start, end) = (r.u32()?, r.u32()?);
+            draws.push(DrawRange {
+                indices: start..end,
+                ..source.clone()
+            });
+        }
+        let level = Lod {
+            indices,
+            draws,
+            error,
+        };
+        if !plausible(&level, model, lods.last()?) {
+            return None;
+        }
+        lods.push(level);
+    }
+    r.0.is_empty().then_some(lods)
+}
+
+/// A level read back is whole triangles of in-range indices, its draw
+/// ranges tile its indices in order, and it is coarser than the level before.
+fn plausible(level: &Lod, model: &CpuModel, finer: &Lod) -> bool {
+    let vertices = model.vertices.len();
+    let mut at = 0u32;
+    let tiles = level.draws.iter().all(|d| {
+        let ok = d.indices.start == at && d.indices.end >= d.indices.start;
+        at = d.indices.end;
+        ok && (d.indices.end - d.indices.start).is_multiple_of(3)
+    });
+    tiles
+        && at as usize == level.indices.len()
+        && level.indices.iter().all(|&i| (i as usize) < vertices)
+        && level.error.is_finite()
+        && level.error > finer.error
+        && level.triangle_count() < finer.triangle_count()
+}
+
+/// Cursor over a file's bytes.
+struct Reader<'a>(&'a [u8]);
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let (head, tail) = self.0.split_at_checked(n)?;
+        self.0 = tail;
+        Some(head)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+}
+
+/// The levels in `file` when it is a valid cache file for `model`.
+fn read(file: &Path, key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>> {
+    // No level has more indices or draws than the model: a larger file is not ours.
+    let per_level = model.indices.len() as u64 * 4 + model.draws.len() as u64 * 12 + 12;
+    let limit = 1024 + lod::MAX_LEVELS as u64 * per_level;
+    let meta = std::fs::metadata(file).ok()?;
+    if !meta.is_file() || meta.len() > limit {
+        return None;
+    }
+    decode(&std::fs::read(file).ok()?, key, model)
+}
+
+/// Write `bytes` to `file` in `dir`: a temporary file beside it, then a rename.
+fn write(dir: &Path, file: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    std::fs::create_dir_all(dir)?;
+    let name = file.file_name().unwrap_or_default().to_string_lossy();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = std::fs::File::create_new(&tmp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .and_then(|()| std::fs::rename(&tmp, file));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::builtin::{NAMES, glb};
+
+    fn builtin(name: &str) -> CpuModel {
+        let bytes = glb(name).expect("built-in");
+        crate::model::load_bytes(bytes, None, Path::new(name), name).expect("loads")
+    }
+
+    /// A miss builds and writes the file; the file then gives exactly the
+    /// built levels (read alone, without building), for every built-in.
+    #[test]
+    fn a_cache_hit_gives_the_built_levels() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let mut levels = 0;
+        for name in NAMES {
+            let model = builtin(name);
+            let built = lod::build_lods(&model).expect("builds");
+            levels += built.len() - 1;
+            let first = cached_lods_in(Some(dir.path()), &model).expect("first run");
+            assert_eq!(first, built, "{name}");
+            let file = dir.path().join(file_name(&key(&model)));
+            let bytes = std::fs::read(&file).expect("the cache file is written");
+            let read_back = decode(&bytes, &key(&model), &model).expect("a valid file");
+            assert_eq!(read_back, built, "{name}");
+            assert_eq!(
+                cached_lods_in(Some(dir.path()), &model).expect("hit"),
+                built
+            );
+        }
+        assert!(levels > NAMES.len(), "simplified levels to cache: {levels}");
+        // Only the cache files, no temporary left behind.
+        let names: Vec<String> = std::fs::read_dir(dir.path())
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names.len(), NAMES.len(), "{names:?}");
+        assert!(
+            names
+                .iter()
+                .all(|n| n.ends_with(".lod") && !n.starts_with('.'))
+        );
+    }
+
+    /// A corrupted, truncated or foreign file is ignored and rebuilt over;
+    /// a changed model has another key.
+    #[test]
+    fn a_corrupt_cache_file_is_rebuilt() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let model = builtin(NAMES[0]);
+        let built = lod::build_lods(&model).expect("builds");
+        assert!(built.len() > 2, "{} levels", built.len());
+        let k = key(&model);
+        let file = dir.path().join(file_name(&k));
+        let good = encode(&k, &built, &model);
+        assert_eq!(decode(&good, &k, &model).as_ref(), Some(&built));
+        // A flipped byte anywhere fails the checksum (or the magic / key).
+        for at in [0, 9, 45, good.len() / 2, good.len() - 1] {
+            let mut bad = good.clone();
+            bad[at] ^= 0x10;
+            assert_eq!(decode(&bad, &k, &model), None, "byte {at}");
+            std::fs::write(&file, &bad).expect("write");
+            assert_eq!(
+                cached_lods_in(Some(dir.path()), &model).expect("rebuilt"),
+                built
+            );
+            assert_eq!(std::fs::read(&file).expect("rewritten"), good, "byte {at}");
+        }
+        // Truncated, empty, and a well-formed file whose indices leave the model.
+        assert_eq!(decode(&good[..good.len() - 40], &k, &model), None);
+        assert_eq!(decode(&[], &k, &model), None);
+        let mut foreign = built.clone();
+        foreign[1].indices[0] = model.vertices.len() as u32;
+        assert_eq!(decode(&encode(&k, &foreign, &model), &k, &model), None);
+        std::fs::write(&file, encode(&k, &foreign, &model)).expect("write");
+        assert_eq!(
+            cached_lods_in(Some(dir.path()), &model).expect("rebuilt"),
+            built
+        );
+        // Another key (another model) does not read this file.
+        let mut moved = model.clone();
+        moved.vertices[0].position[0] += 0.5;
+        assert_ne!(key(&moved), k);
+        assert_eq!(decode(&good, &key(&moved), &moved), None);
+    }
+}
