@@ -40,6 +40,9 @@ pub struct Material {
 #[derive(Default)]
 pub struct MeshBuilder {
     materials: Vec<Material>,
+    /// Per material: written with glTF `alphaMode: BLEND` (translucent when the
+    /// alpha it is drawn with is below 1; see `translucent_material`).
+    blend: Vec<bool>,
     /// Per material: positions, normals, indices.
     parts: Vec<(Vec<Vec3>, Vec<Vec3>, Vec<u32>)>,
 }
@@ -47,8 +50,18 @@ pub struct MeshBuilder {
 impl MeshBuilder {
     pub fn material(&mut self, m: Material) -> usize {
         self.materials.push(m);
+        self.blend.push(false);
         self.parts.push(Default::default());
         self.materials.len() - 1
+    }
+
+    /// A material written with `alphaMode: BLEND` (its alpha stays `m`'s, 1 for
+    /// the rotor discs): drawn opaque, and translucent when a preset lowers the
+    /// drone's rotor opacity (`appearance.rotor_opacity`, docs/realism.md).
+    pub fn translucent_material(&mut self, m: Material) -> usize {
+        let i = self.material(m);
+        self.blend[i] = true;
+        i
     }
 
     /// Add a flat-shaded quad (counter-clockwise seen from the normal side).
@@ -306,8 +319,15 @@ impl MeshBuilder {
         let materials: Vec<_> = self
             .materials
             .iter()
-            .map(|m| json!({"name": m.name, "pbrMetallicRoughness": {
-                "baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness}}))
+            .zip(&self.blend)
+            .map(|(m, &blend)| {
+                let mut j = json!({"name": m.name, "pbrMetallicRoughness": {
+                "baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness}});
+                if blend {
+                    j["alphaMode"] = json!("BLEND");
+                }
+                j
+            })
             .collect();
         let doc = json!({
             "asset": {"version": "2.0", "generator": "swarmshot mesh builder"},
@@ -371,7 +391,7 @@ fn quad_x() -> MeshBuilder {
     let shell = b.material(SHELL_GREY);
     let carbon = b.material(CARBON);
     let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
+    let rotor = b.translucent_material(ROTOR);
     let accent = b.material(ACCENT_RED);
     // Body and battery.
     b.cuboid(
@@ -523,7 +543,7 @@ impl RotorcraftMaterials {
             body: b.material(body),
             arm: b.material(arm),
             motor: b.material(MOTOR),
-            rotor: b.material(ROTOR),
+            rotor: b.translucent_material(ROTOR),
             accent: b.material(accent),
         }
     }
@@ -777,7 +797,7 @@ fn fixed_wing() -> MeshBuilder {
     let accent = b.material(ACCENT_RED);
     let canopy = b.material(GLASS);
     let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
+    let rotor = b.translucent_material(ROTOR);
     // Fuselage along +Z (nose forward): (z, half width, half height, centre height).
     b.fuselage(
         shell,
@@ -866,7 +886,7 @@ fn flying_wing_vtol() -> MeshBuilder {
     let accent = b.material(OLIVE);
     let boom = b.material(CARBON);
     let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
+    let rotor = b.translucent_material(ROTOR);
     // Centre body.
     b.fuselage(
         skin,
@@ -935,7 +955,7 @@ fn coaxial_heli() -> MeshBuilder {
     let canopy = b.material(GLASS);
     let dark = b.material(DARK_GREY);
     let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
+    let rotor = b.translucent_material(ROTOR);
     b.fuselage(
         shell,
         &[
