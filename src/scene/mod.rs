@@ -331,7 +331,7 @@ pub fn build_frame_draw(
         };
         let mut camera0 = camera.0;
         camera0.position -= shift;
-        let (poses, confusers) = confusers::place(preset, &camera0, draw_index, time_s);
+        let (poses, confusers) = confusers::place(preset, (&camera0, plane), draw_index, time_s);
         drones.extend(poses);
         confusers
     };
