@@ -18,6 +18,7 @@ pub mod confusers;
 pub mod math;
 pub mod motion;
 pub mod placement;
+pub mod plate_air;
 pub mod projection;
 pub mod realism;
 pub mod split;
