@@ -15,7 +15,7 @@ use crate::preset::camera_model::{CameraModel, Psf};
 use crate::preset::observer::ObserverCamera;
 
 /// An optional `(min, max)` range: a checkbox, and the range row while it is on.
-fn optional_range<N: egui::emath::Numeric>(
+pub(super) fn optional_range<N: egui::emath::Numeric>(
     ui: &mut Ui,
     value: &mut Option<(N, N)>,
     default: (N, N),
