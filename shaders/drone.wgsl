@@ -6,7 +6,7 @@ struct VertexInput {
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
     @location(8) uv: vec2<f32>,
-    // metallic, roughness, unlit (0/1), alpha cutoff (0: opaque)
+    // metallic, roughness, unlit (0/1), alpha cutoff (0: opaque; -1: glTF BLEND)
     @location(9) material: vec4<f32>,
 };
 
@@ -18,6 +18,8 @@ override ALPHA_MASK: bool = true;
 // Whether this pipeline draws textured ranges; the others skip the fetch of
 // the 1×1 white texture (a product with exactly 1.0: the same colour).
 override TEXTURED: bool = true;
+// Samples per pixel of the target (the `_blend` entries' coverage masks).
+override SAMPLES: f32 = 4.0;
 
 @group(1) @binding(0) var base_color_texture: texture_2d<f32>;
 @group(1) @binding(1) var base_color_sampler: sampler;
@@ -33,7 +35,7 @@ struct Instance {
     @location(10) air: vec4<f32>,
     // Drawn base colour (rgb); w: 1 when the drone has a drawn look.
     @location(11) look: vec4<f32>,
-    // Drawn metalness, roughness, emission factor.
+    // Drawn metalness, roughness, emission factor, rotor opacity (BLEND triangles' alpha factor).
     @location(12) look_material: vec4<f32>,
 };
 
@@ -108,6 +110,59 @@ fn fs_layer(in: VsOut) -> IdOnly {
         discard;
     }
     return IdOnly(f32(in.id));
+}
+
+// Translucency of glTF BLEND triangles (the rotor discs of the built-in
+// models) without sorting: the fragment covers the first round(alpha · SAMPLES)
+// samples of its pixel (alpha = base colour alpha × the drone's rotor
+// opacity), colour, id and depth alike, so the resolved pixel is the disc's
+// colour over what lies behind it at that share, and the id samples count
+// the drone exactly where its samples show it. Other fragments keep every sample.
+fn coverage_mask(in: VsOut) -> u32 {
+    if (in.material.w >= 0.0) {
+        return 0xffffffffu;
+    }
+    var alpha = base_color(in).a;
+    if (in.look.w > 0.5) {
+        alpha = alpha * in.look_material.w;
+    }
+    let k = u32(round(clamp(alpha, 0.0, 1.0) * SAMPLES));
+    return (1u << k) - 1u;
+}
+
+struct ColorMasked {
+    @location(0) color: vec4<f32>,
+    @builtin(sample_mask) mask: u32,
+};
+
+@fragment
+fn fs_main_blend(in: VsOut, @builtin(front_facing) front: bool) -> ColorMasked {
+    return ColorMasked(shade(in, front), coverage_mask(in));
+}
+
+struct ColorAndIdMasked {
+    @location(0) color: vec4<f32>,
+    @location(1) id: f32,
+    @builtin(sample_mask) mask: u32,
+};
+
+@fragment
+fn fs_ids_blend(in: VsOut, @builtin(front_facing) front: bool) -> ColorAndIdMasked {
+    return ColorAndIdMasked(shade(in, front), f32(in.id), coverage_mask(in));
+}
+
+struct IdOnlyMasked {
+    @location(1) id: f32,
+    @builtin(sample_mask) mask: u32,
+};
+
+@fragment
+fn fs_layer_blend(in: VsOut) -> IdOnlyMasked {
+    let base = base_color(in);
+    if (ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w) {
+        discard;
+    }
+    return IdOnlyMasked(f32(in.id), coverage_mask(in));
 }
 
 fn base_color(in: VsOut) -> vec4<f32> {

@@ -58,6 +58,8 @@ pub fn frame_rng(preset_seed: u64, frame_index: u64) -> ChaCha8Rng {
 /// on never shifts the placement, the sky or another's draws.
 pub const ATMOSPHERE_SALT: u64 = 0x4154_4D4F_5350_4852; // "ATMOSPHR"
 pub const APPEARANCE_SALT: u64 = 0x4150_5045_4152_4E43; // "APPEARNC"
+/// The drones' rotor opacities (`appearance.rotor_opacity`).
+pub const ROTOR_SALT: u64 = 0x524F_544F_5253_5F5F; // "ROTORS__"
 pub const OBSERVER_SALT: u64 = 0x4F42_5345_5256_4552; // "OBSERVER"
 /// Salt of the clutter draws (issue 22).
 pub const CLUTTER_SALT: u64 = 0x434C_5554_5445_5253; // "CLUTTERS"

@@ -483,3 +483,97 @@ fn drones_under_a_plate_take_its_ambient_light() {
         "only {compared} frames had a drone to compare"
     );
 }
+
+/// Haze under a plate fades the drones into the plate's own sky around them
+/// (`scene::plate_air`), not into the preset's procedural sky: in thick haze a
+/// drone takes the mean colour of the plate about it, and nearly vanishes.
+#[test]
+fn haze_under_a_plate_takes_the_plates_sky_around_the_drone() {
+    use swarmshot::preset::atmosphere::Atmosphere;
+    let ctx = common::gpu();
+    let decode = |c: u8| {
+        let c = f64::from(c) / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let encode = |l: f64| {
+        let s = if l <= 0.003_130_8 {
+            l * 12.92
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        };
+        s * 255.0
+    };
+    let mut checked = 0;
+    for (visibility_m, thick) in [(0.5, true), (1.0e7, false)] {
+        let mut p = plate_preset(&plates_dir(), (1, 1));
+        p.atmosphere = Some(Atmosphere {
+            visibility_m: (visibility_m, visibility_m),
+        });
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(&ctx);
+        for index in 0..6 {
+            let frame = pipeline.make(&mut renderer, index).expect("frame");
+            let bg = renderer
+                .background_pixels(&frame.painted)
+                .expect("background")
+                .to_vec();
+            let (a, w) = (&frame.rgba, W as usize);
+            let changed: Vec<usize> = (0..a.len() / 4)
+                .filter(|&i| a[i * 4..i * 4 + 3] != bg[i * 4..i * 4 + 3])
+                .collect();
+            if changed.len() < 12 {
+                continue;
+            }
+            // The drone's mean colour and its mean difference from the plate under it.
+            let mean = |img: &[u8], c: usize| {
+                changed
+                    .iter()
+                    .map(|&i| f64::from(img[i * 4 + c]))
+                    .sum::<f64>()
+                    / changed.len() as f64
+            };
+            let diff: f64 = (0..3)
+                .map(|c| (mean(a, c) - mean(&bg, c)).abs())
+                .sum::<f64>()
+                / 3.0;
+            if !thick {
+                assert!(
+                    diff > 8.0,
+                    "frame {index}: a clear-air drone stands out ({diff})"
+                );
+                checked += 1;
+                continue;
+            }
+            // The plate's mean (linear) in a ±7 px window (2 % of 360) about the drone's centre.
+            let (cx, cy) = (
+                changed.iter().map(|&i| i % w).sum::<usize>() / changed.len(),
+                changed.iter().map(|&i| i / w).sum::<usize>() / changed.len(),
+            );
+            for c in 0..3 {
+                let mut sum = (0.0, 0.0);
+                for y in cy.saturating_sub(7)..=(cy + 7).min(H as usize - 1) {
+                    for x in cx.saturating_sub(7)..=(cx + 7).min(w - 1) {
+                        sum.0 += decode(bg[(y * w + x) * 4 + c]);
+                        sum.1 += 1.0;
+                    }
+                }
+                let want = encode(sum.0 / sum.1);
+                assert!(
+                    (mean(a, c) - want).abs() < 3.0,
+                    "frame {index}, channel {c}: the hazed drone {} against the plate's {want}",
+                    mean(a, c)
+                );
+            }
+            assert!(
+                diff < 6.0,
+                "frame {index}: the drone fades into the plate ({diff})"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "{checked}");
+}

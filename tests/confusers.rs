@@ -464,3 +464,75 @@ fn labelled_birds_are_tracked_in_mot_and_negatives_are_not() {
     }
     assert!(bird_rows > 0, "the gulls are class 2 rows");
 }
+
+/// The scene rotation turns confusers as it turns drones: each attitude (so
+/// heading) and each flock's formation is rotated by PlaneRX/RY/RZ, while the
+/// centres drawn in the camera's view stay put.
+#[test]
+fn confusers_follow_the_scene_rotation_as_drones_do() {
+    let flock = Confuser {
+        flock: Some(Flock {
+            shape: FlockShape::V,
+            ..Flock::default()
+        }),
+        count: (5, 5),
+        ..gulls(false)
+    };
+    let with_plane = |rx: f64, ry: f64, rz: f64| {
+        let mut p = preset();
+        p.confusers = vec![flock.clone(), airliner()];
+        p.plane.rx = SweepRange::fixed(rx);
+        p.plane.ry = SweepRange::fixed(ry);
+        p.plane.rz = SweepRange::fixed(rz);
+        FramePipeline::new(p)
+            .expect("pipeline")
+            .scene(0)
+            .expect("scene")
+    };
+    let flat = with_plane(0.0, 0.0, 0.0);
+    let turned = with_plane(25.0, 70.0, -15.0);
+    let plane = swarmshot::scene::math::plane_rotation(25.0, 70.0, -15.0);
+    let (n, m) = (flat.drone_count(), turned.drone_count());
+    assert_eq!(n, m);
+    // The drones themselves: the same draws, rotated.
+    for (a, b) in flat.drones[..n].iter().zip(&turned.drones[..n]) {
+        assert!((plane * a.position - b.position).length() < 1e-9);
+    }
+    let (a, b) = (&flat.drones[n..], &turned.drones[m..]);
+    assert_eq!(a.len(), 6);
+    assert_eq!(b.len(), 6);
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        let want = (plane * x.rotation).normalize();
+        assert!(
+            want.dot(y.rotation).abs() > 1.0 - 1e-12,
+            "confuser {k}: {:?} vs {want:?}",
+            y.rotation
+        );
+        // Flying along the rotated heading.
+        let (fx, fy) = (x.rotation * glam::DVec3::Z, y.rotation * glam::DVec3::Z);
+        assert!((plane * fx - fy).length() < 1e-9, "confuser {k}");
+    }
+    // The flock's formation turns with it: members' offsets from the leader, rotated.
+    for k in 1..5 {
+        let (da, db) = (a[k].position - a[0].position, b[k].position - b[0].position);
+        assert!(da.length() > 0.1, "member {k} apart from the leader");
+        assert!(
+            (plane * da - db).length() < 1e-6 * da.length().max(1.0),
+            "member {k}"
+        );
+    }
+    // The flock's leader and the airliner stay where they were drawn in the
+    // view (their model's centre moves within a span as they turn), but fly
+    // another way.
+    for k in [0, 5] {
+        let span = turned.confusers[k].span_m;
+        assert!(
+            (a[k].position - b[k].position).length() <= span,
+            "confuser {k}"
+        );
+        assert!(
+            a[k].rotation.dot(b[k].rotation).abs() < 0.999,
+            "confuser {k}"
+        );
+    }
+}

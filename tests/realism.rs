@@ -66,6 +66,7 @@ fn haze_scene(
         roughness: 0.6,
         metalness: 0.0,
         emissive: 0.0,
+        rotor_opacity: 1.0,
     }];
     s.atmosphere = atmosphere;
     s

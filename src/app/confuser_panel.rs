@@ -1,13 +1,14 @@
 //! The Confusers panel (issue 22): birds, aircraft and balloons around the
 //! swarm (`confusers` in the preset, docs/negatives.md). One block per entry:
 //! its kind, count and distance, whether it is labelled as a class or kept as
-//! an unlabelled hard negative, and for birds the gliding share and the
-//! flock. An empty list is off, so a preset that does not use it keeps its
+//! an unlabelled hard negative, its size and speed (off: the kind's typical),
+//! and for birds the wing-beat rate, the gliding share and the flock. An empty list is off, so a preset that does not use it keeps its
 //! bytes. Validation messages appear under the row owning their field path.
 
 use egui::Ui;
 
 use super::panels::{Form, number_row_in, range_row_in};
+use super::realism_panels::optional_range;
 use crate::preset::Preset;
 use crate::preset::confusers::{Confuser, ConfuserKind, Flock, FlockShape};
 
@@ -75,6 +76,27 @@ fn entry_ui(ui: &mut Ui, i: usize, c: &mut Confuser, form: &mut Form<'_>) -> boo
         " m",
     );
     form.messages(ui, &[&field("distance_m")]);
+    let (size, speed) = (c.size_range_m(), c.speed_range_m_s());
+    optional_range(
+        ui,
+        &mut c.size_m,
+        size,
+        "Size",
+        "Largest span in metres (birds: wingspan), drawn per object; off: the kind's typical",
+        0.01,
+        " m",
+    );
+    form.messages(ui, &[&field("size_m")]);
+    optional_range(
+        ui,
+        &mut c.speed_m_s,
+        speed,
+        "Speed",
+        "Speed along the heading in m/s, drawn per object (per flock); off: the kind's typical",
+        0.1,
+        " m/s",
+    );
+    form.messages(ui, &[&field("speed_m_s")]);
     ui.horizontal(|ui| {
         let mut labelled = c.labelled_as.is_some();
         let tip = "Labelled: its own class in YOLO, COCO and MOT. Unlabelled: a hard negative, in the manifest only (cyan boxes in the preview)";
@@ -113,6 +135,17 @@ fn bird_ui(ui: &mut Ui, c: &mut Confuser, field: &dyn Fn(&str) -> String, form: 
         "",
     );
     form.messages(ui, &[&field("glide_share")]);
+    let flap = c.flap_range_hz();
+    optional_range(
+        ui,
+        &mut c.flap_hz,
+        flap,
+        "Wing beats",
+        "Wing beats per second, drawn per bird; off: the species' typical",
+        0.1,
+        " Hz",
+    );
+    form.messages(ui, &[&field("flap_hz")]);
     let mut flock = c.flock.is_some();
     if ui
         .checkbox(&mut flock, "Flock")

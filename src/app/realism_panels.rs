@@ -15,7 +15,7 @@ use crate::preset::camera_model::{CameraModel, Psf};
 use crate::preset::observer::ObserverCamera;
 
 /// An optional `(min, max)` range: a checkbox, and the range row while it is on.
-fn optional_range<N: egui::emath::Numeric>(
+pub(super) fn optional_range<N: egui::emath::Numeric>(
     ui: &mut Ui,
     value: &mut Option<(N, N)>,
     default: (N, N),
@@ -141,6 +141,11 @@ pub fn camera_model_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         range_row_in(ui, value, name, tip, speed, unit);
         form.messages(ui, &[&format!("{p}.{field}")]);
     }
+    sensor_and_jpeg_ui(ui, c, form);
+}
+
+/// The camera model's optional stages: a coarser sensor and the JPEG qualities.
+fn sensor_and_jpeg_ui(ui: &mut Ui, c: &mut CameraModel, form: &mut Form<'_>) {
     optional_range(
         ui,
         &mut c.sensor_scale,
@@ -337,6 +342,15 @@ pub fn appearance_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         "×",
     );
     form.messages(ui, &["appearance.emissive_strength"]);
+    range_row_in(
+        ui,
+        &mut a.rotor_opacity,
+        "Rotor opacity",
+        "Opacity of the spinning rotor discs (the models' glTF BLEND materials), drawn per drone: 1 solid, 0.3 a faint blur the sky shows through (MSAA 4 draws it in quarters)",
+        0.01,
+        "",
+    );
+    form.messages(ui, &["appearance.rotor_opacity"]);
 }
 
 /// The observer camera inside the Camera section (`camera.observer`).

@@ -41,6 +41,7 @@
 
 pub mod jpeg_quality;
 pub mod measure;
+mod propose;
 pub mod report;
 
 use image::RgbImage;

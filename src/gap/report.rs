@@ -96,13 +96,15 @@ pub enum Summary {
 }
 
 impl Summary {
-    fn centre(&self) -> f64 {
+    /// The median, or the share.
+    pub(super) fn centre(&self) -> f64 {
         match *self {
             Summary::Distribution { median, .. } => median,
             Summary::Share { share, .. } => share,
         }
     }
-    fn range(&self) -> (f64, f64) {
+    /// The inter-quartile range, or the share's 50 % Wilson interval.
+    pub(super) fn range(&self) -> (f64, f64) {
         match *self {
             Summary::Distribution { q25, q75, .. } => (q25, q75),
             Summary::Share { low, high, .. } => (low, high),
@@ -543,171 +545,13 @@ pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
             verdict: verdict(r, y),
         });
     }
-    let proposals = propose(&statistics);
+    let proposals = super::propose::propose(&statistics);
     Ok(Report {
         real,
         synthetic,
         statistics,
         proposals,
     })
-}
-
-fn row<'a>(rows: &'a [StatRow], key: &str) -> Option<&'a StatRow> {
-    rows.iter().find(|r| r.key == key)
-}
-
-/// Added Gaussian σ that takes `have` (in quadrature) to `want`; 0 when already there.
-fn add_in_quadrature(want: f64, have: f64) -> f64 {
-    (want * want - have * have).max(0.0).sqrt()
-}
-
-fn propose(rows: &[StatRow]) -> Vec<Proposal> {
-    let mut out = Vec::new();
-    let dist = |key: &str| -> Option<(f64, f64, f64, &'static str)> {
-        let r = row(rows, key)?;
-        let (Some(real), Some(syn)) = (r.real, r.synthetic) else {
-            return None;
-        };
-        let (lo, hi) = real.range();
-        Some((lo, hi, syn.centre(), r.verdict))
-    };
-    for (key, what, unit) in [
-        ("noise_sigma", "noise: read σ", "levels"),
-        ("blur_sigma_px", "optics blur: Gaussian PSF σ", "px"),
-    ] {
-        if let Some((lo, hi, s, v)) = dist(key) {
-            let p = match v {
-                "below" => {
-                    let (a, b) = (add_in_quadrature(lo, s), add_in_quadrature(hi, s));
-                    Proposal {
-                        key: if key == "noise_sigma" {
-                            "noise"
-                        } else {
-                            "blur"
-                        },
-                        text: format!(
-                            "{what} {} – {} {unit} added (the dataset measures {} against the real {} – {}; added in quadrature{})",
-                            fmt(a),
-                            fmt(b),
-                            fmt(s),
-                            fmt(lo),
-                            fmt(hi),
-                            if key == "noise_sigma" {
-                                "; the encoder smooths some noise away, so aim at the upper end and measure again"
-                            } else {
-                                ""
-                            }
-                        ),
-                        range: Some([a, b]),
-                    }
-                }
-                "above" => Proposal {
-                    key: if key == "noise_sigma" {
-                        "noise"
-                    } else {
-                        "blur"
-                    },
-                    text: format!(
-                        "{what}: the dataset measures {} {unit}, above the real {} – {}: lower it",
-                        fmt(s),
-                        fmt(lo),
-                        fmt(hi)
-                    ),
-                    range: None,
-                },
-                _ => Proposal {
-                    key: if key == "noise_sigma" {
-                        "noise"
-                    } else {
-                        "blur"
-                    },
-                    text: format!("{what}: inside the real range ({} {unit}): keep", fmt(s)),
-                    range: None,
-                },
-            };
-            out.push(p);
-        }
-    }
-    if let Some(r) = row(rows, "jpeg_quality")
-        && let Some(real) = r.real
-    {
-        let (lo, hi) = real.range();
-        out.push(Proposal {
-            key: "jpeg_quality",
-            text: format!(
-                "JPEG quality {} – {} (the real files' IQR)",
-                lo.round(),
-                hi.round()
-            ),
-            range: Some([lo.round(), hi.round()]),
-        });
-    }
-    if let Some((lo, hi, s, v)) = dist("mean_brightness")
-        && v != "inside"
-        && s > 0.0
-    {
-        out.push(Proposal {
-            key: "exposure",
-            text: format!(
-                "exposure: scale brightness by ×{} – ×{} (real IQR {} – {} levels over the dataset's {}; a ratio of 8-bit levels: in linear light about its 2.2th power)",
-                fmt(lo / s),
-                fmt(hi / s),
-                fmt(lo),
-                fmt(hi),
-                fmt(s)
-            ),
-            range: Some([lo / s, hi / s]),
-        });
-    }
-    if let Some((lo, hi, s, v)) = dist("drone_core_px")
-        && v != "inside"
-        && lo > 0.0
-    {
-        out.push(Proposal {
-            key: "distance",
-            text: format!(
-                "drone size: cores of {} – {} px (real IQR) against the dataset's {}: scale camera distances by ×{} – ×{}",
-                fmt(lo),
-                fmt(hi),
-                fmt(s),
-                fmt(s / hi),
-                fmt(s / lo)
-            ),
-            range: Some([s / hi, s / lo]),
-        });
-    }
-    if let Some(r) = row(rows, "drone_darker")
-        && let (Some(real), Some(syn), "below" | "above") = (r.real, r.synthetic, r.verdict)
-    {
-        out.push(Proposal {
-            key: "appearance",
-            text: format!(
-                "appearance: {} % of the dataset's drones are darker than the sky behind them, against {} % of the real ones: {} light or sunlit drone materials",
-                (syn.centre() * 100.0).round(),
-                (real.centre() * 100.0).round(),
-                if r.verdict == "above" { "more" } else { "fewer" }
-            ),
-            range: None,
-        });
-    }
-    if let Some((lo, hi, s, v)) = dist("sky_saturation")
-        && v != "inside"
-        && s > 0.0
-    {
-        out.push(Proposal {
-            key: "sky_saturation",
-            text: format!(
-                "sky saturation: ×{} – ×{} (real {} – {} against the dataset's {})",
-                fmt(lo / s),
-                fmt(hi / s),
-                fmt(lo),
-                fmt(hi),
-                fmt(s)
-            ),
-            range: Some([lo / s, hi / s]),
-        });
-    }
-    out
 }
 
 /// A number with three significant figures or so.
@@ -971,8 +815,8 @@ mod tests {
 
     #[test]
     fn quadrature_proposal_reaches_the_target() {
-        let a = add_in_quadrature(2.0, 1.0);
+        let a = super::super::propose::add_in_quadrature(2.0, 1.0);
         assert!(((a * a + 1.0).sqrt() - 2.0).abs() < 1e-12);
-        assert_eq!(add_in_quadrature(1.0, 2.0), 0.0);
+        assert_eq!(super::super::propose::add_in_quadrature(1.0, 2.0), 0.0);
     }
 }

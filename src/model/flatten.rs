@@ -541,7 +541,8 @@ fn material_of(material: &gltf::Material<'_>) -> ([f32; 4], f32, [f32; 4]) {
     let pbr = material.pbr_metallic_roughness();
     let cutoff = match material.alpha_mode() {
         gltf::material::AlphaMode::Mask => material.alpha_cutoff().unwrap_or(0.5).max(1e-6),
-        _ => 0.0,
+        gltf::material::AlphaMode::Blend => super::BLEND_MARK,
+        gltf::material::AlphaMode::Opaque => 0.0,
     };
     let params = [
         pbr.metallic_factor(),

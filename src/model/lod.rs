@@ -898,12 +898,14 @@ mod tests {
                 texture: Some(0),
                 double_sided: false,
                 alpha_mask: false,
+                alpha_blend: false,
             },
             DrawRange {
                 indices: half..end,
                 texture: Some(1),
                 double_sided: false,
                 alpha_mask: false,
+                alpha_blend: false,
             },
         ];
         let range_of = |i: u32| model.indices[..half as usize].contains(&i);

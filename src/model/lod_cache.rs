@@ -86,7 +86,11 @@ pub fn key(model: &CpuModel) -> [u8; 32] {
         h.update(&d.indices.start.to_le_bytes());
         h.update(&d.indices.end.to_le_bytes());
         h.update(&d.texture.map_or(u64::MAX, |t| t as u64).to_le_bytes());
-        h.update(&[u8::from(d.double_sided), u8::from(d.alpha_mask)]);
+        h.update(&[
+            u8::from(d.double_sided),
+            u8::from(d.alpha_mask),
+            u8::from(d.alpha_blend),
+        ]);
     }
     *h.finalize().as_bytes()
 }
@@ -123,7 +127,10 @@ pub fn encode(key: &[u8; 32], lods: &[Lod], model: &CpuModel) -> Vec<u8> {
 }
 
 fn same_look(a: &DrawRange, b: &DrawRange) -> bool {
-    a.texture == b.texture && a.double_sided == b.double_sided && a.alpha_mask == b.alpha_mask
+    a.texture == b.texture
+        && a.double_sided == b.double_sided
+        && a.alpha_mask == b.alpha_mask
+        && a.alpha_blend == b.alpha_blend
 }
 
 /// The levels in `bytes` for `model`, or `None` when anything is off.

@@ -46,7 +46,8 @@ pub struct Vertex {
     pub color: [f32; 4],
     /// Base colour texture coordinates (`KHR_texture_transform` applied).
     pub uv: [f32; 2],
-    /// Metallic factor, roughness factor, unlit (0 or 1), alpha cutoff (0: opaque).
+    /// Metallic factor, roughness factor, unlit (0 or 1), alpha cutoff (0: opaque;
+    /// −1: glTF `alphaMode: BLEND`, drawn translucent by its alpha, see `DrawRange::alpha_blend`).
     pub material: [f32; 4],
 }
 
@@ -81,7 +82,15 @@ pub struct DrawRange {
     /// glTF `alphaMode: MASK`: fragments below the cutoff are discarded.
     /// Draws without it use a pipeline with no discard (early depth test).
     pub alpha_mask: bool,
+    /// Holds glTF `alphaMode: BLEND` triangles (vertex `material[3]` = −1): drawn
+    /// with a pipeline that turns their alpha into MSAA coverage (`shaders/drone.wgsl`,
+    /// `coverage_mask`). Such triangles share ranges with opaque ones (the ranges and
+    /// so the levels of detail are those of the opaque model).
+    pub alpha_blend: bool,
 }
+
+/// `Vertex::material[3]` of glTF `alphaMode: BLEND` materials.
+pub const BLEND_MARK: f32 = -1.0;
 
 /// Textures are downscaled to this side: drones are small in the frame, so
 /// larger textures only cost memory.
@@ -305,6 +314,11 @@ fn load_bytes_inner(
     let mut indices = Vec::new();
     let mut draws = Vec::new();
     for ((texture, double_sided, alpha_mask), ix) in buckets {
+        let alpha_blend = ix.iter().any(|&i| {
+            vertices
+                .get(i as usize)
+                .is_some_and(|v| v.material[3] < 0.0)
+        });
         let start = indices.len() as u32;
         indices.extend(ix);
         draws.push(DrawRange {
@@ -312,6 +326,7 @@ fn load_bytes_inner(
             texture,
             double_sided,
             alpha_mask,
+            alpha_blend,
         });
     }
     draws.retain(|d| !d.indices.is_empty());

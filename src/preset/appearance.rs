@@ -36,6 +36,16 @@ pub struct Appearance {
     pub emissive_share: f64,
     /// Emission of a drone with lights, as a multiple of its colour (linear), drawn within (min, max).
     pub emissive_strength: (f64, f64),
+    /// Opacity of the rotor discs (the built-in models' spinning rotors, and any
+    /// glTF `alphaMode: BLEND` material: a factor on its alpha), drawn uniformly
+    /// per drone within (min, max), in [0, 1]. (1, 1): solid discs as before
+    /// (and then not written to `preset.lock.ron`, which stays as it was).
+    #[serde(skip_serializing_if = "solid_rotors")]
+    pub rotor_opacity: (f64, f64),
+}
+
+fn solid_rotors(range: &(f64, f64)) -> bool {
+    *range == (1.0, 1.0)
 }
 
 impl Default for Appearance {
@@ -52,6 +62,7 @@ impl Default for Appearance {
             metalness: (0.0, 0.2),
             emissive_share: 0.15,
             emissive_strength: (0.3, 1.5),
+            rotor_opacity: (1.0, 1.0),
         }
     }
 }
@@ -73,6 +84,7 @@ impl Appearance {
             ("roughness", self.roughness, 1.0),
             ("metalness", self.metalness, 1.0),
             ("emissive_strength", self.emissive_strength, 100.0),
+            ("rotor_opacity", self.rotor_opacity, 1.0),
         ] {
             v.check(
                 lo.is_finite() && hi.is_finite() && lo >= 0.0 && lo <= hi && hi <= max,

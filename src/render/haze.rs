@@ -21,9 +21,14 @@ const HAZE_ELEVATION: f32 = 0.02;
 
 /// The air light (display-linear RGB) towards drone `i`: the sky's radiance
 /// at the horizon in the azimuth of the drone, the colour the environment's
-/// own fog fades into. `None` for image skies: the shader then uses the
-/// frame's horizon term (`Frame.horizon`, the image's average horizon).
+/// own fog fades into; under a backplate, the plate's colour around the
+/// drone. `None` for image skies: the shader then uses the frame's horizon
+/// term (`Frame.horizon`, the image's average horizon).
 pub(crate) fn airlight(scene: &FrameScene, i: usize) -> Option<[f32; 3]> {
+    // Under a backplate: the plate's sky around the drone (`scene::plate_air`).
+    if let Some(plate) = &scene.backplate {
+        return plate.air_light.get(i).copied().flatten();
+    }
     match scene.sky {
         FrameSky::Gradient { horizon, .. } => Some(horizon),
         FrameSky::Procedural { exposure, .. } => {

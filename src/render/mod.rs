@@ -211,7 +211,7 @@ struct InstanceRaw {
     air: [f32; 4],
     /// The drawn base colour (rgb, linear); w: 1 when the drone has a drawn look.
     look: [f32; 4],
-    /// The drawn look's metalness, roughness, emission factor; w unused.
+    /// The drawn look's metalness, roughness, emission factor, rotor opacity.
     look_material: [f32; 4],
 }
 
@@ -258,7 +258,7 @@ impl InstanceRaw {
         let (look, look_material) = match scene.looks.get(i) {
             Some(l) => (
                 [l.albedo[0], l.albedo[1], l.albedo[2], 1.0],
-                [l.metalness, l.roughness, l.emissive, 0.0],
+                [l.metalness, l.roughness, l.emissive, l.rotor_opacity],
             ),
             None => ([0.0; 4], [0.0; 4]),
         };
@@ -316,10 +316,13 @@ struct Surface {
     double_sided: bool,
     alpha_mask: bool,
     textured: bool,
+    /// Holds glTF BLEND triangles: the `_blend` fragment entries, which turn
+    /// alpha into MSAA coverage (`shaders/drone.wgsl`, `coverage_mask`).
+    alpha_blend: bool,
 }
 
 impl Surface {
-    const COUNT: usize = 8;
+    const COUNT: usize = 16;
     const ALL: [Surface; Self::COUNT] = {
         let mut all = [Surface::of(0); Self::COUNT];
         let mut i = 0;
@@ -334,6 +337,7 @@ impl Surface {
             double_sided: index & 1 != 0,
             alpha_mask: index & 2 != 0,
             textured: index & 4 != 0,
+            alpha_blend: index & 8 != 0,
         }
     }
     fn from_draw(d: &crate::model::DrawRange) -> Self {
@@ -341,12 +345,14 @@ impl Surface {
             double_sided: d.double_sided,
             alpha_mask: d.alpha_mask,
             textured: d.texture.is_some(),
+            alpha_blend: d.alpha_blend,
         }
     }
     fn index(self) -> usize {
         usize::from(self.double_sided)
             | usize::from(self.alpha_mask) << 1
             | usize::from(self.textured) << 2
+            | usize::from(self.alpha_blend) << 3
     }
 }
 
@@ -790,10 +796,19 @@ impl Renderer {
         ];
         let variant = |surface: Surface| {
             let flag = |on: bool| if on { 1.0 } else { 0.0 };
-            let constants = [
+            let samples = f64::from(msaa);
+            let blend_constants = [
                 ("ALPHA_MASK", flag(surface.alpha_mask)),
                 ("TEXTURED", flag(surface.textured)),
+                ("SAMPLES", samples),
             ];
+            // Translucent (glTF BLEND) ranges: the same entry with `_blend`,
+            // which also writes the fragment's coverage mask.
+            let (entry, constants) = if surface.alpha_blend {
+                (format!("{entry}_blend"), &blend_constants[..])
+            } else {
+                (entry.to_owned(), &blend_constants[..2])
+            };
             self.device
                 .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some(label),
@@ -824,9 +839,9 @@ impl Renderer {
                     },
                     fragment: Some(wgpu::FragmentState {
                         module: &self.shaders.1,
-                        entry_point: Some(entry),
+                        entry_point: Some(&entry),
                         compilation_options: wgpu::PipelineCompilationOptions {
-                            constants: &constants,
+                            constants,
                             ..Default::default()
                         },
                         targets,

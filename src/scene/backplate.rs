@@ -33,6 +33,10 @@ pub struct FramePlate {
     pub horizon_row_px: Option<f64>,
     /// The line of sight's elevation, degrees.
     pub elevation_deg: f64,
+    /// Per drone, the haze's air light: the plate's mean linear colour around
+    /// the drone (`plate_air`); empty without an atmosphere. Not written anywhere.
+    #[serde(skip)]
+    pub air_light: Vec<Option<[f32; 3]>>,
 }
 
 fn lerp((lo, hi): (f64, f64), t: f64) -> f64 {
@@ -82,11 +86,17 @@ pub fn apply(scene: &mut FrameScene, preset: &Preset, plates: &[Plate]) {
     env.sun_azimuth_deg = sight_azimuth_deg + lerp(b.sun_azimuth_deg, u_sun_az);
     scene.sun_direction = env.sun_direction();
     scene.environment_name = format!("Plate:{}", plate.name());
+    let flip = b.flip && u_flip < 0.5;
+    let air_light = match scene.atmosphere {
+        Some(_) => super::plate_air::plate_airlights(scene, plate, flip),
+        None => Vec::new(),
+    };
     scene.backplate = Some(FramePlate {
         plate: index,
         file: plate.name(),
-        flip: b.flip && u_flip < 0.5,
+        flip,
         horizon_row_px,
         elevation_deg,
+        air_light,
     });
 }

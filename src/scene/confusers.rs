@@ -11,6 +11,12 @@
 //! Draw order per entry: the count, then per flock or object its distance,
 //! pixel, heading, climb, bank, speed and size, then per bird its offset in
 //! the flock, its phase, its beat frequency and whether it glides.
+//!
+//! The scene rotation (PlaneRX/RY/RZ) turns confusers as it turns the drones:
+//! each one's attitude (heading, climb, bank), so its direction of flight, and
+//! its flock's formation are drawn in the plane's frame and rotated into the
+//! world's. Their centres stay where they were drawn (a pixel of the view at a
+//! distance), so they remain in the picture whatever the rotation.
 
 use glam::{DQuat, DVec3};
 use rand::Rng;
@@ -109,7 +115,13 @@ fn formation_offset(shape: FlockShape, k: usize, n: usize, rng: &mut impl Rng) -
 }
 
 /// The objects of one entry at step 0.
-fn draw_entry(e: usize, c: &Confuser, camera: &Camera, rng: &mut impl Rng, out: &mut Vec<Drawn>) {
+fn draw_entry(
+    e: usize,
+    c: &Confuser,
+    (camera, plane): (&Camera, DQuat),
+    rng: &mut impl Rng,
+    out: &mut Vec<Drawn>,
+) {
     let n = uniform_count(rng, c.count);
     let groups = if c.flock.is_some() { n.min(1) } else { n };
     let (w, h) = (f64::from(camera.width), f64::from(camera.height));
@@ -128,6 +140,12 @@ fn draw_entry(e: usize, c: &Confuser, camera: &Camera, rng: &mut impl Rng, out: 
             roll: rng.random_range(-bank_deg..=bank_deg),
         }
         .to_quat();
+        // In the plane's frame, as the drones' attitudes (no rotation: exactly as drawn).
+        let attitude = if plane == DQuat::IDENTITY {
+            attitude
+        } else {
+            (plane * attitude).normalize()
+        };
         let speed_m_s = uniform(rng, c.speed_range_m_s());
         let span_m = uniform(rng, c.size_range_m());
         let members = if c.flock.is_some() { n } else { 1 };
@@ -174,10 +192,11 @@ fn uniform_count(rng: &mut impl Rng, (lo, hi): (u32, u32)) -> u32 {
 /// The preset's confusers in a frame: their poses (to append to the
 /// frame's drones) and what each is. `camera0` is the camera of the
 /// sequence's first frame (the frame's own outside sequences), `time_s`
-/// the time since it; `draw_index` the frame whose stream they draw from.
+/// the time since it; `draw_index` the frame whose stream they draw from;
+/// `plane` the frame's scene rotation (PlaneRX/RY/RZ, `math::plane_rotation`).
 pub fn place(
     preset: &Preset,
-    camera0: &Camera,
+    (camera0, plane): (&Camera, DQuat),
     draw_index: u64,
     time_s: f64,
 ) -> (Vec<DronePose>, Vec<ConfuserPose>) {
@@ -187,7 +206,7 @@ pub fn place(
     let mut rng = crate::seed::salted_rng(preset.seed, draw_index, CONFUSER_SALT);
     let mut drawn = Vec::new();
     for (e, c) in preset.confusers.iter().enumerate() {
-        draw_entry(e, c, camera0, &mut rng, &mut drawn);
+        draw_entry(e, c, (camera0, plane), &mut rng, &mut drawn);
     }
     let first = first_slots(&preset.confusers);
     let names = model_slots(&preset.confusers);

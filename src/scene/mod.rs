@@ -18,6 +18,7 @@ pub mod confusers;
 pub mod math;
 pub mod motion;
 pub mod placement;
+pub mod plate_air;
 pub mod projection;
 pub mod realism;
 pub mod split;
@@ -331,7 +332,7 @@ pub fn build_frame_draw(
         };
         let mut camera0 = camera.0;
         camera0.position -= shift;
-        let (poses, confusers) = confusers::place(preset, &camera0, draw_index, time_s);
+        let (poses, confusers) = confusers::place(preset, (&camera0, plane), draw_index, time_s);
         drones.extend(poses);
         confusers
     };

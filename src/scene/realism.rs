@@ -39,6 +39,9 @@ pub struct DroneLook {
     pub metalness: f32,
     /// Emission as a multiple of the albedo (0: none).
     pub emissive: f32,
+    /// Factor on the alpha of the model's glTF BLEND triangles (the built-in
+    /// models' rotor discs): 1 draws them as the model says (opaque discs).
+    pub rotor_opacity: f32,
 }
 
 fn uniform(rng: &mut ChaCha8Rng, (lo, hi): (f64, f64)) -> f64 {
@@ -83,6 +86,8 @@ pub fn drone_looks(
     count: usize,
 ) -> Vec<DroneLook> {
     let mut rng = seed::salted_rng(preset_seed, draw_index, seed::APPEARANCE_SALT);
+    // Rotor opacities from their own stream: the other six draws stay as they were.
+    let mut rotor_rng = seed::salted_rng(preset_seed, draw_index, seed::ROTOR_SALT);
     let total: f64 = appearance.palette.iter().map(|(_, w)| w).sum();
     (0..count)
         .map(|_| {
@@ -118,6 +123,7 @@ pub fn drone_looks(
                 } else {
                     0.0
                 },
+                rotor_opacity: uniform(&mut rotor_rng, appearance.rotor_opacity) as f32,
             }
         })
         .collect()
@@ -161,8 +167,23 @@ mod tests {
             metalness: (0.5, 0.5),
             emissive_share: 0.5,
             emissive_strength: (1.0, 2.0),
+            rotor_opacity: (0.2, 0.6),
         };
         let looks = drone_looks(&a, 7, 3, 4000);
+        assert!(looks.iter().all(|l| (0.2..=0.6).contains(&l.rotor_opacity)));
+        // The rotor draws come from their own stream: the other draws are those of solid rotors.
+        let solid = drone_looks(
+            &Appearance {
+                rotor_opacity: (1.0, 1.0),
+                ..a.clone()
+            },
+            7,
+            3,
+            4000,
+        );
+        assert!(looks.iter().zip(&solid).all(|(x, y)| x.albedo == y.albedo
+            && x.roughness == y.roughness
+            && x.emissive == y.emissive));
         let white = looks.iter().filter(|l| l.albedo == [0.8; 3]).count();
         let black = looks.iter().filter(|l| l.albedo == [0.03; 3]).count();
         assert_eq!(white + black, 4000);

@@ -11,6 +11,8 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, TAU};
 use glam::{Quat, Vec2, Vec3};
 use serde_json::json;
 
+use super::assets_aircraft as aircraft;
+
 /// Build the GLB of a built-in model from code (what `assets/models/NAME.glb` must contain).
 pub fn generate_glb(name: &str) -> Option<Vec<u8>> {
     let builder = match name {
@@ -18,9 +20,9 @@ pub fn generate_glb(name: &str) -> Option<Vec<u8>> {
         "quad_plus" => quad_plus(),
         "hexacopter" => hexacopter(),
         "octocopter" => octocopter(),
-        "fixed_wing" => fixed_wing(),
-        "flying_wing_vtol" => flying_wing_vtol(),
-        "coaxial_heli" => coaxial_heli(),
+        "fixed_wing" => aircraft::fixed_wing(),
+        "flying_wing_vtol" => aircraft::flying_wing_vtol(),
+        "coaxial_heli" => aircraft::coaxial_heli(),
         "heavy_lift" => heavy_lift(),
         _ => return None,
     };
@@ -40,6 +42,9 @@ pub struct Material {
 #[derive(Default)]
 pub struct MeshBuilder {
     materials: Vec<Material>,
+    /// Per material: written with glTF `alphaMode: BLEND` (translucent when the
+    /// alpha it is drawn with is below 1; see `translucent_material`).
+    blend: Vec<bool>,
     /// Per material: positions, normals, indices.
     parts: Vec<(Vec<Vec3>, Vec<Vec3>, Vec<u32>)>,
 }
@@ -47,8 +52,18 @@ pub struct MeshBuilder {
 impl MeshBuilder {
     pub fn material(&mut self, m: Material) -> usize {
         self.materials.push(m);
+        self.blend.push(false);
         self.parts.push(Default::default());
         self.materials.len() - 1
+    }
+
+    /// A material written with `alphaMode: BLEND` (its alpha stays `m`'s, 1 for
+    /// the rotor discs): drawn opaque, and translucent when a preset lowers the
+    /// drone's rotor opacity (`appearance.rotor_opacity`, docs/realism.md).
+    pub fn translucent_material(&mut self, m: Material) -> usize {
+        let i = self.material(m);
+        self.blend[i] = true;
+        i
     }
 
     /// Add a flat-shaded quad (counter-clockwise seen from the normal side).
@@ -306,8 +321,15 @@ impl MeshBuilder {
         let materials: Vec<_> = self
             .materials
             .iter()
-            .map(|m| json!({"name": m.name, "pbrMetallicRoughness": {
-                "baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness}}))
+            .zip(&self.blend)
+            .map(|(m, &blend)| {
+                let mut j = json!({"name": m.name, "pbrMetallicRoughness": {
+                "baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness}});
+                if blend {
+                    j["alphaMode"] = json!("BLEND");
+                }
+                j
+            })
             .collect();
         let doc = json!({
             "asset": {"version": "2.0", "generator": "swarmshot mesh builder"},
@@ -334,7 +356,7 @@ impl MeshBuilder {
     }
 }
 
-const CARBON: Material = Material {
+pub(super) const CARBON: Material = Material {
     name: "carbon",
     base_color: [0.05, 0.05, 0.055, 1.0],
     metallic: 0.1,
@@ -346,19 +368,19 @@ const SHELL_GREY: Material = Material {
     metallic: 0.0,
     roughness: 0.4,
 };
-const MOTOR: Material = Material {
+pub(super) const MOTOR: Material = Material {
     name: "motor",
     base_color: [0.3, 0.3, 0.32, 1.0],
     metallic: 0.8,
     roughness: 0.3,
 };
-const ROTOR: Material = Material {
+pub(super) const ROTOR: Material = Material {
     name: "rotor",
     base_color: [0.12, 0.12, 0.13, 1.0],
     metallic: 0.0,
     roughness: 0.6,
 };
-const ACCENT_RED: Material = Material {
+pub(super) const ACCENT_RED: Material = Material {
     name: "accent",
     base_color: [0.7, 0.08, 0.05, 1.0],
     metallic: 0.0,
@@ -371,7 +393,7 @@ fn quad_x() -> MeshBuilder {
     let shell = b.material(SHELL_GREY);
     let carbon = b.material(CARBON);
     let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
+    let rotor = b.translucent_material(ROTOR);
     let accent = b.material(ACCENT_RED);
     // Body and battery.
     b.cuboid(
@@ -453,7 +475,7 @@ fn airfoil_ring(le: Vec3, chord: f32, chord_dir: Vec3, thickness_dir: Vec3, t: f
     ring
 }
 
-const WHITE: Material = Material {
+pub(super) const WHITE: Material = Material {
     name: "white shell",
     base_color: [0.80, 0.80, 0.78, 1.0],
     metallic: 0.0,
@@ -465,25 +487,25 @@ const ORANGE: Material = Material {
     metallic: 0.0,
     roughness: 0.45,
 };
-const YELLOW: Material = Material {
+pub(super) const YELLOW: Material = Material {
     name: "yellow",
     base_color: [0.85, 0.62, 0.05, 1.0],
     metallic: 0.0,
     roughness: 0.4,
 };
-const DARK_GREY: Material = Material {
+pub(super) const DARK_GREY: Material = Material {
     name: "dark grey",
     base_color: [0.16, 0.17, 0.18, 1.0],
     metallic: 0.2,
     roughness: 0.5,
 };
-const OLIVE: Material = Material {
+pub(super) const OLIVE: Material = Material {
     name: "olive",
     base_color: [0.22, 0.26, 0.14, 1.0],
     metallic: 0.0,
     roughness: 0.6,
 };
-const FOAM_GREY: Material = Material {
+pub(super) const FOAM_GREY: Material = Material {
     name: "foam grey",
     base_color: [0.52, 0.54, 0.55, 1.0],
     metallic: 0.0,
@@ -501,7 +523,7 @@ const ALUMINIUM: Material = Material {
     metallic: 0.9,
     roughness: 0.35,
 };
-const GLASS: Material = Material {
+pub(super) const GLASS: Material = Material {
     name: "canopy",
     base_color: [0.05, 0.08, 0.12, 1.0],
     metallic: 0.0,
@@ -523,7 +545,7 @@ impl RotorcraftMaterials {
             body: b.material(body),
             arm: b.material(arm),
             motor: b.material(MOTOR),
-            rotor: b.material(ROTOR),
+            rotor: b.translucent_material(ROTOR),
             accent: b.material(accent),
         }
     }
@@ -590,7 +612,14 @@ fn rotor_arms(
 }
 
 /// Two skids on struts under the body.
-fn skids(b: &mut MeshBuilder, mat: usize, half_track: f32, length: f32, height: f32, tube_r: f32) {
+pub(super) fn skids(
+    b: &mut MeshBuilder,
+    mat: usize,
+    half_track: f32,
+    length: f32,
+    height: f32,
+    tube_r: f32,
+) {
     for side in [-1.0f32, 1.0] {
         let x = side * half_track;
         b.cylinder(
@@ -767,246 +796,6 @@ fn heavy_lift() -> MeshBuilder {
         Quat::IDENTITY,
     );
     skids(&mut b, m.arm, 0.24, 0.6, 0.32, 0.012);
-    b
-}
-
-/// A conventional fixed-wing UAV (~2 m span): tapered fuselage, dihedral wing, T-less tail, tractor prop.
-fn fixed_wing() -> MeshBuilder {
-    let mut b = MeshBuilder::default();
-    let shell = b.material(WHITE);
-    let accent = b.material(ACCENT_RED);
-    let canopy = b.material(GLASS);
-    let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
-    // Fuselage along +Z (nose forward): (z, half width, half height, centre height).
-    b.fuselage(
-        shell,
-        &[
-            (0.62, 0.02, 0.02, 0.0),
-            (0.55, 0.06, 0.065, 0.0),
-            (0.3, 0.075, 0.085, 0.01),
-            (0.0, 0.07, 0.08, 0.01),
-            (-0.4, 0.04, 0.05, 0.02),
-            (-0.8, 0.018, 0.025, 0.04),
-        ],
-        14,
-    );
-    b.fuselage(
-        canopy,
-        &[
-            (0.42, 0.03, 0.01, 0.07),
-            (0.36, 0.045, 0.04, 0.07),
-            (0.16, 0.045, 0.04, 0.075),
-            (0.05, 0.02, 0.01, 0.075),
-        ],
-        10,
-    );
-    // Main wing: root chord 0.3 m, tip chord 0.16 m, 1 m half span, 3° dihedral.
-    let dihedral = 0.05;
-    let wing =
-        |x: f32, chord: f32, y: f32| (Vec3::new(x, 0.03 + y, 0.14 - (0.3 - chord) * 0.3), chord);
-    b.airfoil_surface(
-        shell,
-        &[
-            wing(-1.0, 0.16, dihedral),
-            wing(-0.08, 0.3, 0.0),
-            wing(0.08, 0.3, 0.0),
-            wing(1.0, 0.16, dihedral),
-        ],
-        Vec3::NEG_Z,
-        Vec3::Y,
-        0.12,
-    );
-    // Red wing tips.
-    for side in [-1.0f32, 1.0] {
-        b.airfoil_surface(
-            accent,
-            &[
-                (Vec3::new(side * 1.0, 0.03 + dihedral, 0.098), 0.16),
-                (Vec3::new(side * 1.03, 0.03 + dihedral, 0.095), 0.15),
-            ],
-            Vec3::NEG_Z,
-            Vec3::Y,
-            0.12,
-        );
-    }
-    // Tail: horizontal stabiliser and fin.
-    b.airfoil_surface(
-        shell,
-        &[
-            (Vec3::new(-0.32, 0.04, -0.62), 0.14),
-            (Vec3::new(0.0, 0.04, -0.6), 0.18),
-            (Vec3::new(0.32, 0.04, -0.62), 0.14),
-        ],
-        Vec3::NEG_Z,
-        Vec3::Y,
-        0.1,
-    );
-    b.airfoil_surface(
-        accent,
-        &[
-            (Vec3::new(0.0, 0.05, -0.58), 0.22),
-            (Vec3::new(0.0, 0.3, -0.7), 0.13),
-        ],
-        Vec3::NEG_Z,
-        Vec3::X,
-        0.1,
-    );
-    // Tractor propeller on the nose.
-    let spin = Quat::from_rotation_x(FRAC_PI_2);
-    b.cylinder(motor, Vec3::new(0.0, 0.0, 0.64), 0.025, 0.04, 12, spin);
-    b.rotor(motor, rotor, Vec3::new(0.0, 0.0, 0.67), 0.16, spin);
-    b
-}
-
-/// A flying-wing VTOL (~1.6 m span): swept wing, two booms with four lift rotors, pusher prop.
-fn flying_wing_vtol() -> MeshBuilder {
-    let mut b = MeshBuilder::default();
-    let skin = b.material(FOAM_GREY);
-    let accent = b.material(OLIVE);
-    let boom = b.material(CARBON);
-    let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
-    // Centre body.
-    b.fuselage(
-        skin,
-        &[
-            (0.34, 0.02, 0.02, 0.0),
-            (0.28, 0.08, 0.05, 0.0),
-            (0.0, 0.1, 0.06, 0.0),
-            (-0.25, 0.07, 0.04, 0.0),
-            (-0.32, 0.03, 0.02, 0.0),
-        ],
-        12,
-    );
-    // Swept wing: 30° sweep, root chord 0.45 m, tip chord 0.2 m.
-    let sweep = 0.5f32;
-    let section = |x: f32, chord: f32| (Vec3::new(x, 0.0, 0.2 - x.abs() * sweep), chord);
-    b.airfoil_surface(
-        skin,
-        &[
-            section(-0.8, 0.2),
-            section(-0.1, 0.45),
-            section(0.1, 0.45),
-            section(0.8, 0.2),
-        ],
-        Vec3::NEG_Z,
-        Vec3::Y,
-        0.1,
-    );
-    // Winglets.
-    for side in [-1.0f32, 1.0] {
-        let le = Vec3::new(side * 0.8, 0.0, 0.2 - 0.8 * sweep);
-        b.airfoil_surface(
-            accent,
-            &[(le, 0.2), (le + Vec3::new(side * 0.02, 0.14, -0.08), 0.12)],
-            Vec3::NEG_Z,
-            Vec3::X,
-            0.08,
-        );
-    }
-    // Booms with front and rear lift rotors.
-    for side in [-1.0f32, 1.0] {
-        let x = side * 0.38;
-        b.cylinder(
-            boom,
-            Vec3::new(x, -0.02, -0.05),
-            0.014,
-            0.95,
-            10,
-            Quat::from_rotation_x(FRAC_PI_2),
-        );
-        for z in [0.42f32, -0.52] {
-            b.cylinder(motor, Vec3::new(x, 0.0, z), 0.022, 0.04, 12, Quat::IDENTITY);
-            b.rotor(motor, rotor, Vec3::new(x, 0.03, z), 0.19, Quat::IDENTITY);
-        }
-    }
-    // Pusher propeller at the trailing edge.
-    let spin = Quat::from_rotation_x(FRAC_PI_2);
-    b.cylinder(motor, Vec3::new(0.0, 0.0, -0.34), 0.02, 0.04, 12, spin);
-    b.rotor(motor, rotor, Vec3::new(0.0, 0.0, -0.37), 0.12, spin);
-    b
-}
-
-/// A coaxial helicopter UAV (~1.2 m rotor): pod fuselage, tail boom with fin, two stacked rotors, skids.
-fn coaxial_heli() -> MeshBuilder {
-    let mut b = MeshBuilder::default();
-    let shell = b.material(YELLOW);
-    let canopy = b.material(GLASS);
-    let dark = b.material(DARK_GREY);
-    let motor = b.material(MOTOR);
-    let rotor = b.material(ROTOR);
-    b.fuselage(
-        shell,
-        &[
-            (0.32, 0.02, 0.03, 0.0),
-            (0.26, 0.09, 0.1, 0.0),
-            (0.05, 0.11, 0.12, 0.01),
-            (-0.15, 0.08, 0.09, 0.02),
-            (-0.25, 0.03, 0.035, 0.04),
-        ],
-        14,
-    );
-    b.fuselage(
-        canopy,
-        &[
-            (0.3, 0.03, 0.03, 0.03),
-            (0.24, 0.085, 0.08, 0.04),
-            (0.12, 0.09, 0.08, 0.05),
-            (0.08, 0.03, 0.02, 0.05),
-        ],
-        10,
-    );
-    // Tail boom and fin.
-    b.fuselage(
-        dark,
-        &[(-0.22, 0.022, 0.022, 0.04), (-0.75, 0.012, 0.012, 0.07)],
-        8,
-    );
-    b.airfoil_surface(
-        shell,
-        &[
-            (Vec3::new(0.0, 0.05, -0.66), 0.12),
-            (Vec3::new(0.0, 0.2, -0.76), 0.08),
-        ],
-        Vec3::NEG_Z,
-        Vec3::X,
-        0.12,
-    );
-    b.airfoil_surface(
-        shell,
-        &[
-            (Vec3::new(-0.1, 0.07, -0.66), 0.08),
-            (Vec3::new(0.1, 0.07, -0.66), 0.08),
-        ],
-        Vec3::NEG_Z,
-        Vec3::Y,
-        0.12,
-    );
-    // Mast and two counter-rotating rotors.
-    b.cylinder(
-        motor,
-        Vec3::new(0.0, 0.19, 0.02),
-        0.018,
-        0.16,
-        10,
-        Quat::IDENTITY,
-    );
-    b.rotor(
-        motor,
-        rotor,
-        Vec3::new(0.0, 0.16, 0.02),
-        0.6,
-        Quat::IDENTITY,
-    );
-    b.rotor(
-        motor,
-        rotor,
-        Vec3::new(0.0, 0.26, 0.02),
-        0.6,
-        Quat::IDENTITY,
-    );
-    skids(&mut b, dark, 0.12, 0.45, 0.18, 0.008);
     b
 }
 

@@ -108,6 +108,10 @@ pub struct MethodSetting {
     /// Through the benchmark's camera model ([`bench_camera`]): the visible
     /// box is then the pixels the drone changes in the camera image.
     pub camera: bool,
+    /// With haze of this meteorological visibility (metres) on the drones
+    /// (`atmosphere`; with `camera`, faded pixels that change the picture by
+    /// less than a level leave the visible box).
+    pub haze_visibility_m: Option<f64>,
 }
 
 /// The camera of the accuracy benchmark's camera rows: a Gaussian lens
@@ -126,9 +130,13 @@ pub fn bench_camera() -> crate::preset::camera_model::CameraModel {
 impl MethodSetting {
     pub fn label(&self) -> String {
         match self.method {
-            BoxMethod::Visible if self.camera => {
-                format!("Visible (id pass {}×), camera σ 1 px", self.id_scale)
-            }
+            BoxMethod::Visible if self.camera => match self.haze_visibility_m {
+                Some(v) => format!(
+                    "Visible (id pass {}×), camera σ 1 px, haze V {v} m",
+                    self.id_scale
+                ),
+                None => format!("Visible (id pass {}×), camera σ 1 px", self.id_scale),
+            },
             BoxMethod::Visible => format!("Visible (id pass {}×)", self.id_scale),
             BoxMethod::Amodal => "Amodal".into(),
             BoxMethod::PaperAabb => "PaperAabb".into(),
@@ -170,66 +178,60 @@ pub fn accuracy(
             method: BoxMethod::PaperAabb,
             id_scale: 1,
             camera: false,
+            haze_visibility_m: None,
         },
         MethodSetting {
             method: BoxMethod::Amodal,
             id_scale: 1,
             camera: false,
+            haze_visibility_m: None,
         },
         MethodSetting {
             method: BoxMethod::Visible,
             id_scale: 1,
             camera: false,
+            haze_visibility_m: None,
         },
         MethodSetting {
             method: BoxMethod::Visible,
             id_scale: 2,
             camera: false,
+            haze_visibility_m: None,
         },
         MethodSetting {
             method: BoxMethod::Visible,
             id_scale: 1,
             camera: true,
+            haze_visibility_m: None,
+        },
+        MethodSetting {
+            method: BoxMethod::Visible,
+            id_scale: 1,
+            camera: true,
+            haze_visibility_m: Some(HAZE_VISIBILITY_M),
         },
     ];
     let mut rows = Vec::new();
     for scene_def in accuracy_scenes(frames, width, height) {
         let base = FramePipeline::new(scene_def.preset.clone())?;
         let mut renderer = base.renderer(ctx);
-        // References first (4× id pass per frame).
-        let mut references: Vec<Vec<Option<PixelBox>>> = Vec::new();
         let n_frames = scene_def.preset.frame_count();
-        for index in 0..n_frames {
-            let scene = base.scene(index)?;
-            let mut big = scene.clone();
-            big.camera.width *= 4;
-            big.camera.height *= 4;
-            let ids = renderer.render_ids(&big, &|_| true)?;
-            references.push(
-                pixel_stats(&ids, scene.drones.len())
-                    .into_iter()
-                    .map(|(b, _)| {
-                        b.map(|b| PixelBox {
-                            x0: b.x0 / 4.0,
-                            y0: b.y0 / 4.0,
-                            x1: b.x1 / 4.0,
-                            y1: b.y1 / 4.0,
-                        })
-                    })
-                    .collect(),
-            );
-        }
+        let references = reference_boxes(&base, &mut renderer, n_frames)?;
         for setting in settings {
             for msaa in [1, 4] {
                 let mut preset = scene_def.preset.clone();
                 preset.labels.box_method = setting.method;
                 preset.labels.id_scale = setting.id_scale;
                 preset.camera_model = setting.camera.then(bench_camera);
+                preset.atmosphere =
+                    (setting.haze_visibility_m).map(|v| crate::preset::atmosphere::Atmosphere {
+                        visibility_m: (v, v),
+                    });
                 preset.render.msaa = msaa;
                 let pipeline = base.update(preset)?;
                 // Warm-up: pipelines and targets are built on first use.
                 pipeline.make(&mut renderer, 0)?;
-                let (mut edges, mut ious, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
+                let mut errors = Errors::default();
                 let (mut frame_ms, mut label_ms, mut boxes) = (0.0, 0.0, 0usize);
                 for index in 0..n_frames {
                     let scene = pipeline.scene(index)?;
@@ -239,33 +241,8 @@ pub fn accuracy(
                     let t = Instant::now();
                     let labels = pipeline.make_scene(&mut renderer, scene)?.labels;
                     frame_ms += ms(t);
-                    for l in &labels {
-                        let Some(reference) = references[index as usize][l.drone] else {
-                            continue;
-                        };
-                        let b = match setting.method {
-                            BoxMethod::Visible => match l.visibility.and_then(|v| v.visible_box) {
-                                Some(b) => b,
-                                None => continue,
-                            },
-                            BoxMethod::Amodal => l.amodal.clip(f64::from(width), f64::from(height)),
-                            BoxMethod::PaperAabb => {
-                                l.paper_aabb.clip(f64::from(width), f64::from(height))
-                            }
-                        };
-                        boxes += 1;
-                        for (a, r) in [
-                            (b.x0, reference.x0),
-                            (b.y0, reference.y0),
-                            (b.x1, reference.x1),
-                            (b.y1, reference.y1),
-                        ] {
-                            let e = (a - r).abs();
-                            worst = worst.max(e);
-                            edges.push(e);
-                        }
-                        ious.push(b.iou(&reference));
-                    }
+                    let refs = &references[index as usize];
+                    boxes += score(&labels, refs, setting.method, (width, height), &mut errors);
                 }
                 let mean = |v: &[f64]| {
                     if v.is_empty() {
@@ -279,9 +256,9 @@ pub fn accuracy(
                     setting,
                     msaa,
                     boxes,
-                    mean_edge_px: mean(&edges),
-                    worst_edge_px: worst,
-                    mean_iou: mean(&ious),
+                    mean_edge_px: mean(&errors.edges),
+                    worst_edge_px: errors.worst,
+                    mean_iou: mean(&errors.ious),
                     frame_ms: frame_ms / n_frames as f64,
                     label_us_per_box: label_ms * 1e3 / boxes.max(1) as f64,
                 });
@@ -289,6 +266,86 @@ pub fn accuracy(
         }
     }
     Ok(rows)
+}
+
+/// The haze row's visibility: the accuracy scenes' drones are metres away, so a
+/// short visibility fades them by a visible share (t = exp(−3.912·d/V)).
+const HAZE_VISIBILITY_M: f64 = 30.0;
+
+/// Each frame's reference boxes: the drones' pixels in an id pass at 4× the
+/// frame's size, scaled back.
+fn reference_boxes(
+    base: &FramePipeline,
+    renderer: &mut crate::render::Renderer,
+    n_frames: u64,
+) -> anyhow::Result<Vec<Vec<Option<PixelBox>>>> {
+    let mut references: Vec<Vec<Option<PixelBox>>> = Vec::new();
+    for index in 0..n_frames {
+        let scene = base.scene(index)?;
+        let mut big = scene.clone();
+        big.camera.width *= 4;
+        big.camera.height *= 4;
+        let ids = renderer.render_ids(&big, &|_| true)?;
+        references.push(
+            pixel_stats(&ids, scene.drones.len())
+                .into_iter()
+                .map(|(b, _)| {
+                    b.map(|b| PixelBox {
+                        x0: b.x0 / 4.0,
+                        y0: b.y0 / 4.0,
+                        x1: b.x1 / 4.0,
+                        y1: b.y1 / 4.0,
+                    })
+                })
+                .collect(),
+        );
+    }
+    Ok(references)
+}
+
+/// Edge errors, IoUs and the worst edge error of the boxes scored so far.
+#[derive(Default)]
+struct Errors {
+    edges: Vec<f64>,
+    ious: Vec<f64>,
+    worst: f64,
+}
+
+/// Score one frame's labels against its reference boxes; returns the boxes scored.
+fn score(
+    labels: &[crate::annotate::DroneLabel],
+    references: &[Option<PixelBox>],
+    method: BoxMethod,
+    (width, height): (u32, u32),
+    errors: &mut Errors,
+) -> usize {
+    let mut boxes = 0;
+    for l in labels {
+        let Some(reference) = references.get(l.drone).copied().flatten() else {
+            continue;
+        };
+        let b = match method {
+            BoxMethod::Visible => match l.visibility.and_then(|v| v.visible_box) {
+                Some(b) => b,
+                None => continue,
+            },
+            BoxMethod::Amodal => l.amodal.clip(f64::from(width), f64::from(height)),
+            BoxMethod::PaperAabb => l.paper_aabb.clip(f64::from(width), f64::from(height)),
+        };
+        boxes += 1;
+        for (a, r) in [
+            (b.x0, reference.x0),
+            (b.y0, reference.y0),
+            (b.x1, reference.x1),
+            (b.y1, reference.y1),
+        ] {
+            let e = (a - r).abs();
+            errors.worst = errors.worst.max(e);
+            errors.edges.push(e);
+        }
+        errors.ious.push(b.iou(&reference));
+    }
+    boxes
 }
 
 /// One row of the frame-time table.

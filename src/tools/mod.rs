@@ -2,6 +2,7 @@
 //! gallery pictures, and the generator of the built-in models.
 
 pub mod assets;
+mod assets_aircraft;
 pub mod bench;
 pub mod confuser_gallery;
 pub mod confusers;
