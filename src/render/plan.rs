@@ -263,7 +263,7 @@ mod tests {
             pixel_box(20.0, 20.0, 40.0, 40.0),
             pixel_box(200.0, 100.0, 220.0, 120.0),
         ];
-        let plan = FramePlan::new(request(4), &boxes, &drones(&boxes, size)).unwrap();
+        let plan = FramePlan::new(request(4), &boxes, &drones(&boxes, size)).expect("plan");
         assert_eq!(plan.overlapping, [true, true, false]);
         let layers: Vec<&[usize]> = plan.passes[1..].iter().map(|p| &p.drones[..]).collect();
         assert_eq!(layers, [&[0][..], &[1][..]], "each overlapping drone alone");
@@ -279,7 +279,7 @@ mod tests {
             visibility: false,
             ..request(4)
         };
-        let plan = FramePlan::new(colour_only, &boxes, &drones(&boxes, size)).unwrap();
+        let plan = FramePlan::new(colour_only, &boxes, &drones(&boxes, size)).expect("plan");
         assert_eq!(plan.passes.len(), 1);
         assert!(plan.id_reads.is_empty() && plan.overlapping.iter().all(|o| !o));
 
@@ -288,7 +288,7 @@ mod tests {
             scenery: true,
             ..request(4)
         };
-        let plan = FramePlan::new(scenery, &boxes, &drones(&boxes, size)).unwrap();
+        let plan = FramePlan::new(scenery, &boxes, &drones(&boxes, size)).expect("plan");
         assert_eq!(plan.overlapping, [true, true, true]);
         let alone: usize = plan.passes[1..].iter().map(|p| p.drones.len()).sum();
         assert_eq!(alone, 3);
@@ -304,12 +304,12 @@ mod tests {
             let n = rng.random_range(0..30);
             let boxes = random_boxes(&mut rng, n, size);
             let rects = drones(&boxes, size);
-            let plan = FramePlan::new(req, &boxes, &rects).unwrap();
+            let plan = FramePlan::new(req, &boxes, &rects).expect("plan");
             // Each pass covers exactly the union of its drones' rects, once.
             for pass in &plan.passes {
                 let mut want = vec![0u8; (size.0 * size.1) as usize];
                 for &i in &pass.drones {
-                    let cover = covered(&[rects[i].unwrap()], size);
+                    let cover = covered(&[rects[i].expect("a drawn drone has a rect")], size);
                     for (w, c) in want.iter_mut().zip(cover) {
                         *w |= c;
                     }
@@ -367,7 +367,7 @@ mod tests {
             ..request(1)
         };
         let boxes = [pixel_box(10.0, 10.0, 20.0, 20.0), None];
-        let plan = FramePlan::new(req, &boxes, &drones(&boxes, req.size_px)).unwrap();
+        let plan = FramePlan::new(req, &boxes, &drones(&boxes, req.size_px)).expect("plan");
         assert_eq!(plan.passes[0].rects, [Rect::full(320, 180)]);
         assert_eq!(plan.passes[0].drones, [0]);
         assert_eq!(plan.places[0], [(0, 0)], "read in place without MSAA");
