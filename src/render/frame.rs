@@ -37,7 +37,7 @@ use super::{COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, IdImage, RenderError, Ren
 use crate::scene::FrameScene;
 use crate::sky::FrameSky;
 use passes::{Atlas, RegionPipelines, texture_group, texture_layout};
-pub(super) use passes::{color_target, rect_buffer_layout};
+pub(super) use passes::{atlas_texture, color_target, rect_buffer_layout};
 
 /// What [`Renderer::render_frame`] is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! The id layer of a target set: the instance-id target the passes draw
 //! (drone index + 1 per sample, see [`super::ids`]), its resolves (MSAA:
-//! the samples side by side into the atlas), where its rects land in the
+//! the samples side by side into its atlas), where its rects land in the
 //! frame's readback buffer, and their reduction to per-drone visibility.
 //!
 //! Like a picking layer, it rides along with the colour pass: the same
@@ -17,6 +17,9 @@ use crate::scene::projection::PixelBox;
 pub(super) struct IdLayer {
     texture: wgpu::Texture,
     view: wgpu::TextureView,
+    /// Where the resolves write each pixel's id samples side by side (MSAA
+    /// only): as many rows as the colour atlas, built on first use.
+    atlas: Option<(wgpu::Texture, wgpu::TextureView)>,
 }
 
 /// Resolves that write a pixel's id samples side by side (`resolve.wgsl`),
@@ -71,7 +74,40 @@ impl IdLayer {
             view_formats: &[],
         });
         let view = texture.create_view(&Default::default());
-        Self { texture, view }
+        Self {
+            texture,
+            view,
+            atlas: None,
+        }
+    }
+
+    /// An atlas of `size` (width, rows) for the resolved id samples, unless one is there.
+    pub(super) fn ensure_atlas(&mut self, device: &wgpu::Device, size: (u32, u32)) {
+        if self.atlas.is_none() {
+            let label = "resolve atlas (id samples)";
+            let format = ids::ID_SAMPLES_FORMAT;
+            self.atlas = Some(super::frame::atlas_texture(device, label, format, size));
+        }
+    }
+
+    /// Drop the atlas (the colour atlas grows); returns whether there was one.
+    pub(super) fn drop_atlas(&mut self) -> bool {
+        self.atlas.take().is_some()
+    }
+
+    /// Where the resolves write the id samples (MSAA only).
+    pub(super) fn atlas_view(&self) -> Option<&wgpu::TextureView> {
+        self.atlas.as_ref().map(|(_, view)| view)
+    }
+
+    /// The texture the ids are read from: the atlas when the passes are
+    /// resolved (MSAA), the id target itself otherwise.
+    pub(super) fn read_source(&self, resolved: bool) -> Option<&wgpu::Texture> {
+        if resolved {
+            self.atlas.as_ref().map(|(texture, _)| texture)
+        } else {
+            Some(&self.texture)
+        }
     }
 
     pub(super) fn view(&self) -> &wgpu::TextureView {

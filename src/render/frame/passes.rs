@@ -4,7 +4,7 @@
 //! reads copied into the readback buffer, in the plan's order.
 
 use super::{FrameTargets, RegionState};
-use crate::render::id_layer::IdResolve;
+use crate::render::id_layer::{IdLayer, IdResolve};
 use crate::render::plan::{FramePlan, PassPlan, rect_ndc};
 use crate::render::readback::{Read, encode_reads, ensure_buffer};
 use crate::render::regions::PassDraws;
@@ -29,56 +29,73 @@ pub(super) struct RegionPipelines {
 
 /// The compact target the resolves write (MSAA only): a pass's rects packed
 /// in shelves ([`regions::pack_shelves`]) as wide as the frame and as tall as
-/// they need, the resolved colour and/or the id samples side by side, copied
-/// from here into the readback buffer. Passes reuse it one after the other;
-/// it grows as needed and never shrinks.
+/// they need, the resolved colour here and the id samples side by side in
+/// the id layer's atlas of the same rows ([`IdLayer::atlas_view`]), copied
+/// from there into the readback buffer. Passes reuse it one after the
+/// other; it grows as needed and never shrinks.
 #[derive(Default)]
 pub(super) struct Atlas {
     rows: u32,
     color: Option<(wgpu::Texture, wgpu::TextureView)>,
-    ids: Option<(wgpu::Texture, wgpu::TextureView)>,
 }
 
 impl Atlas {
-    /// At least `rows` rows (of `width` pixels) of the parts asked for.
-    fn ensure(&mut self, device: &wgpu::Device, width: u32, rows: u32, color: bool, ids: bool) {
+    /// At least `rows` rows (of `width` pixels) of the colour when `color`
+    /// and of the id layer's atlas when `with_ids`.
+    fn ensure(
+        &mut self,
+        device: &wgpu::Device,
+        (width, rows): (u32, u32),
+        (color, with_ids): (bool, bool),
+        ids: &mut IdLayer,
+    ) {
         if rows == 0 && self.rows == 0 {
             return; // nothing to resolve yet (a frame without drones)
         }
+        let (mut color, mut with_ids) = (color, with_ids);
         if rows > self.rows {
             self.rows = rows.next_multiple_of(64);
             // Reallocated at the new size below, as far as still wanted.
-            let had = (self.color.take().is_some(), self.ids.take().is_some());
-            return self.ensure(device, width, 0, color || had.0, ids || had.1);
+            color |= self.color.take().is_some();
+            with_ids |= ids.drop_atlas();
         }
-        let texture = |label: &str, format| {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height: self.rows,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
-            (texture, view)
-        };
         if color && self.color.is_none() {
-            self.color = Some(texture("resolve atlas (colour)", COLOR_FORMAT));
-        }
-        if ids && self.ids.is_none() {
-            self.ids = Some(texture(
-                "resolve atlas (id samples)",
-                ids::ID_SAMPLES_FORMAT,
+            self.color = Some(atlas_texture(
+                device,
+                "resolve atlas (colour)",
+                COLOR_FORMAT,
+                (width, self.rows),
             ));
         }
+        if with_ids {
+            ids.ensure_atlas(device, (width, self.rows));
+        }
     }
+}
+
+/// A single-sample target of `size` the resolves write and the reads copy from.
+pub(in crate::render) fn atlas_texture(
+    device: &wgpu::Device,
+    label: &str,
+    format: wgpu::TextureFormat,
+    (width, rows): (u32, u32),
+) -> (wgpu::Texture, wgpu::TextureView) {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height: rows,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = texture.create_view(&Default::default());
+    (texture, view)
 }
 
 /// Per-instance layout of a resolve rect: its place in the atlas (x0, y0,
@@ -323,11 +340,11 @@ impl Renderer {
             self.prepare_id_readback(state, p);
         }
         let first_resolve = if plan.resolved() {
-            let atlas = &mut state.targets[t].atlas;
-            let width = request.size_px.0;
-            let (color, ids) = (request.color, request.visibility);
-            atlas.ensure(&self.device, width, plan.atlas_rows, color, ids);
-            let (data, first) = plan.resolve_instances(atlas.rows);
+            let target = &mut state.targets[t];
+            let size = (request.size_px.0, plan.atlas_rows);
+            let asked = (request.color, request.visibility);
+            (target.atlas).ensure(&self.device, size, asked, &mut target.ids);
+            let (data, first) = plan.resolve_instances(target.atlas.rows);
             crate::render::write_vertices(
                 (&self.device, &self.queue),
                 &mut state.resolve_rects,
@@ -471,11 +488,12 @@ impl Renderer {
         let rects = state.rects.as_ref();
         // With MSAA each pass is resolved into the atlas and read from there;
         // without, the passes draw straight into the targets read back.
-        let (color_source, id_source) = if plan.resolved() {
-            (texture(&target.atlas.color), texture(&target.atlas.ids))
+        let color_source = if plan.resolved() {
+            texture(&target.atlas.color)
         } else {
-            (texture(&target.single), Some(target.ids.texture()))
+            texture(&target.single)
         };
+        let id_source = target.ids.read_source(plan.resolved());
         let read =
             |encoder: &mut wgpu::CommandEncoder, source: Option<&wgpu::Texture>, reads: &[Read]| {
                 if let (Some(buffer), Some(source)) = (&target.regions_readback, source) {
@@ -536,7 +554,7 @@ fn encode_resolve(
     }
     let id_resolve = pipes.id_resolve.as_ref();
     let color_view = target.atlas.color.as_ref().map(|(_, view)| view);
-    let id_view = target.atlas.ids.as_ref().map(|(_, view)| view);
+    let id_view = target.ids.atlas_view();
     let pipeline = match (color, ids) {
         (true, false) => pipes.resolve.as_ref(),
         (true, true) => id_resolve.map(|r| &r.color_ids),
