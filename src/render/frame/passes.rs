@@ -28,11 +28,11 @@ pub(super) struct RegionPipelines {
 }
 
 /// The compact target the resolves write (MSAA only): a pass's rects packed
-/// in shelves ([`regions::pack_shelves`]) as wide as the frame and as tall as
-/// they need, the resolved colour here and the id samples side by side in
-/// the id layer's atlas of the same rows ([`IdLayer::atlas_view`]), copied
-/// from there into the readback buffer. Passes reuse it one after the
-/// other; it grows as needed and never shrinks.
+/// in shelves ([`crate::render::regions::pack_shelves`]) as wide as the
+/// frame and as tall as they need, the resolved colour here and the id
+/// samples side by side in the id layer's atlas of the same rows
+/// ([`IdLayer::atlas_view`]), copied from there into the readback buffer.
+/// Passes reuse it one after the other; it grows as needed and never shrinks.
 #[derive(Default)]
 pub(super) struct Atlas {
     rows: u32,
