@@ -1,21 +1,24 @@
-//! The preview renderer: the batch's own [`Renderer`] drawing the selected
-//! frame into a fresh texture that egui then shows.
+//! The preview renderer: the batch's own frame path drawing the selected
+//! frame, uploaded into a fresh texture that egui then shows.
 //!
 //! Threading (the choice issue 3 leaves open): every preview render runs on a
 //! worker thread ([`super::worker::LatestWorker`]) that owns a
-//! [`PreviewRenderer`]. It shares eframe's wgpu device and queue, encodes the
-//! frame with [`Renderer::encode`], submits, and waits for *its own*
-//! submission on the worker thread, so the measured time includes the GPU and
-//! the UI thread never waits. Each render goes into a new colour texture, so
-//! the texture egui is showing is never written while it is on screen; the
-//! UI swaps the new one in with `update_egui_texture_from_wgpu_texture`.
+//! [`PreviewRenderer`]. It shares eframe's wgpu device and queue, makes the
+//! picture, uploads it and waits for *its own* submission on the worker
+//! thread, so the measured time includes the GPU and the UI thread never
+//! waits. Each render goes into a new colour texture, so the texture egui is
+//! showing is never written while it is on screen; the UI swaps the new one
+//! in with `update_egui_texture_from_wgpu_texture`.
 //!
-//! The picture matches the batch output: the frame is built by the same
-//! [`FramePipeline`], and only the camera's pixel size is changed to the pane size
-//! (same aspect ratio), so the intrinsics scale with it (focal length ∝ height,
-//! principal point at the centre). Labels stay in output pixels; the overlay
-//! scales them. This module knows nothing of egui, so the benchmark drives it
-//! headless.
+//! The picture is the batch's by construction: the frame is built by the
+//! same [`FramePipeline`] and made by its [`FramePipeline::make_scene`]
+//! (the renderer's region path, its targets and background cache), with
+//! only the camera changed: the frame's own camera at the pane's pixel size
+//! (same aspect ratio, so the intrinsics scale with it: focal length ∝
+//! height, principal point at the centre), or the inspect view's orbit
+//! camera. The camera model runs only in the "through the camera" view.
+//! Labels stay in output pixels; the overlay scales them. This module knows
+//! nothing of egui, so the benchmark drives it headless.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -27,7 +30,7 @@ use crate::annotate::DroneLabel;
 use crate::pipeline::FramePipeline;
 use crate::preset::Preset;
 use crate::preset::sweep::decode_mixed_radix;
-use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, FrameViews, GpuContext, Renderer};
+use crate::render::{COLOR_FORMAT, GpuContext, Renderer};
 use crate::scene::camera::Camera;
 use crate::scene::math::{look_at_cv, plane_rotation};
 use crate::scene::{FrameScene, camera_position};
@@ -131,185 +134,139 @@ struct Loaded {
     renderer: Renderer,
 }
 
-struct Targets {
-    size_px: [u32; 2],
-    msaa: u32,
-    msaa_color: Option<wgpu::TextureView>,
-    depth: wgpu::TextureView,
+/// A preview's picture before it is uploaded.
+pub struct PreviewPicture {
+    /// Tightly packed RGBA8 (sRGB-encoded) of the request's pane size.
+    pub rgba: Vec<u8>,
+    /// The frame at output resolution (its labels are in output pixels).
+    pub scene: FrameScene,
+    pub labels: Vec<DroneLabel>,
+    /// The camera the picture was drawn with.
+    pub camera: Camera,
+    pub inspect: Option<InspectGeometry>,
 }
 
-/// Long-lived preview state: loaded models, pipelines, depth/MSAA targets.
+/// Long-lived preview state: the loaded pipeline and its renderer.
 pub struct PreviewRenderer {
     ctx: GpuContext,
     loaded: Option<Loaded>,
-    targets: Option<Targets>,
 }
 
 impl PreviewRenderer {
     pub fn new(ctx: GpuContext) -> Self {
-        Self {
-            ctx,
-            loaded: None,
-            targets: None,
-        }
+        Self { ctx, loaded: None }
     }
 
     /// Build, render and wait for one preview.
     pub fn render(&mut self, request: &PreviewRequest) -> PreviewResult {
         let start = Instant::now();
         let key = request.key;
-        let fail = |message: String, models: bool| PreviewError {
+        let fail = |(message, models): (String, bool)| PreviewError {
             key,
             message,
             models,
         };
+        let picture = self.picture(request).map_err(fail)?;
+        let texture = self
+            .upload(&picture.rgba, key.size_px)
+            .map_err(|message| fail((message, false)))?;
+        if let Some(loaded) = self.loaded.as_mut() {
+            // Its memory serves the next preview.
+            loaded.renderer.recycle(picture.rgba, Default::default());
+        }
+        Ok(PreviewFrame {
+            key,
+            texture,
+            scene: picture.scene,
+            labels: picture.labels,
+            camera: picture.camera,
+            inspect: picture.inspect,
+            render_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// The picture of a preview and the labels of its frame, made the way
+    /// the batch makes a frame ([`FramePipeline::make_scene`]) with the
+    /// view's camera. Errors say whether loading the models failed.
+    pub fn picture(&mut self, request: &PreviewRequest) -> Result<PreviewPicture, (String, bool)> {
+        let key = request.key;
         let preset = &*request.preset;
         let [width, height] = key.size_px;
-        if width == 0
-            || height == 0
-            || width > self.ctx.max_texture_side
-            || height > self.ctx.max_texture_side
-        {
-            return Err(fail(
-                format!(
-                    "preview size {width}×{height} is outside this adapter's 1..{} px",
-                    self.ctx.max_texture_side
-                ),
+        let side = self.ctx.max_texture_side;
+        if width == 0 || height == 0 || width > side || height > side {
+            let size = format!("preview size {width}×{height}");
+            return Err((
+                format!("{size} is outside this adapter's 1..{side} px"),
                 false,
             ));
         }
-        let loaded = self
-            .load(preset)
-            .map_err(|(message, models)| fail(message, models))?;
-        let scene = loaded
-            .pipeline
-            .scene(key.frame)
-            .map_err(|e| fail(e.to_string(), false))?;
+        let loaded = self.load(preset)?;
+        let failed = |e: &dyn std::fmt::Display| (e.to_string(), false);
+        let scene = loaded.pipeline.scene(key.frame).map_err(|e| failed(&e))?;
         // The exact labels the batch writes (visibility measured when the preset needs it).
-        let labels = loaded
-            .pipeline
+        let labels = (loaded.pipeline)
             .labels(&mut loaded.renderer, &scene)
-            .map_err(|e| fail(e.to_string(), false))?;
-
+            .map_err(|e| failed(&e))?;
         let (camera, inspect) = view_camera(preset, &scene, key.view, width, height);
         let mut drawn = scene.clone();
         drawn.camera = camera;
-
-        let msaa = preset.render.msaa;
-        let (msaa_color, depth) = self.targets(key.size_px, msaa);
-        let texture = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("preview colour"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: COLOR_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        if key.view == PreviewView::ThroughCamera && drawn.camera_model.is_some() {
-            // The batch's own pipeline at the pane's size: render, read back,
-            // camera model on the CPU; the picture is uploaded as it comes.
-            let loaded = self
-                .loaded
-                .as_mut()
-                .ok_or_else(|| fail("models are not loaded".into(), true))?;
-            let made = loaded
-                .pipeline
-                .make_scene(&mut loaded.renderer, drawn)
-                .map_err(|e| fail(e.to_string(), false))?;
-            self.ctx.queue.write_texture(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                &made.rgba,
-                wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(4 * width),
-                    rows_per_image: Some(height),
-                },
-                wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-            );
-            let submission = self.ctx.queue.submit([]);
-            self.ctx
-                .device
-                .poll(wgpu::PollType::Wait {
-                    submission_index: Some(submission),
-                    timeout: None,
-                })
-                .map_err(|e| fail(format!("waiting for the preview upload: {e}"), false))?;
-            return Ok(PreviewFrame {
-                key,
-                texture: view,
-                scene,
-                labels,
-                camera,
-                inspect,
-                render_ms: start.elapsed().as_secs_f64() * 1e3,
-            });
+        if key.view != PreviewView::ThroughCamera {
+            drawn.camera_model = None;
         }
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("preview"),
-            });
-        let loaded = self
-            .loaded
-            .as_mut()
-            .ok_or_else(|| fail("models are not loaded".into(), true))?;
-        let views = match &msaa_color {
-            Some(ms) => FrameViews {
-                color: ms,
-                resolve: Some(&view),
-                depth: &depth,
-                msaa,
-            },
-            None => FrameViews {
-                color: &view,
-                resolve: None,
-                depth: &depth,
-                msaa,
-            },
-        };
-        loaded.renderer.encode(&mut encoder, &drawn, &views);
-        let submission = self.ctx.queue.submit([encoder.finish()]);
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(submission),
-                timeout: None,
-            })
-            .map_err(|e| fail(format!("waiting for the preview render: {e}"), false))?;
-        Ok(PreviewFrame {
-            key,
-            texture: view,
+        let made = (loaded.pipeline)
+            .make_scene(&mut loaded.renderer, drawn)
+            .map_err(|e| failed(&e))?;
+        Ok(PreviewPicture {
+            rgba: made.rgba,
             scene,
             labels,
             camera,
             inspect,
-            render_ms: start.elapsed().as_secs_f64() * 1e3,
         })
+    }
+
+    /// A new colour texture of `size_px` holding `rgba`, once the upload is done.
+    fn upload(&self, rgba: &[u8], [width, height]: [u32; 2]) -> Result<wgpu::TextureView, String> {
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let texture = self.ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("preview colour"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: COLOR_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let layout = wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(4 * width),
+            rows_per_image: Some(height),
+        };
+        let place = texture.as_image_copy();
+        self.ctx.queue.write_texture(place, rgba, layout, size);
+        let submission = self.ctx.queue.submit([]);
+        (self.ctx.device)
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(submission),
+                timeout: None,
+            })
+            .map_err(|e| format!("waiting for the preview upload: {e}"))?;
+        Ok(texture.create_view(&wgpu::TextureViewDescriptor::default()))
     }
 
     /// The pipeline of `preset` and its renderer: kept while an edit leaves
     /// the models and sky images alone, rebuilt otherwise. Errors say whether
     /// loading the models failed.
     fn load(&mut self, preset: &Preset) -> Result<&mut Loaded, (String, bool)> {
+        // Masks are files only: the preview's pictures and labels are the same without them.
+        let mut preset = preset.clone();
+        preset.output.masks = Default::default();
+        let preset = &preset;
         let loaded = match self.loaded.take() {
             Some(l) if l.pipeline.assets().serve(preset) => Loaded {
                 pipeline: l
@@ -326,50 +283,6 @@ impl PreviewRenderer {
             }
         };
         Ok(self.loaded.insert(loaded))
-    }
-
-    /// MSAA colour (when msaa > 1) and depth views of this size, reused while the size holds.
-    fn targets(
-        &mut self,
-        size_px: [u32; 2],
-        msaa: u32,
-    ) -> (Option<wgpu::TextureView>, wgpu::TextureView) {
-        let targets = match self.targets.take() {
-            Some(t) if t.size_px == size_px && t.msaa == msaa => t,
-            _ => {
-                let device = &self.ctx.device;
-                let texture = |label: &str, format, samples| {
-                    device
-                        .create_texture(&wgpu::TextureDescriptor {
-                            label: Some(label),
-                            size: wgpu::Extent3d {
-                                width: size_px[0],
-                                height: size_px[1],
-                                depth_or_array_layers: 1,
-                            },
-                            mip_level_count: 1,
-                            sample_count: samples,
-                            dimension: wgpu::TextureDimension::D2,
-                            format,
-                            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                            view_formats: &[],
-                        })
-                        .create_view(&wgpu::TextureViewDescriptor::default())
-                };
-                let msaa_color =
-                    (msaa > 1).then(|| texture("preview colour (msaa)", COLOR_FORMAT, msaa));
-                let depth = texture("preview depth", DEPTH_FORMAT, msaa);
-                Targets {
-                    size_px,
-                    msaa,
-                    msaa_color,
-                    depth,
-                }
-            }
-        };
-        let views = (targets.msaa_color.clone(), targets.depth.clone());
-        self.targets = Some(targets);
-        views
     }
 }
 
@@ -470,5 +383,66 @@ pub fn orbit_camera(
         position,
         camera_from_world: look_at_cv(position, DVec3::ZERO).unwrap_or(glam::DMat3::IDENTITY),
         near_m: scene.camera.near_m,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 3 drones at 128×72 with MSAA, visible boxes and a visibility filter.
+    const SMALL: &str = r#"(
+        name: "small",
+        seed: 5,
+        placement: Randomized(count: (3, 3), volume: Box(size_m: (4.0, 2.0, 4.0)), min_separation_m: 0.7),
+        camera: (z: (start: 0.5, end: 1.0, step: 0.5)),
+        render: (resolution: Custom(width: 128, height: 72), msaa: 4),
+        labels: (box_method: Visible, min_visible_pixels: 2),
+    )"#;
+
+    fn request(
+        preset: &Preset,
+        frame: u64,
+        size_px: [u32; 2],
+        view: PreviewView,
+    ) -> PreviewRequest {
+        PreviewRequest {
+            key: PreviewKey {
+                generation: 0,
+                frame,
+                size_px,
+                view,
+            },
+            preset: Arc::new(preset.clone()),
+        }
+    }
+
+    #[test]
+    fn the_camera_view_at_output_size_is_the_batch_frame() {
+        let ctx = GpuContext::headless()
+            .unwrap_or_else(|e| panic!("rendering tests need a GPU adapter (lavapipe): {e}"));
+        let preset = Preset::from_ron(SMALL).expect("preset");
+        let pipeline = FramePipeline::new(preset.clone()).expect("pipeline");
+        let mut batch = pipeline.renderer(&ctx);
+        let mut preview = PreviewRenderer::new(ctx);
+        for frame in 0..pipeline.frame_count() {
+            let made = pipeline.make(&mut batch, frame).expect("batch frame");
+            let camera = request(&preset, frame, [128, 72], PreviewView::Camera);
+            let picture = preview.picture(&camera).expect("preview");
+            assert!(made.rgba == picture.rgba, "frame {frame}: pixels differ");
+            assert_eq!(made.labels, picture.labels, "frame {frame}");
+            assert!(picture.inspect.is_none());
+            // At half the size: the same view, scaled (its own pixels).
+            let half = request(&preset, frame, [64, 36], PreviewView::Camera);
+            let small = preview.picture(&half).expect("half-size preview");
+            assert_eq!(small.rgba.len(), 64 * 36 * 4);
+            assert_eq!(small.camera.fov_y_deg, made.scene.camera.fov_y_deg);
+            // The inspect view draws from outside: other pixels, same labels.
+            let orbit = PreviewView::Inspect(Orbit::default());
+            let inspect = preview.picture(&request(&preset, frame, [128, 72], orbit));
+            let inspect = inspect.expect("inspect preview");
+            assert!(inspect.inspect.is_some() && inspect.rgba != made.rgba);
+            assert_eq!(inspect.labels, made.labels);
+        }
     }
 }

@@ -1,0 +1,316 @@
+//! The drones' meshes on the GPU: each model's vertices and its levels of
+//! detail in one index buffer, the draws of each level by surface kind, the
+//! drone pipelines built in the surface variants the meshes use, the choice
+//! of a drone's level, and the instanced draws.
+
+use std::ops::Range;
+
+use wgpu::util::DeviceExt;
+
+use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, Renderer, material};
+use crate::model::lod::Lod;
+use crate::model::{CpuModel, Vertex};
+use crate::scene::FrameScene;
+
+pub(super) struct GpuMesh {
+    vertices: wgpu::Buffer,
+    /// Every level's indices, level 0 (the full mesh) first.
+    indices: wgpu::Buffer,
+    /// Levels of detail, finest first (see [`crate::model::lod`]).
+    levels: Vec<GpuLevel>,
+    textures: Vec<wgpu::BindGroup>,
+}
+
+/// One level of detail of a [`GpuMesh`].
+struct GpuLevel {
+    /// Bound of the silhouette error, in model units (0 for level 0).
+    error: f32,
+    draws: Vec<GpuDraw>,
+}
+
+/// An index range drawn with one texture bind group (`None`: the white one)
+/// and the pipeline variant its surface needs.
+struct GpuDraw {
+    indices: Range<u32>,
+    texture: Option<usize>,
+    surface: Surface,
+}
+
+/// What a draw's material asks of the drone pipeline: back faces culled
+/// unless double-sided (as glTF specifies), the alpha test only for masked
+/// materials (without `discard` the depth test runs before shading), and the
+/// texture fetch only for textured ones (untextured ranges would multiply by
+/// the 1×1 white texture's exact 1.0: same bytes, a sampler run per fragment).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Surface {
+    double_sided: bool,
+    alpha_mask: bool,
+    textured: bool,
+    /// Holds glTF BLEND triangles: the `_blend` fragment entries, which turn
+    /// alpha into MSAA coverage (`shaders/drone.wgsl`, `coverage_mask`).
+    alpha_blend: bool,
+}
+
+impl Surface {
+    pub(super) const COUNT: usize = 16;
+    const ALL: [Surface; Self::COUNT] = {
+        let mut all = [Surface::of(0); Self::COUNT];
+        let mut i = 0;
+        while i < Self::COUNT {
+            all[i] = Surface::of(i);
+            i += 1;
+        }
+        all
+    };
+    const fn of(index: usize) -> Self {
+        Self {
+            double_sided: index & 1 != 0,
+            alpha_mask: index & 2 != 0,
+            textured: index & 4 != 0,
+            alpha_blend: index & 8 != 0,
+        }
+    }
+    fn from_draw(d: &crate::model::DrawRange) -> Self {
+        Self {
+            double_sided: d.double_sided,
+            alpha_mask: d.alpha_mask,
+            textured: d.texture.is_some(),
+            alpha_blend: d.alpha_blend,
+        }
+    }
+    fn index(self) -> usize {
+        usize::from(self.double_sided)
+            | usize::from(self.alpha_mask) << 1
+            | usize::from(self.textured) << 2
+            | usize::from(self.alpha_blend) << 3
+    }
+}
+
+/// A drone pipeline (one fragment entry, sample count and targets) in the
+/// variants the renderer's meshes use, indexed by [`Surface::index`].
+pub(crate) struct DronePipelines([Option<wgpu::RenderPipeline>; Surface::COUNT]);
+
+/// What one instanced draw shares: a model and its level of detail.
+pub(crate) type MeshLevel = (usize, usize);
+
+/// Upload `models` (and the coarser levels of `lods[m]`, when given) and
+/// the textures of their materials; returns the meshes and which surface
+/// kinds their draws use (the drone pipeline variants to build).
+pub(super) fn upload_meshes(
+    (device, queue): (&wgpu::Device, &wgpu::Queue),
+    material_bgl: &wgpu::BindGroupLayout,
+    models: &[CpuModel],
+    lods: &[Vec<Lod>],
+) -> (Vec<GpuMesh>, [bool; Surface::COUNT]) {
+    let meshes = models
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            // Level 0 is the model's own mesh; coarser levels follow in one index buffer.
+            let mut indices = m.indices.clone();
+            let gpu_draw = |d: &crate::model::DrawRange, base: u32| GpuDraw {
+                indices: d.indices.start + base..d.indices.end + base,
+                texture: d.texture,
+                surface: Surface::from_draw(d),
+            };
+            let mut levels = vec![GpuLevel {
+                error: 0.0,
+                draws: m.draws.iter().map(|d| gpu_draw(d, 0)).collect(),
+            }];
+            for lod in lods.get(k).map_or(&[][..], |l| l.get(1..).unwrap_or(&[])) {
+                let base = indices.len() as u32;
+                indices.extend_from_slice(&lod.indices);
+                levels.push(GpuLevel {
+                    error: lod.error,
+                    draws: lod.draws.iter().map(|d| gpu_draw(d, base)).collect(),
+                });
+            }
+            GpuMesh {
+                vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(&format!("{} vertices", m.name)),
+                    contents: bytemuck::cast_slice(&m.vertices),
+                    usage: wgpu::BufferUsages::VERTEX,
+                }),
+                indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(&format!("{} indices", m.name)),
+                    contents: bytemuck::cast_slice(&indices),
+                    usage: wgpu::BufferUsages::INDEX,
+                }),
+                levels,
+                textures: m
+                    .textures
+                    .iter()
+                    .map(|t| {
+                        let label = format!("{} texture {}", m.name, t.name);
+                        material::upload(device, queue, material_bgl, t, &label)
+                    })
+                    .collect(),
+            }
+        })
+        .collect::<Vec<GpuMesh>>();
+    let mut surfaces = [false; Surface::COUNT];
+    for d in meshes.iter().flat_map(|m| &m.levels).flat_map(|l| &l.draws) {
+        surfaces[d.surface.index()] = true;
+    }
+    (meshes, surfaces)
+}
+
+impl Renderer {
+    /// The level of detail drone `i` of `scene` is drawn with: the coarsest
+    /// whose error, scaled by the drone's size over the depth of its nearest
+    /// possible point, is within the renderer's pixel budget (level 0 when
+    /// any part of the drone may be at or behind the camera plane).
+    pub(super) fn level_of(&self, scene: &FrameScene, i: usize) -> usize {
+        let d = &scene.drones[i];
+        let Some(mesh) = self.meshes.get(d.model) else {
+            return 0;
+        };
+        if self.lod_error_px <= 0.0 || mesh.levels.len() < 2 {
+            return 0;
+        }
+        let cam = &scene.camera;
+        let nearest = cam.camera_from_world_point(d.position).z - d.size_m * 0.5 * 3f64.sqrt();
+        if nearest.is_nan() || nearest <= cam.near_m {
+            return 0;
+        }
+        let px_per_unit = d.size_m * cam.focal_px() / nearest;
+        // The coarsest level within the budget (errors grow with the level).
+        mesh.levels
+            .iter()
+            .rposition(|l| f64::from(l.error) * px_per_unit <= self.lod_error_px)
+            .unwrap_or(0)
+    }
+
+    /// Triangles drawn per level of detail, over the drones of `scene` (for benchmarks).
+    pub fn level_histogram(&self, scene: &FrameScene) -> Vec<usize> {
+        let mut counts = Vec::new();
+        for i in 0..scene.drones.len() {
+            let level = self.level_of(scene, i);
+            if counts.len() <= level {
+                counts.resize(level + 1, 0);
+            }
+            counts[level] += 1;
+        }
+        counts
+    }
+
+    /// The drone pipelines for `msaa` samples with fragment entry `entry`
+    /// writing `targets` (colour, or colour + instance id), in the surface
+    /// variants this renderer's meshes use.
+    pub(super) fn drone_pipeline(
+        &self,
+        label: &str,
+        msaa: u32,
+        entry: &str,
+        targets: &[Option<wgpu::ColorTargetState>],
+    ) -> DronePipelines {
+        let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 8 => Float32x2, 9 => Float32x4];
+        let buffers = [
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &vertex_attrs,
+            }),
+            Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<InstanceRaw>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &INSTANCE_ATTRS,
+            }),
+        ];
+        let variant = |surface: Surface| {
+            let flag = |on: bool| if on { 1.0 } else { 0.0 };
+            let samples = f64::from(msaa);
+            let blend_constants = [
+                ("ALPHA_MASK", flag(surface.alpha_mask)),
+                ("TEXTURED", flag(surface.textured)),
+                ("SAMPLES", samples),
+            ];
+            // Translucent (glTF BLEND) ranges: the same entry with `_blend`,
+            // which also writes the fragment's coverage mask.
+            let (entry, constants) = if surface.alpha_blend {
+                (format!("{entry}_blend"), &blend_constants[..])
+            } else {
+                (entry.to_owned(), &blend_constants[..2])
+            };
+            self.device
+                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&self.drone_layout),
+                    vertex: wgpu::VertexState {
+                        module: &self.shaders.1,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &buffers,
+                    },
+                    // glTF: single-sided materials cull back faces (meshes are
+                    // counter-clockwise, negative scales already flipped).
+                    primitive: wgpu::PrimitiveState {
+                        front_face: wgpu::FrontFace::Ccw,
+                        cull_mode: (!surface.double_sided).then_some(wgpu::Face::Back),
+                        ..Default::default()
+                    },
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(true),
+                        depth_compare: Some(wgpu::CompareFunction::Greater),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: wgpu::MultisampleState {
+                        count: msaa,
+                        ..Default::default()
+                    },
+                    fragment: Some(wgpu::FragmentState {
+                        module: &self.shaders.1,
+                        entry_point: Some(&entry),
+                        compilation_options: wgpu::PipelineCompilationOptions {
+                            constants,
+                            ..Default::default()
+                        },
+                        targets,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+        };
+        DronePipelines(Surface::ALL.map(|k| self.surfaces[k.index()].then(|| variant(k))))
+    }
+
+    /// Draw instance ranges (instances bound at vertex buffer slot 1, frame
+    /// uniforms at group 0), each with its level's draws and their pipelines.
+    pub(super) fn draw_drones(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipelines: &DronePipelines,
+        ranges: &[(MeshLevel, Range<u32>)],
+    ) {
+        let mut bound: Option<usize> = None;
+        for ((model, level), range) in ranges {
+            let Some((mesh, lod)) = self
+                .meshes
+                .get(*model)
+                .and_then(|m| Some((m, m.levels.get(*level)?)))
+            else {
+                continue;
+            };
+            pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+            pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+            for draw in &lod.draws {
+                let k = draw.surface.index();
+                let Some(pipeline) = &pipelines.0[k] else {
+                    continue;
+                };
+                if bound != Some(k) {
+                    pass.set_pipeline(pipeline);
+                    bound = Some(k);
+                }
+                let bind_group = draw
+                    .texture
+                    .and_then(|t| mesh.textures.get(t))
+                    .unwrap_or(&self.white_texture);
+                pass.set_bind_group(1, bind_group, &[]);
+                pass.draw_indexed(draw.indices.clone(), 0, range.clone());
+            }
+        }
+    }
+}

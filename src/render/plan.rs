@@ -1,0 +1,385 @@
+//! The frame plan: every decision about a frame's GPU work that needs no GPU.
+//!
+//! From the drones' boxes and rects ([`super::regions::drone_rects`]) and
+//! what is asked (colour, visibility, sample count), [`FramePlan::new`]
+//! decides the passes (the main pass, then one per overlap layer: drones
+//! whose boxes are apart, drawn alone for their unoccluded counts), each
+//! pass's disjoint rects ([`regions::cover`]), where each rect is resolved
+//! to in the atlas (MSAA: shelves as wide as the frame, [`regions::pack_shelves`])
+//! and where every read-back rect lands in the one readback buffer. The
+//! renderer then only encodes what the plan says and collects what it reads.
+
+use super::RenderError;
+use super::id_layer::IdLayer;
+use super::readback::{Read, plan_reads};
+use super::regions::{self, Rect};
+use super::visibility::overlap_layers;
+use crate::scene::projection::PixelBox;
+
+/// What a frame asks of its plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct PlanRequest {
+    /// The frame in pixels.
+    pub size_px: (u32, u32),
+    /// Samples per pixel (1: no resolve, the targets are read directly).
+    pub msaa: u32,
+    pub color: bool,
+    pub visibility: bool,
+    /// Draw only the drones' regions (false: the whole frame as one region).
+    pub regions: bool,
+    /// Scenery may hide drones in the main pass: every drone's unoccluded
+    /// count then comes from a layer pass.
+    pub scenery: bool,
+}
+
+/// One pass: its disjoint rects and the drones drawn in them (scene indices).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub(super) struct PassPlan {
+    pub rects: Vec<Rect>,
+    pub drones: Vec<usize>,
+}
+
+/// A frame's passes, atlas places and reads (see the module docs).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct FramePlan {
+    pub request: PlanRequest,
+    /// The main pass first, then the overlap layers (visibility only).
+    pub passes: Vec<PassPlan>,
+    /// Per drone: whether its unoccluded count comes from a layer pass.
+    pub overlapping: Vec<bool>,
+    /// Per pass, each rect's top-left corner in the texture it is read
+    /// from: the atlas when resolved, else the frame itself.
+    pub places: Vec<Vec<(u32, u32)>>,
+    /// Atlas rows the resolves need (0 without MSAA).
+    pub atlas_rows: u32,
+    /// The main pass's colour rects in the readback buffer (colour only).
+    pub color_reads: Vec<Read>,
+    /// Per pass, its id rects in the readback buffer (visibility only).
+    pub id_reads: Vec<Vec<Read>>,
+    /// Bytes of the readback buffer the reads use.
+    pub readback_size: u64,
+}
+
+impl FramePlan {
+    /// The plan of a frame whose drones have amodal `boxes` and pixel
+    /// `rects` (scene order, as [`regions::drone_rects`] gives them).
+    pub(super) fn new(
+        request: PlanRequest,
+        boxes: &[Option<PixelBox>],
+        rects: &[Option<Rect>],
+    ) -> Result<Self, RenderError> {
+        let n = rects.len();
+        let (width, height) = request.size_px;
+        let pass_of = |members: Vec<usize>| -> PassPlan {
+            let (rects, drones) = if request.regions {
+                regions::cover(rects, members)
+            } else {
+                let drones = members.into_iter().filter(|&i| rects[i].is_some());
+                (vec![Rect::full(width, height)], drones.collect())
+            };
+            PassPlan { rects, drones }
+        };
+        let mut passes = vec![pass_of((0..n).collect())];
+        let overlapping = if request.visibility {
+            let (layers, overlapping) = layers(boxes, request)?;
+            passes.extend(layers.into_iter().map(pass_of));
+            overlapping
+        } else {
+            vec![false; n]
+        };
+        let (places, atlas_rows) = places(&passes, request);
+        // The main pass's colour, then the ids of the main pass and of each layer.
+        let mut size = 0u64;
+        let color_reads = if request.color {
+            plan_reads(&passes[0].rects, &places[0], 4, &mut size)
+        } else {
+            Vec::new()
+        };
+        let id_reads = if request.visibility {
+            IdLayer::plan_reads(&passes, &places, request.msaa, &mut size)
+        } else {
+            Vec::new()
+        };
+        Ok(Self {
+            request,
+            passes,
+            overlapping,
+            places,
+            atlas_rows,
+            color_reads,
+            id_reads,
+            readback_size: size,
+        })
+    }
+
+    /// Whether the passes are resolved into the atlas (MSAA) and read from there.
+    pub(super) fn resolved(&self) -> bool {
+        self.request.msaa > 1
+    }
+
+    /// Every pass's resolve rects (`resolve.wgsl`: the place in an atlas of
+    /// `rows` rows as wide as the frame, in its device coordinates, then the
+    /// whole-pixel offset back to the frame), and where each pass's begin.
+    pub(super) fn resolve_instances(&self, rows: u32) -> (Vec<[f32; 6]>, Vec<u32>) {
+        let width = self.request.size_px.0;
+        let mut data = Vec::new();
+        let mut first = Vec::with_capacity(self.passes.len());
+        for (pass, places) in self.passes.iter().zip(&self.places) {
+            first.push(data.len() as u32);
+            for (r, &(x, y)) in pass.rects.iter().zip(places) {
+                let place = Rect {
+                    x0: x,
+                    y0: y,
+                    x1: x + r.width(),
+                    y1: y + r.height(),
+                };
+                let [x0, y0, x1, y1] = rect_ndc(&place, width, rows);
+                // Whole pixels, exact in f32 below 2^24.
+                let dx = f64::from(r.x0) - f64::from(x);
+                let dy = f64::from(r.y0) - f64::from(y);
+                data.push([x0, y0, x1, y1, dx as f32, dy as f32]);
+            }
+        }
+        (data, first)
+    }
+}
+
+/// The overlap layers of the drones whose (clipped) boxes are in the frame,
+/// each holding only drones that overlap another (or every drone, with
+/// scenery), and whether each drone's unoccluded count comes from them.
+fn layers(
+    boxes: &[Option<PixelBox>],
+    request: PlanRequest,
+) -> Result<(Vec<Vec<usize>>, Vec<bool>), RenderError> {
+    let (width, height) = request.size_px;
+    let clipped: Vec<Option<PixelBox>> = boxes
+        .iter()
+        .map(|b| {
+            b.map(|b| b.clip(f64::from(width), f64::from(height)))
+                .filter(|b| b.width() > 0.0 && b.height() > 0.0)
+        })
+        .collect();
+    let (layers, mut overlapping) = overlap_layers(&clipped)?;
+    if request.scenery {
+        overlapping = clipped.iter().map(Option::is_some).collect();
+    }
+    let layers = layers
+        .into_iter()
+        .map(|l| {
+            l.into_iter()
+                .filter(|&i| overlapping[i])
+                .collect::<Vec<_>>()
+        })
+        .filter(|l| !l.is_empty())
+        .collect();
+    Ok((layers, overlapping))
+}
+
+/// Each pass's rects' places in the texture read, and the atlas rows used:
+/// packed in shelves when resolved (never taller than the frame: a pass
+/// whose rects pack worse keeps them where they are), else in place.
+fn places(passes: &[PassPlan], request: PlanRequest) -> (Vec<Vec<(u32, u32)>>, u32) {
+    let (width, height) = request.size_px;
+    let resolved = request.msaa > 1;
+    let packed: Vec<(Vec<(u32, u32)>, u32)> = passes
+        .iter()
+        .map(|pass| {
+            let in_place = || (pass.rects.iter().map(|r| (r.x0, r.y0)).collect(), height);
+            match resolved.then(|| regions::pack_shelves(&pass.rects, width)) {
+                Some((places, rows)) if rows <= height => (places, rows),
+                Some(_) => in_place(),
+                None => (in_place().0, 0),
+            }
+        })
+        .collect();
+    let rows = packed.iter().map(|(_, rows)| *rows).max().unwrap_or(0);
+    (packed.into_iter().map(|(places, _)| places).collect(), rows)
+}
+
+/// A pixel rect in normalised device coordinates (y up), for `rect.wgsl`.
+pub(super) fn rect_ndc(r: &Rect, width: u32, height: u32) -> [f32; 4] {
+    let x = |v: u32| (f64::from(v) / f64::from(width) * 2.0 - 1.0) as f32;
+    let y = |v: u32| (1.0 - f64::from(v) / f64::from(height) * 2.0) as f32;
+    [x(r.x0), y(r.y0), x(r.x1), y(r.y1)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn request(msaa: u32) -> PlanRequest {
+        PlanRequest {
+            size_px: (320, 180),
+            msaa,
+            color: true,
+            visibility: true,
+            regions: true,
+            scenery: false,
+        }
+    }
+
+    fn pixel_box(x0: f64, y0: f64, x1: f64, y1: f64) -> Option<PixelBox> {
+        Some(PixelBox { x0, y0, x1, y1 })
+    }
+
+    /// Boxes and rects as the renderer derives them.
+    fn drones(boxes: &[Option<PixelBox>], (w, h): (u32, u32)) -> Vec<Option<Rect>> {
+        boxes
+            .iter()
+            .map(|b| b.and_then(|b| regions::pixel_rect(&b, w, h)))
+            .collect()
+    }
+
+    fn random_boxes(rng: &mut impl Rng, n: usize, (w, h): (u32, u32)) -> Vec<Option<PixelBox>> {
+        (0..n)
+            .map(|_| {
+                let x0 = rng.random_range(-20.0..f64::from(w));
+                let y0 = rng.random_range(-20.0..f64::from(h));
+                let side = rng.random_range(0.5..60.0);
+                pixel_box(x0, y0, x0 + side, y0 + side * 0.7)
+            })
+            .collect()
+    }
+
+    fn covered(rects: &[Rect], (w, h): (u32, u32)) -> Vec<u8> {
+        let mut cover = vec![0u8; (w * h) as usize];
+        for r in rects {
+            for y in r.y0..r.y1 {
+                for x in r.x0..r.x1 {
+                    cover[(y * w + x) as usize] += 1;
+                }
+            }
+        }
+        cover
+    }
+
+    #[test]
+    fn overlapping_drones_get_layers_and_apart_ones_none() {
+        let size = request(4).size_px;
+        // 0 and 1 overlap; 2 is far from both.
+        let boxes = [
+            pixel_box(10.0, 10.0, 30.0, 30.0),
+            pixel_box(20.0, 20.0, 40.0, 40.0),
+            pixel_box(200.0, 100.0, 220.0, 120.0),
+        ];
+        let plan = FramePlan::new(request(4), &boxes, &drones(&boxes, size)).expect("plan");
+        assert_eq!(plan.overlapping, [true, true, false]);
+        let layers: Vec<&[usize]> = plan.passes[1..].iter().map(|p| &p.drones[..]).collect();
+        assert_eq!(layers, [&[0][..], &[1][..]], "each overlapping drone alone");
+        assert_eq!(plan.passes[0].drones, [0, 1, 2]);
+        assert_eq!(
+            plan.id_reads.len(),
+            3,
+            "ids of the main pass and each layer"
+        );
+
+        // Without visibility: one pass, no layers, no id reads.
+        let colour_only = PlanRequest {
+            visibility: false,
+            ..request(4)
+        };
+        let plan = FramePlan::new(colour_only, &boxes, &drones(&boxes, size)).expect("plan");
+        assert_eq!(plan.passes.len(), 1);
+        assert!(plan.id_reads.is_empty() && plan.overlapping.iter().all(|o| !o));
+
+        // Scenery: every drone in view is measured alone.
+        let scenery = PlanRequest {
+            scenery: true,
+            ..request(4)
+        };
+        let plan = FramePlan::new(scenery, &boxes, &drones(&boxes, size)).expect("plan");
+        assert_eq!(plan.overlapping, [true, true, true]);
+        let alone: usize = plan.passes[1..].iter().map(|p| p.drones.len()).sum();
+        assert_eq!(alone, 3);
+    }
+
+    #[test]
+    fn random_plans_cover_exactly_pack_within_the_frame_and_read_apart() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(23);
+        for case in 0..60 {
+            let msaa = if case % 3 == 0 { 1 } else { 4 };
+            let req = request(msaa);
+            let size = req.size_px;
+            let n = rng.random_range(0..30);
+            let boxes = random_boxes(&mut rng, n, size);
+            let rects = drones(&boxes, size);
+            let plan = FramePlan::new(req, &boxes, &rects).expect("plan");
+            // Each pass covers exactly the union of its drones' rects, once.
+            for pass in &plan.passes {
+                let mut want = vec![0u8; (size.0 * size.1) as usize];
+                for &i in &pass.drones {
+                    let cover = covered(&[rects[i].expect("a drawn drone has a rect")], size);
+                    for (w, c) in want.iter_mut().zip(cover) {
+                        *w |= c;
+                    }
+                }
+                assert_eq!(covered(&pass.rects, size), want, "case {case}");
+            }
+            // Places: inside the atlas (frame wide, at most frame tall), disjoint.
+            assert!(plan.atlas_rows <= size.1);
+            for (pass, places) in plan.passes.iter().zip(&plan.places) {
+                let placed: Vec<Rect> = (pass.rects.iter().zip(places))
+                    .map(|(r, &(x, y))| Rect {
+                        x0: x,
+                        y0: y,
+                        x1: x + r.width(),
+                        y1: y + r.height(),
+                    })
+                    .collect();
+                for p in &placed {
+                    assert!(p.x1 <= size.0 && p.y1 <= size.1, "case {case}: {p:?}");
+                    assert!(!plan.resolved() || p.y1 <= plan.atlas_rows);
+                }
+                assert!(covered(&placed, size).iter().all(|&c| c <= 1));
+            }
+            // Reads: aligned, disjoint, within the readback size.
+            let mut reads: Vec<(Read, u32)> = (plan.color_reads.iter().map(|r| (*r, 4)))
+                .chain(plan.id_reads.iter().flatten().map(|r| (*r, 0)))
+                .collect();
+            reads.sort_by_key(|(r, _)| r.offset);
+            let mut end = 0;
+            for (read, bpp) in reads {
+                assert!(read.offset >= end && read.offset % 256 == 0, "case {case}");
+                assert!(read.row >= read.rect.width() * bpp.max(4));
+                end = read.offset + u64::from(read.row) * u64::from(read.rect.height());
+            }
+            assert!(end <= plan.readback_size);
+            // One resolve rect per rect, each pass's after the one before.
+            let (resolve, first) = plan.resolve_instances(plan.atlas_rows.max(1));
+            let counts: Vec<usize> = plan.passes.iter().map(|p| p.rects.len()).collect();
+            assert_eq!(resolve.len(), counts.iter().sum::<usize>());
+            let starts: Vec<u32> = (counts.iter().scan(0, |at, &c| {
+                let start = *at;
+                *at += c as u32;
+                Some(start)
+            }))
+            .collect();
+            assert_eq!(first, starts);
+        }
+    }
+
+    #[test]
+    fn whole_frame_mode_is_one_rect_with_the_drones_in_view() {
+        let req = PlanRequest {
+            regions: false,
+            visibility: false,
+            ..request(1)
+        };
+        let boxes = [pixel_box(10.0, 10.0, 20.0, 20.0), None];
+        let plan = FramePlan::new(req, &boxes, &drones(&boxes, req.size_px)).expect("plan");
+        assert_eq!(plan.passes[0].rects, [Rect::full(320, 180)]);
+        assert_eq!(plan.passes[0].drones, [0]);
+        assert_eq!(plan.places[0], [(0, 0)], "read in place without MSAA");
+        assert_eq!(plan.atlas_rows, 0);
+        assert_eq!(plan.readback_size, 320 * 4 * 180);
+    }
+
+    #[test]
+    fn rect_ndc_maps_the_frame_corners() {
+        assert_eq!(
+            rect_ndc(&Rect::full(640, 360), 640, 360),
+            [-1.0, 1.0, 1.0, -1.0]
+        );
+    }
+}
