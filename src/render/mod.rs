@@ -10,6 +10,7 @@
 //! colour view of the right size (the preview); [`Renderer::render_rgba`] is
 //! that full-frame path offscreen, with a row-padded readback.
 
+mod background;
 mod frame;
 mod haze;
 mod ids;
