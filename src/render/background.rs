@@ -43,6 +43,10 @@ pub(super) struct BackgroundCache {
     pub(super) generation: u64,
     /// Full-frame readback of the drawn sky.
     readback: Readback,
+    /// Readback of the procedural environment pass (grown as needed), and
+    /// its texels as `f32` (see [`super::upsample`]).
+    environment_readback: Option<wgpu::Buffer>,
+    environment: Vec<f32>,
 }
 
 impl BackgroundCache {
@@ -90,6 +94,8 @@ impl BackgroundCache {
             rgba: Vec::new(),
             generation: 0,
             readback: Readback::new(device, "background readback", width, height),
+            environment_readback: None,
+            environment: Vec::new(),
         }
     }
 
@@ -134,6 +140,9 @@ impl Renderer {
         cache.key = None;
         match &scene.backplate {
             Some(plate) => self.draw_plate_background(cache, plate)?,
+            None if super::sky::SkyGpu::is_procedural(&scene.sky) => {
+                self.draw_environment_background(cache, uniforms)?
+            }
             None => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
         }
         state.background_draws += 1;
@@ -234,6 +243,101 @@ impl Renderer {
         &pipelines.0[i].1
     }
 
+    /// A procedural environment as the background: its pass drawn at
+    /// reduced resolution, read back, upsampled and sRGB-encoded on the CPU
+    /// ([`super::upsample`]) and uploaded as the background texture (no
+    /// full-frame sky pass, no full-frame readback).
+    fn draw_environment_background(
+        &mut self,
+        cache: &mut BackgroundCache,
+        uniforms: &FrameUniforms,
+    ) -> Result<(), RenderError> {
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("environment background"),
+            });
+        let frame = (cache.width, cache.height);
+        // Any previous background is overwritten from here on.
+        cache.renew();
+        self.sky.encode_environment(
+            &self.device,
+            &mut encoder,
+            (&self.shaders.0, &self.sky_layout),
+            &self.frame_bind_group,
+            frame,
+        );
+        let Some((texture, (w, h))) = self.sky.half_target() else {
+            return Err(RenderError::Readback(
+                "the environment pass has no target".into(),
+            ));
+        };
+        // RGBA16F: 8 bytes a texel, rows padded to the copy alignment.
+        let row = (w * 8).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let len = u64::from(row) * u64::from(h);
+        if cache
+            .environment_readback
+            .as_ref()
+            .is_none_or(|b| b.size() < len)
+        {
+            cache.environment_readback = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("environment readback"),
+                size: len,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        let Some(buffer) = cache.environment_readback.as_ref() else {
+            return Ok(()); // just made
+        };
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        let submitted = self.queue.submit([encoder.finish()]);
+        let texels = &mut cache.environment;
+        super::read_mapped(&self.device, submitted, buffer, len, |bytes| {
+            texels.clear();
+            texels.resize(w as usize * h as usize * 4, 0.0);
+            let width = w as usize * 4;
+            for (y, out) in texels.chunks_exact_mut(width).enumerate() {
+                let start = y * row as usize;
+                let src = &bytes[start..start + width * 2];
+                for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
+                    *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
+                }
+            }
+        })?;
+        let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
+        super::upsample::upsample_environment(
+            &cache.environment,
+            (w, h),
+            frame,
+            centre,
+            &mut cache.rgba,
+        );
+        self.upload_background(&cache.texture, &cache.rgba, frame);
+        Ok(())
+    }
+
     /// Draw the sky into the background texture (no MSAA) and read it back.
     fn draw_background(
         &mut self,
@@ -246,15 +350,6 @@ impl Renderer {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("background"),
             });
-        if super::sky::SkyGpu::is_procedural(&scene.sky) {
-            self.sky.encode_environment(
-                &self.device,
-                &mut encoder,
-                (&self.shaders.0, &self.sky_layout),
-                &self.frame_bind_group,
-                (cache.width, cache.height),
-            );
-        }
         {
             let pipeline = self.sky_pipeline(pipelines);
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

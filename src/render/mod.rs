@@ -19,6 +19,7 @@ mod plate;
 pub mod regions;
 pub mod scenery;
 mod sky;
+mod upsample;
 pub mod visibility;
 
 pub use frame::{Painted, RenderRequest, RenderedFrame};
