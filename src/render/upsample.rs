@@ -165,12 +165,10 @@ mod tests {
         assert_eq!(srgb_u8(1.0), 255);
         // Each threshold is the least value of its level.
         let t = &SRGB.thresholds;
-        for k in 1..256 {
-            assert_eq!(usize::from(srgb_u8(t[k])), k);
-            assert_eq!(
-                usize::from(srgb_u8(f32::from_bits(t[k].to_bits() - 1))),
-                k - 1
-            );
+        for (k, &least) in t.iter().enumerate().skip(1) {
+            assert_eq!(usize::from(srgb_u8(least)), k);
+            let below = f32::from_bits(least.to_bits() - 1);
+            assert_eq!(usize::from(srgb_u8(below)), k - 1);
         }
     }
 
