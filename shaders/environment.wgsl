@@ -42,6 +42,16 @@ struct Env {
 
 const TAU: f32 = 6.2831853;
 
+// The environment's kinds fixed when the environment pipeline is built (as
+// `pattern.z`, `pattern.w` and `far_params.y`), or -1 to read them from the
+// uniforms. Fixed kinds let the shader compiler drop the others: lavapipe
+// runs every branch for every pixel under a lane mask, so an environment
+// would otherwise pay for all four silhouettes twice, the water and the road.
+override ENV_GROUND: f32 = -1.0;
+override ENV_FAR: f32 = -1.0;
+override ENV_NEAR: f32 = -1.0;
+
+
 fn hash12(p: vec2<f32>) -> f32 {
     var p3 = fract(vec3<f32>(p.x, p.y, p.x) * 0.1031);
     p3 += dot(p3, p3.yzx + 33.33);
@@ -174,7 +184,8 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
             col = mix(col, min(cloud_far, vec3<f32>(1.0)), density * fade * 0.95);
         }
         // Far silhouette (hills, mountains, skyline), then the near tree line.
-        let far_h = silhouette_height(env.pattern.w, env.far.w, az_c, seed * 0.01);
+        let far_kind = select(env.pattern.w, ENV_FAR, ENV_FAR >= 0.0);
+        let far_h = silhouette_height(far_kind, env.far.w, az_c, seed * 0.01);
         if (elevation < far_h) {
             let shade = env.far.rgb * (light * max(sun.y, 0.0) * 0.6 + ambient * 0.8);
             var c = shade;
@@ -185,7 +196,8 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
             // With an atmosphere (near.w = 1): the haze of its distance (ground_a.w).
             col = mix(c, haze, select(0.55, env.ground_a.w, env.near.w > 0.5));
         }
-        let near_h = silhouette_height(env.far_params.y, env.far_params.z, az_c, seed * 0.013 + vec2<f32>(5.0, 3.0));
+        let near_kind = select(env.far_params.y, ENV_NEAR, ENV_NEAR >= 0.0);
+        let near_h = silhouette_height(near_kind, env.far_params.z, az_c, seed * 0.013 + vec2<f32>(5.0, 3.0));
         if (elevation < near_h) {
             col = mix(env.near.rgb * (light * max(sun.y, 0.0) * 0.5 + ambient * 0.7), haze, select(0.25, env.ground_b.w, env.near.w > 0.5));
         }
@@ -193,7 +205,7 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
         // Ground plane 60 m below the camera.
         let t = 60.0 / max(-dir.y, 1e-4);
         let p = vec2<f32>(dir.x, dir.z) * t + seed * 37.0;
-        let kind = env.pattern.z;
+        let kind = select(env.pattern.z, ENV_GROUND, ENV_GROUND >= 0.0);
         var albedo = mix(env.ground_a.rgb, env.ground_b.rgb, fbm(p * 0.01, 4));
         let fields = vnoise(p * 0.003);
         albedo = albedo * (0.8 + 0.4 * step(0.5, fields));

@@ -4,11 +4,9 @@
 //! Per size and sample count, full-size targets are allocated once and never
 //! cleared: colour (multisampled with MSAA, else single-sample), the
 //! instance ids ([`IdLayer`]), depth and the background.
-//! The background (sky or environment) depends only on what the sky shader
-//! reads: it is drawn once per distinct (frame uniforms, environment
-//! uniforms, sky bind group, size) without MSAA — the sky shades once per
-//! pixel at its centre, so an MSAA sky resolves to the very same value —
-//! and read back once into a CPU copy.
+//! The background (sky, environment or backplate, with the scenery) is
+//! cached per size by [`super::background::BackgroundCache`]: drawn only
+//! when what it depends on changes, and read back once into a CPU copy.
 //!
 //! A frame then only touches its regions ([`super::regions`]): merged,
 //! padded boxes of the drones' projected hulls. It is made in three steps:
@@ -25,18 +23,17 @@
 mod passes;
 
 use std::borrow::Cow;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::id_layer::{self, IdCollect, IdLayer};
+use super::background::{BackgroundCache, SkyPipelines};
 use super::ids;
 use super::plan::{FramePlan, PassPlan, PlanRequest};
 use super::readback::{self, Readback};
 use super::regions::{self, Rect};
 use super::visibility::Visibility;
-use super::{COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, IdImage, RenderError, Renderer};
+use super::{COLOR_FORMAT, DEPTH_FORMAT, IdImage, RenderError, Renderer};
 use crate::scene::FrameScene;
-use crate::sky::FrameSky;
-use passes::{Atlas, RegionPipelines, texture_group, texture_layout};
+use passes::{Atlas, RegionPipelines, texture_layout};
 pub(super) use passes::{atlas_texture, color_target, rect_buffer_layout};
 
 /// What [`Renderer::render_frame`] is asked for.
@@ -88,12 +85,8 @@ impl Painted {
     }
 }
 
-/// Generation numbers of drawn backgrounds, unique in the process, so a
-/// buffer recycled into another renderer never matches its background.
-static BACKGROUNDS: AtomicU64 = AtomicU64::new(1);
-
 /// Full-size targets of one size and sample count, and the cached background.
-struct FrameTargets {
+pub(super) struct FrameTargets {
     width: u32,
     height: u32,
     msaa: u32,
@@ -103,18 +96,12 @@ struct FrameTargets {
     /// The instance ids the passes draw, resolve and read back.
     ids: IdLayer,
     depth: wgpu::TextureView,
-    background: wgpu::Texture,
-    background_view: wgpu::TextureView,
-    background_group: wgpu::BindGroup,
+    /// The cached background of this size.
+    pub(super) background: BackgroundCache,
     resolve_group: Option<wgpu::BindGroup>,
     /// Where the resolves write (MSAA only).
     atlas: Atlas,
-    /// What the cached background was drawn from (see [`background_key`]).
-    background_key: Option<Vec<u8>>,
-    background_rgba: Vec<u8>,
-    /// Generation of the cached background (see [`Painted`]).
-    background_generation: u64,
-    /// Full-frame readback (background, id images).
+    /// Full-frame readback (id images).
     readback: Readback,
     /// Readback of the regions (colour and ids), grown as needed and reused.
     regions_readback: Option<wgpu::Buffer>,
@@ -126,11 +113,11 @@ pub(super) struct RegionState {
     resolve_layout: wgpu::BindGroupLayout,
     regions_module: wgpu::ShaderModule,
     resolve_module: wgpu::ShaderModule,
-    /// The background sky pipeline per sky mode (see `SKY_MODE` in sky.wgsl).
-    sky_background: Vec<(u32, wgpu::RenderPipeline)>,
+    /// The background sky pipelines ([`super::background`]).
+    pub(super) sky_pipelines: SkyPipelines,
     pipelines: Vec<RegionPipelines>,
     /// Most recently used last; at most [`MAX_TARGETS`].
-    targets: Vec<FrameTargets>,
+    pub(super) targets: Vec<FrameTargets>,
     /// The frame's rects of every pass, one instance each (see `rect.wgsl`).
     rects: Option<wgpu::Buffer>,
     /// The frame's resolve rects of every pass (see `resolve.wgsl`).
@@ -139,7 +126,7 @@ pub(super) struct RegionState {
     /// Whether any frame has measured visibility (for tests).
     id_readback: bool,
     /// The near-field scenery's layer and pipelines (frames with clutter only).
-    scenery: Option<super::scenery::SceneryGpu>,
+    pub(super) scenery: Option<super::scenery::SceneryGpu>,
 }
 
 /// Target sets kept at once (e.g. a frame size and its id-pass size).
@@ -160,7 +147,7 @@ impl RegionState {
             resolve_layout: texture_layout(device, "region resolve layout", true, 2),
             regions_module: module("regions.wgsl", regions_src),
             resolve_module: module("resolve.wgsl", resolve_src),
-            sky_background: Vec::new(),
+            sky_pipelines: SkyPipelines::default(),
             pipelines: Vec::new(),
             targets: Vec::new(),
             rects: None,
@@ -178,7 +165,7 @@ impl RegionState {
     /// Drop every cached background (the sky images changed).
     pub(super) fn forget_backgrounds(&mut self) {
         for t in &mut self.targets {
-            t.background_key = None;
+            t.background.forget();
         }
     }
 }
@@ -201,28 +188,6 @@ impl Renderer {
         let result = self.render_regions(&mut state, scene, request);
         self.regions = Some(state);
         result
-    }
-
-    /// The drone-free pixels (RGBA8, the whole frame) of the background a
-    /// frame's buffer holds (`painted`), while this renderer still caches
-    /// it: outside `painted.rects()` they equal the frame's, inside them
-    /// they are what the frame shows without its drones. `None` when the
-    /// buffer holds no background or it was replaced since.
-    pub fn background_pixels(&self, painted: &Painted) -> Option<&[u8]> {
-        if painted.background == 0 {
-            return None;
-        }
-        self.regions
-            .as_ref()?
-            .targets
-            .iter()
-            .find(|t| t.background_generation == painted.background)
-            .map(|t| t.background_rgba.as_slice())
-    }
-
-    /// How many times the background was drawn (cache misses), for tests and benchmarks.
-    pub fn background_draws(&self) -> u64 {
-        self.regions.as_ref().map_or(0, |s| s.background_draws)
     }
 
     fn frame_targets(&self, state: &mut RegionState, width: u32, height: u32, msaa: u32) -> usize {
@@ -277,21 +242,7 @@ impl Renderer {
         let ids = IdLayer::new(device, (width, height), msaa);
         let depth = texture("region depth", DEPTH_FORMAT, msaa, attachment)
             .create_view(&Default::default());
-        // COPY_DST: a backplate's pixels are written, not drawn.
-        let upload = wgpu::TextureUsages::COPY_DST;
-        let background = texture(
-            "background",
-            COLOR_FORMAT,
-            1,
-            attachment | bind | copy | upload,
-        );
-        let background_view = background.create_view(&Default::default());
-        let background_group = texture_group(
-            device,
-            "region background",
-            &state.background_layout,
-            &background_view,
-        );
+        let background = BackgroundCache::new(device, &state.background_layout, width, height);
         let resolve_group = msaa_color.as_ref().map(|color| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("region resolve"),
@@ -317,168 +268,12 @@ impl Renderer {
             ids,
             depth,
             background,
-            background_view,
-            background_group,
             resolve_group,
             atlas: Atlas::default(),
-            background_key: None,
-            background_rgba: Vec::new(),
-            background_generation: 0,
             readback: Readback::new(device, "frame readback (full)", width, height),
             regions_readback: None,
         });
         state.targets.len() - 1
-    }
-
-    /// The bytes the sky shader reads, plus what its bind group and size are.
-    fn background_key(
-        &self,
-        uniforms: &FrameUniforms,
-        sky: &FrameSky,
-        size: (u32, u32),
-    ) -> Vec<u8> {
-        let group: u64 = match sky {
-            FrameSky::Gradient { .. } => 0,
-            FrameSky::Procedural { .. } => 1,
-            FrameSky::Image { image, .. } => 2 + *image as u64,
-        };
-        // The sky shaders never read the atmosphere's slot (a procedural
-        // environment's fog is in its own uniforms): a new visibility alone
-        // keeps the background.
-        let sky_uniforms = FrameUniforms {
-            atmosphere: [0.0; 4],
-            ..*uniforms
-        };
-        let mut key = bytemuck::bytes_of(&sky_uniforms).to_vec();
-        key.extend_from_slice(self.sky.uniform_bytes());
-        key.extend_from_slice(&group.to_le_bytes());
-        key.extend_from_slice(&size.0.to_le_bytes());
-        key.extend_from_slice(&size.1.to_le_bytes());
-        key
-    }
-
-    /// Draw the sky into the background texture (no MSAA) and read it back.
-    fn draw_background(
-        &mut self,
-        state: &mut RegionState,
-        t: usize,
-        scene: &FrameScene,
-    ) -> Result<(), RenderError> {
-        if let Some(plate) = &scene.backplate {
-            return self.draw_plate_background(state, t, plate);
-        }
-        let mode = self.sky.mode();
-        if !state
-            .sky_background
-            .iter()
-            .any(|(m, _)| *m == mode.to_bits())
-        {
-            let constants = [("SKY_MODE", f64::from(mode))];
-            let pipeline = self
-                .device
-                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some("background sky pipeline"),
-                    layout: Some(&self.sky_layout),
-                    vertex: wgpu::VertexState {
-                        module: &self.shaders.0,
-                        entry_point: Some("vs_main"),
-                        compilation_options: Default::default(),
-                        buffers: &[],
-                    },
-                    primitive: wgpu::PrimitiveState::default(),
-                    depth_stencil: None,
-                    multisample: wgpu::MultisampleState::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module: &self.shaders.0,
-                        entry_point: Some("fs_main"),
-                        compilation_options: wgpu::PipelineCompilationOptions {
-                            constants: &constants,
-                            ..Default::default()
-                        },
-                        targets: &[color_target(COLOR_FORMAT)],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                });
-            state.sky_background.push((mode.to_bits(), pipeline));
-        }
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("background"),
-            });
-        let target = &state.targets[t];
-        if super::sky::SkyGpu::is_procedural(&scene.sky) {
-            self.sky.encode_environment(
-                &self.device,
-                &mut encoder,
-                (&self.shaders.0, &self.sky_layout),
-                &self.frame_bind_group,
-                (target.width, target.height),
-            );
-        }
-        if let Some((_, pipeline)) = state
-            .sky_background
-            .iter()
-            .find(|(m, _)| *m == mode.to_bits())
-        {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("background pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &target.background_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.frame_bind_group, &[]);
-            pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);
-            pass.draw(0..3, 0..1);
-        }
-        target.readback.copy_from(&mut encoder, &target.background);
-        let submitted = self.queue.submit([encoder.finish()]);
-        // Into the previous background's memory: frame buffers copy from it,
-        // and the new generation below tells them it changed.
-        let mut rgba = std::mem::take(&mut state.targets[t].background_rgba);
-        let read = state.targets[t]
-            .readback
-            .read_into(&self.device, submitted, &mut rgba);
-        state.targets[t].background_rgba = rgba;
-        read?;
-        state.targets[t].background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
-        state.background_draws += 1;
-        Ok(())
-    }
-
-    /// A backplate as the background: its pixels written into the texture
-    /// and kept as the CPU copy (no sky pass, no readback).
-    fn draw_plate_background(
-        &mut self,
-        state: &mut RegionState,
-        t: usize,
-        plate: &crate::scene::backplate::FramePlate,
-    ) -> Result<(), RenderError> {
-        let target = &mut state.targets[t];
-        let size = (target.width, target.height);
-        let mut rgba = std::mem::take(&mut target.background_rgba);
-        let made = self.plate_pixels(plate, size, &mut rgba);
-        if made.is_ok() {
-            self.upload_background(&target.background, &rgba, size);
-        }
-        target.background_rgba = rgba;
-        // A new generation even on failure: no buffer may match what was overwritten.
-        target.background_generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
-        made?;
-        state.background_draws += 1;
-        Ok(())
     }
 
     /// A frame in three steps: its plan (CPU only), the encoded passes,
@@ -497,18 +292,7 @@ impl Renderer {
         let t = self.frame_targets(state, width, height, msaa);
         let scenery = self.prepare_scenery(&mut state.scenery, scene, &uniforms, msaa);
         if request.color {
-            let mut key = match &scene.backplate {
-                Some(plate) => Self::plate_key(plate, (width, height)),
-                None => self.background_key(&uniforms, &scene.sky, (width, height)),
-            };
-            key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
-            if state.targets[t].background_key.as_ref() != Some(&key) {
-                self.draw_background(state, t, scene)?;
-                if let Some((_, layer)) = state.scenery.as_ref().and_then(|g| g.layer()) {
-                    super::scenery::composite(layer, &mut state.targets[t].background_rgba);
-                }
-                state.targets[t].background_key = Some(key);
-            }
+            self.update_background(state, t, scene, &uniforms, scenery)?;
         }
         let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
         let request = PlanRequest {
@@ -541,11 +325,11 @@ impl Renderer {
         let target = &state.targets[t];
         let (mut rgba, painted) = if request.color {
             let painted = Painted {
-                background: target.background_generation,
+                background: target.background.generation,
                 rects: plan.passes[0].rects.clone(),
             };
             (
-                self.frame_buffer(&target.background_rgba, painted.background, width),
+                self.frame_buffer(&target.background.rgba, painted.background, width),
                 painted,
             )
         } else {

@@ -14,6 +14,7 @@
 //! the right size; [`Renderer::render_rgba`] is that full-frame path
 //! offscreen (the reference the region path is tested against).
 
+mod background;
 mod frame;
 mod haze;
 mod id_layer;
@@ -26,6 +27,7 @@ mod readback;
 pub mod regions;
 pub mod scenery;
 mod sky;
+mod upsample;
 pub mod visibility;
 
 pub use frame::{Painted, RenderRequest, RenderedFrame};

@@ -42,18 +42,30 @@ pub(super) struct SkyGpu {
     uniforms: wgpu::Buffer,
     /// Placeholders only: the gradient sky and the environment pass itself.
     default_group: wgpu::BindGroup,
-    /// The half-resolution environment target (width, height) and the group that samples it.
-    half: Option<(u32, u32, wgpu::TextureView, wgpu::BindGroup)>,
+    /// The half-resolution environment target and the group that samples it.
+    half: Option<HalfTarget>,
     /// Per uploaded image: its bind group and CPU summary (for lighting).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
     placeholder_2d: wgpu::TextureView,
     placeholder_cube: wgpu::TextureView,
     sampler: wgpu::Sampler,
     half_sampler: wgpu::Sampler,
-    /// The pipeline of `fs_environment`, built on first use.
-    pipeline: Option<wgpu::RenderPipeline>,
+    /// The pipelines of `fs_environment`, one per environment's kinds
+    /// (ground, far and near silhouette: see `ENV_GROUND` in
+    /// environment.wgsl), built on first use.
+    pipelines: Vec<([u32; 3], wgpu::RenderPipeline)>,
     /// The uniforms last written (part of the background cache key).
     written: EnvUniforms,
+}
+
+/// The procedural environment's reduced-resolution target.
+struct HalfTarget {
+    width: u32,
+    height: u32,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    /// Samples `view` (the full-frame path's sky pass).
+    group: wgpu::BindGroup,
 }
 
 /// Distances (metres) the far silhouette (hills, mountains, skyline) and the
@@ -157,7 +169,7 @@ impl SkyGpu {
             placeholder_cube,
             sampler,
             half_sampler,
-            pipeline: None,
+            pipelines: Vec::new(),
             written: EnvUniforms::default(),
         }
     }
@@ -266,25 +278,26 @@ impl SkyGpu {
         if self
             .half
             .as_ref()
-            .is_none_or(|(hw, hh, _, _)| (*hw, *hh) != (w, h))
+            .is_none_or(|t| (t.width, t.height) != (w, h))
         {
-            let view = device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some("environment (half resolution)"),
-                    size: wgpu::Extent3d {
-                        width: w,
-                        height: h,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::Rgba16Float,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default());
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("environment (half resolution)"),
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                // COPY_SRC: the frame's background is upsampled from it on the CPU.
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
             let group = make_bind_group(
                 device,
                 &self.layout,
@@ -293,36 +306,35 @@ impl SkyGpu {
                 "environment (procedural)",
                 [&self.placeholder_2d, &self.placeholder_cube, &view],
             );
-            self.half = Some((w, h, view, group));
+            self.half = Some(HalfTarget {
+                width: w,
+                height: h,
+                texture,
+                view,
+                group,
+            });
         }
-        let pipeline = self.pipeline.get_or_insert_with(|| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("environment pipeline"),
-                layout: Some(layout),
-                vertex: wgpu::VertexState {
-                    module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some("fs_environment"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: wgpu::TextureFormat::Rgba16Float,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        });
-        let Some((_, _, view, _)) = &self.half else {
+        let kinds = [
+            self.written.pattern[2],
+            self.written.pattern[3],
+            self.written.far_params[1],
+        ];
+        let key = kinds.map(f32::to_bits);
+        let i = match self.pipelines.iter().position(|(k, _)| *k == key) {
+            Some(i) => i,
+            None => {
+                let constants = [
+                    ("ENV_GROUND", f64::from(kinds[0])),
+                    ("ENV_FAR", f64::from(kinds[1])),
+                    ("ENV_NEAR", f64::from(kinds[2])),
+                ];
+                let pipeline = environment_pipeline(device, (module, layout), &constants);
+                self.pipelines.push((key, pipeline));
+                self.pipelines.len() - 1
+            }
+        };
+        let pipeline = &self.pipelines[i].1;
+        let Some(HalfTarget { view, .. }) = &self.half else {
             return;
         };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -348,6 +360,12 @@ impl SkyGpu {
         pass.draw(0..3, 0..1);
     }
 
+    /// The environment pass's target (RGBA16F, linear) and its size, once drawn.
+    pub(super) fn half_target(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
+        let t = self.half.as_ref()?;
+        Some((&t.texture, (t.width, t.height)))
+    }
+
     /// The bind group a frame's environment draws with.
     pub(super) fn bind_group_for(&self, sky: &FrameSky) -> &wgpu::BindGroup {
         match sky {
@@ -355,10 +373,9 @@ impl SkyGpu {
                 .images
                 .get(*image)
                 .map_or(&self.default_group, |(g, _)| g),
-            FrameSky::Procedural { .. } => self
-                .half
-                .as_ref()
-                .map_or(&self.default_group, |(_, _, _, g)| g),
+            FrameSky::Procedural { .. } => {
+                self.half.as_ref().map_or(&self.default_group, |t| &t.group)
+            }
             FrameSky::Gradient { .. } => &self.default_group,
         }
     }
@@ -473,6 +490,42 @@ impl SkyGpu {
     pub(super) fn mode(&self) -> f32 {
         self.written.mode[0]
     }
+}
+
+/// The pipeline of `fs_environment` with its override `constants`.
+fn environment_pipeline(
+    device: &wgpu::Device,
+    (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+    constants: &[(&str, f64)],
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("environment pipeline"),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_environment"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
+            targets: &[Some(wgpu::ColorTargetState {
+                format: wgpu::TextureFormat::Rgba16Float,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 fn make_bind_group(

@@ -160,22 +160,6 @@ pub(super) fn texture_layout(
     })
 }
 
-pub(super) fn texture_group(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    view: &wgpu::TextureView,
-) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::TextureView(view),
-        }],
-    })
-}
-
 impl Renderer {
     pub(super) fn region_pipelines(&self, state: &mut RegionState, msaa: u32) -> usize {
         if let Some(i) = state.pipelines.iter().position(|p| p.msaa == msaa) {
@@ -452,7 +436,7 @@ impl Renderer {
             (&pipes.ids_background, &pipes.ids_drone)
         };
         pass.set_pipeline(background);
-        pass.set_bind_group(0, &target.background_group, &[]);
+        pass.set_bind_group(0, &target.background.group, &[]);
         pass.set_vertex_buffer(0, rect_buffer.slice(..));
         pass.draw(0..6, draws.rect_instances());
         let (Some(instances), Some(bounds)) = (&self.instances, draws.bounds()) else {

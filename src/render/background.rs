@@ -1,0 +1,404 @@
+//! The frame's background, cached: the sky, procedural environment or
+//! backplate behind the drones, with the near-field scenery composited over
+//! it on the CPU, held once per target size as a texture (what the region
+//! passes "clear" to) and as RGBA8 on the CPU (what each frame's pixel
+//! buffer starts from).
+//!
+//! The background depends only on what the sky shader reads: it is drawn
+//! once per distinct key (frame uniforms less the atmosphere, environment
+//! uniforms, sky bind group, size; or the plate, its mirroring and the
+//! size; plus the scenery layer's key) without MSAA — the sky shades once
+//! per pixel at its centre, so an MSAA sky resolves to the very same value —
+//! and read back once into the CPU copy. Each drawn background gets a
+//! process-wide generation number ([`super::Painted::background`]), so a
+//! frame buffer over the same background restores only what was painted
+//! over it.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use super::frame::{RegionState, color_target};
+use super::readback::{self, Readback};
+use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
+use crate::scene::FrameScene;
+use crate::scene::backplate::FramePlate;
+use crate::sky::FrameSky;
+
+/// Generation numbers of drawn backgrounds, unique in the process, so a
+/// buffer recycled into another renderer never matches its background.
+static BACKGROUNDS: AtomicU64 = AtomicU64::new(1);
+
+/// One size's cached background: the texture the region passes read, its
+/// CPU copy, and what it was drawn from.
+pub(super) struct BackgroundCache {
+    width: u32,
+    height: u32,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    /// Binds `texture` for the region passes' background "clear".
+    pub(super) group: wgpu::BindGroup,
+    /// What the cached background was drawn from (see [`Renderer::background_key`]).
+    key: Option<Vec<u8>>,
+    /// The drone-free frame (RGBA8, sRGB-encoded, scenery included).
+    pub(super) rgba: Vec<u8>,
+    /// Generation of the cached background (see [`super::Painted`]); 0: none.
+    pub(super) generation: u64,
+    /// Full-frame readback of the drawn sky.
+    readback: Readback,
+    /// Readback of the procedural environment pass (grown as needed), and
+    /// its texels as `f32` (see [`super::upsample`]).
+    environment_readback: Option<wgpu::Buffer>,
+    environment: Vec<f32>,
+}
+
+impl BackgroundCache {
+    /// An empty cache of `width`×`height`, its texture bound with `layout`.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("background"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: COLOR_FORMAT,
+            // COPY_DST: a backplate's pixels are written, not drawn.
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("region background"),
+            layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view),
+            }],
+        });
+        Self {
+            width,
+            height,
+            texture,
+            view,
+            group,
+            key: None,
+            rgba: Vec::new(),
+            generation: 0,
+            readback: Readback::new(device, "background readback", width, height),
+            environment_readback: None,
+            environment: Vec::new(),
+        }
+    }
+
+    /// Drop the cached background (the sky images or plates changed): the
+    /// next frame draws it again.
+    pub(super) fn forget(&mut self) {
+        self.key = None;
+    }
+
+    /// A fresh generation for what the cache now holds.
+    fn renew(&mut self) {
+        self.generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// The background sky pipelines, one per sky mode (see `SKY_MODE` in sky.wgsl).
+#[derive(Default)]
+pub(super) struct SkyPipelines(Vec<(u32, wgpu::RenderPipeline)>);
+
+impl Renderer {
+    /// Make the cache of target set `t` hold `scene`'s background (with the
+    /// scenery layer `scenery`, when the frame has one), drawing it only
+    /// when its key changed.
+    pub(super) fn update_background(
+        &mut self,
+        state: &mut RegionState,
+        t: usize,
+        scene: &FrameScene,
+        uniforms: &FrameUniforms,
+        scenery: Option<u64>,
+    ) -> Result<(), RenderError> {
+        let cache = &mut state.targets[t].background;
+        let size = (cache.width, cache.height);
+        let mut key = match &scene.backplate {
+            Some(plate) => Self::plate_key(plate, size),
+            None => self.background_key(uniforms, &scene.sky, size),
+        };
+        key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
+        if cache.key.as_ref() == Some(&key) {
+            return Ok(());
+        }
+        cache.key = None;
+        match &scene.backplate {
+            Some(plate) => self.draw_plate_background(cache, plate)?,
+            None if super::sky::SkyGpu::is_procedural(&scene.sky) => {
+                self.draw_environment_background(cache, uniforms)?
+            }
+            None => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
+        }
+        state.background_draws += 1;
+        if let Some((_, layer)) = state.scenery.as_ref().and_then(|g| g.layer()) {
+            super::scenery::composite(layer, &mut cache.rgba);
+        }
+        cache.key = Some(key);
+        Ok(())
+    }
+
+    /// The drone-free pixels (RGBA8, the whole frame) of the background a
+    /// frame's buffer holds (`painted`), while this renderer still caches
+    /// it: outside `painted.rects()` they equal the frame's, inside them
+    /// they are what the frame shows without its drones. `None` when the
+    /// buffer holds no background or it was replaced since.
+    pub fn background_pixels(&self, painted: &super::Painted) -> Option<&[u8]> {
+        if painted.background == 0 {
+            return None;
+        }
+        self.regions
+            .as_ref()?
+            .targets
+            .iter()
+            .map(|t| &t.background)
+            .find(|b| b.generation == painted.background)
+            .map(|b| b.rgba.as_slice())
+    }
+
+    /// How many times the background was drawn (cache misses), for tests and benchmarks.
+    pub fn background_draws(&self) -> u64 {
+        self.regions.as_ref().map_or(0, |s| s.background_draws)
+    }
+
+    /// The bytes the sky shader reads, plus what its bind group and size are.
+    fn background_key(
+        &self,
+        uniforms: &FrameUniforms,
+        sky: &FrameSky,
+        size: (u32, u32),
+    ) -> Vec<u8> {
+        let group: u64 = match sky {
+            FrameSky::Gradient { .. } => 0,
+            FrameSky::Procedural { .. } => 1,
+            FrameSky::Image { image, .. } => 2 + *image as u64,
+        };
+        // The sky shaders never read the atmosphere's slot (a procedural
+        // environment's fog is in its own uniforms): a new visibility alone
+        // keeps the background.
+        let sky_uniforms = FrameUniforms {
+            atmosphere: [0.0; 4],
+            ..*uniforms
+        };
+        let mut key = bytemuck::bytes_of(&sky_uniforms).to_vec();
+        key.extend_from_slice(self.sky.uniform_bytes());
+        key.extend_from_slice(&group.to_le_bytes());
+        key.extend_from_slice(&size.0.to_le_bytes());
+        key.extend_from_slice(&size.1.to_le_bytes());
+        key
+    }
+
+    /// The background sky pipeline of the sky mode last written, built on first use.
+    fn sky_pipeline<'p>(&self, pipelines: &'p mut SkyPipelines) -> &'p wgpu::RenderPipeline {
+        let mode = self.sky.mode().to_bits();
+        let i = match pipelines.0.iter().position(|(m, _)| *m == mode) {
+            Some(i) => i,
+            None => {
+                let constants = [("SKY_MODE", f64::from(self.sky.mode()))];
+                let pipeline =
+                    self.device
+                        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                            label: Some("background sky pipeline"),
+                            layout: Some(&self.sky_layout),
+                            vertex: wgpu::VertexState {
+                                module: &self.shaders.0,
+                                entry_point: Some("vs_main"),
+                                compilation_options: Default::default(),
+                                buffers: &[],
+                            },
+                            primitive: wgpu::PrimitiveState::default(),
+                            depth_stencil: None,
+                            multisample: wgpu::MultisampleState::default(),
+                            fragment: Some(wgpu::FragmentState {
+                                module: &self.shaders.0,
+                                entry_point: Some("fs_main"),
+                                compilation_options: wgpu::PipelineCompilationOptions {
+                                    constants: &constants,
+                                    ..Default::default()
+                                },
+                                targets: &[color_target(COLOR_FORMAT)],
+                            }),
+                            multiview_mask: None,
+                            cache: None,
+                        });
+                pipelines.0.push((mode, pipeline));
+                pipelines.0.len() - 1
+            }
+        };
+        &pipelines.0[i].1
+    }
+
+    /// A procedural environment as the background: its pass drawn at
+    /// reduced resolution, read back, upsampled and sRGB-encoded on the CPU
+    /// ([`super::upsample`]) and uploaded as the background texture (no
+    /// full-frame sky pass, no full-frame readback).
+    fn draw_environment_background(
+        &mut self,
+        cache: &mut BackgroundCache,
+        uniforms: &FrameUniforms,
+    ) -> Result<(), RenderError> {
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("environment background"),
+            });
+        let frame = (cache.width, cache.height);
+        // Any previous background is overwritten from here on.
+        cache.renew();
+        self.sky.encode_environment(
+            &self.device,
+            &mut encoder,
+            (&self.shaders.0, &self.sky_layout),
+            &self.frame_bind_group,
+            frame,
+        );
+        let Some((texture, (w, h))) = self.sky.half_target() else {
+            return Err(RenderError::Readback(
+                "the environment pass has no target".into(),
+            ));
+        };
+        // RGBA16F: 8 bytes a texel, rows padded to the copy alignment.
+        let row = (w * 8).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let len = u64::from(row) * u64::from(h);
+        if cache
+            .environment_readback
+            .as_ref()
+            .is_none_or(|b| b.size() < len)
+        {
+            cache.environment_readback = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("environment readback"),
+                size: len,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        let Some(buffer) = cache.environment_readback.as_ref() else {
+            return Ok(()); // just made
+        };
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        let submitted = self.queue.submit([encoder.finish()]);
+        let texels = &mut cache.environment;
+        readback::read_mapped(&self.device, submitted, buffer, len, |bytes| {
+            texels.clear();
+            texels.resize(w as usize * h as usize * 4, 0.0);
+            let width = w as usize * 4;
+            for (y, out) in texels.chunks_exact_mut(width).enumerate() {
+                let start = y * row as usize;
+                let src = &bytes[start..start + width * 2];
+                for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
+                    *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
+                }
+            }
+        })?;
+        let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
+        super::upsample::upsample_environment(
+            &cache.environment,
+            (w, h),
+            frame,
+            centre,
+            &mut cache.rgba,
+        );
+        self.upload_background(&cache.texture, &cache.rgba, frame);
+        Ok(())
+    }
+
+    /// Draw the sky into the background texture (no MSAA) and read it back.
+    fn draw_background(
+        &mut self,
+        pipelines: &mut SkyPipelines,
+        cache: &mut BackgroundCache,
+        scene: &FrameScene,
+    ) -> Result<(), RenderError> {
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("background"),
+            });
+        {
+            let pipeline = self.sky_pipeline(pipelines);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("background pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &cache.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);
+            pass.draw(0..3, 0..1);
+        }
+        cache.readback.copy_from(&mut encoder, &cache.texture);
+        let submitted = self.queue.submit([encoder.finish()]);
+        // Into the previous background's memory: frame buffers copy from it,
+        // and the new generation below tells them it changed.
+        let read = cache
+            .readback
+            .read_into(&self.device, submitted, &mut cache.rgba);
+        cache.renew();
+        read
+    }
+
+    /// A backplate as the background: its pixels written into the texture
+    /// and kept as the CPU copy (no sky pass, no readback).
+    fn draw_plate_background(
+        &mut self,
+        cache: &mut BackgroundCache,
+        plate: &FramePlate,
+    ) -> Result<(), RenderError> {
+        let size = (cache.width, cache.height);
+        let made = self.plate_pixels(plate, size, &mut cache.rgba);
+        if made.is_ok() {
+            self.upload_background(&cache.texture, &cache.rgba, size);
+        }
+        // A new generation even on failure: no buffer may match what was overwritten.
+        cache.renew();
+        made
+    }
+}
