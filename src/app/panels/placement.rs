@@ -1,0 +1,373 @@
+//! The Placement section: one function per placement mode (structured grid,
+//! randomized volume, formation), and sequence mode below them.
+
+use egui::{DragValue, Ui};
+
+use super::{Form, angle_row, number_row, range_row, sweep_row};
+use crate::preset::sweep::SweepRange;
+use crate::preset::{
+    Formation, FormationShape, Placement, Preset, SequenceCamera, SequenceSpec, Volume,
+};
+
+pub fn placement_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    let structured = matches!(preset.placement, Placement::Structured { .. });
+    let formation = matches!(preset.placement, Placement::Formation(_));
+    ui.horizontal(|ui| {
+        if ui
+            .radio(structured, "Structured")
+            .on_hover_text("A regular XCount × YCount × ZCount grid")
+            .clicked()
+            && !structured
+        {
+            preset.placement = Placement::Structured {
+                x_count: 3,
+                y_count: 3,
+                z_count: 3,
+                load_factor: 4.0,
+            };
+        }
+        let randomized = !structured && !formation;
+        if ui
+            .radio(randomized, "Randomized")
+            .on_hover_text("Uniform random positions in the observation volume")
+            .clicked()
+            && !randomized
+        {
+            preset.placement = Placement::default();
+        }
+        if ui
+            .radio(formation, "Formation")
+            .on_hover_text("A named formation: line abreast, column, echelon, wedge, ring, sphere shell, clusters")
+            .clicked()
+            && !formation
+        {
+            preset.placement = Placement::Formation(Formation::default());
+        }
+    });
+    match &mut preset.placement {
+        Placement::Structured {
+            x_count,
+            y_count,
+            z_count,
+            load_factor,
+        } => {
+            number_row(ui, x_count, "XCount", "Drones along the grid's x axis", 0.1);
+            form.messages(ui, &["placement.x_count"]);
+            number_row(
+                ui,
+                y_count,
+                "YCount",
+                "Drones along the grid's y (vertical) axis",
+                0.1,
+            );
+            form.messages(ui, &["placement.y_count"]);
+            number_row(
+                ui,
+                z_count,
+                "ZCount",
+                "Drones along the grid's z (depth) axis",
+                0.1,
+            );
+            form.messages(ui, &["placement.z_count"]);
+            number_row(
+                ui,
+                load_factor,
+                "LoadFactor",
+                "Grid spacing in multiples of the largest model size (≥ 1: no overlap)",
+                0.05,
+            );
+            form.messages(ui, &["placement.load_factor", "placement"]);
+        }
+        Placement::Formation(f) => formation_ui(ui, f, form),
+        Placement::Randomized {
+            count,
+            volume,
+            min_separation_m,
+            ..
+        } => {
+            ui.horizontal(|ui| {
+                let tip = "Drones per frame: this inclusive range, drawn by the preset's count_distribution (uniform unless the preset names one)";
+                ui.label("Count").on_hover_text(tip);
+                ui.add(DragValue::new(&mut count.0).prefix("min ").speed(0.1))
+                    .accessible_name("Count min")
+                    .on_hover_text(tip);
+                ui.add(DragValue::new(&mut count.1).prefix("max ").speed(0.1))
+                    .accessible_name("Count max")
+                    .on_hover_text(tip);
+            });
+            form.messages(ui, &["placement.count"]);
+            let is_box = matches!(volume, Volume::Box { .. });
+            ui.horizontal(|ui| {
+                ui.label("Volume")
+                    .on_hover_text("The observation volume W, centred at the origin");
+                if ui
+                    .radio(is_box, "Box")
+                    .on_hover_text("A box of fixed size")
+                    .clicked()
+                    && !is_box
+                {
+                    *volume = Volume::default();
+                }
+                let is_density = matches!(volume, Volume::Density { .. });
+                if ui
+                    .radio(is_density, "Density")
+                    .on_hover_text("A cube sized so that drones per m³ stays constant")
+                    .clicked()
+                    && !is_density
+                {
+                    *volume = Volume::Density { per_m3: 0.01 };
+                }
+                let is_sweep = matches!(volume, Volume::DensitySweep { .. });
+                if ui
+                    .radio(is_sweep, "Density sweep")
+                    .on_hover_text(
+                        "A box of fixed size; ρ is swept and each frame holds round(ρ·V) drones",
+                    )
+                    .clicked()
+                    && !is_sweep
+                {
+                    *volume = Volume::DensitySweep {
+                        size_m: (20.0, 10.0, 20.0),
+                        per_m3: SweepRange::new(0.001, 0.004, 0.001),
+                    };
+                }
+            });
+            match volume {
+                Volume::Box { size_m } => {
+                    ui.horizontal(|ui| {
+                        let tip = "Size of the observation volume in metres";
+                        ui.label("Size").on_hover_text(tip);
+                        for (axis, v) in [
+                            ("x", &mut size_m.0),
+                            ("y", &mut size_m.1),
+                            ("z", &mut size_m.2),
+                        ] {
+                            ui.add(
+                                DragValue::new(v)
+                                    .prefix(format!("{axis} "))
+                                    .suffix(" m")
+                                    .speed(0.1),
+                            )
+                            .accessible_name(format!("Volume size {axis}"))
+                            .on_hover_text(tip);
+                        }
+                    });
+                    form.messages(
+                        ui,
+                        &[
+                            "placement.volume.size_m.x",
+                            "placement.volume.size_m.y",
+                            "placement.volume.size_m.z",
+                        ],
+                    );
+                }
+                Volume::Density { per_m3 } => {
+                    number_row(
+                        ui,
+                        per_m3,
+                        "Density",
+                        "Global density factor ρ: drones per cubic metre",
+                        0.001,
+                    );
+                    form.messages(ui, &["placement.volume.per_m3"]);
+                }
+                Volume::DensitySweep { size_m, per_m3 } => {
+                    ui.horizontal(|ui| {
+                        let tip = "Size of the observation volume in metres (held fixed)";
+                        ui.label("Size").on_hover_text(tip);
+                        for (axis, v) in [
+                            ("x", &mut size_m.0),
+                            ("y", &mut size_m.1),
+                            ("z", &mut size_m.2),
+                        ] {
+                            ui.add(
+                                DragValue::new(v)
+                                    .prefix(format!("{axis} "))
+                                    .suffix(" m")
+                                    .speed(0.1),
+                            )
+                            .accessible_name(format!("Volume size {axis}"))
+                            .on_hover_text(tip);
+                        }
+                    });
+                    sweep_row(
+                        ui,
+                        form,
+                        per_m3,
+                        "Density ρ",
+                        "placement.volume.per_m3",
+                        "Drones per cubic metre, swept like the camera parameters",
+                        0.0005,
+                    );
+                }
+            }
+            number_row(
+                ui,
+                min_separation_m,
+                "Min separation",
+                "No two drone centres come closer than this (metres)",
+                0.01,
+            );
+            form.messages(ui, &["placement.min_separation_m"]);
+        }
+    }
+    ui.separator();
+    sequence_ui(ui, preset, form);
+}
+
+/// The formation's shape picker and its parameters.
+fn formation_ui(ui: &mut Ui, f: &mut Formation, form: &mut Form<'_>) {
+    ui.horizontal(|ui| {
+        ui.label("Shape")
+            .on_hover_text("The formation's pattern; each has its own few parameters");
+        egui::ComboBox::from_id_salt("formation_shape")
+            .selected_text(f.shape.name())
+            .show_ui(ui, |ui| {
+                for shape in FormationShape::all() {
+                    let selected = f.shape.name() == shape.name();
+                    let name = shape.name();
+                    if ui.selectable_label(selected, name).clicked() && !selected {
+                        f.shape = shape;
+                    }
+                }
+            });
+    });
+    match &mut f.shape {
+        FormationShape::Echelon { angle_deg } => {
+            angle_row(
+                ui,
+                angle_deg,
+                "Echelon angle",
+                "Degrees from the heading (0 = column, 90 = line abreast)",
+                0.5,
+            );
+        }
+        FormationShape::Wedge { half_angle_deg } => {
+            angle_row(
+                ui,
+                half_angle_deg,
+                "Wedge half angle",
+                "Degrees between each arm and the heading",
+                0.5,
+            );
+        }
+        FormationShape::Ring { tilt_deg } => {
+            angle_row(
+                ui,
+                tilt_deg,
+                "Ring tilt",
+                "Degrees the ring's axis leans forward from vertical",
+                0.5,
+            );
+        }
+        FormationShape::Clustered {
+            clusters,
+            cluster_gap,
+        } => {
+            number_row(ui, clusters, "Clusters", "Number of dense groups", 0.1);
+            number_row(
+                ui,
+                cluster_gap,
+                "Cluster gap",
+                "Gap between groups in model spans",
+                0.1,
+            );
+        }
+        FormationShape::LineAbreast | FormationShape::Column | FormationShape::SphereShell => {}
+    }
+    form.messages(ui, &["placement.shape"]);
+    number_row(ui, &mut f.count, "Count", "Drones in the formation", 0.1);
+    form.messages(ui, &["placement.count"]);
+    number_row(
+        ui,
+        &mut f.spacing,
+        "Spacing",
+        "Distance between neighbours in multiples of the largest model size (a LoadFactor)",
+        0.05,
+    );
+    form.messages(ui, &["placement.spacing"]);
+    range_row(
+        ui,
+        &mut f.heading_deg,
+        "Heading",
+        "Yaw of the formation's forward axis, degrees, drawn per frame",
+        1.0,
+    );
+    form.messages(ui, &["placement.heading_deg"]);
+    number_row(
+        ui,
+        &mut f.position_jitter,
+        "Jitter",
+        "Each drone moves up to ± this many model sizes per axis",
+        0.01,
+    );
+    form.messages(ui, &["placement.position_jitter"]);
+    number_row(
+        ui,
+        &mut f.min_separation,
+        "Min separation",
+        "No two drone centres come closer than this many model sizes",
+        0.05,
+    );
+    form.messages(ui, &["placement.min_separation"]);
+}
+
+/// Sequence mode: off, or T steps of motion per sweep point.
+pub fn sequence_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    let mut on = preset.sequence.is_some();
+    if ui
+        .checkbox(&mut on, "Sequence")
+        .on_hover_text("Each sweep point becomes T + 1 frames of motion (MOT ground truth)")
+        .changed()
+    {
+        preset.sequence = on.then(SequenceSpec::default);
+    }
+    if let Some(seq) = &mut preset.sequence {
+        number_row(
+            ui,
+            &mut seq.steps,
+            "Steps T",
+            "Interpolation steps; a sequence has T + 1 frames",
+            0.2,
+        );
+        form.messages(ui, &["sequence.steps"]);
+        ui.horizontal(|ui| {
+            let tip = "Translation of the whole formation over the sequence (metres)";
+            ui.label("Translate").on_hover_text(tip);
+            let t = &mut seq.motion.translate_m;
+            for (axis, v) in [("x", &mut t.0), ("y", &mut t.1), ("z", &mut t.2)] {
+                ui.add(DragValue::new(v).prefix(format!("{axis} ")).speed(0.1))
+                    .accessible_name(format!("Translate {axis}"))
+                    .on_hover_text(tip);
+            }
+        });
+        angle_row(
+            ui,
+            &mut seq.motion.turn_deg,
+            "Turn",
+            "Turn of the formation about the vertical, degrees",
+            1.0,
+        );
+        angle_row(
+            ui,
+            &mut seq.motion.bank_deg,
+            "Bank",
+            "Each drone rolls by this many degrees",
+            1.0,
+        );
+        form.messages(
+            ui,
+            &[
+                "sequence.motion.translate_m",
+                "sequence.motion.turn_deg",
+                "sequence.motion.bank_deg",
+            ],
+        );
+        ui.horizontal(|ui| {
+            ui.label("Camera")
+                .on_hover_text("Fixed (a ground observer) or following the swarm");
+            ui.radio_value(&mut seq.camera, SequenceCamera::Fixed, "Fixed");
+            ui.radio_value(&mut seq.camera, SequenceCamera::Follow, "Follow");
+        });
+    }
+}

@@ -1,0 +1,141 @@
+//! The Skybox section: the gradient sky, the paper's procedural environments,
+//! and a note for skies only a preset file can describe.
+
+use egui::Ui;
+
+use super::{Form, angle_row, number_row};
+use crate::preset::{Preset, Sky};
+
+pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    use crate::sky::EnvironmentName;
+    // The paper's seven skyboxes (procedural), the gradient, and what only a preset file can say.
+    let current = match &preset.sky {
+        Sky::Gradient { .. } => "Gradient".to_string(),
+        Sky::Procedural { environment, .. } => environment.as_str().to_string(),
+        Sky::Image { .. } => "Image (preset file)".to_string(),
+        Sky::Random { .. } => "Random (preset file)".to_string(),
+    };
+    ui.horizontal(|ui| {
+        let tip = "The background environment; its sun also lights the drones";
+        ui.label("Skybox").on_hover_text(tip);
+        egui::ComboBox::from_id_salt("skybox")
+            .selected_text(current)
+            .show_ui(ui, |ui| {
+                if ui
+                    .selectable_label(matches!(preset.sky, Sky::Gradient { .. }), "Gradient")
+                    .on_hover_text("Gradient sky with a sun disc")
+                    .clicked()
+                {
+                    preset.sky = Sky::default();
+                }
+                for name in EnvironmentName::ALL {
+                    let selected = matches!(&preset.sky, Sky::Procedural { environment, .. } if *environment == name);
+                    if ui
+                        .selectable_label(selected, name.as_str())
+                        .on_hover_text("Procedural environment: physically based sky, clouds, ground and horizon")
+                        .clicked()
+                    {
+                        preset.sky = Sky::procedural(name);
+                    }
+                }
+            })
+            .response
+            .on_hover_text(tip);
+    });
+    match &mut preset.sky {
+        Sky::Gradient {
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            zenith,
+            horizon,
+        } => {
+            ui.label("Gradient sky with a sun disc; the sun also lights the drones");
+            angle_row(
+                ui,
+                sun_elevation_deg,
+                "Sun elevation",
+                "Sun angle above the horizon, degrees",
+                0.5,
+            );
+            form.messages(ui, &["sky.sun_elevation_deg"]);
+            angle_row(
+                ui,
+                sun_azimuth_deg,
+                "Sun azimuth",
+                "Sun direction from +z towards +x, degrees",
+                1.0,
+            );
+            form.messages(ui, &["sky.sun_azimuth_deg"]);
+            for (name, colour, field) in [
+                ("Zenith colour", zenith, "sky.zenith"),
+                ("Horizon colour", horizon, "sky.horizon"),
+            ] {
+                ui.horizontal(|ui| {
+                    let tip = "Linear RGB of the sky at this height";
+                    ui.label(name).on_hover_text(tip);
+                    let mut rgb = [colour.0, colour.1, colour.2];
+                    if ui
+                        .color_edit_button_rgb(&mut rgb)
+                        .accessible_name(name)
+                        .on_hover_text(tip)
+                        .changed()
+                    {
+                        *colour = (rgb[0], rgb[1], rgb[2]);
+                    }
+                });
+                form.messages(ui, &[field]);
+            }
+        }
+        Sky::Procedural {
+            environment,
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            cloud_cover,
+            ..
+        } => {
+            let style = environment.style();
+            let mut elevation = sun_elevation_deg.unwrap_or(style.sun_elevation_deg);
+            if angle_row(
+                ui,
+                &mut elevation,
+                "Sun elevation",
+                "Sun angle above the horizon, degrees (the environment's own by default)",
+                0.5,
+            )
+            .changed()
+            {
+                *sun_elevation_deg = Some(elevation);
+            }
+            form.messages(ui, &["sky.sun_elevation_deg"]);
+            let mut azimuth = sun_azimuth_deg.unwrap_or(style.sun_azimuth_deg);
+            if angle_row(
+                ui,
+                &mut azimuth,
+                "Sun azimuth",
+                "Sun direction from +z towards +x, degrees",
+                1.0,
+            )
+            .changed()
+            {
+                *sun_azimuth_deg = Some(azimuth);
+            }
+            form.messages(ui, &["sky.sun_azimuth_deg"]);
+            let mut cover = cloud_cover.unwrap_or(style.cloud_cover);
+            if number_row(
+                ui,
+                &mut cover,
+                "Cloud cover",
+                "Fraction of the sky under cloud, 0 to 1",
+                0.01,
+            )
+            .changed()
+            {
+                *cloud_cover = Some(cover);
+            }
+            form.messages(ui, &["sky.cloud_cover"]);
+        }
+        Sky::Image { .. } | Sky::Random { .. } => {
+            ui.label("This sky is edited in the preset file (see docs/environments.md).");
+        }
+    }
+}
