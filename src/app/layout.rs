@@ -5,7 +5,7 @@ use egui::{RichText, Ui};
 
 use super::panels::{self, Form, error_label, group_digits};
 use super::{
-    APP_NAME, Command, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
+    APP_NAME, Command, Session, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
     example_presets, problems, realism_panels,
 };
 
@@ -138,114 +138,14 @@ impl SwarmshotApp {
             .as_ref()
             .filter(|e| e.models)
             .map(|e| e.message.clone());
-        let s = &mut self.session;
-        panels::general_ui(ui, &mut s.preset, &mut form);
-        let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
-            // A Problems link opens the section that holds its field.
-            let open = (open_section == Some(title)).then_some(true);
-            // The realism sections start collapsed (most presets leave them off).
-            let default_open = !problems::REALISM_SECTIONS.contains(&title);
-            egui::CollapsingHeader::new(title)
-                .default_open(default_open)
-                .open(open)
-                .show(ui, |ui| add(ui))
-                .header_response
-                .on_hover_text(tip);
-        };
-        section(
+        panels::general_ui(ui, &mut self.session.preset, &mut form);
+        sections_ui(
             ui,
-            "Models",
-            "The UAV models instantiated in every frame, with their real size",
-            &mut |ui| {
-                panels::models_ui(
-                    ui,
-                    &mut s.preset,
-                    &mut form,
-                    load_error.as_deref(),
-                    commands,
-                );
-            },
-        );
-        section(
-            ui,
-            "Placement",
-            "How drones are placed in the observation volume",
-            &mut |ui| panels::placement_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Attitude",
-            "Random roll/pitch/yaw of each drone",
-            &mut |ui| panels::attitude_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Camera",
-            "Camera translation sweeps; the camera always faces the volume's centre",
-            &mut |ui| {
-                panels::camera_ui(ui, &mut s.preset, &mut form);
-                realism_panels::observer_ui(ui, &mut s.preset, &mut form);
-            },
-        );
-        section(
-            ui,
-            "Scene rotation",
-            "Rotation sweeps of the whole swarm",
-            &mut |ui| panels::plane_ui(ui, &mut s.preset, &mut form),
-        );
-        section(ui, "Skybox", "The background environment", &mut |ui| {
-            panels::skybox_ui(ui, &mut s.preset, &mut form)
-        });
-        section(
-            ui,
-            "Camera model",
-            "Optics, sensor noise and image processing between the render and the file",
-            &mut |ui| realism_panels::camera_model_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Atmosphere",
-            "Haze with range on every object",
-            &mut |ui| realism_panels::atmosphere_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Drone appearance",
-            "Drone materials drawn per drone: colour, roughness, metalness, lights",
-            &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Clutter",
-            "Tree lines, bare trees, poles and wires, buildings that hide the drones behind them",
-            &mut |ui| clutter_panel::clutter_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Confusers",
-            "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
-            &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Backplates",
-            "Photographic backgrounds: a folder of your own frames of sky and horizon",
-            &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, &mut form),
-        );
-        section(
-            ui,
-            "Output",
-            "Resolution, file formats, split and folder",
-            &mut |ui| {
-                panels::output_ui(
-                    ui,
-                    &mut s.preset,
-                    &mut form,
-                    &mut s.out_dir,
-                    &mut s.overwrite,
-                    commands,
-                );
-            },
+            &mut self.session,
+            &mut form,
+            open_section,
+            load_error.as_deref(),
+            commands,
         );
         form.rest(ui);
         let wanted = self.scroll_to.as_deref();
@@ -374,4 +274,117 @@ impl SwarmshotApp {
         self.session.show_summary = show_summary;
         egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
     }
+}
+
+/// The collapsible parameter sections, in the order of the paper's panels
+/// and then the realism stages; `open_section` is opened (a Problems link).
+fn sections_ui(
+    ui: &mut Ui,
+    s: &mut Session,
+    form: &mut Form<'_>,
+    open_section: Option<&str>,
+    load_error: Option<&str>,
+    commands: &mut Vec<Command>,
+) {
+    let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
+        // A Problems link opens the section that holds its field.
+        let open = (open_section == Some(title)).then_some(true);
+        // The realism sections start collapsed (most presets leave them off).
+        let default_open = !problems::REALISM_SECTIONS.contains(&title);
+        egui::CollapsingHeader::new(title)
+            .default_open(default_open)
+            .open(open)
+            .show(ui, |ui| add(ui))
+            .header_response
+            .on_hover_text(tip);
+    };
+    section(
+        ui,
+        "Models",
+        "The UAV models instantiated in every frame, with their real size",
+        &mut |ui| {
+            panels::models_ui(ui, &mut s.preset, form, load_error, commands);
+        },
+    );
+    section(
+        ui,
+        "Placement",
+        "How drones are placed in the observation volume",
+        &mut |ui| panels::placement_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Attitude",
+        "Random roll/pitch/yaw of each drone",
+        &mut |ui| panels::attitude_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Camera",
+        "Camera translation sweeps; the camera always faces the volume's centre",
+        &mut |ui| {
+            panels::camera_ui(ui, &mut s.preset, form);
+            realism_panels::observer_ui(ui, &mut s.preset, form);
+        },
+    );
+    section(
+        ui,
+        "Scene rotation",
+        "Rotation sweeps of the whole swarm",
+        &mut |ui| panels::plane_ui(ui, &mut s.preset, form),
+    );
+    section(ui, "Skybox", "The background environment", &mut |ui| {
+        panels::skybox_ui(ui, &mut s.preset, form)
+    });
+    section(
+        ui,
+        "Camera model",
+        "Optics, sensor noise and image processing between the render and the file",
+        &mut |ui| realism_panels::camera_model_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Atmosphere",
+        "Haze with range on every object",
+        &mut |ui| realism_panels::atmosphere_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Drone appearance",
+        "Drone materials drawn per drone: colour, roughness, metalness, lights",
+        &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Clutter",
+        "Tree lines, bare trees, poles and wires, buildings that hide the drones behind them",
+        &mut |ui| clutter_panel::clutter_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Confusers",
+        "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
+        &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Backplates",
+        "Photographic backgrounds: a folder of your own frames of sky and horizon",
+        &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Output",
+        "Resolution, file formats, split and folder",
+        &mut |ui| {
+            panels::output_ui(
+                ui,
+                &mut s.preset,
+                form,
+                &mut s.out_dir,
+                &mut s.overwrite,
+                commands,
+            );
+        },
+    );
 }

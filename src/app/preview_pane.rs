@@ -11,7 +11,23 @@ use super::{SwarmshotApp, problems};
 use crate::preset::Preset;
 
 impl SwarmshotApp {
+    /// The frame bar, the sweep line, the view toggles, then the picture.
     pub(super) fn preview_ui(&mut self, ui: &mut Ui) {
+        self.frame_bar_ui(ui);
+        let sweep_line = self
+            .preview
+            .as_ref()
+            .filter(|p| p.key.frame == self.session.frame && p.key.generation == self.generation)
+            .map(|p| sweep_line(p, &self.resolved));
+        ui.label(sweep_line.unwrap_or_else(|| " ".into()));
+        self.view_toggles_ui(ui);
+        if let Some(rect) = self.picture_ui(ui) {
+            self.paused_message_ui(ui, rect);
+        }
+    }
+
+    /// Play controls, "frame N of M", the sequence step and the frame slider.
+    fn frame_bar_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count();
         ui.horizontal(|ui| {
             if frames > 1 {
@@ -47,12 +63,10 @@ impl SwarmshotApp {
                 self.frame_slider = Some(slider.id);
             }
         });
-        let sweep_line = self
-            .preview
-            .as_ref()
-            .filter(|p| p.key.frame == self.session.frame && p.key.generation == self.generation)
-            .map(|p| sweep_line(p, &self.resolved));
-        ui.label(sweep_line.unwrap_or_else(|| " ".into()));
+    }
+
+    /// Boxes (with their legend), Through the camera, Inspect and its Reset view.
+    fn view_toggles_ui(&mut self, ui: &mut Ui) {
         ui.horizontal(|ui| {
             ui.checkbox(&mut self.session.show_boxes, "Boxes")
                 .on_hover_text("Draw the label boxes this frame gets");
@@ -84,7 +98,11 @@ impl SwarmshotApp {
                 ui.weak("drag to orbit, scroll to zoom");
             }
         });
+    }
 
+    /// The picture scaled to the pane with its overlay, and the inspect orbit's
+    /// drag and zoom; where it was drawn (None: the pane is too small).
+    fn picture_ui(&mut self, ui: &mut Ui) -> Option<Rect> {
         let (out_w, out_h) = self.resolved.image_size();
         let aspect = out_w.max(1) as f32 / out_h.max(1) as f32;
         let avail = ui.available_size();
@@ -100,7 +118,7 @@ impl SwarmshotApp {
         ];
         if size.x < 8.0 || size.y < 8.0 {
             self.preview_size_px = [0, 0];
-            return;
+            return None;
         }
         let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
         self.preview_rect = Some(rect);
@@ -140,6 +158,11 @@ impl SwarmshotApp {
                 }
             }
         }
+        Some(rect)
+    }
+
+    /// Why the picture is paused or failed, over the picture.
+    fn paused_message_ui(&self, ui: &mut Ui, rect: Rect) {
         let message = if !self.errors.is_empty() {
             let first = &self.errors[0];
             Some(format!(

@@ -9,9 +9,33 @@ use crate::preset::{
     Formation, FormationShape, Placement, Preset, SequenceCamera, SequenceSpec, Volume,
 };
 
+/// The mode picker (structured, randomized, formation), the chosen mode's
+/// fields, and sequence mode below them.
 pub fn placement_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
-    let structured = matches!(preset.placement, Placement::Structured { .. });
-    let formation = matches!(preset.placement, Placement::Formation(_));
+    mode_picker_ui(ui, &mut preset.placement);
+    match &mut preset.placement {
+        Placement::Structured {
+            x_count,
+            y_count,
+            z_count,
+            load_factor,
+        } => structured_ui(ui, [x_count, y_count, z_count], load_factor, form),
+        Placement::Formation(f) => formation_ui(ui, f, form),
+        Placement::Randomized {
+            count,
+            volume,
+            min_separation_m,
+            ..
+        } => randomized_ui(ui, count, volume, min_separation_m, form),
+    }
+    ui.separator();
+    sequence_ui(ui, preset, form);
+}
+
+/// Structured / Randomized / Formation radio buttons; a new mode starts from its defaults.
+fn mode_picker_ui(ui: &mut Ui, placement: &mut Placement) {
+    let structured = matches!(placement, Placement::Structured { .. });
+    let formation = matches!(placement, Placement::Formation(_));
     ui.horizontal(|ui| {
         if ui
             .radio(structured, "Structured")
@@ -19,7 +43,7 @@ pub fn placement_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             .clicked()
             && !structured
         {
-            preset.placement = Placement::Structured {
+            *placement = Placement::Structured {
                 x_count: 3,
                 y_count: 3,
                 z_count: 3,
@@ -33,7 +57,7 @@ pub fn placement_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             .clicked()
             && !randomized
         {
-            preset.placement = Placement::default();
+            *placement = Placement::default();
         }
         if ui
             .radio(formation, "Formation")
@@ -41,178 +65,168 @@ pub fn placement_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             .clicked()
             && !formation
         {
-            preset.placement = Placement::Formation(Formation::default());
+            *placement = Placement::Formation(Formation::default());
         }
     });
-    match &mut preset.placement {
-        Placement::Structured {
-            x_count,
-            y_count,
-            z_count,
-            load_factor,
-        } => {
-            number_row(ui, x_count, "XCount", "Drones along the grid's x axis", 0.1);
-            form.messages(ui, &["placement.x_count"]);
-            number_row(
+}
+
+/// The paper's grid: XCount, YCount, ZCount and LoadFactor.
+fn structured_ui(ui: &mut Ui, counts: [&mut u32; 3], load_factor: &mut f64, form: &mut Form<'_>) {
+    let [x_count, y_count, z_count] = counts;
+    number_row(ui, x_count, "XCount", "Drones along the grid's x axis", 0.1);
+    form.messages(ui, &["placement.x_count"]);
+    number_row(
+        ui,
+        y_count,
+        "YCount",
+        "Drones along the grid's y (vertical) axis",
+        0.1,
+    );
+    form.messages(ui, &["placement.y_count"]);
+    number_row(
+        ui,
+        z_count,
+        "ZCount",
+        "Drones along the grid's z (depth) axis",
+        0.1,
+    );
+    form.messages(ui, &["placement.z_count"]);
+    number_row(
+        ui,
+        load_factor,
+        "LoadFactor",
+        "Grid spacing in multiples of the largest model size (≥ 1: no overlap)",
+        0.05,
+    );
+    form.messages(ui, &["placement.load_factor", "placement"]);
+}
+
+/// Uniform random positions: the count range, the volume and the minimum separation.
+fn randomized_ui(
+    ui: &mut Ui,
+    count: &mut (u32, u32),
+    volume: &mut Volume,
+    min_separation_m: &mut f64,
+    form: &mut Form<'_>,
+) {
+    ui.horizontal(|ui| {
+        let tip = "Drones per frame: this inclusive range, drawn by the preset's count_distribution (uniform unless the preset names one)";
+        ui.label("Count").on_hover_text(tip);
+        ui.add(DragValue::new(&mut count.0).prefix("min ").speed(0.1))
+            .accessible_name("Count min")
+            .on_hover_text(tip);
+        ui.add(DragValue::new(&mut count.1).prefix("max ").speed(0.1))
+            .accessible_name("Count max")
+            .on_hover_text(tip);
+    });
+    form.messages(ui, &["placement.count"]);
+    volume_picker_ui(ui, volume);
+    match volume {
+        Volume::Box { size_m } => {
+            volume_size_ui(ui, size_m, "Size of the observation volume in metres");
+            form.messages(
                 ui,
-                y_count,
-                "YCount",
-                "Drones along the grid's y (vertical) axis",
-                0.1,
+                &[
+                    "placement.volume.size_m.x",
+                    "placement.volume.size_m.y",
+                    "placement.volume.size_m.z",
+                ],
             );
-            form.messages(ui, &["placement.y_count"]);
-            number_row(
-                ui,
-                z_count,
-                "ZCount",
-                "Drones along the grid's z (depth) axis",
-                0.1,
-            );
-            form.messages(ui, &["placement.z_count"]);
-            number_row(
-                ui,
-                load_factor,
-                "LoadFactor",
-                "Grid spacing in multiples of the largest model size (≥ 1: no overlap)",
-                0.05,
-            );
-            form.messages(ui, &["placement.load_factor", "placement"]);
         }
-        Placement::Formation(f) => formation_ui(ui, f, form),
-        Placement::Randomized {
-            count,
-            volume,
-            min_separation_m,
-            ..
-        } => {
-            ui.horizontal(|ui| {
-                let tip = "Drones per frame: this inclusive range, drawn by the preset's count_distribution (uniform unless the preset names one)";
-                ui.label("Count").on_hover_text(tip);
-                ui.add(DragValue::new(&mut count.0).prefix("min ").speed(0.1))
-                    .accessible_name("Count min")
-                    .on_hover_text(tip);
-                ui.add(DragValue::new(&mut count.1).prefix("max ").speed(0.1))
-                    .accessible_name("Count max")
-                    .on_hover_text(tip);
-            });
-            form.messages(ui, &["placement.count"]);
-            let is_box = matches!(volume, Volume::Box { .. });
-            ui.horizontal(|ui| {
-                ui.label("Volume")
-                    .on_hover_text("The observation volume W, centred at the origin");
-                if ui
-                    .radio(is_box, "Box")
-                    .on_hover_text("A box of fixed size")
-                    .clicked()
-                    && !is_box
-                {
-                    *volume = Volume::default();
-                }
-                let is_density = matches!(volume, Volume::Density { .. });
-                if ui
-                    .radio(is_density, "Density")
-                    .on_hover_text("A cube sized so that drones per m³ stays constant")
-                    .clicked()
-                    && !is_density
-                {
-                    *volume = Volume::Density { per_m3: 0.01 };
-                }
-                let is_sweep = matches!(volume, Volume::DensitySweep { .. });
-                if ui
-                    .radio(is_sweep, "Density sweep")
-                    .on_hover_text(
-                        "A box of fixed size; ρ is swept and each frame holds round(ρ·V) drones",
-                    )
-                    .clicked()
-                    && !is_sweep
-                {
-                    *volume = Volume::DensitySweep {
-                        size_m: (20.0, 10.0, 20.0),
-                        per_m3: SweepRange::new(0.001, 0.004, 0.001),
-                    };
-                }
-            });
-            match volume {
-                Volume::Box { size_m } => {
-                    ui.horizontal(|ui| {
-                        let tip = "Size of the observation volume in metres";
-                        ui.label("Size").on_hover_text(tip);
-                        for (axis, v) in [
-                            ("x", &mut size_m.0),
-                            ("y", &mut size_m.1),
-                            ("z", &mut size_m.2),
-                        ] {
-                            ui.add(
-                                DragValue::new(v)
-                                    .prefix(format!("{axis} "))
-                                    .suffix(" m")
-                                    .speed(0.1),
-                            )
-                            .accessible_name(format!("Volume size {axis}"))
-                            .on_hover_text(tip);
-                        }
-                    });
-                    form.messages(
-                        ui,
-                        &[
-                            "placement.volume.size_m.x",
-                            "placement.volume.size_m.y",
-                            "placement.volume.size_m.z",
-                        ],
-                    );
-                }
-                Volume::Density { per_m3 } => {
-                    number_row(
-                        ui,
-                        per_m3,
-                        "Density",
-                        "Global density factor ρ: drones per cubic metre",
-                        0.001,
-                    );
-                    form.messages(ui, &["placement.volume.per_m3"]);
-                }
-                Volume::DensitySweep { size_m, per_m3 } => {
-                    ui.horizontal(|ui| {
-                        let tip = "Size of the observation volume in metres (held fixed)";
-                        ui.label("Size").on_hover_text(tip);
-                        for (axis, v) in [
-                            ("x", &mut size_m.0),
-                            ("y", &mut size_m.1),
-                            ("z", &mut size_m.2),
-                        ] {
-                            ui.add(
-                                DragValue::new(v)
-                                    .prefix(format!("{axis} "))
-                                    .suffix(" m")
-                                    .speed(0.1),
-                            )
-                            .accessible_name(format!("Volume size {axis}"))
-                            .on_hover_text(tip);
-                        }
-                    });
-                    sweep_row(
-                        ui,
-                        form,
-                        per_m3,
-                        "Density ρ",
-                        "placement.volume.per_m3",
-                        "Drones per cubic metre, swept like the camera parameters",
-                        0.0005,
-                    );
-                }
-            }
+        Volume::Density { per_m3 } => {
             number_row(
                 ui,
-                min_separation_m,
-                "Min separation",
-                "No two drone centres come closer than this (metres)",
-                0.01,
+                per_m3,
+                "Density",
+                "Global density factor ρ: drones per cubic metre",
+                0.001,
             );
-            form.messages(ui, &["placement.min_separation_m"]);
+            form.messages(ui, &["placement.volume.per_m3"]);
+        }
+        Volume::DensitySweep { size_m, per_m3 } => {
+            volume_size_ui(
+                ui,
+                size_m,
+                "Size of the observation volume in metres (held fixed)",
+            );
+            sweep_row(
+                ui,
+                form,
+                per_m3,
+                "Density ρ",
+                "placement.volume.per_m3",
+                "Drones per cubic metre, swept like the camera parameters",
+                0.0005,
+            );
         }
     }
-    ui.separator();
-    sequence_ui(ui, preset, form);
+    number_row(
+        ui,
+        min_separation_m,
+        "Min separation",
+        "No two drone centres come closer than this (metres)",
+        0.01,
+    );
+    form.messages(ui, &["placement.min_separation_m"]);
+}
+
+/// Box / Density / Density sweep radio buttons for the randomized volume.
+fn volume_picker_ui(ui: &mut Ui, volume: &mut Volume) {
+    let is_box = matches!(volume, Volume::Box { .. });
+    ui.horizontal(|ui| {
+        ui.label("Volume")
+            .on_hover_text("The observation volume W, centred at the origin");
+        if ui
+            .radio(is_box, "Box")
+            .on_hover_text("A box of fixed size")
+            .clicked()
+            && !is_box
+        {
+            *volume = Volume::default();
+        }
+        let is_density = matches!(volume, Volume::Density { .. });
+        if ui
+            .radio(is_density, "Density")
+            .on_hover_text("A cube sized so that drones per m³ stays constant")
+            .clicked()
+            && !is_density
+        {
+            *volume = Volume::Density { per_m3: 0.01 };
+        }
+        let is_sweep = matches!(volume, Volume::DensitySweep { .. });
+        if ui
+            .radio(is_sweep, "Density sweep")
+            .on_hover_text("A box of fixed size; ρ is swept and each frame holds round(ρ·V) drones")
+            .clicked()
+            && !is_sweep
+        {
+            *volume = Volume::DensitySweep {
+                size_m: (20.0, 10.0, 20.0),
+                per_m3: SweepRange::new(0.001, 0.004, 0.001),
+            };
+        }
+    });
+}
+
+/// `Size  x [..] m  y [..] m  z [..] m`.
+fn volume_size_ui(ui: &mut Ui, size_m: &mut (f64, f64, f64), tip: &str) {
+    ui.horizontal(|ui| {
+        ui.label("Size").on_hover_text(tip);
+        for (axis, v) in [
+            ("x", &mut size_m.0),
+            ("y", &mut size_m.1),
+            ("z", &mut size_m.2),
+        ] {
+            ui.add(
+                DragValue::new(v)
+                    .prefix(format!("{axis} "))
+                    .suffix(" m")
+                    .speed(0.1),
+            )
+            .accessible_name(format!("Volume size {axis}"))
+            .on_hover_text(tip);
+        }
+    });
 }
 
 /// The formation's shape picker and its parameters.

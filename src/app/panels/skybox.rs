@@ -5,11 +5,49 @@ use egui::Ui;
 
 use super::{Form, angle_row, number_row};
 use crate::preset::{Preset, Sky};
+use crate::sky::EnvironmentStyle;
 
 pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    sky_picker_ui(ui, &mut preset.sky);
+    match &mut preset.sky {
+        Sky::Gradient {
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            zenith,
+            horizon,
+        } => gradient_ui(
+            ui,
+            [sun_elevation_deg, sun_azimuth_deg],
+            [zenith, horizon],
+            form,
+        ),
+        Sky::Procedural {
+            environment,
+            sun_elevation_deg,
+            sun_azimuth_deg,
+            cloud_cover,
+            ..
+        } => {
+            let style = environment.style();
+            procedural_ui(
+                ui,
+                &style,
+                [sun_elevation_deg, sun_azimuth_deg],
+                cloud_cover,
+                form,
+            );
+        }
+        Sky::Image { .. } | Sky::Random { .. } => {
+            ui.label("This sky is edited in the preset file (see docs/environments.md).");
+        }
+    }
+}
+
+/// The Skybox combo box: Gradient or one of the procedural environments.
+fn sky_picker_ui(ui: &mut Ui, sky: &mut Sky) {
     use crate::sky::EnvironmentName;
     // The paper's seven skyboxes (procedural), the gradient, and what only a preset file can say.
-    let current = match &preset.sky {
+    let current = match &*sky {
         Sky::Gradient { .. } => "Gradient".to_string(),
         Sky::Procedural { environment, .. } => environment.as_str().to_string(),
         Sky::Image { .. } => "Image (preset file)".to_string(),
@@ -22,120 +60,121 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             .selected_text(current)
             .show_ui(ui, |ui| {
                 if ui
-                    .selectable_label(matches!(preset.sky, Sky::Gradient { .. }), "Gradient")
+                    .selectable_label(matches!(sky, Sky::Gradient { .. }), "Gradient")
                     .on_hover_text("Gradient sky with a sun disc")
                     .clicked()
                 {
-                    preset.sky = Sky::default();
+                    *sky = Sky::default();
                 }
                 for name in EnvironmentName::ALL {
-                    let selected = matches!(&preset.sky, Sky::Procedural { environment, .. } if *environment == name);
+                    let selected = matches!(&*sky, Sky::Procedural { environment, .. } if *environment == name);
                     if ui
                         .selectable_label(selected, name.as_str())
                         .on_hover_text("Procedural environment: physically based sky, clouds, ground and horizon")
                         .clicked()
                     {
-                        preset.sky = Sky::procedural(name);
+                        *sky = Sky::procedural(name);
                     }
                 }
             })
             .response
             .on_hover_text(tip);
     });
-    match &mut preset.sky {
-        Sky::Gradient {
-            sun_elevation_deg,
-            sun_azimuth_deg,
-            zenith,
-            horizon,
-        } => {
-            ui.label("Gradient sky with a sun disc; the sun also lights the drones");
-            angle_row(
-                ui,
-                sun_elevation_deg,
-                "Sun elevation",
-                "Sun angle above the horizon, degrees",
-                0.5,
-            );
-            form.messages(ui, &["sky.sun_elevation_deg"]);
-            angle_row(
-                ui,
-                sun_azimuth_deg,
-                "Sun azimuth",
-                "Sun direction from +z towards +x, degrees",
-                1.0,
-            );
-            form.messages(ui, &["sky.sun_azimuth_deg"]);
-            for (name, colour, field) in [
-                ("Zenith colour", zenith, "sky.zenith"),
-                ("Horizon colour", horizon, "sky.horizon"),
-            ] {
-                ui.horizontal(|ui| {
-                    let tip = "Linear RGB of the sky at this height";
-                    ui.label(name).on_hover_text(tip);
-                    let mut rgb = [colour.0, colour.1, colour.2];
-                    if ui
-                        .color_edit_button_rgb(&mut rgb)
-                        .accessible_name(name)
-                        .on_hover_text(tip)
-                        .changed()
-                    {
-                        *colour = (rgb[0], rgb[1], rgb[2]);
-                    }
-                });
-                form.messages(ui, &[field]);
-            }
-        }
-        Sky::Procedural {
-            environment,
-            sun_elevation_deg,
-            sun_azimuth_deg,
-            cloud_cover,
-            ..
-        } => {
-            let style = environment.style();
-            let mut elevation = sun_elevation_deg.unwrap_or(style.sun_elevation_deg);
-            if angle_row(
-                ui,
-                &mut elevation,
-                "Sun elevation",
-                "Sun angle above the horizon, degrees (the environment's own by default)",
-                0.5,
-            )
-            .changed()
+}
+
+/// The gradient sky: sun direction and the zenith and horizon colours.
+fn gradient_ui(
+    ui: &mut Ui,
+    sun_deg: [&mut f64; 2],
+    colours: [&mut (f32, f32, f32); 2],
+    form: &mut Form<'_>,
+) {
+    let [sun_elevation_deg, sun_azimuth_deg] = sun_deg;
+    let [zenith, horizon] = colours;
+    ui.label("Gradient sky with a sun disc; the sun also lights the drones");
+    angle_row(
+        ui,
+        sun_elevation_deg,
+        "Sun elevation",
+        "Sun angle above the horizon, degrees",
+        0.5,
+    );
+    form.messages(ui, &["sky.sun_elevation_deg"]);
+    angle_row(
+        ui,
+        sun_azimuth_deg,
+        "Sun azimuth",
+        "Sun direction from +z towards +x, degrees",
+        1.0,
+    );
+    form.messages(ui, &["sky.sun_azimuth_deg"]);
+    for (name, colour, field) in [
+        ("Zenith colour", zenith, "sky.zenith"),
+        ("Horizon colour", horizon, "sky.horizon"),
+    ] {
+        ui.horizontal(|ui| {
+            let tip = "Linear RGB of the sky at this height";
+            ui.label(name).on_hover_text(tip);
+            let mut rgb = [colour.0, colour.1, colour.2];
+            if ui
+                .color_edit_button_rgb(&mut rgb)
+                .accessible_name(name)
+                .on_hover_text(tip)
+                .changed()
             {
-                *sun_elevation_deg = Some(elevation);
+                *colour = (rgb[0], rgb[1], rgb[2]);
             }
-            form.messages(ui, &["sky.sun_elevation_deg"]);
-            let mut azimuth = sun_azimuth_deg.unwrap_or(style.sun_azimuth_deg);
-            if angle_row(
-                ui,
-                &mut azimuth,
-                "Sun azimuth",
-                "Sun direction from +z towards +x, degrees",
-                1.0,
-            )
-            .changed()
-            {
-                *sun_azimuth_deg = Some(azimuth);
-            }
-            form.messages(ui, &["sky.sun_azimuth_deg"]);
-            let mut cover = cloud_cover.unwrap_or(style.cloud_cover);
-            if number_row(
-                ui,
-                &mut cover,
-                "Cloud cover",
-                "Fraction of the sky under cloud, 0 to 1",
-                0.01,
-            )
-            .changed()
-            {
-                *cloud_cover = Some(cover);
-            }
-            form.messages(ui, &["sky.cloud_cover"]);
-        }
-        Sky::Image { .. } | Sky::Random { .. } => {
-            ui.label("This sky is edited in the preset file (see docs/environments.md).");
-        }
+        });
+        form.messages(ui, &[field]);
     }
+}
+
+/// A procedural environment: sun and cloud cover, the environment's own until edited.
+fn procedural_ui(
+    ui: &mut Ui,
+    style: &EnvironmentStyle,
+    sun_deg: [&mut Option<f64>; 2],
+    cloud_cover: &mut Option<f64>,
+    form: &mut Form<'_>,
+) {
+    let [sun_elevation_deg, sun_azimuth_deg] = sun_deg;
+    let mut elevation = sun_elevation_deg.unwrap_or(style.sun_elevation_deg);
+    if angle_row(
+        ui,
+        &mut elevation,
+        "Sun elevation",
+        "Sun angle above the horizon, degrees (the environment's own by default)",
+        0.5,
+    )
+    .changed()
+    {
+        *sun_elevation_deg = Some(elevation);
+    }
+    form.messages(ui, &["sky.sun_elevation_deg"]);
+    let mut azimuth = sun_azimuth_deg.unwrap_or(style.sun_azimuth_deg);
+    if angle_row(
+        ui,
+        &mut azimuth,
+        "Sun azimuth",
+        "Sun direction from +z towards +x, degrees",
+        1.0,
+    )
+    .changed()
+    {
+        *sun_azimuth_deg = Some(azimuth);
+    }
+    form.messages(ui, &["sky.sun_azimuth_deg"]);
+    let mut cover = cloud_cover.unwrap_or(style.cloud_cover);
+    if number_row(
+        ui,
+        &mut cover,
+        "Cloud cover",
+        "Fraction of the sky under cloud, 0 to 1",
+        0.01,
+    )
+    .changed()
+    {
+        *cloud_cover = Some(cover);
+    }
+    form.messages(ui, &["sky.cloud_cover"]);
 }
