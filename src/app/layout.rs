@@ -131,7 +131,9 @@ impl SwarmshotApp {
     pub(super) fn parameters_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let errors = self.errors.clone();
         let scroll_to = self.scroll_to.clone();
-        let open_section = scroll_to.as_deref().and_then(problems::section_of);
+        let open_section = scroll_to
+            .as_deref()
+            .and_then(crate::preset::fields::section_of);
         let mut form = Form::new(&errors, scroll_to.as_deref());
         let load_error = self
             .preview_error
@@ -290,7 +292,7 @@ fn sections_ui(
         // A Problems link opens the section that holds its field.
         let open = (open_section == Some(title)).then_some(true);
         // The realism sections start collapsed (most presets leave them off).
-        let default_open = !problems::REALISM_SECTIONS.contains(&title);
+        let default_open = !problems::COLLAPSED_SECTIONS.contains(&title);
         egui::CollapsingHeader::new(title)
             .default_open(default_open)
             .open(open)

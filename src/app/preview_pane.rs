@@ -168,7 +168,7 @@ impl SwarmshotApp {
             Some(format!(
                 "Preview paused: {}, first {} ({}). See Problems on the right.",
                 problems::count_problems(self.errors.len()),
-                problems::field_label(&first.field),
+                crate::preset::fields::label_of(&first.field),
                 first.message
             ))
         } else {

@@ -24,7 +24,7 @@ pub use skybox::skybox_ui;
 use egui::{DragValue, Response, RichText, Ui};
 
 use crate::preset::sweep::SweepRange;
-use crate::preset::{FieldError, Preset};
+use crate::preset::{FieldError, Preset, fields};
 
 /// The validation messages of the preset being edited, and which of them a widget has shown.
 pub struct Form<'a> {
@@ -85,29 +85,20 @@ pub fn error_label(ui: &mut Ui, message: &str) -> Response {
     ui.label(RichText::new(message).color(ui.visuals().error_fg_color))
 }
 
-/// `label  [number]` on one line; the label names the field (for screen readers and tests).
-pub(super) fn number_row<N: egui::emath::Numeric>(
+/// `label  [number unit]` for a preset field: its label, tooltip and unit come
+/// from the table of fields ([`fields`]); the label names the number (for
+/// screen readers and tests).
+pub(super) fn field_row<N: egui::emath::Numeric>(
     ui: &mut Ui,
     value: &mut N,
-    name: &str,
-    tip: &str,
+    path: &'static str,
     speed: f64,
 ) -> Response {
-    number_row_in(ui, value, name, tip, speed, "")
+    let f = fields::get(path);
+    number_row_in(ui, value, f.label, f.tooltip, speed, f.unit)
 }
 
-/// [`number_row`] for an angle: the number shows its unit, °.
-pub(super) fn angle_row(
-    ui: &mut Ui,
-    value: &mut f64,
-    name: &str,
-    tip: &str,
-    speed: f64,
-) -> Response {
-    number_row_in(ui, value, name, tip, speed, "°")
-}
-
-/// [`number_row`] with a unit after the number (`"°"`, `" m"`; `""` for none).
+/// `label  [number]` with a unit after the number (`"°"`, `" m"`; `""` for none).
 pub(in crate::app) fn number_row_in<N: egui::emath::Numeric>(
     ui: &mut Ui,
     value: &mut N,
@@ -125,12 +116,19 @@ pub(in crate::app) fn number_row_in<N: egui::emath::Numeric>(
     .inner
 }
 
-/// `label  min [..] max [..]` for an inclusive (min, max) pair of angles (°).
-pub(super) fn range_row(ui: &mut Ui, value: &mut (f64, f64), name: &str, tip: &str, speed: f64) {
-    range_row_in(ui, value, name, tip, speed, "°");
+/// `label  min [..] max [..]` for an inclusive (min, max) preset field, its
+/// words and unit from the table of fields.
+pub(super) fn field_range_row<N: egui::emath::Numeric>(
+    ui: &mut Ui,
+    value: &mut (N, N),
+    path: &'static str,
+    speed: f64,
+) {
+    let f = fields::get(path);
+    range_row_in(ui, value, f.label, f.tooltip, speed, f.unit);
 }
 
-/// [`range_row`] with a unit after each number (`" m"`, `" px"`; `""` for none).
+/// `label  min [..] max [..]` with a unit after each number (`" m"`, `" px"`; `""` for none).
 pub(in crate::app) fn range_row_in<N: egui::emath::Numeric>(
     ui: &mut Ui,
     value: &mut (N, N),
@@ -160,16 +158,28 @@ pub(in crate::app) fn range_row_in<N: egui::emath::Numeric>(
     });
 }
 
-/// A paper start/end/step sweep row (CameraZ, PlaneRY, …) with its value count and messages.
+/// A paper start/end/step sweep row (CameraZ, PlaneRY, …) for a sweep field of
+/// the table of fields, with its value count and messages.
 pub(super) fn sweep_row(
     ui: &mut Ui,
     form: &mut Form<'_>,
     range: &mut SweepRange,
-    name: &str,
-    field: &str,
-    tip: &str,
+    path: &'static str,
     speed: f64,
 ) {
+    let f = fields::get(path);
+    named_sweep_row(ui, form, range, [f.label, path, f.tooltip, f.unit], speed);
+}
+
+/// [`sweep_row`] with its own label and tooltip (`[label, path, tooltip, unit]`).
+pub(super) fn named_sweep_row(
+    ui: &mut Ui,
+    form: &mut Form<'_>,
+    range: &mut SweepRange,
+    words: [&str; 4],
+    speed: f64,
+) {
+    let [name, field, tip, unit] = words;
     ui.horizontal(|ui| {
         ui.label(name).on_hover_text(tip);
         for (part, value) in [
@@ -177,12 +187,6 @@ pub(super) fn sweep_row(
             ("end", &mut range.end),
             ("step", &mut range.step),
         ] {
-            // PlaneRX/RY/RZ sweep angles; CameraX/Y/Z are relative units.
-            let unit = if field.starts_with("plane.") {
-                "°"
-            } else {
-                ""
-            };
             ui.add(
                 DragValue::new(value)
                     .speed(speed)
@@ -241,25 +245,56 @@ pub fn format_to_step(value: f64, range: &SweepRange) -> String {
 /// The general fields above the panels: name, seed, repeats.
 pub fn general_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     ui.horizontal(|ui| {
-        let label = ui
-            .label("Name")
-            .on_hover_text("Preset name, written into the dataset's lock file");
+        let name = fields::get("name");
+        let label = ui.label(name.label).on_hover_text(name.tooltip);
         ui.text_edit_singleline(&mut preset.name)
             .labelled_by(label.id);
     });
-    number_row(
-        ui,
-        &mut preset.seed,
-        "Seed",
-        "Master seed: every frame derives its own random draw from (seed, frame index)",
-        1.0,
-    );
-    number_row(
-        ui,
-        &mut preset.repeats,
-        "Repeats",
-        "Frames made per sweep combination, each with its own random placement",
-        0.1,
-    );
+    field_row(ui, &mut preset.seed, "seed", 1.0);
+    field_row(ui, &mut preset.repeats, "repeats", 0.1);
     form.messages(ui, &["name", "seed", "repeats"]);
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::preset::fields;
+
+    /// Every dotted field path these panels name (for a row's words or its
+    /// messages) resolves in the table of fields to a label, not to itself.
+    #[test]
+    fn the_panels_field_paths_are_in_the_table() {
+        let sources = [
+            include_str!("mod.rs"),
+            include_str!("models.rs"),
+            include_str!("placement.rs"),
+            include_str!("camera.rs"),
+            include_str!("skybox.rs"),
+            include_str!("output.rs"),
+        ];
+        let mut checked = 0;
+        for source in sources {
+            for literal in source.split('"').skip(1).step_by(2) {
+                let is_path = literal.contains('.')
+                    && literal.starts_with(|c: char| c.is_ascii_lowercase())
+                    && literal.chars().all(|c| {
+                        c.is_ascii_lowercase() || c.is_ascii_digit() || "._[]{}".contains(c)
+                    })
+                    && !literal.contains("{field}")
+                    && !literal.ends_with(".rs");
+                if is_path {
+                    let path = literal.replace("{i}", "0");
+                    assert_ne!(
+                        fields::label_of(&path),
+                        path,
+                        "{literal} is not in the table"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(
+            checked > 40,
+            "only {checked} paths found: the scan is broken"
+        );
+    }
 }

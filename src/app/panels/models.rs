@@ -5,7 +5,7 @@ use egui::{DragValue, RichText, Ui};
 use super::{Form, error_label};
 use crate::app::Command;
 use crate::model::builtin::NAMES as BUILTIN_NAMES;
-use crate::preset::{ModelSource, ModelSpec, Preset};
+use crate::preset::{ModelSource, ModelSpec, Preset, fields};
 
 pub fn models_ui(
     ui: &mut Ui,
@@ -35,12 +35,12 @@ pub fn models_ui(
             }
         });
         ui.horizontal(|ui| {
-            let tip = "Real size: the model is scaled so that its largest span is this many metres";
+            let tip = fields::get("models[].size_m").tooltip;
             ui.label("Size").on_hover_text(tip);
             ui.add(DragValue::new(&mut model.size_m).speed(0.01).suffix(" m"))
                 .accessible_name(format!("Model {} size", i + 1))
                 .on_hover_text(tip);
-            let tip = "Class name written into the labels";
+            let tip = fields::get("models[].class").tooltip;
             ui.label("Class").on_hover_text(tip);
             ui.add(egui::TextEdit::singleline(&mut model.class).desired_width(80.0))
                 .accessible_name(format!("Model {} class", i + 1))

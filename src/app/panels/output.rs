@@ -3,9 +3,9 @@
 
 use egui::{DragValue, Ui};
 
-use super::{Form, number_row};
+use super::{Form, field_row};
 use crate::app::Command;
-use crate::preset::{BoxMethod, ImageFormat, LabelFormat, Preset, Resolution};
+use crate::preset::{BoxMethod, ImageFormat, LabelFormat, Preset, Resolution, fields};
 
 /// Output: resolution, MSAA, image and label formats, split, boxes, folder.
 pub fn output_ui(
@@ -50,23 +50,26 @@ fn resolution_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             }
         })
         .response
-        .on_hover_text("Image size of every frame");
+        .on_hover_text(fields::get("render.resolution").tooltip);
     if let Resolution::Custom { width, height } = &mut r.resolution {
         ui.horizontal(|ui| {
             ui.label("Size")
                 .on_hover_text("Custom image size in pixels");
-            ui.add(DragValue::new(width).suffix(" px"))
-                .accessible_name("Width")
-                .on_hover_text("Image width in pixels");
-            ui.add(DragValue::new(height).suffix(" px"))
-                .accessible_name("Height")
-                .on_hover_text("Image height in pixels");
+            for (value, path) in [
+                (width, "render.resolution.width"),
+                (height, "render.resolution.height"),
+            ] {
+                let f = fields::get(path);
+                ui.add(DragValue::new(value).suffix(f.unit))
+                    .accessible_name(f.label)
+                    .on_hover_text(f.tooltip);
+            }
         });
     }
     form.messages(ui, &["render.resolution.width", "render.resolution.height"]);
     ui.horizontal(|ui| {
-        ui.label("MSAA")
-            .on_hover_text("Multisample anti-aliasing: 1 (off) or 4 samples per pixel");
+        let msaa = fields::get("render.msaa");
+        ui.label(msaa.label).on_hover_text(msaa.tooltip);
         ui.radio_value(&mut r.msaa, 1, "off")
             .on_hover_text("No anti-aliasing");
         ui.radio_value(&mut r.msaa, 4, "4×")
@@ -79,7 +82,8 @@ fn resolution_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 fn file_formats_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let o = &mut preset.output;
     ui.horizontal(|ui| {
-        ui.label("Images").on_hover_text("Image file format");
+        let images = fields::get("output.image_format");
+        ui.label(images.label).on_hover_text(images.tooltip);
         let jpeg = matches!(o.image_format, ImageFormat::Jpeg { .. });
         if ui
             .radio(jpeg, "JPEG")
@@ -104,8 +108,8 @@ fn file_formats_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     });
     form.messages(ui, &["output.image_format.quality"]);
     ui.horizontal(|ui| {
-        ui.label("Labels")
-            .on_hover_text("Annotation formats written next to the images");
+        let labels = fields::get("output.label_formats");
+        ui.label(labels.label).on_hover_text(labels.tooltip);
         for (format, name, tip) in [
             (
                 LabelFormat::Yolo,
@@ -134,8 +138,9 @@ fn file_formats_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 fn split_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let o = &mut preset.output;
     ui.horizontal(|ui| {
-        let tip = "Share of frames in each split; the three must sum to 1";
-        ui.label("Split").on_hover_text(tip);
+        let split = fields::get("output.split");
+        let tip = split.tooltip;
+        ui.label(split.label).on_hover_text(tip);
         for (name, v) in [
             ("train", &mut o.split.train),
             ("val", &mut o.split.val),
@@ -160,8 +165,8 @@ fn split_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 /// Box method, size and visibility filters, what happens to filtered drones, id pass scale.
 fn boxes_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     ui.horizontal(|ui| {
-        ui.label("Boxes")
-            .on_hover_text("How each drone's 2D box is computed");
+        let boxes = fields::get("labels.box_method");
+        ui.label(boxes.label).on_hover_text(boxes.tooltip);
         let l = &mut preset.labels;
         ui.radio_value(&mut l.box_method, BoxMethod::Visible, "Visible")
             .on_hover_text(
@@ -172,33 +177,25 @@ fn boxes_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         ui.radio_value(&mut l.box_method, BoxMethod::PaperAabb, "Paper AABB")
             .on_hover_text("The paper's box: projected corners of the world AABB");
     });
-    number_row(
-        ui,
-        &mut preset.labels.min_box_px,
-        "Min box",
-        "Boxes narrower or shorter than this many pixels are dropped",
-        0.1,
-    );
+    field_row(ui, &mut preset.labels.min_box_px, "labels.min_box_px", 0.1);
     form.messages(ui, &["labels.min_box_px"]);
     ui.horizontal(|ui| {
-        let label = ui
-            .label("Min visible px")
-            .on_hover_text("Drones with fewer visible pixels are filtered (0: off)");
+        let f = fields::get("labels.min_visible_pixels");
+        let label = ui.label(f.label).on_hover_text(f.tooltip);
         ui.add(egui::DragValue::new(&mut preset.labels.min_visible_pixels).range(0..=1_000_000))
             .labelled_by(label.id)
-            .on_hover_text("Drones with fewer visible pixels are filtered (0: off)");
+            .on_hover_text(f.tooltip);
     });
-    number_row(
+    field_row(
         ui,
         &mut preset.labels.min_visible_fraction,
-        "Min visible fraction",
-        "Drones less visible than this (visible / unoccluded pixels) are filtered (0: off)",
+        "labels.min_visible_fraction",
         0.01,
     );
     form.messages(ui, &["labels.min_visible_fraction"]);
     ui.horizontal(|ui| {
-        ui.label("Filtered drones")
-            .on_hover_text("Drop them, or keep them in COCO as iscrowd ignore regions");
+        let filtered = fields::get("labels.filtered");
+        ui.label(filtered.label).on_hover_text(filtered.tooltip);
         let l = &mut preset.labels;
         ui.radio_value(&mut l.filtered, crate::preset::FilteredDrones::Drop, "Drop")
             .on_hover_text("Filtered drones are written nowhere (the manifest still lists them)");
@@ -210,8 +207,8 @@ fn boxes_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         .on_hover_text("Filtered drones become COCO iscrowd: 1 regions that trainers ignore");
     });
     ui.horizontal(|ui| {
-        ui.label("Id pass scale")
-            .on_hover_text("Resolution factor of the instance-id pass: 2 or 4 give sub-pixel visible boxes (cost × scale²)");
+        let id_scale = fields::get("labels.id_scale");
+        ui.label(id_scale.label).on_hover_text(id_scale.tooltip);
         let l = &mut preset.labels;
         for k in [1, 2, 4] {
             ui.radio_value(&mut l.id_scale, k, format!("{k}×"))

@@ -3,7 +3,8 @@
 
 use egui::{DragValue, Ui};
 
-use super::{Form, angle_row, number_row, range_row, sweep_row};
+use super::{Form, field_range_row, field_row, named_sweep_row};
+use crate::preset::fields;
 use crate::preset::sweep::SweepRange;
 use crate::preset::{
     Formation, FormationShape, Placement, Preset, SequenceCamera, SequenceSpec, Volume,
@@ -73,31 +74,13 @@ fn mode_picker_ui(ui: &mut Ui, placement: &mut Placement) {
 /// The paper's grid: XCount, YCount, ZCount and LoadFactor.
 fn structured_ui(ui: &mut Ui, counts: [&mut u32; 3], load_factor: &mut f64, form: &mut Form<'_>) {
     let [x_count, y_count, z_count] = counts;
-    number_row(ui, x_count, "XCount", "Drones along the grid's x axis", 0.1);
+    field_row(ui, x_count, "placement.x_count", 0.1);
     form.messages(ui, &["placement.x_count"]);
-    number_row(
-        ui,
-        y_count,
-        "YCount",
-        "Drones along the grid's y (vertical) axis",
-        0.1,
-    );
+    field_row(ui, y_count, "placement.y_count", 0.1);
     form.messages(ui, &["placement.y_count"]);
-    number_row(
-        ui,
-        z_count,
-        "ZCount",
-        "Drones along the grid's z (depth) axis",
-        0.1,
-    );
+    field_row(ui, z_count, "placement.z_count", 0.1);
     form.messages(ui, &["placement.z_count"]);
-    number_row(
-        ui,
-        load_factor,
-        "LoadFactor",
-        "Grid spacing in multiples of the largest model size (≥ 1: no overlap)",
-        0.05,
-    );
+    field_row(ui, load_factor, "placement.load_factor", 0.05);
     form.messages(ui, &["placement.load_factor", "placement"]);
 }
 
@@ -110,7 +93,7 @@ fn randomized_ui(
     form: &mut Form<'_>,
 ) {
     ui.horizontal(|ui| {
-        let tip = "Drones per frame: this inclusive range, drawn by the preset's count_distribution (uniform unless the preset names one)";
+        let tip = fields::get("placement.count").tooltip;
         ui.label("Count").on_hover_text(tip);
         ui.add(DragValue::new(&mut count.0).prefix("min ").speed(0.1))
             .accessible_name("Count min")
@@ -123,7 +106,7 @@ fn randomized_ui(
     volume_picker_ui(ui, volume);
     match volume {
         Volume::Box { size_m } => {
-            volume_size_ui(ui, size_m, "Size of the observation volume in metres");
+            volume_size_ui(ui, size_m, fields::get("placement.volume.size_m").tooltip);
             form.messages(
                 ui,
                 &[
@@ -134,13 +117,7 @@ fn randomized_ui(
             );
         }
         Volume::Density { per_m3 } => {
-            number_row(
-                ui,
-                per_m3,
-                "Density",
-                "Global density factor ρ: drones per cubic metre",
-                0.001,
-            );
+            field_row(ui, per_m3, "placement.volume.per_m3", 0.001);
             form.messages(ui, &["placement.volume.per_m3"]);
         }
         Volume::DensitySweep { size_m, per_m3 } => {
@@ -149,24 +126,21 @@ fn randomized_ui(
                 size_m,
                 "Size of the observation volume in metres (held fixed)",
             );
-            sweep_row(
+            named_sweep_row(
                 ui,
                 form,
                 per_m3,
-                "Density ρ",
-                "placement.volume.per_m3",
-                "Drones per cubic metre, swept like the camera parameters",
+                [
+                    "Density ρ",
+                    "placement.volume.per_m3",
+                    "Drones per cubic metre, swept like the camera parameters",
+                    "",
+                ],
                 0.0005,
             );
         }
     }
-    number_row(
-        ui,
-        min_separation_m,
-        "Min separation",
-        "No two drone centres come closer than this (metres)",
-        0.01,
-    );
+    field_row(ui, min_separation_m, "placement.min_separation_m", 0.01);
     form.messages(ui, &["placement.min_separation_m"]);
 }
 
@@ -175,7 +149,7 @@ fn volume_picker_ui(ui: &mut Ui, volume: &mut Volume) {
     let is_box = matches!(volume, Volume::Box { .. });
     ui.horizontal(|ui| {
         ui.label("Volume")
-            .on_hover_text("The observation volume W, centred at the origin");
+            .on_hover_text(fields::get("placement.volume").tooltip);
         if ui
             .radio(is_box, "Box")
             .on_hover_text("A box of fixed size")
@@ -233,7 +207,7 @@ fn volume_size_ui(ui: &mut Ui, size_m: &mut (f64, f64, f64), tip: &str) {
 fn formation_ui(ui: &mut Ui, f: &mut Formation, form: &mut Form<'_>) {
     ui.horizontal(|ui| {
         ui.label("Shape")
-            .on_hover_text("The formation's pattern; each has its own few parameters");
+            .on_hover_text(fields::get("placement.shape").tooltip);
         egui::ComboBox::from_id_salt("formation_shape")
             .selected_text(f.shape.name())
             .show_ui(ui, |ui| {
@@ -248,81 +222,38 @@ fn formation_ui(ui: &mut Ui, f: &mut Formation, form: &mut Form<'_>) {
     });
     match &mut f.shape {
         FormationShape::Echelon { angle_deg } => {
-            angle_row(
-                ui,
-                angle_deg,
-                "Echelon angle",
-                "Degrees from the heading (0 = column, 90 = line abreast)",
-                0.5,
-            );
+            field_row(ui, angle_deg, "placement.shape.angle_deg", 0.5);
         }
         FormationShape::Wedge { half_angle_deg } => {
-            angle_row(
-                ui,
-                half_angle_deg,
-                "Wedge half angle",
-                "Degrees between each arm and the heading",
-                0.5,
-            );
+            field_row(ui, half_angle_deg, "placement.shape.half_angle_deg", 0.5);
         }
         FormationShape::Ring { tilt_deg } => {
-            angle_row(
-                ui,
-                tilt_deg,
-                "Ring tilt",
-                "Degrees the ring's axis leans forward from vertical",
-                0.5,
-            );
+            field_row(ui, tilt_deg, "placement.shape.tilt_deg", 0.5);
         }
         FormationShape::Clustered {
             clusters,
             cluster_gap,
         } => {
-            number_row(ui, clusters, "Clusters", "Number of dense groups", 0.1);
-            number_row(
-                ui,
-                cluster_gap,
-                "Cluster gap",
-                "Gap between groups in model spans",
-                0.1,
-            );
+            field_row(ui, clusters, "placement.shape.clusters", 0.1);
+            field_row(ui, cluster_gap, "placement.shape.cluster_gap", 0.1);
         }
         FormationShape::LineAbreast | FormationShape::Column | FormationShape::SphereShell => {}
     }
     form.messages(ui, &["placement.shape"]);
-    number_row(ui, &mut f.count, "Count", "Drones in the formation", 0.1);
+    field_row(ui, &mut f.count, "placement.count", 0.1);
     form.messages(ui, &["placement.count"]);
-    number_row(
-        ui,
-        &mut f.spacing,
-        "Spacing",
-        "Distance between neighbours in multiples of the largest model size (a LoadFactor)",
-        0.05,
-    );
+    field_row(ui, &mut f.spacing, "placement.spacing", 0.05);
     form.messages(ui, &["placement.spacing"]);
-    range_row(
-        ui,
-        &mut f.heading_deg,
-        "Heading",
-        "Yaw of the formation's forward axis, degrees, drawn per frame",
-        1.0,
-    );
+    field_range_row(ui, &mut f.heading_deg, "placement.heading_deg", 1.0);
     form.messages(ui, &["placement.heading_deg"]);
-    number_row(
+    field_row(
         ui,
         &mut f.position_jitter,
-        "Jitter",
-        "Each drone moves up to ± this many model sizes per axis",
+        "placement.position_jitter",
         0.01,
     );
     form.messages(ui, &["placement.position_jitter"]);
-    number_row(
-        ui,
-        &mut f.min_separation,
-        "Min separation",
-        "No two drone centres come closer than this many model sizes",
-        0.05,
-    );
+    field_row(ui, &mut f.min_separation, "placement.min_separation", 0.05);
     form.messages(ui, &["placement.min_separation"]);
 }
 
@@ -331,22 +262,16 @@ pub fn sequence_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let mut on = preset.sequence.is_some();
     if ui
         .checkbox(&mut on, "Sequence")
-        .on_hover_text("Each sweep point becomes T + 1 frames of motion (MOT ground truth)")
+        .on_hover_text(fields::get("sequence").tooltip)
         .changed()
     {
         preset.sequence = on.then(SequenceSpec::default);
     }
     if let Some(seq) = &mut preset.sequence {
-        number_row(
-            ui,
-            &mut seq.steps,
-            "Steps T",
-            "Interpolation steps; a sequence has T + 1 frames",
-            0.2,
-        );
+        field_row(ui, &mut seq.steps, "sequence.steps", 0.2);
         form.messages(ui, &["sequence.steps"]);
         ui.horizontal(|ui| {
-            let tip = "Translation of the whole formation over the sequence (metres)";
+            let tip = fields::get("sequence.motion.translate_m").tooltip;
             ui.label("Translate").on_hover_text(tip);
             let t = &mut seq.motion.translate_m;
             for (axis, v) in [("x", &mut t.0), ("y", &mut t.1), ("z", &mut t.2)] {
@@ -355,18 +280,16 @@ pub fn sequence_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
                     .on_hover_text(tip);
             }
         });
-        angle_row(
+        field_row(
             ui,
             &mut seq.motion.turn_deg,
-            "Turn",
-            "Turn of the formation about the vertical, degrees",
+            "sequence.motion.turn_deg",
             1.0,
         );
-        angle_row(
+        field_row(
             ui,
             &mut seq.motion.bank_deg,
-            "Bank",
-            "Each drone rolls by this many degrees",
+            "sequence.motion.bank_deg",
             1.0,
         );
         form.messages(
@@ -379,7 +302,7 @@ pub fn sequence_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         );
         ui.horizontal(|ui| {
             ui.label("Camera")
-                .on_hover_text("Fixed (a ground observer) or following the swarm");
+                .on_hover_text(fields::get("sequence.camera").tooltip);
             ui.radio_value(&mut seq.camera, SequenceCamera::Fixed, "Fixed");
             ui.radio_value(&mut seq.camera, SequenceCamera::Follow, "Follow");
         });

@@ -3,8 +3,8 @@
 
 use egui::Ui;
 
-use super::{Form, angle_row, number_row};
-use crate::preset::{Preset, Sky};
+use super::{Form, field_row};
+use crate::preset::{Preset, Sky, fields};
 use crate::sky::EnvironmentStyle;
 
 pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
@@ -54,7 +54,7 @@ fn sky_picker_ui(ui: &mut Ui, sky: &mut Sky) {
         Sky::Random { .. } => "Random (preset file)".to_string(),
     };
     ui.horizontal(|ui| {
-        let tip = "The background environment; its sun also lights the drones";
+        let tip = fields::get("sky").tooltip;
         ui.label("Skybox").on_hover_text(tip);
         egui::ComboBox::from_id_salt("skybox")
             .selected_text(current)
@@ -92,21 +92,9 @@ fn gradient_ui(
     let [sun_elevation_deg, sun_azimuth_deg] = sun_deg;
     let [zenith, horizon] = colours;
     ui.label("Gradient sky with a sun disc; the sun also lights the drones");
-    angle_row(
-        ui,
-        sun_elevation_deg,
-        "Sun elevation",
-        "Sun angle above the horizon, degrees",
-        0.5,
-    );
+    field_row(ui, sun_elevation_deg, "sky.sun_elevation_deg", 0.5);
     form.messages(ui, &["sky.sun_elevation_deg"]);
-    angle_row(
-        ui,
-        sun_azimuth_deg,
-        "Sun azimuth",
-        "Sun direction from +z towards +x, degrees",
-        1.0,
-    );
+    field_row(ui, sun_azimuth_deg, "sky.sun_azimuth_deg", 1.0);
     form.messages(ui, &["sky.sun_azimuth_deg"]);
     for (name, colour, field) in [
         ("Zenith colour", zenith, "sky.zenith"),
@@ -139,41 +127,17 @@ fn procedural_ui(
 ) {
     let [sun_elevation_deg, sun_azimuth_deg] = sun_deg;
     let mut elevation = sun_elevation_deg.unwrap_or(style.sun_elevation_deg);
-    if angle_row(
-        ui,
-        &mut elevation,
-        "Sun elevation",
-        "Sun angle above the horizon, degrees (the environment's own by default)",
-        0.5,
-    )
-    .changed()
-    {
+    if field_row(ui, &mut elevation, "sky.sun_elevation_deg", 0.5).changed() {
         *sun_elevation_deg = Some(elevation);
     }
     form.messages(ui, &["sky.sun_elevation_deg"]);
     let mut azimuth = sun_azimuth_deg.unwrap_or(style.sun_azimuth_deg);
-    if angle_row(
-        ui,
-        &mut azimuth,
-        "Sun azimuth",
-        "Sun direction from +z towards +x, degrees",
-        1.0,
-    )
-    .changed()
-    {
+    if field_row(ui, &mut azimuth, "sky.sun_azimuth_deg", 1.0).changed() {
         *sun_azimuth_deg = Some(azimuth);
     }
     form.messages(ui, &["sky.sun_azimuth_deg"]);
     let mut cover = cloud_cover.unwrap_or(style.cloud_cover);
-    if number_row(
-        ui,
-        &mut cover,
-        "Cloud cover",
-        "Fraction of the sky under cloud, 0 to 1",
-        0.01,
-    )
-    .changed()
-    {
+    if field_row(ui, &mut cover, "sky.cloud_cover", 0.01).changed() {
         *cloud_cover = Some(cover);
     }
     form.messages(ui, &["sky.cloud_cover"]);
