@@ -310,6 +310,7 @@ fn run() -> anyhow::Result<()> {
                     .as_deref()
                     .map(|s| Shard::parse(s, |name| std::env::var(name).ok()))
                     .transpose()?,
+                every: None,
             },
             timings,
         ),

@@ -8,7 +8,6 @@ use super::panels::group_digits;
 use super::prompt::{Answer, Replace};
 use super::runner::{BatchOutcome, BatchRun};
 use super::{Command, SwarmshotApp, keys, problems, read_preset};
-use crate::pipeline::BatchOptions;
 use crate::preset::{ModelSource, ModelSpec, Preset};
 
 impl SwarmshotApp {
@@ -276,15 +275,7 @@ impl SwarmshotApp {
         }
         // The snapshot: later edits cannot reach the running batch.
         let preset = (*self.resolved).clone();
-        let options = BatchOptions {
-            out_dir: PathBuf::from(self.session.out_dir.trim()),
-            limit: self.batch_limit(),
-            overwrite: self.session.overwrite,
-            resume: false,
-            encoder_threads: 0,
-            makers: 0,
-            shard: self.batch_shard(),
-        };
+        let options = self.batch_options();
         let wake_ctx = ctx.clone();
         match BatchRun::start(preset, options, gpu.clone(), move || {
             wake_ctx.request_repaint()
@@ -308,6 +299,7 @@ pub(super) type BatchInputs = (
     bool,
     Option<u64>,
     Option<crate::write::shard::Shard>,
+    Option<u64>,
 );
 
 impl SwarmshotApp {
@@ -318,6 +310,7 @@ impl SwarmshotApp {
             self.session.overwrite,
             self.batch_limit(),
             self.batch_shard(),
+            self.batch_every(),
         )
     }
 

@@ -85,6 +85,9 @@ pub struct Session {
     /// Generate makes only the first `trial_frames` frames (the CLI's `--limit`).
     pub trial: bool,
     pub trial_frames: u64,
+    /// Generate makes only every `every_k`th frame (the CLI's `--every`).
+    pub every: bool,
+    pub every_k: u64,
     /// Generate makes shard `shard_index` (from 0) of `shard_count` (`--shard K/N`).
     pub shard: bool,
     pub shard_index: u64,
@@ -114,6 +117,8 @@ impl Default for Session {
             overwrite: false,
             trial: false,
             trial_frames: 10,
+            every: false,
+            every_k: 10,
             shard: false,
             shard_index: 0,
             shard_count: 2,
@@ -321,6 +326,12 @@ impl SwarmshotApp {
             merge_outcome: None,
             gap: gap_panel::GapPanel::default(),
         }
+    }
+
+    /// Apply a [`Command`] as if a widget or a shortcut gave it (benchmarks drive
+    /// the app in a real window with it).
+    pub fn command(&mut self, command: Command, ctx: &egui::Context) {
+        self.apply(command, ctx);
     }
 
     /// Use this kind of file dialog from now on (tests pin the in-app browser).

@@ -46,6 +46,8 @@ pub struct BatchOptions {
     pub makers: usize,
     /// Make only shard K of N of the frames (`--shard`, see `crate::write::shard`).
     pub shard: Option<Shard>,
+    /// Make only every Kth frame (frames 0, K, 2K, …; `--every`).
+    pub every: Option<u64>,
 }
 
 /// Makers by default. On lavapipe (2 cores) a second maker made the
@@ -63,6 +65,7 @@ impl BatchOptions {
             encoder_threads: 0,
             makers: 0,
             shard: None,
+            every: None,
         }
     }
 }

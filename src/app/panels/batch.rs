@@ -11,7 +11,7 @@ use std::time::Duration;
 use super::{error_label, group_digits};
 use crate::app::runner::{BatchOutcome, BatchRun};
 use crate::app::{Command, SwarmshotApp, problems};
-use crate::pipeline::BatchReport;
+use crate::pipeline::{BatchOptions, BatchReport};
 
 impl SwarmshotApp {
     pub(in crate::app) fn batch_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
@@ -54,7 +54,7 @@ impl SwarmshotApp {
         }
     }
 
-    /// "Trial run: first N frames", the CLI's `--limit`.
+    /// "Trial run: first N frames" (the CLI's `--limit`) and "one frame in K" (`--every`).
     fn trial_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count().max(1);
         ui.horizontal(|ui| {
@@ -74,6 +74,18 @@ impl SwarmshotApp {
             } else {
                 "frames"
             });
+        });
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.session.every, "Trial run: one frame in")
+                .on_hover_text(
+                    "Make only every Kth frame (frames 0, K, 2K, … across the whole sweep), as `swarmshot batch --every K` does",
+                );
+            ui.add_enabled(
+                self.session.every,
+                egui::DragValue::new(&mut self.session.every_k).range(1..=frames),
+            )
+            .accessible_name("Every Kth frame")
+            .on_hover_text("K: the step between the frames made (1: every frame)");
         });
     }
 
@@ -206,6 +218,22 @@ impl SwarmshotApp {
         self.session
             .trial
             .then_some(self.session.trial_frames.max(1))
+    }
+
+    /// Every Kth frame only, when the trial run asks for it.
+    pub(in crate::app) fn batch_every(&self) -> Option<u64> {
+        self.session.every.then_some(self.session.every_k.max(1))
+    }
+
+    /// What Generate hands to `run_batch`: the folder and the Batch panel's choices.
+    pub fn batch_options(&self) -> BatchOptions {
+        BatchOptions {
+            limit: self.batch_limit(),
+            overwrite: self.session.overwrite,
+            shard: self.batch_shard(),
+            every: self.batch_every(),
+            ..BatchOptions::new(self.session.out_dir.trim())
+        }
     }
 
     fn generate_ui(&self, ui: &mut Ui, commands: &mut Vec<Command>) {
