@@ -14,7 +14,8 @@
 //!   the status bar's "on screen … median of 20").
 //!
 //! Run (lavapipe, no display):
-//! `xvfb-run -s "-screen 0 1600x1000x24" target/release/examples/app_bench latency presets/quickstart.ron`
+//! `xvfb-run -s "-screen 0 1920x1200x24" target/release/examples/app_bench latency presets/quickstart.ron`
+//! (the window is 1656×900, so that the preview pane is 960×540 as in docs/gui.md).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
@@ -95,9 +96,11 @@ impl Bench {
                 .map(|ms| format!("{ms:.0}"))
                 .collect();
             let (median, n) = self.app.preview_latency().median_ms().unwrap_or((0.0, 0));
+            let [w, h] = self.app.preview_key().map_or([0, 0], |k| k.size_px);
             println!(
-                "latency ({}): median {median:.1} ms of {n}; all (ms): {}",
+                "latency ({}, preview {w}×{h}): median {median:.1} ms of {n}; last render {:.1} ms; all (ms): {}",
                 if sky { "sky change" } else { "CameraZ edit" },
+                self.app.preview_render_ms().unwrap_or(0.0),
                 recent.join(" ")
             );
             self.done = true;
@@ -114,7 +117,11 @@ impl Bench {
                 };
                 preset.sky = Sky::procedural(name);
             } else {
-                preset.camera.z.start += if self.edits.is_multiple_of(2) { -0.05 } else { 0.05 };
+                preset.camera.z.start += if self.edits.is_multiple_of(2) {
+                    -0.05
+                } else {
+                    0.05
+                };
             }
         }
         self.edits += 1;
@@ -161,7 +168,7 @@ fn main() -> eframe::Result<()> {
         _ => panic!("{usage}"),
     };
     let options = eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default().with_inner_size([1400.0, 880.0]),
+        viewport: egui::ViewportBuilder::default().with_inner_size([1656.0, 900.0]),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };

@@ -149,6 +149,7 @@ impl SwarmshotApp {
 
     /// Take what the workers and the batch thread finished.
     pub(super) fn poll(&mut self, ctx: &egui::Context) {
+        self.poll_masks();
         if let Some(result) = self.preview_worker.as_ref().and_then(LatestWorker::latest) {
             match result {
                 Ok(frame) => {

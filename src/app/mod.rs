@@ -29,6 +29,8 @@ mod keys;
 pub mod latency;
 mod launch;
 mod layout;
+mod mask_pane;
+pub mod mask_view;
 pub mod panels;
 pub mod playback;
 pub mod preview;
@@ -100,6 +102,8 @@ pub struct Session {
     pub inspect: bool,
     /// The preview shows the frame through the preset's camera model.
     pub through_camera: bool,
+    /// The pane shows the picture, or the frame's instance image or depth map.
+    pub pane_shows: mask_view::PaneShows,
     pub orbit: Orbit,
     /// The side panels are expanded.
     pub show_parameters: bool,
@@ -127,6 +131,7 @@ impl Default for Session {
             show_boxes: true,
             inspect: false,
             through_camera: false,
+            pane_shows: mask_view::PaneShows::Picture,
             orbit: Orbit::default(),
             show_parameters: true,
             show_summary: true,
@@ -197,6 +202,8 @@ pub struct SwarmshotApp {
     preview_size_px: [u32; 2],
     /// Where the preview was drawn in the last pass (points).
     preview_rect: Option<Rect>,
+    /// The instance / depth views of the previewed frame.
+    mask_pane: mask_pane::MaskPane,
     /// Change → picture on screen, measured here (see [`latency`]).
     latency: latency::LatencyMeter,
     /// A committed preset's summary is yet to be asked for (since then).
@@ -303,6 +310,7 @@ impl SwarmshotApp {
             preview_sent: None,
             preview_size_px: [0, 0],
             preview_rect: None,
+            mask_pane: mask_pane::MaskPane::default(),
             latency: latency::LatencyMeter::default(),
             summary_due: None,
             pass_start: Instant::now(),
@@ -499,6 +507,7 @@ impl eframe::App for SwarmshotApp {
         }
         self.forget_stale_failure();
         self.request_preview();
+        self.request_masks(&ctx);
         self.request_summary(&ctx);
         self.update_title(&ctx);
     }

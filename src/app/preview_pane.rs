@@ -98,6 +98,7 @@ impl SwarmshotApp {
                 ui.weak("drag to orbit, scroll to zoom");
             }
         });
+        self.masks_toggle_ui(ui);
     }
 
     /// The picture scaled to the pane with its overlay, and the inspect orbit's
@@ -124,18 +125,21 @@ impl SwarmshotApp {
         self.preview_rect = Some(rect);
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_gray(20));
+        let masked = self.paint_masks(ui.ctx(), &painter, rect);
         if let (Some(frame), Some(texture)) = (&self.preview, self.preview_texture) {
             let tint = if self.errors.is_empty() {
                 Color32::WHITE
             } else {
                 Color32::from_gray(90)
             };
-            painter.image(
-                texture,
-                rect,
-                Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
-                tint,
-            );
+            if !masked {
+                painter.image(
+                    texture,
+                    rect,
+                    Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+                    tint,
+                );
+            }
             match &frame.inspect {
                 None if self.session.show_boxes => draw_boxes(&painter, rect, frame, out_w),
                 None => {}
