@@ -39,6 +39,8 @@ struct Bench {
     /// Batch: when Generate was pressed, and window passes since.
     started: Option<Instant>,
     passes: u64,
+    /// Batch: why each window pass during the batch ran (egui's repaint causes).
+    causes: std::collections::BTreeMap<String, u64>,
     /// Latency: edits made so far.
     edits: usize,
     done: bool,
@@ -63,9 +65,13 @@ impl Bench {
             return;
         }
         self.passes += 1;
+        for cause in ctx.repaint_causes() {
+            *self.causes.entry(cause.to_string()).or_default() += 1;
+        }
         if self.app.batch_running() {
             return;
         }
+        println!("repaint causes during the batch: {:?}", self.causes);
         let wall = self.started.map_or(0.0, |t| t.elapsed().as_secs_f64());
         match self.app.batch_outcome() {
             Some(BatchOutcome::Done(report)) => println!(
@@ -142,9 +148,12 @@ impl eframe::App for Bench {
             // The app sees the edit in the next pass, which times it from its start.
             ctx.request_repaint();
         }
-        // Otherwise the bench acts in the passes the app asks for itself (a
-        // faster poll would repaint the window and pace what is measured).
-        ctx.request_repaint_after(std::time::Duration::from_millis(500));
+        // Otherwise the bench acts in the passes the app asks for itself: a
+        // poll of its own would repaint the window and pace what is measured,
+        // so there is none while the batch runs.
+        if self.started.is_none() {
+            ctx.request_repaint_after(std::time::Duration::from_millis(500));
+        }
     }
 }
 
@@ -188,6 +197,7 @@ fn main() -> eframe::Result<()> {
                 mode,
                 started: None,
                 passes: 0,
+                causes: Default::default(),
                 edits: 0,
                 done: false,
             }))
