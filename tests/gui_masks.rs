@@ -1,6 +1,7 @@
 //! The preview pane's mask views (issue 22, item 5): with `output.masks` the
 //! pane shows the previewed frame's instance image and depth map, the same
 //! masks the batch writes.
+#![cfg(feature = "app")]
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};

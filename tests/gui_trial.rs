@@ -1,5 +1,6 @@
 //! The Batch panel's "one frame in K" trial run (issue 24): the field reaches
 //! the batch's options, and (with `run_batch`'s `every`) limits the frames written.
+#![cfg(feature = "app")]
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};
