@@ -2,7 +2,7 @@
 //! code path as `swarmshot batch`) on a background thread, with shared
 //! progress, a cancel flag and the result handed back through a channel.
 //!
-//! The UI is woken at most [`WAKE_INTERVAL`] apart while frames come in
+//! The UI is woken at most once per [`WAKE_INTERVAL`] while frames come in
 //! (and always once at the end): a repaint per frame made the window's
 //! drawing, not the batch, set the pace (issue 23: 5–10× the CLI's time).
 
@@ -17,8 +17,13 @@ use crate::pipeline::{BatchOptions, BatchReport, FramePipeline, Progress, run_ba
 use crate::preset::Preset;
 use crate::render::GpuContext;
 
-/// The shortest time between two progress wake-ups of the UI (10 a second).
-pub const WAKE_INTERVAL: Duration = Duration::from_millis(100);
+/// The shortest time between two progress wake-ups of the UI (once a second).
+///
+/// On lavapipe (a CPU rasteriser) one pass of the window costs about 0.2 s of
+/// CPU, paid from the two cores the batch renders on: at 10 wake-ups a second
+/// the quickstart's batch took 31–35 s in the window against 3.3 s on the
+/// command line (debug build, loaded machine); see docs/gui.md, "Batch".
+pub const WAKE_INTERVAL: Duration = Duration::from_secs(1);
 
 /// Lets a wake-up through when at least `interval` passed since the last one let through.
 #[derive(Debug)]

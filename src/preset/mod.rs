@@ -18,6 +18,7 @@ pub mod budget;
 pub mod camera_model;
 pub mod clutter;
 pub mod confusers;
+pub mod fields;
 pub mod formation;
 pub mod masks;
 pub mod observer;

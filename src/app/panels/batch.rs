@@ -6,13 +6,15 @@ use std::path::Path;
 
 use egui::{RichText, Ui};
 
-use super::panels::{error_label, group_digits};
-use super::runner::{BatchOutcome, BatchRun};
-use super::{Command, SwarmshotApp, format_duration, problems};
-use crate::pipeline::BatchReport;
+use std::time::Duration;
+
+use super::{error_label, group_digits};
+use crate::app::runner::{BatchOutcome, BatchRun};
+use crate::app::{Command, SwarmshotApp, problems};
+use crate::pipeline::{BatchOptions, BatchReport};
 
 impl SwarmshotApp {
-    pub(super) fn batch_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+    pub(in crate::app) fn batch_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         ui.heading("Batch");
         match &self.batch {
             None => {
@@ -52,7 +54,7 @@ impl SwarmshotApp {
         }
     }
 
-    /// "Trial run: first N frames", the CLI's `--limit`.
+    /// "Trial run: first N frames" (the CLI's `--limit`) and "one frame in K" (`--every`).
     fn trial_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count().max(1);
         ui.horizontal(|ui| {
@@ -72,6 +74,18 @@ impl SwarmshotApp {
             } else {
                 "frames"
             });
+        });
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.session.every, "Trial run: one frame in")
+                .on_hover_text(
+                    "Make only every Kth frame (frames 0, K, 2K, … across the whole sweep), as `swarmshot batch --every K` does",
+                );
+            ui.add_enabled(
+                self.session.every,
+                egui::DragValue::new(&mut self.session.every_k).range(1..=frames),
+            )
+            .accessible_name("Every Kth frame")
+            .on_hover_text("K: the step between the frames made (1: every frame)");
         });
     }
 
@@ -133,7 +147,7 @@ impl SwarmshotApp {
     }
 
     /// The shard Generate makes, if any (`--shard K/N`, K from 0).
-    pub(super) fn batch_shard(&self) -> Option<crate::write::shard::Shard> {
+    pub(in crate::app) fn batch_shard(&self) -> Option<crate::write::shard::Shard> {
         let s = &self.session;
         s.shard.then(|| crate::write::shard::Shard {
             index: s.shard_index.min(s.shard_count.max(1) - 1),
@@ -142,7 +156,7 @@ impl SwarmshotApp {
     }
 
     /// Merge: finished shard folders joined into the output folder (`swarmshot merge`).
-    pub(super) fn merge_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+    pub(in crate::app) fn merge_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         egui::CollapsingHeader::new("Merge shards")
             .default_open(false)
             .show(ui, |ui| {
@@ -189,7 +203,7 @@ impl SwarmshotApp {
     }
 
     /// The shard folders named in the merge field.
-    pub(super) fn merge_shard_dirs(&self) -> Vec<std::path::PathBuf> {
+    pub(in crate::app) fn merge_shard_dirs(&self) -> Vec<std::path::PathBuf> {
         self.session
             .merge_shards
             .lines()
@@ -200,10 +214,26 @@ impl SwarmshotApp {
     }
 
     /// The frames Generate asks for: the trial's first N, or all.
-    pub(super) fn batch_limit(&self) -> Option<u64> {
+    pub(in crate::app) fn batch_limit(&self) -> Option<u64> {
         self.session
             .trial
             .then_some(self.session.trial_frames.max(1))
+    }
+
+    /// Every Kth frame only, when the trial run asks for it.
+    pub(in crate::app) fn batch_every(&self) -> Option<u64> {
+        self.session.every.then_some(self.session.every_k.max(1))
+    }
+
+    /// What Generate hands to `run_batch`: the folder and the Batch panel's choices.
+    pub fn batch_options(&self) -> BatchOptions {
+        BatchOptions {
+            limit: self.batch_limit(),
+            overwrite: self.session.overwrite,
+            shard: self.batch_shard(),
+            every: self.batch_every(),
+            ..BatchOptions::new(self.session.out_dir.trim())
+        }
     }
 
     fn generate_ui(&self, ui: &mut Ui, commands: &mut Vec<Command>) {
@@ -340,6 +370,16 @@ fn gui_wording(message: &str) -> String {
         "pass --overwrite",
         "tick \"Overwrite an existing dataset\" in the Output panel",
     )
+}
+
+/// 75 s → "1:15", 3 725 s → "1:02:05".
+fn format_duration(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,206 @@
+//! The app in a real window (eframe + winit; on a machine without a display, under
+//! Xvfb), driven from inside its own event loop: a measurement for docs/gui.md and
+//! docs/benchmarks.md, not a test.
+//!
+//! - `batch PRESET OUT FRAMES`: once the first preview is on screen, press
+//!   Generate for the first FRAMES frames into OUT (overwriting) and print the
+//!   batch's own time (`BatchReport::elapsed`, as `swarmshot batch` prints it)
+//!   and how many window passes ran meanwhile. Compare with
+//!   `swarmshot batch PRESET --out OUT --limit FRAMES --overwrite` (issue 23: the
+//!   GUI batch within 1.2× of the CLI).
+//! - `latency PRESET [sky]`: 20 committed edits, one after another picture, each
+//!   moving CameraZ's start (or, with `sky`, switching the procedural sky between
+//!   two environments), and print the app's own measure ([`swarmshot::app::latency`],
+//!   the status bar's "on screen … median of 20").
+//!
+//! Run (lavapipe, no display):
+//! `xvfb-run -s "-screen 0 1920x1200x24" target/release/examples/app_bench latency presets/quickstart.ron`
+//! (the window is 1656×900, so that the preview pane is 960×540 as in docs/gui.md).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use swarmshot::app::runner::BatchOutcome;
+use swarmshot::app::{Command, StartOptions, SwarmshotApp};
+use swarmshot::preset::Sky;
+use swarmshot::sky::EnvironmentName;
+
+const EDITS: usize = 20;
+
+enum Mode {
+    Batch { out: PathBuf, frames: u64 },
+    Latency { sky: bool },
+}
+
+struct Bench {
+    app: SwarmshotApp,
+    mode: Mode,
+    /// Batch: when Generate was pressed, and window passes since.
+    started: Option<Instant>,
+    passes: u64,
+    /// Batch: why each window pass during the batch ran (egui's repaint causes).
+    causes: std::collections::BTreeMap<String, u64>,
+    /// Latency: edits made so far.
+    edits: usize,
+    done: bool,
+}
+
+impl Bench {
+    fn batch_step(&mut self, ctx: &egui::Context) {
+        let Mode::Batch { out, frames } = &self.mode else {
+            return;
+        };
+        if self.started.is_none() {
+            if !self.app.preview_is_current() {
+                return;
+            }
+            let s = self.app.session_mut();
+            s.out_dir = out.display().to_string();
+            s.overwrite = true;
+            s.trial = true;
+            s.trial_frames = *frames;
+            self.app.command(Command::Generate, ctx);
+            self.started = Some(Instant::now());
+            return;
+        }
+        self.passes += 1;
+        for cause in ctx.repaint_causes() {
+            *self.causes.entry(cause.to_string()).or_default() += 1;
+        }
+        if self.app.batch_running() {
+            return;
+        }
+        println!("repaint causes during the batch: {:?}", self.causes);
+        let wall = self.started.map_or(0.0, |t| t.elapsed().as_secs_f64());
+        match self.app.batch_outcome() {
+            Some(BatchOutcome::Done(report)) => println!(
+                "gui batch: {} frames in {:.3} s (batch's own time; {wall:.3} s from Generate to the outcome), {} window passes meanwhile",
+                report.stats.frames,
+                report.elapsed.as_secs_f64(),
+                self.passes
+            ),
+            Some(BatchOutcome::Failed(e)) => println!("gui batch failed: {e}"),
+            None => println!("gui batch: no outcome"),
+        }
+        self.done = true;
+    }
+
+    /// Make the next edit once the last one's picture is on screen; true when it did.
+    fn latency_step(&mut self) -> bool {
+        let Mode::Latency { sky } = self.mode else {
+            return false;
+        };
+        if !self.app.preview_is_current() || !self.app.preview_latency().idle() {
+            return false;
+        }
+        if self.edits == EDITS + 1 {
+            let recent: Vec<String> = self
+                .app
+                .preview_latency()
+                .recent_ms()
+                .map(|ms| format!("{ms:.0}"))
+                .collect();
+            let (median, n) = self.app.preview_latency().median_ms().unwrap_or((0.0, 0));
+            let [w, h] = self.app.preview_key().map_or([0, 0], |k| k.size_px);
+            println!(
+                "latency ({}, preview {w}×{h}): median {median:.1} ms of {n}; last render {:.1} ms; all (ms): {}",
+                if sky { "sky change" } else { "CameraZ edit" },
+                self.app.preview_render_ms().unwrap_or(0.0),
+                recent.join(" ")
+            );
+            self.done = true;
+            return true;
+        }
+        // The first pass only waits for the start-up picture.
+        if self.edits > 0 {
+            let preset = &mut self.app.session_mut().preset;
+            if sky {
+                let name = if self.edits.is_multiple_of(2) {
+                    EnvironmentName::ALL[0]
+                } else {
+                    EnvironmentName::ALL[1]
+                };
+                preset.sky = Sky::procedural(name);
+            } else {
+                preset.camera.z.start += if self.edits.is_multiple_of(2) {
+                    -0.05
+                } else {
+                    0.05
+                };
+            }
+        }
+        self.edits += 1;
+        true
+    }
+}
+
+impl eframe::App for Bench {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        self.app.ui(ui, frame);
+        if self.done {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        self.batch_step(&ctx);
+        if self.latency_step() {
+            // The app sees the edit in the next pass, which times it from its start.
+            ctx.request_repaint();
+        }
+        // Otherwise the bench acts in the passes the app asks for itself: a
+        // poll of its own would repaint the window and pace what is measured,
+        // so there is none while the batch runs.
+        if self.started.is_none() {
+            ctx.request_repaint_after(std::time::Duration::from_millis(500));
+        }
+    }
+}
+
+fn main() -> eframe::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let usage = "usage: app_bench batch PRESET OUT FRAMES | app_bench latency PRESET [sky]";
+    let (mode, preset) = match args.first().map(String::as_str) {
+        Some("batch") if args.len() == 4 => (
+            Mode::Batch {
+                out: PathBuf::from(&args[2]),
+                frames: args[3].parse().expect(usage),
+            },
+            PathBuf::from(&args[1]),
+        ),
+        Some("latency") if args.len() >= 2 => (
+            Mode::Latency {
+                sky: args.get(2).is_some_and(|a| a == "sky"),
+            },
+            PathBuf::from(&args[1]),
+        ),
+        _ => panic!("{usage}"),
+    };
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default().with_inner_size([1656.0, 900.0]),
+        renderer: eframe::Renderer::Wgpu,
+        ..Default::default()
+    };
+    eframe::run_native(
+        "swarmshot app_bench",
+        options,
+        Box::new(move |cc| {
+            let app = SwarmshotApp::new(
+                cc,
+                StartOptions {
+                    preset: Some(preset),
+                    restore_session: false,
+                },
+            );
+            Ok(Box::new(Bench {
+                app,
+                mode,
+                started: None,
+                passes: 0,
+                causes: Default::default(),
+                edits: 0,
+                done: false,
+            }))
+        }),
+    )
+}

@@ -1,0 +1,347 @@
+//! [`Command`]s applied after the UI pass: New/Open/Save with the
+//! unsaved-changes prompt, file dialogs, Generate, Merge, undo and frame steps.
+
+use std::path::{Path, PathBuf};
+
+use super::files::{FileChoice, FilePurpose};
+use super::panels::group_digits;
+use super::prompt::{Answer, Replace};
+use super::runner::{BatchOutcome, BatchRun};
+use super::{Command, SwarmshotApp, keys, problems, read_preset};
+use crate::preset::{ModelSource, ModelSpec, Preset};
+
+impl SwarmshotApp {
+    pub(super) fn apply(&mut self, command: Command, ctx: &egui::Context) {
+        let locked = self.batch.is_some();
+        match command {
+            Command::New if !locked => self.guard(Replace::New, ctx),
+            Command::Open if !locked => self.open_dialog(FilePurpose::OpenPreset, ctx),
+            Command::OpenPath(path) if !locked => self.guard(Replace::Path(path), ctx),
+            Command::OpenExample(path) if !locked => self.guard(Replace::Example(path), ctx),
+            Command::Save => match self.session.preset_path.clone() {
+                Some(path) => {
+                    self.save_to(&path);
+                }
+                None => self.apply(Command::SaveAs, ctx),
+            },
+            Command::SaveAs => self.open_dialog(FilePurpose::SavePreset, ctx),
+            Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
+            Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
+            Command::Generate if !locked => self.generate(ctx),
+            Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
+            Command::Cancel => {
+                if let Some(batch) = &self.batch {
+                    batch.cancel();
+                }
+            }
+            Command::OpenOutputFolder(dir) => {
+                if let Err(e) = open::that_detached(&dir) {
+                    let why = if e.kind() == std::io::ErrorKind::NotFound {
+                        "no program to open folders is installed (xdg-open is missing)"
+                    } else {
+                        "no file manager is set up to open folders here"
+                    };
+                    self.notices.push(format!(
+                        "Cannot open {}: {why}. Use \"Copy path\" under Batch and open it yourself.",
+                        dir.display()
+                    ));
+                }
+            }
+            Command::Undo if !locked => {
+                if let Some(preset) = self.history.undo(&self.session.preset) {
+                    self.session.preset = preset;
+                }
+            }
+            Command::Redo if !locked => {
+                if let Some(preset) = self.history.redo(&self.session.preset) {
+                    self.session.preset = preset;
+                }
+            }
+            Command::ShowProblem(field) => {
+                self.session.show_parameters = true;
+                self.scroll_to = Some(field);
+            }
+            Command::StepFrame(delta) => {
+                let last = self.resolved.frame_count().saturating_sub(1);
+                self.session.frame = self.session.frame.saturating_add_signed(delta).min(last);
+            }
+            Command::FirstFrame => self.session.frame = 0,
+            Command::LastFrame => {
+                self.session.frame = self.resolved.frame_count().saturating_sub(1)
+            }
+            // Preset edits while a batch runs are ignored: the widgets are disabled anyway.
+            _ => {}
+        }
+    }
+
+    /// Replace the preset, asking first when it has unsaved changes.
+    pub(super) fn guard(&mut self, replace: Replace, ctx: &egui::Context) {
+        if self.session.is_dirty() {
+            self.prompt = Some(replace);
+        } else {
+            self.replace(replace, ctx);
+        }
+    }
+
+    pub(super) fn replace(&mut self, replace: Replace, ctx: &egui::Context) {
+        match replace {
+            Replace::New => self.session.load_untitled(Preset::default()),
+            Replace::Path(path) => match read_preset(&path) {
+                Ok(preset) => self.session.load(preset, path),
+                Err(e) => return self.notices.push(e),
+            },
+            Replace::Example(path) => match read_preset(&path) {
+                Ok(mut preset) => {
+                    // An untitled copy: Save asks for a new file, so the shipped
+                    // example is never overwritten; its model and sky paths are
+                    // made absolute so the copy still finds them.
+                    preset.resolve_paths(path.parent().unwrap_or(Path::new(".")));
+                    self.session.load_untitled(preset);
+                }
+                Err(e) => return self.notices.push(e),
+            },
+            Replace::Close => {
+                self.allow_close = true;
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                return;
+            }
+        }
+        self.history.clear();
+    }
+
+    /// The user answered the unsaved-changes prompt.
+    pub(super) fn answer(&mut self, answer: Answer, ctx: &egui::Context) {
+        let Some(replace) = self.prompt.take() else {
+            return;
+        };
+        match answer {
+            Answer::Save => match self.session.preset_path.clone() {
+                Some(path) => {
+                    if self.save_to(&path) {
+                        self.replace(replace, ctx);
+                    }
+                }
+                None => {
+                    self.after_save = Some(replace);
+                    self.open_dialog(FilePurpose::SavePreset, ctx);
+                }
+            },
+            Answer::Discard => self.replace(replace, ctx),
+            Answer::Cancel => {}
+        }
+    }
+
+    /// The folder dialogs start in: the preset's, else the working directory.
+    pub(super) fn preset_dir(&self) -> PathBuf {
+        self.session
+            .preset_path
+            .as_deref()
+            .and_then(Path::parent)
+            .filter(|d| !d.as_os_str().is_empty())
+            .map_or_else(|| PathBuf::from("."), Path::to_owned)
+    }
+
+    pub(super) fn open_dialog(&mut self, purpose: FilePurpose, ctx: &egui::Context) {
+        let (start, name) = match purpose {
+            FilePurpose::SavePreset => {
+                let name = match &self.session.preset_path {
+                    Some(p) => p.file_name().map(|f| f.to_string_lossy().into_owned()),
+                    None => Some(format!("{}.ron", self.session.preset.name.trim())),
+                };
+                (self.preset_dir(), name)
+            }
+            FilePurpose::OutputFolder => {
+                let out = PathBuf::from(self.session.out_dir.trim());
+                let start = if out.is_dir() {
+                    out
+                } else {
+                    out.parent()
+                        .filter(|p| p.is_dir())
+                        .map_or_else(|| self.preset_dir(), Path::to_owned)
+                };
+                (start, None)
+            }
+            FilePurpose::OpenPreset | FilePurpose::AddModel => (self.preset_dir(), None),
+        };
+        let ctx = ctx.clone();
+        self.dialogs
+            .open(purpose, &start, name, move || ctx.request_repaint());
+    }
+
+    /// A dialog returned a path.
+    pub(super) fn chosen(&mut self, choice: FileChoice, ctx: &egui::Context) {
+        let FileChoice { purpose, path } = choice;
+        match purpose {
+            FilePurpose::OpenPreset => self.apply(Command::OpenPath(path), ctx),
+            FilePurpose::SavePreset => {
+                if self.save_to(&path)
+                    && let Some(replace) = self.after_save.take()
+                {
+                    self.replace(replace, ctx);
+                }
+            }
+            FilePurpose::AddModel if self.batch.is_none() => {
+                self.session.preset.models.push(ModelSpec {
+                    source: ModelSource::File(path),
+                    ..ModelSpec::default()
+                });
+            }
+            FilePurpose::OutputFolder if self.batch.is_none() => {
+                self.session.out_dir = path.display().to_string();
+            }
+            _ => {}
+        }
+    }
+
+    /// Write the preset; false (with a notice) when it could not be written.
+    pub(super) fn save_to(&mut self, path: &Path) -> bool {
+        let text = format!(
+            "// swarmshot preset (RON), written by the swarmshot app\n{}\n",
+            self.session.preset.to_ron()
+        );
+        match std::fs::write(path, text) {
+            Ok(()) => {
+                self.session.preset_path = Some(path.to_owned());
+                self.session.saved = Some(self.session.preset.clone());
+                true
+            }
+            Err(e) => {
+                self.notices
+                    .push(format!("cannot save preset {}: {e}", path.display()));
+                false
+            }
+        }
+    }
+
+    /// `swarmshot merge` on a background thread: shard folders into the output folder.
+    pub(super) fn start_merge(&mut self, ctx: &egui::Context) {
+        let shards = self.merge_shard_dirs();
+        let out = PathBuf::from(self.session.out_dir.trim());
+        let overwrite = self.session.overwrite;
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let wake = ctx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("swarmshot merge".into())
+            .spawn(move || {
+                let result = crate::write::merge::merge(&out, &shards, overwrite, false)
+                    .map(|r| {
+                        format!(
+                            "Merged {} shards into {}: {} frames ({} train / {} val / {} test), {} boxes",
+                            r.shards,
+                            out.display(),
+                            group_digits(r.frames),
+                            r.stats.frames_per_split[0],
+                            r.stats.frames_per_split[1],
+                            r.stats.frames_per_split[2],
+                            r.stats.boxes
+                        )
+                    })
+                    .map_err(|e| format!("{e:#}"));
+                let _ = tx.send(result);
+                wake.request_repaint();
+            });
+        match spawned {
+            Ok(_) => {
+                self.merge = Some(rx);
+                self.merge_outcome = None;
+            }
+            Err(e) => self
+                .notices
+                .push(format!("cannot start the merge thread: {e}")),
+        }
+    }
+
+    /// A merge has finished; its report line or error.
+    pub fn merge_outcome(&self) -> Option<&Result<String, String>> {
+        self.merge_outcome.as_ref()
+    }
+
+    pub(super) fn generate(&mut self, ctx: &egui::Context) {
+        if !self.errors.is_empty() {
+            self.notices.push(format!(
+                "cannot generate: the preset has {}, shown in the panels",
+                problems::count_problems(self.errors.len())
+            ));
+            return;
+        }
+        let Some((gpu, _)) = &self.gpu else {
+            self.notices.push("cannot generate: no wgpu device".into());
+            return;
+        };
+        if self.session.out_dir.trim().is_empty() {
+            self.notices
+                .push("cannot generate: choose an output folder (Output panel)".into());
+            return;
+        }
+        // The snapshot: later edits cannot reach the running batch.
+        let preset = (*self.resolved).clone();
+        let options = self.batch_options();
+        let wake_ctx = ctx.clone();
+        match BatchRun::start(preset, options, gpu.clone(), move || {
+            wake_ctx.request_repaint()
+        }) {
+            Ok(run) => {
+                self.batch = Some(run);
+                self.batch_outcome = None;
+                self.batch_inputs = Some(self.batch_inputs_now());
+            }
+            Err(e) => self
+                .notices
+                .push(format!("cannot start the batch thread: {e}")),
+        }
+    }
+}
+
+/// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
+pub(super) type BatchInputs = (
+    u64,
+    String,
+    bool,
+    Option<u64>,
+    Option<crate::write::shard::Shard>,
+    Option<u64>,
+);
+
+impl SwarmshotApp {
+    pub(super) fn batch_inputs_now(&self) -> BatchInputs {
+        (
+            self.generation,
+            self.session.out_dir.trim().to_owned(),
+            self.session.overwrite,
+            self.batch_limit(),
+            self.batch_shard(),
+            self.batch_every(),
+        )
+    }
+
+    /// A "Batch failed" message speaks of the inputs it failed on: once the
+    /// preset, the folder, Overwrite or the trial run changed it is gone.
+    pub(super) fn forget_stale_failure(&mut self) {
+        if matches!(self.batch_outcome, Some(BatchOutcome::Failed(_)))
+            && self.batch_inputs.as_ref() != Some(&self.batch_inputs_now())
+        {
+            self.batch_outcome = None;
+        }
+    }
+
+    /// Closing the window with unsaved changes asks first.
+    pub(super) fn close_requested(&mut self, ctx: &egui::Context) {
+        if ctx.input(|i| i.viewport().close_requested())
+            && !self.allow_close
+            && self.session.is_dirty()
+        {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.prompt = Some(Replace::Close);
+        }
+    }
+
+    /// Shortcuts, unless a dialog or the prompt has the keyboard.
+    pub(super) fn shortcut_commands(&self, ctx: &egui::Context) -> Vec<Command> {
+        if self.prompt.is_some() || self.dialogs.is_open() {
+            return Vec::new();
+        }
+        let focused = ctx.memory(|m| m.focused());
+        let frame_keys = focused.is_none() || focused == self.frame_slider;
+        keys::shortcuts(ctx, ctx.text_edit_focused(), frame_keys)
+    }
+}

@@ -1,0 +1,136 @@
+//! Starting the app: reading a preset for editing, the example presets, and
+//! opening the window (or saying in one line why it cannot open).
+
+use std::path::{Path, PathBuf};
+
+use super::{APP_NAME, StartOptions, SwarmshotApp};
+use crate::preset::{PRESET_VERSION, Preset};
+
+/// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
+pub fn read_preset(path: &Path) -> Result<Preset, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => format!("preset {} does not exist", path.display()),
+        std::io::ErrorKind::PermissionDenied => {
+            format!(
+                "preset {}: permission denied (cannot read it)",
+                path.display()
+            )
+        }
+        std::io::ErrorKind::IsADirectory => {
+            format!("preset {} is a folder, not a preset file", path.display())
+        }
+        _ => format!("cannot read preset {}: {e}", path.display()),
+    })?;
+    let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
+    if preset.version > PRESET_VERSION {
+        return Err(format!(
+            "preset {}: version {} is newer than this swarmshot understands ({PRESET_VERSION})",
+            path.display(),
+            preset.version
+        ));
+    }
+    Ok(preset)
+}
+
+/// The example presets shipped in the repository's presets/ folder.
+pub fn example_presets() -> Vec<PathBuf> {
+    let dirs = [
+        PathBuf::from("presets"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("presets"),
+    ];
+    let Some(dir) = dirs.iter().find(|d| d.is_dir()) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+                .collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    files
+}
+
+/// `swarmshot` and `swarmshot gui`: open the window, or print one line saying
+/// why not and exit with status 1 (no winit internals, no backtrace).
+///
+/// Without a display a bad preset path is reported first: it is the error the
+/// user can fix from where they are.
+pub fn run_or_exit(preset: Option<PathBuf>) {
+    let fail = |message: String| -> ! {
+        eprintln!("swarmshot: {message}");
+        std::process::exit(1)
+    };
+    if let Some(why) = no_display() {
+        if let Some(path) = &preset
+            && let Err(e) = read_preset(path)
+        {
+            fail(e);
+        }
+        fail(why);
+    }
+    if let Err(e) = run(preset) {
+        fail(format!("{e:#}"));
+    }
+}
+
+/// Why no window can open here, when that is known without trying.
+fn no_display() -> Option<String> {
+    let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+    (cfg!(all(unix, not(target_os = "macos"))) && !set("DISPLAY") && !set("WAYLAND_DISPLAY"))
+        .then(|| {
+            "no display: the desktop app needs an X11 or Wayland session (DISPLAY and WAYLAND_DISPLAY are unset); \
+             the command line works without one (swarmshot --help)"
+                .to_string()
+        })
+}
+
+/// winit's errors name its own source file ("os error at /…/winit-…/src/…rs:42: …"):
+/// keep only what it says.
+fn window_error(error: &eframe::Error) -> String {
+    let text = error.to_string();
+    let short = match text.find("os error at ") {
+        Some(start) => {
+            let rest = &text[start + "os error at ".len()..];
+            // Skip "PATH:LINE: " to the message.
+            let message = rest
+                .split_once(".rs:")
+                .and_then(|(_, after)| after.split_once(": "))
+                .map_or(rest, |(_, message)| message);
+            format!("{}{message}", &text[..start])
+        }
+        None => text,
+    };
+    let display = std::env::var("DISPLAY")
+        .or_else(|_| std::env::var("WAYLAND_DISPLAY"))
+        .unwrap_or_default();
+    format!("cannot open the swarmshot window on display \"{display}\": {short}")
+}
+
+/// Open the app window (blocks until it is closed).
+pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title(APP_NAME)
+            .with_inner_size([1400.0, 880.0])
+            .with_min_inner_size([900.0, 560.0]),
+        renderer: eframe::Renderer::Wgpu,
+        ..Default::default()
+    };
+    eframe::run_native(
+        APP_NAME,
+        options,
+        Box::new(move |cc| {
+            Ok(Box::new(SwarmshotApp::new(
+                cc,
+                StartOptions {
+                    preset,
+                    restore_session: true,
+                },
+            )))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!(window_error(&e)))
+}

@@ -1,0 +1,392 @@
+//! The window's layout: the menu bar, the status bar, the parameter sections
+//! on the left and the Summary, Problems and Batch panels on the right.
+
+use egui::{RichText, Ui};
+
+use super::panels::{self, Form, error_label, group_digits};
+use super::{
+    APP_NAME, Command, Session, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
+    example_presets, problems, realism_panels,
+};
+
+impl SwarmshotApp {
+    pub(super) fn menu_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        let locked = self.batch.is_some();
+        ui.horizontal(|ui| {
+            ui.strong(APP_NAME);
+            ui.separator();
+            ui.add_enabled_ui(!locked, |ui| {
+                if ui
+                    .button("New")
+                    .on_hover_text("Start from the default preset (Ctrl+N)")
+                    .clicked()
+                {
+                    commands.push(Command::New);
+                }
+                if ui
+                    .button("Open…")
+                    .on_hover_text("Open a .ron preset (Ctrl+O)")
+                    .clicked()
+                {
+                    commands.push(Command::Open);
+                }
+                ui.menu_button("Examples", |ui| {
+                    let examples = example_presets();
+                    if examples.is_empty() {
+                        ui.label("no presets/ folder found");
+                    }
+                    for path in examples {
+                        let name = path
+                            .file_stem()
+                            .map(|s| s.to_string_lossy().into_owned())
+                            .unwrap_or_default();
+                        if ui
+                            .button(name)
+                            .on_hover_text(format!(
+                                "Open a copy of {}; Save asks where to keep it",
+                                path.display()
+                            ))
+                            .clicked()
+                        {
+                            commands.push(Command::OpenExample(path));
+                        }
+                    }
+                })
+                .response
+                .on_hover_text("Open a copy of one of the example presets in presets/");
+            });
+            if ui
+                .button("Save")
+                .on_hover_text("Save the preset to its file (Ctrl+S)")
+                .clicked()
+            {
+                commands.push(Command::Save);
+            }
+            if ui
+                .button("Save As…")
+                .on_hover_text("Save the preset to a new file (Ctrl+Shift+S)")
+                .clicked()
+            {
+                commands.push(Command::SaveAs);
+            }
+            ui.add_enabled_ui(!locked, |ui| {
+                let preset = &self.session.preset;
+                if ui
+                    .add_enabled(self.history.can_undo(preset), egui::Button::new("Undo"))
+                    .on_hover_text("Undo the last preset edit (Ctrl+Z)")
+                    .clicked()
+                {
+                    commands.push(Command::Undo);
+                }
+                if ui
+                    .add_enabled(self.history.can_redo(preset), egui::Button::new("Redo"))
+                    .on_hover_text("Redo what Undo took back (Ctrl+Shift+Z)")
+                    .clicked()
+                {
+                    commands.push(Command::Redo);
+                }
+            });
+            ui.separator();
+            ui.toggle_value(&mut self.session.show_parameters, "Parameters")
+                .on_hover_text("Show or hide the parameter panel");
+            ui.toggle_value(&mut self.session.show_summary, "Summary")
+                .on_hover_text("Show or hide the Summary and Batch panel");
+            ui.toggle_value(&mut self.gap.open, "Domain gap")
+                .on_hover_text("Compare real frames with this preset's frames (swarmshot gap)");
+            ui.separator();
+            let (file, full) = match &self.session.preset_path {
+                Some(p) => (
+                    p.file_name().map_or_else(
+                        || p.display().to_string(),
+                        |f| f.to_string_lossy().into_owned(),
+                    ),
+                    p.display().to_string(),
+                ),
+                None => ("not saved".into(), "this preset has no file yet".into()),
+            };
+            ui.label(format!("{} ({file})", self.session.preset.name))
+                .on_hover_text(full);
+            if self.session.is_dirty() {
+                ui.label(RichText::new("• unsaved changes").color(ui.visuals().warn_fg_color));
+            }
+        });
+        let mut dismiss = None;
+        for (i, notice) in self.notices.iter().enumerate() {
+            ui.horizontal(|ui| {
+                error_label(ui, notice);
+                if ui
+                    .small_button("Dismiss")
+                    .on_hover_text("Hide this message")
+                    .clicked()
+                {
+                    dismiss = Some(i);
+                }
+            });
+        }
+        if let Some(i) = dismiss {
+            self.notices.remove(i);
+        }
+    }
+
+    pub(super) fn parameters_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        let errors = self.errors.clone();
+        let scroll_to = self.scroll_to.clone();
+        let open_section = scroll_to
+            .as_deref()
+            .and_then(crate::preset::fields::section_of);
+        let mut form = Form::new(&errors, scroll_to.as_deref());
+        let load_error = self
+            .preview_error
+            .as_ref()
+            .filter(|e| e.models)
+            .map(|e| e.message.clone());
+        panels::general_ui(ui, &mut self.session.preset, &mut form);
+        sections_ui(
+            ui,
+            &mut self.session,
+            &mut form,
+            open_section,
+            load_error.as_deref(),
+            commands,
+        );
+        form.rest(ui);
+        let wanted = self.scroll_to.as_deref();
+        if form.scrolled() || !errors.iter().any(|e| Some(e.field.as_str()) == wanted) {
+            self.scroll_to = None;
+        }
+    }
+
+    pub(super) fn summary_ui(&mut self, ui: &mut Ui) {
+        ui.heading("Summary");
+        let frames = self.resolved.frame_count();
+        ui.label(format!("Frames: {}", group_digits(frames)));
+        if !self.errors.is_empty() {
+            ui.weak("paused until the problems below are fixed");
+            return;
+        }
+        match &self.summary {
+            None => {
+                ui.weak("estimating…");
+            }
+            Some(Err(e)) => {
+                error_label(ui, e);
+            }
+            Some(Ok(s)) => {
+                let drones = if s.drones_min == s.drones_max {
+                    format!("{}", s.drones_min)
+                } else {
+                    format!(
+                        "{}–{} (mean {:.1})",
+                        s.drones_min,
+                        s.drones_max,
+                        s.drones_mean()
+                    )
+                };
+                ui.label(format!("Drones per frame: {drones}"));
+                let [small, medium, large] = s.size_shares().map(|x| x * 100.0);
+                ui.label(format!(
+                    "Boxes per frame: {:.1}",
+                    s.stats.boxes as f64 / s.sampled_frames.max(1) as f64
+                ));
+                confuser_panel::summary_classes_ui(ui, &s.stats, s.sampled_frames);
+                ui.label(format!(
+                    "Small {small:.0}% · medium {medium:.0}% · large {large:.0}%"
+                ))
+                .on_hover_text("Share of boxes with √(w·h) < 32 px, 32–96 px and > 96 px");
+                ui.weak(format!(
+                    "estimated from the geometry of {} sampled frames",
+                    s.sampled_frames
+                ));
+                if s.generation != self.generation {
+                    ui.weak("updating…");
+                }
+            }
+        }
+    }
+
+    pub(super) fn status_ui(&self, ui: &mut Ui) {
+        ui.horizontal(|ui| {
+            match &self.preview {
+                Some(p) => {
+                    let [w, h] = p.key.size_px;
+                    ui.label(format!("preview {:.1} ms at {w}×{h}", p.render_ms))
+                        .on_hover_text("Last preview render: frame build + encode + GPU");
+                    if let (Some(last), Some((median, n))) =
+                        (self.latency.last_ms(), self.latency.median_ms())
+                    {
+                        ui.label(format!("on screen {last:.0} ms (median {median:.0} ms of {n})"))
+                            .on_hover_text(
+                                "From the change (an edit taken, another frame, a resize) to its picture on screen: render, hand-over and the window's own paint",
+                            );
+                    }
+                }
+                None => {
+                    ui.label("no preview yet");
+                }
+            }
+            if !self.preview_is_current() && self.errors.is_empty() {
+                // Words, not a spinner: a spinner repaints the whole window every
+                // pass, which on a CPU renderer slows the render it waits for.
+                ui.weak("rendering…");
+            }
+            if let Some((ctx, _)) = &self.gpu {
+                ui.weak(ctx.describe());
+            }
+            if !self.errors.is_empty() {
+                ui.label(
+                    RichText::new(problems::count_problems(self.errors.len()))
+                        .color(ui.visuals().error_fg_color),
+                );
+            }
+        });
+    }
+
+    /// The panels: menu, status, the collapsible parameters and summary, the preview.
+    pub(super) fn panels_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
+        let locked = self.batch.is_some();
+        egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui, commands));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui));
+        let mut show_parameters = self.session.show_parameters;
+        egui::Panel::left("parameters")
+            .resizable(true)
+            .default_size(430.0)
+            .show_collapsible(ui, &mut show_parameters, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, commands));
+                });
+            });
+        self.session.show_parameters = show_parameters;
+        let mut show_summary = self.session.show_summary;
+        egui::Panel::right("summary")
+            .resizable(true)
+            .default_size(250.0)
+            .show_collapsible(ui, &mut show_summary, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    self.summary_ui(ui);
+                    ui.separator();
+                    if let Some(field) = problems::problems_ui(ui, &self.errors) {
+                        commands.push(Command::ShowProblem(field));
+                    }
+                    if !self.errors.is_empty() {
+                        ui.separator();
+                    }
+                    self.batch_ui(ui, commands);
+                });
+            });
+        self.session.show_summary = show_summary;
+        egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
+    }
+}
+
+/// The collapsible parameter sections, in the order of the paper's panels
+/// and then the realism stages; `open_section` is opened (a Problems link).
+fn sections_ui(
+    ui: &mut Ui,
+    s: &mut Session,
+    form: &mut Form<'_>,
+    open_section: Option<&str>,
+    load_error: Option<&str>,
+    commands: &mut Vec<Command>,
+) {
+    let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
+        // A Problems link opens the section that holds its field.
+        let open = (open_section == Some(title)).then_some(true);
+        // The realism sections start collapsed (most presets leave them off).
+        let default_open = !problems::COLLAPSED_SECTIONS.contains(&title);
+        egui::CollapsingHeader::new(title)
+            .default_open(default_open)
+            .open(open)
+            .show(ui, |ui| add(ui))
+            .header_response
+            .on_hover_text(tip);
+    };
+    section(
+        ui,
+        "Models",
+        "The UAV models instantiated in every frame, with their real size",
+        &mut |ui| {
+            panels::models_ui(ui, &mut s.preset, form, load_error, commands);
+        },
+    );
+    section(
+        ui,
+        "Placement",
+        "How drones are placed in the observation volume",
+        &mut |ui| panels::placement_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Attitude",
+        "Random roll/pitch/yaw of each drone",
+        &mut |ui| panels::attitude_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Camera",
+        "Camera translation sweeps; the camera always faces the volume's centre",
+        &mut |ui| {
+            panels::camera_ui(ui, &mut s.preset, form);
+            realism_panels::observer_ui(ui, &mut s.preset, form);
+        },
+    );
+    section(
+        ui,
+        "Scene rotation",
+        "Rotation sweeps of the whole swarm",
+        &mut |ui| panels::plane_ui(ui, &mut s.preset, form),
+    );
+    section(ui, "Skybox", "The background environment", &mut |ui| {
+        panels::skybox_ui(ui, &mut s.preset, form)
+    });
+    section(
+        ui,
+        "Camera model",
+        "Optics, sensor noise and image processing between the render and the file",
+        &mut |ui| realism_panels::camera_model_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Atmosphere",
+        "Haze with range on every object",
+        &mut |ui| realism_panels::atmosphere_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Drone appearance",
+        "Drone materials drawn per drone: colour, roughness, metalness, lights",
+        &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Clutter",
+        "Tree lines, bare trees, poles and wires, buildings that hide the drones behind them",
+        &mut |ui| clutter_panel::clutter_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Confusers",
+        "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
+        &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Backplates",
+        "Photographic backgrounds: a folder of your own frames of sky and horizon",
+        &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, form),
+    );
+    section(
+        ui,
+        "Output",
+        "Resolution, file formats, split and folder",
+        &mut |ui| {
+            panels::output_ui(
+                ui,
+                &mut s.preset,
+                form,
+                &mut s.out_dir,
+                &mut s.overwrite,
+                commands,
+            );
+        },
+    );
+}

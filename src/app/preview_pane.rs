@@ -1,0 +1,357 @@
+//! The preview pane: the frame slider with play controls, the sweep line,
+//! the view toggles, the picture with its boxes or inspect overlay, and the
+//! message shown over it when the preview is paused or failed.
+
+use egui::{Color32, Pos2, Rect, RichText, Sense, Stroke, Ui, Vec2};
+use glam::DVec3;
+
+use super::panels::{format_to_step, group_digits};
+use super::preview::{Orbit, PreviewFrame};
+use super::{SwarmshotApp, problems};
+use crate::preset::Preset;
+
+impl SwarmshotApp {
+    /// The frame bar, the sweep line, the view toggles, then the picture.
+    pub(super) fn preview_ui(&mut self, ui: &mut Ui) {
+        self.frame_bar_ui(ui);
+        let sweep_line = self
+            .preview
+            .as_ref()
+            .filter(|p| p.key.frame == self.session.frame && p.key.generation == self.generation)
+            .map(|p| sweep_line(p, &self.resolved));
+        ui.label(sweep_line.unwrap_or_else(|| " ".into()));
+        self.view_toggles_ui(ui);
+        if let Some(rect) = self.picture_ui(ui) {
+            self.paused_message_ui(ui, rect);
+        }
+    }
+
+    /// Play controls, "frame N of M", the sequence step and the frame slider.
+    fn frame_bar_ui(&mut self, ui: &mut Ui) {
+        let frames = self.resolved.frame_count();
+        ui.horizontal(|ui| {
+            if frames > 1 {
+                self.play_controls_ui(ui, frames);
+            }
+            ui.label(format!(
+                "frame {} of {}",
+                group_digits(self.session.frame + 1),
+                group_digits(frames)
+            ));
+            // Sequence mode: scrubbing moves the swarm; say where in its sequence the frame is.
+            if let Some(seq) = crate::scene::SequenceFrame::of(&self.resolved, self.session.frame) {
+                ui.label(format!(
+                    "· sequence {} · step {} of {}",
+                    group_digits(seq.id + 1),
+                    seq.step,
+                    seq.steps
+                ))
+                .on_hover_text("Each sweep point is a sequence of T + 1 frames; t = 0..=T");
+            }
+            if frames > 1 {
+                let max = frames - 1;
+                ui.spacing_mut().slider_width = (ui.available_width() - 40.0).max(100.0);
+                let slider = ui
+                    .add_enabled(
+                        self.errors.is_empty(),
+                        egui::Slider::new(&mut self.session.frame, 0..=max).show_value(false),
+                    )
+                    .accessible_name("Frame")
+                    .on_hover_text(
+                        "Scrub through the sweep: every frame the batch will make (Left and Right arrow keys, Home, End)",
+                    );
+                self.frame_slider = Some(slider.id);
+            }
+        });
+    }
+
+    /// Boxes (with their legend), Through the camera, Inspect and its Reset view.
+    fn view_toggles_ui(&mut self, ui: &mut Ui) {
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut self.session.show_boxes, "Boxes")
+                .on_hover_text("Draw the label boxes this frame gets");
+            if self.session.show_boxes && !self.session.inspect {
+                box_legend_ui(ui);
+            }
+            if !self.session.inspect {
+                ui.add_enabled(
+                    self.resolved.camera_model.is_some(),
+                    egui::Checkbox::new(&mut self.session.through_camera, "Through the camera"),
+                )
+                .on_hover_text(
+                    "Show the frame through the camera model (noise, blur, JPEG, …) as the batch writes it, scaled to the pane; off: the clean render",
+                )
+                .on_disabled_hover_text("The preset has no camera model (Camera model section)");
+            }
+            ui.checkbox(&mut self.session.inspect, "Inspect")
+                .on_hover_text(
+                    "Orbit around the scene: volume, drones and the sweep's camera positions",
+                );
+            if self.session.inspect {
+                if ui
+                    .button("Reset view")
+                    .on_hover_text("Back to the default orbit")
+                    .clicked()
+                {
+                    self.session.orbit = Orbit::default();
+                }
+                ui.weak("drag to orbit, scroll to zoom");
+            }
+        });
+        self.masks_toggle_ui(ui);
+    }
+
+    /// The picture scaled to the pane with its overlay, and the inspect orbit's
+    /// drag and zoom; where it was drawn (None: the pane is too small).
+    fn picture_ui(&mut self, ui: &mut Ui) -> Option<Rect> {
+        let (out_w, out_h) = self.resolved.image_size();
+        let aspect = out_w.max(1) as f32 / out_h.max(1) as f32;
+        let avail = ui.available_size();
+        let mut size = Vec2::new(avail.x, avail.x / aspect);
+        if size.y > avail.y {
+            size = Vec2::new(avail.y * aspect, avail.y);
+        }
+        let ppp = ui.ctx().pixels_per_point();
+        let scale = ((size.x * ppp) / out_w.max(1) as f32).min(1.0);
+        self.preview_size_px = [
+            ((out_w as f32 * scale).round() as u32).max(1),
+            ((out_h as f32 * scale).round() as u32).max(1),
+        ];
+        if size.x < 8.0 || size.y < 8.0 {
+            self.preview_size_px = [0, 0];
+            return None;
+        }
+        let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
+        self.preview_rect = Some(rect);
+        let painter = ui.painter_at(rect);
+        painter.rect_filled(rect, 0.0, Color32::from_gray(20));
+        let masked = self.paint_masks(ui.ctx(), &painter, rect);
+        if let (Some(frame), Some(texture)) = (&self.preview, self.preview_texture) {
+            let tint = if self.errors.is_empty() {
+                Color32::WHITE
+            } else {
+                Color32::from_gray(90)
+            };
+            if !masked {
+                painter.image(
+                    texture,
+                    rect,
+                    Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+                    tint,
+                );
+            }
+            match &frame.inspect {
+                None if self.session.show_boxes => draw_boxes(&painter, rect, frame, out_w),
+                None => {}
+                Some(_) => draw_inspect(&painter, rect, frame),
+            }
+        }
+        if self.session.inspect {
+            if response.dragged() {
+                let d = response.drag_delta();
+                let orbit = &mut self.session.orbit;
+                orbit.yaw_deg -= f64::from(d.x) * 0.4;
+                orbit.pitch_deg = (orbit.pitch_deg + f64::from(d.y) * 0.4).clamp(-89.0, 89.0);
+            }
+            if response.hovered() {
+                let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+                if scroll != 0.0 {
+                    self.session.orbit.zoom = (self.session.orbit.zoom
+                        * (-f64::from(scroll) * 0.002).exp())
+                    .clamp(0.02, 10.0);
+                }
+            }
+        }
+        Some(rect)
+    }
+
+    /// Why the picture is paused or failed, over the picture.
+    fn paused_message_ui(&self, ui: &mut Ui, rect: Rect) {
+        let message = if !self.errors.is_empty() {
+            let first = &self.errors[0];
+            Some(format!(
+                "Preview paused: {}, first {} ({}). See Problems on the right.",
+                problems::count_problems(self.errors.len()),
+                crate::preset::fields::label_of(&first.field),
+                first.message
+            ))
+        } else {
+            self.preview_error
+                .as_ref()
+                .map(|e| format!("Preview failed: {}", e.message))
+        };
+        if let Some(message) = message {
+            let colour = ui.visuals().error_fg_color;
+            let area = Rect::from_center_size(rect.center(), Vec2::new(rect.width() * 0.9, 60.0));
+            ui.put(
+                area,
+                egui::Label::new(
+                    RichText::new(message)
+                        .size(16.0)
+                        .color(colour)
+                        .background_color(Color32::from_black_alpha(160)),
+                ),
+            );
+        }
+    }
+    /// Play / Pause and Loop, left of the frame counter.
+    pub(super) fn play_controls_ui(&mut self, ui: &mut Ui, frames: u64) {
+        let speed = match self.play_rate_hz() {
+            Some(rate) => format!(
+                "at the sequence's {rate} frames/s; frames are skipped when the preview is slower"
+            ),
+            None => "as fast as the preview renders them".into(),
+        };
+        let enabled = self.errors.is_empty();
+        if self.playback.is_playing() {
+            if ui
+                .button("Pause")
+                .on_hover_text("Stop playing at this frame")
+                .clicked()
+            {
+                self.playback.pause();
+            }
+        } else if ui
+            .add_enabled(enabled, egui::Button::new("Play"))
+            .on_hover_text(format!("Play the frames {speed}"))
+            .clicked()
+        {
+            self.session.frame = self.playback.play(self.session.frame, frames);
+        }
+        ui.checkbox(&mut self.playback.looping, "Loop")
+            .on_hover_text("Start again from the first frame after the last");
+    }
+}
+
+/// "CameraX 0 · … · CameraZ 1.2 · … · 14 drones, 14 boxes", values to their step's precision.
+fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
+    let s = &frame.scene.sweep;
+    let (c, p) = (&preset.camera, &preset.plane);
+    format!(
+        "CameraX {} · CameraY {} · CameraZ {} · PlaneRX {}° · PlaneRY {}° · PlaneRZ {}° · repeat {} · {} split · {} drones, {} boxes",
+        format_to_step(s.CameraX, &c.x),
+        format_to_step(s.CameraY, &c.y),
+        format_to_step(s.CameraZ, &c.z),
+        format_to_step(s.PlaneRX, &p.rx),
+        format_to_step(s.PlaneRY, &p.ry),
+        format_to_step(s.PlaneRZ, &p.rz),
+        s.repeat,
+        frame.scene.split.as_str(),
+        frame.scene.drones.len(),
+        frame.labels.iter().filter(|l| l.is_kept()).count()
+    )
+}
+
+/// Training boxes are red and COCO crowd regions amber, as [`draw_boxes`] draws them.
+const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
+const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
+/// Unlabelled hard negatives (confusers without a class): their own colour.
+const BOX_NEGATIVE: Color32 = Color32::from_rgb(60, 200, 255);
+
+fn box_legend_ui(ui: &mut Ui) {
+    // Painted swatches: the default fonts have no "■".
+    let swatch = |ui: &mut Ui, colour: Color32, tip: &str| {
+        let (rect, response) = ui.allocate_exact_size(Vec2::splat(10.0), Sense::hover());
+        ui.painter().rect_stroke(
+            rect,
+            0.0,
+            Stroke::new(2.0, colour),
+            egui::StrokeKind::Inside,
+        );
+        response.on_hover_text(tip);
+    };
+    swatch(ui, BOX_KEPT, "A box written to the labels");
+    ui.weak("label box");
+    swatch(
+        ui,
+        BOX_CROWD,
+        "A filtered drone kept as a COCO iscrowd region (Output panel, Filtered drones: COCO crowd); trainers ignore it",
+    );
+    ui.weak("crowd region (ignored)");
+    swatch(
+        ui,
+        BOX_NEGATIVE,
+        "An unlabelled hard negative (Confusers panel): in the manifest only, never in YOLO/COCO",
+    );
+    ui.weak("hard negative");
+}
+
+/// The label boxes, from output pixels to the pane.
+fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: u32) {
+    let scale = rect.width() / out_w.max(1) as f32;
+    let kept = Stroke::new(1.5, BOX_KEPT);
+    let crowd = Stroke::new(1.0, BOX_CROWD);
+    let negative = Stroke::new(1.0, BOX_NEGATIVE);
+    for label in &frame.labels {
+        // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
+        let stroke = match label.status {
+            crate::annotate::LabelStatus::Kept => kept,
+            crate::annotate::LabelStatus::Crowd => crowd,
+            crate::annotate::LabelStatus::Filtered => continue,
+            crate::annotate::LabelStatus::Negative => negative,
+        };
+        let b = &label.bbox;
+        let r = Rect::from_min_max(
+            rect.min + Vec2::new(b.x0 as f32, b.y0 as f32) * scale,
+            rect.min + Vec2::new(b.x1 as f32, b.y1 as f32) * scale,
+        );
+        painter.rect_stroke(r.expand(1.0), 0.0, stroke, egui::StrokeKind::Outside);
+    }
+}
+
+/// The inspect view's overlay: volume box, sweep camera positions, this frame's camera.
+fn draw_inspect(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame) {
+    let Some(geometry) = &frame.inspect else {
+        return;
+    };
+    let camera = &frame.camera;
+    let scale = rect.width() / camera.width.max(1) as f32;
+    let to_screen = |p: DVec3| -> Option<Pos2> {
+        let pc = camera.camera_from_world_point(p);
+        if pc.z < camera.near_m {
+            return None;
+        }
+        let uv = camera.project_camera_point(pc)?;
+        Some(rect.min + Vec2::new(uv.x as f32, uv.y as f32) * scale)
+    };
+    let volume = Stroke::new(1.0, Color32::from_rgb(230, 230, 230));
+    let corners = &geometry.volume_corners;
+    for i in 0..8 {
+        for bit in [1, 2, 4] {
+            let j = i | bit;
+            if j != i
+                && let (Some(a), Some(b)) = (to_screen(corners[i]), to_screen(corners[j]))
+            {
+                painter.line_segment([a, b], volume);
+            }
+        }
+    }
+    for p in &geometry.sweep_cameras {
+        if let Some(s) = to_screen(*p) {
+            painter.circle_filled(s, 2.5, Color32::from_rgb(255, 210, 60));
+        }
+    }
+    if let (Some(cam), Some(centre)) = (to_screen(geometry.frame_camera), to_screen(DVec3::ZERO)) {
+        painter.line_segment(
+            [cam, centre],
+            Stroke::new(1.0, Color32::from_rgb(255, 80, 80)),
+        );
+        painter.circle_filled(cam, 5.0, Color32::from_rgb(255, 80, 80));
+    }
+    let legend = format!(
+        "white: observation volume · yellow: {} {} · red: this frame's camera",
+        group_digits(geometry.sweep_cameras_total),
+        if geometry.sweep_cameras_total == 1 {
+            "sweep camera position"
+        } else {
+            "sweep camera positions"
+        }
+    );
+    painter.text(
+        rect.left_bottom() + Vec2::new(6.0, -6.0),
+        egui::Align2::LEFT_BOTTOM,
+        legend,
+        egui::FontId::proportional(12.0),
+        Color32::WHITE,
+    );
+}

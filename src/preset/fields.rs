@@ -1,0 +1,380 @@
+//! One table of the preset's fields (issue 23): for each field path, the label a
+//! user sees beside its widget, its tooltip, its unit and the parameter section
+//! that holds it. Validation messages name field paths
+//! ([`super::FieldError::field`]); the app's panels take their labels, tooltips
+//! and units from here and its Problems list names a message's field with the
+//! same label, so a field's words live in one place.
+//!
+//! Paths are written as validation writes them: dotted struct fields, `[]` for
+//! a list item (`models[].size_m`; looked up as `models[2].size_m`, and `{n}` in
+//! the label becomes the item's number from 1). A path that is not in the table
+//! takes its parent's label and its own last part: a sweep's `camera.z.step` is
+//! "CameraZ step", `placement.volume.size_m.y` "Volume size y".
+
+/// One field of a preset as the app shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Field {
+    /// The field path, as validation messages name it.
+    pub path: &'static str,
+    /// The label beside its widget (also its accessible name).
+    pub label: &'static str,
+    pub tooltip: &'static str,
+    /// Shown after the number (`"°"`, `" m"`, `" px"`; `""` for none).
+    pub unit: &'static str,
+    /// The parameter section holding its widget (`None`: the general fields above them).
+    pub section: Option<&'static str>,
+}
+
+/// The parameter sections, as titled in the app's left panel, in order.
+pub const SECTIONS: [&str; 13] = [
+    MODELS,
+    PLACEMENT,
+    ATTITUDE,
+    CAMERA,
+    ROTATION,
+    SKYBOX,
+    CAMERA_MODEL,
+    ATMOSPHERE,
+    APPEARANCE,
+    CLUTTER,
+    CONFUSERS,
+    BACKPLATES,
+    OUTPUT,
+];
+
+const MODELS: &str = "Models";
+const PLACEMENT: &str = "Placement";
+const ATTITUDE: &str = "Attitude";
+const CAMERA: &str = "Camera";
+const ROTATION: &str = "Scene rotation";
+const SKYBOX: &str = "Skybox";
+const CAMERA_MODEL: &str = "Camera model";
+const ATMOSPHERE: &str = "Atmosphere";
+const APPEARANCE: &str = "Drone appearance";
+const CLUTTER: &str = "Clutter";
+const CONFUSERS: &str = "Confusers";
+const BACKPLATES: &str = "Backplates";
+const OUTPUT: &str = "Output";
+
+/// The section of every path under a top-level field.
+const SECTION_OF_HEAD: [(&str, &str); 16] = [
+    ("models", MODELS),
+    ("placement", PLACEMENT),
+    ("sequence", PLACEMENT),
+    ("attitude", ATTITUDE),
+    ("camera", CAMERA),
+    ("plane", ROTATION),
+    ("sky", SKYBOX),
+    ("camera_model", CAMERA_MODEL),
+    ("atmosphere", ATMOSPHERE),
+    ("appearance", APPEARANCE),
+    ("clutter", CLUTTER),
+    ("confusers", CONFUSERS),
+    ("backplate", BACKPLATES),
+    ("render", OUTPUT),
+    ("output", OUTPUT),
+    ("labels", OUTPUT),
+];
+
+/// `f(path, label, unit, tooltip)`: the section follows from the path's head.
+const fn f(
+    path: &'static str,
+    label: &'static str,
+    unit: &'static str,
+    tooltip: &'static str,
+) -> Field {
+    Field {
+        path,
+        label,
+        tooltip,
+        unit,
+        section: section_of_head(path),
+    }
+}
+
+/// The table (see the module docs for how paths are written).
+#[rustfmt::skip]
+pub const FIELDS: &[Field] = &[
+    // General, above the sections.
+    f("name", "Name", "", "Preset name, written into the dataset's lock file"),
+    f("seed", "Seed", "", "Master seed: every frame derives its own random draw from (seed, frame index)"),
+    f("repeats", "Repeats", "", "Frames made per sweep combination, each with its own random placement"),
+    // Models.
+    f("models", "Models", "", "The UAV models instantiated in every frame, with their real size"),
+    f("models[].size_m", "Model {n} size", " m", "Real size: the model is scaled so that its largest span is this many metres"),
+    f("models[].class", "Model {n} class", "", "Class name written into the labels"),
+    f("models[].source", "Model {n}", "", "A built-in model's name or a glTF file"),
+    // Placement: the grid, the randomized volume, formations, sequences.
+    f("placement", "Placement", "", "How drones are placed in the observation volume"),
+    f("placement.x_count", "XCount", "", "Drones along the grid's x axis"),
+    f("placement.y_count", "YCount", "", "Drones along the grid's y (vertical) axis"),
+    f("placement.z_count", "ZCount", "", "Drones along the grid's z (depth) axis"),
+    f("placement.load_factor", "LoadFactor", "", "Grid spacing in multiples of the largest model size (≥ 1: no overlap)"),
+    f("placement.count", "Count", "", "Drones per frame: randomized, an inclusive range drawn by the preset's count_distribution (uniform unless the preset names one); a formation, its size"),
+    f("placement.count_distribution", "Count distribution", "", "How the count is drawn within its range (uniform unless given)"),
+    f("placement.volume", "Volume", "", "The observation volume W, centred at the origin"),
+    f("placement.volume.size_m", "Volume size", " m", "Size of the observation volume in metres"),
+    f("placement.volume.per_m3", "Density", "", "Global density factor ρ: drones per cubic metre"),
+    f("placement.min_separation_m", "Min separation", "", "No two drone centres come closer than this (metres)"),
+    f("placement.shape", "Shape", "", "The formation's pattern; each has its own few parameters"),
+    f("placement.shape.angle_deg", "Echelon angle", "°", "Degrees from the heading (0 = column, 90 = line abreast)"),
+    f("placement.shape.half_angle_deg", "Wedge half angle", "°", "Degrees between each arm and the heading"),
+    f("placement.shape.tilt_deg", "Ring tilt", "°", "Degrees the ring's axis leans forward from vertical"),
+    f("placement.shape.clusters", "Clusters", "", "Number of dense groups"),
+    f("placement.shape.cluster_gap", "Cluster gap", "", "Gap between groups in model spans"),
+    f("placement.spacing", "Spacing", "", "Distance between neighbours in multiples of the largest model size (a LoadFactor)"),
+    f("placement.heading_deg", "Heading", "°", "Yaw of the formation's forward axis, degrees, drawn per frame"),
+    f("placement.position_jitter", "Jitter", "", "Each drone moves up to ± this many model sizes per axis"),
+    f("placement.min_separation", "Min separation", "", "No two drone centres come closer than this many model sizes"),
+    f("sequence", "Sequence", "", "Each sweep point becomes T + 1 frames of motion (MOT ground truth)"),
+    f("sequence.steps", "Steps T", "", "Interpolation steps; a sequence has T + 1 frames"),
+    f("sequence.motion.translate_m", "Translate", "", "Translation of the whole formation over the sequence (metres)"),
+    f("sequence.motion.turn_deg", "Turn", "°", "Turn of the formation about the vertical, degrees"),
+    f("sequence.motion.bank_deg", "Bank", "°", "Each drone rolls by this many degrees"),
+    f("sequence.camera", "Camera", "", "Fixed (a ground observer) or following the swarm"),
+    // Attitude.
+    f("attitude.roll_deg", "Roll", "°", "Per-drone roll range in degrees"),
+    f("attitude.pitch_deg", "Pitch", "°", "Per-drone pitch range in degrees"),
+    f("attitude.yaw_deg", "Yaw", "°", "Per-drone yaw range in degrees"),
+    // Camera.
+    f("camera.x", "CameraX", "", "sideways camera offset, in units of the swarm radius R"),
+    f("camera.y", "CameraY", "", "vertical camera offset, in units of the swarm radius R"),
+    f("camera.z", "CameraZ", "", "relative distance: 1 = the swarm just fills the view"),
+    f("camera.fov_y_deg", "Field of view", "°", "Vertical field of view of the camera, degrees"),
+    f("camera.absolute", "Absolute camera", "", "A camera placed in metres rather than relative to the swarm"),
+    f("camera.observer", "Observer", "", "A ground observer: the swarm placed by elevation, azimuth and distance"),
+    f("camera.observer.elevation_deg", "Observer elevation", "°", "Angle of the swarm above the observer's horizon"),
+    f("camera.observer.azimuth_deg", "Observer azimuth", "°", "Direction of the swarm from the observer"),
+    f("camera.observer.distance_m", "Observer distance", " m", "Distance from the observer to the swarm"),
+    f("camera.observer.size_px", "Observer apparent size", " px", "The swarm's apparent size in the frame"),
+    // Scene rotation.
+    f("plane.rx", "PlaneRX", "°", "rotation of the whole swarm about world x, degrees"),
+    f("plane.ry", "PlaneRY", "°", "rotation of the whole swarm about world y, degrees"),
+    f("plane.rz", "PlaneRZ", "°", "rotation of the whole swarm about world z, degrees"),
+    // Skybox.
+    f("sky", "Skybox", "", "The background environment; its sun also lights the drones"),
+    f("sky.sun_elevation_deg", "Sun elevation", "°", "Sun angle above the horizon, degrees (a procedural environment's own by default)"),
+    f("sky.sun_azimuth_deg", "Sun azimuth", "°", "Sun direction from +z towards +x, degrees"),
+    f("sky.cloud_cover", "Cloud cover", "", "Fraction of the sky under cloud, 0 to 1"),
+    f("sky.zenith", "Zenith colour", "", "Linear RGB of the sky at this height"),
+    f("sky.horizon", "Horizon colour", "", "Linear RGB of the sky at this height"),
+    // Camera model.
+    f("camera_model.exposure_ev", "Exposure", " EV", "Exposure change in stops"),
+    f("camera_model.white_balance_red", "White balance red", "", "Gain of the red channel"),
+    f("camera_model.white_balance_blue", "White balance blue", "", "Gain of the blue channel"),
+    f("camera_model.vignetting", "Vignetting", "", "Fall-off of brightness towards the corners"),
+    f("camera_model.ca_red_scale", "CA red scale", "", "Chromatic aberration: scale of the red channel about the centre"),
+    f("camera_model.ca_blue_scale", "CA blue scale", "", "Chromatic aberration: scale of the blue channel about the centre"),
+    f("camera_model.shot_noise_gain", "Shot noise gain", "", "Shot noise: variance per unit of linear signal"),
+    f("camera_model.read_noise_levels", "Read noise", "", "Read noise in output levels"),
+    f("camera_model.sensor_scale", "Sensor scale", "", "Sensor resolution against the output's"),
+    f("camera_model.jpeg_quality", "Camera JPEG quality", "", "The camera's own JPEG compression"),
+    f("camera_model.recompress_quality", "Recompress quality", "", "A second JPEG compression, as by a re-upload"),
+    f("camera_model.psf", "Blur", "", "The lens's point spread function"),
+    f("camera_model.psf.sigma_px", "Blur σ", " px", "Width of the Gaussian blur"),
+    f("camera_model.psf.radius_px", "Disc radius", " px", "Radius of the defocus disc"),
+    // Atmosphere.
+    f("atmosphere.visibility_m", "Visibility", " m", "Meteorological visibility: haze grows with range"),
+    // Drone appearance.
+    f("appearance.palette", "Palette weights", "", "How often each colour is drawn"),
+    f("appearance.roughness", "Roughness", "", "Surface roughness range, 0 to 1"),
+    f("appearance.metalness", "Metalness", "", "Metalness range, 0 to 1"),
+    f("appearance.emissive_share", "Lights share", "", "Share of drones with their lights on"),
+    f("appearance.emissive_strength", "Light strength", "", "Brightness of the lights"),
+    // Clutter.
+    f("clutter.eye_height_m", "Eye height", " m", "Height of the camera above the ground the scenery stands on"),
+    f("clutter.tree_lines", "Tree lines", "", "Tree lines along the horizon"),
+    f("clutter.tree_lines.width_deg", "Tree lines angular width", "°", "Angular width of each band"),
+    f("clutter.trees", "Bare trees", "", "Bare trees with fine branches against the sky"),
+    f("clutter.trees.branch_levels", "Branch levels", "", "Levels of branching above the trunk (each splits into 2–3 thinner branches)"),
+    f("clutter.poles", "Poles", "", "Lines of poles with wires"),
+    f("clutter.poles.spacing_m", "Poles spacing", " m", "Distance between neighbouring poles"),
+    f("clutter.poles.wires", "Wires", "", "Wires per span between two poles"),
+    f("clutter.buildings", "Buildings", "", "Buildings and rooftops"),
+    f("clutter.buildings.width_m", "Buildings width", " m", "Width of the front wall"),
+    // Confusers.
+    f("confusers", "Confusers", "", "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives"),
+    f("confusers[]", "Confuser {n}", "", "A kind of confuser with its own count and distance"),
+    f("confusers[].count", "Confuser {n} count", "", "How many per frame (per sequence), inclusive"),
+    f("confusers[].distance_m", "Confuser {n} distance", " m", "Distance from the camera in metres, drawn per object (per flock)"),
+    f("confusers[].glide_share", "Confuser {n} gliding share", "", "Share of the birds holding their wings still (0: all flap)"),
+    f("confusers[].flock.spacing_wingspans", "Confuser {n} flock spacing", "", "Distance between neighbours in wingspans"),
+    f("confusers[].flock.jitter_wingspans", "Confuser {n} flock jitter", "", "Each bird displaced by up to ± this many wingspans per axis"),
+    // Backplates.
+    f("backplate.folder", "Folder", "", "A folder of your own frames of sky and horizon"),
+    f("backplate.hfov_deg", "Horizontal field of view", "°", "The backplates' horizontal field of view"),
+    f("backplate.horizon", "Horizon", "", "Where the horizon lies in the backplates"),
+    f("backplate.elevation_deg", "Elevation", "°", "The camera's elevation in the backplates"),
+    f("backplate.sun_elevation_deg", "Sun elevation", "°", "The sun's elevation in the backplates"),
+    f("backplate.sun_azimuth_deg", "Sun azimuth", "°", "The sun's azimuth in the backplates"),
+    // Output.
+    f("render.resolution", "Resolution", "", "Image size of every frame"),
+    f("render.resolution.width", "Width", " px", "Image width in pixels"),
+    f("render.resolution.height", "Height", " px", "Image height in pixels"),
+    f("render.msaa", "MSAA", "", "Multisample anti-aliasing: 1 (off) or 4 samples per pixel"),
+    f("render.lod_error_px", "LOD error", " px", "Largest screen error of a model's simplified levels of detail"),
+    f("output.image_format", "Images", "", "Image file format"),
+    f("output.image_format.quality", "JPEG quality", "", "JPEG quality, 1–100"),
+    f("output.label_formats", "Labels", "", "Annotation formats written next to the images"),
+    f("output.split", "Split", "", "Share of frames in each split; the three must sum to 1"),
+    f("output.split.by", "Split by", "", "What each split keeps whole"),
+    f("output.masks", "Masks", "", "Masks and maps besides the boxes"),
+    f("output.masks.coco_rle", "COCO masks", "", "COCO segmentation as RLE of each labelled object's visible pixels"),
+    f("output.masks.yolo_seg", "YOLO segmentation", "", "YOLO segmentation labels"),
+    f("output.masks.instance_png", "Instance map", "", "An instance-id PNG per frame"),
+    f("output.masks.depth_unit_mm", "Depth unit", " mm", "Depth map step: one grey level is this many millimetres"),
+    f("labels.box_method", "Boxes", "", "How each drone's 2D box is computed"),
+    f("labels.min_box_px", "Min box", "", "Boxes narrower or shorter than this many pixels are dropped"),
+    f("labels.min_visible_pixels", "Min visible px", "", "Drones with fewer visible pixels are filtered (0: off)"),
+    f("labels.min_visible_fraction", "Min visible fraction", "", "Drones less visible than this (visible / unoccluded pixels) are filtered (0: off)"),
+    f("labels.min_labelled", "Min labelled", "", "Frames with fewer labelled drones are made again with another draw"),
+    f("labels.filtered", "Filtered drones", "", "Drop them, or keep them in COCO as iscrowd ignore regions"),
+    f("labels.id_scale", "Id pass scale", "", "Resolution factor of the instance-id pass: 2 or 4 give sub-pixel visible boxes (cost × scale²)"),
+];
+
+/// The section of a path's top-level field (const: the table is built at compile time).
+const fn section_of_head(path: &str) -> Option<&'static str> {
+    let bytes = path.as_bytes();
+    let mut end = 0;
+    while end < bytes.len() && bytes[end] != b'.' && bytes[end] != b'[' {
+        end += 1;
+    }
+    let mut i = 0;
+    while i < SECTION_OF_HEAD.len() {
+        let (head, section) = SECTION_OF_HEAD[i];
+        let h = head.as_bytes();
+        if h.len() == end {
+            let mut j = 0;
+            while j < end && h[j] == bytes[j] {
+                j += 1;
+            }
+            if j == end {
+                return Some(section);
+            }
+        }
+        i += 1;
+    }
+    None
+}
+
+/// The table's entry for exactly this path (`models[]` for any item), if any.
+pub fn field(path: &str) -> Option<&'static Field> {
+    FIELDS.iter().find(|f| f.path == path)
+}
+
+/// The field of a table path, for the panels: its words, or the path itself if
+/// the table lacks it (a unit test keeps the panels' paths in the table).
+pub fn get(path: &'static str) -> Field {
+    field(path).copied().unwrap_or(Field {
+        path,
+        label: path,
+        tooltip: "",
+        unit: "",
+        section: section_of_head(path),
+    })
+}
+
+/// `models[2].size_m` → (`models[].size_m`, Some(2)); the first index only.
+fn generic(path: &str) -> (String, Option<usize>) {
+    let Some(open) = path.find('[') else {
+        return (path.to_string(), None);
+    };
+    let Some(close) = path[open..].find(']').map(|c| open + c) else {
+        return (path.to_string(), None);
+    };
+    let index = path[open + 1..close].parse().ok();
+    (format!("{}[]{}", &path[..open], &path[close + 1..]), index)
+}
+
+/// The label a user sees for `path` (`camera.z.step` → "CameraZ step",
+/// `models[1].size_m` → "Model 2 size"); the path itself when nothing matches.
+pub fn label_of(path: &str) -> String {
+    let (generic_path, index) = generic(path);
+    let number = index.map_or_else(|| "?".to_string(), |i| (i + 1).to_string());
+    let mut head = generic_path.as_str();
+    let mut tail: Vec<&str> = Vec::new();
+    loop {
+        if let Some(f) = field(head) {
+            let mut label = f.label.replace("{n}", &number);
+            for part in tail.iter().rev() {
+                label.push(' ');
+                label.push_str(part);
+            }
+            return label;
+        }
+        match head.rsplit_once('.') {
+            Some((parent, last)) => {
+                tail.push(last);
+                head = parent;
+            }
+            None => return path.to_string(),
+        }
+    }
+}
+
+/// The section that shows `path` (`None`: the general fields above the sections).
+pub fn section_of(path: &str) -> Option<&'static str> {
+    section_of_head(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_resolve_items_sweep_parts_and_axes() {
+        assert_eq!(label_of("camera.z.step"), "CameraZ step");
+        assert_eq!(label_of("camera.z"), "CameraZ");
+        assert_eq!(label_of("output.split.train"), "Split train");
+        assert_eq!(label_of("models[1].size_m"), "Model 2 size");
+        assert_eq!(label_of("confusers[0].count"), "Confuser 1 count");
+        assert_eq!(label_of("placement.volume.size_m.y"), "Volume size y");
+        assert_eq!(label_of("something.new"), "something.new");
+        assert_eq!(label_of("atmosphere.visibility_m"), "Visibility");
+        assert_eq!(label_of("camera_model.psf.sigma_px"), "Blur σ");
+        assert_eq!(label_of("camera.observer.distance_m"), "Observer distance");
+        assert_eq!(label_of("backplate.hfov_deg"), "Horizontal field of view");
+    }
+
+    #[test]
+    fn sections_follow_the_path_head() {
+        assert_eq!(section_of("plane.ry.step"), Some("Scene rotation"));
+        assert_eq!(section_of("models[0].class"), Some("Models"));
+        assert_eq!(section_of("labels.id_scale"), Some("Output"));
+        assert_eq!(section_of("sequence.steps"), Some("Placement"));
+        assert_eq!(section_of("confusers[2].count"), Some("Confusers"));
+        assert_eq!(section_of("seed"), None);
+        assert_eq!(
+            section_of("cameras"),
+            None,
+            "a head matches whole, not as a prefix"
+        );
+        assert_eq!(get("camera.fov_y_deg").section, Some("Camera"));
+    }
+
+    #[test]
+    fn every_entry_is_unique_labelled_and_in_a_known_section() {
+        let mut paths: Vec<&str> = FIELDS.iter().map(|f| f.path).collect();
+        paths.sort_unstable();
+        let before = paths.len();
+        paths.dedup();
+        assert_eq!(paths.len(), before, "a path is in the table twice");
+        for f in FIELDS {
+            assert!(!f.label.is_empty() && !f.tooltip.is_empty(), "{}", f.path);
+            if let Some(section) = f.section {
+                assert!(SECTIONS.contains(&section), "{}: {section}", f.path);
+            } else {
+                assert!(["name", "seed", "repeats"].contains(&f.path), "{}", f.path);
+            }
+        }
+    }
+
+    #[test]
+    fn angles_carry_degrees() {
+        for f in FIELDS {
+            if f.path.ends_with("_deg") {
+                assert_eq!(f.unit, "°", "{}", f.path);
+            }
+        }
+    }
+}
