@@ -64,7 +64,6 @@ fn one_frame_in_k_reaches_the_batch_options() {
 }
 
 #[test]
-#[ignore = "needs run_batch's `every` (branch h-order); run once both are merged"]
 fn one_frame_in_k_limits_the_frames_written() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
