@@ -13,6 +13,7 @@
 mod background;
 mod frame;
 mod haze;
+mod horizon;
 mod ids;
 mod material;
 mod plate;
@@ -966,6 +967,7 @@ impl Renderer {
                 (&self.shaders.0, &self.sky_layout),
                 &self.frame_bind_group,
                 size,
+                None,
             );
         }
         let ranges = self.upload_instances(scene, &|_| true);
