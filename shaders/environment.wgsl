@@ -50,6 +50,9 @@ const TAU: f32 = 6.2831853;
 override ENV_GROUND: f32 = -1.0;
 override ENV_FAR: f32 = -1.0;
 override ENV_NEAR: f32 = -1.0;
+// 0: the whole environment; 1: the sky side of the horizon only (dir.y >= 0);
+// 2: the ground side only (render/horizon.rs draws the two sides apart).
+override ENV_PART: f32 = 0.0;
 
 
 fn hash12(p: vec2<f32>) -> f32 {
@@ -158,7 +161,7 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
     let haze = tone_map(preetham(vec3<f32>(az_c.x, 0.02, az_c.y)) * k);
     let elevation = asin(clamp(dir.y, -1.0, 1.0));
     var col: vec3<f32>;
-    if (dir.y >= 0.0) {
+    if (select((dir.y >= 0.0), (ENV_PART < 1.5), (ENV_PART > 0.5))) {
         col = tone_map(preetham(dir) * k);
         let cos_sun = dot(dir, sun);
         let disc = smoothstep(0.99996, 0.99999, cos_sun);

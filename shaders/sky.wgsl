@@ -56,6 +56,14 @@ fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
     return vec4<f32>(linear_to_srgb(col), 1.0);
 }
 
+// The procedural environment pass over one side's polygon (render/horizon.rs).
+@vertex
+fn vs_environment(@location(0) ndc: vec2<f32>) -> SkyOut {
+    var out: SkyOut;
+    out.position = vec4<f32>(ndc, 0.0, 1.0);
+    return out;
+}
+
 // The procedural environment pass: each pixel stands for far_params.w × far_params.w full-resolution pixels.
 @fragment
 fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
@@ -63,5 +71,10 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
     let p = in.position.xy * env.far_params.w;
     let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
+    // Drawn one side of the horizon at a time: the other side's pixels are its other draw's.
+    let sky_part = (ENV_PART > 0.5) && (ENV_PART < 1.5);
+    if ((sky_part && (dir.y < 0.0)) || ((ENV_PART > 1.5) && (dir.y >= 0.0))) {
+        discard;
+    }
     return vec4<f32>(procedural_sky(dir), 1.0);
 }

@@ -267,6 +267,10 @@ impl Renderer {
             (&self.shaders.0, &self.sky_layout),
             &self.frame_bind_group,
             frame,
+            Some(super::horizon::horizon_line(
+                &uniforms.world_from_camera,
+                uniforms.intrinsics,
+            )),
         );
         let Some((texture, (w, h))) = self.sky.half_target() else {
             return Err(RenderError::Readback(

@@ -17,6 +17,7 @@
 mod background;
 mod frame;
 mod haze;
+mod horizon;
 mod id_layer;
 mod ids;
 mod material;
@@ -703,6 +704,7 @@ impl Renderer {
                 (&self.shaders.0, &self.sky_layout),
                 &self.frame_bind_group,
                 size,
+                None,
             );
         }
         let ranges = self.upload_instances(scene, &|_| true);

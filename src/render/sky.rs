@@ -53,7 +53,7 @@ pub(super) struct SkyGpu {
     /// The pipelines of `fs_environment`, one per environment's kinds
     /// (ground, far and near silhouette: see `ENV_GROUND` in
     /// environment.wgsl), built on first use.
-    pipelines: Vec<([u32; 3], wgpu::RenderPipeline)>,
+    pipelines: Vec<([u32; 4], wgpu::RenderPipeline)>,
     /// The uniforms last written (part of the background cache key).
     written: EnvUniforms,
 }
@@ -270,6 +270,7 @@ impl SkyGpu {
         (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         frame_bind_group: &wgpu::BindGroup,
         (width, height): (u32, u32),
+        horizon: Option<[f32; 3]>,
     ) {
         let (w, h) = (
             width.div_ceil(HALF_SCALE).max(1),
@@ -314,26 +315,55 @@ impl SkyGpu {
                 group,
             });
         }
+        // With the horizon known: the sky side and the ground side as two
+        // draws (parts 1 and 2), else the whole target at once (part 0).
+        let draws: Vec<(u32, Vec<[f32; 2]>)> = match horizon {
+            Some(line) => [(1, true), (2, false)]
+                .into_iter()
+                .map(|(part, sky)| {
+                    let scale = HALF_SCALE as f32;
+                    (
+                        part,
+                        super::horizon::side_triangles(line, sky, (w, h), scale),
+                    )
+                })
+                .filter(|(_, t)| !t.is_empty())
+                .collect(),
+            None => vec![(0, Vec::new())],
+        };
         let kinds = [
             self.written.pattern[2],
             self.written.pattern[3],
             self.written.far_params[1],
         ];
-        let key = kinds.map(f32::to_bits);
-        let i = match self.pipelines.iter().position(|(k, _)| *k == key) {
-            Some(i) => i,
-            None => {
-                let constants = [
-                    ("ENV_GROUND", f64::from(kinds[0])),
-                    ("ENV_FAR", f64::from(kinds[1])),
-                    ("ENV_NEAR", f64::from(kinds[2])),
-                ];
-                let pipeline = environment_pipeline(device, (module, layout), &constants);
-                self.pipelines.push((key, pipeline));
-                self.pipelines.len() - 1
-            }
-        };
-        let pipeline = &self.pipelines[i].1;
+        let mut pipelines = Vec::new();
+        for (part, _) in &draws {
+            let key = [kinds[0], kinds[1], kinds[2], *part as f32].map(f32::to_bits);
+            let i = match self.pipelines.iter().position(|(k, _)| *k == key) {
+                Some(i) => i,
+                None => {
+                    let constants = [
+                        ("ENV_GROUND", f64::from(kinds[0])),
+                        ("ENV_FAR", f64::from(kinds[1])),
+                        ("ENV_NEAR", f64::from(kinds[2])),
+                        ("ENV_PART", f64::from(*part)),
+                    ];
+                    let pipeline =
+                        environment_pipeline(device, (module, layout), &constants, *part > 0);
+                    self.pipelines.push((key, pipeline));
+                    self.pipelines.len() - 1
+                }
+            };
+            pipelines.push(i);
+        }
+        let vertices: Vec<[f32; 2]> = draws.iter().flat_map(|(_, t)| t.iter().copied()).collect();
+        let buffer = (!vertices.is_empty()).then(|| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("environment sides"),
+                contents: bytemuck::cast_slice(&vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            })
+        });
         let Some(HalfTarget { view, .. }) = &self.half else {
             return;
         };
@@ -353,11 +383,22 @@ impl SkyGpu {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, frame_bind_group, &[]);
         // The placeholder group: the target cannot be sampled while it is drawn.
         pass.set_bind_group(1, &self.default_group, &[]);
-        pass.draw(0..3, 0..1);
+        let mut first = 0u32;
+        for ((part, triangles), i) in draws.iter().zip(pipelines) {
+            pass.set_pipeline(&self.pipelines[i].1);
+            match (&buffer, part) {
+                (Some(buffer), 1..) => {
+                    let count = triangles.len() as u32;
+                    pass.set_vertex_buffer(0, buffer.slice(..));
+                    pass.draw(first..first + count, 0..1);
+                    first += count;
+                }
+                _ => pass.draw(0..3, 0..1),
+            }
+        }
     }
 
     /// The environment pass's target (RGBA16F, linear) and its size, once drawn.
@@ -497,15 +538,25 @@ fn environment_pipeline(
     device: &wgpu::Device,
     (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
     constants: &[(&str, f64)],
+    polygon: bool,
 ) -> wgpu::RenderPipeline {
+    const SIDE_ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x2];
+    let side = [Some(wgpu::VertexBufferLayout {
+        array_stride: 8,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &SIDE_ATTRS,
+    })];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("environment pipeline"),
         layout: Some(layout),
         vertex: wgpu::VertexState {
             module,
-            entry_point: Some("vs_main"),
-            compilation_options: Default::default(),
-            buffers: &[],
+            entry_point: Some(if polygon { "vs_environment" } else { "vs_main" }),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
+            buffers: if polygon { &side } else { &[] },
         },
         primitive: wgpu::PrimitiveState::default(),
         depth_stencil: None,
