@@ -24,8 +24,8 @@ mod passes;
 
 use std::borrow::Cow;
 
-use super::id_layer::{self, IdCollect, IdLayer};
 use super::background::{BackgroundCache, SkyPipelines};
+use super::id_layer::{self, IdCollect, IdLayer};
 use super::ids;
 use super::plan::{FramePlan, PassPlan, PlanRequest};
 use super::readback::{self, Readback};

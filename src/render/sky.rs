@@ -272,49 +272,7 @@ impl SkyGpu {
         (width, height): (u32, u32),
         horizon: Option<[f32; 3]>,
     ) {
-        let (w, h) = (
-            width.div_ceil(HALF_SCALE).max(1),
-            height.div_ceil(HALF_SCALE).max(1),
-        );
-        if self
-            .half
-            .as_ref()
-            .is_none_or(|t| (t.width, t.height) != (w, h))
-        {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("environment (half resolution)"),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba16Float,
-                // COPY_SRC: the frame's background is upsampled from it on the CPU.
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
-            let group = make_bind_group(
-                device,
-                &self.layout,
-                &self.uniforms,
-                (&self.sampler, &self.half_sampler),
-                "environment (procedural)",
-                [&self.placeholder_2d, &self.placeholder_cube, &view],
-            );
-            self.half = Some(HalfTarget {
-                width: w,
-                height: h,
-                texture,
-                view,
-                group,
-            });
-        }
+        let (w, h) = self.ensure_half_target(device, (width, height));
         // With the horizon known: the sky side and the ground side as two
         // draws (parts 1 and 2), else the whole target at once (part 0).
         let draws: Vec<(u32, Vec<[f32; 2]>)> = match horizon {
@@ -331,31 +289,10 @@ impl SkyGpu {
                 .collect(),
             None => vec![(0, Vec::new())],
         };
-        let kinds = [
-            self.written.pattern[2],
-            self.written.pattern[3],
-            self.written.far_params[1],
-        ];
-        let mut pipelines = Vec::new();
-        for (part, _) in &draws {
-            let key = [kinds[0], kinds[1], kinds[2], *part as f32].map(f32::to_bits);
-            let i = match self.pipelines.iter().position(|(k, _)| *k == key) {
-                Some(i) => i,
-                None => {
-                    let constants = [
-                        ("ENV_GROUND", f64::from(kinds[0])),
-                        ("ENV_FAR", f64::from(kinds[1])),
-                        ("ENV_NEAR", f64::from(kinds[2])),
-                        ("ENV_PART", f64::from(*part)),
-                    ];
-                    let pipeline =
-                        environment_pipeline(device, (module, layout), &constants, *part > 0);
-                    self.pipelines.push((key, pipeline));
-                    self.pipelines.len() - 1
-                }
-            };
-            pipelines.push(i);
-        }
+        let pipelines: Vec<usize> = draws
+            .iter()
+            .map(|(part, _)| self.environment_pipeline(device, (module, layout), *part))
+            .collect();
         let vertices: Vec<[f32; 2]> = draws.iter().flat_map(|(_, t)| t.iter().copied()).collect();
         let buffer = (!vertices.is_empty()).then(|| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -399,6 +336,88 @@ impl SkyGpu {
                 _ => pass.draw(0..3, 0..1),
             }
         }
+    }
+
+    /// The half-resolution environment target for a `width`×`height` frame,
+    /// (re)made when its size changes; its size.
+    fn ensure_half_target(
+        &mut self,
+        device: &wgpu::Device,
+        (width, height): (u32, u32),
+    ) -> (u32, u32) {
+        let (w, h) = (
+            width.div_ceil(HALF_SCALE).max(1),
+            height.div_ceil(HALF_SCALE).max(1),
+        );
+        if self
+            .half
+            .as_ref()
+            .is_none_or(|t| (t.width, t.height) != (w, h))
+        {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("environment (half resolution)"),
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                // COPY_SRC: the frame's background is upsampled from it on the CPU.
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            let group = make_bind_group(
+                device,
+                &self.layout,
+                &self.uniforms,
+                (&self.sampler, &self.half_sampler),
+                "environment (procedural)",
+                [&self.placeholder_2d, &self.placeholder_cube, &view],
+            );
+            self.half = Some(HalfTarget {
+                width: w,
+                height: h,
+                texture,
+                view,
+                group,
+            });
+        }
+        (w, h)
+    }
+
+    /// The environment pipeline of the written environment's ground and
+    /// silhouette kinds for draw `part` (0: whole, 1: sky side, 2: ground
+    /// side), built on first use; its index in `self.pipelines`.
+    fn environment_pipeline(
+        &mut self,
+        device: &wgpu::Device,
+        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        part: u32,
+    ) -> usize {
+        let kinds = [
+            self.written.pattern[2],
+            self.written.pattern[3],
+            self.written.far_params[1],
+        ];
+        let key = [kinds[0], kinds[1], kinds[2], part as f32].map(f32::to_bits);
+        if let Some(i) = self.pipelines.iter().position(|(k, _)| *k == key) {
+            return i;
+        }
+        let constants = [
+            ("ENV_GROUND", f64::from(kinds[0])),
+            ("ENV_FAR", f64::from(kinds[1])),
+            ("ENV_NEAR", f64::from(kinds[2])),
+            ("ENV_PART", f64::from(part)),
+        ];
+        let pipeline = environment_pipeline(device, (module, layout), &constants, part > 0);
+        self.pipelines.push((key, pipeline));
+        self.pipelines.len() - 1
     }
 
     /// The environment pass's target (RGBA16F, linear) and its size, once drawn.
