@@ -53,10 +53,37 @@ pub struct BatchOptions {
     pub every: Option<u64>,
 }
 
-/// Makers by default. On lavapipe (2 cores) a second maker made the
-/// quickstart slower (20–22 against 28 images/s: the rasteriser threads and
-/// the two makers contend); on a real GPU more makers keep it busier.
+/// Makers by default when consecutive frames share their background (the
+/// cache hits): on lavapipe (2 cores) a second maker made the quickstart
+/// 1.44× slower (the rasteriser threads and the two makers contend).
 pub const DEFAULT_MAKERS: usize = 1;
+
+/// Makers by default when each frame draws a new background (camera, sky,
+/// environment, sun, backplate or scenery change from frame to frame): one
+/// maker's environment pass, readback and CPU upsampling then overlap the
+/// other's rendering (release, 2 cores: `synthswarm_table2.ron` 0.76× the
+/// wall time of one maker, `realistic.ron` 0.85×; docs/benchmarks.md).
+pub const DEFAULT_MAKERS_NEW_BACKGROUNDS: usize = 2;
+
+/// Whether the run's first two frames draw different backgrounds: what
+/// the background depends on differs between their scenes.
+fn backgrounds_change(pipeline: &FramePipeline, run: &RunSpan) -> bool {
+    let (a, b) = (run.first, run.first + run.every);
+    if b >= run.total {
+        return false;
+    }
+    match (pipeline.scene(a), pipeline.scene(b)) {
+        (Ok(x), Ok(y)) => {
+            x.camera != y.camera
+                || x.sky != y.sky
+                || x.environment != y.environment
+                || x.sun_direction != y.sun_direction
+                || x.backplate != y.backplate
+                || x.clutter != y.clutter
+        }
+        _ => false,
+    }
+}
 
 impl BatchOptions {
     pub fn new(out_dir: impl Into<PathBuf>) -> Self {
@@ -341,10 +368,12 @@ fn run_stages(
     run: RunSpan,
     mut on_progress: impl FnMut(Progress) + Send,
 ) -> (anyhow::Result<SinkResult>, MakersResult) {
-    let makers = if options.makers == 0 {
-        DEFAULT_MAKERS
-    } else {
+    let makers = if options.makers != 0 {
         options.makers
+    } else if backgrounds_change(pipeline, &run) {
+        DEFAULT_MAKERS_NEW_BACKGROUNDS
+    } else {
+        DEFAULT_MAKERS
     }
     .min(usize::try_from(run.left()).unwrap_or(usize::MAX))
     .max(1);
