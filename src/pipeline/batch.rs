@@ -588,3 +588,37 @@ fn join_makers(makers: Vec<std::thread::ScopedJoinHandle<'_, MakerEnd>>) -> Make
     }
     joint
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn span(total: u64) -> RunSpan {
+        RunSpan {
+            first: 0,
+            start: 0,
+            total,
+            every: 1,
+            started: Instant::now(),
+        }
+    }
+
+    fn changes(preset: &str) -> bool {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(preset);
+        let pipeline = FramePipeline::open(&path).expect("preset opens");
+        backgrounds_change(&pipeline, &span(pipeline.preset().frame_count()))
+    }
+
+    #[test]
+    fn a_new_background_every_frame_is_seen_from_the_first_two_scenes() {
+        // The quickstart's frames share their camera and sky; the paper-like
+        // preset draws its environment and camera anew for every frame.
+        assert!(!changes("presets/quickstart.ron"));
+        assert!(changes("presets/synthswarm_table2.ron"));
+        assert!(changes("presets/realistic.ron"));
+        // A run of one frame has no second frame to compare.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/realistic.ron");
+        let pipeline = FramePipeline::open(&path).expect("preset opens");
+        assert!(!backgrounds_change(&pipeline, &span(1)));
+    }
+}
