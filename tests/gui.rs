@@ -1047,7 +1047,8 @@ fn realism_sections_switch_their_preset_fields_on_and_off() {
         observer,
         Some(swarmshot::preset::observer::ObserverCamera::default())
     );
-    h.get_by_label("Distance max").set_value_accesskit(900.0);
+    h.get_by_label("Observer distance max")
+        .set_value_accesskit(900.0);
     h.run_steps(3);
     let observer = h.state().session().preset.camera.observer.clone().unwrap();
     assert_eq!(observer.distance_m.1, 900.0);
