@@ -361,6 +361,11 @@ mod tests {
         assert_eq!(label_of("camera_model.psf.sigma_px"), "Blur σ");
         assert_eq!(label_of("camera.observer.distance_m"), "Observer distance");
         assert_eq!(label_of("backplate.hfov_deg"), "Horizontal field of view");
+        assert_eq!(label_of("clutter.poles.height_m"), "Poles height");
+        assert_eq!(label_of("confusers[1].flap_hz"), "Confuser 2 wing beats");
+        assert_eq!(label_of("camera_model.saturation"), "Saturation");
+        assert_eq!(label_of("appearance.rotor_opacity"), "Rotor opacity");
+        assert_eq!(get("confusers[].speed_m_s").unit, " m/s");
     }
 
     #[test]
