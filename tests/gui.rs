@@ -1047,7 +1047,8 @@ fn realism_sections_switch_their_preset_fields_on_and_off() {
         observer,
         Some(swarmshot::preset::observer::ObserverCamera::default())
     );
-    h.get_by_label("Distance max").set_value_accesskit(900.0);
+    h.get_by_label("Observer distance max")
+        .set_value_accesskit(900.0);
     h.run_steps(3);
     let observer = h.state().session().preset.camera.observer.clone().unwrap();
     assert_eq!(observer.distance_m.1, 900.0);
@@ -1251,6 +1252,17 @@ fn the_clutter_panel_switches_the_scenery_on_and_edits_it() {
     h.run_steps(3);
     let clutter = h.state().session().preset.clutter.clone().unwrap();
     assert_eq!(clutter.trees.branch_levels, 4);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    // A row's words come from the table of fields, so its message is listed
+    // under Problems with the widget's own label.
+    h.get_by_label("Poles height min").set_value_accesskit(50.0);
+    h.run_steps(3);
+    let errors = h.state().errors().to_vec();
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert_eq!(errors[0].field, "clutter.poles.height_m");
+    h.get_by_label(&format!("Poles height: {}", errors[0].message));
+    h.get_by_label("Poles height min").set_value_accesskit(8.0);
+    h.run_steps(3);
     assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
     h.get_by_label("Clutter on").click_accesskit();
     h.run_steps(3);

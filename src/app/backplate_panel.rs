@@ -8,77 +8,53 @@ use std::path::PathBuf;
 
 use egui::Ui;
 
-use super::panels::{Form, number_row_in, range_row_in};
-use crate::preset::Preset;
+use super::panels::{Form, Words, number_row_in};
+use super::realism_panels::section_checkbox;
 use crate::preset::backplate::{Backplate, PlateHorizon};
+use crate::preset::{Preset, fields};
 
 /// Backplates: folder, the plates' camera, the sun, mirroring.
 pub fn backplate_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let mut on = preset.backplate.is_some();
-    if ui
-        .checkbox(&mut on, "Backplates on")
-        .on_hover_text(
-            "Your own still frames of empty sky and horizon as the backgrounds, one drawn per frame; the camera takes their field of view and horizon",
-        )
-        .changed()
-    {
+    if section_checkbox(ui, &mut on, "backplate").changed() {
         preset.backplate = on.then(Backplate::default);
     }
+    form.messages(ui, &["backplate"]);
     let Some(b) = &mut preset.backplate else {
         return;
     };
     ui.horizontal(|ui| {
-        let tip = "Folder of .jpg/.jpeg/.png plates (a plate's NAME.plate.ron may set its own hfov_deg and horizon)";
-        let label = ui.label("Folder").on_hover_text(tip);
+        let f = fields::get("backplate.folder");
+        let label = ui.label(f.label).on_hover_text(f.tooltip);
         let mut text = b.folder.display().to_string();
         if ui
             .text_edit_singleline(&mut text)
             .labelled_by(label.id)
-            .on_hover_text(tip)
+            .on_hover_text(f.tooltip)
             .changed()
         {
             b.folder = PathBuf::from(text);
         }
     });
     form.messages(ui, &["backplate.folder"]);
-    number_row_in(
-        ui,
-        &mut b.hfov_deg,
-        "Horizontal field of view",
-        "Of the camera that took the plates, degrees (the frames are rendered with it)",
-        0.2,
-        "°",
-    );
-    form.messages(ui, &["backplate.hfov_deg"]);
+    Words::of("backplate.hfov_deg").number(ui, form, &mut b.hfov_deg, 0.2);
     horizon_ui(ui, b);
     form.messages(ui, &["backplate.horizon", "backplate.elevation_deg"]);
-    for (value, name, field, tip) in [
-        (
-            &mut b.sun_elevation_deg,
-            "Sun elevation",
-            "backplate.sun_elevation_deg",
-            "The sun that lights the drones: degrees above the horizon, drawn per frame",
-        ),
-        (
-            &mut b.sun_azimuth_deg,
-            "Sun azimuth",
-            "backplate.sun_azimuth_deg",
-            "Relative to the line of sight (0: ahead, the drones backlit; 180: behind the camera), drawn per frame",
-        ),
+    for (value, path) in [
+        (&mut b.sun_elevation_deg, "backplate.sun_elevation_deg"),
+        (&mut b.sun_azimuth_deg, "backplate.sun_azimuth_deg"),
     ] {
-        range_row_in(ui, value, name, tip, 1.0, "°");
-        form.messages(ui, &[field]);
+        Words::of(path).range(ui, form, value, 1.0);
     }
-    ui.checkbox(&mut b.flip, "Mirror half of the frames")
-        .on_hover_text("Flip the plate left-right in a random half of the frames");
+    Words::of("backplate.flip").checkbox(ui, &mut b.flip);
 }
 
 /// The plates' horizon: a row (fraction of the height from the top) or unknown.
 fn horizon_ui(ui: &mut Ui, b: &mut Backplate) {
     let mut known = matches!(b.horizon, PlateHorizon::Row(_));
     ui.horizontal(|ui| {
-        ui.label("Horizon")
-            .on_hover_text("Where the horizon line is in the plates");
+        let f = fields::get("backplate.horizon");
+        ui.label(f.label).on_hover_text(f.tooltip);
         let row = ui.radio_value(&mut known, true, "at a row").changed();
         let unknown = ui.radio_value(&mut known, false, "unknown").changed();
         if row || unknown {
@@ -100,13 +76,9 @@ fn horizon_ui(ui: &mut Ui, b: &mut Backplate) {
                 "",
             );
         }
-        PlateHorizon::Unknown => range_row_in(
-            ui,
-            &mut b.elevation_deg,
-            "Elevation",
-            "The line of sight's elevation, degrees above the horizon, drawn per frame",
-            0.5,
-            "°",
-        ),
+        PlateHorizon::Unknown => {
+            let f = fields::get("backplate.elevation_deg");
+            super::panels::range_row_in(ui, &mut b.elevation_deg, f.label, f.tooltip, 0.5, f.unit);
+        }
     }
 }

@@ -2,146 +2,90 @@
 //! (`clutter` in the preset; docs/realism.md, "Clutter"). Off is the preset
 //! field `None`, so a preset without scenery keeps its bytes. Every range is
 //! `(min, max)`, drawn per frame; validation messages are shown under the
-//! row that owns their field path.
+//! row that owns their field path. Labels, tooltips and units come from the
+//! table of fields ([`crate::preset::fields`]).
 
 use egui::Ui;
 
-use super::panels::{Form, number_row_in, range_row_in};
-use crate::preset::Preset;
+use super::panels::{Form, Words};
+use super::realism_panels::section_checkbox;
 use crate::preset::clutter::Clutter;
+use crate::preset::{Preset, fields};
 
-/// One kind's rows: its count, then its metre ranges (name, value, tip).
+/// One kind's rows: its heading (`kind`), its count, then its metre (or degree) ranges.
 fn kind_rows(
     ui: &mut Ui,
     form: &mut Form<'_>,
-    (kind, title): (&str, &str),
-    count: &mut (u32, u32),
-    ranges: Vec<(&str, &mut (f64, f64), &str, &str)>,
+    kind: &'static str,
+    (count_path, count): (&'static str, &mut (u32, u32)),
+    ranges: Vec<(&'static str, &mut (f64, f64))>,
 ) {
-    ui.label(title);
-    range_row_in(
-        ui,
-        count,
-        "Count",
-        "How many per frame, drawn uniformly in (min, max)",
-        0.1,
-        "",
-    );
-    form.messages(ui, &[&format!("clutter.{kind}.count")]);
-    for (field, value, tip, unit) in ranges {
-        let name = match field {
-            "distance_m" => "Distance",
-            "height_m" => "Height",
-            "width_m" => "Width",
-            "width_deg" => "Angular width",
-            _ => "Spacing",
-        };
-        range_row_in(ui, value, name, tip, 0.5, unit);
-        form.messages(ui, &[&format!("clutter.{kind}.{field}")]);
+    let f = fields::get(kind);
+    ui.label(f.label).on_hover_text(f.tooltip);
+    Words::of(count_path).range(ui, form, count, 0.1);
+    for (path, value) in ranges {
+        Words::of(path).range(ui, form, value, 0.5);
     }
 }
 
 /// Clutter: tree lines, bare trees, poles and wires, buildings (`clutter`).
 pub fn clutter_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     let mut on = preset.clutter.is_some();
-    if ui
-        .checkbox(&mut on, "Clutter on")
-        .on_hover_text(
-            "Scenery between the camera and the swarm that hides the drones behind it; labels follow the picture",
-        )
-        .changed()
-    {
+    if section_checkbox(ui, &mut on, "clutter").changed() {
         preset.clutter = on.then(Clutter::default);
     }
     let Some(c) = &mut preset.clutter else {
         return;
     };
-    ui.checkbox(&mut c.per_frame, "New scenery every frame")
-        .on_hover_text("Off: one scenery from the preset seed around every frame's camera");
-    number_row_in(
-        ui,
-        &mut c.eye_height_m,
-        "Eye height",
-        "Height of the camera above the ground the scenery stands on",
-        0.05,
-        " m",
-    );
-    form.messages(ui, &["clutter.eye_height_m"]);
-    let distance = "Distance from the camera, metres";
-    let height = "Height above the ground, metres";
+    Words::of("clutter.per_frame").checkbox(ui, &mut c.per_frame);
+    Words::of("clutter.eye_height_m").number(ui, form, &mut c.eye_height_m, 0.05);
     let t = &mut c.tree_lines;
     kind_rows(
         ui,
         form,
-        ("tree_lines", "Tree lines along the horizon"),
-        &mut t.count,
+        "clutter.tree_lines",
+        ("clutter.tree_lines.count", &mut t.count),
         vec![
-            ("distance_m", &mut t.distance_m, distance, " m"),
-            ("height_m", &mut t.height_m, height, " m"),
-            (
-                "width_deg",
-                &mut t.width_deg,
-                "Angular width of each band",
-                "°",
-            ),
+            ("clutter.tree_lines.distance_m", &mut t.distance_m),
+            ("clutter.tree_lines.height_m", &mut t.height_m),
+            ("clutter.tree_lines.width_deg", &mut t.width_deg),
         ],
     );
     let t = &mut c.trees;
     kind_rows(
         ui,
         form,
-        ("trees", "Bare trees"),
-        &mut t.count,
+        "clutter.trees",
+        ("clutter.trees.count", &mut t.count),
         vec![
-            ("distance_m", &mut t.distance_m, distance, " m"),
-            ("height_m", &mut t.height_m, height, " m"),
+            ("clutter.trees.distance_m", &mut t.distance_m),
+            ("clutter.trees.height_m", &mut t.height_m),
         ],
     );
-    number_row_in(
-        ui,
-        &mut t.branch_levels,
-        "Branch levels",
-        "Levels of branching above the trunk (each splits into 2–3 thinner branches)",
-        0.05,
-        "",
-    );
-    form.messages(ui, &["clutter.trees.branch_levels"]);
+    Words::of("clutter.trees.branch_levels").number(ui, form, &mut t.branch_levels, 0.05);
     let p = &mut c.poles;
     kind_rows(
         ui,
         form,
-        ("poles", "Lines of poles with wires"),
-        &mut p.count,
+        "clutter.poles",
+        ("clutter.poles.count", &mut p.count),
         vec![
-            ("distance_m", &mut p.distance_m, distance, " m"),
-            ("height_m", &mut p.height_m, height, " m"),
-            (
-                "spacing_m",
-                &mut p.spacing_m,
-                "Distance between neighbouring poles",
-                " m",
-            ),
+            ("clutter.poles.distance_m", &mut p.distance_m),
+            ("clutter.poles.height_m", &mut p.height_m),
+            ("clutter.poles.spacing_m", &mut p.spacing_m),
         ],
     );
-    range_row_in(
-        ui,
-        &mut p.wires,
-        "Wires",
-        "Wires per span between two poles",
-        0.05,
-        "",
-    );
-    form.messages(ui, &["clutter.poles.wires"]);
+    Words::of("clutter.poles.wires").range(ui, form, &mut p.wires, 0.05);
     let b = &mut c.buildings;
     kind_rows(
         ui,
         form,
-        ("buildings", "Buildings"),
-        &mut b.count,
+        "clutter.buildings",
+        ("clutter.buildings.count", &mut b.count),
         vec![
-            ("distance_m", &mut b.distance_m, distance, " m"),
-            ("height_m", &mut b.height_m, height, " m"),
-            ("width_m", &mut b.width_m, "Width of the front wall", " m"),
+            ("clutter.buildings.distance_m", &mut b.distance_m),
+            ("clutter.buildings.height_m", &mut b.height_m),
+            ("clutter.buildings.width_m", &mut b.width_m),
         ],
     );
 }

@@ -3,14 +3,16 @@
 //! its kind, count and distance, whether it is labelled as a class or kept as
 //! an unlabelled hard negative, its size and speed (off: the kind's typical),
 //! and for birds the wing-beat rate, the gliding share and the flock. An empty list is off, so a preset that does not use it keeps its
-//! bytes. Validation messages appear under the row owning their field path.
+//! bytes. Validation messages appear under the row owning their field path;
+//! labels, tooltips and units come from the table of fields
+//! ([`crate::preset::fields`]), numbered by entry ("Confuser 2 count").
 
 use egui::Ui;
 
-use super::panels::{Form, number_row_in, range_row_in};
+use super::panels::{Form, Words};
 use super::realism_panels::optional_range;
-use crate::preset::Preset;
 use crate::preset::confusers::{Confuser, ConfuserKind, Flock, FlockShape};
+use crate::preset::{Preset, fields};
 
 /// The list of confuser entries, with add and remove buttons.
 pub fn confusers_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
@@ -40,7 +42,6 @@ pub fn confusers_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 
 /// One entry; true when its Remove button was clicked.
 fn entry_ui(ui: &mut Ui, i: usize, c: &mut Confuser, form: &mut Form<'_>) -> bool {
-    let field = |name: &str| format!("confusers[{i}].{name}");
     let mut remove = false;
     ui.horizontal(|ui| {
         egui::ComboBox::from_id_salt("kind")
@@ -49,7 +50,9 @@ fn entry_ui(ui: &mut Ui, i: usize, c: &mut Confuser, form: &mut Form<'_>) -> boo
                 for kind in ConfuserKind::ALL {
                     ui.selectable_value(&mut c.kind, kind, kind.name());
                 }
-            });
+            })
+            .response
+            .on_hover_text(fields::get("confusers[]").tooltip);
         remove = ui.button("Remove").clicked();
     });
     if !c.kind.is_bird() {
@@ -58,53 +61,17 @@ fn entry_ui(ui: &mut Ui, i: usize, c: &mut Confuser, form: &mut Form<'_>) -> boo
         c.glide_share = 0.0;
         c.flock = None;
     }
-    range_row_in(
-        ui,
-        &mut c.count,
-        "Count",
-        "How many per frame (per sequence), inclusive",
-        0.2,
-        "",
-    );
-    form.messages(ui, &[&field("count")]);
-    range_row_in(
-        ui,
-        &mut c.distance_m,
-        "Distance",
-        "Distance from the camera in metres, drawn per object (per flock)",
-        1.0,
-        " m",
-    );
-    form.messages(ui, &[&field("distance_m")]);
+    Words::item("confusers[].count", i).range(ui, form, &mut c.count, 0.2);
+    Words::item("confusers[].distance_m", i).range(ui, form, &mut c.distance_m, 1.0);
     let (size, speed) = (c.size_range_m(), c.speed_range_m_s());
-    optional_range(
-        ui,
-        &mut c.size_m,
-        size,
-        "Size",
-        "Largest span in metres (birds: wingspan), drawn per object; off: the kind's typical",
-        0.01,
-        " m",
-    );
-    form.messages(ui, &[&field("size_m")]);
-    optional_range(
-        ui,
-        &mut c.speed_m_s,
-        speed,
-        "Speed",
-        "Speed along the heading in m/s, drawn per object (per flock); off: the kind's typical",
-        0.1,
-        " m/s",
-    );
-    form.messages(ui, &[&field("speed_m_s")]);
+    let words = Words::item("confusers[].size_m", i);
+    optional_range(ui, form, &mut c.size_m, size, &words, 0.01);
+    let words = Words::item("confusers[].speed_m_s", i);
+    optional_range(ui, form, &mut c.speed_m_s, speed, &words, 0.1);
+    let words = Words::item("confusers[].labelled_as", i);
     ui.horizontal(|ui| {
         let mut labelled = c.labelled_as.is_some();
-        let tip = "Labelled: its own class in YOLO, COCO and MOT. Unlabelled: a hard negative, in the manifest only (cyan boxes in the preview)";
-        if ui
-            .checkbox(&mut labelled, "Labelled as")
-            .on_hover_text(tip)
-            .changed()
-        {
+        if words.checkbox(ui, &mut labelled).changed() {
             let default = if c.kind.is_bird() { "bird" } else { "aircraft" };
             c.labelled_as = labelled.then(|| default.to_string());
         }
@@ -117,43 +84,25 @@ fn entry_ui(ui: &mut Ui, i: usize, c: &mut Confuser, form: &mut Form<'_>) -> boo
             }
         }
     });
-    form.messages(ui, &[&field("labelled_as")]);
+    form.messages(ui, &[&words.path]);
     if c.kind.is_bird() {
-        bird_ui(ui, c, &field, form);
+        bird_ui(ui, i, c, form);
     }
     remove
 }
 
 /// Gliding share and flock of a bird entry.
-fn bird_ui(ui: &mut Ui, c: &mut Confuser, field: &dyn Fn(&str) -> String, form: &mut Form<'_>) {
-    number_row_in(
-        ui,
-        &mut c.glide_share,
-        "Gliding share",
-        "Share of the birds holding their wings still (0: all flap)",
-        0.01,
-        "",
-    );
-    form.messages(ui, &[&field("glide_share")]);
+fn bird_ui(ui: &mut Ui, i: usize, c: &mut Confuser, form: &mut Form<'_>) {
+    Words::item("confusers[].glide_share", i).number(ui, form, &mut c.glide_share, 0.01);
     let flap = c.flap_range_hz();
-    optional_range(
-        ui,
-        &mut c.flap_hz,
-        flap,
-        "Wing beats",
-        "Wing beats per second, drawn per bird; off: the species' typical",
-        0.1,
-        " Hz",
-    );
-    form.messages(ui, &[&field("flap_hz")]);
+    let words = Words::item("confusers[].flap_hz", i);
+    optional_range(ui, form, &mut c.flap_hz, flap, &words, 0.1);
     let mut flock = c.flock.is_some();
-    if ui
-        .checkbox(&mut flock, "Flock")
-        .on_hover_text("The entry's birds fly together: one heading and speed, in a formation")
-        .changed()
-    {
+    let words = Words::item("confusers[].flock", i);
+    if words.checkbox(ui, &mut flock).changed() {
         c.flock = flock.then(Flock::default);
     }
+    form.messages(ui, &[&words.path]);
     let Some(f) = &mut c.flock else {
         return;
     };
@@ -167,24 +116,18 @@ fn bird_ui(ui: &mut Ui, c: &mut Confuser, field: &dyn Fn(&str) -> String, form: 
             ui.selectable_value(&mut f.shape, shape, name);
         }
     });
-    number_row_in(
+    Words::item("confusers[].flock.spacing_wingspans", i).number(
         ui,
+        form,
         &mut f.spacing_wingspans,
-        "Spacing",
-        "Distance between neighbours in wingspans (Cloud: the ball's radius per ∛n)",
         0.05,
-        " spans",
     );
-    form.messages(ui, &[&field("flock.spacing_wingspans")]);
-    number_row_in(
+    Words::item("confusers[].flock.jitter_wingspans", i).number(
         ui,
+        form,
         &mut f.jitter_wingspans,
-        "Jitter",
-        "Each bird displaced by up to ± this many wingspans per axis",
         0.05,
-        " spans",
     );
-    form.messages(ui, &[&field("flock.jitter_wingspans")]);
 }
 
 /// The summary's per-class lines (presets with confusers): training boxes

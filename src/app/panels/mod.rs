@@ -98,6 +98,70 @@ pub(super) fn field_row<N: egui::emath::Numeric>(
     number_row_in(ui, value, f.label, f.tooltip, speed, f.unit)
 }
 
+/// A field's words from the table of fields, with the path its messages name:
+/// for an item of a list (`confusers[].count`, item 2) the label's `{n}` is the
+/// item's number ("Confuser 3 count") and the path `confusers[2].count`.
+pub(in crate::app) struct Words {
+    pub label: String,
+    pub tooltip: &'static str,
+    pub unit: &'static str,
+    pub path: String,
+}
+
+impl Words {
+    pub fn of(path: &'static str) -> Self {
+        let f = fields::get(path);
+        Self {
+            label: f.label.to_string(),
+            tooltip: f.tooltip,
+            unit: f.unit,
+            path: path.to_string(),
+        }
+    }
+
+    /// The words of item `i` (from 0) of a `[]` path.
+    pub fn item(path: &'static str, i: usize) -> Self {
+        let f = fields::get(path);
+        Self {
+            label: f.label.replace("{n}", &(i + 1).to_string()),
+            tooltip: f.tooltip,
+            unit: f.unit,
+            path: path.replacen("[]", &format!("[{i}]"), 1),
+        }
+    }
+
+    /// `label  [number unit]` and the field's messages.
+    pub fn number<N: egui::emath::Numeric>(
+        &self,
+        ui: &mut Ui,
+        form: &mut Form<'_>,
+        value: &mut N,
+        speed: f64,
+    ) -> Response {
+        let response = number_row_in(ui, value, &self.label, self.tooltip, speed, self.unit);
+        form.messages(ui, &[&self.path]);
+        response
+    }
+
+    /// `label  min [..] max [..]` and the field's messages.
+    pub fn range<N: egui::emath::Numeric>(
+        &self,
+        ui: &mut Ui,
+        form: &mut Form<'_>,
+        value: &mut (N, N),
+        speed: f64,
+    ) {
+        range_row_in(ui, value, &self.label, self.tooltip, speed, self.unit);
+        form.messages(ui, &[&self.path]);
+    }
+
+    /// A checkbox with the field's label and tooltip.
+    pub fn checkbox(&self, ui: &mut Ui, on: &mut bool) -> Response {
+        ui.checkbox(on, self.label.as_str())
+            .on_hover_text(self.tooltip)
+    }
+}
+
 /// `label  [number]` with a unit after the number (`"°"`, `" m"`; `""` for none).
 pub(in crate::app) fn number_row_in<N: egui::emath::Numeric>(
     ui: &mut Ui,
@@ -259,20 +323,26 @@ pub fn general_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
 mod tests {
     use crate::preset::fields;
 
+    /// The sources of every panel that edits preset fields.
+    const SOURCES: [&str; 10] = [
+        include_str!("mod.rs"),
+        include_str!("models.rs"),
+        include_str!("placement.rs"),
+        include_str!("camera.rs"),
+        include_str!("skybox.rs"),
+        include_str!("output.rs"),
+        include_str!("../realism_panels.rs"),
+        include_str!("../backplate_panel.rs"),
+        include_str!("../clutter_panel.rs"),
+        include_str!("../confuser_panel.rs"),
+    ];
+
     /// Every dotted field path these panels name (for a row's words or its
     /// messages) resolves in the table of fields to a label, not to itself.
     #[test]
     fn the_panels_field_paths_are_in_the_table() {
-        let sources = [
-            include_str!("mod.rs"),
-            include_str!("models.rs"),
-            include_str!("placement.rs"),
-            include_str!("camera.rs"),
-            include_str!("skybox.rs"),
-            include_str!("output.rs"),
-        ];
         let mut checked = 0;
-        for source in sources {
+        for source in SOURCES {
             for literal in source.split('"').skip(1).step_by(2) {
                 let is_path = literal.contains('.')
                     && literal.starts_with(|c: char| c.is_ascii_lowercase())
@@ -293,8 +363,37 @@ mod tests {
             }
         }
         assert!(
-            checked > 40,
+            checked > 100,
             "only {checked} paths found: the scan is broken"
+        );
+    }
+
+    /// A path whose words a widget takes from the table is an entry of its
+    /// own, not a parent's label with the path's last part added (which
+    /// `get` would show as the raw path).
+    #[test]
+    fn the_panels_words_come_from_entries_of_the_table() {
+        let mut checked = 0;
+        for source in SOURCES {
+            for call in [
+                "fields::get(\"",
+                "Words::of(\"",
+                "Words::item(\"",
+                "section_checkbox(ui, &mut on, \"",
+            ] {
+                for rest in source.split(call).skip(1) {
+                    let path = rest.split('"').next().unwrap_or_default();
+                    if path.is_empty() {
+                        continue; // the calls' own text in this list
+                    }
+                    assert!(fields::field(path).is_some(), "{path} is not in the table");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(
+            checked > 50,
+            "only {checked} calls found: the scan is broken"
         );
     }
 }
