@@ -129,10 +129,6 @@ impl Tile {
     /// (either winding); 1/z is linear in screen space.
     fn triangle(&mut self, v: [(DVec2, f64); 3]) {
         let [(a, za), (b, zb), (c, zc)] = v;
-        let area = (b - a).perp_dot(c - a);
-        if area.abs() < 1e-12 {
-            return;
-        }
         let lo = a.min(b).min(c);
         let hi = a.max(b).max(c);
         let (fx0, fy0) = (f64::from(self.x0), f64::from(self.y0));
@@ -144,6 +140,14 @@ impl Tile {
         let py1 = ((hi.y - 0.5).floor() + 1.0)
             .min(fy0 + f64::from(self.h))
             .max(0.0) as u32;
+        // Most triangles of a small drone hold no pixel centre: done before any sum.
+        if px0 >= px1 || py0 >= py1 {
+            return;
+        }
+        let area = (b - a).perp_dot(c - a);
+        if area.abs() < 1e-12 {
+            return;
+        }
         // Only triangles of a pixel or more gain from spans; small ones walk their box.
         let spans = area.abs() >= 1.0;
         // No centre of the triangle is nearer than its nearest corner (the
