@@ -49,6 +49,39 @@ pub fn depth_m(scene: &FrameScene, models: &[CpuModel], masks: &FrameMasks) -> V
     out
 }
 
+/// The columns of `cols` whose centres on the line y = `cy` may lie in the
+/// triangle: those within a pixel of where the line crosses it. The exact
+/// barycentric test still decides each one, so the depths are those of the
+/// whole box's walk; the span only skips centres a pixel or more outside
+/// (the test's rounding is far below that). The whole range when the line
+/// seems to miss (rounding at a vertex).
+fn row_span(v: [DVec2; 3], cy: f64, cols: (u32, u32)) -> (u32, u32) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (p, q) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
+        if cy < p.y.min(q.y) || cy > p.y.max(q.y) {
+            continue;
+        }
+        let (x0, x1) = if p.y == q.y {
+            (p.x.min(q.x), p.x.max(q.x))
+        } else {
+            let x = p.x + (cy - p.y) * (q.x - p.x) / (q.y - p.y);
+            (x, x)
+        };
+        lo = lo.min(x0);
+        hi = hi.max(x1);
+    }
+    if lo > hi {
+        return cols;
+    }
+    // Centre px + 0.5 within [lo - 1, hi + 1].
+    let first = (lo - 1.5)
+        .ceil()
+        .max(f64::from(cols.0))
+        .min(f64::from(cols.1));
+    let end = ((hi + 0.5).floor() + 1.0).min(f64::from(cols.1)).max(first);
+    (first as u32, end as u32)
+}
+
 /// A drone's nearest surface depth over a pixel rectangle.
 struct Tile {
     x0: u32,
@@ -72,14 +105,15 @@ impl Tile {
         };
         let cam = &scene.camera;
         let drone = &scene.drones[d];
-        // Camera-frame vertices and their pixel positions.
+        // Camera-frame vertices and their pixel positions (the camera's
+        // `project_camera_point`, its focal length worked out once, not per vertex).
+        let (f, c) = (cam.focal_px(), cam.principal_point());
         let points: Vec<Option<(DVec2, f64)>> = (model.vertices.iter())
             .map(|v| {
                 let local = DVec3::from(v.position.map(f64::from)) * drone.size_m;
                 let p = cam.camera_from_world_point(drone.position + drone.rotation * local);
-                (p.z > cam.near_m)
-                    .then(|| cam.project_camera_point(p).map(|uv| (uv, p.z)))
-                    .flatten()
+                (p.z > cam.near_m && p.z > 0.0)
+                    .then(|| (DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y), p.z))
             })
             .collect();
         for tri in model.indices.chunks_exact(3) {
@@ -95,10 +129,6 @@ impl Tile {
     /// (either winding); 1/z is linear in screen space.
     fn triangle(&mut self, v: [(DVec2, f64); 3]) {
         let [(a, za), (b, zb), (c, zc)] = v;
-        let area = (b - a).perp_dot(c - a);
-        if area.abs() < 1e-12 {
-            return;
-        }
         let lo = a.min(b).min(c);
         let hi = a.max(b).max(c);
         let (fx0, fy0) = (f64::from(self.x0), f64::from(self.y0));
@@ -110,9 +140,33 @@ impl Tile {
         let py1 = ((hi.y - 0.5).floor() + 1.0)
             .min(fy0 + f64::from(self.h))
             .max(0.0) as u32;
+        // Most triangles of a small drone hold no pixel centre: done before any sum.
+        if px0 >= px1 || py0 >= py1 {
+            return;
+        }
+        let area = (b - a).perp_dot(c - a);
+        if area.abs() < 1e-12 {
+            return;
+        }
+        // Only triangles of a pixel or more gain from spans; small ones walk their box.
+        let spans = area.abs() >= 1.0;
+        // No centre of the triangle is nearer than its nearest corner (the
+        // weights are ≥ 0 and sum to 1 within a few ulps; the margin is far
+        // wider), so a pixel already as near as that keeps its depth unread.
+        let nearest = za.min(zb).min(zc) * (1.0 - 1e-9);
         for py in py0..py1 {
-            for px in px0..px1 {
-                let p = DVec2::new(f64::from(px) + 0.5, f64::from(py) + 0.5);
+            let cy = f64::from(py) + 0.5;
+            let (sx0, sx1) = if spans {
+                row_span([a, b, c], cy, (px0, px1))
+            } else {
+                (px0, px1)
+            };
+            for px in sx0..sx1 {
+                let at = ((py - self.y0) * self.w + (px - self.x0)) as usize;
+                if nearest >= self.z[at] {
+                    continue;
+                }
+                let p = DVec2::new(f64::from(px) + 0.5, cy);
                 let wa = (c - b).perp_dot(p - b) / area;
                 let wb = (a - c).perp_dot(p - c) / area;
                 let wc = 1.0 - wa - wb;
@@ -120,7 +174,6 @@ impl Tile {
                     continue;
                 }
                 let z = 1.0 / (wa / za + wb / zb + wc / zc);
-                let at = ((py - self.y0) * self.w + (px - self.x0)) as usize;
                 if z < self.z[at] {
                     self.z[at] = z;
                 }
@@ -151,6 +204,71 @@ impl Tile {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The walk over the triangle's whole box, as before spans: the reference.
+    fn whole_box(t: &mut Tile, v: [(DVec2, f64); 3]) {
+        let [(a, za), (b, zb), (c, zc)] = v;
+        let area = (b - a).perp_dot(c - a);
+        if area.abs() < 1e-12 {
+            return;
+        }
+        for py in t.y0..t.y0 + t.h {
+            for px in t.x0..t.x0 + t.w {
+                let p = DVec2::new(f64::from(px) + 0.5, f64::from(py) + 0.5);
+                let wa = (c - b).perp_dot(p - b) / area;
+                let wb = (a - c).perp_dot(p - c) / area;
+                let wc = 1.0 - wa - wb;
+                if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                    continue;
+                }
+                let z = 1.0 / (wa / za + wb / zb + wc / zc);
+                let at = ((py - t.y0) * t.w + (px - t.x0)) as usize;
+                if z < t.z[at] {
+                    t.z[at] = z;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn row_spans_give_the_bits_of_the_whole_box_walk() {
+        // Random triangles (thin, large, tiny, on pixel centres, off the tile) on one tile.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
+        let tile = |w, h| Tile {
+            x0: 3,
+            y0: 5,
+            w,
+            h,
+            z: vec![f64::INFINITY; (w * h) as usize],
+        };
+        let (mut fast, mut slow) = (tile(61, 47), tile(61, 47));
+        let mut covered = 0;
+        for k in 0..3000 {
+            let scale = [0.7, 4.0, 30.0, 90.0][k % 4];
+            let centre = DVec2::new(rng.random_range(0.0..70.0), rng.random_range(0.0..60.0));
+            let mut corner = || {
+                let mut p = centre
+                    + DVec2::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * scale;
+                if rng.random_range(0..4) == 0 {
+                    p = p.round() + DVec2::splat(0.5); // exactly on a pixel centre
+                }
+                (p, rng.random_range(0.5..50.0))
+            };
+            let v = [corner(), corner(), corner()];
+            fast.triangle(v);
+            whole_box(&mut slow, v);
+            assert!(
+                fast.z
+                    .iter()
+                    .zip(&slow.z)
+                    .all(|(f, s)| f.to_bits() == s.to_bits()),
+                "triangle {k}: {v:?}"
+            );
+            covered = fast.z.iter().filter(|z| z.is_finite()).count();
+        }
+        assert!(covered > 2000, "the triangles cover the tile: {covered}");
+    }
 
     #[test]
     fn a_triangle_keeps_the_nearest_depth_at_covered_centres() {
