@@ -1,11 +1,13 @@
 //! The pose manifest: one JSON line per frame with the frame's index, seed,
 //! split, sweep values, camera (K, R, t) and every drone's model, pose and label.
 
+mod confusers;
+
 use super::folder::AppendFile;
 use super::json::{Decimals, Json};
 use super::{Checkpoint, Folder, FormatWriter, FrameRecord, OutputError};
 use crate::annotate::DroneLabel;
-use crate::scene::FrameScene;
+use crate::scene::{DronePose, FrameScene};
 
 /// File name of the manifest in the dataset folder.
 pub const FILE: &str = "manifest.jsonl";
@@ -161,7 +163,7 @@ pub fn write_manifest_line(
     }
     if !scene.confusers.is_empty() {
         j.raw(b",\"confusers\":[");
-        super::confusers::write_confusers(&mut j, scene, labels, model_names, classes);
+        confusers::write_confusers(&mut j, scene, labels, model_names, classes);
         j.raw(b"]");
     }
     j.raw(b",\"drones\":[");
@@ -255,28 +257,40 @@ fn write_drones(
         j.rounded(d.euler_deg.roll, Decimals::Six);
         j.raw(b",\"yaw\":");
         j.rounded(d.euler_deg.yaw, Decimals::Six);
-        j.raw(b"},\"label\":");
-        match label {
-            Some(l) => write_label(j, l),
-            None => j.raw(b"null"),
-        }
-        j.raw(b",\"model\":");
-        match model_names.get(d.model) {
-            Some(name) => j.str(name),
-            None => j.raw(b"null"),
-        }
-        j.raw(b",\"position_m\":");
-        j.rounded_all(&d.position.to_array(), Decimals::Nine);
-        j.raw(b",\"quaternion_xyzw\":");
-        j.rounded_all(&d.rotation.to_array(), Decimals::Twelve);
-        j.raw(b",\"size_m\":");
-        j.f64(d.size_m);
+        j.raw(b"}");
+        write_label_and_pose(j, label, model_names, d);
         if with_tracks {
             j.raw(b",\"track_id\":");
             j.u64(i as u64 + 1);
         }
         j.raw(b"}");
     }
+}
+
+/// The keys a drone's and a confuser's records share, in byte order:
+/// `,"label":…,"model":…,"position_m":…,"quaternion_xyzw":…,"size_m":…`.
+fn write_label_and_pose(
+    j: &mut Json<'_>,
+    label: Option<&DroneLabel>,
+    model_names: &[String],
+    d: &DronePose,
+) {
+    j.raw(b",\"label\":");
+    match label {
+        Some(l) => write_label(j, l),
+        None => j.raw(b"null"),
+    }
+    j.raw(b",\"model\":");
+    match model_names.get(d.model) {
+        Some(name) => j.str(name),
+        None => j.raw(b"null"),
+    }
+    j.raw(b",\"position_m\":");
+    j.rounded_all(&d.position.to_array(), Decimals::Nine);
+    j.raw(b",\"quaternion_xyzw\":");
+    j.rounded_all(&d.rotation.to_array(), Decimals::Twelve);
+    j.raw(b",\"size_m\":");
+    j.f64(d.size_m);
 }
 
 pub(crate) fn write_label(j: &mut Json<'_>, l: &DroneLabel) {

@@ -12,7 +12,6 @@
 //! one new file with a [`FormatWriter`] and one line in [`DatasetWriter::open`].
 
 pub mod coco;
-pub mod confusers;
 pub mod folder;
 pub mod image;
 pub mod jpeg;

@@ -4,9 +4,9 @@
 //! status `negative`, `kept`, `crowd` or `filtered`). Written only when the
 //! frame has confusers, so other manifests keep their bytes.
 
-use super::json::{Decimals, Json};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
+use crate::write::json::{Decimals, Json};
 
 /// The frame's confusers as a JSON array body (without the brackets), keys in byte order.
 pub(crate) fn write_confusers(
@@ -61,22 +61,7 @@ pub(crate) fn write_confusers(
         }
         j.raw(b",\"kind\":");
         j.str(c.kind.name());
-        j.raw(b",\"label\":");
-        match label {
-            Some(l) => super::manifest::write_label(j, l),
-            None => j.raw(b"null"),
-        }
-        j.raw(b",\"model\":");
-        match model_names.get(d.model) {
-            Some(name) => j.str(name),
-            None => j.raw(b"null"),
-        }
-        j.raw(b",\"position_m\":");
-        j.rounded_all(&d.position.to_array(), Decimals::Nine);
-        j.raw(b",\"quaternion_xyzw\":");
-        j.rounded_all(&d.rotation.to_array(), Decimals::Twelve);
-        j.raw(b",\"size_m\":");
-        j.f64(d.size_m);
+        super::write_label_and_pose(j, label, model_names, d);
         j.raw(b",\"span_m\":");
         j.rounded(c.span_m, Decimals::Six);
         j.raw(b",\"speed_m_s\":");
