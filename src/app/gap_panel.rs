@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex};
 use crossbeam_channel::Receiver;
 use egui::{Color32, RichText, Ui};
 
-use crate::gap::report::{Summary, fmt};
+use crate::gap::report::cell;
 use crate::gap::{GapOptions, Report, run_report};
 use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
 use crate::preset::Preset;
@@ -370,31 +370,6 @@ fn make_report(
         max_images,
     })
     .map_err(|e| e.to_string())
-}
-
-/// A summary cell: median [IQR] (n), or share [interval] (n).
-fn cell(s: Option<Summary>) -> String {
-    match s {
-        None => "–".into(),
-        Some(Summary::Distribution {
-            n,
-            median,
-            q25,
-            q75,
-        }) => format!("{} [{} – {}] (n={n})", fmt(median), fmt(q25), fmt(q75)),
-        Some(Summary::Share {
-            n,
-            share,
-            low,
-            high,
-            ..
-        }) => format!(
-            "{:.0} % [{:.0} – {:.0}] (n={n})",
-            share * 100.0,
-            low * 100.0,
-            high * 100.0
-        ),
-    }
 }
 
 /// The report's words with "→" spelled out: egui's default font has no arrows.

@@ -568,7 +568,8 @@ pub fn fmt(v: f64) -> String {
     }
 }
 
-fn cell(s: Option<Summary>) -> String {
+/// A summary cell of the table: median [IQR] (n), or share [interval] (n).
+pub fn cell(s: Option<Summary>) -> String {
     match s {
         None => "–".into(),
         Some(Summary::Distribution {
