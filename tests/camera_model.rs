@@ -313,24 +313,7 @@ fn invalid_ranges_are_named() {
 
 /// One drone, labelled by its visible box, through a blurring, noisy camera.
 fn blurred_preset(sigma_px: f64) -> Preset {
-    use swarmshot::preset::sweep::SweepRange;
-    use swarmshot::preset::{Placement, Resolution};
-    let mut p = Preset::default();
-    p.placement = Placement::Structured {
-        x_count: 1,
-        y_count: 1,
-        z_count: 1,
-        load_factor: 1.0,
-    };
-    p.render.resolution = Resolution::Custom {
-        width: 240,
-        height: 160,
-    };
-    p.render.msaa = 4;
-    p.camera.z = SweepRange::fixed(1.5);
-    p.camera.y = SweepRange::new(-0.6, 0.6, 1.2);
-    p.repeats = 1;
-    p.labels.box_method = BoxMethod::Visible;
+    let mut p = common::single_drone_preset(1.5);
     p.camera_model = Some(CameraModel {
         psf: Psf::Gaussian {
             sigma_px: (sigma_px, sigma_px),

@@ -6,31 +6,15 @@
 mod common;
 
 use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::Preset;
 use swarmshot::preset::appearance::{Appearance, DroneColor};
 use swarmshot::preset::camera_model::CameraModel;
-use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{BoxMethod, Placement, Preset, Resolution};
 use swarmshot::sensor::{self, PixelRect};
 
 /// One white quadcopter seen from close by (its rotors large in the frame),
 /// labelled by its visible box, through a neutral camera.
 fn rotor_preset(opacity: f64) -> Preset {
-    let mut p = Preset::default();
-    p.placement = Placement::Structured {
-        x_count: 1,
-        y_count: 1,
-        z_count: 1,
-        load_factor: 1.0,
-    };
-    p.render.resolution = Resolution::Custom {
-        width: 240,
-        height: 160,
-    };
-    p.render.msaa = 4;
-    p.camera.z = SweepRange::fixed(1.2);
-    p.camera.y = SweepRange::new(-0.6, 0.6, 1.2);
-    p.repeats = 1;
-    p.labels.box_method = BoxMethod::Visible;
+    let mut p = common::single_drone_preset(1.2);
     p.appearance = Some(Appearance {
         palette: vec![(DroneColor::White, 1.0)],
         rotor_opacity: (opacity, opacity),

@@ -54,6 +54,28 @@ pub fn tiny_preset() -> Preset {
     p
 }
 
+/// One drone (a 1×1×1 grid) at `camera_z` (the CameraZ sweep value), seen
+/// at 240×160 with MSAA 4 from two camera heights, labelled by its visible box.
+pub fn single_drone_preset(camera_z: f64) -> Preset {
+    let mut p = Preset::default();
+    p.placement = Placement::Structured {
+        x_count: 1,
+        y_count: 1,
+        z_count: 1,
+        load_factor: 1.0,
+    };
+    p.render.resolution = Resolution::Custom {
+        width: 240,
+        height: 160,
+    };
+    p.render.msaa = 4;
+    p.camera.z = SweepRange::fixed(camera_z);
+    p.camera.y = SweepRange::new(-0.6, 0.6, 1.2);
+    p.repeats = 1;
+    p.labels.box_method = swarmshot::preset::BoxMethod::Visible;
+    p
+}
+
 /// A binary glTF (GLB) from its JSON document and BIN chunk (padded as the
 /// format asks); the document's single buffer is the BIN chunk.
 pub fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
