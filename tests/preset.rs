@@ -28,17 +28,27 @@ fn assert_rejected(p: &Preset, field: &str, needle: &str) {
 
 #[test]
 fn shipped_presets_load_and_validate() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets");
+    // presets/ and its folders (bench/, sim2real/).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets");
+    let mut dirs = vec![root.clone()];
     let mut n = 0;
-    for entry in std::fs::read_dir(dir).expect("presets/ exists") {
-        let path = entry.expect("dir entry").path();
-        if path.extension().is_some_and(|e| e == "ron") {
-            let preset = Preset::load(&path).unwrap_or_else(|e| panic!("{e}"));
-            assert!(preset.frame_count() > 0);
-            n += 1;
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).expect("presets/ exists") {
+            let path = entry.expect("dir entry").path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "ron") {
+                let preset = Preset::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                assert!(preset.frame_count() > 0, "{}", path.display());
+                n += 1;
+            }
         }
     }
-    assert!(n >= 1);
+    assert!(n >= 4 + 1, "{n} presets");
+    // The sim-to-real presets are the shipped ones at the real footage's size.
+    let sim2real = root.join("sim2real/realistic_640x512.ron");
+    let preset = Preset::load(&sim2real).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(preset.image_size(), (640, 512));
 }
 
 #[test]
