@@ -72,7 +72,7 @@ enum Command {
         /// Image encoder threads (default: one per spare core).
         #[arg(long, default_value_t = 0)]
         threads: usize,
-        /// Frames made at once, each by its own renderer (default: 2 when every frame draws a new background, else 1; more can help on a real GPU).
+        /// Frames made at once, each by its own renderer (default: 1 when frames share a background; when every frame draws a new one, 2 on a software rasteriser and 3/4 of the cores, at most 12, on a GPU).
         #[arg(long, default_value_t = 0)]
         makers: usize,
         /// Print each stage's share of the time at the end.

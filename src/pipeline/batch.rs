@@ -42,7 +42,7 @@ pub struct BatchOptions {
     pub resume: bool,
     /// Image encoder threads (0 = one per spare core).
     pub encoder_threads: usize,
-    /// Frames made at once, each by its own renderer (0 = [`DEFAULT_MAKERS`]).
+    /// Frames made at once, each by its own renderer (0 = [`default_makers`]).
     pub makers: usize,
     /// Make only shard K of N of the frames (`--shard`, see `crate::write::shard`).
     pub shard: Option<Shard>,
@@ -64,6 +64,25 @@ pub const DEFAULT_MAKERS: usize = 1;
 /// other's rendering (release, 2 cores: `synthswarm_table2.ron` 0.76× the
 /// wall time of one maker, `realistic.ron` 0.85×; docs/benchmarks.md).
 pub const DEFAULT_MAKERS_NEW_BACKGROUNDS: usize = 2;
+
+/// The most makers chosen by default on a hardware GPU (docs/benchmarks.md,
+/// "On a GPU"): on an H100 with 16 cores, `synthswarm_table2.ron` made 37.7
+/// frames/s with the CPU machine's 2 makers, 89.7 with 6 and 156 with 12.
+pub const MAX_DEFAULT_MAKERS_GPU: usize = 12;
+
+/// Makers when the user names none. On a software rasteriser (lavapipe) the
+/// makers share the cores with it, so one maker, or two when each frame draws
+/// a new background. On a hardware GPU the makers' CPU work (background
+/// upsampling, scenery, the camera stage, labels) is what limits a run whose
+/// backgrounds change, so three quarters of the cores make frames (at most
+/// [`MAX_DEFAULT_MAKERS_GPU`]); the encoders keep their own threads.
+pub fn default_makers(device: wgpu::DeviceType, cores: usize, new_backgrounds: bool) -> usize {
+    match (device, new_backgrounds) {
+        (_, false) => DEFAULT_MAKERS,
+        (wgpu::DeviceType::Cpu, true) => DEFAULT_MAKERS_NEW_BACKGROUNDS,
+        (_, true) => (cores * 3 / 4).clamp(DEFAULT_MAKERS_NEW_BACKGROUNDS, MAX_DEFAULT_MAKERS_GPU),
+    }
+}
 
 /// Whether the run's first two frames draw different backgrounds: what
 /// the background depends on differs between their scenes.
@@ -370,10 +389,13 @@ fn run_stages(
 ) -> (anyhow::Result<SinkResult>, MakersResult) {
     let makers = if options.makers != 0 {
         options.makers
-    } else if backgrounds_change(pipeline, &run) {
-        DEFAULT_MAKERS_NEW_BACKGROUNDS
     } else {
-        DEFAULT_MAKERS
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        default_makers(
+            ctx.adapter_info.device_type,
+            cores,
+            backgrounds_change(pipeline, &run),
+        )
     }
     .min(usize::try_from(run.left()).unwrap_or(usize::MAX))
     .max(1);
@@ -620,5 +642,25 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/realistic.ron");
         let pipeline = FramePipeline::open(&path).expect("preset opens");
         assert!(!backgrounds_change(&pipeline, &span(1)));
+    }
+
+    #[test]
+    fn a_hardware_gpu_gets_more_makers_only_when_backgrounds_change() {
+        use wgpu::DeviceType::{Cpu, DiscreteGpu, IntegratedGpu};
+        // lavapipe on the 2-core machine: as measured there.
+        assert_eq!(default_makers(Cpu, 2, false), 1);
+        assert_eq!(default_makers(Cpu, 2, true), 2);
+        assert_eq!(default_makers(Cpu, 64, true), 2);
+        // A GPU: shared backgrounds keep one maker; new ones take 3/4 of the cores.
+        assert_eq!(default_makers(DiscreteGpu, 16, false), 1);
+        assert_eq!(default_makers(DiscreteGpu, 16, true), 12);
+        assert_eq!(default_makers(IntegratedGpu, 8, true), 6);
+        // Never fewer than the CPU machine's two, never more than the cap.
+        assert_eq!(default_makers(DiscreteGpu, 2, true), 2);
+        assert_eq!(default_makers(DiscreteGpu, 1, true), 2);
+        assert_eq!(
+            default_makers(DiscreteGpu, 128, true),
+            MAX_DEFAULT_MAKERS_GPU
+        );
     }
 }
