@@ -82,6 +82,10 @@ fn main() {
             },
         ),
     ];
+    if std::env::var_os("CAMERA_BENCH_STAGES").is_some() {
+        stages(&rgba, (w, h), &typical);
+        return;
+    }
     println!(
         "camera model, {w}×{h}, {} rayon threads, median of 30 (ms): planes (before) / now",
         rayon::current_num_threads()
@@ -100,5 +104,58 @@ fn main() {
             "  {name}: {before:.2} / {now:.2}{}",
             if same { "" } else { "  (bytes differ!)" }
         );
+    }
+}
+
+/// CAMERA_BENCH_STAGES=1: `apply` with the typical draw's stages switched on
+/// one after another; each line's increase over the one before is that
+/// stage's cost.
+fn stages(rgba: &[u8], (w, h): (u32, u32), typical: &CameraDraw) {
+    let base = CameraDraw {
+        exposure_ev: typical.exposure_ev,
+        ..sensor::draw(&CameraModel::default(), 1, 0)
+    };
+    let wb = CameraDraw {
+        white_balance_red: typical.white_balance_red,
+        white_balance_blue: typical.white_balance_blue,
+        ..base
+    };
+    let ca = CameraDraw {
+        ca_red_scale: typical.ca_red_scale,
+        ca_blue_scale: typical.ca_blue_scale,
+        ..wb
+    };
+    let psf = CameraDraw {
+        psf: typical.psf,
+        ..ca
+    };
+    let vignette = CameraDraw {
+        vignetting: typical.vignetting,
+        ..psf
+    };
+    let cases = [
+        ("decode + exposure + clip + encode", base),
+        ("+ white balance", wb),
+        ("+ chromatic aberration", ca),
+        ("+ Gaussian PSF σ 0.8 px", psf),
+        ("+ vignetting", vignette),
+        ("+ noise (= typical)", *typical),
+        (
+            "+ saturation 1.35",
+            CameraDraw {
+                saturation: 1.35,
+                ..*typical
+            },
+        ),
+    ];
+    println!(
+        "camera model stages, {w}×{h}, {} rayon threads, median of 30 (ms), cumulative",
+        rayon::current_num_threads()
+    );
+    let mut before = 0.0;
+    for (name, draw) in cases {
+        let now = median_ms(sensor::apply, rgba, (w, h), &draw);
+        println!("  {name}: {now:.2} (+{:.2})", now - before);
+        before = now;
     }
 }

@@ -65,6 +65,21 @@ struct Chain<'a> {
 /// Output rows per band (at least; more when the PSF is wide).
 const BAND_ROWS: i64 = 64;
 
+/// Rows per band for `rows` output rows: about [`BAND_ROWS`] (at least 8
+/// PSF radii), the number of bands a multiple of rayon's threads so that
+/// they finish together (one band for a window under 1.5 bands). Any split gives the same bytes.
+fn band_rows(rows: i64, radius: i64) -> i64 {
+    let threads = rayon::current_num_threads().max(1) as i64;
+    let target = BAND_ROWS.max(8 * radius);
+    let bands = (rows + target / 2) / target;
+    let bands = if bands > 1 {
+        (bands + threads - 1) / threads * threads
+    } else {
+        1
+    };
+    ((rows + bands - 1) / bands).max(1)
+}
+
 /// Whether the fused sweep makes this draw (the sensor has the output's pixels).
 pub(super) fn handles(draw: &CameraDraw, width: u32, height: u32) -> bool {
     draw.sensor_size(width, height) == (width, height)
@@ -89,7 +104,7 @@ pub(super) fn develop(
         }
         return bytes;
     }
-    let band = BAND_ROWS.max(8 * chain.kernel.radius());
+    let band = band_rows(y1 - y0, chain.kernel.radius());
     bytes
         .par_chunks_mut(band as usize * ow * 4)
         .enumerate()
@@ -101,18 +116,60 @@ pub(super) fn develop(
     bytes
 }
 
-/// [`Chain::band`], compiled for AVX2 as well as for the baseline and run
-/// that way where the CPU has it: the same operations on wider registers
-/// (Rust never fuses a multiply and an add on its own), so the same bytes.
+/// [`Chain::band`], compiled for AVX-512 and AVX2 as well as for the
+/// baseline and run the widest way the CPU has: the same operations on
+/// wider registers (Rust never fuses a multiply and an add on its own, and
+/// table look-ups are gathers of the same entries), so the same bytes.
 fn run_band(chain: &Chain<'_>, cols: (i64, i64), rows: (i64, i64), out: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        #[allow(unsafe_code)]
-        unsafe {
-            return band_avx2(chain, cols, rows, out);
+    {
+        if simd_level() >= 2 {
+            // SAFETY: the CPU has these features (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            unsafe {
+                return band_avx512(chain, cols, rows, out);
+            }
+        }
+        if simd_level() >= 1 {
+            // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            unsafe {
+                return band_avx2(chain, cols, rows, out);
+            }
         }
     }
+    chain.band(cols, rows, out);
+}
+
+/// The widest build of the band this CPU runs: 2 AVX-512 (F, BW, DQ, VL),
+/// 1 AVX2, 0 the baseline. `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps it
+/// (for comparing the builds; the bytes are the same).
+#[cfg(target_arch = "x86_64")]
+fn simd_level() -> u8 {
+    static LEVEL: std::sync::OnceLock<u8> = std::sync::OnceLock::new();
+    *LEVEL.get_or_init(|| {
+        let cap = match std::env::var("SWARMSHOT_CAMERA_SIMD").as_deref() {
+            Ok("base") => 0,
+            Ok("avx2") => 1,
+            _ => 2,
+        };
+        let avx512 = std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512bw")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+            && std::arch::is_x86_feature_detected!("avx512vl");
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        let level = if avx512 {
+            2
+        } else {
+            u8::from(avx2)
+        };
+        level.min(cap)
+    })
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn band_avx512(chain: &Chain<'_>, cols: (i64, i64), rows: (i64, i64), out: &mut [u8]) {
     chain.band(cols, rows, out);
 }
 
@@ -227,8 +284,8 @@ impl<'a> Chain<'a> {
 /// padded columns `pad0 … pad0 + pw − 1` (each clamped to the image).
 struct PreRows<'c, 'a> {
     chain: &'c Chain<'a>,
-    /// Absolute image column of each padded column.
-    cols: Vec<usize>,
+    /// The first padded column (image columns are clamped to the image).
+    pad0: i64,
     /// Per channel with aberration: its column taps and decoded-row cache.
     ca: [Option<Aberration>; 3],
     out: Vec<f32>,
@@ -241,6 +298,9 @@ struct Aberration {
     /// First decoded column, and per padded column (c0 − first, c1 − first, fx).
     first: usize,
     taps: Vec<(usize, usize, f32)>,
+    /// The taps in runs ([`tap_runs`]), and each column's fx alone.
+    runs: Vec<TapRun>,
+    fx: Vec<f32>,
     /// Two decoded rows (`keys`: their image rows, −1 none), `first …` wide.
     keys: [i64; 2],
     decoded: [Vec<f32>; 2],
@@ -274,14 +334,17 @@ impl<'c, 'a> PreRows<'c, 'a> {
                 .collect();
             let first = raw.iter().map(|t| t.0.min(t.1)).min().unwrap_or(0);
             let end = raw.iter().map(|t| t.0.max(t.1) + 1).max().unwrap_or(1);
+            let taps: Vec<(usize, usize, f32)> = raw
+                .into_iter()
+                .map(|(a, b, f)| (a - first, b - first, f))
+                .collect();
             Some(Aberration {
                 inv,
                 centre_y: cy,
                 first,
-                taps: raw
-                    .into_iter()
-                    .map(|(a, b, f)| (a - first, b - first, f))
-                    .collect(),
+                runs: tap_runs(&taps),
+                fx: taps.iter().map(|t| t.2).collect(),
+                taps,
                 keys: [-1, -1],
                 decoded: [vec![0.0; end - first], vec![0.0; end - first]],
                 mid: vec![0.0; end - first],
@@ -289,7 +352,7 @@ impl<'c, 'a> PreRows<'c, 'a> {
         });
         Self {
             chain,
-            cols,
+            pad0,
             ca,
             out: vec![0.0; pw],
         }
@@ -301,19 +364,12 @@ impl<'c, 'a> PreRows<'c, 'a> {
         let chain = self.chain;
         let (w, last) = (chain.width as usize, chain.height - 1);
         let lut = &chain.luts[c];
+        let image_row = |y: i64| &chain.rgba[y as usize * w * 4..(y as usize + 1) * w * 4];
         let decode = |y: i64, first: usize, out: &mut [f32]| {
-            let start = (y as usize * w + first) * 4 + c;
-            for (o, px) in out.iter_mut().zip(chain.rgba[start..].iter().step_by(4)) {
-                *o = lut[*px as usize];
-            }
+            decode_row(lut, image_row(y), c, first as i64, out);
         };
         match &mut self.ca[c] {
-            None => {
-                let base = y.clamp(0, last) as usize * w * 4 + c;
-                for (o, &x) in self.out.iter_mut().zip(&self.cols) {
-                    *o = lut[chain.rgba[base + x * 4] as usize];
-                }
-            }
+            None => decode_row(lut, image_row(y.clamp(0, last)), c, self.pad0, &mut self.out),
             Some(a) => {
                 let y = y.clamp(0, last);
                 let u = a.centre_y + (y as f64 + 0.5 - a.centre_y) * a.inv - 0.5;
@@ -324,10 +380,85 @@ impl<'c, 'a> PreRows<'c, 'a> {
                 let s1 = a.slot(k1, k0, |k, out| decode(k, first, out));
                 let (r0, r1) = (&a.decoded[s0], &a.decoded[s1]);
                 super::stages::lerp_rows(r0, r1, fy, &mut a.mid);
-                super::stages::taps_row(&a.mid, &a.taps, &mut self.out);
+                taps_runs(&a.mid, (&a.taps, &a.fx), &a.runs, &mut self.out);
             }
         }
         &self.out
+    }
+}
+
+/// RGBA8 image row `row`'s channel `c` through `lut` at image columns
+/// `first`, `first + 1`, … (as many as `out` is long), clamped to the row.
+#[inline(always)]
+fn decode_row(lut: &[f32; 256], row: &[u8], c: usize, first: i64, out: &mut [f32]) {
+    let (w, n) = ((row.len() / 4) as i64, out.len() as i64);
+    let lo = (-first).clamp(0, n) as usize;
+    let hi = (w - first).clamp(lo as i64, n) as usize;
+    let (left, rest) = out.split_at_mut(lo);
+    let (inside, right) = rest.split_at_mut(hi - lo);
+    left.fill(lut[usize::from(row[c])]);
+    right.fill(lut[usize::from(row[(w as usize - 1) * 4 + c])]);
+    if !inside.is_empty() {
+        let start = (first + lo as i64) as usize * 4;
+        for (o, px) in inside.iter_mut().zip(row[start..].chunks_exact(4)) {
+            *o = lut[usize::from(px[c])];
+        }
+    }
+}
+
+/// Output columns `start..end` whose aberration taps are (c0 + k, c0 + k + 1)
+/// for k = 0, 1, … (`Some(c0)`, a run read as two contiguous slices), or one
+/// column with other taps (`None`: at the image's edges).
+#[derive(Clone, Copy, Debug)]
+struct TapRun {
+    start: usize,
+    end: usize,
+    c0: Option<usize>,
+}
+
+/// The taps split into [`TapRun`]s.
+fn tap_runs(taps: &[(usize, usize, f32)]) -> Vec<TapRun> {
+    let mut runs = Vec::new();
+    let mut j = 0;
+    while j < taps.len() {
+        let (c0, c1, _) = taps[j];
+        let mut end = j + 1;
+        if c1 == c0 + 1 {
+            while end < taps.len() && taps[end].0 == c0 + (end - j) && taps[end].1 == taps[end].0 + 1
+            {
+                end += 1;
+            }
+        }
+        let c0 = (c1 == c0 + 1).then_some(c0);
+        runs.push(TapRun { start: j, end, c0 });
+        j = end;
+    }
+    runs
+}
+
+/// `out[j]` = `src[c0]` + (`src[c1]` − `src[c0]`)·`fx` for the taps
+/// (c0, c1, fx) of column j, as [`super::stages::taps_row`] computes it, a
+/// run of contiguous taps at a time (a loop that vectorises).
+#[inline(always)]
+fn taps_runs(
+    src: &[f32],
+    (taps, fx): (&[(usize, usize, f32)], &[f32]),
+    runs: &[TapRun],
+    out: &mut [f32],
+) {
+    for run in runs {
+        let (out, taps) = (&mut out[run.start..run.end], &taps[run.start..run.end]);
+        match run.c0 {
+            Some(c0) => {
+                let n = out.len();
+                let (a, b) = (&src[c0..c0 + n], &src[c0 + 1..c0 + 1 + n]);
+                let fx = &fx[run.start..run.end];
+                for (((o, x), y), f) in out.iter_mut().zip(a).zip(b).zip(fx) {
+                    *o = x + (y - x) * f;
+                }
+            }
+            None => super::stages::taps_row(src, taps, out),
+        }
     }
 }
 
@@ -353,6 +484,8 @@ struct Rows {
     ring: [Vec<f32>; 3],
     prefix: [Vec<f64>; 3],
     sums: Vec<f64>,
+    /// Where each of the vertical taps' rows starts in the ring (working memory).
+    starts: Vec<usize>,
 }
 
 impl Rows {
@@ -368,6 +501,7 @@ impl Rows {
             ring: std::array::from_fn(|_| vec![0.0; ring]),
             prefix: std::array::from_fn(|_| vec![0.0; prefix]),
             sums: vec![0.0; if prefix > 0 { ow } else { 0 }],
+            starts: Vec::new(),
         }
     }
 
@@ -385,15 +519,8 @@ impl Rows {
         match kernel {
             Kernel::None => {}
             Kernel::Gaussian(weights) => {
-                let row = &mut self.ring[c][slot];
-                let ow = row.len();
-                row.fill(0.0);
                 debug_assert_eq!(offset as usize, weights.len() / 2);
-                for (k, &wk) in weights.iter().enumerate() {
-                    for (o, s) in row.iter_mut().zip(&padded[k..k + ow]) {
-                        *o += wk * s;
-                    }
-                }
+                convolve_row(weights, padded, &mut self.ring[c][slot]);
             }
             Kernel::Disc { .. } => {
                 let pre = &mut self.prefix[c][slot];
@@ -422,13 +549,14 @@ impl Rows {
         match kernel {
             Kernel::None => {}
             Kernel::Gaussian(weights) => {
-                out.fill(0.0);
-                for (k, &wk) in weights.iter().enumerate() {
-                    let src = &self.ring[c][self.slot(kernel, (y + k as i64 - r).clamp(0, last))];
-                    for (o, s) in out.iter_mut().zip(src) {
-                        *o += wk * s;
-                    }
-                }
+                let mut starts = std::mem::take(&mut self.starts);
+                starts.clear();
+                starts.extend(
+                    (0..weights.len() as i64)
+                        .map(|k| self.slot(kernel, (y + k - r).clamp(0, last)).start),
+                );
+                sum_rows(weights, &self.ring[c], &starts, out);
+                self.starts = starts;
             }
             Kernel::Disc { spans, norm } => {
                 // `start`: the window's first column (prefix sums start at −r).
@@ -453,6 +581,62 @@ impl Rows {
     }
 }
 
+/// Outputs per block of the convolutions: sums held in registers.
+const LANES: usize = 16;
+
+/// `out[i]` = Σₖ `weights[k]`·`padded[i + k]`, summed from 0 in the order
+/// k = 0, 1, … (the plane path's order, so its f32 results), a block of
+/// [`LANES`] outputs at a time.
+#[inline(always)]
+fn convolve_row(weights: &[f32], padded: &[f32], out: &mut [f32]) {
+    let mut blocks = out.chunks_exact_mut(LANES);
+    let mut i = 0;
+    for block in &mut blocks {
+        let mut acc = [0f32; LANES];
+        for (k, &wk) in weights.iter().enumerate() {
+            let src: &[f32; LANES] = padded[i + k..i + k + LANES].try_into().expect("block");
+            for (a, s) in acc.iter_mut().zip(src) {
+                *a += wk * s;
+            }
+        }
+        block.copy_from_slice(&acc);
+        i += LANES;
+    }
+    for (j, o) in blocks.into_remainder().iter_mut().enumerate() {
+        let mut acc = 0f32;
+        for (k, &wk) in weights.iter().enumerate() {
+            acc += wk * padded[i + j + k];
+        }
+        *o = acc;
+    }
+}
+
+/// `out[i]` = Σₖ `weights[k]`·`ring[starts[k] + i]`, summed from 0 in the
+/// order k = 0, 1, …, a block of [`LANES`] outputs at a time.
+#[inline(always)]
+fn sum_rows(weights: &[f32], ring: &[f32], starts: &[usize], out: &mut [f32]) {
+    let mut blocks = out.chunks_exact_mut(LANES);
+    let mut i = 0;
+    for block in &mut blocks {
+        let mut acc = [0f32; LANES];
+        for (&wk, &s) in weights.iter().zip(starts) {
+            let src: &[f32; LANES] = ring[s + i..s + i + LANES].try_into().expect("block");
+            for (a, s) in acc.iter_mut().zip(src) {
+                *a += wk * s;
+            }
+        }
+        block.copy_from_slice(&acc);
+        i += LANES;
+    }
+    for (j, o) in blocks.into_remainder().iter_mut().enumerate() {
+        let mut acc = 0f32;
+        for (&wk, &s) in weights.iter().zip(starts) {
+            acc += wk * ring[s + i + j];
+        }
+        *o = acc;
+    }
+}
+
 /// The per-pixel end of the chain: vignetting, clipping, noise, encoding.
 struct Finish {
     x0: i64,
@@ -462,8 +646,6 @@ struct Finish {
     dx2: Vec<f32>,
     factor: Vec<f32>,
     deviates: [Vec<f32>; 3],
-    scratch: Vec<u32>,
-    index: Vec<u32>,
 }
 
 impl Finish {
@@ -481,8 +663,6 @@ impl Finish {
             factor: vec![0.0; dx2.len()],
             dx2,
             deviates: std::array::from_fn(|_| vec![0.0; noisy]),
-            scratch: Vec::new(),
-            index: vec![0; ow],
         }
     }
 
@@ -506,7 +686,7 @@ impl Finish {
         if let Some((gain, read2, key)) = chain.noise {
             let first = (y * chain.width + self.x0) as u64;
             let [d0, d1, d2] = &mut self.deviates;
-            noise::deviates(key, first, &mut self.scratch, [d0, d1, d2]);
+            noise::deviates(key, first, [d0, d1, d2]);
             for (vals, devs) in self.vals.iter_mut().zip(&self.deviates) {
                 noise::add(vals, devs, gain, read2);
             }
@@ -517,10 +697,9 @@ impl Finish {
                 }
             }
         }
-        let alpha = (y as usize * chain.width as usize + self.x0 as usize) * 4 + 3;
-        let alpha = &chain.rgba[alpha..alpha + line.len() - 3];
+        let first = (y as usize * chain.width as usize + self.x0 as usize) * 4;
         let [r, g, b] = &self.vals;
-        encode_row([r, g, b], alpha, &mut self.index, line);
+        encode_row([r, g, b], &chain.rgba[first..first + line.len()], line);
     }
 }
 
