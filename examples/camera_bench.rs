@@ -152,8 +152,14 @@ fn stages(rgba: &[u8], (w, h): (u32, u32), typical: &CameraDraw) {
         "camera model stages, {w}×{h}, {} rayon threads, median of 30 (ms), cumulative",
         rayon::current_num_threads()
     );
+    // CAMERA_BENCH_STAGES=N > 1: the first N lines only (for profiling one).
+    let upto = std::env::var("CAMERA_BENCH_STAGES")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&n| n > 1)
+        .unwrap_or(cases.len());
     let mut before = 0.0;
-    for (name, draw) in cases {
+    for (name, draw) in cases.into_iter().take(upto) {
         let now = median_ms(sensor::apply, rgba, (w, h), &draw);
         println!("  {name}: {now:.2} (+{:.2})", now - before);
         before = now;

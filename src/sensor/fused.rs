@@ -699,7 +699,7 @@ impl Finish {
         }
         let first = (y as usize * chain.width as usize + self.x0 as usize) * 4;
         let [r, g, b] = &self.vals;
-        encode_row([r, g, b], &chain.rgba[first..first + line.len()], line);
+        encode_row([r, g, b], &chain.rgba[first..first + line.len()], line, true);
     }
 }
 

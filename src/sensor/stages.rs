@@ -112,6 +112,19 @@ fn encode_index(l: f32) -> u32 {
     ((l * (ENCODE_STEPS - 1) as f32 + 0.5) as u32).min(ENCODE_STEPS as u32 - 1)
 }
 
+/// [`encode_index`] without a saturating float-to-integer cast (which LLVM
+/// makes one lane at a time): ⌊l·65 535 + ½⌋ clamped to the table, whose
+/// floor plus 2²³ holds the integer in its low mantissa bits; the same
+/// indices (unit test). For builds with SIMD rounding (the fused sweep's
+/// AVX2 and AVX-512 builds); elsewhere `floor` is a library call.
+#[inline(always)]
+fn encode_index_simd(l: f32) -> u32 {
+    const TWO23: f32 = 8_388_608.0;
+    let top = (ENCODE_STEPS - 1) as f32;
+    let x = (l * top + 0.5).max(0.0).min(top).floor();
+    (x + TWO23).to_bits() - TWO23.to_bits()
+}
+
 /// Indices per bucket of [`encode_buckets`].
 const BUCKET: usize = 16;
 
@@ -140,7 +153,7 @@ fn encode_buckets() -> &'static [u32; ENCODE_STEPS / BUCKET] {
 }
 
 /// [`encode`] through [`encode_buckets`]: the same code, no 64 KiB table.
-#[inline(always)]
+#[cfg(test)]
 fn encode_bucketed(buckets: &[u32; ENCODE_STEPS / BUCKET], l: f32) -> u8 {
     bucket_code(buckets, encode_index(l))
 }
@@ -156,9 +169,18 @@ fn bucket_code(buckets: &[u32; ENCODE_STEPS / BUCKET], i: u32) -> u8 {
 /// One row of RGBA8 from three rows of linear values, alpha copied from
 /// `src` (the input's RGBA8 pixels at the same places): each pixel's three
 /// codes through [`encode_buckets`] and its alpha written as one word.
+/// `simd`: the indices by [`encode_index_simd`] (the same values).
 #[inline(always)]
-pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
+pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], simd: bool) {
     let buckets = encode_buckets();
+    let code = |l: f32| {
+        let i = if simd {
+            encode_index_simd(l)
+        } else {
+            encode_index(l)
+        };
+        bucket_code(buckets, i)
+    };
     let [r, g, b] = vals;
     for ((((px, s), r), g), b) in line
         .chunks_exact_mut(4)
@@ -167,12 +189,7 @@ pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
         .zip(g)
         .zip(b)
     {
-        px.copy_from_slice(&[
-            encode_bucketed(buckets, *r),
-            encode_bucketed(buckets, *g),
-            encode_bucketed(buckets, *b),
-            s[3],
-        ]);
+        px.copy_from_slice(&[code(*r), code(*g), code(*b), s[3]]);
     }
 }
 
@@ -457,7 +474,7 @@ fn encode_window(planes: &[Plane; 3], out: Win, rgba: &[u8], width: u32) -> Vec<
                 &row[x0..x0 + ow]
             });
             let first = (y as usize * width as usize + out.x0 as usize) * 4;
-            encode_row(src, &rgba[first..first + ow * 4], line);
+            encode_row(src, &rgba[first..first + ow * 4], line, false);
         });
     bytes
 }
@@ -720,8 +737,15 @@ mod tests {
             let l = i as f32 / (ENCODE_STEPS - 1) as f32;
             assert_eq!(encode_bucketed(buckets, l), encode(e, l), "{l}");
         }
-        for l in [-1.0, -0.0, 1.0, 2.0, f32::NAN, f32::INFINITY] {
+        for l in [-1.0, -0.0, 1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             assert_eq!(encode_bucketed(buckets, l), encode(e, l), "{l}");
+            assert_eq!(encode_index_simd(l), encode_index(l), "{l}");
+        }
+        // Every f32 in [-1, 2] by a fine step, and the halves between indices.
+        for k in -65_536..=131_072 {
+            for l in [k as f32 / 65_535.0, (k as f32 + 0.5) / 65_535.0] {
+                assert_eq!(encode_index_simd(l), encode_index(l), "{l}");
+            }
         }
     }
 }
