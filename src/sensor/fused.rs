@@ -158,11 +158,7 @@ fn simd_level() -> u8 {
             && std::arch::is_x86_feature_detected!("avx512dq")
             && std::arch::is_x86_feature_detected!("avx512vl");
         let avx2 = std::arch::is_x86_feature_detected!("avx2");
-        let level = if avx512 {
-            2
-        } else {
-            u8::from(avx2)
-        };
+        let level = if avx512 { 2 } else { u8::from(avx2) };
         level.min(cap)
     })
 }
@@ -369,7 +365,13 @@ impl<'c, 'a> PreRows<'c, 'a> {
             decode_row(lut, image_row(y), c, first as i64, out);
         };
         match &mut self.ca[c] {
-            None => decode_row(lut, image_row(y.clamp(0, last)), c, self.pad0, &mut self.out),
+            None => decode_row(
+                lut,
+                image_row(y.clamp(0, last)),
+                c,
+                self.pad0,
+                &mut self.out,
+            ),
             Some(a) => {
                 let y = y.clamp(0, last);
                 let u = a.centre_y + (y as f64 + 0.5 - a.centre_y) * a.inv - 0.5;
@@ -471,7 +473,9 @@ fn tap_runs(taps: &[(usize, usize, f32)]) -> Vec<TapRun> {
         let (c0, c1, _) = taps[j];
         let mut end = j + 1;
         if c1 == c0 + 1 {
-            while end < taps.len() && taps[end].0 == c0 + (end - j) && taps[end].1 == taps[end].0 + 1
+            while end < taps.len()
+                && taps[end].0 == c0 + (end - j)
+                && taps[end].1 == taps[end].0 + 1
             {
                 end += 1;
             }

@@ -128,7 +128,11 @@ mod tests {
                 / total
         };
         assert!(moment(&|x| x).abs() < 1e-7, "{}", moment(&|x| x));
-        assert!((moment(&|x| x * x) - 1.0).abs() < 1e-5, "{}", moment(&|x| x * x));
+        assert!(
+            (moment(&|x| x * x) - 1.0).abs() < 1e-5,
+            "{}",
+            moment(&|x| x * x)
+        );
         let within = |k: f64| moment(&|x| f64::from(u8::from(x.abs() < k)));
         assert!((within(1.0) - 0.6827).abs() < 0.002, "{}", within(1.0));
         assert!((within(2.0) - 0.9545).abs() < 0.002, "{}", within(2.0));

@@ -737,7 +737,15 @@ mod tests {
             let l = i as f32 / (ENCODE_STEPS - 1) as f32;
             assert_eq!(encode_bucketed(buckets, l), encode(e, l), "{l}");
         }
-        for l in [-1.0, -0.0, 1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        for l in [
+            -1.0,
+            -0.0,
+            1.0,
+            2.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
             assert_eq!(encode_bucketed(buckets, l), encode(e, l), "{l}");
             assert_eq!(encode_index_simd(l), encode_index(l), "{l}");
         }
