@@ -5,7 +5,10 @@
 //! and `apply` as it is, with a check that both give the same bytes.
 //!
 //! `cargo run --release --no-default-features --example camera_bench`
-//! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads.
+//! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads;
+//! `CAMERA_BENCH_STAGES=1` times `apply` with the typical draw's stages switched on one
+//! after another (the per-stage breakdown; `=N` stops after N lines, for a profiler);
+//! `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps the fused sweep's SIMD build.
 
 use std::time::Instant;
 
