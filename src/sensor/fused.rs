@@ -72,7 +72,8 @@ const BAND_ROWS: i64 = 64;
 
 /// Rows per band for `rows` output rows: about [`BAND_ROWS`] (at least 8
 /// PSF radii), the number of bands a multiple of rayon's threads so that
-/// they finish together (one band for a window under 1.5 bands). Any split gives the same bytes.
+/// they finish together (one band for a window under 1.5 bands). Any
+/// split gives the same bytes.
 fn band_rows(rows: i64, radius: i64) -> i64 {
     let threads = rayon::current_num_threads().max(1) as i64;
     let target = BAND_ROWS.max(8 * radius);
@@ -123,8 +124,9 @@ pub(super) fn develop(
 
 /// [`Chain::band`], compiled for AVX-512 and AVX2 as well as for the
 /// baseline and run the widest way the CPU has: the same operations on
-/// wider registers (Rust never fuses a multiply and an add on its own, and
-/// table look-ups are gathers of the same entries), so the same bytes.
+/// wider registers (Rust never fuses a multiply and an add on its own), so
+/// the same bytes. The decode and encode rows take their AVX2 builds inside
+/// the AVX-512 band ([`super::kernels::decode_row`]).
 fn run_band(chain: &Chain<'_>, cols: (i64, i64), rows: (i64, i64), out: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
     {
