@@ -5,7 +5,10 @@
 //! and `apply` as it is, with a check that both give the same bytes.
 //!
 //! `cargo run --release --no-default-features --example camera_bench`
-//! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads.
+//! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads;
+//! `CAMERA_BENCH_STAGES=1` times `apply` with the typical draw's stages switched on one
+//! after another (the per-stage breakdown; `=N` stops after N lines, for a profiler);
+//! `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps the fused sweep's SIMD build.
 
 use std::time::Instant;
 
@@ -82,6 +85,10 @@ fn main() {
             },
         ),
     ];
+    if std::env::var_os("CAMERA_BENCH_STAGES").is_some() {
+        stages(&rgba, (w, h), &typical);
+        return;
+    }
     println!(
         "camera model, {w}×{h}, {} rayon threads, median of 30 (ms): planes (before) / now",
         rayon::current_num_threads()
@@ -100,5 +107,64 @@ fn main() {
             "  {name}: {before:.2} / {now:.2}{}",
             if same { "" } else { "  (bytes differ!)" }
         );
+    }
+}
+
+/// CAMERA_BENCH_STAGES=1: `apply` with the typical draw's stages switched on
+/// one after another; each line's increase over the one before is that
+/// stage's cost.
+fn stages(rgba: &[u8], (w, h): (u32, u32), typical: &CameraDraw) {
+    let base = CameraDraw {
+        exposure_ev: typical.exposure_ev,
+        ..sensor::draw(&CameraModel::default(), 1, 0)
+    };
+    let wb = CameraDraw {
+        white_balance_red: typical.white_balance_red,
+        white_balance_blue: typical.white_balance_blue,
+        ..base
+    };
+    let ca = CameraDraw {
+        ca_red_scale: typical.ca_red_scale,
+        ca_blue_scale: typical.ca_blue_scale,
+        ..wb
+    };
+    let psf = CameraDraw {
+        psf: typical.psf,
+        ..ca
+    };
+    let vignette = CameraDraw {
+        vignetting: typical.vignetting,
+        ..psf
+    };
+    let cases = [
+        ("decode + exposure + clip + encode", base),
+        ("+ white balance", wb),
+        ("+ chromatic aberration", ca),
+        ("+ Gaussian PSF σ 0.8 px", psf),
+        ("+ vignetting", vignette),
+        ("+ noise (= typical)", *typical),
+        (
+            "+ saturation 1.35",
+            CameraDraw {
+                saturation: 1.35,
+                ..*typical
+            },
+        ),
+    ];
+    println!(
+        "camera model stages, {w}×{h}, {} rayon threads, median of 30 (ms), cumulative",
+        rayon::current_num_threads()
+    );
+    // CAMERA_BENCH_STAGES=N > 1: the first N lines only (for profiling one).
+    let upto = std::env::var("CAMERA_BENCH_STAGES")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&n| n > 1)
+        .unwrap_or(cases.len());
+    let mut before = 0.0;
+    for (name, draw) in cases.into_iter().take(upto) {
+        let now = median_ms(sensor::apply, rgba, (w, h), &draw);
+        println!("  {name}: {now:.2} (+{:.2})", now - before);
+        before = now;
     }
 }

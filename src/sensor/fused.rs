@@ -20,7 +20,12 @@
 
 use rayon::prelude::*;
 
-use super::stages::{decode_table, disc_spans, encode_row, gaussian_weights};
+#[cfg(target_arch = "x86_64")]
+use super::kernels::simd_level;
+use super::kernels::{
+    TapRun, convolve_row, decode_row, encode_line, sum_rows, tap_runs, taps_runs,
+};
+use super::stages::{decode_table, disc_spans, gaussian_weights};
 use super::{CameraDraw, PsfDraw, noise};
 
 /// The PSF as the sweep applies it.
@@ -65,6 +70,22 @@ struct Chain<'a> {
 /// Output rows per band (at least; more when the PSF is wide).
 const BAND_ROWS: i64 = 64;
 
+/// Rows per band for `rows` output rows: about [`BAND_ROWS`] (at least 8
+/// PSF radii), the number of bands a multiple of rayon's threads so that
+/// they finish together (one band for a window under 1.5 bands). Any
+/// split gives the same bytes.
+fn band_rows(rows: i64, radius: i64) -> i64 {
+    let threads = rayon::current_num_threads().max(1) as i64;
+    let target = BAND_ROWS.max(8 * radius);
+    let bands = (rows + target / 2) / target;
+    let bands = if bands > 1 {
+        (bands + threads - 1) / threads * threads
+    } else {
+        1
+    };
+    ((rows + bands - 1) / bands).max(1)
+}
+
 /// Whether the fused sweep makes this draw (the sensor has the output's pixels).
 pub(super) fn handles(draw: &CameraDraw, width: u32, height: u32) -> bool {
     draw.sensor_size(width, height) == (width, height)
@@ -89,7 +110,7 @@ pub(super) fn develop(
         }
         return bytes;
     }
-    let band = BAND_ROWS.max(8 * chain.kernel.radius());
+    let band = band_rows(y1 - y0, chain.kernel.radius());
     bytes
         .par_chunks_mut(band as usize * ow * 4)
         .enumerate()
@@ -101,18 +122,35 @@ pub(super) fn develop(
     bytes
 }
 
-/// [`Chain::band`], compiled for AVX2 as well as for the baseline and run
-/// that way where the CPU has it: the same operations on wider registers
-/// (Rust never fuses a multiply and an add on its own), so the same bytes.
+/// [`Chain::band`], compiled for AVX-512 and AVX2 as well as for the
+/// baseline and run the widest way the CPU has: the same operations on
+/// wider registers (Rust never fuses a multiply and an add on its own), so
+/// the same bytes. The decode and encode rows take their AVX2 builds inside
+/// the AVX-512 band ([`super::kernels::decode_row`]).
 fn run_band(chain: &Chain<'_>, cols: (i64, i64), rows: (i64, i64), out: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        #[allow(unsafe_code)]
-        unsafe {
-            return band_avx2(chain, cols, rows, out);
+    {
+        if simd_level() >= 2 {
+            // SAFETY: the CPU has these features (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            unsafe {
+                return band_avx512(chain, cols, rows, out);
+            }
+        }
+        if simd_level() >= 1 {
+            // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            unsafe {
+                return band_avx2(chain, cols, rows, out);
+            }
         }
     }
+    chain.band(cols, rows, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn band_avx512(chain: &Chain<'_>, cols: (i64, i64), rows: (i64, i64), out: &mut [u8]) {
     chain.band(cols, rows, out);
 }
 
@@ -227,8 +265,8 @@ impl<'a> Chain<'a> {
 /// padded columns `pad0 … pad0 + pw − 1` (each clamped to the image).
 struct PreRows<'c, 'a> {
     chain: &'c Chain<'a>,
-    /// Absolute image column of each padded column.
-    cols: Vec<usize>,
+    /// The first padded column (image columns are clamped to the image).
+    pad0: i64,
     /// Per channel with aberration: its column taps and decoded-row cache.
     ca: [Option<Aberration>; 3],
     out: Vec<f32>,
@@ -241,6 +279,9 @@ struct Aberration {
     /// First decoded column, and per padded column (c0 − first, c1 − first, fx).
     first: usize,
     taps: Vec<(usize, usize, f32)>,
+    /// The taps in runs ([`tap_runs`]), and each column's fx alone.
+    runs: Vec<TapRun>,
+    fx: Vec<f32>,
     /// Two decoded rows (`keys`: their image rows, −1 none), `first …` wide.
     keys: [i64; 2],
     decoded: [Vec<f32>; 2],
@@ -274,14 +315,17 @@ impl<'c, 'a> PreRows<'c, 'a> {
                 .collect();
             let first = raw.iter().map(|t| t.0.min(t.1)).min().unwrap_or(0);
             let end = raw.iter().map(|t| t.0.max(t.1) + 1).max().unwrap_or(1);
+            let taps: Vec<(usize, usize, f32)> = raw
+                .into_iter()
+                .map(|(a, b, f)| (a - first, b - first, f))
+                .collect();
             Some(Aberration {
                 inv,
                 centre_y: cy,
                 first,
-                taps: raw
-                    .into_iter()
-                    .map(|(a, b, f)| (a - first, b - first, f))
-                    .collect(),
+                runs: tap_runs(&taps),
+                fx: taps.iter().map(|t| t.2).collect(),
+                taps,
                 keys: [-1, -1],
                 decoded: [vec![0.0; end - first], vec![0.0; end - first]],
                 mid: vec![0.0; end - first],
@@ -289,7 +333,7 @@ impl<'c, 'a> PreRows<'c, 'a> {
         });
         Self {
             chain,
-            cols,
+            pad0,
             ca,
             out: vec![0.0; pw],
         }
@@ -301,19 +345,18 @@ impl<'c, 'a> PreRows<'c, 'a> {
         let chain = self.chain;
         let (w, last) = (chain.width as usize, chain.height - 1);
         let lut = &chain.luts[c];
+        let image_row = |y: i64| &chain.rgba[y as usize * w * 4..(y as usize + 1) * w * 4];
         let decode = |y: i64, first: usize, out: &mut [f32]| {
-            let start = (y as usize * w + first) * 4 + c;
-            for (o, px) in out.iter_mut().zip(chain.rgba[start..].iter().step_by(4)) {
-                *o = lut[*px as usize];
-            }
+            decode_row(lut, image_row(y), c, first as i64, out);
         };
         match &mut self.ca[c] {
-            None => {
-                let base = y.clamp(0, last) as usize * w * 4 + c;
-                for (o, &x) in self.out.iter_mut().zip(&self.cols) {
-                    *o = lut[chain.rgba[base + x * 4] as usize];
-                }
-            }
+            None => decode_row(
+                lut,
+                image_row(y.clamp(0, last)),
+                c,
+                self.pad0,
+                &mut self.out,
+            ),
             Some(a) => {
                 let y = y.clamp(0, last);
                 let u = a.centre_y + (y as f64 + 0.5 - a.centre_y) * a.inv - 0.5;
@@ -324,7 +367,7 @@ impl<'c, 'a> PreRows<'c, 'a> {
                 let s1 = a.slot(k1, k0, |k, out| decode(k, first, out));
                 let (r0, r1) = (&a.decoded[s0], &a.decoded[s1]);
                 super::stages::lerp_rows(r0, r1, fy, &mut a.mid);
-                super::stages::taps_row(&a.mid, &a.taps, &mut self.out);
+                taps_runs(&a.mid, (&a.taps, &a.fx), &a.runs, &mut self.out);
             }
         }
         &self.out
@@ -353,6 +396,8 @@ struct Rows {
     ring: [Vec<f32>; 3],
     prefix: [Vec<f64>; 3],
     sums: Vec<f64>,
+    /// Where each of the vertical taps' rows starts in the ring (working memory).
+    starts: Vec<usize>,
 }
 
 impl Rows {
@@ -368,6 +413,7 @@ impl Rows {
             ring: std::array::from_fn(|_| vec![0.0; ring]),
             prefix: std::array::from_fn(|_| vec![0.0; prefix]),
             sums: vec![0.0; if prefix > 0 { ow } else { 0 }],
+            starts: Vec::new(),
         }
     }
 
@@ -385,15 +431,8 @@ impl Rows {
         match kernel {
             Kernel::None => {}
             Kernel::Gaussian(weights) => {
-                let row = &mut self.ring[c][slot];
-                let ow = row.len();
-                row.fill(0.0);
                 debug_assert_eq!(offset as usize, weights.len() / 2);
-                for (k, &wk) in weights.iter().enumerate() {
-                    for (o, s) in row.iter_mut().zip(&padded[k..k + ow]) {
-                        *o += wk * s;
-                    }
-                }
+                convolve_row(weights, padded, &mut self.ring[c][slot]);
             }
             Kernel::Disc { .. } => {
                 let pre = &mut self.prefix[c][slot];
@@ -422,13 +461,14 @@ impl Rows {
         match kernel {
             Kernel::None => {}
             Kernel::Gaussian(weights) => {
-                out.fill(0.0);
-                for (k, &wk) in weights.iter().enumerate() {
-                    let src = &self.ring[c][self.slot(kernel, (y + k as i64 - r).clamp(0, last))];
-                    for (o, s) in out.iter_mut().zip(src) {
-                        *o += wk * s;
-                    }
-                }
+                let mut starts = std::mem::take(&mut self.starts);
+                starts.clear();
+                starts.extend(
+                    (0..weights.len() as i64)
+                        .map(|k| self.slot(kernel, (y + k - r).clamp(0, last)).start),
+                );
+                sum_rows(weights, &self.ring[c], &starts, out);
+                self.starts = starts;
             }
             Kernel::Disc { spans, norm } => {
                 // `start`: the window's first column (prefix sums start at −r).
@@ -462,8 +502,6 @@ struct Finish {
     dx2: Vec<f32>,
     factor: Vec<f32>,
     deviates: [Vec<f32>; 3],
-    scratch: Vec<u32>,
-    index: Vec<u32>,
 }
 
 impl Finish {
@@ -481,8 +519,6 @@ impl Finish {
             factor: vec![0.0; dx2.len()],
             dx2,
             deviates: std::array::from_fn(|_| vec![0.0; noisy]),
-            scratch: Vec::new(),
-            index: vec![0; ow],
         }
     }
 
@@ -506,7 +542,7 @@ impl Finish {
         if let Some((gain, read2, key)) = chain.noise {
             let first = (y * chain.width + self.x0) as u64;
             let [d0, d1, d2] = &mut self.deviates;
-            noise::deviates(key, first, &mut self.scratch, [d0, d1, d2]);
+            noise::deviates(key, first, [d0, d1, d2]);
             for (vals, devs) in self.vals.iter_mut().zip(&self.deviates) {
                 noise::add(vals, devs, gain, read2);
             }
@@ -517,10 +553,9 @@ impl Finish {
                 }
             }
         }
-        let alpha = (y as usize * chain.width as usize + self.x0 as usize) * 4 + 3;
-        let alpha = &chain.rgba[alpha..alpha + line.len() - 3];
+        let first = (y as usize * chain.width as usize + self.x0 as usize) * 4;
         let [r, g, b] = &self.vals;
-        encode_row([r, g, b], alpha, &mut self.index, line);
+        encode_line([r, g, b], &chain.rgba[first..first + line.len()], line);
     }
 }
 

@@ -43,6 +43,7 @@
 //! pixel's value depends only on the input and the draw, never on the split.
 
 mod fused;
+mod kernels;
 pub mod motion;
 mod noise;
 mod stages;

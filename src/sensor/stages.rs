@@ -112,25 +112,84 @@ fn encode_index(l: f32) -> u32 {
     ((l * (ENCODE_STEPS - 1) as f32 + 0.5) as u32).min(ENCODE_STEPS as u32 - 1)
 }
 
-/// One row of RGBA8 from three rows of linear values, alpha copied from
-/// `alpha` (every 4th byte, from the first pixel's alpha); `index` is
-/// working memory. The table indices are made in a loop that vectorises,
-/// the lookups in another.
+/// [`encode_index`] without a saturating float-to-integer cast (which LLVM
+/// makes one lane at a time): ⌊l·65 535 + ½⌋ clamped to the table, whose
+/// floor plus 2²³ holds the integer in its low mantissa bits; the same
+/// indices (unit test). For builds with SIMD rounding (the fused sweep's
+/// AVX2 and AVX-512 builds); elsewhere `floor` is a library call.
 #[inline(always)]
-pub(super) fn encode_row(vals: [&[f32]; 3], alpha: &[u8], index: &mut Vec<u32>, line: &mut [u8]) {
-    let table = encode_table();
-    let n = line.len() / 4;
-    index.resize(n, 0);
-    for (c, v) in vals.into_iter().enumerate() {
-        for (i, &l) in index.iter_mut().zip(&v[..n]) {
-            *i = encode_index(l);
+fn encode_index_simd(l: f32) -> u32 {
+    const TWO23: f32 = 8_388_608.0;
+    let top = (ENCODE_STEPS - 1) as f32;
+    let x = (l * top + 0.5).max(0.0).min(top).floor();
+    (x + TWO23).to_bits() - TWO23.to_bits()
+}
+
+/// Indices per bucket of [`encode_buckets`].
+const BUCKET: usize = 16;
+
+/// The encode table folded into 4 096 buckets of 16 consecutive indices,
+/// small enough to stay in the L1 cache: entry = the code at the bucket's
+/// first index | (the offset in the bucket where the code steps up by one
+/// level; 16: nowhere) << 8. The sRGB curve rises by at most 12.92 · 255 /
+/// 65 535 = 0.050 levels per index, so by at most one level in a bucket,
+/// and `base + (offset ≥ step)` is exactly the 65 536-entry table's code
+/// (checked for every index when built, and by a unit test).
+fn encode_buckets() -> &'static [u32; ENCODE_STEPS / BUCKET] {
+    static T: OnceLock<Box<[u32; ENCODE_STEPS / BUCKET]>> = OnceLock::new();
+    T.get_or_init(|| {
+        let table = encode_table();
+        let mut out = Box::new([0u32; ENCODE_STEPS / BUCKET]);
+        for (b, e) in out.iter_mut().enumerate() {
+            let codes = &table[b * BUCKET..(b + 1) * BUCKET];
+            let step = codes.iter().position(|&c| c != codes[0]).unwrap_or(BUCKET);
+            for (k, &c) in codes.iter().enumerate() {
+                assert_eq!(c, codes[0] + u8::from(k >= step), "one step per bucket");
+            }
+            *e = u32::from(codes[0]) | (step as u32) << 8;
         }
-        for (px, &i) in line[c..].iter_mut().step_by(4).zip(index.iter()) {
-            *px = table[i as usize & (ENCODE_STEPS - 1)];
-        }
-    }
-    for (px, &a) in line[3..].iter_mut().step_by(4).zip(alpha.iter().step_by(4)) {
-        *px = a;
+        out
+    })
+}
+
+/// [`encode`] through [`encode_buckets`]: the same code, no 64 KiB table.
+#[cfg(test)]
+fn encode_bucketed(buckets: &[u32; ENCODE_STEPS / BUCKET], l: f32) -> u8 {
+    bucket_code(buckets, encode_index(l))
+}
+
+/// The code of encode-table index `i` from the buckets.
+#[inline(always)]
+fn bucket_code(buckets: &[u32; ENCODE_STEPS / BUCKET], i: u32) -> u8 {
+    // u32 arithmetic throughout: vectorised, 16 lanes to a register.
+    let e = buckets[((i / BUCKET as u32) & (ENCODE_STEPS / BUCKET - 1) as u32) as usize];
+    (e as u8).wrapping_add(u8::from(i % BUCKET as u32 >= e >> 8))
+}
+
+/// One row of RGBA8 from three rows of linear values, alpha copied from
+/// `src` (the input's RGBA8 pixels at the same places): each pixel's three
+/// codes through [`encode_buckets`] and its alpha written as one word.
+/// `simd`: the indices by [`encode_index_simd`] (the same values).
+#[inline(always)]
+pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], simd: bool) {
+    let buckets = encode_buckets();
+    let code = |l: f32| {
+        let i = if simd {
+            encode_index_simd(l)
+        } else {
+            encode_index(l)
+        };
+        bucket_code(buckets, i)
+    };
+    let [r, g, b] = vals;
+    for ((((px, s), r), g), b) in line
+        .chunks_exact_mut(4)
+        .zip(src.chunks_exact(4))
+        .zip(r)
+        .zip(g)
+        .zip(b)
+    {
+        px.copy_from_slice(&[code(*r), code(*g), code(*b), s[3]]);
     }
 }
 
@@ -414,8 +473,8 @@ fn encode_window(planes: &[Plane; 3], out: Win, rgba: &[u8], width: u32) -> Vec<
                 let x0 = planes[c].col(out.x0);
                 &row[x0..x0 + ow]
             });
-            let alpha = (y as usize * width as usize + out.x0 as usize) * 4 + 3;
-            encode_row(src, &rgba[alpha..alpha + ow * 4 - 3], &mut Vec::new(), line);
+            let first = (y as usize * width as usize + out.x0 as usize) * 4;
+            encode_row(src, &rgba[first..first + ow * 4], line, false);
         });
     bytes
 }
@@ -643,7 +702,7 @@ fn sensor_noise(planes: &mut [Plane; 3], s: Win, sensor_w: u64, draw: &CameraDra
             let first = y * sensor_w + s.x0 as u64;
             let mut devs = [vec![0f32; w], vec![0f32; w], vec![0f32; w]];
             let [d0, d1, d2] = &mut devs;
-            noise::deviates(key, first, &mut Vec::new(), [d0, d1, d2]);
+            noise::deviates(key, first, [d0, d1, d2]);
             for (vals, d) in [a, b, c].into_iter().zip(&devs) {
                 noise::add(vals, d, gain, read2);
             }
@@ -671,6 +730,30 @@ mod tests {
         let (d, e) = (decode_table(), encode_table());
         for v in 0..=255u8 {
             assert_eq!(encode(e, d[v as usize]), v);
+        }
+        let buckets = encode_buckets();
+        for i in 0..ENCODE_STEPS {
+            assert_eq!(bucket_code(buckets, i as u32), e[i], "index {i}");
+            let l = i as f32 / (ENCODE_STEPS - 1) as f32;
+            assert_eq!(encode_bucketed(buckets, l), encode(e, l), "{l}");
+        }
+        for l in [
+            -1.0,
+            -0.0,
+            1.0,
+            2.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ] {
+            assert_eq!(encode_bucketed(buckets, l), encode(e, l), "{l}");
+            assert_eq!(encode_index_simd(l), encode_index(l), "{l}");
+        }
+        // Every f32 in [-1, 2] by a fine step, and the halves between indices.
+        for k in -65_536..=131_072 {
+            for l in [k as f32 / 65_535.0, (k as f32 + 0.5) / 65_535.0] {
+                assert_eq!(encode_index_simd(l), encode_index(l), "{l}");
+            }
         }
     }
 }
