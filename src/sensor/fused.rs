@@ -660,6 +660,55 @@ mod tests {
         assert_eq!(&more[4..8], &grey, "a grey pixel stays grey");
     }
 
+    /// Every SIMD build of the band this CPU can run gives the baseline
+    /// build's bytes, so a frame is the same on machines with and without
+    /// AVX2 or AVX-512 (the same preset, byte-identical everywhere).
+    #[test]
+    fn every_simd_build_of_the_band_gives_the_same_bytes() {
+        let (w, h) = (97u32, 71u32);
+        let rgba: Vec<u8> = (0..w * h * 4)
+            .map(|i| ((i * 37 + i / 11 + (i / 401) * 3) % 256) as u8)
+            .collect();
+        let mut builds = 0;
+        for (n, d) in draws().iter().enumerate() {
+            for noisy in [false, true] {
+                let chain = super::Chain::new(&rgba, (w, h), d, noisy);
+                let (cols, rows) = ((3, i64::from(w) - 2), (5, i64::from(h) - 1));
+                let len = (cols.1 - cols.0) as usize * (rows.1 - rows.0) as usize * 4;
+                let mut base = vec![0u8; len];
+                chain.band(cols, rows, &mut base);
+                #[cfg(target_arch = "x86_64")]
+                {
+                    if std::arch::is_x86_feature_detected!("avx2") {
+                        let mut avx2 = vec![0u8; len];
+                        // SAFETY: the CPU has AVX2 (checked above).
+                        #[allow(unsafe_code)]
+                        unsafe {
+                            super::band_avx2(&chain, cols, rows, &mut avx2)
+                        };
+                        assert!(avx2 == base, "AVX2, draw {n}, noisy {noisy}");
+                        builds += 1;
+                    }
+                    let avx512 = std::arch::is_x86_feature_detected!("avx512f")
+                        && std::arch::is_x86_feature_detected!("avx512bw")
+                        && std::arch::is_x86_feature_detected!("avx512dq")
+                        && std::arch::is_x86_feature_detected!("avx512vl");
+                    if avx512 {
+                        let mut avx512 = vec![0u8; len];
+                        // SAFETY: the CPU has these features (checked above).
+                        #[allow(unsafe_code)]
+                        unsafe {
+                            super::band_avx512(&chain, cols, rows, &mut avx512)
+                        };
+                        assert!(avx512 == base, "AVX-512, draw {n}, noisy {noisy}");
+                        builds += 1;
+                    }
+                }
+            }
+        }
+        eprintln!("{builds} wider builds compared with the baseline");
+    }
+
     /// The fused sweep gives the plane path's bytes, noise included, on the
     /// whole frame and on windows (also ones touching the edges).
     #[test]
