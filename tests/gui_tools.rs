@@ -151,3 +151,60 @@ fn gap_temp_folders() -> Vec<PathBuf> {
     v.sort();
     v
 }
+
+/// What egui's mesh shader fills, in square points (the triangles' areas summed), and
+/// the rects of the paint callbacks, in the last pass's output.
+fn painted(h: &egui_kittest::Harness<'_, SwarmshotApp>) -> (f32, Vec<egui::Rect>) {
+    let shapes = h.output().shapes.clone();
+    let mut mesh_area = 0.0;
+    let mut callbacks = Vec::new();
+    for clipped in h.ctx.tessellate(shapes, h.ctx.pixels_per_point()) {
+        match clipped.primitive {
+            egui::epaint::Primitive::Mesh(mesh) => {
+                for t in mesh.indices.chunks_exact(3) {
+                    let [a, b, c] = [t[0], t[1], t[2]].map(|i| mesh.vertices[i as usize].pos);
+                    let (u, v) = (b - a, c - a);
+                    mesh_area += (u.x * v.y - u.y * v.x).abs() / 2.0;
+                }
+            }
+            egui::epaint::Primitive::Callback(callback) => callbacks.push(callback.rect),
+        }
+    }
+    (mesh_area, callbacks)
+}
+
+/// On a CPU rasteriser every pixel egui's mesh shader fills costs about 50 ns of CPU
+/// (docs/gui.md, "Preview latency"): the window's background and the preview picture
+/// are flat paints (paint callbacks), and egui fills only the widgets and the text.
+#[test]
+fn the_window_background_and_the_picture_are_not_egui_meshes() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(grid_preset(dir.path())));
+    wait_for(
+        &mut h,
+        "the first preview",
+        SwarmshotApp::preview_is_current,
+    );
+    let window = h.ctx.content_rect();
+    let picture = h
+        .state()
+        .preview_rect()
+        .expect("the preview pane was drawn");
+    let (mesh_area, callbacks) = painted(&h);
+    assert!(
+        callbacks.contains(&window),
+        "the background is one flat paint over the window: {callbacks:?}"
+    );
+    assert!(
+        callbacks.contains(&picture),
+        "the picture is a flat paint over the pane {picture:?}: {callbacks:?}"
+    );
+    // The panels' fills alone would be the whole window, the picture another 30 %.
+    let share = mesh_area / window.area();
+    assert!(
+        share < 0.5,
+        "egui meshes fill {:.0} % of the window's area",
+        share * 100.0
+    );
+}

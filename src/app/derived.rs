@@ -179,26 +179,10 @@ impl SwarmshotApp {
         }
     }
 
-    /// Point the preview's egui texture at a freshly rendered wgpu texture.
+    /// Show a freshly rendered preview texture from this pass on.
     pub(super) fn show_texture(&mut self, view: &wgpu::TextureView) {
-        let Some((ctx, render_state)) = &self.gpu else {
-            return;
-        };
-        let mut renderer = render_state.renderer.write();
-        match self.preview_texture {
-            Some(id) => renderer.update_egui_texture_from_wgpu_texture(
-                &ctx.device,
-                view,
-                wgpu::FilterMode::Linear,
-                id,
-            ),
-            None => {
-                self.preview_texture = Some(renderer.register_native_texture(
-                    &ctx.device,
-                    view,
-                    wgpu::FilterMode::Linear,
-                ))
-            }
+        if let Some(flat) = &mut self.flat {
+            flat.set_picture(view);
         }
     }
 

@@ -244,10 +244,33 @@ impl SwarmshotApp {
     /// The panels: menu, status, the collapsible parameters and summary, the preview.
     pub(super) fn panels_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let locked = self.batch.is_some();
-        egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui, commands));
-        egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui));
+        // With the window's background painted flat (see `flat_paint`), the
+        // panels are drawn without a fill of their own.
+        let (side, central) = match &self.flat {
+            Some(flat) => {
+                let fill = ui.visuals().panel_fill;
+                ui.painter()
+                    .add(flat.background(ui.ctx().content_rect(), fill));
+                let clear = |f: egui::Frame| f.fill(egui::Color32::TRANSPARENT);
+                (
+                    clear(egui::Frame::side_top_panel(ui.style())),
+                    clear(egui::Frame::central_panel(ui.style())),
+                )
+            }
+            None => (
+                egui::Frame::side_top_panel(ui.style()),
+                egui::Frame::central_panel(ui.style()),
+            ),
+        };
+        egui::Panel::top("menu")
+            .frame(side)
+            .show(ui, |ui| self.menu_ui(ui, commands));
+        egui::Panel::bottom("status")
+            .frame(side)
+            .show(ui, |ui| self.status_ui(ui));
         let mut show_parameters = self.session.show_parameters;
         egui::Panel::left("parameters")
+            .frame(side)
             .resizable(true)
             .default_size(430.0)
             .show_collapsible(ui, &mut show_parameters, |ui| {
@@ -258,6 +281,7 @@ impl SwarmshotApp {
         self.session.show_parameters = show_parameters;
         let mut show_summary = self.session.show_summary;
         egui::Panel::right("summary")
+            .frame(side)
             .resizable(true)
             .default_size(250.0)
             .show_collapsible(ui, &mut show_summary, |ui| {
@@ -274,7 +298,9 @@ impl SwarmshotApp {
                 });
             });
         self.session.show_summary = show_summary;
-        egui::CentralPanel::default().show(ui, |ui| self.preview_ui(ui));
+        egui::CentralPanel::default()
+            .frame(central)
+            .show(ui, |ui| self.preview_ui(ui));
     }
 }
 

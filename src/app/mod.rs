@@ -23,6 +23,7 @@ mod commands;
 pub mod confuser_panel;
 mod derived;
 pub mod files;
+mod flat_paint;
 pub mod gap_panel;
 pub mod history;
 mod keys;
@@ -196,7 +197,8 @@ pub struct SwarmshotApp {
     resolved: Arc<Preset>,
     preview_worker: Option<LatestWorker<PreviewRequest, PreviewResult>>,
     preview: Option<PreviewFrame>,
-    preview_texture: Option<egui::TextureId>,
+    /// Paints the window's background and the preview picture (see [`flat_paint`]).
+    flat: Option<flat_paint::FlatPainter>,
     preview_error: Option<PreviewError>,
     preview_sent: Option<PreviewKey>,
     preview_size_px: [u32; 2],
@@ -267,6 +269,7 @@ impl SwarmshotApp {
             };
             (ctx, rs.clone())
         });
+        let flat = gpu.as_ref().map(|(_, rs)| flat_paint::FlatPainter::new(rs));
         let egui_ctx = cc.egui_ctx.clone();
         let wake = move || egui_ctx.request_repaint();
         let dialogs = FileDialogs::new(DialogBackend::from_env(), wake.clone());
@@ -305,7 +308,7 @@ impl SwarmshotApp {
             errors: Vec::new(),
             preview_worker,
             preview: None,
-            preview_texture: None,
+            flat,
             preview_error: None,
             preview_sent: None,
             preview_size_px: [0, 0],

@@ -417,6 +417,36 @@ mod tests {
         }
     }
 
+    /// The background (sky pass and its readback) is drawn again only when
+    /// what it shows changes: a new draw of the swarm keeps it, a sky edit does not.
+    #[test]
+    fn an_edit_that_leaves_the_sky_and_camera_alone_keeps_the_background() {
+        let ctx = GpuContext::headless()
+            .unwrap_or_else(|e| panic!("rendering tests need a GPU adapter (lavapipe): {e}"));
+        let mut preset = Preset::from_ron(SMALL).expect("preset");
+        let mut preview = PreviewRenderer::new(ctx);
+        let draws = |preview: &mut PreviewRenderer, preset: &Preset| {
+            let picture = preview.picture(&request(preset, 0, [128, 72], PreviewView::Camera));
+            let rgba = picture.expect("preview").rgba;
+            let loaded = preview.loaded.as_ref().expect("loaded");
+            (loaded.renderer.background_draws(), rgba)
+        };
+        let (first, before) = draws(&mut preview, &preset);
+        preset.seed += 1;
+        let (after_seed, reseeded) = draws(&mut preview, &preset);
+        assert_eq!(after_seed, first, "a new swarm redrew the background");
+        assert!(reseeded != before, "the new seed drew another swarm");
+        let crate::preset::Sky::Gradient {
+            sun_elevation_deg, ..
+        } = &mut preset.sky
+        else {
+            panic!("SMALL has the default gradient sky");
+        };
+        *sun_elevation_deg -= 10.0;
+        let (after_sky, _) = draws(&mut preview, &preset);
+        assert_eq!(after_sky, first + 1, "a sky edit draws the background once");
+    }
+
     #[test]
     fn the_camera_view_at_output_size_is_the_batch_frame() {
         let ctx = GpuContext::headless()

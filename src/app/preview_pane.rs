@@ -124,21 +124,26 @@ impl SwarmshotApp {
         let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
         self.preview_rect = Some(rect);
         let painter = ui.painter_at(rect);
-        painter.rect_filled(rect, 0.0, Color32::from_gray(20));
+        let tint = if self.errors.is_empty() {
+            Color32::WHITE
+        } else {
+            Color32::from_gray(90)
+        };
+        // The picture covers the pane: the dark fill only where it is not shown.
+        let under = painter.add(egui::Shape::Noop);
         let masked = self.paint_masks(ui.ctx(), &painter, rect);
-        if let (Some(frame), Some(texture)) = (&self.preview, self.preview_texture) {
-            let tint = if self.errors.is_empty() {
-                Color32::WHITE
-            } else {
-                Color32::from_gray(90)
-            };
-            if !masked {
-                painter.image(
-                    texture,
-                    rect,
-                    Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
-                    tint,
-                );
+        let picture = (self.preview.as_ref().zip(self.flat.as_ref()))
+            .and_then(|(_, flat)| flat.picture(rect, tint))
+            .filter(|_| !masked);
+        if picture.is_none() {
+            painter.set(
+                under,
+                egui::Shape::rect_filled(rect, 0.0, Color32::from_gray(20)),
+            );
+        }
+        if let Some(frame) = &self.preview {
+            if let Some(picture) = picture {
+                painter.add(picture);
             }
             match &frame.inspect {
                 None if self.session.show_boxes => draw_boxes(&painter, rect, frame, out_w),

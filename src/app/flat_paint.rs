@@ -1,0 +1,278 @@
+//! The window's two large areas, its background and the preview picture,
+//! painted by a small wgpu pipeline of the app's own (paint callbacks in
+//! egui's render pass) instead of as egui meshes.
+//!
+//! Why: on a CPU rasteriser (Mesa's lavapipe) egui's mesh shader costs about
+//! 50 ns of CPU a pixel (texture filtering with derivatives, dithering, blend),
+//! so the panels' fills (the whole window) and the 960×540 picture cost about
+//! 120 ms of CPU per window pass, and the preview render shares those two
+//! cores. A flat fill and a texel copy without blending cost about 1 ms and
+//! 4 ms (docs/gui.md, "Preview latency"). Everything else (text, widgets,
+//! boxes) is still egui's, drawn over these.
+//!
+//! The picture is copied texel for texel (nearest texel to each pixel centre,
+//! no filtering): at 1:1, which is how the pane draws it, exactly the preview's
+//! pixels. The pipelines are made for the window's format with one sample per
+//! pixel (eframe's default `multisampling: 0`, and egui_kittest's renderer).
+
+use egui::{Color32, Rect};
+use wgpu::util::DeviceExt;
+
+use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor};
+
+const SHADER: &str = r"
+@group(0) @binding(0) var<uniform> colour: vec4<f32>;
+@group(0) @binding(1) var picture: texture_2d<f32>;
+
+override SRGB_TARGET: bool = false;
+
+struct Varyings {
+    @builtin(position) position: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+};
+
+// One triangle covering the callback's viewport; uv 0..1 across it.
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> Varyings {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return Varyings(vec4<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0, 0.0, 1.0), uv);
+}
+
+@fragment
+fn fs_fill() -> @location(0) vec4<f32> {
+    return colour;
+}
+
+fn linear_from_srgb(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c < vec3<f32>(0.04045));
+}
+
+// The picture's sRGB-encoded bytes, tinted as egui tints an image (in gamma space).
+@fragment
+fn fs_picture(v: Varyings) -> @location(0) vec4<f32> {
+    let size = textureDimensions(picture);
+    let texel = min(vec2<u32>(v.uv * vec2<f32>(size)), size - vec2<u32>(1u));
+    let c = textureLoad(picture, texel, 0) * colour;
+    if SRGB_TARGET {
+        return vec4<f32>(linear_from_srgb(c.rgb), c.a);
+    }
+    return c;
+}
+";
+
+/// A uniform colour and a texture, what one flat paint reads.
+#[derive(Clone)]
+struct Binding {
+    colour: wgpu::Buffer,
+    group: wgpu::BindGroup,
+}
+
+/// The pipelines and the two areas' bindings, made once with the window's render state.
+pub struct FlatPainter {
+    device: wgpu::Device,
+    layout: wgpu::BindGroupLayout,
+    fill: wgpu::RenderPipeline,
+    picture: wgpu::RenderPipeline,
+    srgb_target: bool,
+    /// The background's colour and a placeholder texture.
+    background: Binding,
+    /// The preview picture's tint and texture, once a picture came.
+    shown: Option<Binding>,
+}
+
+impl FlatPainter {
+    pub fn new(render_state: &egui_wgpu::RenderState) -> Self {
+        let device = render_state.device.clone();
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("flat paint"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("flat paint"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("flat paint"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let srgb_target = render_state.target_format.is_srgb();
+        let constants = [("SRGB_TARGET", if srgb_target { 1.0 } else { 0.0 })];
+        let pipeline = |entry: &str| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        ..Default::default()
+                    },
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: render_state.target_format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let (fill, picture) = (pipeline("fs_fill"), pipeline("fs_picture"));
+        let placeholder = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("flat paint placeholder"),
+            size: wgpu::Extent3d {
+                width: 1,
+                height: 1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        Self {
+            background: binding(
+                &device,
+                &layout,
+                &placeholder.create_view(&Default::default()),
+            ),
+            device,
+            layout,
+            fill,
+            picture,
+            srgb_target,
+            shown: None,
+        }
+    }
+
+    /// Show `view` (a preview picture, [`crate::render::COLOR_FORMAT`]) from now on.
+    pub fn set_picture(&mut self, view: &wgpu::TextureView) {
+        self.shown = Some(binding(&self.device, &self.layout, view));
+    }
+
+    /// The window's background: `colour` over all of `rect`, drawn before anything else.
+    pub fn background(&self, rect: Rect, colour: Color32) -> egui::Shape {
+        let paint = FlatPaint {
+            pipeline: self.fill.clone(),
+            binding: self.background.clone(),
+            colour: self.colour_value(colour),
+        };
+        egui_wgpu::Callback::new_paint_callback(rect, paint).into()
+    }
+
+    /// The current picture over `rect`, tinted with `tint` as egui tints an
+    /// image; None before the first picture.
+    pub fn picture(&self, rect: Rect, tint: Color32) -> Option<egui::Shape> {
+        let binding = self.shown.clone()?;
+        let [r, g, b, a] = tint.to_normalized_gamma_f32();
+        let paint = FlatPaint {
+            pipeline: self.picture.clone(),
+            binding,
+            colour: [r, g, b, a],
+        };
+        Some(egui_wgpu::Callback::new_paint_callback(rect, paint).into())
+    }
+
+    /// A colour as the window's target stores it (linear for an sRGB target, as egui writes it).
+    fn colour_value(&self, colour: Color32) -> [f32; 4] {
+        if self.srgb_target {
+            egui::Rgba::from(colour).to_array()
+        } else {
+            colour.to_normalized_gamma_f32()
+        }
+    }
+}
+
+fn binding(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    view: &wgpu::TextureView,
+) -> Binding {
+    let colour = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("flat paint colour"),
+        contents: bytemuck::cast_slice(&[1.0f32; 4]),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("flat paint"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: colour.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(view),
+            },
+        ],
+    });
+    Binding { colour, group }
+}
+
+/// One flat paint: a pipeline, its binding and the colour to write into it.
+struct FlatPaint {
+    pipeline: wgpu::RenderPipeline,
+    binding: Binding,
+    colour: [f32; 4],
+}
+
+impl CallbackTrait for FlatPaint {
+    fn prepare(
+        &self,
+        _device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        _resources: &mut CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let bytes: &[u8] = bytemuck::cast_slice(&self.colour);
+        queue.write_buffer(&self.binding.colour, 0, bytes);
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        _resources: &CallbackResources,
+    ) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.binding.group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
