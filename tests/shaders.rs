@@ -38,16 +38,22 @@ fn every_shader_validates() {
             .entry_points
             .iter()
             .any(|e| e.stage == naga::ShaderStage::Compute);
-        let entries: &[&str] = if compute {
-            &["cs_main"]
-        } else {
-            &["vs_main", "fs_main"]
-        };
+        let entries: &[&str] = if compute { &["cs_main"] } else { &["vs_main"] };
         for &entry in entries {
             assert!(
                 module.entry_points.iter().any(|e| e.name == entry),
                 "{name} lacks {entry}"
             );
         }
+        // A render shader has fragment stages: fs_main, or named ones (flat_paint's
+        // fs_fill and fs_picture).
+        assert!(
+            compute
+                || module
+                    .entry_points
+                    .iter()
+                    .any(|e| e.stage == naga::ShaderStage::Fragment),
+            "{name} has no fragment entry point"
+        );
     }
 }

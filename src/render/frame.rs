@@ -134,7 +134,7 @@ const MAX_TARGETS: usize = 2;
 
 impl RegionState {
     pub(super) fn new(device: &wgpu::Device) -> Self {
-        let [_, _, (_, regions_src), (_, resolve_src), _] = super::shader_sources();
+        let [_, _, (_, regions_src), (_, resolve_src), ..] = super::shader_sources();
         let module = |label: &str, src: String| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),

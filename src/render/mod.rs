@@ -357,7 +357,7 @@ pub struct PassCounts {
 
 /// WGSL sources, each with the shared header prepended (the id reduction
 /// once per sample count it is built for).
-pub fn shader_sources() -> [(&'static str, String); 5] {
+pub fn shader_sources() -> [(&'static str, String); 6] {
     let common = include_str!("../../shaders/common.wgsl");
     let rect = include_str!("../../shaders/rect.wgsl");
     [
@@ -385,6 +385,11 @@ pub fn shader_sources() -> [(&'static str, String); 5] {
             format!("{rect}\n{}", include_str!("../../shaders/resolve.wgsl")),
         ),
         ("clutter.wgsl", scenery::shader_source()),
+        // The desktop app's own (src/app/flat_paint.rs), listed here to be validated with the rest.
+        (
+            "flat_paint.wgsl",
+            include_str!("../../shaders/flat_paint.wgsl").to_owned(),
+        ),
     ]
 }
 
