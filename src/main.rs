@@ -228,6 +228,14 @@ enum BenchCommand {
 const MAX_THREADS: usize = 256;
 
 fn main() -> std::process::ExitCode {
+    // Rust ignores SIGPIPE, so printing to a closed pipe (`swarmshot check P | head -1`)
+    // panicked; a command-line tool ends quietly there instead, as `ls | head` does.
+    #[cfg(unix)]
+    // SAFETY: the first thing main does, before any thread exists; SIG_DFL is a valid handler.
+    #[allow(unsafe_code)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // A panic the glTF loader catches becomes its typed error; nothing else is printed for it.
     let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {

@@ -190,3 +190,37 @@ fn check_and_batch_print_nothing_on_stderr_without_xdg_runtime_dir() {
         "2".as_ref(),
     ]);
 }
+
+/// `swarmshot check P | head -1`: the reader goes away after one line; the command ends
+/// quietly (by SIGPIPE, as Unix tools do), not with a panic on its closed stdout.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    use std::io::Read;
+    use std::os::unix::process::ExitStatusExt;
+    let mut child = swarmshot()
+        .args([
+            "check",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/presets/realistic.ron"),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("runs");
+    // Read nothing: close the pipe at once, before the command's first line.
+    drop(child.stdout.take());
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .expect("stderr")
+        .read_to_string(&mut err)
+        .expect("stderr reads");
+    let status = child.wait().expect("waits");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!err.contains("Broken pipe"), "{err}");
+    assert!(
+        status.success() || status.signal() == Some(libc::SIGPIPE),
+        "{status:?}: {err}"
+    );
+}
