@@ -67,17 +67,25 @@ struct Chain<'a> {
     noise: Option<(f32, f32, noise::Key)>,
 }
 
-/// Output rows per band (at least; more when the PSF is wide).
-const BAND_ROWS: i64 = 64;
+/// Output rows per band (at least; more when the PSF is wide): tall bands
+/// decode and filter fewer of the 2r rows that neighbouring bands share
+/// (256 against 64: 0.4 ms less for the typical 1080p draw on 2 threads).
+const BAND_ROWS: i64 = 256;
+
+/// The fewest rows a band gets so that a short window still spreads over
+/// the threads.
+const MIN_BAND_ROWS: i64 = 48;
 
 /// Rows per band for `rows` output rows: about [`BAND_ROWS`] (at least 8
-/// PSF radii), the number of bands a multiple of rayon's threads so that
-/// they finish together (one band for a window under 1.5 bands). Any
-/// split gives the same bytes.
+/// PSF radii), but at least as many bands as rayon's threads while each
+/// keeps [`MIN_BAND_ROWS`]; the number of bands a multiple of the threads
+/// so that they finish together (one band for a short window). Any split
+/// gives the same bytes.
 fn band_rows(rows: i64, radius: i64) -> i64 {
     let threads = rayon::current_num_threads().max(1) as i64;
     let target = BAND_ROWS.max(8 * radius);
-    let bands = (rows + target / 2) / target;
+    let fewest = (rows / MIN_BAND_ROWS.max(8 * radius)).min(threads);
+    let bands = ((rows + target / 2) / target).max(fewest);
     let bands = if bands > 1 {
         (bands + threads - 1) / threads * threads
     } else {
