@@ -387,10 +387,10 @@ fn run_stages(
     run: RunSpan,
     mut on_progress: impl FnMut(Progress) + Send,
 ) -> (anyhow::Result<SinkResult>, MakersResult) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let makers = if options.makers != 0 {
         options.makers
     } else {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         default_makers(
             ctx.adapter_info.device_type,
             cores,
@@ -401,7 +401,7 @@ fn run_stages(
     .max(1);
     let format = pipeline.preset().output.image_format;
     let threads = if options.encoder_threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1))
+        cores.saturating_sub(1).max(1)
     } else {
         options.encoder_threads
     };

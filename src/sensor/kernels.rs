@@ -19,14 +19,20 @@ pub(super) fn simd_level() -> u8 {
             Ok("avx2") => 1,
             _ => 2,
         };
-        let avx512 = std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512bw")
-            && std::arch::is_x86_feature_detected!("avx512dq")
-            && std::arch::is_x86_feature_detected!("avx512vl");
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
-        let level = if avx512 { 2 } else { u8::from(avx2) };
-        level.min(cap)
+        cpu_simd_level().min(cap)
     })
+}
+
+/// The widest build the CPU itself can run (2 AVX-512, 1 AVX2, 0 the
+/// baseline), whatever `SWARMSHOT_CAMERA_SIMD` says.
+#[cfg(target_arch = "x86_64")]
+pub(super) fn cpu_simd_level() -> u8 {
+    let avx512 = std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("avx512vl");
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    if avx512 { 2 } else { u8::from(avx2) }
 }
 
 /// [`decode_row_any`] in its AVX2 build where the CPU has AVX2, even
