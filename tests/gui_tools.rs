@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use swarmshot::app::SwarmshotApp;
 use swarmshot::preset::Placement;
@@ -26,6 +27,17 @@ const GRID: &str = r#"(
     output: (image_format: Jpeg(quality: 85)),
 )"#;
 
+/// The app on the grid preset (written into `dir`), once its first preview is on screen.
+fn grid_app_showing_its_preview(dir: &Path) -> Harness<'static, SwarmshotApp> {
+    let mut h = harness(Some(grid_preset(dir)));
+    wait_for(
+        &mut h,
+        "the first preview",
+        SwarmshotApp::preview_is_current,
+    );
+    h
+}
+
 fn grid_preset(dir: &Path) -> PathBuf {
     let path = dir.join("grid.ron");
     std::fs::write(&path, GRID).unwrap();
@@ -36,12 +48,7 @@ fn grid_preset(dir: &Path) -> PathBuf {
 fn an_edit_is_timed_to_its_picture_on_screen_and_the_status_bar_shows_it() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let mut h = harness(Some(grid_preset(dir.path())));
-    wait_for(
-        &mut h,
-        "the first preview",
-        SwarmshotApp::preview_is_current,
-    );
+    let mut h = grid_app_showing_its_preview(dir.path());
     let before = h.state().preview_latency().recent_ms().count();
     assert!(before >= 1, "the first picture is timed too");
 
@@ -77,12 +84,7 @@ fn an_edit_is_timed_to_its_picture_on_screen_and_the_status_bar_shows_it() {
 fn the_gap_window_shows_the_report_table_for_the_bundled_real_frames() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let mut h = harness(Some(grid_preset(dir.path())));
-    wait_for(
-        &mut h,
-        "the first preview",
-        SwarmshotApp::preview_is_current,
-    );
+    let mut h = grid_app_showing_its_preview(dir.path());
     let temp_before = gap_temp_folders();
 
     h.get_by_label("Domain gap").click();
@@ -180,12 +182,7 @@ fn painted(h: &egui_kittest::Harness<'_, SwarmshotApp>) -> (f32, Vec<egui::Rect>
 fn the_window_background_and_the_picture_are_not_egui_meshes() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let mut h = harness(Some(grid_preset(dir.path())));
-    wait_for(
-        &mut h,
-        "the first preview",
-        SwarmshotApp::preview_is_current,
-    );
+    let h = grid_app_showing_its_preview(dir.path());
     let window = h.ctx.content_rect();
     let picture = h
         .state()
