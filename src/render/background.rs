@@ -16,6 +16,8 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use half::slice::HalfFloatSliceExt;
+
 use super::frame::{RegionState, color_target};
 use super::readback::{self, Readback};
 use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
@@ -326,8 +328,14 @@ impl Renderer {
             for (y, out) in texels.chunks_exact_mut(width).enumerate() {
                 let start = y * row as usize;
                 let src = &bytes[start..start + width * 2];
-                for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
-                    *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
+                // In whole rows (vectorised where the CPU converts half floats).
+                match bytemuck::try_cast_slice::<u8, half::f16>(src) {
+                    Ok(row) if cfg!(target_endian = "little") => row.convert_to_f32_slice(out),
+                    _ => {
+                        for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
+                            *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
+                        }
+                    }
                 }
             }
         })?;

@@ -77,6 +77,7 @@ fn srgb_u8(x: f32) -> u8 {
 }
 
 impl SrgbTable {
+    #[cfg(test)]
     #[inline]
     fn encode(&self, x: f32) -> u8 {
         let table = self;
@@ -107,10 +108,244 @@ fn taps(out: u32, source: u32, centre: f32) -> Vec<(usize, usize, f32)> {
         .collect()
 }
 
+/// Entries of [`Buckets`]: bucket `i` = ⌊x · 4096⌋ for x in [0, 1],
+/// padded to a power of two so that a masked index needs no bounds check.
+const BUCKET_ENTRIES: usize = 8192;
+
+/// [`SrgbTable`] refolded so that the encode vectorises: per bucket of
+/// linear values (width 1/4096) the level at its low end and the one
+/// threshold that can lie inside it (the levels are more than a bucket
+/// apart: the tightest, in the linear toe, are 1/(255 · 12.92) = 3.0e-4).
+/// `base[i] + (x ≥ step[i])` is exactly [`SrgbTable::encode`] (unit test).
+struct Buckets {
+    base: [u32; BUCKET_ENTRIES],
+    step: [f32; BUCKET_ENTRIES],
+}
+
+static BUCKETS: LazyLock<Box<Buckets>> = LazyLock::new(|| {
+    let mut b = Box::new(Buckets {
+        base: [0; BUCKET_ENTRIES],
+        step: [f32::INFINITY; BUCKET_ENTRIES],
+    });
+    for (i, &k) in SRGB.guess.iter().enumerate() {
+        b.base[i] = u32::from(k);
+        b.step[i] = SRGB
+            .thresholds
+            .get(usize::from(k) + 1)
+            .copied()
+            .unwrap_or(f32::INFINITY);
+    }
+    b
+});
+
+impl Buckets {
+    /// Linear `x` sRGB-encoded to 8 bits, as [`SrgbTable::encode`]: NaN and
+    /// values below 0 give 0, values above 1 give 255.
+    #[inline(always)]
+    fn encode(&self, x: f32) -> u32 {
+        // ⌊x · 4096⌋ through the mantissa of 2²³ + ⌊…⌋: no saturating cast,
+        // which LLVM makes one lane at a time.
+        const TWO23: f32 = 8_388_608.0;
+        let x = x.max(0.0).min(1.0);
+        let i = ((x * GUESS_BUCKETS as f32).floor() + TWO23).to_bits() - TWO23.to_bits();
+        let i = i as usize & (BUCKET_ENTRIES - 1);
+        self.base[i] + u32::from(x >= self.step[i])
+    }
+}
+
+/// Where one output row's pixels sample the source: per column its two
+/// texels and the second's weight ([`taps`]); `double` when the columns
+/// follow the exact 2× pattern (column 0 on texel 0, columns 2j + 1 and
+/// 2j + 2 between texels j and j + 1, the last clamped), which lets the row
+/// be blended without a gather.
+struct Columns {
+    from: Vec<u32>,
+    to: Vec<u32>,
+    weight: Vec<f32>,
+    double: bool,
+}
+
+impl Columns {
+    fn new(out: u32, source: u32, centre: f32) -> Self {
+        let taps = taps(out, source, centre);
+        let last = source.saturating_sub(1) as usize;
+        let pairs = (out.max(1) as usize - 1) / 2;
+        // Odd widths end on a pair; even ones on one column clamped to the last texel.
+        let double = out > 0
+            && if out % 2 == 1 {
+                pairs <= last
+            } else {
+                pairs == last
+            }
+            && taps.iter().enumerate().all(|(i, &(a, b, _))| {
+                let j = i.saturating_sub(1) / 2;
+                let want = if i == 0 {
+                    (0, 0)
+                } else {
+                    (j, (j + 1).min(last))
+                };
+                (a, b) == want
+            });
+        Self {
+            from: taps.iter().map(|t| t.0 as u32).collect(),
+            to: taps.iter().map(|t| t.1 as u32).collect(),
+            weight: taps.iter().map(|t| t.2).collect(),
+            double,
+        }
+    }
+}
+
+/// One source row pair, blended vertically then horizontally, in planes.
+struct RowScratch {
+    /// The vertical blend of the two source rows, per channel (length a
+    /// power of two ≥ the source width, for masked gathers).
+    planes: [Vec<f32>; 3],
+    /// The output row's linear values, per channel.
+    values: [Vec<f32>; 3],
+}
+
+/// One output row: the source rows `a` and `b` (RGBA texels) blended with
+/// weight `wy`, then across `columns`, encoded into `line` (RGBA8). The
+/// same f32 operations, in the same order, as the GPU sampler's bilinear
+/// filter: `p + (q − p) · w` vertically, then horizontally.
+#[inline(always)]
+fn upsample_row(
+    (a, b, wy): (&[f32], &[f32], f32),
+    columns: &Columns,
+    scratch: &mut RowScratch,
+    line: &mut [u8],
+) {
+    let buckets = &**BUCKETS;
+    let RowScratch { planes, values } = scratch;
+    for (c, plane) in planes.iter_mut().enumerate() {
+        for (o, (p, q)) in plane
+            .iter_mut()
+            .zip(a.chunks_exact(4).zip(b.chunks_exact(4)))
+        {
+            *o = p[c] + (q[c] - p[c]) * wy;
+        }
+    }
+    for (plane, value) in planes.iter().zip(values.iter_mut()) {
+        let weight = &columns.weight;
+        if columns.double {
+            let pairs = (value.len() - 1) / 2;
+            let (first, rest) = value.split_at_mut(1);
+            let (mid, tail) = rest.split_at_mut(pairs * 2);
+            first[0] = plane[0] + (plane[0] - plane[0]) * weight[0];
+            let mid_weights = weight[1..].chunks_exact(2);
+            for ((v, p), w) in mid
+                .chunks_exact_mut(2)
+                .zip(plane.windows(2))
+                .zip(mid_weights)
+            {
+                let d = p[1] - p[0];
+                v[0] = p[0] + d * w[0];
+                v[1] = p[0] + d * w[1];
+            }
+            let p = plane[pairs];
+            for (v, w) in tail.iter_mut().zip(&weight[1 + pairs * 2..]) {
+                *v = p + (p - p) * w;
+            }
+        } else {
+            let mask = plane.len() - 1;
+            let taps = columns.from.iter().zip(&columns.to).zip(weight);
+            for (v, ((&i0, &i1), &w)) in value.iter_mut().zip(taps) {
+                let (p, q) = (plane[i0 as usize & mask], plane[i1 as usize & mask]);
+                *v = p + (q - p) * w;
+            }
+        }
+    }
+    let [r, g, b] = &*values;
+    for (((px, r), g), b) in line.chunks_exact_mut(4).zip(r).zip(g).zip(b) {
+        let word =
+            buckets.encode(*r) | buckets.encode(*g) << 8 | buckets.encode(*b) << 16 | 0xff00_0000;
+        px.copy_from_slice(&word.to_le_bytes());
+    }
+}
+
+/// [`upsample_row`] built for AVX2 (the same operations: the bytes are the same).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn upsample_row_avx2(
+    rows: (&[f32], &[f32], f32),
+    columns: &Columns,
+    scratch: &mut RowScratch,
+    line: &mut [u8],
+) {
+    upsample_row(rows, columns, scratch, line);
+}
+
+/// Whether this CPU runs [`upsample_row_avx2`].
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        static AVX2: LazyLock<bool> = LazyLock::new(|| std::arch::is_x86_feature_detected!("avx2"));
+        *AVX2
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
 /// Upsample the environment pass's `half` (RGBA, `size` texels, linear) to
 /// the frame's `frame` size into `rgba` (RGBA8, sRGB, alpha 255), for a
 /// camera whose principal point is `centre` (pixels).
 pub(super) fn upsample_environment(
+    half: &[f32],
+    size: (u32, u32),
+    frame: (u32, u32),
+    centre: (f32, f32),
+    rgba: &mut Vec<u8>,
+) {
+    upsample_with(half, size, frame, centre, rgba, avx2());
+}
+
+/// [`upsample_environment`], its rows in the AVX2 build when `simd`.
+fn upsample_with(
+    half: &[f32],
+    size: (u32, u32),
+    frame: (u32, u32),
+    centre: (f32, f32),
+    rgba: &mut Vec<u8>,
+    simd: bool,
+) {
+    let (w, h) = (size.0 as usize, size.1 as usize);
+    rgba.clear();
+    rgba.resize(frame.0 as usize * frame.1 as usize * 4, 0);
+    if w == 0 || h == 0 || half.len() < w * h * 4 || frame.0 == 0 {
+        return;
+    }
+    let columns = Columns::new(frame.0, size.0, centre.0);
+    let rows = taps(frame.1, size.1, centre.1);
+    let plane = vec![0f32; w.next_power_of_two()];
+    let value = vec![0f32; frame.0 as usize];
+    let mut scratch = RowScratch {
+        planes: [plane.clone(), plane.clone(), plane],
+        values: [value.clone(), value.clone(), value],
+    };
+    let stride = frame.0 as usize * 4;
+    for (&(r0, r1, wy), line) in rows.iter().zip(rgba.chunks_exact_mut(stride)) {
+        let source = |r: usize| &half[r * w * 4..(r + 1) * w * 4];
+        let pair = (source(r0), source(r1), wy);
+        #[cfg(target_arch = "x86_64")]
+        if simd {
+            // SAFETY: the CPU has AVX2 (checked by `avx2`).
+            #[allow(unsafe_code)]
+            unsafe {
+                upsample_row_avx2(pair, &columns, &mut scratch, line);
+            }
+            continue;
+        }
+        let _ = simd;
+        upsample_row(pair, &columns, &mut scratch, line);
+    }
+}
+
+/// The upsampling one pixel at a time through [`SrgbTable::encode`]: what
+/// [`upsample_environment`] computed before it was vectorised, kept as the
+/// reference its bytes are checked against.
+#[cfg(test)]
+fn upsample_reference(
     half: &[f32],
     size: (u32, u32),
     frame: (u32, u32),
@@ -188,6 +423,86 @@ mod tests {
             rgba.chunks_exact(4)
                 .all(|p| p[1] == 0 && p[2] == 0 && p[3] == 255)
         );
+    }
+
+    /// Random linear RGBA texels with edge cases: negative, above 1, ±∞, NaN.
+    fn texels(n: usize, seed: u64) -> Vec<f32> {
+        let mut s = seed | 1;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|i| {
+                let v = (i % 977) as f32 / 977.0 + (next() - 0.5) * 0.3;
+                match (next() * 1000.0) as u32 {
+                    0 => f32::INFINITY,
+                    1 => f32::NAN,
+                    2 => f32::NEG_INFINITY,
+                    3..=9 => v * 4.0 - 2.0,
+                    _ => v,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_bucket_encode_is_the_threshold_encode() {
+        let b = &**BUCKETS;
+        for i in 0..=300_000u32 {
+            let x = i as f32 / 300_000.0;
+            assert_eq!(b.encode(x), u32::from(SRGB.encode(x)), "x = {x}");
+        }
+        for &t in &SRGB.thresholds[1..] {
+            for x in [
+                f32::from_bits(t.to_bits() - 1),
+                t,
+                f32::from_bits(t.to_bits() + 1),
+            ] {
+                assert_eq!(b.encode(x), u32::from(SRGB.encode(x)), "x = {x}");
+            }
+        }
+        for x in [
+            -0.0,
+            -1.0,
+            2.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1.0,
+        ] {
+            assert_eq!(b.encode(x), u32::from(SRGB.encode(x)), "x = {x}");
+        }
+    }
+
+    #[test]
+    fn the_row_kernels_give_the_reference_bytes() {
+        // Exact 2× (even and odd), not 2×, off-centre, and tiny frames.
+        let cases = [
+            ((96, 54), (192, 108), (96.0, 54.0)),
+            ((321, 240), (641, 479), (320.5, 239.5)),
+            ((30, 17), (100, 60), (50.0, 30.0)),
+            ((50, 30), (100, 60), (47.0, 33.0)),
+            ((1, 1), (1, 1), (0.5, 0.5)),
+            ((4, 3), (7, 5), (3.5, 2.5)),
+            ((3, 2), (4, 3), (2.0, 1.5)),
+        ];
+        for (k, &(size, frame, centre)) in cases.iter().enumerate() {
+            let half = texels(size.0 as usize * size.1 as usize * 4, k as u64 + 7);
+            let mut want = Vec::new();
+            upsample_reference(&half, size, frame, centre, &mut want);
+            for simd in [false, avx2()] {
+                let mut got = Vec::new();
+                upsample_with(&half, size, frame, centre, &mut got, simd);
+                assert!(got == want, "case {k} (simd {simd}) differs");
+            }
+        }
+        // The exact 2× case takes the gather-free path.
+        assert!(Columns::new(192, 96, 96.0).double);
+        assert!(Columns::new(641, 321, 320.5).double);
+        assert!(!Columns::new(100, 30, 50.0).double);
     }
 
     #[test]
