@@ -244,7 +244,8 @@ fn rotate_y(d: vec3<f32>, angle: f32) -> vec3<f32> {
     return vec3<f32>(d.x * c + d.z * s, d.y, -d.x * s + d.z * c);
 }
 
-fn image_sky(dir: vec3<f32>) -> vec3<f32> {
+// The image's value in direction `dir`, times the exposure, before any tone map.
+fn image_radiance(dir: vec3<f32>) -> vec3<f32> {
     // Turn the world ray into the image's frame (the image turns by +rotation).
     let d = rotate_y(dir, -env.mode.w);
     var c: vec3<f32>;
@@ -255,7 +256,11 @@ fn image_sky(dir: vec3<f32>) -> vec3<f32> {
     } else {
         c = textureSampleLevel(env_cube, env_sampler, d, 0.0).rgb;
     }
-    c = c * env.mode.y;
+    return c * env.mode.y;
+}
+
+fn image_sky(dir: vec3<f32>) -> vec3<f32> {
+    let c = image_radiance(dir);
     if (env.mode.z > 0.5) {
         return tone_map(c);
     }

@@ -20,6 +20,8 @@ use half::slice::HalfFloatSliceExt;
 
 use super::frame::{RegionState, color_target};
 use super::readback::{self, Readback};
+use super::regions::Rect;
+use super::upsample::Tone;
 use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
@@ -50,7 +52,17 @@ pub(super) struct BackgroundCache {
     /// its texels as `f32` (see [`super::upsample`]).
     environment_readback: Option<wgpu::Buffer>,
     environment: Vec<f32>,
+    /// Per [`UPLOAD_TILE`]-square tile, row by row: whether `texture` still
+    /// lacks that part of `rgba`. A background made on the CPU (upsampled
+    /// environment or image sky, backplate) is uploaded only where the
+    /// region passes read it, under the frame's regions, when a frame first
+    /// needs it ([`Renderer::upload_background_under`]); empty when the
+    /// texture holds the whole background.
+    stale: Vec<bool>,
 }
+
+/// Side (pixels) of the tiles in which a background made on the CPU is uploaded.
+const UPLOAD_TILE: u32 = 64;
 
 impl BackgroundCache {
     /// An empty cache of `width`×`height`, its texture bound with `layout`.
@@ -99,13 +111,23 @@ impl BackgroundCache {
             readback: Readback::new(device, "background readback", width, height),
             environment_readback: None,
             environment: Vec::new(),
+            stale: Vec::new(),
         }
+    }
+
+    /// The tiles across and down.
+    fn tiles(&self) -> (u32, u32) {
+        (
+            self.width.div_ceil(UPLOAD_TILE),
+            self.height.div_ceil(UPLOAD_TILE),
+        )
     }
 
     /// Drop the cached background (the sky images or plates changed): the
     /// next frame draws it again.
     pub(super) fn forget(&mut self) {
         self.key = None;
+        self.stale.clear();
     }
 
     /// A fresh generation for what the cache now holds.
@@ -141,15 +163,23 @@ impl Renderer {
             return Ok(());
         }
         cache.key = None;
-        match &scene.backplate {
-            Some(plate) => self.draw_plate_background(cache, plate)?,
-            None if super::sky::SkyGpu::is_procedural(&scene.sky) => {
-                self.draw_environment_background(cache, uniforms)?
+        let k = uniforms.intrinsics;
+        let image_scale = self.sky.image_scale(&scene.sky, size, k[1], (k[2], k[3]));
+        match (&scene.backplate, image_scale) {
+            (Some(plate), _) => self.draw_plate_background(cache, plate)?,
+            (None, Some(scale)) => {
+                self.draw_reduced_background(cache, uniforms, Some((&scene.sky, scale)))?
             }
-            None => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
+            (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => {
+                self.draw_reduced_background(cache, uniforms, None)?
+            }
+            (None, None) => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
         }
         state.background_draws += 1;
         if let Some((_, layer)) = state.scenery.as_ref().and_then(|g| g.layer()) {
+            // The texture holds the background without the scenery (the
+            // region passes draw the scenery themselves): all of it now.
+            self.upload_background_under(cache, std::iter::once(&Rect::full(size.0, size.1)));
             super::scenery::composite(layer, &mut cache.rgba);
         }
         cache.key = Some(key);
@@ -246,14 +276,17 @@ impl Renderer {
         &pipelines.0[i].1
     }
 
-    /// A procedural environment as the background: its pass drawn at
-    /// reduced resolution, read back, upsampled and sRGB-encoded on the CPU
-    /// ([`super::upsample`]) and uploaded as the background texture (no
-    /// full-frame sky pass, no full-frame readback).
-    fn draw_environment_background(
+    /// A procedural environment (`image` None) or an image sky magnified
+    /// enough (`image`: the sky and its scale, see
+    /// [`super::sky::SkyGpu::image_scale`]) as the background: its pass
+    /// drawn at reduced resolution, read back, upsampled and sRGB-encoded on
+    /// the CPU ([`super::upsample`]) and uploaded as the background texture
+    /// (no full-frame sky pass, no full-frame readback).
+    fn draw_reduced_background(
         &mut self,
         cache: &mut BackgroundCache,
         uniforms: &FrameUniforms,
+        image: Option<(&FrameSky, u32)>,
     ) -> Result<(), RenderError> {
         let mut encoder = self
             .device
@@ -263,18 +296,33 @@ impl Renderer {
         let frame = (cache.width, cache.height);
         // Any previous background is overwritten from here on.
         cache.renew();
-        self.sky.encode_environment(
-            &self.device,
-            &mut encoder,
-            (&self.shaders.0, &self.sky_layout),
-            &self.frame_bind_group,
-            frame,
-            Some(super::horizon::horizon_line(
-                &uniforms.world_from_camera,
-                uniforms.intrinsics,
-            )),
-        );
-        let Some((texture, (w, h))) = self.sky.half_target() else {
+        let shaders = (&self.shaders.0, &self.sky_layout);
+        let tone = match image {
+            Some((sky, _)) if self.sky.image_is_hdr(sky) => Tone::Exponential,
+            _ => Tone::Clip,
+        };
+        match image {
+            Some(image) => self.sky.encode_image(
+                &self.device,
+                &mut encoder,
+                shaders,
+                &self.frame_bind_group,
+                frame,
+                image,
+            ),
+            None => self.sky.encode_environment(
+                &self.device,
+                &mut encoder,
+                shaders,
+                &self.frame_bind_group,
+                frame,
+                Some(super::horizon::horizon_line(
+                    &uniforms.world_from_camera,
+                    uniforms.intrinsics,
+                )),
+            ),
+        }
+        let Some((texture, (w, h))) = self.sky.reduced_target() else {
             return Err(RenderError::Readback(
                 "the environment pass has no target".into(),
             ));
@@ -345,9 +393,10 @@ impl Renderer {
             (w, h),
             frame,
             centre,
+            tone,
             &mut cache.rgba,
         );
-        self.upload_background(&cache.texture, &cache.rgba, frame);
+        cache.stale = vec![true; cache.tiles().0 as usize * cache.tiles().1 as usize];
         Ok(())
     }
 
@@ -394,7 +443,61 @@ impl Renderer {
             .readback
             .read_into(&self.device, submitted, &mut cache.rgba);
         cache.renew();
+        cache.stale.clear();
         read
+    }
+
+    /// Write into the background texture of `cache` the stale tiles (see
+    /// `BackgroundCache::stale`) under `rects`, each row of tiles in runs.
+    pub(super) fn upload_background_under<'r>(
+        &self,
+        cache: &mut BackgroundCache,
+        rects: impl IntoIterator<Item = &'r Rect>,
+    ) {
+        if cache.stale.is_empty() {
+            return;
+        }
+        let (across, down) = cache.tiles();
+        let mut wanted = vec![false; cache.stale.len()];
+        for r in rects {
+            let (tx0, tx1) = (r.x0 / UPLOAD_TILE, r.x1.div_ceil(UPLOAD_TILE).min(across));
+            let (ty0, ty1) = (r.y0 / UPLOAD_TILE, r.y1.div_ceil(UPLOAD_TILE).min(down));
+            for ty in ty0..ty1 {
+                let row = (ty * across) as usize;
+                wanted[row + tx0 as usize..row + tx1.max(tx0) as usize].fill(true);
+            }
+        }
+        for (w, s) in wanted.iter_mut().zip(&mut cache.stale) {
+            *w &= *s;
+            *s &= !*w;
+        }
+        for ty in 0..down {
+            let row = (ty * across) as usize;
+            let needed = |x: u32| wanted[row + x as usize];
+            let mut tx = 0;
+            while tx < across {
+                if !needed(tx) {
+                    tx += 1;
+                    continue;
+                }
+                let start = tx;
+                while tx < across && needed(tx) {
+                    tx += 1;
+                }
+                let x0 = start * UPLOAD_TILE;
+                let y0 = ty * UPLOAD_TILE;
+                let part = Rect {
+                    x0,
+                    y0,
+                    x1: (tx * UPLOAD_TILE).min(cache.width),
+                    y1: (y0 + UPLOAD_TILE).min(cache.height),
+                };
+                self.upload_background_part(&cache.texture, &cache.rgba, cache.width, &part);
+            }
+        }
+        if !cache.stale.contains(&true) {
+            cache.stale.clear();
+        }
     }
 
     /// A backplate as the background: its pixels written into the texture
@@ -407,7 +510,7 @@ impl Renderer {
         let size = (cache.width, cache.height);
         let made = self.plate_pixels(plate, size, &mut cache.rgba);
         if made.is_ok() {
-            self.upload_background(&cache.texture, &cache.rgba, size);
+            cache.stale = vec![true; cache.tiles().0 as usize * cache.tiles().1 as usize];
         }
         // A new generation even on failure: no buffer may match what was overwritten.
         cache.renew();

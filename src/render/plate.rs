@@ -89,24 +89,36 @@ impl Renderer {
         Ok(())
     }
 
-    /// Upload `rgba` (the frame's size) into `texture` (the cached background).
-    pub(super) fn upload_background(&self, texture: &wgpu::Texture, rgba: &[u8], size: (u32, u32)) {
+    /// Upload the part `part` of `rgba` (a background `width` pixels wide)
+    /// into the same place of `texture` (the cached background).
+    pub(super) fn upload_background_part(
+        &self,
+        texture: &wgpu::Texture,
+        rgba: &[u8],
+        width: u32,
+        part: &super::regions::Rect,
+    ) {
+        let offset = (u64::from(part.y0) * u64::from(width) + u64::from(part.x0)) * 4;
         self.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture,
                 mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
+                origin: wgpu::Origin3d {
+                    x: part.x0,
+                    y: part.y0,
+                    z: 0,
+                },
                 aspect: wgpu::TextureAspect::All,
             },
             rgba,
             wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(size.0 * 4),
-                rows_per_image: Some(size.1),
+                offset,
+                bytes_per_row: Some(width * 4),
+                rows_per_image: None,
             },
             wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
+                width: part.x1 - part.x0,
+                height: part.y1 - part.y0,
                 depth_or_array_layers: 1,
             },
         );

@@ -44,6 +44,14 @@ pub(super) struct SkyGpu {
     default_group: wgpu::BindGroup,
     /// The half-resolution environment target and the group that samples it.
     half: Option<HalfTarget>,
+    /// An image sky's reduced-resolution target (see [`SkyGpu::image_scale`])
+    /// and its size.
+    image_target: Option<(wgpu::Texture, wgpu::TextureView, (u32, u32))>,
+    /// The pipelines of `fs_image`, one per scale, built on first use.
+    image_pipelines: Vec<(u32, wgpu::RenderPipeline)>,
+    /// Which reduced target was drawn last: the image sky's (true) or the
+    /// procedural environment's.
+    image_drawn: bool,
     /// Per uploaded image: its bind group and CPU summary (for lighting).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
     placeholder_2d: wgpu::TextureView,
@@ -164,6 +172,9 @@ impl SkyGpu {
             uniforms,
             default_group,
             half: None,
+            image_target: None,
+            image_pipelines: Vec::new(),
+            image_drawn: false,
             images: Vec::new(),
             placeholder_2d,
             placeholder_cube,
@@ -273,6 +284,7 @@ impl SkyGpu {
         horizon: Option<[f32; 3]>,
     ) {
         let (w, h) = self.ensure_half_target(device, (width, height));
+        self.image_drawn = false;
         // With the horizon known: the sky side and the ground side as two
         // draws (parts 1 and 2), else the whole target at once (part 0).
         let draws: Vec<(u32, Vec<[f32; 2]>)> = match horizon {
@@ -415,15 +427,144 @@ impl SkyGpu {
             ("ENV_NEAR", f64::from(kinds[2])),
             ("ENV_PART", f64::from(part)),
         ];
-        let pipeline = environment_pipeline(device, (module, layout), &constants, part > 0);
+        let pipeline = environment_pipeline(
+            device,
+            (module, layout),
+            &constants,
+            part > 0,
+            "fs_environment",
+        );
         self.pipelines.push((key, pipeline));
         self.pipelines.len() - 1
     }
 
-    /// The environment pass's target (RGBA16F, linear) and its size, once drawn.
-    pub(super) fn half_target(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
+    /// The target of the reduced pass drawn last (the environment pass or
+    /// the image pass: RGBA16F, linear) and its size.
+    pub(super) fn reduced_target(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
+        if self.image_drawn {
+            let (texture, _, size) = self.image_target.as_ref()?;
+            return Some((texture, *size));
+        }
         let t = self.half.as_ref()?;
         Some((&t.texture, (t.width, t.height)))
+    }
+
+    /// The scale (full-resolution pixels per pass pixel, per axis: 4 or 2)
+    /// at which `sky`, an equirect image, is drawn for a `frame`-sized frame
+    /// of focal length `focal_px` whose principal point is its centre
+    /// `centre`; `None`: drawn at full resolution (a cube map, a gradient or
+    /// procedural sky, an off-centre principal point, no scale dividing both
+    /// sides, or an image too sharp for it).
+    ///
+    /// A scale is taken only where the image is magnified at least twice
+    /// as much: at the frame's centre, where its pixels span the widest
+    /// angle (≈ 1/f radians), a pass pixel spans at most half a texel
+    /// (π / image height radians, or 2π / width if that is less). The pass
+    /// then samples the bilinearly magnified image at twice its own texel
+    /// rate or more, and the CPU's bilinear upsampling differs from sampling
+    /// it at every pixel only around the texels' own corners.
+    pub(super) fn image_scale(
+        &self,
+        sky: &FrameSky,
+        (width, height): (u32, u32),
+        focal_px: f32,
+        centre: (f32, f32),
+    ) -> Option<u32> {
+        let FrameSky::Image { image, .. } = sky else {
+            return None;
+        };
+        let SkyImageKind::Equirect {
+            width: iw,
+            height: ih,
+            ..
+        } = self.images.get(*image)?.1.kind
+        else {
+            return None;
+        };
+        if centre != (width as f32 / 2.0, height as f32 / 2.0) || iw == 0 || ih == 0 {
+            return None;
+        }
+        let texel = (std::f32::consts::PI / ih as f32).min(std::f32::consts::TAU / iw as f32);
+        let magnification = focal_px * texel;
+        [4u32, 2]
+            .into_iter()
+            .find(|&s| 4.0 * s as f32 <= magnification && width % s == 0 && height % s == 0)
+    }
+
+    /// Whether `sky` is an HDR image (tone-mapped: `tone_map` in environment.wgsl).
+    pub(super) fn image_is_hdr(&self, sky: &FrameSky) -> bool {
+        match sky {
+            FrameSky::Image { image, .. } => self.images.get(*image).is_some_and(|(_, i)| i.hdr),
+            _ => false,
+        }
+    }
+
+    /// Draw the image sky `sky` (uniforms just written) into the image
+    /// pass's target at `scale` (see [`SkyGpu::image_scale`]) for a
+    /// `width`×`height` frame.
+    pub(super) fn encode_image(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        frame_bind_group: &wgpu::BindGroup,
+        (width, height): (u32, u32),
+        (sky, scale): (&FrameSky, u32),
+    ) {
+        let size = ((width / scale).max(1), (height / scale).max(1));
+        if self.image_target.as_ref().is_none_or(|t| t.2 != size) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("image sky (reduced resolution)"),
+                size: wgpu::Extent3d {
+                    width: size.0,
+                    height: size.1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                // COPY_SRC: the frame's background is upsampled from it on the CPU.
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            self.image_target = Some((texture, view, size));
+        }
+        let i = match self.image_pipelines.iter().position(|(s, _)| *s == scale) {
+            Some(i) => i,
+            None => {
+                let constants = [("IMAGE_SCALE", f64::from(scale))];
+                let pipeline =
+                    environment_pipeline(device, (module, layout), &constants, false, "fs_image");
+                self.image_pipelines.push((scale, pipeline));
+                self.image_pipelines.len() - 1
+            }
+        };
+        self.image_drawn = true;
+        let Some((_, view, _)) = &self.image_target else {
+            return;
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("image sky pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.image_pipelines[i].1);
+        pass.set_bind_group(0, frame_bind_group, &[]);
+        pass.set_bind_group(1, self.bind_group_for(sky), &[]);
+        pass.draw(0..3, 0..1);
     }
 
     /// The bind group a frame's environment draws with.
@@ -552,12 +693,15 @@ impl SkyGpu {
     }
 }
 
-/// The pipeline of `fs_environment` with its override `constants`.
+/// The pipeline of a reduced pass (`fragment`: `fs_environment` or
+/// `fs_image`) into an RGBA16F target, with its override `constants`;
+/// `polygon`: drawn over given triangles, else one full-screen triangle.
 fn environment_pipeline(
     device: &wgpu::Device,
     (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
     constants: &[(&str, f64)],
     polygon: bool,
+    fragment: &str,
 ) -> wgpu::RenderPipeline {
     const SIDE_ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x2];
     let side = [Some(wgpu::VertexBufferLayout {
@@ -582,7 +726,7 @@ fn environment_pipeline(
         multisample: wgpu::MultisampleState::default(),
         fragment: Some(wgpu::FragmentState {
             module,
-            entry_point: Some("fs_environment"),
+            entry_point: Some(fragment),
             compilation_options: wgpu::PipelineCompilationOptions {
                 constants,
                 ..Default::default()

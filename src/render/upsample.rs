@@ -15,17 +15,11 @@
 
 use std::sync::LazyLock;
 
-/// Bucket count of [`SrgbTable`]'s first guess.
-const GUESS_BUCKETS: usize = 4096;
-
-/// Linear values where the sRGB-encoded 8-bit value steps up, and a first
-/// guess per bucket of linear values.
+/// Linear values where the sRGB-encoded 8-bit value steps up.
 struct SrgbTable {
     /// `thresholds[k]`: the least linear value encoded as `k` (k ≥ 1);
     /// `thresholds[0]` is `-inf`.
     thresholds: [f32; 256],
-    /// The encoded value at each bucket's low end.
-    guess: [u8; GUESS_BUCKETS + 1],
 }
 
 /// The sRGB transfer function on linear `x` in [0, 1].
@@ -61,12 +55,7 @@ static SRGB: LazyLock<SrgbTable> = LazyLock::new(|| {
         }
         *t = v;
     }
-    let mut guess = [0u8; GUESS_BUCKETS + 1];
-    for (b, g) in guess.iter_mut().enumerate() {
-        let v = b as f32 / GUESS_BUCKETS as f32;
-        *g = thresholds.iter().rposition(|&t| t <= v).unwrap_or(0) as u8;
-    }
-    SrgbTable { thresholds, guess }
+    SrgbTable { thresholds }
 });
 
 /// Linear `x` sRGB-encoded and rounded to 8 bits (clamped to [0, 1], NaN → 0),
@@ -77,17 +66,12 @@ fn srgb_u8(x: f32) -> u8 {
 }
 
 impl SrgbTable {
+    /// The level of linear `x` by a search of the thresholds (the
+    /// reference the bucket encode is checked against).
     #[cfg(test)]
-    #[inline]
     fn encode(&self, x: f32) -> u8 {
-        let table = self;
         let x = if x > 0.0 { x.min(1.0) } else { 0.0 };
-        // Each bucket spans less than one level, so one step at most.
-        let mut k = table.guess[(x * GUESS_BUCKETS as f32) as usize];
-        while k < 255 && x >= table.thresholds[usize::from(k) + 1] {
-            k += 1;
-        }
-        k
+        self.thresholds[1..].partition_point(|&t| t <= x) as u8
     }
 }
 
@@ -108,50 +92,86 @@ fn taps(out: u32, source: u32, centre: f32) -> Vec<(usize, usize, f32)> {
         .collect()
 }
 
-/// Entries of [`Buckets`]: bucket `i` = ⌊x · 4096⌋ for x in [0, 1],
-/// padded to a power of two so that a masked index needs no bounds check.
-const BUCKET_ENTRIES: usize = 8192;
+/// Buckets per unit of the encoded value: bucket `i` = ⌊x · 4096⌋.
+const BUCKETS_PER_UNIT: f32 = 4096.0;
 
-/// [`SrgbTable`] refolded so that the encode vectorises: per bucket of
-/// linear values (width 1/4096) the level at its low end and the one
-/// threshold that can lie inside it (the levels are more than a bucket
-/// apart: the tightest, in the linear toe, are 1/(255 · 12.92) = 3.0e-4).
-/// `base[i] + (x ≥ step[i])` is exactly [`SrgbTable::encode`] (unit test).
-struct Buckets {
-    base: [u32; BUCKET_ENTRIES],
-    step: [f32; BUCKET_ENTRIES],
+/// An exact threshold encode folded so that it vectorises: per bucket of
+/// width 1/4096 of the values `x` in [0, `top`], the level at its low end
+/// and the one threshold that can lie inside it; `base[i] + (x ≥ step[i])`
+/// is the number of thresholds at or below `x`. Thresholds are never closer
+/// than a bucket: the tightest, in the sRGB curve's linear toe, are
+/// 1/(255 · 12.92) = 3.0e-4 apart (checked when built). `N`, a power of two
+/// above `top` · 4096, lets a masked index go without a bounds check.
+struct Buckets<const N: usize> {
+    base: [u32; N],
+    step: [f32; N],
+    top: f32,
 }
 
-static BUCKETS: LazyLock<Box<Buckets>> = LazyLock::new(|| {
-    let mut b = Box::new(Buckets {
-        base: [0; BUCKET_ENTRIES],
-        step: [f32::INFINITY; BUCKET_ENTRIES],
-    });
-    for (i, &k) in SRGB.guess.iter().enumerate() {
-        b.base[i] = u32::from(k);
-        b.step[i] = SRGB
-            .thresholds
-            .get(usize::from(k) + 1)
-            .copied()
-            .unwrap_or(f32::INFINITY);
+impl<const N: usize> Buckets<N> {
+    /// The buckets of `thresholds` (`thresholds[k]`: the least value of
+    /// level k; `thresholds[0]` unused), over [0, `top`].
+    fn new(thresholds: &[f32; 256], top: f32) -> Box<Self> {
+        let mut b = Box::new(Self {
+            base: [0; N],
+            step: [f32::INFINITY; N],
+            top,
+        });
+        let t = &thresholds[1..];
+        for i in 0..=((top * BUCKETS_PER_UNIT) as usize).min(N - 1) {
+            let (lo, hi) = (
+                i as f32 / BUCKETS_PER_UNIT,
+                (i + 1) as f32 / BUCKETS_PER_UNIT,
+            );
+            let k = t.iter().take_while(|&&v| v <= lo).count();
+            assert!(
+                t.iter().filter(|&&v| v > lo && v < hi).count() <= 1,
+                "two thresholds in one bucket"
+            );
+            b.base[i] = k as u32;
+            b.step[i] = t.get(k).copied().unwrap_or(f32::INFINITY);
+        }
+        b
     }
-    b
-});
 
-impl Buckets {
-    /// Linear `x` sRGB-encoded to 8 bits, as [`SrgbTable::encode`]: NaN and
-    /// values below 0 give 0, values above 1 give 255.
+    /// The level of `x`: NaN and values below 0 give 0, values above `top`
+    /// the level of `top`.
     #[inline(always)]
     fn encode(&self, x: f32) -> u32 {
         // ⌊x · 4096⌋ through the mantissa of 2²³ + ⌊…⌋: no saturating cast,
         // which LLVM makes one lane at a time.
         const TWO23: f32 = 8_388_608.0;
-        let x = x.max(0.0).min(1.0);
-        let i = ((x * GUESS_BUCKETS as f32).floor() + TWO23).to_bits() - TWO23.to_bits();
-        let i = i as usize & (BUCKET_ENTRIES - 1);
+        let x = x.max(0.0).min(self.top);
+        let i = ((x * BUCKETS_PER_UNIT).floor() + TWO23).to_bits() - TWO23.to_bits();
+        let i = i as usize & (N - 1);
         self.base[i] + u32::from(x >= self.step[i])
     }
 }
+
+/// How the upsampled values become display values before the sRGB encode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Tone {
+    /// As they are, clipped to [0, 1] (the procedural environment; display-referred sky images).
+    Clip,
+    /// 1 − e^(−x) (HDR sky images, `tone_map` in environment.wgsl): applied
+    /// after the interpolation, as when the full-resolution pass tone-mapped
+    /// the bilinearly sampled radiance.
+    Exponential,
+}
+
+/// Linear values in [0, 1] → sRGB 8-bit ([`SrgbTable::encode`] exactly).
+static CLIP: LazyLock<Box<Buckets<8192>>> = LazyLock::new(|| Buckets::new(&SRGB.thresholds, 1.0));
+
+/// Radiance x ≥ 0 → the sRGB 8-bit code of 1 − e^(−x): the thresholds
+/// −ln(1 − t) of [`SrgbTable`]'s thresholds t, in f64 rounded to f32 (the
+/// top one is 4.7, so [0, 7] covers every level).
+static EXPONENTIAL: LazyLock<Box<Buckets<32768>>> = LazyLock::new(|| {
+    let mut thresholds = SRGB.thresholds;
+    for t in &mut thresholds[1..] {
+        *t = (-(1.0 - f64::from(*t)).ln()) as f32;
+    }
+    Buckets::new(&thresholds, 7.0)
+});
 
 /// Where one output row's pixels sample the source: per column its two
 /// texels and the second's weight ([`taps`]); `double` when the columns
@@ -209,13 +229,13 @@ struct RowScratch {
 /// same f32 operations, in the same order, as the GPU sampler's bilinear
 /// filter: `p + (q − p) · w` vertically, then horizontally.
 #[inline(always)]
-fn upsample_row(
+fn upsample_row<const N: usize>(
     (a, b, wy): (&[f32], &[f32], f32),
     columns: &Columns,
     scratch: &mut RowScratch,
+    buckets: &Buckets<N>,
     line: &mut [u8],
 ) {
-    let buckets = &**BUCKETS;
     let RowScratch { planes, values } = scratch;
     for (c, plane) in planes.iter_mut().enumerate() {
         for (o, (p, q)) in plane
@@ -267,13 +287,14 @@ fn upsample_row(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-fn upsample_row_avx2(
+fn upsample_row_avx2<const N: usize>(
     rows: (&[f32], &[f32], f32),
     columns: &Columns,
     scratch: &mut RowScratch,
+    buckets: &Buckets<N>,
     line: &mut [u8],
 ) {
-    upsample_row(rows, columns, scratch, line);
+    upsample_row(rows, columns, scratch, buckets, line);
 }
 
 /// Whether this CPU runs [`upsample_row_avx2`].
@@ -287,25 +308,31 @@ fn avx2() -> bool {
     false
 }
 
-/// Upsample the environment pass's `half` (RGBA, `size` texels, linear) to
+/// Upsample a reduced pass's `half` (RGBA, `size` texels, linear) to
 /// the frame's `frame` size into `rgba` (RGBA8, sRGB, alpha 255), for a
-/// camera whose principal point is `centre` (pixels).
+/// camera whose principal point is `centre` (pixels), through `tone`.
 pub(super) fn upsample_environment(
     half: &[f32],
     size: (u32, u32),
     frame: (u32, u32),
     centre: (f32, f32),
+    tone: Tone,
     rgba: &mut Vec<u8>,
 ) {
-    upsample_with(half, size, frame, centre, rgba, avx2());
+    match tone {
+        Tone::Clip => upsample_with(half, (size, frame), centre, &**CLIP, rgba, avx2()),
+        Tone::Exponential => {
+            upsample_with(half, (size, frame), centre, &**EXPONENTIAL, rgba, avx2())
+        }
+    }
 }
 
-/// [`upsample_environment`], its rows in the AVX2 build when `simd`.
-fn upsample_with(
+/// [`upsample_environment`] through `buckets`, its rows in the AVX2 build when `simd`.
+fn upsample_with<const N: usize>(
     half: &[f32],
-    size: (u32, u32),
-    frame: (u32, u32),
+    (size, frame): ((u32, u32), (u32, u32)),
     centre: (f32, f32),
+    buckets: &Buckets<N>,
     rgba: &mut Vec<u8>,
     simd: bool,
 ) {
@@ -332,12 +359,12 @@ fn upsample_with(
             // SAFETY: the CPU has AVX2 (checked by `avx2`).
             #[allow(unsafe_code)]
             unsafe {
-                upsample_row_avx2(pair, &columns, &mut scratch, line);
+                upsample_row_avx2(pair, &columns, &mut scratch, buckets, line);
             }
             continue;
         }
         let _ = simd;
-        upsample_row(pair, &columns, &mut scratch, line);
+        upsample_row(pair, &columns, &mut scratch, buckets, line);
     }
 }
 
@@ -413,7 +440,7 @@ mod tests {
         // columns sample at texel coordinates -0.25, 0.25, 0.75, 1.25.
         let half = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0];
         let mut rgba = Vec::new();
-        upsample_environment(&half, (2, 1), (4, 2), (2.0, 1.0), &mut rgba);
+        upsample_environment(&half, (2, 1), (4, 2), (2.0, 1.0), Tone::Clip, &mut rgba);
         assert_eq!(rgba.len(), 4 * 2 * 4);
         let red: Vec<u8> = rgba.chunks_exact(4).map(|p| p[0]).collect();
         let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
@@ -450,7 +477,7 @@ mod tests {
 
     #[test]
     fn the_bucket_encode_is_the_threshold_encode() {
-        let b = &**BUCKETS;
+        let b = &**CLIP;
         for i in 0..=300_000u32 {
             let x = i as f32 / 300_000.0;
             assert_eq!(b.encode(x), u32::from(SRGB.encode(x)), "x = {x}");
@@ -478,6 +505,28 @@ mod tests {
     }
 
     #[test]
+    fn the_exponential_tone_encodes_one_minus_e_to_the_minus_x() {
+        let b = &**EXPONENTIAL;
+        let level = |x: f64| (srgb(1.0 - (-x).exp()) * 255.0).round_ties_even() as u32;
+        let mut off = 0;
+        for i in 0..=400_000u32 {
+            let x = i as f32 / 40_000.0;
+            if b.encode(x) != level(f64::from(x)) {
+                // Only where the f32 thresholds round the crossing the other way.
+                assert!(b.encode(x).abs_diff(level(f64::from(x))) == 1, "x = {x}");
+                off += 1;
+            }
+        }
+        assert!(off < 20, "{off} values a level off");
+        assert_eq!(b.encode(0.0), 0);
+        assert_eq!(b.encode(f32::NAN), 0);
+        assert_eq!(b.encode(1.0e9), 255);
+        assert_eq!(b.encode(f32::INFINITY), 255);
+        // 1 − e^(−1) = 0.632: sRGB 0.817.
+        assert_eq!(b.encode(1.0), level(1.0));
+    }
+
+    #[test]
     fn the_row_kernels_give_the_reference_bytes() {
         // Exact 2× (even and odd), not 2×, off-centre, and tiny frames.
         let cases = [
@@ -495,20 +544,20 @@ mod tests {
             upsample_reference(&half, size, frame, centre, &mut want);
             for simd in [false, avx2()] {
                 let mut got = Vec::new();
-                upsample_with(&half, size, frame, centre, &mut got, simd);
+                upsample_with(&half, (size, frame), centre, &**CLIP, &mut got, simd);
                 assert!(got == want, "case {k} (simd {simd}) differs");
             }
         }
         // The exact 2× case takes the gather-free path.
         assert!(Columns::new(192, 96, 96.0).double);
-        assert!(Columns::new(641, 321, 320.5).double);
+        assert!(Columns::new(1920, 960, 960.0).double);
         assert!(!Columns::new(100, 30, 50.0).double);
     }
 
     #[test]
     fn a_short_source_gives_a_black_frame_not_a_panic() {
         let mut rgba = vec![9; 3];
-        upsample_environment(&[0.5; 4], (2, 2), (4, 4), (2.0, 2.0), &mut rgba);
+        upsample_environment(&[0.5; 4], (2, 2), (4, 4), (2.0, 2.0), Tone::Clip, &mut rgba);
         assert_eq!(rgba, vec![0; 64]);
     }
 }
