@@ -259,10 +259,15 @@ fn image_radiance(dir: vec3<f32>) -> vec3<f32> {
     return c * env.mode.y;
 }
 
-fn image_sky(dir: vec3<f32>) -> vec3<f32> {
-    let c = image_radiance(dir);
+// An image's exposed value `c` as display light: HDR images tone-mapped,
+// display-referred ones clipped.
+fn image_tone(c: vec3<f32>) -> vec3<f32> {
     if (env.mode.z > 0.5) {
         return tone_map(c);
     }
     return min(c, vec3<f32>(1.0));
+}
+
+fn image_sky(dir: vec3<f32>) -> vec3<f32> {
+    return image_tone(image_radiance(dir));
 }

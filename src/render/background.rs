@@ -163,13 +163,9 @@ impl Renderer {
             return Ok(());
         }
         cache.key = None;
-        let k = uniforms.intrinsics;
-        let image_scale = self.sky.image_scale(&scene.sky, size, k[1], (k[2], k[3]));
-        match (&scene.backplate, image_scale) {
+        match (&scene.backplate, self.sky.written_image_scale()) {
             (Some(plate), _) => self.draw_plate_background(cache, plate)?,
-            (None, Some(scale)) => {
-                self.draw_reduced_background(cache, uniforms, Some((&scene.sky, scale)))?
-            }
+            (None, Some(_)) => self.draw_reduced_background(cache, uniforms, Some(&scene.sky))?,
             (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => {
                 self.draw_reduced_background(cache, uniforms, None)?
             }
@@ -277,7 +273,7 @@ impl Renderer {
     }
 
     /// A procedural environment (`image` None) or an image sky magnified
-    /// enough (`image`: the sky and its scale, see
+    /// enough (`image`: the sky, drawn at the scale its uniforms hold, see
     /// [`super::sky::SkyGpu::image_scale`]) as the background: its pass
     /// drawn at reduced resolution, read back, upsampled and sRGB-encoded on
     /// the CPU ([`super::upsample`]) and uploaded as the background texture
@@ -286,7 +282,7 @@ impl Renderer {
         &mut self,
         cache: &mut BackgroundCache,
         uniforms: &FrameUniforms,
-        image: Option<(&FrameSky, u32)>,
+        image: Option<&FrameSky>,
     ) -> Result<(), RenderError> {
         let mut encoder = self
             .device
@@ -298,7 +294,7 @@ impl Renderer {
         cache.renew();
         let shaders = (&self.shaders.0, &self.sky_layout);
         let tone = match image {
-            Some((sky, _)) if self.sky.image_is_hdr(sky) => Tone::Exponential,
+            Some(sky) if self.sky.image_is_hdr(sky) => Tone::Exponential,
             _ => Tone::Clip,
         };
         match image {

@@ -625,12 +625,21 @@ impl Renderer {
     /// lighting; returns the frame uniforms written.
     fn upload_uniforms(&mut self, scene: &FrameScene) -> FrameUniforms {
         let sun = scene.sun_direction.as_vec3();
+        let cam = &scene.camera;
+        let centre = cam.principal_point().as_vec2();
+        let image_scale = self.sky.image_scale(
+            &scene.sky,
+            (cam.width, cam.height),
+            cam.focal_px() as f32,
+            (centre.x, centre.y),
+        );
         let mut lighting = self.sky.prepare(
             &self.queue,
             &scene.sky,
             &scene.environment,
             sun,
             scene.atmosphere.map(|a| a.visibility_m),
+            image_scale,
         );
         self.plate_lighting(scene, &mut lighting);
         let uniforms = FrameUniforms::new(scene, &lighting);
@@ -701,8 +710,8 @@ impl Renderer {
             msaa,
         } = *views;
         self.upload_uniforms(scene);
+        let size = (scene.camera.width, scene.camera.height);
         if sky::SkyGpu::is_procedural(&scene.sky) {
-            let size = (scene.camera.width, scene.camera.height);
             self.sky.encode_environment(
                 &self.device,
                 encoder,
@@ -711,6 +720,16 @@ impl Renderer {
                 size,
                 None,
             );
+        } else if self.sky.written_image_scale().is_some() {
+            self.sky.encode_image(
+                &self.device,
+                encoder,
+                (&self.shaders.0, &self.sky_layout),
+                &self.frame_bind_group,
+                size,
+                &scene.sky,
+            );
+            self.sky.prepare_upsampled(&self.device, &scene.sky);
         }
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;

@@ -47,13 +47,19 @@ pub(super) struct SkyGpu {
     /// An image sky's reduced-resolution target (see [`SkyGpu::image_scale`])
     /// and its size.
     image_target: Option<(wgpu::Texture, wgpu::TextureView, (u32, u32))>,
-    /// The pipelines of `fs_image`, one per scale, built on first use.
-    image_pipelines: Vec<(u32, wgpu::RenderPipeline)>,
+    /// The pipeline of `fs_image`, built on first use.
+    image_pipeline: Option<wgpu::RenderPipeline>,
+    /// The group of image `.0` that samples the image pass's target (the
+    /// full-frame path's sky pass, [`SkyGpu::prepare_upsampled`]).
+    upsampled: Option<(usize, wgpu::BindGroup)>,
     /// Which reduced target was drawn last: the image sky's (true) or the
     /// procedural environment's.
     image_drawn: bool,
     /// Per uploaded image: its bind group and CPU summary (for lighting).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
+    /// Per uploaded image: its equirect texture's view (`None` for cube maps),
+    /// for the group that samples the image pass's target.
+    image_views: Vec<Option<wgpu::TextureView>>,
     placeholder_2d: wgpu::TextureView,
     placeholder_cube: wgpu::TextureView,
     sampler: wgpu::Sampler,
@@ -173,8 +179,10 @@ impl SkyGpu {
             default_group,
             half: None,
             image_target: None,
-            image_pipelines: Vec::new(),
+            image_pipeline: None,
+            upsampled: None,
             image_drawn: false,
+            image_views: Vec::new(),
             images: Vec::new(),
             placeholder_2d,
             placeholder_cube,
@@ -241,15 +249,20 @@ impl SkyGpu {
         max_side: u32,
     ) {
         self.images.clear();
+        self.image_views.clear();
+        self.upsampled = None;
         for (i, image) in assets.images.iter().enumerate() {
             let label = format!("sky image {i}");
+            let mut equirect = None;
             let group = match &image.kind {
                 SkyImageKind::Equirect { width, height, rgb }
                     if (*width).max(*height) <= max_side =>
                 {
                     let view = Self::texture(device, queue, &label, *width, *height, 1, rgb)
                         .create_view(&Default::default());
-                    self.bind_group(device, &label, &view, &self.placeholder_cube)
+                    let group = self.bind_group(device, &label, &view, &self.placeholder_cube);
+                    equirect = Some(view);
+                    group
                 }
                 SkyImageKind::Cubemap { side, faces } if *side <= max_side => {
                     let view =
@@ -264,6 +277,7 @@ impl SkyGpu {
                 _ => self.default_group.clone(),
             };
             self.images.push((group, image.clone()));
+            self.image_views.push(equirect);
         }
     }
 
@@ -481,14 +495,7 @@ impl SkyGpu {
         else {
             return None;
         };
-        if centre != (width as f32 / 2.0, height as f32 / 2.0) || iw == 0 || ih == 0 {
-            return None;
-        }
-        let texel = (std::f32::consts::PI / ih as f32).min(std::f32::consts::TAU / iw as f32);
-        let magnification = focal_px * texel;
-        [4u32, 2]
-            .into_iter()
-            .find(|&s| 4.0 * s as f32 <= magnification && width % s == 0 && height % s == 0)
+        reduced_scale((iw, ih), (width, height), focal_px, centre)
     }
 
     /// Whether `sky` is an HDR image (tone-mapped: `tone_map` in environment.wgsl).
@@ -499,8 +506,15 @@ impl SkyGpu {
         }
     }
 
-    /// Draw the image sky `sky` (uniforms just written) into the image
-    /// pass's target at `scale` (see [`SkyGpu::image_scale`]) for a
+    /// The scale written with the uniforms last (see [`SkyGpu::prepare`]):
+    /// the image pass's, or `None` when the sky is drawn at full resolution.
+    pub(super) fn written_image_scale(&self) -> Option<u32> {
+        let scale = self.written.far_params[3];
+        (self.written.mode[0] > 1.5 && scale > 1.5).then_some(scale as u32)
+    }
+
+    /// Draw the image sky `sky` (uniforms just written, with its scale: see
+    /// [`SkyGpu::image_scale`]) into the image pass's target for a
     /// `width`×`height` frame.
     pub(super) fn encode_image(
         &mut self,
@@ -509,8 +523,11 @@ impl SkyGpu {
         (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         frame_bind_group: &wgpu::BindGroup,
         (width, height): (u32, u32),
-        (sky, scale): (&FrameSky, u32),
+        sky: &FrameSky,
     ) {
+        let Some(scale) = self.written_image_scale() else {
+            return;
+        };
         let size = ((width / scale).max(1), (height / scale).max(1));
         if self.image_target.as_ref().is_none_or(|t| t.2 != size) {
             let texture = device.create_texture(&wgpu::TextureDescriptor {
@@ -524,25 +541,25 @@ impl SkyGpu {
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format: wgpu::TextureFormat::Rgba16Float,
-                // COPY_SRC: the frame's background is upsampled from it on the CPU.
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                // COPY_SRC: the frame's background is upsampled from it on the
+                // CPU; TEXTURE_BINDING: the full-frame path samples it.
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
                 view_formats: &[],
             });
             let view = texture.create_view(&Default::default());
             self.image_target = Some((texture, view, size));
+            self.upsampled = None;
         }
-        let i = match self.image_pipelines.iter().position(|(s, _)| *s == scale) {
-            Some(i) => i,
-            None => {
-                let constants = [("IMAGE_SCALE", f64::from(scale))];
-                let pipeline =
-                    environment_pipeline(device, (module, layout), &constants, false, "fs_image");
-                self.image_pipelines.push((scale, pipeline));
-                self.image_pipelines.len() - 1
-            }
-        };
+        let pipeline = self.image_pipeline.get_or_insert_with(|| {
+            environment_pipeline(device, (module, layout), &[], false, "fs_image")
+        });
         self.image_drawn = true;
-        let Some((_, view, _)) = &self.image_target else {
+        let (Some((_, view, _)), FrameSky::Image { image, .. }) = (&self.image_target, sky) else {
+            return;
+        };
+        let Some((group, _)) = self.images.get(*image) else {
             return;
         };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -561,19 +578,49 @@ impl SkyGpu {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(&self.image_pipelines[i].1);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, frame_bind_group, &[]);
-        pass.set_bind_group(1, self.bind_group_for(sky), &[]);
+        // The image's own group: its placeholder stands for the target being drawn.
+        pass.set_bind_group(1, group, &[]);
         pass.draw(0..3, 0..1);
+    }
+
+    /// Make the group with which the full-frame path's sky pass samples the
+    /// image pass's target for `sky` (after [`SkyGpu::encode_image`]); see
+    /// [`SkyGpu::bind_group_for`].
+    pub(super) fn prepare_upsampled(&mut self, device: &wgpu::Device, sky: &FrameSky) {
+        let FrameSky::Image { image, .. } = sky else {
+            return;
+        };
+        if self.upsampled.as_ref().is_some_and(|(i, _)| i == image) {
+            return;
+        }
+        let (Some((_, target, _)), Some(Some(equirect))) =
+            (&self.image_target, self.image_views.get(*image))
+        else {
+            return;
+        };
+        let group = make_bind_group(
+            device,
+            &self.layout,
+            &self.uniforms,
+            (&self.sampler, &self.half_sampler),
+            "image sky (upsampled)",
+            [equirect, &self.placeholder_cube, target],
+        );
+        self.upsampled = Some((*image, group));
     }
 
     /// The bind group a frame's environment draws with.
     pub(super) fn bind_group_for(&self, sky: &FrameSky) -> &wgpu::BindGroup {
         match sky {
-            FrameSky::Image { image, .. } => self
-                .images
-                .get(*image)
-                .map_or(&self.default_group, |(g, _)| g),
+            FrameSky::Image { image, .. } => match &self.upsampled {
+                Some((i, group)) if i == image && self.written_image_scale().is_some() => group,
+                _ => self
+                    .images
+                    .get(*image)
+                    .map_or(&self.default_group, |(g, _)| g),
+            },
             FrameSky::Procedural { .. } => {
                 self.half.as_ref().map_or(&self.default_group, |t| &t.group)
             }
@@ -589,6 +636,7 @@ impl SkyGpu {
         env: &FrameEnvironment,
         sun: Vec3,
         atmosphere_visibility_m: Option<f64>,
+        image_scale: Option<u32>,
     ) -> Lighting {
         let mut u = EnvUniforms::default();
         let lighting = match *sky {
@@ -667,6 +715,8 @@ impl SkyGpu {
                             if image.hdr { 1.0 } else { 0.0 },
                             (rotation_deg as f32).to_radians(),
                         ];
+                        // Drawn by the image pass at this scale (0: at full resolution).
+                        u.far_params[3] = image_scale.map_or(0.0, |s| s as f32);
                         image.lighting(sun, exposure)
                     }
                     // Not uploaded (the host did not call `set_environment`): the default gradient, never a panic.
@@ -691,6 +741,24 @@ impl SkyGpu {
     pub(super) fn mode(&self) -> f32 {
         self.written.mode[0]
     }
+}
+
+/// [`SkyGpu::image_scale`] of an equirect image `image` (texels) for a
+/// `frame`-sized frame of focal length `focal_px` and principal point `centre`.
+fn reduced_scale(
+    (iw, ih): (u32, u32),
+    (width, height): (u32, u32),
+    focal_px: f32,
+    centre: (f32, f32),
+) -> Option<u32> {
+    if centre != (width as f32 / 2.0, height as f32 / 2.0) || iw == 0 || ih == 0 {
+        return None;
+    }
+    let texel = (std::f32::consts::PI / ih as f32).min(std::f32::consts::TAU / iw as f32);
+    let magnification = focal_px * texel;
+    [4u32, 2]
+        .into_iter()
+        .find(|&s| 2.0 * s as f32 <= magnification && width % s == 0 && height % s == 0)
 }
 
 /// The pipeline of a reduced pass (`fragment`: `fs_environment` or
@@ -780,4 +848,58 @@ fn make_bind_group(
             },
         ],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::reduced_scale;
+
+    /// The focal length (pixels) of a `height`-pixel frame with a vertical field of view of `fov_deg`.
+    fn focal(height: u32, fov_deg: f32) -> f32 {
+        height as f32 / 2.0 / (fov_deg.to_radians() / 2.0).tan()
+    }
+
+    #[test]
+    fn images_are_drawn_reduced_only_where_a_pass_pixel_spans_at_most_half_a_texel() {
+        let hd = (1920, 1080);
+        let centre = (960.0, 540.0);
+        // A 1024×512 sky at 40°: a texel spans 9.1 of the frame's pixels.
+        assert_eq!(
+            reduced_scale((1024, 512), hd, focal(1080, 40.0), centre),
+            Some(4)
+        );
+        // At 60° it spans 5.7: 4 would leave less than two pass pixels a texel.
+        assert_eq!(
+            reduced_scale((1024, 512), hd, focal(1080, 60.0), centre),
+            Some(2)
+        );
+        // 2048×1024 at 60° (2.9) and 4096×2048 at 40° (2.3): full resolution.
+        assert_eq!(
+            reduced_scale((2048, 1024), hd, focal(1080, 60.0), centre),
+            None
+        );
+        assert_eq!(
+            reduced_scale((4096, 2048), hd, focal(1080, 40.0), centre),
+            None
+        );
+        // A wide image is judged by its narrower texels (2π / width).
+        assert_eq!(
+            reduced_scale((2048, 512), hd, focal(1080, 40.0), centre),
+            Some(2)
+        );
+        // The scale must divide both sides, and the principal point be the centre.
+        assert_eq!(
+            reduced_scale((1024, 512), (1920, 1082), focal(1082, 40.0), (960.0, 541.0)),
+            Some(2)
+        );
+        assert_eq!(
+            reduced_scale((1024, 512), (1921, 1081), focal(1081, 40.0), (960.5, 540.5)),
+            None
+        );
+        assert_eq!(
+            reduced_scale((1024, 512), hd, focal(1080, 40.0), (900.0, 540.0)),
+            None
+        );
+        assert_eq!(reduced_scale((0, 0), hd, focal(1080, 40.0), centre), None);
+    }
 }

@@ -13,6 +13,7 @@
 //! 8-bit level where lavapipe's `pow` and filtering round the other way
 //! (docs/benchmarks.md states how many pixels).
 
+use std::ops::Range;
 use std::sync::LazyLock;
 
 /// Linear values where the sRGB-encoded 8-bit value steps up.
@@ -173,15 +174,15 @@ static EXPONENTIAL: LazyLock<Box<Buckets<32768>>> = LazyLock::new(|| {
     Buckets::new(&thresholds, 7.0)
 });
 
-/// Where one output row's pixels sample the source: per column its two
-/// texels and the second's weight ([`taps`]); `double` when the columns
-/// follow the exact 2× pattern (column 0 on texel 0, columns 2j + 1 and
-/// 2j + 2 between texels j and j + 1, the last clamped), which lets the row
-/// be blended without a gather.
+/// Where one output row's pixels sample the source: per column the
+/// second texel's weight ([`taps`]), and the columns in runs that share
+/// their two texels (`(first texel, second texel, columns)`: the taps only
+/// move forward); `double` when the columns follow the exact 2× pattern
+/// (column 0 on texel 0, columns 2j + 1 and 2j + 2 between texels j and
+/// j + 1, the last clamped), which lets the row be blended in SIMD lanes.
 struct Columns {
-    from: Vec<u32>,
-    to: Vec<u32>,
     weight: Vec<f32>,
+    runs: Vec<(usize, usize, Range<usize>)>,
     double: bool,
 }
 
@@ -206,10 +207,16 @@ impl Columns {
                 };
                 (a, b) == want
             });
+        let mut runs: Vec<(usize, usize, Range<usize>)> = Vec::new();
+        for (i, &(a, b, _)) in taps.iter().enumerate() {
+            match runs.last_mut() {
+                Some((ra, rb, r)) if (*ra, *rb) == (a, b) => r.end = i + 1,
+                _ => runs.push((a, b, i..i + 1)),
+            }
+        }
         Self {
-            from: taps.iter().map(|t| t.0 as u32).collect(),
-            to: taps.iter().map(|t| t.1 as u32).collect(),
             weight: taps.iter().map(|t| t.2).collect(),
+            runs,
             double,
         }
     }
@@ -217,8 +224,7 @@ impl Columns {
 
 /// One source row pair, blended vertically then horizontally, in planes.
 struct RowScratch {
-    /// The vertical blend of the two source rows, per channel (length a
-    /// power of two ≥ the source width, for masked gathers).
+    /// The vertical blend of the two source rows, per channel.
     planes: [Vec<f32>; 3],
     /// The output row's linear values, per channel.
     values: [Vec<f32>; 3],
@@ -267,11 +273,12 @@ fn upsample_row<const N: usize>(
                 *v = p + (p - p) * w;
             }
         } else {
-            let mask = plane.len() - 1;
-            let taps = columns.from.iter().zip(&columns.to).zip(weight);
-            for (v, ((&i0, &i1), &w)) in value.iter_mut().zip(taps) {
-                let (p, q) = (plane[i0 as usize & mask], plane[i1 as usize & mask]);
-                *v = p + (q - p) * w;
+            for (a, b, run) in &columns.runs {
+                let (p, q) = (plane[*a], plane[*b]);
+                let d = q - p;
+                for (v, w) in value[run.clone()].iter_mut().zip(&weight[run.clone()]) {
+                    *v = p + d * w;
+                }
             }
         }
     }
@@ -344,7 +351,7 @@ fn upsample_with<const N: usize>(
     }
     let columns = Columns::new(frame.0, size.0, centre.0);
     let rows = taps(frame.1, size.1, centre.1);
-    let plane = vec![0f32; w.next_power_of_two()];
+    let plane = vec![0f32; w];
     let value = vec![0f32; frame.0 as usize];
     let mut scratch = RowScratch {
         planes: [plane.clone(), plane.clone(), plane],
@@ -531,6 +538,7 @@ mod tests {
         // Exact 2× (even and odd), not 2×, off-centre, and tiny frames.
         let cases = [
             ((96, 54), (192, 108), (96.0, 54.0)),
+            ((48, 27), (192, 108), (96.0, 54.0)),
             ((321, 240), (641, 479), (320.5, 239.5)),
             ((30, 17), (100, 60), (50.0, 30.0)),
             ((50, 30), (100, 60), (47.0, 33.0)),
