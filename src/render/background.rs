@@ -366,7 +366,7 @@ impl Renderer {
         let submitted = self.queue.submit([encoder.finish()]);
         let texels = &mut cache.environment;
         readback::read_mapped(&self.device, submitted, buffer, len, |bytes| {
-            texels.clear();
+            // Every texel is written below.
             texels.resize(w as usize * h as usize * 4, 0.0);
             let width = w as usize * 4;
             for (y, out) in texels.chunks_exact_mut(width).enumerate() {

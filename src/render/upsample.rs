@@ -344,9 +344,10 @@ fn upsample_with<const N: usize>(
     simd: bool,
 ) {
     let (w, h) = (size.0 as usize, size.1 as usize);
-    rgba.clear();
+    // Every byte is written below (no clearing pass over the old contents).
     rgba.resize(frame.0 as usize * frame.1 as usize * 4, 0);
     if w == 0 || h == 0 || half.len() < w * h * 4 || frame.0 == 0 {
+        rgba.fill(0);
         return;
     }
     let columns = Columns::new(frame.0, size.0, centre.0);
