@@ -594,12 +594,13 @@ mod tests {
         // centre all occur; drones overlap, so the instance image splits them.
         use crate::pipeline::FramePipeline;
         use crate::preset::Preset;
-        let preset = Preset::from_ron(include_str!("../../presets/quickstart.ron")).unwrap();
-        let pipeline = FramePipeline::new(preset).unwrap();
+        let preset =
+            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
+        let pipeline = FramePipeline::new(preset).expect("pipeline");
         let assets = pipeline.assets();
         let (mut pixels, mut surface, mut centre) = (0, 0, 0);
         for index in (0..pipeline.frame_count()).step_by(5) {
-            let scene = pipeline.scene(index).unwrap();
+            let scene = pipeline.scene(index).expect("scene");
             let cam = &scene.camera;
             let sets: Vec<Vec<(u32, u32)>> = (scene.drones.iter())
                 .map(|d| {
