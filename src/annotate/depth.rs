@@ -23,8 +23,8 @@ use crate::scene::FrameScene;
 /// A model's triangles over its distinct vertex positions, for the depth
 /// raster: the same triangles, corners in the same order, as the model's
 /// index list (an index past its vertices stays past these positions), so
-/// the raster gives the bits the model's own vertices give. quad_x: 1 854
-/// vertices at 425 positions.
+/// the raster gives the bits the model's own vertices give. quad_x: 1 848
+/// vertices at 424 positions.
 #[derive(Clone, Debug, Default)]
 pub struct DepthMesh {
     positions: Vec<DVec3>,
