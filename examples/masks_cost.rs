@@ -6,6 +6,9 @@
 //! contours, PNGs); disk writes are left out (see docs/conventions.md,
 //! "Masks and maps").
 //!
+//! Then, on the all-four frames, the depth map and each output's encode
+//! timed alone (best of three each).
+//!
 //! Run: `cargo run --release --example masks_cost -- [PRESET] [FRAMES]`
 //! (defaults: presets/quickstart.ron, 108; the dataset's frames are not written).
 #![allow(clippy::unwrap_used)]
@@ -96,5 +99,54 @@ fn main() -> anyhow::Result<()> {
             (m / off - 1.0) * 100.0
         );
     }
+    // Where the all-four share goes: each output's encode and the depth map
+    // alone, on the "all" variant's frames (best of three, mean over the frames).
+    let (_, pipeline, renderer, _) = runs.iter_mut().find(|r| r.0 == "all").unwrap();
+    let only = |f: fn(&mut MaskOutputs)| {
+        let mut m = MaskOutputs::default();
+        f(&mut m);
+        m
+    };
+    let parts: [(&str, MaskOutputs); 4] = [
+        ("coco_rle", only(|m| m.coco_rle = true)),
+        ("yolo_seg", only(|m| m.yolo_seg = true)),
+        ("instance_png", only(|m| m.instance_png = true)),
+        ("depth_png", only(|m| m.depth = true)),
+    ];
+    let mut sums = [0.0f64; 5];
+    for index in 1..frames {
+        let frame = pipeline.make(renderer, index)?;
+        let m = frame.masks.as_ref().unwrap();
+        let best = |f: &mut dyn FnMut()| {
+            (0..3)
+                .map(|_| {
+                    let t = Instant::now();
+                    f();
+                    t.elapsed().as_secs_f64() * 1e3
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let models = pipeline.assets().depth_meshes();
+        sums[0] += best(&mut || {
+            std::hint::black_box(swarmshot::annotate::depth::depth_m_of_meshes(
+                &frame.scene,
+                models,
+                m,
+            ));
+        });
+        for (k, (_, outputs)) in parts.iter().enumerate() {
+            sums[k + 1] += best(&mut || {
+                std::hint::black_box(swarmshot::write::masks::encode(m, &frame.labels, outputs))
+                    .unwrap();
+            });
+        }
+        renderer.recycle(frame.rgba, frame.painted);
+    }
+    let n = (frames - 1).max(1) as f64;
+    print!("parts of all (ms per frame): depth map {:.3}", sums[0] / n);
+    for (k, (name, _)) in parts.iter().enumerate() {
+        print!(", {name} {:.3}", sums[k + 1] / n);
+    }
+    println!();
     Ok(())
 }

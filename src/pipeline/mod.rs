@@ -85,6 +85,8 @@ pub struct Assets {
     pub plates: Vec<crate::sky::plates::Plate>,
     /// What the plates were loaded for (the preset's backplate and output size).
     plates_for: Option<(crate::preset::backplate::Backplate, (u32, u32))>,
+    /// Each model's mesh for the depth maps, made on the first depth map.
+    depth_meshes: std::sync::OnceLock<Vec<crate::annotate::depth::DepthMesh>>,
 }
 
 impl Assets {
@@ -120,6 +122,17 @@ impl Assets {
                 None => Vec::new(),
             },
             plates_for: plates_key(preset),
+            depth_meshes: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// Each model's [`DepthMesh`](crate::annotate::depth::DepthMesh), made
+    /// once (on the first call: presets without depth maps never make them).
+    pub fn depth_meshes(&self) -> &[crate::annotate::depth::DepthMesh] {
+        self.depth_meshes.get_or_init(|| {
+            (self.models.iter())
+                .map(crate::annotate::depth::DepthMesh::new)
+                .collect()
         })
     }
 
@@ -461,7 +474,8 @@ impl FramePipeline {
             }
         };
         if let Some(m) = masks.as_mut().filter(|_| self.preset.output.masks.depth) {
-            m.depth_m = crate::annotate::depth::depth_m(&scene, &self.assets.models, m);
+            let meshes = self.assets.depth_meshes();
+            m.depth_m = crate::annotate::depth::depth_m_of_meshes(&scene, meshes, m);
         }
         let labels = label_frame(
             &scene,
