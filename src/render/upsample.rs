@@ -222,6 +222,13 @@ impl Columns {
     }
 }
 
+/// The sampler's blend of `p` and `q` with weight `w` on `q`, in this order
+/// of operations.
+#[inline(always)]
+fn lerp(p: f32, q: f32, w: f32) -> f32 {
+    p + (q - p) * w
+}
+
 /// One source row pair, blended vertically then horizontally, in planes.
 struct RowScratch {
     /// The vertical blend of the two source rows, per channel.
@@ -257,7 +264,8 @@ fn upsample_row<const N: usize>(
             let pairs = (value.len() - 1) / 2;
             let (first, rest) = value.split_at_mut(1);
             let (mid, tail) = rest.split_at_mut(pairs * 2);
-            first[0] = plane[0] + (plane[0] - plane[0]) * weight[0];
+            // Both texels the first: as the sampler, ±∞ and NaN included.
+            first[0] = lerp(plane[0], plane[0], weight[0]);
             let mid_weights = weight[1..].chunks_exact(2);
             for ((v, p), w) in mid
                 .chunks_exact_mut(2)
@@ -270,7 +278,7 @@ fn upsample_row<const N: usize>(
             }
             let p = plane[pairs];
             for (v, w) in tail.iter_mut().zip(&weight[1 + pairs * 2..]) {
-                *v = p + (p - p) * w;
+                *v = lerp(p, p, *w);
             }
         } else {
             for (a, b, run) in &columns.runs {
