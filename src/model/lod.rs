@@ -117,6 +117,12 @@ pub(crate) fn settings() -> String {
 /// each further level has at most [`MIN_PROGRESS`] of the triangles of the one
 /// before and a larger error bound.
 pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    build_lods_on(model, threads)
+}
+
+/// [`build_lods`] on `threads` threads (the same levels on any number).
+fn build_lods_on(model: &CpuModel, threads: usize) -> Result<Vec<Lod>, LodError> {
     validate(model)?;
     let full = Lod {
         indices: model.indices.clone(),
@@ -139,59 +145,135 @@ pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
         .map(|v| DVec3::from(v.position.map(f64::from)))
         .collect();
     let full_surface = Surface::new(&positions, &model.indices);
+    // Each level's error bound on its own, on the other cores while the
+    // simplifier makes the next levels, then on every core (a level's bound
+    // does not depend on the others, so the result is the same on any
+    // number of threads).
+    let queue = Queue::default();
+    let (mut lods, errors) = std::thread::scope(|s| {
+        let workers: Vec<_> = (1..threads)
+            .map(|_| s.spawn(|| bound_levels(&queue, &positions, &full_surface)))
+            .collect();
+        let lods = {
+            // Workers stop waiting however this ends (a panic included).
+            let _finish = FinishOnDrop(&queue);
+            candidates(model, &adapter, &locks, full, &queue)
+        };
+        let mut errors = bound_levels(&queue, &positions, &full_surface);
+        for w in workers {
+            errors.extend(w.join().unwrap_or_default());
+        }
+        (lods, errors)
+    });
+    let mut bounded = vec![false; lods.len()];
+    for (k, error) in errors {
+        if let Some(level) = lods.get_mut(k) {
+            level.error = error;
+            bounded[k] = true;
+        }
+    }
+    if bounded.iter().skip(1).any(|b| !b) {
+        // A worker panicked: keep only the full mesh rather than trust a missing bound.
+        lods.truncate(1);
+    }
+    Ok(keep_useful(lods))
+}
+
+/// The candidate levels after `full`, each with [`LEVEL_STEP`] of the
+/// triangles of the one before, down to a few dozen; each is handed to
+/// `queue` as soon as it is made. `keep_useful` drops the ones `pick` would
+/// never choose once their error bounds are known.
+fn candidates(
+    model: &CpuModel,
+    adapter: &VertexDataAdapter<'_>,
+    locks: &[SimplifyVertex],
+    full: Lod,
+    queue: &Queue,
+) -> Vec<Lod> {
     let total = model.triangle_count();
-    // Candidates, each with LEVEL_STEP of the triangles of the one before,
-    // down to a few dozen; `keep_useful` drops the ones `pick` would never
-    // choose once their error bounds are known.
     let mut lods = vec![full];
     let mut previous = total;
     while lods.len() <= MAX_CANDIDATES && previous > MIN_TRIANGLES {
         let fraction = (previous as f64 * LEVEL_STEP).floor() / total as f64;
-        let level = simplify_level(model, &adapter, &locks, fraction);
+        let level = simplify_level(model, adapter, locks, fraction);
         let count = level.triangle_count();
         if count == 0 || count as f64 > MIN_PROGRESS * previous as f64 {
             break;
         }
         previous = count;
+        queue.push(level.indices.clone());
         lods.push(level);
     }
-    // Each level's error bound on its own, the levels spread over the cores
-    // (a level's bound does not depend on the others, so the result is the
-    // same on any number of threads).
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let levels = lods.len();
-    let next = std::sync::atomic::AtomicUsize::new(1);
-    let errors: Vec<(usize, f32)> = std::thread::scope(|s| {
-        let workers: Vec<_> = (0..threads.min(levels.saturating_sub(1)))
-            .map(|_| {
-                let (positions, full_surface, lods, next) =
-                    (&positions, &full_surface, &lods, &next);
-                s.spawn(move || {
-                    let mut out = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(level) = lods.get(k) else {
-                            return out;
-                        };
-                        let surface = Surface::new(positions, &level.indices);
-                        out.push((k, hausdorff_bound(full_surface, &surface) as f32));
-                    }
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .flat_map(|w| w.join().unwrap_or_default())
-            .collect()
-    });
-    for (k, error) in errors {
-        lods[k].error = error;
+    lods
+}
+
+/// The candidate levels' index buffers as the simplifier makes them, for
+/// the threads that bound their errors.
+#[derive(Default)]
+struct Queue {
+    state: std::sync::Mutex<QueueState>,
+    ready: std::sync::Condvar,
+}
+
+#[derive(Default)]
+struct QueueState {
+    /// Levels 1, 2, … so far.
+    levels: Vec<Vec<u32>>,
+    /// How many of them a thread has taken.
+    taken: usize,
+    /// The simplifier is done: no level will be added.
+    finished: bool,
+}
+
+impl Queue {
+    fn push(&self, indices: Vec<u32>) {
+        if let Ok(mut s) = self.state.lock() {
+            s.levels.push(indices);
+        }
+        self.ready.notify_one();
     }
-    if lods.iter().skip(1).any(|l| l.error == 0.0) {
-        // A worker panicked: keep only the full mesh rather than trust a missing bound.
-        lods.truncate(1);
+
+    fn finish(&self) {
+        if let Ok(mut s) = self.state.lock() {
+            s.finished = true;
+        }
+        self.ready.notify_all();
     }
-    Ok(keep_useful(lods))
+
+    /// The next level nobody has taken (its number and indices), waiting
+    /// while the simplifier may still make one; `None` once all are taken.
+    fn take(&self) -> Option<(usize, Vec<u32>)> {
+        let mut s = self.state.lock().ok()?;
+        loop {
+            if let Some(indices) = s.levels.get(s.taken).cloned() {
+                s.taken += 1;
+                return Some((s.taken, indices));
+            }
+            if s.finished {
+                return None;
+            }
+            s = self.ready.wait(s).ok()?;
+        }
+    }
+}
+
+/// Marks the queue finished when dropped.
+struct FinishOnDrop<'a>(&'a Queue);
+
+impl Drop for FinishOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.finish();
+    }
+}
+
+/// Error bounds of the levels this thread takes from `queue`: (level, bound).
+fn bound_levels(queue: &Queue, positions: &[DVec3], full: &Surface) -> Vec<(usize, f32)> {
+    let mut out = Vec::new();
+    while let Some((k, indices)) = queue.take() {
+        let surface = Surface::new(positions, &indices);
+        out.push((k, hausdorff_bound(full, &surface) as f32));
+    }
+    out
 }
 
 /// From levels ordered finest first (level 0 the full mesh), the ones
@@ -394,10 +476,13 @@ impl Surface {
                 }
             }
         }
+        // Each position once (split normals repeat positions): the largest
+        // distance over the corners does not depend on their order or repeats.
+        let mut seen = std::collections::HashSet::new();
         let corners = positions
             .iter()
             .zip(&used)
-            .filter(|(_, u)| **u)
+            .filter(|&(p, u)| *u && seen.insert(p.to_array().map(f64::to_bits)))
             .map(|(p, _)| *p)
             .collect();
         let mut keys_sorted = keys.clone();
@@ -418,11 +503,22 @@ impl Surface {
         }
     }
 
-    /// Distance from `p` to the surface; once a triangle within `enough` is
-    /// found, the search stops and returns that (smaller) distance.
-    fn distance(&self, p: DVec3, enough: f64) -> f64 {
-        let mut best_sq = f64::INFINITY;
+    /// Distance from `p` to the surface and the triangle (index into
+    /// `triangles`) at that distance; once a triangle within `enough` is
+    /// found, the search stops and returns that (smaller) distance. The
+    /// triangle `hint` is tried first: when it is within `enough` it is the
+    /// answer (a caller that only asks "within `enough`?" gets the same
+    /// answer as from the full search); otherwise the search is the plain
+    /// one, so a distance above `enough` is the exact nearest distance.
+    fn nearest(&self, p: DVec3, enough: f64, hint: usize) -> (f64, usize) {
         let enough_sq = enough.max(0.0).powi(2);
+        if let Some(t) = self.triangles.get(hint) {
+            let d_sq = (closest_point_on_triangle(p, t) - p).length_squared();
+            if d_sq <= enough_sq {
+                return (d_sq.sqrt(), hint);
+            }
+        }
+        let (mut best_sq, mut best) = (f64::INFINITY, 0);
         // Depth-first with the nearer child on top: at most one pending
         // sibling per level, and median splits keep the depth near log2(n).
         let mut stack = [0usize; 128];
@@ -435,8 +531,11 @@ impl Surface {
                 continue;
             }
             if node.leaf {
-                for t in &self.triangles[node.a..node.a + node.b] {
-                    best_sq = best_sq.min((closest_point_on_triangle(p, t) - p).length_squared());
+                for (k, t) in (node.a..).zip(&self.triangles[node.a..node.a + node.b]) {
+                    let d_sq = (closest_point_on_triangle(p, t) - p).length_squared();
+                    if d_sq < best_sq {
+                        (best_sq, best) = (d_sq, k);
+                    }
                 }
                 if best_sq <= enough_sq {
                     break;
@@ -460,7 +559,17 @@ impl Surface {
                 len += 2;
             }
         }
-        best_sq.sqrt()
+        (best_sq.sqrt(), best)
+    }
+
+    /// Whether every point of `t` lies closer than `limit_sq.sqrt()` to
+    /// triangle `k` (distance to a triangle is convex, so its largest value
+    /// over `t` is at a corner of `t`).
+    fn within(&self, t: &[DVec3; 3], k: usize, limit_sq: f64) -> bool {
+        self.triangles.get(k).is_some_and(|near| {
+            t.iter()
+                .all(|&v| (closest_point_on_triangle(v, near) - v).length_squared() < limit_sq)
+        })
     }
 }
 
@@ -577,6 +686,15 @@ const MAX_DEPTH: u32 = 48;
 /// is done; one whose `r ≤ ε·w + δ` raises `w` to `d(g)` (after which it is
 /// within `B`); any other is bisected along its longest edge. Triangles
 /// that `to` has too (the same three vertices) are at distance 0.
+///
+/// Shortcuts that leave the result exactly as without them (the tests
+/// compare it bit for bit with the plain walk): `w` starts at the largest
+/// corner distance `w₀`, and a triangle (or piece) lying wholly within `w₀`
+/// of one triangle of `to` cannot raise `w` (a piece raises it only to its
+/// own `d(g)`, at most its largest distance; at [`MAX_DEPTH`] bisections a
+/// piece is far smaller than δ), so it is skipped; that one
+/// triangle is the one found nearest for the piece before (the `hint`),
+/// which also answers most "within `B − r`?" queries without the tree.
 fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     if from.triangles.is_empty() {
         return start;
@@ -587,26 +705,39 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     let bound = sampled_bound;
     // Distances at the vertices: a lower bound to start pruning with.
     let mut worst = start;
+    let mut hint = 0;
     for &p in &from.corners {
-        worst = worst.max(to.distance(p, worst));
+        let (d, k) = to.nearest(p, worst, hint);
+        hint = k;
+        worst = worst.max(d);
     }
-    let mut stack: Vec<([DVec3; 3], u32)> = Vec::new();
+    // Strictly below w₀, with room for rounding.
+    let limit = worst * (1.0 - 1e-9);
+    let limit_sq = limit * limit;
+    let mut stack: Vec<([DVec3; 3], u32, usize)> = Vec::new();
     for (key, t) in from.keys.iter().zip(&from.source) {
         if to.keys_sorted.binary_search(key).is_ok() {
             continue;
         }
-        stack.push((*t, 0));
-        while let Some((t, depth)) = stack.pop() {
+        stack.push((*t, 0, hint));
+        while let Some((t, depth, near)) = stack.pop() {
+            if to.within(&t, near, limit_sq) {
+                continue;
+            }
             let [a, b, c] = t;
             let g = (a + b + c) / 3.0;
             let r = (a - g).length().max((b - g).length()).max((c - g).length());
-            let d = to.distance(g, bound(worst) - r);
+            let (d, k) = to.nearest(g, bound(worst) - r, near);
+            hint = k;
             if d + r <= bound(worst) {
                 continue;
             }
             if r <= bound(worst) - worst || depth >= MAX_DEPTH {
                 // Here d > w; after this, d + r ≤ (1 + ε)·d + δ.
                 worst = worst.max(d + (r - (bound(d) - d)).max(0.0));
+                continue;
+            }
+            if to.within(&t, k, limit_sq) {
                 continue;
             }
             // Bisect the longest edge.
@@ -619,8 +750,8 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
                 [c, a, b]
             };
             let m = (p + q) * 0.5;
-            stack.push(([p, m, o], depth + 1));
-            stack.push(([m, q, o], depth + 1));
+            stack.push(([p, m, o], depth + 1, k));
+            stack.push(([m, q, o], depth + 1, k));
         }
     }
     worst
