@@ -442,8 +442,10 @@ struct Surface {
     keys: Vec<[u32; 3]>,
     /// `keys`, sorted, for lookups.
     keys_sorted: Vec<[u32; 3]>,
-    /// Every vertex the triangles use, once.
+    /// Every position the triangles use, once.
     corners: Vec<DVec3>,
+    /// For each vertex index, its position's place in `corners` (`u32::MAX`: unused).
+    corner_of: Vec<u32>,
 }
 
 /// A BVH node: its box and either two children or a run of triangles.
@@ -478,12 +480,20 @@ impl Surface {
         }
         // Each position once (split normals repeat positions): the largest
         // distance over the corners does not depend on their order or repeats.
-        let mut seen = std::collections::HashSet::new();
-        let corners = positions
-            .iter()
-            .zip(&used)
-            .filter(|&(p, u)| *u && seen.insert(p.to_array().map(f64::to_bits)))
-            .map(|(p, _)| *p)
+        let mut seen = std::collections::HashMap::new();
+        let mut corners = Vec::new();
+        let corner_of = (positions.iter().zip(&used))
+            .map(|(p, &u)| {
+                if !u {
+                    return u32::MAX;
+                }
+                *seen
+                    .entry(p.to_array().map(f64::to_bits))
+                    .or_insert_with(|| {
+                        corners.push(*p);
+                        corners.len() as u32 - 1
+                    })
+            })
             .collect();
         let mut keys_sorted = keys.clone();
         keys_sorted.sort_unstable();
@@ -500,6 +510,7 @@ impl Surface {
             keys,
             keys_sorted,
             corners,
+            corner_of,
         }
     }
 
@@ -706,11 +717,15 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     // Distances at the vertices: a lower bound to start pruning with.
     let mut worst = start;
     let mut hint = 0;
-    for &p in &from.corners {
-        let (d, k) = to.nearest(p, worst, hint);
-        hint = k;
-        worst = worst.max(d);
-    }
+    // For each corner, a triangle of `to` within `worst` of it, or its nearest.
+    let near_corner: Vec<usize> = (from.corners.iter())
+        .map(|&p| {
+            let (d, k) = to.nearest(p, worst, hint);
+            hint = k;
+            worst = worst.max(d);
+            k
+        })
+        .collect();
     // Strictly below w₀, with room for rounding.
     let limit = worst * (1.0 - 1e-9);
     let limit_sq = limit * limit;
@@ -719,7 +734,10 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
         if to.keys_sorted.binary_search(key).is_ok() {
             continue;
         }
-        stack.push((*t, 0, hint));
+        // The triangle near its first corner is near it too.
+        let corner = from.corner_of.get(key[0] as usize);
+        let near = corner.and_then(|&c| near_corner.get(c as usize));
+        stack.push((*t, 0, near.copied().unwrap_or(hint)));
         while let Some((t, depth, near)) = stack.pop() {
             if to.within(&t, near, limit_sq) {
                 continue;
