@@ -498,7 +498,6 @@ fn batch(
             options.encoder_threads
         );
     }
-    let gpu = GpuStart::spawn();
     let pipeline = FramePipeline::open(preset)?;
     print_warnings(&pipeline);
     pipeline
@@ -518,7 +517,7 @@ fn batch(
     if !options.resume {
         check_free_space(&pipeline, &options.out_dir, frames)?;
     }
-    let ctx = gpu.get()?;
+    let ctx = GpuContext::headless()?;
     device_check(&pipeline, &ctx)?;
     let bar = frames_bar(frames)?;
     let cancel = stop_on_signals()?;
@@ -660,41 +659,9 @@ fn plan(
     Ok(())
 }
 
-/// The GPU context, opened on another thread while the preset, its models
-/// and their levels of detail load (none of which needs the GPU), so the
-/// driver's start-up overlaps theirs. Dropped unused (the preset failed), it
-/// waits for the thread, so the process never exits with the driver half
-/// started.
-struct GpuStart(
-    Option<std::thread::JoinHandle<Result<GpuContext, swarmshot::render::RenderError>>>,
-);
-
-impl GpuStart {
-    fn spawn() -> Self {
-        Self(Some(std::thread::spawn(GpuContext::headless)))
-    }
-
-    fn get(mut self) -> anyhow::Result<GpuContext> {
-        let thread = self.0.take().context("GPU start-up already taken")?;
-        match thread.join() {
-            Ok(ctx) => Ok(ctx?),
-            Err(panic) => std::panic::resume_unwind(panic),
-        }
-    }
-}
-
-impl Drop for GpuStart {
-    fn drop(&mut self) {
-        if let Some(thread) = self.0.take() {
-            let _ = thread.join();
-        }
-    }
-}
-
 /// A batch of one: the files the batch writes for frame `index` (image, YOLO
 /// labels, manifest record, and the masks `output.masks` asks for), beside `out`.
 fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result<()> {
-    let gpu = GpuStart::spawn();
     let pipeline = FramePipeline::open(preset)?;
     pipeline
         .preset()
@@ -710,7 +677,7 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
         );
     }
     print_warnings(&pipeline);
-    let ctx = gpu.get()?;
+    let ctx = GpuContext::headless()?;
     device_check(&pipeline, &ctx)?;
     let mut renderer = pipeline.renderer(&ctx);
     let mut frame = pipeline.make(&mut renderer, index)?;
