@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use glam::DQuat;
+use glam::{DMat3, DQuat};
 use rand::{Rng, SeedableRng};
 
 use super::*;
