@@ -34,10 +34,13 @@
 use std::collections::BTreeMap;
 use std::mem::size_of;
 
-use glam::{DMat3, DVec2, DVec3};
+use glam::DVec3;
 use meshopt::{SimplifyOptions, SimplifyVertex, VertexDataAdapter};
 
 use crate::model::{CpuModel, DrawRange, Vertex};
+
+mod silhouette;
+pub use silhouette::SilhouetteFrame;
 
 /// One level of detail: an index buffer into the model's own vertex buffer.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,6 +120,12 @@ pub(crate) fn settings() -> String {
 /// each further level has at most [`MIN_PROGRESS`] of the triangles of the one
 /// before and a larger error bound.
 pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    build_lods_on(model, threads)
+}
+
+/// [`build_lods`] on `threads` threads (the same levels on any number).
+fn build_lods_on(model: &CpuModel, threads: usize) -> Result<Vec<Lod>, LodError> {
     validate(model)?;
     let full = Lod {
         indices: model.indices.clone(),
@@ -139,59 +148,135 @@ pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
         .map(|v| DVec3::from(v.position.map(f64::from)))
         .collect();
     let full_surface = Surface::new(&positions, &model.indices);
+    // Each level's error bound on its own, on the other cores while the
+    // simplifier makes the next levels, then on every core (a level's bound
+    // does not depend on the others, so the result is the same on any
+    // number of threads).
+    let queue = Queue::default();
+    let (mut lods, errors) = std::thread::scope(|s| {
+        let workers: Vec<_> = (1..threads)
+            .map(|_| s.spawn(|| bound_levels(&queue, &positions, &full_surface)))
+            .collect();
+        let lods = {
+            // Workers stop waiting however this ends (a panic included).
+            let _finish = FinishOnDrop(&queue);
+            candidates(model, &adapter, &locks, full, &queue)
+        };
+        let mut errors = bound_levels(&queue, &positions, &full_surface);
+        for w in workers {
+            errors.extend(w.join().unwrap_or_default());
+        }
+        (lods, errors)
+    });
+    let mut bounded = vec![false; lods.len()];
+    for (k, error) in errors {
+        if let Some(level) = lods.get_mut(k) {
+            level.error = error;
+            bounded[k] = true;
+        }
+    }
+    if bounded.iter().skip(1).any(|b| !b) {
+        // A worker panicked: keep only the full mesh rather than trust a missing bound.
+        lods.truncate(1);
+    }
+    Ok(keep_useful(lods))
+}
+
+/// The candidate levels after `full`, each with [`LEVEL_STEP`] of the
+/// triangles of the one before, down to a few dozen; each is handed to
+/// `queue` as soon as it is made. `keep_useful` drops the ones `pick` would
+/// never choose once their error bounds are known.
+fn candidates(
+    model: &CpuModel,
+    adapter: &VertexDataAdapter<'_>,
+    locks: &[SimplifyVertex],
+    full: Lod,
+    queue: &Queue,
+) -> Vec<Lod> {
     let total = model.triangle_count();
-    // Candidates, each with LEVEL_STEP of the triangles of the one before,
-    // down to a few dozen; `keep_useful` drops the ones `pick` would never
-    // choose once their error bounds are known.
     let mut lods = vec![full];
     let mut previous = total;
     while lods.len() <= MAX_CANDIDATES && previous > MIN_TRIANGLES {
         let fraction = (previous as f64 * LEVEL_STEP).floor() / total as f64;
-        let level = simplify_level(model, &adapter, &locks, fraction);
+        let level = simplify_level(model, adapter, locks, fraction);
         let count = level.triangle_count();
         if count == 0 || count as f64 > MIN_PROGRESS * previous as f64 {
             break;
         }
         previous = count;
+        queue.push(level.indices.clone());
         lods.push(level);
     }
-    // Each level's error bound on its own, the levels spread over the cores
-    // (a level's bound does not depend on the others, so the result is the
-    // same on any number of threads).
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let levels = lods.len();
-    let next = std::sync::atomic::AtomicUsize::new(1);
-    let errors: Vec<(usize, f32)> = std::thread::scope(|s| {
-        let workers: Vec<_> = (0..threads.min(levels.saturating_sub(1)))
-            .map(|_| {
-                let (positions, full_surface, lods, next) =
-                    (&positions, &full_surface, &lods, &next);
-                s.spawn(move || {
-                    let mut out = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(level) = lods.get(k) else {
-                            return out;
-                        };
-                        let surface = Surface::new(positions, &level.indices);
-                        out.push((k, hausdorff_bound(full_surface, &surface) as f32));
-                    }
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .flat_map(|w| w.join().unwrap_or_default())
-            .collect()
-    });
-    for (k, error) in errors {
-        lods[k].error = error;
+    lods
+}
+
+/// The candidate levels' index buffers as the simplifier makes them, for
+/// the threads that bound their errors.
+#[derive(Default)]
+struct Queue {
+    state: std::sync::Mutex<QueueState>,
+    ready: std::sync::Condvar,
+}
+
+#[derive(Default)]
+struct QueueState {
+    /// Levels 1, 2, … so far.
+    levels: Vec<Vec<u32>>,
+    /// How many of them a thread has taken.
+    taken: usize,
+    /// The simplifier is done: no level will be added.
+    finished: bool,
+}
+
+impl Queue {
+    fn push(&self, indices: Vec<u32>) {
+        if let Ok(mut s) = self.state.lock() {
+            s.levels.push(indices);
+        }
+        self.ready.notify_one();
     }
-    if lods.iter().skip(1).any(|l| l.error == 0.0) {
-        // A worker panicked: keep only the full mesh rather than trust a missing bound.
-        lods.truncate(1);
+
+    fn finish(&self) {
+        if let Ok(mut s) = self.state.lock() {
+            s.finished = true;
+        }
+        self.ready.notify_all();
     }
-    Ok(keep_useful(lods))
+
+    /// The next level nobody has taken (its number and indices), waiting
+    /// while the simplifier may still make one; `None` once all are taken.
+    fn take(&self) -> Option<(usize, Vec<u32>)> {
+        let mut s = self.state.lock().ok()?;
+        loop {
+            if let Some(indices) = s.levels.get(s.taken).cloned() {
+                s.taken += 1;
+                return Some((s.taken, indices));
+            }
+            if s.finished {
+                return None;
+            }
+            s = self.ready.wait(s).ok()?;
+        }
+    }
+}
+
+/// Marks the queue finished when dropped.
+struct FinishOnDrop<'a>(&'a Queue);
+
+impl Drop for FinishOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.finish();
+    }
+}
+
+/// Error bounds of the levels this thread takes from `queue`: (level, bound).
+fn bound_levels(queue: &Queue, positions: &[DVec3], full: &Surface) -> Vec<(usize, f32)> {
+    let mut out = Vec::new();
+    while let Some((k, indices)) = queue.take() {
+        let surface = Surface::new(positions, &indices);
+        out.push((k, hausdorff_bound(full, &surface) as f32));
+    }
+    out
 }
 
 /// From levels ordered finest first (level 0 the full mesh), the ones
@@ -360,8 +445,10 @@ struct Surface {
     keys: Vec<[u32; 3]>,
     /// `keys`, sorted, for lookups.
     keys_sorted: Vec<[u32; 3]>,
-    /// Every vertex the triangles use, once.
+    /// Every position the triangles use, once.
     corners: Vec<DVec3>,
+    /// For each vertex index, its position's place in `corners` (`u32::MAX`: unused).
+    corner_of: Vec<u32>,
 }
 
 /// A BVH node: its box and either two children or a run of triangles.
@@ -394,11 +481,22 @@ impl Surface {
                 }
             }
         }
-        let corners = positions
-            .iter()
-            .zip(&used)
-            .filter(|(_, u)| **u)
-            .map(|(p, _)| *p)
+        // Each position once (split normals repeat positions): the largest
+        // distance over the corners does not depend on their order or repeats.
+        let mut seen = std::collections::HashMap::new();
+        let mut corners = Vec::new();
+        let corner_of = (positions.iter().zip(&used))
+            .map(|(p, &u)| {
+                if !u {
+                    return u32::MAX;
+                }
+                *seen
+                    .entry(p.to_array().map(f64::to_bits))
+                    .or_insert_with(|| {
+                        corners.push(*p);
+                        corners.len() as u32 - 1
+                    })
+            })
             .collect();
         let mut keys_sorted = keys.clone();
         keys_sorted.sort_unstable();
@@ -415,14 +513,26 @@ impl Surface {
             keys,
             keys_sorted,
             corners,
+            corner_of,
         }
     }
 
-    /// Distance from `p` to the surface; once a triangle within `enough` is
-    /// found, the search stops and returns that (smaller) distance.
-    fn distance(&self, p: DVec3, enough: f64) -> f64 {
-        let mut best_sq = f64::INFINITY;
+    /// Distance from `p` to the surface and the triangle (index into
+    /// `triangles`) at that distance; once a triangle within `enough` is
+    /// found, the search stops and returns that (smaller) distance. The
+    /// triangle `hint` is tried first: when it is within `enough` it is the
+    /// answer (a caller that only asks "within `enough`?" gets the same
+    /// answer as from the full search); otherwise the search is the plain
+    /// one, so a distance above `enough` is the exact nearest distance.
+    fn nearest(&self, p: DVec3, enough: f64, hint: usize) -> (f64, usize) {
         let enough_sq = enough.max(0.0).powi(2);
+        if let Some(t) = self.triangles.get(hint) {
+            let d_sq = (closest_point_on_triangle(p, t) - p).length_squared();
+            if d_sq <= enough_sq {
+                return (d_sq.sqrt(), hint);
+            }
+        }
+        let (mut best_sq, mut best) = (f64::INFINITY, 0);
         // Depth-first with the nearer child on top: at most one pending
         // sibling per level, and median splits keep the depth near log2(n).
         let mut stack = [0usize; 128];
@@ -435,8 +545,11 @@ impl Surface {
                 continue;
             }
             if node.leaf {
-                for t in &self.triangles[node.a..node.a + node.b] {
-                    best_sq = best_sq.min((closest_point_on_triangle(p, t) - p).length_squared());
+                for (k, t) in (node.a..).zip(&self.triangles[node.a..node.a + node.b]) {
+                    let d_sq = (closest_point_on_triangle(p, t) - p).length_squared();
+                    if d_sq < best_sq {
+                        (best_sq, best) = (d_sq, k);
+                    }
                 }
                 if best_sq <= enough_sq {
                     break;
@@ -460,7 +573,17 @@ impl Surface {
                 len += 2;
             }
         }
-        best_sq.sqrt()
+        (best_sq.sqrt(), best)
+    }
+
+    /// Whether every point of `t` lies closer than `limit_sq.sqrt()` to
+    /// triangle `k` (distance to a triangle is convex, so its largest value
+    /// over `t` is at a corner of `t`).
+    fn within(&self, t: &[DVec3; 3], k: usize, limit_sq: f64) -> bool {
+        self.triangles.get(k).is_some_and(|near| {
+            t.iter()
+                .all(|&v| (closest_point_on_triangle(v, near) - v).length_squared() < limit_sq)
+        })
     }
 }
 
@@ -577,6 +700,15 @@ const MAX_DEPTH: u32 = 48;
 /// is done; one whose `r ≤ ε·w + δ` raises `w` to `d(g)` (after which it is
 /// within `B`); any other is bisected along its longest edge. Triangles
 /// that `to` has too (the same three vertices) are at distance 0.
+///
+/// Shortcuts that leave the result exactly as without them (the tests
+/// compare it bit for bit with the plain walk): `w` starts at the largest
+/// corner distance `w₀`, and a triangle (or piece) lying wholly within `w₀`
+/// of one triangle of `to` cannot raise `w` (a piece raises it only to its
+/// own `d(g)`, at most its largest distance; at [`MAX_DEPTH`] bisections a
+/// piece is far smaller than δ), so it is skipped; that one
+/// triangle is the one found nearest for the piece before (the `hint`),
+/// which also answers most "within `B − r`?" queries without the tree.
 fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     if from.triangles.is_empty() {
         return start;
@@ -587,26 +719,46 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     let bound = sampled_bound;
     // Distances at the vertices: a lower bound to start pruning with.
     let mut worst = start;
-    for &p in &from.corners {
-        worst = worst.max(to.distance(p, worst));
-    }
-    let mut stack: Vec<([DVec3; 3], u32)> = Vec::new();
+    let mut hint = 0;
+    // For each corner, a triangle of `to` within `worst` of it, or its nearest.
+    let near_corner: Vec<usize> = (from.corners.iter())
+        .map(|&p| {
+            let (d, k) = to.nearest(p, worst, hint);
+            hint = k;
+            worst = worst.max(d);
+            k
+        })
+        .collect();
+    // Strictly below w₀, with room for rounding.
+    let limit = worst * (1.0 - 1e-9);
+    let limit_sq = limit * limit;
+    let mut stack: Vec<([DVec3; 3], u32, usize)> = Vec::new();
     for (key, t) in from.keys.iter().zip(&from.source) {
         if to.keys_sorted.binary_search(key).is_ok() {
             continue;
         }
-        stack.push((*t, 0));
-        while let Some((t, depth)) = stack.pop() {
+        // The triangle near its first corner is near it too.
+        let corner = from.corner_of.get(key[0] as usize);
+        let near = corner.and_then(|&c| near_corner.get(c as usize));
+        stack.push((*t, 0, near.copied().unwrap_or(hint)));
+        while let Some((t, depth, near)) = stack.pop() {
+            if to.within(&t, near, limit_sq) {
+                continue;
+            }
             let [a, b, c] = t;
             let g = (a + b + c) / 3.0;
             let r = (a - g).length().max((b - g).length()).max((c - g).length());
-            let d = to.distance(g, bound(worst) - r);
+            let (d, k) = to.nearest(g, bound(worst) - r, near);
+            hint = k;
             if d + r <= bound(worst) {
                 continue;
             }
             if r <= bound(worst) - worst || depth >= MAX_DEPTH {
                 // Here d > w; after this, d + r ≤ (1 + ε)·d + δ.
                 worst = worst.max(d + (r - (bound(d) - d)).max(0.0));
+                continue;
+            }
+            if to.within(&t, k, limit_sq) {
                 continue;
             }
             // Bisect the longest edge.
@@ -619,8 +771,8 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
                 [c, a, b]
             };
             let m = (p + q) * 0.5;
-            stack.push(([p, m, o], depth + 1));
-            stack.push(([m, q, o], depth + 1));
+            stack.push(([p, m, o], depth + 1, k));
+            stack.push(([m, q, o], depth + 1, k));
         }
     }
     worst
@@ -648,470 +800,5 @@ pub fn pick(lods: &[Lod], size_m: f64, pixels_per_metre: f64, max_error_px: f64)
         .unwrap_or(0)
 }
 
-/// The sub-pixel grid in which two silhouettes of one model are compared:
-/// an orthographic view, `samples_per_px`² samples per pixel, covering the
-/// box of the model's projected vertices plus a pixel (every LOD of the
-/// model fits, since LODs use the model's vertices).
-#[derive(Clone, Copy, Debug)]
-pub struct SilhouetteFrame {
-    /// Rotation from model to view space (x right, y down, z away).
-    pub view_from_model: DMat3,
-    /// Pixels per model unit (`size_m · pixels_per_metre`).
-    pub px_per_unit: f64,
-    pub samples_per_px: usize,
-    origin_px: DVec2,
-    /// Samples along x and y.
-    size: [usize; 2],
-}
-
-/// A projected triangle in sample units (sample centres at integers), with its box.
-struct Projected {
-    corners: [DVec2; 3],
-    lo: DVec2,
-    hi: DVec2,
-}
-
-impl SilhouetteFrame {
-    pub fn new(
-        model: &CpuModel,
-        view_from_model: DMat3,
-        px_per_unit: f64,
-        samples_per_px: usize,
-    ) -> Self {
-        let (mut lo, mut hi) = (DVec2::INFINITY, DVec2::NEG_INFINITY);
-        for v in &model.vertices {
-            let q =
-                (view_from_model * DVec3::from(v.position.map(f64::from)) * px_per_unit).truncate();
-            lo = lo.min(q);
-            hi = hi.max(q);
-        }
-        let origin_px = lo.floor() - 1.0;
-        let extent = (hi - origin_px).ceil() + 1.0;
-        let size = [extent.x, extent.y].map(|px| {
-            if px.is_finite() && px > 0.0 {
-                px as usize * samples_per_px
-            } else {
-                0
-            }
-        });
-        Self {
-            view_from_model,
-            px_per_unit,
-            samples_per_px,
-            origin_px,
-            size,
-        }
-    }
-
-    /// The triangles `indices` of `model`, projected; edge-on ones (zero area) cover nothing and are left out.
-    fn project(&self, model: &CpuModel, indices: &[u32]) -> Vec<Projected> {
-        let ss = self.samples_per_px as f64;
-        let at = |i: u32| {
-            let p = model
-                .vertices
-                .get(i as usize)
-                .map_or(DVec3::ZERO, |v| DVec3::from(v.position.map(f64::from)));
-            let q = (self.view_from_model * p * self.px_per_unit).truncate();
-            (q - self.origin_px) * ss - 0.5
-        };
-        indices
-            .chunks_exact(3)
-            .filter_map(|t| {
-                let corners = [at(t[0]), at(t[1]), at(t[2])];
-                let [a, b, c] = corners;
-                let area = (b - a).perp_dot(c - a);
-                (area != 0.0 && area.is_finite()).then(|| Projected {
-                    corners,
-                    lo: a.min(b).min(c),
-                    hi: a.max(b).max(c),
-                })
-            })
-            .collect()
-    }
-
-    /// Which samples the triangles cover (either winding; a sample on an edge counts).
-    fn coverage(&self, triangles: &[Projected]) -> Vec<bool> {
-        let [width, height] = self.size;
-        let mut covered = vec![false; width * height];
-        for t in triangles {
-            let x0 = t.lo.x.ceil().max(0.0) as usize;
-            let y0 = t.lo.y.ceil().max(0.0) as usize;
-            let x1 = (t.hi.x.floor() + 1.0).clamp(0.0, width as f64) as usize;
-            let y1 = (t.hi.y.floor() + 1.0).clamp(0.0, height as f64) as usize;
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    if inside(&t.corners, DVec2::new(x as f64, y as f64)) {
-                        covered[y * width + x] = true;
-                    }
-                }
-            }
-        }
-        covered
-    }
-
-    /// Silhouette error in pixels between two index sets of `model`: the
-    /// largest distance from a sample covered by one silhouette but not the
-    /// other to the other silhouette (the exact union of its projected
-    /// triangles). Infinite when exactly one silhouette is empty.
-    pub fn error_px(&self, model: &CpuModel, a: &[u32], b: &[u32]) -> f64 {
-        let (ta, tb) = (self.project(model, a), self.project(model, b));
-        let (ca, cb) = (self.coverage(&ta), self.coverage(&tb));
-        let d_ab = self.farthest(&ca, &cb, &tb);
-        let d_ba = self.farthest(&cb, &ca, &ta);
-        d_ab.max(d_ba) / self.samples_per_px as f64
-    }
-
-    /// Largest distance (samples) from a sample in `from` but not in `to` to the triangles of `to`.
-    fn farthest(&self, from: &[bool], to: &[bool], to_triangles: &[Projected]) -> f64 {
-        let width = self.size[0].max(1);
-        let mut worst = 0.0f64;
-        for (k, _) in from
-            .iter()
-            .zip(to)
-            .enumerate()
-            .filter(|(_, (f, t))| **f && !**t)
-        {
-            let p = DVec2::new((k % width) as f64, (k / width) as f64);
-            let mut best_sq = f64::INFINITY;
-            for t in to_triangles {
-                let outside = (t.lo - p).max(p - t.hi).max(DVec2::ZERO);
-                if outside.length_squared() >= best_sq {
-                    continue;
-                }
-                best_sq = best_sq.min(distance_sq_to_triangle(&t.corners, p));
-            }
-            worst = worst.max(best_sq.sqrt());
-        }
-        worst
-    }
-}
-
-/// Whether `p` lies in the triangle (either winding, edges included).
-fn inside(t: &[DVec2; 3], p: DVec2) -> bool {
-    let [a, b, c] = *t;
-    let e = [
-        (b - a).perp_dot(p - a),
-        (c - b).perp_dot(p - b),
-        (a - c).perp_dot(p - c),
-    ];
-    e.iter().all(|&x| x >= 0.0) || e.iter().all(|&x| x <= 0.0)
-}
-
-/// Squared distance from `p` to the triangle `t` (0 inside).
-fn distance_sq_to_triangle(t: &[DVec2; 3], p: DVec2) -> f64 {
-    if inside(t, p) {
-        return 0.0;
-    }
-    let segment = |a: DVec2, b: DVec2| {
-        let ab = b - a;
-        let s = ((p - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
-        (a + ab * s - p).length_squared()
-    };
-    let [a, b, c] = *t;
-    segment(a, b).min(segment(b, c)).min(segment(c, a))
-}
-
 #[cfg(test)]
-mod tests {
-    use std::path::Path;
-
-    use glam::DQuat;
-    use rand::{Rng, SeedableRng};
-
-    use super::*;
-    use crate::model::builtin::{NAMES as BUILTIN_NAMES, glb as builtin_glb};
-
-    fn builtin(name: &str) -> CpuModel {
-        let glb = builtin_glb(name).expect("built-in");
-        crate::model::load_bytes(glb, None, Path::new(name), name).expect("loads")
-    }
-
-    /// A uniformly random rotation (Shoemake), from a seeded generator.
-    fn random_rotation(rng: &mut impl Rng) -> DMat3 {
-        let (u1, u2, u3): (f64, f64, f64) = (rng.random(), rng.random(), rng.random());
-        let tau = std::f64::consts::TAU;
-        let q = DQuat::from_xyzw(
-            (1.0 - u1).sqrt() * (tau * u2).sin(),
-            (1.0 - u1).sqrt() * (tau * u2).cos(),
-            u1.sqrt() * (tau * u3).sin(),
-            u1.sqrt() * (tau * u3).cos(),
-        );
-        DMat3::from_quat(q.normalize())
-    }
-
-    #[test]
-    fn levels_shrink_share_the_vertex_buffer_and_keep_textures() {
-        for name in BUILTIN_NAMES {
-            let model = builtin(name);
-            let lods = build_lods(&model).expect("builds");
-            assert_eq!(lods[0].indices, model.indices, "{name}");
-            assert_eq!(lods[0].draws, model.draws, "{name}");
-            assert_eq!(lods[0].error, 0.0, "{name}");
-            assert!(lods.len() >= 4, "{name}: only {} levels", lods.len());
-            let last = lods.last().expect("levels");
-            assert!(
-                last.triangle_count() <= MIN_TRIANGLES * 2,
-                "{name}: coarsest level has {} triangles",
-                last.triangle_count()
-            );
-            for pair in lods.windows(2) {
-                let (finer, coarser) = (&pair[0], &pair[1]);
-                assert!(
-                    (coarser.triangle_count() as f64)
-                        <= MIN_PROGRESS * finer.triangle_count() as f64,
-                    "{name}"
-                );
-                assert!(coarser.error.is_finite() && coarser.error > 0.0, "{name}");
-                // A coarser level of no larger error would make the finer one useless.
-                assert!(coarser.error > finer.error, "{name}");
-            }
-            for lod in &lods {
-                assert!(lod.indices.len().is_multiple_of(3) && !lod.indices.is_empty());
-                assert!(
-                    lod.indices
-                        .iter()
-                        .all(|&i| (i as usize) < model.vertices.len())
-                );
-                // The draw ranges tile the index buffer, each with one of the model's textures.
-                let mut next = 0;
-                for d in &lod.draws {
-                    assert_eq!(d.indices.start, next, "{name}");
-                    assert!(d.indices.end > d.indices.start, "{name}");
-                    next = d.indices.end;
-                    assert!(model.draws.iter().any(|m| m.texture == d.texture));
-                }
-                assert_eq!(next as usize, lod.indices.len(), "{name}");
-            }
-        }
-    }
-
-    #[test]
-    fn each_draw_range_keeps_its_own_vertices() {
-        // Two textures on one quad_x: the first half of the triangles in one
-        // range, the rest in another; no LOD triangle may mix the two.
-        let mut model = builtin("quad_x");
-        let half = (model.triangle_count() / 2 * 3) as u32;
-        let end = model.indices.len() as u32;
-        model.draws = vec![
-            DrawRange {
-                indices: 0..half,
-                texture: Some(0),
-                double_sided: false,
-                alpha_mask: false,
-                alpha_blend: false,
-            },
-            DrawRange {
-                indices: half..end,
-                texture: Some(1),
-                double_sided: false,
-                alpha_mask: false,
-                alpha_blend: false,
-            },
-        ];
-        let range_of = |i: u32| model.indices[..half as usize].contains(&i);
-        let lods = build_lods(&model).expect("builds");
-        assert!(lods.len() >= 3);
-        for lod in &lods[1..] {
-            for d in &lod.draws {
-                let first = d.indices.start == 0;
-                assert_eq!(d.texture, Some(if first { 0 } else { 1 }));
-                for &i in &lod.indices[d.indices.start as usize..d.indices.end as usize] {
-                    assert_eq!(range_of(i), first, "index {i} left its draw range");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn only_levels_pick_can_use_are_kept() {
-        let level = |triangles: usize, error: f32| Lod {
-            indices: vec![0; triangles * 3],
-            draws: Vec::new(),
-            error,
-        };
-        let counts = |lods: &[Lod]| lods.iter().map(Lod::triangle_count).collect::<Vec<_>>();
-        // 300 is dominated by 200 (fewer triangles, smaller error); 190 keeps
-        // more than 90 % of 200's triangles; 20 is the coarsest.
-        let kept = keep_useful(vec![
-            level(1000, 0.0),
-            level(500, 0.01),
-            level(300, 0.05),
-            level(200, 0.04),
-            level(190, 0.06),
-            level(20, 0.3),
-        ]);
-        assert_eq!(counts(&kept), [1000, 500, 200, 20]);
-        // Never more than MAX_LEVELS.
-        let many: Vec<Lod> = (0..40)
-            .map(|k| level(10_000 >> (k / 4).min(12), k as f32 / 100.0))
-            .collect();
-        assert!(keep_useful(many).len() <= MAX_LEVELS);
-    }
-
-    #[test]
-    fn building_is_deterministic() {
-        for name in ["hexacopter", "fixed_wing"] {
-            let model = builtin(name);
-            assert_eq!(build_lods(&model), build_lods(&model), "{name}");
-        }
-    }
-
-    #[test]
-    fn pick_takes_the_coarsest_level_within_the_budget() {
-        let level = |error: f32| Lod {
-            indices: vec![0, 1, 2],
-            draws: Vec::new(),
-            error,
-        };
-        // Errors exact in binary, so the comparisons have no rounding.
-        let lods = [
-            level(0.0),
-            level(1.0 / 1024.0),
-            level(1.0 / 128.0),
-            level(1.0 / 8.0),
-        ];
-        // 0.5 m at 100 px/m: 50 px per model unit; level 2 is 0.39 px, level 3 6.25 px.
-        assert_eq!(pick(&lods, 0.5, 100.0, 0.5), 2);
-        assert_eq!(pick(&lods, 0.5, 4.0, 0.5), 3);
-        assert_eq!(pick(&lods, 0.5, 10_000.0, 0.5), 0);
-        // Exactly on the budget is within it.
-        assert_eq!(pick(&lods, 0.5, 1024.0, 0.5), 1);
-        assert_eq!(pick(&lods, f64::NAN, 10.0, 0.5), 0);
-        assert_eq!(pick(&lods, 0.5, f64::INFINITY, 0.5), 0);
-        assert_eq!(pick(&lods, 0.5, -1.0, 0.5), 0);
-        assert_eq!(pick(&lods, 0.5, 10.0, f64::NAN), 0);
-        assert_eq!(pick(&[], 0.5, 10.0, 0.5), 0);
-        // A coarser level with a smaller error than a finer one is still the coarsest that fits.
-        let odd = [level(0.0), level(1.0 / 16.0), level(1.0 / 64.0)];
-        assert_eq!(pick(&odd, 1.0, 20.0, 0.5), 2);
-    }
-
-    #[test]
-    fn hausdorff_bound_brackets_a_known_distance() {
-        // A unit square and the same square lifted by 0.1: distance 0.1 both ways.
-        let positions = [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 0.1],
-            [1.0, 0.0, 0.1],
-            [1.0, 1.0, 0.1],
-            [0.0, 1.0, 0.1],
-        ]
-        .map(DVec3::from_array);
-        let low = Surface::new(&positions, &[0, 1, 2, 0, 2, 3]);
-        let high = Surface::new(&positions, &[4, 5, 6, 4, 6, 7]);
-        let h = hausdorff_bound(&low, &high);
-        assert!((0.1..=sampled_bound(0.1) + 1e-12).contains(&h), "{h}");
-        // Half of the square removed: its far corner is √0.5 from the rest.
-        let half = Surface::new(&positions, &[0, 1, 2]);
-        let h = hausdorff_bound(&low, &half);
-        let expected = 0.5f64.sqrt();
-        assert!(
-            (expected..=sampled_bound(expected) + 1e-12).contains(&h),
-            "{h}"
-        );
-        assert_eq!(hausdorff_bound(&low, &low), sampled_bound(0.0));
-        let nothing = Surface::new(&positions, &[]);
-        assert_eq!(hausdorff_bound(&low, &nothing), f64::INFINITY);
-    }
-
-    #[test]
-    fn silhouette_error_sees_a_shift() {
-        // The model against itself: no error; against itself shifted by a
-        // quarter of its span (through a translated copy of the vertices): a
-        // quarter of the size in pixels.
-        let model = builtin("quad_x");
-        let frame = SilhouetteFrame::new(&model, DMat3::IDENTITY, 16.0, 8);
-        assert_eq!(frame.error_px(&model, &model.indices, &model.indices), 0.0);
-        let mut shifted = model.clone();
-        let n = model.vertices.len() as u32;
-        for v in &model.vertices {
-            let mut w = *v;
-            w.position[0] += 0.25;
-            shifted.vertices.push(w);
-        }
-        let moved: Vec<u32> = model.indices.iter().map(|i| i + n).collect();
-        let frame = SilhouetteFrame::new(&shifted, DMat3::IDENTITY, 16.0, 8);
-        let e = frame.error_px(&shifted, &model.indices, &moved);
-        assert!((3.5..=4.0).contains(&e), "{e}");
-    }
-
-    /// The honest check: for random attitudes and projected sizes, the
-    /// silhouette of the level `pick` chooses differs from the full mesh's
-    /// by at most half a pixel, measured at 8×8 samples per pixel.
-    #[test]
-    fn picked_level_is_within_half_a_pixel_of_the_full_silhouette() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
-        for name in BUILTIN_NAMES {
-            let model = builtin(name);
-            let lods = build_lods(&model).expect("builds");
-            for (size_px, views) in [
-                (4.0, 24),
-                (8.0, 24),
-                (16.0, 16),
-                (32.0, 12),
-                (64.0, 6),
-                (128.0, 3),
-            ] {
-                let k = pick(&lods, 1.0, size_px, 0.5);
-                if size_px <= 4.0 {
-                    assert!(k > 0, "{name}: no LOD used at {size_px} px");
-                }
-                for _ in 0..views {
-                    let frame = SilhouetteFrame::new(&model, random_rotation(&mut rng), size_px, 8);
-                    let e = frame.error_px(&model, &model.indices, &lods[k].indices);
-                    assert!(e <= 0.5, "{name} at {size_px} px, level {k}: {e} px");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn coarsest_level_would_break_the_budget() {
-        // The measurement is not blind: the coarsest level, drawn where pick
-        // would not allow it, shows an error above half a pixel.
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        for name in BUILTIN_NAMES {
-            let model = builtin(name);
-            let lods = build_lods(&model).expect("builds");
-            let last = lods.last().expect("levels");
-            let size_px = 4.0 / f64::from(last.error);
-            assert!(pick(&lods, 1.0, size_px, 0.5) < lods.len() - 1);
-            let worst = (0..8)
-                .map(|_| {
-                    let frame = SilhouetteFrame::new(&model, random_rotation(&mut rng), size_px, 8);
-                    frame.error_px(&model, &model.indices, &last.indices)
-                })
-                .fold(0.0, f64::max);
-            assert!(worst > 0.5, "{name}: {worst} px at {size_px} px");
-        }
-    }
-
-    #[test]
-    fn inconsistent_buffers_are_named_errors() {
-        let model = builtin("quad_x");
-        let mut bad = model.clone();
-        bad.indices[4] = bad.vertices.len() as u32;
-        assert!(matches!(
-            build_lods(&bad),
-            Err(LodError::IndexOutOfRange { .. })
-        ));
-        let mut bad = model.clone();
-        bad.indices.pop();
-        assert!(matches!(
-            build_lods(&bad),
-            Err(LodError::NotTriangles { .. })
-        ));
-        let mut bad = model.clone();
-        bad.draws[0].indices.end += 3;
-        assert!(matches!(
-            build_lods(&bad),
-            Err(LodError::BadDrawRange { .. })
-        ));
-        let mut bad = model.clone();
-        bad.vertices[0].position[1] = f32::NAN;
-        assert!(matches!(build_lods(&bad), Err(LodError::NotFinite { .. })));
-    }
-}
+mod tests;
