@@ -177,36 +177,42 @@ static EXPONENTIAL: LazyLock<Box<Buckets<32768>>> = LazyLock::new(|| {
 /// Where one output row's pixels sample the source: per column the
 /// second texel's weight ([`taps`]), and the columns in runs that share
 /// their two texels (`(first texel, second texel, columns)`: the taps only
-/// move forward); `double` when the columns follow the exact 2× pattern
-/// (column 0 on texel 0, columns 2j + 1 and 2j + 2 between texels j and
-/// j + 1, the last clamped), which lets the row be blended in SIMD lanes.
+/// move forward); `factor` 2 or 4 when the columns follow that exact
+/// integer pattern ([`chunk_layout`]), which lets the row be blended in
+/// SIMD lanes, else 0.
 struct Columns {
     weight: Vec<f32>,
     runs: Vec<(usize, usize, Range<usize>)>,
-    double: bool,
+    factor: usize,
+}
+
+/// The column layout of an exact `k`× upsampling of `source` texels to
+/// `out` columns: `k / 2` head columns on texel 0, then `mid` chunks of
+/// `k` columns, chunk c between texels c and c + 1, then the tail on texel
+/// `mid` alone (both taps the same texel). `(head, mid)`.
+fn chunk_layout(k: usize, out: usize, source: usize) -> (usize, usize) {
+    let head = (k / 2).min(out);
+    (head, ((out - head) / k).min(source.saturating_sub(1)))
 }
 
 impl Columns {
     fn new(out: u32, source: u32, centre: f32) -> Self {
         let taps = taps(out, source, centre);
-        let last = source.saturating_sub(1) as usize;
-        let pairs = (out.max(1) as usize - 1) / 2;
-        // Odd widths end on a pair; even ones on one column clamped to the last texel.
-        let double = out > 0
-            && if out % 2 == 1 {
-                pairs <= last
-            } else {
-                pairs == last
-            }
-            && taps.iter().enumerate().all(|(i, &(a, b, _))| {
-                let j = i.saturating_sub(1) / 2;
-                let want = if i == 0 {
-                    (0, 0)
-                } else {
-                    (j, (j + 1).min(last))
-                };
-                (a, b) == want
-            });
+        let follows = |k: usize| {
+            let (head, mid) = chunk_layout(k, taps.len(), source as usize);
+            source > 0
+                && taps.iter().enumerate().all(|(i, &(a, b, _))| {
+                    let want = if i < head {
+                        (0, 0)
+                    } else if i < head + mid * k {
+                        ((i - head) / k, (i - head) / k + 1)
+                    } else {
+                        (mid, mid)
+                    };
+                    (a, b) == want
+                })
+        };
+        let factor = [2, 4].into_iter().find(|&k| follows(k)).unwrap_or(0);
         let mut runs: Vec<(usize, usize, Range<usize>)> = Vec::new();
         for (i, &(a, b, _)) in taps.iter().enumerate() {
             match runs.last_mut() {
@@ -217,8 +223,36 @@ impl Columns {
         Self {
             weight: taps.iter().map(|t| t.2).collect(),
             runs,
-            double,
+            factor,
         }
+    }
+}
+
+/// One plane's row blended across columns laid out by [`chunk_layout`]
+/// for factor `K` (checked by [`Columns::new`]).
+#[inline(always)]
+fn blend_chunks<const K: usize>(plane: &[f32], value: &mut [f32], weight: &[f32]) {
+    let (head, mid) = chunk_layout(K, value.len(), plane.len());
+    let (first, rest) = value.split_at_mut(head);
+    let (chunks, tail) = rest.split_at_mut(mid * K);
+    // Both texels the same: as the sampler, ±∞ and NaN included.
+    for (v, w) in first.iter_mut().zip(weight) {
+        *v = lerp(plane[0], plane[0], *w);
+    }
+    let chunk_weights = weight[head..].chunks_exact(K);
+    for ((v, p), w) in chunks
+        .chunks_exact_mut(K)
+        .zip(plane.windows(2))
+        .zip(chunk_weights)
+    {
+        let d = p[1] - p[0];
+        for k in 0..K {
+            v[k] = p[0] + d * w[k];
+        }
+    }
+    let p = plane[mid];
+    for (v, w) in tail.iter_mut().zip(&weight[head + mid * K..]) {
+        *v = lerp(p, p, *w);
     }
 }
 
@@ -260,26 +294,10 @@ fn upsample_row<const N: usize>(
     }
     for (plane, value) in planes.iter().zip(values.iter_mut()) {
         let weight = &columns.weight;
-        if columns.double {
-            let pairs = (value.len() - 1) / 2;
-            let (first, rest) = value.split_at_mut(1);
-            let (mid, tail) = rest.split_at_mut(pairs * 2);
-            // Both texels the first: as the sampler, ±∞ and NaN included.
-            first[0] = lerp(plane[0], plane[0], weight[0]);
-            let mid_weights = weight[1..].chunks_exact(2);
-            for ((v, p), w) in mid
-                .chunks_exact_mut(2)
-                .zip(plane.windows(2))
-                .zip(mid_weights)
-            {
-                let d = p[1] - p[0];
-                v[0] = p[0] + d * w[0];
-                v[1] = p[0] + d * w[1];
-            }
-            let p = plane[pairs];
-            for (v, w) in tail.iter_mut().zip(&weight[1 + pairs * 2..]) {
-                *v = lerp(p, p, *w);
-            }
+        if columns.factor == 2 {
+            blend_chunks::<2>(plane, value, weight);
+        } else if columns.factor == 4 {
+            blend_chunks::<4>(plane, value, weight);
         } else {
             for (a, b, run) in &columns.runs {
                 let (p, q) = (plane[*a], plane[*b]);
@@ -565,10 +583,12 @@ mod tests {
                 assert!(got == want, "case {k} (simd {simd}) differs");
             }
         }
-        // The exact 2× case takes the gather-free path.
-        assert!(Columns::new(192, 96, 96.0).double);
-        assert!(Columns::new(1920, 960, 960.0).double);
-        assert!(!Columns::new(100, 30, 50.0).double);
+        // The exact 2× and 4× cases take the chunked paths.
+        assert_eq!(Columns::new(192, 96, 96.0).factor, 2);
+        assert_eq!(Columns::new(1920, 960, 960.0).factor, 2);
+        assert_eq!(Columns::new(192, 48, 96.0).factor, 4);
+        assert_eq!(Columns::new(1920, 480, 960.0).factor, 4);
+        assert_eq!(Columns::new(100, 30, 50.0).factor, 0);
     }
 
     #[test]
