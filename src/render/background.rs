@@ -61,8 +61,69 @@ pub(super) struct BackgroundCache {
     stale: Vec<bool>,
 }
 
-/// Side (pixels) of the tiles in which a background made on the CPU is uploaded.
+/// Side (pixels) of the tiles in which a layer made on the CPU (a
+/// background, the scenery) is uploaded.
 const UPLOAD_TILE: u32 = 64;
+
+/// The tiles across and down of a `width`×`height` layer.
+pub(super) fn upload_tiles((width, height): (u32, u32)) -> (u32, u32) {
+    (width.div_ceil(UPLOAD_TILE), height.div_ceil(UPLOAD_TILE))
+}
+
+/// The parts of a `size` layer to upload before a frame draws `rects`:
+/// the `stale` tiles (per [`UPLOAD_TILE`]-square tile, row by row: not yet
+/// uploaded) under them, joined along each row of tiles, now marked
+/// uploaded; `stale` is emptied once nothing in it is stale.
+pub(super) fn take_stale_tiles<'r>(
+    stale: &mut Vec<bool>,
+    size: (u32, u32),
+    rects: impl IntoIterator<Item = &'r Rect>,
+) -> Vec<Rect> {
+    let (across, down) = upload_tiles(size);
+    let mut parts = Vec::new();
+    if stale.len() != across as usize * down as usize {
+        stale.clear();
+        return parts;
+    }
+    let mut wanted = vec![false; stale.len()];
+    for r in rects {
+        let (tx0, tx1) = (r.x0 / UPLOAD_TILE, r.x1.div_ceil(UPLOAD_TILE).min(across));
+        let (ty0, ty1) = (r.y0 / UPLOAD_TILE, r.y1.div_ceil(UPLOAD_TILE).min(down));
+        for ty in ty0..ty1 {
+            let row = (ty * across) as usize;
+            wanted[row + tx0 as usize..row + tx1.max(tx0) as usize].fill(true);
+        }
+    }
+    for (w, s) in wanted.iter_mut().zip(stale.iter_mut()) {
+        *w &= *s;
+        *s &= !*w;
+    }
+    for ty in 0..down {
+        let row = (ty * across) as usize;
+        let mut tx = 0;
+        while tx < across {
+            if !wanted[row + tx as usize] {
+                tx += 1;
+                continue;
+            }
+            let start = tx;
+            while tx < across && wanted[row + tx as usize] {
+                tx += 1;
+            }
+            let y0 = ty * UPLOAD_TILE;
+            parts.push(Rect {
+                x0: start * UPLOAD_TILE,
+                y0,
+                x1: (tx * UPLOAD_TILE).min(size.0),
+                y1: (y0 + UPLOAD_TILE).min(size.1),
+            });
+        }
+    }
+    if !stale.contains(&true) {
+        stale.clear();
+    }
+    parts
+}
 
 impl BackgroundCache {
     /// An empty cache of `width`×`height`, its texture bound with `layout`.
@@ -115,12 +176,10 @@ impl BackgroundCache {
         }
     }
 
-    /// The tiles across and down.
-    fn tiles(&self) -> (u32, u32) {
-        (
-            self.width.div_ceil(UPLOAD_TILE),
-            self.height.div_ceil(UPLOAD_TILE),
-        )
+    /// Every tile of the cache stale: the texture holds none of `rgba` yet.
+    fn mark_stale(&mut self) {
+        let (across, down) = upload_tiles((self.width, self.height));
+        self.stale = vec![true; across as usize * down as usize];
     }
 
     /// Drop the cached background (the sky images or plates changed): the
@@ -392,7 +451,7 @@ impl Renderer {
             tone,
             &mut cache.rgba,
         );
-        cache.stale = vec![true; cache.tiles().0 as usize * cache.tiles().1 as usize];
+        cache.mark_stale();
         Ok(())
     }
 
@@ -450,49 +509,9 @@ impl Renderer {
         cache: &mut BackgroundCache,
         rects: impl IntoIterator<Item = &'r Rect>,
     ) {
-        if cache.stale.is_empty() {
-            return;
-        }
-        let (across, down) = cache.tiles();
-        let mut wanted = vec![false; cache.stale.len()];
-        for r in rects {
-            let (tx0, tx1) = (r.x0 / UPLOAD_TILE, r.x1.div_ceil(UPLOAD_TILE).min(across));
-            let (ty0, ty1) = (r.y0 / UPLOAD_TILE, r.y1.div_ceil(UPLOAD_TILE).min(down));
-            for ty in ty0..ty1 {
-                let row = (ty * across) as usize;
-                wanted[row + tx0 as usize..row + tx1.max(tx0) as usize].fill(true);
-            }
-        }
-        for (w, s) in wanted.iter_mut().zip(&mut cache.stale) {
-            *w &= *s;
-            *s &= !*w;
-        }
-        for ty in 0..down {
-            let row = (ty * across) as usize;
-            let needed = |x: u32| wanted[row + x as usize];
-            let mut tx = 0;
-            while tx < across {
-                if !needed(tx) {
-                    tx += 1;
-                    continue;
-                }
-                let start = tx;
-                while tx < across && needed(tx) {
-                    tx += 1;
-                }
-                let x0 = start * UPLOAD_TILE;
-                let y0 = ty * UPLOAD_TILE;
-                let part = Rect {
-                    x0,
-                    y0,
-                    x1: (tx * UPLOAD_TILE).min(cache.width),
-                    y1: (y0 + UPLOAD_TILE).min(cache.height),
-                };
-                self.upload_background_part(&cache.texture, &cache.rgba, cache.width, &part);
-            }
-        }
-        if !cache.stale.contains(&true) {
-            cache.stale.clear();
+        let size = (cache.width, cache.height);
+        for part in take_stale_tiles(&mut cache.stale, size, rects) {
+            self.upload_background_part(&cache.texture, &cache.rgba, cache.width, &part);
         }
     }
 
@@ -506,7 +525,7 @@ impl Renderer {
         let size = (cache.width, cache.height);
         let made = self.plate_pixels(plate, size, &mut cache.rgba);
         if made.is_ok() {
-            cache.stale = vec![true; cache.tiles().0 as usize * cache.tiles().1 as usize];
+            cache.mark_stale();
         }
         // A new generation even on failure: no buffer may match what was overwritten.
         cache.renew();

@@ -304,9 +304,12 @@ impl Renderer {
             scenery: scenery.is_some(),
         };
         let plan = FramePlan::new(request, &boxes, &rects)?;
+        let under = || plan.passes.iter().flat_map(|p| &p.rects);
         if plan.request.color {
-            let under = plan.passes.iter().flat_map(|p| &p.rects);
-            self.upload_background_under(&mut state.targets[t].background, under);
+            self.upload_background_under(&mut state.targets[t].background, under());
+        }
+        if let Some(gpu) = state.scenery.as_mut() {
+            self.upload_scenery_under(gpu, under());
         }
         let (draws, first_resolve) = self.upload_plan(state, (p, t), scene, &plan);
         let encoder = self.encode_frame(state, (p, t), &plan, (&draws, &first_resolve));

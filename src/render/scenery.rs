@@ -177,19 +177,39 @@ fn project(camera: &Camera, shape: &Shape) -> Option<(Vec<DVec2>, f64)> {
 
 /// Rasterise `scene`'s clutter for `samples` samples per pixel, shaded with `light`.
 pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) -> ClutterLayer {
-    let camera = &scene.camera;
-    let (width, height) = (camera.width, camera.height);
     let mut layer = ClutterLayer {
-        width,
-        height,
+        width: 0,
+        height: 0,
         samples,
-        color: vec![[0; 4]; (width * height) as usize],
-        depth: vec![0.0; (width * height) as usize],
+        color: Vec::new(),
+        depth: Vec::new(),
         truncated: false,
     };
+    rasterize_into(scene, samples, light, &mut layer);
+    layer
+}
+
+/// [`rasterize_with`] into `layer`, its buffers reused (a new frame's
+/// layer needs no fresh memory).
+fn rasterize_into(
+    scene: &FrameScene,
+    samples: u32,
+    light: &SceneryLight,
+    layer: &mut ClutterLayer,
+) {
+    let camera = &scene.camera;
+    let (width, height) = (camera.width, camera.height);
+    layer.width = width;
+    layer.height = height;
+    layer.samples = samples;
+    layer.truncated = false;
+    layer.color.clear();
+    layer.color.resize((width * height) as usize, [0; 4]);
+    layer.depth.clear();
+    layer.depth.resize((width * height) as usize, 0.0);
     let offsets = sample_offsets(samples);
     let Some(clutter) = &scene.clutter else {
-        return layer;
+        return;
     };
     // Bounded work on any preset: past this much overdraw the remaining
     // (farther-listed) shapes are left out and the layer says so.
@@ -246,7 +266,6 @@ pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) ->
             }
         }
     }
-    layer
 }
 
 /// Where the convex polygon `poly` crosses the row `y`: its (left, right) x.
@@ -345,6 +364,13 @@ pub(super) struct SceneryGpu {
     pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
     /// The uploaded layer's key, its size and bind group.
     uploaded: Option<(u64, (u32, u32), wgpu::BindGroup)>,
+    /// The layer's textures (colour, depth) of `uploaded`'s size, reused
+    /// from layer to layer.
+    textures: Option<(wgpu::Texture, wgpu::Texture)>,
+    /// Per tile (see `background::take_stale_tiles`): whether the textures
+    /// still lack the layer there. A layer is written only under the
+    /// regions the scenery pass draws, when a frame first needs it.
+    stale: Vec<bool>,
     /// The CPU layer (for the background composite).
     layer: Option<ClutterLayer>,
 }
@@ -377,65 +403,95 @@ impl Renderer {
         if gpu.uploaded.as_ref().map(|u| u.0) == Some(key) {
             return Some(key);
         }
-        let layer = rasterize_with(scene, samples, &light);
+        let mut layer = gpu.layer.take().unwrap_or_else(|| ClutterLayer {
+            width: 0,
+            height: 0,
+            samples,
+            color: Vec::new(),
+            depth: Vec::new(),
+            truncated: false,
+        });
+        rasterize_into(scene, samples, &light, &mut layer);
         let (width, height) = (layer.width, layer.height);
-        let size = wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
+        let group = match gpu.uploaded.take() {
+            Some((_, size, group)) if size == (width, height) && gpu.textures.is_some() => group,
+            _ => self.scenery_textures(gpu, (width, height)),
         };
-        let texture = |label: &str, format, bytes: &[u8], bpp: u32| {
-            let t = self.device.create_texture(&wgpu::TextureDescriptor {
+        let (across, down) = super::background::upload_tiles((width, height));
+        gpu.stale = vec![true; across as usize * down as usize];
+        gpu.uploaded = Some((key, (width, height), group));
+        gpu.layer = Some(layer);
+        Some(key)
+    }
+
+    /// New colour and depth textures of `size` for `gpu` (kept in
+    /// `gpu.textures`) and the group that binds them.
+    fn scenery_textures(
+        &self,
+        gpu: &mut SceneryGpu,
+        (width, height): (u32, u32),
+    ) -> wgpu::BindGroup {
+        let texture = |label: &str, format| {
+            self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
-                size,
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format,
                 usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
                 view_formats: &[],
-            });
-            self.queue.write_texture(
-                t.as_image_copy(),
-                bytes,
-                wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(width * bpp),
-                    rows_per_image: Some(height),
-                },
-                size,
-            );
-            t.create_view(&Default::default())
+            })
         };
-        let color = texture(
-            "scenery colour",
-            wgpu::TextureFormat::Rgba8Unorm,
-            bytemuck::cast_slice(&layer.color),
-            4,
-        );
-        let depth = texture(
-            "scenery depth",
-            wgpu::TextureFormat::R32Float,
-            bytemuck::cast_slice(&layer.depth),
-            4,
-        );
+        let color = texture("scenery colour", wgpu::TextureFormat::Rgba8Unorm);
+        let depth = texture("scenery depth", wgpu::TextureFormat::R32Float);
         let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scenery layer"),
             layout: &gpu.layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&color),
+                    resource: wgpu::BindingResource::TextureView(
+                        &color.create_view(&Default::default()),
+                    ),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&depth),
+                    resource: wgpu::BindingResource::TextureView(
+                        &depth.create_view(&Default::default()),
+                    ),
                 },
             ],
         });
-        gpu.uploaded = Some((key, (width, height), group));
-        gpu.layer = Some(layer);
-        Some(key)
+        gpu.textures = Some((color, depth));
+        group
+    }
+
+    /// Write the prepared layer's stale tiles under `rects` into its
+    /// textures (colour and depth, both 4 bytes a pixel).
+    pub(super) fn upload_scenery_under<'r>(
+        &self,
+        gpu: &mut SceneryGpu,
+        rects: impl IntoIterator<Item = &'r super::regions::Rect>,
+    ) {
+        let (Some(layer), Some((color, depth))) = (&gpu.layer, &gpu.textures) else {
+            return;
+        };
+        let size = (layer.width, layer.height);
+        for part in super::background::take_stale_tiles(&mut gpu.stale, size, rects) {
+            let colour: &[u8] = bytemuck::cast_slice(&layer.color);
+            self.upload_background_part(color, colour, layer.width, &part);
+            self.upload_background_part(
+                depth,
+                bytemuck::cast_slice(&layer.depth),
+                layer.width,
+                &part,
+            );
+        }
     }
 
     fn scenery_gpu(&self) -> SceneryGpu {
@@ -467,6 +523,8 @@ impl Renderer {
             module,
             pipelines: Vec::new(),
             uploaded: None,
+            textures: None,
+            stale: Vec::new(),
             layer: None,
         }
     }
