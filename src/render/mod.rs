@@ -625,14 +625,7 @@ impl Renderer {
     /// lighting; returns the frame uniforms written.
     fn upload_uniforms(&mut self, scene: &FrameScene) -> FrameUniforms {
         let sun = scene.sun_direction.as_vec3();
-        let cam = &scene.camera;
-        let centre = cam.principal_point().as_vec2();
-        let image_scale = self.sky.image_scale(
-            &scene.sky,
-            (cam.width, cam.height),
-            cam.focal_px() as f32,
-            (centre.x, centre.y),
-        );
+        let image_scale = self.sky.image_scale(&scene.sky, &scene.camera);
         let mut lighting = self.sky.prepare(
             &self.queue,
             &scene.sky,
@@ -711,26 +704,15 @@ impl Renderer {
         } = *views;
         self.upload_uniforms(scene);
         let size = (scene.camera.width, scene.camera.height);
-        if sky::SkyGpu::is_procedural(&scene.sky) {
-            self.sky.encode_environment(
-                &self.device,
-                encoder,
-                (&self.shaders.0, &self.sky_layout),
-                &self.frame_bind_group,
-                size,
-                None,
-            );
-        } else if self.sky.written_image_scale().is_some() {
-            self.sky.encode_image(
-                &self.device,
-                encoder,
-                (&self.shaders.0, &self.sky_layout),
-                &self.frame_bind_group,
-                size,
-                &scene.sky,
-            );
-            self.sky.prepare_upsampled(&self.device, &scene.sky);
-        }
+        let shaders = (&self.shaders.0, &self.sky_layout);
+        self.sky.encode_reduced(
+            &self.device,
+            encoder,
+            shaders,
+            &self.frame_bind_group,
+            size,
+            &scene.sky,
+        );
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;
         let p = self.pipelines(msaa);

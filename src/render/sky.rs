@@ -464,9 +464,8 @@ impl SkyGpu {
     }
 
     /// The scale (full-resolution pixels per pass pixel, per axis: 4 or 2)
-    /// at which `sky`, an equirect image, is drawn for a `frame`-sized frame
-    /// of focal length `focal_px` whose principal point is its centre
-    /// `centre`; `None`: drawn at full resolution (a cube map, a gradient or
+    /// at which `sky`, an equirect image, is drawn for `camera`'s frame
+    /// (whose principal point must be its centre); `None`: drawn at full resolution (a cube map, a gradient or
     /// procedural sky, an off-centre principal point, no scale dividing both
     /// sides, or an image too sharp for it).
     ///
@@ -480,9 +479,7 @@ impl SkyGpu {
     pub(super) fn image_scale(
         &self,
         sky: &FrameSky,
-        (width, height): (u32, u32),
-        focal_px: f32,
-        centre: (f32, f32),
+        camera: &crate::scene::camera::Camera,
     ) -> Option<u32> {
         let FrameSky::Image { image, .. } = sky else {
             return None;
@@ -495,7 +492,28 @@ impl SkyGpu {
         else {
             return None;
         };
-        reduced_scale((iw, ih), (width, height), focal_px, centre)
+        let c = camera.principal_point().as_vec2();
+        let frame = (camera.width, camera.height);
+        reduced_scale((iw, ih), frame, camera.focal_px() as f32, (c.x, c.y))
+    }
+
+    /// The full-frame path's reduced pass for `sky` (uniforms just
+    /// written), if it has one: the procedural environment's, or the image
+    /// pass's when the image is drawn reduced; the sky pass then samples it.
+    pub(super) fn encode_reduced(
+        &mut self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        shaders: (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        frame_bind_group: &wgpu::BindGroup,
+        size: (u32, u32),
+        sky: &FrameSky,
+    ) {
+        if Self::is_procedural(sky) {
+            self.encode_environment(device, encoder, shaders, frame_bind_group, size, None);
+        } else if self.written_image_scale().is_some() {
+            self.encode_image(device, encoder, shaders, frame_bind_group, size, sky);
+        }
     }
 
     /// Whether `sky` is an HDR image (tone-mapped: `tone_map` in environment.wgsl).
@@ -583,12 +601,14 @@ impl SkyGpu {
         // The image's own group: its placeholder stands for the target being drawn.
         pass.set_bind_group(1, group, &[]);
         pass.draw(0..3, 0..1);
+        drop(pass);
+        self.prepare_upsampled(device, sky);
     }
 
     /// Make the group with which the full-frame path's sky pass samples the
     /// image pass's target for `sky` (after [`SkyGpu::encode_image`]); see
     /// [`SkyGpu::bind_group_for`].
-    pub(super) fn prepare_upsampled(&mut self, device: &wgpu::Device, sky: &FrameSky) {
+    fn prepare_upsampled(&mut self, device: &wgpu::Device, sky: &FrameSky) {
         let FrameSky::Image { image, .. } = sky else {
             return;
         };
@@ -851,55 +871,4 @@ fn make_bind_group(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::reduced_scale;
-
-    /// The focal length (pixels) of a `height`-pixel frame with a vertical field of view of `fov_deg`.
-    fn focal(height: u32, fov_deg: f32) -> f32 {
-        height as f32 / 2.0 / (fov_deg.to_radians() / 2.0).tan()
-    }
-
-    #[test]
-    fn images_are_drawn_reduced_only_where_a_pass_pixel_spans_at_most_half_a_texel() {
-        let hd = (1920, 1080);
-        let centre = (960.0, 540.0);
-        // A 1024×512 sky at 40°: a texel spans 9.1 of the frame's pixels.
-        assert_eq!(
-            reduced_scale((1024, 512), hd, focal(1080, 40.0), centre),
-            Some(4)
-        );
-        // At 60° it spans 5.7: 4 would leave less than two pass pixels a texel.
-        assert_eq!(
-            reduced_scale((1024, 512), hd, focal(1080, 60.0), centre),
-            Some(2)
-        );
-        // 2048×1024 at 60° (2.9) and 4096×2048 at 40° (2.3): full resolution.
-        assert_eq!(
-            reduced_scale((2048, 1024), hd, focal(1080, 60.0), centre),
-            None
-        );
-        assert_eq!(
-            reduced_scale((4096, 2048), hd, focal(1080, 40.0), centre),
-            None
-        );
-        // A wide image is judged by its narrower texels (2π / width).
-        assert_eq!(
-            reduced_scale((2048, 512), hd, focal(1080, 40.0), centre),
-            Some(2)
-        );
-        // The scale must divide both sides, and the principal point be the centre.
-        assert_eq!(
-            reduced_scale((1024, 512), (1920, 1082), focal(1082, 40.0), (960.0, 541.0)),
-            Some(2)
-        );
-        assert_eq!(
-            reduced_scale((1024, 512), (1921, 1081), focal(1081, 40.0), (960.5, 540.5)),
-            None
-        );
-        assert_eq!(
-            reduced_scale((1024, 512), hd, focal(1080, 40.0), (900.0, 540.0)),
-            None
-        );
-        assert_eq!(reduced_scale((0, 0), hd, focal(1080, 40.0), centre), None);
-    }
-}
+mod tests;
