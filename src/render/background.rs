@@ -377,7 +377,7 @@ impl Renderer {
                 )),
             ),
         }
-        let Some((texture, (w, h))) = self.sky.reduced_target() else {
+        let Some((texture, (w, h))) = self.sky.reduced_target(image.is_some()) else {
             return Err(RenderError::Readback(
                 "the environment pass has no target".into(),
             ));
@@ -443,7 +443,7 @@ impl Renderer {
             }
         })?;
         let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-        super::upsample::upsample_environment(
+        super::upsample::upsample_reduced(
             &cache.environment,
             (w, h),
             frame,
@@ -469,22 +469,7 @@ impl Renderer {
             });
         {
             let pipeline = self.sky_pipeline(pipelines);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("background pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &cache.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = super::frame::clear_pass(&mut encoder, "background pass", &cache.view);
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);

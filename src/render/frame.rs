@@ -34,7 +34,7 @@ use super::visibility::Visibility;
 use super::{COLOR_FORMAT, DEPTH_FORMAT, IdImage, RenderError, Renderer};
 use crate::scene::FrameScene;
 use passes::{Atlas, RegionPipelines, texture_layout};
-pub(super) use passes::{atlas_texture, color_target, rect_buffer_layout};
+pub(super) use passes::{atlas_texture, clear_pass, color_target, rect_buffer_layout};
 
 /// What [`Renderer::render_frame`] is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -39,7 +39,7 @@ pub fn sample_offsets(samples: u32) -> &'static [(f64, f64)] {
 }
 
 /// The rasterised scenery of one frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ClutterLayer {
     pub width: u32,
     pub height: u32,
@@ -177,14 +177,7 @@ fn project(camera: &Camera, shape: &Shape) -> Option<(Vec<DVec2>, f64)> {
 
 /// Rasterise `scene`'s clutter for `samples` samples per pixel, shaded with `light`.
 pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) -> ClutterLayer {
-    let mut layer = ClutterLayer {
-        width: 0,
-        height: 0,
-        samples,
-        color: Vec::new(),
-        depth: Vec::new(),
-        truncated: false,
-    };
+    let mut layer = ClutterLayer::default();
     rasterize_into(scene, samples, light, &mut layer);
     layer
 }
@@ -403,14 +396,7 @@ impl Renderer {
         if gpu.uploaded.as_ref().map(|u| u.0) == Some(key) {
             return Some(key);
         }
-        let mut layer = gpu.layer.take().unwrap_or_else(|| ClutterLayer {
-            width: 0,
-            height: 0,
-            samples,
-            color: Vec::new(),
-            depth: Vec::new(),
-            truncated: false,
-        });
+        let mut layer = gpu.layer.take().unwrap_or_default();
         rasterize_into(scene, samples, &light, &mut layer);
         let (width, height) = (layer.width, layer.height);
         let group = match gpu.uploaded.take() {

@@ -52,9 +52,6 @@ pub(super) struct SkyGpu {
     /// The group of image `.0` that samples the image pass's target (the
     /// full-frame path's sky pass, [`SkyGpu::prepare_upsampled`]).
     upsampled: Option<(usize, wgpu::BindGroup)>,
-    /// Which reduced target was drawn last: the image sky's (true) or the
-    /// procedural environment's.
-    image_drawn: bool,
     /// Per uploaded image: its bind group and CPU summary (for lighting).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
     /// Per uploaded image: its equirect texture's view (`None` for cube maps),
@@ -181,7 +178,6 @@ impl SkyGpu {
             image_target: None,
             image_pipeline: None,
             upsampled: None,
-            image_drawn: false,
             image_views: Vec::new(),
             images: Vec::new(),
             placeholder_2d,
@@ -298,7 +294,6 @@ impl SkyGpu {
         horizon: Option<[f32; 3]>,
     ) {
         let (w, h) = self.ensure_half_target(device, (width, height));
-        self.image_drawn = false;
         // With the horizon known: the sky side and the ground side as two
         // draws (parts 1 and 2), else the whole target at once (part 0).
         let draws: Vec<(u32, Vec<[f32; 2]>)> = match horizon {
@@ -330,22 +325,7 @@ impl SkyGpu {
         let Some(HalfTarget { view, .. }) = &self.half else {
             return;
         };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("environment pass"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = super::frame::clear_pass(encoder, "environment pass", view);
         pass.set_bind_group(0, frame_bind_group, &[]);
         // The placeholder group: the target cannot be sampled while it is drawn.
         pass.set_bind_group(1, &self.default_group, &[]);
@@ -380,24 +360,7 @@ impl SkyGpu {
             .as_ref()
             .is_none_or(|t| (t.width, t.height) != (w, h))
         {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("environment (half resolution)"),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba16Float,
-                // COPY_SRC: the frame's background is upsampled from it on the CPU.
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
+            let (texture, view) = reduced_texture(device, "environment (half resolution)", (w, h));
             let group = make_bind_group(
                 device,
                 &self.layout,
@@ -452,10 +415,10 @@ impl SkyGpu {
         self.pipelines.len() - 1
     }
 
-    /// The target of the reduced pass drawn last (the environment pass or
-    /// the image pass: RGBA16F, linear) and its size.
-    pub(super) fn reduced_target(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
-        if self.image_drawn {
+    /// The target of the image pass (`image`) or of the environment pass
+    /// (RGBA16F, linear) and its size.
+    pub(super) fn reduced_target(&self, image: bool) -> Option<(&wgpu::Texture, (u32, u32))> {
+        if image {
             let (texture, _, size) = self.image_target.as_ref()?;
             return Some((texture, *size));
         }
@@ -513,6 +476,7 @@ impl SkyGpu {
             self.encode_environment(device, encoder, shaders, frame_bind_group, size, None);
         } else if self.written_image_scale().is_some() {
             self.encode_image(device, encoder, shaders, frame_bind_group, size, sky);
+            self.prepare_upsampled(device, sky);
         }
     }
 
@@ -548,61 +512,25 @@ impl SkyGpu {
         };
         let size = ((width / scale).max(1), (height / scale).max(1));
         if self.image_target.as_ref().is_none_or(|t| t.2 != size) {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("image sky (reduced resolution)"),
-                size: wgpu::Extent3d {
-                    width: size.0,
-                    height: size.1,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba16Float,
-                // COPY_SRC: the frame's background is upsampled from it on the
-                // CPU; TEXTURE_BINDING: the full-frame path samples it.
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
+            let (texture, view) = reduced_texture(device, "image sky (reduced resolution)", size);
             self.image_target = Some((texture, view, size));
             self.upsampled = None;
         }
         let pipeline = self.image_pipeline.get_or_insert_with(|| {
             environment_pipeline(device, (module, layout), &[], false, "fs_image")
         });
-        self.image_drawn = true;
         let (Some((_, view, _)), FrameSky::Image { image, .. }) = (&self.image_target, sky) else {
             return;
         };
         let Some((group, _)) = self.images.get(*image) else {
             return;
         };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("image sky pass"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = super::frame::clear_pass(encoder, "image sky pass", view);
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, frame_bind_group, &[]);
         // The image's own group: its placeholder stands for the target being drawn.
         pass.set_bind_group(1, group, &[]);
         pass.draw(0..3, 0..1);
-        drop(pass);
-        self.prepare_upsampled(device, sky);
     }
 
     /// Make the group with which the full-frame path's sky pass samples the
@@ -761,6 +689,34 @@ impl SkyGpu {
     pub(super) fn mode(&self) -> f32 {
         self.written.mode[0]
     }
+}
+
+/// A reduced pass's target of `size` (RGBA16F, linear) and its view:
+/// drawn into, read back for the CPU upsampling (COPY_SRC) and sampled by
+/// the full-frame path's sky pass.
+fn reduced_texture(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+) -> (wgpu::Texture, wgpu::TextureView) {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba16Float,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = texture.create_view(&Default::default());
+    (texture, view)
 }
 
 /// [`SkyGpu::image_scale`] of an equirect image `image` (texels) for a

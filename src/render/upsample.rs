@@ -344,7 +344,7 @@ fn avx2() -> bool {
 /// Upsample a reduced pass's `half` (RGBA, `size` texels, linear) to
 /// the frame's `frame` size into `rgba` (RGBA8, sRGB, alpha 255), for a
 /// camera whose principal point is `centre` (pixels), through `tone`.
-pub(super) fn upsample_environment(
+pub(super) fn upsample_reduced(
     half: &[f32],
     size: (u32, u32),
     frame: (u32, u32),
@@ -360,7 +360,7 @@ pub(super) fn upsample_environment(
     }
 }
 
-/// [`upsample_environment`] through `buckets`, its rows in the AVX2 build when `simd`.
+/// [`upsample_reduced`] through `buckets`, its rows in the AVX2 build when `simd`.
 fn upsample_with<const N: usize>(
     half: &[f32],
     (size, frame): ((u32, u32), (u32, u32)),
@@ -403,7 +403,7 @@ fn upsample_with<const N: usize>(
 }
 
 /// The upsampling one pixel at a time through [`SrgbTable::encode`]: what
-/// [`upsample_environment`] computed before it was vectorised, kept as the
+/// [`upsample_reduced`] computed before it was vectorised, kept as the
 /// reference its bytes are checked against.
 #[cfg(test)]
 fn upsample_reference(
@@ -474,7 +474,7 @@ mod tests {
         // columns sample at texel coordinates -0.25, 0.25, 0.75, 1.25.
         let half = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0];
         let mut rgba = Vec::new();
-        upsample_environment(&half, (2, 1), (4, 2), (2.0, 1.0), Tone::Clip, &mut rgba);
+        upsample_reduced(&half, (2, 1), (4, 2), (2.0, 1.0), Tone::Clip, &mut rgba);
         assert_eq!(rgba.len(), 4 * 2 * 4);
         let red: Vec<u8> = rgba.chunks_exact(4).map(|p| p[0]).collect();
         let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
@@ -594,7 +594,7 @@ mod tests {
     #[test]
     fn a_short_source_gives_a_black_frame_not_a_panic() {
         let mut rgba = vec![9; 3];
-        upsample_environment(&[0.5; 4], (2, 2), (4, 4), (2.0, 2.0), Tone::Clip, &mut rgba);
+        upsample_reduced(&[0.5; 4], (2, 2), (4, 4), (2.0, 2.0), Tone::Clip, &mut rgba);
         assert_eq!(rgba, vec![0; 64]);
     }
 }

@@ -134,6 +134,31 @@ pub(in crate::render) fn color_target(
     })
 }
 
+/// A render pass drawing into `view` alone, cleared to black first and
+/// stored (the background and reduced sky passes).
+pub(in crate::render) fn clear_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 /// A layout of `bindings` unfilterable float textures (bindings 0, 1, …)
 /// read by fragment shaders.
 pub(super) fn texture_layout(
