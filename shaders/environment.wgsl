@@ -30,6 +30,9 @@ struct Env {
     // Display-linear sunlight and sky ambient (what lights the drones).
     light: vec4<f32>,
     ambient: vec4<f32>,
+    // x: the elevation (rad) above which no silhouette reaches (-1: no
+    // silhouette), the line between ENV_PART 1 and 3.
+    band: vec4<f32>,
 };
 
 @group(1) @binding(0) var<uniform> env: Env;
@@ -50,9 +53,27 @@ const TAU: f32 = 6.2831853;
 override ENV_GROUND: f32 = -1.0;
 override ENV_FAR: f32 = -1.0;
 override ENV_NEAR: f32 = -1.0;
-// 0: the whole environment; 1: the sky side of the horizon only (dir.y >= 0);
-// 2: the ground side only (render/horizon.rs draws the two sides apart).
+// 0: the whole environment; 1: the sky side of the horizon (dir.y >= 0) up
+// to the silhouettes' band top (`env.band.x`); 2: the ground side; 3: the
+// sky above the band, whose shader holds no silhouette code (no silhouette
+// reaches there, so its pixels are those the whole shader would draw).
+// render/horizon.rs draws the parts apart; `in_part` says whose a pixel is.
 override ENV_PART: f32 = 0.0;
+
+// Whether the pixel of ray `dir` (unit) belongs to this pipeline's ENV_PART.
+fn in_part(dir: vec3<f32>) -> bool {
+    let sky = dir.y >= 0.0;
+    // The same expression as `procedural_sky`'s elevation.
+    let upper = sky && (asin(clamp(dir.y, -1.0, 1.0)) > env.band.x);
+    if (ENV_PART > 2.5) {
+        return upper;
+    } else if (ENV_PART > 1.5) {
+        return !sky;
+    } else if (ENV_PART > 0.5) {
+        return sky && !upper;
+    }
+    return true;
+}
 
 
 fn hash12(p: vec2<f32>) -> f32 {
@@ -161,7 +182,7 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
     let haze = tone_map(preetham(vec3<f32>(az_c.x, 0.02, az_c.y)) * k);
     let elevation = asin(clamp(dir.y, -1.0, 1.0));
     var col: vec3<f32>;
-    if (select((dir.y >= 0.0), (ENV_PART < 1.5), (ENV_PART > 0.5))) {
+    if (select((dir.y >= 0.0), (ENV_PART < 1.5) || (ENV_PART > 2.5), (ENV_PART > 0.5))) {
         col = tone_map(preetham(dir) * k);
         let cos_sun = dot(dir, sun);
         let disc = smoothstep(0.99996, 0.99999, cos_sun);
@@ -186,7 +207,11 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
             let cloud_far = mix(haze, cloud, smoothstep(0.0, 0.3, dir.y) * 0.7 + 0.3);
             col = mix(col, min(cloud_far, vec3<f32>(1.0)), density * fade * 0.95);
         }
-        // Far silhouette (hills, mountains, skyline), then the near tree line.
+        // Far silhouette (hills, mountains, skyline), then the near tree line:
+        // none reaches above the band (part 3).
+        if (ENV_PART > 2.5) {
+            return col;
+        }
         let far_kind = select(env.pattern.w, ENV_FAR, ENV_FAR >= 0.0);
         let far_h = silhouette_height(far_kind, env.far.w, az_c, seed * 0.01);
         if (elevation < far_h) {

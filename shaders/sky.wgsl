@@ -75,9 +75,8 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
     let p = in.position.xy * env.far_params.w;
     let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
-    // Drawn one side of the horizon at a time: the other side's pixels are its other draw's.
-    let sky_part = (ENV_PART > 0.5) && (ENV_PART < 1.5);
-    if ((sky_part && (dir.y < 0.0)) || ((ENV_PART > 1.5) && (dir.y >= 0.0))) {
+    // Drawn one part at a time: the other parts' pixels are their draws'.
+    if (!in_part(dir)) {
         discard;
     }
     return vec4<f32>(procedural_sky(dir), 1.0);

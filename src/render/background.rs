@@ -371,9 +371,10 @@ impl Renderer {
                 shaders,
                 &self.frame_bind_group,
                 frame,
-                Some(super::horizon::horizon_line(
+                Some(super::horizon::Horizon::of(
                     &uniforms.world_from_camera,
                     uniforms.intrinsics,
+                    frame,
                 )),
             ),
         }

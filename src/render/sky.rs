@@ -13,6 +13,8 @@
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
+use super::horizon::Horizon;
+
 use crate::sky::{
     self, EnvironmentAssets, FrameEnvironment, FrameSky, Lighting, Preetham, SkyImage, SkyImageKind,
 };
@@ -33,9 +35,10 @@ struct EnvUniforms {
     near: [f32; 4],
     light: [f32; 4],
     ambient: [f32; 4],
+    band: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 16 * 16);
+const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 17 * 16);
 
 pub(super) struct SkyGpu {
     pub(super) layout: wgpu::BindGroupLayout,
@@ -83,6 +86,23 @@ struct HalfTarget {
 /// near one (tree line) stand for when a frame's atmosphere hazes them.
 const FAR_SILHOUETTE_M: f64 = 8_000.0;
 const NEAR_SILHOUETTE_M: f64 = 600.0;
+
+/// The elevation (rad) above which none of `style`'s silhouettes reaches
+/// (`silhouette_height` in environment.wgsl), or -1 when it has none. The
+/// tallest shape, the skyline, reaches 1.08 times its height; 1.1 leaves
+/// room for rounding.
+fn band_top(style: &sky::EnvironmentStyle) -> f32 {
+    let heights = [
+        (style.far != sky::Silhouette::None).then_some(style.far_height_deg),
+        (style.near != sky::Silhouette::None).then_some(style.near_height_deg),
+    ];
+    heights
+        .into_iter()
+        .flatten()
+        .map(|deg| 1.1 * deg.max(0.0).to_radians())
+        .reduce(f32::max)
+        .unwrap_or(-1.0)
+}
 
 /// Full-resolution pixels per environment-pass pixel, per axis.
 const HALF_SCALE: u32 = 2;
@@ -291,23 +311,13 @@ impl SkyGpu {
         (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         frame_bind_group: &wgpu::BindGroup,
         (width, height): (u32, u32),
-        horizon: Option<[f32; 3]>,
+        horizon: Option<Horizon>,
     ) {
         let (w, h) = self.ensure_half_target(device, (width, height));
-        // With the horizon known: the sky side and the ground side as two
-        // draws (parts 1 and 2), else the whole target at once (part 0).
+        // With the horizon known: the parts of render/horizon.rs as their
+        // own draws, else the whole target at once (part 0).
         let draws: Vec<(u32, Vec<[f32; 2]>)> = match horizon {
-            Some(line) => [(1, true), (2, false)]
-                .into_iter()
-                .map(|(part, sky)| {
-                    let scale = HALF_SCALE as f32;
-                    (
-                        part,
-                        super::horizon::side_triangles(line, sky, (w, h), scale),
-                    )
-                })
-                .filter(|(_, t)| !t.is_empty())
-                .collect(),
+            Some(horizon) => horizon.parts(self.written.band[0], (w, h), HALF_SCALE as f32),
             None => vec![(0, Vec::new())],
         };
         let pipelines: Vec<usize> = draws
@@ -381,8 +391,9 @@ impl SkyGpu {
     }
 
     /// The environment pipeline of the written environment's ground and
-    /// silhouette kinds for draw `part` (0: whole, 1: sky side, 2: ground
-    /// side), built on first use; its index in `self.pipelines`.
+    /// silhouette kinds for draw `part` (0: whole, 1: the sky up to the
+    /// silhouettes' band top, 2: ground side, 3: the sky above the band),
+    /// built on first use; its index in `self.pipelines`.
     fn environment_pipeline(
         &mut self,
         device: &wgpu::Device,
@@ -633,6 +644,7 @@ impl SkyGpu {
                     HALF_SCALE as f32,
                 ];
                 u.near = rgb(style.near_albedo, 0.0);
+                u.band[0] = band_top(&style);
                 if let Some(v) = atmosphere_visibility_m {
                     // The frame's atmosphere: the ground's fog and the silhouettes'
                     // haze follow the same Koschmieder law as the drones'.
