@@ -31,8 +31,15 @@ struct Env {
     light: vec4<f32>,
     ambient: vec4<f32>,
     // x: the elevation (rad) above which no silhouette reaches (-1: no
-    // silhouette), the line between ENV_PART 1 and 3.
+    // silhouette); y: its sine (-2: none), the line between ENV_PART 1 and 3;
+    // z: full-resolution pixels per pixel of the quarter-resolution pass.
     band: vec4<f32>,
+    // Preetham's zenith Yxy over the Perez terms at the zenith (twilight on
+    // Y): the frame's constant factor of `preetham`.
+    sky_k: vec4<f32>,
+    // sky_k times the Perez elevation term of a ray 0.02 above level: the
+    // frame's constant factor of `horizon_haze`.
+    haze_k: vec4<f32>,
 };
 
 @group(1) @binding(0) var<uniform> env: Env;
@@ -54,17 +61,18 @@ override ENV_GROUND: f32 = -1.0;
 override ENV_FAR: f32 = -1.0;
 override ENV_NEAR: f32 = -1.0;
 // 0: the whole environment; 1: the sky side of the horizon (dir.y >= 0) up
-// to the silhouettes' band top (`env.band.x`); 2: the ground side; 3: the
-// sky above the band, whose shader holds no silhouette code (no silhouette
-// reaches there, so its pixels are those the whole shader would draw).
-// render/horizon.rs draws the parts apart; `in_part` says whose a pixel is.
+// to the silhouettes' band top (`env.band`); 2: the ground side; 3: the sky
+// above the band, where no silhouette reaches: the `upper_sky` of the
+// quarter-resolution pass (4, into its own target) upsampled, and the sun
+// disc. render/horizon.rs draws the parts apart; `in_part` says whose a
+// pixel is.
 override ENV_PART: f32 = 0.0;
 
 // Whether the pixel of ray `dir` (unit) belongs to this pipeline's ENV_PART.
 fn in_part(dir: vec3<f32>) -> bool {
     let sky = dir.y >= 0.0;
-    // The same expression as `procedural_sky`'s elevation.
-    let upper = sky && (asin(clamp(dir.y, -1.0, 1.0)) > env.band.x);
+    // Above the band: above every silhouette (`band_top` in render/sky.rs).
+    let upper = sky && (dir.y > env.band.y);
     if (ENV_PART > 2.5) {
         return upper;
     } else if (ENV_PART > 1.5) {
@@ -121,10 +129,15 @@ fn tone_map(x: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(1.0) - exp(-x);
 }
 
-fn perez3(cos_theta: f32, gamma: f32) -> vec3<f32> {
-    let ct = max(cos_theta, 0.01);
-    let cg = cos(gamma);
-    return (1.0 + env.perez_a.xyz * exp(env.perez_b.xyz / ct)) * (1.0 + env.perez_c.xyz * exp(env.perez_d.xyz * gamma) + env.perez_e.xyz * cg * cg);
+// The Perez terms of the ray's elevation (cosine of its zenith angle) and
+// of its angle to the sun (given as that angle's cosine too).
+fn perez_f(cos_theta: f32) -> vec3<f32> {
+    return 1.0 + env.perez_a.xyz * exp(env.perez_b.xyz / max(cos_theta, 0.01));
+}
+
+fn perez_g(cos_gamma: f32) -> vec3<f32> {
+    let gamma = acos(cos_gamma);
+    return 1.0 + env.perez_c.xyz * exp(env.perez_d.xyz * gamma) + env.perez_e.xyz * cos_gamma * cos_gamma;
 }
 
 fn yxy_to_rgb(y: f32, cx: f32, cy_in: f32) -> vec3<f32> {
@@ -138,15 +151,24 @@ fn yxy_to_rgb(y: f32, cx: f32, cy_in: f32) -> vec3<f32> {
     ), vec3<f32>(0.0));
 }
 
-// Preetham radiance (linear sRGB, kcd/m²), clamped at the horizon.
+// Preetham radiance (linear sRGB, kcd/m²), clamped at the horizon; the
+// frame's constant factors come with the uniforms (`Preetham::shader_factors`).
 fn preetham(dir: vec3<f32>) -> vec3<f32> {
     let d = normalize(vec3<f32>(dir.x, max(dir.y, 0.001), dir.z));
-    let sun = frame.sun_dir_world.xyz;
-    let gamma = acos(clamp(dot(d, sun), -1.0, 1.0));
-    let theta_s = acos(clamp(sun.y, 0.01, 1.0));
-    let yxy = env.zenith_yxy.xyz * perez3(d.y, gamma) / perez3(1.0, theta_s);
-    let twilight = smoothstep(-0.1, 0.05, sun.y);
-    return yxy_to_rgb(yxy.x * twilight, yxy.y, yxy.z);
+    let cos_gamma = clamp(dot(d, frame.sun_dir_world.xyz), -1.0, 1.0);
+    let yxy = env.sky_k.xyz * perez_f(d.y) * perez_g(cos_gamma);
+    return yxy_to_rgb(yxy.x, yxy.y, yxy.z);
+}
+
+// The tone-mapped sky 0.02 above level in the azimuth of `az_c` (unit, xz):
+// what hazes the ground and the silhouettes. Its elevation term is the
+// frame's constant (`haze_k`).
+fn horizon_haze(az_c: vec2<f32>) -> vec3<f32> {
+    // (az_c.x, 0.02, az_c.y) normalised: 1 / sqrt(1.0004).
+    let d = vec3<f32>(az_c.x, 0.02, az_c.y) * 0.99980006;
+    let cos_gamma = clamp(dot(d, frame.sun_dir_world.xyz), -1.0, 1.0);
+    let yxy = env.haze_k.xyz * perez_g(cos_gamma);
+    return tone_map(yxy_to_rgb(yxy.x, yxy.y, yxy.z) * env.mode.y);
 }
 
 // Angular height (rad) of a silhouette of `kind` at azimuth coordinates `c` (unit circle).
@@ -172,46 +194,64 @@ fn silhouette_height(kind: f32, height: f32, c: vec2<f32>, seed: vec2<f32>) -> f
     return height * (0.55 + 0.45 * fbm(c * 90.0 + seed, 2));
 }
 
+// The sky without its silhouettes and sun disc: the Preetham sky and the
+// cloud layer (rgb), and the share of the sun disc the clouds leave (a).
+// The quarter-resolution pass draws it where no silhouette reaches.
+fn upper_sky(dir: vec3<f32>, haze: vec3<f32>) -> vec4<f32> {
+    let sun = frame.sun_dir_world.xyz;
+    let light = env.light.rgb;
+    let ambient = env.ambient.rgb;
+    var col = tone_map(preetham(dir) * env.mode.y);
+    var clear = 1.0;
+    // Cloud layer: fbm on a plane above the camera.
+    let cover = env.sun_color.w;
+    if (cover > 0.001) {
+        let uv = vec2<f32>(dir.x, dir.z) / (dir.y + 0.05) * 0.9 + env.pattern.xy;
+        let threshold = mix(0.72, 0.22, cover);
+        // The first two octaves decide most pixels; the last three add at most 0.25.
+        let coarse = fbm(uv, 2);
+        var n = coarse;
+        if (coarse + 0.25 > threshold) {
+            n = coarse + 0.25 * fbm(uv * 4.0804 + vec2<f32>(70.2, 37.5), 3);
+        }
+        let density = smoothstep(threshold, threshold + 0.2, n);
+        let toward_sun = fbm(uv + vec2<f32>(sun.x, sun.z) * 0.12, 2);
+        let self_shadow = clamp(1.0 - (toward_sun - n) * 2.5, 0.45, 1.15);
+        let silver = pow(max(dot(dir, sun), 0.0), 12.0);
+        let cloud = (ambient * 0.85 + light * 0.5 * (0.6 + silver)) * self_shadow * (1.0 - 0.35 * density);
+        let fade = smoothstep(0.0, 0.1, dir.y);
+        let cloud_far = mix(haze, cloud, smoothstep(0.0, 0.3, dir.y) * 0.7 + 0.3);
+        let f = density * fade * 0.95;
+        col = mix(col, min(cloud_far, vec3<f32>(1.0)), f);
+        clear = 1.0 - f;
+    }
+    return vec4<f32>(col, clear);
+}
+
+// The sun disc's light in direction `dir`.
+fn sun_disc(dir: vec3<f32>) -> vec3<f32> {
+    return env.sun_color.rgb * smoothstep(0.99996, 0.99999, dot(dir, frame.sun_dir_world.xyz)) * 3.0;
+}
+
+// The unit xz direction of the ray's azimuth (haze and silhouettes).
+fn azimuth(dir: vec3<f32>) -> vec2<f32> {
+    return normalize(vec2<f32>(dir.x, dir.z) + vec2<f32>(1e-6, 0.0));
+}
+
 fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
     let k = env.mode.y;
     let sun = frame.sun_dir_world.xyz;
     let light = env.light.rgb;
     let ambient = env.ambient.rgb;
     let seed = env.pattern.xy;
-    let az_c = normalize(vec2<f32>(dir.x, dir.z) + vec2<f32>(1e-6, 0.0));
-    let haze = tone_map(preetham(vec3<f32>(az_c.x, 0.02, az_c.y)) * k);
+    let az_c = azimuth(dir);
+    let haze = horizon_haze(az_c);
     let elevation = asin(clamp(dir.y, -1.0, 1.0));
     var col: vec3<f32>;
-    if (select((dir.y >= 0.0), (ENV_PART < 1.5) || (ENV_PART > 2.5), (ENV_PART > 0.5))) {
-        col = tone_map(preetham(dir) * k);
-        let cos_sun = dot(dir, sun);
-        let disc = smoothstep(0.99996, 0.99999, cos_sun);
-        col = col + env.sun_color.rgb * disc * 3.0;
-        // Cloud layer: fbm on a plane above the camera.
-        let cover = env.sun_color.w;
-        if (cover > 0.001) {
-            let uv = vec2<f32>(dir.x, dir.z) / (dir.y + 0.05) * 0.9 + seed;
-            let threshold = mix(0.72, 0.22, cover);
-            // The first two octaves decide most pixels; the last three add at most 0.25.
-            let coarse = fbm(uv, 2);
-            var n = coarse;
-            if (coarse + 0.25 > threshold) {
-                n = coarse + 0.25 * fbm(uv * 4.0804 + vec2<f32>(70.2, 37.5), 3);
-            }
-            let density = smoothstep(threshold, threshold + 0.2, n);
-            let toward_sun = fbm(uv + vec2<f32>(sun.x, sun.z) * 0.12, 2);
-            let self_shadow = clamp(1.0 - (toward_sun - n) * 2.5, 0.45, 1.15);
-            let silver = pow(max(cos_sun, 0.0), 12.0);
-            let cloud = (ambient * 0.85 + light * 0.5 * (0.6 + silver)) * self_shadow * (1.0 - 0.35 * density);
-            let fade = smoothstep(0.0, 0.1, dir.y);
-            let cloud_far = mix(haze, cloud, smoothstep(0.0, 0.3, dir.y) * 0.7 + 0.3);
-            col = mix(col, min(cloud_far, vec3<f32>(1.0)), density * fade * 0.95);
-        }
-        // Far silhouette (hills, mountains, skyline), then the near tree line:
-        // none reaches above the band (part 3).
-        if (ENV_PART > 2.5) {
-            return col;
-        }
+    if (select((dir.y >= 0.0), (ENV_PART < 1.5), (ENV_PART > 0.5))) {
+        let upper = upper_sky(dir, haze);
+        col = upper.rgb + sun_disc(dir) * upper.a;
+        // Far silhouette (hills, mountains, skyline), then the near tree line.
         let far_kind = select(env.pattern.w, ENV_FAR, ENV_FAR >= 0.0);
         let far_h = silhouette_height(far_kind, env.far.w, az_c, seed * 0.01);
         if (elevation < far_h) {

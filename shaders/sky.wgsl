@@ -68,16 +68,31 @@ fn vs_environment(@location(0) ndc: vec2<f32>) -> SkyOut {
     return out;
 }
 
-// The procedural environment pass: each pixel stands for far_params.w × far_params.w full-resolution pixels.
+// The procedural environment pass: each pixel stands for far_params.w ×
+// far_params.w full-resolution pixels (band.z × band.z in the quarter-
+// resolution pass, ENV_PART 4).
 @fragment
 fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
     let k = frame.intrinsics;
-    let p = in.position.xy * env.far_params.w;
+    let p = in.position.xy * select(env.far_params.w, env.band.z, ENV_PART > 3.5);
     let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
+    if (ENV_PART > 3.5) {
+        // Every pixel of the polygon, past the band's line too: the half-
+        // resolution pass interpolates between them. Rays below the horizon
+        // (its margin) are taken level.
+        let d = select(dir, normalize(vec3<f32>(dir.x, 0.0, dir.z) + vec3<f32>(1e-6, 0.0, 0.0)), dir.y < 0.0);
+        return upper_sky(d, horizon_haze(azimuth(d)));
+    }
     // Drawn one part at a time: the other parts' pixels are their draws'.
     if (!in_part(dir)) {
         discard;
+    }
+    if (ENV_PART > 2.5) {
+        // The quarter-resolution pass's upper sky, interpolated at this pixel.
+        let quarter = p / (env.band.z * vec2<f32>(textureDimensions(env_half)));
+        let upper = textureSampleLevel(env_half, env_half_sampler, quarter, 0.0);
+        return vec4<f32>(upper.rgb + sun_disc(dir) * upper.a, 1.0);
     }
     return vec4<f32>(procedural_sky(dir), 1.0);
 }

@@ -371,11 +371,11 @@ impl Renderer {
                 shaders,
                 &self.frame_bind_group,
                 frame,
-                Some(super::horizon::Horizon::of(
+                super::horizon::Horizon::of(
                     &uniforms.world_from_camera,
                     uniforms.intrinsics,
                     frame,
-                )),
+                ),
             ),
         }
         let Some((texture, (w, h))) = self.sky.reduced_target(image.is_some()) else {

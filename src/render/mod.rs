@@ -702,7 +702,7 @@ impl Renderer {
             depth,
             msaa,
         } = *views;
-        self.upload_uniforms(scene);
+        let uniforms = self.upload_uniforms(scene);
         let size = (scene.camera.width, scene.camera.height);
         let shaders = (&self.shaders.0, &self.sky_layout);
         self.sky.encode_reduced(
@@ -711,7 +711,10 @@ impl Renderer {
             shaders,
             &self.frame_bind_group,
             size,
-            &scene.sky,
+            (
+                &scene.sky,
+                horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, size),
+            ),
         );
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;

@@ -36,17 +36,23 @@ struct EnvUniforms {
     light: [f32; 4],
     ambient: [f32; 4],
     band: [f32; 4],
+    sky_k: [f32; 4],
+    haze_k: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 17 * 16);
+const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 19 * 16);
 
 pub(super) struct SkyGpu {
     pub(super) layout: wgpu::BindGroupLayout,
     uniforms: wgpu::Buffer,
     /// Placeholders only: the gradient sky and the environment pass itself.
     default_group: wgpu::BindGroup,
-    /// The half-resolution environment target and the group that samples it.
-    half: Option<HalfTarget>,
+    /// The half-resolution environment target and the group that samples it
+    /// (the full-frame path's sky pass).
+    half: Option<ReducedTarget>,
+    /// The quarter-resolution target of the sky above the silhouettes and
+    /// the group that samples it (the half-resolution pass).
+    quarter: Option<ReducedTarget>,
     /// An image sky's reduced-resolution target (see [`SkyGpu::image_scale`])
     /// and its size.
     image_target: Option<(wgpu::Texture, wgpu::TextureView, (u32, u32))>,
@@ -72,13 +78,13 @@ pub(super) struct SkyGpu {
     written: EnvUniforms,
 }
 
-/// The procedural environment's reduced-resolution target.
-struct HalfTarget {
+/// One of the procedural environment's reduced-resolution targets.
+struct ReducedTarget {
     width: u32,
     height: u32,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
-    /// Samples `view` (the full-frame path's sky pass).
+    /// Samples `view` as `env_half`.
     group: wgpu::BindGroup,
 }
 
@@ -106,6 +112,10 @@ fn band_top(style: &sky::EnvironmentStyle) -> f32 {
 
 /// Full-resolution pixels per environment-pass pixel, per axis.
 const HALF_SCALE: u32 = 2;
+
+/// Full-resolution pixels per pixel of the pass of the sky above the
+/// silhouettes (smooth: the Preetham sky and the clouds), per axis.
+const QUARTER_SCALE: u32 = 4;
 
 fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
     rgb.chunks_exact(3)
@@ -195,6 +205,7 @@ impl SkyGpu {
             uniforms,
             default_group,
             half: None,
+            quarter: None,
             image_target: None,
             image_pipeline: None,
             upsampled: None,
@@ -303,83 +314,110 @@ impl SkyGpu {
     }
 
     /// Draw the procedural environment of the uniforms just written into the
-    /// half-resolution target (resized to the frame's `width`×`height` as needed).
+    /// half-resolution target (resized to the frame's `width`×`height` as
+    /// needed), in the parts of render/horizon.rs for the frame's `horizon`.
+    /// The sky above the silhouettes' band is drawn first at a quarter of
+    /// the resolution; the half-resolution pass interpolates it there.
     pub(super) fn encode_environment(
         &mut self,
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         frame_bind_group: &wgpu::BindGroup,
-        (width, height): (u32, u32),
-        horizon: Option<Horizon>,
+        frame: (u32, u32),
+        horizon: Horizon,
     ) {
-        let (w, h) = self.ensure_half_target(device, (width, height));
-        // With the horizon known: the parts of render/horizon.rs as their
-        // own draws, else the whole target at once (part 0).
-        let draws: Vec<(u32, Vec<[f32; 2]>)> = match horizon {
-            Some(horizon) => horizon.parts(self.written.band[0], (w, h), HALF_SCALE as f32),
-            None => vec![(0, Vec::new())],
-        };
+        let band_top = self.written.band[0];
+        let half = self.ensure_target(device, HALF_SCALE, frame);
+        let draws = horizon.parts(band_top, half, HALF_SCALE as f32);
+        let upper = draws.iter().any(|(part, _)| *part == 3).then(|| {
+            let quarter = self.ensure_target(device, QUARTER_SCALE, frame);
+            let parts = horizon.parts(band_top, quarter, QUARTER_SCALE as f32);
+            let polygon = parts.into_iter().find(|(part, _)| *part == 3);
+            (4, polygon.map_or_else(Vec::new, |(_, t)| t))
+        });
+        let upper_pipeline = upper
+            .as_ref()
+            .map(|(part, _)| self.environment_pipeline(device, (module, layout), *part));
         let pipelines: Vec<usize> = draws
             .iter()
             .map(|(part, _)| self.environment_pipeline(device, (module, layout), *part))
             .collect();
-        let vertices: Vec<[f32; 2]> = draws.iter().flat_map(|(_, t)| t.iter().copied()).collect();
-        let buffer = (!vertices.is_empty()).then(|| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("environment sides"),
-                contents: bytemuck::cast_slice(&vertices),
-                usage: wgpu::BufferUsages::VERTEX,
-            })
-        });
-        let Some(HalfTarget { view, .. }) = &self.half else {
+        let vertices: Vec<[f32; 2]> = upper
+            .iter()
+            .chain(&draws)
+            .flat_map(|(_, t)| t.iter().copied())
+            .collect();
+        let Some(half) = &self.half else {
             return;
         };
-        let mut pass = super::frame::clear_pass(encoder, "environment pass", view);
-        pass.set_bind_group(0, frame_bind_group, &[]);
-        // The placeholder group: the target cannot be sampled while it is drawn.
-        pass.set_bind_group(1, &self.default_group, &[]);
+        if vertices.is_empty() {
+            return;
+        }
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("environment parts"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
         let mut first = 0u32;
-        for ((part, triangles), i) in draws.iter().zip(pipelines) {
-            pass.set_pipeline(&self.pipelines[i].1);
-            match (&buffer, part) {
-                (Some(buffer), 1..) => {
-                    let count = triangles.len() as u32;
-                    pass.set_vertex_buffer(0, buffer.slice(..));
-                    pass.draw(first..first + count, 0..1);
-                    first += count;
-                }
-                _ => pass.draw(0..3, 0..1),
-            }
+        let mut draw =
+            |pass: &mut wgpu::RenderPass<'_>, triangles: &[[f32; 2]], pipeline: usize| {
+                let count = triangles.len() as u32;
+                pass.set_pipeline(&self.pipelines[pipeline].1);
+                pass.set_vertex_buffer(0, buffer.slice(..));
+                pass.draw(first..first + count, 0..1);
+                first += count;
+            };
+        // The placeholder group while a target is drawn (it cannot sample
+        // itself); the half-resolution pass samples the quarter's.
+        let mut group = &self.default_group;
+        if let (Some((_, triangles)), Some(pipeline), Some(quarter)) =
+            (&upper, upper_pipeline, &self.quarter)
+        {
+            let mut pass = super::frame::clear_pass(
+                encoder,
+                "environment pass (quarter resolution)",
+                &quarter.view,
+            );
+            pass.set_bind_group(0, frame_bind_group, &[]);
+            pass.set_bind_group(1, &self.default_group, &[]);
+            draw(&mut pass, triangles, pipeline);
+            group = &quarter.group;
+        }
+        let mut pass = super::frame::clear_pass(encoder, "environment pass", &half.view);
+        pass.set_bind_group(0, frame_bind_group, &[]);
+        pass.set_bind_group(1, group, &[]);
+        for ((_, triangles), pipeline) in draws.iter().zip(pipelines) {
+            draw(&mut pass, triangles, pipeline);
         }
     }
 
-    /// The half-resolution environment target for a `width`×`height` frame,
+    /// The environment target of `scale` (full-resolution pixels per pixel:
+    /// [`HALF_SCALE`] or [`QUARTER_SCALE`]) for a `width`×`height` frame,
     /// (re)made when its size changes; its size.
-    fn ensure_half_target(
+    fn ensure_target(
         &mut self,
         device: &wgpu::Device,
+        scale: u32,
         (width, height): (u32, u32),
     ) -> (u32, u32) {
-        let (w, h) = (
-            width.div_ceil(HALF_SCALE).max(1),
-            height.div_ceil(HALF_SCALE).max(1),
-        );
-        if self
-            .half
-            .as_ref()
-            .is_none_or(|t| (t.width, t.height) != (w, h))
-        {
-            let (texture, view) = reduced_texture(device, "environment (half resolution)", (w, h));
+        let (w, h) = (width.div_ceil(scale).max(1), height.div_ceil(scale).max(1));
+        let (slot, label) = if scale == QUARTER_SCALE {
+            (&mut self.quarter, "environment (quarter resolution)")
+        } else {
+            (&mut self.half, "environment (half resolution)")
+        };
+        if slot.as_ref().is_none_or(|t| (t.width, t.height) != (w, h)) {
+            let (texture, view) = reduced_texture(device, label, (w, h));
             let group = make_bind_group(
                 device,
                 &self.layout,
                 &self.uniforms,
                 (&self.sampler, &self.half_sampler),
-                "environment (procedural)",
+                label,
                 [&self.placeholder_2d, &self.placeholder_cube, &view],
             );
-            self.half = Some(HalfTarget {
+            *slot = Some(ReducedTarget {
                 width: w,
                 height: h,
                 texture,
@@ -474,6 +512,7 @@ impl SkyGpu {
     /// The full-frame path's reduced pass for `sky` (uniforms just
     /// written), if it has one: the procedural environment's, or the image
     /// pass's when the image is drawn reduced; the sky pass then samples it.
+    /// `horizon`: the frame's, for the environment's parts.
     pub(super) fn encode_reduced(
         &mut self,
         device: &wgpu::Device,
@@ -481,10 +520,10 @@ impl SkyGpu {
         shaders: (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         frame_bind_group: &wgpu::BindGroup,
         size: (u32, u32),
-        sky: &FrameSky,
+        (sky, horizon): (&FrameSky, Horizon),
     ) {
         if Self::is_procedural(sky) {
-            self.encode_environment(device, encoder, shaders, frame_bind_group, size, None);
+            self.encode_environment(device, encoder, shaders, frame_bind_group, size, horizon);
         } else if self.written_image_scale().is_some() {
             self.encode_image(device, encoder, shaders, frame_bind_group, size, sky);
             self.prepare_upsampled(device, sky);
@@ -644,7 +683,16 @@ impl SkyGpu {
                     HALF_SCALE as f32,
                 ];
                 u.near = rgb(style.near_albedo, 0.0);
-                u.band[0] = band_top(&style);
+                let top = band_top(&style);
+                u.band = [
+                    top,
+                    if top < 0.0 { -2.0 } else { top.sin() },
+                    QUARTER_SCALE as f32,
+                    0.0,
+                ];
+                let (sky_k, haze_k) = model.shader_factors();
+                u.sky_k = rgb(sky_k, 0.0);
+                u.haze_k = rgb(haze_k, 0.0);
                 if let Some(v) = atmosphere_visibility_m {
                     // The frame's atmosphere: the ground's fog and the silhouettes'
                     // haze follow the same Koschmieder law as the drones'.

@@ -71,6 +71,31 @@ impl Preetham {
             * (1.0 + c * (d * gamma).exp() + e * gamma.cos().powi(2))
     }
 
+    /// The frame's constant factors of the sky shader's Preetham sky
+    /// (environment.wgsl, `sky_k` and `haze_k`), in f64 then rounded:
+    /// the zenith Yxy over the Perez terms at the zenith (the sun's angle
+    /// to it), twilight on Y; and that times the elevation term of the
+    /// horizon haze's ray, 0.02 above level (normalised: its zenith cosine
+    /// is 0.02 / √1.0004). [`Preetham::radiance`] is their product with the
+    /// per-ray terms.
+    pub fn shader_factors(&self) -> ([f32; 3], [f32; 3]) {
+        let theta_s = f64::from(self.sun.y.clamp(0.01, 1.0)).acos();
+        let twilight = f64::from(smoothstep(-0.1, 0.05, self.sun.y));
+        let haze_cos = 0.02 / 1.0004f64.sqrt();
+        let mut sky = [0.0; 3];
+        let mut haze = [0.0; 3];
+        for k in 0..3 {
+            let [a, b, c, d, e] = [0, 1, 2, 3, 4].map(|i| f64::from(self.perez[i][k]));
+            let at_zenith =
+                (1.0 + a * b.exp()) * (1.0 + c * (d * theta_s).exp() + e * theta_s.cos().powi(2));
+            let scale = if k == 0 { twilight } else { 1.0 };
+            let s = f64::from(self.zenith[k]) * scale / at_zenith;
+            sky[k] = s as f32;
+            haze[k] = (s * (1.0 + a * (b / haze_cos).exp())) as f32;
+        }
+        (sky, haze)
+    }
+
     /// Linear sRGB radiance (kcd/m² scale) of the sky in direction `dir` (clamped to the horizon).
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         let d = Vec3::new(dir.x, dir.y.max(0.001), dir.z).normalize();
