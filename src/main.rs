@@ -483,6 +483,25 @@ fn stopped(done: u64, total: u64, resume: &str) -> anyhow::Error {
     )
 }
 
+/// `open` (the preset, its models, hulls and levels of detail) with the GPU
+/// context starting on a second thread meanwhile: the instance and device
+/// (a sixth of a cached start-up on lavapipe) no longer wait for the
+/// single-threaded loading. `open`'s error comes first, as when the context
+/// was made after it: a bad preset reports the preset, not the GPU.
+fn with_gpu_starting<T>(
+    open: impl FnOnce() -> anyhow::Result<T>,
+) -> anyhow::Result<(T, GpuContext)> {
+    std::thread::scope(|scope| {
+        let gpu = scope.spawn(GpuContext::headless);
+        let opened = open();
+        // A panic there is the main thread's, as it was before the thread.
+        let ctx = gpu
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        Ok((opened?, ctx?))
+    })
+}
+
 fn batch(
     preset: &Path,
     shard_arg: &Option<String>,
@@ -498,26 +517,28 @@ fn batch(
             options.encoder_threads
         );
     }
-    let pipeline = FramePipeline::open(preset)?;
-    print_warnings(&pipeline);
-    pipeline
-        .preset()
-        .check_render_budget()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let frames = frames_of_run(&pipeline, &options);
-    if frames == 0 {
-        eprintln!(
-            "warning: --shard {}/{}: this shard holds no frame of the {} there are (more shards than frames); it writes an empty dataset",
-            options.shard.map_or(0, |s| s.index),
-            options.shard.map_or(1, |s| s.count),
-            pipeline.frame_count()
-        );
-    }
-    print_empty_splits(pipeline.preset(), frames, &mut std::io::stderr());
-    if !options.resume {
-        check_free_space(&pipeline, &options.out_dir, frames)?;
-    }
-    let ctx = GpuContext::headless()?;
+    let ((pipeline, frames), ctx) = with_gpu_starting(|| {
+        let pipeline = FramePipeline::open(preset)?;
+        print_warnings(&pipeline);
+        pipeline
+            .preset()
+            .check_render_budget()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let frames = frames_of_run(&pipeline, &options);
+        if frames == 0 {
+            eprintln!(
+                "warning: --shard {}/{}: this shard holds no frame of the {} there are (more shards than frames); it writes an empty dataset",
+                options.shard.map_or(0, |s| s.index),
+                options.shard.map_or(1, |s| s.count),
+                pipeline.frame_count()
+            );
+        }
+        print_empty_splits(pipeline.preset(), frames, &mut std::io::stderr());
+        if !options.resume {
+            check_free_space(&pipeline, &options.out_dir, frames)?;
+        }
+        Ok((pipeline, frames))
+    })?;
     device_check(&pipeline, &ctx)?;
     let bar = frames_bar(frames)?;
     let cancel = stop_on_signals()?;
@@ -662,22 +683,24 @@ fn plan(
 /// A batch of one: the files the batch writes for frame `index` (image, YOLO
 /// labels, manifest record, and the masks `output.masks` asks for), beside `out`.
 fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result<()> {
-    let pipeline = FramePipeline::open(preset)?;
-    pipeline
-        .preset()
-        .check_render_budget()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    swarmshot::write::single::check_image_name(out, pipeline.preset().output.image_format)
-        .map_err(anyhow::Error::msg)?;
-    if index >= pipeline.frame_count() {
-        anyhow::bail!(
-            "--index {index}: the preset has {} frames (0..{})",
-            pipeline.frame_count(),
-            pipeline.frame_count()
-        );
-    }
-    print_warnings(&pipeline);
-    let ctx = GpuContext::headless()?;
+    let (pipeline, ctx) = with_gpu_starting(|| {
+        let pipeline = FramePipeline::open(preset)?;
+        pipeline
+            .preset()
+            .check_render_budget()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        swarmshot::write::single::check_image_name(out, pipeline.preset().output.image_format)
+            .map_err(anyhow::Error::msg)?;
+        if index >= pipeline.frame_count() {
+            anyhow::bail!(
+                "--index {index}: the preset has {} frames (0..{})",
+                pipeline.frame_count(),
+                pipeline.frame_count()
+            );
+        }
+        print_warnings(&pipeline);
+        Ok(pipeline)
+    })?;
     device_check(&pipeline, &ctx)?;
     let mut renderer = pipeline.renderer(&ctx);
     let mut frame = pipeline.make(&mut renderer, index)?;

@@ -22,6 +22,7 @@
 pub mod builtin;
 pub mod confusers;
 mod flatten;
+mod hull;
 pub mod lod;
 pub mod lod_cache;
 pub mod uri;
@@ -34,6 +35,7 @@ use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 
 use flatten::Flattener;
 
+pub use hull::convex_hull_vertices;
 pub use uri::UriPolicy;
 
 /// One vertex as the GPU sees it (`shaders/drone.wgsl`, `VertexInput`).
@@ -691,55 +693,9 @@ fn unique_used_positions(vertices: &[Vertex], indices: &[u32]) -> Vec<DVec3> {
     out
 }
 
-/// The vertices of the convex hull of `points`; if the hull is degenerate
-/// (flat or collinear geometry) every point is kept, which gives the same box.
-pub fn convex_hull_vertices(points: &[DVec3]) -> Vec<DVec3> {
-    if points.len() <= 8 {
-        return points.to_vec();
-    }
-    let input: Vec<Vec<f64>> = points.iter().map(|p| p.to_array().to_vec()).collect();
-    match chull::ConvexHullWrapper::try_new(&input, None) {
-        Ok(hull) => {
-            let (vertices, _) = hull.vertices_indices();
-            let out: Vec<DVec3> = vertices
-                .iter()
-                .filter(|v| v.len() == 3)
-                .map(|v| DVec3::new(v[0], v[1], v[2]))
-                .collect();
-            if out.len() >= 4 { out } else { points.to_vec() }
-        }
-        Err(_) => points.to_vec(),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hull_of_a_cube_with_inner_points_is_its_corners() {
-        let mut pts = Vec::new();
-        for i in 0..3 {
-            for j in 0..3 {
-                for k in 0..3 {
-                    pts.push(DVec3::new(f64::from(i), f64::from(j), f64::from(k)) * 0.5);
-                }
-            }
-        }
-        let hull = convex_hull_vertices(&pts);
-        // Corners must be present; the body centre must not.
-        for c in [DVec3::ZERO, DVec3::ONE, DVec3::new(1.0, 0.0, 1.0)] {
-            assert!(
-                hull.iter().any(|h| (*h - c).length() < 1e-12),
-                "{c} missing"
-            );
-        }
-        assert!(
-            !hull
-                .iter()
-                .any(|h| (*h - DVec3::splat(0.5)).length() < 1e-12)
-        );
-    }
 
     #[test]
     fn strips_and_fans_triangulate() {

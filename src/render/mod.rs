@@ -15,6 +15,7 @@
 //! offscreen (the reference the region path is tested against).
 
 mod background;
+mod context;
 mod frame;
 mod haze;
 mod horizon;
@@ -31,6 +32,7 @@ mod sky;
 mod upsample;
 pub mod visibility;
 
+pub use context::{GpuContext, quiet_headless_vulkan};
 pub use frame::{Painted, RenderRequest, RenderedFrame};
 pub use ids::{MAX_DRONES, PixelHit};
 pub(crate) use mesh::{DronePipelines, MeshLevel};
@@ -74,81 +76,6 @@ pub enum RenderError {
     TooDense { drones: usize, limit: u64 },
     #[error("backplate: {0}")]
     Backplate(String),
-}
-
-/// Turn off Mesa's Vulkan device-select layer for a process that opens no window.
-///
-/// wgpu enables every window-system extension the driver offers
-/// (`VK_KHR_wayland_surface` included) on every instance, headless or not. When
-/// that extension is enabled, Mesa's implicit `VK_LAYER_MESA_device_select`
-/// calls `wl_display_connect` while the physical devices are enumerated to find
-/// the GPU a Wayland compositor runs on; without `XDG_RUNTIME_DIR` libwayland
-/// prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.`
-/// (once per enumeration) even though nothing failed. A headless process has no
-/// compositor to match, so the layer has nothing to choose: its documented
-/// switch `NODEVICE_SELECT=1` (the `disable_environment` of its loader manifest)
-/// skips it. A value the user set is kept, and so is the layer when the user asks
-/// it for a device (`MESA_VK_DEVICE_SELECT`, `DRI_PRIME`).
-///
-/// # Safety
-/// Changes the process environment: call it before any other thread exists
-/// (first thing in `main`), as [`std::env::set_var`] requires.
-#[allow(unsafe_code)]
-pub unsafe fn quiet_headless_vulkan() {
-    let wants_layer = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"]
-        .iter()
-        .any(|name| std::env::var_os(name).is_some());
-    if !wants_layer {
-        // SAFETY: the caller guarantees no other thread reads or writes the environment.
-        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
-    }
-}
-
-/// A device and queue, from a headless adapter or handed in by a host (eframe).
-#[derive(Clone)]
-pub struct GpuContext {
-    pub device: wgpu::Device,
-    pub queue: wgpu::Queue,
-    pub adapter_info: wgpu::AdapterInfo,
-    pub max_texture_side: u32,
-}
-
-impl GpuContext {
-    /// Open a headless adapter; honours `WGPU_BACKEND` (vulkan, gl, …). Fails
-    /// loudly when none is found — callers never fall back to "no rendering".
-    pub fn headless() -> Result<Self, RenderError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            ..Default::default()
-        }))
-        .map_err(|e| RenderError::NoAdapter {
-            backend: std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "(default)".into()),
-            reason: e.to_string(),
-        })?;
-        let limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("swarmshot device"),
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| RenderError::Device(e.to_string()))?;
-        Ok(Self {
-            device,
-            queue,
-            adapter_info: adapter.get_info(),
-            max_texture_side: limits.max_texture_dimension_2d,
-        })
-    }
-
-    /// "lavapipe (Vulkan)" and the like, for logs and reports.
-    pub fn describe(&self) -> String {
-        format!(
-            "{} ({:?})",
-            self.adapter_info.name, self.adapter_info.backend
-        )
-    }
 }
 
 /// Per-frame uniforms; layout matches `shaders/common.wgsl` `Frame`.
