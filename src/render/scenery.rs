@@ -50,6 +50,10 @@ pub struct ClutterLayer {
     pub depth: Vec<f32>,
     /// The shapes covered the frame more than [`MAX_OVERDRAW`] times over and the rest were left out.
     pub truncated: bool,
+    /// Per row: the columns `[start, end)` any shape touched (empty when
+    /// start ≥ end). Only these are cleared for the next raster and
+    /// composited: the scenery covers a small part of most frames.
+    touched: Vec<(u32, u32)>,
 }
 
 /// The most sample writes a layer makes, in frames' worth of samples.
@@ -192,14 +196,34 @@ fn rasterize_into(
 ) {
     let camera = &scene.camera;
     let (width, height) = (camera.width, camera.height);
+    let pixels = (width * height) as usize;
+    let reused = (layer.width, layer.height) == (width, height)
+        && layer.color.len() == pixels
+        && layer.depth.len() == pixels
+        && layer.touched.len() == height as usize;
+    if reused {
+        // Outside the rows' touched columns the layer is still empty.
+        for (y, span) in layer.touched.iter_mut().enumerate() {
+            if span.0 < span.1 {
+                let row = y * width as usize;
+                let (a, b) = (row + span.0 as usize, row + span.1 as usize);
+                layer.color[a..b].fill([0; 4]);
+                layer.depth[a..b].fill(0.0);
+            }
+            *span = (u32::MAX, 0);
+        }
+    } else {
+        layer.color.clear();
+        layer.color.resize(pixels, [0; 4]);
+        layer.depth.clear();
+        layer.depth.resize(pixels, 0.0);
+        layer.touched.clear();
+        layer.touched.resize(height as usize, (u32::MAX, 0));
+    }
     layer.width = width;
     layer.height = height;
     layer.samples = samples;
     layer.truncated = false;
-    layer.color.clear();
-    layer.color.resize((width * height) as usize, [0; 4]);
-    layer.depth.clear();
-    layer.depth.resize((width * height) as usize, 0.0);
     let offsets = sample_offsets(samples);
     let Some(clutter) = &scene.clutter else {
         return;
@@ -247,6 +271,8 @@ fn rasterize_into(
                     continue;
                 }
                 written += (xb - xa) as u64 + 1;
+                let span = &mut layer.touched[y as usize];
+                *span = (span.0.min(xa as u32), span.1.max(xb as u32 + 1));
                 for x in xa as usize..=xb as usize {
                     let i = row + x;
                     let c = &mut layer.color[i];
@@ -290,14 +316,25 @@ pub fn rasterize(scene: &FrameScene, samples: u32) -> ClutterLayer {
 /// mean of its samples, the scenery's where covered and the sky's elsewhere.
 pub(super) fn composite(layer: &ClutterLayer, rgba: &mut [u8]) {
     let n = layer.samples.max(1);
-    for (px, c) in rgba.chunks_exact_mut(4).zip(&layer.color) {
-        let k = c[3].count_ones();
-        if k == 0 {
+    let width = layer.width as usize;
+    for (y, &(start, end)) in layer.touched.iter().enumerate() {
+        if start >= end {
             continue;
         }
-        for ch in 0..3 {
-            let sum = k * u32::from(c[ch]) + (n - k) * u32::from(px[ch]);
-            px[ch] = ((sum as f32 / n as f32).round()) as u8;
+        let (a, b) = (y * width + start as usize, y * width + end as usize);
+        let Some(row) = rgba.get_mut(a * 4..b * 4) else {
+            continue;
+        };
+        for (px, c) in row.chunks_exact_mut(4).zip(&layer.color[a..b]) {
+            let k = c[3].count_ones();
+            if k == 0 {
+                continue;
+            }
+            for ch in 0..3 {
+                let sum = k * u32::from(c[ch]) + (n - k) * u32::from(px[ch]);
+                // sum / n rounded half up, in integers (no libm call).
+                px[ch] = ((2 * sum + n) / (2 * n)) as u8;
+            }
         }
     }
 }
