@@ -273,12 +273,13 @@ fn rasterize_into(
                 written += (xb - xa) as u64 + 1;
                 let span = &mut layer.touched[y as usize];
                 *span = (span.0.min(xa as u32), span.1.max(xb as u32 + 1));
-                for x in xa as usize..=xb as usize {
-                    let i = row + x;
-                    let c = &mut layer.color[i];
-                    c[3] |= 1 << s;
-                    if depth >= layer.depth[i] {
-                        layer.depth[i] = depth;
+                let (a, b) = (row + xa as usize, row + xb as usize + 1);
+                let bit = 1u8 << s;
+                let pixels = layer.color[a..b].iter_mut().zip(&mut layer.depth[a..b]);
+                for (c, d) in pixels {
+                    c[3] |= bit;
+                    if depth >= *d {
+                        *d = depth;
                         c[..3].copy_from_slice(&rgb);
                     }
                 }
