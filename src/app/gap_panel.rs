@@ -41,6 +41,18 @@ struct Job {
     stage: Arc<Mutex<String>>,
     cancel: Arc<AtomicBool>,
     result: Receiver<Result<Report, String>>,
+    /// The report thread (it may render a preset on the GPU): joined on drop.
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for Job {
+    /// A report still being made is cancelled; its thread is waited for.
+    fn drop(&mut self) {
+        self.cancel.store(true, Ordering::Relaxed);
+        if let Some(thread) = self.thread.take() {
+            super::worker::join_within(thread, super::worker::JOIN_WAIT);
+        }
+    }
 }
 
 /// The window's state.
@@ -262,12 +274,13 @@ impl GapPanel {
                 ctx.request_repaint();
             });
         match spawned {
-            Ok(_) => {
+            Ok(thread) => {
                 self.outcome = None;
                 self.job = Some(Job {
                     stage,
                     cancel,
                     result,
+                    thread: Some(thread),
                 });
             }
             Err(e) => self.outcome = Some(Err(format!("cannot start the report thread: {e}"))),

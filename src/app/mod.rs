@@ -535,16 +535,9 @@ fn take_focus_on_click(ctx: &egui::Context, frame: &eframe::Frame) {
 
 impl Drop for SwarmshotApp {
     /// Closing the window mid-batch cancels it and waits for the frames in
-    /// flight, so the dataset on disk stays consistent.
+    /// flight, so the dataset on disk stays consistent (`BatchRun`'s drop);
+    /// the batch goes first, then the workers (their own drops join them).
     fn drop(&mut self) {
-        if let Some(batch) = self.batch.take() {
-            batch.cancel();
-            for _ in 0..600 {
-                if batch.finished().is_some() {
-                    break;
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        }
+        drop(self.batch.take());
     }
 }

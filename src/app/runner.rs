@@ -63,6 +63,8 @@ pub struct BatchRun {
     pub total: u64,
     pub out_dir: PathBuf,
     started: Instant,
+    /// The batch thread: joined on drop (it holds a GPU context).
+    thread: Option<std::thread::JoinHandle<()>>,
 }
 
 /// How a batch ended.
@@ -99,7 +101,7 @@ impl BatchRun {
             .map_or(preset.frame_count(), |n| n.min(preset.frame_count()));
         let out_dir = options.out_dir.clone();
         let (thread_cancel, thread_progress) = (Arc::clone(&cancel), Arc::clone(&progress));
-        std::thread::Builder::new()
+        let thread = std::thread::Builder::new()
             .name("swarmshot batch".into())
             .spawn(move || {
                 let mut throttle = WakeThrottle::new(WAKE_INTERVAL);
@@ -130,6 +132,7 @@ impl BatchRun {
             total,
             out_dir,
             started: Instant::now(),
+            thread: Some(thread),
         })
     }
 
@@ -172,6 +175,17 @@ impl BatchRun {
             Err(crossbeam_channel::TryRecvError::Disconnected) => Some(BatchOutcome::Failed(
                 "the batch thread stopped without a result".into(),
             )),
+        }
+    }
+}
+
+impl Drop for BatchRun {
+    /// A batch still running is cancelled (the frames in flight are
+    /// finished, the dataset stays consistent); its thread is waited for.
+    fn drop(&mut self) {
+        self.cancel();
+        if let Some(thread) = self.thread.take() {
+            super::worker::join_within(thread, super::worker::JOIN_WAIT);
         }
     }
 }
