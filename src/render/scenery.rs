@@ -259,9 +259,12 @@ fn rasterize_into(
         let depth = depth as f32;
         // Row by row, each sample row's span of the (convex) polygon: the
         // work is the rows and the pixels covered, not the bounding box.
+        // A pixel is painted once with the mask of the samples covering it:
+        // the shape's depth and colour are the same for all of them.
+        let mut spans = [(0usize, 0usize, 0u8); 8];
         for y in y0..y1 {
-            let row = (y * width) as usize;
-            for (s, (ox, oy)) in offsets.iter().enumerate() {
+            let mut n = 0;
+            for (s, (ox, oy)) in offsets.iter().enumerate().take(spans.len()) {
                 let Some((left, right)) = span(&poly, f64::from(y) + oy) else {
                     continue;
                 };
@@ -271,17 +274,47 @@ fn rasterize_into(
                     continue;
                 }
                 written += (xb - xa) as u64 + 1;
-                let span = &mut layer.touched[y as usize];
-                *span = (span.0.min(xa as u32), span.1.max(xb as u32 + 1));
-                let (a, b) = (row + xa as usize, row + xb as usize + 1);
-                let bit = 1u8 << s;
-                let pixels = layer.color[a..b].iter_mut().zip(&mut layer.depth[a..b]);
-                for (c, d) in pixels {
-                    c[3] |= bit;
-                    if depth >= *d {
-                        *d = depth;
-                        c[..3].copy_from_slice(&rgb);
-                    }
+                spans[n] = (xa as usize, xb as usize + 1, 1u8 << s);
+                n += 1;
+            }
+            let spans = &spans[..n];
+            let (Some(start), Some(end)) = (
+                spans.iter().map(|t| t.0).min(),
+                spans.iter().map(|t| t.1).max(),
+            ) else {
+                continue;
+            };
+            let touched = &mut layer.touched[y as usize];
+            *touched = (touched.0.min(start as u32), touched.1.max(end as u32));
+            let row = (y * width) as usize;
+            let colors = &mut layer.color[row + start..row + end];
+            let depths = &mut layer.depth[row + start..row + end];
+            // Where every sample's span covers, the whole mask; elsewhere each pixel's own.
+            let all = spans.iter().fold(0u8, |m, t| m | t.2);
+            let inner_a = spans.iter().map(|t| t.0).max().unwrap_or(start);
+            let inner_b = spans
+                .iter()
+                .map(|t| t.1)
+                .min()
+                .unwrap_or(start)
+                .max(inner_a);
+            for (i, (c, d)) in colors.iter_mut().zip(depths.iter_mut()).enumerate() {
+                let x = start + i;
+                let bits = if x >= inner_a && x < inner_b {
+                    all
+                } else {
+                    spans
+                        .iter()
+                        .filter(|t| t.0 <= x && x < t.1)
+                        .fold(0u8, |m, t| m | t.2)
+                };
+                if bits == 0 {
+                    continue;
+                }
+                c[3] |= bits;
+                if depth >= *d {
+                    *d = depth;
+                    c[..3].copy_from_slice(&rgb);
                 }
             }
         }
