@@ -373,11 +373,14 @@ mod tests {
 
     /// The code before the nearest-first order, the sign tests and the
     /// shared buffers (commit 794ea63), verbatim but for names: the reference.
+    /// It fills the same `Tile` (whose `at` did not change) with the old raster.
     mod before {
         use crate::annotate::masks::FrameMasks;
         use crate::model::CpuModel;
         use crate::scene::FrameScene;
         use glam::{DVec2, DVec3};
+
+        use super::super::Tile;
 
         pub fn depth_m(scene: &FrameScene, models: &[CpuModel], masks: &FrameMasks) -> Vec<f64> {
             let width = masks.width.max(1);
@@ -406,7 +409,7 @@ mod tests {
                 let y0 = pixels.iter().map(|p| p.1).min().unwrap_or(0);
                 let x1 = pixels.iter().map(|p| p.0 + 1).max().unwrap_or(0);
                 let y1 = pixels.iter().map(|p| p.1 + 1).max().unwrap_or(0);
-                let tile = OldTile::raster(scene, d, model, (x0, y0, x1, y1));
+                let tile = raster(scene, d, model, (x0, y0, x1, y1));
                 for &(x, y, k) in pixels {
                     out[k] = tile.at(x, y).unwrap_or(centre_z);
                 }
@@ -448,129 +451,98 @@ mod tests {
         }
 
         /// A drone's nearest surface depth over a pixel rectangle.
-        struct OldTile {
-            x0: u32,
-            y0: u32,
-            w: u32,
-            h: u32,
-            /// Nearest z per pixel centre (infinity: not covered).
-            z: Vec<f64>,
+        fn raster(
+            scene: &FrameScene,
+            d: usize,
+            model: &CpuModel,
+            rect: (u32, u32, u32, u32),
+        ) -> Tile {
+            let (x0, y0, x1, y1) = rect;
+            let (w, h) = (x1 - x0, y1 - y0);
+            let mut tile = Tile {
+                x0,
+                y0,
+                w,
+                h,
+                z: vec![f64::INFINITY; (w as usize) * (h as usize)],
+            };
+            let cam = &scene.camera;
+            let drone = &scene.drones[d];
+            // Camera-frame vertices and their pixel positions (the camera's
+            // `project_camera_point`, its focal length worked out once, not per vertex).
+            let (f, c) = (cam.focal_px(), cam.principal_point());
+            let points: Vec<Option<(DVec2, f64)>> = (model.vertices.iter())
+                .map(|v| {
+                    let local = DVec3::from(v.position.map(f64::from)) * drone.size_m;
+                    let p = cam.camera_from_world_point(drone.position + drone.rotation * local);
+                    (p.z > cam.near_m && p.z > 0.0)
+                        .then(|| (DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y), p.z))
+                })
+                .collect();
+            for tri in model.indices.chunks_exact(3) {
+                let corner = |i: u32| points.get(i as usize).copied().flatten();
+                if let (Some(a), Some(b), Some(c)) =
+                    (corner(tri[0]), corner(tri[1]), corner(tri[2]))
+                {
+                    triangle(&mut tile, [a, b, c]);
+                }
+            }
+            tile
         }
 
-        impl OldTile {
-            fn raster(
-                scene: &FrameScene,
-                d: usize,
-                model: &CpuModel,
-                rect: (u32, u32, u32, u32),
-            ) -> Self {
-                let (x0, y0, x1, y1) = rect;
-                let (w, h) = (x1 - x0, y1 - y0);
-                let mut tile = Self {
-                    x0,
-                    y0,
-                    w,
-                    h,
-                    z: vec![f64::INFINITY; (w as usize) * (h as usize)],
-                };
-                let cam = &scene.camera;
-                let drone = &scene.drones[d];
-                // Camera-frame vertices and their pixel positions (the camera's
-                // `project_camera_point`, its focal length worked out once, not per vertex).
-                let (f, c) = (cam.focal_px(), cam.principal_point());
-                let points: Vec<Option<(DVec2, f64)>> = (model.vertices.iter())
-                    .map(|v| {
-                        let local = DVec3::from(v.position.map(f64::from)) * drone.size_m;
-                        let p =
-                            cam.camera_from_world_point(drone.position + drone.rotation * local);
-                        (p.z > cam.near_m && p.z > 0.0)
-                            .then(|| (DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y), p.z))
-                    })
-                    .collect();
-                for tri in model.indices.chunks_exact(3) {
-                    let corner = |i: u32| points.get(i as usize).copied().flatten();
-                    if let (Some(a), Some(b), Some(c)) =
-                        (corner(tri[0]), corner(tri[1]), corner(tri[2]))
-                    {
-                        tile.triangle([a, b, c]);
-                    }
-                }
-                tile
+        /// Keep the nearest depth of the triangle at each pixel centre it covers
+        /// (either winding); 1/z is linear in screen space.
+        fn triangle(tile: &mut Tile, v: [(DVec2, f64); 3]) {
+            let [(a, za), (b, zb), (c, zc)] = v;
+            let lo = a.min(b).min(c);
+            let hi = a.max(b).max(c);
+            let (fx0, fy0) = (f64::from(tile.x0), f64::from(tile.y0));
+            let px0 = ((lo.x - 0.5).ceil().max(fx0)) as u32;
+            let py0 = ((lo.y - 0.5).ceil().max(fy0)) as u32;
+            let px1 = ((hi.x - 0.5).floor() + 1.0)
+                .min(fx0 + f64::from(tile.w))
+                .max(0.0) as u32;
+            let py1 = ((hi.y - 0.5).floor() + 1.0)
+                .min(fy0 + f64::from(tile.h))
+                .max(0.0) as u32;
+            // Most triangles of a small drone hold no pixel centre: done before any sum.
+            if px0 >= px1 || py0 >= py1 {
+                return;
             }
-
-            /// Keep the nearest depth of the triangle at each pixel centre it covers
-            /// (either winding); 1/z is linear in screen space.
-            fn triangle(&mut self, v: [(DVec2, f64); 3]) {
-                let [(a, za), (b, zb), (c, zc)] = v;
-                let lo = a.min(b).min(c);
-                let hi = a.max(b).max(c);
-                let (fx0, fy0) = (f64::from(self.x0), f64::from(self.y0));
-                let px0 = ((lo.x - 0.5).ceil().max(fx0)) as u32;
-                let py0 = ((lo.y - 0.5).ceil().max(fy0)) as u32;
-                let px1 = ((hi.x - 0.5).floor() + 1.0)
-                    .min(fx0 + f64::from(self.w))
-                    .max(0.0) as u32;
-                let py1 = ((hi.y - 0.5).floor() + 1.0)
-                    .min(fy0 + f64::from(self.h))
-                    .max(0.0) as u32;
-                // Most triangles of a small drone hold no pixel centre: done before any sum.
-                if px0 >= px1 || py0 >= py1 {
-                    return;
-                }
-                let area = (b - a).perp_dot(c - a);
-                if area.abs() < 1e-12 {
-                    return;
-                }
-                // Only triangles of a pixel or more gain from spans; small ones walk their box.
-                let spans = area.abs() >= 1.0;
-                // No centre of the triangle is nearer than its nearest corner (the
-                // weights are ≥ 0 and sum to 1 within a few ulps; the margin is far
-                // wider), so a pixel already as near as that keeps its depth unread.
-                let nearest = za.min(zb).min(zc) * (1.0 - 1e-9);
-                for py in py0..py1 {
-                    let cy = f64::from(py) + 0.5;
-                    let (sx0, sx1) = if spans {
-                        row_span([a, b, c], cy, (px0, px1))
-                    } else {
-                        (px0, px1)
-                    };
-                    for px in sx0..sx1 {
-                        let at = ((py - self.y0) * self.w + (px - self.x0)) as usize;
-                        if nearest >= self.z[at] {
-                            continue;
-                        }
-                        let p = DVec2::new(f64::from(px) + 0.5, cy);
-                        let wa = (c - b).perp_dot(p - b) / area;
-                        let wb = (a - c).perp_dot(p - c) / area;
-                        let wc = 1.0 - wa - wb;
-                        if wa < 0.0 || wb < 0.0 || wc < 0.0 {
-                            continue;
-                        }
-                        let z = 1.0 / (wa / za + wb / zb + wc / zc);
-                        if z < self.z[at] {
-                            self.z[at] = z;
-                        }
-                    }
-                }
+            let area = (b - a).perp_dot(c - a);
+            if area.abs() < 1e-12 {
+                return;
             }
-
-            /// The depth at (x, y), else the nearest of its covered 8-neighbours.
-            fn at(&self, x: u32, y: u32) -> Option<f64> {
-                let get = |x: i64, y: i64| -> Option<f64> {
-                    let (dx, dy) = (x - i64::from(self.x0), y - i64::from(self.y0));
-                    if dx < 0 || dy < 0 || dx >= i64::from(self.w) || dy >= i64::from(self.h) {
-                        return None;
-                    }
-                    let z = self.z[(dy as usize) * (self.w as usize) + dx as usize];
-                    z.is_finite().then_some(z)
+            // Only triangles of a pixel or more gain from spans; small ones walk their box.
+            let spans = area.abs() >= 1.0;
+            // No centre of the triangle is nearer than its nearest corner (the
+            // weights are ≥ 0 and sum to 1 within a few ulps; the margin is far
+            // wider), so a pixel already as near as that keeps its depth unread.
+            let nearest = za.min(zb).min(zc) * (1.0 - 1e-9);
+            for py in py0..py1 {
+                let cy = f64::from(py) + 0.5;
+                let (sx0, sx1) = if spans {
+                    row_span([a, b, c], cy, (px0, px1))
+                } else {
+                    (px0, px1)
                 };
-                let (x, y) = (i64::from(x), i64::from(y));
-                get(x, y).or_else(|| {
-                    (-1..=1)
-                        .flat_map(|dy| (-1..=1).map(move |dx| (dx, dy)))
-                        .filter_map(|(dx, dy)| get(x + dx, y + dy))
-                        .min_by(f64::total_cmp)
-                })
+                for px in sx0..sx1 {
+                    let at = ((py - tile.y0) * tile.w + (px - tile.x0)) as usize;
+                    if nearest >= tile.z[at] {
+                        continue;
+                    }
+                    let p = DVec2::new(f64::from(px) + 0.5, cy);
+                    let wa = (c - b).perp_dot(p - b) / area;
+                    let wb = (a - c).perp_dot(p - c) / area;
+                    let wc = 1.0 - wa - wb;
+                    if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                        continue;
+                    }
+                    let z = 1.0 / (wa / za + wb / zb + wc / zc);
+                    if z < tile.z[at] {
+                        tile.z[at] = z;
+                    }
+                }
             }
         }
     }
