@@ -761,21 +761,26 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
             if to.within(&t, k, limit_sq) {
                 continue;
             }
-            // Bisect the longest edge.
-            let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
-            let [p, q, o] = if ab >= bc && ab >= ca {
-                [a, b, c]
-            } else if bc >= ca {
-                [b, c, a]
-            } else {
-                [c, a, b]
-            };
-            let m = (p + q) * 0.5;
-            stack.push(([p, m, o], depth + 1, k));
-            stack.push(([m, q, o], depth + 1, k));
+            for half in bisect_longest_edge([a, b, c]) {
+                stack.push((half, depth + 1, k));
+            }
         }
     }
     worst
+}
+
+/// The two halves of triangle `[a, b, c]` split at its longest edge's midpoint.
+fn bisect_longest_edge([a, b, c]: [DVec3; 3]) -> [[DVec3; 3]; 2] {
+    let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
+    let [p, q, o] = if ab >= bc && ab >= ca {
+        [a, b, c]
+    } else if bc >= ca {
+        [b, c, a]
+    } else {
+        [c, a, b]
+    };
+    let m = (p + q) * 0.5;
+    [[p, m, o], [m, q, o]]
 }
 
 /// The Hausdorff bound that a largest sampled distance `w` stands for.

@@ -186,17 +186,9 @@ fn plain_one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
                 worst = worst.max(d + (r - (bound(d) - d)).max(0.0));
                 continue;
             }
-            let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
-            let [p, q, o] = if ab >= bc && ab >= ca {
-                [a, b, c]
-            } else if bc >= ca {
-                [b, c, a]
-            } else {
-                [c, a, b]
-            };
-            let m = (p + q) * 0.5;
-            stack.push(([p, m, o], depth + 1));
-            stack.push(([m, q, o], depth + 1));
+            for half in bisect_longest_edge([a, b, c]) {
+                stack.push((half, depth + 1));
+            }
         }
     }
     worst
