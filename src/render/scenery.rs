@@ -60,6 +60,84 @@ pub struct ClutterLayer {
 pub const MAX_OVERDRAW: u64 = 64;
 
 impl ClutterLayer {
+    /// Empty for a `width`×`height` frame of `samples`: only the columns
+    /// the last raster touched are cleared when the size is the same.
+    fn reset(&mut self, width: u32, height: u32, samples: u32) {
+        let pixels = (width * height) as usize;
+        let reused = (self.width, self.height) == (width, height)
+            && self.color.len() == pixels
+            && self.depth.len() == pixels
+            && self.touched.len() == height as usize;
+        if reused {
+            // Outside the rows' touched columns the layer is still empty.
+            for (y, span) in self.touched.iter_mut().enumerate() {
+                if span.0 < span.1 {
+                    let row = y * width as usize;
+                    let (a, b) = (row + span.0 as usize, row + span.1 as usize);
+                    self.color[a..b].fill([0; 4]);
+                    self.depth[a..b].fill(0.0);
+                }
+                *span = (u32::MAX, 0);
+            }
+        } else {
+            self.color.clear();
+            self.color.resize(pixels, [0; 4]);
+            self.depth.clear();
+            self.depth.resize(pixels, 0.0);
+            self.touched.clear();
+            self.touched.resize(height as usize, (u32::MAX, 0));
+        }
+        self.width = width;
+        self.height = height;
+        self.samples = samples;
+        self.truncated = false;
+    }
+
+    /// Paint one shape of `depth` and colour `rgb` on row `y`, where its
+    /// samples' `spans` (columns `[start, end)`, sample bit) cover: each
+    /// pixel once, with the mask of the samples covering it.
+    fn paint_row(&mut self, y: u32, spans: &[(usize, usize, u8)], depth: f32, rgb: &[u8; 3]) {
+        let (Some(start), Some(end)) = (
+            spans.iter().map(|t| t.0).min(),
+            spans.iter().map(|t| t.1).max(),
+        ) else {
+            return;
+        };
+        let touched = &mut self.touched[y as usize];
+        *touched = (touched.0.min(start as u32), touched.1.max(end as u32));
+        let row = (y * self.width) as usize;
+        let colors = &mut self.color[row + start..row + end];
+        let depths = &mut self.depth[row + start..row + end];
+        // Where every sample's span covers, the whole mask; elsewhere each pixel's own.
+        let all = spans.iter().fold(0u8, |m, t| m | t.2);
+        let inner_a = spans.iter().map(|t| t.0).max().unwrap_or(start);
+        let inner_b = spans
+            .iter()
+            .map(|t| t.1)
+            .min()
+            .unwrap_or(start)
+            .max(inner_a);
+        for (i, (c, d)) in colors.iter_mut().zip(depths.iter_mut()).enumerate() {
+            let x = start + i;
+            let bits = if x >= inner_a && x < inner_b {
+                all
+            } else {
+                spans
+                    .iter()
+                    .filter(|t| t.0 <= x && x < t.1)
+                    .fold(0u8, |m, t| m | t.2)
+            };
+            if bits == 0 {
+                continue;
+            }
+            c[3] |= bits;
+            if depth >= *d {
+                *d = depth;
+                c[..3].copy_from_slice(rgb);
+            }
+        }
+    }
+
     /// The mask of the samples of pixel (x, y) the scenery covers.
     pub fn mask(&self, x: u32, y: u32) -> u8 {
         self.color[(y * self.width + x) as usize][3]
@@ -196,34 +274,7 @@ fn rasterize_into(
 ) {
     let camera = &scene.camera;
     let (width, height) = (camera.width, camera.height);
-    let pixels = (width * height) as usize;
-    let reused = (layer.width, layer.height) == (width, height)
-        && layer.color.len() == pixels
-        && layer.depth.len() == pixels
-        && layer.touched.len() == height as usize;
-    if reused {
-        // Outside the rows' touched columns the layer is still empty.
-        for (y, span) in layer.touched.iter_mut().enumerate() {
-            if span.0 < span.1 {
-                let row = y * width as usize;
-                let (a, b) = (row + span.0 as usize, row + span.1 as usize);
-                layer.color[a..b].fill([0; 4]);
-                layer.depth[a..b].fill(0.0);
-            }
-            *span = (u32::MAX, 0);
-        }
-    } else {
-        layer.color.clear();
-        layer.color.resize(pixels, [0; 4]);
-        layer.depth.clear();
-        layer.depth.resize(pixels, 0.0);
-        layer.touched.clear();
-        layer.touched.resize(height as usize, (u32::MAX, 0));
-    }
-    layer.width = width;
-    layer.height = height;
-    layer.samples = samples;
-    layer.truncated = false;
+    layer.reset(width, height, samples);
     let offsets = sample_offsets(samples);
     let Some(clutter) = &scene.clutter else {
         return;
@@ -277,46 +328,7 @@ fn rasterize_into(
                 spans[n] = (xa as usize, xb as usize + 1, 1u8 << s);
                 n += 1;
             }
-            let spans = &spans[..n];
-            let (Some(start), Some(end)) = (
-                spans.iter().map(|t| t.0).min(),
-                spans.iter().map(|t| t.1).max(),
-            ) else {
-                continue;
-            };
-            let touched = &mut layer.touched[y as usize];
-            *touched = (touched.0.min(start as u32), touched.1.max(end as u32));
-            let row = (y * width) as usize;
-            let colors = &mut layer.color[row + start..row + end];
-            let depths = &mut layer.depth[row + start..row + end];
-            // Where every sample's span covers, the whole mask; elsewhere each pixel's own.
-            let all = spans.iter().fold(0u8, |m, t| m | t.2);
-            let inner_a = spans.iter().map(|t| t.0).max().unwrap_or(start);
-            let inner_b = spans
-                .iter()
-                .map(|t| t.1)
-                .min()
-                .unwrap_or(start)
-                .max(inner_a);
-            for (i, (c, d)) in colors.iter_mut().zip(depths.iter_mut()).enumerate() {
-                let x = start + i;
-                let bits = if x >= inner_a && x < inner_b {
-                    all
-                } else {
-                    spans
-                        .iter()
-                        .filter(|t| t.0 <= x && x < t.1)
-                        .fold(0u8, |m, t| m | t.2)
-                };
-                if bits == 0 {
-                    continue;
-                }
-                c[3] |= bits;
-                if depth >= *d {
-                    *d = depth;
-                    c[..3].copy_from_slice(&rgb);
-                }
-            }
+            layer.paint_row(y, &spans[..n], depth, &rgb);
         }
     }
 }
