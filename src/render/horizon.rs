@@ -17,11 +17,11 @@ pub(super) struct Horizon {
     /// `a·x + b·y + c` over full-resolution pixel coordinates (x right,
     /// y down): the world `y` of the ray through the pixel, unnormalised
     /// (its camera-frame `z` is 1), positive on the sky side.
-    pub line: [f32; 3],
+    line: [f32; 3],
     /// The longest such ray over the frame (its corners): a ray at
     /// elevation `e` has `line = sin(e)·|ray|`, between `sin(e)` and
     /// `sin(e)·max_ray`.
-    pub max_ray: f32,
+    max_ray: f32,
 }
 
 impl Horizon {
@@ -80,7 +80,7 @@ impl Horizon {
 /// `size` target (each texel `scale` full-resolution pixels) where `line`
 /// lies between `lo` and `hi` (each `None`: unbounded), widened by
 /// [`MARGIN_PX`].
-pub(super) fn strip_triangles(
+fn strip_triangles(
     line: [f32; 3],
     (lo, hi): (Option<f32>, Option<f32>),
     size: (u32, u32),
