@@ -522,28 +522,36 @@ impl Surface {
     /// found, the search stops and returns that (smaller) distance. The
     /// triangle `hint` is tried first: when it is within `enough` it is the
     /// answer (a caller that only asks "within `enough`?" gets the same
-    /// answer as from the full search); otherwise the search is the plain
-    /// one, so a distance above `enough` is the exact nearest distance.
+    /// answer as from the full search); otherwise its distance bounds the
+    /// search, so a distance above `enough` is the exact nearest distance.
     fn nearest(&self, p: DVec3, enough: f64, hint: usize) -> (f64, usize) {
         let enough_sq = enough.max(0.0).powi(2);
+        let (mut best_sq, mut best) = (f64::INFINITY, hint);
         if let Some(t) = self.triangles.get(hint) {
             let d_sq = (closest_point_on_triangle(p, t) - p).length_squared();
             if d_sq <= enough_sq {
                 return (d_sq.sqrt(), hint);
             }
+            // A bound to prune with; only a nearer triangle replaces it.
+            best_sq = d_sq;
         }
-        let (mut best_sq, mut best) = (f64::INFINITY, 0);
         // Depth-first with the nearer child on top: at most one pending
         // sibling per level, and median splits keep the depth near log2(n).
-        let mut stack = [0usize; 128];
-        let mut len = usize::from(!self.nodes.is_empty());
+        // Each pending node with its box's distance (computed once, when its
+        // parent ordered the children).
+        let mut stack = [(0usize, 0.0f64); 128];
+        let mut len = 0;
+        if let Some(root) = self.nodes.first() {
+            stack[0] = (0, box_distance_sq(p, root.lo, root.hi));
+            len = 1;
+        }
         while len > 0 {
             len -= 1;
-            let i = stack[len];
-            let node = &self.nodes[i];
-            if box_distance_sq(p, node.lo, node.hi) >= best_sq {
+            let (i, box_sq) = stack[len];
+            if box_sq >= best_sq {
                 continue;
             }
+            let node = &self.nodes[i];
             if node.leaf {
                 for (k, t) in (node.a..).zip(&self.triangles[node.a..node.a + node.b]) {
                     let d_sq = (closest_point_on_triangle(p, t) - p).length_squared();
@@ -560,9 +568,9 @@ impl Surface {
                 let dr = box_distance_sq(p, r.lo, r.hi);
                 // Nearer child on top of the stack.
                 let (far, near) = if dl <= dr {
-                    (node.b, node.a)
+                    ((node.b, dr), (node.a, dl))
                 } else {
-                    (node.a, node.b)
+                    ((node.a, dl), (node.b, dr))
                 };
                 if len + 2 > stack.len() {
                     // Unreachable with median splits; a guard, not a panic.
@@ -574,6 +582,32 @@ impl Surface {
             }
         }
         (best_sq.sqrt(), best)
+    }
+
+    /// Whether some triangle has every corner of `t` closer than
+    /// `limit_sq.sqrt()` ([`Surface::within`] for any triangle, not one):
+    /// only nodes whose box is that close to all three corners are opened.
+    fn any_within_of(&self, t: &[DVec3; 3], limit_sq: f64) -> bool {
+        let near = |node: &Node| t.iter().all(|&v| box_distance_sq(v, node.lo, node.hi) < limit_sq);
+        let mut stack = [0usize; 128];
+        let mut len = usize::from(self.nodes.first().is_some_and(near));
+        while len > 0 {
+            len -= 1;
+            let node = &self.nodes[stack[len]];
+            if node.leaf {
+                if (node.a..node.a + node.b).any(|k| self.within(t, k, limit_sq)) {
+                    return true;
+                }
+                continue;
+            }
+            for child in [node.a, node.b] {
+                if near(&self.nodes[child]) && len < stack.len() {
+                    stack[len] = child;
+                    len += 1;
+                }
+            }
+        }
+        false
     }
 
     /// Whether every point of `t` lies closer than `limit_sq.sqrt()` to
@@ -709,6 +743,9 @@ const MAX_DEPTH: u32 = 48;
 /// piece is far smaller than δ), so it is skipped; that one
 /// triangle is the one found nearest for the piece before (the `hint`),
 /// which also answers most "within `B − r`?" queries without the tree.
+/// A piece whose radius alone is past `B` (`r > B`) can only be skipped or
+/// split, whatever its distance, so it asks the tree only whether any one
+/// triangle lies within `w₀` of all of it.
 fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     if from.triangles.is_empty() {
         return start;
@@ -748,6 +785,17 @@ fn one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
             let [a, b, c] = t;
             let g = (a + b + c) / 3.0;
             let r = (a - g).length().max((b - g).length()).max((c - g).length());
+            if r > bound(worst) && depth < MAX_DEPTH {
+                // Too large to settle (its radius alone is past the bound),
+                // so it is skipped or split, whatever its nearest triangle:
+                // skipped when some triangle is within w₀ of all of it.
+                if !to.any_within_of(&t, limit_sq) {
+                    for half in bisect_longest_edge([a, b, c]) {
+                        stack.push((half, depth + 1, near));
+                    }
+                }
+                continue;
+            }
             let (d, k) = to.nearest(g, bound(worst) - r, near);
             hint = k;
             if d + r <= bound(worst) {

@@ -97,26 +97,23 @@ impl Assets {
         let sources: Vec<ModelSource> = (preset.models.iter().map(|m| m.source.clone()))
             .chain(confuser_slots.iter().cloned().map(ModelSource::Builtin))
             .collect();
-        let models = (preset.models.iter().map(load_model_spec))
-            .chain(sources[preset.models.len()..].iter().map(load_model))
-            .collect::<Result<Vec<_>, _>>()?;
+        // The sky's images decode on a second thread while the models load
+        // and their levels are built; the models' errors still come first.
+        let (models, sky) = std::thread::scope(|s| {
+            let sky = s.spawn(|| EnvironmentAssets::load(&preset.sky));
+            let models = load_models(preset, &sources);
+            let sky = sky.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+            (models, sky)
+        });
+        let (models, lods) = models?;
         let geometry = models.iter().map(LabelGeometry::from).collect();
-        let lods = if preset.render.lod_error_px > 0.0 {
-            sources
-                .iter()
-                .zip(&models)
-                .map(|(source, m)| load_lods(source, m))
-                .collect::<Result<Vec<_>, _>>()?
-        } else {
-            Vec::new()
-        };
         Ok(Self {
             specs: preset.models.clone(),
             confuser_slots,
             models,
             lods,
             geometry,
-            sky: EnvironmentAssets::load(&preset.sky)?,
+            sky: sky?,
             plates: match &preset.backplate {
                 Some(b) => crate::sky::plates::load_plates(b, preset.image_size())?,
                 None => Vec::new(),
@@ -168,6 +165,25 @@ pub fn load_model(source: &ModelSource) -> Result<CpuModel, ModelError> {
         }
         ModelSource::File(path) => model::load_file(path),
     }
+}
+
+/// The preset's models then the confusers' (`sources`), and their levels
+/// of detail when the preset draws with them.
+fn load_models(
+    preset: &Preset,
+    sources: &[ModelSource],
+) -> Result<(Vec<CpuModel>, Vec<Vec<Lod>>), PipelineError> {
+    let models = (preset.models.iter().map(load_model_spec))
+        .chain(sources[preset.models.len()..].iter().map(load_model))
+        .collect::<Result<Vec<_>, _>>()?;
+    let lods = if preset.render.lod_error_px > 0.0 {
+        (sources.iter().zip(&models))
+            .map(|(source, m)| load_lods(source, m))
+            .collect::<Result<Vec<_>, _>>()?
+    } else {
+        Vec::new()
+    };
+    Ok((models, lods))
 }
 
 /// Load one model as a preset names it, with the URI policy it asks for.
