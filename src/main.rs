@@ -227,6 +227,26 @@ enum BenchCommand {
 /// The most image encoder threads `--threads` accepts.
 const MAX_THREADS: usize = 256;
 
+/// lavapipe, the software Vulkan driver, rasterises on `LP_NUM_THREADS`
+/// threads, one per core unless set. The batch's makers and encoders share
+/// those cores, and a rasteriser thread they preempt holds up the whole pass
+/// while the other core waits for it; two threads more than the cores keep
+/// both cores busy (docs/benchmarks.md: −3 to −5 % wall time on
+/// synthswarm_table2, realistic and peer_moving). A value the user set is
+/// kept; a hardware GPU never reads it.
+fn more_lavapipe_threads() {
+    if std::env::var_os("LP_NUM_THREADS").is_some() {
+        return;
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // SAFETY: called first thing in main, before any thread exists, so
+    // nothing reads the environment meanwhile.
+    #[allow(unsafe_code)]
+    unsafe {
+        std::env::set_var("LP_NUM_THREADS", (cores + 2).to_string());
+    }
+}
+
 fn main() -> std::process::ExitCode {
     // Rust ignores SIGPIPE, so printing to a closed pipe (`swarmshot check P | head -1`)
     // panicked; a command-line tool ends quietly there instead, as `ls | head` does.
@@ -236,6 +256,7 @@ fn main() -> std::process::ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    more_lavapipe_threads();
     // A panic the glTF loader catches becomes its typed error; nothing else is printed for it.
     let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
