@@ -588,7 +588,10 @@ impl Surface {
     /// `limit_sq.sqrt()` ([`Surface::within`] for any triangle, not one):
     /// only nodes whose box is that close to all three corners are opened.
     fn any_within_of(&self, t: &[DVec3; 3], limit_sq: f64) -> bool {
-        let near = |node: &Node| t.iter().all(|&v| box_distance_sq(v, node.lo, node.hi) < limit_sq);
+        let near = |node: &Node| {
+            t.iter()
+                .all(|&v| box_distance_sq(v, node.lo, node.hi) < limit_sq)
+        };
         let mut stack = [0usize; 128];
         let mut len = usize::from(self.nodes.first().is_some_and(near));
         while len > 0 {

@@ -16,12 +16,10 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use half::slice::HalfFloatSliceExt;
-
 use super::frame::{RegionState, color_target};
 use super::readback::{self, Readback};
 use super::regions::Rect;
-use super::upsample::Tone;
+use super::upsample::{Texels, Tone, upsample_reduced};
 use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
@@ -48,10 +46,8 @@ pub(super) struct BackgroundCache {
     pub(super) generation: u64,
     /// Full-frame readback of the drawn sky.
     readback: Readback,
-    /// Readback of the procedural environment pass (grown as needed), and
-    /// its texels as `f32` (see [`super::upsample`]).
+    /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
-    environment: Vec<f32>,
     /// Per [`UPLOAD_TILE`]-square tile, row by row: whether `texture` still
     /// lacks that part of `rgba`. A background made on the CPU (upsampled
     /// environment or image sky, backplate) is uploaded only where the
@@ -171,7 +167,6 @@ impl BackgroundCache {
             generation: 0,
             readback: Readback::new(device, "background readback", width, height),
             environment_readback: None,
-            environment: Vec::new(),
             stale: Vec::new(),
         }
     }
@@ -424,34 +419,15 @@ impl Renderer {
             },
         );
         let submitted = self.queue.submit([encoder.finish()]);
-        let texels = &mut cache.environment;
-        readback::read_mapped(&self.device, submitted, buffer, len, |bytes| {
-            // Every texel is written below.
-            texels.resize(w as usize * h as usize * 4, 0.0);
-            let width = w as usize * 4;
-            for (y, out) in texels.chunks_exact_mut(width).enumerate() {
-                let start = y * row as usize;
-                let src = &bytes[start..start + width * 2];
-                // In whole rows (vectorised where the CPU converts half floats).
-                match bytemuck::try_cast_slice::<u8, half::f16>(src) {
-                    Ok(row) if cfg!(target_endian = "little") => row.convert_to_f32_slice(out),
-                    _ => {
-                        for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
-                            *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
-                        }
-                    }
-                }
-            }
-        })?;
         let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-        super::upsample::upsample_reduced(
-            &cache.environment,
-            (w, h),
-            frame,
-            centre,
-            tone,
-            &mut cache.rgba,
-        );
+        let rgba = &mut cache.rgba;
+        readback::read_mapped(&self.device, submitted, buffer, len, |bytes| {
+            let texels = Texels::F16 {
+                bytes,
+                stride: row as usize,
+            };
+            upsample_reduced(texels, (w, h), frame, centre, tone, rgba);
+        })?;
         cache.mark_stale();
         Ok(())
     }

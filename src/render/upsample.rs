@@ -16,6 +16,8 @@
 use std::ops::Range;
 use std::sync::LazyLock;
 
+use half::slice::HalfFloatSliceExt;
+
 /// Linear values where the sRGB-encoded 8-bit value steps up.
 struct SrgbTable {
     /// `thresholds[k]`: the least linear value encoded as `k` (k ≥ 1);
@@ -341,11 +343,93 @@ fn avx2() -> bool {
     false
 }
 
-/// Upsample a reduced pass's `half` (RGBA, `size` texels, linear) to
-/// the frame's `frame` size into `rgba` (RGBA8, sRGB, alpha 255), for a
-/// camera whose principal point is `centre` (pixels), through `tone`.
+/// A reduced pass's texels (RGBA, linear), read a row at a time.
+#[derive(Clone, Copy)]
+pub(super) enum Texels<'a> {
+    /// `f32` values, rows one after the other (the tests' texels).
+    #[cfg(test)]
+    F32(&'a [f32]),
+    /// Half floats as the pass's RGBA16F readback holds them (little
+    /// endian), rows `stride` bytes apart: converted a row at a time as the
+    /// upsampling reaches it, with no frame-sized `f32` copy.
+    F16 { bytes: &'a [u8], stride: usize },
+}
+
+impl Texels<'_> {
+    /// Whether there are `h` rows of `w` texels.
+    fn holds(&self, w: usize, h: usize) -> bool {
+        match *self {
+            #[cfg(test)]
+            Self::F32(v) => v.len() >= w * h * 4,
+            Self::F16 { bytes, stride } => {
+                h == 0 || (stride >= w * 8 && bytes.len() >= (h - 1) * stride + w * 8)
+            }
+        }
+    }
+
+    /// Row `r` (`out.len()` values) into `out`.
+    fn row_into(&self, r: usize, out: &mut [f32]) {
+        let n = out.len();
+        match *self {
+            #[cfg(test)]
+            Self::F32(v) => out.copy_from_slice(&v[r * n..(r + 1) * n]),
+            Self::F16 { bytes, stride } => {
+                let src = &bytes[r * stride..r * stride + n * 2];
+                // In whole rows (vectorised where the CPU converts half floats).
+                match bytemuck::try_cast_slice::<u8, half::f16>(src) {
+                    Ok(row) if cfg!(target_endian = "little") => row.convert_to_f32_slice(out),
+                    _ => {
+                        for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
+                            *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The two source rows an output row blends, converted once each: the
+/// rows only move forward, so the second of one pair is often the first
+/// of the next.
+struct SourceRows {
+    rows: [usize; 2],
+    data: [Vec<f32>; 2],
+}
+
+impl SourceRows {
+    fn new(w: usize) -> Self {
+        Self {
+            rows: [usize::MAX; 2],
+            data: [vec![0.0; w * 4], vec![0.0; w * 4]],
+        }
+    }
+
+    /// Rows `r0` and `r1` (r0 ≤ r1) of `texels`.
+    fn pair(&mut self, texels: &Texels<'_>, r0: usize, r1: usize) -> (&[f32], &[f32]) {
+        if self.rows[0] != r0 {
+            if self.rows[1] == r0 {
+                self.rows.swap(0, 1);
+                self.data.swap(0, 1);
+            } else {
+                texels.row_into(r0, &mut self.data[0]);
+                self.rows[0] = r0;
+            }
+        }
+        if r1 != r0 && self.rows[1] != r1 {
+            texels.row_into(r1, &mut self.data[1]);
+            self.rows[1] = r1;
+        }
+        let [a, b] = &self.data;
+        (a, if r1 == r0 { a } else { b })
+    }
+}
+
+/// Upsample a reduced pass's `texels` (`size` of them) to the frame's
+/// `frame` size into `rgba` (RGBA8, sRGB, alpha 255), for a camera whose
+/// principal point is `centre` (pixels), through `tone`.
 pub(super) fn upsample_reduced(
-    half: &[f32],
+    texels: Texels<'_>,
     size: (u32, u32),
     frame: (u32, u32),
     centre: (f32, f32),
@@ -353,16 +437,16 @@ pub(super) fn upsample_reduced(
     rgba: &mut Vec<u8>,
 ) {
     match tone {
-        Tone::Clip => upsample_with(half, (size, frame), centre, &**CLIP, rgba, avx2()),
+        Tone::Clip => upsample_with(texels, (size, frame), centre, &**CLIP, rgba, avx2()),
         Tone::Exponential => {
-            upsample_with(half, (size, frame), centre, &**EXPONENTIAL, rgba, avx2())
+            upsample_with(texels, (size, frame), centre, &**EXPONENTIAL, rgba, avx2())
         }
     }
 }
 
 /// [`upsample_reduced`] through `buckets`, its rows in the AVX2 build when `simd`.
 fn upsample_with<const N: usize>(
-    half: &[f32],
+    texels: Texels<'_>,
     (size, frame): ((u32, u32), (u32, u32)),
     centre: (f32, f32),
     buckets: &Buckets<N>,
@@ -372,12 +456,13 @@ fn upsample_with<const N: usize>(
     let (w, h) = (size.0 as usize, size.1 as usize);
     // Every byte is written below (no clearing pass over the old contents).
     rgba.resize(frame.0 as usize * frame.1 as usize * 4, 0);
-    if w == 0 || h == 0 || half.len() < w * h * 4 || frame.0 == 0 {
+    if w == 0 || h == 0 || !texels.holds(w, h) || frame.0 == 0 {
         rgba.fill(0);
         return;
     }
     let columns = Columns::new(frame.0, size.0, centre.0);
     let rows = taps(frame.1, size.1, centre.1);
+    let mut source = SourceRows::new(w);
     let plane = vec![0f32; w];
     let value = vec![0f32; frame.0 as usize];
     let mut scratch = RowScratch {
@@ -386,8 +471,8 @@ fn upsample_with<const N: usize>(
     };
     let stride = frame.0 as usize * 4;
     for (&(r0, r1, wy), line) in rows.iter().zip(rgba.chunks_exact_mut(stride)) {
-        let source = |r: usize| &half[r * w * 4..(r + 1) * w * 4];
-        let pair = (source(r0), source(r1), wy);
+        let (a, b) = source.pair(&texels, r0, r1);
+        let pair = (a, b, wy);
         #[cfg(target_arch = "x86_64")]
         if simd {
             // SAFETY: the CPU has AVX2 (checked by `avx2`).
@@ -474,7 +559,14 @@ mod tests {
         // columns sample at texel coordinates -0.25, 0.25, 0.75, 1.25.
         let half = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0];
         let mut rgba = Vec::new();
-        upsample_reduced(&half, (2, 1), (4, 2), (2.0, 1.0), Tone::Clip, &mut rgba);
+        upsample_reduced(
+            Texels::F32(&half),
+            (2, 1),
+            (4, 2),
+            (2.0, 1.0),
+            Tone::Clip,
+            &mut rgba,
+        );
         assert_eq!(rgba.len(), 4 * 2 * 4);
         let red: Vec<u8> = rgba.chunks_exact(4).map(|p| p[0]).collect();
         let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
@@ -579,7 +671,14 @@ mod tests {
             upsample_reference(&half, size, frame, centre, &mut want);
             for simd in [false, avx2()] {
                 let mut got = Vec::new();
-                upsample_with(&half, (size, frame), centre, &**CLIP, &mut got, simd);
+                upsample_with(
+                    Texels::F32(&half),
+                    (size, frame),
+                    centre,
+                    &**CLIP,
+                    &mut got,
+                    simd,
+                );
                 assert!(got == want, "case {k} (simd {simd}) differs");
             }
         }
@@ -592,9 +691,52 @@ mod tests {
     }
 
     #[test]
+    fn half_float_rows_give_the_bytes_of_their_f32_values() {
+        // The readback's layout: RGBA16F rows padded to a stride, read a
+        // row at a time, against the same values as f32 rows.
+        let (size, frame, centre) = ((96, 54), (192, 108), (96.0, 54.0));
+        let (w, h) = (size.0 as usize, size.1 as usize);
+        let stride = (w * 8).next_multiple_of(256);
+        let values = texels(w * h * 4, 11);
+        let halves: Vec<half::f16> = values.iter().map(|&v| half::f16::from_f32(v)).collect();
+        let mut bytes = vec![0xAB; stride * h];
+        for (r, row) in halves.chunks_exact(w * 4).enumerate() {
+            for (k, v) in row.iter().enumerate() {
+                bytes[r * stride + 2 * k..][..2].copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        let exact: Vec<f32> = halves.iter().map(|v| v.to_f32()).collect();
+        for tone in [Tone::Clip, Tone::Exponential] {
+            let (mut want, mut got) = (Vec::new(), Vec::new());
+            upsample_reduced(Texels::F32(&exact), size, frame, centre, tone, &mut want);
+            let f16 = Texels::F16 {
+                bytes: &bytes,
+                stride,
+            };
+            upsample_reduced(f16, size, frame, centre, tone, &mut got);
+            assert!(got == want, "{tone:?}");
+        }
+        // A buffer one byte short of its last row is refused, not read past.
+        let short = Texels::F16 {
+            bytes: &bytes[..stride * (h - 1) + w * 8 - 1],
+            stride,
+        };
+        let mut black = Vec::new();
+        upsample_reduced(short, size, frame, centre, Tone::Clip, &mut black);
+        assert!(black.iter().all(|&b| b == 0));
+    }
+
+    #[test]
     fn a_short_source_gives_a_black_frame_not_a_panic() {
         let mut rgba = vec![9; 3];
-        upsample_reduced(&[0.5; 4], (2, 2), (4, 4), (2.0, 2.0), Tone::Clip, &mut rgba);
+        upsample_reduced(
+            Texels::F32(&[0.5; 4]),
+            (2, 2),
+            (4, 4),
+            (2.0, 2.0),
+            Tone::Clip,
+            &mut rgba,
+        );
         assert_eq!(rgba, vec![0; 64]);
     }
 }
