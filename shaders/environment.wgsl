@@ -37,10 +37,13 @@ struct Env {
     // Preetham's zenith Yxy over the Perez terms at the zenith (twilight on
     // Y): the frame's constant factor of `preetham`.
     sky_k: vec4<f32>,
-    // sky_k times the Perez elevation term of a ray 0.02 above level: the
-    // frame's constant factor of `horizon_haze`.
-    haze_k: vec4<f32>,
+    // `horizon_haze` tabulated (`Preetham::haze_table`): its first half over
+    // sin(γ/2), its second over cos(γ/2), γ the ray's angle to the sun, each
+    // in HAZE_TABLE / 2 even steps from 0 to √½; tone-mapped, not clamped.
+    haze_table: array<vec4<f32>, HAZE_TABLE>,
 };
+
+const HAZE_TABLE: u32 = 512u;
 
 @group(1) @binding(0) var<uniform> env: Env;
 @group(1) @binding(1) var env_equirect: texture_2d<f32>;
@@ -161,14 +164,18 @@ fn preetham(dir: vec3<f32>) -> vec3<f32> {
 }
 
 // The tone-mapped sky 0.02 above level in the azimuth of `az_c` (unit, xz):
-// what hazes the ground and the silhouettes. Its elevation term is the
-// frame's constant (`haze_k`).
+// what hazes the ground and the silhouettes. It depends on the ray's angle γ
+// to the sun only: interpolated in the frame's table.
 fn horizon_haze(az_c: vec2<f32>) -> vec3<f32> {
     // (az_c.x, 0.02, az_c.y) normalised: 1 / sqrt(1.0004).
     let d = vec3<f32>(az_c.x, 0.02, az_c.y) * 0.99980006;
     let cos_gamma = clamp(dot(d, frame.sun_dir_world.xyz), -1.0, 1.0);
-    let yxy = env.haze_k.xyz * perez_g(cos_gamma);
-    return tone_map(yxy_to_rgb(yxy.x, yxy.y, yxy.z) * env.mode.y);
+    // sin(γ/2) toward the sun, cos(γ/2) away from it.
+    let half = HAZE_TABLE / 2u;
+    let t = sqrt(max(0.5 - 0.5 * abs(cos_gamma), 0.0)) * (f32(half - 1u) * 1.4142135);
+    let k = min(u32(t), half - 2u);
+    let i = k + select(half, 0u, cos_gamma >= 0.0);
+    return max(mix(env.haze_table[i].rgb, env.haze_table[i + 1u].rgb, t - f32(k)), vec3<f32>(0.0));
 }
 
 // Angular height (rad) of a silhouette of `kind` at azimuth coordinates `c` (unit circle).

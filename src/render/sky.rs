@@ -16,12 +16,13 @@ use wgpu::util::DeviceExt;
 use super::horizon::Horizon;
 
 use crate::sky::{
-    self, EnvironmentAssets, FrameEnvironment, FrameSky, Lighting, Preetham, SkyImage, SkyImageKind,
+    self, EnvironmentAssets, FrameEnvironment, FrameSky, HAZE_TABLE, Lighting, Preetham, SkyImage,
+    SkyImageKind,
 };
 
 /// Layout matches `Env` in `shaders/environment.wgsl`.
 #[repr(C)]
-#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct EnvUniforms {
     mode: [f32; 4],
     sun_color: [f32; 4],
@@ -37,10 +38,17 @@ struct EnvUniforms {
     ambient: [f32; 4],
     band: [f32; 4],
     sky_k: [f32; 4],
-    haze_k: [f32; 4],
+    /// [`Preetham::haze_table`] (procedural environments; zeros otherwise).
+    haze_table: [[f32; 4]; HAZE_TABLE],
 }
 
-const _: () = assert!(std::mem::size_of::<EnvUniforms>() == 19 * 16);
+impl Default for EnvUniforms {
+    fn default() -> Self {
+        bytemuck::Zeroable::zeroed()
+    }
+}
+
+const _: () = assert!(std::mem::size_of::<EnvUniforms>() == (18 + HAZE_TABLE) * 16);
 
 pub(super) struct SkyGpu {
     pub(super) layout: wgpu::BindGroupLayout,
@@ -692,7 +700,8 @@ impl SkyGpu {
                 ];
                 let (sky_k, haze_k) = model.shader_factors();
                 u.sky_k = rgb(sky_k, 0.0);
-                u.haze_k = rgb(haze_k, 0.0);
+                let table = model.haze_table(haze_k, u.mode[1]);
+                u.haze_table.copy_from_slice(&table);
                 if let Some(v) = atmosphere_visibility_m {
                     // The frame's atmosphere: the ground's fog and the silhouettes'
                     // haze follow the same Koschmieder law as the drones'.

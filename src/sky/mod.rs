@@ -39,8 +39,8 @@ pub use image::{
     EnvironmentAssets, EnvironmentError, MAX_SKY_SIDE, SkyImage, SkyImageKind, load_sky_image,
 };
 pub use preetham::{
-    Lighting, Preetham, SKY_EXPOSURE, gradient_lighting, procedural_lighting, sun_transmittance,
-    tone_map,
+    HAZE_TABLE, Lighting, Preetham, SKY_EXPOSURE, gradient_lighting, procedural_lighting,
+    sun_transmittance, tone_map,
 };
 pub use styles::{EnvironmentStyle, Ground, Silhouette};
 

@@ -96,6 +96,51 @@ impl Preetham {
         (sky, haze)
     }
 
+    /// The horizon haze of environment.wgsl (`horizon_haze`: the
+    /// tone-mapped sky 0.02 above level, at `exposure`) as a table the
+    /// shader interpolates linearly instead of evaluating the Perez terms,
+    /// the colour conversion and the tone map for every pixel. γ is the
+    /// ray's angle to the sun. Entry `k` of the first half is at
+    /// `sin(γ/2) = k / (HALF − 1) · √½` (γ from 0 to 90°), of the second half
+    /// at `cos(γ/2)` the same (γ from 180° down to 90°), `HALF` =
+    /// [`HAZE_TABLE`] / 2: the steps are even in γ at both ends, where a
+    /// table over `cos γ` would have a square-root kink. Values are before
+    /// the clamp at 0 (the tone map of a negative colour is negative, so the
+    /// shader clamps after interpolating and the table has no kink either).
+    /// Computed in f64 from `haze_k` ([`Preetham::shader_factors`]).
+    pub fn haze_table(&self, haze_k: [f32; 3], exposure: f32) -> Vec<[f32; 4]> {
+        let half = HAZE_TABLE / 2;
+        (0..HAZE_TABLE)
+            .map(|i| {
+                let s = (i % half) as f64 / (half - 1) as f64 * std::f64::consts::FRAC_1_SQRT_2;
+                let gamma = if i < half {
+                    2.0 * s.asin()
+                } else {
+                    std::f64::consts::PI - 2.0 * s.asin()
+                };
+                let rgb = self.haze_unclamped(haze_k, gamma);
+                let tone = |v: f64| (1.0 - (-v * f64::from(exposure)).exp()) as f32;
+                [tone(rgb[0]), tone(rgb[1]), tone(rgb[2]), 0.0]
+            })
+            .collect()
+    }
+
+    /// The linear RGB of the horizon haze at angle `gamma` to the sun,
+    /// before its clamp at 0.
+    fn haze_unclamped(&self, haze_k: [f32; 3], gamma: f64) -> [f64; 3] {
+        let [y, cx, cy]: [f64; 3] = std::array::from_fn(|k| {
+            let [c, d, e] = [2, 3, 4].map(|i| f64::from(self.perez[i][k]));
+            f64::from(haze_k[k]) * (1.0 + c * (d * gamma).exp() + e * gamma.cos().powi(2))
+        });
+        let cy = cy.max(1e-4);
+        let (x, z) = (cx / cy * y, (1.0 - cx - cy) / cy * y);
+        [
+            3.2406 * x - 1.5372 * y - 0.4986 * z,
+            -0.9689 * x + 1.8758 * y + 0.0415 * z,
+            0.0557 * x - 0.2040 * y + 1.0570 * z,
+        ]
+    }
+
     /// Linear sRGB radiance (kcd/m² scale) of the sky in direction `dir` (clamped to the horizon).
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         let d = Vec3::new(dir.x, dir.y.max(0.001), dir.z).normalize();
@@ -113,6 +158,9 @@ pub(super) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
+
+/// Entries of [`Preetham::haze_table`] (`HAZE_TABLE` in environment.wgsl).
+pub const HAZE_TABLE: usize = 512;
 
 /// CIE Yxy → linear sRGB.
 fn yxy_to_rgb(y: f32, cx: f32, cy: f32) -> Vec3 {
@@ -210,5 +258,78 @@ pub fn procedural_lighting(
         zenith: zenith.to_array(),
         horizon: horizon.to_array(),
         ground: ground.to_array(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `horizon_haze` as environment.wgsl evaluated it before the table:
+    /// the tone-mapped Preetham sky ([`Preetham::radiance`]) 0.02 above
+    /// level in the azimuth of `dir`.
+    fn haze_direct(model: &Preetham, exposure: f32, dir: Vec3) -> [f64; 3] {
+        let rgb = model.radiance(dir) * exposure;
+        rgb.to_array().map(|v| f64::from(1.0 - (-v).exp()))
+    }
+
+    /// The shader's read of the table (`horizon_haze`).
+    fn haze_read(table: &[[f32; 4]], gamma: f64) -> [f64; 3] {
+        let half = HAZE_TABLE / 2;
+        let c = gamma.cos();
+        let s = ((1.0 - c.abs()) * 0.5).max(0.0).sqrt();
+        let t = s / std::f64::consts::FRAC_1_SQRT_2 * (half - 1) as f64;
+        let i = (t as usize).min(half - 2) + if c >= 0.0 { 0 } else { half };
+        let f = t - (i % half) as f64;
+        std::array::from_fn(|k| {
+            (f64::from(table[i][k]) * (1.0 - f) + f64::from(table[i + 1][k]) * f).max(0.0)
+        })
+    }
+
+    #[test]
+    fn the_haze_table_reads_within_a_tenth_of_a_level_of_the_formula() {
+        let (mut worst, mut worst_above_3): (f64, f64) = (0.0, 0.0);
+        for turbidity in [1.7, 3.0, 6.0, 10.0] {
+            for elevation_deg in [0.5f32, 3.0, 8.0, 25.0, 60.0, 89.0] {
+                let e = elevation_deg.to_radians();
+                let sun = Vec3::new(0.3 * e.cos(), e.sin(), 0.95 * e.cos()).normalize();
+                let model = Preetham::new(turbidity, sun);
+                let (_, haze_k) = model.shader_factors();
+                for exposure in [SKY_EXPOSURE * 0.25, SKY_EXPOSURE, SKY_EXPOSURE * 4.0] {
+                    let table = model.haze_table(haze_k, exposure);
+                    assert_eq!(table.len(), HAZE_TABLE);
+                    for k in 0..=8000 {
+                        let az = std::f32::consts::TAU * k as f32 / 8000.0;
+                        let dir = Vec3::new(az.cos(), 0.02, az.sin()).normalize();
+                        let gamma = f64::from(dir.dot(model.sun).clamp(-1.0, 1.0)).acos();
+                        let want = haze_direct(&model, exposure, dir);
+                        let got = haze_read(&table, gamma);
+                        for c in 0..3 {
+                            assert!(got[c].is_finite(), "γ {gamma}");
+                            let d = (want[c] - got[c]).abs();
+                            worst = worst.max(d);
+                            if elevation_deg >= 3.0 {
+                                worst_above_3 = worst_above_3.max(d);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // In 8-bit levels of the tone-mapped value: well inside the rounding
+        // for a sun 3° or more above the horizon; under one level even for a
+        // sun at 0.5°, the clearest air and 4× exposure, where the glare
+        // around the sun on the horizon is steepest.
+        let levels = |v: f64| v * 255.0;
+        assert!(
+            levels(worst_above_3) < 0.1,
+            "worst {:.4} levels",
+            levels(worst_above_3)
+        );
+        assert!(levels(worst) < 1.0, "worst {:.4} levels", levels(worst));
+        // The table is not flat: the haze brightens toward the sun.
+        let model = Preetham::new(3.0, Vec3::new(0.0, 0.2, 0.98).normalize());
+        let table = model.haze_table(model.shader_factors().1, SKY_EXPOSURE);
+        assert!(table[0][0] > table[HAZE_TABLE - 1][0] + 0.05);
     }
 }
