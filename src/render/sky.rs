@@ -438,19 +438,30 @@ impl SkyGpu {
 
     /// The environment pipeline of the written environment's ground and
     /// silhouette kinds for draw `part` (0: whole, 1: the sky up to the
-    /// silhouettes' band top, 2: ground side, 3: the sky above the band),
-    /// built on first use; its index in `self.pipelines`.
+    /// silhouettes' band top, 2: ground side, 3: the sky above the band,
+    /// 4: the quarter-resolution pass's sky above the band), built on first
+    /// use; its index in `self.pipelines`. A part is built only for the
+    /// kinds it draws (the others are -1, never read): the ground side for
+    /// its ground, the band for its silhouettes, the sky above the band for
+    /// none. Environments that share them share the part's pipeline: each
+    /// pipeline costs lavapipe tens of milliseconds of shader compilation.
     fn environment_pipeline(
         &mut self,
         device: &wgpu::Device,
         (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         part: u32,
     ) -> usize {
-        let kinds = [
+        let (ground, far, near) = (
             self.written.pattern[2],
             self.written.pattern[3],
             self.written.far_params[1],
-        ];
+        );
+        let kinds = match part {
+            0 => [ground, far, near],
+            1 => [-1.0, far, near],
+            2 => [ground, -1.0, -1.0],
+            _ => [-1.0; 3],
+        };
         let key = [kinds[0], kinds[1], kinds[2], part as f32].map(f32::to_bits);
         if let Some(i) = self.pipelines.iter().position(|(k, _)| *k == key) {
             return i;
