@@ -266,6 +266,7 @@ impl SwarmshotApp {
                 queue: rs.queue.clone(),
                 adapter_info: rs.adapter.get_info(),
                 max_texture_side: rs.device.limits().max_texture_dimension_2d,
+                shared: Default::default(),
             };
             (ctx, rs.clone())
         });

@@ -1,5 +1,7 @@
 //! The headless GPU context: the wgpu instance, adapter, device and queue.
 
+use std::sync::{Arc, Mutex};
+
 use super::RenderError;
 
 /// Turn off Mesa's Vulkan device-select layer for a process that opens no window.
@@ -37,7 +39,23 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     pub adapter_info: wgpu::AdapterInfo,
     pub max_texture_side: u32,
+    /// Pipelines the device's renderers share (the batch's makers each
+    /// have one): each is compiled once per device.
+    pub shared: SharedPipelines,
 }
+
+/// The environment pass's pipelines, by their key (the kinds they are
+/// built for and the part), shared by every renderer of one device: their
+/// shader compiles are the largest part of a short run's CPU on lavapipe,
+/// and wgpu's bind group layouts are deduplicated by their entries, so a
+/// pipeline one renderer built binds the groups of another.
+#[derive(Clone, Default)]
+pub struct SharedPipelines {
+    pub(crate) environment: Arc<Mutex<EnvironmentPipelines>>,
+}
+
+/// Environment pipelines by key (see `SkyGpu::environment_pipeline`).
+pub(crate) type EnvironmentPipelines = Vec<([u32; 4], wgpu::RenderPipeline)>;
 
 impl GpuContext {
     /// Open a headless adapter; honours `WGPU_BACKEND` (vulkan, gl, …). Fails
@@ -75,6 +93,7 @@ impl GpuContext {
             queue,
             adapter_info: adapter.get_info(),
             max_texture_side: limits.max_texture_dimension_2d,
+            shared: SharedPipelines::default(),
         })
     }
 

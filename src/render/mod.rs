@@ -32,7 +32,7 @@ mod sky;
 mod upsample;
 pub mod visibility;
 
-pub use context::{GpuContext, quiet_headless_vulkan};
+pub use context::{GpuContext, SharedPipelines, quiet_headless_vulkan};
 pub use frame::{Painted, RenderRequest, RenderedFrame};
 pub use ids::{MAX_DRONES, PixelHit};
 pub(crate) use mesh::{DronePipelines, MeshLevel};
@@ -372,7 +372,7 @@ impl Renderer {
             immediate_size: 0,
         });
         let white_texture = material::white(&device, &ctx.queue, &material_bgl);
-        let sky = sky::SkyGpu::new(&device, &ctx.queue);
+        let sky = sky::SkyGpu::new(&device, &ctx.queue, ctx.shared.clone());
         let sky_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("sky pipeline layout"),
             bind_group_layouts: &[Some(&frame_bgl), Some(&sky.layout)],

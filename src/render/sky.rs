@@ -81,7 +81,9 @@ pub(super) struct SkyGpu {
     /// The pipelines of `fs_environment`, one per environment's kinds
     /// (ground, far and near silhouette: see `ENV_GROUND` in
     /// environment.wgsl), built on first use.
-    pipelines: Vec<([u32; 4], wgpu::RenderPipeline)>,
+    pipelines: super::context::EnvironmentPipelines,
+    /// The device's environment pipelines, which `pipelines` copies from.
+    shared: super::context::SharedPipelines,
     /// The uniforms last written (part of the background cache key).
     written: EnvUniforms,
 }
@@ -133,7 +135,11 @@ fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
 }
 
 impl SkyGpu {
-    pub(super) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shared: super::context::SharedPipelines,
+    ) -> Self {
         let texture_entry = |binding, view_dimension| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::FRAGMENT,
@@ -224,6 +230,7 @@ impl SkyGpu {
             sampler,
             half_sampler,
             pipelines: Vec::new(),
+            shared,
             written: EnvUniforms::default(),
         }
     }
@@ -466,6 +473,17 @@ impl SkyGpu {
         if let Some(i) = self.pipelines.iter().position(|(k, _)| *k == key) {
             return i;
         }
+        // Another renderer of the device may have built it; building it
+        // under the lock makes one that wants it meanwhile wait, not build
+        // it again.
+        let shared = self.shared.environment.clone();
+        let mut shared = shared
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, pipeline)) = shared.iter().find(|(k, _)| *k == key) {
+            self.pipelines.push((key, pipeline.clone()));
+            return self.pipelines.len() - 1;
+        }
         let constants = [
             ("ENV_GROUND", f64::from(kinds[0])),
             ("ENV_FAR", f64::from(kinds[1])),
@@ -479,6 +497,7 @@ impl SkyGpu {
             part > 0,
             "fs_environment",
         );
+        shared.push((key, pipeline.clone()));
         self.pipelines.push((key, pipeline));
         self.pipelines.len() - 1
     }

@@ -49,3 +49,56 @@ fn images_are_drawn_reduced_only_where_a_pass_pixel_spans_at_most_half_a_texel()
     );
     assert_eq!(reduced_scale((0, 0), hd, focal(1080, 40.0), centre), None);
 }
+
+/// The batch's makers each have a renderer: the environment pass's
+/// pipelines are built once for the device, not once per renderer, and a
+/// part is built for the kinds it draws only, so the sky above the band is
+/// one pipeline (and the quarter pass's another) for every environment.
+#[test]
+fn renderers_of_one_device_share_the_environment_pipelines() {
+    use crate::pipeline::FramePipeline;
+    use crate::preset::Preset;
+    let ctx = crate::render::GpuContext::headless()
+        .unwrap_or_else(|e| panic!("rendering tests need a GPU adapter (lavapipe): {e}"));
+    let preset = Preset::from_ron(
+        r#"(
+        seed: 3,
+        placement: Randomized(count: (2, 2), volume: Box(size_m: (4.0, 2.0, 4.0)), min_separation_m: 0.7),
+        camera: (z: (start: 0.5, end: 0.5, step: 0.0)),
+        repeats: 2,
+        sky: Random(choices: [Procedural(environment: Daytime), Procedural(environment: SnowyBridge)], sun_elevation_deg: (10, 40)),
+        render: (resolution: Custom(width: 160, height: 90), msaa: 4),
+    )"#,
+    )
+    .expect("preset");
+    let pipeline = FramePipeline::new(preset).expect("pipeline");
+    let built = || {
+        let shared = ctx.shared.environment.lock().expect("lock");
+        shared.iter().map(|(key, _)| *key).collect::<Vec<_>>()
+    };
+    let (mut a, mut b) = (pipeline.renderer(&ctx), pipeline.renderer(&ctx));
+    let frames = 0..pipeline.frame_count().min(6);
+    let first: Vec<_> = (frames.clone())
+        .map(|i| pipeline.make(&mut a, i).expect("renderer a").rgba)
+        .collect();
+    let keys = built();
+    assert!(keys.len() >= 4, "{keys:?}");
+    let second: Vec<_> = (frames.clone())
+        .map(|i| pipeline.make(&mut b, i).expect("renderer b").rgba)
+        .collect();
+    assert_eq!(
+        built(),
+        keys,
+        "the second renderer built pipelines of its own"
+    );
+    assert!(first == second, "the renderers drew different pixels");
+    // The sky above the band (parts 3 and 4) is built for no kind at all.
+    let none = (-1.0f32).to_bits();
+    for key in keys.iter().filter(|k| f32::from_bits(k[3]) >= 3.0) {
+        assert_eq!(key[..3], [none; 3], "{key:?}");
+    }
+    assert_eq!(
+        keys.iter().filter(|k| f32::from_bits(k[3]) >= 3.0).count(),
+        2
+    );
+}
