@@ -11,6 +11,7 @@
 //! soft (clouds, haze, distant silhouettes); drones stay at full resolution.
 
 use glam::Vec3;
+use half::slice::HalfFloatSliceExt;
 use wgpu::util::DeviceExt;
 
 use super::horizon::Horizon;
@@ -74,11 +75,22 @@ const HALF_SCALE: u32 = 2;
 /// silhouettes (smooth: the Preetham sky and the clouds), per axis.
 const QUARTER_SCALE: u32 = 4;
 
+/// RGB texels as RGBA half floats (alpha 1), rounded to nearest as
+/// `f16::from_f32`; converted a row of texels at a time by the `half`
+/// crate's slice conversion (F16C where the CPU has it: a 1k sky image is
+/// two million values, on the first frame's path).
 fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
-    rgb.chunks_exact(3)
-        .flat_map(|p| [p[0], p[1], p[2], 1.0])
-        .map(half::f16::from_f32)
-        .collect()
+    const CHUNK: usize = 1024;
+    let mut out = vec![half::f16::ZERO; rgb.len() / 3 * 4];
+    let mut rgba = [0f32; CHUNK * 4];
+    for (src, dst) in rgb.chunks(CHUNK * 3).zip(out.chunks_mut(CHUNK * 4)) {
+        let texels = src.len() / 3;
+        for (p, q) in src.chunks_exact(3).zip(rgba.chunks_exact_mut(4)) {
+            q.copy_from_slice(&[p[0], p[1], p[2], 1.0]);
+        }
+        dst.convert_from_f32_slice(&rgba[..texels * 4]);
+    }
+    out
 }
 
 impl SkyGpu {

@@ -102,3 +102,39 @@ fn renderers_of_one_device_share_the_environment_pipelines() {
         2
     );
 }
+
+/// The slice conversion of sky texels rounds as `f16::from_f32` does, value
+/// for value (infinities, subnormals and halfway cases included), and adds
+/// an opaque alpha.
+#[test]
+fn sky_texels_convert_to_half_floats_as_one_at_a_time() {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    };
+    let mut rgb: Vec<f32> = (0..3 * 2500)
+        .map(|_| f32::from_bits(next() as u32 & 0x7fff_ffff).min(1e6))
+        .collect();
+    let specials = [
+        0.0,
+        6.0e-8,
+        3.0e-5,
+        1.0,
+        65504.0,
+        65520.0,
+        f32::INFINITY,
+        1.000_976_6,
+    ];
+    rgb[..specials.len()].copy_from_slice(&specials);
+    let got = super::f16_rgba(&rgb);
+    let want: Vec<half::f16> = (rgb.chunks_exact(3))
+        .flat_map(|p| [p[0], p[1], p[2], 1.0])
+        .map(half::f16::from_f32)
+        .collect();
+    assert_eq!(got.len(), want.len());
+    let bits = |v: &[half::f16]| v.iter().map(|h| h.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&got), bits(&want));
+}
