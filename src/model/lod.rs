@@ -461,7 +461,10 @@ struct Node {
     leaf: bool,
 }
 
-const LEAF_TRIANGLES: usize = 4;
+/// Triangles per BVH leaf at most: 2 measured 6 % faster than 4 (and as
+/// fast as 1) on the 9 434-triangle Crazyflie's levels; the bounds do not
+/// depend on it.
+const LEAF_TRIANGLES: usize = 2;
 
 impl Surface {
     fn new(positions: &[DVec3], indices: &[u32]) -> Self {
