@@ -231,7 +231,7 @@ const MAX_THREADS: usize = 256;
 /// threads, one per core unless set. The batch's makers and encoders share
 /// those cores, and a rasteriser thread they preempt holds up the whole pass
 /// while the other core waits for it; two threads more than the cores keep
-/// both cores busy (docs/benchmarks.md: −3 to −5 % wall time on
+/// both cores busy (docs/benchmarks.md: −2.5 to −5 % wall time on
 /// synthswarm_table2, realistic and peer_moving). A value the user set is
 /// kept; a hardware GPU never reads it.
 fn more_lavapipe_threads() {
