@@ -195,6 +195,27 @@ fn extreme_draws() -> Vec<(&'static str, CameraDraw)> {
                 ..n
             },
         ),
+        (
+            "sharpened",
+            CameraDraw {
+                psf: PsfDraw::Gaussian { sigma_px: 0.8 },
+                read_noise_levels: 2.0,
+                sharpen: 1.5,
+                ..n
+            },
+        ),
+        (
+            "everything, sharpened most",
+            CameraDraw {
+                exposure_ev: 1.5,
+                psf: PsfDraw::Disc { radius_px: 2.0 },
+                ca_red_scale: 1.01,
+                shot_noise_gain: 50.0,
+                sensor_scale: Some(0.37),
+                sharpen: 4.0,
+                ..n
+            },
+        ),
     ]
 }
 
@@ -290,6 +311,7 @@ fn invalid_ranges_are_named() {
         sensor_scale: Some((0.0, 0.5)),
         read_noise_levels: (f64::NAN, 1.0),
         recompress_quality: Some((0, 50)),
+        sharpen: (0.0, 9.0),
         ..CameraModel::default()
     });
     let errors = p.validate().expect_err("invalid");
@@ -300,6 +322,7 @@ fn invalid_ranges_are_named() {
         "camera_model.sensor_scale",
         "camera_model.read_noise_levels",
         "camera_model.recompress_quality",
+        "camera_model.sharpen",
     ] {
         assert!(fields.contains(&f), "{f} missing from {fields:?}");
     }

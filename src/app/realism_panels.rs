@@ -74,6 +74,7 @@ pub fn camera_model_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     for (value, path, speed) in [
         (&mut c.vignetting, "camera_model.vignetting", 0.01),
         (&mut c.saturation, "camera_model.saturation", 0.01),
+        (&mut c.sharpen, "camera_model.sharpen", 0.01),
         (
             &mut c.exposure_time_s,
             "camera_model.exposure_time_s",

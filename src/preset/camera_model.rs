@@ -50,7 +50,15 @@ pub struct CameraModel {
     /// grey, above 1 more saturated (a camera's "vivid" look). Drawn per frame.
     #[serde(skip_serializing_if = "is_unit_range")]
     pub saturation: (f64, f64),
+    /// The image processor's sharpening, an unsharp mask on luma after the
+    /// sRGB encoding (0: none, 1: a step overshoots by a quarter of its
+    /// height on each side; at most 4). Drawn per frame.
+    #[serde(skip_serializing_if = "is_zero_range")]
+    pub sharpen: (f64, f64),
 }
+
+/// The largest sharpening amount (`sensor::sharpen` computes in i32 up to it).
+pub const MAX_SHARPEN: f64 = 4.0;
 
 fn is_unit_range(r: &(f64, f64)) -> bool {
     *r == (1.0, 1.0)
@@ -79,6 +87,7 @@ impl Default for CameraModel {
             recompress_quality: None,
             exposure_time_s: (0.0, 0.0),
             saturation: (1.0, 1.0),
+            sharpen: (0.0, 0.0),
         }
     }
 }
@@ -154,6 +163,7 @@ impl CameraModel {
         }
         range(v, "exposure_time_s", self.exposure_time_s, 0.0, 1.0);
         range(v, "saturation", self.saturation, 0.0, 4.0);
+        range(v, "sharpen", self.sharpen, 0.0, MAX_SHARPEN);
         if self.exposure_time_s.1 > 0.0 {
             let field = format!("{p}.exposure_time_s");
             match &preset.sequence {

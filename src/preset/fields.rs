@@ -165,6 +165,7 @@ pub const FIELDS: &[Field] = &[
     f("camera_model.white_balance_blue", "White balance blue", "×", "Gain of the blue channel relative to green (1: neutral)"),
     f("camera_model.vignetting", "Vignetting", "", "Light lost at the image corner, falling off as r² (0: none, 0.3: corners at 70 %)"),
     f("camera_model.saturation", "Saturation", "×", "Colour saturation of the camera's processing about each pixel's grey (1: unchanged, 0: grey, 1.2: a vivid look)"),
+    f("camera_model.sharpen", "Sharpening", "×", "The image processor's unsharp mask on luma, as cameras apply before JPEG (0: none, 1: a step overshoots by a quarter of its height on each side)"),
     f("camera_model.exposure_time_s", "Exposure time", " s", "Motion blur in sequences: how long the shutter is open, at most one frame interval (0: none)"),
     f("camera_model.ca_red_scale", "CA red scale", "×", "Lateral chromatic aberration: the red image's radial scale relative to green (1: none)"),
     f("camera_model.ca_blue_scale", "CA blue scale", "×", "Lateral chromatic aberration: the blue image's radial scale relative to green (1: none)"),

@@ -33,7 +33,9 @@
 //!    8-bit-equivalent levels, variance = gain·signal + read², the normal
 //!    deviate from a counter-based hash of (frame noise seed, pixel index)
 //!    ([`noise`]); then clipped to [0, 1] again;
-//! 8. sRGB encoding (a 65 536-entry table on the linear value).
+//! 8. sRGB encoding (a 65 536-entry table on the linear value);
+//! 9. the image processor's sharpening, when drawn: an unsharp mask on the
+//!    8-bit picture's luma ([`sharpen`]).
 //!
 //! Every stage reads its input at absolute pixel coordinates clamped to the
 //! image, so running the chain on a window of the frame gives, inside the
@@ -46,6 +48,7 @@ mod fused;
 mod kernels;
 pub mod motion;
 mod noise;
+pub mod sharpen;
 mod stages;
 
 use rand::{Rng, SeedableRng};
@@ -81,6 +84,13 @@ pub struct CameraDraw {
     pub exposure_time_s: f64,
     /// Saturation about each pixel's linear luminance (1: unchanged).
     pub saturation: f64,
+    /// The image processor's sharpening amount (0: none; [`sharpen`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub sharpen: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// The drawn point spread function.
@@ -154,6 +164,11 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         (lo, hi) if hi > lo => rng.random_range(lo..=hi),
         (lo, _) => lo,
     };
+    // Then the sharpening, again only when a range.
+    let sharpen = match model.sharpen {
+        (lo, hi) if hi > lo => rng.random_range(lo..=hi),
+        (lo, _) => lo,
+    };
     CameraDraw {
         exposure_ev,
         white_balance_red,
@@ -170,6 +185,7 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         noise_seed: crate::seed::mix64(seed ^ 0x4E4F_4953_455F_5345), // "NOISE_SE"
         exposure_time_s,
         saturation,
+        sharpen,
     }
 }
 
@@ -187,7 +203,8 @@ impl CameraDraw {
 
     /// How far (pixels) a change of one input pixel can move in the output:
     /// the PSF's support, the largest chromatic-aberration shift plus the
-    /// bilinear tap, and two sensor pixels' footprints for the resampling.
+    /// bilinear tap, two sensor pixels' footprints for the resampling, and
+    /// one pixel for the sharpening.
     pub fn reach_px(&self, width: u32, height: u32) -> u32 {
         let half_diagonal = (f64::from(width).hypot(f64::from(height))) / 2.0;
         let shift = [self.ca_red_scale, self.ca_blue_scale]
@@ -205,7 +222,7 @@ impl CameraDraw {
         } else {
             2 * width.div_ceil(sw).max(height.div_ceil(sh)) + 2
         };
-        self.psf.support_px() + ca + resample
+        self.psf.support_px() + ca + resample + u32::from(self.sharpen > 0.0)
     }
 }
 

@@ -288,9 +288,43 @@ pub fn develop(
     if empty || rgba.len() < (width as usize) * (height as usize) * 4 {
         return Vec::new();
     }
+    let rect = |(x0, y0, x1, y1): (i64, i64, i64, i64)| PixelRect {
+        x0: x0 as u32,
+        y0: y0 as u32,
+        x1: x1 as u32,
+        y1: y1 as u32,
+    };
+    if draw.sharpen > 0.0 {
+        // The image processor's last step reads one pixel around each.
+        let grown = (
+            (clamped.0 - 1).max(0),
+            (clamped.1 - 1).max(0),
+            (clamped.2 + 1).min(wi),
+            (clamped.3 + 1).min(hi),
+        );
+        let px = develop_unsharpened(rgba, (width, height), draw, grown, noisy);
+        return super::sharpen::sharpen(&px, rect(grown), rect(clamped), draw.sharpen);
+    }
+    develop_unsharpened(rgba, (width, height), draw, clamped, noisy)
+}
+
+/// [`develop`] before the sharpening, of the window `clamped` (inside the frame).
+fn develop_unsharpened(
+    rgba: &[u8],
+    (width, height): (u32, u32),
+    draw: &CameraDraw,
+    clamped: (i64, i64, i64, i64),
+    noisy: bool,
+) -> Vec<u8> {
     if super::fused::handles(draw, width, height) {
         return super::fused::develop(rgba, (width, height), draw, clamped, noisy);
     }
+    let out = PixelRect {
+        x0: clamped.0 as u32,
+        y0: clamped.1 as u32,
+        x1: clamped.2 as u32,
+        y1: clamped.3 as u32,
+    };
     develop_planes(rgba, width, height, draw, out, noisy)
 }
 

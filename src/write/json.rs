@@ -511,6 +511,7 @@ mod tests {
                             noise_seed: u64::MAX,
                             exposure_time_s: 0.0,
                             saturation: pick(),
+                            sharpen: pick(),
                         });
                         scene.placement_shortfall = 2;
                         for d in &mut scene.drones {

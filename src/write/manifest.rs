@@ -418,6 +418,10 @@ fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
         j.raw(b",\"sensor_scale\":");
         j.rounded(s, Decimals::Six);
     }
+    if c.sharpen != 0.0 {
+        j.raw(b",\"sharpen\":");
+        j.rounded(c.sharpen, Decimals::Six);
+    }
     j.raw(b",\"shot_noise_gain\":");
     j.rounded(c.shot_noise_gain, Decimals::Six);
     j.raw(b",\"vignetting\":");
@@ -768,6 +772,9 @@ pub(crate) mod reference {
             }
             if c.saturation != 1.0 {
                 map.insert("saturation".into(), r6(c.saturation).into());
+            }
+            if c.sharpen != 0.0 {
+                map.insert("sharpen".into(), r6(c.sharpen).into());
             }
         }
         v

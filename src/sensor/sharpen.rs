@@ -1,0 +1,172 @@
+//! The image processor's sharpening (an unsharp mask, as consumer cameras
+//! apply before JPEG): the last step of the chain, on the 8-bit
+//! sRGB-encoded picture, on luma only (every channel moves by the same
+//! amount, so no colour fringes appear):
+//!
+//! `out = c + round(amount · core(Y − blur(Y)))`, clamped to [0, 255],
+//!
+//! with `Y = (77 R + 150 G + 29 B) / 256`, `blur` the 3×3 binomial kernel
+//! ([1 2 1] ⊗ [1 2 1] / 16, edges clamped) and `core(d)` = `d` moved one
+//! level toward 0 (0 within a level): detail smaller than a level, noise and
+//! rounding steps, is not sharpened. Integer arithmetic
+//! throughout, so the bytes are the same on every machine; `amount` is
+//! taken in steps of 1/256. Each output pixel reads the pixels around it
+//! one step away: the chain's reach grows by one pixel.
+
+use super::PixelRect;
+
+/// The largest `amount`: the integer arithmetic below stays within i32 up to it.
+pub use crate::preset::camera_model::MAX_SHARPEN as MAX_AMOUNT;
+
+/// Luma detail below this (one 8-bit level, in the units of `detail`
+/// below: ·256·16) is left alone and larger detail is reduced by it
+/// ("coring", as image processors do): noise, and the ±1 steps of a smooth
+/// gradient's 8-bit rounding, are not sharpened.
+const CORING: i32 = 256 * 16;
+
+/// The pixels of `out` (RGBA8, row by row) sharpened by `amount`, from
+/// `px`: the unsharpened pixels (RGBA8, row by row) of `grown`, which is
+/// `out` grown by one pixel on every side that is not the image's edge.
+pub(super) fn sharpen(px: &[u8], grown: PixelRect, out: PixelRect, amount: f64) -> Vec<u8> {
+    let (gw, gh) = (
+        (grown.x1 - grown.x0) as usize,
+        (grown.y1 - grown.y0) as usize,
+    );
+    let (ow, oh) = ((out.x1 - out.x0) as usize, (out.y1 - out.y0) as usize);
+    if gw == 0 || gh == 0 || ow == 0 || oh == 0 || px.len() < gw * gh * 4 {
+        return Vec::new();
+    }
+    let a = (amount.clamp(0.0, MAX_AMOUNT) * 256.0).round() as i32;
+    let luma: Vec<i32> = (px.chunks_exact(4))
+        .map(|p| 77 * i32::from(p[0]) + 150 * i32::from(p[1]) + 29 * i32::from(p[2]))
+        .collect();
+    // Columns of `out` within `grown`, and each one's left and right
+    // neighbours (clamped at the image's edge, which is `grown`'s there).
+    let dx = (out.x0 - grown.x0) as usize;
+    let cols: Vec<[usize; 3]> = (dx..dx + ow)
+        .map(|x| [x.saturating_sub(1), x, (x + 1).min(gw - 1)])
+        .collect();
+    // The horizontal [1 2 1] sums of every row of `grown`, at `out`'s columns.
+    let across: Vec<Vec<i32>> = (luma.chunks_exact(gw))
+        .map(|row| {
+            (cols.iter())
+                .map(|&[l, c, r]| row[l] + 2 * row[c] + row[r])
+                .collect()
+        })
+        .collect();
+    let dy = (out.y0 - grown.y0) as usize;
+    let mut result = Vec::with_capacity(ow * oh * 4);
+    for y in dy..dy + oh {
+        let (up, down) = (y.saturating_sub(1), (y + 1).min(gh - 1));
+        let (r0, r1, r2) = (&across[up], &across[y], &across[down]);
+        let row = &px[y * gw * 4..(y + 1) * gw * 4];
+        for (i, &[_, c, _]) in cols.iter().enumerate() {
+            // Y·256·16 minus its blur (·256·16): within ±16·65 280; cored.
+            let detail = 16 * luma[y * gw + c] - (r0[i] + 2 * r1[i] + r2[i]);
+            let detail = detail.signum() * (detail.abs() - CORING).max(0);
+            // × amount·256 (≤ 1 024): within i32; rounded half up.
+            let delta = (a * detail + (1 << 19)) >> 20;
+            let p = &row[c * 4..c * 4 + 4];
+            let level = |v: u8| (i32::from(v) + delta).clamp(0, 255) as u8;
+            result.extend_from_slice(&[level(p[0]), level(p[1]), level(p[2]), p[3]]);
+        }
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rect(x0: u32, y0: u32, x1: u32, y1: u32) -> PixelRect {
+        PixelRect { x0, y0, x1, y1 }
+    }
+
+    /// A `w`×`h` grey frame with a vertical step from `dark` to `light` at column `edge`.
+    fn step(w: u32, h: u32, edge: u32, dark: u8, light: u8) -> Vec<u8> {
+        (0..h)
+            .flat_map(|_| (0..w).map(|x| if x < edge { dark } else { light }))
+            .flat_map(|v| [v, v, v, 255])
+            .collect()
+    }
+
+    #[test]
+    fn a_step_overshoots_on_both_sides_and_flat_areas_stay() {
+        let (w, h) = (12, 6);
+        let px = step(w, h, 6, 100, 150);
+        let whole = rect(0, 0, w, h);
+        let out = sharpen(&px, whole, whole, 1.0);
+        let at = |x: usize, y: usize| out[(y * w as usize + x) * 4];
+        // Y − blur beside the step: ∓ 50 · 4/16 = ∓ 12.5, cored to ∓ 11.5,
+        // rounded half up.
+        assert_eq!(at(5, 3), 100 - 11, "dark side undershoots");
+        assert_eq!(at(6, 3), 150 + 12, "light side overshoots");
+        assert_eq!(at(1, 3), 100);
+        assert_eq!(at(10, 0), 150);
+        // Grey stays grey (luma only), alpha is kept.
+        assert!(
+            out.chunks_exact(4)
+                .all(|p| p[0] == p[1] && p[1] == p[2] && p[3] == 255)
+        );
+        // No sharpening: the same bytes.
+        assert_eq!(sharpen(&px, whole, whole, 0.0), px);
+    }
+
+    #[test]
+    fn a_window_grown_by_one_gives_the_whole_frames_bytes() {
+        let (w, h) = (20u32, 14u32);
+        let px: Vec<u8> = (0..w * h * 4)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+            .collect();
+        let whole = rect(0, 0, w, h);
+        let all = sharpen(&px, whole, whole, 2.5);
+        for out in [
+            rect(3, 2, 9, 7),
+            rect(0, 0, 5, 4),
+            rect(15, 9, 20, 14),
+            whole,
+        ] {
+            let grown = rect(
+                out.x0.saturating_sub(1),
+                out.y0.saturating_sub(1),
+                (out.x1 + 1).min(w),
+                (out.y1 + 1).min(h),
+            );
+            let window: Vec<u8> = (grown.y0..grown.y1)
+                .flat_map(|y| {
+                    let a = ((y * w + grown.x0) * 4) as usize;
+                    let b = ((y * w + grown.x1) * 4) as usize;
+                    px[a..b].to_vec()
+                })
+                .collect();
+            let got = sharpen(&window, grown, out, 2.5);
+            let want: Vec<u8> = (out.y0..out.y1)
+                .flat_map(|y| {
+                    let a = ((y * w + out.x0) * 4) as usize;
+                    let b = ((y * w + out.x1) * 4) as usize;
+                    all[a..b].to_vec()
+                })
+                .collect();
+            assert_eq!(got, want, "{out:?}");
+        }
+    }
+
+    #[test]
+    fn detail_under_a_level_is_left_alone() {
+        // A one-level step: Y − blur is ±0.25 beside it, under the coring.
+        let (w, h) = (10, 5);
+        let px = step(w, h, 5, 120, 121);
+        let whole = rect(0, 0, w, h);
+        assert_eq!(sharpen(&px, whole, whole, MAX_AMOUNT), px);
+    }
+
+    #[test]
+    fn the_largest_amount_on_the_largest_step_stays_in_range() {
+        let (w, h) = (8, 8);
+        let px = step(w, h, 4, 0, 255);
+        let whole = rect(0, 0, w, h);
+        let out = sharpen(&px, whole, whole, MAX_AMOUNT + 10.0);
+        let at = |x: usize| out[(3 * w as usize + x) * 4];
+        assert_eq!((at(3), at(4)), (0, 255), "clamped, not wrapped");
+    }
+}
