@@ -13,6 +13,8 @@
 //! taken in steps of 1/256. Each output pixel reads the pixels around it
 //! one step away: the chain's reach grows by one pixel.
 
+use rayon::prelude::*;
+
 use super::PixelRect;
 
 /// The largest `amount`: the integer arithmetic below stays within i32 up to it.
@@ -36,42 +38,94 @@ pub(super) fn sharpen(px: &[u8], grown: PixelRect, out: PixelRect, amount: f64) 
     if gw == 0 || gh == 0 || ow == 0 || oh == 0 || px.len() < gw * gh * 4 {
         return Vec::new();
     }
-    let a = (amount.clamp(0.0, MAX_AMOUNT) * 256.0).round() as i32;
-    let luma: Vec<i32> = (px.chunks_exact(4))
-        .map(|p| 77 * i32::from(p[0]) + 150 * i32::from(p[1]) + 29 * i32::from(p[2]))
-        .collect();
-    // Columns of `out` within `grown`, and each one's left and right
-    // neighbours (clamped at the image's edge, which is `grown`'s there).
-    let dx = (out.x0 - grown.x0) as usize;
-    let cols: Vec<[usize; 3]> = (dx..dx + ow)
-        .map(|x| [x.saturating_sub(1), x, (x + 1).min(gw - 1)])
-        .collect();
-    // The horizontal [1 2 1] sums of every row of `grown`, at `out`'s columns.
-    let across: Vec<Vec<i32>> = (luma.chunks_exact(gw))
-        .map(|row| {
-            (cols.iter())
-                .map(|&[l, c, r]| row[l] + 2 * row[c] + row[r])
-                .collect()
-        })
-        .collect();
-    let dy = (out.y0 - grown.y0) as usize;
-    let mut result = Vec::with_capacity(ow * oh * 4);
-    for y in dy..dy + oh {
-        let (up, down) = (y.saturating_sub(1), (y + 1).min(gh - 1));
-        let (r0, r1, r2) = (&across[up], &across[y], &across[down]);
-        let row = &px[y * gw * 4..(y + 1) * gw * 4];
-        for (i, &[_, c, _]) in cols.iter().enumerate() {
-            // Y·256·16 minus its blur (·256·16): within ±16·65 280; cored.
-            let detail = 16 * luma[y * gw + c] - (r0[i] + 2 * r1[i] + r2[i]);
-            let detail = detail.signum() * (detail.abs() - CORING).max(0);
-            // × amount·256 (≤ 1 024): within i32; rounded half up.
-            let delta = (a * detail + (1 << 19)) >> 20;
-            let p = &row[c * 4..c * 4 + 4];
-            let level = |v: u8| (i32::from(v) + delta).clamp(0, 255) as u8;
-            result.extend_from_slice(&[level(p[0]), level(p[1]), level(p[2]), p[3]]);
+    let window = Window {
+        px,
+        size: (gw, gh),
+        origin: ((out.x0 - grown.x0) as usize, (out.y0 - grown.y0) as usize),
+        width: ow,
+        amount: (amount.clamp(0.0, MAX_AMOUNT) * 256.0).round() as i32,
+    };
+    // In bands of rows on rayon's threads (each row depends only on the
+    // three around it in `px`, so any split gives the same bytes).
+    let mut result = vec![0u8; ow * oh * 4];
+    result
+        .par_chunks_mut(ow * 4 * BAND)
+        .enumerate()
+        .for_each(|(b, band)| window.rows_into(b * BAND, band));
+    result
+}
+
+/// Output rows in a band of [`sharpen`].
+const BAND: usize = 64;
+
+/// What [`sharpen`] reads: the unsharpened pixels of `grown` (`size`), where
+/// `out` starts in it (`origin`), `out`'s width, and the amount (·256).
+struct Window<'a> {
+    px: &'a [u8],
+    size: (usize, usize),
+    origin: (usize, usize),
+    width: usize,
+    amount: i32,
+}
+
+impl Window<'_> {
+    /// Luma of row `y` of `grown` at `out`'s columns, with one neighbour each
+    /// side (clamped at the image's edge, which is `grown`'s there), into
+    /// `padded`; and the horizontal [1 2 1] sums at `out`'s columns into `sums`.
+    fn across(&self, y: usize, padded: &mut [i32], sums: &mut Vec<i32>) {
+        let ((gw, gh), (dx, _), ow) = (self.size, self.origin, self.width);
+        let row = &self.px[y.min(gh - 1) * gw * 4..][..gw * 4];
+        let luma = |p: &[u8]| 77 * i32::from(p[0]) + 150 * i32::from(p[1]) + 29 * i32::from(p[2]);
+        let (left, right) = (dx.saturating_sub(1), (dx + ow).min(gw - 1));
+        padded[0] = luma(&row[left * 4..left * 4 + 4]);
+        padded[ow + 1] = luma(&row[right * 4..right * 4 + 4]);
+        for (l, p) in padded[1..=ow].iter_mut().zip(row[dx * 4..].chunks_exact(4)) {
+            *l = luma(p);
+        }
+        sums.clear();
+        sums.extend(padded.windows(3).map(|w| w[0] + 2 * w[1] + w[2]));
+    }
+
+    /// Output rows `first`… into `band` (RGBA8 rows of `out`).
+    fn rows_into(&self, first: usize, band: &mut [u8]) {
+        let ((gw, _), (dx, dy), ow) = (self.size, self.origin, self.width);
+        let mut pads = [vec![0i32; ow + 2], vec![0i32; ow + 2], vec![0i32; ow + 2]];
+        let mut sums = [Vec::new(), Vec::new(), Vec::new()];
+        let y0 = dy + first;
+        let [p0, p1, p2] = &mut pads;
+        let [s0, s1, s2] = &mut sums;
+        self.across(y0.saturating_sub(1), p0, s0);
+        self.across(y0, p1, s1);
+        let mut delta = vec![0i32; ow];
+        // Per byte of a row: the pixel's delta on R, G and B, 0 on alpha.
+        let mut per_byte = vec![0i32; ow * 4];
+        for (k, line) in band.chunks_exact_mut(ow * 4).enumerate() {
+            let y = y0 + k;
+            self.across(y + 1, p2, s2);
+            for ((d, &l), ((&a, &b), &c)) in
+                (delta.iter_mut().zip(&p1[1..=ow])).zip(s0.iter().zip(s1.iter()).zip(s2.iter()))
+            {
+                // Y·256·16 minus its blur (·256·16): within ±16·65 280; cored
+                // (without branches: the part past ±CORING); × amount·256
+                // (≤ 1 024): within i32; rounded half up.
+                let detail = 16 * l - (a + 2 * b + c);
+                let cored = (detail - CORING).max(0) + (detail + CORING).min(0);
+                *d = (self.amount * cored + (1 << 19)) >> 20;
+            }
+            for (q, &d) in per_byte.chunks_exact_mut(4).zip(&delta) {
+                q.copy_from_slice(&[d, d, d, 0]);
+            }
+            let row = &self.px[(y * gw + dx) * 4..(y * gw + dx + ow) * 4];
+            for ((o, &p), &d) in line.iter_mut().zip(row).zip(&per_byte) {
+                *o = (i32::from(p) + d).clamp(0, 255) as u8;
+            }
+            // Roll the three rows down by one.
+            std::mem::swap(p0, p1);
+            std::mem::swap(p1, p2);
+            std::mem::swap(s0, s1);
+            std::mem::swap(s1, s2);
         }
     }
-    result
 }
 
 #[cfg(test)]
