@@ -118,22 +118,18 @@ impl ClutterLayer {
             .unwrap_or(start)
             .max(inner_a);
         let (a, b) = (inner_a.min(end) - start, inner_b.min(end) - start);
-        for (i, (c, d)) in colors.iter_mut().zip(depths.iter_mut()).enumerate() {
-            if (a..b).contains(&i) {
-                continue;
-            }
+        // The edges, each pixel with the samples whose spans cover it.
+        for i in (0..a).chain(b..colors.len()) {
             let x = start + i;
             let bits = spans
                 .iter()
                 .filter(|t| t.0 <= x && x < t.1)
                 .fold(0u8, |m, t| m | t.2);
             if bits != 0 {
-                paint(c, d, bits, depth, rgb);
+                paint(&mut colors[i], &mut depths[i], bits, depth, rgb);
             }
         }
-        if a < b {
-            paint_run(&mut colors[a..b], &mut depths[a..b], all, depth, rgb);
-        }
+        paint_run(&mut colors[a..b], &mut depths[a..b], all, depth, rgb);
     }
 
     /// The mask of the samples of pixel (x, y) the scenery covers.

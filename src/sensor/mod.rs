@@ -48,7 +48,7 @@ mod fused;
 mod kernels;
 pub mod motion;
 mod noise;
-pub mod sharpen;
+mod sharpen;
 mod stages;
 
 use rand::{Rng, SeedableRng};

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::PixelRect;
 
 /// The largest `amount`: the integer arithmetic below stays within i32 up to it.
-pub use crate::preset::camera_model::MAX_SHARPEN as MAX_AMOUNT;
+use crate::preset::camera_model::MAX_SHARPEN as MAX_AMOUNT;
 
 /// Luma detail below this (one 8-bit level, in the units of `detail`
 /// below: ·256·16) is left alone and larger detail is reduced by it
@@ -166,6 +166,15 @@ mod tests {
         assert_eq!(sharpen(&px, whole, whole, 0.0), px);
     }
 
+    /// The pixels of `r` of a `w`-wide RGBA8 frame, row by row.
+    fn crop(frame: &[u8], w: u32, r: PixelRect) -> Vec<u8> {
+        (r.y0..r.y1)
+            .flat_map(|y| {
+                frame[((y * w + r.x0) * 4) as usize..((y * w + r.x1) * 4) as usize].to_vec()
+            })
+            .collect()
+    }
+
     #[test]
     fn a_window_grown_by_one_gives_the_whole_frames_bytes() {
         let (w, h) = (20u32, 14u32);
@@ -186,22 +195,8 @@ mod tests {
                 (out.x1 + 1).min(w),
                 (out.y1 + 1).min(h),
             );
-            let window: Vec<u8> = (grown.y0..grown.y1)
-                .flat_map(|y| {
-                    let a = ((y * w + grown.x0) * 4) as usize;
-                    let b = ((y * w + grown.x1) * 4) as usize;
-                    px[a..b].to_vec()
-                })
-                .collect();
-            let got = sharpen(&window, grown, out, 2.5);
-            let want: Vec<u8> = (out.y0..out.y1)
-                .flat_map(|y| {
-                    let a = ((y * w + out.x0) * 4) as usize;
-                    let b = ((y * w + out.x1) * 4) as usize;
-                    all[a..b].to_vec()
-                })
-                .collect();
-            assert_eq!(got, want, "{out:?}");
+            let got = sharpen(&crop(&px, w, grown), grown, out, 2.5);
+            assert_eq!(got, crop(&all, w, out), "{out:?}");
         }
     }
 

@@ -288,12 +288,6 @@ pub fn develop(
     if empty || rgba.len() < (width as usize) * (height as usize) * 4 {
         return Vec::new();
     }
-    let rect = |(x0, y0, x1, y1): (i64, i64, i64, i64)| PixelRect {
-        x0: x0 as u32,
-        y0: y0 as u32,
-        x1: x1 as u32,
-        y1: y1 as u32,
-    };
     if draw.sharpen > 0.0 {
         // The image processor's last step reads one pixel around each.
         let grown = (
@@ -319,13 +313,17 @@ fn develop_unsharpened(
     if super::fused::handles(draw, width, height) {
         return super::fused::develop(rgba, (width, height), draw, clamped, noisy);
     }
-    let out = PixelRect {
-        x0: clamped.0 as u32,
-        y0: clamped.1 as u32,
-        x1: clamped.2 as u32,
-        y1: clamped.3 as u32,
-    };
-    develop_planes(rgba, width, height, draw, out, noisy)
+    develop_planes(rgba, width, height, draw, rect(clamped), noisy)
+}
+
+/// A window inside the frame, as `develop` clamps it, as a [`PixelRect`].
+fn rect((x0, y0, x1, y1): (i64, i64, i64, i64)) -> PixelRect {
+    PixelRect {
+        x0: x0 as u32,
+        y0: y0 as u32,
+        x1: x1 as u32,
+        y1: y1 as u32,
+    }
 }
 
 /// [`develop`] on planes of the window grown by the reach: every stage a
