@@ -13,6 +13,8 @@ struct Frame {
     ground: vec4<f32>,
     // x: 1 with an atmosphere (haze on the drones), y: 3.912 / visibility (per metre).
     atmosphere: vec4<f32>,
+    // x: the camera's exposure as a gain on linear light (1 without a camera model).
+    exposure: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: Frame;

@@ -198,7 +198,7 @@ fn shade(in: VsOut, front: bool) -> vec4<f32> {
     }
     if (material.z > 0.5) {
         // KHR_materials_unlit: the base colour as it is.
-        return vec4<f32>(linear_to_srgb(hazed(in, base.rgb)), 1.0);
+        return vec4<f32>(linear_to_srgb(hazed(in, base.rgb) * frame.exposure.x), 1.0);
     }
     var n_cam = normalize(in.normal_cam);
     if (!front) {
@@ -221,5 +221,6 @@ fn shade(in: VsOut, front: bool) -> vec4<f32> {
     let specular = fresnel * ((shininess + 8.0) / (8.0 * PI)) * pow(max(dot(n, h), 0.0), shininess) * n_dot_l;
     let ambient_specular = f0 * ambient * (1.0 - roughness * 0.7);
     let lit = diffuse_color * (n_dot_l * frame.sun_color.rgb + ambient) + specular * frame.sun_color.rgb + ambient_specular + emission;
-    return vec4<f32>(linear_to_srgb(hazed(in, lit)), 1.0);
+    // Exposed before the encode clips: a surface brighter than white keeps its headroom.
+    return vec4<f32>(linear_to_srgb(hazed(in, lit) * frame.exposure.x), 1.0);
 }

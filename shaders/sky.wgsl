@@ -57,7 +57,7 @@ fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
     } else {
         col = image_sky(dir);
     }
-    return vec4<f32>(linear_to_srgb(col), 1.0);
+    return vec4<f32>(linear_to_srgb(col * frame.exposure.x), 1.0);
 }
 
 // The procedural environment pass over one side's polygon (render/horizon.rs).

@@ -369,23 +369,26 @@ fn visible_boxes_under_blur_are_the_pixels_a_drone_changes() {
                 let frame = pipeline.make(&mut renderer, index).expect("frame");
                 let draw = frame.scene.camera_model.expect("drawn");
                 let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
-                // The same scene rendered plainly, with and without its drone.
-                let mut plain = frame.scene.clone();
-                plain.camera_model = None;
-                let with = pipeline
-                    .make_scene(&mut renderer, plain.clone())
-                    .expect("plain");
-                let mut empty = plain;
+                // The same scene as the renderer draws it (at the camera's
+                // exposure), with and without its drone, then the rest of the camera.
+                let msaa = p.render.msaa;
+                let with = common::rendered_at_exposure(&mut renderer, &frame.scene, msaa);
+                let mut empty = frame.scene.clone();
                 empty.drones.clear();
-                let without = pipeline.make_scene(&mut renderer, empty).expect("empty");
+                let without = common::rendered_at_exposure(&mut renderer, &empty, msaa);
                 let full = PixelRect {
                     x0: 0,
                     y0: 0,
                     x1: w,
                     y1: h,
                 };
-                let a = sensor::develop(&with.rgba, w, h, &draw, full, false);
-                let b = sensor::develop(&without.rgba, w, h, &draw, full, false);
+                let rest = draw.after_render();
+                // The rendered labels: the scene without the camera model.
+                let mut plain = frame.scene.clone();
+                plain.camera_model = None;
+                let plain = pipeline.make_scene(&mut renderer, plain).expect("plain");
+                let a = sensor::develop(&with, w, h, &rest, full, false);
+                let b = sensor::develop(&without, w, h, &rest, full, false);
                 let truth = common::changed_box(&a, &b, w);
                 let label = &frame.labels[0];
                 let vis = label.visibility.expect("measured");
@@ -414,16 +417,17 @@ fn visible_boxes_under_blur_are_the_pixels_a_drone_changes() {
                 }
                 // Blur spreads the drone: at a normal exposure its camera box holds the rendered one.
                 if exposure != 0.3 {
-                } else if let (Some((r, _)), Some(rb)) =
-                    (truth, with.labels[0].visibility.and_then(|v| v.visible_box))
-                {
+                } else if let (Some((r, _)), Some(rb)) = (
+                    truth,
+                    plain.labels[0].visibility.and_then(|v| v.visible_box),
+                ) {
                     assert!(
                         f64::from(r.x0) <= rb.x0 && f64::from(r.x1) >= rb.x1,
                         "{case}"
                     );
                 }
                 // The amodal box stays geometric.
-                assert_eq!(label.amodal, with.labels[0].amodal, "{case}");
+                assert_eq!(label.amodal, plain.labels[0].amodal, "{case}");
                 checked += 1;
             }
         }
@@ -554,5 +558,104 @@ fn the_camera_model_leaves_the_scene_draws_alone() {
         assert!(b.camera_model.is_some());
         b.camera_model = None;
         assert_eq!(a, &b);
+    }
+}
+
+/// The exposure scales the light before anything clips: under −1 EV a drone
+/// brighter than white (lit drones, emission 3× a white albedo) still reaches
+/// white, while the sky (never above white) takes half its light. Were the
+/// exposure applied after an 8-bit picture clipped at white, nothing could
+/// pass sRGB 188 (half of white's light).
+#[test]
+fn a_negative_exposure_keeps_the_headroom_of_surfaces_brighter_than_white() {
+    let ctx = common::gpu();
+    // A gradient sky (drawn and exposed by the sky shader) and a procedural
+    // one (upsampled on the CPU, then exposed by a table).
+    for sky in [
+        swarmshot::preset::Sky::default(),
+        swarmshot::preset::Sky::procedural(swarmshot::preset::EnvironmentName::Daytime),
+    ] {
+        headroom_under(&ctx, sky);
+    }
+}
+
+fn headroom_under(ctx: &swarmshot::render::GpuContext, sky: swarmshot::preset::Sky) {
+    use swarmshot::preset::appearance::{Appearance, DroneColor};
+    let mut p = common::tiny_preset();
+    p.sky = sky;
+    p.appearance = Some(Appearance {
+        palette: vec![(DroneColor::White, 1.0)],
+        emissive_share: 1.0,
+        emissive_strength: (3.0, 3.0),
+        ..Appearance::default()
+    });
+    let at = |ev: f64| {
+        let mut p = p.clone();
+        p.camera_model = Some(CameraModel {
+            exposure_ev: (ev, ev),
+            ..CameraModel::default()
+        });
+        let pipeline = swarmshot::pipeline::FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(ctx);
+        pipeline.make(&mut renderer, 0).expect("frame")
+    };
+    let (bright, dark) = (at(0.0), at(-1.0));
+    let w = bright.scene.camera.width as usize;
+    // The drones' pixels: those the ids pass gave a drone, here the labelled boxes' insides.
+    let brightest_in_boxes = |f: &swarmshot::pipeline::Frame| {
+        let mut max = 0u8;
+        for l in &f.labels {
+            let b = l.visibility.and_then(|v| v.visible_box).expect("visible");
+            for y in b.y0 as usize..b.y1 as usize {
+                for x in b.x0 as usize..b.x1 as usize {
+                    let px = &f.rgba[(y * w + x) * 4..][..3];
+                    max = max.max(*px.iter().max().unwrap_or(&0));
+                }
+            }
+        }
+        max
+    };
+    assert_eq!(brightest_in_boxes(&bright), 255);
+    assert_eq!(
+        brightest_in_boxes(&dark),
+        255,
+        "a surface 3× brighter than white clips at white under −1 EV too"
+    );
+    // The sky, far from every box, takes half its light: sRGB 255 · srgb(0.5 · linear(c / 255)).
+    let (x, y) = (2usize, 2usize);
+    let inside = |f: &swarmshot::pipeline::Frame| {
+        f.labels.iter().any(|l| {
+            l.visibility.and_then(|v| v.visible_box).is_some_and(|b| {
+                (b.x0 - 2.0..b.x1 + 2.0).contains(&(x as f64))
+                    && (b.y0 - 2.0..b.y1 + 2.0).contains(&(y as f64))
+            })
+        })
+    };
+    assert!(!inside(&bright) && !inside(&dark));
+    let linear = |c: u8| {
+        let s = f64::from(c) / 255.0;
+        if s <= 0.04045 {
+            s / 12.92
+        } else {
+            ((s + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let srgb = |l: f64| {
+        if l <= 0.003_130_8 {
+            l * 12.92
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        }
+    };
+    for c in 0..3 {
+        let (b, d) = (
+            bright.rgba[(y * w + x) * 4 + c],
+            dark.rgba[(y * w + x) * 4 + c],
+        );
+        let want = (srgb(0.5 * linear(b)) * 255.0).round();
+        assert!(
+            (f64::from(d) - want).abs() <= 1.0,
+            "channel {c}: {d} under −1 EV, {b} at 0 EV (want {want})"
+        );
     }
 }

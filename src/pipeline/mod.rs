@@ -541,6 +541,8 @@ impl FramePipeline {
         sets: &mut Option<Vec<Vec<(u32, u32)>>>,
     ) -> Result<Vec<u8>, PipelineError> {
         let (w, h) = (scene.camera.width, scene.camera.height);
+        // The renderer drew the frame (and its background) at the drawn exposure.
+        let draw = &draw.after_render();
         // Motion blur (sequences): each drone smeared along its streak first.
         let streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
         let blurred = if streaks.iter().flatten().any(|s| s.moves()) {

@@ -213,12 +213,16 @@ impl Renderer {
             None => self.background_key(uniforms, &scene.sky, size),
         };
         key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
+        // The exposure (a backplate's key holds no uniforms).
+        let gain = uniforms.exposure[0];
+        key.extend_from_slice(&gain.to_le_bytes());
         if cache.key.as_ref() == Some(&key) {
             return Ok(());
         }
         cache.key = None;
+        // Each way of drawing it applies the exposure (`uniforms.exposure`).
         match (&scene.backplate, self.sky.written_image_scale()) {
-            (Some(plate), _) => self.draw_plate_background(cache, plate)?,
+            (Some(plate), _) => self.draw_plate_background(cache, plate, gain)?,
             (None, Some(_)) => self.draw_reduced_background(cache, uniforms, Some(&scene.sky))?,
             (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => {
                 self.draw_reduced_background(cache, uniforms, None)?
@@ -426,7 +430,8 @@ impl Renderer {
                 bytes,
                 stride: row as usize,
             };
-            upsample_reduced(texels, (w, h), frame, centre, tone, rgba);
+            let gain = uniforms.exposure[0];
+            upsample_reduced(texels, (w, h), frame, centre, (tone, gain), rgba);
         })?;
         cache.mark_stale();
         Ok(())
@@ -477,16 +482,20 @@ impl Renderer {
         }
     }
 
-    /// A backplate as the background: its pixels written into the texture
-    /// and kept as the CPU copy (no sky pass, no readback).
+    /// A backplate as the background, exposed by `gain`: its pixels written
+    /// into the texture and kept as the CPU copy (no sky pass, no readback).
     fn draw_plate_background(
         &mut self,
         cache: &mut BackgroundCache,
         plate: &FramePlate,
+        gain: f32,
     ) -> Result<(), RenderError> {
         let size = (cache.width, cache.height);
         let made = self.plate_pixels(plate, size, &mut cache.rgba);
         if made.is_ok() {
+            if gain != 1.0 {
+                super::upsample::expose(&mut cache.rgba, gain);
+            }
             cache.mark_stale();
         }
         // A new generation even on failure: no buffer may match what was overwritten.

@@ -92,6 +92,9 @@ struct FrameUniforms {
     ground: [f32; 4],
     /// x: 1 when the frame has an atmosphere (haze on the drones), y: 3.912 / V (per metre).
     atmosphere: [f32; 4],
+    /// x: the camera's exposure as a gain on linear light, 2^EV (1 without a camera
+    /// model): applied before anything is encoded, so what it darkens was not clipped.
+    exposure: [f32; 4],
 }
 
 impl FrameUniforms {
@@ -120,8 +123,20 @@ impl FrameUniforms {
                 ],
                 None => [0.0; 4],
             },
+            exposure: [exposure_gain(scene), 0.0, 0.0, 0.0],
         }
     }
+}
+
+/// The frame's exposure as a gain on linear light: the camera model's drawn
+/// 2^EV, 1 without one. The renderer applies it before it encodes (so
+/// surfaces brighter than white keep their headroom under a negative EV) and
+/// the camera stage does not apply it again (`CameraDraw::after_render`).
+pub fn exposure_gain(scene: &FrameScene) -> f32 {
+    scene
+        .camera_model
+        .as_ref()
+        .map_or(1.0, |d| d.exposure_gain() as f32)
 }
 
 /// The views one frame is drawn into.

@@ -150,6 +150,8 @@ pub struct SceneryLight {
     pub ambient: [f32; 3],
     pub horizon: [f32; 3],
     pub extinction_per_m: f32,
+    /// The camera's exposure as a gain on linear light (1 without a camera model).
+    pub exposure: f32,
 }
 
 impl SceneryLight {
@@ -165,6 +167,7 @@ impl SceneryLight {
             } else {
                 0.0
             },
+            exposure: u.exposure[0],
         }
     }
 
@@ -173,7 +176,7 @@ impl SceneryLight {
         [0, 1, 2].map(|i| {
             let lit = p.albedo[i] * (p.sun_facing * self.sun[i] + self.ambient[i]);
             let hazed = lit * t + self.horizon[i] * (1.0 - t);
-            (linear_to_srgb(hazed) * 255.0).round() as u8
+            (linear_to_srgb(hazed * self.exposure) * 255.0).round() as u8
         })
     }
 }
@@ -430,7 +433,10 @@ fn layer_key(scene: &FrameScene, samples: u32, light: &SceneryLight) -> u64 {
     f(cam.fov_y_deg);
     f(cam.near_m);
     let light_values = [light.sun, light.ambient, light.horizon].concat();
-    for v in light_values.into_iter().chain([light.extinction_per_m]) {
+    for v in light_values
+        .into_iter()
+        .chain([light.extinction_per_m, light.exposure])
+    {
         f(f64::from(v));
     }
     for p in scene.clutter.iter().flat_map(|c| &c.primitives) {

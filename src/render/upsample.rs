@@ -61,6 +61,31 @@ static SRGB: LazyLock<SrgbTable> = LazyLock::new(|| {
     SrgbTable { thresholds }
 });
 
+/// The table that exposes an sRGB 8-bit picture by `gain` on linear light:
+/// level k → the level of linear(k/255)·`gain` (clipped at white), rounded
+/// as the encode rounds ([`SrgbTable`]'s thresholds).
+pub(super) fn exposure_table(gain: f32) -> [u8; 256] {
+    let t = &SRGB.thresholds[1..];
+    std::array::from_fn(|k| {
+        let y = linear(k as f64 / 255.0) * f64::from(gain);
+        t.partition_point(|&v| f64::from(v) <= y) as u8
+    })
+}
+
+/// `rgba`'s colour bytes (RGBA8, sRGB) exposed by `gain` ([`exposure_table`]),
+/// alpha kept; rows of pixels split over rayon's threads.
+pub(super) fn expose(rgba: &mut [u8], gain: f32) {
+    use rayon::prelude::*;
+    let table = exposure_table(gain);
+    rgba.par_chunks_mut(4 * 8192).for_each(|chunk| {
+        for px in chunk.chunks_exact_mut(4) {
+            px[0] = table[usize::from(px[0])];
+            px[1] = table[usize::from(px[1])];
+            px[2] = table[usize::from(px[2])];
+        }
+    });
+}
+
 /// Linear `x` sRGB-encoded and rounded to 8 bits (clamped to [0, 1], NaN → 0),
 /// as `linear_to_srgb` in common.wgsl and an `Rgba8Unorm` store would.
 #[cfg(test)]
@@ -395,14 +420,27 @@ impl Texels<'_> {
 struct SourceRows {
     rows: [usize; 2],
     data: [Vec<f32>; 2],
+    /// The exposure each converted row is multiplied by (1: none).
+    gain: f32,
 }
 
 impl SourceRows {
-    fn new(w: usize) -> Self {
+    fn new(w: usize, gain: f32) -> Self {
         Self {
             rows: [usize::MAX; 2],
             data: [vec![0.0; w * 4], vec![0.0; w * 4]],
+            gain,
         }
+    }
+
+    /// Row `r` of `texels` into slot `k`, exposed.
+    fn load(&mut self, texels: &Texels<'_>, k: usize, r: usize) {
+        texels.row_into(r, &mut self.data[k]);
+        if self.gain != 1.0 {
+            let g = self.gain;
+            self.data[k].iter_mut().for_each(|v| *v *= g);
+        }
+        self.rows[k] = r;
     }
 
     /// Rows `r0` and `r1` (r0 ≤ r1) of `texels`.
@@ -412,13 +450,11 @@ impl SourceRows {
                 self.rows.swap(0, 1);
                 self.data.swap(0, 1);
             } else {
-                texels.row_into(r0, &mut self.data[0]);
-                self.rows[0] = r0;
+                self.load(texels, 0, r0);
             }
         }
         if r1 != r0 && self.rows[1] != r1 {
-            texels.row_into(r1, &mut self.data[1]);
-            self.rows[1] = r1;
+            self.load(texels, 1, r1);
         }
         let [a, b] = &self.data;
         (a, if r1 == r0 { a } else { b })
@@ -427,19 +463,27 @@ impl SourceRows {
 
 /// Upsample a reduced pass's `texels` (`size` of them) to the frame's
 /// `frame` size into `rgba` (RGBA8, sRGB, alpha 255), for a camera whose
-/// principal point is `centre` (pixels), through `tone`.
+/// principal point is `centre` (pixels), through `tone`, exposed by `gain`
+/// (the camera's exposure on linear light, 1: none): the display values
+/// times `gain` are encoded. With [`Tone::Clip`] the texels are scaled as
+/// they are read (the blend is linear, so no pass of its own); after
+/// [`Tone::Exponential`] the encoded picture goes through [`expose`].
 pub(super) fn upsample_reduced(
     texels: Texels<'_>,
     size: (u32, u32),
     frame: (u32, u32),
     centre: (f32, f32),
-    tone: Tone,
+    (tone, gain): (Tone, f32),
     rgba: &mut Vec<u8>,
 ) {
+    let sizes = (size, frame);
     match tone {
-        Tone::Clip => upsample_with(texels, (size, frame), centre, &**CLIP, rgba, avx2()),
+        Tone::Clip => upsample_with(texels, sizes, centre, (&**CLIP, gain), rgba, avx2()),
         Tone::Exponential => {
-            upsample_with(texels, (size, frame), centre, &**EXPONENTIAL, rgba, avx2())
+            upsample_with(texels, sizes, centre, (&**EXPONENTIAL, 1.0), rgba, avx2());
+            if gain != 1.0 {
+                expose(rgba, gain);
+            }
         }
     }
 }
@@ -449,7 +493,7 @@ fn upsample_with<const N: usize>(
     texels: Texels<'_>,
     (size, frame): ((u32, u32), (u32, u32)),
     centre: (f32, f32),
-    buckets: &Buckets<N>,
+    (buckets, gain): (&Buckets<N>, f32),
     rgba: &mut Vec<u8>,
     simd: bool,
 ) {
@@ -462,7 +506,7 @@ fn upsample_with<const N: usize>(
     }
     let columns = Columns::new(frame.0, size.0, centre.0);
     let rows = taps(frame.1, size.1, centre.1);
-    let mut source = SourceRows::new(w);
+    let mut source = SourceRows::new(w, gain);
     let plane = vec![0f32; w];
     let value = vec![0f32; frame.0 as usize];
     let mut scratch = RowScratch {
@@ -533,6 +577,22 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_exposure_table_rounds_the_exposed_light_as_the_encode_does() {
+        assert_eq!(exposure_table(1.0), std::array::from_fn(|k| k as u8));
+        let half = exposure_table(0.5);
+        for (k, &got) in half.iter().enumerate() {
+            let want = srgb_u8((linear(k as f64 / 255.0) * 0.5) as f32);
+            assert!(got.abs_diff(want) <= 1, "level {k}: {got} against {want}");
+        }
+        // Half the light of white is sRGB 188 (0.7354 · 255 = 187.5).
+        assert_eq!(half[255], 188);
+        assert_eq!(exposure_table(4.0)[200], 255, "clipped at white");
+        let mut rgba = vec![255, 128, 0, 7, 255, 255, 255, 255];
+        expose(&mut rgba, 0.5);
+        assert_eq!(rgba, [188, half[128], 0, 7, 188, 188, 188, 255]);
+    }
+
+    #[test]
     fn srgb_u8_rounds_the_transfer_function_exactly() {
         // Every f32 step across [0, 1] in a fine sweep agrees with the f64 formula.
         for i in 0..=200_000u32 {
@@ -564,7 +624,7 @@ mod tests {
             (2, 1),
             (4, 2),
             (2.0, 1.0),
-            Tone::Clip,
+            (Tone::Clip, 1.0),
             &mut rgba,
         );
         assert_eq!(rgba.len(), 4 * 2 * 4);
@@ -572,6 +632,23 @@ mod tests {
         let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
         assert_eq!(&red[..4], &want);
         assert_eq!(&red[4..], &want, "rows clamp at the edge");
+        // Exposed by half (a power of two: exact in f32), the light halves before the encode.
+        let two = [0.0, 0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 1.0];
+        upsample_reduced(
+            Texels::F32(&two),
+            (2, 1),
+            (4, 2),
+            (2.0, 1.0),
+            (Tone::Clip, 0.5),
+            &mut rgba,
+        );
+        let red: Vec<u8> = rgba.chunks_exact(4).map(|p| p[0]).collect();
+        let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
+        assert_eq!(
+            &red[..4],
+            &want,
+            "2.0 exposed by half is white, not clipped first"
+        );
         assert!(
             rgba.chunks_exact(4)
                 .all(|p| p[1] == 0 && p[2] == 0 && p[3] == 255)
@@ -675,7 +752,7 @@ mod tests {
                     Texels::F32(&half),
                     (size, frame),
                     centre,
-                    &**CLIP,
+                    (&**CLIP, 1.0),
                     &mut got,
                     simd,
                 );
@@ -708,12 +785,19 @@ mod tests {
         let exact: Vec<f32> = halves.iter().map(|v| v.to_f32()).collect();
         for tone in [Tone::Clip, Tone::Exponential] {
             let (mut want, mut got) = (Vec::new(), Vec::new());
-            upsample_reduced(Texels::F32(&exact), size, frame, centre, tone, &mut want);
+            upsample_reduced(
+                Texels::F32(&exact),
+                size,
+                frame,
+                centre,
+                (tone, 0.75),
+                &mut want,
+            );
             let f16 = Texels::F16 {
                 bytes: &bytes,
                 stride,
             };
-            upsample_reduced(f16, size, frame, centre, tone, &mut got);
+            upsample_reduced(f16, size, frame, centre, (tone, 0.75), &mut got);
             assert!(got == want, "{tone:?}");
         }
         // A buffer one byte short of its last row is refused, not read past.
@@ -722,7 +806,7 @@ mod tests {
             stride,
         };
         let mut black = Vec::new();
-        upsample_reduced(short, size, frame, centre, Tone::Clip, &mut black);
+        upsample_reduced(short, size, frame, centre, (Tone::Clip, 1.0), &mut black);
         assert!(black.iter().all(|&b| b == 0));
     }
 
@@ -734,7 +818,7 @@ mod tests {
             (2, 2),
             (4, 4),
             (2.0, 2.0),
-            Tone::Clip,
+            (Tone::Clip, 1.0),
             &mut rgba,
         );
         assert_eq!(rgba, vec![0; 64]);

@@ -14,7 +14,10 @@
 //! stage skipped when its draw is neutral:
 //!
 //! 1. exposure and white balance: × 2^EV × (R, 1, B) gains (folded into the
-//!    decode table);
+//!    decode table). In frames the pipeline makes, the renderer has already
+//!    applied the exposure before its 8-bit encode (so highlights above white
+//!    keep their headroom) and the stage gets the draw with EV 0
+//!    ([`CameraDraw::after_render`]);
 //! 2. lateral chromatic aberration: the red and blue images scaled radially
 //!    about the image centre by their drawn scale relative to green
 //!    (bilinear resampling);
@@ -190,6 +193,24 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
 }
 
 impl CameraDraw {
+    /// The exposure as a gain on linear light, 2^EV.
+    pub fn exposure_gain(&self) -> f64 {
+        2f64.powf(self.exposure_ev)
+    }
+
+    /// The draw the camera stage applies to a frame the renderer already drew
+    /// at this exposure ([`Self::exposure_gain`]): the same draw with EV 0.
+    /// A camera's exposure scales the light before the sensor clips it, so
+    /// the renderer applies it before it encodes its 8-bit picture: a sunlit
+    /// white surface brighter than the encoding's white keeps its headroom
+    /// under a negative EV instead of being clipped first and darkened after.
+    pub fn after_render(&self) -> Self {
+        Self {
+            exposure_ev: 0.0,
+            ..*self
+        }
+    }
+
     /// The sensor's size for a `width`×`height` output (each side ≥ 1).
     pub fn sensor_size(&self, width: u32, height: u32) -> (u32, u32) {
         match self.sensor_scale {

@@ -175,6 +175,23 @@ pub fn preset_file(dir: &Path, preset: &Preset, name: &str) -> PathBuf {
     path
 }
 
+/// The renderer's picture of `scene` before the camera stage: drawn at its
+/// camera's exposure (the renderer applies it before it encodes), none of the
+/// rest of the camera applied. What `sensor::develop` with
+/// `CameraDraw::after_render` turns into the frame's noise-free camera image.
+pub fn rendered_at_exposure(
+    renderer: &mut swarmshot::render::Renderer,
+    scene: &swarmshot::scene::FrameScene,
+    msaa: u32,
+) -> Vec<u8> {
+    let request = swarmshot::render::RenderRequest {
+        msaa,
+        color: true,
+        visibility: false,
+    };
+    renderer.render_frame(scene, &request).expect("render").rgba
+}
+
 /// The box of the pixels where two RGBA8 frames of width `w` differ in colour, and how
 /// many there are (`None`: none differ).
 pub fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(swarmshot::sensor::PixelRect, u64)> {
