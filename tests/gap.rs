@@ -315,6 +315,20 @@ fn gap_cli_end_to_end_on_the_bundled_real_frames() {
     // Every real frame is labelled with one drone, and each is measured.
     assert_eq!(by_key("drone_core_px")["real"]["n"], 10);
     assert_eq!(json["real"]["frames"].as_array().expect("frames").len(), 10);
+    // Ten frames are few: the table says so, naming each statistic and its count.
+    let few = table
+        .lines()
+        .find(|l| l.starts_with("few real values"))
+        .unwrap_or_else(|| panic!("no `few real values` line in:\n{table}"));
+    assert!(
+        few.contains("drone core size √(pixels > half the peak) (n=10)"),
+        "{few}"
+    );
+    let small = by_key("small_drone_peak_contrast")["real"]["n"].clone();
+    assert!(
+        few.contains(&format!("peak contrast of 3–6 px drones (n={small})")),
+        "{few}"
+    );
     // Histograms are PNGs.
     let pngs: Vec<_> = std::fs::read_dir(&a)
         .expect("out")

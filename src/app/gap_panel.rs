@@ -427,6 +427,9 @@ fn report_ui(ui: &mut Ui, report: &Report) {
             }
         });
     ui.weak("Shares: the interval is the 50 % Wilson interval. Verdict: the synthetic median or share against the real range.");
+    if let Some(note) = report.few_real_values() {
+        ui.label(RichText::new(plain(&note)).color(Color32::from_rgb(220, 150, 40)));
+    }
     if !report.proposals.is_empty() {
         ui.add_space(4.0);
         ui.strong("Proposed ranges");

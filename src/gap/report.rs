@@ -110,7 +110,17 @@ impl Summary {
             Summary::Share { low, high, .. } => (low, high),
         }
     }
+    /// How many values it summarises.
+    pub fn n(&self) -> usize {
+        match *self {
+            Summary::Distribution { n, .. } | Summary::Share { n, .. } => n,
+        }
+    }
 }
+
+/// Below this many real values a statistic's real range is flagged in the
+/// table: the quartiles of a handful of values move with every value added.
+pub const FEW_REAL_VALUES: usize = 20;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct StatRow {
@@ -594,6 +604,23 @@ pub fn cell(s: Option<Summary>) -> String {
 }
 
 impl Report {
+    /// The statistics whose real range rests on fewer than [`FEW_REAL_VALUES`]
+    /// values, named with their counts (`None` when there are none).
+    pub fn few_real_values(&self) -> Option<String> {
+        let few: Vec<String> = (self.statistics.iter())
+            .filter_map(|r| {
+                let n = r.real?.n();
+                (n < FEW_REAL_VALUES).then(|| format!("{} (n={n})", r.name))
+            })
+            .collect();
+        (!few.is_empty()).then(|| {
+            format!(
+                "few real values (under {FEW_REAL_VALUES}), so their real range moves with every real frame added and their verdicts are weak: {}; add real frames for these",
+                few.join(", ")
+            )
+        })
+    }
+
     /// The side-by-side table, as printed.
     pub fn table(&self) -> String {
         let mut s = format!(
@@ -632,6 +659,10 @@ impl Report {
             );
         }
         s += "\n(shares: the interval is the 50 % Wilson interval; verdict: the synthetic median or share against the real range)\n";
+        if let Some(note) = self.few_real_values() {
+            s += &note;
+            s += "\n";
+        }
         if !self.proposals.is_empty() {
             s += "\nproposed ranges:\n";
             for p in &self.proposals {
