@@ -101,6 +101,7 @@ fn the_environment_is_deterministic_and_its_seed_moves_the_clouds() {
             cloud_cover: None,
             seed: Some(1234),
             exposure_ev: 0.0,
+            sun_ev: 0.0,
         },
         s => s,
     };
@@ -125,7 +126,7 @@ fn the_environment_sun_lights_the_drones() {
             pattern_seed: 0,
             exposure_offset_ev: 0.0,
         };
-        procedural_lighting(&style, &f, 1.0)
+        procedural_lighting(&style, &f, 1.0, 1.0)
     };
     let (day, sunset) = (env(EnvironmentName::Daytime), env(EnvironmentName::Sunset));
     let warmth = |c: [f32; 3]| c[0] / c[2].max(1e-6);

@@ -384,6 +384,7 @@ fn the_procedural_ground_fogs_with_the_same_visibility() {
     s.sky = FrameSky::Procedural {
         environment: swarmshot::preset::EnvironmentName::BeautifulPasture,
         exposure: 1.0,
+        sun: 1.0,
     };
     // The ground's green: G over the mean of R and B, averaged over the lower
     // half (the haze colour is a grey-blue, the pasture green).
@@ -410,4 +411,80 @@ fn the_procedural_ground_fogs_with_the_same_visibility() {
         "{clear} {hazy} {thick}"
     );
     assert!(thick < 3.0, "{thick}");
+}
+
+/// `sun_ev` turns the sunlight on the scene up against the sky: white drones
+/// get brighter, the clear sky behind them keeps every byte, and an out-of-range
+/// value is refused naming the field.
+#[test]
+fn the_sunlight_brightens_the_drones_and_leaves_the_sky() {
+    use swarmshot::preset::{EnvironmentName, Sky};
+    let ctx = common::gpu();
+    let with_sun = |sun_ev: f64| {
+        let mut p = common::tiny_preset();
+        let mut sky = Sky::procedural(EnvironmentName::Daytime);
+        if let Sky::Procedural {
+            sun_ev: s,
+            seed,
+            cloud_cover,
+            ..
+        } = &mut sky
+        {
+            *s = sun_ev;
+            *seed = Some(5);
+            // A clear sky: clouds are lit by the sun and brighten with it.
+            *cloud_cover = Some(0.0);
+        }
+        p.sky = sky;
+        p.appearance = Some(Appearance {
+            palette: vec![(DroneColor::White, 1.0)],
+            ..Appearance::default()
+        });
+        p
+    };
+    let frame = |p: Preset| {
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(&ctx);
+        pipeline.make(&mut renderer, 0).expect("frame")
+    };
+    let (a, b) = (frame(with_sun(0.0)), frame(with_sun(1.0)));
+    let w = a.scene.camera.width as usize;
+    let in_boxes = |f: &swarmshot::pipeline::Frame, x: usize, y: usize| {
+        f.labels.iter().any(|l| {
+            let b = l.amodal;
+            (b.x0 - 3.0..b.x1 + 3.0).contains(&(x as f64))
+                && (b.y0 - 3.0..b.y1 + 3.0).contains(&(y as f64))
+        })
+    };
+    let (mut brighter, mut sky_pixels) = (0usize, 0usize);
+    for y in 0..a.scene.camera.height as usize {
+        for x in 0..w {
+            let i = (y * w + x) * 4;
+            if in_boxes(&a, x, y) {
+                // More light only brightens: no channel goes down.
+                for c in 0..3 {
+                    assert!(b.rgba[i + c] >= a.rgba[i + c], "({x}, {y}) channel {c}");
+                }
+                brighter += usize::from(b.rgba[i..i + 3] != a.rgba[i..i + 3]);
+            } else if y < a.scene.camera.height as usize / 3 {
+                // The sky (the upper third, away from the drones): unchanged.
+                assert_eq!(a.rgba[i..i + 4], b.rgba[i..i + 4], "sky at ({x}, {y})");
+                sky_pixels += 1;
+            }
+        }
+    }
+    assert!(sky_pixels > 1000, "{sky_pixels}");
+    let drone_pixels: u64 = a
+        .labels
+        .iter()
+        .filter_map(|l| l.visibility)
+        .map(|v| v.visible_pixels)
+        .sum();
+    assert!(drone_pixels > 20, "{drone_pixels}");
+    assert!(
+        brighter as u64 * 2 > drone_pixels,
+        "{brighter} pixels brighter with twice the sunlight, of {drone_pixels} drone pixels"
+    );
+    let errors = with_sun(4.5).validate().expect_err("invalid");
+    assert!(errors.iter().any(|e| e.field == "sky.sun_ev"), "{errors:?}");
 }

@@ -100,6 +100,7 @@ fn regions_equal_full_frames_over_skies_msaa_and_edges() {
                 cloud_cover: Some(0.6),
                 seed: Some(3),
                 exposure_ev: 0.0,
+                sun_ev: 0.0,
             },
         ),
         ("image", image_sky(dir.path())),

@@ -42,6 +42,13 @@ pub enum Sky {
         /// Exposure compensation in stops.
         #[serde(default)]
         exposure_ev: f64,
+        /// The sunlight on the scene (drones, ground, scenery, clouds) relative
+        /// to the environment's own, in stops; the clear sky's brightness is
+        /// unchanged (0: as the environment gives it). Sets the sun-to-sky ratio, which
+        /// decides how far a sunlit white drone outshines the sky behind it.
+        /// Written only when ≠ 0 (presets without it keep their lock files).
+        #[serde(default, skip_serializing_if = "is_zero")]
+        sun_ev: f64,
     },
     /// An equirectangular image (.hdr, .exr, .png, .jpg) or six cubemap faces.
     /// The sun that lights the drones is given in the image's frame (azimuth
@@ -145,6 +152,7 @@ impl Sky {
             cloud_cover: None,
             seed: None,
             exposure_ev: 0.0,
+            sun_ev: 0.0,
         }
     }
 
@@ -216,6 +224,7 @@ impl Sky {
                 turbidity,
                 cloud_cover,
                 exposure_ev,
+                sun_ev,
                 ..
             } => {
                 if let Some(e) = sun_elevation_deg {
@@ -231,6 +240,7 @@ impl Sky {
                     range(v, "cloud_cover", *c, 0.0, 1.0);
                 }
                 range(v, "exposure_ev", *exposure_ev, -10.0, 10.0);
+                range(v, "sun_ev", *sun_ev, -4.0, 4.0);
             }
             Sky::Image {
                 source,
@@ -328,4 +338,8 @@ impl Default for Sky {
             horizon: DEFAULT_HORIZON,
         }
     }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }

@@ -639,9 +639,15 @@ impl SkyGpu {
             FrameSky::Procedural {
                 environment: name,
                 exposure,
+                sun: sunlight,
             } => {
-                let (uniforms, lighting) =
-                    EnvUniforms::procedural(name, exposure, env, sun, atmosphere_visibility_m);
+                let (uniforms, lighting) = EnvUniforms::procedural(
+                    name,
+                    (exposure, sunlight),
+                    env,
+                    sun,
+                    atmosphere_visibility_m,
+                );
                 u = uniforms;
                 lighting
             }

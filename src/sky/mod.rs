@@ -210,6 +210,8 @@ pub enum FrameSky {
     Procedural {
         environment: EnvironmentName,
         exposure: f32,
+        /// The sunlight's factor on the environment's own (2^`sun_ev`).
+        sun: f32,
     },
     Image {
         /// Index into the preset's sky images (`Sky::image_sources` order).
@@ -272,10 +274,12 @@ fn resolve_within(root: &Sky, sky: &Sky, env: &FrameEnvironment) -> FrameSky {
         Sky::Procedural {
             environment,
             exposure_ev,
+            sun_ev,
             ..
         } => FrameSky::Procedural {
             environment: *environment,
             exposure: 2f32.powf((exposure_ev + env.exposure_offset_ev) as f32),
+            sun: 2f32.powf(*sun_ev as f32),
         },
         Sky::Image {
             source,

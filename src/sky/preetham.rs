@@ -233,6 +233,7 @@ pub fn procedural_lighting(
     style: &EnvironmentStyle,
     env: &FrameEnvironment,
     exposure: f32,
+    sunlight: f32,
 ) -> Lighting {
     let sun = env.sun_direction().as_vec3();
     let sky = Preetham::new(env.turbidity as f32, sun);
@@ -248,7 +249,8 @@ pub fn procedural_lighting(
     let cloud = env.cloud_cover.clamp(0.0, 1.0) as f32;
     let overcast = Vec3::splat(horizon.element_sum() / 3.0);
     let zenith = zenith.lerp(overcast, cloud * 0.6);
-    let sun_strength = 1.6 * smoothstep(-0.03, 0.08, sun.y) * (1.0 - 0.55 * cloud);
+    // `sunlight` (the preset's 2^sun_ev, 1 by default) sets the sun against the sky.
+    let sun_strength = 1.6 * smoothstep(-0.03, 0.08, sun.y) * (1.0 - 0.55 * cloud) * sunlight;
     let sun_color =
         sun_transmittance(env.turbidity as f32, sun.y.asin()) * sun_strength * exposure.sqrt();
     let albedo = (Vec3::from(style.ground_albedo[0]) + Vec3::from(style.ground_albedo[1])) * 0.5;

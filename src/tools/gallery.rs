@@ -63,6 +63,7 @@ pub fn fixed_environment(name: EnvironmentName) -> Sky {
             turbidity,
             cloud_cover,
             exposure_ev,
+            sun_ev,
             ..
         } => Sky::Procedural {
             environment,
@@ -72,6 +73,7 @@ pub fn fixed_environment(name: EnvironmentName) -> Sky {
             cloud_cover,
             seed: Some(7),
             exposure_ev,
+            sun_ev,
         },
         other => other,
     }

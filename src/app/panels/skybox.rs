@@ -26,6 +26,7 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             sun_elevation_deg,
             sun_azimuth_deg,
             cloud_cover,
+            sun_ev,
             ..
         } => {
             let style = environment.style();
@@ -36,6 +37,8 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
                 cloud_cover,
                 form,
             );
+            field_row(ui, sun_ev, "sky.sun_ev", 0.05);
+            form.messages(ui, &["sky.sun_ev"]);
         }
         Sky::Image { .. } | Sky::Random { .. } => {
             ui.label("This sky is edited in the preset file (see docs/environments.md).");

@@ -59,19 +59,19 @@ fn band_top(style: &sky::EnvironmentStyle) -> f32 {
 }
 
 impl EnvUniforms {
-    /// The uniforms of procedural environment `name` at `exposure` for the
-    /// frame's environment draws and sun, hazed by the frame's atmosphere
-    /// (if any); and the lighting it gives the drones.
+    /// The uniforms of procedural environment `name` at `exposure`, its
+    /// sunlight × `sunlight`, for the frame's environment draws and sun, hazed
+    /// by the frame's atmosphere (if any); and the lighting it gives the drones.
     pub(super) fn procedural(
         name: EnvironmentName,
-        exposure: f32,
+        (exposure, sunlight): (f32, f32),
         env: &FrameEnvironment,
         sun: Vec3,
         atmosphere_visibility_m: Option<f64>,
     ) -> (Self, Lighting) {
         let mut u = Self::default();
         let style = name.style();
-        let lighting = sky::procedural_lighting(&style, env, exposure);
+        let lighting = sky::procedural_lighting(&style, env, exposure, sunlight);
         let model = Preetham::new(env.turbidity as f32, sun);
         let t = sky::sun_transmittance(env.turbidity as f32, sun.y.clamp(-1.0, 1.0).asin());
         u.mode = [1.0, sky::SKY_EXPOSURE * exposure, 0.0, 0.0];
