@@ -62,6 +62,7 @@ fn haze_scene(
     s.drones[0].rotation = DQuat::from_rotation_y(0.4) * DQuat::from_rotation_x(-1.2);
     s.drones[0].size_m = distance_m * 0.012;
     s.looks = vec![DroneLook {
+        color: DroneColor::Black,
         albedo: [0.03; 3],
         roughness: 0.6,
         metalness: 0.0,
@@ -487,4 +488,51 @@ fn the_sunlight_brightens_the_drones_and_leaves_the_sky() {
     );
     let errors = with_sun(4.5).validate().expect_err("invalid");
     assert!(errors.iter().any(|e| e.field == "sky.sun_ev"), "{errors:?}");
+}
+
+/// With `appearance`, every drone's manifest record says what it looked like
+/// (its drawn palette entry and material); without it, no record has a look.
+#[test]
+fn the_manifest_records_each_drones_drawn_look() {
+    let mut p = common::tiny_preset();
+    let line = |p: &Preset, index: u64| {
+        let scene = swarmshot::scene::build_frame(p, index).expect("scene");
+        let names = vec!["quad_x".to_owned()];
+        let text = swarmshot::write::manifest::manifest_line(&scene, &[], "x.png", &names, &[]);
+        let v: serde_json::Value = serde_json::from_str(&text).expect("json");
+        (scene, v)
+    };
+    let (_, plain) = line(&p, 0);
+    assert!(
+        plain["drones"]
+            .as_array()
+            .expect("drones")
+            .iter()
+            .all(|d| d.get("look").is_none())
+    );
+    p.appearance = Some(Appearance {
+        palette: vec![(DroneColor::Black, 1.0), (DroneColor::White, 1.0)],
+        roughness: (0.2, 0.9),
+        ..Appearance::default()
+    });
+    let mut colors = std::collections::BTreeSet::new();
+    for index in 0..p.frame_count().min(4) {
+        let (scene, v) = line(&p, index);
+        let drones = v["drones"].as_array().expect("drones");
+        assert_eq!(drones.len(), scene.looks.len());
+        for (d, look) in drones.iter().zip(&scene.looks) {
+            let l = &d["look"];
+            assert_eq!(l["color"], look.color.name());
+            let want = if look.color == DroneColor::Black {
+                0.03
+            } else {
+                0.8
+            };
+            assert_eq!(l["albedo"][1].as_f64(), Some(want));
+            let r = l["roughness"].as_f64().expect("roughness");
+            assert!((r - f64::from(look.roughness)).abs() < 1e-6 && (0.2..=0.9).contains(&r));
+            colors.insert(look.color.name());
+        }
+    }
+    assert_eq!(colors.len(), 2, "both palette entries drawn: {colors:?}");
 }

@@ -22,6 +22,19 @@ pub enum DroneColor {
     Coloured,
 }
 
+impl DroneColor {
+    /// The name a preset spells it with.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::White => "White",
+            Self::LightGrey => "LightGrey",
+            Self::DarkGrey => "DarkGrey",
+            Self::Black => "Black",
+            Self::Coloured => "Coloured",
+        }
+    }
+}
+
 /// Drone materials drawn per drone.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

@@ -33,6 +33,8 @@ impl FrameAtmosphere {
 /// One drone's material, replacing its model's glTF materials.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct DroneLook {
+    /// The palette entry drawn (its albedo below).
+    pub color: DroneColor,
     /// Linear base colour.
     pub albedo: [f32; 3],
     pub roughness: f32,
@@ -115,6 +117,7 @@ pub fn drone_looks(
                 DroneColor::Coloured => hue_color(hue),
             };
             DroneLook {
+                color,
                 albedo,
                 roughness,
                 metalness,

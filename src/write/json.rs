@@ -514,6 +514,26 @@ mod tests {
                             sharpen: pick(),
                         });
                         scene.placement_shortfall = 2;
+                        // Drawn looks for all but the last drone (it has none).
+                        use crate::preset::appearance::DroneColor;
+                        let colors = [
+                            DroneColor::White,
+                            DroneColor::LightGrey,
+                            DroneColor::DarkGrey,
+                            DroneColor::Black,
+                            DroneColor::Coloured,
+                        ];
+                        let n = scene.drones.len().saturating_sub(1);
+                        scene.looks = (0..n)
+                            .map(|i| crate::scene::realism::DroneLook {
+                                color: colors[i % colors.len()],
+                                albedo: [pick() as f32, 0.8, f32::NAN],
+                                roughness: pick() as f32,
+                                metalness: -0.0,
+                                emissive: pick() as f32,
+                                rotor_opacity: 1.0,
+                            })
+                            .collect();
                         for d in &mut scene.drones {
                             d.size_m = pick();
                             d.position.z = pick();

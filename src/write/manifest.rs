@@ -258,7 +258,7 @@ fn write_drones(
         j.raw(b",\"yaw\":");
         j.rounded(d.euler_deg.yaw, Decimals::Six);
         j.raw(b"}");
-        write_label_and_pose(j, label, model_names, d);
+        write_label_and_pose(j, label, scene.looks.get(i), model_names, d);
         if with_tracks {
             j.raw(b",\"track_id\":");
             j.u64(i as u64 + 1);
@@ -268,10 +268,12 @@ fn write_drones(
 }
 
 /// The keys a drone's and a confuser's records share, in byte order:
-/// `,"label":…,"model":…,"position_m":…,"quaternion_xyzw":…,"size_m":…`.
+/// `,"label":…,"model":…,"position_m":…,"quaternion_xyzw":…,"size_m":…`,
+/// with `,"look":…` after the label for a drone with a drawn look.
 fn write_label_and_pose(
     j: &mut Json<'_>,
     label: Option<&DroneLabel>,
+    look: Option<&crate::scene::realism::DroneLook>,
     model_names: &[String],
     d: &DronePose,
 ) {
@@ -279,6 +281,9 @@ fn write_label_and_pose(
     match label {
         Some(l) => write_label(j, l),
         None => j.raw(b"null"),
+    }
+    if let Some(look) = look {
+        write_look(j, look);
     }
     j.raw(b",\"model\":");
     match model_names.get(d.model) {
@@ -291,6 +296,23 @@ fn write_label_and_pose(
     j.rounded_all(&d.rotation.to_array(), Decimals::Twelve);
     j.raw(b",\"size_m\":");
     j.f64(d.size_m);
+}
+
+/// `,"look":{…}`: the drone's drawn material (`appearance` in the preset).
+fn write_look(j: &mut Json<'_>, look: &crate::scene::realism::DroneLook) {
+    j.raw(b",\"look\":{\"albedo\":");
+    j.rounded_all(&look.albedo.map(f64::from), Decimals::Six);
+    j.raw(b",\"color\":");
+    j.str(look.color.name());
+    j.raw(b",\"emissive\":");
+    j.rounded(f64::from(look.emissive), Decimals::Six);
+    j.raw(b",\"metalness\":");
+    j.rounded(f64::from(look.metalness), Decimals::Six);
+    j.raw(b",\"rotor_opacity\":");
+    j.rounded(f64::from(look.rotor_opacity), Decimals::Six);
+    j.raw(b",\"roughness\":");
+    j.rounded(f64::from(look.roughness), Decimals::Six);
+    j.raw(b"}");
 }
 
 pub(crate) fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
@@ -559,12 +581,24 @@ pub(crate) mod reference {
         class: Option<&'a str>,
         euler_deg: EulerRecord,
         label: Option<LabelRecord>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        look: Option<LookRecord>,
         model: Option<&'a str>,
         position_m: [f64; 3],
         quaternion_xyzw: [f64; 4],
         size_m: f64,
         #[serde(skip_serializing_if = "Option::is_none")]
         track_id: Option<u64>,
+    }
+
+    #[derive(Serialize)]
+    struct LookRecord {
+        albedo: [f64; 3],
+        color: &'static str,
+        emissive: f64,
+        metalness: f64,
+        rotor_opacity: f64,
+        roughness: f64,
     }
 
     #[derive(Serialize)]
@@ -676,6 +710,14 @@ pub(crate) mod reference {
                         .and_then(|v| v.visible_box)
                         .as_ref()
                         .map(box_xyxy),
+                }),
+                look: scene.looks.get(i).map(|l| LookRecord {
+                    albedo: l.albedo.map(|c| r6(f64::from(c))),
+                    color: l.color.name(),
+                    emissive: r6(f64::from(l.emissive)),
+                    metalness: r6(f64::from(l.metalness)),
+                    rotor_opacity: r6(f64::from(l.rotor_opacity)),
+                    roughness: r6(f64::from(l.roughness)),
                 }),
                 model: model_names.get(d.model).map(String::as_str),
                 position_m: d.position.to_array().map(r9),
