@@ -368,8 +368,8 @@ fn ceil(v: f64) -> f64 {
 /// Where the convex polygon `poly` crosses the row `y`: its (left, right) x.
 fn span(poly: &[DVec2], y: f64) -> Option<(f64, f64)> {
     let (mut left, mut right) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (i, &a) in poly.iter().enumerate() {
-        let b = poly[(i + 1) % poly.len()];
+    // Each edge (a, b), the last closing back to the first (no modulo per edge).
+    for (&a, &b) in poly.iter().zip(poly.iter().skip(1).chain(poly.first())) {
         if (a.y - y) * (b.y - y) > 0.0 {
             continue; // both ends on one side
         }
