@@ -491,22 +491,8 @@ fn drones_under_a_plate_take_its_ambient_light() {
 fn haze_under_a_plate_takes_the_plates_sky_around_the_drone() {
     use swarmshot::preset::atmosphere::Atmosphere;
     let ctx = common::gpu();
-    let decode = |c: u8| {
-        let c = f64::from(c) / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let encode = |l: f64| {
-        let s = if l <= 0.003_130_8 {
-            l * 12.92
-        } else {
-            1.055 * l.powf(1.0 / 2.4) - 0.055
-        };
-        s * 255.0
-    };
+    let decode = common::srgb_decode;
+    let encode = |l: f64| common::srgb_encode(l) * 255.0;
     let mut checked = 0;
     for (visibility_m, thick) in [(0.5, true), (1.0e7, false)] {
         let mut p = plate_preset(&plates_dir(), (1, 1));

@@ -632,21 +632,7 @@ fn headroom_under(ctx: &swarmshot::render::GpuContext, sky: swarmshot::preset::S
         })
     };
     assert!(!inside(&bright) && !inside(&dark));
-    let linear = |c: u8| {
-        let s = f64::from(c) / 255.0;
-        if s <= 0.04045 {
-            s / 12.92
-        } else {
-            ((s + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let srgb = |l: f64| {
-        if l <= 0.003_130_8 {
-            l * 12.92
-        } else {
-            1.055 * l.powf(1.0 / 2.4) - 0.055
-        }
-    };
+    let (linear, srgb) = (common::srgb_decode, common::srgb_encode);
     for c in 0..3 {
         let (b, d) = (
             bright.rgba[(y * w + x) * 4 + c],
