@@ -36,6 +36,9 @@ fn sky_radiance(dir: vec3<f32>) -> vec3<f32> {
 // other branches: a software rasteriser such as lavapipe otherwise runs
 // every branch for every pixel under a lane mask.
 override SKY_MODE: f32 = -1.0;
+// 1: the frame's exposure applied here (a whole frame drawn at once); 0: the
+// cached background's pass, exposed afterwards (render/background.rs).
+override EXPOSED: f32 = 1.0;
 
 @fragment
 fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
@@ -57,7 +60,7 @@ fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
     } else {
         col = image_sky(dir);
     }
-    return vec4<f32>(linear_to_srgb(col * frame.exposure.x), 1.0);
+    return vec4<f32>(linear_to_srgb(col * select(1.0, frame.exposure.x, EXPOSED > 0.5)), 1.0);
 }
 
 // The procedural environment pass over one side's polygon (render/horizon.rs).

@@ -645,3 +645,37 @@ fn headroom_under(ctx: &swarmshot::render::GpuContext, sky: swarmshot::preset::S
         );
     }
 }
+
+/// A sky that stays the same under an exposure drawn per frame is drawn once
+/// and re-exposed for each frame, not drawn again; each frame's sky still
+/// takes its own exposure.
+#[test]
+fn a_static_sky_under_an_exposure_range_is_drawn_once() {
+    let ctx = common::gpu();
+    let mut p = common::tiny_preset();
+    p.camera_model = Some(CameraModel {
+        exposure_ev: (-1.5, 0.0),
+        ..CameraModel::default()
+    });
+    let pipeline = swarmshot::pipeline::FramePipeline::new(p.clone()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut plain = p.clone();
+    plain.camera_model = None;
+    let plain_pipeline = swarmshot::pipeline::FramePipeline::new(plain).expect("pipeline");
+    let mut plain_renderer = plain_pipeline.renderer(&ctx);
+    let n = p.frame_count().min(4);
+    assert!(n >= 3);
+    let mut exposures = Vec::new();
+    for index in 0..n {
+        let frame = pipeline.make(&mut renderer, index).expect("frame");
+        let clean = plain_pipeline.make(&mut plain_renderer, index).expect("clean");
+        let ev = frame.scene.camera_model.expect("drawn").exposure_ev;
+        exposures.push(ev);
+        // A sky pixel in the top-left corner, clear of the drones.
+        let (b, d) = (clean.rgba[0], frame.rgba[0]);
+        let want = (common::srgb_encode(2f64.powf(ev) * common::srgb_decode(b)) * 255.0).round();
+        assert!((f64::from(d) - want).abs() <= 1.0, "frame {index}: {d}, want {want}");
+    }
+    assert!(exposures.windows(2).all(|w| w[0] != w[1]), "{exposures:?}");
+    assert_eq!(renderer.background_draws(), 1, "drawn once, re-exposed after");
+}

@@ -46,6 +46,11 @@ pub(super) struct BackgroundCache {
     pub(super) generation: u64,
     /// Full-frame readback of the drawn sky.
     readback: Readback,
+    /// A background kept before the camera's exposure, with its key without
+    /// the exposure (see [`Renderer::draw_exposed`]).
+    unexposed: Option<(Vec<u8>, Vec<u8>)>,
+    /// The exposure-free key of the background drawn last.
+    last_base_key: Option<Vec<u8>>,
     /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
     /// Per [`UPLOAD_TILE`]-square tile, row by row: whether `texture` still
@@ -166,6 +171,8 @@ impl BackgroundCache {
             rgba: Vec::new(),
             generation: 0,
             readback: Readback::new(device, "background readback", width, height),
+            unexposed: None,
+            last_base_key: None,
             environment_readback: None,
             stale: Vec::new(),
         }
@@ -181,6 +188,8 @@ impl BackgroundCache {
     /// next frame draws it again.
     pub(super) fn forget(&mut self) {
         self.key = None;
+        self.unexposed = None;
+        self.last_base_key = None;
         self.stale.clear();
     }
 
@@ -208,28 +217,38 @@ impl Renderer {
     ) -> Result<(), RenderError> {
         let cache = &mut state.targets[t].background;
         let size = (cache.width, cache.height);
-        let mut key = match &scene.backplate {
+        // What the background shows, before the camera's exposure and the scenery.
+        let base_key = match &scene.backplate {
             Some(plate) => Self::plate_key(plate, size),
             None => self.background_key(uniforms, &scene.sky, size),
         };
-        key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
-        // The exposure (a backplate's key holds no uniforms).
         let gain = uniforms.exposure[0];
+        let mut key = base_key.clone();
+        key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
         key.extend_from_slice(&gain.to_le_bytes());
         if cache.key.as_ref() == Some(&key) {
             return Ok(());
         }
         cache.key = None;
-        // Each way of drawing it applies the exposure (`uniforms.exposure`).
-        match (&scene.backplate, self.sky.written_image_scale()) {
-            (Some(plate), _) => self.draw_plate_background(cache, plate, gain)?,
-            (None, Some(_)) => self.draw_reduced_background(cache, uniforms, Some(&scene.sky))?,
-            (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => {
-                self.draw_reduced_background(cache, uniforms, None)?
+        if gain != 1.0
+            && cache
+                .unexposed
+                .as_ref()
+                .is_some_and(|(k, _)| *k == base_key)
+        {
+            // The same background under another exposure: re-exposed, not drawn.
+            if let Some((_, pixels)) = &cache.unexposed {
+                cache.rgba.clear();
+                cache.rgba.extend_from_slice(pixels);
             }
-            (None, None) => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
+            super::upsample::expose(&mut cache.rgba, gain);
+            cache.renew();
+            cache.mark_stale();
+        } else {
+            self.draw_exposed(state, t, scene, uniforms, (base_key.as_slice(), gain))?;
         }
-        state.background_draws += 1;
+        let cache = &mut state.targets[t].background;
+        cache.last_base_key = Some(base_key);
         if let Some((_, layer)) = state.scenery.as_ref().and_then(|g| g.layer()) {
             // The texture holds the background without the scenery (the
             // region passes draw the scenery themselves): all of it now.
@@ -237,6 +256,50 @@ impl Renderer {
             super::scenery::composite(layer, &mut cache.rgba);
         }
         cache.key = Some(key);
+        Ok(())
+    }
+
+    /// Draw target set `t`'s background for `scene` at exposure `gain`.
+    /// The CPU-made pictures (procedural environments, magnified image skies,
+    /// backplates) are drawn at the exposure, at no cost of their own, while
+    /// the background changes from frame to frame; once the same background
+    /// (`base_key`) comes back under another exposure, it is drawn unexposed
+    /// and kept, and later exposures re-expose that copy with a table (a
+    /// static sky or plate under an exposure range is not redrawn each
+    /// frame). The sky shader's background is always drawn unexposed, kept,
+    /// and exposed by the table.
+    fn draw_exposed(
+        &mut self,
+        state: &mut RegionState,
+        t: usize,
+        scene: &FrameScene,
+        uniforms: &FrameUniforms,
+        (base_key, gain): (&[u8], f32),
+    ) -> Result<(), RenderError> {
+        let cache = &mut state.targets[t].background;
+        let repeated = cache.last_base_key.as_deref() == Some(base_key);
+        let on_gpu = scene.backplate.is_none()
+            && self.sky.written_image_scale().is_none()
+            && !super::sky::SkyGpu::is_procedural(&scene.sky);
+        let keep = gain != 1.0 && (repeated || on_gpu);
+        let draw_gain = if keep { 1.0 } else { gain };
+        match (&scene.backplate, self.sky.written_image_scale()) {
+            (Some(plate), _) => self.draw_plate_background(cache, plate, draw_gain)?,
+            (None, Some(_)) => {
+                self.draw_reduced_background(cache, uniforms, Some(&scene.sky), draw_gain)?
+            }
+            (None, None) if !on_gpu => {
+                self.draw_reduced_background(cache, uniforms, None, draw_gain)?
+            }
+            (None, None) => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
+        }
+        state.background_draws += 1;
+        if keep {
+            cache.unexposed = Some((base_key.to_vec(), cache.rgba.clone()));
+            super::upsample::expose(&mut cache.rgba, gain);
+            // The texture is written from the exposed bytes where the regions need it.
+            cache.mark_stale();
+        }
         Ok(())
     }
 
@@ -278,8 +341,10 @@ impl Renderer {
         // The sky shaders never read the atmosphere's slot (a procedural
         // environment's fog is in its own uniforms): a new visibility alone
         // keeps the background.
+        // Nor the exposure: it is applied after the drawing (`update_background`).
         let sky_uniforms = FrameUniforms {
             atmosphere: [0.0; 4],
+            exposure: [0.0; 4],
             ..*uniforms
         };
         let mut key = bytemuck::bytes_of(&sky_uniforms).to_vec();
@@ -296,7 +361,7 @@ impl Renderer {
         let i = match pipelines.0.iter().position(|(m, _)| *m == mode) {
             Some(i) => i,
             None => {
-                let constants = [("SKY_MODE", f64::from(self.sky.mode()))];
+                let constants = [("SKY_MODE", f64::from(self.sky.mode())), ("EXPOSED", 0.0)];
                 let pipeline =
                     self.device
                         .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -341,6 +406,7 @@ impl Renderer {
         cache: &mut BackgroundCache,
         uniforms: &FrameUniforms,
         image: Option<&FrameSky>,
+        gain: f32,
     ) -> Result<(), RenderError> {
         let mut encoder = self
             .device
@@ -430,7 +496,6 @@ impl Renderer {
                 bytes,
                 stride: row as usize,
             };
-            let gain = uniforms.exposure[0];
             upsample_reduced(texels, (w, h), frame, centre, (tone, gain), rgba);
         })?;
         cache.mark_stale();
