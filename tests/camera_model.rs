@@ -668,14 +668,23 @@ fn a_static_sky_under_an_exposure_range_is_drawn_once() {
     let mut exposures = Vec::new();
     for index in 0..n {
         let frame = pipeline.make(&mut renderer, index).expect("frame");
-        let clean = plain_pipeline.make(&mut plain_renderer, index).expect("clean");
+        let clean = plain_pipeline
+            .make(&mut plain_renderer, index)
+            .expect("clean");
         let ev = frame.scene.camera_model.expect("drawn").exposure_ev;
         exposures.push(ev);
         // A sky pixel in the top-left corner, clear of the drones.
         let (b, d) = (clean.rgba[0], frame.rgba[0]);
         let want = (common::srgb_encode(2f64.powf(ev) * common::srgb_decode(b)) * 255.0).round();
-        assert!((f64::from(d) - want).abs() <= 1.0, "frame {index}: {d}, want {want}");
+        assert!(
+            (f64::from(d) - want).abs() <= 1.0,
+            "frame {index}: {d}, want {want}"
+        );
     }
     assert!(exposures.windows(2).all(|w| w[0] != w[1]), "{exposures:?}");
-    assert_eq!(renderer.background_draws(), 1, "drawn once, re-exposed after");
+    assert_eq!(
+        renderer.background_draws(),
+        1,
+        "drawn once, re-exposed after"
+    );
 }
