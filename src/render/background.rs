@@ -230,17 +230,11 @@ impl Renderer {
             return Ok(());
         }
         cache.key = None;
-        if gain != 1.0
-            && cache
-                .unexposed
-                .as_ref()
-                .is_some_and(|(k, _)| *k == base_key)
-        {
+        let kept = (cache.unexposed.as_ref()).filter(|(k, _)| gain != 1.0 && *k == base_key);
+        if let Some((_, pixels)) = kept {
             // The same background under another exposure: re-exposed, not drawn.
-            if let Some((_, pixels)) = &cache.unexposed {
-                cache.rgba.clear();
-                cache.rgba.extend_from_slice(pixels);
-            }
+            cache.rgba.clear();
+            cache.rgba.extend_from_slice(pixels);
             super::upsample::expose(&mut cache.rgba, gain);
             cache.renew();
             cache.mark_stale();
@@ -276,26 +270,39 @@ impl Renderer {
         uniforms: &FrameUniforms,
         (base_key, gain): (&[u8], f32),
     ) -> Result<(), RenderError> {
+        /// Where the background's pixels come from.
+        enum Source<'a> {
+            Plate(&'a FramePlate),
+            /// The reduced pass, upsampled on the CPU (an image sky when `Some`).
+            Reduced(Option<&'a FrameSky>),
+            /// The sky shader, drawn unexposed (`EXPOSED` 0 in sky.wgsl).
+            Shader,
+        }
+        let source = match (&scene.backplate, self.sky.written_image_scale()) {
+            (Some(plate), _) => Source::Plate(plate),
+            (None, Some(_)) => Source::Reduced(Some(&scene.sky)),
+            (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => Source::Reduced(None),
+            (None, None) => Source::Shader,
+        };
         let cache = &mut state.targets[t].background;
         let repeated = cache.last_base_key.as_deref() == Some(base_key);
-        let on_gpu = scene.backplate.is_none()
-            && self.sky.written_image_scale().is_none()
-            && !super::sky::SkyGpu::is_procedural(&scene.sky);
-        let keep = gain != 1.0 && (repeated || on_gpu);
+        let keep = gain != 1.0 && (repeated || matches!(source, Source::Shader));
         let draw_gain = if keep { 1.0 } else { gain };
-        match (&scene.backplate, self.sky.written_image_scale()) {
-            (Some(plate), _) => self.draw_plate_background(cache, plate, draw_gain)?,
-            (None, Some(_)) => {
-                self.draw_reduced_background(cache, uniforms, Some(&scene.sky), draw_gain)?
+        match source {
+            Source::Plate(plate) => self.draw_plate_background(cache, plate, draw_gain)?,
+            Source::Reduced(image) => {
+                self.draw_reduced_background(cache, uniforms, image, draw_gain)?
             }
-            (None, None) if !on_gpu => {
-                self.draw_reduced_background(cache, uniforms, None, draw_gain)?
-            }
-            (None, None) => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
+            Source::Shader => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
         }
         state.background_draws += 1;
         if keep {
-            cache.unexposed = Some((base_key.to_vec(), cache.rgba.clone()));
+            // Into the kept copy's memory: no frame-sized allocation per frame.
+            let (key, pixels) = cache.unexposed.get_or_insert_with(Default::default);
+            key.clear();
+            key.extend_from_slice(base_key);
+            pixels.clear();
+            pixels.extend_from_slice(&cache.rgba);
             super::upsample::expose(&mut cache.rgba, gain);
             // The texture is written from the exposed bytes where the regions need it.
             cache.mark_stale();

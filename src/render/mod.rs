@@ -132,7 +132,7 @@ impl FrameUniforms {
 /// 2^EV, 1 without one. The renderer applies it before it encodes (so
 /// surfaces brighter than white keep their headroom under a negative EV) and
 /// the camera stage does not apply it again (`CameraDraw::after_render`).
-pub fn exposure_gain(scene: &FrameScene) -> f32 {
+fn exposure_gain(scene: &FrameScene) -> f32 {
     scene
         .camera_model
         .as_ref()

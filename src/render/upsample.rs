@@ -617,33 +617,26 @@ mod tests {
     fn upsampling_interpolates_with_the_samplers_weights() {
         // 2×1 texels (0 and 1 in red) to 4×2 pixels, centre (2, 1): the
         // columns sample at texel coordinates -0.25, 0.25, 0.75, 1.25.
-        let half = [0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0];
         let mut rgba = Vec::new();
-        upsample_reduced(
-            Texels::F32(&half),
-            (2, 1),
-            (4, 2),
-            (2.0, 1.0),
-            (Tone::Clip, 1.0),
-            &mut rgba,
-        );
-        assert_eq!(rgba.len(), 4 * 2 * 4);
-        let red: Vec<u8> = rgba.chunks_exact(4).map(|p| p[0]).collect();
+        let mut upsample = |half: &[f32], gain: f32| {
+            let (size, frame, centre) = ((2, 1), (4, 2), (2.0, 1.0));
+            upsample_reduced(
+                Texels::F32(half),
+                size,
+                frame,
+                centre,
+                (Tone::Clip, gain),
+                &mut rgba,
+            );
+            assert_eq!(rgba.len(), 4 * 2 * 4);
+            rgba.chunks_exact(4).map(|p| p[0]).collect::<Vec<u8>>()
+        };
+        let red = upsample(&[0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0], 1.0);
         let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
         assert_eq!(&red[..4], &want);
         assert_eq!(&red[4..], &want, "rows clamp at the edge");
         // Exposed by half (a power of two: exact in f32), the light halves before the encode.
-        let two = [0.0, 0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 1.0];
-        upsample_reduced(
-            Texels::F32(&two),
-            (2, 1),
-            (4, 2),
-            (2.0, 1.0),
-            (Tone::Clip, 0.5),
-            &mut rgba,
-        );
-        let red: Vec<u8> = rgba.chunks_exact(4).map(|p| p[0]).collect();
-        let want = [0.0, 0.25, 0.75, 1.0].map(srgb_u8);
+        let red = upsample(&[0.0, 0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 1.0], 0.5);
         assert_eq!(
             &red[..4],
             &want,
