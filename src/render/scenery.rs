@@ -97,34 +97,37 @@ impl ClutterLayer {
     /// samples' `spans` (columns `[start, end)`, sample bit) cover: each
     /// pixel once, with the mask of the samples covering it.
     fn paint_row(&mut self, y: u32, spans: &[(usize, usize, u8)], depth: f32, rgb: &[u8; 3]) {
-        let (Some(start), Some(end)) = (
-            spans.iter().map(|t| t.0).min(),
-            spans.iter().map(|t| t.1).max(),
-        ) else {
+        // One pass: the union [start, end), the run [inner_a, inner_b) every
+        // span covers, and the mask of all the row's samples.
+        let (mut start, mut end, mut inner_a, mut inner_b, mut all) =
+            (usize::MAX, 0usize, 0usize, usize::MAX, 0u8);
+        for &(a, b, bit) in spans {
+            start = start.min(a);
+            end = end.max(b);
+            inner_a = inner_a.max(a);
+            inner_b = inner_b.min(b);
+            all |= bit;
+        }
+        if spans.is_empty() {
             return;
-        };
+        }
         let touched = &mut self.touched[y as usize];
         *touched = (touched.0.min(start as u32), touched.1.max(end as u32));
         let row = (y * self.width) as usize;
         let colors = &mut self.color[row + start..row + end];
         let depths = &mut self.depth[row + start..row + end];
         // Where every sample's span covers, the whole mask; elsewhere each pixel's own.
-        let all = spans.iter().fold(0u8, |m, t| m | t.2);
-        let inner_a = spans.iter().map(|t| t.0).max().unwrap_or(start);
-        let inner_b = spans
-            .iter()
-            .map(|t| t.1)
-            .min()
-            .unwrap_or(start)
-            .max(inner_a);
+        let inner_b = inner_b.max(inner_a);
         let (a, b) = (inner_a.min(end) - start, inner_b.min(end) - start);
         // The edges, each pixel with the samples whose spans cover it.
         for i in (0..a).chain(b..colors.len()) {
             let x = start + i;
-            let bits = spans
-                .iter()
-                .filter(|t| t.0 <= x && x < t.1)
-                .fold(0u8, |m, t| m | t.2);
+            let mut bits = 0u8;
+            for &(s0, s1, bit) in spans {
+                if s0 <= x && x < s1 {
+                    bits |= bit;
+                }
+            }
             if bits != 0 {
                 paint(&mut colors[i], &mut depths[i], bits, depth, rgb);
             }
@@ -280,6 +283,7 @@ fn rasterize_into(
     // (farther-listed) shapes are left out and the layer says so.
     let budget = MAX_OVERDRAW * u64::from(width) * u64::from(height) * offsets.len() as u64;
     let mut written = 0u64;
+    let mut edges = Vec::new();
     for p in &clutter.primitives {
         if written > budget {
             layer.truncated = true;
@@ -309,13 +313,20 @@ fn rasterize_into(
         // work is the rows and the pixels covered, not the bounding box.
         // A pixel is painted once with the mask of the samples covering it:
         // the shape's depth and colour are the same for all of them.
-        let mut spans = [(0usize, 0usize, 0u8); 8];
+        Edge::of(&poly, &mut edges);
+        let mut spans = [(0usize, 0usize, 0u8); 4];
         for y in y0..y1 {
+            let mut ys = [f64::from(y); 4];
+            for (s, (_, oy)) in offsets.iter().enumerate().take(4) {
+                ys[s] += oy;
+            }
+            let (lefts, rights) = row_spans(&edges, &ys);
             let mut n = 0;
-            for (s, (ox, oy)) in offsets.iter().enumerate().take(spans.len()) {
-                let Some((left, right)) = span(&poly, f64::from(y) + oy) else {
+            for (s, (ox, _)) in offsets.iter().enumerate().take(4) {
+                let (left, right) = (lefts[s], rights[s]);
+                if left > right {
                     continue;
-                };
+                }
                 let xa = ceil(left - ox).max(0.0);
                 let xb = floor(right - ox).min(f64::from(width) - 1.0);
                 if xa > xb {
@@ -365,24 +376,54 @@ fn ceil(v: f64) -> f64 {
     if t < v { t + 1.0 } else { t }
 }
 
-/// Where the convex polygon `poly` crosses the row `y`: its (left, right) x.
-fn span(poly: &[DVec2], y: f64) -> Option<(f64, f64)> {
-    let (mut left, mut right) = (f64::INFINITY, f64::NEG_INFINITY);
-    // Each edge (a, b), the last closing back to the first (no modulo per edge).
-    for (&a, &b) in poly.iter().zip(poly.iter().skip(1).chain(poly.first())) {
-        if (a.y - y) * (b.y - y) > 0.0 {
-            continue; // both ends on one side
-        }
-        let (xa, xb) = if (b.y - a.y).abs() < 1e-12 {
-            (a.x.min(b.x), a.x.max(b.x))
-        } else {
-            let x = a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x);
-            (x, x)
-        };
-        left = left.min(xa);
-        right = right.max(xb);
+/// One edge `(a, b)` of a projected polygon, as the row spans read it.
+#[derive(Clone, Copy)]
+struct Edge {
+    a: DVec2,
+    b: DVec2,
+    /// Level (|Δy| < 1e-12): the edge spans its ends' x range on its row.
+    level: bool,
+}
+
+impl Edge {
+    /// The edges of `poly` into `out`, the last closing back to the first.
+    fn of(poly: &[DVec2], out: &mut Vec<Edge>) {
+        out.clear();
+        out.extend(
+            poly.iter()
+                .zip(poly.iter().skip(1).chain(poly.first()))
+                .map(|(&a, &b)| Edge {
+                    a,
+                    b,
+                    level: (b.y - a.y).abs() < 1e-12,
+                }),
+        );
     }
-    (left <= right).then_some((left, right))
+}
+
+/// Where the convex polygon of `edges` crosses the rows `ys` (a pixel row's
+/// four sample rows; fewer samples repeat the first): each row's (left,
+/// right) x, left > right where it misses the row. The four rows are
+/// computed together, without branches, so that they vectorise.
+fn row_spans(edges: &[Edge], ys: &[f64; 4]) -> ([f64; 4], [f64; 4]) {
+    let (mut left, mut right) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+    for e in edges {
+        let (a, b) = (e.a, e.b);
+        for s in 0..4 {
+            let y = ys[s];
+            // Both ends on one side: the edge misses the row.
+            let crosses = (a.y - y) * (b.y - y) <= 0.0;
+            let (xa, xb) = if e.level {
+                (a.x.min(b.x), a.x.max(b.x))
+            } else {
+                let x = a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x);
+                (x, x)
+            };
+            left[s] = if crosses { left[s].min(xa) } else { left[s] };
+            right[s] = if crosses { right[s].max(xb) } else { right[s] };
+        }
+    }
+    (left, right)
 }
 
 /// The coverage of `scene`'s clutter (colours unlit): for tests and tools.
