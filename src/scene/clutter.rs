@@ -79,6 +79,8 @@ struct Frame {
     /// Half the horizontal field of view plus a margin, radians.
     half_span: f64,
     sun: DVec3,
+    /// Metres per pixel at 1 m: the angle a pixel spans (radians).
+    pixel_rad: f64,
 }
 
 impl Frame {
@@ -99,6 +101,7 @@ impl Frame {
             right,
             half_span: (half_fov_x + 5f64.to_radians()).min(std::f64::consts::PI),
             sun,
+            pixel_rad: 1.0 / camera.focal_px().max(1e-9),
         }
     }
 
@@ -148,7 +151,9 @@ fn tree_lines(spec: &TreeLines, f: &Frame, rng: &mut ChaCha8Rng, out: &mut Vec<P
         // Crowns of radius 2–5 m along the band; the top is the highest crown
         // over each point, roughened by leaves (±0.3 m).
         let length = distance * width;
-        let points = ((length / 0.5) as usize).clamp(8, 4000);
+        // Points every 0.5 m, or every 1.5 pixels where that is wider.
+        let step = (1.5 * distance * f.pixel_rad).max(0.5);
+        let points = ((length / step) as usize).clamp(8, 4000);
         let mut crowns = Vec::new();
         let mut s = 0.0;
         while s < length {
