@@ -688,3 +688,140 @@ fn a_static_sky_under_an_exposure_range_is_drawn_once() {
         "drawn once, re-exposed after"
     );
 }
+
+/// The mean luminance level (Rec. 601 on the sRGB bytes, as `swarmshot gap`
+/// measures brightness) of an RGBA frame.
+fn mean_level(rgba: &[u8]) -> f64 {
+    let sum: f64 = rgba
+        .chunks_exact(4)
+        .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
+        .sum();
+    sum / (rgba.len() / 4) as f64
+}
+
+/// Auto-exposure meters each frame's background to its target: across the
+/// seven environments, sun heights, cloud, haze and camera elevations from
+/// the horizon in view to sky only, every frame's mean level lands within a
+/// few levels of the target (the meter's sky is the renderer's), where the
+/// fixed exposure spreads the same frames widely; the frame is drawn at the
+/// metered EV the scene records.
+#[test]
+fn auto_exposure_brings_each_frame_to_its_target_level() {
+    use swarmshot::pipeline::FramePipeline;
+    use swarmshot::preset::atmosphere::Atmosphere;
+    use swarmshot::preset::observer::ObserverCamera;
+    use swarmshot::preset::{EnvironmentName, Placement, Sky, Volume};
+    let ctx = common::gpu();
+    let preset = |auto_exposure: Option<(f64, f64)>| {
+        let mut p = common::tiny_preset();
+        p.placement = Placement::Randomized {
+            count: (1, 1),
+            count_distribution: Default::default(),
+            volume: Volume::Box {
+                size_m: (1.0, 1.0, 1.0),
+            },
+            min_separation_m: 0.5,
+        };
+        p.repeats = 3;
+        p.sky = Sky::Random {
+            choices: EnvironmentName::ALL
+                .iter()
+                .map(|&e| Sky::procedural(e))
+                .collect(),
+            azimuth_offset_deg: (0.0, 360.0),
+            sun_elevation_deg: Some((10.0, 60.0)),
+            cloud_cover: Some((0.0, 0.4)),
+            exposure_ev: None,
+        };
+        p.camera.observer = Some(ObserverCamera {
+            elevation_deg: (0.0, 30.0),
+            distance_m: (400.0, 400.0),
+            ..ObserverCamera::default()
+        });
+        p.atmosphere = Some(Atmosphere {
+            visibility_m: (4000.0, 40000.0),
+        });
+        p.camera_model = Some(CameraModel {
+            auto_exposure,
+            ..CameraModel::default()
+        });
+        p
+    };
+    let levels = |p: Preset| {
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(&ctx);
+        (0..pipeline.frame_count())
+            .map(|i| {
+                let frame = pipeline.make(&mut renderer, i).expect("frame");
+                (mean_level(&frame.rgba), frame.scene.camera_model)
+            })
+            .collect::<Vec<_>>()
+    };
+    let fixed = levels(preset(None));
+    let metered = levels(preset(Some((120.0, 120.0))));
+    assert_eq!(metered.len(), 12);
+    let spread = |v: &[(f64, Option<CameraDraw>)]| {
+        let (lo, hi) = v.iter().fold((f64::MAX, f64::MIN), |(lo, hi), (m, _)| {
+            (lo.min(*m), hi.max(*m))
+        });
+        hi - lo
+    };
+    assert!(spread(&fixed) > 20.0, "fixed exposure: {fixed:?}");
+    let mut evs = Vec::new();
+    for (level, draw) in &metered {
+        assert!(
+            (level - 120.0).abs() < 3.0,
+            "metered frame at {level:.1}: {metered:?}"
+        );
+        let auto = draw
+            .and_then(|d| d.auto_exposure)
+            .expect("auto-exposure drawn");
+        assert_eq!(auto.target_level, 120.0);
+        // On the 1/64-stop grid, and what the frame was drawn at.
+        assert_eq!((auto.metered_ev * 64.0).fract(), 0.0, "{auto:?}");
+        assert_eq!(draw.map(|d| d.total_ev()), Some(auto.metered_ev));
+        evs.push(auto.metered_ev);
+    }
+    evs.sort_by(f64::total_cmp);
+    assert!(
+        evs[evs.len() - 1] - evs[0] > 0.5,
+        "one EV for every frame: {evs:?}"
+    );
+}
+
+/// Auto-exposure meters procedural and gradient skies: with an image sky or
+/// a backplate, or a level outside [1, 254], the preset is refused naming
+/// `camera_model.auto_exposure`.
+#[test]
+fn auto_exposure_refuses_what_it_cannot_meter() {
+    use swarmshot::preset::{Sky, SkyImageSource};
+    let refused = |p: &Preset| {
+        let errors = p.validate().expect_err("invalid");
+        assert!(
+            errors
+                .iter()
+                .any(|e| e.field == "camera_model.auto_exposure"),
+            "{errors:?}"
+        );
+    };
+    let mut p = common::tiny_preset();
+    p.camera_model = Some(CameraModel {
+        auto_exposure: Some((120.0, 120.0)),
+        ..CameraModel::default()
+    });
+    p.validate().expect("a gradient sky is metered");
+    let mut out_of_range = p.clone();
+    if let Some(c) = &mut out_of_range.camera_model {
+        c.auto_exposure = Some((0.0, 300.0));
+    }
+    refused(&out_of_range);
+    let mut image = p.clone();
+    image.sky = Sky::Image {
+        source: SkyImageSource::Builtin("forest".into()),
+        exposure_ev: 0.0,
+        rotation_deg: 0.0,
+        sun_elevation_deg: 40.0,
+        sun_azimuth_deg: 0.0,
+    };
+    refused(&image);
+}

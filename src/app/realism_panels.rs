@@ -70,6 +70,8 @@ pub fn camera_model_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     ] {
         Words::of(path).range(ui, form, value, speed);
     }
+    let auto = Words::of("camera_model.auto_exposure");
+    optional_range(ui, form, &mut c.auto_exposure, (118.0, 124.0), &auto, 0.5);
     psf_ui(ui, &mut c.psf, form);
     for (value, path, speed) in [
         (&mut c.vignetting, "camera_model.vignetting", 0.01),

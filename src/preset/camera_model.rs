@@ -14,7 +14,13 @@ use super::{ImageFormat, Preset, Validator};
 #[serde(default, deny_unknown_fields)]
 pub struct CameraModel {
     /// Exposure change in stops (EV): linear light × 2^EV before the sensor clips.
+    /// With `auto_exposure`, the exposure compensation added to the metered EV.
     pub exposure_ev: (f64, f64),
+    /// Auto-exposure: the mean 8-bit luminance level the frame's background
+    /// (sky, clouds, silhouettes, ground) is metered to, drawn per frame
+    /// (`sky::meter`); `None`: the exposure is `exposure_ev` alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_exposure: Option<(f64, f64)>,
     /// White balance gain of the red channel (relative to green).
     pub white_balance_red: (f64, f64),
     /// White balance gain of the blue channel (relative to green).
@@ -74,6 +80,7 @@ impl Default for CameraModel {
     fn default() -> Self {
         Self {
             exposure_ev: (0.0, 0.0),
+            auto_exposure: None,
             white_balance_red: (1.0, 1.0),
             white_balance_blue: (1.0, 1.0),
             psf: Psf::None,
@@ -125,6 +132,16 @@ impl CameraModel {
             });
         };
         range(v, "exposure_ev", self.exposure_ev, -10.0, 10.0);
+        if let Some(level) = self.auto_exposure {
+            range(v, "auto_exposure", level, 1.0, 254.0);
+            let field = format!("{p}.auto_exposure");
+            v.check(preset.backplate.is_none(), &field, || {
+                "meters procedural and gradient skies; a backplate is not metered (set the exposure with exposure_ev)".into()
+            });
+            v.check(preset.sky.image_sources().is_empty(), &field, || {
+                "meters procedural and gradient skies; the sky has an image (set the exposure with exposure_ev)".into()
+            });
+        }
         range(v, "white_balance_red", self.white_balance_red, 0.05, 20.0);
         range(v, "white_balance_blue", self.white_balance_blue, 0.05, 20.0);
         match &self.psf {

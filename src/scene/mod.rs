@@ -343,6 +343,17 @@ pub fn build_frame_draw(
         clutter::frame_clutter(c, preset.seed, draw_index, &camera.0, sun)
     });
 
+    let sky = crate::sky::resolve(&preset.sky, &environment);
+    let atmosphere = realism::frame_atmosphere(preset, draw_index);
+    let camera_model = (preset.camera_model.as_ref()).map(|m| {
+        let mut draw = crate::sensor::draw(m, preset.seed, index);
+        if let Some(auto) = draw.auto_exposure.as_mut() {
+            auto.metered_ev =
+                metered_ev(&sky, &environment, &camera.0, atmosphere, auto.target_level);
+        }
+        draw
+    });
+
     Ok(FrameScene {
         index,
         seed: frame_seed,
@@ -352,7 +363,7 @@ pub fn build_frame_draw(
         camera: camera.0,
         drones,
         sun_direction: environment.sun_direction(),
-        sky: crate::sky::resolve(&preset.sky, &environment),
+        sky,
         environment_name: crate::sky::environment_name(&preset.sky, &environment),
         environment,
         volume_radius_m,
@@ -361,15 +372,36 @@ pub fn build_frame_draw(
         sequence,
         camera_absolute: preset.camera.absolute.is_some(),
         redraw: attempt,
-        camera_model: (preset.camera_model.as_ref())
-            .map(|m| crate::sensor::draw(m, preset.seed, index)),
-        atmosphere: realism::frame_atmosphere(preset, draw_index),
+        camera_model,
+        atmosphere,
         looks,
         clutter,
         confusers,
         confusers_on: !preset.confusers.is_empty(),
         backplate: None,
     })
+}
+
+/// The auto-exposure's EV for a frame showing `sky` through `camera`: the
+/// exposure under which the background the sky draws averages
+/// `target_level` ([`crate::sky::meter`]); 0 for a sky it cannot meter.
+fn metered_ev(
+    sky: &crate::sky::FrameSky,
+    environment: &crate::sky::FrameEnvironment,
+    camera: &Camera,
+    atmosphere: Option<realism::FrameAtmosphere>,
+    target_level: f64,
+) -> f64 {
+    use crate::sky::meter;
+    let view = meter::View {
+        width: camera.width,
+        height: camera.height,
+        focal_px: camera.focal_px(),
+        camera_from_world: camera.camera_from_world,
+    };
+    let visibility = atmosphere.map(|a| a.visibility_m);
+    meter::background_samples(sky, environment, &view, visibility)
+        .map_or(0.0, |samples| meter::exposure_for(&samples, target_level))
 }
 
 /// The sweep values of frame `index` (the index decoded in mixed radix, CameraX outermost).

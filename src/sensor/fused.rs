@@ -170,7 +170,7 @@ fn band_avx2(chain: &Chain<'_>, cols: (i64, i64), rows: (i64, i64), out: &mut [u
 
 impl<'a> Chain<'a> {
     fn new(rgba: &'a [u8], (width, height): (u32, u32), draw: &CameraDraw, noisy: bool) -> Self {
-        let exposure = 2f64.powf(draw.exposure_ev);
+        let exposure = draw.exposure_gain();
         let gains = [
             exposure * draw.white_balance_red,
             exposure,

@@ -90,6 +90,18 @@ pub struct CameraDraw {
     /// The image processor's sharpening amount (0: none; [`sharpen`]).
     #[serde(skip_serializing_if = "is_zero")]
     pub sharpen: f64,
+    /// Auto-exposure, when the preset asks for it: the drawn target level and
+    /// the metered EV (set when the frame's scene is built, from its sky).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_exposure: Option<AutoExposureDraw>,
+}
+
+/// A frame's auto-exposure: the level its background is metered to and the
+/// EV that brings it there (the exposure is 2^(`exposure_ev` + `metered_ev`)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AutoExposureDraw {
+    pub target_level: f64,
+    pub metered_ev: f64,
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -172,8 +184,17 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         (lo, hi) if hi > lo => rng.random_range(lo..=hi),
         (lo, _) => lo,
     };
+    // Then the auto-exposure's target level, again only when a range.
+    let auto_exposure = model.auto_exposure.map(|r| AutoExposureDraw {
+        target_level: match r {
+            (lo, hi) if hi > lo => rng.random_range(lo..=hi),
+            (lo, _) => lo,
+        },
+        metered_ev: 0.0,
+    });
     CameraDraw {
         exposure_ev,
+        auto_exposure,
         white_balance_red,
         white_balance_blue,
         psf,
@@ -193,9 +214,14 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
 }
 
 impl CameraDraw {
-    /// The exposure as a gain on linear light, 2^EV.
+    /// The exposure in stops: the drawn EV plus the metered one (auto-exposure).
+    pub fn total_ev(&self) -> f64 {
+        self.exposure_ev + self.auto_exposure.map_or(0.0, |a| a.metered_ev)
+    }
+
+    /// The exposure as a gain on linear light, 2^EV ([`Self::total_ev`]).
     pub fn exposure_gain(&self) -> f64 {
-        2f64.powf(self.exposure_ev)
+        2f64.powf(self.total_ev())
     }
 
     /// The draw the camera stage applies to a frame the renderer already drew
@@ -207,6 +233,7 @@ impl CameraDraw {
     pub fn after_render(&self) -> Self {
         Self {
             exposure_ev: 0.0,
+            auto_exposure: None,
             ..*self
         }
     }

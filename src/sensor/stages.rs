@@ -358,7 +358,7 @@ pub(super) fn develop_planes(
     let centre = (f64::from(width) / 2.0, f64::from(height) / 2.0);
 
     // 1. Decode, with exposure and white balance folded into the table.
-    let exposure = 2f64.powf(draw.exposure_ev);
+    let exposure = draw.exposure_gain();
     let gains = [
         exposure * draw.white_balance_red,
         exposure,

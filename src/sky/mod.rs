@@ -29,6 +29,7 @@ use serde::Serialize;
 
 mod builtin;
 mod image;
+pub mod meter;
 pub mod plates;
 mod preetham;
 mod styles;

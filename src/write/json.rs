@@ -497,6 +497,10 @@ mod tests {
                         scene.redraw = 3;
                         scene.camera_model = Some(crate::sensor::CameraDraw {
                             exposure_ev: pick(),
+                            auto_exposure: Some(crate::sensor::AutoExposureDraw {
+                                target_level: pick(),
+                                metered_ev: -0.0,
+                            }),
                             white_balance_red: f64::NAN,
                             white_balance_blue: pick(),
                             psf: crate::sensor::PsfDraw::Gaussian { sigma_px: pick() },

@@ -396,7 +396,15 @@ pub(crate) fn write_sweep(j: &mut Json<'_>, scene: &FrameScene) {
 /// The camera model's draws of the frame (issue 21), keys in byte order.
 fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
     use crate::sensor::PsfDraw;
-    j.raw(b"{\"ca_blue_scale\":");
+    j.raw(b"{");
+    if let Some(a) = c.auto_exposure {
+        j.raw(b"\"auto_exposure\":{\"metered_ev\":");
+        j.rounded(a.metered_ev, Decimals::Six);
+        j.raw(b",\"target_level\":");
+        j.rounded(a.target_level, Decimals::Six);
+        j.raw(b"},");
+    }
+    j.raw(b"\"ca_blue_scale\":");
     j.rounded(c.ca_blue_scale, Decimals::Six);
     j.raw(b",\"ca_red_scale\":");
     j.rounded(c.ca_red_scale, Decimals::Six);
@@ -817,6 +825,15 @@ pub(crate) mod reference {
             }
             if c.sharpen != 0.0 {
                 map.insert("sharpen".into(), r6(c.sharpen).into());
+            }
+            if let Some(a) = c.auto_exposure {
+                map.insert(
+                    "auto_exposure".into(),
+                    serde_json::json!({
+                        "metered_ev": r6(a.metered_ev),
+                        "target_level": r6(a.target_level),
+                    }),
+                );
             }
         }
         v

@@ -4,6 +4,7 @@
 use glam::Vec3;
 
 use super::{HALF_SCALE, QUARTER_SCALE};
+use crate::sky::meter::{FAR_SILHOUETTE_M, NEAR_SILHOUETTE_M};
 use crate::sky::{self, EnvironmentName, FrameEnvironment, HAZE_TABLE, Lighting, Preetham};
 
 /// Layout matches `Env` in `shaders/environment.wgsl`.
@@ -35,11 +36,6 @@ impl Default for EnvUniforms {
 }
 
 const _: () = assert!(std::mem::size_of::<EnvUniforms>() == (18 + HAZE_TABLE) * 16);
-
-/// Distances (metres) the far silhouette (hills, mountains, skyline) and the
-/// near one (tree line) stand for when a frame's atmosphere hazes them.
-const FAR_SILHOUETTE_M: f64 = 8_000.0;
-const NEAR_SILHOUETTE_M: f64 = 600.0;
 
 /// The elevation (rad) above which none of `style`'s silhouettes reaches
 /// (`silhouette_height` in environment.wgsl), or -1 when it has none. The
@@ -87,12 +83,7 @@ impl EnvUniforms {
             model.zenith[2],
             visibility_m,
         ];
-        // Pattern offsets from the seed, kept small for f32 noise precision.
-        let seed = env.pattern_seed;
-        let offset = [
-            (seed & 0xffff) as f32 / 65536.0 * 97.0,
-            (seed >> 16) as f32 / 65536.0 * 89.0,
-        ];
+        let offset = crate::sky::meter::pattern_offset(env.pattern_seed);
         u.pattern = [
             offset[0],
             offset[1],
