@@ -563,3 +563,53 @@ fn haze_under_a_plate_takes_the_plates_sky_around_the_drone() {
     }
     assert!(checked >= 6, "{checked}");
 }
+
+/// Auto-exposure meters the plate itself: frames over plates of different
+/// brightness all come out near the target level, well under the plates'
+/// own, each at its own metered EV, where without it they keep the plates'
+/// spread.
+#[test]
+fn auto_exposure_meters_the_plate() {
+    use swarmshot::preset::camera_model::CameraModel;
+    let ctx = common::gpu();
+    let mean_level = |rgba: &[u8]| {
+        let sum: f64 = rgba
+            .chunks_exact(4)
+            .map(|p| 0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2]))
+            .sum();
+        sum / (rgba.len() / 4) as f64
+    };
+    let frames = |auto_exposure: Option<(f64, f64)>| {
+        let mut p = plate_preset(&plates_dir(), (1, 1));
+        p.camera_model = Some(CameraModel {
+            auto_exposure,
+            ..CameraModel::default()
+        });
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(&ctx);
+        (0..8)
+            .map(|i| {
+                let f = pipeline.make(&mut renderer, i).expect("frame");
+                let plate = f.scene.backplate.as_ref().map(|b| b.plate);
+                let ev = (f.scene.camera_model).and_then(|d| d.auto_exposure.map(|a| a.metered_ev));
+                (mean_level(&f.rgba), plate, ev)
+            })
+            .collect::<Vec<_>>()
+    };
+    let spread = |v: &[(f64, Option<usize>, Option<f64>)]| {
+        let levels = v.iter().map(|f| f.0);
+        levels.clone().fold(f64::MIN, f64::max) - levels.fold(f64::MAX, f64::min)
+    };
+    let fixed = frames(None);
+    let metered = frames(Some((100.0, 100.0)));
+    let plates: std::collections::BTreeSet<_> = metered.iter().map(|f| f.1).collect();
+    assert!(plates.len() >= 2, "{metered:?}");
+    // The test plates are bright skies (126-135 levels) that differ by a few levels.
+    assert!(fixed.iter().all(|f| f.0 > 120.0), "{fixed:?}");
+    assert!(spread(&fixed) > 5.0, "the plates differ: {fixed:?}");
+    for (level, _, ev) in &metered {
+        assert!((level - 100.0).abs() < 3.0, "{level:.1}: {metered:?}");
+        assert!(ev.is_some_and(|e| e != 0.0), "{metered:?}");
+    }
+    assert!(spread(&metered) < spread(&fixed) / 2.0, "{metered:?}");
+}

@@ -789,8 +789,8 @@ fn auto_exposure_brings_each_frame_to_its_target_level() {
     );
 }
 
-/// Auto-exposure meters procedural and gradient skies: with an image sky or
-/// a backplate, or a level outside [1, 254], the preset is refused naming
+/// Auto-exposure meters procedural and gradient skies and backplates: with
+/// an image sky, or a level outside [1, 254], the preset is refused naming
 /// `camera_model.auto_exposure`.
 #[test]
 fn auto_exposure_refuses_what_it_cannot_meter() {

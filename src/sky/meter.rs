@@ -8,11 +8,11 @@
 //! cloud layer, the far and near silhouettes, the ground and their haze,
 //! each as `shaders/environment.wgsl` shades it (the same noise, in the same
 //! order); for a gradient sky its zenith-to-horizon blend and hazy ground
-//! (`shaders/sky.wgsl`). The sun disc, the scenery (`clutter`) and the
-//! drones are not metered: they cover a small part of a frame, and a camera
-//! that meters the whole picture would move with each drone. Image skies and
-//! backplates are not metered (validation refuses `auto_exposure` with
-//! them): their pixels are not part of the scene.
+//! (`shaders/sky.wgsl`); for a backplate its pixels ([`rgba_samples`]). The
+//! sun disc, the scenery (`clutter`) and the drones are not metered: they
+//! cover a small part of a frame, and a camera that meters the whole picture
+//! would move with each drone. Image skies are not metered (validation
+//! refuses `auto_exposure` with them).
 //!
 //! The exposure is found by bisection on the EV (the mean level grows with
 //! the gain) and rounded to 1/64 stop, as a camera's exposure steps are, so
@@ -114,6 +114,33 @@ pub fn background_samples(
         }
     }
     Some(out)
+}
+
+/// The linear colours of an RGBA8 (sRGB) picture of `size` (a backplate)
+/// at the [`GRID`]'s pixel centres: what a background that is a picture
+/// shows before the exposure.
+pub fn rgba_samples(rgba: &[u8], (width, height): (u32, u32)) -> Vec<Vec3> {
+    let decode = |c: u8| {
+        let c = f32::from(c) / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let (cols, rows) = GRID;
+    let mut out = Vec::with_capacity((cols * rows) as usize);
+    for j in 0..rows {
+        for i in 0..cols {
+            let x = ((2 * i + 1) * width / (2 * cols)).min(width.saturating_sub(1));
+            let y = ((2 * j + 1) * height / (2 * rows)).min(height.saturating_sub(1));
+            let k = (y as usize * width as usize + x as usize) * 4;
+            if let Some(p) = rgba.get(k..k + 3) {
+                out.push(Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])));
+            }
+        }
+    }
+    out
 }
 
 /// The mean 8-bit luminance level (Rec. 601 weights on the sRGB-encoded
