@@ -789,32 +789,17 @@ fn auto_exposure_brings_each_frame_to_its_target_level() {
     );
 }
 
-/// Auto-exposure meters procedural and gradient skies and backplates: with
-/// an image sky, or a level outside [1, 254], the preset is refused naming
-/// `camera_model.auto_exposure`.
+/// Auto-exposure's target is an 8-bit level: outside [1, 254] the preset is
+/// refused naming `camera_model.auto_exposure`; every kind of sky is metered.
 #[test]
-fn auto_exposure_refuses_what_it_cannot_meter() {
+fn auto_exposure_refuses_a_level_outside_the_encoding() {
     use swarmshot::preset::{Sky, SkyImageSource};
-    let refused = |p: &Preset| {
-        let errors = p.validate().expect_err("invalid");
-        assert!(
-            errors
-                .iter()
-                .any(|e| e.field == "camera_model.auto_exposure"),
-            "{errors:?}"
-        );
-    };
     let mut p = common::tiny_preset();
     p.camera_model = Some(CameraModel {
         auto_exposure: Some((120.0, 120.0)),
         ..CameraModel::default()
     });
     p.validate().expect("a gradient sky is metered");
-    let mut out_of_range = p.clone();
-    if let Some(c) = &mut out_of_range.camera_model {
-        c.auto_exposure = Some((0.0, 300.0));
-    }
-    refused(&out_of_range);
     let mut image = p.clone();
     image.sky = Sky::Image {
         source: SkyImageSource::Builtin("forest".into()),
@@ -823,5 +808,142 @@ fn auto_exposure_refuses_what_it_cannot_meter() {
         sun_elevation_deg: 40.0,
         sun_azimuth_deg: 0.0,
     };
-    refused(&image);
+    image.validate().expect("an image sky is metered");
+    for level in [
+        (0.0, 120.0),
+        (120.0, 300.0),
+        (130.0, 120.0),
+        (f64::NAN, 1.0),
+    ] {
+        let mut bad = p.clone();
+        if let Some(c) = &mut bad.camera_model {
+            c.auto_exposure = Some(level);
+        }
+        let errors = bad.validate().expect_err("invalid");
+        assert!(
+            errors
+                .iter()
+                .any(|e| e.field == "camera_model.auto_exposure"),
+            "{level:?}: {errors:?}"
+        );
+    }
+}
+
+/// The meter's picture is the renderer's: along the meter's grid of rays,
+/// its samples of a drone-free frame's background (a procedural environment
+/// with clouds and haze, a gradient sky, an HDR image sky turned and exposed,
+/// a cube map with a split on every face) match the rendered pixels there,
+/// all but a few rays within a few levels.
+#[test]
+fn the_meters_samples_are_the_rendered_background() {
+    use swarmshot::pipeline::FramePipeline;
+    use swarmshot::preset::atmosphere::Atmosphere;
+    use swarmshot::preset::observer::ObserverCamera;
+    use swarmshot::preset::{EnvironmentName, Sky, SkyImageSource};
+    use swarmshot::sky::{FrameSky, meter};
+    let ctx = common::gpu();
+    let dir = tempfile::tempdir().expect("tempdir");
+    // Cube faces split left/right into two colours, each face its own pair.
+    let face = |name: &str, k: u8| {
+        let path = dir.path().join(format!("{name}.png"));
+        let img = image::RgbImage::from_fn(32, 32, |x, y| {
+            let base = 40 * k;
+            image::Rgb(if x < 16 {
+                [base, 200 - base, 90]
+            } else if y < 16 {
+                [220, base, 250 - base]
+            } else {
+                [30, 30 + base, 120]
+            })
+        });
+        img.save(&path).expect("face");
+        path
+    };
+    let cube = SkyImageSource::Cubemap {
+        px: face("px", 0),
+        nx: face("nx", 1),
+        py: face("py", 2),
+        ny: face("ny", 3),
+        pz: face("pz", 4),
+        nz: face("nz", 5),
+    };
+    let image = |source: SkyImageSource, rotation_deg: f64, exposure_ev: f64| Sky::Image {
+        source,
+        exposure_ev,
+        rotation_deg,
+        sun_elevation_deg: 40.0,
+        sun_azimuth_deg: 0.0,
+    };
+    let mut procedural = Sky::procedural(EnvironmentName::Tellsplatte);
+    if let Sky::Procedural { cloud_cover, .. } = &mut procedural {
+        *cloud_cover = Some(0.4);
+    }
+    let skies = [
+        procedural,
+        Sky::default(),
+        image(SkyImageSource::Builtin("quarry_01".into()), 70.0, -0.5),
+        image(cube, 30.0, 0.0),
+    ];
+    for sky in skies {
+        let mut p = common::tiny_preset();
+        p.sky = sky.clone();
+        p.atmosphere = Some(Atmosphere {
+            visibility_m: (8000.0, 8000.0),
+        });
+        p.camera.observer = Some(ObserverCamera {
+            elevation_deg: (-10.0, 25.0),
+            distance_m: (300.0, 300.0),
+            ..ObserverCamera::default()
+        });
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(&ctx);
+        let mut diffs = Vec::new();
+        for i in 0..4 {
+            let mut scene = pipeline.scene(i).expect("scene");
+            scene.drones.clear();
+            let c = &scene.camera;
+            let view = meter::View {
+                width: c.width,
+                height: c.height,
+                focal_px: c.focal_px(),
+                camera_from_world: c.camera_from_world,
+            };
+            let visibility = scene.atmosphere.map(|a| a.visibility_m);
+            let samples = match scene.sky {
+                FrameSky::Image {
+                    image,
+                    exposure,
+                    rotation_deg,
+                } => meter::image_samples(
+                    &pipeline.assets().sky.images[image],
+                    exposure,
+                    rotation_deg,
+                    &view,
+                ),
+                _ => meter::background_samples(&scene.sky, &scene.environment, &view, visibility)
+                    .expect("metered"),
+            };
+            let (w, h) = (view.width, view.height);
+            let frame = pipeline.make_scene(&mut renderer, scene).expect("frame");
+            let (cols, rows) = meter::GRID;
+            for (k, sample) in samples.iter().enumerate() {
+                let (i, j) = (k as u32 % cols, k as u32 / cols);
+                let x = (2 * i + 1) * w / (2 * cols);
+                let y = (2 * j + 1) * h / (2 * rows);
+                let px = ((y * w + x) * 4) as usize;
+                for ch in 0..3 {
+                    let want = linear_to_srgb(f64::from(sample[ch]).min(1.0));
+                    diffs.push((want - f64::from(frame.rgba[px + ch])).abs());
+                }
+            }
+        }
+        diffs.sort_by(f64::total_cmp);
+        let at = |q: f64| diffs[((diffs.len() - 1) as f64 * q) as usize];
+        assert!(
+            at(0.5) <= 1.0 && at(0.9) <= 4.0,
+            "{sky:?}: median {} levels, 90th percentile {}",
+            at(0.5),
+            at(0.9)
+        );
+    }
 }

@@ -331,6 +331,7 @@ impl FramePipeline {
     ) -> Result<(FrameScene, Option<Vec<DroneLabel>>), FrameError> {
         let wanted = self.preset.labels.min_labelled;
         let plated = |mut scene: FrameScene| {
+            crate::scene::meter_image_sky(&mut scene, &self.assets.sky.images);
             crate::scene::backplate::apply(&mut scene, &self.preset, &self.assets.plates);
             scene
         };

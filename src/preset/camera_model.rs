@@ -17,7 +17,7 @@ pub struct CameraModel {
     /// With `auto_exposure`, the exposure compensation added to the metered EV.
     pub exposure_ev: (f64, f64),
     /// Auto-exposure: the mean 8-bit luminance level the frame's background
-    /// (sky, clouds, silhouettes, ground; or the backplate) is metered to,
+    /// (sky, clouds, silhouettes, ground; an image sky's or a backplate's pixels) is metered to,
     /// drawn per frame (`sky::meter`); `None`: the exposure is `exposure_ev` alone.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_exposure: Option<(f64, f64)>,
@@ -134,14 +134,6 @@ impl CameraModel {
         range(v, "exposure_ev", self.exposure_ev, -10.0, 10.0);
         if let Some(level) = self.auto_exposure {
             range(v, "auto_exposure", level, 1.0, 254.0);
-            let field = format!("{p}.auto_exposure");
-            v.check(
-                preset.backplate.is_some() || preset.sky.image_sources().is_empty(),
-                &field,
-                || {
-                    "meters procedural and gradient skies and backplates; the sky has an image (set the exposure with exposure_ev)".into()
-                },
-            );
         }
         range(v, "white_balance_red", self.white_balance_red, 0.05, 20.0);
         range(v, "white_balance_blue", self.white_balance_blue, 0.05, 20.0);

@@ -162,7 +162,7 @@ pub const FIELDS: &[Field] = &[
     // Camera model.
     f("camera_model", "Camera model", "", "Pass every frame through a camera: optics, sensor noise and image processing, drawn per frame (off: the clean render)"),
     f("camera_model.exposure_ev", "Exposure", " EV", "Exposure change in stops: linear light × 2^EV before the sensor clips (with auto-exposure: the compensation added to the metered EV)"),
-    f("camera_model.auto_exposure", "Auto-exposure", " levels", "Meter each frame's background (sky, clouds, silhouettes, ground) and expose it to this mean 8-bit level, drawn per frame (procedural and gradient skies, backplates; off: the exposure is the EV alone)"),
+    f("camera_model.auto_exposure", "Auto-exposure", " levels", "Meter each frame's background (sky, clouds, silhouettes, ground; an image sky or backplate by its pixels) and expose it to this mean 8-bit level, drawn per frame (off: the exposure is the EV alone)"),
     f("camera_model.white_balance_red", "White balance red", "×", "Gain of the red channel relative to green (1: neutral)"),
     f("camera_model.white_balance_blue", "White balance blue", "×", "Gain of the blue channel relative to green (1: neutral)"),
     f("camera_model.vignetting", "Vignetting", "", "Light lost at the image corner, falling off as r² (0: none, 0.3: corners at 70 %)"),

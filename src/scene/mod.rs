@@ -404,6 +404,35 @@ fn metered_ev(
         .map_or(0.0, |samples| meter::exposure_for(&samples, target_level))
 }
 
+/// Auto-exposure over an image sky: the metered EV of `scene` (built by
+/// [`build_frame`]) from the image's own pixels (`images`: the preset's sky
+/// images, in `Sky::image_sources` order). Does nothing without
+/// auto-exposure or an image sky; a missing image leaves the EV at 0.
+pub fn meter_image_sky(scene: &mut FrameScene, images: &[crate::sky::SkyImage]) {
+    use crate::sky::{FrameSky, meter};
+    let FrameSky::Image {
+        image,
+        exposure,
+        rotation_deg,
+    } = scene.sky
+    else {
+        return;
+    };
+    let camera = &scene.camera;
+    let view = meter::View {
+        width: camera.width,
+        height: camera.height,
+        focal_px: camera.focal_px(),
+        camera_from_world: camera.camera_from_world,
+    };
+    if let Some(auto) = (scene.camera_model.as_mut()).and_then(|d| d.auto_exposure.as_mut()) {
+        auto.metered_ev = images.get(image).map_or(0.0, |img| {
+            let samples = meter::image_samples(img, exposure, rotation_deg, &view);
+            meter::exposure_for(&samples, auto.target_level)
+        });
+    }
+}
+
 /// The sweep values of frame `index` (the index decoded in mixed radix, CameraX outermost).
 pub fn sweep_values(preset: &Preset, index: u64) -> Result<SweepValues, FrameError> {
     let radices = preset.frame_radices()?;

@@ -8,11 +8,12 @@
 //! cloud layer, the far and near silhouettes, the ground and their haze,
 //! each as `shaders/environment.wgsl` shades it (the same noise, in the same
 //! order); for a gradient sky its zenith-to-horizon blend and hazy ground
-//! (`shaders/sky.wgsl`); for a backplate its pixels ([`rgba_samples`]). The
+//! (`shaders/sky.wgsl`); for an image sky its pixels in the rays'
+//! directions, turned, exposed and tone-mapped as `image_sky` does
+//! ([`image_samples`]); for a backplate its pixels ([`rgba_samples`]). The
 //! sun disc, the scenery (`clutter`) and the drones are not metered: they
 //! cover a small part of a frame, and a camera that meters the whole picture
-//! would move with each drone. Image skies are not metered (validation
-//! refuses `auto_exposure` with them).
+//! would move with each drone.
 //!
 //! The exposure is found by bisection on the EV (the mean level grows with
 //! the gain) and rounded to 1/64 stop, as a camera's exposure steps are, so
@@ -22,7 +23,7 @@ use glam::{DMat3, DVec3, Vec2, Vec3};
 
 use super::{
     EnvironmentStyle, FrameEnvironment, FrameSky, Ground, Preetham, SKY_EXPOSURE, Silhouette,
-    gradient_lighting, preetham::smoothstep, procedural_lighting, tone_map,
+    SkyImage, SkyImageKind, gradient_lighting, preetham::smoothstep, procedural_lighting, tone_map,
 };
 
 /// The grid of rays the meter samples: columns and rows over the frame.
@@ -99,6 +100,12 @@ pub fn background_samples(
             Box::new(move |dir: Vec3| p.shade(dir))
         }
     };
+    Some(along_rays(view, |dir| shade(dir).max(Vec3::ZERO)))
+}
+
+/// `shade` of each [`GRID`] ray of `view` (the world direction through a
+/// coarse grid's pixel centres).
+fn along_rays(view: &View, mut shade: impl FnMut(Vec3) -> Vec3) -> Vec<Vec3> {
     let (cols, rows) = GRID;
     let world_from_camera = view.camera_from_world.transpose();
     let (cx, cy) = (f64::from(view.width) * 0.5, f64::from(view.height) * 0.5);
@@ -109,11 +116,76 @@ pub fn background_samples(
             let x = (f64::from(i) + 0.5) / f64::from(cols) * f64::from(view.width);
             let y = (f64::from(j) + 0.5) / f64::from(rows) * f64::from(view.height);
             let ray = DVec3::new((x - cx) / f, (y - cy) / f, 1.0);
-            let dir = (world_from_camera * ray).normalize_or(DVec3::Z).as_vec3();
-            out.push(shade(dir).max(Vec3::ZERO));
+            out.push(shade(
+                (world_from_camera * ray).normalize_or(DVec3::Z).as_vec3(),
+            ));
         }
     }
-    Some(out)
+    out
+}
+
+/// An image sky's display values (before the camera's exposure) along the
+/// [`GRID`] of `view`'s rays: the nearest texel in each ray's direction,
+/// the image turned by `rotation_deg`, times `exposure`, tone-mapped when the
+/// image is HDR and clipped otherwise (environment.wgsl's `image_sky`).
+pub fn image_samples(image: &SkyImage, exposure: f32, rotation_deg: f64, view: &View) -> Vec<Vec3> {
+    let (s, c) = (rotation_deg as f32).to_radians().sin_cos();
+    along_rays(view, |dir| {
+        // `rotate_y(dir, -rotation)`.
+        let d = Vec3::new(dir.x * c - dir.z * s, dir.y, dir.x * s + dir.z * c);
+        let v = texel(&image.kind, d) * exposure;
+        if image.hdr {
+            tone_map(v)
+        } else {
+            v.min(Vec3::ONE)
+        }
+        .max(Vec3::ZERO)
+    })
+}
+
+/// The texel of `kind` in direction `d` (nearest).
+fn texel(kind: &SkyImageKind, d: Vec3) -> Vec3 {
+    let at = |rgb: &[f32], width: u32, height: u32, u: f32, v: f32| {
+        let x = ((u * width as f32) as u32).min(width.saturating_sub(1)) as usize;
+        let y = ((v * height as f32) as u32).min(height.saturating_sub(1)) as usize;
+        let k = (y * width as usize + x) * 3;
+        rgb.get(k..k + 3)
+            .map_or(Vec3::ZERO, |p| Vec3::new(p[0], p[1], p[2]))
+    };
+    match kind {
+        SkyImageKind::Equirect { width, height, rgb } => {
+            let az = d.x.atan2(d.z);
+            let u = fract(0.5 - az / std::f32::consts::TAU);
+            let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+            at(rgb, *width, *height, u, v)
+        }
+        SkyImageKind::Cubemap { side, faces } => {
+            // The cube map face and its (s, t) as Vulkan selects them.
+            let a = d.abs();
+            let (face, sc, tc, ma) = if a.x >= a.y && a.x >= a.z {
+                if d.x > 0.0 {
+                    (0, -d.z, -d.y, a.x)
+                } else {
+                    (1, d.z, -d.y, a.x)
+                }
+            } else if a.y >= a.z {
+                if d.y > 0.0 {
+                    (2, d.x, d.z, a.y)
+                } else {
+                    (3, d.x, -d.z, a.y)
+                }
+            } else if d.z > 0.0 {
+                (4, d.x, -d.y, a.z)
+            } else {
+                (5, -d.x, -d.y, a.z)
+            };
+            let ma = ma.max(1e-9);
+            let (u, v) = (0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0));
+            faces
+                .get(face)
+                .map_or(Vec3::ZERO, |f| at(f, *side, *side, u, v))
+        }
+    }
 }
 
 /// The linear colours of an RGBA8 (sRGB) picture of `size` (a backplate)
