@@ -901,13 +901,7 @@ fn the_meters_samples_are_the_rendered_background() {
         for i in 0..4 {
             let mut scene = pipeline.scene(i).expect("scene");
             scene.drones.clear();
-            let c = &scene.camera;
-            let view = meter::View {
-                width: c.width,
-                height: c.height,
-                focal_px: c.focal_px(),
-                camera_from_world: c.camera_from_world,
-            };
+            let view = scene.camera.meter_view();
             let visibility = scene.atmosphere.map(|a| a.visibility_m);
             let samples = match scene.sky {
                 FrameSky::Image {

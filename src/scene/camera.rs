@@ -30,6 +30,16 @@ impl Camera {
         f64::from(self.height) * 0.5 / (self.fov_y_deg.to_radians() * 0.5).tan()
     }
 
+    /// What the auto-exposure meter looks through ([`crate::sky::meter`]).
+    pub fn meter_view(&self) -> crate::sky::meter::View {
+        crate::sky::meter::View {
+            width: self.width,
+            height: self.height,
+            focal_px: self.focal_px(),
+            camera_from_world: self.camera_from_world,
+        }
+    }
+
     /// Principal point (W/2, H/2).
     pub fn principal_point(&self) -> DVec2 {
         DVec2::new(f64::from(self.width), f64::from(self.height)) * 0.5

@@ -393,14 +393,8 @@ fn metered_ev(
     target_level: f64,
 ) -> f64 {
     use crate::sky::meter;
-    let view = meter::View {
-        width: camera.width,
-        height: camera.height,
-        focal_px: camera.focal_px(),
-        camera_from_world: camera.camera_from_world,
-    };
     let visibility = atmosphere.map(|a| a.visibility_m);
-    meter::background_samples(sky, environment, &view, visibility)
+    meter::background_samples(sky, environment, &camera.meter_view(), visibility)
         .map_or(0.0, |samples| meter::exposure_for(&samples, target_level))
 }
 
@@ -418,13 +412,7 @@ pub fn meter_image_sky(scene: &mut FrameScene, images: &[crate::sky::SkyImage]) 
     else {
         return;
     };
-    let camera = &scene.camera;
-    let view = meter::View {
-        width: camera.width,
-        height: camera.height,
-        focal_px: camera.focal_px(),
-        camera_from_world: camera.camera_from_world,
-    };
+    let view = scene.camera.meter_view();
     if let Some(auto) = (scene.camera_model.as_mut()).and_then(|d| d.auto_exposure.as_mut()) {
         auto.metered_ev = images.get(image).map_or(0.0, |img| {
             let samples = meter::image_samples(img, exposure, rotation_deg, &view);
