@@ -386,6 +386,7 @@ fn builtin_photographic_skies_load_render_and_take_the_drawn_turn_and_exposure()
             sun_elevation_deg: None,
             cloud_cover: None,
             exposure_ev: Some((-1.5, 1.5)),
+            sun_ev: None,
         };
         let pipeline = FramePipeline::new(p).expect("pipeline");
         assert_eq!(pipeline.assets().sky.images.len(), 1, "{name}");

@@ -732,6 +732,7 @@ fn auto_exposure_brings_each_frame_to_its_target_level() {
             sun_elevation_deg: Some((10.0, 60.0)),
             cloud_cover: Some((0.0, 0.4)),
             exposure_ev: None,
+            sun_ev: None,
         };
         p.camera.observer = Some(ObserverCamera {
             elevation_deg: (0.0, 30.0),

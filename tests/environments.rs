@@ -125,6 +125,7 @@ fn the_environment_sun_lights_the_drones() {
             turbidity: style.turbidity,
             pattern_seed: 0,
             exposure_offset_ev: 0.0,
+            sun_offset_ev: 0.0,
         };
         procedural_lighting(&style, &f, 1.0, 1.0)
     };
@@ -359,6 +360,7 @@ fn only_referenced_images_are_loaded_and_missing_ones_are_named() {
         sun_elevation_deg: None,
         cloud_cover: None,
         exposure_ev: None,
+        sun_ev: None,
     };
     assert_eq!(
         EnvironmentAssets::load(&random).expect("load").images.len(),
@@ -418,6 +420,7 @@ fn random_environments_do_not_change_the_drones() {
         sun_elevation_deg: Some((10.0, 60.0)),
         cloud_cover: Some((0.0, 1.0)),
         exposure_ev: None,
+        sun_ev: None,
     };
     let scene_b = swarmshot::scene::build_frame(&a, 0).expect("frame");
     assert_eq!(scene_a.drones, scene_b.drones);

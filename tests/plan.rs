@@ -65,6 +65,7 @@ fn amodal_plan_is_the_rendered_batch_without_images() {
         sun_elevation_deg: None,
         cloud_cover: None,
         exposure_ev: None,
+        sun_ev: None,
     };
     let pipeline = FramePipeline::new(p).expect("pipeline");
     let tmp = tempfile::tempdir().expect("tmp");

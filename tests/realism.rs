@@ -488,6 +488,18 @@ fn the_sunlight_brightens_the_drones_and_leaves_the_sky() {
     );
     let errors = with_sun(4.5).validate().expect_err("invalid");
     assert!(errors.iter().any(|e| e.field == "sky.sun_ev"), "{errors:?}");
+    // A Random sky's per-frame sunlight range is checked the same way.
+    let mut random = common::tiny_preset();
+    random.sky = Sky::Random {
+        choices: vec![Sky::procedural(EnvironmentName::Daytime)],
+        azimuth_offset_deg: (0.0, 0.0),
+        sun_elevation_deg: None,
+        cloud_cover: None,
+        exposure_ev: None,
+        sun_ev: Some((-5.0, 0.0)),
+    };
+    let errors = random.validate().expect_err("invalid");
+    assert!(errors.iter().any(|e| e.field == "sky.sun_ev"), "{errors:?}");
 }
 
 /// With `appearance`, every drone's manifest record says what it looked like

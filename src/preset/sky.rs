@@ -80,6 +80,10 @@ pub enum Sky {
         /// sky's `exposure_ev` (image and procedural skies); absent: none.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         exposure_ev: Option<(f64, f64)>,
+        /// A sunlight offset in stops drawn per frame and added to the chosen
+        /// procedural sky's `sun_ev`; absent: none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sun_ev: Option<(f64, f64)>,
     },
 }
 
@@ -284,6 +288,7 @@ impl Sky {
             sun_elevation_deg,
             cloud_cover,
             exposure_ev,
+            sun_ev,
         } = self
         else {
             return;
@@ -322,6 +327,9 @@ impl Sky {
         }
         if let Some(r) = exposure_ev {
             pair(v, "exposure_ev", *r, -10.0, 10.0);
+        }
+        if let Some(r) = sun_ev {
+            pair(v, "sun_ev", *r, -4.0, 4.0);
         }
         for (i, c) in choices.iter().enumerate() {
             c.validate_into(v, &format!("{field}.choices[{i}]"), true);

@@ -531,6 +531,7 @@ mod tests {
             turbidity: 2.5,
             pattern_seed: 3,
             exposure_offset_ev: 0.0,
+            sun_offset_ev: 0.0,
         };
         let sky = FrameSky::Procedural {
             environment: EnvironmentName::BeautifulPasture,

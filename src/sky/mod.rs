@@ -64,6 +64,9 @@ pub struct FrameEnvironment {
     /// Exposure offset in stops drawn by a `Random` sky's `exposure_ev` (0: none).
     #[serde(skip_serializing_if = "is_zero")]
     pub exposure_offset_ev: f64,
+    /// Sunlight offset in stops drawn by a `Random` sky's `sun_ev` (0: none).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub sun_offset_ev: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -97,6 +100,7 @@ fn nominal(sky: &Sky) -> FrameEnvironment {
         turbidity,
         pattern_seed: seed.unwrap_or(0),
         exposure_offset_ev: 0.0,
+        sun_offset_ev: 0.0,
     };
     match sky {
         Sky::Gradient {
@@ -147,8 +151,9 @@ pub fn nominal_sun_direction(sky: &Sky) -> DVec3 {
 
 /// The environment of frame `index` (pure). Draw order from the environment
 /// stream: choice, azimuth offset, elevation, cloud cover, pattern seed, exposure
-/// offset — all six are always drawn, so changing one range never shifts the
-/// others (the exposure comes last: skies without it draw as before).
+/// offset, sunlight offset — all seven are always drawn, so changing one range
+/// never shifts the others (the exposure and the sunlight come last: skies
+/// without them draw as before).
 pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnvironment {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(crate::seed::mix64(
         crate::seed::frame_seed(preset_seed, index) ^ ENVIRONMENT_SALT,
@@ -162,6 +167,7 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
         rng.random::<u32>(),
     );
     let exposure_u = u(&mut rng);
+    let sun_u = u(&mut rng);
     let lerp = |(lo, hi): (f64, f64), t: f64| lo + (hi - lo) * t;
     match sky {
         Sky::Random {
@@ -170,6 +176,7 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
             sun_elevation_deg,
             cloud_cover,
             exposure_ev,
+            sun_ev,
         } if !choices.is_empty() => {
             let choice = ((choice_u * choices.len() as f64) as usize).min(choices.len() - 1);
             let mut env = nominal(&choices[choice]);
@@ -188,6 +195,9 @@ pub fn frame_environment(sky: &Sky, preset_seed: u64, index: u64) -> FrameEnviro
             }
             if let Some(range) = exposure_ev {
                 env.exposure_offset_ev = lerp(*range, exposure_u);
+            }
+            if let Some(range) = sun_ev {
+                env.sun_offset_ev = lerp(*range, sun_u);
             }
             env
         }
@@ -280,7 +290,7 @@ fn resolve_within(root: &Sky, sky: &Sky, env: &FrameEnvironment) -> FrameSky {
         } => FrameSky::Procedural {
             environment: *environment,
             exposure: 2f32.powf((exposure_ev + env.exposure_offset_ev) as f32),
-            sun: 2f32.powf(*sun_ev as f32),
+            sun: 2f32.powf((sun_ev + env.sun_offset_ev) as f32),
         },
         Sky::Image {
             source,
@@ -339,6 +349,7 @@ mod tests {
             sun_elevation_deg: Some((10.0, 20.0)),
             cloud_cover: Some((0.2, 0.4)),
             exposure_ev: None,
+            sun_ev: None,
         };
         let envs: Vec<FrameEnvironment> = (0..200).map(|i| frame_environment(&sky, 7, i)).collect();
         let chosen: std::collections::BTreeSet<usize> = envs.iter().map(|e| e.choice).collect();
@@ -349,5 +360,49 @@ mod tests {
         }
         assert_eq!(envs[3], frame_environment(&sky, 7, 3));
         assert_ne!(envs[3], frame_environment(&sky, 8, 3));
+    }
+
+    #[test]
+    fn a_random_sunlight_range_is_drawn_per_frame_and_moves_nothing_else() {
+        let mut daytime = Sky::procedural(EnvironmentName::Daytime);
+        if let Sky::Procedural { sun_ev, .. } = &mut daytime {
+            *sun_ev = 0.5;
+        }
+        let choices = vec![daytime];
+        let sky = |sun_ev| Sky::Random {
+            choices: choices.clone(),
+            azimuth_offset_deg: (0.0, 360.0),
+            sun_elevation_deg: Some((10.0, 20.0)),
+            cloud_cover: None,
+            exposure_ev: None,
+            sun_ev,
+        };
+        let (with, without) = (sky(Some((-1.0, 1.0))), sky(None));
+        let mut offsets = Vec::new();
+        for i in 0..50 {
+            let (a, b) = (
+                frame_environment(&with, 3, i),
+                frame_environment(&without, 3, i),
+            );
+            assert!((-1.0..=1.0).contains(&a.sun_offset_ev), "{a:?}");
+            assert_eq!(b.sun_offset_ev, 0.0);
+            // Drawn last: the other draws are the frame's without the range.
+            assert_eq!(
+                FrameEnvironment {
+                    sun_offset_ev: 0.0,
+                    ..a.clone()
+                },
+                b
+            );
+            match resolve(&with, &a) {
+                FrameSky::Procedural { sun, .. } => {
+                    assert_eq!(sun, 2f32.powf((0.5 + a.sun_offset_ev) as f32));
+                }
+                other => panic!("{other:?}"),
+            }
+            offsets.push(a.sun_offset_ev);
+        }
+        offsets.sort_by(f64::total_cmp);
+        assert!(offsets[49] - offsets[0] > 1.0, "{offsets:?}");
     }
 }

@@ -491,6 +491,8 @@ mod tests {
                         scene.sweep.PlaneRY = pick();
                         scene.sweep.density_per_m3 = Some(pick());
                         scene.environment.cloud_cover = f64::NAN;
+                        scene.environment.exposure_offset_ev = pick();
+                        scene.environment.sun_offset_ev = -pick();
                         scene.environment.turbidity = pick();
                         scene.environment_name = "sky \"x\"\t\\".to_owned();
                         scene.camera_absolute = true;

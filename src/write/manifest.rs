@@ -470,6 +470,10 @@ fn write_environment(j: &mut Json<'_>, scene: &FrameScene) {
     j.u64(e.choice as u64);
     j.raw(b",\"cloud_cover\":");
     j.rounded(e.cloud_cover, Decimals::Six);
+    if e.exposure_offset_ev != 0.0 {
+        j.raw(b",\"exposure_offset_ev\":");
+        j.rounded(e.exposure_offset_ev, Decimals::Six);
+    }
     j.raw(b",\"name\":");
     j.str(&scene.environment_name);
     j.raw(b",\"pattern_seed\":");
@@ -478,6 +482,10 @@ fn write_environment(j: &mut Json<'_>, scene: &FrameScene) {
     j.rounded(e.sun_azimuth_deg, Decimals::Six);
     j.raw(b",\"sun_elevation_deg\":");
     j.rounded(e.sun_elevation_deg, Decimals::Six);
+    if e.sun_offset_ev != 0.0 {
+        j.raw(b",\"sun_offset_ev\":");
+        j.rounded(e.sun_offset_ev, Decimals::Six);
+    }
     j.raw(b",\"turbidity\":");
     j.rounded(e.turbidity, Decimals::Six);
     j.raw(b"}");
@@ -660,10 +668,14 @@ pub(crate) mod reference {
     pub(crate) struct EnvironmentRecord<'a> {
         choice: usize,
         cloud_cover: f64,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        exposure_offset_ev: Option<f64>,
         name: &'a str,
         pattern_seed: u32,
         sun_azimuth_deg: f64,
         sun_elevation_deg: f64,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        sun_offset_ev: Option<f64>,
         turbidity: f64,
     }
 
@@ -861,10 +873,12 @@ pub(crate) mod reference {
         EnvironmentRecord {
             choice: e.choice,
             cloud_cover: r6(e.cloud_cover),
+            exposure_offset_ev: (e.exposure_offset_ev != 0.0).then(|| r6(e.exposure_offset_ev)),
             name: &scene.environment_name,
             pattern_seed: e.pattern_seed,
             sun_azimuth_deg: r6(e.sun_azimuth_deg),
             sun_elevation_deg: r6(e.sun_elevation_deg),
+            sun_offset_ev: (e.sun_offset_ev != 0.0).then(|| r6(e.sun_offset_ev)),
             turbidity: r6(e.turbidity),
         }
     }
