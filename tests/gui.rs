@@ -1271,3 +1271,59 @@ fn the_clutter_panel_switches_the_scenery_on_and_edits_it() {
         "unticking removes clutter"
     );
 }
+
+/// A random sky's per-frame ranges are edited in the Skybox section (its
+/// choices stay in the preset file): switching the sunlight range on sets it,
+/// its bounds reach the preset, and switching it off removes it.
+#[test]
+fn a_random_skys_ranges_are_edited_in_the_skybox_section() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let random = r#"(
+    name: "random",
+    seed: 7,
+    placement: Structured(x_count: 2, y_count: 2, z_count: 2, load_factor: 4.0),
+    camera: (z: (start: 1.0, end: 1.0, step: 0.0)),
+    render: (resolution: Custom(width: 320, height: 180), msaa: 1),
+    sky: Random(
+        choices: [Procedural(environment: Daytime), Procedural(environment: Sunset)],
+        azimuth_offset_deg: (0.0, 360.0),
+        cloud_cover: Some((0.0, 0.3)),
+    ),
+)"#;
+    let mut h = harness(Some(write_preset(dir.path(), "random.ron", random)));
+    wait_for(&mut h, "the first preview", settled);
+    let sun_ev = |h: &Harness<'_, SwarmshotApp>| match &h.state().session().preset.sky {
+        swarmshot::preset::Sky::Random { sun_ev, .. } => *sun_ev,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(sun_ev(&h), None);
+    if h.query_by_label("Sunlight").is_none() {
+        h.get_by_label("Skybox").click_accesskit();
+        h.run_steps(3);
+    }
+    h.get_by_label("Sunlight").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(
+        sun_ev(&h),
+        Some((-0.5, 0.5)),
+        "ticking the box sets the range"
+    );
+    h.get_by_label("Sunlight min").set_value_accesskit(-0.25);
+    h.run_steps(3);
+    assert_eq!(sun_ev(&h), Some((-0.25, 0.5)));
+    h.get_by_label("Cloud cover max").set_value_accesskit(0.6);
+    h.run_steps(3);
+    match &h.state().session().preset.sky {
+        swarmshot::preset::Sky::Random { cloud_cover, .. } => {
+            assert_eq!(*cloud_cover, Some((0.0, 0.6)));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    // The range row under the checkbox has the same label.
+    h.get_by_role_and_label(Role::CheckBox, "Sunlight")
+        .click_accesskit();
+    h.run_steps(3);
+    assert_eq!(sun_ev(&h), None, "unticking removes the range");
+}

@@ -156,6 +156,8 @@ pub const FIELDS: &[Field] = &[
     f("sky.sun_elevation_deg", "Sun elevation", "°", "Sun angle above the horizon, degrees (a procedural environment's own by default)"),
     f("sky.sun_azimuth_deg", "Sun azimuth", "°", "Sun direction from +z towards +x, degrees"),
     f("sky.cloud_cover", "Cloud cover", "", "Fraction of the sky under cloud, 0 to 1"),
+    f("sky.azimuth_offset_deg", "Azimuth offset", "°", "A random sky's turn about the vertical, drawn per frame and added to each choice's sun azimuth (and an image's rotation)"),
+    f("sky.exposure_ev", "Sky exposure", " EV", "A random sky's exposure offset in stops, drawn per frame and added to the chosen sky's own"),
     f("sky.sun_ev", "Sunlight", " EV", "The sunlight on drones, ground, scenery and clouds against the environment's own, in stops; the clear sky keeps its brightness (0: as the environment gives it)"),
     f("sky.zenith", "Zenith colour", "", "Linear RGB of the sky at this height"),
     f("sky.horizon", "Horizon colour", "", "Linear RGB of the sky at this height"),

@@ -3,7 +3,7 @@
 
 use egui::Ui;
 
-use super::{Form, field_row};
+use super::{Form, Words, field_row};
 use crate::preset::{Preset, Sky, fields};
 use crate::sky::EnvironmentStyle;
 
@@ -40,9 +40,52 @@ pub fn skybox_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             field_row(ui, sun_ev, "sky.sun_ev", 0.05);
             form.messages(ui, &["sky.sun_ev"]);
         }
-        Sky::Image { .. } | Sky::Random { .. } => {
+        Sky::Random {
+            choices,
+            azimuth_offset_deg,
+            sun_elevation_deg,
+            cloud_cover,
+            exposure_ev,
+            sun_ev,
+        } => random_ui(
+            ui,
+            choices.len(),
+            azimuth_offset_deg,
+            [sun_elevation_deg, cloud_cover, exposure_ev, sun_ev],
+            form,
+        ),
+        Sky::Image { .. } => {
             ui.label("This sky is edited in the preset file (see docs/environments.md).");
         }
+    }
+}
+
+/// A random sky: its choices stay in the preset file; the ranges drawn per
+/// frame are edited here (each optional one switched on with its checkbox).
+fn random_ui(
+    ui: &mut Ui,
+    choices: usize,
+    azimuth_offset_deg: &mut (f64, f64),
+    [sun_elevation_deg, cloud_cover, exposure_ev, sun_ev]: [&mut Option<(f64, f64)>; 4],
+    form: &mut Form<'_>,
+) {
+    use crate::app::realism_panels::optional_range;
+    ui.label(format!(
+        "Each frame picks one of {choices} skies (listed in the preset file, see docs/environments.md) and draws:"
+    ));
+    Words::of("sky.azimuth_offset_deg").range(ui, form, azimuth_offset_deg, 1.0);
+    for (value, path, default, speed) in [
+        (
+            sun_elevation_deg,
+            "sky.sun_elevation_deg",
+            (10.0, 60.0),
+            0.5,
+        ),
+        (cloud_cover, "sky.cloud_cover", (0.0, 0.5), 0.01),
+        (exposure_ev, "sky.exposure_ev", (-1.0, 1.0), 0.05),
+        (sun_ev, "sky.sun_ev", (-0.5, 0.5), 0.05),
+    ] {
+        optional_range(ui, form, value, default, &Words::of(path), speed);
     }
 }
 
