@@ -16,8 +16,9 @@
 //! would move with each drone.
 //!
 //! The exposure is found by bisection on the EV (the mean level grows with
-//! the gain) and rounded to 1/64 stop, as a camera's exposure steps are, so
-//! that a last-bit difference in a machine's `exp` cannot move it.
+//! the gain) on a 1/64-stop grid, as a camera's exposure steps are, so that
+//! a last-bit difference in a machine's `exp` or `powf` can move it only
+//! where the level sits on a step's edge.
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
 
