@@ -331,8 +331,9 @@ impl FramePipeline {
     ) -> Result<(FrameScene, Option<Vec<DroneLabel>>), FrameError> {
         let wanted = self.preset.labels.min_labelled;
         let plated = |mut scene: FrameScene| {
-            crate::scene::meter_image_sky(&mut scene, &self.assets.sky.images);
             crate::scene::backplate::apply(&mut scene, &self.preset, &self.assets.plates);
+            let (images, plates) = (&self.assets.sky.images, &self.assets.plates);
+            crate::scene::realism::meter_exposure(&mut scene, images, plates);
             scene
         };
         if wanted == 0 {

@@ -824,14 +824,7 @@ fn write_vertices(
 }
 
 /// Linear-to-sRGB as the shaders do it (used by tests that predict pixels).
-pub fn linear_to_srgb(c: f32) -> f32 {
-    let x = c.clamp(0.0, 1.0);
-    if x <= 0.003_130_8 {
-        x * 12.92
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
-}
+pub use crate::sky::linear_to_srgb;
 
 const _: () = assert!(std::mem::offset_of!(InstanceRaw, air) == 80);
 const _: () = assert!(std::mem::offset_of!(InstanceRaw, look_material) == 112);

@@ -99,9 +99,4 @@ pub fn apply(scene: &mut FrameScene, preset: &Preset, plates: &[Plate]) {
         elevation_deg,
         air_light,
     });
-    // Auto-exposure meters the plate: it is the frame's background.
-    if let Some(auto) = (scene.camera_model.as_mut()).and_then(|d| d.auto_exposure.as_mut()) {
-        let samples = crate::sky::meter::rgba_samples(&plate.rgba, plate.size);
-        auto.metered_ev = crate::sky::meter::exposure_for(&samples, auto.target_level);
-    }
 }

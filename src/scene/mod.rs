@@ -343,17 +343,6 @@ pub fn build_frame_draw(
         clutter::frame_clutter(c, preset.seed, draw_index, &camera.0, sun)
     });
 
-    let sky = crate::sky::resolve(&preset.sky, &environment);
-    let atmosphere = realism::frame_atmosphere(preset, draw_index);
-    let camera_model = (preset.camera_model.as_ref()).map(|m| {
-        let mut draw = crate::sensor::draw(m, preset.seed, index);
-        if let Some(auto) = draw.auto_exposure.as_mut() {
-            auto.metered_ev =
-                metered_ev(&sky, &environment, &camera.0, atmosphere, auto.target_level);
-        }
-        draw
-    });
-
     Ok(FrameScene {
         index,
         seed: frame_seed,
@@ -363,7 +352,7 @@ pub fn build_frame_draw(
         camera: camera.0,
         drones,
         sun_direction: environment.sun_direction(),
-        sky,
+        sky: crate::sky::resolve(&preset.sky, &environment),
         environment_name: crate::sky::environment_name(&preset.sky, &environment),
         environment,
         volume_radius_m,
@@ -372,53 +361,15 @@ pub fn build_frame_draw(
         sequence,
         camera_absolute: preset.camera.absolute.is_some(),
         redraw: attempt,
-        camera_model,
-        atmosphere,
+        camera_model: (preset.camera_model.as_ref())
+            .map(|m| crate::sensor::draw(m, preset.seed, index)),
+        atmosphere: realism::frame_atmosphere(preset, draw_index),
         looks,
         clutter,
         confusers,
         confusers_on: !preset.confusers.is_empty(),
         backplate: None,
     })
-}
-
-/// The auto-exposure's EV for a frame showing `sky` through `camera`: the
-/// exposure under which the background the sky draws averages
-/// `target_level` ([`crate::sky::meter`]); 0 for a sky it cannot meter.
-fn metered_ev(
-    sky: &crate::sky::FrameSky,
-    environment: &crate::sky::FrameEnvironment,
-    camera: &Camera,
-    atmosphere: Option<realism::FrameAtmosphere>,
-    target_level: f64,
-) -> f64 {
-    use crate::sky::meter;
-    let visibility = atmosphere.map(|a| a.visibility_m);
-    meter::background_samples(sky, environment, &camera.meter_view(), visibility)
-        .map_or(0.0, |samples| meter::exposure_for(&samples, target_level))
-}
-
-/// Auto-exposure over an image sky: the metered EV of `scene` (built by
-/// [`build_frame`]) from the image's own pixels (`images`: the preset's sky
-/// images, in `Sky::image_sources` order). Does nothing without
-/// auto-exposure or an image sky; a missing image leaves the EV at 0.
-pub fn meter_image_sky(scene: &mut FrameScene, images: &[crate::sky::SkyImage]) {
-    use crate::sky::{FrameSky, meter};
-    let FrameSky::Image {
-        image,
-        exposure,
-        rotation_deg,
-    } = scene.sky
-    else {
-        return;
-    };
-    let view = scene.camera.meter_view();
-    if let Some(auto) = (scene.camera_model.as_mut()).and_then(|d| d.auto_exposure.as_mut()) {
-        auto.metered_ev = images.get(image).map_or(0.0, |img| {
-            let samples = meter::image_samples(img, exposure, rotation_deg, &view);
-            meter::exposure_for(&samples, auto.target_level)
-        });
-    }
 }
 
 /// The sweep values of frame `index` (the index decoded in mixed radix, CameraX outermost).

@@ -8,21 +8,13 @@
 
 use super::FrameScene;
 use crate::sky::plates::Plate;
+// sRGB (8-bit) → linear, as the plate's means are computed.
+use crate::sky::srgb_to_linear as decode;
 
 /// Half the side of the window, as a share of the frame's height (at least
 /// [`MIN_HALF_WINDOW_PX`] plate pixels).
 const HALF_WINDOW_SHARE: f64 = 0.02;
 const MIN_HALF_WINDOW_PX: i64 = 4;
-
-/// sRGB (8-bit) → linear, as the plate's means are computed.
-fn decode(c: u8) -> f64 {
-    let c = f64::from(c) / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
 
 /// Per drone of `scene` (its camera already the plate's), the plate's mean
 /// linear colour around the drone's projection (`flip`: the plate mirrored);

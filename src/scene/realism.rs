@@ -158,6 +158,54 @@ pub fn observer_pose(
     (-line_of_sight * distance_m, DVec3::ZERO)
 }
 
+/// Auto-exposure (`camera_model.auto_exposure`): the metered EV of `scene`,
+/// its plate and camera already set, from what its background shows
+/// ([`crate::sky::meter`]): the backplate's pixels (`plates`), an image
+/// sky's texels (`images`, in `Sky::image_sources` order), or the
+/// procedural or gradient sky the renderer draws. Does nothing without
+/// auto-exposure; a missing image or plate leaves the EV at 0.
+pub fn meter_exposure(
+    scene: &mut super::FrameScene,
+    images: &[crate::sky::SkyImage],
+    plates: &[crate::sky::plates::Plate],
+) {
+    use crate::sky::{FrameSky, meter};
+    let Some(target) = (scene.camera_model.as_ref())
+        .and_then(|d| d.auto_exposure)
+        .map(|a| a.target_level)
+    else {
+        return;
+    };
+    let view = scene.camera.meter_view();
+    let samples = match (&scene.backplate, scene.sky) {
+        (Some(b), _) => plates
+            .get(b.plate)
+            .map(|p| meter::rgba_samples(&p.rgba, p.size)),
+        (
+            None,
+            FrameSky::Image {
+                image,
+                exposure,
+                rotation_deg,
+            },
+        ) => images
+            .get(image)
+            .map(|img| meter::image_samples(img, exposure, rotation_deg, &view)),
+        (None, sky) => meter::background_samples(
+            &sky,
+            &scene.environment,
+            &view,
+            scene.atmosphere.map(|a| a.visibility_m),
+        ),
+    };
+    let ev = samples
+        .as_deref()
+        .map_or(0.0, |s| meter::exposure_for(s, target));
+    if let Some(auto) = (scene.camera_model.as_mut()).and_then(|d| d.auto_exposure.as_mut()) {
+        auto.metered_ev = ev;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

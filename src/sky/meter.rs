@@ -24,7 +24,8 @@ use glam::{DMat3, DVec3, Vec2, Vec3};
 
 use super::{
     EnvironmentStyle, FrameEnvironment, FrameSky, Ground, Preetham, SKY_EXPOSURE, Silhouette,
-    SkyImage, SkyImageKind, gradient_lighting, preetham::smoothstep, procedural_lighting, tone_map,
+    SkyImage, SkyImageKind, gradient_lighting, linear_to_srgb, preetham::smoothstep,
+    procedural_lighting, tone_map,
 };
 
 /// The grid of rays the meter samples: columns and rows over the frame.
@@ -193,14 +194,7 @@ fn texel(kind: &SkyImageKind, d: Vec3) -> Vec3 {
 /// at the [`GRID`]'s pixel centres: what a background that is a picture
 /// shows before the exposure.
 pub fn rgba_samples(rgba: &[u8], (width, height): (u32, u32)) -> Vec<Vec3> {
-    let decode = |c: u8| {
-        let c = f32::from(c) / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let decode = |c: u8| super::srgb_to_linear(c) as f32;
     let (cols, rows) = GRID;
     let mut out = Vec::with_capacity((cols * rows) as usize);
     for j in 0..rows {
@@ -226,7 +220,7 @@ pub fn mean_level(samples: &[Vec3], gain: f32) -> f64 {
     let sum: f64 = samples
         .iter()
         .map(|c| {
-            let e = |v: f32| f64::from(srgb_encode(v * gain));
+            let e = |v: f32| f64::from(linear_to_srgb(v * gain));
             0.299 * e(c.x) + 0.587 * e(c.y) + 0.114 * e(c.z)
         })
         .sum();
@@ -236,42 +230,29 @@ pub fn mean_level(samples: &[Vec3], gain: f32) -> f64 {
 /// The EV (within ±[`MAX_METERED_EV`], in 1/64 stops) under which
 /// `samples`' [`mean_level`] is nearest `target_level` from below.
 pub fn exposure_for(samples: &[Vec3], target_level: f64) -> f64 {
-    let level = |ev: f64| mean_level(samples, 2f64.powf(ev) as f32);
-    let (mut lo, mut hi) = (-MAX_METERED_EV, MAX_METERED_EV);
-    if level(hi) <= target_level {
-        return hi;
+    // On the 1/64-stop grid, step k is k / 64 stops; each step's level is measured once.
+    let level = |k: i64| mean_level(samples, 2f64.powf(k as f64 / EV_STEPS) as f32);
+    let limit = (MAX_METERED_EV * EV_STEPS) as i64;
+    let (mut a, mut b) = ((-limit, level(-limit)), (limit, level(limit)));
+    if b.1 <= target_level {
+        return MAX_METERED_EV;
     }
-    if level(lo) >= target_level {
-        return lo;
+    if a.1 >= target_level {
+        return -MAX_METERED_EV;
     }
-    // On the 1/64-stop grid: the largest step whose level stays at or under the target.
-    let (mut a, mut b) = ((lo * EV_STEPS) as i64, (hi * EV_STEPS) as i64);
-    while b - a > 1 {
-        let m = (a + b) / 2;
-        if level(m as f64 / EV_STEPS) <= target_level {
-            a = m;
-        } else {
-            b = m;
-        }
+    // a stays at or under the target, b above it, until they are neighbours.
+    while b.0 - a.0 > 1 {
+        let m = (a.0 + b.0) / 2;
+        let at = (m, level(m));
+        if at.1 <= target_level { a = at } else { b = at }
     }
-    lo = a as f64 / EV_STEPS;
-    hi = b as f64 / EV_STEPS;
-    // The nearer of the two neighbours.
-    if (level(hi) - target_level).abs() < (target_level - level(lo)).abs() {
-        hi
+    // The nearer of the two.
+    let k = if b.1 - target_level < target_level - a.1 {
+        b.0
     } else {
-        lo
-    }
-}
-
-/// The sRGB transfer function on a linear value clipped to [0, 1].
-fn srgb_encode(v: f32) -> f32 {
-    let x = v.clamp(0.0, 1.0);
-    if x <= 0.003_130_8 {
-        x * 12.92
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
+        a.0
+    };
+    k as f64 / EV_STEPS
 }
 
 /// A procedural environment's shading, as environment.wgsl's

@@ -73,6 +73,27 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
+/// Linear-to-sRGB as the shaders do it (`linear_to_srgb` in common.wgsl),
+/// on a value clipped to [0, 1].
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let x = c.clamp(0.0, 1.0);
+    if x <= 0.003_130_8 {
+        x * 12.92
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// An 8-bit sRGB level as linear light (plates, pictures read on the CPU).
+pub fn srgb_to_linear(c: u8) -> f64 {
+    let c = f64::from(c) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 impl FrameEnvironment {
     /// Unit vector towards the sun (world frame).
     pub fn sun_direction(&self) -> DVec3 {

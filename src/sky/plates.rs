@@ -99,15 +99,7 @@ fn mean_linear(rgba: &[u8], width: u32, rows: std::ops::Range<u32>) -> [f32; 3] 
     let row = width as usize * 4;
     let px = &rgba
         [(rows.start as usize * row).min(rgba.len())..(rows.end as usize * row).min(rgba.len())];
-    let decode = |c: u8| {
-        let c = f64::from(c) / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let table: Vec<f64> = (0..=255u8).map(decode).collect();
+    let table: Vec<f64> = (0..=255u8).map(super::srgb_to_linear).collect();
     let mut sum = [0f64; 3];
     for p in px.chunks_exact(4) {
         for c in 0..3 {
