@@ -538,6 +538,91 @@ fn mask_settings_are_checked_with_their_field_paths() {
     assert_eq!(Preset::from_ron(&on.to_ron()).expect("round trip"), on);
 }
 
+/// Issue 35: confusers take instance ids after the drones. 65 000 drones
+/// and 1 500 confusers passed `check`, and the batch failed 20 s in on the
+/// first confuser past id 65 535; now `check` refuses it, naming the fields.
+#[test]
+fn confusers_count_in_the_16_bit_instance_ids_and_check_refuses_up_front() {
+    use swarmshot::preset::confusers::{BirdSpecies, Confuser, ConfuserKind};
+    let mut p = preset(ALL);
+    p.placement = Placement::Randomized {
+        count: (65_000, 65_000),
+        count_distribution: Default::default(),
+        volume: Volume::Box {
+            size_m: (1000.0, 1000.0, 1000.0),
+        },
+        min_separation_m: 0.7,
+    };
+    p.confusers = vec![
+        Confuser {
+            kind: ConfuserKind::Bird(BirdSpecies::Gull),
+            count: (500, 500),
+            ..Confuser::default()
+        };
+        3
+    ];
+    assert_eq!(p.max_objects_per_frame(), 66_500);
+    for errors in [
+        p.validate().expect_err("too many ids"),
+        swarmshot::pipeline::check::validate(&p).expect_err("too many ids"),
+    ] {
+        let e = errors
+            .iter()
+            .find(|e| e.field == "output.masks.instance_png")
+            .unwrap_or_else(|| panic!("{errors:?}"));
+        let msg = e.to_string();
+        assert!(
+            msg.contains("65000 drones (placement)")
+                && msg.contains("1500 confusers (confusers[*].count)")
+                && msg.contains("66500 instance ids")
+                && msg.contains("65535"),
+            "{msg}"
+        );
+    }
+    // `swarmshot check` refuses it before loading anything.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("ids.ron");
+    std::fs::write(&path, p.to_ron()).expect("write preset");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+        .arg("check")
+        .arg(&path)
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("output.masks.instance_png") && err.contains("66500 instance ids"),
+        "{err}"
+    );
+    // Without the instance image and the depth map, ids are not needed.
+    p.output.masks.instance_png = false;
+    p.output.masks.depth = false;
+    if let Err(errors) = p.validate() {
+        assert!(
+            errors
+                .iter()
+                .all(|e| !e.to_string().contains("instance ids")),
+            "{errors:?}"
+        );
+    }
+    // The depth map alone names its own field; within the ids, no error.
+    p.output.masks.depth = true;
+    let errors = p.validate().expect_err("depth needs the ids too");
+    assert!(
+        errors.iter().any(|e| e.field == "output.masks.depth"),
+        "{errors:?}"
+    );
+    p.confusers.truncate(1);
+    if let Err(errors) = p.validate() {
+        assert!(
+            errors
+                .iter()
+                .all(|e| !e.to_string().contains("instance ids")),
+            "{errors:?}"
+        );
+    }
+}
+
 /// `swarmshot frame N` alone writes frame N's image, labels and masks with
 /// the bytes the batch writes for N (its mask files beside the image).
 #[test]

@@ -27,6 +27,28 @@ const LABEL_BYTES_PER_FRAME: f64 = 1500.0;
 const LABEL_BYTES_PER_DRONE: f64 = 1100.0;
 const LEDGER_BYTES_PER_FRAME: f64 = 1400.0;
 
+/// A labels-only plan's bytes on disk per frame (its label file's 4 KiB
+/// block, the manifest's camera, the COCO image record) and per object
+/// (drone or confuser: its manifest record, 590 bytes; its COCO
+/// annotation, 290, counted twice since the part file and the assembled
+/// `instances_*.json` stand side by side until the parts are deleted; its
+/// YOLO line, 40), and its ledger per frame. Measured on plans of the
+/// quickstart preset with 10 000 drones a frame in a 60 × 30 × 60 m box
+/// (108 frames: 0.85 KB a drone once finished, 1.1 KB before the parts go)
+/// and with 10⁶ drones a frame (0.97 KB a drone before the parts go).
+/// Typical, not an upper bound, like [`Preset::disk_estimate`].
+const PLAN_BYTES_PER_FRAME: f64 = 5000.0;
+const PLAN_BYTES_PER_OBJECT: f64 = 1100.0;
+const PLAN_LEDGER_BYTES_PER_FRAME: f64 = 200.0;
+/// A labels-only plan's memory per object it holds (its pose, its label,
+/// its records as text, and what planning the frame needs meanwhile), and
+/// what the process holds besides: measured peaks (`/usr/bin/time -v`,
+/// docs/datasets.md) of 1.92 GB for plans holding one frame of 10⁶ drones
+/// and 18 MB for the quickstart's, with some room. An upper bound for
+/// those presets, so a plan refused for its memory would not have fit.
+const PLAN_MEMORY_BYTES_PER_OBJECT: f64 = 2200.0;
+const PLAN_MEMORY_BASE_BYTES: f64 = 64.0 * 1024.0 * 1024.0;
+
 /// What a dataset of some frames needs on disk (an estimate).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiskEstimate {
@@ -88,6 +110,20 @@ impl Preset {
         }
     }
 
+    /// The most confusers any frame can hold: each entry's count's upper
+    /// end, added up (at most 32 entries of 500).
+    pub fn max_confusers_per_frame(&self) -> u64 {
+        self.confusers.iter().map(|c| u64::from(c.count.1)).sum()
+    }
+
+    /// The most objects any frame draws and labels: its drones, then its
+    /// confusers (the scene appends them to the frame's `drones`). Each
+    /// takes an instance id and a manifest record.
+    pub fn max_objects_per_frame(&self) -> u64 {
+        self.max_drones_per_frame()
+            .saturating_add(self.max_confusers_per_frame())
+    }
+
     /// A rendered frame's work budget: at most
     /// [`MAX_RENDERED_DRONES_PER_FRAME`] drones. Checked by `batch`, `frame`
     /// and `check` before anything is rendered or written.
@@ -141,6 +177,33 @@ impl Preset {
             ledger_bytes: n * LEDGER_BYTES_PER_FRAME,
         }
     }
+
+    /// The disk a labels-only plan of `frames` frames needs (no images),
+    /// with `objects_per_frame` drones and confusers a frame on average.
+    pub fn plan_disk_estimate(&self, frames: u64, objects_per_frame: f64) -> DiskEstimate {
+        let n = frames as f64;
+        DiskEstimate {
+            frames,
+            image_bytes: 0.0,
+            label_bytes: n
+                * (PLAN_BYTES_PER_FRAME + PLAN_BYTES_PER_OBJECT * objects_per_frame.max(0.0)),
+            ledger_bytes: n * PLAN_LEDGER_BYTES_PER_FRAME,
+        }
+    }
+
+    /// The memory a labels-only plan needs when it holds `objects` drones
+    /// and confusers at once (`pipeline::plan::PlanShape`), an estimate.
+    pub fn plan_memory_bytes(&self, objects: u64) -> f64 {
+        PLAN_MEMORY_BASE_BYTES + PLAN_MEMORY_BYTES_PER_OBJECT * objects as f64
+    }
+}
+
+/// `MemAvailable` from /proc/meminfo (Linux), in bytes; `None` elsewhere.
+pub fn available_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
 }
 
 /// Free bytes for an unprivileged user on the filesystem holding `path`

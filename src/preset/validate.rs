@@ -53,6 +53,7 @@ impl Preset {
         self.validate_output(&mut v);
         self.validate_motion(&mut v);
         self.validate_masks(&mut v.errors);
+        self.validate_instance_ids(&mut v);
         if let Some(c) = &self.camera_model {
             c.validate(self, &mut v);
         }
@@ -80,6 +81,33 @@ impl Preset {
         } else {
             Err(v.errors)
         }
+    }
+
+    /// `output.masks.instance_png` and `depth`: every object a frame draws
+    /// takes a 16-bit instance id, its confusers after its drones. Drones
+    /// alone past the limit are `validate_masks`' error; this one is for the
+    /// confusers that push a frame past it (the batch found it only when it
+    /// wrote the first such frame's instance PNG).
+    fn validate_instance_ids(&self, v: &mut Validator) {
+        let m = &self.output.masks;
+        let limit = super::masks::MAX_INSTANCE_ID as u64;
+        let (drones, confusers) = (self.max_drones_per_frame(), self.max_confusers_per_frame());
+        if !(m.instance_png || m.depth) || drones > limit || drones + confusers <= limit {
+            return;
+        }
+        let field = if m.instance_png {
+            "output.masks.instance_png"
+        } else {
+            "output.masks.depth"
+        };
+        v.push(
+            field,
+            format!(
+                "a frame may hold {drones} drones (placement) and {confusers} confusers (confusers[*].count): {} instance ids, but a 16-bit instance image names at most {limit}; lower placement's count or the confusers' counts by {}",
+                drones + confusers,
+                drones + confusers - limit
+            ),
+        );
     }
 
     /// The model list: sizes and classes (built-in names: `pipeline::check`).
