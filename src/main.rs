@@ -584,14 +584,28 @@ fn batch(
             ),
         ));
     }
-    println!(
-        "wrote {} to {} in {:.1} s ({:.2} images/s) on {}",
-        frames_and_boxes(s),
-        report.out_dir.display(),
-        report.elapsed.as_secs_f64(),
-        s.frames as f64 / report.elapsed.as_secs_f64().max(1e-9),
-        ctx.describe()
-    );
+    if report.already_complete() {
+        // Nothing was rendered: no rate to give.
+        println!(
+            "already complete: {} in {}; nothing rendered",
+            frames_and_boxes(s),
+            report.out_dir.display()
+        );
+    } else {
+        // A continued run's rate counts the frames it made, not the earlier run's.
+        let continued = match report.resumed_at() {
+            Some(at) => format!(", {} made from frame {at} on", report.made),
+            None => String::new(),
+        };
+        println!(
+            "wrote {} to {} in {:.1} s ({:.2} images/s{continued}) on {}",
+            frames_and_boxes(s),
+            report.out_dir.display(),
+            report.elapsed.as_secs_f64(),
+            report.images_per_s(),
+            ctx.describe()
+        );
+    }
     if timings {
         println!("{}", report.times.describe(s.frames, report.elapsed));
     }
@@ -680,13 +694,21 @@ fn plan(
             ),
         ));
     }
-    println!(
-        "planned {} to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
-        frames_and_boxes(s),
-        report.out_dir.display(),
-        report.elapsed.as_secs_f64(),
-        report.frames_per_s(),
-    );
+    if report.planned == 0 {
+        println!(
+            "already complete: {} in {}; nothing planned (labels only: no images, no data.yaml)",
+            frames_and_boxes(s),
+            report.out_dir.display()
+        );
+    } else {
+        println!(
+            "planned {} to {} in {:.2} s ({:.0} frames/s), labels only: no images, no data.yaml",
+            frames_and_boxes(s),
+            report.out_dir.display(),
+            report.elapsed.as_secs_f64(),
+            report.frames_per_s(),
+        );
+    }
     if report.estimated {
         println!(
             "note: the preset asks for Visible boxes or visibility filters, which need pixels: these boxes are ESTIMATES (amodal boxes within the image, no visibility filter); a rendered run's differ on partly hidden drones"
