@@ -14,6 +14,7 @@
 pub mod annotate;
 #[cfg(feature = "app")]
 pub mod app;
+pub mod fit;
 pub mod gap;
 pub mod input;
 pub mod model;

@@ -162,6 +162,43 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Fit a preset to your own footage: the frames become backplates (labelled
+    /// drones removed), the camera and the drones' size are fitted, and rounds of
+    /// render → gap report → adjust run until the report puts the dataset inside the
+    /// footage's range (docs/realism.md, "Fitting to your footage").
+    Fit {
+        /// A folder of real frames (JPEG/PNG; YOLO labels in a sibling labels/ or
+        /// beside them), or a video file (decoded by ffmpeg from PATH).
+        #[arg(long)]
+        real: PathBuf,
+        /// Output folder: plates/, fitted.ron, footage.json, fit.json, rounds/NN/.
+        #[arg(long)]
+        out: PathBuf,
+        /// The preset the fit starts from.
+        #[arg(long, default_value = "presets/realistic.ron")]
+        base: PathBuf,
+        /// Frames rendered per round.
+        #[arg(long, default_value_t = 32)]
+        sample: u64,
+        /// Fitted rounds at most (0: plates and the first fit only, no rendering).
+        #[arg(long, default_value_t = 4)]
+        rounds: usize,
+        /// Use frames without labels (drones in them, if any, stay in the plates unlabelled).
+        #[arg(long)]
+        unlabelled_ok: bool,
+        /// Replace an earlier fit's files in --out.
+        #[arg(long)]
+        overwrite: bool,
+        /// At most N real frames, evenly spaced in name order (0: all).
+        #[arg(long, default_value_t = 200)]
+        max_frames: usize,
+        /// The footage's horizontal field of view, degrees (default: from the base preset).
+        #[arg(long)]
+        hfov: Option<f64>,
+        /// Frames per second taken from a video.
+        #[arg(long, default_value_t = 2.0)]
+        video_fps: f64,
+    },
     /// Benchmarks that produce the tables in docs/ (run a release build).
     Bench {
         #[command(subcommand)]
@@ -380,6 +417,30 @@ fn run() -> anyhow::Result<()> {
             out,
             overlay,
         } => frame(&preset, index, &out, overlay),
+        Command::Fit {
+            real,
+            out,
+            base,
+            sample,
+            rounds,
+            unlabelled_ok,
+            overwrite,
+            max_frames,
+            hfov,
+            video_fps,
+        } => fit(swarmshot::fit::FitOptions {
+            real,
+            out,
+            base,
+            sample,
+            rounds,
+            unlabelled_ok,
+            overwrite,
+            max_frames,
+            hfov_deg: hfov,
+            video_fps,
+        }),
+
         Command::Bench {
             which:
                 BenchCommand::Accuracy {
@@ -780,6 +841,64 @@ fn frame(preset: &Path, index: u64, out: &Path, overlay: bool) -> anyhow::Result
         frame.labels.iter().filter(|l| l.is_kept()).count(),
         out.display(),
         beside.join(", ")
+    );
+    Ok(())
+}
+
+/// `swarmshot fit`: the footage read and checked (nothing written before), plates and
+/// the first fit written, then the rounds on the GPU, `fitted.ron` and the before/after.
+fn fit(options: swarmshot::fit::FitOptions) -> anyhow::Result<()> {
+    if options.sample == 0 {
+        anyhow::bail!("--sample 0: a round needs at least 1 frame");
+    }
+    let started = std::time::Instant::now();
+    let prep = swarmshot::fit::prepare(&options)?;
+    let f = &prep.footage;
+    eprintln!(
+        "read {} frames ({} labelled, {} drones) in {:.1} s; {} plates in {}",
+        f.frames,
+        f.labelled_frames,
+        f.drones,
+        started.elapsed().as_secs_f64(),
+        prep.plates.plates.len(),
+        options.out.join("plates").display()
+    );
+    if prep.plates.unlabelled > 0 {
+        eprintln!(
+            "warning: {} frames have no labels (--unlabelled-ok): any drone in them stays in its plate, unlabelled",
+            prep.plates.unlabelled
+        );
+    }
+    let ctx = if options.rounds > 0 {
+        Some(GpuContext::headless()?)
+    } else {
+        None
+    };
+    let cancel = stop_on_signals()?;
+    let done = swarmshot::fit::finish(&prep, ctx.as_ref(), &cancel, &mut |line| {
+        eprintln!("{line}")
+    })?;
+    if let Some(before) = &done.before {
+        println!("== before: the base preset (round 00) ==\n{before}");
+    }
+    if let Some(after) = &done.after {
+        println!(
+            "== after: the fitted preset (round {:02}) ==\n{after}",
+            done.record.best_round.unwrap_or(0)
+        );
+    }
+    let summary: Vec<String> = (done.record.rounds.iter())
+        .map(|r| format!("{:02}: {}/{}", r.round, r.inside, r.applicable))
+        .collect();
+    println!(
+        "wrote {} in {:.1} s{}",
+        done.fitted.display(),
+        started.elapsed().as_secs_f64(),
+        if summary.is_empty() {
+            String::new()
+        } else {
+            format!(" (statistics inside per round: {})", summary.join(", "))
+        }
     );
     Ok(())
 }

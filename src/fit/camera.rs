@@ -1,0 +1,368 @@
+//! The footage measured, and its camera estimated.
+//!
+//! **Measured**: every frame through the domain-gap report's own statistics
+//! ([`crate::gap::measure_frame`]): noise σ and high-pass RMS of the flat sky, blur σ of
+//! the sharpest edges, JPEG quality from the quantisation tables, sky saturation, mean
+//! brightness, and per labelled drone its core size, peak and polarity. Summaries are
+//! medians and quartiles over frames (drones).
+//!
+//! **Estimated**: the camera that made those final bytes, as the camera model's
+//! parameters (`camera_model.read_noise_levels`, `psf`, `jpeg_quality`). The JPEG quality
+//! is read from the files. Noise and blur are measured *after* the camera's processing
+//! and compression, so they are inverted through the camera model's own forward path: a
+//! test picture at the footage's median sky colour (flat for the noise; point-sampled
+//! steps of ±60 levels for the blur) goes through [`crate::sensor::apply`] with a trial
+//! read noise or PSF, is written as the batch writes a frame
+//! ([`crate::write::encode_image`] at the footage's JPEG quality, PNG footage: none), is
+//! decoded and measured by the same statistic; the trial value is bisected until the
+//! measurement equals the footage's median. So "σ 3 linear levels under JPEG 80" is what
+//! a preset must set to write frames whose sky measures like the footage's.
+
+use image::RgbImage;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::input::RealFrame;
+use crate::gap::measure::{self, Luma};
+use crate::preset::ImageFormat;
+use crate::preset::camera_model::{CameraModel, Psf};
+
+/// Side of the test pictures the forward model runs on.
+const PATCH: u32 = 192;
+
+/// Median and quartiles of `n` values.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Quartiles {
+    pub n: usize,
+    pub q25: f64,
+    pub median: f64,
+    pub q75: f64,
+}
+
+/// Quartiles by linear interpolation between order statistics (`None` when empty).
+pub fn quartiles(values: &[f64]) -> Option<Quartiles> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        let pos = q * (v.len() - 1) as f64;
+        let i = pos.floor() as usize;
+        let f = pos - i as f64;
+        if i + 1 < v.len() {
+            v[i] + f * (v[i + 1] - v[i])
+        } else {
+            v[i]
+        }
+    };
+    Some(Quartiles {
+        n: v.len(),
+        q25: at(0.25),
+        median: at(0.5),
+        q75: at(0.75),
+    })
+}
+
+/// One frame's figures, as `footage.json` lists them.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameFigures {
+    pub file: String,
+    pub width: u32,
+    pub height: u32,
+    pub labelled: bool,
+    pub drones: usize,
+    pub noise_sigma: Option<f32>,
+    pub blur_sigma_px: Option<f32>,
+    pub jpeg_quality: Option<u8>,
+    pub sky_saturation: Option<f32>,
+    pub mean_brightness: f32,
+    pub sky_rgb: Option<[f32; 3]>,
+}
+
+/// The footage's statistics, summarised over its frames and drones.
+#[derive(Clone, Debug, Serialize)]
+pub struct Measured {
+    pub noise_sigma: Option<Quartiles>,
+    pub highpass_rms: Option<Quartiles>,
+    pub blur_sigma_px: Option<Quartiles>,
+    pub jpeg_quality: Option<Quartiles>,
+    pub sky_saturation: Option<Quartiles>,
+    pub mean_brightness: Option<Quartiles>,
+    /// Median sky colour (the flat tiles of the upper half), 8-bit sRGB.
+    pub sky_rgb: Option<[f64; 3]>,
+    /// Core size of the labelled drones, √(pixels over half the peak).
+    pub drone_core_px: Option<Quartiles>,
+    /// √(w·h) of the labelled boxes, pixels.
+    pub drone_box_px: Option<Quartiles>,
+    /// Share of drones darker than their ring.
+    pub drone_darker_share: Option<f64>,
+    /// Labelled drones per labelled frame.
+    pub drones_per_frame: Option<Quartiles>,
+}
+
+/// The footage's camera as camera-model parameters (see the module docs).
+#[derive(Clone, Debug, Serialize)]
+pub struct CameraEstimate {
+    /// Read noise σ, linear 8-bit levels, that writes the footage's sky noise.
+    pub read_noise_levels: Option<f64>,
+    /// Gaussian PSF σ, pixels, that writes the footage's edge blur.
+    pub psf_sigma_px: Option<f64>,
+    /// The JPEG quality of the files (median), `None` for PNG footage.
+    pub jpeg_quality: Option<u8>,
+    /// The sky colour the forward model ran at.
+    pub sky_rgb: [u8; 3],
+}
+
+/// Everything `fit` knows of the footage (`OUT/footage.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct Footage {
+    pub frames: usize,
+    pub labelled_frames: usize,
+    pub drones: usize,
+    pub jpeg_frames: usize,
+    /// The frame size most frames have (ties: the larger area), the fitted resolution.
+    pub size: (u32, u32),
+    pub measured: Measured,
+    pub estimate: CameraEstimate,
+    pub per_frame: Vec<FrameFigures>,
+}
+
+/// Per-frame results of the measuring pass.
+struct FramePass {
+    stats: crate::gap::FrameStats,
+    sky_rgb: Option<[f32; 3]>,
+}
+
+/// Measures every frame (in parallel, collected in order) and estimates the camera.
+pub fn measure(frames: &[RealFrame]) -> Footage {
+    let passes: Vec<FramePass> = frames
+        .par_iter()
+        .map(|f| {
+            let stats = crate::gap::measure_frame(&f.rgb, &f.boxes, f.jpeg.as_deref());
+            let l = Luma::from_rgb(&f.rgb);
+            let sky_rgb = measure::flat_sky(&f.rgb, &l, &f.boxes).sky_rgb;
+            FramePass { stats, sky_rgb }
+        })
+        .collect();
+    let col = |g: &dyn Fn(&FramePass) -> Option<f64>| -> Vec<f64> {
+        passes.iter().filter_map(g).collect()
+    };
+    let drones: Vec<&measure::DroneMeasure> =
+        passes.iter().flat_map(|p| p.stats.drones.iter()).collect();
+    let boxes: Vec<f64> = frames
+        .iter()
+        .flat_map(|f| f.boxes.iter())
+        .map(|b| f64::from(((b.x1 - b.x0).max(0.0) * (b.y1 - b.y0).max(0.0)).sqrt()))
+        .collect();
+    let sky: Vec<[f32; 3]> = passes.iter().filter_map(|p| p.sky_rgb).collect();
+    let sky_rgb = (!sky.is_empty()).then(|| {
+        [0, 1, 2].map(|c| {
+            quartiles(&sky.iter().map(|s| f64::from(s[c])).collect::<Vec<_>>())
+                .map_or(128.0, |q| q.median)
+        })
+    });
+    let polar: Vec<bool> = drones
+        .iter()
+        .filter(|d| d.peak != 0.0)
+        .map(|d| d.darker)
+        .collect();
+    let measured = Measured {
+        noise_sigma: quartiles(&col(&|p| p.stats.noise_sigma.map(f64::from))),
+        highpass_rms: quartiles(&col(&|p| p.stats.highpass_rms.map(f64::from))),
+        blur_sigma_px: quartiles(&col(&|p| p.stats.blur_sigma_px.map(f64::from))),
+        jpeg_quality: quartiles(&col(&|p| p.stats.jpeg_quality.map(f64::from))),
+        sky_saturation: quartiles(&col(&|p| p.stats.sky_saturation.map(f64::from))),
+        mean_brightness: quartiles(&col(&|p| Some(f64::from(p.stats.mean_brightness)))),
+        sky_rgb,
+        drone_core_px: quartiles(
+            &drones
+                .iter()
+                .map(|d| f64::from(d.core_px))
+                .collect::<Vec<_>>(),
+        ),
+        drone_box_px: quartiles(&boxes),
+        drone_darker_share: (!polar.is_empty())
+            .then(|| polar.iter().filter(|&&d| d).count() as f64 / polar.len() as f64),
+        drones_per_frame: quartiles(
+            &frames
+                .iter()
+                .filter(|f| f.labelled)
+                .map(|f| f.boxes.len() as f64)
+                .collect::<Vec<_>>(),
+        ),
+    };
+    let estimate = estimate_camera(&measured);
+    let per_frame = frames
+        .iter()
+        .zip(&passes)
+        .map(|(f, p)| FrameFigures {
+            file: f.rel.clone(),
+            width: f.rgb.width(),
+            height: f.rgb.height(),
+            labelled: f.labelled,
+            drones: f.boxes.len(),
+            noise_sigma: p.stats.noise_sigma,
+            blur_sigma_px: p.stats.blur_sigma_px,
+            jpeg_quality: p.stats.jpeg_quality,
+            sky_saturation: p.stats.sky_saturation,
+            mean_brightness: p.stats.mean_brightness,
+            sky_rgb: p.sky_rgb,
+        })
+        .collect();
+    Footage {
+        frames: frames.len(),
+        labelled_frames: frames.iter().filter(|f| f.labelled).count(),
+        drones: frames.iter().map(|f| f.boxes.len()).sum(),
+        jpeg_frames: frames.iter().filter(|f| f.jpeg.is_some()).count(),
+        size: common_size(frames),
+        measured,
+        estimate,
+        per_frame,
+    }
+}
+
+/// The frame size most frames have; ties go to the larger area, then the wider.
+fn common_size(frames: &[RealFrame]) -> (u32, u32) {
+    let mut sizes: Vec<(u32, u32)> = frames.iter().map(|f| f.rgb.dimensions()).collect();
+    sizes.sort_unstable();
+    let mut best = ((0u32, 0u32), 0usize);
+    let mut i = 0;
+    while i < sizes.len() {
+        let j = i + sizes[i..].iter().take_while(|&&s| s == sizes[i]).count();
+        let (s, n) = (sizes[i], j - i);
+        let area = |s: (u32, u32)| u64::from(s.0) * u64::from(s.1);
+        if n > best.1 || (n == best.1 && area(s) > area(best.0)) {
+            best = (s, n);
+        }
+        i = j;
+    }
+    best.0
+}
+
+/// The camera that writes the measured statistics (module docs).
+pub fn estimate_camera(m: &Measured) -> CameraEstimate {
+    let sky = m
+        .sky_rgb
+        .map_or([128u8; 3], |c| c.map(|v| v.round().clamp(0.0, 255.0) as u8));
+    let q = m
+        .jpeg_quality
+        .map(|j| j.median.round().clamp(1.0, 100.0) as u8);
+    let read = m.noise_sigma.and_then(|n| invert_noise(sky, q, n.median));
+    let psf = m
+        .blur_sigma_px
+        .and_then(|b| invert_blur(sky, q, read.unwrap_or(0.0), b.median));
+    CameraEstimate {
+        read_noise_levels: read,
+        psf_sigma_px: psf,
+        jpeg_quality: q,
+        sky_rgb: sky,
+    }
+}
+
+/// A camera model with only read noise `read` and a Gaussian PSF `psf` (fixed values).
+fn trial_model(read: f64, psf: f64) -> CameraModel {
+    CameraModel {
+        read_noise_levels: (read, read),
+        psf: if psf > 0.0 {
+            Psf::Gaussian {
+                sigma_px: (psf, psf),
+            }
+        } else {
+            Psf::None
+        },
+        ..CameraModel::default()
+    }
+}
+
+/// `rgba` (PATCH²) through the camera model and the writer, decoded again.
+fn through(rgba: &[u8], model: &CameraModel, q: Option<u8>) -> RgbImage {
+    let draw = crate::sensor::draw(model, 1, 0);
+    let out = crate::sensor::apply(rgba, PATCH, PATCH, &draw);
+    if let Some(quality) = q
+        && let Ok(bytes) =
+            crate::write::encode_image(&out, PATCH, PATCH, ImageFormat::Jpeg { quality })
+        && let Ok(img) = image::load_from_memory(&bytes)
+    {
+        return img.to_rgb8();
+    }
+    let rgb: Vec<u8> = out
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    RgbImage::from_raw(PATCH, PATCH, rgb).unwrap_or_else(|| RgbImage::new(PATCH, PATCH))
+}
+
+fn flat_patch(sky: [u8; 3]) -> Vec<u8> {
+    (0..PATCH * PATCH)
+        .flat_map(|_| [sky[0], sky[1], sky[2], 255])
+        .collect()
+}
+
+/// Point-sampled squares of ±60 levels (darker on a bright sky) over the sky colour.
+fn step_patch(sky: [u8; 3]) -> Vec<u8> {
+    let lum = 0.299 * f64::from(sky[0]) + 0.587 * f64::from(sky[1]) + 0.114 * f64::from(sky[2]);
+    let d: i32 = if lum > 128.0 { -60 } else { 60 };
+    let fg = sky.map(|c| (i32::from(c) + d).clamp(0, 255) as u8);
+    let mut v = Vec::with_capacity((PATCH * PATCH * 4) as usize);
+    for y in 0..PATCH {
+        for x in 0..PATCH {
+            // 24 px squares every 48 px, offset so edges sit away from the 8 px JPEG grid.
+            let inside = (x + 13) % 48 < 24 && (y + 11) % 48 < 24;
+            let c = if inside { fg } else { sky };
+            v.extend_from_slice(&[c[0], c[1], c[2], 255]);
+        }
+    }
+    v
+}
+
+/// The flat-sky noise σ a read noise of `read` linear levels writes at `sky` under `q`.
+pub fn noise_after(sky: [u8; 3], q: Option<u8>, read: f64) -> f64 {
+    let img = through(&flat_patch(sky), &trial_model(read, 0.0), q);
+    let l = Luma::from_rgb(&img);
+    measure::flat_sky(&img, &l, &[])
+        .noise_sigma
+        .map_or(0.0, f64::from)
+}
+
+/// The blur σ a PSF of `psf` px writes (with read noise `read`) at `sky` under `q`.
+pub fn blur_after(sky: [u8; 3], q: Option<u8>, read: f64, psf: f64) -> f64 {
+    let img = through(&step_patch(sky), &trial_model(read, psf), q);
+    let l = Luma::from_rgb(&img);
+    measure::blur_sigma(measure::edge_sigmas(&l, &l.to_gray())).map_or(0.0, f64::from)
+}
+
+/// The smallest x in [0, max] with f(x) ≥ target, for f rising with x (bisection to
+/// 1/2¹⁴ of the bracket); 0 when f(0) already reaches it, `None` when f(max) does not.
+pub fn bisect(f: impl Fn(f64) -> f64, target: f64, max: f64) -> Option<f64> {
+    if !target.is_finite() || f(0.0) >= target {
+        return Some(0.0);
+    }
+    let mut hi = 0.25;
+    while f(hi) < target {
+        hi *= 2.0;
+        if hi > max {
+            return None;
+        }
+    }
+    let mut lo = 0.0;
+    for _ in 0..14 {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) >= target {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(0.5 * (lo + hi))
+}
+
+/// Read noise (linear levels) whose written sky measures `sigma`.
+pub fn invert_noise(sky: [u8; 3], q: Option<u8>, sigma: f64) -> Option<f64> {
+    bisect(|r| noise_after(sky, q, r), sigma, 64.0)
+}
+
+/// PSF σ (px) whose written edges measure `blur`, under read noise `read`.
+pub fn invert_blur(sky: [u8; 3], q: Option<u8>, read: f64, blur: f64) -> Option<f64> {
+    bisect(|s| blur_after(sky, q, read, s), blur, 16.0)
+}

@@ -1,0 +1,387 @@
+//! The user's footage: a folder of frames with optional YOLO labels, or a video decoded
+//! by the `ffmpeg` program on PATH. Every problem is a named [`FitError`], found before
+//! anything is written. The folder rules are the domain-gap report's (`swarmshot gap`):
+//! images searched 8 levels deep in name order, labels in a sibling `labels/` (the last
+//! `images` component replaced) or beside the image as `NAME.txt`.
+
+use std::path::{Path, PathBuf};
+
+use image::RgbImage;
+
+use super::{FitError, FitOptions, io_err};
+use crate::gap::PixelBox;
+
+/// The largest frame file read.
+pub const MAX_FRAME_BYTES: u64 = 64 << 20;
+/// The largest label file read.
+const MAX_LABEL_BYTES: u64 = 16 << 20;
+/// Deepest folder level walked below the real folder.
+const MAX_DEPTH: usize = 8;
+/// The smallest frame side (one report tile, and a plate needs 64 px).
+pub const MIN_SIDE: u32 = 64;
+
+/// One real frame, decoded.
+#[derive(Debug)]
+pub struct RealFrame {
+    /// Path relative to the real folder, with `/`.
+    pub rel: String,
+    pub path: PathBuf,
+    pub rgb: RgbImage,
+    pub boxes: Vec<PixelBox>,
+    /// Whether a label file was found (an empty one counts: "no drone here").
+    pub labelled: bool,
+    /// The file's bytes when it is a JPEG (for its quantisation tables).
+    pub jpeg: Option<Vec<u8>>,
+}
+
+/// What `--real` names.
+#[derive(Debug)]
+pub enum Source {
+    Folder(PathBuf),
+    Video { path: PathBuf, ffmpeg: PathBuf },
+}
+
+fn is_image(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "jpg" | "jpeg" | "png"))
+}
+
+/// The absolute form of `p` without requiring it to exist: its longest existing
+/// ancestor canonicalised, the rest appended.
+pub fn absolute(p: &Path) -> PathBuf {
+    let p = if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        std::env::current_dir().unwrap_or_default().join(p)
+    };
+    let mut rest = Vec::new();
+    let mut cur = p.as_path();
+    loop {
+        if let Ok(c) = cur.canonicalize() {
+            let mut out = c;
+            for r in rest.iter().rev() {
+                out.push(r);
+            }
+            return out;
+        }
+        match (cur.parent(), cur.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                cur = parent;
+            }
+            _ => return p,
+        }
+    }
+}
+
+/// `ffmpeg` on PATH, if any (an executable regular file).
+pub fn find_ffmpeg() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .map(|d| d.join("ffmpeg"))
+        .find(|p| is_executable(p))
+}
+
+fn is_executable(p: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+    }
+    #[cfg(not(unix))]
+    {
+        p.is_file()
+    }
+}
+
+/// What `--real` is, and `--out` not inside it; nothing is read or written yet.
+pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
+    let real = &options.real;
+    if !real.exists() {
+        return Err(FitError::Missing { path: real.clone() });
+    }
+    if real.is_dir() {
+        let (r, o) = (absolute(real), absolute(&options.out));
+        if o.starts_with(&r) {
+            return Err(FitError::OutInsideReal {
+                out: options.out.clone(),
+                real: real.clone(),
+            });
+        }
+        return Ok(Source::Folder(real.clone()));
+    }
+    if is_image(real) {
+        return Err(FitError::Other(format!(
+            "--real {}: a single image; give the folder that holds the frames (or a video file)",
+            real.display()
+        )));
+    }
+    let meta = std::fs::metadata(real).map_err(io_err(real))?;
+    if meta.len() == 0 {
+        return Err(FitError::EmptyFile { path: real.clone() });
+    }
+    let ffmpeg = find_ffmpeg().ok_or_else(|| FitError::NoVideoDecoder { path: real.clone() })?;
+    if !options.unlabelled_ok {
+        return Err(FitError::Unlabelled {
+            count: 1,
+            total: 1,
+            first: real.clone(),
+        });
+    }
+    Ok(Source::Video {
+        path: real.clone(),
+        ffmpeg,
+    })
+}
+
+/// The output folder: missing or empty, or an earlier fit's with `overwrite` (its own
+/// files removed, others kept).
+pub fn prepare_out(out: &Path, overwrite: bool) -> Result<(), FitError> {
+    if !out.exists() {
+        return Ok(());
+    }
+    if !out.is_dir() {
+        return Err(FitError::OutNotEmpty {
+            path: out.to_path_buf(),
+        });
+    }
+    let empty = std::fs::read_dir(out)
+        .map_err(io_err(out))?
+        .next()
+        .is_none();
+    if empty {
+        return Ok(());
+    }
+    let earlier_fit = out.join("fitted.ron").is_file() || out.join("footage.json").is_file();
+    if !(overwrite && earlier_fit) {
+        return Err(FitError::OutNotEmpty {
+            path: out.to_path_buf(),
+        });
+    }
+    for name in super::OUT_NAMES {
+        let p = out.join(name);
+        if p.is_dir() {
+            std::fs::remove_dir_all(&p).map_err(io_err(&p))?;
+        } else if p.exists() {
+            std::fs::remove_file(&p).map_err(io_err(&p))?;
+        }
+    }
+    Ok(())
+}
+
+/// Decodes `fps` frames a second of the video into `OUT/frames/` with ffmpeg (PNG,
+/// lossless), at most `max_frames` (0: 10 000).
+pub fn decode_video(
+    video: &Path,
+    ffmpeg: &Path,
+    out: &Path,
+    options: &FitOptions,
+) -> Result<PathBuf, FitError> {
+    let dir = out.join("frames");
+    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    let max = if options.max_frames == 0 {
+        10_000
+    } else {
+        options.max_frames
+    };
+    let fps = if options.video_fps.is_finite() && options.video_fps > 0.0 {
+        options.video_fps
+    } else {
+        2.0
+    };
+    let output = std::process::Command::new(ffmpeg)
+        .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
+        .arg(video)
+        .args(["-vf", &format!("fps={fps}"), "-frames:v", &max.to_string()])
+        .args(["-start_number", "0"])
+        .arg(dir.join("frame_%05d.png"))
+        .output()
+        .map_err(io_err(ffmpeg))?;
+    if !output.status.success() {
+        return Err(FitError::VideoDecode {
+            path: video.to_path_buf(),
+            reason: String::from_utf8_lossy(&output.stderr).trim().to_string(),
+        });
+    }
+    Ok(dir)
+}
+
+fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), FitError> {
+    for e in std::fs::read_dir(dir).map_err(io_err(dir))? {
+        let e = e.map_err(io_err(dir))?;
+        let p = e.path();
+        if e.file_name().to_string_lossy().starts_with('.') {
+            continue;
+        }
+        let ft = e.file_type().map_err(io_err(&p))?;
+        if ft.is_dir() {
+            if depth < MAX_DEPTH {
+                walk(&p, depth + 1, out)?;
+            }
+        } else if ft.is_file() && is_image(&p) {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// The label file of an image (the report's rule): under a sibling `labels/` (the last
+/// `images` component below `root` replaced by `labels`, or `root` itself named
+/// `images`), else beside it.
+pub fn label_for(root: &Path, image: &Path) -> Option<PathBuf> {
+    let rel = image.strip_prefix(root).ok()?;
+    let comps: Vec<_> = rel.components().collect();
+    let mut candidates = Vec::new();
+    if let Some(i) = comps.iter().rposition(|c| c.as_os_str() == "images") {
+        let mut p = root.to_path_buf();
+        for (j, c) in comps.iter().enumerate() {
+            p.push(if j == i {
+                "labels".as_ref()
+            } else {
+                c.as_os_str()
+            });
+        }
+        candidates.push(p.with_extension("txt"));
+    } else if root.file_name().is_some_and(|n| n == "images")
+        && let Some(parent) = root.parent()
+    {
+        candidates.push(parent.join("labels").join(rel).with_extension("txt"));
+    }
+    candidates.push(image.with_extension("txt"));
+    candidates.into_iter().find(|p| p.is_file())
+}
+
+/// YOLO rows `class cx cy w h` (normalised) → pixel boxes.
+pub fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, FitError> {
+    let bytes = crate::input::read_input_file(path, MAX_LABEL_BYTES).map_err(io_err(path))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let bad = |reason: String| FitError::Label {
+            path: path.to_path_buf(),
+            line: i + 1,
+            reason,
+        };
+        let f: Vec<&str> = line.split_whitespace().collect();
+        if f.len() != 5 {
+            return Err(bad(format!(
+                "expected 5 fields `class cx cy w h`, found {}",
+                f.len()
+            )));
+        }
+        let mut v = [0f32; 4];
+        for (k, s) in f[1..].iter().enumerate() {
+            v[k] = s
+                .parse::<f32>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| bad(format!("`{s}` is not a number")))?;
+        }
+        if v[2] < 0.0 || v[3] < 0.0 {
+            return Err(bad("negative box width or height".into()));
+        }
+        let (wf, hf) = (w as f32, h as f32);
+        out.push(PixelBox {
+            x0: (v[0] - 0.5 * v[2]) * wf,
+            x1: (v[0] + 0.5 * v[2]) * wf,
+            y0: (v[1] - 0.5 * v[3]) * hf,
+            y1: (v[1] + 0.5 * v[3]) * hf,
+        });
+    }
+    Ok(out)
+}
+
+/// Decodes one frame file, naming a 0-byte or corrupt file.
+pub fn decode(path: &Path) -> Result<(RgbImage, Option<Vec<u8>>), FitError> {
+    let bytes = crate::input::read_input_file(path, MAX_FRAME_BYTES).map_err(io_err(path))?;
+    if bytes.is_empty() {
+        return Err(FitError::EmptyFile {
+            path: path.to_path_buf(),
+        });
+    }
+    let corrupt = |reason: String| FitError::CorruptImage {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let reader = image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
+        .with_guessed_format()
+        .map_err(|e| corrupt(e.to_string()))?;
+    if !matches!(
+        reader.format(),
+        Some(image::ImageFormat::Jpeg | image::ImageFormat::Png)
+    ) {
+        return Err(corrupt("not a JPEG or PNG image".into()));
+    }
+    let img = reader
+        .decode()
+        .map_err(|e| corrupt(e.to_string()))?
+        .to_rgb8();
+    let (w, h) = img.dimensions();
+    if w.min(h) < MIN_SIDE {
+        return Err(corrupt(format!(
+            "{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"
+        )));
+    }
+    let jpeg = bytes.starts_with(&[0xFF, 0xD8]).then_some(bytes);
+    Ok((img, jpeg))
+}
+
+/// Every frame under `dir` in name order (at most `max`, evenly spaced; 0: all), decoded,
+/// with its labels; refuses unlabelled frames unless `unlabelled_ok`.
+pub fn read_folder(
+    dir: &Path,
+    max: usize,
+    unlabelled_ok: bool,
+) -> Result<Vec<RealFrame>, FitError> {
+    let mut images = Vec::new();
+    walk(dir, 0, &mut images)?;
+    images.sort();
+    if images.is_empty() {
+        return Err(FitError::EmptyFolder {
+            path: dir.to_path_buf(),
+        });
+    }
+    let found = images.len();
+    let picked: Vec<PathBuf> = if max > 0 && found > max {
+        (0..max).map(|i| images[i * found / max].clone()).collect()
+    } else {
+        images
+    };
+    let labels: Vec<Option<PathBuf>> = picked.iter().map(|p| label_for(dir, p)).collect();
+    let missing = labels.iter().filter(|l| l.is_none()).count();
+    if missing > 0 && !unlabelled_ok {
+        let first = picked[labels.iter().position(Option::is_none).unwrap_or(0)].clone();
+        return Err(FitError::Unlabelled {
+            count: missing,
+            total: picked.len(),
+            first,
+        });
+    }
+    let mut frames = Vec::with_capacity(picked.len());
+    for (path, label) in picked.into_iter().zip(labels) {
+        let (rgb, jpeg) = decode(&path)?;
+        let boxes = match &label {
+            Some(l) => read_labels(l, rgb.width(), rgb.height())?,
+            None => Vec::new(),
+        };
+        let rel = path
+            .strip_prefix(dir)
+            .unwrap_or(&path)
+            .to_string_lossy()
+            .replace('\\', "/");
+        frames.push(RealFrame {
+            rel,
+            path,
+            rgb,
+            boxes,
+            labelled: label.is_some(),
+            jpeg,
+        });
+    }
+    Ok(frames)
+}

@@ -1,0 +1,297 @@
+//! `swarmshot fit`: a preset fitted to the user's own footage (issue 36).
+//!
+//! From a folder of real frames (or a video, decoded by the system's `ffmpeg`):
+//!
+//! 1. [`input`] reads every frame and its YOLO labels, refusing any bad input with a
+//!    named [`FitError`] before anything is written;
+//! 2. [`camera`] measures the footage with the domain-gap report's statistics
+//!    ([`crate::gap::measure_frame`]) and estimates its camera (sensor noise, PSF, JPEG
+//!    quality) by inverting the camera model's own forward path on the final bytes;
+//! 3. [`plates`] turns each frame into a backplate with its labelled drones removed
+//!    (filled by diffusion from the ring around each box, with the ring's own noise),
+//!    written to `OUT/plates/` with a `.plate.ron` sidecar;
+//! 4. [`preset_out`] writes `OUT/fitted.ron`: the base preset over those plates, at the
+//!    footage's resolution, with the drones' apparent size from the real drones, the
+//!    footage's JPEG quality and a camera model that adds only what the plates lack,
+//!    each value's origin in a comment;
+//! 5. [`search`] closes the loop: renders a sample with the batch's pipeline into
+//!    `OUT/rounds/NN/`, runs the gap report against the footage, adjusts, repeats.
+//!
+//! Same inputs, same outputs, byte for byte (no clock, no thread count in any file).
+
+pub mod camera;
+pub mod input;
+pub mod plates;
+pub mod preset_out;
+pub mod search;
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::preset::Preset;
+
+/// What `swarmshot fit` was asked.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// A folder of real frames (JPEG/PNG, labels in `labels/` or beside them), or a video file.
+    pub real: PathBuf,
+    /// The output folder (created; must be empty or missing unless `overwrite`).
+    pub out: PathBuf,
+    /// The base preset (default `presets/realistic.ron`).
+    pub base: PathBuf,
+    /// Frames rendered per round.
+    pub sample: u64,
+    /// Fitted rounds at most (0: no rendering, only plates and the first fit).
+    pub rounds: usize,
+    /// Accept frames without labels (they may hold drones nobody labelled).
+    pub unlabelled_ok: bool,
+    /// Replace an earlier fit's files in `out`.
+    pub overwrite: bool,
+    /// At most this many real frames, evenly spaced in name order (0: all).
+    pub max_frames: usize,
+    /// The plates' horizontal field of view, degrees (`None`: from the base preset).
+    pub hfov_deg: Option<f64>,
+    /// Frames per second taken from a video.
+    pub video_fps: f64,
+}
+
+impl FitOptions {
+    pub fn new(real: impl Into<PathBuf>, out: impl Into<PathBuf>) -> Self {
+        Self {
+            real: real.into(),
+            out: out.into(),
+            base: PathBuf::from("presets/realistic.ron"),
+            sample: 32,
+            rounds: 4,
+            unlabelled_ok: false,
+            overwrite: false,
+            max_frames: 200,
+            hfov_deg: None,
+            video_fps: 2.0,
+        }
+    }
+}
+
+/// Every way `fit` refuses or fails; the input errors come before anything is written.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error("--real {}: no such file or folder", path.display())]
+    Missing { path: PathBuf },
+    #[error("--real {}: empty folder: no .jpg, .jpeg or .png frame in it", path.display())]
+    EmptyFolder { path: PathBuf },
+    #[error("{}: 0-byte file", path.display())]
+    EmptyFile { path: PathBuf },
+    #[error("{}: corrupt image: cannot be decoded: {reason}", path.display())]
+    CorruptImage { path: PathBuf, reason: String },
+    #[error("{}: line {line}: bad label: {reason}", path.display())]
+    Label {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error(
+        "frames without labels where labels are needed: {count} of {total} frames have no label file (first: {}); they may show drones nobody labelled, which would stay in the plates. Add YOLO labels (labels/NAME.txt, an empty file for a frame without drones) or pass --unlabelled-ok",
+        first.display()
+    )]
+    Unlabelled {
+        count: usize,
+        total: usize,
+        first: PathBuf,
+    },
+    #[error("--out {} is inside the real folder {}: the report would read its own frames; choose a folder outside it", out.display(), real.display())]
+    OutInsideReal { out: PathBuf, real: PathBuf },
+    #[error("--out {}: not empty and not an earlier fit; choose an empty folder (or --overwrite an earlier fit's folder)", path.display())]
+    OutNotEmpty { path: PathBuf },
+    #[error("--real {}: no video decoder: install ffmpeg (swarmshot decodes video with the ffmpeg program on PATH)", path.display())]
+    NoVideoDecoder { path: PathBuf },
+    #[error("--real {}: ffmpeg could not decode the video: {reason}", path.display())]
+    VideoDecode { path: PathBuf, reason: String },
+    #[error("--base {}: {reason}", path.display())]
+    Base { path: PathBuf, reason: String },
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Other(String),
+}
+
+pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FitError + '_ {
+    move |source| FitError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary file beside it and a rename.
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FitError> {
+    let tmp = path.with_extension("fit-tmp");
+    std::fs::write(&tmp, bytes).map_err(io_err(&tmp))?;
+    std::fs::rename(&tmp, path).map_err(io_err(path))
+}
+
+/// The names `fit` writes in its output folder (removed by `--overwrite`).
+pub const OUT_NAMES: [&str; 6] = [
+    "plates",
+    "rounds",
+    "frames",
+    "fitted.ron",
+    "footage.json",
+    "fit.json",
+];
+
+/// What was prepared before any rendering: the footage, the plates and the first fit.
+#[derive(Debug)]
+pub struct Prepared {
+    pub options: FitOptions,
+    /// The folder of real frames the report reads (the video's decoded frames for a video).
+    pub real_dir: PathBuf,
+    /// The output folder, as given.
+    pub out: PathBuf,
+    pub footage: camera::Footage,
+    pub plates: plates::PlateSummary,
+    /// The base preset, its paths resolved.
+    pub base: Preset,
+    /// The first fit (round 1's preset), its backplate folder relative to `out`.
+    pub fitted: preset_out::Fitted,
+}
+
+/// The run's record, written to `OUT/fit.json`.
+#[derive(Debug, Serialize)]
+pub struct FitRecord {
+    pub real: String,
+    pub base: String,
+    pub frames: usize,
+    pub labelled_frames: usize,
+    pub drones: usize,
+    pub rounds: Vec<search::RoundRecord>,
+    /// The round whose preset is `fitted.ron` (`None` without rounds: the first fit).
+    pub best_round: Option<usize>,
+    pub target_inside: usize,
+}
+
+/// Steps 1–4: read and check the footage (nothing written before it passes), measure
+/// it, write the plates, `footage.json` and the first fit (in memory).
+pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
+    let source = input::check_source(options)?;
+    let base = preset_out::load_base(&options.base)?;
+    let (real_dir, frames) = match &source {
+        input::Source::Folder(dir) => {
+            let frames = input::read_folder(dir, options.max_frames, options.unlabelled_ok)?;
+            input::prepare_out(&options.out, options.overwrite)?;
+            (dir.clone(), frames)
+        }
+        input::Source::Video { path, ffmpeg } => {
+            input::prepare_out(&options.out, options.overwrite)?;
+            let dir = input::decode_video(path, ffmpeg, &options.out, options)?;
+            let frames = input::read_folder(&dir, 0, true)?;
+            (dir, frames)
+        }
+    };
+    let footage = camera::measure(&frames);
+    let geometry = plates::PlateCamera::from_base(&base, &footage, options.hfov_deg);
+    std::fs::create_dir_all(&options.out).map_err(io_err(&options.out))?;
+    let plates = plates::write_plates(&frames, &footage, &geometry, &options.out.join("plates"))?;
+    drop(frames);
+    let json =
+        serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;
+    write_file(&options.out.join("footage.json"), json.as_bytes())?;
+    let fitted = preset_out::first_fit(&base, &footage, &plates, &geometry);
+    Ok(Prepared {
+        options: options.clone(),
+        real_dir,
+        out: options.out.clone(),
+        footage,
+        plates,
+        base,
+        fitted,
+    })
+}
+
+/// What a finished fit gives back for printing.
+#[derive(Debug)]
+pub struct Finished {
+    pub fitted: PathBuf,
+    pub record: FitRecord,
+    /// The base preset's report (round 00) and the best round's, as tables.
+    pub before: Option<String>,
+    pub after: Option<String>,
+}
+
+/// Step 5 and the end: the rounds (when `options.rounds` > 0 and a GPU context is given),
+/// then `fitted.ron` (the best round's preset) and `fit.json`, and the written preset
+/// checked as `swarmshot check` checks it (parsed, validated, its models and plates loaded).
+pub fn finish(
+    prep: &Prepared,
+    ctx: Option<&crate::render::GpuContext>,
+    cancel: &std::sync::atomic::AtomicBool,
+    log: &mut dyn FnMut(String),
+) -> Result<Finished, FitError> {
+    let outcome = match ctx {
+        Some(ctx) if prep.options.rounds > 0 => Some(search::run(prep, ctx, cancel, log)?),
+        _ => None,
+    };
+    let mut header = vec![format!(
+        "swarmshot fit: {} fitted to the footage in {} ({} frames, {} labelled, {} drones)",
+        prep.options.base.display(),
+        prep.options.real.display(),
+        prep.footage.frames,
+        prep.footage.labelled_frames,
+        prep.footage.drones
+    )];
+    header.push("Where each fitted value comes from:".into());
+    header.extend(prep.fitted.notes.iter().map(|n| format!("- {n}")));
+    let (preset, rounds, best) = match &outcome {
+        Some(o) => {
+            for r in &o.rounds {
+                header.push(format!(
+                    "round {:02} ({}): {} of {} statistics inside{}",
+                    r.round,
+                    r.preset,
+                    r.inside,
+                    r.applicable,
+                    if Some(r.round) == o.best {
+                        " <- this preset"
+                    } else {
+                        ""
+                    }
+                ));
+                for c in &r.changes {
+                    header.push(format!("  then {c}"));
+                }
+            }
+            (o.preset.clone(), o.rounds.clone(), o.best)
+        }
+        None => {
+            header.push("no rounds were rendered (--rounds 0): the first fit, unmeasured".into());
+            (prep.fitted.preset.clone(), Vec::new(), None)
+        }
+    };
+    header.push("Reports: rounds/NN/report.txt; the footage's figures: footage.json.".into());
+    let text = preset_out::text(&preset, &header);
+    let fitted = prep.out.join("fitted.ron");
+    write_file(&fitted, text.as_bytes())?;
+    // The written file, as `swarmshot check` reads it.
+    crate::pipeline::FramePipeline::open(&fitted)
+        .map_err(|e| FitError::Other(format!("the fitted preset does not load: {e:#}")))?;
+    let record = FitRecord {
+        real: prep.options.real.display().to_string(),
+        base: prep.options.base.display().to_string(),
+        frames: prep.footage.frames,
+        labelled_frames: prep.footage.labelled_frames,
+        drones: prep.footage.drones,
+        target_inside: rounds.first().map_or(0, |r| r.applicable.saturating_sub(2)),
+        rounds,
+        best_round: best,
+    };
+    let json = serde_json::to_string_pretty(&record).map_err(|e| FitError::Other(e.to_string()))?;
+    write_file(&prep.out.join("fit.json"), json.as_bytes())?;
+    Ok(Finished {
+        fitted,
+        record,
+        before: outcome.as_ref().and_then(|o| o.before.clone()),
+        after: outcome.and_then(|o| o.after),
+    })
+}

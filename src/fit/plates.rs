@@ -1,0 +1,516 @@
+//! Backplates from the footage: each frame with its labelled drones removed, written as
+//! a high-quality JPEG with the `.plate.ron` sidecar the backplate feature reads
+//! (`crate::sky::plates`).
+//!
+//! **Removal** ([`remove_drones`]): every labelled box is grown by a margin (a quarter of
+//! its larger side, 3–24 px: the blur's halo and loose boxes' slack), boxes whose rings
+//! touch are filled together. The grown boxes are filled from the ring of pixels around
+//! them (as wide as the margin, at least 4 px): first layer by layer from the outside in,
+//! each pixel the mean of its already known 8-neighbours, then by 4-neighbour diffusion
+//! (red–black over-relaxation, the ring held fixed), which continues the ring's gradient
+//! smoothly across the hole. A smooth fill would read as a patch smoother than the sky
+//! around it, so each filled pixel then gets the residual (pixel minus the mean of its
+//! four neighbours, scaled by 1/√1.25 to unit gain on white noise) of a ring pixel drawn
+//! at random: the ring's own noise, with its channel correlation. The draws come from a
+//! ChaCha8 stream seeded by the frame's name, so a frame's plate is the same on every run.
+//!
+//! **Camera**: the plates' horizontal field of view comes from `--hfov`, else from the
+//! base preset (its `backplate.hfov_deg`, else its `camera.fov_y_deg` at the footage's
+//! aspect); the horizon row of each plate is estimated from its row-mean brightness: the
+//! row with the strongest fall from the rows above (sky) to the rows below (ground), when
+//! that fall is at least [`HORIZON_MIN_STEP`] levels and lies within the frame's middle
+//! 90 %, else `Unknown` (the elevation is then drawn from the base observer's range).
+//! Both are estimates: edit `fitted.ron` or a sidecar when you know the camera.
+
+use std::path::Path;
+
+use image::RgbImage;
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+
+use super::camera::Footage;
+use super::input::RealFrame;
+use super::{FitError, io_err, write_file};
+use crate::gap::PixelBox;
+use crate::preset::{ImageFormat, Preset};
+
+/// JPEG quality of the written plates.
+pub const PLATE_QUALITY: u8 = 95;
+/// The smallest fall (levels) of the row-mean brightness taken for a horizon.
+pub const HORIZON_MIN_STEP: f64 = 10.0;
+
+/// The plates' camera as fitted.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlateCamera {
+    pub hfov_deg: f64,
+    /// Where the field of view came from, in words.
+    pub hfov_source: String,
+    /// The line of sight's elevation range for plates without a horizon.
+    pub elevation_deg: (f64, f64),
+}
+
+impl PlateCamera {
+    pub fn from_base(base: &Preset, footage: &Footage, hfov: Option<f64>) -> Self {
+        let (w, h) = footage.size;
+        let aspect = f64::from(w.max(1)) / f64::from(h.max(1));
+        let (hfov_deg, hfov_source) = match (hfov, &base.backplate) {
+            (Some(v), _) => (v, "--hfov".to_string()),
+            (None, Some(b)) => (b.hfov_deg, "the base preset's backplate.hfov_deg".into()),
+            (None, None) => {
+                let fy = base.camera.fov_y_deg.to_radians();
+                let hf = 2.0 * ((fy * 0.5).tan() * aspect).atan();
+                (
+                    hf.to_degrees(),
+                    format!(
+                        "the base preset's camera.fov_y_deg {} at the footage's {w}×{h} aspect (not measured: give --hfov when you know the lens)",
+                        base.camera.fov_y_deg
+                    ),
+                )
+            }
+        };
+        let elevation_deg = base
+            .camera
+            .observer
+            .as_ref()
+            .map_or((5.0, 30.0), |o| o.elevation_deg);
+        Self {
+            hfov_deg: (hfov_deg * 1000.0).round() / 1000.0,
+            hfov_source,
+            elevation_deg,
+        }
+    }
+}
+
+/// One written plate.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlateRecord {
+    pub plate: String,
+    pub source: String,
+    pub drones_removed: usize,
+    pub labelled: bool,
+    /// The estimated horizon row as a fraction of the height (`None`: unknown).
+    pub horizon_row: Option<f64>,
+}
+
+/// What [`write_plates`] wrote.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlateSummary {
+    pub plates: Vec<PlateRecord>,
+    pub unlabelled: usize,
+}
+
+/// A filled region: the union of grown boxes filled together.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Filled {
+    /// Bounding box of the filled pixels, `[x0, x1) × [y0, y1)`.
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+    /// How many pixels were filled.
+    pub pixels: usize,
+}
+
+/// Margin a labelled box is grown by before it is filled (pixels).
+pub fn margin_px(b: &PixelBox) -> i64 {
+    let side = (b.x1 - b.x0).max(b.y1 - b.y0).max(0.0);
+    ((0.25 * side).round() as i64).clamp(3, 24)
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Rect {
+    x0: i64,
+    y0: i64,
+    x1: i64,
+    y1: i64,
+}
+
+impl Rect {
+    fn grow(self, d: i64) -> Self {
+        Rect {
+            x0: self.x0 - d,
+            y0: self.y0 - d,
+            x1: self.x1 + d,
+            y1: self.y1 + d,
+        }
+    }
+    fn clamp(self, w: i64, h: i64) -> Self {
+        Rect {
+            x0: self.x0.clamp(0, w),
+            y0: self.y0.clamp(0, h),
+            x1: self.x1.clamp(0, w),
+            y1: self.y1.clamp(0, h),
+        }
+    }
+    fn meets(&self, o: &Rect) -> bool {
+        self.x0 < o.x1 && o.x0 < self.x1 && self.y0 < o.y1 && o.y0 < self.y1
+    }
+    fn union(self, o: Rect) -> Rect {
+        Rect {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+    fn empty(&self) -> bool {
+        self.x1 <= self.x0 || self.y1 <= self.y0
+    }
+}
+
+/// Removes the drones in `boxes` from `rgb` (module docs); returns the filled regions.
+/// `seed` picks the ring residuals (the same seed, the same pixels).
+pub fn remove_drones(rgb: &mut RgbImage, boxes: &[PixelBox], seed: u64) -> Vec<Filled> {
+    let (w, h) = (i64::from(rgb.width()), i64::from(rgb.height()));
+    // Each box grown by its margin (the hole) and by twice that (hole and ring).
+    let mut groups: Vec<(Vec<Rect>, Rect, i64)> = Vec::new();
+    for b in boxes {
+        let m = margin_px(b);
+        let hole = Rect {
+            x0: b.x0.floor() as i64,
+            y0: b.y0.floor() as i64,
+            x1: b.x1.ceil() as i64,
+            y1: b.y1.ceil() as i64,
+        }
+        .grow(m)
+        .clamp(w, h);
+        if hole.empty() {
+            continue;
+        }
+        groups.push((vec![hole], hole.grow(m.max(4)).clamp(w, h), m.max(4)));
+    }
+    // Merge groups whose windows meet, until none do.
+    loop {
+        let mut merged = false;
+        'outer: for i in 0..groups.len() {
+            for j in i + 1..groups.len() {
+                if groups[i].1.meets(&groups[j].1) {
+                    let (holes, win, ring) = groups.remove(j);
+                    groups[i].0.extend(holes);
+                    groups[i].1 = groups[i].1.union(win);
+                    groups[i].2 = groups[i].2.max(ring);
+                    merged = true;
+                    break 'outer;
+                }
+            }
+        }
+        if !merged {
+            break;
+        }
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    groups
+        .iter()
+        .filter_map(|(holes, win, _)| fill_group(rgb, holes, *win, &mut rng))
+        .collect()
+}
+
+/// Fills the union of `holes` inside `win` from the window's other pixels.
+fn fill_group(
+    rgb: &mut RgbImage,
+    holes: &[Rect],
+    win: Rect,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Option<Filled> {
+    let (ww, wh) = ((win.x1 - win.x0) as usize, (win.y1 - win.y0) as usize);
+    let idx = |x: usize, y: usize| y * ww + x;
+    let mut mask = vec![false; ww * wh];
+    let mut bbox: Option<Rect> = None;
+    for hole in holes {
+        for y in hole.y0..hole.y1 {
+            for x in hole.x0..hole.x1 {
+                mask[idx((x - win.x0) as usize, (y - win.y0) as usize)] = true;
+            }
+        }
+        bbox = Some(bbox.map_or(*hole, |b| b.union(*hole)));
+    }
+    let bbox = bbox?;
+    let pixels = mask.iter().filter(|&&m| m).count();
+    if pixels == ww * wh {
+        return None; // nothing around it to fill from
+    }
+    let mut v: Vec<[f32; 3]> = (0..ww * wh)
+        .map(|i| {
+            let p = rgb.get_pixel(
+                (win.x0 + (i % ww) as i64) as u32,
+                (win.y0 + (i / ww) as i64) as u32,
+            );
+            [f32::from(p[0]), f32::from(p[1]), f32::from(p[2])]
+        })
+        .collect();
+    // Residuals of the ring: pixel minus the mean of its four known neighbours.
+    let mut residuals: Vec<[f32; 3]> = Vec::new();
+    let scale = 1.0 / 1.25f32.sqrt();
+    for y in 1..wh.saturating_sub(1) {
+        for x in 1..ww.saturating_sub(1) {
+            let n = [idx(x - 1, y), idx(x + 1, y), idx(x, y - 1), idx(x, y + 1)];
+            if mask[idx(x, y)] || n.iter().any(|&k| mask[k]) {
+                continue;
+            }
+            let c = v[idx(x, y)];
+            residuals.push(
+                [0, 1, 2]
+                    .map(|ch| scale * (c[ch] - 0.25 * n.iter().map(|&k| v[k][ch]).sum::<f32>())),
+            );
+        }
+    }
+    // Onion peel: each layer from the known 8-neighbours, from the outside in.
+    let mut known: Vec<bool> = mask.iter().map(|&m| !m).collect();
+    loop {
+        let mut layer = Vec::new();
+        for y in 0..wh {
+            for x in 0..ww {
+                if known[idx(x, y)] {
+                    continue;
+                }
+                let mut sum = [0f32; 3];
+                let mut n = 0;
+                for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                        if (dx, dy) == (0, 0)
+                            || nx < 0
+                            || ny < 0
+                            || nx >= ww as i64
+                            || ny >= wh as i64
+                            || !known[idx(nx as usize, ny as usize)]
+                        {
+                            continue;
+                        }
+                        let q = v[idx(nx as usize, ny as usize)];
+                        for c in 0..3 {
+                            sum[c] += q[c];
+                        }
+                        n += 1;
+                    }
+                }
+                if n > 0 {
+                    layer.push((idx(x, y), sum.map(|s| s / n as f32)));
+                }
+            }
+        }
+        if layer.is_empty() {
+            break;
+        }
+        for (i, c) in layer {
+            v[i] = c;
+            known[i] = true;
+        }
+    }
+    // Diffusion: red–black SOR on the hole, the ring fixed, the window's edge reflecting.
+    let span = (bbox.x1 - bbox.x0).max(bbox.y1 - bbox.y0) as usize;
+    let iterations = (2 * span + 20).min(400);
+    let omega = 1.8f32;
+    for _ in 0..iterations {
+        for parity in 0..2 {
+            for y in 0..wh {
+                for x in 0..ww {
+                    if (x + y) % 2 != parity || !mask[idx(x, y)] {
+                        continue;
+                    }
+                    let mut sum = [0f32; 3];
+                    let mut n = 0f32;
+                    for (nx, ny) in [
+                        (x.wrapping_sub(1), y),
+                        (x + 1, y),
+                        (x, y.wrapping_sub(1)),
+                        (x, y + 1),
+                    ] {
+                        if nx < ww && ny < wh {
+                            let q = v[idx(nx, ny)];
+                            for c in 0..3 {
+                                sum[c] += q[c];
+                            }
+                            n += 1.0;
+                        }
+                    }
+                    let i = idx(x, y);
+                    for c in 0..3 {
+                        v[i][c] += omega * (sum[c] / n - v[i][c]);
+                    }
+                }
+            }
+        }
+    }
+    // The ring's noise, then back into the frame.
+    for y in 0..wh {
+        for x in 0..ww {
+            let i = idx(x, y);
+            if !mask[i] {
+                continue;
+            }
+            let r = if residuals.is_empty() {
+                [0.0; 3]
+            } else {
+                residuals[rng.random_range(0..residuals.len())]
+            };
+            let p = [0, 1, 2].map(|c| (v[i][c] + r[c]).round().clamp(0.0, 255.0) as u8);
+            rgb.put_pixel(
+                (win.x0 + x as i64) as u32,
+                (win.y0 + y as i64) as u32,
+                image::Rgb(p),
+            );
+        }
+    }
+    Some(Filled {
+        x0: bbox.x0 as u32,
+        y0: bbox.y0 as u32,
+        x1: bbox.x1 as u32,
+        y1: bbox.y1 as u32,
+        pixels,
+    })
+}
+
+/// The horizon row as a fraction of the height (module docs), `None` when unclear.
+pub fn estimate_horizon(rgb: &RgbImage) -> Option<f64> {
+    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    if h < 32 {
+        return None;
+    }
+    let rows: Vec<f64> = (0..h)
+        .map(|y| {
+            let s: f64 = (0..w)
+                .map(|x| {
+                    let p = rgb.get_pixel(x as u32, y as u32);
+                    0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2])
+                })
+                .sum();
+            s / w as f64
+        })
+        .collect();
+    let k = (h / 32).max(4);
+    let mut prefix = vec![0.0; h + 1];
+    for (i, r) in rows.iter().enumerate() {
+        prefix[i + 1] = prefix[i] + r;
+    }
+    let mean = |a: usize, b: usize| (prefix[b] - prefix[a]) / (b - a) as f64;
+    let (lo, hi) = ((h / 20).max(k), (h - (h / 20).max(k)).min(h - k));
+    let mut best: Option<(usize, f64)> = None;
+    for y in lo..hi {
+        let fall = mean(y - k, y) - mean(y, y + k);
+        if best.is_none_or(|(_, f)| fall > f) {
+            best = Some((y, fall));
+        }
+    }
+    let (y, fall) = best?;
+    (fall >= HORIZON_MIN_STEP).then(|| (y as f64 / h as f64 * 1000.0).round() / 1000.0)
+}
+
+/// A seed from a frame's name (FNV-1a), so the plate does not depend on the frame's order.
+pub fn name_seed(name: &str) -> u64 {
+    name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// The plate file name for a frame: its relative path with `/` → `__`, as `.jpg`.
+fn plate_name(rel: &str) -> String {
+    let stem = match rel.rfind('.') {
+        Some(i) => &rel[..i],
+        None => rel,
+    };
+    format!("{}.jpg", stem.replace('/', "__"))
+}
+
+/// Writes every frame's plate and sidecar into `dir` (created).
+pub fn write_plates(
+    frames: &[RealFrame],
+    footage: &Footage,
+    camera: &PlateCamera,
+    dir: &Path,
+) -> Result<PlateSummary, FitError> {
+    use rayon::prelude::*;
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let _ = footage;
+    let records: Vec<Result<PlateRecord, FitError>> = frames
+        .par_iter()
+        .map(|f| {
+            let mut rgb = f.rgb.clone();
+            remove_drones(&mut rgb, &f.boxes, name_seed(&f.rel));
+            let horizon = estimate_horizon(&rgb);
+            let name = plate_name(&f.rel);
+            let rgba: Vec<u8> = rgb.pixels().flat_map(|p| [p[0], p[1], p[2], 255]).collect();
+            let jpeg = crate::write::encode_image(
+                &rgba,
+                rgb.width(),
+                rgb.height(),
+                ImageFormat::Jpeg {
+                    quality: PLATE_QUALITY,
+                },
+            )
+            .map_err(|e| FitError::Other(format!("encoding plate {name}: {e}")))?;
+            write_file(&dir.join(&name), &jpeg)?;
+            let horizon_text = match horizon {
+                Some(r) => format!("Row({r})"),
+                None => "Unknown".into(),
+            };
+            let sidecar = format!(
+                "// swarmshot fit: {} with its {} labelled drone(s) removed{}.\n// hfov_deg: {}; horizon: {}\n(hfov_deg: {}, horizon: {horizon_text})\n",
+                f.rel,
+                f.boxes.len(),
+                if f.labelled {
+                    ""
+                } else {
+                    " (NO LABEL FILE: drones in it, if any, were not removed)"
+                },
+                camera.hfov_source,
+                if horizon.is_some() {
+                    "estimated from the row-mean brightness step (sky above, ground below)"
+                } else {
+                    "no clear brightness step: unknown, the elevation is drawn from backplate.elevation_deg"
+                },
+                camera.hfov_deg
+            );
+            let stem = name.trim_end_matches(".jpg");
+            write_file(&dir.join(format!("{stem}.plate.ron")), sidecar.as_bytes())?;
+            Ok(PlateRecord {
+                plate: name,
+                source: f.rel.clone(),
+                drones_removed: f.boxes.len(),
+                labelled: f.labelled,
+                horizon_row: horizon,
+            })
+        })
+        .collect();
+    let plates = records.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let unlabelled = plates.iter().filter(|p| !p.labelled).count();
+    Ok(PlateSummary { plates, unlabelled })
+}
+
+/// Mean and 2×2 high-pass σ (1.4826·MAD) of the luminance of `rgb` inside `r` (exclusive
+/// of `hole` when given): what the removal test compares between a fill and its ring.
+pub fn region_stats(
+    rgb: &RgbImage,
+    r: (u32, u32, u32, u32),
+    hole: Option<(u32, u32, u32, u32)>,
+) -> (f64, f64) {
+    let inside =
+        |x: u32, y: u32, q: (u32, u32, u32, u32)| x >= q.0 && x < q.2 && y >= q.1 && y < q.3;
+    let lum = |x: u32, y: u32| {
+        let p = rgb.get_pixel(x, y);
+        0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2])
+    };
+    let (mut sum, mut n) = (0.0, 0usize);
+    let mut hp = Vec::new();
+    for y in r.1..r.3 {
+        for x in r.0..r.2 {
+            if hole.is_some_and(|q| inside(x, y, q)) {
+                continue;
+            }
+            sum += lum(x, y);
+            n += 1;
+            let fits = |x: u32, y: u32| inside(x, y, r) && !hole.is_some_and(|q| inside(x, y, q));
+            if fits(x + 1, y) && fits(x, y + 1) && fits(x + 1, y + 1) {
+                hp.push(0.5 * (lum(x, y) - lum(x + 1, y) - lum(x, y + 1) + lum(x + 1, y + 1)));
+            }
+        }
+    }
+    let mean = sum / n.max(1) as f64;
+    let med = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        if v.is_empty() { 0.0 } else { v[v.len() / 2] }
+    };
+    let m = med(&mut hp.clone());
+    let mut dev: Vec<f64> = hp.iter().map(|v| (v - m).abs()).collect();
+    (mean, 1.4826 * med(&mut dev))
+}

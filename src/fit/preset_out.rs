@@ -1,0 +1,202 @@
+//! The fitted preset: the base preset over the footage's plates, at the footage's
+//! resolution, with the drones sized from the real drones and a camera model that adds
+//! only what the plates do not already carry. Written as the preset's own pretty RON
+//! under a comment block that names where every fitted value came from.
+
+use std::path::{Path, PathBuf};
+
+use super::FitError;
+use super::camera::Footage;
+use super::plates::{PlateCamera, PlateSummary};
+use crate::preset::backplate::{Backplate, PlateHorizon};
+use crate::preset::camera_model::CameraModel;
+use crate::preset::observer::ObserverCamera;
+use crate::preset::{ImageFormat, Preset, Resolution};
+
+/// The drone core size (√ of the pixels over half the peak) per pixel of the largest
+/// model's apparent size, averaged over a preset's model mix: measured on
+/// `presets/realistic.ron` (size_px 16–44 gives cores of median 4.4 px for a median
+/// model of 1.1 m against the 2 m largest: 4.4 / (30 · 1.1 / 2)). The loop corrects it.
+pub const CORE_PER_PX: f64 = 0.27;
+
+/// The first fit and the notes on where each value came from.
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    /// The preset, `backplate.folder` = "plates" (relative to `fitted.ron`).
+    pub preset: Preset,
+    /// `field: origin` lines for the comment block.
+    pub notes: Vec<String>,
+}
+
+/// Loads and validates the base preset, its model and sky paths made absolute (so the
+/// fitted preset written elsewhere still finds them).
+pub fn load_base(path: &Path) -> Result<Preset, FitError> {
+    let mut preset = Preset::load(path).map_err(|e| FitError::Base {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let dir = super::input::absolute(if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    });
+    preset.resolve_paths(&dir);
+    Ok(preset)
+}
+
+fn r3(v: f64) -> f64 {
+    (v * 1000.0).round() / 1000.0
+}
+
+/// The first fitted preset (round 1's).
+pub fn first_fit(
+    base: &Preset,
+    footage: &Footage,
+    plates: &PlateSummary,
+    camera: &PlateCamera,
+) -> Fitted {
+    let mut p = base.clone();
+    let mut notes = Vec::new();
+    p.name = format!("{}_fitted", base.name);
+    let (w, h) = footage.size;
+    p.render.resolution = Resolution::Custom {
+        width: w,
+        height: h,
+    };
+    notes.push(format!(
+        "render.resolution {w}×{h}: the footage's frame size ({} frames)",
+        footage.frames
+    ));
+    // Plates: the footage itself.
+    let known = plates
+        .plates
+        .iter()
+        .filter(|p| p.horizon_row.is_some())
+        .count();
+    let sun = base.backplate.as_ref();
+    p.backplate = Some(Backplate {
+        folder: PathBuf::from("plates"),
+        hfov_deg: camera.hfov_deg,
+        horizon: PlateHorizon::Unknown,
+        elevation_deg: camera.elevation_deg,
+        sun_elevation_deg: sun.map_or((20.0, 60.0), |b| b.sun_elevation_deg),
+        sun_azimuth_deg: sun.map_or((-180.0, 180.0), |b| b.sun_azimuth_deg),
+        flip: true,
+    });
+    notes.push(format!(
+        "backplate: the footage's {} frames with their labelled drones removed (plates/); hfov_deg {} from {}; horizon per plate in its .plate.ron: estimated on {known}, unknown on {} (elevation_deg {:?} from the base observer)",
+        plates.plates.len(),
+        camera.hfov_deg,
+        camera.hfov_source,
+        plates.plates.len() - known,
+        camera.elevation_deg
+    ));
+    if plates.unlabelled > 0 {
+        notes.push(format!(
+            "WARNING: {} plates come from frames without labels (--unlabelled-ok): drones in them were not removed and stay unlabelled in every frame drawn over them",
+            plates.unlabelled
+        ));
+    }
+    // The plates show the footage's own scenery: no procedural clutter over it.
+    if p.clutter.take().is_some() {
+        notes.push("clutter: off (the plates hold the footage's own scenery)".into());
+    }
+    // The observer camera: the drones' apparent size from the real drones.
+    let mut observer = base.camera.observer.clone().unwrap_or_default();
+    p.camera.absolute = None;
+    let sizes: Vec<f64> = base.models.iter().map(|m| m.size_m).collect();
+    let largest = sizes.iter().copied().fold(0.0, f64::max);
+    let median_model = super::camera::quartiles(&sizes).map_or(largest, |q| q.median);
+    if let Some(core) = footage.measured.drone_core_px {
+        let per = largest / median_model.max(1e-6) / CORE_PER_PX;
+        let (lo, hi) = (
+            r3((core.q25 * per).max(0.5)),
+            r3((core.q75 * per).max(core.q25 * per + 0.5).max(1.0)),
+        );
+        observer.size_px = Some((lo, hi));
+        notes.push(format!(
+            "camera.observer.size_px ({lo}, {hi}): the real drones' cores (IQR {:.2}–{:.2} px, {} drones) × largest/median model size {:.2} / {CORE_PER_PX} core px per px (measured on realistic.ron); the distance follows from the plates' field of view",
+            core.q25,
+            core.q75,
+            core.n,
+            largest / median_model.max(1e-6)
+        ));
+    } else {
+        notes.push(
+            "camera.observer: the base preset's (no labelled drone to size the drones from)".into(),
+        );
+    }
+    p.camera.observer = Some(observer);
+    // The camera model: the plates carry the footage's exposure, colour, noise, blur.
+    let jpeg = match (footage.estimate.jpeg_quality, footage.measured.jpeg_quality) {
+        (Some(_), Some(q)) => {
+            let (lo, hi) = (q.q25.round() as u8, q.q75.round() as u8);
+            notes.push(format!(
+                "camera_model.jpeg_quality ({lo}, {hi}): the footage's JPEG quantisation tables (IQR over {} files)",
+                q.n
+            ));
+            (lo.clamp(1, 100), hi.clamp(lo.max(1), 100))
+        }
+        _ => {
+            notes.push(
+                "camera_model.jpeg_quality (90, 95): the footage is PNG (no quantisation table to read); a high quality adds little to what its codec left"
+                    .into(),
+            );
+            (90, 95)
+        }
+    };
+    p.output.image_format = ImageFormat::Jpeg { quality: jpeg.1 };
+    p.camera_model = Some(CameraModel {
+        jpeg_quality: Some(jpeg),
+        ..CameraModel::default()
+    });
+    notes.push(
+        "camera_model exposure, white balance, saturation, vignetting, noise, PSF: neutral to start (the plates already carry the footage's); the rounds below add what the report finds missing"
+            .into(),
+    );
+    let e = &footage.estimate;
+    notes.push(format!(
+        "the footage's camera, estimated on the final bytes (footage.json): read noise σ {} linear levels, PSF σ {} px, JPEG {} (at sky colour {:?})",
+        e.read_noise_levels
+            .map_or("–".into(), |v| format!("{v:.3}")),
+        e.psf_sigma_px.map_or("–".into(), |v| format!("{v:.3}")),
+        e.jpeg_quality.map_or("– (PNG)".into(), |q| q.to_string()),
+        e.sky_rgb
+    ));
+    Fitted { preset: p, notes }
+}
+
+/// `preset` with its backplate folder `folder` (for a round's copy or the renderer).
+pub fn with_plates(preset: &Preset, folder: &Path) -> Preset {
+    let mut p = preset.clone();
+    if let Some(b) = &mut p.backplate {
+        b.folder = folder.to_path_buf();
+    }
+    p
+}
+
+/// The fitted preset's text: the comment block, then the preset's pretty RON.
+pub fn text(preset: &Preset, header: &[String]) -> String {
+    let mut s = String::new();
+    for line in header {
+        for l in line.lines() {
+            s += "// ";
+            s += l;
+            s += "\n";
+        }
+    }
+    s += &preset.to_ron();
+    s += "\n";
+    s
+}
+
+/// The observer's size range scaled by `k` (the loop's drone-size step).
+pub fn scale_size(observer: &mut ObserverCamera, k: f64) {
+    if let Some((lo, hi)) = observer.size_px {
+        observer.size_px = Some((r3((lo * k).max(0.5)), r3((hi * k).max(lo * k).max(0.5))));
+    } else {
+        let (lo, hi) = observer.distance_m;
+        observer.distance_m = (r3(lo / k), r3(hi / k));
+    }
+}

@@ -1,0 +1,387 @@
+//! The closed loop: render a sample of a preset with the batch's own pipeline
+//! ([`crate::pipeline::run_batch`]) into `OUT/rounds/NN/dataset`, run the domain-gap
+//! report against the footage ([`crate::gap::report::run`]), keep its `report.txt`,
+//! `report.json` and histograms in `OUT/rounds/NN/`, adjust, repeat.
+//!
+//! Round 00 is the base preset as it is (the "before"); rounds 01… are fitted presets.
+//! After each fitted round, every statistic outside the real inter-quartile range that a
+//! preset value can move is moved toward the real median, on the final bytes:
+//!
+//! - **flat-sky noise σ**: the written noise is the plates' own plus the camera model's
+//!   read noise through the sRGB curve and the JPEG encoder; the plates' share is the
+//!   round's measurement less what the forward model says the round's read noise gives
+//!   (in quadrature), and the new read noise is the one the forward model
+//!   ([`super::camera::invert_noise`]) says brings the total to the real median;
+//! - **blur σ**: the PSF σ changed in quadrature by the gap to the real median; when the
+//!   blur is inside but the small drones' **edge width** is not, the PSF moves by the
+//!   edge-width gap / 1.687 (a Gaussian's 90→10 % width per σ), in quadrature;
+//! - **mean brightness**: `exposure_ev` += 2.2 · log2(real / synthetic);
+//! - **sky saturation**: `saturation` × real / synthetic;
+//! - **drone core size**: the observer's `size_px` × real / synthetic;
+//! - **drones darker than their ring**: the dark materials' weights (Black, DarkGrey) ×
+//!   the odds ratio real / synthetic.
+//!
+//! The gradient, edge, high-pass and hue statistics are the plates' (the footage's own
+//! scenery) and the JPEG quality is read from the footage: no rule moves them. The loop
+//! stops when all but two applicable statistics are inside (11 of 13), when a round
+//! changes nothing, when two rounds in a row do not beat the best, or after `--rounds`.
+//! `fitted.ron` is the best round's preset (most statistics inside, then the smallest
+//! summed distance outside, in IQR widths).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use serde::Serialize;
+
+use super::camera::{Footage, invert_noise, noise_after};
+use super::preset_out::{self, Fitted};
+use super::{FitError, Prepared, io_err, write_file};
+use crate::gap::report::{GapOptions, Report, Summary};
+use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
+use crate::preset::Preset;
+use crate::preset::appearance::{Appearance, DroneColor};
+use crate::preset::camera_model::{CameraModel, Psf};
+use crate::render::GpuContext;
+
+/// One round, as `fit.json` records it.
+#[derive(Clone, Debug, Serialize)]
+pub struct RoundRecord {
+    pub round: usize,
+    /// `base` (round 00) or `fitted`.
+    pub preset: &'static str,
+    pub inside: usize,
+    pub applicable: usize,
+    /// Summed distance of the outside statistics from the real range, in IQR widths.
+    pub distance: f64,
+    /// `key: verdict` per statistic.
+    pub verdicts: Vec<String>,
+    /// What was changed after this round (for the next).
+    pub changes: Vec<String>,
+}
+
+/// How many statistics inside and how far the others are.
+fn score(report: &Report) -> (usize, usize, f64, Vec<String>) {
+    let mut inside = 0;
+    let mut applicable = 0;
+    let mut distance = 0.0;
+    let mut verdicts = Vec::new();
+    for r in &report.statistics {
+        verdicts.push(format!("{}: {}", r.key, r.verdict));
+        let (Some(real), Some(syn)) = (r.real, r.synthetic) else {
+            continue;
+        };
+        applicable += 1;
+        if r.verdict == "inside" {
+            inside += 1;
+            continue;
+        }
+        let (lo, hi) = range(&real);
+        let c = centre(&syn);
+        let width = (hi - lo).max(1e-3 * c.abs()).max(1e-6);
+        distance += if c < lo { lo - c } else { c - hi } / width;
+    }
+    (inside, applicable, distance, verdicts)
+}
+
+fn centre(s: &Summary) -> f64 {
+    match *s {
+        Summary::Distribution { median, .. } => median,
+        Summary::Share { share, .. } => share,
+    }
+}
+
+fn range(s: &Summary) -> (f64, f64) {
+    match *s {
+        Summary::Distribution { q25, q75, .. } => (q25, q75),
+        Summary::Share { low, high, .. } => (low, high),
+    }
+}
+
+/// (verdict, real centre, synthetic centre) of a statistic with both sides.
+fn stat(report: &Report, key: &str) -> Option<(&'static str, f64, f64)> {
+    let r = report.statistics.iter().find(|r| r.key == key)?;
+    Some((r.verdict, centre(&r.real?), centre(&r.synthetic?)))
+}
+
+fn outside(v: &str) -> bool {
+    v == "below" || v == "above"
+}
+
+fn psf_sigma(cm: &CameraModel) -> f64 {
+    match cm.psf {
+        Psf::Gaussian { sigma_px } => 0.5 * (sigma_px.0 + sigma_px.1),
+        _ => 0.0,
+    }
+}
+
+fn r3(v: f64) -> f64 {
+    (v * 1000.0).round() / 1000.0
+}
+
+/// Moves `preset` toward the footage after a round's `report` (module docs); returns
+/// what it changed, in words.
+pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<String> {
+    let mut changes = Vec::new();
+    let mut cm = preset.camera_model.clone().unwrap_or_default();
+    let q = cm
+        .jpeg_quality
+        .map(|(a, b)| ((u16::from(a) + u16::from(b)) / 2) as u8);
+    let sky = footage.estimate.sky_rgb;
+    if let Some((v, t, m)) = stat(report, "noise_sigma")
+        && outside(v)
+    {
+        let r = cm.read_noise_levels.1;
+        let own = (m * m - noise_after(sky, q, r).powi(2)).max(0.0);
+        let want = (t * t - own).max(0.0).sqrt();
+        let r2 = r3(invert_noise(sky, q, want).unwrap_or(r).min(32.0));
+        if r2 != r {
+            cm.read_noise_levels = (r2, r2);
+            changes.push(format!(
+                "read_noise_levels {r} → {r2} (noise σ {m:.3} {v} the real {t:.3}; the plates' own share {:.3})",
+                own.sqrt()
+            ));
+        }
+    }
+    let s = psf_sigma(&cm);
+    let mut s2 = s;
+    let mut why = String::new();
+    if let Some((v, t, m)) = stat(report, "blur_sigma_px") {
+        if outside(v) {
+            s2 = (t * t - m * m + s * s).max(0.0).sqrt();
+            why = format!("blur σ {m:.3} {v} the real {t:.3}");
+        } else if let Some((ve, te, me)) = stat(report, "small_drone_edge_width_px")
+            && outside(ve)
+        {
+            s2 = (s * s + (te * te - me * me) / (1.687 * 1.687))
+                .max(0.0)
+                .sqrt();
+            why = format!("small drones' edge width {me:.2} {ve} the real {te:.2}");
+        }
+    }
+    let s2 = r3(s2.min(8.0));
+    if s2 != r3(s) {
+        cm.psf = if s2 > 0.0 {
+            Psf::Gaussian { sigma_px: (s2, s2) }
+        } else {
+            Psf::None
+        };
+        changes.push(format!("psf σ {:.3} → {s2} ({why})", s));
+    }
+    if let Some((v, t, m)) = stat(report, "mean_brightness")
+        && outside(v)
+        && m > 0.0
+        && t > 0.0
+    {
+        let ev = cm.exposure_ev.0;
+        let ev2 = ((ev + 2.2 * (t / m).log2()).clamp(-4.0, 4.0) * 64.0).round() / 64.0;
+        if ev2 != ev {
+            cm.exposure_ev = (ev2, ev2);
+            changes.push(format!(
+                "exposure_ev {ev} → {ev2} (brightness {m:.1} {v} the real {t:.1})"
+            ));
+        }
+    }
+    if let Some((v, t, m)) = stat(report, "sky_saturation")
+        && outside(v)
+        && m > 0.0
+    {
+        let sat = cm.saturation.0;
+        let sat2 = r3((sat * t / m).clamp(0.0, 4.0));
+        if sat2 != sat {
+            cm.saturation = (sat2, sat2);
+            changes.push(format!(
+                "saturation {sat} → {sat2} (sky saturation {m:.3} {v} the real {t:.3})"
+            ));
+        }
+    }
+    preset.camera_model = Some(cm);
+    if let Some((v, t, m)) = stat(report, "drone_core_px")
+        && outside(v)
+        && m > 0.0
+        && let Some(obs) = &mut preset.camera.observer
+    {
+        let k = (t / m).clamp(0.2, 5.0);
+        let before = obs.size_px;
+        preset_out::scale_size(obs, k);
+        changes.push(format!(
+            "observer size_px {before:?} → {:?} (drone core {m:.2} px {v} the real {t:.2})",
+            obs.size_px
+        ));
+    }
+    if let Some((v, t, m)) = stat(report, "drone_darker")
+        && outside(v)
+        && m > 0.0
+        && m < 1.0
+    {
+        let odds = |p: f64| p.clamp(0.02, 0.98) / (1.0 - p.clamp(0.02, 0.98));
+        let k = (odds(t) / odds(m)).clamp(0.2, 5.0);
+        let a = preset.appearance.get_or_insert_with(Appearance::default);
+        for (c, w) in &mut a.palette {
+            if matches!(c, DroneColor::Black | DroneColor::DarkGrey) {
+                *w = r3((*w * k).max(0.001));
+            }
+        }
+        changes.push(format!(
+            "dark drone materials' weights ×{k:.3} (darker than the ring {:.0} % {v} the real {:.0} %)",
+            m * 100.0,
+            t * 100.0
+        ));
+    }
+    changes
+}
+
+/// Renders `preset`'s first `n` frames into `dir` with the batch.
+fn render(
+    preset: &Preset,
+    n: u64,
+    dir: &Path,
+    ctx: &GpuContext,
+    cancel: &AtomicBool,
+) -> Result<(), FitError> {
+    let pipeline =
+        FramePipeline::new(preset.clone()).map_err(|e| FitError::Other(format!("{e:#}")))?;
+    let mut options = BatchOptions::new(dir);
+    options.limit = Some(n.min(pipeline.frame_count()).max(1));
+    options.overwrite = true;
+    let report = run_batch(&pipeline, &options, ctx, cancel, |_| {})
+        .map_err(|e| FitError::Other(format!("rendering {}: {e:#}", dir.display())))?;
+    if report.cancelled {
+        return Err(FitError::Other("stopped by SIGINT/SIGTERM".into()));
+    }
+    Ok(())
+}
+
+/// One round: render, report, write the round's files; returns the report.
+fn round(
+    prep: &Prepared,
+    k: usize,
+    preset: &Preset,
+    text: &str,
+    ctx: &GpuContext,
+    cancel: &AtomicBool,
+) -> Result<Report, FitError> {
+    let dir = prep.out.join("rounds").join(format!("{k:02}"));
+    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    write_file(&dir.join("preset.ron"), text.as_bytes())?;
+    let data = dir.join("dataset");
+    render(preset, prep.options.sample, &data, ctx, cancel)?;
+    let report = crate::gap::report::run(&GapOptions {
+        real: prep.real_dir.clone(),
+        synthetic: data,
+        max_images: 0,
+    })
+    .map_err(|e| FitError::Other(format!("the gap report of round {k:02}: {e}")))?;
+    report
+        .write(&dir)
+        .map_err(|e| FitError::Other(format!("writing round {k:02}'s report: {e}")))?;
+    Ok(report)
+}
+
+/// What the loop gives back.
+#[derive(Debug)]
+pub struct Outcome {
+    pub rounds: Vec<RoundRecord>,
+    pub best: Option<usize>,
+    /// The round-00 (base) report's table and the best round's.
+    pub before: Option<String>,
+    pub after: Option<String>,
+    /// The preset to write as `fitted.ron`.
+    pub preset: Preset,
+}
+
+/// Runs the rounds (module docs); `log` gets one line per round.
+pub fn run(
+    prep: &Prepared,
+    ctx: &GpuContext,
+    cancel: &AtomicBool,
+    log: &mut dyn FnMut(String),
+) -> Result<Outcome, FitError> {
+    let plates_abs: PathBuf = super::input::absolute(&prep.out.join("plates"));
+    let Fitted { preset: first, .. } = &prep.fitted;
+    let mut records = Vec::new();
+    // Round 00: the base preset as it is.
+    let base_text = preset_out::text(
+        &prep.base,
+        &["round 00 of swarmshot fit: the base preset as it is (paths made absolute)".into()],
+    );
+    let rep0 = round(prep, 0, &prep.base, &base_text, ctx, cancel)?;
+    let (inside, applicable, distance, verdicts) = score(&rep0);
+    log(format!(
+        "round 00 (base): {inside} of {applicable} statistics inside"
+    ));
+    records.push(RoundRecord {
+        round: 0,
+        preset: "base",
+        inside,
+        applicable,
+        distance,
+        verdicts,
+        changes: Vec::new(),
+    });
+    let before = Some(rep0.table());
+    let target = applicable.saturating_sub(2);
+    let mut preset = first.clone();
+    let mut best: Option<(usize, f64, usize, Preset, String)> = None;
+    let mut stale = 0;
+    for k in 1..=prep.options.rounds {
+        let text = preset_out::text(
+            &preset_out::with_plates(&preset, Path::new("../../plates")),
+            &[format!(
+                "round {k:02} of swarmshot fit (its backplate folder relative to this file)"
+            )],
+        );
+        let render_preset = preset_out::with_plates(&preset, &plates_abs);
+        let report = round(prep, k, &render_preset, &text, ctx, cancel)?;
+        let (inside, applicable, distance, verdicts) = score(&report);
+        log(format!(
+            "round {k:02} (fitted): {inside} of {applicable} statistics inside"
+        ));
+        let better = best
+            .as_ref()
+            .is_none_or(|b| inside > b.0 || (inside == b.0 && distance < b.1));
+        if better {
+            best = Some((inside, distance, k, preset.clone(), report.table()));
+            stale = 0;
+        } else {
+            stale += 1;
+        }
+        let done = inside >= target || stale >= 2 || k == prep.options.rounds;
+        let changes = if done {
+            Vec::new()
+        } else {
+            adjust(&mut preset, &report, &prep.footage)
+        };
+        for c in &changes {
+            log(format!("  {c}"));
+        }
+        let nothing = changes.is_empty();
+        records.push(RoundRecord {
+            round: k,
+            preset: "fitted",
+            inside,
+            applicable,
+            distance,
+            verdicts,
+            changes,
+        });
+        if done || nothing {
+            break;
+        }
+    }
+    Ok(match best {
+        Some((_, _, k, p, table)) => Outcome {
+            rounds: records,
+            best: Some(k),
+            before,
+            after: Some(table),
+            preset: p,
+        },
+        None => Outcome {
+            rounds: records,
+            best: None,
+            before,
+            after: None,
+            preset: first.clone(),
+        },
+    })
+}
