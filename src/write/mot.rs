@@ -38,18 +38,40 @@ pub fn sequence_name(id: u64) -> String {
 
 /// The `gt.txt` lines of one frame.
 pub fn gt_lines(scene: &FrameScene, labels: &[DroneLabel]) -> String {
+    let mut text = Vec::new();
+    let _ = write_gt_lines(scene, labels, |piece| {
+        text.extend_from_slice(piece);
+        Ok(())
+    });
+    // Only ASCII digits, signs, points, commas and newlines were written.
+    String::from_utf8(text).unwrap_or_default()
+}
+
+/// Bytes of `gt.txt` handed on at once by [`write_gt_lines`].
+const PIECE_BYTES: usize = 64 << 10;
+
+/// [`gt_lines`] handed to `out` in pieces of about [`PIECE_BYTES`], so a
+/// frame of a million drones is never one string in memory.
+fn write_gt_lines(
+    scene: &FrameScene,
+    labels: &[DroneLabel],
+    mut out: impl FnMut(&[u8]) -> Result<(), OutputError>,
+) -> Result<(), OutputError> {
+    use std::io::Write as _;
     let Some(seq) = scene.sequence else {
-        return String::new();
+        return Ok(());
     };
     let mut kept: Vec<&DroneLabel> = labels.iter().filter(|l| l.is_detection_label()).collect();
     kept.sort_by_key(|l| l.drone);
-    let mut text = String::new();
+    let mut piece = Vec::with_capacity(PIECE_BYTES + 256);
     for l in kept {
         let b = &l.bbox;
         let conf = u8::from(l.status != LabelStatus::Crowd);
         let visibility = l.visibility.map_or(1.0, |v| v.fraction());
-        text.push_str(&format!(
-            "{},{},{:.6},{:.6},{:.6},{:.6},{conf},{},{:.6}\n",
+        // Writing into a Vec cannot fail.
+        let _ = writeln!(
+            piece,
+            "{},{},{:.6},{:.6},{:.6},{:.6},{conf},{},{:.6}",
             seq.step + 1,
             l.drone + 1,
             b.x0,
@@ -58,9 +80,17 @@ pub fn gt_lines(scene: &FrameScene, labels: &[DroneLabel]) -> String {
             b.height(),
             l.class_id + 1,
             visibility
-        ));
+        );
+        if piece.len() >= PIECE_BYTES {
+            out(&piece)?;
+            piece.clear();
+        }
     }
-    text
+    if piece.is_empty() {
+        Ok(())
+    } else {
+        out(&piece)
+    }
 }
 
 /// Writes `gt.txt` and `seqinfo.ini` of every sequence.
@@ -141,13 +171,10 @@ impl FormatWriter for MotWriter {
                 self.seqinfo(scene, &seq).as_bytes(),
             )?;
         }
-        let lines = gt_lines(scene, record.labels);
-        if let Some((_, gt)) = &mut self.current
-            && !lines.is_empty()
-        {
-            gt.append(lines.as_bytes())?;
+        match &mut self.current {
+            Some((_, gt)) => write_gt_lines(scene, record.labels, |piece| gt.append(piece)),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     fn save(&mut self, checkpoint: &mut Checkpoint) {
