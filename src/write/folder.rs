@@ -47,7 +47,7 @@
 //! a time with `create_dir`, which refuses an existing link.
 
 use std::collections::{BTreeMap, HashSet};
-use std::fs::{self, File, OpenOptions};
+use std::fs::{self, File};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::{FileExt, MetadataExt};
 use std::path::{Path, PathBuf};
@@ -100,6 +100,9 @@ pub struct OpenMode {
     /// Make every Kth frame (`--every K`); `None` takes a resumed run's
     /// step (and 1 for a new run).
     pub every: Option<u64>,
+    /// The frame count a new run makes when `frames` is `None` (a `--resume`
+    /// that finds no earlier run: one killed before its ledger existed).
+    pub fresh_frames: u64,
 }
 
 /// Where an opened folder starts.
@@ -169,7 +172,11 @@ fn temp_rel(rel: &str) -> String {
 
 /// Refuse `root` if an entry the dataset needs is a link, is in the way, or
 /// is a file swarmshot did not write (not in `owned`).
-fn preflight(root: &Path, needed: &[String], owned: &HashSet<String>) -> Result<(), OutputError> {
+fn preflight(
+    tree: &mut Tree,
+    needed: &[String],
+    owned: &HashSet<String>,
+) -> Result<(), OutputError> {
     for rel in needed {
         let parts: Vec<&str> = rel.split('/').filter(|p| !p.is_empty()).collect();
         let mut prefix = String::new();
@@ -179,23 +186,18 @@ fn preflight(root: &Path, needed: &[String], owned: &HashSet<String>) -> Result<
             }
             prefix.push_str(part);
             let want_dir = i + 1 < parts.len() || rel.ends_with('/');
-            let path = root.join(&prefix);
-            match lstat(&path)? {
+            let path = tree.root().join(&prefix);
+            match tree.lstat(&prefix)? {
                 None => break,
-                Some(m) if m.file_type().is_symlink() => {
-                    return Err(refused(
-                        path,
-                        "is a symbolic link; swarmshot never follows one in its output folder",
-                    ));
-                }
+                Some(m) if m.is_symlink() => return Err(link_refused(path)),
                 Some(m) if want_dir && !m.is_dir() => {
                     return Err(refused(path, "is in the way of a folder swarmshot needs"));
                 }
                 Some(m) if !want_dir && !m.is_file() => {
                     return Err(refused(path, "is not a regular file"));
                 }
-                Some(m) if !want_dir && m.nlink() != 1 => {
-                    return Err(hard_link_refused(path, m.nlink()));
+                Some(m) if !want_dir && m.links != 1 => {
+                    return Err(hard_link_refused(path, m.links));
                 }
                 Some(_) if !want_dir && !owned.contains(rel) => {
                     return Err(refused(
@@ -244,39 +246,45 @@ impl Folder {
                 }
             }
         }
+        // The folder is opened once: everything below is reached from this handle.
+        let mut tree = Tree::open(root)?;
         // Before anything in the folder is read or written.
-        let lock = FolderLock::take(root)?;
-        let ledger_path = root.join(LEDGER);
-        let scan = match lstat(&ledger_path)? {
+        let lock = FolderLock::take(&tree)?;
+        let scan = match tree.lstat(LEDGER)? {
             None => None,
             Some(_) => Some(Self::scan(root)?),
         };
         let Some(scan) = scan else {
-            if mode.resume {
+            // A lock file, or the first ledger's temporary file, left by a
+            // run killed before its ledger existed is swarmshot's own: such a
+            // folder starts afresh, with or without --resume.
+            let ledger_tmp = temp_rel(LEDGER);
+            let empty = !fs::read_dir(root).map_err(io(root))?.any(|e| {
+                e.map_or(true, |e| {
+                    e.file_name() != LOCK && e.file_name() != *ledger_tmp
+                })
+            });
+            if !empty && mode.resume {
                 return Err(OutputError::NothingToResume {
                     path: root.to_owned(),
                 });
             }
-            // A lock file left by a killed run is swarmshot's own.
-            let empty = !fs::read_dir(root)
-                .map_err(io(root))?
-                .any(|e| e.map_or(true, |e| e.file_name() != LOCK));
             if !empty && !mode.overwrite {
                 return Err(OutputError::NotEmpty {
                     path: root.to_owned(),
                 });
             }
-            let frames = frames.unwrap_or(0);
+            let frames = frames.unwrap_or(mode.fresh_frames);
             let run = RunId {
                 frames,
                 preset_hash,
                 shard: mode.shard.map(|p| p.run(frames)),
                 every: mode.every.unwrap_or(1).max(1),
             };
-            preflight(root, needed, &HashSet::new())?;
-            return Ok((Self::fresh(root, run, lock)?, Start::Fresh, run));
+            preflight(&mut tree, needed, &HashSet::new())?;
+            return Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run));
         };
-        preflight(root, needed, &scan.owned)?;
+        preflight(&mut tree, needed, &scan.owned)?;
         let frames = frames.unwrap_or(scan.run.frames);
         let run = RunId {
             frames,
@@ -285,7 +293,7 @@ impl Folder {
             every: mode.every.unwrap_or(scan.run.every).max(1),
         };
         if scan.run == run && !mode.overwrite {
-            let folder = Self::continue_from(root, &scan, lock)?;
+            let folder = Self::continue_from(tree, &scan, lock)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
                     checkpoint: Box::new(checkpoint),
@@ -330,25 +338,24 @@ impl Folder {
                 what,
             });
         }
-        Self::delete_run(root)?;
-        Ok((Self::fresh(root, run, lock)?, Start::Fresh, run))
+        Self::delete_run(&mut tree)?;
+        Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run))
     }
 
     /// A new ledger holding only the header.
-    fn fresh(root: &Path, run: RunId, lock: FolderLock) -> Result<Self, OutputError> {
-        let path = root.join(LEDGER);
-        if lstat(&path)?.is_some() {
+    fn fresh(mut tree: Tree, run: RunId, lock: FolderLock) -> Result<Self, OutputError> {
+        if tree.lstat(LEDGER)?.is_some() {
             return Err(refused(
-                path,
+                tree.root().join(LEDGER),
                 "exists although no earlier run was found; remove it by hand",
             ));
         }
-        write_new_then_rename(root, LEDGER, run.header().as_bytes(), false)?;
-        let ledger = open_checked(root, LEDGER, true)?;
+        write_new_then_rename(&mut tree, LEDGER, run.header().as_bytes(), false)?;
+        let ledger = tree.open_file(LEDGER, true)?;
         Ok(Self {
-            root: root.to_owned(),
+            root: tree.root().to_owned(),
             ledger,
-            tree: Tree::open(root)?,
+            tree,
             records: run.shard.is_some(),
             owned: HashSet::from([LEDGER.to_owned()]),
             frame_claims: Vec::new(),
@@ -361,13 +368,13 @@ impl Folder {
     /// Cut the ledger back to its last trusted checkpoint (keeping every
     /// claim after it) and open it to append.
     fn continue_from(
-        root: &Path,
+        mut tree: Tree,
         scan: &LedgerScan,
         lock: FolderLock,
     ) -> Result<Self, OutputError> {
-        let path = root.join(LEDGER);
+        let path = tree.root().join(LEDGER);
         let mut bytes = Vec::new();
-        open_checked(root, LEDGER, false)?
+        tree.open_file(LEDGER, false)?
             .read_to_end(&mut bytes)
             .map_err(io(&path))?;
         if scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
@@ -376,15 +383,15 @@ impl Folder {
                 text.extend_from_slice(claim.as_bytes());
                 text.push(b'\n');
             }
-            write_new_then_rename(root, LEDGER, &text, true)?;
+            write_new_then_rename(&mut tree, LEDGER, &text, true)?;
         }
-        let ledger = open_checked(root, LEDGER, true)?;
+        let ledger = tree.open_file(LEDGER, true)?;
         let mut owned = scan.owned.clone();
         owned.insert(LEDGER.to_owned());
         Ok(Self {
-            root: root.to_owned(),
+            root: tree.root().to_owned(),
             ledger,
-            tree: Tree::open(root)?,
+            tree,
             records: scan.run.shard.is_some(),
             owned,
             frame_claims: Vec::new(),
@@ -403,10 +410,9 @@ impl Folder {
     /// it) refuses the whole deletion before anything is deleted. Then each
     /// file is deleted relative to its folder's handle (`unlinkat`), so a
     /// folder swapped for a link in between is never walked through.
-    fn delete_run(root: &Path) -> Result<(), OutputError> {
-        let path = root.join(LEDGER);
-        let claims = Self::claims(root)?;
-        let mut tree = Tree::open(root)?;
+    fn delete_run(tree: &mut Tree) -> Result<(), OutputError> {
+        let root = tree.root().to_owned();
+        let claims = Self::claims(&root)?;
         for rel in &claims {
             let file = !rel.ends_with('/');
             let names = if file {
@@ -434,7 +440,8 @@ impl Folder {
             // Not empty: it holds files swarmshot did not write; keep them.
             tree.remove_dir_if_empty(dir)?;
         }
-        fs::remove_file(&path).map_err(io(&path))
+        tree.remove_file(LEDGER)?;
+        Ok(())
     }
 
     /// Append whole lines to the ledger; `sync` flushes them to disk first.
@@ -502,35 +509,26 @@ impl Folder {
                 continue;
             }
             let path = self.root.join(&prefix);
-            match lstat(&path)? {
-                Some(m) if m.file_type().is_dir() => {}
-                Some(m) if m.file_type().is_symlink() => {
-                    return Err(refused(
-                        path,
-                        "is a symbolic link; swarmshot never follows one in its output folder",
-                    ));
-                }
+            match self.tree.lstat(&prefix)? {
+                Some(m) if m.is_dir() => {}
+                Some(m) if m.is_symlink() => return Err(link_refused(path)),
                 Some(_) => return Err(refused(path, "is in the way of a folder swarmshot needs")),
-                None => {
-                    self.claim(&[&format!("{prefix}/")])?;
-                    fs::create_dir(&path).map_err(io(&path))?;
-                }
+                None => self.claim(&[&format!("{prefix}/")])?,
             }
+            // Made (if missing) and opened once, relative to the folder above.
+            self.tree.mkdir(&prefix)?;
             self.dirs_ok.insert(prefix.clone());
         }
         Ok(())
     }
 
     /// Check that `rel` may be (re)written: absent, or a regular file this run owns.
-    pub fn check_target(&self, rel: &str) -> Result<(), OutputError> {
+    pub fn check_target(&mut self, rel: &str) -> Result<(), OutputError> {
         let path = self.root.join(rel);
-        match lstat(&path)? {
+        match self.tree.lstat(rel)? {
             None => Ok(()),
-            Some(m) if m.file_type().is_symlink() => Err(refused(
-                path,
-                "is a symbolic link; swarmshot never follows one in its output folder",
-            )),
-            Some(m) if !m.file_type().is_file() => Err(refused(path, "is not a regular file")),
+            Some(m) if m.is_symlink() => Err(link_refused(path)),
+            Some(m) if !m.is_file() => Err(refused(path, "is not a regular file")),
             Some(_) if !self.is_ours(rel) => Err(refused(
                 path,
                 "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
@@ -558,11 +556,11 @@ impl Folder {
             self.ensure_dir(dir)?;
         }
         let path = self.root.join(rel);
-        match OpenOptions::new().write(true).create_new(true).open(&path) {
-            Ok(mut file) => file.write_all(bytes).map_err(io(&path)),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => self.write_file(rel, bytes),
-            Err(e) => Err(io(&path)(e)),
+        if self.tree.lstat(rel)?.is_some() {
+            return self.write_file(rel, bytes);
         }
+        let mut file = self.tree.create_new(rel, false)?;
+        file.write_all(bytes).map_err(io(&path))
     }
 
     /// [`Folder::write_file`] with the contents streamed by `fill`.
@@ -579,28 +577,39 @@ impl Folder {
             self.claim(&[rel])?;
         }
         let path = self.root.join(rel);
-        let tmp = self.root.join(temp_rel(rel));
-        if let Some(m) = lstat(&tmp)? {
-            // A temporary file of ours left by a killed run.
-            if !m.file_type().is_file() {
-                return Err(refused(tmp, "is in the way of swarmshot's temporary file"));
-            }
-            fs::remove_file(&tmp).map_err(io(&tmp))?;
-        }
-        let result = (|| {
-            let file = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        let tmp_rel = self.clear_temp(rel)?;
+        let file = self.tree.create_new(&tmp_rel, false)?;
+        let written = (|| {
             let mut w = std::io::BufWriter::new(&file);
             fill(&mut w)?;
             w.flush()?;
             drop(w);
-            file.sync_all()?;
-            stall_if_asked(rel);
-            fs::rename(&tmp, &path)
+            file.sync_all()
         })();
+        stall_if_asked(rel);
+        let result = written
+            .map_err(io(&path))
+            .and_then(|()| self.tree.rename(&tmp_rel, rel));
         if result.is_err() {
-            let _ = fs::remove_file(&tmp);
+            let _ = self.tree.remove_file(&tmp_rel);
         }
-        result.map_err(io(&path))
+        result
+    }
+
+    /// The temporary name `rel` is written under, cleared of a temporary file
+    /// of ours that a killed run left.
+    fn clear_temp(&mut self, rel: &str) -> Result<String, OutputError> {
+        let tmp_rel = temp_rel(rel);
+        if let Some(m) = self.tree.lstat(&tmp_rel)? {
+            if !m.is_file() {
+                return Err(refused(
+                    self.root.join(&tmp_rel),
+                    "is in the way of swarmshot's temporary file",
+                ));
+            }
+            self.tree.remove_file(&tmp_rel)?;
+        }
+        Ok(tmp_rel)
     }
 
     /// Put the file `rel` of the shard `shard` (outside the folder, for
@@ -635,20 +644,23 @@ impl Folder {
         let path = self.root.join(rel);
         // Linked by an interrupted merge already (a rename onto another link
         // of the same file would do nothing and leave the temporary name).
-        if !copy && lstat(&path)?.is_some_and(|m| (m.dev(), m.ino()) == seen) {
+        if !copy
+            && self
+                .tree
+                .lstat(rel)?
+                .is_some_and(|m| (m.dev, m.ino) == seen)
+        {
             return Ok(true);
         }
-        let tmp_rel = temp_rel(rel);
-        let tmp = self.root.join(&tmp_rel);
-        if let Some(m) = lstat(&tmp)? {
-            if !m.file_type().is_file() {
-                return Err(refused(tmp, "is in the way of swarmshot's temporary file"));
-            }
-            fs::remove_file(&tmp).map_err(io(&tmp))?;
-        }
-        let linked = !copy && shard.link_to(rel, &tmp).is_ok();
-        if linked && lstat(&tmp)?.is_none_or(|m| (m.dev(), m.ino()) != seen) {
-            let _ = fs::remove_file(&tmp);
+        let tmp_rel = self.clear_temp(rel)?;
+        let linked = !copy && shard.link_into(rel, &mut self.tree, &tmp_rel).is_ok();
+        if linked
+            && self
+                .tree
+                .lstat(&tmp_rel)?
+                .is_none_or(|m| (m.dev, m.ino) != seen)
+        {
+            let _ = self.tree.remove_file(&tmp_rel);
             return Err(replaced());
         }
         let mut from = if linked {
@@ -660,19 +672,20 @@ impl Folder {
             }
             Some(from)
         };
-        let result = (|| {
-            if let Some(from) = &mut from {
-                let mut to = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-                std::io::copy(from, &mut to)?;
-                to.sync_all()?;
-            }
-            stall_if_asked(rel);
-            fs::rename(&tmp, &path)
-        })();
+        let copied = match &mut from {
+            Some(from) => self.tree.create_new(&tmp_rel, false).and_then(|mut to| {
+                std::io::copy(from, &mut to)
+                    .and_then(|_| to.sync_all())
+                    .map_err(io(&path))
+            }),
+            None => Ok(()),
+        };
+        stall_if_asked(rel);
+        let result = copied.and_then(|()| self.tree.rename(&tmp_rel, rel));
         if result.is_err() {
-            let _ = fs::remove_file(&tmp);
+            let _ = self.tree.remove_file(&tmp_rel);
         }
-        result.map_err(io(&path))?;
+        result?;
         Ok(linked)
     }
 
@@ -711,7 +724,7 @@ impl Folder {
         }
         self.check_target(rel)?;
         let path = self.root.join(rel);
-        let file = if lstat(&path)?.is_none() {
+        let file = if self.tree.lstat(rel)?.is_none() {
             if len != 0 {
                 return Err(OutputError::Ledger {
                     path: path.clone(),
@@ -719,12 +732,7 @@ impl Folder {
                 });
             }
             self.claim(&[rel])?;
-            OpenOptions::new()
-                .read(true)
-                .append(true)
-                .create_new(true)
-                .open(&path)
-                .map_err(io(&path))?
+            self.tree.create_new(rel, true)?
         } else {
             let file = self.tree.open_file(rel, true)?;
             file.set_len(len).map_err(io(&path))?;
@@ -756,6 +764,9 @@ impl Folder {
             reason: e.to_string(),
         })?;
         stall_if_asked(&format!("checkpoint:{}", checkpoint.next.saturating_sub(1)));
+        // A folder swapped for a link (or moved) since it was opened stops the
+        // run here: the frame's files went into the folder that was opened.
+        self.tree.verify()?;
         self.ledger_append(&format!("={json}\n"), false)?;
         self.frame_claims.clear();
         Ok(())
@@ -845,27 +856,27 @@ fn stall_if_asked(_point: &str) {}
 
 /// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
 fn write_new_then_rename(
-    root: &Path,
+    tree: &mut Tree,
     rel: &str,
     bytes: &[u8],
     replace: bool,
 ) -> Result<(), OutputError> {
-    let path = root.join(rel);
-    let tmp = root.join(temp_rel(rel));
+    let path = tree.root().join(rel);
+    let tmp = temp_rel(rel);
     if replace {
-        open_checked(root, rel, false)?;
+        tree.open_file(rel, false)?;
     }
-    if lstat(&tmp)?.is_some_and(|m| m.file_type().is_file()) {
-        fs::remove_file(&tmp).map_err(io(&tmp))?;
+    if tree.lstat(&tmp)?.is_some_and(|m| m.is_file()) {
+        tree.remove_file(&tmp)?;
     }
-    let result = (|| {
-        let mut file = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        fs::rename(&tmp, &path)
-    })();
+    let result = tree.create_new(&tmp, false).and_then(|mut file| {
+        file.write_all(bytes)
+            .and_then(|()| file.sync_all())
+            .map_err(io(&path))
+    });
+    let result = result.and_then(|()| tree.rename(&tmp, rel));
     if result.is_err() {
-        let _ = fs::remove_file(&tmp);
+        let _ = tree.remove_file(&tmp);
     }
-    result.map_err(io(&path))
+    result
 }

@@ -20,6 +20,7 @@ pub mod manifest;
 pub mod masks;
 pub mod merge;
 pub mod mot;
+pub mod outdir;
 pub mod shard;
 pub mod single;
 pub mod sparse_png;
@@ -456,6 +457,7 @@ impl DatasetWriter {
                     unit: preset.sequence_len(),
                 }),
                 every: options.every,
+                fresh_frames: preset.frame_count(),
             },
             &needed,
         )?;

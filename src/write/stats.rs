@@ -646,9 +646,9 @@ pub fn write_histograms(
     stats: &DatasetStats,
     dir: &std::path::Path,
 ) -> Result<Vec<std::path::PathBuf>, StatsError> {
-    std::fs::create_dir_all(dir).map_err(|source| StatsError::Io {
+    let mut out = super::outdir::OutDir::create(dir).map_err(|e| StatsError::Io {
         path: dir.to_owned(),
-        source,
+        source: std::io::Error::other(e.to_string()),
     })?;
     let per_frame: Vec<u64> = {
         let max = stats
@@ -694,8 +694,13 @@ pub fn write_histograms(
     let mut written = Vec::new();
     for (file, title, counts, width, unit) in plots {
         let path = dir.join(file);
-        draw_histogram(&path, title, &counts, width, unit, font).map_err(|e| StatsError::Io {
-            path: path.clone(),
+        let png =
+            draw_histogram(title, &counts, width, unit, font).map_err(|e| StatsError::Io {
+                path: path.clone(),
+                source: std::io::Error::other(e.to_string()),
+            })?;
+        let path = out.write(file, &png).map_err(|e| StatsError::Io {
+            path,
             source: std::io::Error::other(e.to_string()),
         })?;
         written.push(path);
@@ -721,60 +726,66 @@ pub(crate) fn font() -> bool {
     })
 }
 
+/// A histogram drawn as PNG bytes (written by the caller through [`super::outdir::OutDir`]).
 fn draw_histogram(
-    path: &std::path::Path,
     title: &str,
     counts: &[u64],
     bin_width: f64,
     unit: &str,
     font: bool,
-) -> Result<(), Box<dyn std::error::Error>> {
+) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
     use plotters::prelude::*;
     let (w, h) = (900i32, 500i32);
-    let root = BitMapBackend::new(path, (w as u32, h as u32)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (left, right, top, bottom) = (70, w - 20, 50, h - 50);
-    let max = counts.iter().copied().max().unwrap_or(0).max(1) as f64;
-    let n = counts.len().max(1) as f64;
-    let bar = f64::from(right - left) / n;
-    for (i, &c) in counts.iter().enumerate() {
-        let x0 = left + (i as f64 * bar) as i32;
-        let x1 = (left + ((i + 1) as f64 * bar) as i32 - 1).max(x0);
-        let y = bottom - (c as f64 / max * f64::from(bottom - top)) as i32;
-        root.draw(&Rectangle::new(
-            [(x0, y), (x1, bottom)],
-            BLUE.mix(0.7).filled(),
+    let mut rgb = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w as u32, h as u32)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (left, right, top, bottom) = (70, w - 20, 50, h - 50);
+        let max = counts.iter().copied().max().unwrap_or(0).max(1) as f64;
+        let n = counts.len().max(1) as f64;
+        let bar = f64::from(right - left) / n;
+        for (i, &c) in counts.iter().enumerate() {
+            let x0 = left + (i as f64 * bar) as i32;
+            let x1 = (left + ((i + 1) as f64 * bar) as i32 - 1).max(x0);
+            let y = bottom - (c as f64 / max * f64::from(bottom - top)) as i32;
+            root.draw(&Rectangle::new(
+                [(x0, y), (x1, bottom)],
+                BLUE.mix(0.7).filled(),
+            ))?;
+        }
+        root.draw(&PathElement::new(
+            vec![(left, top), (left, bottom), (right, bottom)],
+            BLACK,
         ))?;
+        if font {
+            let style = ("sans-serif", 16).into_font();
+            root.draw(&Text::new(
+                title.to_owned(),
+                (left, 15),
+                ("sans-serif", 20).into_font(),
+            ))?;
+            root.draw(&Text::new(
+                format!("{}", max as u64),
+                (5, top),
+                style.clone(),
+            ))?;
+            root.draw(&Text::new("0".to_owned(), (50, bottom - 8), style.clone()))?;
+            let last = n * bin_width;
+            root.draw(&Text::new(
+                format!("0 {unit}"),
+                (left, bottom + 10),
+                style.clone(),
+            ))?;
+            root.draw(&Text::new(
+                format!("{last} {unit}"),
+                (right - 90, bottom + 10),
+                style,
+            ))?;
+        }
+        root.present()?;
     }
-    root.draw(&PathElement::new(
-        vec![(left, top), (left, bottom), (right, bottom)],
-        BLACK,
-    ))?;
-    if font {
-        let style = ("sans-serif", 16).into_font();
-        root.draw(&Text::new(
-            title.to_owned(),
-            (left, 15),
-            ("sans-serif", 20).into_font(),
-        ))?;
-        root.draw(&Text::new(
-            format!("{}", max as u64),
-            (5, top),
-            style.clone(),
-        ))?;
-        root.draw(&Text::new("0".to_owned(), (50, bottom - 8), style.clone()))?;
-        let last = n * bin_width;
-        root.draw(&Text::new(
-            format!("0 {unit}"),
-            (left, bottom + 10),
-            style.clone(),
-        ))?;
-        root.draw(&Text::new(
-            format!("{last} {unit}"),
-            (right - 90, bottom + 10),
-            style,
-        ))?;
-    }
-    root.present()?;
-    Ok(())
+    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).ok_or("histogram buffer size")?;
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    Ok(png)
 }

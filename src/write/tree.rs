@@ -6,11 +6,12 @@
 //! walked through. The dataset folder ([`super::folder`]) and `swarmshot
 //! merge`'s shards ([`super::merge`]) are read and cleared through it.
 
+use std::collections::HashMap;
 use std::fs::File;
 use std::os::fd::{AsFd, OwnedFd};
 use std::path::{Path, PathBuf};
 
-use rustix::fs::{AtFlags, CWD, FileType, Mode, OFlags, Stat};
+use rustix::fs::{AtFlags, FileType, Mode, OFlags, Stat};
 use rustix::io::Errno;
 
 use super::{OutputError, io};
@@ -79,15 +80,67 @@ pub fn hard_link_refused(path: PathBuf, links: u64) -> OutputError {
 }
 
 /// A folder opened once; everything below it is reached without following links.
+///
+/// Every folder below the root is opened once, one level at a time with
+/// `O_NOFOLLOW` relative to the handle above it, and its handle is kept:
+/// files are then created (`O_CREAT | O_EXCL | O_NOFOLLOW`), renamed
+/// (`renameat`), linked (`linkat`) and deleted (`unlinkat`) relative to
+/// that handle. A folder replaced by a symbolic link (or moved away) while a
+/// run goes on cannot redirect a write: the write still lands in the folder
+/// that was opened, and [`Tree::verify`] names the replaced folder so the run
+/// stops.
 pub struct Tree {
     root: PathBuf,
     fd: OwnedFd,
-    /// The last folder opened below the root (frame files come in runs of one folder).
-    last: Option<(String, OwnedFd)>,
+    /// Folders below the root opened so far, by path relative to it.
+    dirs: HashMap<String, OwnedFd>,
 }
+
+/// At most this many folder handles are kept; past it the cache starts again
+/// (each folder is then opened anew, still one level at a time without links).
+const MAX_DIRS: usize = 256;
 
 fn errno_io(path: &Path) -> impl Fn(Errno) -> OutputError + '_ {
     move |e| io(path)(std::io::Error::from(e))
+}
+
+/// Split `rel` into its folder (maybe "") and last component, refusing `..`, `.` and "".
+fn split(root: &Path, rel: &str) -> Result<(String, String), OutputError> {
+    let rel = rel.trim_end_matches('/');
+    let (dir, name) = rel.rsplit_once('/').unwrap_or(("", rel));
+    check_component(root, rel, name)?;
+    Ok((dir.to_owned(), name.to_owned()))
+}
+
+fn check_component(root: &Path, rel: &str, part: &str) -> Result<(), OutputError> {
+    if part.is_empty() || part == ".." || part == "." {
+        return Err(OutputError::Refused {
+            path: root.join(rel),
+            reason: "is not a path inside the folder (an empty, . or .. component)".into(),
+        });
+    }
+    Ok(())
+}
+
+/// The refusal for a component that is not a folder (a link, a file).
+fn not_a_folder(parent: &OwnedFd, part: &str, at: PathBuf, e: Errno) -> OutputError {
+    let seen =
+        rustix::fs::statat(parent, part, AtFlags::SYMLINK_NOFOLLOW).map(|st| Entry::from_stat(&st));
+    match seen {
+        Ok(s) if s.is_symlink() => link_refused(at),
+        Ok(_) => OutputError::Refused {
+            path: at,
+            reason: "is not a folder".into(),
+        },
+        Err(_) => io(&at)(std::io::Error::from(e)),
+    }
+}
+
+fn identity(fd: &OwnedFd) -> Option<(u64, u64)> {
+    rustix::fs::fstat(fd)
+        .ok()
+        .map(|st| Entry::from_stat(&st))
+        .map(|e| (e.dev, e.ino))
 }
 
 impl Tree {
@@ -102,7 +155,16 @@ impl Tree {
         Ok(Self {
             root: root.to_owned(),
             fd,
-            last: None,
+            dirs: HashMap::new(),
+        })
+    }
+
+    /// A second handle on the same root folder (not on whatever the path names now).
+    pub fn try_clone(&self) -> Result<Self, OutputError> {
+        Ok(Self {
+            root: self.root.clone(),
+            fd: rustix::io::dup(&self.fd).map_err(errno_io(&self.root))?,
+            dirs: HashMap::new(),
         })
     }
 
@@ -116,66 +178,63 @@ impl Tree {
         &self.fd
     }
 
-    /// Open folder `rel` (components separated by `/`) one level at a time
-    /// with `O_NOFOLLOW`: `None` if a component is missing; a component that
-    /// is a link or not a folder is refused by name.
-    pub fn open_dir(&self, rel: &str) -> Result<Option<OwnedFd>, OutputError> {
-        let mut fd = rustix::io::dup(&self.fd).map_err(errno_io(&self.root))?;
-        let mut at = self.root.clone();
-        for part in rel.split('/').filter(|p| !p.is_empty()) {
-            at.push(part);
-            if part == ".." || part == "." {
-                return Err(OutputError::Refused {
-                    path: at,
-                    reason: "names a folder above (..); the ledger lists only paths inside".into(),
-                });
+    /// The handle of folder `rel` (components separated by `/`; "" is the
+    /// root), opened once one level at a time with `O_NOFOLLOW`: `None` if a
+    /// component is missing; a component that is a link or not a folder is
+    /// refused by name.
+    fn dir(&mut self, rel: &str) -> Result<Option<&OwnedFd>, OutputError> {
+        let rel = rel.trim_matches('/');
+        if rel.is_empty() {
+            return Ok(Some(&self.fd));
+        }
+        if !self.dirs.contains_key(rel) {
+            if self.dirs.len() >= MAX_DIRS {
+                self.dirs.clear();
             }
-            match rustix::fs::openat(
-                &fd,
-                part,
-                OFlags::RDONLY | OFlags::DIRECTORY | OFlags::NOFOLLOW | OFlags::CLOEXEC,
-                Mode::empty(),
-            ) {
-                Ok(next) => fd = next,
-                Err(Errno::NOENT) => return Ok(None),
-                Err(e @ (Errno::LOOP | Errno::NOTDIR)) => {
-                    let seen = rustix::fs::statat(&fd, part, AtFlags::SYMLINK_NOFOLLOW)
-                        .map(|st| Entry::from_stat(&st));
-                    return Err(match seen {
-                        Ok(s) if s.is_symlink() => link_refused(at),
-                        Ok(_) => OutputError::Refused {
-                            path: at,
-                            reason: "is not a folder".into(),
-                        },
-                        Err(_) => io(&at)(std::io::Error::from(e)),
-                    });
+            let mut prefix = String::new();
+            for part in rel.split('/') {
+                check_component(&self.root, rel, part)?;
+                let parent_rel = prefix.clone();
+                if !prefix.is_empty() {
+                    prefix.push('/');
                 }
-                Err(e) => return Err(io(&at)(std::io::Error::from(e))),
+                prefix.push_str(part);
+                if self.dirs.contains_key(&prefix) {
+                    continue;
+                }
+                let parent = match parent_rel.as_str() {
+                    "" => &self.fd,
+                    p => &self.dirs[p],
+                };
+                let flags = OFlags::RDONLY | OFlags::DIRECTORY | OFlags::NOFOLLOW | OFlags::CLOEXEC;
+                match rustix::fs::openat(parent, part, flags, Mode::empty()) {
+                    Ok(fd) => {
+                        self.dirs.insert(prefix.clone(), fd);
+                    }
+                    Err(Errno::NOENT) => return Ok(None),
+                    Err(e @ (Errno::LOOP | Errno::NOTDIR)) => {
+                        return Err(not_a_folder(parent, part, self.root.join(&prefix), e));
+                    }
+                    Err(e) => return Err(errno_io(&self.root.join(&prefix))(e)),
+                }
             }
         }
-        Ok(Some(fd))
+        Ok(self.dirs.get(rel))
+    }
+
+    /// Open folder `rel` (see [`Tree::dir`]) as a handle of its own.
+    pub fn open_dir(&mut self, rel: &str) -> Result<Option<OwnedFd>, OutputError> {
+        let root = self.root.join(rel);
+        match self.dir(rel)? {
+            Some(fd) => rustix::io::dup(fd).map(Some).map_err(errno_io(&root)),
+            None => Ok(None),
+        }
     }
 
     /// The folder holding `rel` (opened without following links) and `rel`'s last component.
-    fn parent<'a>(&mut self, rel: &'a str) -> Result<Option<(&OwnedFd, &'a str)>, OutputError> {
-        let rel = rel.trim_end_matches('/');
-        let (dir, name) = rel.rsplit_once('/').unwrap_or(("", rel));
-        if name.is_empty() || name == ".." || name == "." {
-            return Err(OutputError::Refused {
-                path: self.root.join(rel),
-                reason: "is not a path inside the folder".into(),
-            });
-        }
-        if dir.is_empty() {
-            return Ok(Some((&self.fd, name)));
-        }
-        if self.last.as_ref().is_none_or(|(d, _)| d != dir) {
-            match self.open_dir(dir)? {
-                Some(fd) => self.last = Some((dir.to_owned(), fd)),
-                None => return Ok(None),
-            }
-        }
-        Ok(self.last.as_ref().map(|(_, fd)| (fd, name)))
+    fn parent(&mut self, rel: &str) -> Result<Option<(&OwnedFd, String)>, OutputError> {
+        let (dir, name) = split(&self.root, rel)?;
+        Ok(self.dir(&dir)?.map(|fd| (fd, name)))
     }
 
     /// Look at `rel` without following a link (`None`: it, or a folder above it, is missing).
@@ -184,11 +243,71 @@ impl Tree {
         let Some((dir, name)) = self.parent(rel)? else {
             return Ok(None);
         };
-        match rustix::fs::statat(dir, name, AtFlags::SYMLINK_NOFOLLOW) {
+        match rustix::fs::statat(dir, name.as_str(), AtFlags::SYMLINK_NOFOLLOW) {
             Ok(st) => Ok(Some(Entry::from_stat(&st))),
             Err(Errno::NOENT) => Ok(None),
             Err(e) => Err(errno_io(&path)(e)),
         }
+    }
+
+    /// Make folder `rel` (its parent exists) unless it is already a real
+    /// folder; returns whether it was made. A link or a file there is refused.
+    pub fn mkdir(&mut self, rel: &str) -> Result<bool, OutputError> {
+        let path = self.root.join(rel);
+        let Some((dir, name)) = self.parent(rel)? else {
+            return Err(io(&path)(std::io::ErrorKind::NotFound.into()));
+        };
+        let made = match rustix::fs::mkdirat(dir, name.as_str(), Mode::from_raw_mode(0o755)) {
+            Ok(()) => true,
+            Err(Errno::EXIST) => false,
+            Err(e) => return Err(errno_io(&path)(e)),
+        };
+        // Opened (and kept) without following a link: a link put there is refused.
+        match self.dir(rel)? {
+            Some(_) => Ok(made),
+            None => Err(OutputError::Refused {
+                path,
+                reason: "was removed while swarmshot made it".into(),
+            }),
+        }
+    }
+
+    /// Create the new regular file `rel` (it must not exist; never through a
+    /// link), to write (`read`: to read and append as well).
+    pub fn create_new(&mut self, rel: &str, read: bool) -> Result<File, OutputError> {
+        let path = self.root.join(rel);
+        let Some((dir, name)) = self.parent(rel)? else {
+            return Err(io(&path)(std::io::ErrorKind::NotFound.into()));
+        };
+        let access = if read {
+            OFlags::RDWR | OFlags::APPEND
+        } else {
+            OFlags::WRONLY
+        };
+        let flags = access | OFlags::CREATE | OFlags::EXCL | OFlags::NOFOLLOW | OFlags::CLOEXEC;
+        match rustix::fs::openat(dir, name.as_str(), flags, Mode::from_raw_mode(0o644)) {
+            Ok(fd) => Ok(File::from(fd)),
+            Err(Errno::EXIST) if self.lstat(rel)?.is_some_and(|e| e.is_symlink()) => {
+                Err(link_refused(path))
+            }
+            Err(e) => Err(errno_io(&path)(e)),
+        }
+    }
+
+    /// Rename `from` over `to` (both below this folder; a rename replaces an
+    /// entry, it never follows a link).
+    pub fn rename(&mut self, from: &str, to: &str) -> Result<(), OutputError> {
+        let path = self.root.join(to);
+        let (from_dir, from_name) = split(&self.root, from)?;
+        let (to_dir, to_name) = split(&self.root, to)?;
+        let missing = || io(&path)(std::io::ErrorKind::NotFound.into());
+        let src = match self.open_dir(&from_dir)? {
+            Some(fd) => fd,
+            None => return Err(missing()),
+        };
+        let dst = self.dir(&to_dir)?.ok_or_else(missing)?;
+        rustix::fs::renameat(&src, from_name.as_str(), dst, to_name.as_str())
+            .map_err(errno_io(&path))
     }
 
     /// Open the regular file `rel` without following a link: to read, or to
@@ -206,7 +325,7 @@ impl Tree {
         };
         let fd = match rustix::fs::openat(
             dir,
-            name,
+            name.as_str(),
             flags | OFlags::NOFOLLOW | OFlags::CLOEXEC | OFlags::NOCTTY | OFlags::NONBLOCK,
             Mode::empty(),
         ) {
@@ -236,12 +355,12 @@ impl Tree {
         let Some((dir, name)) = self.parent(rel)? else {
             return Ok(false);
         };
-        match rustix::fs::statat(dir, name, AtFlags::SYMLINK_NOFOLLOW) {
+        match rustix::fs::statat(dir, name.as_str(), AtFlags::SYMLINK_NOFOLLOW) {
             Ok(st) if Entry::from_stat(&st).is_file() => {}
             Ok(_) | Err(Errno::NOENT) => return Ok(false),
             Err(e) => return Err(errno_io(&path)(e)),
         }
-        match rustix::fs::unlinkat(dir, name, AtFlags::empty()) {
+        match rustix::fs::unlinkat(dir, name.as_str(), AtFlags::empty()) {
             Ok(()) => Ok(true),
             Err(Errno::NOENT) => Ok(false),
             Err(e) => Err(errno_io(&path)(e)),
@@ -250,29 +369,72 @@ impl Tree {
 
     /// Delete the folder `rel` if it is a real, empty folder (kept otherwise).
     pub fn remove_dir_if_empty(&mut self, rel: &str) -> Result<(), OutputError> {
+        let rel = rel.trim_end_matches('/');
         let Some((dir, name)) = self.parent(rel)? else {
             return Ok(());
         };
-        if rustix::fs::statat(dir, name, AtFlags::SYMLINK_NOFOLLOW)
+        if rustix::fs::statat(dir, name.as_str(), AtFlags::SYMLINK_NOFOLLOW)
             .is_ok_and(|st| Entry::from_stat(&st).is_dir())
         {
-            let _ = rustix::fs::unlinkat(dir, name, AtFlags::REMOVEDIR);
+            let _ = rustix::fs::unlinkat(dir, name.as_str(), AtFlags::REMOVEDIR);
         }
-        // The folder itself may have been the cached one.
-        if self.last.as_ref().is_some_and(|(d, _)| d == rel) {
-            self.last = None;
-        }
+        // Its handle (and those below it) would name a folder no longer here.
+        let below = format!("{rel}/");
+        self.dirs.retain(|d, _| d != rel && !d.starts_with(&below));
         Ok(())
     }
 
-    /// Hard-link the file `rel` below this folder to `to` (a path that does
-    /// not exist yet), without following a link on either side.
-    pub fn link_to(&mut self, rel: &str, to: &Path) -> Result<(), OutputError> {
-        let path = self.root.join(rel);
-        let Some((dir, name)) = self.parent(rel)? else {
-            return Err(io(&path)(std::io::ErrorKind::NotFound.into()));
-        };
-        rustix::fs::linkat(dir, name, CWD, to, AtFlags::empty()).map_err(errno_io(to))
+    /// Hard-link the file `rel` below this folder to `to` below the folder
+    /// `dest` (a name that does not exist yet), relative to both folders'
+    /// handles, never following a link on either side.
+    pub fn link_into(&mut self, rel: &str, dest: &mut Tree, to: &str) -> Result<(), OutputError> {
+        let path = dest.root.join(to);
+        let missing = || io(&path)(std::io::ErrorKind::NotFound.into());
+        let (from_dir, from_name) = split(&self.root, rel)?;
+        let src = self.dir(&from_dir)?.ok_or_else(missing)?;
+        let (to_dir, to_name) = split(&dest.root, to)?;
+        let dst = dest.dir(&to_dir)?.ok_or_else(missing)?;
+        rustix::fs::linkat(
+            src,
+            from_name.as_str(),
+            dst,
+            to_name.as_str(),
+            AtFlags::empty(),
+        )
+        .map_err(errno_io(&path))
+    }
+
+    /// Check that every folder opened so far is still where it was opened:
+    /// a folder replaced (by a link or another folder) or moved away while a
+    /// run goes on is named, so the run stops instead of writing on.
+    pub fn verify(&self) -> Result<(), OutputError> {
+        for (rel, fd) in &self.dirs {
+            let (parent_rel, name) = rel.rsplit_once('/').unwrap_or(("", rel));
+            let parent = match parent_rel {
+                "" => &self.fd,
+                p => match self.dirs.get(p) {
+                    Some(fd) => fd,
+                    None => continue,
+                },
+            };
+            let now = rustix::fs::statat(parent, name, AtFlags::SYMLINK_NOFOLLOW)
+                .ok()
+                .map(|st| Entry::from_stat(&st));
+            if now.is_none_or(|e| Some((e.dev, e.ino)) != identity(fd)) {
+                let what = match now {
+                    Some(e) if e.is_symlink() => "a symbolic link now stands there",
+                    Some(_) => "another entry now stands there",
+                    None => "it was moved away or deleted",
+                };
+                return Err(OutputError::Refused {
+                    path: self.root.join(rel),
+                    reason: format!(
+                        "was replaced while swarmshot wrote into it ({what}); the run stopped, and everything it wrote is in the folder it opened"
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The device and inode of `file`.

@@ -21,11 +21,12 @@ pub struct FolderLock {
 }
 
 impl FolderLock {
-    /// Lock the folder `root` (it exists), or say which process holds it.
-    pub fn take(root: &Path) -> Result<Self, OutputError> {
+    /// Lock the folder `folder` opened (it exists), or say which process holds it.
+    pub fn take(folder: &Tree) -> Result<Self, OutputError> {
+        let root = folder.root();
         let path = root.join(LOCK);
         for _ in 0..8 {
-            let mut tree = Tree::open(root)?;
+            let mut tree = folder.try_clone()?;
             let fd = rustix::fs::openat(
                 tree.fd(),
                 LOCK,

@@ -112,7 +112,7 @@ impl Folder {
                         .checkpoint
                         .as_ref()
                         .map_or(scan.run.start(), |cp| cp.next)
-                        == scan.run.end()
+                        >= scan.run.end()
                 {
                     scan.done = true;
                     scan.good_end = offset;
