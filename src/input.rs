@@ -1,38 +1,72 @@
-//! Reading the files a user names (presets, models, buffers, images): bounded in
-//! size and refusing what is not a regular file, so no input can block a read or
-//! make it grow without end. Every stage that reads a user's file goes through here;
-//! it imports nothing of the project.
+//! Reading the files a user names (presets, models, buffers, images, label files):
+//! bounded in size and refusing what is not a regular file, so no input can block a
+//! read or make it grow without end; and decoding the images a user names (gap's
+//! frames, backplates) with a pixel budget read from the header before any pixel
+//! buffer is allocated, refusing truncated JPEGs. Every stage that reads a user's file
+//! goes through here; it imports nothing of the project.
+
+use std::io::{Error, ErrorKind, Read};
+use std::path::Path;
+
+/// The most pixels (width × height) an image the user names may have: 64
+/// megapixels (64 000 000), e.g. 9 200 × 6 900 or 8 000 × 8 000. Checked from the
+/// file's header before decoding, so a 20 000 × 20 000 PNG of a few hundred bytes is
+/// refused without allocating its 1.6 GB.
+pub const MAX_IMAGE_PIXELS: u64 = 64_000_000;
+
+/// Open a file the user named: a regular file (or a link to one) of at most
+/// `max_bytes`. Its type is checked before it is opened (a FIFO, device, socket
+/// or folder is refused without opening it) and again on the opened handle,
+/// which is opened non-blocking, so a file swapped for a FIFO in between cannot
+/// block the open or the read either. Returns the file and its length.
+pub fn open_input_file(path: &Path, max_bytes: u64) -> std::io::Result<(std::fs::File, u64)> {
+    let not_regular = |meta: &std::fs::Metadata| {
+        Error::new(
+            ErrorKind::InvalidInput,
+            format!("{}, not a regular file", file_kind(meta)),
+        )
+    };
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(not_regular(&meta));
+    }
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(rustix::fs::OFlags::NONBLOCK.bits() as i32);
+    }
+    let file = options.open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(not_regular(&meta));
+    }
+    if meta.len() > max_bytes {
+        return Err(too_large(meta.len(), max_bytes));
+    }
+    Ok((file, meta.len()))
+}
+
+fn too_large(n: u64, max_bytes: u64) -> Error {
+    Error::new(
+        ErrorKind::InvalidData,
+        format!("{n} bytes is larger than the {max_bytes}-byte limit for this kind of file"),
+    )
+}
 
 /// Read a file the user named (preset, model, buffer, sky image): a regular
 /// file (or a link to one) of at most `max_bytes`. FIFOs, devices such as
 /// `/dev/zero`, sockets and folders are refused before they are opened, so a
-/// read never blocks or grows without end; the cap is enforced while reading
-/// too, in case the file grows.
-pub fn read_input_file(path: &std::path::Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
-    use std::io::{Error, ErrorKind, Read};
-    let meta = std::fs::metadata(path)?;
-    if !meta.is_file() {
-        let kind = file_kind(&meta);
-        return Err(Error::new(
-            ErrorKind::InvalidInput,
-            format!("{kind}, not a regular file"),
-        ));
-    }
-    let too_large = |n: u64| {
-        Error::new(
-            ErrorKind::InvalidData,
-            format!("{n} bytes is larger than the {max_bytes}-byte limit for this kind of file"),
-        )
-    };
-    if meta.len() > max_bytes {
-        return Err(too_large(meta.len()));
-    }
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
-    std::fs::File::open(path)?
-        .take(max_bytes.saturating_add(1))
+/// read never blocks or grows without end ([`open_input_file`]); the cap is
+/// enforced while reading too, in case the file grows.
+pub fn read_input_file(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> {
+    let (file, len) = open_input_file(path, max_bytes)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(max_bytes.saturating_add(1))
         .read_to_end(&mut bytes)?;
     if bytes.len() as u64 > max_bytes {
-        return Err(too_large(bytes.len() as u64));
+        return Err(too_large(bytes.len() as u64, max_bytes));
     }
     Ok(bytes)
 }
@@ -57,5 +91,140 @@ pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
         "a folder"
     } else {
         "a special file"
+    }
+}
+
+/// Decode a JPEG or PNG image the user named (its file's bytes) within a
+/// pixel budget: the format is guessed from the bytes (anything else is
+/// refused), a JPEG cut short is refused as truncated ([`jpeg_truncation`]),
+/// the width and height are read from the header and refused above
+/// `max_pixels` (or `max_side` on either side) before any pixel buffer is
+/// allocated, and the decoder runs under the same limits. The error is the
+/// reason alone; the caller names the file.
+pub fn decode_image(
+    bytes: &[u8],
+    max_pixels: u64,
+    max_side: u32,
+) -> Result<image::DynamicImage, String> {
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())
+    };
+    let format = reader()?.format();
+    match format {
+        Some(image::ImageFormat::Jpeg) => {
+            if let Some(why) = jpeg_truncation(bytes) {
+                return Err(format!("truncated JPEG ({why})"));
+            }
+        }
+        Some(image::ImageFormat::Png) => {}
+        _ => return Err("is not a JPEG or PNG image".into()),
+    }
+    let (w, h) = reader()?
+        .into_dimensions()
+        .map_err(|e| format!("cannot be read: {e}"))?;
+    if w.max(h) > max_side {
+        return Err(format!(
+            "{w}×{h} is larger than the {max_side}-pixel side limit"
+        ));
+    }
+    let pixels = u64::from(w) * u64::from(h);
+    if pixels > max_pixels {
+        return Err(format!(
+            "{w}×{h} is {pixels} pixels, more than the {max_pixels}-pixel limit ({} megapixels) for an image",
+            max_pixels / 1_000_000
+        ));
+    }
+    let mut reader = reader()?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(max_side);
+    limits.max_image_height = Some(max_side);
+    // 16-bit RGBA is 8 bytes a pixel, the most a JPEG or PNG decodes to.
+    limits.max_alloc = Some(max_pixels.saturating_mul(8));
+    reader.limits(limits);
+    reader
+        .decode()
+        .map_err(|e| format!("cannot be decoded: {e}"))
+}
+
+/// Why a JPEG's bytes are cut short, or `None` when its markers lead to an
+/// end-of-image marker (FF D9). The decoder accepts a JPEG cut anywhere in
+/// its entropy-coded data and fills the rest with grey; this walk follows the
+/// file's structure instead: each marker segment is skipped by its length,
+/// each scan's entropy-coded data up to the next marker (stuffed FF 00 bytes,
+/// restart markers and fill bytes skipped), until FF D9. Bytes after the
+/// end-of-image marker (trailers some cameras append, zero padding) are
+/// allowed; bytes that are not a marker where one must start are skipped to
+/// the next marker, as decoders do. Linear in the file's size.
+pub fn jpeg_truncation(bytes: &[u8]) -> Option<String> {
+    let n = bytes.len();
+    let cut = |where_: &str| {
+        Some(format!(
+            "the file ends after {n} bytes {where_}, before the end-of-image marker FF D9"
+        ))
+    };
+    if !bytes.starts_with(&[0xFF, 0xD8]) {
+        return Some("no start-of-image marker FF D8".into());
+    }
+    let mut i = 2;
+    loop {
+        // Find the next marker: FF (fill FFs) then a byte that is neither 00 nor FF.
+        let Some(ff) = bytes[i.min(n)..].iter().position(|&b| b == 0xFF) else {
+            return cut("between segments");
+        };
+        i += ff;
+        while i < n && bytes[i] == 0xFF {
+            i += 1;
+        }
+        if i >= n {
+            return cut("in a marker");
+        }
+        let marker = bytes[i];
+        i += 1;
+        match marker {
+            0xD9 => return None,
+            // Stuffed zero outside a scan, standalone markers: nothing follows.
+            0x00 | 0x01 | 0xD0..=0xD8 => continue,
+            _ => {}
+        }
+        if i + 2 > n {
+            return cut("in a segment's length");
+        }
+        let len = usize::from(u16::from_be_bytes([bytes[i], bytes[i + 1]]));
+        if len < 2 {
+            // Not a segment length: resynchronise at the next marker.
+            continue;
+        }
+        if i + len > n {
+            return cut(&format!(
+                "inside a {len}-byte segment (marker FF {marker:02X})"
+            ));
+        }
+        i += len;
+        if marker != 0xDA {
+            continue;
+        }
+        // Entropy-coded data of a scan: up to a marker that is not a stuffed
+        // zero or a restart marker.
+        loop {
+            let Some(ff) = bytes[i.min(n)..].iter().position(|&b| b == 0xFF) else {
+                return cut("inside the compressed image data");
+            };
+            let mut j = i + ff;
+            while j < n && bytes[j] == 0xFF {
+                j += 1;
+            }
+            if j >= n {
+                return cut("inside the compressed image data");
+            }
+            if bytes[j] == 0x00 || (0xD0..=0xD7).contains(&bytes[j]) {
+                i = j + 1;
+                continue;
+            }
+            // A marker: handled by the outer loop from its last FF.
+            i = j - 1;
+            break;
+        }
     }
 }

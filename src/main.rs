@@ -410,7 +410,16 @@ fn run() -> anyhow::Result<()> {
             out,
             max_images,
             json,
-        } => gap(real, synthetic, out.as_deref(), max_images, json),
+        } => {
+            // An --out inside --real or --synthetic is refused before measuring.
+            if let Some(out) = &out {
+                swarmshot::gap::report::check_out(
+                    out,
+                    &[("real", &real), ("synthetic", &synthetic)],
+                )?;
+            }
+            gap(real, synthetic, out.as_deref(), max_images, json)
+        }
         Command::Frame {
             preset,
             index,

@@ -6,6 +6,7 @@
 
 mod common;
 
+use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -613,4 +614,135 @@ fn auto_exposure_meters_the_plate() {
         assert!(ev.is_some_and(|e| e != 0.0), "{metered:?}");
     }
     assert!(spread(&metered) < spread(&fixed) / 2.0, "{metered:?}");
+}
+
+// ---- plates and sidecars under the rules models follow (issue 35) -----------
+
+/// `load_plates` on `folder` (no GPU): the error, or `None` when it loads.
+fn plate_error(folder: &Path) -> Option<String> {
+    let b = Backplate {
+        folder: folder.to_owned(),
+        hfov_deg: 50.0,
+        ..Default::default()
+    };
+    swarmshot::sky::plates::load_plates(&b, (W, H))
+        .err()
+        .map(|e| e.to_string())
+}
+
+fn mkfifo(path: &Path) {
+    let ok = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo runs")
+        .success();
+    assert!(ok, "mkfifo {}", path.display());
+}
+
+#[test]
+fn truncated_and_oversized_plates_are_refused_naming_them() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let jpeg = std::fs::read(plates_dir().join("V_DRONE_010.jpg")).expect("plate");
+    // Cut to half: the decoder fills the rest with grey and says nothing.
+    assert!(image::load_from_memory(&jpeg[..jpeg.len() / 2]).is_ok());
+    let d = tmp.path().join("half");
+    std::fs::create_dir_all(&d).expect("mkdir");
+    std::fs::write(d.join("half.jpg"), &jpeg[..jpeg.len() / 2]).expect("write");
+    let e = plate_error(&d).expect("refused");
+    assert!(
+        e.contains(&format!(
+            "{}: truncated JPEG (",
+            d.join("half.jpg").display()
+        )),
+        "{e}"
+    );
+    // Cut anywhere (in a header segment, in the data, just before its end).
+    for cut in [100, 1000, jpeg.len() / 3, jpeg.len() - 2] {
+        std::fs::write(d.join("half.jpg"), &jpeg[..cut]).expect("write");
+        let e = plate_error(&d).expect("refused");
+        assert!(e.contains("truncated JPEG"), "cut at {cut}: {e}");
+    }
+    // Whole, or with zero padding after its end: read.
+    let mut padded = jpeg.clone();
+    padded.extend([0u8; 512]);
+    std::fs::write(d.join("half.jpg"), &padded).expect("write");
+    assert_eq!(plate_error(&d), None);
+    // 9000×8000 is within the side limit but over the pixel budget, read from the header.
+    let d = tmp.path().join("big");
+    std::fs::create_dir_all(&d).expect("mkdir");
+    std::fs::write(d.join("big.png"), png_header(9_000, 8_000)).expect("write");
+    let e = plate_error(&d).expect("refused");
+    assert!(
+        e.contains("big.png") && e.contains("9000×8000") && e.contains("64000000-pixel limit"),
+        "{e}"
+    );
+}
+
+#[test]
+fn plates_and_sidecars_stay_in_their_folder_and_are_regular_files() {
+    use std::os::unix::fs::symlink;
+    let tmp = tempfile::tempdir().expect("tmp");
+    let jpeg = plates_dir().join("V_DRONE_010.jpg");
+    let fresh = |name: &str| {
+        let d = tmp.path().join(name);
+        std::fs::create_dir_all(&d).expect("mkdir");
+        std::fs::copy(&jpeg, d.join("a.jpg")).expect("copy");
+        d
+    };
+    // A sidecar linked to a file elsewhere is refused, not parsed: nothing of
+    // the foreign file reaches the message.
+    let secret = tmp.path().join("secret.txt");
+    std::fs::write(&secret, "SECRET_TOKEN_1234 (not ron)").expect("write");
+    let d = fresh("sidecar-link");
+    symlink(&secret, d.join("a.plate.ron")).expect("symlink");
+    let e = plate_error(&d).expect("refused");
+    assert!(
+        e.contains("a.plate.ron") && e.contains("leads out of the plate folder"),
+        "{e}"
+    );
+    assert!(!e.contains("SECRET_TOKEN"), "{e}");
+    // A link to nothing is named too.
+    let d = fresh("sidecar-dangling");
+    symlink(tmp.path().join("nothing.ron"), d.join("a.plate.ron")).expect("symlink");
+    let e = plate_error(&d).expect("refused");
+    assert!(
+        e.contains("a.plate.ron") && e.contains("leads nowhere"),
+        "{e}"
+    );
+    // A sidecar that is a FIFO is refused without blocking.
+    let d = fresh("sidecar-fifo");
+    mkfifo(&d.join("a.plate.ron"));
+    let e = plate_error(&d).expect("refused");
+    assert!(e.contains("a.plate.ron") && e.contains("FIFO"), "{e}");
+    // A plate linked from outside the folder is refused; a link inside it is read,
+    // and so is its sidecar linked inside.
+    let d = fresh("plate-link");
+    let outside = tmp.path().join("outside.jpg");
+    std::fs::copy(&jpeg, &outside).expect("copy");
+    symlink(&outside, d.join("b.jpg")).expect("symlink");
+    let e = plate_error(&d).expect("refused");
+    assert!(
+        e.contains("b.jpg") && e.contains("leads out of the plate folder"),
+        "{e}"
+    );
+    let d = fresh("inside-link");
+    symlink(d.join("a.jpg"), d.join("b.jpg")).expect("symlink");
+    std::fs::write(d.join("cam.ron"), "(hfov_deg: 70.0)").expect("write");
+    symlink("cam.ron", d.join("b.plate.ron")).expect("symlink");
+    assert_eq!(plate_error(&d), None);
+    // A device reached through a link and a FIFO with a plate's name: refused.
+    let d = fresh("device");
+    symlink("/dev/zero", d.join("z.jpg")).expect("symlink");
+    let e = plate_error(&d).expect("refused");
+    assert!(e.contains("z.jpg") && e.contains("leads out"), "{e}");
+    let d = fresh("fifo");
+    mkfifo(&d.join("f.jpg"));
+    let e = plate_error(&d).expect("refused");
+    assert!(e.contains("f.jpg") && e.contains("FIFO"), "{e}");
+    // A plate whose name is not UTF-8 is refused (it would be recorded lossily).
+    let d = fresh("latin1");
+    let name = std::ffi::OsStr::from_bytes(b"caf\xe9.jpg");
+    std::fs::copy(&jpeg, d.join(name)).expect("copy");
+    let e = plate_error(&d).expect("refused");
+    assert!(e.contains("is not UTF-8"), "{e}");
 }

@@ -7,6 +7,7 @@ mod common;
 
 use std::path::Path;
 use std::process::Command;
+use std::time::Instant;
 
 use image::{Rgb, RgbImage};
 use rand::{Rng, SeedableRng};
@@ -408,4 +409,262 @@ fn gap_cli_refuses_bad_input_before_writing() {
         .expect("run");
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no images/ folder"));
+}
+
+// ---- inputs of gap (issue 35, "Trust, round four") --------------------------
+
+/// A real folder (`images/a.png`, `labels/a.txt` holding `labels`) and a
+/// dataset (`ds/images/train/00000000.png`) of 640×512 noisy grey frames.
+fn small_sides(dir: &Path, labels: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let noise: Vec<f64> = (0..640 * 512).map(|_| 2.0 * normal(&mut rng)).collect();
+    let img = grey(640, 512, |x, y| 120.0 + noise[(y * 640 + x) as usize]);
+    let real = dir.join("real");
+    std::fs::create_dir_all(real.join("images")).expect("dir");
+    std::fs::create_dir_all(real.join("labels")).expect("dir");
+    img.save(real.join("images/a.png")).expect("png");
+    std::fs::write(real.join("labels/a.txt"), labels).expect("txt");
+    let ds = dir.join("ds");
+    std::fs::create_dir_all(ds.join("images/train")).expect("dir");
+    img.save(ds.join("images/train/00000000.png")).expect("png");
+    (real, ds)
+}
+
+fn gap_run(real: &Path, ds: &Path, out: Option<&Path>) -> std::process::Output {
+    let mut c = swarmshot();
+    c.args(["gap", "--json", "--real"])
+        .arg(real)
+        .arg("--synthetic")
+        .arg(ds);
+    if let Some(out) = out {
+        c.arg("--out").arg(out);
+    }
+    c.output().expect("run gap")
+}
+
+#[test]
+fn gap_refuses_an_out_inside_its_inputs_and_never_counts_its_own_report() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let (real, ds) = small_sides(tmp.path(), "0 0.5 0.5 0.02 0.02\n");
+    std::os::unix::fs::symlink(&real, tmp.path().join("link")).expect("symlink");
+    for (out, needle) in [
+        (real.clone(), "the same folder as --real"),
+        (real.join("report"), "inside --real"),
+        (real.join("new/../deeper/report"), "inside --real"),
+        (ds.join("images/new/report"), "inside --synthetic"),
+        (ds.clone(), "the same folder as --synthetic"),
+        // Through a link: compared canonically.
+        (tmp.path().join("link/report"), "inside --real"),
+    ] {
+        let o = gap_run(&real, &ds, Some(&out));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{}: accepted", out.display());
+        assert!(
+            err.contains(&format!("--out {}", out.display())) && err.contains(needle),
+            "{}: {err}",
+            out.display()
+        );
+        assert!(
+            !real.join("report").exists() && !real.join("report.json").exists(),
+            "{}: something was written",
+            out.display()
+        );
+        assert!(!o.stdout.starts_with(b"{"), "refused before measuring");
+    }
+    assert!(!real.join("new").exists() && !real.join("deeper").exists());
+    assert!(!ds.join("images/new").exists());
+    // A report beside the inputs is fine; copied into the real folder (an old
+    // run's, or moved there), its histograms are not counted as frames.
+    let rep = tmp.path().join("rep");
+    let o = gap_run(&real, &ds, Some(&rep));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let hists = std::fs::read_dir(&rep)
+        .expect("rep")
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "png"))
+        })
+        .count();
+    assert!(hists > 0);
+    let inside = real.join("images/old-report");
+    std::fs::create_dir_all(&inside).expect("dir");
+    for e in std::fs::read_dir(&rep).expect("rep") {
+        let p = e.expect("entry").path();
+        std::fs::copy(&p, inside.join(p.file_name().expect("name"))).expect("copy");
+    }
+    let o = gap_run(&real, &ds, None);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(json["real"]["images_found"], 1, "{}", json["real"]);
+}
+
+#[test]
+fn label_files_are_read_in_linear_time_with_a_line_limit() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    // 10⁶ lines (14 MB): refused at the limit, naming the file, in well under a second
+    // (it ran for tens of minutes).
+    let million = "0 .5 .5 .1 .1\n".repeat(1_000_000);
+    assert_eq!(million.len(), 14_000_000);
+    let (real, ds) = small_sides(tmp.path(), &million);
+    let t = Instant::now();
+    let o = gap_run(&real, &ds, None);
+    let secs = t.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("a.txt") && err.contains("100000-line limit"),
+        "{err}"
+    );
+    assert!(secs < 5.0, "{secs:.2} s");
+    // 10⁵ small boxes, at the limit: read and measured in linear time.
+    let at_limit: String = (0..100_000)
+        .map(|i| {
+            let (x, y) = (
+                0.01 + 0.98 * f64::from(i % 317) / 317.0,
+                0.01 + 0.98 * f64::from(i / 317) / 316.0,
+            );
+            format!("0 {x:.5} {y:.5} 0.005 0.005\n")
+        })
+        .collect();
+    std::fs::write(real.join("labels/a.txt"), at_limit).expect("txt");
+    let t = Instant::now();
+    let o = gap_run(&real, &ds, None);
+    let secs = t.elapsed().as_secs_f64();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(
+        json["real"]["frames"][0]["drones"]
+            .as_array()
+            .expect("drones")
+            .len(),
+        100_000
+    );
+    eprintln!("10^5 boxes: {secs:.2} s");
+    assert!(secs < 60.0, "{secs:.2} s");
+}
+
+#[test]
+fn yolo_values_out_of_range_and_bad_classes_are_named_with_file_and_line() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let (real, ds) = small_sides(tmp.path(), "");
+    for (line, needle) in [
+        ("0 1.5 0.5 0.1 0.1", "cx 1.5 is outside [0, 1]"),
+        ("0 0.5 -0.2 0.1 0.1", "cy -0.2 is outside [0, 1]"),
+        ("0 0.5 0.5 2 0.1", "w 2 is outside [0, 1]"),
+        ("0 0.5 0.5 0.1 NaN", "`NaN` is not a number"),
+        ("0 0.5 0.5 inf 0.1", "`inf` is not a number"),
+        ("-1 0.5 0.5 0.1 0.1", "class `-1` is not a whole number"),
+        ("1.5 0.5 0.5 0.1 0.1", "class `1.5` is not a whole number"),
+        ("x 0.5 0.5 0.1 0.1", "class `x` is not a whole number"),
+    ] {
+        std::fs::write(
+            real.join("labels/a.txt"),
+            format!("0 0.5 0.5 0.1 0.1\n{line}\n"),
+        )
+        .expect("txt");
+        let o = gap_run(&real, &ds, None);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{line}: accepted");
+        assert!(
+            err.contains("a.txt") && err.contains("line 2") && err.contains(needle),
+            "{line}: {err}"
+        );
+    }
+    // Within the tolerance, and whole classes written as decimals, are read.
+    std::fs::write(
+        real.join("labels/a.txt"),
+        "3 1.0005 0.5 0.1 0.1\n2.0 0.5 -0.0005 0.1 0.1\n",
+    )
+    .expect("txt");
+    let o = gap_run(&real, &ds, None);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A box repeated past 16 frames' area is refused, not measured for minutes.
+    std::fs::write(real.join("labels/a.txt"), "0 0.5 0.5 1 1\n".repeat(17)).expect("txt");
+    let o = gap_run(&real, &ds, None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("line 17") && err.contains("16 times over"),
+        "{err}"
+    );
+}
+
+/// A PNG whose header says `w`×`h` (its pixel data is missing).
+fn png_header(w: u32, h: u32) -> Vec<u8> {
+    fn crc(bytes: &[u8]) -> u32 {
+        let mut c = 0xFFFF_FFFFu32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(w.to_be_bytes());
+    ihdr.extend(h.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    out.extend(13u32.to_be_bytes());
+    out.extend(&ihdr);
+    out.extend(crc(&ihdr).to_be_bytes());
+    out.extend(0u32.to_be_bytes());
+    out.extend(b"IDAT");
+    out.extend(crc(b"IDAT").to_be_bytes());
+    out
+}
+
+#[test]
+fn oversized_and_truncated_frames_are_refused_naming_the_file() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let (real, ds) = small_sides(tmp.path(), "0 0.5 0.5 0.1 0.1\n");
+    // 20000×20000 (400 megapixels) from a header of a few dozen bytes: refused
+    // before any pixel buffer, on either side.
+    std::fs::write(real.join("images/huge.png"), png_header(20_000, 20_000)).expect("png");
+    let o = gap_run(&real, &ds, None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("huge.png")
+            && err.contains("20000×20000")
+            && err.contains("64000000-pixel limit"),
+        "{err}"
+    );
+    std::fs::remove_file(real.join("images/huge.png")).expect("rm");
+    std::fs::write(
+        ds.join("images/train/00000001.png"),
+        png_header(9_000, 8_000),
+    )
+    .expect("png");
+    let o = gap_run(&real, &ds, None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("00000001.png") && err.contains("64000000-pixel"),
+        "{err}"
+    );
+    std::fs::remove_file(ds.join("images/train/00000001.png")).expect("rm");
+    // A JPEG cut to half decodes (grey fill) but is refused as truncated.
+    let jpeg = std::fs::read(common::testdata("plates/V_DRONE_010.jpg")).expect("plate");
+    assert!(image::load_from_memory(&jpeg[..jpeg.len() / 2]).is_ok());
+    std::fs::write(real.join("images/half.jpg"), &jpeg[..jpeg.len() / 2]).expect("jpg");
+    let o = gap_run(&real, &ds, None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains(&format!(
+                "{}: truncated JPEG (",
+                real.join("images/half.jpg").display()
+            )),
+        "{err}"
+    );
+    // The whole JPEG, and one with zero padding after its end, are read.
+    let mut padded = jpeg.clone();
+    padded.extend([0u8; 4096]);
+    std::fs::write(real.join("images/half.jpg"), &padded).expect("jpg");
+    let o = gap_run(&real, &ds, None);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }

@@ -223,6 +223,60 @@ fn tile_is_flat(l: &Luma, x0: usize, y0: usize, hp: &[f32]) -> bool {
     worst <= 2.0 + sigma
 }
 
+/// The tiles within 8 px of a box: tile `(tx, ty)` at `(x0, y0)` is near box `b` when
+/// `x0 < b.x1 + 8`, `x0 + 16 > b.x0 − 8` and the same in y. Each box's tile rectangle is
+/// found by binary search (exactly those comparisons, in `f32`) and added to a 2-D
+/// difference array, so the cost is O(boxes · log tiles + tiles), not boxes × tiles (a
+/// label file of 10⁵ boxes on a 1080p frame was 10⁹ comparisons).
+fn tiles_near_boxes(tiles_x: usize, tiles_y: usize, boxes: &[PixelBox]) -> Vec<bool> {
+    // The tiles t in 0..n with `t·16 < hi` and `t·16 + 16 > lo`: a range, both
+    // conditions being monotone in t.
+    let span = |n: usize, lo: f32, hi: f32| -> (usize, usize) {
+        let first = partition(n, |t| lo.is_nan() || ((t + 1) * TILE_PX) as f32 <= lo);
+        let end = partition(n, |t| ((t * TILE_PX) as f32) < hi);
+        (first, end)
+    };
+    let mut diff = vec![0i64; (tiles_x + 1) * (tiles_y + 1)];
+    for b in boxes {
+        let (x_first, x_end) = span(tiles_x, b.x0 - 8.0, b.x1 + 8.0);
+        let (y_first, y_end) = span(tiles_y, b.y0 - 8.0, b.y1 + 8.0);
+        if x_first >= x_end || y_first >= y_end {
+            continue;
+        }
+        let w = tiles_x + 1;
+        diff[y_first * w + x_first] += 1;
+        diff[y_first * w + x_end] -= 1;
+        diff[y_end * w + x_first] -= 1;
+        diff[y_end * w + x_end] += 1;
+    }
+    let mut near = vec![false; tiles_x * tiles_y];
+    let w = tiles_x + 1;
+    let mut acc = vec![0i64; w];
+    for ty in 0..tiles_y {
+        let mut run = 0i64;
+        for tx in 0..tiles_x {
+            run += diff[ty * w + tx];
+            acc[tx] += run;
+            near[ty * tiles_x + tx] = acc[tx] > 0;
+        }
+    }
+    near
+}
+
+/// The first `t` in `0..n` for which `pred` is false (`pred` true on a prefix, then false).
+fn partition(n: usize, pred: impl Fn(usize) -> bool) -> usize {
+    let (mut lo, mut hi) = (0, n);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if pred(mid) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
 /// Flat-sky noise, high-pass RMS and sky colour. Tiles touching a drone box (grown by 8 px)
 /// are left out.
 pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
@@ -231,16 +285,12 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
     let mut tiles = 0;
     let mut sky = [0f64; 3];
     let mut sky_n = 0u64;
-    for ty in 0..l.height / TILE_PX {
-        for tx in 0..l.width / TILE_PX {
+    let (tiles_x, tiles_y) = (l.width / TILE_PX, l.height / TILE_PX);
+    let near = tiles_near_boxes(tiles_x, tiles_y, boxes);
+    for ty in 0..tiles_y {
+        for tx in 0..tiles_x {
             let (x0, y0) = (tx * TILE_PX, ty * TILE_PX);
-            let near_drone = boxes.iter().any(|b| {
-                (x0 as f32) < b.x1 + 8.0
-                    && ((x0 + TILE_PX) as f32) > b.x0 - 8.0
-                    && (y0 as f32) < b.y1 + 8.0
-                    && ((y0 + TILE_PX) as f32) > b.y0 - 8.0
-            });
-            if near_drone {
+            if near[ty * tiles_x + tx] {
                 continue;
             }
             hp.clear();
@@ -489,13 +539,19 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
         (x1 + m).min(w),
         (y1 + m).min(h),
     );
+    // The ring row by row: whole rows above and below the box, the two side
+    // strips beside it (its cost is the ring's size, not the grown box's).
     let mut ring = Vec::new();
+    let row = |y: i64, xs: std::ops::Range<i64>| {
+        let base = y as usize * l.width;
+        l.y[base + xs.start as usize..base + xs.end as usize].iter()
+    };
     for y in ry0..ry1 {
-        for x in rx0..rx1 {
-            if x >= x0 && x < x1 && y >= y0 && y < y1 {
-                continue;
-            }
-            ring.push(l.at(x as usize, y as usize));
+        if y >= y0 && y < y1 {
+            ring.extend(row(y, rx0..x0));
+            ring.extend(row(y, x1..rx1));
+        } else {
+            ring.extend(row(y, rx0..rx1));
         }
     }
     if ring.len() < 8 {

@@ -3,9 +3,13 @@
 //! range; shares with a 50 % Wilson interval), gives a verdict, proposes camera-model
 //! ranges, and writes `report.json`, `report.txt` and one histogram PNG per statistic.
 //!
-//! Every input problem (a missing folder, no images, an undecodable image, a malformed
-//! label line) is an error naming the file, found before anything is written. The output
-//! folder holds only the files named here, each written atomically.
+//! Every input problem (a missing folder, no images, an undecodable, oversized or
+//! truncated image, a malformed label line, a label file over [`MAX_LABEL_LINES`] lines)
+//! is an error naming the file, found before anything is written; so is an output folder
+//! equal to or inside an input folder ([`check_out`]). The output folder holds only the
+//! files named here, each written atomically. Frames are the JPEG and PNG files under a
+//! side's folder, except inside a folder holding a gap report (`report.json` and
+//! `report.txt` side by side): gap never counts its own histograms as frames.
 
 use std::path::{Path, PathBuf};
 
@@ -19,6 +23,20 @@ pub const SMALL_CORE_PX: (f32, f32) = (3.0, 6.0);
 const Z50: f64 = 0.674_489_75;
 /// Deepest folder level walked below a side's root.
 const MAX_DEPTH: usize = 8;
+/// The most lines a label file may have (a frame with 10⁵ labelled drones is not a
+/// frame of a swarm but a broken file; reading stops at the limit).
+pub const MAX_LABEL_LINES: usize = 100_000;
+/// The largest label file read.
+pub const MAX_LABEL_BYTES: u64 = 16 << 20;
+/// The largest frame file read (its pixels are bounded by
+/// [`crate::input::MAX_IMAGE_PIXELS`], read from its header before decoding).
+pub const MAX_FRAME_BYTES: u64 = 256 << 20;
+/// How far outside [0, 1] a normalised YOLO value may lie (rounding by exporters).
+pub const YOLO_TOLERANCE: f32 = 1e-3;
+/// The most times over a frame's labelled boxes may cover it (their summed area over
+/// the frame's): the per-drone measurements cost the boxes' area, so this bounds a
+/// frame's work; no frame of drones comes near it.
+pub const MAX_BOX_COVERAGE: f64 = 16.0;
 
 /// What `swarmshot gap` was asked.
 #[derive(Clone, Debug)]
@@ -33,6 +51,18 @@ pub struct GapOptions {
 
 #[derive(Debug, thiserror::Error)]
 pub enum GapError {
+    #[error(
+        "--out {}: is {} --{side} {}: gap would write its report among the frames it measures (and count its histograms as frames next time); choose a folder outside --real and --synthetic",
+        out.display(),
+        if *same { "the same folder as" } else { "inside" },
+        input.display()
+    )]
+    OutInsideInput {
+        out: PathBuf,
+        side: &'static str,
+        input: PathBuf,
+        same: bool,
+    },
     #[error("{}: {reason}", path.display())]
     Input { path: PathBuf, reason: String },
     #[error("{}: line {line}: {reason}", path.display())]
@@ -60,6 +90,9 @@ fn input(path: &Path, reason: impl Into<String>) -> GapError {
 pub struct Side {
     /// The folder as given.
     pub dir: String,
+    /// The folder, canonical (for [`check_out`]; not written).
+    #[serde(skip)]
+    pub root: PathBuf,
     /// Images found; `frames` holds the ones measured (`--max-images`).
     pub images_found: usize,
     pub labelled_frames: usize,
@@ -355,7 +388,16 @@ fn is_image(p: &Path) -> bool {
         .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "jpg" | "jpeg" | "png"))
 }
 
+/// Whether `dir` holds a gap report (`report.json` and `report.txt`): its
+/// histogram PNGs are gap's own output, not frames.
+fn is_report_folder(dir: &Path) -> bool {
+    dir.join("report.json").is_file() && dir.join("report.txt").is_file()
+}
+
 fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), GapError> {
+    if is_report_folder(dir) {
+        return Ok(());
+    }
     let rd = std::fs::read_dir(dir).map_err(|source| GapError::Io {
         path: dir.to_path_buf(),
         source,
@@ -408,20 +450,31 @@ fn label_for(root: &Path, image: &Path) -> Option<PathBuf> {
     candidates.into_iter().find(|p| p.is_file())
 }
 
-/// YOLO rows `class cx cy w h` (normalised) → pixel boxes.
+/// YOLO rows `class cx cy w h` (normalised) → pixel boxes. At most
+/// [`MAX_LABEL_LINES`] lines and [`MAX_LABEL_BYTES`]; the class a whole number ≥ 0, the
+/// four values finite and within [0, 1] (± [`YOLO_TOLERANCE`]); the boxes' summed area
+/// at most [`MAX_BOX_COVERAGE`] frames.
 fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, GapError> {
-    let meta = std::fs::metadata(path).map_err(|source| GapError::Io {
-        path: path.to_path_buf(),
-        source,
+    let bytes =
+        crate::input::read_input_file(path, MAX_LABEL_BYTES).map_err(|source| GapError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        input(
+            path,
+            format!("is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        )
     })?;
-    if meta.len() > 16 << 20 {
-        return Err(input(path, "label file over 16 MiB"));
+    // Counted before any line is parsed, so the limit is the first thing said.
+    if text.lines().nth(MAX_LABEL_LINES).is_some() {
+        return Err(input(
+            path,
+            format!("more than the {MAX_LABEL_LINES}-line limit for a label file"),
+        ));
     }
-    let text = std::fs::read_to_string(path).map_err(|source| GapError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
     let mut out = Vec::new();
+    let mut coverage = 0f64;
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
@@ -439,6 +492,12 @@ fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, GapError> {
                 f.len()
             )));
         }
+        let class_ok = f[0]
+            .parse::<f64>()
+            .is_ok_and(|c| c.is_finite() && c >= 0.0 && c.fract() == 0.0 && c <= 1e9);
+        if !class_ok {
+            return Err(bad(format!("class `{}` is not a whole number ≥ 0", f[0])));
+        }
         let mut v = [0f32; 4];
         for (k, s) in f[1..].iter().enumerate() {
             v[k] = s
@@ -449,6 +508,19 @@ fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, GapError> {
         }
         if v[2] < 0.0 || v[3] < 0.0 {
             return Err(bad("negative box width or height".into()));
+        }
+        for (name, x) in ["cx", "cy", "w", "h"].iter().zip(v) {
+            if !(-YOLO_TOLERANCE..=1.0 + YOLO_TOLERANCE).contains(&x) {
+                return Err(bad(format!(
+                    "{name} {x} is outside [0, 1]: YOLO values are fractions of the frame"
+                )));
+            }
+        }
+        coverage += f64::from(v[2].min(1.0)) * f64::from(v[3].min(1.0));
+        if coverage > MAX_BOX_COVERAGE {
+            return Err(bad(format!(
+                "the boxes so far cover the frame more than {MAX_BOX_COVERAGE} times over (their summed area): duplicated or corrupt labels?"
+            )));
         }
         let (wf, hf) = (w as f32, h as f32);
         out.push(PixelBox {
@@ -466,6 +538,10 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
     if !dir.is_dir() {
         return Err(input(dir, "not a folder"));
     }
+    let canonical = dir.canonicalize().map_err(|source| GapError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let root = if dataset {
         let images = dir.join("images");
         if !images.is_dir() {
@@ -493,12 +569,13 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
     let mut frames = Vec::with_capacity(picked.len());
     let mut labelled = 0;
     for p in picked {
-        let bytes = std::fs::read(&p).map_err(|source| GapError::Io {
-            path: p.clone(),
-            source,
-        })?;
-        let img = image::load_from_memory(&bytes)
-            .map_err(|e| input(&p, format!("cannot be decoded: {e}")))?
+        let bytes =
+            crate::input::read_input_file(&p, MAX_FRAME_BYTES).map_err(|source| GapError::Io {
+                path: p.clone(),
+                source,
+            })?;
+        let img = crate::input::decode_image(&bytes, crate::input::MAX_IMAGE_PIXELS, u32::MAX)
+            .map_err(|e| input(&p, e))?
             .to_rgb8();
         let (w, h) = img.dimensions();
         if w < 16 || h < 16 {
@@ -522,10 +599,76 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
     }
     Ok(Side {
         dir: dir.display().to_string(),
+        root: canonical,
         images_found: found,
         labelled_frames: labelled,
         frames,
     })
+}
+
+/// `path` made absolute and free of links as far as it exists: the nearest existing
+/// ancestor canonicalised, the rest (which does not exist yet) appended with `.` and
+/// `..` resolved lexically, as `create_dir_all` would walk them.
+fn canonical_as_far_as_it_exists(path: &Path) -> std::io::Result<PathBuf> {
+    let path = if path.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        path
+    };
+    let mut rest = Vec::new();
+    let mut at = path;
+    loop {
+        match at.canonicalize() {
+            Ok(mut real) => {
+                for c in rest.iter().rev() {
+                    match c {
+                        std::path::Component::ParentDir => {
+                            real.pop();
+                        }
+                        std::path::Component::Normal(n) => real.push(n),
+                        _ => {}
+                    }
+                }
+                return Ok(real);
+            }
+            Err(e) => {
+                let mut comps = at.components();
+                let Some(last) = comps.next_back() else {
+                    return Err(e);
+                };
+                rest.push(last);
+                at = comps.as_path();
+                if at.as_os_str().is_empty() {
+                    at = Path::new(".");
+                }
+            }
+        }
+    }
+}
+
+/// Refuses an output folder equal to or inside an input folder (`inputs`: the side's
+/// flag name and folder), comparing canonical paths; an `out` that does not exist yet is
+/// resolved through its nearest existing ancestor. An input that cannot be resolved (a
+/// missing folder) is left to the measuring, which names it.
+pub fn check_out(out: &Path, inputs: &[(&'static str, &Path)]) -> Result<(), GapError> {
+    let real_out = canonical_as_far_as_it_exists(out).map_err(|source| GapError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    for &(side, dir) in inputs {
+        let Ok(real_in) = dir.canonicalize() else {
+            continue;
+        };
+        if real_out.starts_with(&real_in) {
+            return Err(GapError::OutInsideInput {
+                out: out.to_path_buf(),
+                side,
+                input: dir.to_path_buf(),
+                same: real_out == real_in,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Measures both sides and builds the report (nothing is written).
@@ -674,7 +817,15 @@ impl Report {
 
     /// Writes `report.json`, `report.txt` and `hist_<statistic>.png` into `out` (created if
     /// missing); returns the files written.
+    /// An `out` equal to or inside either side's folder is refused first ([`check_out`]).
     pub fn write(&self, out: &Path) -> Result<Vec<PathBuf>, GapError> {
+        check_out(
+            out,
+            &[
+                ("real", &self.real.root),
+                ("synthetic", &self.synthetic.root),
+            ],
+        )?;
         if out.exists() && !out.is_dir() {
             return Err(input(out, "exists and is not a folder"));
         }

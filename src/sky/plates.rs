@@ -128,24 +128,74 @@ struct Sidecar {
     horizon: Option<PlateHorizon>,
 }
 
-fn is_plate_file(path: &Path) -> bool {
+fn has_plate_extension(path: &Path) -> bool {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    matches!(ext.as_deref(), Some("jpg" | "jpeg" | "png")) && path.is_file()
+    matches!(ext.as_deref(), Some("jpg" | "jpeg" | "png"))
 }
 
-/// The plate files of `folder`, in file-name order.
+/// A plate-folder entry (a plate or a sidecar) under the rules models follow
+/// (`model::uri`): a link must lead to a file inside the folder (its target
+/// is never read otherwise), and what it names must be a regular file, not a
+/// device, FIFO or socket. `Ok(false)` for a folder.
+fn check_entry(path: &Path, real_folder: &Path) -> Result<bool, PlateError> {
+    let err = |reason: String| PlateError::File {
+        file: path.to_owned(),
+        reason,
+    };
+    let own = std::fs::symlink_metadata(path).map_err(|e| err(e.to_string()))?;
+    if own.file_type().is_symlink() {
+        let target = path
+            .canonicalize()
+            .map_err(|e| err(format!("is a link that leads nowhere ({e})")))?;
+        if !target.starts_with(real_folder) {
+            return Err(err(format!(
+                "is a link that leads out of the plate folder (to {}); only files inside backplate.folder are read",
+                target.display()
+            )));
+        }
+    }
+    let meta = std::fs::metadata(path).map_err(|e| err(e.to_string()))?;
+    if meta.is_dir() {
+        return Ok(false);
+    }
+    if !meta.is_file() {
+        return Err(err(format!(
+            "{}, not a regular file",
+            crate::input::file_kind(&meta)
+        )));
+    }
+    Ok(true)
+}
+
+/// The plate files of `folder`, in file-name order. A plate's name must be
+/// UTF-8 (it is recorded in the manifest as text); a link must stay inside
+/// the folder; a FIFO, device or socket with a plate's name is refused.
 pub fn plate_files(folder: &Path) -> Result<Vec<PathBuf>, PlateError> {
     let err = |reason: String| PlateError::Folder {
         folder: folder.to_owned(),
         reason,
     };
+    let real_folder = folder.canonicalize().map_err(|e| err(e.to_string()))?;
     let entries = std::fs::read_dir(folder).map_err(|e| err(e.to_string()))?;
     let mut files = Vec::new();
     for entry in entries {
-        let path = entry.map_err(|e| err(e.to_string()))?.path();
-        if is_plate_file(&path) {
+        let entry = entry.map_err(|e| err(e.to_string()))?;
+        let path = entry.path();
+        if !has_plate_extension(&path) {
+            continue;
+        }
+        if entry.file_name().to_str().is_none() {
+            return Err(PlateError::File {
+                file: path,
+                reason: format!(
+                    "the file name {:?} is not UTF-8: plates are recorded by name in the manifest, so rename it",
+                    entry.file_name()
+                ),
+            });
+        }
+        if check_entry(&path, &real_folder)? {
             files.push(path);
             if files.len() > MAX_PLATES {
                 return Err(err(format!("more than {MAX_PLATES} plates")));
@@ -159,16 +209,24 @@ pub fn plate_files(folder: &Path) -> Result<Vec<PathBuf>, PlateError> {
     Ok(files)
 }
 
-fn read_sidecar(plate: &Path) -> Result<Sidecar, PlateError> {
+/// The sidecar of `plate`, if there is one: checked like a plate
+/// ([`check_entry`]) before it is opened, so a link to a file elsewhere is
+/// refused without reading (or quoting) that file.
+fn read_sidecar(plate: &Path, real_folder: &Path) -> Result<Sidecar, PlateError> {
     let stem = plate.file_stem().unwrap_or_default().to_string_lossy();
     let path = plate.with_file_name(format!("{stem}.plate.ron"));
-    if !path.exists() {
-        return Ok(Sidecar::default());
-    }
     let err = |reason: String| PlateError::File {
         file: path.clone(),
         reason,
     };
+    match std::fs::symlink_metadata(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Sidecar::default()),
+        Err(e) => return Err(err(e.to_string())),
+        Ok(_) => {}
+    }
+    if !check_entry(&path, real_folder)? {
+        return Err(err("a folder, not a regular file".into()));
+    }
     let bytes =
         crate::input::read_input_file(&path, MAX_SIDECAR_BYTES).map_err(|e| err(e.to_string()))?;
     let text = String::from_utf8(bytes).map_err(|_| err("is not UTF-8 text".into()))?;
@@ -192,7 +250,9 @@ fn read_sidecar(plate: &Path) -> Result<Sidecar, PlateError> {
     Ok(sidecar)
 }
 
-/// Decode one plate into RGBA8 within the size limits.
+/// Decode one plate into RGBA8 within the size limits: at most
+/// [`MAX_PLATE_SIDE`] a side and [`crate::input::MAX_IMAGE_PIXELS`] in all,
+/// read from the header before decoding; a truncated JPEG is refused.
 fn decode(file: &Path) -> Result<image::RgbaImage, PlateError> {
     let err = |reason: String| PlateError::File {
         file: file.to_owned(),
@@ -200,39 +260,14 @@ fn decode(file: &Path) -> Result<image::RgbaImage, PlateError> {
     };
     let bytes = crate::input::read_input_file(file, MAX_PLATE_FILE_BYTES)
         .map_err(|e| err(e.to_string()))?;
-    let reader = || {
-        image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
-            .with_guessed_format()
-            .map_err(|e| err(e.to_string()))
-    };
-    if !matches!(
-        reader()?.format(),
-        Some(image::ImageFormat::Jpeg | image::ImageFormat::Png)
-    ) {
-        return Err(err("is not a JPEG or PNG image".into()));
-    }
-    let (w, h) = reader()?
-        .into_dimensions()
-        .map_err(|e| err(format!("cannot be read: {e}")))?;
-    if w.max(h) > MAX_PLATE_SIDE {
-        return Err(err(format!(
-            "{w}×{h} is larger than the {MAX_PLATE_SIDE}-pixel side limit for plates"
-        )));
-    }
+    let image = crate::input::decode_image(&bytes, crate::input::MAX_IMAGE_PIXELS, MAX_PLATE_SIDE)
+        .map_err(err)?;
+    let (w, h) = (image.width(), image.height());
     if w.min(h) < MIN_PLATE_SIDE {
         return Err(err(format!(
             "{w}×{h} is smaller than the {MIN_PLATE_SIDE}-pixel side a plate needs"
         )));
     }
-    let mut reader = reader()?;
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_PLATE_SIDE);
-    limits.max_image_height = Some(MAX_PLATE_SIDE);
-    limits.max_alloc = Some(u64::from(MAX_PLATE_SIDE).pow(2) * 4);
-    reader.limits(limits);
-    let image = reader
-        .decode()
-        .map_err(|e| err(format!("cannot be decoded: {e}")))?;
     Ok(image.to_rgba8())
 }
 
@@ -260,6 +295,13 @@ pub fn resample_cover(image: &image::RgbaImage, size: (u32, u32)) -> Vec<u8> {
 /// Load every plate of `backplate.folder`, resampled to `size` (the output).
 pub fn load_plates(backplate: &Backplate, size: (u32, u32)) -> Result<Vec<Plate>, PlateError> {
     let files = plate_files(&backplate.folder)?;
+    let real_folder = backplate
+        .folder
+        .canonicalize()
+        .map_err(|e| PlateError::Folder {
+            folder: backplate.folder.clone(),
+            reason: e.to_string(),
+        })?;
     let per_plate = u64::from(size.0) * u64::from(size.1) * 4;
     let total = per_plate * files.len() as u64;
     if total > MAX_PLATE_MEMORY_BYTES {
@@ -278,7 +320,7 @@ pub fn load_plates(backplate: &Backplate, size: (u32, u32)) -> Result<Vec<Plate>
     files
         .into_iter()
         .map(|file| {
-            let sidecar = read_sidecar(&file)?;
+            let sidecar = read_sidecar(&file, &real_folder)?;
             let image = decode(&file)?;
             let geometry = PlateGeometry {
                 width_px: image.width(),
