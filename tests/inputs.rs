@@ -466,3 +466,22 @@ fn user_errors_print_one_line_and_never_a_backtrace() {
         );
     }
 }
+
+// ---- absurd camera-model values (issue 35) --------------------------------
+
+#[test]
+fn a_sensor_scale_that_would_leave_a_grey_frame_is_refused() {
+    let mut p = common::tiny_preset();
+    for s in [1e-300, 1e-6, 0.049] {
+        p.camera_model = Some(swarmshot::preset::camera_model::CameraModel {
+            sensor_scale: Some((s, 0.5)),
+            ..Default::default()
+        });
+        assert_error(&p, "camera_model.sensor_scale", "is under 0.05");
+    }
+    p.camera_model = Some(swarmshot::preset::camera_model::CameraModel {
+        sensor_scale: Some((0.05, 0.5)),
+        ..Default::default()
+    });
+    assert!(errors_of(&p).is_empty(), "{:?}", errors_of(&p));
+}

@@ -37,7 +37,7 @@ pub struct CameraModel {
     pub shot_noise_gain: (f64, f64),
     /// Read noise σ in linear 8-bit levels.
     pub read_noise_levels: (f64, f64),
-    /// Sensor side / output side, in (0, 1]: the picture is sampled by a
+    /// Sensor side / output side, in [0.05, 1]: the picture is sampled by a
     /// coarser sensor and scaled back up (`None`: the sensor has the output's pixels).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor_scale: Option<(f64, f64)>,
@@ -114,6 +114,9 @@ pub enum Psf {
 
 /// The largest PSF size accepted (pixels): beyond it a frame is a flat smear.
 pub const MAX_PSF_PX: f64 = 64.0;
+/// The smallest `sensor_scale` accepted: below it (1e-300 made a 1 × 1 sensor) the
+/// frame is a flat grey with no drone left to label.
+pub const MIN_SENSOR_SCALE: f64 = 0.05;
 
 impl CameraModel {
     pub(super) fn validate(&self, preset: &Preset, v: &mut Validator) {
@@ -157,6 +160,16 @@ impl CameraModel {
                 s.0.is_nan() || s.0 > 0.0,
                 &format!("{p}.sensor_scale"),
                 || format!("{} must be > 0 (the sensor's side over the output's)", s.0),
+            );
+            v.check(
+                s.0.is_nan() || s.0 <= 0.0 || s.0 >= MIN_SENSOR_SCALE,
+                &format!("{p}.sensor_scale"),
+                || {
+                    format!(
+                        "{} is under {MIN_SENSOR_SCALE}: a sensor under 1/20 of the output's side (96 × 54 pixels for 1920 × 1080) averages every drone away into a grey frame",
+                        s.0
+                    )
+                },
             );
         }
         for (name, q) in [

@@ -175,7 +175,7 @@ pub const FIELDS: &[Field] = &[
     f("camera_model.ca_blue_scale", "CA blue scale", "×", "Lateral chromatic aberration: the blue image's radial scale relative to green (1: none)"),
     f("camera_model.shot_noise_gain", "Shot noise gain", " levels", "Shot (Poisson) noise: variance in levels² per linear 8-bit level of signal (0: none)"),
     f("camera_model.read_noise_levels", "Read noise", " levels", "Read (Gaussian) noise σ in linear 8-bit levels (0: none)"),
-    f("camera_model.sensor_scale", "Sensor scale", "", "A coarser sensor: its side over the output's, in (0, 1]; the picture is sampled by it and scaled back up"),
+    f("camera_model.sensor_scale", "Sensor scale", "", "A coarser sensor: its side over the output's, in [0.05, 1]; the picture is sampled by it and scaled back up"),
     f("camera_model.jpeg_quality", "Camera JPEG quality", "", "JPEG quality drawn per frame (1–100), in place of Output's (JPEG output only)"),
     f("camera_model.recompress_quality", "Recompress quality", "", "A first JPEG compression at this quality (1–100), decoded again before the final write, as by a re-upload"),
     f("camera_model.psf", "Optics blur", "", "The lens's point spread function, its size drawn per frame"),
