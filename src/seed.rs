@@ -78,15 +78,24 @@ pub const SPLIT_BLOCK: u64 = 100;
 /// of [`SPLIT_BLOCK`] consecutive frames are exactly (r + ½)/100 for r = 0..99
 /// in a seeded random order. Comparing it with the cumulative shares gives
 /// every full block exactly the requested 70/10/20 (or other) split, while
-/// each frame's split still depends only on (seed, index).
+/// each frame's split still depends only on (seed, index). Block 0 is then
+/// reordered so that it starts with one frame of each split
+/// (`scene::split::first_block`).
 pub fn split_uniform(preset_seed: u64, frame_index: u64) -> f64 {
+    let order = split_block_order(preset_seed, frame_index / SPLIT_BLOCK);
+    let rank = order[(frame_index % SPLIT_BLOCK) as usize];
+    (rank as f64 + 0.5) / SPLIT_BLOCK as f64
+}
+
+/// The ranks 0..99 of split block `block` in their seeded order (ChaCha8
+/// seeded with `mix64(seed ⊕ SPLIT_SALT) ⊕ mix64(block)`, a Fisher–Yates
+/// shuffle): position p holds the rank of frame `block · 100 + p`.
+pub fn split_block_order(preset_seed: u64, block: u64) -> [u64; SPLIT_BLOCK as usize] {
     use rand::seq::SliceRandom;
-    let block = frame_index / SPLIT_BLOCK;
     let mut order: [u64; SPLIT_BLOCK as usize] = std::array::from_fn(|i| i as u64);
     let mut rng = ChaCha8Rng::seed_from_u64(mix64(preset_seed ^ SPLIT_SALT) ^ mix64(block));
     order.shuffle(&mut rng);
-    let rank = order[(frame_index % SPLIT_BLOCK) as usize];
-    (rank as f64 + 0.5) / SPLIT_BLOCK as f64
+    order
 }
 
 /// A seeded bijection of `0..n` (n ≥ 1; 0 when n ≤ 1): a four-round Feistel

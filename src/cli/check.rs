@@ -18,6 +18,11 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
         Ok(ctx) => device_check(&pipeline, &ctx)?,
         Err(e) => eprintln!("warning: {e:#}; the adapter's limits were not checked"),
     }
+    // A preset whose whole run keeps too few groups (sequences) whole: the batch refuses it.
+    if let Some(e) = swarmshot::pipeline::check::run_split_error(preset, pipeline.frame_count(), 1)
+    {
+        anyhow::bail!("{e}");
+    }
     println!(
         "preset {} is valid",
         swarmshot::preset::printable(&path.display().to_string())

@@ -295,6 +295,12 @@ pub fn run_batch(
             .map_or(1, |(run, _)| run.every),
         (every, _) => every.unwrap_or(1).max(1),
     };
+    // A run that keeps groups whole and holds too few, before the folder is touched.
+    if let Some(end) = frames_asked(count, options.limit, every, options.resume)
+        && let Some(e) = super::check::run_split_error(preset, end, every)
+    {
+        anyhow::bail!("{e}");
+    }
     let writer = DatasetWriter::open(
         &options.out_dir,
         preset,

@@ -121,6 +121,102 @@ pub fn empty_splits(preset: &Preset, frames: u64) -> Vec<String> {
     out
 }
 
+/// Frames a run's split check walks one by one at most; a longer run's
+/// groups are not checked (every such run reaches three groups long before).
+const RUN_SPLIT_WALK: u64 = 4_000_000;
+
+/// The error of a run (the frames `0, every, 2·every, …` below `end`, all
+/// shards together) that holds at least 3 frames, keeps groups (sequences)
+/// whole and leaves a split whose share is above 0 without a frame because
+/// it holds too few groups: it names the groups and the fix. `None` when
+/// every split with a share gets frames, when each frame draws its own split
+/// (a `--every` trial may still leave one empty: [`empty_splits`]'s warning),
+/// or for runs of 1 or 2 frames.
+pub fn run_split_error(preset: &Preset, end: u64, every: u64) -> Option<String> {
+    let run = crate::scene::split::run_splits(preset, end, every, RUN_SPLIT_WALK)?;
+    let unit = run.unit?;
+    let s = &preset.output.split;
+    let names = ["train", "val", "test"];
+    let empty: Vec<&str> = names
+        .into_iter()
+        .zip([s.train, s.val, s.test])
+        .zip(run.frame_counts)
+        .filter(|((_, share), n)| *share > 0.0 && *n == 0)
+        .map(|((name, _), _)| name)
+        .collect();
+    if run.frames < 3 || empty.is_empty() {
+        return None;
+    }
+    let held: u64 = run.group_counts.iter().sum();
+    let plural = |n: u64, what: &str| {
+        if n == 1 {
+            format!("{n} {what}")
+        } else if what.ends_with('s') {
+            format!("{n} {what}es")
+        } else {
+            format!("{n} {what}s")
+        }
+    };
+    let mut listed = Vec::new();
+    for (name, groups) in names.iter().zip(&run.groups) {
+        for &(group, first, last) in groups {
+            let what = if unit == "environment" {
+                format!("{unit} {group} ({})", environment_name_of(preset, first))
+            } else {
+                format!("{unit} {group}")
+            };
+            let frames = if first == last {
+                format!("frame {first}")
+            } else {
+                format!("frames {first}–{last}")
+            };
+            listed.push(format!("{what}: {frames}, {name}"));
+        }
+    }
+    if held as usize > listed.len() {
+        listed.push("…".into());
+    }
+    let wanted = [s.train, s.val, s.test]
+        .iter()
+        .filter(|&&x| x > 0.0)
+        .count() as u64;
+    let more = match run.group_size {
+        Some(size) if every == 1 => format!(
+            "make frames of at least {} (--limit {} or more{})",
+            plural(wanted, unit),
+            (wanted - 1) * size + 1,
+            if preset.frame_count() < (wanted - 1) * size + 1 {
+                "; the preset has fewer: sweep more values or raise repeats"
+            } else {
+                ""
+            }
+        ),
+        _ => format!("make frames of more {unit}s (a longer run, or more sweep values)"),
+    };
+    let by = match preset.output.split.by {
+        crate::preset::SplitBy::Frame => {
+            "in sequence mode a sequence's frames share one split".to_string()
+        }
+        by => format!("output.split.by: {by:?} keeps each {unit}'s frames in one split"),
+    };
+    Some(format!(
+        "output.split: {by}, and this run's {} frames hold {} ({}), so {} get{} no frame; {more}, or set output.split.{} to 0",
+        run.frames,
+        plural(held, unit),
+        listed.join("; "),
+        empty.join(" and "),
+        if empty.len() == 1 { "s" } else { "" },
+        empty.join(" and output.split."),
+    ))
+}
+
+/// The environment frame `index` draws (that of its sequence's first frame).
+fn environment_name_of(preset: &Preset, index: u64) -> String {
+    let draw_index = index - index % preset.sequence_len().max(1);
+    let env = crate::sky::frame_environment(&preset.sky, preset.seed, draw_index);
+    crate::sky::environment_name(&preset.sky, &env)
+}
+
 /// The drones a frame holds on average, for disk estimates: the count
 /// distribution's mean for randomized placement, else the most a frame holds.
 pub fn mean_drones_per_frame(preset: &Preset) -> f64 {

@@ -209,6 +209,10 @@ pub fn run_plan(
 ) -> anyhow::Result<PlanReport> {
     let count = pipeline.frame_count();
     let frames = frames_asked(count, options.limit, 1, options.resume);
+    if let Some(e) = frames.and_then(|end| super::check::run_split_error(pipeline.preset(), end, 1))
+    {
+        anyhow::bail!("{e}");
+    }
     let threads = if options.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
