@@ -29,6 +29,7 @@ impl SwarmshotApp {
             Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
             Command::Generate if !locked => self.generate(ctx),
             Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
+            Command::Quit => self.guard(Replace::Close, ctx),
             Command::Cancel => {
                 if let Some(batch) = &self.batch {
                     batch.cancel();
@@ -101,6 +102,11 @@ impl SwarmshotApp {
                 Err(e) => return self.notices.push(e),
             },
             Replace::Close => {
+                // Discard means it: the session stored on exit (and restored at the
+                // next start) holds the preset as in its file, not the dropped edits.
+                if let Some(saved) = self.session.saved.clone() {
+                    self.session.preset = saved;
+                }
                 self.allow_close = true;
                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                 return;

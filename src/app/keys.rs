@@ -1,5 +1,5 @@
 //! Keyboard shortcuts, read before the panels so they win over widgets:
-//! Ctrl+N / Ctrl+O / Ctrl+S / Ctrl+Shift+S for the file actions, Ctrl+Z and
+//! Ctrl+N / Ctrl+O / Ctrl+S / Ctrl+Shift+S for the file actions, Ctrl+Q to quit, Ctrl+Z and
 //! Ctrl+Shift+Z (or Ctrl+Y) for undo and redo, and ←/→/Home/End for the
 //! frame slider.
 
@@ -25,6 +25,7 @@ pub fn shortcuts(ctx: &egui::Context, text_focused: bool, frame_keys: bool) -> V
             (key(Modifiers::COMMAND, Key::S), Command::Save),
             (key(Modifiers::COMMAND, Key::O), Command::Open),
             (key(Modifiers::COMMAND, Key::N), Command::New),
+            (key(Modifiers::COMMAND, Key::Q), Command::Quit),
         ];
         for (shortcut, command) in file_keys {
             if i.consume_shortcut(&shortcut) {

@@ -183,6 +183,8 @@ pub enum Command {
     LastFrame,
     /// Join the shard folders named in the Batch panel into the output folder.
     Merge,
+    /// Close the window (asks first when there are unsaved changes).
+    Quit,
 }
 
 /// The app: session data plus everything derived from it.
@@ -254,6 +256,17 @@ impl SwarmshotApp {
         } else {
             Session::default()
         };
+        // A restored session with nothing unsaved shows its file as it is now.
+        if options.restore_session
+            && options.preset.is_none()
+            && !session.is_dirty()
+            && let Some(path) = session.preset_path.clone()
+            && let Ok(preset) = read_preset(&path)
+        {
+            let frame = session.frame;
+            session.load(preset, path);
+            session.frame = frame;
+        }
         if let Some(path) = &options.preset {
             match read_preset(path) {
                 Ok(preset) => session.load(preset, path.clone()),

@@ -16,22 +16,51 @@ pub static GPU: Mutex<()> = Mutex::new(());
 pub const WAIT: Duration = Duration::from_secs(300);
 
 pub fn harness(preset: Option<PathBuf>) -> Harness<'static, SwarmshotApp> {
+    harness_with(
+        StartOptions {
+            preset,
+            restore_session: false,
+        },
+        None,
+        [1400.0, 880.0],
+    )
+}
+
+/// The app in a window of `size` points, started with `options` and, when given,
+/// eframe's storage (a session saved by an earlier app: a restart).
+pub fn harness_with(
+    options: StartOptions,
+    storage: Option<&'static dyn eframe::Storage>,
+    size: [f32; 2],
+) -> Harness<'static, SwarmshotApp> {
     let mut setup = egui_kittest::wgpu::default_wgpu_setup();
     if let egui_wgpu::WgpuSetup::CreateNew(create) = &mut setup {
         create.instance_descriptor.backends = wgpu::Backends::VULKAN;
     }
     Harness::builder()
-        .with_size([1400.0, 880.0])
+        .with_size(size)
         .wgpu_setup(setup)
         .build_eframe(move |cc| {
-            SwarmshotApp::new(
-                cc,
-                StartOptions {
-                    preset,
-                    restore_session: false,
-                },
-            )
+            cc.storage = storage;
+            SwarmshotApp::new(cc, options)
         })
+}
+
+/// eframe's storage in memory, for a restart within a test.
+#[derive(Default)]
+pub struct MemoryStorage(pub std::collections::HashMap<String, String>);
+
+impl eframe::Storage for MemoryStorage {
+    fn get_string(&self, key: &str) -> Option<String> {
+        self.0.get(key).cloned()
+    }
+    fn set_string(&mut self, key: &str, value: String) {
+        self.0.insert(key.to_owned(), value);
+    }
+    fn remove_string(&mut self, key: &str) {
+        self.0.remove(key);
+    }
+    fn flush(&mut self) {}
 }
 
 /// Step the UI until `done` holds (the workers answer asynchronously).

@@ -1,0 +1,92 @@
+//! The app, round three (issue 40): Discard is honoured across a restart, Save keeps
+//! the preset's comments, the preview goes through the camera by default, switching
+//! presets clears the batch report, and the preview fits the window at any size.
+#![cfg(feature = "app")]
+#![allow(clippy::unwrap_used)]
+
+use std::path::{Path, PathBuf};
+
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use swarmshot::app::{StartOptions, SwarmshotApp};
+
+#[path = "common/app.rs"]
+mod app_common;
+use app_common::{GPU, MemoryStorage, harness, harness_with, wait_for};
+
+fn settled(app: &SwarmshotApp) -> bool {
+    app.preview_is_current() && app.summary_is_current()
+}
+
+fn write_preset(dir: &Path, name: &str, ron: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, ron).unwrap();
+    path
+}
+
+/// The lowest button of that name: the prompt's, over the window's own.
+fn prompt_button<'a>(h: &'a Harness<'_, SwarmshotApp>, name: &'a str) -> egui_kittest::Node<'a> {
+    h.get_all_by_role_and_label(Role::Button, name)
+        .max_by(|a, b| a.rect().top().total_cmp(&b.rect().top()))
+        .unwrap()
+}
+
+/// A small structured preset with a comment header: 3×3×3 grid, one frame, 640×360.
+const GRID: &str = r#"// A grid for the tests.
+// Its comments must survive a Save.
+(
+    name: "grid",
+    seed: 7, // the seed
+    placement: Structured(x_count: 3, y_count: 3, z_count: 3, load_factor: 4.0),
+    // one camera distance
+    camera: (z: (start: 1.0, end: 1.0, step: 0.0)),
+    render: (resolution: Custom(width: 640, height: 360), msaa: 1),
+)
+"#;
+
+#[test]
+fn discard_then_a_restart_opens_the_files_state() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let grid = write_preset(dir.path(), "grid.ron", GRID);
+    let mut h = harness(Some(grid.clone()));
+    wait_for(&mut h, "the first preview", settled);
+    h.state_mut().session_mut().preset.seed = 12345;
+    h.run_steps(2);
+    assert!(h.state().session().is_dirty());
+
+    // Ctrl+Q asks, and Discard closes.
+    h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::Q]);
+    h.run_steps(4);
+    h.get_by_label("Unsaved changes");
+    prompt_button(&h, "Discard").click();
+    h.run_steps(2);
+    assert!(h.state().prompt().is_none());
+    // What eframe stores on exit.
+    let mut storage = MemoryStorage::default();
+    eframe::App::save(h.state_mut(), &mut storage);
+    drop(h);
+
+    // The next start restores that session: the file's state, nothing unsaved.
+    let storage: &'static MemoryStorage = Box::leak(Box::new(storage));
+    let mut h = harness_with(
+        StartOptions {
+            preset: None,
+            restore_session: true,
+        },
+        Some(storage),
+        [1400.0, 880.0],
+    );
+    h.run_steps(3);
+    let session = h.state().session();
+    assert_eq!(session.preset_path.as_deref(), Some(grid.as_path()));
+    assert_eq!(session.preset.seed, 7, "the discarded seed came back");
+    assert!(!session.is_dirty());
+    assert!(
+        !h.state().title().contains("unsaved"),
+        "{}",
+        h.state().title()
+    );
+    assert!(h.query_by_label("• unsaved changes").is_none());
+}
