@@ -370,7 +370,7 @@ fn yolo_segments_follow_the_detection_lines() {
                 .into_owned();
             let det = std::fs::read_to_string(&path).expect("labels");
             let seg =
-                std::fs::read_to_string(dir.path().join(format!("labels-seg/{split}/{name}")))
+                std::fs::read_to_string(dir.path().join(format!("seg/labels/{split}/{name}")))
                     .expect("a segmentation file beside each label file");
             assert_eq!(det.lines().count(), seg.lines().count(), "{name}");
             for (d, s) in det.lines().zip(seg.lines()) {
@@ -465,7 +465,7 @@ fn masks_off_adds_nothing_and_on_adds_only_masks() {
         "an on preset's lock keeps them"
     );
     assert!(!off_files.keys().any(|f| {
-        ["masks/", "labels-seg/", "depth/"]
+        ["masks/", "seg/", "data-seg.yaml", "depth/"]
             .iter()
             .any(|d| f.starts_with(d))
     }));
@@ -656,7 +656,7 @@ fn frame_alone_writes_the_batchs_image_labels_and_masks() {
             ),
             (
                 dir.path().join(format!("f{index}.seg.txt")),
-                format!("labels-seg/{split}/{stem}.txt"),
+                format!("seg/labels/{split}/{stem}.txt"),
             ),
             (
                 dir.path().join(format!("f{index}.mask.png")),
@@ -681,4 +681,129 @@ fn frame_alone_writes_the_batchs_image_labels_and_masks() {
         // An instance image that names drones: the frame has visible drones.
         assert!(line["drones"].as_array().is_some_and(|d| !d.is_empty()));
     }
+}
+
+/// Ultralytics' image formats (ultralytics/data/utils.py `IMG_FORMATS`).
+const IMG_FORMATS: [&str; 11] = [
+    "bmp", "dng", "jpeg", "jpg", "mpo", "png", "tif", "tiff", "webp", "pfm", "heic",
+];
+
+/// A dataset YAML read as Ultralytics reads it, rule by rule: the root is the
+/// YAML's folder (no `path:`; `check_det_dataset`), each split is
+/// `(root / value).resolve()` (links resolved), a folder's images are every
+/// file below it with an image suffix (`get_img_files`: `glob("**/*.*")`),
+/// a label is the image path with its last `/images/` replaced by
+/// `/labels/` and its suffix by `.txt` (`img2label_paths`), a label file is
+/// segments when any row has more than 6 values, else boxes of exactly 5
+/// (`verify_image_label`), coordinates in [0, 1]. Returns (images, boxes,
+/// segments) over the splits the YAML names.
+fn ultralytics_reads(yaml: &Path) -> (u64, u64, u64) {
+    let text = std::fs::read_to_string(yaml).expect("yaml");
+    assert!(!text.contains("path:"), "{text}");
+    let root = yaml.parent().expect("folder");
+    let (mut images, mut boxes, mut segments) = (0, 0, 0);
+    for line in text.lines() {
+        let Some((key, value)) = line.split_once(": ") else {
+            continue;
+        };
+        if !["train", "val", "test"].contains(&key) {
+            continue;
+        }
+        let split = root.join(value).canonicalize().expect("the split resolves");
+        let mut found = Vec::new();
+        let mut stack = vec![split];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).expect("folder") {
+                let path = e.expect("entry").path();
+                if path.is_dir() {
+                    stack.push(path);
+                } else if let Some((_, ext)) = path.to_string_lossy().rsplit_once('.')
+                    && IMG_FORMATS.contains(&ext.to_lowercase().as_str())
+                {
+                    found.push(path.to_string_lossy().into_owned());
+                }
+            }
+        }
+        assert!(!found.is_empty(), "{key}: {value} holds no image");
+        for image in found {
+            images += 1;
+            let label = match image.rfind("/images/") {
+                Some(at) => format!("{}/labels/{}", &image[..at], &image[at + 8..]),
+                None => image.clone(),
+            };
+            let label = format!("{}.txt", label.rsplit_once('.').expect("suffix").0);
+            let Ok(text) = std::fs::read_to_string(&label) else {
+                continue; // missing: no labels for this image
+            };
+            let rows: Vec<Vec<f64>> = text
+                .lines()
+                .filter(|l| !l.is_empty())
+                .map(|l| {
+                    l.split_whitespace()
+                        .map(|v| v.parse().expect("number"))
+                        .collect()
+                })
+                .collect();
+            for row in &rows {
+                assert!(row[1..].iter().all(|v| (0.0..=1.0).contains(v)), "{label}");
+            }
+            if rows.iter().any(|r| r.len() > 6) {
+                for row in &rows {
+                    assert!(row.len() % 2 == 1, "{label}: a polygon of whole points");
+                }
+                segments += rows.len() as u64;
+            } else {
+                assert!(rows.iter().all(|r| r.len() == 5), "{label}");
+            }
+            boxes += rows.len() as u64;
+        }
+    }
+    (images, boxes, segments)
+}
+
+#[test]
+fn the_segmentation_dataset_reads_as_ultralytics_reads_it() {
+    use std::os::unix::fs::MetadataExt;
+    let dir = tempfile::tempdir().expect("tempdir");
+    run(&preset(ALL), dir.path(), 6, 0);
+    // Segment: every box has its polygon (`verify_labels`: len(segments) == len(boxes)).
+    let (images, boxes, segments) = ultralytics_reads(&dir.path().join("data-seg.yaml"));
+    assert_eq!(images, 6);
+    assert!(boxes > 0);
+    assert_eq!(
+        segments, boxes,
+        "Segment dataset requires equal numbers of boxes and segments"
+    );
+    // Detect: data.yaml is as it was, boxes only.
+    let (images, det_boxes, det_segments) = ultralytics_reads(&dir.path().join("data.yaml"));
+    assert_eq!((images, det_boxes, det_segments), (6, boxes, 0));
+    // The segmentation images are the dataset's images (hard links, no second copy).
+    for split in ["train", "val", "test"] {
+        for e in std::fs::read_dir(dir.path().join("images").join(split)).expect("images") {
+            let path = e.expect("entry").path();
+            let rel = path.strip_prefix(dir.path()).expect("inside");
+            let link = dir.path().join("seg").join(rel);
+            let (a, b) = (
+                std::fs::metadata(&path).expect("image"),
+                std::fs::metadata(&link).expect("its link"),
+            );
+            assert_eq!((a.dev(), a.ino()), (b.dev(), b.ino()), "{}", link.display());
+        }
+    }
+    // A moved copy stays valid (no path is absolute); the links stay links under `cp -a`.
+    let moved = dir.path().join("moved");
+    let status = std::process::Command::new("cp")
+        .arg("-a")
+        .arg(dir.path().join("seg"))
+        .arg(dir.path().join("data-seg.yaml"))
+        .arg(dir.path().join("images"))
+        .arg(dir.path().join("labels"))
+        .arg({
+            std::fs::create_dir(&moved).expect("mkdir");
+            &moved
+        })
+        .status()
+        .expect("cp");
+    assert!(status.success());
+    assert_eq!(ultralytics_reads(&moved.join("data-seg.yaml")).2, segments);
 }

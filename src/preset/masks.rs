@@ -14,7 +14,7 @@ pub struct MaskOutputs {
     /// COCO `segmentation` of every annotation: the object's visible pixels
     /// as compressed RLE (pycocotools' string form), `area` = those pixels.
     pub coco_rle: bool,
-    /// Ultralytics YOLO segmentation labels in `labels-seg/{split}/NAME.txt`:
+    /// Ultralytics YOLO segmentation labels in `seg/labels/{split}/NAME.txt` (with `data-seg.yaml`):
     /// one polygon (the largest outer contour of the visible pixels) per training box.
     pub yolo_seg: bool,
     /// A 16-bit grey PNG per frame in `masks/{split}/NAME.png`: 0 where no

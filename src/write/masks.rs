@@ -6,6 +6,7 @@
 
 use image::Luma;
 
+use super::tree::Tree;
 use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::{DroneLabel, LabelStatus, rle};
@@ -152,13 +153,27 @@ pub fn depth_rel_path(scene: &FrameScene) -> String {
     format!("depth/{}/{}.png", scene.split.as_str(), stem(scene.index))
 }
 
+/// The root of the segmentation layout Ultralytics reads as written:
+/// `seg/images/{split}/NAME.ext` (hard links to the dataset's images, no
+/// second copy) beside `seg/labels/{split}/NAME.txt` (the polygons), named by
+/// `data-seg.yaml`. Ultralytics finds a label by replacing the last
+/// `/images/` of the image's path with `/labels/` (`img2label_paths`), so the
+/// polygons must sit beside an `images` folder of their own (docs/conventions.md).
+pub const SEG_ROOT: &str = "seg";
+
 /// A frame's YOLO segmentation label file relative to the dataset folder.
 pub fn yolo_seg_rel_path(scene: &FrameScene) -> String {
     format!(
-        "labels-seg/{}/{}.txt",
+        "{SEG_ROOT}/labels/{}/{}.txt",
         scene.split.as_str(),
         stem(scene.index)
     )
+}
+
+/// The segmentation layout's link to a frame's image (`image` relative to
+/// the dataset folder: `images/{split}/NAME.ext`).
+pub fn seg_image_rel_path(image: &str) -> String {
+    format!("{SEG_ROOT}/{image}")
 }
 
 /// A frame's instance PNG relative to the dataset folder.
@@ -166,12 +181,13 @@ pub fn instance_rel_path(scene: &FrameScene) -> String {
     format!("masks/{}/{}.png", scene.split.as_str(), stem(scene.index))
 }
 
-/// The folders a dataset with `outputs` holds besides the others (the ledger's fixed entries).
+/// The folders (and `data-seg.yaml`) a dataset with `outputs` holds besides the others (the ledger's fixed entries).
 pub fn needed_entries(outputs: &MaskOutputs) -> Vec<String> {
     let mut needed = Vec::new();
     for split in SplitName::ALL.map(SplitName::as_str) {
         if outputs.yolo_seg {
-            needed.push(format!("labels-seg/{split}/"));
+            needed.push(format!("{SEG_ROOT}/labels/{split}/"));
+            needed.push(format!("{SEG_ROOT}/images/{split}/"));
         }
         if outputs.instance_png {
             needed.push(format!("masks/{split}/"));
@@ -180,21 +196,36 @@ pub fn needed_entries(outputs: &MaskOutputs) -> Vec<String> {
             needed.push(format!("depth/{split}/"));
         }
     }
+    if outputs.yolo_seg {
+        needed.push("data-seg.yaml".to_owned());
+    }
     needed
 }
 
 /// Writes the per-frame mask files (the COCO RLE rides in the COCO records).
 pub struct MasksWriter {
     outputs: MaskOutputs,
+    /// With `yolo_seg`: two handles on the dataset folder, the images' side
+    /// and the links' side of `linkat` (never following a link).
+    links: Option<(Tree, Tree)>,
 }
 
 impl MasksWriter {
     /// The writer of `outputs`' files, with their folders made.
     pub fn create(folder: &mut Folder, outputs: MaskOutputs) -> Result<Self, OutputError> {
         for dir in needed_entries(&outputs) {
-            folder.ensure_dir(dir.trim_end_matches('/'))?;
+            if let Some(dir) = dir.strip_suffix('/') {
+                folder.ensure_dir(dir)?;
+            }
         }
-        Ok(Self { outputs })
+        let links = if outputs.yolo_seg {
+            let from = Tree::open(folder.root())?;
+            let to = from.try_clone()?;
+            Some((from, to))
+        } else {
+            None
+        };
+        Ok(Self { outputs, links })
     }
 }
 
@@ -222,6 +253,14 @@ impl FormatWriter for MasksWriter {
         if self.outputs.yolo_seg {
             let text = masks.yolo_seg.as_deref().ok_or_else(missing)?;
             folder.write_frame_file(&yolo_seg_rel_path(record.scene), text)?;
+            // The image's second name, claimed with the frame's files (a
+            // frame remade by --resume drops it with them) before it is made.
+            let link = seg_image_rel_path(record.image);
+            folder.claim_frame(std::slice::from_ref(&link))?;
+            folder.remove(&link)?;
+            if let Some((from, to)) = &mut self.links {
+                from.link_into(record.image, to, &link)?;
+            }
         }
         if self.outputs.instance_png {
             let png = masks.instance_png.as_deref().ok_or_else(missing)?;
@@ -234,7 +273,43 @@ impl FormatWriter for MasksWriter {
         Ok(())
     }
 
-    fn finish(&mut self, _folder: &mut Folder, _dataset: &DatasetInfo) -> Result<(), OutputError> {
-        Ok(())
+    fn finish(&mut self, folder: &mut Folder, dataset: &DatasetInfo) -> Result<(), OutputError> {
+        if !self.outputs.yolo_seg || dataset.labels_only {
+            return Ok(());
+        }
+        folder.write_file(
+            "data-seg.yaml",
+            data_seg_yaml(&dataset.classes, dataset.frames_per_split).as_bytes(),
+        )
     }
+}
+
+/// `data-seg.yaml`: `data.yaml` (the same classes, the same rules for empty
+/// splits, no `path:`) with every split's images taken from
+/// `seg/images/{split}`, whose `seg/labels/{split}` holds the polygons, for
+/// `yolo segment train data=OUT/data-seg.yaml`.
+pub fn data_seg_yaml(classes: &[String], frames_per_split: [u64; 3]) -> String {
+    let yaml = super::yolo::data_yaml_for_splits(classes, frames_per_split);
+    let mut out = String::from(
+        "# Ultralytics YOLO segmentation dataset written by swarmshot: the images are hard links in\n# seg/images/, the polygons in seg/labels/ (Ultralytics reads labels beside images/).\n# No `path`: the folder holding this file is the root, so the folder can be copied or moved.\n",
+    );
+    for line in yaml
+        .lines()
+        .filter(|l| !l.starts_with("# Ultralytics") && !l.starts_with("# holding"))
+    {
+        for key in ["train: ", "val: ", "test: "] {
+            if let Some(rest) = line.strip_prefix(key) {
+                out.push_str(&format!("{key}{SEG_ROOT}/{rest}\n"));
+                break;
+            }
+        }
+        if !["train: ", "val: ", "test: "]
+            .iter()
+            .any(|k| line.starts_with(k))
+        {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
 }
