@@ -84,6 +84,10 @@ pub struct FrameFigures {
 #[derive(Clone, Debug, Serialize)]
 pub struct Measured {
     pub noise_sigma: Option<Quartiles>,
+    /// The same on the upper half alone, where `sky_rgb` is measured: what the camera
+    /// estimate inverts (the lower half's ground is darker, and the sRGB curve gives a
+    /// read noise more levels there).
+    pub sky_noise_sigma: Option<Quartiles>,
     pub highpass_rms: Option<Quartiles>,
     pub blur_sigma_px: Option<Quartiles>,
     pub jpeg_quality: Option<Quartiles>,
@@ -132,6 +136,8 @@ pub struct Footage {
 struct FramePass {
     stats: crate::gap::FrameStats,
     sky_rgb: Option<[f32; 3]>,
+    /// The flat-sky noise σ of the upper half alone (the tiles `sky_rgb` is measured on).
+    sky_noise: Option<f32>,
 }
 
 /// Measures every frame (in parallel, collected in order) and estimates the camera.
@@ -142,7 +148,14 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             let stats = crate::gap::measure_frame(&f.rgb, &f.boxes, f.jpeg.as_deref());
             let l = Luma::from_rgb(&f.rgb);
             let sky_rgb = measure::flat_sky(&f.rgb, &l, &f.boxes).sky_rgb;
-            FramePass { stats, sky_rgb }
+            let (w, h) = f.rgb.dimensions();
+            let top = image::imageops::crop_imm(&f.rgb, 0, 0, w, h / 2).to_image();
+            let sky_noise = measure::flat_sky(&top, &Luma::from_rgb(&top), &f.boxes).noise_sigma;
+            FramePass {
+                stats,
+                sky_rgb,
+                sky_noise,
+            }
         })
         .collect();
     let col = |g: &dyn Fn(&FramePass) -> Option<f64>| -> Vec<f64> {
@@ -169,6 +182,7 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
         .collect();
     let measured = Measured {
         noise_sigma: quartiles(&col(&|p| p.stats.noise_sigma.map(f64::from))),
+        sky_noise_sigma: quartiles(&col(&|p| p.sky_noise.map(f64::from))),
         highpass_rms: quartiles(&col(&|p| p.stats.highpass_rms.map(f64::from))),
         blur_sigma_px: quartiles(&col(&|p| p.stats.blur_sigma_px.map(f64::from))),
         jpeg_quality: quartiles(&col(&|p| p.stats.jpeg_quality.map(f64::from))),
@@ -293,10 +307,19 @@ fn through(rgba: &[u8], model: &CameraModel, q: Option<u8>) -> RgbImage {
     RgbImage::from_raw(PATCH, PATCH, rgb).unwrap_or_else(|| RgbImage::new(PATCH, PATCH))
 }
 
+/// The sky colour with a gentle gradient (0.04 levels/px down, 0.02 across, as daylight
+/// skies have), so the 8-bit steps of a smooth sky are in the forward model too.
 fn flat_patch(sky: [u8; 3]) -> Vec<u8> {
-    (0..PATCH * PATCH)
-        .flat_map(|_| [sky[0], sky[1], sky[2], 255])
-        .collect()
+    let mut v = Vec::with_capacity((PATCH * PATCH * 4) as usize);
+    for y in 0..PATCH {
+        for x in 0..PATCH {
+            let d = 0.04 * (f64::from(y) - f64::from(PATCH) / 2.0)
+                + 0.02 * (f64::from(x) - f64::from(PATCH) / 2.0);
+            let c = sky.map(|c| (f64::from(c) + d).round().clamp(0.0, 255.0) as u8);
+            v.extend_from_slice(&[c[0], c[1], c[2], 255]);
+        }
+    }
+    v
 }
 
 /// Point-sampled squares of ±60 levels (darker on a bright sky) over the sky colour.

@@ -199,62 +199,48 @@ pub fn remove_drones(rgb: &mut RgbImage, boxes: &[PixelBox], seed: u64) -> Vec<F
         }
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let all: Vec<Rect> = groups.iter().flat_map(|g| g.0.iter().copied()).collect();
+    let source = rgb.clone();
     groups
         .iter()
-        .filter_map(|(holes, win, _)| fill_group(rgb, holes, *win, &mut rng))
+        .filter_map(|(holes, win, ring)| {
+            fill_group(rgb, &source, holes, &all, *win, *ring, &mut rng)
+        })
         .collect()
 }
 
-/// Fills the union of `holes` inside `win` from the window's other pixels.
-fn fill_group(
-    rgb: &mut RgbImage,
-    holes: &[Rect],
-    win: Rect,
-    rng: &mut rand_chacha::ChaCha8Rng,
-) -> Option<Filled> {
-    let (ww, wh) = ((win.x1 - win.x0) as usize, (win.y1 - win.y0) as usize);
+/// Luminance of an RGB triple.
+fn luma(c: [f32; 3]) -> f32 {
+    0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+}
+
+/// The window `win` of `img` shifted by `(dx, dy)`, as floats; `None` when it leaves the image.
+fn window_at(img: &RgbImage, win: Rect, dx: i64, dy: i64) -> Option<Vec<[f32; 3]>> {
+    let (w, h) = (i64::from(img.width()), i64::from(img.height()));
+    if win.x0 + dx < 0 || win.y0 + dy < 0 || win.x1 + dx > w || win.y1 + dy > h {
+        return None;
+    }
+    let ww = (win.x1 - win.x0) as usize;
+    let n = ww * (win.y1 - win.y0) as usize;
+    Some(
+        (0..n)
+            .map(|i| {
+                let p = img.get_pixel(
+                    (win.x0 + dx + (i % ww) as i64) as u32,
+                    (win.y0 + dy + (i / ww) as i64) as u32,
+                );
+                [f32::from(p[0]), f32::from(p[1]), f32::from(p[2])]
+            })
+            .collect(),
+    )
+}
+
+/// Solves Laplace's equation for `v` on the `mask`ed pixels of a `ww`-wide window, the
+/// others held fixed, the window's edge reflecting: an onion-peel start (each layer the
+/// mean of its known 8-neighbours, from the outside in), then red–black over-relaxation.
+fn harmonic(v: &mut [[f32; 3]], mask: &[bool], ww: usize, span: usize) {
+    let wh = v.len() / ww;
     let idx = |x: usize, y: usize| y * ww + x;
-    let mut mask = vec![false; ww * wh];
-    let mut bbox: Option<Rect> = None;
-    for hole in holes {
-        for y in hole.y0..hole.y1 {
-            for x in hole.x0..hole.x1 {
-                mask[idx((x - win.x0) as usize, (y - win.y0) as usize)] = true;
-            }
-        }
-        bbox = Some(bbox.map_or(*hole, |b| b.union(*hole)));
-    }
-    let bbox = bbox?;
-    let pixels = mask.iter().filter(|&&m| m).count();
-    if pixels == ww * wh {
-        return None; // nothing around it to fill from
-    }
-    let mut v: Vec<[f32; 3]> = (0..ww * wh)
-        .map(|i| {
-            let p = rgb.get_pixel(
-                (win.x0 + (i % ww) as i64) as u32,
-                (win.y0 + (i / ww) as i64) as u32,
-            );
-            [f32::from(p[0]), f32::from(p[1]), f32::from(p[2])]
-        })
-        .collect();
-    // Residuals of the ring: pixel minus the mean of its four known neighbours.
-    let mut residuals: Vec<[f32; 3]> = Vec::new();
-    let scale = 1.0 / 1.25f32.sqrt();
-    for y in 1..wh.saturating_sub(1) {
-        for x in 1..ww.saturating_sub(1) {
-            let n = [idx(x - 1, y), idx(x + 1, y), idx(x, y - 1), idx(x, y + 1)];
-            if mask[idx(x, y)] || n.iter().any(|&k| mask[k]) {
-                continue;
-            }
-            let c = v[idx(x, y)];
-            residuals.push(
-                [0, 1, 2]
-                    .map(|ch| scale * (c[ch] - 0.25 * n.iter().map(|&k| v[k][ch]).sum::<f32>())),
-            );
-        }
-    }
-    // Onion peel: each layer from the known 8-neighbours, from the outside in.
     let mut known: Vec<bool> = mask.iter().map(|&m| !m).collect();
     loop {
         let mut layer = Vec::new();
@@ -265,24 +251,20 @@ fn fill_group(
                 }
                 let mut sum = [0f32; 3];
                 let mut n = 0;
-                for dy in -1i64..=1 {
-                    for dx in -1i64..=1 {
-                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                        if (dx, dy) == (0, 0)
-                            || nx < 0
-                            || ny < 0
-                            || nx >= ww as i64
-                            || ny >= wh as i64
-                            || !known[idx(nx as usize, ny as usize)]
-                        {
-                            continue;
-                        }
-                        let q = v[idx(nx as usize, ny as usize)];
-                        for c in 0..3 {
-                            sum[c] += q[c];
-                        }
-                        n += 1;
+                for (nx, ny) in (-1i64..=1)
+                    .flat_map(|dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy)))
+                {
+                    if nx < 0 || ny < 0 || nx >= ww as i64 || ny >= wh as i64 {
+                        continue;
                     }
+                    let k = idx(nx as usize, ny as usize);
+                    if k == idx(x, y) || !known[k] {
+                        continue;
+                    }
+                    for c in 0..3 {
+                        sum[c] += v[k][c];
+                    }
+                    n += 1;
                 }
                 if n > 0 {
                     layer.push((idx(x, y), sum.map(|s| s / n as f32)));
@@ -297,8 +279,6 @@ fn fill_group(
             known[i] = true;
         }
     }
-    // Diffusion: red–black SOR on the hole, the ring fixed, the window's edge reflecting.
-    let span = (bbox.x1 - bbox.x0).max(bbox.y1 - bbox.y0) as usize;
     let iterations = (2 * span + 20).min(400);
     let omega = 1.8f32;
     for _ in 0..iterations {
@@ -332,24 +312,130 @@ fn fill_group(
             }
         }
     }
-    // The ring's noise, then back into the frame.
+}
+
+/// Fills the union of `holes` inside `win` (module docs): cloned from the most alike
+/// place beside it, else diffused from the ring with the ring's residuals.
+fn fill_group(
+    rgb: &mut RgbImage,
+    source: &RgbImage,
+    holes: &[Rect],
+    all: &[Rect],
+    win: Rect,
+    ring: i64,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Option<Filled> {
+    let (ww, wh) = ((win.x1 - win.x0) as usize, (win.y1 - win.y0) as usize);
+    let idx = |x: usize, y: usize| y * ww + x;
+    let mut mask = vec![false; ww * wh];
+    let mut bbox: Option<Rect> = None;
+    for hole in holes {
+        for y in hole.y0..hole.y1 {
+            for x in hole.x0..hole.x1 {
+                mask[idx((x - win.x0) as usize, (y - win.y0) as usize)] = true;
+            }
+        }
+        bbox = Some(bbox.map_or(*hole, |b| b.union(*hole)));
+    }
+    let bbox = bbox?;
+    let pixels = mask.iter().filter(|&&m| m).count();
+    if pixels == ww * wh {
+        return None; // nothing around it to fill from
+    }
+    let span = (bbox.x1 - bbox.x0).max(bbox.y1 - bbox.y0) as usize;
+    let target = window_at(source, win, 0, 0)?;
+    // The source: the window shifted left, right, up or down past the hole, inside the
+    // frame, its hole clear of every labelled box; the one whose ring looks most alike.
+    let (sw, sh) = (bbox.x1 - bbox.x0 + ring, bbox.y1 - bbox.y0 + ring);
+    let mut best: Option<(f32, Vec<[f32; 3]>)> = None;
+    for (dx, dy) in [(-sw, 0), (sw, 0), (0, -sh), (0, sh)] {
+        let moved = Rect {
+            x0: bbox.x0 + dx,
+            y0: bbox.y0 + dy,
+            x1: bbox.x1 + dx,
+            y1: bbox.y1 + dy,
+        }
+        .grow(2);
+        if all.iter().any(|h| h.meets(&moved)) {
+            continue;
+        }
+        let Some(s) = window_at(source, win, dx, dy) else {
+            continue;
+        };
+        let (mut diff, mut n) = (0f32, 0f32);
+        for i in 0..ww * wh {
+            if !mask[i] {
+                diff += (luma(target[i]) - luma(s[i])).abs();
+                n += 1.0;
+            }
+        }
+        let score = diff / n.max(1.0);
+        if best.as_ref().is_none_or(|b| score < b.0) {
+            best = Some((score, s));
+        }
+    }
+    let filled: Vec<[f32; 3]> = match best {
+        Some((_, s)) => {
+            // Seamless clone: the source plus the harmonic correction that meets the ring.
+            let mut d: Vec<[f32; 3]> = (0..ww * wh)
+                .map(|i| {
+                    if mask[i] {
+                        [0.0; 3]
+                    } else {
+                        [0, 1, 2].map(|c| target[i][c] - s[i][c])
+                    }
+                })
+                .collect();
+            harmonic(&mut d, &mask, ww, span);
+            (0..ww * wh)
+                .map(|i| [0, 1, 2].map(|c| s[i][c] + d[i][c]))
+                .collect()
+        }
+        None => {
+            let mut v = target.clone();
+            harmonic(&mut v, &mask, ww, span);
+            // The ring's residuals (pixel minus the mean of its four known neighbours,
+            // unit gain on white noise), without the edges' outliers (beyond 3 robust σ).
+            let scale = 1.0 / 1.25f32.sqrt();
+            let mut residuals: Vec<[f32; 3]> = Vec::new();
+            for y in 1..wh.saturating_sub(1) {
+                for x in 1..ww.saturating_sub(1) {
+                    let n = [idx(x - 1, y), idx(x + 1, y), idx(x, y - 1), idx(x, y + 1)];
+                    if mask[idx(x, y)] || n.iter().any(|&k| mask[k]) {
+                        continue;
+                    }
+                    let c = target[idx(x, y)];
+                    residuals.push([0, 1, 2].map(|ch| {
+                        scale * (c[ch] - 0.25 * n.iter().map(|&k| target[k][ch]).sum::<f32>())
+                    }));
+                }
+            }
+            let mut mags: Vec<f32> = residuals.iter().map(|r| luma(*r).abs()).collect();
+            mags.sort_by(f32::total_cmp);
+            let limit = 3.0 * 1.4826 * mags.get(mags.len() / 2).copied().unwrap_or(0.0);
+            residuals.retain(|r| luma(*r).abs() <= limit);
+            for i in 0..ww * wh {
+                if mask[i] && !residuals.is_empty() {
+                    let r = residuals[rng.random_range(0..residuals.len())];
+                    for c in 0..3 {
+                        v[i][c] += r[c];
+                    }
+                }
+            }
+            v
+        }
+    };
     for y in 0..wh {
         for x in 0..ww {
             let i = idx(x, y);
-            if !mask[i] {
-                continue;
+            if mask[i] {
+                let p = filled[i].map(|c| c.round().clamp(0.0, 255.0) as u8);
+                rgb.put_pixel(
+                    (win.x0 + x as i64) as u32,
+                    (win.y0 + y as i64) as u32,
+                    image::Rgb(p),
+                );
             }
-            let r = if residuals.is_empty() {
-                [0.0; 3]
-            } else {
-                residuals[rng.random_range(0..residuals.len())]
-            };
-            let p = [0, 1, 2].map(|c| (v[i][c] + r[c]).round().clamp(0.0, 255.0) as u8);
-            rgb.put_pixel(
-                (win.x0 + x as i64) as u32,
-                (win.y0 + y as i64) as u32,
-                image::Rgb(p),
-            );
         }
     }
     Some(Filled {
@@ -477,40 +563,44 @@ pub fn write_plates(
     Ok(PlateSummary { plates, unlabelled })
 }
 
-/// Mean and 2×2 high-pass σ (1.4826·MAD) of the luminance of `rgb` inside `r` (exclusive
-/// of `hole` when given): what the removal test compares between a fill and its ring.
+/// Mean, standard deviation and 2×2 high-pass RMS of the luminance of `rgb` inside `r`
+/// (`(x0, y0, x1, y1)`, leaving out `hole` when given): what the removal tests compare
+/// between a fill and its ring.
 pub fn region_stats(
     rgb: &RgbImage,
     r: (u32, u32, u32, u32),
     hole: Option<(u32, u32, u32, u32)>,
-) -> (f64, f64) {
+) -> (f64, f64, f64) {
     let inside =
         |x: u32, y: u32, q: (u32, u32, u32, u32)| x >= q.0 && x < q.2 && y >= q.1 && y < q.3;
+    let fits = |x: u32, y: u32| inside(x, y, r) && !hole.is_some_and(|q| inside(x, y, q));
     let lum = |x: u32, y: u32| {
         let p = rgb.get_pixel(x, y);
         0.299 * f64::from(p[0]) + 0.587 * f64::from(p[1]) + 0.114 * f64::from(p[2])
     };
-    let (mut sum, mut n) = (0.0, 0usize);
-    let mut hp = Vec::new();
+    let (mut sum, mut sq, mut n) = (0.0, 0.0, 0usize);
+    let (mut hp, mut m) = (0.0, 0usize);
     for y in r.1..r.3 {
         for x in r.0..r.2 {
-            if hole.is_some_and(|q| inside(x, y, q)) {
+            if !fits(x, y) {
                 continue;
             }
-            sum += lum(x, y);
+            let v = lum(x, y);
+            sum += v;
+            sq += v * v;
             n += 1;
-            let fits = |x: u32, y: u32| inside(x, y, r) && !hole.is_some_and(|q| inside(x, y, q));
             if fits(x + 1, y) && fits(x, y + 1) && fits(x + 1, y + 1) {
-                hp.push(0.5 * (lum(x, y) - lum(x + 1, y) - lum(x, y + 1) + lum(x + 1, y + 1)));
+                let h = 0.5 * (v - lum(x + 1, y) - lum(x, y + 1) + lum(x + 1, y + 1));
+                hp += h * h;
+                m += 1;
             }
         }
     }
-    let mean = sum / n.max(1) as f64;
-    let med = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        if v.is_empty() { 0.0 } else { v[v.len() / 2] }
-    };
-    let m = med(&mut hp.clone());
-    let mut dev: Vec<f64> = hp.iter().map(|v| (v - m).abs()).collect();
-    (mean, 1.4826 * med(&mut dev))
+    let n = n.max(1) as f64;
+    let mean = sum / n;
+    (
+        mean,
+        (sq / n - mean * mean).max(0.0).sqrt(),
+        (hp / m.max(1) as f64).sqrt(),
+    )
 }
