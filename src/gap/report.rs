@@ -648,9 +648,13 @@ fn canonical_as_far_as_it_exists(path: &Path) -> std::io::Result<PathBuf> {
 
 /// Refuses an output folder equal to or inside an input folder (`inputs`: the side's
 /// flag name and folder), comparing canonical paths; an `out` that does not exist yet is
-/// resolved through its nearest existing ancestor. An input that cannot be resolved (a
-/// missing folder) is left to the measuring, which names it.
+/// resolved through its nearest existing ancestor. A missing input folder is named first.
 pub fn check_out(out: &Path, inputs: &[(&'static str, &Path)]) -> Result<(), GapError> {
+    for &(_, dir) in inputs {
+        if !dir.is_dir() {
+            return Err(input(dir, "not a folder"));
+        }
+    }
     let real_out = canonical_as_far_as_it_exists(out).map_err(|source| GapError::Io {
         path: out.to_path_buf(),
         source,
