@@ -90,3 +90,25 @@ fn discard_then_a_restart_opens_the_files_state() {
     );
     assert!(h.query_by_label("• unsaved changes").is_none());
 }
+
+#[test]
+fn save_keeps_the_presets_comments_and_field_order() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let grid = write_preset(dir.path(), "grid.ron", GRID);
+    let mut h = harness(Some(grid.clone()));
+    wait_for(&mut h, "the first preview", settled);
+    h.get_by_label("XCount").set_value_accesskit(5.0);
+    h.run_steps(2);
+    assert!(h.state().session().is_dirty());
+    h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::S]);
+    h.run_steps(2);
+    assert!(!h.state().session().is_dirty());
+    let saved = std::fs::read_to_string(&grid).unwrap();
+    let expected = GRID.replace("x_count: 3", "x_count: 5");
+    assert_eq!(saved, expected, "only the edited value changed");
+    assert_eq!(
+        swarmshot::preset::Preset::from_ron(&saved).unwrap(),
+        h.state().session().preset
+    );
+}

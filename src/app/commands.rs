@@ -7,7 +7,7 @@ use super::files::{FileChoice, FilePurpose};
 use super::panels::group_digits;
 use super::prompt::{Answer, Replace};
 use super::runner::{BatchOutcome, BatchRun};
-use super::{Command, SwarmshotApp, keys, problems, read_preset};
+use super::{Command, SwarmshotApp, keys, preset_text, problems, read_preset_text};
 use crate::preset::{ModelSource, ModelSpec, Preset};
 
 impl SwarmshotApp {
@@ -86,18 +86,19 @@ impl SwarmshotApp {
 
     pub(super) fn replace(&mut self, replace: Replace, ctx: &egui::Context) {
         match replace {
-            Replace::New => self.session.load_untitled(Preset::default()),
-            Replace::Path(path) => match read_preset(&path) {
-                Ok(preset) => self.session.load(preset, path),
+            Replace::New => self.session.load_untitled(Preset::default(), None),
+            Replace::Path(path) => match read_preset_text(&path) {
+                Ok((preset, text)) => self.session.load(preset, path, text),
                 Err(e) => return self.notices.push(e),
             },
-            Replace::Example(path) => match read_preset(&path) {
-                Ok(mut preset) => {
+            Replace::Example(path) => match read_preset_text(&path) {
+                Ok((mut preset, text)) => {
                     // An untitled copy: Save asks for a new file, so the shipped
                     // example is never overwritten; its model and sky paths are
                     // made absolute so the copy still finds them.
                     preset.resolve_paths(path.parent().unwrap_or(Path::new(".")));
-                    self.session.load_untitled(preset);
+                    // Its text goes with it: Save As keeps the example's comments.
+                    self.session.load_untitled(preset, Some(text));
                 }
                 Err(e) => return self.notices.push(e),
             },
@@ -201,14 +202,13 @@ impl SwarmshotApp {
 
     /// Write the preset; false (with a notice) when it could not be written.
     pub(super) fn save_to(&mut self, path: &Path) -> bool {
-        let text = format!(
-            "// swarmshot preset (RON), written by the swarmshot app\n{}\n",
-            self.session.preset.to_ron()
-        );
-        match std::fs::write(path, text) {
+        // The file's own text with the changed fields rewritten: comments and order kept.
+        let text = preset_text::save_text(self.session.saved_text.as_deref(), &self.session.preset);
+        match std::fs::write(path, &text) {
             Ok(()) => {
                 self.session.preset_path = Some(path.to_owned());
                 self.session.saved = Some(self.session.preset.clone());
+                self.session.saved_text = Some(text);
                 true
             }
             Err(e) => {

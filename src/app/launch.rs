@@ -8,6 +8,11 @@ use crate::preset::{PRESET_VERSION, Preset};
 
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
 pub fn read_preset(path: &Path) -> Result<Preset, String> {
+    read_preset_text(path).map(|(preset, _)| preset)
+}
+
+/// [`read_preset`], and the file's text (Save edits it, keeping its comments).
+pub fn read_preset_text(path: &Path) -> Result<(Preset, String), String> {
     let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
         std::io::ErrorKind::NotFound => format!("preset {} does not exist", path.display()),
         std::io::ErrorKind::PermissionDenied => {
@@ -29,7 +34,7 @@ pub fn read_preset(path: &Path) -> Result<Preset, String> {
             preset.version
         ));
     }
-    Ok(preset)
+    Ok((preset, text))
 }
 
 /// The example presets shipped in the repository's presets/ folder.

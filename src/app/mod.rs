@@ -34,6 +34,7 @@ mod mask_pane;
 pub mod mask_view;
 pub mod panels;
 pub mod playback;
+pub mod preset_text;
 pub mod preview;
 mod preview_pane;
 pub mod problems;
@@ -45,7 +46,7 @@ pub mod worker;
 #[cfg(all(unix, not(target_os = "macos")))]
 mod x11_focus;
 
-pub use launch::{example_presets, read_preset, run, run_or_exit};
+pub use launch::{example_presets, read_preset, read_preset_text, run, run_or_exit};
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -82,6 +83,8 @@ pub struct Session {
     pub preset_path: Option<PathBuf>,
     /// The preset as on disk, for the unsaved-changes marker.
     pub saved: Option<Preset>,
+    /// The text of the file the preset came from: Save edits it ([`preset_text`]).
+    pub saved_text: Option<String>,
     /// Where Generate writes.
     pub out_dir: String,
     pub overwrite: bool,
@@ -118,6 +121,7 @@ impl Default for Session {
             preset_path: None,
             // A fresh default preset has nothing unsaved until it is edited.
             saved: Some(Preset::default()),
+            saved_text: None,
             out_dir: "swarmshot-dataset".into(),
             overwrite: false,
             trial: false,
@@ -261,15 +265,15 @@ impl SwarmshotApp {
             && options.preset.is_none()
             && !session.is_dirty()
             && let Some(path) = session.preset_path.clone()
-            && let Ok(preset) = read_preset(&path)
+            && let Ok((preset, text)) = read_preset_text(&path)
         {
             let frame = session.frame;
-            session.load(preset, path);
+            session.load(preset, path, text);
             session.frame = frame;
         }
         if let Some(path) = &options.preset {
-            match read_preset(path) {
-                Ok(preset) => session.load(preset, path.clone()),
+            match read_preset_text(path) {
+                Ok((preset, text)) => session.load(preset, path.clone(), text),
                 Err(e) => notices.push(e),
             }
         }
@@ -463,16 +467,18 @@ impl SwarmshotApp {
 }
 
 impl Session {
-    fn load(&mut self, preset: Preset, path: PathBuf) {
+    fn load(&mut self, preset: Preset, path: PathBuf, text: String) {
         self.saved = Some(preset.clone());
+        self.saved_text = Some(text);
         self.preset = preset;
         self.preset_path = Some(path);
         self.frame = 0;
     }
 
     /// A preset with no file yet (New, an example's copy); nothing is unsaved until it is edited.
-    fn load_untitled(&mut self, preset: Preset) {
+    fn load_untitled(&mut self, preset: Preset, text: Option<String>) {
         self.saved = Some(preset.clone());
+        self.saved_text = text;
         self.preset = preset;
         self.preset_path = None;
         self.frame = 0;
