@@ -833,14 +833,12 @@ impl Report {
         if out.exists() && !out.is_dir() {
             return Err(input(out, "exists and is not a folder"));
         }
-        std::fs::create_dir_all(out).map_err(|source| GapError::Io {
-            path: out.to_path_buf(),
-            source,
-        })?;
-        let save = |name: &str, bytes: &[u8]| -> Result<PathBuf, GapError> {
-            let p = out.join(name);
-            crate::write::write_atomic(&p, bytes).map_err(|e| input(&p, e.to_string()))?;
-            Ok(p)
+        // Opened once; every file written relative to it, never through a link.
+        let mut dir =
+            crate::write::outdir::OutDir::create(out).map_err(|e| input(out, e.to_string()))?;
+        let mut save = |name: &str, bytes: &[u8]| -> Result<PathBuf, GapError> {
+            dir.write(name, bytes)
+                .map_err(|e| input(&out.join(name), e.to_string()))
         };
         let mut written = Vec::new();
         let json = serde_json::to_string_pretty(self)
