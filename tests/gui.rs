@@ -1124,18 +1124,25 @@ fn the_preview_shows_the_frame_through_the_camera_model() {
         "camera_model: Some((read_noise_levels: (20.0, 20.0), psf: Gaussian(sigma_px: (1.5, 1.5)))),\n    render:",
     );
     let mut h = harness(Some(write_preset(dir.path(), "noisy.ron", &noisy)));
-    wait_for(&mut h, "the clean preview", settled);
+    let view_is = |view: swarmshot::app::preview::PreviewView| {
+        move |app: &SwarmshotApp| settled(app) && app.preview_key().is_some_and(|k| k.view == view)
+    };
+    // Through the camera from the start: the preset has a camera model.
+    wait_for(
+        &mut h,
+        "the preview through the camera",
+        view_is(swarmshot::app::preview::PreviewView::ThroughCamera),
+    );
     assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
-    let clean = preview_pixels(&mut h);
+    let through = preview_pixels(&mut h);
 
     h.get_by_label("Through the camera").click_accesskit();
-    wait_for(&mut h, "the preview through the camera", |app| {
-        settled(app)
-            && app
-                .preview_key()
-                .is_some_and(|k| k.view == swarmshot::app::preview::PreviewView::ThroughCamera)
-    });
-    let through = preview_pixels(&mut h);
+    wait_for(
+        &mut h,
+        "the clean preview",
+        view_is(swarmshot::app::preview::PreviewView::Camera),
+    );
+    let clean = preview_pixels(&mut h);
     let changed = differing_pixels(&clean, &through);
     let total = (clean.width() * clean.height()) as usize;
     // Read noise σ = 20 levels moves most pixels by more than 8 levels.
@@ -1145,12 +1152,17 @@ fn the_preview_shows_the_frame_through_the_camera_model() {
     );
 
     h.get_by_label("Through the camera").click_accesskit();
-    wait_for(&mut h, "the clean preview again", |app| {
-        settled(app)
-            && app
-                .preview_key()
-                .is_some_and(|k| k.view == swarmshot::app::preview::PreviewView::Camera)
-    });
+    wait_for(
+        &mut h,
+        "the preview through the camera again",
+        view_is(swarmshot::app::preview::PreviewView::ThroughCamera),
+    );
+    h.get_by_label("Through the camera").click_accesskit();
+    wait_for(
+        &mut h,
+        "the clean preview again",
+        view_is(swarmshot::app::preview::PreviewView::Camera),
+    );
     let again = preview_pixels(&mut h);
     assert_eq!(
         differing_pixels(&clean, &again),

@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use swarmshot::app::{StartOptions, SwarmshotApp};
+use swarmshot::app::preview::PreviewView;
+use swarmshot::app::runner::BatchOutcome;
+use swarmshot::app::{Command, StartOptions, SwarmshotApp};
 
 #[path = "common/app.rs"]
 mod app_common;
@@ -111,4 +113,88 @@ fn save_keeps_the_presets_comments_and_field_order() {
         swarmshot::preset::Preset::from_ron(&saved).unwrap(),
         h.state().session().preset
     );
+}
+
+fn view_is(view: PreviewView) -> impl Fn(&SwarmshotApp) -> bool {
+    move |app| settled(app) && app.preview_key().is_some_and(|k| k.view == view)
+}
+
+#[test]
+fn the_preview_goes_through_the_camera_when_the_preset_has_one() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let grid = write_preset(dir.path(), "grid.ron", GRID);
+    let camera = GRID.replace(
+        "render:",
+        "camera_model: (read_noise_levels: (20.0, 20.0)),\n    render:",
+    );
+    let camera = write_preset(dir.path(), "camera.ron", &camera);
+    let mut h = harness(Some(camera));
+    wait_for(
+        &mut h,
+        "the preview through the camera",
+        view_is(PreviewView::ThroughCamera),
+    );
+    h.get_by_label("Through the camera");
+    // Switched off, it stays off for this preset…
+    h.get_by_label("Through the camera").click_accesskit();
+    wait_for(&mut h, "the clean preview", view_is(PreviewView::Camera));
+
+    // …and a preset without a camera model says there is none: no greyed box.
+    let ctx = h.ctx.clone();
+    h.state_mut().command(Command::OpenPath(grid), &ctx);
+    wait_for(&mut h, "the grid's preview", view_is(PreviewView::Camera));
+    assert!(h.query_by_label("Through the camera").is_none());
+    h.get_by_label("clean render: no camera model");
+}
+
+/// 6 frames at 96×64.
+const TINY: &str = r#"(
+    name: "tiny",
+    seed: 11,
+    placement: Structured(x_count: 2, y_count: 1, z_count: 1, load_factor: 3.0),
+    camera: (z: (start: 1.0, end: 2.0, step: 0.5)),
+    plane: (ry: (start: 0.0, end: 90.0, step: 90.0)),
+    render: (resolution: Custom(width: 96, height: 64), msaa: 1),
+    output: (image_format: Png, label_formats: [Yolo], split: (train: 1.0, val: 0.0, test: 0.0)),
+)"#;
+
+#[test]
+fn switching_presets_clears_the_batch_report_and_generate_says_what_it_makes() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let tiny = write_preset(dir.path(), "tiny.ron", TINY);
+    let grid = write_preset(dir.path(), "grid.ron", GRID);
+    let mut h = harness(Some(tiny));
+    wait_for(&mut h, "the first preview", settled);
+    h.state_mut().session_mut().out_dir = dir.path().join("ds").display().to_string();
+    h.state_mut().session_mut().trial = true;
+    h.state_mut().session_mut().trial_frames = 2;
+    h.run_steps(2);
+    let tip = h.state().generate_tip();
+    assert!(tip.contains("the first 2 of the 6 frames"), "{tip}");
+    assert!(!tip.contains("every"), "{tip}");
+    h.state_mut().session_mut().every = true;
+    h.state_mut().session_mut().every_k = 4;
+    h.run_steps(1);
+    let tip = h.state().generate_tip();
+    assert!(tip.contains("2 of the 6 frames, one in 4"), "{tip}");
+    h.state_mut().session_mut().every = false;
+
+    h.get_by_label("Generate").click();
+    wait_for(&mut h, "the trial run", |app| {
+        !app.batch_running() && app.batch_outcome().is_some()
+    });
+    assert!(
+        matches!(h.state().batch_outcome(), Some(BatchOutcome::Done(_))),
+        "{:?}",
+        h.state().batch_outcome().map(|_| ())
+    );
+    h.get_by_label_contains("Finished");
+
+    let ctx = h.ctx.clone();
+    h.state_mut().command(Command::OpenPath(grid), &ctx);
+    wait_for(&mut h, "the grid's preview", settled);
+    assert!(h.state().batch_outcome().is_none());
+    assert!(h.query_by_label_contains("Finished").is_none());
 }

@@ -113,6 +113,10 @@ impl SwarmshotApp {
                 return;
             }
         }
+        // The Batch panel's report and a merge's line speak of the preset that went.
+        self.batch_outcome = None;
+        self.batch_inputs = None;
+        self.merge_outcome = None;
         self.history.clear();
     }
 

@@ -128,7 +128,7 @@ impl SwarmshotApp {
         }
         let view = if self.session.inspect {
             PreviewView::Inspect(self.session.orbit)
-        } else if self.session.through_camera && self.resolved.camera_model.is_some() {
+        } else if !self.session.clean_preview && self.resolved.camera_model.is_some() {
             PreviewView::ThroughCamera
         } else {
             PreviewView::Camera

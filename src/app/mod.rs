@@ -104,8 +104,9 @@ pub struct Session {
     pub frame: u64,
     pub show_boxes: bool,
     pub inspect: bool,
-    /// The preview shows the frame through the preset's camera model.
-    pub through_camera: bool,
+    /// "Through the camera" was switched off: the preview shows the clean render.
+    /// Each preset opened starts through its camera model, when it has one.
+    pub clean_preview: bool,
     /// The pane shows the picture, or the frame's instance image or depth map.
     pub pane_shows: mask_view::PaneShows,
     pub orbit: Orbit,
@@ -135,7 +136,7 @@ impl Default for Session {
             frame: 0,
             show_boxes: true,
             inspect: false,
-            through_camera: false,
+            clean_preview: false,
             pane_shows: mask_view::PaneShows::Picture,
             orbit: Orbit::default(),
             show_parameters: true,
@@ -473,6 +474,7 @@ impl Session {
         self.preset = preset;
         self.preset_path = Some(path);
         self.frame = 0;
+        self.clean_preview = false;
     }
 
     /// A preset with no file yet (New, an example's copy); nothing is unsaved until it is edited.
@@ -482,6 +484,7 @@ impl Session {
         self.preset = preset;
         self.preset_path = None;
         self.frame = 0;
+        self.clean_preview = false;
     }
 }
 

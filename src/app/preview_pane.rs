@@ -74,14 +74,22 @@ impl SwarmshotApp {
                 box_legend_ui(ui);
             }
             if !self.session.inspect {
-                ui.add_enabled(
-                    self.resolved.camera_model.is_some(),
-                    egui::Checkbox::new(&mut self.session.through_camera, "Through the camera"),
-                )
-                .on_hover_text(
-                    "Show the frame through the camera model (noise, blur, JPEG, …) as the batch writes it, scaled to the pane; off: the clean render",
-                )
-                .on_disabled_hover_text("The preset has no camera model (Camera model section)");
+                if self.resolved.camera_model.is_some() {
+                    let mut through = !self.session.clean_preview;
+                    if ui
+                        .checkbox(&mut through, "Through the camera")
+                        .on_hover_text(
+                            "The frame through the camera model (exposure, noise, blur, JPEG, …) as the batch writes it, scaled to the pane; off: the clean render",
+                        )
+                        .changed()
+                    {
+                        self.session.clean_preview = !through;
+                    }
+                } else {
+                    ui.weak("clean render: no camera model").on_hover_text(
+                        "The preset has no camera model (Camera model section): its frames are written as rendered, as shown",
+                    );
+                }
             }
             ui.checkbox(&mut self.session.inspect, "Inspect")
                 .on_hover_text(

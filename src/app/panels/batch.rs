@@ -236,11 +236,45 @@ impl SwarmshotApp {
         }
     }
 
+    /// What Generate will make, in words: the frames the trial run and the shard leave.
+    pub fn generate_tip(&self) -> String {
+        let frames = self.resolved.frame_count();
+        let all = group_digits(frames);
+        let mut what = match (self.batch_every().filter(|&k| k > 1), self.batch_limit()) {
+            (None, None) => format!("all {all} frames"),
+            (None, Some(n)) => format!(
+                "the first {} of the {all} frames",
+                group_digits(n.min(frames))
+            ),
+            (Some(k), limit) => {
+                let picked = frames.div_ceil(k);
+                let made = limit.map_or(picked, |n| n.min(picked));
+                format!(
+                    "{} of the {all} frames, one in {k} (frames 1, {}, {}, …)",
+                    group_digits(made),
+                    group_digits(k + 1),
+                    group_digits(2 * k + 1)
+                )
+            }
+        };
+        if let Some(shard) = self.batch_shard() {
+            what.push_str(&format!(
+                ", shard {} of {} of them",
+                shard.index + 1,
+                shard.count
+            ));
+        }
+        format!(
+            "Render {what} with their labels into {}",
+            self.session.out_dir.trim()
+        )
+    }
+
     fn generate_ui(&self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let blocked = self.generate_blocked();
         let response = ui
             .add_enabled(blocked.is_none(), egui::Button::new("Generate"))
-            .on_hover_text("Render every frame with its labels into the output folder");
+            .on_hover_text(self.generate_tip());
         if let Some(reason) = &blocked {
             response.on_disabled_hover_text(reason.as_str());
             ui.weak(reason.as_str());
