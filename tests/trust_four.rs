@@ -1,6 +1,6 @@
 //! Output-folder trust, round four (issue 35; docs/reliability.md): a folder
 //! swapped for a symbolic link while a batch or a merge runs redirects no
-//! write, and the run stops naming it; report folders (`stats`) never write
+//! write, and the run stops naming it; report folders (`stats`, `gap`) never write
 //! through a link; a run killed before its first ledger existed continues; a
 //! finished `--every K` trial run again is already complete. Every command
 //! runs as a child process, as a user runs it (renders on lavapipe).
@@ -245,6 +245,42 @@ fn stats_plots_never_write_through_a_link() {
         std::fs::read(ds.join("stats-plots/box_size.png"))
             .expect("png")
             .starts_with(b"\x89PNG")
+    );
+}
+
+#[test]
+fn the_gap_report_never_writes_through_a_link() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let p = common::preset_file(tmp.path(), &preset(1), "p.ron");
+    let synthetic = tmp.path().join("ds");
+    ok(&args(&[&"batch", &p, &"--out", &synthetic]));
+    let real = common::testdata("real");
+    let report = tmp.path().join("report");
+    std::fs::create_dir(&report).expect("mkdir");
+    let outside = tmp.path().join("precious.json");
+    std::fs::write(&outside, b"precious").expect("write");
+    std::os::unix::fs::symlink(&outside, report.join("report.json")).expect("symlink");
+    let gap = args(&[
+        &"gap",
+        &"--real",
+        &real,
+        &"--synthetic",
+        &synthetic,
+        &"--out",
+        &report,
+    ]);
+    let e = err(&gap);
+    assert!(
+        e.contains("report.json") && e.contains("symbolic link"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&outside).expect("read"), b"precious");
+    std::fs::remove_file(report.join("report.json")).expect("rm");
+    ok(&gap);
+    assert!(
+        std::fs::read_to_string(report.join("report.json"))
+            .expect("report")
+            .starts_with('{')
     );
 }
 
