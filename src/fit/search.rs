@@ -14,7 +14,9 @@
 //!   ([`super::camera::invert_noise`]) says brings the total to the real median;
 //! - **blur σ**: the PSF σ changed in quadrature by the gap to the real median; when the
 //!   blur is inside but the small drones' **edge width** is not, the PSF moves by the
-//!   edge-width gap / 1.687 (a Gaussian's 90→10 % width per σ), in quadrature;
+//!   edge-width gap / 1.687 (a Gaussian's 90→10 % width per σ), in quadrature; the PSF
+//!   blurs the plates too, so when the gradient energy or the high-pass RMS falls below
+//!   the real (and the blur is not below) it is halved first;
 //! - **mean brightness**: `exposure_ev` += 2.2 · log2(real / synthetic);
 //! - **sky saturation**: `saturation` × real / synthetic;
 //! - **drone core size**: the observer's `size_px` × real / synthetic;
@@ -145,8 +147,15 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
     let s = psf_sigma(&cm);
     let mut s2 = s;
     let mut why = String::new();
+    let smoothed = ["gradient_energy", "highpass_rms"]
+        .iter()
+        .any(|k| stat(report, k).is_some_and(|(v, _, _)| v == "below"));
     if let Some((v, t, m)) = stat(report, "blur_sigma_px") {
-        if outside(v) {
+        if v != "below" && smoothed && s > 0.0 {
+            s2 = 0.5 * s;
+            why = "the plates' texture smoothed: gradient energy or high-pass RMS below the real"
+                .into();
+        } else if outside(v) {
             s2 = (t * t - m * m + s * s).max(0.0).sqrt();
             why = format!("blur σ {m:.3} {v} the real {t:.3}");
         } else if let Some((ve, te, me)) = stat(report, "small_drone_edge_width_px")
