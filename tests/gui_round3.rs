@@ -198,3 +198,50 @@ fn switching_presets_clears_the_batch_report_and_generate_says_what_it_makes() {
     assert!(h.state().batch_outcome().is_none());
     assert!(h.query_by_label_contains("Finished").is_none());
 }
+
+#[test]
+fn the_preview_fits_the_central_panel_at_any_window_size() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let quickstart = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/quickstart.ron");
+    for size in [[800.0, 600.0], [1100.0, 700.0], [1600.0, 1000.0]] {
+        let mut h = harness_with(
+            StartOptions {
+                preset: Some(quickstart.clone()),
+                restore_session: false,
+            },
+            None,
+            size,
+        );
+        wait_for(&mut h, "the first preview", settled);
+        let central = h.state().central_rect().unwrap();
+        let preview = h.state().preview_rect().unwrap();
+        let window = egui::Rect::from_min_size(egui::Pos2::ZERO, size.into());
+        let inside = |r: egui::Rect| central.expand(0.5).contains_rect(r);
+        assert!(
+            window.contains_rect(central),
+            "{size:?}: central panel {central:?} outside the window"
+        );
+        assert!(
+            inside(preview),
+            "{size:?}: preview {preview:?} outside the central panel {central:?}"
+        );
+        // The rows above the picture are not clipped.
+        for (role, label) in [
+            (Role::Slider, "Frame"),
+            (Role::CheckBox, "Boxes"),
+            (Role::CheckBox, "Inspect"),
+        ] {
+            let rect = h.get_by_role_and_label(role, label).rect();
+            assert!(
+                inside(rect),
+                "{size:?}: {label} {rect:?} outside the central panel {central:?}"
+            );
+        }
+        // The picture takes the space it has (one side fills the pane, less the rows).
+        assert!(
+            preview.width() > 0.9 * central.width() || preview.height() > 0.6 * central.height(),
+            "{size:?}: preview {preview:?} small in {central:?}"
+        );
+        drop(h);
+    }
+}

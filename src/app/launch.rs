@@ -120,7 +120,7 @@ pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
         viewport: egui::ViewportBuilder::default()
             .with_title(APP_NAME)
             .with_inner_size([1400.0, 880.0])
-            .with_min_inner_size([900.0, 560.0]),
+            .with_min_inner_size([800.0, 560.0]),
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };

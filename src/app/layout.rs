@@ -12,7 +12,8 @@ use super::{
 impl SwarmshotApp {
     pub(super) fn menu_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let locked = self.batch.is_some();
-        ui.horizontal(|ui| {
+        // Wrapped: a narrow window puts the rest of the bar on a second line.
+        ui.horizontal_wrapped(|ui| {
             ui.strong(APP_NAME);
             ui.separator();
             ui.add_enabled_ui(!locked, |ui| {
@@ -205,7 +206,7 @@ impl SwarmshotApp {
     }
 
     pub(super) fn status_ui(&self, ui: &mut Ui) {
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             match &self.preview {
                 Some(p) => {
                     let [w, h] = p.key.size_px;
@@ -268,13 +269,17 @@ impl SwarmshotApp {
         egui::Panel::bottom("status")
             .frame(side)
             .show(ui, |ui| self.status_ui(ui));
+        // The side panels take at most their share of the window's width, so the
+        // preview keeps room at 800 points; what does not fit in them scrolls.
+        let width = ui.ctx().content_rect().width();
         let mut show_parameters = self.session.show_parameters;
         egui::Panel::left("parameters")
             .frame(side)
             .resizable(true)
             .default_size(430.0)
+            .max_size((width * 0.33).max(200.0))
             .show_collapsible(ui, &mut show_parameters, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| {
+                egui::ScrollArea::both().show(ui, |ui| {
                     ui.add_enabled_ui(!locked, |ui| self.parameters_ui(ui, commands));
                 });
             });
@@ -284,8 +289,9 @@ impl SwarmshotApp {
             .frame(side)
             .resizable(true)
             .default_size(250.0)
+            .max_size((width * 0.24).max(160.0))
             .show_collapsible(ui, &mut show_summary, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| {
+                egui::ScrollArea::both().show(ui, |ui| {
                     self.summary_ui(ui);
                     ui.separator();
                     if let Some(field) = problems::problems_ui(ui, &self.errors) {
@@ -298,9 +304,10 @@ impl SwarmshotApp {
                 });
             });
         self.session.show_summary = show_summary;
-        egui::CentralPanel::default()
+        let central = egui::CentralPanel::default()
             .frame(central)
             .show(ui, |ui| self.preview_ui(ui));
+        self.central_rect = Some(central.response.rect);
     }
 }
 

@@ -110,7 +110,7 @@ impl SwarmshotApp {
         if !masks.any() || self.session.inspect {
             return;
         }
-        ui.horizontal(|ui| self.mask_choice_ui(ui, masks));
+        ui.horizontal_wrapped(|ui| self.mask_choice_ui(ui, masks));
     }
 
     fn mask_choice_ui(&mut self, ui: &mut Ui, masks: crate::preset::masks::MaskOutputs) {

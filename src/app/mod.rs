@@ -211,6 +211,8 @@ pub struct SwarmshotApp {
     preview_size_px: [u32; 2],
     /// Where the preview was drawn in the last pass (points).
     preview_rect: Option<Rect>,
+    /// The central panel (the preview pane's column) in the last pass.
+    central_rect: Option<Rect>,
     /// The instance / depth views of the previewed frame.
     mask_pane: mask_pane::MaskPane,
     /// Change → picture on screen, measured here (see [`latency`]).
@@ -332,6 +334,7 @@ impl SwarmshotApp {
             preview_sent: None,
             preview_size_px: [0, 0],
             preview_rect: None,
+            central_rect: None,
             mask_pane: mask_pane::MaskPane::default(),
             latency: latency::LatencyMeter::default(),
             summary_due: None,
@@ -410,6 +413,11 @@ impl SwarmshotApp {
     /// Where the preview pane drew its picture in the last pass, in points.
     pub fn preview_rect(&self) -> Option<Rect> {
         self.preview_rect
+    }
+
+    /// The central panel (frame bar, toggles and preview) in the last pass, in points.
+    pub fn central_rect(&self) -> Option<Rect> {
+        self.central_rect
     }
 
     pub fn preview_error(&self) -> Option<&str> {

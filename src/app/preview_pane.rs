@@ -29,7 +29,8 @@ impl SwarmshotApp {
     /// Play controls, "frame N of M", the sequence step and the frame slider.
     fn frame_bar_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count();
-        ui.horizontal(|ui| {
+        // Wrapped rows: in a narrow pane they take two lines, never run past its edge.
+        ui.horizontal_wrapped(|ui| {
             if frames > 1 {
                 self.play_controls_ui(ui, frames);
             }
@@ -50,7 +51,13 @@ impl SwarmshotApp {
             }
             if frames > 1 {
                 let max = frames - 1;
-                ui.spacing_mut().slider_width = (ui.available_width() - 40.0).max(100.0);
+                // What is left of this row (`available_width` is a whole row's in a
+                // wrapped layout); too little, and the slider takes a row of its own.
+                if ui.available_size_before_wrap().x < 140.0 {
+                    ui.end_row();
+                }
+                ui.spacing_mut().slider_width =
+                    (ui.available_size_before_wrap().x - 24.0).max(40.0);
                 let slider = ui
                     .add_enabled(
                         self.errors.is_empty(),
@@ -67,7 +74,9 @@ impl SwarmshotApp {
 
     /// Boxes (with their legend), Through the camera, Inspect and its Reset view.
     fn view_toggles_ui(&mut self, ui: &mut Ui) {
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
+            // Each label whole, on the next row when it does not fit on this one.
+            ui.style_mut().wrap_mode = Some(egui::TextWrapMode::Extend);
             ui.checkbox(&mut self.session.show_boxes, "Boxes")
                 .on_hover_text("Draw the label boxes this frame gets");
             if self.session.show_boxes && !self.session.inspect {
@@ -262,8 +271,19 @@ const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
 const BOX_NEGATIVE: Color32 = Color32::from_rgb(60, 200, 255);
 
 fn box_legend_ui(ui: &mut Ui) {
-    // Painted swatches: the default fonts have no "■".
-    let swatch = |ui: &mut Ui, colour: Color32, tip: &str| {
+    // Painted swatches: the default fonts have no "■". Each with its words, as one
+    // piece that a narrow pane moves to the next row whole.
+    let entry = |ui: &mut Ui, colour: Color32, words: &str, tip: &str| {
+        let galley = egui::WidgetText::from(words).into_galley(
+            ui,
+            Some(egui::TextWrapMode::Extend),
+            f32::INFINITY,
+            egui::TextStyle::Body,
+        );
+        let width = 10.0 + 2.0 * ui.spacing().item_spacing.x + galley.size().x;
+        if ui.available_size_before_wrap().x < width {
+            ui.end_row();
+        }
         let (rect, response) = ui.allocate_exact_size(Vec2::splat(10.0), Sense::hover());
         ui.painter().rect_stroke(
             rect,
@@ -272,21 +292,21 @@ fn box_legend_ui(ui: &mut Ui) {
             egui::StrokeKind::Inside,
         );
         response.on_hover_text(tip);
+        ui.label(galley).on_hover_text(tip);
     };
-    swatch(ui, BOX_KEPT, "A box written to the labels");
-    ui.weak("label box");
-    swatch(
+    entry(ui, BOX_KEPT, "label box", "A box written to the labels");
+    entry(
         ui,
         BOX_CROWD,
+        "crowd region (ignored)",
         "A filtered drone kept as a COCO iscrowd region (Output panel, Filtered drones: COCO crowd); trainers ignore it",
     );
-    ui.weak("crowd region (ignored)");
-    swatch(
+    entry(
         ui,
         BOX_NEGATIVE,
+        "hard negative",
         "An unlabelled hard negative (Confusers panel): in the manifest only, never in YOLO/COCO",
     );
-    ui.weak("hard negative");
 }
 
 /// The label boxes, from output pixels to the pane.
