@@ -245,3 +245,48 @@ fn the_preview_fits_the_central_panel_at_any_window_size() {
         drop(h);
     }
 }
+
+#[test]
+fn the_masks_checkboxes_reach_the_preset() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let grid = write_preset(dir.path(), "grid.ron", GRID);
+    let mut h = harness(Some(grid.clone()));
+    wait_for(&mut h, "the first preview", settled);
+    assert!(!h.state().session().preset.output.masks.any());
+    assert!(h.query_by_label("Instances").is_none());
+
+    for name in [
+        "Instance map",
+        "Depth map",
+        "COCO masks",
+        "YOLO segmentation",
+    ] {
+        h.get_by_role_and_label(Role::CheckBox, name)
+            .click_accesskit();
+        h.run_steps(3);
+    }
+    let masks = h.state().session().preset.output.masks;
+    assert!(
+        masks.instance_png && masks.depth && masks.coco_rle && masks.yolo_seg,
+        "{masks:?}"
+    );
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    // The depth map's unit shows while depth maps are on, and the pane offers the views.
+    assert!(h.query_by_label_contains("Depth unit").is_some());
+    h.get_by_label("Instances");
+    h.get_by_label("Depth");
+
+    h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::S]);
+    h.run_steps(2);
+    let saved = std::fs::read_to_string(&grid).unwrap();
+    let preset = swarmshot::preset::Preset::from_ron(&saved).unwrap();
+    assert_eq!(preset.output.masks, masks, "{saved}");
+    assert!(saved.contains("// the seed"), "{saved}");
+
+    h.get_by_role_and_label(Role::CheckBox, "Depth map")
+        .click_accesskit();
+    h.run_steps(3);
+    assert!(!h.state().session().preset.output.masks.depth);
+    assert!(h.query_by_label_contains("Depth unit").is_none());
+}

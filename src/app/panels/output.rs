@@ -20,6 +20,7 @@ pub fn output_ui(
     file_formats_ui(ui, preset, form);
     split_ui(ui, preset, form);
     boxes_ui(ui, preset, form);
+    masks_ui(ui, preset, form);
     folder_ui(ui, out_dir, overwrite, commands);
 }
 
@@ -216,6 +217,40 @@ fn boxes_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         }
     });
     form.messages(ui, &["labels.id_scale"]);
+}
+
+/// Masks and maps besides the boxes (`output.masks`): each one's checkbox, and the
+/// depth map's unit while depth maps are on.
+fn masks_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    let m = &mut preset.output.masks;
+    let masks = fields::get("output.masks");
+    ui.horizontal_wrapped(|ui| {
+        ui.label(masks.label).on_hover_text(masks.tooltip);
+        for (on, path) in [
+            (&mut m.coco_rle, "output.masks.coco_rle"),
+            (&mut m.yolo_seg, "output.masks.yolo_seg"),
+            (&mut m.instance_png, "output.masks.instance_png"),
+        ] {
+            let f = fields::get(path);
+            ui.checkbox(on, f.label).on_hover_text(f.tooltip);
+        }
+        ui.checkbox(&mut m.depth, "Depth map").on_hover_text(
+            "A 16-bit depth PNG per frame (depth/{split}/NAME.png): each drone pixel's camera depth",
+        );
+    });
+    if m.depth {
+        field_row(ui, &mut m.depth_unit_mm, "output.masks.depth_unit_mm", 1.0);
+    }
+    form.messages(
+        ui,
+        &[
+            "output.masks",
+            "output.masks.coco_rle",
+            "output.masks.yolo_seg",
+            "output.masks.instance_png",
+            "output.masks.depth_unit_mm",
+        ],
+    );
 }
 
 /// Where Generate writes, and whether it may replace another dataset there.
