@@ -341,3 +341,29 @@ fn a_finished_trial_run_again_is_already_complete() {
         "--resume re-rendered the finished trial"
     );
 }
+
+#[test]
+fn an_unknown_built_in_model_is_named_with_its_preset_file() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let p = tmp.path().join("my-swarm.ron");
+    std::fs::write(
+        &p,
+        r#"(models: [(source: Builtin("quad_zz"), size_m: 0.3, class: "uav")])"#,
+    )
+    .expect("write");
+    for cmd in ["check", "batch"] {
+        let mut words = args(&[&cmd, &p]);
+        if cmd == "batch" {
+            words.extend(args(&[&"--out", &tmp.path().join("ds")]));
+        }
+        let e = err(&words);
+        assert!(
+            e.contains("my-swarm.ron") && e.contains("quad_zz"),
+            "{cmd}: {e}"
+        );
+    }
+    assert!(
+        !tmp.path().join("ds").exists(),
+        "the refused batch made its folder"
+    );
+}

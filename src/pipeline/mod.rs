@@ -23,6 +23,8 @@ mod streaks;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use anyhow::Context as _;
+
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::visibility::Visibility;
 use crate::annotate::{DroneLabel, label_frame};
@@ -256,9 +258,12 @@ impl FramePipeline {
         Ok(Self::with_assets(preset, assets))
     }
 
-    /// Open a preset file (paths resolved against its folder) and build its pipeline.
+    /// Open a preset file (paths resolved against its folder) and build its
+    /// pipeline; an invalid field or a model or sky that cannot be loaded is
+    /// named with the preset file.
     pub fn open(path: &Path) -> anyhow::Result<Self> {
-        Ok(Self::new(Preset::open(path)?)?)
+        let preset = Preset::open(path)?;
+        Self::new(preset).with_context(|| format!("preset {}", path.display()))
     }
 
     /// The pipeline of an edited preset: reuses this pipeline's assets when
