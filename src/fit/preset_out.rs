@@ -110,10 +110,11 @@ pub fn first_fit(
     let median_model = super::camera::quartiles(&sizes).map_or(largest, |q| q.median);
     if let Some(core) = footage.measured.drone_core_px {
         let per = largest / median_model.max(1e-6) / CORE_PER_PX;
-        let (lo, hi) = (
-            r3((core.q25 * per).max(0.5)),
-            r3((core.q75 * per).max(core.q25 * per + 0.5).max(1.0)),
-        );
+        let max_px = 2.0 * f64::from(w.max(h));
+        let hi = (core.q75 * per)
+            .max(core.q25 * per + 0.5)
+            .clamp(1.0, max_px);
+        let (lo, hi) = (r3((core.q25 * per).clamp(0.5, hi)), r3(hi));
         observer.size_px = Some((lo, hi));
         notes.push(format!(
             "camera.observer.size_px ({lo}, {hi}): the real drones' cores (IQR {:.2}–{:.2} px, {} drones) × largest/median model size {:.2} / {CORE_PER_PX} core px per px (measured on realistic.ron); the distance follows from the plates' field of view",
@@ -191,10 +192,14 @@ pub fn text(preset: &Preset, header: &[String]) -> String {
     s
 }
 
-/// The observer's size range scaled by `k` (the loop's drone-size step).
-pub fn scale_size(observer: &mut ObserverCamera, k: f64) {
+/// The observer's size range scaled by `k` (the loop's drone-size step), the apparent
+/// size of the largest model at most `max_px` (twice the frame's larger side: beyond it
+/// the swarm's volume, not the distance, limits what is seen).
+pub fn scale_size(observer: &mut ObserverCamera, k: f64, max_px: f64) {
     if let Some((lo, hi)) = observer.size_px {
-        observer.size_px = Some((r3((lo * k).max(0.5)), r3((hi * k).max(lo * k).max(0.5))));
+        let hi2 = (hi * k).clamp(0.5, max_px);
+        let lo2 = (lo * k).clamp(0.5, hi2);
+        observer.size_px = Some((r3(lo2), r3(hi2)));
     } else {
         let (lo, hi) = observer.distance_m;
         observer.distance_m = (r3(lo / k), r3(hi / k));

@@ -19,7 +19,9 @@
 //!   the real (and the blur is not below) it is halved first;
 //! - **mean brightness**: `exposure_ev` += 2.2 · log2(real / synthetic);
 //! - **sky saturation**: `saturation` × real / synthetic;
-//! - **drone core size**: the observer's `size_px` × real / synthetic;
+//! - **drone core size**: the observer's `size_px` × real / synthetic (the largest model
+//!   at most twice the frame's larger side: nearer than that, the swarm's volume, not the
+//!   distance, limits what is seen);
 //! - **drones darker than their ring**: the dark materials' weights (Black, DarkGrey) ×
 //!   the odds ratio real / synthetic.
 //!
@@ -210,12 +212,15 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
         && let Some(obs) = &mut preset.camera.observer
     {
         let k = (t / m).clamp(0.2, 5.0);
-        let before = obs.size_px;
-        preset_out::scale_size(obs, k);
-        changes.push(format!(
-            "observer size_px {before:?} → {:?} (drone core {m:.2} px {v} the real {t:.2})",
-            obs.size_px
-        ));
+        let (before, distance) = (obs.size_px, obs.distance_m);
+        let (w, h) = preset.render.resolution.size();
+        preset_out::scale_size(obs, k, 2.0 * f64::from(w.max(h)));
+        if obs.size_px != before || obs.distance_m != distance {
+            changes.push(format!(
+                "observer size_px {before:?} → {:?} (drone core {m:.2} px {v} the real {t:.2})",
+                obs.size_px
+            ));
+        }
     }
     if let Some((v, t, m)) = stat(report, "drone_darker")
         && outside(v)
