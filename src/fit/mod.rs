@@ -125,11 +125,24 @@ pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FitError + '
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file beside it and a rename.
+/// Writes `bytes` to `path` atomically through its folder's handle
+/// ([`crate::write::outdir::OutDir`]): a temporary file created beside it without
+/// following a link, renamed into place; a link or a non-file at `path` is refused.
 pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FitError> {
-    let tmp = path.with_extension("fit-tmp");
-    std::fs::write(&tmp, bytes).map_err(io_err(&tmp))?;
-    std::fs::rename(&tmp, path).map_err(io_err(path))
+    let refused = |reason: String| FitError::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(reason),
+    };
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
+        return Err(refused("is not a file path".into()));
+    };
+    let name = name
+        .to_str()
+        .ok_or_else(|| refused("has a name that is not UTF-8".into()))?;
+    crate::write::outdir::OutDir::create(dir)
+        .and_then(|mut out| out.write(name, bytes))
+        .map(|_| ())
+        .map_err(|e| refused(e.to_string()))
 }
 
 /// The names `fit` writes in its output folder (removed by `--overwrite`).
