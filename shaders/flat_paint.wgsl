@@ -1,7 +1,14 @@
 // The app's flat paint (src/app/flat_paint.rs): the window's background as one fill and the
 // preview picture copied texel for texel, drawn in egui's render pass instead of as egui meshes.
 
-@group(0) @binding(0) var<uniform> colour: vec4<f32>;
+// The fill's colour (the picture's tint), and the part of the picture shown: its
+// top-left and size in 0..1 of the picture (0, 0, 1, 1: all of it; smaller: zoomed in).
+struct Paint {
+    colour: vec4<f32>,
+    part: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> paint: Paint;
 @group(0) @binding(1) var picture: texture_2d<f32>;
 
 override SRGB_TARGET: bool = false;
@@ -20,7 +27,7 @@ fn vs_main(@builtin(vertex_index) i: u32) -> Varyings {
 
 @fragment
 fn fs_fill() -> @location(0) vec4<f32> {
-    return colour;
+    return paint.colour;
 }
 
 fn linear_from_srgb(c: vec3<f32>) -> vec3<f32> {
@@ -31,8 +38,9 @@ fn linear_from_srgb(c: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_picture(v: Varyings) -> @location(0) vec4<f32> {
     let size = textureDimensions(picture);
-    let texel = min(vec2<u32>(v.uv * vec2<f32>(size)), size - vec2<u32>(1u));
-    let c = textureLoad(picture, texel, 0) * colour;
+    let uv = paint.part.xy + v.uv * paint.part.zw;
+    let texel = min(vec2<u32>(uv * vec2<f32>(size)), size - vec2<u32>(1u));
+    let c = textureLoad(picture, texel, 0) * paint.colour;
     if SRGB_TARGET {
         return vec4<f32>(linear_from_srgb(c.rgb), c.a);
     }

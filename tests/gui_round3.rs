@@ -290,3 +290,94 @@ fn the_masks_checkboxes_reach_the_preset() {
     assert!(!h.state().session().preset.output.masks.depth);
     assert!(h.query_by_label_contains("Depth unit").is_none());
 }
+
+/// Steps until `done`, at most `n` passes (smooth scrolling spreads a wheel over passes).
+fn step_until(h: &mut Harness<'_, SwarmshotApp>, n: usize, done: impl Fn(&SwarmshotApp) -> bool) {
+    for _ in 0..n {
+        h.step();
+        if done(h.state()) {
+            return;
+        }
+    }
+}
+
+#[test]
+fn the_wheel_zooms_the_preview_and_a_drag_pans_it() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    // 1280×720: larger than the pane, so the whole frame is shown scaled down.
+    let big = GRID.replace("width: 640, height: 360", "width: 1280, height: 720");
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", &big)));
+    wait_for(&mut h, "the first preview", settled);
+    let fit = h.state().shown_pixel_scale().unwrap();
+    assert!(fit < 0.8, "{fit}");
+    assert_eq!(h.state().pane_view().zoom, 1.0);
+    let rect = h.state().preview_rect().unwrap();
+    let size_fit = h.state().preview_key().unwrap().size_px;
+
+    // The wheel over the picture zooms in about the pointer.
+    h.event(egui::Event::PointerMoved(rect.center()));
+    h.step();
+    h.event(egui::Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Point,
+        delta: egui::vec2(0.0, 200.0),
+        phase: egui::TouchPhase::Move,
+        source: egui::MouseWheelSource::Unknown,
+        modifiers: egui::Modifiers::NONE,
+    });
+    step_until(&mut h, 60, |app| {
+        app.shown_pixel_scale().is_some_and(|s| s > 1.5 * fit)
+    });
+    let zoomed = h.state().shown_pixel_scale().unwrap();
+    assert!(
+        zoomed > 1.5 * fit,
+        "the wheel zoomed from {fit} to {zoomed}"
+    );
+    let view = h.state().pane_view();
+    assert!(view.part().width() < 0.7, "{view:?}");
+    // Zoomed in, the picture is rendered larger (up to the output's 1280×720).
+    wait_for(&mut h, "the larger picture", |app| {
+        settled(app)
+            && app
+                .preview_key()
+                .is_some_and(|k| k.size_px[0] > size_fit[0])
+    });
+
+    // A drag pans.
+    let origin = h.state().pane_view().origin;
+    h.event(egui::Event::PointerButton {
+        pos: rect.center(),
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.step();
+    for i in 1..=5 {
+        h.event(egui::Event::PointerMoved(
+            rect.center() + egui::vec2(-20.0 * i as f32, -10.0 * i as f32),
+        ));
+        h.step();
+    }
+    h.event(egui::Event::PointerButton {
+        pos: rect.center() + egui::vec2(-100.0, -50.0),
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.run_steps(2);
+    let moved = h.state().pane_view().origin;
+    assert!(
+        moved.x > origin.x && moved.y > origin.y,
+        "{origin:?} -> {moved:?}"
+    );
+
+    // 1:1 shows one screen pixel per pixel of the frame; Fit the whole frame.
+    h.get_by_role_and_label(Role::Button, "1:1").click();
+    h.run_steps(3);
+    let one = h.state().shown_pixel_scale().unwrap();
+    assert!((one - 1.0).abs() < 0.01, "1:1 gave {one}");
+    h.get_by_role_and_label(Role::Button, "Fit").click();
+    h.run_steps(3);
+    assert_eq!(h.state().pane_view().zoom, 1.0);
+    assert!((h.state().shown_pixel_scale().unwrap() - fit).abs() < 1e-3);
+}

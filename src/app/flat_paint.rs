@@ -148,23 +148,35 @@ impl FlatPainter {
 
     /// The window's background: `colour` over all of `rect`, drawn before anything else.
     pub fn background(&self, rect: Rect, colour: Color32) -> egui::Shape {
+        let [r, g, b, a] = self.colour_value(colour);
         let paint = FlatPaint {
             pipeline: self.fill.clone(),
             binding: self.background.clone(),
-            colour: self.colour_value(colour),
+            params: [r, g, b, a, 0.0, 0.0, 1.0, 1.0],
         };
         egui_wgpu::Callback::new_paint_callback(rect, paint).into()
     }
 
-    /// The current picture over `rect`, tinted with `tint` as egui tints an
-    /// image; None before the first picture.
-    pub fn picture(&self, rect: Rect, tint: Color32) -> Option<egui::Shape> {
+    /// `part` of the current picture (in 0..1 of its width and height; all of it:
+    /// 0, 0, 1, 1) over `rect`, tinted with `tint` as egui tints an image, each pixel
+    /// the nearest texel (zoomed in: the preview's pixels as blocks); None before the
+    /// first picture.
+    pub fn picture_part(&self, rect: Rect, tint: Color32, part: Rect) -> Option<egui::Shape> {
         let binding = self.shown.clone()?;
         let [r, g, b, a] = tint.to_normalized_gamma_f32();
         let paint = FlatPaint {
             pipeline: self.picture.clone(),
             binding,
-            colour: [r, g, b, a],
+            params: [
+                r,
+                g,
+                b,
+                a,
+                part.min.x,
+                part.min.y,
+                part.width(),
+                part.height(),
+            ],
         };
         Some(egui_wgpu::Callback::new_paint_callback(rect, paint).into())
     }
@@ -186,7 +198,7 @@ fn binding(
 ) -> Binding {
     let colour = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("flat paint colour"),
-        contents: bytemuck::cast_slice(&[1.0f32; 4]),
+        contents: bytemuck::cast_slice(&[1.0f32, 1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0]),
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     });
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -206,11 +218,12 @@ fn binding(
     Binding { colour, group }
 }
 
-/// One flat paint: a pipeline, its binding and the colour to write into it.
+/// One flat paint: a pipeline, its binding and what to write into it (the colour,
+/// then the part of the picture shown: left, top, width, height in 0..1).
 struct FlatPaint {
     pipeline: wgpu::RenderPipeline,
     binding: Binding,
-    colour: [f32; 4],
+    params: [f32; 8],
 }
 
 impl CallbackTrait for FlatPaint {
@@ -222,7 +235,7 @@ impl CallbackTrait for FlatPaint {
         _encoder: &mut wgpu::CommandEncoder,
         _resources: &mut CallbackResources,
     ) -> Vec<wgpu::CommandBuffer> {
-        let bytes: &[u8] = bytemuck::cast_slice(&self.colour);
+        let bytes: &[u8] = bytemuck::cast_slice(&self.params);
         queue.write_buffer(&self.binding.colour, 0, bytes);
         Vec::new()
     }

@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use egui::{Color32, Pos2, Rect, Ui, Vec2};
+use egui::{Color32, Rect, Ui, Vec2};
 
 use super::SwarmshotApp;
 use super::mask_view::{MaskKey, MaskMaker, MaskPicture, MaskRequest, MaskResult, PaneShows};
@@ -137,6 +137,7 @@ impl SwarmshotApp {
         ctx: &egui::Context,
         painter: &egui::Painter,
         rect: Rect,
+        part: Rect,
     ) -> bool {
         let shows = self.pane_shows();
         if shows == PaneShows::Picture {
@@ -176,12 +177,7 @@ impl SwarmshotApp {
             pane.texture = Some((shows, key, texture));
         }
         if let Some((_, _, texture)) = &pane.texture {
-            painter.image(
-                texture.id(),
-                rect,
-                Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
-                Color32::WHITE,
-            );
+            painter.image(texture.id(), rect, part, Color32::WHITE);
         }
         let legend = match (shows, picture.depth_range_m) {
             (PaneShows::Depth, Some((near, far))) => format!(

@@ -36,7 +36,7 @@ pub mod panels;
 pub mod playback;
 pub mod preset_text;
 pub mod preview;
-mod preview_pane;
+pub mod preview_pane;
 pub mod problems;
 pub mod prompt;
 pub mod realism_panels;
@@ -213,6 +213,10 @@ pub struct SwarmshotApp {
     preview_rect: Option<Rect>,
     /// The central panel (the preview pane's column) in the last pass.
     central_rect: Option<Rect>,
+    /// The preview's zoom and pan (wheel and drag in the pane).
+    pane_view: preview_pane::PaneView,
+    /// Screen pixels per output pixel of the picture shown, in the last pass.
+    pixel_scale: Option<f32>,
     /// The instance / depth views of the previewed frame.
     mask_pane: mask_pane::MaskPane,
     /// Change → picture on screen, measured here (see [`latency`]).
@@ -335,6 +339,8 @@ impl SwarmshotApp {
             preview_size_px: [0, 0],
             preview_rect: None,
             central_rect: None,
+            pane_view: preview_pane::PaneView::default(),
+            pixel_scale: None,
             mask_pane: mask_pane::MaskPane::default(),
             latency: latency::LatencyMeter::default(),
             summary_due: None,
@@ -413,6 +419,17 @@ impl SwarmshotApp {
     /// Where the preview pane drew its picture in the last pass, in points.
     pub fn preview_rect(&self) -> Option<Rect> {
         self.preview_rect
+    }
+
+    /// Screen pixels per output pixel of the picture shown (1: a 1:1 view; it grows as
+    /// the wheel zooms in).
+    pub fn shown_pixel_scale(&self) -> Option<f32> {
+        self.pixel_scale
+    }
+
+    /// The preview's zoom and the part of the frame it shows.
+    pub fn pane_view(&self) -> preview_pane::PaneView {
+        self.pane_view
     }
 
     /// The central panel (frame bar, toggles and preview) in the last pass, in points.

@@ -80,7 +80,7 @@ impl SwarmshotApp {
             ui.checkbox(&mut self.session.show_boxes, "Boxes")
                 .on_hover_text("Draw the label boxes this frame gets");
             if self.session.show_boxes && !self.session.inspect {
-                box_legend_ui(ui);
+                box_legend_ui(ui, &self.resolved.classes().0);
             }
             if !self.session.inspect {
                 if self.resolved.camera_model.is_some() {
@@ -99,6 +99,9 @@ impl SwarmshotApp {
                         "The preset has no camera model (Camera model section): its frames are written as rendered, as shown",
                     );
                 }
+            }
+            if !self.session.inspect {
+                self.zoom_buttons_ui(ui);
             }
             ui.checkbox(&mut self.session.inspect, "Inspect")
                 .on_hover_text(
@@ -129,7 +132,14 @@ impl SwarmshotApp {
             size = Vec2::new(avail.y * aspect, avail.y);
         }
         let ppp = ui.ctx().pixels_per_point();
-        let scale = ((size.x * ppp) / out_w.max(1) as f32).min(1.0);
+        // Zoomed in, the picture is rendered larger (up to the output's own size), so
+        // the pixels shown are the frame's, not the pane-sized picture's blown up.
+        let view = if self.session.inspect {
+            PaneView::default()
+        } else {
+            self.pane_view
+        };
+        let scale = ((size.x * ppp * view.zoom) / out_w.max(1) as f32).min(1.0);
         self.preview_size_px = [
             ((out_w as f32 * scale).round() as u32).max(1),
             ((out_h as f32 * scale).round() as u32).max(1),
@@ -140,6 +150,16 @@ impl SwarmshotApp {
         }
         let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
         self.preview_rect = Some(rect);
+        if !self.session.inspect {
+            self.zoom_and_pan(ui, &response, rect, out_w);
+        }
+        let view = if self.session.inspect {
+            PaneView::default()
+        } else {
+            self.pane_view
+        };
+        self.pixel_scale = Some(rect.width() * ppp * view.zoom / out_w.max(1) as f32);
+        let part = view.part();
         let painter = ui.painter_at(rect);
         let tint = if self.errors.is_empty() {
             Color32::WHITE
@@ -148,9 +168,9 @@ impl SwarmshotApp {
         };
         // The picture covers the pane: the dark fill only where it is not shown.
         let under = painter.add(egui::Shape::Noop);
-        let masked = self.paint_masks(ui.ctx(), &painter, rect);
+        let masked = self.paint_masks(ui.ctx(), &painter, rect, part);
         let picture = (self.preview.as_ref().zip(self.flat.as_ref()))
-            .and_then(|(_, flat)| flat.picture(rect, tint))
+            .and_then(|(_, flat)| flat.picture_part(rect, tint, part))
             .filter(|_| !masked);
         if picture.is_none() {
             painter.set(
@@ -163,7 +183,15 @@ impl SwarmshotApp {
                 painter.add(picture);
             }
             match &frame.inspect {
-                None if self.session.show_boxes => draw_boxes(&painter, rect, frame, out_w),
+                None if self.session.show_boxes => {
+                    let classes = self.resolved.classes().0;
+                    let (w, h) = (out_w as f32, out_h as f32);
+                    let to_screen = |x: f64, y: f64| {
+                        let n = Vec2::new(x as f32 / w, y as f32 / h);
+                        rect.min + (n - part.min.to_vec2()) / part.size() * rect.size()
+                    };
+                    draw_boxes(&painter, frame, &classes, to_screen);
+                }
                 None => {}
                 Some(_) => draw_inspect(&painter, rect, frame),
             }
@@ -185,6 +213,63 @@ impl SwarmshotApp {
             }
         }
         Some(rect)
+    }
+
+    /// The wheel zooms about the pointer, a drag pans, a double click fits the frame.
+    fn zoom_and_pan(&mut self, ui: &Ui, response: &egui::Response, rect: Rect, out_w: u32) {
+        let ppp = ui.ctx().pixels_per_point();
+        let max = self.max_zoom(rect, ppp, out_w);
+        let view = &mut self.pane_view;
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0
+                && let Some(at) = response.hover_pos()
+            {
+                view.zoom_at(rect, at, (scroll * 0.003).exp(), max);
+            }
+        }
+        if response.dragged() && view.zoom > 1.0 {
+            view.pan(rect, response.drag_delta());
+        }
+        if response.double_clicked() {
+            *view = PaneView::default();
+        }
+        view.zoom = view.zoom.min(max);
+        view.clamp();
+    }
+
+    /// The largest zoom: 8 screen pixels an output pixel (at least the whole frame).
+    fn max_zoom(&self, rect: Rect, ppp: f32, out_w: u32) -> f32 {
+        (8.0 * out_w as f32 / (rect.width() * ppp).max(1.0)).max(1.0)
+    }
+
+    /// Zoom, the 1:1 button and Fit, beside the view toggles (not in Inspect).
+    fn zoom_buttons_ui(&mut self, ui: &mut Ui) {
+        let (Some(rect), Some(scale)) = (self.preview_rect, self.pixel_scale) else {
+            return;
+        };
+        let (out_w, _) = self.resolved.image_size();
+        let ppp = ui.ctx().pixels_per_point();
+        ui.label(format!("{:.0} %", scale * 100.0)).on_hover_text(
+            "Screen pixels per pixel of the frame: wheel over the picture to zoom, drag to pan, double-click to fit",
+        );
+        if ui
+            .button("1:1")
+            .on_hover_text("One screen pixel for each pixel of the frame, about the centre")
+            .clicked()
+        {
+            let centre = rect.center();
+            let factor = (1.0 / scale).max(1.0 / self.pane_view.zoom);
+            let max = self.max_zoom(rect, ppp, out_w);
+            self.pane_view.zoom_at(rect, centre, factor, max);
+        }
+        if ui
+            .add_enabled(self.pane_view.zoom > 1.0, egui::Button::new("Fit"))
+            .on_hover_text("The whole frame in the pane (double-click the picture)")
+            .clicked()
+        {
+            self.pane_view = PaneView::default();
+        }
     }
 
     /// Why the picture is paused or failed, over the picture.
@@ -264,13 +349,70 @@ fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
     )
 }
 
-/// Training boxes are red and COCO crowd regions amber, as [`draw_boxes`] draws them.
-const BOX_KEPT: Color32 = Color32::from_rgb(255, 60, 60);
+/// Training boxes take their class's colour (the first class red), COCO crowd regions
+/// amber and unlabelled hard negatives cyan, as [`draw_boxes`] draws them.
+const CLASS_COLOURS: [Color32; 6] = [
+    Color32::from_rgb(255, 60, 60),
+    Color32::from_rgb(90, 230, 90),
+    Color32::from_rgb(235, 90, 235),
+    Color32::from_rgb(240, 240, 70),
+    Color32::from_rgb(120, 150, 255),
+    Color32::from_rgb(240, 240, 240),
+];
 const BOX_CROWD: Color32 = Color32::from_rgb(255, 190, 40);
-/// Unlabelled hard negatives (confusers without a class): their own colour.
 const BOX_NEGATIVE: Color32 = Color32::from_rgb(60, 200, 255);
 
-fn box_legend_ui(ui: &mut Ui) {
+fn class_colour(class: usize) -> Color32 {
+    CLASS_COLOURS[class % CLASS_COLOURS.len()]
+}
+
+/// The preview's zoom and pan: the part of the frame the pane shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PaneView {
+    /// 1: the whole frame fits the pane; 2: half its width and height fill it.
+    pub zoom: f32,
+    /// The top-left of the part shown, in 0..1 of the frame's width and height.
+    pub origin: Vec2,
+}
+
+impl Default for PaneView {
+    fn default() -> Self {
+        Self {
+            zoom: 1.0,
+            origin: Vec2::ZERO,
+        }
+    }
+}
+
+impl PaneView {
+    /// The part of the frame shown, in 0..1 of its width and height.
+    pub fn part(&self) -> Rect {
+        Rect::from_min_size(self.origin.to_pos2(), Vec2::splat(1.0 / self.zoom))
+    }
+
+    /// Zoom by `factor` keeping the frame's point under `at` (a screen point in `rect`) there.
+    fn zoom_at(&mut self, rect: Rect, at: Pos2, factor: f32, max: f32) {
+        let t = (at - rect.min) / rect.size();
+        let under = self.origin + t / self.zoom;
+        self.zoom = (self.zoom * factor).clamp(1.0, max.max(1.0));
+        self.origin = under - t / self.zoom;
+        self.clamp();
+    }
+
+    /// Move the picture with the pointer by `delta` screen points.
+    fn pan(&mut self, rect: Rect, delta: Vec2) {
+        self.origin -= delta / rect.size() / self.zoom;
+        self.clamp();
+    }
+
+    /// Keep the part shown inside the frame.
+    fn clamp(&mut self) {
+        let max = 1.0 - 1.0 / self.zoom;
+        self.origin = Vec2::new(self.origin.x.clamp(0.0, max), self.origin.y.clamp(0.0, max));
+    }
+}
+
+fn box_legend_ui(ui: &mut Ui, classes: &[String]) {
     // Painted swatches: the default fonts have no "■". Each with its words, as one
     // piece that a narrow pane moves to the next row whole.
     let entry = |ui: &mut Ui, colour: Color32, words: &str, tip: &str| {
@@ -294,7 +436,14 @@ fn box_legend_ui(ui: &mut Ui) {
         response.on_hover_text(tip);
         ui.label(galley).on_hover_text(tip);
     };
-    entry(ui, BOX_KEPT, "label box", "A box written to the labels");
+    for (i, class) in classes.iter().enumerate() {
+        entry(
+            ui,
+            class_colour(i),
+            class,
+            &format!("A box of class \"{class}\" written to the labels"),
+        );
+    }
     entry(
         ui,
         BOX_CROWD,
@@ -309,26 +458,43 @@ fn box_legend_ui(ui: &mut Ui) {
     );
 }
 
-/// The label boxes, from output pixels to the pane.
-fn draw_boxes(painter: &egui::Painter, rect: Rect, frame: &PreviewFrame, out_w: u32) {
-    let scale = rect.width() / out_w.max(1) as f32;
-    let kept = Stroke::new(1.5, BOX_KEPT);
-    let crowd = Stroke::new(1.0, BOX_CROWD);
-    let negative = Stroke::new(1.0, BOX_NEGATIVE);
+/// The label boxes, output pixels taken to the pane by `to_screen`; training boxes
+/// with their class name.
+fn draw_boxes(
+    painter: &egui::Painter,
+    frame: &PreviewFrame,
+    classes: &[String],
+    to_screen: impl Fn(f64, f64) -> Pos2,
+) {
+    let font = egui::FontId::proportional(11.0);
     for label in &frame.labels {
-        // Training boxes in red, COCO crowd (ignore) regions in amber; filtered drones get none.
-        let stroke = match label.status {
-            crate::annotate::LabelStatus::Kept => kept,
-            crate::annotate::LabelStatus::Crowd => crowd,
+        let (colour, width, name) = match label.status {
+            crate::annotate::LabelStatus::Kept => (
+                class_colour(label.class_id),
+                1.5,
+                classes.get(label.class_id).map(String::as_str),
+            ),
+            crate::annotate::LabelStatus::Crowd => (BOX_CROWD, 1.0, None),
             crate::annotate::LabelStatus::Filtered => continue,
-            crate::annotate::LabelStatus::Negative => negative,
+            crate::annotate::LabelStatus::Negative => (BOX_NEGATIVE, 1.0, None),
         };
         let b = &label.bbox;
-        let r = Rect::from_min_max(
-            rect.min + Vec2::new(b.x0 as f32, b.y0 as f32) * scale,
-            rect.min + Vec2::new(b.x1 as f32, b.y1 as f32) * scale,
+        let r = Rect::from_min_max(to_screen(b.x0, b.y0), to_screen(b.x1, b.y1));
+        painter.rect_stroke(
+            r.expand(1.0),
+            0.0,
+            Stroke::new(width, colour),
+            egui::StrokeKind::Outside,
         );
-        painter.rect_stroke(r.expand(1.0), 0.0, stroke, egui::StrokeKind::Outside);
+        if let Some(name) = name {
+            painter.text(
+                r.left_top() + Vec2::new(-1.0, -3.0),
+                egui::Align2::LEFT_BOTTOM,
+                name,
+                font.clone(),
+                colour,
+            );
+        }
     }
 }
 
