@@ -365,10 +365,11 @@ fn two_shards_made_in_the_app_merge_into_the_whole_dataset() {
         );
     }
     h.run_steps(1);
-    h.get_by_label("Merge shards").click();
+    // Below the batch report the Merge section may lie under the panel's fold: by accesskit.
+    h.get_by_label("Merge shards").click_accesskit();
     h.run_steps(2);
     h.get_by_role_and_label(Role::Button, "Merge into the output folder")
-        .click();
+        .click_accesskit();
     h.run_steps(1);
     wait_for(&mut h, "the merge", |app| app.merge_outcome().is_some());
     match h.state().merge_outcome() {

@@ -381,3 +381,39 @@ fn the_wheel_zooms_the_preview_and_a_drag_pans_it() {
     assert_eq!(h.state().pane_view().zoom, 1.0);
     assert!((h.state().shown_pixel_scale().unwrap() - fit).abs() < 1e-3);
 }
+
+#[test]
+fn the_output_folder_sits_beside_generate_and_examples_say_what_they_are() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let camera = GRID.replace(
+        "render:",
+        "camera_model: (read_noise_levels: (2.0, 2.0)),\n    render:",
+    );
+    let mut h = harness(Some(write_preset(dir.path(), "camera.ron", &camera)));
+    wait_for(&mut h, "the first preview", settled);
+    // The batch's settings in one place: the folder and Overwrite above Generate, on the right.
+    let central = h.state().central_rect().unwrap();
+    let generate = h.get_by_role_and_label(Role::Button, "Generate").rect();
+    for label in ["Output folder", "Overwrite an existing dataset"] {
+        let rect = h.get_by_label(label).rect();
+        assert!(
+            rect.left() > central.right() && rect.bottom() < generate.top(),
+            "{label} at {rect:?}, Generate at {generate:?}"
+        );
+    }
+    // The optional stages' headers say whether they are on.
+    let status = swarmshot::app::stage_status(&h.state().session().preset);
+    assert!(
+        status.contains(&("Camera model", "on".to_string())),
+        "{status:?}"
+    );
+    assert!(
+        status.contains(&("Atmosphere", "off".to_string())),
+        "{status:?}"
+    );
+
+    h.get_by_role_and_label(Role::Button, "Examples").click();
+    h.run_steps(3);
+    h.get_by_label_contains("swarmshot quickstart: a paper-like randomized swarm");
+}

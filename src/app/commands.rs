@@ -280,7 +280,7 @@ impl SwarmshotApp {
         };
         if self.session.out_dir.trim().is_empty() {
             self.notices
-                .push("cannot generate: choose an output folder (Output panel)".into());
+                .push("cannot generate: choose an output folder (Batch panel)".into());
             return;
         }
         // The snapshot: later edits cannot reach the running batch.

@@ -37,6 +37,20 @@ pub fn read_preset_text(path: &Path) -> Result<(Preset, String), String> {
     Ok((preset, text))
 }
 
+/// What an example preset is, from the comment it starts with (its first three lines
+/// joined); None when it starts with none.
+pub fn example_description(path: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let lines: Vec<&str> = text
+        .lines()
+        .map_while(|l| l.trim_start().strip_prefix("//"))
+        .map(str::trim)
+        .take_while(|l| !l.is_empty())
+        .take(3)
+        .collect();
+    (!lines.is_empty()).then(|| lines.join(" "))
+}
+
 /// The example presets shipped in the repository's presets/ folder.
 pub fn example_presets() -> Vec<PathBuf> {
     let dirs = [

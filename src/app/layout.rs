@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 use super::panels::{self, Form, error_label, group_digits};
 use super::{
     APP_NAME, Command, Session, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
-    example_presets, problems, realism_panels,
+    example_description, example_presets, problems, realism_panels,
 };
 
 impl SwarmshotApp {
@@ -41,16 +41,27 @@ impl SwarmshotApp {
                             .file_stem()
                             .map(|s| s.to_string_lossy().into_owned())
                             .unwrap_or_default();
-                        if ui
-                            .button(name)
-                            .on_hover_text(format!(
-                                "Open a copy of {}; Save asks where to keep it",
-                                path.display()
-                            ))
-                            .clicked()
-                        {
-                            commands.push(Command::OpenExample(path));
-                        }
+                        // Each with the start of its own comment, and all of it on hover.
+                        let about = example_description(&path);
+                        let tip = format!(
+                            "{}\n\nOpen a copy of {}; Save asks where to keep it",
+                            about.as_deref().unwrap_or(""),
+                            path.display()
+                        );
+                        ui.horizontal(|ui| {
+                            if ui.button(name).on_hover_text(&tip).clicked() {
+                                commands.push(Command::OpenExample(path.clone()));
+                            }
+                            if let Some(about) = &about {
+                                let short: String = about.chars().take(70).collect();
+                                let more = if about.chars().count() > 70 {
+                                    "…"
+                                } else {
+                                    ""
+                                };
+                                ui.weak(format!("{short}{more}")).on_hover_text(&tip);
+                            }
+                        });
                     }
                 })
                 .response
@@ -311,6 +322,26 @@ impl SwarmshotApp {
     }
 }
 
+/// Whether each optional stage is on, for its section's header: "on", "off", or a count.
+pub fn stage_status(p: &crate::preset::Preset) -> Vec<(&'static str, String)> {
+    let on = |b: bool| if b { "on" } else { "off" }.to_string();
+    vec![
+        ("Camera model", on(p.camera_model.is_some())),
+        ("Atmosphere", on(p.atmosphere.is_some())),
+        ("Drone appearance", on(p.appearance.is_some())),
+        ("Clutter", on(p.clutter.is_some())),
+        (
+            "Confusers",
+            match p.confusers.len() {
+                0 => "off".into(),
+                1 => "1 kind".into(),
+                n => format!("{n} kinds"),
+            },
+        ),
+        ("Backplates", on(p.backplate.is_some())),
+    ]
+}
+
 /// The collapsible parameter sections, in the order of the paper's panels
 /// and then the realism stages; `open_section` is opened (a Problems link).
 fn sections_ui(
@@ -321,17 +352,33 @@ fn sections_ui(
     load_error: Option<&str>,
     commands: &mut Vec<Command>,
 ) {
+    let status = stage_status(&s.preset);
     let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
         // A Problems link opens the section that holds its field.
         let open = (open_section == Some(title)).then_some(true);
         // The realism sections start collapsed (most presets leave them off).
         let default_open = !problems::COLLAPSED_SECTIONS.contains(&title);
-        egui::CollapsingHeader::new(title)
+        let header = egui::CollapsingHeader::new(title)
             .default_open(default_open)
             .open(open)
             .show(ui, |ui| add(ui))
-            .header_response
-            .on_hover_text(tip);
+            .header_response;
+        // An optional stage says at its header whether it is on, open or collapsed.
+        if let Some((_, on)) = status.iter().find(|(t, _)| *t == title) {
+            let colour = if on.as_str() == "off" {
+                ui.visuals().weak_text_color()
+            } else {
+                ui.visuals().text_color()
+            };
+            ui.painter().text(
+                header.rect.right_center() + egui::vec2(8.0, 0.0),
+                egui::Align2::LEFT_CENTER,
+                on,
+                egui::TextStyle::Body.resolve(ui.style()),
+                colour,
+            );
+        }
+        header.on_hover_text(tip);
     };
     section(
         ui,
@@ -410,16 +457,7 @@ fn sections_ui(
     section(
         ui,
         "Output",
-        "Resolution, file formats, split and folder",
-        &mut |ui| {
-            panels::output_ui(
-                ui,
-                &mut s.preset,
-                form,
-                &mut s.out_dir,
-                &mut s.overwrite,
-                commands,
-            );
-        },
+        "Resolution, file formats, split, boxes and masks",
+        &mut |ui| panels::output_ui(ui, &mut s.preset, form),
     );
 }

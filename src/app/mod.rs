@@ -46,7 +46,10 @@ pub mod worker;
 #[cfg(all(unix, not(target_os = "macos")))]
 mod x11_focus;
 
-pub use launch::{example_presets, read_preset, read_preset_text, run, run_or_exit};
+pub use launch::{
+    example_description, example_presets, read_preset, read_preset_text, run, run_or_exit,
+};
+pub use layout::stage_status;
 
 use std::path::PathBuf;
 use std::sync::Arc;

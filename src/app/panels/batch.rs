@@ -18,6 +18,13 @@ impl SwarmshotApp {
         ui.heading("Batch");
         match &self.batch {
             None => {
+                // The output folder and Overwrite beside Generate: the batch's settings in one place.
+                super::output::folder_ui(
+                    ui,
+                    &mut self.session.out_dir,
+                    &mut self.session.overwrite,
+                    commands,
+                );
                 self.split_by_ui(ui);
                 self.trial_ui(ui);
                 self.shard_ui(ui);
@@ -48,7 +55,7 @@ impl SwarmshotApp {
         } else if self.gpu.is_none() {
             Some("No wgpu device: the app started without the wgpu renderer".into())
         } else if self.session.out_dir.trim().is_empty() {
-            Some("Choose an output folder in the Output panel".into())
+            Some("Choose an output folder (above Generate)".into())
         } else {
             None
         }
@@ -173,7 +180,7 @@ impl SwarmshotApp {
                 } else if shards.is_empty() {
                     Some("Name the shard folders first".to_string())
                 } else if self.session.out_dir.trim().is_empty() {
-                    Some("Choose an output folder in the Output panel".to_string())
+                    Some("Choose an output folder (above Generate)".to_string())
                 } else {
                     None
                 };
@@ -402,7 +409,7 @@ fn output_path_ui(ui: &mut Ui, dir: &Path, commands: &mut Vec<Command>) {
 fn gui_wording(message: &str) -> String {
     message.replace(
         "pass --overwrite",
-        "tick \"Overwrite an existing dataset\" in the Output panel",
+        "tick \"Overwrite an existing dataset\" above Generate",
     )
 }
 

@@ -8,20 +8,12 @@ use crate::app::Command;
 use crate::preset::{BoxMethod, ImageFormat, LabelFormat, Preset, Resolution, fields};
 
 /// Output: resolution, MSAA, image and label formats, split, boxes, folder.
-pub fn output_ui(
-    ui: &mut Ui,
-    preset: &mut Preset,
-    form: &mut Form<'_>,
-    out_dir: &mut String,
-    overwrite: &mut bool,
-    commands: &mut Vec<Command>,
-) {
+pub fn output_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     resolution_ui(ui, preset, form);
     file_formats_ui(ui, preset, form);
     split_ui(ui, preset, form);
     boxes_ui(ui, preset, form);
     masks_ui(ui, preset, form);
-    folder_ui(ui, out_dir, overwrite, commands);
 }
 
 /// Resolution (named or custom) and MSAA.
@@ -253,8 +245,14 @@ fn masks_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     );
 }
 
-/// Where Generate writes, and whether it may replace another dataset there.
-fn folder_ui(ui: &mut Ui, out_dir: &mut String, overwrite: &mut bool, commands: &mut Vec<Command>) {
+/// Where Generate writes, and whether it may replace another dataset there (the
+/// Batch panel, beside Generate).
+pub(in crate::app) fn folder_ui(
+    ui: &mut Ui,
+    out_dir: &mut String,
+    overwrite: &mut bool,
+    commands: &mut Vec<Command>,
+) {
     // Generate opens the folder as typed, so a relative one is taken from the working directory.
     let tip = match std::env::current_dir() {
         Ok(cwd) => format!(
@@ -265,7 +263,9 @@ fn folder_ui(ui: &mut Ui, out_dir: &mut String, overwrite: &mut bool, commands: 
     };
     ui.horizontal(|ui| {
         let label = ui.label("Output folder").on_hover_text(&tip);
-        ui.add(egui::TextEdit::singleline(out_dir).desired_width(180.0))
+        // What the row leaves beside the label and Browse…, in a panel of any width.
+        let width = (ui.available_width() - 80.0).clamp(80.0, 260.0);
+        ui.add(egui::TextEdit::singleline(out_dir).desired_width(width))
             .labelled_by(label.id)
             .on_hover_text(&tip);
         if ui
