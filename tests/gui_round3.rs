@@ -417,3 +417,75 @@ fn the_output_folder_sits_beside_generate_and_examples_say_what_they_are() {
     h.run_steps(3);
     h.get_by_label_contains("swarmshot quickstart: a paper-like randomized swarm");
 }
+
+#[test]
+fn browse_chooses_the_backplate_folder_and_the_real_frames_folder() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let plates = dir.path().join("plates");
+    std::fs::create_dir(&plates).unwrap();
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    let ctx = h.ctx.clone();
+    h.state_mut()
+        .use_file_dialogs(swarmshot::app::files::DialogBackend::Builtin, &ctx);
+    wait_for(&mut h, "the first preview", settled);
+    h.state_mut().session_mut().preset.backplate = Some(Default::default());
+    h.run_steps(2);
+    h.get_by_label("Backplates").click_accesskit();
+    h.run_steps(2);
+    // The left panel's Browse… (the Batch panel on the right has the output folder's).
+    h.get_all_by_role_and_label(Role::Button, "Browse…")
+        .min_by(|a, b| a.rect().left().total_cmp(&b.rect().left()))
+        .unwrap()
+        .click_accesskit();
+    h.run_steps(2);
+    let browser = h.state().file_browser().expect("the folder dialog");
+    assert_eq!(
+        browser.purpose(),
+        swarmshot::app::files::FilePurpose::BackplateFolder
+    );
+    // It starts at the folder the preset names (`plates`, beside the preset).
+    assert_eq!(browser.dir(), plates.canonicalize().unwrap());
+    h.run_steps(2);
+    h.get_by_label("Backplate folder");
+    h.get_by_role_and_label(Role::Button, "Up").click();
+    h.run_steps(2);
+    h.get_by_label("other/").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::Button, "Choose this folder")
+        .click();
+    h.run_steps(2);
+    let folder = h
+        .state()
+        .session()
+        .preset
+        .backplate
+        .as_ref()
+        .unwrap()
+        .folder
+        .clone();
+    assert_eq!(folder, other.canonicalize().unwrap());
+
+    // The Domain gap window's real frames: the Browse… that the window added.
+    let before: Vec<egui::Rect> = h
+        .get_all_by_role_and_label(Role::Button, "Browse…")
+        .map(|b| b.rect())
+        .collect();
+    h.state_mut().gap_panel_mut().open = true;
+    h.run_steps(2);
+    h.get_all_by_role_and_label(Role::Button, "Browse…")
+        .find(|b| !before.contains(&b.rect()))
+        .unwrap()
+        .click_accesskit();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().file_browser().map(|b| b.purpose()),
+        Some(swarmshot::app::files::FilePurpose::RealFrames)
+    );
+    h.get_by_role_and_label(Role::Button, "Choose this folder")
+        .click();
+    h.run_steps(2);
+    assert!(!h.state().gap_panel().real_dir.is_empty());
+}

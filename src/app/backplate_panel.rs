@@ -14,7 +14,12 @@ use crate::preset::backplate::{Backplate, PlateHorizon};
 use crate::preset::{Preset, fields};
 
 /// Backplates: folder, the plates' camera, the sun, mirroring.
-pub fn backplate_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+pub fn backplate_ui(
+    ui: &mut Ui,
+    preset: &mut Preset,
+    form: &mut Form<'_>,
+    commands: &mut Vec<crate::app::Command>,
+) {
     let mut on = preset.backplate.is_some();
     if section_checkbox(ui, &mut on, "backplate").changed() {
         preset.backplate = on.then(Backplate::default);
@@ -34,6 +39,15 @@ pub fn backplate_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             .changed()
         {
             b.folder = PathBuf::from(text);
+        }
+        if ui
+            .button("Browse…")
+            .on_hover_text("Choose the backplate folder")
+            .clicked()
+        {
+            commands.push(crate::app::Command::BrowseFolder(
+                crate::app::files::FilePurpose::BackplateFolder,
+            ));
         }
     });
     form.messages(ui, &["backplate.folder"]);

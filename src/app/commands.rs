@@ -27,6 +27,7 @@ impl SwarmshotApp {
             Command::SaveAs => self.open_dialog(FilePurpose::SavePreset, ctx),
             Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
             Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
+            Command::BrowseFolder(purpose) if !locked => self.open_dialog(purpose, ctx),
             Command::Generate if !locked => self.generate(ctx),
             Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
             Command::Quit => self.guard(Replace::Close, ctx),
@@ -172,6 +173,20 @@ impl SwarmshotApp {
                 };
                 (start, None)
             }
+            FilePurpose::BackplateFolder => {
+                let folder = self.resolved.backplate.as_ref().map(|b| b.folder.clone());
+                let start = folder.filter(|f| f.is_dir());
+                (start.unwrap_or_else(|| self.preset_dir()), None)
+            }
+            FilePurpose::RealFrames => {
+                let real = PathBuf::from(self.gap.real_dir.trim());
+                let start = if real.is_dir() {
+                    real
+                } else {
+                    self.preset_dir()
+                };
+                (start, None)
+            }
             FilePurpose::OpenPreset | FilePurpose::AddModel => (self.preset_dir(), None),
         };
         let ctx = ctx.clone();
@@ -200,6 +215,12 @@ impl SwarmshotApp {
             FilePurpose::OutputFolder if self.batch.is_none() => {
                 self.session.out_dir = path.display().to_string();
             }
+            FilePurpose::BackplateFolder if self.batch.is_none() => {
+                if let Some(b) = &mut self.session.preset.backplate {
+                    b.folder = path;
+                }
+            }
+            FilePurpose::RealFrames => self.gap.real_dir = path.display().to_string(),
             _ => {}
         }
     }

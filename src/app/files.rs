@@ -56,6 +56,10 @@ pub enum FilePurpose {
     SavePreset,
     AddModel,
     OutputFolder,
+    /// The backplate folder (Backplates section).
+    BackplateFolder,
+    /// The real frames the Domain gap window measures.
+    RealFrames,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -72,6 +76,8 @@ impl FilePurpose {
             Self::SavePreset => "Save preset as",
             Self::AddModel => "Add glTF model",
             Self::OutputFolder => "Output folder",
+            Self::BackplateFolder => "Backplate folder",
+            Self::RealFrames => "Real frames folder",
         }
     }
 
@@ -79,7 +85,7 @@ impl FilePurpose {
         match self {
             Self::OpenPreset | Self::AddModel => Kind::Open,
             Self::SavePreset => Kind::Save,
-            Self::OutputFolder => Kind::Folder,
+            Self::OutputFolder | Self::BackplateFolder | Self::RealFrames => Kind::Folder,
         }
     }
 
@@ -88,7 +94,7 @@ impl FilePurpose {
         match self {
             Self::OpenPreset | Self::SavePreset => ("swarmshot preset", &["ron"]),
             Self::AddModel => ("glTF model", &["gltf", "glb"]),
-            Self::OutputFolder => ("folder", &[]),
+            Self::OutputFolder | Self::BackplateFolder | Self::RealFrames => ("folder", &[]),
         }
     }
 }

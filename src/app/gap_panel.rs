@@ -58,6 +58,8 @@ impl Drop for Job {
 /// The window's state.
 pub struct GapPanel {
     pub open: bool,
+    /// Browse… was clicked for the real frames: the app opens the folder dialog.
+    pub browse_real: bool,
     /// Folder of real frames (YOLO labels in a sibling labels/ or beside them).
     pub real_dir: String,
     pub side: SyntheticSide,
@@ -74,6 +76,7 @@ impl Default for GapPanel {
     fn default() -> Self {
         Self {
             open: false,
+            browse_real: false,
             real_dir: String::new(),
             side: SyntheticSide::PresetFrames,
             preset_frames: DEFAULT_PRESET_FRAMES,
@@ -193,10 +196,19 @@ impl GapPanel {
     fn inputs_ui(&mut self, ui: &mut Ui) {
         egui::Grid::new("gap inputs").num_columns(2).show(ui, |ui| {
             ui.label("Real frames folder");
-            ui.add(egui::TextEdit::singleline(&mut self.real_dir).desired_width(420.0))
-                .on_hover_text(
-                    "A folder of real JPEG/PNG frames; YOLO labels in a sibling labels/ folder or beside the images give the drone statistics",
-                );
+            ui.horizontal(|ui| {
+                ui.add(egui::TextEdit::singleline(&mut self.real_dir).desired_width(360.0))
+                    .on_hover_text(
+                        "A folder of real JPEG/PNG frames; YOLO labels in a sibling labels/ folder or beside the images give the drone statistics",
+                    );
+                if ui
+                    .button("Browse…")
+                    .on_hover_text("Choose the folder of real frames")
+                    .clicked()
+                {
+                    self.browse_real = true;
+                }
+            });
             ui.end_row();
             ui.label("Synthetic frames");
             ui.vertical(|ui| {

@@ -452,7 +452,7 @@ fn sections_ui(
         ui,
         "Backplates",
         "Photographic backgrounds: a folder of your own frames of sky and horizon",
-        &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, form),
+        &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, form, commands),
     );
     section(
         ui,

@@ -178,6 +178,8 @@ pub enum Command {
     SaveAs,
     AddGltf,
     BrowseOutDir,
+    /// The folder dialog for the backplate folder or the Domain gap window's real frames.
+    BrowseFolder(files::FilePurpose),
     Generate,
     Cancel,
     OpenOutputFolder(PathBuf),
@@ -536,6 +538,9 @@ impl eframe::App for SwarmshotApp {
                 out_dir: &self.session.out_dir,
             },
         );
+        if std::mem::take(&mut self.gap.browse_real) {
+            commands.push(Command::BrowseFolder(files::FilePurpose::RealFrames));
+        }
         if let Some(choice) = self.dialogs.show(&ctx) {
             self.chosen(choice, &ctx);
         } else if !self.dialogs.is_open() {
