@@ -13,10 +13,6 @@ use crate::gap::PixelBox;
 
 /// The largest frame file read.
 pub const MAX_FRAME_BYTES: u64 = 64 << 20;
-/// The largest label file read.
-const MAX_LABEL_BYTES: u64 = 16 << 20;
-/// Deepest folder level walked below the real folder.
-const MAX_DEPTH: usize = 8;
 /// The smallest frame side (one report tile, and a plate needs 64 px).
 pub const MIN_SIDE: u32 = 64;
 
@@ -39,12 +35,6 @@ pub struct RealFrame {
 pub enum Source {
     Folder(PathBuf),
     Video { path: PathBuf, ffmpeg: PathBuf },
-}
-
-fn is_image(p: &Path) -> bool {
-    p.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "jpg" | "jpeg" | "png"))
 }
 
 /// The absolute form of `p` without requiring it to exist: its longest existing
@@ -111,7 +101,7 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
         }
         return Ok(Source::Folder(real.clone()));
     }
-    if is_image(real) {
+    if crate::gap::folder::is_image(real) {
         return Err(FitError::Other(format!(
             "--real {}: a single image; give the folder that holds the frames (or a video file)",
             real.display()
@@ -207,95 +197,6 @@ pub fn decode_video(
     Ok(dir)
 }
 
-fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), FitError> {
-    for e in std::fs::read_dir(dir).map_err(io_err(dir))? {
-        let e = e.map_err(io_err(dir))?;
-        let p = e.path();
-        if e.file_name().to_string_lossy().starts_with('.') {
-            continue;
-        }
-        let ft = e.file_type().map_err(io_err(&p))?;
-        if ft.is_dir() {
-            if depth < MAX_DEPTH {
-                walk(&p, depth + 1, out)?;
-            }
-        } else if ft.is_file() && is_image(&p) {
-            out.push(p);
-        }
-    }
-    Ok(())
-}
-
-/// The label file of an image (the report's rule): under a sibling `labels/` (the last
-/// `images` component below `root` replaced by `labels`, or `root` itself named
-/// `images`), else beside it.
-pub fn label_for(root: &Path, image: &Path) -> Option<PathBuf> {
-    let rel = image.strip_prefix(root).ok()?;
-    let comps: Vec<_> = rel.components().collect();
-    let mut candidates = Vec::new();
-    if let Some(i) = comps.iter().rposition(|c| c.as_os_str() == "images") {
-        let mut p = root.to_path_buf();
-        for (j, c) in comps.iter().enumerate() {
-            p.push(if j == i {
-                "labels".as_ref()
-            } else {
-                c.as_os_str()
-            });
-        }
-        candidates.push(p.with_extension("txt"));
-    } else if root.file_name().is_some_and(|n| n == "images")
-        && let Some(parent) = root.parent()
-    {
-        candidates.push(parent.join("labels").join(rel).with_extension("txt"));
-    }
-    candidates.push(image.with_extension("txt"));
-    candidates.into_iter().find(|p| p.is_file())
-}
-
-/// YOLO rows `class cx cy w h` (normalised) → pixel boxes.
-pub fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, FitError> {
-    let bytes = crate::input::read_input_file(path, MAX_LABEL_BYTES).map_err(io_err(path))?;
-    let text = String::from_utf8_lossy(&bytes);
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let bad = |reason: String| FitError::Label {
-            path: path.to_path_buf(),
-            line: i + 1,
-            reason,
-        };
-        let f: Vec<&str> = line.split_whitespace().collect();
-        if f.len() != 5 {
-            return Err(bad(format!(
-                "expected 5 fields `class cx cy w h`, found {}",
-                f.len()
-            )));
-        }
-        let mut v = [0f32; 4];
-        for (k, s) in f[1..].iter().enumerate() {
-            v[k] = s
-                .parse::<f32>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| bad(format!("`{s}` is not a number")))?;
-        }
-        if v[2] < 0.0 || v[3] < 0.0 {
-            return Err(bad("negative box width or height".into()));
-        }
-        let (wf, hf) = (w as f32, h as f32);
-        out.push(PixelBox {
-            x0: (v[0] - 0.5 * v[2]) * wf,
-            x1: (v[0] + 0.5 * v[2]) * wf,
-            y0: (v[1] - 0.5 * v[3]) * hf,
-            y1: (v[1] + 0.5 * v[3]) * hf,
-        });
-    }
-    Ok(out)
-}
-
 /// Decodes one frame file, naming a 0-byte or corrupt file.
 pub fn decode(path: &Path) -> Result<(RgbImage, Option<Vec<u8>>), FitError> {
     let bytes = crate::input::read_input_file(path, MAX_FRAME_BYTES).map_err(io_err(path))?;
@@ -339,7 +240,7 @@ pub fn read_folder(
     unlabelled_ok: bool,
 ) -> Result<Vec<RealFrame>, FitError> {
     let mut images = Vec::new();
-    walk(dir, 0, &mut images)?;
+    crate::gap::folder::walk(dir, 0, &mut images)?;
     images.sort();
     if images.is_empty() {
         return Err(FitError::EmptyFolder {
@@ -352,7 +253,10 @@ pub fn read_folder(
     } else {
         images
     };
-    let labels: Vec<Option<PathBuf>> = picked.iter().map(|p| label_for(dir, p)).collect();
+    let labels: Vec<Option<PathBuf>> = picked
+        .iter()
+        .map(|p| crate::gap::folder::label_for(dir, p))
+        .collect();
     let missing = labels.iter().filter(|l| l.is_none()).count();
     if missing > 0 && !unlabelled_ok {
         let first = picked[labels.iter().position(Option::is_none).unwrap_or(0)].clone();
@@ -366,7 +270,7 @@ pub fn read_folder(
     for (path, label) in picked.into_iter().zip(labels) {
         let (rgb, jpeg) = decode(&path)?;
         let boxes = match &label {
-            Some(l) => read_labels(l, rgb.width(), rgb.height())?,
+            Some(l) => crate::gap::folder::read_labels(l, rgb.width(), rgb.height())?,
             None => Vec::new(),
         };
         let rel = path

@@ -114,6 +114,9 @@ pub enum FitError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// A frame folder or label file refused as `gap` refuses it.
+    #[error(transparent)]
+    Frames(#[from] crate::gap::GapError),
     #[error("{0}")]
     Other(String),
 }

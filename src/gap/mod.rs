@@ -39,6 +39,8 @@
 //!   a 3–6 px core their **peak contrast** and **edge width** (the 90 %→10 % fall of the
 //!   deviation walking out from the peak pixel, averaged over four directions).
 
+mod error;
+pub mod folder;
 pub mod jpeg_quality;
 pub mod measure;
 mod propose;
