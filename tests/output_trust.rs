@@ -8,53 +8,10 @@ mod common;
 
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 
-use swarmshot::preset::{ImageFormat, LabelFormat, Preset};
-
-const BIN: &str = env!("CARGO_BIN_EXE_swarmshot");
-
-/// 320×180 JPEG frames, YOLO and COCO, `repeats` × 4 frames.
-fn preset(repeats: u32) -> Preset {
-    let mut p = common::tiny_preset();
-    p.repeats = repeats;
-    p.output.image_format = ImageFormat::Jpeg { quality: 85 };
-    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
-    p
-}
-
-fn command<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Command {
-    let mut cmd = Command::new(BIN);
-    cmd.args(args)
-        .env("RUST_BACKTRACE", "0")
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("JOB_COMPLETION_INDEX")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    cmd
-}
-
-fn run<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
-    command(args).output().expect("run swarmshot")
-}
-
-fn ok<S: AsRef<std::ffi::OsStr>>(args: &[S]) {
-    let o = run(args);
-    assert!(
-        o.status.success(),
-        "swarmshot failed:\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn err<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> String {
-    let o = run(args);
-    assert!(!o.status.success(), "swarmshot should have failed");
-    let e = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(e.contains("error: "), "not a named error: {e}");
-    e
-}
+use common::cli::{command, err, jpeg_preset as preset, ok};
 
 fn batch_args(preset: &Path, out: &Path, extra: &[&str]) -> Vec<std::ffi::OsString> {
     let mut args: Vec<std::ffi::OsString> =

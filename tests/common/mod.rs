@@ -1,6 +1,8 @@
 //! Shared test fixtures: a GPU context that fails loudly, and small presets.
 #![allow(dead_code)]
 
+pub mod cli;
+
 use std::path::{Path, PathBuf};
 
 use swarmshot::preset::sweep::SweepRange;
