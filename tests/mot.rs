@@ -1,6 +1,8 @@
-//! Sequence output end to end (renders on lavapipe): MOTChallenge `gt.txt`
-//! and `seqinfo.ini` read by a reader written to the MOTChallenge spec here,
-//! track ids stable, boxes equal to the YOLO labels, COCO video fields, whole
+//! Sequence output end to end (renders on lavapipe): the MOTChallenge layout
+//! (`img1/000001.ext` hard links, 1-based `gt/gt.txt`, standard
+//! `seqinfo.ini`, sequence maps) read by a reader that follows TrackEval's
+//! `MotChallenge2DBox` rules (written here from its source), track ids
+//! stable, boxes equal to the YOLO labels, COCO video fields, whole
 //! sequences per split, and the byte-identical resume.
 
 mod common;
@@ -97,14 +99,76 @@ fn parse_gt(text: &str) -> Vec<GtRow> {
         .collect()
 }
 
-/// `seqinfo.ini`: a `[Sequence]` section of `key=value` lines.
+/// `seqinfo.ini`: a `[Sequence]` section of `key=value` lines, the
+/// MOTChallenge keys only (no comments, no other keys).
 fn parse_ini(text: &str) -> BTreeMap<String, String> {
-    let mut lines = text.lines().filter(|l| !l.starts_with(';'));
+    let mut lines = text.lines();
     assert_eq!(lines.next(), Some("[Sequence]"));
-    lines
-        .filter_map(|l| l.split_once('='))
+    let ini: BTreeMap<String, String> = lines
+        .map(|l| {
+            l.split_once('=')
+                .unwrap_or_else(|| panic!("not key=value: {l}"))
+        })
         .map(|(k, v)| (k.to_owned(), v.to_owned()))
-        .collect()
+        .collect();
+    let keys: Vec<&str> = ini.keys().map(String::as_str).collect();
+    let standard = [
+        "frameRate",
+        "imDir",
+        "imExt",
+        "imHeight",
+        "imWidth",
+        "name",
+        "seqLength",
+    ];
+    assert_eq!(keys, standard, "seqinfo.ini holds the standard keys only");
+    ini
+}
+
+/// What TrackEval's `MotChallenge2DBox` reads of one split, following its
+/// rules (trackeval/datasets/mot_challenge_2d_box.py, with `SKIP_SPLIT_FOL`
+/// and `SEQMAP_FILE` set): the sequence map's rows after the header name
+/// the sequences; each sequence's `seqinfo.ini` gives `seqLength`; its
+/// `gt/gt.txt` rows must lie on time steps 1..=seqLength (an extra time
+/// step is an error), have at least 8 columns (the 8th the class), and ids
+/// unique within a time step. Returns each sequence's rows per time step.
+fn trackeval_read(gt_folder: &Path, seqmap: &Path) -> BTreeMap<String, Vec<Vec<GtRow>>> {
+    let map = std::fs::read_to_string(seqmap).expect("the seqmap TrackEval needs");
+    let mut out = BTreeMap::new();
+    for name in map.lines().skip(1).filter(|l| !l.is_empty()) {
+        let seq = gt_folder.join(name);
+        let ini = parse_ini(&std::fs::read_to_string(seq.join("seqinfo.ini")).expect("ini"));
+        let len: usize = ini["seqLength"].parse().expect("seqLength");
+        let rows = parse_gt(&std::fs::read_to_string(seq.join("gt/gt.txt")).expect("gt"));
+        let mut steps = vec![Vec::new(); len];
+        for row in rows {
+            assert!(
+                (1..=len).contains(&(row.frame as usize)),
+                "{name}: time step {}",
+                row.frame
+            );
+            steps[row.frame as usize - 1].push(row);
+        }
+        for (t, rows) in steps.iter().enumerate() {
+            let ids: BTreeSet<u32> = rows.iter().map(|r| r.id).collect();
+            assert_eq!(
+                ids.len(),
+                rows.len(),
+                "{name}: ids repeat at time step {}",
+                t + 1
+            );
+        }
+        out.insert(name.to_owned(), steps);
+    }
+    out
+}
+
+/// The inode of `path` (hard links share it).
+fn inode(path: &Path) -> u64 {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::symlink_metadata(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .ino()
 }
 
 #[test]
@@ -129,14 +193,38 @@ fn sequences_write_mot_ground_truth_matching_the_yolo_labels() {
             assert_eq!(f["split"], split.as_str(), "a sequence stays in one split");
             assert_eq!(f["sequence"]["id"], seq);
         }
-        let seq_dir = root.join(format!("mot/{split}/seq-{seq:08}"));
+        let name = format!("seq-{seq:08}");
+        let seq_dir = root.join(format!("mot/{split}/{name}"));
         let ini = parse_ini(&std::fs::read_to_string(seq_dir.join("seqinfo.ini")).expect("ini"));
         assert_eq!(ini["seqLength"], "5");
         assert_eq!(ini["frameRate"], "10");
         assert_eq!(ini["imWidth"], "320");
         assert_eq!(ini["imHeight"], "180");
-        assert_eq!(ini["name"], format!("seq-{seq:08}"));
-        let rows = parse_gt(&std::fs::read_to_string(seq_dir.join("gt/gt.txt")).expect("gt"));
+        assert_eq!(ini["name"], name);
+        assert_eq!(ini["imDir"], "img1");
+        let read = trackeval_read(
+            &root.join(format!("mot/{split}")),
+            &root.join(format!("mot/seqmaps/{split}.txt")),
+        );
+        assert!(read.contains_key(&name), "the seqmap names {name}");
+        // img1: frame t of the sequence is the dataset's image, hard-linked.
+        let img1: Vec<String> = std::fs::read_dir(seq_dir.join(&ini["imDir"]))
+            .expect("img1")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(img1.len(), len as usize, "{img1:?}");
+        for (t, f) in frames.iter().enumerate() {
+            let image = root.join(f["image"].as_str().expect("image"));
+            let ext = &ini["imExt"];
+            let link = seq_dir.join(format!("img1/{:06}{ext}", t + 1));
+            assert_eq!(
+                inode(&link),
+                inode(&image),
+                "{} is the frame's image",
+                link.display()
+            );
+        }
+        let rows: Vec<GtRow> = read[&name].iter().flatten().cloned().collect();
         // Frame order, then id order; each (frame, id) once.
         let keys: Vec<(u32, u32)> = rows.iter().map(|r| (r.frame, r.id)).collect();
         let mut sorted = keys.clone();
@@ -178,7 +266,10 @@ fn sequences_write_mot_ground_truth_matching_the_yolo_labels() {
             );
             let drones = f["drones"].as_array().expect("drones");
             for (row, y) in in_frame.iter().zip(&yolo) {
-                for (g, v) in row.bbox.iter().zip(y) {
+                // 1-based pixels: the box's corner moves by one pixel.
+                let corner = [1.0, 1.0, 0.0, 0.0];
+                for ((g, v), c) in row.bbox.iter().zip(y).zip(corner) {
+                    let g = g - c;
                     assert!(
                         (g - v).abs() < 1e-3,
                         "frame {t} id {}: gt {:?} vs YOLO {y:?}",
@@ -191,7 +282,7 @@ fn sequences_write_mot_ground_truth_matching_the_yolo_labels() {
                 let d = &drones[row.id as usize - 1];
                 assert_eq!(d["track_id"], row.id);
                 let xyxy = d["label"]["bbox_xyxy"].as_array().expect("box");
-                assert!((xyxy[0].as_f64().expect("x0") - row.bbox[0]).abs() < 1e-5);
+                assert!((xyxy[0].as_f64().expect("x0") + 1.0 - row.bbox[0]).abs() < 1e-5);
             }
             rows_seen += in_frame.len();
         }

@@ -499,7 +499,7 @@ fn a_copied_dataset_names_only_paths_that_resolve() {
         assert!(moved.join(image).is_file(), "{image}");
     }
     assert_eq!(named, manifest.lines().count());
-    // MOT: imDir is relative to the sequence's folder.
+    // MOT: imDir is relative to the sequence's folder, its frames numbered from 1.
     let mut sequences = 0;
     for rel in common::files_under(&moved) {
         if rel.file_name().is_some_and(|n| n == "seqinfo.ini") {
@@ -512,9 +512,11 @@ fn a_copied_dataset_names_only_paths_that_resolve() {
             };
             let seq_dir = moved.join(rel.parent().expect("parent"));
             let im_dir = seq_dir.join(field("imDir="));
-            let first: u64 = field("firstIndex=").parse().expect("firstIndex");
-            let image = im_dir.join(format!("{first:08}{}", field("imExt=")));
-            assert!(image.is_file(), "{} does not resolve", image.display());
+            let len: u64 = field("seqLength=").parse().expect("seqLength");
+            for t in 1..=len {
+                let image = im_dir.join(format!("{t:06}{}", field("imExt=")));
+                assert!(image.is_file(), "{} does not resolve", image.display());
+            }
             sequences += 1;
         }
     }

@@ -757,6 +757,23 @@ impl Folder {
         Ok(())
     }
 
+    /// The real folders directly inside folder `rel`, sorted (never through a link).
+    pub fn folders_in(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+        self.tree.folders_in(rel)
+    }
+
+    /// Hard-link the dataset's file `from` to `to` (both inside the folder),
+    /// claimed with the frame's files before it is made (a frame remade by
+    /// `--resume` drops it with them), never following a link.
+    pub fn link_frame_file(&mut self, from: &str, to: &str) -> Result<(), OutputError> {
+        if let Some((dir, _)) = to.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        self.claim_frame(&[to.to_owned()])?;
+        self.remove(to)?;
+        self.tree.link_within(from, to)
+    }
+
     /// Frame complete: write its checkpoint.
     pub fn commit(&mut self, checkpoint: &Checkpoint) -> Result<(), OutputError> {
         let json = serde_json::to_string(checkpoint).map_err(|e| OutputError::Ledger {

@@ -6,7 +6,6 @@
 
 use image::Luma;
 
-use super::tree::Tree;
 use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::{DroneLabel, LabelStatus, rle};
@@ -205,9 +204,6 @@ pub fn needed_entries(outputs: &MaskOutputs) -> Vec<String> {
 /// Writes the per-frame mask files (the COCO RLE rides in the COCO records).
 pub struct MasksWriter {
     outputs: MaskOutputs,
-    /// With `yolo_seg`: two handles on the dataset folder, the images' side
-    /// and the links' side of `linkat` (never following a link).
-    links: Option<(Tree, Tree)>,
 }
 
 impl MasksWriter {
@@ -218,14 +214,7 @@ impl MasksWriter {
                 folder.ensure_dir(dir)?;
             }
         }
-        let links = if outputs.yolo_seg {
-            let from = Tree::open(folder.root())?;
-            let to = from.try_clone()?;
-            Some((from, to))
-        } else {
-            None
-        };
-        Ok(Self { outputs, links })
+        Ok(Self { outputs })
     }
 }
 
@@ -253,14 +242,8 @@ impl FormatWriter for MasksWriter {
         if self.outputs.yolo_seg {
             let text = masks.yolo_seg.as_deref().ok_or_else(missing)?;
             folder.write_frame_file(&yolo_seg_rel_path(record.scene), text)?;
-            // The image's second name, claimed with the frame's files (a
-            // frame remade by --resume drops it with them) before it is made.
-            let link = seg_image_rel_path(record.image);
-            folder.claim_frame(std::slice::from_ref(&link))?;
-            folder.remove(&link)?;
-            if let Some((from, to)) = &mut self.links {
-                from.link_into(record.image, to, &link)?;
-            }
+            // The image's second name: a hard link in the segmentation layout.
+            folder.link_frame_file(record.image, &seg_image_rel_path(record.image))?;
         }
         if self.outputs.instance_png {
             let png = masks.instance_png.as_deref().ok_or_else(missing)?;

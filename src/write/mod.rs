@@ -511,6 +511,7 @@ impl DatasetWriter {
                     &mut folder,
                     &checkpoint,
                     preset,
+                    labels_only,
                 )?));
             }
         }
@@ -817,6 +818,10 @@ fn needed_entries(preset: &Preset, labels_only: bool) -> Vec<String> {
     let sequences = preset.sequence.is_some();
     if sequences {
         needed.push("mot/".to_owned());
+        needed.push(format!("{}/", mot::SEQMAPS));
+        for split in SplitName::ALL {
+            needed.push(mot::seqmap_rel_path(split));
+        }
         if coco {
             for split in SplitName::ALL.map(SplitName::as_str) {
                 needed.push(format!("annotations/.instances_{split}.videos.part"));

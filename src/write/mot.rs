@@ -1,18 +1,24 @@
-//! MOTChallenge tracking ground truth, one folder per sequence (sequence
-//! mode only): `mot/{split}/seq-NNNNNNNN/gt/gt.txt` and
-//! `mot/{split}/seq-NNNNNNNN/seqinfo.ini`, NNNNNNNN the sequence number.
+//! MOTChallenge tracking ground truth in the layout of the MOTChallenge
+//! devkit and TrackEval (sequence mode only), one folder per sequence:
+//! `mot/{split}/seq-NNNNNNNN/` (NNNNNNNN the sequence number) holding
+//! `img1/000001.ext` … (hard links to the dataset's images, no second copy;
+//! none in a labels-only plan), `gt/gt.txt` and `seqinfo.ini` (the standard
+//! keys only: name, imDir, frameRate, seqLength, imWidth, imHeight, imExt),
+//! and per split a sequence map `mot/seqmaps/{split}.txt` (`name`, then the
+//! split's sequences), written at the end from the sequence folders on disk.
 //!
 //! `gt.txt` has one line per labelled drone and frame:
-//! `frame,id,x,y,w,h,conf,class,visibility` — frame 1..=T+1 within the
-//! sequence, id the drone's track id (its index in the frame + 1, the same in
-//! every frame of the sequence), the training box in pixels (top-left corner
-//! and size, in the same continuous pixel coordinates as COCO, so the box is
-//! exactly the YOLO label's), conf 1 (0 for a crowd region, which MOT
-//! evaluation ignores), class the COCO category id, visibility the visible
-//! fraction (1 when visibility was not measured). Lines are in frame order,
-//! then id order. `gt.txt` is appended a frame at a time and cut back to the
-//! last checkpoint on resume, like the manifest; `seqinfo.ini` is written
-//! whole with the sequence's first frame.
+//! `frame,id,bb_left,bb_top,bb_width,bb_height,conf,class,visibility` —
+//! frame 1..=T+1 within the sequence, id the drone's track id (its index in
+//! the frame + 1, the same in every frame of the sequence), the training box
+//! in the devkit's 1-based pixel coordinates (the top-left pixel's corner is
+//! (1, 1): the COCO box moved by one pixel, so the box is exactly the YOLO
+//! label's), conf 1 (0 for a crowd region, which MOT evaluation ignores),
+//! class the COCO category id, visibility the visible fraction (1 when
+//! visibility was not measured). Lines are in frame order, then id order.
+//! `gt.txt` is appended a frame at a time and cut back to the last
+//! checkpoint on resume, like the manifest; `seqinfo.ini` is written whole
+//! with the sequence's first frame.
 
 use std::collections::BTreeMap;
 
@@ -20,7 +26,7 @@ use super::folder::AppendFile;
 use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
 use crate::annotate::{DroneLabel, LabelStatus};
 use crate::preset::{ImageFormat, Preset};
-use crate::scene::{FrameScene, SequenceFrame};
+use crate::scene::{FrameScene, SequenceFrame, SplitName};
 
 /// The folder of a sequence relative to the dataset folder.
 pub fn sequence_dir(scene: &FrameScene, sequence: &SequenceFrame) -> String {
@@ -29,6 +35,19 @@ pub fn sequence_dir(scene: &FrameScene, sequence: &SequenceFrame) -> String {
         scene.split.as_str(),
         sequence_name(sequence.id)
     )
+}
+
+/// The folder of the sequence maps, `{split}.txt` each.
+pub const SEQMAPS: &str = "mot/seqmaps";
+
+/// The sequence map of `split` relative to the dataset folder.
+pub fn seqmap_rel_path(split: SplitName) -> String {
+    format!("{SEQMAPS}/{}.txt", split.as_str())
+}
+
+/// The name of step `step` (0-based) of a sequence in its `img1` folder.
+pub fn img1_name(step: u64, format: ImageFormat) -> String {
+    format!("{:06}.{}", step + 1, format.extension())
 }
 
 /// The MOT name of sequence `id`.
@@ -74,8 +93,8 @@ fn write_gt_lines(
             "{},{},{:.6},{:.6},{:.6},{:.6},{conf},{},{:.6}",
             seq.step + 1,
             l.drone + 1,
-            b.x0,
-            b.y0,
+            b.x0 + 1.0,
+            b.y0 + 1.0,
             b.width(),
             b.height(),
             l.class_id + 1,
@@ -101,6 +120,8 @@ pub struct MotWriter {
     resume: BTreeMap<String, u64>,
     frame_rate: u32,
     image_format: ImageFormat,
+    /// Images are written (not a labels-only plan): each gets its `img1` link.
+    images: bool,
 }
 
 impl MotWriter {
@@ -109,6 +130,7 @@ impl MotWriter {
         folder: &mut Folder,
         checkpoint: &Checkpoint,
         preset: &Preset,
+        labels_only: bool,
     ) -> Result<Self, OutputError> {
         folder.ensure_dir("mot")?;
         let resume = checkpoint
@@ -122,22 +144,39 @@ impl MotWriter {
             resume,
             frame_rate: preset.sequence.as_ref().map_or(30, |s| s.frame_rate),
             image_format: preset.output.image_format,
+            images: !labels_only,
         })
     }
 
     fn seqinfo(&self, scene: &FrameScene, seq: &SequenceFrame) -> String {
         format!(
-            "[Sequence]\nname={}\nimDir=../../../images/{}\nframeRate={}\nseqLength={}\nimWidth={}\nimHeight={}\nimExt=.{}\n; swarmshot: frame f of this sequence is image {{firstIndex + f - 1}} (8 digits) in imDir\nfirstIndex={}\n",
+            "[Sequence]\nname={}\nimDir=img1\nframeRate={}\nseqLength={}\nimWidth={}\nimHeight={}\nimExt=.{}\n",
             sequence_name(seq.id),
-            scene.split.as_str(),
             self.frame_rate,
             seq.steps + 1,
             scene.camera.width,
             scene.camera.height,
             self.image_format.extension(),
-            seq.first_index,
         )
     }
+}
+
+/// A split's sequence map: `name`, then each sequence folder's name in
+/// `mot/{split}`, sorted (TrackEval's `SEQMAP_FILE`).
+fn seqmap(folder: &mut Folder, split: SplitName) -> Result<Option<String>, OutputError> {
+    let names = folder.folders_in(&format!("mot/{}", split.as_str()))?;
+    let names: Vec<String> = (names.into_iter())
+        .filter(|n| n.strip_prefix("seq-").is_some_and(is_stem))
+        .collect();
+    if names.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(format!("name\n{}\n", names.join("\n"))))
+}
+
+/// Whether `s` is a frame or sequence stem: eight or more ASCII digits.
+fn is_stem(s: &str) -> bool {
+    s.len() >= 8 && s.bytes().all(|b| b.is_ascii_digit())
 }
 
 impl FormatWriter for MotWriter {
@@ -171,6 +210,10 @@ impl FormatWriter for MotWriter {
                 self.seqinfo(scene, &seq).as_bytes(),
             )?;
         }
+        if self.images {
+            let link = format!("{dir}/img1/{}", img1_name(seq.step, self.image_format));
+            folder.link_frame_file(record.image, &link)?;
+        }
         match &mut self.current {
             Some((_, gt)) => write_gt_lines(scene, record.labels, |piece| gt.append(piece)),
             None => Ok(()),
@@ -189,10 +232,16 @@ impl FormatWriter for MotWriter {
         }
     }
 
-    fn finish(&mut self, _folder: &mut Folder, _dataset: &DatasetInfo) -> Result<(), OutputError> {
-        match &mut self.current {
-            Some((_, gt)) => gt.sync(),
-            None => Ok(()),
+    fn finish(&mut self, folder: &mut Folder, _dataset: &DatasetInfo) -> Result<(), OutputError> {
+        if let Some((_, gt)) = &mut self.current {
+            gt.sync()?;
         }
+        folder.ensure_dir(SEQMAPS)?;
+        for split in SplitName::ALL {
+            if let Some(text) = seqmap(folder, split)? {
+                folder.write_file(&seqmap_rel_path(split), text.as_bytes())?;
+            }
+        }
+        Ok(())
     }
 }

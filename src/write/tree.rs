@@ -384,6 +384,50 @@ impl Tree {
         Ok(())
     }
 
+    /// Hard-link the file `from` to the new name `to`, both below this
+    /// folder, relative to their folders' handles, never following a link.
+    pub fn link_within(&mut self, from: &str, to: &str) -> Result<(), OutputError> {
+        let path = self.root.join(to);
+        let missing = || io(&path)(std::io::ErrorKind::NotFound.into());
+        let (from_dir, from_name) = split(&self.root, from)?;
+        let src = self.dir(&from_dir)?.ok_or_else(missing)?;
+        let src = rustix::io::dup(src).map_err(errno_io(&path))?;
+        let (to_dir, to_name) = split(&self.root, to)?;
+        let dst = self.dir(&to_dir)?.ok_or_else(missing)?;
+        rustix::fs::linkat(
+            &src,
+            from_name.as_str(),
+            dst,
+            to_name.as_str(),
+            AtFlags::empty(),
+        )
+        .map_err(errno_io(&path))
+    }
+
+    /// The names of the real folders (not links) directly inside folder
+    /// `rel`, sorted (none when `rel` is missing).
+    pub fn folders_in(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+        let path = self.root.join(rel);
+        let Some(fd) = self.open_dir(rel)? else {
+            return Ok(Vec::new());
+        };
+        let dir = rustix::fs::Dir::read_from(&fd).map_err(errno_io(&path))?;
+        let mut names = Vec::new();
+        for entry in dir {
+            let entry = entry.map_err(errno_io(&path))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name == "." || name == ".." {
+                continue;
+            }
+            let st = rustix::fs::statat(&fd, entry.file_name(), AtFlags::SYMLINK_NOFOLLOW);
+            if st.is_ok_and(|st| Entry::from_stat(&st).is_dir()) {
+                names.push(name);
+            }
+        }
+        names.sort();
+        Ok(names)
+    }
+
     /// Hard-link the file `rel` below this folder to `to` below the folder
     /// `dest` (a name that does not exist yet), relative to both folders'
     /// handles, never following a link on either side.
