@@ -1,4 +1,4 @@
-//! Bounded work (issue 35; docs/reliability.md, "Bounded work"): a
+//! Bounded work (issue 35; docs/reliability.md section 7): a
 //! labels-only plan's memory follows the size of its frames, not their
 //! number; a plan the disk or the memory cannot hold is refused before
 //! anything is written. The CLI cases run `swarmshot` as a child, as a user

@@ -1,6 +1,6 @@
 //! Fuzz targets, driven by proptest so they run on every `cargo test` in
 //! bounded time (a few hundred cases each), and for as long as one likes with
-//! `PROPTEST_CASES` (docs/reliability.md, section 4):
+//! `PROPTEST_CASES` (docs/reliability.md, section 9):
 //!
 //! - the preset parser + validator: random RON-like text and mutated valid
 //!   presets (`tests/fuzz_corpus/presets/`) never panic; each is `Ok` or a

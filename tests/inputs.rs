@@ -2,7 +2,7 @@
 //! written: unknown fields with the nearest known name, counts that overflow,
 //! sizes past the adapter's limits or memory, files that are not regular files,
 //! node graphs that explode, degenerate scenes, and bad command-line values.
-//! docs/reliability.md section 4 lists each class and its message.
+//! docs/reliability.md section 5 lists each class and its message.
 
 mod common;
 
