@@ -305,3 +305,171 @@ fn the_gpu_draws_the_layers_samples() {
         "the GPU's wire differs from the layer by {worst} levels"
     );
 }
+
+/// A pole beside drone 0 and a wire (far thinner than a pixel) across it,
+/// both halfway between the camera and the drone.
+fn with_pole_and_wire(scene: &FrameScene, pole_offset_m: f64, wire_drop_m: f64) -> FrameScene {
+    let mut s = scene.clone();
+    let right = s.camera.camera_from_world.row(0);
+    let up = -s.camera.camera_from_world.row(1);
+    let mid = (s.camera.position + s.drones[0].position) * 0.5;
+    let size = s.drones[0].size_m;
+    let pole = mid + right * pole_offset_m;
+    let wire = mid + up * wire_drop_m;
+    let dark = |shape| Primitive {
+        shape,
+        albedo: [0.05, 0.04, 0.03],
+        sun_facing: 0.3,
+    };
+    s.clutter = Some(FrameClutter::from_primitives(vec![
+        dark(Shape::Segment {
+            a: pole - DVec3::Y * 50.0,
+            b: pole + DVec3::Y * 50.0,
+            radius_a_m: size * 0.05,
+            radius_b_m: size * 0.05,
+        }),
+        dark(Shape::Segment {
+            a: wire - right * 50.0,
+            b: wire + right * 50.0,
+            radius_a_m: size * 0.004,
+            radius_b_m: size * 0.004,
+        }),
+    ]));
+    s
+}
+
+/// Next to thin scenery (a drone on a wire beside a pole), the visible box
+/// and pixel count under the camera model are exactly the pixels the drone
+/// changes: the frame against the same frame without the drone, same draws.
+#[test]
+fn visible_boxes_next_to_a_wire_and_a_pole_are_the_pixels_the_drone_changes() {
+    use swarmshot::preset::camera_model::{CameraModel, Psf};
+    use swarmshot::sensor::{self, PixelRect};
+    let ctx = common::gpu();
+    let mut p = common::single_drone_preset(1.5);
+    p.camera_model = Some(CameraModel {
+        psf: Psf::Gaussian {
+            sigma_px: (0.7, 0.7),
+        },
+        ..CameraModel::default()
+    });
+    let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut checked = 0;
+    for index in 0..p.frame_count() {
+        let bare = pipeline.scene(index).expect("scene");
+        let size = bare.drones[0].size_m;
+        for (pole, wire) in [(0.2, 0.0), (0.3, 0.05), (-0.25, -0.08), (0.1, 0.12)] {
+            let scene = with_pole_and_wire(&bare, size * pole, size * wire);
+            let frame = pipeline.make_scene(&mut renderer, scene).expect("frame");
+            let draw = frame.scene.camera_model.expect("drawn");
+            let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+            let msaa = p.render.msaa;
+            let with = common::rendered_at_exposure(&mut renderer, &frame.scene, msaa);
+            let mut empty = frame.scene.clone();
+            empty.drones.clear();
+            let without = common::rendered_at_exposure(&mut renderer, &empty, msaa);
+            let full = PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: w,
+                y1: h,
+            };
+            let rest = draw.after_render();
+            let a = sensor::develop(&with, w, h, &rest, full, false);
+            let b = sensor::develop(&without, w, h, &rest, full, false);
+            let truth = common::changed_box(&a, &b, w);
+            let vis = frame.labels[0].visibility.expect("measured");
+            let case = format!("frame {index}, pole {pole}, wire {wire}");
+            match truth {
+                Some((r, n)) => {
+                    let got = vis.visible_box.expect(&case);
+                    assert_eq!(
+                        [got.x0, got.y0, got.x1, got.y1],
+                        [r.x0, r.y0, r.x1, r.y1].map(f64::from),
+                        "{case}"
+                    );
+                    assert_eq!(vis.visible_pixels, n, "{case}");
+                }
+                None => assert_eq!(vis.visible_pixels, 0, "{case}"),
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 4, "{checked}");
+}
+
+/// The same in the shipped cluttered scene (tree lines, trees, poles with
+/// wires, buildings; the preset's camera model, noise off): each drone
+/// apart from the others has the visible box and pixel count of the pixels
+/// that change when it alone is taken out of the frame (moved behind the
+/// camera, so nothing else of the scene moves), and some of them are partly
+/// hidden by the scenery.
+#[test]
+fn visible_boxes_in_the_cluttered_scene_are_the_pixels_each_drone_changes() {
+    use swarmshot::scene::projection::PixelBox;
+    use swarmshot::sensor::{self, PixelRect};
+    let ctx = common::gpu();
+    let path = std::path::Path::new("presets/bench/realistic_cluttered.ron");
+    let mut p = Preset::load(path).expect("preset");
+    if let Some(c) = &mut p.camera_model {
+        c.shot_noise_gain = (0.0, 0.0);
+        c.read_noise_levels = (0.0, 0.0);
+    }
+    let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let (mut checked, mut hidden_in_part) = (0, 0);
+    for index in 0..10 {
+        let frame = pipeline.make(&mut renderer, index).expect("frame");
+        let draw = frame.scene.camera_model.expect("drawn");
+        let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+        let full = PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+        };
+        let rest = draw.after_render();
+        let msaa = p.render.msaa;
+        let with = common::rendered_at_exposure(&mut renderer, &frame.scene, msaa);
+        let a = sensor::develop(&with, w, h, &rest, full, false);
+        let boxes: Vec<Option<PixelBox>> = (frame.labels.iter())
+            .map(|l| l.visibility.and_then(|v| v.visible_box))
+            .collect();
+        let apart = |b: PixelBox, o: PixelBox| {
+            let m = 4.0;
+            o.x1 + m < b.x0 || b.x1 + m < o.x0 || o.y1 + m < b.y0 || b.y1 + m < o.y0
+        };
+        for (k, label) in frame.labels.iter().enumerate() {
+            let Some(b) = boxes[k] else { continue };
+            let alone =
+                (boxes.iter().enumerate()).all(|(j, o)| j == k || o.is_none_or(|o| apart(b, o)));
+            if !alone || label.class_id != 0 {
+                continue; // drones only (birds and aircraft are larger than the camera's reach)
+            }
+            let mut without = frame.scene.clone();
+            let drone = &mut without.drones[label.drone];
+            let forward = without.camera.camera_from_world.row(2);
+            drone.position = without.camera.position - forward * (10.0 * drone.size_m + 1.0);
+            let without = common::rendered_at_exposure(&mut renderer, &without, msaa);
+            let truth =
+                common::changed_box(&a, &sensor::develop(&without, w, h, &rest, full, false), w);
+            let vis = label.visibility.expect("measured");
+            let case = format!("frame {index}, drone {}", label.drone);
+            let (r, n) = truth.expect(&case);
+            assert_eq!(
+                [b.x0, b.y0, b.x1, b.y1],
+                [r.x0, r.y0, r.x1, r.y1].map(f64::from),
+                "{case}"
+            );
+            assert_eq!(vis.visible_pixels, n, "{case}");
+            hidden_in_part += usize::from(vis.visible_pixels < vis.unoccluded_pixels);
+            checked += 1;
+        }
+    }
+    assert!(checked >= 20, "{checked} drones apart from the others");
+    assert!(
+        hidden_in_part >= 2,
+        "{hidden_in_part} of {checked} drones partly behind scenery"
+    );
+}
