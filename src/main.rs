@@ -178,7 +178,7 @@ enum Command {
         #[arg(long, default_value = "presets/realistic.ron")]
         base: PathBuf,
         /// Frames rendered per round.
-        #[arg(long, default_value_t = 32)]
+        #[arg(long, default_value_t = 64)]
         sample: u64,
         /// Fitted rounds at most (0: plates and the first fit only, no rendering).
         #[arg(long, default_value_t = 4)]

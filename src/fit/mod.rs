@@ -20,6 +20,7 @@
 //! Same inputs, same outputs, byte for byte (no clock, no thread count in any file).
 
 pub mod camera;
+pub mod drones;
 pub mod input;
 pub mod plates;
 pub mod preset_out;
@@ -62,7 +63,7 @@ impl FitOptions {
             real: real.into(),
             out: out.into(),
             base: PathBuf::from("presets/realistic.ron"),
-            sample: 32,
+            sample: 64,
             rounds: 4,
             unlabelled_ok: false,
             overwrite: false,

@@ -10,14 +10,7 @@ use super::camera::Footage;
 use super::plates::{PlateCamera, PlateSummary};
 use crate::preset::backplate::{Backplate, PlateHorizon};
 use crate::preset::camera_model::CameraModel;
-use crate::preset::observer::ObserverCamera;
 use crate::preset::{ImageFormat, Preset, Resolution};
-
-/// The drone core size (√ of the pixels over half the peak) per pixel of the largest
-/// model's apparent size, averaged over a preset's model mix: measured on
-/// `presets/realistic.ron` (size_px 16–44 gives cores of median 4.4 px for a median
-/// model of 1.1 m against the 2 m largest: 4.4 / (30 · 1.1 / 2)). The loop corrects it.
-pub const CORE_PER_PX: f64 = 0.27;
 
 /// The first fit and the notes on where each value came from.
 #[derive(Clone, Debug)]
@@ -43,10 +36,6 @@ pub fn load_base(path: &Path) -> Result<Preset, FitError> {
     });
     preset.resolve_paths(&dir);
     Ok(preset)
-}
-
-fn r3(v: f64) -> f64 {
-    (v * 1000.0).round() / 1000.0
 }
 
 /// The first fitted preset (round 1's).
@@ -102,33 +91,8 @@ pub fn first_fit(
     if p.clutter.take().is_some() {
         notes.push("clutter: off (the plates hold the footage's own scenery)".into());
     }
-    // The observer camera: the drones' apparent size from the real drones.
-    let mut observer = base.camera.observer.clone().unwrap_or_default();
-    p.camera.absolute = None;
-    let sizes: Vec<f64> = base.models.iter().map(|m| m.size_m).collect();
-    let largest = sizes.iter().copied().fold(0.0, f64::max);
-    let median_model = super::camera::quartiles(&sizes).map_or(largest, |q| q.median);
-    if let Some(core) = footage.measured.drone_core_px {
-        let per = largest / median_model.max(1e-6) / CORE_PER_PX;
-        let max_px = 2.0 * f64::from(w.max(h));
-        let hi = (core.q75 * per)
-            .max(core.q25 * per + 0.5)
-            .clamp(1.0, max_px);
-        let (lo, hi) = (r3((core.q25 * per).clamp(0.5, hi)), r3(hi));
-        observer.size_px = Some((lo, hi));
-        notes.push(format!(
-            "camera.observer.size_px ({lo}, {hi}): the real drones' cores (IQR {:.2}–{:.2} px, {} drones) × largest/median model size {:.2} / {CORE_PER_PX} core px per px (measured on realistic.ron); the distance follows from the plates' field of view",
-            core.q25,
-            core.q75,
-            core.n,
-            largest / median_model.max(1e-6)
-        ));
-    } else {
-        notes.push(
-            "camera.observer: the base preset's (no labelled drone to size the drones from)".into(),
-        );
-    }
-    p.camera.observer = Some(observer);
+    // The drones: how many, how large, how near (from the real drones).
+    super::drones::first_fit(&mut p, footage, &mut notes);
     // The camera model: the plates carry the footage's exposure, colour, noise, blur.
     let jpeg = match (footage.estimate.jpeg_quality, footage.measured.jpeg_quality) {
         (Some(_), Some(q)) => {
@@ -190,18 +154,4 @@ pub fn text(preset: &Preset, header: &[String]) -> String {
     s += &preset.to_ron();
     s += "\n";
     s
-}
-
-/// The observer's size range scaled by `k` (the loop's drone-size step), the apparent
-/// size of the largest model at most `max_px` (twice the frame's larger side: beyond it
-/// the swarm's volume, not the distance, limits what is seen).
-pub fn scale_size(observer: &mut ObserverCamera, k: f64, max_px: f64) {
-    if let Some((lo, hi)) = observer.size_px {
-        let hi2 = (hi * k).clamp(0.5, max_px);
-        let lo2 = (lo * k).clamp(0.5, hi2);
-        observer.size_px = Some((r3(lo2), r3(hi2)));
-    } else {
-        let (lo, hi) = observer.distance_m;
-        observer.distance_m = (r3(lo / k), r3(hi / k));
-    }
 }

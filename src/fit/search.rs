@@ -14,16 +14,17 @@
 //!   ([`super::camera::invert_noise`]) says brings the total to the real median;
 //! - **blur σ**: the PSF σ changed in quadrature by the gap to the real median; when the
 //!   blur is inside but the small drones' **edge width** is not, the PSF moves by the
-//!   edge-width gap / 1.687 (a Gaussian's 90→10 % width per σ), in quadrature; the PSF
+//!   edge-width gap / 1.687 (a Gaussian's 90→10 % width per σ), in quadrature, but grows
+//!   no further than keeps the blur σ within the real upper quartile (footage whose
+//!   scenery is sharper than its drones keeps its sharp scenery); the PSF
 //!   blurs the plates too, so when the gradient energy or the high-pass RMS falls below
 //!   the real (and the blur is not below) it is halved first;
 //! - **mean brightness**: `exposure_ev` += 2.2 · log2(real / synthetic);
 //! - **sky saturation**: `saturation` × real / synthetic;
-//! - **drone core size**: the observer's `size_px` × real / synthetic (the largest model
-//!   at most twice the frame's larger side: nearer than that, the swarm's volume, not the
-//!   distance, limits what is seen);
-//! - **drones darker than their ring**: the dark materials' weights (Black, DarkGrey) ×
-//!   the odds ratio real / synthetic.
+//! - **the drones** ([`super::drones::adjust`]): their apparent size from the cores'
+//!   quartiles, the share darker than their ring through dark materials and lit drones,
+//!   the small drones' peak contrast through the haze (not in a round that moves the PSF,
+//!   which lowers a small drone's peak too).
 //!
 //! The gradient, edge, high-pass and hue statistics are the plates' (the footage's own
 //! scenery) and the JPEG quality is read from the footage: no rule moves them. The loop
@@ -43,7 +44,6 @@ use super::{FitError, Prepared, io_err, write_file};
 use crate::gap::report::{GapOptions, Report, Summary};
 use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
 use crate::preset::Preset;
-use crate::preset::appearance::{Appearance, DroneColor};
 use crate::preset::camera_model::{CameraModel, Psf};
 use crate::render::GpuContext;
 
@@ -163,14 +163,25 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
         } else if let Some((ve, te, me)) = stat(report, "small_drone_edge_width_px")
             && outside(ve)
         {
-            s2 = (s * s + (te * te - me * me) / (1.687 * 1.687))
-                .max(0.0)
-                .sqrt();
-            why = format!("small drones' edge width {me:.2} {ve} the real {te:.2}");
+            // The PSF blurs the plates too: it may grow only while their sharpest
+            // edges stay within the real blur range (in quadrature).
+            let real_hi = report
+                .statistics
+                .iter()
+                .find(|r| r.key == "blur_sigma_px")
+                .and_then(|r| r.real)
+                .map_or(t, |r| range(&r).1);
+            let room = (real_hi * real_hi - m * m).max(0.0);
+            let want = s * s + (te * te - me * me) / (1.687 * 1.687);
+            s2 = want.min(s * s + room).max(0.0).sqrt();
+            why = format!(
+                "small drones' edge width {me:.2} {ve} the real {te:.2}; the plates' blur σ {m:.3} may reach the real {real_hi:.3}"
+            );
         }
     }
     let s2 = r3(s2.min(8.0));
-    if s2 != r3(s) {
+    let psf_moved = s2 != r3(s);
+    if psf_moved {
         cm.psf = if s2 > 0.0 {
             Psf::Gaussian { sigma_px: (s2, s2) }
         } else {
@@ -206,41 +217,7 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
         }
     }
     preset.camera_model = Some(cm);
-    if let Some((v, t, m)) = stat(report, "drone_core_px")
-        && outside(v)
-        && m > 0.0
-        && let Some(obs) = &mut preset.camera.observer
-    {
-        let k = (t / m).clamp(0.2, 5.0);
-        let (before, distance) = (obs.size_px, obs.distance_m);
-        let (w, h) = preset.render.resolution.size();
-        preset_out::scale_size(obs, k, 2.0 * f64::from(w.max(h)));
-        if obs.size_px != before || obs.distance_m != distance {
-            changes.push(format!(
-                "observer size_px {before:?} → {:?} (drone core {m:.2} px {v} the real {t:.2})",
-                obs.size_px
-            ));
-        }
-    }
-    if let Some((v, t, m)) = stat(report, "drone_darker")
-        && outside(v)
-        && m > 0.0
-        && m < 1.0
-    {
-        let odds = |p: f64| p.clamp(0.02, 0.98) / (1.0 - p.clamp(0.02, 0.98));
-        let k = (odds(t) / odds(m)).clamp(0.2, 5.0);
-        let a = preset.appearance.get_or_insert_with(Appearance::default);
-        for (c, w) in &mut a.palette {
-            if matches!(c, DroneColor::Black | DroneColor::DarkGrey) {
-                *w = r3((*w * k).max(0.001));
-            }
-        }
-        changes.push(format!(
-            "dark drone materials' weights ×{k:.3} (darker than the ring {:.0} % {v} the real {:.0} %)",
-            m * 100.0,
-            t * 100.0
-        ));
-    }
+    super::drones::adjust(preset, report, psf_moved, &mut changes);
     changes
 }
 
