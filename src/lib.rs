@@ -25,5 +25,6 @@ pub mod scene;
 pub mod seed;
 pub mod sensor;
 pub mod sky;
+pub mod text;
 pub mod tools;
 pub mod write;

@@ -306,10 +306,7 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // `{:#}`: the message and its causes on one line, never a backtrace
             // (RUST_BACKTRACE is for bugs, not for a user's typo).
-            eprintln!(
-                "error: {}",
-                swarmshot::preset::text::for_terminal(&one_line(&e))
-            );
+            eprintln!("error: {}", swarmshot::text::for_terminal(&one_line(&e)));
             std::process::ExitCode::FAILURE
         }
     }
@@ -520,10 +517,7 @@ fn available_memory_bytes() -> Option<u64> {
 /// Print the preset's warnings (overlapping drones and the like) to stderr.
 fn print_warnings(pipeline: &FramePipeline) {
     for w in swarmshot::pipeline::check::warnings(pipeline.preset()) {
-        eprintln!(
-            "warning: {}",
-            swarmshot::preset::text::for_terminal(&w.to_string())
-        );
+        eprintln!("warning: {}", swarmshot::text::for_terminal(&w.to_string()));
     }
 }
 

@@ -28,10 +28,7 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
         swarmshot::preset::printable(&path.display().to_string())
     );
     for w in swarmshot::pipeline::check::warnings(preset) {
-        println!(
-            "warning: {}",
-            swarmshot::preset::text::for_terminal(&w.to_string())
-        );
+        println!("warning: {}", swarmshot::text::for_terminal(&w.to_string()));
     }
     println!("frames: {}", pipeline.frame_count());
     let summary = swarmshot::pipeline::check::summary(preset);
@@ -79,7 +76,7 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
             swarmshot::preset::printable(&spec.class)
         );
         for w in &model.warnings {
-            println!("  warning: {}", swarmshot::preset::text::for_terminal(w));
+            println!("  warning: {}", swarmshot::text::for_terminal(w));
         }
     }
     Ok(())
