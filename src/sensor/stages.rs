@@ -306,9 +306,6 @@ pub(super) fn develop_planes(
     encode_window(&planes, out, rgba, width)
 }
 
-/// Vignetting: each plane × (1 − strength·ρ²), ρ the distance of the pixel's
-/// centre to the image centre over the half-diagonal.
-
 /// [`saturate`] over the three planes.
 fn saturate_planes(planes: &mut [Plane; 3], s: f64) {
     let s = s as f32;
