@@ -6,7 +6,8 @@ use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::budget::human_bytes;
 use swarmshot::render::GpuContext;
 
-use crate::{device_check, print_empty_splits};
+use super::console::print_empty_splits;
+use super::gpu::device_check;
 
 pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(path)?;
