@@ -32,6 +32,8 @@ pub(crate) fn run(args: BatchArgs) -> anyhow::Result<()> {
     batch(&args, options)
 }
 
+/// The run: refused before anything is written when it cannot be made, then
+/// every frame through [`run_batch`] with a progress bar, stopped cleanly on a signal.
 fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
     let (preset, shard_arg, timings) = (&args.preset, &args.shard, args.timings);
     if options.limit == Some(0) {
