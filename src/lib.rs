@@ -7,9 +7,11 @@
 //! and those measurements into labels; [`write`] stores image, labels and
 //! manifest. [`pipeline::FramePipeline`] runs those stages for one frame, and
 //! every caller — the batch, the `frame` command, the desktop app's preview,
-//! the benchmarks and the gallery — makes frames through it. Dependencies run
-//! one way: preset → sky/model → scene → render → annotate → write →
-//! pipeline → CLI/app. See docs/architecture.md.
+//! the benchmarks and the gallery — makes frames through it. Imports run one
+//! way, each layer importing only those before it (`tests/architecture.rs`
+//! checks it): input, seed, text → preset → sky, model, sensor → scene →
+//! render → annotate → write → pipeline, gap → fit, tools, app → cli (the
+//! binary: `main.rs` and `cli/`). See docs/architecture.md.
 
 pub mod annotate;
 #[cfg(feature = "app")]
@@ -25,5 +27,6 @@ pub mod scene;
 pub mod seed;
 pub mod sensor;
 pub mod sky;
+pub mod text;
 pub mod tools;
 pub mod write;

@@ -6,7 +6,8 @@ use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::budget::human_bytes;
 use swarmshot::render::GpuContext;
 
-use crate::{device_check, print_empty_splits};
+use super::console::print_empty_splits;
+use super::gpu::device_check;
 
 pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
     let pipeline = FramePipeline::open(path)?;
@@ -28,10 +29,7 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
         swarmshot::preset::printable(&path.display().to_string())
     );
     for w in swarmshot::pipeline::check::warnings(preset) {
-        println!(
-            "warning: {}",
-            swarmshot::preset::text::for_terminal(&w.to_string())
-        );
+        println!("warning: {}", swarmshot::text::for_terminal(&w.to_string()));
     }
     println!("frames: {}", pipeline.frame_count());
     let summary = swarmshot::pipeline::check::summary(preset);
@@ -79,7 +77,7 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
             swarmshot::preset::printable(&spec.class)
         );
         for w in &model.warnings {
-            println!("  warning: {}", swarmshot::preset::text::for_terminal(w));
+            println!("  warning: {}", swarmshot::text::for_terminal(w));
         }
     }
     Ok(())

@@ -1,7 +1,8 @@
-//! `stats`, `gap`, `merge`, `bench`, `gallery` and `assets`: print what the
-//! library reports.
+//! The developer tools: `bench` (the tables of docs/accuracy.md and
+//! docs/benchmarks.md), `gallery` (the docs' pictures) and `assets` (the
+//! built-in models' GLB files).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Context;
 use swarmshot::pipeline::FramePipeline;
@@ -9,94 +10,12 @@ use swarmshot::preset::Preset;
 use swarmshot::render::GpuContext;
 use swarmshot::tools::{bench, gallery};
 
-pub(crate) fn stats(dir: &Path, plots: Option<PathBuf>, json: bool) -> anyhow::Result<()> {
-    let stats = swarmshot::write::stats::read_dataset(dir)?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&stats)?);
-        return Ok(());
-    }
-    println!(
-        "{} ({})",
-        dir.display(),
-        if stats.labels_only {
-            "labels-only plan: no images"
-        } else {
-            "rendered dataset"
-        }
-    );
-    println!("boxes: {}", stats.boxes_from);
-    print!("{}", stats.table());
-    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
-    for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
-        println!("wrote {}", path.display());
-    }
-    Ok(())
-}
+use super::args::{AccuracyArgs, FramesArgs, GalleryArgs};
 
-pub(crate) fn gap(
-    real: PathBuf,
-    synthetic: PathBuf,
-    out: Option<&Path>,
-    max_images: usize,
-    json: bool,
-) -> anyhow::Result<()> {
-    let report = swarmshot::gap::run_report(&swarmshot::gap::GapOptions {
-        real,
-        synthetic,
-        max_images,
-    })?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", report.table());
-    }
-    if let Some(out) = out {
-        for path in report.write(out)? {
-            eprintln!("wrote {}", path.display());
-        }
-    }
-    Ok(())
-}
-
-pub(crate) fn merge(
-    out: &Path,
-    shards: &[PathBuf],
-    overwrite: bool,
-    copy: bool,
-) -> anyhow::Result<()> {
-    let t = std::time::Instant::now();
-    let r = swarmshot::write::merge::merge(out, shards, overwrite, copy)?;
-    let s = &r.stats;
-    let before = if r.shards_before > 0 {
-        format!(
-            " ({} joined by an earlier, interrupted merge)",
-            r.shards_before
-        )
-    } else {
-        String::new()
-    };
-    println!(
-        "merged {} shards{before} into {}: {} frames ({} train / {} val / {} test), {} boxes; {} files hard-linked, {} copied, in {:.1} s",
-        r.shards,
-        out.display(),
-        s.frames,
-        s.frames_per_split[0],
-        s.frames_per_split[1],
-        s.frames_per_split[2],
-        s.boxes,
-        r.linked,
-        r.copied,
-        t.elapsed().as_secs_f64()
-    );
-    Ok(())
-}
-
-pub(crate) fn bench_accuracy(
-    frames: u32,
-    (width, height): (u32, u32),
-    plot: &Path,
-    timing_frames: u64,
-) -> anyhow::Result<()> {
+/// `swarmshot bench accuracy`: label error against run time, then frame time by setting.
+pub(crate) fn bench_accuracy(args: &AccuracyArgs) -> anyhow::Result<()> {
+    let (frames, width, height) = (args.frames, args.width, args.height);
+    let (plot, timing_frames) = (&args.plot, args.timing_frames);
     let ctx = GpuContext::headless()?;
     eprintln!("adapter: {}", ctx.describe());
     let acc = bench::accuracy(&ctx, frames, width, height)?;
@@ -114,11 +33,9 @@ pub(crate) fn bench_accuracy(
     Ok(())
 }
 
-pub(crate) fn bench_frames(
-    frames: Option<u64>,
-    peer: &Path,
-    only: Option<&str>,
-) -> anyhow::Result<()> {
+/// `swarmshot bench frames`: median frame time and peak RSS of the benchmark scenes.
+pub(crate) fn bench_frames(args: &FramesArgs) -> anyhow::Result<()> {
+    let (frames, peer, only) = (args.frames, &args.peer, args.scene.as_deref());
     let ctx = GpuContext::headless()?;
     eprintln!("adapter: {}", ctx.describe());
     // Presets only: each scene's pipeline (and its models' levels of detail)
@@ -144,7 +61,16 @@ pub(crate) fn bench_frames(
     Ok(())
 }
 
-pub(crate) fn gallery_bench() -> anyhow::Result<()> {
+/// `swarmshot gallery`: the docs' pictures, or with --bench the environments' frame times.
+pub(crate) fn gallery(args: &GalleryArgs) -> anyhow::Result<()> {
+    if args.bench {
+        gallery_bench()
+    } else {
+        gallery_pictures(&args.out, args.width, args.height)
+    }
+}
+
+fn gallery_bench() -> anyhow::Result<()> {
     let ctx = GpuContext::headless()?;
     let frames = 20;
     let gradient = gallery::environment_preset(swarmshot::preset::Sky::default(), 1920, 1080);
@@ -167,7 +93,7 @@ pub(crate) fn gallery_bench() -> anyhow::Result<()> {
     Ok(())
 }
 
-pub(crate) fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
+fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
     let ctx = GpuContext::headless()?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
@@ -212,6 +138,7 @@ pub(crate) fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::R
     Ok(())
 }
 
+/// `swarmshot assets`: the built-in models and confusers regenerated as GLB files.
 pub(crate) fn assets(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for name in swarmshot::model::builtin::NAMES {

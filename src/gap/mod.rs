@@ -45,6 +45,7 @@ pub mod jpeg_quality;
 pub mod measure;
 mod propose;
 pub mod report;
+mod table;
 
 use image::RgbImage;
 use serde::Serialize;

@@ -4,7 +4,7 @@
 //! drones' materials and the sky's saturation, each from a statistic whose
 //! synthetic median lies outside the real inter-quartile range.
 
-use super::report::{Proposal, StatRow, fmt};
+use super::table::{Proposal, StatRow, fmt};
 
 /// A statistic's real IQR (lo, hi), the dataset's centre and the verdict.
 fn dist(rows: &[StatRow], key: &str) -> Option<(f64, f64, f64, &'static str)> {

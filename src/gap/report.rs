@@ -18,6 +18,7 @@ use serde::Serialize;
 pub use super::error::GapError;
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
 use super::folder::{input, label_for, read_labels, walk};
+pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt};
 use super::{FrameStats, measure_frame};
 
 /// Drones whose core is this size range (pixels) get the small-drone rows.
@@ -59,77 +60,6 @@ pub struct FrameRecord {
     pub file: String,
     #[serde(flatten)]
     pub stats: FrameStats,
-}
-
-/// A statistic summarised on one side.
-#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Summary {
-    /// Median and inter-quartile range of `n` values.
-    Distribution {
-        n: usize,
-        median: f64,
-        q25: f64,
-        q75: f64,
-    },
-    /// `k` of `n` with a 50 % Wilson interval.
-    Share {
-        n: usize,
-        k: usize,
-        share: f64,
-        low: f64,
-        high: f64,
-    },
-}
-
-impl Summary {
-    /// The median, or the share.
-    pub(super) fn centre(&self) -> f64 {
-        match *self {
-            Summary::Distribution { median, .. } => median,
-            Summary::Share { share, .. } => share,
-        }
-    }
-    /// The inter-quartile range, or the share's 50 % Wilson interval.
-    pub(super) fn range(&self) -> (f64, f64) {
-        match *self {
-            Summary::Distribution { q25, q75, .. } => (q25, q75),
-            Summary::Share { low, high, .. } => (low, high),
-        }
-    }
-    /// How many values it summarises.
-    pub fn n(&self) -> usize {
-        match *self {
-            Summary::Distribution { n, .. } | Summary::Share { n, .. } => n,
-        }
-    }
-}
-
-/// Below this many real values a statistic's real range is flagged in the
-/// table: the quartiles of a handful of values move with every value added.
-pub const FEW_REAL_VALUES: usize = 20;
-
-#[derive(Clone, Debug, Serialize)]
-pub struct StatRow {
-    pub key: &'static str,
-    pub name: &'static str,
-    pub unit: &'static str,
-    /// `frame` or `drone`: what one value is.
-    pub per: &'static str,
-    pub real: Option<Summary>,
-    pub synthetic: Option<Summary>,
-    /// `inside` (the synthetic median or share lies in the real IQR or interval),
-    /// `below`, `above`, or `n/a` when a side has no value.
-    pub verdict: &'static str,
-}
-
-/// A camera-model (or scene) change that would move a statistic inside the real range.
-#[derive(Clone, Debug, Serialize)]
-pub struct Proposal {
-    pub key: &'static str,
-    pub text: String,
-    /// The proposed parameter range, in the unit the text names.
-    pub range: Option<[f64; 2]>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -512,45 +442,6 @@ pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
         statistics,
         proposals,
     })
-}
-
-/// A number with three significant figures or so.
-pub fn fmt(v: f64) -> String {
-    let a = v.abs();
-    if a >= 100.0 {
-        format!("{v:.0}")
-    } else if a >= 10.0 {
-        format!("{v:.1}")
-    } else if a >= 1.0 {
-        format!("{v:.2}")
-    } else {
-        format!("{v:.3}")
-    }
-}
-
-/// A summary cell of the table: median [IQR] (n), or share [interval] (n).
-pub fn cell(s: Option<Summary>) -> String {
-    match s {
-        None => "–".into(),
-        Some(Summary::Distribution {
-            n,
-            median,
-            q25,
-            q75,
-        }) => format!("{} [{} – {}] (n={n})", fmt(median), fmt(q25), fmt(q75)),
-        Some(Summary::Share {
-            n,
-            share,
-            low,
-            high,
-            ..
-        }) => format!(
-            "{:.0} % [{:.0} – {:.0}] (n={n})",
-            share * 100.0,
-            low * 100.0,
-            high * 100.0
-        ),
-    }
 }
 
 impl Report {

@@ -3,14 +3,12 @@
 //! embedded GLB files (`assets/models/NAME.glb`, made by `swarmshot assets`
 //! from `tools::confusers`). They load through the same glTF path as drones.
 //!
-//! A bird has [`FLAP_POSES`] flap poses and a gliding pose. The loader
+//! A bird has `FLAP_POSES` flap poses and a gliding pose (the preset's
+//! confuser kinds name them: `preset::confusers::bird_model`). The loader
 //! centres each model on its bounding box and scales it to a unit span; a
 //! pose's [`PoseFrame`] says where that box sits and how large it is against
 //! the gliding pose, so the scene keeps a bird's body still and its size
 //! constant while its wings beat.
-
-/// The poses' count and names are the preset's (its confuser kinds name their models).
-pub use crate::preset::confusers::{FLAP_POSES, bird_model};
 
 macro_rules! confusers {
     ($($name:literal),* $(,)?) => {

@@ -409,7 +409,7 @@ fn short_uri(uri: &str) -> String {
     if uri.starts_with("data:") {
         return "data:…".into();
     }
-    let cleaned = crate::preset::printable(uri);
+    let cleaned = crate::text::printable(uri);
     if cleaned.chars().count() > MAX_CHARS {
         format!("{}…", cleaned.chars().take(MAX_CHARS).collect::<String>())
     } else {

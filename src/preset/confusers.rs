@@ -248,7 +248,7 @@ impl Confuser {
             v.check(!name.trim().is_empty(), &field("labelled_as"), || {
                 "class name is empty (leave it out for an unlabelled hard negative)".into()
             });
-            if let Some(problem) = super::text::name_problem(name) {
+            if let Some(problem) = crate::text::name_problem(name) {
                 v.push(&field("labelled_as"), problem);
             }
         }

@@ -25,10 +25,9 @@ pub mod observer;
 mod ron_error;
 mod sky;
 pub mod sweep;
-pub mod text;
 
+pub use crate::text::{printable, short_number};
 pub use sky::{BUILTIN_SKIES, DEFAULT_HORIZON, DEFAULT_ZENITH, Sky, SkyImageSource};
-pub use text::{printable, short_number};
 mod validate;
 
 pub use formation::{

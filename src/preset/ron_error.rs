@@ -48,10 +48,10 @@ pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> String {
                 };
                 format!(
                     "{position}: `{}`{place}: an integer (a whole number) was expected",
-                    super::text::printable(&number)
+                    crate::text::printable(&number)
                 )
             }
-            None => super::text::shorten_digit_runs(&e.to_string()),
+            None => crate::text::shorten_digit_runs(&e.to_string()),
         },
     }
 }

@@ -41,7 +41,7 @@ impl Preset {
                 self.version
             )
         });
-        if let Some(problem) = super::text::name_problem(&self.name) {
+        if let Some(problem) = crate::text::name_problem(&self.name) {
             v.push("name", problem);
         }
         self.validate_models(&mut v);
@@ -125,7 +125,7 @@ impl Preset {
                 &format!("models[{i}].class"),
                 || "class name is empty".into(),
             );
-            if let Some(problem) = super::text::name_problem(&m.class) {
+            if let Some(problem) = crate::text::name_problem(&m.class) {
                 v.push(&format!("models[{i}].class"), problem);
             }
         }
@@ -423,14 +423,14 @@ impl Preset {
         // become separate classes: almost never what was meant.
         let mut seen: Vec<(String, &str, usize)> = Vec::new();
         for (i, m) in self.models.iter().enumerate() {
-            let skeleton = super::text::skeleton(&m.class);
+            let skeleton = crate::text::skeleton(&m.class);
             match seen.iter().find(|(s, name, _)| *s == skeleton && *name != m.class) {
                 Some((_, name, j)) => v.push(
                     &format!("models[{i}].class"),
                     format!(
                         "\"{}\" and \"{}\" (models[{j}].class) differ only by case, spaces or look-alike letters, yet become two classes; give both the same name",
-                        super::text::printable(&m.class),
-                        super::text::printable(name)
+                        crate::text::printable(&m.class),
+                        crate::text::printable(name)
                     ),
                 ),
                 None => seen.push((skeleton, &m.class, i)),

@@ -25,9 +25,11 @@ use serde::Serialize;
 use super::DronePose;
 use super::camera::Camera;
 use super::math::EulerDeg;
-use crate::model::confusers::{FLAP_POSES, pose_frame};
+use crate::model::confusers::pose_frame;
 use crate::preset::Preset;
-use crate::preset::confusers::{Confuser, ConfuserKind, FlockShape, first_slots, model_slots};
+use crate::preset::confusers::{
+    Confuser, ConfuserKind, FLAP_POSES, FlockShape, first_slots, model_slots,
+};
 
 /// The salt of the confusers' stream ("CONFUSER").
 pub const CONFUSER_SALT: u64 = 0x434F_4E46_5553_4552;

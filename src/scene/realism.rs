@@ -13,8 +13,9 @@ use crate::preset::appearance::{Appearance, DroneColor};
 use crate::preset::observer::ObserverCamera;
 use crate::seed;
 
-/// Koschmieder's constant: ln(1/0.02), the contrast threshold of 2 % that defines visibility.
-pub const KOSCHMIEDER: f64 = 3.912;
+/// Koschmieder's constant, owned by [`crate::sky`] (the sky's haze and the meter use it
+/// beneath the scene); here for the scene's atmosphere and its callers.
+pub use crate::sky::KOSCHMIEDER;
 
 /// The frame's atmosphere.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]

@@ -25,7 +25,7 @@ use super::kernels::simd_level;
 use super::kernels::{
     TapRun, convolve_row, decode_row, encode_line, sum_rows, tap_runs, taps_runs,
 };
-use super::stages::{decode_table, disc_spans, gaussian_weights};
+use super::rows::{decode_table, disc_spans, gaussian_weights};
 use super::{CameraDraw, PsfDraw, noise};
 
 /// The PSF as the sweep applies it.
@@ -374,7 +374,7 @@ impl<'c, 'a> PreRows<'c, 'a> {
                 let s0 = a.slot(k0, k1, |k, out| decode(k, first, out));
                 let s1 = a.slot(k1, k0, |k, out| decode(k, first, out));
                 let (r0, r1) = (&a.decoded[s0], &a.decoded[s1]);
-                super::stages::lerp_rows(r0, r1, fy, &mut a.mid);
+                super::rows::lerp_rows(r0, r1, fy, &mut a.mid);
                 taps_runs(&a.mid, (&a.taps, &a.fx), &a.runs, &mut self.out);
             }
         }
@@ -516,7 +516,7 @@ impl Finish {
     fn new(chain: &Chain<'_>, x0: i64, ow: usize) -> Self {
         let dx2 = match chain.vignette {
             Some((_, centre, corner2)) => (0..ow as i64)
-                .map(|i| super::stages::radius2(x0 + i, centre.0, corner2))
+                .map(|i| super::rows::radius2(x0 + i, centre.0, corner2))
                 .collect(),
             None => Vec::new(),
         };
@@ -533,8 +533,8 @@ impl Finish {
     #[inline(always)]
     fn row(&mut self, chain: &Chain<'_>, y: i64, line: &mut [u8]) {
         if let Some((strength, centre, corner2)) = chain.vignette {
-            let dy2 = super::stages::radius2(y, centre.1, corner2);
-            super::stages::vignette_factors(strength as f32, dy2, &self.dx2, &mut self.factor);
+            let dy2 = super::rows::radius2(y, centre.1, corner2);
+            super::rows::vignette_factors(strength as f32, dy2, &self.dx2, &mut self.factor);
             for v in &mut self.vals {
                 for (v, f) in v.iter_mut().zip(&self.factor) {
                     *v *= f;
@@ -544,7 +544,7 @@ impl Finish {
         if let Some(s) = chain.saturation {
             let [r, g, b] = &mut self.vals;
             for ((r, g), b) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()) {
-                super::stages::saturate(s, r, g, b);
+                super::rows::saturate(s, r, g, b);
             }
         }
         if let Some((gain, read2, key)) = chain.noise {

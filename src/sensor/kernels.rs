@@ -5,7 +5,7 @@
 //! computes exactly the plane path's f32 operations in its order, so every
 //! build gives the same bytes.
 
-use super::stages::encode_row;
+use super::rows::encode_row;
 
 /// The widest build of the band this CPU runs: 2 AVX-512 (F, BW, DQ, VL),
 /// 1 AVX2, 0 the baseline. `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps it
@@ -60,7 +60,7 @@ fn decode_row_avx2(lut: &[f32; 256], row: &[u8], c: usize, first: i64, out: &mut
 }
 
 /// One row of RGBA8 from the three linear rows (see
-/// [`super::stages::encode_row`]), in its AVX2 build where the CPU has it
+/// [`super::rows::encode_row`]), in its AVX2 build where the CPU has it
 /// (as [`decode_row`], for the same reason).
 #[inline(always)]
 pub(super) fn encode_line(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
@@ -134,7 +134,7 @@ pub(super) fn tap_runs(taps: &[(usize, usize, f32)]) -> Vec<TapRun> {
 }
 
 /// `out[j]` = `src[c0]` + (`src[c1]` − `src[c0]`)·`fx` for the taps
-/// (c0, c1, fx) of column j, as [`super::stages::taps_row`] computes it, a
+/// (c0, c1, fx) of column j, as [`super::rows::taps_row`] computes it, a
 /// run of contiguous taps at a time (a loop that vectorises).
 #[inline(always)]
 pub(super) fn taps_runs(
@@ -154,7 +154,7 @@ pub(super) fn taps_runs(
                     *o = x + (y - x) * f;
                 }
             }
-            None => super::stages::taps_row(src, taps, out),
+            None => super::rows::taps_row(src, taps, out),
         }
     }
 }

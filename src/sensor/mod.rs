@@ -51,6 +51,7 @@ mod fused;
 mod kernels;
 pub mod motion;
 mod noise;
+mod rows;
 mod sharpen;
 mod stages;
 

@@ -14,7 +14,7 @@
 //! camera) are not blurred. Pixels no streak reaches keep their bytes.
 
 use super::PixelRect;
-use super::stages::{decode_table, encode, encode_table};
+use super::rows::{decode_table, encode, encode_table};
 
 /// One drone's motion during the exposure.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -285,7 +285,7 @@ impl Procedural {
         let lighting = procedural_lighting(&style, env, exposure, sunlight);
         let (fog_m, far_haze, near_haze) = match atmosphere_visibility_m {
             Some(v) => {
-                let k = crate::scene::realism::KOSCHMIEDER;
+                let k = super::KOSCHMIEDER;
                 (
                     (v / k) as f32,
                     1.0 - (-k * FAR_SILHOUETTE_M / v).exp() as f32,

@@ -253,6 +253,10 @@ pub enum FrameSky {
     },
 }
 
+/// Koschmieder's constant: ln(1/0.02), the contrast threshold of 2 % that defines
+/// visibility: a path of `d` metres in air of visibility `V` transmits exp(−K·d/V).
+pub const KOSCHMIEDER: f64 = 3.912;
+
 /// Zenith and horizon colours of the gradient that stands in for a sky that cannot be drawn.
 pub const FALLBACK_ZENITH: [f32; 3] = [DEFAULT_ZENITH.0, DEFAULT_ZENITH.1, DEFAULT_ZENITH.2];
 pub const FALLBACK_HORIZON: [f32; 3] = [DEFAULT_HORIZON.0, DEFAULT_HORIZON.1, DEFAULT_HORIZON.2];

@@ -1,12 +1,12 @@
 //! The built-in fixed wings and the helicopter (moved out of `assets.rs`,
 //! unchanged): the fixed-wing UAV, the flying-wing VTOL and the coaxial
-//! helicopter, from [`MeshBuilder`] parts.
+//! helicopter, from [`MeshBuilder`] parts (`mesh.rs`).
 
 use std::f32::consts::FRAC_PI_2;
 
 use glam::{Quat, Vec3};
 
-use super::assets::{
+use super::mesh::{
     ACCENT_RED, CARBON, DARK_GREY, FOAM_GREY, GLASS, MOTOR, MeshBuilder, OLIVE, ROTOR, WHITE,
     YELLOW, skids,
 };

@@ -14,8 +14,8 @@ use std::f32::consts::{FRAC_PI_2, TAU};
 
 use glam::{Quat, Vec3};
 
-use super::assets::{Material, MeshBuilder};
-pub use crate::model::confusers::FLAP_POSES;
+use super::mesh::{Material, MeshBuilder};
+pub use crate::preset::confusers::FLAP_POSES;
 
 /// Build the GLB of a built-in confuser (what `assets/models/NAME.glb` must contain).
 pub fn generate_glb(name: &str) -> Option<Vec<u8>> {

@@ -7,3 +7,4 @@ pub mod bench;
 pub mod confuser_gallery;
 pub mod confusers;
 pub mod gallery;
+mod mesh;

@@ -1,6 +1,9 @@
 //! Text a user typed, made safe to print and checked for limits: control
 //! characters escaped, long numbers shortened, names bounded, and class
 //! names that differ only by case, spaces or look-alike letters found.
+//! Beneath every module that prints a user's text (the preset's field
+//! errors, the model loader's URIs, the command line); imports nothing of
+//! the project.
 
 use std::fmt::Write as _;
 

@@ -1,0 +1,70 @@
+//! `swarmshot frame PRESET --index I --out F`: one frame alone, the files the
+//! batch writes for it.
+
+use swarmshot::pipeline::FramePipeline;
+
+use super::args::FrameArgs;
+use super::console::print_warnings;
+use super::gpu::{device_check, with_gpu_starting};
+
+/// A batch of one: the files the batch writes for frame `index` (image, YOLO
+/// labels, manifest record, and the masks `output.masks` asks for), beside `out`.
+pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
+    let (preset, index, out) = (&args.preset, args.index, &args.out);
+    let (pipeline, ctx) = with_gpu_starting(|| {
+        let pipeline = FramePipeline::open(preset)?;
+        pipeline
+            .preset()
+            .check_render_budget()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        swarmshot::write::single::check_image_name(out, pipeline.preset().output.image_format)
+            .map_err(anyhow::Error::msg)?;
+        if index >= pipeline.frame_count() {
+            anyhow::bail!(
+                "--index {index}: the preset has {} frames (0..{})",
+                pipeline.frame_count(),
+                pipeline.frame_count()
+            );
+        }
+        print_warnings(&pipeline);
+        Ok(pipeline)
+    })?;
+    device_check(&pipeline, &ctx)?;
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut frame = pipeline.make(&mut renderer, index)?;
+    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+    if args.overlay {
+        swarmshot::annotate::overlay::draw_overlay(&mut frame.rgba, w, h, &frame.labels);
+    }
+    let written = swarmshot::write::single::write_lone_frame(
+        out,
+        &swarmshot::write::single::LoneFrame {
+            scene: &frame.scene,
+            labels: &frame.labels,
+            rgba: &frame.rgba,
+            masks: frame.masks.as_ref(),
+        },
+        &swarmshot::write::single::LoneFormat {
+            image: pipeline.image_format(&frame.scene),
+            masks: &pipeline.preset().output.masks,
+            model_names: pipeline.model_names(),
+            classes: pipeline.classes(),
+        },
+    )?;
+    let beside: Vec<String> = (written.iter().skip(1))
+        .map(|p| p.display().to_string())
+        .collect();
+    println!(
+        "frame {index} ({} split): {} drones{}, {} boxes -> {} (+ {})",
+        frame.scene.split.as_str(),
+        frame.scene.drone_count(),
+        match frame.scene.confusers.len() {
+            0 => String::new(),
+            n => format!(" and {n} confusers"),
+        },
+        frame.labels.iter().filter(|l| l.is_kept()).count(),
+        out.display(),
+        beside.join(", ")
+    );
+    Ok(())
+}

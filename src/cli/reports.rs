@@ -1,0 +1,92 @@
+//! The commands that read what was written and report on it: `stats` (a
+//! dataset's or plan's Table 2 and histograms), `gap` (the domain-gap report)
+//! and `merge` (shards joined into one dataset).
+
+use super::args::{GapArgs, MergeArgs, StatsArgs};
+
+/// `swarmshot stats DIR`: the paper's Table 2 of a dataset or plan, and its histograms.
+pub(crate) fn stats(args: StatsArgs) -> anyhow::Result<()> {
+    let (dir, plots, json) = (&args.dir, args.plots, args.json);
+    let stats = swarmshot::write::stats::read_dataset(dir)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&stats)?);
+        return Ok(());
+    }
+    println!(
+        "{} ({})",
+        dir.display(),
+        if stats.labels_only {
+            "labels-only plan: no images"
+        } else {
+            "rendered dataset"
+        }
+    );
+    println!("boxes: {}", stats.boxes_from);
+    print!("{}", stats.table());
+    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
+    for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// `swarmshot gap --real REAL --synthetic DIR`: the domain-gap report.
+pub(crate) fn gap(args: GapArgs) -> anyhow::Result<()> {
+    let GapArgs {
+        real,
+        synthetic,
+        out,
+        max_images,
+        json,
+    } = args;
+    // An --out inside --real or --synthetic is refused before measuring.
+    if let Some(out) = &out {
+        swarmshot::gap::report::check_out(out, &[("real", &real), ("synthetic", &synthetic)])?;
+    }
+    let report = swarmshot::gap::run_report(&swarmshot::gap::GapOptions {
+        real,
+        synthetic,
+        max_images,
+    })?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", report.table());
+    }
+    if let Some(out) = &out {
+        for path in report.write(out)? {
+            eprintln!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// `swarmshot merge OUT SHARD…`: the shards of one run joined into its dataset.
+pub(crate) fn merge(args: MergeArgs) -> anyhow::Result<()> {
+    let out = &args.out;
+    let t = std::time::Instant::now();
+    let r = swarmshot::write::merge::merge(out, &args.shards, args.overwrite, args.copy)?;
+    let s = &r.stats;
+    let before = if r.shards_before > 0 {
+        format!(
+            " ({} joined by an earlier, interrupted merge)",
+            r.shards_before
+        )
+    } else {
+        String::new()
+    };
+    println!(
+        "merged {} shards{before} into {}: {} frames ({} train / {} val / {} test), {} boxes; {} files hard-linked, {} copied, in {:.1} s",
+        r.shards,
+        out.display(),
+        s.frames,
+        s.frames_per_split[0],
+        s.frames_per_split[1],
+        s.frames_per_split[2],
+        s.boxes,
+        r.linked,
+        r.copied,
+        t.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
