@@ -10,7 +10,7 @@
 //! renderer then only encodes what the plan says and collects what it reads.
 
 use super::RenderError;
-use super::id_layer::IdLayer;
+use super::ids;
 use super::readback::{Read, plan_reads};
 use super::regions::{self, Rect};
 use super::visibility::overlap_layers;
@@ -96,7 +96,11 @@ impl FramePlan {
             Vec::new()
         };
         let id_reads = if request.visibility {
-            IdLayer::plan_reads(&passes, &places, request.msaa, &mut size)
+            // Each pass's id rects, as many bytes a pixel as its id samples.
+            let bpp = ids::id_bytes_per_pixel(request.msaa);
+            (passes.iter().zip(&places))
+                .map(|(pass, places)| plan_reads(&pass.rects, places, bpp, &mut size))
+                .collect()
         } else {
             Vec::new()
         };

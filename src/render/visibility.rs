@@ -10,10 +10,50 @@
 //! its unoccluded count is its visible count; the others are split into
 //! layers of mutually non-overlapping drones ([`overlap_layers`]) and each
 //! layer is drawn alone. A sparse swarm costs no extra pass.
+//!
+//! What is measured is plain data ([`Visibility`], [`PixelHit`]): the labels
+//! are made from it (`annotate`, which names these types), the renderer
+//! fills it in (here and in `ids.rs`).
+
+use serde::Serialize;
 
 use crate::render::{RenderError, RenderRequest, Renderer};
 use crate::scene::FrameScene;
 use crate::scene::projection::PixelBox;
+
+/// What the colour pass's samples show of one drone.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Visibility {
+    /// Min/max of the drone's visible pixels ([x, x+1) × [y, y+1) each), `None` if none is visible.
+    pub visible_box: Option<PixelBox>,
+    /// Pixels where this drone is the nearest surface in at least one sample.
+    pub visible_pixels: u64,
+    /// Pixels the drone would cover (in at least one sample) if nothing were in front of it.
+    pub unoccluded_pixels: u64,
+}
+
+impl Visibility {
+    /// visible / unoccluded (0 when the drone covers no pixel centre at all).
+    pub fn fraction(&self) -> f64 {
+        if self.unoccluded_pixels == 0 {
+            0.0
+        } else {
+            self.visible_pixels as f64 / self.unoccluded_pixels as f64
+        }
+    }
+}
+
+/// One drone seen at one pixel: `samples` of the pixel's samples (1 to 4;
+/// 1 without MSAA) show drone `drone` (scene index). A pixel has one hit per
+/// distinct drone its samples show, so each drone's hits are exactly the
+/// pixels the renderer's tally counts for it (its visible pixels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelHit {
+    pub x: u32,
+    pub y: u32,
+    pub drone: u32,
+    pub samples: u8,
+}
 
 /// Measure every drone of `scene` with `msaa` samples per pixel, at `scale` ×
 /// the output resolution (1: the output's own pixels, as the picture shows
@@ -60,9 +100,6 @@ pub fn measure(
         })
         .collect())
 }
-
-/// What the colour pass's samples show of one drone (plain data, owned by `annotate`).
-pub use crate::annotate::visibility::Visibility;
 
 /// Per-drone pixel box and pixel count from an id image (ids are drone index + 1).
 pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option<PixelBox>, u64)> {
