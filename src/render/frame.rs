@@ -194,6 +194,7 @@ impl Renderer {
             self.update_background(part, cache, scene, &uniforms, scenery, layer)?;
         }
         let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
+        let depths = regions::drone_depths(scene, &self.geometry);
         let request = PlanRequest {
             size_px: (width, height),
             msaa,
@@ -202,7 +203,7 @@ impl Renderer {
             regions: self.use_regions,
             scenery: scenery.is_some(),
         };
-        let plan = FramePlan::new(request, &boxes, &rects)?;
+        let plan = FramePlan::new(request, &boxes, &rects, &depths)?;
         let under = || plan.passes.iter().flat_map(|p| &p.rects);
         if plan.request.color {
             self.upload_background_under(&mut state.targets[t].background, under());

@@ -17,6 +17,7 @@
 
 use serde::Serialize;
 
+use crate::render::regions::DepthRange;
 use crate::render::{RenderError, RenderRequest, Renderer};
 use crate::scene::FrameScene;
 use crate::scene::projection::PixelBox;
@@ -140,6 +141,25 @@ pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option
 pub fn overlap_layers(
     boxes: &[Option<PixelBox>],
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
+    occlusion_layers(boxes, &[])
+}
+
+/// [`overlap_layers`], knowing each drone's [`DepthRange`] (`depths[i]`;
+/// missing or `None`: unknown): a drone counts as overlapping only when a
+/// drone whose box meets its own may be in front of it. A drone with only
+/// drones behind it wins every depth test against them, so the main pass
+/// already shows it whole (its visible count is its unoccluded count) and
+/// it needs no layer pass. The layers are the same as [`overlap_layers`]'.
+pub fn occlusion_layers(
+    boxes: &[Option<PixelBox>],
+    depths: &[Option<DepthRange>],
+) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
+    let depth = |i: usize| depths.get(i).copied().flatten();
+    // Drone `j` may hide part of drone `i` unless `j` is wholly behind `i`.
+    let may_hide = |j: usize, i: usize| match (depth(j), depth(i)) {
+        (Some(dj), Some(di)) => !dj.behind(&di),
+        _ => true,
+    };
     const TILE: f64 = 64.0;
     let mut tests: u64 = 0;
     let pad = |b: &PixelBox| PixelBox {
@@ -167,11 +187,14 @@ pub fn overlap_layers(
     let mut layer_of: Vec<Option<usize>> = vec![None; boxes.len()];
     let mut overlapping = vec![false; boxes.len()];
     let mut layers: Vec<Vec<usize>> = Vec::new();
+    // Reused from drone to drone: no allocation per drone.
+    let mut taken: Vec<usize> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
     for (i, b) in boxes.iter().enumerate() {
         let Some(b) = b else { continue };
         let pb = pad(b);
-        let mut taken = std::collections::BTreeSet::new();
-        let mut seen = std::collections::HashSet::new();
+        taken.clear();
+        seen.clear();
         for t in tiles_of(&pb) {
             let near = grid.get(&t).map_or(&[][..], Vec::as_slice);
             tests += near.len() as u64;
@@ -186,9 +209,9 @@ pub fn overlap_layers(
                     && seen.insert(j)
                     && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj)))
                 {
-                    overlapping[i] = true;
+                    overlapping[i] |= may_hide(j, i);
                     if let Some(l) = layer_of[j] {
-                        taken.insert(l);
+                        taken.push(l);
                     }
                 }
             }
