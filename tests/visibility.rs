@@ -158,6 +158,42 @@ fn visible_fractions_match_rendering_each_drone_alone() {
     assert_eq!(vis[3].fraction(), 1.0);
 }
 
+/// With MSAA, each drone's unoccluded count equals what it shows measured
+/// alone, both for drones that a nearer one overlaps (drawn in a layer pass)
+/// and for the nearest, which overlaps only drones behind it (whole in the
+/// main pass, drawn once).
+#[test]
+fn unoccluded_counts_equal_each_drone_measured_alone_with_msaa() {
+    let ctx = common::gpu();
+    let mut p = single_drone_preset();
+    p.render.resolution = Resolution::Custom {
+        width: 480,
+        height: 270,
+    };
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
+    let scene = crafted_overlap(&p);
+    let vis = visibility::measure(&mut renderer, &scene, 4, 1).expect("measure");
+    for (i, v) in vis.iter().enumerate() {
+        let mut alone = scene.clone();
+        alone.drones = vec![scene.drones[i].clone()];
+        alone.looks = scene.looks.iter().skip(i).take(1).cloned().collect();
+        let a = visibility::measure(&mut renderer, &alone, 4, 1).expect("alone")[0];
+        assert!(a.visible_pixels > 0, "drone {i}");
+        assert_eq!(a.visible_pixels, a.unoccluded_pixels, "drone {i} alone");
+        assert_eq!(v.unoccluded_pixels, a.visible_pixels, "drone {i}");
+    }
+    assert_eq!(
+        vis[0].fraction(),
+        1.0,
+        "nothing is in front of the nearest drone"
+    );
+    assert!(
+        vis[1].visible_pixels < vis[1].unoccluded_pixels,
+        "drone 1 is partly hidden"
+    );
+}
+
 #[test]
 fn visibility_filters_drop_or_mark_crowd() {
     let ctx = common::gpu();

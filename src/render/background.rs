@@ -16,9 +16,11 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::frame::{RegionState, color_target};
+use super::gpu::{clear_pass, color_target};
 use super::readback::{self, Readback};
 use super::regions::Rect;
+use super::scenery::{self, ClutterLayer};
+use super::tiles::{take_stale_tiles, upload_tiles};
 use super::upsample::{Texels, Tone, upsample_reduced};
 use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
 use crate::scene::FrameScene;
@@ -53,77 +55,13 @@ pub(super) struct BackgroundCache {
     last_base_key: Option<Vec<u8>>,
     /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
-    /// Per [`UPLOAD_TILE`]-square tile, row by row: whether `texture` still
+    /// Per upload tile (`tiles::UPLOAD_TILE` pixels square), row by row: whether `texture` still
     /// lacks that part of `rgba`. A background made on the CPU (upsampled
     /// environment or image sky, backplate) is uploaded only where the
     /// region passes read it, under the frame's regions, when a frame first
     /// needs it ([`Renderer::upload_background_under`]); empty when the
     /// texture holds the whole background.
     stale: Vec<bool>,
-}
-
-/// Side (pixels) of the tiles in which a layer made on the CPU (a
-/// background, the scenery) is uploaded.
-const UPLOAD_TILE: u32 = 64;
-
-/// The tiles across and down of a `width`×`height` layer.
-pub(super) fn upload_tiles((width, height): (u32, u32)) -> (u32, u32) {
-    (width.div_ceil(UPLOAD_TILE), height.div_ceil(UPLOAD_TILE))
-}
-
-/// The parts of a `size` layer to upload before a frame draws `rects`:
-/// the `stale` tiles (per [`UPLOAD_TILE`]-square tile, row by row: not yet
-/// uploaded) under them, joined along each row of tiles, now marked
-/// uploaded; `stale` is emptied once nothing in it is stale.
-pub(super) fn take_stale_tiles<'r>(
-    stale: &mut Vec<bool>,
-    size: (u32, u32),
-    rects: impl IntoIterator<Item = &'r Rect>,
-) -> Vec<Rect> {
-    let (across, down) = upload_tiles(size);
-    let mut parts = Vec::new();
-    if stale.len() != across as usize * down as usize {
-        stale.clear();
-        return parts;
-    }
-    let mut wanted = vec![false; stale.len()];
-    for r in rects {
-        let (tx0, tx1) = (r.x0 / UPLOAD_TILE, r.x1.div_ceil(UPLOAD_TILE).min(across));
-        let (ty0, ty1) = (r.y0 / UPLOAD_TILE, r.y1.div_ceil(UPLOAD_TILE).min(down));
-        for ty in ty0..ty1 {
-            let row = (ty * across) as usize;
-            wanted[row + tx0 as usize..row + tx1.max(tx0) as usize].fill(true);
-        }
-    }
-    for (w, s) in wanted.iter_mut().zip(stale.iter_mut()) {
-        *w &= *s;
-        *s &= !*w;
-    }
-    for ty in 0..down {
-        let row = (ty * across) as usize;
-        let mut tx = 0;
-        while tx < across {
-            if !wanted[row + tx as usize] {
-                tx += 1;
-                continue;
-            }
-            let start = tx;
-            while tx < across && wanted[row + tx as usize] {
-                tx += 1;
-            }
-            let y0 = ty * UPLOAD_TILE;
-            parts.push(Rect {
-                x0: start * UPLOAD_TILE,
-                y0,
-                x1: (tx * UPLOAD_TILE).min(size.0),
-                y1: (y0 + UPLOAD_TILE).min(size.1),
-            });
-        }
-    }
-    if !stale.contains(&true) {
-        stale.clear();
-    }
-    parts
 }
 
 impl BackgroundCache {
@@ -201,21 +139,29 @@ impl BackgroundCache {
 
 /// The background sky pipelines, one per sky mode (see `SKY_MODE` in sky.wgsl).
 #[derive(Default)]
-pub(super) struct SkyPipelines(Vec<(u32, wgpu::RenderPipeline)>);
+struct SkyPipelines(Vec<(u32, wgpu::RenderPipeline)>);
+
+/// What the background part keeps across target sizes: its sky pipelines
+/// and how many backgrounds it drew (cache misses, for tests and benchmarks).
+#[derive(Default)]
+pub(super) struct Backgrounds {
+    sky: SkyPipelines,
+    pub(super) draws: u64,
+}
 
 impl Renderer {
-    /// Make the cache of target set `t` hold `scene`'s background (with the
-    /// scenery layer `scenery`, when the frame has one), drawing it only
-    /// when its key changed.
+    /// Make `cache` hold `scene`'s background (with the scenery layer of key
+    /// `scenery`, when the frame has one, composited from `layer`), drawing
+    /// it with `part` only when its key changed.
     pub(super) fn update_background(
         &mut self,
-        state: &mut RegionState,
-        t: usize,
+        part: &mut Backgrounds,
+        cache: &mut BackgroundCache,
         scene: &FrameScene,
         uniforms: &FrameUniforms,
         scenery: Option<u64>,
+        layer: Option<&ClutterLayer>,
     ) -> Result<(), RenderError> {
-        let cache = &mut state.targets[t].background;
         let size = (cache.width, cache.height);
         // What the background shows, before the camera's exposure and the scenery.
         let base_key = match &scene.backplate {
@@ -239,21 +185,20 @@ impl Renderer {
             cache.renew();
             cache.mark_stale();
         } else {
-            self.draw_exposed(state, t, scene, uniforms, (base_key.as_slice(), gain))?;
+            self.draw_exposed(part, cache, scene, uniforms, (base_key.as_slice(), gain))?;
         }
-        let cache = &mut state.targets[t].background;
         cache.last_base_key = Some(base_key);
-        if let Some((_, layer)) = state.scenery.as_ref().and_then(|g| g.layer()) {
+        if let Some(layer) = layer {
             // The texture holds the background without the scenery (the
             // region passes draw the scenery themselves): all of it now.
             self.upload_background_under(cache, std::iter::once(&Rect::full(size.0, size.1)));
-            super::scenery::composite(layer, &mut cache.rgba);
+            scenery::composite(layer, &mut cache.rgba);
         }
         cache.key = Some(key);
         Ok(())
     }
 
-    /// Draw target set `t`'s background for `scene` at exposure `gain`.
+    /// Draw `cache`'s background for `scene` at exposure `gain`.
     /// The CPU-made pictures (procedural environments, magnified image skies,
     /// backplates) are drawn at the exposure, at no cost of their own, while
     /// the background changes from frame to frame; once the same background
@@ -264,8 +209,8 @@ impl Renderer {
     /// and exposed by the table.
     fn draw_exposed(
         &mut self,
-        state: &mut RegionState,
-        t: usize,
+        part: &mut Backgrounds,
+        cache: &mut BackgroundCache,
         scene: &FrameScene,
         uniforms: &FrameUniforms,
         (base_key, gain): (&[u8], f32),
@@ -284,7 +229,6 @@ impl Renderer {
             (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => Source::Reduced(None),
             (None, None) => Source::Shader,
         };
-        let cache = &mut state.targets[t].background;
         let repeated = cache.last_base_key.as_deref() == Some(base_key);
         let keep = gain != 1.0 && (repeated || matches!(source, Source::Shader));
         let draw_gain = if keep { 1.0 } else { gain };
@@ -293,9 +237,9 @@ impl Renderer {
             Source::Reduced(image) => {
                 self.draw_reduced_background(cache, uniforms, image, draw_gain)?
             }
-            Source::Shader => self.draw_background(&mut state.sky_pipelines, cache, scene)?,
+            Source::Shader => self.draw_background(&mut part.sky, cache, scene)?,
         }
-        state.background_draws += 1;
+        part.draws += 1;
         if keep {
             // Into the kept copy's memory: no frame-sized allocation per frame.
             let (key, pixels) = cache.unexposed.get_or_insert_with(Default::default);
@@ -308,29 +252,6 @@ impl Renderer {
             cache.mark_stale();
         }
         Ok(())
-    }
-
-    /// The drone-free pixels (RGBA8, the whole frame) of the background a
-    /// frame's buffer holds (`painted`), while this renderer still caches
-    /// it: outside `painted.rects()` they equal the frame's, inside them
-    /// they are what the frame shows without its drones. `None` when the
-    /// buffer holds no background or it was replaced since.
-    pub fn background_pixels(&self, painted: &super::Painted) -> Option<&[u8]> {
-        if painted.background == 0 {
-            return None;
-        }
-        self.regions
-            .as_ref()?
-            .targets
-            .iter()
-            .map(|t| &t.background)
-            .find(|b| b.generation == painted.background)
-            .map(|b| b.rgba.as_slice())
-    }
-
-    /// How many times the background was drawn (cache misses), for tests and benchmarks.
-    pub fn background_draws(&self) -> u64 {
-        self.regions.as_ref().map_or(0, |s| s.background_draws)
     }
 
     /// The bytes the sky shader reads, plus what its bind group and size are.
@@ -523,7 +444,7 @@ impl Renderer {
             });
         {
             let pipeline = self.sky_pipeline(pipelines);
-            let mut pass = super::frame::clear_pass(&mut encoder, "background pass", &cache.view);
+            let mut pass = clear_pass(&mut encoder, "background pass", &cache.view);
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);

@@ -1,12 +1,14 @@
 //! Frames drawn region by region: the cost of a frame grows with the pixels
 //! its drones cover, not with the frame.
 //!
-//! Per size and sample count, full-size targets are allocated once and never
-//! cleared: colour (multisampled with MSAA, else single-sample), the
-//! instance ids ([`IdLayer`]), depth and the background.
-//! The background (sky, environment or backplate, with the scenery) is
-//! cached per size by [`super::background::BackgroundCache`]: drawn only
-//! when what it depends on changes, and read back once into a CPU copy.
+//! A frame is composed from parts that own their things ([`RegionState`]):
+//! the region passes (`passes.rs`: shaders, layouts, pipelines, rect
+//! buffers), the background ([`super::background`]: the sky pipelines; per
+//! size a [`super::background::BackgroundCache`], drawn only when what it
+//! depends on changes and read back once into a CPU copy), the scenery
+//! ([`super::scenery`]) and, per size and sample count, the full-size
+//! targets allocated once and never cleared ([`super::targets`], with the
+//! id layer).
 //!
 //! A frame then only touches its regions ([`super::regions`]): merged,
 //! padded boxes of the drones' projected hulls. It is made in three steps:
@@ -22,19 +24,18 @@
 
 mod passes;
 
-use std::borrow::Cow;
-
-use super::background::{BackgroundCache, SkyPipelines};
-use super::id_layer::{self, IdCollect, IdLayer};
+use super::background::Backgrounds;
+use super::id_layer::{self, IdCollect};
 use super::ids;
 use super::plan::{FramePlan, PassPlan, PlanRequest};
-use super::readback::{self, Readback};
+use super::readback;
 use super::regions::{self, Rect};
+use super::scenery::SceneryGpu;
+use super::targets::{FrameTargets, TargetLayouts};
 use super::visibility::Visibility;
-use super::{COLOR_FORMAT, DEPTH_FORMAT, IdImage, RenderError, Renderer};
+use super::{IdImage, RenderError, Renderer};
 use crate::scene::FrameScene;
-use passes::{Atlas, RegionPipelines, texture_layout};
-pub(super) use passes::{atlas_texture, clear_pass, color_target, rect_buffer_layout};
+use passes::RegionPasses;
 
 /// What [`Renderer::render_frame`] is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,48 +86,17 @@ impl Painted {
     }
 }
 
-/// Full-size targets of one size and sample count, and the cached background.
-pub(super) struct FrameTargets {
-    width: u32,
-    height: u32,
-    msaa: u32,
-    msaa_color: Option<wgpu::TextureView>,
-    /// The single-sample colour target MSAA 1 draws into.
-    single: Option<(wgpu::Texture, wgpu::TextureView)>,
-    /// The instance ids the passes draw, resolve and read back.
-    ids: IdLayer,
-    depth: wgpu::TextureView,
-    /// The cached background of this size.
-    pub(super) background: BackgroundCache,
-    resolve_group: Option<wgpu::BindGroup>,
-    /// Where the resolves write (MSAA only).
-    atlas: Atlas,
-    /// Full-frame readback (id images).
-    readback: Readback,
-    /// Readback of the regions (colour and ids), grown as needed and reused.
-    regions_readback: Option<wgpu::Buffer>,
-}
-
-/// Long-lived state of region rendering, built on first use.
+/// Long-lived state of region rendering, built on first use: the parts a
+/// frame is made of, each owning its things.
 pub(super) struct RegionState {
-    background_layout: wgpu::BindGroupLayout,
-    resolve_layout: wgpu::BindGroupLayout,
-    regions_module: wgpu::ShaderModule,
-    resolve_module: wgpu::ShaderModule,
-    /// The background sky pipelines ([`super::background`]).
-    pub(super) sky_pipelines: SkyPipelines,
-    pipelines: Vec<RegionPipelines>,
+    /// The region passes: shaders, layouts, pipelines and rect buffers.
+    passes: RegionPasses,
+    /// The background part: its sky pipelines and how often it drew.
+    backgrounds: Backgrounds,
     /// Most recently used last; at most [`MAX_TARGETS`].
-    pub(super) targets: Vec<FrameTargets>,
-    /// The frame's rects of every pass, one instance each (see `rect.wgsl`).
-    rects: Option<wgpu::Buffer>,
-    /// The frame's resolve rects of every pass (see `resolve.wgsl`).
-    resolve_rects: Option<wgpu::Buffer>,
-    pub(super) background_draws: u64,
-    /// Whether any frame has measured visibility (for tests).
-    id_readback: bool,
+    targets: Vec<FrameTargets>,
     /// The near-field scenery's layer and pipelines (frames with clutter only).
-    pub(super) scenery: Option<super::scenery::SceneryGpu>,
+    scenery: Option<SceneryGpu>,
 }
 
 /// Target sets kept at once (e.g. a frame size and its id-pass size).
@@ -134,32 +104,17 @@ const MAX_TARGETS: usize = 2;
 
 impl RegionState {
     pub(super) fn new(device: &wgpu::Device) -> Self {
-        let [_, _, (_, regions_src), (_, resolve_src), ..] = super::shader_sources();
-        let module = |label: &str, src: String| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
-            })
-        };
         Self {
-            background_layout: texture_layout(device, "region background layout", false, 1),
-            // The resolve's inputs: the multisampled colour and id targets.
-            resolve_layout: texture_layout(device, "region resolve layout", true, 2),
-            regions_module: module("regions.wgsl", regions_src),
-            resolve_module: module("resolve.wgsl", resolve_src),
-            sky_pipelines: SkyPipelines::default(),
-            pipelines: Vec::new(),
+            passes: RegionPasses::new(device),
+            backgrounds: Backgrounds::default(),
             targets: Vec::new(),
-            rects: None,
-            resolve_rects: None,
-            background_draws: 0,
-            id_readback: false,
             scenery: None,
         }
     }
 
+    /// Whether any frame has measured visibility (for tests).
     pub(super) fn has_id_readback(&self) -> bool {
-        self.id_readback
+        self.passes.has_id_readback()
     }
 
     /// Drop every cached background (the sky images changed).
@@ -190,6 +145,8 @@ impl Renderer {
         result
     }
 
+    /// The index in `state.targets` of the targets of `width`×`height` and
+    /// `msaa` samples, made (and the least recently used dropped) if needed.
     fn frame_targets(&self, state: &mut RegionState, width: u32, height: u32, msaa: u32) -> usize {
         if let Some(i) = state
             .targets
@@ -204,75 +161,12 @@ impl Renderer {
         if state.targets.len() >= MAX_TARGETS {
             state.targets.remove(0);
         }
-        let device = &self.device;
-        let size = wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
+        let layouts = TargetLayouts {
+            background: state.passes.background_layout(),
+            resolve: state.passes.resolve_layout(),
         };
-        let texture = |label: &str, format, samples, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        let copy = wgpu::TextureUsages::COPY_SRC;
-        let bind = wgpu::TextureUsages::TEXTURE_BINDING;
-        let single = (msaa <= 1).then(|| {
-            let color = texture("region colour", COLOR_FORMAT, 1, attachment | copy);
-            let view = color.create_view(&Default::default());
-            (color, view)
-        });
-        let msaa_color = (msaa > 1).then(|| {
-            texture(
-                "region colour (msaa)",
-                COLOR_FORMAT,
-                msaa,
-                attachment | bind,
-            )
-            .create_view(&Default::default())
-        });
-        let ids = IdLayer::new(device, (width, height), msaa);
-        let depth = texture("region depth", DEPTH_FORMAT, msaa, attachment)
-            .create_view(&Default::default());
-        let background = BackgroundCache::new(device, &state.background_layout, width, height);
-        let resolve_group = msaa_color.as_ref().map(|color| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("region resolve"),
-                layout: &state.resolve_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(color),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(ids.view()),
-                    },
-                ],
-            })
-        });
-        state.targets.push(FrameTargets {
-            width,
-            height,
-            msaa,
-            msaa_color,
-            single,
-            ids,
-            depth,
-            background,
-            resolve_group,
-            atlas: Atlas::default(),
-            readback: Readback::new(device, "frame readback (full)", width, height),
-            regions_readback: None,
-        });
+        let targets = FrameTargets::new(&self.device, (width, height), msaa, layouts);
+        state.targets.push(targets);
         state.targets.len() - 1
     }
 
@@ -288,13 +182,19 @@ impl Renderer {
         let (width, height) = (scene.camera.width, scene.camera.height);
         let msaa = request.msaa.max(1);
         let uniforms = self.upload_uniforms(scene);
-        let p = self.region_pipelines(state, msaa);
+        let p = self.region_pipelines(&mut state.passes, msaa);
         let t = self.frame_targets(state, width, height, msaa);
         let scenery = self.prepare_scenery(&mut state.scenery, scene, &uniforms, msaa);
         if request.color {
-            self.update_background(state, t, scene, &uniforms, scenery)?;
+            let layer = (state.scenery.as_ref())
+                .and_then(|g| g.layer())
+                .map(|(_, l)| l);
+            let cache = &mut state.targets[t].background;
+            let part = &mut state.backgrounds;
+            self.update_background(part, cache, scene, &uniforms, scenery, layer)?;
         }
         let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
+        let depths = regions::drone_depths(scene, &self.geometry);
         let request = PlanRequest {
             size_px: (width, height),
             msaa,
@@ -303,7 +203,7 @@ impl Renderer {
             regions: self.use_regions,
             scenery: scenery.is_some(),
         };
-        let plan = FramePlan::new(request, &boxes, &rects)?;
+        let plan = FramePlan::new(request, &boxes, &rects, &depths)?;
         let under = || plan.passes.iter().flat_map(|p| &p.rects);
         if plan.request.color {
             self.upload_background_under(&mut state.targets[t].background, under());
@@ -311,8 +211,10 @@ impl Renderer {
         if let Some(gpu) = state.scenery.as_mut() {
             self.upload_scenery_under(gpu, under());
         }
-        let (draws, first_resolve) = self.upload_plan(state, (p, t), scene, &plan);
-        let encoder = self.encode_frame(state, (p, t), &plan, (&draws, &first_resolve));
+        let target = &mut state.targets[t];
+        let uploaded = self.upload_plan(&mut state.passes, p, target, scene, &plan);
+        let (passes, target, scenery) = (&state.passes, &state.targets[t], state.scenery.as_ref());
+        let encoder = self.encode_frame(passes, target, scenery, &plan, &uploaded);
         let submitted = self.queue.submit([encoder.finish()]);
         self.collect(state, t, &plan, submitted)
     }
@@ -395,7 +297,7 @@ impl Renderer {
     ) -> Result<IdImage, RenderError> {
         let (width, height) = (scene.camera.width, scene.camera.height);
         self.upload_uniforms(scene);
-        let p = self.region_pipelines(state, 1);
+        let p = self.region_pipelines(&mut state.passes, 1);
         let t = self.frame_targets(state, width, height, 1);
         let pass = PassPlan {
             rects: vec![Rect::full(width, height)],
@@ -404,7 +306,7 @@ impl Renderer {
         let mut data = Vec::new();
         let mut draws = [self.region_draws(scene, &pass, &mut data)];
         self.write_instances(&data);
-        self.upload_rects(state, &mut draws, (width, height));
+        self.upload_rects(&mut state.passes, &mut draws, (width, height));
         self.counts.ids += 1;
         let mut encoder = self
             .device
@@ -414,7 +316,7 @@ impl Renderer {
         let target = &state.targets[t];
         self.encode_region_pass(
             &mut encoder,
-            (&state.pipelines[p], target, state.rects.as_ref()),
+            (state.passes.pipelines(p), target, state.passes.rects()),
             &draws[0],
             ("id pass", false),
         );
@@ -424,5 +326,28 @@ impl Renderer {
         let submitted = self.queue.submit([encoder.finish()]);
         let bytes = target.readback.read(&self.device, submitted)?;
         Ok(id_layer::id_image(&bytes, width, height))
+    }
+
+    /// The drone-free pixels (RGBA8, the whole frame) of the background a
+    /// frame's buffer holds (`painted`), while this renderer still caches
+    /// it: outside `painted.rects()` they equal the frame's, inside them
+    /// they are what the frame shows without its drones. `None` when the
+    /// buffer holds no background or it was replaced since.
+    pub fn background_pixels(&self, painted: &Painted) -> Option<&[u8]> {
+        if painted.background == 0 {
+            return None;
+        }
+        self.regions
+            .as_ref()?
+            .targets
+            .iter()
+            .map(|t| &t.background)
+            .find(|b| b.generation == painted.background)
+            .map(|b| b.rgba.as_slice())
+    }
+
+    /// How many times the background was drawn (cache misses), for tests and benchmarks.
+    pub fn background_draws(&self) -> u64 {
+        self.regions.as_ref().map_or(0, |s| s.backgrounds.draws)
     }
 }

@@ -1,14 +1,14 @@
 //! The id layer of a target set: the instance-id target the passes draw
 //! (drone index + 1 per sample, see [`super::ids`]), its resolves (MSAA:
-//! the samples side by side into its atlas), where its rects land in the
-//! frame's readback buffer, and their reduction to per-drone visibility.
+//! the samples side by side into its atlas), and the reduction of its reads
+//! to per-drone visibility (where they land in the readback buffer is the
+//! frame plan's, [`super::plan`]).
 //!
 //! Like a picking layer, it rides along with the colour pass: the same
 //! draws write both, so the ids follow the picture's samples by construction.
 
 use super::ids::{self, IdStats, PixelHit, Tally};
-use super::plan::PassPlan;
-use super::readback::{Read, plan_reads};
+use super::readback::Read;
 use super::visibility::Visibility;
 use super::{IdImage, RenderError};
 use crate::scene::projection::PixelBox;
@@ -36,8 +36,8 @@ impl IdResolve {
     pub(super) fn new(
         build: impl Fn(&str, &str, &[Option<wgpu::ColorTargetState>]) -> wgpu::RenderPipeline,
     ) -> Self {
-        let color = super::frame::color_target(super::COLOR_FORMAT);
-        let id_samples = super::frame::color_target(ids::ID_SAMPLES_FORMAT);
+        let color = super::gpu::color_target(super::COLOR_FORMAT);
+        let id_samples = super::gpu::color_target(ids::ID_SAMPLES_FORMAT);
         Self {
             ids: build(
                 "region id resolve pipeline",
@@ -86,7 +86,7 @@ impl IdLayer {
         if self.atlas.is_none() {
             let label = "resolve atlas (id samples)";
             let format = ids::ID_SAMPLES_FORMAT;
-            self.atlas = Some(super::frame::atlas_texture(device, label, format, size));
+            self.atlas = Some(super::gpu::atlas_texture(device, label, format, size));
         }
     }
 
@@ -117,22 +117,6 @@ impl IdLayer {
     /// The id target: copied from directly without MSAA.
     pub(super) fn texture(&self) -> &wgpu::Texture {
         &self.texture
-    }
-
-    /// Where the ids of each pass's rects (in the texture read at `places`)
-    /// land in the readback buffer, from `*size` on.
-    pub(super) fn plan_reads(
-        passes: &[PassPlan],
-        places: &[Vec<(u32, u32)>],
-        msaa: u32,
-        size: &mut u64,
-    ) -> Vec<Vec<Read>> {
-        let bpp = ids::id_bytes_per_pixel(msaa);
-        passes
-            .iter()
-            .zip(places)
-            .map(|(pass, places)| plan_reads(&pass.rects, places, bpp, size))
-            .collect()
     }
 }
 

@@ -116,9 +116,9 @@ pub(super) fn tally(bytes: &[u8], row: usize, rect: &Rect, samples: u32, tallies
     }
 }
 
-/// One drone seen at one pixel (plain data, owned by `annotate`): each
+/// One drone seen at one pixel (plain data, [`super::visibility`]): each
 /// drone's hits are exactly the pixels [`tally`] counts for it.
-pub use crate::annotate::visibility::PixelHit;
+pub use super::visibility::PixelHit;
 
 /// The hits of `rect`'s pixels (read back as in [`tally`]) appended to
 /// `out`: one per pixel and distinct drone id in `1..=drones`.

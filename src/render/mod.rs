@@ -7,8 +7,11 @@
 //! and the preview's): it draws only the screen regions the drones can touch
 //! over a cached background and measures visibility from the same samples,
 //! in three steps: a CPU-only plan (`plan.rs`: passes, overlap layers, atlas
-//! places, reads), the encoded passes (`frame/passes.rs`, the id layer in
-//! `id_layer.rs`) and the collected readback (`readback.rs`, `ids.rs`).
+//! places, reads), the encoded passes (`frame/passes.rs`, into the targets of
+//! `targets.rs`, the id layer in `id_layer.rs`) and the collected readback
+//! (`readback.rs`, `ids.rs`). The parts import one way: the frame composes
+//! the passes, background, scenery and targets; the wgpu descriptors they
+//! share are in the leaf `gpu.rs`, the upload tiles in `tiles.rs`.
 //! The meshes and their levels of detail are in `mesh.rs`.
 //! [`Renderer::encode`] draws a whole [`FrameScene`] into any colour view of
 //! the right size; [`Renderer::render_rgba`] is that full-frame path
@@ -17,6 +20,7 @@
 mod background;
 mod context;
 mod frame;
+mod gpu;
 mod haze;
 mod horizon;
 mod id_layer;
@@ -29,6 +33,8 @@ mod readback;
 pub mod regions;
 pub mod scenery;
 mod sky;
+mod targets;
+mod tiles;
 mod upsample;
 pub mod visibility;
 
@@ -49,7 +55,9 @@ use crate::sky::{EnvironmentAssets, Lighting};
 use mesh::{GpuMesh, Surface};
 use readback::Readback;
 
-/// The colour format of every target: sRGB is encoded in the shaders (see STACK.md).
+/// The colour format of every target: sRGB is encoded in the shaders
+/// (`linear_to_srgb` in `shaders/common.wgsl`), so the bytes are the same on
+/// every backend, with or without sRGB formats.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// The depth format [`Renderer::encode`] expects (reversed-Z).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;

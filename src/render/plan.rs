@@ -3,17 +3,19 @@
 //! From the drones' boxes and rects ([`super::regions::drone_rects`]) and
 //! what is asked (colour, visibility, sample count), [`FramePlan::new`]
 //! decides the passes (the main pass, then one per overlap layer: drones
-//! whose boxes are apart, drawn alone for their unoccluded counts), each
+//! whose boxes are apart, drawn alone for their unoccluded counts; a drone
+//! that only drones wholly behind it overlap is whole in the main pass and
+//! needs none), each
 //! pass's disjoint rects ([`regions::cover`]), where each rect is resolved
 //! to in the atlas (MSAA: shelves as wide as the frame, [`regions::pack_shelves`])
 //! and where every read-back rect lands in the one readback buffer. The
 //! renderer then only encodes what the plan says and collects what it reads.
 
 use super::RenderError;
-use super::id_layer::IdLayer;
+use super::ids;
 use super::readback::{Read, plan_reads};
-use super::regions::{self, Rect};
-use super::visibility::overlap_layers;
+use super::regions::{self, DepthRange, Rect};
+use super::visibility::occlusion_layers;
 use crate::scene::projection::PixelBox;
 
 /// What a frame asks of its plan.
@@ -61,12 +63,15 @@ pub(super) struct FramePlan {
 }
 
 impl FramePlan {
-    /// The plan of a frame whose drones have amodal `boxes` and pixel
-    /// `rects` (scene order, as [`regions::drone_rects`] gives them).
+    /// The plan of a frame whose drones have amodal `boxes`, pixel `rects`
+    /// and `depths` (scene order, as [`regions::drone_rects`] and
+    /// [`regions::drone_depths`] give them; no depths: any overlapping
+    /// drone may hide another).
     pub(super) fn new(
         request: PlanRequest,
         boxes: &[Option<PixelBox>],
         rects: &[Option<Rect>],
+        depths: &[Option<DepthRange>],
     ) -> Result<Self, RenderError> {
         let n = rects.len();
         let (width, height) = request.size_px;
@@ -81,7 +86,7 @@ impl FramePlan {
         };
         let mut passes = vec![pass_of((0..n).collect())];
         let overlapping = if request.visibility {
-            let (layers, overlapping) = layers(boxes, request)?;
+            let (layers, overlapping) = layers(boxes, depths, request)?;
             passes.extend(layers.into_iter().map(pass_of));
             overlapping
         } else {
@@ -96,7 +101,11 @@ impl FramePlan {
             Vec::new()
         };
         let id_reads = if request.visibility {
-            IdLayer::plan_reads(&passes, &places, request.msaa, &mut size)
+            // Each pass's id rects, as many bytes a pixel as its id samples.
+            let bpp = ids::id_bytes_per_pixel(request.msaa);
+            (passes.iter().zip(&places))
+                .map(|(pass, places)| plan_reads(&pass.rects, places, bpp, &mut size))
+                .collect()
         } else {
             Vec::new()
         };
@@ -145,10 +154,12 @@ impl FramePlan {
 }
 
 /// The overlap layers of the drones whose (clipped) boxes are in the frame,
-/// each holding only drones that overlap another (or every drone, with
-/// scenery), and whether each drone's unoccluded count comes from them.
+/// each holding only drones that another overlapping drone may hide (or
+/// every drone, with scenery), and whether each drone's unoccluded count
+/// comes from them.
 fn layers(
     boxes: &[Option<PixelBox>],
+    depths: &[Option<DepthRange>],
     request: PlanRequest,
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), RenderError> {
     let (width, height) = request.size_px;
@@ -159,7 +170,7 @@ fn layers(
                 .filter(|b| b.width() > 0.0 && b.height() > 0.0)
         })
         .collect();
-    let (layers, mut overlapping) = overlap_layers(&clipped)?;
+    let (layers, mut overlapping) = occlusion_layers(&clipped, depths)?;
     if request.scenery {
         overlapping = clipped.iter().map(Option::is_some).collect();
     }
@@ -263,7 +274,7 @@ mod tests {
             pixel_box(20.0, 20.0, 40.0, 40.0),
             pixel_box(200.0, 100.0, 220.0, 120.0),
         ];
-        let plan = FramePlan::new(request(4), &boxes, &drones(&boxes, size)).expect("plan");
+        let plan = FramePlan::new(request(4), &boxes, &drones(&boxes, size), &[]).expect("plan");
         assert_eq!(plan.overlapping, [true, true, false]);
         let layers: Vec<&[usize]> = plan.passes[1..].iter().map(|p| &p.drones[..]).collect();
         assert_eq!(layers, [&[0][..], &[1][..]], "each overlapping drone alone");
@@ -279,7 +290,7 @@ mod tests {
             visibility: false,
             ..request(4)
         };
-        let plan = FramePlan::new(colour_only, &boxes, &drones(&boxes, size)).expect("plan");
+        let plan = FramePlan::new(colour_only, &boxes, &drones(&boxes, size), &[]).expect("plan");
         assert_eq!(plan.passes.len(), 1);
         assert!(plan.id_reads.is_empty() && plan.overlapping.iter().all(|o| !o));
 
@@ -288,10 +299,83 @@ mod tests {
             scenery: true,
             ..request(4)
         };
-        let plan = FramePlan::new(scenery, &boxes, &drones(&boxes, size)).expect("plan");
+        let plan = FramePlan::new(scenery, &boxes, &drones(&boxes, size), &[]).expect("plan");
         assert_eq!(plan.overlapping, [true, true, true]);
         let alone: usize = plan.passes[1..].iter().map(|p| p.drones.len()).sum();
         assert_eq!(alone, 3);
+    }
+
+    #[test]
+    fn only_drones_that_may_be_hidden_get_layers() {
+        let size = request(4).size_px;
+        // 0 and 1 overlap, 2 overlaps 1; 3 is apart.
+        let boxes = [
+            pixel_box(10.0, 10.0, 30.0, 30.0),
+            pixel_box(20.0, 20.0, 40.0, 40.0),
+            pixel_box(35.0, 35.0, 50.0, 50.0),
+            pixel_box(200.0, 100.0, 220.0, 120.0),
+        ];
+        let rects = drones(&boxes, size);
+        let depth = |near: f64, far: f64| Some(DepthRange { near, far });
+        let plan_of = |depths: &[Option<DepthRange>]| {
+            FramePlan::new(request(4), &boxes, &rects, depths).expect("plan")
+        };
+        let alone = |plan: &FramePlan| -> Vec<usize> {
+            let mut drones: Vec<usize> = plan.passes[1..]
+                .iter()
+                .flat_map(|p| p.drones.clone())
+                .collect();
+            drones.sort_unstable();
+            drones
+        };
+        // 0 in front of 1 in front of 2: only 1 and 2 can be hidden.
+        let plan = plan_of(&[
+            depth(5.0, 5.5),
+            depth(6.0, 6.5),
+            depth(7.0, 7.5),
+            depth(9.0, 9.5),
+        ]);
+        assert_eq!(plan.overlapping, [false, true, true, false]);
+        assert_eq!(alone(&plan), [1, 2]);
+        // 2 in front of 1 in front of 0: 0 and 1 can be hidden.
+        let plan = plan_of(&[
+            depth(7.0, 7.5),
+            depth(6.0, 6.5),
+            depth(5.0, 5.5),
+            depth(9.0, 9.5),
+        ]);
+        assert_eq!(plan.overlapping, [true, true, false, false]);
+        assert_eq!(alone(&plan), [0, 1]);
+        // Depth ranges that meet or interleave, or are unknown: both may hide the other.
+        for depths in [
+            vec![depth(5.0, 6.0), depth(6.0, 7.0), depth(7.0, 8.0), None],
+            vec![depth(5.0, 6.0), depth(5.5, 7.0), depth(6.5, 8.0), None],
+            vec![None, depth(6.0, 7.0), None, None],
+            vec![],
+        ] {
+            assert_eq!(
+                plan_of(&depths).overlapping,
+                [true, true, true, false],
+                "{depths:?}"
+            );
+        }
+        // Behind by less than the margin: still measured alone.
+        let close = 5.5 * (1.0 + 1e-6);
+        let plan = plan_of(&[depth(5.0, 5.5), depth(close, 6.5), depth(7.0, 7.5), None]);
+        assert_eq!(plan.overlapping, [true, true, true, false]);
+        // Scenery may hide any drone: every drone is measured alone.
+        let scenery = PlanRequest {
+            scenery: true,
+            ..request(4)
+        };
+        let depths = [
+            depth(5.0, 5.5),
+            depth(6.0, 6.5),
+            depth(7.0, 7.5),
+            depth(9.0, 9.5),
+        ];
+        let plan = FramePlan::new(scenery, &boxes, &rects, &depths).expect("plan");
+        assert_eq!(plan.overlapping, [true; 4]);
     }
 
     #[test]
@@ -304,7 +388,7 @@ mod tests {
             let n = rng.random_range(0..30);
             let boxes = random_boxes(&mut rng, n, size);
             let rects = drones(&boxes, size);
-            let plan = FramePlan::new(req, &boxes, &rects).expect("plan");
+            let plan = FramePlan::new(req, &boxes, &rects, &[]).expect("plan");
             // Each pass covers exactly the union of its drones' rects, once.
             for pass in &plan.passes {
                 let mut want = vec![0u8; (size.0 * size.1) as usize];
@@ -367,7 +451,7 @@ mod tests {
             ..request(1)
         };
         let boxes = [pixel_box(10.0, 10.0, 20.0, 20.0), None];
-        let plan = FramePlan::new(req, &boxes, &drones(&boxes, req.size_px)).expect("plan");
+        let plan = FramePlan::new(req, &boxes, &drones(&boxes, req.size_px), &[]).expect("plan");
         assert_eq!(plan.passes[0].rects, [Rect::full(320, 180)]);
         assert_eq!(plan.passes[0].drones, [0]);
         assert_eq!(plan.places[0], [(0, 0)], "read in place without MSAA");

@@ -10,6 +10,8 @@
 
 use std::ops::Range;
 
+use glam::DMat3;
+
 use crate::scene::FrameScene;
 use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box};
 
@@ -89,6 +91,50 @@ pub fn drone_rects(
             (b, r)
         })
         .unzip()
+}
+
+/// A drone's extent along the camera's view axis: the nearest and farthest
+/// camera-space depth (metres) of anything it can draw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthRange {
+    pub near: f64,
+    pub far: f64,
+}
+
+/// How far (relative) one drone must be behind another before it is sure to
+/// lose every depth test against it: far above the rasteriser's rounding of
+/// a reversed-Z 32-bit float depth (about 1e-7 relative).
+const DEPTH_MARGIN: f64 = 1e-4;
+
+impl DepthRange {
+    /// Whether every point of `self` is behind every point of `front`, by
+    /// a margin no rounding of the depth test can cross.
+    pub fn behind(&self, front: &DepthRange) -> bool {
+        front.near > 0.0 && front.far.is_finite() && self.near > front.far * (1.0 + DEPTH_MARGIN)
+    }
+}
+
+/// Each drone's [`DepthRange`]: the nearest and farthest camera-space depth
+/// of the corners of its model's bounding box as placed (every vertex, of
+/// every level of detail, is inside it); `None` without the model's geometry.
+pub fn drone_depths(scene: &FrameScene, geometry: &[LabelGeometry]) -> Vec<Option<DepthRange>> {
+    let cam = &scene.camera;
+    (scene.drones.iter())
+        .map(|d| {
+            let (lo, hi) = geometry.get(d.model)?.aabb;
+            let centre = cam.camera_from_world_point(d.position);
+            // The model's axes in camera space, scaled to the drone.
+            let axes = cam.camera_from_world * DMat3::from_quat(d.rotation) * d.size_m;
+            let (mut near, mut far) = (centre.z, centre.z);
+            for k in 0..3 {
+                let z = axes.col(k).z;
+                let (a, b) = (z * lo[k], z * hi[k]);
+                near += a.min(b);
+                far += a.max(b);
+            }
+            Some(DepthRange { near, far })
+        })
+        .collect()
 }
 
 /// The pixels of the drones `members` as disjoint rects covering exactly the

@@ -519,7 +519,7 @@ pub(super) struct SceneryGpu {
     /// The layer's textures (colour, depth) of `uploaded`'s size, reused
     /// from layer to layer.
     textures: Option<(wgpu::Texture, wgpu::Texture)>,
-    /// Per tile (see `background::take_stale_tiles`): whether the textures
+    /// Per tile (see `tiles::take_stale_tiles`): whether the textures
     /// still lack the layer there. A layer is written only under the
     /// regions the scenery pass draws, when a frame first needs it.
     stale: Vec<bool>,
@@ -562,7 +562,7 @@ impl Renderer {
             Some((_, size, group)) if size == (width, height) && gpu.textures.is_some() => group,
             _ => self.scenery_textures(gpu, (width, height)),
         };
-        let (across, down) = super::background::upload_tiles((width, height));
+        let (across, down) = super::tiles::upload_tiles((width, height));
         gpu.stale = vec![true; across as usize * down as usize];
         gpu.uploaded = Some((key, (width, height), group));
         gpu.layer = Some(layer);
@@ -627,7 +627,7 @@ impl Renderer {
             return;
         };
         let size = (layer.width, layer.height);
-        for part in super::background::take_stale_tiles(&mut gpu.stale, size, rects) {
+        for part in super::tiles::take_stale_tiles(&mut gpu.stale, size, rects) {
             let colour: &[u8] = bytemuck::cast_slice(&layer.color);
             self.upload_background_part(color, colour, layer.width, &part);
             self.upload_background_part(
@@ -685,8 +685,8 @@ impl Renderer {
                 bind_group_layouts: &[Some(&gpu.layout)],
                 immediate_size: 0,
             });
-        let color = super::frame::color_target(COLOR_FORMAT);
-        let id = super::frame::color_target(super::ids::ID_FORMAT);
+        let color = super::gpu::color_target(COLOR_FORMAT);
+        let id = super::gpu::color_target(super::ids::ID_FORMAT);
         let make = |label: &str, entry: &str, targets: &[Option<wgpu::ColorTargetState>]| {
             self.device
                 .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -696,7 +696,7 @@ impl Renderer {
                         module: &gpu.module,
                         entry_point: Some("vs_main"),
                         compilation_options: Default::default(),
-                        buffers: &[Some(super::frame::rect_buffer_layout())],
+                        buffers: &[Some(super::gpu::rect_buffer_layout())],
                     },
                     primitive: wgpu::PrimitiveState::default(),
                     depth_stencil: Some(wgpu::DepthStencilState {

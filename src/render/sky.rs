@@ -348,7 +348,7 @@ impl SkyGpu {
         if let (Some((_, triangles)), Some(pipeline), Some(quarter)) =
             (&upper, upper_pipeline, &self.quarter)
         {
-            let mut pass = super::frame::clear_pass(
+            let mut pass = super::gpu::clear_pass(
                 encoder,
                 "environment pass (quarter resolution)",
                 &quarter.view,
@@ -358,7 +358,7 @@ impl SkyGpu {
             draw(&mut pass, triangles, pipeline);
             group = &quarter.group;
         }
-        let mut pass = super::frame::clear_pass(encoder, "environment pass", &half.view);
+        let mut pass = super::gpu::clear_pass(encoder, "environment pass", &half.view);
         pass.set_bind_group(0, frame_bind_group, &[]);
         pass.set_bind_group(1, group, &[]);
         for ((_, triangles), pipeline) in draws.iter().zip(pipelines) {
@@ -572,7 +572,7 @@ impl SkyGpu {
         let Some((group, _)) = self.images.get(*image) else {
             return;
         };
-        let mut pass = super::frame::clear_pass(encoder, "image sky pass", view);
+        let mut pass = super::gpu::clear_pass(encoder, "image sky pass", view);
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, frame_bind_group, &[]);
         // The image's own group: its placeholder stands for the target being drawn.

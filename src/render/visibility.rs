@@ -10,10 +10,51 @@
 //! its unoccluded count is its visible count; the others are split into
 //! layers of mutually non-overlapping drones ([`overlap_layers`]) and each
 //! layer is drawn alone. A sparse swarm costs no extra pass.
+//!
+//! What is measured is plain data ([`Visibility`], [`PixelHit`]): the labels
+//! are made from it (`annotate`, which names these types), the renderer
+//! fills it in (here and in `ids.rs`).
 
+use serde::Serialize;
+
+use crate::render::regions::DepthRange;
 use crate::render::{RenderError, RenderRequest, Renderer};
 use crate::scene::FrameScene;
 use crate::scene::projection::PixelBox;
+
+/// What the colour pass's samples show of one drone.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Visibility {
+    /// Min/max of the drone's visible pixels ([x, x+1) × [y, y+1) each), `None` if none is visible.
+    pub visible_box: Option<PixelBox>,
+    /// Pixels where this drone is the nearest surface in at least one sample.
+    pub visible_pixels: u64,
+    /// Pixels the drone would cover (in at least one sample) if nothing were in front of it.
+    pub unoccluded_pixels: u64,
+}
+
+impl Visibility {
+    /// visible / unoccluded (0 when the drone covers no pixel centre at all).
+    pub fn fraction(&self) -> f64 {
+        if self.unoccluded_pixels == 0 {
+            0.0
+        } else {
+            self.visible_pixels as f64 / self.unoccluded_pixels as f64
+        }
+    }
+}
+
+/// One drone seen at one pixel: `samples` of the pixel's samples (1 to 4;
+/// 1 without MSAA) show drone `drone` (scene index). A pixel has one hit per
+/// distinct drone its samples show, so each drone's hits are exactly the
+/// pixels the renderer's tally counts for it (its visible pixels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelHit {
+    pub x: u32,
+    pub y: u32,
+    pub drone: u32,
+    pub samples: u8,
+}
 
 /// Measure every drone of `scene` with `msaa` samples per pixel, at `scale` ×
 /// the output resolution (1: the output's own pixels, as the picture shows
@@ -61,9 +102,6 @@ pub fn measure(
         .collect())
 }
 
-/// What the colour pass's samples show of one drone (plain data, owned by `annotate`).
-pub use crate::annotate::visibility::Visibility;
-
 /// Per-drone pixel box and pixel count from an id image (ids are drone index + 1).
 pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option<PixelBox>, u64)> {
     let mut out: Vec<(Option<PixelBox>, u64)> = vec![(None, 0); n_drones];
@@ -103,6 +141,25 @@ pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option
 pub fn overlap_layers(
     boxes: &[Option<PixelBox>],
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
+    occlusion_layers(boxes, &[])
+}
+
+/// [`overlap_layers`], knowing each drone's [`DepthRange`] (`depths[i]`;
+/// missing or `None`: unknown): a drone counts as overlapping only when a
+/// drone whose box meets its own may be in front of it. A drone with only
+/// drones behind it wins every depth test against them, so the main pass
+/// already shows it whole (its visible count is its unoccluded count) and
+/// it needs no layer pass. The layers are the same as [`overlap_layers`]'.
+pub fn occlusion_layers(
+    boxes: &[Option<PixelBox>],
+    depths: &[Option<DepthRange>],
+) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
+    let depth = |i: usize| depths.get(i).copied().flatten();
+    // Drone `j` may hide part of drone `i` unless `j` is wholly behind `i`.
+    let may_hide = |j: usize, i: usize| match (depth(j), depth(i)) {
+        (Some(dj), Some(di)) => !dj.behind(&di),
+        _ => true,
+    };
     const TILE: f64 = 64.0;
     let mut tests: u64 = 0;
     let pad = |b: &PixelBox| PixelBox {
@@ -130,11 +187,14 @@ pub fn overlap_layers(
     let mut layer_of: Vec<Option<usize>> = vec![None; boxes.len()];
     let mut overlapping = vec![false; boxes.len()];
     let mut layers: Vec<Vec<usize>> = Vec::new();
+    // Reused from drone to drone: no allocation per drone.
+    let mut taken: Vec<usize> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
     for (i, b) in boxes.iter().enumerate() {
         let Some(b) = b else { continue };
         let pb = pad(b);
-        let mut taken = std::collections::BTreeSet::new();
-        let mut seen = std::collections::HashSet::new();
+        taken.clear();
+        seen.clear();
         for t in tiles_of(&pb) {
             let near = grid.get(&t).map_or(&[][..], Vec::as_slice);
             tests += near.len() as u64;
@@ -149,9 +209,9 @@ pub fn overlap_layers(
                     && seen.insert(j)
                     && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj)))
                 {
-                    overlapping[i] = true;
+                    overlapping[i] |= may_hide(j, i);
                     if let Some(l) = layer_of[j] {
-                        taken.insert(l);
+                        taken.push(l);
                     }
                 }
             }

@@ -1,15 +1,92 @@
-//! The region passes' GPU side: pipelines per sample count, the atlas the
-//! resolves write, and the encoding of a planned frame ([`FramePlan`]):
-//! instances and rects uploaded, each pass drawn, resolved (MSAA) and its
-//! reads copied into the readback buffer, in the plan's order.
+//! The region passes' GPU side ([`RegionPasses`]): their shaders, layouts
+//! and pipelines per sample count, the rect buffers, and the encoding of a
+//! planned frame ([`FramePlan`]): instances and rects uploaded, each pass
+//! drawn into the frame's targets ([`FrameTargets`]), resolved (MSAA) and
+//! its reads copied into the readback buffer, in the plan's order.
 
-use super::{FrameTargets, RegionState};
-use crate::render::id_layer::{IdLayer, IdResolve};
+use std::borrow::Cow;
+
+use crate::render::gpu::{color_target, rect_buffer_layout, resolve_buffer_layout, texture_layout};
+use crate::render::id_layer::IdResolve;
 use crate::render::plan::{FramePlan, PassPlan, rect_ndc};
 use crate::render::readback::{Read, encode_reads, ensure_buffer};
 use crate::render::regions::PassDraws;
+use crate::render::scenery::SceneryGpu;
+use crate::render::targets::FrameTargets;
 use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, InstanceRaw, MeshLevel, Renderer, ids};
 use crate::scene::FrameScene;
+
+/// The region passes' own things: their shaders and bind group layouts,
+/// pipelines per sample count, and the buffers of a frame's rects.
+pub(super) struct RegionPasses {
+    background_layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    regions_module: wgpu::ShaderModule,
+    resolve_module: wgpu::ShaderModule,
+    pipelines: Vec<RegionPipelines>,
+    /// The frame's rects of every pass, one instance each (see `rect.wgsl`).
+    rects: Option<wgpu::Buffer>,
+    /// The frame's resolve rects of every pass (see `resolve.wgsl`).
+    resolve_rects: Option<wgpu::Buffer>,
+    /// Whether any frame has measured visibility (for tests).
+    id_readback: bool,
+}
+
+impl RegionPasses {
+    pub(super) fn new(device: &wgpu::Device) -> Self {
+        let [_, _, (_, regions_src), (_, resolve_src), ..] = crate::render::shader_sources();
+        let module = |label: &str, src: String| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
+            })
+        };
+        Self {
+            background_layout: texture_layout(device, "region background layout", false, 1),
+            // The resolve's inputs: the multisampled colour and id targets.
+            resolve_layout: texture_layout(device, "region resolve layout", true, 2),
+            regions_module: module("regions.wgsl", regions_src),
+            resolve_module: module("resolve.wgsl", resolve_src),
+            pipelines: Vec::new(),
+            rects: None,
+            resolve_rects: None,
+            id_readback: false,
+        }
+    }
+
+    /// How the targets' background is bound for the passes' "clear".
+    pub(super) fn background_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.background_layout
+    }
+
+    /// How the targets' multisampled colour and ids are bound for the resolves.
+    pub(super) fn resolve_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.resolve_layout
+    }
+
+    /// The pipelines at index `p` (from [`Renderer::region_pipelines`]).
+    pub(super) fn pipelines(&self, p: usize) -> &RegionPipelines {
+        &self.pipelines[p]
+    }
+
+    /// The rect buffer, once a frame has uploaded its rects.
+    pub(super) fn rects(&self) -> Option<&wgpu::Buffer> {
+        self.rects.as_ref()
+    }
+
+    pub(super) fn has_id_readback(&self) -> bool {
+        self.id_readback
+    }
+}
+
+/// What [`Renderer::upload_plan`] uploaded for a planned frame: the
+/// pipelines it is drawn with, each pass's draws, and where each pass's
+/// resolve rects begin (MSAA only).
+pub(super) struct Uploaded {
+    pipelines: usize,
+    draws: Vec<PassDraws>,
+    first_resolve: Vec<u32>,
+}
 
 /// Pipelines of the region passes for one sample count.
 pub(super) struct RegionPipelines {
@@ -27,166 +104,9 @@ pub(super) struct RegionPipelines {
     id_resolve: Option<IdResolve>,
 }
 
-/// The compact target the resolves write (MSAA only): a pass's rects packed
-/// in shelves ([`crate::render::regions::pack_shelves`]) as wide as the
-/// frame and as tall as they need, the resolved colour here and the id
-/// samples side by side in the id layer's atlas of the same rows
-/// ([`IdLayer::atlas_view`]), copied from there into the readback buffer.
-/// Passes reuse it one after the other; it grows as needed and never shrinks.
-#[derive(Default)]
-pub(super) struct Atlas {
-    rows: u32,
-    color: Option<(wgpu::Texture, wgpu::TextureView)>,
-}
-
-impl Atlas {
-    /// At least `rows` rows (of `width` pixels) of the colour when `color`
-    /// and of the id layer's atlas when `with_ids`.
-    fn ensure(
-        &mut self,
-        device: &wgpu::Device,
-        (width, rows): (u32, u32),
-        (color, with_ids): (bool, bool),
-        ids: &mut IdLayer,
-    ) {
-        if rows == 0 && self.rows == 0 {
-            return; // nothing to resolve yet (a frame without drones)
-        }
-        let (mut color, mut with_ids) = (color, with_ids);
-        if rows > self.rows {
-            self.rows = rows.next_multiple_of(64);
-            // Reallocated at the new size below, as far as still wanted.
-            color |= self.color.take().is_some();
-            with_ids |= ids.drop_atlas();
-        }
-        if color && self.color.is_none() {
-            self.color = Some(atlas_texture(
-                device,
-                "resolve atlas (colour)",
-                COLOR_FORMAT,
-                (width, self.rows),
-            ));
-        }
-        if with_ids {
-            ids.ensure_atlas(device, (width, self.rows));
-        }
-    }
-}
-
-/// A single-sample target of `size` the resolves write and the reads copy from.
-pub(in crate::render) fn atlas_texture(
-    device: &wgpu::Device,
-    label: &str,
-    format: wgpu::TextureFormat,
-    (width, rows): (u32, u32),
-) -> (wgpu::Texture, wgpu::TextureView) {
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height: rows,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = texture.create_view(&Default::default());
-    (texture, view)
-}
-
-/// Per-instance layout of a resolve rect: its place in the atlas (x0, y0,
-/// x1, y1 in the atlas's normalised device coordinates), then the whole-pixel
-/// offset (dx, dy) from there to the rect in the frame.
-const RESOLVE_ATTRS: [wgpu::VertexAttribute; 2] =
-    wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x2];
-
-fn resolve_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
-    wgpu::VertexBufferLayout {
-        array_stride: 24,
-        step_mode: wgpu::VertexStepMode::Instance,
-        attributes: &RESOLVE_ATTRS,
-    }
-}
-
-/// Per-instance layout of a rect: (x0, y0, x1, y1) in normalised device coordinates.
-const RECT_ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x4];
-
-pub(in crate::render) fn rect_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
-    wgpu::VertexBufferLayout {
-        array_stride: 16,
-        step_mode: wgpu::VertexStepMode::Instance,
-        attributes: &RECT_ATTRS,
-    }
-}
-
-/// A colour target of `format`, written whole, without blending.
-pub(in crate::render) fn color_target(
-    format: wgpu::TextureFormat,
-) -> Option<wgpu::ColorTargetState> {
-    Some(wgpu::ColorTargetState {
-        format,
-        blend: None,
-        write_mask: wgpu::ColorWrites::ALL,
-    })
-}
-
-/// A render pass drawing into `view` alone, cleared to black first and
-/// stored (the background and reduced sky passes).
-pub(in crate::render) fn clear_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    view: &wgpu::TextureView,
-) -> wgpu::RenderPass<'e> {
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
-}
-
-/// A layout of `bindings` unfilterable float textures (bindings 0, 1, …)
-/// read by fragment shaders.
-pub(super) fn texture_layout(
-    device: &wgpu::Device,
-    label: &str,
-    multisampled: bool,
-    bindings: u32,
-) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = (0..bindings)
-        .map(|binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled,
-            },
-            count: None,
-        })
-        .collect();
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &entries,
-    })
-}
-
 impl Renderer {
-    pub(super) fn region_pipelines(&self, state: &mut RegionState, msaa: u32) -> usize {
+    /// The index of the region pipelines for `msaa` samples, built on first use.
+    pub(super) fn region_pipelines(&self, state: &mut RegionPasses, msaa: u32) -> usize {
         if let Some(i) = state.pipelines.iter().position(|p| p.msaa == msaa) {
             return i;
         }
@@ -254,7 +174,7 @@ impl Renderer {
 
     fn resolve_pipeline(
         &self,
-        state: &RegionState,
+        state: &RegionPasses,
         label: &str,
         entry: &str,
         targets: &[Option<wgpu::ColorTargetState>],
@@ -289,7 +209,7 @@ impl Renderer {
     }
 
     /// Set up what reading ids back needs: with MSAA, the id resolves.
-    fn prepare_id_readback(&self, state: &mut RegionState, p: usize) {
+    fn prepare_id_readback(&self, state: &mut RegionPasses, p: usize) {
         state.id_readback = true;
         if state.pipelines[p].msaa <= 1 {
             return;
@@ -306,7 +226,7 @@ impl Renderer {
     /// buffer, one after the other, and note where each pass's begin.
     pub(super) fn upload_rects(
         &self,
-        state: &mut RegionState,
+        state: &mut RegionPasses,
         passes: &mut [PassDraws],
         (width, height): (u32, u32),
     ) {
@@ -323,17 +243,17 @@ impl Renderer {
         );
     }
 
-    /// Upload what a planned frame draws: its instances (every pass's, one
-    /// after the other), rects and resolve rects, and make room for what it
-    /// resolves and reads. Returns each pass's draws and where its resolve
-    /// rects begin (MSAA only).
+    /// Upload what a planned frame draws with pipelines `p`: its instances
+    /// (every pass's, one after the other), rects and resolve rects, and make
+    /// room in `target` for what it resolves and reads.
     pub(super) fn upload_plan(
         &mut self,
-        state: &mut RegionState,
-        (p, t): (usize, usize),
+        state: &mut RegionPasses,
+        p: usize,
+        target: &mut FrameTargets,
         scene: &FrameScene,
         plan: &FramePlan,
-    ) -> (Vec<PassDraws>, Vec<u32>) {
+    ) -> Uploaded {
         let request = &plan.request;
         let mut data = Vec::new();
         let mut draws: Vec<PassDraws> = (plan.passes.iter())
@@ -349,10 +269,8 @@ impl Renderer {
             self.prepare_id_readback(state, p);
         }
         let first_resolve = if plan.resolved() {
-            let target = &mut state.targets[t];
             let size = (request.size_px.0, plan.atlas_rows);
-            let asked = (request.color, request.visibility);
-            (target.atlas).ensure(&self.device, size, asked, &mut target.ids);
+            target.ensure_atlas(&self.device, size, (request.color, request.visibility));
             let (data, first) = plan.resolve_instances(target.atlas.rows);
             crate::render::write_vertices(
                 (&self.device, &self.queue),
@@ -364,15 +282,14 @@ impl Renderer {
         } else {
             Vec::new()
         };
-        let target = &mut state.targets[t];
         let label = "region readback";
-        ensure_buffer(
-            &self.device,
-            &mut target.regions_readback,
-            label,
-            plan.readback_size,
-        );
-        (draws, first_resolve)
+        let buffer = &mut target.regions_readback;
+        ensure_buffer(&self.device, buffer, label, plan.readback_size);
+        Uploaded {
+            pipelines: p,
+            draws,
+            first_resolve,
+        }
     }
 
     /// A pass over its disjoint rects drawing its drones: their instances
@@ -430,11 +347,7 @@ impl Renderer {
             load: wgpu::LoadOp::Load,
             store: wgpu::StoreOp::Store,
         };
-        let Some(color_view) = target
-            .msaa_color
-            .as_ref()
-            .or(target.single.as_ref().map(|(_, view)| view))
-        else {
+        let Some(color_view) = target.color_view() else {
             return;
         };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -481,10 +394,11 @@ impl Renderer {
     /// scenery over it), its resolve and reads, then each overlap layer's.
     pub(super) fn encode_frame(
         &self,
-        state: &RegionState,
-        (p, t): (usize, usize),
+        state: &RegionPasses,
+        target: &FrameTargets,
+        scenery: Option<&SceneryGpu>,
         plan: &FramePlan,
-        (draws, first_resolve): (&[PassDraws], &[u32]),
+        uploaded: &Uploaded,
     ) -> wgpu::CommandEncoder {
         let mut encoder = self
             .device
@@ -492,9 +406,9 @@ impl Renderer {
                 label: Some("frame (regions)"),
             });
         let request = &plan.request;
-        let pipes = &state.pipelines[p];
-        let target = &state.targets[t];
+        let pipes = &state.pipelines[uploaded.pipelines];
         let rects = state.rects.as_ref();
+        let (draws, first_resolve) = (&uploaded.draws, &uploaded.first_resolve);
         // With MSAA each pass is resolved into the atlas and read from there;
         // without, the passes draw straight into the targets read back.
         let color_source = if plan.resolved() {
@@ -517,12 +431,8 @@ impl Renderer {
                 ("layer pass", (false, true))
             };
             self.encode_region_pass(&mut encoder, (pipes, target, rects), pass, (label, asked.0));
-            if let (true, true, Some(gpu), Some(rects)) =
-                (main, request.scenery, &state.scenery, rects)
-            {
-                let color_view = (target.msaa_color.as_ref())
-                    .or(target.single.as_ref().map(|(_, view)| view))
-                    .filter(|_| request.color);
+            if let (true, true, Some(gpu), Some(rects)) = (main, request.scenery, scenery, rects) {
+                let color_view = target.color_view().filter(|_| request.color);
                 let views = (color_view, target.ids.view(), &target.depth);
                 self.encode_scenery(gpu, &mut encoder, views, (rects, pass, request.msaa));
             }

@@ -1,0 +1,184 @@
+//! The full-size targets of one size and sample count, allocated once and
+//! never cleared: colour (multisampled with MSAA, else single-sample), the
+//! instance ids ([`IdLayer`]), depth, the cached background
+//! ([`BackgroundCache`]), the atlas the resolves write and the readbacks.
+//! The region passes draw into them ([`super::frame`]); what is in them is
+//! the passes' business, not theirs.
+
+use super::background::BackgroundCache;
+use super::gpu;
+use super::id_layer::IdLayer;
+use super::readback::Readback;
+use super::{COLOR_FORMAT, DEPTH_FORMAT};
+
+/// Full-size targets of one size and sample count, and the cached background.
+pub(super) struct FrameTargets {
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) msaa: u32,
+    pub(super) msaa_color: Option<wgpu::TextureView>,
+    /// The single-sample colour target MSAA 1 draws into.
+    pub(super) single: Option<(wgpu::Texture, wgpu::TextureView)>,
+    /// The instance ids the passes draw, resolve and read back.
+    pub(super) ids: IdLayer,
+    pub(super) depth: wgpu::TextureView,
+    /// The cached background of this size.
+    pub(super) background: BackgroundCache,
+    /// Binds the multisampled colour and ids for the resolves (MSAA only).
+    pub(super) resolve_group: Option<wgpu::BindGroup>,
+    /// Where the resolves write (MSAA only).
+    pub(super) atlas: Atlas,
+    /// Full-frame readback (id images).
+    pub(super) readback: Readback,
+    /// Readback of the regions (colour and ids), grown as needed and reused.
+    pub(super) regions_readback: Option<wgpu::Buffer>,
+}
+
+/// The bind group layouts the targets are bound with: the background (the
+/// region passes' "clear") and the resolves' multisampled inputs.
+pub(super) struct TargetLayouts<'l> {
+    pub background: &'l wgpu::BindGroupLayout,
+    pub resolve: &'l wgpu::BindGroupLayout,
+}
+
+impl FrameTargets {
+    /// The targets of `width`×`height` pixels and `msaa` samples.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        (width, height): (u32, u32),
+        msaa: u32,
+        layouts: TargetLayouts<'_>,
+    ) -> Self {
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let texture = |label: &str, format, samples, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let copy = wgpu::TextureUsages::COPY_SRC;
+        let bind = wgpu::TextureUsages::TEXTURE_BINDING;
+        let single = (msaa <= 1).then(|| {
+            let color = texture("region colour", COLOR_FORMAT, 1, attachment | copy);
+            let view = color.create_view(&Default::default());
+            (color, view)
+        });
+        let msaa_color = (msaa > 1).then(|| {
+            texture(
+                "region colour (msaa)",
+                COLOR_FORMAT,
+                msaa,
+                attachment | bind,
+            )
+            .create_view(&Default::default())
+        });
+        let ids = IdLayer::new(device, (width, height), msaa);
+        let depth = texture("region depth", DEPTH_FORMAT, msaa, attachment)
+            .create_view(&Default::default());
+        let background = BackgroundCache::new(device, layouts.background, width, height);
+        let resolve_group = msaa_color.as_ref().map(|color| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("region resolve"),
+                layout: layouts.resolve,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(color),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(ids.view()),
+                    },
+                ],
+            })
+        });
+        Self {
+            width,
+            height,
+            msaa,
+            msaa_color,
+            single,
+            ids,
+            depth,
+            background,
+            resolve_group,
+            atlas: Atlas::default(),
+            readback: Readback::new(device, "frame readback (full)", width, height),
+            regions_readback: None,
+        }
+    }
+
+    /// An atlas of at least `rows` rows (of `width` pixels) for the colour
+    /// when `color` and for the id samples when `ids`.
+    pub(super) fn ensure_atlas(
+        &mut self,
+        device: &wgpu::Device,
+        size: (u32, u32),
+        asked: (bool, bool),
+    ) {
+        self.atlas.ensure(device, size, asked, &mut self.ids);
+    }
+
+    /// The colour view the region passes draw into: multisampled with MSAA,
+    /// else the single-sample target.
+    pub(super) fn color_view(&self) -> Option<&wgpu::TextureView> {
+        (self.msaa_color.as_ref()).or(self.single.as_ref().map(|(_, view)| view))
+    }
+}
+
+/// The compact target the resolves write (MSAA only): a pass's rects packed
+/// in shelves ([`super::regions::pack_shelves`]) as wide as the
+/// frame and as tall as they need, the resolved colour here and the id
+/// samples side by side in the id layer's atlas of the same rows
+/// ([`IdLayer::atlas_view`]), copied from there into the readback buffer.
+/// Passes reuse it one after the other; it grows as needed and never shrinks.
+#[derive(Default)]
+pub(super) struct Atlas {
+    pub(super) rows: u32,
+    pub(super) color: Option<(wgpu::Texture, wgpu::TextureView)>,
+}
+
+impl Atlas {
+    /// At least `rows` rows (of `width` pixels) of the colour when `color`
+    /// and of the id layer's atlas when `with_ids`.
+    fn ensure(
+        &mut self,
+        device: &wgpu::Device,
+        (width, rows): (u32, u32),
+        (color, with_ids): (bool, bool),
+        ids: &mut IdLayer,
+    ) {
+        if rows == 0 && self.rows == 0 {
+            return; // nothing to resolve yet (a frame without drones)
+        }
+        let (mut color, mut with_ids) = (color, with_ids);
+        if rows > self.rows {
+            self.rows = rows.next_multiple_of(64);
+            // Reallocated at the new size below, as far as still wanted.
+            color |= self.color.take().is_some();
+            with_ids |= ids.drop_atlas();
+        }
+        if color && self.color.is_none() {
+            self.color = Some(gpu::atlas_texture(
+                device,
+                "resolve atlas (colour)",
+                COLOR_FORMAT,
+                (width, self.rows),
+            ));
+        }
+        if with_ids {
+            ids.ensure_atlas(device, (width, self.rows));
+        }
+    }
+}
