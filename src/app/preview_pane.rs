@@ -420,9 +420,11 @@ impl PaneView {
 
 fn box_legend_ui(ui: &mut Ui, classes: &[String]) {
     // Painted swatches: the default fonts have no "■". Each with its words, as one
-    // piece that a narrow pane moves to the next row whole.
+    // piece that a narrow pane moves to the next row whole. The words take their
+    // box's colour, as the class names over the boxes do: in the label colour they
+    // read as greyed out beside the checkboxes.
     let entry = |ui: &mut Ui, colour: Color32, words: &str, tip: &str| {
-        let galley = egui::WidgetText::from(words).into_galley(
+        let galley = egui::WidgetText::from(RichText::new(words).color(colour)).into_galley(
             ui,
             Some(egui::TextWrapMode::Extend),
             f32::INFINITY,
