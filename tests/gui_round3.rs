@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use egui::accesskit::Role;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use swarmshot::app::preview::PreviewView;
 use swarmshot::app::runner::BatchOutcome;
 use swarmshot::app::{Command, StartOptions, SwarmshotApp};
@@ -466,7 +466,33 @@ fn browse_chooses_the_backplate_folder_and_the_real_frames_folder() {
         .unwrap()
         .folder
         .clone();
-    assert_eq!(folder, other.canonicalize().unwrap());
+    // Stored as preset paths are read: from the preset's folder.
+    assert_eq!(folder, Path::new("other"));
+
+    // A stored `name/..` step is shown without it, and kept until edited.
+    h.state_mut()
+        .session_mut()
+        .preset
+        .backplate
+        .as_mut()
+        .unwrap()
+        .folder = PathBuf::from("./sub/../plates");
+    h.run_steps(2);
+    assert!(
+        h.get_all_by_value("plates")
+            .any(|n| n.accesskit_node().role() == Role::TextInput),
+        "the Folder field shows `plates`"
+    );
+    assert_eq!(
+        h.state()
+            .session()
+            .preset
+            .backplate
+            .as_ref()
+            .unwrap()
+            .folder,
+        Path::new("./sub/../plates")
+    );
 
     // The Domain gap window's real frames: the Browse… that the window added.
     let before: Vec<egui::Rect> = h

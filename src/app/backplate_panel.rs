@@ -31,9 +31,16 @@ pub fn backplate_ui(
     ui.horizontal(|ui| {
         let f = fields::get("backplate.folder");
         let label = ui.label(f.label).on_hover_text(f.tooltip);
-        let mut text = b.folder.display().to_string();
+        // Shown without `./` or `name/..` steps, except while typed in; stored as
+        // written until edited.
+        let id = ui.make_persistent_id("backplate.folder");
+        let mut text = if ui.memory(|m| m.has_focus(id)) {
+            b.folder.display().to_string()
+        } else {
+            super::paths::lexical(&b.folder).display().to_string()
+        };
         if ui
-            .text_edit_singleline(&mut text)
+            .add(egui::TextEdit::singleline(&mut text).id(id))
             .labelled_by(label.id)
             .on_hover_text(f.tooltip)
             .changed()

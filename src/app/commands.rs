@@ -174,17 +174,23 @@ impl SwarmshotApp {
                 (start, None)
             }
             FilePurpose::BackplateFolder => {
-                let folder = self.resolved.backplate.as_ref().map(|b| b.folder.clone());
+                let folder =
+                    (self.resolved.backplate.as_ref()).map(|b| super::paths::lexical(&b.folder));
                 let start = folder.filter(|f| f.is_dir());
                 (start.unwrap_or_else(|| self.preset_dir()), None)
             }
-            FilePurpose::RealFrames => {
-                let real = PathBuf::from(self.gap.real_dir.trim());
-                let start = if real.is_dir() {
-                    real
-                } else {
-                    self.preset_dir()
+            FilePurpose::RealFrames | FilePurpose::FitRealFrames | FilePurpose::FitOutput => {
+                let named = match purpose {
+                    FilePurpose::RealFrames => &self.gap.real_dir,
+                    FilePurpose::FitRealFrames => &self.fit.real_dir,
+                    _ => &self.fit.out_dir,
                 };
+                let named = PathBuf::from(named.trim());
+                let start = [Some(named.as_path()), named.parent()]
+                    .into_iter()
+                    .flatten()
+                    .find(|p| p.is_dir())
+                    .map_or_else(|| self.preset_dir(), Path::to_owned);
                 (start, None)
             }
             FilePurpose::OpenPreset | FilePurpose::AddModel => (self.preset_dir(), None),
@@ -216,11 +222,15 @@ impl SwarmshotApp {
                 self.session.out_dir = path.display().to_string();
             }
             FilePurpose::BackplateFolder if self.batch.is_none() => {
+                // Stored as preset paths are read: from the preset's folder.
+                let folder = super::paths::for_preset(&path, &self.preset_dir());
                 if let Some(b) = &mut self.session.preset.backplate {
-                    b.folder = path;
+                    b.folder = folder;
                 }
             }
             FilePurpose::RealFrames => self.gap.real_dir = path.display().to_string(),
+            FilePurpose::FitRealFrames => self.fit.real_dir = path.display().to_string(),
+            FilePurpose::FitOutput => self.fit.out_dir = path.display().to_string(),
             _ => {}
         }
     }

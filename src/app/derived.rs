@@ -204,3 +204,38 @@ impl SwarmshotApp {
         }
     }
 }
+
+impl SwarmshotApp {
+    /// The Domain gap and Fit windows' requests: their folder dialogs, the preset a
+    /// fit wrote (opened, asking first about unsaved changes), and a pause of
+    /// playback when a report or a fit starts, so the preview's renders leave the
+    /// CPU to it.
+    pub(super) fn background_jobs(&mut self, commands: &mut Vec<super::Command>) {
+        use super::Command;
+        use super::files::FilePurpose;
+        for (asked, purpose) in [
+            (
+                std::mem::take(&mut self.gap.browse_real),
+                FilePurpose::RealFrames,
+            ),
+            (
+                std::mem::take(&mut self.fit.browse_real),
+                FilePurpose::FitRealFrames,
+            ),
+            (
+                std::mem::take(&mut self.fit.browse_out),
+                FilePurpose::FitOutput,
+            ),
+        ] {
+            if asked {
+                commands.push(Command::BrowseFolder(purpose));
+            }
+        }
+        if let Some(fitted) = self.fit.take_fitted() {
+            commands.push(Command::OpenPath(fitted));
+        }
+        if self.gap.take_started() | self.fit.take_started() {
+            self.playback.pause();
+        }
+    }
+}

@@ -60,6 +60,10 @@ pub enum FilePurpose {
     BackplateFolder,
     /// The real frames the Domain gap window measures.
     RealFrames,
+    /// The real frames the Fit window fits to.
+    FitRealFrames,
+    /// The Fit window's output folder.
+    FitOutput,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,7 +81,8 @@ impl FilePurpose {
             Self::AddModel => "Add glTF model",
             Self::OutputFolder => "Output folder",
             Self::BackplateFolder => "Backplate folder",
-            Self::RealFrames => "Real frames folder",
+            Self::RealFrames | Self::FitRealFrames => "Real frames folder",
+            Self::FitOutput => "Fit output folder",
         }
     }
 
@@ -85,7 +90,11 @@ impl FilePurpose {
         match self {
             Self::OpenPreset | Self::AddModel => Kind::Open,
             Self::SavePreset => Kind::Save,
-            Self::OutputFolder | Self::BackplateFolder | Self::RealFrames => Kind::Folder,
+            Self::OutputFolder
+            | Self::BackplateFolder
+            | Self::RealFrames
+            | Self::FitRealFrames
+            | Self::FitOutput => Kind::Folder,
         }
     }
 
@@ -94,7 +103,11 @@ impl FilePurpose {
         match self {
             Self::OpenPreset | Self::SavePreset => ("swarmshot preset", &["ron"]),
             Self::AddModel => ("glTF model", &["gltf", "glb"]),
-            Self::OutputFolder | Self::BackplateFolder | Self::RealFrames => ("folder", &[]),
+            Self::OutputFolder
+            | Self::BackplateFolder
+            | Self::RealFrames
+            | Self::FitRealFrames
+            | Self::FitOutput => ("folder", &[]),
         }
     }
 }

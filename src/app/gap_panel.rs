@@ -2,18 +2,20 @@
 //! folder of real frames and runs `swarmshot gap` ([`crate::gap::run_report`]) against
 //! either the current preset's first frames, made now into a temporary folder by the
 //! batch's own [`run_batch`], or a dataset folder already made. The work runs on its
-//! own thread; the window shows its progress, then the side-by-side table with each
+//! own thread ([`Job`]: woken once a second at most, never by a spinner); the window
+//! shows its progress, then the side-by-side table with each
 //! statistic's verdict and the proposed camera-model ranges.
 //!
 //! The temporary dataset is a folder this module creates under the system's temporary
 //! folder (a new name each run, never an existing folder) and removes once measured.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
 
-use crossbeam_channel::Receiver;
 use egui::{Color32, RichText, Ui};
+
+use super::job::{Job, Stage};
 
 use crate::gap::report::cell;
 use crate::gap::{GapOptions, Report, run_report};
@@ -35,26 +37,6 @@ pub enum SyntheticSide {
     Dataset,
 }
 
-/// A report in flight.
-struct Job {
-    /// What it is doing now, for the window.
-    stage: Arc<Mutex<String>>,
-    cancel: Arc<AtomicBool>,
-    result: Receiver<Result<Report, String>>,
-    /// The report thread (it may render a preset on the GPU): joined on drop.
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Drop for Job {
-    /// A report still being made is cancelled; its thread is waited for.
-    fn drop(&mut self) {
-        self.cancel.store(true, Ordering::Relaxed);
-        if let Some(thread) = self.thread.take() {
-            super::worker::join_within(thread, super::worker::JOIN_WAIT);
-        }
-    }
-}
-
 /// The window's state.
 pub struct GapPanel {
     pub open: bool,
@@ -68,7 +50,9 @@ pub struct GapPanel {
     pub dataset_dir: String,
     /// At most this many frames per side (0: all).
     pub max_images: usize,
-    job: Option<Job>,
+    job: Option<Job<Report>>,
+    /// A report was started since the app last asked ([`GapPanel::take_started`]).
+    started: bool,
     outcome: Option<Result<Report, String>>,
 }
 
@@ -83,6 +67,7 @@ impl Default for GapPanel {
             dataset_dir: String::new(),
             max_images: 200,
             job: None,
+            started: false,
             outcome: None,
         }
     }
@@ -116,19 +101,17 @@ impl GapPanel {
         self.job.is_some()
     }
 
+    /// Whether a report started since the last call (the app then pauses playback,
+    /// so the preview's renders leave the CPU to the report).
+    pub fn take_started(&mut self) -> bool {
+        std::mem::take(&mut self.started)
+    }
+
     /// Take a finished job's result.
     fn poll(&mut self) {
-        let Some(job) = &self.job else { return };
-        match job.result.try_recv() {
-            Ok(outcome) => {
-                self.outcome = Some(outcome);
-                self.job = None;
-            }
-            Err(crossbeam_channel::TryRecvError::Empty) => {}
-            Err(crossbeam_channel::TryRecvError::Disconnected) => {
-                self.outcome = Some(Err("the report thread stopped without a result".into()));
-                self.job = None;
-            }
+        if let Some(outcome) = self.job.as_ref().and_then(Job::poll) {
+            self.outcome = Some(outcome);
+            self.job = None;
         }
     }
 
@@ -173,12 +156,7 @@ impl GapPanel {
                 self.start(inputs, ui.ctx().clone());
             }
             if let Some(job) = &self.job {
-                ui.spinner();
-                let stage = job.stage.lock().map(|s| s.clone()).unwrap_or_default();
-                ui.label(stage);
-                if ui.button("Cancel").clicked() {
-                    job.cancel.store(true, Ordering::Relaxed);
-                }
+                job.status_ui(ui, true);
             }
         });
         ui.separator();
@@ -198,6 +176,7 @@ impl GapPanel {
             ui.label("Real frames folder");
             ui.horizontal(|ui| {
                 ui.add(egui::TextEdit::singleline(&mut self.real_dir).desired_width(360.0))
+                    .accessible_name("Real frames folder")
                     .on_hover_text(
                         "A folder of real JPEG/PNG frames; YOLO labels in a sibling labels/ folder or beside the images give the drone statistics",
                     );
@@ -218,7 +197,8 @@ impl GapPanel {
                     ui.add(
                         egui::DragValue::new(&mut self.preset_frames)
                             .range(1..=MAX_PRESET_FRAMES),
-                    );
+                    )
+                    .accessible_name("Preset frames");
                     ui.label("frames");
                 });
                 ui.horizontal(|ui| {
@@ -227,13 +207,15 @@ impl GapPanel {
                     ui.add_enabled(
                         self.side == SyntheticSide::Dataset,
                         egui::TextEdit::singleline(&mut self.dataset_dir).desired_width(330.0),
-                    );
+                    )
+                    .accessible_name("Dataset folder");
                 });
             });
             ui.end_row();
             ui.label("At most");
             ui.horizontal(|ui| {
-                ui.add(egui::DragValue::new(&mut self.max_images).range(0..=100_000));
+                ui.add(egui::DragValue::new(&mut self.max_images).range(0..=100_000))
+                    .accessible_name("At most frames per side");
                 ui.label("frames per side (0: all; evenly spaced in name order)");
             });
             ui.end_row();
@@ -261,9 +243,6 @@ impl GapPanel {
 
     /// Start the report on its own thread.
     fn start(&mut self, inputs: &GapInputs<'_>, ctx: egui::Context) {
-        let stage = Arc::new(Mutex::new(String::new()));
-        let cancel = Arc::new(AtomicBool::new(false));
-        let (tx, result) = crossbeam_channel::bounded(1);
         let real = PathBuf::from(self.real_dir.trim());
         let max_images = self.max_images;
         let source = match self.side {
@@ -277,25 +256,16 @@ impl GapPanel {
             },
             SyntheticSide::Dataset => Source::Dataset(PathBuf::from(self.dataset_dir.trim())),
         };
-        let (thread_stage, thread_cancel) = (Arc::clone(&stage), Arc::clone(&cancel));
-        let spawned = std::thread::Builder::new()
-            .name("swarmshot gap".into())
-            .spawn(move || {
-                let outcome = make_report(real, source, max_images, &thread_stage, &thread_cancel);
-                let _ = tx.send(outcome);
-                ctx.request_repaint();
-            });
-        match spawned {
-            Ok(thread) => {
+        let job = Job::spawn("swarmshot gap", &ctx, move |stage, cancel| {
+            make_report(real, source, max_images, stage, cancel)
+        });
+        match job {
+            Ok(job) => {
                 self.outcome = None;
-                self.job = Some(Job {
-                    stage,
-                    cancel,
-                    result,
-                    thread: Some(thread),
-                });
+                self.job = Some(job);
+                self.started = true;
             }
-            Err(e) => self.outcome = Some(Err(format!("cannot start the report thread: {e}"))),
+            Err(e) => self.outcome = Some(Err(e)),
         }
     }
 }
@@ -345,18 +315,12 @@ impl Drop for TempDataset {
     }
 }
 
-fn set(stage: &Mutex<String>, text: String) {
-    if let Ok(mut s) = stage.lock() {
-        *s = text;
-    }
-}
-
 /// The report job: make the preset's frames if asked, then measure both sides.
 fn make_report(
     real: PathBuf,
     source: Source,
     max_images: usize,
-    stage: &Mutex<String>,
+    stage: &Stage,
     cancel: &AtomicBool,
 ) -> Result<Report, String> {
     let (synthetic, _temp) = match source {
@@ -371,15 +335,15 @@ fn make_report(
                 return Err(format!("{}: not a folder", real.display()));
             }
             let temp = TempDataset::create()?;
-            set(stage, format!("making {frames} frames of the preset…"));
+            stage.set(format!("making {frames} frames of the preset…"));
             let pipeline = FramePipeline::new((*preset).clone()).map_err(|e| format!("{e:#}"))?;
             let mut options = BatchOptions::new(&temp.0);
             options.limit = Some(frames);
             run_batch(&pipeline, &options, &gpu, cancel, |p| {
-                set(
-                    stage,
-                    format!("making frames of the preset: {} of {}…", p.done, p.total),
-                );
+                stage.set(format!(
+                    "making frames of the preset: {} of {}…",
+                    p.done, p.total
+                ));
             })
             .map_err(|e| format!("making the preset's frames: {e:#}"))?;
             if cancel.load(Ordering::Relaxed) {
@@ -388,7 +352,7 @@ fn make_report(
             (temp.0.clone(), Some(temp))
         }
     };
-    set(stage, "measuring the real and the synthetic frames…".into());
+    stage.set("measuring the real and the synthetic frames…");
     run_report(&GapOptions {
         real,
         synthetic,

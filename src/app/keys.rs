@@ -43,13 +43,19 @@ pub fn shortcuts(ctx: &egui::Context, text_focused: bool, frame_keys: bool) -> V
             }
         }
         if frame_keys {
-            let frame_moves = [
-                (Key::ArrowLeft, Command::StepFrame(-1)),
-                (Key::ArrowRight, Command::StepFrame(1)),
+            // Every press moves one frame: presses that arrive within one pass
+            // (quick typing on a slow pass) are counted, not merged into one.
+            for (k, direction) in [(Key::ArrowLeft, -1), (Key::ArrowRight, 1)] {
+                let presses = i.count_and_consume_key(Modifiers::NONE, k);
+                if presses > 0 {
+                    let presses = i64::try_from(presses).unwrap_or(i64::MAX);
+                    commands.push(Command::StepFrame(direction * presses));
+                }
+            }
+            for (k, command) in [
                 (Key::Home, Command::FirstFrame),
                 (Key::End, Command::LastFrame),
-            ];
-            for (k, command) in frame_moves {
+            ] {
                 if i.consume_key(Modifiers::NONE, k) {
                     commands.push(command);
                 }

@@ -105,6 +105,8 @@ impl SwarmshotApp {
                 .on_hover_text("Show or hide the Summary and Batch panel");
             ui.toggle_value(&mut self.gap.open, "Domain gap")
                 .on_hover_text("Compare real frames with this preset's frames (swarmshot gap)");
+            ui.toggle_value(&mut self.fit.open, "Fit to footage")
+                .on_hover_text("Fit a preset to your own footage (swarmshot fit)");
             ui.separator();
             let (file, full) = match &self.session.preset_path {
                 Some(p) => (

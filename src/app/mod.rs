@@ -23,9 +23,11 @@ mod commands;
 pub mod confuser_panel;
 mod derived;
 pub mod files;
+pub mod fit_panel;
 mod flat_paint;
 pub mod gap_panel;
 pub mod history;
+pub mod job;
 mod keys;
 pub mod latency;
 mod launch;
@@ -33,6 +35,7 @@ mod layout;
 mod mask_pane;
 pub mod mask_view;
 pub mod panels;
+pub mod paths;
 pub mod playback;
 pub mod preset_text;
 pub mod preview;
@@ -260,6 +263,8 @@ pub struct SwarmshotApp {
     merge_outcome: Option<Result<String, String>>,
     /// The domain-gap report window.
     gap: gap_panel::GapPanel,
+    /// The Fit window.
+    fit: fit_panel::FitPanel,
 }
 
 impl SwarmshotApp {
@@ -369,6 +374,7 @@ impl SwarmshotApp {
             merge: None,
             merge_outcome: None,
             gap: gap_panel::GapPanel::default(),
+            fit: fit_panel::FitPanel::default(),
         }
     }
 
@@ -491,6 +497,15 @@ impl SwarmshotApp {
         &mut self.gap
     }
 
+    /// The Fit window.
+    pub fn fit_panel(&self) -> &fit_panel::FitPanel {
+        &self.fit
+    }
+
+    pub fn fit_panel_mut(&mut self) -> &mut fit_panel::FitPanel {
+        &mut self.fit
+    }
+
     /// The unsaved-changes prompt, while it is open.
     pub fn prompt(&self) -> Option<&Replace> {
         self.prompt.as_ref()
@@ -538,9 +553,8 @@ impl eframe::App for SwarmshotApp {
                 out_dir: &self.session.out_dir,
             },
         );
-        if std::mem::take(&mut self.gap.browse_real) {
-            commands.push(Command::BrowseFolder(files::FilePurpose::RealFrames));
-        }
+        self.fit.show(&ctx, self.gpu.as_ref().map(|(g, _)| g));
+        self.background_jobs(&mut commands);
         if let Some(choice) = self.dialogs.show(&ctx) {
             self.chosen(choice, &ctx);
         } else if !self.dialogs.is_open() {

@@ -44,10 +44,14 @@ impl SwarmshotApp {
                 ui.label(format!(
                     "· sequence {} · step {} of {}",
                     group_digits(seq.id + 1),
-                    seq.step,
-                    seq.steps
+                    group_digits(seq.step + 1),
+                    group_digits(seq.steps + 1)
                 ))
-                .on_hover_text("Each sweep point is a sequence of T + 1 frames; t = 0..=T");
+                .on_hover_text(format!(
+                    "Counted from 1, as frames are. Each sweep point is a sequence of T + 1 = {} frames; the files number its steps t = 0..=T (this is t = {})",
+                    seq.steps + 1,
+                    seq.step
+                ));
             }
             if frames > 1 {
                 let max = frames - 1;
@@ -335,14 +339,16 @@ fn sweep_line(frame: &PreviewFrame, preset: &Preset) -> String {
     let s = &frame.scene.sweep;
     let (c, p) = (&preset.camera, &preset.plane);
     format!(
-        "CameraX {} · CameraY {} · CameraZ {} · PlaneRX {}° · PlaneRY {}° · PlaneRZ {}° · repeat {} · {} split · {} drones, {} boxes",
+        "CameraX {} · CameraY {} · CameraZ {} · PlaneRX {}° · PlaneRY {}° · PlaneRZ {}° · repeat {} of {} · {} split · {} drones, {} boxes",
         format_to_step(s.CameraX, &c.x),
         format_to_step(s.CameraY, &c.y),
         format_to_step(s.CameraZ, &c.z),
         format_to_step(s.PlaneRX, &p.rx),
         format_to_step(s.PlaneRY, &p.ry),
         format_to_step(s.PlaneRZ, &p.rz),
-        s.repeat,
+        // Counted from 1 like frames (the manifest's `repeat` is 0-based).
+        s.repeat + 1,
+        preset.repeats,
         frame.scene.split.as_str(),
         frame.scene.drones.len(),
         frame.labels.iter().filter(|l| l.is_kept()).count()
@@ -414,9 +420,11 @@ impl PaneView {
 
 fn box_legend_ui(ui: &mut Ui, classes: &[String]) {
     // Painted swatches: the default fonts have no "■". Each with its words, as one
-    // piece that a narrow pane moves to the next row whole.
+    // piece that a narrow pane moves to the next row whole. The words take their
+    // box's colour, as the class names over the boxes do: in the label colour they
+    // read as greyed out beside the checkboxes.
     let entry = |ui: &mut Ui, colour: Color32, words: &str, tip: &str| {
-        let galley = egui::WidgetText::from(words).into_galley(
+        let galley = egui::WidgetText::from(RichText::new(words).color(colour)).into_galley(
             ui,
             Some(egui::TextWrapMode::Extend),
             f32::INFINITY,
