@@ -10,7 +10,7 @@
 //! the benchmarks and the gallery — makes frames through it. Imports run one
 //! way, each layer importing only those before it (`tests/architecture.rs`
 //! checks it): input, seed, text → preset → sky, model, sensor → scene →
-//! render → annotate → write → pipeline, gap → fit, tools, app → cli (the
+//! render → annotate → write → pipeline, gap → fit → tools, app → cli (the
 //! binary: `main.rs` and `cli/`). See docs/architecture.md.
 
 pub mod annotate;

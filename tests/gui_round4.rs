@@ -80,7 +80,20 @@ fn the_window_is_idle_while_a_gap_report_runs() {
         h.state().gap_panel().is_running(),
         "still measuring: the window settled during the report, not after it"
     );
-    h.get_by_label_contains("measuring the real and the synthetic frames");
+    // The stage shows (the window is woken when it changes, at most once a second).
+    let start = std::time::Instant::now();
+    while h
+        .query_by_label_contains("measuring the real and the synthetic frames")
+        .is_none()
+    {
+        assert!(
+            h.state().gap_panel().is_running(),
+            "the report ended before its stage was shown"
+        );
+        assert!(start.elapsed().as_secs() < 30, "the stage was never shown");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        h.step();
+    }
     h.get_by_label("Cancel");
     wait_for(&mut h, "the gap report", |app| {
         !app.gap_panel().is_running()
