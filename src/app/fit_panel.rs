@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use egui::{RichText, Ui};
 
-use super::job::{Job, Stage};
+use super::job::{Job, JobSlot, Stage};
 use crate::fit::FitOptions;
 use crate::render::GpuContext;
 
@@ -52,11 +52,9 @@ pub struct FitPanel {
     pub max_frames: usize,
     pub unlabelled_ok: bool,
     pub overwrite: bool,
-    job: Option<Job<FitDone>>,
-    outcome: Option<Result<FitDone, String>>,
+    job: JobSlot<FitDone>,
     /// A fit ended with this preset: the app opens it ([`FitPanel::take_fitted`]).
     fitted: Option<PathBuf>,
-    started: bool,
 }
 
 impl Default for FitPanel {
@@ -74,10 +72,8 @@ impl Default for FitPanel {
             max_frames: defaults.max_frames,
             unlabelled_ok: defaults.unlabelled_ok,
             overwrite: defaults.overwrite,
-            job: None,
-            outcome: None,
+            job: JobSlot::default(),
             fitted: None,
-            started: false,
         }
     }
 }
@@ -85,25 +81,22 @@ impl Default for FitPanel {
 impl FitPanel {
     /// The finished fit, if the last run succeeded.
     pub fn done(&self) -> Option<&FitDone> {
-        self.outcome.as_ref().and_then(|o| o.as_ref().ok())
+        self.job.done()
     }
 
     /// The last run's error, if it failed.
     pub fn error(&self) -> Option<&str> {
-        self.outcome
-            .as_ref()
-            .and_then(|o| o.as_ref().err())
-            .map(String::as_str)
+        self.job.error()
     }
 
     /// A fit is running.
     pub fn is_running(&self) -> bool {
-        self.job.is_some()
+        self.job.is_running()
     }
 
     /// Whether a fit started since the last call (the app then pauses playback).
     pub fn take_started(&mut self) -> bool {
-        std::mem::take(&mut self.started)
+        self.job.take_started()
     }
 
     /// The preset a fit just wrote, once: the app opens it.
@@ -112,12 +105,8 @@ impl FitPanel {
     }
 
     fn poll(&mut self) {
-        if let Some(outcome) = self.job.as_ref().and_then(Job::poll) {
-            if let Ok(done) = &outcome {
-                self.fitted = Some(done.fitted.clone());
-            }
-            self.outcome = Some(outcome);
-            self.job = None;
+        if let Some(Ok(done)) = self.job.poll() {
+            self.fitted = Some(done.fitted.clone());
         }
     }
 
@@ -140,7 +129,7 @@ impl FitPanel {
         ui.label(
             "Fits a preset to your own footage (as `swarmshot fit`): the frames become backplates with their labelled drones removed, the camera and the drones' size are fitted, then rounds of render, gap report and adjust. See docs/realism.md.",
         );
-        let running = self.job.is_some();
+        let running = self.job.is_running();
         ui.add_enabled_ui(!running, |ui| self.inputs_ui(ui));
         ui.horizontal(|ui| {
             let why_not = self.why_not(gpu);
@@ -157,12 +146,12 @@ impl FitPanel {
             if run.clicked() {
                 self.start(gpu, ui.ctx());
             }
-            if let Some(job) = &self.job {
+            if let Some(job) = self.job.running() {
                 job.status_ui(ui, true);
             }
         });
         ui.separator();
-        match &self.outcome {
+        match self.job.outcome() {
             Some(Ok(done)) => done_ui(ui, done, &mut self.fitted),
             Some(Err(e)) => {
                 ui.label(
@@ -248,16 +237,10 @@ impl FitPanel {
     fn start(&mut self, gpu: Option<&GpuContext>, ctx: &egui::Context) {
         let options = self.options();
         let gpu = gpu.cloned();
-        match Job::spawn("swarmshot fit", ctx, move |stage, cancel| {
-            run_fit(&options, gpu.as_ref(), stage, cancel)
-        }) {
-            Ok(job) => {
-                self.outcome = None;
-                self.job = Some(job);
-                self.started = true;
-            }
-            Err(e) => self.outcome = Some(Err(e)),
-        }
+        self.job
+            .start(Job::spawn("swarmshot fit", ctx, move |stage, cancel| {
+                run_fit(&options, gpu.as_ref(), stage, cancel)
+            }));
     }
 }
 

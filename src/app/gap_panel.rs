@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use egui::{Color32, RichText, Ui};
 
-use super::job::{Job, Stage};
+use super::job::{Job, JobSlot, Stage};
 
 use crate::gap::report::cell;
 use crate::gap::{GapOptions, Report, run_report};
@@ -50,10 +50,7 @@ pub struct GapPanel {
     pub dataset_dir: String,
     /// At most this many frames per side (0: all).
     pub max_images: usize,
-    job: Option<Job<Report>>,
-    /// A report was started since the app last asked ([`GapPanel::take_started`]).
-    started: bool,
-    outcome: Option<Result<Report, String>>,
+    job: JobSlot<Report>,
 }
 
 impl Default for GapPanel {
@@ -66,9 +63,7 @@ impl Default for GapPanel {
             preset_frames: DEFAULT_PRESET_FRAMES,
             dataset_dir: String::new(),
             max_images: 200,
-            job: None,
-            started: false,
-            outcome: None,
+            job: JobSlot::default(),
         }
     }
 }
@@ -85,39 +80,28 @@ pub struct GapInputs<'a> {
 impl GapPanel {
     /// The finished report, if the last run succeeded.
     pub fn report(&self) -> Option<&Report> {
-        self.outcome.as_ref().and_then(|o| o.as_ref().ok())
+        self.job.done()
     }
 
     /// The last run's error, if it failed.
     pub fn error(&self) -> Option<&str> {
-        self.outcome
-            .as_ref()
-            .and_then(|o| o.as_ref().err())
-            .map(String::as_str)
+        self.job.error()
     }
 
     /// A report is being made.
     pub fn is_running(&self) -> bool {
-        self.job.is_some()
+        self.job.is_running()
     }
 
     /// Whether a report started since the last call (the app then pauses playback,
     /// so the preview's renders leave the CPU to the report).
     pub fn take_started(&mut self) -> bool {
-        std::mem::take(&mut self.started)
-    }
-
-    /// Take a finished job's result.
-    fn poll(&mut self) {
-        if let Some(outcome) = self.job.as_ref().and_then(Job::poll) {
-            self.outcome = Some(outcome);
-            self.job = None;
-        }
+        self.job.take_started()
     }
 
     /// The window (when open).
     pub fn show(&mut self, ctx: &egui::Context, inputs: GapInputs<'_>) {
-        self.poll();
+        self.job.poll();
         if !self.open {
             return;
         }
@@ -137,7 +121,7 @@ impl GapPanel {
         ui.label(
             "Compares real frames with synthetic ones statistic by statistic (as `swarmshot gap`): noise, blur, edges, sky colour, JPEG quality, drone size and contrast. See docs/realism.md.",
         );
-        let running = self.job.is_some();
+        let running = self.job.is_running();
         ui.add_enabled_ui(!running, |ui| self.inputs_ui(ui));
         ui.horizontal(|ui| {
             let why_not = self.why_not(inputs);
@@ -155,12 +139,12 @@ impl GapPanel {
             if run.clicked() {
                 self.start(inputs, ui.ctx().clone());
             }
-            if let Some(job) = &self.job {
+            if let Some(job) = self.job.running() {
                 job.status_ui(ui, true);
             }
         });
         ui.separator();
-        match &self.outcome {
+        match self.job.outcome() {
             Some(Ok(report)) => report_ui(ui, report),
             Some(Err(e)) => {
                 ui.label(
@@ -256,17 +240,10 @@ impl GapPanel {
             },
             SyntheticSide::Dataset => Source::Dataset(PathBuf::from(self.dataset_dir.trim())),
         };
-        let job = Job::spawn("swarmshot gap", &ctx, move |stage, cancel| {
-            make_report(real, source, max_images, stage, cancel)
-        });
-        match job {
-            Ok(job) => {
-                self.outcome = None;
-                self.job = Some(job);
-                self.started = true;
-            }
-            Err(e) => self.outcome = Some(Err(e)),
-        }
+        self.job
+            .start(Job::spawn("swarmshot gap", &ctx, move |stage, cancel| {
+                make_report(real, source, max_images, stage, cancel)
+            }));
     }
 }
 

@@ -123,3 +123,75 @@ impl<T> Drop for Job<T> {
         }
     }
 }
+
+/// A window's one job at a time and what the last one gave: the running job,
+/// its outcome once it ended, and whether one started since the app last asked.
+pub struct JobSlot<T> {
+    job: Option<Job<T>>,
+    outcome: Option<Result<T, String>>,
+    started: bool,
+}
+
+impl<T> Default for JobSlot<T> {
+    fn default() -> Self {
+        Self {
+            job: None,
+            outcome: None,
+            started: false,
+        }
+    }
+}
+
+impl<T: Send + 'static> JobSlot<T> {
+    /// Hold a spawned job (its outcome is cleared), or the error that kept it from starting.
+    pub fn start(&mut self, spawned: Result<Job<T>, String>) {
+        match spawned {
+            Ok(job) => {
+                self.outcome = None;
+                self.job = Some(job);
+                self.started = true;
+            }
+            Err(e) => self.outcome = Some(Err(e)),
+        }
+    }
+
+    /// Take the running job's result once it has ended; returns it when it just did.
+    pub fn poll(&mut self) -> Option<&Result<T, String>> {
+        let outcome = self.job.as_ref().and_then(Job::poll)?;
+        self.job = None;
+        self.outcome = Some(outcome);
+        self.outcome.as_ref()
+    }
+
+    /// The running job.
+    pub fn running(&self) -> Option<&Job<T>> {
+        self.job.as_ref()
+    }
+
+    /// A job is running.
+    pub fn is_running(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// The last job's outcome (`None` while one runs or before the first).
+    pub fn outcome(&self) -> Option<&Result<T, String>> {
+        self.outcome.as_ref()
+    }
+
+    /// The last job's result, if it succeeded.
+    pub fn done(&self) -> Option<&T> {
+        self.outcome.as_ref().and_then(|o| o.as_ref().ok())
+    }
+
+    /// The last job's error, if it failed.
+    pub fn error(&self) -> Option<&str> {
+        (self.outcome.as_ref())
+            .and_then(|o| o.as_ref().err())
+            .map(String::as_str)
+    }
+
+    /// Whether a job started since the last call (the app then pauses playback).
+    pub fn take_started(&mut self) -> bool {
+        std::mem::take(&mut self.started)
+    }
+}
