@@ -72,24 +72,17 @@ impl BackgroundCache {
         width: u32,
         height: u32,
     ) -> Self {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("background"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: COLOR_FORMAT,
-            // COPY_DST: a backplate's pixels are written, not drawn.
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+        // COPY_DST: a backplate's pixels are written, not drawn.
+        let texture = super::gpu::texture_2d(
+            device,
+            "background",
+            (width, height),
+            (COLOR_FORMAT, 1),
+            wgpu::TextureUsages::RENDER_ATTACHMENT
                 | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_SRC
                 | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        );
         let view = texture.create_view(&Default::default());
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("region background"),

@@ -1,30 +1,42 @@
 //! The renderer's low-level wgpu helpers: descriptors that several parts of
-//! the frame write alike (colour targets, a cleared pass, texture layouts,
+//! the frame write alike (2D textures, colour targets, a cleared pass, texture layouts,
 //! the atlas texture and the rect vertex layouts). A leaf: it imports
 //! nothing of `render`, and every part (background, sky, scenery, id layer,
 //! region passes) builds on it.
+
+/// A 2D texture of `width`×`height` pixels, one mip level, `samples` samples a pixel.
+pub(super) fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    (format, samples): (wgpu::TextureFormat, u32),
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: samples,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
 
 /// A single-sample target of `size` the resolves write and the reads copy from.
 pub(super) fn atlas_texture(
     device: &wgpu::Device,
     label: &str,
     format: wgpu::TextureFormat,
-    (width, rows): (u32, u32),
+    size: (u32, u32),
 ) -> (wgpu::Texture, wgpu::TextureView) {
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height: rows,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let texture = texture_2d(device, label, size, (format, 1), usage);
     let view = texture.create_view(&Default::default());
     (texture, view)
 }

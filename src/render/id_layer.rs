@@ -57,22 +57,15 @@ impl IdLayer {
     /// The id target of `width`×`height` pixels and `msaa` samples: drawn,
     /// read by the resolves, copied back.
     pub(super) fn new(device: &wgpu::Device, (width, height): (u32, u32), msaa: u32) -> Self {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("instance ids"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: msaa,
-            dimension: wgpu::TextureDimension::D2,
-            format: ids::ID_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+        let texture = super::gpu::texture_2d(
+            device,
+            "instance ids",
+            (width, height),
+            (ids::ID_FORMAT, msaa),
+            wgpu::TextureUsages::RENDER_ATTACHMENT
                 | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        );
         let view = texture.create_view(&Default::default());
         Self {
             texture,

@@ -715,22 +715,14 @@ impl Renderer {
         {
             return Ok(());
         }
-        let size = wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        };
         let texture = |label: &str, format, samples, usage| {
-            self.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
+            gpu::texture_2d(
+                &self.device,
+                label,
+                (width, height),
+                (format, samples),
                 usage,
-                view_formats: &[],
-            })
+            )
         };
         let color = texture(
             "frame colour",

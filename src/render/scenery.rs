@@ -577,20 +577,8 @@ impl Renderer {
         (width, height): (u32, u32),
     ) -> wgpu::BindGroup {
         let texture = |label: &str, format| {
-            self.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
+            let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+            super::gpu::texture_2d(&self.device, label, (width, height), (format, 1), usage)
         };
         let color = texture("scenery colour", wgpu::TextureFormat::Rgba8Unorm);
         let depth = texture("scenery depth", wgpu::TextureFormat::R32Float);

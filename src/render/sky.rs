@@ -704,22 +704,15 @@ fn reduced_texture(
     label: &str,
     (width, height): (u32, u32),
 ) -> (wgpu::Texture, wgpu::TextureView) {
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba16Float,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+    let texture = super::gpu::texture_2d(
+        device,
+        label,
+        (width, height),
+        (wgpu::TextureFormat::Rgba16Float, 1),
+        wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+    );
     let view = texture.create_view(&Default::default());
     (texture, view)
 }

@@ -49,22 +49,8 @@ impl FrameTargets {
         msaa: u32,
         layouts: TargetLayouts<'_>,
     ) -> Self {
-        let size = wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        };
         let texture = |label: &str, format, samples, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: samples,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
+            super::gpu::texture_2d(device, label, (width, height), (format, samples), usage)
         };
         let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let copy = wgpu::TextureUsages::COPY_SRC;
