@@ -368,27 +368,18 @@ fn visible_boxes_under_blur_are_the_pixels_a_drone_changes() {
             for index in 0..p.frame_count() {
                 let frame = pipeline.make(&mut renderer, index).expect("frame");
                 let draw = frame.scene.camera_model.expect("drawn");
-                let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+                let w = frame.scene.camera.width;
                 // The same scene as the renderer draws it (at the camera's
                 // exposure), with and without its drone, then the rest of the camera.
                 let msaa = p.render.msaa;
-                let with = common::rendered_at_exposure(&mut renderer, &frame.scene, msaa);
+                let a = common::camera_image(&mut renderer, &frame.scene, msaa, &draw);
                 let mut empty = frame.scene.clone();
                 empty.drones.clear();
-                let without = common::rendered_at_exposure(&mut renderer, &empty, msaa);
-                let full = PixelRect {
-                    x0: 0,
-                    y0: 0,
-                    x1: w,
-                    y1: h,
-                };
-                let rest = draw.after_render();
+                let b = common::camera_image(&mut renderer, &empty, msaa, &draw);
                 // The rendered labels: the scene without the camera model.
                 let mut plain = frame.scene.clone();
                 plain.camera_model = None;
                 let plain = pipeline.make_scene(&mut renderer, plain).expect("plain");
-                let a = sensor::develop(&with, w, h, &rest, full, false);
-                let b = sensor::develop(&without, w, h, &rest, full, false);
                 let truth = common::changed_box(&a, &b, w);
                 let label = &frame.labels[0];
                 let vis = label.visibility.expect("measured");

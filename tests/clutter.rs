@@ -344,7 +344,6 @@ fn with_pole_and_wire(scene: &FrameScene, pole_offset_m: f64, wire_drop_m: f64) 
 #[test]
 fn visible_boxes_next_to_a_wire_and_a_pole_are_the_pixels_the_drone_changes() {
     use swarmshot::preset::camera_model::{CameraModel, Psf};
-    use swarmshot::sensor::{self, PixelRect};
     let ctx = common::gpu();
     let mut p = common::single_drone_preset(1.5);
     p.camera_model = Some(CameraModel {
@@ -363,22 +362,12 @@ fn visible_boxes_next_to_a_wire_and_a_pole_are_the_pixels_the_drone_changes() {
             let scene = with_pole_and_wire(&bare, size * pole, size * wire);
             let frame = pipeline.make_scene(&mut renderer, scene).expect("frame");
             let draw = frame.scene.camera_model.expect("drawn");
-            let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
             let msaa = p.render.msaa;
-            let with = common::rendered_at_exposure(&mut renderer, &frame.scene, msaa);
+            let a = common::camera_image(&mut renderer, &frame.scene, msaa, &draw);
             let mut empty = frame.scene.clone();
             empty.drones.clear();
-            let without = common::rendered_at_exposure(&mut renderer, &empty, msaa);
-            let full = PixelRect {
-                x0: 0,
-                y0: 0,
-                x1: w,
-                y1: h,
-            };
-            let rest = draw.after_render();
-            let a = sensor::develop(&with, w, h, &rest, full, false);
-            let b = sensor::develop(&without, w, h, &rest, full, false);
-            let truth = common::changed_box(&a, &b, w);
+            let b = common::camera_image(&mut renderer, &empty, msaa, &draw);
+            let truth = common::changed_box(&a, &b, frame.scene.camera.width);
             let vis = frame.labels[0].visibility.expect("measured");
             let case = format!("frame {index}, pole {pole}, wire {wire}");
             match truth {
@@ -408,7 +397,6 @@ fn visible_boxes_next_to_a_wire_and_a_pole_are_the_pixels_the_drone_changes() {
 #[test]
 fn visible_boxes_in_the_cluttered_scene_are_the_pixels_each_drone_changes() {
     use swarmshot::scene::projection::PixelBox;
-    use swarmshot::sensor::{self, PixelRect};
     let ctx = common::gpu();
     let path = std::path::Path::new("presets/bench/realistic_cluttered.ron");
     let mut p = Preset::load(path).expect("preset");
@@ -422,17 +410,9 @@ fn visible_boxes_in_the_cluttered_scene_are_the_pixels_each_drone_changes() {
     for index in 0..10 {
         let frame = pipeline.make(&mut renderer, index).expect("frame");
         let draw = frame.scene.camera_model.expect("drawn");
-        let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
-        let full = PixelRect {
-            x0: 0,
-            y0: 0,
-            x1: w,
-            y1: h,
-        };
-        let rest = draw.after_render();
+        let w = frame.scene.camera.width;
         let msaa = p.render.msaa;
-        let with = common::rendered_at_exposure(&mut renderer, &frame.scene, msaa);
-        let a = sensor::develop(&with, w, h, &rest, full, false);
+        let a = common::camera_image(&mut renderer, &frame.scene, msaa, &draw);
         let boxes: Vec<Option<PixelBox>> = (frame.labels.iter())
             .map(|l| l.visibility.and_then(|v| v.visible_box))
             .collect();
@@ -451,9 +431,11 @@ fn visible_boxes_in_the_cluttered_scene_are_the_pixels_each_drone_changes() {
             let drone = &mut without.drones[label.drone];
             let forward = without.camera.camera_from_world.row(2);
             drone.position = without.camera.position - forward * (10.0 * drone.size_m + 1.0);
-            let without = common::rendered_at_exposure(&mut renderer, &without, msaa);
-            let truth =
-                common::changed_box(&a, &sensor::develop(&without, w, h, &rest, full, false), w);
+            let truth = common::changed_box(
+                &a,
+                &common::camera_image(&mut renderer, &without, msaa, &draw),
+                w,
+            );
             let vis = label.visibility.expect("measured");
             let case = format!("frame {index}, drone {}", label.drone);
             let (r, n) = truth.expect(&case);

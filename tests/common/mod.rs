@@ -194,6 +194,25 @@ pub fn rendered_at_exposure(
     renderer.render_frame(scene, &request).expect("render").rgba
 }
 
+/// The noise-free camera image of `scene` under `draw`: [`rendered_at_exposure`],
+/// then the rest of the camera (`CameraDraw::after_render`) over the whole frame.
+pub fn camera_image(
+    renderer: &mut swarmshot::render::Renderer,
+    scene: &swarmshot::scene::FrameScene,
+    msaa: u32,
+    draw: &swarmshot::sensor::CameraDraw,
+) -> Vec<u8> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let rendered = rendered_at_exposure(renderer, scene, msaa);
+    let full = swarmshot::sensor::PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
+    swarmshot::sensor::develop(&rendered, w, h, &draw.after_render(), full, false)
+}
+
 /// The box of the pixels where two RGBA8 frames of width `w` differ in colour, and how
 /// many there are (`None`: none differ).
 pub fn changed_box(a: &[u8], b: &[u8], w: u32) -> Option<(swarmshot::sensor::PixelRect, u64)> {
