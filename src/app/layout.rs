@@ -31,41 +31,7 @@ impl SwarmshotApp {
                 {
                     commands.push(Command::Open);
                 }
-                ui.menu_button("Examples", |ui| {
-                    let examples = example_presets();
-                    if examples.is_empty() {
-                        ui.label("no presets/ folder found");
-                    }
-                    for path in examples {
-                        let name = path
-                            .file_stem()
-                            .map(|s| s.to_string_lossy().into_owned())
-                            .unwrap_or_default();
-                        // Each with the start of its own comment, and all of it on hover.
-                        let about = example_description(&path);
-                        let tip = format!(
-                            "{}\n\nOpen a copy of {}; Save asks where to keep it",
-                            about.as_deref().unwrap_or(""),
-                            path.display()
-                        );
-                        ui.horizontal(|ui| {
-                            if ui.button(name).on_hover_text(&tip).clicked() {
-                                commands.push(Command::OpenExample(path.clone()));
-                            }
-                            if let Some(about) = &about {
-                                let short: String = about.chars().take(70).collect();
-                                let more = if about.chars().count() > 70 {
-                                    "…"
-                                } else {
-                                    ""
-                                };
-                                ui.weak(format!("{short}{more}")).on_hover_text(&tip);
-                            }
-                        });
-                    }
-                })
-                .response
-                .on_hover_text("Open a copy of one of the example presets in presets/");
+                examples_menu(ui, commands);
             });
             if ui
                 .button("Save")
@@ -462,4 +428,43 @@ fn sections_ui(
         "Resolution, file formats, split, boxes and masks",
         &mut |ui| panels::output_ui(ui, &mut s.preset, form),
     );
+}
+
+/// The Examples menu: each preset in presets/ with the start of its comment.
+fn examples_menu(ui: &mut Ui, commands: &mut Vec<Command>) {
+    ui.menu_button("Examples", |ui| {
+        let examples = example_presets();
+        if examples.is_empty() {
+            ui.label("no presets/ folder found");
+        }
+        for path in examples {
+            let name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            // Each with the start of its own comment, and all of it on hover.
+            let about = example_description(&path);
+            let tip = format!(
+                "{}\n\nOpen a copy of {}; Save asks where to keep it",
+                about.as_deref().unwrap_or(""),
+                path.display()
+            );
+            ui.horizontal(|ui| {
+                if ui.button(name).on_hover_text(&tip).clicked() {
+                    commands.push(Command::OpenExample(path.clone()));
+                }
+                if let Some(about) = &about {
+                    let short: String = about.chars().take(70).collect();
+                    let more = if about.chars().count() > 70 {
+                        "…"
+                    } else {
+                        ""
+                    };
+                    ui.weak(format!("{short}{more}")).on_hover_text(&tip);
+                }
+            });
+        }
+    })
+    .response
+    .on_hover_text("Open a copy of one of the example presets in presets/");
 }

@@ -344,8 +344,67 @@ fn fill_group(
     }
     let span = (bbox.x1 - bbox.x0).max(bbox.y1 - bbox.y0) as usize;
     let target = window_at(source, win, 0, 0)?;
-    // The source: the window shifted left, right, up or down past the hole, inside the
-    // frame, its hole clear of every labelled box; the one whose ring looks most alike.
+    let place = Window { win, ww, wh };
+    let filled = match clone_source(source, &target, &mask, place, (bbox, ring), all) {
+        Some(s) => {
+            // Seamless clone: the source plus the harmonic correction that meets the ring.
+            let mut d: Vec<[f32; 3]> = (0..ww * wh)
+                .map(|i| {
+                    if mask[i] {
+                        [0.0; 3]
+                    } else {
+                        [0, 1, 2].map(|c| target[i][c] - s[i][c])
+                    }
+                })
+                .collect();
+            harmonic(&mut d, &mask, ww, span);
+            (0..ww * wh)
+                .map(|i| [0, 1, 2].map(|c| s[i][c] + d[i][c]))
+                .collect()
+        }
+        None => diffuse_with_residuals(target, &mask, (ww, wh), span, rng),
+    };
+    for y in 0..wh {
+        for x in 0..ww {
+            let i = idx(x, y);
+            if mask[i] {
+                let p = filled[i].map(|c| c.round().clamp(0.0, 255.0) as u8);
+                rgb.put_pixel(
+                    (win.x0 + x as i64) as u32,
+                    (win.y0 + y as i64) as u32,
+                    image::Rgb(p),
+                );
+            }
+        }
+    }
+    Some(Filled {
+        x0: bbox.x0 as u32,
+        y0: bbox.y0 as u32,
+        x1: bbox.x1 as u32,
+        y1: bbox.y1 as u32,
+        pixels,
+    })
+}
+
+/// A hole group's window in the frame and its size.
+#[derive(Clone, Copy)]
+struct Window {
+    win: Rect,
+    ww: usize,
+    wh: usize,
+}
+
+/// The window shifted left, right, up or down past the hole (`bbox` plus the
+/// `ring`), inside the frame, its hole clear of every labelled box in `all`:
+/// the one whose known pixels look most like `target`'s, `None` when none fits.
+fn clone_source(
+    source: &RgbImage,
+    target: &[[f32; 3]],
+    mask: &[bool],
+    Window { win, ww, wh }: Window,
+    (bbox, ring): (Rect, i64),
+    all: &[Rect],
+) -> Option<Vec<[f32; 3]>> {
     let (sw, sh) = (bbox.x1 - bbox.x0 + ring, bbox.y1 - bbox.y0 + ring);
     let mut best: Option<(f32, Vec<[f32; 3]>)> = None;
     for (dx, dy) in [(-sw, 0), (sw, 0), (0, -sh), (0, sh)] {
@@ -374,77 +433,51 @@ fn fill_group(
             best = Some((score, s));
         }
     }
-    let filled: Vec<[f32; 3]> = match best {
-        Some((_, s)) => {
-            // Seamless clone: the source plus the harmonic correction that meets the ring.
-            let mut d: Vec<[f32; 3]> = (0..ww * wh)
-                .map(|i| {
-                    if mask[i] {
-                        [0.0; 3]
-                    } else {
-                        [0, 1, 2].map(|c| target[i][c] - s[i][c])
-                    }
-                })
-                .collect();
-            harmonic(&mut d, &mask, ww, span);
-            (0..ww * wh)
-                .map(|i| [0, 1, 2].map(|c| s[i][c] + d[i][c]))
-                .collect()
-        }
-        None => {
-            let mut v = target.clone();
-            harmonic(&mut v, &mask, ww, span);
-            // The ring's residuals (pixel minus the mean of its four known neighbours,
-            // unit gain on white noise), without the edges' outliers (beyond 3 robust σ).
-            let scale = 1.0 / 1.25f32.sqrt();
-            let mut residuals: Vec<[f32; 3]> = Vec::new();
-            for y in 1..wh.saturating_sub(1) {
-                for x in 1..ww.saturating_sub(1) {
-                    let n = [idx(x - 1, y), idx(x + 1, y), idx(x, y - 1), idx(x, y + 1)];
-                    if mask[idx(x, y)] || n.iter().any(|&k| mask[k]) {
-                        continue;
-                    }
-                    let c = target[idx(x, y)];
-                    residuals.push([0, 1, 2].map(|ch| {
-                        scale * (c[ch] - 0.25 * n.iter().map(|&k| target[k][ch]).sum::<f32>())
-                    }));
-                }
+    best.map(|(_, s)| s)
+}
+
+/// The hole diffused from the ring (harmonic), each pixel given one of the
+/// ring's residuals (pixel minus the mean of its four known neighbours, unit
+/// gain on white noise; the edges' outliers beyond 3 robust σ left out), drawn from `rng`.
+fn diffuse_with_residuals(
+    mut v: Vec<[f32; 3]>,
+    mask: &[bool],
+    (ww, wh): (usize, usize),
+    span: usize,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Vec<[f32; 3]> {
+    let target = v.clone();
+    let idx = |x: usize, y: usize| y * ww + x;
+    harmonic(&mut v, mask, ww, span);
+    let scale = 1.0 / 1.25f32.sqrt();
+    let mut residuals: Vec<[f32; 3]> = Vec::new();
+    for y in 1..wh.saturating_sub(1) {
+        for x in 1..ww.saturating_sub(1) {
+            let n = [idx(x - 1, y), idx(x + 1, y), idx(x, y - 1), idx(x, y + 1)];
+            if mask[idx(x, y)] || n.iter().any(|&k| mask[k]) {
+                continue;
             }
-            let mut mags: Vec<f32> = residuals.iter().map(|r| luma(*r).abs()).collect();
-            mags.sort_by(f32::total_cmp);
-            let limit = 3.0 * 1.4826 * mags.get(mags.len() / 2).copied().unwrap_or(0.0);
-            residuals.retain(|r| luma(*r).abs() <= limit);
-            for i in 0..ww * wh {
-                if mask[i] && !residuals.is_empty() {
-                    let r = residuals[rng.random_range(0..residuals.len())];
-                    for c in 0..3 {
-                        v[i][c] += r[c];
-                    }
-                }
-            }
-            v
+            let c = target[idx(x, y)];
+            residuals.push(
+                [0, 1, 2].map(|ch| {
+                    scale * (c[ch] - 0.25 * n.iter().map(|&k| target[k][ch]).sum::<f32>())
+                }),
+            );
         }
-    };
-    for y in 0..wh {
-        for x in 0..ww {
-            let i = idx(x, y);
-            if mask[i] {
-                let p = filled[i].map(|c| c.round().clamp(0.0, 255.0) as u8);
-                rgb.put_pixel(
-                    (win.x0 + x as i64) as u32,
-                    (win.y0 + y as i64) as u32,
-                    image::Rgb(p),
-                );
+    }
+    let mut mags: Vec<f32> = residuals.iter().map(|r| luma(*r).abs()).collect();
+    mags.sort_by(f32::total_cmp);
+    let limit = 3.0 * 1.4826 * mags.get(mags.len() / 2).copied().unwrap_or(0.0);
+    residuals.retain(|r| luma(*r).abs() <= limit);
+    for i in 0..ww * wh {
+        if mask[i] && !residuals.is_empty() {
+            let r = residuals[rng.random_range(0..residuals.len())];
+            for c in 0..3 {
+                v[i][c] += r[c];
             }
         }
     }
-    Some(Filled {
-        x0: bbox.x0 as u32,
-        y0: bbox.y0 as u32,
-        x1: bbox.x1 as u32,
-        y1: bbox.y1 as u32,
-        pixels,
-    })
+    v
 }
 
 /// The horizon row as a fraction of the height (module docs), `None` when unclear.
