@@ -94,6 +94,32 @@ pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
     }
 }
 
+/// Why an image the user named cannot be decoded. The message is the reason
+/// alone; the caller names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("truncated JPEG ({0})")]
+    Truncated(String),
+    #[error("is not a JPEG or PNG image")]
+    Format,
+    #[error("cannot be read: {0}")]
+    Header(String),
+    #[error("{width}×{height} is larger than the {max_side}-pixel side limit")]
+    Side {
+        width: u32,
+        height: u32,
+        max_side: u32,
+    },
+    #[error("{width}×{height} is {} pixels, more than the {max_pixels}-pixel limit ({} megapixels) for an image", u64::from(*.width) * u64::from(*.height), .max_pixels / 1_000_000)]
+    Pixels {
+        width: u32,
+        height: u32,
+        max_pixels: u64,
+    },
+    #[error("cannot be decoded: {0}")]
+    Decode(image::ImageError),
+}
+
 /// Decode a JPEG or PNG image the user named (its file's bytes) within a
 /// pixel budget: the format is guessed from the bytes (anything else is
 /// refused), a JPEG cut short is refused as truncated ([`jpeg_truncation`]),
@@ -105,36 +131,39 @@ pub fn decode_image(
     bytes: &[u8],
     max_pixels: u64,
     max_side: u32,
-) -> Result<image::DynamicImage, String> {
+) -> Result<image::DynamicImage, ImageError> {
     let reader = || {
         image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
-            .map_err(|e| e.to_string())
+            .map_err(|e| ImageError::Header(e.to_string()))
     };
     let format = reader()?.format();
     match format {
         Some(image::ImageFormat::Jpeg) => {
             if let Some(why) = jpeg_truncation(bytes) {
-                return Err(format!("truncated JPEG ({why})"));
+                return Err(ImageError::Truncated(why));
             }
         }
         Some(image::ImageFormat::Png) => {}
-        _ => return Err("is not a JPEG or PNG image".into()),
+        _ => return Err(ImageError::Format),
     }
     let (w, h) = reader()?
         .into_dimensions()
-        .map_err(|e| format!("cannot be read: {e}"))?;
+        .map_err(|e| ImageError::Header(e.to_string()))?;
+    let (width, height) = (w, h);
     if w.max(h) > max_side {
-        return Err(format!(
-            "{w}×{h} is larger than the {max_side}-pixel side limit"
-        ));
+        return Err(ImageError::Side {
+            width,
+            height,
+            max_side,
+        });
     }
-    let pixels = u64::from(w) * u64::from(h);
-    if pixels > max_pixels {
-        return Err(format!(
-            "{w}×{h} is {pixels} pixels, more than the {max_pixels}-pixel limit ({} megapixels) for an image",
-            max_pixels / 1_000_000
-        ));
+    if u64::from(w) * u64::from(h) > max_pixels {
+        return Err(ImageError::Pixels {
+            width,
+            height,
+            max_pixels,
+        });
     }
     let mut reader = reader()?;
     let mut limits = image::Limits::default();
@@ -143,9 +172,7 @@ pub fn decode_image(
     // 16-bit RGBA is 8 bytes a pixel, the most a JPEG or PNG decodes to.
     limits.max_alloc = Some(max_pixels.saturating_mul(8));
     reader.limits(limits);
-    reader
-        .decode()
-        .map_err(|e| format!("cannot be decoded: {e}"))
+    reader.decode().map_err(ImageError::Decode)
 }
 
 /// Why a JPEG's bytes are cut short, or `None` when its markers lead to an

@@ -308,7 +308,7 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
                 source,
             })?;
         let img = crate::input::decode_image(&bytes, crate::input::MAX_IMAGE_PIXELS, u32::MAX)
-            .map_err(|e| input(&p, e))?
+            .map_err(|e| input(&p, e.to_string()))?
             .to_rgb8();
         let (w, h) = img.dimensions();
         if w < 16 || h < 16 {

@@ -389,7 +389,7 @@ fn check_external_files(
             file: file.to_owned(),
             reason: format!("{what} {index} (URI \"{}\"): {problem}", short_uri(uri)),
         };
-        match uri::resolve(uri, base_dir, policy).map_err(err)? {
+        match uri::resolve(uri, base_dir, policy).map_err(|e| err(e.to_string()))? {
             uri::Target::Data => {}
             uri::Target::File(path) => {
                 if path.exists() {
@@ -487,6 +487,24 @@ fn load_buffers(
     Ok(out)
 }
 
+/// Why a texture image cannot be read (the model then draws its base colour).
+#[derive(Debug, thiserror::Error)]
+enum TextureError {
+    #[error("{0}")]
+    Gltf(#[from] gltf::Error),
+    #[error("{0}")]
+    Uri(#[from] uri::UriError),
+    #[error("{}: {source}", path.display())]
+    File {
+        path: PathBuf,
+        source: uri::UriError,
+    },
+    #[error("{0}")]
+    Decode(#[from] image::ImageError),
+    #[error("unsupported image pixel format")]
+    PixelFormat,
+}
+
 /// An image's decoded pixels: from a buffer view or a data URI (by the glTF
 /// reader), or from a file in the model's folder read with a bound and
 /// decoded as the glTF reader would (the same `image` crate, the same formats).
@@ -495,20 +513,26 @@ fn image_data(
     base_dir: Option<&Path>,
     buffers: &[gltf::buffer::Data],
     policy: UriPolicy,
-) -> Result<gltf::image::Data, String> {
+) -> Result<gltf::image::Data, TextureError> {
     let gltf::image::Source::Uri { uri: u, mime_type } = source else {
-        return gltf::image::Data::from_source(source, Some(Path::new(".")), buffers)
-            .map_err(|e| e.to_string());
+        return Ok(gltf::image::Data::from_source(
+            source,
+            Some(Path::new(".")),
+            buffers,
+        )?);
     };
     let path = match uri::resolve(u, base_dir, policy)? {
         uri::Target::Data => {
-            return gltf::image::Data::from_source(source, Some(Path::new(".")), buffers)
-                .map_err(|e| e.to_string());
+            return Ok(gltf::image::Data::from_source(
+                source,
+                Some(Path::new(".")),
+                buffers,
+            )?);
         }
         uri::Target::File(path) => path,
     };
     let encoded = uri::read_bounded(&path, MAX_MODEL_FILE_BYTES)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(|source| TextureError::File { path, source })?;
     use image::ImageFormat::{Jpeg, Png};
     let format = match mime_type {
         Some("image/png") => Some(Png),
@@ -520,9 +544,8 @@ fn image_data(
             _ => None,
         },
     };
-    let format = format.ok_or_else(|| gltf::Error::UnsupportedImageEncoding.to_string())?;
-    let decoded =
-        image::load_from_memory_with_format(&encoded, format).map_err(|e| e.to_string())?;
+    let format = format.ok_or(gltf::Error::UnsupportedImageEncoding)?;
+    let decoded = image::load_from_memory_with_format(&encoded, format)?;
     // As `gltf::image::Data::new` does.
     use gltf::image::Format;
     use image::DynamicImage as D;
@@ -537,7 +560,7 @@ fn image_data(
         D::ImageRgba16(_) => Format::R16G16B16A16,
         D::ImageRgb32F(_) => Format::R32G32B32FLOAT,
         D::ImageRgba32F(_) => Format::R32G32B32A32FLOAT,
-        _ => return Err("unsupported image pixel format".into()),
+        _ => return Err(TextureError::PixelFormat),
     };
     let (width, height) = (decoded.width(), decoded.height());
     Ok(gltf::image::Data {

@@ -34,14 +34,34 @@ pub enum Target {
 
 const HOW_TO_ALLOW: &str = "only files inside the model's folder are read; set `allow_uris_outside_folder: true` on the model in the preset to allow it";
 
+/// Why a URI's file may not be read. The message is the reason alone: the
+/// caller names the model, the buffer or image and the URI.
+#[derive(Debug, thiserror::Error)]
+pub enum UriError {
+    #[error("a model read from memory cannot name external files")]
+    NoFolder,
+    #[error("{0}; {HOW_TO_ALLOW}")]
+    Outside(&'static str),
+    #[error("unsupported URI scheme (only relative paths and data: URIs are read)")]
+    Scheme,
+    #[error("a link leads out of the model's folder (to {}); {HOW_TO_ALLOW}", .0.display())]
+    LinkOutside(PathBuf),
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error("{0}, not a regular file")]
+    NotRegular(&'static str),
+    #[error("{len} bytes is larger than the {max}-byte limit")]
+    TooLarge { len: u64, max: u64 },
+}
+
 /// Resolve `uri` against `base_dir` (the folder holding the .gltf), or say
 /// why it may not be read.
-pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<Target, String> {
+pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<Target, UriError> {
     if uri.starts_with("data:") {
         return Ok(Target::Data);
     }
     let Some(base) = base_dir else {
-        return Err("a model read from memory cannot name external files".into());
+        return Err(UriError::NoFolder);
     };
     // `model.gltf` in the working folder has an empty parent.
     let base = if base.as_os_str().is_empty() {
@@ -49,7 +69,7 @@ pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<
     } else {
         base
     };
-    let outside = |what: &str| -> Result<Target, String> { Err(format!("{what}; {HOW_TO_ALLOW}")) };
+    let outside = |what: &'static str| -> Result<Target, UriError> { Err(UriError::Outside(what)) };
     if let Some(rest) = uri
         .strip_prefix("file://")
         .or_else(|| uri.strip_prefix("file:"))
@@ -61,7 +81,7 @@ pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<
         return checked_link(&path, base, policy).map(Target::File);
     }
     if uri.contains(':') {
-        return Err("unsupported URI scheme (only relative paths and data: URIs are read)".into());
+        return Err(UriError::Scheme);
     }
     let decoded = PathBuf::from(super::percent_decode(uri));
     if decoded.is_absolute() {
@@ -92,7 +112,7 @@ pub fn resolve(uri: &str, base_dir: Option<&Path>, policy: UriPolicy) -> Result<
 }
 
 /// `path` itself, unless links lead it out of `base` (and that is not allowed).
-fn checked_link(path: &Path, base: &Path, policy: UriPolicy) -> Result<PathBuf, String> {
+fn checked_link(path: &Path, base: &Path, policy: UriPolicy) -> Result<PathBuf, UriError> {
     if policy.allow_outside_folder {
         return Ok(path.to_owned());
     }
@@ -103,45 +123,36 @@ fn checked_link(path: &Path, base: &Path, policy: UriPolicy) -> Result<PathBuf, 
     if real.starts_with(&real_base) {
         Ok(path.to_owned())
     } else {
-        Err(format!(
-            "a link leads out of the model's folder (to {}); {HOW_TO_ALLOW}",
-            real.display()
-        ))
+        Err(UriError::LinkOutside(real))
     }
 }
 
 /// Open `path` without blocking (a FIFO would block `open`) and check the
 /// opened file is a regular file of at most `max_bytes`.
-pub fn open_regular(path: &Path, max_bytes: u64) -> Result<(std::fs::File, u64), String> {
+pub fn open_regular(path: &Path, max_bytes: u64) -> Result<(std::fs::File, u64), UriError> {
     use std::os::unix::fs::OpenOptionsExt;
     let file = std::fs::OpenOptions::new()
         .read(true)
         .custom_flags(rustix::fs::OFlags::NONBLOCK.bits() as i32)
-        .open(path)
-        .map_err(|e| e.to_string())?;
-    let meta = file.metadata().map_err(|e| e.to_string())?;
+        .open(path)?;
+    let meta = file.metadata()?;
     if !meta.is_file() {
-        return Err(format!(
-            "{}, not a regular file",
-            crate::input::file_kind(&meta)
-        ));
+        return Err(UriError::NotRegular(crate::input::file_kind(&meta)));
     }
     if meta.len() > max_bytes {
-        return Err(format!(
-            "{} bytes is larger than the {max_bytes}-byte limit",
-            meta.len()
-        ));
+        return Err(UriError::TooLarge {
+            len: meta.len(),
+            max: max_bytes,
+        });
     }
     Ok((file, meta.len()))
 }
 
 /// Read at most `take_bytes` of the regular file at `path` (itself at
 /// most [`super::MAX_MODEL_FILE_BYTES`]).
-pub fn read_bounded(path: &Path, take_bytes: u64) -> Result<Vec<u8>, String> {
+pub fn read_bounded(path: &Path, take_bytes: u64) -> Result<Vec<u8>, UriError> {
     let (file, len) = open_regular(path, super::MAX_MODEL_FILE_BYTES)?;
     let mut bytes = Vec::with_capacity(usize::try_from(len.min(take_bytes)).unwrap_or(0));
-    file.take(take_bytes)
-        .read_to_end(&mut bytes)
-        .map_err(|e| e.to_string())?;
+    file.take(take_bytes).read_to_end(&mut bytes)?;
     Ok(bytes)
 }

@@ -261,7 +261,7 @@ fn decode(file: &Path) -> Result<image::RgbaImage, PlateError> {
     let bytes = crate::input::read_input_file(file, MAX_PLATE_FILE_BYTES)
         .map_err(|e| err(e.to_string()))?;
     let image = crate::input::decode_image(&bytes, crate::input::MAX_IMAGE_PIXELS, MAX_PLATE_SIDE)
-        .map_err(err)?;
+        .map_err(|e| err(e.to_string()))?;
     let (w, h) = (image.width(), image.height());
     if w.min(h) < MIN_PLATE_SIDE {
         return Err(err(format!(
