@@ -95,6 +95,17 @@ impl ConfuserKind {
         }
     }
 
+    /// The largest climb (pitch) and bank (roll) of its attitude, degrees
+    /// either way: birds turn and climb steeply, aircraft gently, a balloon
+    /// hangs upright.
+    pub fn attitude_limits_deg(self) -> (f64, f64) {
+        match self {
+            Self::Bird(_) => (15.0, 20.0),
+            Self::Balloon => (0.0, 0.0),
+            Self::LightAircraft | Self::Airliner | Self::Helicopter => (6.0, 15.0),
+        }
+    }
+
     /// Wing beats per second drawn when `flap_hz` is not given (birds).
     pub fn typical_flap_hz(self) -> (f64, f64) {
         match self {

@@ -127,11 +127,7 @@ fn draw_entry(
     let n = uniform_count(rng, c.count);
     let groups = if c.flock.is_some() { n.min(1) } else { n };
     let (w, h) = (f64::from(camera.width), f64::from(camera.height));
-    let (climb_deg, bank_deg) = match c.kind {
-        ConfuserKind::Bird(_) => (15.0, 20.0),
-        ConfuserKind::Balloon => (0.0, 0.0),
-        _ => (6.0, 15.0),
-    };
+    let (climb_deg, bank_deg) = c.kind.attitude_limits_deg();
     for g in 0..groups {
         let distance = uniform(rng, c.distance_m);
         let (u, v) = (rng.random_range(0.0..=w), rng.random_range(0.0..=h));
