@@ -8,7 +8,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{OutputError, encode_image, image_rel_path, manifest_line, masks, write_atomic, yolo};
+use super::formats::{masks, yolo};
+use super::{OutputError, encode_image, image_rel_path, manifest_line};
 use crate::annotate::DroneLabel;
 use crate::annotate::masks::FrameMasks;
 use crate::preset::ImageFormat;
@@ -113,4 +114,29 @@ pub fn write_lone_frame(
         write_atomic(path, bytes)?;
     }
     Ok(files.into_iter().map(|(p, _)| p).collect())
+}
+
+/// Write `bytes` to `path` atomically: a temporary file in the same folder,
+/// flushed to disk, then renamed over `path`. A crash leaves either the old
+/// file or the new one, never a torn one.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    use std::io::Write;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .map_or_else(|| "swarmshot".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut file = std::fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(super::io(path))
 }

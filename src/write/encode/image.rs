@@ -11,8 +11,8 @@
 
 use crate::preset::ImageFormat;
 
-use super::OutputError;
 use super::jpeg::{JpegEncoder, Unchanged, check_rgba};
+use crate::write::OutputError;
 
 /// Encode tightly packed RGBA8 pixels as JPEG or PNG (alpha dropped).
 pub fn encode_image(

@@ -319,7 +319,7 @@ mod tests {
             v.push(f64::from_bits(x));
             let scale = 10f64.powi((x % 24) as i32 - 12);
             v.push((x >> 11) as f64 / (1u64 << 53) as f64 * scale * 3000.0);
-            v.push(super::super::r6(
+            v.push(crate::write::r6(
                 (x >> 11) as f64 / (1u64 << 40) as f64 - 4000.0,
             ));
         }
@@ -429,9 +429,9 @@ mod tests {
     /// need escapes, out-of-range model indices, labels out of drone order.
     fn varied_frames() -> Vec<VariedFrame> {
         let presets = [
-            include_str!("../../presets/quickstart.ron"),
-            include_str!("../../presets/formation_sequence.ron"),
-            include_str!("../../presets/bench/plan15.ron"),
+            include_str!("../../../presets/quickstart.ron"),
+            include_str!("../../../presets/formation_sequence.ron"),
+            include_str!("../../../presets/bench/plan15.ron"),
         ];
         let odd = odd_floats();
         let mut pick = {
@@ -603,7 +603,7 @@ mod tests {
 
     #[test]
     fn manifest_coco_and_yolo_records_are_the_serde_and_std_bytes() {
-        use crate::write::{coco, manifest, yolo};
+        use crate::write::formats::{coco, manifest, yolo};
         let mut texts = crate::write::FrameTexts::default();
         for (scene, labels, names, classes) in varied_frames() {
             let image = format!("images/{}/{:08}.png", scene.split.as_str(), scene.index);
@@ -697,7 +697,7 @@ mod tests {
             varied_frames().into_iter().next().expect("a frame");
         labels[0].class_id = 5;
         let mut line = Vec::new();
-        crate::write::manifest::write_manifest_line(
+        crate::write::formats::manifest::write_manifest_line(
             &mut line, &scene, &labels, "i", &names, &classes,
         );
         let value: serde_json::Value = serde_json::from_slice(&line).expect("valid JSON");

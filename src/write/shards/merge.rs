@@ -26,13 +26,13 @@ use serde_json::Value;
 
 use std::collections::BTreeMap;
 
-use super::folder::{
+use crate::preset::Preset;
+use crate::write::folder::tree::Tree;
+use crate::write::folder::{
     ContentRecord, Folder, LEDGER, content_record, content_records, fnv1a64, is_working_file,
     read_run,
 };
-use super::tree::Tree;
-use super::{DatasetStats, DatasetWriter, OutputError, ShardRun, WriterOptions};
-use crate::preset::Preset;
+use crate::write::{DatasetStats, DatasetWriter, OutputError, ShardRun, WriterOptions};
 
 /// What [`merge`] did.
 #[derive(Clone, Debug)]
@@ -165,7 +165,7 @@ pub fn merge(
     check_ranges(&dirs, count, frames)?;
     let out_abs = resolved(out);
     for d in &dirs {
-        let shard_abs = std::fs::canonicalize(&d.path).map_err(super::io(&d.path))?;
+        let shard_abs = std::fs::canonicalize(&d.path).map_err(crate::write::io(&d.path))?;
         if out_abs == shard_abs {
             return Err(MergeError::OutIsShard { path: out.into() });
         }
