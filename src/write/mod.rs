@@ -34,7 +34,7 @@ use crate::preset::ImageFormat;
 use crate::scene::FrameScene;
 
 pub use dataset::{DatasetWriter, PLAN_README, WriterOptions};
-pub use encode::{Area, ImageEncoder, Unchanged, encode_image, jpeg_round_trip};
+pub use encode::{Area, EncodeError, ImageEncoder, Unchanged, encode_image, jpeg_round_trip};
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
 pub use formats::{
     DatasetInfo, FormatWriter, FrameRecord, FrameText, FrameTexts, TextContext, manifest_line,
@@ -108,10 +108,10 @@ pub enum OutputError {
     OutOfOrder { expected: u64, got: u64 },
     #[error("{}: {reason}", path.display())]
     Shard { path: PathBuf, reason: String },
-    #[error("encoding {format} failed: {reason}")]
+    #[error("encoding {format} failed: {source}")]
     Encode {
         format: &'static str,
-        reason: String,
+        source: encode::EncodeError,
     },
 }
 

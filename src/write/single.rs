@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 
 use super::formats::{masks, yolo};
-use super::{OutputError, encode_image, image_rel_path, manifest_line};
+use super::{EncodeError, OutputError, encode_image, image_rel_path, manifest_line};
 use crate::annotate::DroneLabel;
 use crate::annotate::masks::FrameMasks;
 use crate::preset::ImageFormat;
@@ -35,9 +35,22 @@ pub struct LoneFormat<'a> {
     pub classes: &'a [String],
 }
 
+/// An output name whose extension does not match the preset's image format.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "--out {}: the preset writes {} images (output.image_format); name the file .{}",
+    .out.display(),
+    .format.extension().to_uppercase(),
+    .format.extension()
+)]
+pub struct ImageNameError {
+    pub out: PathBuf,
+    pub format: ImageFormat,
+}
+
 /// Refuse an output name whose extension does not match `format` (before
 /// anything is made or written).
-pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), String> {
+pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), ImageNameError> {
     let ext = out
         .extension()
         .and_then(|e| e.to_str())
@@ -49,12 +62,10 @@ pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), String> {
     if ext.as_deref().is_some_and(|e| accepted.contains(&e)) {
         return Ok(());
     }
-    Err(format!(
-        "--out {}: the preset writes {} images (output.image_format); name the file .{}",
-        out.display(),
-        format.extension().to_uppercase(),
-        format.extension()
-    ))
+    Err(ImageNameError {
+        out: out.to_owned(),
+        format,
+    })
 }
 
 /// The file beside `out` that holds `suffix` (`f.jpg` → `f.seg.txt`).
@@ -96,7 +107,7 @@ pub fn write_lone_frame(
     if format.masks.any() {
         let m = frame.masks.ok_or_else(|| OutputError::Encode {
             format: "masks",
-            reason: format!("frame {} came without its masks", frame.scene.index),
+            source: EncodeError::NoMasks(frame.scene.index),
         })?;
         let encoded = masks::encode(m, frame.labels, format.masks)?;
         let named = [

@@ -11,7 +11,7 @@ use crate::annotate::masks::FrameMasks;
 use crate::annotate::{DroneLabel, LabelStatus, rle};
 use crate::preset::masks::{MAX_INSTANCE_ID, MaskOutputs};
 use crate::scene::{FrameScene, SplitName};
-use crate::write::{Folder, OutputError, stem};
+use crate::write::{EncodeError, Folder, OutputError, stem};
 
 /// One frame's masks, ready to write.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -124,9 +124,9 @@ pub fn instance_png(masks: &FrameMasks) -> Result<Vec<u8>, OutputError> {
                 .ok()
                 .filter(|&id| usize::from(id) <= MAX_INSTANCE_ID)
                 .map(|id| (i, id))
-                .ok_or_else(|| OutputError::Encode {
+                .ok_or(OutputError::Encode {
                     format: "instance PNG",
-                    reason: format!("drone {d} has no 16-bit instance id"),
+                    source: EncodeError::InstanceId(d),
                 })
         })
         .collect::<Result<Vec<_>, _>>()?;
@@ -237,7 +237,7 @@ impl FormatWriter for MasksWriter {
     fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
         let missing = || OutputError::Encode {
             format: "masks",
-            reason: format!("frame {} came without its masks", record.scene.index),
+            source: EncodeError::NoMasks(record.scene.index),
         };
         let masks = record.masks.ok_or_else(missing)?;
         if self.outputs.yolo_seg {
