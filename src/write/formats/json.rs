@@ -13,7 +13,8 @@
 //! (medians of 5 pairs) of the same binary writing the manifest and COCO
 //! records through the serde reference structs of `manifest.rs` and
 //! `coco.rs` (`reference`), whose bytes were identical. Measured with a
-//! build whose `SERDE_RECORDS` variable switched the two paths:
+//! build whose `SERDE_RECORDS` variable made `write_manifest_line` and
+//! `write_frame_records_with` append the `reference` records instead:
 //! `scripts/bench_pair.py -n 5 --warmup 1 --vs "env SERDE_RECORDS=1 swarmshot
 //! batch presets/bench/plan15.ron --labels-only --out /dev/shm/b --limit 50000
 //! --overwrite" -- swarmshot batch presets/bench/plan15.ron --labels-only
