@@ -1,7 +1,7 @@
 //! [`DatasetWriter`]: one dataset folder written frame by frame in index
 //! order. It opens the [`Folder`] (a new run, a resumed one, a shard, a
 //! labels-only plan), writes the locked preset, feeds every frame to the
-//! label formats' writers ([`formats::open_writers`]), checkpoints each
+//! label formats' writers (`formats::open_writers`), checkpoints each
 //! frame, appends finished shards (`swarmshot merge`) and writes the end
 //! files (COCO assembled, `data.yaml`, `stats.json`).
 
@@ -410,7 +410,7 @@ impl DatasetWriter {
 }
 
 /// The dataset's fixed entries (lock, stats, the plan's note, image
-/// folders, then every format's: [`formats::needed_entries`]; folders end
+/// folders, then every format's: `formats::needed_entries`; folders end
 /// in `/`) for `preset`, checked before anything is written.
 fn needed_entries(preset: &Preset, labels_only: bool) -> Vec<String> {
     let mut needed = vec![LOCK_FILE.to_owned(), "stats.json".to_owned()];

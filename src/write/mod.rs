@@ -3,7 +3,7 @@
 //! - [`encode`]: image encoding (PNG, JPEG with reused tiles, sparse 16-bit PNG);
 //! - [`formats`]: one file per label format (YOLO, COCO, MOT, masks, the
 //!   manifest) behind [`FormatWriter`], registered in one place
-//!   ([`formats::open_writers`]), and the frame records as text;
+//!   (`formats::open_writers`), and the frame records as text;
 //! - [`folder`]: the dataset folder swarmshot owns (ledger, lock, atomic
 //!   files, resume; no link followed), and report folders ([`folder::outdir`]);
 //! - [`shards`]: `--shard K/N` and `swarmshot merge`;

@@ -1,13 +1,13 @@
 //! Label formats, one file each behind [`FormatWriter`]: YOLO ([`yolo`]),
 //! COCO ([`coco`]), MOTChallenge ([`mot`], sequence mode), masks and maps
 //! ([`masks`], `output.masks`) and the pose manifest ([`manifest`]), with
-//! the compact JSON writer their records share ([`json`]).
+//! the compact JSON writer their records share (`json.rs`).
 //!
 //! A frame's records that depend on the frame alone are formatted as text
 //! first ([`TextContext::push_frame`], on any thread); the writers append
 //! them in index order. Which formats a dataset writes, and the fixed
-//! entries each needs, is decided here alone: [`open_writers`] and
-//! [`needed_entries`] hold one line per format.
+//! entries each needs, is decided here alone: `open_writers` and
+//! `needed_entries` hold one line per format.
 
 pub mod coco;
 pub(crate) mod json;
