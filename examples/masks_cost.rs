@@ -72,7 +72,7 @@ fn main() -> anyhow::Result<()> {
                 let image = swarmshot::write::encode_image(&frame.rgba, w, h, format)?;
                 if let Some(m) = &frame.masks {
                     let outputs = &pipeline.preset().output.masks;
-                    swarmshot::write::masks::encode(m, &frame.labels, outputs)?;
+                    swarmshot::write::formats::masks::encode(m, &frame.labels, outputs)?;
                 }
                 let best = times.last_mut().unwrap();
                 *best = (*best).min(t.elapsed());
@@ -136,8 +136,12 @@ fn main() -> anyhow::Result<()> {
         });
         for (k, (_, outputs)) in parts.iter().enumerate() {
             sums[k + 1] += best(&mut || {
-                std::hint::black_box(swarmshot::write::masks::encode(m, &frame.labels, outputs))
-                    .unwrap();
+                std::hint::black_box(swarmshot::write::formats::masks::encode(
+                    m,
+                    &frame.labels,
+                    outputs,
+                ))
+                .unwrap();
             });
         }
         renderer.recycle(frame.rgba, frame.painted);

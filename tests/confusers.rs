@@ -197,7 +197,7 @@ fn negatives_stay_out_of_yolo_and_coco_and_are_in_the_manifest_with_their_boxes(
         let frame = pipeline.make(&mut renderer, i as u64).expect("frame alone");
         let image =
             swarmshot::write::image_rel_path(&frame.scene, pipeline.image_format(&frame.scene));
-        let alone = swarmshot::write::manifest::manifest_line(
+        let alone = swarmshot::write::manifest_line(
             &frame.scene,
             &frame.labels,
             &image,

@@ -216,7 +216,7 @@ fn jpeg_quality_is_read_from_the_quantisation_tables() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
     let rgba: Vec<u8> = (0..128 * 96 * 4).map(|_| rng.random()).collect();
     for q in [30u8, 50, 75, 85, 95] {
-        let jpeg = swarmshot::write::jpeg::compress(&rgba, 128, 96, q).expect("encode");
+        let jpeg = swarmshot::write::encode::jpeg::compress(&rgba, 128, 96, q).expect("encode");
         let est = swarmshot::gap::jpeg_quality::estimate(&jpeg).expect("a JPEG");
         assert_eq!((est.quality, est.exact), (q, true), "libjpeg-turbo q{q}");
     }

@@ -510,7 +510,7 @@ fn the_manifest_records_each_drones_drawn_look() {
     let line = |p: &Preset, index: u64| {
         let scene = swarmshot::scene::build_frame(p, index).expect("scene");
         let names = vec!["quad_x".to_owned()];
-        let text = swarmshot::write::manifest::manifest_line(&scene, &[], "x.png", &names, &[]);
+        let text = swarmshot::write::manifest_line(&scene, &[], "x.png", &names, &[]);
         let v: serde_json::Value = serde_json::from_str(&text).expect("json");
         (scene, v)
     };

@@ -2,7 +2,7 @@
 //! the per-pixel form of the coverage the visible boxes and
 //! `visible_pixels` come from (the renderer's id samples, or through the
 //! camera model the pixels a drone changes). Built only when a preset asks
-//! for masks (`output.masks`); the writers encode them ([`crate::write::masks`]).
+//! for masks (`output.masks`); the writers encode them ([`crate::write::formats::masks`]).
 
 use super::visibility::PixelHit;
 use crate::scene::projection::PixelBox;

@@ -203,7 +203,7 @@ struct Encoded {
     labels: Vec<DroneLabel>,
     bytes: Vec<u8>,
     /// The frame's masks, encoded (`output.masks`).
-    masks: Option<crate::write::masks::EncodedMasks>,
+    masks: Option<crate::write::formats::masks::EncodedMasks>,
     encode: Duration,
 }
 
@@ -423,7 +423,7 @@ fn run_stages(
     let in_flight = makers + threads * 3;
     let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
     // One encoder for all threads: JPEG frames over the same background
-    // share its unpainted tiles (write/jpeg.rs).
+    // share its unpainted tiles (write/encode/jpeg.rs).
     let encoder = &ImageEncoder::new(format);
     let stages = &MakerStages {
         pipeline,
@@ -515,7 +515,7 @@ fn encode_frame(
     };
     let masks = frame.masks.as_ref().map(|m| {
         let outputs = &pipeline.preset().output.masks;
-        crate::write::masks::encode(m, &frame.labels, outputs)
+        crate::write::formats::masks::encode(m, &frame.labels, outputs)
     });
     let item = bytes
         .and_then(|bytes| Ok((bytes, masks.transpose()?)))

@@ -8,7 +8,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{OutputError, encode_image, image_rel_path, manifest_line, masks, write_atomic, yolo};
+use super::formats::{masks, yolo};
+use super::{EncodeError, OutputError, encode_image, image_rel_path, manifest_line};
 use crate::annotate::DroneLabel;
 use crate::annotate::masks::FrameMasks;
 use crate::preset::ImageFormat;
@@ -34,9 +35,22 @@ pub struct LoneFormat<'a> {
     pub classes: &'a [String],
 }
 
+/// An output name whose extension does not match the preset's image format.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "--out {}: the preset writes {} images (output.image_format); name the file .{}",
+    .out.display(),
+    .format.extension().to_uppercase(),
+    .format.extension()
+)]
+pub struct ImageNameError {
+    pub out: PathBuf,
+    pub format: ImageFormat,
+}
+
 /// Refuse an output name whose extension does not match `format` (before
 /// anything is made or written).
-pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), String> {
+pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), ImageNameError> {
     let ext = out
         .extension()
         .and_then(|e| e.to_str())
@@ -48,12 +62,10 @@ pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), String> {
     if ext.as_deref().is_some_and(|e| accepted.contains(&e)) {
         return Ok(());
     }
-    Err(format!(
-        "--out {}: the preset writes {} images (output.image_format); name the file .{}",
-        out.display(),
-        format.extension().to_uppercase(),
-        format.extension()
-    ))
+    Err(ImageNameError {
+        out: out.to_owned(),
+        format,
+    })
 }
 
 /// The file beside `out` that holds `suffix` (`f.jpg` → `f.seg.txt`).
@@ -95,7 +107,7 @@ pub fn write_lone_frame(
     if format.masks.any() {
         let m = frame.masks.ok_or_else(|| OutputError::Encode {
             format: "masks",
-            reason: format!("frame {} came without its masks", frame.scene.index),
+            source: EncodeError::NoMasks(frame.scene.index),
         })?;
         let encoded = masks::encode(m, frame.labels, format.masks)?;
         let named = [
@@ -113,4 +125,29 @@ pub fn write_lone_frame(
         write_atomic(path, bytes)?;
     }
     Ok(files.into_iter().map(|(p, _)| p).collect())
+}
+
+/// Write `bytes` to `path` atomically: a temporary file in the same folder,
+/// flushed to disk, then renamed over `path`. A crash leaves either the old
+/// file or the new one, never a torn one.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    use std::io::Write;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .map_or_else(|| "swarmshot".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut file = std::fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(super::io(path))
 }

@@ -563,7 +563,7 @@ struct ManifestLabel {
 pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
     use std::io::BufRead;
     let lock_path = dir.join("preset.lock.ron");
-    let manifest_path = dir.join(super::manifest::FILE);
+    let manifest_path = dir.join(super::formats::manifest::FILE);
     for (path, missing) in [
         (&manifest_path, "manifest.jsonl"),
         (&lock_path, "preset.lock.ron"),
@@ -634,7 +634,7 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
         );
     }
     stats.labels_only = dir.join(super::PLAN_README).is_file();
-    stats.boxes_from = super::boxes_from(&preset, stats.labels_only);
+    stats.boxes_from = super::dataset::boxes_from(&preset, stats.labels_only);
     Ok(stats)
 }
 
@@ -646,7 +646,7 @@ pub fn write_histograms(
     stats: &DatasetStats,
     dir: &std::path::Path,
 ) -> Result<Vec<std::path::PathBuf>, StatsError> {
-    let mut out = super::outdir::OutDir::create(dir).map_err(|e| StatsError::Io {
+    let mut out = super::folder::outdir::OutDir::create(dir).map_err(|e| StatsError::Io {
         path: dir.to_owned(),
         source: std::io::Error::other(e.to_string()),
     })?;
@@ -726,7 +726,7 @@ pub(crate) fn font() -> bool {
     })
 }
 
-/// A histogram drawn as PNG bytes (written by the caller through [`super::outdir::OutDir`]).
+/// A histogram drawn as PNG bytes (written by the caller through [`super::folder::outdir::OutDir`]).
 fn draw_histogram(
     title: &str,
     counts: &[u64],

@@ -11,8 +11,9 @@
 
 use crate::preset::ImageFormat;
 
-use super::OutputError;
+use super::EncodeError;
 use super::jpeg::{JpegEncoder, Unchanged, check_rgba};
+use crate::write::OutputError;
 
 /// Encode tightly packed RGBA8 pixels as JPEG or PNG (alpha dropped).
 pub fn encode_image(
@@ -37,7 +38,7 @@ pub fn jpeg_round_trip(
     let image = turbojpeg::decompress(&jpeg, turbojpeg::PixelFormat::RGBA).map_err(|e| {
         OutputError::Encode {
             format: "JPEG",
-            reason: format!("decoding the first compression: {e}"),
+            source: EncodeError::Decode(e),
         }
     })?;
     if (image.width, image.height) != (width as usize, height as usize)
@@ -45,7 +46,7 @@ pub fn jpeg_round_trip(
     {
         return Err(OutputError::Encode {
             format: "JPEG",
-            reason: "the first compression decoded to another size".into(),
+            source: EncodeError::DecodedSize,
         });
     }
     Ok(image.pixels)
@@ -79,15 +80,15 @@ impl ImageEncoder {
         if let Some(jpeg) = &self.jpeg {
             return jpeg
                 .encode(rgba, width, height, unchanged)
-                .map_err(|reason| OutputError::Encode {
+                .map_err(|e| OutputError::Encode {
                     format: "JPEG",
-                    reason,
+                    source: e.into(),
                 });
         }
         // PNG.
-        check_rgba(rgba, width, height).map_err(|reason| OutputError::Encode {
+        check_rgba(rgba, width, height).map_err(|e| OutputError::Encode {
             format: "PNG",
-            reason,
+            source: e.into(),
         })?;
         let rgb: Vec<u8> = rgba
             .chunks_exact(4)
@@ -108,7 +109,7 @@ impl ImageEncoder {
         )
         .map_err(|e| OutputError::Encode {
             format: "PNG",
-            reason: e.to_string(),
+            source: e.into(),
         })?;
         Ok(out)
     }

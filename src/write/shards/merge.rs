@@ -26,13 +26,13 @@ use serde_json::Value;
 
 use std::collections::BTreeMap;
 
-use super::folder::{
+use crate::preset::Preset;
+use crate::write::folder::tree::Tree;
+use crate::write::folder::{
     ContentRecord, Folder, LEDGER, content_record, content_records, fnv1a64, is_working_file,
     read_run,
 };
-use super::tree::Tree;
-use super::{DatasetStats, DatasetWriter, OutputError, ShardRun, WriterOptions};
-use crate::preset::Preset;
+use crate::write::{DatasetStats, DatasetWriter, OutputError, ShardRun, WriterOptions};
 
 /// What [`merge`] did.
 #[derive(Clone, Debug)]
@@ -106,8 +106,8 @@ pub enum MergeError {
         path.display()
     )]
     NotAtShard { path: PathBuf, next: u64 },
-    #[error("{}: the statistics cannot be added: {reason}", path.display())]
-    Stats { path: PathBuf, reason: String },
+    #[error("{}: the statistics cannot be added: {source}", path.display())]
+    Stats { path: PathBuf, source: StatsProblem },
     #[error(transparent)]
     Output(#[from] OutputError),
 }
@@ -165,7 +165,7 @@ pub fn merge(
     check_ranges(&dirs, count, frames)?;
     let out_abs = resolved(out);
     for d in &dirs {
-        let shard_abs = std::fs::canonicalize(&d.path).map_err(super::io(&d.path))?;
+        let shard_abs = std::fs::canonicalize(&d.path).map_err(crate::write::io(&d.path))?;
         if out_abs == shard_abs {
             return Err(MergeError::OutIsShard { path: out.into() });
         }
@@ -345,7 +345,7 @@ fn check_shard(root: &Path) -> Result<CheckedShard, MergeError> {
                 files.insert(rel.clone(), id);
             }
             Ok(None) => {}
-            Err(problem) => problems.push((rel.clone(), problem)),
+            Err(problem) => problems.push((rel.clone(), problem.to_string())),
         }
     }
     if problems.is_empty() {
@@ -364,54 +364,66 @@ fn check_shard(root: &Path) -> Result<CheckedShard, MergeError> {
     })
 }
 
+/// What is wrong with one shard file (listed after its name).
+#[derive(Debug, thiserror::Error)]
+enum FileProblem {
+    #[error("{0}")]
+    Output(#[from] OutputError),
+    #[error("{0}")]
+    Read(#[from] std::io::Error),
+    #[error("is not in the content records written when the shard finished (added afterwards?)")]
+    NotRecorded,
+    #[error("is missing (the shard's ledger records {0} bytes)")]
+    Missing(u64),
+    #[error("is a symbolic link; merge never follows one in a shard")]
+    Link,
+    #[error("is not a regular file")]
+    NotAFile,
+    #[error("has changed since the shard finished ({len} bytes, {recorded} recorded)")]
+    Length { len: u64, recorded: u64 },
+    #[error("has changed since the shard finished (same size, different content hash)")]
+    Hash,
+    #[error("cannot be looked at")]
+    NoIdentity,
+}
+
 /// One shard file against its record: its (device, inode) when it matches,
 /// `None` when it is neither recorded nor there (a file of a dropped frame).
 fn check_file(
     tree: &mut Tree,
     rel: &str,
     record: Option<&ContentRecord>,
-) -> Result<Option<(u64, u64)>, String> {
-    let entry = match tree.lstat(rel) {
-        Ok(e) => e,
-        Err(e) => return Err(e.to_string()),
-    };
+) -> Result<Option<(u64, u64)>, FileProblem> {
+    let entry = tree.lstat(rel)?;
     let Some(record) = record else {
         return match entry {
             None => Ok(None),
-            Some(_) => Err(
-                "is not in the content records written when the shard finished (added afterwards?)"
-                    .into(),
-            ),
+            Some(_) => Err(FileProblem::NotRecorded),
         };
     };
     let Some(entry) = entry else {
-        return Err(format!(
-            "is missing (the shard's ledger records {} bytes)",
-            record.len
-        ));
+        return Err(FileProblem::Missing(record.len));
     };
     if entry.is_symlink() {
-        return Err("is a symbolic link; merge never follows one in a shard".into());
+        return Err(FileProblem::Link);
     }
     if !entry.is_file() {
-        return Err("is not a regular file".into());
+        return Err(FileProblem::NotAFile);
     }
-    let mut file = tree.open_file(rel, false).map_err(|e| e.to_string())?;
-    let (len, hash) = content_record(&mut file).map_err(|e| e.to_string())?;
+    let mut file = tree.open_file(rel, false)?;
+    let (len, hash) = content_record(&mut file)?;
     if len != record.len {
-        return Err(format!(
-            "has changed since the shard finished ({len} bytes, {} recorded)",
-            record.len
-        ));
+        return Err(FileProblem::Length {
+            len,
+            recorded: record.len,
+        });
     }
     if hash != record.blake3 {
-        return Err(
-            "has changed since the shard finished (same size, different content hash)".into(),
-        );
+        return Err(FileProblem::Hash);
     }
     Tree::identity(&file)
         .map(Some)
-        .ok_or_else(|| "cannot be looked at".to_owned())
+        .ok_or(FileProblem::NoIdentity)
 }
 
 /// The shard's locked preset, checked against its ledger's hash and
@@ -440,24 +452,47 @@ fn locked_preset(shard: &Path, hash: u64) -> Result<Preset, MergeError> {
 /// carried without a change here, as long as they are counts.
 fn add_stats(so_far: &DatasetStats, shard: &Path) -> Result<DatasetStats, MergeError> {
     let path = shard.join("stats.json");
-    let bad = |reason: String| MergeError::Stats {
+    let bad = |source: StatsProblem| MergeError::Stats {
         path: path.clone(),
-        reason,
+        source,
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.to_string()))?;
-    let theirs: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-    let mut sum = serde_json::to_value(so_far).map_err(|e| bad(e.to_string()))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.into()))?;
+    let theirs: Value = serde_json::from_str(&text).map_err(|e| bad(e.into()))?;
+    let mut sum = serde_json::to_value(so_far).map_err(|e| bad(e.into()))?;
     add_counts(&mut sum, &theirs, "").map_err(bad)?;
-    serde_json::from_value(sum).map_err(|e| bad(e.to_string()))
+    serde_json::from_value(sum).map_err(|e| bad(e.into()))
 }
 
-fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), String> {
+/// Why a shard's `stats.json` cannot be added to the sum.
+#[derive(Debug, thiserror::Error)]
+pub enum StatsProblem {
+    #[error("{0}")]
+    Read(#[from] std::io::Error),
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    #[error("{at} is not a count ({sum} + {add})")]
+    NotACount { at: String, sum: Value, add: Value },
+    #[error("{at} overflows")]
+    Overflow { at: String },
+    #[error("{at} differs in shape ({sum} and {add})")]
+    Shape { at: String, sum: Value, add: Value },
+    #[error("{at} differs between shards ({sum} and {add})")]
+    Differs { at: String, sum: Value, add: Value },
+}
+
+fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), StatsProblem> {
     match (sum, add) {
         (Value::Number(a), Value::Number(b)) => {
             let (Some(x), Some(y)) = (a.as_u64(), b.as_u64()) else {
-                return Err(format!("{at} is not a count ({a} + {b})"));
+                return Err(StatsProblem::NotACount {
+                    at: at.to_owned(),
+                    sum: Value::Number(a.clone()),
+                    add: Value::Number(b.clone()),
+                });
             };
-            let total = x.checked_add(y).ok_or_else(|| format!("{at} overflows"))?;
+            let total = x
+                .checked_add(y)
+                .ok_or_else(|| StatsProblem::Overflow { at: at.to_owned() })?;
             *a = total.into();
             Ok(())
         }
@@ -490,10 +525,18 @@ fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), String> {
                 *a = b.clone();
                 Ok(())
             } else {
-                Err(format!("{at} differs in shape ({a} and {b})"))
+                Err(StatsProblem::Shape {
+                    at: at.to_owned(),
+                    sum: a.clone(),
+                    add: b.clone(),
+                })
             }
         }
-        (a, b) => Err(format!("{at} differs between shards ({a} and {b})")),
+        (a, b) => Err(StatsProblem::Differs {
+            at: at.to_owned(),
+            sum: a.clone(),
+            add: b.clone(),
+        }),
     }
 }
 

@@ -6,11 +6,12 @@
 
 use image::Luma;
 
-use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
+use super::{DatasetInfo, FormatWriter, FrameRecord};
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::{DroneLabel, LabelStatus, rle};
 use crate::preset::masks::{MAX_INSTANCE_ID, MaskOutputs};
 use crate::scene::{FrameScene, SplitName};
+use crate::write::{EncodeError, Folder, OutputError, stem};
 
 /// One frame's masks, ready to write.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -115,7 +116,7 @@ fn outline(masks: &FrameMasks, d: usize) -> Option<Vec<(f64, f64)>> {
 
 /// The instance image as a 16-bit grey PNG: 0 where no drone shows, else
 /// the drone's index + 1 (the manifest's `drone` + 1), written in time
-/// proportional to the pixels drones cover ([`super::sparse_png`]).
+/// proportional to the pixels drones cover ([`crate::write::encode::sparse_png`]).
 pub fn instance_png(masks: &FrameMasks) -> Result<Vec<u8>, OutputError> {
     let pixels = (masks.instance.iter())
         .map(|&(i, d)| {
@@ -123,13 +124,13 @@ pub fn instance_png(masks: &FrameMasks) -> Result<Vec<u8>, OutputError> {
                 .ok()
                 .filter(|&id| usize::from(id) <= MAX_INSTANCE_ID)
                 .map(|id| (i, id))
-                .ok_or_else(|| OutputError::Encode {
+                .ok_or(OutputError::Encode {
                     format: "instance PNG",
-                    reason: format!("drone {d} has no 16-bit instance id"),
+                    source: EncodeError::InstanceId(d),
                 })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(super::sparse_png::grey16(
+    Ok(crate::write::encode::sparse_png::grey16(
         masks.width,
         masks.height,
         &pixels,
@@ -144,7 +145,7 @@ pub fn depth_png(masks: &FrameMasks, unit_mm: u32) -> Vec<u8> {
     let pixels: Vec<(u32, u16)> = (masks.instance.iter().zip(&masks.depth_m))
         .map(|(&(i, _), &z)| (i, (z / unit_m).round().clamp(1.0, 65_535.0) as u16))
         .collect();
-    super::sparse_png::grey16(masks.width, masks.height, &pixels)
+    crate::write::encode::sparse_png::grey16(masks.width, masks.height, &pixels)
 }
 
 /// A frame's depth PNG relative to the dataset folder.
@@ -236,7 +237,7 @@ impl FormatWriter for MasksWriter {
     fn frame(&mut self, folder: &mut Folder, record: &FrameRecord<'_>) -> Result<(), OutputError> {
         let missing = || OutputError::Encode {
             format: "masks",
-            reason: format!("frame {} came without its masks", record.scene.index),
+            source: EncodeError::NoMasks(record.scene.index),
         };
         let masks = record.masks.ok_or_else(missing)?;
         if self.outputs.yolo_seg {

@@ -35,7 +35,7 @@
 //! Before any create, rename or delete, the entry is looked at without
 //! following links: a symbolic link, or an entry that is not in the ledger,
 //! is refused with its path. Reads, deletions and the ledger scan go through
-//! [`super::tree::Tree`] (every component opened with `O_NOFOLLOW` relative
+//! [`tree::Tree`] (every component opened with `O_NOFOLLOW` relative
 //! to its folder's handle), so a link at a folder above a listed entry is
 //! refused too; a file opened to append or cut back must have one name (no
 //! hard link). `--overwrite` and `--resume` check everything they will touch
@@ -52,15 +52,19 @@ use std::io::{Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::{FileExt, MetadataExt};
 use std::path::{Path, PathBuf};
 
-use super::shard::Shard;
-use super::tree::{Tree, hard_link_refused, link_refused};
+use super::shards::shard::Shard;
 use super::{DatasetStats, OutputError, io};
+use stall::stall_if_asked;
+use tree::{Tree, hard_link_refused, link_refused};
 
 mod append;
 mod content;
 mod lock;
+pub mod outdir;
 mod run;
 mod scan;
+mod stall;
+pub mod tree;
 
 pub use append::AppendFile;
 pub use content::{ContentRecord, content_record, content_records};
@@ -835,41 +839,6 @@ pub fn is_working_file(rel: &str) -> bool {
         .next()
         .is_some_and(|name| name.starts_with('.'))
 }
-
-/// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_AT` set to a
-/// path relative to the dataset folder, the batch sleeps after that file's
-/// temporary copy is written and before it is renamed into place; set to
-/// `checkpoint:N`, after frame N's files and records are written and before
-/// its checkpoint. A test kills the process there. With
-/// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
-/// path exists (a barrier: tests/output_trust.rs runs a second batch
-/// meanwhile), and says it has stopped by creating that path with
-/// `.stalled` added. Only with the `test-hooks` feature, which `cargo test` turns on
-/// (Cargo.toml); shipped builds have no such hook.
-#[cfg(feature = "test-hooks")]
-fn stall_if_asked(point: &str) {
-    static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
-    let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_AT").ok());
-    if at.as_deref() == Some(point) {
-        let until = std::env::var_os("SWARMSHOT_STALL_UNTIL").map(PathBuf::from);
-        if let Some(until) = &until {
-            let mut stalled = until.clone().into_os_string();
-            stalled.push(".stalled");
-            let _ = fs::write(stalled, point);
-        }
-        let start = std::time::Instant::now();
-        while start.elapsed() < std::time::Duration::from_secs(300) {
-            if until.as_ref().is_some_and(|p| p.exists()) {
-                return;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
-    }
-}
-
-/// Without `test-hooks` (every shipped build) there is no fault injection.
-#[cfg(not(feature = "test-hooks"))]
-fn stall_if_asked(_point: &str) {}
 
 /// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
 fn write_new_then_rename(

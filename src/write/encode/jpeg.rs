@@ -133,37 +133,60 @@ impl Grid {
     }
 }
 
+/// Why a JPEG could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum JpegError {
+    #[error("{width}×{height} is outside JPEG's 1–65535 px sides")]
+    Sides { width: u32, height: u32 },
+    #[error("{len} bytes is not a {width}×{height} RGBA8 image")]
+    NotRgba { len: usize, width: u32, height: u32 },
+    #[error("{len} bytes do not hold {width}×{height} RGBX pixels")]
+    NotRgbx { len: usize, width: u32, height: u32 },
+    #[error("side {0} exceeds JPEG's 65535")]
+    Side(u32),
+    /// A size that does not fit libjpeg-turbo's C `int`.
+    #[error(transparent)]
+    Int(#[from] std::num::TryFromIntError),
+    /// libjpeg-turbo's own message.
+    #[error("{0}")]
+    Library(String),
+    #[error("libjpeg-turbo wrote {segments} restart segments for {tiles} tiles")]
+    Segments { segments: usize, tiles: usize },
+    /// libjpeg-turbo wrote a JPEG the tile reuse cannot split.
+    #[error("unexpected JPEG from libjpeg-turbo: {0}")]
+    Unexpected(&'static str),
+}
+
 /// Compress the whole `width`×`height` RGBA image (alpha ignored).
-pub fn compress(rgba: &[u8], width: u32, height: u32, quality: u8) -> Result<Vec<u8>, String> {
+pub fn compress(rgba: &[u8], width: u32, height: u32, quality: u8) -> Result<Vec<u8>, JpegError> {
     check(rgba, width, height)?;
     compress_grid(rgba, &Grid::new(width, height, quality), quality)
 }
 
-fn compress_grid(rgba: &[u8], grid: &Grid, quality: u8) -> Result<Vec<u8>, String> {
+fn compress_grid(rgba: &[u8], grid: &Grid, quality: u8) -> Result<Vec<u8>, JpegError> {
     let stride = grid.width as usize * 4;
     tj::Compressor::new(quality, grid.blocks)?.compress(rgba, grid.width, stride, grid.height)
 }
 
-fn check(rgba: &[u8], width: u32, height: u32) -> Result<(), String> {
+fn check(rgba: &[u8], width: u32, height: u32) -> Result<(), JpegError> {
     if width == 0 || height == 0 || width > 65_535 || height > 65_535 {
-        return Err(format!(
-            "{width}×{height} is outside JPEG's 1–65535 px sides"
-        ));
+        return Err(JpegError::Sides { width, height });
     }
     check_rgba(rgba, width, height)
 }
 
 /// That `rgba` holds exactly `width`×`height` RGBA8 pixels (every format's check).
-pub(super) fn check_rgba(rgba: &[u8], width: u32, height: u32) -> Result<(), String> {
+pub(super) fn check_rgba(rgba: &[u8], width: u32, height: u32) -> Result<(), JpegError> {
     if (width as usize)
         .checked_mul(height as usize)
         .and_then(|n| n.checked_mul(4))
         != Some(rgba.len())
     {
-        return Err(format!(
-            "{} bytes is not a {width}×{height} RGBA8 image",
-            rgba.len()
-        ));
+        return Err(JpegError::NotRgba {
+            len: rgba.len(),
+            width,
+            height,
+        });
     }
     Ok(())
 }
@@ -229,7 +252,7 @@ impl JpegEncoder {
         width: u32,
         height: u32,
         unchanged: Option<Unchanged<'_>>,
-    ) -> Result<Vec<u8>, String> {
+    ) -> Result<Vec<u8>, JpegError> {
         check(rgba, width, height)?;
         let grid = self.grid(width, height);
         let Some(unchanged) = unchanged.filter(|u| u.background != 0) else {
@@ -276,11 +299,10 @@ impl JpegEncoder {
             };
             let scan = Scan::parse(&jpeg)?;
             if scan.segments.len() != piece.tiles.len() {
-                return Err(format!(
-                    "libjpeg-turbo wrote {} restart segments for {} tiles",
-                    scan.segments.len(),
-                    piece.tiles.len()
-                ));
+                return Err(JpegError::Segments {
+                    segments: scan.segments.len(),
+                    tiles: piece.tiles.len(),
+                });
             }
             if header.is_none() {
                 header = Some(scan.header_for(&jpeg, width, height)?.into());
@@ -297,7 +319,7 @@ impl JpegEncoder {
                 segments[i] = Some(segment);
             }
         }
-        let header = header.ok_or("no JPEG header was made")?;
+        let header = header.ok_or(JpegError::Unexpected("no header was made"))?;
         tiles
             .header
             .lock()
@@ -434,8 +456,8 @@ struct Scan {
 }
 
 impl Scan {
-    fn parse(jpeg: &[u8]) -> Result<Self, String> {
-        let bad = |what: &str| format!("unexpected JPEG from libjpeg-turbo: {what}");
+    fn parse(jpeg: &[u8]) -> Result<Self, JpegError> {
+        let bad = JpegError::Unexpected;
         if jpeg.get(..2) != Some(&[0xFF, 0xD8]) {
             return Err(bad("no SOI"));
         }
@@ -509,9 +531,9 @@ impl Scan {
 
     /// The header with the frame size set to `width`×`height` (nothing
     /// else in a baseline header depends on the size).
-    fn header_for(&self, jpeg: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
+    fn header_for(&self, jpeg: &[u8], width: u32, height: u32) -> Result<Vec<u8>, JpegError> {
         let mut header = jpeg[self.header.clone()].to_vec();
-        let side = |v: u32| u16::try_from(v).map_err(|_| format!("side {v} exceeds JPEG's 65535"));
+        let side = |v: u32| u16::try_from(v).map_err(|_| JpegError::Side(v));
         let at = self.height_at;
         header[at..at + 2].copy_from_slice(&side(height)?.to_be_bytes());
         header[at + 2..at + 4].copy_from_slice(&side(width)?.to_be_bytes());
@@ -527,6 +549,8 @@ mod tj {
 
     use turbojpeg::raw;
 
+    use super::JpegError;
+
     /// A TurboJPEG compressor set up as [`super::compress`] describes.
     pub struct Compressor {
         handle: raw::tjhandle,
@@ -541,11 +565,13 @@ mod tj {
 
     impl Compressor {
         /// A restart marker every `blocks` MCUs.
-        pub fn new(quality: u8, blocks: u32) -> Result<Self, String> {
+        pub fn new(quality: u8, blocks: u32) -> Result<Self, JpegError> {
             // SAFETY: plain constructor; a null result is handled below.
             let handle = unsafe { raw::tj3Init(raw::TJINIT_TJINIT_COMPRESS as c_int) };
             if handle.is_null() {
-                return Err("libjpeg-turbo could not make a compressor".into());
+                return Err(JpegError::Library(
+                    "libjpeg-turbo could not make a compressor".into(),
+                ));
             }
             let c = Self { handle };
             let subsamp = if super::subsampled(quality) {
@@ -555,12 +581,12 @@ mod tj {
             };
             c.set(raw::TJPARAM_TJPARAM_QUALITY, i32::from(quality))?;
             c.set(raw::TJPARAM_TJPARAM_SUBSAMP, subsamp)?;
-            let blocks = i32::try_from(blocks).map_err(|e| e.to_string())?;
+            let blocks = i32::try_from(blocks)?;
             c.set(raw::TJPARAM_TJPARAM_RESTARTBLOCKS, blocks)?;
             Ok(c)
         }
 
-        fn set(&self, param: raw::TJPARAM, value: i32) -> Result<(), String> {
+        fn set(&self, param: raw::TJPARAM, value: i32) -> Result<(), JpegError> {
             // SAFETY: a live handle; TurboJPEG validates the parameter and value.
             if unsafe { raw::tj3Set(self.handle, param as c_int, value) } != 0 {
                 return Err(self.error());
@@ -568,11 +594,10 @@ mod tj {
             Ok(())
         }
 
-        fn error(&self) -> String {
+        fn error(&self) -> JpegError {
             // SAFETY: a live handle; the string is owned by TurboJPEG and copied at once.
-            unsafe { CStr::from_ptr(raw::tj3GetErrorStr(self.handle)) }
-                .to_string_lossy()
-                .into_owned()
+            let message = unsafe { CStr::from_ptr(raw::tj3GetErrorStr(self.handle)) };
+            JpegError::Library(message.to_string_lossy().into_owned())
         }
 
         /// Compress `height` rows of `width` RGBX pixels, rows `pitch` bytes apart.
@@ -582,21 +607,22 @@ mod tj {
             width: u32,
             pitch: usize,
             height: u32,
-        ) -> Result<Vec<u8>, String> {
+        ) -> Result<Vec<u8>, JpegError> {
             let needed = (height as usize)
                 .checked_sub(1)
                 .and_then(|rows| rows.checked_mul(pitch))
                 .and_then(|n| n.checked_add(width as usize * 4));
             if needed.is_none_or(|n| pixels.len() < n) || pitch < width as usize * 4 {
-                return Err(format!(
-                    "{} bytes do not hold {width}×{height} RGBX pixels",
-                    pixels.len()
-                ));
+                return Err(JpegError::NotRgbx {
+                    len: pixels.len(),
+                    width,
+                    height,
+                });
             }
             let (w, p, h) = (
-                c_int::try_from(width).map_err(|e| e.to_string())?,
-                c_int::try_from(pitch).map_err(|e| e.to_string())?,
-                c_int::try_from(height).map_err(|e| e.to_string())?,
+                c_int::try_from(width)?,
+                c_int::try_from(pitch)?,
+                c_int::try_from(height)?,
             );
             let mut buf: *mut u8 = std::ptr::null_mut();
             let mut size: raw::size_t = 0;
@@ -842,7 +868,17 @@ mod tests {
 
     #[test]
     fn bad_sizes_are_named() {
-        assert!(compress(&[0; 12], 2, 2, 85).unwrap_err().contains("RGBA8"));
-        assert!(compress(&[], 0, 2, 85).unwrap_err().contains("1–65535"));
+        let short = compress(&[0; 12], 2, 2, 85).unwrap_err();
+        assert!(matches!(short, JpegError::NotRgba { len: 12, .. }));
+        assert!(short.to_string().contains("RGBA8"));
+        let empty = compress(&[], 0, 2, 85).unwrap_err();
+        assert!(matches!(
+            empty,
+            JpegError::Sides {
+                width: 0,
+                height: 2
+            }
+        ));
+        assert!(empty.to_string().contains("1–65535"));
     }
 }

@@ -6,7 +6,7 @@
 
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
-use crate::write::json::{Decimals, Json};
+use crate::write::formats::json::{Decimals, Json};
 
 /// The frame's confusers as a JSON array body (without the brackets), keys in byte order.
 pub(crate) fn write_confusers(

@@ -9,10 +9,11 @@ use std::path::Path;
 
 use serde_json::json;
 
-use super::folder::AppendFile;
-use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
+use super::{DatasetInfo, FormatWriter, FrameRecord};
 use crate::annotate::LabelStatus;
 use crate::scene::SplitName;
+use crate::write::folder::AppendFile;
+use crate::write::{Checkpoint, Folder, OutputError};
 
 struct Parts {
     images: AppendFile,
@@ -23,6 +24,21 @@ struct Parts {
     n_annotations: u64,
     /// The counters as the last checkpoint holds them.
     saved: (u64, u64),
+}
+
+/// The fixed entries: each split's `annotations/instances_{split}.json`
+/// and its record parts (with `sequences`, the video records' part too).
+pub fn needed_entries(sequences: bool) -> Vec<String> {
+    let mut needed = Vec::new();
+    for split in SplitName::ALL.map(SplitName::as_str) {
+        needed.push(format!("annotations/instances_{split}.json"));
+        needed.push(format!("annotations/.instances_{split}.images.part"));
+        needed.push(format!("annotations/.instances_{split}.annotations.part"));
+        if sequences {
+            needed.push(format!("annotations/.instances_{split}.videos.part"));
+        }
+    }
+    needed
 }
 
 /// Writes the three COCO files.
@@ -355,10 +371,10 @@ impl FormatWriter for CocoWriter {
                 path: path.clone(),
                 reason,
             };
-            let file = std::fs::File::open(&path).map_err(super::io(&path))?;
+            let file = std::fs::File::open(&path).map_err(crate::write::io(&path))?;
             let mut section = "";
             for (n, line) in std::io::BufReader::new(file).lines().enumerate() {
-                let line = line.map_err(super::io(&path))?;
+                let line = line.map_err(crate::write::io(&path))?;
                 match line.as_str() {
                     "\"videos\": [" => section = "videos",
                     "\"images\": [" => section = "images",
@@ -453,7 +469,7 @@ pub(crate) mod reference {
         height: u32,
         id: u64,
         models: Vec<&'a str>,
-        sweep: crate::write::manifest::reference::SweepRecord,
+        sweep: crate::write::formats::manifest::reference::SweepRecord,
         #[serde(skip_serializing_if = "Option::is_none")]
         video_id: Option<u64>,
         width: u32,
@@ -510,8 +526,8 @@ pub(crate) mod reference {
             frame_index: video.map(|(_, seq)| seq.step),
             height: scene.camera.height,
             id: image_id,
-            models: crate::write::manifest::models_present(scene, model_names),
-            sweep: crate::write::manifest::reference::sweep_record(scene),
+            models: crate::write::formats::manifest::models_present(scene, model_names),
+            sweep: crate::write::formats::manifest::reference::sweep_record(scene),
             video_id: video.map(|(id, _)| id),
             width: scene.camera.width,
         };

@@ -3,8 +3,8 @@
 //! (`openat`), and entries are looked at, deleted and linked with
 //! `AT_SYMLINK_NOFOLLOW` semantics (`statat`, `unlinkat`, `linkat`), so a
 //! folder replaced by a symbolic link is refused by name instead of being
-//! walked through. The dataset folder ([`super::folder`]) and `swarmshot
-//! merge`'s shards ([`super::merge`]) are read and cleared through it.
+//! walked through. The dataset folder ([`super`]) and `swarmshot
+//! merge`'s shards ([`crate::write::shards::merge`]) are read and cleared through it.
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use rustix::fs::{AtFlags, FileType, Mode, OFlags, Stat};
 use rustix::io::Errno;
 
-use super::{OutputError, io};
+use crate::write::{OutputError, io};
 
 /// What an entry is, seen without following it.
 #[derive(Clone, Copy, Debug)]

@@ -22,11 +22,12 @@
 
 use std::collections::BTreeMap;
 
-use super::folder::AppendFile;
-use super::{Checkpoint, DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError, stem};
+use super::{DatasetInfo, FormatWriter, FrameRecord};
 use crate::annotate::{DroneLabel, LabelStatus};
 use crate::preset::{ImageFormat, Preset};
 use crate::scene::{FrameScene, SequenceFrame, SplitName};
+use crate::write::folder::AppendFile;
+use crate::write::{Checkpoint, Folder, OutputError, stem};
 
 /// The folder of a sequence relative to the dataset folder.
 pub fn sequence_dir(scene: &FrameScene, sequence: &SequenceFrame) -> String {
@@ -110,6 +111,13 @@ fn write_gt_lines(
     } else {
         out(&piece)
     }
+}
+
+/// The fixed entries: `mot/`, the seqmaps folder and its file per split.
+pub fn needed_entries() -> Vec<String> {
+    let mut needed = vec!["mot/".to_owned(), format!("{SEQMAPS}/")];
+    needed.extend(SplitName::ALL.map(seqmap_rel_path));
+    needed
 }
 
 /// Writes `gt.txt` and `seqinfo.ini` of every sequence.

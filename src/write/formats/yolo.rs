@@ -1,9 +1,10 @@
 //! Ultralytics YOLO: `labels/{split}/NAME.txt` beside `images/{split}/NAME.ext`,
 //! and `data.yaml` naming the splits and classes.
 
-use super::{DatasetInfo, Folder, FormatWriter, FrameRecord, OutputError};
+use super::{DatasetInfo, FormatWriter, FrameRecord};
 use crate::annotate::DroneLabel;
-use crate::scene::FrameScene;
+use crate::scene::{FrameScene, SplitName};
+use crate::write::{Folder, OutputError};
 
 /// One line per training box: `class cx cy w h`, normalised to the image size.
 /// YOLO has no ignore flag, so crowd regions stay out of its files.
@@ -40,8 +41,21 @@ pub fn label_rel_path(scene: &FrameScene) -> String {
     format!(
         "labels/{}/{}.txt",
         scene.split.as_str(),
-        super::stem(scene.index)
+        crate::write::stem(scene.index)
     )
+}
+
+/// The fixed entries: `labels/{split}/`, and `data.yaml` (not in a
+/// labels-only plan, which is no training set).
+pub fn needed_entries(labels_only: bool) -> Vec<String> {
+    let mut needed: Vec<String> = (SplitName::ALL.map(SplitName::as_str))
+        .iter()
+        .map(|split| format!("labels/{split}/"))
+        .collect();
+    if !labels_only {
+        needed.push("data.yaml".to_owned());
+    }
+    needed
 }
 
 /// Writes the YOLO label files and `data.yaml`.

@@ -9,7 +9,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::tree::{Tree, hard_link_refused, link_refused};
-use super::{OutputError, io};
+use crate::write::{OutputError, io};
 
 /// A report folder opened once (see the module docs).
 pub struct OutDir {

@@ -3,11 +3,12 @@
 
 mod confusers;
 
-use super::folder::AppendFile;
 use super::json::{Decimals, Json};
-use super::{Checkpoint, Folder, FormatWriter, FrameRecord, OutputError};
+use super::{FormatWriter, FrameRecord};
 use crate::annotate::DroneLabel;
 use crate::scene::{DronePose, FrameScene};
+use crate::write::folder::AppendFile;
+use crate::write::{Checkpoint, Folder, OutputError};
 
 /// File name of the manifest in the dataset folder.
 pub const FILE: &str = "manifest.jsonl";
@@ -61,7 +62,7 @@ impl FormatWriter for ManifestWriter {
         shard: &std::path::Path,
     ) -> Result<(), OutputError> {
         let path = shard.join(FILE);
-        let bytes = std::fs::read(&path).map_err(super::io(&path))?;
+        let bytes = std::fs::read(&path).map_err(crate::write::io(&path))?;
         if !bytes.is_empty() && !bytes.ends_with(b"\n") {
             return Err(OutputError::Shard {
                 path,
@@ -778,7 +779,7 @@ pub(crate) mod reference {
                 first_index: seq.first_index,
                 frame: seq.step + 1,
                 id: seq.id,
-                name: crate::write::mot::sequence_name(seq.id),
+                name: crate::write::formats::mot::sequence_name(seq.id),
                 step: seq.step,
                 steps: seq.steps,
             }),
