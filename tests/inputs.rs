@@ -59,13 +59,17 @@ fn mkfifo(path: &Path) {
 
 #[test]
 fn misspelt_fields_are_refused_with_their_path_and_the_nearest_name() {
-    let e = Preset::from_ron("(camera: (fovy_deg: 20.0))").expect_err("unknown field");
+    let e = Preset::from_ron("(camera: (fovy_deg: 20.0))")
+        .expect_err("unknown field")
+        .to_string();
     assert!(
         e.contains("unknown field `fovy_deg` in `camera`")
             && e.contains("did you mean `fov_y_deg`?"),
         "{e}"
     );
-    let e = Preset::from_ron("(sed: 3)").expect_err("unknown top-level field");
+    let e = Preset::from_ron("(sed: 3)")
+        .expect_err("unknown top-level field")
+        .to_string();
     assert!(
         e.contains("`sed` in the preset") && e.contains("did you mean `seed`?"),
         "{e}"
@@ -74,30 +78,38 @@ fn misspelt_fields_are_refused_with_their_path_and_the_nearest_name() {
     let e = Preset::from_ron(
         "(placement: Randomized(count: (1, 3), volume: Box(size_m: (1.0, 1.0, 1.0)), min_seperation_m: 0.5))",
     )
-    .expect_err("misspelt variant field");
+    .expect_err("misspelt variant field")
+        .to_string();
     assert!(
         e.contains("`placement`") && e.contains("did you mean `min_separation_m`?"),
         "{e}"
     );
     let e = Preset::from_ron("(plane: (ry: (start: 0.0, end: 90.0, stp: 45.0)))")
-        .expect_err("misspelt sweep field");
+        .expect_err("misspelt sweep field")
+        .to_string();
     assert!(
         e.contains("`plane.ry`") && e.contains("did you mean `step`?"),
         "{e}"
     );
     // Unknown variants too, with the list they may take.
-    let e = Preset::from_ron("(render: (resolution: Uhd4K))").expect_err("variant");
+    let e = Preset::from_ron("(render: (resolution: Uhd4K))")
+        .expect_err("variant")
+        .to_string();
     assert!(
         e.contains("`render.resolution`") && e.contains("did you mean `Uhd4k`?"),
         "{e}"
     );
-    let e = Preset::from_ron("(output: (label_formats: [Yolo, Cocoa]))").expect_err("variant");
+    let e = Preset::from_ron("(output: (label_formats: [Yolo, Cocoa]))")
+        .expect_err("variant")
+        .to_string();
     assert!(
         e.contains("`output.label_formats[1]`") && e.contains("did you mean `Coco`?"),
         "{e}"
     );
     // Something far from every name gets the list, not a guess.
-    let e = Preset::from_ron("(camera: (banana: 1.0))").expect_err("unknown");
+    let e = Preset::from_ron("(camera: (banana: 1.0))")
+        .expect_err("unknown")
+        .to_string();
     assert!(
         !e.contains("did you mean") && e.contains("fov_y_deg"),
         "{e}"

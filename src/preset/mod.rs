@@ -27,6 +27,7 @@ mod sky;
 pub mod sweep;
 
 pub use crate::text::{printable, short_number};
+pub use ron_error::RonError;
 pub use sky::{BUILTIN_SKIES, DEFAULT_HORIZON, DEFAULT_ZENITH, Sky, SkyImageSource};
 mod validate;
 
@@ -593,8 +594,8 @@ pub enum PresetError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("preset {}: {message}", path.display())]
-    Parse { path: PathBuf, message: String },
+    #[error("preset {}: {source}", path.display())]
+    Parse { path: PathBuf, source: RonError },
     #[error("preset {} is invalid:\n{}", path.display(), list(errors))]
     Invalid {
         path: PathBuf,
@@ -618,7 +619,7 @@ impl Preset {
     /// Unknown fields and variants are refused, named with their path and the
     /// nearest known name ("unknown field `fovy_deg` in `camera`; did you mean
     /// `fov_y_deg`?").
-    pub fn from_ron(text: &str) -> Result<Self, String> {
+    pub fn from_ron(text: &str) -> Result<Self, RonError> {
         // A byte-order mark (editors on Windows write one) is not RON.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         ron::Options::default()
@@ -650,9 +651,9 @@ impl Preset {
                 format!("not UTF-8 text ({e})"),
             ))
         })?;
-        let preset = Self::from_ron(&text).map_err(|message| PresetError::Parse {
+        let preset = Self::from_ron(&text).map_err(|source| PresetError::Parse {
             path: path.to_owned(),
-            message,
+            source,
         })?;
         if preset.version > PRESET_VERSION {
             return Err(PresetError::Version {

@@ -2,12 +2,31 @@
 //! with its path in the preset (`camera`, `output.label_formats[1]`) and the
 //! nearest known name ("did you mean `fov_y_deg`?").
 
-/// The message for a RON parse error of `text`: position, what is wrong,
+/// A preset's RON that does not parse: where (1-based line and column) and
+/// what is wrong there.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{line}:{col}: {reason}")]
+pub struct RonError {
+    pub line: usize,
+    pub col: usize,
+    /// What is wrong, and for unknown names the field path and the nearest known name.
+    pub reason: String,
+}
+
+/// The error for a RON parse error of `text`: its position, what is wrong,
 /// and for unknown names the field path and the nearest known name.
-pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> String {
+pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> RonError {
+    let at = &e.span.start;
+    RonError {
+        line: at.line,
+        col: at.col,
+        reason: reason(text, e),
+    }
+}
+
+fn reason(text: &str, e: &ron::error::SpannedError) -> String {
     use ron::error::Error;
     let at = &e.span.start;
-    let position = format!("{}:{}", at.line, at.col);
     match &e.code {
         Error::NoSuchStructField {
             expected, found, ..
@@ -19,7 +38,7 @@ pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> String {
                 format!("`{path}`")
             };
             format!(
-                "{position}: unknown field `{found}` in {place}{}",
+                "unknown field `{found}` in {place}{}",
                 suggestion(found, expected, "fields")
             )
         }
@@ -33,7 +52,7 @@ pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> String {
                 format!(" for `{path}`")
             };
             format!(
-                "{position}: unknown variant `{found}`{place}{}",
+                "unknown variant `{found}`{place}{}",
                 suggestion(found, expected, "variants")
             )
         }
@@ -47,11 +66,11 @@ pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> String {
                     format!(" in `{path}`")
                 };
                 format!(
-                    "{position}: `{}`{place}: an integer (a whole number) was expected",
+                    "`{}`{place}: an integer (a whole number) was expected",
                     crate::text::printable(&number)
                 )
             }
-            None => crate::text::shorten_digit_runs(&e.to_string()),
+            None => crate::text::shorten_digit_runs(&e.code.to_string()),
         },
     }
 }

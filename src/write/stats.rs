@@ -489,10 +489,10 @@ pub enum StatsError {
         line: u64,
         reason: String,
     },
-    #[error("{}: the locked preset cannot be read: {reason}", path.display())]
+    #[error("{}: the locked preset cannot be read: {source}", path.display())]
     BadLock {
         path: std::path::PathBuf,
-        reason: String,
+        source: crate::preset::RonError,
     },
 }
 
@@ -580,9 +580,9 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
         move |source| StatsError::Io { path, source }
     };
     let lock = std::fs::read_to_string(&lock_path).map_err(io(&lock_path))?;
-    let preset = crate::preset::Preset::from_ron(&lock).map_err(|reason| StatsError::BadLock {
+    let preset = crate::preset::Preset::from_ron(&lock).map_err(|source| StatsError::BadLock {
         path: lock_path.clone(),
-        reason,
+        source,
     })?;
     let file = std::fs::File::open(&manifest_path).map_err(io(&manifest_path))?;
     let mut stats = DatasetStats::default();

@@ -82,8 +82,8 @@ pub enum MergeError {
     Missing { missing: Vec<String>, count: u64 },
     #[error("{}: the shard ranges do not tile the frames ({reason})", path.display())]
     Ranges { path: PathBuf, reason: String },
-    #[error("{}: {reason}", path.display())]
-    Lock { path: PathBuf, reason: String },
+    #[error("{}: {source}", path.display())]
+    Lock { path: PathBuf, source: LockProblem },
     #[error("{}: the output folder is one of the shards; choose a new folder for the merged dataset", path.display())]
     OutIsShard { path: PathBuf },
     #[error(
@@ -426,23 +426,36 @@ fn check_file(
         .ok_or(FileProblem::NoIdentity)
 }
 
+/// Why a shard's locked preset is not the one its ledger names.
+#[derive(Debug, thiserror::Error)]
+pub enum LockProblem {
+    #[error("{0}")]
+    Read(#[from] std::io::Error),
+    #[error("does not match the hash in the shard's ledger")]
+    Hash,
+    #[error("{0}")]
+    Parse(#[from] crate::preset::RonError),
+    #[error(
+        "was locked by another swarmshot version (it does not read back to the same text); merge with the version that made the shards"
+    )]
+    Version,
+}
+
 /// The shard's locked preset, checked against its ledger's hash and
 /// against the text a batch of it would lock (so OUT's lock is the same bytes).
 fn locked_preset(shard: &Path, hash: u64) -> Result<Preset, MergeError> {
     let path = shard.join("preset.lock.ron");
-    let bad = |reason: String| MergeError::Lock {
+    let bad = |source: LockProblem| MergeError::Lock {
         path: path.clone(),
-        reason,
+        source,
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.to_string()))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.into()))?;
     if fnv1a64(text.as_bytes()) != hash {
-        return Err(bad("does not match the hash in the shard's ledger".into()));
+        return Err(bad(LockProblem::Hash));
     }
-    let preset = Preset::from_ron(&text).map_err(bad)?;
+    let preset = Preset::from_ron(&text).map_err(|e| bad(e.into()))?;
     if preset.to_ron() != text {
-        return Err(bad(
-            "was locked by another swarmshot version (it does not read back to the same text); merge with the version that made the shards".into(),
-        ));
+        return Err(bad(LockProblem::Version));
     }
     Ok(preset)
 }
