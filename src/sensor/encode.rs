@@ -125,12 +125,25 @@ pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], simd: b
 /// table look-ups are faster so).
 #[inline(always)]
 pub(super) fn encode_line(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
-    // Rounded by SIMD instructions where there are any (the same indices).
     #[cfg(target_arch = "x86_64")]
-    let simd = super::simd::simd_level() >= 1;
-    #[cfg(not(target_arch = "x86_64"))]
-    let simd = false;
-    super::simd::avx2(|| encode_row(vals, src, line, simd));
+    if super::simd::simd_level() >= 1 {
+        // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+        #[allow(unsafe_code)]
+        unsafe {
+            return encode_line_avx2(vals, src, line);
+        }
+    }
+    encode_row(vals, src, line, false);
+}
+
+/// [`encode_row`] for AVX2: a function of its own (not a closure), so that
+/// its slices keep their no-alias arguments and the loop vectorises
+/// (measured: through a closure, twice the time).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn encode_line_avx2(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
+    encode_row(vals, src, line, true);
 }
 
 #[cfg(test)]

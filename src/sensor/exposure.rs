@@ -71,7 +71,24 @@ pub(super) fn luts(draw: &CameraDraw) -> [[f32; 256]; 3] {
 /// machine).
 #[inline(always)]
 pub(super) fn decode_row(lut: &[f32; 256], row: &[u8], c: usize, first: i64, out: &mut [f32]) {
-    super::simd::avx2(|| decode_row_any(lut, row, c, first, out));
+    #[cfg(target_arch = "x86_64")]
+    if super::simd::simd_level() >= 1 {
+        // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+        #[allow(unsafe_code)]
+        unsafe {
+            return decode_row_avx2(lut, row, c, first, out);
+        }
+    }
+    decode_row_any(lut, row, c, first, out);
+}
+
+/// [`decode_row_any`] for AVX2: a function of its own (not a closure), so
+/// that its slices keep their no-alias arguments and the loop vectorises.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn decode_row_avx2(lut: &[f32; 256], row: &[u8], c: usize, first: i64, out: &mut [f32]) {
+    decode_row_any(lut, row, c, first, out);
 }
 
 /// [`decode_row`] in whatever build its caller has.

@@ -36,7 +36,9 @@ pub(super) fn cpu_simd_level() -> u8 {
 
 /// `f()` compiled the widest way this CPU runs ([`simd_level`]): a stage's
 /// row loop written once, its `#[inline(always)]` kernels vectorised for
-/// AVX-512 or AVX2 where the CPU has them.
+/// AVX-512 or AVX2 where the CPU has them. The closure must be marked
+/// `#[inline(always)]`: otherwise it may stay a baseline function that the
+/// wider builds merely call (measured: the band twice as slow).
 #[inline(always)]
 pub(super) fn widest<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
@@ -59,23 +61,10 @@ pub(super) fn widest<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
-/// `f()` in its AVX2 build where the CPU has AVX2 (also where it has
-/// AVX-512: for look-up loops, whose AVX-512 gathers are slower than AVX2's).
-#[inline(always)]
-pub(super) fn avx2<R>(f: impl FnOnce() -> R) -> R {
-    #[cfg(target_arch = "x86_64")]
-    if simd_level() >= 1 {
-        // SAFETY: the CPU has AVX2 (checked by `simd_level`).
-        #[allow(unsafe_code)]
-        unsafe {
-            return on_avx2(f);
-        }
-    }
-    f()
-}
-
 /// `f()` compiled for AVX-512 (never inlined into a narrower caller, nor a
-/// narrower build into it: each build stays what it says).
+/// narrower build into it: each build stays what it says). A closure's
+/// captured slices lose their no-alias marks: a loop that needs them (the
+/// decode and encode rows) gets its own `#[target_feature]` function.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
 #[inline(never)]

@@ -107,7 +107,10 @@ pub(super) fn develop(
                 start,
                 end: (start + band).min(y1),
             };
-            super::simd::widest(|| chain.band(cols, rows, out));
+            super::simd::widest(
+                #[inline(always)]
+                || chain.band(cols, rows, out),
+            );
         });
     bytes
 }
@@ -345,14 +348,19 @@ mod tests {
                 #[cfg(target_arch = "x86_64")]
                 for level in 1..=simd::cpu_simd_level() {
                     let mut out = vec![0u8; len];
-                    let band = || chain.band(cols, rows, &mut out);
                     // SAFETY: the CPU runs builds up to `cpu_simd_level`.
                     #[allow(unsafe_code)]
                     unsafe {
                         if level == 1 {
-                            simd::on_avx2(band)
+                            simd::on_avx2(
+                                #[inline(always)]
+                                || chain.band(cols, rows, &mut out),
+                            )
                         } else {
-                            simd::on_avx512(band)
+                            simd::on_avx512(
+                                #[inline(always)]
+                                || chain.band(cols, rows, &mut out),
+                            )
                         }
                     };
                     assert!(out == base, "SIMD level {level}, draw {n}, noisy {noisy}");

@@ -33,15 +33,18 @@ impl PixelStage for Vignette {
         let mut factor = vec![0f32; width];
         let strength = self.strength as f32;
         Box::new(move |y, vals| {
-            super::simd::widest(|| {
-                let dy2 = radius2(y, self.centre.1, self.corner2);
-                vignette_factors(strength, dy2, &dx2, &mut factor);
-                for v in vals {
-                    for (v, f) in v.iter_mut().zip(&factor) {
-                        *v *= f;
+            super::simd::widest(
+                #[inline(always)]
+                || {
+                    let dy2 = radius2(y, self.centre.1, self.corner2);
+                    vignette_factors(strength, dy2, &dx2, &mut factor);
+                    for v in vals {
+                        for (v, f) in v.iter_mut().zip(&factor) {
+                            *v *= f;
+                        }
                     }
-                }
-            });
+                },
+            );
         })
     }
 }
