@@ -1,14 +1,14 @@
 //! The camera model's cost per frame (src/sensor/), on the CPU alone: a
 //! 1920×1080 picture through `sensor::apply` with a typical draw (every
-//! stage on) and with noise alone; median of 30 runs after 3 warm-ups, for
-//! the plane path (the implementation before the fused sweep, `apply_planes`)
-//! and `apply` as it is, with a check that both give the same bytes.
+//! stage on) and with noise alone; median of 30 runs after 3 warm-ups.
+//! (The sweep's bytes are checked against the plane-by-plane reference by
+//! the unit tests in src/sensor/reference.rs.)
 //!
 //! `cargo run --release --no-default-features --example camera_bench`
 //! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads;
 //! `CAMERA_BENCH_STAGES=1` times `apply` with the typical draw's stages switched on one
 //! after another (the per-stage breakdown; `=N` stops after N lines, for a profiler);
-//! `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps the fused sweep's SIMD build.
+//! `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps the sweep's SIMD build.
 
 use std::time::Instant;
 
@@ -90,23 +90,12 @@ fn main() {
         return;
     }
     println!(
-        "camera model, {w}×{h}, {} rayon threads, median of 30 (ms): planes (before) / now",
+        "camera model, {w}×{h}, {} rayon threads, median of 30 (ms)",
         rayon::current_num_threads()
     );
     for (name, draw) in cases {
-        // CAMERA_BENCH_NOW=1: time `apply` alone (for profiling).
-        let before = if std::env::var_os("CAMERA_BENCH_NOW").is_some() {
-            f64::NAN
-        } else {
-            median_ms(sensor::apply_planes, &rgba, (w, h), &draw)
-        };
         let now = median_ms(sensor::apply, &rgba, (w, h), &draw);
-        // The same bytes either way (the fused sweep reproduces the planes' arithmetic).
-        let same = sensor::apply_planes(&rgba, w, h, &draw) == sensor::apply(&rgba, w, h, &draw);
-        println!(
-            "  {name}: {before:.2} / {now:.2}{}",
-            if same { "" } else { "  (bytes differ!)" }
-        );
+        println!("  {name}: {now:.2}");
     }
 }
 

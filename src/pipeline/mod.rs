@@ -15,6 +15,7 @@
 //! renderer while the preset changes as long as the assets stay the same.
 
 pub mod batch;
+mod camera;
 pub mod check;
 pub mod plan;
 mod sink;
@@ -34,10 +35,10 @@ use crate::preset::{
     BoxMethod, FieldError, ImageFormat, LabelSettings, ModelSource, ModelSpec, Preset,
 };
 use crate::render::visibility;
-use crate::render::{GpuContext, Painted, RenderError, RenderRequest, RenderedFrame, Renderer};
-use crate::scene::projection::{LabelGeometry, PixelBox};
+use crate::render::{GpuContext, Painted, RenderError, RenderRequest, Renderer};
+use crate::scene::projection::LabelGeometry;
 use crate::scene::{FrameError, FrameScene, MAX_DRAWS, build_frame, build_frame_draw};
-use crate::sensor::{self, CameraDraw, PixelRect};
+use crate::sensor::CameraDraw;
 use crate::sky::{EnvironmentAssets, EnvironmentError};
 
 pub use batch::{BatchOptions, BatchReport, Progress, run_batch};
@@ -531,126 +532,5 @@ impl FramePipeline {
             ) => ImageFormat::Jpeg { quality },
             (format, _) => format,
         }
-    }
-
-    /// The rendered frame through the camera model `draw` (a new buffer),
-    /// and each measured drone's visibility as the camera shows it: the
-    /// pixels where the drone changes the noise-free camera image by at
-    /// least one 8-bit level against the drone-free background under the
-    /// same draw (docs/conventions.md, "The camera model and the labels").
-    fn through_camera(
-        &self,
-        renderer: &Renderer,
-        scene: &FrameScene,
-        draw: &CameraDraw,
-        frame: &RenderedFrame,
-        measured: &mut Option<Vec<Visibility>>,
-        sets: &mut Option<Vec<Vec<(u32, u32)>>>,
-    ) -> Result<Vec<u8>, PipelineError> {
-        let (w, h) = (scene.camera.width, scene.camera.height);
-        // The renderer drew the frame (and its background) at the drawn exposure.
-        let draw = &draw.after_render();
-        // Motion blur (sequences): each drone smeared along its streak first.
-        let streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
-        let blurred = if streaks.iter().flatten().any(|s| s.moves()) {
-            let background = renderer.background_pixels(&frame.painted).ok_or_else(|| {
-                PipelineError::Camera {
-                    index: scene.index,
-                    reason: "motion blur: the drone-free background is not cached".into(),
-                }
-            })?;
-            let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
-            Some(sensor::motion::smear(
-                &frame.rgba,
-                background,
-                (w, h),
-                &list,
-            ))
-        } else {
-            None
-        };
-        let source: &[u8] = blurred.as_deref().unwrap_or(&frame.rgba);
-        if let Some(vis) = measured.as_mut() {
-            let background = renderer.background_pixels(&frame.painted);
-            if background.is_none() {
-                // The rendered visibility stays, and so do the rendered masks.
-                *sets = None;
-            }
-            let near: Vec<Option<PixelRect>> = vis
-                .iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    let own = v.visible_box.map(|b| PixelRect {
-                        x0: b.x0.floor().max(0.0) as u32,
-                        y0: b.y0.floor().max(0.0) as u32,
-                        x1: b.x1.ceil().max(0.0) as u32,
-                        y1: b.y1.ceil().max(0.0) as u32,
-                    });
-                    streaks::grown(own, streaks.get(i).copied().flatten(), (w, h))
-                })
-                .collect();
-            for (i, v) in vis.iter_mut().enumerate() {
-                let (Some(own), Some(background)) = (near[i], background) else {
-                    continue;
-                };
-                let others: Vec<PixelRect> = (near.iter().enumerate())
-                    .filter(|&(j, _)| j != i)
-                    .filter_map(|(_, r)| *r)
-                    .collect();
-                let mut set = sets.as_mut().and_then(|s| s.get_mut(i));
-                let changed = sensor::changed_pixels_each(
-                    source,
-                    background,
-                    (w, h),
-                    draw,
-                    (own, &others),
-                    &mut |x, y| {
-                        if let Some(set) = set.as_mut() {
-                            set.push((x, y));
-                        }
-                    },
-                );
-                *v = camera_visibility(v, changed);
-            }
-        }
-        let mut rgba = sensor::apply(source, w, h, draw);
-        if let Some(quality) = draw.recompress_quality {
-            rgba = crate::write::jpeg_round_trip(&rgba, w, h, quality).map_err(|e| {
-                PipelineError::Camera {
-                    index: scene.index,
-                    reason: e.to_string(),
-                }
-            })?;
-        }
-        Ok(rgba)
-    }
-}
-
-/// A drone's visibility through the camera: the changed pixels' box and
-/// count; the unoccluded count scaled by the same factor, so the visible
-/// fraction stays the rendered one (occlusion, not blur).
-fn camera_visibility(rendered: &Visibility, changed: Option<(PixelRect, u64)>) -> Visibility {
-    let Some((r, count)) = changed else {
-        return Visibility {
-            visible_box: None,
-            visible_pixels: 0,
-            unoccluded_pixels: rendered.unoccluded_pixels,
-        };
-    };
-    let unoccluded = if rendered.visible_pixels > 0 {
-        let scaled = u128::from(rendered.unoccluded_pixels) * u128::from(count);
-        u64::try_from(scaled.div_ceil(u128::from(rendered.visible_pixels))).unwrap_or(u64::MAX)
-    } else {
-        rendered.unoccluded_pixels
-    };
-    Visibility {
-        visible_box: Some(PixelBox {
-            x0: f64::from(r.x0),
-            y0: f64::from(r.y0),
-            x1: f64::from(r.x1),
-            y1: f64::from(r.y1),
-        }),
-        visible_pixels: count,
-        unoccluded_pixels: unoccluded.max(count),
     }
 }

@@ -47,20 +47,115 @@
 //! with and without the drone. Rows are split over rayon's threads; every
 //! pixel's value depends only on the input and the draw, never on the split.
 
-mod fused;
-mod kernels;
+mod aberration;
+mod encode;
+mod exposure;
+mod grid;
 pub mod motion;
 mod noise;
-mod rows;
+mod psf;
+#[cfg(test)]
+mod reference;
+mod saturation;
 mod sharpen;
-mod stages;
+mod simd;
+mod sweep;
+mod vignette;
 
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
 use crate::preset::camera_model::{CameraModel, Psf};
 
-pub use stages::{apply, apply_planes, develop};
+/// A camera stage that works pixel by pixel on linear light, after the
+/// optics' PSF and before the sensor grid (vignetting, saturation, …): one
+/// file under `sensor/` with a type that implements it, registered in
+/// [`pixel_stages`]. The sweep ([`sweep`]) runs the registered stages row
+/// by row in their order, and the test reference on its planes.
+trait PixelStage: Sync {
+    /// The stage over image columns `x0 .. x0 + width` of one band of rows
+    /// (its per-band tables and working memory): a function of the image
+    /// row and the three channels' linear values there, called row by row.
+    fn band(&self, x0: i64, width: usize) -> RowFn<'_>;
+}
+
+/// A stage's function of one band ([`PixelStage::band`]).
+type RowFn<'a> = Box<dyn FnMut(i64, [&mut [f32]; 3]) + 'a>;
+
+/// The per-pixel stages `draw` has on a `width`×`height` frame, in chain
+/// order: the registration list (a stage returns `None` when its draw is
+/// neutral, and is skipped).
+fn pixel_stages(draw: &CameraDraw, width: u32, height: u32) -> Vec<Box<dyn PixelStage>> {
+    [
+        vignette::Vignette::of(draw, width, height),
+        saturation::Saturation::of(draw),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+/// Image columns or rows `start .. end`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Span {
+    start: i64,
+    end: i64,
+}
+
+impl Span {
+    fn len(self) -> usize {
+        (self.end - self.start).max(0) as usize
+    }
+}
+
+/// The whole frame through the camera, noise included: RGBA8 of the same
+/// size, alpha kept (rows in bands on rayon's threads; the noise keyed on
+/// absolute pixel indices).
+pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
+    let whole = PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: width,
+        y1: height,
+    };
+    develop(rgba, width, height, draw, whole, true)
+}
+
+/// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
+/// `rgba` through the camera `draw`, with or without noise: the bytes the
+/// whole frame gets there (empty when `out` misses the frame or `rgba` is
+/// short).
+pub fn develop(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    draw: &CameraDraw,
+    out: PixelRect,
+    noisy: bool,
+) -> Vec<u8> {
+    let clamped = PixelRect {
+        x0: out.x0.min(width),
+        y0: out.y0.min(height),
+        x1: out.x1.min(width),
+        y1: out.y1.min(height),
+    };
+    let empty = clamped.x0 >= clamped.x1 || clamped.y0 >= clamped.y1;
+    if empty || rgba.len() < (width as usize) * (height as usize) * 4 {
+        return Vec::new();
+    }
+    if draw.sharpen > 0.0 {
+        // The image processor's last step reads one pixel around each.
+        let grown = PixelRect {
+            x0: clamped.x0.saturating_sub(1),
+            y0: clamped.y0.saturating_sub(1),
+            x1: (clamped.x1 + 1).min(width),
+            y1: (clamped.y1 + 1).min(height),
+        };
+        let px = sweep::develop(rgba, width, height, draw, grown, noisy);
+        return sharpen::sharpen(&px, grown, clamped, draw.sharpen);
+    }
+    sweep::develop(rgba, width, height, draw, clamped, noisy)
+}
 
 /// The camera parameters of one frame, drawn from the preset's ranges.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]

@@ -14,7 +14,8 @@
 //! camera) are not blurred. Pixels no streak reaches keep their bytes.
 
 use super::PixelRect;
-use super::rows::{decode_table, encode, encode_table};
+use super::encode::{encode, encode_table};
+use super::exposure::decode_table;
 
 /// One drone's motion during the exposure.
 #[derive(Clone, Copy, Debug, PartialEq)]

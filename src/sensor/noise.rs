@@ -15,6 +15,51 @@
 //! loop of 32-bit integer and f32 operations that the compiler vectorises
 //! ([`deviates`]): no table, so no look-ups.
 
+/// The sensor's last step on its pixels: the full well and Poisson–Gaussian
+/// noise ([`add`]), or, without noise, the clipping to [0, 1] alone.
+pub(super) struct Sensor {
+    /// Shot gain, read noise², noise key (`None`: no noise).
+    noise: Option<(f32, f32, Key)>,
+}
+
+impl Sensor {
+    /// The draw's sensor, with its noise when `noisy` and drawn.
+    pub(super) fn of(draw: &super::CameraDraw, noisy: bool) -> Self {
+        let on = noisy && (draw.shot_noise_gain > 0.0 || draw.read_noise_levels > 0.0);
+        Self {
+            noise: on.then_some((
+                draw.shot_noise_gain as f32,
+                (draw.read_noise_levels * draw.read_noise_levels) as f32,
+                Key::new(draw.noise_seed),
+            )),
+        }
+    }
+
+    pub(super) fn is_noisy(&self) -> bool {
+        self.noise.is_some()
+    }
+
+    /// One row of sensor pixels `first`, `first + 1`, … (indices row-major
+    /// over the sensor) of the three channels: noise added with the deviates
+    /// made into `scratch` (each as long as the row), or clipped.
+    #[inline(always)]
+    pub(super) fn row(&self, first: u64, vals: [&mut [f32]; 3], scratch: &mut [Vec<f32>; 3]) {
+        if let Some((gain, read2, key)) = self.noise {
+            let [d0, d1, d2] = scratch;
+            deviates(key, first, [d0, d1, d2]);
+            for (vals, devs) in vals.into_iter().zip(scratch.iter()) {
+                add(vals, devs, gain, read2);
+            }
+        } else {
+            for v in vals {
+                for v in v.iter_mut() {
+                    *v = v.clamp(0.0, 1.0);
+                }
+            }
+        }
+    }
+}
+
 /// A frame's noise key: the multiplier (odd) and the mask of the hash's input.
 #[derive(Clone, Copy, Debug)]
 pub struct Key {

@@ -1,16 +1,19 @@
-//! The camera model's stages on planes of linear f32 (one per channel)
-//! covering a window of the image, in the order the module docs give.
-//! Every stage reads its source at absolute coordinates clamped to the
-//! source's window (which is clamped to the image), so a window's pixels
-//! farther than [`CameraDraw::reach_px`] from its inner edges equal the
-//! whole frame's.
+//! The test reference of the camera chain (compiled for tests only): the
+//! stages on planes of linear f32 (one per channel) covering a window of
+//! the image, one full pass per stage, in the order the module docs give,
+//! straightforward rather than fast. Every stage reads its source at
+//! absolute coordinates clamped to the source's window (the output window
+//! grown by [`CameraDraw::reach_px`], clamped to the image), so the
+//! window's pixels equal the whole frame's. The registered per-pixel stages
+//! ([`super::pixel_stages`]) run on the planes row by row. The tests below
+//! compare the sweep ([`super::sweep`]) with it byte for byte.
 
 use rayon::prelude::*;
 
-use super::rows::{
-    decode_table, disc_spans, encode_row, gaussian_weights, lerp_rows, radius2, saturate, taps_row,
-    vignette_factors,
-};
+use super::aberration::{lerp_rows, taps_row};
+use super::encode::encode_row;
+use super::exposure::luts;
+use super::psf::{disc_spans, gaussian_weights};
 use super::{CameraDraw, PixelRect, PsfDraw, noise};
 
 /// A window `[x0, x1) × [y0, y1)` in absolute pixels of some grid.
@@ -65,128 +68,10 @@ fn rows(win: Win, f: impl Fn(i64, &mut [f32]) + Sync) -> Plane {
     Plane { win, data }
 }
 
-/// Output rows per band of [`apply`] on the plane path (at least four reaches).
-const BAND_ROWS: u32 = 64;
-
-/// The whole frame through the camera, noise included: RGBA8 of the same
-/// size, alpha kept. Made in bands of rows, the bands in parallel: on the
-/// fused path ([`super::fused`]) every read is clamped to the image; on the
-/// plane path (a sensor coarser than the output) each band is [`develop`]ed
-/// from its own window (so a band's planes stay in cache), and by the window
-/// property holds exactly the whole frame's bytes. The noise is keyed on
-/// absolute pixel indices either way.
-pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
-    let whole = PixelRect {
-        x0: 0,
-        y0: 0,
-        x1: width,
-        y1: height,
-    };
-    if super::fused::handles(draw, width, height) {
-        return develop(rgba, width, height, draw, whole, true);
-    }
-    let band = BAND_ROWS.max(4 * draw.reach_px(width, height));
-    let rect = |y0: u32| PixelRect {
-        y0,
-        y1: y0.saturating_add(band).min(height),
-        ..whole
-    };
-    if height <= band {
-        return develop(rgba, width, height, draw, rect(0), true);
-    }
-    let bands: Vec<Vec<u8>> = (0..height.div_ceil(band))
-        .into_par_iter()
-        .map(|b| develop(rgba, width, height, draw, rect(b * band), true))
-        .collect();
-    bands.concat()
-}
-
-/// [`apply`] on the plane path whatever the draw: the implementation before
-/// the fused sweep, the same bytes; kept for `examples/camera_bench.rs`'s
-/// before/after comparison.
-#[doc(hidden)]
-pub fn apply_planes(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
-    let band = BAND_ROWS.max(4 * draw.reach_px(width, height));
-    let bands: Vec<Vec<u8>> = (0..height.div_ceil(band))
-        .into_par_iter()
-        .map(|b| {
-            let rect = PixelRect {
-                x0: 0,
-                y0: b * band,
-                x1: width,
-                y1: (b * band).saturating_add(band).min(height),
-            };
-            develop_planes(rgba, width, height, draw, rect, true)
-        })
-        .collect();
-    bands.concat()
-}
-
-/// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
-/// `rgba` through the camera `draw`, with or without noise: the bytes the
-/// whole frame gets there. A sensor with the output's pixels takes the
-/// fused sweep ([`super::fused`]), a coarser one the planes below.
-pub fn develop(
-    rgba: &[u8],
-    width: u32,
-    height: u32,
-    draw: &CameraDraw,
-    out: PixelRect,
-    noisy: bool,
-) -> Vec<u8> {
-    let (wi, hi) = (i64::from(width), i64::from(height));
-    let clamped = (
-        i64::from(out.x0).clamp(0, wi),
-        i64::from(out.y0).clamp(0, hi),
-        i64::from(out.x1).clamp(0, wi),
-        i64::from(out.y1).clamp(0, hi),
-    );
-    let empty = clamped.0 >= clamped.2 || clamped.1 >= clamped.3;
-    if empty || rgba.len() < (width as usize) * (height as usize) * 4 {
-        return Vec::new();
-    }
-    if draw.sharpen > 0.0 {
-        // The image processor's last step reads one pixel around each.
-        let grown = (
-            (clamped.0 - 1).max(0),
-            (clamped.1 - 1).max(0),
-            (clamped.2 + 1).min(wi),
-            (clamped.3 + 1).min(hi),
-        );
-        let px = develop_unsharpened(rgba, (width, height), draw, grown, noisy);
-        return super::sharpen::sharpen(&px, rect(grown), rect(clamped), draw.sharpen);
-    }
-    develop_unsharpened(rgba, (width, height), draw, clamped, noisy)
-}
-
-/// [`develop`] before the sharpening, of the window `clamped` (inside the frame).
-fn develop_unsharpened(
-    rgba: &[u8],
-    (width, height): (u32, u32),
-    draw: &CameraDraw,
-    clamped: (i64, i64, i64, i64),
-    noisy: bool,
-) -> Vec<u8> {
-    if super::fused::handles(draw, width, height) {
-        return super::fused::develop(rgba, (width, height), draw, clamped, noisy);
-    }
-    develop_planes(rgba, width, height, draw, rect(clamped), noisy)
-}
-
-/// A window inside the frame, as `develop` clamps it, as a [`PixelRect`].
-fn rect((x0, y0, x1, y1): (i64, i64, i64, i64)) -> PixelRect {
-    PixelRect {
-        x0: x0 as u32,
-        y0: y0 as u32,
-        x1: x1 as u32,
-        y1: y1 as u32,
-    }
-}
-
-/// [`develop`] on planes of the window grown by the reach: every stage a
-/// pass over three f32 planes. Computed from a window of the input
-/// `reach_px` wider than `out`, so they are the bytes the whole frame gets
-/// there.
+/// [`super::develop`] before the sharpening, on planes of the window grown
+/// by the reach: every stage a pass over three f32 planes. Computed from a
+/// window of the input `reach_px` wider than `out`, so they are the bytes
+/// the whole frame gets there.
 pub(super) fn develop_planes(
     rgba: &[u8],
     width: u32,
@@ -215,15 +100,9 @@ pub(super) fn develop_planes(
     let centre = (f64::from(width) / 2.0, f64::from(height) / 2.0);
 
     // 1. Decode, with exposure and white balance folded into the table.
-    let exposure = draw.exposure_gain();
-    let gains = [
-        exposure * draw.white_balance_red,
-        exposure,
-        exposure * draw.white_balance_blue,
-    ];
-    let table = decode_table();
+    let luts = luts(draw);
     let mut planes: [Plane; 3] = std::array::from_fn(|c| {
-        let lut: [f32; 256] = std::array::from_fn(|i| (f64::from(table[i]) * gains[c]) as f32);
+        let lut = &luts[c];
         rows(win, |y, row| {
             let start = (y as usize * width as usize + win.x0 as usize) * 4 + c;
             for (o, px) in row.iter_mut().zip(rgba[start..].iter().step_by(4)) {
@@ -255,14 +134,20 @@ pub(super) fn develop_planes(
         _ => {}
     }
 
-    // 4. Vignetting.
-    if draw.vignetting > 0.0 {
-        vignette(&mut planes, win, centre, draw.vignetting);
-    }
-
-    // 4b. Saturation (the camera's processing), per pixel in linear light.
-    if draw.saturation != 1.0 {
-        saturate_planes(&mut planes, draw.saturation);
+    // 4. The per-pixel stages (vignetting, saturation, …), row by row.
+    for stage in super::pixel_stages(draw, width, height) {
+        let mut f = stage.band(win.x0, win.w());
+        let w = win.w();
+        let [a, b, c] = &mut planes;
+        for (r, ((a, b), c)) in a
+            .data
+            .chunks_mut(w)
+            .zip(b.data.chunks_mut(w))
+            .zip(c.data.chunks_mut(w))
+            .enumerate()
+        {
+            f(win.y0 + r as i64, [a, b, c]);
+        }
     }
 
     // 5. The sensor grid.
@@ -304,37 +189,6 @@ pub(super) fn develop_planes(
 
     // 8. Encode `out`.
     encode_window(&planes, out, rgba, width)
-}
-
-/// [`saturate`] over the three planes.
-fn saturate_planes(planes: &mut [Plane; 3], s: f64) {
-    let s = s as f32;
-    let [r, g, b] = planes;
-    r.data
-        .par_iter_mut()
-        .zip(g.data.par_iter_mut())
-        .zip(b.data.par_iter_mut())
-        .for_each(|((r, g), b)| saturate(s, r, g, b));
-}
-
-/// Vignetting: each plane × (1 − strength·ρ²), ρ the distance of the pixel's
-/// centre to the image centre over the half-diagonal.
-fn vignette(planes: &mut [Plane; 3], win: Win, centre: (f64, f64), strength: f64) {
-    let corner2 = centre.0 * centre.0 + centre.1 * centre.1;
-    let dx2: Vec<f32> = (win.x0..win.x1)
-        .map(|x| radius2(x, centre.0, corner2))
-        .collect();
-    for p in planes.iter_mut() {
-        let w = p.win.w();
-        p.data.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
-            let dy2 = radius2(win.y0 + r as i64, centre.1, corner2);
-            let mut factor = vec![0f32; w];
-            vignette_factors(strength as f32, dy2, &dx2, &mut factor);
-            for (v, f) in row.iter_mut().zip(&factor) {
-                *v *= f;
-            }
-        });
-    }
 }
 
 /// The RGBA8 bytes of `out` from the linear planes (sRGB by the encode table),
@@ -545,9 +399,9 @@ fn sensor_noise(planes: &mut [Plane; 3], s: Win, sensor_w: u64, draw: &CameraDra
 }
 
 #[cfg(test)]
-mod tests {
-    use super::super::*;
-    use super::*;
+pub(super) mod tests {
+    use super::super::{CameraDraw, PixelRect, PsfDraw, apply, draw, sweep};
+    use super::develop_planes;
 
     fn neutral() -> CameraDraw {
         draw(&crate::preset::camera_model::CameraModel::default(), 1, 0)
@@ -558,5 +412,165 @@ mod tests {
         let (w, h) = (37u32, 11u32);
         let rgba: Vec<u8> = (0..w * h * 4).map(|i| (i * 7 % 256) as u8).collect();
         assert_eq!(apply(&rgba, w, h, &neutral()), rgba);
+    }
+
+    /// Draws that between them switch every stage on, alone and together,
+    /// at ordinary and extreme values, with and without a coarser sensor.
+    pub(in super::super) fn draws() -> Vec<CameraDraw> {
+        let n = neutral();
+        let typical = CameraDraw {
+            exposure_ev: 0.4,
+            white_balance_red: 1.1,
+            white_balance_blue: 0.9,
+            psf: PsfDraw::Gaussian { sigma_px: 1.3 },
+            vignetting: 0.4,
+            ca_red_scale: 1.004,
+            ca_blue_scale: 0.993,
+            shot_noise_gain: 0.3,
+            read_noise_levels: 2.0,
+            ..n
+        };
+        vec![
+            n,
+            CameraDraw {
+                exposure_ev: -0.7,
+                ..n
+            },
+            CameraDraw {
+                read_noise_levels: 3.0,
+                ..n
+            },
+            typical,
+            CameraDraw {
+                psf: PsfDraw::Disc { radius_px: 3.6 },
+                ..typical
+            },
+            CameraDraw {
+                psf: PsfDraw::Disc { radius_px: 40.0 },
+                ca_red_scale: 1.09,
+                ..typical
+            },
+            CameraDraw {
+                psf: PsfDraw::Gaussian { sigma_px: 30.0 },
+                ca_blue_scale: 0.9,
+                ..typical
+            },
+            CameraDraw {
+                psf: PsfDraw::None,
+                ..typical
+            },
+            CameraDraw {
+                exposure_ev: 6.0,
+                psf: PsfDraw::Gaussian { sigma_px: 0.2 },
+                ..typical
+            },
+            CameraDraw {
+                saturation: 1.4,
+                ..typical
+            },
+            CameraDraw {
+                saturation: 0.0,
+                ..n
+            },
+            CameraDraw {
+                sensor_scale: Some(0.8),
+                ..typical
+            },
+            CameraDraw {
+                sensor_scale: Some(0.37),
+                psf: PsfDraw::Disc { radius_px: 2.5 },
+                saturation: 1.3,
+                ..typical
+            },
+            CameraDraw {
+                sensor_scale: Some(0.5),
+                read_noise_levels: 0.0,
+                shot_noise_gain: 0.0,
+                ..n
+            },
+        ]
+    }
+
+    /// Saturation moves each pixel away from (or towards) its grey, leaves
+    /// greys alone, and 1 changes nothing.
+    #[test]
+    fn saturation_scales_the_distance_from_grey() {
+        let (w, h) = (16u32, 8u32);
+        let sky = [90u8, 140, 210, 255];
+        let grey = [128u8, 128, 128, 255];
+        let rgba: Vec<u8> = (0..w * h)
+            .flat_map(|i| if i % 2 == 0 { sky } else { grey })
+            .collect();
+        let whole = PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: w,
+            y1: h,
+        };
+        let spread = |px: &[u8]| {
+            i32::from(*px.iter().take(3).max().unwrap_or(&0))
+                - i32::from(*px.iter().take(3).min().unwrap_or(&0))
+        };
+        let at = |s: f64| {
+            let d = CameraDraw {
+                saturation: s,
+                ..neutral()
+            };
+            sweep::develop(&rgba, w, h, &d, whole, false)
+        };
+        assert_eq!(at(1.0), rgba, "saturation 1 is the identity");
+        let (more, none) = (at(1.3), at(0.0));
+        assert!(spread(&more[0..4]) > spread(&sky) + 10, "{:?}", &more[0..4]);
+        assert!(
+            spread(&none[0..4]) <= 1,
+            "saturation 0 is grey: {:?}",
+            &none[0..4]
+        );
+        assert_eq!(&more[4..8], &grey, "a grey pixel stays grey");
+    }
+
+    /// The sweep gives the reference's bytes, noise included, on the whole
+    /// frame and on windows (also ones touching the edges).
+    #[test]
+    fn the_sweep_equals_the_planes() {
+        let (w, h) = (83u32, 157u32);
+        let rgba: Vec<u8> = (0..w * h * 4)
+            .map(|i| ((i * 31 + i / 7 + (i / 333) * 5) % 256) as u8)
+            .collect();
+        let rects = [
+            PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: w,
+                y1: h,
+            },
+            PixelRect {
+                x0: 20,
+                y0: 9,
+                x1: 33,
+                y1: 30,
+            },
+            PixelRect {
+                x0: 70,
+                y0: 140,
+                x1: w,
+                y1: h,
+            },
+            PixelRect {
+                x0: 0,
+                y0: 60,
+                x1: 5,
+                y1: 140,
+            },
+        ];
+        for (n, d) in draws().iter().enumerate() {
+            for r in rects {
+                for noisy in [false, true] {
+                    let fast = sweep::develop(&rgba, w, h, d, r, noisy);
+                    let planes = develop_planes(&rgba, w, h, d, r, noisy);
+                    assert!(fast == planes, "draw {n}, {r:?}, noisy {noisy}");
+                }
+            }
+        }
     }
 }
