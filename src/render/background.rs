@@ -16,11 +16,12 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::gpu::{clear_pass, color_target};
+use super::gpu::{PipelineDesc, clear_pass, color_target};
+use super::plate::Plates;
 use super::readback::{self, Readback};
 use super::regions::Rect;
 use super::scenery::{self, ClutterLayer};
-use super::tiles::{take_stale_tiles, upload_tiles};
+use super::tiles::{take_stale_tiles, upload_tiles, write_part};
 use super::upsample::{Texels, Tone, upsample_reduced};
 use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
 use crate::scene::FrameScene;
@@ -158,7 +159,7 @@ impl Renderer {
         let size = (cache.width, cache.height);
         // What the background shows, before the camera's exposure and the scenery.
         let base_key = match &scene.backplate {
-            Some(plate) => Self::plate_key(plate, size),
+            Some(plate) => Plates::key(plate, size),
             None => self.background_key(uniforms, &scene.sky, size),
         };
         let gain = uniforms.exposure[0];
@@ -283,32 +284,18 @@ impl Renderer {
             Some(i) => i,
             None => {
                 let constants = [("SKY_MODE", f64::from(self.sky.mode())), ("EXPOSED", 0.0)];
-                let pipeline =
-                    self.device
-                        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                            label: Some("background sky pipeline"),
-                            layout: Some(&self.sky_layout),
-                            vertex: wgpu::VertexState {
-                                module: &self.shaders.0,
-                                entry_point: Some("vs_main"),
-                                compilation_options: Default::default(),
-                                buffers: &[],
-                            },
-                            primitive: wgpu::PrimitiveState::default(),
-                            depth_stencil: None,
-                            multisample: wgpu::MultisampleState::default(),
-                            fragment: Some(wgpu::FragmentState {
-                                module: &self.shaders.0,
-                                entry_point: Some("fs_main"),
-                                compilation_options: wgpu::PipelineCompilationOptions {
-                                    constants: &constants,
-                                    ..Default::default()
-                                },
-                                targets: &[color_target(COLOR_FORMAT)],
-                            }),
-                            multiview_mask: None,
-                            cache: None,
-                        });
+                let targets = [color_target(COLOR_FORMAT)];
+                let program = &self.sky.program;
+                let pipeline = self.factory.render(&PipelineDesc {
+                    constants: &constants,
+                    ..PipelineDesc::new(
+                        "background sky pipeline",
+                        &program.layout,
+                        &program.module,
+                        "fs_main",
+                        &targets,
+                    )
+                });
                 pipelines.0.push((mode, pipeline));
                 pipelines.0.len() - 1
             }
@@ -337,25 +324,19 @@ impl Renderer {
         let frame = (cache.width, cache.height);
         // Any previous background is overwritten from here on.
         cache.renew();
-        let shaders = (&self.shaders.0, &self.sky_layout);
+        let with = super::sky::SkyPassContext {
+            factory: &self.factory,
+            frame_group: &self.frame_bind_group,
+        };
         let tone = match image {
             Some(sky) if self.sky.image_is_hdr(sky) => Tone::Exponential,
             _ => Tone::Clip,
         };
         match image {
-            Some(image) => self.sky.encode_image(
-                &self.device,
-                &mut encoder,
-                shaders,
-                &self.frame_bind_group,
-                frame,
-                image,
-            ),
+            Some(image) => self.sky.encode_image(&with, &mut encoder, frame, image),
             None => self.sky.encode_environment(
-                &self.device,
+                &with,
                 &mut encoder,
-                shaders,
-                &self.frame_bind_group,
                 frame,
                 super::horizon::Horizon::of(
                     &uniforms.world_from_camera,
@@ -464,7 +445,7 @@ impl Renderer {
     ) {
         let size = (cache.width, cache.height);
         for part in take_stale_tiles(&mut cache.stale, size, rects) {
-            self.upload_background_part(&cache.texture, &cache.rgba, cache.width, &part);
+            write_part(&self.queue, &cache.texture, &cache.rgba, cache.width, &part);
         }
     }
 
@@ -477,7 +458,7 @@ impl Renderer {
         gain: f32,
     ) -> Result<(), RenderError> {
         let size = (cache.width, cache.height);
-        let made = self.plate_pixels(plate, size, &mut cache.rgba);
+        let made = self.plates.pixels(plate, size, &mut cache.rgba);
         if made.is_ok() {
             if gain != 1.0 {
                 super::upsample::expose(&mut cache.rgba, gain);
