@@ -23,7 +23,7 @@ use super::regions::Rect;
 use super::scenery::{self, ClutterLayer};
 use super::tiles::{take_stale_tiles, upload_tiles, write_part};
 use super::upsample::{Texels, Tone, upsample_reduced};
-use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
+use super::{COLOR_FORMAT, FrameUniforms, ReadbackError, RenderError, Renderer};
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
 use crate::sky::FrameSky;
@@ -346,9 +346,7 @@ impl Renderer {
             ),
         }
         let Some((texture, (w, h))) = self.sky.reduced_target(image.is_some()) else {
-            return Err(RenderError::Readback(
-                "the environment pass has no target".into(),
-            ));
+            return Err(ReadbackError::NoTarget("the environment pass").into());
         };
         // RGBA16F: 8 bytes a texel, rows padded to the copy alignment.
         let row = (w * 8).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)

@@ -1,21 +1,24 @@
 //! The wgpu renderer: one module used by the batch runner, the CLI's `frame`
 //! command and the tests (and by the GUI preview). It knows nothing of any UI.
 //!
-//! Long-lived state (pipelines, uploaded meshes) lives in [`Renderer`];
-//! per-frame data (one uniform block, one instance buffer) is rewritten each
-//! frame. [`Renderer::render_frame`] is the pipeline's one call (the batch's
-//! and the preview's): it draws only the screen regions the drones can touch
-//! over a cached background and measures visibility from the same samples,
-//! in three steps: a CPU-only plan (`plan.rs`: passes, overlap layers, atlas
-//! places, reads), the encoded passes (`frame/passes.rs`, into the targets of
-//! `targets.rs`, the id layer in `id_layer.rs`) and the collected readback
-//! (`readback.rs`, `ids.rs`). The parts import one way: the frame composes
-//! the passes, background, scenery and targets; the wgpu descriptors they
-//! share are in the leaf `gpu.rs`, the upload tiles in `tiles.rs`.
-//! The meshes and their levels of detail are in `mesh.rs`.
-//! [`Renderer::encode`] draws a whole [`FrameScene`] into any colour view of
-//! the right size; [`Renderer::render_rgba`] is that full-frame path
-//! offscreen (the reference the region path is tested against).
+//! [`Renderer`] is composed of parts that own their things (pipelines,
+//! targets, uploads), each made through the one [`PipelineFactory`] of
+//! `gpu.rs`: the drones (`mesh.rs`: meshes, levels of detail, instances,
+//! draws), the sky (`sky.rs`), the plates (`plate.rs`), and, built on the
+//! first region frame, the region passes (`frame/passes.rs`), the background
+//! (`background.rs`), the scenery (`scenery.rs`) and the frame targets with
+//! the id layer (`targets.rs`, `id_layer.rs`). Per-frame data (one uniform
+//! block, one instance buffer) is rewritten each frame.
+//! [`Renderer::render_frame`] is the pipeline's one call (the batch's and the
+//! preview's): it draws only the screen regions the drones can touch over a
+//! cached background and measures visibility from the same samples, in three
+//! steps: a CPU-only plan (`plan.rs`: passes, overlap layers, atlas places,
+//! reads), the encoded passes and the collected readback (`readback.rs`,
+//! `ids.rs`). The parts import one way: the frame composes the others; the
+//! wgpu descriptors they share are in the leaf `gpu.rs`, the upload tiles in
+//! `tiles.rs`. [`Renderer::encode`] draws a whole [`FrameScene`] into any
+//! colour view of the right size; [`Renderer::render_rgba`] is that
+//! full-frame path offscreen (the reference the region path is tested against).
 
 mod background;
 mod context;
@@ -68,15 +71,19 @@ pub enum RenderError {
     #[error(
         "no GPU adapter found (WGPU_BACKEND={backend}): install Mesa's software Vulkan driver (mesa-vulkan-drivers) or a GPU driver: {reason}"
     )]
-    NoAdapter { backend: String, reason: String },
+    NoAdapter {
+        backend: String,
+        #[source]
+        reason: wgpu::RequestAdapterError,
+    },
     #[error("cannot open the GPU device: {0}")]
-    Device(String),
+    Device(#[from] wgpu::RequestDeviceError),
     #[error(
         "render.resolution: {width}×{height} exceeds this adapter's largest texture side of {limit} px"
     )]
     TooLarge { width: u32, height: u32, limit: u32 },
     #[error("reading the frame back from the GPU failed: {0}")]
-    Readback(String),
+    Readback(#[from] ReadbackError),
     #[error("{count} drones in one frame: instance ids are exact up to {limit}")]
     TooManyDrones { count: usize, limit: usize },
     #[error(
@@ -93,6 +100,23 @@ pub enum RenderError {
     },
     #[error("backplate: a backplate's pixels do not fill its size")]
     BackplateSize,
+}
+
+/// Why reading a frame (or a pass's target) back from the GPU failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadbackError {
+    #[error(transparent)]
+    Wait(#[from] wgpu::PollError),
+    #[error(transparent)]
+    Map(#[from] wgpu::BufferAsyncError),
+    /// The mapping's callback was dropped without answering.
+    #[error(transparent)]
+    NoAnswer(#[from] std::sync::mpsc::RecvError),
+    #[error(transparent)]
+    View(#[from] wgpu::MapRangeError),
+    /// A pass that should have drawn into a target had none.
+    #[error("{0} has no target")]
+    NoTarget(&'static str),
 }
 
 /// Per-frame uniforms; layout matches `shaders/common.wgsl` `Frame`.
@@ -706,7 +730,7 @@ impl Renderer {
         let target = self
             .target
             .take()
-            .ok_or_else(|| RenderError::Readback("no target".into()))?;
+            .ok_or(ReadbackError::NoTarget("the full-frame pass"))?;
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
