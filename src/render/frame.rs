@@ -24,7 +24,7 @@
 
 mod passes;
 
-use super::background::Backgrounds;
+use super::background::{BackgroundInputs, Backgrounds};
 use super::gpu::PipelineFactory;
 use super::id_layer::{self, IdCollect};
 use super::ids;
@@ -190,9 +190,15 @@ impl Renderer {
             let layer = (state.scenery.as_ref())
                 .and_then(|g| g.layer())
                 .map(|(_, l)| l);
+            let mut with = BackgroundInputs {
+                factory: &self.factory,
+                queue: &self.queue,
+                frame_group: &self.frame_bind_group,
+                sky: &mut self.sky,
+                plates: &self.plates,
+            };
             let cache = &mut state.targets[t].background;
-            let part = &mut state.backgrounds;
-            self.update_background(part, cache, scene, &uniforms, scenery, layer)?;
+            (state.backgrounds).update(&mut with, cache, scene, &uniforms, scenery, layer)?;
         }
         let (boxes, rects) = regions::drone_rects(scene, self.drones.geometry());
         let depths = regions::drone_depths(scene, self.drones.geometry());
@@ -207,7 +213,9 @@ impl Renderer {
         let plan = FramePlan::new(request, &boxes, &rects, &depths)?;
         let under = || plan.passes.iter().flat_map(|p| &p.rects);
         if plan.request.color {
-            self.upload_background_under(&mut state.targets[t].background, under());
+            state.targets[t]
+                .background
+                .upload_under(&self.queue, under());
         }
         if let Some(gpu) = state.scenery.as_mut() {
             gpu.upload_under(&self.queue, under());

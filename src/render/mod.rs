@@ -482,7 +482,8 @@ impl Renderer {
         buffer
     }
 
-    /// Drones per level of detail over the drones of `scene` (for benchmarks).
+    /// Drones per level of detail over the drones of `scene` (for tests and
+    /// benchmarks; the pipeline never reads it).
     pub fn level_histogram(&self, scene: &FrameScene) -> Vec<usize> {
         self.drones.level_histogram(scene)
     }
@@ -493,7 +494,7 @@ impl Renderer {
     }
 
     /// Whether the id readback (its resolve pipelines and targets) has been
-    /// set up: only on the first frame that measures visibility.
+    /// set up: only on the first frame that measures visibility (for tests).
     pub fn has_id_pipeline(&self) -> bool {
         self.regions
             .as_ref()
