@@ -20,6 +20,8 @@ use wgpu::util::DeviceExt;
 
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor};
 
+use crate::render::{PipelineDesc, PipelineFactory, texture_entry, uniform_entry};
+
 const SHADER: &str = include_str!("../../shaders/flat_paint.wgsl");
 
 /// A uniform colour and a texture, what one flat paint reads.
@@ -45,70 +47,27 @@ pub struct FlatPainter {
 impl FlatPainter {
     pub fn new(render_state: &egui_wgpu::RenderState) -> Self {
         let device = render_state.device.clone();
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("flat paint"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("flat paint"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+        let factory = PipelineFactory::new(&device);
+        let module = factory.shader("flat paint", SHADER.to_owned());
+        let layout = factory.bind_group_layout(
+            "flat paint",
+            &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(1, false, wgpu::TextureViewDimension::D2, false),
             ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("flat paint"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        );
+        let pipeline_layout = factory.layout("flat paint", &[&layout]);
         let srgb_target = render_state.target_format.is_srgb();
         let constants = [("SRGB_TARGET", if srgb_target { 1.0 } else { 0.0 })];
+        let targets = [Some(wgpu::ColorTargetState {
+            format: render_state.target_format,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
         let pipeline = |entry: &str| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &constants,
-                        ..Default::default()
-                    },
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: render_state.target_format,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                primitive: Default::default(),
-                depth_stencil: None,
-                multisample: Default::default(),
-                multiview_mask: None,
-                cache: None,
+            factory.render(&PipelineDesc {
+                constants: &constants,
+                ..PipelineDesc::new(entry, &pipeline_layout, &module, entry, &targets)
             })
         };
         let (fill, picture) = (pipeline("fs_fill"), pipeline("fs_picture"));

@@ -16,13 +16,15 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::gpu::{clear_pass, color_target};
+use super::gpu::{PipelineDesc, PipelineFactory, clear_pass, color_target};
+use super::plate::Plates;
 use super::readback::{self, Readback};
 use super::regions::Rect;
 use super::scenery::{self, ClutterLayer};
-use super::tiles::{take_stale_tiles, upload_tiles};
+use super::sky::SkyGpu;
+use super::tiles::{take_stale_tiles, upload_tiles, write_part};
 use super::upsample::{Texels, Tone, upsample_reduced};
-use super::{COLOR_FORMAT, FrameUniforms, RenderError, Renderer};
+use super::{COLOR_FORMAT, FrameUniforms, ReadbackError, RenderError};
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
 use crate::sky::FrameSky;
@@ -40,7 +42,7 @@ pub(super) struct BackgroundCache {
     view: wgpu::TextureView,
     /// Binds `texture` for the region passes' background "clear".
     pub(super) group: wgpu::BindGroup,
-    /// What the cached background was drawn from (see [`Renderer::background_key`]).
+    /// What the cached background was drawn from (see `background_key`).
     key: Option<Vec<u8>>,
     /// The drone-free frame (RGBA8, sRGB-encoded, scenery included).
     pub(super) rgba: Vec<u8>,
@@ -49,7 +51,7 @@ pub(super) struct BackgroundCache {
     /// Full-frame readback of the drawn sky.
     readback: Readback,
     /// A background kept before the camera's exposure, with its key without
-    /// the exposure (see [`Renderer::draw_exposed`]).
+    /// the exposure (see `Backgrounds::draw_exposed`).
     unexposed: Option<(Vec<u8>, Vec<u8>)>,
     /// The exposure-free key of the background drawn last.
     last_base_key: Option<Vec<u8>>,
@@ -59,7 +61,7 @@ pub(super) struct BackgroundCache {
     /// lacks that part of `rgba`. A background made on the CPU (upsampled
     /// environment or image sky, backplate) is uploaded only where the
     /// region passes read it, under the frame's regions, when a frame first
-    /// needs it ([`Renderer::upload_background_under`]); empty when the
+    /// needs it ([`BackgroundCache::upload_under`]); empty when the
     /// texture holds the whole background.
     stale: Vec<bool>,
 }
@@ -124,6 +126,19 @@ impl BackgroundCache {
         self.stale.clear();
     }
 
+    /// Write into the texture the stale tiles (see `stale`) under `rects`,
+    /// each row of tiles in runs.
+    pub(super) fn upload_under<'r>(
+        &mut self,
+        queue: &wgpu::Queue,
+        rects: impl IntoIterator<Item = &'r Rect>,
+    ) {
+        let size = (self.width, self.height);
+        for part in take_stale_tiles(&mut self.stale, size, rects) {
+            write_part(queue, &self.texture, &self.rgba, self.width, &part);
+        }
+    }
+
     /// A fresh generation for what the cache now holds.
     fn renew(&mut self) {
         self.generation = BACKGROUNDS.fetch_add(1, Ordering::Relaxed);
@@ -134,6 +149,52 @@ impl BackgroundCache {
 #[derive(Default)]
 struct SkyPipelines(Vec<(u32, wgpu::RenderPipeline)>);
 
+impl SkyPipelines {
+    /// The background sky pipeline of the sky mode last written, built on first use.
+    fn get(&mut self, factory: &PipelineFactory, sky: &SkyGpu) -> &wgpu::RenderPipeline {
+        let mode = sky.mode().to_bits();
+        let i = match self.0.iter().position(|(m, _)| *m == mode) {
+            Some(i) => i,
+            None => {
+                let constants = [("SKY_MODE", f64::from(sky.mode())), ("EXPOSED", 0.0)];
+                let targets = [color_target(COLOR_FORMAT)];
+                let program = &sky.program;
+                let pipeline = factory.render(&PipelineDesc {
+                    constants: &constants,
+                    ..PipelineDesc::new(
+                        "background sky pipeline",
+                        &program.layout,
+                        &program.module,
+                        "fs_main",
+                        &targets,
+                    )
+                });
+                self.0.push((mode, pipeline));
+                self.0.len() - 1
+            }
+        };
+        &self.0[i].1
+    }
+}
+
+/// What the background part draws with: the renderer's pipeline maker and
+/// queue, the frame uniforms' group, and the parts it draws from (the sky,
+/// the plates).
+pub(super) struct BackgroundInputs<'a> {
+    pub factory: &'a PipelineFactory,
+    pub queue: &'a wgpu::Queue,
+    pub frame_group: &'a wgpu::BindGroup,
+    pub sky: &'a mut SkyGpu,
+    pub plates: &'a Plates,
+}
+
+/// A background's key before the exposure, and the exposure's gain.
+#[derive(Clone, Copy)]
+struct Exposure<'a> {
+    base_key: &'a [u8],
+    gain: f32,
+}
+
 /// What the background part keeps across target sizes: its sky pipelines
 /// and how many backgrounds it drew (cache misses, for tests and benchmarks).
 #[derive(Default)]
@@ -142,13 +203,13 @@ pub(super) struct Backgrounds {
     pub(super) draws: u64,
 }
 
-impl Renderer {
+impl Backgrounds {
     /// Make `cache` hold `scene`'s background (with the scenery layer of key
     /// `scenery`, when the frame has one, composited from `layer`), drawing
     /// it with `part` only when its key changed.
-    pub(super) fn update_background(
+    pub(super) fn update(
         &mut self,
-        part: &mut Backgrounds,
+        with: &mut BackgroundInputs<'_>,
         cache: &mut BackgroundCache,
         scene: &FrameScene,
         uniforms: &FrameUniforms,
@@ -158,8 +219,8 @@ impl Renderer {
         let size = (cache.width, cache.height);
         // What the background shows, before the camera's exposure and the scenery.
         let base_key = match &scene.backplate {
-            Some(plate) => Self::plate_key(plate, size),
-            None => self.background_key(uniforms, &scene.sky, size),
+            Some(plate) => Plates::key(plate, size),
+            None => background_key(with.sky, uniforms, &scene.sky, size),
         };
         let gain = uniforms.exposure[0];
         let mut key = base_key.clone();
@@ -178,13 +239,17 @@ impl Renderer {
             cache.renew();
             cache.mark_stale();
         } else {
-            self.draw_exposed(part, cache, scene, uniforms, (base_key.as_slice(), gain))?;
+            let exposure = Exposure {
+                base_key: base_key.as_slice(),
+                gain,
+            };
+            self.draw_exposed(with, cache, scene, uniforms, exposure)?;
         }
         cache.last_base_key = Some(base_key);
         if let Some(layer) = layer {
             // The texture holds the background without the scenery (the
             // region passes draw the scenery themselves): all of it now.
-            self.upload_background_under(cache, std::iter::once(&Rect::full(size.0, size.1)));
+            cache.upload_under(with.queue, std::iter::once(&Rect::full(size.0, size.1)));
             scenery::composite(layer, &mut cache.rgba);
         }
         cache.key = Some(key);
@@ -202,11 +267,11 @@ impl Renderer {
     /// and exposed by the table.
     fn draw_exposed(
         &mut self,
-        part: &mut Backgrounds,
+        with: &mut BackgroundInputs<'_>,
         cache: &mut BackgroundCache,
         scene: &FrameScene,
         uniforms: &FrameUniforms,
-        (base_key, gain): (&[u8], f32),
+        Exposure { base_key, gain }: Exposure<'_>,
     ) -> Result<(), RenderError> {
         /// Where the background's pixels come from.
         enum Source<'a> {
@@ -216,23 +281,23 @@ impl Renderer {
             /// The sky shader, drawn unexposed (`EXPOSED` 0 in sky.wgsl).
             Shader,
         }
-        let source = match (&scene.backplate, self.sky.written_image_scale()) {
+        let source = match (&scene.backplate, with.sky.written_image_scale()) {
             (Some(plate), _) => Source::Plate(plate),
             (None, Some(_)) => Source::Reduced(Some(&scene.sky)),
-            (None, None) if super::sky::SkyGpu::is_procedural(&scene.sky) => Source::Reduced(None),
+            (None, None) if SkyGpu::is_procedural(&scene.sky) => Source::Reduced(None),
             (None, None) => Source::Shader,
         };
         let repeated = cache.last_base_key.as_deref() == Some(base_key);
         let keep = gain != 1.0 && (repeated || matches!(source, Source::Shader));
         let draw_gain = if keep { 1.0 } else { gain };
         match source {
-            Source::Plate(plate) => self.draw_plate_background(cache, plate, draw_gain)?,
+            Source::Plate(plate) => draw_plate_background(with.plates, cache, plate, draw_gain)?,
             Source::Reduced(image) => {
-                self.draw_reduced_background(cache, uniforms, image, draw_gain)?
+                draw_reduced_background(with, cache, uniforms, image, draw_gain)?
             }
-            Source::Shader => self.draw_background(&mut part.sky, cache, scene)?,
+            Source::Shader => self.draw_background(with, cache, scene)?,
         }
-        part.draws += 1;
+        self.draws += 1;
         if keep {
             // Into the kept copy's memory: no frame-sized allocation per frame.
             let (key, pixels) = cache.unexposed.get_or_insert_with(Default::default);
@@ -247,245 +312,176 @@ impl Renderer {
         Ok(())
     }
 
-    /// The bytes the sky shader reads, plus what its bind group and size are.
-    fn background_key(
-        &self,
-        uniforms: &FrameUniforms,
-        sky: &FrameSky,
-        size: (u32, u32),
-    ) -> Vec<u8> {
-        let group: u64 = match sky {
-            FrameSky::Gradient { .. } => 0,
-            FrameSky::Procedural { .. } => 1,
-            FrameSky::Image { image, .. } => 2 + *image as u64,
-        };
-        // The sky shaders never read the atmosphere's slot (a procedural
-        // environment's fog is in its own uniforms): a new visibility alone
-        // keeps the background.
-        // Nor the exposure: it is applied after the drawing (`update_background`).
-        let sky_uniforms = FrameUniforms {
-            atmosphere: [0.0; 4],
-            exposure: [0.0; 4],
-            ..*uniforms
-        };
-        let mut key = bytemuck::bytes_of(&sky_uniforms).to_vec();
-        key.extend_from_slice(self.sky.uniform_bytes());
-        key.extend_from_slice(&group.to_le_bytes());
-        key.extend_from_slice(&size.0.to_le_bytes());
-        key.extend_from_slice(&size.1.to_le_bytes());
-        key
-    }
-
-    /// The background sky pipeline of the sky mode last written, built on first use.
-    fn sky_pipeline<'p>(&self, pipelines: &'p mut SkyPipelines) -> &'p wgpu::RenderPipeline {
-        let mode = self.sky.mode().to_bits();
-        let i = match pipelines.0.iter().position(|(m, _)| *m == mode) {
-            Some(i) => i,
-            None => {
-                let constants = [("SKY_MODE", f64::from(self.sky.mode())), ("EXPOSED", 0.0)];
-                let pipeline =
-                    self.device
-                        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                            label: Some("background sky pipeline"),
-                            layout: Some(&self.sky_layout),
-                            vertex: wgpu::VertexState {
-                                module: &self.shaders.0,
-                                entry_point: Some("vs_main"),
-                                compilation_options: Default::default(),
-                                buffers: &[],
-                            },
-                            primitive: wgpu::PrimitiveState::default(),
-                            depth_stencil: None,
-                            multisample: wgpu::MultisampleState::default(),
-                            fragment: Some(wgpu::FragmentState {
-                                module: &self.shaders.0,
-                                entry_point: Some("fs_main"),
-                                compilation_options: wgpu::PipelineCompilationOptions {
-                                    constants: &constants,
-                                    ..Default::default()
-                                },
-                                targets: &[color_target(COLOR_FORMAT)],
-                            }),
-                            multiview_mask: None,
-                            cache: None,
-                        });
-                pipelines.0.push((mode, pipeline));
-                pipelines.0.len() - 1
-            }
-        };
-        &pipelines.0[i].1
-    }
-
-    /// A procedural environment (`image` None) or an image sky magnified
-    /// enough (`image`: the sky, drawn at the scale its uniforms hold, see
-    /// [`super::sky::SkyGpu::image_scale`]) as the background: its pass
-    /// drawn at reduced resolution, read back, upsampled and sRGB-encoded on
-    /// the CPU ([`super::upsample`]) and uploaded as the background texture
-    /// (no full-frame sky pass, no full-frame readback).
-    fn draw_reduced_background(
-        &mut self,
-        cache: &mut BackgroundCache,
-        uniforms: &FrameUniforms,
-        image: Option<&FrameSky>,
-        gain: f32,
-    ) -> Result<(), RenderError> {
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("environment background"),
-            });
-        let frame = (cache.width, cache.height);
-        // Any previous background is overwritten from here on.
-        cache.renew();
-        let shaders = (&self.shaders.0, &self.sky_layout);
-        let tone = match image {
-            Some(sky) if self.sky.image_is_hdr(sky) => Tone::Exponential,
-            _ => Tone::Clip,
-        };
-        match image {
-            Some(image) => self.sky.encode_image(
-                &self.device,
-                &mut encoder,
-                shaders,
-                &self.frame_bind_group,
-                frame,
-                image,
-            ),
-            None => self.sky.encode_environment(
-                &self.device,
-                &mut encoder,
-                shaders,
-                &self.frame_bind_group,
-                frame,
-                super::horizon::Horizon::of(
-                    &uniforms.world_from_camera,
-                    uniforms.intrinsics,
-                    frame,
-                ),
-            ),
-        }
-        let Some((texture, (w, h))) = self.sky.reduced_target(image.is_some()) else {
-            return Err(RenderError::Readback(
-                "the environment pass has no target".into(),
-            ));
-        };
-        // RGBA16F: 8 bytes a texel, rows padded to the copy alignment.
-        let row = (w * 8).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let len = u64::from(row) * u64::from(h);
-        if cache
-            .environment_readback
-            .as_ref()
-            .is_none_or(|b| b.size() < len)
-        {
-            cache.environment_readback = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("environment readback"),
-                size: len,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
-        }
-        let Some(buffer) = cache.environment_readback.as_ref() else {
-            return Ok(()); // just made
-        };
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        let submitted = self.queue.submit([encoder.finish()]);
-        let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-        let rgba = &mut cache.rgba;
-        readback::read_mapped(&self.device, submitted, buffer, len, |bytes| {
-            let texels = Texels::F16 {
-                bytes,
-                stride: row as usize,
-            };
-            upsample_reduced(texels, (w, h), frame, centre, (tone, gain), rgba);
-        })?;
-        cache.mark_stale();
-        Ok(())
-    }
-
     /// Draw the sky into the background texture (no MSAA) and read it back.
     fn draw_background(
         &mut self,
-        pipelines: &mut SkyPipelines,
+        with: &BackgroundInputs<'_>,
         cache: &mut BackgroundCache,
         scene: &FrameScene,
     ) -> Result<(), RenderError> {
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("background"),
-            });
+        let device = with.factory.device();
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("background"),
+        });
         {
-            let pipeline = self.sky_pipeline(pipelines);
+            let pipeline = self.sky.get(with.factory, with.sky);
             let mut pass = clear_pass(&mut encoder, "background pass", &cache.view);
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.frame_bind_group, &[]);
-            pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);
+            pass.set_bind_group(0, with.frame_group, &[]);
+            pass.set_bind_group(1, with.sky.bind_group_for(&scene.sky), &[]);
             pass.draw(0..3, 0..1);
         }
         cache.readback.copy_from(&mut encoder, &cache.texture);
-        let submitted = self.queue.submit([encoder.finish()]);
+        let submitted = with.queue.submit([encoder.finish()]);
         // Into the previous background's memory: frame buffers copy from it,
         // and the new generation below tells them it changed.
-        let read = cache
-            .readback
-            .read_into(&self.device, submitted, &mut cache.rgba);
+        let read = cache.readback.read_into(device, submitted, &mut cache.rgba);
         cache.renew();
         cache.stale.clear();
         read
     }
+}
 
-    /// Write into the background texture of `cache` the stale tiles (see
-    /// `BackgroundCache::stale`) under `rects`, each row of tiles in runs.
-    pub(super) fn upload_background_under<'r>(
-        &self,
-        cache: &mut BackgroundCache,
-        rects: impl IntoIterator<Item = &'r Rect>,
-    ) {
-        let size = (cache.width, cache.height);
-        for part in take_stale_tiles(&mut cache.stale, size, rects) {
-            self.upload_background_part(&cache.texture, &cache.rgba, cache.width, &part);
-        }
-    }
+/// The bytes the sky shader reads, plus what its bind group and size are.
+fn background_key(
+    sky_gpu: &SkyGpu,
+    uniforms: &FrameUniforms,
+    sky: &FrameSky,
+    size: (u32, u32),
+) -> Vec<u8> {
+    let group: u64 = match sky {
+        FrameSky::Gradient { .. } => 0,
+        FrameSky::Procedural { .. } => 1,
+        FrameSky::Image { image, .. } => 2 + *image as u64,
+    };
+    // The sky shaders never read the atmosphere's slot (a procedural
+    // environment's fog is in its own uniforms): a new visibility alone
+    // keeps the background.
+    // Nor the exposure: it is applied after the drawing (`update_background`).
+    let sky_uniforms = FrameUniforms {
+        atmosphere: [0.0; 4],
+        exposure: [0.0; 4],
+        ..*uniforms
+    };
+    let mut key = bytemuck::bytes_of(&sky_uniforms).to_vec();
+    key.extend_from_slice(sky_gpu.uniform_bytes());
+    key.extend_from_slice(&group.to_le_bytes());
+    key.extend_from_slice(&size.0.to_le_bytes());
+    key.extend_from_slice(&size.1.to_le_bytes());
+    key
+}
 
-    /// A backplate as the background, exposed by `gain`: its pixels written
-    /// into the texture and kept as the CPU copy (no sky pass, no readback).
-    fn draw_plate_background(
-        &mut self,
-        cache: &mut BackgroundCache,
-        plate: &FramePlate,
-        gain: f32,
-    ) -> Result<(), RenderError> {
-        let size = (cache.width, cache.height);
-        let made = self.plate_pixels(plate, size, &mut cache.rgba);
-        if made.is_ok() {
-            if gain != 1.0 {
-                super::upsample::expose(&mut cache.rgba, gain);
-            }
-            cache.mark_stale();
-        }
-        // A new generation even on failure: no buffer may match what was overwritten.
-        cache.renew();
-        made
+/// A procedural environment (`image` None) or an image sky magnified
+/// enough (`image`: the sky, drawn at the scale its uniforms hold, see
+/// [`super::sky::SkyGpu::image_scale`]) as the background: its pass
+/// drawn at reduced resolution, read back, upsampled and sRGB-encoded on
+/// the CPU ([`super::upsample`]) and uploaded as the background texture
+/// (no full-frame sky pass, no full-frame readback).
+fn draw_reduced_background(
+    with: &mut BackgroundInputs<'_>,
+    cache: &mut BackgroundCache,
+    uniforms: &FrameUniforms,
+    image: Option<&FrameSky>,
+    gain: f32,
+) -> Result<(), RenderError> {
+    let device = with.factory.device();
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("environment background"),
+    });
+    let frame = (cache.width, cache.height);
+    // Any previous background is overwritten from here on.
+    cache.renew();
+    let passes = super::sky::SkyPassContext {
+        factory: with.factory,
+        frame_group: with.frame_group,
+    };
+    let tone = match image {
+        Some(sky) if with.sky.image_is_hdr(sky) => Tone::Exponential,
+        _ => Tone::Clip,
+    };
+    match image {
+        Some(image) => with.sky.encode_image(&passes, &mut encoder, frame, image),
+        None => with.sky.encode_environment(
+            &passes,
+            &mut encoder,
+            frame,
+            super::horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, frame),
+        ),
     }
+    let Some((texture, (w, h))) = with.sky.reduced_target(image.is_some()) else {
+        return Err(ReadbackError::NoTarget("the environment pass").into());
+    };
+    // RGBA16F: 8 bytes a texel, rows padded to the copy alignment.
+    let row =
+        (w * 8).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let len = u64::from(row) * u64::from(h);
+    if cache
+        .environment_readback
+        .as_ref()
+        .is_none_or(|b| b.size() < len)
+    {
+        cache.environment_readback = Some(device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("environment readback"),
+            size: len,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }));
+    }
+    let Some(buffer) = cache.environment_readback.as_ref() else {
+        return Ok(()); // just made
+    };
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+    );
+    let submitted = with.queue.submit([encoder.finish()]);
+    let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
+    let rgba = &mut cache.rgba;
+    readback::read_mapped(device, submitted, buffer, len, |bytes| {
+        let texels = Texels::F16 {
+            bytes,
+            stride: row as usize,
+        };
+        upsample_reduced(texels, (w, h), frame, centre, (tone, gain), rgba);
+    })?;
+    cache.mark_stale();
+    Ok(())
+}
+
+/// A backplate as the background, exposed by `gain`: its pixels written
+/// into the texture and kept as the CPU copy (no sky pass, no readback).
+fn draw_plate_background(
+    plates: &Plates,
+    cache: &mut BackgroundCache,
+    plate: &FramePlate,
+    gain: f32,
+) -> Result<(), RenderError> {
+    let size = (cache.width, cache.height);
+    let made = plates.pixels(plate, size, &mut cache.rgba);
+    if made.is_ok() {
+        if gain != 1.0 {
+            super::upsample::expose(&mut cache.rgba, gain);
+        }
+        cache.mark_stale();
+    }
+    // A new generation even on failure: no buffer may match what was overwritten.
+    cache.renew();
+    made
 }

@@ -79,7 +79,7 @@ impl GpuContext {
         }
         .map_err(|e| RenderError::NoAdapter {
             backend: std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "(default)".into()),
-            reason: e.to_string(),
+            reason: e,
         })?;
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -87,7 +87,7 @@ impl GpuContext {
             required_limits: limits.clone(),
             ..Default::default()
         }))
-        .map_err(|e| RenderError::Device(e.to_string()))?;
+        .map_err(RenderError::Device)?;
         Ok(Self {
             device,
             queue,

@@ -24,18 +24,19 @@
 
 mod passes;
 
-use super::background::Backgrounds;
+use super::background::{BackgroundInputs, Backgrounds};
+use super::gpu::PipelineFactory;
 use super::id_layer::{self, IdCollect};
 use super::ids;
 use super::plan::{FramePlan, PassPlan, PlanRequest};
 use super::readback;
 use super::regions::{self, Rect};
-use super::scenery::SceneryGpu;
+use super::scenery::{self, SceneryGpu};
 use super::targets::{FrameTargets, TargetLayouts};
 use super::visibility::Visibility;
 use super::{IdImage, RenderError, Renderer};
 use crate::scene::FrameScene;
-use passes::RegionPasses;
+use passes::{PassKind, PassTarget, RegionPasses};
 
 /// What [`Renderer::render_frame`] is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,9 +104,9 @@ pub(super) struct RegionState {
 const MAX_TARGETS: usize = 2;
 
 impl RegionState {
-    pub(super) fn new(device: &wgpu::Device) -> Self {
+    pub(super) fn new(factory: &PipelineFactory) -> Self {
         Self {
-            passes: RegionPasses::new(device),
+            passes: RegionPasses::new(factory),
             backgrounds: Backgrounds::default(),
             targets: Vec::new(),
             scenery: None,
@@ -138,7 +139,7 @@ impl Renderer {
         id_layer::check_drones(scene.drones.len())?;
         let mut state = match self.regions.take() {
             Some(s) => s,
-            None => RegionState::new(&self.device),
+            None => RegionState::new(&self.factory),
         };
         let result = self.render_regions(&mut state, scene, request);
         self.regions = Some(state);
@@ -182,19 +183,25 @@ impl Renderer {
         let (width, height) = (scene.camera.width, scene.camera.height);
         let msaa = request.msaa.max(1);
         let uniforms = self.upload_uniforms(scene);
-        let p = self.region_pipelines(&mut state.passes, msaa);
+        let p = (state.passes).pipelines_for(&self.factory, &self.drones, msaa);
         let t = self.frame_targets(state, width, height, msaa);
-        let scenery = self.prepare_scenery(&mut state.scenery, scene, &uniforms, msaa);
+        let scenery = scenery::prepare(&mut state.scenery, &self.factory, scene, &uniforms, msaa);
         if request.color {
             let layer = (state.scenery.as_ref())
                 .and_then(|g| g.layer())
                 .map(|(_, l)| l);
+            let mut with = BackgroundInputs {
+                factory: &self.factory,
+                queue: &self.queue,
+                frame_group: &self.frame_bind_group,
+                sky: &mut self.sky,
+                plates: &self.plates,
+            };
             let cache = &mut state.targets[t].background;
-            let part = &mut state.backgrounds;
-            self.update_background(part, cache, scene, &uniforms, scenery, layer)?;
+            (state.backgrounds).update(&mut with, cache, scene, &uniforms, scenery, layer)?;
         }
-        let (boxes, rects) = regions::drone_rects(scene, &self.geometry);
-        let depths = regions::drone_depths(scene, &self.geometry);
+        let (boxes, rects) = regions::drone_rects(scene, self.drones.geometry());
+        let depths = regions::drone_depths(scene, self.drones.geometry());
         let request = PlanRequest {
             size_px: (width, height),
             msaa,
@@ -206,10 +213,12 @@ impl Renderer {
         let plan = FramePlan::new(request, &boxes, &rects, &depths)?;
         let under = || plan.passes.iter().flat_map(|p| &p.rects);
         if plan.request.color {
-            self.upload_background_under(&mut state.targets[t].background, under());
+            state.targets[t]
+                .background
+                .upload_under(&self.queue, under());
         }
         if let Some(gpu) = state.scenery.as_mut() {
-            self.upload_scenery_under(gpu, under());
+            gpu.upload_under(&self.queue, under());
         }
         let target = &mut state.targets[t];
         let uploaded = self.upload_plan(&mut state.passes, p, target, scene, &plan);
@@ -282,7 +291,7 @@ impl Renderer {
         self.check_size(width, height)?;
         let mut state = match self.regions.take() {
             Some(s) => s,
-            None => RegionState::new(&self.device),
+            None => RegionState::new(&self.factory),
         };
         let result = self.render_id_image(&mut state, scene, include);
         self.regions = Some(state);
@@ -297,7 +306,7 @@ impl Renderer {
     ) -> Result<IdImage, RenderError> {
         let (width, height) = (scene.camera.width, scene.camera.height);
         self.upload_uniforms(scene);
-        let p = self.region_pipelines(&mut state.passes, 1);
+        let p = (state.passes).pipelines_for(&self.factory, &self.drones, 1);
         let t = self.frame_targets(state, width, height, 1);
         let pass = PassPlan {
             rects: vec![Rect::full(width, height)],
@@ -305,8 +314,9 @@ impl Renderer {
         };
         let mut data = Vec::new();
         let mut draws = [self.region_draws(scene, &pass, &mut data)];
-        self.write_instances(&data);
-        self.upload_rects(&mut state.passes, &mut draws, (width, height));
+        let (device, queue) = (&self.device, &self.queue);
+        self.drones.upload_instances((device, queue), &data);
+        (state.passes).upload_rects((device, queue), &mut draws, (width, height));
         self.counts.ids += 1;
         let mut encoder = self
             .device
@@ -314,12 +324,16 @@ impl Renderer {
                 label: Some("instance ids"),
             });
         let target = &state.targets[t];
-        self.encode_region_pass(
-            &mut encoder,
-            (state.passes.pipelines(p), target, state.passes.rects()),
-            &draws[0],
-            ("id pass", false),
-        );
+        let at = PassTarget {
+            pipes: state.passes.pipelines(p),
+            target,
+            rects: state.passes.rects(),
+        };
+        let kind = PassKind {
+            label: "id pass",
+            color: false,
+        };
+        self.encode_region_pass(&mut encoder, &at, &draws[0], kind);
         target
             .readback
             .copy_from(&mut encoder, target.ids.texture());

@@ -5,31 +5,18 @@
 
 use wgpu::util::DeviceExt;
 
+use super::gpu::{PipelineFactory, sampler_entry, texture_entry};
 use crate::model::{CpuTexture, WrapMode};
 
 /// The layout of `@group(1)` of the drone pipeline.
-pub(super) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("material layout"),
-        entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
+pub(super) fn bind_group_layout(factory: &PipelineFactory) -> wgpu::BindGroupLayout {
+    factory.bind_group_layout(
+        "material layout",
+        &[
+            texture_entry(0, true, wgpu::TextureViewDimension::D2, false),
+            sampler_entry(1),
         ],
-    })
+    )
 }
 
 fn address_mode(w: WrapMode) -> wgpu::AddressMode {

@@ -1,16 +1,41 @@
-//! The drones' meshes on the GPU: each model's vertices and its levels of
-//! detail in one index buffer, the draws of each level by surface kind, the
-//! drone pipelines built in the surface variants the meshes use, the choice
-//! of a drone's level, and the instanced draws.
+//! The drones' part of the frame ([`Drones`]): each model's vertices and
+//! its levels of detail in one index buffer, the draws of each level by
+//! surface kind, drone.wgsl and the drone pipelines built in the surface
+//! variants the meshes use, the choice of a drone's level, the instances
+//! (grouped by model and level, uploaded into one reused buffer) and the
+//! instanced draws.
 
 use std::ops::Range;
 
 use wgpu::util::DeviceExt;
 
-use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, Renderer, material};
+use super::gpu::{PipelineDesc, PipelineFactory, Program, depth_test};
+use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, material};
 use crate::model::lod::Lod;
 use crate::model::{CpuModel, Vertex};
 use crate::scene::FrameScene;
+use crate::scene::projection::LabelGeometry;
+
+/// The drones' part of the frame: what every pass that draws drones (the
+/// full-frame path's, the region passes, the id passes) draws them with.
+pub(super) struct Drones {
+    /// drone.wgsl, laid out with the frame uniforms and the material.
+    program: Program,
+    meshes: Vec<GpuMesh>,
+    /// Each model's hull: where its drones can put pixels.
+    geometry: Vec<LabelGeometry>,
+    /// The surface kinds the meshes' draws use: the pipeline variants to build.
+    surfaces: [bool; Surface::COUNT],
+    /// The material of untextured draw ranges (1×1 white).
+    white_texture: wgpu::BindGroup,
+    /// Silhouette error allowed to a level of detail, in pixels (0: full detail).
+    lod_error_px: f64,
+    /// The instances of the frame's draws, reused and grown as needed.
+    instances: Option<wgpu::Buffer>,
+}
+
+/// A frame's drone instances of one pass, grouped by (model, level of detail).
+pub(super) type InstanceRanges = Vec<(MeshLevel, Range<u32>)>;
 
 pub(super) struct GpuMesh {
     vertices: wgpu::Buffer,
@@ -88,15 +113,15 @@ impl Surface {
 
 /// A drone pipeline (one fragment entry, sample count and targets) in the
 /// variants the renderer's meshes use, indexed by [`Surface::index`].
-pub(crate) struct DronePipelines([Option<wgpu::RenderPipeline>; Surface::COUNT]);
+pub(super) struct DronePipelines([Option<wgpu::RenderPipeline>; Surface::COUNT]);
 
 /// What one instanced draw shares: a model and its level of detail.
-pub(crate) type MeshLevel = (usize, usize);
+pub(super) type MeshLevel = (usize, usize);
 
 /// Upload `models` (and the coarser levels of `lods[m]`, when given) and
 /// the textures of their materials; returns the meshes and which surface
 /// kinds their draws use (the drone pipeline variants to build).
-pub(super) fn upload_meshes(
+fn upload_meshes(
     (device, queue): (&wgpu::Device, &wgpu::Queue),
     material_bgl: &wgpu::BindGroupLayout,
     models: &[CpuModel],
@@ -155,12 +180,46 @@ pub(super) fn upload_meshes(
     (meshes, surfaces)
 }
 
-impl Renderer {
+impl Drones {
+    /// Upload `models` (with `lods`, see [`super::Renderer::with_lods`]) and
+    /// make drone.wgsl's program, laid out after `frame_layout` (`@group(0)`).
+    pub(super) fn new(
+        (factory, queue): (&PipelineFactory, &wgpu::Queue),
+        frame_layout: &wgpu::BindGroupLayout,
+        models: &[CpuModel],
+        lods: &[Vec<Lod>],
+        max_error_px: f64,
+    ) -> Self {
+        let device = factory.device();
+        let material_layout = material::bind_group_layout(factory);
+        let [_, (name, source), ..] = super::shader_sources();
+        let program = factory.program(name, source, &[frame_layout, &material_layout]);
+        let white_texture = material::white(device, queue, &material_layout);
+        let (meshes, surfaces) = upload_meshes((device, queue), &material_layout, models, lods);
+        Self {
+            program,
+            meshes,
+            geometry: models.iter().map(LabelGeometry::from).collect(),
+            surfaces,
+            white_texture,
+            lod_error_px: if max_error_px.is_finite() {
+                max_error_px.max(0.0)
+            } else {
+                0.0
+            },
+            instances: None,
+        }
+    }
+
+    /// Each model's hull (index = model index).
+    pub(super) fn geometry(&self) -> &[LabelGeometry] {
+        &self.geometry
+    }
     /// The level of detail drone `i` of `scene` is drawn with: the coarsest
     /// whose error, scaled by the drone's size over the depth of its nearest
     /// possible point, is within the renderer's pixel budget (level 0 when
     /// any part of the drone may be at or behind the camera plane).
-    pub(super) fn level_of(&self, scene: &FrameScene, i: usize) -> usize {
+    fn level_of(&self, scene: &FrameScene, i: usize) -> usize {
         let d = &scene.drones[i];
         let Some(mesh) = self.meshes.get(d.model) else {
             return 0;
@@ -181,8 +240,8 @@ impl Renderer {
             .unwrap_or(0)
     }
 
-    /// Triangles drawn per level of detail, over the drones of `scene` (for benchmarks).
-    pub fn level_histogram(&self, scene: &FrameScene) -> Vec<usize> {
+    /// Drones drawn per level of detail, over the drones of `scene`.
+    pub(super) fn level_histogram(&self, scene: &FrameScene) -> Vec<usize> {
         let mut counts = Vec::new();
         for i in 0..scene.drones.len() {
             let level = self.level_of(scene, i);
@@ -194,11 +253,48 @@ impl Renderer {
         counts
     }
 
+    /// The instances of `drones` (in scene order, drone index + 1 as id)
+    /// appended to `data`, grouped by (model, level of detail); each
+    /// group's instance range in `data`.
+    pub(super) fn instances(
+        &self,
+        scene: &FrameScene,
+        drones: impl IntoIterator<Item = usize>,
+        data: &mut Vec<InstanceRaw>,
+    ) -> InstanceRanges {
+        let mut order: Vec<(MeshLevel, usize)> = (drones.into_iter())
+            .map(|i| ((scene.drones[i].model, self.level_of(scene, i)), i))
+            .collect();
+        order.sort_unstable();
+        let mut ranges: InstanceRanges = Vec::new();
+        for (key, i) in order {
+            let idx = data.len() as u32;
+            data.push(InstanceRaw::new(scene, i));
+            match ranges.last_mut() {
+                Some((k, r)) if *k == key => r.end = idx + 1,
+                _ => ranges.push((key, idx..idx + 1)),
+            }
+        }
+        ranges
+    }
+
+    /// Write the frame's instances into the (reused, grown as needed) instance buffer.
+    pub(super) fn upload_instances(
+        &mut self,
+        (device, queue): (&wgpu::Device, &wgpu::Queue),
+        data: &[InstanceRaw],
+    ) {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let slot = &mut self.instances;
+        super::write_vertices((device, queue), slot, "drone instances", bytes);
+    }
+
     /// The drone pipelines for `msaa` samples with fragment entry `entry`
     /// writing `targets` (colour, or colour + instance id), in the surface
     /// variants this renderer's meshes use.
-    pub(super) fn drone_pipeline(
+    pub(super) fn pipelines(
         &self,
+        factory: &PipelineFactory,
         label: &str,
         msaa: u32,
         entry: &str,
@@ -232,58 +328,40 @@ impl Renderer {
             } else {
                 (entry.to_owned(), &blend_constants[..2])
             };
-            self.device
-                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(&self.drone_layout),
-                    vertex: wgpu::VertexState {
-                        module: &self.shaders.1,
-                        entry_point: Some("vs_main"),
-                        compilation_options: Default::default(),
-                        buffers: &buffers,
-                    },
-                    // glTF: single-sided materials cull back faces (meshes are
-                    // counter-clockwise, negative scales already flipped).
-                    primitive: wgpu::PrimitiveState {
-                        front_face: wgpu::FrontFace::Ccw,
-                        cull_mode: (!surface.double_sided).then_some(wgpu::Face::Back),
-                        ..Default::default()
-                    },
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(true),
-                        depth_compare: Some(wgpu::CompareFunction::Greater),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
-                    multisample: wgpu::MultisampleState {
-                        count: msaa,
-                        ..Default::default()
-                    },
-                    fragment: Some(wgpu::FragmentState {
-                        module: &self.shaders.1,
-                        entry_point: Some(&entry),
-                        compilation_options: wgpu::PipelineCompilationOptions {
-                            constants,
-                            ..Default::default()
-                        },
-                        targets,
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
+            let (layout, module) = (&self.program.layout, &self.program.module);
+            factory.render(&PipelineDesc {
+                buffers: &buffers,
+                constants,
+                // glTF: single-sided materials cull back faces (meshes are
+                // counter-clockwise, negative scales already flipped).
+                primitive: wgpu::PrimitiveState {
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode: (!surface.double_sided).then_some(wgpu::Face::Back),
+                    ..Default::default()
+                },
+                depth: depth_test(DEPTH_FORMAT, true, wgpu::CompareFunction::Greater),
+                samples: msaa,
+                ..PipelineDesc::new(label, layout, module, &entry, targets)
+            })
         };
         DronePipelines(Surface::ALL.map(|k| self.surfaces[k.index()].then(|| variant(k))))
     }
 
-    /// Draw instance ranges (instances bound at vertex buffer slot 1, frame
-    /// uniforms at group 0), each with its level's draws and their pipelines.
-    pub(super) fn draw_drones(
+    /// Draw instance ranges of the uploaded instances (frame uniforms bound
+    /// at group 0), each with its level's draws and their pipelines.
+    pub(super) fn draw(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         pipelines: &DronePipelines,
         ranges: &[(MeshLevel, Range<u32>)],
     ) {
+        let Some(instances) = &self.instances else {
+            return;
+        };
+        if ranges.is_empty() {
+            return;
+        }
+        pass.set_vertex_buffer(1, instances.slice(..));
         let mut bound: Option<usize> = None;
         for ((model, level), range) in ranges {
             let Some((mesh, lod)) = self

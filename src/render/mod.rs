@@ -1,21 +1,24 @@
 //! The wgpu renderer: one module used by the batch runner, the CLI's `frame`
 //! command and the tests (and by the GUI preview). It knows nothing of any UI.
 //!
-//! Long-lived state (pipelines, uploaded meshes) lives in [`Renderer`];
-//! per-frame data (one uniform block, one instance buffer) is rewritten each
-//! frame. [`Renderer::render_frame`] is the pipeline's one call (the batch's
-//! and the preview's): it draws only the screen regions the drones can touch
-//! over a cached background and measures visibility from the same samples,
-//! in three steps: a CPU-only plan (`plan.rs`: passes, overlap layers, atlas
-//! places, reads), the encoded passes (`frame/passes.rs`, into the targets of
-//! `targets.rs`, the id layer in `id_layer.rs`) and the collected readback
-//! (`readback.rs`, `ids.rs`). The parts import one way: the frame composes
-//! the passes, background, scenery and targets; the wgpu descriptors they
-//! share are in the leaf `gpu.rs`, the upload tiles in `tiles.rs`.
-//! The meshes and their levels of detail are in `mesh.rs`.
-//! [`Renderer::encode`] draws a whole [`FrameScene`] into any colour view of
-//! the right size; [`Renderer::render_rgba`] is that full-frame path
-//! offscreen (the reference the region path is tested against).
+//! [`Renderer`] is composed of parts that own their things (pipelines,
+//! targets, uploads), each made through the one [`PipelineFactory`] of
+//! `gpu.rs`: the drones (`mesh.rs`: meshes, levels of detail, instances,
+//! draws), the sky (`sky.rs`), the plates (`plate.rs`), and, built on the
+//! first region frame, the region passes (`frame/passes.rs`), the background
+//! (`background.rs`), the scenery (`scenery.rs`) and the frame targets with
+//! the id layer (`targets.rs`, `id_layer.rs`). Per-frame data (one uniform
+//! block, one instance buffer) is rewritten each frame.
+//! [`Renderer::render_frame`] is the pipeline's one call (the batch's and the
+//! preview's): it draws only the screen regions the drones can touch over a
+//! cached background and measures visibility from the same samples, in three
+//! steps: a CPU-only plan (`plan.rs`: passes, overlap layers, atlas places,
+//! reads), the encoded passes and the collected readback (`readback.rs`,
+//! `ids.rs`). The parts import one way: the frame composes the others; the
+//! wgpu descriptors they share are in the leaf `gpu.rs`, the upload tiles in
+//! `tiles.rs`. [`Renderer::encode`] draws a whole [`FrameScene`] into any
+//! colour view of the right size; [`Renderer::render_rgba`] is that
+//! full-frame path offscreen (the reference the region path is tested against).
 
 mod background;
 mod context;
@@ -40,19 +43,20 @@ pub mod visibility;
 
 pub use context::{GpuContext, SharedPipelines, quiet_headless_vulkan};
 pub use frame::{Painted, RenderRequest, RenderedFrame};
+/// The pipeline maker, shared with the desktop app's flat paint.
+pub(crate) use gpu::{PipelineDesc, PipelineFactory};
+#[cfg(feature = "app")]
+pub(crate) use gpu::{texture_entry, uniform_entry};
 pub use ids::{MAX_DRONES, PixelHit};
-pub(crate) use mesh::{DronePipelines, MeshLevel};
-
-use std::borrow::Cow;
+use mesh::DronePipelines;
 
 use glam::{DMat4, Mat4};
 
 use crate::model::CpuModel;
 use crate::model::lod::Lod;
 use crate::scene::FrameScene;
-use crate::scene::projection::LabelGeometry;
 use crate::sky::{EnvironmentAssets, Lighting};
-use mesh::{GpuMesh, Surface};
+use mesh::Drones;
 use readback::Readback;
 
 /// The colour format of every target: sRGB is encoded in the shaders
@@ -67,23 +71,52 @@ pub enum RenderError {
     #[error(
         "no GPU adapter found (WGPU_BACKEND={backend}): install Mesa's software Vulkan driver (mesa-vulkan-drivers) or a GPU driver: {reason}"
     )]
-    NoAdapter { backend: String, reason: String },
+    NoAdapter {
+        backend: String,
+        #[source]
+        reason: wgpu::RequestAdapterError,
+    },
     #[error("cannot open the GPU device: {0}")]
-    Device(String),
+    Device(#[from] wgpu::RequestDeviceError),
     #[error(
         "render.resolution: {width}×{height} exceeds this adapter's largest texture side of {limit} px"
     )]
     TooLarge { width: u32, height: u32, limit: u32 },
     #[error("reading the frame back from the GPU failed: {0}")]
-    Readback(String),
+    Readback(#[from] ReadbackError),
     #[error("{count} drones in one frame: instance ids are exact up to {limit}")]
     TooManyDrones { count: usize, limit: usize },
     #[error(
         "{drones} drones in view overlap so densely on screen that sorting them into visibility layers needs more than {limit} box comparisons (the frame's work budget); spread them out, lower placement.count, or use labels.box_method: Amodal with no visibility filter"
     )]
     TooDense { drones: usize, limit: u64 },
-    #[error("backplate: {0}")]
-    Backplate(String),
+    #[error(
+        "backplate: the frame names backplate {plate} ({file}), but the renderer holds {held} plates"
+    )]
+    BackplateMissing {
+        plate: usize,
+        file: String,
+        held: usize,
+    },
+    #[error("backplate: a backplate's pixels do not fill its size")]
+    BackplateSize,
+}
+
+/// Why reading a frame (or a pass's target) back from the GPU failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadbackError {
+    #[error(transparent)]
+    Wait(#[from] wgpu::PollError),
+    #[error(transparent)]
+    Map(#[from] wgpu::BufferAsyncError),
+    /// The mapping's callback was dropped without answering.
+    #[error(transparent)]
+    NoAnswer(#[from] std::sync::mpsc::RecvError),
+    #[error(transparent)]
+    View(#[from] wgpu::MapRangeError),
+    /// A pass that should have drawn into a target had none.
+    #[error("{0} has no target")]
+    NoTarget(&'static str),
 }
 
 /// Per-frame uniforms; layout matches `shaders/common.wgsl` `Frame`.
@@ -257,27 +290,22 @@ struct Target {
     readback: Readback,
 }
 
+/// The renderer: the parts a frame is drawn with, each owning its
+/// pipelines, targets and uploads, all made through one [`PipelineFactory`].
 pub struct Renderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
+    /// Makes every pipeline and layout of the parts.
+    factory: PipelineFactory,
     max_texture_side: u32,
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
-    /// Frame uniforms + the material's texture (`@group(1)` of drone.wgsl).
-    drone_layout: wgpu::PipelineLayout,
-    /// Frame uniforms + the environment (`@group(1)` of sky.wgsl).
-    sky_layout: wgpu::PipelineLayout,
+    /// The sky and environments: sky.wgsl, its uniforms, images and reduced passes.
     sky: sky::SkyGpu,
-    white_texture: wgpu::BindGroup,
-    shaders: (wgpu::ShaderModule, wgpu::ShaderModule),
-    /// Pipelines per sample count: (sky, drone).
-    pipelines: Vec<(u32, wgpu::RenderPipeline, DronePipelines)>,
-    /// The surface kinds the meshes' draws use: the drone pipeline variants to build.
-    surfaces: [bool; Surface::COUNT],
-    meshes: Vec<GpuMesh>,
-    /// Each model's hull: where its drones can put pixels.
-    geometry: Vec<LabelGeometry>,
-    instances: Option<wgpu::Buffer>,
+    /// The drones: meshes, drone.wgsl, instances and draws.
+    drones: Drones,
+    /// The full-frame path's pipelines per sample count.
+    pipelines: Vec<FullFramePipelines>,
     /// The full-frame path's target ([`Renderer::render_rgba`]).
     target: Option<Target>,
     /// Region rendering and the id layer, created on first use.
@@ -286,8 +314,6 @@ pub struct Renderer {
     use_regions: bool,
     /// Keep each visible pixel's drones ([`RenderedFrame::pixel_hits`]) when measuring visibility.
     keep_pixel_hits: bool,
-    /// Silhouette error allowed to a level of detail, in pixels (0: full detail).
-    lod_error_px: f64,
     counts: PassCounts,
     /// Frame buffers handed back by the caller ([`Renderer::recycle`]), reused
     /// for the next frames' pixels: a fresh 4K frame (35 MB) is page-faulted
@@ -295,10 +321,18 @@ pub struct Renderer {
     spare: Vec<(Vec<u8>, Painted)>,
     spare_limit: usize,
     /// The photographic backgrounds frames may name ([`Renderer::set_backplates`]).
-    backplates: Vec<crate::sky::plates::Plate>,
+    plates: plate::Plates,
 }
 
-/// How many passes a renderer has run (for tests and benchmarks).
+/// The full-frame path's pipelines for one sample count.
+struct FullFramePipelines {
+    msaa: u32,
+    sky: wgpu::RenderPipeline,
+    drone: DronePipelines,
+}
+
+/// How many passes a renderer has run. Public for tests and benchmarks
+/// only ([`Renderer::pass_counts`]); the pipeline never reads it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PassCounts {
     pub color: u64,
@@ -361,19 +395,11 @@ impl Renderer {
         max_error_px: f64,
     ) -> Self {
         let device = ctx.device.clone();
-        let frame_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame uniforms layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
+        let factory = PipelineFactory::new(&device);
+        let frame_layout = factory.bind_group_layout(
+            "frame uniforms layout",
+            &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        );
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame uniforms"),
             size: std::mem::size_of::<FrameUniforms>() as u64,
@@ -382,64 +408,38 @@ impl Renderer {
         });
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame uniforms"),
-            layout: &frame_bgl,
+            layout: &frame_layout,
             entries: &[wgpu::BindGroupEntry {
                 binding: 0,
                 resource: frame_buffer.as_entire_binding(),
             }],
         });
-        let material_bgl = material::bind_group_layout(&device);
-        let drone_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("drone pipeline layout"),
-            bind_group_layouts: &[Some(&frame_bgl), Some(&material_bgl)],
-            immediate_size: 0,
-        });
-        let white_texture = material::white(&device, &ctx.queue, &material_bgl);
-        let sky = sky::SkyGpu::new(&device, &ctx.queue, ctx.shared.clone());
-        let sky_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sky pipeline layout"),
-            bind_group_layouts: &[Some(&frame_bgl), Some(&sky.layout)],
-            immediate_size: 0,
-        });
-        let [(sky_name, sky_src), (drone_name, drone_src), ..] = shader_sources();
-        let module = |label: &str, src: String| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
-            })
-        };
-        let shaders = (module(sky_name, sky_src), module(drone_name, drone_src));
-        let (meshes, surfaces) =
-            mesh::upload_meshes((&device, &ctx.queue), &material_bgl, models, lods);
+        let sky = sky::SkyGpu::new(&factory, &ctx.queue, ctx.shared.clone(), &frame_layout);
+        let drones = Drones::new(
+            (&factory, &ctx.queue),
+            &frame_layout,
+            models,
+            lods,
+            max_error_px,
+        );
         Self {
             device,
             queue: ctx.queue.clone(),
+            factory,
             max_texture_side: ctx.max_texture_side,
             frame_buffer,
             frame_bind_group,
-            drone_layout,
-            sky_layout,
             sky,
-            white_texture,
-            shaders,
+            drones,
             pipelines: Vec::new(),
-            surfaces,
-            meshes,
-            geometry: models.iter().map(LabelGeometry::from).collect(),
-            instances: None,
             target: None,
             regions: None,
             use_regions: true,
             keep_pixel_hits: false,
-            lod_error_px: if max_error_px.is_finite() {
-                max_error_px.max(0.0)
-            } else {
-                0.0
-            },
             counts: PassCounts::default(),
             spare: Vec::new(),
             spare_limit: 2,
-            backplates: Vec::new(),
+            plates: plate::Plates::default(),
         }
     }
 
@@ -482,13 +482,19 @@ impl Renderer {
         buffer
     }
 
-    /// Passes run so far.
+    /// Drones per level of detail over the drones of `scene` (for tests and
+    /// benchmarks; the pipeline never reads it).
+    pub fn level_histogram(&self, scene: &FrameScene) -> Vec<usize> {
+        self.drones.level_histogram(scene)
+    }
+
+    /// Passes run so far (for tests and benchmarks).
     pub fn pass_counts(&self) -> PassCounts {
         self.counts
     }
 
     /// Whether the id readback (its resolve pipelines and targets) has been
-    /// set up: only on the first frame that measures visibility.
+    /// set up: only on the first frame that measures visibility (for tests).
     pub fn has_id_pipeline(&self) -> bool {
         self.regions
             .as_ref()
@@ -523,51 +529,27 @@ impl Renderer {
         Ok(())
     }
 
+    /// The full-frame path's pipelines for `msaa` samples, built on first use.
     fn pipelines(&mut self, msaa: u32) -> usize {
-        if let Some(i) = self.pipelines.iter().position(|p| p.0 == msaa) {
+        if let Some(i) = self.pipelines.iter().position(|p| p.msaa == msaa) {
             return i;
         }
-        let multisample = wgpu::MultisampleState {
-            count: msaa,
-            ..Default::default()
-        };
-        let color = [Some(wgpu::ColorTargetState {
-            format: COLOR_FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        })];
-        let depth = |write: bool, compare| wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(write),
-            depth_compare: Some(compare),
-            stencil: Default::default(),
-            bias: Default::default(),
-        };
-        let sky = self
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("sky pipeline"),
-                layout: Some(&self.sky_layout),
-                vertex: wgpu::VertexState {
-                    module: &self.shaders.0,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: Some(depth(false, wgpu::CompareFunction::Always)),
-                multisample,
-                fragment: Some(wgpu::FragmentState {
-                    module: &self.shaders.0,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &color,
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
-        let drone = self.drone_pipeline("drone pipeline", msaa, "fs_main", &color);
-        self.pipelines.push((msaa, sky, drone));
+        let color = [gpu::color_target(COLOR_FORMAT)];
+        let program = &self.sky.program;
+        let sky = self.factory.render(&PipelineDesc {
+            depth: gpu::depth_test(DEPTH_FORMAT, false, wgpu::CompareFunction::Always),
+            samples: msaa,
+            ..PipelineDesc::new(
+                "sky pipeline",
+                &program.layout,
+                &program.module,
+                "fs_main",
+                &color,
+            )
+        });
+        let drone =
+            (self.drones).pipelines(&self.factory, "drone pipeline", msaa, "fs_main", &color);
+        self.pipelines.push(FullFramePipelines { msaa, sky, drone });
         self.pipelines.len() - 1
     }
 
@@ -584,7 +566,7 @@ impl Renderer {
             scene.atmosphere.map(|a| a.visibility_m),
             image_scale,
         );
-        self.plate_lighting(scene, &mut lighting);
+        self.plates.lighting(scene, &mut lighting);
         let uniforms = FrameUniforms::new(scene, &lighting);
         self.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
@@ -602,41 +584,28 @@ impl Renderer {
         }
     }
 
+    /// Hold the plates that frames may name (`FramePlate::plate` indexes
+    /// them); cached backgrounds are dropped.
+    pub fn set_backplates(&mut self, plates: &[crate::sky::plates::Plate]) {
+        self.plates = plate::Plates(plates.to_vec());
+        if let Some(state) = &mut self.regions {
+            state.forget_backgrounds();
+        }
+    }
+
     /// Write the instances of the drones `include` accepts (camera_from_model
     /// built in f64), grouped by model; returns each model's instance range.
     fn upload_instances(
         &mut self,
         scene: &FrameScene,
         include: &dyn Fn(usize) -> bool,
-    ) -> Vec<(MeshLevel, std::ops::Range<u32>)> {
-        let mut order: Vec<(MeshLevel, usize)> = (0..scene.drones.len())
-            .filter(|&i| include(i))
-            .map(|i| ((scene.drones[i].model, self.level_of(scene, i)), i))
-            .collect();
-        order.sort_unstable();
-        let mut data: Vec<InstanceRaw> = Vec::with_capacity(order.len());
-        let mut ranges: Vec<(MeshLevel, std::ops::Range<u32>)> = Vec::new();
-        for &(key, i) in &order {
-            let idx = data.len() as u32;
-            data.push(InstanceRaw::new(scene, i));
-            match ranges.last_mut() {
-                Some((k, r)) if *k == key => r.end = idx + 1,
-                _ => ranges.push((key, idx..idx + 1)),
-            }
-        }
-        self.write_instances(&data);
+    ) -> mesh::InstanceRanges {
+        let mut data: Vec<InstanceRaw> = Vec::new();
+        let drones = (0..scene.drones.len()).filter(|&i| include(i));
+        let ranges = self.drones.instances(scene, drones, &mut data);
+        self.drones
+            .upload_instances((&self.device, &self.queue), &data);
         ranges
-    }
-
-    /// Write instance data into the (reused, grown as needed) instance buffer.
-    fn write_instances(&mut self, data: &[InstanceRaw]) {
-        let bytes: &[u8] = bytemuck::cast_slice(data);
-        write_vertices(
-            (&self.device, &self.queue),
-            &mut self.instances,
-            "drone instances",
-            bytes,
-        );
     }
 
     /// Encode the frame into `views` (any views of the scene camera's size).
@@ -654,22 +623,19 @@ impl Renderer {
         } = *views;
         let uniforms = self.upload_uniforms(scene);
         let size = (scene.camera.width, scene.camera.height);
-        let shaders = (&self.shaders.0, &self.sky_layout);
-        self.sky.encode_reduced(
-            &self.device,
-            encoder,
-            shaders,
-            &self.frame_bind_group,
-            size,
-            (
-                &scene.sky,
-                horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, size),
-            ),
-        );
+        let with = sky::SkyPassContext {
+            factory: &self.factory,
+            frame_group: &self.frame_bind_group,
+        };
+        let frame_sky = sky::FrameSkyDraw {
+            sky: &scene.sky,
+            horizon: horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, size),
+        };
+        self.sky.encode_reduced(&with, encoder, size, &frame_sky);
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;
         let p = self.pipelines(msaa);
-        let (_, sky_pipeline, drone_pipeline) = &self.pipelines[p];
+        let FullFramePipelines { sky, drone, .. } = &self.pipelines[p];
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("frame pass"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -696,14 +662,9 @@ impl Renderer {
         });
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
         pass.set_bind_group(1, self.sky.bind_group_for(&scene.sky), &[]);
-        pass.set_pipeline(sky_pipeline);
+        pass.set_pipeline(sky);
         pass.draw(0..3, 0..1);
-        if let Some(instances) = &self.instances
-            && !ranges.is_empty()
-        {
-            pass.set_vertex_buffer(1, instances.slice(..));
-            self.draw_drones(&mut pass, drone_pipeline, &ranges);
-        }
+        self.drones.draw(&mut pass, drone, &ranges);
     }
 
     fn ensure_target(&mut self, width: u32, height: u32, msaa: u32) -> Result<(), RenderError> {
@@ -770,7 +731,7 @@ impl Renderer {
         let target = self
             .target
             .take()
-            .ok_or_else(|| RenderError::Readback("no target".into()))?;
+            .ok_or(ReadbackError::NoTarget("the full-frame pass"))?;
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {

@@ -1,33 +1,28 @@
-//! Photographic backgrounds in the renderer: a frame whose scene names a
+//! Photographic backgrounds in the renderer ([`Plates`]): a frame whose scene names a
 //! backplate gets the plate's pixels (resampled to the frame's size when the
 //! loaded size differs, e.g. a preview pane; mirrored when the frame's draw
 //! says so) as its cached background instead of the sky pass. The drones
 //! are then drawn over it exactly as over a sky, so the id pass, the visible
-//! boxes and [`Renderer::background_pixels`] work unchanged.
+//! boxes and [`super::Renderer::background_pixels`] work unchanged.
 
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
 use crate::sky::Lighting;
 use crate::sky::plates::{Plate, resample_cover};
 
-use super::{RenderError, Renderer};
+use super::RenderError;
 
-impl Renderer {
-    /// Hold the plates that frames may name (`FramePlate::plate` indexes
-    /// them); cached backgrounds are dropped.
-    pub fn set_backplates(&mut self, plates: &[Plate]) {
-        self.backplates = plates.to_vec();
-        if let Some(state) = &mut self.regions {
-            state.forget_backgrounds();
-        }
-    }
+/// The plate part of the frame: the plates frames may name
+/// (`FramePlate::plate` indexes them).
+#[derive(Default)]
+pub(super) struct Plates(pub(super) Vec<Plate>);
 
+impl Plates {
     /// Under a plate, the drones' ambient light is the plate's: its upper
     /// half's mean colour from above, its lower half's from below (linear),
     /// in place of the preset's sky (whose sun stays).
-    pub(super) fn plate_lighting(&self, scene: &FrameScene, lighting: &mut Lighting) {
-        let Some(plate) = (scene.backplate.as_ref()).and_then(|p| self.backplates.get(p.plate))
-        else {
+    pub(super) fn lighting(&self, scene: &FrameScene, lighting: &mut Lighting) {
+        let Some(plate) = (scene.backplate.as_ref()).and_then(|p| self.0.get(p.plate)) else {
             return;
         };
         let (up, low) = (
@@ -40,7 +35,7 @@ impl Renderer {
     }
 
     /// The background key of a plate frame: the plate, its mirroring and the size.
-    pub(super) fn plate_key(plate: &FramePlate, size: (u32, u32)) -> Vec<u8> {
+    pub(super) fn key(plate: &FramePlate, size: (u32, u32)) -> Vec<u8> {
         let mut key = b"backplate".to_vec();
         key.extend_from_slice(&(plate.plate as u64).to_le_bytes());
         key.push(u8::from(plate.flip));
@@ -50,29 +45,27 @@ impl Renderer {
     }
 
     /// Write the plate's pixels at `size` (RGBA8) into `out`.
-    pub(super) fn plate_pixels(
+    pub(super) fn pixels(
         &self,
         plate: &FramePlate,
         size: (u32, u32),
         out: &mut Vec<u8>,
     ) -> Result<(), RenderError> {
-        let loaded = self.backplates.get(plate.plate).ok_or_else(|| {
-            RenderError::Backplate(format!(
-                "the frame names backplate {} ({}), but the renderer holds {} plates",
-                plate.plate,
-                plate.file,
-                self.backplates.len()
-            ))
-        })?;
+        let loaded = self
+            .0
+            .get(plate.plate)
+            .ok_or_else(|| RenderError::BackplateMissing {
+                plate: plate.plate,
+                file: plate.file.clone(),
+                held: self.0.len(),
+            })?;
         out.clear();
         if loaded.size == size {
             out.extend_from_slice(&loaded.rgba);
         } else {
             let image =
                 image::RgbaImage::from_raw(loaded.size.0, loaded.size.1, (*loaded.rgba).clone())
-                    .ok_or_else(|| {
-                        RenderError::Backplate("a backplate's pixels do not fill its size".into())
-                    })?;
+                    .ok_or(RenderError::BackplateSize)?;
             out.extend_from_slice(&resample_cover(&image, size));
         }
         if plate.flip {
@@ -87,40 +80,5 @@ impl Renderer {
             }
         }
         Ok(())
-    }
-
-    /// Upload the part `part` of `rgba` (a background `width` pixels wide)
-    /// into the same place of `texture` (the cached background).
-    pub(super) fn upload_background_part(
-        &self,
-        texture: &wgpu::Texture,
-        rgba: &[u8],
-        width: u32,
-        part: &super::regions::Rect,
-    ) {
-        let offset = (u64::from(part.y0) * u64::from(width) + u64::from(part.x0)) * 4;
-        self.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d {
-                    x: part.x0,
-                    y: part.y0,
-                    z: 0,
-                },
-                aspect: wgpu::TextureAspect::All,
-            },
-            rgba,
-            wgpu::TexelCopyBufferLayout {
-                offset,
-                bytes_per_row: Some(width * 4),
-                rows_per_image: None,
-            },
-            wgpu::Extent3d {
-                width: part.x1 - part.x0,
-                height: part.y1 - part.y0,
-                depth_or_array_layers: 1,
-            },
-        );
     }
 }

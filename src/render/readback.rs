@@ -7,8 +7,8 @@
 //! Planning is CPU-only (the frame plan uses it without a GPU); the rest
 //! takes the device.
 
-use super::RenderError;
 use super::regions::Rect;
+use super::{ReadbackError, RenderError};
 
 /// Round `bytes` up to the copy row alignment.
 pub(super) fn padded_row(bytes: u32) -> u32 {
@@ -132,7 +132,7 @@ pub(super) fn wait(
             timeout: None,
         })
         .map(|_| ())
-        .map_err(|e| RenderError::Readback(e.to_string()))
+        .map_err(|e| ReadbackError::from(e).into())
 }
 
 /// Map the first `len` bytes of `buffer`, wait for the GPU to finish
@@ -153,12 +153,10 @@ pub(super) fn read_mapped<T>(
     });
     wait(device, submitted)?;
     rx.recv()
-        .map_err(|e| RenderError::Readback(e.to_string()))?
-        .map_err(|e| RenderError::Readback(e.to_string()))?;
+        .map_err(ReadbackError::from)?
+        .map_err(ReadbackError::from)?;
     let out = {
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let view = slice.get_mapped_range().map_err(ReadbackError::from)?;
         f(&view)
     };
     buffer.unmap();

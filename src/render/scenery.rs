@@ -12,13 +12,13 @@
 //! visibility tally reads lose exactly the drone samples the scenery hides.
 //! A frame without clutter never builds any of it.
 
-use std::borrow::Cow;
 use std::hash::{Hash, Hasher};
 
 use glam::{DVec2, DVec3};
 
+use super::gpu::{PassViews, PipelineDesc, PipelineFactory, depth_test, load_pass, texture_entry};
 use super::regions::PassDraws;
-use super::{COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, Renderer, linear_to_srgb};
+use super::{COLOR_FORMAT, DEPTH_FORMAT, FrameUniforms, linear_to_srgb};
 use crate::scene::FrameScene;
 use crate::scene::camera::Camera;
 use crate::scene::clutter::{Primitive, Shape};
@@ -508,12 +508,12 @@ fn layer_key(scene: &FrameScene, samples: u32, light: &SceneryLight) -> u64 {
     h.finish()
 }
 
-/// The scenery's GPU state: the layer's textures and the overlay pipelines.
+/// The scenery part of the frame: the layer (CPU and textures), its
+/// upload and the overlay pipelines.
 pub(super) struct SceneryGpu {
     layout: wgpu::BindGroupLayout,
     module: wgpu::ShaderModule,
-    /// (samples, colour + ids, ids only).
-    pipelines: Vec<(u32, wgpu::RenderPipeline, wgpu::RenderPipeline)>,
+    pipelines: Vec<SceneryPipelines>,
     /// The uploaded layer's key, its size and bind group.
     uploaded: Option<(u64, (u32, u32), wgpu::BindGroup)>,
     /// The layer's textures (colour, depth) of `uploaded`'s size, reused
@@ -527,64 +527,91 @@ pub(super) struct SceneryGpu {
     layer: Option<ClutterLayer>,
 }
 
+/// The overlay pipelines for one sample count.
+struct SceneryPipelines {
+    samples: u32,
+    with_color: wgpu::RenderPipeline,
+    ids_only: wgpu::RenderPipeline,
+}
+
+/// What the scenery pass draws over: the rect buffer, a pass's draws (their
+/// rects) and the targets' sample count.
+pub(super) struct SceneryDraw<'a> {
+    pub rects: &'a wgpu::Buffer,
+    pub draws: &'a PassDraws,
+    pub samples: u32,
+}
+
+/// Rasterise and upload `scene`'s scenery into `slot` (made on first use)
+/// unless the same layer is already there; its key, or `None` (and nothing
+/// built) without clutter.
+pub(super) fn prepare(
+    slot: &mut Option<SceneryGpu>,
+    factory: &PipelineFactory,
+    scene: &FrameScene,
+    uniforms: &FrameUniforms,
+    samples: u32,
+) -> Option<u64> {
+    let clutter = scene.clutter.as_ref()?;
+    if clutter.primitives.is_empty() {
+        return None;
+    }
+    let gpu = slot.get_or_insert_with(|| SceneryGpu::new(factory));
+    gpu.ensure_pipelines(factory, samples);
+    let light = SceneryLight::from_uniforms(uniforms);
+    let key = layer_key(scene, samples, &light);
+    if gpu.uploaded.as_ref().map(|u| u.0) == Some(key) {
+        return Some(key);
+    }
+    let mut layer = gpu.layer.take().unwrap_or_default();
+    rasterize_into(scene, samples, &light, &mut layer);
+    let (width, height) = (layer.width, layer.height);
+    let group = match gpu.uploaded.take() {
+        Some((_, size, group)) if size == (width, height) && gpu.textures.is_some() => group,
+        _ => gpu.make_textures(factory.device(), (width, height)),
+    };
+    let (across, down) = super::tiles::upload_tiles((width, height));
+    gpu.stale = vec![true; across as usize * down as usize];
+    gpu.uploaded = Some((key, (width, height), group));
+    gpu.layer = Some(layer);
+    Some(key)
+}
+
 impl SceneryGpu {
+    fn new(factory: &PipelineFactory) -> Self {
+        let entry = |binding| texture_entry(binding, false, wgpu::TextureViewDimension::D2, false);
+        Self {
+            layout: factory.bind_group_layout("scenery layout", &[entry(0), entry(1)]),
+            module: factory.shader("clutter.wgsl", shader_source()),
+            pipelines: Vec::new(),
+            uploaded: None,
+            textures: None,
+            stale: Vec::new(),
+            layer: None,
+        }
+    }
+
     /// The uploaded layer's key and the layer.
     pub(super) fn layer(&self) -> Option<(u64, &ClutterLayer)> {
         Some((self.uploaded.as_ref()?.0, self.layer.as_ref()?))
     }
-}
 
-impl Renderer {
-    /// Rasterise and upload the frame's scenery unless the same layer is
-    /// already there; `None` (and nothing built) without clutter.
-    pub(super) fn prepare_scenery(
-        &self,
-        slot: &mut Option<SceneryGpu>,
-        scene: &FrameScene,
-        uniforms: &FrameUniforms,
-        samples: u32,
-    ) -> Option<u64> {
-        let clutter = scene.clutter.as_ref()?;
-        if clutter.primitives.is_empty() {
-            return None;
-        }
-        let gpu = slot.get_or_insert_with(|| self.scenery_gpu());
-        self.scenery_pipelines(gpu, samples);
-        let light = SceneryLight::from_uniforms(uniforms);
-        let key = layer_key(scene, samples, &light);
-        if gpu.uploaded.as_ref().map(|u| u.0) == Some(key) {
-            return Some(key);
-        }
-        let mut layer = gpu.layer.take().unwrap_or_default();
-        rasterize_into(scene, samples, &light, &mut layer);
-        let (width, height) = (layer.width, layer.height);
-        let group = match gpu.uploaded.take() {
-            Some((_, size, group)) if size == (width, height) && gpu.textures.is_some() => group,
-            _ => self.scenery_textures(gpu, (width, height)),
-        };
-        let (across, down) = super::tiles::upload_tiles((width, height));
-        gpu.stale = vec![true; across as usize * down as usize];
-        gpu.uploaded = Some((key, (width, height), group));
-        gpu.layer = Some(layer);
-        Some(key)
-    }
-
-    /// New colour and depth textures of `size` for `gpu` (kept in
-    /// `gpu.textures`) and the group that binds them.
-    fn scenery_textures(
-        &self,
-        gpu: &mut SceneryGpu,
+    /// New colour and depth textures of `size` (kept in `self.textures`)
+    /// and the group that binds them.
+    fn make_textures(
+        &mut self,
+        device: &wgpu::Device,
         (width, height): (u32, u32),
     ) -> wgpu::BindGroup {
         let texture = |label: &str, format| {
             let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
-            super::gpu::texture_2d(&self.device, label, (width, height), (format, 1), usage)
+            super::gpu::texture_2d(device, label, (width, height), (format, 1), usage)
         };
         let color = texture("scenery colour", wgpu::TextureFormat::Rgba8Unorm);
         let depth = texture("scenery depth", wgpu::TextureFormat::R32Float);
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scenery layer"),
-            layout: &gpu.layout,
+            layout: &self.layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -600,173 +627,78 @@ impl Renderer {
                 },
             ],
         });
-        gpu.textures = Some((color, depth));
+        self.textures = Some((color, depth));
         group
     }
 
     /// Write the prepared layer's stale tiles under `rects` into its
     /// textures (colour and depth, both 4 bytes a pixel).
-    pub(super) fn upload_scenery_under<'r>(
-        &self,
-        gpu: &mut SceneryGpu,
+    pub(super) fn upload_under<'r>(
+        &mut self,
+        queue: &wgpu::Queue,
         rects: impl IntoIterator<Item = &'r super::regions::Rect>,
     ) {
-        let (Some(layer), Some((color, depth))) = (&gpu.layer, &gpu.textures) else {
+        let (Some(layer), Some((color, depth))) = (&self.layer, &self.textures) else {
             return;
         };
         let size = (layer.width, layer.height);
-        for part in super::tiles::take_stale_tiles(&mut gpu.stale, size, rects) {
-            let colour: &[u8] = bytemuck::cast_slice(&layer.color);
-            self.upload_background_part(color, colour, layer.width, &part);
-            self.upload_background_part(
-                depth,
-                bytemuck::cast_slice(&layer.depth),
-                layer.width,
-                &part,
-            );
+        let colour: &[u8] = bytemuck::cast_slice(&layer.color);
+        let depths: &[u8] = bytemuck::cast_slice(&layer.depth);
+        for part in super::tiles::take_stale_tiles(&mut self.stale, size, rects) {
+            super::tiles::write_part(queue, color, colour, layer.width, &part);
+            super::tiles::write_part(queue, depth, depths, layer.width, &part);
         }
     }
 
-    fn scenery_gpu(&self) -> SceneryGpu {
-        let entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        };
-        let layout = self
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("scenery layout"),
-                entries: &[entry(0), entry(1)],
-            });
-        let source = shader_source();
-        let module = self
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("clutter.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(Cow::Owned(source)),
-            });
-        SceneryGpu {
-            layout,
-            module,
-            pipelines: Vec::new(),
-            uploaded: None,
-            textures: None,
-            stale: Vec::new(),
-            layer: None,
+    /// The overlay pipelines for `samples`, built on first use.
+    fn ensure_pipelines(&mut self, factory: &PipelineFactory, samples: u32) {
+        if self.pipelines.iter().any(|p| p.samples == samples) {
+            return;
         }
-    }
-
-    fn scenery_pipelines(&self, gpu: &mut SceneryGpu, samples: u32) -> usize {
-        if let Some(i) = gpu.pipelines.iter().position(|p| p.0 == samples) {
-            return i;
-        }
-        let layout = self
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("scenery pipeline layout"),
-                bind_group_layouts: &[Some(&gpu.layout)],
-                immediate_size: 0,
-            });
+        let layout = factory.layout("scenery pipeline layout", &[&self.layout]);
         let color = super::gpu::color_target(COLOR_FORMAT);
         let id = super::gpu::color_target(super::ids::ID_FORMAT);
+        let buffers = [Some(super::gpu::rect_buffer_layout())];
         let make = |label: &str, entry: &str, targets: &[Option<wgpu::ColorTargetState>]| {
-            self.device
-                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(&layout),
-                    vertex: wgpu::VertexState {
-                        module: &gpu.module,
-                        entry_point: Some("vs_main"),
-                        compilation_options: Default::default(),
-                        buffers: &[Some(super::gpu::rect_buffer_layout())],
-                    },
-                    primitive: wgpu::PrimitiveState::default(),
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(true),
-                        depth_compare: Some(wgpu::CompareFunction::Greater),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
-                    multisample: wgpu::MultisampleState {
-                        count: samples,
-                        ..Default::default()
-                    },
-                    fragment: Some(wgpu::FragmentState {
-                        module: &gpu.module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        targets,
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
+            factory.render(&PipelineDesc {
+                buffers: &buffers,
+                depth: depth_test(DEPTH_FORMAT, true, wgpu::CompareFunction::Greater),
+                samples,
+                ..PipelineDesc::new(label, &layout, &self.module, entry, targets)
+            })
         };
         let with_color = make("scenery pipeline", "fs_main", &[color, id.clone()]);
         let ids_only = make("scenery id pipeline", "fs_ids", &[None, id]);
-        gpu.pipelines.push((samples, with_color, ids_only));
-        gpu.pipelines.len() - 1
+        self.pipelines.push(SceneryPipelines {
+            samples,
+            with_color,
+            ids_only,
+        });
     }
 
-    /// Draw the uploaded scenery over `draws`' rects, after their drones:
-    /// one pass loading the targets (`color`: the colour target too).
-    pub(super) fn encode_scenery(
+    /// Draw the uploaded scenery over `draw`'s rects, after their drones:
+    /// one pass loading the targets (with `views.color`: the colour target too).
+    pub(super) fn encode(
         &self,
-        gpu: &SceneryGpu,
         encoder: &mut wgpu::CommandEncoder,
-        (color_view, ids_view, depth_view): (
-            Option<&wgpu::TextureView>,
-            &wgpu::TextureView,
-            &wgpu::TextureView,
-        ),
-        (rects, draws, samples): (&wgpu::Buffer, &PassDraws, u32),
+        views: PassViews<'_>,
+        draw: &SceneryDraw<'_>,
     ) {
-        let (Some((_, _, group)), Some((_, with_color, ids_only))) =
-            (&gpu.uploaded, gpu.pipelines.iter().find(|p| p.0 == samples))
-        else {
+        let (Some((_, _, group)), Some(pipes)) = (
+            &self.uploaded,
+            self.pipelines.iter().find(|p| p.samples == draw.samples),
+        ) else {
             return;
         };
-        let load = wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        };
-        let attachment = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: load,
-            })
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("scenery pass"),
-            color_attachments: &[color_view.and_then(attachment), attachment(ids_view)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(if color_view.is_some() {
-            with_color
+        let mut pass = load_pass(encoder, "scenery pass", views);
+        pass.set_pipeline(if views.color.is_some() {
+            &pipes.with_color
         } else {
-            ids_only
+            &pipes.ids_only
         });
         pass.set_bind_group(0, group, &[]);
-        pass.set_vertex_buffer(0, rects.slice(..));
-        pass.draw(0..6, draws.rect_instances());
+        pass.set_vertex_buffer(0, draw.rects.slice(..));
+        pass.draw(0..6, draw.draws.rect_instances());
     }
 }
 

@@ -14,14 +14,33 @@ use glam::Vec3;
 use half::slice::HalfFloatSliceExt;
 use wgpu::util::DeviceExt;
 
+use super::gpu::{PipelineDesc, PipelineFactory, Program, sampler_entry, texture_entry};
 use super::horizon::Horizon;
 
 use crate::sky::{
     self, EnvironmentAssets, FrameEnvironment, FrameSky, Lighting, SkyImage, SkyImageKind,
 };
 
+/// What the sky's reduced passes are drawn with besides the sky's own
+/// things: the renderer's pipeline maker and the frame uniforms' group.
+pub(super) struct SkyPassContext<'a> {
+    pub factory: &'a PipelineFactory,
+    pub frame_group: &'a wgpu::BindGroup,
+}
+
+/// The sky a frame shows and its horizon (for the environment's parts).
+pub(super) struct FrameSkyDraw<'a> {
+    pub sky: &'a FrameSky,
+    pub horizon: Horizon,
+}
+
 pub(super) struct SkyGpu {
-    pub(super) layout: wgpu::BindGroupLayout,
+    /// `@group(1)` of sky.wgsl.
+    layout: wgpu::BindGroupLayout,
+    /// sky.wgsl, laid out with the frame uniforms and [`SkyGpu::layout`]:
+    /// every sky pipeline (the full-frame path's, the background's, the
+    /// reduced passes') is made from it.
+    pub(super) program: Program,
     uniforms: wgpu::Buffer,
     /// Placeholders only: the gradient sky and the environment pass itself.
     default_group: wgpu::BindGroup,
@@ -94,47 +113,28 @@ fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
 }
 
 impl SkyGpu {
+    /// The sky's things, its pipelines laid out after `frame_layout` (`@group(0)`).
     pub(super) fn new(
-        device: &wgpu::Device,
+        factory: &PipelineFactory,
         queue: &wgpu::Queue,
         shared: super::context::SharedPipelines,
+        frame_layout: &wgpu::BindGroupLayout,
     ) -> Self {
-        let texture_entry = |binding, view_dimension| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                view_dimension,
-                multisampled: false,
-            },
-            count: None,
-        };
-        let sampler_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("environment layout"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                texture_entry(1, wgpu::TextureViewDimension::D2),
-                texture_entry(2, wgpu::TextureViewDimension::Cube),
+        let device = factory.device();
+        let texture = |binding, view_dimension| texture_entry(binding, true, view_dimension, false);
+        let layout = factory.bind_group_layout(
+            "environment layout",
+            &[
+                super::gpu::uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture(1, wgpu::TextureViewDimension::D2),
+                texture(2, wgpu::TextureViewDimension::Cube),
                 sampler_entry(3),
-                texture_entry(4, wgpu::TextureViewDimension::D2),
+                texture(4, wgpu::TextureViewDimension::D2),
                 sampler_entry(5),
             ],
-        });
+        );
+        let [(sky_name, sky_src), ..] = super::shader_sources();
+        let program = factory.program(sky_name, sky_src, &[frame_layout, &layout]);
         let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("environment uniforms"),
             size: std::mem::size_of::<EnvUniforms>() as u64,
@@ -175,6 +175,7 @@ impl SkyGpu {
         );
         Self {
             layout,
+            program,
             uniforms,
             default_group,
             half: None,
@@ -294,13 +295,12 @@ impl SkyGpu {
     /// the resolution; the half-resolution pass interpolates it there.
     pub(super) fn encode_environment(
         &mut self,
-        device: &wgpu::Device,
+        with: &SkyPassContext<'_>,
         encoder: &mut wgpu::CommandEncoder,
-        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
-        frame_bind_group: &wgpu::BindGroup,
         frame: (u32, u32),
         horizon: Horizon,
     ) {
+        let device = with.factory.device();
         let band_top = self.written.band[0];
         let half = self.ensure_target(device, HALF_SCALE, frame);
         let draws = horizon.parts(band_top, half, HALF_SCALE as f32);
@@ -312,10 +312,10 @@ impl SkyGpu {
         });
         let upper_pipeline = upper
             .as_ref()
-            .map(|(part, _)| self.environment_pipeline(device, (module, layout), *part));
+            .map(|(part, _)| self.environment_pipeline(with, *part));
         let pipelines: Vec<usize> = draws
             .iter()
-            .map(|(part, _)| self.environment_pipeline(device, (module, layout), *part))
+            .map(|(part, _)| self.environment_pipeline(with, *part))
             .collect();
         let vertices: Vec<[f32; 2]> = upper
             .iter()
@@ -353,13 +353,13 @@ impl SkyGpu {
                 "environment pass (quarter resolution)",
                 &quarter.view,
             );
-            pass.set_bind_group(0, frame_bind_group, &[]);
+            pass.set_bind_group(0, with.frame_group, &[]);
             pass.set_bind_group(1, &self.default_group, &[]);
             draw(&mut pass, triangles, pipeline);
             group = &quarter.group;
         }
         let mut pass = super::gpu::clear_pass(encoder, "environment pass", &half.view);
-        pass.set_bind_group(0, frame_bind_group, &[]);
+        pass.set_bind_group(0, with.frame_group, &[]);
         pass.set_bind_group(1, group, &[]);
         for ((_, triangles), pipeline) in draws.iter().zip(pipelines) {
             draw(&mut pass, triangles, pipeline);
@@ -411,12 +411,7 @@ impl SkyGpu {
     /// its ground, the band for its silhouettes, the sky above the band for
     /// none. Environments that share them share the part's pipeline: each
     /// pipeline costs lavapipe tens of milliseconds of shader compilation.
-    fn environment_pipeline(
-        &mut self,
-        device: &wgpu::Device,
-        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
-        part: u32,
-    ) -> usize {
+    fn environment_pipeline(&mut self, with: &SkyPassContext<'_>, part: u32) -> usize {
         let (ground, far, near) = (
             self.written.pattern[2],
             self.written.pattern[3],
@@ -449,13 +444,8 @@ impl SkyGpu {
             ("ENV_NEAR", f64::from(kinds[2])),
             ("ENV_PART", f64::from(part)),
         ];
-        let pipeline = environment_pipeline(
-            device,
-            (module, layout),
-            &constants,
-            part > 0,
-            "fs_environment",
-        );
+        let pipeline =
+            environment_pipeline(with, &self.program, &constants, part > 0, "fs_environment");
         shared.push((key, pipeline.clone()));
         self.pipelines.push((key, pipeline));
         self.pipelines.len() - 1
@@ -512,18 +502,17 @@ impl SkyGpu {
     /// `horizon`: the frame's, for the environment's parts.
     pub(super) fn encode_reduced(
         &mut self,
-        device: &wgpu::Device,
+        with: &SkyPassContext<'_>,
         encoder: &mut wgpu::CommandEncoder,
-        shaders: (&wgpu::ShaderModule, &wgpu::PipelineLayout),
-        frame_bind_group: &wgpu::BindGroup,
         size: (u32, u32),
-        (sky, horizon): (&FrameSky, Horizon),
+        frame_sky: &FrameSkyDraw<'_>,
     ) {
+        let sky = frame_sky.sky;
         if Self::is_procedural(sky) {
-            self.encode_environment(device, encoder, shaders, frame_bind_group, size, horizon);
+            self.encode_environment(with, encoder, size, frame_sky.horizon);
         } else if self.written_image_scale().is_some() {
-            self.encode_image(device, encoder, shaders, frame_bind_group, size, sky);
-            self.prepare_upsampled(device, sky);
+            self.encode_image(with, encoder, size, sky);
+            self.prepare_upsampled(with.factory.device(), sky);
         }
     }
 
@@ -547,13 +536,12 @@ impl SkyGpu {
     /// `width`×`height` frame.
     pub(super) fn encode_image(
         &mut self,
-        device: &wgpu::Device,
+        with: &SkyPassContext<'_>,
         encoder: &mut wgpu::CommandEncoder,
-        (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
-        frame_bind_group: &wgpu::BindGroup,
         (width, height): (u32, u32),
         sky: &FrameSky,
     ) {
+        let device = with.factory.device();
         let Some(scale) = self.written_image_scale() else {
             return;
         };
@@ -564,7 +552,7 @@ impl SkyGpu {
             self.upsampled = None;
         }
         let pipeline = self.image_pipeline.get_or_insert_with(|| {
-            environment_pipeline(device, (module, layout), &[], false, "fs_image")
+            environment_pipeline(with, &self.program, &[], false, "fs_image")
         });
         let (Some((_, view, _)), FrameSky::Image { image, .. }) = (&self.image_target, sky) else {
             return;
@@ -574,7 +562,7 @@ impl SkyGpu {
         };
         let mut pass = super::gpu::clear_pass(encoder, "image sky pass", view);
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, frame_bind_group, &[]);
+        pass.set_bind_group(0, with.frame_group, &[]);
         // The image's own group: its placeholder stands for the target being drawn.
         pass.set_bind_group(1, group, &[]);
         pass.draw(0..3, 0..1);
@@ -739,8 +727,8 @@ fn reduced_scale(
 /// `fs_image`) into an RGBA16F target, with its override `constants`;
 /// `polygon`: drawn over given triangles, else one full-screen triangle.
 fn environment_pipeline(
-    device: &wgpu::Device,
-    (module, layout): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+    with: &SkyPassContext<'_>,
+    program: &Program,
     constants: &[(&str, f64)],
     polygon: bool,
     fragment: &str,
@@ -751,36 +739,19 @@ fn environment_pipeline(
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &SIDE_ATTRS,
     })];
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("environment pipeline"),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module,
-            entry_point: Some(if polygon { "vs_environment" } else { "vs_main" }),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                ..Default::default()
-            },
-            buffers: if polygon { &side } else { &[] },
-        },
-        primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: None,
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some(fragment),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                ..Default::default()
-            },
-            targets: &[Some(wgpu::ColorTargetState {
-                format: wgpu::TextureFormat::Rgba16Float,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
+    let targets = [super::gpu::color_target(wgpu::TextureFormat::Rgba16Float)];
+    with.factory.render(&PipelineDesc {
+        vertex_entry: if polygon { "vs_environment" } else { "vs_main" },
+        vertex_constants: constants,
+        buffers: if polygon { &side } else { &[] },
+        constants,
+        ..PipelineDesc::new(
+            "environment pipeline",
+            &program.layout,
+            &program.module,
+            fragment,
+            &targets,
+        )
     })
 }
 

@@ -1,7 +1,8 @@
 //! The tiles in which a layer made on the CPU (a cached background, the
 //! scenery) is uploaded to its texture: only the tiles under the regions a
-//! frame draws, each once, when a frame first needs them. A leaf of plain
-//! arithmetic on [`Rect`]s, shared by the background and the scenery.
+//! frame draws, each once, when a frame first needs them, and the upload
+//! of one part ([`write_part`]). Plain arithmetic on [`Rect`]s, shared by
+//! the background and the scenery.
 
 use super::regions::Rect;
 
@@ -67,4 +68,39 @@ pub(super) fn take_stale_tiles<'r>(
         stale.clear();
     }
     parts
+}
+
+/// Upload the part `part` of `rgba` (a layer `width` pixels wide, 4 bytes
+/// a pixel) into the same place of `texture`.
+pub(super) fn write_part(
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    rgba: &[u8],
+    width: u32,
+    part: &Rect,
+) {
+    let offset = (u64::from(part.y0) * u64::from(width) + u64::from(part.x0)) * 4;
+    queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d {
+                x: part.x0,
+                y: part.y0,
+                z: 0,
+            },
+            aspect: wgpu::TextureAspect::All,
+        },
+        rgba,
+        wgpu::TexelCopyBufferLayout {
+            offset,
+            bytes_per_row: Some(width * 4),
+            rows_per_image: None,
+        },
+        wgpu::Extent3d {
+            width: part.x1 - part.x0,
+            height: part.y1 - part.y0,
+            depth_or_array_layers: 1,
+        },
+    );
 }

@@ -4,16 +4,18 @@
 //! drawn into the frame's targets ([`FrameTargets`]), resolved (MSAA) and
 //! its reads copied into the readback buffer, in the plan's order.
 
-use std::borrow::Cow;
-
-use crate::render::gpu::{color_target, rect_buffer_layout, resolve_buffer_layout, texture_layout};
+use crate::render::gpu::{
+    PassViews, PipelineDesc, PipelineFactory, color_target, depth_test, load_pass,
+    rect_buffer_layout, resolve_buffer_layout, texture_layout,
+};
 use crate::render::id_layer::IdResolve;
+use crate::render::mesh::{DronePipelines, Drones};
 use crate::render::plan::{FramePlan, PassPlan, rect_ndc};
 use crate::render::readback::{Read, encode_reads, ensure_buffer};
 use crate::render::regions::PassDraws;
-use crate::render::scenery::SceneryGpu;
+use crate::render::scenery::{SceneryDraw, SceneryGpu};
 use crate::render::targets::FrameTargets;
-use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, InstanceRaw, MeshLevel, Renderer, ids};
+use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, InstanceRaw, Renderer, ids};
 use crate::scene::FrameScene;
 
 /// The region passes' own things: their shaders and bind group layouts,
@@ -33,20 +35,14 @@ pub(super) struct RegionPasses {
 }
 
 impl RegionPasses {
-    pub(super) fn new(device: &wgpu::Device) -> Self {
+    pub(super) fn new(factory: &PipelineFactory) -> Self {
         let [_, _, (_, regions_src), (_, resolve_src), ..] = crate::render::shader_sources();
-        let module = |label: &str, src: String| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(Cow::Owned(src)),
-            })
-        };
         Self {
-            background_layout: texture_layout(device, "region background layout", false, 1),
+            background_layout: texture_layout(factory, "region background layout", false, 1),
             // The resolve's inputs: the multisampled colour and id targets.
-            resolve_layout: texture_layout(device, "region resolve layout", true, 2),
-            regions_module: module("regions.wgsl", regions_src),
-            resolve_module: module("resolve.wgsl", resolve_src),
+            resolve_layout: texture_layout(factory, "region resolve layout", true, 2),
+            regions_module: factory.shader("regions.wgsl", regions_src),
+            resolve_module: factory.shader("resolve.wgsl", resolve_src),
             pipelines: Vec::new(),
             rects: None,
             resolve_rects: None,
@@ -64,7 +60,7 @@ impl RegionPasses {
         &self.resolve_layout
     }
 
-    /// The pipelines at index `p` (from [`Renderer::region_pipelines`]).
+    /// The pipelines at index `p` (from [`RegionPasses::pipelines_for`]).
     pub(super) fn pipelines(&self, p: usize) -> &RegionPipelines {
         &self.pipelines[p]
     }
@@ -88,15 +84,38 @@ pub(super) struct Uploaded {
     first_resolve: Vec<u32>,
 }
 
+/// Where a region pass (or its resolve) draws: the pipelines, the frame's
+/// targets and the rect buffer (the resolve's: the resolve rects).
+#[derive(Clone, Copy)]
+pub(super) struct PassTarget<'a> {
+    pub pipes: &'a RegionPipelines,
+    pub target: &'a FrameTargets,
+    pub rects: Option<&'a wgpu::Buffer>,
+}
+
+/// A region pass's label and whether it draws colour (else instance ids only).
+#[derive(Clone, Copy)]
+pub(super) struct PassKind<'a> {
+    pub label: &'a str,
+    pub color: bool,
+}
+
+/// What a pass is asked to produce: colour and/or instance ids.
+#[derive(Clone, Copy)]
+struct Asked {
+    color: bool,
+    ids: bool,
+}
+
 /// Pipelines of the region passes for one sample count.
 pub(super) struct RegionPipelines {
     msaa: u32,
     background: wgpu::RenderPipeline,
-    drone: crate::render::DronePipelines,
+    drone: DronePipelines,
     /// The same two for passes that write instance ids only (overlap layers,
     /// id images): no colour attachment, no lighting.
     ids_background: wgpu::RenderPipeline,
-    ids_drone: crate::render::DronePipelines,
+    ids_drone: DronePipelines,
     /// The colour resolve (MSAA only).
     resolve: Option<wgpu::RenderPipeline>,
     /// The id resolves (MSAA only), built on first use: presets that need no
@@ -104,63 +123,49 @@ pub(super) struct RegionPipelines {
     id_resolve: Option<IdResolve>,
 }
 
-impl Renderer {
-    /// The index of the region pipelines for `msaa` samples, built on first use.
-    pub(super) fn region_pipelines(&self, state: &mut RegionPasses, msaa: u32) -> usize {
-        if let Some(i) = state.pipelines.iter().position(|p| p.msaa == msaa) {
+impl RegionPasses {
+    /// The index of the region pipelines for `msaa` samples (drawing
+    /// `drones`), built on first use.
+    pub(super) fn pipelines_for(
+        &mut self,
+        factory: &PipelineFactory,
+        drones: &Drones,
+        msaa: u32,
+    ) -> usize {
+        if let Some(i) = self.pipelines.iter().position(|p| p.msaa == msaa) {
             return i;
         }
-        let device = &self.device;
-        let multisample = wgpu::MultisampleState {
-            count: msaa,
-            ..Default::default()
-        };
         let targets = [color_target(COLOR_FORMAT), color_target(ids::ID_FORMAT)];
-        let depth = |compare| wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(compare),
-            stencil: Default::default(),
-            bias: Default::default(),
-        };
-        let background_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("region background pipeline layout"),
-            bind_group_layouts: &[Some(&state.background_layout)],
-            immediate_size: 0,
-        });
+        let background_layout = factory.layout(
+            "region background pipeline layout",
+            &[&self.background_layout],
+        );
+        let buffers = [Some(rect_buffer_layout())];
         let background_pipeline = |label: &str, entry: &str, targets: &[_]| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&background_layout),
-                vertex: wgpu::VertexState {
-                    module: &state.regions_module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(rect_buffer_layout())],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: Some(depth(wgpu::CompareFunction::Always)),
-                multisample,
-                fragment: Some(wgpu::FragmentState {
-                    module: &state.regions_module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
+            factory.render(&PipelineDesc {
+                buffers: &buffers,
+                depth: depth_test(DEPTH_FORMAT, true, wgpu::CompareFunction::Always),
+                samples: msaa,
+                ..PipelineDesc::new(
+                    label,
+                    &background_layout,
+                    &self.regions_module,
+                    entry,
                     targets,
-                }),
-                multiview_mask: None,
-                cache: None,
+                )
             })
         };
         let background = background_pipeline("region background pipeline", "fs_main", &targets);
-        let drone = self.drone_pipeline("drone + id pipeline", msaa, "fs_ids", &targets);
+        let drone = drones.pipelines(factory, "drone + id pipeline", msaa, "fs_ids", &targets);
         let id_targets = [None, targets[1].clone()];
         let ids_background =
             background_pipeline("region id background pipeline", "fs_clear_ids", &id_targets);
-        let ids_drone = self.drone_pipeline("drone id pipeline", msaa, "fs_layer", &id_targets);
+        let ids_drone =
+            drones.pipelines(factory, "drone id pipeline", msaa, "fs_layer", &id_targets);
         let resolve = (msaa > 1).then(|| {
-            self.resolve_pipeline(state, "region resolve pipeline", "fs_main", &targets[..1])
+            self.resolve_pipeline(factory, "region resolve pipeline", "fs_main", &targets[..1])
         });
-        state.pipelines.push(RegionPipelines {
+        self.pipelines.push(RegionPipelines {
             msaa,
             background,
             drone,
@@ -169,64 +174,40 @@ impl Renderer {
             resolve,
             id_resolve: None,
         });
-        state.pipelines.len() - 1
+        self.pipelines.len() - 1
     }
 
     fn resolve_pipeline(
         &self,
-        state: &RegionPasses,
+        factory: &PipelineFactory,
         label: &str,
         entry: &str,
         targets: &[Option<wgpu::ColorTargetState>],
     ) -> wgpu::RenderPipeline {
-        let device = &self.device;
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("region resolve pipeline layout"),
-            bind_group_layouts: &[Some(&state.resolve_layout)],
-            immediate_size: 0,
-        });
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &state.resolve_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(resolve_buffer_layout())],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &state.resolve_module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                targets,
-            }),
-            multiview_mask: None,
-            cache: None,
+        let layout = factory.layout("region resolve pipeline layout", &[&self.resolve_layout]);
+        factory.render(&PipelineDesc {
+            buffers: &[Some(resolve_buffer_layout())],
+            ..PipelineDesc::new(label, &layout, &self.resolve_module, entry, targets)
         })
     }
 
     /// Set up what reading ids back needs: with MSAA, the id resolves.
-    fn prepare_id_readback(&self, state: &mut RegionPasses, p: usize) {
-        state.id_readback = true;
-        if state.pipelines[p].msaa <= 1 {
+    fn prepare_id_readback(&mut self, factory: &PipelineFactory, p: usize) {
+        self.id_readback = true;
+        if self.pipelines[p].msaa <= 1 || self.pipelines[p].id_resolve.is_some() {
             return;
         }
-        if state.pipelines[p].id_resolve.is_none() {
-            let id_resolve = IdResolve::new(|label, entry, targets| {
-                self.resolve_pipeline(state, label, entry, targets)
-            });
-            state.pipelines[p].id_resolve = Some(id_resolve);
-        }
+        let id_resolve = IdResolve::new(|label, entry, targets| {
+            self.resolve_pipeline(factory, label, entry, targets)
+        });
+        self.pipelines[p].id_resolve = Some(id_resolve);
     }
 
     /// Write the rects of `passes` into the (reused, grown as needed) rect
     /// buffer, one after the other, and note where each pass's begin.
     pub(super) fn upload_rects(
-        &self,
-        state: &mut RegionPasses,
+        &mut self,
+        (device, queue): (&wgpu::Device, &wgpu::Queue),
         passes: &mut [PassDraws],
         (width, height): (u32, u32),
     ) {
@@ -236,13 +217,15 @@ impl Renderer {
             data.extend(pass.rects.iter().map(|r| rect_ndc(r, width, height)));
         }
         crate::render::write_vertices(
-            (&self.device, &self.queue),
-            &mut state.rects,
+            (device, queue),
+            &mut self.rects,
             "region rects",
             bytemuck::cast_slice(&data),
         );
     }
+}
 
+impl Renderer {
     /// Upload what a planned frame draws with pipelines `p`: its instances
     /// (every pass's, one after the other), rects and resolve rects, and make
     /// room in `target` for what it resolves and reads.
@@ -259,14 +242,15 @@ impl Renderer {
         let mut draws: Vec<PassDraws> = (plan.passes.iter())
             .map(|pass| self.region_draws(scene, pass, &mut data))
             .collect();
-        self.write_instances(&data);
-        self.upload_rects(state, &mut draws, request.size_px);
+        let (device, queue) = (&self.device, &self.queue);
+        self.drones.upload_instances((device, queue), &data);
+        state.upload_rects((device, queue), &mut draws, request.size_px);
         if request.color {
             self.counts.color += 1;
         }
         if request.visibility {
             self.counts.ids += plan.passes.len() as u64;
-            self.prepare_id_readback(state, p);
+            state.prepare_id_readback(&self.factory, p);
         }
         let first_resolve = if plan.resolved() {
             let size = (request.size_px.0, plan.atlas_rows);
@@ -301,23 +285,10 @@ impl Renderer {
         pass: &PassPlan,
         data: &mut Vec<InstanceRaw>,
     ) -> PassDraws {
-        let mut order: Vec<(MeshLevel, usize)> = (pass.drones.iter())
-            .map(|&i| ((scene.drones[i].model, self.level_of(scene, i)), i))
-            .collect();
-        order.sort_unstable();
-        let mut draws: Vec<(MeshLevel, std::ops::Range<u32>)> = Vec::new();
-        for (key, i) in order {
-            let idx = data.len() as u32;
-            data.push(InstanceRaw::new(scene, i));
-            match draws.last_mut() {
-                Some((k, r)) if *k == key => r.end = idx + 1,
-                _ => draws.push((key, idx..idx + 1)),
-            }
-        }
         PassDraws {
             rects: pass.rects.clone(),
             first_rect: 0,
-            draws,
+            draws: (self.drones).instances(scene, pass.drones.iter().copied(), data),
         }
     }
 
@@ -327,48 +298,28 @@ impl Renderer {
     pub(super) fn encode_region_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        (pipes, target, rects): (&RegionPipelines, &FrameTargets, Option<&wgpu::Buffer>),
+        at: &PassTarget<'_>,
         draws: &PassDraws,
-        (label, color): (&str, bool),
+        kind: PassKind<'_>,
     ) {
-        let load = wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        };
-        let attachment = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: load,
-            })
-        };
-        let depth_ops = wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        };
+        let PassTarget {
+            pipes,
+            target,
+            rects,
+        } = *at;
         let Some(color_view) = target.color_view() else {
             return;
         };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some(label),
-            color_attachments: &[
-                if color { attachment(color_view) } else { None },
-                attachment(target.ids.view()),
-            ],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &target.depth,
-                depth_ops: Some(depth_ops),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let views = PassViews {
+            color: kind.color.then_some(color_view),
+            ids: target.ids.view(),
+            depth: &target.depth,
+        };
+        let mut pass = load_pass(encoder, kind.label, views);
         let Some(rect_buffer) = rects else {
             return;
         };
-        let (background, drone) = if color {
+        let (background, drone) = if kind.color {
             (&pipes.background, &pipes.drone)
         } else {
             (&pipes.ids_background, &pipes.ids_drone)
@@ -377,7 +328,7 @@ impl Renderer {
         pass.set_bind_group(0, &target.background.group, &[]);
         pass.set_vertex_buffer(0, rect_buffer.slice(..));
         pass.draw(0..6, draws.rect_instances());
-        let (Some(instances), Some(bounds)) = (&self.instances, draws.bounds()) else {
+        let Some(bounds) = draws.bounds() else {
             return;
         };
         if draws.draws.is_empty() {
@@ -386,8 +337,7 @@ impl Renderer {
         // The scissor only bounds the work: each drone stays inside its region.
         pass.set_scissor_rect(bounds.x0, bounds.y0, bounds.width(), bounds.height());
         pass.set_bind_group(0, &self.frame_bind_group, &[]);
-        pass.set_vertex_buffer(1, instances.slice(..));
-        self.draw_drones(&mut pass, drone, &draws.draws);
+        self.drones.draw(&mut pass, drone, &draws.draws);
     }
 
     /// Encode a planned frame's passes in order: the main pass (with the
@@ -408,6 +358,11 @@ impl Renderer {
         let request = &plan.request;
         let pipes = &state.pipelines[uploaded.pipelines];
         let rects = state.rects.as_ref();
+        let at = PassTarget {
+            pipes,
+            target,
+            rects,
+        };
         let (draws, first_resolve) = (&uploaded.draws, &uploaded.first_resolve);
         // With MSAA each pass is resolved into the atlas and read from there;
         // without, the passes draw straight into the targets read back.
@@ -426,19 +381,46 @@ impl Renderer {
         for (k, pass) in draws.iter().enumerate() {
             let main = k == 0;
             let (label, asked) = if main {
-                ("region pass", (request.color, request.visibility))
+                let asked = Asked {
+                    color: request.color,
+                    ids: request.visibility,
+                };
+                ("region pass", asked)
             } else {
-                ("layer pass", (false, true))
+                (
+                    "layer pass",
+                    Asked {
+                        color: false,
+                        ids: true,
+                    },
+                )
             };
-            self.encode_region_pass(&mut encoder, (pipes, target, rects), pass, (label, asked.0));
+            let kind = PassKind {
+                label,
+                color: asked.color,
+            };
+            self.encode_region_pass(&mut encoder, &at, pass, kind);
             if let (true, true, Some(gpu), Some(rects)) = (main, request.scenery, scenery, rects) {
-                let color_view = target.color_view().filter(|_| request.color);
-                let views = (color_view, target.ids.view(), &target.depth);
-                self.encode_scenery(gpu, &mut encoder, views, (rects, pass, request.msaa));
+                let views = PassViews {
+                    color: target.color_view().filter(|_| request.color),
+                    ids: target.ids.view(),
+                    depth: &target.depth,
+                };
+                let samples = request.msaa;
+                let draw = SceneryDraw {
+                    rects,
+                    draws: pass,
+                    samples,
+                };
+                gpu.encode(&mut encoder, views, &draw);
             }
             if let (Some(buffer), Some(&first)) = (&state.resolve_rects, first_resolve.get(k)) {
                 let instances = first..first + pass.rects.len() as u32;
-                encode_resolve(&mut encoder, (pipes, target, buffer), instances, asked);
+                let at = PassTarget {
+                    rects: Some(buffer),
+                    ..at
+                };
+                encode_resolve(&mut encoder, &at, instances, asked);
             }
             if main {
                 read(&mut encoder, color_source, &plan.color_reads);
@@ -461,10 +443,18 @@ fn texture(pair: &Option<(wgpu::Texture, wgpu::TextureView)>) -> Option<&wgpu::T
 /// pass's rects in the resolve rect buffer.
 fn encode_resolve(
     encoder: &mut wgpu::CommandEncoder,
-    (pipes, target, resolve_rects): (&RegionPipelines, &FrameTargets, &wgpu::Buffer),
+    at: &PassTarget<'_>,
     instances: std::ops::Range<u32>,
-    (color, ids): (bool, bool),
+    Asked { color, ids }: Asked,
 ) {
+    let PassTarget {
+        pipes,
+        target,
+        rects,
+    } = *at;
+    let Some(resolve_rects) = rects else {
+        return;
+    };
     let Some(group) = &target.resolve_group else {
         return;
     };
