@@ -50,7 +50,8 @@ pub mod worker;
 mod x11_focus;
 
 pub use launch::{
-    example_description, example_presets, read_preset, read_preset_text, run, run_or_exit,
+    example_description, example_presets, quiet_vulkan_on_plain_x11, read_preset, read_preset_text,
+    run, run_or_exit,
 };
 pub use layout::stage_status;
 
