@@ -6,33 +6,57 @@ use std::path::{Path, PathBuf};
 use super::{APP_NAME, StartOptions, SwarmshotApp};
 use crate::preset::{PRESET_VERSION, Preset};
 
+/// Why a preset file could not be opened for editing; its message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    #[error("preset {} does not exist", .0.display())]
+    NotFound(PathBuf),
+    #[error("preset {}: permission denied (cannot read it)", .0.display())]
+    PermissionDenied(PathBuf),
+    #[error("preset {} is a folder, not a preset file", .0.display())]
+    IsAFolder(PathBuf),
+    #[error("cannot read preset {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// Not RON, or not a preset (the message names the field and its line).
+    #[error("preset {}: {message}", path.display())]
+    Parse { path: PathBuf, message: String },
+    #[error(
+        "preset {}: version {version} is newer than this swarmshot understands ({known})",
+        path.display(),
+        known = PRESET_VERSION
+    )]
+    TooNew { path: PathBuf, version: u32 },
+}
+
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
-pub fn read_preset(path: &Path) -> Result<Preset, String> {
+pub fn read_preset(path: &Path) -> Result<Preset, OpenError> {
     read_preset_text(path).map(|(preset, _)| preset)
 }
 
 /// [`read_preset`], and the file's text (Save edits it, keeping its comments).
-pub fn read_preset_text(path: &Path) -> Result<(Preset, String), String> {
+pub fn read_preset_text(path: &Path) -> Result<(Preset, String), OpenError> {
+    let owned = || path.to_path_buf();
     let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => format!("preset {} does not exist", path.display()),
-        std::io::ErrorKind::PermissionDenied => {
-            format!(
-                "preset {}: permission denied (cannot read it)",
-                path.display()
-            )
-        }
-        std::io::ErrorKind::IsADirectory => {
-            format!("preset {} is a folder, not a preset file", path.display())
-        }
-        _ => format!("cannot read preset {}: {e}", path.display()),
+        std::io::ErrorKind::NotFound => OpenError::NotFound(owned()),
+        std::io::ErrorKind::PermissionDenied => OpenError::PermissionDenied(owned()),
+        std::io::ErrorKind::IsADirectory => OpenError::IsAFolder(owned()),
+        _ => OpenError::Read {
+            path: owned(),
+            source: e,
+        },
     })?;
-    let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
+    let preset = Preset::from_ron(&text).map_err(|message| OpenError::Parse {
+        path: owned(),
+        message,
+    })?;
     if preset.version > PRESET_VERSION {
-        return Err(format!(
-            "preset {}: version {} is newer than this swarmshot understands ({PRESET_VERSION})",
-            path.display(),
-            preset.version
-        ));
+        return Err(OpenError::TooNew {
+            path: owned(),
+            version: preset.version,
+        });
     }
     Ok((preset, text))
 }
@@ -86,7 +110,7 @@ pub fn run_or_exit(preset: Option<PathBuf>) {
         if let Some(path) = &preset
             && let Err(e) = read_preset(path)
         {
-            fail(e);
+            fail(e.to_string());
         }
         fail(why);
     }
