@@ -13,6 +13,10 @@
 //!   two environments), and print the app's own measure ([`swarmshot::app::latency`],
 //!   the status bar's "on screen … median of 20").
 //!
+//! - `start PRESET`: the time from the process's start to the window's first
+//!   pass, and to the preset's first picture on screen (the start of the pass after
+//!   the one that drew it), with the preview thread's render time of that picture.
+//!
 //! Run (lavapipe, no display):
 //! `xvfb-run -s "-screen 0 1920x1200x24" target/release/examples/app_bench latency presets/quickstart.ron`
 //! (the window is 1656×900, so that the preview pane is 960×540 as in docs/gui.md).
@@ -29,8 +33,18 @@ use swarmshot::sky::EnvironmentName;
 const EDITS: usize = 20;
 
 enum Mode {
-    Batch { out: PathBuf, frames: u64 },
-    Latency { sky: bool },
+    Batch {
+        out: PathBuf,
+        frames: u64,
+    },
+    Latency {
+        sky: bool,
+    },
+    /// The process started at `t0`; eframe had the window and the GPU device at `made`.
+    Start {
+        t0: Instant,
+        made: Instant,
+    },
 }
 
 struct Bench {
@@ -41,6 +55,10 @@ struct Bench {
     passes: u64,
     /// Batch: why each window pass during the batch ran (egui's repaint causes).
     causes: std::collections::BTreeMap<String, u64>,
+    /// Start: the pass that drew the first picture ran (the next pass sees it on screen).
+    drawn: bool,
+    /// Start: when the first pass began.
+    first_pass: Option<Instant>,
     /// Latency: edits made so far.
     edits: usize,
     done: bool,
@@ -135,10 +153,38 @@ impl Bench {
     }
 }
 
+impl Bench {
+    /// Start mode: print the times once the first picture is on screen.
+    fn start_step(&mut self, pass: Instant) {
+        let Mode::Start { t0, made } = self.mode else {
+            return;
+        };
+        if self.done {
+            return;
+        }
+        let first_pass = *self.first_pass.get_or_insert(pass);
+        if self.drawn {
+            let ms = |t: Instant| t.duration_since(t0).as_secs_f64() * 1e3;
+            let [w, h] = self.app.preview_key().map_or([0, 0], |k| k.size_px);
+            println!(
+                "start: window and GPU device ready {:.0} ms, first pass {:.0} ms, first picture on screen {:.0} ms (preview {w}×{h}, its render {:.0} ms)",
+                ms(made),
+                ms(first_pass),
+                ms(pass),
+                self.app.preview_render_ms().unwrap_or(0.0)
+            );
+            self.done = true;
+        }
+        self.drawn = self.app.preview_key().is_some();
+    }
+}
+
 impl eframe::App for Bench {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
+        let pass = Instant::now();
         self.app.ui(ui, frame);
+        self.start_step(pass);
         if self.done {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             return;
@@ -158,8 +204,14 @@ impl eframe::App for Bench {
 }
 
 fn main() -> eframe::Result<()> {
+    let t0 = Instant::now();
+    // SAFETY: the first thing main does, before any thread exists (as `swarmshot gui` does).
+    #[allow(unsafe_code)]
+    unsafe {
+        swarmshot::app::quiet_vulkan_on_plain_x11()
+    };
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: app_bench batch PRESET OUT FRAMES | app_bench latency PRESET [sky]";
+    let usage = "usage: app_bench batch PRESET OUT FRAMES | app_bench latency PRESET [sky] | app_bench start PRESET";
     let (mode, preset) = match args.first().map(String::as_str) {
         Some("batch") if args.len() == 4 => (
             Mode::Batch {
@@ -174,6 +226,7 @@ fn main() -> eframe::Result<()> {
             },
             PathBuf::from(&args[1]),
         ),
+        Some("start") if args.len() == 2 => (Mode::Start { t0, made: t0 }, PathBuf::from(&args[1])),
         _ => panic!("{usage}"),
     };
     let options = eframe::NativeOptions {
@@ -185,6 +238,10 @@ fn main() -> eframe::Result<()> {
         "swarmshot app_bench",
         options,
         Box::new(move |cc| {
+            let mut mode = mode;
+            if let Mode::Start { made, .. } = &mut mode {
+                *made = Instant::now();
+            }
             let app = SwarmshotApp::new(
                 cc,
                 StartOptions {
@@ -199,6 +256,8 @@ fn main() -> eframe::Result<()> {
                 passes: 0,
                 causes: Default::default(),
                 edits: 0,
+                drawn: false,
+                first_pass: None,
                 done: false,
             }))
         }),

@@ -237,6 +237,30 @@ fn the_preview_fits_the_central_panel_at_any_window_size() {
                 "{size:?}: {label} {rect:?} outside the central panel {central:?}"
             );
         }
+        // The Batch panel's controls stay in view: the output folder's Browse… beside its
+        // field (it sat past the window's edge in a panel of the default width).
+        let batch = |rect: egui::Rect| rect.left() >= central.right() && rect.right() <= size[0];
+        let mut controls: Vec<(&str, egui::Rect)> = h
+            .query_all_by_role_and_label(Role::Button, "Browse…")
+            .map(|n| ("Browse…", n.rect()))
+            .collect();
+        assert_eq!(
+            controls.len(),
+            1,
+            "{size:?}: one Browse… (the output folder's)"
+        );
+        for (role, label) in [
+            (Role::CheckBox, "Overwrite an existing dataset"),
+            (Role::Button, "Generate"),
+        ] {
+            controls.push((label, h.get_by_role_and_label(role, label).rect()));
+        }
+        for (label, rect) in controls {
+            assert!(
+                batch(rect),
+                "{size:?}: {label} {rect:?} not inside the Batch panel (central {central:?})"
+            );
+        }
         // The picture takes the space it has (one side fills the pane, less the rows).
         assert!(
             preview.width() > 0.9 * central.width() || preview.height() > 0.6 * central.height(),
@@ -380,6 +404,16 @@ fn the_wheel_zooms_the_preview_and_a_drag_pans_it() {
     h.run_steps(3);
     assert_eq!(h.state().pane_view().zoom, 1.0);
     assert!((h.state().shown_pixel_scale().unwrap() - fit).abs() < 1e-3);
+
+    // Another preset opens whole, whatever the zoom the last one was left at.
+    h.get_by_role_and_label(Role::Button, "1:1").click();
+    h.run_steps(3);
+    assert!(h.state().pane_view().zoom > 1.0);
+    let ctx = h.ctx.clone();
+    let other = write_preset(dir.path(), "other.ron", GRID);
+    h.state_mut().command(Command::OpenPath(other), &ctx);
+    h.run_steps(3);
+    assert_eq!(h.state().pane_view(), Default::default());
 }
 
 #[test]

@@ -90,7 +90,7 @@ impl SwarmshotApp {
             Replace::New => self.session.load_untitled(Preset::default(), None),
             Replace::Path(path) => match read_preset_text(&path) {
                 Ok((preset, text)) => self.session.load(preset, path, text),
-                Err(e) => return self.notices.push(e),
+                Err(e) => return self.notices.push(e.to_string()),
             },
             Replace::Example(path) => match read_preset_text(&path) {
                 Ok((mut preset, text)) => {
@@ -101,7 +101,7 @@ impl SwarmshotApp {
                     // Its text goes with it: Save As keeps the example's comments.
                     self.session.load_untitled(preset, Some(text));
                 }
-                Err(e) => return self.notices.push(e),
+                Err(e) => return self.notices.push(e.to_string()),
             },
             Replace::Close => {
                 // Discard means it: the session stored on exit (and restored at the
@@ -114,6 +114,8 @@ impl SwarmshotApp {
                 return;
             }
         }
+        // Another preset's frames have another size: its picture opens whole (Fit).
+        self.pane_view = super::preview_pane::PaneView::default();
         // The Batch panel's report and a merge's line speak of the preset that went.
         self.batch_outcome = None;
         self.batch_inputs = None;
@@ -290,11 +292,6 @@ impl SwarmshotApp {
                 .notices
                 .push(format!("cannot start the merge thread: {e}")),
         }
-    }
-
-    /// A merge has finished; its report line or error.
-    pub fn merge_outcome(&self) -> Option<&Result<String, String>> {
-        self.merge_outcome.as_ref()
     }
 
     pub(super) fn generate(&mut self, ctx: &egui::Context) {

@@ -90,7 +90,7 @@ impl SwarmshotApp {
         let frames = self.resolved.frame_count();
         let rate_hz = self.play_rate_hz();
         let shown = self
-            .preview_key()
+            .shown_key()
             .is_some_and(|k| k.frame == self.session.frame && k.generation == self.generation);
         let now = ctx.input(|i| i.time);
         let (frame, wake_s) = self

@@ -6,33 +6,57 @@ use std::path::{Path, PathBuf};
 use super::{APP_NAME, StartOptions, SwarmshotApp};
 use crate::preset::{PRESET_VERSION, Preset};
 
+/// Why a preset file could not be opened for editing; its message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    #[error("preset {} does not exist", .0.display())]
+    NotFound(PathBuf),
+    #[error("preset {}: permission denied (cannot read it)", .0.display())]
+    PermissionDenied(PathBuf),
+    #[error("preset {} is a folder, not a preset file", .0.display())]
+    IsAFolder(PathBuf),
+    #[error("cannot read preset {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// Not RON, or not a preset (the message names the field and its line).
+    #[error("preset {}: {message}", path.display())]
+    Parse { path: PathBuf, message: String },
+    #[error(
+        "preset {}: version {version} is newer than this swarmshot understands ({known})",
+        path.display(),
+        known = PRESET_VERSION
+    )]
+    TooNew { path: PathBuf, version: u32 },
+}
+
 /// Read a preset for editing: parsed, not validated (problems are shown at the widgets).
-pub fn read_preset(path: &Path) -> Result<Preset, String> {
+pub fn read_preset(path: &Path) -> Result<Preset, OpenError> {
     read_preset_text(path).map(|(preset, _)| preset)
 }
 
 /// [`read_preset`], and the file's text (Save edits it, keeping its comments).
-pub fn read_preset_text(path: &Path) -> Result<(Preset, String), String> {
+pub fn read_preset_text(path: &Path) -> Result<(Preset, String), OpenError> {
+    let owned = || path.to_path_buf();
     let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => format!("preset {} does not exist", path.display()),
-        std::io::ErrorKind::PermissionDenied => {
-            format!(
-                "preset {}: permission denied (cannot read it)",
-                path.display()
-            )
-        }
-        std::io::ErrorKind::IsADirectory => {
-            format!("preset {} is a folder, not a preset file", path.display())
-        }
-        _ => format!("cannot read preset {}: {e}", path.display()),
+        std::io::ErrorKind::NotFound => OpenError::NotFound(owned()),
+        std::io::ErrorKind::PermissionDenied => OpenError::PermissionDenied(owned()),
+        std::io::ErrorKind::IsADirectory => OpenError::IsAFolder(owned()),
+        _ => OpenError::Read {
+            path: owned(),
+            source: e,
+        },
     })?;
-    let preset = Preset::from_ron(&text).map_err(|e| format!("preset {}: {e}", path.display()))?;
+    let preset = Preset::from_ron(&text).map_err(|message| OpenError::Parse {
+        path: owned(),
+        message,
+    })?;
     if preset.version > PRESET_VERSION {
-        return Err(format!(
-            "preset {}: version {} is newer than this swarmshot understands ({PRESET_VERSION})",
-            path.display(),
-            preset.version
-        ));
+        return Err(OpenError::TooNew {
+            path: owned(),
+            version: preset.version,
+        });
     }
     Ok((preset, text))
 }
@@ -86,13 +110,53 @@ pub fn run_or_exit(preset: Option<PathBuf>) {
         if let Some(path) = &preset
             && let Err(e) = read_preset(path)
         {
-            fail(e);
+            fail(e.to_string());
         }
         fail(why);
     }
     if let Err(e) = run(preset) {
         fail(format!("{e:#}"));
     }
+}
+
+/// Quiet Mesa's Vulkan device-select layer on an X11 session without Wayland.
+///
+/// wgpu enables `VK_KHR_wayland_surface` on every instance; with it, Mesa's implicit
+/// `VK_LAYER_MESA_device_select` (up to Mesa 23.1, e.g. Debian 12's 22.3) calls
+/// `wl_display_connect` each time the GPUs are listed, to find a compositor's GPU, and
+/// when `XDG_RUNTIME_DIR` is unset libwayland prints `error: XDG_RUNTIME_DIR is invalid
+/// or not set in the environment.` (four times while eframe starts). On a plain X
+/// server (Xvfb, `startx` without a login session) there is no compositor to find, so
+/// the layer's documented off switch `NODEVICE_SELECT=1` is set there, and only there:
+/// [`device_select_would_print`] says when. eframe asks wgpu for a high-performance
+/// adapter, which orders the GPUs by their kind whatever the layer's order.
+///
+/// # Safety
+/// Changes the process environment: call it while the process has one thread
+/// (`main`, before the window opens), as [`std::env::set_var`] requires.
+#[allow(unsafe_code)]
+pub unsafe fn quiet_vulkan_on_plain_x11() {
+    if device_select_would_print(|name| std::env::var_os(name)) {
+        // SAFETY: the caller guarantees no other thread reads or writes the environment.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
+/// The device-select layer would try Wayland and libwayland would complain: an X11
+/// display and no Wayland one (`WAYLAND_DISPLAY`, `WAYLAND_SOCKET`), `XDG_RUNTIME_DIR`
+/// unset or not an absolute path (libwayland's test), and the user has not spoken to
+/// the layer (`NODEVICE_SELECT`, `MESA_VK_DEVICE_SELECT`, `DRI_PRIME`).
+fn device_select_would_print(var: impl Fn(&str) -> Option<std::ffi::OsString>) -> bool {
+    let set = |name: &str| var(name).is_some_and(|v| !v.is_empty());
+    let runtime_dir_ok = var("XDG_RUNTIME_DIR").is_some_and(|v| Path::new(&v).is_absolute());
+    cfg!(all(unix, not(target_os = "macos")))
+        && set("DISPLAY")
+        && !set("WAYLAND_DISPLAY")
+        && !set("WAYLAND_SOCKET")
+        && !runtime_dir_ok
+        && ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"]
+            .iter()
+            .all(|name| var(name).is_none())
 }
 
 /// Why no window can open here, when that is known without trying.
@@ -152,4 +216,49 @@ pub fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
         }),
     )
     .map_err(|e| anyhow::anyhow!(window_error(&e)))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::ffi::OsString;
+
+    use super::device_select_would_print;
+
+    fn env(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<OsString> {
+        let pairs: Vec<(String, OsString)> = pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), OsString::from(v)))
+            .collect();
+        move |name| {
+            pairs
+                .iter()
+                .find(|(k, _)| k == name)
+                .map(|(_, v)| v.clone())
+        }
+    }
+
+    #[test]
+    fn plain_x11_without_a_runtime_dir_turns_the_layer_off() {
+        assert!(device_select_would_print(env(&[("DISPLAY", ":1")])));
+        assert!(device_select_would_print(env(&[
+            ("DISPLAY", ":1"),
+            ("XDG_RUNTIME_DIR", "relative/dir")
+        ])));
+    }
+
+    #[test]
+    fn the_layer_stays_wherever_it_can_work_or_the_user_asked() {
+        for keep in [
+            &[("DISPLAY", ":1"), ("XDG_RUNTIME_DIR", "/run/user/1000")][..],
+            &[("DISPLAY", ":1"), ("WAYLAND_DISPLAY", "wayland-0")],
+            &[("DISPLAY", ":1"), ("WAYLAND_SOCKET", "5")],
+            &[("DISPLAY", ":1"), ("DRI_PRIME", "1")],
+            &[("DISPLAY", ":1"), ("MESA_VK_DEVICE_SELECT", "1002:6780")],
+            &[("DISPLAY", ":1"), ("NODEVICE_SELECT", "0")],
+            &[("WAYLAND_DISPLAY", "wayland-0")],
+            &[],
+        ] {
+            assert!(!device_select_would_print(env(keep)), "{keep:?}");
+        }
+    }
 }

@@ -204,7 +204,7 @@ impl SwarmshotApp {
                     ui.label("no preview yet");
                 }
             }
-            if !self.preview_is_current() && self.errors.is_empty() {
+            if !self.picture_is_current() && self.errors.is_empty() {
                 // Words, not a spinner: a spinner repaints the whole window every
                 // pass, which on a CPU renderer slows the render it waits for.
                 ui.weak("rendering…");

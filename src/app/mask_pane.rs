@@ -16,8 +16,8 @@ use super::worker::LatestWorker;
 pub struct MaskPane {
     worker: Option<LatestWorker<MaskRequest, MaskResult>>,
     sent: Option<MaskKey>,
-    picture: Option<MaskPicture>,
-    error: Option<(MaskKey, String)>,
+    pub(super) picture: Option<MaskPicture>,
+    pub(super) error: Option<(MaskKey, String)>,
     /// The texture on screen: which view of which frame it shows.
     texture: Option<(PaneShows, MaskKey, egui::TextureHandle)>,
 }
@@ -34,16 +34,6 @@ impl SwarmshotApp {
             PaneShows::Depth if !masks.depth => PaneShows::Instances,
             shows => shows,
         }
-    }
-
-    /// The mask picture last made (for tests: it belongs to [`MaskPicture::key`]).
-    pub fn mask_picture(&self) -> Option<&MaskPicture> {
-        self.mask_pane.picture.as_ref()
-    }
-
-    /// Why the mask thread could not make the masks of this key, if it could not.
-    pub fn mask_error(&self) -> Option<&(MaskKey, String)> {
-        self.mask_pane.error.as_ref()
     }
 
     fn mask_key(&self) -> MaskKey {

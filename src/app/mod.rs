@@ -45,12 +45,15 @@ pub mod prompt;
 pub mod realism_panels;
 pub mod runner;
 pub mod summary;
+#[cfg(any(test, feature = "test-hooks"))]
+mod testing;
 pub mod worker;
 #[cfg(all(unix, not(target_os = "macos")))]
 mod x11_focus;
 
 pub use launch::{
-    example_description, example_presets, read_preset, read_preset_text, run, run_or_exit,
+    OpenError, example_description, example_presets, quiet_vulkan_on_plain_x11, read_preset,
+    read_preset_text, run, run_or_exit,
 };
 pub use layout::stage_status;
 
@@ -291,7 +294,7 @@ impl SwarmshotApp {
         if let Some(path) = &options.preset {
             match read_preset_text(path) {
                 Ok((preset, text)) => session.load(preset, path.clone(), text),
-                Err(e) => notices.push(e),
+                Err(e) => notices.push(e.to_string()),
             }
         }
         let gpu = cc.wgpu_render_state.as_ref().map(|rs| {
@@ -378,137 +381,16 @@ impl SwarmshotApp {
         }
     }
 
-    /// Apply a [`Command`] as if a widget or a shortcut gave it (benchmarks drive
-    /// the app in a real window with it).
-    pub fn command(&mut self, command: Command, ctx: &egui::Context) {
-        self.apply(command, ctx);
-    }
-
-    /// Use this kind of file dialog from now on (tests pin the in-app browser).
-    pub fn use_file_dialogs(&mut self, backend: DialogBackend, ctx: &egui::Context) {
-        let ctx = ctx.clone();
-        self.dialogs = FileDialogs::new(backend, move || ctx.request_repaint());
-    }
-
-    // ---- accessors for tests and the benchmark -------------------------------------------
-
-    pub fn session(&self) -> &Session {
-        &self.session
-    }
-
-    pub fn session_mut(&mut self) -> &mut Session {
-        &mut self.session
-    }
-
-    /// Validation messages of the current preset.
-    pub fn errors(&self) -> &[FieldError] {
-        &self.errors
-    }
-
     /// The key of the picture on screen, if any.
-    pub fn preview_key(&self) -> Option<PreviewKey> {
+    fn shown_key(&self) -> Option<PreviewKey> {
         self.preview.as_ref().map(|p| p.key)
     }
 
-    /// The measured time from a change to its picture on screen.
-    pub fn preview_latency(&self) -> &latency::LatencyMeter {
-        &self.latency
-    }
-
-    /// Last preview render time (build + encode + GPU), milliseconds.
-    pub fn preview_render_ms(&self) -> Option<f64> {
-        self.preview.as_ref().map(|p| p.render_ms)
-    }
-
     /// The picture on screen answers the newest request (nothing in flight).
-    pub fn preview_is_current(&self) -> bool {
+    fn picture_is_current(&self) -> bool {
         self.preview_sent.is_some()
-            && (self.preview_key() == self.preview_sent
+            && (self.shown_key() == self.preview_sent
                 || self.preview_error.as_ref().map(|e| e.key) == self.preview_sent)
-    }
-
-    /// Where the preview pane drew its picture in the last pass, in points.
-    pub fn preview_rect(&self) -> Option<Rect> {
-        self.preview_rect
-    }
-
-    /// Screen pixels per output pixel of the picture shown (1: a 1:1 view; it grows as
-    /// the wheel zooms in).
-    pub fn shown_pixel_scale(&self) -> Option<f32> {
-        self.pixel_scale
-    }
-
-    /// The preview's zoom and the part of the frame it shows.
-    pub fn pane_view(&self) -> preview_pane::PaneView {
-        self.pane_view
-    }
-
-    /// The central panel (frame bar, toggles and preview) in the last pass, in points.
-    pub fn central_rect(&self) -> Option<Rect> {
-        self.central_rect
-    }
-
-    pub fn preview_error(&self) -> Option<&str> {
-        self.preview_error.as_ref().map(|e| e.message.as_str())
-    }
-
-    pub fn summary(&self) -> Option<&Summary> {
-        self.summary.as_ref().and_then(|s| s.as_ref().ok())
-    }
-
-    pub fn summary_is_current(&self) -> bool {
-        self.summary()
-            .is_some_and(|s| s.generation == self.generation)
-    }
-
-    pub fn batch_running(&self) -> bool {
-        self.batch.is_some()
-    }
-
-    pub fn batch_outcome(&self) -> Option<&BatchOutcome> {
-        self.batch_outcome.as_ref()
-    }
-
-    pub fn notices(&self) -> &[String] {
-        &self.notices
-    }
-
-    /// The window title.
-    pub fn title(&self) -> &str {
-        &self.title
-    }
-
-    /// Bumped once per committed preset edit: every preview and summary request carries it.
-    pub fn generation(&self) -> u64 {
-        self.generation
-    }
-
-    /// The in-app file browser, while it is open.
-    pub fn file_browser(&self) -> Option<&files::FileBrowser> {
-        self.dialogs.browser()
-    }
-
-    /// The domain-gap report window.
-    pub fn gap_panel(&self) -> &gap_panel::GapPanel {
-        &self.gap
-    }
-
-    pub fn gap_panel_mut(&mut self) -> &mut gap_panel::GapPanel {
-        &mut self.gap
-    }
-
-    /// The Fit window.
-    pub fn fit_panel(&self) -> &fit_panel::FitPanel {
-        &self.fit
-    }
-
-    pub fn fit_panel_mut(&mut self) -> &mut fit_panel::FitPanel {
-        &mut self.fit
-    }
-
-    /// The unsaved-changes prompt, while it is open.
-    pub fn prompt(&self) -> Option<&Replace> {
-        self.prompt.as_ref()
     }
 }
 

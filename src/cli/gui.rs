@@ -6,6 +6,11 @@ use std::path::PathBuf;
 /// The desktop app, when this binary was built with it (the `app` feature, on by default).
 #[cfg(feature = "app")]
 pub(crate) fn run(preset: Option<PathBuf>) -> anyhow::Result<()> {
+    // SAFETY: `main` calls this right after parsing, while the process has one thread.
+    #[allow(unsafe_code)]
+    unsafe {
+        swarmshot::app::quiet_vulkan_on_plain_x11()
+    };
     swarmshot::app::run_or_exit(preset);
     Ok(())
 }

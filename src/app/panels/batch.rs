@@ -64,7 +64,7 @@ impl SwarmshotApp {
     /// "Trial run: first N frames" (the CLI's `--limit`) and "one frame in K" (`--every`).
     fn trial_ui(&mut self, ui: &mut Ui) {
         let frames = self.resolved.frame_count().max(1);
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             ui.checkbox(&mut self.session.trial, "Trial run: first")
                 .on_hover_text(
                     "Make only the first frames, as `swarmshot batch --limit N` does; \
@@ -82,7 +82,7 @@ impl SwarmshotApp {
                 "frames"
             });
         });
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             ui.checkbox(&mut self.session.every, "Trial run: one frame in")
                 .on_hover_text(
                     "Make only every Kth frame (frames 0, K, 2K, … across the whole sweep), as `swarmshot batch --every K` does",
@@ -129,7 +129,7 @@ impl SwarmshotApp {
     /// "Shard K of N", the CLI's `--shard K/N` (K shown from 1).
     fn shard_ui(&mut self, ui: &mut Ui) {
         let s = &mut self.session;
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             ui.checkbox(&mut s.shard, "Shard").on_hover_text(
                 "Make one part of the frames, as `swarmshot batch --shard K/N` does on a cluster; \
                      join the finished shard folders with Merge below",

@@ -261,15 +261,18 @@ pub(in crate::app) fn folder_ui(
         ),
         Err(_) => "Where Generate writes the dataset. A relative path is relative to the folder swarmshot was started in".to_string(),
     };
+    // The label above its field: the field and Browse… share the panel's width, so
+    // Browse… stays in view in a panel of any width.
+    let label = ui.label("Output folder").on_hover_text(&tip);
     ui.horizontal(|ui| {
-        let label = ui.label("Output folder").on_hover_text(&tip);
-        // What the row leaves beside the label and Browse…, in a panel of any width.
-        let width = (ui.available_width() - 80.0).clamp(80.0, 260.0);
+        let browse = egui::Button::new("Browse…");
+        let browse_width = 80.0;
+        let width = (ui.available_width() - browse_width).max(60.0);
         ui.add(egui::TextEdit::singleline(out_dir).desired_width(width))
             .labelled_by(label.id)
             .on_hover_text(&tip);
         if ui
-            .button("Browse…")
+            .add(browse)
             .on_hover_text("Choose the output folder")
             .clicked()
         {
