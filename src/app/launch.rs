@@ -21,8 +21,11 @@ pub enum OpenError {
         source: std::io::Error,
     },
     /// Not RON, or not a preset (the message names the field and its line).
-    #[error("preset {}: {message}", path.display())]
-    Parse { path: PathBuf, message: String },
+    #[error("preset {}: {source}", path.display())]
+    Parse {
+        path: PathBuf,
+        source: crate::preset::RonError,
+    },
     #[error(
         "preset {}: version {version} is newer than this swarmshot understands ({known})",
         path.display(),
@@ -48,9 +51,9 @@ pub fn read_preset_text(path: &Path) -> Result<(Preset, String), OpenError> {
             source: e,
         },
     })?;
-    let preset = Preset::from_ron(&text).map_err(|message| OpenError::Parse {
+    let preset = Preset::from_ron(&text).map_err(|source| OpenError::Parse {
         path: owned(),
-        message,
+        source,
     })?;
     if preset.version > PRESET_VERSION {
         return Err(OpenError::TooNew {
