@@ -784,7 +784,8 @@ fn what_lies_behind_a_drone_is_read_from_its_ring() {
     let at = |n: &Vec<f64>, x: u32, y: u32, base: f64| {
         (base + n[(y * 320 + x) as usize]).round().clamp(0.0, 255.0) as u8
     };
-    let cases: Vec<(&str, Behind, Box<dyn Fn(u32, u32) -> [u8; 3]>)> = vec![
+    type Background<'a> = Box<dyn Fn(u32, u32) -> [u8; 3] + 'a>;
+    let cases: Vec<(&str, Behind, Background)> = vec![
         // A clear blue sky with a little noise.
         (
             "blue sky",

@@ -80,10 +80,13 @@ pub struct Report {
     pub proposals: Vec<Proposal>,
 }
 
+/// Whether a drone counts for a share (`None`: it has no say).
+type DroneFlag = fn(&super::DroneMeasure) -> Option<bool>;
+
 enum Kind {
     Frame(fn(&FrameStats) -> Option<f64>),
     Drone(fn(&super::DroneMeasure) -> Option<f64>),
-    Share(fn(&super::DroneMeasure) -> Option<bool>),
+    Share(DroneFlag),
 }
 
 struct Stat {
@@ -230,7 +233,7 @@ fn fitting_stats() -> Vec<Stat> {
             kind: Drone(|d| Some(f64::from(d.box_px))),
         },
     ];
-    let behind: [(&str, &str, fn(&super::DroneMeasure) -> Option<bool>); 4] = [
+    let behind: [(&str, &str, DroneFlag); 4] = [
         ("behind_sky", "share of drones in front of sky", |d| {
             d.behind.map(|b| b == Behind::Sky)
         }),
@@ -271,7 +274,7 @@ fn values(side: &Side, kind: &Kind) -> Vec<f64> {
     v
 }
 
-fn flags(side: &Side, g: fn(&super::DroneMeasure) -> Option<bool>) -> Vec<bool> {
+fn flags(side: &Side, g: DroneFlag) -> Vec<bool> {
     side.frames
         .iter()
         .flat_map(|f| f.stats.drones.iter().filter_map(g))
