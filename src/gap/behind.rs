@@ -28,9 +28,9 @@
 //! box's ring may lie wholly on what is beside the drone rather than behind it.
 
 use image::RgbImage;
-use serde::Serialize;
 
 use super::PixelBox;
+pub use super::measure::Behind;
 use super::measure::{Luma, Ring, saturation_hue};
 
 /// A ring pixel with a Sobel magnitude / 8 under this (levels per pixel) is smooth.
@@ -47,34 +47,6 @@ pub const BUILDING_SHARE: f32 = 0.25;
 pub const EACH_AXIS_SHARE: f32 = 0.15;
 /// The band next to the box left out of the ring (the drone's blur halo), pixels.
 const HALO_PX: i64 = 2;
-
-/// What lies behind a drone.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Behind {
-    Sky,
-    Vegetation,
-    Ground,
-    Building,
-}
-
-impl Behind {
-    pub const ALL: [Behind; 4] = [
-        Behind::Sky,
-        Behind::Vegetation,
-        Behind::Ground,
-        Behind::Building,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Behind::Sky => "sky",
-            Behind::Vegetation => "vegetation",
-            Behind::Ground => "ground",
-            Behind::Building => "building",
-        }
-    }
-}
 
 /// What the ring's pixels were counted as.
 #[derive(Default)]

@@ -567,7 +567,7 @@ pub struct DroneMeasure {
     pub box_px: f32,
     /// What lies behind the drone ([`super::behind::classify`]; `None` when its ring has
     /// no pixel to judge).
-    pub behind: Option<super::behind::Behind>,
+    pub behind: Option<Behind>,
 }
 
 /// A labelled box in whole pixels and the ring around it: the box grown by `margin`
@@ -716,4 +716,32 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
         box_px: ((b.x1 - b.x0).max(0.0) * (b.y1 - b.y0).max(0.0)).sqrt(),
         behind: None,
     })
+}
+
+/// What lies behind a drone (classified by [`super::behind::classify`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Behind {
+    Sky,
+    Vegetation,
+    Ground,
+    Building,
+}
+
+impl Behind {
+    pub const ALL: [Behind; 4] = [
+        Behind::Sky,
+        Behind::Vegetation,
+        Behind::Ground,
+        Behind::Building,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Behind::Sky => "sky",
+            Behind::Vegetation => "vegetation",
+            Behind::Ground => "ground",
+            Behind::Building => "building",
+        }
+    }
 }
