@@ -437,6 +437,9 @@ fn bad_input_is_a_named_error_and_nothing_is_written() {
         Some(&no_path),
         "no video decoder: install ffmpeg",
     );
+    // Views out of range.
+    refuses(&zero, &["--views", "0"], None, "--views 0: must be 1");
+    refuses(&zero, &["--views", "10"], None, "--views 10: must be 1");
     // --out inside the real folder.
     let inside = dir.join("labelled");
     std::fs::create_dir_all(&inside).expect("dir");
@@ -450,5 +453,99 @@ fn bad_input_is_a_named_error_and_nothing_is_written() {
         String::from_utf8_lossy(&o.stderr)
     );
     assert!(!inside.join("fit").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn crop_views_keep_the_focal_length_and_the_horizon() {
+    // Eight distinct crops besides the whole frame, each 80 % of it.
+    let (w, h) = (640u32, 480u32);
+    assert_eq!(plates::view_crop(w, h, 0), (0, 0, w, h));
+    let crops: Vec<_> = (1..=8).map(|k| plates::view_crop(w, h, k)).collect();
+    for (i, c) in crops.iter().enumerate() {
+        assert_eq!((c.2, c.3), (512, 384), "view {}", i + 1);
+        assert!(c.0 + c.2 <= w && c.1 + c.3 <= h);
+        assert!(!crops[..i].contains(c), "view {} repeats", i + 1);
+    }
+    // The same focal length in the frame's pixels: (w/2)/tan(hfov/2).
+    let f = |hfov: f64, width: u32| f64::from(width) * 0.5 / (hfov.to_radians() * 0.5).tan();
+    let hfov = plates::view_hfov(60.0, w, 512);
+    assert!((f(hfov, 512) / f(60.0, w) - 1.0).abs() < 1e-4, "{hfov}");
+    // A bright sky over dark ground, the horizon at row 288 (0.6 of the height): in
+    // each crop the estimate finds it where view_horizon puts it.
+    let frame = RgbImage::from_fn(w, h, |x, y| {
+        let v = if y < 288 { 200 } else { 70 } + ((x * 7 + y * 13) % 5) as u8;
+        Rgb([v, v, v])
+    });
+    assert_eq!(plates::estimate_horizon(&frame), Some(0.6));
+    for k in [3usize, 4, 1] {
+        let (x0, y0, cw, ch) = plates::view_crop(w, h, k);
+        let crop = image::imageops::crop_imm(&frame, x0, y0, cw, ch).to_image();
+        let want = plates::view_horizon(Some(0.6), h, y0, ch).expect("row");
+        let got = plates::estimate_horizon(&crop).expect("horizon");
+        assert!(
+            (got - want).abs() <= 1.0 / f64::from(ch) + 1e-3,
+            "view {k}: {got} vs {want}"
+        );
+    }
+    assert_eq!(plates::view_horizon(Some(0.6), h, 0, 384), Some(0.75));
+    assert_eq!(plates::view_horizon(Some(0.6), h, 96, 384), Some(0.5));
+    assert_eq!(plates::view_horizon(None, h, 96, 384), None);
+}
+
+#[test]
+fn views_write_a_plate_and_a_sidecar_per_crop() {
+    let dir = tmp("views");
+    let out = dir.join("fit");
+    let real = common::testdata("real");
+    let o = fit(&real, &out, &["--rounds", "0", "--views", "3"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plates_dir = out.join("plates");
+    let mut names: Vec<String> = std::fs::read_dir(&plates_dir)
+        .expect("plates")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names.len(),
+        60,
+        "3 views × 10 frames, plate and sidecar: {names:?}"
+    );
+    let whole = image::open(plates_dir.join("images__V_DRONE_001_f150.jpg")).expect("plate");
+    assert_eq!((whole.width(), whole.height()), (640, 512));
+    let v1 = image::open(plates_dir.join("images__V_DRONE_001_f150__v1.jpg")).expect("view 1");
+    let (_, _, cw, ch) = plates::view_crop(640, 512, 1);
+    assert_eq!((v1.width(), v1.height()), (cw, ch));
+    let side = std::fs::read_to_string(plates_dir.join("images__V_DRONE_001_f150__v2.plate.ron"))
+        .expect("sidecar");
+    let base = std::fs::read_to_string(plates_dir.join("images__V_DRONE_001_f150.plate.ron"))
+        .expect("sidecar");
+    let hfov = |t: &str| -> f64 {
+        let i = t.find("(hfov_deg: ").expect("hfov") + "(hfov_deg: ".len();
+        t[i..]
+            .split(',')
+            .next()
+            .expect("value")
+            .parse()
+            .expect("number")
+    };
+    assert!(
+        (hfov(&side) - plates::view_hfov(hfov(&base), 640, cw)).abs() < 1e-9,
+        "{side}"
+    );
+    assert!(hfov(&side) < hfov(&base));
+    // The written preset loads with every view as a plate.
+    let check = swarmshot()
+        .arg("check")
+        .arg(out.join("fitted.ron"))
+        .output()
+        .expect("check");
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    let fitted = std::fs::read_to_string(out.join("fitted.ron")).expect("fitted");
+    assert!(fitted.contains("as 30 plates, 3 views of each"), "{fitted}");
     let _ = std::fs::remove_dir_all(&dir);
 }

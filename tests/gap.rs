@@ -335,11 +335,67 @@ fn gap_cli_end_to_end_on_the_bundled_real_frames() {
         .expect("out")
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .filter(|p| p.file_name().is_some_and(|n| n != "contact_sheet.png"))
         .collect();
     assert!(pngs.len() >= 8, "{pngs:?}");
     for p in &pngs {
         let img = image::open(p).expect("decodes");
         assert_eq!(img.width(), 900);
+    }
+    // The rows added for fitting are there, marked not counted; the counted ones
+    // are the original fourteen.
+    let counted: Vec<&str> = stats
+        .iter()
+        .filter(|s| s["counted"] == true)
+        .map(|s| s["key"].as_str().expect("key"))
+        .collect();
+    assert_eq!(counted.len(), 14, "{counted:?}");
+    for key in [
+        "background_texture",
+        "drone_box_px",
+        "behind_sky",
+        "behind_vegetation",
+        "behind_ground",
+        "behind_building",
+    ] {
+        assert_eq!(by_key(key)["counted"], false, "{key}");
+    }
+    assert!(
+        table.contains("not counted (measured for fitting):"),
+        "{table}"
+    );
+    assert!(table.contains("counted statistics inside: "), "{table}");
+    // Each real drone's box size is √(w·h) of its label (V_DRONE_001: 0.101562 × 640
+    // by 0.087891 × 512).
+    let d0 = &json["real"]["frames"][0]["drones"][0];
+    let want = ((0.101_562f64 * 640.0) * (0.087_891 * 512.0)).sqrt();
+    let got = d0["box_px"].as_f64().expect("box_px");
+    assert!((got - want).abs() < 1e-3, "{got} vs {want}");
+    assert!(d0["behind"].is_string(), "{d0}");
+    // The contact sheet: its fixed size, and its left half the real frames' thumbnails
+    // (frames 0, 1, 2, 3, 5, 6, 7, 8 of the ten, in name order).
+    use swarmshot::gap::sheet;
+    let contact = image::open(a.join("contact_sheet.png"))
+        .expect("sheet")
+        .to_rgb8();
+    assert_eq!(contact.dimensions(), sheet::sheet_size());
+    let mut names: Vec<_> = std::fs::read_dir(real.join("images"))
+        .expect("real")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    names.sort();
+    assert_eq!(sheet::picks(10), [0, 1, 2, 3, 5, 6, 7, 8]);
+    for (cell, &i) in sheet::picks(10).iter().enumerate() {
+        let thumb = sheet::thumbnail(&image::open(&names[i]).expect("frame").to_rgb8());
+        let (x0, y0) = sheet::cell_origin(false, cell);
+        assert!(x0 + sheet::THUMB_W <= contact.width() / 2);
+        for (x, y, p) in thumb.enumerate_pixels() {
+            assert_eq!(
+                contact.get_pixel(x0 + x, y0 + y),
+                p,
+                "cell {cell} at {x},{y}"
+            );
+        }
     }
     // Deterministic: the same JSON again.
     let b = tmp.path().join("report-b");
@@ -348,6 +404,10 @@ fn gap_cli_end_to_end_on_the_bundled_real_frames() {
     assert_eq!(
         std::fs::read(a.join("report.json")).expect("a"),
         std::fs::read(b.join("report.json")).expect("b")
+    );
+    assert_eq!(
+        std::fs::read(a.join("contact_sheet.png")).expect("a"),
+        std::fs::read(b.join("contact_sheet.png")).expect("b")
     );
 }
 
@@ -667,4 +727,216 @@ fn oversized_and_truncated_frames_are_refused_naming_the_file() {
     std::fs::write(real.join("images/half.jpg"), &padded).expect("jpg");
     let o = gap_run(&real, &ds, None);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn iqr_distance_is_zero_inside_and_counts_iqr_widths_outside() {
+    use swarmshot::gap::report::{distribution, iqr_distance, share};
+    // Real 1..5: quartiles 2 and 4, an IQR of 2.
+    let real = distribution(&[1.0, 2.0, 3.0, 4.0, 5.0]);
+    let at = |m: f64| iqr_distance(real, distribution(&[m])).expect("both sides");
+    assert_eq!(at(3.0), 0.0);
+    assert_eq!(at(2.0), 0.0);
+    assert_eq!(at(4.0), 0.0);
+    assert_eq!(at(7.0), (7.0 - 4.0) / 2.0);
+    assert_eq!(at(1.0), (2.0 - 1.0) / 2.0);
+    assert_eq!(iqr_distance(real, None), None);
+    assert_eq!(iqr_distance(None, distribution(&[1.0])), None);
+    // An all-equal real side (every frame JPEG 85) counts as 0.1 % of the median wide.
+    let q85 = distribution(&[85.0; 6]);
+    let d = iqr_distance(q85, distribution(&[80.0])).expect("both");
+    assert!((d - 5.0 / 0.08).abs() < 1e-9, "{d}");
+    // Shares: against the real share's 50 % Wilson interval.
+    let r = share(&[true, false, false, false]);
+    let Some(swarmshot::gap::report::Summary::Share { high, low, .. }) = r else {
+        panic!("share")
+    };
+    let d = iqr_distance(r, share(&[true; 4])).expect("both");
+    assert!((d - (1.0 - high) / (high - low)).abs() < 1e-12, "{d}");
+}
+
+/// A 320×240 frame of `background` with a dark 12×12 drone at its centre.
+fn drone_over(background: impl Fn(u32, u32) -> [u8; 3]) -> swarmshot::gap::FrameStats {
+    let img = RgbImage::from_fn(320, 240, |x, y| {
+        if (154..166).contains(&x) && (114..126).contains(&y) {
+            Rgb([20, 20, 20])
+        } else {
+            Rgb(background(x, y))
+        }
+    });
+    let b = PixelBox {
+        x0: 153.0,
+        y0: 113.0,
+        x1: 167.0,
+        y1: 127.0,
+    };
+    measure_frame(&img, &[b], None)
+}
+
+#[test]
+fn what_lies_behind_a_drone_is_read_from_its_ring() {
+    use swarmshot::gap::Behind;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let mut noise =
+        |amp: f64| -> Vec<f64> { (0..320 * 240).map(|_| amp * normal(&mut rng)).collect() };
+    let n1 = noise(1.0);
+    let n30 = noise(30.0);
+    let at = |n: &Vec<f64>, x: u32, y: u32, base: f64| {
+        (base + n[(y * 320 + x) as usize]).round().clamp(0.0, 255.0) as u8
+    };
+    type Background<'a> = Box<dyn Fn(u32, u32) -> [u8; 3] + 'a>;
+    let cases: Vec<(&str, Behind, Background)> = vec![
+        // A clear blue sky with a little noise.
+        (
+            "blue sky",
+            Behind::Sky,
+            Box::new(|x, y| {
+                [
+                    at(&n1, x, y, 90.0),
+                    at(&n1, x, y, 140.0),
+                    at(&n1, x, y, 210.0),
+                ]
+            }),
+        ),
+        // An overcast, colourless pale sky.
+        (
+            "overcast",
+            Behind::Sky,
+            Box::new(|x, y| {
+                [
+                    at(&n1, x, y, 200.0),
+                    at(&n1, x, y, 200.0),
+                    at(&n1, x, y, 206.0),
+                ]
+            }),
+        ),
+        // Foliage: green and strongly textured.
+        (
+            "foliage",
+            Behind::Vegetation,
+            Box::new(|x, y| {
+                [
+                    at(&n30, x, y, 50.0),
+                    at(&n30, x, y, 110.0),
+                    at(&n30, x, y, 40.0),
+                ]
+            }),
+        ),
+        // Bare branches: grey-brown, textured every which way.
+        (
+            "branches",
+            Behind::Vegetation,
+            Box::new(|x, y| {
+                let v = at(&n30, x, y, 90.0);
+                [v, v.saturating_sub(8), v.saturating_sub(16)]
+            }),
+        ),
+        // A flat brown field.
+        (
+            "field",
+            Behind::Ground,
+            Box::new(|x, y| {
+                [
+                    at(&n1, x, y, 110.0),
+                    at(&n1, x, y, 90.0),
+                    at(&n1, x, y, 60.0),
+                ]
+            }),
+        ),
+        // A grey facade with a grid of dark windows: axis-aligned edges both ways.
+        (
+            "facade",
+            Behind::Building,
+            Box::new(|x, y| {
+                if x % 10 < 5 && y % 10 < 5 {
+                    [40, 40, 45]
+                } else {
+                    [150, 145, 140]
+                }
+            }),
+        ),
+    ];
+    for (what, want, bg) in cases {
+        let s = drone_over(bg);
+        assert_eq!(s.drones.len(), 1, "{what}");
+        let d = s.drones[0];
+        assert_eq!(d.behind, Some(want), "{what}");
+        assert_eq!(d.box_px, 14.0, "{what}");
+    }
+}
+
+#[test]
+fn background_texture_is_the_median_tile_sigma_away_from_drones() {
+    // 960×540 (already 540 high, so not rescaled): the left two thirds in 8 px bands
+    // of 100 and 140 levels (every 16 px tile: σ 20), the rest flat.
+    let img = grey(960, 540, |x, _| {
+        if x < 640 && (x / 8) % 2 == 1 {
+            140.0
+        } else {
+            100.0
+        }
+    });
+    let s = measure_frame(&img, &[], None);
+    assert_eq!(s.background_texture, Some(20.0));
+    let flat = measure_frame(&grey(960, 540, |_, _| 100.0), &[], None);
+    assert_eq!(flat.background_texture, Some(0.0));
+    // A box over the banded part leaves only flat tiles: median 0.
+    let b = PixelBox {
+        x0: 0.0,
+        y0: 0.0,
+        x1: 640.0,
+        y1: 540.0,
+    };
+    let boxed = measure_frame(&img, &[b], None);
+    assert_eq!(boxed.background_texture, Some(0.0));
+    // A 1080-high frame is measured at 540: bands twice as wide give the same σ.
+    let big = grey(1920, 1080, |x, _| {
+        if x < 1280 && (x / 16) % 2 == 1 {
+            140.0
+        } else {
+            100.0
+        }
+    });
+    let t = measure_frame(&big, &[], None)
+        .background_texture
+        .expect("tiles");
+    // (the 2:1 Triangle filter softens each band's edge: within 10 %).
+    assert!((t - 20.0).abs() < 2.0, "{t}");
+}
+
+#[test]
+fn the_contact_sheet_puts_real_left_and_synthetic_right() {
+    use swarmshot::gap::sheet;
+    let solid = |c: [u8; 3], w: u32, h: u32| RgbImage::from_pixel(w, h, Rgb(c));
+    // A 4:3 frame fills its cell; a 2:1 one is letterboxed, centred.
+    let t = sheet::thumbnail(&solid([200, 0, 0], 640, 480));
+    assert_eq!(t.dimensions(), (sheet::THUMB_W, sheet::THUMB_H));
+    assert!(t.pixels().all(|p| p.0 == [200, 0, 0]));
+    let wide = sheet::thumbnail(&solid([0, 200, 0], 800, 400));
+    assert_eq!(wide.get_pixel(120, 90).0, [0, 200, 0]);
+    assert_eq!(wide.get_pixel(120, 0).0, [32, 32, 32]);
+    let real = vec![t.clone(); 3];
+    let synthetic = vec![wide.clone(); 8];
+    let s = sheet::contact_sheet(&real, &synthetic, ["real", "synthetic"]).expect("sheet");
+    assert_eq!(s.dimensions(), sheet::sheet_size());
+    assert_eq!(
+        s.dimensions(),
+        (4 * sheet::THUMB_W, sheet::HEADER_PX + 4 * sheet::THUMB_H)
+    );
+    for i in 0..sheet::SHEET_FRAMES {
+        let (x, y) = sheet::cell_origin(false, i);
+        let want = if i < 3 { [200, 0, 0] } else { [32, 32, 32] };
+        assert_eq!(s.get_pixel(x + 5, y + 5).0, want, "real cell {i}");
+        let (x, y) = sheet::cell_origin(true, i);
+        assert!(x >= s.width() / 2);
+        assert_eq!(
+            s.get_pixel(x + 120, y + 90).0,
+            [0, 200, 0],
+            "synthetic cell {i}"
+        );
+    }
+    // Evenly spaced, deterministic picks.
+    assert_eq!(sheet::picks(3), [0, 1, 2]);
+    assert_eq!(sheet::picks(16), [0, 2, 4, 6, 8, 10, 12, 14]);
+    assert!(sheet::picks(0).is_empty());
 }

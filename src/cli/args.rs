@@ -227,6 +227,10 @@ pub(crate) struct FitArgs {
     /// Frames per second taken from a video.
     #[arg(long, default_value_t = 2.0)]
     pub(crate) video_fps: f64,
+    /// Plates per frame: 1 the frame alone; up to 9, the frame and crops of 80 % of it
+    /// at shifted places (each with its own field of view and horizon).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) views: usize,
 }
 
 #[derive(Args)]

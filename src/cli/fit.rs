@@ -19,6 +19,7 @@ pub(crate) fn run(args: FitArgs) -> anyhow::Result<()> {
         max_frames: args.max_frames,
         hfov_deg: args.hfov,
         video_fps: args.video_fps,
+        views: args.views,
     };
     if options.sample == 0 {
         anyhow::bail!("--sample 0: a round needs at least 1 frame");

@@ -436,6 +436,7 @@ mod tests {
             images_found: 0,
             labelled_frames: 0,
             frames: Vec::new(),
+            thumbnails: Vec::new(),
         }
     }
 
@@ -471,6 +472,8 @@ mod tests {
                 real: Some(r),
                 synthetic: Some(s),
                 verdict,
+                iqr_distance: crate::gap::report::iqr_distance(Some(r), Some(s)),
+                counted: true,
             }],
             proposals: Vec::new(),
         }
@@ -574,6 +577,8 @@ mod tests {
             core_px: 4.0,
             darker: true,
             edge_width_px: Some(2.0),
+            box_px: 6.0,
+            behind: None,
         };
         r.synthetic.frames.push(crate::gap::report::FrameRecord {
             file: "a.jpg".into(),

@@ -55,6 +55,9 @@ pub struct FitOptions {
     pub hfov_deg: Option<f64>,
     /// Frames per second taken from a video.
     pub video_fps: f64,
+    /// Plates per frame: the frame, then crops ([`plates::view_crop`]); 1 to
+    /// [`plates::MAX_VIEWS`].
+    pub views: usize,
 }
 
 impl FitOptions {
@@ -70,6 +73,7 @@ impl FitOptions {
             max_frames: 200,
             hfov_deg: None,
             video_fps: 2.0,
+            views: 1,
         }
     }
 }
@@ -118,6 +122,8 @@ pub enum FitError {
     /// A frame folder or label file refused as `gap` refuses it.
     #[error(transparent)]
     Frames(#[from] crate::gap::GapError),
+    #[error("--views {0}: must be 1 (the frame alone) to {max} (the frame and its crops)", max = plates::MAX_VIEWS)]
+    Views(usize),
     #[error("{0}")]
     Other(String),
 }
@@ -192,6 +198,9 @@ pub struct FitRecord {
 /// Steps 1–4: read and check the footage (nothing written before it passes), measure
 /// it, write the plates, `footage.json` and the first fit (in memory).
 pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
+    if !(1..=plates::MAX_VIEWS).contains(&options.views) {
+        return Err(FitError::Views(options.views));
+    }
     let source = input::check_source(options)?;
     let base = preset_out::load_base(&options.base)?;
     let (real_dir, frames) = match &source {
@@ -210,7 +219,13 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     let footage = camera::measure(&frames);
     let geometry = plates::PlateCamera::from_base(&base, &footage, options.hfov_deg);
     std::fs::create_dir_all(&options.out).map_err(io_err(&options.out))?;
-    let plates = plates::write_plates(&frames, &footage, &geometry, &options.out.join("plates"))?;
+    let plates = plates::write_plates(
+        &frames,
+        &footage,
+        &geometry,
+        &options.out.join("plates"),
+        options.views,
+    )?;
     drop(frames);
     let json =
         serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;

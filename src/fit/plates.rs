@@ -21,6 +21,16 @@
 //! that fall is at least [`HORIZON_MIN_STEP`] levels and lies within the frame's middle
 //! 90 %, else `Unknown` (the elevation is then drawn from the base observer's range).
 //! Both are estimates: edit `fitted.ron` or a sidecar when you know the camera.
+//!
+//! **Views** (`--views N`, default 1): besides the whole frame, view k ≥ 1 is a crop of
+//! [`VIEW_CROP`] of its width and height, shifted to one of eight places
+//! ([`view_crop`]: left, right, top, bottom, then the corners), written as its own plate
+//! `NAME__vK.jpg` whose sidecar keeps the camera consistent: the crop's field of view
+//! ([`view_hfov`]: the same focal length in the frame's pixels) and the horizon row moved
+//! into it ([`view_horizon`]; outside 0–1 when the crop leaves the horizon out). The
+//! scene mirrors each plate in half the frames (`backplate.flip`), so N views give 2N.
+//! The loader enlarges a crop back to the output size, which lowers its noise and widens
+//! its blur a little: the default is the frame alone.
 
 use std::path::Path;
 
@@ -33,6 +43,53 @@ use super::input::RealFrame;
 use super::{FitError, io_err, write_file};
 use crate::gap::PixelBox;
 use crate::preset::{ImageFormat, Preset};
+
+/// The most views `--views` may ask per frame.
+pub const MAX_VIEWS: usize = 9;
+/// The share of a frame's width and height a crop view keeps.
+pub const VIEW_CROP: f64 = 0.8;
+/// Where crop view k ≥ 1 lies within the frame's slack, as fractions (x, y).
+const VIEW_PLACES: [(f64, f64); 8] = [
+    (0.0, 0.5),
+    (1.0, 0.5),
+    (0.5, 0.0),
+    (0.5, 1.0),
+    (0.0, 0.0),
+    (1.0, 0.0),
+    (0.0, 1.0),
+    (1.0, 1.0),
+];
+
+/// View `k`'s part of a `w` × `h` frame, `(x0, y0, width, height)`: view 0 is the whole
+/// frame, view k ≥ 1 a [`VIEW_CROP`] crop at the k-th of eight places (module docs).
+pub fn view_crop(w: u32, h: u32, k: usize) -> (u32, u32, u32, u32) {
+    if k == 0 {
+        return (0, 0, w, h);
+    }
+    let cw = ((f64::from(w) * VIEW_CROP).round() as u32).clamp(1, w.max(1));
+    let ch = ((f64::from(h) * VIEW_CROP).round() as u32).clamp(1, h.max(1));
+    let (fx, fy) = VIEW_PLACES[(k - 1) % VIEW_PLACES.len()];
+    let x0 = (f64::from(w.saturating_sub(cw)) * fx).round() as u32;
+    let y0 = (f64::from(h.saturating_sub(ch)) * fy).round() as u32;
+    (x0, y0, cw, ch)
+}
+
+/// The horizontal field of view of a crop `cw` wide out of a frame `w` wide whose field
+/// of view is `hfov_deg`: the same focal length, `f = (w/2) / tan(hfov/2)`.
+pub fn view_hfov(hfov_deg: f64, w: u32, cw: u32) -> f64 {
+    let t = (hfov_deg.to_radians() * 0.5).tan() * f64::from(cw) / f64::from(w.max(1));
+    let v = 2.0 * t.atan().to_degrees();
+    (v * 1000.0).round() / 1000.0
+}
+
+/// The horizon row (a fraction of the height) of a frame `h` high, in its crop of rows
+/// `y0 .. y0 + ch`.
+pub fn view_horizon(row: Option<f64>, h: u32, y0: u32, ch: u32) -> Option<f64> {
+    row.map(|r| {
+        let v = (r * f64::from(h) - f64::from(y0)) / f64::from(ch.max(1));
+        (v * 10_000.0).round() / 10_000.0
+    })
+}
 
 /// JPEG quality of the written plates.
 pub const PLATE_QUALITY: u8 = 95;
@@ -97,6 +154,9 @@ pub struct PlateRecord {
 pub struct PlateSummary {
     pub plates: Vec<PlateRecord>,
     pub unlabelled: usize,
+    /// Plates per frame (`--views`).
+    #[serde(skip)]
+    pub views: usize,
 }
 
 /// A filled region: the union of grown boxes filled together.
@@ -531,69 +591,113 @@ fn plate_name(rel: &str) -> String {
     format!("{}.jpg", stem.replace('/', "__"))
 }
 
-/// Writes every frame's plate and sidecar into `dir` (created).
+/// Writes every frame's plates (`views` of each, at least 1: module docs) and their
+/// sidecars into `dir` (created).
 pub fn write_plates(
     frames: &[RealFrame],
     footage: &Footage,
     camera: &PlateCamera,
     dir: &Path,
+    views: usize,
 ) -> Result<PlateSummary, FitError> {
     use rayon::prelude::*;
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let _ = footage;
-    let records: Vec<Result<PlateRecord, FitError>> = frames
+    let records: Vec<Result<Vec<PlateRecord>, FitError>> = frames
         .par_iter()
         .map(|f| {
             let mut rgb = f.rgb.clone();
             remove_drones(&mut rgb, &f.boxes, name_seed(&f.rel));
             let horizon = estimate_horizon(&rgb);
-            let name = plate_name(&f.rel);
-            let rgba: Vec<u8> = rgb.pixels().flat_map(|p| [p[0], p[1], p[2], 255]).collect();
-            let jpeg = crate::write::encode_image(
-                &rgba,
-                rgb.width(),
-                rgb.height(),
-                ImageFormat::Jpeg {
-                    quality: PLATE_QUALITY,
-                },
-            )
-            .map_err(|e| FitError::Other(format!("encoding plate {name}: {e}")))?;
-            write_file(&dir.join(&name), &jpeg)?;
-            let horizon_text = match horizon {
-                Some(r) => format!("Row({r})"),
-                None => "Unknown".into(),
-            };
-            let sidecar = format!(
-                "// swarmshot fit: {} with its {} labelled drone(s) removed{}.\n// hfov_deg: {}; horizon: {}\n(hfov_deg: {}, horizon: {horizon_text})\n",
-                f.rel,
-                f.boxes.len(),
-                if f.labelled {
-                    ""
-                } else {
-                    " (NO LABEL FILE: drones in it, if any, were not removed)"
-                },
-                camera.hfov_source,
-                if horizon.is_some() {
-                    "estimated from the row-mean brightness step (sky above, ground below)"
-                } else {
-                    "no clear brightness step: unknown, the elevation is drawn from backplate.elevation_deg"
-                },
-                camera.hfov_deg
-            );
-            let stem = name.trim_end_matches(".jpg");
-            write_file(&dir.join(format!("{stem}.plate.ron")), sidecar.as_bytes())?;
-            Ok(PlateRecord {
-                plate: name,
-                source: f.rel.clone(),
-                drones_removed: f.boxes.len(),
-                labelled: f.labelled,
-                horizon_row: horizon,
-            })
+            (0..views.max(1))
+                .map(|k| write_view(dir, f, &rgb, horizon, camera, k))
+                .collect()
         })
         .collect();
-    let plates = records.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let mut plates = Vec::new();
+    for r in records {
+        plates.extend(r?);
+    }
     let unlabelled = plates.iter().filter(|p| !p.labelled).count();
-    Ok(PlateSummary { plates, unlabelled })
+    Ok(PlateSummary {
+        plates,
+        unlabelled,
+        views: views.max(1),
+    })
+}
+
+/// Writes view `k` of a frame's plate `rgb` (drones removed) and its sidecar.
+fn write_view(
+    dir: &Path,
+    f: &RealFrame,
+    rgb: &RgbImage,
+    horizon: Option<f64>,
+    camera: &PlateCamera,
+    k: usize,
+) -> Result<PlateRecord, FitError> {
+    let (w, h) = rgb.dimensions();
+    let (x0, y0, cw, ch) = view_crop(w, h, k);
+    let view = image::imageops::crop_imm(rgb, x0, y0, cw, ch).to_image();
+    let (hfov_deg, horizon) = match k {
+        0 => (camera.hfov_deg, horizon),
+        _ => (
+            view_hfov(camera.hfov_deg, w, cw),
+            view_horizon(horizon, h, y0, ch),
+        ),
+    };
+    let name = match k {
+        0 => plate_name(&f.rel),
+        k => plate_name(&f.rel).replace(".jpg", &format!("__v{k}.jpg")),
+    };
+    let rgba: Vec<u8> = view
+        .pixels()
+        .flat_map(|p| [p[0], p[1], p[2], 255])
+        .collect();
+    let jpeg = crate::write::encode_image(
+        &rgba,
+        cw,
+        ch,
+        ImageFormat::Jpeg {
+            quality: PLATE_QUALITY,
+        },
+    )
+    .map_err(|e| FitError::Other(format!("encoding plate {name}: {e}")))?;
+    write_file(&dir.join(&name), &jpeg)?;
+    let horizon_text = match horizon {
+        Some(r) => format!("Row({r})"),
+        None => "Unknown".into(),
+    };
+    let view_text = match k {
+        0 => String::new(),
+        k => format!(
+            "\n// view {k}: the {cw}×{ch} crop at ({x0}, {y0}) of the {w}×{h} plate; its hfov_deg and horizon follow from the plate's"
+        ),
+    };
+    let sidecar = format!(
+        "// swarmshot fit: {} with its {} labelled drone(s) removed{}.\n// hfov_deg: {}; horizon: {}{view_text}\n(hfov_deg: {hfov_deg}, horizon: {horizon_text})\n",
+        f.rel,
+        f.boxes.len(),
+        if f.labelled {
+            ""
+        } else {
+            " (NO LABEL FILE: drones in it, if any, were not removed)"
+        },
+        camera.hfov_source,
+        if horizon.is_some() {
+            "estimated from the row-mean brightness step (sky above, ground below)"
+        } else {
+            "no clear brightness step: unknown, the elevation is drawn from backplate.elevation_deg"
+        },
+    );
+    let stem = name.trim_end_matches(".jpg");
+    write_file(&dir.join(format!("{stem}.plate.ron")), sidecar.as_bytes())?;
+    Ok(PlateRecord {
+        plate: name,
+        source: f.rel.clone(),
+        drones_removed: f.boxes.len(),
+        labelled: f.labelled,
+        horizon_row: horizon,
+    })
 }
 
 /// Mean, standard deviation and 2×2 high-pass RMS of the luminance of `rgb` inside `r`

@@ -73,9 +73,16 @@ pub fn first_fit(
         sun_azimuth_deg: sun.map_or((-180.0, 180.0), |b| b.sun_azimuth_deg),
         flip: true,
     });
+    let views = match plates.views {
+        0 | 1 => String::new(),
+        v => format!(
+            " as {} plates, {v} views of each (the frame and its crops)",
+            plates.plates.len()
+        ),
+    };
     notes.push(format!(
-        "backplate: the footage's {} frames with their labelled drones removed (plates/); hfov_deg {} from {}; horizon per plate in its .plate.ron: estimated on {known}, unknown on {} (elevation_deg {:?} from the base observer)",
-        plates.plates.len(),
+        "backplate: the footage's {} frames with their labelled drones removed (plates/){views}; hfov_deg {} from {}; horizon per plate in its .plate.ron: estimated on {known}, unknown on {} (elevation_deg {:?} from the base observer)",
+        plates.plates.len() / plates.views.max(1),
         camera.hfov_deg,
         camera.hfov_source,
         plates.plates.len() - known,

@@ -69,9 +69,11 @@ fn score(report: &Report) -> (usize, usize, f64, Vec<String>) {
     let mut applicable = 0;
     let mut distance = 0.0;
     let mut verdicts = Vec::new();
-    for r in &report.statistics {
+    // Only the counted statistics: the rows added for fitting (texture, box size, what
+    // lies behind) are the plates' and the footage's, not the preset's to move.
+    for r in report.statistics.iter().filter(|r| r.counted) {
         verdicts.push(format!("{}: {}", r.key, r.verdict));
-        let (Some(real), Some(syn)) = (r.real, r.synthetic) else {
+        let Some(d) = r.iqr_distance else {
             continue;
         };
         applicable += 1;
@@ -79,10 +81,7 @@ fn score(report: &Report) -> (usize, usize, f64, Vec<String>) {
             inside += 1;
             continue;
         }
-        let (lo, hi) = range(&real);
-        let c = centre(&syn);
-        let width = (hi - lo).max(1e-3 * c.abs()).max(1e-6);
-        distance += if c < lo { lo - c } else { c - hi } / width;
+        distance += d;
     }
     (inside, applicable, distance, verdicts)
 }

@@ -53,7 +53,7 @@ impl Luma {
     }
 
     #[inline]
-    fn at(&self, x: usize, y: usize) -> f32 {
+    pub(crate) fn at(&self, x: usize, y: usize) -> f32 {
         self.y[y * self.width + x]
     }
 
@@ -361,6 +361,51 @@ pub fn scaled_gray(l: &Luma) -> GrayImage {
     image::imageops::resize(&g, w, h, image::imageops::FilterType::Triangle)
 }
 
+/// The background's texture: the median, over the 16 px tiles of the frame scaled to
+/// 540 px high ([`scaled_gray`]) that lie at least 8 px (at that scale) from every
+/// labelled box, of each tile's luminance standard deviation (levels). `None` when no
+/// tile is clear of the boxes.
+pub fn background_texture(g540: &GrayImage, boxes: &[PixelBox], height: usize) -> Option<f32> {
+    let scale = g540.height() as f32 / height.max(1) as f32;
+    let scaled: Vec<PixelBox> = boxes
+        .iter()
+        .map(|b| PixelBox {
+            x0: b.x0 * scale,
+            y0: b.y0 * scale,
+            x1: b.x1 * scale,
+            y1: b.y1 * scale,
+        })
+        .collect();
+    let (w, h) = (g540.width() as usize, g540.height() as usize);
+    let (tiles_x, tiles_y) = (w / TILE_PX, h / TILE_PX);
+    let near = tiles_near_boxes(tiles_x, tiles_y, &scaled);
+    let px = g540.as_raw();
+    let mut sigmas = Vec::new();
+    for ty in 0..tiles_y {
+        for tx in 0..tiles_x {
+            if near[ty * tiles_x + tx] {
+                continue;
+            }
+            let (mut s, mut ss) = (0f64, 0f64);
+            for y in ty * TILE_PX..(ty + 1) * TILE_PX {
+                for &v in &px[y * w + tx * TILE_PX..y * w + (tx + 1) * TILE_PX] {
+                    let v = f64::from(v);
+                    s += v;
+                    ss += v * v;
+                }
+            }
+            let n = (TILE_PX * TILE_PX) as f64;
+            let mean = s / n;
+            sigmas.push(((ss / n - mean * mean).max(0.0).sqrt()) as f32);
+        }
+    }
+    if sigmas.is_empty() {
+        return None;
+    }
+    sigmas.sort_by(f32::total_cmp);
+    Some(percentile_sorted(&sigmas, 0.5))
+}
+
 /// Mean Sobel magnitude (imageproc's Sobel divided by 8, so levels per pixel) at 540 px high.
 pub fn gradient_energy(g540: &GrayImage) -> f32 {
     let gx = imageproc::gradients::horizontal_sobel(g540);
@@ -518,27 +563,71 @@ pub struct DroneMeasure {
     /// Mean 90 %→10 % fall distance of the deviation from the peak pixel outwards (left,
     /// right, up, down; those that reach 10 %), pixels; `None` when no direction does.
     pub edge_width_px: Option<f32>,
+    /// √(w·h) of the labelled box, pixels (as labelled, before clipping to the frame).
+    pub box_px: f32,
+    /// What lies behind the drone ([`super::behind::classify`]; `None` when its ring has
+    /// no pixel to judge).
+    pub behind: Option<Behind>,
 }
 
-/// Measures a drone in its box against a ring around it: the ring is the box grown by
-/// half its larger side (at least 3 px, at most 32) on each side, minus the box, within
-/// the image. `None` for a box with no pixel or a ring under 8 pixels.
-pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
-    let (w, h) = (l.width as i64, l.height as i64);
-    let x0 = (b.x0.floor() as i64).clamp(0, w);
-    let y0 = (b.y0.floor() as i64).clamp(0, h);
-    let x1 = (b.x1.ceil() as i64).clamp(0, w);
-    let y1 = (b.y1.ceil() as i64).clamp(0, h);
-    if x1 <= x0 || y1 <= y0 {
-        return None;
+/// A labelled box in whole pixels and the ring around it: the box grown by `margin`
+/// (half its larger side, at least 3 px, at most 32) on each side, both within the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ring {
+    /// The box, `[x0, x1) × [y0, y1)`.
+    pub x0: i64,
+    pub y0: i64,
+    pub x1: i64,
+    pub y1: i64,
+    /// The grown box; the ring is it minus the box.
+    pub rx0: i64,
+    pub ry0: i64,
+    pub rx1: i64,
+    pub ry1: i64,
+    pub margin: i64,
+}
+
+impl Ring {
+    /// `None` for a box with no pixel inside a `width` × `height` image.
+    pub fn around(b: PixelBox, width: usize, height: usize) -> Option<Self> {
+        let (w, h) = (width as i64, height as i64);
+        let x0 = (b.x0.floor() as i64).clamp(0, w);
+        let y0 = (b.y0.floor() as i64).clamp(0, h);
+        let x1 = (b.x1.ceil() as i64).clamp(0, w);
+        let y1 = (b.y1.ceil() as i64).clamp(0, h);
+        if x1 <= x0 || y1 <= y0 {
+            return None;
+        }
+        let m = ((0.5 * (x1 - x0).max(y1 - y0) as f32).round() as i64).clamp(3, 32);
+        Some(Self {
+            x0,
+            y0,
+            x1,
+            y1,
+            rx0: (x0 - m).max(0),
+            ry0: (y0 - m).max(0),
+            rx1: (x1 + m).min(w),
+            ry1: (y1 + m).min(h),
+            margin: m,
+        })
     }
-    let m = ((0.5 * (x1 - x0).max(y1 - y0) as f32).round() as i64).clamp(3, 32);
-    let (rx0, ry0, rx1, ry1) = (
-        (x0 - m).max(0),
-        (y0 - m).max(0),
-        (x1 + m).min(w),
-        (y1 + m).min(h),
-    );
+}
+
+/// Measures a drone in its box against a ring around it ([`Ring`]: the box grown by
+/// half its larger side, at least 3 px, at most 32, on each side, minus the box, within
+/// the image). `None` for a box with no pixel or a ring under 8 pixels.
+pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
+    let Ring {
+        x0,
+        y0,
+        x1,
+        y1,
+        rx0,
+        ry0,
+        rx1,
+        ry1,
+        ..
+    } = Ring::around(b, l.width, l.height)?;
     // The ring row by row: whole rows above and below the box, the two side
     // strips beside it (its cost is the ring's size, not the grown box's).
     let mut ring = Vec::new();
@@ -624,5 +713,35 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
         core_px: (core as f32).sqrt(),
         darker: peak < 0.0,
         edge_width_px,
+        box_px: ((b.x1 - b.x0).max(0.0) * (b.y1 - b.y0).max(0.0)).sqrt(),
+        behind: None,
     })
+}
+
+/// What lies behind a drone (classified by [`super::behind::classify`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Behind {
+    Sky,
+    Vegetation,
+    Ground,
+    Building,
+}
+
+impl Behind {
+    pub const ALL: [Behind; 4] = [
+        Behind::Sky,
+        Behind::Vegetation,
+        Behind::Ground,
+        Behind::Building,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Behind::Sky => "sky",
+            Behind::Vegetation => "vegetation",
+            Behind::Ground => "ground",
+            Behind::Building => "building",
+        }
+    }
 }

@@ -3,8 +3,9 @@
 //! camera-model ranges that would move the dataset inside the real inter-quartile range.
 //!
 //! CPU only; knows nothing of presets, rendering or the GPU. [`measure`] holds the
-//! definitions, [`jpeg_quality`] reads quantisation tables, [`report`] walks the folders,
-//! aggregates, prints, and writes the JSON and histogram PNGs.
+//! definitions, [`behind`] classifies what lies behind each drone, [`jpeg_quality`] reads
+//! quantisation tables, [`report`] walks the folders, aggregates, prints, and writes the
+//! JSON, the histogram PNGs ([`histogram`]) and the contact sheet ([`sheet`]).
 //!
 //! What is measured, on luminance `Y = 0.299 R + 0.587 G + 0.114 B` in 8-bit levels
 //! (docs/realism.md has the same list for users):
@@ -38,18 +39,30 @@
 //!   the peak on its side), **polarity** (darker than the ring or not), and for drones with
 //!   a 3–6 px core their **peak contrast** and **edge width** (the 90 %→10 % fall of the
 //!   deviation walking out from the peak pixel, averaged over four directions).
+//!
+//! Measured for fitting and shown, but not counted among the statistics "inside"
+//! (`StatRow::counted`; docs/realism.md):
+//!
+//! - **background texture**: the median, over the 16 px tiles of the frame at 540 px high
+//!   that lie 8 px or more from every box, of each tile's luminance standard deviation.
+//! - per drone, the **box size** √(w·h) of its label, and **what lies behind it** (sky,
+//!   vegetation, ground, building: [`behind`]'s rules on its ring).
 
+pub mod behind;
 mod error;
 pub mod folder;
+mod histogram;
 pub mod jpeg_quality;
 pub mod measure;
 mod propose;
 pub mod report;
+pub mod sheet;
 mod table;
 
 use image::RgbImage;
 use serde::Serialize;
 
+pub use behind::Behind;
 pub use measure::{DroneMeasure, PixelBox};
 pub use report::{GapError, GapOptions, Report, run as run_report};
 
@@ -66,6 +79,9 @@ pub struct FrameStats {
     pub sky_saturation: Option<f32>,
     pub sky_hue_deg: Option<f32>,
     pub mean_brightness: f32,
+    /// Median luminance standard deviation of the 16 px tiles at 540 px high clear of the
+    /// boxes (`None` when no tile is).
+    pub background_texture: Option<f32>,
     pub blur_sigma_px: Option<f32>,
     /// Number of edges the blur estimate used.
     pub blur_edges: usize,
@@ -101,6 +117,7 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         sky_saturation,
         sky_hue_deg,
         mean_brightness: (l.y.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64) as f32,
+        background_texture: measure::background_texture(&g540, boxes, l.height),
         blur_sigma_px: measure::blur_sigma(edges),
         blur_edges,
         jpeg_quality: jpeg_bytes
@@ -108,7 +125,11 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
             .map(|q| q.quality),
         drones: boxes
             .iter()
-            .filter_map(|&b| measure::measure_drone(&l, b))
+            .filter_map(|&b| {
+                let mut d = measure::measure_drone(&l, b)?;
+                d.behind = behind::classify(rgb, &l, b);
+                Some(d)
+            })
             .collect(),
     }
 }

@@ -1,7 +1,13 @@
 //! `swarmshot gap`: reads the real folder and the dataset, measures every frame
 //! ([`super::measure_frame`]), summarises each statistic per side (median and inter-quartile
-//! range; shares with a 50 % Wilson interval), gives a verdict, proposes camera-model
-//! ranges, and writes `report.json`, `report.txt` and one histogram PNG per statistic.
+//! range; shares with a 50 % Wilson interval), gives a verdict and the distance outside
+//! the real range in IQR widths, proposes camera-model ranges, and writes `report.json`,
+//! `report.txt`, one histogram PNG per statistic and `contact_sheet.png`.
+//!
+//! The fourteen statistics of the original report are *counted* (the "inside on N of 13"
+//! that `fit` and docs/realism.md quote); the rows added for fitting — background
+//! texture, drone box size and what lies behind the drones — are shown and written with
+//! their verdicts but marked not counted ([`StatRow::counted`]).
 //!
 //! Every input problem (a missing folder, no images, an undecodable, oversized or
 //! truncated image, a malformed label line, a label file over [`MAX_LABEL_LINES`] lines)
@@ -15,10 +21,11 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::behind::Behind;
 pub use super::error::GapError;
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
 use super::folder::{input, label_for, read_labels, walk};
-pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt};
+pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt, iqr_distance};
 use super::{FrameStats, measure_frame};
 
 /// Drones whose core is this size range (pixels) get the small-drone rows.
@@ -52,6 +59,9 @@ pub struct Side {
     pub images_found: usize,
     pub labelled_frames: usize,
     pub frames: Vec<FrameRecord>,
+    /// The contact sheet's thumbnails of this side ([`super::sheet::picks`]; not written).
+    #[serde(skip)]
+    pub thumbnails: Vec<image::RgbImage>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -70,10 +80,13 @@ pub struct Report {
     pub proposals: Vec<Proposal>,
 }
 
+/// Whether a drone counts for a share (`None`: it has no say).
+type DroneFlag = fn(&super::DroneMeasure) -> Option<bool>;
+
 enum Kind {
     Frame(fn(&FrameStats) -> Option<f64>),
     Drone(fn(&super::DroneMeasure) -> Option<f64>),
-    Share(fn(&super::DroneMeasure) -> Option<bool>),
+    Share(DroneFlag),
 }
 
 struct Stat {
@@ -81,6 +94,8 @@ struct Stat {
     name: &'static str,
     unit: &'static str,
     kind: Kind,
+    /// Counted among the statistics inside (the original fourteen).
+    counted: bool,
 }
 
 fn small(d: &super::DroneMeasure) -> bool {
@@ -89,86 +104,100 @@ fn small(d: &super::DroneMeasure) -> bool {
 
 fn stats() -> Vec<Stat> {
     use Kind::*;
-    vec![
+    let mut v = vec![
         Stat {
+            counted: true,
             key: "noise_sigma",
             name: "flat-sky noise σ (1.4826·MAD of 2×2 high-pass)",
             unit: "levels",
             kind: Frame(|f| f.noise_sigma.map(f64::from)),
         },
         Stat {
+            counted: true,
             key: "highpass_rms",
             name: "flat-sky high-pass RMS",
             unit: "levels",
             kind: Frame(|f| f.highpass_rms.map(f64::from)),
         },
         Stat {
+            counted: true,
             key: "gradient_energy",
             name: "gradient energy (mean Sobel at 540 px high)",
             unit: "levels/px",
             kind: Frame(|f| Some(f64::from(f.gradient_energy))),
         },
         Stat {
+            counted: true,
             key: "canny_edge_share",
             name: "share of pixels that are Canny edges",
             unit: "",
             kind: Frame(|f| Some(f64::from(f.canny_edge_share))),
         },
         Stat {
+            counted: true,
             key: "sky_saturation",
             name: "sky saturation (HSV)",
             unit: "",
             kind: Frame(|f| f.sky_saturation.map(f64::from)),
         },
         Stat {
+            counted: true,
             key: "sky_hue_deg",
             name: "sky hue (HSV)",
             unit: "deg",
             kind: Frame(|f| f.sky_hue_deg.map(f64::from)),
         },
         Stat {
+            counted: true,
             key: "mean_brightness",
             name: "mean brightness",
             unit: "levels",
             kind: Frame(|f| Some(f64::from(f.mean_brightness))),
         },
         Stat {
+            counted: true,
             key: "blur_sigma_px",
             name: "blur: PSF σ of the sharpest edges (25th pct)",
             unit: "px",
             kind: Frame(|f| f.blur_sigma_px.map(f64::from)),
         },
         Stat {
+            counted: true,
             key: "jpeg_quality",
             name: "JPEG quality (from quantisation tables)",
             unit: "",
             kind: Frame(|f| f.jpeg_quality.map(f64::from)),
         },
         Stat {
+            counted: true,
             key: "drone_core_px",
             name: "drone core size √(pixels > half the peak)",
             unit: "px",
             kind: Drone(|d| Some(f64::from(d.core_px))),
         },
         Stat {
+            counted: true,
             key: "drone_core_under_6px",
             name: "share of drones with a core under 6 px",
             unit: "",
             kind: Share(|d| Some(d.core_px < 6.0)),
         },
         Stat {
+            counted: true,
             key: "drone_darker",
             name: "share of drones darker than their ring",
             unit: "",
             kind: Share(|d| (d.peak != 0.0).then_some(d.darker)),
         },
         Stat {
+            counted: true,
             key: "small_drone_peak_contrast",
             name: "peak contrast of 3–6 px drones",
             unit: "levels",
             kind: Drone(|d| small(d).then_some(f64::from(d.peak.abs()))),
         },
         Stat {
+            counted: true,
             key: "small_drone_edge_width_px",
             name: "edge width (90→10 %) of 3–6 px drones",
             unit: "px",
@@ -180,7 +209,56 @@ fn stats() -> Vec<Stat> {
                 }
             }),
         },
-    ]
+    ];
+    v.extend(fitting_stats());
+    v
+}
+
+/// The rows added for fitting, not counted among the statistics inside.
+fn fitting_stats() -> Vec<Stat> {
+    use Kind::*;
+    let mut v = vec![
+        Stat {
+            counted: false,
+            key: "background_texture",
+            name: "background texture: median tile σ at 540 px",
+            unit: "levels",
+            kind: Frame(|f| f.background_texture.map(f64::from)),
+        },
+        Stat {
+            counted: false,
+            key: "drone_box_px",
+            name: "drone box size √(w·h)",
+            unit: "px",
+            kind: Drone(|d| Some(f64::from(d.box_px))),
+        },
+    ];
+    let behind: [(&str, &str, DroneFlag); 4] = [
+        ("behind_sky", "share of drones in front of sky", |d| {
+            d.behind.map(|b| b == Behind::Sky)
+        }),
+        (
+            "behind_vegetation",
+            "share of drones in front of vegetation",
+            |d| d.behind.map(|b| b == Behind::Vegetation),
+        ),
+        ("behind_ground", "share of drones in front of ground", |d| {
+            d.behind.map(|b| b == Behind::Ground)
+        }),
+        (
+            "behind_building",
+            "share of drones in front of a building",
+            |d| d.behind.map(|b| b == Behind::Building),
+        ),
+    ];
+    v.extend(behind.map(|(key, name, g)| Stat {
+        counted: false,
+        key,
+        name,
+        unit: "",
+        kind: Share(g),
+    }));
+    v
 }
 
 fn values(side: &Side, kind: &Kind) -> Vec<f64> {
@@ -196,7 +274,7 @@ fn values(side: &Side, kind: &Kind) -> Vec<f64> {
     v
 }
 
-fn flags(side: &Side, g: fn(&super::DroneMeasure) -> Option<bool>) -> Vec<bool> {
+fn flags(side: &Side, g: DroneFlag) -> Vec<bool> {
     side.frames
         .iter()
         .flat_map(|f| f.stats.drones.iter().filter_map(g))
@@ -301,7 +379,9 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
     };
     let mut frames = Vec::with_capacity(picked.len());
     let mut labelled = 0;
-    for p in picked {
+    let shown = super::sheet::picks(picked.len());
+    let mut thumbnails = Vec::with_capacity(shown.len());
+    for (i, p) in picked.into_iter().enumerate() {
         let bytes =
             crate::input::read_input_file(&p, MAX_FRAME_BYTES).map_err(|source| GapError::Io {
                 path: p.clone(),
@@ -329,6 +409,9 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
             .to_string_lossy()
             .replace('\\', "/");
         frames.push(FrameRecord { file, stats });
+        if shown.contains(&i) {
+            thumbnails.push(super::sheet::thumbnail(&img));
+        }
     }
     Ok(Side {
         dir: dir.display().to_string(),
@@ -336,6 +419,7 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
         images_found: found,
         labelled_frames: labelled,
         frames,
+        thumbnails,
     })
 }
 
@@ -433,6 +517,8 @@ pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
             real: r,
             synthetic: y,
             verdict: verdict(r, y),
+            iqr_distance: iqr_distance(r, y),
+            counted: s.counted,
         });
     }
     let proposals = super::propose::propose(&statistics);
@@ -462,6 +548,14 @@ impl Report {
         })
     }
 
+    /// How many counted statistics are inside, of those with a value on both sides.
+    pub fn inside(&self) -> (usize, usize) {
+        let counted = self.statistics.iter().filter(|r| r.counted);
+        let applicable: Vec<&StatRow> = counted.filter(|r| r.iqr_distance.is_some()).collect();
+        let inside = applicable.iter().filter(|r| r.verdict == "inside").count();
+        (inside, applicable.len())
+    }
+
     /// The side-by-side table, as printed.
     pub fn table(&self) -> String {
         let mut s = format!(
@@ -485,21 +579,42 @@ impl Report {
                 .map(|f| f.stats.drones.len())
                 .sum::<usize>(),
         );
-        s += &format!(
-            "{:<48} {:<10} {:<32} {:<32} {}\n",
-            "statistic", "unit", "real median [IQR]", "synthetic median [IQR]", "verdict"
+        let line = |a: &str, b: &str, c: &str, d: &str, e: &str, f: &str| {
+            format!("{a:<48} {b:<10} {c:<32} {d:<32} {e:<8} {f}\n")
+        };
+        s += &line(
+            "statistic",
+            "unit",
+            "real median [IQR]",
+            "synthetic median [IQR]",
+            "verdict",
+            "IQRs out",
         );
-        for r in &self.statistics {
-            s += &format!(
-                "{:<48} {:<10} {:<32} {:<32} {}\n",
+        let row = |r: &StatRow| {
+            let out = r
+                .iqr_distance
+                .map_or("–".into(), |d| if d == 0.0 { "0".into() } else { fmt(d) });
+            line(
                 r.name,
                 r.unit,
-                cell(r.real),
-                cell(r.synthetic),
-                r.verdict
-            );
+                &cell(r.real),
+                &cell(r.synthetic),
+                r.verdict,
+                &out,
+            )
+        };
+        for r in self.statistics.iter().filter(|r| r.counted) {
+            s += &row(r);
         }
-        s += "\n(shares: the interval is the 50 % Wilson interval; verdict: the synthetic median or share against the real range)\n";
+        let (inside, applicable) = self.inside();
+        s += &format!(
+            "counted statistics inside: {inside} of {applicable} (those with a value on both sides)\n"
+        );
+        s += "\nnot counted (measured for fitting):\n";
+        for r in self.statistics.iter().filter(|r| !r.counted) {
+            s += &row(r);
+        }
+        s += "\n(shares: the interval is the 50 % Wilson interval; verdict: the synthetic median or share against the real range; IQRs out: how far outside it, in widths of it; behind: the ring classifier of docs/realism.md)\n";
         if let Some(note) = self.few_real_values() {
             s += &note;
             s += "\n";
@@ -513,8 +628,35 @@ impl Report {
         s
     }
 
-    /// Writes `report.json`, `report.txt` and `hist_<statistic>.png` into `out` (created if
-    /// missing); returns the files written.
+    /// The contact sheet of both sides' thumbnails ([`super::sheet`]).
+    pub fn contact_sheet(&self) -> Result<image::RgbImage, Box<dyn std::error::Error>> {
+        let label = |what: &str, side: &Side| {
+            let dir: Vec<char> = side.dir.chars().collect();
+            // Each half holds some 55 characters: a long folder keeps its end.
+            let dir: String = match dir.len() {
+                n if n > 32 => std::iter::once('…')
+                    .chain(dir[n - 31..].iter().copied())
+                    .collect(),
+                _ => side.dir.clone(),
+            };
+            format!(
+                "{what}: {dir} ({} of {})",
+                side.thumbnails.len(),
+                side.frames.len()
+            )
+        };
+        super::sheet::contact_sheet(
+            &self.real.thumbnails,
+            &self.synthetic.thumbnails,
+            [
+                &label("real", &self.real),
+                &label("synthetic", &self.synthetic),
+            ],
+        )
+    }
+
+    /// Writes `report.json`, `report.txt`, `hist_<statistic>.png` and `contact_sheet.png`
+    /// into `out` (created if missing); returns the files written.
     /// An `out` equal to or inside either side's folder is refused first ([`check_out`]).
     pub fn write(&self, out: &Path) -> Result<Vec<PathBuf>, GapError> {
         check_out(
@@ -548,116 +690,18 @@ impl Report {
                 continue;
             }
             let name = format!("hist_{}.png", s.key);
-            let png = histogram_png(s.name, s.unit, &r, &y)
+            let png = super::histogram::histogram_png(s.name, s.unit, &r, &y)
                 .map_err(|e| input(&out.join(&name), format!("plot failed: {e}")))?;
             written.push(save(&name, &png)?);
         }
+        let name = "contact_sheet.png";
+        let png = self
+            .contact_sheet()
+            .and_then(|sheet| super::sheet::png(&sheet))
+            .map_err(|e| input(&out.join(name), format!("contact sheet failed: {e}")))?;
+        written.push(save(name, &png)?);
         Ok(written)
     }
-}
-
-/// Real (blue) and synthetic (orange) histograms over shared bins, each normalised to its
-/// own count, encoded as PNG.
-fn histogram_png(
-    title: &str,
-    unit: &str,
-    real: &[f64],
-    synthetic: &[f64],
-) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
-    use plotters::prelude::*;
-    const BINS: usize = 24;
-    let (w, h) = (900u32, 500u32);
-    // The 2nd–98th percentile of both sides together, so a few outliers do not squash the
-    // rest; values beyond fall into the end bins.
-    let mut all: Vec<f64> = real.iter().chain(synthetic.iter()).copied().collect();
-    all.sort_by(f64::total_cmp);
-    let lo = percentile(&all, 0.02);
-    let mut hi = percentile(&all, 0.98);
-    if hi <= lo {
-        hi = lo + 1.0;
-    }
-    let bin = |v: f64| (((v - lo) / (hi - lo) * BINS as f64).max(0.0) as usize).min(BINS - 1);
-    let hist = |v: &[f64]| {
-        let mut c = [0f64; BINS];
-        for &x in v {
-            c[bin(x)] += 1.0;
-        }
-        let n = v.len().max(1) as f64;
-        c.map(|x| x / n)
-    };
-    let (hr, hs) = (hist(real), hist(synthetic));
-    let top = hr
-        .iter()
-        .chain(hs.iter())
-        .copied()
-        .fold(0.0, f64::max)
-        .max(1e-9);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (left, right, ptop, bottom) = (70i32, w as i32 - 20, 50i32, h as i32 - 50);
-        let bw = f64::from(right - left) / BINS as f64;
-        let orange = RGBColor(230, 120, 20);
-        for (k, (counts, color, shift)) in [(&hr, BLUE, 0.0), (&hs, orange, 0.5)].iter().enumerate()
-        {
-            let _ = k;
-            for (i, &c) in counts.iter().enumerate() {
-                if c <= 0.0 {
-                    continue;
-                }
-                let x0 = left + ((i as f64 + shift) * bw) as i32;
-                let x1 = (left + ((i as f64 + shift + 0.5) * bw) as i32 - 1).max(x0);
-                let y = bottom - (c / top * f64::from(bottom - ptop)) as i32;
-                root.draw(&Rectangle::new(
-                    [(x0, y), (x1, bottom)],
-                    color.mix(0.8).filled(),
-                ))?;
-            }
-        }
-        root.draw(&PathElement::new(
-            vec![(left, ptop), (left, bottom), (right, bottom)],
-            BLACK,
-        ))?;
-        if crate::write::stats::font() {
-            let style = ("sans-serif", 16).into_font();
-            root.draw(&Text::new(
-                title.to_owned(),
-                (left, 12),
-                ("sans-serif", 20).into_font(),
-            ))?;
-            root.draw(&Text::new(
-                format!("real (n={})", real.len()),
-                (right - 260, 40),
-                style.clone().color(&BLUE),
-            ))?;
-            root.draw(&Text::new(
-                format!("synthetic (n={})", synthetic.len()),
-                (right - 130, 40),
-                style.clone().color(&orange),
-            ))?;
-            root.draw(&Text::new(
-                format!("{} {unit}", fmt(lo)),
-                (left, bottom + 10),
-                style.clone(),
-            ))?;
-            root.draw(&Text::new(
-                format!("{} {unit}", fmt(hi)),
-                (right - 110, bottom + 10),
-                style.clone(),
-            ))?;
-            root.draw(&Text::new(
-                format!("{:.0} %", top * 100.0),
-                (5, ptop),
-                style,
-            ))?;
-        }
-        root.present()?;
-    }
-    let img = image::RgbImage::from_raw(w, h, buf).ok_or("plot buffer size")?;
-    let mut png = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    Ok(png)
 }
 
 #[cfg(test)]

@@ -65,6 +65,29 @@ pub struct StatRow {
     /// `inside` (the synthetic median or share lies in the real IQR or interval),
     /// `below`, `above`, or `n/a` when a side has no value.
     pub verdict: &'static str,
+    /// How far the synthetic median (share) lies outside the real IQR (interval), in
+    /// widths of it ([`iqr_distance`]): 0 inside; `None` when a side has no value.
+    pub iqr_distance: Option<f64>,
+    /// Counted among the statistics inside (the report's original fourteen); `false`
+    /// for the rows added for fitting (background texture, box size, what lies behind).
+    pub counted: bool,
+}
+
+/// The distance of the synthetic centre `c` outside the real range `[lo, hi]` in units
+/// of its width: 0 inside, `(lo − c) / (hi − lo)` below, `(c − hi) / (hi − lo)` above. A
+/// range narrower than 0.1 % of `|c|` (or 10⁻⁶) counts as that wide, so an all-equal
+/// real side (every frame JPEG 85) gives a large, finite distance.
+pub fn iqr_distance(real: Option<Summary>, synthetic: Option<Summary>) -> Option<f64> {
+    let (lo, hi) = real?.range();
+    let c = synthetic?.centre();
+    let width = (hi - lo).max(1e-3 * c.abs()).max(1e-6);
+    Some(if c < lo {
+        (lo - c) / width
+    } else if c > hi {
+        (c - hi) / width
+    } else {
+        0.0
+    })
 }
 
 /// A camera-model (or scene) change that would move a statistic inside the real range.
