@@ -204,6 +204,74 @@ fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
 
+/// One drawn value as the manifest records it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DrawValue {
+    /// A real number (the manifest keeps six decimals).
+    Real(f64),
+    /// A whole number (qualities, seeds).
+    Count(u64),
+    /// A name.
+    Name(&'static str),
+    /// A group of values by key, in key order.
+    Group(Vec<(&'static str, DrawValue)>),
+}
+
+impl CameraDraw {
+    /// Every drawn value by its key, in key order, as each frame's manifest
+    /// record lists them; values a preset leaves neutral and that earlier
+    /// manifests did not list are left out. A new stage adds its key here.
+    pub fn record(&self) -> Vec<(&'static str, DrawValue)> {
+        use DrawValue::{Count, Group, Name, Real};
+        let mut r = Vec::with_capacity(20);
+        if let Some(a) = self.auto_exposure {
+            let v = vec![
+                ("metered_ev", Real(a.metered_ev)),
+                ("target_level", Real(a.target_level)),
+            ];
+            r.push(("auto_exposure", Group(v)));
+        }
+        r.push(("ca_blue_scale", Real(self.ca_blue_scale)));
+        r.push(("ca_red_scale", Real(self.ca_red_scale)));
+        r.push(("exposure_ev", Real(self.exposure_ev)));
+        if self.exposure_time_s > 0.0 {
+            r.push(("exposure_time_s", Real(self.exposure_time_s)));
+        }
+        if let Some(q) = self.jpeg_quality {
+            r.push(("jpeg_quality", Count(q.into())));
+        }
+        r.push(("noise_seed", Count(self.noise_seed)));
+        let psf = match self.psf {
+            PsfDraw::None => vec![("kind", Name("none"))],
+            PsfDraw::Gaussian { sigma_px } => {
+                vec![("kind", Name("gaussian")), ("sigma_px", Real(sigma_px))]
+            }
+            PsfDraw::Disc { radius_px } => {
+                vec![("kind", Name("disc")), ("radius_px", Real(radius_px))]
+            }
+        };
+        r.push(("psf", Group(psf)));
+        r.push(("read_noise_levels", Real(self.read_noise_levels)));
+        if let Some(q) = self.recompress_quality {
+            r.push(("recompress_quality", Count(q.into())));
+        }
+        if self.saturation != 1.0 {
+            r.push(("saturation", Real(self.saturation)));
+        }
+        if let Some(s) = self.sensor_scale {
+            r.push(("sensor_scale", Real(s)));
+        }
+        if self.sharpen != 0.0 {
+            r.push(("sharpen", Real(self.sharpen)));
+        }
+        r.push(("shot_noise_gain", Real(self.shot_noise_gain)));
+        r.push(("vignetting", Real(self.vignetting)));
+        r.push(("white_balance_blue", Real(self.white_balance_blue)));
+        r.push(("white_balance_red", Real(self.white_balance_red)));
+        r
+    }
+}
+
 /// The drawn point spread function.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum PsfDraw {

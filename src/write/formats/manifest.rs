@@ -396,71 +396,26 @@ pub(crate) fn write_sweep(j: &mut Json<'_>, scene: &FrameScene) {
 
 /// The camera model's draws of the frame (issue 21), keys in byte order.
 fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
-    use crate::sensor::PsfDraw;
+    write_draw_group(j, &c.record());
+}
+
+/// `{"key":value,…}` of drawn values, in the order given (key order).
+fn write_draw_group(j: &mut Json<'_>, values: &[(&'static str, crate::sensor::DrawValue)]) {
+    use crate::sensor::DrawValue;
     j.raw(b"{");
-    if let Some(a) = c.auto_exposure {
-        j.raw(b"\"auto_exposure\":{\"metered_ev\":");
-        j.rounded(a.metered_ev, Decimals::Six);
-        j.raw(b",\"target_level\":");
-        j.rounded(a.target_level, Decimals::Six);
-        j.raw(b"},");
-    }
-    j.raw(b"\"ca_blue_scale\":");
-    j.rounded(c.ca_blue_scale, Decimals::Six);
-    j.raw(b",\"ca_red_scale\":");
-    j.rounded(c.ca_red_scale, Decimals::Six);
-    j.raw(b",\"exposure_ev\":");
-    j.rounded(c.exposure_ev, Decimals::Six);
-    if c.exposure_time_s > 0.0 {
-        j.raw(b",\"exposure_time_s\":");
-        j.rounded(c.exposure_time_s, Decimals::Six);
-    }
-    if let Some(q) = c.jpeg_quality {
-        j.raw(b",\"jpeg_quality\":");
-        j.u64(q.into());
-    }
-    j.raw(b",\"noise_seed\":");
-    j.u64(c.noise_seed);
-    j.raw(b",\"psf\":");
-    match c.psf {
-        PsfDraw::None => j.raw(b"{\"kind\":\"none\"}"),
-        PsfDraw::Gaussian { sigma_px } => {
-            j.raw(b"{\"kind\":\"gaussian\",\"sigma_px\":");
-            j.rounded(sigma_px, Decimals::Six);
-            j.raw(b"}");
+    for (i, (key, value)) in values.iter().enumerate() {
+        if i > 0 {
+            j.raw(b",");
         }
-        PsfDraw::Disc { radius_px } => {
-            j.raw(b"{\"kind\":\"disc\",\"radius_px\":");
-            j.rounded(radius_px, Decimals::Six);
-            j.raw(b"}");
+        j.str(key);
+        j.raw(b":");
+        match value {
+            DrawValue::Real(v) => j.rounded(*v, Decimals::Six),
+            DrawValue::Count(n) => j.u64(*n),
+            DrawValue::Name(name) => j.str(name),
+            DrawValue::Group(inner) => write_draw_group(j, inner),
         }
     }
-    j.raw(b",\"read_noise_levels\":");
-    j.rounded(c.read_noise_levels, Decimals::Six);
-    if let Some(q) = c.recompress_quality {
-        j.raw(b",\"recompress_quality\":");
-        j.u64(q.into());
-    }
-    if c.saturation != 1.0 {
-        j.raw(b",\"saturation\":");
-        j.rounded(c.saturation, Decimals::Six);
-    }
-    if let Some(s) = c.sensor_scale {
-        j.raw(b",\"sensor_scale\":");
-        j.rounded(s, Decimals::Six);
-    }
-    if c.sharpen != 0.0 {
-        j.raw(b",\"sharpen\":");
-        j.rounded(c.sharpen, Decimals::Six);
-    }
-    j.raw(b",\"shot_noise_gain\":");
-    j.rounded(c.shot_noise_gain, Decimals::Six);
-    j.raw(b",\"vignetting\":");
-    j.rounded(c.vignetting, Decimals::Six);
-    j.raw(b",\"white_balance_blue\":");
-    j.rounded(c.white_balance_blue, Decimals::Six);
-    j.raw(b",\"white_balance_red\":");
-    j.rounded(c.white_balance_red, Decimals::Six);
     j.raw(b"}");
 }
 
