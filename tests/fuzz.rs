@@ -79,7 +79,7 @@ fn exercise_preset(text: &str) -> Result<(), TestCaseError> {
     let preset = match Preset::from_ron(text) {
         Ok(p) => p,
         Err(message) => {
-            prop_assert!(!message.is_empty());
+            prop_assert!(!message.reason.is_empty());
             return Ok(());
         }
     };
