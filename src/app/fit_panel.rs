@@ -85,8 +85,8 @@ impl FitPanel {
     }
 
     /// The last run's error, if it failed.
-    pub fn error(&self) -> Option<&str> {
-        self.job.error()
+    pub fn error(&self) -> Option<String> {
+        self.job.error().map(ToString::to_string)
     }
 
     /// A fit is running.
@@ -250,15 +250,14 @@ fn run_fit(
     gpu: Option<&GpuContext>,
     stage: &Stage,
     cancel: &AtomicBool,
-) -> Result<FitDone, String> {
+) -> anyhow::Result<FitDone> {
     stage.set("reading the footage and writing the plates…");
-    let prep = crate::fit::prepare(options).map_err(|e| e.to_string())?;
+    let prep = crate::fit::prepare(options)?;
     if cancel.load(Ordering::Relaxed) {
-        return Err("cancelled".into());
+        anyhow::bail!("cancelled");
     }
     stage.set("fitting…");
-    let done = crate::fit::finish(&prep, gpu, cancel, &mut |line| stage.set(line))
-        .map_err(|e| e.to_string())?;
+    let done = crate::fit::finish(&prep, gpu, cancel, &mut |line| stage.set(line))?;
     Ok(FitDone {
         fitted: done.fitted,
         before: done.before,

@@ -84,8 +84,8 @@ impl GapPanel {
     }
 
     /// The last run's error, if it failed.
-    pub fn error(&self) -> Option<&str> {
-        self.job.error()
+    pub fn error(&self) -> Option<String> {
+        self.job.error().map(ToString::to_string)
     }
 
     /// A report is being made.
@@ -261,7 +261,7 @@ enum Source {
 struct TempDataset(PathBuf);
 
 impl TempDataset {
-    fn create() -> Result<Self, String> {
+    fn create() -> anyhow::Result<Self> {
         static RUN: AtomicU64 = AtomicU64::new(0);
         let base = std::env::temp_dir();
         for _ in 0..100 {
@@ -271,17 +271,11 @@ impl TempDataset {
                 Ok(()) => return Ok(Self(dir)),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
                 Err(e) => {
-                    return Err(format!(
-                        "cannot make a temporary folder in {}: {e}",
-                        base.display()
-                    ));
+                    anyhow::bail!("cannot make a temporary folder in {}: {e}", base.display())
                 }
             }
         }
-        Err(format!(
-            "no free temporary folder name in {}",
-            base.display()
-        ))
+        anyhow::bail!("no free temporary folder name in {}", base.display())
     }
 }
 
@@ -299,7 +293,7 @@ fn make_report(
     max_images: usize,
     stage: &Stage,
     cancel: &AtomicBool,
-) -> Result<Report, String> {
+) -> anyhow::Result<Report> {
     let (synthetic, _temp) = match source {
         Source::Dataset(dir) => (dir, None),
         Source::Preset {
@@ -309,11 +303,12 @@ fn make_report(
         } => {
             if !real.is_dir() {
                 // Found before any frame is made.
-                return Err(format!("{}: not a folder", real.display()));
+                anyhow::bail!("{}: not a folder", real.display());
             }
             let temp = TempDataset::create()?;
             stage.set(format!("making {frames} frames of the preset…"));
-            let pipeline = FramePipeline::new((*preset).clone()).map_err(|e| format!("{e:#}"))?;
+            let pipeline =
+                FramePipeline::new((*preset).clone()).map_err(|e| anyhow::anyhow!("{e:#}"))?;
             let mut options = BatchOptions::new(&temp.0);
             options.limit = Some(frames);
             run_batch(&pipeline, &options, &gpu, cancel, |p| {
@@ -322,20 +317,19 @@ fn make_report(
                     p.done, p.total
                 ));
             })
-            .map_err(|e| format!("making the preset's frames: {e:#}"))?;
+            .map_err(|e| anyhow::anyhow!("making the preset's frames: {e:#}"))?;
             if cancel.load(Ordering::Relaxed) {
-                return Err("cancelled".into());
+                anyhow::bail!("cancelled");
             }
             (temp.0.clone(), Some(temp))
         }
     };
     stage.set("measuring the real and the synthetic frames…");
-    run_report(&GapOptions {
+    Ok(run_report(&GapOptions {
         real,
         synthetic,
         max_images,
-    })
-    .map_err(|e| e.to_string())
+    })?)
 }
 
 /// The report's words with "→" spelled out: egui's default font has no arrows.

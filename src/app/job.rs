@@ -45,11 +45,26 @@ impl Stage {
     }
 }
 
+/// Why a job gave no result.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error("cannot start the {name} thread: {source}")]
+    Spawn {
+        name: String,
+        source: std::io::Error,
+    },
+    #[error("the job's thread stopped without a result")]
+    Lost,
+    /// The library call failed or was cancelled: its error, as the window shows it.
+    #[error("{0}")]
+    Failed(#[from] anyhow::Error),
+}
+
 /// A job in flight; dropping it cancels it and waits for its thread.
 pub struct Job<T> {
     stage: Arc<Stage>,
     cancel: Arc<AtomicBool>,
-    result: Receiver<Result<T, String>>,
+    result: Receiver<Result<T, JobError>>,
     started: Instant,
     /// The job's thread (it may render on the GPU): joined on drop.
     thread: Option<std::thread::JoinHandle<()>>,
@@ -60,8 +75,8 @@ impl<T: Send + 'static> Job<T> {
     pub fn spawn(
         name: &str,
         ctx: &egui::Context,
-        work: impl FnOnce(&Stage, &AtomicBool) -> Result<T, String> + Send + 'static,
-    ) -> Result<Self, String> {
+        work: impl FnOnce(&Stage, &AtomicBool) -> anyhow::Result<T> + Send + 'static,
+    ) -> Result<Self, JobError> {
         let stage = Arc::new(Stage {
             text: Mutex::new("starting…".into()),
             throttle: Mutex::new(WakeThrottle::new(WAKE_INTERVAL)),
@@ -73,11 +88,14 @@ impl<T: Send + 'static> Job<T> {
         let thread = std::thread::Builder::new()
             .name(name.into())
             .spawn(move || {
-                let outcome = work(&thread_stage, &thread_cancel);
+                let outcome = work(&thread_stage, &thread_cancel).map_err(JobError::Failed);
                 let _ = tx.send(outcome);
                 thread_stage.ctx.request_repaint();
             })
-            .map_err(|e| format!("cannot start the {name} thread: {e}"))?;
+            .map_err(|source| JobError::Spawn {
+                name: name.into(),
+                source,
+            })?;
         Ok(Self {
             stage,
             cancel,
@@ -88,13 +106,11 @@ impl<T: Send + 'static> Job<T> {
     }
 
     /// The result, once the job has ended.
-    pub fn poll(&self) -> Option<Result<T, String>> {
+    pub fn poll(&self) -> Option<Result<T, JobError>> {
         match self.result.try_recv() {
             Ok(outcome) => Some(outcome),
             Err(crossbeam_channel::TryRecvError::Empty) => None,
-            Err(crossbeam_channel::TryRecvError::Disconnected) => {
-                Some(Err("the job's thread stopped without a result".into()))
-            }
+            Err(crossbeam_channel::TryRecvError::Disconnected) => Some(Err(JobError::Lost)),
         }
     }
 
@@ -128,7 +144,7 @@ impl<T> Drop for Job<T> {
 /// its outcome once it ended, and whether one started since the app last asked.
 pub struct JobSlot<T> {
     job: Option<Job<T>>,
-    outcome: Option<Result<T, String>>,
+    outcome: Option<Result<T, JobError>>,
     started: bool,
 }
 
@@ -144,7 +160,7 @@ impl<T> Default for JobSlot<T> {
 
 impl<T: Send + 'static> JobSlot<T> {
     /// Hold a spawned job (its outcome is cleared), or the error that kept it from starting.
-    pub fn start(&mut self, spawned: Result<Job<T>, String>) {
+    pub fn start(&mut self, spawned: Result<Job<T>, JobError>) {
         match spawned {
             Ok(job) => {
                 self.outcome = None;
@@ -156,7 +172,7 @@ impl<T: Send + 'static> JobSlot<T> {
     }
 
     /// Take the running job's result once it has ended; returns it when it just did.
-    pub fn poll(&mut self) -> Option<&Result<T, String>> {
+    pub fn poll(&mut self) -> Option<&Result<T, JobError>> {
         let outcome = self.job.as_ref().and_then(Job::poll)?;
         self.job = None;
         self.outcome = Some(outcome);
@@ -174,7 +190,7 @@ impl<T: Send + 'static> JobSlot<T> {
     }
 
     /// The last job's outcome (`None` while one runs or before the first).
-    pub fn outcome(&self) -> Option<&Result<T, String>> {
+    pub fn outcome(&self) -> Option<&Result<T, JobError>> {
         self.outcome.as_ref()
     }
 
@@ -184,10 +200,8 @@ impl<T: Send + 'static> JobSlot<T> {
     }
 
     /// The last job's error, if it failed.
-    pub fn error(&self) -> Option<&str> {
-        (self.outcome.as_ref())
-            .and_then(|o| o.as_ref().err())
-            .map(String::as_str)
+    pub fn error(&self) -> Option<&JobError> {
+        self.outcome.as_ref().and_then(|o| o.as_ref().err())
     }
 
     /// Whether a job started since the last call (the app then pauses playback).
