@@ -1,22 +1,7 @@
 //! The report's histogram PNGs: one statistic's real (blue) and synthetic (orange) values
 //! over shared bins, each side normalised to its own count, drawn with plotters.
 
-use super::table::fmt;
-
-/// Linear-interpolated percentile of sorted data (`q` in 0–1).
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return 0.0;
-    }
-    let pos = q * (sorted.len() - 1) as f64;
-    let i = pos.floor() as usize;
-    let f = pos - i as f64;
-    if i + 1 < sorted.len() {
-        sorted[i] + f * (sorted[i + 1] - sorted[i])
-    } else {
-        sorted[i]
-    }
-}
+use super::table::{fmt, percentile};
 
 /// Real (blue) and synthetic (orange) histograms over shared bins, each normalised to its
 /// own count, encoded as PNG.

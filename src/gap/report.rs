@@ -25,6 +25,7 @@ use super::behind::Behind;
 pub use super::error::GapError;
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
 use super::folder::{input, label_for, read_labels, walk};
+use super::table::percentile;
 pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt, iqr_distance};
 use super::{FrameStats, measure_frame};
 
@@ -279,17 +280,6 @@ fn flags(side: &Side, g: DroneFlag) -> Vec<bool> {
         .iter()
         .flat_map(|f| f.stats.drones.iter().filter_map(g))
         .collect()
-}
-
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    let pos = q * (sorted.len() - 1) as f64;
-    let i = pos.floor() as usize;
-    let f = pos - i as f64;
-    if i + 1 < sorted.len() {
-        sorted[i] + f * (sorted[i + 1] - sorted[i])
-    } else {
-        sorted[i]
-    }
 }
 
 /// Median and quartiles (linear interpolation between order statistics).

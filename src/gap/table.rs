@@ -137,3 +137,18 @@ pub fn cell(s: Option<Summary>) -> String {
         ),
     }
 }
+
+/// Linear-interpolated percentile of sorted data (`q` in 0–1; 0 when empty).
+pub(super) fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let pos = q * (sorted.len() - 1) as f64;
+    let i = pos.floor() as usize;
+    let f = pos - i as f64;
+    if i + 1 < sorted.len() {
+        sorted[i] + f * (sorted[i + 1] - sorted[i])
+    } else {
+        sorted[i]
+    }
+}
