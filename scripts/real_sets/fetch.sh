@@ -13,6 +13,11 @@
 #   uavswarm     UAVSwarm/UAVSwarm-dataset (no licence stated; keep it outside the repository),
 #                MOT sequences of 3-23 drones: 20 frames from each of 6 test sequences.
 #                The clone is about 1.9 GB.
+#   uavswarm-topdown  UAVSwarm-02 and UAVSwarm-04 (the UAVSwarm dataset's first two test
+#                sequences: one top-down 812x428 camera over fields, 18-20 drones a frame), as
+#                copied byte for byte (PNG frames named .jpg, the original gt.txt) into the test
+#                fixtures of jeremy-rutman/label_master: 30 frames of each. No licence stated by
+#                either repository: keep it outside the repository.
 #   mi-drone-yt  pshah2983/Drone-Detection-System (a GitHub copy of the Kaggle "Drone Dataset (UAV)"
 #                of Mehdi Ozel, declared MIT by its author): its 46 outdoor frames `yotoNNNNN.jpg`,
 #                1280x720 frames of one YouTube review video of a Xiaomi Mi Drone 4K (the drone
@@ -29,8 +34,9 @@
 # end here. For a set whose repository is already on disk, point the script at that git
 # directory (a bare snapshot is enough) and no clone is made:
 #   ANTI_UAV_GIT_DIR=/work/.mirror/ZhaoJ9014+Anti-UAV/repo scripts/real_sets/fetch.sh /work/realsets anti-uav-ir
-# (KAGGLE_UAV_GIT_DIR likewise for mi-drone-yt and phantom-yt.) That is how /work/realsets/anti-uav-ir,
-# mi-drone-yt and phantom-yt were built (2026, from a snapshot of the repository);
+# (KAGGLE_UAV_GIT_DIR likewise for mi-drone-yt and phantom-yt, LABEL_MASTER_GIT_DIR for
+# uavswarm-topdown.) That is how /work/realsets/anti-uav-ir, mi-drone-yt, phantom-yt and
+# uavswarm-topdown were built (2026, from snapshots of the repositories);
 # the uavswarm, drone-vs-bird and nps-drones converters were tested on the annotation files
 # only (their frames could not be fetched here). Files a snapshot lacks (git objects of 4 MiB
 # and more are left out of stored snapshots) are reported and skipped.
@@ -44,7 +50,7 @@ to_yolo=(python3 "$here/to_yolo.py")
 [ $# -ge 1 ] || { sed -n '2,4p' "$0" >&2; exit 2; }
 out="$1"; shift
 sets=("$@")
-[ ${#sets[@]} -gt 0 ] || sets=(anti-uav-ir mi-drone-yt phantom-yt uavswarm)
+[ ${#sets[@]} -gt 0 ] || sets=(anti-uav-ir mi-drone-yt phantom-yt uavswarm-topdown uavswarm)
 mkdir -p "$out/src"
 
 # clone URL COMMIT VAR: prints a git dir holding COMMIT (the one named by $VAR when set).
@@ -128,6 +134,23 @@ uavswarm() {
   done
 }
 
+# The two UAVSwarm test sequences that jeremy-rutman/label_master carries as MOT fixtures
+# (tests/fixtures/us7): the whole sequences, frames and gt.txt as in UAVSwarm/UAVSwarm-dataset.
+uavswarm_topdown() {
+  local at=0156c6b6d8de607a3ff2213e75e044b23c5dc4e7
+  local g; g=$(clone https://github.com/jeremy-rutman/label_master "$at" LABEL_MASTER_GIT_DIR)
+  local tmp="$out/src/uavswarm-topdown"
+  fresh uavswarm-topdown; rm -rf "$tmp"; mkdir -p "$tmp"
+  for s in 02 04; do
+    local seq="tests/fixtures/us7/UAVSwarm-$s"
+    show "$g" "$at" "$seq/gt/gt.txt" "$tmp/UAVSwarm-$s/gt/gt.txt"
+    git --git-dir="$g" ls-tree --name-only "$at" "$seq/img1/" | while read -r p; do
+      show "$g" "$at" "$p" "$tmp/UAVSwarm-$s/img1/$(basename "$p")" || true
+    done
+    "${to_yolo[@]}" mot --seq "$tmp/UAVSwarm-$s" --out "$out/uavswarm-topdown" --prefix "uavswarm$s" --count 30
+  done
+}
+
 drone_vs_bird() {
   [ -n "${DVB_VIDEOS:-}" ] || { echo "fetch: drone-vs-bird needs \$DVB_VIDEOS (videos are released on request)" >&2; return 1; }
   local g; g=$(clone https://github.com/wosdetc/challenge b1d64c32776bb12d0c5387f0fd5575adb0c27a73 DVB_GIT_DIR)
@@ -159,8 +182,9 @@ for s in "${sets[@]}"; do
     mi-drone-yt) mi_drone_yt ;;
     phantom-yt) phantom_yt ;;
     uavswarm) uavswarm ;;
+    uavswarm-topdown) uavswarm_topdown ;;
     drone-vs-bird) drone_vs_bird ;;
     nps-drones) nps_drones ;;
-    *) echo "fetch: unknown set $s (anti-uav-ir, mi-drone-yt, phantom-yt, uavswarm, drone-vs-bird, nps-drones)" >&2; exit 2 ;;
+    *) echo "fetch: unknown set $s (anti-uav-ir, mi-drone-yt, phantom-yt, uavswarm, uavswarm-topdown, drone-vs-bird, nps-drones)" >&2; exit 2 ;;
   esac
 done

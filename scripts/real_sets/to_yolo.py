@@ -3,7 +3,8 @@
 
 Standard library only (video needs an ffmpeg binary). Every sub-command writes
 
-    OUT/images/<prefix>_<frame>.<jpg|png>     the real frame (JPEG bytes copied unchanged;
+    OUT/images/<prefix>_<frame>.<jpg|png>     the real frame (JPEG or PNG bytes copied
+                                              unchanged, the extension following the bytes;
                                               video frames decoded losslessly to PNG)
     OUT/labels/<prefix>_<frame>.txt           one row per drone: `0 cx cy w h`, normalised
                                               to the frame, boxes clipped to it
@@ -105,8 +106,10 @@ class Writer:
         self.written = 0
 
     def put(self, stem, ext, data, boxes, source, frame):
-        """Writes one frame (bytes) and its label; returns the number of rows kept."""
+        """Writes one frame (bytes) and its label; returns the number of rows kept. The file
+        gets the extension of what the bytes are (some sets store PNG frames as `.jpg`)."""
         w, h = image_size(data)
+        ext = ".png" if data[:8] == b"\x89PNG\r\n\x1a\n" else (ext if ext in (".jpg", ".jpeg") else ".jpg")
         rows = yolo_rows(boxes, w, h)
         (self.out / "images" / f"{stem}{ext}").write_bytes(data)
         (self.out / "labels" / f"{stem}.txt").write_text("".join(rows), encoding="utf-8")
