@@ -15,7 +15,8 @@
 //!
 //! - `start PRESET`: the time from the process's start to the window's first
 //!   pass, and to the preset's first picture on screen (the start of the pass after
-//!   the one that drew it), with the preview thread's render time of that picture.
+//!   the one that drew it), with the preview thread's render time of that picture and
+//!   the window passes up to it with their repaint causes (it asks for no pass itself).
 //!
 //! Run (lavapipe, no display):
 //! `xvfb-run -s "-screen 0 1920x1200x24" target/release/examples/app_bench latency presets/quickstart.ron`
@@ -50,10 +51,11 @@ enum Mode {
 struct Bench {
     app: SwarmshotApp,
     mode: Mode,
-    /// Batch: when Generate was pressed, and window passes since.
+    /// Batch: when Generate was pressed.
     started: Option<Instant>,
+    /// Batch: window passes since Generate; start: passes up to the first picture.
     passes: u64,
-    /// Batch: why each window pass during the batch ran (egui's repaint causes).
+    /// Why each of those window passes ran (egui's repaint causes).
     causes: std::collections::BTreeMap<String, u64>,
     /// Start: the pass that drew the first picture ran (the next pass sees it on screen).
     drawn: bool,
@@ -154,8 +156,9 @@ impl Bench {
 }
 
 impl Bench {
-    /// Start mode: print the times once the first picture is on screen.
-    fn start_step(&mut self, pass: Instant) {
+    /// Start mode: print the times once the first picture is on screen, with
+    /// the window passes before it and why each ran.
+    fn start_step(&mut self, ctx: &egui::Context, pass: Instant) {
         let Mode::Start { t0, made } = self.mode else {
             return;
         };
@@ -163,7 +166,15 @@ impl Bench {
             return;
         }
         let first_pass = *self.first_pass.get_or_insert(pass);
+        self.passes += 1;
+        for cause in ctx.repaint_causes() {
+            *self.causes.entry(cause.to_string()).or_default() += 1;
+        }
         if self.drawn {
+            println!(
+                "start: {} window passes up to the picture on screen, repaint causes: {:?}",
+                self.passes, self.causes
+            );
             let ms = |t: Instant| t.duration_since(t0).as_secs_f64() * 1e3;
             let [w, h] = self.app.preview_key().map_or([0, 0], |k| k.size_px);
             println!(
@@ -176,6 +187,10 @@ impl Bench {
             self.done = true;
         }
         self.drawn = self.app.preview_key().is_some();
+        if self.drawn {
+            // The next pass is the picture on screen: no wait for a poll.
+            ctx.request_repaint();
+        }
     }
 }
 
@@ -184,7 +199,7 @@ impl eframe::App for Bench {
         let ctx = ui.ctx().clone();
         let pass = Instant::now();
         self.app.ui(ui, frame);
-        self.start_step(pass);
+        self.start_step(&ctx, pass);
         if self.done {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             return;
@@ -197,7 +212,8 @@ impl eframe::App for Bench {
         // Otherwise the bench acts in the passes the app asks for itself: a
         // poll of its own would repaint the window and pace what is measured,
         // so there is none while the batch runs.
-        if self.started.is_none() {
+        // The start mode polls neither: the app's own wake-up brings its picture.
+        if self.started.is_none() && !matches!(self.mode, Mode::Start { .. }) {
             ctx.request_repaint_after(std::time::Duration::from_millis(500));
         }
     }
