@@ -511,9 +511,9 @@ fn views_write_a_plate_and_a_sidecar_per_crop() {
         60,
         "3 views × 10 frames, plate and sidecar: {names:?}"
     );
-    let whole = image::open(plates_dir.join("images__V_DRONE_001_f150.jpg")).expect("plate");
+    let whole = image::open(plates_dir.join("images__V_DRONE_001_f150.png")).expect("plate");
     assert_eq!((whole.width(), whole.height()), (640, 512));
-    let v1 = image::open(plates_dir.join("images__V_DRONE_001_f150__v1.jpg")).expect("view 1");
+    let v1 = image::open(plates_dir.join("images__V_DRONE_001_f150__v1.png")).expect("view 1");
     let (_, _, cw, ch) = plates::view_crop(640, 512, 1);
     assert_eq!((v1.width(), v1.height()), (cw, ch));
     let side = std::fs::read_to_string(plates_dir.join("images__V_DRONE_001_f150__v2.plate.ron"))

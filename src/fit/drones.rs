@@ -5,21 +5,31 @@
 //! **First fit** ([`first_fit`]):
 //! - `placement.count`: the drone counts of the real labelled frames that hold a drone,
 //!   as a `Table` of the counts seen with their frequencies (a single count: that count);
-//! - `camera.observer.size_px`: the real drones' core IQR × the largest over the median
-//!   model size ÷ [`CORE_PER_PX`];
-//! - `placement.volume` ([`fit_volume`]): a cube half as wide as the nearest distance of
-//!   the look-at point (D = f·size_m / size_px, f the plates' focal length in pixels), the
-//!   minimum separation scaled into it. The apparent size then follows `size_px`: a drone
-//!   lies at most a quarter of D nearer or farther. With the base volume (realistic.ron's
-//!   12×6×60 m) drones sized for a look-at point 3 m away lie up to 30 m behind the camera
-//!   or far beyond it, and large real drones could not be reached at any `size_px`.
+//! - `models[].size_m` ([`fit_models`]): every model at one span, the median of the
+//!   base's. The footage cannot tell a near small drone from a far large one; a mix of
+//!   0.35–2 m spans at one distance would draw a 5.7:1 spread of sizes whatever the real
+//!   cores' spread, and size for the median model puts the smallest under the labels'
+//!   2 px (dropped, left in the frame unlabelled). At one span every model appears at the
+//!   sizes `size_px` draws, and `size_px` carries the real spread;
+//! - `camera.observer.size_px`: the real drones' core IQR ÷ [`CORE_PER_PX`];
+//! - `placement.volume` ([`fit_volume`]): as deep as half the nearest distance of the
+//!   look-at point (D = f·size_m / size_px, f the plates' focal length in pixels), so the
+//!   apparent size follows `size_px` (a drone lies at most a quarter of D nearer or
+//!   farther; with the base volume, realistic.ron's 12×6×60 m, drones sized for a
+//!   look-at point 3 m away lie up to 30 m behind the camera or far beyond it); as wide
+//!   and as high as makes the drones' centres spread over the frame as the real boxes'
+//!   centres do ([`CentreSpread`]: their 5th–95th percentile, which a uniform spread
+//!   covers over [`CENTRE_SPAN`] of its width), at the look-at point's nearest distance,
+//!   the observer's azimuth fixed at 0 so the volume's x is the frame's width (without
+//!   enough labelled drones: a cube). The minimum separation is scaled into it.
 //!
 //! **After a round** ([`adjust`]):
 //! - drone core size or the share under 6 px outside: the ends of `size_px` scaled by the
 //!   real over the synthetic cores' lower and upper quartiles (their spread as well as
-//!   their median), the volume following;
+//!   their median), the volume scaled with the nearest distance (the same spread of
+//!   centres over the frame);
 //! - share darker than the ring outside: with k the odds ratio real / synthetic, the dark
-//!   materials' weights × k and the odds of a lit (emissive) drone ÷ k (thermal footage
+//!   materials' weights (black, dark grey, coloured: [`is_dark`]) × k and the odds of a lit (emissive) drone ÷ k (thermal footage
 //!   shows drones brighter than their ring; lit drones are how a preset draws that);
 //! - the small drones' peak contrast outside (at least [`MIN_DRONES`] synthetic ones): the
 //!   haze's visibility (Koschmieder's law, the blend in linear light toward the air
@@ -40,14 +50,61 @@ use crate::preset::appearance::{Appearance, DroneColor};
 use crate::preset::atmosphere::{Atmosphere, MAX_VISIBILITY_M};
 use crate::preset::{CountDistribution, Placement, Preset, Volume};
 
-/// The drone core size (√ of the pixels over half the peak) per pixel of the largest
-/// model's apparent size, averaged over a preset's model mix: measured on
+/// The drone core size (√ of the pixels over half the peak) per pixel of a model's
+/// apparent size (its largest span), averaged over a preset's model mix: measured on
 /// `presets/realistic.ron` (size_px 16–44 gives cores of median 4.4 px for a median
 /// model of 1.1 m against the 2 m largest: 4.4 / (30 · 1.1 / 2)). The loop corrects it.
 pub const CORE_PER_PX: f64 = 0.27;
 
-/// The fitted volume's side as a share of the look-at point's nearest distance.
+/// The fitted volume's depth as a share of the look-at point's nearest distance.
 pub const VOLUME_PER_DISTANCE: f64 = 0.5;
+
+/// The share of a uniform spread's width its 5th–95th percentile covers.
+pub const CENTRE_SPAN: f64 = 0.9;
+
+/// The fewest labelled drones a [`CentreSpread`] is taken from.
+pub const MIN_CENTRES: usize = 8;
+
+/// How far the labelled drones' box centres spread over the frame: the 5th to 95th
+/// percentile of their x and y, as shares of the frame's width and height.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CentreSpread {
+    pub x: f64,
+    pub y: f64,
+    /// Drones it was taken from.
+    pub n: usize,
+}
+
+impl CentreSpread {
+    /// The spread of `centres` (x, y as shares of the frame's width and height);
+    /// `None` under [`MIN_CENTRES`] of them.
+    pub fn of(centres: impl Iterator<Item = (f64, f64)>) -> Option<Self> {
+        let (mut xs, mut ys): (Vec<f64>, Vec<f64>) = centres
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .unzip();
+        if xs.len() < MIN_CENTRES {
+            return None;
+        }
+        let span = |v: &mut Vec<f64>| percentile(v, 0.95) - percentile(v, 0.05);
+        Some(Self {
+            x: span(&mut xs),
+            y: span(&mut ys),
+            n: xs.len(),
+        })
+    }
+}
+
+/// The `q` quantile of `v` (sorted here), linear between order statistics; `v` not empty.
+fn percentile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let pos = q * (v.len() - 1) as f64;
+    let i = pos.floor() as usize;
+    match (v.get(i), v.get(i + 1)) {
+        (Some(a), Some(b)) => a + (pos - i as f64) * (b - a),
+        (Some(a), None) => *a,
+        _ => 0.0,
+    }
+}
 
 fn r3(v: f64) -> f64 {
     (v * 1000.0).round() / 1000.0
@@ -79,19 +136,25 @@ fn distances(p: &Preset) -> Option<(f64, f64)> {
     })
 }
 
-/// The first fit's drones: count, apparent size and volume (module docs); one note per value.
-pub fn first_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
+/// The first fit's drones: count, spans, apparent size and volume (module docs); one
+/// note per value. `centres`: the real boxes' spread over the frame.
+pub fn first_fit(
+    p: &mut Preset,
+    footage: &Footage,
+    centres: Option<CentreSpread>,
+    notes: &mut Vec<String>,
+) {
     if let Some(note) = fit_count(p, footage) {
+        notes.push(note);
+    }
+    if let Some(note) = fit_models(p) {
         notes.push(note);
     }
     let mut observer = p.camera.observer.clone().unwrap_or_default();
     p.camera.absolute = None;
-    let sizes: Vec<f64> = p.models.iter().map(|m| m.size_m).collect();
-    let largest = largest_model(p);
-    let median_model = quartiles(&sizes).map_or(largest, |q| q.median);
     let (w, h) = footage.size;
     if let Some(core) = footage.measured.drone_core_px {
-        let per = largest / median_model.max(1e-6) / CORE_PER_PX;
+        let per = 1.0 / CORE_PER_PX;
         let max_px = 2.0 * f64::from(w.max(h));
         let hi = (core.q75 * per)
             .max(core.q25 * per + 0.5)
@@ -99,21 +162,39 @@ pub fn first_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         let (lo, hi) = (r3((core.q25 * per).clamp(0.5, hi)), r3(hi));
         observer.size_px = Some((lo, hi));
         notes.push(format!(
-            "camera.observer.size_px ({lo}, {hi}): the real drones' cores (IQR {:.2}–{:.2} px, {} drones) × largest/median model size {:.2} / {CORE_PER_PX} core px per px (measured on realistic.ron); the distance follows from the plates' field of view",
-            core.q25,
-            core.q75,
-            core.n,
-            largest / median_model.max(1e-6)
+            "camera.observer.size_px ({lo}, {hi}): the real drones' cores (IQR {:.2}–{:.2} px, {} drones) / {CORE_PER_PX} core px per px of a model's span (measured on realistic.ron); the distance follows from the plates' field of view",
+            core.q25, core.q75, core.n,
         ));
     } else {
         notes.push(
             "camera.observer: the base preset's (no labelled drone to size the drones from)".into(),
         );
     }
+    if centres.is_some() && observer.size_px.is_some() {
+        observer.azimuth_deg = (0.0, 0.0);
+    }
     p.camera.observer = Some(observer);
-    if let Some(note) = fit_volume(p) {
+    if let Some(note) = fit_volume(p, centres) {
         notes.push(note);
     }
+}
+
+/// Every model at one span, the median of the base's (module docs); `None` when they
+/// already share one.
+pub fn fit_models(p: &mut Preset) -> Option<String> {
+    let sizes: Vec<f64> = p.models.iter().map(|m| m.size_m).collect();
+    let span = r3(quartiles(&sizes)?.median);
+    if sizes.iter().all(|&s| s == span) {
+        return None;
+    }
+    for m in &mut p.models {
+        m.size_m = span;
+    }
+    Some(format!(
+        "models[].size_m {sizes:?} → {span} m each (the median): the footage cannot tell a near small drone from a far large one, so every model appears at the sizes size_px draws from the real cores (a mix of spans at one distance would spread them {:.1}:1 and put the smallest under the labels' 2 px)",
+        sizes.iter().fold(0.0, |a: f64, &b| a.max(b))
+            / sizes.iter().fold(f64::MAX, |a, &b| a.min(b)).max(1e-9)
+    ))
 }
 
 /// The count range and its draw for frames holding `counts` drones (frames without a
@@ -160,13 +241,47 @@ fn fit_count(p: &mut Preset, footage: &Footage) -> Option<String> {
     ))
 }
 
-/// `placement.volume` a cube [`VOLUME_PER_DISTANCE`] × the look-at point's nearest
-/// distance wide, the minimum separation within it (module docs); `None` (unchanged)
-/// without the observer's `size_px` or a randomized placement.
-pub fn fit_volume(p: &mut Preset) -> Option<String> {
+/// The middle of the line of sight's elevation range, radians (the plates' when they
+/// are drawn, else the observer's).
+fn mid_elevation(p: &Preset) -> f64 {
+    let (lo, hi) = match (&p.backplate, &p.camera.observer) {
+        (Some(b), _) => b.elevation_deg,
+        (None, Some(o)) => o.elevation_deg,
+        (None, None) => (0.0, 0.0),
+    };
+    (0.5 * (lo + hi)).clamp(-80.0, 80.0).to_radians()
+}
+
+/// `placement.volume` [`VOLUME_PER_DISTANCE`] × the look-at point's nearest distance
+/// deep, as wide and high as `centres` asks (a cube without it), the minimum separation
+/// within it (module docs); `None` (unchanged) without the observer's `size_px` or a
+/// randomized placement.
+pub fn fit_volume(p: &mut Preset, centres: Option<CentreSpread>) -> Option<String> {
     p.camera.observer.as_ref()?.size_px?;
     let (near, _) = distances(p)?;
-    let side = r3((VOLUME_PER_DISTANCE * near).max(0.01));
+    let depth = r3((VOLUME_PER_DISTANCE * near).max(0.01));
+    let f = focal_px(p);
+    let (w, h) = p.render.resolution.size();
+    let e = mid_elevation(p);
+    // Metres across at the nearest distance that a spread of `share` of `px` asks for:
+    // the nearest frames spread their drones widest and set the 5th–95th percentile
+    // (at the middle distance the single drones of mi-drone-yt, drawn 1.4–3.9 m away,
+    // spread over 29 % of the width against the real 19 %).
+    let across = |share: f64, px: u32| share * f64::from(px) * near / f / CENTRE_SPAN;
+    let (x, y, why) = match centres {
+        Some(c) => (
+            r3(across(c.x, w).max(0.01)),
+            // The frame's height sees y·cos E and the depth's z·sin E.
+            r3(((across(c.y, h) - depth * e.sin().abs()) / e.cos().max(0.1)).max(0.01)),
+            format!(
+                "; {depth} m deep, as wide and high as spreads the centres over {:.0} % × {:.0} % of the frame (the real boxes' 5th–95th percentile, {} drones) at the nearest distance, the observer's azimuth 0 (x across the frame)",
+                100.0 * c.x,
+                100.0 * c.y,
+                c.n
+            ),
+        ),
+        None => (depth, depth, " (a cube)".to_string()),
+    };
     let Placement::Randomized {
         count,
         volume,
@@ -176,10 +291,10 @@ pub fn fit_volume(p: &mut Preset) -> Option<String> {
     else {
         return None;
     };
-    // Spheres of the separation's diameter fill at most 1/16 of the cube.
-    let sep = r3((0.5 * side / f64::from(count.1.max(1)).cbrt()).min(*min_separation_m));
+    // Spheres of the separation's diameter fill at most 1/16 of the box.
+    let sep = r3((0.5 * (x * y * depth / f64::from(count.1.max(1))).cbrt()).min(*min_separation_m));
     let new = Volume::Box {
-        size_m: (side, side, side),
+        size_m: (x, y, depth),
     };
     if *volume == new && *min_separation_m == sep {
         return None;
@@ -187,10 +302,35 @@ pub fn fit_volume(p: &mut Preset) -> Option<String> {
     *volume = new;
     *min_separation_m = sep;
     Some(format!(
-        "placement.volume Box({side} m)³, min_separation_m {sep}: {VOLUME_PER_DISTANCE} × the look-at point's nearest distance {near:.2} m (focal {:.0} px × largest model {} m / size_px), so the apparent size follows size_px",
-        focal_px(p),
+        "placement.volume Box({x}, {y}, {depth}) m, min_separation_m {sep}: {VOLUME_PER_DISTANCE} × the look-at point's nearest distance {near:.2} m (focal {f:.0} px × model span {} m / size_px) deep, so the apparent size follows size_px{why}",
         largest_model(p)
     ))
+}
+
+/// The volume and its minimum separation × `k` (the look-at distance's change: the
+/// drones keep their spread over the frame).
+fn scale_volume(p: &mut Preset, k: f64) -> Option<String> {
+    let Placement::Randomized {
+        count,
+        volume: Volume::Box { size_m },
+        min_separation_m,
+        ..
+    } = &mut p.placement
+    else {
+        return None;
+    };
+    let before = *size_m;
+    let s = |v: f64| r3((v * k).max(0.01));
+    *size_m = (s(before.0), s(before.1), s(before.2));
+    let (x, y, z) = *size_m;
+    let sep = r3((0.5 * (x * y * z / f64::from(count.1.max(1))).cbrt()).min(*min_separation_m));
+    *min_separation_m = sep.max(0.001);
+    (*size_m != before).then(|| {
+        format!(
+            "placement.volume {before:?} → {:?} m, min_separation_m {sep} (× {k:.3}, the nearest distance's change: the same spread over the frame)",
+            *size_m
+        )
+    })
 }
 
 /// (verdict, real centre, synthetic centre) of a statistic with both sides.
@@ -261,6 +401,7 @@ fn adjust_size(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) 
     let max_px = 2.0 * f64::from(w.max(h));
     let mid = |p: &Preset| distances(p).map(|(a, b)| (a * b).sqrt());
     let d0 = mid(preset);
+    let near0 = distances(preset).map(|d| d.0);
     let Some(obs) = &mut preset.camera.observer else {
         return;
     };
@@ -283,7 +424,10 @@ fn adjust_size(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) 
         "observer size_px {:?} → {:?}, distance_m {:?} → {:?} (drone cores' IQR {:.2}–{:.2} px against the real {:.2}–{:.2})",
         before.0, obs.size_px, before.1, obs.distance_m, syn.q25, syn.q75, real.q25, real.q75
     ));
-    if let Some(note) = fit_volume(preset) {
+    if let (Some(n0), Some((n1, _))) = (near0, distances(preset))
+        && n0 > 0.0
+        && let Some(note) = scale_volume(preset, n1 / n0)
+    {
         changes.push(note);
     }
     // The haze's transmittance at the look-at point stays what the contrast fitted it to.
@@ -304,6 +448,17 @@ fn adjust_size(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) 
     }
 }
 
+/// The materials the polarity rule counts as dark: albedo under half the white's (black,
+/// dark grey, and the saturated colours at about 0.3, which read darker than a bright
+/// ring: on uavswarm-topdown 38 of the 55 synthetic drones darker than their ring were
+/// coloured, 5 % of the drones).
+fn is_dark(c: DroneColor) -> bool {
+    matches!(
+        c,
+        DroneColor::Black | DroneColor::DarkGrey | DroneColor::Coloured
+    )
+}
+
 /// Dark materials and lit drones by the odds ratio of the share darker than the ring.
 fn adjust_polarity(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) {
     let Some((v, t, m)) = stat(report, "drone_darker") else {
@@ -316,7 +471,7 @@ fn adjust_polarity(preset: &mut Preset, report: &Report, changes: &mut Vec<Strin
     let k = (odds(t) / odds(m)).clamp(0.1, 10.0);
     let a = preset.appearance.get_or_insert_with(Appearance::default);
     for (c, w) in &mut a.palette {
-        if matches!(c, DroneColor::Black | DroneColor::DarkGrey) {
+        if is_dark(*c) {
             *w = r3((*w * k).max(0.001));
         }
     }
@@ -497,7 +652,7 @@ mod tests {
         let mut p = realistic();
         let obs = p.camera.observer.get_or_insert_with(Default::default);
         obs.size_px = Some((100.0, 200.0));
-        let note = fit_volume(&mut p).expect("a volume");
+        let note = fit_volume(&mut p, None).expect("a volume");
         // f = 360 / tan 25° = 772.0 px; nearest D = f · 2 m / 200 px = 7.72 m.
         let f = 360.0 / 25f64.to_radians().tan();
         let side = 0.5 * f * 2.0 / 200.0;
@@ -518,7 +673,7 @@ mod tests {
         p.validate().expect("the fitted preset validates");
         // Twice the apparent size: half the distance, half the volume.
         p.camera.observer.as_mut().expect("observer").size_px = Some((200.0, 400.0));
-        fit_volume(&mut p).expect("a new volume");
+        fit_volume(&mut p, None).expect("a new volume");
         let Placement::Randomized {
             volume: Volume::Box { size_m: half },
             ..
@@ -543,7 +698,12 @@ mod tests {
         let after = p.appearance.clone().expect("appearance");
         let w = |a: &Appearance, c| a.palette.iter().find(|(k, _)| *k == c).map(|x| x.1);
         assert!(w(&after, DroneColor::Black) < w(&before, DroneColor::Black));
+        assert!(w(&after, DroneColor::Coloured) < w(&before, DroneColor::Coloured));
         assert_eq!(w(&after, DroneColor::White), w(&before, DroneColor::White));
+        assert_eq!(
+            w(&after, DroneColor::LightGrey),
+            w(&before, DroneColor::LightGrey)
+        );
         assert!(after.emissive_share > before.emissive_share, "{changes:?}");
         // And the other way: more dark drones, fewer lit ones.
         adjust_polarity(

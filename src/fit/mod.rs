@@ -226,11 +226,21 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         &options.out.join("plates"),
         options.views,
     )?;
+    let centres = drones::CentreSpread::of(frames.iter().flat_map(|f| {
+        let (w, h) = f.rgb.dimensions();
+        let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
+        (f.boxes.iter()).map(move |b| {
+            (
+                f64::from(b.x0 + b.x1) * 0.5 / w,
+                f64::from(b.y0 + b.y1) * 0.5 / h,
+            )
+        })
+    }));
     drop(frames);
     let json =
         serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;
     write_file(&options.out.join("footage.json"), json.as_bytes())?;
-    let fitted = preset_out::first_fit(&base, &footage, &plates, &geometry);
+    let fitted = preset_out::first_fit(&base, &footage, &plates, &geometry, centres);
     Ok(Prepared {
         options: options.clone(),
         real_dir,

@@ -1,6 +1,7 @@
 //! Backplates from the footage: each frame with its labelled drones removed, written as
-//! a high-quality JPEG with the `.plate.ron` sidecar the backplate feature reads
-//! (`crate::sky::plates`).
+//! a high-quality JPEG (a JPEG frame) or a PNG (a PNG frame: a lossy pass would add
+//! quantisation noise and ringing the footage does not have) with the `.plate.ron`
+//! sidecar the backplate feature reads (`crate::sky::plates`).
 //!
 //! **Removal** ([`remove_drones`]): every labelled box is grown by a margin (a quarter of
 //! its larger side, 3–24 px: the blur's halo and loose boxes' slack), boxes whose rings
@@ -25,7 +26,7 @@
 //! **Views** (`--views N`, default 1): besides the whole frame, view k ≥ 1 is a crop of
 //! [`VIEW_CROP`] of its width and height, shifted to one of eight places
 //! ([`view_crop`]: left, right, top, bottom, then the corners), written as its own plate
-//! `NAME__vK.jpg` whose sidecar keeps the camera consistent: the crop's field of view
+//! `NAME__vK.jpg` (`.png`) whose sidecar keeps the camera consistent: the crop's field of view
 //! ([`view_hfov`]: the same focal length in the frame's pixels) and the horizon row moved
 //! into it ([`view_horizon`]; outside 0–1 when the crop leaves the horizon out). The
 //! scene mirrors each plate in half the frames (`backplate.flip`), so N views give 2N.
@@ -91,7 +92,7 @@ pub fn view_horizon(row: Option<f64>, h: u32, y0: u32, ch: u32) -> Option<f64> {
     })
 }
 
-/// JPEG quality of the written plates.
+/// JPEG quality of the plates of JPEG frames (those of PNG frames are PNG).
 pub const PLATE_QUALITY: u8 = 95;
 /// The smallest fall (levels) of the row-mean brightness taken for a horizon.
 pub const HORIZON_MIN_STEP: f64 = 10.0;
@@ -582,13 +583,13 @@ pub fn name_seed(name: &str) -> u64 {
     })
 }
 
-/// The plate file name for a frame: its relative path with `/` → `__`, as `.jpg`.
-fn plate_name(rel: &str) -> String {
+/// The plate file name for a frame: its relative path with `/` → `__`, as `.{ext}`.
+fn plate_name(rel: &str, ext: &str) -> String {
     let stem = match rel.rfind('.') {
         Some(i) => &rel[..i],
         None => rel,
     };
-    format!("{}.jpg", stem.replace('/', "__"))
+    format!("{}.{ext}", stem.replace('/', "__"))
 }
 
 /// Writes every frame's plates (`views` of each, at least 1: module docs) and their
@@ -645,24 +646,27 @@ fn write_view(
             view_horizon(horizon, h, y0, ch),
         ),
     };
+    // A lossless frame stays lossless: its noise and fine texture are the footage's.
+    let format = match f.jpeg {
+        Some(_) => ImageFormat::Jpeg {
+            quality: PLATE_QUALITY,
+        },
+        None => ImageFormat::Png,
+    };
+    let ext = format.extension();
+    let whole = plate_name(&f.rel, ext);
+    let stem = whole.trim_end_matches(&format!(".{ext}"));
     let name = match k {
-        0 => plate_name(&f.rel),
-        k => plate_name(&f.rel).replace(".jpg", &format!("__v{k}.jpg")),
+        0 => whole.clone(),
+        k => format!("{stem}__v{k}.{ext}"),
     };
     let rgba: Vec<u8> = view
         .pixels()
         .flat_map(|p| [p[0], p[1], p[2], 255])
         .collect();
-    let jpeg = crate::write::encode_image(
-        &rgba,
-        cw,
-        ch,
-        ImageFormat::Jpeg {
-            quality: PLATE_QUALITY,
-        },
-    )
-    .map_err(|e| FitError::Other(format!("encoding plate {name}: {e}")))?;
-    write_file(&dir.join(&name), &jpeg)?;
+    let bytes = crate::write::encode_image(&rgba, cw, ch, format)
+        .map_err(|e| FitError::Other(format!("encoding plate {name}: {e}")))?;
+    write_file(&dir.join(&name), &bytes)?;
     let horizon_text = match horizon {
         Some(r) => format!("Row({r})"),
         None => "Unknown".into(),
@@ -689,7 +693,7 @@ fn write_view(
             "no clear brightness step: unknown, the elevation is drawn from backplate.elevation_deg"
         },
     );
-    let stem = name.trim_end_matches(".jpg");
+    let stem = name.trim_end_matches(&format!(".{ext}"));
     write_file(&dir.join(format!("{stem}.plate.ron")), sidecar.as_bytes())?;
     Ok(PlateRecord {
         plate: name,

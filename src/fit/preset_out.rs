@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use super::FitError;
 use super::camera::Footage;
+use super::drones::CentreSpread;
 use super::plates::{PlateCamera, PlateSummary};
 use crate::preset::backplate::{Backplate, PlateHorizon};
 use crate::preset::camera_model::CameraModel;
@@ -38,12 +39,13 @@ pub fn load_base(path: &Path) -> Result<Preset, FitError> {
     Ok(preset)
 }
 
-/// The first fitted preset (round 1's).
+/// The first fitted preset (round 1's); `centres`: the real boxes' spread over the frame.
 pub fn first_fit(
     base: &Preset,
     footage: &Footage,
     plates: &PlateSummary,
     camera: &PlateCamera,
+    centres: Option<CentreSpread>,
 ) -> Fitted {
     let mut p = base.clone();
     let mut notes = Vec::new();
@@ -99,7 +101,7 @@ pub fn first_fit(
         notes.push("clutter: off (the plates hold the footage's own scenery)".into());
     }
     // The drones: how many, how large, how near (from the real drones).
-    super::drones::first_fit(&mut p, footage, &mut notes);
+    super::drones::first_fit(&mut p, footage, centres, &mut notes);
     // The camera model: the plates carry the footage's exposure, colour, noise, blur.
     let jpeg = match (footage.estimate.jpeg_quality, footage.measured.jpeg_quality) {
         (Some(_), Some(q)) => {

@@ -21,13 +21,16 @@
 //!   the real (and the blur is not below) it is halved first;
 //! - **mean brightness**: `exposure_ev` += 2.2 · log2(real / synthetic);
 //! - **sky saturation**: `saturation` × real / synthetic;
+//! - **high-pass RMS** above the real on PNG footage: the frames written as PNG (the JPEG
+//!   stage's ringing on the plates' texture is not the footage's);
 //! - **the drones** ([`super::drones::adjust`]): their apparent size from the cores'
 //!   quartiles, the share darker than their ring through dark materials and lit drones,
 //!   the small drones' peak contrast through the haze (not in a round that moves the PSF,
 //!   which lowers a small drone's peak too).
 //!
-//! The gradient, edge, high-pass and hue statistics are the plates' (the footage's own
-//! scenery) and the JPEG quality is read from the footage: no rule moves them. The loop
+//! The gradient, edge, high-pass and hue statistics are otherwise the plates' (the
+//! footage's own scenery) and the JPEG quality is read from the footage: no other rule
+//! moves them. The loop
 //! stops when all but two applicable statistics are inside (11 of 13), when a round
 //! changes nothing, when two rounds in a row do not beat the best, or after `--rounds`.
 //! `fitted.ron` is the best round's preset (most statistics inside, then the smallest
@@ -43,8 +46,8 @@ use super::preset_out::{self, Fitted};
 use super::{FitError, Prepared, io_err, write_file};
 use crate::gap::report::{GapOptions, Report, Summary};
 use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
-use crate::preset::Preset;
 use crate::preset::camera_model::{CameraModel, Psf};
+use crate::preset::{ImageFormat, Preset};
 use crate::render::GpuContext;
 
 /// One round, as `fit.json` records it.
@@ -214,6 +217,21 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
                 "saturation {sat} → {sat2} (sky saturation {m:.3} {v} the real {t:.3})"
             ));
         }
+    }
+    // A JPEG stage the footage does not have: PNG footage whose flat sky shows more
+    // fine structure than the real gets PNG frames (the encoder's ringing on the plates'
+    // texture is what it adds).
+    if footage.estimate.jpeg_quality.is_none()
+        && cm.jpeg_quality.is_some()
+        && stat(report, "highpass_rms").is_some_and(|(v, _, _)| v == "above")
+    {
+        cm.jpeg_quality = None;
+        preset.output.image_format = ImageFormat::Png;
+        changes.push(format!(
+            "output PNG, camera_model.jpeg_quality none (high-pass RMS {:.3} above the real {:.3}, and the footage is PNG: the JPEG stage's ringing is not the footage's)",
+            stat(report, "highpass_rms").map_or(0.0, |s| s.2),
+            stat(report, "highpass_rms").map_or(0.0, |s| s.1)
+        ));
     }
     preset.camera_model = Some(cm);
     super::drones::adjust(preset, report, psf_moved, &mut changes);
