@@ -423,7 +423,7 @@ fn run_stages(
     let in_flight = makers + threads * 3;
     let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
     // One encoder for all threads: JPEG frames over the same background
-    // share its unpainted tiles (write/encode/jpeg.rs).
+    // share its unpainted tiles (write/encode/jpeg/).
     let encoder = &ImageEncoder::new(format);
     let stages = &MakerStages {
         pipeline,

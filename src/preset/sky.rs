@@ -351,3 +351,39 @@ impl Default for Sky {
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
+
+/// The paper's seven Unity skyboxes, as procedural environments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum EnvironmentName {
+    Daytime,
+    Sunset,
+    BeautifulPasture,
+    SnowyBridge,
+    SmallHarbour,
+    Tellsplatte,
+    CountryRoad,
+}
+
+impl EnvironmentName {
+    pub const ALL: [Self; 7] = [
+        Self::Daytime,
+        Self::Sunset,
+        Self::BeautifulPasture,
+        Self::SnowyBridge,
+        Self::SmallHarbour,
+        Self::Tellsplatte,
+        Self::CountryRoad,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Daytime => "Daytime",
+            Self::Sunset => "Sunset",
+            Self::BeautifulPasture => "BeautifulPasture",
+            Self::SnowyBridge => "SnowyBridge",
+            Self::SmallHarbour => "SmallHarbour",
+            Self::Tellsplatte => "Tellsplatte",
+            Self::CountryRoad => "CountryRoad",
+        }
+    }
+}

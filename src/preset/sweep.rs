@@ -1,4 +1,6 @@
-//! Start/end/step sweeps and the frame index ↔ sweep value mapping.
+//! Start/end/step sweeps and the frame index ↔ sweep value mapping: the
+//! preset's sweep axes and the radices of its frame index
+//! ([`super::Preset::frame_radices`], [`super::Preset::frame_count`]).
 //!
 //! A range yields `start + i·step` for `i = 0..=n` with
 //! `n = floor((end − start)/step + 1e-9)`. Values are computed from the index,
@@ -6,6 +8,8 @@
 //! last one is `0 + 10·0.1`, not the sum of ten `0.1`s.
 
 use serde::{Deserialize, Serialize};
+
+use super::{Placement, Volume};
 
 /// Tolerance added before `floor` so that `(end − start)/step` landing a hair
 /// below an integer (0.9999999999) still counts the end value.
@@ -114,6 +118,65 @@ pub fn decode_mixed_radix(mut index: u64, radices: &[u64]) -> Vec<u64> {
         index /= radix;
     }
     digits
+}
+
+/// The preset's frame index: its sweep axes and radices (the frame count
+/// is their product).
+impl super::Preset {
+    /// The sweep axes in nesting order (outermost first): CameraX, CameraY,
+    /// CameraZ, PlaneRX, PlaneRY, PlaneRZ, then the density ρ of a
+    /// `DensitySweep` volume (one value, unused, otherwise).
+    pub fn sweep_axes(&self) -> [(&'static str, SweepRange); 7] {
+        [
+            ("camera.x", self.camera.x),
+            ("camera.y", self.camera.y),
+            ("camera.z", self.camera.z),
+            ("plane.rx", self.plane.rx),
+            ("plane.ry", self.plane.ry),
+            ("plane.rz", self.plane.rz),
+            (
+                "placement.volume.per_m3",
+                self.density_sweep().unwrap_or(SweepRange::fixed(0.0)),
+            ),
+        ]
+    }
+
+    /// The density sweep of a `DensitySweep` volume.
+    pub fn density_sweep(&self) -> Option<SweepRange> {
+        match &self.placement {
+            Placement::Randomized {
+                volume: Volume::DensitySweep { per_m3, .. },
+                ..
+            } => Some(*per_m3),
+            _ => None,
+        }
+    }
+
+    /// Radices of the frame index: the seven sweep axes, the repeat count,
+    /// then the step t of a sequence (T + 1 frames; 1 without sequences).
+    pub fn frame_radices(&self) -> Result<[u64; 9], SweepError> {
+        let mut r = [1u64; 9];
+        for (slot, (_, range)) in r.iter_mut().zip(self.sweep_axes()) {
+            *slot = range.count()?;
+        }
+        r[7] = u64::from(self.repeats.max(1));
+        r[8] = self.sequence_len();
+        Ok(r)
+    }
+
+    /// Frames per sequence: T + 1 in sequence mode, else 1.
+    pub fn sequence_len(&self) -> u64 {
+        self.sequence
+            .as_ref()
+            .map_or(1, |s| u64::from(s.steps.max(1)) + 1)
+    }
+
+    /// Total number of frames (0 if a sweep is invalid).
+    pub fn frame_count(&self) -> u64 {
+        self.frame_radices()
+            .map(|r| r.iter().fold(1u64, |acc, &n| acc.saturating_mul(n)))
+            .unwrap_or(0)
+    }
 }
 
 #[cfg(test)]

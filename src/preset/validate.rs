@@ -31,6 +31,33 @@ fn gib(bytes: u64) -> String {
     }
 }
 
+/// Collects every problem of a preset, each with its field path.
+#[derive(Default)]
+pub(crate) struct Validator {
+    pub(super) errors: Vec<FieldError>,
+}
+
+impl Validator {
+    pub(super) fn push(&mut self, field: &str, message: String) {
+        self.errors.push(FieldError {
+            field: field.to_string(),
+            message,
+        });
+    }
+
+    pub(super) fn check(&mut self, ok: bool, field: &str, message: impl FnOnce() -> String) {
+        if !ok {
+            self.push(field, message());
+        }
+    }
+
+    pub(super) fn positive(&mut self, field: &str, value: f64, unit: &str) {
+        self.check(value.is_finite() && value > 0.0, field, || {
+            format!("{value} must be a finite number > 0 ({unit})")
+        });
+    }
+}
+
 impl Preset {
     /// Check every field; all problems at once, each with its field path.
     pub fn validate(&self) -> Result<(), Vec<FieldError>> {

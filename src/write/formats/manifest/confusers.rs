@@ -61,7 +61,7 @@ pub(crate) fn write_confusers(
         }
         j.raw(b",\"kind\":");
         j.str(c.kind.name());
-        super::write_label_and_pose(j, label, None, model_names, d);
+        super::drones::write_label_and_pose(j, label, None, model_names, d);
         j.raw(b",\"span_m\":");
         j.rounded(c.span_m, Decimals::Six);
         j.raw(b",\"speed_m_s\":");

@@ -1,0 +1,197 @@
+//! Files written into the dataset folder: folders made one level at a time,
+//! each target checked (absent, or a regular file this run owns), whole files
+//! written under a temporary name, flushed and renamed into place, and the
+//! append-only files opened and cut back.
+
+use super::*;
+
+impl Folder {
+    /// Make sure folder `rel` (and each folder above it) is a real folder,
+    /// creating and claiming the missing ones.
+    pub fn ensure_dir(&mut self, rel: &str) -> Result<(), OutputError> {
+        let mut prefix = String::new();
+        for part in rel.split('/').filter(|p| !p.is_empty()) {
+            if !prefix.is_empty() {
+                prefix.push('/');
+            }
+            prefix.push_str(part);
+            if self.dirs_ok.contains(&prefix) {
+                continue;
+            }
+            let path = self.root.join(&prefix);
+            match self.tree.lstat(&prefix)? {
+                Some(m) if m.is_dir() => {}
+                Some(m) if m.is_symlink() => return Err(link_refused(path)),
+                Some(_) => return Err(refused(path, "is in the way of a folder swarmshot needs")),
+                None => self.claim(&[&format!("{prefix}/")])?,
+            }
+            // Made (if missing) and opened once, relative to the folder above.
+            self.tree.mkdir(&prefix)?;
+            self.dirs_ok.insert(prefix.clone());
+        }
+        Ok(())
+    }
+
+    /// Check that `rel` may be (re)written: absent, or a regular file this run owns.
+    pub fn check_target(&mut self, rel: &str) -> Result<(), OutputError> {
+        let path = self.root.join(rel);
+        match self.tree.lstat(rel)? {
+            None => Ok(()),
+            Some(m) if m.is_symlink() => Err(link_refused(path)),
+            Some(m) if !m.is_file() => Err(refused(path, "is not a regular file")),
+            Some(_) if !self.is_ours(rel) => Err(refused(
+                path,
+                "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
+            )),
+            Some(_) => Ok(()),
+        }
+    }
+
+    /// Write a whole file atomically: claim it, write a temporary file in the
+    /// same folder, flush it to disk, rename it over `rel`.
+    pub fn write_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
+        self.write_file_with(rel, |w| w.write_all(bytes))
+    }
+
+    /// A frame file of a labels-only plan (already claimed with
+    /// [`Folder::claim_frame`], frames not durable): created in place with
+    /// `create_new`, which never follows a link nor replaces an entry, and not
+    /// flushed. Anything already at `rel` (a resumed plan's frame in flight)
+    /// goes the careful way of [`Folder::write_file`].
+    pub fn write_frame_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
+        if self.durable_frames {
+            return self.write_file(rel, bytes);
+        }
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        let path = self.root.join(rel);
+        if self.tree.lstat(rel)?.is_some() {
+            return self.write_file(rel, bytes);
+        }
+        let mut file = self.tree.create_new(rel, false)?;
+        file.write_all(bytes).map_err(io(&path))
+    }
+
+    /// [`Folder::write_file`] with the contents streamed by `fill`.
+    pub fn write_file_with(
+        &mut self,
+        rel: &str,
+        fill: impl FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()>,
+    ) -> Result<(), OutputError> {
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        self.check_target(rel)?;
+        if !self.is_ours(rel) {
+            self.claim(&[rel])?;
+        }
+        let path = self.root.join(rel);
+        let tmp_rel = self.clear_temp(rel)?;
+        let file = self.tree.create_new(&tmp_rel, false)?;
+        let written = (|| {
+            let mut w = std::io::BufWriter::new(&file);
+            fill(&mut w)?;
+            w.flush()?;
+            drop(w);
+            file.sync_all()
+        })();
+        stall_if_asked(rel);
+        let result = written
+            .map_err(io(&path))
+            .and_then(|()| self.tree.rename(&tmp_rel, rel));
+        if result.is_err() {
+            let _ = self.tree.remove_file(&tmp_rel);
+        }
+        result
+    }
+
+    /// The temporary name `rel` is written under, cleared of a temporary file
+    /// of ours that a killed run left.
+    pub(super) fn clear_temp(&mut self, rel: &str) -> Result<String, OutputError> {
+        let tmp_rel = temp_rel(rel);
+        if let Some(m) = self.tree.lstat(&tmp_rel)? {
+            if !m.is_file() {
+                return Err(refused(
+                    self.root.join(&tmp_rel),
+                    "is in the way of swarmshot's temporary file",
+                ));
+            }
+            self.tree.remove_file(&tmp_rel)?;
+        }
+        Ok(tmp_rel)
+    }
+
+    /// Open an append-only file at `rel`, cut back to `len` bytes (created
+    /// and claimed when missing and `len` is 0).
+    pub fn open_append(&mut self, rel: &str, len: u64) -> Result<AppendFile, OutputError> {
+        if let Some((dir, _)) = rel.rsplit_once('/') {
+            self.ensure_dir(dir)?;
+        }
+        self.check_target(rel)?;
+        let path = self.root.join(rel);
+        let file = if self.tree.lstat(rel)?.is_none() {
+            if len != 0 {
+                return Err(OutputError::Ledger {
+                    path: path.clone(),
+                    reason: format!("is missing but the ledger says it held {len} bytes"),
+                });
+            }
+            self.claim(&[rel])?;
+            self.tree.create_new(rel, true)?
+        } else {
+            let file = self.tree.open_file(rel, true)?;
+            file.set_len(len).map_err(io(&path))?;
+            file
+        };
+        Ok(AppendFile {
+            rel: rel.to_owned(),
+            path,
+            file,
+            len,
+            committed: len,
+            buffer: None,
+        })
+    }
+
+    /// Delete a file this run owns (nothing if it is missing or not a regular file).
+    pub fn remove(&mut self, rel: &str) -> Result<(), OutputError> {
+        if !self.is_ours(rel) {
+            return Ok(());
+        }
+        self.tree.remove_file(rel)?;
+        Ok(())
+    }
+
+    /// The real folders directly inside folder `rel`, sorted (never through a link).
+    pub fn folders_in(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+        self.tree.folders_in(rel)
+    }
+}
+
+/// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
+pub(super) fn write_new_then_rename(
+    tree: &mut Tree,
+    rel: &str,
+    bytes: &[u8],
+    replace: bool,
+) -> Result<(), OutputError> {
+    let path = tree.root().join(rel);
+    let tmp = temp_rel(rel);
+    if replace {
+        tree.open_file(rel, false)?;
+    }
+    if tree.lstat(&tmp)?.is_some_and(|m| m.is_file()) {
+        tree.remove_file(&tmp)?;
+    }
+    let result = tree.create_new(&tmp, false).and_then(|mut file| {
+        file.write_all(bytes)
+            .and_then(|()| file.sync_all())
+            .map_err(io(&path))
+    });
+    let result = result.and_then(|()| tree.rename(&tmp, rel));
+    if result.is_err() {
+        let _ = tree.remove_file(&tmp);
+    }
+    result
+}

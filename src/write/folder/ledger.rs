@@ -1,0 +1,140 @@
+//! The records a run appends to the ledger: claims (`*` dataset files, `+`
+//! files of the frame in flight) written before their files, checkpoints
+//! after each complete frame, a shard's content records and the done mark;
+//! and the claims read back (what `--overwrite` deletes and `merge` takes).
+
+use super::*;
+
+impl Folder {
+    /// Append whole lines to the ledger; `sync` flushes them to disk first.
+    fn ledger_append(&mut self, text: &str, sync: bool) -> Result<(), OutputError> {
+        let path = self.root.join(LEDGER);
+        self.ledger.write_all(text.as_bytes()).map_err(io(&path))?;
+        if sync {
+            self.ledger.sync_data().map_err(io(&path))?;
+        }
+        Ok(())
+    }
+
+    /// Record `rels` as dataset files (`*`) before they are created.
+    pub fn claim(&mut self, rels: &[&str]) -> Result<(), OutputError> {
+        let new: Vec<&str> = rels
+            .iter()
+            .copied()
+            .filter(|r| !self.owned.contains(*r))
+            .collect();
+        if new.is_empty() {
+            return Ok(());
+        }
+        let text: String = new.iter().map(|r| format!("*{r}\n")).collect();
+        self.ledger_append(&text, true)?;
+        self.owned.extend(new.into_iter().map(str::to_owned));
+        Ok(())
+    }
+
+    /// Frame claims and frame files written without a flush to disk each
+    /// (`false`: a labels-only plan, thousands of small files a second).
+    /// A claim still reaches the ledger before its file is created, so a
+    /// killed process leaves every file it made listed; the end files
+    /// (COCO, stats, the done mark) are still flushed.
+    pub fn set_durable_frames(&mut self, durable: bool) {
+        self.durable_frames = durable;
+    }
+
+    /// Record the files of the frame in flight (`+`) before they are created.
+    pub fn claim_frame(&mut self, rels: &[String]) -> Result<(), OutputError> {
+        let mut text = String::with_capacity(rels.iter().map(|r| r.len() + 2).sum());
+        for r in rels {
+            text.push('+');
+            text.push_str(r);
+            text.push('\n');
+        }
+        self.ledger_append(&text, self.durable_frames)?;
+        self.frame_claims.extend(rels.iter().cloned());
+        Ok(())
+    }
+
+    pub(super) fn is_ours(&self, rel: &str) -> bool {
+        self.owned.contains(rel) || self.frame_claims.iter().any(|c| c == rel)
+    }
+
+    /// Every file (not folder) the ledger of `root` lists (`*` and `+`
+    /// claims), sorted: what `swarmshot merge` takes from a finished shard.
+    pub fn listed_files(root: &Path) -> Result<std::collections::BTreeSet<String>, OutputError> {
+        Ok(Self::claims(root)?
+            .into_iter()
+            .filter(|rel| !rel.ends_with('/') && rel != LEDGER)
+            .collect())
+    }
+
+    /// The paths the ledger of `root` claims (`*` and `+` lines; folders end
+    /// in `/`), in ledger order, leaving out any that could reach outside
+    /// `root` (absolute, or with a `..` component).
+    pub(super) fn claims(root: &Path) -> Result<Vec<String>, OutputError> {
+        let path = root.join(LEDGER);
+        let mut bytes = Vec::new();
+        open_checked(root, LEDGER, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        Ok(String::from_utf8_lossy(&bytes)
+            .lines()
+            .filter_map(|line| line.strip_prefix('*').or_else(|| line.strip_prefix('+')))
+            .filter(|rel| !rel.is_empty() && !rel.starts_with('/'))
+            .filter(|rel| !rel.split('/').any(|c| c == ".."))
+            .map(str::to_owned)
+            .collect())
+    }
+
+    /// Frame complete: write its checkpoint.
+    pub fn commit(&mut self, checkpoint: &Checkpoint) -> Result<(), OutputError> {
+        let json = serde_json::to_string(checkpoint).map_err(|e| OutputError::Ledger {
+            path: self.root.join(LEDGER),
+            reason: e.to_string(),
+        })?;
+        stall_if_asked(&format!("checkpoint:{}", checkpoint.next.saturating_sub(1)));
+        // A folder swapped for a link (or moved) since it was opened stops the
+        // run here: the frame's files went into the folder that was opened.
+        self.tree.verify()?;
+        self.ledger_append(&format!("={json}\n"), false)?;
+        self.frame_claims.clear();
+        Ok(())
+    }
+
+    /// The end files are written.
+    ///
+    /// A shard run first records each of its files (`%SIZE blake3:HASH
+    /// PATH`, working files whose names start with `.` left out): `swarmshot
+    /// merge` checks every file it takes against these records.
+    pub fn mark_done(&mut self) -> Result<(), OutputError> {
+        if self.records {
+            let mut text = String::new();
+            let mut seen = HashSet::new();
+            for rel in Self::claims(&self.root)? {
+                if rel.ends_with('/') || is_working_file(&rel) || !seen.insert(rel.clone()) {
+                    continue;
+                }
+                let Some(entry) = self.tree.lstat(&rel)? else {
+                    continue;
+                };
+                if !entry.is_file() {
+                    continue;
+                }
+                let mut file = self.tree.open_file(&rel, false)?;
+                let (len, hash) = content_record(&mut file).map_err(io(&self.root.join(&rel)))?;
+                text.push_str(&format!("%{len} blake3:{hash} {rel}\n"));
+            }
+            self.ledger_append(&text, false)?;
+        }
+        self.ledger_append("!done\n", true)
+    }
+
+    /// After a failed frame: delete the files of the frame in flight (the
+    /// checkpoint before it still describes the folder).
+    pub fn drop_frame(&mut self) {
+        for rel in std::mem::take(&mut self.frame_claims) {
+            for r in [temp_rel(&rel), rel] {
+                let _ = self.tree.remove_file(&r);
+            }
+        }
+    }
+}

@@ -1,0 +1,283 @@
+//! Opening a dataset folder for a run: refuse what is not swarmshot's, then
+//! start afresh, continue the earlier run from its last trusted checkpoint
+//! (`--resume`, or the same command again), or delete the earlier run's own
+//! files first (`--overwrite`).
+
+use super::files::write_new_then_rename;
+use super::*;
+
+/// Refuse `root` if an entry the dataset needs is a link, is in the way, or
+/// is a file swarmshot did not write (not in `owned`).
+fn preflight(
+    tree: &mut Tree,
+    needed: &[String],
+    owned: &HashSet<String>,
+) -> Result<(), OutputError> {
+    for rel in needed {
+        let parts: Vec<&str> = rel.split('/').filter(|p| !p.is_empty()).collect();
+        let mut prefix = String::new();
+        for (i, part) in parts.iter().enumerate() {
+            if !prefix.is_empty() {
+                prefix.push('/');
+            }
+            prefix.push_str(part);
+            let want_dir = i + 1 < parts.len() || rel.ends_with('/');
+            let path = tree.root().join(&prefix);
+            match tree.lstat(&prefix)? {
+                None => break,
+                Some(m) if m.is_symlink() => return Err(link_refused(path)),
+                Some(m) if want_dir && !m.is_dir() => {
+                    return Err(refused(path, "is in the way of a folder swarmshot needs"));
+                }
+                Some(m) if !want_dir && !m.is_file() => {
+                    return Err(refused(path, "is not a regular file"));
+                }
+                Some(m) if !want_dir && m.links != 1 => {
+                    return Err(hard_link_refused(path, m.links));
+                }
+                Some(_) if !want_dir && !owned.contains(rel) => {
+                    return Err(refused(
+                        path,
+                        "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Folder {
+    /// Open `root` for a run: refuse what is not ours, delete the earlier
+    /// run's files when `mode.overwrite`, and say where to start.
+    ///
+    /// `run.frames == None` (only with `mode.resume`) takes the locked frame count.
+    ///
+    /// `needed` lists the dataset's fixed entries (folders end in `/`): each
+    /// one that exists must be a real folder, or a regular file the earlier
+    /// run wrote, or the folder is refused before anything is written.
+    pub fn open(
+        root: &Path,
+        preset_hash: u64,
+        frames: Option<u64>,
+        mode: OpenMode,
+        needed: &[String],
+    ) -> Result<(Self, Start, RunId), OutputError> {
+        if mode.overwrite && mode.resume {
+            return Err(OutputError::Conflict);
+        }
+        match lstat(root)? {
+            None => fs::create_dir_all(root).map_err(io(root))?,
+            Some(_) => {
+                // The folder the user named may itself be a link; what is inside may not.
+                let m = fs::metadata(root).map_err(io(root))?;
+                if !m.is_dir() {
+                    return Err(refused(root.to_owned(), "is not a folder"));
+                }
+            }
+        }
+        // The folder is opened once: everything below is reached from this handle.
+        let mut tree = Tree::open(root)?;
+        // Before anything in the folder is read or written.
+        let lock = FolderLock::take(&tree)?;
+        let scan = match tree.lstat(LEDGER)? {
+            None => None,
+            Some(_) => Some(Self::scan(root)?),
+        };
+        let Some(scan) = scan else {
+            // A lock file, or the first ledger's temporary file, left by a
+            // run killed before its ledger existed is swarmshot's own: such a
+            // folder starts afresh, with or without --resume.
+            let ledger_tmp = temp_rel(LEDGER);
+            let empty = !fs::read_dir(root).map_err(io(root))?.any(|e| {
+                e.map_or(true, |e| {
+                    e.file_name() != LOCK && e.file_name() != *ledger_tmp
+                })
+            });
+            if !empty && mode.resume {
+                return Err(OutputError::NothingToResume {
+                    path: root.to_owned(),
+                });
+            }
+            if !empty && !mode.overwrite {
+                return Err(OutputError::NotEmpty {
+                    path: root.to_owned(),
+                });
+            }
+            let frames = frames.unwrap_or(mode.fresh_frames);
+            let run = RunId {
+                frames,
+                preset_hash,
+                shard: mode.shard.map(|p| p.run(frames)),
+                every: mode.every.unwrap_or(1).max(1),
+            };
+            preflight(&mut tree, needed, &HashSet::new())?;
+            return Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run));
+        };
+        preflight(&mut tree, needed, &scan.owned)?;
+        let frames = frames.unwrap_or(scan.run.frames);
+        let run = RunId {
+            frames,
+            preset_hash,
+            shard: mode.shard.map(|p| p.run(frames)),
+            every: mode.every.unwrap_or(scan.run.every).max(1),
+        };
+        if scan.run == run && !mode.overwrite {
+            let folder = Self::continue_from(tree, &scan, lock)?;
+            let start = match scan.checkpoint {
+                Some(checkpoint) => Start::Resume {
+                    checkpoint: Box::new(checkpoint),
+                    done: scan.done,
+                },
+                None => Start::Resume {
+                    checkpoint: Box::default(),
+                    done: false,
+                },
+            };
+            return Ok((folder, start, run));
+        }
+        if !mode.overwrite {
+            let what = other_run(&scan.run, &run);
+            return Err(OutputError::OtherRun {
+                path: root.to_owned(),
+                what,
+            });
+        }
+        Self::delete_run(&mut tree)?;
+        Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run))
+    }
+
+    /// A new ledger holding only the header.
+    fn fresh(mut tree: Tree, run: RunId, lock: FolderLock) -> Result<Self, OutputError> {
+        if tree.lstat(LEDGER)?.is_some() {
+            return Err(refused(
+                tree.root().join(LEDGER),
+                "exists although no earlier run was found; remove it by hand",
+            ));
+        }
+        write_new_then_rename(&mut tree, LEDGER, run.header().as_bytes(), false)?;
+        let ledger = tree.open_file(LEDGER, true)?;
+        Ok(Self {
+            root: tree.root().to_owned(),
+            ledger,
+            tree,
+            records: run.shard.is_some(),
+            owned: HashSet::from([LEDGER.to_owned()]),
+            frame_claims: Vec::new(),
+            dirs_ok: HashSet::new(),
+            durable_frames: true,
+            _lock: lock,
+        })
+    }
+
+    /// Cut the ledger back to its last trusted checkpoint (keeping every
+    /// claim after it) and open it to append.
+    fn continue_from(
+        mut tree: Tree,
+        scan: &LedgerScan,
+        lock: FolderLock,
+    ) -> Result<Self, OutputError> {
+        let path = tree.root().join(LEDGER);
+        let mut bytes = Vec::new();
+        tree.open_file(LEDGER, false)?
+            .read_to_end(&mut bytes)
+            .map_err(io(&path))?;
+        if scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
+            let mut text = bytes[..scan.good_end].to_vec();
+            for claim in &scan.later_claims {
+                text.extend_from_slice(claim.as_bytes());
+                text.push(b'\n');
+            }
+            write_new_then_rename(&mut tree, LEDGER, &text, true)?;
+        }
+        let ledger = tree.open_file(LEDGER, true)?;
+        let mut owned = scan.owned.clone();
+        owned.insert(LEDGER.to_owned());
+        Ok(Self {
+            root: tree.root().to_owned(),
+            ledger,
+            tree,
+            records: scan.run.shard.is_some(),
+            owned,
+            frame_claims: Vec::new(),
+            dirs_ok: HashSet::new(),
+            durable_frames: true,
+            _lock: lock,
+        })
+    }
+
+    /// Delete every file and folder an earlier run's ledger lists (files
+    /// first, then folders that are empty), then the ledger itself. Links and
+    /// entries that are not regular files are left alone.
+    ///
+    /// Every listed entry is first looked at without following links: a
+    /// link anywhere on a listed path (the entry itself or a folder above
+    /// it) refuses the whole deletion before anything is deleted. Then each
+    /// file is deleted relative to its folder's handle (`unlinkat`), so a
+    /// folder swapped for a link in between is never walked through.
+    fn delete_run(tree: &mut Tree) -> Result<(), OutputError> {
+        let root = tree.root().to_owned();
+        let claims = Self::claims(&root)?;
+        for rel in &claims {
+            let file = !rel.ends_with('/');
+            let names = if file {
+                vec![rel.clone(), temp_rel(rel)]
+            } else {
+                vec![rel.trim_end_matches('/').to_owned()]
+            };
+            for r in names {
+                if tree.lstat(&r)?.is_some_and(|e| e.is_symlink()) {
+                    return Err(link_refused(root.join(r)));
+                }
+            }
+        }
+        let mut dirs = Vec::new();
+        for rel in &claims {
+            if let Some(dir) = rel.strip_suffix('/') {
+                dirs.push(dir.to_owned());
+                continue;
+            }
+            for r in [rel.clone(), temp_rel(rel)] {
+                tree.remove_file(&r)?;
+            }
+        }
+        for dir in dirs.iter().rev() {
+            // Not empty: it holds files swarmshot did not write; keep them.
+            tree.remove_dir_if_empty(dir)?;
+        }
+        tree.remove_file(LEDGER)?;
+        Ok(())
+    }
+}
+
+/// What the earlier run in the folder is, against this run, for the
+/// refusal's message: the first difference found, with the flag that makes it.
+fn other_run(earlier: &RunId, run: &RunId) -> String {
+    if earlier.preset_hash != run.preset_hash {
+        "a run of a different preset (its preset.lock.ron differs)".to_owned()
+    } else if earlier.every != run.every {
+        format!(
+            "a run of this preset with {}, and this run makes {} (--every differs; --resume without --every continues the earlier trial)",
+            earlier.describe(),
+            run.describe()
+        )
+    } else if earlier.shard != run.shard {
+        format!(
+            "a run of this preset with {}, and this run makes {} (--shard differs)",
+            earlier.describe(),
+            run.describe()
+        )
+    } else if run.every > 1 {
+        format!(
+            "a run of this preset with {}, and this run makes {} (--limit differs)",
+            earlier.describe(),
+            run.describe()
+        )
+    } else {
+        format!(
+            "a run of this preset with {} frames, and this run makes {} (--limit differs)",
+            earlier.frames, run.frames
+        )
+    }
+}

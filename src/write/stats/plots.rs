@@ -1,0 +1,157 @@
+//! The statistics drawn: histograms of training boxes per image, box size
+//! and distance from the camera, as PNGs written into a report folder.
+
+use super::{DISTANCE_BIN_M, DatasetStats, SIZE_BIN_PX, StatsError};
+
+/// Draw the three histograms (training boxes per image, box size √(w·h),
+/// distance from the camera) as PNGs into `dir`; returns their paths. Text
+/// needs the DejaVu Sans font (Debian: fonts-dejavu-core); without it the
+/// bars are drawn unlabelled.
+pub fn write_histograms(
+    stats: &DatasetStats,
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, StatsError> {
+    let mut out =
+        crate::write::folder::outdir::OutDir::create(dir).map_err(|e| StatsError::Io {
+            path: dir.to_owned(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+    let per_frame: Vec<u64> = {
+        let max = stats
+            .boxes_per_frame
+            .keys()
+            .next_back()
+            .copied()
+            .unwrap_or(0) as usize;
+        let mut v = vec![0; max + 1];
+        for (&k, &n) in &stats.boxes_per_frame {
+            v[k as usize] = n;
+        }
+        v
+    };
+    let trim = |v: &[u64]| {
+        let end = v.iter().rposition(|&n| n > 0).map_or(1, |i| i + 1);
+        v[..end].to_vec()
+    };
+    let plots = [
+        (
+            "boxes_per_image.png",
+            "training boxes per image",
+            per_frame,
+            1.0,
+            "boxes",
+        ),
+        (
+            "box_size.png",
+            "box size sqrt(w*h); small < 32 px < medium < 96 px < large",
+            trim(&stats.size_histogram),
+            SIZE_BIN_PX,
+            "px",
+        ),
+        (
+            "distance.png",
+            "distance from the camera",
+            trim(&stats.distance_histogram),
+            DISTANCE_BIN_M,
+            "m",
+        ),
+    ];
+    let font = font();
+    let mut written = Vec::new();
+    for (file, title, counts, width, unit) in plots {
+        let path = dir.join(file);
+        let png =
+            draw_histogram(title, &counts, width, unit, font).map_err(|e| StatsError::Io {
+                path: path.clone(),
+                source: std::io::Error::other(e.to_string()),
+            })?;
+        let path = out.write(file, &png).map_err(|e| StatsError::Io {
+            path,
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// DejaVu Sans registered with plotters once, if the system has it (also `gap`'s histograms).
+pub(crate) fn font() -> bool {
+    static FONT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *FONT.get_or_init(|| {
+        let Some(bytes) = [
+            "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/TTF/DejaVuSans.ttf",
+        ]
+        .iter()
+        .find_map(|p| std::fs::read(p).ok()) else {
+            return false;
+        };
+        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes)
+            .is_ok()
+    })
+}
+
+/// A histogram drawn as PNG bytes (written by the caller through [`crate::write::folder::outdir::OutDir`]).
+fn draw_histogram(
+    title: &str,
+    counts: &[u64],
+    bin_width: f64,
+    unit: &str,
+    font: bool,
+) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let (w, h) = (900i32, 500i32);
+    let mut rgb = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w as u32, h as u32)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (left, right, top, bottom) = (70, w - 20, 50, h - 50);
+        let max = counts.iter().copied().max().unwrap_or(0).max(1) as f64;
+        let n = counts.len().max(1) as f64;
+        let bar = f64::from(right - left) / n;
+        for (i, &c) in counts.iter().enumerate() {
+            let x0 = left + (i as f64 * bar) as i32;
+            let x1 = (left + ((i + 1) as f64 * bar) as i32 - 1).max(x0);
+            let y = bottom - (c as f64 / max * f64::from(bottom - top)) as i32;
+            root.draw(&Rectangle::new(
+                [(x0, y), (x1, bottom)],
+                BLUE.mix(0.7).filled(),
+            ))?;
+        }
+        root.draw(&PathElement::new(
+            vec![(left, top), (left, bottom), (right, bottom)],
+            BLACK,
+        ))?;
+        if font {
+            let style = ("sans-serif", 16).into_font();
+            root.draw(&Text::new(
+                title.to_owned(),
+                (left, 15),
+                ("sans-serif", 20).into_font(),
+            ))?;
+            root.draw(&Text::new(
+                format!("{}", max as u64),
+                (5, top),
+                style.clone(),
+            ))?;
+            root.draw(&Text::new("0".to_owned(), (50, bottom - 8), style.clone()))?;
+            let last = n * bin_width;
+            root.draw(&Text::new(
+                format!("0 {unit}"),
+                (left, bottom + 10),
+                style.clone(),
+            ))?;
+            root.draw(&Text::new(
+                format!("{last} {unit}"),
+                (right - 90, bottom + 10),
+                style,
+            ))?;
+        }
+        root.present()?;
+    }
+    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).ok_or("histogram buffer size")?;
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    Ok(png)
+}
