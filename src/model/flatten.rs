@@ -211,7 +211,8 @@ impl Flattener<'_> {
         let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
         let inverse_bind: Vec<DMat4> = match skin.inverse_bind_matrices() {
             Some(accessor) => {
-                check_accessor(&accessor, "inverseBindMatrices", buffers).map_err(&err)?;
+                check_accessor(&accessor, "inverseBindMatrices", buffers)
+                    .map_err(|d| err(d.to_string()))?;
                 skin.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]))
                     .read_inverse_bind_matrices()
                     .ok_or_else(|| err("inverse bind matrices cannot be read".into()))?
@@ -230,28 +231,25 @@ impl Flattener<'_> {
         joints
             .iter()
             .zip(&inverse_bind)
-            .map(|(&joint, ibm)| Ok(self.node_world(joint).map_err(&err)? * *ibm))
+            .map(|(&joint, ibm)| {
+                let world = self.node_world(joint).map_err(|d| err(d.to_string()))?;
+                Ok(world * *ibm)
+            })
             .collect()
     }
 
     /// A node's world matrix: the product of its ancestors' transforms (the
     /// first parent that lists it, for a file that breaks the tree rule).
-    fn node_world(&self, index: usize) -> Result<DMat4, String> {
+    fn node_world(&self, index: usize) -> Result<DMat4, Defect> {
         let mut m = DMat4::IDENTITY;
         let mut at = Some(index);
         let mut depth = 0;
         while let Some(i) = at {
             depth += 1;
             if depth > MAX_NODE_DEPTH {
-                return Err(format!(
-                    "joint node {index} has more than {MAX_NODE_DEPTH} ancestors (a cycle?)"
-                ));
+                return Err(Defect::DeepJoint { index });
             }
-            let node = self
-                .document
-                .nodes()
-                .nth(i)
-                .ok_or_else(|| format!("joint node {i} does not exist"))?;
+            let node = self.document.nodes().nth(i).ok_or(Defect::NoJointNode(i))?;
             let local =
                 DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
             m = local * m;
@@ -311,7 +309,7 @@ impl Flattener<'_> {
             return Ok(());
         }
         let buffers = self.buffers;
-        check_primitive_accessors(primitive, buffers).map_err(&err)?;
+        check_primitive_accessors(primitive, buffers).map_err(|d| err(d.to_string()))?;
         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
         let positions: Vec<[f32; 3]> = reader
             .read_positions()
@@ -349,7 +347,7 @@ impl Flattener<'_> {
             return Err(err("attribute counts differ from the POSITION count".into()));
         }
         // Per-vertex skinning matrices: Σ weight · joint matrix.
-        let skinning = self.skinning(&reader, instance, n, p).map_err(&err)?;
+        let skinning = (self.skinning(&reader, instance, n, p)).map_err(|d| err(d.to_string()))?;
         let baked = Baked {
             positions,
             normals,
@@ -423,7 +421,7 @@ impl Flattener<'_> {
         instance: &mut Instance<'_>,
         n: usize,
         p: usize,
-    ) -> Result<Option<Vec<DMat4>>, String>
+    ) -> Result<Option<Vec<DMat4>>, Defect>
     where
         F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
     {
@@ -438,10 +436,15 @@ impl Flattener<'_> {
         let joints: Vec<[u16; 4]> = joints.into_u16().collect();
         let weights: Vec<[f32; 4]> = weights.into_f32().collect();
         if joints.len() != n || weights.len() != n {
-            return Err("JOINTS_0/WEIGHTS_0 counts differ from the POSITION count".into());
+            return Err(Defect::SkinCounts);
         }
-        let out = skin_per_vertex(&joints, &weights, joint_matrices, instance.world)
-            .map_err(|reason| format!("node {node}: {reason}"))?;
+        let out =
+            skin_per_vertex(&joints, &weights, joint_matrices, instance.world).map_err(|d| {
+                Defect::InNode {
+                    node: node.to_owned(),
+                    defect: Box::new(d),
+                }
+            })?;
         if let Some(first) = out.first() {
             instance.flips = DMat3::from_mat4(*first).determinant() < 0.0;
         }
@@ -505,12 +508,104 @@ struct Baked {
     material: [f32; 4],
 }
 
+/// What a check of a glTF file's data found wrong: the reason in the
+/// [`ModelError`] that names the file and the mesh, node or skin.
+#[derive(Debug, thiserror::Error)]
+enum Defect {
+    #[error("joint node {index} has more than {MAX_NODE_DEPTH} ancestors (a cycle?)")]
+    DeepJoint { index: usize },
+    #[error("joint node {0} does not exist")]
+    NoJointNode(usize),
+    #[error("accessor {index} ({semantic}) must be float VEC3, not {data_type:?} {dimensions:?}")]
+    NotFloatVec3 {
+        index: usize,
+        semantic: String,
+        data_type: gltf::accessor::DataType,
+        dimensions: gltf::accessor::Dimensions,
+    },
+    #[error("JOINTS_0/WEIGHTS_0 counts differ from the POSITION count")]
+    SkinCounts,
+    #[error("joint {joint} is out of range for its skin's {joints} joints")]
+    JointRange { joint: u16, joints: usize },
+    /// A defect of the skin of a node (its label).
+    #[error("node {node}: {defect}")]
+    InNode { node: String, defect: Box<Defect> },
+    #[error("accessor {index} ({semantic}) is out of bounds: {overrun}")]
+    OutOfBounds {
+        index: usize,
+        semantic: String,
+        overrun: Overrun,
+    },
+    #[error("accessor {index} ({semantic}) has {n} sparse entries for {count} elements")]
+    SparseCount {
+        index: usize,
+        semantic: String,
+        n: usize,
+        count: usize,
+    },
+    #[error(
+        "accessor {index} ({semantic}): sparse index {value} (entry {entry}) is out of range for {count} elements"
+    )]
+    SparseIndex {
+        index: usize,
+        semantic: String,
+        value: u64,
+        entry: usize,
+        count: usize,
+    },
+}
+
+/// Where an accessor reads past its data (`end`: None when the sum overflows).
+#[derive(Debug, thiserror::Error)]
+enum Overrun {
+    #[error(
+        "its buffer view {view} spans bytes {offset}..{} of buffer {buffer}, which holds {data} bytes",
+        or_text(*end, "overflow")
+    )]
+    Buffer {
+        view: usize,
+        offset: usize,
+        end: Option<usize>,
+        buffer: usize,
+        data: usize,
+    },
+    #[error(
+        "{count} elements of {size} bytes (stride {stride}) from byte {offset} need {} bytes of buffer view {view}, which has {length}",
+        or_text(*end, "more than 2⁶⁴")
+    )]
+    Elements {
+        count: usize,
+        size: usize,
+        stride: usize,
+        offset: usize,
+        end: Option<usize>,
+        view: usize,
+        length: usize,
+    },
+    #[error(
+        "{what}: {n} × {size} bytes from byte {offset} overrun buffer view {view} ({length} bytes)"
+    )]
+    Sparse {
+        what: &'static str,
+        n: usize,
+        size: usize,
+        offset: usize,
+        view: usize,
+        length: usize,
+    },
+}
+
+/// `n`, or `none` for a sum that overflowed.
+fn or_text(n: Option<usize>, none: &str) -> String {
+    n.map_or_else(|| none.to_owned(), |n| n.to_string())
+}
+
 /// Every attribute accessor of a primitive in bounds, positions and
 /// normals float VEC3, and its index accessor in bounds.
 fn check_primitive_accessors(
     primitive: &gltf::Primitive<'_>,
     buffers: &[gltf::buffer::Data],
-) -> Result<(), String> {
+) -> Result<(), Defect> {
     for (semantic, accessor) in primitive.attributes() {
         check_accessor(&accessor, &semantic.to_string(), buffers)?;
         // Positions and normals are read as float triples only.
@@ -520,13 +615,12 @@ fn check_primitive_accessors(
             gltf::Semantic::Positions | gltf::Semantic::Normals
         ) && (accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3)
         {
-            return Err(format!(
-                "accessor {} ({}) must be float VEC3, not {:?} {:?}",
-                accessor.index(),
-                semantic.to_string(),
-                accessor.data_type(),
-                accessor.dimensions()
-            ));
+            return Err(Defect::NotFloatVec3 {
+                index: accessor.index(),
+                semantic: semantic.to_string(),
+                data_type: accessor.data_type(),
+                dimensions: accessor.dimensions(),
+            });
         }
     }
     if let Some(accessor) = primitive.indices() {
@@ -560,7 +654,7 @@ fn skin_per_vertex(
     weights: &[[f32; 4]],
     joint_matrices: &[DMat4],
     world: DMat4,
-) -> Result<Vec<DMat4>, String> {
+) -> Result<Vec<DMat4>, Defect> {
     let mut out = Vec::with_capacity(joints.len());
     for (j, w) in joints.iter().zip(weights) {
         let mut m = DMat4::ZERO;
@@ -569,11 +663,9 @@ fn skin_per_vertex(
             if weight == 0.0 {
                 continue;
             }
-            let jm = joint_matrices.get(usize::from(joint)).ok_or_else(|| {
-                format!(
-                    "joint {joint} is out of range for its skin's {} joints",
-                    joint_matrices.len()
-                )
+            let jm = (joint_matrices.get(usize::from(joint))).ok_or(Defect::JointRange {
+                joint,
+                joints: joint_matrices.len(),
             })?;
             m += *jm * f64::from(weight);
             total += f64::from(weight);
@@ -595,20 +687,24 @@ fn check_accessor(
     accessor: &gltf::Accessor<'_>,
     semantic: &str,
     buffers: &[gltf::buffer::Data],
-) -> Result<(), String> {
+) -> Result<(), Defect> {
     let index = accessor.index();
-    let out = |what: String| format!("accessor {index} ({semantic}) is out of bounds: {what}");
-    let view_fits = |view: &gltf::buffer::View<'_>| -> Result<usize, String> {
+    let out = |overrun: Overrun| Defect::OutOfBounds {
+        index,
+        semantic: semantic.to_owned(),
+        overrun,
+    };
+    let view_fits = |view: &gltf::buffer::View<'_>| -> Result<usize, Defect> {
         let data = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
         let end = view.offset().checked_add(view.length());
         if end.is_none_or(|end| end > data) {
-            return Err(out(format!(
-                "its buffer view {} spans bytes {}..{} of buffer {}, which holds {data} bytes",
-                view.index(),
-                view.offset(),
-                end.map_or_else(|| "overflow".into(), |e| e.to_string()),
-                view.buffer().index()
-            )));
+            return Err(out(Overrun::Buffer {
+                view: view.index(),
+                offset: view.offset(),
+                end,
+                buffer: view.buffer().index(),
+                data,
+            }));
         }
         Ok(view.length())
     };
@@ -623,12 +719,15 @@ fn check_accessor(
             .and_then(|n| n.checked_add(size))
             .and_then(|n| n.checked_add(accessor.offset()));
         if count > 0 && end.is_none_or(|end| end > length) {
-            return Err(out(format!(
-                "{count} elements of {size} bytes (stride {stride}) from byte {} need {} bytes of buffer view {}, which has {length}",
-                accessor.offset(),
-                end.map_or_else(|| "more than 2⁶⁴".into(), |e| e.to_string()),
-                view.index()
-            )));
+            return Err(out(Overrun::Elements {
+                count,
+                size,
+                stride,
+                offset: accessor.offset(),
+                end,
+                view: view.index(),
+                length,
+            }));
         }
     }
     if let Some(sparse) = accessor.sparse() {
@@ -653,16 +752,23 @@ fn check_accessor(
             let length = view_fits(&view)?;
             let end = n.checked_mul(size).and_then(|b| b.checked_add(offset));
             if end.is_none_or(|end| end > length) {
-                return Err(out(format!(
-                    "{what}: {n} × {size} bytes from byte {offset} overrun buffer view {} ({length} bytes)",
-                    view.index()
-                )));
+                return Err(out(Overrun::Sparse {
+                    what,
+                    n,
+                    size,
+                    offset,
+                    view: view.index(),
+                    length,
+                }));
             }
         }
         if n > count {
-            return Err(format!(
-                "accessor {index} ({semantic}) has {n} sparse entries for {count} elements"
-            ));
+            return Err(Defect::SparseCount {
+                index,
+                semantic: semantic.to_owned(),
+                n,
+                count,
+            });
         }
         // Each sparse index names an element to replace: it must be below the count.
         let view = indices.view();
@@ -681,9 +787,13 @@ fn check_accessor(
                 .rev()
                 .fold(0u64, |v, &b| (v << 8) | u64::from(b));
             if value >= count as u64 {
-                return Err(format!(
-                    "accessor {index} ({semantic}): sparse index {value} (entry {k}) is out of range for {count} elements"
-                ));
+                return Err(Defect::SparseIndex {
+                    index,
+                    semantic: semantic.to_owned(),
+                    value,
+                    entry: k,
+                    count,
+                });
             }
         }
     }
