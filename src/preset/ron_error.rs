@@ -240,6 +240,14 @@ mod tests {
         let e = Preset::from_ron("(placement: Randomized(count: (1, 3), spacing_m: 1.0))")
             .expect_err("field of a variant");
         assert!(e.reason.contains(" in `placement`"), "{e}");
+        // A value of the wrong type names its field; a fraction after a field, that field.
+        let e = Preset::from_ron("(camera: (fov_y_deg: \"wide\"))").expect_err("a string");
+        assert_eq!(e.reason, "`camera.fov_y_deg`: Expected float");
+        let e = Preset::from_ron("(render: (msaa: 2.5))").expect_err("a fraction");
+        assert!(
+            e.reason.starts_with("`2.5` in `render.msaa`: an integer"),
+            "{e}"
+        );
     }
 
     #[test]
