@@ -278,8 +278,7 @@ impl SwarmshotApp {
                             r.stats.frames_per_split[2],
                             r.stats.boxes
                         )
-                    })
-                    .map_err(|e| format!("{e:#}"));
+                    });
                 let _ = tx.send(result);
                 wake.request_repaint();
             });

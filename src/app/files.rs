@@ -315,7 +315,7 @@ pub struct FileBrowser {
     purpose: FilePurpose,
     dir: PathBuf,
     dir_edit: String,
-    entries: Result<Vec<Entry>, String>,
+    entries: Result<Vec<Entry>, ListError>,
     file_name: String,
     /// A Save onto this existing file waits for "Replace".
     confirm_replace: Option<PathBuf>,
@@ -404,7 +404,7 @@ impl FileBrowser {
                 if typed.is_dir() {
                     self.go_to(typed);
                 } else {
-                    self.entries = Err(format!("{} is not a folder", typed.display()));
+                    self.entries = Err(ListError::NotAFolder(typed));
                 }
             }
         });
@@ -416,8 +416,8 @@ impl FileBrowser {
             .max_height(300.0)
             .auto_shrink([false, false])
             .show(ui, |ui| match &self.entries {
-                Err(message) => {
-                    ui.label(RichText::new(message).color(ui.visuals().error_fg_color));
+                Err(e) => {
+                    ui.label(RichText::new(e.to_string()).color(ui.visuals().error_fg_color));
                 }
                 Ok(entries) if entries.is_empty() => {
                     ui.weak("(nothing to show here)");
@@ -521,7 +521,7 @@ impl FileBrowser {
         }
         match kind {
             Kind::Open if !path.is_file() => {
-                self.entries = Err(format!("{} does not exist", path.display()));
+                self.entries = Err(ListError::Missing(path));
             }
             Kind::Save if path.exists() && self.confirm_replace.as_ref() != Some(&path) => {
                 self.confirm_replace = Some(path);
@@ -531,10 +531,27 @@ impl FileBrowser {
     }
 }
 
+/// Why the browser shows no listing (in place of it).
+#[derive(Debug, thiserror::Error)]
+enum ListError {
+    #[error("cannot list {}: {source}", dir.display())]
+    Read {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{} is not a folder", .0.display())]
+    NotAFolder(PathBuf),
+    #[error("{} does not exist", .0.display())]
+    Missing(PathBuf),
+}
+
 /// Folders and the files with one of `extensions` (all files when empty for
 /// a file dialog; none for a folder dialog), hidden ones left out, sorted.
-fn list_dir(dir: &Path, extensions: &[&str]) -> Result<Vec<Entry>, String> {
-    let read = std::fs::read_dir(dir).map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+fn list_dir(dir: &Path, extensions: &[&str]) -> Result<Vec<Entry>, ListError> {
+    let read = std::fs::read_dir(dir).map_err(|source| ListError::Read {
+        dir: dir.to_owned(),
+        source,
+    })?;
     let mut entries: Vec<Entry> = read
         .filter_map(Result::ok)
         .filter_map(|e| {

@@ -149,7 +149,7 @@ impl SwarmshotApp {
                 ui.weak("estimating…");
             }
             Some(Err(e)) => {
-                error_label(ui, e);
+                error_label(ui, &e.to_string());
             }
             Some(Ok(s)) => {
                 let drones = if s.drones_min == s.drones_max {

@@ -67,6 +67,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::preset::{FieldError, Preset};
 use crate::render::GpuContext;
+use crate::write::merge::MergeError;
 use commands::BatchInputs;
 use files::{DialogBackend, FileDialogs};
 use history::{CommitGate, EditHistory};
@@ -75,7 +76,7 @@ use preview::{
 };
 use prompt::Replace;
 use runner::{BatchOutcome, BatchRun};
-use summary::{Summary, SummaryMaker, SummaryRequest};
+use summary::{Summary, SummaryError, SummaryMaker, SummaryRequest};
 use worker::LatestWorker;
 
 /// Window title and persistence key.
@@ -236,8 +237,8 @@ pub struct SwarmshotApp {
     summary_due: Option<Instant>,
     /// When this UI pass started.
     pass_start: Instant,
-    summary_worker: Option<LatestWorker<SummaryRequest, Result<Summary, String>>>,
-    summary: Option<Result<Summary, String>>,
+    summary_worker: Option<LatestWorker<SummaryRequest, Result<Summary, SummaryError>>>,
+    summary: Option<Result<Summary, SummaryError>>,
     batch: Option<BatchRun>,
     batch_outcome: Option<BatchOutcome>,
     /// What the last Generate was asked for (preset generation, folder,
@@ -261,9 +262,9 @@ pub struct SwarmshotApp {
     frame_slider: Option<egui::Id>,
     /// Play / pause / loop through the frames.
     playback: playback::Playback,
-    /// A merge of shard folders in flight: its one-line report or error.
-    merge: Option<crossbeam_channel::Receiver<Result<String, String>>>,
-    merge_outcome: Option<Result<String, String>>,
+    /// A merge of shard folders in flight: its one-line report or why it failed.
+    merge: Option<crossbeam_channel::Receiver<Result<String, MergeError>>>,
+    merge_outcome: Option<Result<String, MergeError>>,
     /// The domain-gap report window.
     gap: gap_panel::GapPanel,
     /// The Fit window.

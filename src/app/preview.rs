@@ -27,13 +27,13 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::annotate::DroneLabel;
-use crate::pipeline::FramePipeline;
+use crate::pipeline::{FramePipeline, PipelineError};
 use crate::preset::Preset;
 use crate::preset::sweep::decode_mixed_radix;
-use crate::render::{COLOR_FORMAT, GpuContext, Renderer};
+use crate::render::{COLOR_FORMAT, GpuContext, RenderError, Renderer};
 use crate::scene::camera::Camera;
 use crate::scene::math::{look_at_cv, plane_rotation};
-use crate::scene::{FrameScene, camera_position};
+use crate::scene::{FrameError, FrameScene, camera_position};
 
 /// At most this many sweep camera positions are drawn in the inspect view.
 pub const MAX_INSPECT_CAMERAS: u64 = 2000;
@@ -128,6 +128,33 @@ pub struct PreviewError {
 
 pub type PreviewResult = Result<PreviewFrame, PreviewError>;
 
+/// Why a preview's picture could not be made or uploaded; its message is
+/// [`PreviewError::message`].
+#[derive(Debug, thiserror::Error)]
+pub enum PictureError {
+    #[error("preview size {width}×{height} is outside this adapter's 1..{side} px")]
+    Size { width: u32, height: u32, side: u32 },
+    /// The preset's models (or sky images) could not be loaded.
+    #[error(transparent)]
+    Load(PipelineError),
+    /// The edited preset, or the frame made from it, failed in the pipeline.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    #[error(transparent)]
+    Frame(#[from] FrameError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("waiting for the preview upload: {0}")]
+    Upload(#[from] wgpu::PollError),
+}
+
+impl PictureError {
+    /// Whether loading the models failed (shown in the Models panel too).
+    pub fn models(&self) -> bool {
+        matches!(self, Self::Load(_))
+    }
+}
+
 /// The pipeline of the previewed preset and a renderer holding its assets.
 struct Loaded {
     pipeline: FramePipeline,
@@ -161,15 +188,13 @@ impl PreviewRenderer {
     pub fn render(&mut self, request: &PreviewRequest) -> PreviewResult {
         let start = Instant::now();
         let key = request.key;
-        let fail = |(message, models): (String, bool)| PreviewError {
+        let fail = |e: PictureError| PreviewError {
             key,
-            message,
-            models,
+            message: e.to_string(),
+            models: e.models(),
         };
         let picture = self.picture(request).map_err(fail)?;
-        let texture = self
-            .upload(&picture.rgba, key.size_px)
-            .map_err(|message| fail((message, false)))?;
+        let texture = self.upload(&picture.rgba, key.size_px).map_err(fail)?;
         if let Some(loaded) = self.loaded.as_mut() {
             // Its memory serves the next preview.
             loaded.renderer.recycle(picture.rgba, Default::default());
@@ -187,35 +212,30 @@ impl PreviewRenderer {
 
     /// The picture of a preview and the labels of its frame, made the way
     /// the batch makes a frame ([`FramePipeline::make_scene`]) with the
-    /// view's camera. Errors say whether loading the models failed.
-    pub fn picture(&mut self, request: &PreviewRequest) -> Result<PreviewPicture, (String, bool)> {
+    /// view's camera.
+    pub fn picture(&mut self, request: &PreviewRequest) -> Result<PreviewPicture, PictureError> {
         let key = request.key;
         let preset = &*request.preset;
         let [width, height] = key.size_px;
         let side = self.ctx.max_texture_side;
         if width == 0 || height == 0 || width > side || height > side {
-            let size = format!("preview size {width}×{height}");
-            return Err((
-                format!("{size} is outside this adapter's 1..{side} px"),
-                false,
-            ));
+            return Err(PictureError::Size {
+                width,
+                height,
+                side,
+            });
         }
         let loaded = self.load(preset)?;
-        let failed = |e: &dyn std::fmt::Display| (e.to_string(), false);
-        let scene = loaded.pipeline.scene(key.frame).map_err(|e| failed(&e))?;
+        let scene = loaded.pipeline.scene(key.frame)?;
         // The exact labels the batch writes (visibility measured when the preset needs it).
-        let labels = (loaded.pipeline)
-            .labels(&mut loaded.renderer, &scene)
-            .map_err(|e| failed(&e))?;
+        let labels = (loaded.pipeline).labels(&mut loaded.renderer, &scene)?;
         let (camera, inspect) = view_camera(preset, &scene, key.view, width, height);
         let mut drawn = scene.clone();
         drawn.camera = camera;
         if key.view != PreviewView::ThroughCamera {
             drawn.camera_model = None;
         }
-        let made = (loaded.pipeline)
-            .make_scene(&mut loaded.renderer, drawn)
-            .map_err(|e| failed(&e))?;
+        let made = (loaded.pipeline).make_scene(&mut loaded.renderer, drawn)?;
         Ok(PreviewPicture {
             rgba: made.rgba,
             scene,
@@ -226,7 +246,11 @@ impl PreviewRenderer {
     }
 
     /// A new colour texture of `size_px` holding `rgba`, once the upload is done.
-    fn upload(&self, rgba: &[u8], [width, height]: [u32; 2]) -> Result<wgpu::TextureView, String> {
+    fn upload(
+        &self,
+        rgba: &[u8],
+        [width, height]: [u32; 2],
+    ) -> Result<wgpu::TextureView, PictureError> {
         let size = wgpu::Extent3d {
             width,
             height,
@@ -250,34 +274,27 @@ impl PreviewRenderer {
         let place = texture.as_image_copy();
         self.ctx.queue.write_texture(place, rgba, layout, size);
         let submission = self.ctx.queue.submit([]);
-        (self.ctx.device)
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(submission),
-                timeout: None,
-            })
-            .map_err(|e| format!("waiting for the preview upload: {e}"))?;
+        (self.ctx.device).poll(wgpu::PollType::Wait {
+            submission_index: Some(submission),
+            timeout: None,
+        })?;
         Ok(texture.create_view(&wgpu::TextureViewDescriptor::default()))
     }
 
     /// The pipeline of `preset` and its renderer: kept while an edit leaves
-    /// the models and sky images alone, rebuilt otherwise. Errors say whether
-    /// loading the models failed.
-    fn load(&mut self, preset: &Preset) -> Result<&mut Loaded, (String, bool)> {
+    /// the models and sky images alone, rebuilt otherwise.
+    fn load(&mut self, preset: &Preset) -> Result<&mut Loaded, PictureError> {
         // Masks are files only: the preview's pictures and labels are the same without them.
         let mut preset = preset.clone();
         preset.output.masks = Default::default();
         let preset = &preset;
         let loaded = match self.loaded.take() {
             Some(l) if l.pipeline.assets().serve(preset) => Loaded {
-                pipeline: l
-                    .pipeline
-                    .update(preset.clone())
-                    .map_err(|e| (e.to_string(), false))?,
+                pipeline: l.pipeline.update(preset.clone())?,
                 renderer: l.renderer,
             },
             _ => {
-                let pipeline =
-                    FramePipeline::new(preset.clone()).map_err(|e| (e.to_string(), true))?;
+                let pipeline = FramePipeline::new(preset.clone()).map_err(PictureError::Load)?;
                 let renderer = pipeline.renderer(&self.ctx);
                 Loaded { pipeline, renderer }
             }

@@ -58,7 +58,7 @@ pub struct BatchRun {
     /// The latest progress, and how many of its `done` frames this run made
     /// (a continued run's first report already counts the earlier run's frames).
     progress: Arc<Mutex<Option<(Progress, u64)>>>,
-    result: Receiver<Result<BatchReport, String>>,
+    result: Receiver<Result<BatchReport, anyhow::Error>>,
     /// Frames this batch will make.
     pub total: u64,
     pub out_dir: PathBuf,
@@ -71,8 +71,17 @@ pub struct BatchRun {
 pub enum BatchOutcome {
     /// Finished or cancelled; the dataset on disk is consistent either way.
     Done(Box<BatchReport>),
-    /// The error chain, outermost first.
-    Failed(String),
+    Failed(BatchError),
+}
+
+/// Why a batch did not finish.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// The pipeline or the batch failed: the error chain, outermost first.
+    #[error("{0:#}")]
+    Failed(anyhow::Error),
+    #[error("the batch thread stopped without a result")]
+    Lost,
 }
 
 /// A progress snapshot for the UI.
@@ -120,8 +129,7 @@ impl BatchRun {
                                 wake();
                             }
                         })
-                    })
-                    .map_err(|e| format!("{e:#}"));
+                    });
                 let _ = tx.send(outcome);
                 wake();
             })?;
@@ -170,11 +178,11 @@ impl BatchRun {
     pub fn finished(&self) -> Option<BatchOutcome> {
         match self.result.try_recv() {
             Ok(Ok(report)) => Some(BatchOutcome::Done(Box::new(report))),
-            Ok(Err(message)) => Some(BatchOutcome::Failed(message)),
+            Ok(Err(e)) => Some(BatchOutcome::Failed(BatchError::Failed(e))),
             Err(crossbeam_channel::TryRecvError::Empty) => None,
-            Err(crossbeam_channel::TryRecvError::Disconnected) => Some(BatchOutcome::Failed(
-                "the batch thread stopped without a result".into(),
-            )),
+            Err(crossbeam_channel::TryRecvError::Disconnected) => {
+                Some(BatchOutcome::Failed(BatchError::Lost))
+            }
         }
     }
 }

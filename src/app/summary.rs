@@ -5,8 +5,9 @@
 
 use std::sync::Arc;
 
-use crate::pipeline::FramePipeline;
+use crate::pipeline::{FramePipeline, PipelineError};
 use crate::preset::Preset;
+use crate::scene::FrameError;
 use crate::write::DatasetStats;
 
 /// Frames sampled for the estimate.
@@ -46,6 +47,17 @@ impl Summary {
     }
 }
 
+/// Why the Summary panel has no numbers: the preset's models or sky images
+/// cannot be loaded, or a sampled frame cannot be built (the panel shows the
+/// library's message).
+#[derive(Debug, thiserror::Error)]
+pub enum SummaryError {
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    #[error(transparent)]
+    Frame(#[from] FrameError),
+}
+
 /// Builds summaries, keeping the loaded models between requests.
 #[derive(Default)]
 pub struct SummaryMaker {
@@ -53,14 +65,13 @@ pub struct SummaryMaker {
 }
 
 impl SummaryMaker {
-    pub fn estimate(&mut self, request: &SummaryRequest) -> Result<Summary, String> {
+    pub fn estimate(&mut self, request: &SummaryRequest) -> Result<Summary, SummaryError> {
         let preset = &*request.preset;
         // Reuses the loaded models while the edit leaves them alone.
         let pipeline = match self.pipeline.take() {
             Some(p) => p.update(preset.clone()),
             None => FramePipeline::new(preset.clone()),
-        }
-        .map_err(|e| e.to_string())?;
+        }?;
         let pipeline = self.pipeline.insert(pipeline);
         let frames = preset.frame_count();
         let sampled_frames = frames.min(SUMMARY_SAMPLE_FRAMES);
@@ -71,7 +82,7 @@ impl SummaryMaker {
             let index =
                 u64::try_from(u128::from(k) * u128::from(frames) / u128::from(sampled_frames))
                     .unwrap_or(0);
-            let scene = pipeline.scene(index).map_err(|e| e.to_string())?;
+            let scene = pipeline.scene(index)?;
             let labels = pipeline.estimate_labels(&scene);
             drones_min = drones_min.min(scene.drone_count());
             drones_max = drones_max.max(scene.drone_count());

@@ -14,6 +14,7 @@ use super::runner::BatchOutcome;
 use super::summary::Summary;
 use super::{Command, Session, SwarmshotApp, fit_panel, gap_panel, latency, preview_pane};
 use crate::preset::FieldError;
+use crate::write::merge::MergeError;
 
 impl SwarmshotApp {
     /// Apply a [`Command`] as if a widget or a shortcut gave it (benchmarks drive
@@ -156,7 +157,7 @@ impl SwarmshotApp {
     }
 
     /// A merge has finished; its report line or error.
-    pub fn merge_outcome(&self) -> Option<&Result<String, String>> {
+    pub fn merge_outcome(&self) -> Option<&Result<String, MergeError>> {
         self.merge_outcome.as_ref()
     }
 }

@@ -2,7 +2,10 @@
 //! buckets ([`Flattener`]): node transforms, instancing, skins, materials
 //! and textures baked, as the module docs of [`super`] describe.
 
+mod check;
+
 use super::*;
+use check::{Defect, check_accessor, check_primitive_accessors};
 
 pub(super) struct Flattener<'a> {
     pub(super) file: &'a Path,
@@ -211,7 +214,8 @@ impl Flattener<'_> {
         let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
         let inverse_bind: Vec<DMat4> = match skin.inverse_bind_matrices() {
             Some(accessor) => {
-                check_accessor(&accessor, "inverseBindMatrices", buffers).map_err(&err)?;
+                check_accessor(&accessor, "inverseBindMatrices", buffers)
+                    .map_err(|d| err(d.to_string()))?;
                 skin.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]))
                     .read_inverse_bind_matrices()
                     .ok_or_else(|| err("inverse bind matrices cannot be read".into()))?
@@ -230,28 +234,25 @@ impl Flattener<'_> {
         joints
             .iter()
             .zip(&inverse_bind)
-            .map(|(&joint, ibm)| Ok(self.node_world(joint).map_err(&err)? * *ibm))
+            .map(|(&joint, ibm)| {
+                let world = self.node_world(joint).map_err(|d| err(d.to_string()))?;
+                Ok(world * *ibm)
+            })
             .collect()
     }
 
     /// A node's world matrix: the product of its ancestors' transforms (the
     /// first parent that lists it, for a file that breaks the tree rule).
-    fn node_world(&self, index: usize) -> Result<DMat4, String> {
+    fn node_world(&self, index: usize) -> Result<DMat4, Defect> {
         let mut m = DMat4::IDENTITY;
         let mut at = Some(index);
         let mut depth = 0;
         while let Some(i) = at {
             depth += 1;
             if depth > MAX_NODE_DEPTH {
-                return Err(format!(
-                    "joint node {index} has more than {MAX_NODE_DEPTH} ancestors (a cycle?)"
-                ));
+                return Err(Defect::DeepJoint { index });
             }
-            let node = self
-                .document
-                .nodes()
-                .nth(i)
-                .ok_or_else(|| format!("joint node {i} does not exist"))?;
+            let node = self.document.nodes().nth(i).ok_or(Defect::NoJointNode(i))?;
             let local =
                 DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
             m = local * m;
@@ -311,7 +312,7 @@ impl Flattener<'_> {
             return Ok(());
         }
         let buffers = self.buffers;
-        check_primitive_accessors(primitive, buffers).map_err(&err)?;
+        check_primitive_accessors(primitive, buffers).map_err(|d| err(d.to_string()))?;
         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
         let positions: Vec<[f32; 3]> = reader
             .read_positions()
@@ -349,7 +350,7 @@ impl Flattener<'_> {
             return Err(err("attribute counts differ from the POSITION count".into()));
         }
         // Per-vertex skinning matrices: Σ weight · joint matrix.
-        let skinning = self.skinning(&reader, instance, n, p).map_err(&err)?;
+        let skinning = (self.skinning(&reader, instance, n, p)).map_err(|d| err(d.to_string()))?;
         let baked = Baked {
             positions,
             normals,
@@ -423,7 +424,7 @@ impl Flattener<'_> {
         instance: &mut Instance<'_>,
         n: usize,
         p: usize,
-    ) -> Result<Option<Vec<DMat4>>, String>
+    ) -> Result<Option<Vec<DMat4>>, Defect>
     where
         F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
     {
@@ -438,10 +439,15 @@ impl Flattener<'_> {
         let joints: Vec<[u16; 4]> = joints.into_u16().collect();
         let weights: Vec<[f32; 4]> = weights.into_f32().collect();
         if joints.len() != n || weights.len() != n {
-            return Err("JOINTS_0/WEIGHTS_0 counts differ from the POSITION count".into());
+            return Err(Defect::SkinCounts);
         }
-        let out = skin_per_vertex(&joints, &weights, joint_matrices, instance.world)
-            .map_err(|reason| format!("node {node}: {reason}"))?;
+        let out =
+            skin_per_vertex(&joints, &weights, joint_matrices, instance.world).map_err(|d| {
+                Defect::InNode {
+                    node: node.to_owned(),
+                    defect: Box::new(d),
+                }
+            })?;
         if let Some(first) = out.first() {
             instance.flips = DMat3::from_mat4(*first).determinant() < 0.0;
         }
@@ -505,36 +511,6 @@ struct Baked {
     material: [f32; 4],
 }
 
-/// Every attribute accessor of a primitive in bounds, positions and
-/// normals float VEC3, and its index accessor in bounds.
-fn check_primitive_accessors(
-    primitive: &gltf::Primitive<'_>,
-    buffers: &[gltf::buffer::Data],
-) -> Result<(), String> {
-    for (semantic, accessor) in primitive.attributes() {
-        check_accessor(&accessor, &semantic.to_string(), buffers)?;
-        // Positions and normals are read as float triples only.
-        use gltf::accessor::{DataType, Dimensions};
-        if matches!(
-            semantic,
-            gltf::Semantic::Positions | gltf::Semantic::Normals
-        ) && (accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3)
-        {
-            return Err(format!(
-                "accessor {} ({}) must be float VEC3, not {:?} {:?}",
-                accessor.index(),
-                semantic.to_string(),
-                accessor.data_type(),
-                accessor.dimensions()
-            ));
-        }
-    }
-    if let Some(accessor) = primitive.indices() {
-        check_accessor(&accessor, "indices", buffers)?;
-    }
-    Ok(())
-}
-
 /// A material's base colour factor, alpha cutoff (0: opaque) and the
 /// per-vertex parameters (metallic, roughness, unlit, cutoff).
 fn material_of(material: &gltf::Material<'_>) -> ([f32; 4], f32, [f32; 4]) {
@@ -560,7 +536,7 @@ fn skin_per_vertex(
     weights: &[[f32; 4]],
     joint_matrices: &[DMat4],
     world: DMat4,
-) -> Result<Vec<DMat4>, String> {
+) -> Result<Vec<DMat4>, Defect> {
     let mut out = Vec::with_capacity(joints.len());
     for (j, w) in joints.iter().zip(weights) {
         let mut m = DMat4::ZERO;
@@ -569,11 +545,9 @@ fn skin_per_vertex(
             if weight == 0.0 {
                 continue;
             }
-            let jm = joint_matrices.get(usize::from(joint)).ok_or_else(|| {
-                format!(
-                    "joint {joint} is out of range for its skin's {} joints",
-                    joint_matrices.len()
-                )
+            let jm = (joint_matrices.get(usize::from(joint))).ok_or(Defect::JointRange {
+                joint,
+                joints: joint_matrices.len(),
             })?;
             m += *jm * f64::from(weight);
             total += f64::from(weight);
@@ -585,109 +559,6 @@ fn skin_per_vertex(
         });
     }
     Ok(out)
-}
-
-/// A named error if `accessor` (used as `semantic`) reads past the end of
-/// its buffer view, or its view past the end of its buffer's data. The glTF
-/// reader answers such an accessor with "no data", which would otherwise
-/// read as a missing attribute.
-fn check_accessor(
-    accessor: &gltf::Accessor<'_>,
-    semantic: &str,
-    buffers: &[gltf::buffer::Data],
-) -> Result<(), String> {
-    let index = accessor.index();
-    let out = |what: String| format!("accessor {index} ({semantic}) is out of bounds: {what}");
-    let view_fits = |view: &gltf::buffer::View<'_>| -> Result<usize, String> {
-        let data = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
-        let end = view.offset().checked_add(view.length());
-        if end.is_none_or(|end| end > data) {
-            return Err(out(format!(
-                "its buffer view {} spans bytes {}..{} of buffer {}, which holds {data} bytes",
-                view.index(),
-                view.offset(),
-                end.map_or_else(|| "overflow".into(), |e| e.to_string()),
-                view.buffer().index()
-            )));
-        }
-        Ok(view.length())
-    };
-    let count = accessor.count();
-    if let Some(view) = accessor.view() {
-        let length = view_fits(&view)?;
-        let size = accessor.size();
-        let stride = view.stride().unwrap_or(size);
-        let end = count
-            .checked_sub(1)
-            .and_then(|n| n.checked_mul(stride))
-            .and_then(|n| n.checked_add(size))
-            .and_then(|n| n.checked_add(accessor.offset()));
-        if count > 0 && end.is_none_or(|end| end > length) {
-            return Err(out(format!(
-                "{count} elements of {size} bytes (stride {stride}) from byte {} need {} bytes of buffer view {}, which has {length}",
-                accessor.offset(),
-                end.map_or_else(|| "more than 2⁶⁴".into(), |e| e.to_string()),
-                view.index()
-            )));
-        }
-    }
-    if let Some(sparse) = accessor.sparse() {
-        let n = sparse.count();
-        let indices = sparse.indices();
-        let values = sparse.values();
-        let parts = [
-            (
-                "sparse indices",
-                indices.view(),
-                indices.offset(),
-                indices.index_type().size(),
-            ),
-            (
-                "sparse values",
-                values.view(),
-                values.offset(),
-                accessor.size(),
-            ),
-        ];
-        for (what, view, offset, size) in parts {
-            let length = view_fits(&view)?;
-            let end = n.checked_mul(size).and_then(|b| b.checked_add(offset));
-            if end.is_none_or(|end| end > length) {
-                return Err(out(format!(
-                    "{what}: {n} × {size} bytes from byte {offset} overrun buffer view {} ({length} bytes)",
-                    view.index()
-                )));
-            }
-        }
-        if n > count {
-            return Err(format!(
-                "accessor {index} ({semantic}) has {n} sparse entries for {count} elements"
-            ));
-        }
-        // Each sparse index names an element to replace: it must be below the count.
-        let view = indices.view();
-        let data = buffers
-            .get(view.buffer().index())
-            .map_or(&[][..], |d| &d.0[..]);
-        let size = indices.index_type().size();
-        let start = view.offset() + indices.offset();
-        for k in 0..n {
-            let at = start + k * size;
-            let Some(bytes) = data.get(at..at + size) else {
-                break;
-            };
-            let value = bytes
-                .iter()
-                .rev()
-                .fold(0u64, |v, &b| (v << 8) | u64::from(b));
-            if value >= count as u64 {
-                return Err(format!(
-                    "accessor {index} ({semantic}): sparse index {value} (entry {k}) is out of range for {count} elements"
-                ));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Any decoded glTF image as RGBA8 (16-bit channels keep their high byte).

@@ -194,10 +194,9 @@ impl Preset {
     pub fn from_ron(text: &str) -> Result<Self, RonError> {
         // A byte-order mark (editors on Windows write one) is not RON.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
-            .from_str(text)
-            .map_err(|e| ron_error::describe(text, &e))
+        let options = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        ron_error::from_str(text, &options)
     }
 
     /// Pretty RON text of this preset.

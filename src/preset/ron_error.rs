@@ -1,6 +1,10 @@
 //! RON parse errors a user can act on: an unknown field or variant is named
 //! with its path in the preset (`camera`, `output.label_formats[1]`) and the
-//! nearest known name ("did you mean `fov_y_deg`?").
+//! nearest known name ("did you mean `fov_y_deg`?"). The path is the one the
+//! deserializer followed, tracked by `serde_path_to_error`; the line and
+//! column are RON's own span of the error.
+
+use serde_path_to_error::{Path, Segment};
 
 /// A preset's RON that does not parse: where (1-based line and column) and
 /// what is wrong there.
@@ -13,25 +17,72 @@ pub struct RonError {
     pub reason: String,
 }
 
-/// The error for a RON parse error of `text`: its position, what is wrong,
-/// and for unknown names the field path and the nearest known name.
-pub(super) fn describe(text: &str, e: &ron::error::SpannedError) -> RonError {
+/// Parse `text` as a `T` with `options` (as [`ron::Options::from_str`]
+/// does), an error naming the field path the deserializer was in.
+pub(super) fn from_str<'a, T: serde::Deserialize<'a>>(
+    text: &'a str,
+    options: &ron::Options,
+) -> Result<T, RonError> {
+    let mut de = ron::Deserializer::from_str_with_options(text, options)
+        .map_err(|e| describe(text, &e, &[]))?;
+    let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().clone();
+        describe(text, &de.span_error(e.into_inner()), &fields(&path))
+    })?;
+    de.end()
+        .map_err(|e| describe(text, &de.span_error(e), &[]))?;
+    Ok(value)
+}
+
+/// The path's fields and list indices; an enum's variant is not a field of
+/// the preset (`placement.count`, not `placement.Randomized.count`).
+fn fields(path: &Path) -> Vec<&Segment> {
+    path.iter()
+        .filter(|s| !matches!(s, Segment::Enum { .. }))
+        .collect()
+}
+
+/// `camera.fov_y_deg`, `output.label_formats[1]`.
+fn dotted(path: &[&Segment]) -> String {
+    let mut out = String::new();
+    for segment in path {
+        match segment {
+            Segment::Seq { index } => out.push_str(&format!("[{index}]")),
+            Segment::Map { key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Enum { .. } | Segment::Unknown => {}
+        }
+    }
+    out
+}
+
+/// The error for a RON parse error of `text` at field `path`: its position,
+/// what is wrong, and for unknown names the field path and the nearest known name.
+fn describe(text: &str, e: &ron::error::SpannedError, path: &[&Segment]) -> RonError {
     let at = &e.span.start;
     RonError {
         line: at.line,
         col: at.col,
-        reason: reason(text, e),
+        reason: reason(text, e, path),
     }
 }
 
-fn reason(text: &str, e: &ron::error::SpannedError) -> String {
+fn reason(text: &str, e: &ron::error::SpannedError, path: &[&Segment]) -> String {
     use ron::error::Error;
     let at = &e.span.start;
     match &e.code {
         Error::NoSuchStructField {
             expected, found, ..
         } => {
-            let path = field_path(text, at.line, at.col, false);
+            // The path ends at the unknown key itself: name the struct it is in.
+            let path = match path.split_last() {
+                Some((Segment::Map { key }, parent)) if key == found => dotted(parent),
+                _ => dotted(path),
+            };
             let place = if path.is_empty() {
                 "the preset".to_string()
             } else {
@@ -45,7 +96,7 @@ fn reason(text: &str, e: &ron::error::SpannedError) -> String {
         Error::NoSuchEnumVariant {
             expected, found, ..
         } => {
-            let path = field_path(text, at.line, at.col, true);
+            let path = dotted(path);
             let place = if path.is_empty() {
                 String::new()
             } else {
@@ -58,8 +109,8 @@ fn reason(text: &str, e: &ron::error::SpannedError) -> String {
         }
         _ => match fraction_at(text, at.line, at.col) {
             // `1.5` where an integer goes: RON stops after `1` and asks for a comma.
-            Some(number) => {
-                let path = field_path(text, at.line, at.col, true);
+            Some((start, number)) => {
+                let path = value_path(path, &text[..start]);
                 let place = if path.is_empty() {
                     String::new()
                 } else {
@@ -70,14 +121,45 @@ fn reason(text: &str, e: &ron::error::SpannedError) -> String {
                     crate::text::printable(&number)
                 )
             }
-            None => crate::text::shorten_digit_runs(&e.code.to_string()),
+            None => {
+                let what = crate::text::shorten_digit_runs(&e.code.to_string());
+                match dotted(path) {
+                    path if path.is_empty() => what,
+                    path => format!("`{path}`: {what}"),
+                }
+            }
         },
     }
 }
 
+/// The path of a value that parsed but was followed by what does not
+/// belong there (`before`: the text up to it). A struct asks for its next
+/// field only after the value, so the path ends in an unknown key
+/// ([`Segment::Unknown`]): the value's field is the key written before it.
+fn value_path(path: &[&Segment], before: &str) -> String {
+    let Some((Segment::Unknown, parent)) = path.split_last() else {
+        return dotted(path);
+    };
+    let key = before.trim_end().strip_suffix(':').map(|b| {
+        let b = b.trim_end();
+        let start = b
+            .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+            .map_or(0, |i| i + 1);
+        &b[start..]
+    });
+    let mut out = dotted(parent);
+    if let Some(key) = key.filter(|k| !k.is_empty()) {
+        if !out.is_empty() {
+            out.push('.');
+        }
+        out.push_str(key);
+    }
+    out
+}
+
 /// The number with a fractional part or exponent whose `.`/`e` is at
-/// (line, col), if that is where the parser stopped.
-fn fraction_at(text: &str, line: usize, col: usize) -> Option<String> {
+/// (line, col), if that is where the parser stopped, and where it starts.
+fn fraction_at(text: &str, line: usize, col: usize) -> Option<(usize, String)> {
     let at = byte_offset(text, line, col);
     let rest = text.get(at..)?;
     if !(rest.starts_with('.') || rest.starts_with('e') || rest.starts_with('E')) {
@@ -97,11 +179,12 @@ fn fraction_at(text: &str, line: usize, col: usize) -> Option<String> {
         .map_or(text.len(), |i| at + i);
     let number = &text[start..end];
     const MAX_CHARS: usize = 24;
-    Some(if number.chars().count() > MAX_CHARS {
+    let shown = if number.chars().count() > MAX_CHARS {
         format!("{}…", number.chars().take(MAX_CHARS).collect::<String>())
     } else {
         number.to_string()
-    })
+    };
+    Some((start, shown))
 }
 
 /// "; did you mean `x`? (known fields: a, b, c)", or only the known list.
@@ -120,120 +203,6 @@ fn suggestion(found: &str, expected: &[&str], what: &str) -> String {
         None if expected.is_empty() => String::new(),
         None => format!(" (known {what}: {known})"),
     }
-}
-
-/// One open bracket while scanning: the label it is reached by (`camera`,
-/// `[2]`), its kind, the field key last seen in it and its element index.
-struct Frame {
-    label: String,
-    list: bool,
-    key: Option<String>,
-    index: usize,
-}
-
-/// The dotted path of the value open at (line, col) (1-based, in characters).
-/// With `with_key`, the field whose value starts there is included (an enum
-/// variant is the value of its field); without it, only the enclosing struct.
-fn field_path(text: &str, line: usize, col: usize, with_key: bool) -> String {
-    let end = byte_offset(text, line, col);
-    let src = &text[..end];
-    let bytes = src.as_bytes();
-    let mut stack = vec![Frame {
-        label: String::new(),
-        list: false,
-        key: None,
-        index: 0,
-    }];
-    let mut i = 0;
-    while i < bytes.len() {
-        let c = bytes[i];
-        match c {
-            b'/' if bytes.get(i + 1) == Some(&b'/') => {
-                while i < bytes.len() && bytes[i] != b'\n' {
-                    i += 1;
-                }
-            }
-            b'/' if bytes.get(i + 1) == Some(&b'*') => {
-                i += 2;
-                while i + 1 < bytes.len() && !(bytes[i] == b'*' && bytes[i + 1] == b'/') {
-                    i += 1;
-                }
-                i += 1;
-            }
-            b'"' => {
-                i += 1;
-                while i < bytes.len() && bytes[i] != b'"' {
-                    if bytes[i] == b'\\' {
-                        i += 1;
-                    }
-                    i += 1;
-                }
-            }
-            b'(' | b'[' | b'{' => {
-                let label = stack.last().map_or(String::new(), |top| {
-                    if top.list {
-                        format!("[{}]", top.index)
-                    } else {
-                        top.key.clone().unwrap_or_default()
-                    }
-                });
-                stack.push(Frame {
-                    label,
-                    list: c == b'[',
-                    key: None,
-                    index: 0,
-                });
-            }
-            b')' | b']' | b'}' if stack.len() > 1 => {
-                stack.pop();
-            }
-            b',' => stack
-                .last_mut()
-                .into_iter()
-                .filter(|top| top.list)
-                .for_each(|top| top.index += 1),
-            c if c.is_ascii_alphabetic() || c == b'_' => {
-                let start = i;
-                while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {
-                    i += 1;
-                }
-                let ident = &src[start..i];
-                let mut j = i;
-                while j < bytes.len() && bytes[j].is_ascii_whitespace() {
-                    j += 1;
-                }
-                if bytes.get(j) == Some(&b':')
-                    && let Some(top) = stack.last_mut()
-                {
-                    top.key = Some(ident.to_string());
-                }
-                continue;
-            }
-            _ => {}
-        }
-        i += 1;
-    }
-    let mut path = String::new();
-    let mut push = |label: &str| {
-        if label.is_empty() {
-            return;
-        }
-        if !path.is_empty() && !label.starts_with('[') {
-            path.push('.');
-        }
-        path.push_str(label);
-    };
-    for frame in stack.iter().skip(1) {
-        push(&frame.label);
-    }
-    if with_key && let Some(top) = stack.last() {
-        if top.list {
-            push(&format!("[{}]", top.index));
-        } else if let Some(key) = &top.key {
-            push(key);
-        }
-    }
-    path
 }
 
 /// Byte offset of (line, col), both 1-based, col counted in characters.
@@ -256,23 +225,29 @@ mod tests {
     use super::*;
 
     #[test]
-    fn paths_follow_brackets_keys_and_list_indices() {
-        let text = "(\n  camera: (x: (start: 1.0), fovy_deg: 2.0),\n  output: (label_formats: [Yolo, Cocoa]),\n)";
-        // `fovy_deg` on line 2.
-        let col = text
-            .lines()
-            .nth(1)
-            .and_then(|l| l.find("fovy"))
-            .unwrap_or(0)
-            + 1;
-        assert_eq!(field_path(text, 2, col, false), "camera");
-        let col = text
-            .lines()
-            .nth(2)
-            .and_then(|l| l.find("Cocoa"))
-            .unwrap_or(0)
-            + 1;
-        assert_eq!(field_path(text, 3, col, true), "output.label_formats[1]");
+    fn paths_name_fields_and_list_indices_but_not_variants() {
+        use crate::preset::Preset;
+        let e = Preset::from_ron("(\n  camera: (x: (start: 1.0), fovy_deg: 2.0),\n)")
+            .expect_err("unknown field");
+        assert_eq!((e.line, e.col), (2, 29), "{e}");
+        assert!(
+            e.reason
+                .starts_with("unknown field `fovy_deg` in `camera`;"),
+            "{e}"
+        );
+        let e = Preset::from_ron("(output: (label_formats: [Yolo, Cocoa]))").expect_err("variant");
+        assert!(e.reason.contains(" for `output.label_formats[1]`;"), "{e}");
+        let e = Preset::from_ron("(placement: Randomized(count: (1, 3), spacing_m: 1.0))")
+            .expect_err("field of a variant");
+        assert!(e.reason.contains(" in `placement`"), "{e}");
+        // A value of the wrong type names its field; a fraction after a field, that field.
+        let e = Preset::from_ron("(camera: (fov_y_deg: \"wide\"))").expect_err("a string");
+        assert_eq!(e.reason, "`camera.fov_y_deg`: Expected float");
+        let e = Preset::from_ron("(render: (msaa: 2.5))").expect_err("a fraction");
+        assert!(
+            e.reason.starts_with("`2.5` in `render.msaa`: an integer"),
+            "{e}"
+        );
     }
 
     #[test]

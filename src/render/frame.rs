@@ -3,7 +3,7 @@
 //!
 //! A frame is composed from parts that own their things ([`RegionState`]):
 //! the region passes (`passes.rs`: shaders, layouts, pipelines, rect
-//! buffers), the background ([`super::background`]: the sky pipelines; per
+//! buffers, the uploads and encoding of a frame's passes), the background ([`super::background`]: the sky pipelines; per
 //! size a [`super::background::BackgroundCache`], drawn only when what it
 //! depends on changes and read back once into a CPU copy), the scenery
 //! ([`super::scenery`]) and, per size and sample count, the full-size
@@ -36,7 +36,7 @@ use super::targets::{FrameTargets, TargetLayouts};
 use super::visibility::Visibility;
 use super::{IdImage, RenderError, Renderer};
 use crate::scene::FrameScene;
-use passes::{PassKind, PassTarget, RegionPasses};
+use passes::{PassInputs, RegionPasses};
 
 /// What [`Renderer::render_frame`] is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,6 +146,17 @@ impl Renderer {
         result
     }
 
+    /// What the region passes draw with that this renderer owns.
+    fn pass_inputs(&mut self) -> PassInputs<'_> {
+        PassInputs {
+            device: &self.device,
+            queue: &self.queue,
+            factory: &self.factory,
+            frame_group: &self.frame_bind_group,
+            drones: &mut self.drones,
+        }
+    }
+
     /// The index in `state.targets` of the targets of `width`×`height` and
     /// `msaa` samples, made (and the least recently used dropped) if needed.
     fn frame_targets(&self, state: &mut RegionState, width: u32, height: u32, msaa: u32) -> usize {
@@ -220,10 +231,17 @@ impl Renderer {
         if let Some(gpu) = state.scenery.as_mut() {
             gpu.upload_under(&self.queue, under());
         }
+        let mut with = self.pass_inputs();
         let target = &mut state.targets[t];
-        let uploaded = self.upload_plan(&mut state.passes, p, target, scene, &plan);
-        let (passes, target, scenery) = (&state.passes, &state.targets[t], state.scenery.as_ref());
-        let encoder = self.encode_frame(passes, target, scenery, &plan, &uploaded);
+        let uploaded = (state.passes).upload(&mut with, p, target, scene, &plan);
+        let (target, scenery) = (&state.targets[t], state.scenery.as_ref());
+        let encoder = (state.passes).encode(&with, target, scenery, &plan, &uploaded);
+        if plan.request.color {
+            self.counts.color += 1;
+        }
+        if plan.request.visibility {
+            self.counts.ids += plan.passes.len() as u64;
+        }
         let submitted = self.queue.submit([encoder.finish()]);
         self.collect(state, t, &plan, submitted)
     }
@@ -312,28 +330,10 @@ impl Renderer {
             rects: vec![Rect::full(width, height)],
             drones: (0..scene.drones.len()).filter(|&i| include(i)).collect(),
         };
-        let mut data = Vec::new();
-        let mut draws = [self.region_draws(scene, &pass, &mut data)];
-        let (device, queue) = (&self.device, &self.queue);
-        self.drones.upload_instances((device, queue), &data);
-        (state.passes).upload_rects((device, queue), &mut draws, (width, height));
-        self.counts.ids += 1;
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("instance ids"),
-            });
         let target = &state.targets[t];
-        let at = PassTarget {
-            pipes: state.passes.pipelines(p),
-            target,
-            rects: state.passes.rects(),
-        };
-        let kind = PassKind {
-            label: "id pass",
-            color: false,
-        };
-        self.encode_region_pass(&mut encoder, &at, &draws[0], kind);
+        let mut with = self.pass_inputs();
+        let mut encoder = (state.passes).encode_ids(&mut with, p, target, scene, &pass);
+        self.counts.ids += 1;
         target
             .readback
             .copy_from(&mut encoder, target.ids.texture());

@@ -34,8 +34,8 @@ impl SwarmshotApp {
         }
         match &self.batch_outcome {
             None => {}
-            Some(BatchOutcome::Failed(message)) => {
-                error_label(ui, &format!("Batch failed: {}", gui_wording(message)));
+            Some(BatchOutcome::Failed(e)) => {
+                error_label(ui, &format!("Batch failed: {}", gui_wording(e)));
             }
             Some(BatchOutcome::Done(report)) => outcome_ui(ui, report, commands),
         }
@@ -406,8 +406,8 @@ fn output_path_ui(ui: &mut Ui, dir: &Path, commands: &mut Vec<Command>) {
 }
 
 /// Batch errors are worded for the command line; say what to do in the app instead.
-fn gui_wording(message: &str) -> String {
-    message.replace(
+fn gui_wording(message: &impl std::fmt::Display) -> String {
+    message.to_string().replace(
         "pass --overwrite",
         "tick \"Overwrite an existing dataset\" above Generate",
     )

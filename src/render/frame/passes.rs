@@ -2,7 +2,10 @@
 //! and pipelines per sample count, the rect buffers, and the encoding of a
 //! planned frame ([`FramePlan`]): instances and rects uploaded, each pass
 //! drawn into the frame's targets ([`FrameTargets`]), resolved (MSAA) and
-//! its reads copied into the readback buffer, in the plan's order.
+//! its reads copied into the readback buffer, in the plan's order; and the
+//! one-sample id pass of an id image. What they draw with from the renderer
+//! (device, queue, pipeline maker, frame uniforms, drones) comes in as
+//! [`PassInputs`].
 
 use crate::render::gpu::{
     PassViews, PipelineDesc, PipelineFactory, color_target, depth_test, load_pass,
@@ -15,7 +18,7 @@ use crate::render::readback::{Read, encode_reads, ensure_buffer};
 use crate::render::regions::PassDraws;
 use crate::render::scenery::{SceneryDraw, SceneryGpu};
 use crate::render::targets::FrameTargets;
-use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, InstanceRaw, Renderer, ids};
+use crate::render::{COLOR_FORMAT, DEPTH_FORMAT, InstanceRaw, ids};
 use crate::scene::FrameScene;
 
 /// The region passes' own things: their shaders and bind group layouts,
@@ -60,22 +63,23 @@ impl RegionPasses {
         &self.resolve_layout
     }
 
-    /// The pipelines at index `p` (from [`RegionPasses::pipelines_for`]).
-    pub(super) fn pipelines(&self, p: usize) -> &RegionPipelines {
-        &self.pipelines[p]
-    }
-
-    /// The rect buffer, once a frame has uploaded its rects.
-    pub(super) fn rects(&self) -> Option<&wgpu::Buffer> {
-        self.rects.as_ref()
-    }
-
     pub(super) fn has_id_readback(&self) -> bool {
         self.id_readback
     }
 }
 
-/// What [`Renderer::upload_plan`] uploaded for a planned frame: the
+/// What the region passes draw with that the renderer owns: its device,
+/// queue and pipeline maker, the frame uniforms' group, and the drones
+/// (meshes, the instance buffer they upload, their draws).
+pub(super) struct PassInputs<'a> {
+    pub device: &'a wgpu::Device,
+    pub queue: &'a wgpu::Queue,
+    pub factory: &'a PipelineFactory,
+    pub frame_group: &'a wgpu::BindGroup,
+    pub drones: &'a mut Drones,
+}
+
+/// What [`RegionPasses::upload`] uploaded for a planned frame: the
 /// pipelines it is drawn with, each pass's draws, and where each pass's
 /// resolve rects begin (MSAA only).
 pub(super) struct Uploaded {
@@ -87,17 +91,17 @@ pub(super) struct Uploaded {
 /// Where a region pass (or its resolve) draws: the pipelines, the frame's
 /// targets and the rect buffer (the resolve's: the resolve rects).
 #[derive(Clone, Copy)]
-pub(super) struct PassTarget<'a> {
-    pub pipes: &'a RegionPipelines,
-    pub target: &'a FrameTargets,
-    pub rects: Option<&'a wgpu::Buffer>,
+struct PassTarget<'a> {
+    pipes: &'a RegionPipelines,
+    target: &'a FrameTargets,
+    rects: Option<&'a wgpu::Buffer>,
 }
 
 /// A region pass's label and whether it draws colour (else instance ids only).
 #[derive(Clone, Copy)]
-pub(super) struct PassKind<'a> {
-    pub label: &'a str,
-    pub color: bool,
+struct PassKind<'a> {
+    label: &'a str,
+    color: bool,
 }
 
 /// What a pass is asked to produce: colour and/or instance ids.
@@ -108,7 +112,7 @@ struct Asked {
 }
 
 /// Pipelines of the region passes for one sample count.
-pub(super) struct RegionPipelines {
+struct RegionPipelines {
     msaa: u32,
     background: wgpu::RenderPipeline,
     drone: DronePipelines,
@@ -225,13 +229,13 @@ impl RegionPasses {
     }
 }
 
-impl Renderer {
+impl RegionPasses {
     /// Upload what a planned frame draws with pipelines `p`: its instances
     /// (every pass's, one after the other), rects and resolve rects, and make
     /// room in `target` for what it resolves and reads.
-    pub(super) fn upload_plan(
+    pub(super) fn upload(
         &mut self,
-        state: &mut RegionPasses,
+        with: &mut PassInputs<'_>,
         p: usize,
         target: &mut FrameTargets,
         scene: &FrameScene,
@@ -239,26 +243,23 @@ impl Renderer {
     ) -> Uploaded {
         let request = &plan.request;
         let mut data = Vec::new();
+        let drones = &*with.drones;
         let mut draws: Vec<PassDraws> = (plan.passes.iter())
-            .map(|pass| self.region_draws(scene, pass, &mut data))
+            .map(|pass| pass_draws(drones, scene, pass, &mut data))
             .collect();
-        let (device, queue) = (&self.device, &self.queue);
-        self.drones.upload_instances((device, queue), &data);
-        state.upload_rects((device, queue), &mut draws, request.size_px);
-        if request.color {
-            self.counts.color += 1;
-        }
+        let (device, queue) = (with.device, with.queue);
+        with.drones.upload_instances((device, queue), &data);
+        self.upload_rects((device, queue), &mut draws, request.size_px);
         if request.visibility {
-            self.counts.ids += plan.passes.len() as u64;
-            state.prepare_id_readback(&self.factory, p);
+            self.prepare_id_readback(with.factory, p);
         }
         let first_resolve = if plan.resolved() {
             let size = (request.size_px.0, plan.atlas_rows);
-            target.ensure_atlas(&self.device, size, (request.color, request.visibility));
+            target.ensure_atlas(device, size, (request.color, request.visibility));
             let (data, first) = plan.resolve_instances(target.atlas.rows);
             crate::render::write_vertices(
-                (&self.device, &self.queue),
-                &mut state.resolve_rects,
+                (device, queue),
+                &mut self.resolve_rects,
                 "resolve rects",
                 bytemuck::cast_slice(&data),
             );
@@ -268,7 +269,7 @@ impl Renderer {
         };
         let label = "region readback";
         let buffer = &mut target.regions_readback;
-        ensure_buffer(&self.device, buffer, label, plan.readback_size);
+        ensure_buffer(device, buffer, label, plan.readback_size);
         Uploaded {
             pipelines: p,
             draws,
@@ -276,88 +277,24 @@ impl Renderer {
         }
     }
 
-    /// A pass over its disjoint rects drawing its drones: their instances
-    /// (drone index + 1 as id) appended to `data`, grouped by (model, level
-    /// of detail).
-    pub(super) fn region_draws(
-        &self,
-        scene: &FrameScene,
-        pass: &PassPlan,
-        data: &mut Vec<InstanceRaw>,
-    ) -> PassDraws {
-        PassDraws {
-            rects: pass.rects.clone(),
-            first_rect: 0,
-            draws: (self.drones).instances(scene, pass.drones.iter().copied(), data),
-        }
-    }
-
-    /// One render pass over a pass's regions: each region's background (its
-    /// "clear"), then the drones of all regions. Without `color` the pass
-    /// writes instance ids (and depth) only: no colour target, no lighting.
-    pub(super) fn encode_region_pass(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        at: &PassTarget<'_>,
-        draws: &PassDraws,
-        kind: PassKind<'_>,
-    ) {
-        let PassTarget {
-            pipes,
-            target,
-            rects,
-        } = *at;
-        let Some(color_view) = target.color_view() else {
-            return;
-        };
-        let views = PassViews {
-            color: kind.color.then_some(color_view),
-            ids: target.ids.view(),
-            depth: &target.depth,
-        };
-        let mut pass = load_pass(encoder, kind.label, views);
-        let Some(rect_buffer) = rects else {
-            return;
-        };
-        let (background, drone) = if kind.color {
-            (&pipes.background, &pipes.drone)
-        } else {
-            (&pipes.ids_background, &pipes.ids_drone)
-        };
-        pass.set_pipeline(background);
-        pass.set_bind_group(0, &target.background.group, &[]);
-        pass.set_vertex_buffer(0, rect_buffer.slice(..));
-        pass.draw(0..6, draws.rect_instances());
-        let Some(bounds) = draws.bounds() else {
-            return;
-        };
-        if draws.draws.is_empty() {
-            return;
-        }
-        // The scissor only bounds the work: each drone stays inside its region.
-        pass.set_scissor_rect(bounds.x0, bounds.y0, bounds.width(), bounds.height());
-        pass.set_bind_group(0, &self.frame_bind_group, &[]);
-        self.drones.draw(&mut pass, drone, &draws.draws);
-    }
-
     /// Encode a planned frame's passes in order: the main pass (with the
     /// scenery over it), its resolve and reads, then each overlap layer's.
-    pub(super) fn encode_frame(
+    pub(super) fn encode(
         &self,
-        state: &RegionPasses,
+        with: &PassInputs<'_>,
         target: &FrameTargets,
         scenery: Option<&SceneryGpu>,
         plan: &FramePlan,
         uploaded: &Uploaded,
     ) -> wgpu::CommandEncoder {
-        let mut encoder = self
+        let mut encoder = with
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame (regions)"),
             });
         let request = &plan.request;
-        let pipes = &state.pipelines[uploaded.pipelines];
-        let rects = state.rects.as_ref();
+        let pipes = &self.pipelines[uploaded.pipelines];
+        let rects = self.rects.as_ref();
         let at = PassTarget {
             pipes,
             target,
@@ -399,7 +336,7 @@ impl Renderer {
                 label,
                 color: asked.color,
             };
-            self.encode_region_pass(&mut encoder, &at, pass, kind);
+            encode_region_pass(&mut encoder, with, &at, pass, kind);
             if let (true, true, Some(gpu), Some(rects)) = (main, request.scenery, scenery, rects) {
                 let views = PassViews {
                     color: target.color_view().filter(|_| request.color),
@@ -414,7 +351,7 @@ impl Renderer {
                 };
                 gpu.encode(&mut encoder, views, &draw);
             }
-            if let (Some(buffer), Some(&first)) = (&state.resolve_rects, first_resolve.get(k)) {
+            if let (Some(buffer), Some(&first)) = (&self.resolve_rects, first_resolve.get(k)) {
                 let instances = first..first + pass.rects.len() as u32;
                 let at = PassTarget {
                     rects: Some(buffer),
@@ -431,6 +368,103 @@ impl Renderer {
         }
         encoder
     }
+
+    /// Encode one id pass with pipelines `p` (one sample per pixel) over
+    /// `pass`'s rects drawing its drones, after uploading their instances
+    /// and rects; the ids are left in `target`'s id layer.
+    pub(super) fn encode_ids(
+        &mut self,
+        with: &mut PassInputs<'_>,
+        p: usize,
+        target: &FrameTargets,
+        scene: &FrameScene,
+        pass: &PassPlan,
+    ) -> wgpu::CommandEncoder {
+        let size = (scene.camera.width, scene.camera.height);
+        let mut data = Vec::new();
+        let mut draws = [pass_draws(with.drones, scene, pass, &mut data)];
+        let (device, queue) = (with.device, with.queue);
+        with.drones.upload_instances((device, queue), &data);
+        self.upload_rects((device, queue), &mut draws, size);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("instance ids"),
+        });
+        let at = PassTarget {
+            pipes: &self.pipelines[p],
+            target,
+            rects: self.rects.as_ref(),
+        };
+        let kind = PassKind {
+            label: "id pass",
+            color: false,
+        };
+        encode_region_pass(&mut encoder, with, &at, &draws[0], kind);
+        encoder
+    }
+}
+
+/// A pass over its disjoint rects drawing its drones: their instances
+/// (drone index + 1 as id) appended to `data`, grouped by (model, level
+/// of detail).
+fn pass_draws(
+    drones: &Drones,
+    scene: &FrameScene,
+    pass: &PassPlan,
+    data: &mut Vec<InstanceRaw>,
+) -> PassDraws {
+    PassDraws {
+        rects: pass.rects.clone(),
+        first_rect: 0,
+        draws: drones.instances(scene, pass.drones.iter().copied(), data),
+    }
+}
+
+/// One render pass over a pass's regions: each region's background (its
+/// "clear"), then the drones of all regions. Without `color` the pass
+/// writes instance ids (and depth) only: no colour target, no lighting.
+fn encode_region_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    with: &PassInputs<'_>,
+    at: &PassTarget<'_>,
+    draws: &PassDraws,
+    kind: PassKind<'_>,
+) {
+    let PassTarget {
+        pipes,
+        target,
+        rects,
+    } = *at;
+    let Some(color_view) = target.color_view() else {
+        return;
+    };
+    let views = PassViews {
+        color: kind.color.then_some(color_view),
+        ids: target.ids.view(),
+        depth: &target.depth,
+    };
+    let mut pass = load_pass(encoder, kind.label, views);
+    let Some(rect_buffer) = rects else {
+        return;
+    };
+    let (background, drone) = if kind.color {
+        (&pipes.background, &pipes.drone)
+    } else {
+        (&pipes.ids_background, &pipes.ids_drone)
+    };
+    pass.set_pipeline(background);
+    pass.set_bind_group(0, &target.background.group, &[]);
+    pass.set_vertex_buffer(0, rect_buffer.slice(..));
+    pass.draw(0..6, draws.rect_instances());
+    let Some(bounds) = draws.bounds() else {
+        return;
+    };
+    if draws.draws.is_empty() {
+        return;
+    }
+    // The scissor only bounds the work: each drone stays inside its region.
+    pass.set_scissor_rect(bounds.x0, bounds.y0, bounds.width(), bounds.height());
+    pass.set_bind_group(0, with.frame_group, &[]);
+    with.drones.draw(&mut pass, drone, &draws.draws);
 }
 
 /// The texture of an optional (texture, view) pair.
