@@ -154,12 +154,7 @@ pub fn occlusion_layers(
     boxes: &[Option<PixelBox>],
     depths: &[Option<DepthRange>],
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
-    let depth = |i: usize| depths.get(i).copied().flatten();
-    // Drone `j` may hide part of drone `i` unless `j` is wholly behind `i`.
-    let may_hide = |j: usize, i: usize| match (depth(j), depth(i)) {
-        (Some(dj), Some(di)) => !dj.behind(&di),
-        _ => true,
-    };
+    let may_hide = |j: usize, i: usize| super::regions::may_hide(depths, j, i);
     const TILE: f64 = 64.0;
     let mut tests: u64 = 0;
     let pad = |b: &PixelBox| PixelBox {
