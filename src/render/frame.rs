@@ -20,7 +20,10 @@
 //! a shader (the mean of the samples, and the id samples side by side) into
 //! a compact atlas), and the collected readback: one reused buffer, pasted
 //! into the frame's buffer (which already holds the background: [`Painted`])
-//! and reduced to per-drone visibility on the CPU ([`IdCollect`]).
+//! and reduced to per-drone visibility on the CPU ([`IdCollect`]). With
+//! visibility (and no scenery) the overlap layers come after the main pass
+//! is read, in a plan and submission of their own (`layers.rs`), for only
+//! the drones that pass shows something in front of ([`ids::shows_front`]).
 
 mod layers;
 mod passes;
@@ -88,6 +91,14 @@ impl Painted {
         &self.rects
     }
 }
+
+/// Each drone's rect and whether drone `j` may hide drone `i` (`(j, i)`):
+/// what telling the drones that need a layer pass takes.
+type FrontCheck<'a> = (&'a [Option<Rect>], &'a dyn Fn(usize, usize) -> bool);
+
+/// A collected main pass: the frame (without its visibility), the id
+/// tallies, and the drones that need a layer pass (when asked).
+type Collected = (RenderedFrame, IdCollect, Option<Vec<bool>>);
 
 /// Long-lived state of region rendering, built on first use: the parts a
 /// frame is made of, each owning its things.
@@ -235,7 +246,7 @@ impl Renderer {
         let encoder = self.encode_frame(passes, target, scenery, &plan, &uploaded);
         let submitted = self.queue.submit([encoder.finish()]);
         let may_hide = |j, i| regions::may_hide(&depths, j, i);
-        let front = deferred.then_some((&rects[..], &may_hide as &dyn Fn(usize, usize) -> bool));
+        let front: Option<FrontCheck<'_>> = deferred.then_some((&rects[..], &may_hide));
         let (mut frame, mut ids, alone) = self.collect(state, t, &plan, submitted, front)?;
         if let Some(alone) = &alone {
             let layers = Layers {
@@ -257,15 +268,14 @@ impl Renderer {
     /// pasted in, and the read ids counted. With `front` (each drone's rect,
     /// and whether one drone may hide another) also the drones whose
     /// unoccluded counts need a layer pass ([`ids::shows_front`]).
-    #[allow(clippy::type_complexity)]
     fn collect(
         &mut self,
         state: &RegionState,
         t: usize,
         plan: &FramePlan,
         submitted: wgpu::SubmissionIndex,
-        front: Option<(&[Option<Rect>], &dyn Fn(usize, usize) -> bool)>,
-    ) -> Result<(RenderedFrame, IdCollect, Option<Vec<bool>>), RenderError> {
+        front: Option<FrontCheck<'_>>,
+    ) -> Result<Collected, RenderError> {
         let request = &plan.request;
         let width = request.size_px.0;
         let target = &state.targets[t];

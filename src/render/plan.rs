@@ -5,8 +5,9 @@
 //! decides the passes (the main pass, then one per overlap layer: drones
 //! whose boxes are apart, drawn alone for their unoccluded counts; a drone
 //! that only drones wholly behind it overlap is whole in the main pass and
-//! needs none), each
-//! pass's disjoint rects ([`regions::cover`]), where each rect is resolved
+//! needs none; or the main pass alone, [`FramePlan::main_pass`], whose ids
+//! then tell which drones need a layer, planned by [`FramePlan::layer_passes`]),
+//! each pass's disjoint rects ([`regions::cover`]), where each rect is resolved
 //! to in the atlas (MSAA: shelves as wide as the frame, [`regions::pack_shelves`])
 //! and where every read-back rect lands in the one readback buffer. The
 //! renderer then only encodes what the plan says and collects what it reads.
@@ -500,6 +501,54 @@ mod tests {
             }))
             .collect();
             assert_eq!(first, starts);
+        }
+    }
+
+    #[test]
+    fn layer_passes_hold_each_named_drone_once_apart_and_nothing_else() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let req = request(4);
+        let size = req.size_px;
+        let boxes = random_boxes(&mut rng, 40, size);
+        let rects = drones(&boxes, size);
+        let main = FramePlan::main_pass(req, &boxes, &rects, &[]).expect("plan");
+        assert_eq!(main.passes.len(), 1, "the main pass alone");
+        assert_eq!(
+            main.overlapping,
+            FramePlan::new(req, &boxes, &rects, &[])
+                .expect("plan")
+                .overlapping
+        );
+        // Every other candidate named, as if the main pass showed a drone in front of it.
+        let alone: Vec<bool> = (main.overlapping.iter().enumerate())
+            .map(|(i, &o)| o && i % 2 == 0)
+            .collect();
+        assert!(alone.iter().filter(|&&a| a).count() >= 5);
+        let plan = FramePlan::layer_passes(req, &boxes, &rects, &alone).expect("plan");
+        assert!(!plan.request.color && plan.color_reads.is_empty());
+        assert_eq!(plan.id_reads.len(), plan.passes.len());
+        let mut seen: Vec<usize> = plan.passes.iter().flat_map(|p| p.drones.clone()).collect();
+        seen.sort_unstable();
+        let named: Vec<usize> = (0..40)
+            .filter(|&i| alone[i] && rects[i].is_some())
+            .collect();
+        assert_eq!(seen, named, "each named drone in one layer, no other drone");
+        for pass in &plan.passes {
+            for (k, &a) in pass.drones.iter().enumerate() {
+                for &b in &pass.drones[k + 1..] {
+                    // Apart as the layers see them: clipped to the frame, 1 px padded.
+                    let (w, h) = (f64::from(size.0), f64::from(size.1));
+                    let (ba, bb) = (
+                        boxes[a].expect("box").clip(w, h),
+                        boxes[b].expect("box").clip(w, h),
+                    );
+                    let apart = ba.x1 + 1.0 <= bb.x0 - 1.0
+                        || bb.x1 + 1.0 <= ba.x0 - 1.0
+                        || ba.y1 + 1.0 <= bb.y0 - 1.0
+                        || bb.y1 + 1.0 <= ba.y0 - 1.0;
+                    assert!(apart, "{a} and {b} share a layer");
+                }
+            }
         }
     }
 
