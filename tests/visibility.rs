@@ -1,6 +1,8 @@
 //! Visible boxes and visibility from the instance-id pass: agreement with a
 //! 4× reference on single drones, fractions against per-drone renders in a
-//! crafted overlap, filters, and only running the passes a preset needs.
+//! crafted overlap and in a dense swarm (where only the drones the main pass
+//! shows something in front of get a layer pass), filters, and only running
+//! the passes a preset needs.
 
 mod common;
 
@@ -192,6 +194,80 @@ fn unoccluded_counts_equal_each_drone_measured_alone_with_msaa() {
         vis[1].visible_pixels < vis[1].unoccluded_pixels,
         "drone 1 is partly hidden"
     );
+}
+
+/// A dense swarm: 60 drones (about 30 px) in a 2.4 m box seen from 6 m,
+/// most of them overlapping others on screen.
+fn dense_swarm(p: &Preset) -> FrameScene {
+    let mut scene = crafted_overlap(p);
+    scene.camera.fov_y_deg = 30.0;
+    let mut seed = 12345u64;
+    let mut next = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let template = scene.drones[0].clone();
+    scene.drones = (0..60)
+        .map(|_| {
+            let e = EulerDeg {
+                roll: next() * 60.0 - 30.0,
+                pitch: next() * 60.0 - 30.0,
+                yaw: next() * 360.0,
+            };
+            let position = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.4;
+            DronePose {
+                position,
+                rotation: e.to_quat(),
+                euler_deg: e,
+                ..template.clone()
+            }
+        })
+        .collect();
+    let look = scene.looks.first().cloned();
+    scene.looks = look.map(|l| vec![l; 60]).unwrap_or_default();
+    scene
+}
+
+/// In a dense swarm every drone's unoccluded count, with and without MSAA,
+/// equals what it shows rendered alone: the drones that get no layer pass
+/// (nothing shown in front of them) as well as the ones that do.
+#[test]
+fn dense_swarm_unoccluded_counts_equal_each_drone_alone() {
+    let ctx = common::gpu();
+    let mut p = single_drone_preset();
+    p.render.resolution = Resolution::Custom {
+        width: 480,
+        height: 270,
+    };
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let mut renderer = maker.renderer(&ctx);
+    let scene = dense_swarm(&p);
+    for msaa in [4, 1] {
+        let vis = visibility::measure(&mut renderer, &scene, msaa, 1).expect("measure");
+        let (mut hidden, mut whole) = (0, 0);
+        for (i, v) in vis.iter().enumerate() {
+            let mut alone = scene.clone();
+            alone.drones = vec![scene.drones[i].clone()];
+            alone.looks = scene.looks.iter().skip(i).take(1).cloned().collect();
+            let a = visibility::measure(&mut renderer, &alone, msaa, 1).expect("alone")[0];
+            assert_eq!(
+                v.unoccluded_pixels, a.visible_pixels,
+                "msaa {msaa}, drone {i}"
+            );
+            assert!(v.visible_pixels <= v.unoccluded_pixels);
+            if v.visible_pixels < v.unoccluded_pixels {
+                hidden += 1;
+            } else if v.visible_pixels > 0 {
+                whole += 1;
+            }
+        }
+        assert!(
+            hidden >= 10 && whole >= 10,
+            "msaa {msaa}: {hidden} hidden, {whole} whole"
+        );
+    }
 }
 
 #[test]

@@ -20,8 +20,12 @@
 //! a shader (the mean of the samples, and the id samples side by side) into
 //! a compact atlas), and the collected readback: one reused buffer, pasted
 //! into the frame's buffer (which already holds the background: [`Painted`])
-//! and reduced to per-drone visibility on the CPU ([`IdCollect`]).
+//! and reduced to per-drone visibility on the CPU ([`IdCollect`]). With
+//! visibility (and no scenery) the overlap layers come after the main pass
+//! is read, in a plan and submission of their own (`layers.rs`), for only
+//! the drones that pass shows something in front of ([`ids::shows_front`]).
 
+mod layers;
 mod passes;
 
 use super::background::{BackgroundInputs, Backgrounds};
@@ -36,6 +40,7 @@ use super::targets::{FrameTargets, TargetLayouts};
 use super::visibility::Visibility;
 use super::{IdImage, RenderError, Renderer};
 use crate::scene::FrameScene;
+use layers::Layers;
 use passes::{PassInputs, RegionPasses};
 
 /// What [`Renderer::render_frame`] is asked for.
@@ -86,6 +91,14 @@ impl Painted {
         &self.rects
     }
 }
+
+/// Each drone's rect and whether drone `j` may hide drone `i` (`(j, i)`):
+/// what telling the drones that need a layer pass takes.
+type FrontCheck<'a> = (&'a [Option<Rect>], &'a dyn Fn(usize, usize) -> bool);
+
+/// A collected main pass: the frame (without its visibility), the id
+/// tallies, and the drones that need a layer pass (when asked).
+type Collected = (RenderedFrame, IdCollect, Option<Vec<bool>>);
 
 /// Long-lived state of region rendering, built on first use: the parts a
 /// frame is made of, each owning its things.
@@ -221,7 +234,14 @@ impl Renderer {
             regions: self.use_regions,
             scenery: scenery.is_some(),
         };
-        let plan = FramePlan::new(request, &boxes, &rects, &depths)?;
+        // Visibility without scenery: the main pass first, its ids then tell
+        // which drones need a layer pass ([`ids::shows_front`]).
+        let deferred = request.visibility && !request.scenery;
+        let plan = if deferred {
+            FramePlan::main_pass(request, &boxes, &rects, &depths)?
+        } else {
+            FramePlan::new(request, &boxes, &rects, &depths)?
+        };
         let under = || plan.passes.iter().flat_map(|p| &p.rects);
         if plan.request.color {
             state.targets[t]
@@ -243,19 +263,39 @@ impl Renderer {
             self.counts.ids += plan.passes.len() as u64;
         }
         let submitted = self.queue.submit([encoder.finish()]);
-        self.collect(state, t, &plan, submitted)
+        let may_hide = |j, i| regions::may_hide(&depths, j, i);
+        let front: Option<FrontCheck<'_>> = deferred.then_some((&rects[..], &may_hide));
+        let (mut frame, mut ids, alone) = self.collect(state, t, &plan, submitted, front)?;
+        if let Some(alone) = &alone {
+            let layers = Layers {
+                pipelines: p,
+                targets: t,
+                drones: (&boxes, &rects),
+                alone,
+            };
+            let mut with = self.pass_inputs();
+            let drawn = layers::measure_alone(&mut with, state, scene, &plan, &layers, &mut ids)?;
+            self.counts.ids += drawn;
+        }
+        let (visibility, pixel_hits) = ids.finish(alone.as_ref().unwrap_or(&plan.overlapping));
+        frame.visibility = plan.request.visibility.then_some(visibility);
+        frame.pixel_hits = pixel_hits;
+        Ok(frame)
     }
 
-    /// A planned frame's pixels and visibility, once `submitted` is done: the
-    /// frame's buffer (its background) with the read colour rects pasted in,
-    /// and the read ids reduced to each drone's visibility.
+    /// A planned frame's pixels and id tallies, once `submitted` is done:
+    /// the frame's buffer (its background) with the read colour rects
+    /// pasted in, and the read ids counted. With `front` (each drone's rect,
+    /// and whether one drone may hide another) also the drones whose
+    /// unoccluded counts need a layer pass ([`ids::shows_front`]).
     fn collect(
         &mut self,
         state: &RegionState,
         t: usize,
         plan: &FramePlan,
         submitted: wgpu::SubmissionIndex,
-    ) -> Result<RenderedFrame, RenderError> {
+        front: Option<FrontCheck<'_>>,
+    ) -> Result<Collected, RenderError> {
         let request = &plan.request;
         let width = request.size_px.0;
         let target = &state.targets[t];
@@ -273,6 +313,8 @@ impl Renderer {
         };
         let hits = request.visibility && self.keep_pixel_hits;
         let mut ids = IdCollect::new(plan.overlapping.len(), request.msaa, hits);
+        // Without reads (no drone in view) no drone needs a layer.
+        let mut alone = front.map(|_| vec![false; plan.overlapping.len()]);
         match &target.regions_readback {
             Some(buffer) if plan.readback_size > 0 => {
                 readback::read_mapped(
@@ -283,18 +325,30 @@ impl Renderer {
                     |bytes| {
                         readback::paste(bytes, &plan.color_reads, &mut rgba, width);
                         ids.add(bytes, &plan.id_reads);
+                        if let (Some((rects, may_hide)), Some(reads)) =
+                            (front, plan.id_reads.first())
+                        {
+                            let drones = (rects, &plan.overlapping[..]);
+                            alone = Some(ids::shows_front(
+                                bytes,
+                                reads,
+                                request.msaa,
+                                drones,
+                                may_hide,
+                            ));
+                        }
                     },
                 )?;
             }
             _ => readback::wait(&self.device, submitted)?,
         }
-        let (visibility, pixel_hits) = ids.finish(&plan.overlapping);
-        Ok(RenderedFrame {
+        let frame = RenderedFrame {
             rgba,
             painted,
-            visibility: request.visibility.then_some(visibility),
-            pixel_hits,
-        })
+            visibility: None,
+            pixel_hits: None,
+        };
+        Ok((frame, ids, alone))
     }
 
     /// Render the instance ids of the drones `include` accepts (all others

@@ -165,6 +165,21 @@ impl IdCollect {
         }
     }
 
+    /// Count the mapped `bytes` of `reads` (per pass) as what the drones
+    /// show alone: the layer passes of a plan of their own.
+    pub(super) fn add_alone(&mut self, bytes: &[u8], reads: &[Vec<Read>]) {
+        for read in reads.iter().flatten() {
+            let bytes = &bytes[read.offset as usize..];
+            ids::tally(
+                bytes,
+                read.row as usize,
+                &read.rect,
+                self.msaa,
+                &mut self.alone,
+            );
+        }
+    }
+
     /// Each drone's visibility (drones that overlap no other, `!overlapping[i]`,
     /// are alone in the main pass) and the pixel hits, when kept.
     pub(super) fn finish(self, overlapping: &[bool]) -> (Vec<Visibility>, Option<Vec<PixelHit>>) {

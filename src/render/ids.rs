@@ -13,6 +13,7 @@
 //! back with the picture's regions; without MSAA the id target itself is read
 //! back. [`tally`] then counts, on the CPU, each drone's pixels and its box.
 
+use super::readback::Read;
 use super::regions::Rect;
 
 /// Format of the id target.
@@ -114,6 +115,56 @@ pub(super) fn tally(bytes: &[u8], row: usize, rect: &Rect, samples: u32, tallies
             }
         }
     }
+}
+
+/// Which drones of `candidates` the main pass's ids (`reads` of `bytes`,
+/// laid out as in [`tally`]) show something in front of: drone `i` is
+/// `true` when a sample inside `rects[i]` shows a drone `j != i` that
+/// `may_hide(j, i)` (not wholly behind it), or when its ids are not there.
+///
+/// The others need no layer pass: a sample that a drone covers alone shows,
+/// in the main pass, its own fragment or one at least as near, of a drone
+/// not wholly behind it and inside its rect; none shows such a drone, so
+/// the main pass shows the drone at every sample it covers alone, and its
+/// unoccluded count is its visible count.
+pub(super) fn shows_front(
+    bytes: &[u8],
+    reads: &[Read],
+    samples: u32,
+    (rects, candidates): (&[Option<Rect>], &[bool]),
+    may_hide: &dyn Fn(usize, usize) -> bool,
+) -> Vec<bool> {
+    let n = rects.len();
+    let pixel = id_bytes_per_pixel(samples) as usize;
+    let front_in = |i: usize, r: &Rect, read: &Read| {
+        let Some(x) = read.rect.intersection(r) else {
+            return false;
+        };
+        (x.y0..x.y1).any(|y| {
+            let start = read.offset as usize
+                + (y - read.rect.y0) as usize * read.row as usize
+                + (x.x0 - read.rect.x0) as usize * pixel;
+            let Some(line) = bytes.get(start..start + x.width() as usize * pixel) else {
+                return true; // not read: measured alone to be sure
+            };
+            // The last id seen that cannot hide drone `i` (most runs repeat it).
+            let mut behind = 0;
+            line.chunks_exact(4).any(|s| {
+                let id = f32::from_le_bytes([s[0], s[1], s[2], s[3]]) as u32;
+                if id == 0 || id == behind || id as usize > n || id as usize == i + 1 {
+                    return false;
+                }
+                behind = id;
+                may_hide(id as usize - 1, i)
+            })
+        })
+    };
+    (0..n)
+        .map(|i| match (candidates.get(i), rects[i]) {
+            (Some(true), Some(r)) => reads.iter().any(|read| front_in(i, &r, read)),
+            _ => false,
+        })
+        .collect()
 }
 
 /// One drone seen at one pixel (plain data, [`super::visibility`]): each
@@ -249,6 +300,52 @@ mod tests {
             let n = hits.iter().filter(|h| h.drone == d as u32).count() as u64;
             assert_eq!(n, t.stats().pixels);
         }
+    }
+
+    #[test]
+    fn only_drones_shown_behind_another_in_their_rect_need_a_layer() {
+        // One read of a 4×1 rect at (0, 0), four samples a pixel: drone 1
+        // (id 1) whole at x 0, drone 2 at x 1, drone 3's samples at x 2
+        // with one of drone 1's, nothing at x 3.
+        let read = Read {
+            rect: Rect {
+                x0: 0,
+                y0: 0,
+                x1: 4,
+                y1: 1,
+            },
+            origin: (0, 0),
+            offset: 0,
+            row: 256,
+        };
+        let mut bytes = pixels(&[[1.0; 4], [2.0; 4], [3.0, 3.0, 1.0, 3.0], [0.0; 4]]);
+        bytes.resize(256, 0);
+        let rect = |x0, x1| {
+            Some(Rect {
+                x0,
+                y0: 0,
+                x1,
+                y1: 1,
+            })
+        };
+        let rects = [rect(0, 2), rect(1, 3), rect(2, 4), rect(3, 4)];
+        let candidates = [true, true, true, true];
+        // Anything may hide anything: drone 1's rect shows 2, drone 2's
+        // shows 1 and 3, drone 3's shows 1; drone 4's rect shows nothing.
+        let front = shows_front(&bytes, &[read], 4, (&rects, &candidates), &|_, _| true);
+        assert_eq!(front, [true, true, true, false]);
+        // Drone 1 is in front of every other one: only it hides anything.
+        let front = shows_front(&bytes, &[read], 4, (&rects, &candidates), &|j, _| j == 0);
+        assert_eq!(front, [false, true, true, false]);
+        // Not a candidate: never; a rect past the bytes read: always.
+        let front = shows_front(
+            &bytes[..16],
+            &[read],
+            4,
+            (&rects, &[false, true, true, true]),
+            &|j, _| j == 0,
+        );
+        assert_eq!(front, [false, true, true, true]);
     }
 
     #[test]

@@ -5,8 +5,9 @@
 //! decides the passes (the main pass, then one per overlap layer: drones
 //! whose boxes are apart, drawn alone for their unoccluded counts; a drone
 //! that only drones wholly behind it overlap is whole in the main pass and
-//! needs none), each
-//! pass's disjoint rects ([`regions::cover`]), where each rect is resolved
+//! needs none; or the main pass alone, [`FramePlan::main_pass`], whose ids
+//! then tell which drones need a layer, planned by [`FramePlan::layer_passes`]),
+//! each pass's disjoint rects ([`regions::cover`]), where each rect is resolved
 //! to in the atlas (MSAA: shelves as wide as the frame, [`regions::pack_shelves`])
 //! and where every read-back rect lands in the one readback buffer. The
 //! renderer then only encodes what the plan says and collects what it reads.
@@ -74,6 +75,71 @@ impl FramePlan {
         depths: &[Option<DepthRange>],
     ) -> Result<Self, RenderError> {
         let n = rects.len();
+        let (layers, overlapping) = if request.visibility {
+            let (layers, overlapping) = layers(boxes, depths, request)?;
+            (members(layers, &overlapping), overlapping)
+        } else {
+            (Vec::new(), vec![false; n])
+        };
+        Ok(Self::of(request, rects, Some(0..n), layers, overlapping))
+    }
+
+    /// The main pass alone, its layers left for [`FramePlan::layer_passes`]
+    /// once it is read: `overlapping` names the drones that may need one
+    /// (as [`FramePlan::new`]'s), of which the main pass's ids tell the
+    /// ones that do ([`super::ids::shows_front`]).
+    pub(super) fn main_pass(
+        request: PlanRequest,
+        boxes: &[Option<PixelBox>],
+        rects: &[Option<Rect>],
+        depths: &[Option<DepthRange>],
+    ) -> Result<Self, RenderError> {
+        let n = rects.len();
+        let overlapping = if request.visibility {
+            layers(boxes, depths, request)?.1
+        } else {
+            vec![false; n]
+        };
+        Ok(Self::of(
+            request,
+            rects,
+            Some(0..n),
+            Vec::new(),
+            overlapping,
+        ))
+    }
+
+    /// The overlap layers of the drones `alone` names, and only those, as
+    /// a plan of their own (ids only, no main pass): drones in one layer
+    /// are apart, so each layer shows each of its drones unoccluded.
+    pub(super) fn layer_passes(
+        request: PlanRequest,
+        boxes: &[Option<PixelBox>],
+        rects: &[Option<Rect>],
+        alone: &[bool],
+    ) -> Result<Self, RenderError> {
+        let request = PlanRequest {
+            color: false,
+            scenery: false,
+            ..request
+        };
+        let kept: Vec<Option<PixelBox>> = (boxes.iter().zip(alone))
+            .map(|(b, &a)| b.filter(|_| a))
+            .collect();
+        let (layers, _) = layers(&kept, &[], request)?;
+        let layers = members(layers, alone);
+        Ok(Self::of(request, rects, None, layers, alone.to_vec()))
+    }
+
+    /// The plan of a main pass over `main` (none: layers only), then the
+    /// `layers`, with their places and reads.
+    fn of(
+        request: PlanRequest,
+        rects: &[Option<Rect>],
+        main: Option<std::ops::Range<usize>>,
+        layers: Vec<Vec<usize>>,
+        overlapping: Vec<bool>,
+    ) -> Self {
         let (width, height) = request.size_px;
         let pass_of = |members: Vec<usize>| -> PassPlan {
             let (rects, drones) = if request.regions {
@@ -84,21 +150,17 @@ impl FramePlan {
             };
             PassPlan { rects, drones }
         };
-        let mut passes = vec![pass_of((0..n).collect())];
-        let overlapping = if request.visibility {
-            let (layers, overlapping) = layers(boxes, depths, request)?;
-            passes.extend(layers.into_iter().map(pass_of));
-            overlapping
-        } else {
-            vec![false; n]
-        };
+        let main = main.map(|all| pass_of(all.collect()));
+        let passes: Vec<PassPlan> = main
+            .into_iter()
+            .chain(layers.into_iter().map(pass_of))
+            .collect();
         let (places, atlas_rows) = places(&passes, request);
         // The main pass's colour, then the ids of the main pass and of each layer.
         let mut size = 0u64;
-        let color_reads = if request.color {
-            plan_reads(&passes[0].rects, &places[0], 4, &mut size)
-        } else {
-            Vec::new()
+        let color_reads = match (request.color, passes.first(), places.first()) {
+            (true, Some(main), Some(places)) => plan_reads(&main.rects, places, 4, &mut size),
+            _ => Vec::new(),
         };
         let id_reads = if request.visibility {
             // Each pass's id rects, as many bytes a pixel as its id samples.
@@ -109,7 +171,7 @@ impl FramePlan {
         } else {
             Vec::new()
         };
-        Ok(Self {
+        Self {
             request,
             passes,
             overlapping,
@@ -118,7 +180,7 @@ impl FramePlan {
             color_reads,
             id_reads,
             readback_size: size,
-        })
+        }
     }
 
     /// Whether the passes are resolved into the atlas (MSAA) and read from there.
@@ -154,9 +216,8 @@ impl FramePlan {
 }
 
 /// The overlap layers of the drones whose (clipped) boxes are in the frame,
-/// each holding only drones that another overlapping drone may hide (or
-/// every drone, with scenery), and whether each drone's unoccluded count
-/// comes from them.
+/// and whether each drone may be hidden by another (every drone in view,
+/// with scenery): whether its unoccluded count needs a layer pass.
 fn layers(
     boxes: &[Option<PixelBox>],
     depths: &[Option<DepthRange>],
@@ -174,16 +235,16 @@ fn layers(
     if request.scenery {
         overlapping = clipped.iter().map(Option::is_some).collect();
     }
-    let layers = layers
-        .into_iter()
-        .map(|l| {
-            l.into_iter()
-                .filter(|&i| overlapping[i])
-                .collect::<Vec<_>>()
-        })
-        .filter(|l| !l.is_empty())
-        .collect();
     Ok((layers, overlapping))
+}
+
+/// `layers` with only the drones `keep` names, empty layers dropped.
+fn members(layers: Vec<Vec<usize>>, keep: &[bool]) -> Vec<Vec<usize>> {
+    layers
+        .into_iter()
+        .map(|l| l.into_iter().filter(|&i| keep[i]).collect::<Vec<_>>())
+        .filter(|l| !l.is_empty())
+        .collect()
 }
 
 /// Each pass's rects' places in the texture read, and the atlas rows used:
@@ -440,6 +501,54 @@ mod tests {
             }))
             .collect();
             assert_eq!(first, starts);
+        }
+    }
+
+    #[test]
+    fn layer_passes_hold_each_named_drone_once_apart_and_nothing_else() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let req = request(4);
+        let size = req.size_px;
+        let boxes = random_boxes(&mut rng, 40, size);
+        let rects = drones(&boxes, size);
+        let main = FramePlan::main_pass(req, &boxes, &rects, &[]).expect("plan");
+        assert_eq!(main.passes.len(), 1, "the main pass alone");
+        assert_eq!(
+            main.overlapping,
+            FramePlan::new(req, &boxes, &rects, &[])
+                .expect("plan")
+                .overlapping
+        );
+        // Every other candidate named, as if the main pass showed a drone in front of it.
+        let alone: Vec<bool> = (main.overlapping.iter().enumerate())
+            .map(|(i, &o)| o && i % 2 == 0)
+            .collect();
+        assert!(alone.iter().filter(|&&a| a).count() >= 5);
+        let plan = FramePlan::layer_passes(req, &boxes, &rects, &alone).expect("plan");
+        assert!(!plan.request.color && plan.color_reads.is_empty());
+        assert_eq!(plan.id_reads.len(), plan.passes.len());
+        let mut seen: Vec<usize> = plan.passes.iter().flat_map(|p| p.drones.clone()).collect();
+        seen.sort_unstable();
+        let named: Vec<usize> = (0..40)
+            .filter(|&i| alone[i] && rects[i].is_some())
+            .collect();
+        assert_eq!(seen, named, "each named drone in one layer, no other drone");
+        for pass in &plan.passes {
+            for (k, &a) in pass.drones.iter().enumerate() {
+                for &b in &pass.drones[k + 1..] {
+                    // Apart as the layers see them: clipped to the frame, 1 px padded.
+                    let (w, h) = (f64::from(size.0), f64::from(size.1));
+                    let (ba, bb) = (
+                        boxes[a].expect("box").clip(w, h),
+                        boxes[b].expect("box").clip(w, h),
+                    );
+                    let apart = ba.x1 + 1.0 <= bb.x0 - 1.0
+                        || bb.x1 + 1.0 <= ba.x0 - 1.0
+                        || ba.y1 + 1.0 <= bb.y0 - 1.0
+                        || bb.y1 + 1.0 <= ba.y0 - 1.0;
+                    assert!(apart, "{a} and {b} share a layer");
+                }
+            }
         }
     }
 

@@ -50,6 +50,15 @@ impl Rect {
     pub fn overlaps(&self, other: &Self) -> bool {
         self.x0 < other.x1 && other.x0 < self.x1 && self.y0 < other.y1 && other.y0 < self.y1
     }
+    /// The pixels both hold (None: none).
+    pub fn intersection(&self, other: &Self) -> Option<Self> {
+        self.overlaps(other).then(|| Self {
+            x0: self.x0.max(other.x0),
+            y0: self.y0.max(other.y0),
+            x1: self.x1.min(other.x1),
+            y1: self.y1.min(other.y1),
+        })
+    }
     fn union(&self, other: &Self) -> Self {
         Self {
             x0: self.x0.min(other.x0),
@@ -111,6 +120,16 @@ impl DepthRange {
     /// a margin no rounding of the depth test can cross.
     pub fn behind(&self, front: &DepthRange) -> bool {
         front.near > 0.0 && front.far.is_finite() && self.near > front.far * (1.0 + DEPTH_MARGIN)
+    }
+}
+
+/// Whether drone `j` may hide part of drone `i`: unless `j` is wholly
+/// behind `i` by their `depths` (missing or `None`: unknown, so it may).
+pub fn may_hide(depths: &[Option<DepthRange>], j: usize, i: usize) -> bool {
+    let depth = |k: usize| depths.get(k).copied().flatten();
+    match (depth(j), depth(i)) {
+        (Some(dj), Some(di)) => !dj.behind(&di),
+        _ => true,
     }
 }
 

@@ -7,9 +7,11 @@
 //! samples shows, so a thin leg that colours a pixel through one MSAA sample
 //! is inside the box, and a sliver that colours no pixel is not. A drone
 //! whose (padded) amodal box overlaps no other drone's cannot be occluded, so
-//! its unoccluded count is its visible count; the others are split into
-//! layers of mutually non-overlapping drones ([`overlap_layers`]) and each
-//! layer is drawn alone. A sparse swarm costs no extra pass.
+//! its unoccluded count is its visible count, and neither is a drone whose
+//! rect shows, in the main pass, no drone that may be in front of it; the
+//! others are split into layers of mutually non-overlapping drones
+//! ([`overlap_layers`]) and each layer is drawn alone. A sparse swarm costs
+//! no extra pass.
 //!
 //! What is measured is plain data ([`Visibility`], [`PixelHit`]): the labels
 //! are made from it (`annotate`, which names these types), the renderer
@@ -154,12 +156,7 @@ pub fn occlusion_layers(
     boxes: &[Option<PixelBox>],
     depths: &[Option<DepthRange>],
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
-    let depth = |i: usize| depths.get(i).copied().flatten();
-    // Drone `j` may hide part of drone `i` unless `j` is wholly behind `i`.
-    let may_hide = |j: usize, i: usize| match (depth(j), depth(i)) {
-        (Some(dj), Some(di)) => !dj.behind(&di),
-        _ => true,
-    };
+    let may_hide = |j: usize, i: usize| super::regions::may_hide(depths, j, i);
     const TILE: f64 = 64.0;
     let mut tests: u64 = 0;
     let pad = |b: &PixelBox| PixelBox {
