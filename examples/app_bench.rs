@@ -16,7 +16,8 @@
 //! - `start PRESET`: the time from the process's start to the window's first
 //!   pass, and to the preset's first picture on screen (the start of the pass after
 //!   the one that drew it), with the preview thread's render time of that picture and
-//!   the window passes up to it with their repaint causes (it asks for no pass itself).
+//!   the window passes up to it with their repaint causes (it asks for no pass itself),
+//!   and each pass's start with its causes and the input events it saw.
 //!
 //! Run (lavapipe, no display):
 //! `xvfb-run -s "-screen 0 1920x1200x24" target/release/examples/app_bench latency presets/quickstart.ron`
@@ -61,6 +62,8 @@ struct Bench {
     drawn: bool,
     /// Start: when the first pass began.
     first_pass: Option<Instant>,
+    /// Start: each pass's start (ms from the process's start), causes and input events.
+    pass_log: Vec<String>,
     /// Latency: edits made so far.
     edits: usize,
     done: bool,
@@ -167,14 +170,25 @@ impl Bench {
         }
         let first_pass = *self.first_pass.get_or_insert(pass);
         self.passes += 1;
+        let mut these = std::collections::BTreeSet::new();
         for cause in ctx.repaint_causes() {
             *self.causes.entry(cause.to_string()).or_default() += 1;
+            these.insert(short_cause(&cause.to_string()));
         }
+        let at_ms = pass.duration_since(t0).as_secs_f64() * 1e3;
+        let mut these: Vec<String> = these.into_iter().collect();
+        ctx.input(|i| {
+            for e in &i.raw.events {
+                these.push(format!("{e:?}").chars().take(60).collect());
+            }
+        });
+        (self.pass_log).push(format!("{at_ms:.0} ms [{}]", these.join(", ")));
         if self.drawn {
             println!(
                 "start: {} window passes up to the picture on screen, repaint causes: {:?}",
                 self.passes, self.causes
             );
+            println!("start: the passes: {}", self.pass_log.join("; "));
             let ms = |t: Instant| t.duration_since(t0).as_secs_f64() * 1e3;
             let [w, h] = self.app.preview_key().map_or([0, 0], |k| k.size_px);
             println!(
@@ -217,6 +231,12 @@ impl eframe::App for Bench {
             ctx.request_repaint_after(std::time::Duration::from_millis(500));
         }
     }
+}
+
+/// A repaint cause as `file:line`, the file without its folders.
+fn short_cause(cause: &str) -> String {
+    let cause = cause.trim();
+    cause.rsplit('/').next().unwrap_or(cause).to_owned()
 }
 
 fn main() -> eframe::Result<()> {
@@ -274,6 +294,7 @@ fn main() -> eframe::Result<()> {
                 edits: 0,
                 drawn: false,
                 first_pass: None,
+                pass_log: Vec::new(),
                 done: false,
             }))
         }),
