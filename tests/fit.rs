@@ -92,15 +92,13 @@ fn the_camera_estimate_recovers_a_known_camera() {
     let footage = camera::measure(&frames);
     let e = &footage.estimate;
     eprintln!(
-        "measured noise {:?} blur {:?}; estimated {e:?}",
-        footage.measured.noise_sigma, footage.measured.blur_sigma_px
+        "measured sky noise {:?} blur {:?}; estimated {e:?}",
+        footage.measured.sky_noise_sigma, footage.measured.blur_sigma_px
     );
     assert_eq!(e.jpeg_quality, Some(q), "JPEG quality from the tables");
     let r = e.read_noise_levels.expect("a noise estimate");
-    // Honest tolerance: the estimate reads 15–18 % high at JPEG 80–90 (6 % at 95; see
-    // docs/realism.md, "Fitting to your footage"), so 20 % for the read noise.
     assert!(
-        (r / read - 1.0).abs() < 0.20,
+        (r / read - 1.0).abs() < 0.10,
         "read noise {r} against {read}"
     );
     let s = e.psf_sigma_px.expect("a blur estimate");

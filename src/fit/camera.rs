@@ -10,24 +10,32 @@
 //! parameters (`camera_model.read_noise_levels`, `psf`, `jpeg_quality`). The JPEG quality
 //! is read from the files. Noise and blur are measured *after* the camera's processing
 //! and compression, so they are inverted through the camera model's own forward path: a
-//! test picture at the footage's median sky colour (flat for the noise; point-sampled
-//! steps of ±60 levels for the blur) goes through [`crate::sensor::apply`] with a trial
-//! read noise or PSF, is written as the batch writes a frame
-//! ([`crate::write::encode_image`] at the footage's JPEG quality, PNG footage: none), is
-//! decoded and measured by the same statistic; the trial value is bisected until the
-//! measurement equals the footage's median. So "σ 3 linear levels under JPEG 80" is what
-//! a preset must set to write frames whose sky measures like the footage's.
+//! test picture goes through [`crate::sensor::apply`] with a trial read noise or PSF, is
+//! written as the batch writes a frame ([`crate::write::encode_image`] at the footage's
+//! JPEG quality, PNG footage: none), is decoded and measured by the same statistic; the
+//! trial value is bisected until the measurement equals the footage's median. So "σ 3
+//! linear levels under JPEG 80" is what a preset must set to write frames whose sky
+//! measures like the footage's.
+//!
+//! The noise's test picture is the footage's own sky ([`super::sky`]): flat tiles of its
+//! upper half, each as its least-squares plane per channel, in a mosaic; the σ aimed at
+//! is that of the same tiles as the footage has them, in the same mosaic. (What JPEG
+//! leaves of a noise depends on the signal under it: one gently sloped sky colour kept
+//! less of it than the footage's skies and read σ 3 at JPEG 80 as about 3.5.) The blur's
+//! test picture is point-sampled steps of ±60 levels over the footage's median sky
+//! colour.
 
 use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::input::RealFrame;
+use super::sky::{self, NoisePicture, SKY_TILES, SkyTile};
 use crate::gap::measure::{self, Luma};
 use crate::preset::ImageFormat;
 use crate::preset::camera_model::{CameraModel, Psf};
 
-/// Side of the test pictures the forward model runs on.
+/// Side of the blur's test picture.
 const PATCH: u32 = 192;
 
 /// Median and quartiles of `n` values.
@@ -84,9 +92,9 @@ pub struct FrameFigures {
 #[derive(Clone, Debug, Serialize)]
 pub struct Measured {
     pub noise_sigma: Option<Quartiles>,
-    /// The same on the upper half alone, where `sky_rgb` is measured: what the camera
-    /// estimate inverts (the lower half's ground is darker, and the sRGB curve gives a
-    /// read noise more levels there).
+    /// The same on the upper half alone, where `sky_rgb` and the noise estimate's tiles
+    /// are measured (the lower half's ground is darker, and the sRGB curve gives a read
+    /// noise more levels there).
     pub sky_noise_sigma: Option<Quartiles>,
     pub highpass_rms: Option<Quartiles>,
     pub blur_sigma_px: Option<Quartiles>,
@@ -108,6 +116,9 @@ pub struct Measured {
 /// The footage's camera as camera-model parameters (see the module docs).
 #[derive(Clone, Debug, Serialize)]
 pub struct CameraEstimate {
+    /// The flat-sky noise σ the read noise is inverted to: the noise test picture's tiles
+    /// as the footage has them ([`sky::footage_sigma`]).
+    pub sky_noise_sigma: Option<f64>,
     /// Read noise σ, linear 8-bit levels, that writes the footage's sky noise.
     pub read_noise_levels: Option<f64>,
     /// Gaussian PSF σ, pixels, that writes the footage's edge blur.
@@ -130,6 +141,9 @@ pub struct Footage {
     pub measured: Measured,
     pub estimate: CameraEstimate,
     pub per_frame: Vec<FrameFigures>,
+    /// The test picture the noise estimate ran on (not written).
+    #[serde(skip)]
+    pub noise_picture: NoisePicture,
 }
 
 /// Per-frame results of the measuring pass.
@@ -138,10 +152,14 @@ struct FramePass {
     sky_rgb: Option<[f32; 3]>,
     /// The flat-sky noise σ of the upper half alone (the tiles `sky_rgb` is measured on).
     sky_noise: Option<f32>,
+    /// At most `tile_cap` (evenly spaced) of the flat tiles of the upper half.
+    sky_tiles: Vec<SkyTile>,
 }
 
 /// Measures every frame (in parallel, collected in order) and estimates the camera.
 pub fn measure(frames: &[RealFrame]) -> Footage {
+    // Enough tiles per frame for the noise's test picture, and no more held.
+    let tile_cap = (SKY_TILES * SKY_TILES).div_ceil(frames.len().max(1));
     let passes: Vec<FramePass> = frames
         .par_iter()
         .map(|f| {
@@ -150,11 +168,12 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             let sky_rgb = measure::flat_sky(&f.rgb, &l, &f.boxes).sky_rgb;
             let (w, h) = f.rgb.dimensions();
             let top = image::imageops::crop_imm(&f.rgb, 0, 0, w, h / 2).to_image();
-            let sky_noise = measure::flat_sky(&top, &Luma::from_rgb(&top), &f.boxes).noise_sigma;
+            let top_sky = measure::flat_sky(&top, &Luma::from_rgb(&top), &f.boxes);
             FramePass {
                 stats,
                 sky_rgb,
-                sky_noise,
+                sky_noise: top_sky.noise_sigma,
+                sky_tiles: sky::sample(&top, &top_sky.origins, tile_cap),
             }
         })
         .collect();
@@ -206,7 +225,13 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
                 .collect::<Vec<_>>(),
         ),
     };
-    let estimate = estimate_camera(&measured);
+    let tiles: Vec<SkyTile> = passes
+        .iter()
+        .flat_map(|p| p.sky_tiles.iter().cloned())
+        .collect();
+    let noise_picture = NoisePicture::of(&tiles)
+        .unwrap_or_else(|| NoisePicture::gradient(measured.sky_rgb.map_or([128; 3], to_u8), PATCH));
+    let estimate = estimate_camera(&measured, &noise_picture, sky::footage_sigma(&tiles));
     let per_frame = frames
         .iter()
         .zip(&passes)
@@ -233,7 +258,13 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
         measured,
         estimate,
         per_frame,
+        noise_picture,
     }
+}
+
+/// An sRGB colour rounded to 8 bits.
+fn to_u8(c: [f64; 3]) -> [u8; 3] {
+    c.map(|v| v.round().clamp(0.0, 255.0) as u8)
 }
 
 /// The frame size most frames have; ties go to the larger area, then the wider.
@@ -254,19 +285,23 @@ fn common_size(frames: &[RealFrame]) -> (u32, u32) {
     best.0
 }
 
-/// The camera that writes the measured statistics (module docs).
-pub fn estimate_camera(m: &Measured) -> CameraEstimate {
-    let sky = m
-        .sky_rgb
-        .map_or([128u8; 3], |c| c.map(|v| v.round().clamp(0.0, 255.0) as u8));
+/// The camera that writes the measured statistics (module docs): the read noise whose
+/// `picture` measures `sky_noise` ([`sky::footage_sigma`]).
+pub fn estimate_camera(
+    m: &Measured,
+    picture: &NoisePicture,
+    sky_noise: Option<f64>,
+) -> CameraEstimate {
+    let sky = m.sky_rgb.map_or([128u8; 3], to_u8);
     let q = m
         .jpeg_quality
         .map(|j| j.median.round().clamp(1.0, 100.0) as u8);
-    let read = m.noise_sigma.and_then(|n| invert_noise(sky, q, n.median));
+    let read = sky_noise.and_then(|n| invert_noise(picture, q, n));
     let psf = m
         .blur_sigma_px
         .and_then(|b| invert_blur(sky, q, read.unwrap_or(0.0), b.median));
     CameraEstimate {
+        sky_noise_sigma: sky_noise,
         read_noise_levels: read,
         psf_sigma_px: psf,
         jpeg_quality: q,
@@ -289,13 +324,13 @@ fn trial_model(read: f64, psf: f64) -> CameraModel {
     }
 }
 
-/// `rgba` (PATCH²) through the camera model and the writer, decoded again.
-fn through(rgba: &[u8], model: &CameraModel, q: Option<u8>) -> RgbImage {
+/// `rgba` (`side`²) through the camera model and the writer, decoded again.
+fn through(rgba: &[u8], side: u32, model: &CameraModel, q: Option<u8>) -> RgbImage {
     let draw = crate::sensor::draw(model, 1, 0);
-    let out = crate::sensor::apply(rgba, PATCH, PATCH, &draw);
+    let out = crate::sensor::apply(rgba, side, side, &draw);
     if let Some(quality) = q
         && let Ok(bytes) =
-            crate::write::encode_image(&out, PATCH, PATCH, ImageFormat::Jpeg { quality })
+            crate::write::encode_image(&out, side, side, ImageFormat::Jpeg { quality })
         && let Ok(img) = image::load_from_memory(&bytes)
     {
         return img.to_rgb8();
@@ -304,22 +339,7 @@ fn through(rgba: &[u8], model: &CameraModel, q: Option<u8>) -> RgbImage {
         .chunks_exact(4)
         .flat_map(|p| [p[0], p[1], p[2]])
         .collect();
-    RgbImage::from_raw(PATCH, PATCH, rgb).unwrap_or_else(|| RgbImage::new(PATCH, PATCH))
-}
-
-/// The sky colour with a gentle gradient (0.04 levels/px down, 0.02 across, as daylight
-/// skies have), so the 8-bit steps of a smooth sky are in the forward model too.
-fn flat_patch(sky: [u8; 3]) -> Vec<u8> {
-    let mut v = Vec::with_capacity((PATCH * PATCH * 4) as usize);
-    for y in 0..PATCH {
-        for x in 0..PATCH {
-            let d = 0.04 * (f64::from(y) - f64::from(PATCH) / 2.0)
-                + 0.02 * (f64::from(x) - f64::from(PATCH) / 2.0);
-            let c = sky.map(|c| (f64::from(c) + d).round().clamp(0.0, 255.0) as u8);
-            v.extend_from_slice(&[c[0], c[1], c[2], 255]);
-        }
-    }
-    v
+    RgbImage::from_raw(side, side, rgb).unwrap_or_else(|| RgbImage::new(side, side))
 }
 
 /// Point-sampled squares of ±60 levels (darker on a bright sky) over the sky colour.
@@ -339,9 +359,9 @@ fn step_patch(sky: [u8; 3]) -> Vec<u8> {
     v
 }
 
-/// The flat-sky noise σ a read noise of `read` linear levels writes at `sky` under `q`.
-pub fn noise_after(sky: [u8; 3], q: Option<u8>, read: f64) -> f64 {
-    let img = through(&flat_patch(sky), &trial_model(read, 0.0), q);
+/// The flat-sky noise σ a read noise of `read` linear levels writes on `picture` under `q`.
+pub fn noise_after(picture: &NoisePicture, q: Option<u8>, read: f64) -> f64 {
+    let img = through(&picture.rgba, picture.side, &trial_model(read, 0.0), q);
     let l = Luma::from_rgb(&img);
     measure::flat_sky(&img, &l, &[])
         .noise_sigma
@@ -350,7 +370,7 @@ pub fn noise_after(sky: [u8; 3], q: Option<u8>, read: f64) -> f64 {
 
 /// The blur σ a PSF of `psf` px writes (with read noise `read`) at `sky` under `q`.
 pub fn blur_after(sky: [u8; 3], q: Option<u8>, read: f64, psf: f64) -> f64 {
-    let img = through(&step_patch(sky), &trial_model(read, psf), q);
+    let img = through(&step_patch(sky), PATCH, &trial_model(read, psf), q);
     let l = Luma::from_rgb(&img);
     measure::blur_sigma(measure::edge_sigmas(&l, &l.to_gray())).map_or(0.0, f64::from)
 }
@@ -380,9 +400,9 @@ pub fn bisect(f: impl Fn(f64) -> f64, target: f64, max: f64) -> Option<f64> {
     Some(0.5 * (lo + hi))
 }
 
-/// Read noise (linear levels) whose written sky measures `sigma`.
-pub fn invert_noise(sky: [u8; 3], q: Option<u8>, sigma: f64) -> Option<f64> {
-    bisect(|r| noise_after(sky, q, r), sigma, 64.0)
+/// Read noise (linear levels) whose written `picture` measures `sigma`.
+pub fn invert_noise(picture: &NoisePicture, q: Option<u8>, sigma: f64) -> Option<f64> {
+    bisect(|r| noise_after(picture, q, r), sigma, 64.0)
 }
 
 /// PSF σ (px) whose written edges measure `blur`, under read noise `read`.

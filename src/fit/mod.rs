@@ -6,7 +6,8 @@
 //!    named [`FitError`] before anything is written;
 //! 2. [`camera`] measures the footage with the domain-gap report's statistics
 //!    ([`crate::gap::measure_frame`]) and estimates its camera (sensor noise, PSF, JPEG
-//!    quality) by inverting the camera model's own forward path on the final bytes;
+//!    quality) by inverting the camera model's own forward path on the final bytes,
+//!    the noise on a test picture of the footage's own sky ([`sky`]);
 //! 3. [`plates`] turns each frame into a backplate with its labelled drones removed
 //!    (filled by diffusion from the ring around each box, with the ring's own noise),
 //!    written to `OUT/plates/` with a `.plate.ron` sidecar;
@@ -25,6 +26,7 @@ pub mod input;
 pub mod plates;
 pub mod preset_out;
 pub mod search;
+pub mod sky;
 
 use std::path::{Path, PathBuf};
 

@@ -132,7 +132,7 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
     let q = cm
         .jpeg_quality
         .map(|(a, b)| ((u16::from(a) + u16::from(b)) / 2) as u8);
-    let sky = footage.estimate.sky_rgb;
+    let sky = &footage.noise_picture;
     if let Some((v, t, m)) = stat(report, "noise_sigma")
         && outside(v)
     {

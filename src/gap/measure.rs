@@ -141,7 +141,14 @@ pub fn quantised_sigma(hp: &[f32]) -> Option<f32> {
     let zeros = hp.iter().filter(|&&v| v == 0.0).count();
     let p0 = zeros as f64 / hp.len() as f64;
     if p0 <= 0.5 {
-        return robust_sigma(hp);
+        // Deviations from the middle value itself, a grid point, stay on the grid, so
+        // their grouped median interpolates; from the interpolated median (between grid
+        // points) they would fall just beside it and the MAD would snap to k/2 levels.
+        let mut v = hp.to_vec();
+        let mid = v.len() / 2;
+        let (_, &mut centre, _) = v.select_nth_unstable_by(mid, f32::total_cmp);
+        let mut dev: Vec<f32> = hp.iter().map(|&a| (a - centre).abs()).collect();
+        return grouped_median(&mut dev, 0.0).map(|m| 1.4826 * m);
     }
     if zeros == hp.len() {
         return Some(0.0);
@@ -163,14 +170,14 @@ pub fn quantised_sigma(hp: &[f32]) -> Option<f32> {
 /// The flat-sky measurement of a frame.
 #[derive(Clone, Debug, Default)]
 pub struct FlatSky {
-    /// Tiles that passed the flatness test.
-    pub tiles: usize,
-    /// 1.4826·MAD of the high-pass over every flat tile.
+    /// σ of the high-pass over every flat tile ([`quantised_sigma`]).
     pub noise_sigma: Option<f32>,
     /// RMS of the same high-pass values.
     pub highpass_rms: Option<f32>,
     /// Mean colour (R, G, B) of the flat tiles in the upper half of the frame.
     pub sky_rgb: Option<[f32; 3]>,
+    /// The top-left corners (x, y) of the tiles that passed the flatness test, row by row.
+    pub origins: Vec<(u32, u32)>,
 }
 
 /// The 2×2 high-pass `(a − b − c + d)/2` over a tile of the 8-bit luminance plane (Y
@@ -282,9 +289,9 @@ fn partition(n: usize, pred: impl Fn(usize) -> bool) -> usize {
 pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
     let mut all = Vec::new();
     let mut hp = Vec::with_capacity(TILE_PX * TILE_PX);
-    let mut tiles = 0;
     let mut sky = [0f64; 3];
     let mut sky_n = 0u64;
+    let mut origins = Vec::new();
     let (tiles_x, tiles_y) = (l.width / TILE_PX, l.height / TILE_PX);
     let near = tiles_near_boxes(tiles_x, tiles_y, boxes);
     for ty in 0..tiles_y {
@@ -298,7 +305,7 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
             if !tile_is_flat(l, x0, y0, &hp) {
                 continue;
             }
-            tiles += 1;
+            origins.push((x0 as u32, y0 as u32));
             all.extend_from_slice(&hp);
             if y0 + TILE_PX / 2 < l.height / 2 {
                 for y in y0..y0 + TILE_PX {
@@ -313,8 +320,9 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
             }
         }
     }
+    let flat_tiles = origins.len();
     let mut out = FlatSky {
-        tiles,
+        origins,
         ..FlatSky::default()
     };
     if sky_n > 0 {
@@ -325,7 +333,7 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
             (sky[2] / n) as f32,
         ]);
     }
-    if tiles >= MIN_FLAT_TILES {
+    if flat_tiles >= MIN_FLAT_TILES {
         out.noise_sigma = quantised_sigma(&all);
         let ss: f64 = all.iter().map(|&v| f64::from(v) * f64::from(v)).sum();
         out.highpass_rms = Some((ss / all.len() as f64).sqrt() as f32);

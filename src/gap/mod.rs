@@ -109,7 +109,7 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
     FrameStats {
         width: rgb.width(),
         height: rgb.height(),
-        flat_tiles: flat.tiles,
+        flat_tiles: flat.origins.len(),
         noise_sigma: flat.noise_sigma,
         highpass_rms: flat.highpass_rms,
         gradient_energy: measure::gradient_energy(&g540),
