@@ -30,6 +30,10 @@
 //! pixels_per_metre` pixels apart (Hausdorff distance, either direction);
 //! [`pick`] keeps that within the budget. The tests measure it on rasterised
 //! silhouettes ([`SilhouetteFrame::error_px`]).
+//!
+//! Here: the levels and [`pick`]; `hausdorff`: the error bound and the
+//! surface BVH it queries; `queue`: the levels handed to the bounding
+//! threads; `silhouette`: the tests' silhouette metric.
 
 use std::collections::BTreeMap;
 use std::mem::size_of;
