@@ -1,5 +1,5 @@
 //! Unit tests of the sky's reduced-resolution choice.
-use super::reduced_scale;
+use super::image::reduced_scale;
 
 /// The focal length (pixels) of a `height`-pixel frame with a vertical field of view of `fov_deg`.
 fn focal(height: u32, fov_deg: f32) -> f32 {
@@ -129,7 +129,7 @@ fn sky_texels_convert_to_half_floats_as_one_at_a_time() {
         1.000_976_6,
     ];
     rgb[..specials.len()].copy_from_slice(&specials);
-    let got = super::f16_rgba(&rgb);
+    let got = super::upload::f16_rgba(&rgb);
     let want: Vec<half::f16> = (rgb.chunks_exact(3))
         .flat_map(|p| [p[0], p[1], p[2], 1.0])
         .map(half::f16::from_f32)

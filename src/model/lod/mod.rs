@@ -1,0 +1,406 @@
+//! Level of detail: a chain of simplified index buffers per model, and the
+//! rule that picks one for a drone from its projected size.
+//!
+//! [`build_lods`] runs once per model at load. Level 0 is the model's own
+//! mesh; each further level asks meshoptimizer (the `meshopt` crate) for 70 %
+//! of the triangles of the level before, simplifying every draw range apart
+//! so each triangle keeps its texture, and the levels that [`pick`] would
+//! never choose (more triangles than a coarser level of no larger error) are
+//! dropped once their error bounds are known. Levels are index buffers into the model's
+//! one vertex buffer, so the GPU keeps a single vertex buffer per model and
+//! a level is an index range plus its draw ranges.
+//!
+//! **Errors.** meshoptimizer reports `result_error`, the square root of the
+//! largest quadric error of its collapses: for each collapsed vertex, the
+//! weighted mean squared distance to the planes of the original triangles
+//! merged into it (weights from triangle areas and border edges), or for a
+//! pruned component the radius of its vertices around their mean. By
+//! default it is relative to the extent of the vertex buffer passed in (the
+//! largest side of the axis-aligned box of *all* its vertices, used or not;
+//! `meshopt::simplify_scale`); with `SimplifyOptions::ErrorAbsolute`, used
+//! here, it is in the positions' own units, i.e. model units (fractions of
+//! the largest span, since models are normalised to a span of 1). It is an
+//! estimate, not a bound: on the built-in models the silhouette error of a
+//! level measured up to 12× its `result_error` (pruned rotors, flattened
+//! thin parts). So [`Lod::error`] is not meshoptimizer's number but an upper
+//! bound of the symmetric Hausdorff distance between the level's surface and
+//! the full mesh's, computed by sampling (see `hausdorff::one_sided_worst`). An
+//! orthographic projection moves no two points further apart than they are,
+//! so the silhouettes of the two surfaces are at most `error · size_m ·
+//! pixels_per_metre` pixels apart (Hausdorff distance, either direction);
+//! [`pick`] keeps that within the budget. The tests measure it on rasterised
+//! silhouettes ([`SilhouetteFrame::error_px`]).
+//!
+//! Here: the levels and [`pick`]; `hausdorff`: the error bound and the
+//! surface BVH it queries; `queue`: the levels handed to the bounding
+//! threads; `silhouette`: the tests' silhouette metric.
+
+use std::collections::BTreeMap;
+use std::mem::size_of;
+
+use glam::DVec3;
+use meshopt::{SimplifyOptions, SimplifyVertex, VertexDataAdapter};
+
+use crate::model::{CpuModel, DrawRange, Vertex};
+
+mod hausdorff;
+mod queue;
+mod silhouette;
+
+use hausdorff::{Surface, hausdorff_bound};
+use queue::{FinishOnDrop, Queue};
+pub use silhouette::SilhouetteFrame;
+
+/// One level of detail: an index buffer into the model's own vertex buffer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lod {
+    /// Triangle list into `CpuModel::vertices`, grouped like `draws`.
+    pub indices: Vec<u32>,
+    /// The index ranges of `indices` and the texture each is drawn with.
+    pub draws: Vec<DrawRange>,
+    /// Upper bound of the Hausdorff distance between this level's surface and
+    /// the full mesh's, in model units (fractions of the model's largest
+    /// span); 0 for level 0. Times `size_m · pixels_per_metre` it bounds the
+    /// silhouette error in pixels.
+    pub error: f32,
+}
+
+impl Lod {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// Why a model's LODs cannot be built: its buffers are inconsistent.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum LodError {
+    #[error("model {model}: {len} indices are not a whole number of triangles")]
+    NotTriangles { model: String, len: usize },
+    #[error("model {model}: index {index} is outside its {vertices} vertices")]
+    IndexOutOfRange {
+        model: String,
+        index: u32,
+        vertices: usize,
+    },
+    #[error(
+        "model {model}: draw range {start}..{end} is not whole triangles within its {len} indices"
+    )]
+    BadDrawRange {
+        model: String,
+        start: u32,
+        end: u32,
+        len: usize,
+    },
+    #[error("model {model}: vertex {vertex} has a position that is not finite")]
+    NotFinite { model: String, vertex: usize },
+    #[error("model {model}: meshopt refused the vertex buffer: {reason}")]
+    Meshopt { model: String, reason: String },
+}
+
+/// A level stops the chain once it has this many triangles or fewer.
+pub const MIN_TRIANGLES: usize = 48;
+/// A level that keeps more than this fraction of the previous level's triangles is not made.
+const MIN_PROGRESS: f64 = 0.9;
+/// At most this many levels (level 0 included).
+pub(crate) const MAX_LEVELS: usize = 16;
+/// At most this many simplified levels are made (each needs its error bound).
+const MAX_CANDIDATES: usize = 24;
+/// Each candidate level asks meshoptimizer for this fraction of the
+/// triangles of the one before. Halving left gaps where one step jumps from
+/// a few hundredths of the span to a fifth (quad_x: 378 triangles at 0.024,
+/// then 188 at 0.188, as its rotor discs collapse), so drones that could use
+/// 256 triangles drew 378; finer steps cost more bounds to compute at load.
+const LEVEL_STEP: f64 = 0.7;
+
+/// The recipe of [`build_lods`], bumped whenever what it builds changes,
+/// so that [`super::lod_cache`] never returns levels of an older recipe.
+const RECIPE: u32 = 1;
+
+/// Everything besides the model that decides the levels (for the cache's key).
+pub(crate) fn settings() -> String {
+    format!(
+        "recipe {RECIPE}; min {MIN_TRIANGLES}, progress {MIN_PROGRESS}, levels {MAX_LEVELS}, \
+         candidates {MAX_CANDIDATES}, step {LEVEL_STEP}; meshopt 0.7, absolute+permissive+prune"
+    )
+}
+
+/// Build the LOD chain of a model: level 0 is the model's own mesh (error 0),
+/// each further level has at most [`MIN_PROGRESS`] of the triangles of the one
+/// before and a larger error bound.
+pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    build_lods_on(model, threads)
+}
+
+/// [`build_lods`] on `threads` threads (the same levels on any number).
+fn build_lods_on(model: &CpuModel, threads: usize) -> Result<Vec<Lod>, LodError> {
+    validate(model)?;
+    let full = Lod {
+        indices: model.indices.clone(),
+        draws: model.draws.clone(),
+        error: 0.0,
+    };
+    let adapter = VertexDataAdapter::new(
+        bytemuck::cast_slice(&model.vertices),
+        size_of::<Vertex>(),
+        0,
+    )
+    .map_err(|e| LodError::Meshopt {
+        model: model.name.clone(),
+        reason: e.to_string(),
+    })?;
+    let locks = vertex_flags(model);
+    let positions: Vec<DVec3> = model
+        .vertices
+        .iter()
+        .map(|v| DVec3::from(v.position.map(f64::from)))
+        .collect();
+    let full_surface = Surface::new(&positions, &model.indices);
+    // Each level's error bound on its own, on the other cores while the
+    // simplifier makes the next levels, then on every core (a level's bound
+    // does not depend on the others, so the result is the same on any
+    // number of threads).
+    let queue = Queue::default();
+    let (mut lods, errors) = std::thread::scope(|s| {
+        let workers: Vec<_> = (1..threads)
+            .map(|_| s.spawn(|| bound_levels(&queue, &positions, &full_surface)))
+            .collect();
+        let lods = {
+            // Workers stop waiting however this ends (a panic included).
+            let _finish = FinishOnDrop(&queue);
+            candidates(model, &adapter, &locks, full, &queue)
+        };
+        let mut errors = bound_levels(&queue, &positions, &full_surface);
+        for w in workers {
+            errors.extend(w.join().unwrap_or_default());
+        }
+        (lods, errors)
+    });
+    let mut bounded = vec![false; lods.len()];
+    for (k, error) in errors {
+        if let Some(level) = lods.get_mut(k) {
+            level.error = error;
+            bounded[k] = true;
+        }
+    }
+    if bounded.iter().skip(1).any(|b| !b) {
+        // A worker panicked: keep only the full mesh rather than trust a missing bound.
+        lods.truncate(1);
+    }
+    Ok(keep_useful(lods))
+}
+
+/// The candidate levels after `full`, each with [`LEVEL_STEP`] of the
+/// triangles of the one before, down to a few dozen; each is handed to
+/// `queue` as soon as it is made. `keep_useful` drops the ones `pick` would
+/// never choose once their error bounds are known.
+fn candidates(
+    model: &CpuModel,
+    adapter: &VertexDataAdapter<'_>,
+    locks: &[SimplifyVertex],
+    full: Lod,
+    queue: &Queue,
+) -> Vec<Lod> {
+    let total = model.triangle_count();
+    let mut lods = vec![full];
+    let mut previous = total;
+    while lods.len() <= MAX_CANDIDATES && previous > MIN_TRIANGLES {
+        let fraction = (previous as f64 * LEVEL_STEP).floor() / total as f64;
+        let level = simplify_level(model, adapter, locks, fraction);
+        let count = level.triangle_count();
+        if count == 0 || count as f64 > MIN_PROGRESS * previous as f64 {
+            break;
+        }
+        previous = count;
+        queue.push(level.indices.clone());
+        lods.push(level);
+    }
+    lods
+}
+
+/// Error bounds of the levels this thread takes from `queue`: (level, bound).
+fn bound_levels(queue: &Queue, positions: &[DVec3], full: &Surface) -> Vec<(usize, f32)> {
+    let mut out = Vec::new();
+    while let Some((k, indices)) = queue.take() {
+        let surface = Surface::new(positions, &indices);
+        out.push((k, hausdorff_bound(full, &surface) as f32));
+    }
+    out
+}
+
+/// From levels ordered finest first (level 0 the full mesh), the ones
+/// [`pick`] can use well: each coarser level has fewer triangles (by
+/// [`MIN_PROGRESS`] at least) and a larger error than the one before — a
+/// level with more triangles than a coarser one of no larger error is never
+/// the best choice — and at most [`MAX_LEVELS`] of them.
+fn keep_useful(lods: Vec<Lod>) -> Vec<Lod> {
+    // Walking from the coarsest, keep the levels whose error is below every
+    // coarser one's (the Pareto front of triangles against error).
+    let mut front: Vec<Lod> = Vec::new();
+    for level in lods.into_iter().rev() {
+        if front
+            .last()
+            .is_none_or(|coarser| level.error < coarser.error)
+        {
+            front.push(level);
+        }
+    }
+    front.reverse();
+    let mut kept: Vec<Lod> = Vec::new();
+    for level in front {
+        let enough = kept.last().is_none_or(|finer| {
+            level.triangle_count() as f64 <= MIN_PROGRESS * finer.triangle_count() as f64
+        });
+        if enough && kept.len() < MAX_LEVELS {
+            kept.push(level);
+        }
+    }
+    kept
+}
+
+/// Every draw range simplified to `fraction` of its triangles.
+fn simplify_level(
+    model: &CpuModel,
+    adapter: &VertexDataAdapter<'_>,
+    locks: &[SimplifyVertex],
+    fraction: f64,
+) -> Lod {
+    let mut indices = Vec::new();
+    let mut draws = Vec::new();
+    let options =
+        SimplifyOptions::ErrorAbsolute | SimplifyOptions::Permissive | SimplifyOptions::Prune;
+    for draw in &model.draws {
+        let source = &model.indices[draw.indices.start as usize..draw.indices.end as usize];
+        let triangles = source.len() / 3;
+        let target = ((triangles as f64 * fraction).round() as usize).clamp(1, triangles);
+        let out =
+            meshopt::simplify_with_locks(source, adapter, locks, target * 3, 1.0, options, None);
+        if out.is_empty() {
+            continue;
+        }
+        let start = indices.len() as u32;
+        indices.extend_from_slice(&out);
+        draws.push(DrawRange {
+            indices: start..indices.len() as u32,
+            ..draw.clone()
+        });
+    }
+    Lod {
+        indices,
+        draws,
+        error: f32::INFINITY,
+    }
+}
+
+/// Per-vertex simplifier flags. A position used by more than one draw range
+/// is locked, so the ranges, simplified apart, still meet without cracks. A
+/// position where the colour, material or texture coordinates change is
+/// protected: [`SimplifyOptions::Permissive`] lets the simplifier collapse
+/// across the other discontinuities (split normals of flat-shaded parts),
+/// but colour boundaries stay where they are.
+fn vertex_flags(model: &CpuModel) -> Vec<SimplifyVertex> {
+    #[derive(Default)]
+    struct Seen {
+        range: Option<usize>,
+        shared: bool,
+        look: Option<[u32; 10]>,
+        discontinuous: bool,
+    }
+    let mut seen: BTreeMap<[u32; 3], Seen> = BTreeMap::new();
+    for (r, draw) in model.draws.iter().enumerate() {
+        let textured = draw.texture.is_some();
+        for &i in &model.indices[draw.indices.start as usize..draw.indices.end as usize] {
+            let v = &model.vertices[i as usize];
+            let uv = if textured { v.uv } else { [0.0; 2] };
+            let mut look = [0u32; 10];
+            for (o, c) in look
+                .iter_mut()
+                .zip(v.color.iter().chain(&v.material).chain(&uv))
+            {
+                *o = c.to_bits();
+            }
+            let s = seen.entry(v.position.map(f32::to_bits)).or_default();
+            s.shared |= s.range.is_some_and(|x| x != r);
+            s.range = Some(r);
+            s.discontinuous |= s.look.is_some_and(|x| x != look);
+            s.look = Some(look);
+        }
+    }
+    model
+        .vertices
+        .iter()
+        .map(|v| match seen.get(&v.position.map(f32::to_bits)) {
+            Some(s) if s.shared => SimplifyVertex::Lock,
+            Some(s) if s.discontinuous => SimplifyVertex::Protect,
+            _ => SimplifyVertex::None,
+        })
+        .collect()
+}
+
+fn validate(model: &CpuModel) -> Result<(), LodError> {
+    let name = || model.name.clone();
+    if !model.indices.len().is_multiple_of(3) {
+        return Err(LodError::NotTriangles {
+            model: name(),
+            len: model.indices.len(),
+        });
+    }
+    if let Some(&index) = model
+        .indices
+        .iter()
+        .find(|&&i| i as usize >= model.vertices.len())
+    {
+        return Err(LodError::IndexOutOfRange {
+            model: name(),
+            index,
+            vertices: model.vertices.len(),
+        });
+    }
+    for d in &model.draws {
+        let (start, end) = (d.indices.start, d.indices.end);
+        if start > end
+            || end as usize > model.indices.len()
+            || !start.is_multiple_of(3)
+            || !end.is_multiple_of(3)
+        {
+            return Err(LodError::BadDrawRange {
+                model: name(),
+                start,
+                end,
+                len: model.indices.len(),
+            });
+        }
+    }
+    if let Some(vertex) = model
+        .vertices
+        .iter()
+        .position(|v| !v.position.iter().all(|c| c.is_finite()))
+    {
+        return Err(LodError::NotFinite {
+            model: name(),
+            vertex,
+        });
+    }
+    Ok(())
+}
+
+/// The coarsest level whose error, scaled to pixels, is at most `max_error_px`:
+/// the largest `k` with `lods[k].error · size_m · pixels_per_metre ≤ max_error_px`
+/// (0 when none is, or for non-finite or negative input).
+///
+/// `pixels_per_metre` is the camera's focal length in pixels over the depth;
+/// pass the depth of the drone's nearest point (centre distance minus
+/// `size_m·√3/2`) so the bound holds over the whole drone.
+pub fn pick(lods: &[Lod], size_m: f64, pixels_per_metre: f64, max_error_px: f64) -> usize {
+    let px_per_unit = size_m * pixels_per_metre;
+    if !(px_per_unit.is_finite() && px_per_unit >= 0.0 && max_error_px.is_finite()) {
+        return 0;
+    }
+    lods.iter()
+        .rposition(|l| f64::from(l.error) * px_per_unit <= max_error_px)
+        .unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests;

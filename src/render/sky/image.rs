@@ -1,0 +1,139 @@
+//! An image sky's reduced pass: the scale at which an equirect image is
+//! drawn (where it is magnified enough), the pass into its target, and the
+//! group with which the sky pass samples that target.
+
+use super::environment::{environment_pipeline, reduced_texture};
+use super::{SkyGpu, SkyPassContext, make_bind_group};
+use crate::sky::{FrameSky, SkyImageKind};
+
+impl SkyGpu {
+    /// The scale (full-resolution pixels per pass pixel, per axis: 4 or 2)
+    /// at which `sky`, an equirect image, is drawn for `camera`'s frame
+    /// (whose principal point must be its centre); `None`: drawn at full resolution (a cube map, a gradient or
+    /// procedural sky, an off-centre principal point, no scale dividing both
+    /// sides, or an image too sharp for it).
+    ///
+    /// A scale is taken only where the image is magnified at least twice
+    /// as much: at the frame's centre, where its pixels span the widest
+    /// angle (≈ 1/f radians), a pass pixel spans at most half a texel
+    /// (π / image height radians, or 2π / width if that is less). The pass
+    /// then samples the bilinearly magnified image at twice its own texel
+    /// rate or more, and the CPU's bilinear upsampling differs from sampling
+    /// it at every pixel only around the texels' own corners.
+    pub(in crate::render) fn image_scale(
+        &self,
+        sky: &FrameSky,
+        camera: &crate::scene::camera::Camera,
+    ) -> Option<u32> {
+        let FrameSky::Image { image, .. } = sky else {
+            return None;
+        };
+        let SkyImageKind::Equirect {
+            width: iw,
+            height: ih,
+            ..
+        } = self.images.get(*image)?.1.kind
+        else {
+            return None;
+        };
+        let c = camera.principal_point().as_vec2();
+        let frame = (camera.width, camera.height);
+        reduced_scale((iw, ih), frame, camera.focal_px() as f32, (c.x, c.y))
+    }
+
+    /// Whether `sky` is an HDR image (tone-mapped: `tone_map` in environment.wgsl).
+    pub(in crate::render) fn image_is_hdr(&self, sky: &FrameSky) -> bool {
+        match sky {
+            FrameSky::Image { image, .. } => self.images.get(*image).is_some_and(|(_, i)| i.hdr),
+            _ => false,
+        }
+    }
+
+    /// The scale written with the uniforms last (see [`SkyGpu::prepare`]):
+    /// the image pass's, or `None` when the sky is drawn at full resolution.
+    pub(in crate::render) fn written_image_scale(&self) -> Option<u32> {
+        let scale = self.written.far_params[3];
+        (self.written.mode[0] > 1.5 && scale > 1.5).then_some(scale as u32)
+    }
+
+    /// Draw the image sky `sky` (uniforms just written, with its scale: see
+    /// [`SkyGpu::image_scale`]) into the image pass's target for a
+    /// `width`×`height` frame.
+    pub(in crate::render) fn encode_image(
+        &mut self,
+        with: &SkyPassContext<'_>,
+        encoder: &mut wgpu::CommandEncoder,
+        (width, height): (u32, u32),
+        sky: &FrameSky,
+    ) {
+        let device = with.factory.device();
+        let Some(scale) = self.written_image_scale() else {
+            return;
+        };
+        let size = ((width / scale).max(1), (height / scale).max(1));
+        if self.image_target.as_ref().is_none_or(|t| t.2 != size) {
+            let (texture, view) = reduced_texture(device, "image sky (reduced resolution)", size);
+            self.image_target = Some((texture, view, size));
+            self.upsampled = None;
+        }
+        let pipeline = self.image_pipeline.get_or_insert_with(|| {
+            environment_pipeline(with, &self.program, &[], false, "fs_image")
+        });
+        let (Some((_, view, _)), FrameSky::Image { image, .. }) = (&self.image_target, sky) else {
+            return;
+        };
+        let Some((group, _)) = self.images.get(*image) else {
+            return;
+        };
+        let mut pass = crate::render::gpu::clear_pass(encoder, "image sky pass", view);
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, with.frame_group, &[]);
+        // The image's own group: its placeholder stands for the target being drawn.
+        pass.set_bind_group(1, group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// Make the group with which the full-frame path's sky pass samples the
+    /// image pass's target for `sky` (after [`SkyGpu::encode_image`]); see
+    /// [`SkyGpu::bind_group_for`].
+    pub(super) fn prepare_upsampled(&mut self, device: &wgpu::Device, sky: &FrameSky) {
+        let FrameSky::Image { image, .. } = sky else {
+            return;
+        };
+        if self.upsampled.as_ref().is_some_and(|(i, _)| i == image) {
+            return;
+        }
+        let (Some((_, target, _)), Some(Some(equirect))) =
+            (&self.image_target, self.image_views.get(*image))
+        else {
+            return;
+        };
+        let group = make_bind_group(
+            device,
+            &self.layout,
+            &self.uniforms,
+            (&self.sampler, &self.half_sampler),
+            "image sky (upsampled)",
+            [equirect, &self.placeholder_cube, target],
+        );
+        self.upsampled = Some((*image, group));
+    }
+}
+
+/// [`SkyGpu::image_scale`] of an equirect image `image` (texels) for a
+/// `frame`-sized frame of focal length `focal_px` and principal point `centre`.
+pub(super) fn reduced_scale(
+    (iw, ih): (u32, u32),
+    (width, height): (u32, u32),
+    focal_px: f32,
+    centre: (f32, f32),
+) -> Option<u32> {
+    if centre != (width as f32 / 2.0, height as f32 / 2.0) || iw == 0 || ih == 0 {
+        return None;
+    }
+    let texel = (std::f32::consts::PI / ih as f32).min(std::f32::consts::TAU / iw as f32);
+    let magnification = focal_px * texel;
+    [4u32, 2]
+        .into_iter()
+        .find(|&s| 2.0 * s as f32 <= magnification && width % s == 0 && height % s == 0)
+}
