@@ -310,8 +310,95 @@ pub fn stage_status(p: &crate::preset::Preset) -> Vec<(&'static str, String)> {
     ]
 }
 
+/// What a section's panel edits, and what it may report or ask for.
+struct PanelCtx<'a, 'f> {
+    preset: &'a mut crate::preset::Preset,
+    form: &'a mut Form<'f>,
+    load_error: Option<&'a str>,
+    commands: &'a mut Vec<Command>,
+}
+
+/// One collapsible parameter section: its title, hover tip and panel.
+struct Section {
+    title: &'static str,
+    tip: &'static str,
+    panel: fn(&mut Ui, &mut PanelCtx<'_, '_>),
+}
+
 /// The collapsible parameter sections, in the order of the paper's panels
-/// and then the realism stages; `open_section` is opened (a Problems link).
+/// and then the realism stages.
+const SECTIONS: [Section; 13] = [
+    Section {
+        title: "Models",
+        tip: "The UAV models instantiated in every frame, with their real size",
+        panel: |ui, c| panels::models_ui(ui, c.preset, c.form, c.load_error, c.commands),
+    },
+    Section {
+        title: "Placement",
+        tip: "How drones are placed in the observation volume",
+        panel: |ui, c| panels::placement_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Attitude",
+        tip: "Random roll/pitch/yaw of each drone",
+        panel: |ui, c| panels::attitude_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Camera",
+        tip: "Camera translation sweeps; the camera always faces the volume's centre",
+        panel: |ui, c| {
+            panels::camera_ui(ui, c.preset, c.form);
+            realism_panels::observer_ui(ui, c.preset, c.form);
+        },
+    },
+    Section {
+        title: "Scene rotation",
+        tip: "Rotation sweeps of the whole swarm",
+        panel: |ui, c| panels::plane_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Skybox",
+        tip: "The background environment",
+        panel: |ui, c| panels::skybox_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Camera model",
+        tip: "Optics, sensor noise and image processing between the render and the file",
+        panel: |ui, c| realism_panels::camera_model_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Atmosphere",
+        tip: "Haze with range on every object",
+        panel: |ui, c| realism_panels::atmosphere_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Drone appearance",
+        tip: "Drone materials drawn per drone: colour, roughness, metalness, lights",
+        panel: |ui, c| realism_panels::appearance_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Clutter",
+        tip: "Tree lines, bare trees, poles and wires, buildings that hide the drones behind them",
+        panel: |ui, c| clutter_panel::clutter_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Confusers",
+        tip: "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
+        panel: |ui, c| confuser_panel::confusers_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Backplates",
+        tip: "Photographic backgrounds: a folder of your own frames of sky and horizon",
+        panel: |ui, c| backplate_panel::backplate_ui(ui, c.preset, c.form, c.commands),
+    },
+    Section {
+        title: "Output",
+        tip: "Resolution, file formats, split, boxes and masks",
+        panel: |ui, c| panels::output_ui(ui, c.preset, c.form),
+    },
+];
+
+/// Every section of [`SECTIONS`]; `open_section` is opened (a Problems link).
 fn sections_ui(
     ui: &mut Ui,
     s: &mut Session,
@@ -321,112 +408,43 @@ fn sections_ui(
     commands: &mut Vec<Command>,
 ) {
     let status = stage_status(&s.preset);
-    let section = |ui: &mut Ui, title: &str, tip: &str, add: &mut dyn FnMut(&mut Ui)| {
+    let mut ctx = PanelCtx {
+        preset: &mut s.preset,
+        form,
+        load_error,
+        commands,
+    };
+    for section in &SECTIONS {
         // A Problems link opens the section that holds its field.
-        let open = (open_section == Some(title)).then_some(true);
+        let open = (open_section == Some(section.title)).then_some(true);
         // The realism sections start collapsed (most presets leave them off).
-        let default_open = !problems::COLLAPSED_SECTIONS.contains(&title);
-        let header = egui::CollapsingHeader::new(title)
+        let default_open = !problems::COLLAPSED_SECTIONS.contains(&section.title);
+        let header = egui::CollapsingHeader::new(section.title)
             .default_open(default_open)
             .open(open)
-            .show(ui, |ui| add(ui))
+            .show(ui, |ui| (section.panel)(ui, &mut ctx))
             .header_response;
-        // An optional stage says at its header whether it is on, open or collapsed.
-        if let Some((_, on)) = status.iter().find(|(t, _)| *t == title) {
-            let colour = if on.as_str() == "off" {
-                ui.visuals().weak_text_color()
-            } else {
-                ui.visuals().text_color()
-            };
-            ui.painter().text(
-                header.rect.right_center() + egui::vec2(8.0, 0.0),
-                egui::Align2::LEFT_CENTER,
-                on,
-                egui::TextStyle::Body.resolve(ui.style()),
-                colour,
-            );
+        if let Some((_, on)) = status.iter().find(|(t, _)| *t == section.title) {
+            stage_badge(ui, &header, on);
         }
-        header.on_hover_text(tip);
+        header.on_hover_text(section.tip);
+    }
+}
+
+/// An optional stage's state (`on`: "off", "on", a count) beside its
+/// section's header, weak when off.
+fn stage_badge(ui: &Ui, header: &egui::Response, on: &str) {
+    let colour = if on == "off" {
+        ui.visuals().weak_text_color()
+    } else {
+        ui.visuals().text_color()
     };
-    section(
-        ui,
-        "Models",
-        "The UAV models instantiated in every frame, with their real size",
-        &mut |ui| {
-            panels::models_ui(ui, &mut s.preset, form, load_error, commands);
-        },
-    );
-    section(
-        ui,
-        "Placement",
-        "How drones are placed in the observation volume",
-        &mut |ui| panels::placement_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Attitude",
-        "Random roll/pitch/yaw of each drone",
-        &mut |ui| panels::attitude_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Camera",
-        "Camera translation sweeps; the camera always faces the volume's centre",
-        &mut |ui| {
-            panels::camera_ui(ui, &mut s.preset, form);
-            realism_panels::observer_ui(ui, &mut s.preset, form);
-        },
-    );
-    section(
-        ui,
-        "Scene rotation",
-        "Rotation sweeps of the whole swarm",
-        &mut |ui| panels::plane_ui(ui, &mut s.preset, form),
-    );
-    section(ui, "Skybox", "The background environment", &mut |ui| {
-        panels::skybox_ui(ui, &mut s.preset, form)
-    });
-    section(
-        ui,
-        "Camera model",
-        "Optics, sensor noise and image processing between the render and the file",
-        &mut |ui| realism_panels::camera_model_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Atmosphere",
-        "Haze with range on every object",
-        &mut |ui| realism_panels::atmosphere_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Drone appearance",
-        "Drone materials drawn per drone: colour, roughness, metalness, lights",
-        &mut |ui| realism_panels::appearance_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Clutter",
-        "Tree lines, bare trees, poles and wires, buildings that hide the drones behind them",
-        &mut |ui| clutter_panel::clutter_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Confusers",
-        "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
-        &mut |ui| confuser_panel::confusers_ui(ui, &mut s.preset, form),
-    );
-    section(
-        ui,
-        "Backplates",
-        "Photographic backgrounds: a folder of your own frames of sky and horizon",
-        &mut |ui| backplate_panel::backplate_ui(ui, &mut s.preset, form, commands),
-    );
-    section(
-        ui,
-        "Output",
-        "Resolution, file formats, split, boxes and masks",
-        &mut |ui| panels::output_ui(ui, &mut s.preset, form),
+    ui.painter().text(
+        header.rect.right_center() + egui::vec2(8.0, 0.0),
+        egui::Align2::LEFT_CENTER,
+        on,
+        egui::TextStyle::Body.resolve(ui.style()),
+        colour,
     );
 }
 

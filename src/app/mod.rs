@@ -274,30 +274,7 @@ pub struct SwarmshotApp {
 impl SwarmshotApp {
     pub fn new(cc: &eframe::CreationContext<'_>, options: StartOptions) -> Self {
         let mut notices = Vec::new();
-        let mut session = if options.restore_session {
-            cc.storage
-                .and_then(|s| eframe::get_value::<Session>(s, eframe::APP_KEY))
-                .unwrap_or_default()
-        } else {
-            Session::default()
-        };
-        // A restored session with nothing unsaved shows its file as it is now.
-        if options.restore_session
-            && options.preset.is_none()
-            && !session.is_dirty()
-            && let Some(path) = session.preset_path.clone()
-            && let Ok((preset, text)) = read_preset_text(&path)
-        {
-            let frame = session.frame;
-            session.load(preset, path, text);
-            session.frame = frame;
-        }
-        if let Some(path) = &options.preset {
-            match read_preset_text(path) {
-                Ok((preset, text)) => session.load(preset, path.clone(), text),
-                Err(e) => notices.push(e.to_string()),
-            }
-        }
+        let session = start_session(cc, &options, &mut notices);
         let gpu = cc.wgpu_render_state.as_ref().map(|rs| {
             let ctx = GpuContext {
                 device: rs.device.clone(),
@@ -312,32 +289,9 @@ impl SwarmshotApp {
         let egui_ctx = cc.egui_ctx.clone();
         let wake = move || egui_ctx.request_repaint();
         let dialogs = FileDialogs::new(DialogBackend::from_env(), wake.clone());
-        let preview_worker = match &gpu {
-            Some((ctx, _)) => {
-                let mut renderer = PreviewRenderer::new(ctx.clone());
-                LatestWorker::spawn(
-                    "swarmshot preview",
-                    wake.clone(),
-                    move |request: PreviewRequest| renderer.render(&request),
-                )
-                .map_err(|e| notices.push(format!("cannot start the preview thread: {e}")))
-                .ok()
-            }
-            None => {
-                notices.push(
-                    "eframe gave no wgpu device: the preview and Generate need the wgpu renderer"
-                        .into(),
-                );
-                None
-            }
-        };
-        let mut maker = SummaryMaker::default();
-        let summary_worker =
-            LatestWorker::spawn("swarmshot summary", wake, move |request: SummaryRequest| {
-                maker.estimate(&request)
-            })
-            .map_err(|e| notices.push(format!("cannot start the summary thread: {e}")))
-            .ok();
+        let gpu_ctx = gpu.as_ref().map(|(ctx, _)| ctx);
+        let preview_worker = spawn_preview_worker(gpu_ctx, wake.clone(), &mut notices);
+        let summary_worker = spawn_summary_worker(wake, &mut notices);
         Self {
             resolved: Arc::new(session.preset.clone()),
             session,
@@ -393,6 +347,75 @@ impl SwarmshotApp {
             && (self.shown_key() == self.preview_sent
                 || self.preview_error.as_ref().map(|e| e.key) == self.preview_sent)
     }
+}
+
+/// The session the app starts with: the stored one (its file re-read when
+/// nothing is unsaved) when `options` restore it, else a new one; then the
+/// preset file `options` name, if any. A file that cannot be read is a notice.
+fn start_session(
+    cc: &eframe::CreationContext<'_>,
+    options: &StartOptions,
+    notices: &mut Vec<String>,
+) -> Session {
+    let mut session = if options.restore_session {
+        cc.storage
+            .and_then(|s| eframe::get_value::<Session>(s, eframe::APP_KEY))
+            .unwrap_or_default()
+    } else {
+        Session::default()
+    };
+    // A restored session with nothing unsaved shows its file as it is now.
+    if options.restore_session
+        && options.preset.is_none()
+        && !session.is_dirty()
+        && let Some(path) = session.preset_path.clone()
+        && let Ok((preset, text)) = read_preset_text(&path)
+    {
+        let frame = session.frame;
+        session.load(preset, path, text);
+        session.frame = frame;
+    }
+    if let Some(path) = &options.preset {
+        match read_preset_text(path) {
+            Ok((preset, text)) => session.load(preset, path.clone(), text),
+            Err(e) => notices.push(e.to_string()),
+        }
+    }
+    session
+}
+
+/// The preview thread on the window's wgpu device (`gpu`), or a notice why
+/// there is none.
+fn spawn_preview_worker(
+    gpu: Option<&GpuContext>,
+    wake: impl Fn() + Send + 'static,
+    notices: &mut Vec<String>,
+) -> Option<LatestWorker<PreviewRequest, PreviewResult>> {
+    let Some(ctx) = gpu else {
+        notices.push(
+            "eframe gave no wgpu device: the preview and Generate need the wgpu renderer".into(),
+        );
+        return None;
+    };
+    let mut renderer = PreviewRenderer::new(ctx.clone());
+    LatestWorker::spawn("swarmshot preview", wake, move |request: PreviewRequest| {
+        renderer.render(&request)
+    })
+    .map_err(|e| notices.push(format!("cannot start the preview thread: {e}")))
+    .ok()
+}
+
+/// The summary thread, or a notice why it did not start.
+fn spawn_summary_worker(
+    wake: impl Fn() + Send + 'static,
+    notices: &mut Vec<String>,
+) -> Option<LatestWorker<SummaryRequest, Result<Summary, SummaryError>>> {
+    let mut maker = SummaryMaker::default();
+    LatestWorker::spawn("swarmshot summary", wake, move |request: SummaryRequest| {
+        maker.estimate(&request)
+    })
+    .map_err(|e| notices.push(format!("cannot start the summary thread: {e}")))
+    .ok()
 }
 
 impl Session {

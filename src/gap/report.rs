@@ -103,116 +103,119 @@ fn small(d: &super::DroneMeasure) -> bool {
     d.core_px >= SMALL_CORE_PX.0 && d.core_px <= SMALL_CORE_PX.1
 }
 
+/// The fourteen statistics of the original report, counted among the
+/// statistics inside.
+const COUNTED_STATS: [Stat; 14] = [
+    Stat {
+        counted: true,
+        key: "noise_sigma",
+        name: "flat-sky noise σ (1.4826·MAD of 2×2 high-pass)",
+        unit: "levels",
+        kind: Kind::Frame(|f| f.noise_sigma.map(f64::from)),
+    },
+    Stat {
+        counted: true,
+        key: "highpass_rms",
+        name: "flat-sky high-pass RMS",
+        unit: "levels",
+        kind: Kind::Frame(|f| f.highpass_rms.map(f64::from)),
+    },
+    Stat {
+        counted: true,
+        key: "gradient_energy",
+        name: "gradient energy (mean Sobel at 540 px high)",
+        unit: "levels/px",
+        kind: Kind::Frame(|f| Some(f64::from(f.gradient_energy))),
+    },
+    Stat {
+        counted: true,
+        key: "canny_edge_share",
+        name: "share of pixels that are Canny edges",
+        unit: "",
+        kind: Kind::Frame(|f| Some(f64::from(f.canny_edge_share))),
+    },
+    Stat {
+        counted: true,
+        key: "sky_saturation",
+        name: "sky saturation (HSV)",
+        unit: "",
+        kind: Kind::Frame(|f| f.sky_saturation.map(f64::from)),
+    },
+    Stat {
+        counted: true,
+        key: "sky_hue_deg",
+        name: "sky hue (HSV)",
+        unit: "deg",
+        kind: Kind::Frame(|f| f.sky_hue_deg.map(f64::from)),
+    },
+    Stat {
+        counted: true,
+        key: "mean_brightness",
+        name: "mean brightness",
+        unit: "levels",
+        kind: Kind::Frame(|f| Some(f64::from(f.mean_brightness))),
+    },
+    Stat {
+        counted: true,
+        key: "blur_sigma_px",
+        name: "blur: PSF σ of the sharpest edges (25th pct)",
+        unit: "px",
+        kind: Kind::Frame(|f| f.blur_sigma_px.map(f64::from)),
+    },
+    Stat {
+        counted: true,
+        key: "jpeg_quality",
+        name: "JPEG quality (from quantisation tables)",
+        unit: "",
+        kind: Kind::Frame(|f| f.jpeg_quality.map(f64::from)),
+    },
+    Stat {
+        counted: true,
+        key: "drone_core_px",
+        name: "drone core size √(pixels > half the peak)",
+        unit: "px",
+        kind: Kind::Drone(|d| Some(f64::from(d.core_px))),
+    },
+    Stat {
+        counted: true,
+        key: "drone_core_under_6px",
+        name: "share of drones with a core under 6 px",
+        unit: "",
+        kind: Kind::Share(|d| Some(d.core_px < 6.0)),
+    },
+    Stat {
+        counted: true,
+        key: "drone_darker",
+        name: "share of drones darker than their ring",
+        unit: "",
+        kind: Kind::Share(|d| (d.peak != 0.0).then_some(d.darker)),
+    },
+    Stat {
+        counted: true,
+        key: "small_drone_peak_contrast",
+        name: "peak contrast of 3–6 px drones",
+        unit: "levels",
+        kind: Kind::Drone(|d| small(d).then_some(f64::from(d.peak.abs()))),
+    },
+    Stat {
+        counted: true,
+        key: "small_drone_edge_width_px",
+        name: "edge width (90→10 %) of 3–6 px drones",
+        unit: "px",
+        kind: Kind::Drone(|d| {
+            if small(d) {
+                d.edge_width_px.map(f64::from)
+            } else {
+                None
+            }
+        }),
+    },
+];
+
+/// Every row of the report: the counted statistics, then the rows added for
+/// fitting.
 fn stats() -> Vec<Stat> {
-    use Kind::*;
-    let mut v = vec![
-        Stat {
-            counted: true,
-            key: "noise_sigma",
-            name: "flat-sky noise σ (1.4826·MAD of 2×2 high-pass)",
-            unit: "levels",
-            kind: Frame(|f| f.noise_sigma.map(f64::from)),
-        },
-        Stat {
-            counted: true,
-            key: "highpass_rms",
-            name: "flat-sky high-pass RMS",
-            unit: "levels",
-            kind: Frame(|f| f.highpass_rms.map(f64::from)),
-        },
-        Stat {
-            counted: true,
-            key: "gradient_energy",
-            name: "gradient energy (mean Sobel at 540 px high)",
-            unit: "levels/px",
-            kind: Frame(|f| Some(f64::from(f.gradient_energy))),
-        },
-        Stat {
-            counted: true,
-            key: "canny_edge_share",
-            name: "share of pixels that are Canny edges",
-            unit: "",
-            kind: Frame(|f| Some(f64::from(f.canny_edge_share))),
-        },
-        Stat {
-            counted: true,
-            key: "sky_saturation",
-            name: "sky saturation (HSV)",
-            unit: "",
-            kind: Frame(|f| f.sky_saturation.map(f64::from)),
-        },
-        Stat {
-            counted: true,
-            key: "sky_hue_deg",
-            name: "sky hue (HSV)",
-            unit: "deg",
-            kind: Frame(|f| f.sky_hue_deg.map(f64::from)),
-        },
-        Stat {
-            counted: true,
-            key: "mean_brightness",
-            name: "mean brightness",
-            unit: "levels",
-            kind: Frame(|f| Some(f64::from(f.mean_brightness))),
-        },
-        Stat {
-            counted: true,
-            key: "blur_sigma_px",
-            name: "blur: PSF σ of the sharpest edges (25th pct)",
-            unit: "px",
-            kind: Frame(|f| f.blur_sigma_px.map(f64::from)),
-        },
-        Stat {
-            counted: true,
-            key: "jpeg_quality",
-            name: "JPEG quality (from quantisation tables)",
-            unit: "",
-            kind: Frame(|f| f.jpeg_quality.map(f64::from)),
-        },
-        Stat {
-            counted: true,
-            key: "drone_core_px",
-            name: "drone core size √(pixels > half the peak)",
-            unit: "px",
-            kind: Drone(|d| Some(f64::from(d.core_px))),
-        },
-        Stat {
-            counted: true,
-            key: "drone_core_under_6px",
-            name: "share of drones with a core under 6 px",
-            unit: "",
-            kind: Share(|d| Some(d.core_px < 6.0)),
-        },
-        Stat {
-            counted: true,
-            key: "drone_darker",
-            name: "share of drones darker than their ring",
-            unit: "",
-            kind: Share(|d| (d.peak != 0.0).then_some(d.darker)),
-        },
-        Stat {
-            counted: true,
-            key: "small_drone_peak_contrast",
-            name: "peak contrast of 3–6 px drones",
-            unit: "levels",
-            kind: Drone(|d| small(d).then_some(f64::from(d.peak.abs()))),
-        },
-        Stat {
-            counted: true,
-            key: "small_drone_edge_width_px",
-            name: "edge width (90→10 %) of 3–6 px drones",
-            unit: "px",
-            kind: Drone(|d| {
-                if small(d) {
-                    d.edge_width_px.map(f64::from)
-                } else {
-                    None
-                }
-            }),
-        },
-    ];
-    v.extend(fitting_stats());
-    v
+    COUNTED_STATS.into_iter().chain(fitting_stats()).collect()
 }
 
 /// The rows added for fitting, not counted among the statistics inside.

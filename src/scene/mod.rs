@@ -269,55 +269,21 @@ pub fn build_frame_draw(
     let frame_seed = seed::redraw_seed(preset.seed, draw_index, attempt);
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(frame_seed);
     let placed = placement::place(preset, sweep.density_per_m3, &mut rng);
-    let model_radius = placement::max_model_radius(preset);
-    let mut half_extent = placed.half_extent;
+    let placement_shortfall = placed.shortfall;
+    let moved = moved_swarm(preset, sequence, placed, &mut rng);
+    let half_extent = moved.half_extent;
+    let volume_radius_m = half_extent.length() + placement::max_model_radius(preset);
     let plane = plane_rotation(sweep.PlaneRX, sweep.PlaneRY, sweep.PlaneRZ);
-    // The unrotated states of this frame, and the shift of the swarm's centre since step 0.
-    let (states, shift): (Vec<(usize, DVec3, glam::DQuat)>, DVec3) =
-        match (&preset.sequence, sequence) {
-            (Some(spec), Some(seq)) => {
-                let initial: Vec<_> = placed.drones.iter().map(|d| (d.1, d.2)).collect();
-                let ends = motion::endpoints(&initial, &spec.motion, &mut rng);
-                // A box about the centre that holds both ends holds every step (eq. 4 is linear).
-                half_extent = ends
-                    .iter()
-                    .fold(half_extent, |h, e| h.max(e.p0.abs()).max(e.p_t.abs()));
-                let n = ends.len().max(1) as f64;
-                let mut shift = DVec3::ZERO;
-                let states = placed
-                    .drones
-                    .iter()
-                    .zip(&ends)
-                    .map(|(d, e)| {
-                        let (p, q) = e.at(seq.step, seq.steps);
-                        shift += (p - e.p0) / n;
-                        (d.0, p, q)
-                    })
-                    .collect();
-                (states, shift)
-            }
-            _ => (placed.drones, DVec3::ZERO),
-        };
-    let volume_radius_m = half_extent.length() + model_radius;
-
-    let mut drones: Vec<DronePose> = states
-        .into_iter()
-        .map(|(model, position, rotation)| {
-            let rotation = (plane * rotation).normalize();
-            DronePose {
-                model,
-                position: plane * position,
-                rotation,
-                euler_deg: EulerDeg::from_quat(rotation),
-                size_m: preset.models[model].size_m,
-            }
-        })
-        .collect();
+    let mut drones = posed(preset, moved.states, plane);
     let follow = matches!(
         preset.sequence.as_ref().map(|s| s.camera),
         Some(crate::preset::SequenceCamera::Follow)
     );
-    let shift = if follow { plane * shift } else { DVec3::ZERO };
+    let shift = if follow {
+        plane * moved.shift
+    } else {
+        DVec3::ZERO
+    };
     let camera = frame_camera(preset, &sweep, volume_radius_m, shift, draw_index);
     let looks = match &preset.appearance {
         Some(a) => realism::drone_looks(a, preset.seed, draw_index, drones.len()),
@@ -326,12 +292,9 @@ pub fn build_frame_draw(
     let confusers = if preset.confusers.is_empty() {
         Vec::new()
     } else {
-        let time_s = match (&preset.sequence, sequence) {
-            (Some(spec), Some(seq)) => seq.step as f64 / f64::from(spec.frame_rate.max(1)),
-            _ => 0.0,
-        };
         let mut camera0 = camera.0;
         camera0.position -= shift;
+        let time_s = sequence_time_s(preset, sequence);
         let (poses, confusers) = confusers::place(preset, (&camera0, plane), draw_index, time_s);
         drones.extend(poses);
         confusers
@@ -357,7 +320,7 @@ pub fn build_frame_draw(
         environment,
         volume_radius_m,
         volume_half_extent_m: half_extent,
-        placement_shortfall: placed.shortfall,
+        placement_shortfall,
         sequence,
         camera_absolute: preset.camera.absolute.is_some(),
         redraw: attempt,
@@ -370,6 +333,81 @@ pub fn build_frame_draw(
         confusers_on: !preset.confusers.is_empty(),
         backplate: None,
     })
+}
+
+/// A frame's swarm before the scene rotation: each drone's (model,
+/// position, rotation), the shift of the swarm's centre since step 0, and a
+/// half extent about the centre that holds every step.
+struct MovedSwarm {
+    states: Vec<(usize, DVec3, DQuat)>,
+    shift: DVec3,
+    half_extent: DVec3,
+}
+
+/// The placed drones at the frame's step of their sequence motion (drawn
+/// from `rng` after the placement), or as placed outside sequence mode.
+fn moved_swarm(
+    preset: &Preset,
+    sequence: Option<SequenceFrame>,
+    placed: placement::Placed,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> MovedSwarm {
+    let (Some(spec), Some(seq)) = (&preset.sequence, sequence) else {
+        return MovedSwarm {
+            states: placed.drones,
+            shift: DVec3::ZERO,
+            half_extent: placed.half_extent,
+        };
+    };
+    let initial: Vec<_> = placed.drones.iter().map(|d| (d.1, d.2)).collect();
+    let ends = motion::endpoints(&initial, &spec.motion, rng);
+    // A box about the centre that holds both ends holds every step (eq. 4 is linear).
+    let half_extent = ends.iter().fold(placed.half_extent, |h, e| {
+        h.max(e.p0.abs()).max(e.p_t.abs())
+    });
+    let n = ends.len().max(1) as f64;
+    let mut shift = DVec3::ZERO;
+    let states = placed
+        .drones
+        .iter()
+        .zip(&ends)
+        .map(|(d, e)| {
+            let (p, q) = e.at(seq.step, seq.steps);
+            shift += (p - e.p0) / n;
+            (d.0, p, q)
+        })
+        .collect();
+    MovedSwarm {
+        states,
+        shift,
+        half_extent,
+    }
+}
+
+/// The drones' poses: each state turned by the scene rotation `plane`.
+fn posed(preset: &Preset, states: Vec<(usize, DVec3, DQuat)>, plane: DQuat) -> Vec<DronePose> {
+    states
+        .into_iter()
+        .map(|(model, position, rotation)| {
+            let rotation = (plane * rotation).normalize();
+            DronePose {
+                model,
+                position: plane * position,
+                rotation,
+                euler_deg: EulerDeg::from_quat(rotation),
+                size_m: preset.models[model].size_m,
+            }
+        })
+        .collect()
+}
+
+/// The frame's time since its sequence's first frame, seconds (0 outside
+/// sequence mode).
+fn sequence_time_s(preset: &Preset, sequence: Option<SequenceFrame>) -> f64 {
+    match (&preset.sequence, sequence) {
+        (Some(spec), Some(seq)) => seq.step as f64 / f64::from(spec.frame_rate.max(1)),
+        _ => 0.0,
+    }
 }
 
 /// The sweep values of frame `index` (the index decoded in mixed radix, CameraX outermost).

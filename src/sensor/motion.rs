@@ -75,44 +75,62 @@ pub fn smear(
     if frame.len() < n_px * 4 || background.len() < n_px * 4 {
         return out;
     }
-    let dec = decode_table();
-    let enc = encode_table();
-    let lin = |buf: &[u8], i: usize| dec[buf[i] as usize];
-    let w = width as usize;
-    // Accumulated contributions over the bounding box of every swept rect.
     let moving: Vec<&Streak> = streaks.iter().filter(|s| s.moves()).collect();
-    let Some(bbox) = moving
-        .iter()
-        .map(|s| s.swept(width, height))
-        .reduce(|a, b| PixelRect {
-            x0: a.x0.min(b.x0),
-            y0: a.y0.min(b.y0),
-            x1: a.x1.max(b.x1),
-            y1: a.y1.max(b.y1),
-        })
-    else {
+    let Some(mut acc) = Accumulator::over(&moving, width, height) else {
         return out;
     };
-    let bw = (bbox.x1 - bbox.x0) as usize;
-    let bh = (bbox.y1.saturating_sub(bbox.y0)) as usize;
-    let mut acc = vec![0f32; bw * bh * 3];
-    let mut touched = vec![false; bw * bh];
     let mut owned: Vec<PixelRect> = Vec::new();
     for s in &moving {
+        let Some(diff) = Difference::of(frame, background, width, height, s.rect, &owned) else {
+            continue;
+        };
+        owned.push(diff.rect);
+        acc.add(s, &diff, width, height);
+    }
+    acc.apply(background, width, &mut out);
+    out
+}
+
+/// Linear light of byte `i` of an sRGB buffer.
+fn lin(dec: &[f32; 256], buf: &[u8], i: usize) -> f32 {
+    dec[buf[i] as usize]
+}
+
+/// One drone's difference D = lin(frame) − lin(background) over its rect
+/// (clamped to the image), 0 where an earlier streak owns the pixel.
+struct Difference {
+    rect: PixelRect,
+    w: usize,
+    h: usize,
+    /// RGB per pixel, row-major over the rect.
+    d: Vec<f32>,
+}
+
+impl Difference {
+    /// D over `rect` of the `width`×`height` frame, or `None` when the
+    /// clamped rect is empty. Pixels inside any `owned` rect stay 0.
+    fn of(
+        frame: &[u8],
+        background: &[u8],
+        width: u32,
+        height: u32,
+        rect: PixelRect,
+        owned: &[PixelRect],
+    ) -> Option<Self> {
+        let dec = decode_table();
         let r = PixelRect {
-            x0: s.rect.x0.min(width),
-            y0: s.rect.y0.min(height),
-            x1: s.rect.x1.min(width),
-            y1: s.rect.y1.min(height),
+            x0: rect.x0.min(width),
+            y0: rect.y0.min(height),
+            x1: rect.x1.min(width),
+            y1: rect.y1.min(height),
         };
         let (rw, rh) = (
             (r.x1.saturating_sub(r.x0)) as usize,
             (r.y1.saturating_sub(r.y0)) as usize,
         );
         if rw == 0 || rh == 0 {
-            continue;
+            return None;
         }
-        // D over the rect, 0 where an earlier streak owns the pixel.
         let inside = |o: &PixelRect, x: u32, y: u32| x >= o.x0 && x < o.x1 && y >= o.y0 && y < o.y1;
         let mut d = vec![0f32; rw * rh * 3];
         for y in 0..rh {
@@ -121,36 +139,86 @@ pub fn smear(
                 if owned.iter().any(|o| inside(o, ax, ay)) {
                     continue;
                 }
-                let i = (ay as usize * w + ax as usize) * 4;
+                let i = (ay as usize * width as usize + ax as usize) * 4;
                 for c in 0..3 {
-                    d[(y * rw + x) * 3 + c] = lin(frame, i + c) - lin(background, i + c);
+                    d[(y * rw + x) * 3 + c] = lin(dec, frame, i + c) - lin(dec, background, i + c);
                 }
             }
         }
-        owned.push(r);
-        let sample = |x: f64, y: f64, c: usize| -> f32 {
-            // Bilinear in D's pixel-centre grid; 0 outside.
-            let (u, v) = (x - 0.5 - f64::from(r.x0), y - 0.5 - f64::from(r.y0));
-            let (i0, j0) = (u.floor(), v.floor());
-            let (fx, fy) = ((u - i0) as f32, (v - j0) as f32);
-            let at = |i: f64, j: f64| -> f32 {
-                if i < 0.0 || j < 0.0 || i >= rw as f64 || j >= rh as f64 {
-                    0.0
-                } else {
-                    d[(j as usize * rw + i as usize) * 3 + c]
-                }
-            };
-            let top = at(i0, j0) + (at(i0 + 1.0, j0) - at(i0, j0)) * fx;
-            let bottom = at(i0, j0 + 1.0) + (at(i0 + 1.0, j0 + 1.0) - at(i0, j0 + 1.0)) * fx;
-            top + (bottom - top) * fy
+        Some(Self {
+            rect: r,
+            w: rw,
+            h: rh,
+            d,
+        })
+    }
+
+    /// Channel `c` of D at image point (`x`, `y`): bilinear in D's
+    /// pixel-centre grid, 0 outside.
+    fn sample(&self, x: f64, y: f64, c: usize) -> f32 {
+        let (u, v) = (
+            x - 0.5 - f64::from(self.rect.x0),
+            y - 0.5 - f64::from(self.rect.y0),
+        );
+        let (i0, j0) = (u.floor(), v.floor());
+        let (fx, fy) = ((u - i0) as f32, (v - j0) as f32);
+        let at = |i: f64, j: f64| -> f32 {
+            if i < 0.0 || j < 0.0 || i >= self.w as f64 || j >= self.h as f64 {
+                0.0
+            } else {
+                self.d[(j as usize * self.w + i as usize) * 3 + c]
+            }
         };
+        let top = at(i0, j0) + (at(i0 + 1.0, j0) - at(i0, j0)) * fx;
+        let bottom = at(i0, j0 + 1.0) + (at(i0 + 1.0, j0 + 1.0) - at(i0, j0 + 1.0)) * fx;
+        top + (bottom - top) * fy
+    }
+}
+
+/// The streaks' summed contributions over the bounding box of every swept
+/// rect, and which of its pixels any streak reached.
+struct Accumulator {
+    bbox: PixelRect,
+    bw: usize,
+    bh: usize,
+    /// RGB per pixel, row-major over the box.
+    acc: Vec<f32>,
+    touched: Vec<bool>,
+}
+
+impl Accumulator {
+    /// An empty accumulator over the union of the streaks' swept rects, or
+    /// `None` when there are no streaks.
+    fn over(moving: &[&Streak], width: u32, height: u32) -> Option<Self> {
+        let bbox = moving
+            .iter()
+            .map(|s| s.swept(width, height))
+            .reduce(|a, b| PixelRect {
+                x0: a.x0.min(b.x0),
+                y0: a.y0.min(b.y0),
+                x1: a.x1.max(b.x1),
+                y1: a.y1.max(b.y1),
+            })?;
+        let bw = (bbox.x1 - bbox.x0) as usize;
+        let bh = (bbox.y1.saturating_sub(bbox.y0)) as usize;
+        Some(Self {
+            bbox,
+            bw,
+            bh,
+            acc: vec![0f32; bw * bh * 3],
+            touched: vec![false; bw * bh],
+        })
+    }
+
+    /// Adds streak `s`'s time average of `diff` over its swept rect.
+    fn add(&mut self, s: &Streak, diff: &Difference, width: u32, height: u32) {
         let n = samples(s.shift_px.0.hypot(s.shift_px.1));
         let weight = 1.0 / n as f32;
         let sw = s.swept(width, height);
         for y in sw.y0..sw.y1 {
             for x in sw.x0..sw.x1 {
-                let k = (y - bbox.y0) as usize * bw + (x - bbox.x0) as usize;
-                touched[k] = true;
+                let k = (y - self.bbox.y0) as usize * self.bw + (x - self.bbox.x0) as usize;
+                self.touched[k] = true;
                 for c in 0..3 {
                     let mut sum = 0f32;
                     for t in 0..n {
@@ -159,27 +227,34 @@ pub fn smear(
                             f64::from(x) + 0.5 - t * s.shift_px.0,
                             f64::from(y) + 0.5 - t * s.shift_px.1,
                         );
-                        sum += sample(px, py, c);
+                        sum += diff.sample(px, py, c);
                     }
-                    acc[k * 3 + c] += sum * weight;
+                    self.acc[k * 3 + c] += sum * weight;
                 }
             }
         }
     }
-    for y in 0..bh {
-        for x in 0..bw {
-            let k = y * bw + x;
-            if !touched[k] {
-                continue;
-            }
-            let i = ((bbox.y0 as usize + y) * w + bbox.x0 as usize + x) * 4;
-            for c in 0..3 {
-                let v = lin(background, i + c) + acc[k * 3 + c];
-                out[i + c] = encode(enc, v.clamp(0.0, 1.0));
+
+    /// Writes lin(background) + the contributions into `out` at every
+    /// touched pixel of the `width`-wide image; the rest keep their bytes.
+    fn apply(&self, background: &[u8], width: u32, out: &mut [u8]) {
+        let dec = decode_table();
+        let enc = encode_table();
+        let w = width as usize;
+        for y in 0..self.bh {
+            for x in 0..self.bw {
+                let k = y * self.bw + x;
+                if !self.touched[k] {
+                    continue;
+                }
+                let i = ((self.bbox.y0 as usize + y) * w + self.bbox.x0 as usize + x) * 4;
+                for c in 0..3 {
+                    let v = lin(dec, background, i + c) + self.acc[k * 3 + c];
+                    out[i + c] = encode(enc, v.clamp(0.0, 1.0));
+                }
             }
         }
     }
-    out
 }
 
 #[cfg(test)]

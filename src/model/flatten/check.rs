@@ -128,7 +128,8 @@ pub(super) fn check_primitive_accessors(
 }
 
 /// A named error if `accessor` (used as `semantic`) reads past the end of
-/// its buffer view, or its view past the end of its buffer's data. The glTF
+/// its buffer view, or its view past the end of its buffer's data, or its
+/// sparse entries are more than its elements or name one it lacks. The glTF
 /// reader answers such an accessor with "no data", which would otherwise
 /// read as a missing attribute.
 pub(super) fn check_accessor(
@@ -142,108 +143,148 @@ pub(super) fn check_accessor(
         semantic: semantic.to_owned(),
         overrun,
     };
-    let view_fits = |view: &gltf::buffer::View<'_>| -> Result<usize, Defect> {
-        let data = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
-        let end = view.offset().checked_add(view.length());
-        if end.is_none_or(|end| end > data) {
-            return Err(out(Overrun::Buffer {
-                view: view.index(),
-                offset: view.offset(),
-                end,
-                buffer: view.buffer().index(),
-                data,
-            }));
-        }
-        Ok(view.length())
+    elements_fit(accessor, buffers).map_err(out)?;
+    let Some(sparse) = accessor.sparse() else {
+        return Ok(());
     };
+    sparse_fits(accessor, &sparse, buffers).map_err(out)?;
+    let (n, count) = (sparse.count(), accessor.count());
+    if n > count {
+        return Err(Defect::SparseCount {
+            index,
+            semantic: semantic.to_owned(),
+            n,
+            count,
+        });
+    }
+    if let Some((entry, value)) = sparse_index_past(&sparse, count, buffers) {
+        return Err(Defect::SparseIndex {
+            index,
+            semantic: semantic.to_owned(),
+            value,
+            entry,
+            count,
+        });
+    }
+    Ok(())
+}
+
+/// The length of `view`, or where it runs past its buffer's data.
+fn view_fits(
+    view: &gltf::buffer::View<'_>,
+    buffers: &[gltf::buffer::Data],
+) -> Result<usize, Overrun> {
+    let data = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
+    let end = view.offset().checked_add(view.length());
+    if end.is_none_or(|end| end > data) {
+        return Err(Overrun::Buffer {
+            view: view.index(),
+            offset: view.offset(),
+            end,
+            buffer: view.buffer().index(),
+            data,
+        });
+    }
+    Ok(view.length())
+}
+
+/// Whether the accessor's view fits its buffer and its elements fit the view
+/// (an accessor without a view reads nothing from a buffer).
+fn elements_fit(
+    accessor: &gltf::Accessor<'_>,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), Overrun> {
+    let Some(view) = accessor.view() else {
+        return Ok(());
+    };
+    let length = view_fits(&view, buffers)?;
     let count = accessor.count();
-    if let Some(view) = accessor.view() {
-        let length = view_fits(&view)?;
-        let size = accessor.size();
-        let stride = view.stride().unwrap_or(size);
-        let end = count
-            .checked_sub(1)
-            .and_then(|n| n.checked_mul(stride))
-            .and_then(|n| n.checked_add(size))
-            .and_then(|n| n.checked_add(accessor.offset()));
-        if count > 0 && end.is_none_or(|end| end > length) {
-            return Err(out(Overrun::Elements {
-                count,
+    let size = accessor.size();
+    let stride = view.stride().unwrap_or(size);
+    let end = count
+        .checked_sub(1)
+        .and_then(|n| n.checked_mul(stride))
+        .and_then(|n| n.checked_add(size))
+        .and_then(|n| n.checked_add(accessor.offset()));
+    if count > 0 && end.is_none_or(|end| end > length) {
+        return Err(Overrun::Elements {
+            count,
+            size,
+            stride,
+            offset: accessor.offset(),
+            end,
+            view: view.index(),
+            length,
+        });
+    }
+    Ok(())
+}
+
+/// Whether the sparse indices and values each fit their buffer view (and
+/// it its buffer).
+fn sparse_fits(
+    accessor: &gltf::Accessor<'_>,
+    sparse: &gltf::accessor::sparse::Sparse<'_>,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(), Overrun> {
+    let n = sparse.count();
+    let indices = sparse.indices();
+    let values = sparse.values();
+    let parts = [
+        (
+            "sparse indices",
+            indices.view(),
+            indices.offset(),
+            indices.index_type().size(),
+        ),
+        (
+            "sparse values",
+            values.view(),
+            values.offset(),
+            accessor.size(),
+        ),
+    ];
+    for (what, view, offset, size) in parts {
+        let length = view_fits(&view, buffers)?;
+        let end = n.checked_mul(size).and_then(|b| b.checked_add(offset));
+        if end.is_none_or(|end| end > length) {
+            return Err(Overrun::Sparse {
+                what,
+                n,
                 size,
-                stride,
-                offset: accessor.offset(),
-                end,
+                offset,
                 view: view.index(),
                 length,
-            }));
-        }
-    }
-    if let Some(sparse) = accessor.sparse() {
-        let n = sparse.count();
-        let indices = sparse.indices();
-        let values = sparse.values();
-        let parts = [
-            (
-                "sparse indices",
-                indices.view(),
-                indices.offset(),
-                indices.index_type().size(),
-            ),
-            (
-                "sparse values",
-                values.view(),
-                values.offset(),
-                accessor.size(),
-            ),
-        ];
-        for (what, view, offset, size) in parts {
-            let length = view_fits(&view)?;
-            let end = n.checked_mul(size).and_then(|b| b.checked_add(offset));
-            if end.is_none_or(|end| end > length) {
-                return Err(out(Overrun::Sparse {
-                    what,
-                    n,
-                    size,
-                    offset,
-                    view: view.index(),
-                    length,
-                }));
-            }
-        }
-        if n > count {
-            return Err(Defect::SparseCount {
-                index,
-                semantic: semantic.to_owned(),
-                n,
-                count,
             });
-        }
-        // Each sparse index names an element to replace: it must be below the count.
-        let view = indices.view();
-        let data = buffers
-            .get(view.buffer().index())
-            .map_or(&[][..], |d| &d.0[..]);
-        let size = indices.index_type().size();
-        let start = view.offset() + indices.offset();
-        for k in 0..n {
-            let at = start + k * size;
-            let Some(bytes) = data.get(at..at + size) else {
-                break;
-            };
-            let value = bytes
-                .iter()
-                .rev()
-                .fold(0u64, |v, &b| (v << 8) | u64::from(b));
-            if value >= count as u64 {
-                return Err(Defect::SparseIndex {
-                    index,
-                    semantic: semantic.to_owned(),
-                    value,
-                    entry: k,
-                    count,
-                });
-            }
         }
     }
     Ok(())
+}
+
+/// The first sparse index (entry, value) not below `count`: each names an
+/// element to replace. Read little-endian from the (checked) indices view.
+fn sparse_index_past(
+    sparse: &gltf::accessor::sparse::Sparse<'_>,
+    count: usize,
+    buffers: &[gltf::buffer::Data],
+) -> Option<(usize, u64)> {
+    let indices = sparse.indices();
+    let view = indices.view();
+    let data = buffers
+        .get(view.buffer().index())
+        .map_or(&[][..], |d| &d.0[..]);
+    let size = indices.index_type().size();
+    let start = view.offset() + indices.offset();
+    for k in 0..sparse.count() {
+        let at = start + k * size;
+        let bytes = data.get(at..at + size)?;
+        let value = bytes
+            .iter()
+            .rev()
+            .fold(0u64, |v, &b| (v << 8) | u64::from(b));
+        if value >= count as u64 {
+            return Some((k, value));
+        }
+    }
+    None
 }

@@ -9,6 +9,7 @@ use std::path::Path;
 
 use serde_json::json;
 
+use super::json::{Decimals, Json};
 use super::{DatasetInfo, FormatWriter, FrameRecord};
 use crate::annotate::LabelStatus;
 use crate::scene::SplitName;
@@ -128,21 +129,40 @@ pub fn write_frame_records_with(
     model_names: &[String],
     rle: Option<&[Option<String>]>,
 ) {
-    use super::json::{Decimals, Json};
-    let xywh = |j: &mut Json<'_>, b: &crate::annotate::PixelBox| {
-        j.rounded_all(&[b.x0, b.y0, b.width(), b.height()], Decimals::Six);
+    write_image_record(&mut Json { out: image_out }, scene, image, model_names);
+    let j = &mut Json {
+        out: annotations_out,
     };
-    let image_id = scene.index + 1;
-    // TAO / COCO-VID: video ids from 1, frames from 0 (`frame_id` for
-    // mmtracking's CocoVID, `frame_index` for TAO).
-    let video = scene.sequence.map(|seq| (seq.id + 1, seq));
-    // What varies per frame rides along, so results can be broken down per scene.
-    let j = &mut Json { out: image_out };
+    for l in labels.iter().filter(|l| l.is_detection_label()) {
+        let segmentation = rle.and_then(|r| r.get(l.drone)).and_then(Option::as_ref);
+        write_annotation(j, scene, l, segmentation.map(String::as_str));
+    }
+}
+
+/// TAO / COCO-VID: the frame's video id, from 1 (its frames count from 0:
+/// `frame_id` for mmtracking's CocoVID, `frame_index` for TAO).
+fn video_id(scene: &crate::scene::FrameScene) -> Option<u64> {
+    scene.sequence.map(|seq| seq.id + 1)
+}
+
+/// A box as COCO's `[x, y, width, height]`.
+fn xywh(j: &mut Json<'_>, b: &crate::annotate::PixelBox) {
+    j.rounded_all(&[b.x0, b.y0, b.width(), b.height()], Decimals::Six);
+}
+
+/// The frame's image record. What varies per frame rides along, so results
+/// can be broken down per scene.
+fn write_image_record(
+    j: &mut Json<'_>,
+    scene: &crate::scene::FrameScene,
+    image: &str,
+    model_names: &[String],
+) {
     j.raw(b"{\"environment\":");
     j.str(&scene.environment_name);
     j.raw(b",\"file_name\":");
     j.str(image.trim_start_matches("images/"));
-    if let Some((_, seq)) = video {
+    if let Some(seq) = scene.sequence {
         j.raw(b",\"frame_id\":");
         j.u64(seq.step);
         j.raw(b",\"frame_index\":");
@@ -151,88 +171,94 @@ pub fn write_frame_records_with(
     j.raw(b",\"height\":");
     j.u64(scene.camera.height.into());
     j.raw(b",\"id\":");
-    j.u64(image_id);
+    j.u64(scene.index + 1);
     j.raw(b",\"models\":");
     super::manifest::write_models_present(j, scene, model_names);
     j.raw(b",\"sweep\":");
     super::manifest::write_sweep(j, scene);
-    if let Some((id, _)) = video {
+    if let Some(id) = video_id(scene) {
         j.raw(b",\"video_id\":");
         j.u64(id);
     }
     j.raw(b",\"width\":");
     j.u64(scene.camera.width.into());
     j.raw(b"}");
-    let j = &mut Json {
-        out: annotations_out,
-    };
-    for l in labels.iter().filter(|l| l.is_detection_label()) {
-        let b = &l.bbox;
-        // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
-        let track_id = video.map(|(id, _)| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
-        let v = l.visibility.as_ref();
-        let segmentation = rle.and_then(|r| r.get(l.drone)).and_then(Option::as_ref);
-        // The writer opens the object with its id.
-        j.raw(b"\"amodal_bbox\":");
-        xywh(j, &l.amodal);
-        j.raw(b",\"area\":");
-        match (segmentation, v) {
-            (Some(_), Some(v)) => j.u64(v.visible_pixels),
-            _ => j.rounded(b.area(), Decimals::Six),
-        }
-        j.raw(b",\"bbox\":");
-        xywh(j, b);
-        j.raw(b",\"category_id\":");
-        j.u64(l.class_id as u64 + 1);
-        j.raw(b",\"image_id\":");
-        j.u64(image_id);
-        if let Some(track) = track_id {
-            j.raw(b",\"instance_id\":");
-            j.u64(track);
-        }
-        j.raw(if l.status == LabelStatus::Crowd {
-            b",\"iscrowd\":1"
-        } else {
-            b",\"iscrowd\":0"
-        });
-        j.raw(b",\"paper_aabb_bbox\":");
-        xywh(j, &l.paper_aabb);
-        if let Some(counts) = segmentation {
-            j.raw(b",\"segmentation\":{\"counts\":");
-            j.str(counts);
-            j.raw(b",\"size\":[");
-            j.u64(scene.camera.height.into());
-            j.raw(b",");
-            j.u64(scene.camera.width.into());
-            j.raw(b"]}");
-        }
-        if let Some(track) = track_id {
-            j.raw(b",\"track_id\":");
-            j.u64(track);
-        }
-        j.raw(b",\"truncated\":");
-        j.bool(l.truncated);
-        if let Some(v) = v {
-            j.raw(b",\"unoccluded_pixels\":");
-            j.u64(v.unoccluded_pixels);
-        }
-        if let Some((id, _)) = video {
-            j.raw(b",\"video_id\":");
-            j.u64(id);
-        }
-        if let Some(v) = v {
-            j.raw(b",\"visible_bbox\":");
-            match &v.visible_box {
-                Some(vb) => xywh(j, vb),
-                None => j.raw(b"null"),
-            }
-            j.raw(b",\"visible_fraction\":");
-            j.rounded(v.fraction(), Decimals::Six);
-            j.raw(b",\"visible_pixels\":");
-            j.u64(v.visible_pixels);
-        }
-        j.raw(b"}\n");
+}
+
+/// Drone label `l`'s annotation record, without its id and opening brace
+/// (the writer opens the object with its id), ended by a newline;
+/// `segmentation` is its mask's COCO RLE counts. One field after another,
+/// in byte order of their names.
+fn write_annotation(
+    j: &mut Json<'_>,
+    scene: &crate::scene::FrameScene,
+    l: &crate::annotate::DroneLabel,
+    segmentation: Option<&str>,
+) {
+    let b = &l.bbox;
+    let video = video_id(scene);
+    // Track ids unique over the dataset: video id × 1e6 + the drone's track id.
+    let track_id = video.map(|id| id * TRACKS_PER_VIDEO + l.drone as u64 + 1);
+    let v = l.visibility.as_ref();
+    j.raw(b"\"amodal_bbox\":");
+    xywh(j, &l.amodal);
+    j.raw(b",\"area\":");
+    match (segmentation, v) {
+        (Some(_), Some(v)) => j.u64(v.visible_pixels),
+        _ => j.rounded(b.area(), Decimals::Six),
     }
+    j.raw(b",\"bbox\":");
+    xywh(j, b);
+    j.raw(b",\"category_id\":");
+    j.u64(l.class_id as u64 + 1);
+    j.raw(b",\"image_id\":");
+    j.u64(scene.index + 1);
+    if let Some(track) = track_id {
+        j.raw(b",\"instance_id\":");
+        j.u64(track);
+    }
+    j.raw(if l.status == LabelStatus::Crowd {
+        b",\"iscrowd\":1"
+    } else {
+        b",\"iscrowd\":0"
+    });
+    j.raw(b",\"paper_aabb_bbox\":");
+    xywh(j, &l.paper_aabb);
+    if let Some(counts) = segmentation {
+        j.raw(b",\"segmentation\":{\"counts\":");
+        j.str(counts);
+        j.raw(b",\"size\":[");
+        j.u64(scene.camera.height.into());
+        j.raw(b",");
+        j.u64(scene.camera.width.into());
+        j.raw(b"]}");
+    }
+    if let Some(track) = track_id {
+        j.raw(b",\"track_id\":");
+        j.u64(track);
+    }
+    j.raw(b",\"truncated\":");
+    j.bool(l.truncated);
+    if let Some(v) = v {
+        j.raw(b",\"unoccluded_pixels\":");
+        j.u64(v.unoccluded_pixels);
+    }
+    if let Some(id) = video {
+        j.raw(b",\"video_id\":");
+        j.u64(id);
+    }
+    if let Some(v) = v {
+        j.raw(b",\"visible_bbox\":");
+        match &v.visible_box {
+            Some(vb) => xywh(j, vb),
+            None => j.raw(b"null"),
+        }
+        j.raw(b",\"visible_fraction\":");
+        j.rounded(v.fraction(), Decimals::Six);
+        j.raw(b",\"visible_pixels\":");
+        j.u64(v.visible_pixels);
+    }
+    j.raw(b"}\n");
 }
 
 /// `n` in decimal, as `{n}` formats it, in `buf`.
