@@ -31,6 +31,7 @@ use serde::Serialize;
 
 use super::input::RealFrame;
 use super::sky::{self, NoisePicture, SKY_TILES, SkyTile};
+use crate::gap;
 use crate::gap::measure::{self, Luma};
 use crate::preset::ImageFormat;
 use crate::preset::camera_model::{CameraModel, Psf};
@@ -54,16 +55,7 @@ pub fn quartiles(values: &[f64]) -> Option<Quartiles> {
         return None;
     }
     v.sort_by(f64::total_cmp);
-    let at = |q: f64| {
-        let pos = q * (v.len() - 1) as f64;
-        let i = pos.floor() as usize;
-        let f = pos - i as f64;
-        if i + 1 < v.len() {
-            v[i] + f * (v[i + 1] - v[i])
-        } else {
-            v[i]
-        }
-    };
+    let at = |q: f64| gap::percentile(&v, q);
     Some(Quartiles {
         n: v.len(),
         q25: at(0.25),

@@ -45,6 +45,7 @@
 use std::collections::BTreeMap;
 
 use super::camera::{Footage, quartiles};
+use crate::gap;
 use crate::gap::report::{Report, SMALL_CORE_PX};
 use crate::preset::appearance::{Appearance, DroneColor};
 use crate::preset::atmosphere::{Atmosphere, MAX_VISIBILITY_M};
@@ -85,24 +86,15 @@ impl CentreSpread {
         if xs.len() < MIN_CENTRES {
             return None;
         }
-        let span = |v: &mut Vec<f64>| percentile(v, 0.95) - percentile(v, 0.05);
+        let span = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            gap::percentile(v, 0.95) - gap::percentile(v, 0.05)
+        };
         Some(Self {
             x: span(&mut xs),
             y: span(&mut ys),
             n: xs.len(),
         })
-    }
-}
-
-/// The `q` quantile of `v` (sorted here), linear between order statistics; `v` not empty.
-fn percentile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let pos = q * (v.len() - 1) as f64;
-    let i = pos.floor() as usize;
-    match (v.get(i), v.get(i + 1)) {
-        (Some(a), Some(b)) => a + (pos - i as f64) * (b - a),
-        (Some(a), None) => *a,
-        _ => 0.0,
     }
 }
 

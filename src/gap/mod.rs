@@ -59,6 +59,8 @@ pub mod report;
 pub mod sheet;
 mod table;
 
+pub use table::percentile;
+
 use image::RgbImage;
 use serde::Serialize;
 

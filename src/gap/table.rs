@@ -139,7 +139,7 @@ pub fn cell(s: Option<Summary>) -> String {
 }
 
 /// Linear-interpolated percentile of sorted data (`q` in 0–1; 0 when empty).
-pub(super) fn percentile(sorted: &[f64], q: f64) -> f64 {
+pub fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
     }
