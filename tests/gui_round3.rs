@@ -528,15 +528,19 @@ fn browse_chooses_the_backplate_folder_and_the_real_frames_folder() {
         Path::new("./sub/../plates")
     );
 
-    // The Domain gap window's real frames: the Browse… that the window added.
-    let before: Vec<egui::Rect> = h
-        .get_all_by_role_and_label(Role::Button, "Browse…")
-        .map(|b| b.rect())
-        .collect();
+    // The Domain gap window's real frames: the Browse… on the row of its
+    // "Real frames folder" field (opening the window may move the other panels).
     h.state_mut().gap_panel_mut().open = true;
     h.run_steps(2);
+    let field = h
+        .get_by_role_and_label(Role::TextInput, "Real frames folder")
+        .rect();
     h.get_all_by_role_and_label(Role::Button, "Browse…")
-        .find(|b| !before.contains(&b.rect()))
+        .filter(|b| b.rect().left() >= field.right())
+        .min_by(|a, b| {
+            let dy = |r: egui::Rect| (r.center().y - field.center().y).abs();
+            dy(a.rect()).total_cmp(&dy(b.rect()))
+        })
         .unwrap()
         .click_accesskit();
     h.run_steps(2);
