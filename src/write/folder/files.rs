@@ -54,10 +54,11 @@ impl Folder {
     }
 
     /// A frame file of a labels-only plan (already claimed with
-    /// [`Folder::claim_frame`], frames not durable): created in place with
-    /// `create_new`, which never follows a link nor replaces an entry, and not
-    /// flushed. Anything already at `rel` (a resumed plan's frame in flight)
-    /// goes the careful way of [`Folder::write_file`].
+    /// [`Folder::claim_frame`], frames not durable): kept until the
+    /// checkpoint, then created in place with the chunk's other files on a few
+    /// threads (`pending.rs`), never following a link nor replacing an entry,
+    /// and not flushed. Anything already at `rel` (a resumed plan's frame in
+    /// flight) goes the careful way of [`Folder::write_file`].
     pub fn write_frame_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
         if self.durable_frames {
             return self.write_file(rel, bytes);
@@ -65,12 +66,8 @@ impl Folder {
         if let Some((dir, _)) = rel.rsplit_once('/') {
             self.ensure_dir(dir)?;
         }
-        let path = self.root.join(rel);
-        if self.tree.lstat(rel)?.is_some() {
-            return self.write_file(rel, bytes);
-        }
-        let mut file = self.tree.create_new(rel, false)?;
-        file.write_all(bytes).map_err(io(&path))
+        self.pending.push(rel, bytes);
+        Ok(())
     }
 
     /// [`Folder::write_file`] with the contents streamed by `fill`.

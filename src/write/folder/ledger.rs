@@ -91,6 +91,7 @@ impl Folder {
             path: self.root.join(LEDGER),
             reason: e.to_string(),
         })?;
+        self.create_pending()?;
         stall_if_asked(&format!("checkpoint:{}", checkpoint.next.saturating_sub(1)));
         // A folder swapped for a link (or moved) since it was opened stops the
         // run here: the frame's files went into the folder that was opened.
@@ -131,6 +132,7 @@ impl Folder {
     /// After a failed frame: delete the files of the frame in flight (the
     /// checkpoint before it still describes the folder).
     pub fn drop_frame(&mut self) {
+        self.pending.clear();
         for rel in std::mem::take(&mut self.frame_claims) {
             for r in [temp_rel(&rel), rel] {
                 let _ = self.tree.remove_file(&r);

@@ -54,7 +54,8 @@
 //! reading the ledger back; `ledger.rs`: the records a run appends (claims,
 //! checkpoints, the done mark); `files.rs`: files written atomically,
 //! folders made, append-only files opened; `link.rs`: files put in place by
-//! a hard link (merge's shard files, a frame's repeated file); `lock.rs`,
+//! a hard link (merge's shard files, a frame's repeated file); `pending.rs`: a labels-only plan's frame
+//! files, created together before their checkpoint; `lock.rs`,
 //! `append.rs`, `content.rs`, `run.rs`: the lock, the append-only files, the
 //! shards' content records, the run's header line; `tree.rs`: no-follow
 //! access below a folder; `outdir.rs`: report folders.
@@ -78,6 +79,7 @@ mod link;
 mod lock;
 mod open;
 pub mod outdir;
+mod pending;
 mod run;
 mod scan;
 mod stall;
@@ -156,6 +158,8 @@ pub struct Folder {
     /// Frame claims and frame files are flushed to disk one by one (a
     /// labels-only plan turns this off: see `set_durable_frames`).
     durable_frames: bool,
+    /// A labels-only plan's frame files, created just before their checkpoint.
+    pending: pending::PendingFiles,
     /// One writer per folder; released (and its file deleted) when the folder is dropped.
     _lock: FolderLock,
 }

@@ -167,6 +167,7 @@ impl Folder {
             frame_claims: Vec::new(),
             dirs_ok: HashSet::new(),
             durable_frames: true,
+            pending: Default::default(),
             _lock: lock,
         })
     }
@@ -203,6 +204,7 @@ impl Folder {
             frame_claims: Vec::new(),
             dirs_ok: HashSet::new(),
             durable_frames: true,
+            pending: Default::default(),
             _lock: lock,
         })
     }
