@@ -35,7 +35,9 @@ fn plan_cmd(preset: &Path, out: &Path, extra: &[&str]) -> Command {
 }
 
 fn plan_ok(preset: &Path, out: &Path, extra: &[&str]) {
-    let o = plan_cmd(preset, out, extra).output().expect("run swarmshot");
+    let o = plan_cmd(preset, out, extra)
+        .output()
+        .expect("run swarmshot");
     assert!(
         o.status.success(),
         "swarmshot batch --labels-only {extra:?} failed:\n{}",
@@ -82,7 +84,10 @@ fn assert_claimed(out: &Path) {
         .collect();
     for rel in labels(out) {
         let rel = rel.to_string_lossy().into_owned();
-        assert!(claimed.contains(rel.as_str()), "{rel} exists but is not claimed");
+        assert!(
+            claimed.contains(rel.as_str()),
+            "{rel} exists but is not claimed"
+        );
     }
 }
 
@@ -133,7 +138,9 @@ fn a_killed_plan_continues_to_the_same_bytes() {
     for n in [1usize, 300, 1000] {
         let out = tmp.path().join(format!("killed-after-{n}"));
         let child = plan_cmd(&preset, &out, &[]).spawn().expect("spawn");
-        kill_when(child, &format!("{n} label files"), || labels(&out).len() >= n);
+        kill_when(child, &format!("{n} label files"), || {
+            labels(&out).len() >= n
+        });
         assert_claimed(&out);
         // Rerunning the same command (no --resume) continues too.
         plan_ok(&preset, &out, &[]);
