@@ -9,7 +9,8 @@
 //! bilinear sampler (`uv = position / (2 · principal point)`), the
 //! interpolation in `f32`, and the sRGB encoding of
 //! [`srgb_u8`] rounded exactly (a table of the 255 decision thresholds, not
-//! a `pow` approximation). It differs from the GPU pass by at most one
+//! a `pow` approximation, folded into one packed bucket read a value:
+//! [`Buckets`]; in AVX2 eight values a gather, `upsample/gather.rs`). It differs from the GPU pass by at most one
 //! 8-bit level where lavapipe's `pow` and filtering round the other way
 //! (docs/benchmarks.md states how many pixels).
 
@@ -17,6 +18,9 @@ use std::ops::Range;
 use std::sync::LazyLock;
 
 use half::slice::HalfFloatSliceExt;
+
+#[cfg(target_arch = "x86_64")]
+mod gather;
 
 /// Linear values where the sRGB-encoded 8-bit value steps up.
 struct SrgbTable {
@@ -125,27 +129,49 @@ const BUCKETS_PER_UNIT: f32 = 4096.0;
 
 /// An exact threshold encode folded so that it vectorises: per bucket of
 /// width 1/4096 of the values `x` in [0, `top`], the level at its low end
-/// and the one threshold that can lie inside it; `base[i] + (x ≥ step[i])`
-/// is the number of thresholds at or below `x`. Thresholds are never closer
-/// than a bucket: the tightest, in the sRGB curve's linear toe, are
-/// 1/(255 · 12.92) = 3.0e-4 apart (checked when built). `N`, a power of two
-/// above `top` · 4096, lets a masked index go without a bounds check.
+/// and the one threshold that can lie inside it, packed in one word so that
+/// a value costs one table read (one gather a vector, not two): the level
+/// in the top 8 bits, and in the low 24 the threshold's distance in f32
+/// steps above the bucket's floor ([`bucket_floor_bits`]). The level of `x`
+/// is the level at the low end, plus one when `x` lies that many steps or
+/// more above the floor: for values ≥ 0 the order of f32 bit patterns is
+/// the order of the values, so this is `x ≥ threshold`. Thresholds are never
+/// closer than a bucket: the tightest, in the sRGB curve's linear toe, are
+/// 1/(255 · 12.92) = 3.0e-4 apart (checked when built, as is that every
+/// distance fits 24 bits). `N`, a power of two above `top` · 4096, lets a
+/// masked index go without a bounds check.
 struct Buckets<const N: usize> {
-    base: [u32; N],
-    step: [f32; N],
+    packed: [u32; N],
     top: f32,
 }
+
+/// The low 24 bits of a packed bucket with no threshold inside: more f32
+/// steps than any bucket holds (at most 2²³, see [`bucket_floor_bits`]).
+const NO_STEP: u32 = 0x00ff_ffff;
+
+/// The bit pattern of the floor of bucket `i` (given as an f32, exact):
+/// its low end i / 4096 (exact in f32), but never below 2⁻¹³, so that bucket 0 ([0, 2⁻¹²)) spans 2²³ f32
+/// steps above its floor as every other bucket does at most; values below
+/// the floor lie below any threshold (the least, sRGB level 1, is 1.5e-4,
+/// above 2⁻¹³ = 1.2e-4: checked when built).
+#[inline(always)]
+fn bucket_floor_bits(i: f32) -> u32 {
+    (i * (1.0 / BUCKETS_PER_UNIT)).max(FLOOR_MIN).to_bits()
+}
+
+/// 2⁻¹³: the least bucket floor ([`bucket_floor_bits`]).
+const FLOOR_MIN: f32 = 1.0 / 8192.0;
 
 impl<const N: usize> Buckets<N> {
     /// The buckets of `thresholds` (`thresholds[k]`: the least value of
     /// level k; `thresholds[0]` unused), over [0, `top`].
     fn new(thresholds: &[f32; 256], top: f32) -> Box<Self> {
         let mut b = Box::new(Self {
-            base: [0; N],
-            step: [f32::INFINITY; N],
+            packed: [NO_STEP; N],
             top,
         });
         let t = &thresholds[1..];
+        assert!(t[0] > FLOOR_MIN, "a threshold below the least floor");
         for i in 0..=((top * BUCKETS_PER_UNIT) as usize).min(N - 1) {
             let (lo, hi) = (
                 i as f32 / BUCKETS_PER_UNIT,
@@ -156,8 +182,12 @@ impl<const N: usize> Buckets<N> {
                 t.iter().filter(|&&v| v > lo && v < hi).count() <= 1,
                 "two thresholds in one bucket"
             );
-            b.base[i] = k as u32;
-            b.step[i] = t.get(k).copied().unwrap_or(f32::INFINITY);
+            let steps = match t.get(k) {
+                Some(&v) if v < hi => v.to_bits() - bucket_floor_bits(i as f32),
+                _ => NO_STEP,
+            };
+            assert!(k < 256 && steps <= NO_STEP, "a bucket that does not pack");
+            b.packed[i] = (k as u32) << 24 | steps;
         }
         b
     }
@@ -167,12 +197,15 @@ impl<const N: usize> Buckets<N> {
     #[inline(always)]
     fn encode(&self, x: f32) -> u32 {
         // ⌊x · 4096⌋ through the mantissa of 2²³ + ⌊…⌋: no saturating cast,
-        // which LLVM makes one lane at a time.
+        // which LLVM makes one lane at a time. `+ 0.0` turns a −0 into +0
+        // (its bits are compared below).
         const TWO23: f32 = 8_388_608.0;
-        let x = x.max(0.0).min(self.top);
-        let i = ((x * BUCKETS_PER_UNIT).floor() + TWO23).to_bits() - TWO23.to_bits();
-        let i = i as usize & (N - 1);
-        self.base[i] + u32::from(x >= self.step[i])
+        let x = x.max(0.0).min(self.top) + 0.0;
+        let bucket = (x * BUCKETS_PER_UNIT).floor();
+        let i = (bucket + TWO23).to_bits() - TWO23.to_bits();
+        let packed = self.packed[i as usize & (N - 1)];
+        let above = x.to_bits() as i32 - bucket_floor_bits(bucket) as i32;
+        (packed >> 24) + u32::from(above >= (packed & NO_STEP) as i32)
     }
 }
 
@@ -301,13 +334,15 @@ struct RowScratch {
 /// One output row: the source rows `a` and `b` (RGBA texels) blended with
 /// weight `wy`, then across `columns`, encoded into `line` (RGBA8). The
 /// same f32 operations, in the same order, as the GPU sampler's bilinear
-/// filter: `p + (q − p) · w` vertically, then horizontally.
+/// filter: `p + (q − p) · w` vertically, then horizontally. `gather`: the
+/// encode in AVX2 gathers ([`gather::encode_line_avx2`]; only in
+/// [`upsample_row_avx2`]).
 #[inline(always)]
 fn upsample_row<const N: usize>(
     (a, b, wy): (&[f32], &[f32], f32),
     columns: &Columns,
     scratch: &mut RowScratch,
-    buckets: &Buckets<N>,
+    (buckets, gather): (&Buckets<N>, bool),
     line: &mut [u8],
 ) {
     let RowScratch { planes, values } = scratch;
@@ -336,6 +371,16 @@ fn upsample_row<const N: usize>(
         }
     }
     let [r, g, b] = &*values;
+    #[cfg(target_arch = "x86_64")]
+    if gather {
+        // SAFETY: only from `upsample_row_avx2`, on a CPU with AVX2.
+        #[allow(unsafe_code)]
+        unsafe {
+            gather::encode_line_avx2([r, g, b], buckets, line);
+        }
+        return;
+    }
+    let _ = gather;
     for (((px, r), g), b) in line.chunks_exact_mut(4).zip(r).zip(g).zip(b) {
         let word =
             buckets.encode(*r) | buckets.encode(*g) << 8 | buckets.encode(*b) << 16 | 0xff00_0000;
@@ -354,7 +399,7 @@ fn upsample_row_avx2<const N: usize>(
     buckets: &Buckets<N>,
     line: &mut [u8],
 ) {
-    upsample_row(rows, columns, scratch, buckets, line);
+    upsample_row(rows, columns, scratch, (buckets, true), line);
 }
 
 /// Whether this CPU runs [`upsample_row_avx2`].
@@ -527,7 +572,7 @@ fn upsample_with<const N: usize>(
             continue;
         }
         let _ = simd;
-        upsample_row(pair, &columns, &mut scratch, buckets, line);
+        upsample_row(pair, &columns, &mut scratch, (buckets, false), line);
     }
 }
 
@@ -714,6 +759,18 @@ mod tests {
             }
         }
         assert!(off < 20, "{off} values a level off");
+        // Exactly the count of its thresholds at or below a value, at and
+        // one f32 step around each of them.
+        let t: Vec<f32> = SRGB.thresholds[1..]
+            .iter()
+            .map(|&t| (-(1.0 - f64::from(t)).ln()) as f32)
+            .collect();
+        for &at in &t {
+            for x in [at.next_down(), at, at.next_up()] {
+                let want = t.partition_point(|&v| v <= x) as u32;
+                assert_eq!(b.encode(x), want, "x = {x}");
+            }
+        }
         assert_eq!(b.encode(0.0), 0);
         assert_eq!(b.encode(f32::NAN), 0);
         assert_eq!(b.encode(1.0e9), 255);
