@@ -177,7 +177,7 @@ fn flow_carries_each_drones_pixels_onto_the_next_frame() {
                 })
                 .collect();
             let (a, b) = (mean(&carried), mean(then));
-            let (c, _) = (mean(pixels), ());
+            let c = mean(pixels);
             eprintln!(
                 "frame {t} drone {id} ({} px): flow ({:.2}, {:.2}), shift ({:.2}, {:.2})",
                 pixels.len(),
