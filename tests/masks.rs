@@ -21,6 +21,7 @@ const ALL: MaskOutputs = MaskOutputs {
     instance_png: true,
     depth: true,
     depth_unit_mm: 1,
+    flow: false,
 };
 
 /// The tiny preset, crowded (drones hide each other), 4× MSAA (pixels shared

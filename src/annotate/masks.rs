@@ -22,6 +22,9 @@ pub struct FrameMasks {
     /// The depth (metres, camera-frame z) at each pixel of `instance`, in
     /// its order, when the preset asks for depth maps (else empty).
     pub depth_m: Vec<f64>,
+    /// The flow to the next frame of the sequence, when the preset asks for
+    /// it (`output.masks.flow`) and the frame has a next.
+    pub flow: Option<super::flow::FrameFlow>,
 }
 
 impl FrameMasks {
@@ -50,6 +53,7 @@ impl FrameMasks {
             pixels,
             instance,
             depth_m: Vec::new(),
+            flow: None,
         }
     }
 

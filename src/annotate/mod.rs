@@ -5,6 +5,7 @@
 //! fills in; this module knows nothing of the GPU).
 
 pub mod depth;
+pub mod flow;
 pub mod masks;
 pub mod overlay;
 pub mod rle;

@@ -164,6 +164,7 @@ mod tests {
             } else {
                 Vec::new()
             },
+            flow: None,
         }
     }
 

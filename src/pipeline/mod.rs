@@ -497,9 +497,13 @@ impl FramePipeline {
                 (rgba, Painted::default())
             }
         };
-        if let Some(m) = masks.as_mut().filter(|_| self.preset.output.masks.depth) {
+        let outputs = self.preset.output.masks;
+        if let Some(m) = masks.as_mut().filter(|_| outputs.depth || outputs.flow) {
             let meshes = self.assets.depth_meshes();
             m.depth_m = crate::annotate::depth::depth_m_of_meshes(&scene, meshes, m);
+            if outputs.flow {
+                m.flow = self.flow_to_next(&scene, m)?;
+            }
         }
         let labels = label_frame(
             &scene,
@@ -519,6 +523,27 @@ impl FramePipeline {
 }
 
 impl FramePipeline {
+    /// The flow of `scene`'s pixels to the next frame of its sequence
+    /// (`output.masks.flow`; [`crate::annotate::flow`]): `None` for the
+    /// last frame of a sequence. The next frame's scene is built alone, as
+    /// any frame can be.
+    fn flow_to_next(
+        &self,
+        scene: &FrameScene,
+        masks: &FrameMasks,
+    ) -> Result<Option<crate::annotate::flow::FrameFlow>, PipelineError> {
+        let Some(_) = scene.sequence.filter(|s| s.step < s.steps) else {
+            return Ok(None);
+        };
+        let next = self.scene(scene.index + 1)?;
+        Ok(Some(crate::annotate::flow::flow_of(
+            scene,
+            &next,
+            &masks.instance,
+            &masks.depth_m,
+        )))
+    }
+
     /// The format frame `scene` is written in: the preset's, with the
     /// camera model's drawn JPEG quality when it has one.
     pub fn image_format(&self, scene: &FrameScene) -> ImageFormat {

@@ -254,6 +254,7 @@ pub const FIELDS: &[Field] = &[
     f("output.masks.coco_rle", "COCO masks", "", "COCO segmentation as RLE of each labelled object's visible pixels"),
     f("output.masks.yolo_seg", "YOLO segmentation", "", "YOLO segmentation labels"),
     f("output.masks.instance_png", "Instance map", "", "An instance-id PNG per frame"),
+    f("output.masks.flow", "Optical flow", "", "Sequences: a KITTI 16-bit flow PNG per frame (flow/{split}/NAME.png), exact from geometry, to the next frame"),
     f("output.masks.depth_unit_mm", "Depth unit", " mm", "Depth map step: one grey level is this many millimetres"),
     f("labels.box_method", "Boxes", "", "How each drone's 2D box is computed"),
     f("labels.min_box_px", "Min box", "", "Boxes narrower or shorter than this many pixels are dropped"),

@@ -26,6 +26,10 @@ pub struct MaskOutputs {
     pub depth: bool,
     /// The depth map's unit in millimetres (1 to 1000; 1: depths up to 65.5 m).
     pub depth_unit_mm: u32,
+    /// Sequence mode: the forward optical flow from each frame to the next
+    /// as a KITTI 16-bit PNG per frame in `flow/{split}/NAME.png`
+    /// (`annotate::flow`); the last frame of a sequence has none.
+    pub flow: bool,
 }
 
 impl Default for MaskOutputs {
@@ -36,6 +40,7 @@ impl Default for MaskOutputs {
             instance_png: false,
             depth: false,
             depth_unit_mm: 1,
+            flow: false,
         }
     }
 }
@@ -48,7 +53,28 @@ impl MaskOutputs {
 
     /// Whether any output needs each drone's visible pixels.
     pub fn any(&self) -> bool {
-        self.coco_rle || self.yolo_seg || self.instance_png || self.depth
+        self.coco_rle || self.yolo_seg || self.instance_png || self.depth || self.flow
+    }
+}
+
+impl Preset {
+    /// `output.masks.flow`: flow is from a frame to the next of its
+    /// sequence, and the background's is exact only at infinity (the sky,
+    /// a backplate) or for a camera that does not move (near clutter).
+    fn validate_flow(&self, push: &mut impl FnMut(&str, String)) {
+        let Some(sequence) = &self.sequence else {
+            push(
+                "output.masks.flow",
+                "is flow from each frame to the next of its sequence; add a `sequence` section or turn flow off".into(),
+            );
+            return;
+        };
+        if self.clutter.is_some() && sequence.camera == super::SequenceCamera::Follow {
+            push(
+                "output.masks.flow",
+                "the clutter's depth is not known to the flow and sequence.camera Follow moves the camera; use camera Fixed or no clutter".into(),
+            );
+        }
     }
 }
 
@@ -84,6 +110,9 @@ impl Preset {
                     self.labels.id_scale
                 ),
             );
+        }
+        if m.flow {
+            self.validate_flow(&mut push);
         }
         if m.coco_rle && !self.output.label_formats.contains(&LabelFormat::Coco) {
             push(

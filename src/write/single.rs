@@ -114,6 +114,7 @@ pub fn write_lone_frame(
             (".seg.txt", encoded.yolo_seg),
             (".mask.png", encoded.instance_png),
             (".depth.png", encoded.depth_png),
+            (".flow.png", encoded.flow_png),
         ];
         for (suffix, bytes) in named {
             if let Some(bytes) = bytes {

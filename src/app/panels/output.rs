@@ -222,6 +222,7 @@ fn masks_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             (&mut m.coco_rle, "output.masks.coco_rle"),
             (&mut m.yolo_seg, "output.masks.yolo_seg"),
             (&mut m.instance_png, "output.masks.instance_png"),
+            (&mut m.flow, "output.masks.flow"),
         ] {
             let f = fields::get(path);
             ui.checkbox(on, f.label).on_hover_text(f.tooltip);
@@ -240,6 +241,7 @@ fn masks_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
             "output.masks.coco_rle",
             "output.masks.yolo_seg",
             "output.masks.instance_png",
+            "output.masks.flow",
             "output.masks.depth_unit_mm",
         ],
     );

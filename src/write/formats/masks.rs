@@ -1,12 +1,14 @@
 //! Masks and maps on disk (`output.masks`, docs/conventions.md "Masks and
 //! maps"): a frame's [`FrameMasks`] encoded on the encoder threads into
 //! [`EncodedMasks`] (COCO RLE strings for the COCO writer, the YOLO
-//! segmentation label file, the 16-bit instance PNG), and the
-//! [`MasksWriter`] that writes the per-frame files through the [`Folder`].
+//! segmentation label file, the 16-bit instance and depth PNGs, the KITTI
+//! flow PNG), and the [`MasksWriter`] that writes the per-frame files
+//! through the [`Folder`].
 
 use image::Luma;
 
 use super::{DatasetInfo, FormatWriter, FrameRecord};
+use crate::annotate::flow::FrameFlow;
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::{DroneLabel, LabelStatus, rle};
 use crate::preset::masks::{MAX_INSTANCE_ID, MaskOutputs};
@@ -25,6 +27,8 @@ pub struct EncodedMasks {
     pub instance_png: Option<Vec<u8>>,
     /// The depth PNG (`depth` on).
     pub depth_png: Option<Vec<u8>>,
+    /// The KITTI flow PNG (`flow` on and the frame has a next in its sequence).
+    pub flow_png: Option<Vec<u8>>,
 }
 
 /// Encode what `outputs` asks for of one frame's masks.
@@ -54,6 +58,10 @@ pub fn encode(
         depth_png: outputs
             .depth
             .then(|| depth_png(masks, outputs.depth_unit_mm)),
+        flow_png: match masks.flow.as_ref().filter(|_| outputs.flow) {
+            Some(flow) => Some(flow_png(masks, flow)?),
+            None => None,
+        },
     })
 }
 
@@ -148,6 +156,39 @@ pub fn depth_png(masks: &FrameMasks, unit_mm: u32) -> Vec<u8> {
     crate::write::encode::sparse_png::grey16(masks.width, masks.height, &pixels)
 }
 
+/// The flow to the next frame as KITTI's 16-bit RGB PNG
+/// ([`crate::annotate::flow::kitti_rgb16`]), rows filtered `Up` (a still
+/// background's rows are then all zero) and compressed fast.
+pub fn flow_png(masks: &FrameMasks, flow: &FrameFlow) -> Result<Vec<u8>, OutputError> {
+    use image::ImageEncoder as _;
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    let samples = crate::annotate::flow::kitti_rgb16(flow, &masks.instance);
+    let bytes: Vec<u8> = samples.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    let mut png = Vec::new();
+    PngEncoder::new_with_quality(&mut png, CompressionType::Fast, FilterType::Up)
+        .write_image(
+            &bytes,
+            masks.width,
+            masks.height,
+            image::ExtendedColorType::Rgb16,
+        )
+        .map_err(|e| OutputError::Encode {
+            format: "flow PNG",
+            source: EncodeError::Png(e),
+        })?;
+    Ok(png)
+}
+
+/// Whether frame `scene` gets a flow PNG: it has a next frame in its sequence.
+pub fn has_flow(scene: &FrameScene) -> bool {
+    scene.sequence.is_some_and(|s| s.step < s.steps)
+}
+
+/// A frame's flow PNG relative to the dataset folder.
+pub fn flow_rel_path(scene: &FrameScene) -> String {
+    format!("flow/{}/{}.png", scene.split.as_str(), stem(scene.index))
+}
+
 /// A frame's depth PNG relative to the dataset folder.
 pub fn depth_rel_path(scene: &FrameScene) -> String {
     format!("depth/{}/{}.png", scene.split.as_str(), stem(scene.index))
@@ -195,6 +236,9 @@ pub fn needed_entries(outputs: &MaskOutputs) -> Vec<String> {
         if outputs.depth {
             needed.push(format!("depth/{split}/"));
         }
+        if outputs.flow {
+            needed.push(format!("flow/{split}/"));
+        }
     }
     if outputs.yolo_seg {
         needed.push("data-seg.yaml".to_owned());
@@ -231,6 +275,9 @@ impl FormatWriter for MasksWriter {
         if self.outputs.depth {
             files.push(depth_rel_path(scene));
         }
+        if self.outputs.flow && has_flow(scene) {
+            files.push(flow_rel_path(scene));
+        }
         files
     }
 
@@ -253,6 +300,10 @@ impl FormatWriter for MasksWriter {
         if self.outputs.depth {
             let png = masks.depth_png.as_deref().ok_or_else(missing)?;
             folder.write_frame_file(&depth_rel_path(record.scene), png)?;
+        }
+        if self.outputs.flow && has_flow(record.scene) {
+            let png = masks.flow_png.as_deref().ok_or_else(missing)?;
+            folder.write_frame_file(&flow_rel_path(record.scene), png)?;
         }
         Ok(())
     }

@@ -246,7 +246,7 @@ impl Chosen {
         Self {
             yolo: formats.contains(&LabelFormat::Yolo),
             coco: formats.contains(&LabelFormat::Coco),
-            masks: !labels_only && (m.yolo_seg || m.instance_png || m.depth),
+            masks: !labels_only && (m.yolo_seg || m.instance_png || m.depth || m.flow),
             mot: preset.sequence.is_some(),
         }
     }

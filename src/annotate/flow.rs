@@ -1,0 +1,252 @@
+//! Forward optical flow from a frame to the next of its sequence
+//! (`output.masks.flow`, issue 41), exact from geometry rather than
+//! estimated from pixels.
+//!
+//! A drone's pixel (its centre, at the depth the depth map gives it) is
+//! unprojected to a world point, carried by that drone's rigid motion from
+//! t to t + 1 (its pose at t to its pose at t + 1: eqs. 4–5), and projected
+//! by the camera at t + 1; the flow is the shift. The background (sky,
+//! ground, backplate) is drawn by direction, at infinity: its flow is the
+//! camera's rotation alone, zero where the camera turns nothing. A pixel
+//! whose point lies at or behind the camera at t + 1 has no flow (invalid).
+//!
+//! Written as KITTI's 16-bit PNG ([`kitti_rgb16`]): per pixel
+//! (u·64 + 2¹⁵, v·64 + 2¹⁵, valid), 0 in all three where invalid.
+
+use glam::{DQuat, DVec2, DVec3};
+
+use crate::scene::FrameScene;
+use crate::scene::camera::Camera;
+
+/// A rigid body's pose: the position of its centre and its rotation.
+pub type Pose = (DVec3, DQuat);
+
+/// What a frame's flow is made of: the cameras at t and t + 1 and the
+/// flow of every pixel of the instance image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameFlow {
+    pub camera: Camera,
+    pub next_camera: Camera,
+    /// Per pixel of the instance image (its order): the drone point's shift
+    /// to t + 1 in pixels, `None` where it is at or behind the camera at t + 1.
+    pub drones: Vec<Option<DVec2>>,
+}
+
+/// The flow of `scene`'s drone pixels (`instance`: row-major index and
+/// drone, `depth_m` per entry) to `next`, the following frame of its
+/// sequence. A drone missing at t + 1 gives its pixels no flow.
+pub fn flow_of(
+    scene: &FrameScene,
+    next: &FrameScene,
+    instance: &[(u32, u32)],
+    depth_m: &[f64],
+) -> FrameFlow {
+    let poses = |s: &FrameScene| -> Vec<Pose> {
+        s.drones.iter().map(|d| (d.position, d.rotation)).collect()
+    };
+    FrameFlow {
+        camera: scene.camera,
+        next_camera: next.camera,
+        drones: drone_flow(
+            (&scene.camera, &next.camera),
+            (&poses(scene), &poses(next)),
+            instance,
+            depth_m,
+        ),
+    }
+}
+
+/// Each instance pixel's flow: unprojected at its depth with `cameras.0`,
+/// moved from `poses.0[d]` to `poses.1[d]`, projected with `cameras.1`.
+pub fn drone_flow(
+    cameras: (&Camera, &Camera),
+    poses: (&[Pose], &[Pose]),
+    instance: &[(u32, u32)],
+    depth_m: &[f64],
+) -> Vec<Option<DVec2>> {
+    let (cam, next) = cameras;
+    let width = cam.width.max(1);
+    let world_from_camera = cam.camera_from_world.transpose();
+    (instance.iter().zip(depth_m))
+        .map(|(&(i, d), &z)| {
+            let ((p0, q0), (p1, q1)) = (poses.0.get(d as usize)?, poses.1.get(d as usize)?);
+            let centre = DVec2::new(f64::from(i % width), f64::from(i / width)) + 0.5;
+            let world = world_from_camera * (ray(cam, centre) * z) + cam.position;
+            let moved = *p1 + *q1 * (q0.inverse() * (world - *p0));
+            let to = next.project_camera_point(next.camera_from_world_point(moved))?;
+            Some(to - centre)
+        })
+        .collect()
+}
+
+/// The camera-frame ray through continuous pixel `at`, with z = 1.
+fn ray(cam: &Camera, at: DVec2) -> DVec3 {
+    let (f, c) = (cam.focal_px(), cam.principal_point());
+    DVec3::new((at.x - c.x) / f, (at.y - c.y) / f, 1.0)
+}
+
+/// The flow at pixel centre `at` of a point at infinity (the background):
+/// the camera's rotation and intrinsics only.
+pub fn background_flow(cam: &Camera, next: &Camera, at: DVec2) -> Option<DVec2> {
+    let direction = cam.camera_from_world.transpose() * ray(cam, at);
+    let to = next.project_camera_point(next.camera_from_world * direction)?;
+    Some(to - at)
+}
+
+/// KITTI's encoding of one flow vector: (u·64 + 2¹⁵, v·64 + 2¹⁵, 1),
+/// clamped to 16 bits; (0, 0, 0) when invalid.
+pub fn kitti(flow: Option<DVec2>) -> [u16; 3] {
+    let q = |x: f64| (x * 64.0 + 32_768.0).round().clamp(0.0, 65_535.0) as u16;
+    flow.map_or([0; 3], |f| [q(f.x), q(f.y), 1])
+}
+
+/// The whole frame's flow as KITTI's row-major RGB16 samples: the
+/// background's, then each instance pixel's (`instance`: row-major index,
+/// drone) over it.
+pub fn kitti_rgb16(flow: &FrameFlow, instance: &[(u32, u32)]) -> Vec<u16> {
+    let (cam, next) = (&flow.camera, &flow.next_camera);
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let still = cam.camera_from_world == next.camera_from_world
+        && cam.focal_px() == next.focal_px()
+        && cam.principal_point() == next.principal_point();
+    let mut out = if still {
+        // Every direction lands where it was: zero flow, valid.
+        [32_768u16, 32_768, 1].repeat(w * h)
+    } else {
+        let mut out = Vec::with_capacity(w * h * 3);
+        for y in 0..h {
+            for x in 0..w {
+                let at = DVec2::new(x as f64, y as f64) + 0.5;
+                out.extend(kitti(background_flow(cam, next, at)));
+            }
+        }
+        out
+    };
+    for (&(i, _), &f) in instance.iter().zip(&flow.drones) {
+        if let Some(px) = out.get_mut(i as usize * 3..i as usize * 3 + 3) {
+            px.copy_from_slice(&kitti(f));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DMat3;
+
+    fn camera(camera_from_world: DMat3, position: DVec3) -> Camera {
+        Camera {
+            width: 640,
+            height: 480,
+            fov_y_deg: 50.0,
+            position,
+            camera_from_world,
+            near_m: 0.01,
+        }
+    }
+
+    /// A pure yaw by θ (about the camera's y axis): a direction at angle α
+    /// right of the axis moves to α − θ, so a pixel at x − cx = f·tan α
+    /// (on the middle row) lands at f·tan(α − θ); off the middle row, the
+    /// general rotation homography K·R·K⁻¹.
+    #[test]
+    fn a_pure_camera_yaw_gives_the_rotation_flow_field() {
+        let theta = 2f64.to_radians();
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        // Turning the camera right by θ: R' = R_y(−θ)·R in the y-down frame's terms.
+        let next = camera(DMat3::from_rotation_y(-theta), DVec3::new(3.0, 1.0, -2.0));
+        let (f, c) = (cam.focal_px(), cam.principal_point());
+        for x in [0.5, 100.5, 320.5, 500.5, 639.5] {
+            let at = DVec2::new(x, c.y);
+            let alpha = ((x - c.x) / f).atan();
+            let expected = f * (alpha - theta).tan() + c.x - x;
+            let flow = background_flow(&cam, &next, at).expect("in front");
+            assert!(
+                (flow.x - expected).abs() < 1e-9,
+                "x {x}: {flow} vs {expected}"
+            );
+            assert!(flow.y.abs() < 1e-9, "the middle row stays: {flow}");
+        }
+        // The principal point moves left by f·tan θ.
+        let centre = background_flow(&cam, &next, c).expect("in front");
+        assert!((centre.x + f * theta.tan()).abs() < 1e-9, "{centre}");
+        // Off the middle row: the homography.
+        let at = DVec2::new(50.5, 30.5);
+        let h = next.k() * next.camera_from_world * cam.k().inverse();
+        let p = h * at.extend(1.0);
+        let flow = background_flow(&cam, &next, at).expect("in front");
+        assert!((flow - (p.truncate() / p.z - at)).length() < 1e-9);
+    }
+
+    /// A drone translating sideways by Δ at depth Z, the camera still: each
+    /// of its pixels moves by f·Δ/z, z the pixel's own depth.
+    #[test]
+    fn a_drone_moving_sideways_shifts_by_f_delta_over_depth() {
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        let q = DQuat::from_rotation_y(0.4);
+        let (z, delta) = (20.0, 0.3);
+        let poses0 = [(DVec3::new(0.0, 0.0, z), q)];
+        let poses1 = [(DVec3::new(delta, 0.0, z), q)];
+        let instance: Vec<(u32, u32)> = [(300, 230), (320, 240), (331, 251)]
+            .iter()
+            .map(|&(x, y)| (y * 640 + x, 0))
+            .collect();
+        let depths = [19.9, 20.0, 20.2];
+        let flows = drone_flow((&cam, &cam), (&poses0, &poses1), &instance, &depths);
+        for (flow, z) in flows.iter().zip(depths) {
+            let flow = flow.expect("in front");
+            let expected = cam.focal_px() * delta / z;
+            assert!((flow.x - expected).abs() < 1e-9, "{flow} vs {expected}");
+            assert!(flow.y.abs() < 1e-9);
+        }
+        // A drone of another index, or one missing at t + 1, has no flow.
+        let flows = drone_flow((&cam, &cam), (&poses0, &[]), &instance, &depths);
+        assert!(flows.iter().all(Option::is_none));
+    }
+
+    /// A drone turning about its centre: the point on its axis does not
+    /// move, a point off it moves by the turn; a point carried behind the
+    /// camera has no flow.
+    #[test]
+    fn a_turning_drone_moves_its_points_about_its_centre() {
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        let centre = DVec3::new(0.0, 0.0, 10.0);
+        let turn = DQuat::from_rotation_z(0.5);
+        let poses0 = [(centre, DQuat::IDENTITY)];
+        let poses1 = [(centre, turn)];
+        let c = cam.principal_point();
+        let (cx, cy) = (c.x as u32, c.y as u32);
+        let instance = [(cy * 640 + cx, 0), (cy * 640 + cx + 40, 0)];
+        let flows = drone_flow((&cam, &cam), (&poses0, &poses1), &instance, &[10.0, 10.0]);
+        // The pixel centre sits half a pixel off the axis: it turns by 0.5 rad about it.
+        let on_axis = DVec2::splat(0.5);
+        let expected = DVec2::from_angle(0.5).rotate(on_axis) - on_axis;
+        assert!((flows[0].expect("in front") - expected).length() < 1e-9);
+        let off = DVec2::new(40.5, 0.5);
+        let expected = DVec2::from_angle(0.5).rotate(off) - off;
+        assert!((flows[1].expect("in front") - expected).length() < 1e-9);
+        let behind = [(DVec3::new(0.0, 0.0, -10.0), DQuat::IDENTITY)];
+        let flows = drone_flow((&cam, &cam), (&poses0, &behind), &instance, &[10.0, 10.0]);
+        assert_eq!(flows, vec![None, None]);
+    }
+
+    #[test]
+    fn kitti_encodes_sixty_fourths_about_two_to_the_fifteen() {
+        assert_eq!(kitti(Some(DVec2::new(1.5, -2.25))), [32_864, 32_624, 1]);
+        assert_eq!(kitti(Some(DVec2::ZERO)), [32_768, 32_768, 1]);
+        assert_eq!(kitti(Some(DVec2::new(1e6, -1e6))), [65_535, 0, 1]);
+        assert_eq!(kitti(None), [0, 0, 0]);
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        let flow = FrameFlow {
+            camera: cam,
+            next_camera: cam,
+            drones: vec![Some(DVec2::new(1.0, 0.0)), None],
+        };
+        let rgb = kitti_rgb16(&flow, &[(5, 0), (7, 0)]);
+        assert_eq!(rgb.len(), 640 * 480 * 3);
+        assert_eq!(&rgb[15..18], &[32_832, 32_768, 1]);
+        assert_eq!(&rgb[21..24], &[0, 0, 0]);
+        assert_eq!(&rgb[0..3], &[32_768, 32_768, 1]);
+    }
+}
