@@ -305,7 +305,7 @@ struct Tap {
 const ONE: u32 = 1024;
 /// The exact inverse is solved on a grid of this spacing (pixels) and
 /// interpolated bilinearly between (the tests bound the difference).
-const GRID: u32 = 8;
+const GRID: u32 = 4;
 
 /// A lens's inverse mapping tabulated for every output pixel.
 #[derive(Debug, PartialEq)]
