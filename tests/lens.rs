@@ -23,7 +23,7 @@ fn barrel(k1: f64) -> Lens {
     }
 }
 
-/// One drone off the picture's centre (where a lens moves it most) through a noisy camera with `lens`.
+/// One drone at the picture's centre through a noisy camera with `lens`.
 fn lens_preset(lens: Option<Lens>) -> Preset {
     let mut p = common::single_drone_preset(1.2);
     p.camera.x = SweepRange::new(-0.7, 0.7, 1.4);
@@ -65,8 +65,18 @@ fn visible_boxes_through_a_lens_are_the_pixels_a_drone_changes() {
         k4: (0.0, 0.0),
     };
     let mut checked = 0;
-    for lens in [barrel(-0.3), barrel(0.15), fisheye] {
-        let p = lens_preset(Some(lens.clone()));
+    // The drone at the centre, and off it (an absolute camera looking beside
+    // the drone at the origin), where the lens bends it most.
+    let beside = swarmshot::preset::formation::AbsoluteCamera {
+        position_m: (0.0, 0.0, 2.0),
+        look_at_m: (0.5, 0.3, 0.0),
+    };
+    let cases = [barrel(-0.3), barrel(0.15), fisheye]
+        .into_iter()
+        .flat_map(|l| [(l.clone(), None), (l, Some(beside.clone()))]);
+    for (lens, absolute) in cases {
+        let mut p = lens_preset(Some(lens.clone()));
+        p.camera.absolute = absolute.clone();
         let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
         let mut renderer = pipeline.renderer(&ctx);
         for index in 0..p.frame_count() {
@@ -76,7 +86,7 @@ fn visible_boxes_through_a_lens_are_the_pixels_a_drone_changes() {
             let mut empty = frame.scene.clone();
             empty.drones.clear();
             let b = lensed_image(&mut renderer, &empty, p.render.msaa);
-            let case = format!("{lens:?}, frame {index}");
+            let case = format!("{lens:?}, {absolute:?}, frame {index}");
             let (r, n) = common::changed_box(&a, &b, w).expect(&case);
             let label = &frame.labels[0];
             let vis = label.visibility.expect("measured");
@@ -112,7 +122,7 @@ fn visible_boxes_through_a_lens_are_the_pixels_a_drone_changes() {
             checked += 1;
         }
     }
-    assert!(checked >= 6, "{checked}");
+    assert!(checked >= 12, "{checked}");
 }
 
 #[test]

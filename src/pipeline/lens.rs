@@ -41,8 +41,10 @@ pub(super) fn remap_hits(map: &LensMap, hits: &[PixelHit], (w, h): (u32, u32)) -
     for p in hits.iter().filter(inside) {
         start[(p.y * w + p.x) as usize + 1] += 1;
     }
-    for i in 0..n {
-        start[i + 1] += start[i];
+    let mut total = 0;
+    for s in &mut start {
+        total += *s;
+        *s = total;
     }
     let mut fill = start.clone();
     let mut sorted = vec![
@@ -183,7 +185,7 @@ mod tests {
             if near(u, r.x0, r.x1) && near(v, r.y0, r.y1) {
                 reached += 1;
                 let (x, y) = ((i % 80) as u32, (i / 80) as u32);
-                if !(x >= f.x0 && x < f.x1 && y >= f.y0 && y < f.y1) {
+                if !((f.x0..f.x1).contains(&x) && (f.y0..f.y1).contains(&y)) {
                     outside += 1;
                 }
             }

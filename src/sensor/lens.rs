@@ -226,7 +226,7 @@ impl LensGeometry {
             let (a, b) = ((fx.0 - f.0) / h, (fy.0 - f.0) / h);
             let (c, dd) = ((fx.1 - f.1) / h, (fy.1 - f.1) / h);
             let det = a * dd - b * c;
-            if !(det.abs() > 1e-12) {
+            if det.is_nan() || det.abs() <= 1e-12 {
                 break;
             }
             p = (
@@ -273,7 +273,7 @@ impl LensGeometry {
         let inside = |fo: f64| {
             border.iter().all(|&b| {
                 let (u, v) = self.inverse_with(fo, b);
-                u >= 0.5 - eps && u <= w - 0.5 + eps && v >= 0.5 - eps && v <= h - 0.5 + eps
+                (0.5 - eps..=w - 0.5 + eps).contains(&u) && (0.5 - eps..=h - 0.5 + eps).contains(&v)
             })
         };
         let (mut lo, mut hi) = (self.focal / 64.0, self.focal * 64.0);
@@ -479,11 +479,11 @@ fn remap_row(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
                     continue;
                 };
                 let (wx, wy) = (u32::from(t.wx), u32::from(t.wy));
-                for c in 0..4 {
+                for (c, out) in px.iter_mut().enumerate() {
                     let top = u32::from(a[c]) * (ONE - wx) + u32::from(a[c + 4]) * wx;
                     let bottom = u32::from(b[c]) * (ONE - wx) + u32::from(b[c + 4]) * wx;
                     let v = (top * (ONE - wy) + bottom * wy + ONE * ONE / 2) / (ONE * ONE);
-                    px[c] = v as u8;
+                    *out = v as u8;
                 }
             }
         },
@@ -582,7 +582,7 @@ mod tests {
             let corner = geo.inverse((0.5, 0.5));
             let edge = geo.inverse((320.0, 0.5));
             let reach = corner.0.min(corner.1).min(edge.1);
-            assert!(reach >= 0.5 - 1e-6 && reach < 0.5 + 1e-3, "{d:?}: {reach}");
+            assert!((0.5 - 1e-6..0.5 + 1e-3).contains(&reach), "{d:?}: {reach}");
         }
     }
 
