@@ -601,6 +601,43 @@ mod tests {
         assert!(worst < 0.01, "{worst} px");
     }
 
+    /// The stage's cost on a 1920×1080 frame (docs/benchmarks.md, "Lens
+    /// distortion"): `cargo test --release --lib lens_cost -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a timing, not a check"]
+    fn lens_cost() {
+        use std::time::Instant;
+        let (w, h) = (1920u32, 1080u32);
+        let focal = 540.0 / 25f64.to_radians().tan();
+        let rgba: Vec<u8> = (0..w * h * 4).map(|i| (i % 251) as u8).collect();
+        let median = |run: &mut dyn FnMut()| {
+            let mut t: Vec<f64> = (0..15)
+                .map(|_| {
+                    let s = Instant::now();
+                    run();
+                    s.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            t.sort_by(f64::total_cmp);
+            t[t.len() / 2]
+        };
+        let geo = LensGeometry::new(bc(-0.15, 0.02, 0.0005, -0.0005), w, h, focal).expect("a lens");
+        let map = LensMap::of(&geo);
+        let remap = median(&mut || {
+            std::hint::black_box(map.remap(&rgba));
+        });
+        let mut k = 0.0;
+        let build = median(&mut || {
+            k += 1e-6;
+            let g = LensGeometry::new(bc(-0.15 + k, 0.02, 0.0005, -0.0005), w, h, focal);
+            std::hint::black_box(g.map(|g| LensMap::build(&g)));
+        });
+        println!(
+            "lens 1920x1080, {} threads: remap {remap:.2} ms, new draw (geometry + map) {build:.2} ms",
+            rayon::current_num_threads()
+        );
+    }
+
     #[test]
     fn a_neutral_draw_is_no_lens() {
         assert_eq!(
