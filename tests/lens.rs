@@ -98,14 +98,17 @@ fn visible_boxes_through_a_lens_are_the_pixels_a_drone_changes() {
             );
             assert_eq!(vis.visible_pixels, n, "{case}");
             assert!(label.is_kept(), "{case}");
-            // The amodal box is the lens-mapped hull's: it holds the changed
-            // pixels (within the bilinear taps' pixel) and moved with the lens.
+            // The amodal box is the lens-mapped hull's: it reaches the changed
+            // pixels' box to within the edge pixel a partly covered pixel adds
+            // and the bilinear taps' source pixel (≤ 1.3 output px at these
+            // lenses' zoom), and it moved with the lens.
             let am = label.amodal;
+            let tol = 2.5;
             assert!(
-                am.x0 <= vb.x0 + 1.0
-                    && am.y0 <= vb.y0 + 1.0
-                    && am.x1 >= vb.x1 - 1.0
-                    && am.y1 >= vb.y1 - 1.0,
+                am.x0 <= vb.x0 + tol
+                    && am.y0 <= vb.y0 + tol
+                    && am.x1 >= vb.x1 - tol
+                    && am.y1 >= vb.y1 - tol,
                 "{case}: amodal {am:?} visible {vb:?}"
             );
             assert!(am.iou(&vb) > 0.5, "{case}: amodal {am:?} visible {vb:?}");
