@@ -5,7 +5,7 @@
 //! median of 30 runs after 3 warm-ups.
 //!
 //! `cargo run --release --no-default-features --example lens_bench`
-//! (docs/benchmarks.md, "Lens distortion"). `RAYON_NUM_THREADS` sets the threads.
+//! (docs/realism.md, "Lens distortion"). `RAYON_NUM_THREADS` sets the threads.
 
 use std::time::Instant;
 

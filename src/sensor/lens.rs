@@ -601,8 +601,8 @@ mod tests {
         assert!(worst < 0.01, "{worst} px");
     }
 
-    /// The stage's cost on a 1920×1080 frame (docs/benchmarks.md, "Lens
-    /// distortion"): `cargo test --release --lib lens_cost -- --ignored --nocapture`.
+    /// The stage's cost on a 1920×1080 frame (as `examples/lens_bench.rs`):
+    /// `cargo test --release --lib lens_cost -- --ignored --nocapture`.
     #[test]
     #[ignore = "a timing, not a check"]
     fn lens_cost() {
