@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use crate::annotate::visibility::{PixelHit, Visibility};
+use crate::annotate::visibility::PixelHit;
 use crate::scene::FrameScene;
 use crate::scene::projection::frame_lens;
 use crate::sensor::PixelRect;
@@ -76,11 +76,9 @@ pub(super) fn remap_hits(map: &LensMap, hits: &[PixelHit], (w, h): (u32, u32)) -
     out
 }
 
-/// Each drone's visibility from its lens-moved hits: their box and count,
-/// the unoccluded count scaled by the same factor
-/// ([`super::camera::camera_visibility`]).
-pub(super) fn visibility(rendered: &[Visibility], hits: &[PixelHit]) -> Vec<Visibility> {
-    let mut found: Vec<Option<(PixelRect, u64)>> = vec![None; rendered.len()];
+/// Each of `n` drones' lens-moved hits: their box and count (`None`: none).
+pub(super) fn shown(n: usize, hits: &[PixelHit]) -> Vec<Option<(PixelRect, u64)>> {
+    let mut found: Vec<Option<(PixelRect, u64)>> = vec![None; n];
     for p in hits {
         let Some(slot) = found.get_mut(p.drone as usize) else {
             continue;
@@ -100,9 +98,7 @@ pub(super) fn visibility(rendered: &[Visibility], hits: &[PixelHit]) -> Vec<Visi
         r.x1 = r.x1.max(p.x + 1);
         r.y1 = r.y1.max(p.y + 1);
     }
-    (rendered.iter().zip(found))
-        .map(|(v, f)| super::camera::camera_visibility(v, f))
-        .collect()
+    found
 }
 
 /// Where the rendered pixels of `r` can show in the written picture: the

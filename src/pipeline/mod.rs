@@ -485,7 +485,12 @@ impl FramePipeline {
         let mut hits = frame.pixel_hits.take();
         let lens_visibility = lens::of(&scene).and_then(|l| {
             let moved = lens::remap_hits(&l.map, hits.as_deref()?, (w, h));
-            let vis = measured.as_deref().map(|m| lens::visibility(m, &moved));
+            // Each drone's moved hits: box and count, the unoccluded count scaled alike.
+            let vis = measured.as_deref().map(|m| {
+                (m.iter().zip(lens::shown(m.len(), &moved)))
+                    .map(|(v, s)| camera::camera_visibility(v, s))
+                    .collect::<Vec<_>>()
+            });
             hits = Some(moved);
             vis
         });
