@@ -118,8 +118,9 @@ fn visible_boxes_through_a_lens_are_the_pixels_a_drone_changes() {
             let moved = (plain[0].amodal.x0 - am.x0)
                 .abs()
                 .max((plain[0].amodal.y0 - am.y0).abs());
+            // Off the centre the lens moves the box (at the centre only its zoom does).
             assert!(
-                moved > 1.0,
+                absolute.is_none() || moved > 1.0,
                 "{case}: the lens moved the amodal box by {moved} px"
             );
             checked += 1;
