@@ -1,6 +1,6 @@
 //! Labels from poses and pixels: the one place where the box method is
 //! chosen. `Amodal` and `PaperAabb` boxes come from the scene's geometry
-//! ([`crate::scene::projection`]); `Visible` boxes and the visibility filters
+//! ([`crate::scene::projection`], through the frame's lens when it has one); `Visible` boxes and the visibility filters
 //! from what the renderer measured ([`visibility`], plain data the renderer
 //! fills in; this module knows nothing of the GPU).
 
@@ -16,6 +16,7 @@ use serde::Serialize;
 use crate::preset::{BoxMethod, LabelSettings};
 use crate::scene::FrameScene;
 pub use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box, paper_aabb_box};
+use crate::scene::projection::{amodal_box_through, frame_lens, paper_aabb_box_through};
 use visibility::Visibility;
 
 /// One labelled drone.
@@ -84,11 +85,13 @@ pub fn label_frame(
     let cam = &scene.camera;
     let (w, h) = (f64::from(cam.width), f64::from(cam.height));
     let mut out = Vec::new();
+    // Through a lens, both geometric boxes are of the lens-mapped points.
+    let lens = frame_lens(scene);
     for (i, drone) in scene.drones.iter().enumerate() {
         let geom = &geometry[drone.model];
         let (Some(amodal), Some(paper)) = (
-            amodal_box(cam, drone, geom),
-            paper_aabb_box(cam, drone, geom),
+            amodal_box_through(cam, lens.as_ref(), drone, geom),
+            paper_aabb_box_through(cam, lens.as_ref(), drone, geom),
         ) else {
             continue;
         };

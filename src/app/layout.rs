@@ -295,6 +295,10 @@ pub fn stage_status(p: &crate::preset::Preset) -> Vec<(&'static str, String)> {
     let on = |b: bool| if b { "on" } else { "off" }.to_string();
     vec![
         ("Camera model", on(p.camera_model.is_some())),
+        (
+            "Lens distortion",
+            on(p.camera_model.as_ref().is_some_and(|c| c.lens.is_some())),
+        ),
         ("Atmosphere", on(p.atmosphere.is_some())),
         ("Drone appearance", on(p.appearance.is_some())),
         ("Clutter", on(p.clutter.is_some())),
@@ -327,7 +331,7 @@ struct Section {
 
 /// The collapsible parameter sections, in the order of the paper's panels
 /// and then the realism stages.
-const SECTIONS: [Section; 13] = [
+const SECTIONS: [Section; 14] = [
     Section {
         title: "Models",
         tip: "The UAV models instantiated in every frame, with their real size",
@@ -365,6 +369,11 @@ const SECTIONS: [Section; 13] = [
         title: "Camera model",
         tip: "Optics, sensor noise and image processing between the render and the file",
         panel: |ui, c| realism_panels::camera_model_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Lens distortion",
+        tip: "Brown–Conrady or fisheye distortion of the picture and its labels",
+        panel: |ui, c| super::lens_panel::lens_ui(ui, c.preset, c.form),
     },
     Section {
         title: "Atmosphere",

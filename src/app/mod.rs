@@ -32,6 +32,7 @@ mod keys;
 pub mod latency;
 mod launch;
 mod layout;
+pub mod lens_panel;
 mod mask_pane;
 pub mod mask_view;
 pub mod panels;

@@ -1,7 +1,8 @@
 //! A rendered frame through the camera model (issue 21), the pipeline's
 //! camera glue: the motion blur's streaks ([`super::streaks`]) smeared
 //! first, each drone's visibility measured as the camera shows it
-//! ([`crate::sensor::changed_pixels_each`]), the chain applied
+//! ([`crate::sensor::changed_pixels_each`]), the lens's resampling
+//! ([`super::lens`]) before the chain, the chain applied
 //! ([`crate::sensor::apply`]) and the drawn first compression. The chain
 //! itself is [`crate::sensor`]'s.
 
@@ -11,7 +12,7 @@ use crate::scene::FrameScene;
 use crate::scene::projection::PixelBox;
 use crate::sensor::{self, CameraDraw, PixelRect};
 
-use super::{FramePipeline, PipelineError, streaks};
+use super::{FramePipeline, PipelineError, lens, streaks};
 
 impl FramePipeline {
     /// The rendered frame through the camera model `draw` (a new buffer),
@@ -51,6 +52,10 @@ impl FramePipeline {
             None
         };
         let source: &[u8] = blurred.as_deref().unwrap_or(&frame.rgba);
+        // The lens (issue 41): the picture resampled once, before the sensor.
+        let lens = lens::of(scene);
+        let lensed = lens.as_ref().map(|l| l.map.remap(source));
+        let source: &[u8] = lensed.as_deref().unwrap_or(source);
         if let Some(vis) = measured.as_mut() {
             let background = renderer.background_pixels(&frame.painted);
             if background.is_none() {
@@ -67,9 +72,24 @@ impl FramePipeline {
                         x1: b.x1.ceil().max(0.0) as u32,
                         y1: b.y1.ceil().max(0.0) as u32,
                     });
-                    streaks::grown(own, streaks.get(i).copied().flatten(), (w, h))
+                    let grown = streaks::grown(own, streaks.get(i).copied().flatten(), (w, h));
+                    grown.map(|r| lens.as_ref().map_or(r, |l| lens::footprint(&l.geo, r)))
                 })
                 .collect();
+            // Through a lens, the drone-free background is resampled where the labels read it.
+            let reach = draw.reach_px(w, h) * 2;
+            let lensed_background = (lens.as_ref().zip(background)).map(|(l, b)| {
+                let areas: Vec<PixelRect> = (near.iter().flatten())
+                    .map(|r| PixelRect {
+                        x0: r.x0.saturating_sub(reach),
+                        y0: r.y0.saturating_sub(reach),
+                        x1: r.x1.saturating_add(reach),
+                        y1: r.y1.saturating_add(reach),
+                    })
+                    .collect();
+                lens::background(&l.map, source, b, &areas)
+            });
+            let background = lensed_background.as_deref().or(background);
             for (i, v) in vis.iter_mut().enumerate() {
                 let (Some(own), Some(background)) = (near[i], background) else {
                     continue;
@@ -110,7 +130,10 @@ impl FramePipeline {
 /// A drone's visibility through the camera: the changed pixels' box and
 /// count; the unoccluded count scaled by the same factor, so the visible
 /// fraction stays the rendered one (occlusion, not blur).
-fn camera_visibility(rendered: &Visibility, changed: Option<(PixelRect, u64)>) -> Visibility {
+pub(super) fn camera_visibility(
+    rendered: &Visibility,
+    changed: Option<(PixelRect, u64)>,
+) -> Visibility {
     let Some((r, count)) = changed else {
         return Visibility {
             visible_box: None,

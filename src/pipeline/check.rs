@@ -12,6 +12,7 @@ use crate::preset::{FieldError, ModelSource, Preset};
 pub fn validate(preset: &Preset) -> Result<(), Vec<FieldError>> {
     let mut errors = preset.validate().err().unwrap_or_default();
     errors.extend(builtin_models(preset));
+    errors.extend(lens(preset));
     if errors.is_empty() {
         Ok(())
     } else {
@@ -42,6 +43,63 @@ fn builtin_models(preset: &Preset) -> Vec<FieldError> {
                 ),
             });
         }
+    }
+    errors
+}
+
+/// `camera_model.lens`: no draw of the ranges folds the picture (the
+/// radial mapping's slope stays over [`MIN_SLOPE`] out to the render's
+/// corner; the slope is linear in the coefficients, so the ranges' corners
+/// bound every draw), and the stages it cannot follow are off.
+fn lens(preset: &Preset) -> Vec<FieldError> {
+    use crate::sensor::lens::{MIN_SLOPE, draw};
+    let Some(lens) = preset.camera_model.as_ref().and_then(|c| c.lens.as_ref()) else {
+        return Vec::new();
+    };
+    let mut errors = Vec::new();
+    let field = |name: &str, message: String| FieldError {
+        field: format!("camera_model.lens{name}"),
+        message,
+    };
+    let (w, h) = preset.image_size();
+    let focal = f64::from(h) * 0.5 / (preset.camera.fov_y_deg.to_radians() * 0.5).tan();
+    let corner = f64::from(w).hypot(f64::from(h)) / 2.0 / focal;
+    let n = lens.coefficients().len();
+    let ok = lens
+        .coefficients()
+        .iter()
+        .all(|(_, (lo, hi), _)| lo.is_finite() && hi.is_finite());
+    for mask in (0..1u32 << n).filter(|_| ok && corner.is_finite()) {
+        let mut i = 0;
+        let d = draw(lens, |(lo, hi)| {
+            i += 1;
+            if mask & (1 << (i - 1)) == 0 { lo } else { hi }
+        });
+        if let Some(r) = d.fold_radius(corner) {
+            let (kind, k) = d.named();
+            let values: Vec<String> = k.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+            errors.push(field(
+                "",
+                format!(
+                    "{kind} with {} folds the picture: its distorted radius grows by under {MIN_SLOPE} per unit from normalised radius {r:.3}, inside the picture's corner at {corner:.3} (a smaller |k| keeps the lens monotone)",
+                    values.join(", ")
+                ),
+            ));
+            break;
+        }
+    }
+    if preset.labels.needs_id_pass() && preset.labels.id_scale > 1 {
+        errors.push(field(
+            "",
+            "a lens moves the id layer pixel by pixel: it needs labels.id_scale 1".into(),
+        ));
+    }
+    if preset.output.masks.depth {
+        errors.push(field(
+            "",
+            "depth maps (output.masks.depth) are not made through a lens; turn one of them off"
+                .into(),
+        ));
     }
     errors
 }

@@ -17,6 +17,7 @@
 pub mod batch;
 mod camera;
 pub mod check;
+mod lens;
 pub mod plan;
 mod sink;
 mod streaks;
@@ -464,7 +465,9 @@ impl FramePipeline {
         let masks_on = self.preset.output.masks.any();
         let together =
             (labels_settings.needs_id_pass() || masks_on) && labels_settings.id_scale <= 1;
-        renderer.set_pixel_hits(masks_on);
+        // Through a lens, the visibility comes from the id layer moved with the picture.
+        let lensed = scene.camera_model.is_some_and(|d| d.lens.is_some());
+        renderer.set_pixel_hits(masks_on || (lensed && labels_settings.needs_id_pass()));
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
             color: true,
@@ -479,13 +482,30 @@ impl FramePipeline {
             self.measure(renderer, &scene).map_err(render_error)?
         };
         let (w, h, n) = (scene.camera.width, scene.camera.height, scene.drones.len());
-        let mut masks = (frame.pixel_hits.take())
-            .filter(|_| masks_on)
-            .map(|hits| FrameMasks::from_hits(w, h, n, &hits));
+        let mut hits = frame.pixel_hits.take();
+        let lens_visibility = lens::of(&scene).and_then(|l| {
+            let moved = lens::remap_hits(&l.map, hits.as_deref()?, (w, h));
+            // Each drone's moved hits: box and count, the unoccluded count scaled alike.
+            let vis = measured.as_deref().map(|m| {
+                (m.iter().zip(lens::shown(m.len(), &moved)))
+                    .map(|(v, s)| camera::camera_visibility(v, s))
+                    .collect::<Vec<_>>()
+            });
+            hits = Some(moved);
+            vis
+        });
+        let mut masks =
+            (hits.filter(|_| masks_on)).map(|hits| FrameMasks::from_hits(w, h, n, &hits));
         let (rgba, painted) = match &scene.camera_model {
             None => (frame.rgba, frame.painted),
             Some(draw) => {
                 let mut sets = masks.as_ref().map(|_| vec![Vec::new(); n]);
+                // Without the drone-free background, the id layer's visibility through the lens.
+                if renderer.background_pixels(&frame.painted).is_none()
+                    && let Some(v) = lens_visibility
+                {
+                    measured = Some(v);
+                }
                 let rgba =
                     self.through_camera(renderer, &scene, draw, &frame, &mut measured, &mut sets)?;
                 // Through the camera a drone's pixels are those it changes.

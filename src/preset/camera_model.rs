@@ -61,6 +61,9 @@ pub struct CameraModel {
     /// height on each side; at most 4). Drawn per frame.
     #[serde(skip_serializing_if = "is_zero_range")]
     pub sharpen: (f64, f64),
+    /// The lens's geometric distortion, drawn per frame (`None`: a pinhole).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lens: Option<super::lens::Lens>,
 }
 
 /// The largest sharpening amount (`sensor::sharpen` computes in i32 up to it).
@@ -95,6 +98,7 @@ impl Default for CameraModel {
             exposure_time_s: (0.0, 0.0),
             saturation: (1.0, 1.0),
             sharpen: (0.0, 0.0),
+            lens: None,
         }
     }
 }
@@ -187,6 +191,9 @@ impl CameraModel {
         range(v, "exposure_time_s", self.exposure_time_s, 0.0, 1.0);
         range(v, "saturation", self.saturation, 0.0, 4.0);
         range(v, "sharpen", self.sharpen, 0.0, MAX_SHARPEN);
+        if let Some(lens) = &self.lens {
+            lens.validate(v);
+        }
         if self.exposure_time_s.1 > 0.0 {
             let field = format!("{p}.exposure_time_s");
             match &preset.sequence {

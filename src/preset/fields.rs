@@ -181,6 +181,13 @@ pub const FIELDS: &[Field] = &[
     f("camera_model.psf", "Optics blur", "", "The lens's point spread function, its size drawn per frame"),
     f("camera_model.psf.sigma_px", "Blur σ", " px", "Standard deviation of the Gaussian PSF in output pixels"),
     f("camera_model.psf.radius_px", "Disc radius", " px", "Radius of the defocus disc in output pixels"),
+    f("camera_model.lens", "Lens distortion", "", "The lens's geometric distortion, drawn per frame: the picture resampled once through it (scaled to show only rendered pixels), labels through the same mapping (off: a pinhole)"),
+    f("camera_model.lens.k1", "k1", "", "Radial coefficient of r² (Brown–Conrady) or θ² (fisheye); Brown–Conrady k1 < 0 is barrel, > 0 pincushion"),
+    f("camera_model.lens.k2", "k2", "", "Radial coefficient of r⁴ (Brown–Conrady) or θ⁴ (fisheye)"),
+    f("camera_model.lens.k3", "k3", "", "Radial coefficient of r⁶ (Brown–Conrady) or θ⁶ (fisheye)"),
+    f("camera_model.lens.k4", "k4", "", "Radial coefficient of θ⁸ (fisheye)"),
+    f("camera_model.lens.p1", "p1", "", "Tangential (decentring) coefficient p1, Brown–Conrady, in [−0.1, 0.1]"),
+    f("camera_model.lens.p2", "p2", "", "Tangential (decentring) coefficient p2, Brown–Conrady, in [−0.1, 0.1]"),
     // Atmosphere.
     f("atmosphere", "Atmosphere", "", "Haze with range on drones, ground and horizon (Koschmieder: contrast × exp(−3.912·d/V))"),
     f("atmosphere.visibility_m", "Visibility", " m", "Meteorological visibility V in metres, drawn per frame: 2 % of a drone's contrast remains at distance V"),

@@ -31,6 +31,7 @@ pub mod confusers;
 pub mod fields;
 pub mod formation;
 mod labels;
+pub mod lens;
 pub mod masks;
 mod models;
 pub mod observer;

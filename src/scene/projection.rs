@@ -8,6 +8,12 @@
 //! - `PaperAabb`: the paper's Eq. 9–10: the 8 corners of the model's world
 //!   axis-aligned box (the local box transformed, as Unity's `Renderer.bounds`).
 //!
+//! Through a lens (`camera_model.lens`, [`frame_lens`]) both are taken of
+//! the lens-mapped points ([`amodal_box_through`], [`paper_aabb_box_through`]):
+//! the amodal box of the projected hull's outline with each edge sampled at
+//! most a pixel apart (a straight edge bends), the paper's box of its 8
+//! corners mapped.
+//!
 //! Both clip the point set against the near plane z = near before projecting
 //! (adding the intersections of every front/back point pair, a superset of the
 //! clipped polytope's vertices lying inside it), so a drone crossing the near
@@ -19,6 +25,7 @@ use serde::Serialize;
 
 use super::DronePose;
 use super::camera::Camera;
+use crate::sensor::lens::LensGeometry;
 
 /// An axis-aligned box in continuous pixel coordinates (x right, y down).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -139,6 +146,120 @@ pub fn project_clipped(camera: &Camera, points_cam: &[DVec3]) -> Option<PixelBox
         .then_some(b)
 }
 
+/// [`project_clipped`]'s projected points: every point in front, and the
+/// near-plane intersections of every front/back pair.
+fn projected_points(camera: &Camera, points_cam: &[DVec3]) -> Vec<DVec2> {
+    let near = camera.near_m;
+    let (front, back): (Vec<DVec3>, Vec<DVec3>) = points_cam.iter().partition(|p| p.z >= near);
+    let mut projected: Vec<DVec2> = front
+        .iter()
+        .filter_map(|p| camera.project_camera_point(*p))
+        .collect();
+    for a in &front {
+        for b in &back {
+            let t = (a.z - near) / (a.z - b.z);
+            let mut p = a.lerp(*b, t);
+            p.z = near;
+            projected.extend(camera.project_camera_point(p));
+        }
+    }
+    projected.retain(|p| p.is_finite());
+    projected
+}
+
+/// The lens of a frame's camera, when its camera model draws one (and it is not neutral).
+pub fn frame_lens(scene: &super::FrameScene) -> Option<LensGeometry> {
+    let draw = scene.camera_model.as_ref()?.lens?;
+    let cam = &scene.camera;
+    LensGeometry::new(draw, cam.width, cam.height, cam.focal_px())
+}
+
+/// The 2D convex hull of `points` (Andrew's monotone chain), counter-clockwise.
+fn outline(mut points: Vec<DVec2>) -> Vec<DVec2> {
+    points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    points.dedup();
+    if points.len() < 3 {
+        return points;
+    }
+    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<DVec2> = Vec::with_capacity(points.len() + 1);
+    for pass in [points.clone(), points.into_iter().rev().collect()] {
+        let start = hull.len();
+        for p in pass {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// The most samples taken along one outline edge.
+const MAX_EDGE_SAMPLES: f64 = 4096.0;
+
+/// The box of the lens-mapped outline of `points` (rendered pixels): each
+/// edge sampled at most a pixel apart, every sample mapped.
+fn lens_box(lens: &LensGeometry, points: Vec<DVec2>) -> Option<PixelBox> {
+    let hull = outline(points);
+    let mut mapped = Vec::new();
+    for (i, &a) in hull.iter().enumerate() {
+        let b = hull[(i + 1) % hull.len()];
+        let n = (a.distance(b).ceil()).clamp(1.0, MAX_EDGE_SAMPLES) as u32;
+        mapped.extend((0..n).map(|k| {
+            let p = a.lerp(b, f64::from(k) / f64::from(n));
+            let (x, y) = lens.forward((p.x, p.y));
+            DVec2::new(x, y)
+        }));
+    }
+    let b = PixelBox::from_points(mapped)?;
+    [b.x0, b.y0, b.x1, b.y1]
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(b)
+}
+
+/// [`amodal_box`] through the frame's lens (`None`: the pinhole's box).
+pub fn amodal_box_through(
+    camera: &Camera,
+    lens: Option<&LensGeometry>,
+    drone: &DronePose,
+    geom: &LabelGeometry,
+) -> Option<PixelBox> {
+    let Some(lens) = lens else {
+        return amodal_box(camera, drone, geom);
+    };
+    let cam = to_camera(camera, drone, geom.hull.iter().copied());
+    lens_box(lens, projected_points(camera, &cam))
+}
+
+/// [`paper_aabb_box`] through the frame's lens: its 8 corners (and their
+/// near-plane intersections) mapped (`None` lens: the pinhole's box).
+pub fn paper_aabb_box_through(
+    camera: &Camera,
+    lens: Option<&LensGeometry>,
+    drone: &DronePose,
+    geom: &LabelGeometry,
+) -> Option<PixelBox> {
+    let Some(lens) = lens else {
+        return paper_aabb_box(camera, drone, geom);
+    };
+    let mapped = projected_points(camera, &paper_corners(camera, drone, geom))
+        .into_iter()
+        .map(|p| {
+            let (x, y) = lens.forward((p.x, p.y));
+            DVec2::new(x, y)
+        });
+    let b = PixelBox::from_points(mapped)?;
+    [b.x0, b.y0, b.x1, b.y1]
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(b)
+}
+
 /// Camera-frame positions of a drone's model-space points.
 fn to_camera(
     camera: &Camera,
@@ -162,6 +283,11 @@ pub fn paper_aabb_box(
     drone: &DronePose,
     geom: &LabelGeometry,
 ) -> Option<PixelBox> {
+    project_clipped(camera, &paper_corners(camera, drone, geom))
+}
+
+/// The 8 corners of the world AABB of a drone's placed local box, in camera coordinates.
+fn paper_corners(camera: &Camera, drone: &DronePose, geom: &LabelGeometry) -> Vec<DVec3> {
     let (lo, hi) = geom.aabb;
     let rot = DMat3::from_quat(drone.rotation);
     let mut wlo = DVec3::splat(f64::INFINITY);
@@ -184,8 +310,7 @@ pub fn paper_aabb_box(
         )
     });
     let centre = camera.camera_from_world_point(drone.position);
-    let pts: Vec<DVec3> = corners
+    corners
         .map(|c| centre + camera.camera_from_world * c)
-        .collect();
-    project_clipped(camera, &pts)
+        .collect()
 }

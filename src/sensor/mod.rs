@@ -51,6 +51,7 @@ mod aberration;
 mod encode;
 mod exposure;
 mod grid;
+pub mod lens;
 pub mod motion;
 mod noise;
 mod psf;
@@ -190,6 +191,10 @@ pub struct CameraDraw {
     /// the metered EV (set when the frame's scene is built, from its sky).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_exposure: Option<AutoExposureDraw>,
+    /// The lens's distortion, when the preset has one ([`lens`]; applied by
+    /// the pipeline before this chain, as the lens comes before the sensor).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lens: Option<lens::LensDraw>,
 }
 
 /// A frame's auto-exposure: the level its background is metered to and the
@@ -239,6 +244,16 @@ impl CameraDraw {
         }
         if let Some(q) = self.jpeg_quality {
             r.push(("jpeg_quality", Count(q.into())));
+        }
+        if let Some(l) = self.lens {
+            let (kind, coefficients) = l.named();
+            let mut g: Vec<(&'static str, DrawValue)> = coefficients
+                .into_iter()
+                .map(|(k, v)| (k, Real(v)))
+                .collect();
+            g.push(("kind", Name(kind)));
+            g.sort_by_key(|(k, _)| *k);
+            r.push(("lens", Group(g)));
         }
         r.push(("noise_seed", Count(self.noise_seed)));
         let psf = match self.psf {
@@ -356,6 +371,16 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         },
         metered_ev: 0.0,
     });
+    // Then the lens's coefficients, each only when a range.
+    let lens = model.lens.as_ref().map(|l| {
+        lens::draw(l, |(lo, hi)| {
+            if hi > lo {
+                rng.random_range(lo..=hi)
+            } else {
+                lo
+            }
+        })
+    });
     CameraDraw {
         exposure_ev,
         auto_exposure,
@@ -374,6 +399,7 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         exposure_time_s,
         saturation,
         sharpen,
+        lens,
     }
 }
 

@@ -532,6 +532,7 @@ mod tests {
                             exposure_time_s: 0.0,
                             saturation: pick(),
                             sharpen: pick(),
+                            lens: None,
                         });
                         scene.placement_shortfall = 2;
                         // Drawn looks for all but the last drone (it has none).

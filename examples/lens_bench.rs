@@ -1,0 +1,77 @@
+//! The lens distortion's cost per frame (src/sensor/lens.rs), on the CPU
+//! alone: a 1920×1080 picture resampled through the lens of
+//! presets/lens_distortion.ron's middle draw (the map cached, as for a fixed
+//! draw), and the map built anew (as for a draw that changes every frame);
+//! median of 30 runs after 3 warm-ups.
+//!
+//! `cargo run --release --no-default-features --example lens_bench`
+//! (docs/realism.md, "Lens distortion"). `RAYON_NUM_THREADS` sets the threads.
+
+use std::time::Instant;
+
+use swarmshot::sensor::lens::{LensDraw, LensGeometry, LensMap};
+
+fn median_ms(mut run: impl FnMut()) -> f64 {
+    for _ in 0..3 {
+        run();
+    }
+    let mut times: Vec<f64> = (0..30)
+        .map(|_| {
+            let t = Instant::now();
+            run();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn main() {
+    let (w, h) = (1920u32, 1080u32);
+    let rgba: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let (x, y) = (i % w, i / w);
+            [
+                (90 + y / 12) as u8,
+                (130 + y / 10) as u8,
+                (200 + (x / 40) % 40) as u8,
+                255,
+            ]
+        })
+        .collect();
+    // presets/lens_distortion.ron: fov_y 50° at 1080 rows.
+    let focal = 540.0 / 25f64.to_radians().tan();
+    let draw = LensDraw::BrownConrady {
+        k1: -0.15,
+        k2: 0.02,
+        k3: 0.0,
+        p1: 0.0005,
+        p2: -0.0005,
+    };
+    let Some(geo) = LensGeometry::new(draw, w, h, focal) else {
+        eprintln!("a neutral lens");
+        return;
+    };
+    let map = LensMap::of(&geo);
+    let remap = median_ms(|| {
+        std::hint::black_box(map.remap(&rgba));
+    });
+    let mut k = 0u32;
+    let build = median_ms(|| {
+        // A new draw each run: the geometry's fill and the map are solved again.
+        k += 1;
+        let d = LensDraw::BrownConrady {
+            k1: -0.15 + f64::from(k) * 1e-6,
+            k2: 0.02,
+            k3: 0.0,
+            p1: 0.0005,
+            p2: -0.0005,
+        };
+        if let Some(g) = LensGeometry::new(d, w, h, focal) {
+            std::hint::black_box(LensMap::build(&g));
+        }
+    });
+    println!("threads {}", rayon::current_num_threads());
+    println!("remap 1920x1080 (map cached): {remap:.2} ms");
+    println!("new draw: geometry + map: {build:.2} ms");
+}
