@@ -120,9 +120,10 @@ fn visible_boxes_through_a_lens_are_the_pixels_a_drone_changes() {
                 .map(f64::abs)
                 .into_iter()
                 .fold(0.0, f64::max);
-            // Off the centre the lens moves the box (at the centre only its zoom does).
+            // Off the centre the lens moves the box (at the centre only its zoom
+            // does); a box the lens did not reach would not move at all.
             assert!(
-                absolute.is_none() || moved > 1.0,
+                absolute.is_none() || moved > 0.25,
                 "{case}: the lens moved the amodal box by {moved} px"
             );
             checked += 1;
