@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 use super::panels::{self, Form, error_label, group_digits};
 use super::{
     APP_NAME, Command, Session, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
-    example_description, example_presets, problems, realism_panels,
+    example_description, example_presets, problems, realism_panels, thermal_panel,
 };
 
 impl SwarmshotApp {
@@ -295,6 +295,7 @@ pub fn stage_status(p: &crate::preset::Preset) -> Vec<(&'static str, String)> {
     let on = |b: bool| if b { "on" } else { "off" }.to_string();
     vec![
         ("Camera model", on(p.camera_model.is_some())),
+        ("Thermal camera", on(p.thermal.is_some())),
         ("Atmosphere", on(p.atmosphere.is_some())),
         ("Drone appearance", on(p.appearance.is_some())),
         ("Clutter", on(p.clutter.is_some())),
@@ -327,7 +328,7 @@ struct Section {
 
 /// The collapsible parameter sections, in the order of the paper's panels
 /// and then the realism stages.
-const SECTIONS: [Section; 13] = [
+const SECTIONS: [Section; 14] = [
     Section {
         title: "Models",
         tip: "The UAV models instantiated in every frame, with their real size",
@@ -365,6 +366,11 @@ const SECTIONS: [Section; 13] = [
         title: "Camera model",
         tip: "Optics, sensor noise and image processing between the render and the file",
         panel: |ui, c| realism_panels::camera_model_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Thermal camera",
+        tip: "Grey long-wave infrared frames: temperatures, sky, air, noise, blur, gain control",
+        panel: |ui, c| thermal_panel::thermal_ui(ui, c.preset, c.form),
     },
     Section {
         title: "Atmosphere",

@@ -31,13 +31,14 @@ const BLUR_MAX_HALF_PX: usize = 12;
 const MIN_FLAT_TILES: usize = 4;
 const MIN_EDGES: usize = 5;
 
-/// Whether `rgb` is grey: at most one pixel in a thousand has channels
-/// more than 3 levels apart (JPEG's colour rounding stays within that).
+/// Whether `rgb` is grey or a tinted grey (a thermal camera's palette): at
+/// most one pixel in fifty has channels more than 16 levels apart, which a
+/// coloured sky (30 levels and more) is not.
 pub fn is_grey(rgb: &RgbImage) -> bool {
     let coloured = (rgb.pixels())
-        .filter(|p| p[0].max(p[1]).max(p[2]) - p[0].min(p[1]).min(p[2]) > 3)
+        .filter(|p| p[0].max(p[1]).max(p[2]) - p[0].min(p[1]).min(p[2]) > 16)
         .count();
-    coloured * 1000 <= rgb.pixels().len()
+    coloured * 50 <= rgb.pixels().len()
 }
 
 /// Mean luminance of the lower third of the rows minus the upper third's:

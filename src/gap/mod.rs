@@ -81,7 +81,7 @@ pub struct FrameStats {
     /// `None` on grey frames ([`FrameStats::grey`]): colour does not apply.
     pub sky_saturation: Option<f32>,
     pub sky_hue_deg: Option<f32>,
-    /// Every pixel grey (R = G = B within JPEG's rounding): thermal or monochrome footage.
+    /// Grey or tinted grey ([`measure::is_grey`]): thermal or monochrome footage.
     pub grey: bool,
     /// Mean luminance of the frame's lower third minus its upper third (levels).
     pub vertical_gradient: f32,

@@ -17,8 +17,8 @@
 
 use glam::DVec3;
 
-use crate::preset::thermal::{Signature, Thermal};
 use crate::annotate::visibility::PixelHit;
+use crate::preset::thermal::{Signature, Thermal};
 use crate::scene::FrameScene;
 use crate::sensor::thermal::{self, SkyTable};
 
@@ -40,9 +40,9 @@ impl FramePipeline {
         let signatures = self.signatures(t, scene);
         let msaa = self.preset.render.msaa.max(1);
         add_objects(&mut plane, scene, hits, (&signatures, msaa), (t, &sky));
-        let pattern = self.thermal_pattern.get_or_init(|| {
-            thermal::fixed_pattern(t, self.preset.seed, w, h)
-        });
+        let pattern = self
+            .thermal_pattern
+            .get_or_init(|| thermal::fixed_pattern(t, self.preset.seed, w, h));
         let own;
         let pattern = if pattern.len() == plane.len() {
             pattern
@@ -116,7 +116,12 @@ fn add_objects(
     let mut boxes = vec![(u32::MAX, u32::MAX, 0u32, 0u32); scene.drones.len()];
     for hit in hits {
         if let Some(b) = boxes.get_mut(hit.drone as usize) {
-            *b = (b.0.min(hit.x), b.1.min(hit.y), b.2.max(hit.x), b.3.max(hit.y));
+            *b = (
+                b.0.min(hit.x),
+                b.1.min(hit.y),
+                b.2.max(hit.x),
+                b.3.max(hit.y),
+            );
         }
     }
     let spots: Vec<Option<Spot>> = (scene.drones.iter().zip(&boxes).zip(signatures))
@@ -161,8 +166,7 @@ impl Spot {
         }
         let p = cam.camera_from_world_point(position);
         let box_centre = ((x0 + x1 + 1) as f32 * 0.5, (y0 + y1 + 1) as f32 * 0.5);
-        let centre = (cam.project_camera_point(p))
-            .map_or(box_centre, |c| (c.x as f32, c.y as f32));
+        let centre = (cam.project_camera_point(p)).map_or(box_centre, |c| (c.x as f32, c.y as f32));
         let half = ((x1 - x0 + 1).max(y1 - y0 + 1) as f32 * 0.5).max(0.5);
         let sigma = (sig.spot_share as f32 * half).max(0.3);
         Some(Self {
@@ -178,7 +182,10 @@ impl Spot {
     /// The radiance reaching pixel (x, y) from this object, `behind` the
     /// background's (what its skin reflects).
     fn radiance(&self, x: u32, y: u32, behind: f32) -> f32 {
-        let (dx, dy) = (x as f32 + 0.5 - self.centre.0, y as f32 + 0.5 - self.centre.1);
+        let (dx, dy) = (
+            x as f32 + 0.5 - self.centre.0,
+            y as f32 + 0.5 - self.centre.1,
+        );
         let warm = (-(dx * dx + dy * dy) * self.inv_two_sigma2).exp();
         let temp = self.air_k + self.sig.skin_k + self.sig.spot_k * f64::from(warm);
         let e = self.sig.emissivity as f32;

@@ -175,7 +175,12 @@ impl Thermal {
         v.check(
             self.agc_max_gain.is_finite() && self.agc_max_gain > 0.0 && self.agc_max_gain <= 1e4,
             "thermal.agc_max_gain",
-            || format!("{} must be levels per kelvin in (0, 10000]", self.agc_max_gain),
+            || {
+                format!(
+                    "{} must be levels per kelvin in (0, 10000]",
+                    self.agc_max_gain
+                )
+            },
         );
         v.check(
             self.agc_mid_level.is_finite() && (0.0..=255.0).contains(&self.agc_mid_level),

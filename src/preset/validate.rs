@@ -103,7 +103,8 @@ impl Preset {
                 "cannot be combined with camera_model: the thermal camera has its own noise, blur and gain".into()
             });
             v.check(self.labels.id_scale <= 1, "thermal", || {
-                "needs labels.id_scale 1: the thermal picture is made from the id pass's pixels".into()
+                "needs labels.id_scale 1: the thermal picture is made from the id pass's pixels"
+                    .into()
             });
         }
         if let Some(o) = &self.camera.observer {

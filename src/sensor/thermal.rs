@@ -269,7 +269,10 @@ mod tests {
         let t = Thermal::default();
         let sky = SkyTable::new(&t);
         let (zenith, mid, low) = (sky.clear(1.0), sky.clear(0.5), sky.clear(0.05));
-        assert!(zenith < mid && mid < low && low <= sky.air, "{zenith} {mid} {low}");
+        assert!(
+            zenith < mid && mid < low && low <= sky.air,
+            "{zenith} {mid} {low}"
+        );
         assert!((f64::from(zenith) / f64::from(sky.air) - t.zenith_emissivity).abs() < 1e-3);
         assert_eq!(sky.clear(-0.1), sky.ground);
     }
@@ -291,7 +294,10 @@ mod tests {
         let out = develop(&t, &mut plane, (1000, 1), &pattern, 7);
         let grey: Vec<u8> = out.chunks_exact(4).map(|p| p[0]).collect();
         assert_eq!((grey[0], grey[999]), (0, 255));
-        assert!(out.chunks_exact(4).all(|p| p[0] == p[1] && p[1] == p[2] && p[3] == 255));
+        assert!(
+            out.chunks_exact(4)
+                .all(|p| p[0] == p[1] && p[1] == p[2] && p[3] == 255)
+        );
         assert!(grey.windows(2).all(|g| g[0] <= g[1]));
     }
 
@@ -310,8 +316,15 @@ mod tests {
         let mut plane: Vec<f32> = (0..100).map(|i| a + (b - a) * i as f32 / 99.0).collect();
         let out = develop(&t, &mut plane, (100, 1), &[0.0; 100], 7);
         let span = i32::from(out[99 * 4]) - i32::from(out[0]);
-        assert!((3..=5).contains(&span), "{span} levels for 1 K at 4 levels/K");
-        assert!((108..=112).contains(&out[50 * 4]), "middle at {}", out[50 * 4]);
+        assert!(
+            (3..=5).contains(&span),
+            "{span} levels for 1 K at 4 levels/K"
+        );
+        assert!(
+            (108..=112).contains(&out[50 * 4]),
+            "middle at {}",
+            out[50 * 4]
+        );
     }
 
     #[test]
@@ -324,7 +337,10 @@ mod tests {
         let sd = (a.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / a.len() as f32).sqrt();
         let expected = 0.04 * radiance_per_kelvin(t.air_k);
         // Shading adds a little spread on top of the offsets' σ.
-        assert!(sd > 0.8 * expected && sd < 3.0 * expected, "{sd} vs {expected}");
+        assert!(
+            sd > 0.8 * expected && sd < 3.0 * expected,
+            "{sd} vs {expected}"
+        );
     }
 
     #[test]
