@@ -147,3 +147,14 @@ fn thermal_cannot_be_combined_with_the_camera_model() {
         "{errors:?}"
     );
 }
+
+#[test]
+fn fit_refuses_a_thermal_base_by_name_before_reading_footage() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    let e = swarmshot::fit::preset_out::load_base(&path).expect_err("thermal base");
+    let message = e.to_string();
+    assert!(
+        message.contains("thermal.ron") && message.contains("thermal:"),
+        "{message}"
+    );
+}
