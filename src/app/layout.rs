@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 use super::panels::{self, Form, error_label, group_digits};
 use super::{
     APP_NAME, Command, Session, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
-    example_description, example_presets, problems, realism_panels,
+    example_description, example_presets, problems, realism_panels, thermal_panel,
 };
 
 impl SwarmshotApp {
@@ -299,6 +299,7 @@ pub fn stage_status(p: &crate::preset::Preset) -> Vec<(&'static str, String)> {
             "Lens distortion",
             on(p.camera_model.as_ref().is_some_and(|c| c.lens.is_some())),
         ),
+        ("Thermal camera", on(p.thermal.is_some())),
         ("Atmosphere", on(p.atmosphere.is_some())),
         ("Drone appearance", on(p.appearance.is_some())),
         ("Clutter", on(p.clutter.is_some())),
@@ -331,7 +332,7 @@ struct Section {
 
 /// The collapsible parameter sections, in the order of the paper's panels
 /// and then the realism stages.
-const SECTIONS: [Section; 14] = [
+const SECTIONS: [Section; 15] = [
     Section {
         title: "Models",
         tip: "The UAV models instantiated in every frame, with their real size",
@@ -374,6 +375,11 @@ const SECTIONS: [Section; 14] = [
         title: "Lens distortion",
         tip: "Brown–Conrady or fisheye distortion of the picture and its labels",
         panel: |ui, c| super::lens_panel::lens_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Thermal camera",
+        tip: "Grey long-wave infrared frames: temperatures, sky, air, noise, blur, gain control",
+        panel: |ui, c| thermal_panel::thermal_ui(ui, c.preset, c.form),
     },
     Section {
         title: "Atmosphere",

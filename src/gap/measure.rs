@@ -31,6 +31,29 @@ const BLUR_MAX_HALF_PX: usize = 12;
 const MIN_FLAT_TILES: usize = 4;
 const MIN_EDGES: usize = 5;
 
+/// Whether `rgb` is grey or a tinted grey (a thermal camera's palette): at
+/// most one pixel in fifty has channels more than 16 levels apart, which a
+/// coloured sky (30 levels and more) is not.
+pub fn is_grey(rgb: &RgbImage) -> bool {
+    let coloured = (rgb.pixels())
+        .filter(|p| p[0].max(p[1]).max(p[2]) - p[0].min(p[1]).min(p[2]) > 16)
+        .count();
+    coloured * 50 <= rgb.pixels().len()
+}
+
+/// Mean luminance of the lower third of the rows minus the upper third's:
+/// positive when the frame brightens downwards (a thermal sky warming
+/// towards the horizon).
+pub fn vertical_gradient(l: &Luma) -> f32 {
+    let third = (l.height / 3).max(1) * l.width;
+    let mean = |px: &[f32]| px.iter().sum::<f32>() / px.len().max(1) as f32;
+    let n = l.y.len();
+    if n < 3 * third {
+        return 0.0;
+    }
+    mean(&l.y[n - third..]) - mean(&l.y[..third])
+}
+
 /// Luminance plane in 8-bit levels.
 #[derive(Clone, Debug)]
 pub struct Luma {

@@ -78,8 +78,13 @@ pub struct FrameStats {
     pub highpass_rms: Option<f32>,
     pub gradient_energy: f32,
     pub canny_edge_share: f32,
+    /// `None` on grey frames ([`FrameStats::grey`]): colour does not apply.
     pub sky_saturation: Option<f32>,
     pub sky_hue_deg: Option<f32>,
+    /// Grey or tinted grey ([`measure::is_grey`]): thermal or monochrome footage.
+    pub grey: bool,
+    /// Mean luminance of the frame's lower third minus its upper third (levels).
+    pub vertical_gradient: f32,
     pub mean_brightness: f32,
     /// Median luminance standard deviation of the 16 px tiles at 540 px high clear of the
     /// boxes (`None` when no tile is).
@@ -96,7 +101,9 @@ pub struct FrameStats {
 pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8]>) -> FrameStats {
     let l = measure::Luma::from_rgb(rgb);
     let flat = measure::flat_sky(rgb, &l, boxes);
+    let grey = measure::is_grey(rgb);
     let (sky_saturation, sky_hue_deg) = match flat.sky_rgb {
+        Some(_) if grey => (None, None),
         Some(c) => {
             let (s, h) = measure::saturation_hue(c);
             (Some(s), Some(h))
@@ -117,6 +124,8 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         gradient_energy: measure::gradient_energy(&g540),
         canny_edge_share: measure::canny_share(&g540),
         sky_saturation,
+        grey,
+        vertical_gradient: measure::vertical_gradient(&l),
         sky_hue_deg,
         mean_brightness: (l.y.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64) as f32,
         background_texture: measure::background_texture(&g540, boxes, l.height),

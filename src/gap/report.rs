@@ -231,6 +231,13 @@ fn fitting_stats() -> Vec<Stat> {
         },
         Stat {
             counted: false,
+            key: "vertical_gradient",
+            name: "vertical gradient: lower third − upper third",
+            unit: "levels",
+            kind: Frame(|f| Some(f64::from(f.vertical_gradient))),
+        },
+        Stat {
+            counted: false,
             key: "drone_box_px",
             name: "drone box size √(w·h)",
             unit: "px",

@@ -21,6 +21,7 @@ mod lens;
 pub mod plan;
 mod sink;
 mod streaks;
+mod thermal;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -250,6 +251,8 @@ pub struct FramePipeline {
     classes: Vec<String>,
     class_of_model: Vec<usize>,
     model_names: Vec<String>,
+    /// The thermal camera's fixed pattern, made on the first thermal frame.
+    thermal_pattern: Arc<std::sync::OnceLock<Vec<f32>>>,
 }
 
 impl FramePipeline {
@@ -295,6 +298,7 @@ impl FramePipeline {
             classes,
             class_of_model,
             model_names,
+            thermal_pattern: Arc::default(),
         }
     }
 
@@ -463,11 +467,15 @@ impl FramePipeline {
         let labels_settings = &self.preset.labels;
         // Masks are the id pass's visible pixels (validation keeps id_scale at 1 for them).
         let masks_on = self.preset.output.masks.any();
-        let together =
-            (labels_settings.needs_id_pass() || masks_on) && labels_settings.id_scale <= 1;
+        // The thermal picture is made from the id pass's pixels (validation keeps id_scale at 1).
+        let thermal = self.preset.thermal.as_ref();
+        let ids_kept = labels_settings.needs_id_pass() || masks_on;
+        let together = (ids_kept || thermal.is_some()) && labels_settings.id_scale <= 1;
         // Through a lens, the visibility comes from the id layer moved with the picture.
         let lensed = scene.camera_model.is_some_and(|d| d.lens.is_some());
-        renderer.set_pixel_hits(masks_on || (lensed && labels_settings.needs_id_pass()));
+        renderer.set_pixel_hits(
+            masks_on || thermal.is_some() || (lensed && labels_settings.needs_id_pass()),
+        );
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
             color: true,
@@ -477,7 +485,7 @@ impl FramePipeline {
             .render_frame(&scene, &request)
             .map_err(render_error)?;
         let mut measured = if together {
-            frame.visibility.take()
+            frame.visibility.take().filter(|_| ids_kept)
         } else {
             self.measure(renderer, &scene).map_err(render_error)?
         };
@@ -494,11 +502,19 @@ impl FramePipeline {
             hits = Some(moved);
             vis
         });
-        let mut masks =
-            (hits.filter(|_| masks_on)).map(|hits| FrameMasks::from_hits(w, h, n, &hits));
-        let (rgba, painted) = match &scene.camera_model {
-            None => (frame.rgba, frame.painted),
-            Some(draw) => {
+        let mut masks = (hits.as_ref())
+            .filter(|_| masks_on)
+            .map(|hits| FrameMasks::from_hits(w, h, n, hits));
+        let (rgba, painted) = match (&scene.camera_model, thermal) {
+            (_, Some(t)) => {
+                let background = renderer.background_pixels(&frame.painted);
+                let hits = hits.as_deref().unwrap_or_default();
+                let grey = self.thermal_frame(t, &scene, background.unwrap_or(&frame.rgba), hits);
+                renderer.recycle(frame.rgba, frame.painted);
+                (grey, Painted::default())
+            }
+            (None, None) => (frame.rgba, frame.painted),
+            (Some(draw), None) => {
                 let mut sets = masks.as_ref().map(|_| vec![Vec::new(); n]);
                 // Without the drone-free background, the id layer's visibility through the lens.
                 if renderer.background_pixels(&frame.painted).is_none()

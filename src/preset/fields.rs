@@ -26,7 +26,7 @@ pub struct Field {
 }
 
 /// The parameter sections, as titled in the app's left panel, in order.
-pub const SECTIONS: [&str; 13] = [
+pub const SECTIONS: [&str; 14] = [
     MODELS,
     PLACEMENT,
     ATTITUDE,
@@ -34,6 +34,7 @@ pub const SECTIONS: [&str; 13] = [
     ROTATION,
     SKYBOX,
     CAMERA_MODEL,
+    THERMAL,
     ATMOSPHERE,
     APPEARANCE,
     CLUTTER,
@@ -49,6 +50,7 @@ const CAMERA: &str = "Camera";
 const ROTATION: &str = "Scene rotation";
 const SKYBOX: &str = "Skybox";
 const CAMERA_MODEL: &str = "Camera model";
+const THERMAL: &str = "Thermal camera";
 const ATMOSPHERE: &str = "Atmosphere";
 const APPEARANCE: &str = "Drone appearance";
 const CLUTTER: &str = "Clutter";
@@ -57,7 +59,7 @@ const BACKPLATES: &str = "Backplates";
 const OUTPUT: &str = "Output";
 
 /// The section of every path under a top-level field.
-const SECTION_OF_HEAD: [(&str, &str); 16] = [
+const SECTION_OF_HEAD: [(&str, &str); 17] = [
     ("models", MODELS),
     ("placement", PLACEMENT),
     ("sequence", PLACEMENT),
@@ -66,6 +68,7 @@ const SECTION_OF_HEAD: [(&str, &str); 16] = [
     ("plane", ROTATION),
     ("sky", SKYBOX),
     ("camera_model", CAMERA_MODEL),
+    ("thermal", THERMAL),
     ("atmosphere", ATMOSPHERE),
     ("appearance", APPEARANCE),
     ("clutter", CLUTTER),
@@ -188,6 +191,41 @@ pub const FIELDS: &[Field] = &[
     f("camera_model.lens.k4", "k4", "", "Radial coefficient of θ⁸ (fisheye)"),
     f("camera_model.lens.p1", "p1", "", "Tangential (decentring) coefficient p1, Brown–Conrady, in [−0.1, 0.1]"),
     f("camera_model.lens.p2", "p2", "", "Tangential (decentring) coefficient p2, Brown–Conrady, in [−0.1, 0.1]"),
+    // Thermal camera.
+    f("thermal", "Thermal camera", "", "Grey long-wave infrared (8–14 µm) frames instead of visible ones: temperatures, the sky, the air, the camera's noise, blur and gain control"),
+    f("thermal.air_k", "Air temperature", " K", "Air temperature near the camera, kelvin: the horizon's and the air's radiance"),
+    f("thermal.ground_k", "Ground temperature", " K", "Ground and scenery temperature, kelvin"),
+    f("thermal.cloud_k", "Cloud temperature", " K", "Cloud base temperature, kelvin (clouds: the visible sky's grey pixels)"),
+    f("thermal.zenith_emissivity", "Zenith emissivity", "", "The clear sky's band emissivity at the zenith; towards the horizon 1 − (1 − ε_z)^(1/sin e)"),
+    f("thermal.clear_saturation", "Clear-sky saturation", "", "Visible sky pixels at or above this HSV saturation are clear sky; greyer ones are cloud in proportion"),
+    f("thermal.extinction_per_km", "Extinction", " /km", "Band extinction β of the air: an object at d km keeps exp(−β·d) of its radiance"),
+    f("thermal.netd_mk", "NETD", " mK", "Noise-equivalent temperature difference: the temporal noise σ, millikelvin"),
+    f("thermal.fixed_pattern_mk", "Fixed pattern", " mK", "Per-pixel and per-column offsets σ, millikelvin, the same in every frame of the preset"),
+    f("thermal.shading_k", "Shading", " K", "Radial shading of optics and housing at the corners, kelvin (negative: darker corners)"),
+    f("thermal.blur_px", "Optics blur σ", " px", "The optics' Gaussian blur σ in pixels (0: none)"),
+    f("thermal.agc_percentiles", "AGC percentiles", " %", "The frame's percentiles the gain control spreads over levels 0–255"),
+    f("thermal.agc_max_gain", "AGC max gain", " levels/K", "The gain control's largest gain: a low-contrast scene stays low in contrast"),
+    f("thermal.agc_mid_level", "AGC mid level", "", "The level the middle of the percentiles' span maps to"),
+    f("thermal.drone", "Drone signature", "", "The thermal look of the preset's drones: skin and warm spot"),
+    f("thermal.drone.skin_k", "Drone skin", " K", "Skin temperature above the air's, kelvin"),
+    f("thermal.drone.emissivity", "Drone emissivity", "", "Skin emissivity (0–1); the rest reflects what lies behind"),
+    f("thermal.drone.spot_k", "Drone warm spot", " K", "Warm spot's peak above the skin, kelvin (battery and motors, body core, engine, burner)"),
+    f("thermal.drone.spot_share", "Drone spot size", "", "Warm spot's Gaussian σ as a share of the half box size"),
+    f("thermal.bird", "Bird signature", "", "The thermal look of bird confusers: skin and warm spot"),
+    f("thermal.bird.skin_k", "Bird skin", " K", "Skin temperature above the air's, kelvin"),
+    f("thermal.bird.emissivity", "Bird emissivity", "", "Skin emissivity (0–1); the rest reflects what lies behind"),
+    f("thermal.bird.spot_k", "Bird warm spot", " K", "Warm spot's peak above the skin, kelvin (battery and motors, body core, engine, burner)"),
+    f("thermal.bird.spot_share", "Bird spot size", "", "Warm spot's Gaussian σ as a share of the half box size"),
+    f("thermal.aircraft", "Aircraft signature", "", "The thermal look of aircraft and helicopter confusers: skin and warm spot"),
+    f("thermal.aircraft.skin_k", "Aircraft skin", " K", "Skin temperature above the air's, kelvin"),
+    f("thermal.aircraft.emissivity", "Aircraft emissivity", "", "Skin emissivity (0–1); the rest reflects what lies behind"),
+    f("thermal.aircraft.spot_k", "Aircraft warm spot", " K", "Warm spot's peak above the skin, kelvin (battery and motors, body core, engine, burner)"),
+    f("thermal.aircraft.spot_share", "Aircraft spot size", "", "Warm spot's Gaussian σ as a share of the half box size"),
+    f("thermal.balloon", "Balloon signature", "", "The thermal look of balloon confusers: skin and warm spot"),
+    f("thermal.balloon.skin_k", "Balloon skin", " K", "Skin temperature above the air's, kelvin"),
+    f("thermal.balloon.emissivity", "Balloon emissivity", "", "Skin emissivity (0–1); the rest reflects what lies behind"),
+    f("thermal.balloon.spot_k", "Balloon warm spot", " K", "Warm spot's peak above the skin, kelvin (battery and motors, body core, engine, burner)"),
+    f("thermal.balloon.spot_share", "Balloon spot size", "", "Warm spot's Gaussian σ as a share of the half box size"),
     // Atmosphere.
     f("atmosphere", "Atmosphere", "", "Haze with range on drones, ground and horizon (Koschmieder: contrast × exp(−3.912·d/V))"),
     f("atmosphere.visibility_m", "Visibility", " m", "Meteorological visibility V in metres, drawn per frame: 2 % of a drone's contrast remains at distance V"),

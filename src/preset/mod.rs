@@ -41,6 +41,7 @@ mod render;
 mod ron_error;
 mod sky;
 pub mod sweep;
+pub mod thermal;
 
 pub use crate::text::{printable, short_number};
 pub use camera::{CameraSweep, PlaneSweep};
@@ -117,6 +118,9 @@ pub struct Preset {
     /// Photographic backgrounds (issue 21; docs/realism.md). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub backplate: Option<backplate::Backplate>,
+    /// The thermal camera (issue 41; docs/realism.md, "Thermal camera"): grey long-wave infrared frames. Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<thermal::Thermal>,
 }
 
 impl Default for Preset {
@@ -142,6 +146,7 @@ impl Default for Preset {
             clutter: None,
             confusers: Vec::new(),
             backplate: None,
+            thermal: None,
         }
     }
 }

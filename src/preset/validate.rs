@@ -97,6 +97,16 @@ impl Preset {
         if let Some(b) = &self.backplate {
             b.validate_into(&mut v, self.camera.absolute.is_some());
         }
+        if let Some(t) = &self.thermal {
+            t.validate_into(&mut v);
+            v.check(self.camera_model.is_none(), "thermal", || {
+                "cannot be combined with camera_model: the thermal camera has its own noise, blur and gain".into()
+            });
+            v.check(self.labels.id_scale <= 1, "thermal", || {
+                "needs labels.id_scale 1: the thermal picture is made from the id pass's pixels"
+                    .into()
+            });
+        }
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);
             v.check(self.camera.absolute.is_none(), "camera.observer", || {

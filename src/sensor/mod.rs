@@ -61,6 +61,7 @@ mod saturation;
 mod sharpen;
 mod simd;
 mod sweep;
+pub mod thermal;
 mod vignette;
 
 use rand::{Rng, SeedableRng};

@@ -1,0 +1,80 @@
+//! The thermal camera panel (issue 41 item 1): grey long-wave infrared
+//! frames instead of visible ones (`thermal` in the preset; docs/realism.md,
+//! "Thermal camera"). Off is the preset field `None`, so a preset without it
+//! keeps its bytes. Validation messages are shown under the row that owns
+//! their field path; labels, tooltips and units come from the table of
+//! fields ([`crate::preset::fields`]).
+
+use egui::Ui;
+
+use super::panels::{Form, Words};
+use super::realism_panels::section_checkbox;
+use crate::preset::Preset;
+use crate::preset::thermal::{Signature, Thermal};
+
+/// Thermal camera: scene temperatures, objects' signatures, the camera's noise, blur and gain.
+pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
+    let mut on = preset.thermal.is_some();
+    if section_checkbox(ui, &mut on, "thermal").changed() {
+        preset.thermal = on.then(Thermal::default);
+    }
+    let Some(t) = &mut preset.thermal else {
+        return;
+    };
+    for (path, value, speed) in [
+        ("thermal.air_k", &mut t.air_k, 0.1),
+        ("thermal.ground_k", &mut t.ground_k, 0.1),
+        ("thermal.cloud_k", &mut t.cloud_k, 0.1),
+        ("thermal.zenith_emissivity", &mut t.zenith_emissivity, 0.01),
+        ("thermal.clear_saturation", &mut t.clear_saturation, 0.01),
+        ("thermal.extinction_per_km", &mut t.extinction_per_km, 0.01),
+        ("thermal.netd_mk", &mut t.netd_mk, 1.0),
+        ("thermal.fixed_pattern_mk", &mut t.fixed_pattern_mk, 1.0),
+        ("thermal.shading_k", &mut t.shading_k, 0.1),
+        ("thermal.blur_px", &mut t.blur_px, 0.01),
+        ("thermal.agc_max_gain", &mut t.agc_max_gain, 0.1),
+        ("thermal.agc_mid_level", &mut t.agc_mid_level, 1.0),
+    ] {
+        Words::of(path).number(ui, form, value, speed);
+    }
+    Words::of("thermal.agc_percentiles").range(ui, form, &mut t.agc_percentiles, 0.1);
+    signature_rows(ui, form, "thermal.drone", &mut t.drone);
+    signature_rows(ui, form, "thermal.bird", &mut t.bird);
+    signature_rows(ui, form, "thermal.aircraft", &mut t.aircraft);
+    signature_rows(ui, form, "thermal.balloon", &mut t.balloon);
+}
+
+/// One kind's signature: its heading, then skin, emissivity and warm spot.
+fn signature_rows(ui: &mut Ui, form: &mut Form<'_>, kind: &'static str, s: &mut Signature) {
+    let f = crate::preset::fields::get(kind);
+    ui.label(f.label).on_hover_text(f.tooltip);
+    let rows: [(&'static str, &mut f64, f64); 4] = match kind {
+        "thermal.drone" => [
+            ("thermal.drone.skin_k", &mut s.skin_k, 0.1),
+            ("thermal.drone.emissivity", &mut s.emissivity, 0.01),
+            ("thermal.drone.spot_k", &mut s.spot_k, 0.1),
+            ("thermal.drone.spot_share", &mut s.spot_share, 0.01),
+        ],
+        "thermal.bird" => [
+            ("thermal.bird.skin_k", &mut s.skin_k, 0.1),
+            ("thermal.bird.emissivity", &mut s.emissivity, 0.01),
+            ("thermal.bird.spot_k", &mut s.spot_k, 0.1),
+            ("thermal.bird.spot_share", &mut s.spot_share, 0.01),
+        ],
+        "thermal.aircraft" => [
+            ("thermal.aircraft.skin_k", &mut s.skin_k, 0.1),
+            ("thermal.aircraft.emissivity", &mut s.emissivity, 0.01),
+            ("thermal.aircraft.spot_k", &mut s.spot_k, 0.1),
+            ("thermal.aircraft.spot_share", &mut s.spot_share, 0.01),
+        ],
+        _ => [
+            ("thermal.balloon.skin_k", &mut s.skin_k, 0.1),
+            ("thermal.balloon.emissivity", &mut s.emissivity, 0.01),
+            ("thermal.balloon.spot_k", &mut s.spot_k, 0.1),
+            ("thermal.balloon.spot_share", &mut s.spot_share, 0.01),
+        ],
+    };
+    for (path, value, speed) in rows {
+        Words::of(path).number(ui, form, value, speed);
+    }
+}

@@ -1,0 +1,231 @@
+//! The thermal camera (`thermal:` in a preset; issue 41): a long-wave
+//! infrared (8–14 µm) picture instead of the visible one. Off unless a preset
+//! names it. The fields are temperatures, emissivities and the camera's
+//! figures; `sensor::thermal` turns them into band radiance and 8-bit grey
+//! pixels (docs/realism.md, "Thermal camera").
+
+use serde::{Deserialize, Serialize};
+
+use super::Validator;
+
+/// The thermal look of one kind of object: its skin, and a warm spot
+/// centred on its picture (a drone's battery and motors, a bird's body, an
+/// aircraft's engine).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Signature {
+    /// Skin temperature above the air's, kelvin.
+    pub skin_k: f64,
+    /// Skin emissivity in the band (0–1); the rest reflects what lies behind.
+    pub emissivity: f64,
+    /// Warm spot's peak temperature above the skin's, kelvin.
+    pub spot_k: f64,
+    /// Warm spot's Gaussian σ as a share of the object's half box size.
+    pub spot_share: f64,
+}
+
+impl Default for Signature {
+    fn default() -> Self {
+        Self::DRONE
+    }
+}
+
+impl Signature {
+    /// A multirotor in flight: plastic/carbon shell a few kelvin over the
+    /// air, battery and motors warm (≈ 15 K above the shell).
+    pub const DRONE: Self = Self {
+        skin_k: 4.0,
+        emissivity: 0.9,
+        spot_k: 15.0,
+        spot_share: 0.45,
+    };
+    /// A bird: feathers near the air's temperature, a warm body core.
+    pub const BIRD: Self = Self {
+        skin_k: 2.0,
+        emissivity: 0.95,
+        spot_k: 10.0,
+        spot_share: 0.3,
+    };
+    /// An aircraft or helicopter: painted metal skin, a hot engine.
+    pub const AIRCRAFT: Self = Self {
+        skin_k: 3.0,
+        emissivity: 0.8,
+        spot_k: 60.0,
+        spot_share: 0.15,
+    };
+    /// A balloon: fabric warmed by the burner.
+    pub const BALLOON: Self = Self {
+        skin_k: 20.0,
+        emissivity: 0.9,
+        spot_k: 10.0,
+        spot_share: 0.6,
+    };
+}
+
+/// A long-wave infrared camera: the scene's temperatures, the atmosphere,
+/// and the camera's noise, blur and gain control.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Thermal {
+    /// Air temperature near the camera, kelvin.
+    pub air_k: f64,
+    /// Ground and scenery temperature, kelvin.
+    pub ground_k: f64,
+    /// Cloud base temperature, kelvin (clouds are the visible sky's grey pixels).
+    pub cloud_k: f64,
+    /// The clear sky's band emissivity at the zenith (0–1); towards the
+    /// horizon it rises as `1 − (1 − ε_z)^(1/sin e)`, so the sky warms.
+    pub zenith_emissivity: f64,
+    /// Visible sky pixels with an HSV saturation at or above this are clear
+    /// sky; greyer ones are cloud in proportion (0–1).
+    pub clear_saturation: f64,
+    /// Band extinction of the air, per kilometre: a drone at d km keeps
+    /// `exp(−β·d)` of its own radiance and takes the air's for the rest.
+    pub extinction_per_km: f64,
+    /// The preset's drones.
+    pub drone: Signature,
+    /// Bird confusers.
+    pub bird: Signature,
+    /// Aircraft and helicopter confusers.
+    pub aircraft: Signature,
+    /// Balloon confusers.
+    pub balloon: Signature,
+    /// Noise-equivalent temperature difference, millikelvin (temporal noise σ).
+    pub netd_mk: f64,
+    /// Fixed-pattern noise σ, millikelvin: per-pixel and per-column offsets,
+    /// the same in every frame of the preset (from the preset seed).
+    pub fixed_pattern_mk: f64,
+    /// Radial shading of the optics and housing, kelvin at the corners
+    /// (negative: darker corners).
+    pub shading_k: f64,
+    /// The optics' blur, Gaussian σ in pixels (0: none).
+    pub blur_px: f64,
+    /// Automatic gain control: these percentiles of the frame span levels 0
+    /// to 255, unless that takes more than `agc_max_gain`.
+    pub agc_percentiles: (f64, f64),
+    /// The gain control's largest gain, 8-bit levels per kelvin (at the
+    /// air's temperature): a low-contrast scene stays low in contrast.
+    pub agc_max_gain: f64,
+    /// The level the middle of the percentiles' span maps to.
+    pub agc_mid_level: f64,
+}
+
+impl Default for Thermal {
+    fn default() -> Self {
+        Self {
+            air_k: 288.0,
+            ground_k: 292.0,
+            cloud_k: 275.0,
+            zenith_emissivity: 0.25,
+            clear_saturation: 0.2,
+            extinction_per_km: 0.2,
+            drone: Signature::DRONE,
+            bird: Signature::BIRD,
+            aircraft: Signature::AIRCRAFT,
+            balloon: Signature::BALLOON,
+            netd_mk: 50.0,
+            fixed_pattern_mk: 40.0,
+            shading_k: 1.5,
+            blur_px: 0.7,
+            agc_percentiles: (0.5, 99.9),
+            agc_max_gain: 4.0,
+            agc_mid_level: 110.0,
+        }
+    }
+}
+
+/// The largest temperature accepted anywhere (kelvin).
+pub const MAX_TEMPERATURE_K: f64 = 2000.0;
+
+impl Thermal {
+    pub(super) fn validate_into(&self, v: &mut Validator) {
+        for (field, t) in [
+            ("thermal.air_k", self.air_k),
+            ("thermal.ground_k", self.ground_k),
+            ("thermal.cloud_k", self.cloud_k),
+        ] {
+            v.check(t.is_finite() && t > 150.0 && t < 400.0, field, || {
+                format!("{t} must be kelvin in (150, 400)")
+            });
+        }
+        for (field, x) in [
+            ("thermal.zenith_emissivity", self.zenith_emissivity),
+            ("thermal.clear_saturation", self.clear_saturation),
+        ] {
+            v.check(x.is_finite() && x > 0.0 && x <= 1.0, field, || {
+                format!("{x} must be in (0, 1]")
+            });
+        }
+        let nonneg = [
+            ("thermal.extinction_per_km", self.extinction_per_km, 100.0),
+            ("thermal.netd_mk", self.netd_mk, 10_000.0),
+            ("thermal.fixed_pattern_mk", self.fixed_pattern_mk, 10_000.0),
+            ("thermal.blur_px", self.blur_px, 8.0),
+        ];
+        for (field, x, max) in nonneg {
+            v.check(x.is_finite() && (0.0..=max).contains(&x), field, || {
+                format!("{x} must be in [0, {max}]")
+            });
+        }
+        v.check(
+            self.shading_k.is_finite() && self.shading_k.abs() <= 50.0,
+            "thermal.shading_k",
+            || format!("{} must be kelvin in [−50, 50]", self.shading_k),
+        );
+        v.check(
+            self.agc_max_gain.is_finite() && self.agc_max_gain > 0.0 && self.agc_max_gain <= 1e4,
+            "thermal.agc_max_gain",
+            || {
+                format!(
+                    "{} must be levels per kelvin in (0, 10000]",
+                    self.agc_max_gain
+                )
+            },
+        );
+        v.check(
+            self.agc_mid_level.is_finite() && (0.0..=255.0).contains(&self.agc_mid_level),
+            "thermal.agc_mid_level",
+            || format!("{} must be a level in [0, 255]", self.agc_mid_level),
+        );
+        let (lo, hi) = self.agc_percentiles;
+        v.check(
+            lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi && hi <= 100.0,
+            "thermal.agc_percentiles",
+            || format!("({lo}, {hi}) must be percentiles with 0 ≤ low < high ≤ 100"),
+        );
+        for (name, s) in [
+            ("drone", self.drone),
+            ("bird", self.bird),
+            ("aircraft", self.aircraft),
+            ("balloon", self.balloon),
+        ] {
+            s.validate_into(v, name, self.air_k);
+        }
+    }
+}
+
+impl Signature {
+    fn validate_into(&self, v: &mut Validator, name: &str, air_k: f64) {
+        let hottest = air_k + self.skin_k + self.spot_k;
+        v.check(
+            self.skin_k.is_finite() && self.spot_k.is_finite() && self.spot_k >= 0.0,
+            &format!("thermal.{name}.spot_k"),
+            || format!("{} must be kelvin ≥ 0", self.spot_k),
+        );
+        v.check(
+            !hottest.is_finite() || (hottest > 150.0 && hottest <= MAX_TEMPERATURE_K),
+            &format!("thermal.{name}.skin_k"),
+            || format!("air + skin + spot = {hottest} K must be in (150, {MAX_TEMPERATURE_K}]"),
+        );
+        v.check(
+            self.emissivity.is_finite() && self.emissivity > 0.0 && self.emissivity <= 1.0,
+            &format!("thermal.{name}.emissivity"),
+            || format!("{} must be in (0, 1]", self.emissivity),
+        );
+        v.check(
+            self.spot_share.is_finite() && self.spot_share > 0.0 && self.spot_share <= 10.0,
+            &format!("thermal.{name}.spot_share"),
+            || format!("{} must be in (0, 10]", self.spot_share),
+        );
+    }
+}

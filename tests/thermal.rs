@@ -1,0 +1,160 @@
+//! The thermal camera (issue 41 item 1; src/sensor/thermal.rs,
+//! src/pipeline/thermal.rs): grey frames, warm drones on a cold sky, the
+//! sky warming towards the horizon, the gain control's range, labels equal
+//! to the visible render's, determinism (lavapipe).
+
+mod common;
+
+use std::path::Path;
+
+use swarmshot::pipeline::{Frame, FramePipeline};
+use swarmshot::preset::{Preset, Resolution};
+
+/// presets/thermal.ron at 320×256 without its birds.
+fn thermal_preset() -> Preset {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    let mut p = Preset::open(&path).expect("presets/thermal.ron");
+    p.render.resolution = Resolution::Custom {
+        width: 320,
+        height: 256,
+    };
+    p.confusers.clear();
+    p
+}
+
+fn make(p: &Preset, index: u64) -> Frame {
+    let ctx = common::gpu();
+    let pipe = FramePipeline::new(p.clone()).expect("pipeline");
+    let mut r = pipe.renderer(&ctx);
+    pipe.make(&mut r, index).expect("frame")
+}
+
+fn grey_at(f: &Frame, x: u32, y: u32) -> f64 {
+    f64::from(f.rgba[((y * f.scene.camera.width + x) * 4) as usize])
+}
+
+#[test]
+fn thermal_frames_are_grey_and_use_the_gain_controls_range() {
+    let f = make(&thermal_preset(), 0);
+    assert!(
+        f.rgba
+            .chunks_exact(4)
+            .all(|p| p[0] == p[1] && p[1] == p[2] && p[3] == 255),
+        "a thermal frame is grey"
+    );
+    // The sky spans some tens of levels about the mid level (110), the
+    // drones sit above it; nothing stays at one level.
+    let mut levels: Vec<u8> = f.rgba.iter().step_by(4).copied().collect();
+    levels.sort_unstable();
+    let n = levels.len();
+    let (p5, p50, p95) = (levels[n / 20], levels[n / 2], levels[n * 19 / 20]);
+    assert!(p95 > p5 + 10, "spread {p5}..{p95}");
+    assert!((60..=160).contains(&p50), "median {p50}");
+}
+
+#[test]
+fn drones_are_warm_on_a_cold_sky_which_warms_towards_the_horizon() {
+    let p = thermal_preset();
+    let mut checked = 0;
+    for index in 0..4 {
+        let f = make(&p, index);
+        let (w, h) = (f.scene.camera.width, f.scene.camera.height);
+        // The sky: rows of the upper fifth darker than those of the lower fifth.
+        let row_mean = |y0: u32, y1: u32| {
+            let v: Vec<f64> = (y0..y1)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .map(|(x, y)| grey_at(&f, x, y))
+                .collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        let (top, bottom) = (row_mean(0, h / 5), row_mean(h * 4 / 5, h));
+        assert!(
+            bottom > top + 5.0,
+            "frame {index}: top {top:.1}, bottom {bottom:.1}"
+        );
+        // Each kept drone's brightest pixel is above its surroundings' (a ring 3 px out).
+        for l in f.labels.iter().filter(|l| l.is_kept()) {
+            let b = l.bbox;
+            let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
+            let (x1, y1) = ((b.x1.ceil() as u32).min(w), (b.y1.ceil() as u32).min(h));
+            let peak = (y0..y1)
+                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                .map(|(x, y)| grey_at(&f, x, y))
+                .fold(0.0, f64::max);
+            let ring: Vec<f64> = (y0.saturating_sub(3)..(y1 + 3).min(h))
+                .flat_map(|y| (x0.saturating_sub(3)..(x1 + 3).min(w)).map(move |x| (x, y)))
+                .filter(|&(x, y)| x + 2 < x0 || x >= x1 + 2 || y + 2 < y0 || y >= y1 + 2)
+                .map(|(x, y)| grey_at(&f, x, y))
+                .collect();
+            let ring = ring.iter().sum::<f64>() / ring.len().max(1) as f64;
+            assert!(
+                peak > ring + 20.0,
+                "frame {index}: drone peak {peak}, ring {ring:.1}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 3, "only {checked} drones checked");
+}
+
+#[test]
+fn labels_are_the_visible_renders_and_frames_are_deterministic() {
+    let p = thermal_preset();
+    let visible = Preset {
+        thermal: None,
+        ..p.clone()
+    };
+    for index in [0, 5] {
+        let (a, b) = (make(&p, index), make(&p, index));
+        assert_eq!(a.rgba, b.rgba, "frame {index}: the same bytes twice");
+        let v = make(&visible, index);
+        assert_ne!(a.rgba, v.rgba);
+        let boxes = |f: &Frame| -> Vec<_> {
+            (f.labels.iter())
+                .map(|l| (l.drone, l.bbox, l.status, l.visibility))
+                .collect()
+        };
+        assert_eq!(
+            boxes(&a),
+            boxes(&v),
+            "frame {index}: labels as the visible render's"
+        );
+    }
+    // The temporal noise differs from frame to frame of one scene: two
+    // frames' difference away from the drones is not zero.
+    let (a, b) = (make(&p, 0), make(&p, 1));
+    assert_ne!(a.rgba, b.rgba);
+}
+
+#[test]
+fn thermal_cannot_be_combined_with_the_camera_model() {
+    let p = Preset {
+        camera_model: Some(Default::default()),
+        ..thermal_preset()
+    };
+    let errors = p.validate().expect_err("thermal + camera_model");
+    assert!(errors.iter().any(|e| e.field == "thermal"), "{errors:?}");
+    let p = Preset {
+        thermal: Some(swarmshot::preset::thermal::Thermal {
+            netd_mk: -1.0,
+            ..Default::default()
+        }),
+        ..thermal_preset()
+    };
+    let errors = p.validate().expect_err("negative NETD");
+    assert!(
+        errors.iter().any(|e| e.field == "thermal.netd_mk"),
+        "{errors:?}"
+    );
+}
+
+#[test]
+fn fit_refuses_a_thermal_base_by_name_before_reading_footage() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    let e = swarmshot::fit::preset_out::load_base(&path).expect_err("thermal base");
+    let message = e.to_string();
+    assert!(
+        message.contains("thermal.ron") && message.contains("thermal:"),
+        "{message}"
+    );
+}
