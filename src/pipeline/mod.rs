@@ -20,6 +20,7 @@ pub mod check;
 pub mod plan;
 mod sink;
 mod streaks;
+mod weather;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -464,7 +465,9 @@ impl FramePipeline {
         let masks_on = self.preset.output.masks.any();
         let together =
             (labels_settings.needs_id_pass() || masks_on) && labels_settings.id_scale <= 1;
-        renderer.set_pixel_hits(masks_on);
+        // Under weather the measured drones' pixels are checked one by one.
+        let weather_hits = scene.weather.is_some() && together && labels_settings.needs_id_pass();
+        renderer.set_pixel_hits(masks_on || weather_hits);
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
             color: true,
@@ -479,15 +482,34 @@ impl FramePipeline {
             self.measure(renderer, &scene).map_err(render_error)?
         };
         let (w, h, n) = (scene.camera.width, scene.camera.height, scene.drones.len());
-        let mut masks = (frame.pixel_hits.take())
+        let mut hits = frame.pixel_hits.take();
+        // Rain or snow over the picture (and the drone-free frame under it).
+        let clear = weather::over_frame(
+            (&scene, &self.assets.geometry),
+            renderer,
+            &mut frame,
+            &mut measured,
+            &mut hits,
+        );
+        let mut masks = hits
             .filter(|_| masks_on)
             .map(|hits| FrameMasks::from_hits(w, h, n, &hits));
         let (rgba, painted) = match &scene.camera_model {
             None => (frame.rgba, frame.painted),
             Some(draw) => {
                 let mut sets = masks.as_ref().map(|_| vec![Vec::new(); n]);
-                let rgba =
-                    self.through_camera(renderer, &scene, draw, &frame, &mut measured, &mut sets)?;
+                let background = match &clear {
+                    Some(clear) => clear.as_deref(),
+                    None => renderer.background_pixels(&frame.painted),
+                };
+                let rgba = self.through_camera(
+                    background,
+                    &scene,
+                    draw,
+                    &frame,
+                    &mut measured,
+                    &mut sets,
+                )?;
                 // Through the camera a drone's pixels are those it changes.
                 if let Some(sets) = sets {
                     masks = Some(FrameMasks::from_sets(w, h, &sets));

@@ -40,6 +40,7 @@ mod render;
 mod ron_error;
 mod sky;
 pub mod sweep;
+pub mod weather;
 
 pub use crate::text::{printable, short_number};
 pub use camera::{CameraSweep, PlaneSweep};
@@ -116,6 +117,9 @@ pub struct Preset {
     /// Photographic backgrounds (issue 21; docs/realism.md). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub backplate: Option<backplate::Backplate>,
+    /// Rain or snow in front of the camera (issue 41; docs/realism.md, "Weather"). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weather: Option<weather::Weather>,
 }
 
 impl Default for Preset {
@@ -141,6 +145,7 @@ impl Default for Preset {
             clutter: None,
             confusers: Vec::new(),
             backplate: None,
+            weather: None,
         }
     }
 }

@@ -97,6 +97,17 @@ impl Preset {
         if let Some(b) = &self.backplate {
             b.validate_into(&mut v, self.camera.absolute.is_some());
         }
+        if let Some(w) = &self.weather {
+            w.validate_into(&mut v);
+            // What the weather hides is read pixel by pixel at the output's resolution.
+            let measured = self.labels.needs_id_pass();
+            v.check(!measured || self.labels.id_scale <= 1, "labels.id_scale", || {
+                format!(
+                    "{} cannot be combined with weather: drones' pixels under rain or snow are measured at the output's own (id_scale 1)",
+                    self.labels.id_scale
+                )
+            });
+        }
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);
             v.check(self.camera.absolute.is_none(), "camera.observer", || {
