@@ -47,6 +47,7 @@ pub mod runner;
 pub mod summary;
 #[cfg(any(test, feature = "test-hooks"))]
 mod testing;
+pub mod weather_panel;
 pub mod worker;
 #[cfg(all(unix, not(target_os = "macos")))]
 mod x11_focus;

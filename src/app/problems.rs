@@ -10,11 +10,12 @@ use crate::preset::fields::{label_of, section_of};
 
 /// The sections of issue 21's realism stages: they start collapsed (most
 /// presets leave them off).
-pub const COLLAPSED_SECTIONS: [&str; 5] = [
+pub const COLLAPSED_SECTIONS: [&str; 6] = [
     "Camera model",
     "Atmosphere",
     "Drone appearance",
     "Clutter",
+    "Weather",
     "Backplates",
 ];
 

@@ -20,7 +20,7 @@ pub mod check;
 pub mod plan;
 mod sink;
 mod streaks;
-mod weather;
+pub mod weather;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -122,14 +122,7 @@ fn composite(
             let py = y as f32 + 0.5;
             for x in x0..x1 {
                 let px = x as f32 + 0.5;
-                // Distance from the pixel's centre to the segment a–b.
-                let t = if len2 > 0.0 {
-                    (((px - ax) * dx + (py - ay) * dy) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let (ex, ey) = (px - ax - t * dx, py - ay - t * dy);
-                let cover = (r + 0.5 - (ex * ex + ey * ey).sqrt()).clamp(0.0, 1.0);
+                let cover = coverage(p, (px, py), (dx, dy, len2));
                 if cover <= 0.0 || behind(x, y) <= p.depth_m {
                     continue;
                 }
@@ -142,6 +135,55 @@ fn composite(
             }
         }
     }
+}
+
+/// How much of the pixel centred at `(px, py)` particle `p` covers, 0–1
+/// (`d`: its travel b − a in pixels and its squared length). A streak: by
+/// the distance to its path (a capsule with a half-pixel soft edge). A
+/// flake: the share of the exposure its disc is over the pixel, the disc's
+/// centre moving uniformly from a to b, times the same soft edge across.
+#[inline]
+fn coverage(p: &Particle, (px, py): (f32, f32), (dx, dy, len2): (f32, f32, f32)) -> f32 {
+    let r = p.radius_px;
+    let (ax, ay) = (p.a[0], p.a[1]);
+    if len2 <= 0.0 {
+        let (ex, ey) = (px - ax, py - ay);
+        return (r + 0.5 - (ex * ex + ey * ey).sqrt()).clamp(0.0, 1.0);
+    }
+    // Along the path (pixels from a) and across it.
+    let len = len2.sqrt();
+    let s = ((px - ax) * dx + (py - ay) * dy) / len;
+    if p.solid {
+        let e = ((px - ax) * dy - (py - ay) * dx).abs() / len;
+        let edge = (r + 0.5 - e).clamp(0.0, 1.0);
+        let h = (r * r - e * e).max(0.0).sqrt().max(0.5);
+        let time = ((s + h).min(len) - (s - h).max(0.0)).max(0.0) / len;
+        return edge * time.min(1.0);
+    }
+    let t = (s / len).clamp(0.0, 1.0);
+    let (ex, ey) = (px - ax - t * dx, py - ay - t * dy);
+    (r + 0.5 - (ex * ex + ey * ey).sqrt()).clamp(0.0, 1.0)
+}
+
+/// The weather of `scene` over its pixels `rgba` (in place), the drones'
+/// pixels told from `background` (the drone-free frame; without one every
+/// pixel of a drone's box is the drone's); when `keep_clear`, the
+/// drone-free frame under the same particles comes back. Nothing without
+/// weather. The stage's whole CPU work (`examples/weather_bench.rs`).
+pub fn over_pixels(
+    (scene, geometry): (&FrameScene, &[LabelGeometry]),
+    rgba: &mut [u8],
+    background: Option<&[u8]>,
+    keep_clear: bool,
+) -> Option<Vec<u8>> {
+    let weather = scene.weather.as_ref()?;
+    let size = (scene.camera.width, scene.camera.height);
+    let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
+    let layer = DepthLayer::new(scene, geometry, rgba, background);
+    composite(rgba, size, &particles, |x, y| layer.depth(x, y));
+    let mut clear = background.filter(|_| keep_clear)?.to_vec();
+    composite(&mut clear, size, &particles, |_, _| f32::INFINITY);
+    Some(clear)
 }
 
 /// The weather of `scene` over its rendered `frame` (in place); `None`
@@ -157,18 +199,10 @@ pub(super) fn over_frame(
     measured: &mut Option<Vec<Visibility>>,
     hits: &mut Option<Vec<PixelHit>>,
 ) -> Option<Option<Vec<u8>>> {
-    let weather = scene.weather.as_ref()?;
-    let size = (scene.camera.width, scene.camera.height);
-    let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
+    scene.weather.as_ref()?;
     let background = renderer.background_pixels(&frame.painted);
-    let layer = DepthLayer::new(scene, geometry, &frame.rgba, background);
-    composite(&mut frame.rgba, size, &particles, |x, y| layer.depth(x, y));
     let keep_clear = measured.is_some() || hits.is_some() || scene.camera_model.is_some();
-    let clear = background.filter(|_| keep_clear).map(|b| {
-        let mut clear = b.to_vec();
-        composite(&mut clear, size, &particles, |_, _| f32::INFINITY);
-        clear
-    });
+    let clear = over_pixels((scene, geometry), &mut frame.rgba, background, keep_clear);
     frame.painted = Painted::default();
     if let (Some(clear), Some(all)) = (&clear, hits.as_mut()) {
         let rendered = std::mem::take(all);
@@ -176,7 +210,7 @@ pub(super) fn over_frame(
             measured.as_deref_mut(),
             rendered,
             (&frame.rgba, clear),
-            size.0,
+            scene.camera.width,
         );
     }
     Some(clear)

@@ -117,7 +117,7 @@ impl Weather {
             "weather.intensity_per_m3",
             self.intensity_per_m3,
             0.0,
-            100.0,
+            10_000.0,
         );
         range(v, "weather.wind_mps", self.wind_mps, 0.0, 60.0);
         range(v, "weather.wind_dir_deg", self.wind_dir_deg, -360.0, 720.0);

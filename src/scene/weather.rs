@@ -36,9 +36,12 @@ pub struct FrameWeather {
     pub particle_seed: u64,
 }
 
-/// One particle as the camera sees it: a capsule from `a` to `b` (its
-/// travel during the exposure) of radius `radius_px`, blended towards
-/// `level` (sRGB, each channel) with `alpha` at full coverage.
+/// One particle as the camera sees it: a disc of radius `radius_px` that
+/// moves from `a` to `b` during the exposure, blended towards `level`
+/// (sRGB, each channel) with `alpha` at full coverage. A flake (`solid`)
+/// covers each pixel for the share of the exposure the moving disc is over
+/// it (1 where it stays over it throughout); a drop's streak (not `solid`)
+/// has its alpha all along the path.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Particle {
     pub a: [f32; 2],
@@ -48,6 +51,7 @@ pub struct Particle {
     /// Distance along the view axis, metres: drones farther than this are behind it.
     pub depth_m: f32,
     pub level: u8,
+    pub solid: bool,
 }
 
 fn uniform(rng: &mut ChaCha8Rng, (lo, hi): (f64, f64)) -> f64 {
@@ -164,11 +168,9 @@ impl FrameWeather {
         let alpha = match self.kind {
             // A drop's streak: its opacity along a line `thin` of a pixel wide.
             WeatherKind::Rain => self.opacity * thin,
-            // A flake covers each pixel of its path for 2r / (L + 2r) of the exposure.
-            WeatherKind::Snow => {
-                let length = (b - a).length();
-                self.opacity * thin * thin * (2.0 * r) / (length + 2.0 * r)
-            }
+            // A flake: its opacity over the share of its pixel it covers (the
+            // share of the exposure is the composite's, per pixel).
+            WeatherKind::Snow => self.opacity * thin * thin,
         } * atmosphere.map_or(1.0, |t| t.transmittance(z));
         let (w, h) = (f64::from(camera.width), f64::from(camera.height));
         let (lo, hi) = (
@@ -185,6 +187,7 @@ impl FrameWeather {
             alpha: alpha.min(1.0) as f32,
             depth_m: z as f32,
             level: level(self.kind),
+            solid: self.kind == WeatherKind::Snow,
         })
     }
 }
