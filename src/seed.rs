@@ -64,6 +64,8 @@ pub const OBSERVER_SALT: u64 = 0x4F42_5345_5256_4552; // "OBSERVER"
 /// Salt of the clutter draws (issue 22).
 pub const CLUTTER_SALT: u64 = 0x434C_5554_5445_5253; // "CLUTTERS"
 pub const BACKPLATE_SALT: u64 = 0x4241_434B_504C_4154; // "BACKPLAT"
+/// The weather's particles (`scene::weather`).
+pub const WEATHER_SALT: u64 = 0x5745_4154_4845_5253; // "WEATHERS"
 
 /// A frame's sampler of one salted stream: ChaCha8 seeded with
 /// `mix64(frame_seed ⊕ mix64(salt))`.

@@ -6,7 +6,7 @@ use egui::{RichText, Ui};
 use super::panels::{self, Form, error_label, group_digits};
 use super::{
     APP_NAME, Command, Session, SwarmshotApp, backplate_panel, clutter_panel, confuser_panel,
-    example_description, example_presets, problems, realism_panels, thermal_panel,
+    example_description, example_presets, problems, realism_panels, thermal_panel, weather_panel,
 };
 
 impl SwarmshotApp {
@@ -312,6 +312,7 @@ pub fn stage_status(p: &crate::preset::Preset) -> Vec<(&'static str, String)> {
             },
         ),
         ("Backplates", on(p.backplate.is_some())),
+        ("Weather", on(p.weather.is_some())),
     ]
 }
 
@@ -332,7 +333,7 @@ struct Section {
 
 /// The collapsible parameter sections, in the order of the paper's panels
 /// and then the realism stages.
-const SECTIONS: [Section; 15] = [
+const SECTIONS: [Section; 16] = [
     Section {
         title: "Models",
         tip: "The UAV models instantiated in every frame, with their real size",
@@ -400,6 +401,11 @@ const SECTIONS: [Section; 15] = [
         title: "Confusers",
         tip: "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives",
         panel: |ui, c| confuser_panel::confusers_ui(ui, c.preset, c.form),
+    },
+    Section {
+        title: "Weather",
+        tip: "Rain streaks or snow flakes in front of the camera that veil or hide the drones behind them",
+        panel: |ui, c| weather_panel::weather_ui(ui, c.preset, c.form),
     },
     Section {
         title: "Backplates",

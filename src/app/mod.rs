@@ -49,6 +49,7 @@ pub mod summary;
 #[cfg(any(test, feature = "test-hooks"))]
 mod testing;
 pub mod thermal_panel;
+pub mod weather_panel;
 pub mod worker;
 #[cfg(all(unix, not(target_os = "macos")))]
 mod x11_focus;

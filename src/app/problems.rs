@@ -10,12 +10,13 @@ use crate::preset::fields::{label_of, section_of};
 
 /// The sections of issue 21's realism stages: they start collapsed (most
 /// presets leave them off).
-pub const COLLAPSED_SECTIONS: [&str; 6] = [
+pub const COLLAPSED_SECTIONS: [&str; 7] = [
     "Camera model",
     "Thermal camera",
     "Atmosphere",
     "Drone appearance",
     "Clutter",
+    "Weather",
     "Backplates",
 ];
 

@@ -7,7 +7,7 @@
 //! itself is [`crate::sensor`]'s.
 
 use crate::annotate::visibility::Visibility;
-use crate::render::{RenderedFrame, Renderer};
+use crate::render::RenderedFrame;
 use crate::scene::FrameScene;
 use crate::scene::projection::PixelBox;
 use crate::sensor::{self, CameraDraw, PixelRect};
@@ -20,9 +20,10 @@ impl FramePipeline {
     /// pixels where the drone changes the noise-free camera image by at
     /// least one 8-bit level against the drone-free background under the
     /// same draw (docs/conventions.md, "The camera model and the labels").
+    /// `background` is that drone-free frame (under the frame's weather, if any).
     pub(super) fn through_camera(
         &self,
-        renderer: &Renderer,
+        background: Option<&[u8]>,
         scene: &FrameScene,
         draw: &CameraDraw,
         frame: &RenderedFrame,
@@ -35,11 +36,9 @@ impl FramePipeline {
         // Motion blur (sequences): each drone smeared along its streak first.
         let streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
         let blurred = if streaks.iter().flatten().any(|s| s.moves()) {
-            let background = renderer.background_pixels(&frame.painted).ok_or_else(|| {
-                PipelineError::Camera {
-                    index: scene.index,
-                    reason: "motion blur: the drone-free background is not cached".into(),
-                }
+            let background = background.ok_or_else(|| PipelineError::Camera {
+                index: scene.index,
+                reason: "motion blur: the drone-free background is not cached".into(),
             })?;
             let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
             Some(sensor::motion::smear(
@@ -57,7 +56,6 @@ impl FramePipeline {
         let lensed = lens.as_ref().map(|l| l.map.remap(source));
         let source: &[u8] = lensed.as_deref().unwrap_or(source);
         if let Some(vis) = measured.as_mut() {
-            let background = renderer.background_pixels(&frame.painted);
             if background.is_none() {
                 // The rendered visibility stays, and so do the rendered masks.
                 *sets = None;

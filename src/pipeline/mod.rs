@@ -22,6 +22,7 @@ pub mod plan;
 mod sink;
 mod streaks;
 mod thermal;
+pub mod weather;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -473,8 +474,13 @@ impl FramePipeline {
         let together = (ids_kept || thermal.is_some()) && labels_settings.id_scale <= 1;
         // Through a lens, the visibility comes from the id layer moved with the picture.
         let lensed = scene.camera_model.is_some_and(|d| d.lens.is_some());
+        // Under weather the measured drones' pixels are checked one by one.
+        let weather_hits = scene.weather.is_some() && together && labels_settings.needs_id_pass();
         renderer.set_pixel_hits(
-            masks_on || thermal.is_some() || (lensed && labels_settings.needs_id_pass()),
+            masks_on
+                || thermal.is_some()
+                || weather_hits
+                || (lensed && labels_settings.needs_id_pass()),
         );
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
@@ -491,6 +497,14 @@ impl FramePipeline {
         };
         let (w, h, n) = (scene.camera.width, scene.camera.height, scene.drones.len());
         let mut hits = frame.pixel_hits.take();
+        // Rain or snow over the picture (and the drone-free frame under it).
+        let clear = weather::over_frame(
+            (&scene, &self.assets.geometry),
+            renderer,
+            &mut frame,
+            &mut measured,
+            &mut hits,
+        );
         let lens_visibility = lens::of(&scene).and_then(|l| {
             let moved = lens::remap_hits(&l.map, hits.as_deref()?, (w, h));
             // Each drone's moved hits: box and count, the unoccluded count scaled alike.
@@ -516,14 +530,24 @@ impl FramePipeline {
             (None, None) => (frame.rgba, frame.painted),
             (Some(draw), None) => {
                 let mut sets = masks.as_ref().map(|_| vec![Vec::new(); n]);
+                let background = match &clear {
+                    Some(clear) => clear.as_deref(),
+                    None => renderer.background_pixels(&frame.painted),
+                };
                 // Without the drone-free background, the id layer's visibility through the lens.
-                if renderer.background_pixels(&frame.painted).is_none()
+                if background.is_none()
                     && let Some(v) = lens_visibility
                 {
                     measured = Some(v);
                 }
-                let rgba =
-                    self.through_camera(renderer, &scene, draw, &frame, &mut measured, &mut sets)?;
+                let rgba = self.through_camera(
+                    background,
+                    &scene,
+                    draw,
+                    &frame,
+                    &mut measured,
+                    &mut sets,
+                )?;
                 // Through the camera a drone's pixels are those it changes.
                 if let Some(sets) = sets {
                     masks = Some(FrameMasks::from_sets(w, h, &sets));

@@ -26,7 +26,7 @@ pub struct Field {
 }
 
 /// The parameter sections, as titled in the app's left panel, in order.
-pub const SECTIONS: [&str; 14] = [
+pub const SECTIONS: [&str; 15] = [
     MODELS,
     PLACEMENT,
     ATTITUDE,
@@ -39,6 +39,7 @@ pub const SECTIONS: [&str; 14] = [
     APPEARANCE,
     CLUTTER,
     CONFUSERS,
+    WEATHER,
     BACKPLATES,
     OUTPUT,
 ];
@@ -55,11 +56,12 @@ const ATMOSPHERE: &str = "Atmosphere";
 const APPEARANCE: &str = "Drone appearance";
 const CLUTTER: &str = "Clutter";
 const CONFUSERS: &str = "Confusers";
+const WEATHER: &str = "Weather";
 const BACKPLATES: &str = "Backplates";
 const OUTPUT: &str = "Output";
 
 /// The section of every path under a top-level field.
-const SECTION_OF_HEAD: [(&str, &str); 17] = [
+const SECTION_OF_HEAD: [(&str, &str); 18] = [
     ("models", MODELS),
     ("placement", PLACEMENT),
     ("sequence", PLACEMENT),
@@ -73,6 +75,7 @@ const SECTION_OF_HEAD: [(&str, &str); 17] = [
     ("appearance", APPEARANCE),
     ("clutter", CLUTTER),
     ("confusers", CONFUSERS),
+    ("weather", WEATHER),
     ("backplate", BACKPLATES),
     ("render", OUTPUT),
     ("output", OUTPUT),
@@ -262,6 +265,17 @@ pub const FIELDS: &[Field] = &[
     f("clutter.buildings.distance_m", "Buildings distance", " m", "Distance from the camera, metres"),
     f("clutter.buildings.height_m", "Buildings height", " m", "Height above the ground, metres"),
     f("clutter.buildings.width_m", "Buildings width", " m", "Width of the front wall"),
+    // Weather.
+    f("weather", "Weather", "", "Rain streaks or snow flakes in front of the camera; labels keep only the drone pixels that still show"),
+    f("weather.kind", "Kind", "", "Rain: translucent streaks that veil drones; Snow: opaque flakes that hide them"),
+    f("weather.intensity_per_m3", "Particles per m³", " /m³", "How many drops or flakes per cubic metre of the volume, drawn per frame"),
+    f("weather.wind_mps", "Wind speed", " m/s", "Horizontal drift of every particle, drawn per frame"),
+    f("weather.wind_dir_deg", "Wind direction", "°", "Direction the wind blows towards, degrees about the vertical from world +X"),
+    f("weather.fall_mps", "Fall speed", " m/s", "How fast particles fall (rain 4–9, snow 0.5–1.5), drawn per frame"),
+    f("weather.exposure_s", "Exposure time", " s", "A particle's streak is its travel during the exposure"),
+    f("weather.diameter_mm", "Particle diameter", " mm", "Drop or flake diameter, drawn per particle"),
+    f("weather.opacity", "Opacity", "", "Peak opacity of a streak or flake, 0 to 1 (snow: 1 hides what is behind)"),
+    f("weather.depth_m", "Depth range", " m", "Nearest and farthest particle distance along the view axis"),
     // Confusers.
     f("confusers", "Confusers", "", "Birds, aircraft and balloons in the frames: labelled as a class or hard negatives"),
     f("confusers[]", "Confuser {n}", "", "A kind of confuser with its own count and distance"),

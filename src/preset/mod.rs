@@ -42,6 +42,7 @@ mod ron_error;
 mod sky;
 pub mod sweep;
 pub mod thermal;
+pub mod weather;
 
 pub use crate::text::{printable, short_number};
 pub use camera::{CameraSweep, PlaneSweep};
@@ -121,6 +122,9 @@ pub struct Preset {
     /// The thermal camera (issue 41; docs/realism.md, "Thermal camera"): grey long-wave infrared frames. Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub thermal: Option<thermal::Thermal>,
+    /// Rain or snow in front of the camera (issue 41; docs/realism.md, "Weather"). Off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weather: Option<weather::Weather>,
 }
 
 impl Default for Preset {
@@ -147,6 +151,7 @@ impl Default for Preset {
             confusers: Vec::new(),
             backplate: None,
             thermal: None,
+            weather: None,
         }
     }
 }

@@ -106,6 +106,24 @@ impl Preset {
                 "needs labels.id_scale 1: the thermal picture is made from the id pass's pixels"
                     .into()
             });
+            v.check(self.weather.is_none(), "thermal", || {
+                "cannot be combined with weather: rain and snow are drawn for the visible camera only".into()
+            });
+        }
+        if let Some(w) = &self.weather {
+            w.validate_into(&mut v);
+            // What the weather hides is read pixel by pixel at the output's resolution.
+            let measured = self.labels.needs_id_pass();
+            v.check(!measured || self.labels.id_scale <= 1, "labels.id_scale", || {
+                format!(
+                    "{} cannot be combined with weather: drones' pixels under rain or snow are measured at the output's own (id_scale 1)",
+                    self.labels.id_scale
+                )
+            });
+            let lensed = (self.camera_model.as_ref()).is_some_and(|c| c.lens.is_some());
+            v.check(!lensed, "weather", || {
+                "cannot be combined with camera_model.lens yet: the particles are drawn for a pinhole camera".into()
+            });
         }
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);

@@ -22,6 +22,7 @@ pub mod plate_air;
 pub mod projection;
 pub mod realism;
 pub mod split;
+pub mod weather;
 
 use crate::preset::sweep::decode_mixed_radix;
 use crate::preset::{Preset, Sky};
@@ -139,6 +140,9 @@ pub struct FrameScene {
     /// by `backplate::apply`, which the pipeline runs on every scene).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub backplate: Option<backplate::FramePlate>,
+    /// The frame's rain or snow (`weather` in the preset); `None`: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub weather: Option<weather::FrameWeather>,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -332,6 +336,7 @@ pub fn build_frame_draw(
         confusers,
         confusers_on: !preset.confusers.is_empty(),
         backplate: None,
+        weather: (preset.weather.as_ref()).map(|w| weather::frame_weather(w, preset.seed, index)),
     })
 }
 

@@ -324,7 +324,7 @@ mod tests {
     use crate::preset::fields;
 
     /// The sources of every panel that edits preset fields.
-    const SOURCES: [&str; 10] = [
+    const SOURCES: [&str; 11] = [
         include_str!("mod.rs"),
         include_str!("models.rs"),
         include_str!("placement.rs"),
@@ -335,6 +335,7 @@ mod tests {
         include_str!("../backplate_panel.rs"),
         include_str!("../clutter_panel.rs"),
         include_str!("../confuser_panel.rs"),
+        include_str!("../weather_panel.rs"),
     ];
 
     /// Every dotted field path these panels name (for a row's words or its

@@ -169,5 +169,9 @@ pub fn write_manifest_line(
     frame::write_sweep(&mut j, scene);
     j.raw(b",\"volume_radius_m\":");
     j.rounded(scene.volume_radius_m, Decimals::Nine);
+    // Rain or snow adds its draws only when the preset has weather.
+    if let Some(w) = &scene.weather {
+        frame::write_weather(&mut j, w);
+    }
     j.raw(b"}");
 }

@@ -1,6 +1,6 @@
 //! The manifest's records of the frame as a whole: the camera, the
-//! sequence, the sweep values, the environment, the camera model's draws and
-//! the models present (COCO's image records write the sweep and the models
+//! sequence, the sweep values, the environment, the camera model's and the
+//! weather's draws and the models present (COCO's image records write the sweep and the models
 //! present with the same functions).
 
 use crate::scene::FrameScene;
@@ -96,6 +96,27 @@ pub(crate) fn write_sweep(j: &mut Json<'_>, scene: &FrameScene) {
 /// The camera model's draws of the frame (issue 21), keys in byte order.
 pub(super) fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
     write_draw_group(j, &c.record());
+}
+
+/// `,"weather":{…}`: the frame's weather draws, keys in byte order.
+pub(super) fn write_weather(j: &mut Json<'_>, w: &crate::scene::weather::FrameWeather) {
+    j.raw(b",\"weather\":{\"exposure_s\":");
+    j.rounded(w.exposure_s, Decimals::Nine);
+    j.raw(b",\"fall_mps\":");
+    j.rounded(w.fall_mps, Decimals::Six);
+    j.raw(b",\"intensity_per_m3\":");
+    j.rounded(w.intensity_per_m3, Decimals::Six);
+    j.raw(b",\"kind\":");
+    j.str(w.kind.name());
+    j.raw(b",\"opacity\":");
+    j.rounded(w.opacity, Decimals::Six);
+    j.raw(b",\"particle_seed\":");
+    j.u64(w.particle_seed);
+    j.raw(b",\"wind_dir_deg\":");
+    j.rounded(w.wind_dir_deg, Decimals::Six);
+    j.raw(b",\"wind_mps\":");
+    j.rounded(w.wind_mps, Decimals::Six);
+    j.raw(b"}");
 }
 
 /// `{"key":value,…}` of drawn values, in the order given (key order).

@@ -1,0 +1,50 @@
+//! The weather stage's CPU cost (issue 41 item 4; docs/benchmarks.md): the
+//! particles of `presets/rain.ron` and `presets/snow.ron` (1920×1080)
+//! drawn and composited over a frame and its drone-free background
+//! (`pipeline::weather::over_pixels`), the median of 30 frames each.
+//!
+//! ```sh
+//! cargo build --release --locked --no-default-features --example weather_bench
+//! target/release/examples/weather_bench
+//! ```
+
+use std::time::Instant;
+
+use swarmshot::pipeline::FramePipeline;
+
+fn main() -> anyhow::Result<()> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    for name in ["rain", "snow"] {
+        let pipeline = FramePipeline::open(&root.join("presets").join(format!("{name}.ron")))?;
+        let geometry = &pipeline.assets().geometry;
+        let mut times = Vec::new();
+        let mut particles = 0;
+        for index in 0..30 {
+            let scene = pipeline.scene(index % pipeline.frame_count())?;
+            let (w, h) = (scene.camera.width, scene.camera.height);
+            let background = vec![180u8; (w * h * 4) as usize];
+            let mut rgba = background.clone();
+            if let Some(weather) = &scene.weather {
+                particles += weather.particles(&scene.camera, None).len();
+            }
+            let t = Instant::now();
+            let clear = swarmshot::pipeline::weather::over_pixels(
+                (&scene, geometry),
+                &mut rgba,
+                Some(&background),
+                true,
+            );
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            assert!(clear.is_some());
+        }
+        times.sort_by(f64::total_cmp);
+        println!(
+            "{name}: {:.2} ms a frame (median of 30; min {:.2}, max {:.2}), {} particles a frame",
+            times[15],
+            times[0],
+            times[29],
+            particles / 30
+        );
+    }
+    Ok(())
+}

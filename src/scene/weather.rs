@@ -1,0 +1,193 @@
+//! A frame's rain or snow (`weather` in the preset, issue 41 item 4) as
+//! plain data: the per-frame draws ([`FrameWeather`], recorded in the
+//! manifest) and the particles they give ([`FrameWeather::particles`]),
+//! each a streak in pixels with its depth. Drawn from the frame's own
+//! salted stream (`seed::WEATHER_SALT`), so turning weather on shifts no
+//! other draw, and a frame's particles depend on the preset and its index
+//! only. The pipeline composites them (`pipeline::weather`).
+
+use glam::{DVec2, DVec3};
+use rand::Rng;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use crate::preset::weather::{MAX_PARTICLES, Weather, WeatherKind};
+use crate::seed;
+
+use super::camera::Camera;
+use super::realism::FrameAtmosphere;
+
+/// The weather's draws of one frame.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FrameWeather {
+    pub kind: WeatherKind,
+    pub intensity_per_m3: f64,
+    pub wind_mps: f64,
+    pub wind_dir_deg: f64,
+    pub fall_mps: f64,
+    pub exposure_s: f64,
+    pub opacity: f64,
+    /// The preset's per-particle diameter range, millimetres.
+    pub diameter_mm: (f64, f64),
+    /// The preset's volume, metres along the view axis.
+    pub depth_m: (f64, f64),
+    /// Seed of the particles' own stream (drawn last).
+    pub particle_seed: u64,
+}
+
+/// One particle as the camera sees it: a disc of radius `radius_px` that
+/// moves from `a` to `b` during the exposure, blended towards `level`
+/// (sRGB, each channel) with `alpha` at full coverage. A flake (`solid`)
+/// covers each pixel for the share of the exposure the moving disc is over
+/// it (1 where it stays over it throughout); a drop's streak (not `solid`)
+/// has its alpha all along the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Particle {
+    pub a: [f32; 2],
+    pub b: [f32; 2],
+    pub radius_px: f32,
+    pub alpha: f32,
+    /// Distance along the view axis, metres: drones farther than this are behind it.
+    pub depth_m: f32,
+    pub level: u8,
+    pub solid: bool,
+}
+
+fn uniform(rng: &mut ChaCha8Rng, (lo, hi): (f64, f64)) -> f64 {
+    let u: f64 = rng.random();
+    lo + (hi - lo) * u
+}
+
+/// The weather of frame `index`: seven draws in field order, then the particles' seed.
+pub fn frame_weather(w: &Weather, preset_seed: u64, index: u64) -> FrameWeather {
+    let mut rng = seed::salted_rng(preset_seed, index, seed::WEATHER_SALT);
+    FrameWeather {
+        kind: w.kind,
+        intensity_per_m3: uniform(&mut rng, w.intensity_per_m3),
+        wind_mps: uniform(&mut rng, w.wind_mps),
+        wind_dir_deg: uniform(&mut rng, w.wind_dir_deg),
+        fall_mps: uniform(&mut rng, w.fall_mps),
+        exposure_s: uniform(&mut rng, w.exposure_s),
+        opacity: uniform(&mut rng, w.opacity),
+        diameter_mm: w.diameter_mm,
+        depth_m: w.depth_m,
+        particle_seed: rng.random(),
+    }
+}
+
+/// The sRGB level a particle is drawn with: drops a light grey, flakes near white.
+fn level(kind: WeatherKind) -> u8 {
+    match kind {
+        WeatherKind::Rain => 228,
+        WeatherKind::Snow => 242,
+    }
+}
+
+impl FrameWeather {
+    /// A particle's travel during the exposure, camera frame, metres.
+    fn travel(&self, camera: &Camera) -> DVec3 {
+        let dir = self.wind_dir_deg.to_radians();
+        let world = DVec3::new(
+            self.wind_mps * dir.cos(),
+            -self.fall_mps,
+            self.wind_mps * dir.sin(),
+        );
+        camera.camera_from_world * world * self.exposure_s
+    }
+
+    /// The frame's particles, farthest first (the order they are blended
+    /// in). The volume is the view's frustum between `depth_m`, widened by
+    /// a particle's travel and size so streaks that enter the view are
+    /// drawn; particles are uniform in it, `intensity_per_m3` per m³ (at
+    /// most [`MAX_PARTICLES`]). Per particle: depth, x, y, diameter. With an
+    /// atmosphere a particle's alpha is multiplied by its transmittance.
+    pub fn particles(
+        &self,
+        camera: &Camera,
+        atmosphere: Option<&FrameAtmosphere>,
+    ) -> Vec<Particle> {
+        let f = camera.focal_px();
+        let (sx, sy) = (
+            0.5 * f64::from(camera.width) / f,
+            0.5 * f64::from(camera.height) / f,
+        );
+        let travel = self.travel(camera);
+        let d_max = self.diameter_mm.1 * 1e-3;
+        let (mx, my) = (travel.x.abs() + d_max, travel.y.abs() + d_max);
+        let (near, far) = self.depth_m;
+        // ∫ 4·(sx·z + mx)·(sy·z + my) dz: the widened frustum's volume.
+        let prim = |z: f64| {
+            4.0 * (sx * sy * z.powi(3) / 3.0 + (sx * my + sy * mx) * z * z / 2.0 + mx * my * z)
+        };
+        let count = (self.intensity_per_m3 * (prim(far) - prim(near)))
+            .round()
+            .clamp(0.0, MAX_PARTICLES) as usize;
+        let area = |z: f64| (sx * z + mx) * (sy * z + my);
+        let mut rng = ChaCha8Rng::seed_from_u64(self.particle_seed);
+        let mut out = Vec::with_capacity(count);
+        for _ in 0..count {
+            // z with density ∝ the cross-section (rejection against the far one).
+            let z = loop {
+                let z = uniform(&mut rng, (near, far));
+                let keep: f64 = rng.random();
+                if keep * area(far) <= area(z) {
+                    break z;
+                }
+            };
+            let x = uniform(&mut rng, (-(sx * z + mx), sx * z + mx));
+            let y = uniform(&mut rng, (-(sy * z + my), sy * z + my));
+            let d = uniform(&mut rng, self.diameter_mm) * 1e-3;
+            let start = DVec3::new(x, y, z);
+            if let Some(p) = self.particle(camera, (start, start + travel), d, atmosphere) {
+                out.push(p);
+            }
+        }
+        out.sort_by(|p, q| q.depth_m.total_cmp(&p.depth_m));
+        out
+    }
+
+    /// One particle from its travel (camera frame) and diameter; `None`
+    /// when it leaves no mark in the image.
+    fn particle(
+        &self,
+        camera: &Camera,
+        (start, end): (DVec3, DVec3),
+        diameter_m: f64,
+        atmosphere: Option<&FrameAtmosphere>,
+    ) -> Option<Particle> {
+        let (a, b) = (
+            camera.project_camera_point(start)?,
+            camera.project_camera_point(end)?,
+        );
+        let z = 0.5 * (start.z + end.z);
+        let r_px = 0.5 * diameter_m * camera.focal_px() / z;
+        // Narrower than a pixel: drawn one pixel wide, fainter by its share.
+        let r = r_px.max(0.5);
+        let thin = r_px / r;
+        let alpha = match self.kind {
+            // A drop's streak: its opacity along a line `thin` of a pixel wide.
+            WeatherKind::Rain => self.opacity * thin,
+            // A flake: its opacity over the share of its pixel it covers (the
+            // share of the exposure is the composite's, per pixel).
+            WeatherKind::Snow => self.opacity * thin * thin,
+        } * atmosphere.map_or(1.0, |t| t.transmittance(z));
+        let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+        let (lo, hi) = (
+            a.min(b) - DVec2::splat(r + 1.0),
+            a.max(b) + DVec2::splat(r + 1.0),
+        );
+        if alpha * 255.0 < 0.5 || hi.x < 0.0 || hi.y < 0.0 || lo.x > w || lo.y > h {
+            return None;
+        }
+        Some(Particle {
+            a: [a.x as f32, a.y as f32],
+            b: [b.x as f32, b.y as f32],
+            radius_px: r as f32,
+            alpha: alpha.min(1.0) as f32,
+            depth_m: z as f32,
+            level: level(self.kind),
+            solid: self.kind == WeatherKind::Snow,
+        })
+    }
+}
