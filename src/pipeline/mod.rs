@@ -30,7 +30,7 @@ use std::sync::Arc;
 use anyhow::Context as _;
 
 use crate::annotate::masks::FrameMasks;
-use crate::annotate::visibility::Visibility;
+use crate::annotate::visibility::{PixelHit, Visibility};
 use crate::annotate::{DroneLabel, label_frame};
 use crate::model::lod::Lod;
 use crate::model::{self, CpuModel, ModelError};
@@ -455,6 +455,32 @@ impl FramePipeline {
         self.make_scene(renderer, scene)
     }
 
+    /// What the render keeps besides the picture, and whether the labels
+    /// keep the visibility of its pass. One pass draws the drones for both
+    /// the picture and the visibility, unless a supersampled measurement
+    /// (id_scale > 1) is asked for; each drone's pixels are kept for masks,
+    /// the thermal picture, weather and a lens (validation keeps id_scale at
+    /// 1 for all of them).
+    fn render_layers(&self, renderer: &mut Renderer, scene: &FrameScene) -> (RenderRequest, bool) {
+        let labels = &self.preset.labels;
+        let masks_on = self.preset.output.masks.any();
+        let thermal = self.preset.thermal.is_some();
+        let ids_kept = labels.needs_id_pass() || masks_on;
+        let together = (ids_kept || thermal) && labels.id_scale <= 1;
+        // Through a lens, the visibility comes from the id layer moved with the picture.
+        let lensed = scene.camera_model.is_some_and(|d| d.lens.is_some());
+        // Under weather the measured drones' pixels are checked one by one.
+        let weather = scene.weather.is_some() && together;
+        renderer
+            .set_pixel_hits(masks_on || thermal || ((weather || lensed) && labels.needs_id_pass()));
+        let request = RenderRequest {
+            msaa: self.preset.render.msaa,
+            color: true,
+            visibility: together,
+        };
+        (request, ids_kept)
+    }
+
     /// Labels and pixels of a scene built by [`FramePipeline::scene`].
     pub fn make_scene(
         &self,
@@ -463,30 +489,11 @@ impl FramePipeline {
     ) -> Result<Frame, PipelineError> {
         let index = scene.index;
         let render_error = |source| PipelineError::Render { index, source };
-        // One pass draws the drones for both the picture and the visibility,
-        // unless a supersampled measurement (id_scale > 1) is asked for.
         let labels_settings = &self.preset.labels;
-        // Masks are the id pass's visible pixels (validation keeps id_scale at 1 for them).
         let masks_on = self.preset.output.masks.any();
-        // The thermal picture is made from the id pass's pixels (validation keeps id_scale at 1).
         let thermal = self.preset.thermal.as_ref();
-        let ids_kept = labels_settings.needs_id_pass() || masks_on;
-        let together = (ids_kept || thermal.is_some()) && labels_settings.id_scale <= 1;
-        // Through a lens, the visibility comes from the id layer moved with the picture.
-        let lensed = scene.camera_model.is_some_and(|d| d.lens.is_some());
-        // Under weather the measured drones' pixels are checked one by one.
-        let weather_hits = scene.weather.is_some() && together && labels_settings.needs_id_pass();
-        renderer.set_pixel_hits(
-            masks_on
-                || thermal.is_some()
-                || weather_hits
-                || (lensed && labels_settings.needs_id_pass()),
-        );
-        let request = RenderRequest {
-            msaa: self.preset.render.msaa,
-            color: true,
-            visibility: together,
-        };
+        let (request, ids_kept) = self.render_layers(renderer, &scene);
+        let together = request.visibility;
         let mut frame = renderer
             .render_frame(&scene, &request)
             .map_err(render_error)?;
@@ -505,17 +512,7 @@ impl FramePipeline {
             &mut measured,
             &mut hits,
         );
-        let lens_visibility = lens::of(&scene).and_then(|l| {
-            let moved = lens::remap_hits(&l.map, hits.as_deref()?, (w, h));
-            // Each drone's moved hits: box and count, the unoccluded count scaled alike.
-            let vis = measured.as_deref().map(|m| {
-                (m.iter().zip(lens::shown(m.len(), &moved)))
-                    .map(|(v, s)| camera::camera_visibility(v, s))
-                    .collect::<Vec<_>>()
-            });
-            hits = Some(moved);
-            vis
-        });
+        let lens_visibility = lens_visibility(&scene, &mut hits, measured.as_deref());
         let mut masks = (hits.as_ref())
             .filter(|_| masks_on)
             .map(|hits| FrameMasks::from_hits(w, h, n, hits));
@@ -580,6 +577,26 @@ impl FramePipeline {
             masks,
         })
     }
+}
+
+/// Through a lens: each drone's pixels moved with the picture (`hits`
+/// replaced by the moved ones) and the visibility they give, the unoccluded
+/// count scaled alike; `None` without a lens or without the pixels.
+fn lens_visibility(
+    scene: &FrameScene,
+    hits: &mut Option<Vec<PixelHit>>,
+    measured: Option<&[Visibility]>,
+) -> Option<Vec<Visibility>> {
+    let l = lens::of(scene)?;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let moved = lens::remap_hits(&l.map, hits.as_deref()?, (w, h));
+    let vis = measured.map(|m| {
+        (m.iter().zip(lens::shown(m.len(), &moved)))
+            .map(|(v, s)| camera::camera_visibility(v, s))
+            .collect::<Vec<_>>()
+    });
+    *hits = Some(moved);
+    vis
 }
 
 impl FramePipeline {
