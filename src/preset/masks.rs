@@ -28,7 +28,10 @@ pub struct MaskOutputs {
     pub depth_unit_mm: u32,
     /// Sequence mode: the forward optical flow from each frame to the next
     /// as a KITTI 16-bit PNG per frame in `flow/{split}/NAME.png`
-    /// (`annotate::flow`); the last frame of a sequence has none.
+    /// (`annotate::flow`); the last frame of a sequence has none. Off: not
+    /// written to `preset.lock.ron`, which stays as it was (a dataset made
+    /// before the field existed resumes).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub flow: bool,
 }
 
