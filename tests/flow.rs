@@ -12,32 +12,21 @@ use std::sync::atomic::AtomicBool;
 
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{
-    AttitudeRanges, Formation, FormationShape, Motion, Placement, Preset, SequenceCamera,
-    SequenceSpec,
-};
+use swarmshot::preset::{Motion, Placement, Preset, SequenceCamera, SequenceSpec};
 
 /// Five drones in a wedge crossing a fixed camera in 6 steps, 320×180.
 fn sequence_preset(flow: bool) -> Preset {
-    let mut p = common::tiny_preset();
+    // The MOT tests' wedge, nearer, one sequence of 6 steps.
+    let mut p = common::sequence_preset();
     p.name = "flow".into();
-    p.placement = Placement::Formation(Formation {
-        shape: FormationShape::Wedge {
-            half_angle_deg: 40.0,
-        },
-        count: 5,
-        spacing: 3.0,
-        heading_deg: (-30.0, 30.0),
-        position_jitter: 0.1,
-        attitude_jitter: AttitudeRanges::zero(),
-        min_separation: 1.0,
-    });
-    p.camera.y = SweepRange::fixed(0.3);
+    if let Placement::Formation(f) = &mut p.placement {
+        f.count = 5;
+        f.spacing = 3.0;
+    }
     p.camera.z = SweepRange::fixed(0.9);
-    p.plane.ry = SweepRange::fixed(0.0);
     p.repeats = 1;
     p.models[0].size_m = 1.2;
-    p.labels.min_box_px = 0.0;
+    p.output.label_formats = common::tiny_preset().output.label_formats;
     p.output.split.train = 1.0;
     p.output.split.val = 0.0;
     p.output.split.test = 0.0;

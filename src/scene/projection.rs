@@ -113,33 +113,21 @@ pub fn project_clipped(camera: &Camera, points_cam: &[DVec3]) -> Option<PixelBox
     if !points_cam.is_empty() && points_cam.iter().all(|p| p.z >= near && p.z > 0.0) {
         let f = camera.focal_px();
         let c = camera.principal_point();
-        let b = PixelBox::from_points(
+        return finite_box(
             points_cam
                 .iter()
                 .map(|p| DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y)),
-        )?;
-        return [b.x0, b.y0, b.x1, b.y1]
-            .iter()
-            .all(|v| v.is_finite())
-            .then_some(b);
+        );
     }
-    let (front, back): (Vec<DVec3>, Vec<DVec3>) = points_cam.iter().partition(|p| p.z >= near);
-    if front.is_empty() {
+    if !points_cam.iter().any(|p| p.z >= near) {
         return None;
     }
-    let mut projected: Vec<DVec2> = front
-        .iter()
-        .filter_map(|p| camera.project_camera_point(*p))
-        .collect();
-    for a in &front {
-        for b in &back {
-            let t = (a.z - near) / (a.z - b.z);
-            let mut p = a.lerp(*b, t);
-            p.z = near;
-            projected.extend(camera.project_camera_point(p));
-        }
-    }
-    let b = PixelBox::from_points(projected)?;
+    finite_box(clipped_points(camera, points_cam))
+}
+
+/// The box of `points`, `None` when empty or not finite.
+fn finite_box(points: impl IntoIterator<Item = DVec2>) -> Option<PixelBox> {
+    let b = PixelBox::from_points(points)?;
     [b.x0, b.y0, b.x1, b.y1]
         .iter()
         .all(|v| v.is_finite())
@@ -148,7 +136,7 @@ pub fn project_clipped(camera: &Camera, points_cam: &[DVec3]) -> Option<PixelBox
 
 /// [`project_clipped`]'s projected points: every point in front, and the
 /// near-plane intersections of every front/back pair.
-fn projected_points(camera: &Camera, points_cam: &[DVec3]) -> Vec<DVec2> {
+fn clipped_points(camera: &Camera, points_cam: &[DVec3]) -> Vec<DVec2> {
     let near = camera.near_m;
     let (front, back): (Vec<DVec3>, Vec<DVec3>) = points_cam.iter().partition(|p| p.z >= near);
     let mut projected: Vec<DVec2> = front
@@ -163,6 +151,12 @@ fn projected_points(camera: &Camera, points_cam: &[DVec3]) -> Vec<DVec2> {
             projected.extend(camera.project_camera_point(p));
         }
     }
+    projected
+}
+
+/// [`clipped_points`] that are finite (what a lens can map).
+fn projected_points(camera: &Camera, points_cam: &[DVec3]) -> Vec<DVec2> {
+    let mut projected = clipped_points(camera, points_cam);
     projected.retain(|p| p.is_finite());
     projected
 }
