@@ -91,26 +91,6 @@ fn assert_claimed(out: &Path) {
     }
 }
 
-/// `got` holds exactly the files of `want` (the ledger aside), byte for byte.
-fn assert_same(want: &Path, got: &Path, what: &str) {
-    let list = |d: &Path| -> Vec<PathBuf> {
-        common::files_under(d)
-            .into_iter()
-            .filter(|p| p != Path::new(".swarmshot-ledger"))
-            .collect()
-    };
-    let files = list(want);
-    assert_eq!(files, list(got), "{what}: file lists differ");
-    for rel in &files {
-        let read = |d: &Path| std::fs::read(d.join(rel)).expect("read");
-        assert!(
-            read(want) == read(got),
-            "{what}: {} differs from the uninterrupted plan",
-            rel.display()
-        );
-    }
-}
-
 #[test]
 fn a_killed_plan_continues_to_the_same_bytes() {
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -132,7 +112,7 @@ fn a_killed_plan_continues_to_the_same_bytes() {
     });
     assert_claimed(&out);
     plan_ok(&preset, &out, &["--resume"]);
-    assert_same(&reference, &out, "killed before a checkpoint");
+    common::assert_same_dataset(&reference, &out, "killed before a checkpoint");
 
     // Anywhere while the files of a chunk are being made.
     for n in [1usize, 300, 1000] {
@@ -144,6 +124,6 @@ fn a_killed_plan_continues_to_the_same_bytes() {
         assert_claimed(&out);
         // Rerunning the same command (no --resume) continues too.
         plan_ok(&preset, &out, &[]);
-        assert_same(&reference, &out, &format!("killed after {n} label files"));
+        common::assert_same_dataset(&reference, &out, &format!("killed after {n} label files"));
     }
 }

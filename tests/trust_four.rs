@@ -33,22 +33,6 @@ fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>, std::time::SystemTime)> {
         .collect()
 }
 
-/// `got` holds exactly the files of `want` (the ledger aside), byte for byte.
-fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
-    let list = |d: &Path| -> Vec<PathBuf> {
-        common::files_under(d)
-            .into_iter()
-            .filter(|p| p != Path::new(".swarmshot-ledger"))
-            .collect()
-    };
-    let files = list(want);
-    assert_eq!(files, list(got), "{what}: file lists differ");
-    for rel in &files {
-        let read = |d: &Path| std::fs::read(d.join(rel)).expect("read");
-        assert!(read(want) == read(got), "{what}: {} differs", rel.display());
-    }
-}
-
 /// A folder outside the dataset holding one file; returns it and the file's bytes.
 fn decoy(tmp: &Path) -> (PathBuf, Vec<u8>) {
     let other = tmp.join("other");
@@ -132,7 +116,7 @@ fn a_folder_swapped_for_a_link_during_a_batch_redirects_no_write() {
     assert_untouched(&other, &bytes);
     // Nothing lost: the run continues where it stopped, byte for byte.
     ok(&args(&[&"batch", &p, &"--out", &out, &"--resume"]));
-    assert_same_dataset(&reference, &out, "resumed after the swap");
+    common::assert_same_dataset(&reference, &out, "resumed after the swap");
 }
 
 #[test]
@@ -177,7 +161,7 @@ fn a_folder_swapped_for_a_link_during_a_merge_redirects_no_write() {
     assert!(e.contains("images/train") && e.contains("replaced"), "{e}");
     assert_untouched(&other, &bytes);
     ok(&args(&[&"merge", &merged, &shards[0], &shards[1]]));
-    assert_same_dataset(&single, &merged, "merged after the swap");
+    common::assert_same_dataset(&single, &merged, "merged after the swap");
 }
 
 #[test]
@@ -260,10 +244,10 @@ fn a_run_killed_before_its_first_ledger_continues() {
     };
     let resumed = killed("resumed");
     ok(&args(&[&"batch", &p, &"--out", &resumed, &"--resume"]));
-    assert_same_dataset(&reference, &resumed, "--resume after the kill");
+    common::assert_same_dataset(&reference, &resumed, "--resume after the kill");
     let rerun = killed("rerun");
     ok(&args(&[&"batch", &p, &"--out", &rerun]));
-    assert_same_dataset(&reference, &rerun, "a plain rerun after the kill");
+    common::assert_same_dataset(&reference, &rerun, "a plain rerun after the kill");
     // A folder holding a file of the user's still is not taken.
     let foreign = killed("foreign");
     std::fs::write(foreign.join("notes.txt"), "mine").expect("write");

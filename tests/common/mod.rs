@@ -274,3 +274,25 @@ pub fn srgb_encode(l: f64) -> f64 {
         1.055 * l.powf(1.0 / 2.4) - 0.055
     }
 }
+
+/// `got` holds exactly the files of `want` (the ledger aside), byte for
+/// byte: a continued run against an uninterrupted one in the same folder
+/// layout (no path inside a file neutralised; `tests/safety.rs` has that).
+pub fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
+    let list = |d: &Path| -> Vec<PathBuf> {
+        files_under(d)
+            .into_iter()
+            .filter(|p| p != Path::new(".swarmshot-ledger"))
+            .collect()
+    };
+    let files = list(want);
+    assert_eq!(files, list(got), "{what}: file lists differ");
+    for rel in &files {
+        let read = |d: &Path| std::fs::read(d.join(rel)).expect("read");
+        assert!(
+            read(want) == read(got),
+            "{what}: {} differs from the uninterrupted run",
+            rel.display()
+        );
+    }
+}
