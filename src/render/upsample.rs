@@ -533,7 +533,15 @@ pub(super) fn upsample_reduced(
     }
 }
 
-/// [`upsample_reduced`] through `buckets`, its rows in the AVX2 build when `simd`.
+/// Output rows per band of [`upsample_with`]: the bands are upsampled on
+/// rayon's threads, each with its own source rows and scratch (a band's
+/// first row converts up to two source rows again).
+const BAND_ROWS: usize = 64;
+
+/// [`upsample_reduced`] through `buckets`, its rows in the AVX2 build when
+/// `simd`, in bands of [`BAND_ROWS`] rows on rayon's threads: each row's
+/// bytes depend only on its own two source rows, so the bands give the
+/// bytes of one pass over the rows.
 fn upsample_with<const N: usize>(
     texels: Texels<'_>,
     (size, frame): ((u32, u32), (u32, u32)),
@@ -542,6 +550,7 @@ fn upsample_with<const N: usize>(
     rgba: &mut Vec<u8>,
     simd: bool,
 ) {
+    use rayon::prelude::*;
     let (w, h) = (size.0 as usize, size.1 as usize);
     // Every byte is written below (no clearing pass over the old contents).
     rgba.resize(frame.0 as usize * frame.1 as usize * 4, 0);
@@ -551,29 +560,45 @@ fn upsample_with<const N: usize>(
     }
     let columns = Columns::new(frame.0, size.0, centre.0);
     let rows = taps(frame.1, size.1, centre.1);
-    let mut source = SourceRows::new(w, gain);
-    let plane = vec![0f32; w];
-    let value = vec![0f32; frame.0 as usize];
-    let mut scratch = RowScratch {
-        planes: [plane.clone(), plane.clone(), plane],
-        values: [value.clone(), value.clone(), value],
-    };
     let stride = frame.0 as usize * 4;
-    for (&(r0, r1, wy), line) in rows.iter().zip(rgba.chunks_exact_mut(stride)) {
-        let (a, b) = source.pair(&texels, r0, r1);
-        let pair = (a, b, wy);
-        #[cfg(target_arch = "x86_64")]
-        if simd {
-            // SAFETY: the CPU has AVX2 (checked by `avx2`).
-            #[allow(unsafe_code)]
-            unsafe {
-                upsample_row_avx2(pair, &columns, &mut scratch, buckets, line);
-            }
-            continue;
+    let band = |(rows, lines): (&[(usize, usize, f32)], &mut [u8])| {
+        let mut source = SourceRows::new(w, gain);
+        let plane = vec![0f32; w];
+        let value = vec![0f32; frame.0 as usize];
+        let mut scratch = RowScratch {
+            planes: [plane.clone(), plane.clone(), plane],
+            values: [value.clone(), value.clone(), value],
+        };
+        for (&(r0, r1, wy), line) in rows.iter().zip(lines.chunks_exact_mut(stride)) {
+            let (a, b) = source.pair(&texels, r0, r1);
+            upsample_line((a, b, wy), &columns, &mut scratch, (buckets, simd), line);
         }
-        let _ = simd;
-        upsample_row(pair, &columns, &mut scratch, (buckets, false), line);
+    };
+    rows.par_chunks(BAND_ROWS)
+        .zip(rgba.par_chunks_mut(stride * BAND_ROWS))
+        .for_each(band);
+}
+
+/// One output row through [`upsample_row_avx2`] when `simd`, else [`upsample_row`].
+#[inline(always)]
+fn upsample_line<const N: usize>(
+    pair: (&[f32], &[f32], f32),
+    columns: &Columns,
+    scratch: &mut RowScratch,
+    (buckets, simd): (&Buckets<N>, bool),
+    line: &mut [u8],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd {
+        // SAFETY: the CPU has AVX2 (checked by `avx2`).
+        #[allow(unsafe_code)]
+        unsafe {
+            upsample_row_avx2(pair, columns, scratch, buckets, line);
+        }
+        return;
     }
+    let _ = simd;
+    upsample_row(pair, columns, scratch, (buckets, false), line);
 }
 
 /// The upsampling one pixel at a time through [`SrgbTable::encode`]: what
@@ -781,7 +806,9 @@ mod tests {
 
     #[test]
     fn the_row_kernels_give_the_reference_bytes() {
-        // Exact 2× (even and odd), not 2×, off-centre, and tiny frames.
+        // Exact 2× (even and odd), not 2×, off-centre, and tiny frames; the
+        // first three over several bands (a band's first row reloads its
+        // source rows).
         let cases = [
             ((96, 54), (192, 108), (96.0, 54.0)),
             ((48, 27), (192, 108), (96.0, 54.0)),
@@ -809,6 +836,7 @@ mod tests {
                 assert!(got == want, "case {k} (simd {simd}) differs");
             }
         }
+        assert!(cases[..3].iter().all(|c| c.1.1 as usize > BAND_ROWS));
         // The exact 2× and 4× cases take the chunked paths.
         assert_eq!(Columns::new(192, 96, 96.0).factor, 2);
         assert_eq!(Columns::new(1920, 960, 960.0).factor, 2);
