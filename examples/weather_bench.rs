@@ -1,7 +1,8 @@
 //! The weather stage's CPU cost (issue 41 item 4; docs/benchmarks.md): the
 //! particles of `presets/rain.ron` and `presets/snow.ron` (1920×1080)
 //! drawn and composited over a frame and its drone-free background
-//! (`pipeline::weather::over_pixels`), the median of 30 frames each.
+//! (`pipeline::weather::over_pixels`), the median of 30 frames each, and
+//! the median time of drawing the particles alone (`FrameWeather::particles`).
 //!
 //! ```sh
 //! cargo build --release --locked --no-default-features --example weather_bench

@@ -140,7 +140,13 @@ fn composite(
         .for_each(|(k, (rgba, strip))| {
             let y0 = k as u32 * STRIP;
             let rows = y0..y0 + (rgba.len() / row_bytes.max(1)) as u32;
-            if only.is_some_and(|o| o[rows.start as usize..rows.end as usize].iter().all(|s| s.0 >= s.1)) {
+            // Rows without a span (or past `only`) take nothing.
+            let span = rows.start as usize..rows.end as usize;
+            let empty = |o: &[(u32, u32)]| {
+                o.get(span.clone())
+                    .is_none_or(|r| r.iter().all(|s| s.0 >= s.1))
+            };
+            if only.is_some_and(empty) {
                 return;
             }
             let mut band = Band {
@@ -184,7 +190,10 @@ fn draw(
     let level = f32::from(p.level);
     let (ys, ye) = (y0.max(band.rows.start), y1.min(band.rows.end));
     for y in ys..ye {
-        let (lo, hi) = only.and_then(|o| o.get(y as usize)).copied().unwrap_or((x0, x1));
+        let (lo, hi) = match only {
+            Some(o) => o.get(y as usize).copied().unwrap_or((0, 0)),
+            None => (x0, x1),
+        };
         if lo >= hi {
             continue;
         }

@@ -375,13 +375,16 @@ impl LensMap {
             w as usize * h as usize
         ];
         let cols: Vec<(usize, f64)> = (0..w).map(|x| cell(&nx, x)).collect();
-        let lerp = |a: (f64, f64), b: (f64, f64), t: f64| (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+        let lerp =
+            |a: (f64, f64), b: (f64, f64), t: f64| (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
         // Each grid row's positions interpolated along x, once per column.
         let along: Vec<Vec<(f64, f64)>> = (0..ny.len())
             .into_par_iter()
             .map(|j| {
                 let at = |i: usize| grid[j * nx.len() + i];
-                cols.iter().map(|&(c, tx)| lerp(at(c), at(c + 1), tx)).collect()
+                cols.iter()
+                    .map(|&(c, tx)| lerp(at(c), at(c + 1), tx))
+                    .collect()
             })
             .collect();
         taps.par_chunks_mut(w as usize)
