@@ -11,6 +11,10 @@
 //! pixels that still differ from it: a flake nearer than a drone hides the
 //! pixels it covers whole, a translucent streak veils them.
 
+use std::ops::Range;
+
+use rayon::prelude::*;
+
 use crate::annotate::visibility::{PixelHit, Visibility};
 use crate::render::{Painted, RenderedFrame, Renderer};
 use crate::scene::FrameScene;
@@ -95,46 +99,179 @@ impl DepthLayer {
     }
 }
 
+/// Rows `rows` of a `width`-pixel RGBA8 picture: `rgba` holds exactly them.
+struct Band<'a> {
+    rgba: &'a mut [u8],
+    width: u32,
+    rows: Range<u32>,
+}
+
+/// Rows of the picture blended together: a strip's pixels stay in the
+/// cache while its particles are drawn.
+const STRIP: u32 = 16;
+
 /// Blend `particles` (farthest first) into `rgba` (`w × h`, RGBA8 sRGB),
-/// a pixel only where `behind(x, y)` is farther than the particle.
+/// a pixel only where `behind(x, y)` is farther than the particle and, with
+/// `only`, within its row's span (`only[y]`: columns x0..x1). The picture
+/// is cut into strips of [`STRIP`] rows, each with the particles that reach
+/// it in their order, the strips shared among the threads: each pixel still
+/// sees the particles in the same order, so the bytes do not depend on the
+/// threads.
 fn composite(
     rgba: &mut [u8],
     (w, h): (u32, u32),
     particles: &[Particle],
-    behind: impl Fn(u32, u32) -> f32,
+    only: Option<&[(u32, u32)]>,
+    behind: &(impl Fn(u32, u32) -> f32 + Sync),
 ) {
-    for p in particles {
-        let r = p.radius_px;
-        let (ax, ay, bx, by) = (p.a[0], p.a[1], p.b[0], p.b[1]);
-        let (dx, dy) = (bx - ax, by - ay);
-        let len2 = dx * dx + dy * dy;
-        let clip = |v: f32, max: u32| v.clamp(0.0, max as f32) as u32;
-        let (x0, y0) = (
-            clip((ax.min(bx) - r - 1.0).floor(), w),
-            clip((ay.min(by) - r - 1.0).floor(), h),
-        );
-        let (x1, y1) = (
-            clip((ax.max(bx) + r + 1.0).ceil(), w),
-            clip((ay.max(by) + r + 1.0).ceil(), h),
-        );
-        let level = f32::from(p.level);
-        for y in y0..y1 {
-            let py = y as f32 + 0.5;
-            for x in x0..x1 {
-                let px = x as f32 + 0.5;
-                let cover = coverage(p, (px, py), (dx, dy, len2));
-                if cover <= 0.0 || behind(x, y) <= p.depth_m {
-                    continue;
-                }
-                let alpha = p.alpha * cover;
-                let i = (y * w + x) as usize * 4;
-                for c in &mut rgba[i..i + 3] {
-                    let v = f32::from(*c);
-                    *c = (v + (level - v) * alpha).round() as u8;
-                }
+    let mut strips: Vec<Vec<u32>> = vec![Vec::new(); h.div_ceil(STRIP) as usize];
+    for (i, p) in particles.iter().enumerate() {
+        let (_, y0, _, y1) = bounds(p, (w, h));
+        if y0 < y1 {
+            for strip in &mut strips[(y0 / STRIP) as usize..=((y1 - 1) / STRIP) as usize] {
+                strip.push(i as u32);
             }
         }
     }
+    let row_bytes = w as usize * 4;
+    rgba.par_chunks_mut((STRIP as usize * row_bytes).max(1))
+        .zip(strips.par_iter())
+        .enumerate()
+        .for_each(|(k, (rgba, strip))| {
+            let y0 = k as u32 * STRIP;
+            let rows = y0..y0 + (rgba.len() / row_bytes.max(1)) as u32;
+            // Rows without a span (or past `only`) take nothing.
+            let span = rows.start as usize..rows.end as usize;
+            let empty = |o: &[(u32, u32)]| {
+                o.get(span.clone())
+                    .is_none_or(|r| r.iter().all(|s| s.0 >= s.1))
+            };
+            if only.is_some_and(empty) {
+                return;
+            }
+            let mut band = Band {
+                rgba,
+                width: w,
+                rows,
+            };
+            for &i in strip {
+                draw(&mut band, (w, h), &particles[i as usize], only, behind);
+            }
+        });
+}
+
+/// The pixels particle `p` may cover: its path's box grown by its radius
+/// and a pixel, within the `w × h` picture (x0, y0, x1, y1).
+#[inline]
+fn bounds(p: &Particle, (w, h): (u32, u32)) -> (u32, u32, u32, u32) {
+    let r = p.radius_px;
+    let (ax, ay, bx, by) = (p.a[0], p.a[1], p.b[0], p.b[1]);
+    (
+        floor_within(ax.min(bx) - r - 1.0, w),
+        floor_within(ay.min(by) - r - 1.0, h),
+        ceil_within(ax.max(bx) + r + 1.0, w),
+        ceil_within(ay.max(by) + r + 1.0, h),
+    )
+}
+
+/// One particle into `band`: in each of its rows, only the columns its
+/// capsule can reach ([`reach`]), each pixel by its coverage.
+#[inline]
+fn draw(
+    band: &mut Band,
+    size: (u32, u32),
+    p: &Particle,
+    only: Option<&[(u32, u32)]>,
+    behind: &impl Fn(u32, u32) -> f32,
+) {
+    let (dx, dy) = (p.b[0] - p.a[0], p.b[1] - p.a[1]);
+    let len2 = dx * dx + dy * dy;
+    let (x0, y0, x1, y1) = bounds(p, size);
+    let level = f32::from(p.level);
+    let (ys, ye) = (y0.max(band.rows.start), y1.min(band.rows.end));
+    for y in ys..ye {
+        let (lo, hi) = match only {
+            Some(o) => o.get(y as usize).copied().unwrap_or((0, 0)),
+            None => (x0, x1),
+        };
+        if lo >= hi {
+            continue;
+        }
+        let py = y as f32 + 0.5;
+        let (xs, xe) = reach(p, py, (x0, x1));
+        let row = (y - band.rows.start) as usize * band.width as usize;
+        for x in xs.max(lo)..xe.min(hi) {
+            let px = x as f32 + 0.5;
+            let cover = coverage(p, (px, py), (dx, dy, len2));
+            if cover <= 0.0 || behind(x, y) <= p.depth_m {
+                continue;
+            }
+            let alpha = p.alpha * cover;
+            let i = (row + x as usize) * 4;
+            for c in &mut band.rgba[i..i + 3] {
+                let v = f32::from(*c);
+                *c = round_half_up(v + (level - v) * alpha);
+            }
+        }
+    }
+}
+
+/// The columns of `x0..x1` whose pixel centres on the row at `py` can lie
+/// under particle `p` (a superset: [`coverage`] is 0 elsewhere). A pixel a
+/// streak touches is within r + ½ of its path; one a flake touches within
+/// r + ½ across its path and max(r, ½) along it (so within 2r + 1); the
+/// path's part within that of the row bounds the columns, with
+/// [`SLACK`] for the rounding.
+#[inline]
+fn reach(p: &Particle, py: f32, (x0, x1): (u32, u32)) -> (u32, u32) {
+    let r = p.radius_px;
+    let grow = if p.solid { 2.0 * r + 1.0 } else { r + 0.5 } + SLACK;
+    let (ax, ay) = (p.a[0], p.a[1]);
+    let (dx, dy) = (p.b[0] - ax, p.b[1] - ay);
+    if dy.abs() < 1e-3 {
+        return (x0, x1);
+    }
+    let (t0, t1) = ((py - grow - ay) / dy, (py + grow - ay) / dy);
+    let (lo, hi) = (t0.min(t1).max(0.0), t0.max(t1).min(1.0));
+    if lo > hi {
+        return (x0, x0);
+    }
+    let (xa, xb) = (ax + lo * dx, ax + hi * dx);
+    // Centres x + ½ strictly within `grow` of [min, max].
+    let first = floor_within(xa.min(xb) - grow - 0.5, x1);
+    let end = floor_within(xa.max(xb) + grow - 0.5, x1) + 1;
+    (first.max(x0), end.clamp(x0, x1))
+}
+
+/// Pixels of slack in [`reach`]: far above f32's rounding there.
+const SLACK: f32 = 0.05;
+
+/// `v.floor()` clamped to 0..=`max`, without a library call.
+#[inline]
+fn floor_within(v: f32, max: u32) -> u32 {
+    if v.is_nan() || v <= 0.0 {
+        return 0;
+    }
+    (v as u32).min(max)
+}
+
+/// `v.ceil()` clamped to 0..=`max`, without a library call.
+#[inline]
+fn ceil_within(v: f32, max: u32) -> u32 {
+    if v.is_nan() || v <= 0.0 {
+        return 0;
+    }
+    let i = v as u32;
+    (i + u32::from(i as f32 != v && i < u32::MAX)).min(max)
+}
+
+/// `x.round()` as a level (halves away from zero, saturating to 0–255)
+/// without a library call: `x − trunc(x)` is exact.
+#[inline]
+fn round_half_up(x: f32) -> u8 {
+    let i = x as u32;
+    let up = x - i as f32 >= 0.5;
+    (i + u32::from(up)).min(255) as u8
 }
 
 /// How much of the pixel centred at `(px, py)` particle `p` covers, 0–1
@@ -180,10 +317,41 @@ pub fn over_pixels(
     let size = (scene.camera.width, scene.camera.height);
     let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
     let layer = DepthLayer::new(scene, geometry, rgba, background);
-    composite(rgba, size, &particles, |x, y| layer.depth(x, y));
-    let mut clear = background.filter(|_| keep_clear)?.to_vec();
-    composite(&mut clear, size, &particles, |_, _| f32::INFINITY);
+    let background = background.filter(|_| keep_clear);
+    // Where the frame differs from its drone-free background: only there
+    // can the drone-free frame under the same particles differ from it.
+    let spans = background.map(|bg| differing_spans(rgba, bg, size.0));
+    composite(rgba, size, &particles, None, &|x, y| layer.depth(x, y));
+    let (background, spans) = (background?, spans?);
+    let mut clear = rgba.to_vec();
+    let row = size.0 as usize * 4;
+    for (y, &(x0, x1)) in spans.iter().enumerate() {
+        let span = y * row + x0 as usize * 4..y * row + x1 as usize * 4;
+        clear[span.clone()].copy_from_slice(&background[span]);
+    }
+    composite(&mut clear, size, &particles, Some(&spans), &|_, _| {
+        f32::INFINITY
+    });
     Some(clear)
+}
+
+/// Per row of two `width`-pixel RGBA8 pictures, the columns from its first
+/// to its last differing pixel (`(0, 0)`: the rows agree).
+fn differing_spans(a: &[u8], b: &[u8], width: u32) -> Vec<(u32, u32)> {
+    let row = width as usize * 4;
+    a.par_chunks(row.max(1))
+        .zip(b.par_chunks(row.max(1)))
+        .map(|(ra, rb)| {
+            if ra == rb {
+                return (0, 0);
+            }
+            let differs = |(p, q): (&[u8], &[u8])| p != q;
+            let mut pairs = ra.chunks_exact(4).zip(rb.chunks_exact(4));
+            let first = pairs.clone().position(differs).unwrap_or(0);
+            let last = pairs.rposition(differs).map_or(first, |l| l + 1);
+            (first as u32, last as u32)
+        })
+        .collect()
 }
 
 /// The weather of `scene` over its rendered `frame` (in place); `None`

@@ -10,6 +10,7 @@ use glam::{DVec2, DVec3};
 use rand::Rng;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::preset::weather::{MAX_PARTICLES, Weather, WeatherKind};
@@ -125,43 +126,43 @@ impl FrameWeather {
             .clamp(0.0, MAX_PARTICLES) as usize;
         let area = |z: f64| (sx * z + mx) * (sy * z + my);
         let mut rng = ChaCha8Rng::seed_from_u64(self.particle_seed);
-        let mut out = Vec::with_capacity(count);
-        for _ in 0..count {
-            // z with density ∝ the cross-section (rejection against the far one).
-            let z = loop {
-                let z = uniform(&mut rng, (near, far));
-                let keep: f64 = rng.random();
-                if keep * area(far) <= area(z) {
-                    break z;
-                }
-            };
-            let x = uniform(&mut rng, (-(sx * z + mx), sx * z + mx));
-            let y = uniform(&mut rng, (-(sy * z + my), sy * z + my));
-            let d = uniform(&mut rng, self.diameter_mm) * 1e-3;
-            let start = DVec3::new(x, y, z);
-            if let Some(p) = self.particle(camera, (start, start + travel), d, atmosphere) {
-                out.push(p);
-            }
-        }
-        out.sort_by(|p, q| q.depth_m.total_cmp(&p.depth_m));
-        out
+        // The draws in order (one stream), then each particle on its own.
+        let drawn: Vec<(DVec3, f64)> = (0..count)
+            .map(|_| {
+                // z with density ∝ the cross-section (rejection against the far one).
+                let z = loop {
+                    let z = uniform(&mut rng, (near, far));
+                    let keep: f64 = rng.random();
+                    if keep * area(far) <= area(z) {
+                        break z;
+                    }
+                };
+                let x = uniform(&mut rng, (-(sx * z + mx), sx * z + mx));
+                let y = uniform(&mut rng, (-(sy * z + my), sy * z + my));
+                let d = uniform(&mut rng, self.diameter_mm) * 1e-3;
+                (DVec3::new(x, y, z), d)
+            })
+            .collect();
+        let view = View::of(camera);
+        let out: Vec<Particle> = drawn
+            .par_iter()
+            .filter_map(|&(start, d)| self.particle(&view, (start, start + travel), d, atmosphere))
+            .collect();
+        farthest_first(out)
     }
 
     /// One particle from its travel (camera frame) and diameter; `None`
     /// when it leaves no mark in the image.
     fn particle(
         &self,
-        camera: &Camera,
+        view: &View,
         (start, end): (DVec3, DVec3),
         diameter_m: f64,
         atmosphere: Option<&FrameAtmosphere>,
     ) -> Option<Particle> {
-        let (a, b) = (
-            camera.project_camera_point(start)?,
-            camera.project_camera_point(end)?,
-        );
+        let (a, b) = (view.project(start)?, view.project(end)?);
         let z = 0.5 * (start.z + end.z);
-        let r_px = 0.5 * diameter_m * camera.focal_px() / z;
+        let r_px = 0.5 * diameter_m * view.focal / z;
         // Narrower than a pixel: drawn one pixel wide, fainter by its share.
         let r = r_px.max(0.5);
         let thin = r_px / r;
@@ -172,7 +173,7 @@ impl FrameWeather {
             // share of the exposure is the composite's, per pixel).
             WeatherKind::Snow => self.opacity * thin * thin,
         } * atmosphere.map_or(1.0, |t| t.transmittance(z));
-        let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+        let (w, h) = view.size;
         let (lo, hi) = (
             a.min(b) - DVec2::splat(r + 1.0),
             a.max(b) + DVec2::splat(r + 1.0),
@@ -190,4 +191,48 @@ impl FrameWeather {
             solid: self.kind == WeatherKind::Snow,
         })
     }
+}
+
+/// The camera's pinhole as the particles use it, its focal length solved
+/// once (`Camera::project_camera_point`'s formula).
+struct View {
+    focal: f64,
+    centre: DVec2,
+    size: (f64, f64),
+}
+
+impl View {
+    fn of(camera: &Camera) -> Self {
+        Self {
+            focal: camera.focal_px(),
+            centre: camera.principal_point(),
+            size: (f64::from(camera.width), f64::from(camera.height)),
+        }
+    }
+
+    fn project(&self, p: DVec3) -> Option<DVec2> {
+        if p.z.is_nan() || p.z <= 0.0 {
+            return None;
+        }
+        let (f, c) = (self.focal, self.centre);
+        Some(DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y))
+    }
+}
+
+/// `particles` farthest first, equal depths in drawn order (a stable sort
+/// by depth, done as an unstable sort of (depth, index) keys).
+fn farthest_first(particles: Vec<Particle>) -> Vec<Particle> {
+    // f32's total order as unsigned keys, reversed: farthest first.
+    let far_key = |d: f32| {
+        let b = d.to_bits();
+        let ordered = if b >> 31 == 1 { !b } else { b | 1 << 31 };
+        u64::from(!ordered) << 32
+    };
+    let mut keys: Vec<u64> = (particles.iter().enumerate())
+        .map(|(i, p)| far_key(p.depth_m) | i as u64)
+        .collect();
+    keys.par_sort_unstable();
+    keys.iter()
+        .map(|k| particles[(k & u64::from(u32::MAX)) as usize])
+        .collect()
 }

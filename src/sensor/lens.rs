@@ -200,6 +200,11 @@ impl LensGeometry {
 
     /// Undistorted normalised → distorted normalised, linear past `r_lim`.
     fn forward_n(&self, (x, y): (f64, f64)) -> (f64, f64) {
+        // Well inside `r_lim` (the common case) without `hypot`'s cost: the
+        // same branch as below, whose test this margin cannot flip.
+        if x * x + y * y < self.r_lim * self.r_lim * (1.0 - 1e-9) {
+            return self.draw.distort((x, y));
+        }
         let r = x.hypot(y);
         if r <= self.r_lim {
             return self.draw.distort((x, y));
@@ -271,7 +276,7 @@ impl LensGeometry {
             .collect();
         let eps = 1e-9;
         let inside = |fo: f64| {
-            border.iter().all(|&b| {
+            border.par_iter().all(|&b| {
                 let (u, v) = self.inverse_with(fo, b);
                 (0.5 - eps..=w - 0.5 + eps).contains(&u) && (0.5 - eps..=h - 0.5 + eps).contains(&v)
             })
@@ -370,19 +375,31 @@ impl LensMap {
             w as usize * h as usize
         ];
         let cols: Vec<(usize, f64)> = (0..w).map(|x| cell(&nx, x)).collect();
+        let lerp =
+            |a: (f64, f64), b: (f64, f64), t: f64| (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+        // Each grid row's positions interpolated along x, once per column.
+        let along: Vec<Vec<(f64, f64)>> = (0..ny.len())
+            .into_par_iter()
+            .map(|j| {
+                let at = |i: usize| grid[j * nx.len() + i];
+                cols.iter()
+                    .map(|&(c, tx)| lerp(at(c), at(c + 1), tx))
+                    .collect()
+            })
+            .collect();
         taps.par_chunks_mut(w as usize)
             .enumerate()
             .for_each(|(y, row)| {
                 let (r, ty) = cell(&ny, y as u32);
-                let at = |j: usize, i: usize| grid[j * nx.len() + i];
-                for (tap, &(c, tx)) in row.iter_mut().zip(&cols) {
-                    let lerp = |a: (f64, f64), b: (f64, f64), t: f64| {
-                        (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t)
-                    };
-                    let top = lerp(at(r, c), at(r, c + 1), tx);
-                    let bottom = lerp(at(r + 1, c), at(r + 1, c + 1), tx);
-                    *tap = tap_at(lerp(top, bottom, ty), w, h);
-                }
+                let (top, bottom) = (&along[r], &along[r + 1]);
+                super::simd::widest(
+                    #[inline(always)]
+                    || {
+                        for ((tap, &t), &b) in row.iter_mut().zip(top).zip(bottom) {
+                            *tap = tap_at(lerp(t, b, ty), w, h);
+                        }
+                    },
+                );
             });
         Self {
             width: w,
@@ -450,12 +467,17 @@ impl LensMap {
 }
 
 /// A source position (pixel coordinates) as its taps, clamped to the image.
+#[inline(always)]
 fn tap_at((u, v): (f64, f64), w: u32, h: u32) -> Tap {
+    // `floor` and `round` of non-negative values as casts (`s − trunc(s)`
+    // is exact): the same numbers without a library call per pixel.
     let axis = |s: f64, n: u32| {
         let s = (s - 0.5).clamp(0.0, f64::from(n - 1));
-        let i = (s.floor() as u32).min(n - 2);
-        let f = ((s - f64::from(i)) * f64::from(ONE)).round() as u16;
-        (i, f.min(ONE as u16))
+        let i = (s as u32).min(n - 2);
+        let x = (s - f64::from(i)) * f64::from(ONE);
+        let k = x as u32;
+        let f = k + u32::from(x - f64::from(k) >= 0.5);
+        (i, f.min(ONE) as u16)
     };
     let (x0, wx) = axis(u, w);
     let (y0, wy) = axis(v, h);
@@ -478,13 +500,17 @@ fn remap_row(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
                 else {
                     continue;
                 };
+                let (Ok(a), Ok(b)) = (<&[u8; 8]>::try_from(a), <&[u8; 8]>::try_from(b)) else {
+                    continue;
+                };
                 let (wx, wy) = (u32::from(t.wx), u32::from(t.wy));
-                for (c, out) in px.iter_mut().enumerate() {
+                let mut v = [0u8; 4];
+                for (c, out) in v.iter_mut().enumerate() {
                     let top = u32::from(a[c]) * (ONE - wx) + u32::from(a[c + 4]) * wx;
                     let bottom = u32::from(b[c]) * (ONE - wx) + u32::from(b[c + 4]) * wx;
-                    let v = (top * (ONE - wy) + bottom * wy + ONE * ONE / 2) / (ONE * ONE);
-                    *out = v as u8;
+                    *out = ((top * (ONE - wy) + bottom * wy + ONE * ONE / 2) / (ONE * ONE)) as u8;
                 }
+                px.copy_from_slice(&v);
             }
         },
     );
