@@ -215,7 +215,12 @@ fn raster(
         return;
     }
     let lo = p[0].0.min(p[1].0).min(p[2].0).floor().max(DVec2::ZERO);
-    let hi = p[0].0.max(p[1].0).max(p[2].0).ceil().min(DVec2::splat(f64::from(TILE)));
+    let hi = p[0]
+        .0
+        .max(p[1].0)
+        .max(p[2].0)
+        .ceil()
+        .min(DVec2::splat(f64::from(TILE)));
     let blend = v[0].material[3] == BLEND_MARK;
     for y in lo.y as u32..hi.y as u32 {
         for x in lo.x as u32..hi.x as u32 {
@@ -312,8 +317,8 @@ fn write_tile(
     let mut material = [0.0; 2];
     let mut normal = DVec3::ZERO;
     for t in &covered {
-        for c in 0..3 {
-            mean[c] += t.color[c] / n;
+        for (m, c) in mean.iter_mut().zip(t.color) {
+            *m += c / n;
         }
         material[0] += t.material[0] / n;
         material[1] += t.material[1] / n;

@@ -145,7 +145,12 @@ impl Assets {
     /// Each model's impostor, baked once (on the first call: presets
     /// without impostors never bake them).
     pub fn impostors(&self) -> &[crate::model::impostor::Impostor] {
-        (self.impostors).get_or_init(|| self.models.iter().map(crate::model::impostor::bake).collect())
+        (self.impostors).get_or_init(|| {
+            self.models
+                .iter()
+                .map(crate::model::impostor::bake)
+                .collect()
+        })
     }
 
     /// Whether these assets are exactly what `preset` names.

@@ -366,9 +366,15 @@ impl Preset {
             format!("{lod} is outside 0–4 px (0 draws every drone at full detail)")
         });
         if let Some(px) = self.render.impostor_below_px {
-            v.check((0.0..=MAX_IMPOSTOR_PX).contains(&px), "render.impostor_below_px", || {
-                format!("{px} is outside 0–{MAX_IMPOSTOR_PX} px (impostors are for small drones)")
-            });
+            v.check(
+                (0.0..=MAX_IMPOSTOR_PX).contains(&px),
+                "render.impostor_below_px",
+                || {
+                    format!(
+                        "{px} is outside 0–{MAX_IMPOSTOR_PX} px (impostors are for small drones)"
+                    )
+                },
+            );
         }
         v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || {
             format!("{} is not supported; use 1 or 4", self.render.msaa)
