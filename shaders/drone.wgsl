@@ -6,7 +6,8 @@ struct VertexInput {
     @location(1) normal: vec3<f32>,
     @location(2) color: vec4<f32>,
     @location(8) uv: vec2<f32>,
-    // metallic, roughness, unlit (0/1), alpha cutoff (0: opaque; -1: glTF BLEND)
+    // metallic, roughness, unlit (0/1), alpha cutoff (0: opaque; -1: glTF BLEND;
+    // -2: an impostor's quad, its alpha coverage as BLEND's, src/model/impostor.rs)
     @location(9) material: vec4<f32>,
 };
 
@@ -123,7 +124,8 @@ fn coverage_mask(in: VsOut) -> u32 {
         return 0xffffffffu;
     }
     var alpha = base_color(in).a;
-    if (in.look.w > 0.5) {
+    // A drawn look's rotor opacity fades BLEND triangles, not impostors.
+    if (in.look.w > 0.5 && in.material.w > -1.5) {
         alpha = alpha * in.look_material.w;
     }
     let k = u32(round(clamp(alpha, 0.0, 1.0) * SAMPLES));

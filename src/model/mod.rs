@@ -23,6 +23,7 @@ pub mod builtin;
 pub mod confusers;
 mod flatten;
 mod hull;
+pub mod impostor;
 pub mod lod;
 pub mod lod_cache;
 pub mod uri;

@@ -93,6 +93,8 @@ pub struct Assets {
     plates_for: Option<(crate::preset::backplate::Backplate, (u32, u32))>,
     /// Each model's mesh for the depth maps, made on the first depth map.
     depth_meshes: std::sync::OnceLock<Vec<crate::annotate::depth::DepthMesh>>,
+    /// Each model's impostor, baked on the first renderer that draws them.
+    impostors: std::sync::OnceLock<Vec<crate::model::impostor::Impostor>>,
 }
 
 impl Assets {
@@ -126,6 +128,7 @@ impl Assets {
             },
             plates_for: plates_key(preset),
             depth_meshes: std::sync::OnceLock::new(),
+            impostors: std::sync::OnceLock::new(),
         })
     }
 
@@ -135,6 +138,17 @@ impl Assets {
         self.depth_meshes.get_or_init(|| {
             (self.models.iter())
                 .map(crate::annotate::depth::DepthMesh::new)
+                .collect()
+        })
+    }
+
+    /// Each model's impostor, baked once (on the first call: presets
+    /// without impostors never bake them).
+    pub fn impostors(&self) -> &[crate::model::impostor::Impostor] {
+        (self.impostors).get_or_init(|| {
+            self.models
+                .iter()
+                .map(crate::model::impostor::bake)
                 .collect()
         })
     }
@@ -375,6 +389,9 @@ impl FramePipeline {
             &self.assets.lods,
             self.preset.render.lod_error_px,
         );
+        if let Some(px) = self.preset.render.impostor_below_px {
+            renderer.set_impostors(self.assets.impostors(), f64::from(px));
+        }
         renderer.set_environment(&self.assets.sky);
         renderer.set_backplates(&self.assets.plates);
         renderer

@@ -304,6 +304,7 @@ pub const FIELDS: &[Field] = &[
     f("render.resolution.height", "Height", " px", "Image height in pixels"),
     f("render.msaa", "MSAA", "", "Multisample anti-aliasing: 1 (off) or 4 samples per pixel"),
     f("render.lod_error_px", "LOD error", " px", "Largest screen error of a model's simplified levels of detail"),
+    f("render.impostor_below_px", "Impostors below", " px", "Drones smaller than this are drawn as baked silhouette sprites"),
     f("output.image_format", "Images", "", "Image file format"),
     f("output.image_format.quality", "JPEG quality", "", "JPEG quality, 1–100"),
     f("output.label_formats", "Labels", "", "Annotation formats written next to the images"),

@@ -1,5 +1,5 @@
 //! How frames are rendered (`render`): the resolution, multisampling and the
-//! level-of-detail error.
+//! level-of-detail error and the impostors' threshold.
 
 use serde::{Deserialize, Serialize};
 
@@ -40,6 +40,13 @@ pub struct RenderSettings {
     /// (0: every drone at full detail). Labels' amodal boxes always come
     /// from the full mesh; visible boxes follow the pixels drawn.
     pub lod_error_px: f64,
+    /// Impostors: a drone whose projected size (its span over its centre's
+    /// depth) is under this many pixels is drawn as its model's silhouette
+    /// baked from the nearest of 128 view directions (`model::impostor`),
+    /// a textured quad, instead of its mesh. Absent: every drone is a mesh
+    /// (and the field is not written to `preset.lock.ron`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub impostor_below_px: Option<f32>,
 }
 
 /// The silhouette error a level of detail may add, by default (pixels).
@@ -51,6 +58,7 @@ impl Default for RenderSettings {
             resolution: Resolution::FullHd,
             msaa: 4,
             lod_error_px: DEFAULT_LOD_ERROR_PX,
+            impostor_below_px: None,
         }
     }
 }

@@ -12,6 +12,9 @@ pub const MAX_FRAME_MEMORY_BYTES: u64 = 8 << 30;
 /// its probabilities are computed per frame (`scene::placement`).
 pub const MAX_COUNT_SPAN: u32 = 100_000;
 
+/// The largest `render.impostor_below_px`: the drones whose error the docs state (docs/realism.md).
+pub const MAX_IMPOSTOR_PX: f32 = 32.0;
+
 /// What a device offers, as plain numbers (the caller reads them from its adapter).
 #[derive(Clone, Copy, Debug)]
 pub struct DeviceLimits {
@@ -362,6 +365,17 @@ impl Preset {
         v.check((0.0..=4.0).contains(&lod), "render.lod_error_px", || {
             format!("{lod} is outside 0–4 px (0 draws every drone at full detail)")
         });
+        if let Some(px) = self.render.impostor_below_px {
+            v.check(
+                (0.0..=MAX_IMPOSTOR_PX).contains(&px),
+                "render.impostor_below_px",
+                || {
+                    format!(
+                        "{px} is outside 0–{MAX_IMPOSTOR_PX} px (impostors are for small drones)"
+                    )
+                },
+            );
+        }
         v.check(matches!(self.render.msaa, 1 | 4), "render.msaa", || {
             format!("{} is not supported; use 1 or 4", self.render.msaa)
         });

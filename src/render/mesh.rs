@@ -3,14 +3,19 @@
 //! surface kind, drone.wgsl and the drone pipelines built in the surface
 //! variants the meshes use, the choice of a drone's level, the instances
 //! (grouped by model and level, uploaded into one reused buffer) and the
-//! instanced draws.
+//! instanced draws. With impostors ([`Drones::set_impostors`]) a drone
+//! smaller than their threshold is drawn as the quad of its model's
+//! impostor ([`super::impostor`]) nearest its view: its "level" is then the
+//! model's level count + the direction's index.
 
 use std::ops::Range;
 
 use wgpu::util::DeviceExt;
 
 use super::gpu::{PipelineDesc, PipelineFactory, Program, depth_test};
+use super::impostor::GpuImpostor;
 use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, material};
+use crate::model::impostor::Impostor;
 use crate::model::lod::Lod;
 use crate::model::{CpuModel, Vertex};
 use crate::scene::FrameScene;
@@ -28,6 +33,12 @@ pub(super) struct Drones {
     surfaces: [bool; Surface::COUNT],
     /// The material of untextured draw ranges (1×1 white).
     white_texture: wgpu::BindGroup,
+    /// How `@group(1)` (a draw's texture) is laid out.
+    material_layout: wgpu::BindGroupLayout,
+    /// Each model's impostor (empty: none), drawn for drones under
+    /// `impostor_below_px` pixels (0: never).
+    impostors: Vec<Option<GpuImpostor>>,
+    impostor_below_px: f64,
     /// Silhouette error allowed to a level of detail, in pixels (0: full detail).
     lod_error_px: f64,
     /// The instances of the frame's draws, reused and grown as needed.
@@ -78,6 +89,13 @@ pub(super) struct Surface {
 
 impl Surface {
     pub(super) const COUNT: usize = 16;
+    /// Impostor quads: single-sided, textured, the atlas alpha as coverage.
+    const IMPOSTOR: Surface = Surface {
+        double_sided: false,
+        alpha_mask: false,
+        textured: true,
+        alpha_blend: true,
+    };
     const ALL: [Surface; Self::COUNT] = {
         let mut all = [Surface::of(0); Self::COUNT];
         let mut i = 0;
@@ -202,6 +220,9 @@ impl Drones {
             geometry: models.iter().map(LabelGeometry::from).collect(),
             surfaces,
             white_texture,
+            material_layout,
+            impostors: Vec::new(),
+            impostor_below_px: 0.0,
             lod_error_px: if max_error_px.is_finite() {
                 max_error_px.max(0.0)
             } else {
@@ -209,6 +230,47 @@ impl Drones {
             },
             instances: None,
         }
+    }
+
+    /// Upload `impostors` (index = model index) and draw a drone with its
+    /// model's below `below_px` pixels (its span over its centre's depth).
+    /// Pipelines built before miss the impostor variant: call this first.
+    pub(super) fn set_impostors(
+        &mut self,
+        (device, queue): (&wgpu::Device, &wgpu::Queue),
+        impostors: &[Impostor],
+        below_px: f64,
+    ) {
+        let layout = &self.material_layout;
+        self.impostors = (impostors.iter())
+            .map(|i| Some(GpuImpostor::new((device, queue), layout, i)))
+            .collect();
+        self.impostor_below_px = if below_px.is_finite() { below_px } else { 0.0 };
+        self.surfaces[Surface::IMPOSTOR.index()] |= !impostors.is_empty();
+    }
+
+    /// The impostor level drone `i` of `scene` is drawn with, if any: when
+    /// its projected size is under the threshold, the model's level count +
+    /// the direction (in model space) nearest the camera's.
+    fn impostor_level(&self, scene: &FrameScene, i: usize) -> Option<usize> {
+        if self.impostor_below_px <= 0.0 {
+            return None;
+        }
+        let d = &scene.drones[i];
+        let impostor = self.impostors.get(d.model)?.as_ref()?;
+        let levels = self.meshes.get(d.model)?.levels.len();
+        let cam = &scene.camera;
+        let centre = cam.camera_from_world_point(d.position);
+        if centre.z - d.size_m * 0.5 * 3f64.sqrt() <= cam.near_m {
+            return None;
+        }
+        let size_px = d.size_m * cam.focal_px() / centre.z;
+        if size_px.is_nan() || size_px >= self.impostor_below_px {
+            return None;
+        }
+        // The camera (the origin) seen from the drone, in model space.
+        let rotation = cam.camera_from_world * glam::DMat3::from_quat(d.rotation);
+        Some(levels + impostor.nearest(rotation.transpose() * -centre))
     }
 
     /// Each model's hull (index = model index).
@@ -220,6 +282,9 @@ impl Drones {
     /// possible point, is within the renderer's pixel budget (level 0 when
     /// any part of the drone may be at or behind the camera plane).
     fn level_of(&self, scene: &FrameScene, i: usize) -> usize {
+        if let Some(level) = self.impostor_level(scene, i) {
+            return level;
+        }
         let d = &scene.drones[i];
         let Some(mesh) = self.meshes.get(d.model) else {
             return 0;
@@ -364,11 +429,19 @@ impl Drones {
         pass.set_vertex_buffer(1, instances.slice(..));
         let mut bound: Option<usize> = None;
         for ((model, level), range) in ranges {
-            let Some((mesh, lod)) = self
-                .meshes
-                .get(*model)
-                .and_then(|m| Some((m, m.levels.get(*level)?)))
-            else {
+            let Some(mesh) = self.meshes.get(*model) else {
+                continue;
+            };
+            let Some(lod) = mesh.levels.get(*level) else {
+                let k = Surface::IMPOSTOR.index();
+                let impostor = self.impostors.get(*model).and_then(Option::as_ref);
+                if let (Some(impostor), Some(pipeline)) = (impostor, &pipelines.0[k]) {
+                    if bound != Some(k) {
+                        pass.set_pipeline(pipeline);
+                        bound = Some(k);
+                    }
+                    impostor.draw(pass, level - mesh.levels.len(), range.clone());
+                }
                 continue;
             };
             pass.set_vertex_buffer(0, mesh.vertices.slice(..));

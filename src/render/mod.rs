@@ -28,6 +28,7 @@ mod haze;
 mod horizon;
 mod id_layer;
 mod ids;
+mod impostor;
 mod material;
 mod mesh;
 mod plan;
@@ -480,6 +481,16 @@ impl Renderer {
             buffer.extend_from_slice(background);
         }
         buffer
+    }
+
+    /// Draw a drone whose projected size (its span over its centre's depth)
+    /// is under `below_px` pixels as its model's impostor (`impostors[m]`,
+    /// from [`crate::model::impostor::bake`]; index = model index). Pipelines
+    /// built before are dropped (they lack the impostor variant).
+    pub fn set_impostors(&mut self, impostors: &[crate::model::impostor::Impostor], below_px: f64) {
+        (self.drones).set_impostors((&self.device, &self.queue), impostors, below_px);
+        self.pipelines.clear();
+        self.regions = None;
     }
 
     /// Drones per level of detail over the drones of `scene` (for tests and
