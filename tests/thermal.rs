@@ -1,4 +1,4 @@
-//! The thermal camera (issue 41 item 1; src/sensor/thermal.rs,
+//! The thermal camera (issue 41 item 1; src/sensor/thermal/,
 //! src/pipeline/thermal.rs): grey frames, warm drones on a cold sky, the
 //! sky warming towards the horizon, the gain control's range, labels equal
 //! to the visible render's, determinism, 16-bit grey PNG frames (lavapipe).

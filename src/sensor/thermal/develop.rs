@@ -338,7 +338,7 @@ simd_fn! {
     fn gain8(plane: &[f32], scale: f32, offset: f32, out: &mut [u8]) {
         for (px, v) in out.chunks_exact_mut(4).zip(plane) {
             let g = level(v * scale + offset, 255.0);
-            px.copy_from_slice(&(g * 0x0001_0101 | 0xFF00_0000).to_le_bytes());
+            px.copy_from_slice(&((g * 0x0001_0101) | 0xFF00_0000).to_le_bytes());
         }
     }
 }
@@ -356,7 +356,7 @@ simd_fn! {
 pub fn grey16_to_rgba(grey: &[u16], rgba: &mut [u8]) {
     for (px, &g) in rgba.chunks_exact_mut(4).zip(grey) {
         let g = (u32::from(g) + 128) / 257;
-        px.copy_from_slice(&(g * 0x0001_0101 | 0xFF00_0000).to_le_bytes());
+        px.copy_from_slice(&((g * 0x0001_0101) | 0xFF00_0000).to_le_bytes());
     }
 }
 

@@ -59,11 +59,11 @@ mod sky_plane;
 pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
 pub use sky_plane::{View, sky_plane};
 
-/// Whether this CPU has AVX2.
+/// Whether to run the AVX2 builds: the camera model's choice
+/// ([`super::simd::simd_level`], which `SWARMSHOT_CAMERA_SIMD=base` caps).
 #[cfg(target_arch = "x86_64")]
 fn avx2() -> bool {
-    static AVX2: OnceLock<bool> = OnceLock::new();
-    *AVX2.get_or_init(|| std::arch::is_x86_feature_detected!("avx2"))
+    super::simd::simd_level() >= 1
 }
 
 /// The buffers the thermal camera reuses from frame to frame.
