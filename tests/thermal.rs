@@ -1,7 +1,7 @@
-//! The thermal camera (issue 41 item 1; src/sensor/thermal.rs,
+//! The thermal camera (issue 41 item 1; src/sensor/thermal/,
 //! src/pipeline/thermal.rs): grey frames, warm drones on a cold sky, the
 //! sky warming towards the horizon, the gain control's range, labels equal
-//! to the visible render's, determinism (lavapipe).
+//! to the visible render's, determinism, 16-bit grey PNG frames (lavapipe).
 
 mod common;
 
@@ -144,6 +144,95 @@ fn thermal_cannot_be_combined_with_the_camera_model() {
     let errors = p.validate().expect_err("negative NETD");
     assert!(
         errors.iter().any(|e| e.field == "thermal.netd_mk"),
+        "{errors:?}"
+    );
+}
+
+/// The preset with 16-bit grey PNG frames.
+fn sixteen_bit(mut p: Preset) -> Preset {
+    p.output.image_format = swarmshot::preset::ImageFormat::Png;
+    if let Some(t) = p.thermal.as_mut() {
+        t.bits = 16;
+    }
+    p
+}
+
+#[test]
+fn sixteen_bit_frames_are_the_gain_controls_levels_times_257_as_grey_png() {
+    let eight = thermal_preset();
+    let p = sixteen_bit(eight.clone());
+    let (a, b) = (make(&eight, 0), make(&p, 0));
+    assert!(a.grey16.is_none());
+    let grey = b.grey16.as_deref().expect("16-bit levels");
+    let (w, h) = (b.scene.camera.width, b.scene.camera.height);
+    assert_eq!(grey.len(), (w * h) as usize);
+    // The same development: each 16-bit level ÷ 257 within one 8-bit level.
+    let worst = (grey.iter().zip(a.rgba.chunks_exact(4)))
+        .map(|(&g, px)| (f64::from(g) / 257.0 - f64::from(px[0])).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 0.5 + 1e-9,
+        "16-bit ÷ 257 off the 8-bit level by {worst}"
+    );
+    // Finer than 8 bits: many more distinct levels than 256.
+    let mut levels = grey.to_vec();
+    levels.sort_unstable();
+    levels.dedup();
+    assert!(
+        levels.len() > 1000,
+        "{} distinct 16-bit levels",
+        levels.len()
+    );
+    assert_eq!(a.labels.len(), b.labels.len());
+    // Written as a 16-bit grey PNG that reads back to the same samples.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("t.png");
+    let pipe = FramePipeline::new(p.clone()).expect("pipeline");
+    let written = swarmshot::write::single::write_lone_frame(
+        &out,
+        &swarmshot::write::single::LoneFrame {
+            scene: &b.scene,
+            labels: &b.labels,
+            rgba: &b.rgba,
+            grey16: b.grey16.as_deref(),
+            masks: None,
+        },
+        &swarmshot::write::single::LoneFormat {
+            image: p.output.image_format,
+            masks: &p.output.masks,
+            model_names: pipe.model_names(),
+            classes: pipe.classes(),
+        },
+    )
+    .expect("written");
+    assert_eq!(written[0], out);
+    let bytes = std::fs::read(&out).expect("read back");
+    match image::load_from_memory(&bytes).expect("a PNG") {
+        image::DynamicImage::ImageLuma16(img) => {
+            assert_eq!(img.dimensions(), (w, h));
+            assert_eq!(img.as_raw(), &grey.to_vec());
+        }
+        other => panic!("not 16-bit grey: {:?}", other.color()),
+    }
+}
+
+#[test]
+fn sixteen_bits_need_png_and_bits_are_8_or_16() {
+    let mut p = sixteen_bit(thermal_preset());
+    assert!(p.validate().is_ok());
+    p.output.image_format = swarmshot::preset::ImageFormat::Jpeg { quality: 95 };
+    let errors = p.validate().expect_err("16 bits as JPEG");
+    assert!(
+        errors.iter().any(|e| e.field == "thermal.bits"),
+        "{errors:?}"
+    );
+    let mut p = thermal_preset();
+    if let Some(t) = p.thermal.as_mut() {
+        t.bits = 12;
+    }
+    let errors = p.validate().expect_err("12 bits");
+    assert!(
+        errors.iter().any(|e| e.field == "thermal.bits"),
         "{errors:?}"
     );
 }

@@ -42,6 +42,8 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
             scene: &frame.scene,
             labels: &frame.labels,
             rgba: &frame.rgba,
+            // The overlay is drawn on the 8-bit picture.
+            grey16: frame.grey16.as_deref().filter(|_| !args.overlay),
             masks: frame.masks.as_ref(),
         },
         &swarmshot::write::single::LoneFormat {

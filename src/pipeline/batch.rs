@@ -508,7 +508,9 @@ fn encode_frame(
     };
     // A frame through the camera model may have its own JPEG quality.
     let frame_format = pipeline.image_format(&frame.scene);
-    let bytes = if frame_format == pipeline.preset().output.image_format {
+    let bytes = if let Some(grey) = &frame.grey16 {
+        crate::write::encode_grey16_png(grey, w, h)
+    } else if frame_format == pipeline.preset().output.image_format {
         encoder.encode(&frame.rgba, w, h, Some(unchanged))
     } else {
         crate::write::encode_image(&frame.rgba, w, h, frame_format)

@@ -254,6 +254,9 @@ pub struct Frame {
     pub rgba: Vec<u8>,
     /// What `rgba` holds, for [`Renderer::recycle`].
     pub painted: Painted,
+    /// 16-bit grey pixels (the thermal camera's `bits: 16`), written in
+    /// place of `rgba` (which then holds them ÷ 257, rounded, for previews).
+    pub grey16: Option<Vec<u16>>,
     /// Each drone's visible pixels, when the preset asks for masks (`output.masks`).
     pub masks: Option<FrameMasks>,
 }
@@ -533,13 +536,18 @@ impl FramePipeline {
         let mut masks = (hits.as_ref())
             .filter(|_| masks_on)
             .map(|hits| FrameMasks::from_hits(w, h, n, hits));
+        let mut grey16 = None;
         let (rgba, painted) = match (&scene.camera_model, thermal) {
             (_, Some(t)) => {
+                // A recycled buffer, not fresh pages, for the grey picture.
+                let out = renderer.spare_buffer();
                 let background = renderer.background_pixels(&frame.painted);
                 let hits = hits.as_deref().unwrap_or_default();
-                let grey = self.thermal_frame(t, &scene, background.unwrap_or(&frame.rgba), hits);
+                let background = background.unwrap_or(&frame.rgba);
+                let grey = self.thermal_frame(t, &scene, (background, hits), out);
                 renderer.recycle(frame.rgba, frame.painted);
-                (grey, Painted::default())
+                grey16 = grey.1;
+                (grey.0, Painted::default())
             }
             (None, None) => (frame.rgba, frame.painted),
             (Some(draw), None) => {
@@ -591,6 +599,7 @@ impl FramePipeline {
             labels,
             rgba,
             painted,
+            grey16,
             masks,
         })
     }

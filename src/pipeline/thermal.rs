@@ -1,57 +1,90 @@
 //! The thermal camera's glue (issue 41; docs/realism.md, "Thermal
 //! camera"): a rendered frame becomes a long-wave infrared radiance plane,
-//! which [`crate::sensor::thermal::develop`] turns into grey pixels.
+//! which [`crate::sensor::thermal::develop_into`] turns into grey pixels.
 //!
 //! The plane is composed on the CPU from what the renderer measured, so the
 //! renderer stays free of presets and the labels are the visible render's:
-//! - every pixel's sin(elevation) from the camera's ray: below the horizon
-//!   the ground; above it the clear sky by elevation
-//!   ([`crate::sensor::thermal::SkyTable`]), turned towards the clouds'
-//!   radiance by the drone-free visible background's greyness (HSV
-//!   saturation under `clear_saturation`), and towards the ground's where
-//!   the background is coloured but not blue (scenery);
+//! - the background from the camera's rays and the drone-free visible
+//!   background ([`crate::sensor::thermal::sky_plane`]: the ground below
+//!   the horizon, the clear sky by elevation above it, turned towards the
+//!   clouds' or the scenery's radiance by the pixel's colour);
 //! - every pixel the id pass gives a drone or confuser (its samples' share
 //!   of the pixel): the object's skin and warm spot (a Gaussian about its
 //!   projected centre, σ a share of its half box) at its emissivity, the
 //!   rest reflecting the background, seen through `exp(−β·d)` of air.
+//!
+//! Each thread keeps its planes from frame to frame (a thread-local
+//! [`Scratch`]).
 
 use glam::DVec3;
 
 use crate::annotate::visibility::PixelHit;
 use crate::preset::thermal::{Signature, Thermal};
 use crate::scene::FrameScene;
-use crate::sensor::thermal::{self, SkyTable};
+use crate::scene::camera::Camera;
+use crate::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
 
 use super::FramePipeline;
 
+thread_local! {
+    /// Each thread's planes, kept from frame to frame.
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::default();
+}
+
+/// The camera as the thermal background needs it.
+fn view(cam: &Camera) -> View {
+    View {
+        width: cam.width,
+        height: cam.height,
+        up: (cam.camera_from_world * DVec3::Y).as_vec3(),
+        focal_px: cam.focal_px() as f32,
+        principal: cam.principal_point().as_vec2(),
+    }
+}
+
 impl FramePipeline {
-    /// Frame `scene`'s thermal picture (RGBA8 grey) from its drone-free
-    /// visible `background` and the id pass's `hits`.
+    /// Frame `scene`'s thermal picture (RGBA8 grey into `out`, and the
+    /// 16-bit grey levels with `bits: 16`) from its drone-free visible
+    /// `background` and the id pass's `hits`.
     pub(super) fn thermal_frame(
         &self,
         t: &Thermal,
         scene: &FrameScene,
-        background: &[u8],
-        hits: &[PixelHit],
-    ) -> Vec<u8> {
+        (background, hits): (&[u8], &[PixelHit]),
+        mut out: Vec<u8>,
+    ) -> (Vec<u8>, Option<Vec<u16>>) {
         let (w, h) = (scene.camera.width, scene.camera.height);
         let sky = SkyTable::new(t);
-        let mut plane = background_plane(t, &sky, scene, background);
         let signatures = self.signatures(t, scene);
         let msaa = self.preset.render.msaa.max(1);
-        add_objects(&mut plane, scene, hits, (&signatures, msaa), (t, &sky));
         let pattern = self
             .thermal_pattern
             .get_or_init(|| thermal::fixed_pattern(t, self.preset.seed, w, h));
         let own;
-        let pattern = if pattern.len() == plane.len() {
+        let pattern = if pattern.len() == w as usize * h as usize {
             pattern
         } else {
             own = thermal::fixed_pattern(t, self.preset.seed, w, h);
             &own
         };
         let key = crate::seed::mix64(scene.seed ^ crate::seed::mix64(thermal::NOISE_SALT));
-        thermal::develop(t, &mut plane, (w, h), pattern, key)
+        // Every byte is written below.
+        out.resize(w as usize * h as usize * 4, 0);
+        let mut grey16 = (t.bits == 16).then(|| vec![0u16; w as usize * h as usize]);
+        SCRATCH.with_borrow_mut(|scratch| {
+            thermal::sky_plane(t, &sky, &view(&scene.camera), background, scratch);
+            let plane = &mut scratch.plane;
+            add_objects(plane, scene, hits, (&signatures, msaa), (t, &sky));
+            let to = match grey16.as_mut() {
+                Some(g) => Developed::Grey16(g),
+                None => Developed::Rgba8(&mut out),
+            };
+            thermal::develop_into(t, (w, h), (pattern, key), scratch, to);
+        });
+        if let Some(g) = &grey16 {
+            thermal::grey16_to_rgba(g, &mut out);
+        }
+        (out, grey16)
     }
 
     /// Each drone's signature by its model: the preset's models are
@@ -67,38 +100,6 @@ impl FramePipeline {
             })
             .collect()
     }
-}
-
-/// The background's radiance at every pixel (row-major).
-fn background_plane(t: &Thermal, sky: &SkyTable, scene: &FrameScene, rgba: &[u8]) -> Vec<f32> {
-    let cam = &scene.camera;
-    let (w, h) = (cam.width as usize, cam.height as usize);
-    let up = (cam.camera_from_world * DVec3::Y).as_vec3();
-    let f = cam.focal_px() as f32;
-    let c = cam.principal_point().as_vec2();
-    let clear_sat = t.clear_saturation as f32;
-    let mut plane = Vec::with_capacity(w * h);
-    for y in 0..h {
-        let vy = (y as f32 + 0.5 - c.y) / f;
-        let row = &rgba[(y * w * 4).min(rgba.len())..((y + 1) * w * 4).min(rgba.len())];
-        for x in 0..w {
-            let vx = (x as f32 + 0.5 - c.x) / f;
-            let s = (up.x * vx + up.y * vy + up.z) / (vx * vx + vy * vy + 1.0).sqrt();
-            let clear = sky.clear(s);
-            let Some(px) = row.get(x * 4..x * 4 + 3).filter(|_| s >= 0.0) else {
-                plane.push(clear);
-                continue;
-            };
-            let (r, g, b) = (f32::from(px[0]), f32::from(px[1]), f32::from(px[2]));
-            let (max, min) = (r.max(g).max(b), r.min(g).min(b));
-            let sat = if max > 0.0 { (max - min) / max } else { 0.0 };
-            let grey = (1.0 - sat / clear_sat).clamp(0.0, 1.0);
-            let clear_or_scenery = if b >= max { clear } else { sky.ground };
-            let cloud = sky.cloud.max(clear);
-            plane.push(clear_or_scenery + (cloud - clear_or_scenery) * grey);
-        }
-    }
-    plane
 }
 
 /// Each object pixel of `hits` over the background plane: its share of the
@@ -156,7 +157,7 @@ impl Spot {
     fn new(
         t: &Thermal,
         sky: &SkyTable,
-        cam: &crate::scene::camera::Camera,
+        cam: &Camera,
         (position, hit_box): (DVec3, (u32, u32, u32, u32)),
         sig: &Signature,
     ) -> Option<Self> {

@@ -208,6 +208,7 @@ pub const FIELDS: &[Field] = &[
     f("thermal.blur_px", "Optics blur σ", " px", "The optics' Gaussian blur σ in pixels (0: none)"),
     f("thermal.agc_percentiles", "AGC percentiles", " %", "The frame's percentiles the gain control spreads over levels 0–255"),
     f("thermal.agc_max_gain", "AGC max gain", " levels/K", "The gain control's largest gain: a low-contrast scene stays low in contrast"),
+    f("thermal.bits", "Bits", "", "Bits per pixel of the written frames: 8, or 16 (grey PNG; the gain control's levels × 257)"),
     f("thermal.agc_mid_level", "AGC mid level", "", "The level the middle of the percentiles' span maps to"),
     f("thermal.drone", "Drone signature", "", "The thermal look of the preset's drones: skin and warm spot"),
     f("thermal.drone.skin_k", "Drone skin", " K", "Skin temperature above the air's, kelvin"),

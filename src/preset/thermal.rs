@@ -108,6 +108,15 @@ pub struct Thermal {
     pub agc_max_gain: f64,
     /// The level the middle of the percentiles' span maps to.
     pub agc_mid_level: f64,
+    /// Bits per pixel of the written frames: 8, or 16 (grey PNG, the gain
+    /// control's levels × 257; needs `output.image_format: Png`). 8 is not
+    /// written to preset.lock.ron, so datasets made before it resume.
+    #[serde(skip_serializing_if = "is_eight")]
+    pub bits: u8,
+}
+
+fn is_eight(bits: &u8) -> bool {
+    *bits == 8
 }
 
 impl Default for Thermal {
@@ -130,6 +139,7 @@ impl Default for Thermal {
             agc_percentiles: (0.5, 99.9),
             agc_max_gain: 4.0,
             agc_mid_level: 110.0,
+            bits: 8,
         }
     }
 }
@@ -187,6 +197,9 @@ impl Thermal {
             "thermal.agc_mid_level",
             || format!("{} must be a level in [0, 255]", self.agc_mid_level),
         );
+        v.check(self.bits == 8 || self.bits == 16, "thermal.bits", || {
+            format!("{} must be 8 or 16", self.bits)
+        });
         let (lo, hi) = self.agc_percentiles;
         v.check(
             lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi && hi <= 100.0,

@@ -453,6 +453,16 @@ impl Renderer {
         }
     }
 
+    /// A recycled buffer (stale contents) for a picture made on the CPU in
+    /// place of the rendered one, such as the thermal camera's; empty when
+    /// none is kept.
+    pub fn spare_buffer(&mut self) -> Vec<u8> {
+        self.spare
+            .pop()
+            .map(|(buffer, _)| buffer)
+            .unwrap_or_default()
+    }
+
     /// Keep up to `n` recycled buffers (2 unless set): as many as a caller
     /// has frames in flight, so none is freed and allocated again (a 4K
     /// buffer is 35 MB of fresh pages).

@@ -34,7 +34,9 @@ use crate::preset::ImageFormat;
 use crate::scene::FrameScene;
 
 pub use dataset::{DatasetWriter, PLAN_README, WriterOptions};
-pub use encode::{Area, EncodeError, ImageEncoder, Unchanged, encode_image, jpeg_round_trip};
+pub use encode::{
+    Area, EncodeError, ImageEncoder, Unchanged, encode_grey16_png, encode_image, jpeg_round_trip,
+};
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
 pub use formats::{
     DatasetInfo, FormatWriter, FrameRecord, FrameText, FrameTexts, TextContext, manifest_line,

@@ -22,6 +22,8 @@ pub struct LoneFrame<'a> {
     pub labels: &'a [DroneLabel],
     /// Tightly packed RGBA8, `scene.camera` sized.
     pub rgba: &'a [u8],
+    /// 16-bit grey pixels, written instead of `rgba` (a PNG) when present.
+    pub grey16: Option<&'a [u16]>,
     /// Each drone's visible pixels (present when `output.masks` asks for any).
     pub masks: Option<&'a FrameMasks>,
 }
@@ -87,7 +89,10 @@ pub fn write_lone_frame(
     let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     files.push((
         out.to_owned(),
-        encode_image(frame.rgba, w, h, format.image)?,
+        match frame.grey16 {
+            Some(grey) => super::encode_grey16_png(grey, w, h)?,
+            None => encode_image(frame.rgba, w, h, format.image)?,
+        },
     ));
     files.push((
         out.with_extension("txt"),

@@ -25,6 +25,28 @@ pub fn encode_image(
     ImageEncoder::new(format).encode(rgba, width, height, None)
 }
 
+/// 16-bit grey pixels (`width`×`height`, row-major) as a 16-bit grey PNG.
+pub fn encode_grey16_png(grey: &[u16], width: u32, height: u32) -> Result<Vec<u8>, OutputError> {
+    let error = |source: EncodeError| OutputError::Encode {
+        format: "PNG",
+        source,
+    };
+    if grey.len() != width as usize * height as usize {
+        return Err(error(EncodeError::Grey16Size(grey.len(), width, height)));
+    }
+    let mut out = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new_with_quality(
+        &mut out,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Adaptive,
+    );
+    // The encoder takes 16-bit samples in native byte order.
+    let bytes: &[u8] = bytemuck::cast_slice(grey);
+    image::ImageEncoder::write_image(encoder, bytes, width, height, image::ExtendedColorType::L16)
+        .map_err(|e| error(e.into()))?;
+    Ok(out)
+}
+
 /// `rgba` compressed as JPEG at `quality` (as [`encode_image`] would) and
 /// decompressed again by libjpeg-turbo: the camera model's first
 /// compression. RGBA8 of the same size, alpha 255.

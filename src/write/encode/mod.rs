@@ -7,7 +7,7 @@ pub mod image;
 pub mod jpeg;
 pub mod sparse_png;
 
-pub use image::{ImageEncoder, encode_image, jpeg_round_trip};
+pub use image::{ImageEncoder, encode_grey16_png, encode_image, jpeg_round_trip};
 pub use jpeg::{Area, JpegError, Unchanged};
 
 /// Why an image or mask file could not be encoded (inside
@@ -22,6 +22,8 @@ pub enum EncodeError {
     Decode(#[from] turbojpeg::Error),
     #[error("the first compression decoded to another size")]
     DecodedSize,
+    #[error("{0} 16-bit samples for a {1}×{2} frame")]
+    Grey16Size(usize, u32, u32),
     #[error("frame {0} came without its masks")]
     NoMasks(u64),
     #[error("drone {0} has no 16-bit instance id")]

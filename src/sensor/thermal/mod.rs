@@ -2,19 +2,23 @@
 //! "Thermal camera"): band radiance from temperature, the clear sky's
 //! radiance by elevation, and the camera's chain on a radiance plane —
 //! the optics' blur, fixed-pattern and temporal noise, automatic gain
-//! control to 8-bit grey.
+//! control to 8-bit grey (or 16-bit: [`Developed::Grey16`]).
 //!
 //! Radiance is the 8–14 µm band integral of Planck's law, W·m⁻²·sr⁻¹
 //! ([`band_radiance`]). The clear sky's band emissivity at elevation e is
 //! `ε(e) = 1 − (1 − ε_z)^(1/sin e)` (the sky's path length grows as
 //! 1/sin e), its radiance `ε(e)·B(T_air)`: coldest at the zenith, the air's
-//! at the horizon. The camera works on the plane the pipeline composes
-//! (`pipeline::thermal`): a Gaussian blur of σ px, then per pixel the fixed
-//! pattern (from the preset seed alone: the same in every frame) and the
-//! temporal noise (NETD; the deviates of [`super::noise`] under the frame's
-//! key), then a linear gain that maps the frame's low and high percentiles
-//! to levels 0 and 255, capped at `agc_max_gain` levels per kelvin, their
-//! middle at `agc_mid_level`. It knows the preset's `thermal` section and
+//! at the horizon. [`sky_plane`] composes the background's radiance from
+//! the rays and the visible background's colours; the pipeline adds the
+//! objects (`pipeline::thermal`); [`develop_into`] is the camera: a
+//! Gaussian blur of σ px, then per pixel the fixed pattern (from the preset
+//! seed alone: the same in every frame) and the temporal noise (NETD; the
+//! deviates of [`super::noise`] under the frame's key), then a linear gain
+//! that maps the frame's low and high percentiles to levels 0 and 255,
+//! capped at `agc_max_gain` levels per kelvin, their middle at
+//! `agc_mid_level`. The per-pixel loops run built for AVX2 where the CPU
+//! has it (`simd_fn!`: the same operations, so the same bits) and in bands
+//! of rows on rayon's threads. It knows the preset's `thermal` section and
 //! seeds, nothing of scenes, the GPU or files.
 
 use std::sync::OnceLock;
@@ -22,6 +26,56 @@ use std::sync::OnceLock;
 use crate::preset::thermal::{MAX_TEMPERATURE_K, Thermal};
 
 use super::noise::{Key, deviate};
+
+/// `fn NAME(args) -> R { body }` whose body runs built for AVX2 where the
+/// CPU has it, else as built: the same operations (no fused multiply-add),
+/// so the same bits either way, 8 lanes instead of 4.
+macro_rules! simd_fn {
+    ($(#[$doc:meta])* fn $name:ident($($a:ident: $t:ty),* $(,)?) $(-> $r:ty)? $body:block) => {
+        $(#[$doc])*
+        fn $name($($a: $t),*) $(-> $r)? {
+            #[inline(always)]
+            fn plain($($a: $t),*) $(-> $r)? $body
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2($($a: $t),*) $(-> $r)? {
+                plain($($a),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if $crate::sensor::thermal::avx2() {
+                // SAFETY: the CPU has AVX2 (checked by `avx2`).
+                #[allow(unsafe_code)]
+                let out = unsafe { avx2($($a),*) };
+                return out;
+            }
+            plain($($a),*)
+        }
+    };
+}
+
+mod develop;
+mod sky_plane;
+
+pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
+pub use sky_plane::{View, sky_plane};
+
+/// Whether to run the AVX2 builds: the camera model's choice
+/// ([`super::simd::simd_level`], which `SWARMSHOT_CAMERA_SIMD=base` caps).
+#[cfg(target_arch = "x86_64")]
+fn avx2() -> bool {
+    super::simd::simd_level() >= 1
+}
+
+/// The buffers the thermal camera reuses from frame to frame.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    /// The radiance plane: [`sky_plane`] fills it, [`develop_into`] develops it.
+    pub plane: Vec<f32>,
+    /// The blur's row pass.
+    rows: Vec<f32>,
+    /// The columns' ray slopes, then their squares.
+    slopes: Vec<f32>,
+}
 
 /// The band's edges, metres.
 const BAND_M: (f64, f64) = (8e-6, 14e-6);
@@ -78,7 +132,9 @@ pub fn sky_emissivity(zenith: f64, s: f64) -> f64 {
 /// s ∈ [0, 1] for the clear sky (the ground below the horizon is flat).
 #[derive(Clone, Debug)]
 pub struct SkyTable {
-    clear: Vec<f32>,
+    /// By sin(elevation) from 0 to 1 in [`SKY_STEPS`] steps, then the
+    /// ground's (what a ray below the horizon looks up).
+    clear: Box<[f32; SKY_STEPS + 2]>,
     /// The ground's radiance (below the horizon) and the clouds'.
     pub ground: f32,
     pub cloud: f32,
@@ -92,15 +148,15 @@ const SKY_STEPS: usize = 1024;
 impl SkyTable {
     pub fn new(t: &Thermal) -> Self {
         let air = band_radiance(t.air_k);
-        let clear = (0..=SKY_STEPS)
-            .map(|k| {
-                let s = k as f64 / SKY_STEPS as f64;
-                (sky_emissivity(t.zenith_emissivity, s) * air) as f32
-            })
-            .collect();
+        let ground = radiance(t.ground_k);
+        let mut clear = Box::new([ground; SKY_STEPS + 2]);
+        for (k, c) in clear[..=SKY_STEPS].iter_mut().enumerate() {
+            let s = k as f64 / SKY_STEPS as f64;
+            *c = (sky_emissivity(t.zenith_emissivity, s) * air) as f32;
+        }
         Self {
             clear,
-            ground: radiance(t.ground_k),
+            ground,
             cloud: radiance(t.cloud_k),
             air: air as f32,
         }
@@ -109,11 +165,13 @@ impl SkyTable {
     /// The clear sky's radiance at sin(elevation) `s` (the ground's below 0).
     #[inline(always)]
     pub fn clear(&self, s: f32) -> f32 {
-        if s < 0.0 {
-            return self.ground;
-        }
-        let k = ((s * SKY_STEPS as f32) as usize).min(SKY_STEPS);
-        self.clear[k]
+        // One look-up without a branch, so a row of them vectorises.
+        let k = if s < 0.0 {
+            SKY_STEPS + 1
+        } else {
+            ((s * SKY_STEPS as f32) as i32).min(SKY_STEPS as i32) as usize
+        };
+        self.clear[k.min(SKY_STEPS + 1)]
     }
 }
 
@@ -150,102 +208,6 @@ pub const FIXED_PATTERN_SALT: u64 = 0x5448_4552_4D46_504E; // "THERMFPN"
 /// Salt of a frame's temporal noise key (under the frame seed).
 pub const NOISE_SALT: u64 = 0x5448_4552_4D4E_4F49; // "THERMNOI"
 
-/// The camera's chain on a composed radiance plane: blur, fixed pattern
-/// and temporal noise (key from `noise_seed`), gain control; the grey
-/// frame as RGBA8 (R = G = B, A = 255).
-pub fn develop(
-    t: &Thermal,
-    plane: &mut [f32],
-    (w, h): (u32, u32),
-    pattern: &[f32],
-    noise_seed: u64,
-) -> Vec<u8> {
-    blur(plane, (w as usize, h as usize), t.blur_px as f32);
-    let sigma = (t.netd_mk * 1e-3) as f32 * radiance_per_kelvin(t.air_k);
-    let key = Key::new(noise_seed);
-    for (i, (v, p)) in plane.iter_mut().zip(pattern).enumerate() {
-        *v += p + sigma * deviate(key.bits(i as u32));
-    }
-    let (lo, hi) = percentiles(plane, t.agc_percentiles);
-    let cap = t.agc_max_gain as f32 / radiance_per_kelvin(t.air_k);
-    let scale = (255.0 / (hi - lo).max(1e-6)).min(cap);
-    let offset = t.agc_mid_level as f32 - (lo + hi) * 0.5 * scale;
-    let mut out = vec![255u8; plane.len() * 4];
-    for (px, v) in out.chunks_exact_mut(4).zip(plane.iter()) {
-        let g = (v * scale + offset).clamp(0.0, 255.0).round() as u8;
-        px[..3].fill(g);
-    }
-    out
-}
-
-/// Histogram bins of the gain control's percentiles.
-const AGC_BINS: usize = 4096;
-
-/// The `(low, high)` percentiles of `plane` to within 1/4096 of its range.
-pub fn percentiles(plane: &[f32], (p_lo, p_hi): (f64, f64)) -> (f32, f32) {
-    let (mut min, mut max) = (f32::INFINITY, f32::NEG_INFINITY);
-    for &v in plane {
-        min = min.min(v);
-        max = max.max(v);
-    }
-    if plane.is_empty() || max <= min {
-        return (min.min(0.0), min.max(0.0) + 1e-6);
-    }
-    let scale = (AGC_BINS - 1) as f32 / (max - min);
-    let mut hist = vec![0u32; AGC_BINS];
-    for &v in plane {
-        hist[((v - min) * scale) as usize] += 1;
-    }
-    let at = |p: f64| {
-        let rank = (p / 100.0 * plane.len() as f64).ceil().max(1.0) as u64;
-        let mut seen = 0u64;
-        for (k, &n) in hist.iter().enumerate() {
-            seen += u64::from(n);
-            if seen >= rank {
-                return min + k as f32 / scale;
-            }
-        }
-        max
-    };
-    (at(p_lo), at(p_hi))
-}
-
-/// A separable Gaussian blur of σ `sigma` px, truncated at ±⌈3σ⌉ (edges clamped).
-pub fn blur(plane: &mut [f32], (w, h): (usize, usize), sigma: f32) {
-    if sigma <= 0.0 || w == 0 || h == 0 {
-        return;
-    }
-    let r = (3.0 * sigma).ceil() as isize;
-    let mut k: Vec<f32> = (-r..=r)
-        .map(|d| (-(d * d) as f32 / (2.0 * sigma * sigma)).exp())
-        .collect();
-    let sum: f32 = k.iter().sum();
-    k.iter_mut().for_each(|v| *v /= sum);
-    let mut tmp = vec![0.0f32; plane.len()];
-    // Rows.
-    for (src, dst) in plane.chunks_exact(w).zip(tmp.chunks_exact_mut(w)) {
-        for (x, o) in dst.iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for (j, kv) in k.iter().enumerate() {
-                let sx = (x as isize + j as isize - r).clamp(0, w as isize - 1) as usize;
-                acc += kv * src[sx];
-            }
-            *o = acc;
-        }
-    }
-    // Columns: whole rows at a time, so the inner loop runs along memory.
-    for y in 0..h {
-        let dst = &mut plane[y * w..(y + 1) * w];
-        dst.fill(0.0);
-        for (j, kv) in k.iter().enumerate() {
-            let sy = (y as isize + j as isize - r).clamp(0, h as isize - 1) as usize;
-            for (o, s) in dst.iter_mut().zip(&tmp[sy * w..(sy + 1) * w]) {
-                *o += kv * s;
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -278,56 +240,6 @@ mod tests {
     }
 
     #[test]
-    fn gain_control_maps_the_percentiles_to_the_full_range() {
-        let t = Thermal {
-            netd_mk: 0.0,
-            fixed_pattern_mk: 0.0,
-            shading_k: 0.0,
-            blur_px: 0.0,
-            agc_percentiles: (0.0, 100.0),
-            agc_max_gain: 1e4,
-            agc_mid_level: 127.5,
-            ..Thermal::default()
-        };
-        let mut plane: Vec<f32> = (0..1000).map(|i| 5.0 + i as f32 * 0.001).collect();
-        let pattern = vec![0.0; plane.len()];
-        let out = develop(&t, &mut plane, (1000, 1), &pattern, 7);
-        let grey: Vec<u8> = out.chunks_exact(4).map(|p| p[0]).collect();
-        assert_eq!((grey[0], grey[999]), (0, 255));
-        assert!(
-            out.chunks_exact(4)
-                .all(|p| p[0] == p[1] && p[1] == p[2] && p[3] == 255)
-        );
-        assert!(grey.windows(2).all(|g| g[0] <= g[1]));
-    }
-
-    #[test]
-    fn gain_control_keeps_a_low_contrast_scene_low() {
-        let t = Thermal {
-            netd_mk: 0.0,
-            fixed_pattern_mk: 0.0,
-            shading_k: 0.0,
-            blur_px: 0.0,
-            agc_percentiles: (0.0, 100.0),
-            ..Thermal::default()
-        };
-        // A scene spanning one kelvin around the air's temperature.
-        let (a, b) = (radiance(t.air_k - 0.5), radiance(t.air_k + 0.5));
-        let mut plane: Vec<f32> = (0..100).map(|i| a + (b - a) * i as f32 / 99.0).collect();
-        let out = develop(&t, &mut plane, (100, 1), &[0.0; 100], 7);
-        let span = i32::from(out[99 * 4]) - i32::from(out[0]);
-        assert!(
-            (3..=5).contains(&span),
-            "{span} levels for 1 K at 4 levels/K"
-        );
-        assert!(
-            (108..=112).contains(&out[50 * 4]),
-            "middle at {}",
-            out[50 * 4]
-        );
-    }
-
-    #[test]
     fn the_fixed_pattern_depends_on_the_preset_seed_only() {
         // The offsets alone: the radial shading would add its own spread.
         let t = Thermal {
@@ -344,14 +256,5 @@ mod tests {
             sd > 0.8 * expected && sd < 1.6 * expected,
             "{sd} vs {expected}"
         );
-    }
-
-    #[test]
-    fn blur_keeps_the_mean_and_spreads_a_point() {
-        let mut p = vec![0.0f32; 81];
-        p[40] = 1.0;
-        blur(&mut p, (9, 9), 1.0);
-        assert!((p.iter().sum::<f32>() - 1.0).abs() < 1e-4);
-        assert!(p[40] < 0.2 && p[41] > 0.05 && p[31] > 0.05);
     }
 }

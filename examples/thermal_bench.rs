@@ -1,0 +1,111 @@
+//! The thermal camera's cost per frame (src/sensor/thermal/), on the CPU
+//! alone: a 1920×1080 background of presets/thermal.ron's kind (a sky
+//! brightening downwards, grey clouds, scenery under a horizon at four
+//! fifths of the height, the camera pitched up 5°) composed into the
+//! radiance plane, then developed (blur, fixed pattern and noise, gain
+//! control) to 8-bit RGBA and to 16-bit grey; the median wall time of 40
+//! runs after 3 warm-ups and their mean CPU time (all threads, from /proc). The drones' pixels (a few thousand) are left out.
+//!
+//! `cargo run --release --no-default-features --example thermal_bench`
+//! (docs/realism.md, "Thermal camera"). `RAYON_NUM_THREADS` sets the threads.
+
+use std::time::Instant;
+
+use glam::{Vec2, Vec3};
+use swarmshot::preset::Preset;
+use swarmshot::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
+
+/// This process's CPU time so far (all threads, user + system), ms; 0
+/// where /proc cannot tell.
+fn cpu_ms() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields 14 and 15 (utime, stime, in clock ticks of 10 ms), counted after the name's ')'.
+    let after = stat.rsplit(')').next().unwrap_or_default();
+    let ticks: Vec<f64> = (after.split_whitespace().skip(11).take(2))
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    ticks.iter().sum::<f64>() * 10.0
+}
+
+/// The median wall time of 40 runs and their mean CPU time, ms.
+fn median_ms(mut run: impl FnMut()) -> (f64, f64) {
+    for _ in 0..3 {
+        run();
+    }
+    let cpu = cpu_ms();
+    let mut times: Vec<f64> = (0..40)
+        .map(|_| {
+            let t = Instant::now();
+            run();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    let cpu = (cpu_ms() - cpu) / times.len() as f64;
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], cpu)
+}
+
+fn main() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/presets/thermal.ron");
+    let t = match Preset::open(std::path::Path::new(path)) {
+        Ok(p) => p.thermal.unwrap_or_default(),
+        Err(e) => {
+            eprintln!("{e}");
+            return;
+        }
+    };
+    let (w, h) = (1920u32, 1080u32);
+    let rgba: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let (x, y) = (i % w, i / w);
+            let cloud = (x / 300 + y / 200) % 3 == 0;
+            match () {
+                _ if y > h * 4 / 5 => [70, 90 + (x % 7) as u8, 50, 255],
+                _ if cloud => [200, 200, 205, 255],
+                _ => [(90 + y / 12) as u8, (130 + y / 10) as u8, 230, 255],
+            }
+        })
+        .collect();
+    let pitch = 5f32.to_radians();
+    let focal = 540.0 / 4f32.to_radians().tan();
+    let view = View {
+        width: w,
+        height: h,
+        up: Vec3::new(0.0, -pitch.cos(), pitch.sin()),
+        focal_px: focal,
+        principal: Vec2::new(960.0, 540.0),
+    };
+    let sky = SkyTable::new(&t);
+    let pattern = thermal::fixed_pattern(&t, 4141, w, h);
+    let mut scratch = Scratch::default();
+    let mut out8 = vec![0u8; (w * h * 4) as usize];
+    let mut out16 = vec![0u16; (w * h) as usize];
+    let background = median_ms(|| thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch));
+    let mut seed = 0;
+    let dev8 = median_ms(|| {
+        thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
+        seed += 1;
+        let to = Developed::Rgba8(&mut out8);
+        thermal::develop_into(&t, (w, h), (&pattern, seed), &mut scratch, to);
+    });
+    let dev16 = median_ms(|| {
+        thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
+        seed += 1;
+        let to = Developed::Grey16(&mut out16);
+        thermal::develop_into(&t, (w, h), (&pattern, seed), &mut scratch, to);
+    });
+    println!("threads {}", rayon::current_num_threads());
+    println!("(median wall, mean CPU) ms a frame");
+    println!(
+        "background 1920x1080: {:.2}, {:.2}",
+        background.0, background.1
+    );
+    println!(
+        "background + develop to 8-bit RGBA: {:.2}, {:.2}",
+        dev8.0, dev8.1
+    );
+    println!(
+        "background + develop to 16-bit grey: {:.2}, {:.2}",
+        dev16.0, dev16.1
+    );
+}
