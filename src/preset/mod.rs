@@ -40,6 +40,7 @@ mod placement;
 mod render;
 mod ron_error;
 mod sky;
+pub mod rolling_shutter;
 pub mod sweep;
 pub mod thermal;
 pub mod weather;
