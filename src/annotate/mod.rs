@@ -14,9 +14,9 @@ pub mod visibility;
 use serde::Serialize;
 
 use crate::preset::{BoxMethod, LabelSettings};
-use crate::scene::{DronePose, FrameScene};
 pub use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box, paper_aabb_box};
 use crate::scene::projection::{amodal_box_through, frame_lens, paper_aabb_box_through};
+use crate::scene::{DronePose, FrameScene};
 use visibility::Visibility;
 
 /// One labelled drone.

@@ -38,7 +38,7 @@ impl FramePipeline {
         // The rolling shutter (issue 41): each row at its own time, first.
         let shuttered = rolling::shuttered(shutter, scene.index, &frame.rgba, background)?;
         let (rendered, background) = match &shuttered {
-            Some((f, b)) => (f.as_slice(), Some(b.as_slice())),
+            Some((f, turned)) => (f.as_slice(), turned.as_deref().or(background)),
             None => (frame.rgba.as_slice(), background),
         };
         // Motion blur (sequences): each drone smeared along its streak next.
@@ -52,12 +52,7 @@ impl FramePipeline {
                 reason: "motion blur: the drone-free background is not cached".into(),
             })?;
             let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
-            Some(sensor::motion::smear(
-                rendered,
-                background,
-                (w, h),
-                &list,
-            ))
+            Some(sensor::motion::smear(rendered, background, (w, h), &list))
         } else {
             None
         };

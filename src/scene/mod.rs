@@ -288,7 +288,10 @@ pub fn build_frame_at(
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(frame_seed);
     let placed = placement::place(preset, sweep.density_per_m3, &mut rng);
     let placement_shortfall = placed.shortfall;
-    let rate = preset.sequence.as_ref().map_or(0.0, |s| f64::from(s.frame_rate.max(1)));
+    let rate = preset
+        .sequence
+        .as_ref()
+        .map_or(0.0, |s| f64::from(s.frame_rate.max(1)));
     let moved = moved_swarm(preset, (sequence, offset_s * rate), placed, &mut rng);
     let half_extent = moved.half_extent;
     let volume_radius_m = half_extent.length() + placement::max_model_radius(preset);

@@ -404,7 +404,13 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
     });
     // Then the rolling shutter's readout and yaw rate, each only when a range.
     let rolling_shutter = model.rolling_shutter.as_ref().map(|r| {
-        let mut pick = |(lo, hi): (f64, f64)| if hi > lo { rng.random_range(lo..=hi) } else { lo };
+        let mut pick = |(lo, hi): (f64, f64)| {
+            if hi > lo {
+                rng.random_range(lo..=hi)
+            } else {
+                lo
+            }
+        };
         RollingShutterDraw {
             readout_s: pick(r.readout_s),
             yaw_rate_deg_s: pick(r.yaw_rate_deg_s),

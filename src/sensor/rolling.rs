@@ -183,7 +183,12 @@ mod tests {
         // Row y shows the drone moved right by y/4 px: rows 10..30 → +2.5…+7.25.
         let shift: Vec<(f64, f64)> = (0..h).map(|y| (f64::from(y / 4), 0.0)).collect();
         let s = Shear {
-            rect: PixelRect { x0: 28, y0: 8, x1: 36, y1: 32 },
+            rect: PixelRect {
+                x0: 28,
+                y0: 8,
+                x1: 36,
+                y1: 32,
+            },
             shift_px: shift,
         };
         let out = shear(&frame, &background, &background, (w, h), &[s]);
@@ -204,7 +209,12 @@ mod tests {
     fn a_still_drone_and_background_keep_every_byte() {
         let (frame, background, (w, h)) = frames();
         let s = Shear {
-            rect: PixelRect { x0: 28, y0: 8, x1: 36, y1: 32 },
+            rect: PixelRect {
+                x0: 28,
+                y0: 8,
+                x1: 36,
+                y1: 32,
+            },
             shift_px: vec![(0.0, 0.0); h as usize],
         };
         assert_eq!(shear(&frame, &background, &background, (w, h), &[s]), frame);
