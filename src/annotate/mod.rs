@@ -94,6 +94,10 @@ pub fn label_frame(
     label_frame_with(scene, sources, settings, visibility, &boxes)
 }
 
+/// Drone `i`'s geometric boxes (amodal, paper's) from its pose and geometry.
+pub type BoxesOf<'a> =
+    dyn Fn(usize, &DronePose, &LabelGeometry) -> Option<(PixelBox, PixelBox)> + 'a;
+
 /// [`label_frame`] with each drone's geometric boxes (amodal, paper's)
 /// from `boxes(i, drone, geometry)` (the rolling shutter's own); a drone
 /// without them is not labelled.
@@ -102,7 +106,7 @@ pub fn label_frame_with(
     (geometry, class_of_model): (&[LabelGeometry], &[usize]),
     settings: &LabelSettings,
     visibility: Option<&[Visibility]>,
-    boxes: &dyn Fn(usize, &DronePose, &LabelGeometry) -> Option<(PixelBox, PixelBox)>,
+    boxes: &BoxesOf<'_>,
 ) -> Vec<DroneLabel> {
     use crate::preset::FilteredDrones;
     let cam = &scene.camera;

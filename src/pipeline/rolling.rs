@@ -212,6 +212,9 @@ impl Shutter {
     }
 }
 
+/// The shuttered picture and, when the camera turns, its drone-free frame.
+pub(super) type Shuttered = (Vec<u8>, Option<Vec<u8>>);
+
 /// Frame `index`'s rendered `frame` and drone-free `background` under
 /// `shutter` ([`Shutter::apply`]); `None` without a shutter. The shutter
 /// needs the drone-free background: an error names it when not cached.
@@ -220,7 +223,7 @@ pub(super) fn shuttered(
     index: u64,
     frame: &[u8],
     background: Option<&[u8]>,
-) -> Result<Option<(Vec<u8>, Option<Vec<u8>>)>, super::PipelineError> {
+) -> Result<Option<Shuttered>, super::PipelineError> {
     let Some(s) = shutter else {
         return Ok(None);
     };
