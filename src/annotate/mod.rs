@@ -14,9 +14,9 @@ pub mod visibility;
 use serde::Serialize;
 
 use crate::preset::{BoxMethod, LabelSettings};
-use crate::scene::FrameScene;
 pub use crate::scene::projection::{LabelGeometry, PixelBox, amodal_box, paper_aabb_box};
 use crate::scene::projection::{amodal_box_through, frame_lens, paper_aabb_box_through};
+use crate::scene::{DronePose, FrameScene};
 use visibility::Visibility;
 
 /// One labelled drone.
@@ -81,18 +81,40 @@ pub fn label_frame(
     settings: &LabelSettings,
     visibility: Option<&[Visibility]>,
 ) -> Vec<DroneLabel> {
+    let cam = &scene.camera;
+    // Through a lens, both geometric boxes are of the lens-mapped points.
+    let lens = frame_lens(scene);
+    let boxes = |_: usize, drone: &DronePose, geom: &LabelGeometry| {
+        Some((
+            amodal_box_through(cam, lens.as_ref(), drone, geom)?,
+            paper_aabb_box_through(cam, lens.as_ref(), drone, geom)?,
+        ))
+    };
+    let sources = (geometry, class_of_model);
+    label_frame_with(scene, sources, settings, visibility, &boxes)
+}
+
+/// Drone `i`'s geometric boxes (amodal, paper's) from its pose and geometry.
+pub type BoxesOf<'a> =
+    dyn Fn(usize, &DronePose, &LabelGeometry) -> Option<(PixelBox, PixelBox)> + 'a;
+
+/// [`label_frame`] with each drone's geometric boxes (amodal, paper's)
+/// from `boxes(i, drone, geometry)` (the rolling shutter's own); a drone
+/// without them is not labelled.
+pub fn label_frame_with(
+    scene: &FrameScene,
+    (geometry, class_of_model): (&[LabelGeometry], &[usize]),
+    settings: &LabelSettings,
+    visibility: Option<&[Visibility]>,
+    boxes: &BoxesOf<'_>,
+) -> Vec<DroneLabel> {
     use crate::preset::FilteredDrones;
     let cam = &scene.camera;
     let (w, h) = (f64::from(cam.width), f64::from(cam.height));
     let mut out = Vec::new();
-    // Through a lens, both geometric boxes are of the lens-mapped points.
-    let lens = frame_lens(scene);
     for (i, drone) in scene.drones.iter().enumerate() {
         let geom = &geometry[drone.model];
-        let (Some(amodal), Some(paper)) = (
-            amodal_box_through(cam, lens.as_ref(), drone, geom),
-            paper_aabb_box_through(cam, lens.as_ref(), drone, geom),
-        ) else {
+        let Some((amodal, paper)) = boxes(i, drone, geom) else {
             continue;
         };
         let amodal_in_image = amodal.clip(w, h);

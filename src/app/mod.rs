@@ -44,6 +44,7 @@ pub mod preview_pane;
 pub mod problems;
 pub mod prompt;
 pub mod realism_panels;
+pub mod rolling_panel;
 pub mod runner;
 pub mod summary;
 #[cfg(any(test, feature = "test-hooks"))]

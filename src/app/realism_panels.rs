@@ -94,6 +94,7 @@ pub fn camera_model_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         Words::of(path).range(ui, form, value, speed);
     }
     sensor_and_jpeg_ui(ui, c, form);
+    super::rolling_panel::rolling_shutter_ui(ui, c, form);
 }
 
 /// The camera model's optional stages: a coarser sensor and the JPEG qualities.

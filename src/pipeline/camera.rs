@@ -1,6 +1,7 @@
 //! A rendered frame through the camera model (issue 21), the pipeline's
-//! camera glue: the motion blur's streaks ([`super::streaks`]) smeared
-//! first, each drone's visibility measured as the camera shows it
+//! camera glue: a rolling shutter's rows ([`super::rolling`]) first, the
+//! motion blur's streaks ([`super::streaks`]) smeared next, each drone's
+//! visibility measured as the camera shows it
 //! ([`crate::sensor::changed_pixels_each`]), the lens's resampling
 //! ([`super::lens`]) before the chain, the chain applied
 //! ([`crate::sensor::apply`]) and the drawn first compression. The chain
@@ -12,7 +13,7 @@ use crate::scene::FrameScene;
 use crate::scene::projection::PixelBox;
 use crate::sensor::{self, CameraDraw, PixelRect};
 
-use super::{FramePipeline, PipelineError, lens, streaks};
+use super::{FramePipeline, PipelineError, lens, rolling, streaks};
 
 impl FramePipeline {
     /// The rendered frame through the camera model `draw` (a new buffer),
@@ -20,10 +21,11 @@ impl FramePipeline {
     /// pixels where the drone changes the noise-free camera image by at
     /// least one 8-bit level against the drone-free background under the
     /// same draw (docs/conventions.md, "The camera model and the labels").
-    /// `background` is that drone-free frame (under the frame's weather, if any).
+    /// `background` is that drone-free frame (under the frame's weather, if
+    /// any); with a rolling `shutter`, both are shuttered first.
     pub(super) fn through_camera(
         &self,
-        background: Option<&[u8]>,
+        (background, shutter): (Option<&[u8]>, Option<&rolling::Shutter>),
         scene: &FrameScene,
         draw: &CameraDraw,
         frame: &RenderedFrame,
@@ -33,24 +35,28 @@ impl FramePipeline {
         let (w, h) = (scene.camera.width, scene.camera.height);
         // The renderer drew the frame (and its background) at the drawn exposure.
         let draw = &draw.after_render();
-        // Motion blur (sequences): each drone smeared along its streak first.
-        let streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
+        // The rolling shutter (issue 41): each row at its own time, first.
+        let shuttered = rolling::shuttered(shutter, scene.index, &frame.rgba, background)?;
+        let (rendered, background) = match &shuttered {
+            Some((f, turned)) => (f.as_slice(), turned.as_deref().or(background)),
+            None => (frame.rgba.as_slice(), background),
+        };
+        // Motion blur (sequences): each drone smeared along its streak next.
+        let mut streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
+        if let Some(s) = shutter {
+            s.move_streaks(&mut streaks);
+        }
         let blurred = if streaks.iter().flatten().any(|s| s.moves()) {
             let background = background.ok_or_else(|| PipelineError::Camera {
                 index: scene.index,
                 reason: "motion blur: the drone-free background is not cached".into(),
             })?;
             let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
-            Some(sensor::motion::smear(
-                &frame.rgba,
-                background,
-                (w, h),
-                &list,
-            ))
+            Some(sensor::motion::smear(rendered, background, (w, h), &list))
         } else {
             None
         };
-        let source: &[u8] = blurred.as_deref().unwrap_or(&frame.rgba);
+        let source: &[u8] = blurred.as_deref().unwrap_or(rendered);
         // The lens (issue 41): the picture resampled once, before the sensor.
         let lens = lens::of(scene);
         let lensed = lens.as_ref().map(|l| l.map.remap(source));
@@ -70,6 +76,8 @@ impl FramePipeline {
                         x1: b.x1.ceil().max(0.0) as u32,
                         y1: b.y1.ceil().max(0.0) as u32,
                     });
+                    // Under a rolling shutter, where its rows took it.
+                    let own = own.and_then(|o| shutter.and_then(|s| s.near(i)).or(Some(o)));
                     let grown = streaks::grown(own, streaks.get(i).copied().flatten(), (w, h));
                     grown.map(|r| lens.as_ref().map_or(r, |l| lens::footprint(&l.geo, r)))
                 })

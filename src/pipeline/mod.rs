@@ -19,6 +19,7 @@ mod camera;
 pub mod check;
 mod lens;
 pub mod plan;
+mod rolling;
 mod sink;
 mod streaks;
 mod thermal;
@@ -509,10 +510,10 @@ impl FramePipeline {
     ) -> Result<Frame, PipelineError> {
         let index = scene.index;
         let render_error = |source| PipelineError::Render { index, source };
-        let labels_settings = &self.preset.labels;
         let masks_on = self.preset.output.masks.any();
         let thermal = self.preset.thermal.as_ref();
         let (request, ids_kept) = self.render_layers(renderer, &scene);
+        let shutter = rolling::Shutter::of(&self.preset, &self.assets.geometry, &scene)?;
         let together = request.visibility;
         let mut frame = renderer
             .render_frame(&scene, &request)
@@ -563,7 +564,7 @@ impl FramePipeline {
                     measured = Some(v);
                 }
                 let rgba = self.through_camera(
-                    background,
+                    (background, shutter.as_ref()),
                     &scene,
                     draw,
                     &frame,
@@ -587,13 +588,7 @@ impl FramePipeline {
                 m.flow = self.flow_to_next(&scene, m)?;
             }
         }
-        let labels = label_frame(
-            &scene,
-            &self.assets.geometry,
-            &self.class_of_model,
-            labels_settings,
-            measured.as_deref(),
-        );
+        let labels = self.final_labels(&scene, shutter.as_ref(), measured.as_deref());
         Ok(Frame {
             scene,
             labels,
@@ -602,6 +597,28 @@ impl FramePipeline {
             grey16,
             masks,
         })
+    }
+}
+
+impl FramePipeline {
+    /// The labels of a made frame from its measured visibility; under a
+    /// rolling shutter, with the shutter's amodal boxes.
+    fn final_labels(
+        &self,
+        scene: &FrameScene,
+        shutter: Option<&rolling::Shutter>,
+        measured: Option<&[Visibility]>,
+    ) -> Vec<DroneLabel> {
+        let (geometry, settings) = (&self.assets.geometry, &self.preset.labels);
+        let Some(s) = shutter else {
+            return label_frame(scene, geometry, &self.class_of_model, settings, measured);
+        };
+        let boxes = |i: usize, drone: &crate::scene::DronePose, geom: &LabelGeometry| {
+            let paper = crate::annotate::paper_aabb_box(&scene.camera, drone, geom)?;
+            Some((s.amodal(i, geom)?, paper))
+        };
+        let sources = (geometry.as_slice(), self.class_of_model.as_slice());
+        crate::annotate::label_frame_with(scene, sources, settings, measured, &boxes)
     }
 }
 

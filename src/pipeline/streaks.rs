@@ -54,29 +54,40 @@ pub(super) fn streaks(
         let p = s.camera.camera_from_world_point(d.position);
         s.camera.project_camera_point(p)
     };
-    let (w, h) = (
-        f64::from(scene.camera.width),
-        f64::from(scene.camera.height),
-    );
     scene
         .drones
         .iter()
         .enumerate()
         .map(|(i, drone)| {
             let v = (image(b, i)? - image(a, i)?) / steps * exposure_steps;
-            let r = amodal_box(&scene.camera, drone, geometry.get(drone.model)?)?;
-            let rect = PixelRect {
-                x0: (r.x0 - EDGE_PX).floor().clamp(0.0, w) as u32,
-                y0: (r.y0 - EDGE_PX).floor().clamp(0.0, h) as u32,
-                x1: (r.x1 + EDGE_PX).ceil().clamp(0.0, w) as u32,
-                y1: (r.y1 + EDGE_PX).ceil().clamp(0.0, h) as u32,
-            };
+            let rect = drawn_rect(scene, drone, geometry)?;
             (v.is_finite()).then_some(Streak {
                 rect,
                 shift_px: (v.x, v.y),
             })
         })
         .collect()
+}
+
+/// Where `drone` is drawn in `scene`'s rendered frame: its amodal box
+/// grown by its anti-aliased edge, clamped to the image (motion blur's and
+/// the rolling shutter's source rect).
+pub(super) fn drawn_rect(
+    scene: &FrameScene,
+    drone: &crate::scene::DronePose,
+    geometry: &[LabelGeometry],
+) -> Option<PixelRect> {
+    let (w, h) = (
+        f64::from(scene.camera.width),
+        f64::from(scene.camera.height),
+    );
+    let r = amodal_box(&scene.camera, drone, geometry.get(drone.model)?)?;
+    Some(PixelRect {
+        x0: (r.x0 - EDGE_PX).floor().clamp(0.0, w) as u32,
+        y0: (r.y0 - EDGE_PX).floor().clamp(0.0, h) as u32,
+        x1: (r.x1 + EDGE_PX).ceil().clamp(0.0, w) as u32,
+        y1: (r.y1 + EDGE_PX).ceil().clamp(0.0, h) as u32,
+    })
 }
 
 /// A drone's rendered box `own` grown to hold what its streak reaches.

@@ -64,6 +64,10 @@ pub struct CameraModel {
     /// The lens's geometric distortion, drawn per frame (`None`: a pinhole).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lens: Option<super::lens::Lens>,
+    /// A rolling shutter: each row exposed at its own time, drawn per frame
+    /// (`None`: a global shutter, every row at the frame's time).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rolling_shutter: Option<super::rolling_shutter::RollingShutter>,
 }
 
 /// The largest sharpening amount (`sensor::sharpen` computes in i32 up to it).
@@ -99,6 +103,7 @@ impl Default for CameraModel {
             saturation: (1.0, 1.0),
             sharpen: (0.0, 0.0),
             lens: None,
+            rolling_shutter: None,
         }
     }
 }
@@ -194,6 +199,10 @@ impl CameraModel {
         if let Some(lens) = &self.lens {
             lens.validate(v);
         }
+        if let Some(r) = &self.rolling_shutter {
+            r.validate(v);
+            self.check_rolling_with(preset, v);
+        }
         if self.exposure_time_s.1 > 0.0 {
             let field = format!("{p}.exposure_time_s");
             match &preset.sequence {
@@ -219,5 +228,24 @@ impl CameraModel {
                 || "needs output.image_format Jpeg (the preset writes PNG)".into(),
             );
         }
+    }
+}
+
+impl CameraModel {
+    /// What a rolling shutter cannot be combined with yet, named by field.
+    fn check_rolling_with(&self, preset: &Preset, v: &mut Validator) {
+        let field = "camera_model.rolling_shutter";
+        v.check(self.lens.is_none(), field, || {
+            "cannot be combined with camera_model.lens yet: the rows are read for a pinhole camera"
+                .into()
+        });
+        let masks = preset.output.masks;
+        v.check(!masks.depth && !masks.flow, field, || {
+            "cannot be combined with output.masks.depth or output.masks.flow yet: both are made for a global shutter".into()
+        });
+        v.check(preset.labels.id_scale <= 1, field, || {
+            "needs labels.id_scale 1: the drones' pixels are measured in the shuttered picture"
+                .into()
+        });
     }
 }

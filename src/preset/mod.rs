@@ -38,6 +38,7 @@ pub mod observer;
 mod output;
 mod placement;
 mod render;
+pub mod rolling_shutter;
 mod ron_error;
 mod sky;
 pub mod sweep;

@@ -267,6 +267,20 @@ pub fn build_frame_draw(
     index: u64,
     attempt: u32,
 ) -> Result<FrameScene, FrameError> {
+    build_frame_at(preset, index, attempt, 0.0)
+}
+
+/// Draw `attempt` of frame `index` as it stands `offset_s` seconds after
+/// the frame's time: in a sequence the drones (and a following camera) at
+/// that fractional step of their motion (eqs. 4–5), the confusers at that
+/// time; everything drawn is the frame's own. Offset 0 is
+/// [`build_frame_draw`]; outside a sequence nothing moves.
+pub fn build_frame_at(
+    preset: &Preset,
+    index: u64,
+    attempt: u32,
+    offset_s: f64,
+) -> Result<FrameScene, FrameError> {
     let sweep = sweep_values(preset, index)?;
     let sequence = SequenceFrame::of(preset, index);
     let draw_index = sequence.map_or(index, |s| s.first_index);
@@ -274,7 +288,11 @@ pub fn build_frame_draw(
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(frame_seed);
     let placed = placement::place(preset, sweep.density_per_m3, &mut rng);
     let placement_shortfall = placed.shortfall;
-    let moved = moved_swarm(preset, sequence, placed, &mut rng);
+    let rate = preset
+        .sequence
+        .as_ref()
+        .map_or(0.0, |s| f64::from(s.frame_rate.max(1)));
+    let moved = moved_swarm(preset, (sequence, offset_s * rate), placed, &mut rng);
     let half_extent = moved.half_extent;
     let volume_radius_m = half_extent.length() + placement::max_model_radius(preset);
     let plane = plane_rotation(sweep.PlaneRX, sweep.PlaneRY, sweep.PlaneRZ);
@@ -298,7 +316,7 @@ pub fn build_frame_draw(
     } else {
         let mut camera0 = camera.0;
         camera0.position -= shift;
-        let time_s = sequence_time_s(preset, sequence);
+        let time_s = sequence_time_s(preset, sequence) + offset_s;
         let (poses, confusers) = confusers::place(preset, (&camera0, plane), draw_index, time_s);
         drones.extend(poses);
         confusers
@@ -349,11 +367,11 @@ struct MovedSwarm {
     half_extent: DVec3,
 }
 
-/// The placed drones at the frame's step of their sequence motion (drawn
+/// The placed drones at the frame's step (plus `offset_steps`) of their sequence motion (drawn
 /// from `rng` after the placement), or as placed outside sequence mode.
 fn moved_swarm(
     preset: &Preset,
-    sequence: Option<SequenceFrame>,
+    (sequence, offset_steps): (Option<SequenceFrame>, f64),
     placed: placement::Placed,
     rng: &mut rand_chacha::ChaCha8Rng,
 ) -> MovedSwarm {
@@ -377,7 +395,7 @@ fn moved_swarm(
         .iter()
         .zip(&ends)
         .map(|(d, e)| {
-            let (p, q) = e.at(seq.step, seq.steps);
+            let (p, q) = e.at_step(seq.step as f64 + offset_steps, seq.steps);
             shift += (p - e.p0) / n;
             (d.0, p, q)
         })

@@ -28,10 +28,16 @@ pub struct Endpoints {
 impl Endpoints {
     /// The state at step `t` of `steps` (eqs. 4–5).
     pub fn at(&self, t: u64, steps: u64) -> (DVec3, DQuat) {
+        self.at_step(t as f64, steps)
+    }
+
+    /// The state at the fractional step `t` of `steps` (eqs. 4–5 between
+    /// steps, and beyond `steps` along the same line and arc).
+    pub fn at_step(&self, t: f64, steps: u64) -> (DVec3, DQuat) {
         if steps == 0 {
             return (self.p0, self.q0);
         }
-        let alpha = t as f64 / steps as f64;
+        let alpha = t / steps as f64;
         (
             self.p0 + alpha * (self.p_t - self.p0),
             slerp(self.q0, self.q_t, alpha),

@@ -70,7 +70,9 @@ impl PixelBox {
         let u = self.area() + other.area() - i;
         if u > 0.0 { i / u } else { 0.0 }
     }
-    fn from_points(points: impl IntoIterator<Item = DVec2>) -> Option<Self> {
+
+    /// The box of `points` (`None` when there are none).
+    pub fn from_points(points: impl IntoIterator<Item = DVec2>) -> Option<Self> {
         let mut b: Option<Self> = None;
         for p in points {
             let nb = b.get_or_insert(Self {

@@ -488,6 +488,22 @@ fn tap_at((u, v): (f64, f64), w: u32, h: u32) -> Tap {
     }
 }
 
+/// One row of output pixels (`row`, RGBA8) sampled bilinearly from `src`
+/// (`w`×`h`) at `sources` (pixel coordinates, clamped to the image), with
+/// the lens map's own taps and rounding (the rolling shutter's rows).
+pub(super) fn resample_row(
+    src: &[u8],
+    (w, h): (u32, u32),
+    sources: impl Iterator<Item = (f64, f64)>,
+    row: &mut [u8],
+) {
+    if w < 2 || h < 2 || src.len() < w as usize * h as usize * 4 {
+        return;
+    }
+    let taps: Vec<Tap> = sources.map(|s| tap_at(s, w, h)).collect();
+    remap_row(src, w as usize, &taps, row);
+}
+
 /// One row of output pixels from their taps (fixed point, rounded).
 #[inline]
 fn remap_row(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {

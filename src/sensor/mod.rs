@@ -57,6 +57,7 @@ mod noise;
 mod psf;
 #[cfg(test)]
 mod reference;
+pub mod rolling;
 mod saturation;
 mod sharpen;
 mod simd;
@@ -196,6 +197,18 @@ pub struct CameraDraw {
     /// the pipeline before this chain, as the lens comes before the sensor).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lens: Option<lens::LensDraw>,
+    /// The rolling shutter, when the preset has one (applied by the
+    /// pipeline to the rendered frame, before this chain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rolling_shutter: Option<RollingShutterDraw>,
+}
+
+/// A frame's rolling shutter: row y is exposed `readout_s · y / height`
+/// after the first, while the camera turns at `yaw_rate_deg_s`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct RollingShutterDraw {
+    pub readout_s: f64,
+    pub yaw_rate_deg_s: f64,
 }
 
 /// A frame's auto-exposure: the level its background is metered to and the
@@ -270,6 +283,13 @@ impl CameraDraw {
         r.push(("read_noise_levels", Real(self.read_noise_levels)));
         if let Some(q) = self.recompress_quality {
             r.push(("recompress_quality", Count(q.into())));
+        }
+        if let Some(s) = self.rolling_shutter {
+            let g = vec![
+                ("readout_s", Real(s.readout_s)),
+                ("yaw_rate_deg_s", Real(s.yaw_rate_deg_s)),
+            ];
+            r.push(("rolling_shutter", Group(g)));
         }
         if self.saturation != 1.0 {
             r.push(("saturation", Real(self.saturation)));
@@ -382,6 +402,20 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
             }
         })
     });
+    // Then the rolling shutter's readout and yaw rate, each only when a range.
+    let rolling_shutter = model.rolling_shutter.as_ref().map(|r| {
+        let mut pick = |(lo, hi): (f64, f64)| {
+            if hi > lo {
+                rng.random_range(lo..=hi)
+            } else {
+                lo
+            }
+        };
+        RollingShutterDraw {
+            readout_s: pick(r.readout_s),
+            yaw_rate_deg_s: pick(r.yaw_rate_deg_s),
+        }
+    });
     CameraDraw {
         exposure_ev,
         auto_exposure,
@@ -401,6 +435,7 @@ pub fn draw(model: &CameraModel, preset_seed: u64, frame_index: u64) -> CameraDr
         saturation,
         sharpen,
         lens,
+        rolling_shutter,
     }
 }
 

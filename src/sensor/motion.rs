@@ -92,14 +92,15 @@ pub fn smear(
 }
 
 /// Linear light of byte `i` of an sRGB buffer.
-fn lin(dec: &[f32; 256], buf: &[u8], i: usize) -> f32 {
+pub(super) fn lin(dec: &[f32; 256], buf: &[u8], i: usize) -> f32 {
     dec[buf[i] as usize]
 }
 
 /// One drone's difference D = lin(frame) − lin(background) over its rect
-/// (clamped to the image), 0 where an earlier streak owns the pixel.
-struct Difference {
-    rect: PixelRect,
+/// (clamped to the image), 0 where an earlier streak owns the pixel (the
+/// rolling shutter's too).
+pub(super) struct Difference {
+    pub(super) rect: PixelRect,
     w: usize,
     h: usize,
     /// RGB per pixel, row-major over the rect.
@@ -109,7 +110,7 @@ struct Difference {
 impl Difference {
     /// D over `rect` of the `width`×`height` frame, or `None` when the
     /// clamped rect is empty. Pixels inside any `owned` rect stay 0.
-    fn of(
+    pub(super) fn of(
         frame: &[u8],
         background: &[u8],
         width: u32,
@@ -155,7 +156,7 @@ impl Difference {
 
     /// Channel `c` of D at image point (`x`, `y`): bilinear in D's
     /// pixel-centre grid, 0 outside.
-    fn sample(&self, x: f64, y: f64, c: usize) -> f32 {
+    pub(super) fn sample(&self, x: f64, y: f64, c: usize) -> f32 {
         let (u, v) = (
             x - 0.5 - f64::from(self.rect.x0),
             y - 0.5 - f64::from(self.rect.y0),

@@ -533,6 +533,7 @@ mod tests {
                             saturation: pick(),
                             sharpen: pick(),
                             lens: None,
+                            rolling_shutter: None,
                         });
                         scene.placement_shortfall = 2;
                         // Drawn looks for all but the last drone (it has none).

@@ -1,0 +1,362 @@
+//! The rolling shutter's geometry (issue 41, `camera_model.rolling_shutter`):
+//! row y is exposed at τ(y) = readout · y / height after the frame's time.
+//!
+//! The scene at τ is exact: the frame is built again at τ = readout
+//! ([`crate::scene::build_frame_at`]) and, in between, each drone's
+//! position is linear and its attitude the SLERP of the two (eqs. 4–5 are
+//! linear and a great-circle arc in the step), a following camera's
+//! position linear; the camera turns by the drawn yaw rate about its own
+//! vertical axis, R(τ) = R_y(ω·τ)ᵀ·R(0).
+//!
+//! The picture is made from the rendered frame and its drone-free frame
+//! ([`crate::sensor::rolling`]): the background is the sky at infinity, so
+//! each row is the rendered background through the rotation homography of
+//! its time (the optical flow's [`background_flow`], exact for the sky); each
+//! drone's pixels are moved row by row by the shift of its centre's image at
+//! that row's time (exact for the drone's position; its own turn and change
+//! of size during the readout are not drawn: docs/realism.md gives the
+//! error). The amodal box is of the hull with each point at its own row's
+//! time (a fixed-point iteration on the row it lands on).
+
+use glam::{DMat3, DVec2, DVec3};
+
+use crate::annotate::PixelBox;
+use crate::annotate::flow::background_flow;
+use crate::preset::Preset;
+use crate::scene::camera::Camera;
+use crate::scene::math::slerp;
+use crate::scene::projection::LabelGeometry;
+use crate::scene::{DronePose, FrameError, FrameScene, build_frame_at};
+use crate::sensor::PixelRect;
+use crate::sensor::rolling::{Shear, shear, turn_background};
+
+use super::streaks;
+
+/// Fixed-point iterations for a hull point's row (each shrinks the error by
+/// the point's vertical image speed over the readout's, far below 1).
+const ROW_ITERATIONS: usize = 8;
+
+/// A frame's rolling shutter: its scene at the first and the last row's time.
+pub struct Shutter {
+    readout_s: f64,
+    yaw_rad_s: f64,
+    camera: Camera,
+    /// The camera's position at τ = readout (a following camera moves).
+    end_position: DVec3,
+    drones: Vec<DronePose>,
+    end_drones: Vec<DronePose>,
+    /// Per drone: where it is drawn and its shift per row (`None`: not in view).
+    shears: Vec<Option<Shear>>,
+}
+
+impl Shutter {
+    /// The shutter of `scene` (`None`: no rolling shutter, or a readout of 0).
+    pub fn of(
+        preset: &Preset,
+        geometry: &[LabelGeometry],
+        scene: &FrameScene,
+    ) -> Result<Option<Self>, FrameError> {
+        let Some(draw) = scene.camera_model.and_then(|d| d.rolling_shutter) else {
+            return Ok(None);
+        };
+        if draw.readout_s.is_nan() || draw.readout_s <= 0.0 {
+            return Ok(None);
+        }
+        let end = build_frame_at(preset, scene.index, scene.redraw, draw.readout_s)?;
+        let mut shutter = Self {
+            readout_s: draw.readout_s,
+            yaw_rad_s: draw.yaw_rate_deg_s.to_radians(),
+            camera: scene.camera,
+            end_position: end.camera.position,
+            drones: scene.drones.clone(),
+            end_drones: end.drones,
+            shears: Vec::new(),
+        };
+        shutter.shears = (scene.drones.iter().enumerate())
+            .map(|(i, d)| {
+                let rect = streaks::drawn_rect(scene, d, geometry)?;
+                let rows = (0..scene.camera.height).map(|y| shutter.shift(i, f64::from(y)));
+                Some(Shear {
+                    rect,
+                    shift_px: rows.collect(),
+                })
+            })
+            .collect();
+        Ok(Some(shutter))
+    }
+
+    /// The time of image row coordinate `v` (continuous; rows outside the
+    /// image at the first or last row's).
+    pub fn time_of_row(&self, v: f64) -> f64 {
+        let h = f64::from(self.camera.height.max(1));
+        v.clamp(0.0, h) / h * self.readout_s
+    }
+
+    /// The camera at `tau` seconds after the frame's time.
+    pub fn camera_at(&self, tau: f64) -> Camera {
+        let a = tau / self.readout_s;
+        let turn = DMat3::from_rotation_y(self.yaw_rad_s * tau).transpose();
+        Camera {
+            position: self.camera.position + a * (self.end_position - self.camera.position),
+            camera_from_world: turn * self.camera.camera_from_world,
+            ..self.camera
+        }
+    }
+
+    /// Drone `i`'s pose at `tau`.
+    fn pose_at(&self, i: usize, tau: f64) -> Option<DronePose> {
+        let (d0, d1) = (self.drones.get(i)?, self.end_drones.get(i)?);
+        let a = tau / self.readout_s;
+        Some(DronePose {
+            position: d0.position + a * (d1.position - d0.position),
+            rotation: slerp(d0.rotation, d1.rotation, a),
+            ..*d0
+        })
+    }
+
+    /// How far drone `i`'s centre's image has moved at row `y`'s time
+    /// (NaN when it is not in front of the camera then).
+    fn shift(&self, i: usize, y: f64) -> (f64, f64) {
+        let tau = self.time_of_row(y);
+        let image =
+            |cam: &Camera, p: DVec3| cam.project_camera_point(cam.camera_from_world_point(p));
+        let (Some(d0), Some(d)) = (self.drones.get(i), self.pose_at(i, tau)) else {
+            return (f64::NAN, f64::NAN);
+        };
+        match (
+            image(&self.camera, d0.position),
+            image(&self.camera_at(tau), d.position),
+        ) {
+            (Some(a), Some(b)) => ((b - a).x, (b - a).y),
+            _ => (f64::NAN, f64::NAN),
+        }
+    }
+
+    /// Where drone `i`'s pixels can be in the shuttered picture: where it
+    /// is drawn and where its rows reach.
+    pub fn near(&self, i: usize) -> Option<PixelRect> {
+        let s = self.shears.get(i)?.as_ref()?;
+        let reach = s.reach(self.camera.width, self.camera.height)?;
+        Some(PixelRect {
+            x0: reach.x0.min(s.rect.x0),
+            y0: reach.y0.min(s.rect.y0),
+            x1: reach.x1.max(s.rect.x1),
+            y1: reach.y1.max(s.rect.y1),
+        })
+    }
+
+    /// The drone-free frame under the shutter: `background` through each
+    /// row's rotation homography (`None` when the camera holds still: the
+    /// rendered one is it).
+    pub fn turned(&self, background: &[u8]) -> Option<Vec<u8>> {
+        if self.yaw_rad_s == 0.0 {
+            return None;
+        }
+        let size = (self.camera.width, self.camera.height);
+        let source = |x: f64, y: f64| {
+            let cam = self.camera_at(self.time_of_row(y - 0.5));
+            let at = DVec2::new(x, y);
+            background_flow(&cam, &self.camera, at).map_or((x, y), |f| (x + f.x, y + f.y))
+        };
+        Some(turn_background(background, size, &source))
+    }
+
+    /// The shuttered picture of `frame` over the shuttered drone-free frame,
+    /// and that drone-free frame when it is not `background` itself (the
+    /// camera turns). All RGBA8.
+    pub fn apply(&self, frame: &[u8], background: &[u8]) -> (Vec<u8>, Option<Vec<u8>>) {
+        let turned = self.turned(background);
+        let size = (self.camera.width, self.camera.height);
+        let shears: Vec<Shear> = self.shears.iter().flatten().cloned().collect();
+        let under = turned.as_deref().unwrap_or(background);
+        (shear(frame, background, under, size, &shears), turned)
+    }
+
+    /// Drone `i`'s amodal box: each hull point where it is imaged at the
+    /// time of the row it lands on (fixed-point iteration from its row at
+    /// the frame's time), unclipped; `None` when no point is in front.
+    pub fn amodal(&self, i: usize, geom: &LabelGeometry) -> Option<PixelBox> {
+        let point = |v: DVec3, tau: f64| {
+            let d = self.pose_at(i, tau)?;
+            let cam = self.camera_at(tau);
+            let world = d.position + d.rotation * (v * d.size_m);
+            let p = cam.camera_from_world_point(world);
+            (p.z >= cam.near_m)
+                .then(|| cam.project_camera_point(p))
+                .flatten()
+        };
+        let points = geom.hull.iter().filter_map(|&v| {
+            let mut at = point(v, 0.0)?;
+            for _ in 0..ROW_ITERATIONS {
+                let next = point(v, self.time_of_row(at.y))?;
+                let moved = (next.y - at.y).abs();
+                at = next;
+                if moved < 1e-4 {
+                    break;
+                }
+            }
+            Some(at)
+        });
+        PixelBox::from_points(points)
+    }
+}
+
+impl Shutter {
+    /// Each drone's motion-blur streak starts from where its rows took it.
+    pub fn move_streaks(&self, streaks: &mut [Option<crate::sensor::motion::Streak>]) {
+        for (i, streak) in streaks.iter_mut().enumerate() {
+            if let (Some(s), Some(near)) = (streak.as_mut(), self.near(i)) {
+                s.rect = near;
+            }
+        }
+    }
+}
+
+/// The shuttered picture and, when the camera turns, its drone-free frame.
+pub(super) type Shuttered = (Vec<u8>, Option<Vec<u8>>);
+
+/// Frame `index`'s rendered `frame` and drone-free `background` under
+/// `shutter` ([`Shutter::apply`]); `None` without a shutter. The shutter
+/// needs the drone-free background: an error names it when not cached.
+pub(super) fn shuttered(
+    shutter: Option<&Shutter>,
+    index: u64,
+    frame: &[u8],
+    background: Option<&[u8]>,
+) -> Result<Option<Shuttered>, super::PipelineError> {
+    let Some(s) = shutter else {
+        return Ok(None);
+    };
+    let background = background.ok_or_else(|| super::PipelineError::Camera {
+        index,
+        reason: "rolling shutter: the drone-free background is not cached".into(),
+    })?;
+    Ok(Some(s.apply(frame, background)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+
+    /// A 640×480 camera at the origin looking down +z (60° vertical field).
+    fn camera() -> Camera {
+        Camera {
+            width: 640,
+            height: 480,
+            fov_y_deg: 60.0,
+            position: DVec3::ZERO,
+            camera_from_world: DMat3::IDENTITY,
+            near_m: 0.01,
+        }
+    }
+
+    fn drone(position: DVec3) -> DronePose {
+        DronePose {
+            model: 0,
+            position,
+            rotation: DQuat::IDENTITY,
+            euler_deg: crate::scene::math::EulerDeg::from_quat(DQuat::IDENTITY),
+            size_m: 1.0,
+        }
+    }
+
+    fn shutter(readout_s: f64, yaw_deg_s: f64, drones: (DVec3, DVec3)) -> Shutter {
+        Shutter {
+            readout_s,
+            yaw_rad_s: yaw_deg_s.to_radians(),
+            camera: camera(),
+            end_position: DVec3::ZERO,
+            drones: vec![drone(drones.0)],
+            end_drones: vec![drone(drones.1)],
+            shears: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_pure_camera_yaw_shears_a_vertical_edge_by_f_tan_of_the_turn() {
+        let (readout, yaw) = (0.03, 40.0);
+        let s = shutter(readout, yaw, (DVec3::Z, DVec3::Z));
+        let cam = camera();
+        let (w, h) = (cam.width, cam.height);
+        // Dark left of the middle column's edge (x = 320), bright right of it.
+        let edge = (0..w * h)
+            .flat_map(|i| {
+                if i % w < 320 {
+                    [0, 0, 0, 255]
+                } else {
+                    [200, 200, 200, 255]
+                }
+            })
+            .collect::<Vec<u8>>();
+        let turned = s.turned(&edge).expect("the camera turns");
+        for y in (0..h).step_by(37) {
+            let row = &turned[(y * w * 4) as usize..((y + 1) * w * 4) as usize];
+            // A one-pixel bilinear ramp sampled a pixel apart sums linearly in
+            // its position: the edge is W − Σ level / 200 (to 1/200 px).
+            let bright: f64 = (0..w).map(|x| f64::from(row[x as usize * 4]) / 200.0).sum();
+            let crossing = f64::from(w) - bright;
+            // Row y is exposed readout·y/H late: the camera has turned ω·τ to the
+            // right, so the edge (at infinity) is f·tan(ω·τ) to the left.
+            let tau = readout * f64::from(y) / f64::from(h);
+            let want = 320.0 - cam.focal_px() * (yaw.to_radians() * tau).tan();
+            assert!(
+                (crossing - want).abs() < 0.02,
+                "row {y}: {crossing} vs {want}"
+            );
+        }
+        assert!(
+            s.turned(&edge).is_some()
+                && shutter(readout, 0.0, (DVec3::Z, DVec3::Z))
+                    .turned(&edge)
+                    .is_none()
+        );
+    }
+
+    #[test]
+    fn a_lateral_drone_shifts_by_its_speed_times_the_row_time() {
+        // 4 m/s across at 20 m, a 50 ms readout: f·v·τ/z per row.
+        let (readout, v, z) = (0.05, 4.0, 20.0);
+        let s = shutter(
+            readout,
+            0.0,
+            (DVec3::new(0.0, 0.0, z), DVec3::new(v * readout, 0.0, z)),
+        );
+        let f = camera().focal_px();
+        for y in [0.0, 100.0, 240.0, 479.0] {
+            let (sx, sy) = s.shift(0, y);
+            let want = f * v * readout * y / 480.0 / z;
+            assert!(
+                (sx - want).abs() < 1e-9 && sy.abs() < 1e-9,
+                "row {y}: {sx}, {sy} vs {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_amodal_box_holds_each_hull_point_at_its_own_rows_time() {
+        // A drone falling 40 m/s at 10 m while the rows sweep down: its
+        // points land where the row's time and their height agree.
+        let readout = 0.05;
+        let s = shutter(
+            readout,
+            0.0,
+            (
+                DVec3::new(0.0, 0.0, 10.0),
+                DVec3::new(0.0, 40.0 * readout, 10.0),
+            ),
+        );
+        let geom = LabelGeometry {
+            hull: vec![DVec3::new(0.0, -0.5, 0.0), DVec3::new(0.0, 0.5, 0.0)],
+            aabb: (DVec3::splat(-0.5), DVec3::splat(0.5)),
+        };
+        let b = s.amodal(0, &geom).expect("in view");
+        let f = camera().focal_px();
+        for (v, local) in [(b.y0, -0.5), (b.y1, 0.5)] {
+            // The point's height at the time of row v projects to row v.
+            let y_m = 40.0 * s.time_of_row(v) + local;
+            assert!((240.0 + f * y_m / 10.0 - v).abs() < 1e-3, "row {v}");
+        }
+        assert!(b.y1 - b.y0 > f * 1.0 / 10.0, "stretched by the fall: {b:?}");
+    }
+}
