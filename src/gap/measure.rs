@@ -438,8 +438,9 @@ pub fn background_texture(
         for tx in 0..tiles_x {
             if near[ty * tiles_x + tx]
                 || overlay.is_some_and(|m| {
-                    (ty * TILE_PX..(ty + 1) * TILE_PX)
-                        .any(|y| m[y * w + tx * TILE_PX..y * w + (tx + 1) * TILE_PX].contains(&true))
+                    (ty * TILE_PX..(ty + 1) * TILE_PX).any(|y| {
+                        m[y * w + tx * TILE_PX..y * w + (tx + 1) * TILE_PX].contains(&true)
+                    })
                 })
             {
                 continue;
@@ -551,8 +552,17 @@ pub fn edge_sigmas(l: &Luma, g: &GrayImage) -> Vec<f32> {
 fn profile_has_overlay(overlay: Option<&Overlay>, axis: usize, line: usize, k: usize) -> bool {
     overlay.is_some_and(|o| {
         let len = if axis == 0 { o.width } else { o.height };
-        let (lo, hi) = (k.saturating_sub(BLUR_MAX_HALF_PX), (k + BLUR_MAX_HALF_PX + 2).min(len));
-        (lo..hi).any(|j| if axis == 0 { o.at(j, line) } else { o.at(line, j) })
+        let (lo, hi) = (
+            k.saturating_sub(BLUR_MAX_HALF_PX),
+            (k + BLUR_MAX_HALF_PX + 2).min(len),
+        );
+        (lo..hi).any(|j| {
+            if axis == 0 {
+                o.at(j, line)
+            } else {
+                o.at(line, j)
+            }
+        })
     })
 }
 
@@ -702,7 +712,11 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
 }
 
 /// [`measure_drone`] with `overlay`'s pixels left out of the ring.
-pub fn measure_drone_clear(l: &Luma, b: PixelBox, overlay: Option<&Overlay>) -> Option<DroneMeasure> {
+pub fn measure_drone_clear(
+    l: &Luma,
+    b: PixelBox,
+    overlay: Option<&Overlay>,
+) -> Option<DroneMeasure> {
     let Ring {
         x0,
         y0,

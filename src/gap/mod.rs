@@ -3,7 +3,8 @@
 //! camera-model ranges that would move the dataset inside the real inter-quartile range.
 //!
 //! CPU only; knows nothing of presets, rendering or the GPU. [`measure`] holds the
-//! definitions, [`behind`] classifies what lies behind each drone, [`jpeg_quality`] reads
+//! definitions, [`overlay`] finds a grey frame's burnt-in text and reticle (left out of
+//! every statistic), [`behind`] classifies what lies behind each drone, [`jpeg_quality`] reads
 //! quantisation tables, [`report`] walks the folders, aggregates, prints, and writes the
 //! JSON, the histogram PNGs ([`histogram`]) and the contact sheet ([`sheet`]).
 //!
@@ -132,7 +133,10 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
             let third = (l.height / 3).max(1);
             let top = overlay::mean_rows(&l, 0..third, o);
             let bottom = overlay::mean_rows(&l, l.height - third..l.height, o);
-            (overlay::mean_rows(&l, 0..l.height, o) as f32, (bottom - top) as f32)
+            (
+                overlay::mean_rows(&l, 0..l.height, o) as f32,
+                (bottom - top) as f32,
+            )
         }
     };
     FrameStats {
