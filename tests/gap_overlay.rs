@@ -150,7 +150,7 @@ fn a_burnt_in_overlay_leaves_every_statistic_where_it_was() {
     // its strokes' sharp edges move the gradient energy and the Canny share.
     let tinted = RgbImage::from_fn(640, 512, |x, y| {
         let v = with_img.get_pixel(x, y)[0];
-        Rgb([v, v.saturating_sub(40), v.saturating_add(0) / 2])
+        Rgb([v, v.saturating_sub(40), v / 2])
     });
     let colour = measure_frame(&tinted, &[drone], None);
     assert!(!colour.grey && colour.overlay_px.is_none());

@@ -129,8 +129,8 @@ fn keep_long_groups(s: &[bool], w: usize, h: usize) -> Vec<bool> {
     let mut seen = vec![false; s.len()];
     let mut group = Vec::new();
     let mut stack = Vec::new();
-    for start in 0..s.len() {
-        if !s[start] || seen[start] {
+    for (start, &set) in s.iter().enumerate() {
+        if !set || seen[start] {
             continue;
         }
         group.clear();
