@@ -6,7 +6,9 @@
 
 use image::{GrayImage, RgbImage};
 
-use super::overlay::Overlay;
+/// A burnt-in overlay's pixels ([`super::overlay::Overlay::near`]), row-major at the
+/// frame's size: the statistics leave them out.
+pub type OverlayMask<'a> = &'a [bool];
 
 /// A labelled box in pixels, `[x0, x1) × [y0, y1)` (continuous coordinates, as YOLO's).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -316,8 +318,10 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
 }
 
 /// Whether any pixel of the tile at (x0, y0) is `overlay`'s.
-fn tile_has_overlay(overlay: Option<&Overlay>, x0: usize, y0: usize) -> bool {
-    overlay.is_some_and(|o| (y0..y0 + TILE_PX).any(|y| (x0..x0 + TILE_PX).any(|x| o.at(x, y))))
+fn tile_has_overlay(overlay: Option<OverlayMask>, w: usize, x0: usize, y0: usize) -> bool {
+    overlay.is_some_and(|o| {
+        (y0..y0 + TILE_PX).any(|y| o[y * w + x0..y * w + x0 + TILE_PX].contains(&true))
+    })
 }
 
 /// [`flat_sky`] leaving out, besides, the tiles with any pixel of `overlay`.
@@ -325,7 +329,7 @@ pub fn flat_sky_clear(
     rgb: &RgbImage,
     l: &Luma,
     boxes: &[PixelBox],
-    overlay: Option<&Overlay>,
+    overlay: Option<OverlayMask>,
 ) -> FlatSky {
     let mut all = Vec::new();
     let mut hp = Vec::with_capacity(TILE_PX * TILE_PX);
@@ -337,7 +341,7 @@ pub fn flat_sky_clear(
     for ty in 0..tiles_y {
         for tx in 0..tiles_x {
             let (x0, y0) = (tx * TILE_PX, ty * TILE_PX);
-            if near[ty * tiles_x + tx] || tile_has_overlay(overlay, x0, y0) {
+            if near[ty * tiles_x + tx] || tile_has_overlay(overlay, l.width, x0, y0) {
                 continue;
             }
             hp.clear();
@@ -549,25 +553,29 @@ pub fn edge_sigmas(l: &Luma, g: &GrayImage) -> Vec<f32> {
 }
 
 /// Whether `overlay` has a pixel on the scan line within the longest profile of step `k`.
-fn profile_has_overlay(overlay: Option<&Overlay>, axis: usize, line: usize, k: usize) -> bool {
+fn profile_has_overlay(
+    overlay: Option<OverlayMask>,
+    (w, h): (usize, usize),
+    (axis, line, k): (usize, usize, usize),
+) -> bool {
     overlay.is_some_and(|o| {
-        let len = if axis == 0 { o.width } else { o.height };
+        let len = if axis == 0 { w } else { h };
         let (lo, hi) = (
             k.saturating_sub(BLUR_MAX_HALF_PX),
             (k + BLUR_MAX_HALF_PX + 2).min(len),
         );
         (lo..hi).any(|j| {
             if axis == 0 {
-                o.at(j, line)
+                o[line * w + j]
             } else {
-                o.at(line, j)
+                o[j * w + line]
             }
         })
     })
 }
 
 /// [`edge_sigmas`] leaving out the edges whose profile could reach `overlay`.
-pub fn edge_sigmas_clear(l: &Luma, g: &GrayImage, overlay: Option<&Overlay>) -> Vec<f32> {
+pub fn edge_sigmas_clear(l: &Luma, g: &GrayImage, overlay: Option<OverlayMask>) -> Vec<f32> {
     let gx = imageproc::gradients::horizontal_sobel(g);
     let gy = imageproc::gradients::vertical_sobel(g);
     let (w, h) = (l.width, l.height);
@@ -594,7 +602,7 @@ pub fn edge_sigmas_clear(l: &Luma, g: &GrayImage, overlay: Option<&Overlay>) -> 
                 if d[k - 1].abs() == v {
                     continue; // a plateau of equal steps is counted once, at its right end
                 }
-                if profile_has_overlay(overlay, axis, line, k) {
+                if profile_has_overlay(overlay, (w, h), (axis, line, k)) {
                     continue;
                 }
                 let (px, py) = if axis == 0 { (k, line) } else { (line, k) };
@@ -715,7 +723,7 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
 pub fn measure_drone_clear(
     l: &Luma,
     b: PixelBox,
-    overlay: Option<&Overlay>,
+    overlay: Option<OverlayMask>,
 ) -> Option<DroneMeasure> {
     let Ring {
         x0,
@@ -744,7 +752,12 @@ pub fn measure_drone_clear(
         }
     }
     if let Some(o) = overlay {
-        ring_clear_of(&mut ring, o, (rx0, ry0, rx1, ry1), (x0, y0, x1, y1));
+        ring_clear_of(
+            &mut ring,
+            (o, l.width),
+            (rx0, ry0, rx1, ry1),
+            (x0, y0, x1, y1),
+        );
     }
     if ring.len() < 8 {
         return None;
@@ -825,7 +838,7 @@ pub fn measure_drone_clear(
 /// row, less the box `b`) those on `overlay`'s pixels.
 fn ring_clear_of(
     ring: &mut Vec<f32>,
-    overlay: &Overlay,
+    (overlay, w): (OverlayMask, usize),
     g: (i64, i64, i64, i64),
     b: (i64, i64, i64, i64),
 ) {
@@ -835,7 +848,7 @@ fn ring_clear_of(
     for y in ry0..ry1 {
         for x in rx0..rx1 {
             if !(y >= y0 && y < y1 && x >= x0 && x < x1) {
-                at.push(overlay.at(x as usize, y as usize));
+                at.push(overlay[y as usize * w + x as usize]);
             }
         }
     }

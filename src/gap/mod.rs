@@ -109,7 +109,8 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
     let grey = measure::is_grey(rgb);
     let overlay = overlay::detect(&l, boxes, grey);
     let ov = overlay.as_ref();
-    let flat = measure::flat_sky_clear(rgb, &l, boxes, ov);
+    let mask = ov.map(overlay::Overlay::near);
+    let flat = measure::flat_sky_clear(rgb, &l, boxes, mask);
     let (sky_saturation, sky_hue_deg) = match flat.sky_rgb {
         Some(_) if grey => (None, None),
         Some(c) => {
@@ -121,7 +122,7 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
     let g540 = measure::scaled_gray(&l);
     let m540 = ov.map(|o| o.wide_mask(g540.width() as usize, g540.height() as usize));
     let gray = l.to_gray();
-    let edges = measure::edge_sigmas_clear(&l, &gray, ov);
+    let edges = measure::edge_sigmas_clear(&l, &gray, mask);
     let blur_edges = edges.len();
     let n = l.y.len().max(1);
     let (mean_brightness, vertical_gradient) = match ov {
@@ -161,7 +162,7 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         drones: boxes
             .iter()
             .filter_map(|&b| {
-                let mut d = measure::measure_drone_clear(&l, b, ov)?;
+                let mut d = measure::measure_drone_clear(&l, b, mask)?;
                 d.behind = behind::classify(rgb, &l, b);
                 Some(d)
             })
