@@ -370,7 +370,7 @@ fn cores(side: &crate::gap::report::Side) -> Vec<f64> {
 }
 
 /// The apparent size: the ends of the size range by the cores' quartile ratios.
-fn adjust_size(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) {
+pub fn adjust_size(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) {
     let off = |k| stat(report, k).is_some_and(|(v, _, _)| outside(v));
     if !off("drone_core_px") && !off("drone_core_under_6px") {
         return;

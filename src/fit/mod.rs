@@ -18,6 +18,9 @@
 //! 5. [`search`] closes the loop: renders a sample with the batch's pipeline into
 //!    `OUT/rounds/NN/`, runs the gap report against the footage, adjusts, repeats.
 //!
+//! A thermal base preset (`thermal:` set) skips the plates (step 3) and fits the thermal
+//! camera's values instead of the visible camera model ([`thermal`]).
+//!
 //! Same inputs, same outputs, byte for byte (no clock, no thread count in any file).
 
 pub mod camera;
@@ -27,6 +30,7 @@ pub mod plates;
 pub mod preset_out;
 pub mod search;
 pub mod sky;
+pub mod thermal;
 
 use std::path::{Path, PathBuf};
 
@@ -221,13 +225,17 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     let footage = camera::measure(&frames);
     let geometry = plates::PlateCamera::from_base(&base, &footage, options.hfov_deg);
     std::fs::create_dir_all(&options.out).map_err(io_err(&options.out))?;
-    let plates = plates::write_plates(
-        &frames,
-        &footage,
-        &geometry,
-        &options.out.join("plates"),
-        options.views,
-    )?;
+    let plates = if base.thermal.is_some() {
+        plates::PlateSummary::default()
+    } else {
+        plates::write_plates(
+            &frames,
+            &footage,
+            &geometry,
+            &options.out.join("plates"),
+            options.views,
+        )?
+    };
     let centres = drones::CentreSpread::of(frames.iter().flat_map(|f| {
         let (w, h) = f.rgb.dimensions();
         let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
@@ -242,7 +250,11 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     let json =
         serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;
     write_file(&options.out.join("footage.json"), json.as_bytes())?;
-    let fitted = preset_out::first_fit(&base, &footage, &plates, &geometry, centres);
+    let fitted = if base.thermal.is_some() {
+        thermal::first_fit(&base, &footage)
+    } else {
+        preset_out::first_fit(&base, &footage, &plates, &geometry, centres)
+    };
     Ok(Prepared {
         options: options.clone(),
         real_dir,

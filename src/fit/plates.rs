@@ -151,7 +151,7 @@ pub struct PlateRecord {
 }
 
 /// What [`write_plates`] wrote.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct PlateSummary {
     pub plates: Vec<PlateRecord>,
     pub unlabelled: usize,

@@ -36,14 +36,6 @@ pub fn load_base(path: &Path) -> Result<Preset, FitError> {
         dir
     });
     preset.resolve_paths(&dir);
-    if preset.thermal.is_some() {
-        // The fit draws the visible camera model over photographic plates;
-        // a thermal preset has neither (docs/realism.md, "Thermal camera").
-        return Err(FitError::Base {
-            path: path.to_path_buf(),
-            reason: "thermal: fit fits the visible camera model over plates of the footage, which a thermal preset cannot combine with; measure a thermal preset with `swarmshot gap` and set its thermal fields by hand".into(),
-        });
-    }
     Ok(preset)
 }
 

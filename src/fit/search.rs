@@ -4,6 +4,8 @@
 //! `report.json` and histograms in `OUT/rounds/NN/`, adjust, repeat.
 //!
 //! Round 00 is the base preset as it is (the "before"); rounds 01… are fitted presets.
+//! A thermal preset's rounds are adjusted by [`super::thermal::adjust`] instead of the
+//! rules below.
 //! After each fitted round, every statistic outside the real inter-quartile range that a
 //! preset value can move is moved toward the real median, on the final bytes:
 //!
@@ -356,6 +358,8 @@ pub fn run(
         let done = inside >= target || stale >= 2 || k == prep.options.rounds;
         let changes = if done {
             Vec::new()
+        } else if preset.thermal.is_some() {
+            super::thermal::adjust(&mut preset, &report)
         } else {
             adjust(&mut preset, &report, &prep.footage)
         };

@@ -6,6 +6,10 @@
 
 use image::{GrayImage, RgbImage};
 
+/// A burnt-in overlay's pixels ([`super::overlay::Overlay::near`]), row-major at the
+/// frame's size: the statistics leave them out.
+pub type OverlayMask<'a> = &'a [bool];
+
 /// A labelled box in pixels, `[x0, x1) × [y0, y1)` (continuous coordinates, as YOLO's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelBox {
@@ -310,6 +314,23 @@ fn partition(n: usize, pred: impl Fn(usize) -> bool) -> usize {
 /// Flat-sky noise, high-pass RMS and sky colour. Tiles touching a drone box (grown by 8 px)
 /// are left out.
 pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
+    flat_sky_clear(rgb, l, boxes, None)
+}
+
+/// Whether any pixel of the tile at (x0, y0) is `overlay`'s.
+fn tile_has_overlay(overlay: Option<OverlayMask>, w: usize, x0: usize, y0: usize) -> bool {
+    overlay.is_some_and(|o| {
+        (y0..y0 + TILE_PX).any(|y| o[y * w + x0..y * w + x0 + TILE_PX].contains(&true))
+    })
+}
+
+/// [`flat_sky`] leaving out, besides, the tiles with any pixel of `overlay`.
+pub fn flat_sky_clear(
+    rgb: &RgbImage,
+    l: &Luma,
+    boxes: &[PixelBox],
+    overlay: Option<OverlayMask>,
+) -> FlatSky {
     let mut all = Vec::new();
     let mut hp = Vec::with_capacity(TILE_PX * TILE_PX);
     let mut sky = [0f64; 3];
@@ -320,7 +341,7 @@ pub fn flat_sky(rgb: &RgbImage, l: &Luma, boxes: &[PixelBox]) -> FlatSky {
     for ty in 0..tiles_y {
         for tx in 0..tiles_x {
             let (x0, y0) = (tx * TILE_PX, ty * TILE_PX);
-            if near[ty * tiles_x + tx] {
+            if near[ty * tiles_x + tx] || tile_has_overlay(overlay, l.width, x0, y0) {
                 continue;
             }
             hp.clear();
@@ -396,7 +417,12 @@ pub fn scaled_gray(l: &Luma) -> GrayImage {
 /// 540 px high ([`scaled_gray`]) that lie at least 8 px (at that scale) from every
 /// labelled box, of each tile's luminance standard deviation (levels). `None` when no
 /// tile is clear of the boxes.
-pub fn background_texture(g540: &GrayImage, boxes: &[PixelBox], height: usize) -> Option<f32> {
+pub fn background_texture(
+    g540: &GrayImage,
+    boxes: &[PixelBox],
+    height: usize,
+    overlay: Option<&[bool]>,
+) -> Option<f32> {
     let scale = g540.height() as f32 / height.max(1) as f32;
     let scaled: Vec<PixelBox> = boxes
         .iter()
@@ -414,7 +440,13 @@ pub fn background_texture(g540: &GrayImage, boxes: &[PixelBox], height: usize) -
     let mut sigmas = Vec::new();
     for ty in 0..tiles_y {
         for tx in 0..tiles_x {
-            if near[ty * tiles_x + tx] {
+            if near[ty * tiles_x + tx]
+                || overlay.is_some_and(|m| {
+                    (ty * TILE_PX..(ty + 1) * TILE_PX).any(|y| {
+                        m[y * w + tx * TILE_PX..y * w + (tx + 1) * TILE_PX].contains(&true)
+                    })
+                })
+            {
                 continue;
             }
             let (mut s, mut ss) = (0f64, 0f64);
@@ -437,26 +469,32 @@ pub fn background_texture(g540: &GrayImage, boxes: &[PixelBox], height: usize) -
     Some(percentile_sorted(&sigmas, 0.5))
 }
 
-/// Mean Sobel magnitude (imageproc's Sobel divided by 8, so levels per pixel) at 540 px high.
-pub fn gradient_energy(g540: &GrayImage) -> f32 {
+/// Mean Sobel magnitude (imageproc's Sobel divided by 8, so levels per pixel) at 540 px
+/// high, over the pixels not set in `overlay` (its mask at that size; all without one).
+pub fn gradient_energy(g540: &GrayImage, overlay: Option<&[bool]>) -> f32 {
     let gx = imageproc::gradients::horizontal_sobel(g540);
     let gy = imageproc::gradients::vertical_sobel(g540);
-    let n = gx.as_raw().len().max(1);
+    let clear = |i: usize| overlay.is_none_or(|m| !m[i]);
+    let n = (0..gx.as_raw().len()).filter(|&i| clear(i)).count().max(1);
     let s: f64 = gx
         .as_raw()
         .iter()
         .zip(gy.as_raw().iter())
-        .map(|(&a, &b)| (f64::from(a).powi(2) + f64::from(b).powi(2)).sqrt())
+        .enumerate()
+        .filter(|&(i, _)| clear(i))
+        .map(|(_, (&a, &b))| (f64::from(a).powi(2) + f64::from(b).powi(2)).sqrt())
         .sum();
     (s / n as f64 / 8.0) as f32
 }
 
 /// Share of pixels imageproc's Canny (σ 1.4 smoothing, thresholds [`CANNY_LOW`],
-/// [`CANNY_HIGH`]) marks as edges, at 540 px high.
-pub fn canny_share(g540: &GrayImage) -> f32 {
+/// [`CANNY_HIGH`]) marks as edges, at 540 px high, among the pixels not set in `overlay`.
+pub fn canny_share(g540: &GrayImage, overlay: Option<&[bool]>) -> f32 {
     let e = imageproc::edges::canny(g540, CANNY_LOW, CANNY_HIGH);
-    let n = e.as_raw().len().max(1);
-    e.as_raw().iter().filter(|&&v| v > 0).count() as f32 / n as f32
+    let clear = |i: usize| overlay.is_none_or(|m| !m[i]);
+    let n = (0..e.as_raw().len()).filter(|&i| clear(i)).count().max(1);
+    let edges = e.as_raw().iter().enumerate();
+    edges.filter(|&(i, &v)| v > 0 && clear(i)).count() as f32 / n as f32
 }
 
 /// One edge's PSF σ: the edge's discrete derivative profile, taken across the edge along a
@@ -511,6 +549,33 @@ fn profile_sigma(d: &[f32], peak: usize) -> Option<(f32, f32)> {
 /// the scan's normal (|g_along| ≥ 2 |g_across| by Sobel), rising by at least
 /// [`BLUR_MIN_CONTRAST`] levels with both tails reaching 2 % of the peak step within 12 px.
 pub fn edge_sigmas(l: &Luma, g: &GrayImage) -> Vec<f32> {
+    edge_sigmas_clear(l, g, None)
+}
+
+/// Whether `overlay` has a pixel on the scan line within the longest profile of step `k`.
+fn profile_has_overlay(
+    overlay: Option<OverlayMask>,
+    (w, h): (usize, usize),
+    (axis, line, k): (usize, usize, usize),
+) -> bool {
+    overlay.is_some_and(|o| {
+        let len = if axis == 0 { w } else { h };
+        let (lo, hi) = (
+            k.saturating_sub(BLUR_MAX_HALF_PX),
+            (k + BLUR_MAX_HALF_PX + 2).min(len),
+        );
+        (lo..hi).any(|j| {
+            if axis == 0 {
+                o[line * w + j]
+            } else {
+                o[j * w + line]
+            }
+        })
+    })
+}
+
+/// [`edge_sigmas`] leaving out the edges whose profile could reach `overlay`.
+pub fn edge_sigmas_clear(l: &Luma, g: &GrayImage, overlay: Option<OverlayMask>) -> Vec<f32> {
     let gx = imageproc::gradients::horizontal_sobel(g);
     let gy = imageproc::gradients::vertical_sobel(g);
     let (w, h) = (l.width, l.height);
@@ -536,6 +601,9 @@ pub fn edge_sigmas(l: &Luma, g: &GrayImage) -> Vec<f32> {
                 }
                 if d[k - 1].abs() == v {
                     continue; // a plateau of equal steps is counted once, at its right end
+                }
+                if profile_has_overlay(overlay, (w, h), (axis, line, k)) {
+                    continue;
                 }
                 let (px, py) = if axis == 0 { (k, line) } else { (line, k) };
                 let a = f32::from(gx.get_pixel(px as u32, py as u32)[0]);
@@ -648,6 +716,15 @@ impl Ring {
 /// half its larger side, at least 3 px, at most 32, on each side, minus the box, within
 /// the image). `None` for a box with no pixel or a ring under 8 pixels.
 pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
+    measure_drone_clear(l, b, None)
+}
+
+/// [`measure_drone`] with `overlay`'s pixels left out of the ring.
+pub fn measure_drone_clear(
+    l: &Luma,
+    b: PixelBox,
+    overlay: Option<OverlayMask>,
+) -> Option<DroneMeasure> {
     let Ring {
         x0,
         y0,
@@ -673,6 +750,14 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
         } else {
             ring.extend(row(y, rx0..rx1));
         }
+    }
+    if let Some(o) = overlay {
+        ring_clear_of(
+            &mut ring,
+            (o, l.width),
+            (rx0, ry0, rx1, ry1),
+            (x0, y0, x1, y1),
+        );
     }
     if ring.len() < 8 {
         return None;
@@ -747,6 +832,31 @@ pub fn measure_drone(l: &Luma, b: PixelBox) -> Option<DroneMeasure> {
         box_px: ((b.x1 - b.x0).max(0.0) * (b.y1 - b.y0).max(0.0)).sqrt(),
         behind: None,
     })
+}
+
+/// Drops from `ring` (its values in [`measure_drone`]'s order: the grown box `g` row by
+/// row, less the box `b`) those on `overlay`'s pixels.
+fn ring_clear_of(
+    ring: &mut Vec<f32>,
+    (overlay, w): (OverlayMask, usize),
+    g: (i64, i64, i64, i64),
+    b: (i64, i64, i64, i64),
+) {
+    let (rx0, ry0, rx1, ry1) = g;
+    let (x0, y0, x1, y1) = b;
+    let mut at = Vec::with_capacity(ring.len());
+    for y in ry0..ry1 {
+        for x in rx0..rx1 {
+            if !(y >= y0 && y < y1 && x >= x0 && x < x1) {
+                at.push(overlay[y as usize * w + x as usize]);
+            }
+        }
+    }
+    let mut k = 0;
+    ring.retain(|_| {
+        k += 1;
+        !at[k - 1]
+    });
 }
 
 /// What lies behind a drone (classified by [`super::behind::classify`]).

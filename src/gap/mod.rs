@@ -3,7 +3,8 @@
 //! camera-model ranges that would move the dataset inside the real inter-quartile range.
 //!
 //! CPU only; knows nothing of presets, rendering or the GPU. [`measure`] holds the
-//! definitions, [`behind`] classifies what lies behind each drone, [`jpeg_quality`] reads
+//! definitions, [`overlay`] finds a grey frame's burnt-in text and reticle (left out of
+//! every statistic), [`behind`] classifies what lies behind each drone, [`jpeg_quality`] reads
 //! quantisation tables, [`report`] walks the folders, aggregates, prints, and writes the
 //! JSON, the histogram PNGs ([`histogram`]) and the contact sheet ([`sheet`]).
 //!
@@ -54,6 +55,7 @@ pub mod folder;
 mod histogram;
 pub mod jpeg_quality;
 pub mod measure;
+pub mod overlay;
 mod propose;
 pub mod report;
 pub mod sheet;
@@ -94,14 +96,21 @@ pub struct FrameStats {
     pub blur_edges: usize,
     pub jpeg_quality: Option<u8>,
     pub drones: Vec<DroneMeasure>,
+    /// Stroke pixels of a burnt-in overlay ([`overlay`]) left out of every statistic
+    /// (absent when the frame has none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overlay_px: Option<usize>,
 }
 
 /// Measures one decoded frame; `jpeg_bytes` are the file's bytes when it is a JPEG
 /// (for the quality estimate), `boxes` its labelled drones in pixels.
 pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8]>) -> FrameStats {
     let l = measure::Luma::from_rgb(rgb);
-    let flat = measure::flat_sky(rgb, &l, boxes);
     let grey = measure::is_grey(rgb);
+    let overlay = overlay::detect(&l, boxes, grey);
+    let ov = overlay.as_ref();
+    let mask = ov.map(overlay::Overlay::near);
+    let flat = measure::flat_sky_clear(rgb, &l, boxes, mask);
     let (sky_saturation, sky_hue_deg) = match flat.sky_rgb {
         Some(_) if grey => (None, None),
         Some(c) => {
@@ -111,24 +120,40 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         None => (None, None),
     };
     let g540 = measure::scaled_gray(&l);
+    let m540 = ov.map(|o| o.wide_mask(g540.width() as usize, g540.height() as usize));
     let gray = l.to_gray();
-    let edges = measure::edge_sigmas(&l, &gray);
+    let edges = measure::edge_sigmas_clear(&l, &gray, mask);
     let blur_edges = edges.len();
     let n = l.y.len().max(1);
+    let (mean_brightness, vertical_gradient) = match ov {
+        None => (
+            (l.y.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64) as f32,
+            measure::vertical_gradient(&l),
+        ),
+        Some(o) => {
+            let third = (l.height / 3).max(1);
+            let top = overlay::mean_rows(&l, 0..third, o);
+            let bottom = overlay::mean_rows(&l, l.height - third..l.height, o);
+            (
+                overlay::mean_rows(&l, 0..l.height, o) as f32,
+                (bottom - top) as f32,
+            )
+        }
+    };
     FrameStats {
         width: rgb.width(),
         height: rgb.height(),
         flat_tiles: flat.origins.len(),
         noise_sigma: flat.noise_sigma,
         highpass_rms: flat.highpass_rms,
-        gradient_energy: measure::gradient_energy(&g540),
-        canny_edge_share: measure::canny_share(&g540),
+        gradient_energy: measure::gradient_energy(&g540, m540.as_deref()),
+        canny_edge_share: measure::canny_share(&g540, m540.as_deref()),
         sky_saturation,
         grey,
-        vertical_gradient: measure::vertical_gradient(&l),
+        vertical_gradient,
         sky_hue_deg,
-        mean_brightness: (l.y.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64) as f32,
-        background_texture: measure::background_texture(&g540, boxes, l.height),
+        mean_brightness,
+        background_texture: measure::background_texture(&g540, boxes, l.height, m540.as_deref()),
         blur_sigma_px: measure::blur_sigma(edges),
         blur_edges,
         jpeg_quality: jpeg_bytes
@@ -137,10 +162,11 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         drones: boxes
             .iter()
             .filter_map(|&b| {
-                let mut d = measure::measure_drone(&l, b)?;
+                let mut d = measure::measure_drone_clear(&l, b, mask)?;
                 d.behind = behind::classify(rgb, &l, b);
                 Some(d)
             })
             .collect(),
+        overlay_px: overlay.as_ref().map(|o| o.strokes),
     }
 }
