@@ -39,6 +39,23 @@ pub fn load_base(path: &Path) -> Result<Preset, FitError> {
     Ok(preset)
 }
 
+/// The base preset renamed `NAME_fitted` and set to the footage's frame
+/// size, with that note: how every first fit starts.
+pub fn sized_to(base: &Preset, footage: &Footage) -> (Preset, Vec<String>) {
+    let mut p = base.clone();
+    p.name = format!("{}_fitted", base.name);
+    let (w, h) = footage.size;
+    p.render.resolution = Resolution::Custom {
+        width: w,
+        height: h,
+    };
+    let note = format!(
+        "render.resolution {w}×{h}: the footage's frame size ({} frames)",
+        footage.frames
+    );
+    (p, vec![note])
+}
+
 /// The first fitted preset (round 1's); `centres`: the real boxes' spread over the frame.
 pub fn first_fit(
     base: &Preset,
@@ -47,18 +64,7 @@ pub fn first_fit(
     camera: &PlateCamera,
     centres: Option<CentreSpread>,
 ) -> Fitted {
-    let mut p = base.clone();
-    let mut notes = Vec::new();
-    p.name = format!("{}_fitted", base.name);
-    let (w, h) = footage.size;
-    p.render.resolution = Resolution::Custom {
-        width: w,
-        height: h,
-    };
-    notes.push(format!(
-        "render.resolution {w}×{h}: the footage's frame size ({} frames)",
-        footage.frames
-    ));
+    let (mut p, mut notes) = sized_to(base, footage);
     // Plates: the footage itself.
     let known = plates
         .plates

@@ -29,24 +29,13 @@
 
 use super::camera::Footage;
 use super::drones::adjust_size;
-use super::preset_out::Fitted;
+use super::preset_out::{Fitted, sized_to};
 use crate::gap::report::{Report, Summary};
-use crate::preset::{ImageFormat, Preset, Resolution};
+use crate::preset::{ImageFormat, Preset};
 
 /// The first fit of a thermal base (module docs), with one note per value.
 pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
-    let mut p = base.clone();
-    let mut notes = Vec::new();
-    p.name = format!("{}_fitted", base.name);
-    let (w, h) = footage.size;
-    p.render.resolution = Resolution::Custom {
-        width: w,
-        height: h,
-    };
-    notes.push(format!(
-        "render.resolution {w}×{h}: the footage's frame size ({} frames)",
-        footage.frames
-    ));
+    let (mut p, mut notes) = sized_to(base, footage);
     match (footage.estimate.jpeg_quality, footage.measured.jpeg_quality) {
         (Some(_), Some(q)) => {
             let quality = q.median.round().clamp(1.0, 100.0) as u8;

@@ -415,16 +415,7 @@ fn visible_through(
         };
         let (x, y) = (f64::from(hit.x), f64::from(hit.y));
         v.visible_pixels += 1;
-        let b = v.visible_box.get_or_insert(PixelBox {
-            x0: x,
-            y0: y,
-            x1: x + 1.0,
-            y1: y + 1.0,
-        });
-        b.x0 = b.x0.min(x);
-        b.y0 = b.y0.min(y);
-        b.x1 = b.x1.max(x + 1.0);
-        b.y1 = b.y1.max(y + 1.0);
+        PixelBox::include_pixel(&mut v.visible_box, x, y);
     }
     kept
 }

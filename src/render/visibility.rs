@@ -116,16 +116,7 @@ pub fn pixel_stats(ids: &crate::render::IdImage, n_drones: usize) -> Vec<(Option
             let x = col as f64;
             let (b, n) = &mut out[id as usize - 1];
             *n += 1;
-            let nb = b.get_or_insert(PixelBox {
-                x0: x,
-                y0: y,
-                x1: x + 1.0,
-                y1: y + 1.0,
-            });
-            nb.x0 = nb.x0.min(x);
-            nb.y0 = nb.y0.min(y);
-            nb.x1 = nb.x1.max(x + 1.0);
-            nb.y1 = nb.y1.max(y + 1.0);
+            PixelBox::include_pixel(b, x, y);
         }
     }
     out

@@ -71,6 +71,20 @@ impl PixelBox {
         if u > 0.0 { i / u } else { 0.0 }
     }
 
+    /// Grows `b` (`None`: empty) to cover the pixel whose corner is (x, y).
+    pub fn include_pixel(b: &mut Option<Self>, x: f64, y: f64) {
+        let nb = b.get_or_insert(Self {
+            x0: x,
+            y0: y,
+            x1: x + 1.0,
+            y1: y + 1.0,
+        });
+        nb.x0 = nb.x0.min(x);
+        nb.y0 = nb.y0.min(y);
+        nb.x1 = nb.x1.max(x + 1.0);
+        nb.y1 = nb.y1.max(y + 1.0);
+    }
+
     /// The box of `points` (`None` when there are none).
     pub fn from_points(points: impl IntoIterator<Item = DVec2>) -> Option<Self> {
         let mut b: Option<Self> = None;
