@@ -1,7 +1,7 @@
 //! Rain and snow (issue 41 item 4; src/scene/weather.rs, src/pipeline/weather.rs):
 //! the labels under weather against a drone-free frame made with the same
-//! draws, a drone hidden whole by flakes, masks and the camera model under
-//! weather, determinism (a frame alone equals the batch's), the draws left
+//! draws, a drone hidden whole by flakes, masks, the camera model and a
+//! lens under weather, determinism (a frame alone equals the batch's), the draws left
 //! alone and the preset's errors named (lavapipe).
 
 mod common;
@@ -170,6 +170,85 @@ fn weather_through_the_camera_model_labels_what_the_camera_shows() {
         assert_eq!(frame.scene.camera_model, dry.scene.camera_model);
     }
     assert!(some_hidden);
+}
+
+/// The noise-free camera image of `rgba` (a rendered frame at the drawn
+/// exposure) through `scene`'s lens.
+fn through_lens(rgba: &[u8], scene: &swarmshot::scene::FrameScene) -> Vec<u8> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let geo = swarmshot::scene::projection::frame_lens(scene).expect("a lens");
+    let lensed = swarmshot::sensor::lens::LensMap::of(&geo).remap(rgba);
+    let draw = scene.camera_model.expect("drawn").after_render();
+    let full = swarmshot::sensor::PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    };
+    swarmshot::sensor::develop(&lensed, w, h, &draw, full, false)
+}
+
+#[test]
+fn weather_through_a_lens_labels_the_pixels_the_drone_changes() {
+    use swarmshot::preset::lens::Lens;
+    let mut p = preset(near_snow());
+    p.camera_model = Some(swarmshot::preset::camera_model::CameraModel {
+        read_noise_levels: (1.0, 1.0),
+        lens: Some(Lens::BrownConrady {
+            k1: (-0.25, -0.25),
+            k2: (0.05, 0.05),
+            k3: (0.0, 0.0),
+            p1: (0.002, 0.002),
+            p2: (-0.001, -0.001),
+        }),
+        ..Default::default()
+    });
+    p.validate().expect("weather and a lens together");
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
+    let geometry = &pipeline.assets().geometry;
+    let mut renderer = pipeline.renderer(&ctx);
+    let (mut shown, mut hidden) = (0, 0);
+    for index in 0..p.frame_count() {
+        let frame = pipeline.make(&mut renderer, index).expect("frame");
+        let scene = &frame.scene;
+        // The truth: the particles over the frame and over its drone-free
+        // render, each through the lens and the noise-free camera.
+        let mut rgba = common::rendered_at_exposure(&mut renderer, scene, p.render.msaa);
+        let mut empty = scene.clone();
+        empty.drones.clear();
+        let background = common::rendered_at_exposure(&mut renderer, &empty, p.render.msaa);
+        let clear = swarmshot::pipeline::weather::over_pixels(
+            (scene, geometry),
+            &mut rgba,
+            Some(&background),
+            Some(Vec::new()),
+        )
+        .expect("weather");
+        let (a, b) = (through_lens(&rgba, scene), through_lens(&clear, scene));
+        let vis = frame.labels[0].visibility.expect("measured");
+        let case = format!("frame {index}");
+        match common::changed_box(&a, &b, scene.camera.width) {
+            Some((r, n)) => {
+                let vb = vis.visible_box.expect(&case);
+                let want = [r.x0, r.y0, r.x1, r.y1].map(f64::from);
+                assert_eq!([vb.x0, vb.y0, vb.x1, vb.y1], want, "{case}");
+                assert_eq!(vis.visible_pixels, n, "{case}");
+                shown += 1;
+            }
+            None => {
+                assert_eq!(vis.visible_box, None, "{case}");
+                hidden += 1;
+            }
+        }
+        // The flakes hide some of the drone: fewer pixels than without them.
+        let mut dry = scene.clone();
+        dry.weather = None;
+        let dry = pipeline.make_scene(&mut renderer, dry).expect("dry");
+        let d = dry.labels[0].visibility.expect("measured");
+        hidden += usize::from(vis.visible_pixels < d.visible_pixels);
+    }
+    assert!(shown > 0 && hidden > 0, "{shown} shown, {hidden} hidden");
 }
 
 #[test]

@@ -580,6 +580,10 @@ impl FramePipeline {
                 (rgba, Painted::default())
             }
         };
+        // The weather's drone-free frame goes back to the renderer for the next one.
+        if let Some(Some(clear)) = clear {
+            renderer.recycle(clear, Painted::default());
+        }
         let outputs = self.preset.output.masks;
         if let Some(m) = masks.as_mut().filter(|_| outputs.depth || outputs.flow) {
             let meshes = self.assets.depth_meshes();

@@ -10,6 +10,14 @@
 //! (without a depth test), and a drone's visible pixels are its rendered
 //! pixels that still differ from it: a flake nearer than a drone hides the
 //! pixels it covers whole, a translucent streak veils them.
+//!
+//! One pass over the picture in strips of rows on rayon's threads does it
+//! all: the particles bucketed by strip (kept from frame to frame), each
+//! strip's rows compared with the background, blended, copied into the
+//! drone-free frame (a buffer the caller recycles) and blended again there
+//! only where they differed; the depth is looked up only for particles
+//! whose bounds meet a drone's cells. Through a lens the particles are
+//! drawn in the undistorted frame and resampled with it.
 
 use std::ops::Range;
 
@@ -87,6 +95,18 @@ impl DepthLayer {
         &mut tile[((y % CELL) * CELL + x % CELL) as usize]
     }
 
+    /// Whether a drone's pixel may lie in columns x0..x1 of rows y0..y1.
+    fn any_within(&self, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> bool {
+        if self.tiles.is_empty() || x0 >= x1 || y0 >= y1 {
+            return false;
+        }
+        let (c0, c1) = (x0 / CELL, (x1 - 1) / CELL);
+        ((y0 / CELL)..=((y1 - 1) / CELL)).any(|row| {
+            let cells = (row * self.cols + c0) as usize..=(row * self.cols + c1) as usize;
+            (self.cell_tile.get(cells)).is_some_and(|c| c.iter().any(|&t| t != u32::MAX))
+        })
+    }
+
     #[inline]
     fn depth(&self, x: u32, y: u32) -> f32 {
         let cell = ((y / CELL) * self.cols + x / CELL) as usize;
@@ -99,6 +119,109 @@ impl DepthLayer {
     }
 }
 
+/// Rows of the picture blended together: a strip's pixels stay in the
+/// cache while its particles are drawn.
+const STRIP: u32 = 16;
+
+/// A particle as the row loops use it, its constants solved once a frame
+/// (the same values [`coverage`] and [`reach`] computed per pixel before).
+#[derive(Clone, Copy, Debug, Default)]
+struct Prepared {
+    a: [f32; 2],
+    /// Its travel b − a, pixels, its squared length and its length.
+    d: [f32; 2],
+    len2: f32,
+    len: f32,
+    r: f32,
+    /// How far from its path a pixel centre it touches lies ([`reach`]).
+    grow: f32,
+    alpha: f32,
+    depth_m: f32,
+    level: f32,
+    solid: bool,
+    /// Whether a drone's pixel lies in its bounds: only then is the depth tested.
+    tested: bool,
+    /// Its bounds ([`bounds`]): x0, y0, x1, y1.
+    bounds: [u32; 4],
+}
+
+impl Prepared {
+    fn of(p: &Particle, size: (u32, u32), layer: Option<&DepthLayer>) -> Self {
+        let r = p.radius_px;
+        let (x0, y0, x1, y1) = bounds(p, size);
+        let d = [p.b[0] - p.a[0], p.b[1] - p.a[1]];
+        let len2 = d[0] * d[0] + d[1] * d[1];
+        Self {
+            a: p.a,
+            d,
+            len2,
+            len: len2.sqrt(),
+            r,
+            grow: if p.solid { 2.0 * r + 1.0 } else { r + 0.5 } + SLACK,
+            alpha: p.alpha,
+            depth_m: p.depth_m,
+            level: f32::from(p.level),
+            solid: p.solid,
+            tested: layer.is_some_and(|l| l.any_within((x0, y0, x1, y1))),
+            bounds: [x0, y0, x1, y1],
+        }
+    }
+}
+
+/// The frame's particles bucketed by strip, kept from frame to frame (no
+/// allocation once grown): strip k's are `items[starts[k]..starts[k + 1]]`,
+/// farthest first as in the frame.
+#[derive(Default)]
+struct Strips {
+    starts: Vec<u32>,
+    fill: Vec<u32>,
+    items: Vec<Prepared>,
+}
+
+impl Strips {
+    /// Each particle of `particles` into the strips its bounds reach.
+    fn fill(&mut self, particles: &[Particle], size: (u32, u32), layer: Option<&DepthLayer>) {
+        let n = size.1.div_ceil(STRIP) as usize;
+        let reached = |p: &Particle| {
+            let (_, y0, _, y1) = bounds(p, size);
+            (y0 < y1).then(|| (y0 / STRIP) as usize..=((y1 - 1) / STRIP) as usize)
+        };
+        self.starts.clear();
+        self.starts.resize(n + 1, 0);
+        for strips in particles.iter().filter_map(reached) {
+            for k in strips {
+                self.starts[k + 1] += 1;
+            }
+        }
+        for k in 0..n {
+            self.starts[k + 1] += self.starts[k];
+        }
+        self.items.clear();
+        self.items
+            .resize(self.starts[n] as usize, Prepared::default());
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.starts[..n]);
+        for p in particles {
+            let Some(strips) = reached(p) else { continue };
+            let prepared = Prepared::of(p, size, layer);
+            for k in strips {
+                self.items[self.fill[k] as usize] = prepared;
+                self.fill[k] += 1;
+            }
+        }
+    }
+
+    fn of(&self, k: usize) -> &[Prepared] {
+        let (a, b) = (self.starts[k] as usize, self.starts[k + 1] as usize);
+        &self.items[a..b]
+    }
+}
+
+thread_local! {
+    /// Each thread's strips, kept from frame to frame.
+    static STRIPS: std::cell::RefCell<Strips> = std::cell::RefCell::default();
+}
+
 /// Rows `rows` of a `width`-pixel RGBA8 picture: `rgba` holds exactly them.
 struct Band<'a> {
     rgba: &'a mut [u8],
@@ -106,58 +229,98 @@ struct Band<'a> {
     rows: Range<u32>,
 }
 
-/// Rows of the picture blended together: a strip's pixels stay in the
-/// cache while its particles are drawn.
-const STRIP: u32 = 16;
+impl<'a> Band<'a> {
+    /// Strip `k` ([`STRIP`] rows from row k · STRIP) held by `rgba`.
+    fn strip(k: usize, rgba: &'a mut [u8], width: u32) -> Self {
+        let first = k as u32 * STRIP;
+        let rows = (rgba.len() / (width as usize * 4).max(1)) as u32;
+        Self {
+            rgba,
+            width,
+            rows: first..first + rows,
+        }
+    }
+}
+
+/// The drone-free frame under the same particles, made strip by strip with
+/// the frame: `clear` (the whole picture, every byte written) from
+/// `background` (the drone-free frame).
+struct Clear<'a> {
+    clear: &'a mut [u8],
+    background: &'a [u8],
+}
 
 /// Blend `particles` (farthest first) into `rgba` (`w × h`, RGBA8 sRGB),
-/// a pixel only where `behind(x, y)` is farther than the particle and, with
-/// `only`, within its row's span (`only[y]`: columns x0..x1). The picture
-/// is cut into strips of [`STRIP`] rows, each with the particles that reach
-/// it in their order, the strips shared among the threads: each pixel still
-/// sees the particles in the same order, so the bytes do not depend on the
-/// threads.
+/// a pixel only where `layer` (none: every pixel) puts what it shows
+/// farther than the particle; with `clear`, the drone-free frame under the
+/// same particles too: the blended frame where it agrees with `background`,
+/// elsewhere (from the first to the last differing pixel of a row) the
+/// background with the particles blended over it without a depth test.
+/// The picture is cut into strips of [`STRIP`] rows, each with the
+/// particles that reach it in their order, the strips shared among the
+/// threads: each pixel still sees the particles in the same order, so the
+/// bytes do not depend on the threads.
 fn composite(
     rgba: &mut [u8],
     (w, h): (u32, u32),
     particles: &[Particle],
-    only: Option<&[(u32, u32)]>,
-    behind: &(impl Fn(u32, u32) -> f32 + Sync),
+    layer: Option<&DepthLayer>,
+    clear: Option<Clear>,
 ) {
-    let mut strips: Vec<Vec<u32>> = vec![Vec::new(); h.div_ceil(STRIP) as usize];
-    for (i, p) in particles.iter().enumerate() {
-        let (_, y0, _, y1) = bounds(p, (w, h));
-        if y0 < y1 {
-            for strip in &mut strips[(y0 / STRIP) as usize..=((y1 - 1) / STRIP) as usize] {
-                strip.push(i as u32);
-            }
+    let run = |strips: &mut Strips| {
+        strips.fill(particles, (w, h), layer);
+        let strips = &*strips;
+        let chunk = (STRIP as usize * w as usize * 4).max(1);
+        match clear {
+            None => rgba
+                .par_chunks_mut(chunk)
+                .enumerate()
+                .for_each(|(k, rgba)| {
+                    let mut band = Band::strip(k, rgba, w);
+                    for p in strips.of(k) {
+                        draw(&mut band, p, None, layer);
+                    }
+                }),
+            Some(Clear { clear, background }) => (rgba.par_chunks_mut(chunk))
+                .zip(clear.par_chunks_mut(chunk))
+                .zip(background.par_chunks(chunk))
+                .enumerate()
+                .for_each(|(k, ((rgba, clear), background))| {
+                    let mut spans = [(0u32, 0u32); STRIP as usize];
+                    differing_spans(rgba, background, w, &mut spans);
+                    let mut band = Band::strip(k, rgba, w);
+                    for p in strips.of(k) {
+                        draw(&mut band, p, None, layer);
+                    }
+                    clear.copy_from_slice(band.rgba);
+                    clear_strip(Band::strip(k, clear, w), background, &spans, strips.of(k));
+                }),
+        }
+    };
+    STRIPS.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut strips) => run(&mut strips),
+        // Called again on this thread while its strips are in use (a
+        // rayon thread waiting on a frame's strips may take up another).
+        Err(_) => run(&mut Strips::default()),
+    });
+}
+
+/// A strip of the drone-free frame under the particles: `band` holds the
+/// blended frame; where its rows differ from the drone-free `background`
+/// (`spans`), the background with `particles` blended over it.
+fn clear_strip(mut band: Band, background: &[u8], spans: &[(u32, u32)], particles: &[Prepared]) {
+    let row = band.width as usize * 4;
+    let mut any = false;
+    for (y, &(x0, x1)) in spans.iter().enumerate().filter(|(_, s)| s.0 < s.1) {
+        let span = y * row + x0 as usize * 4..y * row + x1 as usize * 4;
+        band.rgba[span.clone()].copy_from_slice(&background[span]);
+        any = true;
+    }
+    if any {
+        for p in particles {
+            draw(&mut band, p, Some(spans), None);
         }
     }
-    let row_bytes = w as usize * 4;
-    rgba.par_chunks_mut((STRIP as usize * row_bytes).max(1))
-        .zip(strips.par_iter())
-        .enumerate()
-        .for_each(|(k, (rgba, strip))| {
-            let y0 = k as u32 * STRIP;
-            let rows = y0..y0 + (rgba.len() / row_bytes.max(1)) as u32;
-            // Rows without a span (or past `only`) take nothing.
-            let span = rows.start as usize..rows.end as usize;
-            let empty = |o: &[(u32, u32)]| {
-                o.get(span.clone())
-                    .is_none_or(|r| r.iter().all(|s| s.0 >= s.1))
-            };
-            if only.is_some_and(empty) {
-                return;
-            }
-            let mut band = Band {
-                rgba,
-                width: w,
-                rows,
-            };
-            for &i in strip {
-                draw(&mut band, (w, h), &particles[i as usize], only, behind);
-            }
-        });
 }
 
 /// The pixels particle `p` may cover: its path's box grown by its radius
@@ -175,23 +338,17 @@ fn bounds(p: &Particle, (w, h): (u32, u32)) -> (u32, u32, u32, u32) {
 }
 
 /// One particle into `band`: in each of its rows, only the columns its
-/// capsule can reach ([`reach`]), each pixel by its coverage.
+/// capsule can reach ([`reach`]), each pixel by its coverage; with `only`,
+/// only within the band's row's span (`only[y − first row]`), and where
+/// `layer` holds a drone nearer than the particle, not at all.
 #[inline]
-fn draw(
-    band: &mut Band,
-    size: (u32, u32),
-    p: &Particle,
-    only: Option<&[(u32, u32)]>,
-    behind: &impl Fn(u32, u32) -> f32,
-) {
-    let (dx, dy) = (p.b[0] - p.a[0], p.b[1] - p.a[1]);
-    let len2 = dx * dx + dy * dy;
-    let (x0, y0, x1, y1) = bounds(p, size);
-    let level = f32::from(p.level);
+fn draw(band: &mut Band, p: &Prepared, only: Option<&[(u32, u32)]>, layer: Option<&DepthLayer>) {
+    let [x0, y0, x1, y1] = p.bounds;
+    let layer = layer.filter(|_| p.tested);
     let (ys, ye) = (y0.max(band.rows.start), y1.min(band.rows.end));
     for y in ys..ye {
         let (lo, hi) = match only {
-            Some(o) => o.get(y as usize).copied().unwrap_or((0, 0)),
+            Some(o) => (o.get((y - band.rows.start) as usize).copied()).unwrap_or((0, 0)),
             None => (x0, x1),
         };
         if lo >= hi {
@@ -202,15 +359,15 @@ fn draw(
         let row = (y - band.rows.start) as usize * band.width as usize;
         for x in xs.max(lo)..xe.min(hi) {
             let px = x as f32 + 0.5;
-            let cover = coverage(p, (px, py), (dx, dy, len2));
-            if cover <= 0.0 || behind(x, y) <= p.depth_m {
+            let cover = coverage(p, (px, py));
+            if cover <= 0.0 || layer.is_some_and(|l| l.depth(x, y) <= p.depth_m) {
                 continue;
             }
             let alpha = p.alpha * cover;
             let i = (row + x as usize) * 4;
             for c in &mut band.rgba[i..i + 3] {
                 let v = f32::from(*c);
-                *c = round_half_up(v + (level - v) * alpha);
+                *c = round_half_up(v + (p.level - v) * alpha);
             }
         }
     }
@@ -223,11 +380,9 @@ fn draw(
 /// path's part within that of the row bounds the columns, with
 /// [`SLACK`] for the rounding.
 #[inline]
-fn reach(p: &Particle, py: f32, (x0, x1): (u32, u32)) -> (u32, u32) {
-    let r = p.radius_px;
-    let grow = if p.solid { 2.0 * r + 1.0 } else { r + 0.5 } + SLACK;
-    let (ax, ay) = (p.a[0], p.a[1]);
-    let (dx, dy) = (p.b[0] - ax, p.b[1] - ay);
+fn reach(p: &Prepared, py: f32, (x0, x1): (u32, u32)) -> (u32, u32) {
+    let grow = p.grow;
+    let ([ax, ay], [dx, dy]) = (p.a, p.d);
     if dy.abs() < 1e-3 {
         return (x0, x1);
     }
@@ -274,21 +429,20 @@ fn round_half_up(x: f32) -> u8 {
     (i + u32::from(up)).min(255) as u8
 }
 
-/// How much of the pixel centred at `(px, py)` particle `p` covers, 0–1
-/// (`d`: its travel b − a in pixels and its squared length). A streak: by
-/// the distance to its path (a capsule with a half-pixel soft edge). A
-/// flake: the share of the exposure its disc is over the pixel, the disc's
-/// centre moving uniformly from a to b, times the same soft edge across.
+/// How much of the pixel centred at `(px, py)` particle `p` covers, 0–1.
+/// A streak: by the distance to its path (a capsule with a half-pixel soft
+/// edge). A flake: the share of the exposure its disc is over the pixel,
+/// the disc's centre moving uniformly from a to b, times the same soft
+/// edge across.
 #[inline]
-fn coverage(p: &Particle, (px, py): (f32, f32), (dx, dy, len2): (f32, f32, f32)) -> f32 {
-    let r = p.radius_px;
-    let (ax, ay) = (p.a[0], p.a[1]);
-    if len2 <= 0.0 {
+fn coverage(p: &Prepared, (px, py): (f32, f32)) -> f32 {
+    let (r, len) = (p.r, p.len);
+    let ([ax, ay], [dx, dy]) = (p.a, p.d);
+    if p.len2 <= 0.0 {
         let (ex, ey) = (px - ax, py - ay);
         return (r + 0.5 - (ex * ex + ey * ey).sqrt()).clamp(0.0, 1.0);
     }
     // Along the path (pixels from a) and across it.
-    let len = len2.sqrt();
     let s = ((px - ax) * dx + (py - ay) * dy) / len;
     if p.solid {
         let e = ((px - ax) * dy - (py - ay) * dx).abs() / len;
@@ -304,54 +458,48 @@ fn coverage(p: &Particle, (px, py): (f32, f32), (dx, dy, len2): (f32, f32, f32))
 
 /// The weather of `scene` over its pixels `rgba` (in place), the drones'
 /// pixels told from `background` (the drone-free frame; without one every
-/// pixel of a drone's box is the drone's); when `keep_clear`, the
-/// drone-free frame under the same particles comes back. Nothing without
-/// weather. The stage's whole CPU work (`examples/weather_bench.rs`).
+/// pixel of a drone's box is the drone's); with a `clear` buffer (any
+/// contents, reused) and a background, the drone-free frame under the same
+/// particles comes back in it. Nothing without weather. The stage's whole
+/// CPU work (`examples/weather_bench.rs`).
 pub fn over_pixels(
     (scene, geometry): (&FrameScene, &[LabelGeometry]),
     rgba: &mut [u8],
     background: Option<&[u8]>,
-    keep_clear: bool,
+    clear: Option<Vec<u8>>,
 ) -> Option<Vec<u8>> {
     let weather = scene.weather.as_ref()?;
     let size = (scene.camera.width, scene.camera.height);
     let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
     let layer = DepthLayer::new(scene, geometry, rgba, background);
-    let background = background.filter(|_| keep_clear);
-    // Where the frame differs from its drone-free background: only there
-    // can the drone-free frame under the same particles differ from it.
-    let spans = background.map(|bg| differing_spans(rgba, bg, size.0));
-    composite(rgba, size, &particles, None, &|x, y| layer.depth(x, y));
-    let (background, spans) = (background?, spans?);
-    let mut clear = rgba.to_vec();
-    let row = size.0 as usize * 4;
-    for (y, &(x0, x1)) in spans.iter().enumerate() {
-        let span = y * row + x0 as usize * 4..y * row + x1 as usize * 4;
-        clear[span.clone()].copy_from_slice(&background[span]);
-    }
-    composite(&mut clear, size, &particles, Some(&spans), &|_, _| {
-        f32::INFINITY
-    });
+    let Some((mut clear, background)) = clear.zip(background) else {
+        composite(rgba, size, &particles, Some(&layer), None);
+        return None;
+    };
+    clear.resize(rgba.len(), 0);
+    let both = Clear {
+        clear: &mut clear,
+        background,
+    };
+    composite(rgba, size, &particles, Some(&layer), Some(both));
     Some(clear)
 }
 
-/// Per row of two `width`-pixel RGBA8 pictures, the columns from its first
-/// to its last differing pixel (`(0, 0)`: the rows agree).
-fn differing_spans(a: &[u8], b: &[u8], width: u32) -> Vec<(u32, u32)> {
-    let row = width as usize * 4;
-    a.par_chunks(row.max(1))
-        .zip(b.par_chunks(row.max(1)))
-        .map(|(ra, rb)| {
-            if ra == rb {
-                return (0, 0);
-            }
+/// Per row of two `width`-pixel RGBA8 strips, the columns from its first
+/// to its last differing pixel (`(0, 0)`: the rows agree), into `spans`.
+fn differing_spans(a: &[u8], b: &[u8], width: u32, spans: &mut [(u32, u32)]) {
+    let row = (width as usize * 4).max(1);
+    for ((ra, rb), span) in a.chunks(row).zip(b.chunks(row)).zip(spans.iter_mut()) {
+        *span = if ra == rb {
+            (0, 0)
+        } else {
             let differs = |(p, q): (&[u8], &[u8])| p != q;
             let mut pairs = ra.chunks_exact(4).zip(rb.chunks_exact(4));
             let first = pairs.clone().position(differs).unwrap_or(0);
             let last = pairs.rposition(differs).map_or(first, |l| l + 1);
             (first as u32, last as u32)
-        })
-        .collect()
+        };
+    }
 }
 
 /// The weather of `scene` over its rendered `frame` (in place); `None`
@@ -362,15 +510,17 @@ fn differing_spans(a: &[u8], b: &[u8], width: u32) -> Vec<(u32, u32)> {
 /// (its buffer no longer holds only the background and its rects).
 pub(super) fn over_frame(
     (scene, geometry): (&FrameScene, &[LabelGeometry]),
-    renderer: &Renderer,
+    renderer: &mut Renderer,
     frame: &mut RenderedFrame,
     measured: &mut Option<Vec<Visibility>>,
     hits: &mut Option<Vec<PixelHit>>,
 ) -> Option<Option<Vec<u8>>> {
     scene.weather.as_ref()?;
-    let background = renderer.background_pixels(&frame.painted);
     let keep_clear = measured.is_some() || hits.is_some() || scene.camera_model.is_some();
-    let clear = over_pixels((scene, geometry), &mut frame.rgba, background, keep_clear);
+    // A recycled buffer, not fresh pages, for the drone-free frame.
+    let buffer = keep_clear.then(|| renderer.spare_buffer());
+    let background = renderer.background_pixels(&frame.painted);
+    let clear = over_pixels((scene, geometry), &mut frame.rgba, background, buffer);
     frame.painted = Painted::default();
     if let (Some(clear), Some(all)) = (&clear, hits.as_mut()) {
         let rendered = std::mem::take(all);

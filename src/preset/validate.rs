@@ -127,10 +127,6 @@ impl Preset {
                     self.labels.id_scale
                 )
             });
-            let lensed = (self.camera_model.as_ref()).is_some_and(|c| c.lens.is_some());
-            v.check(!lensed, "weather", || {
-                "cannot be combined with camera_model.lens yet: the particles are drawn for a pinhole camera".into()
-            });
         }
         if let Some(o) = &self.camera.observer {
             o.validate_into(&mut v);

@@ -219,8 +219,9 @@ impl View {
     }
 }
 
-/// `particles` farthest first, equal depths in drawn order (a stable sort
-/// by depth, done as an unstable sort of (depth, index) keys).
+/// `particles` farthest first, equal depths in drawn order: a stable
+/// radix sort (three passes of 11 bits) of the depths' keys, each carried
+/// with its index (the order a sort of (depth, index) keys gives).
 fn farthest_first(particles: Vec<Particle>) -> Vec<Particle> {
     // f32's total order as unsigned keys, reversed: farthest first.
     let far_key = |d: f32| {
@@ -231,8 +232,55 @@ fn farthest_first(particles: Vec<Particle>) -> Vec<Particle> {
     let mut keys: Vec<u64> = (particles.iter().enumerate())
         .map(|(i, p)| far_key(p.depth_m) | i as u64)
         .collect();
-    keys.par_sort_unstable();
+    let mut spare = vec![0u64; keys.len()];
+    for shift in [32, 43, 54] {
+        let digit = |k: u64| ((k >> shift) & 0x7ff) as usize;
+        let mut start = [0usize; 2048];
+        for &k in &keys {
+            start[digit(k)] += 1;
+        }
+        let mut sum = 0;
+        for s in start.iter_mut() {
+            (*s, sum) = (sum, sum + *s);
+        }
+        for &k in &keys {
+            let d = digit(k);
+            spare[start[d]] = k;
+            start[d] += 1;
+        }
+        std::mem::swap(&mut keys, &mut spare);
+    }
     keys.iter()
         .map(|k| particles[(k & u64::from(u32::MAX)) as usize])
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn farthest_first_is_a_stable_sort_by_depth() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let particles: Vec<Particle> = (0..5000)
+            .map(|i| Particle {
+                a: [i as f32, 0.0],
+                b: [0.0; 2],
+                radius_px: 1.0,
+                alpha: 1.0,
+                // Ties, zeros and the range's extremes among them.
+                depth_m: match i % 7 {
+                    0 => 3.0,
+                    1 => 0.0,
+                    2 => -0.0,
+                    _ => rng.random_range(0.05f32..1000.0),
+                },
+                level: 0,
+                solid: false,
+            })
+            .collect();
+        let mut want = particles.clone();
+        want.sort_by(|p, q| q.depth_m.total_cmp(&p.depth_m));
+        assert_eq!(farthest_first(particles), want);
+    }
 }
