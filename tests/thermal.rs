@@ -1,7 +1,8 @@
 //! The thermal camera (issue 41 item 1; src/sensor/thermal/,
-//! src/pipeline/thermal.rs): grey frames, warm drones on a cold sky, the
-//! sky warming towards the horizon, the gain control's range, labels equal
-//! to the visible render's, determinism, 16-bit grey PNG frames (lavapipe).
+//! src/pipeline/thermal.rs): grey frames, warm drones on a cold sky (and
+//! cold ones darker than it: `cold_share`), the sky warming towards the
+//! horizon, the gain control's range, labels equal to the visible render's,
+//! determinism, 16-bit grey PNG frames (lavapipe).
 
 mod common;
 
@@ -52,9 +53,37 @@ fn thermal_frames_are_grey_and_use_the_gain_controls_range() {
     assert!((60..=160).contains(&p50), "median {p50}");
 }
 
+/// Each kept drone's (extreme pixel in its box, mean of a ring 3 px out):
+/// the brightest pixel with `brightest`, else the darkest.
+fn drone_and_ring(f: &Frame, brightest: bool) -> Vec<(f64, f64)> {
+    let (w, h) = (f.scene.camera.width, f.scene.camera.height);
+    let extreme = if brightest { f64::max } else { f64::min };
+    let start = if brightest { 0.0 } else { 255.0 };
+    (f.labels.iter().filter(|l| l.is_kept()))
+        .map(|l| {
+            let b = l.bbox;
+            let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
+            let (x1, y1) = ((b.x1.ceil() as u32).min(w), (b.y1.ceil() as u32).min(h));
+            let peak = (y0..y1)
+                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                .map(|(x, y)| grey_at(f, x, y))
+                .fold(start, extreme);
+            let ring: Vec<f64> = (y0.saturating_sub(3)..(y1 + 3).min(h))
+                .flat_map(|y| (x0.saturating_sub(3)..(x1 + 3).min(w)).map(move |x| (x, y)))
+                .filter(|&(x, y)| x + 2 < x0 || x >= x1 + 2 || y + 2 < y0 || y >= y1 + 2)
+                .map(|(x, y)| grey_at(f, x, y))
+                .collect();
+            (peak, ring.iter().sum::<f64>() / ring.len().max(1) as f64)
+        })
+        .collect()
+}
+
 #[test]
 fn drones_are_warm_on_a_cold_sky_which_warms_towards_the_horizon() {
-    let p = thermal_preset();
+    let mut p = thermal_preset();
+    if let Some(t) = p.thermal.as_mut() {
+        t.drone.cold_share = 0.0;
+    }
     let mut checked = 0;
     for index in 0..4 {
         let f = make(&p, index);
@@ -73,23 +102,31 @@ fn drones_are_warm_on_a_cold_sky_which_warms_towards_the_horizon() {
             "frame {index}: top {top:.1}, bottom {bottom:.1}"
         );
         // Each kept drone's brightest pixel is above its surroundings' (a ring 3 px out).
-        for l in f.labels.iter().filter(|l| l.is_kept()) {
-            let b = l.bbox;
-            let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
-            let (x1, y1) = ((b.x1.ceil() as u32).min(w), (b.y1.ceil() as u32).min(h));
-            let peak = (y0..y1)
-                .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-                .map(|(x, y)| grey_at(&f, x, y))
-                .fold(0.0, f64::max);
-            let ring: Vec<f64> = (y0.saturating_sub(3)..(y1 + 3).min(h))
-                .flat_map(|y| (x0.saturating_sub(3)..(x1 + 3).min(w)).map(move |x| (x, y)))
-                .filter(|&(x, y)| x + 2 < x0 || x >= x1 + 2 || y + 2 < y0 || y >= y1 + 2)
-                .map(|(x, y)| grey_at(&f, x, y))
-                .collect();
-            let ring = ring.iter().sum::<f64>() / ring.len().max(1) as f64;
+        for (peak, ring) in drone_and_ring(&f, true) {
             assert!(
                 peak > ring + 20.0,
                 "frame {index}: drone peak {peak}, ring {ring:.1}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 3, "only {checked} drones checked");
+}
+
+#[test]
+fn cold_drones_read_darker_than_the_sky_behind_them() {
+    // `cold_share` 1: every drone's skin 30 K below the air and no warm spot,
+    // colder than the sky at the preset's 0–14° elevations.
+    let mut p = thermal_preset();
+    if let Some(t) = p.thermal.as_mut() {
+        (t.drone.cold_share, t.drone.skin_k) = (1.0, 30.0);
+    }
+    let mut checked = 0;
+    for index in 0..4 {
+        for (low, ring) in drone_and_ring(&make(&p, index), false) {
+            assert!(
+                low < ring - 10.0,
+                "frame {index}: darkest {low}, ring {ring:.1}"
             );
             checked += 1;
         }

@@ -44,34 +44,38 @@ pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     signature_rows(ui, form, "thermal.balloon", &mut t.balloon);
 }
 
-/// One kind's signature: its heading, then skin, emissivity and warm spot.
+/// One kind's signature: its heading, then skin, emissivity, warm spot and cold share.
 fn signature_rows(ui: &mut Ui, form: &mut Form<'_>, kind: &'static str, s: &mut Signature) {
     let f = crate::preset::fields::get(kind);
     ui.label(f.label).on_hover_text(f.tooltip);
-    let rows: [(&'static str, &mut f64, f64); 4] = match kind {
+    let rows: [(&'static str, &mut f64, f64); 5] = match kind {
         "thermal.drone" => [
             ("thermal.drone.skin_k", &mut s.skin_k, 0.1),
             ("thermal.drone.emissivity", &mut s.emissivity, 0.01),
             ("thermal.drone.spot_k", &mut s.spot_k, 0.1),
             ("thermal.drone.spot_share", &mut s.spot_share, 0.01),
+            ("thermal.drone.cold_share", &mut s.cold_share, 0.01),
         ],
         "thermal.bird" => [
             ("thermal.bird.skin_k", &mut s.skin_k, 0.1),
             ("thermal.bird.emissivity", &mut s.emissivity, 0.01),
             ("thermal.bird.spot_k", &mut s.spot_k, 0.1),
             ("thermal.bird.spot_share", &mut s.spot_share, 0.01),
+            ("thermal.bird.cold_share", &mut s.cold_share, 0.01),
         ],
         "thermal.aircraft" => [
             ("thermal.aircraft.skin_k", &mut s.skin_k, 0.1),
             ("thermal.aircraft.emissivity", &mut s.emissivity, 0.01),
             ("thermal.aircraft.spot_k", &mut s.spot_k, 0.1),
             ("thermal.aircraft.spot_share", &mut s.spot_share, 0.01),
+            ("thermal.aircraft.cold_share", &mut s.cold_share, 0.01),
         ],
         _ => [
             ("thermal.balloon.skin_k", &mut s.skin_k, 0.1),
             ("thermal.balloon.emissivity", &mut s.emissivity, 0.01),
             ("thermal.balloon.spot_k", &mut s.spot_k, 0.1),
             ("thermal.balloon.spot_share", &mut s.spot_share, 0.01),
+            ("thermal.balloon.cold_share", &mut s.cold_share, 0.01),
         ],
     };
     for (path, value, speed) in rows {

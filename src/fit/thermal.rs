@@ -18,13 +18,14 @@
 //! - **mean brightness**: `agc_mid_level` += real − synthetic (levels);
 //! - **peak contrast of 3–6 px drones**: the drone's `skin_k` and `spot_k` × real /
 //!   synthetic (at most ×2 or ÷2 a round);
+//! - **share of drones darker than their ring**: the drone's `cold_share` += real −
+//!   synthetic (the share seen colder than the air; within 0–1);
 //! - **drone core size** or the share under 6 px: the ends of `size_px` by the cores'
 //!   quartile ratios ([`super::drones::adjust_size`]).
 //!
 //! Not fitted (stated in docs/realism.md): the gradient energy, Canny share and
 //! background texture (the scene's structure: the gain control stretches the frame's
 //! span to 0–255 whatever `agc_max_gain` allows, so no camera value moves them), the
-//! share of drones darker than their ring (a thermal drone is warmer than the air), the
 //! sky's and the ground's temperatures.
 
 use super::camera::Footage;
@@ -135,6 +136,17 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
             d.skin_k, d.spot_k
         ));
         (d.skin_k, d.spot_k) = (s2, p2);
+    }
+    if let Some((v, real, m)) = stat(report, "drone_darker")
+        && outside(v)
+    {
+        let d = &mut t.drone;
+        let c2 = r3((d.cold_share + real - m).clamp(0.0, 1.0));
+        changes.push(format!(
+            "thermal.drone cold_share {} → {c2} (share darker than their ring {m:.3} {v} the real {real:.3})",
+            d.cold_share
+        ));
+        d.cold_share = c2;
     }
     preset.thermal = Some(t);
     adjust_size(preset, report, &mut changes);

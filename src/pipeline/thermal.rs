@@ -11,7 +11,9 @@
 //! - every pixel the id pass gives a drone or confuser (its samples' share
 //!   of the pixel): the object's skin and warm spot (a Gaussian about its
 //!   projected centre, σ a share of its half box) at its emissivity, the
-//!   rest reflecting the background, seen through `exp(−β·d)` of air.
+//!   rest reflecting the background, seen through `exp(−β·d)` of air; a
+//!   share of the objects (`cold_share`, a hash draw of the frame seed and
+//!   the object's index) with the skin below the air and no warm spot.
 //!
 //! Each thread keeps its planes from frame to frame (a thread-local
 //! [`Scratch`]).
@@ -126,7 +128,11 @@ fn add_objects(
         }
     }
     let spots: Vec<Option<Spot>> = (scene.drones.iter().zip(&boxes).zip(signatures))
-        .map(|((d, b), sig)| Spot::new(t, sky, cam, (d.position, *b), sig))
+        .enumerate()
+        .map(|(k, ((d, b), sig))| {
+            let cold = is_cold(scene.seed, k, sig.cold_share);
+            Spot::new(t, sky, cam, (d.position, *b), (sig, cold))
+        })
         .collect();
     let deltas: Vec<(usize, f32)> = (hits.iter())
         .filter_map(|hit| {
@@ -142,12 +148,28 @@ fn add_objects(
     }
 }
 
+/// Salt of the objects' cold draws (under the frame seed).
+const COLD_SALT: u64 = 0x5448_4552_4D43_4F4C; // "THERMCOL"
+
+/// Whether object `index` of the frame with seed `frame_seed` is seen cold
+/// ([`Signature::cold_share`]): a uniform draw of its own (a hash of the
+/// seed and the index), so no other draw of the frame moves.
+fn is_cold(frame_seed: u64, index: usize, share: f64) -> bool {
+    if share <= 0.0 {
+        return false;
+    }
+    let bits = crate::seed::mix64(frame_seed ^ crate::seed::mix64(COLD_SALT ^ index as u64));
+    ((bits >> 11) as f64 / (1u64 << 53) as f64) < share
+}
+
 /// One object's thermal look in this frame.
 struct Spot {
     centre: (f32, f32),
     inv_two_sigma2: f32,
-    sig: Signature,
-    air_k: f64,
+    /// The skin's temperature (kelvin), the warm spot's peak above it, the emissivity.
+    skin_k: f64,
+    spot_k: f64,
+    emissivity: f32,
     /// exp(−β·d) and the air's radiance.
     transmit: f32,
     air: f32,
@@ -159,7 +181,7 @@ impl Spot {
         sky: &SkyTable,
         cam: &Camera,
         (position, hit_box): (DVec3, (u32, u32, u32, u32)),
-        sig: &Signature,
+        (sig, cold): (&Signature, bool),
     ) -> Option<Self> {
         let (x0, y0, x1, y1) = hit_box;
         if x0 > x1 {
@@ -173,8 +195,13 @@ impl Spot {
         Some(Self {
             centre,
             inv_two_sigma2: 1.0 / (2.0 * sigma * sigma),
-            sig: *sig,
-            air_k: t.air_k,
+            skin_k: if cold {
+                t.air_k - sig.skin_k
+            } else {
+                t.air_k + sig.skin_k
+            },
+            spot_k: if cold { 0.0 } else { sig.spot_k },
+            emissivity: sig.emissivity as f32,
             transmit: (-t.extinction_per_km * p.length() * 1e-3).exp() as f32,
             air: sky.air,
         })
@@ -188,9 +215,24 @@ impl Spot {
             y as f32 + 0.5 - self.centre.1,
         );
         let warm = (-(dx * dx + dy * dy) * self.inv_two_sigma2).exp();
-        let temp = self.air_k + self.sig.skin_k + self.sig.spot_k * f64::from(warm);
-        let e = self.sig.emissivity as f32;
+        let temp = self.skin_k + self.spot_k * f64::from(warm);
+        let e = self.emissivity;
         let own = e * thermal::radiance(temp) + (1.0 - e) * behind;
         self.transmit * own + (1.0 - self.transmit) * self.air
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::is_cold;
+
+    #[test]
+    fn the_cold_draw_takes_its_share_of_the_objects() {
+        assert!((0..100).all(|k| !is_cold(7, k, 0.0)));
+        assert!((0..100).all(|k| is_cold(7, k, 1.0)));
+        let n = (0..20_000).filter(|&k| is_cold(7, k, 0.3)).count();
+        assert!((5_700..=6_300).contains(&n), "{n} of 20000 at 0.3");
+        // Its own draw: the same seed and index give the same answer.
+        assert_eq!(is_cold(9, 3, 0.5), is_cold(9, 3, 0.5));
     }
 }

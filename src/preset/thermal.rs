@@ -22,6 +22,18 @@ pub struct Signature {
     pub spot_k: f64,
     /// Warm spot's Gaussian σ as a share of the object's half box size.
     pub spot_share: f64,
+    /// Share of the objects (drawn per object and frame) seen colder than
+    /// the air: skin `skin_k` below the air instead of above (a shell cooled
+    /// by radiating to the cold sky) and no warm spot (battery and motors
+    /// idle or shielded by the shell), so against a background at the air's
+    /// temperature or warmer they read darker. 0 is not written to
+    /// preset.lock.ron, so datasets made before it resume.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub cold_share: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl Default for Signature {
@@ -38,6 +50,7 @@ impl Signature {
         emissivity: 0.9,
         spot_k: 15.0,
         spot_share: 0.45,
+        cold_share: 0.0,
     };
     /// A bird: feathers near the air's temperature, a warm body core.
     pub const BIRD: Self = Self {
@@ -45,6 +58,7 @@ impl Signature {
         emissivity: 0.95,
         spot_k: 10.0,
         spot_share: 0.3,
+        cold_share: 0.0,
     };
     /// An aircraft or helicopter: painted metal skin, a hot engine.
     pub const AIRCRAFT: Self = Self {
@@ -52,6 +66,7 @@ impl Signature {
         emissivity: 0.8,
         spot_k: 60.0,
         spot_share: 0.15,
+        cold_share: 0.0,
     };
     /// A balloon: fabric warmed by the burner.
     pub const BALLOON: Self = Self {
@@ -59,6 +74,7 @@ impl Signature {
         emissivity: 0.9,
         spot_k: 10.0,
         spot_share: 0.6,
+        cold_share: 0.0,
     };
 }
 
@@ -239,6 +255,19 @@ impl Signature {
             self.spot_share.is_finite() && self.spot_share > 0.0 && self.spot_share <= 10.0,
             &format!("thermal.{name}.spot_share"),
             || format!("{} must be in (0, 10]", self.spot_share),
+        );
+        let coldest = air_k - self.skin_k;
+        v.check(
+            self.cold_share.is_finite()
+                && (0.0..=1.0).contains(&self.cold_share)
+                && (self.cold_share == 0.0 || !coldest.is_finite() || coldest > 150.0),
+            &format!("thermal.{name}.cold_share"),
+            || {
+                format!(
+                    "{} must be a share in [0, 1] (and air − skin = {coldest} K above 150 when over 0)",
+                    self.cold_share
+                )
+            },
         );
     }
 }
