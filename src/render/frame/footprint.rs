@@ -91,7 +91,7 @@ impl Footprints {
         if words == 0 {
             return Ok(Some(0));
         }
-        let limit = u64::from(with.device.limits().max_storage_buffer_binding_size);
+        let limit = with.device.limits().max_storage_buffer_binding_size;
         let table_size = std::mem::size_of_val(&entries[..]) as u64;
         if words > u64::from(u32::MAX) || words * 4 > limit || table_size > limit {
             return Ok(None);
