@@ -167,6 +167,46 @@ fn fs_layer_blend(in: VsOut) -> IdOnlyMasked {
     return IdOnlyMasked(f32(in.id), coverage_mask(in));
 }
 
+// Footprints (src/render/frame/footprint.rs): each counted drone's rect
+// (x0, y0, x1, y1) and where its bits begin and end (words), and the bits:
+// one per pixel of its rect, row by row.
+struct Footprint {
+    rect: vec4<u32>,
+    offset: vec4<u32>,
+};
+@group(2) @binding(0) var<storage, read> footprints: array<Footprint>;
+@group(2) @binding(1) var<storage, read_write> footprint_bits: array<atomic<u32>>;
+
+// Mark this fragment's pixel in its drone's footprint when it keeps a sample:
+// `covered` (the samples the triangle covers) with `mask` (the coverage a
+// `_blend` entry writes), unless an alpha cutoff discards it; what a pass
+// drawing the drone alone would count for it.
+fn mark_footprint(in: VsOut, covered: u32, mask: u32, base: vec4<f32>) {
+    let cut = ALPHA_MASK && in.material.w > 0.0 && base.a < in.material.w;
+    let f = footprints[in.id - 1u];
+    let x = u32(in.position.x);
+    let y = u32(in.position.y);
+    let inside = x >= f.rect.x && y >= f.rect.y && x < f.rect.z && y < f.rect.w;
+    if ((covered & mask) != 0u && !cut && inside) {
+        let bit = (y - f.rect.y) * (f.rect.z - f.rect.x) + (x - f.rect.x);
+        let word = f.offset.x + bit / 32u;
+        if (word < f.offset.y) {
+            atomicOr(&footprint_bits[word], 1u << (bit % 32u));
+        }
+    }
+}
+
+@fragment
+fn fs_footprint(in: VsOut, @builtin(sample_mask) covered: u32) {
+    mark_footprint(in, covered, 0xffffffffu, base_color(in));
+}
+
+@fragment
+fn fs_footprint_blend(in: VsOut, @builtin(sample_mask) covered: u32) {
+    let mask = coverage_mask(in);
+    mark_footprint(in, covered, mask, base_color(in));
+}
+
 fn base_color(in: VsOut) -> vec4<f32> {
     if (TEXTURED) {
         return in.color * textureSample(base_color_texture, base_color_sampler, in.uv);

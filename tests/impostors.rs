@@ -215,6 +215,43 @@ fn impostors_stay_close_to_the_full_mesh_for_drones_of_2_to_20_px() {
     }
 }
 
+/// Drones drawn as impostors (alpha as MSAA coverage) piled into one 100 px
+/// square: each one's unoccluded count, counted for all of them at once in
+/// the footprint pass, equals what it shows rendered alone.
+#[test]
+fn overlapping_impostors_unoccluded_counts_equal_each_drone_alone() {
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(preset(Some(24.0))).expect("pipeline");
+    let mut imp = pipeline.renderer(&ctx);
+    let base = pipeline.make(&mut imp, 0).expect("frame").scene;
+    let mut scene = grid_scene(base, 7);
+    let cam = scene.camera;
+    let toward = |d: &swarmshot::scene::DronePose, k: usize| {
+        // Each drone slid along its line of sight onto a spot near the centre.
+        let p_cam = cam.camera_from_world * (d.position - cam.position);
+        let (dx, dy) = (
+            (k % 6) as f64 * 14.0 - 35.0,
+            (k / 6 % 6) as f64 * 12.0 - 30.0,
+        );
+        let f = cam.focal_px();
+        let moved = DVec3::new(dx * p_cam.z / f, dy * p_cam.z / f, p_cam.z);
+        cam.position + cam.camera_from_world.transpose() * moved
+    };
+    for (k, d) in scene.drones.iter_mut().enumerate() {
+        d.position = toward(d, k);
+    }
+    let vis = render(&mut imp, &scene).visibility.expect("vis");
+    let mut hidden = 0;
+    for (i, v) in vis.iter().enumerate() {
+        let mut alone = scene.clone();
+        alone.drones = vec![scene.drones[i].clone()];
+        let a = render(&mut imp, &alone).visibility.expect("vis")[0];
+        assert_eq!(v.unoccluded_pixels, a.visible_pixels, "drone {i}");
+        hidden += usize::from(v.visible_pixels < v.unoccluded_pixels);
+    }
+    assert!(hidden >= 5, "{hidden} drones partly hidden");
+}
+
 #[test]
 fn an_impostor_bakes_every_direction_with_a_silhouette_inside_its_tile() {
     let model = swarmshot::model::load_file(std::path::Path::new(CF2)).expect("cf2 loads");

@@ -1,5 +1,6 @@
 //! Impostors: a model's silhouette seen from [`DIRECTIONS`] directions, baked
-//! once on the CPU into one atlas of [`TILE`]² tiles, and a quad per
+//! once on the CPU (the tiles on rayon's threads) into one atlas of
+//! [`TILE`]² tiles, and a quad per
 //! direction that carries its tile. A drone too small for its mesh to matter
 //! is drawn as the quad of the direction nearest its view (in model space,
 //! so the drone's pose orients and scales it like its mesh).
@@ -15,6 +16,7 @@
 //! turns the atlas alpha into MSAA coverage, as it does for BLEND triangles.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use super::{BLEND_MARK, CpuModel, CpuTexture, Vertex, WrapMode};
 
@@ -133,9 +135,16 @@ pub fn bake(model: &CpuModel) -> Impostor {
     let (width, height) = (COLUMNS * TILE, rows * TILE);
     let mut rgba8 = vec![0u8; (width * height * 4) as usize];
     let (mut vertices, mut indices) = (Vec::new(), Vec::new());
-    for (k, &d) in directions.iter().enumerate() {
-        let tile = Tile::new(model, d);
-        let texels = bake_tile(model, &tile);
+    // The tiles rasterise apart on rayon's threads (each a pure function of
+    // the model and its direction); the atlas is written in order.
+    let baked: Vec<(Tile, Vec<Texel>)> = (directions.par_iter())
+        .map(|&d| {
+            let tile = Tile::new(model, d);
+            let texels = bake_tile(model, &tile);
+            (tile, texels)
+        })
+        .collect();
+    for (k, (&d, (tile, texels))) in directions.iter().zip(baked).enumerate() {
         let (col, row) = (k as u32 % COLUMNS, k as u32 / COLUMNS);
         let (normal, material) = write_tile(&texels, &mut rgba8, width, (col * TILE, row * TILE));
         let base = vertices.len() as u32;

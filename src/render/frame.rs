@@ -21,10 +21,13 @@
 //! a compact atlas), and the collected readback: one reused buffer, pasted
 //! into the frame's buffer (which already holds the background: [`Painted`])
 //! and reduced to per-drone visibility on the CPU ([`IdCollect`]). With
-//! visibility (and no scenery) the overlap layers come after the main pass
-//! is read, in a plan and submission of their own (`layers.rs`), for only
-//! the drones that pass shows something in front of ([`ids::shows_front`]).
+//! visibility (and no scenery) the unoccluded counts come after the main
+//! pass is read, in a submission of their own, for only the drones that
+//! pass shows something in front of ([`ids::shows_front`]): one footprint
+//! pass (`footprint.rs`), or, where fragment shaders cannot write storage,
+//! the overlap layers' passes (`layers.rs`).
 
+mod footprint;
 mod layers;
 mod passes;
 
@@ -111,18 +114,24 @@ pub(super) struct RegionState {
     targets: Vec<FrameTargets>,
     /// The near-field scenery's layer and pipelines (frames with clutter only).
     scenery: Option<SceneryGpu>,
+    /// The footprint pass (unoccluded counts in one pass; `None` where
+    /// fragment shaders cannot write storage: layer passes instead).
+    footprints: Option<footprint::Footprints>,
 }
 
 /// Target sets kept at once (e.g. a frame size and its id-pass size).
 const MAX_TARGETS: usize = 2;
 
 impl RegionState {
-    pub(super) fn new(factory: &PipelineFactory) -> Self {
+    /// The parts of `factory`'s device, on `backend`.
+    pub(super) fn new(factory: &PipelineFactory, backend: wgpu::Backend) -> Self {
+        let footprints = footprint::Footprints::supported(backend);
         Self {
             passes: RegionPasses::new(factory),
             backgrounds: Backgrounds::default(),
             targets: Vec::new(),
             scenery: None,
+            footprints: footprints.then(|| footprint::Footprints::new(factory)),
         }
     }
 
@@ -152,7 +161,7 @@ impl Renderer {
         id_layer::check_drones(scene.drones.len())?;
         let mut state = match self.regions.take() {
             Some(s) => s,
-            None => RegionState::new(&self.factory),
+            None => RegionState::new(&self.factory, self.backend),
         };
         let result = self.render_regions(&mut state, scene, request);
         self.regions = Some(state);
@@ -363,7 +372,7 @@ impl Renderer {
         self.check_size(width, height)?;
         let mut state = match self.regions.take() {
             Some(s) => s,
-            None => RegionState::new(&self.factory),
+            None => RegionState::new(&self.factory, self.backend),
         };
         let result = self.render_id_image(&mut state, scene, include);
         self.regions = Some(state);

@@ -180,6 +180,13 @@ impl IdCollect {
         }
     }
 
+    /// Count `pixels` as what drone `drone` shows alone (the footprint pass).
+    pub(super) fn add_alone_pixels(&mut self, drone: usize, pixels: u64) {
+        if let Some(t) = self.alone.get_mut(drone) {
+            t.add_count(pixels);
+        }
+    }
+
     /// Each drone's visibility (drones that overlap no other, `!overlapping[i]`,
     /// are alone in the main pass) and the pixel hits, when kept.
     pub(super) fn finish(self, overlapping: &[bool]) -> (Vec<Visibility>, Option<Vec<PixelHit>>) {

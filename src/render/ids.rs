@@ -66,10 +66,15 @@ impl Tally {
         self.y1 = self.y1.max(y + 1);
     }
 
+    /// Add `pixels` counted elsewhere (no places: the box stays as it is).
+    pub(super) fn add_count(&mut self, pixels: u64) {
+        self.pixels += pixels;
+    }
+
     pub(super) fn stats(&self) -> IdStats {
         IdStats {
             pixels: self.pixels,
-            rect: (self.pixels > 0).then_some(Rect {
+            rect: (self.pixels > 0 && self.x0 < self.x1).then_some(Rect {
                 x0: self.x0,
                 y0: self.y0,
                 x1: self.x1,

@@ -35,6 +35,8 @@ pub(super) struct Drones {
     white_texture: wgpu::BindGroup,
     /// How `@group(1)` (a draw's texture) is laid out.
     material_layout: wgpu::BindGroupLayout,
+    /// How `@group(0)` (the frame uniforms) is laid out.
+    frame_layout: wgpu::BindGroupLayout,
     /// Each model's impostor (empty: none), drawn for drones under
     /// `impostor_below_px` pixels (0: never).
     impostors: Vec<Option<GpuImpostor>>,
@@ -221,6 +223,7 @@ impl Drones {
             surfaces,
             white_texture,
             material_layout,
+            frame_layout: frame_layout.clone(),
             impostors: Vec::new(),
             impostor_below_px: 0.0,
             lod_error_px: if max_error_px.is_finite() {
@@ -365,6 +368,41 @@ impl Drones {
         entry: &str,
         targets: &[Option<wgpu::ColorTargetState>],
     ) -> DronePipelines {
+        let depth = depth_test(DEPTH_FORMAT, true, wgpu::CompareFunction::Greater);
+        let layout = &self.program.layout;
+        self.variants(factory, (label, layout, depth), (msaa, entry, targets))
+    }
+
+    /// The footprint pipelines for `msaa` samples (`fs_footprint`, with
+    /// `footprint_layout` at `@group(2)`, `depth` and no colour target: see
+    /// `frame/footprint.rs`), in the surface variants the meshes use.
+    pub(super) fn footprint_pipelines(
+        &self,
+        factory: &PipelineFactory,
+        msaa: u32,
+        footprint_layout: &wgpu::BindGroupLayout,
+        depth: Option<wgpu::DepthStencilState>,
+    ) -> DronePipelines {
+        let groups = [&self.frame_layout, &self.material_layout, footprint_layout];
+        let layout = factory.layout("drone footprint pipeline layout", &groups);
+        let label = "drone footprint pipeline";
+        self.variants(
+            factory,
+            (label, &layout, depth),
+            (msaa, "fs_footprint", &[]),
+        )
+    }
+
+    /// The drone pipelines (`label`, laid out by `layout`, with `depth`)
+    /// for `msaa` samples with fragment entry `entry` (`_blend` appended
+    /// for translucent ranges) writing `targets`, one per surface variant
+    /// the meshes use.
+    fn variants(
+        &self,
+        factory: &PipelineFactory,
+        (label, layout, depth): (&str, &wgpu::PipelineLayout, Option<wgpu::DepthStencilState>),
+        (msaa, entry, targets): (u32, &str, &[Option<wgpu::ColorTargetState>]),
+    ) -> DronePipelines {
         let vertex_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 8 => Float32x2, 9 => Float32x4];
         let buffers = [
             Some(wgpu::VertexBufferLayout {
@@ -393,7 +431,7 @@ impl Drones {
             } else {
                 (entry.to_owned(), &blend_constants[..2])
             };
-            let (layout, module) = (&self.program.layout, &self.program.module);
+            let module = &self.program.module;
             factory.render(&PipelineDesc {
                 buffers: &buffers,
                 constants,
@@ -404,7 +442,7 @@ impl Drones {
                     cull_mode: (!surface.double_sided).then_some(wgpu::Face::Back),
                     ..Default::default()
                 },
-                depth: depth_test(DEPTH_FORMAT, true, wgpu::CompareFunction::Greater),
+                depth: depth.clone(),
                 samples: msaa,
                 ..PipelineDesc::new(label, layout, module, &entry, targets)
             })

@@ -298,6 +298,8 @@ pub struct Renderer {
     queue: wgpu::Queue,
     /// Makes every pipeline and layout of the parts.
     factory: PipelineFactory,
+    /// The adapter's backend (what its shaders may do).
+    backend: wgpu::Backend,
     max_texture_side: u32,
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
@@ -427,6 +429,7 @@ impl Renderer {
             device,
             queue: ctx.queue.clone(),
             factory,
+            backend: ctx.adapter_info.backend,
             max_texture_side: ctx.max_texture_side,
             frame_buffer,
             frame_bind_group,

@@ -9,9 +9,11 @@
 //! whose (padded) amodal box overlaps no other drone's cannot be occluded, so
 //! its unoccluded count is its visible count, and neither is a drone whose
 //! rect shows, in the main pass, no drone that may be in front of it; the
-//! others are split into layers of mutually non-overlapping drones
-//! ([`overlap_layers`]) and each layer is drawn alone. A sparse swarm costs
-//! no extra pass.
+//! others are drawn again in one footprint pass, each fragment marking its
+//! pixel in its drone's own bitmask (`render/frame/footprint.rs`), or, where
+//! fragment shaders cannot write storage, split into layers of mutually
+//! non-overlapping drones ([`overlap_layers`]), each layer drawn alone. A
+//! sparse swarm costs no extra pass.
 //!
 //! What is measured is plain data ([`Visibility`], [`PixelHit`]): the labels
 //! are made from it (`annotate`, which names these types), the renderer
@@ -148,43 +150,21 @@ pub fn occlusion_layers(
     depths: &[Option<DepthRange>],
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), super::RenderError> {
     let may_hide = |j: usize, i: usize| super::regions::may_hide(depths, j, i);
-    const TILE: f64 = 64.0;
+    let padded: Vec<Option<PixelBox>> = boxes.iter().map(|b| b.as_ref().map(pad)).collect();
+    let grid = TileGrid::new(&padded);
     let mut tests: u64 = 0;
-    let pad = |b: &PixelBox| PixelBox {
-        x0: b.x0 - 1.0,
-        y0: b.y0 - 1.0,
-        x1: b.x1 + 1.0,
-        y1: b.y1 + 1.0,
-    };
-    let overlaps =
-        |a: &PixelBox, b: &PixelBox| a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
-    let tiles_of = |b: &PixelBox| {
-        let (tx0, ty0) = ((b.x0 / TILE).floor() as i64, (b.y0 / TILE).floor() as i64);
-        let (tx1, ty1) = ((b.x1 / TILE).floor() as i64, (b.y1 / TILE).floor() as i64);
-        (ty0..=ty1).flat_map(move |ty| (tx0..=tx1).map(move |tx| (tx, ty)))
-    };
-    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> =
-        std::collections::HashMap::new();
-    for (i, b) in boxes.iter().enumerate() {
-        if let Some(b) = b {
-            for t in tiles_of(&pad(b)) {
-                grid.entry(t).or_default().push(i);
-            }
-        }
-    }
     let mut layer_of: Vec<Option<usize>> = vec![None; boxes.len()];
     let mut overlapping = vec![false; boxes.len()];
     let mut layers: Vec<Vec<usize>> = Vec::new();
-    // Reused from drone to drone: no allocation per drone.
-    let mut taken: Vec<usize> = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    for (i, b) in boxes.iter().enumerate() {
-        let Some(b) = b else { continue };
-        let pb = pad(b);
-        taken.clear();
-        seen.clear();
-        for t in tiles_of(&pb) {
-            let near = grid.get(&t).map_or(&[][..], Vec::as_slice);
+    // Reused from drone to drone (no allocation, no hashing per drone):
+    // `taken_by[l] == i + 1` once a drone that drone `i` meets is in layer
+    // `l`. A drone met in two tiles is met twice: both marks are idempotent.
+    let mut taken_by: Vec<usize> = Vec::new();
+    for (i, pb) in padded.iter().enumerate() {
+        let Some(pb) = pb else { continue };
+        let mark = i + 1;
+        for t in tiles_of(pb) {
+            let near = grid.near(t);
             tests += near.len() as u64;
             if tests > MAX_OVERLAP_TESTS {
                 return Err(super::RenderError::TooDense {
@@ -192,26 +172,83 @@ pub fn occlusion_layers(
                     limit: MAX_OVERLAP_TESTS,
                 });
             }
-            for &j in near {
-                if j != i
-                    && seen.insert(j)
-                    && boxes[j].as_ref().is_some_and(|bj| overlaps(&pb, &pad(bj)))
-                {
-                    overlapping[i] |= may_hide(j, i);
+            for (bj, j) in near {
+                let j = *j as usize;
+                if j != i && overlaps(pb, bj) {
+                    overlapping[i] = overlapping[i] || may_hide(j, i);
                     if let Some(l) = layer_of[j] {
-                        taken.push(l);
+                        taken_by[l] = mark;
                     }
                 }
             }
         }
-        let layer = (0..).find(|l| !taken.contains(l)).unwrap_or(0);
+        // The first layer none of its neighbours is in.
+        let layer = (0..layers.len())
+            .find(|&l| taken_by[l] != mark)
+            .unwrap_or(layers.len());
         if layer == layers.len() {
             layers.push(Vec::new());
+            taken_by.push(0);
         }
         layers[layer].push(i);
         layer_of[i] = Some(layer);
     }
     Ok((layers, overlapping))
+}
+
+/// The side of [`occlusion_layers`]' tiles in pixels.
+const TILE: f64 = 64.0;
+
+/// A box grown by one pixel on every side.
+fn pad(b: &PixelBox) -> PixelBox {
+    PixelBox {
+        x0: b.x0 - 1.0,
+        y0: b.y0 - 1.0,
+        x1: b.x1 + 1.0,
+        y1: b.y1 + 1.0,
+    }
+}
+
+/// Whether two boxes share an area.
+fn overlaps(a: &PixelBox, b: &PixelBox) -> bool {
+    a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1
+}
+
+/// The [`TILE`]-px tiles a box touches, row by row.
+fn tiles_of(b: &PixelBox) -> impl Iterator<Item = (i64, i64)> + use<> {
+    let (tx0, ty0) = ((b.x0 / TILE).floor() as i64, (b.y0 / TILE).floor() as i64);
+    let (tx1, ty1) = ((b.x1 / TILE).floor() as i64, (b.y1 / TILE).floor() as i64);
+    (ty0..=ty1).flat_map(move |ty| (tx0..=tx1).map(move |tx| (tx, ty)))
+}
+
+/// Which boxes touch each tile: (tile, box, box index) sorted by tile,
+/// then index, so each tile's boxes are one slice in index order, scanned
+/// in memory order.
+struct TileGrid {
+    tiles: Vec<(i64, i64)>,
+    boxes: Vec<(PixelBox, u32)>,
+}
+
+impl TileGrid {
+    fn new(boxes: &[Option<PixelBox>]) -> Self {
+        let mut entries: Vec<((i64, i64), u32)> = (boxes.iter().enumerate())
+            .filter_map(|(i, b)| Some((i, b.as_ref()?)))
+            .flat_map(|(i, b)| tiles_of(b).map(move |t| (t, i as u32)))
+            .collect();
+        entries.sort_unstable();
+        let tiles = entries.iter().map(|&(t, _)| t).collect();
+        let boxes = (entries.into_iter())
+            .filter_map(|(_, i)| Some((boxes[i as usize]?, i)))
+            .collect();
+        Self { tiles, boxes }
+    }
+
+    /// The boxes touching tile `t` with their indices, in index order.
+    fn near(&self, t: (i64, i64)) -> &[(PixelBox, u32)] {
+        let start = self.tiles.partition_point(|&k| k < t);
+        let end = start + self.tiles[start..].partition_point(|&k| k == t);
+        &self.boxes[start..end]
+    }
 }
 
 /// The most box comparisons [`overlap_layers`] makes for one frame (about

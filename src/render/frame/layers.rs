@@ -1,7 +1,10 @@
-//! The overlap layers of a frame whose main pass is already read: only the
-//! drones that pass shows something in front of ([`super::ids::shows_front`])
-//! are drawn again, each with drones apart from it, ids only, in a second
-//! submission; what they show alone is counted into the frame's tallies.
+//! The unoccluded counts of a frame whose main pass is already read: only
+//! the drones that pass shows something in front of
+//! ([`super::ids::shows_front`]) are drawn again, in a second submission, and
+//! what they show alone is counted into the frame's tallies. The footprint
+//! pass (`footprint.rs`) counts them all at once; without it (or when their
+//! bitmasks outgrow a storage buffer) they are drawn in overlap layers, each
+//! with drones apart from it, ids only.
 
 use crate::render::RenderError;
 use crate::render::id_layer::IdCollect;
@@ -40,6 +43,13 @@ pub(super) fn measure_alone(
         return Ok(0);
     }
     let (boxes, rects) = layers.drones;
+    if let Some(footprints) = state.footprints.as_mut() {
+        let target = &state.targets[layers.targets];
+        let named = (rects, layers.alone);
+        if let Some(drawn) = footprints.measure(with, target, scene, named, ids)? {
+            return Ok(drawn);
+        }
+    }
     let plan = FramePlan::layer_passes(main.request, boxes, rects, layers.alone)?;
     let (p, t) = (layers.pipelines, layers.targets);
     let target = &mut state.targets[t];
