@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use glam::{DMat3, DVec2, DVec3};
-use swarmshot::annotate::flow::background_flow;
+use swarmshot::annotate::flow::BackgroundFlow;
 use swarmshot::preset::Preset;
 use swarmshot::scene::camera::Camera;
 use swarmshot::scene::{build_frame_at, math::look_at_cv};
@@ -78,9 +78,13 @@ fn main() -> anyhow::Result<()> {
             * camera.camera_from_world,
         ..camera
     };
-    let source = |x: f64, y: f64| {
-        let at = DVec2::new(x, y);
-        background_flow(&turned_at(y - 0.5), &camera, at).map_or((x, y), |f| (x + f.x, y + f.y))
+    // As `pipeline/rolling.rs`: each row's camera once, then its knots.
+    let source = |y: f64, xs: &[f64], out: &mut [(f64, f64)]| {
+        let flow = BackgroundFlow::new(&turned_at(y - 0.5), &camera);
+        for (o, &x) in out.iter_mut().zip(xs) {
+            let f = flow.at(DVec2::new(x, y));
+            *o = f.map_or((x, y), |f| (x + f.x, y + f.y));
+        }
     };
     let shears: Vec<Shear> = (rects.iter())
         .map(|&rect| Shear {
