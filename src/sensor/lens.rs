@@ -752,14 +752,14 @@ mod tests {
     #[test]
     fn floor_u32_is_the_saturating_cast_in_range() {
         for s in [
-            0.0,
+            0.0f64,
             0.49999,
             0.5,
             1.0 - 1e-12,
             1.0,
             2.5,
             3.5,
-            1023.999_999,
+            1_023.999_999,
             1024.0,
             2e9,
         ] {
