@@ -13,7 +13,7 @@
 //! Written as KITTI's 16-bit PNG ([`kitti_rgb16`]): per pixel
 //! (u·64 + 2¹⁵, v·64 + 2¹⁵, valid), 0 in all three where invalid.
 
-use glam::{DQuat, DVec2, DVec3};
+use glam::{DMat3, DQuat, DVec2, DVec3};
 
 use crate::scene::FrameScene;
 use crate::scene::camera::Camera;
@@ -88,9 +88,43 @@ fn ray(cam: &Camera, at: DVec2) -> DVec3 {
 /// The flow at pixel centre `at` of a point at infinity (the background):
 /// the camera's rotation and intrinsics only.
 pub fn background_flow(cam: &Camera, next: &Camera, at: DVec2) -> Option<DVec2> {
-    let direction = cam.camera_from_world.transpose() * ray(cam, at);
-    let to = next.project_camera_point(next.camera_from_world * direction)?;
-    Some(to - at)
+    BackgroundFlow::new(cam, next).at(at)
+}
+
+/// [`background_flow`] from `cam` to `next` with the cameras' matrices and
+/// intrinsics taken once, for many pixels (the same operations, so the
+/// same numbers).
+#[derive(Clone, Copy, Debug)]
+pub struct BackgroundFlow {
+    world_from_camera: DMat3,
+    next_from_world: DMat3,
+    /// Each camera's focal length and principal point, pixels.
+    intrinsics: [(f64, DVec2); 2],
+}
+
+impl BackgroundFlow {
+    pub fn new(cam: &Camera, next: &Camera) -> Self {
+        Self {
+            world_from_camera: cam.camera_from_world.transpose(),
+            next_from_world: next.camera_from_world,
+            intrinsics: [
+                (cam.focal_px(), cam.principal_point()),
+                (next.focal_px(), next.principal_point()),
+            ],
+        }
+    }
+
+    /// The flow at pixel centre `at` (`None`: the direction is behind the
+    /// next camera). [`Camera::project_camera_point`]'s formula.
+    pub fn at(&self, at: DVec2) -> Option<DVec2> {
+        let [(f, c), (nf, nc)] = self.intrinsics;
+        let ray = DVec3::new((at.x - c.x) / f, (at.y - c.y) / f, 1.0);
+        let p = self.next_from_world * (self.world_from_camera * ray);
+        if p.z.is_nan() || p.z <= 0.0 {
+            return None;
+        }
+        Some(DVec2::new(nf * p.x / p.z + nc.x, nf * p.y / p.z + nc.y) - at)
+    }
 }
 
 /// KITTI's encoding of one flow vector: (u·64 + 2¹⁵, v·64 + 2¹⁵, 1),
@@ -114,10 +148,11 @@ pub fn kitti_rgb16(flow: &FrameFlow, instance: &[(u32, u32)]) -> Vec<u16> {
         [32_768u16, 32_768, 1].repeat(w * h)
     } else {
         let mut out = Vec::with_capacity(w * h * 3);
+        let background = BackgroundFlow::new(cam, next);
         for y in 0..h {
             for x in 0..w {
                 let at = DVec2::new(x as f64, y as f64) + 0.5;
-                out.extend(kitti(background_flow(cam, next, at)));
+                out.extend(kitti(background.at(at)));
             }
         }
         out
@@ -133,7 +168,6 @@ pub fn kitti_rgb16(flow: &FrameFlow, instance: &[(u32, u32)]) -> Vec<u16> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DMat3;
 
     fn camera(camera_from_world: DMat3, position: DVec3) -> Camera {
         Camera {

@@ -11,7 +11,7 @@
 //! The picture is made from the rendered frame and its drone-free frame
 //! ([`crate::sensor::rolling`]): the background is the sky at infinity, so
 //! each row is the rendered background through the rotation homography of
-//! its time (the optical flow's [`background_flow`], exact for the sky); each
+//! its time (the optical flow's [`BackgroundFlow`], exact for the sky); each
 //! drone's pixels are moved row by row by the shift of its centre's image at
 //! that row's time (exact for the drone's position; its own turn and change
 //! of size during the readout are not drawn: docs/realism.md gives the
@@ -21,7 +21,7 @@
 use glam::{DMat3, DVec2, DVec3};
 
 use crate::annotate::PixelBox;
-use crate::annotate::flow::background_flow;
+use crate::annotate::flow::BackgroundFlow;
 use crate::preset::Preset;
 use crate::scene::camera::Camera;
 use crate::scene::math::slerp;
@@ -153,10 +153,14 @@ impl Shutter {
             return None;
         }
         let size = (self.camera.width, self.camera.height);
-        let source = |x: f64, y: f64| {
+        // Row y's camera once, then its knots' rotation flow.
+        let source = |y: f64, xs: &[f64], out: &mut [(f64, f64)]| {
             let cam = self.camera_at(self.time_of_row(y - 0.5));
-            let at = DVec2::new(x, y);
-            background_flow(&cam, &self.camera, at).map_or((x, y), |f| (x + f.x, y + f.y))
+            let flow = BackgroundFlow::new(&cam, &self.camera);
+            for (o, &x) in out.iter_mut().zip(xs) {
+                let f = flow.at(DVec2::new(x, y));
+                *o = f.map_or((x, y), |f| (x + f.x, y + f.y));
+            }
         };
         Some(turn_background(background, size, &source))
     }

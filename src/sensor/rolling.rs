@@ -63,42 +63,102 @@ impl Shear {
     }
 }
 
+/// Where a row's pixels take the background from: called with the row's
+/// centre `y` and the columns' centres `xs`, it fills `sources` (pixel
+/// coordinates, one per column).
+pub type RowSources<'a> = dyn Fn(f64, &[f64], &mut [(f64, f64)]) + Sync + 'a;
+
 /// `background` (RGBA8, `width`×`height`) resampled row by row: output
-/// pixel centre (x, y) takes the background at `source(x, y)` (pixel
-/// coordinates; clamped to the image), computed every [`KNOT_PX`] columns
-/// and at the last, linear in between. Rows on rayon's threads.
+/// pixel centre (x, y) takes the background at the row's source of x
+/// (`sources`; clamped to the image), computed every [`KNOT_PX`] columns
+/// and at the last, linear in between, with the lens map's taps and
+/// rounding. Rows on rayon's threads, each with reused buffers.
 pub fn turn_background(
     background: &[u8],
     (width, height): (u32, u32),
-    source: &(dyn Fn(f64, f64) -> (f64, f64) + Sync),
+    sources: &RowSources,
 ) -> Vec<u8> {
     let w = width as usize;
-    let mut out = background.to_vec();
-    if w == 0 || background.len() < w * height as usize * 4 {
-        return out;
+    if width < 2 || height < 2 || background.len() < w * height as usize * 4 {
+        return background.to_vec();
     }
-    out.par_chunks_mut(w * 4).enumerate().for_each(|(y, row)| {
-        let yc = y as f64 + 0.5;
-        let mut knots: Vec<(u32, (f64, f64))> = (0..width)
-            .step_by(KNOT_PX as usize)
-            .map(|x| (x, source(f64::from(x) + 0.5, yc)))
-            .collect();
-        if knots.last().is_some_and(|&(x, _)| x + 1 < width) {
-            knots.push((width - 1, source(f64::from(width) - 0.5, yc)));
-        }
-        let at = |x: u32| {
-            let k = ((x / KNOT_PX) as usize).min(knots.len().saturating_sub(2));
-            let ((xa, a), (xb, b)) = (knots[k], knots[(k + 1).min(knots.len() - 1)]);
-            let t = if xb > xa {
-                f64::from(x - xa) / f64::from(xb - xa)
-            } else {
-                0.0
-            };
-            (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t)
-        };
-        super::lens::resample_row(background, (width, height), (0..width).map(at), row);
-    });
+    let mut out = vec![0u8; w * height as usize * 4];
+    let knot_xs: Vec<u32> = knot_columns(width);
+    let xs: Vec<f64> = knot_xs.iter().map(|&x| f64::from(x) + 0.5).collect();
+    out.par_chunks_mut(w * 4).enumerate().for_each_init(
+        || Row::new(w, xs.len()),
+        |row, (y, bytes)| {
+            sources(y as f64 + 0.5, &xs, &mut row.knots);
+            super::simd::widest(
+                #[inline(always)]
+                || {
+                    row.interpolate(&knot_xs);
+                    row.taps.set((width, height), &row.u, &row.v);
+                },
+            );
+            row.taps.resample(background, width, bytes);
+        },
+    );
     out
+}
+
+/// The columns where a row's source is computed: every [`KNOT_PX`] and the last.
+fn knot_columns(width: u32) -> Vec<u32> {
+    let mut knots: Vec<u32> = (0..width).step_by(KNOT_PX as usize).collect();
+    if knots.last().is_some_and(|&x| x + 1 < width) {
+        knots.push(width - 1);
+    }
+    knots
+}
+
+/// One row's buffers: its knots' sources, every column's source, its taps.
+struct Row {
+    knots: Vec<(f64, f64)>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    taps: super::lens::RowTaps,
+}
+
+impl Row {
+    fn new(width: usize, knots: usize) -> Self {
+        Self {
+            knots: vec![(0.0, 0.0); knots],
+            u: vec![0.0; width],
+            v: vec![0.0; width],
+            taps: super::lens::RowTaps::default(),
+        }
+    }
+
+    /// Every column's source, linear between the knots at `xs`: column x
+    /// in the segment of knot min(x / KNOT_PX, last − 1), the last segment
+    /// running to the row's end.
+    #[inline(always)]
+    fn interpolate(&mut self, xs: &[u32]) {
+        let last = xs.len().saturating_sub(2);
+        for k in 0..=last {
+            let (xa, a) = (xs[k], self.knots[k]);
+            let (xb, b) = (
+                xs[(k + 1).min(xs.len() - 1)],
+                self.knots[(k + 1).min(xs.len() - 1)],
+            );
+            let from = (k as u32 * KNOT_PX) as usize;
+            let to = if k == last {
+                self.u.len()
+            } else {
+                from + KNOT_PX as usize
+            };
+            let span = xb.saturating_sub(xa);
+            let (u, v) = (&mut self.u[from..to], &mut self.v[from..to]);
+            for (x, (u, v)) in (from as u32..).zip(u.iter_mut().zip(v.iter_mut())) {
+                let t = if span > 0 {
+                    f64::from(x - xa) / f64::from(span)
+                } else {
+                    0.0
+                };
+                (*u, *v) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+            }
+        }
+    }
 }
 
 /// The shuttered picture: `turned` (the drone-free frame under the
@@ -218,7 +278,11 @@ mod tests {
             shift_px: vec![(0.0, 0.0); h as usize],
         };
         assert_eq!(shear(&frame, &background, &background, (w, h), &[s]), frame);
-        let still = turn_background(&frame, (w, h), &|x, y| (x, y));
+        let still = turn_background(&frame, (w, h), &|y, xs, out| {
+            for (o, &x) in out.iter_mut().zip(xs) {
+                *o = (x, y);
+            }
+        });
         assert_eq!(still, frame);
     }
 }
