@@ -1246,6 +1246,35 @@ fn the_backplate_panel_edits_the_preset_and_a_bad_value_is_a_problem() {
 }
 
 #[test]
+fn thermal_bits_reach_the_preset_and_16_without_png_is_a_problem() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
+    wait_for(&mut h, "the first preview", settled);
+    // Room for the section: the open Camera section folds away.
+    h.get_by_label("Camera").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Thermal camera").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Thermal camera on").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    h.get_by_label("16 bits").click_accesskit();
+    h.run_steps(3);
+    let thermal = h.state().session().preset.thermal.clone().unwrap();
+    assert_eq!(thermal.bits, 16);
+    // The grid writes JPEG: 16 bits is refused, named as validation names it.
+    let errors = h.state().errors().to_vec();
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert_eq!(errors[0].field, "thermal.bits");
+    h.get_by_label(&format!("Bits: {}", errors[0].message));
+    h.get_by_label("8 bits").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(h.state().session().preset.thermal.clone().unwrap().bits, 8);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+}
+
+#[test]
 fn the_clutter_panel_switches_the_scenery_on_and_edits_it() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();

@@ -232,6 +232,7 @@ fn sixteen_bit_frames_are_the_gain_controls_levels_times_257_as_grey_png() {
             labels: &b.labels,
             rgba: &b.rgba,
             grey16: b.grey16.as_deref(),
+            grey: true,
             masks: None,
         },
         &swarmshot::write::single::LoneFormat {

@@ -38,10 +38,25 @@ pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
         Words::of(path).number(ui, form, value, speed);
     }
     Words::of("thermal.agc_percentiles").range(ui, form, &mut t.agc_percentiles, 0.1);
+    bits_row(ui, form, &mut t.bits);
     signature_rows(ui, form, "thermal.drone", &mut t.drone);
     signature_rows(ui, form, "thermal.bird", &mut t.bird);
     signature_rows(ui, form, "thermal.aircraft", &mut t.aircraft);
     signature_rows(ui, form, "thermal.balloon", &mut t.balloon);
+}
+
+/// Bits per written pixel: 8, or 16 (grey PNG; validation's message on
+/// `thermal.bits`, that 16 needs PNG output, shows under the row).
+fn bits_row(ui: &mut Ui, form: &mut Form<'_>, bits: &mut u8) {
+    let words = Words::of("thermal.bits");
+    ui.horizontal(|ui| {
+        ui.label(&words.label).on_hover_text(words.tooltip);
+        for (value, text) in [(8, "8 bits"), (16, "16 bits")] {
+            ui.radio_value(bits, value, text)
+                .on_hover_text(words.tooltip);
+        }
+    });
+    form.messages(ui, &[&words.path]);
 }
 
 /// One kind's signature: its heading, then skin, emissivity, warm spot and cold share.

@@ -44,6 +44,7 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
             rgba: &frame.rgba,
             // The overlay is drawn on the 8-bit picture.
             grey16: frame.grey16.as_deref().filter(|_| !args.overlay),
+            grey: pipeline.preset().thermal.is_some() && !args.overlay,
             masks: frame.masks.as_ref(),
         },
         &swarmshot::write::single::LoneFormat {

@@ -424,7 +424,11 @@ fn run_stages(
     let (recycle_tx, recycle_rx) = crossbeam_channel::bounded::<(Vec<u8>, Painted)>(in_flight);
     // One encoder for all threads: JPEG frames over the same background
     // share its unpainted tiles (write/encode/jpeg/).
-    let encoder = &ImageEncoder::new(format);
+    // The thermal camera's grey frames as one-channel JPEG.
+    let encoder = &match pipeline.preset().thermal {
+        Some(_) => ImageEncoder::grey(format),
+        None => ImageEncoder::new(format),
+    };
     let stages = &MakerStages {
         pipeline,
         ctx,

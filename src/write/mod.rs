@@ -35,7 +35,8 @@ use crate::scene::FrameScene;
 
 pub use dataset::{DatasetWriter, PLAN_README, WriterOptions};
 pub use encode::{
-    Area, EncodeError, ImageEncoder, Unchanged, encode_grey16_png, encode_image, jpeg_round_trip,
+    Area, EncodeError, ImageEncoder, Unchanged, encode_grey_image, encode_grey16_png, encode_image,
+    jpeg_round_trip,
 };
 pub use folder::{Checkpoint, Folder, OpenMode, RunId, ShardPlan, ShardRun, Start};
 pub use formats::{

@@ -9,7 +9,9 @@
 use std::path::{Path, PathBuf};
 
 use super::formats::{masks, yolo};
-use super::{EncodeError, OutputError, encode_image, image_rel_path, manifest_line};
+use super::{
+    EncodeError, OutputError, encode_grey_image, encode_image, image_rel_path, manifest_line,
+};
 use crate::annotate::DroneLabel;
 use crate::annotate::masks::FrameMasks;
 use crate::preset::ImageFormat;
@@ -24,6 +26,8 @@ pub struct LoneFrame<'a> {
     pub rgba: &'a [u8],
     /// 16-bit grey pixels, written instead of `rgba` (a PNG) when present.
     pub grey16: Option<&'a [u16]>,
+    /// `rgba` is grey (R = G = B): a JPEG is written with one channel.
+    pub grey: bool,
     /// Each drone's visible pixels (present when `output.masks` asks for any).
     pub masks: Option<&'a FrameMasks>,
 }
@@ -91,6 +95,7 @@ pub fn write_lone_frame(
         out.to_owned(),
         match frame.grey16 {
             Some(grey) => super::encode_grey16_png(grey, w, h)?,
+            None if frame.grey => encode_grey_image(frame.rgba, w, h, format.image)?,
             None => encode_image(frame.rgba, w, h, format.image)?,
         },
     ));

@@ -7,12 +7,15 @@
 //! 8-bit grey RGBA or 16-bit grey (the same gain × 257).
 //!
 //! Three passes over the frame, each in bands of rows on rayon's threads:
-//! the blur's row pass; its column pass fused with the noise and the
-//! frame's extremes (each row while it is in cache); the gain control's
-//! histogram, then the gain. A pixel's value is the same sum in the same
-//! order as a plain loop gives, and extremes and histogram counts are
-//! exact, so the bytes do not depend on the threads. The planes are kept
-//! in [`Scratch`] from frame to frame.
+//! the blur (a band's rows and the kernel's halo through the row pass into
+//! a small buffer, then the column pass) fused with the noise and the
+//! frame's extremes, written to a second plane that is then swapped in;
+//! the gain control's histogram; the gain. A pixel's value is the same sum
+//! in the same order as a plain loop gives, and extremes and histogram
+//! counts are exact, so the bytes do not depend on the threads. Float to
+//! integer conversions go through the float unit's rounding ([`floor`],
+//! [`level`]) so their loops vectorise. The planes are kept in [`Scratch`]
+//! from frame to frame.
 
 use rayon::prelude::*;
 
@@ -104,21 +107,30 @@ simd_fn! {
 }
 
 simd_fn! {
-    /// Band `b` of the blur's column pass over the row-blurred `rows`
-    /// (`w`×`h`), each row then given its pattern and noise; the band's extremes.
+    /// Band `b` of the blurred `src` (`w`×`h`) into `out`: the row pass on
+    /// the band's rows and the kernel's halo above and below (into `halo`),
+    /// then the column pass, each row then given its pattern and noise; the
+    /// band's extremes.
     fn column_band(
-        rows: &[f32],
+        src: &[f32],
         wh: (usize, usize),
         b: usize,
         k: &[f32],
         noise: &Noise<'_>,
+        halo: &mut Vec<f32>,
         out: &mut [f32],
     ) -> (f32, f32) {
+        let (w, h) = wh;
+        let (y0, r) = (b * BAND_ROWS, k.len() / 2);
+        let first = y0.saturating_sub(r);
+        let last = (y0 + out.len() / w + r).min(h);
+        halo.resize((last - first) * w, 0.0);
+        blur_rows(&src[first * w..last * w], halo, w, k);
         let mut lo_hi = (f32::INFINITY, f32::NEG_INFINITY);
-        for (j, row) in out.chunks_exact_mut(wh.0).enumerate() {
-            let y = b * BAND_ROWS + j;
-            blur_column(rows, wh, y, k, row);
-            lo_hi = add_noise(noise, row, y * wh.0, lo_hi);
+        for (j, row) in out.chunks_exact_mut(w).enumerate() {
+            let y = y0 + j;
+            blur_column((halo, first), wh, y, k, row);
+            lo_hi = add_noise(noise, row, y * w, lo_hi);
         }
         lo_hi
     }
@@ -133,8 +145,11 @@ fn extremes(row: &[f32], (mut lo, mut hi): (f32, f32)) -> (f32, f32) {
         (lo, hi) = (lo.min(v), hi.max(v));
     }
     for c in chunks {
+        // Comparisons rather than f32::min/max (whose NaN rule does not
+        // vectorise): the same extremes, a NaN pixel skipped alike.
         for k in 0..8 {
-            (l[k], h[k]) = (l[k].min(c[k]), h[k].max(c[k]));
+            l[k] = if c[k] < l[k] { c[k] } else { l[k] };
+            h[k] = if c[k] > h[k] { c[k] } else { h[k] };
         }
     }
     (
@@ -157,13 +172,14 @@ fn kernel(sigma: f32) -> Option<Vec<f32>> {
     Some(k)
 }
 
-/// The blur (when σ > 0), then the pattern and noise; the frame's extremes.
+/// The blur (when σ > 0), then the pattern and noise, into `plane` (the
+/// blur writes `spare` and swaps it in); the frame's extremes.
 fn blur_and_noise(
-    plane: &mut [f32],
+    plane: &mut Vec<f32>,
     (w, h): (usize, usize),
     sigma: f32,
     noise: &Noise<'_>,
-    rows: &mut Vec<f32>,
+    spare: &mut Vec<f32>,
 ) -> (f32, f32) {
     let start = (f32::INFINITY, f32::NEG_INFINITY);
     let fold = |a: (f32, f32), b: (f32, f32)| (a.0.min(b.0), a.1.max(b.1));
@@ -173,13 +189,15 @@ fn blur_and_noise(
             .map(|(b, rows)| noise_band(noise, rows, b * band))
             .reduce(|| start, fold);
     };
-    rows.resize(plane.len(), 0.0);
-    (plane.par_chunks(band).zip(rows.par_chunks_mut(band)))
-        .for_each(|(src, dst)| blur_rows(src, dst, w, &k));
-    let rows = &rows[..];
-    (plane.par_chunks_mut(band).enumerate())
-        .map(|(b, out)| column_band(rows, (w, h), b, &k, noise, out))
-        .reduce(|| start, fold)
+    spare.resize(plane.len(), 0.0);
+    let src = &plane[..];
+    let lo_hi = (spare.par_chunks_mut(band).enumerate())
+        .map_init(Vec::new, |halo, (b, out)| {
+            column_band(src, (w, h), b, &k, noise, halo, out)
+        })
+        .reduce(|| start, fold);
+    std::mem::swap(plane, spare);
+    lo_hi
 }
 
 simd_fn! {
@@ -210,13 +228,20 @@ simd_fn! {
     }
 }
 
-/// Row `y` of the column pass over the row-blurred `rows` (edges clamped).
+/// Row `y` of the column pass over the row-blurred `rows`, which hold the
+/// frame's rows from `first` on (edges clamped).
 #[inline(always)]
-fn blur_column(rows: &[f32], (w, h): (usize, usize), y: usize, k: &[f32], dst: &mut [f32]) {
+fn blur_column(
+    (rows, first): (&[f32], usize),
+    (w, h): (usize, usize),
+    y: usize,
+    k: &[f32],
+    dst: &mut [f32],
+) {
     let r = k.len() / 2;
     dst.fill(0.0);
     for (j, kv) in k.iter().enumerate() {
-        let sy = (y + j).saturating_sub(r).min(h - 1);
+        let sy = (y + j).saturating_sub(r).min(h - 1) - first;
         for (o, s) in dst.iter_mut().zip(&rows[sy * w..(sy + 1) * w]) {
             *o += kv * s;
         }
@@ -231,7 +256,7 @@ pub fn blur(plane: &mut [f32], (w, h): (usize, usize), sigma: f32) {
     let mut rows = vec![0.0; plane.len()];
     blur_rows(plane, &mut rows, w, &k);
     for (y, row) in plane.chunks_exact_mut(w).enumerate() {
-        blur_column(&rows, (w, h), y, &k, row);
+        blur_column((&rows, 0), (w, h), y, &k, row);
     }
 }
 
@@ -292,8 +317,10 @@ simd_fn! {
         for run in chunk.chunks(256) {
             let bins = &mut bins[..run.len()];
             for (b, &v) in bins.iter_mut().zip(run) {
-                // In 0..AGC_BINS for v in [min, max] (the cap only tells the compiler).
-                *b = (((v - min) * scale) as i32).clamp(0, AGC_BINS as i32 - 1) as u32;
+                // In 0..AGC_BINS for v in [min, max]; as `as i32` then the
+                // clamp would give (NaN: 0), without a scalar conversion.
+                let x = clamp_nan_low((v - min) * scale, (AGC_BINS - 1) as f32);
+                *b = floor(x) as u32;
             }
             let quads = bins.chunks_exact(4);
             for &b in quads.remainder() {
@@ -313,13 +340,38 @@ simd_fn! {
     }
 }
 
-/// `x` clamped to [0, `top`] and rounded half away from zero, without a
-/// library call (`x − ⌊x⌋` is exact for 0 ≤ x < 2²³).
+/// `x` clamped to [0, `top`] (NaN: 0) and rounded half away from zero
+/// (`x − round(x)` is exact for 0 ≤ x < 2²²).
 #[inline(always)]
 fn level(x: f32, top: f32) -> u32 {
-    let x = x.clamp(0.0, top);
-    let i = x as i32;
-    (i + i32::from(x - i as f32 >= 0.5)) as u32
+    let x = clamp_nan_low(x, top);
+    let r = round_even(x);
+    (r + i32::from(x - r as f32 >= 0.5)) as u32
+}
+
+/// `x` clamped to [0, `top`], NaN to 0: as `x.clamp(0.0, top)` then
+/// `as i32` treat it, in two comparisons that vectorise.
+#[inline(always)]
+pub(super) fn clamp_nan_low(x: f32, top: f32) -> f32 {
+    let x = if x > 0.0 { x } else { 0.0 };
+    if x < top { x } else { top }
+}
+
+/// `x` (0 ≤ x < 2²²) rounded to the nearest integer, ties to even, by
+/// float operations alone: x + 2²³ has no fraction bits left, so its
+/// mantissa is the integer. A loop of these vectorises, where `as i32`
+/// (saturating, NaN to 0) is converted one value at a time.
+#[inline(always)]
+fn round_even(x: f32) -> i32 {
+    const MAGIC: f32 = 8_388_608.0;
+    (x + MAGIC).to_bits() as i32 - MAGIC.to_bits() as i32
+}
+
+/// ⌊x⌋ of 0 ≤ x < 2²² (what `x as i32` gives), vectorisable as [`round_even`].
+#[inline(always)]
+pub(super) fn floor(x: f32) -> i32 {
+    let r = round_even(x);
+    r - i32::from(r as f32 > x)
 }
 
 /// Each pixel's level `v·scale + offset` into `out`.
@@ -516,5 +568,14 @@ mod tests {
             assert_eq!(level(x, 255.0), x.clamp(0.0, 255.0).round() as u32, "{x}");
         }
         assert_eq!(level(f32::NAN, 255.0), 0);
+        assert_eq!(level(65534.5, 65535.0), 65535);
+        for x in [
+            0.0f32, 0.49999997, 0.5, 1.0, 1.5, 2.5, 4094.9998, 4095.0, 70000.25,
+        ] {
+            let c = clamp_nan_low(x, 4095.0);
+            assert_eq!(floor(c), (x as i32).clamp(0, 4095), "{x}");
+        }
+        assert_eq!(floor(clamp_nan_low(f32::NAN, 4095.0)), 0);
+        assert_eq!(floor(clamp_nan_low(-3.5, 4095.0)), 0);
     }
 }

@@ -71,7 +71,7 @@ fn avx2() -> bool {
 pub struct Scratch {
     /// The radiance plane: [`sky_plane`] fills it, [`develop_into`] develops it.
     pub plane: Vec<f32>,
-    /// The blur's row pass.
+    /// The blur's output, swapped with `plane` once developed.
     rows: Vec<f32>,
     /// The columns' ray slopes, then their squares.
     slopes: Vec<f32>,
@@ -165,11 +165,13 @@ impl SkyTable {
     /// The clear sky's radiance at sin(elevation) `s` (the ground's below 0).
     #[inline(always)]
     pub fn clear(&self, s: f32) -> f32 {
-        // One look-up without a branch, so a row of them vectorises.
+        // One look-up without a branch, so a row of them vectorises; the
+        // index as `as i32` then `min` would give it (NaN: 0).
+        let steps = SKY_STEPS as f32;
         let k = if s < 0.0 {
             SKY_STEPS + 1
         } else {
-            ((s * SKY_STEPS as f32) as i32).min(SKY_STEPS as i32) as usize
+            develop::floor(develop::clamp_nan_low(s * steps, steps)) as usize
         };
         self.clear[k.min(SKY_STEPS + 1)]
     }

@@ -25,6 +25,16 @@ pub fn encode_image(
     ImageEncoder::new(format).encode(rgba, width, height, None)
 }
 
+/// [`encode_image`] of a grey picture (R = G = B): JPEG with one channel.
+pub fn encode_grey_image(
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    format: ImageFormat,
+) -> Result<Vec<u8>, OutputError> {
+    ImageEncoder::grey(format).encode(rgba, width, height, None)
+}
+
 /// 16-bit grey pixels (`width`×`height`, row-major) as a 16-bit grey PNG.
 pub fn encode_grey16_png(grey: &[u16], width: u32, height: u32) -> Result<Vec<u8>, OutputError> {
     let error = |source: EncodeError| OutputError::Encode {
@@ -86,6 +96,17 @@ impl ImageEncoder {
     pub fn new(format: ImageFormat) -> Self {
         let jpeg = match format {
             ImageFormat::Jpeg { quality } => Some(JpegEncoder::new(quality)),
+            ImageFormat::Png => None,
+        };
+        Self { jpeg }
+    }
+
+    /// An encoder of grey pictures (R = G = B, the thermal camera's): JPEG
+    /// as one channel, whose decoded grey is the colour JPEG's; PNG as
+    /// [`ImageEncoder::new`].
+    pub fn grey(format: ImageFormat) -> Self {
+        let jpeg = match format {
+            ImageFormat::Jpeg { quality } => Some(JpegEncoder::grey(quality)),
             ImageFormat::Png => None,
         };
         Self { jpeg }

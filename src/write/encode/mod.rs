@@ -7,7 +7,9 @@ pub mod image;
 pub mod jpeg;
 pub mod sparse_png;
 
-pub use image::{ImageEncoder, encode_grey16_png, encode_image, jpeg_round_trip};
+pub use image::{
+    ImageEncoder, encode_grey_image, encode_grey16_png, encode_image, jpeg_round_trip,
+};
 pub use jpeg::{Area, JpegError, Unchanged};
 
 /// Why an image or mask file could not be encoded (inside

@@ -67,12 +67,17 @@ pub enum JpegError {
 /// Compress the whole `width`×`height` RGBA image (alpha ignored).
 pub fn compress(rgba: &[u8], width: u32, height: u32, quality: u8) -> Result<Vec<u8>, JpegError> {
     check(rgba, width, height)?;
-    compress_grid(rgba, &Grid::new(width, height, quality), quality)
+    compress_grid(rgba, &Grid::new(width, height, quality), (quality, false))
 }
 
-fn compress_grid(rgba: &[u8], grid: &Grid, quality: u8) -> Result<Vec<u8>, JpegError> {
+fn compress_grid(
+    rgba: &[u8],
+    grid: &Grid,
+    (quality, grey): (u8, bool),
+) -> Result<Vec<u8>, JpegError> {
     let stride = grid.width as usize * 4;
-    tj::Compressor::new(quality, grid.blocks)?.compress(rgba, grid.width, stride, grid.height)
+    let mut c = tj::Compressor::new(quality, grid.blocks, grey)?;
+    c.compress(rgba, grid.width, stride, grid.height)
 }
 
 fn check(rgba: &[u8], width: u32, height: u32) -> Result<(), JpegError> {
@@ -122,6 +127,8 @@ const KEPT_BACKGROUNDS: usize = 4;
 /// backgrounds across frames and threads.
 pub struct JpegEncoder {
     quality: u8,
+    /// One channel (grey pictures; no tiles are reused).
+    grey: bool,
     /// Tile size bounds in pixels ([`Grid::sized`]); the defaults but in tests.
     tile_px: (u32, u32),
     kept: Mutex<Vec<Arc<Tiles>>>,
@@ -141,8 +148,18 @@ impl JpegEncoder {
     pub fn new(quality: u8) -> Self {
         Self {
             quality,
+            grey: false,
             tile_px: (TILE_PX, MIN_TILE_PX),
             kept: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// An encoder of grey pictures (R = G = B) as one-channel JPEG: a
+    /// third of the blocks, and a reader decodes the same grey.
+    pub fn grey(quality: u8) -> Self {
+        Self {
+            grey: true,
+            ..Self::new(quality)
         }
     }
 
@@ -162,8 +179,9 @@ impl JpegEncoder {
     ) -> Result<Vec<u8>, JpegError> {
         check(rgba, width, height)?;
         let grid = self.grid(width, height);
-        let Some(unchanged) = unchanged.filter(|u| u.background != 0) else {
-            return compress_grid(rgba, &grid, self.quality);
+        let whole = (self.quality, self.grey);
+        let Some(unchanged) = unchanged.filter(|u| u.background != 0 && !self.grey) else {
+            return compress_grid(rgba, &grid, whole);
         };
         let tiles = self.tiles(unchanged.background, grid);
         let mut painted = vec![false; grid.len()];
@@ -190,7 +208,7 @@ impl JpegEncoder {
         for piece in plan(&grid, &segments) {
             let c = match &mut compressor {
                 Some(c) => c,
-                None => compressor.insert(tj::Compressor::new(self.quality, grid.blocks)?),
+                None => compressor.insert(tj::Compressor::new(self.quality, grid.blocks, false)?),
             };
             let jpeg = match &piece.crop {
                 Some((x, y)) => {
@@ -429,7 +447,7 @@ mod tests {
                 let reused = encoder
                     .encode(&rgba, width, height, Some(Unchanged { background: 3, changed: &changed }))
                     .unwrap();
-                proptest::prop_assert!(reused == compress_grid(&rgba, &grid, quality).unwrap());
+                proptest::prop_assert!(reused == compress_grid(&rgba, &grid, (quality, false)).unwrap());
             }
         }
     }
@@ -450,6 +468,31 @@ mod tests {
         let stale = encoder.encode(&b, width, height, unchanged).unwrap();
         assert_eq!(first, stale);
         assert_ne!(stale, compress(&b, width, height, 85).unwrap());
+    }
+
+    #[test]
+    fn a_grey_picture_as_one_channel_decodes_to_the_colour_jpegs_grey() {
+        let (width, height) = (200, 91);
+        let rgba: Vec<u8> = (picture(width, height, 4, &[(10, 10, 60, 40)]).chunks_exact(4))
+            .flat_map(|p| [p[1], p[1], p[1], 255])
+            .collect();
+        for quality in [75u8, 95] {
+            let colour = compress(&rgba, width, height, quality).unwrap();
+            let unchanged = Some(Unchanged {
+                background: 9,
+                changed: &[],
+            });
+            let grey = JpegEncoder::grey(quality)
+                .encode(&rgba, width, height, unchanged)
+                .unwrap();
+            assert!(grey.len() < colour.len(), "q{quality}");
+            let colour = image::load_from_memory(&colour).unwrap().to_rgb8();
+            let grey = image::load_from_memory(&grey).unwrap();
+            assert!(matches!(grey, image::DynamicImage::ImageLuma8(_)));
+            let want: Vec<u8> = colour.pixels().map(|p| p[0]).collect();
+            assert!(colour.pixels().all(|p| p[0] == p[1] && p[1] == p[2]));
+            assert_eq!(grey.to_luma8().into_raw(), want, "q{quality}");
+        }
     }
 
     #[test]

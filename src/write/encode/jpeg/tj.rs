@@ -21,8 +21,10 @@ impl Drop for Compressor {
 }
 
 impl Compressor {
-    /// A restart marker every `blocks` MCUs.
-    pub fn new(quality: u8, blocks: u32) -> Result<Self, JpegError> {
+    /// A restart marker every `blocks` MCUs; `grey`: one channel, the
+    /// pixels' luma (for R = G = B pixels the grey itself, as the colour
+    /// JPEG's Y plane holds it).
+    pub fn new(quality: u8, blocks: u32, grey: bool) -> Result<Self, JpegError> {
         // SAFETY: plain constructor; a null result is handled below.
         let handle = unsafe { raw::tj3Init(raw::TJINIT_TJINIT_COMPRESS as c_int) };
         if handle.is_null() {
@@ -31,7 +33,9 @@ impl Compressor {
             ));
         }
         let c = Self { handle };
-        let subsamp = if super::grid::subsampled(quality) {
+        let subsamp = if grey {
+            raw::TJSAMP_TJSAMP_GRAY
+        } else if super::grid::subsampled(quality) {
             raw::TJSAMP_TJSAMP_420
         } else {
             raw::TJSAMP_TJSAMP_444
