@@ -97,7 +97,10 @@ pub fn knots_at(knots: &[(f64, f64)], u: f64) -> f64 {
     if knots.len() < 2 {
         return knots.first().map_or(1.0, |k| k.1);
     }
-    let upper = knots.iter().position(|k| k.0 > u).unwrap_or(knots.len() - 1);
+    let upper = knots
+        .iter()
+        .position(|k| k.0 > u)
+        .unwrap_or(knots.len() - 1);
     let (q1, p1) = knots[upper.max(1)];
     let (q0, p0) = knots[upper.max(1) - 1];
     let t = ((u - q0) / (q1 - q0)).clamp(0.0, 1.0);
@@ -121,7 +124,10 @@ fn knots_problem(knots: &[(f64, f64)], size_px: Option<(f64, f64)>) -> Option<St
             first.0, last.0
         ));
     }
-    if let Some(w) = knots.windows(2).find(|w| !(w[0].0 < w[1].0 && w[0].1 <= w[1].1)) {
+    if let Some(w) = knots
+        .windows(2)
+        .find(|w| !(w[0].0 < w[1].0 && w[0].1 <= w[1].1))
+    {
         return Some(format!(
             "({}, {}) then ({}, {}): quantiles must rise and px never fall",
             w[0].0, w[0].1, w[1].0, w[1].1
@@ -164,10 +170,18 @@ mod tests {
         v.sort_by(f64::total_cmp);
         let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
         let mid = |a: (f64, f64), b: (f64, f64)| ((a.0 + b.0) / 2.0, (a.1 * b.1).sqrt());
-        let expect = [KNOTS[1], KNOTS[2], mid(KNOTS[0], KNOTS[1]), mid(KNOTS[2], KNOTS[3])];
+        let expect = [
+            KNOTS[1],
+            KNOTS[2],
+            mid(KNOTS[0], KNOTS[1]),
+            mid(KNOTS[2], KNOTS[3]),
+        ];
         for (q, px) in expect {
             let got = at(q);
-            assert!((got / px - 1.0).abs() < 0.02, "quantile {q}: {got} px, knots give {px}");
+            assert!(
+                (got / px - 1.0).abs() < 0.02,
+                "quantile {q}: {got} px, knots give {px}"
+            );
         }
         assert!(v[0] >= 2.0 && v[v.len() - 1] <= 120.0);
         // Without knots: the uniform draw of before, the same deviate.
@@ -179,10 +193,19 @@ mod tests {
     fn bad_knots_are_refused_naming_the_field() {
         let bad = [
             (KNOTS.to_vec(), (3.0, 120.0)),
-            (vec![(0.0, 2.0), (0.6, 6.0), (0.5, 20.0), (1.0, 120.0)], (2.0, 120.0)),
-            (vec![(0.0, 2.0), (0.5, 30.0), (0.7, 20.0), (1.0, 120.0)], (2.0, 120.0)),
+            (
+                vec![(0.0, 2.0), (0.6, 6.0), (0.5, 20.0), (1.0, 120.0)],
+                (2.0, 120.0),
+            ),
+            (
+                vec![(0.0, 2.0), (0.5, 30.0), (0.7, 20.0), (1.0, 120.0)],
+                (2.0, 120.0),
+            ),
             (vec![(0.0, 2.0), (0.9, 120.0)], (2.0, 120.0)),
-            (vec![(0.0, 2.0), (f64::NAN, 9.0), (1.0, 120.0)], (2.0, 120.0)),
+            (
+                vec![(0.0, 2.0), (f64::NAN, 9.0), (1.0, 120.0)],
+                (2.0, 120.0),
+            ),
             (vec![(0.0, 2.0)], (2.0, 2.0)),
         ];
         for (knots, range) in bad {
@@ -190,7 +213,9 @@ mod tests {
             p.camera.observer = Some(observer(knots.clone(), range));
             let errors = p.validate().expect_err("refused");
             assert!(
-                errors.iter().any(|e| e.field == "camera.observer.size_px_knots"),
+                errors
+                    .iter()
+                    .any(|e| e.field == "camera.observer.size_px_knots"),
                 "{knots:?}: {errors:?}"
             );
         }
