@@ -254,6 +254,7 @@ fn observer_distance_range_is_kept_and_the_paper_sweep_is_untouched_without_it()
         azimuth_deg: (0.0, 0.0),
         distance_m: (400.0, 900.0),
         size_px: None,
+        size_px_knots: None,
     });
     let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
     for i in 0..20 {

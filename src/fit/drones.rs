@@ -301,7 +301,7 @@ pub fn fit_volume(p: &mut Preset, centres: Option<CentreSpread>) -> Option<Strin
 
 /// The volume and its minimum separation × `k` (the look-at distance's change: the
 /// drones keep their spread over the frame).
-fn scale_volume(p: &mut Preset, k: f64) -> Option<String> {
+pub(super) fn scale_volume(p: &mut Preset, k: f64) -> Option<String> {
     let Placement::Randomized {
         count,
         volume: Volume::Box { size_m },

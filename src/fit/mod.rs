@@ -29,6 +29,7 @@ pub mod input;
 pub mod plates;
 pub mod preset_out;
 pub mod search;
+pub mod size_knots;
 pub mod sky;
 pub mod thermal;
 

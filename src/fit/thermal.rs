@@ -20,8 +20,8 @@
 //!   synthetic (at most ×2 or ÷2 a round);
 //! - **share of drones darker than their ring**: the drone's `cold_share` += real −
 //!   synthetic (the share seen colder than the air; within 0–1);
-//! - **drone core size** or the share under 6 px: the ends of `size_px` by the cores'
-//!   quartile ratios ([`super::drones::adjust_size`]).
+//! - **drone core size** or the share under 6 px: `size_px_knots` (and `size_px`'s ends)
+//!   by the cores' decile ratios ([`super::size_knots::adjust`]).
 //!
 //! Not fitted (stated in docs/realism.md): the gradient energy, Canny share and
 //! background texture (the scene's structure: the gain control stretches the frame's
@@ -29,7 +29,6 @@
 //! sky's and the ground's temperatures.
 
 use super::camera::Footage;
-use super::drones::adjust_size;
 use super::preset_out::{Fitted, sized_to};
 use crate::gap::report::{Report, Summary};
 use crate::preset::{ImageFormat, Preset};
@@ -149,6 +148,6 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
         d.cold_share = c2;
     }
     preset.thermal = Some(t);
-    adjust_size(preset, report, &mut changes);
+    super::size_knots::adjust(preset, report, &mut changes);
     changes
 }

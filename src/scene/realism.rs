@@ -147,7 +147,8 @@ pub fn observer_pose(
     let distance_m = match observer.size_px {
         Some(range) => {
             let size_m = preset.models.iter().map(|m| m.size_m).fold(0.0, f64::max);
-            focal_px * size_m / uniform(&mut rng, range)
+            let u: f64 = rng.random();
+            focal_px * size_m / observer.size_at(range, u)
         }
         None => uniform(&mut rng, observer.distance_m),
     };
