@@ -279,3 +279,60 @@ fn an_impostor_bakes_every_direction_with_a_silhouette_inside_its_tile() {
         assert_eq!(impostor::nearest(&baked.directions, *d), k);
     }
 }
+
+/// Field by field: `a` and `b` are the same impostor, byte for byte.
+fn assert_same(a: &impostor::Impostor, b: &impostor::Impostor, what: &str) {
+    assert_eq!(a.directions, b.directions, "{what}: directions");
+    assert_eq!(a.vertices, b.vertices, "{what}: vertices");
+    assert_eq!(a.indices, b.indices, "{what}: indices");
+    let (x, y) = (&a.atlas, &b.atlas);
+    assert_eq!(
+        (&x.name, x.width, x.height, x.wrap),
+        (&y.name, y.width, y.height, y.wrap)
+    );
+    assert!(x.rgba8 == y.rgba8, "{what}: atlas texels differ");
+}
+
+/// The cached bake (`model::impostor_cache`) gives the bake's bytes on a
+/// miss and on a hit; a corrupt, truncated or foreign file is never
+/// trusted: it is ignored and baked over.
+#[test]
+fn a_cached_impostor_is_the_bake_and_a_corrupt_file_is_baked_over() {
+    use swarmshot::model::impostor_cache::{cached_bake_in, decode, encode, file_name, key};
+    let model = swarmshot::model::load_file(std::path::Path::new(CF2)).expect("cf2 loads");
+    let baked = impostor::bake(&model);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let k = key(&model);
+    let file = dir.path().join(file_name(&k));
+    assert_same(&cached_bake_in(Some(dir.path()), &model), &baked, "miss");
+    let good = std::fs::read(&file).expect("the miss writes the file");
+    assert_eq!(good, encode(&k, &baked));
+    assert_same(&cached_bake_in(Some(dir.path()), &model), &baked, "hit");
+    let names: Vec<_> = std::fs::read_dir(dir.path()).expect("list").collect();
+    assert_eq!(names.len(), 1, "no temporary file left: {names:?}");
+    // A flipped byte anywhere (magic, key, vertices, texels, checksum), a
+    // truncated or empty file, or another model's key: not decoded.
+    for at in [0, 9, 44, 100, good.len() / 2, good.len() - 1] {
+        let mut bad = good.clone();
+        bad[at] ^= 0x10;
+        assert!(decode(&bad, &k, &model).is_none(), "byte {at}");
+    }
+    assert!(decode(&good[..good.len() - 40], &k, &model).is_none());
+    assert!(decode(&[], &k, &model).is_none());
+    let mut moved = model.clone();
+    moved.vertices[0].position[0] += 0.5;
+    assert_ne!(key(&moved), k);
+    assert!(decode(&good, &key(&moved), &moved).is_none());
+    // A checksummed file of the right size whose vertices are not quads'.
+    let mut odd = baked.clone();
+    odd.vertices[3].material[3] = 0.0;
+    assert!(decode(&encode(&k, &odd), &k, &model).is_none());
+    // On disk: a corrupt file and a truncated one are baked over and rewritten.
+    let mut bad = good.clone();
+    bad[good.len() / 2] ^= 0x01;
+    for (what, bytes) in [("corrupt", &bad[..]), ("truncated", &good[..1000])] {
+        std::fs::write(&file, bytes).expect("write");
+        assert_same(&cached_bake_in(Some(dir.path()), &model), &baked, what);
+        assert!(std::fs::read(&file).expect("rewritten") == good, "{what}");
+    }
+}

@@ -128,13 +128,47 @@ impl Tile {
     }
 }
 
-/// Bake `model`'s impostor.
+/// The baked directions: unit vectors over the sphere, the same for every model.
+pub fn directions() -> Vec<DVec3> {
+    fibonacci_sphere(DIRECTIONS)
+}
+
+/// The quads' indices, the same for every model: direction `k`'s two
+/// triangles over vertices `4k..4k + 4`.
+pub fn quad_indices() -> Vec<u32> {
+    (0..DIRECTIONS as u32)
+        .flat_map(|k| [0, 1, 2, 0, 2, 3].map(|i| 4 * k + i))
+        .collect()
+}
+
+/// The atlas's width and height in texels.
+pub fn atlas_size() -> (u32, u32) {
+    (COLUMNS * TILE, (DIRECTIONS as u32).div_ceil(COLUMNS) * TILE)
+}
+
+/// What the bake's result depends on besides the model: its settings.
+pub fn settings() -> String {
+    format!("directions {DIRECTIONS} tile {TILE} columns {COLUMNS} margin {MARGIN}")
+}
+
+/// `model`'s atlas texture from its texels (`atlas_size`, RGBA8).
+pub fn atlas(model: &CpuModel, rgba8: Vec<u8>) -> CpuTexture {
+    let (width, height) = atlas_size();
+    CpuTexture {
+        name: format!("{} impostor atlas", model.name),
+        width,
+        height,
+        rgba8,
+        wrap: [WrapMode::ClampToEdge; 2],
+    }
+}
+
+/// Bake `model`'s impostor (see [`super::impostor_cache`] for the cached bake).
 pub fn bake(model: &CpuModel) -> Impostor {
-    let directions = fibonacci_sphere(DIRECTIONS);
-    let rows = (DIRECTIONS as u32).div_ceil(COLUMNS);
-    let (width, height) = (COLUMNS * TILE, rows * TILE);
+    let directions = directions();
+    let (width, height) = atlas_size();
     let mut rgba8 = vec![0u8; (width * height * 4) as usize];
-    let (mut vertices, mut indices) = (Vec::new(), Vec::new());
+    let mut vertices = Vec::new();
     // The tiles rasterise apart on rayon's threads (each a pure function of
     // the model and its direction); the atlas is written in order.
     let baked: Vec<(Tile, Vec<Texel>)> = (directions.par_iter())
@@ -147,7 +181,6 @@ pub fn bake(model: &CpuModel) -> Impostor {
     for (k, (&d, (tile, texels))) in directions.iter().zip(baked).enumerate() {
         let (col, row) = (k as u32 % COLUMNS, k as u32 / COLUMNS);
         let (normal, material) = write_tile(&texels, &mut rgba8, width, (col * TILE, row * TILE));
-        let base = vertices.len() as u32;
         let uv_of = |x: u32, y: u32| [x as f32 / width as f32, y as f32 / height as f32];
         let (x0, y0, x1, y1) = (col * TILE, row * TILE, (col + 1) * TILE, (row + 1) * TILE);
         for (sx, sy, uv) in [
@@ -164,20 +197,12 @@ pub fn bake(model: &CpuModel) -> Impostor {
                 material: [material[0] as f32, material[1] as f32, 0.0, IMPOSTOR_MARK],
             });
         }
-        indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
     }
-    let atlas = CpuTexture {
-        name: format!("{} impostor atlas", model.name),
-        width,
-        height,
-        rgba8,
-        wrap: [WrapMode::ClampToEdge; 2],
-    };
     Impostor {
         directions,
         vertices,
-        indices,
-        atlas,
+        indices: quad_indices(),
+        atlas: atlas(model, rgba8),
     }
 }
 

@@ -22,6 +22,9 @@
 //! the levels: a hit returns exactly what a build returns (tested), so the
 //! outputs are the same with or without it. Failing to write (read-only
 //! home, full disk) only costs the next run the build.
+//!
+//! The same folder holds the baked impostors ([`super::impostor_cache`],
+//! `.imp` files), with the same rules.
 
 use std::path::{Path, PathBuf};
 
@@ -78,6 +81,13 @@ pub fn key(model: &CpuModel) -> [u8; 32] {
     h.update(MAGIC);
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update(lod::settings().as_bytes());
+    hash_geometry(&mut h, model);
+    *h.finalize().as_bytes()
+}
+
+/// Feed `model`'s vertex, index and draw-range bytes to `h` (the part of a
+/// cache key that names the model; [`super::impostor_cache`] shares it).
+pub(super) fn hash_geometry(h: &mut blake3::Hasher, model: &CpuModel) {
     h.update(&(model.vertices.len() as u64).to_le_bytes());
     h.update(bytemuck::cast_slice(&model.vertices));
     h.update(&(model.indices.len() as u64).to_le_bytes());
@@ -93,7 +103,6 @@ pub fn key(model: &CpuModel) -> [u8; 32] {
             u8::from(d.alpha_blend),
         ]);
     }
-    *h.finalize().as_bytes()
 }
 
 /// The file's bytes: magic, key, the levels after level 0 (each: error,
@@ -224,7 +233,7 @@ fn read(file: &Path, key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>> {
 }
 
 /// Write `bytes` to `file` in `dir`: a temporary file beside it, then a rename.
-fn write(dir: &Path, file: &Path, bytes: &[u8]) -> std::io::Result<()> {
+pub(super) fn write(dir: &Path, file: &Path, bytes: &[u8]) -> std::io::Result<()> {
     use std::io::Write;
     std::fs::create_dir_all(dir)?;
     let name = file.file_name().unwrap_or_default().to_string_lossy();

@@ -24,6 +24,7 @@ pub mod confusers;
 mod flatten;
 mod hull;
 pub mod impostor;
+pub mod impostor_cache;
 pub mod lod;
 pub mod lod_cache;
 pub mod uri;

@@ -144,12 +144,12 @@ impl Assets {
     }
 
     /// Each model's impostor, baked once (on the first call: presets
-    /// without impostors never bake them).
+    /// without impostors never bake them) or read from the cache.
     pub fn impostors(&self) -> &[crate::model::impostor::Impostor] {
         (self.impostors).get_or_init(|| {
             self.models
                 .iter()
-                .map(crate::model::impostor::bake)
+                .map(crate::model::impostor_cache::cached_bake)
                 .collect()
         })
     }
