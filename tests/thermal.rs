@@ -2,7 +2,9 @@
 //! src/pipeline/thermal.rs): grey frames, warm drones on a cold sky (and
 //! cold ones darker than it: `cold_share`), the sky warming towards the
 //! horizon, the gain control's range, labels equal to the visible render's,
-//! determinism, 16-bit grey PNG frames (lavapipe).
+//! determinism, 16-bit grey PNG frames, rain and snow in the radiance with
+//! labels against the drone-free radiance under the same particles
+//! (lavapipe).
 
 mod common;
 
@@ -281,4 +283,132 @@ fn fit_takes_a_thermal_base_with_its_thermal_camera() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
     let base = swarmshot::fit::preset_out::load_base(&path).expect("thermal base");
     assert!(base.thermal.is_some() && base.camera_model.is_none());
+}
+
+/// The thermal preset at 160×128 under `weather`.
+fn thermal_weather(weather: swarmshot::preset::weather::Weather) -> Preset {
+    let mut p = thermal_preset();
+    p.render.resolution = Resolution::Custom {
+        width: 160,
+        height: 128,
+    };
+    p.weather = Some(weather);
+    p
+}
+
+/// (pixels whose radiance differs, their box) between two planes.
+fn changed(a: &[f32], b: &[f32], w: usize) -> (u64, Option<[f64; 4]>) {
+    let mut n = 0;
+    let mut bbox: Option<[f64; 4]> = None;
+    for (i, _) in (a.iter().zip(b).enumerate()).filter(|(_, (p, q))| p != q) {
+        n += 1;
+        let (x, y) = ((i % w) as f64, (i / w) as f64);
+        let b = bbox.get_or_insert([x, y, x + 1.0, y + 1.0]);
+        *b = [
+            b[0].min(x),
+            b[1].min(y),
+            b[2].max(x + 1.0),
+            b[3].max(y + 1.0),
+        ];
+    }
+    (n, bbox)
+}
+
+#[test]
+fn under_snow_thermal_labels_are_the_radiance_the_drones_still_change() {
+    use swarmshot::preset::weather::Weather;
+    // Flakes big and close enough that some cover a drone, some do not.
+    let snow = Weather {
+        intensity_per_m3: (40.0, 40.0),
+        diameter_mm: (5.0, 15.0),
+        depth_m: (0.5, 6.0),
+        exposure_s: (0.0, 0.001),
+        ..Weather::snow()
+    };
+    let mut p = thermal_weather(snow);
+    // One drone, in view: the observer looks at the volume's centre.
+    if let swarmshot::preset::Placement::Randomized { count, volume, .. } = &mut p.placement {
+        *count = (1, 1);
+        *volume = swarmshot::preset::Volume::Box {
+            size_m: (0.1, 0.1, 0.1),
+        };
+    }
+    p.validate().expect("thermal with weather is valid");
+    let ctx = common::gpu();
+    let pipe = FramePipeline::new(p).expect("pipeline");
+    let mut r = pipe.renderer(&ctx);
+    let (mut hidden, mut shown, mut counts) = (0, 0, Vec::new());
+    for index in 0..6 {
+        let f = pipe.make(&mut r, index).expect("frame");
+        let radiance = |r: &mut _, s| pipe.thermal_radiance(r, s).expect("radiance");
+        let with = radiance(&mut r, &f.scene).expect("thermal");
+        let mut empty = f.scene.clone();
+        empty.drones.clear();
+        let without = radiance(&mut r, &empty).expect("thermal");
+        let (n, truth) = changed(&with, &without, f.scene.camera.width as usize);
+        // One drone a pixel: the labels' visible pixels and boxes are the changed ones.
+        let vis: Vec<_> = (f.labels.iter()).filter_map(|l| l.visibility).collect();
+        let counted: u64 = vis.iter().map(|v| v.visible_pixels).sum();
+        assert_eq!(counted, n, "frame {index}");
+        let union =
+            (vis.iter().filter_map(|v| v.visible_box)).fold(None, |u: Option<[f64; 4]>, b| {
+                let b = [b.x0, b.y0, b.x1, b.y1];
+                Some(u.map_or(b, |u| {
+                    [
+                        u[0].min(b[0]),
+                        u[1].min(b[1]),
+                        u[2].max(b[2]),
+                        u[3].max(b[3]),
+                    ]
+                }))
+            });
+        assert_eq!(union, truth, "frame {index}");
+        // Against the same scene without weather: the snow hides, never adds.
+        let mut dry = f.scene.clone();
+        dry.weather = None;
+        let dry = pipe.make_scene(&mut r, dry).expect("dry");
+        for (l, d) in f.labels.iter().zip(&dry.labels) {
+            let (v, d) = (
+                l.visibility.expect("measured"),
+                d.visibility.expect("measured"),
+            );
+            assert!(v.visible_pixels <= d.visible_pixels, "frame {index}");
+            hidden += u64::from(v.visible_pixels < d.visible_pixels);
+            counts.push((v.visible_pixels, d.visible_pixels));
+            shown += u64::from(v.visible_pixels > 0);
+        }
+    }
+    assert!(
+        hidden > 0 && shown > 0,
+        "{hidden} hidden, {shown} shown: {counts:?}"
+    );
+}
+
+#[test]
+fn rain_reads_as_warm_streaks_against_the_cold_sky() {
+    use swarmshot::preset::weather::Weather;
+    let rain = Weather {
+        intensity_per_m3: (60.0, 60.0),
+        depth_m: (0.3, 6.0),
+        opacity: (0.6, 0.9),
+        ..Weather::rain()
+    };
+    let p = thermal_weather(rain);
+    let ctx = common::gpu();
+    let pipe = FramePipeline::new(p).expect("pipeline");
+    let mut r = pipe.renderer(&ctx);
+    let mut scene = pipe.scene(1).expect("scene");
+    scene.drones.clear();
+    let wet = pipe.thermal_radiance(&mut r, &scene).expect("radiance");
+    let mut dry = scene.clone();
+    dry.weather = None;
+    let dry = pipe.thermal_radiance(&mut r, &dry).expect("radiance");
+    let (wet, dry) = (wet.expect("thermal"), dry.expect("thermal"));
+    // Drops at the air's temperature: warmer than the sky they cross.
+    let warmer = wet.iter().zip(&dry).filter(|(a, b)| a > b).count();
+    let colder = wet.iter().zip(&dry).filter(|(a, b)| a < b).count();
+    assert!(
+        warmer > 200 && colder * 20 < warmer,
+        "{warmer} warmer, {colder} colder"
+    );
 }

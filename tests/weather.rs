@@ -325,7 +325,7 @@ fn invalid_weather_fields_are_named() {
 
 #[test]
 fn the_example_presets_parse_and_validate() {
-    for name in ["rain", "snow"] {
+    for name in ["rain", "snow", "thermal_rain"] {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("presets")
             .join(format!("{name}.ron"));

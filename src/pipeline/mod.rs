@@ -525,27 +525,33 @@ impl FramePipeline {
         };
         let (w, h, n) = (scene.camera.width, scene.camera.height, scene.drones.len());
         let mut hits = frame.pixel_hits.take();
-        // Rain or snow over the picture (and the drone-free frame under it).
-        let clear = weather::over_frame(
-            (&scene, &self.assets.geometry),
-            renderer,
-            &mut frame,
-            &mut measured,
-            &mut hits,
-        );
+        // Rain or snow over the picture (and the drone-free frame under it);
+        // the thermal camera draws them into its radiance instead.
+        let clear = match thermal {
+            Some(_) => None,
+            None => weather::over_frame(
+                (&scene, &self.assets.geometry),
+                renderer,
+                &mut frame,
+                &mut measured,
+                &mut hits,
+            ),
+        };
+        // The thermal picture before the masks: under weather it cuts the hits.
+        let grey = thermal.map(|t| {
+            // A recycled buffer, not fresh pages, for the grey picture.
+            let out = renderer.spare_buffer();
+            let background = renderer.background_pixels(&frame.painted);
+            let background = background.unwrap_or(&frame.rgba);
+            self.thermal_frame(t, &scene, background, (&mut hits, &mut measured), out)
+        });
         let lens_visibility = lens_visibility(&scene, &mut hits, measured.as_deref());
         let mut masks = (hits.as_ref())
             .filter(|_| masks_on)
             .map(|hits| FrameMasks::from_hits(w, h, n, hits));
         let mut grey16 = None;
-        let (rgba, painted) = match (&scene.camera_model, thermal) {
-            (_, Some(t)) => {
-                // A recycled buffer, not fresh pages, for the grey picture.
-                let out = renderer.spare_buffer();
-                let background = renderer.background_pixels(&frame.painted);
-                let hits = hits.as_deref().unwrap_or_default();
-                let background = background.unwrap_or(&frame.rgba);
-                let grey = self.thermal_frame(t, &scene, (background, hits), out);
+        let (rgba, painted) = match (&scene.camera_model, grey) {
+            (_, Some(grey)) => {
                 renderer.recycle(frame.rgba, frame.painted);
                 grey16 = grey.1;
                 (grey.0, Painted::default())

@@ -13,20 +13,25 @@
 //!   projected centre, σ a share of its half box) at its emissivity, the
 //!   rest reflecting the background, seen through `exp(−β·d)` of air; a
 //!   share of the objects (`cold_share`, a hash draw of the frame seed and
-//!   the object's index) with the skin below the air and no warm spot.
+//!   the object's index) with the skin below the air and no warm spot;
+//! - under rain or snow, the particles at the air's radiance
+//!   ([`super::weather::over_radiance`]) over the plane and over a copy of
+//!   the drone-free one: the hits (masks) and the visibility kept are the
+//!   pixels whose radiance the drone still changes.
 //!
 //! Each thread keeps its planes from frame to frame (a thread-local
 //! [`Scratch`]).
 
 use glam::DVec3;
 
-use crate::annotate::visibility::PixelHit;
+use crate::annotate::visibility::{PixelHit, Visibility};
 use crate::preset::thermal::{Signature, Thermal};
+use crate::render::Renderer;
 use crate::scene::FrameScene;
 use crate::scene::camera::Camera;
 use crate::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
 
-use super::FramePipeline;
+use super::{FramePipeline, PipelineError, weather};
 
 thread_local! {
     /// Each thread's planes, kept from frame to frame.
@@ -47,18 +52,19 @@ fn view(cam: &Camera) -> View {
 impl FramePipeline {
     /// Frame `scene`'s thermal picture (RGBA8 grey into `out`, and the
     /// 16-bit grey levels with `bits: 16`) from its drone-free visible
-    /// `background` and the id pass's `hits`.
+    /// `background` and the id pass's `hits`; under weather the hits (the
+    /// masks) and the `measured` visibility are cut to the pixels whose
+    /// radiance the drone still changes ([`Self::radiance_into`]).
     pub(super) fn thermal_frame(
         &self,
         t: &Thermal,
         scene: &FrameScene,
-        (background, hits): (&[u8], &[PixelHit]),
+        background: &[u8],
+        (hits, measured): (&mut Option<Vec<PixelHit>>, &mut Option<Vec<Visibility>>),
         mut out: Vec<u8>,
     ) -> (Vec<u8>, Option<Vec<u16>>) {
         let (w, h) = (scene.camera.width, scene.camera.height);
         let sky = SkyTable::new(t);
-        let signatures = self.signatures(t, scene);
-        let msaa = self.preset.render.msaa.max(1);
         let pattern = self
             .thermal_pattern
             .get_or_init(|| thermal::fixed_pattern(t, self.preset.seed, w, h));
@@ -74,9 +80,7 @@ impl FramePipeline {
         out.resize(w as usize * h as usize * 4, 0);
         let mut grey16 = (t.bits == 16).then(|| vec![0u16; w as usize * h as usize]);
         SCRATCH.with_borrow_mut(|scratch| {
-            thermal::sky_plane(t, &sky, &view(&scene.camera), background, scratch);
-            let plane = &mut scratch.plane;
-            add_objects(plane, scene, hits, (&signatures, msaa), (t, &sky));
+            self.radiance_into(t, scene, (background, &sky), (hits, measured), scratch);
             let to = match grey16.as_mut() {
                 Some(g) => Developed::Grey16(g),
                 None => Developed::Rgba8(&mut out),
@@ -87,6 +91,68 @@ impl FramePipeline {
             thermal::grey16_to_rgba(g, &mut out);
         }
         (out, grey16)
+    }
+
+    /// The radiance plane of `scene` into `scratch.plane`: the background,
+    /// the objects at their `hits`, and under weather the particles
+    /// ([`weather::over_radiance`]), over a copy of the drone-free plane
+    /// too; then the hits kept (and `measured` measured) are those whose
+    /// radiance still differs from the drone-free plane's.
+    fn radiance_into(
+        &self,
+        t: &Thermal,
+        scene: &FrameScene,
+        (background, sky): (&[u8], &SkyTable),
+        (hits, measured): (&mut Option<Vec<PixelHit>>, &mut Option<Vec<Visibility>>),
+        scratch: &mut Scratch,
+    ) {
+        thermal::sky_plane(t, sky, &view(&scene.camera), background, scratch);
+        let signatures = self.signatures(t, scene);
+        let msaa = self.preset.render.msaa.max(1);
+        let all = hits.as_deref().unwrap_or_default();
+        let mut clear = scene.weather.is_some().then(|| scratch.plane.clone());
+        let plane = &mut scratch.plane;
+        add_objects(plane, scene, all, (&signatures, msaa), (t, sky));
+        let Some(clear) = clear.as_mut() else {
+            return;
+        };
+        weather::over_radiance(scene, all, (plane, clear), sky.air);
+        if let Some(all) = hits.take() {
+            let shows = |i: usize| plane.get(i) != clear.get(i);
+            let kept =
+                weather::keep_showing(measured.as_deref_mut(), all, scene.camera.width, shows);
+            *hits = Some(kept);
+        }
+    }
+
+    /// The radiance plane (W·m⁻²·sr⁻¹ per pixel, row-major, before the
+    /// camera's blur, noise and gain) `scene` makes through this preset's
+    /// thermal camera, as [`Self::make_scene`] composes it; `None` without
+    /// one. For measuring what a drone changes (the gain control differs
+    /// between frames with and without drones).
+    pub fn thermal_radiance(
+        &self,
+        renderer: &mut Renderer,
+        scene: &FrameScene,
+    ) -> Result<Option<Vec<f32>>, PipelineError> {
+        let Some(t) = &self.preset.thermal else {
+            return Ok(None);
+        };
+        let (request, _) = self.render_layers(renderer, scene);
+        let mut frame =
+            (renderer.render_frame(scene, &request)).map_err(|source| PipelineError::Render {
+                index: scene.index,
+                source,
+            })?;
+        let mut hits = frame.pixel_hits.take();
+        let mut scratch = Scratch::default();
+        let background = renderer.background_pixels(&frame.painted);
+        let background = background.unwrap_or(&frame.rgba);
+        let sky = SkyTable::new(t);
+        let ids = (&mut hits, &mut None);
+        self.radiance_into(t, scene, (background, &sky), ids, &mut scratch);
+        renderer.recycle(frame.rgba, frame.painted);
+        Ok(Some(scratch.plane))
     }
 
     /// Each drone's signature by its model: the preset's models are

@@ -17,7 +17,10 @@
 //! drone-free frame (a buffer the caller recycles) and blended again there
 //! only where they differed; the depth is looked up only for particles
 //! whose bounds meet a drone's cells. Through a lens the particles are
-//! drawn in the undistorted frame and resampled with it.
+//! drawn in the undistorted frame and resampled with it. Under the thermal
+//! camera ([`over_radiance`]) the same particles go into its radiance
+//! planes instead, at the air's radiance, the drones' depths from the id
+//! pass's pixels.
 
 use std::ops::Range;
 
@@ -80,6 +83,28 @@ impl DepthLayer {
                         *d = d.min(z);
                     }
                 }
+            }
+        }
+        layer
+    }
+
+    /// The depths of the drones of `scene` at their id-pass pixels
+    /// (`hits`): each pixel at the depth of the nearest drone there.
+    fn of_hits(scene: &FrameScene, hits: &[PixelHit]) -> Self {
+        let cam = &scene.camera;
+        let (cols, rows) = (cam.width.div_ceil(CELL), cam.height.div_ceil(CELL));
+        let mut layer = Self {
+            cols,
+            cell_tile: vec![u32::MAX; (cols * rows) as usize],
+            tiles: Vec::new(),
+        };
+        let depths: Vec<f32> = (scene.drones.iter())
+            .map(|d| cam.camera_from_world_point(d.position).z as f32)
+            .collect();
+        for hit in hits.iter().filter(|h| h.x < cam.width && h.y < cam.height) {
+            if let Some(&z) = depths.get(hit.drone as usize) {
+                let d = layer.depth_mut(hit.x, hit.y);
+                *d = d.min(z);
             }
         }
         layer
@@ -545,12 +570,21 @@ fn visible_through(
     (rgba, clear): (&[u8], &[u8]),
     width: u32,
 ) -> Vec<PixelHit> {
+    let shows = |i: usize| rgba[i * 4..i * 4 + 3] != clear[i * 4..i * 4 + 3];
+    keep_showing(vis, hits, width, shows)
+}
+
+/// [`visible_through`] by a test of its own: the `hits` whose pixel
+/// (index y · `width` + x) `shows`, and `vis` measured from them.
+pub(super) fn keep_showing(
+    vis: Option<&mut [Visibility]>,
+    hits: Vec<PixelHit>,
+    width: u32,
+    shows: impl Fn(usize) -> bool,
+) -> Vec<PixelHit> {
     let kept: Vec<PixelHit> = hits
         .into_iter()
-        .filter(|hit| {
-            let i = (hit.y * width + hit.x) as usize * 4;
-            rgba[i..i + 3] != clear[i..i + 3]
-        })
+        .filter(|hit| shows((hit.y * width + hit.x) as usize))
         .collect();
     let Some(vis) = vis else {
         return kept;
@@ -568,4 +602,67 @@ fn visible_through(
         PixelBox::include_pixel(&mut v.visible_box, x, y);
     }
     kept
+}
+
+/// The weather of `scene` over a thermal camera's radiance planes (in
+/// place): each particle at the air's radiance `air` (drops and flakes at
+/// the air's temperature, emissivity about 1), blended by its alpha ×
+/// coverage as over the visible picture, into `plane` where the drone the
+/// id pass puts at a pixel (`hits`, at its centre's depth) is farther than
+/// the particle, and into `clear` (the drone-free plane) everywhere.
+/// `v·(1 − a) + air·a` is exactly `air` at a = 1, so a flake that covers a
+/// pixel whole leaves both planes equal there. Nothing without weather.
+pub(super) fn over_radiance(
+    scene: &FrameScene,
+    hits: &[PixelHit],
+    (plane, clear): (&mut [f32], &mut [f32]),
+    air: f32,
+) {
+    let Some(weather) = scene.weather.as_ref() else {
+        return;
+    };
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
+    let layer = DepthLayer::of_hits(scene, hits);
+    let mut strips = Strips::default();
+    strips.fill(&particles, (w, h), Some(&layer));
+    let chunk = (STRIP as usize * w as usize).max(1);
+    (plane.par_chunks_mut(chunk))
+        .zip(clear.par_chunks_mut(chunk))
+        .enumerate()
+        .for_each(|(k, (plane, clear))| {
+            let first = k as u32 * STRIP;
+            for p in strips.of(k) {
+                draw_radiance((plane, first, w), p, air, Some(&layer));
+                draw_radiance((clear, first, w), p, air, None);
+            }
+        });
+}
+
+/// One particle into rows `first..` of a `width`-pixel radiance plane
+/// (`rows` holds them) at radiance `air`, as [`draw`] does into a picture.
+#[inline]
+fn draw_radiance(
+    (rows, first, width): (&mut [f32], u32, u32),
+    p: &Prepared,
+    air: f32,
+    layer: Option<&DepthLayer>,
+) {
+    let [x0, y0, x1, y1] = p.bounds;
+    let layer = layer.filter(|_| p.tested);
+    let end = first + (rows.len() / (width as usize).max(1)) as u32;
+    for y in y0.max(first)..y1.min(end) {
+        let py = y as f32 + 0.5;
+        let (xs, xe) = reach(p, py, (x0, x1));
+        let row = (y - first) as usize * width as usize;
+        for x in xs..xe {
+            let cover = coverage(p, (x as f32 + 0.5, py));
+            if cover <= 0.0 || layer.is_some_and(|l| l.depth(x, y) <= p.depth_m) {
+                continue;
+            }
+            let a = p.alpha * cover;
+            let v = &mut rows[row + x as usize];
+            *v = *v * (1.0 - a) + air * a;
+        }
+    }
 }

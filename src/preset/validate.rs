@@ -109,9 +109,6 @@ impl Preset {
                 "needs labels.id_scale 1: the thermal picture is made from the id pass's pixels"
                     .into()
             });
-            v.check(self.weather.is_none(), "thermal", || {
-                "cannot be combined with weather: rain and snow are drawn for the visible camera only".into()
-            });
             let png = self.output.image_format == super::ImageFormat::Png;
             v.check(t.bits != 16 || png, "thermal.bits", || {
                 "16-bit frames are grey PNG: set output.image_format to Png".into()
