@@ -10,7 +10,7 @@
 //! rounding and kernel.
 
 use std::ops::Range;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
@@ -56,6 +56,9 @@ pub struct LensMap {
     height: u32,
     /// Per grid row, the source's u and v at every column.
     along: Vec<[Vec<f64>; 2]>,
+    /// Every pixel's taps, tabulated once a map is used a second time (a
+    /// fixed draw: read back beats mixing again; a new draw never stores them).
+    taps: OnceLock<Vec<Tap>>,
 }
 
 /// The grid's nodes along a side of `n` pixels: node k at pixel index
@@ -102,6 +105,7 @@ impl LensMap {
         if let Ok(cache) = CACHE.lock()
             && let Some((_, map)) = cache.iter().find(|(g, _)| g == geo)
         {
+            map.taps.get_or_init(|| map.all_taps());
             return map.clone();
         }
         let map = Arc::new(Self::build(geo));
@@ -140,7 +144,21 @@ impl LensMap {
             width: w,
             height: h,
             along,
+            taps: OnceLock::new(),
         }
+    }
+
+    /// Every pixel's taps, row by row (rows on rayon's threads).
+    fn all_taps(&self) -> Vec<Tap> {
+        let w = self.width as usize;
+        let mut taps = vec![Tap(0); w * self.height as usize];
+        taps.par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each_init(Scratch::default, |s, (y, row)| {
+                self.row_taps(y as u32, 0..w, s);
+                row.copy_from_slice(&s.taps);
+            });
+        taps
     }
 
     /// Row `y`'s taps for the columns `xs` (into `s.taps`): the four grid
@@ -229,7 +247,8 @@ impl LensMap {
 
     /// `src` (RGBA8, the map's size) resampled through the lens: each
     /// output pixel the bilinear mix of its four taps (rows on rayon's
-    /// threads, each row's taps mixed from the grid as it goes). The
+    /// threads, each row's taps mixed from the grid as it goes, or read
+    /// from the table a map used before keeps). The
     /// picture's buffer goes back to a small pool when dropped, so that
     /// the next frame's writes over it rather than a freshly zeroed one.
     pub fn remap(&self, src: &[u8]) -> Lensed {
@@ -245,9 +264,12 @@ impl LensMap {
         out.0
             .par_chunks_mut(w * 4)
             .enumerate()
-            .for_each_init(Scratch::default, |s, (y, row)| {
-                self.row_taps(y as u32, 0..w, s);
-                remap_row(src, w, &s.taps, row);
+            .for_each_init(Scratch::default, |s, (y, row)| match self.taps.get() {
+                Some(taps) => remap_row(src, w, &taps[y * w..(y + 1) * w], row),
+                None => {
+                    self.row_taps(y as u32, 0..w, s);
+                    remap_row(src, w, &s.taps, row);
+                }
             });
         out
     }
