@@ -1,8 +1,9 @@
 //! The lens distortion's cost per frame (src/sensor/lens.rs), on the CPU
 //! alone: a 1920×1080 picture resampled through the lens of
 //! presets/lens_distortion.ron's middle draw (the map cached, as for a fixed
-//! draw), and the map built anew (as for a draw that changes every frame);
-//! median wall of 30 runs after 3 warm-ups and their mean CPU time.
+//! draw), the map built anew (as for a draw that changes every frame), and
+//! the two together (a new draw's whole frame); median wall of 30 runs
+//! after 3 warm-ups and their mean CPU time.
 //!
 //! `cargo run --release --no-default-features --example lens_bench`
 //! (docs/realism.md, "Lens distortion"). `RAYON_NUM_THREADS` sets the threads.
@@ -68,13 +69,13 @@ fn main() {
         eprintln!("a neutral lens");
         return;
     };
-    let map = LensMap::of(&geo);
+    // As the pipeline does each frame: the map looked up, then the picture resampled.
     let remap = median_ms(|| {
-        std::hint::black_box(map.remap(&rgba));
+        std::hint::black_box(LensMap::of(&geo).remap(&rgba));
     });
+    // A new draw each run: the geometry's fill and the map are solved again.
     let mut k = 0u32;
-    let build = median_ms(|| {
-        // A new draw each run: the geometry's fill and the map are solved again.
+    let mut next = || {
         k += 1;
         let d = LensDraw::BrownConrady {
             k1: -0.15 + f64::from(k) * 1e-6,
@@ -83,12 +84,19 @@ fn main() {
             p1: 0.0005,
             p2: -0.0005,
         };
-        if let Some(g) = LensGeometry::new(d, w, h, focal) {
-            std::hint::black_box(LensMap::build(&g));
+        LensGeometry::new(d, w, h, focal).map(|g| LensMap::build(&g))
+    };
+    let build = median_ms(|| {
+        std::hint::black_box(next());
+    });
+    let whole = median_ms(|| {
+        if let Some(m) = next() {
+            std::hint::black_box(m.remap(&rgba));
         }
     });
     println!("threads {}", rayon::current_num_threads());
     let show = |(wall, cpu): (f64, f64)| format!("{wall:.2} ms wall, {cpu:.1} ms CPU");
     println!("remap 1920x1080 (map cached): {}", show(remap));
     println!("new draw: geometry + map: {}", show(build));
+    println!("new draw's frame: geometry + map + remap: {}", show(whole));
 }

@@ -32,48 +32,69 @@ pub(super) fn of(scene: &FrameScene) -> Option<FrameLens> {
 }
 
 /// The renderer's hits moved through the lens: each written pixel shows
-/// the drones its nearest source pixel shows (`width`×`height` both).
-pub(super) fn remap_hits(map: &LensMap, hits: &[PixelHit], (w, h): (u32, u32)) -> Vec<PixelHit> {
-    let n = w as usize * h as usize;
-    // The hits by source pixel (counting sort).
-    let mut start = vec![0u32; n + 1];
-    let inside = |p: &&PixelHit| p.x < w && p.y < h;
-    for p in hits.iter().filter(inside) {
-        start[(p.y * w + p.x) as usize + 1] += 1;
-    }
-    let mut total = 0;
-    for s in &mut start {
-        total += *s;
-        *s = total;
-    }
-    let mut fill = start.clone();
-    let mut sorted = vec![
-        hits.first().copied().unwrap_or(PixelHit {
-            x: 0,
-            y: 0,
-            drone: 0,
-            samples: 0
-        });
-        start[n] as usize
-    ];
-    for p in hits.iter().filter(inside) {
-        let at = &mut fill[(p.y * w + p.x) as usize];
-        sorted[*at as usize] = *p;
-        *at += 1;
-    }
-    let mut out = Vec::with_capacity(sorted.len());
-    for i in 0..n {
-        let Some(src) = map.nearest(i) else { continue };
-        let (a, b) = (start[src as usize], start[src as usize + 1]);
-        for p in &sorted[a as usize..b as usize] {
-            out.push(PixelHit {
-                x: (i % w as usize) as u32,
-                y: (i / w as usize) as u32,
-                ..*p
-            });
+/// the drones its nearest source pixel shows (`width`×`height` both). Only
+/// the written pixels in the drones' footprints ([`footprint`] of each
+/// drone's hits' box) are looked at: no other's nearest source is a hit.
+pub(super) fn remap_hits(lens: &FrameLens, hits: &[PixelHit], (w, h): (u32, u32)) -> Vec<PixelHit> {
+    let key = |p: &PixelHit| u64::from(p.y) * u64::from(w) + u64::from(p.x);
+    // The hits by source pixel (a stable sort: each pixel's in their order).
+    let mut sorted: Vec<PixelHit> = (hits.iter())
+        .filter(|p| p.x < w && p.y < h)
+        .copied()
+        .collect();
+    sorted.sort_by_key(key);
+    let drones = sorted
+        .iter()
+        .map(|p| p.drone as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let areas: Vec<PixelRect> = (shown(drones, &sorted).into_iter().flatten())
+        .map(|(r, _)| {
+            // Two pixels more than the footprint's own margin.
+            let f = footprint(&lens.geo, r);
+            PixelRect {
+                x0: f.x0.saturating_sub(2),
+                y0: f.y0.saturating_sub(2),
+                x1: f.x1 + 2,
+                y1: f.y1 + 2,
+            }
+        })
+        .collect();
+    let mut out = Vec::new();
+    lens.map.nearest_in(row_spans(&areas, h), |x, y, src| {
+        let from = sorted.partition_point(|p| key(p) < u64::from(src));
+        let to = from + sorted[from..].partition_point(|p| key(p) == u64::from(src));
+        out.extend(sorted[from..to].iter().map(|p| PixelHit { x, y, ..*p }));
+    });
+    out
+}
+
+/// The union of `rects` as one-row rects, row by row and left to right
+/// (each pixel once, in the picture's order), rows under `h`.
+fn row_spans(rects: &[PixelRect], h: u32) -> Vec<PixelRect> {
+    let mut spans = Vec::new();
+    let y_end = rects.iter().map(|r| r.y1.min(h)).max().unwrap_or(0);
+    let y_start = rects.iter().map(|r| r.y0).min().unwrap_or(0);
+    let mut row: Vec<(u32, u32)> = Vec::new();
+    for y in y_start..y_end {
+        row.clear();
+        row.extend((rects.iter().filter(|r| (r.y0..r.y1).contains(&y))).map(|r| (r.x0, r.x1)));
+        row.sort_unstable();
+        for &(x0, x1) in &row {
+            let joins = (spans.last_mut()).filter(|l: &&mut PixelRect| l.y0 == y && x0 <= l.x1);
+            if let Some(last) = joins {
+                last.x1 = last.x1.max(x1);
+            } else if x0 < x1 {
+                spans.push(PixelRect {
+                    x0,
+                    y0: y,
+                    x1,
+                    y1: y + 1,
+                });
+            }
         }
     }
-    out
+    spans
 }
 
 /// Each of `n` drones' lens-moved hits: their box and count (`None`: none).
@@ -210,7 +231,11 @@ mod tests {
                 samples: 2,
             },
         ];
-        let moved = remap_hits(&map, &hits, (80, 60));
+        let lens = FrameLens {
+            geo,
+            map: Arc::new(LensMap::build(&geo)),
+        };
+        let moved = remap_hits(&lens, &hits, (80, 60));
         assert!(!moved.is_empty());
         for m in &moved {
             let src = map.nearest((m.y * 80 + m.x) as usize).expect("in the map");

@@ -642,7 +642,7 @@ fn lens_visibility(
 ) -> Option<Vec<Visibility>> {
     let l = lens::of(scene)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let moved = lens::remap_hits(&l.map, hits.as_deref()?, (w, h));
+    let moved = lens::remap_hits(&l, hits.as_deref()?, (w, h));
     let vis = measured.map(|m| {
         (m.iter().zip(lens::shown(m.len(), &moved)))
             .map(|(v, s)| camera::camera_visibility(v, s))
