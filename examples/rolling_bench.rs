@@ -8,8 +8,6 @@
 //! `cargo run --release --no-default-features --example rolling_bench`
 //! (docs/realism.md, "Rolling shutter"). `RAYON_NUM_THREADS` sets the threads.
 
-use std::time::Instant;
-
 use glam::{DMat3, DVec2, DVec3};
 use swarmshot::annotate::flow::BackgroundFlow;
 use swarmshot::preset::Preset;
@@ -18,36 +16,9 @@ use swarmshot::scene::{build_frame_at, math::look_at_cv};
 use swarmshot::sensor::PixelRect;
 use swarmshot::sensor::rolling::{Shear, shear, turn_background};
 
-/// The process's CPU time so far, seconds (Linux's /proc/self/stat, in
-/// 100 Hz ticks; NaN elsewhere).
-fn cpu_s() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let after = stat.rsplit(')').next().unwrap_or("");
-    let field = |i: usize| after.split_whitespace().nth(i)?.parse::<f64>().ok();
-    match (field(11), field(12)) {
-        (Some(user), Some(system)) => (user + system) / 100.0,
-        _ => f64::NAN,
-    }
-}
-
-/// The median wall time of 30 runs after 3 warm-ups, and their mean CPU
-/// time (all threads), ms.
-fn median_ms(mut run: impl FnMut()) -> (f64, f64) {
-    for _ in 0..3 {
-        run();
-    }
-    let cpu = cpu_s();
-    let mut times: Vec<f64> = (0..30)
-        .map(|_| {
-            let t = Instant::now();
-            run();
-            t.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    let cpu_ms = (cpu_s() - cpu) * 1e3 / 30.0;
-    times.sort_by(f64::total_cmp);
-    (times[times.len() / 2], cpu_ms)
-}
+#[path = "support/timing.rs"]
+mod timing;
+use timing::median_ms;
 
 fn main() -> anyhow::Result<()> {
     let (w, h) = (1920u32, 1080u32);
