@@ -305,7 +305,8 @@ impl LensGeometry {
 mod tests {
     use super::*;
 
-    fn bc(k1: f64, k2: f64, p1: f64, p2: f64) -> LensDraw {
+    /// A Brown–Conrady draw without k3 (the map's tests use it too).
+    pub(super) fn bc(k1: f64, k2: f64, p1: f64, p2: f64) -> LensDraw {
         LensDraw::BrownConrady {
             k1,
             k2,

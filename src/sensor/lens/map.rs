@@ -473,17 +473,8 @@ fn remap_row_avx2(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
 #[cfg(test)]
 mod tests {
     use super::super::LensDraw;
+    use super::super::tests::bc;
     use super::*;
-
-    fn bc(k1: f64, k2: f64, p1: f64, p2: f64) -> LensDraw {
-        LensDraw::BrownConrady {
-            k1,
-            k2,
-            k3: 0.0,
-            p1,
-            p2,
-        }
-    }
 
     /// The cubic mix of the 16-pixel grid against the exact inverse, over
     /// the whole picture (edges and corners included), for a strong
