@@ -16,7 +16,7 @@ use super::RenderError;
 use super::ids;
 use super::readback::{Read, plan_reads};
 use super::regions::{self, DepthRange, Rect};
-use super::visibility::occlusion_layers;
+use super::visibility::{self, occlusion_layers};
 use crate::scene::projection::PixelBox;
 
 /// What a frame asks of its plan.
@@ -96,7 +96,7 @@ impl FramePlan {
     ) -> Result<Self, RenderError> {
         let n = rects.len();
         let overlapping = if request.visibility {
-            layers(boxes, depths, request)?.1
+            hidden(boxes, depths, request)?
         } else {
             vec![false; n]
         };
@@ -223,19 +223,36 @@ fn layers(
     depths: &[Option<DepthRange>],
     request: PlanRequest,
 ) -> Result<(Vec<Vec<usize>>, Vec<bool>), RenderError> {
-    let (width, height) = request.size_px;
-    let clipped: Vec<Option<PixelBox>> = boxes
-        .iter()
-        .map(|b| {
-            b.map(|b| b.clip(f64::from(width), f64::from(height)))
-                .filter(|b| b.width() > 0.0 && b.height() > 0.0)
-        })
-        .collect();
+    let clipped = clipped(boxes, request.size_px);
     let (layers, mut overlapping) = occlusion_layers(&clipped, depths)?;
     if request.scenery {
         overlapping = clipped.iter().map(Option::is_some).collect();
     }
     Ok((layers, overlapping))
+}
+
+/// [`layers`]' second result alone (the same drones), without sorting the
+/// drones into layers ([`visibility::hidden`]).
+fn hidden(
+    boxes: &[Option<PixelBox>],
+    depths: &[Option<DepthRange>],
+    request: PlanRequest,
+) -> Result<Vec<bool>, RenderError> {
+    let clipped = clipped(boxes, request.size_px);
+    if request.scenery {
+        return Ok(clipped.iter().map(Option::is_some).collect());
+    }
+    visibility::hidden(&clipped, depths, request.size_px)
+}
+
+/// `boxes` clipped to a frame of `width`×`height`; empty ones `None`.
+fn clipped(boxes: &[Option<PixelBox>], (width, height): (u32, u32)) -> Vec<Option<PixelBox>> {
+    (boxes.iter())
+        .map(|b| {
+            b.map(|b| b.clip(f64::from(width), f64::from(height)))
+                .filter(|b| b.width() > 0.0 && b.height() > 0.0)
+        })
+        .collect()
 }
 
 /// `layers` with only the drones `keep` names, empty layers dropped.

@@ -196,6 +196,105 @@ pub fn occlusion_layers(
     Ok((layers, overlapping))
 }
 
+/// Whether each drone may be hidden by another: [`occlusion_layers`]'
+/// second result without the layers (the main pass's ids then tell which of
+/// these drones need a pass alone). Each drone is compared with the drones
+/// sharing its [`CELL`]-px cells of a dense grid over `size_px` (boxes
+/// beyond it are clamped to its edge cells) until one may hide it, so a
+/// dense swarm costs a few comparisons a drone. The same budget as
+/// [`overlap_layers`] bounds the work.
+pub fn hidden(
+    boxes: &[Option<PixelBox>],
+    depths: &[Option<DepthRange>],
+    size_px: (u32, u32),
+) -> Result<Vec<bool>, super::RenderError> {
+    let padded: Vec<Option<PixelBox>> = boxes.iter().map(|b| b.as_ref().map(pad)).collect();
+    let grid = CellGrid::new(&padded, size_px);
+    let mut tests: u64 = 0;
+    let mut hidden = vec![false; boxes.len()];
+    for (i, pb) in padded.iter().enumerate() {
+        let Some(pb) = pb else { continue };
+        'cells: for cell in grid.cells_of(pb) {
+            let near = grid.near(cell);
+            tests += near.len() as u64;
+            if tests > MAX_OVERLAP_TESTS {
+                return Err(super::RenderError::TooDense {
+                    drones: boxes.iter().filter(|b| b.is_some()).count(),
+                    limit: MAX_OVERLAP_TESTS,
+                });
+            }
+            for &j in near {
+                let j = j as usize;
+                let Some(bj) = &padded[j] else { continue };
+                if j != i && overlaps(pb, bj) && super::regions::may_hide(depths, j, i) {
+                    hidden[i] = true;
+                    break 'cells;
+                }
+            }
+        }
+    }
+    Ok(hidden)
+}
+
+/// The side of [`hidden`]'s cells in pixels (a drone of 10–20 px touches
+/// one to four).
+const CELL: f64 = 16.0;
+
+/// Which boxes touch each [`CELL`]-px cell of a frame: the indices of each
+/// cell's boxes, cell after cell (row by row), in index order.
+struct CellGrid {
+    columns: usize,
+    rows: usize,
+    /// Where each cell's indices begin in `indices` (one more entry than cells).
+    starts: Vec<u32>,
+    indices: Vec<u32>,
+}
+
+impl CellGrid {
+    fn new(boxes: &[Option<PixelBox>], (width, height): (u32, u32)) -> Self {
+        let columns = (f64::from(width.max(1)) / CELL).ceil() as usize;
+        let rows = (f64::from(height.max(1)) / CELL).ceil() as usize;
+        let mut grid = Self {
+            columns,
+            rows,
+            starts: vec![0; columns * rows + 1],
+            indices: Vec::new(),
+        };
+        let present = || (boxes.iter().enumerate()).filter_map(|(i, b)| Some((i, b.as_ref()?)));
+        for (_, b) in present() {
+            for cell in grid.cells_of(b) {
+                grid.starts[cell + 1] += 1;
+            }
+        }
+        for k in 1..grid.starts.len() {
+            grid.starts[k] += grid.starts[k - 1];
+        }
+        let mut next = grid.starts.clone();
+        grid.indices = vec![0; grid.starts[columns * rows] as usize];
+        for (i, b) in present() {
+            for cell in grid.cells_of(b) {
+                grid.indices[next[cell] as usize] = i as u32;
+                next[cell] += 1;
+            }
+        }
+        grid
+    }
+
+    /// The cells a box touches (clamped to the grid), row by row.
+    fn cells_of(&self, b: &PixelBox) -> impl Iterator<Item = usize> + use<> {
+        let clamp = |v: f64, n: usize| ((v / CELL).floor().max(0.0) as usize).min(n - 1);
+        let (cx0, cx1) = (clamp(b.x0, self.columns), clamp(b.x1, self.columns));
+        let (cy0, cy1) = (clamp(b.y0, self.rows), clamp(b.y1, self.rows));
+        let columns = self.columns;
+        (cy0..=cy1).flat_map(move |cy| (cx0..=cx1).map(move |cx| cy * columns + cx))
+    }
+
+    /// The indices of the boxes touching `cell`.
+    fn near(&self, cell: usize) -> &[u32] {
+        &self.indices[self.starts[cell] as usize..self.starts[cell + 1] as usize]
+    }
+}
+
 /// The side of [`occlusion_layers`]' tiles in pixels.
 const TILE: f64 = 64.0;
 
@@ -256,3 +355,51 @@ impl TileGrid {
 /// 64-px tiles: a few hundred drones in view need thousands, 10 000 drones
 /// crowded into a 320×180 image about 10⁷.
 pub const MAX_OVERLAP_TESTS: u64 = 20_000_000;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hidden_names_the_drones_occlusion_layers_calls_overlapping() {
+        // A dense and a sparse crowd of 4–24 px boxes, some past the frame's
+        // edges, some without a box, at depths that sometimes settle who is in front.
+        let mut state = 12345u64;
+        let mut next = |n: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % n
+        };
+        for (count, spread) in [(3000, 400), (400, 1400)] {
+            let (boxes, depths): (Vec<_>, Vec<_>) = (0..count)
+                .map(|_| {
+                    let (x, y) = (next(spread) as f64 - 30.0, next(spread / 2) as f64 - 20.0);
+                    let (w, h) = (4.0 + next(20) as f64, 4.0 + next(20) as f64);
+                    let near = 10.0 + next(50) as f64;
+                    let b = (next(10) > 0).then_some(PixelBox {
+                        x0: x,
+                        y0: y,
+                        x1: x + w,
+                        y1: y + h,
+                    });
+                    let d = (next(10) > 0).then_some(DepthRange {
+                        near,
+                        far: near + next(8) as f64,
+                    });
+                    (b, d)
+                })
+                .unzip();
+            let expected = occlusion_layers(&boxes, &depths).expect("layers").1;
+            let got = hidden(
+                &boxes,
+                &depths,
+                (spread as u32 - 60, spread as u32 / 2 - 40),
+            )
+            .expect("hidden");
+            assert_eq!(got, expected);
+            let some = got.iter().filter(|&&h| h).count();
+            assert!(some > 0 && some < count, "{some} of {count} hidden");
+        }
+    }
+}
