@@ -164,12 +164,90 @@ pub(super) fn shows_front(
             })
         })
     };
+    let grid = ReadGrid::new(reads);
     (0..n)
         .map(|i| match (candidates.get(i), rects[i]) {
-            (Some(true), Some(r)) => reads.iter().any(|read| front_in(i, &r, read)),
+            (Some(true), Some(r)) => grid.near(&r).any(|k| front_in(i, &r, &reads[k])),
             _ => false,
         })
         .collect()
+}
+
+/// The side of a [`ReadGrid`]'s cells in pixels.
+const READ_CELL: u32 = 64;
+
+/// Which reads meet each [`READ_CELL`]-px cell of their bounds: a drone's
+/// rect is compared with the reads of the cells it touches, not with every
+/// read of the frame (thousands of each in a dense swarm).
+struct ReadGrid {
+    /// The bounds' first cell (in cells) and the grid's size.
+    origin: (u32, u32),
+    size: (u32, u32),
+    /// Where each cell's read indices begin in `indices` (one more entry than cells).
+    starts: Vec<usize>,
+    indices: Vec<usize>,
+}
+
+impl ReadGrid {
+    fn new(reads: &[Read]) -> Self {
+        let cells = |r: &Rect| {
+            (
+                r.x0 / READ_CELL,
+                r.y0 / READ_CELL,
+                r.x1.div_ceil(READ_CELL),
+                r.y1.div_ceil(READ_CELL),
+            )
+        };
+        let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+        for read in reads {
+            let c = cells(&read.rect);
+            (x0, y0, x1, y1) = (x0.min(c.0), y0.min(c.1), x1.max(c.2), y1.max(c.3));
+        }
+        let (width, height) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+        let mut grid = Self {
+            origin: (x0, y0),
+            size: (width, height),
+            starts: vec![0; (width * height) as usize + 1],
+            indices: Vec::new(),
+        };
+        for read in reads {
+            for cell in grid.cells(&read.rect) {
+                grid.starts[cell + 1] += 1;
+            }
+        }
+        for k in 1..grid.starts.len() {
+            grid.starts[k] += grid.starts[k - 1];
+        }
+        let mut next = grid.starts.clone();
+        grid.indices = vec![0; grid.starts[grid.starts.len() - 1]];
+        for (k, read) in reads.iter().enumerate() {
+            for cell in grid.cells(&read.rect) {
+                grid.indices[next[cell]] = k;
+                next[cell] += 1;
+            }
+        }
+        grid
+    }
+
+    /// The cells `r` touches, within the grid.
+    fn cells(&self, r: &Rect) -> impl Iterator<Item = usize> + use<> {
+        let ((ox, oy), (w, h)) = (self.origin, self.size);
+        let x0 = (r.x0 / READ_CELL).clamp(ox, ox + w) - ox;
+        let x1 = r.x1.div_ceil(READ_CELL).clamp(ox, ox + w) - ox;
+        let y0 = (r.y0 / READ_CELL).clamp(oy, oy + h) - oy;
+        let y1 = r.y1.div_ceil(READ_CELL).clamp(oy, oy + h) - oy;
+        (y0..y1).flat_map(move |y| (x0..x1).map(move |x| (y * w + x) as usize))
+    }
+
+    /// The indices of the reads that may meet `r` (a read met in several
+    /// cells comes once per cell); every read that meets it is among them.
+    fn near(&self, r: &Rect) -> impl Iterator<Item = usize> + '_ {
+        (self.cells(r)).flat_map(|c| {
+            self.indices[self.starts[c]..self.starts[c + 1]]
+                .iter()
+                .copied()
+        })
+    }
 }
 
 /// One drone seen at one pixel (plain data, [`super::visibility`]): each
@@ -242,6 +320,59 @@ mod tests {
             .flatten()
             .flat_map(|v| v.to_le_bytes())
             .collect()
+    }
+
+    #[test]
+    fn a_read_grid_offers_every_read_a_rect_meets() {
+        let mut state = 7u64;
+        let mut next = |n: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) % n) as u32
+        };
+        let mut rect = |most: u64| {
+            let (x0, y0) = (next(700) + 100, next(400) + 50);
+            Rect {
+                x0,
+                y0,
+                x1: x0 + 1 + next(most),
+                y1: y0 + 1 + next(most),
+            }
+        };
+        let reads: Vec<Read> = (0..300)
+            .map(|_| Read {
+                rect: rect(150),
+                origin: (0, 0),
+                offset: 0,
+                row: 0,
+            })
+            .collect();
+        let grid = ReadGrid::new(&reads);
+        let mut offered = 0;
+        for _ in 0..2000 {
+            let r = rect(40);
+            let near: Vec<usize> = grid.near(&r).collect();
+            for (k, read) in reads.iter().enumerate() {
+                assert!(
+                    read.rect.intersection(&r).is_none() || near.contains(&k),
+                    "{r:?} misses read {k}"
+                );
+            }
+            offered += near.len();
+        }
+        assert!(
+            offered < 2000 * reads.len() / 4,
+            "the grid narrows the reads: {offered}"
+        );
+        let far = Rect {
+            x0: 0,
+            y0: 0,
+            x1: 50,
+            y1: 40,
+        };
+        assert_eq!(grid.near(&far).count(), 0, "outside every read's cell");
+        assert_eq!(ReadGrid::new(&[]).near(&far).count(), 0);
     }
 
     #[test]
