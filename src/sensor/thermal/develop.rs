@@ -32,8 +32,10 @@ pub enum Developed<'a> {
     Grey16(&'a mut [u16]),
 }
 
-/// Rows per band handed to a thread.
-const BAND_ROWS: usize = 16;
+/// Rows per band handed to a thread (the blur's row pass also runs on the
+/// kernel's halo of rows above and below each band: fewer, taller bands
+/// repeat fewer rows).
+const BAND_ROWS: usize = 32;
 
 /// The chain on `plane` as RGBA8 grey (R = G = B, A = 255): blur, fixed
 /// `pattern` and temporal noise (key from `noise_seed`), gain control.
