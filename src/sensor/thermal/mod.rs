@@ -185,15 +185,26 @@ impl SkyTable {
     /// The clear sky's radiance at sin(elevation) `s` (the ground's below 0).
     #[inline(always)]
     pub fn clear(&self, s: f32) -> f32 {
+        self.entry(Self::index(s))
+    }
+
+    /// The table's entry that [`Self::clear`] reads for `s`.
+    #[inline(always)]
+    fn index(s: f32) -> u32 {
         // One look-up without a branch, so a row of them vectorises; the
         // index as `as i32` then `min` would give it (NaN: 0).
         let steps = SKY_STEPS as f32;
-        let k = if s < 0.0 {
-            SKY_STEPS + 1
+        if s < 0.0 {
+            SKY_STEPS as u32 + 1
         } else {
-            develop::floor(develop::clamp_nan_low(s * steps, steps)) as usize
-        };
-        self.clear[k.min(SKY_STEPS + 1)]
+            develop::floor(develop::clamp_nan_low(s * steps, steps)) as u32
+        }
+    }
+
+    /// The table's entry `k` (the ground's past the end).
+    #[inline(always)]
+    fn entry(&self, k: u32) -> f32 {
+        self.clear[(k as usize).min(SKY_STEPS + 1)]
     }
 }
 
