@@ -16,10 +16,10 @@
 //! deviates of [`super::noise`] under the frame's key), then a linear gain
 //! that maps the frame's low and high percentiles to levels 0 and 255,
 //! capped at `agc_max_gain` levels per kelvin, their middle at
-//! `agc_mid_level`. The per-pixel loops run built for AVX2 where the CPU
-//! has it (`simd_fn!`: the same operations, so the same bits) and in bands
-//! of rows on rayon's threads. It knows the preset's `thermal` section and
-//! seeds, nothing of scenes, the GPU or files.
+//! `agc_mid_level`. The per-pixel loops run built for AVX-512 or AVX2
+//! where the CPU has it (`simd_fn!`: the same operations, so the same bits)
+//! and in bands of rows on rayon's threads. It knows the preset's `thermal`
+//! section and seeds, nothing of scenes, the GPU or files.
 
 use std::sync::OnceLock;
 
@@ -27,9 +27,10 @@ use crate::preset::thermal::{MAX_TEMPERATURE_K, Thermal};
 
 use super::noise::{Key, deviate};
 
-/// `fn NAME(args) -> R { body }` whose body runs built for AVX2 where the
-/// CPU has it, else as built: the same operations (no fused multiply-add),
-/// so the same bits either way, 8 lanes instead of 4.
+/// `fn NAME(args) -> R { body }` whose body runs built for AVX-512 or AVX2
+/// where the CPU has it, else as built: the same operations (no fused
+/// multiply-add), so the same bits either way, 16 or 8 lanes instead of 4
+/// (and under AVX-512 a table look-up per lane is one gather).
 macro_rules! simd_fn {
     ($(#[$doc:meta])* fn $name:ident($($a:ident: $t:ty),* $(,)?) $(-> $r:ty)? $body:block) => {
         $(#[$doc])*
@@ -37,9 +38,21 @@ macro_rules! simd_fn {
             #[inline(always)]
             fn plain($($a: $t),*) $(-> $r)? $body
             #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+            fn avx512($($a: $t),*) $(-> $r)? {
+                plain($($a),*)
+            }
+            #[cfg(target_arch = "x86_64")]
             #[target_feature(enable = "avx2")]
             fn avx2($($a: $t),*) $(-> $r)? {
                 plain($($a),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if $crate::sensor::thermal::avx512() {
+                // SAFETY: the CPU has these features (checked by `avx512`).
+                #[allow(unsafe_code)]
+                let out = unsafe { avx512($($a),*) };
+                return out;
             }
             #[cfg(target_arch = "x86_64")]
             if $crate::sensor::thermal::avx2() {
@@ -58,6 +71,13 @@ mod sky_plane;
 
 pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
 pub use sky_plane::{View, sky_plane};
+
+/// Whether to run the AVX-512 builds: the camera model's choice
+/// ([`super::simd::simd_level`], which `SWARMSHOT_CAMERA_SIMD=avx2` caps).
+#[cfg(target_arch = "x86_64")]
+fn avx512() -> bool {
+    super::simd::simd_level() >= 2
+}
 
 /// Whether to run the AVX2 builds: the camera model's choice
 /// ([`super::simd::simd_level`], which `SWARMSHOT_CAMERA_SIMD=base` caps).
@@ -165,15 +185,26 @@ impl SkyTable {
     /// The clear sky's radiance at sin(elevation) `s` (the ground's below 0).
     #[inline(always)]
     pub fn clear(&self, s: f32) -> f32 {
+        self.entry(Self::index(s))
+    }
+
+    /// The table's entry that [`Self::clear`] reads for `s`.
+    #[inline(always)]
+    fn index(s: f32) -> u32 {
         // One look-up without a branch, so a row of them vectorises; the
         // index as `as i32` then `min` would give it (NaN: 0).
         let steps = SKY_STEPS as f32;
-        let k = if s < 0.0 {
-            SKY_STEPS + 1
+        if s < 0.0 {
+            SKY_STEPS as u32 + 1
         } else {
-            develop::floor(develop::clamp_nan_low(s * steps, steps)) as usize
-        };
-        self.clear[k.min(SKY_STEPS + 1)]
+            develop::floor(develop::clamp_nan_low(s * steps, steps)) as u32
+        }
+    }
+
+    /// The table's entry `k` (the ground's past the end).
+    #[inline(always)]
+    fn entry(&self, k: u32) -> f32 {
+        self.clear[(k as usize).min(SKY_STEPS + 1)]
     }
 }
 

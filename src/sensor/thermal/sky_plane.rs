@@ -9,9 +9,11 @@
 //! A ray's sin(elevation) is `(u·v) / |v|` for v = (vx, vy, 1) and u the
 //! world's up in camera space; vx and vx² are made once per column, so a
 //! row is one loop of adds, a square root and a division, then the sky
-//! table's look-ups, then the colours in a loop of f32 operations; rows in
-//! bands on rayon's threads (each pixel is computed alone, so the split
-//! does not change a bit).
+//! table's look-ups (one for a run of pixels that all read the same
+//! entry), then the colours in a loop of f32 operations; a row
+//! whose rays all point below the horizon is the ground's, filled without
+//! them. Rows in bands on rayon's threads (each pixel is computed alone, so
+//! the split does not change a bit).
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -66,7 +68,11 @@ pub fn sky_plane(t: &Thermal, sky: &SkyTable, view: &View, rgba: &[u8], scratch:
                 up_y_vy: view.up.y * vy,
                 vy2: vy * vy,
             };
-            sky_row(sky, &colour, (vx, vx2), &ray, row, out);
+            if ray.below_horizon(vx) {
+                out.fill(sky.clear(-1.0));
+            } else {
+                sky_row(sky, &colour, (vx, vx2), &ray, row, out);
+            }
         }
     });
 }
@@ -76,6 +82,20 @@ struct Ray {
     up: Vec3,
     up_y_vy: f32,
     vy2: f32,
+}
+
+impl Ray {
+    /// Whether every ray of the row with these column slopes `vx` points
+    /// below the horizon (its sin(elevation)'s numerator, which is monotonic
+    /// in vx, under a margin at both ends: no pixel's quotient rounds to
+    /// −0), so the row is the ground's whatever its colours.
+    fn below_horizon(&self, vx: &[f32]) -> bool {
+        const MARGIN: f32 = -1e-20;
+        let numerator = |vx: f32| self.up.x * vx + self.up_y_vy + self.up.z;
+        let ends = [vx.first(), vx.last()];
+        ends.into_iter()
+            .all(|v| v.is_some_and(|&v| numerator(v) < MARGIN))
+    }
 }
 
 /// What a pixel's colour turns the sky towards.
@@ -97,21 +117,42 @@ simd_fn! {
     ) {
         let (vx, vx2) = slopes;
         let (mut s, mut clear) = ([0f32; RUN], [0f32; RUN]);
+        let mut index = [0u32; RUN];
         for (k, out) in out.chunks_mut(RUN).enumerate() {
             let (x0, n) = (k * RUN, out.len());
             let (s, clear) = (&mut s[..n], &mut clear[..n]);
             for ((s, vx), vx2) in s.iter_mut().zip(&vx[x0..x0 + n]).zip(&vx2[x0..x0 + n]) {
                 *s = (ray.up.x * vx + ray.up_y_vy + ray.up.z) / (vx2 + ray.vy2 + 1.0).sqrt();
             }
-            for (c, &s) in clear.iter_mut().zip(s.iter()) {
-                *c = sky.clear(s);
-            }
+            sky_run(sky, s, &mut index[..n], clear);
             let pixels = rgba.get(x0 * 4..).unwrap_or_default().chunks_exact(4);
             let have = pixels.len().min(n);
             for (((o, px), &s), &c) in out.iter_mut().zip(pixels).zip(s.iter()).zip(clear.iter()) {
                 *o = colour.mix(px, s, c);
             }
             out[have..].copy_from_slice(&clear[have..]);
+        }
+    }
+}
+
+/// The clear sky's radiance at each sin(elevation) of a run (`s`), through
+/// the table's indices (`index`): a single entry filled when the run reads
+/// only one (a row's elevation changes slowly: most runs), else one
+/// look-up a pixel.
+#[inline(always)]
+fn sky_run(sky: &SkyTable, s: &[f32], index: &mut [u32], clear: &mut [f32]) {
+    for (k, &s) in index.iter_mut().zip(s) {
+        *k = SkyTable::index(s);
+    }
+    let (mut lo, mut hi) = (u32::MAX, 0);
+    for &k in index.iter() {
+        (lo, hi) = (lo.min(k), hi.max(k));
+    }
+    if lo == hi {
+        clear.fill(sky.entry(lo));
+    } else {
+        for (c, &k) in clear.iter_mut().zip(index.iter()) {
+            *c = sky.entry(k);
         }
     }
 }
@@ -169,9 +210,10 @@ mod tests {
     fn the_banded_background_is_the_pixel_by_pixel_one() {
         let t = Thermal::default();
         let sky = SkyTable::new(&t);
-        // Rolled and pitched so the horizon crosses the frame at a slant;
-        // wider than a run, and the last rows missing from the picture.
-        let (w, h) = (300u32, 70u32);
+        // Rolled and pitched so the horizon crosses the frame at a slant
+        // and the last rows lie wholly below it; wider than a run, and the
+        // last rows missing from the picture.
+        let (w, h) = (300u32, 100u32);
         let view = View {
             width: w,
             height: h,
@@ -186,6 +228,28 @@ mod tests {
         sky_plane(&t, &sky, &view, &rgba, &mut scratch);
         let want = plain(&t, &sky, &view, &rgba);
         assert_eq!(scratch.plane, want);
-        assert!(want.contains(&sky.ground) && want.iter().any(|&v| v != sky.ground));
+        assert!(want.iter().any(|&v| v != sky.ground));
+        let ground_rows = want.chunks_exact(w as usize);
+        let ground_rows = ground_rows.filter(|row| row.iter().all(|&v| v == sky.ground));
+        assert!((5..30).contains(&ground_rows.count()));
+    }
+
+    #[test]
+    fn a_narrow_view_whose_runs_read_one_sky_entry_is_the_pixel_by_pixel_one() {
+        let t = Thermal::default();
+        let sky = SkyTable::new(&t);
+        // Pitched up 5°, half a degree across: most runs read one entry.
+        let (w, h) = (600u32, 6u32);
+        let view = View {
+            width: w,
+            height: h,
+            up: Vec3::new(0.0, -0.996, 0.0872).normalize(),
+            focal_px: 60_000.0,
+            principal: Vec2::new(300.0, 3.0),
+        };
+        let rgba: Vec<u8> = (0..w * h * 4).map(|i| (i * 7 % 251) as u8).collect();
+        let mut scratch = Scratch::default();
+        sky_plane(&t, &sky, &view, &rgba, &mut scratch);
+        assert_eq!(scratch.plane, plain(&t, &sky, &view, &rgba));
     }
 }

@@ -77,6 +77,12 @@ fn compress_grid(
 ) -> Result<Vec<u8>, JpegError> {
     let stride = grid.width as usize * 4;
     let mut c = tj::Compressor::new(quality, grid.blocks, grey)?;
+    if grey {
+        // R = G = B: the red bytes are the grey plane the colour conversion
+        // would give (its luma weights sum to one), handed over as is.
+        let plane: Vec<u8> = rgba.chunks_exact(4).map(|px| px[0]).collect();
+        return c.compress_grey(&plane, grid.width, grid.height);
+    }
     c.compress(rgba, grid.width, stride, grid.height)
 }
 
@@ -486,6 +492,12 @@ mod tests {
                 .encode(&rgba, width, height, unchanged)
                 .unwrap();
             assert!(grey.len() < colour.len(), "q{quality}");
+            // The grey plane handed over gives the bytes of libjpeg-turbo's
+            // own conversion of the RGBA pixels to one channel.
+            let grid = Grid::new(width, height, quality);
+            let mut c = tj::Compressor::new(quality, grid.blocks, true).unwrap();
+            let converted = c.compress(&rgba, width, width as usize * 4, height);
+            assert_eq!(grey, converted.unwrap(), "q{quality}");
             let colour = image::load_from_memory(&colour).unwrap().to_rgb8();
             let grey = image::load_from_memory(&grey).unwrap();
             assert!(matches!(grey, image::DynamicImage::ImageLuma8(_)));

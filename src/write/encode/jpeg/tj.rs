@@ -69,11 +69,34 @@ impl Compressor {
         pitch: usize,
         height: u32,
     ) -> Result<Vec<u8>, JpegError> {
+        let rgbx = (raw::TJPF_TJPF_RGBX, 4);
+        self.compress_as(pixels, (width, pitch, height), rgbx)
+    }
+
+    /// Compress `height` rows of `width` one-byte grey pixels (a compressor
+    /// made with `grey`), rows `width` bytes apart: no colour conversion.
+    pub fn compress_grey(
+        &mut self,
+        pixels: &[u8],
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<u8>, JpegError> {
+        let grey = (raw::TJPF_TJPF_GRAY, 1);
+        self.compress_as(pixels, (width, width as usize, height), grey)
+    }
+
+    /// Compress pixels of `format`, `bytes` bytes each.
+    fn compress_as(
+        &mut self,
+        pixels: &[u8],
+        (width, pitch, height): (u32, usize, u32),
+        (format, bytes): (raw::TJPF, usize),
+    ) -> Result<Vec<u8>, JpegError> {
         let needed = (height as usize)
             .checked_sub(1)
             .and_then(|rows| rows.checked_mul(pitch))
-            .and_then(|n| n.checked_add(width as usize * 4));
-        if needed.is_none_or(|n| pixels.len() < n) || pitch < width as usize * 4 {
+            .and_then(|n| n.checked_add(width as usize * bytes));
+        if needed.is_none_or(|n| pixels.len() < n) || pitch < width as usize * bytes {
             return Err(JpegError::NotRgbx {
                 len: pixels.len(),
                 width,
@@ -97,7 +120,7 @@ impl Compressor {
                 w,
                 p,
                 h,
-                raw::TJPF_TJPF_RGBX,
+                format,
                 &mut buf,
                 &mut size,
             )
