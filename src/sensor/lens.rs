@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use crate::preset::lens::Lens;
 
+mod kernel;
 mod map;
 pub(super) use map::RowTaps;
 pub use map::{LensMap, Lensed};
