@@ -3,8 +3,9 @@
 //! mixed along x once per grid row when a draw's map is built
 //! ([`LensMap::build`]); each output row's sources then mixed from four
 //! grid rows (cubic Lagrange weights) and rounded to bilinear taps as the
-//! row is resampled ([`LensMap::remap`], the AVX2 kernel where the CPU has
-//! it), so that no per-pixel table is stored or read back. The id layer
+//! row is resampled ([`LensMap::remap`]), or read back from the taps table
+//! a map keeps once it is used a second time (a fixed draw). The rows are
+//! mixed by `kernel.rs`'s kernel (AVX2 where the CPU has it). The id layer
 //! moves with the nearest taps ([`LensMap::nearest_in`]); [`RowTaps`] lets
 //! the rolling shutter resample rows at its own sources with the same
 //! rounding and kernel.
