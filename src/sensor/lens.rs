@@ -6,8 +6,8 @@
 //! (forward: rendered → written, for the labels' points; inverse: written →
 //! rendered, for the picture), and [`LensMap`] (`lens/map.rs`) the inverse
 //! on a grid, cached per draw, that resamples a picture once
-//! ([`LensMap::remap`]) and moves the id layer with nearest taps
-//! ([`LensMap::nearest_in`]).
+//! ([`LensMap::remap`], the bilinear kernel in `lens/kernel.rs`) and moves
+//! the id layer with nearest taps ([`LensMap::nearest_in`]).
 //!
 //! The written picture keeps the render's principal point and is scaled
 //! (its focal length `focal_out`) so that it shows only rendered pixels:
@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use crate::preset::lens::Lens;
 
+mod kernel;
 mod map;
 pub(super) use map::RowTaps;
 pub use map::{LensMap, Lensed};

@@ -3,8 +3,9 @@
 //! mixed along x once per grid row when a draw's map is built
 //! ([`LensMap::build`]); each output row's sources then mixed from four
 //! grid rows (cubic Lagrange weights) and rounded to bilinear taps as the
-//! row is resampled ([`LensMap::remap`], the AVX2 kernel where the CPU has
-//! it), so that no per-pixel table is stored or read back. The id layer
+//! row is resampled ([`LensMap::remap`]), or read back from the taps table
+//! a map keeps once it is used a second time (a fixed draw). The rows are
+//! mixed by `kernel.rs`'s kernel (AVX2 where the CPU has it). The id layer
 //! moves with the nearest taps ([`LensMap::nearest_in`]); [`RowTaps`] lets
 //! the rolling shutter resample rows at its own sources with the same
 //! rounding and kernel.
@@ -15,35 +16,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 use rayon::prelude::*;
 
 use super::LensGeometry;
+use super::kernel::{ONE, Tap, remap_row, tap_at};
 use crate::sensor::PixelRect;
 
-/// One output pixel's bilinear taps, packed in a `u64`: the top-left
-/// source pixel's index (bits 0–31) and the weights of the right column
-/// (bits 32–47) and lower row (bits 48–63), in 1/1024.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Tap(u64);
-
-impl Tap {
-    #[inline(always)]
-    fn new(index: u32, wx: u32, wy: u32) -> Self {
-        Self(u64::from(index) | u64::from(wx) << 32 | u64::from(wy) << 48)
-    }
-    #[inline(always)]
-    fn index(self) -> u32 {
-        self.0 as u32
-    }
-    #[inline(always)]
-    fn wx(self) -> u32 {
-        (self.0 >> 32) as u32 & 0xffff
-    }
-    #[inline(always)]
-    fn wy(self) -> u32 {
-        (self.0 >> 48) as u32
-    }
-}
-
-/// The weights' scale: 1024 = the whole pixel.
-const ONE: u32 = 1024;
 /// The exact inverse is solved on a grid of this spacing (pixels), a node
 /// past each edge, and interpolated between with cubic Lagrange weights
 /// (the tests bound the difference from the exact inverse under 0.01 px).
@@ -343,35 +318,6 @@ impl Drop for Lensed {
     }
 }
 
-/// A source position (pixel coordinates) as its taps, clamped to the image
-/// (NaN to its first pixel).
-#[inline(always)]
-fn tap_at((u, v): (f64, f64), w: u32, h: u32) -> Tap {
-    let axis = |s: f64, n: u32| {
-        // `max` takes NaN to 0, as `clamp` then `as u32` did.
-        let s = (s - 0.5).max(0.0).min(f64::from(n - 1));
-        let i = floor_u32(s).min(n - 2);
-        let x = (s - f64::from(i)) * f64::from(ONE);
-        let k = floor_u32(x);
-        let f = k + u32::from(x - f64::from(k) >= 0.5);
-        (i, f.min(ONE))
-    };
-    let (x0, wx) = axis(u, w);
-    let (y0, wy) = axis(v, h);
-    Tap::new(y0 * w + x0, wx, wy)
-}
-
-/// `s as u32` for `s` in [0, 2³¹): the nearest integer by adding 2⁵², one
-/// less where that rounded up, read from the mantissa. Exact, and unlike
-/// the saturating cast it vectorises.
-#[inline(always)]
-fn floor_u32(s: f64) -> u32 {
-    const MAGIC: f64 = 4_503_599_627_370_496.0; // 2⁵²
-    let r = (s + MAGIC) - MAGIC;
-    let f = if r > s { r - 1.0 } else { r };
-    (f + MAGIC).to_bits() as u32
-}
-
 /// A row's taps: its pixels' source positions (pixel coordinates, clamped
 /// to the `w`×`h` image), as the lens map rounds them.
 #[derive(Debug, Default)]
@@ -393,80 +339,6 @@ impl RowTaps {
         if w >= 2 {
             remap_row(src, w as usize, &self.0, row);
         }
-    }
-}
-
-/// One row of output pixels from their taps (fixed point, rounded): the
-/// AVX2 kernel where the CPU has it, else the scalar one (the same bytes).
-#[inline]
-fn remap_row(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
-    #[cfg(target_arch = "x86_64")]
-    if super::super::simd::simd_level() >= 1 {
-        // SAFETY: the CPU has AVX2 (checked by `simd_level`).
-        #[allow(unsafe_code)]
-        unsafe {
-            return remap_row_avx2(src, w, taps, row);
-        }
-    }
-    remap_row_scalar(src, w, taps, row);
-}
-
-/// A pixel's two source rows' 2×2 pixels (8 bytes each), `None` past the end.
-#[inline(always)]
-fn quad(src: &[u8], w: usize, t: Tap) -> Option<([u8; 8], [u8; 8])> {
-    let o = t.index() as usize * 4;
-    let a = <[u8; 8]>::try_from(src.get(o..o + 8)?).ok()?;
-    let b = <[u8; 8]>::try_from(src.get(o + w * 4..o + w * 4 + 8)?).ok()?;
-    Some((a, b))
-}
-
-/// [`remap_row`] in scalar integers: per channel, the two rows mixed along
-/// x, then those along y, rounded (the reference the AVX2 kernel matches).
-fn remap_row_scalar(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
-    for (px, &t) in row.chunks_exact_mut(4).zip(taps) {
-        let Some((a, b)) = quad(src, w, t) else {
-            px.fill(0);
-            continue;
-        };
-        let (wx, wy) = (t.wx(), t.wy());
-        for (c, out) in px.iter_mut().enumerate() {
-            let top = u32::from(a[c]) * (ONE - wx) + u32::from(a[c + 4]) * wx;
-            let bottom = u32::from(b[c]) * (ONE - wx) + u32::from(b[c + 4]) * wx;
-            *out = ((top * (ONE - wy) + bottom * wy + ONE * ONE / 2) / (ONE * ONE)) as u8;
-        }
-    }
-}
-
-/// [`remap_row_scalar`]'s integers on AVX2: the 2×2 pixels' bytes paired
-/// by channel (left, right), one multiply-add gives both rows' x mixes
-/// (exact in i32: ≤ 255·1024), then the y mix, rounding and packing.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn remap_row_avx2(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
-    use std::arch::x86_64::*;
-    // [r0 g0 b0 a0 r1 g1 b1 a1 | the lower row's] → [r0 r1 g0 g1 b0 b1 a0 a1 | …]
-    let pairs = _mm_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
-    let half = _mm_set1_epi32((ONE * ONE / 2) as i32);
-    for (px, &t) in row.chunks_exact_mut(4).zip(taps) {
-        let Some((a, b)) = quad(src, w, t) else {
-            px.fill(0);
-            continue;
-        };
-        let bytes = _mm_set_epi64x(i64::from_le_bytes(b), i64::from_le_bytes(a));
-        let words = _mm256_cvtepu8_epi16(_mm_shuffle_epi8(bytes, pairs));
-        let (wx, wy) = (t.wx() as i32, t.wy() as i32);
-        let x_mix = _mm256_madd_epi16(words, _mm256_set1_epi32(wx << 16 | (ONE as i32 - wx)));
-        let (top, bottom) = (
-            _mm256_castsi256_si128(x_mix),
-            _mm256_extracti128_si256::<1>(x_mix),
-        );
-        let sum = _mm_add_epi32(
-            _mm_mullo_epi32(top, _mm_set1_epi32(ONE as i32 - wy)),
-            _mm_mullo_epi32(bottom, _mm_set1_epi32(wy)),
-        );
-        let v = _mm_srli_epi32::<20>(_mm_add_epi32(sum, half));
-        let v = _mm_packus_epi16(_mm_packus_epi32(v, v), _mm_setzero_si128());
-        px.copy_from_slice(&_mm_cvtsi128_si32(v).to_le_bytes());
     }
 }
 
@@ -501,49 +373,6 @@ mod tests {
             // The taps round to 1/1024 px (≤ 0.0007 px); the grid adds the rest.
             assert!(worst < 0.01, "{d:?}: {worst} px");
         }
-    }
-
-    /// The vectorising floor is the cast it replaces, next to whole numbers too.
-    #[test]
-    fn floor_u32_is_the_saturating_cast_in_range() {
-        for s in [
-            0.0f64,
-            0.49999,
-            0.5,
-            1.0 - 1e-12,
-            1.0,
-            2.5,
-            3.5,
-            1_023.999_999,
-            1024.0,
-            2e9,
-        ] {
-            for s in [
-                s,
-                f64::from_bits(s.to_bits() + 1),
-                f64::from_bits(s.to_bits().max(1) - 1),
-            ] {
-                assert_eq!(floor_u32(s), s as u32, "{s}");
-            }
-        }
-        assert_eq!(tap_at((f64::NAN, 3.2), 8, 8), tap_at((0.5, 3.2), 8, 8));
-    }
-
-    /// The AVX2 kernel and the scalar one give the same bytes for every
-    /// weight (0 and 1024 included) on a noisy picture.
-    #[test]
-    fn the_avx2_resampler_gives_the_scalar_bytes() {
-        let (w, n) = (64usize, 4096usize);
-        let src: Vec<u8> = (0..w * 40 * 4).map(|i| (i * 7919 % 251) as u8).collect();
-        let taps: Vec<Tap> = (0..n as u32)
-            .map(|i| Tap::new(i * 37 % (38 * w as u32 - 1), i * 97 % 1025, i * 61 % 1025))
-            .collect();
-        let mut scalar = vec![0u8; n * 4];
-        remap_row_scalar(&src, w, &taps, &mut scalar);
-        let mut fast = vec![0u8; n * 4];
-        remap_row(&src, w, &taps, &mut fast);
-        assert_eq!(scalar, fast);
-        assert!(scalar.iter().any(|&v| v > 200) && scalar.iter().any(|&v| v < 50));
     }
 
     /// Remapping a constant picture gives it back; a horizontal ramp stays
