@@ -25,7 +25,6 @@ use serde::Serialize;
 use crate::preset::lens::Lens;
 
 mod map;
-pub(super) use map::RowTaps;
 pub use map::{LensMap, Lensed};
 
 /// A frame's drawn lens coefficients.

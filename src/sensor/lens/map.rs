@@ -5,9 +5,7 @@
 //! grid rows (cubic Lagrange weights) and rounded to bilinear taps as the
 //! row is resampled ([`LensMap::remap`], the AVX2 kernel where the CPU has
 //! it), so that no per-pixel table is stored or read back. The id layer
-//! moves with the nearest taps ([`LensMap::nearest_in`]); [`RowTaps`] lets
-//! the rolling shutter resample rows at its own sources with the same
-//! rounding and kernel.
+//! moves with the nearest taps ([`LensMap::nearest_in`]).
 
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -370,30 +368,6 @@ fn floor_u32(s: f64) -> u32 {
     let r = (s + MAGIC) - MAGIC;
     let f = if r > s { r - 1.0 } else { r };
     (f + MAGIC).to_bits() as u32
-}
-
-/// A row's taps: its pixels' source positions (pixel coordinates, clamped
-/// to the `w`×`h` image), as the lens map rounds them.
-#[derive(Debug, Default)]
-pub(in crate::sensor) struct RowTaps(Vec<Tap>);
-
-impl RowTaps {
-    /// Set the row's taps from each pixel's source position (`u`, `v`).
-    #[inline(always)]
-    pub(in crate::sensor) fn set(&mut self, (w, h): (u32, u32), u: &[f64], v: &[f64]) {
-        self.0.resize(u.len(), Tap(0));
-        for ((tap, &u), &v) in self.0.iter_mut().zip(u).zip(v) {
-            *tap = tap_at((u, v), w, h);
-        }
-    }
-
-    /// The row (`row`, RGBA8) sampled bilinearly from `src` (`w` wide, at
-    /// least 2×2) at the taps.
-    pub(in crate::sensor) fn resample(&self, src: &[u8], w: u32, row: &mut [u8]) {
-        if w >= 2 {
-            remap_row(src, w as usize, &self.0, row);
-        }
-    }
 }
 
 /// One row of output pixels from their taps (fixed point, rounded): the
