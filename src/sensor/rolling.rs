@@ -74,14 +74,20 @@ pub type RowSources<'a> = dyn Fn(f64, &[f64], &mut [(f64, f64)]) + Sync + 'a;
 /// (`sources`; clamped to the image), computed every [`KNOT_PX`] columns
 /// and at the last, linear in between in fixed point, bilinear with
 /// weights in 1/256 ([`Row::resample`]). Rows on rayon's threads, each with
-/// its own knot buffer.
+/// its own knot buffer. A side under 2 or over
+/// [`crate::preset::MAX_IMAGE_SIDE`], or a short `background`, is copied.
 pub fn turn_background(
     background: &[u8],
     (width, height): (u32, u32),
     sources: &RowSources,
 ) -> Vec<u8> {
     let w = width as usize;
-    if width < 2 || height < 2 || background.len() < w * height as usize * 4 {
+    // Fixed-point positions stay in `i32` up to the largest image side.
+    let side = crate::preset::MAX_IMAGE_SIDE;
+    if width < 2 || height < 2 || width.max(height) > side {
+        return background.to_vec();
+    }
+    if background.len() < w * height as usize * 4 {
         return background.to_vec();
     }
     let mut out = vec![0u8; w * height as usize * 4];
