@@ -26,7 +26,6 @@ use crate::preset::lens::Lens;
 
 mod kernel;
 mod map;
-pub(super) use map::RowTaps;
 pub use map::{LensMap, Lensed};
 
 /// A frame's drawn lens coefficients.

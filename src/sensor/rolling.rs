@@ -4,8 +4,9 @@
 //! where each output pixel's drone-free background comes from (the sky at
 //! infinity turned by the camera's rotation, a homography per row) and how
 //! far each drone's image has moved at each row's time. Here the background
-//! is resampled row by row (bilinear in the bytes, with the lens map's taps)
-//! and each drone's difference against the drone-free frame,
+//! is resampled row by row (bilinear in the bytes: positions stepped in
+//! fixed point between knots, weights in 1/256, two channels to a word) and
+//! each drone's difference against the drone-free frame,
 //! D = lin(frame) − lin(background) in linear light (`motion::Difference`),
 //! is moved row by row over it: out(p) = lin(B′(p)) + D(p − shift(row)).
 //! A pixel in several drones' reach belongs to the first. Pixels no drone
@@ -71,32 +72,36 @@ pub type RowSources<'a> = dyn Fn(f64, &[f64], &mut [(f64, f64)]) + Sync + 'a;
 /// `background` (RGBA8, `width`×`height`) resampled row by row: output
 /// pixel centre (x, y) takes the background at the row's source of x
 /// (`sources`; clamped to the image), computed every [`KNOT_PX`] columns
-/// and at the last, linear in between, with the lens map's taps and
-/// rounding. Rows on rayon's threads, each with reused buffers.
+/// and at the last, linear in between in fixed point, bilinear with
+/// weights in 1/256 ([`Row::resample`]). Rows on rayon's threads, each with
+/// its own knot buffer. A side under 2 or over
+/// [`crate::preset::MAX_IMAGE_SIDE`], or a short `background`, is copied.
 pub fn turn_background(
     background: &[u8],
     (width, height): (u32, u32),
     sources: &RowSources,
 ) -> Vec<u8> {
     let w = width as usize;
-    if width < 2 || height < 2 || background.len() < w * height as usize * 4 {
+    // Fixed-point positions stay in `i32` up to the largest image side.
+    let side = crate::preset::MAX_IMAGE_SIDE;
+    if width < 2 || height < 2 || width.max(height) > side {
+        return background.to_vec();
+    }
+    if background.len() < w * height as usize * 4 {
         return background.to_vec();
     }
     let mut out = vec![0u8; w * height as usize * 4];
     let knot_xs: Vec<u32> = knot_columns(width);
     let xs: Vec<f64> = knot_xs.iter().map(|&x| f64::from(x) + 0.5).collect();
     out.par_chunks_mut(w * 4).enumerate().for_each_init(
-        || Row::new(w, xs.len()),
-        |row, (y, bytes)| {
-            sources(y as f64 + 0.5, &xs, &mut row.knots);
-            super::simd::widest(
-                #[inline(always)]
-                || {
-                    row.interpolate(&knot_xs);
-                    row.taps.set((width, height), &row.u, &row.v);
-                },
-            );
-            row.taps.resample(background, width, bytes);
+        || vec![(0.0, 0.0); xs.len()],
+        |knots, (y, bytes)| {
+            sources(y as f64 + 0.5, &xs, knots);
+            let row = Row {
+                src: background,
+                size: (width, height),
+            };
+            row.resample(&knot_xs, knots, bytes);
         },
     );
     out
@@ -111,53 +116,200 @@ fn knot_columns(width: u32) -> Vec<u32> {
     knots
 }
 
-/// One row's buffers: its knots' sources, every column's source, its taps.
-struct Row {
-    knots: Vec<(f64, f64)>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    taps: super::lens::RowTaps,
+/// Fraction bits of a fixed-point source position (1/65536 px).
+const FRAC: u32 = 16;
+
+/// A pixel coordinate (a pixel's centre at +0.5) as the fixed-point
+/// position on the tap grid (pixel centres at integers), clamped to
+/// [−4096, 20480] px so that every sum stays in `i32` for images up to
+/// [`crate::preset::MAX_IMAGE_SIDE`]; NaN to the first pixel.
+#[inline(always)]
+fn fixed(s: f64) -> i32 {
+    ((s - 0.5).clamp(-4096.0, 20480.0) * f64::from(1u32 << FRAC)).round() as i32
 }
 
-impl Row {
-    fn new(width: usize, knots: usize) -> Self {
-        Self {
-            knots: vec![(0.0, 0.0); knots],
-            u: vec![0.0; width],
-            v: vec![0.0; width],
-            taps: super::lens::RowTaps::default(),
-        }
-    }
+/// One row's resampling from the whole `src` image (RGBA8, `size`, at
+/// least 2×2 and `src` that long).
+struct Row<'a> {
+    src: &'a [u8],
+    size: (u32, u32),
+}
 
-    /// Every column's source, linear between the knots at `xs`: column x
-    /// in the segment of knot min(x / KNOT_PX, last − 1), the last segment
-    /// running to the row's end.
-    #[inline(always)]
-    fn interpolate(&mut self, xs: &[u32]) {
+impl Row<'_> {
+    /// The row's pixels (`out`, RGBA8) from its knots' sources (`knots`
+    /// at columns `xs`): column x in the segment of knot
+    /// min(x / KNOT_PX, last − 1), the last segment running to the row's
+    /// end; the position stepped in fixed point along each segment, eight
+    /// pixels at a time on AVX2 (the same integers, so the same bytes).
+    fn resample(&self, xs: &[u32], knots: &[(f64, f64)], out: &mut [u8]) {
         let last = xs.len().saturating_sub(2);
         for k in 0..=last {
-            let (xa, a) = (xs[k], self.knots[k]);
-            let (xb, b) = (
-                xs[(k + 1).min(xs.len() - 1)],
-                self.knots[(k + 1).min(xs.len() - 1)],
-            );
-            let from = (k as u32 * KNOT_PX) as usize;
+            let next = (k + 1).min(xs.len() - 1);
+            let (a, b) = (knots[k], knots[next]);
+            let span = xs[next].saturating_sub(xs[k]).max(1) as i32;
+            let (u0, v0) = (fixed(a.0), fixed(a.1));
+            let step = ((fixed(b.0) - u0) / span, (fixed(b.1) - v0) / span);
+            let from = k * KNOT_PX as usize;
             let to = if k == last {
-                self.u.len()
+                out.len() / 4
             } else {
                 from + KNOT_PX as usize
             };
-            let span = xb.saturating_sub(xa);
-            let (u, v) = (&mut self.u[from..to], &mut self.v[from..to]);
-            for (x, (u, v)) in (from as u32..).zip(u.iter_mut().zip(v.iter_mut())) {
-                let t = if span > 0 {
-                    f64::from(x - xa) / f64::from(span)
-                } else {
-                    0.0
-                };
-                (*u, *v) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+            let Some(pixels) = out.get_mut(from * 4..to * 4) else {
+                return;
+            };
+            let done = self.segment_simd((u0, v0), step, pixels);
+            for (j, px) in (done as i32..).zip(pixels[done * 4..].chunks_exact_mut(4)) {
+                px.copy_from_slice(&self.pixel((u0, v0), step, j).to_le_bytes());
             }
         }
+    }
+
+    /// Pixel `j` of a segment starting at `start` and stepping by `step`
+    /// (fixed point), in scalar integers.
+    #[inline(always)]
+    fn pixel(&self, (u0, v0): (i32, i32), (du, dv): (i32, i32), j: i32) -> u32 {
+        self.bilinear(self.axis(u0 + du * j, 0), self.axis(v0 + dv * j, 1))
+    }
+
+    /// A fixed-point position on `axis` (0: x, 1: y) as its first tap's
+    /// index and the second's weight in 1/256, clamped to the image.
+    #[inline(always)]
+    fn axis(&self, s: i32, axis: usize) -> (u32, u32) {
+        let n = [self.size.0, self.size.1][axis] as i32;
+        let s = s.clamp(0, (n - 1) << FRAC);
+        let i = (s >> FRAC).min(n - 2);
+        let f = ((s - (i << FRAC)) + (1 << (FRAC - 9))) >> (FRAC - 8);
+        (i as u32, f.min(256) as u32)
+    }
+
+    /// The bilinear sample at taps `(x0, fx)`, `(y0, fy)`, rounded twice:
+    /// per channel each row t = (l·(256 − fx) + r·fx + 128) / 256, then
+    /// (t_top·(256 − fy) + t_bottom·fy + 128) / 256, two channels to a word
+    /// in 16-bit lanes.
+    #[inline(always)]
+    fn bilinear(&self, (x0, fx): (u32, u32), (y0, fy): (u32, u32)) -> u32 {
+        let w = self.size.0 as usize;
+        let o = (y0 as usize * w + x0 as usize) * 4;
+        let pair = |o: usize| -> (u32, u32) {
+            let p = self
+                .src
+                .get(o..o + 8)
+                .and_then(|b| <[u8; 8]>::try_from(b).ok());
+            let p = u64::from_le_bytes(p.unwrap_or([0; 8]));
+            (p as u32, (p >> 32) as u32)
+        };
+        const M: u32 = 0x00ff_00ff;
+        const HALF: u32 = 0x0080_0080;
+        let lerp = |a: u32, b: u32, f: u32| ((a * (256 - f) + b * f + HALF) >> 8) & M;
+        // r and b (even bytes), g and a (odd bytes) of a pair mixed along x.
+        let mix =
+            |(l, r): (u32, u32)| (lerp(l & M, r & M, fx), lerp((l >> 8) & M, (r >> 8) & M, fx));
+        let (top, bottom) = (mix(pair(o)), mix(pair(o + w * 4)));
+        lerp(top.0, bottom.0, fy) | lerp(top.1, bottom.1, fy) << 8
+    }
+
+    /// The segment's pixels eight at a time where the CPU has AVX2 (the
+    /// rest by [`Self::bilinear`]); how many it made.
+    #[inline(always)]
+    fn segment_simd(&self, start: (i32, i32), step: (i32, i32), out: &mut [u8]) -> usize {
+        #[cfg(target_arch = "x86_64")]
+        if super::simd::simd_level() >= 1 {
+            // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            unsafe {
+                return self.segment_avx2(start, step, out);
+            }
+        }
+        let _ = (start, step, out);
+        0
+    }
+
+    /// [`Self::axis`] and [`Self::bilinear`]'s integers for eight pixels:
+    /// the taps in `i32` lanes, each pixel's 2×2 pixels loaded as two pairs,
+    /// the left and right pixels split into two vectors (lanes in the order
+    /// 0 1 4 5 2 3 6 7, the weights permuted alike and the result back),
+    /// the two mixes in 16-bit lanes, two channels to a lane.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn segment_avx2(&self, (u0, v0): (i32, i32), (du, dv): (i32, i32), out: &mut [u8]) -> usize {
+        use std::arch::x86_64::*;
+        let (w, h) = (self.size.0 as i32, self.size.1 as i32);
+        if w < 2 || h < 2 || self.src.len() < w as usize * h as usize * 4 {
+            return 0;
+        }
+        let one = _mm256_set1_epi32(256);
+        let axis = |s: __m256i, n: i32| {
+            let top = _mm256_set1_epi32((n - 1) << FRAC);
+            let s = _mm256_min_epi32(_mm256_max_epi32(s, _mm256_setzero_si256()), top);
+            let i = _mm256_min_epi32(_mm256_srai_epi32::<16>(s), _mm256_set1_epi32(n - 2));
+            let r = _mm256_sub_epi32(s, _mm256_slli_epi32::<16>(i));
+            let r = _mm256_add_epi32(r, _mm256_set1_epi32(1 << (FRAC - 9)));
+            (i, _mm256_min_epi32(_mm256_srai_epi32::<8>(r), one))
+        };
+        let (m, half) = (_mm256_set1_epi32(0x00ff_00ff), _mm256_set1_epi16(128));
+        // Per 16-bit lane: (a·(256 − f) + b·f + 128) / 256, f in both halves.
+        let lerp = |a: __m256i, b: __m256i, f: __m256i| {
+            let g = _mm256_sub_epi16(_mm256_set1_epi16(256), f);
+            let s = _mm256_add_epi16(_mm256_mullo_epi16(a, g), _mm256_mullo_epi16(b, f));
+            _mm256_srli_epi16::<8>(_mm256_add_epi16(s, half))
+        };
+        // Lanes 0 1 2 3 4 5 6 7 ↔ 0 1 4 5 2 3 6 7 (its own inverse).
+        let swap = |x: __m256i| _mm256_permute4x64_epi64::<0b11_01_10_00>(x);
+        let both = |f: __m256i| swap(_mm256_or_si256(f, _mm256_slli_epi32::<16>(f)));
+        let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let base = self.src.as_ptr();
+        let n = out.len() / 32 * 8;
+        for (j, px) in (0..).step_by(8).zip(out.chunks_exact_mut(32)) {
+            let j = _mm256_add_epi32(_mm256_set1_epi32(j), lanes);
+            let u = _mm256_mullo_epi32(_mm256_set1_epi32(du), j);
+            let v = _mm256_mullo_epi32(_mm256_set1_epi32(dv), j);
+            let u = _mm256_add_epi32(_mm256_set1_epi32(u0), u);
+            let v = _mm256_add_epi32(_mm256_set1_epi32(v0), v);
+            let ((x0, fx), (y0, fy)) = (axis(u, w), axis(v, h));
+            let top = _mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(w)), x0);
+            let mut at = [0i32; 8];
+            // SAFETY: `at` is 32 bytes; storeu takes any alignment.
+            #[allow(unsafe_code)]
+            unsafe {
+                _mm256_storeu_si256(at.as_mut_ptr().cast(), top)
+            };
+            // SAFETY: 0 ≤ x0 ≤ w − 2 and 0 ≤ y0 ≤ h − 2 (`axis`) and `src`
+            // holds w·h pixels (checked above), so the 8 bytes at pixel
+            // y0·w + x0 and at the pixel below are inside it.
+            #[allow(unsafe_code)]
+            let pair = |i: i32| unsafe { base.add(i as usize * 4).cast::<i64>().read_unaligned() };
+            let four = |k: usize, down: i32| {
+                let p = |m: usize| pair(at[k + m] + down);
+                _mm256_setr_epi64x(p(0), p(1), p(2), p(3))
+            };
+            // [l0 r0 l1 r1 | l2 r2 l3 r3], [l4 r4 …] → lefts and rights.
+            let split = |a: __m256i, b: __m256i| {
+                let (a, b) = (_mm256_castsi256_ps(a), _mm256_castsi256_ps(b));
+                (
+                    _mm256_castps_si256(_mm256_shuffle_ps::<0b10_00_10_00>(a, b)),
+                    _mm256_castps_si256(_mm256_shuffle_ps::<0b11_01_11_01>(a, b)),
+                )
+            };
+            let (fx, fy) = (both(fx), both(fy));
+            let row = |(l, r): (__m256i, __m256i)| {
+                let rb = lerp(_mm256_and_si256(l, m), _mm256_and_si256(r, m), fx);
+                let ga = lerp(_mm256_srli_epi16::<8>(l), _mm256_srli_epi16::<8>(r), fx);
+                (rb, ga)
+            };
+            let t = row(split(four(0, 0), four(4, 0)));
+            let b = row(split(four(0, w), four(4, w)));
+            let (rb, ga) = (lerp(t.0, b.0, fy), lerp(t.1, b.1, fy));
+            let bytes = swap(_mm256_or_si256(rb, _mm256_slli_epi16::<8>(ga)));
+            let mut word = [0u8; 32];
+            // SAFETY: `word` is 32 bytes; storeu takes any alignment.
+            #[allow(unsafe_code)]
+            unsafe {
+                _mm256_storeu_si256(word.as_mut_ptr().cast(), bytes)
+            };
+            px.copy_from_slice(&word);
+        }
+        n
     }
 }
 
@@ -261,6 +413,55 @@ mod tests {
                 assert_eq!(dark, (x0..x0 + 4).collect::<Vec<_>>(), "row {y}");
             } else {
                 assert!(dark.is_empty(), "row {y}: {dark:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_simd_segment_gives_the_scalar_bytes_and_the_bilinear_mix() {
+        // A 40×30 image of mixed bytes; segments crossing every edge.
+        let (w, h) = (40u32, 30u32);
+        let src: Vec<u8> = (0..w * h * 4).map(|i| (i * 37 % 251) as u8).collect();
+        let row = Row {
+            src: &src,
+            size: (w, h),
+        };
+        for (start, step) in [
+            ((-3.3, -2.0), (0.37, 0.11)),
+            ((5.71, 3.2), (1.003, -0.019)),
+            ((30.2, 27.9), (0.9, 0.08)),
+        ] {
+            let (u0, v0) = (fixed(start.0), fixed(start.1));
+            let d = (fixed(start.0 + step.0) - u0, fixed(start.1 + step.1) - v0);
+            let mut out = vec![0u8; 32 * 4];
+            let done = row.segment_simd((u0, v0), d, &mut out);
+            for (j, px) in (0..).zip(out.chunks_exact(4)) {
+                let want = row.pixel((u0, v0), d, j).to_le_bytes();
+                if (j as usize) < done {
+                    assert_eq!(px, want, "pixel {j} of {start:?}");
+                }
+                // The integers are the bilinear mix within 2 levels: two
+                // roundings and weights in 1/256 (≤ 1/512 px each way, here
+                // between neighbours up to 250 levels apart).
+                let (u, v) = (
+                    start.0 + step.0 * f64::from(j),
+                    start.1 + step.1 * f64::from(j),
+                );
+                let clamp = |s: f64, n: u32| (s - 0.5).clamp(0.0, f64::from(n - 1));
+                let (x, y) = (clamp(u, w), clamp(v, h));
+                let (x0, y0) = ((x.floor() as u32).min(w - 2), (y.floor() as u32).min(h - 2));
+                let (fx, fy) = (x - f64::from(x0), y - f64::from(y0));
+                for c in 0..4 {
+                    let at = |x: u32, y: u32| f64::from(src[((y * w + x) * 4) as usize + c]);
+                    let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
+                    let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
+                    let exact = top * (1.0 - fy) + bottom * fy;
+                    let got = f64::from(want[c]);
+                    assert!(
+                        (got - exact).abs() <= 1.5,
+                        "pixel {j} channel {c}: {got} vs {exact}"
+                    );
+                }
             }
         }
     }

@@ -6,9 +6,7 @@
 //! row is resampled ([`LensMap::remap`]), or read back from the taps table
 //! a map keeps once it is used a second time (a fixed draw). The rows are
 //! mixed by `kernel.rs`'s kernel (AVX2 where the CPU has it). The id layer
-//! moves with the nearest taps ([`LensMap::nearest_in`]); [`RowTaps`] lets
-//! the rolling shutter resample rows at its own sources with the same
-//! rounding and kernel.
+//! moves with the nearest taps ([`LensMap::nearest_in`]).
 
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -314,30 +312,6 @@ impl Drop for Lensed {
             && pool.len() < SPARE
         {
             pool.push(std::mem::take(&mut self.0));
-        }
-    }
-}
-
-/// A row's taps: its pixels' source positions (pixel coordinates, clamped
-/// to the `w`×`h` image), as the lens map rounds them.
-#[derive(Debug, Default)]
-pub(in crate::sensor) struct RowTaps(Vec<Tap>);
-
-impl RowTaps {
-    /// Set the row's taps from each pixel's source position (`u`, `v`).
-    #[inline(always)]
-    pub(in crate::sensor) fn set(&mut self, (w, h): (u32, u32), u: &[f64], v: &[f64]) {
-        self.0.resize(u.len(), Tap(0));
-        for ((tap, &u), &v) in self.0.iter_mut().zip(u).zip(v) {
-            *tap = tap_at((u, v), w, h);
-        }
-    }
-
-    /// The row (`row`, RGBA8) sampled bilinearly from `src` (`w` wide, at
-    /// least 2×2) at the taps.
-    pub(in crate::sensor) fn resample(&self, src: &[u8], w: u32, row: &mut [u8]) {
-        if w >= 2 {
-            remap_row(src, w as usize, &self.0, row);
         }
     }
 }
