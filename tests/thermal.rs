@@ -434,7 +434,7 @@ fn maxima(plane: &[f32], w: usize, level: f32) -> Vec<(f64, f64)> {
 }
 
 #[test]
-fn motors_and_battery_are_warm_spots_at_the_hubs_and_the_centre_labels_unchanged() {
+fn motors_battery_and_rotors_are_their_own_parts_and_the_labels_unchanged() {
     use glam::{DMat3, DQuat, DVec3};
     let mut p = thermal_preset();
     p.models.truncate(1); // quad_x, 0.35 m
@@ -462,14 +462,18 @@ fn motors_and_battery_are_warm_spots_at_the_hubs_and_the_centre_labels_unchanged
         .map(|v| DVec3::from(v.position.map(f64::from)))
         .collect();
     let mut labels = Vec::new();
-    for (motor_k, battery_k, n) in [
-        (None, None, 0),
-        (Some(20.0), None, 4),
-        (Some(20.0), Some(20.0), 5),
-    ] {
+    let mut planes = Vec::new();
+    let cases = [
+        (None, None, None, 0),
+        (Some(20.0), None, None, 4),
+        (Some(20.0), Some(20.0), None, 5),
+        (Some(20.0), None, Some(0.0), 4),
+    ];
+    for (motor_k, battery_k, rotor_k, n) in cases {
         let mut p = p.clone();
         if let Some(t) = p.thermal.as_mut() {
-            (t.drone.cold_share, t.drone.motor_k, t.drone.battery_k) = (0.0, motor_k, battery_k);
+            let d = &mut t.drone;
+            (d.cold_share, d.motor_k, d.battery_k, d.rotor_k) = (0.0, motor_k, battery_k, rotor_k);
         }
         let pipe = FramePipeline::new(p).expect("pipeline");
         let mut r = pipe.renderer(&ctx);
@@ -510,6 +514,7 @@ fn motors_and_battery_are_warm_spots_at_the_hubs_and_the_centre_labels_unchanged
             let near = hubs.iter().any(|h| (h.x - x).hypot(h.y - y) <= 1.0);
             assert!(near, "{case}");
         }
+        planes.push((with, found));
         let frame = pipe.make_scene(&mut r, scene).expect("frame");
         labels.push(
             (frame.labels.iter())
@@ -517,6 +522,12 @@ fn motors_and_battery_are_warm_spots_at_the_hubs_and_the_centre_labels_unchanged
                 .collect::<Vec<_>>(),
         );
     }
+    // Rotors at the air's temperature: the discs' pixels colder than the
+    // skin (at the ground's here), the motors' peaks where they were.
+    let ((motors, peaks), (rotors, rotor_peaks)) = (&planes[1], &planes[3]);
+    let colder = (rotors.iter().zip(motors)).filter(|(r, m)| r < m).count();
+    assert!(colder > 1000, "{colder} pixels colder with the rotors");
+    assert_eq!(peaks, rotor_peaks);
     assert!(!labels[0].is_empty());
     assert!(
         labels.iter().all(|l| *l == labels[0]),

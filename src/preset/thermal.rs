@@ -42,6 +42,12 @@ pub struct Signature {
     /// body's centre (see `motor_k`; absent with `motor_k` set: 0).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub battery_k: Option<f64>,
+    /// The spinning rotors' temperature above the air's, kelvin: the pixels
+    /// whose ray crosses a rotor disc of the model between its motor and
+    /// its rim take it instead of the skin's (blades at about the air's
+    /// temperature, cooled by the air they move). Absent: the skin's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotor_k: Option<f64>,
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -65,6 +71,7 @@ impl Signature {
         cold_share: 0.0,
         motor_k: None,
         battery_k: None,
+        rotor_k: None,
     };
     /// A bird: feathers near the air's temperature, a warm body core.
     pub const BIRD: Self = Self {
@@ -75,6 +82,7 @@ impl Signature {
         cold_share: 0.0,
         motor_k: None,
         battery_k: None,
+        rotor_k: None,
     };
     /// An aircraft or helicopter: painted metal skin, a hot engine.
     pub const AIRCRAFT: Self = Self {
@@ -85,6 +93,7 @@ impl Signature {
         cold_share: 0.0,
         motor_k: None,
         battery_k: None,
+        rotor_k: None,
     };
     /// A balloon: fabric warmed by the burner.
     pub const BALLOON: Self = Self {
@@ -95,6 +104,7 @@ impl Signature {
         cold_share: 0.0,
         motor_k: None,
         battery_k: None,
+        rotor_k: None,
     };
 }
 
@@ -260,6 +270,14 @@ impl Signature {
     }
 
     fn validate_into(&self, v: &mut Validator, name: &str, air_k: f64) {
+        if let Some(k) = self.rotor_k {
+            let t = air_k + k;
+            v.check(
+                t.is_finite() && t > 150.0 && t <= MAX_TEMPERATURE_K,
+                &format!("thermal.{name}.rotor_k"),
+                || format!("air + {k} = {t} K must be in (150, {MAX_TEMPERATURE_K}]"),
+            );
+        }
         for (part, k) in [("motor_k", self.motor_k), ("battery_k", self.battery_k)] {
             let Some(k) = k else { continue };
             let hottest = air_k + self.skin_k + k;

@@ -12,7 +12,8 @@
 //!   of the pixel): the object's skin and warm spots ([`parts`]: one
 //!   Gaussian about its projected centre, σ a share of its half box, or
 //!   with `motor_k` / `battery_k` one at each rotor hub and one at the
-//!   body's centre, sized by the part and its distance) at its emissivity, the
+//!   body's centre, sized by the part and its distance; with `rotor_k` the
+//!   rotor discs' pixels at the air's temperature plus it) at its emissivity, the
 //!   rest reflecting the background, seen through `exp(−β·d)` of air; a
 //!   share of the objects (`cold_share`, a hash draw of the frame seed and
 //!   the object's index) with the skin below the air and no warm spot;
@@ -38,7 +39,7 @@ use super::{FramePipeline, PipelineError, weather};
 
 mod parts;
 
-use parts::{Disc, Warm};
+use parts::{Disc, Rotors, Warm};
 
 thread_local! {
     /// Each thread's planes, kept from frame to frame.
@@ -209,15 +210,25 @@ fn add_objects(
                 return None;
             }
             let cold = is_cold(scene.seed, k, sig.cold_share);
-            let warm = match (cold, models.get(d.model)) {
+            let model = models.get(d.model);
+            let mut discs_of = |m: &CpuModel| -> Vec<Disc> {
+                (discs[d.model].get_or_insert_with(|| parts::rotor_discs(m))).clone()
+            };
+            let warm = match (cold, model) {
                 (true, _) => Vec::new(),
-                (false, Some(model)) if sig.has_parts() => {
-                    let discs = discs[d.model].get_or_insert_with(|| parts::rotor_discs(model));
-                    parts::part_spots(cam, d, discs, sig)
-                }
+                (false, Some(m)) if sig.has_parts() => parts::part_spots(cam, d, &discs_of(m), sig),
                 (false, _) => vec![parts::box_spot(cam, d.position, *b, sig)],
             };
-            Some(Spot::new(t, sky, cam, d.position, (sig, cold), warm))
+            let rotors = (sig.rotor_k.zip(model))
+                .map(|(k, m)| (Rotors::new(cam, d, &discs_of(m)), t.air_k + k));
+            Some(Spot::new(
+                t,
+                sky,
+                cam,
+                d.position,
+                (sig, cold),
+                (warm, rotors),
+            ))
         })
         .collect();
     let deltas: Vec<(usize, f32)> = (hits.iter())
@@ -252,6 +263,8 @@ fn is_cold(frame_seed: u64, index: usize, share: f64) -> bool {
 struct Spot {
     /// Its warm spots ([`parts`]): none when it is seen cold.
     warm: Vec<Warm>,
+    /// Its spinning rotors and their temperature (kelvin), with `rotor_k`.
+    rotors: Option<(Rotors, f64)>,
     /// The skin's temperature (kelvin) and emissivity.
     skin_k: f64,
     emissivity: f32,
@@ -267,11 +280,12 @@ impl Spot {
         cam: &Camera,
         position: DVec3,
         (sig, cold): (&Signature, bool),
-        warm: Vec<Warm>,
+        (warm, rotors): (Vec<Warm>, Option<(Rotors, f64)>),
     ) -> Self {
         let p = cam.camera_from_world_point(position);
         Self {
             warm,
+            rotors,
             skin_k: if cold {
                 t.air_k - sig.skin_k
             } else {
@@ -286,8 +300,11 @@ impl Spot {
     /// The radiance reaching pixel (x, y) from this object, `behind` the
     /// background's (what its skin reflects).
     fn radiance(&self, x: u32, y: u32, behind: f32) -> f32 {
-        let temp =
-            (self.warm.iter()).fold(self.skin_k, |k, w| k + w.peak_k * f64::from(w.at(x, y)));
+        let base = match &self.rotors {
+            Some((rotors, k)) if rotors.cover(x, y) => *k,
+            _ => self.skin_k,
+        };
+        let temp = (self.warm.iter()).fold(base, |k, w| k + w.peak_k * f64::from(w.at(x, y)));
         let e = self.emissivity;
         let own = e * thermal::radiance(temp) + (1.0 - e) * behind;
         self.transmit * own + (1.0 - self.transmit) * self.air

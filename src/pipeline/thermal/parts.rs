@@ -53,6 +53,8 @@ impl Warm {
 pub(super) struct Disc {
     pub centre: DVec3,
     pub radius: f64,
+    /// The disc's axis: its box's thinnest direction.
+    pub axis: DVec3,
 }
 
 /// The single warm spot of an object whose pixels span `hit_box`: about
@@ -110,6 +112,59 @@ pub(super) fn part_spots(
         .collect()
 }
 
+/// A drone's spinning rotors as the frame's camera sees them (`rotor_k`):
+/// each disc's centre and axis in camera space, its radius and its motor's,
+/// squared (metres).
+pub(super) struct Rotors {
+    discs: Vec<(DVec3, DVec3, f64, f64)>,
+    focal: f64,
+    principal: glam::DVec2,
+}
+
+impl Rotors {
+    pub fn new(cam: &Camera, drone: &DronePose, discs: &[Disc]) -> Self {
+        let centre = cam.camera_from_world_point(drone.position);
+        let rot = cam.camera_from_world * DMat3::from_quat(drone.rotation);
+        let discs = (discs.iter())
+            .map(|d| {
+                let (r, a) = (
+                    d.radius * drone.size_m,
+                    MOTOR_SHARE * d.radius * drone.size_m,
+                );
+                (
+                    centre + rot * (d.centre * drone.size_m),
+                    rot * d.axis,
+                    r * r,
+                    a * a,
+                )
+            })
+            .collect();
+        Self {
+            discs,
+            focal: cam.focal_px(),
+            principal: cam.principal_point(),
+        }
+    }
+
+    /// Whether pixel (x, y)'s centre ray crosses a disc between its motor
+    /// and its rim (the blades, not the hub).
+    pub fn cover(&self, x: u32, y: u32) -> bool {
+        let ray = DVec3::new(
+            (f64::from(x) + 0.5 - self.principal.x) / self.focal,
+            (f64::from(y) + 0.5 - self.principal.y) / self.focal,
+            1.0,
+        );
+        self.discs.iter().any(|&(c, n, r2, a2)| {
+            let across = n.dot(ray);
+            if across.abs() < 1e-9 {
+                return false;
+            }
+            let d2 = (ray * (n.dot(c) / across) - c).length_squared();
+            a2 < d2 && d2 < r2
+        })
+    }
+}
+
 /// The rotor discs of `model`: its BLEND triangles (every corner marked
 /// [`crate::model::BLEND_MARK`]) joined by shared corners (corners at the
 /// same position are one: a flat-shaded disc repeats them), each flat
@@ -155,9 +210,20 @@ pub(super) fn rotor_discs(model: &CpuModel) -> Vec<Disc> {
         e.max_element() > 0.0 && e.min_element() <= FLAT * e.max_element()
     });
     (merge_close(flat).into_iter())
-        .map(|(lo, hi)| Disc {
-            centre: (lo + hi) * 0.5,
-            radius: (hi - lo).max_element() * 0.5,
+        .map(|(lo, hi)| {
+            let e = hi - lo;
+            let axis = if e.x <= e.y && e.x <= e.z {
+                DVec3::X
+            } else if e.y <= e.z {
+                DVec3::Y
+            } else {
+                DVec3::Z
+            };
+            Disc {
+                centre: (lo + hi) * 0.5,
+                radius: e.max_element() * 0.5,
+                axis,
+            }
         })
         .collect()
 }
