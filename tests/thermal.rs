@@ -412,3 +412,125 @@ fn rain_reads_as_warm_streaks_against_the_cold_sky() {
         "{warmer} warmer, {colder} colder"
     );
 }
+
+/// The local maxima of `plane` above `level`: pixels higher than every other
+/// pixel within 2 px, as pixel centres.
+fn maxima(plane: &[f32], w: usize, level: f32) -> Vec<(f64, f64)> {
+    let h = plane.len() / w;
+    let mut out = Vec::new();
+    for y in 2..h - 2 {
+        for x in 2..w - 2 {
+            let v = plane[y * w + x];
+            let top = (y - 2..=y + 2)
+                .flat_map(|j| (x - 2..=x + 2).map(move |i| (i, j)))
+                .filter(|&(i, j)| (i, j) != (x, y))
+                .all(|(i, j)| plane[j * w + i] < v);
+            if v > level && top {
+                out.push((x as f64 + 0.5, y as f64 + 0.5));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn motors_battery_and_rotors_are_their_own_parts_and_the_labels_unchanged() {
+    use glam::{DMat3, DQuat, DVec3};
+    let mut p = thermal_preset();
+    p.models.truncate(1); // quad_x, 0.35 m
+    let ctx = common::gpu();
+    // A level quadcopter seen straight down from 6 m (about 100 px across),
+    // its centre off the pixels' corners.
+    let at = DVec3::new(0.0013, 0.0, 0.0011);
+    let top_down = |pipe: &FramePipeline| {
+        let mut scene = pipe.scene(0).expect("scene");
+        scene.drones.truncate(1);
+        let d = &mut scene.drones[0];
+        (d.model, d.rotation, d.position, d.size_m) = (0, DQuat::IDENTITY, at, 0.35);
+        scene.camera.position = DVec3::new(0.0, 6.0, 0.0);
+        scene.camera.camera_from_world =
+            DMat3::from_cols(DVec3::X, DVec3::Z, DVec3::NEG_Y).transpose();
+        scene.look_at = DVec3::ZERO;
+        scene
+    };
+    // The hubs, independently of the thermal code: each quadrant's rotor-disc
+    // (BLEND) corners' box centre, projected.
+    let src = swarmshot::preset::ModelSource::Builtin("quad_x".into());
+    let model = swarmshot::pipeline::load_model(&src).expect("quad_x");
+    let blend: Vec<DVec3> = (model.vertices.iter())
+        .filter(|v| v.material[3] < 0.0)
+        .map(|v| DVec3::from(v.position.map(f64::from)))
+        .collect();
+    let mut labels = Vec::new();
+    let mut planes = Vec::new();
+    let cases = [
+        (None, None, None, 0),
+        (Some(20.0), None, None, 4),
+        (Some(20.0), Some(20.0), None, 5),
+        (Some(20.0), None, Some(0.0), 4),
+    ];
+    for (motor_k, battery_k, rotor_k, n) in cases {
+        let mut p = p.clone();
+        if let Some(t) = p.thermal.as_mut() {
+            let d = &mut t.drone;
+            (d.cold_share, d.motor_k, d.battery_k, d.rotor_k) = (0.0, motor_k, battery_k, rotor_k);
+        }
+        let pipe = FramePipeline::new(p).expect("pipeline");
+        let mut r = pipe.renderer(&ctx);
+        let scene = top_down(&pipe);
+        let cam = &scene.camera;
+        let project = |v: DVec3| {
+            let c = cam.project_camera_point(cam.camera_from_world_point(at + v * 0.35));
+            c.expect("in front")
+        };
+        let mut hubs: Vec<_> = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+            .iter()
+            .map(|&(sx, sz)| {
+                let q: Vec<_> = (blend.iter())
+                    .filter(|v| v.x * sx > 0.0 && v.z * sz > 0.0)
+                    .collect();
+                let lo = q.iter().fold(DVec3::INFINITY, |a, v| a.min(**v));
+                let hi = q.iter().fold(DVec3::NEG_INFINITY, |a, v| a.max(**v));
+                project((lo + hi) * 0.5)
+            })
+            .collect();
+        let centre = project(DVec3::ZERO);
+        let with = pipe.thermal_radiance(&mut r, &scene).expect("radiance");
+        let mut empty = scene.clone();
+        empty.drones.clear();
+        let without = pipe.thermal_radiance(&mut r, &empty).expect("radiance");
+        let (with, without) = (with.expect("thermal"), without.expect("thermal"));
+        let floor = without.iter().copied().fold(f32::MIN, f32::max);
+        let top = with.iter().copied().fold(f32::MIN, f32::max);
+        let found = maxima(&with, cam.width as usize, floor + 0.5 * (top - floor));
+        let case =
+            format!("motor {motor_k:?}, battery {battery_k:?}: maxima {found:?}, hubs {hubs:?}");
+        // One broad spot without parts (no sharp maximum to count).
+        assert!(n == 0 || found.len() == n, "{case}");
+        if battery_k.is_some() {
+            hubs.push(centre);
+        }
+        for (x, y) in found.iter().filter(|_| n > 0) {
+            let near = hubs.iter().any(|h| (h.x - x).hypot(h.y - y) <= 1.0);
+            assert!(near, "{case}");
+        }
+        planes.push((with, found));
+        let frame = pipe.make_scene(&mut r, scene).expect("frame");
+        labels.push(
+            (frame.labels.iter())
+                .map(|l| (l.bbox, l.status, l.visibility))
+                .collect::<Vec<_>>(),
+        );
+    }
+    // Rotors at the air's temperature: the discs' pixels colder than the
+    // skin (at the ground's here), the motors' peaks where they were.
+    let ((motors, peaks), (rotors, rotor_peaks)) = (&planes[1], &planes[3]);
+    let colder = (rotors.iter().zip(motors)).filter(|(r, m)| r < m).count();
+    assert!(colder > 1000, "{colder} pixels colder with the rotors");
+    assert_eq!(peaks, rotor_peaks);
+    assert!(!labels[0].is_empty());
+    assert!(
+        labels.iter().all(|l| *l == labels[0]),
+        "labels as without parts"
+    );
+}

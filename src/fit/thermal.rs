@@ -16,8 +16,9 @@
 //!   together: both × real / synthetic (at most ×4 or ÷4 a round);
 //! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median;
 //! - **mean brightness**: `agc_mid_level` += real − synthetic (levels);
-//! - **peak contrast of 3–6 px drones**: the drone's `skin_k` and `spot_k` × real /
-//!   synthetic (at most ×2 or ÷2 a round);
+//! - **peak contrast of 3–6 px drones**: the drone's `skin_k` and `spot_k` (and its
+//!   parts' `motor_k` and `battery_k` when set) × real / synthetic (at most ×2 or ÷2 a
+//!   round);
 //! - **share of drones darker than their ring**: the drone's `cold_share` += real −
 //!   synthetic (the share seen colder than the air; within 0–1);
 //! - **drone core size** or the share under 6 px: `size_px_knots` (and `size_px`'s ends)
@@ -135,6 +136,13 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
             d.skin_k, d.spot_k
         ));
         (d.skin_k, d.spot_k) = (s2, p2);
+        for (name, part) in [("motor_k", &mut d.motor_k), ("battery_k", &mut d.battery_k)] {
+            if let Some(v) = part.as_mut() {
+                let v2 = r3(*v * k);
+                changes.push(format!("thermal.drone {name} {v} → {v2} (the same ratio)"));
+                *v = v2;
+            }
+        }
     }
     if let Some((v, real, m)) = stat(report, "drone_darker")
         && outside(v)

@@ -30,6 +30,24 @@ pub struct Signature {
     /// preset.lock.ron, so datasets made before it resume.
     #[serde(skip_serializing_if = "is_zero")]
     pub cold_share: f64,
+    /// The motors' peak temperature above the skin, kelvin: with this or
+    /// `battery_k` set, the warm spot is the object's parts instead (a
+    /// Gaussian at each rotor hub of the model, the motor's size, and one
+    /// at the body's centre, the battery's), projected by the frame's
+    /// camera; `spot_k` and `spot_share` are then unused. Absent (the
+    /// default): one warm spot, not written to preset.lock.ron.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motor_k: Option<f64>,
+    /// The battery's peak temperature above the skin, kelvin, at the
+    /// body's centre (see `motor_k`; absent with `motor_k` set: 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub battery_k: Option<f64>,
+    /// The spinning rotors' temperature above the air's, kelvin: the pixels
+    /// whose ray crosses a rotor disc of the model between its motor and
+    /// its rim take it instead of the skin's (blades at about the air's
+    /// temperature, cooled by the air they move). Absent: the skin's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotor_k: Option<f64>,
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -44,13 +62,16 @@ impl Default for Signature {
 
 impl Signature {
     /// A multirotor in flight: plastic/carbon shell a few kelvin over the
-    /// air, battery and motors warm (≈ 15 K above the shell).
+    /// air, battery and motors warm (≈ 15 K above the shell), as one spot.
     pub const DRONE: Self = Self {
         skin_k: 4.0,
         emissivity: 0.9,
         spot_k: 15.0,
         spot_share: 0.45,
         cold_share: 0.0,
+        motor_k: None,
+        battery_k: None,
+        rotor_k: None,
     };
     /// A bird: feathers near the air's temperature, a warm body core.
     pub const BIRD: Self = Self {
@@ -59,6 +80,9 @@ impl Signature {
         spot_k: 10.0,
         spot_share: 0.3,
         cold_share: 0.0,
+        motor_k: None,
+        battery_k: None,
+        rotor_k: None,
     };
     /// An aircraft or helicopter: painted metal skin, a hot engine.
     pub const AIRCRAFT: Self = Self {
@@ -67,6 +91,9 @@ impl Signature {
         spot_k: 60.0,
         spot_share: 0.15,
         cold_share: 0.0,
+        motor_k: None,
+        battery_k: None,
+        rotor_k: None,
     };
     /// A balloon: fabric warmed by the burner.
     pub const BALLOON: Self = Self {
@@ -75,6 +102,9 @@ impl Signature {
         spot_k: 10.0,
         spot_share: 0.6,
         cold_share: 0.0,
+        motor_k: None,
+        battery_k: None,
+        rotor_k: None,
     };
 }
 
@@ -234,7 +264,29 @@ impl Thermal {
 }
 
 impl Signature {
+    /// Whether the warm spot is the object's parts (`motor_k` or `battery_k` set).
+    pub fn has_parts(&self) -> bool {
+        self.motor_k.is_some() || self.battery_k.is_some()
+    }
+
     fn validate_into(&self, v: &mut Validator, name: &str, air_k: f64) {
+        if let Some(k) = self.rotor_k {
+            let t = air_k + k;
+            v.check(
+                t.is_finite() && t > 150.0 && t <= MAX_TEMPERATURE_K,
+                &format!("thermal.{name}.rotor_k"),
+                || format!("air + {k} = {t} K must be in (150, {MAX_TEMPERATURE_K}]"),
+            );
+        }
+        for (part, k) in [("motor_k", self.motor_k), ("battery_k", self.battery_k)] {
+            let Some(k) = k else { continue };
+            let hottest = air_k + self.skin_k + k;
+            v.check(
+                k.is_finite() && k >= 0.0 && hottest <= MAX_TEMPERATURE_K,
+                &format!("thermal.{name}.{part}"),
+                || format!("{k} must be kelvin ≥ 0 with air + skin + {k} ≤ {MAX_TEMPERATURE_K}"),
+            );
+        }
         let hottest = air_k + self.skin_k + self.spot_k;
         v.check(
             self.skin_k.is_finite() && self.spot_k.is_finite() && self.spot_k >= 0.0,

@@ -9,8 +9,11 @@
 //!   the horizon, the clear sky by elevation above it, turned towards the
 //!   clouds' or the scenery's radiance by the pixel's colour);
 //! - every pixel the id pass gives a drone or confuser (its samples' share
-//!   of the pixel): the object's skin and warm spot (a Gaussian about its
-//!   projected centre, σ a share of its half box) at its emissivity, the
+//!   of the pixel): the object's skin and warm spots ([`parts`]: one
+//!   Gaussian about its projected centre, σ a share of its half box, or
+//!   with `motor_k` / `battery_k` one at each rotor hub and one at the
+//!   body's centre, sized by the part and its distance; with `rotor_k` the
+//!   rotor discs' pixels at the air's temperature plus it) at its emissivity, the
 //!   rest reflecting the background, seen through `exp(−β·d)` of air; a
 //!   share of the objects (`cold_share`, a hash draw of the frame seed and
 //!   the object's index) with the skin below the air and no warm spot;
@@ -25,6 +28,7 @@
 use glam::DVec3;
 
 use crate::annotate::visibility::{PixelHit, Visibility};
+use crate::model::CpuModel;
 use crate::preset::thermal::{Signature, Thermal};
 use crate::render::Renderer;
 use crate::scene::FrameScene;
@@ -32,6 +36,10 @@ use crate::scene::camera::Camera;
 use crate::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
 
 use super::{FramePipeline, PipelineError, weather};
+
+mod parts;
+
+use parts::{Disc, Rotors, Warm};
 
 thread_local! {
     /// Each thread's planes, kept from frame to frame.
@@ -112,7 +120,8 @@ impl FramePipeline {
         let all = hits.as_deref().unwrap_or_default();
         let mut clear = scene.weather.is_some().then(|| scratch.plane.clone());
         let plane = &mut scratch.plane;
-        add_objects(plane, scene, all, (&signatures, msaa), (t, sky));
+        let models = &self.assets.models;
+        add_objects(plane, (scene, models), all, (&signatures, msaa), (t, sky));
         let Some(clear) = clear.as_mut() else {
             return;
         };
@@ -174,7 +183,7 @@ impl FramePipeline {
 /// pixel (samples / `msaa`) of the object's radiance through the air.
 fn add_objects(
     plane: &mut [f32],
-    scene: &FrameScene,
+    (scene, models): (&FrameScene, &[CpuModel]),
     hits: &[PixelHit],
     (signatures, msaa): (&[Signature], u32),
     (t, sky): (&Thermal, &SkyTable),
@@ -193,11 +202,33 @@ fn add_objects(
             );
         }
     }
+    let mut discs: Vec<Option<Vec<Disc>>> = vec![None; models.len()];
     let spots: Vec<Option<Spot>> = (scene.drones.iter().zip(&boxes).zip(signatures))
         .enumerate()
         .map(|(k, ((d, b), sig))| {
+            if b.0 > b.2 {
+                return None;
+            }
             let cold = is_cold(scene.seed, k, sig.cold_share);
-            Spot::new(t, sky, cam, (d.position, *b), (sig, cold))
+            let model = models.get(d.model);
+            let mut discs_of = |m: &CpuModel| -> Vec<Disc> {
+                (discs[d.model].get_or_insert_with(|| parts::rotor_discs(m))).clone()
+            };
+            let warm = match (cold, model) {
+                (true, _) => Vec::new(),
+                (false, Some(m)) if sig.has_parts() => parts::part_spots(cam, d, &discs_of(m), sig),
+                (false, _) => vec![parts::box_spot(cam, d.position, *b, sig)],
+            };
+            let rotors = (sig.rotor_k.zip(model))
+                .map(|(k, m)| (Rotors::new(cam, d, &discs_of(m)), t.air_k + k));
+            Some(Spot::new(
+                t,
+                sky,
+                cam,
+                d.position,
+                (sig, cold),
+                (warm, rotors),
+            ))
         })
         .collect();
     let deltas: Vec<(usize, f32)> = (hits.iter())
@@ -230,11 +261,12 @@ fn is_cold(frame_seed: u64, index: usize, share: f64) -> bool {
 
 /// One object's thermal look in this frame.
 struct Spot {
-    centre: (f32, f32),
-    inv_two_sigma2: f32,
-    /// The skin's temperature (kelvin), the warm spot's peak above it, the emissivity.
+    /// Its warm spots ([`parts`]): none when it is seen cold.
+    warm: Vec<Warm>,
+    /// Its spinning rotors and their temperature (kelvin), with `rotor_k`.
+    rotors: Option<(Rotors, f64)>,
+    /// The skin's temperature (kelvin) and emissivity.
     skin_k: f64,
-    spot_k: f64,
     emissivity: f32,
     /// exp(−β·d) and the air's radiance.
     transmit: f32,
@@ -246,42 +278,33 @@ impl Spot {
         t: &Thermal,
         sky: &SkyTable,
         cam: &Camera,
-        (position, hit_box): (DVec3, (u32, u32, u32, u32)),
+        position: DVec3,
         (sig, cold): (&Signature, bool),
-    ) -> Option<Self> {
-        let (x0, y0, x1, y1) = hit_box;
-        if x0 > x1 {
-            return None;
-        }
+        (warm, rotors): (Vec<Warm>, Option<(Rotors, f64)>),
+    ) -> Self {
         let p = cam.camera_from_world_point(position);
-        let box_centre = ((x0 + x1 + 1) as f32 * 0.5, (y0 + y1 + 1) as f32 * 0.5);
-        let centre = (cam.project_camera_point(p)).map_or(box_centre, |c| (c.x as f32, c.y as f32));
-        let half = ((x1 - x0 + 1).max(y1 - y0 + 1) as f32 * 0.5).max(0.5);
-        let sigma = (sig.spot_share as f32 * half).max(0.3);
-        Some(Self {
-            centre,
-            inv_two_sigma2: 1.0 / (2.0 * sigma * sigma),
+        Self {
+            warm,
+            rotors,
             skin_k: if cold {
                 t.air_k - sig.skin_k
             } else {
                 t.air_k + sig.skin_k
             },
-            spot_k: if cold { 0.0 } else { sig.spot_k },
             emissivity: sig.emissivity as f32,
             transmit: (-t.extinction_per_km * p.length() * 1e-3).exp() as f32,
             air: sky.air,
-        })
+        }
     }
 
     /// The radiance reaching pixel (x, y) from this object, `behind` the
     /// background's (what its skin reflects).
     fn radiance(&self, x: u32, y: u32, behind: f32) -> f32 {
-        let (dx, dy) = (
-            x as f32 + 0.5 - self.centre.0,
-            y as f32 + 0.5 - self.centre.1,
-        );
-        let warm = (-(dx * dx + dy * dy) * self.inv_two_sigma2).exp();
-        let temp = self.skin_k + self.spot_k * f64::from(warm);
+        let base = match &self.rotors {
+            Some((rotors, k)) if rotors.cover(x, y) => *k,
+            _ => self.skin_k,
+        };
+        let temp = (self.warm.iter()).fold(base, |k, w| k + w.peak_k * f64::from(w.at(x, y)));
         let e = self.emissivity;
         let own = e * thermal::radiance(temp) + (1.0 - e) * behind;
         self.transmit * own + (1.0 - self.transmit) * self.air
