@@ -1246,7 +1246,7 @@ fn the_backplate_panel_edits_the_preset_and_a_bad_value_is_a_problem() {
 }
 
 #[test]
-fn thermal_bits_reach_the_preset_and_16_without_png_is_a_problem() {
+fn thermal_bits_and_parts_reach_the_preset_and_16_without_png_is_a_problem() {
     let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let mut h = harness(Some(write_preset(dir.path(), "grid.ron", GRID)));
@@ -1271,6 +1271,23 @@ fn thermal_bits_reach_the_preset_and_16_without_png_is_a_problem() {
     h.get_by_label("8 bits").click_accesskit();
     h.run_steps(3);
     assert_eq!(h.state().session().preset.thermal.clone().unwrap().bits, 8);
+    assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
+    // The drone's warm parts: unset by default, ticking sets a typical value.
+    assert_eq!(
+        h.state()
+            .session()
+            .preset
+            .thermal
+            .clone()
+            .unwrap()
+            .drone
+            .motor_k,
+        None
+    );
+    h.get_by_label("Drone motors").click_accesskit();
+    h.run_steps(3);
+    let drone = h.state().session().preset.thermal.clone().unwrap().drone;
+    assert_eq!((drone.motor_k, drone.battery_k), (Some(30.0), None));
     assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
 }
 

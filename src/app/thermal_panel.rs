@@ -5,7 +5,7 @@
 //! their field path; labels, tooltips and units come from the table of
 //! fields ([`crate::preset::fields`]).
 
-use egui::Ui;
+use egui::{DragValue, Ui};
 
 use super::panels::{Form, Words};
 use super::realism_panels::section_checkbox;
@@ -40,9 +40,49 @@ pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     Words::of("thermal.agc_percentiles").range(ui, form, &mut t.agc_percentiles, 0.1);
     bits_row(ui, form, &mut t.bits);
     signature_rows(ui, form, "thermal.drone", &mut t.drone);
+    part_rows(ui, form, DRONE_PARTS, &mut t.drone);
     signature_rows(ui, form, "thermal.bird", &mut t.bird);
     signature_rows(ui, form, "thermal.aircraft", &mut t.aircraft);
+    part_rows(ui, form, AIRCRAFT_PARTS, &mut t.aircraft);
     signature_rows(ui, form, "thermal.balloon", &mut t.balloon);
+}
+
+/// The fields of a kind's warm parts: motors, battery, rotors.
+const DRONE_PARTS: [&str; 3] = [
+    "thermal.drone.motor_k",
+    "thermal.drone.battery_k",
+    "thermal.drone.rotor_k",
+];
+const AIRCRAFT_PARTS: [&str; 3] = [
+    "thermal.aircraft.motor_k",
+    "thermal.aircraft.battery_k",
+    "thermal.aircraft.rotor_k",
+];
+
+/// A kind's warm parts (the models' rotor hubs, the body's centre, the
+/// rotor discs): each optional, unset by default (the one warm spot).
+/// Ticking one sets it to a typical flight value in kelvin (motors 30 and
+/// battery 10 above the skin, rotors at the air's temperature).
+fn part_rows(ui: &mut Ui, form: &mut Form<'_>, paths: [&'static str; 3], s: &mut Signature) {
+    let [motor, battery, rotor] = paths;
+    for (path, value, typical) in [
+        (motor, &mut s.motor_k, 30.0),
+        (battery, &mut s.battery_k, 10.0),
+        (rotor, &mut s.rotor_k, 0.0),
+    ] {
+        let words = Words::of(path);
+        ui.horizontal(|ui| {
+            let mut on = value.is_some();
+            if words.checkbox(ui, &mut on).changed() {
+                *value = on.then_some(typical);
+            }
+            if let Some(v) = value {
+                ui.add(DragValue::new(v).speed(0.1).suffix(words.unit))
+                    .on_hover_text(words.tooltip);
+            }
+        });
+        form.messages(ui, &[&words.path]);
+    }
 }
 
 /// Bits per written pixel: 8, or 16 (grey PNG; validation's message on
