@@ -165,13 +165,7 @@ pub fn occlusion_layers(
         let mark = i + 1;
         for t in tiles_of(pb) {
             let near = grid.near(t);
-            tests += near.len() as u64;
-            if tests > MAX_OVERLAP_TESTS {
-                return Err(super::RenderError::TooDense {
-                    drones: boxes.iter().filter(|b| b.is_some()).count(),
-                    limit: MAX_OVERLAP_TESTS,
-                });
-            }
+            charge(&mut tests, near.len(), boxes)?;
             for (bj, j) in near {
                 let j = *j as usize;
                 if j != i && overlaps(pb, bj) {
@@ -216,13 +210,7 @@ pub fn hidden(
         let Some(pb) = pb else { continue };
         'cells: for cell in grid.cells_of(pb) {
             let near = grid.near(cell);
-            tests += near.len() as u64;
-            if tests > MAX_OVERLAP_TESTS {
-                return Err(super::RenderError::TooDense {
-                    drones: boxes.iter().filter(|b| b.is_some()).count(),
-                    limit: MAX_OVERLAP_TESTS,
-                });
-            }
+            charge(&mut tests, near.len(), boxes)?;
             for &j in near {
                 let j = j as usize;
                 let Some(bj) = &padded[j] else { continue };
@@ -355,6 +343,19 @@ impl TileGrid {
 /// 64-px tiles: a few hundred drones in view need thousands, 10 000 drones
 /// crowded into a 320×180 image about 10⁷.
 pub const MAX_OVERLAP_TESTS: u64 = 20_000_000;
+
+/// Counts `n` more box comparisons against [`MAX_OVERLAP_TESTS`]: past it,
+/// the frame is too dense (the error names the drone count and the limit).
+fn charge(tests: &mut u64, n: usize, boxes: &[Option<PixelBox>]) -> Result<(), super::RenderError> {
+    *tests += n as u64;
+    if *tests > MAX_OVERLAP_TESTS {
+        return Err(super::RenderError::TooDense {
+            drones: boxes.iter().filter(|b| b.is_some()).count(),
+            limit: MAX_OVERLAP_TESTS,
+        });
+    }
+    Ok(())
+}
 
 #[cfg(test)]
 mod tests {
