@@ -27,6 +27,7 @@
 //! tiles, `scan.rs` a JPEG split at its restart markers, `tj.rs` the
 //! libjpeg-turbo calls.
 
+use std::cell::RefCell;
 use std::ops::Range;
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -80,10 +81,19 @@ fn compress_grid(
     if grey {
         // R = G = B: the red bytes are the grey plane the colour conversion
         // would give (its luma weights sum to one), handed over as is.
-        let plane: Vec<u8> = rgba.chunks_exact(4).map(|px| px[0]).collect();
-        return c.compress_grey(&plane, grid.width, grid.height);
+        return GREY.with_borrow_mut(|plane| {
+            plane.clear();
+            plane.extend(rgba.chunks_exact(4).map(|px| px[0]));
+            c.compress_grey(plane, grid.width, grid.height)
+        });
     }
     c.compress(rgba, grid.width, stride, grid.height)
+}
+
+thread_local! {
+    /// The grey plane handed to libjpeg-turbo, kept per thread: a fresh one
+    /// each frame (2 MB at 1080p) costs its pages again.
+    static GREY: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
 }
 
 fn check(rgba: &[u8], width: u32, height: u32) -> Result<(), JpegError> {
