@@ -3,47 +3,20 @@
 //! brightening downwards, grey clouds, scenery under a horizon at four
 //! fifths of the height, the camera pitched up 5°) composed into the
 //! radiance plane, then developed (blur, fixed pattern and noise, gain
-//! control) to 8-bit RGBA and to 16-bit grey; the median wall time of 40
-//! runs after 3 warm-ups and their mean CPU time (all threads, from /proc). The drones' pixels (a few thousand) are left out.
+//! control) to 8-bit RGBA and to 16-bit grey; the median wall time of 30
+//! runs after 3 warm-ups and their mean CPU time (all threads, from /proc;
+//! `support/timing.rs`). The drones' pixels (a few thousand) are left out.
 //!
 //! `cargo run --release --no-default-features --example thermal_bench`
 //! (docs/realism.md, "Thermal camera"). `RAYON_NUM_THREADS` sets the threads.
 
-use std::time::Instant;
+#[path = "support/timing.rs"]
+mod timing;
 
 use glam::{Vec2, Vec3};
 use swarmshot::preset::Preset;
 use swarmshot::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
-
-/// This process's CPU time so far (all threads, user + system), ms; 0
-/// where /proc cannot tell.
-fn cpu_ms() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields 14 and 15 (utime, stime, in clock ticks of 10 ms), counted after the name's ')'.
-    let after = stat.rsplit(')').next().unwrap_or_default();
-    let ticks: Vec<f64> = (after.split_whitespace().skip(11).take(2))
-        .filter_map(|v| v.parse().ok())
-        .collect();
-    ticks.iter().sum::<f64>() * 10.0
-}
-
-/// The median wall time of 40 runs and their mean CPU time, ms.
-fn median_ms(mut run: impl FnMut()) -> (f64, f64) {
-    for _ in 0..3 {
-        run();
-    }
-    let cpu = cpu_ms();
-    let mut times: Vec<f64> = (0..40)
-        .map(|_| {
-            let t = Instant::now();
-            run();
-            t.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    let cpu = (cpu_ms() - cpu) / times.len() as f64;
-    times.sort_by(f64::total_cmp);
-    (times[times.len() / 2], cpu)
-}
+use timing::median_ms;
 
 fn main() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/presets/thermal.ron");

@@ -1,4 +1,5 @@
-//! Timing for the stage benches (`lens_bench`, `rolling_bench`): the median
+//! Timing for the stage benches (`lens_bench`, `rolling_bench`,
+//! `thermal_bench`): the median
 //! wall time of repeated runs and their mean CPU time, all threads.
 
 use std::time::Instant;
