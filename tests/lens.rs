@@ -180,3 +180,27 @@ fn a_lens_that_folds_the_picture_is_refused_by_its_field() {
     assert_eq!(check(nan), ["camera_model.lens.k1"]);
     assert!(swarmshot::pipeline::check::validate(&lens_preset(Some(barrel(-0.3)))).is_ok());
 }
+
+#[test]
+fn a_lens_with_depth_or_flow_maps_is_refused_by_its_field() {
+    // Depth and flow are made for the rendered (pinhole) picture's pixels.
+    for flow in [false, true] {
+        let mut p = lens_preset(Some(barrel(-0.3)));
+        p.output.masks.depth = !flow;
+        p.output.masks.flow = flow;
+        let errors = swarmshot::pipeline::check::validate(&p).expect_err("refused");
+        let lens = errors.iter().find(|e| e.field == "camera_model.lens");
+        let lens = lens.unwrap_or_else(|| panic!("{errors:?}"));
+        let asked = if flow {
+            "output.masks.flow"
+        } else {
+            "output.masks.depth"
+        };
+        assert!(lens.message.contains(asked), "{lens:?}");
+        p.camera_model.as_mut().expect("a camera model").lens = None;
+        let others = swarmshot::pipeline::check::validate(&p)
+            .err()
+            .unwrap_or_default();
+        assert!(others.iter().all(|e| e.field != "camera_model.lens"));
+    }
+}

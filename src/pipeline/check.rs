@@ -101,6 +101,13 @@ fn lens(preset: &Preset) -> Vec<FieldError> {
                 .into(),
         ));
     }
+    if preset.output.masks.flow {
+        errors.push(field(
+            "",
+            "optical flow (output.masks.flow) is not made through a lens: its pixels would be the rendered picture's, not the written one's; turn one of them off"
+                .into(),
+        ));
+    }
     errors
 }
 
