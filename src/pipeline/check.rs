@@ -94,18 +94,15 @@ fn lens(preset: &Preset) -> Vec<FieldError> {
             "a lens moves the id layer pixel by pixel: it needs labels.id_scale 1".into(),
         ));
     }
-    if preset.output.masks.depth {
+    // Both maps are of the rendered (pinhole) picture's pixels, not the written one's.
+    let maps = [
+        (preset.output.masks.depth, "depth maps (output.masks.depth)"),
+        (preset.output.masks.flow, "optical flow (output.masks.flow)"),
+    ];
+    for (_, map) in maps.iter().filter(|(asked, _)| *asked) {
         errors.push(field(
             "",
-            "depth maps (output.masks.depth) are not made through a lens; turn one of them off"
-                .into(),
-        ));
-    }
-    if preset.output.masks.flow {
-        errors.push(field(
-            "",
-            "optical flow (output.masks.flow) is not made through a lens: its pixels would be the rendered picture's, not the written one's; turn one of them off"
-                .into(),
+            format!("{map}: not made through a lens (it would be of the rendered picture's pixels, not the written one's); turn one of them off"),
         ));
     }
     errors
