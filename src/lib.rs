@@ -8,7 +8,7 @@
 //! manifest. [`pipeline::FramePipeline`] runs those stages for one frame, and
 //! every caller — the batch, the `frame` command, the desktop app's preview,
 //! the benchmarks and the gallery — makes frames through it. Imports run one
-//! way, each layer importing only those before it (`tests/architecture.rs`
+//! way, each layer importing only those before it (`tests/suite/architecture.rs`
 //! checks it): input, seed, text → preset → sky, model, sensor → scene →
 //! render → annotate → write → pipeline, gap → fit → tools, app → cli (the
 //! binary: `main.rs` and `cli/`). See docs/architecture.md.

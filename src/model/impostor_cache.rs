@@ -12,7 +12,7 @@
 //! are not stored), then a BLAKE3 checksum. A file is used only when its
 //! length, checksum, magic, key, sizes and every vertex (finite, marked as
 //! an impostor quad) check out; anything else is ignored and baked over. A
-//! hit returns exactly what a bake returns (tested in `tests/impostors.rs`),
+//! hit returns exactly what a bake returns (tested in `tests/suite/impostors.rs`),
 //! so the outputs never depend on the cache.
 
 use std::path::Path;

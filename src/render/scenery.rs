@@ -702,7 +702,7 @@ impl SceneryGpu {
     }
 }
 
-/// The scenery shader as the renderer compiles it (also validated by tests/shaders.rs).
+/// The scenery shader as the renderer compiles it (also validated by tests/suite/shaders.rs).
 pub(crate) fn shader_source() -> String {
     format!(
         "{}\n{}",

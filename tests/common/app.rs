@@ -1,4 +1,4 @@
-//! The app's kittest harness, shared by tests/gui.rs and tests/gui_tools.rs
+//! The app's kittest harness, shared by tests/suite/gui.rs and tests/suite/gui_tools.rs
 //! (included with `#[path]`; not a test target of its own).
 #![allow(dead_code)]
 

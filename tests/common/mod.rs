@@ -277,7 +277,7 @@ pub fn srgb_encode(l: f64) -> f64 {
 
 /// `got` holds exactly the files of `want` (the ledger aside), byte for
 /// byte: a continued run against an uninterrupted one in the same folder
-/// layout (no path inside a file neutralised; `tests/safety.rs` has that).
+/// layout (no path inside a file neutralised; `tests/suite/safety.rs` has that).
 pub fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
     let list = |d: &Path| -> Vec<PathBuf> {
         files_under(d)

@@ -1,5 +1,5 @@
-//! Fault injection for the crash and concurrency tests (tests/safety.rs,
-//! tests/output_trust.rs, tests/trust_four.rs), internal to the dataset
+//! Fault injection for the crash and concurrency tests (tests/suite/safety.rs,
+//! tests/suite/output_trust.rs, tests/suite/trust_four.rs), internal to the dataset
 //! folder: no public item, compiled in only with the `test-hooks` feature
 //! that `cargo test` turns on. It is driven by environment variables because
 //! the tests stop and kill a separate `swarmshot` process.
@@ -7,13 +7,13 @@
 #[cfg(feature = "test-hooks")]
 use std::path::PathBuf;
 
-/// Fault injection for tests/safety.rs: with `SWARMSHOT_STALL_AT` set to a
+/// Fault injection for tests/suite/safety.rs: with `SWARMSHOT_STALL_AT` set to a
 /// path relative to the dataset folder, the batch sleeps after that file's
 /// temporary copy is written and before it is renamed into place; set to
 /// `checkpoint:N`, after frame N's files and records are written and before
 /// its checkpoint. A test kills the process there. With
 /// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
-/// path exists (a barrier: tests/output_trust.rs runs a second batch
+/// path exists (a barrier: tests/suite/output_trust.rs runs a second batch
 /// meanwhile), and says it has stopped by creating that path with
 /// `.stalled` added. Only with the `test-hooks` feature, which `cargo test` turns on
 /// (Cargo.toml); shipped builds have no such hook.

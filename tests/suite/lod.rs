@@ -1,0 +1,134 @@
+//! Levels of detail in the renderer: small drones are drawn with simplified
+//! meshes, and what is drawn stays within the error budget of the full mesh:
+//! the same drones are labelled, visible boxes move by at most a pixel, and
+//! no pixel away from a drone changes.
+
+use crate::common;
+
+use swarmshot::pipeline::{Frame, FramePipeline};
+use swarmshot::preset::{
+    BoxMethod, ModelSource, ModelSpec, Placement, Preset, Resolution, Volume, sweep::SweepRange,
+};
+
+/// Octocopters (2 092 triangles, the richest built-in) far enough to cover
+/// 10–40 px, several of them overlapping.
+fn preset(lod_error_px: f64) -> Preset {
+    let mut p = common::tiny_preset();
+    p.models = vec![ModelSpec {
+        source: ModelSource::Builtin("octocopter".into()),
+        size_m: 0.6,
+        class: "uav".into(),
+        ..ModelSpec::default()
+    }];
+    p.placement = Placement::Randomized {
+        count: (12, 12),
+        count_distribution: Default::default(),
+        volume: Volume::Box {
+            size_m: (12.0, 5.0, 12.0),
+        },
+        min_separation_m: 0.9,
+    };
+    p.camera.z = SweepRange::fixed(1.6);
+    p.render.resolution = Resolution::Custom {
+        width: 640,
+        height: 360,
+    };
+    p.render.msaa = 4;
+    p.render.lod_error_px = lod_error_px;
+    p.labels.box_method = BoxMethod::Visible;
+    p.labels.min_box_px = 0.0;
+    p.labels.min_visible_pixels = 0;
+    p.labels.min_visible_fraction = 0.0;
+    p
+}
+
+fn frames(preset: Preset, count: u64) -> (Vec<Frame>, Vec<Vec<usize>>) {
+    let pipeline = FramePipeline::new(preset).expect("pipeline");
+    let ctx = common::gpu();
+    let mut renderer = pipeline.renderer(&ctx);
+    (0..count)
+        .map(|i| {
+            let frame = pipeline.make(&mut renderer, i).expect("frame");
+            let levels = renderer.level_histogram(&frame.scene);
+            (frame, levels)
+        })
+        .unzip()
+}
+
+#[test]
+fn small_drones_are_drawn_coarser_within_a_pixel_of_the_full_mesh() {
+    const FRAMES: u64 = 4;
+    let (lod, lod_levels) = frames(preset(0.5), FRAMES);
+    let (full, full_levels) = frames(preset(0.0), FRAMES);
+    // Full detail draws every drone at level 0; the budget lets most drop.
+    for levels in &full_levels {
+        assert_eq!(levels.len(), 1, "{levels:?}");
+    }
+    let coarse: usize = lod_levels
+        .iter()
+        .map(|l| l.iter().skip(1).sum::<usize>())
+        .sum();
+    let all: usize = lod_levels.iter().map(|l| l.iter().sum::<usize>()).sum();
+    assert!(
+        2 * coarse > all,
+        "only {coarse} of {all} drones got a coarser level: {lod_levels:?}"
+    );
+
+    let mut compared = 0;
+    for (a, b) in lod.iter().zip(&full) {
+        assert_eq!(a.scene, b.scene);
+        let ids = |f: &Frame| f.labels.iter().map(|l| l.drone).collect::<Vec<_>>();
+        assert_eq!(
+            ids(a),
+            ids(b),
+            "frame {}: labelled drones differ",
+            a.scene.index
+        );
+        for (la, lb) in a.labels.iter().zip(&b.labels) {
+            assert_eq!(la.amodal, lb.amodal, "amodal boxes come from the full hull");
+            for (ea, eb) in [
+                (la.bbox.x0, lb.bbox.x0),
+                (la.bbox.y0, lb.bbox.y0),
+                (la.bbox.x1, lb.bbox.x1),
+                (la.bbox.y1, lb.bbox.y1),
+            ] {
+                assert!(
+                    (ea - eb).abs() <= 1.0,
+                    "frame {} drone {}: visible box {:?} vs full mesh {:?}",
+                    a.scene.index,
+                    la.drone,
+                    la.bbox,
+                    lb.bbox
+                );
+            }
+            compared += 1;
+        }
+        // Away from the drones (outside every amodal box grown by 2 px) nothing changes.
+        let (w, h) = (
+            a.scene.camera.width as usize,
+            a.scene.camera.height as usize,
+        );
+        let near_drone = |x: usize, y: usize| {
+            b.labels.iter().any(|l| {
+                let (fx, fy) = (x as f64 + 0.5, y as f64 + 0.5);
+                fx > l.amodal.x0 - 2.0
+                    && fx < l.amodal.x1 + 2.0
+                    && fy > l.amodal.y0 - 2.0
+                    && fy < l.amodal.y1 + 2.0
+            })
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let k = 4 * (y * w + x);
+                if a.rgba[k..k + 4] != b.rgba[k..k + 4] {
+                    assert!(
+                        near_drone(x, y),
+                        "frame {}: pixel ({x}, {y}) changed away from every drone",
+                        a.scene.index
+                    );
+                }
+            }
+        }
+    }
+    assert!(compared >= 20, "only {compared} boxes compared");
+}

@@ -1,0 +1,475 @@
+//! Output you can trust (docs/reliability.md): `swarmshot batch` as a child
+//! process killed with SIGKILL at several points and resumed, a write error
+//! from a file-size limit, symbolic links in the output folder, and user
+//! files next to a dataset. Every resumed dataset is compared byte for byte
+//! with an uninterrupted run.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use swarmshot::preset::{ImageFormat, LabelFormat, Preset};
+
+const BIN: &str = env!("CARGO_BIN_EXE_swarmshot");
+
+/// 320×180 JPEG frames, YOLO and COCO, 48 frames: big enough to kill mid-way.
+fn preset() -> Preset {
+    let mut p = common::tiny_preset();
+    p.repeats = 12;
+    p.output.image_format = ImageFormat::Jpeg { quality: 85 };
+    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
+    p
+}
+
+fn batch_cmd(preset: &Path, out: &Path, extra: &[&str]) -> Command {
+    let mut cmd = Command::new(BIN);
+    cmd.arg("batch")
+        .arg(preset)
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .env("RUST_BACKTRACE", "0")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    cmd
+}
+
+fn run(preset: &Path, out: &Path, extra: &[&str]) -> Output {
+    batch_cmd(preset, out, extra)
+        .output()
+        .expect("run swarmshot")
+}
+
+fn run_ok(preset: &Path, out: &Path, extra: &[&str]) {
+    let o = run(preset, out, extra);
+    assert!(
+        o.status.success(),
+        "swarmshot batch {extra:?} failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn run_err(preset: &Path, out: &Path, extra: &[&str]) -> String {
+    let o = run(preset, out, extra);
+    assert!(
+        !o.status.success(),
+        "swarmshot batch {extra:?} should have failed"
+    );
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A file's bytes, with the dataset's own absolute path (data.yaml) made neutral.
+fn bytes(dir: &Path, rel: &Path) -> Vec<u8> {
+    let b = std::fs::read(dir.join(rel)).unwrap_or_else(|e| panic!("{}: {e}", rel.display()));
+    if rel == Path::new("data.yaml") {
+        let abs = std::fs::canonicalize(dir).expect("canonical");
+        return String::from_utf8_lossy(&b)
+            .replace(&abs.to_string_lossy().into_owned(), "ROOT")
+            .into_bytes();
+    }
+    b
+}
+
+/// `got` holds exactly the files of `want` (the ledger aside), byte for byte.
+fn assert_same_dataset(want: &Path, got: &Path, what: &str) {
+    let ledger = Path::new(".swarmshot-ledger");
+    let fw: Vec<_> = common::files_under(want)
+        .into_iter()
+        .filter(|p| p != ledger)
+        .collect();
+    let fg: Vec<_> = common::files_under(got)
+        .into_iter()
+        .filter(|p| p != ledger)
+        .collect();
+    assert_eq!(fw, fg, "{what}: file lists differ");
+    for rel in &fw {
+        assert!(
+            bytes(want, rel) == bytes(got, rel),
+            "{what}: {} differs from the uninterrupted run",
+            rel.display()
+        );
+    }
+}
+
+/// Wait until `ready` holds (or the child exits), then SIGKILL the child.
+fn kill_when(mut child: Child, what: &str, ready: impl Fn() -> bool) {
+    let t = Instant::now();
+    loop {
+        if ready() {
+            break;
+        }
+        if let Some(status) = child.try_wait().expect("try_wait") {
+            panic!("the batch ended ({status}) before the kill point {what}");
+        }
+        assert!(
+            t.elapsed() < Duration::from_secs(240),
+            "kill point {what} never came"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().expect("SIGKILL"); // std's kill is SIGKILL on Unix
+    child.wait().expect("wait");
+}
+
+fn count_files(dir: &Path) -> usize {
+    std::fs::read_dir(dir).map_or(0, |d| d.count())
+}
+
+/// Every image has its label and the reverse, the manifest has one whole
+/// line per image, and no temporary file is left.
+fn assert_complete_pairs(dir: &Path) -> usize {
+    let files = common::files_under(dir);
+    let stems = |top: &str, ext: &str| -> Vec<String> {
+        let mut v: Vec<String> = files
+            .iter()
+            .filter(|p| p.starts_with(top))
+            .map(|p| {
+                let s = p.strip_prefix(top).expect("prefix").to_string_lossy();
+                s.strip_suffix(ext)
+                    .unwrap_or_else(|| panic!("unexpected file {}", p.display()))
+                    .to_owned()
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let images = stems("images", ".jpg");
+    assert_eq!(images, stems("labels", ".txt"), "images and labels differ");
+    for p in &files {
+        assert!(
+            !p.to_string_lossy().ends_with(".tmp"),
+            "temporary file left: {}",
+            p.display()
+        );
+    }
+    let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");
+    assert!(
+        manifest.is_empty() || manifest.ends_with('\n'),
+        "torn manifest"
+    );
+    for line in manifest.lines() {
+        serde_json::from_str::<serde_json::Value>(line).expect("whole manifest line");
+    }
+    assert_eq!(manifest.lines().count(), images.len());
+    images.len()
+}
+
+#[test]
+fn sigkill_at_any_point_then_resume_is_byte_identical() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let p = preset();
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    assert_eq!(
+        count_files(&reference.join("images/train"))
+            + count_files(&reference.join("images/val"))
+            + count_files(&reference.join("images/test")),
+        p.frame_count() as usize
+    );
+    // A label file of a frame in the middle, and the second COCO file.
+    let mid_label = {
+        let manifest = std::fs::read_to_string(reference.join("manifest.jsonl")).expect("manifest");
+        let line: serde_json::Value =
+            serde_json::from_str(manifest.lines().nth(20).expect("line 20")).expect("json");
+        format!(
+            "labels/{}/00000020.txt",
+            line["split"].as_str().expect("split")
+        )
+    };
+    let images = |dir: &Path| {
+        ["train", "val", "test"]
+            .iter()
+            .map(|s| count_files(&dir.join("images").join(s)))
+            .sum::<usize>()
+    };
+
+    // After N images exist (any point inside the frame loop).
+    for n in [1usize, 9, 30] {
+        let out = tmp.path().join(format!("killed-after-{n}"));
+        let child = batch_cmd(&file, &out, &[]).spawn().expect("spawn");
+        kill_when(child, &format!("{n} images"), || images(&out) >= n);
+        run_ok(&file, &out, &["--resume"]);
+        assert_same_dataset(&reference, &out, &format!("killed after {n} images"));
+    }
+
+    // Between a frame's image and its label (the label's temporary file is
+    // written, not yet renamed): the image stands alone until the resume.
+    {
+        let out = tmp.path().join("killed-before-label");
+        let child = batch_cmd(&file, &out, &[])
+            .env("SWARMSHOT_STALL_AT", &mid_label)
+            .spawn()
+            .expect("spawn");
+        let tmp_label = out.join(mid_label.replace("00000020.txt", ".00000020.txt.tmp"));
+        kill_when(child, "before a label's rename", || tmp_label.exists());
+        assert!(!out.join(&mid_label).exists());
+        // Rerunning the same command (no --resume) also continues.
+        run_ok(&file, &out, &[]);
+        assert_same_dataset(&reference, &out, "killed before a label");
+    }
+
+    // After a frame's manifest line and COCO records, before its checkpoint:
+    // the resume must cut them back.
+    {
+        let out = tmp.path().join("killed-before-checkpoint");
+        let child = batch_cmd(&file, &out, &[])
+            .env("SWARMSHOT_STALL_AT", "checkpoint:20")
+            .spawn()
+            .expect("spawn");
+        let manifest = out.join("manifest.jsonl");
+        kill_when(child, "before a checkpoint", || {
+            std::fs::read_to_string(&manifest).is_ok_and(|m| m.lines().count() == 21)
+        });
+        run_ok(&file, &out, &["--resume"]);
+        assert_same_dataset(&reference, &out, "killed before a checkpoint");
+    }
+
+    // During COCO writing: instances_train.json is in place, instances_val.json
+    // is being written.
+    {
+        let out = tmp.path().join("killed-in-coco");
+        let child = batch_cmd(&file, &out, &[])
+            .env("SWARMSHOT_STALL_AT", "annotations/instances_val.json")
+            .spawn()
+            .expect("spawn");
+        let marker = out.join("annotations/.instances_val.json.tmp");
+        kill_when(child, "during COCO writing", || marker.exists());
+        assert!(out.join("annotations/instances_train.json").exists());
+        assert!(!out.join("stats.json").exists());
+        run_ok(&file, &out, &["--resume"]);
+        assert_same_dataset(&reference, &out, "killed during COCO writing");
+    }
+
+    // A finished run, rerun with or without --resume, writes nothing.
+    let stamps = |dir: &Path| -> Vec<(PathBuf, std::time::SystemTime)> {
+        common::files_under(dir)
+            .into_iter()
+            .map(|r| {
+                let t = std::fs::symlink_metadata(dir.join(&r))
+                    .and_then(|m| m.modified())
+                    .expect("mtime");
+                (r, t)
+            })
+            .collect()
+    };
+    let before = stamps(&reference);
+    run_ok(&file, &reference, &[]);
+    run_ok(&file, &reference, &["--resume"]);
+    assert_eq!(
+        stamps(&reference),
+        before,
+        "a finished run was written again"
+    );
+}
+
+#[test]
+fn write_error_stops_at_once_leaves_complete_frames_and_resumes() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    // COCO's record parts grow beside the manifest; without them the
+    // manifest is the one file that outgrows the limit.
+    p.output.label_formats = vec![LabelFormat::Yolo];
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    // A file-size limit the manifest outgrows half-way, and nothing else does.
+    let manifest_len = std::fs::metadata(reference.join("manifest.jsonl"))
+        .expect("manifest")
+        .len();
+    let limit_kib = manifest_len / 2 / 1024;
+    for rel in common::files_under(&reference) {
+        if rel != Path::new("manifest.jsonl") {
+            let len = std::fs::metadata(reference.join(&rel)).expect("meta").len();
+            assert!(
+                len < limit_kib * 1024,
+                "{} ({len} bytes) would hit the limit first",
+                rel.display()
+            );
+        }
+    }
+    let out = tmp.path().join("limited");
+    // bash's `ulimit -f` counts 1024-byte blocks; ignoring SIGXFSZ (inherited
+    // through exec) turns the kernel's kill into an EFBIG write error.
+    let o = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            "trap '' XFSZ; ulimit -f {limit_kib}; exec \"$0\" batch \"$1\" --out \"$2\""
+        ))
+        .arg(BIN)
+        .arg(&file)
+        .arg(&out)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("run bash");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "the limited batch should fail");
+    assert!(
+        stderr.contains("manifest.jsonl") && stderr.contains("File too large"),
+        "the error must name the file and the cause:\n{stderr}"
+    );
+    assert!(stderr.contains("--resume"), "{stderr}");
+    let done = assert_complete_pairs(&out);
+    assert!(
+        done > 0 && (done as u64) < p.frame_count(),
+        "{done} frames survived"
+    );
+    // Stopped at once: no frame was made past the one that failed (the ledger
+    // names at most the frames written plus the one in flight).
+    let ledger = std::fs::read_to_string(out.join(".swarmshot-ledger")).expect("ledger");
+    let claimed = ledger.lines().filter(|l| l.starts_with("+images/")).count();
+    assert!(claimed <= done + 1, "{claimed} images claimed, {done} done");
+    run_ok(&file, &out, &["--resume"]);
+    assert_same_dataset(&reference, &out, "resumed after a write error");
+}
+
+#[test]
+fn symlinks_in_the_output_folder_are_never_followed() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 1;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let outside = tmp.path().join("outside");
+    std::fs::create_dir(&outside).expect("mkdir");
+    for name in [
+        "data.yaml",
+        "manifest.jsonl",
+        "stats.json",
+        "preset.lock.ron",
+        ".swarmshot-ledger",
+        "images",
+        "annotations",
+    ] {
+        let out = tmp.path().join(format!("with-link-{name}"));
+        std::fs::create_dir(&out).expect("mkdir");
+        let target = outside.join(name);
+        std::os::unix::fs::symlink(&target, out.join(name)).expect("symlink");
+        for flags in [&[][..], &["--overwrite"][..]] {
+            let err = run_err(&file, &out, flags);
+            assert!(
+                err.contains(name) && (err.contains("symbolic link") || err.contains("not empty")),
+                "{name} {flags:?}: {err}"
+            );
+        }
+        assert!(
+            std::fs::symlink_metadata(&target).is_err(),
+            "{name}: something was created through the link"
+        );
+        assert_eq!(common::files_under(&outside), Vec::<PathBuf>::new());
+        assert_eq!(
+            common::files_under(&out),
+            vec![PathBuf::from(name)],
+            "{name}"
+        );
+    }
+
+    // A link at a frame's image in an interrupted run: refused, not followed.
+    let out = tmp.path().join("interrupted");
+    run_ok(&file, &out, &[]);
+    let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).expect("manifest");
+    let last: serde_json::Value =
+        serde_json::from_str(manifest.lines().last().expect("a line")).expect("json");
+    let img = out.join(last["image"].as_str().expect("image"));
+    std::fs::remove_file(&img).expect("rm");
+    let target = outside.join("stolen.jpg");
+    std::os::unix::fs::symlink(&target, &img).expect("symlink");
+    // Make it a run killed in its last frame: drop the last checkpoint and
+    // the "done" mark from the ledger.
+    let ledger = std::fs::read_to_string(out.join(".swarmshot-ledger")).expect("ledger");
+    let lines: Vec<&str> = ledger.lines().collect();
+    let last_commit = lines
+        .iter()
+        .rposition(|l| l.starts_with('='))
+        .expect("checkpoint");
+    let kept: String = lines
+        .iter()
+        .enumerate()
+        .filter(|&(i, l)| i != last_commit && *l != "!done")
+        .map(|(_, l)| format!("{l}\n"))
+        .collect();
+    std::fs::write(out.join(".swarmshot-ledger"), kept).expect("cut ledger");
+    let err = run_err(&file, &out, &["--resume"]);
+    assert!(err.contains("symbolic link"), "{err}");
+    assert!(std::fs::symlink_metadata(&target).is_err());
+    assert_eq!(common::files_under(&outside), Vec::<PathBuf>::new());
+}
+
+#[test]
+fn user_files_survive_with_and_without_overwrite() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let out = tmp.path().join("shared");
+    let mine = [
+        "notes.txt",
+        "images/mine.jpg",
+        "images/train/holiday.jpg",
+        "labels/train/holiday.txt",
+        "annotations/mine.json",
+    ];
+    for rel in mine {
+        let path = out.join(rel);
+        std::fs::create_dir_all(path.parent().expect("parent")).expect("mkdir");
+        std::fs::write(&path, rel).expect("write");
+    }
+    let kept = |what: &str| {
+        for rel in mine {
+            assert_eq!(
+                std::fs::read_to_string(out.join(rel)).unwrap_or_default(),
+                rel,
+                "{what}: {rel} was touched"
+            );
+        }
+    };
+    // A foreign folder: refused without --overwrite, shared with it.
+    let err = run_err(&file, &out, &[]);
+    assert!(
+        err.contains("not empty") && err.contains("--overwrite"),
+        "{err}"
+    );
+    kept("refused");
+    run_ok(&file, &out, &["--overwrite"]);
+    kept("first --overwrite");
+    let full = assert_dataset_frames(&out);
+    assert_eq!(full, p.frame_count() as usize);
+
+    // A peek with --limit 2 neither wipes nor joins the full dataset.
+    let err = run_err(&file, &out, &["--limit", "2"]);
+    assert!(
+        err.contains("--limit") && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(assert_dataset_frames(&out), full);
+    // Another preset: refused, and with --overwrite only the run's own files go.
+    let mut other = p.clone();
+    other.seed += 1;
+    let other_file = common::preset_file(tmp.path(), &other, "other.ron");
+    let err = run_err(&other_file, &out, &[]);
+    assert!(err.contains("different preset"), "{err}");
+    let err = run_err(&other_file, &out, &["--resume"]);
+    assert!(err.contains("different preset"), "{err}");
+    run_ok(&other_file, &out, &["--overwrite", "--limit", "3"]);
+    kept("second --overwrite");
+    assert_eq!(assert_dataset_frames(&out), 3);
+    // The folder is now exactly the new run plus the user's files.
+    let solo = tmp.path().join("solo");
+    run_ok(&other_file, &solo, &["--limit", "3"]);
+    let mut expected: Vec<PathBuf> = common::files_under(&solo);
+    expected.extend(mine.iter().map(PathBuf::from));
+    expected.sort();
+    assert_eq!(common::files_under(&out), expected);
+}
+
+/// Frames in a dataset folder that also holds user files: images named by index.
+fn assert_dataset_frames(dir: &Path) -> usize {
+    let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");
+    for line in manifest.lines() {
+        let v: serde_json::Value = serde_json::from_str(line).expect("json");
+        let image = v["image"].as_str().expect("image");
+        assert!(dir.join(image).is_file(), "{image}");
+    }
+    manifest.lines().count()
+}
