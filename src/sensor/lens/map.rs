@@ -100,7 +100,8 @@ impl LensMap {
         let along = (0..ny)
             .into_par_iter()
             .map(|j| {
-                let nodes: Vec<(f64, f64)> = (0..nx).map(|i| geo.inverse((at(i), at(j)))).collect();
+                let row: Vec<(f64, f64)> = (0..nx).map(|i| (at(i), at(j))).collect();
+                let nodes = geo.inverse_all(&row);
                 let node = |c: usize| nodes.get(c).copied().unwrap_or((0.0, 0.0));
                 let mixed = |pick: fn((f64, f64)) -> f64| -> Vec<f64> {
                     let n = |c: usize| pick(node(c));
