@@ -211,7 +211,8 @@ impl Row<'_> {
 
     /// The segment's pixels eight at a time where the CPU has AVX2 (the
     /// rest by [`Self::bilinear`]); how many it made. A run
-    /// ([`Self::run`]) takes the contiguous kernel.
+    /// ([`Self::run`]) takes the contiguous kernel; a segment that is not
+    /// one goes block by block ([`Self::blocks_avx2`]).
     #[inline(always)]
     fn segment_simd(&self, start: (i32, i32), step: (i32, i32), out: &mut [u8]) -> usize {
         #[cfg(target_arch = "x86_64")]
@@ -222,7 +223,7 @@ impl Row<'_> {
             unsafe {
                 return match run {
                     Some(at) => self.run_avx2(at, start, step, out),
-                    None => self.segment_avx2(start, step, out),
+                    None => self.blocks_avx2(start, step, out),
                 };
             }
         }
@@ -339,6 +340,30 @@ impl Row<'_> {
 }
 
 impl Row<'_> {
+    /// A segment that is not a run, eight pixels at a time: a block whose
+    /// eight pixels are a run ([`Self::run`]; a pan's segment that crosses
+    /// a source row, or steps two pixels once, is mostly such blocks) by
+    /// the contiguous kernel, the others by [`Self::segment_avx2`]. Block
+    /// b starts at the position of pixel 8b (the same integers as stepping
+    /// from the segment's start, so the same bytes); how many it made.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn blocks_avx2(&self, (u0, v0): (i32, i32), (du, dv): (i32, i32), out: &mut [u8]) -> usize {
+        let mut done = 0;
+        for (j, block) in (0i32..).step_by(8).zip(out.chunks_exact_mut(32)) {
+            let at = (u0 + du * j, v0 + dv * j);
+            let made = match self.run(at, (du, dv), 8) {
+                Some(first) => self.run_avx2(first, at, (du, dv), block),
+                None => self.segment_avx2(at, (du, dv), block),
+            };
+            if made == 0 {
+                break;
+            }
+            done += made;
+        }
+        done
+    }
+
     /// A run's pixels ([`Self::run`], its first tap at source pixel `at`)
     /// eight at a time: [`Self::segment_avx2`]'s integers with the 2×2
     /// pixels of eight as four plain loads (lanes in order) and the weights
@@ -566,7 +591,9 @@ mod tests {
 
     /// Segments along a pan (about a pixel a pixel, a slight slope) and
     /// off every edge: where [`Row::run`] says run, every pixel's taps are
-    /// the run's, and the SIMD kernels give the scalar bytes either way.
+    /// the run's, a segment that is not one has blocks that are (its
+    /// block-by-block path), and the SIMD kernels give the scalar bytes
+    /// either way.
     #[test]
     fn a_run_is_consecutive_taps_and_its_kernel_gives_the_scalar_bytes() {
         let (w, h) = (70u32, 40u32);
@@ -575,7 +602,7 @@ mod tests {
             src: &src,
             size: (w, h),
         };
-        let mut runs = 0;
+        let (mut runs, mut run_blocks) = (0, 0);
         for k in 0..400 {
             let k = f64::from(k);
             let start = ((k * 7.31) % 90.0 - 10.0, (k * 3.17) % 48.0 - 4.0);
@@ -586,12 +613,19 @@ mod tests {
             let (u0, v0) = (fixed(start.0), fixed(start.1));
             let d = (fixed(start.0 + step.0) - u0, fixed(start.1 + step.1) - v0);
             let len = [32, 37, 9][k as usize % 3];
+            let blocks = (0..len as i32 / 8).filter(|b| {
+                let at = (u0 + d.0 * 8 * b, v0 + d.1 * 8 * b);
+                row.run(at, d, 8).is_some()
+            });
             if let Some(at) = row.run((u0, v0), d, len) {
                 runs += 1;
                 for j in 0..len as i32 {
                     let (x, y) = (row.axis(u0 + d.0 * j, 0), row.axis(v0 + d.1 * j, 1));
                     assert_eq!((y.0 * w + x.0) as usize, at + j as usize, "segment {k}");
                 }
+            } else {
+                // Not a run: its blocks that are go by the contiguous kernel.
+                run_blocks += blocks.count();
             }
             let mut out = vec![0u8; len * 4];
             let done = row.segment_simd((u0, v0), d, &mut out);
@@ -601,6 +635,10 @@ mod tests {
             }
         }
         assert!(runs > 100, "{runs} runs");
+        assert!(
+            run_blocks > 100,
+            "{run_blocks} run blocks in other segments"
+        );
     }
 
     #[test]
