@@ -210,19 +210,45 @@ impl Row<'_> {
     }
 
     /// The segment's pixels eight at a time where the CPU has AVX2 (the
-    /// rest by [`Self::bilinear`]); how many it made.
+    /// rest by [`Self::bilinear`]); how many it made. A run
+    /// ([`Self::run`]) takes the contiguous kernel; a segment that is not
+    /// one goes block by block ([`Self::blocks_avx2`]).
     #[inline(always)]
     fn segment_simd(&self, start: (i32, i32), step: (i32, i32), out: &mut [u8]) -> usize {
         #[cfg(target_arch = "x86_64")]
         if super::simd::simd_level() >= 1 {
+            let run = self.run(start, step, out.len() / 4);
             // SAFETY: the CPU has AVX2 (checked by `simd_level`).
             #[allow(unsafe_code)]
             unsafe {
-                return self.segment_avx2(start, step, out);
+                return match run {
+                    Some(at) => self.run_avx2(at, start, step, out),
+                    None => self.blocks_avx2(start, step, out),
+                };
             }
         }
         let _ = (start, step, out);
         0
+    }
+
+    /// Whether the `len` pixels of a segment are a run: pixel j's taps are
+    /// [`Self::axis`]'s (x0 + j, y0) with no clamp, so its 2×2 pixels are
+    /// columns x0 + j, x0 + j + 1 of rows y0, y0 + 1 and its weights the
+    /// fraction bits alone; `Some` the source index of (x0, y0). Checked at
+    /// the ends: positions are linear in j, so unclamped at both ends is
+    /// unclamped throughout, the row the same at both ends is the same
+    /// throughout, and x0 rising by len − 1 over len − 1 steps, each
+    /// ⌊du⌋ or ⌈du⌉ pixels, is a step of one each (a pan's usual segment).
+    #[inline(always)]
+    fn run(&self, (u0, v0): (i32, i32), (du, dv): (i32, i32), len: usize) -> Option<usize> {
+        let last = i64::try_from(len).ok()?.checked_sub(1).filter(|&l| l > 0)?;
+        let (w, h) = (i64::from(self.size.0), i64::from(self.size.1));
+        // A tap index of fixed-point `s` where unclamped, else None.
+        let tap = |s: i64, n: i64| (s >= 0 && (s >> FRAC) <= n - 2).then_some(s >> FRAC);
+        let (u0, v0) = (i64::from(u0), i64::from(v0));
+        let (x0, x1) = (tap(u0, w)?, tap(u0 + i64::from(du) * last, w)?);
+        let (y0, y1) = (tap(v0, h)?, tap(v0 + i64::from(dv) * last, h)?);
+        (x1 - x0 == last && y0 == y1).then_some((y0 * w + x0) as usize)
     }
 
     /// [`Self::axis`] and [`Self::bilinear`]'s integers for eight pixels:
@@ -308,6 +334,103 @@ impl Row<'_> {
                 _mm256_storeu_si256(word.as_mut_ptr().cast(), bytes)
             };
             px.copy_from_slice(&word);
+        }
+        n
+    }
+}
+
+impl Row<'_> {
+    /// A segment that is not a run, eight pixels at a time: a block whose
+    /// eight pixels are a run ([`Self::run`]; a pan's segment that crosses
+    /// a source row, or steps two pixels once, is mostly such blocks) by
+    /// the contiguous kernel, the others by [`Self::segment_avx2`]. Block
+    /// b starts at the position of pixel 8b (the same integers as stepping
+    /// from the segment's start, so the same bytes); how many it made.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn blocks_avx2(&self, (u0, v0): (i32, i32), (du, dv): (i32, i32), out: &mut [u8]) -> usize {
+        let mut done = 0;
+        for (j, block) in (0i32..).step_by(8).zip(out.chunks_exact_mut(32)) {
+            let at = (u0 + du * j, v0 + dv * j);
+            let made = match self.run(at, (du, dv), 8) {
+                Some(first) => self.run_avx2(first, at, (du, dv), block),
+                None => self.segment_avx2(at, (du, dv), block),
+            };
+            if made == 0 {
+                break;
+            }
+            done += made;
+        }
+        done
+    }
+
+    /// A run's pixels ([`Self::run`], its first tap at source pixel `at`)
+    /// eight at a time: [`Self::segment_avx2`]'s integers with the 2×2
+    /// pixels of eight as four plain loads (lanes in order) and the weights
+    /// from the positions' fraction bits; how many it made.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(
+        &self,
+        at: usize,
+        (u0, v0): (i32, i32),
+        (du, dv): (i32, i32),
+        out: &mut [u8],
+    ) -> usize {
+        use std::arch::x86_64::*;
+        let w = self.size.0 as usize;
+        let n = out.len() / 32 * 8;
+        // The last load ends at pixel at + n of the lower row.
+        if self.src.len() < (at + w + n + 1) * 4 {
+            return 0;
+        }
+        let (m, half) = (_mm256_set1_epi32(0x00ff_00ff), _mm256_set1_epi16(128));
+        let lerp = |a: __m256i, b: __m256i, f: __m256i| {
+            let g = _mm256_sub_epi16(_mm256_set1_epi16(256), f);
+            let s = _mm256_add_epi16(_mm256_mullo_epi16(a, g), _mm256_mullo_epi16(b, f));
+            _mm256_srli_epi16::<8>(_mm256_add_epi16(s, half))
+        };
+        // [`Self::axis`]'s weight of an unclamped position, in both halves
+        // of each 32-bit lane.
+        let weight = |s: __m256i| {
+            let r = _mm256_and_si256(s, _mm256_set1_epi32((1 << FRAC) - 1));
+            let f = _mm256_srli_epi32::<8>(_mm256_add_epi32(r, _mm256_set1_epi32(1 << (FRAC - 9))));
+            _mm256_or_si256(f, _mm256_slli_epi32::<16>(f))
+        };
+        let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let mut u = _mm256_add_epi32(
+            _mm256_set1_epi32(u0),
+            _mm256_mullo_epi32(_mm256_set1_epi32(du), lanes),
+        );
+        let mut v = _mm256_add_epi32(
+            _mm256_set1_epi32(v0),
+            _mm256_mullo_epi32(_mm256_set1_epi32(dv), lanes),
+        );
+        let (su, sv) = (
+            _mm256_set1_epi32(du.wrapping_mul(8)),
+            _mm256_set1_epi32(dv.wrapping_mul(8)),
+        );
+        let top = self.src[at * 4..].as_ptr();
+        for (k, px) in out.chunks_exact_mut(32).enumerate() {
+            // SAFETY: pixels at + 8k … at + 8k + 8 of the row and the row
+            // below lie inside `src` (its length checked above).
+            #[allow(unsafe_code)]
+            let load = |i: usize| unsafe { _mm256_loadu_si256(top.add((8 * k + i) * 4).cast()) };
+            let (fx, fy) = (weight(u), weight(v));
+            let row = |l: __m256i, r: __m256i| {
+                let rb = lerp(_mm256_and_si256(l, m), _mm256_and_si256(r, m), fx);
+                let ga = lerp(_mm256_srli_epi16::<8>(l), _mm256_srli_epi16::<8>(r), fx);
+                (rb, ga)
+            };
+            let (t, b) = (row(load(0), load(1)), row(load(w), load(w + 1)));
+            let (rb, ga) = (lerp(t.0, b.0, fy), lerp(t.1, b.1, fy));
+            let bytes = _mm256_or_si256(rb, _mm256_slli_epi16::<8>(ga));
+            // SAFETY: `px` is 32 bytes; storeu takes any alignment.
+            #[allow(unsafe_code)]
+            unsafe {
+                _mm256_storeu_si256(px.as_mut_ptr().cast(), bytes)
+            };
+            (u, v) = (_mm256_add_epi32(u, su), _mm256_add_epi32(v, sv));
         }
         n
     }
@@ -464,6 +587,58 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Segments along a pan (about a pixel a pixel, a slight slope) and
+    /// off every edge: where [`Row::run`] says run, every pixel's taps are
+    /// the run's, a segment that is not one has blocks that are (its
+    /// block-by-block path), and the SIMD kernels give the scalar bytes
+    /// either way.
+    #[test]
+    fn a_run_is_consecutive_taps_and_its_kernel_gives_the_scalar_bytes() {
+        let (w, h) = (70u32, 40u32);
+        let src: Vec<u8> = (0..w * h * 4).map(|i| (i * 53 % 253) as u8).collect();
+        let row = Row {
+            src: &src,
+            size: (w, h),
+        };
+        let (mut runs, mut run_blocks) = (0, 0);
+        for k in 0..400 {
+            let k = f64::from(k);
+            let start = ((k * 7.31) % 90.0 - 10.0, (k * 3.17) % 48.0 - 4.0);
+            let step = (
+                1.0 + ((k * 0.37) % 1.0 - 0.5) * 0.01,
+                ((k * 0.61) % 1.0 - 0.5) * 0.02,
+            );
+            let (u0, v0) = (fixed(start.0), fixed(start.1));
+            let d = (fixed(start.0 + step.0) - u0, fixed(start.1 + step.1) - v0);
+            let len = [32, 37, 9][k as usize % 3];
+            let blocks = (0..len as i32 / 8).filter(|b| {
+                let at = (u0 + d.0 * 8 * b, v0 + d.1 * 8 * b);
+                row.run(at, d, 8).is_some()
+            });
+            if let Some(at) = row.run((u0, v0), d, len) {
+                runs += 1;
+                for j in 0..len as i32 {
+                    let (x, y) = (row.axis(u0 + d.0 * j, 0), row.axis(v0 + d.1 * j, 1));
+                    assert_eq!((y.0 * w + x.0) as usize, at + j as usize, "segment {k}");
+                }
+            } else {
+                // Not a run: its blocks that are go by the contiguous kernel.
+                run_blocks += blocks.count();
+            }
+            let mut out = vec![0u8; len * 4];
+            let done = row.segment_simd((u0, v0), d, &mut out);
+            for (j, px) in (0..done as i32).zip(out.chunks_exact(4)) {
+                let want = row.pixel((u0, v0), d, j).to_le_bytes();
+                assert_eq!(px, want, "pixel {j} of segment {k}");
+            }
+        }
+        assert!(runs > 100, "{runs} runs");
+        assert!(
+            run_blocks > 100,
+            "{run_blocks} run blocks in other segments"
+        );
     }
 
     #[test]

@@ -70,6 +70,21 @@ fn mix(rows: [&[f64]; 4], k: [f64; 4], out: &mut [f64]) {
     }
 }
 
+/// One grid row's nodes (`nodes`, one value each) mixed at every column
+/// of `cols` ([`stencil`]'s first node and weights): the four-node sum in
+/// the order of [`mix`], from a plain slice (a missing node reads 0).
+fn mix_along(nodes: &[f64], cols: &[(usize, [f64; 4])]) -> Vec<f64> {
+    (cols.iter())
+        .map(|&(c, k)| match nodes.get(c..c + 4) {
+            Some(&[a, b, c, d]) => k[0] * a + k[1] * b + k[2] * c + k[3] * d,
+            _ => {
+                let n = |i: usize| nodes.get(c + i).copied().unwrap_or(0.0);
+                k[0] * n(0) + k[1] * n(1) + k[2] * n(2) + k[3] * n(3)
+            }
+        })
+        .collect()
+}
+
 impl LensMap {
     /// The map of `geo` (built, or shared from the last maps built: a
     /// fixed draw is solved once).
@@ -100,17 +115,11 @@ impl LensMap {
         let along = (0..ny)
             .into_par_iter()
             .map(|j| {
-                let nodes: Vec<(f64, f64)> = (0..nx).map(|i| geo.inverse((at(i), at(j)))).collect();
-                let node = |c: usize| nodes.get(c).copied().unwrap_or((0.0, 0.0));
-                let mixed = |pick: fn((f64, f64)) -> f64| -> Vec<f64> {
-                    let n = |c: usize| pick(node(c));
-                    (cols.iter())
-                        .map(|&(c, k)| {
-                            k[0] * n(c) + k[1] * n(c + 1) + k[2] * n(c + 2) + k[3] * n(c + 3)
-                        })
-                        .collect()
-                };
-                [mixed(|p| p.0), mixed(|p| p.1)]
+                let row: Vec<(f64, f64)> = (0..nx).map(|i| (at(i), at(j))).collect();
+                let nodes = geo.inverse_all(&row);
+                let us: Vec<f64> = nodes.iter().map(|p| p.0).collect();
+                let vs: Vec<f64> = nodes.iter().map(|p| p.1).collect();
+                [mix_along(&us, &cols), mix_along(&vs, &cols)]
             })
             .collect();
         Self {
