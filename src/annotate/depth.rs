@@ -13,12 +13,21 @@
 //! bounds worked out with it, so that a triangle holding no pixel centre of
 //! the drone's tile is told by integer comparisons alone, and the
 //! remaining triangles walked row by row within a pixel of their edges.
+//!
+//! Under a rolling shutter ([`depth_m_of_rows`]) each row of a drone's tile
+//! is rasterised with the camera and the drone's pose of its own row's
+//! time: the depth at the row time.
 
 use glam::{DVec2, DVec3};
 
 use super::masks::FrameMasks;
 use crate::model::CpuModel;
-use crate::scene::FrameScene;
+use crate::scene::camera::Camera;
+use crate::scene::{DronePose, FrameScene};
+
+/// Under a rolling shutter: the camera and drone d's pose at image row y's
+/// time (`None`: the drone is not known then).
+pub type RowPose<'a> = dyn Fn(usize, u32) -> Option<(Camera, DronePose)> + 'a;
 
 /// A model's triangles over its distinct vertex positions, for the depth
 /// raster: the same triangles, corners in the same order, as the model's
@@ -63,6 +72,17 @@ pub fn depth_m(scene: &FrameScene, models: &[CpuModel], masks: &FrameMasks) -> V
 /// [`depth_m`] with each model's [`DepthMesh`] made beforehand (the
 /// pipeline's assets keep them).
 pub fn depth_m_of_meshes(scene: &FrameScene, meshes: &[DepthMesh], masks: &FrameMasks) -> Vec<f64> {
+    depth_m_of_rows(scene, meshes, masks, None)
+}
+
+/// [`depth_m_of_meshes`] with each image row's camera and drone poses from
+/// `rows` (a rolling shutter's row times; `None`: the frame's own).
+pub fn depth_m_of_rows(
+    scene: &FrameScene,
+    meshes: &[DepthMesh],
+    masks: &FrameMasks,
+    rows: Option<&RowPose>,
+) -> Vec<f64> {
     let width = masks.width.max(1);
     let cam = &scene.camera;
     let n = scene.drones.len();
@@ -119,10 +139,25 @@ pub fn depth_m_of_meshes(scene: &FrameScene, meshes: &[DepthMesh], masks: &Frame
             h: y1 - y0,
             z,
         };
-        tile.raster(scene, d, mesh, &mut points);
+        let Some(rows) = rows else {
+            tile.raster((cam, drone), mesh, &mut points, (y0, y1));
+            for &k in ks {
+                let (x, y) = xy(k);
+                out[k] = tile.at(x, y).unwrap_or(centre_z);
+            }
+            z = tile.z;
+            continue;
+        };
+        let mut row_centre = vec![centre_z; (y1 - y0) as usize];
+        for y in y0..y1 {
+            if let Some((cam, pose)) = rows(d, y) {
+                tile.raster((&cam, &pose), mesh, &mut points, (y, y + 1));
+                row_centre[(y - y0) as usize] = cam.camera_from_world_point(pose.position).z;
+            }
+        }
         for &k in ks {
             let (x, y) = xy(k);
-            out[k] = tile.at(x, y).unwrap_or(centre_z);
+            out[k] = (tile.at(x, y)).unwrap_or(row_centre[(y - y0) as usize]);
         }
         z = tile.z;
     }
@@ -229,16 +264,15 @@ struct Tile {
 }
 
 impl Tile {
-    /// Draw drone `d`'s mesh (`points`: a buffer for its vertices).
+    /// Draw `drone`'s mesh seen by `cam` over the tile's rows `rows`
+    /// (start, end) (`points`: a buffer for its vertices).
     fn raster(
         &mut self,
-        scene: &FrameScene,
-        d: usize,
+        (cam, drone): (&Camera, &DronePose),
         mesh: &DepthMesh,
         points: &mut Vec<Option<Point>>,
+        rows: (u32, u32),
     ) {
-        let cam = &scene.camera;
-        let drone = &scene.drones[d];
         // Camera-frame vertices and their pixel positions (the camera's
         // `project_camera_point`, its focal length worked out once, not per vertex).
         let (f, c) = (cam.focal_px(), cam.principal_point());
@@ -249,8 +283,9 @@ impl Tile {
             (p.z > cam.near_m && p.z > 0.0)
                 .then(|| Point::new(DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y), p.z))
         }));
-        let (x0, y0) = (self.x0 as i32, self.y0 as i32);
-        let (x1, y1) = (x0 + self.w as i32, y0 + self.h as i32);
+        let (x0, y0) = (self.x0 as i32, rows.0.max(self.y0) as i32);
+        let x1 = x0 + self.w as i32;
+        let y1 = (rows.1.min(self.y0 + self.h) as i32).max(y0);
         for tri in &mesh.triangles {
             let corner = |i: u32| points.get(i as usize).copied().flatten();
             let (Some(a), Some(b), Some(c)) = (corner(tri[0]), corner(tri[1]), corner(tri[2]))
@@ -693,5 +728,67 @@ mod tests {
         };
         s.draw([v(0.5, -10.0, 1.0), v(0.5, 10.0, 1.0), v(2.5, 0.5, 3.0)]);
         assert!((s.z[1] - 1.5).abs() < 1e-9, "{}", s.z[1]);
+    }
+
+    #[test]
+    fn under_a_rolling_shutter_each_row_has_the_depth_of_its_time() {
+        // A 6 m plate facing the camera (over the whole mask), receding 1 cm per row's time: every
+        // covered pixel of row y is 10 + 0.01·y m away. With each row at
+        // the frame's own pose, the global map's bits.
+        use crate::pipeline::FramePipeline;
+        use crate::preset::Preset;
+        use crate::scene::camera::Camera;
+        use glam::{DMat3, DQuat};
+        let preset =
+            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
+        let mut scene = FramePipeline::new(preset)
+            .expect("pipeline")
+            .scene(0)
+            .expect("scene");
+        scene.camera = Camera {
+            width: 160,
+            height: 120,
+            fov_y_deg: 60.0,
+            position: DVec3::ZERO,
+            camera_from_world: DMat3::IDENTITY,
+            near_m: 0.01,
+        };
+        let mut plate = scene.drones[0].clone();
+        (plate.model, plate.position, plate.rotation, plate.size_m) =
+            (0, DVec3::new(0.0, 0.0, 10.0), DQuat::IDENTITY, 3.0);
+        scene.drones = vec![plate.clone()];
+        let mesh = DepthMesh {
+            positions: [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .map(|(x, y)| DVec3::new(x, y, 0.0))
+                .to_vec(),
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+        };
+        let sets = vec![
+            (40..80)
+                .flat_map(|y| (60..100).map(move |x| (x, y)))
+                .collect::<Vec<_>>(),
+        ];
+        let masks = FrameMasks::from_sets(160, 120, &sets);
+        let cam = scene.camera;
+        let receding = |_: usize, y: u32| {
+            let position = DVec3::new(0.0, 0.0, 10.0 + 0.01 * f64::from(y));
+            Some((
+                cam,
+                DronePose {
+                    position,
+                    ..plate.clone()
+                },
+            ))
+        };
+        let depth = depth_m_of_rows(&scene, std::slice::from_ref(&mesh), &masks, Some(&receding));
+        for (&(i, _), &z) in masks.instance.iter().zip(&depth) {
+            let want = 10.0 + 0.01 * f64::from(i / 160);
+            assert!((z - want).abs() < 1e-9, "pixel {i}: {z} against {want}");
+        }
+        let still = |_: usize, _: u32| Some((cam, plate.clone()));
+        let rows = depth_m_of_rows(&scene, std::slice::from_ref(&mesh), &masks, Some(&still));
+        let global = depth_m_of_meshes(&scene, std::slice::from_ref(&mesh), &masks);
+        assert_eq!(rows, global);
+        assert!(global.iter().all(|&z| (z - 10.0).abs() < 1e-9));
     }
 }

@@ -10,6 +10,12 @@
 //! camera's rotation alone, zero where the camera turns nothing. A pixel
 //! whose point lies at or behind the camera at t + 1 has no flow (invalid).
 //!
+//! Under a rolling shutter (`camera_model.rolling_shutter`) each pixel is
+//! seen at its row's time ([`RowClock`]) and lands, in the next frame, at the
+//! time of the row it lands on there (a fixed point, [`rolling_drone_flow`],
+//! [`rolling_background_flow`]): the flow is the shift between the two
+//! shuttered pictures.
+//!
 //! Written as KITTI's 16-bit PNG ([`kitti_rgb16`]): per pixel
 //! (u·64 + 2¹⁵, v·64 + 2¹⁵, valid), 0 in all three where invalid.
 
@@ -30,6 +36,38 @@ pub struct FrameFlow {
     /// Per pixel of the instance image (its order): the drone point's shift
     /// to t + 1 in pixels, `None` where it is at or behind the camera at t + 1.
     pub drones: Vec<Option<DVec2>>,
+    /// Under a rolling shutter, each frame's row clock (t, t + 1); `None`:
+    /// a global shutter, every row at the frame's time.
+    pub clocks: Option<[RowClock; 2]>,
+}
+
+/// Fixed-point iterations for the row a point lands on in the next frame
+/// (each shrinks the error by the point's vertical image speed over the
+/// readout's, far below 1).
+const ROW_ITERATIONS: usize = 8;
+
+/// A frame's rolling readout as the flow sees it: the pixel centres of row
+/// coordinate v are exposed τ = readout·(v − 0.5)/height after the frame's
+/// time (a row's pixels at its index's time, clamped to the frame's rows),
+/// the camera turned by then about its own vertical axis by the yaw rate,
+/// R(τ) = R_y(ω·τ)ᵀ·R(0) (`pipeline::rolling`'s camera).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowClock {
+    pub readout_s: f64,
+    pub yaw_rad_s: f64,
+}
+
+impl RowClock {
+    /// The time of a point at row coordinate `v` of a `height`-row picture.
+    pub fn time_at(&self, v: f64, height: u32) -> f64 {
+        let h = f64::from(height.max(1));
+        (v - 0.5).clamp(0.0, h) / h * self.readout_s
+    }
+
+    /// `cam`'s rotation `tau` after the frame's time.
+    pub fn turned(&self, cam: &Camera, tau: f64) -> DMat3 {
+        DMat3::from_rotation_y(self.yaw_rad_s * tau).transpose() * cam.camera_from_world
+    }
 }
 
 /// The flow of `scene`'s drone pixels (`instance`: row-major index and
@@ -53,7 +91,82 @@ pub fn flow_of(
             instance,
             depth_m,
         ),
+        clocks: None,
     }
+}
+
+/// A frame under its rolling shutter, as the flow takes it: its row clock
+/// and, at τ after its time, the camera and drone d's pose.
+pub struct TimedFrame<'a> {
+    pub clock: RowClock,
+    pub at: &'a (dyn Fn(usize, f64) -> Option<(Camera, Pose)> + Sync),
+}
+
+/// Each instance pixel's flow under rolling shutters: unprojected at its
+/// depth with the camera of its row's time, carried with drone d from its
+/// pose then into its body, and placed with the pose and camera of the
+/// next frame's row it lands on (a fixed point from its own row). With
+/// readouts of 0, [`drone_flow`]'s numbers.
+pub fn rolling_drone_flow(
+    frames: (&TimedFrame, &TimedFrame),
+    (width, height): (u32, u32),
+    instance_depth: (&[(u32, u32)], &[f64]),
+) -> Vec<Option<DVec2>> {
+    let (f0, f1) = frames;
+    let width = width.max(1);
+    let (instance, depth_m) = instance_depth;
+    (instance.iter().zip(depth_m))
+        .map(|(&(i, d), &z)| {
+            let centre = DVec2::new(f64::from(i % width), f64::from(i / width)) + 0.5;
+            let (cam, (p0, q0)) = (f0.at)(d as usize, f0.clock.time_at(centre.y, height))?;
+            let world_from_camera = cam.camera_from_world.transpose();
+            let world = world_from_camera * (ray(&cam, centre) * z) + cam.position;
+            let body = q0.inverse() * (world - p0);
+            let mut tau = f1.clock.time_at(centre.y, height);
+            let mut to: Option<DVec2> = None;
+            for _ in 0..ROW_ITERATIONS {
+                let (next, (p1, q1)) = (f1.at)(d as usize, tau)?;
+                let q = next.project_camera_point(next.camera_from_world_point(p1 + q1 * body))?;
+                let moved = to.map_or(f64::INFINITY, |o| (q.y - o.y).abs());
+                to = Some(q);
+                if moved < 1e-4 {
+                    break;
+                }
+                tau = f1.clock.time_at(q.y, height);
+            }
+            Some(to? - centre)
+        })
+        .collect()
+}
+
+/// The flow at pixel centre `at` of a point at infinity under rolling
+/// shutters: its direction seen by `cams.0` turned to `at`'s row time, found
+/// by `cams.1` turned to the time of the row it lands on (a fixed point).
+pub fn rolling_background_flow(
+    cams: (&Camera, &Camera),
+    clocks: [RowClock; 2],
+    at: DVec2,
+) -> Option<DVec2> {
+    let (cam, next) = cams;
+    let tau = clocks[0].time_at(at.y, cam.height);
+    let direction = clocks[0].turned(cam, tau).transpose() * ray(cam, at);
+    let (nf, nc) = (next.focal_px(), next.principal_point());
+    let mut tau = clocks[1].time_at(at.y, next.height);
+    let mut to: Option<DVec2> = None;
+    for _ in 0..ROW_ITERATIONS {
+        let p = clocks[1].turned(next, tau) * direction;
+        if p.z.is_nan() || p.z <= 0.0 {
+            return None;
+        }
+        let q = DVec2::new(nf * p.x / p.z + nc.x, nf * p.y / p.z + nc.y);
+        let moved = to.map_or(f64::INFINITY, |o| (q.y - o.y).abs());
+        to = Some(q);
+        if moved < 1e-4 {
+            break;
+        }
+        tau = clocks[1].time_at(q.y, next.height);
+    }
+    Some(to? - at)
 }
 
 /// Each instance pixel's flow: unprojected at its depth with `cameras.0`,
@@ -143,7 +256,10 @@ pub fn kitti_rgb16(flow: &FrameFlow, instance: &[(u32, u32)]) -> Vec<u16> {
     let still = cam.camera_from_world == next.camera_from_world
         && cam.focal_px() == next.focal_px()
         && cam.principal_point() == next.principal_point();
-    let mut out = if still {
+    let turns = (flow.clocks.iter().flatten()).any(|c| c.yaw_rad_s != 0.0 && c.readout_s > 0.0);
+    let mut out = if let Some(clocks) = flow.clocks.filter(|_| turns || !still) {
+        rolling_background_rgb16(cam, next, clocks)
+    } else if still {
         // Every direction lands where it was: zero flow, valid.
         [32_768u16, 32_768, 1].repeat(w * h)
     } else {
@@ -162,6 +278,23 @@ pub fn kitti_rgb16(flow: &FrameFlow, instance: &[(u32, u32)]) -> Vec<u16> {
             px.copy_from_slice(&kitti(f));
         }
     }
+    out
+}
+
+/// The background's flow under rolling shutters as KITTI's RGB16 samples,
+/// row by row on rayon's threads.
+fn rolling_background_rgb16(cam: &Camera, next: &Camera, clocks: [RowClock; 2]) -> Vec<u16> {
+    use rayon::prelude::*;
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let mut out = vec![0u16; w * h * 3];
+    out.par_chunks_mut((w * 3).max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, px) in row.chunks_exact_mut(3).enumerate() {
+                let at = DVec2::new(x as f64, y as f64) + 0.5;
+                px.copy_from_slice(&kitti(rolling_background_flow((cam, next), clocks, at)));
+            }
+        });
     out
 }
 
@@ -276,11 +409,195 @@ mod tests {
             camera: cam,
             next_camera: cam,
             drones: vec![Some(DVec2::new(1.0, 0.0)), None],
+            clocks: None,
         };
         let rgb = kitti_rgb16(&flow, &[(5, 0), (7, 0)]);
         assert_eq!(rgb.len(), 640 * 480 * 3);
         assert_eq!(&rgb[15..18], &[32_832, 32_768, 1]);
         assert_eq!(&rgb[21..24], &[0, 0, 0]);
         assert_eq!(&rgb[0..3], &[32_768, 32_768, 1]);
+    }
+
+    /// A frame of the camera `cam` turning at `yaw` rad/s over a readout of
+    /// `readout` s, a drone moving from `p` at velocity `v` (m/s), turning
+    /// at `spin` rad/s about its vertical axis.
+    fn timed(
+        readout: f64,
+        yaw: f64,
+        cam: Camera,
+        drone: (DVec3, DVec3, f64),
+    ) -> (
+        RowClock,
+        impl Fn(usize, f64) -> Option<(Camera, Pose)> + Sync,
+    ) {
+        let clock = RowClock {
+            readout_s: readout,
+            yaw_rad_s: yaw,
+        };
+        let at = move |d: usize, tau: f64| {
+            let (p, v, spin) = drone;
+            let turned = Camera {
+                camera_from_world: clock.turned(&cam, tau),
+                ..cam
+            };
+            (d == 0).then(|| (turned, (p + v * tau, DQuat::from_rotation_y(spin * tau))))
+        };
+        (clock, at)
+    }
+
+    /// Pixels around (320, 240) and their depths.
+    fn pixels() -> (Vec<(u32, u32)>, Vec<f64>) {
+        let instance: Vec<(u32, u32)> = [(300, 230), (320, 240), (331, 301)]
+            .iter()
+            .map(|&(x, y)| (y * 640 + x, 0))
+            .collect();
+        (instance, vec![19.9, 20.0, 20.2])
+    }
+
+    #[test]
+    fn under_a_rolling_shutter_a_still_scene_has_no_flow() {
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        let still = (DVec3::new(0.0, 0.0, 20.0), DVec3::ZERO, 0.0);
+        let (c0, at0) = timed(0.03, 0.0, cam, still);
+        let (c1, at1) = timed(0.02, 0.0, cam, still);
+        let (f0, f1) = (
+            TimedFrame {
+                clock: c0,
+                at: &at0,
+            },
+            TimedFrame {
+                clock: c1,
+                at: &at1,
+            },
+        );
+        let (instance, depths) = pixels();
+        let flows = rolling_drone_flow((&f0, &f1), (640, 480), (&instance, &depths));
+        for f in flows {
+            assert!(f.expect("in front").length() < 1e-9, "{f:?}");
+        }
+        for at in [
+            DVec2::new(0.5, 0.5),
+            DVec2::new(320.5, 240.5),
+            DVec2::new(639.5, 479.5),
+        ] {
+            let f = rolling_background_flow((&cam, &cam), [c0, c1], at).expect("in front");
+            assert!(f.length() < 1e-9, "{f}");
+        }
+        // Written: every pixel valid and zero.
+        let flow = FrameFlow {
+            camera: cam,
+            next_camera: cam,
+            drones: vec![Some(DVec2::ZERO); 3],
+            clocks: Some([c0, c1]),
+        };
+        let rgb = kitti_rgb16(&flow, &instance);
+        assert!(rgb.chunks_exact(3).all(|p| p == [32_768, 32_768, 1]));
+    }
+
+    #[test]
+    fn without_skew_the_rolling_flow_is_the_global_one() {
+        // A panning camera (the next frame turned 2°) and a moving, turning
+        // drone; readouts of 0: the same numbers as the global flow.
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        let next = camera(DMat3::from_rotation_y(-0.035), DVec3::new(0.5, 0.0, 0.0));
+        let moving = (DVec3::new(0.0, 0.0, 20.0), DVec3::new(4.0, 1.0, 0.0), 0.5);
+        let (c0, at0) = timed(0.0, 1.0, cam, moving);
+        let (c1, at1) = timed(0.0, -1.0, next, moving);
+        let (f0, f1) = (
+            TimedFrame {
+                clock: c0,
+                at: &at0,
+            },
+            TimedFrame {
+                clock: c1,
+                at: &at1,
+            },
+        );
+        let (instance, depths) = pixels();
+        let rolling = rolling_drone_flow((&f0, &f1), (640, 480), (&instance, &depths));
+        let pose = |tau: f64| {
+            (
+                moving.0 + moving.1 * tau,
+                DQuat::from_rotation_y(moving.2 * tau),
+            )
+        };
+        let global = drone_flow(
+            (&cam, &next),
+            (&[pose(0.0)], &[pose(0.0)]),
+            &instance,
+            &depths,
+        );
+        assert_eq!(rolling, global);
+        for at in [
+            DVec2::new(0.5, 0.5),
+            DVec2::new(320.5, 240.5),
+            DVec2::new(600.5, 400.5),
+        ] {
+            assert_eq!(
+                rolling_background_flow((&cam, &next), [c0, c1], at),
+                background_flow(&cam, &next, at)
+            );
+        }
+    }
+
+    #[test]
+    fn with_skew_a_points_flow_is_between_its_two_rolling_projections() {
+        // Both frames pan (0.6 and −0.4 rad/s) over 30 ms readouts while the
+        // drone crosses and turns; the pixel's point is found at the next
+        // frame's row v whose time images it on v (bisection, here).
+        let cam = camera(DMat3::IDENTITY, DVec3::ZERO);
+        let moving = (
+            DVec3::new(0.0, 0.0, 20.0),
+            DVec3::new(30.0, -20.0, 5.0),
+            2.0,
+        );
+        let after = (moving.0 + moving.1 * 0.04, moving.1, moving.2);
+        let (c0, at0) = timed(0.03, 0.6, cam, moving);
+        let (c1, at1) = timed(0.03, -0.4, cam, after);
+        let (f0, f1) = (
+            TimedFrame {
+                clock: c0,
+                at: &at0,
+            },
+            TimedFrame {
+                clock: c1,
+                at: &at1,
+            },
+        );
+        let (instance, depths) = pixels();
+        let flows = rolling_drone_flow((&f0, &f1), (640, 480), (&instance, &depths));
+        let f = cam.focal_px();
+        for ((&(i, _), &z), flow) in instance.iter().zip(&depths).zip(flows) {
+            let centre = DVec2::new(f64::from(i % 640), f64::from(i / 640)) + 0.5;
+            // At t: the pixel's row time, the turned camera, the point in the drone's body.
+            let tau0 = 0.03 * (centre.y - 0.5) / 480.0;
+            let r0 = DMat3::from_rotation_y(0.6 * tau0).transpose();
+            let ray = DVec3::new((centre.x - 320.0) / f, (centre.y - 240.0) / f, 1.0) * z;
+            let world = r0.transpose() * ray;
+            let body = DQuat::from_rotation_y(2.0 * tau0).inverse()
+                * (world - (moving.0 + moving.1 * tau0));
+            // At t + 1: the row v where the point of time τ(v) is imaged.
+            let image = |v: f64| {
+                let tau = 0.03 * (v - 0.5).clamp(0.0, 480.0) / 480.0;
+                let p = after.0 + after.1 * tau + DQuat::from_rotation_y(2.0 * tau) * body;
+                let c = DMat3::from_rotation_y(-0.4 * tau).transpose() * p;
+                DVec2::new(f * c.x / c.z + 320.0, f * c.y / c.z + 240.0)
+            };
+            let (mut lo, mut hi) = (0.0, 480.0);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if image(mid).y > mid {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let want = image(lo) - centre;
+            let got = flow.expect("in front");
+            assert!((got - want).length() < 1e-6, "{got} against {want}");
+            // Not the flow between the frames' times.
+            let global = image(0.5) - centre;
+            assert!((got - global).length() > 0.5, "{got} against {global}");
+        }
     }
 }

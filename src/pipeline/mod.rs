@@ -593,9 +593,14 @@ impl FramePipeline {
         let outputs = self.preset.output.masks;
         if let Some(m) = masks.as_mut().filter(|_| outputs.depth || outputs.flow) {
             let meshes = self.assets.depth_meshes();
-            m.depth_m = crate::annotate::depth::depth_m_of_meshes(&scene, meshes, m);
+            // Under a rolling shutter, each row's depth at its own time.
+            let rows = |d: usize, y: u32| shutter.as_ref()?.row_pose(d, y);
+            let rows = shutter
+                .as_ref()
+                .map(|_| &rows as &crate::annotate::depth::RowPose);
+            m.depth_m = crate::annotate::depth::depth_m_of_rows(&scene, meshes, m, rows);
             if outputs.flow {
-                m.flow = self.flow_to_next(&scene, m)?;
+                m.flow = self.flow_to_next(&scene, shutter.as_ref(), m)?;
             }
         }
         let labels = self.final_labels(&scene, shutter.as_ref(), measured.as_deref());
@@ -660,17 +665,26 @@ impl FramePipeline {
     fn flow_to_next(
         &self,
         scene: &FrameScene,
+        shutter: Option<&rolling::Shutter>,
         masks: &FrameMasks,
     ) -> Result<Option<crate::annotate::flow::FrameFlow>, PipelineError> {
         let Some(_) = scene.sequence.filter(|s| s.step < s.steps) else {
             return Ok(None);
         };
         let next = self.scene(scene.index + 1)?;
-        Ok(Some(crate::annotate::flow::flow_of(
-            scene,
-            &next,
-            &masks.instance,
-            &masks.depth_m,
+        let next_shutter = rolling::Shutter::of(&self.preset, &self.assets.geometry, &next)?;
+        if shutter.is_none() && next_shutter.is_none() {
+            return Ok(Some(crate::annotate::flow::flow_of(
+                scene,
+                &next,
+                &masks.instance,
+                &masks.depth_m,
+            )));
+        }
+        Ok(Some(rolling::flow(
+            (scene, shutter),
+            (&next, next_shutter.as_ref()),
+            masks,
         )))
     }
 

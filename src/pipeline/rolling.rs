@@ -21,7 +21,9 @@
 use glam::{DMat3, DVec2, DVec3};
 
 use crate::annotate::PixelBox;
-use crate::annotate::flow::BackgroundFlow;
+use crate::annotate::flow::{
+    BackgroundFlow, FrameFlow, Pose, RowClock, TimedFrame, rolling_drone_flow,
+};
 use crate::preset::Preset;
 use crate::scene::camera::Camera;
 use crate::scene::math::slerp;
@@ -101,6 +103,27 @@ impl Shutter {
             camera_from_world: turn * self.camera.camera_from_world,
             ..self.camera
         }
+    }
+
+    /// The shutter's row clock, as the optical flow takes it.
+    pub fn clock(&self) -> RowClock {
+        RowClock {
+            readout_s: self.readout_s,
+            yaw_rad_s: self.yaw_rad_s,
+        }
+    }
+
+    /// The camera and drone `i`'s pose at image row `y`'s time (the depth
+    /// map's rows).
+    pub fn row_pose(&self, i: usize, y: u32) -> Option<(Camera, DronePose)> {
+        let tau = self.time_of_row(f64::from(y));
+        Some((self.camera_at(tau), self.pose_at(i, tau)?))
+    }
+
+    /// The camera and drone `i`'s position and rotation at `tau` (the flow's).
+    pub fn at(&self, i: usize, tau: f64) -> Option<(Camera, Pose)> {
+        let d = self.pose_at(i, tau)?;
+        Some((self.camera_at(tau), (d.position, d.rotation)))
     }
 
     /// Drone `i`'s pose at `tau`.
@@ -236,6 +259,50 @@ pub(super) fn shuttered(
         reason: "rolling shutter: the drone-free background is not cached".into(),
     })?;
     Ok(Some(s.apply(frame, background)))
+}
+
+/// The flow from `frames.0` to `frames.1` (each scene with its shutter,
+/// `None`: a global shutter) of `masks`' drone pixels at their depths, each
+/// pixel seen at its row's time in both ([`crate::annotate::flow`]).
+pub(super) fn flow(
+    frames: (&FrameScene, Option<&Shutter>),
+    next: (&FrameScene, Option<&Shutter>),
+    masks: &crate::annotate::masks::FrameMasks,
+) -> FrameFlow {
+    let global = RowClock {
+        readout_s: 0.0,
+        yaw_rad_s: 0.0,
+    };
+    let at = |(scene, shutter): (&FrameScene, Option<&Shutter>), i: usize, tau: f64| match shutter {
+        Some(s) => s.at(i, tau),
+        None => (scene.drones.get(i)).map(|d| (scene.camera, (d.position, d.rotation))),
+    };
+    let (at0, at1) = (
+        |i: usize, tau: f64| at(frames, i, tau),
+        |i: usize, tau: f64| at(next, i, tau),
+    );
+    let clock = |s: Option<&Shutter>| s.map_or(global, Shutter::clock);
+    let (f0, f1) = (
+        TimedFrame {
+            clock: clock(frames.1),
+            at: &at0,
+        },
+        TimedFrame {
+            clock: clock(next.1),
+            at: &at1,
+        },
+    );
+    let cam = frames.0.camera;
+    FrameFlow {
+        camera: cam,
+        next_camera: next.0.camera,
+        drones: rolling_drone_flow(
+            (&f0, &f1),
+            (cam.width, cam.height),
+            (&masks.instance, &masks.depth_m),
+        ),
+        clocks: Some([f0.clock, f1.clock]),
+    }
 }
 
 #[cfg(test)]

@@ -239,10 +239,6 @@ impl CameraModel {
             "cannot be combined with camera_model.lens yet: the rows are read for a pinhole camera"
                 .into()
         });
-        let masks = preset.output.masks;
-        v.check(!masks.depth && !masks.flow, field, || {
-            "cannot be combined with output.masks.depth or output.masks.flow yet: both are made for a global shutter".into()
-        });
         v.check(preset.labels.id_scale <= 1, field, || {
             "needs labels.id_scale 1: the drones' pixels are measured in the shuttered picture"
                 .into()
