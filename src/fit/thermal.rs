@@ -20,7 +20,9 @@
 //!   parts' `motor_k` and `battery_k` when set) × real / synthetic (at most ×2 or ÷2 a
 //!   round);
 //! - **share of drones darker than their ring**: the drone's `cold_share` += real −
-//!   synthetic (the share seen colder than the air; within 0–1);
+//!   synthetic (the share seen colder than the air; within 0–1), each side's share
+//!   estimated as (k + 1)/(n + 2) of its n drones ([`succession`]), so footage without a
+//!   dark drone does not drive the share to 0;
 //! - **drone core size** or the share under 6 px: `size_px_knots` (and `size_px`'s ends)
 //!   by the cores' decile ratios ([`super::size_knots::adjust`]).
 //!
@@ -66,6 +68,21 @@ fn stat(report: &Report, key: &str) -> Option<(&'static str, f64, f64)> {
         Summary::Share { share, .. } => share,
     };
     Some((r.verdict, centre(r.real?), centre(r.synthetic?)))
+}
+
+/// (verdict, real, synthetic) of a share statistic, each side's share estimated by
+/// Laplace's rule of succession, (k + 1) / (n + 2): the mean of the share under a
+/// uniform prior after k of n drones. None of 66 drones darker is evidence that the share
+/// is small (about 1.5 %), not that it is 0, so the fit never drives a share to 0 on a
+/// side that happened to show none; both sides are estimated alike, so equal counts
+/// still agree.
+fn succession(report: &Report, key: &str) -> Option<(&'static str, f64, f64)> {
+    let r = report.statistics.iter().find(|r| r.key == key)?;
+    let est = |s: Summary| match s {
+        Summary::Share { n, k, .. } => Some((k as f64 + 1.0) / (n as f64 + 2.0)),
+        Summary::Distribution { .. } => None,
+    };
+    Some((r.verdict, est(r.real?)?, est(r.synthetic?)?))
 }
 
 fn outside(v: &str) -> bool {
@@ -144,18 +161,97 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
             }
         }
     }
-    if let Some((v, real, m)) = stat(report, "drone_darker")
+    if let Some((v, real, m)) = succession(report, "drone_darker")
         && outside(v)
     {
         let d = &mut t.drone;
         let c2 = r3((d.cold_share + real - m).clamp(0.0, 1.0));
-        changes.push(format!(
-            "thermal.drone cold_share {} → {c2} (share darker than their ring {m:.3} {v} the real {real:.3})",
-            d.cold_share
-        ));
-        d.cold_share = c2;
+        if c2 != d.cold_share {
+            changes.push(format!(
+                "thermal.drone cold_share {} → {c2} (share darker than their ring {v} the real; (k + 1)/(n + 2) {m:.3} against the real {real:.3})",
+                d.cold_share
+            ));
+            d.cold_share = c2;
+        }
     }
     preset.thermal = Some(t);
     super::size_knots::adjust(preset, report, &mut changes);
     changes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gap::report::{Side, StatRow};
+
+    fn side() -> Side {
+        Side {
+            dir: String::new(),
+            root: Default::default(),
+            images_found: 0,
+            labelled_frames: 0,
+            frames: Vec::new(),
+            thumbnails: Vec::new(),
+        }
+    }
+
+    /// A report whose only row is the share darker than the ring: `real` and `syn` as
+    /// (k, n), with the verdict given.
+    fn darker(real: (usize, usize), syn: (usize, usize), verdict: &'static str) -> Report {
+        let share = |(k, n): (usize, usize)| Summary::Share {
+            n,
+            k,
+            share: k as f64 / n as f64,
+            low: 0.0,
+            high: 0.01,
+        };
+        let (r, s) = (share(real), share(syn));
+        Report {
+            real: side(),
+            synthetic: side(),
+            statistics: vec![StatRow {
+                key: "drone_darker",
+                name: "drone_darker",
+                unit: "",
+                per: "drone",
+                real: Some(r),
+                synthetic: Some(s),
+                verdict,
+                iqr_distance: crate::gap::report::iqr_distance(Some(r), Some(s)),
+                counted: true,
+            }],
+            proposals: Vec::new(),
+        }
+    }
+
+    fn thermal_preset(cold_share: f64) -> Preset {
+        let mut p = Preset::load(std::path::Path::new("presets/thermal.ron")).expect("preset");
+        p.thermal.as_mut().expect("thermal").drone.cold_share = cold_share;
+        p
+    }
+
+    fn cold_share(p: &Preset) -> f64 {
+        p.thermal.as_ref().expect("thermal").drone.cold_share
+    }
+
+    #[test]
+    fn footage_without_a_dark_drone_does_not_drive_the_cold_share_to_zero() {
+        // 0 of 66 real drones darker, 1 of 96 synthetic: the plain shares (0 against
+        // 0.010) would lower the share by a point every round down to 0; by the rule of
+        // succession the real 1/68 lies above the synthetic 2/98 by less, and once the
+        // synthetic side shows none (1/98) the share rises again.
+        let mut p = thermal_preset(0.05);
+        adjust(&mut p, &darker((0, 66), (1, 96), "above"));
+        let lowered = cold_share(&p);
+        assert!(lowered < 0.05 && lowered > 0.04, "{lowered}");
+        adjust(&mut p, &darker((0, 66), (0, 96), "inside"));
+        assert_eq!(cold_share(&p), lowered, "inside: unchanged");
+        let mut q = thermal_preset(0.0);
+        adjust(&mut q, &darker((0, 66), (0, 96), "below"));
+        assert!(cold_share(&q) > 0.0, "{}", cold_share(&q));
+        // Footage with dark drones still raises it by the gap.
+        let mut r = thermal_preset(0.0);
+        adjust(&mut r, &darker((10, 60), (0, 96), "below"));
+        assert!((cold_share(&r) - (11.0 / 62.0 - 1.0 / 98.0)).abs() < 1e-3);
+    }
 }
