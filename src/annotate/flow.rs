@@ -594,7 +594,9 @@ mod tests {
             }
             let want = image(lo) - centre;
             let got = flow.expect("in front");
-            assert!((got - want).length() < 1e-6, "{got} against {want}");
+            // The flow's fixed-point iteration stops within ~1e-6 px of the
+            // bisection's row; KITTI files store 1/64 px.
+            assert!((got - want).length() < 1e-4, "{got} against {want}");
             // Not the flow between the frames' times.
             let global = image(0.5) - centre;
             assert!((got - global).length() > 0.5, "{got} against {global}");
