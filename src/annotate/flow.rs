@@ -41,10 +41,31 @@ pub struct FrameFlow {
     pub clocks: Option<[RowClock; 2]>,
 }
 
-/// Fixed-point iterations for the row a point lands on in the next frame
-/// (each shrinks the error by the point's vertical image speed over the
-/// readout's, far below 1).
-const ROW_ITERATIONS: usize = 8;
+/// Fixed-point iterations for the row a point lands on in a rolling-shutter
+/// picture (each shrinks the error by the point's vertical image speed over
+/// the readout's, far below 1).
+pub const ROW_ITERATIONS: usize = 8;
+
+/// Where a point lands in a rolling-shutter picture: from its image
+/// `first`, imaged again by `at_row` at the time of the row it lands on,
+/// until it moves under 1e-4 px along the rows or after `iterations` more
+/// images (`None`: not imaged at some row's time).
+pub fn settle_on_row(
+    first: DVec2,
+    iterations: usize,
+    mut at_row: impl FnMut(f64) -> Option<DVec2>,
+) -> Option<DVec2> {
+    let mut at = first;
+    for _ in 0..iterations {
+        let next = at_row(at.y)?;
+        let moved = (next.y - at.y).abs();
+        at = next;
+        if moved < 1e-4 {
+            break;
+        }
+    }
+    Some(at)
+}
 
 /// A frame's rolling readout as the flow sees it: the pixel centres of row
 /// coordinate v are exposed τ = readout·(v − 0.5)/height after the frame's
@@ -122,19 +143,11 @@ pub fn rolling_drone_flow(
             let world_from_camera = cam.camera_from_world.transpose();
             let world = world_from_camera * (ray(&cam, centre) * z) + cam.position;
             let body = q0.inverse() * (world - p0);
-            let mut tau = f1.clock.time_at(centre.y, height);
-            let mut to: Option<DVec2> = None;
-            for _ in 0..ROW_ITERATIONS {
-                let (next, (p1, q1)) = (f1.at)(d as usize, tau)?;
-                let q = next.project_camera_point(next.camera_from_world_point(p1 + q1 * body))?;
-                let moved = to.map_or(f64::INFINITY, |o| (q.y - o.y).abs());
-                to = Some(q);
-                if moved < 1e-4 {
-                    break;
-                }
-                tau = f1.clock.time_at(q.y, height);
-            }
-            Some(to? - centre)
+            let image = |v: f64| {
+                let (next, (p1, q1)) = (f1.at)(d as usize, f1.clock.time_at(v, height))?;
+                next.project_camera_point(next.camera_from_world_point(p1 + q1 * body))
+            };
+            Some(settle_on_row(image(centre.y)?, ROW_ITERATIONS - 1, image)? - centre)
         })
         .collect()
 }
@@ -151,22 +164,12 @@ pub fn rolling_background_flow(
     let tau = clocks[0].time_at(at.y, cam.height);
     let direction = clocks[0].turned(cam, tau).transpose() * ray(cam, at);
     let (nf, nc) = (next.focal_px(), next.principal_point());
-    let mut tau = clocks[1].time_at(at.y, next.height);
-    let mut to: Option<DVec2> = None;
-    for _ in 0..ROW_ITERATIONS {
-        let p = clocks[1].turned(next, tau) * direction;
-        if p.z.is_nan() || p.z <= 0.0 {
-            return None;
-        }
-        let q = DVec2::new(nf * p.x / p.z + nc.x, nf * p.y / p.z + nc.y);
-        let moved = to.map_or(f64::INFINITY, |o| (q.y - o.y).abs());
-        to = Some(q);
-        if moved < 1e-4 {
-            break;
-        }
-        tau = clocks[1].time_at(q.y, next.height);
-    }
-    Some(to? - at)
+    let image = |v: f64| {
+        let p = clocks[1].turned(next, clocks[1].time_at(v, next.height)) * direction;
+        (!p.z.is_nan() && p.z > 0.0)
+            .then(|| DVec2::new(nf * p.x / p.z + nc.x, nf * p.y / p.z + nc.y))
+    };
+    Some(settle_on_row(image(at.y)?, ROW_ITERATIONS - 1, image)? - at)
 }
 
 /// Each instance pixel's flow: unprojected at its depth with `cameras.0`,

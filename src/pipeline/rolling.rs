@@ -22,7 +22,8 @@ use glam::{DMat3, DVec2, DVec3};
 
 use crate::annotate::PixelBox;
 use crate::annotate::flow::{
-    BackgroundFlow, FrameFlow, Pose, RowClock, TimedFrame, rolling_drone_flow,
+    BackgroundFlow, FrameFlow, Pose, ROW_ITERATIONS, RowClock, TimedFrame, rolling_drone_flow,
+    settle_on_row,
 };
 use crate::preset::Preset;
 use crate::scene::camera::Camera;
@@ -33,10 +34,6 @@ use crate::sensor::PixelRect;
 use crate::sensor::rolling::{Shear, shear, turn_background};
 
 use super::streaks;
-
-/// Fixed-point iterations for a hull point's row (each shrinks the error by
-/// the point's vertical image speed over the readout's, far below 1).
-const ROW_ITERATIONS: usize = 8;
 
 /// A frame's rolling shutter: its scene at the first and the last row's time.
 pub struct Shutter {
@@ -213,16 +210,9 @@ impl Shutter {
                 .flatten()
         };
         let points = geom.hull.iter().filter_map(|&v| {
-            let mut at = point(v, 0.0)?;
-            for _ in 0..ROW_ITERATIONS {
-                let next = point(v, self.time_of_row(at.y))?;
-                let moved = (next.y - at.y).abs();
-                at = next;
-                if moved < 1e-4 {
-                    break;
-                }
-            }
-            Some(at)
+            settle_on_row(point(v, 0.0)?, ROW_ITERATIONS, |y| {
+                point(v, self.time_of_row(y))
+            })
         });
         PixelBox::from_points(points)
     }
