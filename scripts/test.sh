@@ -21,7 +21,9 @@ slurm_env=$(scripts/slurm_local.sh)   # (an assignment, so its failure stops the
 eval "$slurm_env"
 trap 'scripts/slurm_local.sh stop' EXIT
 export SWARMSHOT_REQUIRE_SLURM=1
-cargo test --locked --no-fail-fast
+# The library, binaries and tests (the examples are compiled by clippy above; linking
+# twelve benchmark binaries here would only cost CI time; the crate has no doctests).
+cargo test --locked --no-fail-fast --lib --bins --tests
 # The headless CLI (no egui, eframe, winit, rfd, zbus, open; docs/scale.md): its dependency
 # tree, then the binary, built with the dependencies compiled above, runs the Slurm test
 # as on a cluster node.
