@@ -9,11 +9,12 @@
 
 use crate::common;
 
+use swarmshot::annotate::masks::FrameMasks;
 use swarmshot::pipeline::{Frame, FramePipeline};
 use swarmshot::preset::camera_model::CameraModel;
 use swarmshot::preset::rolling_shutter::RollingShutter;
 use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{BoxMethod, Motion, Placement, Preset};
+use swarmshot::preset::{BoxMethod, Motion, Placement, Preset, SequenceSpec};
 use swarmshot::render::Renderer;
 use swarmshot::scene::{FrameScene, build_frame, build_frame_at};
 
@@ -331,4 +332,230 @@ fn the_fast_design_stays_within_its_bound_of_a_banded_reference() {
         println!("  sky: worst {sky} levels");
         assert!(sky <= 3.0, "the turned sky is {sky} levels off");
     }
+}
+
+#[test]
+fn a_rolling_shutter_is_refused_through_a_lens_but_not_with_depth_and_flow() {
+    let mut p = preset(2, Some((0.03, 0.0)));
+    p.output.masks.depth = true;
+    p.output.masks.flow = true;
+    assert_eq!(p.validate(), Ok(()));
+    if let Some(c) = p.camera_model.as_mut() {
+        c.lens = Some(swarmshot::preset::lens::Lens::BrownConrady {
+            k1: (-0.2, -0.2),
+            k2: (0.0, 0.0),
+            k3: (0.0, 0.0),
+            p1: (0.0, 0.0),
+            p2: (0.0, 0.0),
+        });
+    }
+    let errors = p.validate().expect_err("refused");
+    // The shutter's field, its reason naming the lens it meets.
+    let refused = errors.iter().any(|e| {
+        e.field == "camera_model.rolling_shutter" && e.message.contains("camera_model.lens")
+    });
+    assert!(refused, "{errors:?}");
+}
+
+/// Three drones of the wedge crossing and receding under a rolling shutter
+/// whose readout is drawn per frame from `readouts` (no pan), with depth
+/// maps and optical flow on.
+fn receding(readouts: (f64, f64)) -> Preset {
+    let mut p = preset(3, Some((0.0, 0.0)));
+    p.output.masks.depth = true;
+    p.output.masks.flow = true;
+    if let Some(seq) = p.sequence.as_mut() {
+        seq.motion.translate_m = (3.0, 0.0, 4.0);
+    }
+    if let Some(r) = p
+        .camera_model
+        .as_mut()
+        .and_then(|c| c.rolling_shutter.as_mut())
+    {
+        r.readout_s = readouts;
+        r.yaw_rate_deg_s = (0.0, 0.0);
+    }
+    p
+}
+
+/// The readout drawn for `scene`.
+fn readout_of(scene: &FrameScene) -> f64 {
+    let draw = scene.camera_model.and_then(|c| c.rolling_shutter);
+    draw.expect("a rolling shutter").readout_s
+}
+
+#[test]
+fn under_a_rolling_shutter_each_rows_depth_is_that_of_the_scene_at_its_time() {
+    let ctx = common::gpu();
+    let p = receding((0.05, 0.05));
+    assert_eq!(p.validate(), Ok(()));
+    let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let frame = make(&pipeline, &mut renderer, 1);
+    let masks = frame.masks.as_ref().expect("masks");
+    let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
+    let readout = readout_of(&frame.scene);
+    let meshes = pipeline.assets().depth_meshes();
+    // The frame's drone pixels rasterised with the whole scene at one time.
+    let at = |tau: f64| {
+        let scene = build_frame_at(&p, 1, frame.scene.redraw, tau).expect("scene at tau");
+        swarmshot::annotate::depth::depth_m_of_meshes(&scene, meshes, masks)
+    };
+    let frame_time = at(0.0);
+    let rows: std::collections::BTreeSet<u32> =
+        masks.instance.iter().map(|&(i, _)| i / w).collect();
+    let (mut same, mut moved, mut pixels) = (0, 0, 0);
+    for &y in rows.iter().step_by(4) {
+        // Row y is exposed readout·y/H after the frame's time.
+        let row_time = at(readout * f64::from(y) / f64::from(h));
+        for (k, &(i, _)) in masks.instance.iter().enumerate() {
+            if i / w != y {
+                continue;
+            }
+            let z = masks.depth_m[k];
+            pixels += 1;
+            same += usize::from((z - row_time[k]).abs() < 1e-6);
+            moved += usize::from((row_time[k] - frame_time[k]).abs() > 1e-3);
+        }
+    }
+    println!(
+        "{pixels} pixels: {same} at their row's depth, {moved} whose row's depth is not the frame time's"
+    );
+    assert!(pixels >= 50, "{pixels} pixels checked");
+    // A pixel the drone shows off its centre at its row's time takes a
+    // neighbour's depth (a neighbouring row's time): a few.
+    assert!(
+        same * 10 >= pixels * 9,
+        "{same} of {pixels} at their row's depth"
+    );
+    // The check sees the shutter: most rows' depths are not the frame time's.
+    assert!(
+        moved * 2 >= pixels,
+        "only {moved} of {pixels} pixels' rows moved off the frame time's depth"
+    );
+}
+
+#[test]
+fn under_a_still_rolling_shutter_depth_is_the_global_shutters() {
+    let ctx = common::gpu();
+    let still = |shutter: bool| {
+        let mut p = receding((0.05, 0.05));
+        // Nothing moves (the default motion carries the formation 10 m).
+        p.sequence = p.sequence.map(|s| SequenceSpec {
+            motion: Motion {
+                translate_m: (0.0, 0.0, 0.0),
+                ..Motion::default()
+            },
+            ..s
+        });
+        if !shutter {
+            p.camera_model = Some(CameraModel::default());
+        }
+        let pipeline = FramePipeline::new(p).expect("pipeline");
+        let mut renderer = pipeline.renderer(&ctx);
+        make(&pipeline, &mut renderer, 1).masks.expect("masks")
+    };
+    let (rolling, global) = (still(true), still(false));
+    assert!(!global.instance.is_empty());
+    assert_eq!(rolling.instance, global.instance);
+    let worst = rolling
+        .depth_m
+        .iter()
+        .zip(&global.depth_m)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    let differ = rolling
+        .depth_m
+        .iter()
+        .zip(&global.depth_m)
+        .filter(|(a, b)| a != b)
+        .count();
+    // The same depths, but for the rounding of each row's own camera.
+    assert!(worst < 1e-9, "{differ} depths differ, by up to {worst} m");
+    let zero = |f: &Option<swarmshot::annotate::flow::FrameFlow>| {
+        let f = f.as_ref().expect("flow");
+        f.drones
+            .iter()
+            .all(|v| v.expect("in front").length() < 1e-9)
+    };
+    assert!(zero(&rolling.flow) && zero(&global.flow));
+}
+
+/// Each drone's centroid in `masks` carried by `flows` (one per instance
+/// pixel), and its centroid in `next`, for drones of 20 pixels or more.
+fn carried(
+    (masks, flows): (&FrameMasks, &[Option<glam::DVec2>]),
+    next: &FrameMasks,
+    w: u32,
+) -> Vec<(glam::DVec2, glam::DVec2)> {
+    let centroid = |points: &mut dyn Iterator<Item = glam::DVec2>| {
+        let (sum, n) = points.fold((glam::DVec2::ZERO, 0), |(s, n), p| (s + p, n + 1));
+        (n >= 20).then(|| sum / f64::from(n))
+    };
+    let at = |i: u32| glam::DVec2::new(f64::from(i % w), f64::from(i / w));
+    (0..3)
+        .filter_map(|d| {
+            let mut moved = (masks.instance.iter().zip(flows))
+                .filter(|((_, e), _)| *e == d)
+                .map(|((i, _), f)| at(*i) + f.expect("in front"));
+            let mut then = (next.instance.iter())
+                .filter(|(_, e)| *e == d)
+                .map(|(i, _)| at(*i));
+            Some((centroid(&mut moved)?, centroid(&mut then)?))
+        })
+        .collect()
+}
+
+#[test]
+fn under_a_rolling_shutter_flow_carries_each_row_onto_the_next_frames_rows() {
+    let ctx = common::gpu();
+    // Readouts drawn per frame: consecutive frames read their rows at
+    // different speeds, so a row's time moves between frames.
+    let p = receding((0.01, 0.1));
+    let pipeline = FramePipeline::new(p).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let frames: Vec<Frame> = (0..4).map(|i| make(&pipeline, &mut renderer, i)).collect();
+    let w = frames[0].scene.camera.width;
+    // Mean distances (px) between each drone's centroid carried by a flow
+    // and its centroid in the next frame.
+    let (mut rolling_err, mut global_err, mut n) = (0.0, 0.0, 0.0);
+    for pair in frames.windows(2) {
+        let (a, b) = (
+            pair[0].masks.as_ref().expect("masks"),
+            pair[1].masks.as_ref().expect("masks"),
+        );
+        let flow = a.flow.as_ref().expect("flow to the next frame");
+        let (ra, rb) = (readout_of(&pair[0].scene), readout_of(&pair[1].scene));
+        // The flow between the frames' times, every row at the frame's.
+        let global = swarmshot::annotate::flow::flow_of(
+            &pair[0].scene,
+            &pair[1].scene,
+            &a.instance,
+            &a.depth_m,
+        );
+        let mine = carried((a, &flow.drones), b, w);
+        let frame_time = carried((a, &global.drones), b, w);
+        for ((m, then), (g, _)) in mine.iter().zip(&frame_time) {
+            println!(
+                "readouts {ra:.3} → {rb:.3}: carried {:.2}, frame time {:.2}",
+                m - then,
+                g - then
+            );
+            rolling_err += (*m - *then).length();
+            global_err += (*g - *then).length();
+            n += 1.0;
+        }
+    }
+    let (rolling_err, global_err) = (rolling_err / n, global_err / n);
+    println!("{n} drones: mean {rolling_err:.3} px off, frame time {global_err:.3} px");
+    assert!(n >= 4.0, "{n} drones checked");
+    // The centroids of masks of a few hundred pixels: within a pixel.
+    assert!(
+        rolling_err < 0.6,
+        "carried off the next rows by {rolling_err} px"
+    );
+    assert!(
+        global_err > 1.0 && global_err > 3.0 * rolling_err,
+        "the frame time's flow lands within {global_err} px"
+    );
 }
