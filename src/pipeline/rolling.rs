@@ -18,7 +18,7 @@
 //! error). The amodal box is of the hull with each point at its own row's
 //! time (a fixed-point iteration on the row it lands on).
 
-use glam::{DMat3, DVec2, DVec3};
+use glam::{DVec2, DVec3};
 
 use crate::annotate::PixelBox;
 use crate::annotate::flow::{
@@ -37,8 +37,8 @@ use super::streaks;
 
 /// A frame's rolling shutter: its scene at the first and the last row's time.
 pub struct Shutter {
-    readout_s: f64,
-    yaw_rad_s: f64,
+    /// Each row's time and the camera's turn by then (one clock with the flow's).
+    clock: RowClock,
     camera: Camera,
     /// The camera's position at τ = readout (a following camera moves).
     end_position: DVec3,
@@ -63,8 +63,10 @@ impl Shutter {
         }
         let end = build_frame_at(preset, scene.index, scene.redraw, draw.readout_s)?;
         let mut shutter = Self {
-            readout_s: draw.readout_s,
-            yaw_rad_s: draw.yaw_rate_deg_s.to_radians(),
+            clock: RowClock {
+                readout_s: draw.readout_s,
+                yaw_rad_s: draw.yaw_rate_deg_s.to_radians(),
+            },
             camera: scene.camera,
             end_position: end.camera.position,
             drones: scene.drones.clone(),
@@ -84,30 +86,25 @@ impl Shutter {
         Ok(Some(shutter))
     }
 
-    /// The time of image row coordinate `v` (continuous; rows outside the
-    /// image at the first or last row's).
-    pub fn time_of_row(&self, v: f64) -> f64 {
-        let h = f64::from(self.camera.height.max(1));
-        v.clamp(0.0, h) / h * self.readout_s
+    /// The time of row `y` (its index; the clock takes pixel-centre
+    /// coordinates, row y's centre at y + ½).
+    fn time_of_row(&self, y: f64) -> f64 {
+        self.clock.time_at(y + 0.5, self.camera.height)
     }
 
     /// The camera at `tau` seconds after the frame's time.
     pub fn camera_at(&self, tau: f64) -> Camera {
-        let a = tau / self.readout_s;
-        let turn = DMat3::from_rotation_y(self.yaw_rad_s * tau).transpose();
+        let a = tau / self.clock.readout_s;
         Camera {
             position: self.camera.position + a * (self.end_position - self.camera.position),
-            camera_from_world: turn * self.camera.camera_from_world,
+            camera_from_world: self.clock.turned(&self.camera, tau),
             ..self.camera
         }
     }
 
     /// The shutter's row clock, as the optical flow takes it.
     pub fn clock(&self) -> RowClock {
-        RowClock {
-            readout_s: self.readout_s,
-            yaw_rad_s: self.yaw_rad_s,
-        }
+        self.clock
     }
 
     /// The camera and drone `i`'s pose at image row `y`'s time (the depth
@@ -126,7 +123,7 @@ impl Shutter {
     /// Drone `i`'s pose at `tau`.
     fn pose_at(&self, i: usize, tau: f64) -> Option<DronePose> {
         let (d0, d1) = (self.drones.get(i)?, self.end_drones.get(i)?);
-        let a = tau / self.readout_s;
+        let a = tau / self.clock.readout_s;
         Some(DronePose {
             position: d0.position + a * (d1.position - d0.position),
             rotation: slerp(d0.rotation, d1.rotation, a),
@@ -169,13 +166,13 @@ impl Shutter {
     /// row's rotation homography (`None` when the camera holds still: the
     /// rendered one is it).
     pub fn turned(&self, background: &[u8]) -> Option<Vec<u8>> {
-        if self.yaw_rad_s == 0.0 {
+        if self.clock.yaw_rad_s == 0.0 {
             return None;
         }
         let size = (self.camera.width, self.camera.height);
         // Row y's camera once, then its knots' rotation flow.
         let source = |y: f64, xs: &[f64], out: &mut [(f64, f64)]| {
-            let cam = self.camera_at(self.time_of_row(y - 0.5));
+            let cam = self.camera_at(self.clock.time_at(y, self.camera.height));
             let flow = BackgroundFlow::new(&cam, &self.camera);
             for (o, &x) in out.iter_mut().zip(xs) {
                 let f = flow.at(DVec2::new(x, y));
@@ -211,7 +208,7 @@ impl Shutter {
         };
         let points = geom.hull.iter().filter_map(|&v| {
             settle_on_row(point(v, 0.0)?, ROW_ITERATIONS, |y| {
-                point(v, self.time_of_row(y))
+                point(v, self.clock.time_at(y, self.camera.height))
             })
         });
         PixelBox::from_points(points)
@@ -298,7 +295,7 @@ pub(super) fn flow(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DQuat;
+    use glam::{DMat3, DQuat};
 
     /// A 640×480 camera at the origin looking down +z (60° vertical field).
     fn camera() -> Camera {
@@ -324,8 +321,10 @@ mod tests {
 
     fn shutter(readout_s: f64, yaw_deg_s: f64, drones: (DVec3, DVec3)) -> Shutter {
         Shutter {
-            readout_s,
-            yaw_rad_s: yaw_deg_s.to_radians(),
+            clock: RowClock {
+                readout_s,
+                yaw_rad_s: yaw_deg_s.to_radians(),
+            },
             camera: camera(),
             end_position: DVec3::ZERO,
             drones: vec![drone(drones.0)],
@@ -415,7 +414,7 @@ mod tests {
         let f = camera().focal_px();
         for (v, local) in [(b.y0, -0.5), (b.y1, 0.5)] {
             // The point's height at the time of row v projects to row v.
-            let y_m = 40.0 * s.time_of_row(v) + local;
+            let y_m = 40.0 * s.clock.time_at(v, s.camera.height) + local;
             assert!((240.0 + f * y_m / 10.0 - v).abs() < 1e-3, "row {v}");
         }
         assert!(b.y1 - b.y0 > f * 1.0 / 10.0, "stretched by the fall: {b:?}");
