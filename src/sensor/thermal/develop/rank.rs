@@ -95,9 +95,11 @@ simd_fn! {
         for block in chunk.chunks(BLOCK) {
             let (mut n0, mut n1, mut any) = (0u32, 0u32, false);
             for &v in block {
-                n0 += u32::from(!(v >= a0));
-                n1 += u32::from(!(v >= a1));
-                any |= (v >= a0) & (v <= b0) | (v >= a1) & (v <= b1);
+                // Not at or above a: below it, or NaN.
+                let (at0, at1) = (v >= a0, v >= a1);
+                n0 += u32::from(!at0);
+                n1 += u32::from(!at1);
+                any |= at0 & (v <= b0) | at1 & (v <= b1);
             }
             below[0] += u64::from(n0);
             below[1] += u64::from(n1);
@@ -138,7 +140,7 @@ mod tests {
     #[test]
     fn selection_gives_the_histograms_percentiles() {
         let nan_off_sample = |i: usize, v: f32| {
-            if i % 1000 == 3 && i % STRIDE != 0 {
+            if i % 1000 == 3 && !i.is_multiple_of(STRIDE) {
                 f32::NAN
             } else {
                 v
