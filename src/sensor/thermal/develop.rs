@@ -11,12 +11,16 @@
 //! a small buffer, its taps summed over blocks of pixels held in
 //! registers, then the column pass tap by tap along whole rows) fused with
 //! the noise and the frame's extremes, written to a second plane that is
-//! then swapped in; the gain control's histogram; the gain. A pixel's
-//! value is the same sum in the same order as a plain loop gives, and
-//! extremes and histogram counts are exact, so the bytes do not depend on
-//! the threads. Float to integer conversions go through the float unit's
+//! then swapped in; the gain control's percentiles (the values at their
+//! ranks selected within brackets a sample of the frame sets, [`rank`]:
+//! the histogram's bins without scattering a count per pixel; the
+//! histogram itself where a bracket misses); the gain. A pixel's value is
+//! the same sum in the same order as a plain loop gives, and extremes,
+//! counts and selected values are exact, so the bytes do not depend on the
+//! threads. Float to integer conversions go through the float unit's
 //! rounding ([`floor`], [`level`]) so their loops vectorise. The planes
-//! are kept in [`Scratch`] from frame to frame.
+//! are kept in [`Scratch`] from frame to frame, each thread's halo buffer
+//! in a thread local.
 
 use rayon::prelude::*;
 
@@ -24,6 +28,8 @@ use crate::preset::thermal::Thermal;
 use crate::sensor::noise::{Key, deviate};
 
 use super::{Scratch, radiance_per_kelvin};
+
+mod rank;
 
 /// Where the developed frame goes (`w`×`h` pixels, row-major).
 pub enum Developed<'a> {
@@ -175,6 +181,12 @@ fn kernel(sigma: f32) -> Option<Vec<f32>> {
     Some(k)
 }
 
+thread_local! {
+    /// Each thread's row pass of a band and its halo, kept from frame to
+    /// frame (a fresh one per band would be zeroed and faulted in anew).
+    static HALO: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// The blur (when σ > 0), then the pattern and noise, into `plane` (the
 /// blur writes `spare` and swaps it in); the frame's extremes.
 fn blur_and_noise(
@@ -195,8 +207,8 @@ fn blur_and_noise(
     spare.resize(plane.len(), 0.0);
     let src = &plane[..];
     let lo_hi = (spare.par_chunks_mut(band).enumerate())
-        .map_init(Vec::new, |halo, (b, out)| {
-            column_band(src, (w, h), b, &k, noise, halo, out)
+        .map(|(b, out)| {
+            HALO.with_borrow_mut(|halo| column_band(src, (w, h), b, &k, noise, halo, out))
         })
         .reduce(|| start, fold);
     std::mem::swap(plane, spare);
@@ -298,7 +310,10 @@ pub fn percentiles(plane: &[f32], p: (f64, f64)) -> (f32, f32) {
     percentiles_within(plane, extremes(plane, start), p)
 }
 
-/// [`percentiles`] of a plane whose extremes are `(min, max)`.
+/// [`percentiles`] of a plane whose extremes are `(min, max)`: each the
+/// histogram's bin (of [`AGC_BINS`] over the range) where the count reaches
+/// its rank, found as the bin of the value at that rank
+/// ([`rank::values_at_ranks`]) or, where that declines, from the histogram.
 fn percentiles_within(
     plane: &[f32],
     (min, max): (f32, f32),
@@ -308,6 +323,28 @@ fn percentiles_within(
         return (min.min(0.0), min.max(0.0) + 1e-6);
     }
     let scale = (AGC_BINS - 1) as f32 / (max - min);
+    let rank = |p: f64| (p / 100.0 * plane.len() as f64).ceil().max(1.0) as u64;
+    let ranks = [rank(p_lo), rank(p_hi)];
+    let selected = (min.is_finite() && max.is_finite())
+        .then(|| rank::values_at_ranks(plane, ranks))
+        .flatten();
+    let [lo, hi] = match selected {
+        Some(values) => values.map(|v| {
+            let k = floor(clamp_nan_low((v - min) * scale, (AGC_BINS - 1) as f32));
+            min + k as f32 / scale
+        }),
+        None => histogram_percentiles(plane, (min, max), scale, ranks),
+    };
+    (lo, hi)
+}
+
+/// [`percentiles_within`] from the histogram of every pixel.
+fn histogram_percentiles(
+    plane: &[f32],
+    (min, max): (f32, f32),
+    scale: f32,
+    ranks: [u64; 2],
+) -> [f32; 2] {
     let chunk = plane
         .len()
         .div_ceil(2 * rayon::current_num_threads())
@@ -321,8 +358,7 @@ fn percentiles_within(
                 a
             },
         );
-    let at = |p: f64| {
-        let rank = (p / 100.0 * plane.len() as f64).ceil().max(1.0) as u64;
+    ranks.map(|rank| {
         let mut seen = 0u64;
         for (k, &n) in hist.iter().enumerate() {
             seen += u64::from(n);
@@ -331,8 +367,7 @@ fn percentiles_within(
             }
         }
         max
-    };
-    (at(p_lo), at(p_hi))
+    })
 }
 
 simd_fn! {

@@ -10,9 +10,11 @@
 //! world's up in camera space; vx and vx² are made once per column, so a
 //! row is one loop of adds, a square root and a division, then the sky
 //! table's look-ups (one for a run of pixels that all read the same
-//! entry), then the colours in a loop of f32 operations; a row
-//! whose rays all point below the horizon is the ground's, filled without
-//! them. Rows in bands on rayon's threads (each pixel is computed alone, so
+//! entry), then the colours in a loop of f32 operations. A run of 256
+//! pixels whose s provably stays in one table entry (its range bounded in
+//! f64 with a margin over the f32 rounding) skips the per-pixel s
+//! altogether (a narrow view's usual run); a row whose rays all point
+//! below the horizon is the ground's, filled without them. Rows in bands on rayon's threads (each pixel is computed alone, so
 //! the split does not change a bit).
 
 use glam::{Vec2, Vec3};
@@ -20,7 +22,7 @@ use rayon::prelude::*;
 
 use crate::preset::thermal::Thermal;
 
-use super::{Scratch, SkyTable};
+use super::{SKY_STEPS, Scratch, SkyTable};
 
 /// The camera as the background needs it.
 #[derive(Clone, Copy, Debug)]
@@ -96,6 +98,44 @@ impl Ray {
         ends.into_iter()
             .all(|v| v.is_some_and(|&v| numerator(v) < MARGIN))
     }
+
+    /// The sky table's entry that every pixel of a run whose column slopes
+    /// go from `v0` to `v1` reads, where the row's sin(elevation)
+    /// s(vx) = (a·vx + b) / √(vx² + c) provably keeps to one entry and one
+    /// side of the horizon over the run: its range there (in f64, from the
+    /// ends and the one turning point, vx = a·c / b) widened by a bound on
+    /// the f32 arithmetic's error (2⁻¹⁸ of the terms' size, where its few
+    /// roundings stay under 2⁻²¹), both ends in one entry. Then the pixels need
+    /// no s of their own (the colour mix asks only its sign).
+    fn run_index(&self, (v0, v1): (f32, f32)) -> Option<u32> {
+        let (a, b1, b2) = (
+            f64::from(self.up.x),
+            f64::from(self.up_y_vy),
+            f64::from(self.up.z),
+        );
+        let (b, c) = (b1 + b2, f64::from(self.vy2) + 1.0);
+        let (v0, v1) = (f64::from(v0.min(v1)), f64::from(v0.max(v1)));
+        let g = |v: f64| (a * v + b) / (v * v + c).sqrt();
+        let (mut lo, mut hi) = (g(v0).min(g(v1)), g(v0).max(g(v1)));
+        let turn = a * c / b;
+        if v0 < turn && turn < v1 {
+            (lo, hi) = (lo.min(g(turn)), hi.max(g(turn)));
+        }
+        let margin = (a.abs() * v0.abs().max(v1.abs()) + b1.abs() + b2.abs() + 1.0) / 262_144.0;
+        let (lo, hi) = (lo - margin, hi + margin);
+        if !(lo.is_finite() && hi.is_finite()) || (lo < 0.0 && hi >= 0.0) {
+            return None;
+        }
+        let steps = SKY_STEPS as f64;
+        let index = |s: f64| {
+            if s < 0.0 {
+                SKY_STEPS as u32 + 1
+            } else {
+                (s * steps).min(steps).floor() as u32
+            }
+        };
+        (index(lo) == index(hi)).then_some(index(lo))
+    }
 }
 
 /// What a pixel's colour turns the sky towards.
@@ -120,13 +160,24 @@ simd_fn! {
         let mut index = [0u32; RUN];
         for (k, out) in out.chunks_mut(RUN).enumerate() {
             let (x0, n) = (k * RUN, out.len());
+            let pixels = rgba.get(x0 * 4..).unwrap_or_default().chunks_exact(4);
+            let have = pixels.len().min(n);
+            if let Some(i) = ray.run_index((vx[x0], vx[x0 + n - 1])) {
+                // One entry, and every ray on one side of the horizon.
+                let c = sky.entry(i);
+                out.fill(c);
+                if i as usize <= SKY_STEPS {
+                    for (o, px) in out.iter_mut().zip(pixels) {
+                        *o = colour.mix(px, 0.0, c);
+                    }
+                }
+                continue;
+            }
             let (s, clear) = (&mut s[..n], &mut clear[..n]);
             for ((s, vx), vx2) in s.iter_mut().zip(&vx[x0..x0 + n]).zip(&vx2[x0..x0 + n]) {
                 *s = (ray.up.x * vx + ray.up_y_vy + ray.up.z) / (vx2 + ray.vy2 + 1.0).sqrt();
             }
             sky_run(sky, s, &mut index[..n], clear);
-            let pixels = rgba.get(x0 * 4..).unwrap_or_default().chunks_exact(4);
-            let have = pixels.len().min(n);
             for (((o, px), &s), &c) in out.iter_mut().zip(pixels).zip(s.iter()).zip(clear.iter()) {
                 *o = colour.mix(px, s, c);
             }
@@ -251,5 +302,50 @@ mod tests {
         let mut scratch = Scratch::default();
         sky_plane(&t, &sky, &view, &rgba, &mut scratch);
         assert_eq!(scratch.plane, plain(&t, &sky, &view, &rgba));
+    }
+
+    /// Where a run's entry is taken as proven, every pixel's own s reads
+    /// it, for level, rolled and steep views over rows crossing many
+    /// entries (and the horizon); and a narrow view proves most runs.
+    #[test]
+    fn a_run_proven_to_read_one_entry_reads_it_at_every_pixel() {
+        let ups = [
+            Vec3::new(0.0, -0.996, 0.0872),
+            Vec3::new(0.2, -0.95, 0.24).normalize(),
+            Vec3::new(-0.05, -0.6, 0.8).normalize(),
+            Vec3::new(0.0, -1.0, 0.0),
+        ];
+        for (u, up) in ups.into_iter().enumerate() {
+            for focal in [7722.0f32, 900.0] {
+                let vx: Vec<f32> = (0..1920)
+                    .map(|x| (x as f32 + 0.5 - 960.0) / focal)
+                    .collect();
+                let (mut proven, mut runs) = (0, 0);
+                for y in (0..2000).map(|y| y as f32 * 0.54 - 540.0) {
+                    let vy = (y + 0.5) / focal;
+                    let ray = Ray {
+                        up,
+                        up_y_vy: up.y * vy,
+                        vy2: vy * vy,
+                    };
+                    for run in vx.chunks(RUN) {
+                        runs += 1;
+                        let Some(k) = ray.run_index((run[0], run[run.len() - 1])) else {
+                            continue;
+                        };
+                        proven += 1;
+                        for &v in run {
+                            let s =
+                                (up.x * v + ray.up_y_vy + up.z) / (v * v + ray.vy2 + 1.0).sqrt();
+                            assert_eq!(SkyTable::index(s), k, "up {u}, f {focal}, vy {vy}, vx {v}");
+                        }
+                    }
+                }
+                assert!(proven < runs, "up {u}, f {focal}: every run proven");
+                if u == 0 && focal > 1000.0 {
+                    assert!(proven * 2 > runs, "narrow view: {proven} of {runs} runs");
+                }
+            }
+        }
     }
 }
