@@ -332,13 +332,13 @@ pub fn rolling_background_row(
         let at = DVec2::new(x as f64, f64::from(y)) + 0.5;
         rolling_background_flow(cams, clocks, at)
     };
-    let mut knots: Vec<usize> = (0..last).step_by(FLOW_KNOT_PX).collect();
-    knots.push(last);
-    for &x in &knots {
-        row[x] = solve(x);
-    }
-    for pair in knots.windows(2) {
-        fill_segment(row, (pair[0], pair[1]), &solve);
+    row[0] = solve(0);
+    let mut a = 0;
+    while a < last {
+        let b = (a + FLOW_KNOT_PX).min(last);
+        row[b] = solve(b);
+        fill_segment(row, (a, b), &solve);
+        a = b;
     }
 }
 
