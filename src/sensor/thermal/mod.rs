@@ -18,7 +18,9 @@
 //! capped at `agc_max_gain` levels per kelvin, their middle at
 //! `agc_mid_level`. The per-pixel loops run built for AVX-512 or AVX2
 //! where the CPU has it (`simd_fn!`: the same operations, so the same bits)
-//! and in bands of rows on rayon's threads. It knows the preset's `thermal`
+//! and in bands of rows on rayon's threads. [`capture`] is the recording's
+//! chain after the camera (an earlier compression, border lines), off
+//! unless a preset asks. It knows the preset's `thermal`
 //! section and seeds, nothing of scenes, the GPU or files.
 
 use std::sync::OnceLock;
@@ -66,6 +68,7 @@ macro_rules! simd_fn {
     };
 }
 
+pub mod capture;
 mod develop;
 mod sky_plane;
 
