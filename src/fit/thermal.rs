@@ -419,11 +419,11 @@ mod tests {
         let mut p = thermal_preset(0.05);
         let capture = |p: &Preset| p.thermal.as_ref().and_then(|t| t.capture.clone());
         let t = p.thermal.as_mut().expect("thermal");
-        (t.capture = Some(crate::preset::thermal::Capture {
+        t.capture = Some(crate::preset::thermal::Capture {
             prior_dc_step: 8.0,
             prior_ac_step: 4.0,
             ..Default::default()
-        }));
+        });
         let mut log = Vec::new();
         for _ in 0..6 {
             let dc = capture(&p).expect("kept").prior_dc_step;

@@ -109,8 +109,8 @@ fn transform(d: &[[f64; N]; N], b: &[[f64; N]; N], inverse: bool) -> [[f64; N]; 
     for (i, row) in out.iter_mut().enumerate() {
         for (j, v) in row.iter_mut().enumerate() {
             let mut s = 0.0;
-            for k in 0..N {
-                s += t[i][k] * m(j, k);
+            for (k, tk) in t[i].iter().enumerate() {
+                s += tk * m(j, k);
             }
             *v = s;
         }
