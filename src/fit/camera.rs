@@ -84,6 +84,9 @@ pub struct FrameFigures {
     /// The border lines' level offsets (grey frames; [`crate::gap::capture::EdgeLines`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_lines: Option<crate::gap::capture::EdgeLines>,
+    /// The narcissus' depth (grey frames; [`crate::gap::capture::centre_depth`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centre_depth: Option<f32>,
 }
 
 /// The footage's statistics, summarised over its frames and drones.
@@ -247,6 +250,7 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             sky_rgb: p.sky_rgb,
             block_steps: p.stats.block_steps,
             edge_lines: p.stats.edge_lines,
+            centre_depth: p.stats.centre_depth,
         })
         .collect();
     Footage {

@@ -31,6 +31,12 @@
 //!   at least [`BORDER_MIN_LEVELS`]); with an earlier compression in the base, its DC step
 //!   × real / synthetic block steps each round ([`adjust_prior`]).
 //!
+//! - **narcissus** (`thermal.narcissus`): the first fit adds one when the footage's
+//!   median centre depth is below −[`NARCISSUS_MIN_LEVELS`] (a dark centre, the same in
+//!   frame after frame), its depth in kelvin that many levels at the gain control's
+//!   largest gain; the rounds move the depth × real / synthetic centre depth
+//!   ([`adjust_narcissus`]).
+//!
 //! Not fitted (stated in docs/realism.md): the gradient energy, Canny share and
 //! background texture (the scene's structure: the gain control stretches the frame's
 //! span to 0–255 whatever `agc_max_gain` allows, so no camera value moves them), the
@@ -59,6 +65,7 @@ pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
         }
     }
     capture_fit(&mut p, footage, &mut notes);
+    narcissus_fit(&mut p, footage, &mut notes);
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),
@@ -131,6 +138,71 @@ fn capture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
     }
     if found {
         t.capture = Some(c);
+    }
+}
+
+/// The footage's median centre depth (levels) below which the first fit adds a
+/// narcissus: a scene's own structure (a horizon low in the frame, a cloud) moves the
+/// centre depth by a few levels either way from frame to frame.
+pub const NARCISSUS_MIN_LEVELS: f64 = 8.0;
+
+/// The first fit's narcissus (module docs): none when the base has one or the footage's
+/// median centre depth is above −[`NARCISSUS_MIN_LEVELS`].
+fn narcissus_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
+    let Some(t) = p.thermal.as_mut().filter(|t| t.narcissus.is_none()) else {
+        return;
+    };
+    let mut depths: Vec<f64> = (footage.per_frame.iter())
+        .filter_map(|f| f.centre_depth.map(f64::from))
+        .collect();
+    if depths.is_empty() {
+        return;
+    }
+    depths.sort_by(f64::total_cmp);
+    let m = depths[depths.len() / 2];
+    if m >= -NARCISSUS_MIN_LEVELS {
+        return;
+    }
+    let n = crate::preset::thermal::Narcissus {
+        depth_k: r3(-m / t.agc_max_gain),
+        ..Default::default()
+    };
+    notes.push(format!(
+        "thermal.narcissus depth_k {} K, radius {}: the footage's centre reads {m:.1} levels against the ring about it (median over {} frames), at the gain control's largest gain of {} levels a kelvin",
+        n.depth_k,
+        n.radius,
+        depths.len(),
+        t.agc_max_gain
+    ));
+    t.narcissus = Some(n);
+}
+
+/// The narcissus' depth × real / synthetic centre depth (at most ×2 or ÷2 a round)
+/// when it lies outside, both centres reading dark, and the preset has one.
+fn adjust_narcissus(
+    t: &mut crate::preset::thermal::Thermal,
+    report: &Report,
+    changes: &mut Vec<String>,
+) {
+    let Some(n) = t.narcissus.as_mut() else {
+        return;
+    };
+    let Some((v, real, m)) = stat(report, "centre_depth").filter(|s| outside(s.0)) else {
+        return;
+    };
+    if real >= 0.0 || m >= 0.0 {
+        return;
+    }
+    let d2 = r3(n.depth_k * (real / m).clamp(0.5, 2.0)).clamp(
+        -crate::preset::thermal::MAX_NARCISSUS_K,
+        crate::preset::thermal::MAX_NARCISSUS_K,
+    );
+    if d2 != n.depth_k {
+        changes.push(format!(
+            "thermal.narcissus depth_k {} → {d2} (centre depth {m:.2} {v} the real {real:.2})",
+            n.depth_k
+        ));
+        n.depth_k = d2;
     }
 }
 
@@ -278,6 +350,7 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
         }
     }
     adjust_prior(&mut t, report, &mut changes);
+    adjust_narcissus(&mut t, report, &mut changes);
     preset.thermal = Some(t);
     super::size_knots::adjust(preset, report, &mut changes);
     changes
@@ -371,6 +444,11 @@ mod tests {
 
     /// A report whose only row is the block steps of `real` and `syn` frames.
     fn steps_report(real: &[f64], syn: &[f64]) -> Report {
+        row_report("block_steps", real, syn)
+    }
+
+    /// A report whose only row is the frame statistic `key` of `real` and `syn` frames.
+    fn row_report(key: &'static str, real: &[f64], syn: &[f64]) -> Report {
         let (r, s) = (
             crate::gap::report::distribution(real),
             crate::gap::report::distribution(syn),
@@ -391,8 +469,8 @@ mod tests {
             real: side(),
             synthetic: side(),
             statistics: vec![StatRow {
-                key: "block_steps",
-                name: "block_steps",
+                key,
+                name: key,
                 unit: "levels",
                 per: "frame",
                 real: r,
@@ -460,5 +538,61 @@ mod tests {
         let mut r = thermal_preset(0.0);
         adjust(&mut r, &darker((10, 60), (0, 96), "below"));
         assert!((cold_share(&r) - (11.0 / 62.0 - 1.0 / 98.0)).abs() < 1e-3);
+    }
+
+    /// Centre depths of frames of the fixed pattern (the preset's shading and the
+    /// narcissus of `depth_k`, seeds `seeds`) at a gain of 3 levels a kelvin: what the
+    /// gain control makes of a smooth sky, the sensor's plane measured as the report does.
+    fn centre_depths(depth_k: Option<f64>, seeds: std::ops::Range<u64>) -> Vec<f64> {
+        let mut t = thermal_preset(0.05).thermal.expect("thermal");
+        t.narcissus = depth_k.map(|depth_k| crate::preset::thermal::Narcissus {
+            depth_k,
+            ..Default::default()
+        });
+        let per_k = crate::sensor::thermal::radiance_per_kelvin(t.air_k);
+        let (w, h) = (160, 128);
+        seeds
+            .filter_map(|seed| {
+                let plane = crate::sensor::thermal::fixed_pattern(&t, seed, w, h);
+                let y = plane.iter().map(|v| 100.0 + 3.0 * v / per_k).collect();
+                let l = crate::gap::measure::Luma {
+                    width: w as usize,
+                    height: h as usize,
+                    y,
+                };
+                crate::gap::capture::centre_depth(&l, &[], None).map(f64::from)
+            })
+            .collect()
+    }
+
+    /// Frames with a 6 K narcissus: the rounds from a 2 K one recover it within 15 %; a
+    /// preset without one gets none from the rounds (the first fit adds it).
+    #[test]
+    fn the_rounds_recover_a_known_narcissus_depth() {
+        let real = centre_depths(Some(6.0), 0..16);
+        let mut p = thermal_preset(0.05);
+        let depth = |p: &Preset| {
+            p.thermal
+                .as_ref()
+                .and_then(|t| t.narcissus)
+                .map(|n| n.depth_k)
+        };
+        p.thermal.as_mut().expect("thermal").narcissus = Some(crate::preset::thermal::Narcissus {
+            depth_k: 2.0,
+            ..Default::default()
+        });
+        let mut log = Vec::new();
+        for round in 0..5 {
+            let syn = centre_depths(depth(&p), 100 * (round + 1)..100 * (round + 1) + 16);
+            log.extend(adjust(&mut p, &row_report("centre_depth", &real, &syn)));
+        }
+        let d = depth(&p).expect("kept");
+        assert!((d / 6.0 - 1.0).abs() <= 0.15, "depth {d} K for 6: {log:?}");
+        let mut q = thermal_preset(0.05);
+        adjust(
+            &mut q,
+            &row_report("centre_depth", &real, &centre_depths(None, 0..16)),
+        );
+        assert_eq!(depth(&q), None);
     }
 }

@@ -106,6 +106,10 @@ pub struct FrameStats {
     /// four outermost lines' level offsets from the line 8 further in.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_lines: Option<capture::EdgeLines>,
+    /// The narcissus' depth of a grey frame ([`capture::centre_depth`]): the centre
+    /// disc's median level less the ring's, levels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centre_depth: Option<f32>,
     /// Stroke pixels of a burnt-in overlay ([`overlay`]) left out of every statistic
     /// (absent when the frame has none).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -180,5 +184,8 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         overlay_px: overlay.as_ref().map(|o| o.strokes),
         block_steps: grey.then(|| capture::block_steps(&gray, mask)).flatten(),
         edge_lines: grey.then(|| capture::edge_lines(&l)).flatten(),
+        centre_depth: grey
+            .then(|| capture::centre_depth(&l, boxes, mask))
+            .flatten(),
     }
 }

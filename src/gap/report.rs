@@ -245,6 +245,13 @@ fn fitting_stats() -> Vec<Stat> {
         },
         Stat {
             counted: false,
+            key: "centre_depth",
+            name: "centre depth: centre − ring (narcissus)",
+            unit: "levels",
+            kind: Frame(|f| f.centre_depth.map(f64::from)),
+        },
+        Stat {
+            counted: false,
             key: "drone_box_px",
             name: "drone box size √(w·h)",
             unit: "px",

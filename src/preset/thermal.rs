@@ -164,6 +164,51 @@ pub struct Thermal {
     /// Absent (the default): none, not written to preset.lock.ron.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub capture: Option<Capture>,
+    /// The optics' narcissus: a dark spot at the frame's centre, the same in
+    /// every frame (`sensor::thermal::narcissus`). Absent (the default):
+    /// none, not written to preset.lock.ron.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub narcissus: Option<Narcissus>,
+}
+
+/// The narcissus of a cooled thermal camera: the detector sees its own cold
+/// reflection in the lens surfaces, strongest on the optical axis, so the
+/// frame's centre reads colder than the scene by a spot of Gaussian profile.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Narcissus {
+    /// How much colder the centre reads, kelvin (negative: warmer).
+    pub depth_k: f64,
+    /// The spot's Gaussian σ, a share of half the frame's height.
+    pub radius: f64,
+}
+
+impl Default for Narcissus {
+    fn default() -> Self {
+        Self {
+            depth_k: 0.0,
+            radius: 0.45,
+        }
+    }
+}
+
+/// The largest narcissus depth, kelvin either way.
+pub const MAX_NARCISSUS_K: f64 = 100.0;
+
+impl Narcissus {
+    fn validate_into(&self, v: &mut Validator) {
+        let (d, r) = (self.depth_k, self.radius);
+        v.check(
+            d.is_finite() && d.abs() <= MAX_NARCISSUS_K,
+            "thermal.narcissus.depth_k",
+            || format!("{d} must be a depth in kelvin within ±{MAX_NARCISSUS_K}"),
+        );
+        v.check(
+            r.is_finite() && (0.01..=4.0).contains(&r),
+            "thermal.narcissus.radius",
+            || format!("{r} must be a share of half the frame's height in [0.01, 4]"),
+        );
+    }
 }
 
 /// The capture chain of a recorded thermal video between the camera's 8-bit
@@ -249,6 +294,7 @@ impl Default for Thermal {
             agc_mid_level: 110.0,
             bits: 8,
             capture: None,
+            narcissus: None,
         }
     }
 }
@@ -314,6 +360,9 @@ impl Thermal {
             v.check(self.bits == 8, "thermal.capture", || {
                 "works on 8-bit frames: set thermal.bits to 8".into()
             });
+        }
+        if let Some(n) = &self.narcissus {
+            n.validate_into(v);
         }
         let (lo, hi) = self.agc_percentiles;
         v.check(

@@ -4,7 +4,8 @@
 //! horizon, the gain control's range, labels equal to the visible render's,
 //! determinism, 16-bit grey PNG frames, rain and snow in the radiance with
 //! labels against the drone-free radiance under the same particles, the
-//! recording's capture chain changing the picture and not the labels
+//! recording's capture chain and the optics' narcissus changing the picture
+//! and not the labels
 //! (lavapipe).
 
 use crate::common;
@@ -569,15 +570,28 @@ fn the_capture_chain_changes_the_picture_not_the_labels() {
         let plain = make(&p, index);
         let prior = make(&with_capture(p.clone(), capture(true, false)), index);
         let both = make(&with_capture(p.clone(), capture(true, true)), index);
+        let mut dark = p.clone();
+        dark.thermal.as_mut().expect("thermal").narcissus =
+            Some(swarmshot::preset::thermal::Narcissus {
+                depth_k: 8.0,
+                ..Default::default()
+            });
+        let dark = make(&dark, index);
         assert!(!plain.labels.is_empty(), "frame {index} shows a drone");
         assert_eq!(
             boxes(&both),
             boxes(&plain),
             "frame {index}: labels unchanged"
         );
+        assert_eq!(
+            boxes(&dark),
+            boxes(&plain),
+            "frame {index}: narcissus, labels unchanged"
+        );
+        assert_ne!(dark.rgba, plain.rgba, "the narcissus shows");
         assert_ne!(prior.rgba, plain.rgba, "the earlier compression shows");
-        // The border lines move their rows and column by their offsets (clamped), and
-        // nothing else.
+        // The border lines move their rows and column by their offsets, and nothing
+        // else.
         let w = plain.scene.camera.width;
         for (i, (a, b)) in prior
             .rgba
@@ -586,10 +600,17 @@ fn the_capture_chain_changes_the_picture_not_the_labels() {
             .enumerate()
         {
             let (x, y) = (i as u32 % w, i as u32 / w);
-            let off = [-50.0, -30.0].get(y as usize).copied().unwrap_or(0.0)
-                + if x == 0 { 25.0 } else { 0.0 };
-            let want = (f64::from(a[0]) + off).round().clamp(0.0, 255.0) as u8;
-            assert_eq!(b[..3], [want; 3], "({x}, {y})");
+            // Rows first, then columns, each line's move clamped to 0–255 (a corner
+            // pixel dark enough for its row's line stays at 0 before its column's).
+            let step = |v: f64, off: f64| (v + off).round().clamp(0.0, 255.0);
+            let mut want = f64::from(a[0]);
+            if let Some(&off) = [-50.0, -30.0].get(y as usize) {
+                want = step(want, off);
+            }
+            if x == 0 {
+                want = step(want, 25.0);
+            }
+            assert_eq!(b[..3], [want as u8; 3], "({x}, {y})");
         }
     }
 }
