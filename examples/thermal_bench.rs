@@ -3,7 +3,8 @@
 //! brightening downwards, grey clouds, scenery under a horizon at four
 //! fifths of the height, the camera pitched up 5°) composed into the
 //! radiance plane, then developed (blur, fixed pattern and noise, gain
-//! control) to 8-bit RGBA and to 16-bit grey; the median wall time of 30
+//! control) to 8-bit RGBA and to 16-bit grey, and the capture chain
+//! (`thermal.capture`) on the 8-bit frame; the median wall time of 30
 //! runs after 3 warm-ups and their mean CPU time (all threads, from /proc;
 //! `support/timing.rs`). The drones' pixels (a few thousand) are left out.
 //!
@@ -67,6 +68,16 @@ fn main() {
         let to = Developed::Grey16(&mut out16);
         thermal::develop_into(&t, (w, h), (&pattern, seed), &mut scratch, to);
     });
+    // The capture chain alone (`thermal.capture`, off in the preset) on the 8-bit frame:
+    // an earlier compression and three border lines, as the fitted Anti-UAV presets have.
+    let capture = swarmshot::preset::thermal::Capture {
+        prior_dc_step: 16.0,
+        prior_ac_step: 4.0,
+        top_rows: vec![-52.0, -50.0],
+        left_columns: vec![30.0],
+        ..Default::default()
+    };
+    let chain = median_ms(|| thermal::capture::apply(&capture, (w, h), &mut out8));
     println!("threads {}", rayon::current_num_threads());
     println!("(median wall, mean CPU) ms a frame");
     println!(
@@ -80,5 +91,9 @@ fn main() {
     println!(
         "background + develop to 16-bit grey: {:.2}, {:.2}",
         dev16.0, dev16.1
+    );
+    println!(
+        "capture chain on the 8-bit frame: {:.2}, {:.2}",
+        chain.0, chain.1
     );
 }

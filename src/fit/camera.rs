@@ -78,6 +78,15 @@ pub struct FrameFigures {
     pub sky_saturation: Option<f32>,
     pub mean_brightness: f32,
     pub sky_rgb: Option<[f32; 3]>,
+    /// The block steps of an earlier 8×8 compression (grey frames; levels).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub block_steps: Option<f32>,
+    /// The border lines' level offsets (grey frames; [`crate::gap::capture::EdgeLines`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_lines: Option<crate::gap::capture::EdgeLines>,
+    /// The narcissus' depth (grey frames; [`crate::gap::capture::centre_depth`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centre_depth: Option<f32>,
 }
 
 /// The footage's statistics, summarised over its frames and drones.
@@ -239,6 +248,9 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             sky_saturation: p.stats.sky_saturation,
             mean_brightness: p.stats.mean_brightness,
             sky_rgb: p.sky_rgb,
+            block_steps: p.stats.block_steps,
+            edge_lines: p.stats.edge_lines,
+            centre_depth: p.stats.centre_depth,
         })
         .collect();
     Footage {

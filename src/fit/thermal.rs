@@ -26,6 +26,17 @@
 //! - **drone core size** or the share under 6 px: `size_px_knots` (and `size_px`'s ends)
 //!   by the cores' decile ratios ([`super::size_knots::adjust`]).
 //!
+//! - **capture chain** (`thermal.capture`, the first fit): the footage's border lines
+//!   (each edge's outermost rows or columns whose median offset from the line 8 px in is
+//!   at least [`BORDER_MIN_LEVELS`]); with an earlier compression in the base, its DC step
+//!   × real / synthetic block steps each round ([`adjust_prior`]).
+//!
+//! - **narcissus** (`thermal.narcissus`): the first fit adds one when the footage's
+//!   median centre depth is below −[`NARCISSUS_MIN_LEVELS`] (a dark centre, the same in
+//!   frame after frame), its depth in kelvin that many levels at the gain control's
+//!   largest gain; the rounds move the depth × real / synthetic centre depth
+//!   ([`adjust_narcissus`]).
+//!
 //! Not fitted (stated in docs/realism.md): the gradient energy, Canny share and
 //! background texture (the scene's structure: the gain control stretches the frame's
 //! span to 0–255 whatever `agc_max_gain` allows, so no camera value moves them), the
@@ -53,11 +64,175 @@ pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
             notes.push("output PNG: the footage is PNG".into());
         }
     }
+    capture_fit(&mut p, footage, &mut notes);
+    narcissus_fit(&mut p, footage, &mut notes);
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),
     );
     Fitted { preset: p, notes }
+}
+
+/// A border line's smallest offset from the line 8 further in (levels, the median over
+/// the footage's frames) to count as one: a smooth shading changes by a few levels over
+/// 8 px, the Anti-UAV captures' blanking lines by 20–65.
+pub const BORDER_MIN_LEVELS: f64 = 10.0;
+/// The footage's median block steps (levels) above which it shows an earlier
+/// compression: the final JPEG at quality 95 of a frame without one gives about 0.2.
+pub const PRIOR_MIN_STEPS: f64 = 0.35;
+
+/// The capture chain (`thermal.capture`) from the footage's grey frames: each edge's
+/// border lines, from the edge inward while the median offset is at least
+/// [`BORDER_MIN_LEVELS`], at that median. The earlier compression is the base's: the
+/// rounds fit its DC step when the base has one ([`adjust_prior`]); without, a note says
+/// whether the footage's median block steps exceed [`PRIOR_MIN_STEPS`] (on the Anti-UAV
+/// fitting half, turning it on moved the flat-sky high-pass RMS out of range: the noise
+/// fit makes up for the noise it removes; docs/realism.md).
+fn capture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
+    let Some(t) = p.thermal.as_mut() else {
+        return;
+    };
+    let lines: Vec<_> = footage
+        .per_frame
+        .iter()
+        .filter_map(|f| f.edge_lines)
+        .collect();
+    let steps: Vec<f64> = (footage.per_frame.iter())
+        .filter_map(|f| f.block_steps.map(f64::from))
+        .collect();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (!v.is_empty()).then(|| v[v.len() / 2])
+    };
+    let mut c = t.capture.clone().unwrap_or_default();
+    let mut found = false;
+    let edges: [(&str, &mut Vec<f64>); 4] = [
+        ("top_rows", &mut c.top_rows),
+        ("bottom_rows", &mut c.bottom_rows),
+        ("left_columns", &mut c.left_columns),
+        ("right_columns", &mut c.right_columns),
+    ];
+    for (e, (name, out)) in edges.into_iter().enumerate() {
+        let offsets: Vec<f64> = (0..4)
+            .map_while(|k| median(lines.iter().map(|l| f64::from(l[e][k])).collect()))
+            .take_while(|m| m.abs() >= BORDER_MIN_LEVELS)
+            .map(|m| (m * 10.0).round() / 10.0)
+            .collect();
+        if !offsets.is_empty() {
+            notes.push(format!(
+                "thermal.capture.{name} {offsets:?}: the footage's border lines (median offset from the line 8 px in over {} frames, at least {BORDER_MIN_LEVELS} levels)",
+                lines.len()
+            ));
+            *out = offsets;
+            found = true;
+        }
+    }
+    if let Some(m) = median(steps.clone())
+        && m > PRIOR_MIN_STEPS
+        && c.prior_dc_step == 0.0
+    {
+        notes.push(format!(
+            "the footage's block steps {m:.2} levels (median over {} frames) show an earlier 8×8 compression, not modelled: a base with thermal.capture.prior_dc_step set has it fitted",
+            steps.len()
+        ));
+    }
+    if found {
+        t.capture = Some(c);
+    }
+}
+
+/// The footage's median centre depth (levels) below which the first fit adds a
+/// narcissus: a scene's own structure (a horizon low in the frame, a cloud) moves the
+/// centre depth by a few levels either way from frame to frame.
+pub const NARCISSUS_MIN_LEVELS: f64 = 8.0;
+
+/// The first fit's narcissus (module docs): none when the base has one or the footage's
+/// median centre depth is above −[`NARCISSUS_MIN_LEVELS`].
+fn narcissus_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
+    let Some(t) = p.thermal.as_mut().filter(|t| t.narcissus.is_none()) else {
+        return;
+    };
+    let mut depths: Vec<f64> = (footage.per_frame.iter())
+        .filter_map(|f| f.centre_depth.map(f64::from))
+        .collect();
+    if depths.is_empty() {
+        return;
+    }
+    depths.sort_by(f64::total_cmp);
+    let m = depths[depths.len() / 2];
+    if m >= -NARCISSUS_MIN_LEVELS {
+        return;
+    }
+    let n = crate::preset::thermal::Narcissus {
+        depth_k: r3(-m / t.agc_max_gain),
+        ..Default::default()
+    };
+    notes.push(format!(
+        "thermal.narcissus depth_k {} K, radius {}: the footage's centre reads {m:.1} levels against the ring about it (median over {} frames), at the gain control's largest gain of {} levels a kelvin",
+        n.depth_k,
+        n.radius,
+        depths.len(),
+        t.agc_max_gain
+    ));
+    t.narcissus = Some(n);
+}
+
+/// The narcissus' depth × real / synthetic centre depth (at most ×2 or ÷2 a round)
+/// when it lies outside, both centres reading dark, and the preset has one.
+fn adjust_narcissus(
+    t: &mut crate::preset::thermal::Thermal,
+    report: &Report,
+    changes: &mut Vec<String>,
+) {
+    let Some(n) = t.narcissus.as_mut() else {
+        return;
+    };
+    let Some((v, real, m)) = stat(report, "centre_depth").filter(|s| outside(s.0)) else {
+        return;
+    };
+    if real >= 0.0 || m >= 0.0 {
+        return;
+    }
+    let d2 = r3(n.depth_k * (real / m).clamp(0.5, 2.0)).clamp(
+        -crate::preset::thermal::MAX_NARCISSUS_K,
+        crate::preset::thermal::MAX_NARCISSUS_K,
+    );
+    if d2 != n.depth_k {
+        changes.push(format!(
+            "thermal.narcissus depth_k {} → {d2} (centre depth {m:.2} {v} the real {real:.2})",
+            n.depth_k
+        ));
+        n.depth_k = d2;
+    }
+}
+
+/// The earlier compression's DC step × real / synthetic block steps (at most ×2 or ÷2 a
+/// round; ×2 when the synthetic frames show none), when they lie outside and the preset
+/// has one.
+fn adjust_prior(
+    t: &mut crate::preset::thermal::Thermal,
+    report: &Report,
+    changes: &mut Vec<String>,
+) {
+    let Some(c) = t.capture.as_mut().filter(|c| c.prior_dc_step > 0.0) else {
+        return;
+    };
+    let Some((v, real, m)) = stat(report, "block_steps").filter(|s| outside(s.0)) else {
+        return;
+    };
+    let k = if m > 0.01 {
+        (real / m).clamp(0.5, 2.0)
+    } else {
+        2.0
+    };
+    let d2 = r3((c.prior_dc_step * k).clamp(1.0, 255.0));
+    if d2 != c.prior_dc_step {
+        changes.push(format!(
+            "thermal.capture.prior_dc_step {} → {d2} (block steps {m:.3} {v} the real {real:.3})",
+            c.prior_dc_step
+        ));
+        c.prior_dc_step = d2;
+    }
 }
 
 /// (verdict, real median or share, synthetic median or share) of a statistic.
@@ -174,6 +349,8 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
             d.cold_share = c2;
         }
     }
+    adjust_prior(&mut t, report, &mut changes);
+    adjust_narcissus(&mut t, report, &mut changes);
     preset.thermal = Some(t);
     super::size_knots::adjust(preset, report, &mut changes);
     changes
@@ -234,6 +411,114 @@ mod tests {
         p.thermal.as_ref().expect("thermal").drone.cold_share
     }
 
+    /// A 96×96 grey sky after the gain control: a slope of 0.2 levels a pixel down and
+    /// 0.1 across, noise of σ ≈ 0.6 levels (a hash of `seed` and the pixel), rounded.
+    fn sky(seed: u64) -> Vec<u8> {
+        let n = 96;
+        let mut out = Vec::with_capacity(n * n * 4);
+        for i in 0..n * n {
+            let (x, y) = ((i % n) as f64, (i / n) as f64);
+            let h = crate::seed::mix64(seed.wrapping_mul(1 << 20) ^ i as u64);
+            let u = (h >> 11) as f64 / (1u64 << 53) as f64 + ((h & 0x7FF) as f64) / 2048.0;
+            let g = (70.0 + 0.1 * x + 0.2 * y + 0.85 * (u - 1.0)).round() as u8;
+            out.extend_from_slice(&[g, g, g, 255]);
+        }
+        out
+    }
+
+    /// The block steps of the skies through an earlier compression at DC step `dc`.
+    fn block_steps_at(skies: &[Vec<u8>], dc: f64) -> Vec<f64> {
+        let c = crate::preset::thermal::Capture {
+            prior_dc_step: dc,
+            prior_ac_step: 4.0,
+            ..Default::default()
+        };
+        let steps = |f: &Vec<u8>| {
+            let mut f = f.clone();
+            crate::sensor::thermal::capture::apply(&c, (96, 96), &mut f);
+            let grey: Vec<u8> = f.chunks_exact(4).map(|p| p[0]).collect();
+            crate::sensor::thermal::capture::block_steps(&grey, (96, 96), |_| false)
+        };
+        skies.iter().filter_map(steps).map(f64::from).collect()
+    }
+
+    /// A report whose only row is the block steps of `real` and `syn` frames.
+    fn steps_report(real: &[f64], syn: &[f64]) -> Report {
+        row_report("block_steps", real, syn)
+    }
+
+    /// A report whose only row is the frame statistic `key` of `real` and `syn` frames.
+    fn row_report(key: &'static str, real: &[f64], syn: &[f64]) -> Report {
+        let (r, s) = (
+            crate::gap::report::distribution(real),
+            crate::gap::report::distribution(syn),
+        );
+        let (lo, hi) = match r {
+            Some(Summary::Distribution { q25, q75, .. }) => (q25, q75),
+            _ => panic!("real frames measured"),
+        };
+        let m = stat_centre(s);
+        let verdict = if m < lo {
+            "below"
+        } else if m > hi {
+            "above"
+        } else {
+            "inside"
+        };
+        Report {
+            real: side(),
+            synthetic: side(),
+            statistics: vec![StatRow {
+                key,
+                name: key,
+                unit: "levels",
+                per: "frame",
+                real: r,
+                synthetic: s,
+                verdict,
+                iqr_distance: crate::gap::report::iqr_distance(r, s),
+                counted: false,
+            }],
+            proposals: Vec::new(),
+        }
+    }
+
+    fn stat_centre(s: Option<Summary>) -> f64 {
+        match s {
+            Some(Summary::Distribution { median, .. }) => median,
+            _ => f64::NAN,
+        }
+    }
+
+    #[test]
+    fn the_rounds_recover_a_known_earlier_compressions_dc_step() {
+        let skies: Vec<Vec<u8>> = (0..12).map(sky).collect();
+        let real = block_steps_at(&skies, 24.0);
+        let mut p = thermal_preset(0.05);
+        let capture = |p: &Preset| p.thermal.as_ref().and_then(|t| t.capture.clone());
+        let t = p.thermal.as_mut().expect("thermal");
+        t.capture = Some(crate::preset::thermal::Capture {
+            prior_dc_step: 8.0,
+            prior_ac_step: 4.0,
+            ..Default::default()
+        });
+        let mut log = Vec::new();
+        for _ in 0..6 {
+            let dc = capture(&p).expect("kept").prior_dc_step;
+            let syn = block_steps_at(&skies, dc);
+            log.extend(adjust(&mut p, &steps_report(&real, &syn)));
+        }
+        let dc = capture(&p).expect("kept").prior_dc_step;
+        assert!(
+            (dc / 24.0 - 1.0).abs() <= 0.25,
+            "DC step {dc} for 24: {log:?}"
+        );
+        // Without an earlier compression in the preset, nothing is added by the rounds.
+        let mut q = thermal_preset(0.05);
+        adjust(&mut q, &steps_report(&real, &block_steps_at(&skies, 0.0)));
+        assert!(capture(&q).is_none());
+    }
+
     #[test]
     fn footage_without_a_dark_drone_does_not_drive_the_cold_share_to_zero() {
         // 0 of 66 real drones darker, 1 of 96 synthetic: the plain shares (0 against
@@ -253,5 +538,61 @@ mod tests {
         let mut r = thermal_preset(0.0);
         adjust(&mut r, &darker((10, 60), (0, 96), "below"));
         assert!((cold_share(&r) - (11.0 / 62.0 - 1.0 / 98.0)).abs() < 1e-3);
+    }
+
+    /// Centre depths of frames of the fixed pattern (the preset's shading and the
+    /// narcissus of `depth_k`, seeds `seeds`) at a gain of 3 levels a kelvin: what the
+    /// gain control makes of a smooth sky, the sensor's plane measured as the report does.
+    fn centre_depths(depth_k: Option<f64>, seeds: std::ops::Range<u64>) -> Vec<f64> {
+        let mut t = thermal_preset(0.05).thermal.expect("thermal");
+        t.narcissus = depth_k.map(|depth_k| crate::preset::thermal::Narcissus {
+            depth_k,
+            ..Default::default()
+        });
+        let per_k = crate::sensor::thermal::radiance_per_kelvin(t.air_k);
+        let (w, h) = (160, 128);
+        seeds
+            .filter_map(|seed| {
+                let plane = crate::sensor::thermal::fixed_pattern(&t, seed, w, h);
+                let y = plane.iter().map(|v| 100.0 + 3.0 * v / per_k).collect();
+                let l = crate::gap::measure::Luma {
+                    width: w as usize,
+                    height: h as usize,
+                    y,
+                };
+                crate::gap::capture::centre_depth(&l, &[], None).map(f64::from)
+            })
+            .collect()
+    }
+
+    /// Frames with a 6 K narcissus: the rounds from a 2 K one recover it within 15 %; a
+    /// preset without one gets none from the rounds (the first fit adds it).
+    #[test]
+    fn the_rounds_recover_a_known_narcissus_depth() {
+        let real = centre_depths(Some(6.0), 0..16);
+        let mut p = thermal_preset(0.05);
+        let depth = |p: &Preset| {
+            p.thermal
+                .as_ref()
+                .and_then(|t| t.narcissus)
+                .map(|n| n.depth_k)
+        };
+        p.thermal.as_mut().expect("thermal").narcissus = Some(crate::preset::thermal::Narcissus {
+            depth_k: 2.0,
+            ..Default::default()
+        });
+        let mut log = Vec::new();
+        for round in 0..5 {
+            let syn = centre_depths(depth(&p), 100 * (round + 1)..100 * (round + 1) + 16);
+            log.extend(adjust(&mut p, &row_report("centre_depth", &real, &syn)));
+        }
+        let d = depth(&p).expect("kept");
+        assert!((d / 6.0 - 1.0).abs() <= 0.15, "depth {d} K for 6: {log:?}");
+        let mut q = thermal_preset(0.05);
+        adjust(
+            &mut q,
+            &row_report("centre_depth", &real, &centre_depths(None, 0..16)),
+        );
+        assert_eq!(depth(&q), None);
     }
 }

@@ -50,6 +50,7 @@
 //!   vegetation, ground, building: [`behind`]'s rules on its ring).
 
 pub mod behind;
+pub mod capture;
 mod error;
 pub mod folder;
 mod histogram;
@@ -96,6 +97,19 @@ pub struct FrameStats {
     pub blur_edges: usize,
     pub jpeg_quality: Option<u8>,
     pub drones: Vec<DroneMeasure>,
+    /// The block steps of an earlier 8×8 compression: the mean neighbour difference
+    /// across the 8-pixel grid's edges less that inside the blocks, levels
+    /// ([`crate::sensor::thermal::capture::block_steps`]; grey frames only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub block_steps: Option<f32>,
+    /// The capture's border lines on a grey frame ([`capture::edge_lines`]): each edge's
+    /// four outermost lines' level offsets from the line 8 further in.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_lines: Option<capture::EdgeLines>,
+    /// The narcissus' depth of a grey frame ([`capture::centre_depth`]): the centre
+    /// disc's median level less the ring's, levels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centre_depth: Option<f32>,
     /// Stroke pixels of a burnt-in overlay ([`overlay`]) left out of every statistic
     /// (absent when the frame has none).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -168,5 +182,10 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
             })
             .collect(),
         overlay_px: overlay.as_ref().map(|o| o.strokes),
+        block_steps: grey.then(|| capture::block_steps(&gray, mask)).flatten(),
+        edge_lines: grey.then(|| capture::edge_lines(&l)).flatten(),
+        centre_depth: grey
+            .then(|| capture::centre_depth(&l, boxes, mask))
+            .flatten(),
     }
 }

@@ -238,6 +238,20 @@ fn fitting_stats() -> Vec<Stat> {
         },
         Stat {
             counted: false,
+            key: "block_steps",
+            name: "block steps: neighbour difference across 8×8 edges − inside",
+            unit: "levels",
+            kind: Frame(|f| f.block_steps.map(f64::from)),
+        },
+        Stat {
+            counted: false,
+            key: "centre_depth",
+            name: "centre depth: centre − ring (narcissus)",
+            unit: "levels",
+            kind: Frame(|f| f.centre_depth.map(f64::from)),
+        },
+        Stat {
+            counted: false,
             key: "drone_box_px",
             name: "drone box size √(w·h)",
             unit: "px",

@@ -159,6 +159,113 @@ pub struct Thermal {
     /// written to preset.lock.ron, so datasets made before it resume.
     #[serde(skip_serializing_if = "is_eight")]
     pub bits: u8,
+    /// The capture chain after the camera (an earlier compression of the
+    /// video, the digitiser's border lines; `sensor::thermal::capture`).
+    /// Absent (the default): none, not written to preset.lock.ron.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub capture: Option<Capture>,
+    /// The optics' narcissus: a dark spot at the frame's centre, the same in
+    /// every frame (`sensor::thermal::narcissus`). Absent (the default):
+    /// none, not written to preset.lock.ron.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub narcissus: Option<Narcissus>,
+}
+
+/// The narcissus of a cooled thermal camera: the detector sees its own cold
+/// reflection in the lens surfaces, strongest on the optical axis, so the
+/// frame's centre reads colder than the scene by a spot of Gaussian profile.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Narcissus {
+    /// How much colder the centre reads, kelvin (negative: warmer).
+    pub depth_k: f64,
+    /// The spot's Gaussian σ, a share of half the frame's height.
+    pub radius: f64,
+}
+
+impl Default for Narcissus {
+    fn default() -> Self {
+        Self {
+            depth_k: 0.0,
+            radius: 0.45,
+        }
+    }
+}
+
+/// The largest narcissus depth, kelvin either way.
+pub const MAX_NARCISSUS_K: f64 = 100.0;
+
+impl Narcissus {
+    fn validate_into(&self, v: &mut Validator) {
+        let (d, r) = (self.depth_k, self.radius);
+        v.check(
+            d.is_finite() && d.abs() <= MAX_NARCISSUS_K,
+            "thermal.narcissus.depth_k",
+            || format!("{d} must be a depth in kelvin within ±{MAX_NARCISSUS_K}"),
+        );
+        v.check(
+            r.is_finite() && (0.01..=4.0).contains(&r),
+            "thermal.narcissus.radius",
+            || format!("{r} must be a share of half the frame's height in [0.01, 4]"),
+        );
+    }
+}
+
+/// The capture chain of a recorded thermal video between the camera's 8-bit
+/// frame and the written file: an earlier lossy compression (8×8 DCT
+/// quantisation, as an MPEG or JPEG recorder's), then the border lines the
+/// digitiser adds at the frame's edges (blanking lines). Each part is off
+/// at its default (0 or empty).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Capture {
+    /// The earlier compression's quantiser step for each 8×8 block's DC
+    /// coefficient, in JPEG's units (the DC is 8 × the block's mean: 8
+    /// keeps the mean in whole levels, MPEG-2's 8-bit DC precision); 0: no
+    /// earlier compression.
+    pub prior_dc_step: f64,
+    /// Its step for the other 63 coefficients (JPEG's units, the same for
+    /// all); 0: they are kept.
+    pub prior_ac_step: f64,
+    /// Level offsets of the rows from the top edge, row 0 first.
+    pub top_rows: Vec<f64>,
+    /// Level offsets of the rows from the bottom edge, the last row first.
+    pub bottom_rows: Vec<f64>,
+    /// Level offsets of the columns from the left edge, column 0 first.
+    pub left_columns: Vec<f64>,
+    /// Level offsets of the columns from the right edge, the last first.
+    pub right_columns: Vec<f64>,
+}
+
+/// The most border lines at each edge.
+pub const MAX_BORDER_LINES: usize = 16;
+
+impl Capture {
+    fn validate_into(&self, v: &mut Validator) {
+        for (field, x) in [
+            ("thermal.capture.prior_dc_step", self.prior_dc_step),
+            ("thermal.capture.prior_ac_step", self.prior_ac_step),
+        ] {
+            v.check(x.is_finite() && (0.0..=255.0).contains(&x), field, || {
+                format!("{x} must be a quantiser step in [0, 255]")
+            });
+        }
+        for (field, lines) in [
+            ("thermal.capture.top_rows", &self.top_rows),
+            ("thermal.capture.bottom_rows", &self.bottom_rows),
+            ("thermal.capture.left_columns", &self.left_columns),
+            ("thermal.capture.right_columns", &self.right_columns),
+        ] {
+            v.check(lines.len() <= MAX_BORDER_LINES, field, || {
+                format!("{} lines: at most {MAX_BORDER_LINES}", lines.len())
+            });
+            if let Some(x) = lines.iter().find(|x| !(x.is_finite() && x.abs() <= 255.0)) {
+                v.check(false, field, || {
+                    format!("{x} must be a level offset in [−255, 255]")
+                });
+            }
+        }
+    }
 }
 
 fn is_eight(bits: &u8) -> bool {
@@ -186,6 +293,8 @@ impl Default for Thermal {
             agc_max_gain: 4.0,
             agc_mid_level: 110.0,
             bits: 8,
+            capture: None,
+            narcissus: None,
         }
     }
 }
@@ -246,6 +355,15 @@ impl Thermal {
         v.check(self.bits == 8 || self.bits == 16, "thermal.bits", || {
             format!("{} must be 8 or 16", self.bits)
         });
+        if let Some(c) = &self.capture {
+            c.validate_into(v);
+            v.check(self.bits == 8, "thermal.capture", || {
+                "works on 8-bit frames: set thermal.bits to 8".into()
+            });
+        }
+        if let Some(n) = &self.narcissus {
+            n.validate_into(v);
+        }
         let (lo, hi) = self.agc_percentiles;
         v.check(
             lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo < hi && hi <= 100.0,

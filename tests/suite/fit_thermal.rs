@@ -1,6 +1,8 @@
 //! `swarmshot fit` with a thermal base (src/fit/thermal.rs): from frames swarmshot rendered
 //! with a known thermal camera, the fit (through the library, as the CLI runs it) recovers
-//! the camera's NETD and blur starting from presets/thermal.ron's; no plates are written.
+//! the camera's NETD and blur starting from presets/thermal.ron's; no plates are written;
+//! the first fit finds the border lines and the narcissus of frames rendered with them,
+//! and none in frames without.
 
 use crate::common;
 
@@ -71,6 +73,16 @@ fn fit_recovers_a_known_thermal_cameras_netd_and_blur() {
         fitted.camera_model.is_none(),
         "no visible camera model on a thermal preset"
     );
+    assert!(
+        f.capture.is_none(),
+        "no border lines in these frames: {:?}",
+        f.capture
+    );
+    assert!(
+        f.narcissus.is_none(),
+        "no narcissus in these frames: {:?}",
+        f.narcissus
+    );
     let start = shipped().thermal.expect("thermal");
     // NETD within 15 % of the truth (the start is 67 % above it; measured: 44.3 mK for
     // 43.2); blur within 0.15 px (the start is 0.5 px below it; measured: 0.968 for 1.0).
@@ -89,5 +101,54 @@ fn fit_recovers_a_known_thermal_cameras_netd_and_blur() {
         t.blur_px,
         start.blur_px
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_first_fit_finds_the_capture_chains_border_lines() {
+    let dir = tmp("capture");
+    let real = dir.join("real");
+    let mut truth = shipped();
+    truth.seed = 78;
+    let c = swarmshot::preset::thermal::Capture {
+        prior_dc_step: 24.0,
+        prior_ac_step: 4.0,
+        top_rows: vec![-50.0, -30.0],
+        left_columns: vec![25.0],
+        ..Default::default()
+    };
+    let t = truth.thermal.as_mut().expect("thermal");
+    t.capture = Some(c);
+    t.narcissus = Some(swarmshot::preset::thermal::Narcissus {
+        depth_k: 8.0,
+        ..Default::default()
+    });
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(truth).expect("valid preset");
+    let mut options = BatchOptions::new(&real);
+    options.limit = Some(8);
+    run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
+    let mut fit = swarmshot::fit::FitOptions::new(&real, dir.join("fit"));
+    fit.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    let prep = swarmshot::fit::prepare(&fit).expect("the thermal base is accepted");
+    let t = prep.fitted.preset.thermal.as_ref().expect("thermal");
+    let got = t.capture.as_ref().expect("a capture chain fitted");
+    // The lines' offsets within 2 levels (the line 8 px in is the reference: the sky
+    // changes by a level or so over 8 px); no lines where there are none.
+    let near = |a: &[f64], b: &[f64]| {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 2.0)
+    };
+    assert!(near(&got.top_rows, &[-50.0, -30.0]), "{got:?}");
+    assert!(near(&got.left_columns, &[25.0]), "{got:?}");
+    assert!(
+        got.bottom_rows.is_empty() && got.right_columns.is_empty(),
+        "{got:?}"
+    );
+    // The earlier compression is the base's (none here): the rounds fit its step.
+    assert_eq!(got.prior_dc_step, 0.0, "{got:?}");
+    // The narcissus: found, its depth read at the gain control's largest gain, within
+    // half of the truth's 8 K (the rounds fit it: src/fit/thermal.rs's tests).
+    let n = t.narcissus.expect("a narcissus fitted");
+    assert!((n.depth_k - 8.0).abs() <= 4.0, "{n:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }

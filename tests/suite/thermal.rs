@@ -3,7 +3,9 @@
 //! cold ones darker than it: `cold_share`), the sky warming towards the
 //! horizon, the gain control's range, labels equal to the visible render's,
 //! determinism, 16-bit grey PNG frames, rain and snow in the radiance with
-//! labels against the drone-free radiance under the same particles
+//! labels against the drone-free radiance under the same particles, the
+//! recording's capture chain and the optics' narcissus changing the picture
+//! and not the labels
 //! (lavapipe).
 
 use crate::common;
@@ -533,4 +535,82 @@ fn motors_battery_and_rotors_are_their_own_parts_and_the_labels_unchanged() {
         labels.iter().all(|l| *l == labels[0]),
         "labels as without parts"
     );
+}
+
+/// The recording's capture chain of the Anti-UAV frames (docs/realism.md, "The capture
+/// chain"): an earlier compression and blanking lines at the top and left.
+fn capture(prior: bool, border: bool) -> swarmshot::preset::thermal::Capture {
+    let mut c = swarmshot::preset::thermal::Capture::default();
+    if prior {
+        (c.prior_dc_step, c.prior_ac_step) = (16.0, 4.0);
+    }
+    if border {
+        (c.top_rows, c.left_columns) = (vec![-50.0, -30.0], vec![25.0]);
+    }
+    c
+}
+
+fn with_capture(mut p: Preset, c: swarmshot::preset::thermal::Capture) -> Preset {
+    p.thermal.as_mut().expect("thermal").capture = Some(c);
+    p
+}
+
+#[test]
+fn the_capture_chain_changes_the_picture_not_the_labels() {
+    let boxes = |f: &Frame| -> Vec<_> {
+        (f.labels.iter())
+            .map(|l| (l.drone, l.bbox, l.status, l.visibility))
+            .collect()
+    };
+    let snow = thermal_weather(swarmshot::preset::weather::Weather {
+        intensity_per_m3: (40.0, 40.0),
+        ..swarmshot::preset::weather::Weather::snow()
+    });
+    for (p, index) in [(thermal_preset(), 3), (snow, 1)] {
+        let plain = make(&p, index);
+        let prior = make(&with_capture(p.clone(), capture(true, false)), index);
+        let both = make(&with_capture(p.clone(), capture(true, true)), index);
+        let mut dark = p.clone();
+        dark.thermal.as_mut().expect("thermal").narcissus =
+            Some(swarmshot::preset::thermal::Narcissus {
+                depth_k: 8.0,
+                ..Default::default()
+            });
+        let dark = make(&dark, index);
+        assert!(!plain.labels.is_empty(), "frame {index} shows a drone");
+        assert_eq!(
+            boxes(&both),
+            boxes(&plain),
+            "frame {index}: labels unchanged"
+        );
+        assert_eq!(
+            boxes(&dark),
+            boxes(&plain),
+            "frame {index}: narcissus, labels unchanged"
+        );
+        assert_ne!(dark.rgba, plain.rgba, "the narcissus shows");
+        assert_ne!(prior.rgba, plain.rgba, "the earlier compression shows");
+        // The border lines move their rows and column by their offsets, and nothing
+        // else.
+        let w = plain.scene.camera.width;
+        for (i, (a, b)) in prior
+            .rgba
+            .chunks_exact(4)
+            .zip(both.rgba.chunks_exact(4))
+            .enumerate()
+        {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            // Rows first, then columns, each line's move clamped to 0–255 (a corner
+            // pixel dark enough for its row's line stays at 0 before its column's).
+            let step = |v: f64, off: f64| (v + off).round().clamp(0.0, 255.0);
+            let mut want = f64::from(a[0]);
+            if let Some(&off) = [-50.0, -30.0].get(y as usize) {
+                want = step(want, off);
+            }
+            if x == 0 {
+                want = step(want, 25.0);
+            }
+            assert_eq!(b[..3], [want as u8; 3], "({x}, {y})");
+        }
+    }
 }

@@ -22,6 +22,11 @@
 //!   the drone-free one: the hits (masks) and the visibility kept are the
 //!   pixels whose radiance the drone still changes.
 //!
+//! The developed 8-bit frame then goes through the recording's capture
+//! chain when the preset asks (`thermal.capture`: an earlier compression,
+//! border lines; [`crate::sensor::thermal::capture`]); the labels are the
+//! id pass's, so the chain changes no label.
+//!
 //! Each thread keeps its planes from frame to frame (a thread-local
 //! [`Scratch`]).
 
@@ -95,6 +100,9 @@ impl FramePipeline {
             };
             thermal::develop_into(t, (w, h), (pattern, key), scratch, to);
         });
+        if let Some(c) = &t.capture {
+            thermal::capture::apply(c, (w, h), &mut out);
+        }
         if let Some(g) = &grey16 {
             thermal::grey16_to_rgba(g, &mut out);
         }

@@ -18,7 +18,9 @@
 //! capped at `agc_max_gain` levels per kelvin, their middle at
 //! `agc_mid_level`. The per-pixel loops run built for AVX-512 or AVX2
 //! where the CPU has it (`simd_fn!`: the same operations, so the same bits)
-//! and in bands of rows on rayon's threads. It knows the preset's `thermal`
+//! and in bands of rows on rayon's threads. [`capture`] is the recording's
+//! chain after the camera (an earlier compression, border lines), off
+//! unless a preset asks. It knows the preset's `thermal`
 //! section and seeds, nothing of scenes, the GPU or files.
 
 use std::sync::OnceLock;
@@ -66,7 +68,9 @@ macro_rules! simd_fn {
     };
 }
 
+pub mod capture;
 mod develop;
+mod narcissus;
 mod sky_plane;
 
 pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
@@ -210,7 +214,8 @@ impl SkyTable {
 
 /// The fixed pattern of a `w`×`h` sensor in radiance units: per-pixel and
 /// per-column offsets (σ `fixed_pattern_mk` each, split 3:1 in variance)
-/// and the radial shading (`shading_k` at the corners, ∝ ρ²), from
+/// and the radial shading (`shading_k` at the corners, ∝ ρ²), less the
+/// narcissus' spot when the preset has one ([`narcissus`]), from
 /// `preset_seed` alone.
 pub fn fixed_pattern(t: &Thermal, preset_seed: u64, w: u32, h: u32) -> Vec<f32> {
     let per_k = radiance_per_kelvin(t.air_k);
@@ -232,6 +237,9 @@ pub fn fixed_pattern(t: &Thermal, preset_seed: u64, w: u32, h: u32) -> Vec<f32> 
             let rho2 = (dx * dx + dy * dy) * inv_r2;
             out.push(col + pixel_sd * deviate(key.bits(i)) + shading * rho2);
         }
+    }
+    if let Some(n) = &t.narcissus {
+        narcissus::subtract(n, per_k, (w, h), &mut out);
     }
     out
 }
