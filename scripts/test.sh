@@ -24,11 +24,9 @@ export SWARMSHOT_REQUIRE_SLURM=1
 # The library, binaries and tests (the examples are compiled by clippy above; linking
 # twelve benchmark binaries here would only cost CI time; the crate has no doctests).
 cargo test --locked --no-fail-fast --lib --bins --tests
-# The headless CLI (no egui, eframe, winit, rfd, zbus, open; docs/scale.md): its dependency
-# tree, then the binary, built with the dependencies compiled above, runs the Slurm test
-# as on a cluster node.
+# The headless CLI (no egui, eframe, winit, rfd, zbus, open; docs/scale.md): clippy has compiled
+# and linted it above (--no-default-features); its dependency tree must hold none of the app's crates.
 if cargo tree --locked --no-default-features -e normal | grep -E 'egui|eframe|winit|rfd|zbus| open v'; then
   echo "test.sh: the headless build (--no-default-features) pulls in the crates above" >&2
   exit 1
 fi
-cargo test --locked --no-default-features --test slurm
