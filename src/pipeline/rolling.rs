@@ -18,7 +18,7 @@
 //! error). The amodal box is of the hull with each point at its own row's
 //! time (a fixed-point iteration on the row it lands on).
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use crate::annotate::PixelBox;
 use crate::annotate::flow::{
@@ -31,7 +31,8 @@ use crate::scene::math::slerp;
 use crate::scene::projection::LabelGeometry;
 use crate::scene::{DronePose, FrameError, FrameScene, build_frame_at};
 use crate::sensor::PixelRect;
-use crate::sensor::rolling::{Shear, shear, turn_background};
+use crate::sensor::pool::Picture;
+use crate::sensor::rolling::{Shear, shear, shear_over, turn_background_twice};
 
 use super::streaks;
 
@@ -162,35 +163,43 @@ impl Shutter {
         })
     }
 
+    /// Where row y's pixels take the drone-free background from: row y's
+    /// camera once, then its knots' rotation flow.
+    fn row_sources(&self) -> impl Fn(f64, &[f64], &mut [(f64, f64)]) + Sync + '_ {
+        move |y: f64, xs: &[f64], out: &mut [(f64, f64)]| {
+            let cam = self.camera_at(self.clock.time_at(y, self.camera.height));
+            BackgroundFlow::new(&cam, &self.camera).row_sources(y, xs, out);
+        }
+    }
+
     /// The drone-free frame under the shutter: `background` through each
     /// row's rotation homography (`None` when the camera holds still: the
-    /// rendered one is it).
-    pub fn turned(&self, background: &[u8]) -> Option<Vec<u8>> {
+    /// rendered one is it); [`Self::apply`] makes it with its copy.
+    #[cfg(test)]
+    fn turned(&self, background: &[u8]) -> Option<Picture> {
         if self.clock.yaw_rad_s == 0.0 {
             return None;
         }
         let size = (self.camera.width, self.camera.height);
-        // Row y's camera once, then its knots' rotation flow.
-        let source = |y: f64, xs: &[f64], out: &mut [(f64, f64)]| {
-            let cam = self.camera_at(self.clock.time_at(y, self.camera.height));
-            let flow = BackgroundFlow::new(&cam, &self.camera);
-            for (o, &x) in out.iter_mut().zip(xs) {
-                let f = flow.at(DVec2::new(x, y));
-                *o = f.map_or((x, y), |f| (x + f.x, y + f.y));
-            }
-        };
-        Some(turn_background(background, size, &source))
+        let sources = self.row_sources();
+        Some(crate::sensor::rolling::turn_background(
+            background, size, &sources,
+        ))
     }
 
     /// The shuttered picture of `frame` over the shuttered drone-free frame,
     /// and that drone-free frame when it is not `background` itself (the
     /// camera turns). All RGBA8.
-    pub fn apply(&self, frame: &[u8], background: &[u8]) -> (Vec<u8>, Option<Vec<u8>>) {
-        let turned = self.turned(background);
+    pub fn apply(&self, frame: &[u8], background: &[u8]) -> Shuttered {
         let size = (self.camera.width, self.camera.height);
         let shears: Vec<Shear> = self.shears.iter().flatten().cloned().collect();
-        let under = turned.as_deref().unwrap_or(background);
-        (shear(frame, background, under, size, &shears), turned)
+        if self.clock.yaw_rad_s == 0.0 {
+            return (shear(frame, background, background, size, &shears), None);
+        }
+        // The turned frame and its copy made together; the drones drawn over the copy.
+        let (turned, mut out) = turn_background_twice(background, size, &self.row_sources());
+        shear_over(&mut out, frame, background, size, &shears);
+        (out, Some(turned))
     }
 
     /// Drone `i`'s amodal box: each hull point where it is imaged at the
@@ -227,7 +236,7 @@ impl Shutter {
 }
 
 /// The shuttered picture and, when the camera turns, its drone-free frame.
-pub(super) type Shuttered = (Vec<u8>, Option<Vec<u8>>);
+pub type Shuttered = (Picture, Option<Picture>);
 
 /// Frame `index`'s rendered `frame` and drone-free `background` under
 /// `shutter` ([`Shutter::apply`]); `None` without a shutter. The shutter

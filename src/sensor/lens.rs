@@ -25,6 +25,8 @@ use crate::preset::lens::Lens;
 
 mod kernel;
 mod map;
+#[cfg(target_arch = "x86_64")]
+mod newton;
 pub use map::{LensMap, Lensed};
 
 /// A frame's drawn lens coefficients.
@@ -235,9 +237,18 @@ impl LensGeometry {
     }
 
     /// [`Self::inverse_n`] of four points at once: each point's steps are
-    /// its own (the same values), taken in turn so that the CPU overlaps
-    /// the four chains of dependent divisions.
+    /// its own (the same values), in AVX2 lanes for a Brown–Conrady draw
+    /// (`lens/newton.rs`), else taken in turn so that the CPU overlaps the
+    /// four chains of dependent divisions.
     fn inverse_n4(&self, d: [(f64, f64); 4]) -> [(f64, f64); 4] {
+        #[cfg(target_arch = "x86_64")]
+        if super::simd::simd_level() >= 1 {
+            // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            if let Some(p) = unsafe { self.inverse_n4_avx2(d) } {
+                return p;
+            }
+        }
         let mut p = d;
         let mut live = [true; 4];
         for _ in 0..NEWTON_STEPS {
@@ -472,11 +483,17 @@ mod tests {
             fisheye,
         ] {
             let geo = LensGeometry::new(d, 640, 360, 300.0).expect("a lens");
+            // A line across the fold radius, and a grid over the picture and
+            // past its edges (the AVX2 lanes and their scalar steps).
             let points: Vec<(f64, f64)> = (0..23)
                 .map(|i| {
                     let t = f64::from(i);
                     (-900.0 + 97.3 * t, 180.0 - 61.7 * t + (t * 1.3).sin() * 40.0)
                 })
+                .chain((0..41 * 25).map(|i| {
+                    let (x, y) = (f64::from(i % 41), f64::from(i / 41));
+                    (-80.0 + 20.0 * x + 0.37 * y, -60.0 + 20.0 * y - 0.21 * x)
+                }))
                 .collect();
             let one: Vec<(f64, f64)> = points.iter().map(|&p| geo.inverse(p)).collect();
             let bits = |v: &[(f64, f64)]| -> Vec<(u64, u64)> {

@@ -54,6 +54,7 @@ mod grid;
 pub mod lens;
 pub mod motion;
 mod noise;
+pub mod pool;
 mod psf;
 #[cfg(test)]
 mod reference;

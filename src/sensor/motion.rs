@@ -174,6 +174,33 @@ impl Difference {
         let bottom = at(i0, j0 + 1.0) + (at(i0 + 1.0, j0 + 1.0) - at(i0, j0 + 1.0)) * fx;
         top + (bottom - top) * fy
     }
+
+    /// The three channels of D at image point (`x`, `y`): [`Self::sample`]'s
+    /// values, the taps and weights found once.
+    pub(super) fn sample_rgb(&self, x: f64, y: f64) -> [f32; 3] {
+        let (u, v) = (
+            x - 0.5 - f64::from(self.rect.x0),
+            y - 0.5 - f64::from(self.rect.y0),
+        );
+        let (i0, j0) = (u.floor(), v.floor());
+        let (fx, fy) = ((u - i0) as f32, (v - j0) as f32);
+        let at = |i: f64, j: f64| -> Option<usize> {
+            let outside = i < 0.0 || j < 0.0 || i >= self.w as f64 || j >= self.h as f64;
+            (!outside).then(|| (j as usize * self.w + i as usize) * 3)
+        };
+        let taps = [
+            at(i0, j0),
+            at(i0 + 1.0, j0),
+            at(i0, j0 + 1.0),
+            at(i0 + 1.0, j0 + 1.0),
+        ];
+        std::array::from_fn(|c| {
+            let d = |t: Option<usize>| t.map_or(0.0, |o| self.d[o + c]);
+            let top = d(taps[0]) + (d(taps[1]) - d(taps[0])) * fx;
+            let bottom = d(taps[2]) + (d(taps[3]) - d(taps[2])) * fx;
+            top + (bottom - top) * fy
+        })
+    }
 }
 
 /// The streaks' summed contributions over the bounding box of every swept

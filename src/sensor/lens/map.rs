@@ -27,8 +27,9 @@ const GRID: u32 = 16;
 pub struct LensMap {
     width: u32,
     height: u32,
-    /// Per grid row, the source's u and v at every column.
-    along: Vec<[Vec<f64>; 2]>,
+    /// Per grid row, the source's u at every column, then its v (a
+    /// buffer from [`ALONG`], given back when the map is dropped).
+    along: Vec<f64>,
     /// Every pixel's taps, tabulated once a map is used a second time (a
     /// fixed draw: read back beats mixing again; a new draw never stores them).
     taps: OnceLock<Vec<Tap>>,
@@ -71,18 +72,41 @@ fn mix(rows: [&[f64]; 4], k: [f64; 4], out: &mut [f64]) {
 }
 
 /// One grid row's nodes (`nodes`, one value each) mixed at every column
-/// of `cols` ([`stencil`]'s first node and weights): the four-node sum in
-/// the order of [`mix`], from a plain slice (a missing node reads 0).
-fn mix_along(nodes: &[f64], cols: &[(usize, [f64; 4])]) -> Vec<f64> {
-    (cols.iter())
-        .map(|&(c, k)| match nodes.get(c..c + 4) {
-            Some(&[a, b, c, d]) => k[0] * a + k[1] * b + k[2] * c + k[3] * d,
-            _ => {
-                let n = |i: usize| nodes.get(c + i).copied().unwrap_or(0.0);
-                k[0] * n(0) + k[1] * n(1) + k[2] * n(2) + k[3] * n(3)
-            }
-        })
-        .collect()
+/// of `out` ([`stencil`]'s first node and weights): the four-node sum in
+/// the order of [`mix`], a grid cell's columns at a time with the cell's
+/// four nodes (`GRID` columns share them; their weights are those of the
+/// column's place in the cell), a missing node read as 0.
+#[inline(always)]
+fn mix_along(nodes: &[f64], weights: &[[f64; GRID as usize]; 4], out: &mut [f64]) {
+    for (c, cell) in out.chunks_mut(GRID as usize).enumerate() {
+        let [a, b, cc, d] = match nodes.get(c..c + 4) {
+            Some(&[a, b, cc, d]) => [a, b, cc, d],
+            _ => std::array::from_fn(|i| nodes.get(c + i).copied().unwrap_or(0.0)),
+        };
+        let [k0, k1, k2, k3] = weights;
+        for (t, o) in cell.iter_mut().enumerate() {
+            *o = k0[t] * a + k1[t] * b + k2[t] * cc + k3[t] * d;
+        }
+    }
+}
+
+/// [`lagrange`]'s weights at each column of a grid cell, weight by weight.
+fn cell_weights() -> [[f64; GRID as usize]; 4] {
+    let k: [[f64; 4]; GRID as usize] = std::array::from_fn(|t| stencil(t as u32).1);
+    std::array::from_fn(|i| std::array::from_fn(|t| k[t][i]))
+}
+
+/// The spare buffers of dropped maps' grid rows (at most 2).
+static ALONG: Mutex<Vec<Vec<f64>>> = Mutex::new(Vec::new());
+
+impl Drop for LensMap {
+    fn drop(&mut self) {
+        if let Ok(mut spare) = ALONG.lock()
+            && spare.len() < 2
+        {
+            spare.push(std::mem::take(&mut self.along));
+        }
+    }
 }
 
 impl LensMap {
@@ -111,23 +135,46 @@ impl LensMap {
         let (w, h) = (geo.width, geo.height);
         let (nx, ny) = (node_count(w), node_count(h));
         let at = |k: usize| (k as f64 - 1.0) * f64::from(GRID) + 0.5;
-        let cols: Vec<(usize, [f64; 4])> = (0..w).map(stencil).collect();
-        let along = (0..ny)
-            .into_par_iter()
-            .map(|j| {
+        let weights = cell_weights();
+        // A dropped map's buffer where there is one (every value is written):
+        // a fresh one would be zeroed and faulted in anew each draw.
+        let mut along = ALONG
+            .lock()
+            .ok()
+            .and_then(|mut s| s.pop())
+            .unwrap_or_default();
+        along.resize(ny * 2 * w as usize, 0.0);
+        along
+            .par_chunks_mut(2 * w as usize)
+            .enumerate()
+            .for_each(|(j, planes)| {
                 let row: Vec<(f64, f64)> = (0..nx).map(|i| (at(i), at(j))).collect();
                 let nodes = geo.inverse_all(&row);
-                let us: Vec<f64> = nodes.iter().map(|p| p.0).collect();
-                let vs: Vec<f64> = nodes.iter().map(|p| p.1).collect();
-                [mix_along(&us, &cols), mix_along(&vs, &cols)]
-            })
-            .collect();
+                let (us, vs) = planes.split_at_mut(w as usize);
+                super::super::simd::widest(
+                    #[inline(always)]
+                    || {
+                        mix_along(&nodes.iter().map(|p| p.0).collect::<Vec<_>>(), &weights, us);
+                        mix_along(&nodes.iter().map(|p| p.1).collect::<Vec<_>>(), &weights, vs);
+                    },
+                );
+            });
         Self {
             width: w,
             height: h,
             along,
             taps: OnceLock::new(),
         }
+    }
+
+    /// Grid row `r`'s plane `p` (0: u, 1: v) at columns `xs` (empty
+    /// where the map has none).
+    fn along(&self, r: usize, p: usize, xs: Range<usize>) -> &[f64] {
+        let w = self.width as usize;
+        let at = (2 * r + p) * w;
+        (self.along.get(at..at + w))
+            .and_then(|row| row.get(xs))
+            .unwrap_or(&[])
     }
 
     /// Every pixel's taps, row by row (rows on rayon's threads).
@@ -151,11 +198,8 @@ impl LensMap {
         s.vs.resize(n, 0.0);
         s.taps.resize(n, Tap(0));
         let (r, k) = stencil(y);
-        let plane = |p: usize| -> [&[f64]; 4] {
-            std::array::from_fn(|i| {
-                (self.along.get(r + i)).map_or(&[][..], |a| a[p].get(xs.clone()).unwrap_or(&[]))
-            })
-        };
+        let plane =
+            |p: usize| -> [&[f64]; 4] { std::array::from_fn(|i| self.along(r + i, p, xs.clone())) };
         let (w, h) = (self.width, self.height);
         let Scratch { us, vs, taps } = s;
         super::super::simd::widest(
@@ -178,7 +222,7 @@ impl LensMap {
         }
         let (x, y) = (i % w, (i / w) as u32);
         let (r, k) = stencil(y);
-        let at = |p: usize, j: usize| self.along.get(r + j).and_then(|a| a[p].get(x).copied());
+        let at = |p: usize, j: usize| self.along(r + j, p, x..x + 1).first().copied();
         let mixed = |p: usize| {
             Some(k[0] * at(p, 0)? + k[1] * at(p, 1)? + k[2] * at(p, 2)? + k[3] * at(p, 3)?)
         };
@@ -240,11 +284,10 @@ impl LensMap {
         );
         let mut out = Lensed::take(n * 4);
         if src.len() < n * 4 || w < 2 || self.height < 2 {
-            out.0.fill(0);
+            out.fill(0);
             return out;
         }
-        out.0
-            .par_chunks_mut(w * 4)
+        out.par_chunks_mut(w * 4)
             .enumerate()
             .for_each_init(Scratch::default, |s, (y, row)| match self.taps.get() {
                 Some(taps) => remap_row(src, w, &taps[y * w..(y + 1) * w], row),
@@ -290,40 +333,7 @@ struct Scratch {
 
 /// A picture resampled through the lens (RGBA8): its buffer returns to a
 /// pool of a few when dropped, for the next frame's picture.
-#[derive(Debug)]
-pub struct Lensed(Vec<u8>);
-
-/// The spare pictures' buffers (at most [`SPARE`]).
-static POOL: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
-const SPARE: usize = 4;
-
-impl Lensed {
-    /// A buffer of `n` bytes, from the pool where it has one (its bytes
-    /// whatever they were: every one is written).
-    fn take(n: usize) -> Self {
-        let spare = POOL.lock().ok().and_then(|mut p| p.pop());
-        let mut buf = spare.unwrap_or_default();
-        buf.resize(n, 0);
-        Self(buf)
-    }
-}
-
-impl std::ops::Deref for Lensed {
-    type Target = [u8];
-    fn deref(&self) -> &[u8] {
-        &self.0
-    }
-}
-
-impl Drop for Lensed {
-    fn drop(&mut self) {
-        if let Ok(mut pool) = POOL.lock()
-            && pool.len() < SPARE
-        {
-            pool.push(std::mem::take(&mut self.0));
-        }
-    }
-}
+pub type Lensed = crate::sensor::pool::Picture;
 
 #[cfg(test)]
 mod tests {
@@ -355,6 +365,27 @@ mod tests {
             }
             // The taps round to 1/1024 px (≤ 0.0007 px); the grid adds the rest.
             assert!(worst < 0.01, "{d:?}: {worst} px");
+        }
+    }
+
+    /// A grid row mixed a cell at a time is the per-column four-node sum
+    /// of each column's stencil, bit for bit (a width that is not a
+    /// multiple of the cell, and nodes past the last read as 0).
+    #[test]
+    fn a_grid_row_mixed_by_cells_is_each_columns_stencil_sum() {
+        let nodes: Vec<f64> = (0..17)
+            .map(|i| (f64::from(i) * 1.37).sin() * 900.0)
+            .collect();
+        let weights = cell_weights();
+        for w in [197u32, 250] {
+            let mut out = vec![f64::NAN; w as usize];
+            mix_along(&nodes, &weights, &mut out);
+            for (x, &got) in (0..w).zip(&out) {
+                let (c, k) = stencil(x);
+                let n = |i: usize| nodes.get(c + i).copied().unwrap_or(0.0);
+                let want = k[0] * n(0) + k[1] * n(1) + k[2] * n(2) + k[3] * n(3);
+                assert_eq!(got.to_bits(), want.to_bits(), "column {x} of {w}");
+            }
         }
     }
 

@@ -251,10 +251,21 @@ fn blur_column(
     // Tap by tap along whole rows: measured faster here than the row
     // pass's blocks in registers (each tap of a block is another row).
     let r = k.len() / 2;
-    dst.fill(0.0);
-    for (j, kv) in k.iter().enumerate() {
+    let source = |j: usize| {
         let sy = (y + j).saturating_sub(r).min(h - 1) - first;
-        for (o, s) in dst.iter_mut().zip(&rows[sy * w..(sy + 1) * w]) {
+        &rows[sy * w..(sy + 1) * w]
+    };
+    // The first tap written, not added to a zeroed row: 0 + k·s is the sum
+    // from zero (−0 included), without a pass clearing the row first.
+    let Some((&k0, rest)) = k.split_first() else {
+        dst.fill(0.0);
+        return;
+    };
+    for (o, s) in dst.iter_mut().zip(source(0)) {
+        *o = 0.0 + k0 * s;
+    }
+    for (j, kv) in (1..).zip(rest) {
+        for (o, s) in dst.iter_mut().zip(source(j)) {
             *o += kv * s;
         }
     }
