@@ -73,7 +73,12 @@ pub fn centre_depth(l: &Luma, boxes: &[PixelBox], overlay: Option<OverlayMask>) 
     let (mut disc, mut ring) = (Vec::new(), Vec::new());
     for y in 0..h {
         let dy = (y as f64 + 0.5 - cy) / half;
-        for x in 0..w {
+        // Only the columns within the ring's outer radius (one pixel's margin): every
+        // pixel outside them has r beyond the ring; those inside are tested as they are.
+        let reach = (CENTRE_RING.1 * CENTRE_RING.1 - dy * dy).max(0.0).sqrt() * half + 1.0;
+        let x0 = (cx - reach).floor().max(0.0) as usize;
+        let x1 = ((cx + reach).ceil().max(0.0) as usize).min(w);
+        for x in x0..x1 {
             let i = y * w + x;
             let dx = (x as f64 + 0.5 - cx) / half;
             let r = (dx * dx + dy * dy).sqrt();
