@@ -151,6 +151,34 @@ fn runs_and_windows_are_their_taps_and_their_kernels_give_the_scalar_bytes() {
     assert!(windows > 300, "{windows} window blocks");
 }
 
+/// A whole segment's run test in `i32` ([`Row::run32`], the row loop's)
+/// is [`Row::run`]'s in `i64`, for knots KNOT_PX apart anywhere on and
+/// off the image, steps from a pan's to a stretched one's.
+#[test]
+fn a_whole_segments_run_in_i32_is_the_run() {
+    let (w, h) = (90u32, 50u32);
+    let src = vec![0u8; (w * h * 4) as usize];
+    let row = Row {
+        src: &src,
+        size: (w, h),
+    };
+    let mut runs = 0;
+    for k in 0..20_000 {
+        let k = f64::from(k);
+        let a = ((k * 7.31) % 130.0 - 20.0, (k * 3.17) % 70.0 - 10.0);
+        let b = (
+            a.0 + 32.0 * (1.0 + ((k * 0.37) % 1.0 - 0.5) * 0.1),
+            a.1 + ((k * 0.61) % 1.0 - 0.5) * [0.05, 3.0][k as usize % 2],
+        );
+        let (a, b) = ((fixed(a.0), fixed(a.1)), (fixed(b.0), fixed(b.1)));
+        let step = (div_knot(b.0 - a.0), div_knot(b.1 - a.1));
+        let want = row.run(a, step, KNOT_PX as usize);
+        assert_eq!(row.run32(a, step), want, "segment {k}");
+        runs += usize::from(want.is_some());
+    }
+    assert!((1000..19_000).contains(&runs), "{runs} runs");
+}
+
 /// A whole row through [`Row::resample`] (AVX2 where the CPU has it) is
 /// pixel by pixel [`Row::pixel`] of each segment, for a pan's knots, a
 /// stretched row and one that leaves the image.
@@ -162,8 +190,13 @@ fn a_resampled_row_is_its_segments_scalar_pixels() {
         src: &src,
         size: (w, h),
     };
+    // The knots every KNOT_PX columns, and with one moved a column (its
+    // segments and those after taken as `segments` takes them).
     let xs = super::super::knot_columns(w);
-    for (scale, slope, shift) in [(1.002, 0.004, 3.3), (1.13, -0.02, -20.0), (0.87, 0.0, 9.9)] {
+    let mut moved = xs.clone();
+    moved[2] += 1;
+    let cases = [(1.002, 0.004, 3.3), (1.13, -0.02, -20.0), (0.87, 0.0, 9.9)];
+    for ((scale, slope, shift), xs) in cases.into_iter().flat_map(|c| [(c, &xs), (c, &moved)]) {
         let knots: Vec<(f64, f64)> = (xs.iter())
             .map(|&x| {
                 let x = f64::from(x) + 0.5;
@@ -171,11 +204,11 @@ fn a_resampled_row_is_its_segments_scalar_pixels() {
             })
             .collect();
         let mut out = vec![0u8; w as usize * 4];
-        row.resample(&xs, &knots, &mut Vec::new(), &mut out);
+        row.resample(xs, &knots, &mut Vec::new(), &mut out);
         let fixed_knots: Vec<(i32, i32)> =
             knots.iter().map(|&(u, v)| (fixed(u), fixed(v))).collect();
         let mut want = vec![1u8; w as usize * 4];
-        segments(&xs, &fixed_knots, &mut want, |start, step, pixels| {
+        segments(xs, &fixed_knots, &mut want, |start, step, pixels| {
             for (j, px) in (0..).zip(pixels.chunks_exact_mut(4)) {
                 px.copy_from_slice(&row.pixel(start, step, j).to_le_bytes());
             }
