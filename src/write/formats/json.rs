@@ -136,7 +136,8 @@ impl Json<'_> {
 /// more. `None` at or past 2^51 and for NaN.
 fn round_below_2_51(y: f64) -> Option<i64> {
     const LIMIT: i64 = 1 << 51;
-    if !(y.abs() < LIMIT as f64) {
+    let below = y.abs() < LIMIT as f64;
+    if !below {
         return None;
     }
     let t = y as i64;
