@@ -13,10 +13,15 @@ pub struct AppendFile {
     pub(super) committed: u64,
     /// With [`AppendFile::buffered`]: appended bytes not yet written.
     pub(super) buffer: Option<Vec<u8>>,
+    /// With [`AppendFile::write_back`]: where the bytes start that were
+    /// written but not yet handed to the disk.
+    pub(super) write_back_from: Option<u64>,
 }
 
 /// A buffered [`AppendFile`] writes once this many bytes are pending.
 pub(super) const APPEND_BUFFER: usize = 1 << 20;
+/// [`AppendFile::write_back`] hands written bytes to the disk in runs of this many at least.
+const WRITE_BACK_RUN: u64 = 8 << 20;
 
 impl AppendFile {
     /// Keep appended bytes in memory until [`AppendFile::flush`] (or a
@@ -24,6 +29,18 @@ impl AppendFile {
     /// per record. The owner flushes before [`AppendFile::save`].
     pub fn buffered(mut self) -> Self {
         self.buffer = Some(Vec::with_capacity(APPEND_BUFFER));
+        self
+    }
+
+    /// Hand each megabytes-long run of written bytes to the disk as it is
+    /// written (Linux: `posix_fadvise(DONTNEED)`, which starts their
+    /// write-out without waiting for it and lets the kernel drop them from
+    /// its cache once written), so that the flush at the end ([`AppendFile::sync`])
+    /// waits for the last run only, not for the whole file. For a large file
+    /// written once and not read back (the manifest); nothing is flushed or
+    /// promised by it, and the bytes are the same.
+    pub fn write_back(mut self) -> Self {
+        self.write_back_from = Some(self.len);
         self
     }
 
@@ -51,8 +68,28 @@ impl AppendFile {
             let result = (&self.file).write_all(buffer);
             buffer.clear();
             result.map_err(io(&self.path))?;
+            self.start_write_back();
         }
         Ok(())
+    }
+
+    /// With [`AppendFile::write_back`], once [`WRITE_BACK_RUN`] bytes are
+    /// written and not yet handed over: start their write-out (a hint: an
+    /// error is ignored, the end's flush writes them anyway).
+    fn start_write_back(&mut self) {
+        let Some(from) = self.write_back_from else {
+            return;
+        };
+        let written = self.len - self.buffer.as_ref().map_or(0, |b| b.len() as u64);
+        let Some(run) = std::num::NonZeroU64::new(written.saturating_sub(from)) else {
+            return;
+        };
+        if run.get() < WRITE_BACK_RUN {
+            return;
+        }
+        #[cfg(any(target_os = "linux", target_os = "android"))]
+        let _ = rustix::fs::fadvise(&self.file, from, Some(run), rustix::fs::Advice::DontNeed);
+        self.write_back_from = Some(written);
     }
 
     /// Bytes written so far.
@@ -86,6 +123,9 @@ impl AppendFile {
         }
         if self.file.set_len(self.committed).is_ok() {
             self.len = self.committed;
+        }
+        if let Some(from) = &mut self.write_back_from {
+            *from = (*from).min(self.len);
         }
     }
 

@@ -148,6 +148,7 @@ impl Folder {
             len,
             committed: len,
             buffer: None,
+            write_back_from: None,
         })
     }
 

@@ -200,6 +200,12 @@ impl Folder {
     pub fn root(&self) -> &Path {
         &self.root
     }
+
+    /// Whether the run reads its files back when it finishes (a shard's
+    /// content records hash every file).
+    pub fn reads_back(&self) -> bool {
+        self.records
+    }
 }
 
 /// A swarmshot working file (the ledger, the lock, temporary files, COCO

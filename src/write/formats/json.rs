@@ -49,17 +49,23 @@ impl Json<'_> {
     /// integer n without a float printer. Anything else takes [`Json::f64`].
     pub fn rounded(&mut self, x: f64, k: Decimals) {
         let scale = k.scale();
-        let n = (x * scale).round();
-        let a = n.abs();
+        let y = x * scale;
         // ≥ 1e-5 · 10^k, and below 2^51: the float's spacing is under half of 10^-k.
-        if !(a >= scale * 1e-5 && a < 2_251_799_813_685_248.0) {
-            self.f64(n / scale);
+        let Some(n) = round_below_2_51(y).filter(|n| n.unsigned_abs() as f64 >= scale * 1e-5)
+        else {
+            self.f64(y.round() / scale);
             return;
-        }
-        let u = a as u64;
-        let mut buf = [b'0'; 48];
+        };
+        let u = n.unsigned_abs();
+        // Digits written in place after '0's (the numbers are ≤ 19 bytes long:
+        // sign, ten digits, point, six; or four digits, point, twelve), then
+        // cut back: no copy through a stack buffer, whose small stores a
+        // wide load would wait for.
+        let len = self.out.len();
+        self.out.resize(len + 32, b'0');
+        let buf = &mut self.out[len..];
         let mut at = 0;
-        if n < 0.0 {
+        if n < 0 {
             buf[0] = b'-';
             at = 1;
         }
@@ -95,7 +101,7 @@ impl Json<'_> {
                 at -= 1;
             }
         }
-        self.out.extend_from_slice(&buf[..at]);
+        self.out.truncate(len + at);
     }
 
     /// `[a,b,…]` of floats, each [`Json::rounded`].
@@ -121,6 +127,23 @@ impl Json<'_> {
     pub fn str(&mut self, s: &str) {
         write_str(self.out, s);
     }
+}
+
+/// `y.round()` (half away from zero) as an integer when |y| rounds below
+/// 2^51, without the C library's `round` call: a conversion that drops the
+/// fraction, the fraction itself (exact: `y` and its integer part share an
+/// exponent or `y` is an integer), and a step away from zero at a half or
+/// more. `None` at or past 2^51 and for NaN.
+fn round_below_2_51(y: f64) -> Option<i64> {
+    const LIMIT: i64 = 1 << 51;
+    let below = y.abs() < LIMIT as f64;
+    if !below {
+        return None;
+    }
+    let t = y as i64;
+    let f = y - t as f64;
+    let n = t + i64::from(f >= 0.5) - i64::from(f <= -0.5);
+    (n.abs() < LIMIT).then_some(n)
 }
 
 /// The decimals the records round to.
@@ -172,24 +195,26 @@ fn six_digits(buf: &mut [u8], v: u32) {
     two_digits(&mut buf[4..], v % 100);
 }
 
-/// `v` in decimal at the start of `buf` (at least 20 bytes); returns its length.
+/// `v` in decimal at the start of `buf` (at least as long as `v`'s
+/// digits), written in place from its last digit; returns its length.
 fn integer_digits(buf: &mut [u8], mut v: u64) -> usize {
-    let mut digits = [0u8; 20];
-    let mut at = digits.len();
+    let mut len = 1;
+    let mut rest = v;
+    while rest >= 10 {
+        rest /= 10;
+        len += 1;
+    }
+    let mut at = len;
     while v >= 100 {
         at -= 2;
-        two_digits(&mut digits[at..], (v % 100) as u32);
+        two_digits(&mut buf[at..], (v % 100) as u32);
         v /= 100;
     }
     if v >= 10 {
-        at -= 2;
-        two_digits(&mut digits[at..], v as u32);
+        two_digits(buf, v as u32);
     } else {
-        at -= 1;
-        digits[at] = b'0' + v as u8;
+        buf[0] = b'0' + v as u8;
     }
-    let len = digits.len() - at;
-    buf[..len].copy_from_slice(&digits[at..]);
     len
 }
 
@@ -258,15 +283,12 @@ pub(crate) fn fixed6(out: &mut Vec<u8>, v: f64) {
     if negative {
         out.push(b'-');
     }
-    decimal(out, (q / SCALE) as u64);
+    // |v| < 1e9: q < 1e15 + 1, so 64 bits hold it (no 128-bit division).
+    let q = q as u64;
+    decimal(out, q / SCALE as u64);
     out.push(b'.');
-    let frac = (q % SCALE) as u32;
     let mut digits = [b'0'; 6];
-    let mut f = frac;
-    for d in digits.iter_mut().rev() {
-        *d = b'0' + (f % 10) as u8;
-        f /= 10;
-    }
+    six_digits(&mut digits, (q % SCALE as u64) as u32);
     out.extend_from_slice(&digits);
 }
 

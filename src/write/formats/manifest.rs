@@ -37,9 +37,14 @@ impl ManifestWriter {
     /// Open the manifest, cut back to `checkpoint` (created when new).
     pub fn open(folder: &mut Folder, checkpoint: &Checkpoint) -> Result<Self, OutputError> {
         let len = checkpoint.files.get(FILE).copied().unwrap_or(0);
-        Ok(Self {
-            out: folder.open_append(FILE, len)?.buffered(),
-        })
+        let out = folder.open_append(FILE, len)?.buffered();
+        // Handed to the disk as it is written, unless the run hashes it at its end.
+        let out = if folder.reads_back() {
+            out
+        } else {
+            out.write_back()
+        };
+        Ok(Self { out })
     }
 }
 
