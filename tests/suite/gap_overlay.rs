@@ -35,7 +35,8 @@ fn rect(img: &mut RgbImage, x0: u32, y0: u32, w: u32, h: u32, v: u8) {
     }
 }
 
-/// On-screen text (rows of 2 px glyph strokes, white, top left and top right) and a
+/// On-screen text (rows of 2 px glyph strokes, white, top left and top right; a line of
+/// dense glyphs) and a
 /// reticle (2 px corner brackets, white over the sky, black over the ground; a cross).
 fn draw_overlay(img: &mut RgbImage) {
     for (x0, y0) in [(10u32, 10u32), (440, 10), (10, 50)] {
@@ -64,6 +65,21 @@ fn draw_overlay(img: &mut RgbImage) {
     }
     rect(img, 318, 20, 2, 70, 255); // the cross's upper arm
     rect(img, 20, 255, 80, 2, 255); // its left arm
+    // A line of text as CJK characters are burnt in: a plain glyph, then dense glyphs
+    // (1 px strokes 3 px apart, a mid-grey anti-aliased row under each, 4 px apart)
+    // whose strokes do not stand out one by one.
+    let (x0, y0) = (340u32, 40u32);
+    rect(img, x0, y0, 2, 16, 255);
+    rect(img, x0, y0, 12, 2, 255);
+    rect(img, x0, y0 + 14, 12, 2, 255);
+    for g in 0..5 {
+        let x = x0 + 16 + g * 18;
+        rect(img, x, y0, 1, 16, 255);
+        for k in 0..6 {
+            rect(img, x, y0 + 3 * k, 14, 1, 255);
+            rect(img, x + 1, y0 + 3 * k + 1, 13, 1, 190);
+        }
+    }
 }
 
 fn close(name: &str, clean: f32, with: f32, tol: f32) {
