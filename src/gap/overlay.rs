@@ -235,16 +235,14 @@ fn chain_saturated(l: &Luma, strokes: &[bool], boxes: &[PixelBox]) -> Vec<bool> 
 /// Whether pixel `i` is near-saturated and thin ([`chain_saturated`]).
 fn thin(polarity: &[u8], w: usize, h: usize, i: usize) -> bool {
     let (p, x, y, d) = (polarity[i], i % w, i / w, THIN_PX);
-    let differs = |j: usize| polarity[j] & p == 0;
-    let ends = |before: usize, after: usize, at: &dyn Fn(usize, bool) -> usize| {
-        (before < d || (1..=d).any(|k| differs(at(k, false))))
-            && (after < d || (1..=d).any(|k| differs(at(k, true))))
+    // Along the axis of `stride`, `before` and `after` pixels from the frame's edges: the
+    // run ends within d on both sides.
+    let ends = |stride: usize, before: usize, after: usize| {
+        let differs = |j: usize| polarity[j] & p == 0;
+        (before < d || (1..=d).any(|k| differs(i - k * stride)))
+            && (after < d || (1..=d).any(|k| differs(i + k * stride)))
     };
-    p != 0
-        && (ends(x, w - 1 - x, &|k, right| if right { i + k } else { i - k })
-            || ends(y, h - 1 - y, &|k, down| {
-                if down { i + k * w } else { i - k * w }
-            }))
+    p != 0 && (ends(1, x, w - 1 - x) || ends(w, y, h - 1 - y))
 }
 
 /// Clears the pixels of `m` within 8 px of a labelled box.
