@@ -47,23 +47,11 @@ fn segments(
     xs: &[u32],
     fixed_knots: &[(i32, i32)],
     out: &mut [u8],
-    each: impl FnMut((i32, i32), (i32, i32), &mut [u8]),
-) {
-    segments_from(0, xs, fixed_knots, out, each);
-}
-
-/// [`segments`] from segment `first` on.
-#[inline(always)]
-fn segments_from(
-    first: usize,
-    xs: &[u32],
-    fixed_knots: &[(i32, i32)],
-    out: &mut [u8],
     mut each: impl FnMut((i32, i32), (i32, i32), &mut [u8]),
 ) {
     let last = xs.len().saturating_sub(2);
     let width = out.len() / 4;
-    for k in first..=last {
+    for k in 0..=last {
         let next = (k + 1).min(xs.len() - 1);
         let (Some(&(u0, v0)), Some(&b)) = (fixed_knots.get(k), fixed_knots.get(next)) else {
             return;
@@ -138,34 +126,12 @@ impl Row<'_> {
         out: &mut [u8],
     ) {
         to_fixed(knots, fixed_knots);
-        let each = |start, step, pixels: &mut [u8]| {
+        segments(xs, fixed_knots, out, |start, step, pixels| {
             let done = self.segment_avx2(start, step, pixels);
             for (j, px) in (done as i32..).zip(pixels[done * 4..].chunks_exact_mut(4)) {
                 px.copy_from_slice(&self.pixel(start, step, j).to_le_bytes());
             }
-        };
-        // Every segment but the last of [`super::knot_columns`]' knots is
-        // KNOT_PX pixels between knots KNOT_PX apart ([`segments`]): those
-        // straight from their knots, a run ([`Self::run32`], a pan's usual
-        // segment) to the run kernel; from the first other one on, as
-        // [`segments`] takes them.
-        let full = xs.len().saturating_sub(2);
-        let seg = 4 * KNOT_PX as usize;
-        let pairs = fixed_knots.windows(2).zip(xs.windows(2)).take(full);
-        let mut next = 0;
-        for (pixels, (pair, x)) in out.chunks_exact_mut(seg).zip(pairs) {
-            if x[0] != next as u32 * KNOT_PX || x[1] != x[0] + KNOT_PX {
-                break;
-            }
-            let [a, b] = [pair[0], pair[1]];
-            let step = (div_knot(b.0 - a.0), div_knot(b.1 - a.1));
-            match self.run32(a, step) {
-                Some(at) if self.run_avx2(at, a, step, pixels) == KNOT_PX as usize => {}
-                _ => each(a, step, pixels),
-            }
-            next += 1;
-        }
-        segments_from(next, xs, fixed_knots, out, each);
+        });
     }
 
     /// Pixel `j` of a segment starting at `start` and stepping by `step`
@@ -227,14 +193,14 @@ impl Row<'_> {
         (x1 - x0 == last).then_some((y0 * i64::from(self.size.0) + x0) as usize)
     }
 
-    /// [`Self::run`] of a segment of [`KNOT_PX`] pixels between knots
-    /// KNOT_PX apart, in `i32`: its last position lies between the knots
-    /// (the step is their difference ÷ KNOT_PX rounded towards zero), so
-    /// no sum overflows.
+    /// [`Self::run`] of a segment of [`KNOT_PX`] pixels (a pan's usual
+    /// one), in `i32`: a last position past `i32` lies far off the image,
+    /// where [`Self::run`] finds no run either.
     #[inline(always)]
     fn run32(&self, (u0, v0): (i32, i32), (du, dv): (i32, i32)) -> Option<usize> {
         const LAST: i32 = KNOT_PX as i32 - 1;
-        let (u1, v1) = (u0 + du * LAST, v0 + dv * LAST);
+        let end = |a: i32, d: i32| d.checked_mul(LAST).and_then(|e| a.checked_add(e));
+        let (u1, v1) = (end(u0, du)?, end(v0, dv)?);
         let (w, h) = (self.size.0 as i32, self.size.1 as i32);
         let (x0, x1, y0) = (u0 >> FRAC, u1 >> FRAC, v0 >> FRAC);
         let inside = u0 >= 0 && v0 >= 0 && v1 >= 0 && x1 <= w - 2 && y0 <= h - 2;
@@ -359,7 +325,13 @@ impl Row<'_> {
         step: (i32, i32),
         out: &mut [u8],
     ) -> usize {
-        match self.run(start, step, out.len() / 4) {
+        let len = out.len() / 4;
+        let run = if len == KNOT_PX as usize {
+            self.run32(start, step)
+        } else {
+            self.run(start, step, len)
+        };
+        match run {
             Some(at) => self.run_avx2(at, start, step, out),
             None => self.blocks_avx2(start, step, out),
         }

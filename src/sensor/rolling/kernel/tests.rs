@@ -151,9 +151,10 @@ fn runs_and_windows_are_their_taps_and_their_kernels_give_the_scalar_bytes() {
     assert!(windows > 300, "{windows} window blocks");
 }
 
-/// A whole segment's run test in `i32` ([`Row::run32`], the row loop's)
-/// is [`Row::run`]'s in `i64`, for knots KNOT_PX apart anywhere on and
-/// off the image, steps from a pan's to a stretched one's.
+/// A whole segment's run test in `i32` ([`Row::run32`], a whole
+/// segment's in [`Row::segment_avx2`]) is [`Row::run`]'s in `i64`, for
+/// knots KNOT_PX apart anywhere on and off the image, steps from a pan's
+/// to a stretched one's, and steps past i32.
 #[test]
 fn a_whole_segments_run_in_i32_is_the_run() {
     let (w, h) = (90u32, 50u32);
@@ -177,6 +178,14 @@ fn a_whole_segments_run_in_i32_is_the_run() {
         runs += usize::from(want.is_some());
     }
     assert!((1000..19_000).contains(&runs), "{runs} runs");
+    // Steps whose last position leaves i32: no run either way.
+    for (a, step) in [
+        ((0, 0), (i32::MAX / 8, 0)),
+        ((1 << 20, 1 << 20), (0, i32::MIN / 16)),
+    ] {
+        assert_eq!(row.run32(a, step), row.run(a, step, KNOT_PX as usize));
+        assert_eq!(row.run32(a, step), None);
+    }
 }
 
 /// A whole row through [`Row::resample`] (AVX2 where the CPU has it) is
