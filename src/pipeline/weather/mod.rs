@@ -46,7 +46,7 @@ use depth::{CELL, DepthLayer};
 /// Rows of the picture drawn together: a strip's transmittances stay in
 /// the cache while its particles are drawn. Divides [`CELL`].
 const STRIP: u32 = 16;
-const _: () = assert!(CELL % STRIP == 0);
+const _: () = assert!(CELL.is_multiple_of(STRIP));
 
 /// The frame's particles bucketed by strip, kept from frame to frame (no
 /// allocation once grown): the particles cut into [`CHUNKS`] runs, each
