@@ -8,7 +8,6 @@
 
 use glam::{DVec2, DVec3};
 use rand::Rng;
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -38,8 +37,8 @@ pub struct FrameWeather {
 }
 
 /// One particle as the camera sees it: a disc of radius `radius_px` that
-/// moves from `a` to `b` during the exposure, blended towards `level`
-/// (sRGB, each channel) with `alpha` at full coverage. A flake (`solid`)
+/// moves from `a` to `b` during the exposure, blended towards the frame's
+/// level ([`FrameWeather::level`]) with `alpha` at full coverage. A flake (`solid`)
 /// covers each pixel for the share of the exposure the moving disc is over
 /// it (1 where it stays over it throughout); a drop's streak (not `solid`)
 /// has its alpha all along the path.
@@ -51,7 +50,6 @@ pub struct Particle {
     pub alpha: f32,
     /// Distance along the view axis, metres: drones farther than this are behind it.
     pub depth_m: f32,
-    pub level: u8,
     pub solid: bool,
 }
 
@@ -97,12 +95,15 @@ impl FrameWeather {
         camera.camera_from_world * world * self.exposure_s
     }
 
-    /// The frame's particles, farthest first (the order they are blended
-    /// in). The volume is the view's frustum between `depth_m`, widened by
-    /// a particle's travel and size so streaks that enter the view are
-    /// drawn; particles are uniform in it, `intensity_per_m3` per m³ (at
-    /// most [`MAX_PARTICLES`]). Per particle: depth, x, y, diameter. With an
-    /// atmosphere a particle's alpha is multiplied by its transmittance.
+    /// The frame's particles, in the order they are drawn (index order;
+    /// the composite does not depend on it). The volume is the view's
+    /// frustum between `depth_m`, widened by a particle's travel and size
+    /// so streaks that enter the view are drawn; particles are uniform in
+    /// it, `intensity_per_m3` per m³ (at most [`MAX_PARTICLES`]). Particle
+    /// i's four draws (depth, x, y, diameter) are [`Draws`]' 4i … 4i + 3,
+    /// so the particles are made in parallel and each is the same on any
+    /// thread. With an atmosphere a particle's alpha is multiplied by its
+    /// transmittance.
     pub fn particles(
         &self,
         camera: &Camera,
@@ -115,40 +116,34 @@ impl FrameWeather {
         );
         let travel = self.travel(camera);
         let d_max = self.diameter_mm.1 * 1e-3;
-        let (mx, my) = (travel.x.abs() + d_max, travel.y.abs() + d_max);
-        let (near, far) = self.depth_m;
-        // ∫ 4·(sx·z + mx)·(sy·z + my) dz: the widened frustum's volume.
-        let prim = |z: f64| {
-            4.0 * (sx * sy * z.powi(3) / 3.0 + (sx * my + sy * mx) * z * z / 2.0 + mx * my * z)
+        let frustum = Frustum {
+            s: (sx, sy),
+            m: (travel.x.abs() + d_max, travel.y.abs() + d_max),
+            depth: self.depth_m,
         };
-        let count = (self.intensity_per_m3 * (prim(far) - prim(near)))
+        let count = (self.intensity_per_m3 * frustum.volume())
             .round()
             .clamp(0.0, MAX_PARTICLES) as usize;
-        let area = |z: f64| (sx * z + mx) * (sy * z + my);
-        let mut rng = ChaCha8Rng::seed_from_u64(self.particle_seed);
-        // The draws in order (one stream), then each particle on its own.
-        let drawn: Vec<(DVec3, f64)> = (0..count)
-            .map(|_| {
-                // z with density ∝ the cross-section (rejection against the far one).
-                let z = loop {
-                    let z = uniform(&mut rng, (near, far));
-                    let keep: f64 = rng.random();
-                    if keep * area(far) <= area(z) {
-                        break z;
-                    }
-                };
-                let x = uniform(&mut rng, (-(sx * z + mx), sx * z + mx));
-                let y = uniform(&mut rng, (-(sy * z + my), sy * z + my));
-                let d = uniform(&mut rng, self.diameter_mm) * 1e-3;
-                (DVec3::new(x, y, z), d)
-            })
-            .collect();
+        let draws = Draws(self.particle_seed);
+        let depths = DepthTable::of(&frustum);
         let view = View::of(camera);
-        let out: Vec<Particle> = drawn
-            .par_iter()
-            .filter_map(|&(start, d)| self.particle(&view, (start, start + travel), d, atmosphere))
-            .collect();
-        farthest_first(out)
+        (0..count as u64)
+            .into_par_iter()
+            .filter_map(|i| {
+                let [uz, ux, uy, ud] = draws.of(i);
+                let z = depths.depth(uz);
+                let (hx, hy) = frustum.half_width(z);
+                let start = DVec3::new(hx * (2.0 * ux - 1.0), hy * (2.0 * uy - 1.0), z);
+                let (lo, hi) = self.diameter_mm;
+                let d = (lo + (hi - lo) * ud) * 1e-3;
+                self.particle(&view, (start, start + travel), d, atmosphere)
+            })
+            .collect()
+    }
+
+    /// The particles' level, sRGB (each channel): every particle of a frame has it.
+    pub fn level(&self) -> u8 {
+        level(self.kind)
     }
 
     /// One particle from its travel (camera frame) and diameter; `None`
@@ -187,7 +182,6 @@ impl FrameWeather {
             radius_px: r as f32,
             alpha: alpha.min(1.0) as f32,
             depth_m: z as f32,
-            level: level(self.kind),
             solid: self.kind == WeatherKind::Snow,
         })
     }
@@ -219,40 +213,133 @@ impl View {
     }
 }
 
-/// `particles` farthest first, equal depths in drawn order: a stable
-/// radix sort (three passes of 11 bits) of the depths' keys, each carried
-/// with its index (the order a sort of (depth, index) keys gives).
-fn farthest_first(particles: Vec<Particle>) -> Vec<Particle> {
-    // f32's total order as unsigned keys, reversed: farthest first.
-    let far_key = |d: f32| {
-        let b = d.to_bits();
-        let ordered = if b >> 31 == 1 { !b } else { b | 1 << 31 };
-        u64::from(!ordered) << 32
-    };
-    let mut keys: Vec<u64> = (particles.iter().enumerate())
-        .map(|(i, p)| far_key(p.depth_m) | i as u64)
-        .collect();
-    let mut spare = vec![0u64; keys.len()];
-    for shift in [32, 43, 54] {
-        let digit = |k: u64| ((k >> shift) & 0x7ff) as usize;
-        let mut start = [0usize; 2048];
-        for &k in &keys {
-            start[digit(k)] += 1;
-        }
-        let mut sum = 0;
-        for s in start.iter_mut() {
-            (*s, sum) = (sum, sum + *s);
-        }
-        for &k in &keys {
-            let d = digit(k);
-            spare[start[d]] = k;
-            start[d] += 1;
-        }
-        std::mem::swap(&mut keys, &mut spare);
+/// The widened frustum of [`FrameWeather::particles`]: at depth z its
+/// cross-section is 2·(sx·z + mx) × 2·(sy·z + my) metres, between `depth`.
+struct Frustum {
+    s: (f64, f64),
+    m: (f64, f64),
+    depth: (f64, f64),
+}
+
+/// Newton steps [`Frustum::depth_at`] takes at most (it needs about five).
+const MAX_STEPS: usize = 60;
+
+impl Frustum {
+    /// Half the cross-section's sides at depth `z`, metres.
+    fn half_width(&self, z: f64) -> (f64, f64) {
+        (self.s.0 * z + self.m.0, self.s.1 * z + self.m.1)
     }
-    keys.iter()
-        .map(|k| particles[(k & u64::from(u32::MAX)) as usize])
-        .collect()
+
+    /// The cross-section's area at depth `z`, m².
+    fn area(&self, z: f64) -> f64 {
+        let (hx, hy) = self.half_width(z);
+        4.0 * hx * hy
+    }
+
+    /// ∫₀ᶻ area: a cubic in z.
+    fn prim(&self, z: f64) -> f64 {
+        let ((sx, sy), (mx, my)) = (self.s, self.m);
+        4.0 * (sx * sy * (z * z * z) / 3.0 + (sx * my + sy * mx) * (z * z) / 2.0 + mx * my * z)
+    }
+
+    /// The volume between the depths, m³.
+    fn volume(&self) -> f64 {
+        self.prim(self.depth.1) - self.prim(self.depth.0)
+    }
+
+    /// The depth whose share of the volume nearer than it is `u` (0–1):
+    /// the inverse of the cubic CDF, by Newton's method on the convex,
+    /// rising `prim` from `far · u^¼` (at or above the root, or one step
+    /// from above it), with IEEE operations only (the same bytes everywhere).
+    fn depth_at(&self, u: f64) -> f64 {
+        let (near, far) = self.depth;
+        if far.partial_cmp(&near) != Some(std::cmp::Ordering::Greater) {
+            return near;
+        }
+        let base = self.prim(near);
+        let target = base + u * (self.prim(far) - base);
+        let mut z = (far * u.sqrt().sqrt()).clamp(near, far);
+        for _ in 0..MAX_STEPS {
+            let step = (self.prim(z) - target) / self.area(z);
+            z = (z - step).clamp(near, far);
+            if step.abs() <= 1e-12 * far {
+                break;
+            }
+        }
+        z
+    }
+}
+
+/// Knots of [`DepthTable`]: the inverse CDF at every 1/KNOTS of the volume.
+const KNOTS: usize = 1024;
+
+/// The inverse of a frustum's cubic CDF, fast: solved exactly
+/// ([`Frustum::depth_at`]) at [`KNOTS`] + 1 shares of the volume once a
+/// frame, a draw's depth then interpolated between its knots and refined
+/// by Newton's method until a step is below 1e-7 of the far depth (one
+/// or two steps; IEEE operations only: the same bytes everywhere).
+struct DepthTable<'a> {
+    frustum: &'a Frustum,
+    knots: Vec<f64>,
+    /// prim(near) and the volume.
+    base: f64,
+    volume: f64,
+}
+
+impl<'a> DepthTable<'a> {
+    fn of(frustum: &'a Frustum) -> Self {
+        let knots = (0..=KNOTS)
+            .map(|k| frustum.depth_at(k as f64 / KNOTS as f64))
+            .collect();
+        Self {
+            frustum,
+            knots,
+            base: frustum.prim(frustum.depth.0),
+            volume: frustum.volume(),
+        }
+    }
+
+    /// The depth whose share of the volume nearer than it is `u` (0–1).
+    fn depth(&self, u: f64) -> f64 {
+        let (near, far) = self.frustum.depth;
+        if far.partial_cmp(&near) != Some(std::cmp::Ordering::Greater) {
+            return near;
+        }
+        let at = u * KNOTS as f64;
+        let k = (at as usize).min(KNOTS - 1);
+        let (z0, z1) = (self.knots[k], self.knots[k + 1]);
+        let mut z = z0 + (at - k as f64) * (z1 - z0);
+        let (target, f) = (self.base + u * self.volume, self.frustum);
+        for _ in 0..MAX_STEPS {
+            let step = (f.prim(z) - target) / f.area(z);
+            z = (z - step).clamp(near, far);
+            if step.abs() <= 1e-7 * far {
+                break;
+            }
+        }
+        z
+    }
+}
+
+/// Counter-based draws: draw k of the stream is SplitMix64's k-th output
+/// from `seed` (`mix64(seed + (k + 1)·γ)`, γ = 0x9E3779B97F4A7C15), any
+/// one of them made without the others.
+#[derive(Clone, Copy)]
+struct Draws(u64);
+
+impl Draws {
+    const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
+
+    fn bits(self, k: u64) -> u64 {
+        seed::mix64((self.0).wrapping_add(k.wrapping_add(1).wrapping_mul(Self::GAMMA)))
+    }
+
+    /// Particle `i`'s four uniform draws in [0, 1): draws 4i … 4i + 3, each's top 53 bits.
+    fn of(self, i: u64) -> [f64; 4] {
+        let unit = |k: u64| (self.bits(k) >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+        let k = i.wrapping_mul(4);
+        [unit(k), unit(k + 1), unit(k + 2), unit(k + 3)]
+    }
 }
 
 #[cfg(test)]
@@ -260,27 +347,82 @@ mod tests {
     use super::*;
 
     #[test]
-    fn farthest_first_is_a_stable_sort_by_depth() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let particles: Vec<Particle> = (0..5000)
-            .map(|i| Particle {
-                a: [i as f32, 0.0],
-                b: [0.0; 2],
-                radius_px: 1.0,
-                alpha: 1.0,
-                // Ties, zeros and the range's extremes among them.
-                depth_m: match i % 7 {
-                    0 => 3.0,
-                    1 => 0.0,
-                    2 => -0.0,
-                    _ => rng.random_range(0.05f32..1000.0),
-                },
-                level: 0,
-                solid: false,
-            })
-            .collect();
-        let mut want = particles.clone();
-        want.sort_by(|p, q| q.depth_m.total_cmp(&p.depth_m));
-        assert_eq!(farthest_first(particles), want);
+    fn draws_are_splitmix64s_stream() {
+        let seed = 0x0123_4567_89ab_cdef;
+        let mut state: u64 = seed;
+        let draws = Draws(seed);
+        for k in 0..1000 {
+            state = state.wrapping_add(Draws::GAMMA);
+            assert_eq!(draws.bits(k), seed::mix64(state), "draw {k}");
+        }
+        let [a, b, c, d] = draws.of(3);
+        let unit = |k| (draws.bits(k) >> 11) as f64 / (1u64 << 53) as f64;
+        assert_eq!([a, b, c, d], [unit(12), unit(13), unit(14), unit(15)]);
+    }
+
+    /// Rain's frustum at 1920×1080 with a 60° field of view.
+    fn frustum() -> Frustum {
+        let f = 960.0 / (30f64.to_radians().tan());
+        Frustum {
+            s: (960.0 / f, 540.0 / f),
+            m: (0.12, 0.09),
+            depth: (0.5, 25.0),
+        }
+    }
+
+    #[test]
+    fn depth_at_inverts_the_volume_share() {
+        let fr = frustum();
+        let (near, far) = fr.depth;
+        for i in 0..=1000 {
+            let u = f64::from(i) / 1000.0;
+            let z = fr.depth_at(u);
+            assert!((near..=far).contains(&z), "{u}: {z}");
+            let share = (fr.prim(z) - fr.prim(near)) / fr.volume();
+            assert!((share - u).abs() < 1e-9, "{u}: {z} holds {share}");
+        }
+        // The table's depths: the same within 1e-9 m, at and between knots.
+        let table = DepthTable::of(&fr);
+        for i in 0..=10_000 {
+            let u = f64::from(i) / 10_000.0;
+            let (z, exact) = (table.depth(u), fr.depth_at(u));
+            assert!((z - exact).abs() < 1e-9, "{u}: {z} against {exact}");
+        }
+        let flat = Frustum {
+            depth: (3.0, 3.0),
+            ..frustum()
+        };
+        assert_eq!(flat.depth_at(0.7), 3.0);
+        assert_eq!(DepthTable::of(&flat).depth(0.7), 3.0);
+    }
+
+    #[test]
+    fn depths_follow_the_cross_section() {
+        // 200 000 depths of one stream in 20 bins of equal width against
+        // each bin's share of the volume: every bin within 5 σ of its
+        // binomial expectation, and χ² below its 99.9 % point (43.8 for 19
+        // degrees of freedom).
+        let fr = frustum();
+        let (near, far) = fr.depth;
+        let (n, bins) = (200_000u64, 20usize);
+        let mut counts = vec![0u64; bins];
+        let (draws, table) = (Draws(41), DepthTable::of(&fr));
+        for i in 0..n {
+            let z = table.depth(draws.of(i)[0]);
+            let bin = ((z - near) / (far - near) * bins as f64) as usize;
+            counts[bin.min(bins - 1)] += 1;
+        }
+        let edge = |k: usize| near + (far - near) * k as f64 / bins as f64;
+        let mut chi2 = 0.0;
+        for (k, &c) in counts.iter().enumerate() {
+            let p = (fr.prim(edge(k + 1)) - fr.prim(edge(k))) / fr.volume();
+            let (mean, var) = (n as f64 * p, n as f64 * p * (1.0 - p));
+            assert!(
+                (c as f64 - mean).abs() < 5.0 * var.sqrt(),
+                "bin {k}: {c} against {mean:.0}"
+            );
+            chi2 += (c as f64 - mean).powi(2) / mean;
+        }
+        assert!(chi2 < 43.8, "χ² {chi2:.1}");
     }
 }

@@ -1,0 +1,268 @@
+//! The weather's last step: a pixel under particles that each blend it
+//! towards the same level L by their alpha × coverage aₖ ends at
+//! L − (L − v)·T, T = Π(1 − aₖ) its transmittance, whatever their order.
+//! Each channel of an RGBA8 row is rounded once from that (`floor(x + ½)`
+//! in f32), its fourth byte kept; a radiance plane takes it as it is.
+
+/// Row `t.len()` pixels of RGBA8 `dst` from `src` (or from `dst` itself)
+/// under transmittances `t` towards `level`. On x86-64 eight pixels at
+/// once in AVX2 where the CPU has it (detected at run time), the rest four
+/// at once in SSE2 (part of every x86-64 CPU): the same IEEE operations
+/// lane by lane as [`resolve_scalar`], so the same bytes.
+pub(super) fn resolve(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
+    let n = t.len();
+    #[cfg(target_arch = "x86_64")]
+    let done = {
+        let wide = n / 8 * 8;
+        let wide = if is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 was detected on this CPU.
+            #[allow(unsafe_code)]
+            unsafe {
+                resolve_avx2(
+                    &mut dst[..wide * 4],
+                    src.map(|s| &s[..wide * 4]),
+                    &t[..wide],
+                    level,
+                )
+            };
+            wide
+        } else {
+            0
+        };
+        let done = wide + (n - wide) / 4 * 4;
+        let (d, s) = (
+            &mut dst[wide * 4..done * 4],
+            src.map(|s| &s[wide * 4..done * 4]),
+        );
+        // SAFETY: SSE2 is part of the x86-64 baseline: every build for it enables it.
+        #[allow(unsafe_code)]
+        unsafe {
+            resolve_sse2(d, s, &t[wide..done], level)
+        };
+        done
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let done = 0;
+    let src = src.map(|s| &s[done * 4..n * 4]);
+    resolve_scalar(&mut dst[done * 4..n * 4], src, &t[done..], level);
+}
+
+/// [`resolve`] a pixel at a time.
+pub(super) fn resolve_scalar(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
+    for (i, &ti) in t.iter().enumerate() {
+        for c in 0..3 {
+            let v = f32::from(src.map_or(dst[i * 4 + c], |s| s[i * 4 + c]));
+            let x = level - (level - v) * ti;
+            // x lies between v and the level (t in 0–1): 0–255.
+            dst[i * 4 + c] = (x + 0.5) as u8;
+        }
+        if let Some(s) = src {
+            dst[i * 4 + 3] = s[i * 4 + 3];
+        }
+    }
+}
+
+/// [`resolve`] of `t.len()` (a multiple of 4) pixels in SSE2's lanes: the
+/// fourth channel's transmittance 1 leaves its byte as it was, and four
+/// pixels at transmittance 1 are copied as they are (what the lanes give).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse2")]
+fn resolve_sse2(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
+    use std::arch::x86_64::*;
+    let zero = _mm_setzero_si128();
+    let l = _mm_set1_ps(level);
+    let half = _mm_set1_ps(0.5);
+    let rgb = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
+    let one_a = _mm_set_ps(1.0, 0.0, 0.0, 0.0);
+    let one = _mm_set1_ps(1.0);
+    let lane = |v: __m128i, ti: __m128| {
+        let x = _mm_sub_ps(l, _mm_mul_ps(_mm_sub_ps(l, _mm_cvtepi32_ps(v)), ti));
+        _mm_cvttps_epi32(_mm_add_ps(x, half))
+    };
+    let per_channel = |tv: __m128| _mm_or_ps(_mm_and_ps(tv, rgb), one_a);
+    for (i, tq) in t.chunks_exact(4).enumerate() {
+        let at = i * 16;
+        let from = src.map_or(&dst[at..at + 16], |s| &s[at..at + 16]);
+        // SAFETY: `from` and `dst[at..at + 16]` hold 16 bytes, `tq` 4 floats.
+        #[allow(unsafe_code)]
+        let (px, tv) = unsafe {
+            (
+                _mm_loadu_si128(from.as_ptr().cast()),
+                _mm_loadu_ps(tq.as_ptr()),
+            )
+        };
+        if _mm_movemask_ps(_mm_cmpeq_ps(tv, one)) == 0xF {
+            // No particle over these four: as they were.
+            if src.is_some() {
+                // SAFETY: as the loads.
+                #[allow(unsafe_code)]
+                unsafe {
+                    _mm_storeu_si128(dst[at..at + 16].as_mut_ptr().cast(), px)
+                };
+            }
+            continue;
+        }
+        let (lo, hi) = (_mm_unpacklo_epi8(px, zero), _mm_unpackhi_epi8(px, zero));
+        let p0 = lane(
+            _mm_unpacklo_epi16(lo, zero),
+            per_channel(_mm_shuffle_ps::<0x00>(tv, tv)),
+        );
+        let p1 = lane(
+            _mm_unpackhi_epi16(lo, zero),
+            per_channel(_mm_shuffle_ps::<0x55>(tv, tv)),
+        );
+        let p2 = lane(
+            _mm_unpacklo_epi16(hi, zero),
+            per_channel(_mm_shuffle_ps::<0xAA>(tv, tv)),
+        );
+        let p3 = lane(
+            _mm_unpackhi_epi16(hi, zero),
+            per_channel(_mm_shuffle_ps::<0xFF>(tv, tv)),
+        );
+        let out = _mm_packus_epi16(_mm_packs_epi32(p0, p1), _mm_packs_epi32(p2, p3));
+        // SAFETY: as the loads.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm_storeu_si128(dst[at..at + 16].as_mut_ptr().cast(), out)
+        };
+    }
+}
+
+/// [`resolve_sse2`] eight pixels at a time in AVX2's two 128-bit halves
+/// (pixels 0–3 and 4–7, each half as SSE2's lanes).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn resolve_avx2(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
+    use std::arch::x86_64::*;
+    let zero = _mm256_setzero_si256();
+    let l = _mm256_set1_ps(level);
+    let half = _mm256_set1_ps(0.5);
+    let rgb = _mm256_castsi256_ps(_mm256_set_epi32(0, -1, -1, -1, 0, -1, -1, -1));
+    let one_a = _mm256_set_ps(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0);
+    let one = _mm256_set1_ps(1.0);
+    let lane = |v: __m256i, ti: __m256| {
+        let x = _mm256_sub_ps(
+            l,
+            _mm256_mul_ps(_mm256_sub_ps(l, _mm256_cvtepi32_ps(v)), ti),
+        );
+        _mm256_cvttps_epi32(_mm256_add_ps(x, half))
+    };
+    let per_channel = |tv: __m256| _mm256_or_ps(_mm256_and_ps(tv, rgb), one_a);
+    for (i, tq) in t.chunks_exact(8).enumerate() {
+        let at = i * 32;
+        let from = src.map_or(&dst[at..at + 32], |s| &s[at..at + 32]);
+        // SAFETY: `from` and `dst[at..at + 32]` hold 32 bytes, `tq` 8 floats.
+        #[allow(unsafe_code)]
+        let (px, tv) = unsafe {
+            (
+                _mm256_loadu_si256(from.as_ptr().cast()),
+                _mm256_loadu_ps(tq.as_ptr()),
+            )
+        };
+        if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(tv, one)) == 0xFF {
+            if src.is_some() {
+                // SAFETY: as the loads.
+                #[allow(unsafe_code)]
+                unsafe {
+                    _mm256_storeu_si256(dst[at..at + 32].as_mut_ptr().cast(), px)
+                };
+            }
+            continue;
+        }
+        // Within each half: pixels 0, 1 (lo) and 2, 3 (hi) widened.
+        let (lo, hi) = (
+            _mm256_unpacklo_epi8(px, zero),
+            _mm256_unpackhi_epi8(px, zero),
+        );
+        let p0 = lane(
+            _mm256_unpacklo_epi16(lo, zero),
+            per_channel(_mm256_shuffle_ps::<0x00>(tv, tv)),
+        );
+        let p1 = lane(
+            _mm256_unpackhi_epi16(lo, zero),
+            per_channel(_mm256_shuffle_ps::<0x55>(tv, tv)),
+        );
+        let p2 = lane(
+            _mm256_unpacklo_epi16(hi, zero),
+            per_channel(_mm256_shuffle_ps::<0xAA>(tv, tv)),
+        );
+        let p3 = lane(
+            _mm256_unpackhi_epi16(hi, zero),
+            per_channel(_mm256_shuffle_ps::<0xFF>(tv, tv)),
+        );
+        let out = _mm256_packus_epi16(_mm256_packs_epi32(p0, p1), _mm256_packs_epi32(p2, p3));
+        // SAFETY: as the loads.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm256_storeu_si256(dst[at..at + 32].as_mut_ptr().cast(), out)
+        };
+    }
+}
+
+/// Radiances `plane` (in place) towards `air` under transmittances `t`.
+pub(super) fn resolve_radiance(plane: &mut [f32], t: &[f32], air: f32) {
+    for (v, &ti) in plane.iter_mut().zip(t) {
+        *v = air - (air - *v) * ti;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+
+    #[test]
+    fn resolve_gives_the_scalar_bytes() {
+        // 4099 pixels (a tail past the lanes), every value, transmittances
+        // at 0, 1 (whole lanes of them too) and between, each level the weather uses and the ends.
+        let mut rng = ChaCha8Rng::seed_from_u64(42);
+        let n = 4099;
+        let src: Vec<u8> = (0..n * 4).map(|i| (i * 7 % 256) as u8).collect();
+        let mut t: Vec<f32> = (0..n).map(|_| rng.random::<f32>()).collect();
+        t[..6].copy_from_slice(&[0.0, 1.0, 0.5, 1.0 / 255.0, 0.999_999_9, 1e-8]);
+        // Whole lanes of four at 1 and one 1 short of it.
+        t[8..16].fill(1.0);
+        t[16..19].fill(1.0);
+        for level in [0.0, 1.0, 127.0, 228.0, 242.0, 255.0] {
+            let (mut simd, mut scalar) = (vec![9u8; n * 4], vec![9u8; n * 4]);
+            resolve(&mut simd, Some(&src), &t, level);
+            resolve_scalar(&mut scalar, Some(&src), &t, level);
+            assert_eq!(simd, scalar, "level {level}");
+            // SSE2 alone (AVX2 takes the most where the CPU has it).
+            #[cfg(target_arch = "x86_64")]
+            {
+                let (mut sse2, m) = (vec![9u8; n * 4], n / 4 * 4);
+                // SAFETY: SSE2 is part of the x86-64 baseline.
+                #[allow(unsafe_code)]
+                unsafe {
+                    resolve_sse2(&mut sse2[..m * 4], Some(&src[..m * 4]), &t[..m], level)
+                };
+                assert_eq!(sse2[..m * 4], scalar[..m * 4], "level {level}, SSE2");
+            }
+            let mut in_place = src.clone();
+            resolve(&mut in_place, None, &t, level);
+            assert_eq!(in_place, scalar, "level {level} in place");
+        }
+    }
+
+    #[test]
+    fn resolve_is_the_blends_product() {
+        // Two blends towards the level, one after the other (in reals):
+        // the same as one by their transmittances' product, rounded once;
+        // transmittance 1 leaves a pixel as it was, 0 sets the level.
+        let (level, v, a, b) = (228.0f32, 40u8, 0.3f32, 0.45f32);
+        let once = f32::from(v) + (level - f32::from(v)) * a;
+        let twice = once + (level - once) * b;
+        let mut px = [v, v, v, 77];
+        resolve(&mut px, None, &[(1.0 - a) * (1.0 - b)], level);
+        let want = (twice + 0.5) as u8;
+        assert_eq!(px, [want, want, want, 77], "{twice}");
+        let mut px = [v, 200, 3, 77];
+        resolve(&mut px, None, &[1.0], level);
+        assert_eq!(px, [v, 200, 3, 77]);
+        resolve(&mut px, None, &[0.0], level);
+        assert_eq!(px, [228, 228, 228, 77]);
+    }
+}
