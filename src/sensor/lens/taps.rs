@@ -96,16 +96,22 @@ fn row_taps_avx2(rows: &Rows, x0: u32, y: u32, (w, h): (u32, u32), out: &mut [Ta
     row_taps_scalar(rows, x0, y, (w, h), before);
     let x0 = x0 + head as u32;
     let (lo, hi) = (_mm256_set1_ps(-LIM), _mm256_set1_ps(LIM));
-    let mix = |p: &[f32], k: &[__m256; 4], c: usize| {
+    // A cell's four nodes, each in every lane (`row_taps` keeps `c + 4`
+    // within the nodes: the zeros are never read).
+    let nodes = |p: &[f32], c: usize| {
+        let q: [f32; 4] = p
+            .get(c..c + 4)
+            .and_then(|q| q.try_into().ok())
+            .unwrap_or_default();
+        q.map(|v| _mm256_set1_ps(v))
+    };
+    let mix = |p: &[__m256; 4], k: &[__m256; 4]| {
         let m = _mm256_add_ps(
             _mm256_add_ps(
-                _mm256_add_ps(
-                    _mm256_mul_ps(k[0], _mm256_set1_ps(p[c])),
-                    _mm256_mul_ps(k[1], _mm256_set1_ps(p[c + 1])),
-                ),
-                _mm256_mul_ps(k[2], _mm256_set1_ps(p[c + 2])),
+                _mm256_add_ps(_mm256_mul_ps(k[0], p[0]), _mm256_mul_ps(k[1], p[1])),
+                _mm256_mul_ps(k[2], p[2]),
             ),
-            _mm256_mul_ps(k[3], _mm256_set1_ps(p[c + 3])),
+            _mm256_mul_ps(k[3], p[3]),
         );
         _mm256_cvtps_epi32(_mm256_min_ps(_mm256_max_ps(m, lo), hi))
     };
@@ -131,16 +137,25 @@ fn row_taps_avx2(rows: &Rows, x0: u32, y: u32, (w, h): (u32, u32), out: &mut [Ta
     };
     let halves = [weights(0), weights(8)];
     let n = out.len() / 8 * 8;
+    // The nodes of the cell the last block was in (a cell is two blocks).
+    let mut cell = (
+        usize::MAX,
+        [_mm256_setzero_ps(); 4],
+        [_mm256_setzero_ps(); 4],
+    );
     for (b, block) in out[..n].chunks_exact_mut(8).enumerate() {
         let x = x0 + 8 * b as u32;
         let (c, k) = (
             (x / GRID as u32 - rows.first) as usize,
             &halves[x as usize % GRID / 8],
         );
+        if cell.0 != c {
+            cell = (c, nodes(rows.u, c), nodes(rows.v, c));
+        }
         let xs = _mm256_add_epi32(_mm256_set1_epi32(x as i32), step);
-        let su = _mm256_add_epi32(_mm256_slli_epi32::<SHIFT>(xs), mix(rows.u, k, c));
+        let su = _mm256_add_epi32(_mm256_slli_epi32::<SHIFT>(xs), mix(&cell.1, k));
         let (ix, wx) = axis(su, w);
-        let (iy, wy) = axis(_mm256_add_epi32(sy, mix(rows.v, k, c)), h);
+        let (iy, wy) = axis(_mm256_add_epi32(sy, mix(&cell.2, k)), h);
         let index = _mm256_add_epi32(_mm256_mullo_epi32(iy, width), ix);
         let weights = _mm256_or_si256(wx, _mm256_slli_epi32::<16>(wy));
         // Per lane [t0 t1 | t4 t5] and [t2 t3 | t6 t7], each tap a u64.
