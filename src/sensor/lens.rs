@@ -27,6 +27,7 @@ mod kernel;
 mod map;
 #[cfg(target_arch = "x86_64")]
 mod newton;
+mod taps;
 pub use map::{LensMap, Lensed};
 
 /// A frame's drawn lens coefficients.
@@ -162,7 +163,8 @@ pub struct LensGeometry {
 impl LensGeometry {
     /// The lens `draw` on a `width`×`height` render of focal length `focal`
     /// pixels; `None` when the draw is neutral (or the picture too small to
-    /// resample). The last few are kept: a fixed draw is solved once.
+    /// resample, or past the largest side a preset takes). The last few are
+    /// kept: a fixed draw is solved once.
     pub fn new(draw: LensDraw, width: u32, height: u32, focal: f64) -> Option<Self> {
         type Key = (LensDraw, u32, u32, u64);
         static CACHE: Mutex<Vec<(Key, Option<LensGeometry>)>> = Mutex::new(Vec::new());
@@ -181,7 +183,11 @@ impl LensGeometry {
     }
 
     fn solve(draw: LensDraw, width: u32, height: u32, focal: f64) -> Option<Self> {
-        if draw.is_neutral() || width < 2 || height < 2 || !(focal.is_finite() && focal > 0.0) {
+        let sides = 2..=crate::preset::MAX_IMAGE_SIDE;
+        if draw.is_neutral()
+            || !(sides.contains(&width) && sides.contains(&height))
+            || !(focal.is_finite() && focal > 0.0)
+        {
             return None;
         }
         let corner = f64::from(width).hypot(f64::from(height)) / 2.0 / focal;

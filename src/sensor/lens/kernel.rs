@@ -1,6 +1,6 @@
 //! The lens's bilinear resampling kernel (issue 41): a written pixel's
-//! [`Tap`] (its source's top-left pixel and weights in 1/1024, rounded from
-//! the source position by [`tap_at`]) and a row of pixels mixed from their
+//! [`Tap`] (its source's top-left pixel and weights in 1/1024, from the
+//! source position by `taps.rs`) and a row of pixels mixed from their
 //! taps ([`remap_row`]) in integers: the scalar kernel, and on AVX2 eight
 //! pixels at a time with the scalar kernel's bytes (tested).
 
@@ -32,35 +32,6 @@ impl Tap {
 
 /// The weights' scale: 1024 = the whole pixel.
 pub(super) const ONE: u32 = 1024;
-
-/// A source position (pixel coordinates) as its taps, clamped to the image
-/// (NaN to its first pixel).
-#[inline(always)]
-pub(super) fn tap_at((u, v): (f64, f64), w: u32, h: u32) -> Tap {
-    let axis = |s: f64, n: u32| {
-        // `max` takes NaN to 0, as `clamp` then `as u32` did.
-        let s = (s - 0.5).max(0.0).min(f64::from(n - 1));
-        let i = floor_u32(s).min(n - 2);
-        let x = (s - f64::from(i)) * f64::from(ONE);
-        let k = floor_u32(x);
-        let f = k + u32::from(x - f64::from(k) >= 0.5);
-        (i, f.min(ONE))
-    };
-    let (x0, wx) = axis(u, w);
-    let (y0, wy) = axis(v, h);
-    Tap::new(y0 * w + x0, wx, wy)
-}
-
-/// `s as u32` for `s` in [0, 2³¹): the nearest integer by adding 2⁵², one
-/// less where that rounded up, read from the mantissa. Exact, and unlike
-/// the saturating cast it vectorises.
-#[inline(always)]
-fn floor_u32(s: f64) -> u32 {
-    const MAGIC: f64 = 4_503_599_627_370_496.0; // 2⁵²
-    let r = (s + MAGIC) - MAGIC;
-    let f = if r > s { r - 1.0 } else { r };
-    (f + MAGIC).to_bits() as u32
-}
 
 /// One row of output pixels from their taps (fixed point, rounded): the
 /// AVX2 kernel where the CPU has it, else the scalar one (the same bytes).
@@ -231,32 +202,6 @@ fn mix8(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The vectorising floor is the cast it replaces, next to whole numbers too.
-    #[test]
-    fn floor_u32_is_the_saturating_cast_in_range() {
-        for s in [
-            0.0f64,
-            0.49999,
-            0.5,
-            1.0 - 1e-12,
-            1.0,
-            2.5,
-            3.5,
-            1_023.999_999,
-            1024.0,
-            2e9,
-        ] {
-            for s in [
-                s,
-                f64::from_bits(s.to_bits() + 1),
-                f64::from_bits(s.to_bits().max(1) - 1),
-            ] {
-                assert_eq!(floor_u32(s), s as u32, "{s}");
-            }
-        }
-        assert_eq!(tap_at((f64::NAN, 3.2), 8, 8), tap_at((0.5, 3.2), 8, 8));
-    }
 
     /// The AVX2 kernel and the scalar one give the same bytes for every
     /// weight (0 and 1024 included) on a noisy picture.

@@ -1,12 +1,13 @@
 //! The lens's inverse mapping as the picture is resampled (issue 41): the
-//! exact inverse ([`LensGeometry::inverse`]) solved on a 16-pixel grid and
-//! mixed along x once per grid row when a draw's map is built
-//! ([`LensMap::build`]); each output row's sources then mixed from four
-//! grid rows (cubic Lagrange weights) and rounded to bilinear taps as the
-//! row is resampled ([`LensMap::remap`]), or read back from the taps table
-//! a map keeps once it is used a second time (a fixed draw). The rows are
-//! mixed by `kernel.rs`'s kernel (AVX2 where the CPU has it). The id layer
-//! moves with the nearest taps ([`LensMap::nearest_in`]).
+//! exact inverse ([`LensGeometry::inverse`]) solved on a 16-pixel grid when
+//! a draw's map is built ([`LensMap::build`]), kept as each node's source
+//! displacement (1/1024 px). As each output row is resampled
+//! ([`LensMap::remap`]) its nodes are mixed from the four grid rows around
+//! it and its pixels' taps from the four nodes around each (cubic Lagrange
+//! weights, `taps.rs`), and the row is mixed from those taps by
+//! `kernel.rs`'s kernel (both AVX2 where the CPU has it); a map used a
+//! second time (a fixed draw) tabulates its taps once and reads them back.
+//! The id layer moves with the nearest taps ([`LensMap::nearest_in`]).
 
 use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -14,22 +15,25 @@ use std::sync::{Arc, Mutex, OnceLock};
 use rayon::prelude::*;
 
 use super::LensGeometry;
-use super::kernel::{ONE, Tap, remap_row, tap_at};
+use super::kernel::{ONE, Tap, remap_row};
+use super::taps::{GRID as CELL, LIM, Rows, row_taps};
 use crate::sensor::PixelRect;
 
 /// The exact inverse is solved on a grid of this spacing (pixels), a node
 /// past each edge, and interpolated between with cubic Lagrange weights
 /// (the tests bound the difference from the exact inverse under 0.01 px).
-const GRID: u32 = 16;
+const GRID: u32 = CELL as u32;
 
-/// A lens's inverse mapping: each grid row's sources mixed along x.
+/// A lens's inverse mapping: its sources' displacements at the grid's nodes.
 #[derive(Debug, PartialEq)]
 pub struct LensMap {
     width: u32,
     height: u32,
-    /// Per grid row, the source's u at every column, then its v (a
-    /// buffer from [`ALONG`], given back when the map is dropped).
-    along: Vec<f64>,
+    /// Nodes per grid row.
+    nx: usize,
+    /// Per grid row, each node's source displacement in 1/1024 px along u
+    /// (u − the node's x, pixel coordinates), then along v (v − its y).
+    nodes: Vec<f64>,
     /// Every pixel's taps, tabulated once a map is used a second time (a
     /// fixed draw: read back beats mixing again; a new draw never stores them).
     taps: OnceLock<Vec<Tap>>,
@@ -62,51 +66,21 @@ fn stencil(x: u32) -> (usize, [f64; 4]) {
     )
 }
 
-/// The four-node cubic mix of `rows` (one value per column each) at `k`.
-#[inline(always)]
-fn mix(rows: [&[f64]; 4], k: [f64; 4], out: &mut [f64]) {
-    let [a, b, c, d] = rows;
-    for ((((o, &a), &b), &c), &d) in out.iter_mut().zip(a).zip(b).zip(c).zip(d) {
-        *o = k[0] * a + k[1] * b + k[2] * c + k[3] * d;
-    }
+/// [`lagrange`]'s weights at each column of a grid cell, weight by weight
+/// (`[i][t]`: node i's at column t), in f32.
+fn cell_weights() -> &'static [[f32; CELL]; 4] {
+    static K: OnceLock<[[f32; CELL]; 4]> = OnceLock::new();
+    K.get_or_init(|| {
+        let k: [[f64; 4]; CELL] = std::array::from_fn(|t| stencil(t as u32).1);
+        std::array::from_fn(|i| std::array::from_fn(|t| k[t][i] as f32))
+    })
 }
 
-/// One grid row's nodes (`nodes`, one value each) mixed at every column
-/// of `out` ([`stencil`]'s first node and weights): the four-node sum in
-/// the order of [`mix`], a grid cell's columns at a time with the cell's
-/// four nodes (`GRID` columns share them; their weights are those of the
-/// column's place in the cell), a missing node read as 0.
-#[inline(always)]
-fn mix_along(nodes: &[f64], weights: &[[f64; GRID as usize]; 4], out: &mut [f64]) {
-    for (c, cell) in out.chunks_mut(GRID as usize).enumerate() {
-        let [a, b, cc, d] = match nodes.get(c..c + 4) {
-            Some(&[a, b, cc, d]) => [a, b, cc, d],
-            _ => std::array::from_fn(|i| nodes.get(c + i).copied().unwrap_or(0.0)),
-        };
-        let [k0, k1, k2, k3] = weights;
-        for (t, o) in cell.iter_mut().enumerate() {
-            *o = k0[t] * a + k1[t] * b + k2[t] * cc + k3[t] * d;
-        }
-    }
-}
-
-/// [`lagrange`]'s weights at each column of a grid cell, weight by weight.
-fn cell_weights() -> [[f64; GRID as usize]; 4] {
-    let k: [[f64; 4]; GRID as usize] = std::array::from_fn(|t| stencil(t as u32).1);
-    std::array::from_fn(|i| std::array::from_fn(|t| k[t][i]))
-}
-
-/// The spare buffers of dropped maps' grid rows (at most 2).
-static ALONG: Mutex<Vec<Vec<f64>>> = Mutex::new(Vec::new());
-
-impl Drop for LensMap {
-    fn drop(&mut self) {
-        if let Ok(mut spare) = ALONG.lock()
-            && spare.len() < 2
-        {
-            spare.push(std::mem::take(&mut self.along));
-        }
-    }
+/// A source coordinate `s` as its displacement from `at` in 1/1024 px,
+/// within ±[`LIM`] (NaN as the least: the picture's first pixel).
+fn displacement(s: f64, at: f64) -> f64 {
+    let lim = f64::from(LIM);
+    ((s - at) * f64::from(ONE)).max(-lim).min(lim)
 }
 
 impl LensMap {
@@ -128,53 +102,32 @@ impl LensMap {
         map
     }
 
-    /// Solve `geo`'s inverse exactly on the grid and mix each grid row
-    /// along x once per column (grid rows on rayon's threads); the pixel
-    /// rows are mixed from four of these as they are resampled.
+    /// Solve `geo`'s inverse exactly on the grid (grid rows on rayon's
+    /// threads), kept as displacements; each pixel row's nodes are mixed
+    /// from four grid rows, and its pixels from those, as it is resampled.
     pub fn build(geo: &LensGeometry) -> Self {
         let (w, h) = (geo.width, geo.height);
         let (nx, ny) = (node_count(w), node_count(h));
         let at = |k: usize| (k as f64 - 1.0) * f64::from(GRID) + 0.5;
-        let weights = cell_weights();
-        // A dropped map's buffer where there is one (every value is written):
-        // a fresh one would be zeroed and faulted in anew each draw.
-        let mut along = ALONG
-            .lock()
-            .ok()
-            .and_then(|mut s| s.pop())
-            .unwrap_or_default();
-        along.resize(ny * 2 * w as usize, 0.0);
-        along
-            .par_chunks_mut(2 * w as usize)
+        let mut nodes = vec![0.0; ny * 2 * nx];
+        nodes
+            .par_chunks_mut(2 * nx)
             .enumerate()
             .for_each(|(j, planes)| {
                 let row: Vec<(f64, f64)> = (0..nx).map(|i| (at(i), at(j))).collect();
-                let nodes = geo.inverse_all(&row);
-                let (us, vs) = planes.split_at_mut(w as usize);
-                super::super::simd::widest(
-                    #[inline(always)]
-                    || {
-                        mix_along(&nodes.iter().map(|p| p.0).collect::<Vec<_>>(), &weights, us);
-                        mix_along(&nodes.iter().map(|p| p.1).collect::<Vec<_>>(), &weights, vs);
-                    },
-                );
+                let (us, vs) = planes.split_at_mut(nx);
+                let solved = geo.inverse_all(&row);
+                for (i, ((u, v), s)) in us.iter_mut().zip(vs).zip(solved).enumerate() {
+                    (*u, *v) = (displacement(s.0, at(i)), displacement(s.1, at(j)));
+                }
             });
         Self {
             width: w,
             height: h,
-            along,
+            nx,
+            nodes,
             taps: OnceLock::new(),
         }
-    }
-
-    /// Grid row `r`'s plane `p` (0: u, 1: v) at columns `xs` (empty
-    /// where the map has none).
-    fn along(&self, r: usize, p: usize, xs: Range<usize>) -> &[f64] {
-        let w = self.width as usize;
-        let at = (2 * r + p) * w;
-        (self.along.get(at..at + w))
-            .and_then(|row| row.get(xs))
-            .unwrap_or(&[])
     }
 
     /// Every pixel's taps, row by row (rows on rayon's threads).
@@ -191,42 +144,45 @@ impl LensMap {
     }
 
     /// Row `y`'s taps for the columns `xs` (into `s.taps`): the four grid
-    /// rows around it mixed per column, each source rounded to its taps.
+    /// rows around it mixed at the nodes of the columns' cells (f64, then
+    /// f32), the pixels from those (`taps.rs`).
     fn row_taps(&self, y: u32, xs: Range<usize>, s: &mut Scratch) {
-        let n = xs.len();
-        s.us.resize(n, 0.0);
-        s.vs.resize(n, 0.0);
-        s.taps.resize(n, Tap(0));
+        s.taps.resize(xs.len(), Tap(0));
+        let first = xs.start / CELL;
+        let last = (xs.end.max(1) - 1) / CELL + 4;
         let (r, k) = stencil(y);
-        let plane =
-            |p: usize| -> [&[f64]; 4] { std::array::from_fn(|i| self.along(r + i, p, xs.clone())) };
-        let (w, h) = (self.width, self.height);
-        let Scratch { us, vs, taps } = s;
-        super::super::simd::widest(
-            #[inline(always)]
-            || {
-                mix(plane(0), k, us);
-                mix(plane(1), k, vs);
-                for ((tap, &u), &v) in taps.iter_mut().zip(us.iter()).zip(vs.iter()) {
-                    *tap = tap_at((u, v), w, h);
-                }
-            },
-        );
+        let nx = self.nx;
+        let grid_row = |i: usize, p: usize| {
+            let at = (2 * (r + i) + p) * nx;
+            self.nodes.get(at + first..at + last.min(nx)).unwrap_or(&[])
+        };
+        for (p, out) in [&mut s.u, &mut s.v].into_iter().enumerate() {
+            let [a, b, c, d] = std::array::from_fn(|i| grid_row(i, p));
+            out.clear();
+            out.extend(
+                (a.iter().zip(b).zip(c).zip(d))
+                    .map(|(((a, b), c), d)| (k[0] * a + k[1] * b + k[2] * c + k[3] * d) as f32),
+            );
+        }
+        let rows = Rows {
+            u: &s.u,
+            v: &s.v,
+            first: first as u32,
+            k: cell_weights(),
+        };
+        let size = (self.width, self.height);
+        row_taps(&rows, xs.start as u32, y, size, &mut s.taps);
     }
 
-    /// Output pixel `i`'s taps (the arithmetic of [`Self::row_taps`]).
+    /// Output pixel `i`'s taps (those [`Self::row_taps`] gives).
     fn tap(&self, i: usize) -> Option<Tap> {
         let w = self.width as usize;
         if i >= w * self.height as usize {
             return None;
         }
-        let (x, y) = (i % w, (i / w) as u32);
-        let (r, k) = stencil(y);
-        let at = |p: usize, j: usize| self.along(r + j, p, x..x + 1).first().copied();
-        let mixed = |p: usize| {
-            Some(k[0] * at(p, 0)? + k[1] * at(p, 1)? + k[2] * at(p, 2)? + k[3] * at(p, 3)?)
-        };
-        Some(tap_at((mixed(0)?, mixed(1)?), self.width, self.height))
+        let mut s = Scratch::default();
+        self.row_taps((i / w) as u32, i % w..i % w + 1, &mut s);
+        s.taps.first().copied()
     }
 
     /// Output pixel `i`'s source position as the map samples it (index
@@ -274,7 +230,7 @@ impl LensMap {
     /// `src` (RGBA8, the map's size) resampled through the lens: each
     /// output pixel the bilinear mix of its four taps (rows on rayon's
     /// threads, each row's taps mixed from the grid as it goes, or read
-    /// from the table a map used before keeps). The
+    /// from the table a map used before keeps: the same taps). The
     /// picture's buffer goes back to a small pool when dropped, so that
     /// the next frame's writes over it rather than a freshly zeroed one.
     pub fn remap(&self, src: &[u8]) -> Lensed {
@@ -323,11 +279,11 @@ impl LensMap {
     }
 }
 
-/// A row's buffers: its pixels' sources and their taps.
+/// A row's buffers: its nodes' displacements (u, v) and its pixels' taps.
 #[derive(Default)]
 struct Scratch {
-    us: Vec<f64>,
-    vs: Vec<f64>,
+    u: Vec<f32>,
+    v: Vec<f32>,
     taps: Vec<Tap>,
 }
 
@@ -368,25 +324,65 @@ mod tests {
         }
     }
 
-    /// A grid row mixed a cell at a time is the per-column four-node sum
-    /// of each column's stencil, bit for bit (a width that is not a
-    /// multiple of the cell, and nodes past the last read as 0).
+    /// The taps mixed in f32 from displacements against the grid's cubic
+    /// mix in f64 from the exact inverse at the nodes: within the taps'
+    /// rounding (half of 1/1024 px) and a tenth of that, for a strong
+    /// Brown–Conrady lens and a fisheye, at the edges too.
     #[test]
-    fn a_grid_row_mixed_by_cells_is_each_columns_stencil_sum() {
-        let nodes: Vec<f64> = (0..17)
-            .map(|i| (f64::from(i) * 1.37).sin() * 900.0)
-            .collect();
-        let weights = cell_weights();
-        for w in [197u32, 250] {
-            let mut out = vec![f64::NAN; w as usize];
-            mix_along(&nodes, &weights, &mut out);
-            for (x, &got) in (0..w).zip(&out) {
-                let (c, k) = stencil(x);
-                let n = |i: usize| nodes.get(c + i).copied().unwrap_or(0.0);
-                let want = k[0] * n(0) + k[1] * n(1) + k[2] * n(2) + k[3] * n(3);
-                assert_eq!(got.to_bits(), want.to_bits(), "column {x} of {w}");
+    fn the_f32_taps_are_the_f64_grid_mix_rounded_to_a_1024th() {
+        let fisheye = LensDraw::Fisheye {
+            k1: 0.05,
+            k2: -0.01,
+            k3: 0.0,
+            k4: 0.0,
+        };
+        let (w, h) = (1920u32, 1080u32);
+        for d in [bc(-0.3, 0.08, 0.003, 0.002), fisheye] {
+            let geo = LensGeometry::new(d, w, h, 935.0).expect("a lens");
+            let map = LensMap::build(&geo);
+            let node = |i: usize| (i as f64 - 1.0) * f64::from(GRID) + 0.5;
+            let mut worst = 0.0f64;
+            for i in (0..(w * h) as usize).step_by(1009).chain([0, 1919]) {
+                let (x, y) = ((i % 1920) as u32, (i / 1920) as u32);
+                let ((cx, kx), (cy, ky)) = (stencil(x), stencil(y));
+                let (mut u, mut v) = (0.0, 0.0);
+                for (b, ky) in ky.iter().enumerate() {
+                    let mut row = (0.0, 0.0);
+                    for (a, kx) in kx.iter().enumerate() {
+                        let p = geo.inverse((node(cx + a), node(cy + b)));
+                        row = (row.0 + kx * p.0, row.1 + kx * p.1);
+                    }
+                    (u, v) = (u + ky * row.0, v + ky * row.1);
+                }
+                let inside = |s: f64, n: u32| (0.5..f64::from(n) - 0.5).contains(&s);
+                if inside(u, w) && inside(v, h) {
+                    let (su, sv) = map.source(i).expect("in the map");
+                    worst = worst.max((su + 0.5 - u).abs().max((sv + 0.5 - v).abs()));
+                }
             }
+            assert!(worst * 1024.0 < 0.55, "{d:?}: {} / 1024 px", worst * 1024.0);
         }
+    }
+
+    /// A map used a second time reads its tabulated taps back: the same
+    /// bytes as mixing each row's taps anew, and the same taps as the id
+    /// layer's rows (a width that is not a multiple of 8).
+    #[test]
+    fn the_tabulated_taps_are_the_rows_taps() {
+        let (w, h) = (203u32, 61u32);
+        let geo = LensGeometry::new(bc(-0.25, 0.03, 0.001, -0.002), w, h, 150.0).expect("a lens");
+        let map = LensMap::build(&geo);
+        let src: Vec<u8> = (0..w * h * 4).map(|i| (i * 7919 % 251) as u8).collect();
+        let fresh = map.remap(&src).to_vec();
+        let table = map.taps.get_or_init(|| map.all_taps());
+        assert_eq!(*map.remap(&src), fresh[..]);
+        let mut s = Scratch::default();
+        map.row_taps(37, 5..190, &mut s);
+        assert_eq!(
+            s.taps[..],
+            table[37 * w as usize + 5..37 * w as usize + 190]
+        );
+        assert!(table.iter().any(|t| t.wx() != 0 && t.wy() != 0));
     }
 
     /// Remapping a constant picture gives it back; a horizontal ramp stays
