@@ -61,7 +61,7 @@ mod reference;
 pub mod rolling;
 mod saturation;
 mod sharpen;
-mod simd;
+pub(crate) mod simd;
 mod sweep;
 pub mod thermal;
 mod vignette;

@@ -10,7 +10,7 @@
 /// the baseline. `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps it (for
 /// comparing the builds; the bytes are the same).
 #[cfg(target_arch = "x86_64")]
-pub(super) fn simd_level() -> u8 {
+pub(crate) fn simd_level() -> u8 {
     static LEVEL: std::sync::OnceLock<u8> = std::sync::OnceLock::new();
     *LEVEL.get_or_init(|| {
         let cap = match std::env::var("SWARMSHOT_CAMERA_SIMD").as_deref() {

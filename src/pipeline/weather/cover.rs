@@ -400,6 +400,26 @@ mod tests {
         );
     }
 
+    /// `all` and `near` of a `w × h` picture under `q` alone.
+    fn drawn_alone(
+        q: &Prepared,
+        layer: Option<&DepthLayer>,
+        (w, h): (u32, u32),
+    ) -> (Vec<f32>, Vec<f32>) {
+        let (mut all, mut near) = (
+            vec![1.0f32; (w * h) as usize],
+            vec![1.0f32; (w * h) as usize],
+        );
+        let mut t = Transmit {
+            all: &mut all,
+            near: &mut near,
+            width: w,
+            rows: 0..h,
+        };
+        draw(&mut t, q, layer);
+        (all, near)
+    }
+
     #[test]
     fn draw_gives_each_pixel_its_capsule_coverage() {
         // Each particle alone into a 64×64 picture's transmittance: every
@@ -409,17 +429,7 @@ mod tests {
         let (mut inner_rows, mut worst) = (0, 0.0f32);
         for p in particles(3000) {
             let q = Prepared::of(&p, (w, h), None);
-            let (mut all, mut near) = (
-                vec![1.0f32; (w * h) as usize],
-                vec![1.0f32; (w * h) as usize],
-            );
-            let mut t = Transmit {
-                all: &mut all,
-                near: &mut near,
-                width: w,
-                rows: 0..h,
-            };
-            draw(&mut t, &q, None);
+            let (all, _) = drawn_alone(&q, None, (w, h));
             for y in 0..h {
                 let py = y as f32 + 0.5;
                 inner_rows += usize::from(q.inner.0 < py - q.a[1] && py - q.a[1] < q.inner.1);
@@ -450,17 +460,7 @@ mod tests {
                 solid: false,
             };
             let q = Prepared::of(&p, (w, h), Some(&layer));
-            let (mut all, mut near) = (
-                vec![1.0f32; (w * h) as usize],
-                vec![1.0f32; (w * h) as usize],
-            );
-            let mut t = Transmit {
-                all: &mut all,
-                near: &mut near,
-                width: w,
-                rows: 0..h,
-            };
-            draw(&mut t, &q, Some(&layer));
+            let (all, near) = drawn_alone(&q, Some(&layer), (w, h));
             assert!(all.iter().any(|&v| v < 1.0));
             assert_eq!(all == near, dims_near, "at {depth} m");
         }

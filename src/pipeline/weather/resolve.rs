@@ -5,41 +5,28 @@
 //! in f32), its fourth byte kept; a radiance plane takes it as it is.
 
 /// Row `t.len()` pixels of RGBA8 `dst` from `src` (or from `dst` itself)
-/// under transmittances `t` towards `level`. On x86-64 eight pixels at
-/// once in AVX2 where the CPU has it (detected at run time), the rest four
-/// at once in SSE2 (part of every x86-64 CPU): the same IEEE operations
-/// lane by lane as [`resolve_scalar`], so the same bytes.
+/// under transmittances `t` towards `level`: eight pixels at once in AVX2
+/// where the CPU runs it (`sensor::simd::simd_level`, which
+/// `SWARMSHOT_CAMERA_SIMD=base` caps), the rest by [`resolve_scalar`]:
+/// the same IEEE operations lane by lane, so the same bytes.
 pub(super) fn resolve(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
     let n = t.len();
     #[cfg(target_arch = "x86_64")]
-    let done = {
+    let done = if crate::sensor::simd::simd_level() >= 1 {
         let wide = n / 8 * 8;
-        let wide = if is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 was detected on this CPU.
-            #[allow(unsafe_code)]
-            unsafe {
-                resolve_avx2(
-                    &mut dst[..wide * 4],
-                    src.map(|s| &s[..wide * 4]),
-                    &t[..wide],
-                    level,
-                )
-            };
-            wide
-        } else {
-            0
-        };
-        let done = wide + (n - wide) / 4 * 4;
-        let (d, s) = (
-            &mut dst[wide * 4..done * 4],
-            src.map(|s| &s[wide * 4..done * 4]),
-        );
-        // SAFETY: SSE2 is part of the x86-64 baseline: every build for it enables it.
+        // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {
-            resolve_sse2(d, s, &t[wide..done], level)
+            resolve_avx2(
+                &mut dst[..wide * 4],
+                src.map(|s| &s[..wide * 4]),
+                &t[..wide],
+                level,
+            )
         };
-        done
+        wide
+    } else {
+        0
     };
     #[cfg(not(target_arch = "x86_64"))]
     let done = 0;
@@ -62,74 +49,10 @@ pub(super) fn resolve_scalar(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], leve
     }
 }
 
-/// [`resolve`] of `t.len()` (a multiple of 4) pixels in SSE2's lanes: the
-/// fourth channel's transmittance 1 leaves its byte as it was, and four
-/// pixels at transmittance 1 are copied as they are (what the lanes give).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse2")]
-fn resolve_sse2(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
-    use std::arch::x86_64::*;
-    let zero = _mm_setzero_si128();
-    let l = _mm_set1_ps(level);
-    let half = _mm_set1_ps(0.5);
-    let rgb = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
-    let one_a = _mm_set_ps(1.0, 0.0, 0.0, 0.0);
-    let one = _mm_set1_ps(1.0);
-    let lane = |v: __m128i, ti: __m128| {
-        let x = _mm_sub_ps(l, _mm_mul_ps(_mm_sub_ps(l, _mm_cvtepi32_ps(v)), ti));
-        _mm_cvttps_epi32(_mm_add_ps(x, half))
-    };
-    let per_channel = |tv: __m128| _mm_or_ps(_mm_and_ps(tv, rgb), one_a);
-    for (i, tq) in t.chunks_exact(4).enumerate() {
-        let at = i * 16;
-        let from = src.map_or(&dst[at..at + 16], |s| &s[at..at + 16]);
-        // SAFETY: `from` and `dst[at..at + 16]` hold 16 bytes, `tq` 4 floats.
-        #[allow(unsafe_code)]
-        let (px, tv) = unsafe {
-            (
-                _mm_loadu_si128(from.as_ptr().cast()),
-                _mm_loadu_ps(tq.as_ptr()),
-            )
-        };
-        if _mm_movemask_ps(_mm_cmpeq_ps(tv, one)) == 0xF {
-            // No particle over these four: as they were.
-            if src.is_some() {
-                // SAFETY: as the loads.
-                #[allow(unsafe_code)]
-                unsafe {
-                    _mm_storeu_si128(dst[at..at + 16].as_mut_ptr().cast(), px)
-                };
-            }
-            continue;
-        }
-        let (lo, hi) = (_mm_unpacklo_epi8(px, zero), _mm_unpackhi_epi8(px, zero));
-        let p0 = lane(
-            _mm_unpacklo_epi16(lo, zero),
-            per_channel(_mm_shuffle_ps::<0x00>(tv, tv)),
-        );
-        let p1 = lane(
-            _mm_unpackhi_epi16(lo, zero),
-            per_channel(_mm_shuffle_ps::<0x55>(tv, tv)),
-        );
-        let p2 = lane(
-            _mm_unpacklo_epi16(hi, zero),
-            per_channel(_mm_shuffle_ps::<0xAA>(tv, tv)),
-        );
-        let p3 = lane(
-            _mm_unpackhi_epi16(hi, zero),
-            per_channel(_mm_shuffle_ps::<0xFF>(tv, tv)),
-        );
-        let out = _mm_packus_epi16(_mm_packs_epi32(p0, p1), _mm_packs_epi32(p2, p3));
-        // SAFETY: as the loads.
-        #[allow(unsafe_code)]
-        unsafe {
-            _mm_storeu_si128(dst[at..at + 16].as_mut_ptr().cast(), out)
-        };
-    }
-}
-
-/// [`resolve_sse2`] eight pixels at a time in AVX2's two 128-bit halves
-/// (pixels 0–3 and 4–7, each half as SSE2's lanes).
+/// [`resolve`] of `t.len()` (a multiple of 8) pixels in AVX2's two 128-bit
+/// halves (pixels 0–3 and 4–7): the fourth channel's transmittance 1 leaves
+/// its byte as it was, and eight pixels at transmittance 1 are copied as
+/// they are (what the lanes give).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn resolve_avx2(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
@@ -222,25 +145,14 @@ mod tests {
         let src: Vec<u8> = (0..n * 4).map(|i| (i * 7 % 256) as u8).collect();
         let mut t: Vec<f32> = (0..n).map(|_| rng.random::<f32>()).collect();
         t[..6].copy_from_slice(&[0.0, 1.0, 0.5, 1.0 / 255.0, 0.999_999_9, 1e-8]);
-        // Whole lanes of four at 1 and one 1 short of it.
+        // A whole lane of eight at 1 and one 1 short of it.
         t[8..16].fill(1.0);
-        t[16..19].fill(1.0);
+        t[16..23].fill(1.0);
         for level in [0.0, 1.0, 127.0, 228.0, 242.0, 255.0] {
             let (mut simd, mut scalar) = (vec![9u8; n * 4], vec![9u8; n * 4]);
             resolve(&mut simd, Some(&src), &t, level);
             resolve_scalar(&mut scalar, Some(&src), &t, level);
             assert_eq!(simd, scalar, "level {level}");
-            // SSE2 alone (AVX2 takes the most where the CPU has it).
-            #[cfg(target_arch = "x86_64")]
-            {
-                let (mut sse2, m) = (vec![9u8; n * 4], n / 4 * 4);
-                // SAFETY: SSE2 is part of the x86-64 baseline.
-                #[allow(unsafe_code)]
-                unsafe {
-                    resolve_sse2(&mut sse2[..m * 4], Some(&src[..m * 4]), &t[..m], level)
-                };
-                assert_eq!(sse2[..m * 4], scalar[..m * 4], "level {level}, SSE2");
-            }
             let mut in_place = src.clone();
             resolve(&mut in_place, None, &t, level);
             assert_eq!(in_place, scalar, "level {level} in place");
