@@ -131,12 +131,14 @@ fn turn(
     };
     let rows = out.par_chunks_mut(w * 4).enumerate();
     match copy.as_mut() {
-        // The copy from the row just made (in the cache).
+        // The row made in the copy (the frame the drones are drawn over,
+        // read whole next) and streamed past the cache into the turned
+        // frame (read only near the drones).
         Some(copy) => {
             rows.zip(copy.par_chunks_mut(w * 4))
-                .for_each_init(init, |k, ((y, bytes), again)| {
+                .for_each_init(init, |k, ((y, turned), bytes)| {
                     make(k, y, bytes);
-                    again.copy_from_slice(bytes);
+                    kernel::copy_streamed(turned, bytes);
                 })
         }
         None => rows.for_each_init(init, |k, (y, bytes)| make(k, y, bytes)),
