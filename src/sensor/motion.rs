@@ -175,29 +175,39 @@ impl Difference {
         top + (bottom - top) * fy
     }
 
-    /// The three channels of D at image point (`x`, `y`): [`Self::sample`]'s
-    /// values, the taps and weights found once.
-    pub(super) fn sample_rgb(&self, x: f64, y: f64) -> [f32; 3] {
-        let (u, v) = (
-            x - 0.5 - f64::from(self.rect.x0),
-            y - 0.5 - f64::from(self.rect.y0),
-        );
-        let (i0, j0) = (u.floor(), v.floor());
-        let (fx, fy) = ((u - i0) as f32, (v - j0) as f32);
-        let at = |i: f64, j: f64| -> Option<usize> {
-            let outside = i < 0.0 || j < 0.0 || i >= self.w as f64 || j >= self.h as f64;
-            (!outside).then(|| (j as usize * self.w + i as usize) * 3)
+    /// Image row coordinate `y` on D's pixel-centre grid: its first tap's
+    /// row and the second's weight (the same for every x, so a row's
+    /// samples find it once: [`Self::sample_rgb_on`]).
+    pub(super) fn row_at(&self, y: f64) -> (f64, f32) {
+        let v = y - 0.5 - f64::from(self.rect.y0);
+        let j0 = v.floor();
+        (j0, (v - j0) as f32)
+    }
+
+    /// The three channels of D at image point (`x`, row): [`Self::sample`]'s
+    /// values, the taps and weights found once, on the row found by
+    /// [`Self::row_at`].
+    #[inline(always)]
+    pub(super) fn sample_rgb_on(&self, (j0, fy): (f64, f32), x: f64) -> [f32; 3] {
+        let u = x - 0.5 - f64::from(self.rect.x0);
+        let i0 = u.floor();
+        let fx = (u - i0) as f32;
+        let tap = |i: f64, j: f64| -> [f32; 3] {
+            if i < 0.0 || j < 0.0 || i >= self.w as f64 || j >= self.h as f64 {
+                return [0.0; 3];
+            }
+            let o = (j as usize * self.w + i as usize) * 3;
+            let rgb = self
+                .d
+                .get(o..o + 3)
+                .and_then(|s| <[f32; 3]>::try_from(s).ok());
+            rgb.unwrap_or([0.0; 3])
         };
-        let taps = [
-            at(i0, j0),
-            at(i0 + 1.0, j0),
-            at(i0, j0 + 1.0),
-            at(i0 + 1.0, j0 + 1.0),
-        ];
-        std::array::from_fn(|c| {
-            let d = |t: Option<usize>| t.map_or(0.0, |o| self.d[o + c]);
-            let top = d(taps[0]) + (d(taps[1]) - d(taps[0])) * fx;
-            let bottom = d(taps[2]) + (d(taps[3]) - d(taps[2])) * fx;
+        let (a, b) = (tap(i0, j0), tap(i0 + 1.0, j0));
+        let (c, d) = (tap(i0, j0 + 1.0), tap(i0 + 1.0, j0 + 1.0));
+        std::array::from_fn(|k| {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (d[k] - c[k]) * fx;
             top + (bottom - top) * fy
         })
     }

@@ -131,12 +131,14 @@ fn turn(
     };
     let rows = out.par_chunks_mut(w * 4).enumerate();
     match copy.as_mut() {
-        // The copy from the row just made (in the cache).
+        // The row made in the copy (the frame the drones are drawn over,
+        // read whole next) and streamed past the cache into the turned
+        // frame (read only near the drones).
         Some(copy) => {
             rows.zip(copy.par_chunks_mut(w * 4))
-                .for_each_init(init, |k, ((y, bytes), again)| {
+                .for_each_init(init, |k, ((y, turned), bytes)| {
                     make(k, y, bytes);
-                    again.copy_from_slice(bytes);
+                    kernel::copy_streamed(turned, bytes);
                 })
         }
         None => rows.for_each_init(init, |k, (y, bytes)| make(k, y, bytes)),
@@ -189,35 +191,52 @@ pub fn shear_over(
     if frame.len() < n || background.len() < n || out.len() < n {
         return;
     }
-    let (dec, enc) = (decode_table(), encode_table());
     let mut owned: Vec<PixelRect> = Vec::new();
-    let inside = |o: &PixelRect, x: u32, y: u32| x >= o.x0 && x < o.x1 && y >= o.y0 && y < o.y1;
     for s in shears {
         let Some(reach) = s.reach(width, height) else {
             continue;
         };
         let region = union(reach, s.rect, width, height);
-        let Some(diff) = Difference::of(frame, background, width, height, s.rect, &[]) else {
-            owned.push(region);
-            continue;
-        };
-        for y in region.y0..region.y1 {
-            let (sx, sy) = s.shift_px.get(y as usize).copied().unwrap_or((0.0, 0.0));
-            for x in region.x0..region.x1 {
-                if owned.iter().any(|o| inside(o, x, y)) {
-                    continue;
-                }
-                let i = (y as usize * width as usize + x as usize) * 4;
-                let d = diff.sample_rgb(f64::from(x) + 0.5 - sx, f64::from(y) + 0.5 - sy);
-                for (c, d) in d.into_iter().enumerate() {
-                    if d != 0.0 {
-                        let v = lin(dec, out, i + c) + d;
-                        out[i + c] = encode(enc, v.clamp(0.0, 1.0));
-                    }
+        if let Some(diff) = Difference::of(frame, background, width, height, s.rect, &[]) {
+            draw_shear(out, width, (s, &diff), region, &owned);
+        }
+        owned.push(region);
+    }
+}
+
+/// One drone's difference `diff` moved by `s`'s shifts and added over
+/// `out`'s pixels of `region` (an image `width` wide) that no rect of
+/// `owned` holds: per row, the rects holding it and the row's taps in
+/// `diff` found once ([`Difference::row_at`]).
+fn draw_shear(
+    out: &mut [u8],
+    width: u32,
+    (s, diff): (&Shear, &Difference),
+    region: PixelRect,
+    owned: &[PixelRect],
+) {
+    let (dec, enc) = (decode_table(), encode_table());
+    let mut blocked: Vec<(u32, u32)> = Vec::new();
+    for y in region.y0..region.y1 {
+        let (sx, sy) = s.shift_px.get(y as usize).copied().unwrap_or((0.0, 0.0));
+        blocked.clear();
+        let holding = owned.iter().filter(|o| y >= o.y0 && y < o.y1);
+        blocked.extend(holding.map(|o| (o.x0, o.x1)));
+        let row = diff.row_at(f64::from(y) + 0.5 - sy);
+        let start = y as usize * width as usize * 4;
+        for x in region.x0..region.x1 {
+            if blocked.iter().any(|&(x0, x1)| x >= x0 && x < x1) {
+                continue;
+            }
+            let i = start + x as usize * 4;
+            let d = diff.sample_rgb_on(row, f64::from(x) + 0.5 - sx);
+            for (c, d) in d.into_iter().enumerate() {
+                if d != 0.0 {
+                    let v = lin(dec, out, i + c) + d;
+                    out[i + c] = encode(enc, v.clamp(0.0, 1.0));
                 }
             }
         }
-        owned.push(region);
     }
 }
 

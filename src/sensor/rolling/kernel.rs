@@ -242,6 +242,44 @@ impl Row<'_> {
     }
 }
 
+/// `src` copied into `dst` (the shorter's length) with non-temporal
+/// stores where both are 16-byte aligned in step (SSE2, every x86-64):
+/// the bytes go to memory without evicting the cache or reading `dst`'s
+/// lines first; a plain copy elsewhere.
+pub(super) fn copy_streamed(dst: &mut [u8], src: &[u8]) {
+    let n = dst.len().min(src.len());
+    let (dst, src) = (&mut dst[..n], &src[..n]);
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm_sfence, _mm_stream_si128};
+        let head = dst.as_ptr().align_offset(16).min(n);
+        dst[..head].copy_from_slice(&src[..head]);
+        let body = head + (n - head) / 16 * 16;
+        for (d, s) in dst[head..body]
+            .chunks_exact_mut(16)
+            .zip(src[head..body].chunks_exact(16))
+        {
+            // SAFETY: both are 16 bytes; `d` is 16-byte aligned (`head`);
+            // the load takes any alignment.
+            #[allow(unsafe_code)]
+            unsafe {
+                let v = _mm_loadu_si128(s.as_ptr().cast::<__m128i>());
+                _mm_stream_si128(d.as_mut_ptr().cast::<__m128i>(), v);
+            }
+        }
+        dst[body..].copy_from_slice(&src[body..]);
+        // The streamed stores ordered before any later store (another
+        // thread reads them after rayon's join).
+        // SAFETY: SSE is part of x86-64.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm_sfence()
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    dst.copy_from_slice(src);
+}
+
 /// Per 16-bit lane: (a·(256 − f) + b·f + 128) / 256 (a, b ≤ 255, f ≤ 256:
 /// every sum fits the lane), `g` = 256 − f.
 #[cfg(target_arch = "x86_64")]

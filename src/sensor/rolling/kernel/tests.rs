@@ -233,3 +233,24 @@ fn dividing_by_the_knot_spacing_by_a_shift_is_the_quotient() {
         assert_eq!(div_knot(d), d / KNOT_PX as i32, "{d}");
     }
 }
+
+/// The streamed copy is the bytes at every alignment of either end and
+/// any length (its aligned body, its head and tail copied plainly).
+#[test]
+fn a_streamed_copy_is_the_bytes_at_any_alignment() {
+    let src: Vec<u8> = (0..200u32).map(|i| (i * 37 % 251) as u8).collect();
+    for from in 0..17 {
+        for at in 0..17 {
+            for len in [0, 1, 15, 16, 17, 33, 100, 150] {
+                let mut dst = [0xeeu8; 200];
+                copy_streamed(&mut dst[at..at + len], &src[from..from + len]);
+                assert_eq!(
+                    dst[at..at + len],
+                    src[from..from + len],
+                    "{from} {at} {len}"
+                );
+                assert!(dst[..at].iter().chain(&dst[at + len..]).all(|&b| b == 0xee));
+            }
+        }
+    }
+}
