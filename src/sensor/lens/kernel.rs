@@ -123,7 +123,7 @@ fn remap_row_avx2(
         #[allow(unsafe_code)]
         if b + 1 < n {
             unsafe {
-                if x % 16 == 0 {
+                if x.is_multiple_of(16) {
                     prefetch(src, rows, (x + AHEAD, y), (w, h));
                 }
                 next = block.at(rows, x + 8);
