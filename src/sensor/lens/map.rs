@@ -1,11 +1,11 @@
 //! The lens's inverse mapping as the picture is resampled (issue 41): the
 //! exact inverse ([`LensGeometry::inverse`]) solved on a 16-pixel grid when
 //! a draw's map is built ([`LensMap::build`]), kept as each node's source
-//! displacement (1/1024 px). As each output row is resampled
+//! displacement (1/64 px). As each output row is resampled
 //! ([`LensMap::remap`]) its nodes are mixed from the four grid rows around
-//! it and its pixels' taps from the four nodes around each (cubic Lagrange
-//! weights, `taps.rs`), and the row is mixed from those taps by
-//! `kernel.rs`'s kernel (both AVX2 where the CPU has it); a map used a
+//! it, its pixels' taps from the four nodes around each (cubic Lagrange
+//! weights, `taps.rs`) and the row from those taps by `kernel.rs`'s kernel
+//! (on AVX2 the taps kept in registers for the kernel); a map used a
 //! second time (a fixed draw) tabulates its taps once and reads them back.
 //! The id layer moves with the nearest taps ([`LensMap::nearest_in`]).
 
@@ -15,13 +15,14 @@ use std::sync::{Arc, Mutex, OnceLock};
 use rayon::prelude::*;
 
 use super::LensGeometry;
-use super::kernel::{ONE, Tap, remap_row};
-use super::taps::{GRID as CELL, LIM, Rows, row_taps};
+use super::kernel::{remap_row, remap_taps};
+use super::taps::{GRID as CELL, LIM, ONE, Rows, Tap, row_taps};
 use crate::sensor::PixelRect;
 
 /// The exact inverse is solved on a grid of this spacing (pixels), a node
 /// past each edge, and interpolated between with cubic Lagrange weights
-/// (the tests bound the difference from the exact inverse under 0.01 px).
+/// (the tests bound the mix's difference from the exact inverse under
+/// 0.01 px, and the sampled position's, rounded to 1/64 px, under 1/64 px).
 const GRID: u32 = CELL as u32;
 
 /// A lens's inverse mapping: its sources' displacements at the grid's nodes.
@@ -31,7 +32,7 @@ pub struct LensMap {
     height: u32,
     /// Nodes per grid row.
     nx: usize,
-    /// Per grid row, each node's source displacement in 1/1024 px along u
+    /// Per grid row, each node's source displacement in 1/64 px along u
     /// (u − the node's x, pixel coordinates), then along v (v − its y).
     nodes: Vec<f64>,
     /// Every pixel's taps, tabulated once a map is used a second time (a
@@ -76,7 +77,7 @@ fn cell_weights() -> &'static [[f32; CELL]; 4] {
     })
 }
 
-/// A source coordinate `s` as its displacement from `at` in 1/1024 px,
+/// A source coordinate `s` as its displacement from `at` in 1/64 px,
 /// within ±[`LIM`] (NaN as the least: the picture's first pixel).
 fn displacement(s: f64, at: f64) -> f64 {
     let lim = f64::from(LIM);
@@ -143,35 +144,61 @@ impl LensMap {
         taps
     }
 
-    /// Row `y`'s taps for the columns `xs` (into `s.taps`): the four grid
-    /// rows around it mixed at the nodes of the columns' cells (f64, then
-    /// f32), the pixels from those (`taps.rs`).
-    fn row_taps(&self, y: u32, xs: Range<usize>, s: &mut Scratch) {
-        s.taps.resize(xs.len(), Tap(0));
+    /// Row `y`'s nodes for the columns `xs` (into `s.u` and `s.v`): the
+    /// four grid rows around it mixed at the nodes of the columns' cells
+    /// (f64, then f32); the cell of `xs.start` is `rows`' first.
+    fn row_nodes<'a>(&self, y: u32, xs: &Range<usize>, s: &'a mut Scratch) -> Rows<'a> {
         let first = xs.start / CELL;
         let last = (xs.end.max(1) - 1) / CELL + 4;
         let (r, k) = stencil(y);
         let nx = self.nx;
+        let lim = f64::from(LIM);
         let grid_row = |i: usize, p: usize| {
             let at = (2 * (r + i) + p) * nx;
             self.nodes.get(at + first..at + last.min(nx)).unwrap_or(&[])
         };
         for (p, out) in [&mut s.u, &mut s.v].into_iter().enumerate() {
             let [a, b, c, d] = std::array::from_fn(|i| grid_row(i, p));
-            out.clear();
-            out.extend(
-                (a.iter().zip(b).zip(c).zip(d))
-                    .map(|(((a, b), c), d)| (k[0] * a + k[1] * b + k[2] * c + k[3] * d) as f32),
-            );
+            let n = a.len().min(b.len()).min(c.len()).min(d.len());
+            let (a, b, c, d) = (&a[..n], &b[..n], &c[..n], &d[..n]);
+            out.resize(n, 0.0);
+            // Indexed over equal lengths: the compiler vectorises it.
+            for (i, o) in out.iter_mut().enumerate() {
+                let m = k[0] * a[i] + k[1] * b[i] + k[2] * c[i] + k[3] * d[i];
+                *o = m.max(-lim).min(lim) as f32;
+            }
         }
-        let rows = Rows {
+        Rows {
             u: &s.u,
             v: &s.v,
             first: first as u32,
             k: cell_weights(),
-        };
-        let size = (self.width, self.height);
-        row_taps(&rows, xs.start as u32, y, size, &mut s.taps);
+        }
+    }
+
+    /// Row `y`'s taps for the columns `xs` (into `s.taps`): its nodes
+    /// ([`Self::row_nodes`]), the pixels' taps from those (`taps.rs`).
+    fn row_taps(&self, y: u32, xs: Range<usize>, s: &mut Scratch) {
+        let mut taps = std::mem::take(&mut s.taps);
+        taps.resize(xs.len(), Tap(0));
+        let rows = self.row_nodes(y, &xs, s);
+        row_taps(&rows, xs.start as u32, y, self.size(), &mut taps);
+        s.taps = taps;
+    }
+
+    /// Row `y`'s columns `xs` of `src` resampled into `out` (that row's
+    /// pixels `xs`): its nodes ([`Self::row_nodes`]), the pixels from
+    /// those (`kernel.rs`, the taps on AVX2 in registers).
+    fn remap_row(&self, src: &[u8], y: u32, xs: Range<usize>, s: &mut Scratch, out: &mut [u8]) {
+        let mut taps = std::mem::take(&mut s.taps);
+        let rows = self.row_nodes(y, &xs, s);
+        let at = (xs.start as u32, y);
+        remap_row(src, &rows, at, self.size(), &mut taps, out);
+        s.taps = taps;
+    }
+
+    fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
     }
 
     /// Output pixel `i`'s taps (those [`Self::row_taps`] gives).
@@ -246,11 +273,8 @@ impl LensMap {
         out.par_chunks_mut(w * 4)
             .enumerate()
             .for_each_init(Scratch::default, |s, (y, row)| match self.taps.get() {
-                Some(taps) => remap_row(src, w, &taps[y * w..(y + 1) * w], row),
-                None => {
-                    self.row_taps(y as u32, 0..w, s);
-                    remap_row(src, w, &s.taps, row);
-                }
+                Some(taps) => remap_taps(src, w, &taps[y * w..(y + 1) * w], row),
+                None => self.remap_row(src, y as u32, 0..w, s, row),
             });
         out
     }
@@ -268,13 +292,8 @@ impl LensMap {
         }
         let mut s = Scratch::default();
         for y in rect.y0 as usize..rect.y1.min(self.height) as usize {
-            self.row_taps(y as u32, x0..x1, &mut s);
-            remap_row(
-                src,
-                w,
-                &s.taps,
-                &mut out[(y * w + x0) * 4..(y * w + x1) * 4],
-            );
+            let row = &mut out[(y * w + x0) * 4..(y * w + x1) * 4];
+            self.remap_row(src, y as u32, x0..x1, &mut s, row);
         }
     }
 }
@@ -294,14 +313,17 @@ pub type Lensed = crate::sensor::pool::Picture;
 #[cfg(test)]
 mod tests {
     use super::super::LensDraw;
+    use super::super::kernel::remap_taps_scalar;
     use super::super::tests::bc;
     use super::*;
 
-    /// The cubic mix of the 16-pixel grid against the exact inverse, over
-    /// the whole picture (edges and corners included), for a strong
-    /// Brown–Conrady lens and a fisheye.
+    /// The sampled positions (the grid's cubic mix rounded to 1/64 px)
+    /// against the exact inverse, over the whole picture (edges and corners
+    /// included), for a strong Brown–Conrady lens and a fisheye: within
+    /// 1/64 px along each axis (the rounding ≤ 1/128 px; the grid adds the
+    /// rest).
     #[test]
-    fn the_tabulated_map_is_the_exact_inverse_within_a_hundredth_of_a_pixel() {
+    fn the_sampled_positions_are_the_exact_inverse_within_a_64th_of_a_pixel() {
         let fisheye = LensDraw::Fisheye {
             k1: 0.05,
             k2: -0.01,
@@ -317,19 +339,19 @@ mod tests {
                 let (x, y) = ((i % 1920) as f64 + 0.5, (i / 1920) as f64 + 0.5);
                 let exact = geo.inverse((x, y));
                 let (u, v) = map.source(i).expect("in the map");
-                worst = worst.max((u + 0.5 - exact.0).hypot(v + 0.5 - exact.1));
+                worst = worst.max((u + 0.5 - exact.0).abs().max((v + 0.5 - exact.1).abs()));
             }
-            // The taps round to 1/1024 px (≤ 0.0007 px); the grid adds the rest.
-            assert!(worst < 0.01, "{d:?}: {worst} px");
+            assert!(worst < 1.0 / 64.0, "{d:?}: {worst} px");
         }
     }
 
     /// The taps mixed in f32 from displacements against the grid's cubic
     /// mix in f64 from the exact inverse at the nodes: within the taps'
-    /// rounding (half of 1/1024 px) and a tenth of that, for a strong
-    /// Brown–Conrady lens and a fisheye, at the edges too.
+    /// rounding (half of 1/64 px) and a twentieth of that, for a strong
+    /// Brown–Conrady lens and a fisheye, at the edges too (the grid's mix
+    /// itself within 0.01 px of the exact inverse).
     #[test]
-    fn the_f32_taps_are_the_f64_grid_mix_rounded_to_a_1024th() {
+    fn the_f32_taps_are_the_f64_grid_mix_rounded_to_a_64th() {
         let fisheye = LensDraw::Fisheye {
             k1: 0.05,
             k2: -0.01,
@@ -341,7 +363,7 @@ mod tests {
             let geo = LensGeometry::new(d, w, h, 935.0).expect("a lens");
             let map = LensMap::build(&geo);
             let node = |i: usize| (i as f64 - 1.0) * f64::from(GRID) + 0.5;
-            let mut worst = 0.0f64;
+            let (mut worst, mut grid) = (0.0f64, 0.0f64);
             for i in (0..(w * h) as usize).step_by(1009).chain([0, 1919]) {
                 let (x, y) = ((i % 1920) as u32, (i / 1920) as u32);
                 let ((cx, kx), (cy, ky)) = (stencil(x), stencil(y));
@@ -354,35 +376,59 @@ mod tests {
                     }
                     (u, v) = (u + ky * row.0, v + ky * row.1);
                 }
+                let exact = geo.inverse((f64::from(x) + 0.5, f64::from(y) + 0.5));
+                grid = grid.max((u - exact.0).hypot(v - exact.1));
                 let inside = |s: f64, n: u32| (0.5..f64::from(n) - 0.5).contains(&s);
                 if inside(u, w) && inside(v, h) {
                     let (su, sv) = map.source(i).expect("in the map");
                     worst = worst.max((su + 0.5 - u).abs().max((sv + 0.5 - v).abs()));
                 }
             }
-            assert!(worst * 1024.0 < 0.55, "{d:?}: {} / 1024 px", worst * 1024.0);
+            assert!(worst * 64.0 < 0.525, "{d:?}: {} / 64 px", worst * 64.0);
+            assert!(grid < 0.01, "{d:?}: the grid {grid} px");
         }
     }
 
-    /// A map used a second time reads its tabulated taps back: the same
-    /// bytes as mixing each row's taps anew, and the same taps as the id
-    /// layer's rows (a width that is not a multiple of 8).
+    /// Each row resampled (the AVX2 kernel, its taps in registers, where
+    /// the CPU has it) is the scalar taps' scalar kernel's, and the id
+    /// layer's taps are those rows' (a width that is not a multiple of 8,
+    /// `remap_rect` from a column that is not either).
     #[test]
-    fn the_tabulated_taps_are_the_rows_taps() {
+    fn the_resampled_rows_are_the_scalar_taps_rows() {
         let (w, h) = (203u32, 61u32);
         let geo = LensGeometry::new(bc(-0.25, 0.03, 0.001, -0.002), w, h, 150.0).expect("a lens");
         let map = LensMap::build(&geo);
         let src: Vec<u8> = (0..w * h * 4).map(|i| (i * 7919 % 251) as u8).collect();
-        let fresh = map.remap(&src).to_vec();
-        let table = map.taps.get_or_init(|| map.all_taps());
-        assert_eq!(*map.remap(&src), fresh[..]);
+        let out = map.remap(&src);
+        let mut part = vec![0u8; src.len()];
+        let rect = PixelRect {
+            x0: 5,
+            y0: 0,
+            x1: 190,
+            y1: h,
+        };
+        map.remap_rect(&src, &mut part, rect);
         let mut s = Scratch::default();
-        map.row_taps(37, 5..190, &mut s);
+        let (mut row, mut weights) = (vec![0u8; w as usize * 4], [0u32; 65]);
+        for y in 0..h {
+            map.row_taps(y, 0..w as usize, &mut s);
+            remap_taps_scalar(&src, w as usize, &s.taps, &mut row);
+            let at = (y * w * 4) as usize;
+            assert_eq!(out[at..at + row.len()], row[..], "row {y}");
+            assert_eq!(part[at + 20..at + 760], row[20..760], "row {y}");
+            s.taps.iter().for_each(|t| weights[t.wx() as usize] += 1);
+        }
+        assert!(weights[1..64].iter().all(|&n| n > 0), "{weights:?}");
+        // A map used a second time reads its table back: the same bytes.
+        let table = map.taps.get_or_init(|| map.all_taps());
+        assert_eq!(*map.remap(&src), out[..]);
         assert_eq!(
-            s.taps[..],
-            table[37 * w as usize + 5..37 * w as usize + 190]
+            table[37 * w as usize..38 * w as usize],
+            {
+                map.row_taps(37, 0..w as usize, &mut s);
+                s.taps.clone()
+            }[..]
         );
-        assert!(table.iter().any(|t| t.wx() != 0 && t.wy() != 0));
     }
 
     /// Remapping a constant picture gives it back; a horizontal ramp stays
