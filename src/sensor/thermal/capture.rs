@@ -100,7 +100,7 @@ simd_fn! {
                 let line = &mut band[(y * w + x0) * 4..];
                 let mut words = load_row(line, 0, w - x0);
                 for (p, v) in words.iter_mut().zip(row) {
-                    let g = round(v + 128.0).clamp(0.0, 255.0) as i32 as u32;
+                    let g = level(round(v + 128.0));
                     *p = (*p & 0xFF00_0000) | (g * 0x0001_0101);
                 }
                 store_row(line, &words, w - x0);
@@ -188,6 +188,15 @@ fn quantise(c: &mut Block, dc: f64, ac: f64) {
     } else {
         first
     };
+}
+
+/// A whole `x` clamped to 0–255, as an integer: the low bits of
+/// `x + 2⁵²`, which holds a whole number below 2⁵² exactly in its mantissa
+/// (`x as u8` in operations that vectorise).
+#[inline(always)]
+fn level(x: f64) -> u32 {
+    const WHOLE: f64 = 4_503_599_627_370_496.0; // 2⁵²
+    ((x.clamp(0.0, 255.0) + WHOLE).to_bits() & 0xFF) as u32
 }
 
 /// `x.round()` (halves away from 0) in operations that vectorise: the
@@ -427,6 +436,14 @@ mod tests {
                 assert_ne!(fast, base, "{w}×{h}, steps {dc} / {ac}: the frame changed");
             }
         }
+    }
+
+    #[test]
+    fn level_is_the_clamped_cast() {
+        for x in (-300..600).map(f64::from) {
+            assert_eq!(level(x), u32::from(x.clamp(0.0, 255.0) as u8), "{x}");
+        }
+        assert_eq!((level(f64::INFINITY), level(f64::NEG_INFINITY)), (255, 0));
     }
 
     #[test]
