@@ -9,6 +9,9 @@ use crate::scene::weather::Particle;
 
 use super::depth::DepthLayer;
 
+#[cfg(target_arch = "x86_64")]
+mod lanes;
+
 /// A particle as the row loops use it, its constants solved once a frame.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Prepared {
@@ -90,6 +93,18 @@ pub(super) struct Transmit<'a> {
     pub(super) near: &'a mut [f32],
     pub(super) width: u32,
     pub(super) rows: Range<u32>,
+    /// Whether particles not tested for depth are drawn eight columns at
+    /// once (the same factors): only where the CPU has AVX2 ([`lanes_here`]).
+    pub(super) lanes: bool,
+}
+
+/// Whether this CPU draws in lanes (AVX2; `sensor::simd::simd_level`,
+/// which `SWARMSHOT_CAMERA_SIMD=base` caps).
+pub(super) fn lanes_here() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return crate::sensor::simd::simd_level() >= 1;
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// One particle into `t`: in each of its rows, only the columns it can
@@ -100,8 +115,17 @@ pub(super) struct Transmit<'a> {
 /// [`coverage`]: the same coverage (up to f32's rounding).
 #[inline]
 pub(super) fn draw(t: &mut Transmit, p: &Prepared, layer: Option<&DepthLayer>) {
-    let [x0, y0, x1, y1] = p.bounds;
     let layer = layer.filter(|_| p.tested);
+    #[cfg(target_arch = "x86_64")]
+    if t.lanes && layer.is_none() {
+        // SAFETY: `lanes` is set only where the CPU has AVX2 ([`lanes_here`]).
+        #[allow(unsafe_code)]
+        unsafe {
+            lanes::draw_avx2(t, p)
+        };
+        return;
+    }
+    let [x0, y0, x1, y1] = p.bounds;
     let width = t.width as usize;
     for y in y0.max(t.rows.start)..y1.min(t.rows.end) {
         let row = (y - t.rows.start) as usize * width;
@@ -415,6 +439,7 @@ mod tests {
             near: &mut near,
             width: w,
             rows: 0..h,
+            lanes: false,
         };
         draw(&mut t, q, layer);
         (all, near)
@@ -441,6 +466,46 @@ mod tests {
         }
         assert!(worst < 1e-5, "{worst}");
         assert!(inner_rows > 5_000, "{inner_rows}");
+    }
+
+    #[test]
+    fn lanes_give_the_scalar_factors_bit_for_bit() {
+        // Every shape (narrow over its bounds, wide by its rows' intervals,
+        // inner rows, still discs), some past the last row's end (the
+        // tail), each drawn alone and all together, in lanes and a pixel at
+        // a time: the same bits.
+        if !lanes_here() {
+            return;
+        }
+        let (w, h) = (64u32, 64u32);
+        let drawn = |lanes: bool, ps: &[Prepared]| {
+            let (mut all, mut near) = (
+                vec![1.0f32; (w * h) as usize],
+                vec![1.0f32; (w * h) as usize],
+            );
+            let mut t = Transmit {
+                all: &mut all,
+                near: &mut near,
+                width: w,
+                rows: 0..h,
+                lanes,
+            };
+            for q in ps {
+                draw(&mut t, q, None);
+            }
+            all.iter().map(|v| v.to_bits()).collect::<Vec<u32>>()
+        };
+        let qs: Vec<Prepared> = (particles(3000).iter())
+            .map(|p| Prepared::of(p, (w, h), None))
+            .collect();
+        let wide = qs.iter().filter(|q| q.bounds[2] - q.bounds[0] > 16).count();
+        assert!(wide > 300, "{wide}");
+        for q in qs.iter().take(500) {
+            let one = std::slice::from_ref(q);
+            assert_eq!(drawn(true, one), drawn(false, one), "{q:?}");
+        }
+        let (lanes, scalar) = (drawn(true, &qs), drawn(false, &qs));
+        assert!(lanes == scalar && lanes.iter().any(|&b| b != 1.0f32.to_bits()));
     }
 
     #[test]

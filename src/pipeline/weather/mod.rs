@@ -158,6 +158,7 @@ fn transmit<'a, R>(
             near,
             width,
             rows: first..first + rows,
+            lanes: cover::lanes_here(),
         };
         // `near` is read at drones' pixels only: 1 over their cells.
         for (y, l) in (first..first + rows).zip(0usize..) {
@@ -218,15 +219,21 @@ fn composite(
     let strip = |k: usize, strips: &Strips, rgba: &mut [u8], clear: Option<(&mut [u8], &[u8])>| {
         let rows = (rgba.len() / row.max(1)) as u32;
         transmit((k, rows, w), strips.of(k), Some(layer), |t| {
-            if let Some((clear, background)) = clear {
-                let rows = clear.chunks_mut(row).zip(background.chunks(row));
-                for ((c, b), t) in rows.zip(t.all.chunks(w as usize)) {
-                    resolve::resolve(c, Some(b), t, level);
+            let Some((clear, background)) = clear else {
+                near_at_drones(t, layer);
+                for (px, t) in rgba.chunks_mut(row).zip(t.all.chunks(w as usize)) {
+                    resolve::resolve(px, None, t, level);
                 }
+                return;
+            };
+            let rows = clear.chunks_mut(row).zip(background.chunks(row));
+            for ((c, b), t) in rows.zip(t.all.chunks(w as usize)) {
+                resolve::resolve(c, Some(b), t, level);
             }
             near_at_drones(t, layer);
-            for (px, t) in rgba.chunks_mut(row).zip(t.all.chunks(w as usize)) {
-                resolve::resolve(px, None, t, level);
+            let rows = rgba.chunks_mut(row).zip(background.chunks(row));
+            for (((px, b), c), t) in rows.zip(clear.chunks(row)).zip(t.all.chunks(w as usize)) {
+                resolve::resolve_over(px, (b, c), t, level);
             }
         })
     };

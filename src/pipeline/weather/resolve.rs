@@ -34,6 +34,38 @@ pub(super) fn resolve(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32)
     resolve_scalar(&mut dst[done * 4..n * 4], src, &t[done..], level);
 }
 
+/// Row `dst` (the frame, RGBA8) under transmittances `t` towards `level`,
+/// given the drone-free row before and after its blends (`background`,
+/// `cleared`: [`resolve`] of it under the transmittances of the pixels no
+/// drone shows). Eight pixels whose bytes equal the background's take the
+/// cleared bytes: no drone shows there, so `t` there is the drone-free
+/// row's, and the result the same function of the same bytes. The rest as
+/// [`resolve`] in place.
+pub(super) fn resolve_over(
+    dst: &mut [u8],
+    (background, cleared): (&[u8], &[u8]),
+    t: &[f32],
+    level: f32,
+) {
+    let n = t.len();
+    let (bg, cl) = (background.as_chunks::<32>().0, cleared.as_chunks::<32>().0);
+    // Whole groups of eight the three rows hold; the rest in place.
+    let m = (n / 8).min(bg.len()).min(cl.len());
+    let (groups, rest) = dst[..n * 4].split_at_mut(m * 32);
+    for (k, ((px, b), c)) in (groups.as_chunks_mut::<32>().0.iter_mut())
+        .zip(bg)
+        .zip(cl)
+        .enumerate()
+    {
+        if px == b {
+            *px = *c;
+        } else {
+            resolve(px, None, &t[k * 8..k * 8 + 8], level);
+        }
+    }
+    resolve(rest, None, &t[m * 8..], level);
+}
+
 /// [`resolve`] a pixel at a time.
 pub(super) fn resolve_scalar(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
     for (i, &ti) in t.iter().enumerate() {
@@ -73,7 +105,10 @@ fn resolve_avx2(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
     let per_channel = |tv: __m256| _mm256_or_ps(_mm256_and_ps(tv, rgb), one_a);
     for (i, tq) in t.chunks_exact(8).enumerate() {
         let at = i * 32;
-        let from = src.map_or(&dst[at..at + 32], |s| &s[at..at + 32]);
+        let from = match src {
+            Some(s) => &s[at..at + 32],
+            None => &dst[at..at + 32],
+        };
         // SAFETY: `from` and `dst[at..at + 32]` hold 32 bytes, `tq` 8 floats.
         #[allow(unsafe_code)]
         let (px, tv) = unsafe {
@@ -157,6 +192,28 @@ mod tests {
             resolve(&mut in_place, None, &t, level);
             assert_eq!(in_place, scalar, "level {level} in place");
         }
+    }
+
+    #[test]
+    fn resolve_over_is_resolve_of_the_frame() {
+        // A drone-free row, its blends, and the frame: the background with
+        // a few pixels changed (drones: their own transmittances), over a
+        // tail past the lanes. The frame's pixels as `resolve` makes them.
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let n = 1003;
+        let background: Vec<u8> = (0..n * 4).map(|_| rng.random()).collect();
+        let t: Vec<f32> = (0..n).map(|_| rng.random::<f32>()).collect();
+        let mut cleared = vec![0u8; n * 4];
+        resolve(&mut cleared, Some(&background), &t, 228.0);
+        let (mut frame, mut t_frame) = (background.clone(), t.clone());
+        for i in [0, 9, 17, 18, 500, 1002] {
+            frame[i * 4..i * 4 + 4].copy_from_slice(&[1, 2, 3, 4]);
+            t_frame[i] = 0.25;
+        }
+        let mut want = frame.clone();
+        resolve(&mut want, None, &t_frame, 228.0);
+        resolve_over(&mut frame, (&background, &cleared), &t_frame, 228.0);
+        assert_eq!(frame, want);
     }
 
     #[test]
