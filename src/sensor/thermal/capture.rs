@@ -21,6 +21,17 @@
 //! Both are arithmetic on the levels in a fixed order (f64, no fused
 //! multiply-add), so the bytes are the same on every machine and any
 //! number of threads. Off ([`Capture`]'s defaults) they cost nothing.
+//!
+//! The compression computes only what the quantiser keeps, with the plain
+//! loops' bytes: most AC coefficients of a thermal frame round to 0. An f32
+//! estimate of each block's DCT (its error bounded far inside
+//! [`ESTIMATE_ERROR`]) names the rows that may hold an AC coefficient of
+//! half the AC step or more; those rows and the DC are computed as the
+//! plain loops do, the others are 0, as the quantiser would have made
+//! them. The inverse runs over the nonzero rows and columns alone: a
+//! skipped product is ±0, and adding ±0 changes no sum but the sign of a
+//! zero, which gives the same level. A block left with its DC alone is one
+//! level, the plain loops' `(s·DC)·s` (every entry of D's row 0 is `s`).
 
 use std::sync::OnceLock;
 
@@ -47,10 +58,15 @@ pub fn apply(c: &Capture, (w, h): (u32, u32), rgba: &mut [u8]) {
 /// An 8×8 block of levels or coefficients, row by row.
 type Block = [[f64; N]; N];
 
-/// The orthonormal 8-point DCT-II matrix `D[u][x]` and its transpose.
+/// An 8×8 block in f32: levels − 128, or estimated coefficients.
+type Block32 = [[f32; N]; N];
+
+/// The orthonormal 8-point DCT-II matrix `D[u][x]`, its transpose, and D
+/// rounded to f32 (for the estimate).
 struct Dct {
     d: Block,
     dt: Block,
+    d32: Block32,
 }
 
 fn dct() -> &'static Dct {
@@ -69,43 +85,129 @@ fn dct() -> &'static Dct {
             }
         }
         let dt = std::array::from_fn(|i| std::array::from_fn(|j| d[j][i]));
-        Dct { d, dt }
+        let d32 = d.map(|row| row.map(|v| v as f32));
+        Dct { d, dt, d32 }
     })
+}
+
+/// The most an estimated coefficient ([`estimate`]) may be from the plain
+/// loops' f64 value, with room to spare. It is below 2·10⁻³: the levels −
+/// 128 are at most 128, so a pass's f32 sums are at most 2 × 256 (the even
+/// and odd sums, whole) and 2 × 724, each of a few products and sums with
+/// a rounding error of 2⁻²⁴ of its size, and D's f32 entries are within
+/// 2⁻²⁴ of its own (lib test: the largest seen is below a quarter of this).
+const ESTIMATE_ERROR: f64 = 1.0 / 64.0;
+
+/// The quantiser's steps, and the magnitude below which an estimated AC
+/// coefficient surely rounds to 0 (0: none does, every row computed).
+#[derive(Clone, Copy)]
+struct Steps {
+    dc: f64,
+    ac: f64,
+    zero_below: f32,
+}
+
+impl Steps {
+    /// An estimate below `ac / 2 − ESTIMATE_ERROR` (in f32, rounded down)
+    /// is of a coefficient below `ac / 2 − 0.0136`, whose quotient by `ac`
+    /// (at most 255) is below ½ − 5·10⁻⁵ and rounds to ±0.
+    fn new(dc: f64, ac: f64) -> Steps {
+        let bound = 0.5 * ac - ESTIMATE_ERROR;
+        let mut zero_below = bound as f32;
+        if f64::from(zero_below) > bound {
+            zero_below = zero_below.next_down();
+        }
+        Steps {
+            dc,
+            ac,
+            zero_below: zero_below.max(0.0),
+        }
+    }
 }
 
 /// Each 8×8 block of the frame quantised in the DCT (DC step `dc`, the
 /// others `ac`; 0: kept) and back, in bands of 8 rows on rayon's threads.
 fn prior_compression(dc: f64, ac: f64, w: usize, rgba: &mut [u8]) {
     let d = dct();
+    let steps = Steps::new(dc, ac);
     rgba.par_chunks_mut(N * w * 4)
-        .for_each(|band| compress_band(band, w, dc, ac, d));
+        .for_each(|band| compress_band(band, w, steps, d));
 }
 
 simd_fn! {
     /// One band of 8 rows (fewer at the bottom edge) of [`prior_compression`].
-    fn compress_band(band: &mut [u8], w: usize, dc: f64, ac: f64, d: &Dct) {
+    fn compress_band(band: &mut [u8], w: usize, steps: Steps, d: &Dct) {
         let rows = band.len() / (w * 4);
         for x0 in (0..w).step_by(N) {
-            let mut block = [[0.0; N]; N];
-            for (y, row) in block.iter_mut().enumerate() {
-                let words = load_row(&band[y.min(rows - 1) * w * 4..], x0, w);
-                for (v, p) in row.iter_mut().zip(words) {
-                    *v = f64::from((p & 0xFF) as i32) - 128.0;
-                }
-            }
-            let mut coeffs = transform((&d.d, &d.dt), &block);
-            quantise(&mut coeffs, dc, ac);
-            let back = transform((&d.dt, &d.d), &coeffs);
-            for (y, row) in back.iter().enumerate().take(rows) {
-                let line = &mut band[(y * w + x0) * 4..];
-                let mut words = load_row(line, 0, w - x0);
-                for (p, v) in words.iter_mut().zip(row) {
-                    let g = level(round(v + 128.0));
-                    *p = (*p & 0xFF00_0000) | (g * 0x0001_0101);
-                }
-                store_row(line, &words, w - x0);
+            if rows == N && x0 + N <= w {
+                let b = load_whole(band, w, x0);
+                let levels = compress_block(&b, steps, d);
+                store_whole(band, w, x0, &levels);
+            } else {
+                let b = load_edge(band, w, rows, x0);
+                let levels = compress_block(&b, steps, d);
+                store_edge(band, w, rows, x0, &levels);
             }
         }
+    }
+}
+
+/// The block at column `x0` of a band of 8 whole rows of `w` pixels, as
+/// levels − 128.
+#[inline(always)]
+fn load_whole(band: &[u8], w: usize, x0: usize) -> Block32 {
+    let mut b = [[0.0; N]; N];
+    for (y, row) in b.iter_mut().enumerate() {
+        let at = (y * w + x0) * 4;
+        if let Some(px) = band.get(at..at + N * 4) {
+            for (v, p) in row.iter_mut().zip(px.as_chunks::<4>().0) {
+                *v = (u32::from_le_bytes(*p) & 0xFF) as i32 as f32 - 128.0;
+            }
+        }
+    }
+    b
+}
+
+/// [`load_whole`] for a block at the right or bottom edge: its last column
+/// and row repeated.
+#[inline(always)]
+fn load_edge(band: &[u8], w: usize, rows: usize, x0: usize) -> Block32 {
+    let mut b = [[0.0; N]; N];
+    for (y, row) in b.iter_mut().enumerate() {
+        let words = load_row(&band[y.min(rows - 1) * w * 4..], x0, w);
+        for (v, p) in row.iter_mut().zip(words) {
+            *v = f32::from(p as u8) - 128.0;
+        }
+    }
+    b
+}
+
+/// `levels` as the grey of the block at column `x0` of a band of 8 whole
+/// rows (alpha kept).
+#[inline(always)]
+fn store_whole(band: &mut [u8], w: usize, x0: usize, levels: &[[u32; N]; N]) {
+    for (y, row) in levels.iter().enumerate() {
+        let at = (y * w + x0) * 4;
+        if let Some(px) = band.get_mut(at..at + N * 4) {
+            for (p, g) in px.as_chunks_mut::<4>().0.iter_mut().zip(row) {
+                let word = u32::from_le_bytes(*p);
+                *p = ((word & 0xFF00_0000) | (g << 16) | (g << 8) | g).to_le_bytes();
+            }
+        }
+    }
+}
+
+/// [`store_whole`] for a block at the right or bottom edge: its own pixels
+/// only.
+#[inline(always)]
+fn store_edge(band: &mut [u8], w: usize, rows: usize, x0: usize, levels: &[[u32; N]; N]) {
+    for (y, row) in levels.iter().enumerate().take(rows) {
+        let line = &mut band[(y * w + x0) * 4..];
+        let mut words = load_row(line, 0, w - x0);
+        for (p, g) in words.iter_mut().zip(row) {
+            *p = (*p & 0xFF00_0000) | (g << 16) | (g << 8) | g;
+        }
+        store_row(line, &words, w - x0);
     }
 }
 
@@ -114,13 +216,6 @@ simd_fn! {
 #[inline(always)]
 fn load_row(line: &[u8], x0: usize, w: usize) -> [u32; N] {
     let mut words = [0u32; N];
-    let whole = line.get(x0 * 4..(x0 + N) * 4).filter(|_| x0 + N <= w);
-    if let Some(bytes) = whole {
-        for (p, b) in words.iter_mut().zip(bytes.as_chunks::<4>().0) {
-            *p = u32::from_le_bytes(*b);
-        }
-        return words;
-    }
     let pixels = line.as_chunks::<4>().0;
     for (x, p) in words.iter_mut().enumerate() {
         if let Some(b) = pixels.get((x0 + x).min(w.saturating_sub(1))) {
@@ -142,52 +237,224 @@ fn store_row(line: &mut [u8], words: &[u32; N], w: usize) {
     }
 }
 
-/// `M·B·Mᵀ` for `(m, mt)` = (M, Mᵀ): the forward DCT with (D, Dᵀ), the
-/// inverse with (Dᵀ, D). Each value the sum over k in ascending order from
-/// 0, one product at a time (no fused multiply-add): the plain triple
-/// loop's value, a row of eight at once.
+/// One block (levels − 128) quantised in the DCT and back, as levels.
 #[inline(always)]
-fn transform((m, mt): (&Block, &Block), b: &Block) -> Block {
-    let mut t = [[0.0; N]; N];
-    product(m, b, &mut t);
-    let mut out = [[0.0; N]; N];
-    product(&t, mt, &mut out);
-    out
+fn compress_block(b: &Block32, steps: Steps, d: &Dct) -> [[u32; N]; N] {
+    let exact = if steps.zero_below > 0.0 {
+        candidate_rows(estimate(b, d), steps.zero_below)
+    } else {
+        0xFF
+    };
+    let mut c = [[0.0; N]; N];
+    forward(b, exact, steps, d, &mut c);
+    let (rows, cols) = nonzero(&c, exact | 1);
+    let mut levels = [[0u32; N]; N];
+    if rows <= 1 && cols <= 1 {
+        let s = d.d[0][0];
+        let g = level(round(s * c[0][0] * s + 128.0));
+        for row in levels.iter_mut() {
+            row.fill(g);
+        }
+    } else {
+        let back = inverse(&c, (rows, cols), d);
+        for (out, row) in levels.iter_mut().zip(&back) {
+            for (g, v) in out.iter_mut().zip(row) {
+                *g = level(round(v + 128.0));
+            }
+        }
+    }
+    levels
 }
 
-/// `out` += `a`·`b`, each value's products added in k's order; four rows
-/// at a time, so that four rows' sums are in flight at once (no add waits
-/// on the one before it for long) and stay in registers.
+/// The block's DCT `D·B·Dᵀ` in f32, transposed (`[v][u]` holds coefficient
+/// (u, v)): each 1-D pass by the even/odd split on rows of eight, the
+/// block's columns, then those of its transpose.
 #[inline(always)]
-fn product(a: &Block, b: &Block, out: &mut Block) {
-    for (rows, ar) in out.chunks_exact_mut(4).zip(a.chunks_exact(4)) {
-        for (k, bk) in b.iter().enumerate() {
-            for (row, ai) in rows.iter_mut().zip(ar) {
-                let s = ai[k];
-                for (v, x) in row.iter_mut().zip(bk) {
+fn estimate(b: &Block32, d: &Dct) -> Block32 {
+    let t = columns_dct(b, d);
+    let mut tt = [[0.0; N]; N];
+    for (i, row) in t.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            tt[j][i] = *v;
+        }
+    }
+    columns_dct(&tt, d)
+}
+
+/// The rows u of the DCT with an estimated AC coefficient of magnitude
+/// `zero_below` or more, as bits, from [`estimate`]'s transposed block.
+#[inline(always)]
+fn candidate_rows(mut xt: Block32, zero_below: f32) -> u8 {
+    xt[0][0] = 0.0; // the DC
+    let mut over = [0u32; N];
+    for row in &xt {
+        for (o, x) in over.iter_mut().zip(row) {
+            *o |= u32::from(x.abs() >= zero_below);
+        }
+    }
+    over.iter()
+        .enumerate()
+        .fold(0, |m, (u, &o)| m | ((o as u8) << u))
+}
+
+/// `D·B` in f32 by the even/odd split of B's rows (D's even rows are
+/// symmetric, its odd rows antisymmetric: rows k and 7 − k summed for
+/// the even u, differenced for the odd).
+#[inline(always)]
+fn columns_dct(b: &Block32, d: &Dct) -> Block32 {
+    let even = [
+        sum(&b[0], &b[7]),
+        sum(&b[1], &b[6]),
+        sum(&b[2], &b[5]),
+        sum(&b[3], &b[4]),
+    ];
+    let odd = [
+        difference(&b[0], &b[7]),
+        difference(&b[1], &b[6]),
+        difference(&b[2], &b[5]),
+        difference(&b[3], &b[4]),
+    ];
+    let mut t = [[0.0; N]; N];
+    for u in [0, 2, 4, 6] {
+        for (k, e) in even.iter().enumerate() {
+            add_product(&mut t[u], d.d32[u][k], e);
+        }
+    }
+    for u in [1, 3, 5, 7] {
+        for (k, o) in odd.iter().enumerate() {
+            add_product(&mut t[u], d.d32[u][k], o);
+        }
+    }
+    t
+}
+
+/// `a + b`, lane by lane.
+#[inline(always)]
+fn sum(a: &[f32; N], b: &[f32; N]) -> [f32; N] {
+    let mut r = *a;
+    for (r, b) in r.iter_mut().zip(b) {
+        *r += b;
+    }
+    r
+}
+
+/// `a − b`, lane by lane.
+#[inline(always)]
+fn difference(a: &[f32; N], b: &[f32; N]) -> [f32; N] {
+    let mut r = *a;
+    for (r, b) in r.iter_mut().zip(b) {
+        *r -= b;
+    }
+    r
+}
+
+/// `acc += s·x`, lane by lane.
+#[inline(always)]
+fn add_product(acc: &mut [f32; N], s: f32, x: &[f32; N]) {
+    for (v, x) in acc.iter_mut().zip(x) {
+        *v += s * x;
+    }
+}
+
+/// The quantised DCT `D·B·Dᵀ` of the block, rows `rows` whole and row 0's
+/// DC, each value the plain loops' (the sum over k in ascending order from
+/// 0, one product at a time: no fused multiply-add); the rest left 0.
+#[inline(always)]
+fn forward(b: &Block32, rows: u8, steps: Steps, d: &Dct, c: &mut Block) {
+    let mut b64 = [[0.0; N]; N];
+    for (r, s) in b64.iter_mut().zip(b) {
+        for (v, x) in r.iter_mut().zip(s) {
+            *v = f64::from(*x);
+        }
+    }
+    let mut todo = rows | 1;
+    while todo != 0 {
+        let u = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        let mut t = [0.0; N];
+        for (&s, bk) in d.d[u].iter().zip(&b64) {
+            for (v, x) in t.iter_mut().zip(bk) {
+                *v += s * x;
+            }
+        }
+        let row = &mut c[u];
+        if rows & 1 << u == 0 {
+            // Row 0 for its DC alone: Σₖ t[k]·Dᵀ[k][0].
+            let mut p = [0.0; N];
+            for ((p, t), s) in p.iter_mut().zip(&t).zip(&d.d[0]) {
+                *p = t * s;
+            }
+            row[0] = p.iter().fold(0.0, |dc, p| dc + p);
+        } else {
+            for (&s, dk) in t.iter().zip(&d.dt) {
+                for (v, x) in row.iter_mut().zip(dk) {
                     *v += s * x;
                 }
             }
+            if steps.ac > 0.0 {
+                let first = row[0];
+                for x in row.iter_mut() {
+                    *x = round(*x / steps.ac) * steps.ac;
+                }
+                if u == 0 {
+                    row[0] = first;
+                }
+            }
+        }
+        if u == 0 && steps.dc > 0.0 {
+            row[0] = round(row[0] / steps.dc) * steps.dc;
         }
     }
 }
 
-/// Coefficients rounded to multiples of their step (DC `dc`, the rest `ac`; 0: kept).
+/// The rows and columns of `c` with a value other than ±0, as bits, of the
+/// rows `computed` (the others are 0).
 #[inline(always)]
-fn quantise(c: &mut Block, dc: f64, ac: f64) {
-    let first = c[0][0];
-    if ac > 0.0 {
-        for row in c.iter_mut() {
-            for x in row.iter_mut() {
-                *x = round(*x / ac) * ac;
+fn nonzero(c: &Block, computed: u8) -> (u8, u8) {
+    let (mut rows, mut cols) = (0u8, 0u8);
+    let mut todo = computed;
+    while todo != 0 {
+        let u = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        let m = c[u]
+            .iter()
+            .enumerate()
+            .fold(0u8, |m, (v, x)| m | (u8::from(*x != 0.0) << v));
+        cols |= m;
+        rows |= u8::from(m != 0) << u;
+    }
+    (rows, cols)
+}
+
+/// `Dᵀ·C·D` over the rows `rows` and columns `cols` of `c` alone (the
+/// others ±0), each value the plain loops' but for the sign of a zero.
+#[inline(always)]
+fn inverse(c: &Block, (rows, cols): (u8, u8), d: &Dct) -> Block {
+    let mut t = [[0.0; N]; N];
+    let mut todo = rows;
+    while todo != 0 {
+        let k = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        for (ti, dti) in t.iter_mut().zip(&d.dt) {
+            let s = dti[k];
+            for (v, x) in ti.iter_mut().zip(&c[k]) {
+                *v += s * x;
             }
         }
     }
-    c[0][0] = if dc > 0.0 {
-        round(first / dc) * dc
-    } else {
-        first
-    };
+    let mut out = [[0.0; N]; N];
+    let mut todo = cols;
+    while todo != 0 {
+        let k = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        for (oi, ti) in out.iter_mut().zip(&t) {
+            let s = ti[k];
+            for (v, x) in oi.iter_mut().zip(&d.d[k]) {
+                *v += s * x;
+            }
+        }
+    }
+    out
 }
 
 /// A whole `x` clamped to 0–255, as an integer: the low bits of
@@ -365,22 +632,31 @@ mod tests {
 
     /// The compression as the plain triple loops and the library's
     /// `round` compute it, block by block.
+    /// `A·B` (`Aᵀ` for `ta`, `Bᵀ` for `tb`) as the plain triple loop.
+    fn plain_mul(a: &Block, b: &Block, ta: bool, tb: bool) -> Block {
+        let at = |i: usize, k: usize| if ta { a[k][i] } else { a[i][k] };
+        let bt = |k: usize, j: usize| if tb { b[j][k] } else { b[k][j] };
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| (0..N).fold(0.0, |s, k| s + at(i, k) * bt(k, j)))
+        })
+    }
+
+    /// The block's DCT `D·B·Dᵀ` as the plain loops compute it.
+    fn plain_dct(b: &Block) -> Block {
+        let d = dct().d;
+        plain_mul(&plain_mul(&d, b, false, false), &d, false, true)
+    }
+
     fn plain_compression(dc: f64, ac: f64, (w, h): (usize, usize), rgba: &mut [u8]) {
         let d = dct().d;
-        let mul = |a: &Block, b: &Block, ta: bool, tb: bool| -> Block {
-            let at = |i: usize, k: usize| if ta { a[k][i] } else { a[i][k] };
-            let bt = |k: usize, j: usize| if tb { b[j][k] } else { b[k][j] };
-            std::array::from_fn(|i| {
-                std::array::from_fn(|j| (0..N).fold(0.0, |s, k| s + at(i, k) * bt(k, j)))
-            })
-        };
+        let mul = plain_mul;
         for y0 in (0..h).step_by(N) {
             for x0 in (0..w).step_by(N) {
                 let px = |x: usize, y: usize| ((y0 + y).min(h - 1) * w + (x0 + x).min(w - 1)) * 4;
                 let b: Block = std::array::from_fn(|y| {
                     std::array::from_fn(|x| f64::from(rgba[px(x, y)]) - 128.0)
                 });
-                let mut c = mul(&mul(&d, &b, false, false), &d, false, true);
+                let mut c = plain_dct(&b);
                 for (u, row) in c.iter_mut().enumerate() {
                     for (v, x) in row.iter_mut().enumerate() {
                         let step = if u == 0 && v == 0 { dc } else { ac };
@@ -478,5 +754,117 @@ mod tests {
         let mut f = base.clone();
         apply(&c, (w as u32, h as u32), &mut f);
         assert_eq!(f, base);
+    }
+
+    /// Test block `k` as levels − 128: uniform noise, the extremes −128 and
+    /// 127 at random (the largest coefficients), a checkerboard of them, or
+    /// a gentle slope with a little noise.
+    fn test_block(k: u64) -> Block32 {
+        let bits = |i: usize| crate::seed::mix64(k * 64 + i as u64);
+        std::array::from_fn(|y| {
+            std::array::from_fn(|x| {
+                let i = y * N + x;
+                let g = match k % 4 {
+                    0 => (bits(i) % 256) as f32,
+                    1 => [0.0, 255.0][(bits(i) % 2) as usize],
+                    2 => [0.0, 255.0][(x + y + (k as usize / 4)) % 2],
+                    _ => (60.0 + 0.4 * x as f32 + 0.3 * y as f32 + (bits(i) % 2) as f32).floor(),
+                };
+                g - 128.0
+            })
+        })
+    }
+
+    #[test]
+    fn the_estimate_is_within_its_error_bound() {
+        let mut worst = 0.0f64;
+        for k in 0..4000 {
+            let b = test_block(k);
+            let exact = plain_dct(&b.map(|row| row.map(f64::from)));
+            let xt = estimate(&b, dct());
+            for (u, row) in exact.iter().enumerate() {
+                for (v, x) in row.iter().enumerate() {
+                    worst = worst.max((f64::from(xt[v][u]) - x).abs());
+                }
+            }
+        }
+        assert!(worst < ESTIMATE_ERROR / 4.0, "{worst}");
+    }
+
+    #[test]
+    fn the_estimate_names_every_row_the_quantiser_keeps_and_few_others() {
+        let (ac, mut named, mut kept_rows) = (4.0, 0, 0);
+        let steps = Steps::new(16.0, ac);
+        for k in 0..4000 {
+            let b = test_block(k);
+            let exact = plain_dct(&b.map(|row| row.map(f64::from)));
+            let rows = candidate_rows(estimate(&b, dct()), steps.zero_below);
+            for (u, row) in exact.iter().enumerate() {
+                let kept = row
+                    .iter()
+                    .enumerate()
+                    .any(|(v, x)| u + v > 0 && (x / ac).round() != 0.0);
+                assert!(!kept || rows & 1 << u != 0, "block {k}, row {u}");
+                kept_rows += u32::from(kept);
+            }
+            named += rows.count_ones();
+        }
+        // Hardly a row more than the quantiser keeps, and not all of them.
+        assert!(
+            named <= kept_rows + kept_rows / 50 && kept_rows < 8 * 4000 * 7 / 8,
+            "{named} rows named, {kept_rows} kept"
+        );
+    }
+
+    #[test]
+    fn steps_at_a_coefficients_rounding_edge_give_the_plain_bytes() {
+        // For each row of the first block's DCT, AC steps of twice its
+        // largest AC coefficient (the quotient ½, which rounds up: the only
+        // one the row keeps) and a hair either side: the estimate must name
+        // the row, or the coefficient is lost.
+        let (w, h) = (16, 8);
+        let base = frame(w, h);
+        let b: Block = std::array::from_fn(|y| {
+            std::array::from_fn(|x| f64::from(base[(y * w + x) * 4]) - 128.0)
+        });
+        let x = plain_dct(&b);
+        for (u, row) in x.iter().enumerate() {
+            let top = row
+                .iter()
+                .skip(usize::from(u == 0))
+                .fold(0.0f64, |m, v| m.max(v.abs()));
+            let edge = 2.0 * top;
+            for ac in [edge.next_down(), edge, edge.next_up()] {
+                let c = Capture {
+                    prior_dc_step: 8.0,
+                    prior_ac_step: ac,
+                    ..Capture::default()
+                };
+                let mut fast = base.clone();
+                apply(&c, (w as u32, h as u32), &mut fast);
+                let mut plain = base.clone();
+                plain_compression(8.0, ac, (w, h), &mut plain);
+                assert_eq!(fast, plain, "row {u}, step {ac}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_dc_basis_is_one_value() {
+        // A block left with its DC alone is one level, (s·DC)·s: every
+        // entry of D's row 0 is the same s.
+        let d = dct();
+        assert!(d.d[0].iter().all(|s| s.to_bits() == d.d[0][0].to_bits()));
+        let mut f = frame(16, 16);
+        let c = Capture {
+            prior_dc_step: 8.0,
+            prior_ac_step: 255.0,
+            ..Capture::default()
+        };
+        let mut plain = f.clone();
+        apply(&c, (16, 16), &mut f);
+        plain_compression(8.0, 255.0, (16, 16), &mut plain);
+        assert_eq!(f, plain);
+        assert!(f.chunks_exact(4 * 8).all(|run| run[..4] == run[28..]));
     }
 }
