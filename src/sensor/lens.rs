@@ -23,6 +23,7 @@ use serde::Serialize;
 
 use crate::preset::lens::Lens;
 
+mod fill;
 mod kernel;
 mod map;
 #[cfg(target_arch = "x86_64")]
@@ -336,55 +337,6 @@ impl LensGeometry {
             out.extend(p[..four.len()].iter().copied().map(pixel));
         }
         out
-    }
-
-    /// The smallest written focal length whose border pixels' centres all
-    /// come from inside the render's pixel centres (a bisection; the
-    /// mapping is monotone in it).
-    fn fill_focal(&self) -> f64 {
-        let (w, h) = (f64::from(self.width), f64::from(self.height));
-        const N: u32 = 64;
-        let border: Vec<(f64, f64)> = (0..=N)
-            .flat_map(|i| {
-                let t = f64::from(i) / f64::from(N);
-                let (x, y) = (0.5 + t * (w - 1.0), 0.5 + t * (h - 1.0));
-                [(x, 0.5), (x, h - 0.5), (0.5, y), (w - 0.5, y)]
-            })
-            .collect();
-        let eps = 1e-9;
-        // On one thread (a step is 260 short solves: waking another costs
-        // more than it saves), the point found outside last tried first,
-        // then four at a time.
-        let last_out = std::cell::Cell::new(0);
-        let inside = |fo: f64| {
-            let ok = |(u, v): (f64, f64)| {
-                (0.5 - eps..=w - 0.5 + eps).contains(&u) && (0.5 - eps..=h - 0.5 + eps).contains(&v)
-            };
-            if !ok(self.inverse_with(fo, border[last_out.get()])) {
-                return false;
-            }
-            for (k, four) in border.chunks(4).enumerate() {
-                let solved = self.inverse_all_with(fo, four);
-                if let Some(i) = solved.into_iter().position(|p| !ok(p)) {
-                    last_out.set(4 * k + i);
-                    return false;
-                }
-            }
-            true
-        };
-        let (mut lo, mut hi) = (self.focal / 64.0, self.focal * 64.0);
-        if !inside(hi) {
-            return self.focal;
-        }
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if inside(mid) {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
-        }
-        hi
     }
 }
 
