@@ -428,7 +428,17 @@ mod tests {
     fn drawn_alone(
         q: &Prepared,
         layer: Option<&DepthLayer>,
+        size: (u32, u32),
+    ) -> (Vec<f32>, Vec<f32>) {
+        drawn(std::slice::from_ref(q), layer, size, false)
+    }
+
+    /// `all` and `near` of a `w × h` picture under `qs` in turn, in lanes or not.
+    fn drawn(
+        qs: &[Prepared],
+        layer: Option<&DepthLayer>,
         (w, h): (u32, u32),
+        lanes: bool,
     ) -> (Vec<f32>, Vec<f32>) {
         let (mut all, mut near) = (
             vec![1.0f32; (w * h) as usize],
@@ -439,9 +449,11 @@ mod tests {
             near: &mut near,
             width: w,
             rows: 0..h,
-            lanes: false,
+            lanes,
         };
-        draw(&mut t, q, layer);
+        for q in qs {
+            draw(&mut t, q, layer);
+        }
         (all, near)
     }
 
@@ -478,21 +490,8 @@ mod tests {
             return;
         }
         let (w, h) = (64u32, 64u32);
-        let drawn = |lanes: bool, ps: &[Prepared]| {
-            let (mut all, mut near) = (
-                vec![1.0f32; (w * h) as usize],
-                vec![1.0f32; (w * h) as usize],
-            );
-            let mut t = Transmit {
-                all: &mut all,
-                near: &mut near,
-                width: w,
-                rows: 0..h,
-                lanes,
-            };
-            for q in ps {
-                draw(&mut t, q, None);
-            }
+        let bits = |lanes: bool, qs: &[Prepared]| {
+            let (all, _) = drawn(qs, None, (w, h), lanes);
             all.iter().map(|v| v.to_bits()).collect::<Vec<u32>>()
         };
         let qs: Vec<Prepared> = (particles(3000).iter())
@@ -502,9 +501,9 @@ mod tests {
         assert!(wide > 300, "{wide}");
         for q in qs.iter().take(500) {
             let one = std::slice::from_ref(q);
-            assert_eq!(drawn(true, one), drawn(false, one), "{q:?}");
+            assert_eq!(bits(true, one), bits(false, one), "{q:?}");
         }
-        let (lanes, scalar) = (drawn(true, &qs), drawn(false, &qs));
+        let (lanes, scalar) = (bits(true, &qs), bits(false, &qs));
         assert!(lanes == scalar && lanes.iter().any(|&b| b != 1.0f32.to_bits()));
     }
 
