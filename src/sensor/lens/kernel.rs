@@ -11,6 +11,8 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::taps::Block;
+#[cfg(target_arch = "x86_64")]
+use super::taps::packed_weights;
 use super::taps::{ONE, Rows, Tap, row_taps_scalar};
 
 /// The columns from `x0` of row `y` of a `w`×`h` picture resampled from
@@ -178,17 +180,10 @@ fn remap_taps_avx2(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
         }
         let wx = _mm256_and_si256(packed, _mm256_set1_epi32(0xffff));
         let wy = _mm256_srli_epi32::<16>(packed);
-        let wts = _mm256_or_si256(
-            _mm256_or_si256(
-                _mm256_sub_epi32(_mm256_set1_epi32(ONE as i32), wx),
-                _mm256_slli_epi32::<8>(wx),
-            ),
-            _mm256_slli_epi32::<24>(wy),
-        );
         // SAFETY: the CPU has AVX2; every quad lies inside `src` (checked).
         #[allow(unsafe_code)]
         unsafe {
-            let bytes = mix8(src.as_ptr(), w, index, wts);
+            let bytes = mix8(src.as_ptr(), w, index, packed_weights(wx, wy));
             _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, bytes);
         }
     }

@@ -199,12 +199,31 @@ impl Block {
             let (ix, wx) = axis8(_mm256_add_epi32(xs, mix8(k, &self.u)), w);
             let (iy, wy) = axis8(_mm256_add_epi32(self.sy, mix8(k, &self.v)), h);
             let index = _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(w as i32)), ix);
-            let wxs = _mm256_or_si256(
-                _mm256_sub_epi32(_mm256_set1_epi32(ONE as i32), wx),
-                _mm256_slli_epi32::<8>(wx),
-            );
-            (index, _mm256_or_si256(wxs, _mm256_slli_epi32::<24>(wy)))
+            (index, packed_weights(wx, wy))
         }
+    }
+}
+
+/// Eight pixels' weights (`wx`, `wy` in 0–[`ONE`], a lane each) as the
+/// kernel takes them: ONE − wx (bits 0–7), wx (8–15) and wy · 256 (16–31).
+///
+/// # Safety
+/// The CPU has AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(unsafe_code)]
+pub(super) unsafe fn packed_weights(
+    wx: std::arch::x86_64::__m256i,
+    wy: std::arch::x86_64::__m256i,
+) -> std::arch::x86_64::__m256i {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's CPU has AVX2.
+    unsafe {
+        let pair = _mm256_or_si256(
+            _mm256_sub_epi32(_mm256_set1_epi32(ONE as i32), wx),
+            _mm256_slli_epi32::<8>(wx),
+        );
+        _mm256_or_si256(pair, _mm256_slli_epi32::<24>(wy))
     }
 }
 
