@@ -18,6 +18,9 @@ use crate::seed;
 use super::camera::Camera;
 use super::realism::FrameAtmosphere;
 
+#[cfg(target_arch = "x86_64")]
+mod lanes;
+
 /// The weather's draws of one frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FrameWeather {
@@ -109,6 +112,36 @@ impl FrameWeather {
         camera: &Camera,
         atmosphere: Option<&FrameAtmosphere>,
     ) -> Vec<Particle> {
+        let mut out = Vec::new();
+        self.particles_into(camera, atmosphere, &mut out);
+        out
+    }
+
+    /// [`FrameWeather::particles`] into `out` (cleared first; a buffer
+    /// kept from frame to frame is filled without fresh pages).
+    pub fn particles_into(
+        &self,
+        camera: &Camera,
+        atmosphere: Option<&FrameAtmosphere>,
+        out: &mut Vec<Particle>,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        let lanes = crate::sensor::simd::simd_level() >= 1;
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
+        self.particles_made(camera, atmosphere, out, lanes);
+    }
+
+    /// [`FrameWeather::particles_into`], sixteen at once in AVX2 when
+    /// `lanes` is set (the CPU must have AVX2) and the depths are a range.
+    fn particles_made(
+        &self,
+        camera: &Camera,
+        atmosphere: Option<&FrameAtmosphere>,
+        out: &mut Vec<Particle>,
+        lanes: bool,
+    ) {
+        out.clear();
         let f = camera.focal_px();
         let (sx, sy) = (
             0.5 * f64::from(camera.width) / f,
@@ -123,22 +156,39 @@ impl FrameWeather {
         };
         let count = (self.intensity_per_m3 * frustum.volume())
             .round()
-            .clamp(0.0, MAX_PARTICLES) as usize;
-        let draws = Draws(self.particle_seed);
+            .clamp(0.0, MAX_PARTICLES) as u64;
         let depths = DepthTable::of(&frustum);
-        let view = View::of(camera);
-        (0..count as u64)
-            .into_par_iter()
-            .filter_map(|i| {
-                let [uz, ux, uy, ud] = draws.of(i);
-                let z = depths.depth(uz);
-                let (hx, hy) = frustum.half_width(z);
-                let start = DVec3::new(hx * (2.0 * ux - 1.0), hy * (2.0 * uy - 1.0), z);
-                let (lo, hi) = self.diameter_mm;
-                let d = (lo + (hi - lo) * ud) * 1e-3;
-                self.particle(&view, (start, start + travel), d, atmosphere)
-            })
-            .collect()
+        let maker = Maker {
+            weather: self,
+            draws: Draws(self.particle_seed),
+            depths: &depths,
+            view: &View::of(camera),
+            travel,
+            atmosphere,
+        };
+        #[cfg(target_arch = "x86_64")]
+        if lanes && frustum.depth.1 > frustum.depth.0 {
+            let n = lanes::LANES as u64;
+            let quads = usize::try_from(count.div_ceil(n)).unwrap_or(usize::MAX);
+            let parts: Vec<Vec<Particle>> = (0..quads)
+                .into_par_iter()
+                .with_min_len(64)
+                .fold(Vec::new, |mut part, q| {
+                    // SAFETY: the CPU has AVX2 (the caller's `lanes`).
+                    #[allow(unsafe_code)]
+                    unsafe {
+                        lanes::sixteen(&maker, q as u64 * n, count, &mut part)
+                    };
+                    part
+                })
+                .collect();
+            out.reserve(parts.iter().map(Vec::len).sum());
+            for part in parts {
+                out.extend_from_slice(&part);
+            }
+            return;
+        }
+        out.par_extend((0..count).into_par_iter().filter_map(|i| maker.one(i)));
     }
 
     /// The particles' level, sRGB (each channel): every particle of a frame has it.
@@ -158,6 +208,18 @@ impl FrameWeather {
         let (a, b) = (view.project(start)?, view.project(end)?);
         let z = 0.5 * (start.z + end.z);
         let r_px = 0.5 * diameter_m * view.focal / z;
+        self.mark(view, (a, b), (z, r_px), atmosphere)
+    }
+
+    /// The particle projected from `a` to `b`, its depth `z` and radius
+    /// `r_px`; `None` when it leaves no mark in the image.
+    fn mark(
+        &self,
+        view: &View,
+        (a, b): (DVec2, DVec2),
+        (z, r_px): (f64, f64),
+        atmosphere: Option<&FrameAtmosphere>,
+    ) -> Option<Particle> {
         // Narrower than a pixel: drawn one pixel wide, fainter by its share.
         let r = r_px.max(0.5);
         let thin = r_px / r;
@@ -184,6 +246,33 @@ impl FrameWeather {
             depth_m: z as f32,
             solid: self.kind == WeatherKind::Snow,
         })
+    }
+}
+
+/// What making a frame's particles needs, solved once a frame: particle i
+/// is [`Maker::one`]`(i)` (and in AVX2 sixteen at once, `weather/lanes.rs`).
+struct Maker<'a> {
+    weather: &'a FrameWeather,
+    draws: Draws,
+    depths: &'a DepthTable<'a>,
+    view: &'a View,
+    /// A particle's travel during the exposure, camera frame, metres.
+    travel: DVec3,
+    atmosphere: Option<&'a FrameAtmosphere>,
+}
+
+impl Maker<'_> {
+    /// Particle `i` from its four draws: depth, x, y (uniform over the
+    /// cross-section at that depth) and diameter.
+    fn one(&self, i: u64) -> Option<Particle> {
+        let [uz, ux, uy, ud] = self.draws.of(i);
+        let z = self.depths.depth(uz);
+        let (hx, hy) = self.depths.frustum.half_width(z);
+        let start = DVec3::new(hx * (2.0 * ux - 1.0), hy * (2.0 * uy - 1.0), z);
+        let (lo, hi) = self.weather.diameter_mm;
+        let d = (lo + (hi - lo) * ud) * 1e-3;
+        let w = self.weather;
+        w.particle(self.view, (start, start + self.travel), d, self.atmosphere)
     }
 }
 
@@ -358,6 +447,93 @@ mod tests {
         let [a, b, c, d] = draws.of(3);
         let unit = |k| (draws.bits(k) >> 11) as f64 / (1u64 << 53) as f64;
         assert_eq!([a, b, c, d], [unit(12), unit(13), unit(14), unit(15)]);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn lanes_make_the_scalar_particles_bit_for_bit() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 here: the lanes are not run");
+            return;
+        }
+        use rand::SeedableRng;
+        let mut rng = ChaCha8Rng::seed_from_u64(41);
+        let bits = |ps: &[Particle]| -> Vec<[u32; 7]> {
+            (ps.iter())
+                .map(|p| {
+                    let [a, b, c, d, e, f] =
+                        [p.a[0], p.a[1], p.b[0], p.b[1], p.radius_px, p.alpha].map(f32::to_bits);
+                    [
+                        a,
+                        b,
+                        c,
+                        d,
+                        e,
+                        f,
+                        p.depth_m.to_bits() ^ u32::from(p.solid) << 31,
+                    ]
+                })
+                .collect()
+        };
+        // Rain and snow, every range the preset allows and its edges: a
+        // depth range a hair thick or from a millimetre, winds across the
+        // view and along it, cameras turned anywhere, with and without an
+        // atmosphere; counts that are not a multiple of sixteen.
+        let depths: [(f64, f64); 5] = [
+            (0.5, 25.0),
+            (0.001, 3.0),
+            (1.0, 1.000_000_1),
+            (2.0, 400.0),
+            (0.3, 0.5),
+        ];
+        let (mut made, mut empty) = (0, 0);
+        for case in 0..60 {
+            let depth_m = depths[case % depths.len()];
+            let weather = FrameWeather {
+                kind: [WeatherKind::Rain, WeatherKind::Snow][case % 2],
+                // Up to thousands of particles in each (a billion per m³ in the
+                // thinnest; in the deepest most are too faint to be drawn).
+                intensity_per_m3: match depth_m.1 - depth_m.0 {
+                    t if t < 1e-3 => 1e9,
+                    t if t > 100.0 => 1e5 / depth_m.1.powi(3),
+                    _ => 3000.0 / depth_m.1.powi(3),
+                } * rng.random::<f64>(),
+                wind_mps: 20.0 * rng.random::<f64>(),
+                wind_dir_deg: 360.0 * rng.random::<f64>(),
+                fall_mps: 10.0 * rng.random::<f64>(),
+                exposure_s: 0.05 * rng.random::<f64>(),
+                opacity: rng.random(),
+                diameter_mm: (0.5, 0.5 + 5.0 * rng.random::<f64>()),
+                depth_m,
+                particle_seed: rng.random(),
+            };
+            let at = DVec3::new(rng.random(), rng.random(), rng.random()) * 20.0;
+            let look = at + DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, 1.0);
+            let camera = Camera {
+                width: 64 + rng.random_range(0..1900),
+                height: 48 + rng.random_range(0..1000),
+                fov_y_deg: 5.0 + 150.0 * rng.random::<f64>(),
+                position: at,
+                camera_from_world: crate::scene::math::look_at_cv(at, look).expect("look-at"),
+                near_m: 0.01,
+            };
+            let air = FrameAtmosphere {
+                visibility_m: 50.0 + 1000.0 * rng.random::<f64>(),
+            };
+            for atmosphere in [None, Some(&air)] {
+                let (mut scalar, mut lanes) = (Vec::new(), Vec::new());
+                weather.particles_made(&camera, atmosphere, &mut scalar, false);
+                weather.particles_made(&camera, atmosphere, &mut lanes, true);
+                assert_eq!(bits(&lanes), bits(&scalar), "case {case}: {weather:?}");
+                made += scalar.len();
+                empty += usize::from(scalar.is_empty());
+            }
+        }
+        // The comparisons are not empty ones.
+        assert!(
+            made > 20_000 && empty < 12,
+            "{made} particles, {empty} cases with none"
+        );
     }
 
     /// Rain's frustum at 1920×1080 with a 60° field of view.

@@ -110,7 +110,9 @@ impl Run {
         for k in 0..n {
             self.starts[k + 1] += self.starts[k];
         }
-        self.items.clear();
+        // Every slot is written below (each strip's run of slots fills
+        // exactly): the last frame's items are kept, not cleared, so only
+        // slots past them are first filled with defaults.
         self.items
             .resize(self.starts[n] as usize, Prepared::default());
         // Each strip's next slot: its start, moved along as it fills.
@@ -134,6 +136,8 @@ impl Run {
 thread_local! {
     /// Each thread's strips, kept from frame to frame.
     static STRIPS: std::cell::RefCell<Strips> = std::cell::RefCell::default();
+    /// Each thread's particles of a frame, kept from frame to frame.
+    static PARTICLES: std::cell::RefCell<Vec<Particle>> = std::cell::RefCell::default();
     /// Each thread's transmittances of a strip, kept from strip to strip.
     static SCRATCH: std::cell::RefCell<(Vec<f32>, Vec<f32>)> = std::cell::RefCell::default();
 }
@@ -272,20 +276,31 @@ pub fn over_pixels(
 ) -> Option<Vec<u8>> {
     let weather = scene.weather.as_ref()?;
     let size = (scene.camera.width, scene.camera.height);
-    let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
-    let drawn = (&particles[..], weather.level());
     let layer = DepthLayer::new(scene, geometry, rgba, background);
-    let Some((mut clear, background)) = clear.zip(background) else {
-        composite(rgba, size, drawn, &layer, None);
-        return None;
+    let over = |particles: &[Particle]| {
+        let drawn = (particles, weather.level());
+        let Some((mut clear, background)) = clear.zip(background) else {
+            composite(rgba, size, drawn, &layer, None);
+            return None;
+        };
+        clear.resize(rgba.len(), 0);
+        let both = Clear {
+            clear: &mut clear,
+            background,
+        };
+        composite(rgba, size, drawn, &layer, Some(both));
+        Some(clear)
     };
-    clear.resize(rgba.len(), 0);
-    let both = Clear {
-        clear: &mut clear,
-        background,
-    };
-    composite(rgba, size, drawn, &layer, Some(both));
-    Some(clear)
+    let (camera, air) = (&scene.camera, scene.atmosphere.as_ref());
+    PARTICLES.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut particles) => {
+            weather.particles_into(camera, air, &mut particles);
+            over(&particles)
+        }
+        // In use on this thread (a rayon thread waiting on a frame's strips
+        // may take up another frame).
+        Err(_) => over(&weather.particles(camera, air)),
+    })
 }
 
 /// The weather of `scene` over its rendered `frame` (in place); `None`
