@@ -46,9 +46,18 @@ pub(super) struct Prepared {
 }
 
 impl Prepared {
+    #[cfg(test)]
     pub(super) fn of(p: &Particle, size: (u32, u32), layer: Option<&DepthLayer>) -> Self {
+        Self::within(p, bounds(p, size), layer)
+    }
+
+    /// [`Prepared::of`] given the particle's [`bounds`] in the picture.
+    pub(super) fn within(
+        p: &Particle,
+        (x0, y0, x1, y1): (u32, u32, u32, u32),
+        layer: Option<&DepthLayer>,
+    ) -> Self {
         let r = p.radius_px;
-        let (x0, y0, x1, y1) = bounds(p, size);
         let d = [p.b[0] - p.a[0], p.b[1] - p.a[1]];
         let len2 = d[0] * d[0] + d[1] * d[1];
         let len = len2.sqrt();

@@ -66,6 +66,9 @@ const CHUNKS: usize = 8;
 struct Run {
     starts: Vec<u32>,
     items: Vec<Prepared>,
+    /// Each particle's bounds, and each strip's next slot as it fills.
+    bounds: Vec<(u32, u32, u32, u32)>,
+    next: Vec<u32>,
 }
 
 impl Strips {
@@ -96,13 +99,16 @@ impl Run {
         size: (u32, u32),
         layer: Option<&DepthLayer>,
     ) {
-        let reached = |p: &Particle| {
-            let (_, y0, _, y1) = cover::bounds(p, size);
+        // The strips a particle's bounds reach.
+        let reached = |&(_, y0, _, y1): &(u32, u32, u32, u32)| {
             (y0 < y1).then(|| (y0 / STRIP) as usize..=((y1 - 1) / STRIP) as usize)
         };
+        self.bounds.clear();
+        self.bounds
+            .extend(particles.iter().map(|p| cover::bounds(p, size)));
         self.starts.clear();
         self.starts.resize(n + 1, 0);
-        for strips in particles.iter().filter_map(reached) {
+        for strips in self.bounds.iter().filter_map(reached) {
             for k in strips {
                 self.starts[k + 1] += 1;
             }
@@ -115,14 +121,16 @@ impl Run {
         // slots past them are first filled with defaults.
         self.items
             .resize(self.starts[n] as usize, Prepared::default());
-        // Each strip's next slot: its start, moved along as it fills.
-        let mut next = self.starts[..n].to_vec();
-        for p in particles {
-            let Some(strips) = reached(p) else { continue };
-            let prepared = Prepared::of(p, size, layer);
+        self.next.clear();
+        self.next.extend_from_slice(&self.starts[..n]);
+        for (p, bounds) in particles.iter().zip(&self.bounds) {
+            let Some(strips) = reached(bounds) else {
+                continue;
+            };
+            let prepared = Prepared::within(p, *bounds, layer);
             for k in strips {
-                self.items[next[k] as usize] = prepared;
-                next[k] += 1;
+                self.items[self.next[k] as usize] = prepared;
+                self.next[k] += 1;
             }
         }
     }
