@@ -150,6 +150,20 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<(Vec<f32>, Vec<f32>)> = std::cell::RefCell::default();
 }
 
+/// `f` on this thread's `buffer` (kept from call to call, so it is not
+/// allocated afresh), or on a fresh one when that is in use: a rayon
+/// thread waiting inside `f` may take up another frame's work on the same
+/// thread.
+fn kept<T: Default + 'static, R>(
+    buffer: &'static std::thread::LocalKey<std::cell::RefCell<T>>,
+    f: impl FnOnce(&mut T) -> R,
+) -> R {
+    buffer.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut kept) => f(&mut kept),
+        Err(_) => f(&mut T::default()),
+    })
+}
+
 /// Strip `k`'s transmittances (`rows` rows of `width` pixels) under its
 /// `particles`, given to `then` (the transmittances of a thread's own
 /// buffers, or fresh ones when those are in use).
@@ -185,10 +199,7 @@ fn transmit<'a, R>(
         }
         then(&mut t)
     };
-    SCRATCH.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut scratch) => run(&mut scratch),
-        Err(_) => run(&mut Default::default()),
-    })
+    kept(&SCRATCH, run)
 }
 
 /// Per row of `t`, `all` set to `near` at the pixels where `layer` holds
@@ -262,12 +273,7 @@ fn composite(
                 .for_each(|(k, ((rgba, clear), bg))| strip(k, strips, rgba, Some((clear, bg)))),
         }
     };
-    STRIPS.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut strips) => run(&mut strips),
-        // Called again on this thread while its strips are in use (a
-        // rayon thread waiting on a frame's strips may take up another).
-        Err(_) => run(&mut Strips::default()),
-    });
+    kept(&STRIPS, run);
 }
 
 /// The weather of `scene` over its pixels `rgba` (in place), the drones'
@@ -299,15 +305,9 @@ pub fn over_pixels(
         composite(rgba, size, drawn, &layer, Some(both));
         Some(clear)
     };
-    let (camera, air) = (&scene.camera, scene.atmosphere.as_ref());
-    PARTICLES.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut particles) => {
-            weather.particles_into(camera, air, &mut particles);
-            over(&particles)
-        }
-        // In use on this thread (a rayon thread waiting on a frame's strips
-        // may take up another frame).
-        Err(_) => over(&weather.particles(camera, air)),
+    kept(&PARTICLES, |particles| {
+        weather.particles_into(&scene.camera, scene.atmosphere.as_ref(), particles);
+        over(particles)
     })
 }
 
@@ -406,22 +406,26 @@ pub(super) fn over_radiance(
         return;
     };
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let particles = weather.particles(&scene.camera, scene.atmosphere.as_ref());
     let layer = DepthLayer::of_hits(scene, hits);
-    let mut strips = Strips::default();
-    strips.fill(&particles, (w, h), Some(&layer));
     let chunk = (STRIP as usize * w as usize).max(1);
-    (plane.par_chunks_mut(chunk))
-        .zip(clear.par_chunks_mut(chunk))
-        .enumerate()
-        .for_each(|(k, (plane, clear))| {
-            let rows = (plane.len() / (w as usize).max(1)) as u32;
-            transmit((k, rows, w), strips.of(k), Some(&layer), |t| {
-                resolve::resolve_radiance(clear, t.all, air);
-                near_at_drones(t, &layer);
-                resolve::resolve_radiance(plane, t.all, air);
-            });
-        });
+    kept(&PARTICLES, |particles| {
+        weather.particles_into(&scene.camera, scene.atmosphere.as_ref(), particles);
+        kept(&STRIPS, |strips| {
+            strips.fill(particles, (w, h), Some(&layer));
+            let strips = &*strips;
+            (plane.par_chunks_mut(chunk))
+                .zip(clear.par_chunks_mut(chunk))
+                .enumerate()
+                .for_each(|(k, (plane, clear))| {
+                    let rows = (plane.len() / (w as usize).max(1)) as u32;
+                    transmit((k, rows, w), strips.of(k), Some(&layer), |t| {
+                        resolve::resolve_radiance(clear, t.all, air);
+                        near_at_drones(t, &layer);
+                        resolve::resolve_radiance(plane, t.all, air);
+                    });
+                });
+        })
+    });
 }
 
 #[cfg(test)]
