@@ -188,6 +188,8 @@ impl FrameWeather {
             }
             return;
         }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = lanes;
         out.par_extend((0..count).into_par_iter().filter_map(|i| maker.one(i)));
     }
 
