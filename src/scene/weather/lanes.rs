@@ -6,7 +6,7 @@
 //! `DepthTable::depth`, `Frustum::prim` and `area`, `View::project`), a
 //! lane's Newton steps stopping where its own would (the lanes still
 //! running carry the others unchanged); the draws and each particle's last
-//! checks ([`FrameWeather::mark`]) stay scalar. So the particles are the
+//! checks (`FrameWeather::mark`) stay scalar. So the particles are the
 //! scalar code's, bit for bit (tested).
 
 use std::arch::x86_64::*;
@@ -18,7 +18,7 @@ const GROUPS: usize = 4;
 /// Particles a call makes.
 pub(super) const LANES: usize = 4 * GROUPS;
 
-/// Four lanes each of [`GROUPS`] registers.
+/// [`GROUPS`] registers of four lanes.
 type Wide = [__m256d; GROUPS];
 
 /// Particles `first` … `first + 15` (those below `count`), as
