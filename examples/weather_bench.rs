@@ -37,13 +37,15 @@ fn main() -> anyhow::Result<()> {
         let geometry = &pipeline.assets().geometry;
         let (mut times, mut making) = (Vec::new(), Vec::new());
         let (mut particles, mut cpu) = (0, 0.0);
-        // The drone-free frame's buffer, reused as the pipeline reuses the renderer's.
-        let mut buffer = Vec::new();
+        // The drone-free frame's buffer, the background and the frame reused
+        // as the pipeline reuses the renderer's buffers.
+        let (mut buffer, mut background, mut rgba) = (Vec::new(), Vec::new(), Vec::new());
         for index in 0..30 {
             let scene = pipeline.scene(index % pipeline.frame_count())?;
             let (w, h) = (scene.camera.width, scene.camera.height);
-            let background = vec![180u8; (w * h * 4) as usize];
-            let mut rgba = background.clone();
+            background.resize((w * h * 4) as usize, 180u8);
+            rgba.clear();
+            rgba.extend_from_slice(&background);
             if let Some(weather) = &scene.weather {
                 let t = Instant::now();
                 particles += weather.particles(&scene.camera, None).len();
