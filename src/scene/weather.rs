@@ -169,8 +169,8 @@ impl FrameWeather {
         #[cfg(target_arch = "x86_64")]
         if lanes && frustum.depth.1 > frustum.depth.0 {
             let n = lanes::LANES as u64;
-            let quads = usize::try_from(count.div_ceil(n)).unwrap_or(usize::MAX);
-            let parts: Vec<Vec<Particle>> = (0..quads)
+            // At most MAX_PARTICLES / 16 calls.
+            let parts: Vec<Vec<Particle>> = (0..count.div_ceil(n) as usize)
                 .into_par_iter()
                 .with_min_len(64)
                 .fold(Vec::new, |mut part, q| {
@@ -273,8 +273,7 @@ impl Maker<'_> {
         let start = DVec3::new(hx * (2.0 * ux - 1.0), hy * (2.0 * uy - 1.0), z);
         let (lo, hi) = self.weather.diameter_mm;
         let d = (lo + (hi - lo) * ud) * 1e-3;
-        let w = self.weather;
-        w.particle(self.view, (start, start + self.travel), d, self.atmosphere)
+        (self.weather).particle(self.view, (start, start + self.travel), d, self.atmosphere)
     }
 }
 
@@ -460,20 +459,19 @@ mod tests {
         }
         use rand::SeedableRng;
         let mut rng = ChaCha8Rng::seed_from_u64(41);
-        let bits = |ps: &[Particle]| -> Vec<[u32; 7]> {
+        let bits = |ps: &[Particle]| -> Vec<([u32; 7], bool)> {
             (ps.iter())
                 .map(|p| {
-                    let [a, b, c, d, e, f] =
-                        [p.a[0], p.a[1], p.b[0], p.b[1], p.radius_px, p.alpha].map(f32::to_bits);
-                    [
-                        a,
-                        b,
-                        c,
-                        d,
-                        e,
-                        f,
-                        p.depth_m.to_bits() ^ u32::from(p.solid) << 31,
-                    ]
+                    let f = [
+                        p.a[0],
+                        p.a[1],
+                        p.b[0],
+                        p.b[1],
+                        p.radius_px,
+                        p.alpha,
+                        p.depth_m,
+                    ];
+                    (f.map(f32::to_bits), p.solid)
                 })
                 .collect()
         };
