@@ -219,17 +219,15 @@ fn lens_box(lens: &LensGeometry, points: Vec<DVec2>) -> Option<PixelBox> {
     for (i, &a) in hull.iter().enumerate() {
         let b = hull[(i + 1) % hull.len()];
         let n = (a.distance(b).ceil()).clamp(1.0, MAX_EDGE_SAMPLES) as u32;
-        mapped.extend((0..n).map(|k| {
-            let p = a.lerp(b, f64::from(k) / f64::from(n));
-            let (x, y) = lens.forward((p.x, p.y));
-            DVec2::new(x, y)
-        }));
+        mapped.extend((0..n).map(|k| through(lens, a.lerp(b, f64::from(k) / f64::from(n)))));
     }
-    let b = PixelBox::from_points(mapped)?;
-    [b.x0, b.y0, b.x1, b.y1]
-        .iter()
-        .all(|v| v.is_finite())
-        .then_some(b)
+    finite_box(mapped)
+}
+
+/// Pixel `p` of the pinhole picture where `lens` puts it.
+fn through(lens: &LensGeometry, p: DVec2) -> DVec2 {
+    let (x, y) = lens.forward((p.x, p.y));
+    DVec2::new(x, y)
 }
 
 /// [`amodal_box`] through the frame's lens (`None`: the pinhole's box).
@@ -257,17 +255,8 @@ pub fn paper_aabb_box_through(
     let Some(lens) = lens else {
         return paper_aabb_box(camera, drone, geom);
     };
-    let mapped = projected_points(camera, &paper_corners(camera, drone, geom))
-        .into_iter()
-        .map(|p| {
-            let (x, y) = lens.forward((p.x, p.y));
-            DVec2::new(x, y)
-        });
-    let b = PixelBox::from_points(mapped)?;
-    [b.x0, b.y0, b.x1, b.y1]
-        .iter()
-        .all(|v| v.is_finite())
-        .then_some(b)
+    let corners = projected_points(camera, &paper_corners(camera, drone, geom));
+    finite_box(corners.into_iter().map(|p| through(lens, p)))
 }
 
 /// Camera-frame positions of a drone's model-space points.
