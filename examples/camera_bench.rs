@@ -10,42 +10,25 @@
 //! after another (the per-stage breakdown; `=N` stops after N lines, for a profiler);
 //! `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps the sweep's SIMD build.
 
-use std::time::Instant;
-
 use swarmshot::preset::camera_model::CameraModel;
 use swarmshot::sensor::{self, CameraDraw, PsfDraw};
 
-type Apply = fn(&[u8], u32, u32, &CameraDraw) -> Vec<u8>;
+#[path = "support/picture.rs"]
+mod picture;
+#[path = "support/timing.rs"]
+mod timing;
 
-fn median_ms(apply: Apply, rgba: &[u8], (w, h): (u32, u32), draw: &CameraDraw) -> f64 {
-    for _ in 0..3 {
-        std::hint::black_box(apply(rgba, w, h, draw));
-    }
-    let mut times: Vec<f64> = (0..30)
-        .map(|_| {
-            let t = Instant::now();
-            std::hint::black_box(apply(rgba, w, h, draw));
-            t.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+/// The median wall time of `sensor::apply` with `draw` over `rgba` (30 runs after 3 warm-ups).
+fn apply_ms(rgba: &[u8], (w, h): (u32, u32), draw: &CameraDraw) -> f64 {
+    let (wall, _cpu) = timing::median_ms(|| {
+        std::hint::black_box(sensor::apply(rgba, w, h, draw));
+    });
+    wall
 }
 
 fn main() {
     let (w, h) = (1920u32, 1080u32);
-    // A sky gradient with some structure (the stage's cost does not depend on content).
-    let rgba: Vec<u8> = (0..w * h)
-        .flat_map(|i| {
-            let (x, y) = (i % w, i / w);
-            [
-                (90 + y / 12) as u8,
-                (130 + y / 10) as u8,
-                (200 + (x / 40) % 40) as u8,
-                255,
-            ]
-        })
-        .collect();
+    let rgba = picture::sky(w, h);
     let neutral = sensor::draw(&CameraModel::default(), 1, 0);
     let typical = CameraDraw {
         exposure_ev: 0.2,
@@ -94,7 +77,7 @@ fn main() {
         rayon::current_num_threads()
     );
     for (name, draw) in cases {
-        let now = median_ms(sensor::apply, &rgba, (w, h), &draw);
+        let now = apply_ms(&rgba, (w, h), &draw);
         println!("  {name}: {now:.2}");
     }
 }
@@ -152,7 +135,7 @@ fn stages(rgba: &[u8], (w, h): (u32, u32), typical: &CameraDraw) {
         .unwrap_or(cases.len());
     let mut before = 0.0;
     for (name, draw) in cases.into_iter().take(upto) {
-        let now = median_ms(sensor::apply, rgba, (w, h), &draw);
+        let now = apply_ms(rgba, (w, h), &draw);
         println!("  {name}: {now:.2} (+{:.2})", now - before);
         before = now;
     }

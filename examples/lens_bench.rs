@@ -10,23 +10,15 @@
 
 use swarmshot::sensor::lens::{LensDraw, LensGeometry, LensMap};
 
+#[path = "support/picture.rs"]
+mod picture;
 #[path = "support/timing.rs"]
 mod timing;
 use timing::median_ms;
 
 fn main() {
     let (w, h) = (1920u32, 1080u32);
-    let rgba: Vec<u8> = (0..w * h)
-        .flat_map(|i| {
-            let (x, y) = (i % w, i / w);
-            [
-                (90 + y / 12) as u8,
-                (130 + y / 10) as u8,
-                (200 + (x / 40) % 40) as u8,
-                255,
-            ]
-        })
-        .collect();
+    let rgba = picture::sky(w, h);
     // presets/lens_distortion.ron: fov_y 50° at 1080 rows.
     let focal = 540.0 / 25f64.to_radians().tan();
     let draw = LensDraw::BrownConrady {

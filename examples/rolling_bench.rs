@@ -16,23 +16,15 @@ use swarmshot::scene::{build_frame_at, math::look_at_cv};
 use swarmshot::sensor::PixelRect;
 use swarmshot::sensor::rolling::{Shear, shear, shear_over, turn_background_twice};
 
+#[path = "support/picture.rs"]
+mod picture;
 #[path = "support/timing.rs"]
 mod timing;
 use timing::median_ms;
 
 fn main() -> anyhow::Result<()> {
     let (w, h) = (1920u32, 1080u32);
-    let sky: Vec<u8> = (0..w * h)
-        .flat_map(|i| {
-            let (x, y) = (i % w, i / w);
-            [
-                (90 + y / 12) as u8,
-                (130 + y / 10) as u8,
-                (200 + (x / 40) % 40) as u8,
-                255,
-            ]
-        })
-        .collect();
+    let sky = picture::sky(w, h);
     let mut frame = sky.clone();
     let rects: Vec<PixelRect> = (0..7u32)
         .map(|k| PixelRect {

@@ -15,20 +15,10 @@ use std::time::Instant;
 
 use swarmshot::pipeline::FramePipeline;
 
-/// The process's user + system CPU time so far, ms (`None` off Linux).
-fn cpu_ms() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command's closing parenthesis: utime and stime are 14 and 15.
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let field = |i: usize| rest.split(' ').nth(i - 3)?.parse::<f64>().ok();
-    // Clock ticks of 10 ms (USER_HZ is 100 on Linux).
-    Some((field(14)? + field(15)?) * 10.0)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
-}
+#[path = "support/timing.rs"]
+#[allow(dead_code)] // its `median_ms` times a fixed run; these frames differ run to run
+mod timing;
+use timing::{cpu_s, median};
 
 fn main() -> anyhow::Result<()> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -51,7 +41,7 @@ fn main() -> anyhow::Result<()> {
                 particles += weather.particles(&scene.camera, None).len();
                 making.push(t.elapsed().as_secs_f64() * 1e3);
             }
-            let (t, c) = (Instant::now(), cpu_ms());
+            let (t, c) = (Instant::now(), cpu_s());
             let clear = swarmshot::pipeline::weather::over_pixels(
                 (&scene, geometry),
                 &mut rgba,
@@ -59,7 +49,7 @@ fn main() -> anyhow::Result<()> {
                 Some(std::mem::take(&mut buffer)),
             );
             times.push(t.elapsed().as_secs_f64() * 1e3);
-            cpu += cpu_ms().zip(c).map_or(f64::NAN, |(b, a)| b - a);
+            cpu += (cpu_s() - c) * 1e3;
             buffer = clear.expect("the drone-free frame under the particles");
         }
         let (min, max) = (

@@ -1,12 +1,12 @@
-//! Timing for the stage benches (`lens_bench`, `rolling_bench`,
-//! `thermal_bench`): the median
-//! wall time of repeated runs and their mean CPU time, all threads.
+//! Timing for the stage benches (`camera_bench`, `lens_bench`,
+//! `rolling_bench`, `thermal_bench`, `weather_bench`): the median wall time
+//! of repeated runs and their mean CPU time, all threads.
 
 use std::time::Instant;
 
 /// The process's CPU time so far, seconds (Linux's /proc/self/stat, in
 /// 100 Hz ticks; NaN elsewhere).
-fn cpu_s() -> f64 {
+pub fn cpu_s() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     let after = stat.rsplit(')').next().unwrap_or("");
     let field = |i: usize| after.split_whitespace().nth(i)?.parse::<f64>().ok();
@@ -23,7 +23,7 @@ pub fn median_ms(mut run: impl FnMut()) -> (f64, f64) {
         run();
     }
     let cpu = cpu_s();
-    let mut times: Vec<f64> = (0..30)
+    let times: Vec<f64> = (0..30)
         .map(|_| {
             let t = Instant::now();
             run();
@@ -31,6 +31,11 @@ pub fn median_ms(mut run: impl FnMut()) -> (f64, f64) {
         })
         .collect();
     let cpu_ms = (cpu_s() - cpu) * 1e3 / 30.0;
-    times.sort_by(f64::total_cmp);
-    (times[times.len() / 2], cpu_ms)
+    (median(times), cpu_ms)
+}
+
+/// The median of `v` (the upper one of an even count; 0 when empty).
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
