@@ -121,8 +121,8 @@ pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], simd: b
 }
 
 /// One row of RGBA8 from the three linear rows (see [`encode_row`]), in
-/// its AVX2 build where the CPU has it, also inside the AVX-512 band (its
-/// table look-ups are faster so).
+/// its AVX2 build where the CPU has it ([`encode_line_avx2`]: eight-lane
+/// gathers), also inside the AVX-512 band.
 #[inline(always)]
 pub(super) fn encode_line(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
