@@ -435,6 +435,20 @@ pub fn rasterize(scene: &FrameScene, samples: u32) -> ClutterLayer {
 /// mean of its samples, the scenery's where covered and the sky's elsewhere.
 pub(super) fn composite(layer: &ClutterLayer, rgba: &mut [u8]) {
     let n = layer.samples.max(1);
+    // sum / n rounded half up is (2·sum + n) / 2n in integers (no libm
+    // call): a shift where 2n is a power of two (the usual sample counts),
+    // not a division a channel.
+    if (2 * n).is_power_of_two() {
+        let shift = (2 * n).trailing_zeros();
+        composite_with(layer, rgba, n, |x| x >> shift);
+    } else {
+        composite_with(layer, rgba, n, |x| x / (2 * n));
+    }
+}
+
+/// [`composite`] with `half_up(2·sum + n)` = (2·sum + n) / 2n.
+#[inline(always)]
+fn composite_with(layer: &ClutterLayer, rgba: &mut [u8], n: u32, half_up: impl Fn(u32) -> u32) {
     let width = layer.width as usize;
     for (y, &(start, end)) in layer.touched.iter().enumerate() {
         if start >= end {
@@ -451,8 +465,7 @@ pub(super) fn composite(layer: &ClutterLayer, rgba: &mut [u8]) {
             }
             for ch in 0..3 {
                 let sum = k * u32::from(c[ch]) + (n - k) * u32::from(px[ch]);
-                // sum / n rounded half up, in integers (no libm call).
-                px[ch] = ((2 * sum + n) / (2 * n)) as u8;
+                px[ch] = half_up(2 * sum + n) as u8;
             }
         }
     }
@@ -785,6 +798,37 @@ mod tests {
         let expected = ((f32::from(c) + 3.0 * 200.0) / 4.0).round() as u8;
         assert_eq!(rgba[4 * 4], expected);
         assert_eq!(rgba[3 * 4], 200, "an uncovered pixel keeps the sky");
+    }
+
+    #[test]
+    fn the_composite_is_the_samples_mean_rounded_half_up_for_any_count() {
+        let (w, h) = (37u32, 5u32);
+        for n in 1..=4u32 {
+            let mut layer = ClutterLayer::default();
+            layer.reset(w, h, n);
+            for (i, c) in layer.color.iter_mut().enumerate() {
+                let v = (i * 73 % 256) as u8;
+                *c = [v, v.wrapping_mul(3), 255 - v, (i % (1 << n)) as u8];
+            }
+            layer.touched.fill((0, w));
+            let sky: Vec<u8> = (0..w * h * 4).map(|i| (i * 29 % 256) as u8).collect();
+            let mut rgba = sky.clone();
+            composite(&layer, &mut rgba);
+            for (i, c) in layer.color.iter().enumerate() {
+                let k = c[3].count_ones();
+                for ch in 0..4 {
+                    let (p, got) = (sky[i * 4 + ch], rgba[i * 4 + ch]);
+                    let mean =
+                        f64::from(k * u32::from(c[ch]) + (n - k) * u32::from(p)) / f64::from(n);
+                    let want = if k == 0 || ch == 3 {
+                        p
+                    } else {
+                        (mean + 0.5).floor() as u8
+                    };
+                    assert_eq!(got, want, "n {n}, pixel {i}, channel {ch}");
+                }
+            }
+        }
     }
 
     #[test]
