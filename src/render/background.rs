@@ -46,6 +46,10 @@ pub(super) struct BackgroundCache {
     key: Option<Vec<u8>>,
     /// The drone-free frame (RGBA8, sRGB-encoded, scenery included).
     pub(super) rgba: Vec<u8>,
+    /// `rgba` before the scenery was composited into it: what `texture`
+    /// holds (the region passes draw the scenery themselves); empty when
+    /// the frame has no scenery.
+    plain: Vec<u8>,
     /// Generation of the cached background (see [`super::Painted`]); 0: none.
     pub(super) generation: u64,
     /// Full-frame readback of the drawn sky.
@@ -102,6 +106,7 @@ impl BackgroundCache {
             group,
             key: None,
             rgba: Vec::new(),
+            plain: Vec::new(),
             generation: 0,
             readback: Readback::new(device, "background readback", width, height),
             unexposed: None,
@@ -127,15 +132,20 @@ impl BackgroundCache {
     }
 
     /// Write into the texture the stale tiles (see `stale`) under `rects`,
-    /// each row of tiles in runs.
+    /// each row of tiles in runs, from the background without the scenery.
     pub(super) fn upload_under<'r>(
         &mut self,
         queue: &wgpu::Queue,
         rects: impl IntoIterator<Item = &'r Rect>,
     ) {
         let size = (self.width, self.height);
+        let source = if self.plain.is_empty() {
+            &self.rgba
+        } else {
+            &self.plain
+        };
         for part in take_stale_tiles(&mut self.stale, size, rects) {
-            write_part(queue, &self.texture, &self.rgba, self.width, &part);
+            write_part(queue, &self.texture, source, self.width, &part);
         }
     }
 
@@ -246,10 +256,12 @@ impl Backgrounds {
             self.draw_exposed(with, cache, scene, uniforms, exposure)?;
         }
         cache.last_base_key = Some(base_key);
+        // The texture takes the background without the scenery (the region
+        // passes draw the scenery themselves), from a copy kept for it
+        // (uploaded where the regions need it, not the whole frame).
+        cache.plain.clear();
         if let Some(layer) = layer {
-            // The texture holds the background without the scenery (the
-            // region passes draw the scenery themselves): all of it now.
-            cache.upload_under(with.queue, std::iter::once(&Rect::full(size.0, size.1)));
+            cache.plain.extend_from_slice(&cache.rgba);
             scenery::composite(layer, &mut cache.rgba);
         }
         cache.key = Some(key);
