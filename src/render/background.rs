@@ -47,8 +47,8 @@ pub(super) struct BackgroundCache {
     /// The drone-free frame (RGBA8, sRGB-encoded, scenery included).
     pub(super) rgba: Vec<u8>,
     /// `rgba` before the scenery was composited into it: what `texture`
-    /// holds (the region passes draw the scenery themselves); empty when
-    /// the frame has no scenery.
+    /// takes (the region passes draw the scenery themselves); empty when
+    /// the frame has no scenery or the texture holds all of it already.
     plain: Vec<u8>,
     /// Generation of the cached background (see [`super::Painted`]); 0: none.
     pub(super) generation: u64,
@@ -257,11 +257,14 @@ impl Backgrounds {
         }
         cache.last_base_key = Some(base_key);
         // The texture takes the background without the scenery (the region
-        // passes draw the scenery themselves), from a copy kept for it
-        // (uploaded where the regions need it, not the whole frame).
+        // passes draw the scenery themselves): where it does not hold it
+        // yet (stale tiles), from a copy kept for it, uploaded where the
+        // regions need it, not the whole frame.
         cache.plain.clear();
         if let Some(layer) = layer {
-            cache.plain.extend_from_slice(&cache.rgba);
+            if !cache.stale.is_empty() {
+                cache.plain.extend_from_slice(&cache.rgba);
+            }
             scenery::composite(layer, &mut cache.rgba);
         }
         cache.key = Some(key);
