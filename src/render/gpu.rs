@@ -308,6 +308,32 @@ pub(super) fn clear_pass<'e>(
     label: &str,
     view: &wgpu::TextureView,
 ) -> wgpu::RenderPass<'e> {
+    single_pass(
+        encoder,
+        label,
+        view,
+        wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+    )
+}
+
+/// A render pass drawing into `view` alone, its contents loaded, not
+/// cleared, and stored: for draws that write every pixel of it (a clear
+/// would be a frame-sized fill for nothing; wgpu zeroes a texture before
+/// its first load).
+pub(super) fn covering_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+) -> wgpu::RenderPass<'e> {
+    single_pass(encoder, label, view, wgpu::LoadOp::Load)
+}
+
+fn single_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'e> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -315,7 +341,7 @@ pub(super) fn clear_pass<'e>(
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                load,
                 store: wgpu::StoreOp::Store,
             },
         })],

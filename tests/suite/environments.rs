@@ -427,3 +427,58 @@ fn random_environments_do_not_change_the_drones() {
     assert_ne!(scene_a.environment, scene_b.environment);
     assert_eq!(scene_b.sun_direction, scene_b.environment.sun_direction());
 }
+
+#[test]
+fn a_frame_of_random_environments_is_the_same_made_alone_or_after_others() {
+    // One renderer draws frames of another environment and horizon each in
+    // turn (its environment targets kept from frame to frame); each must be
+    // the frame a fresh renderer makes alone: nothing of a frame before it
+    // may show through (the environment's passes write every texel).
+    let mut preset = environment_preset(
+        Sky::Random {
+            choices: EnvironmentName::ALL
+                .iter()
+                .map(|&n| Sky::procedural(n))
+                .collect(),
+            azimuth_offset_deg: (0.0, 360.0),
+            sun_elevation_deg: Some((10.0, 60.0)),
+            cloud_cover: Some((0.0, 1.0)),
+            exposure_ev: None,
+            sun_ev: None,
+        },
+        W,
+        H,
+    );
+    preset.camera.x = swarmshot::preset::sweep::SweepRange {
+        start: -0.5,
+        end: 0.5,
+        step: 0.5,
+    };
+    preset.camera.y = swarmshot::preset::sweep::SweepRange {
+        start: 0.05,
+        end: 0.65,
+        step: 0.3,
+    };
+    let pipeline = swarmshot::pipeline::FramePipeline::new(preset).expect("pipeline");
+    let ctx = gpu();
+    let mut renderer = pipeline.renderer(&ctx);
+    let n = pipeline.frame_count();
+    assert!(n >= 6, "{n} frames");
+    let in_turn: Vec<Vec<u8>> = (0..n)
+        .map(|i| pipeline.make(&mut renderer, i).expect("frame").rgba)
+        .collect();
+    for i in [1, n / 2, n - 1] {
+        let alone = pipeline
+            .make(&mut pipeline.renderer(&ctx), i)
+            .expect("frame alone");
+        assert!(
+            alone.rgba == in_turn[i as usize],
+            "frame {i} depends on the frames before it"
+        );
+        assert!(
+            compare(&in_turn[i as usize], &in_turn[i as usize - 1]).0 > 1.0,
+            "frames {i} and {} alike",
+            i - 1
+        );
+    }
+}

@@ -97,7 +97,10 @@ impl SkyGpu {
             draw(&mut pass, triangles, pipeline);
             group = &quarter.group;
         }
-        let mut pass = crate::render::gpu::clear_pass(encoder, "environment pass", &half.view);
+        // Not cleared: the parts' polygons cover every texel and each
+        // texel is drawn by its part (`horizon`, `in_part`), so nothing of
+        // the frame before shows (suite test `environments::a_frame_of_…`).
+        let mut pass = crate::render::gpu::covering_pass(encoder, "environment pass", &half.view);
         pass.set_bind_group(0, with.frame_group, &[]);
         pass.set_bind_group(1, group, &[]);
         for ((_, triangles), pipeline) in draws.iter().zip(pipelines) {
