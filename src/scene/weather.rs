@@ -56,6 +56,18 @@ pub struct Particle {
     pub solid: bool,
 }
 
+impl Particle {
+    /// A placeholder for slots not yet made (no mark: zero radius and alpha).
+    const NONE: Self = Self {
+        a: [0.0; 2],
+        b: [0.0; 2],
+        radius_px: 0.0,
+        alpha: 0.0,
+        depth_m: 0.0,
+        solid: false,
+    };
+}
+
 fn uniform(rng: &mut ChaCha8Rng, (lo, hi): (f64, f64)) -> f64 {
     let u: f64 = rng.random();
     lo + (hi - lo) * u
@@ -168,24 +180,29 @@ impl FrameWeather {
         };
         #[cfg(target_arch = "x86_64")]
         if lanes && frustum.depth.1 > frustum.depth.0 {
-            let n = lanes::LANES as u64;
-            // At most MAX_PARTICLES / 16 calls.
-            let parts: Vec<Vec<Particle>> = (0..count.div_ceil(n) as usize)
-                .into_par_iter()
+            // In place in `out` (no fresh pages once grown): calls of
+            // sixteen slots each (at most MAX_PARTICLES / 16), each call's
+            // particles at the head of its slots, then moved up in order.
+            const N: usize = lanes::LANES;
+            let calls = count.div_ceil(N as u64) as usize;
+            out.resize(calls * N, Particle::NONE);
+            let mut made = vec![0u8; calls];
+            (out.as_chunks_mut::<N>().0.par_iter_mut())
+                .zip(made.par_iter_mut())
+                .enumerate()
                 .with_min_len(64)
-                .fold(Vec::new, |mut part, q| {
+                .for_each(|(q, (slots, made))| {
                     // SAFETY: the CPU has AVX2 (the caller's `lanes`).
                     #[allow(unsafe_code)]
-                    unsafe {
-                        lanes::sixteen(&maker, q as u64 * n, count, &mut part)
-                    };
-                    part
-                })
-                .collect();
-            out.reserve(parts.iter().map(Vec::len).sum());
-            for part in parts {
-                out.extend_from_slice(&part);
+                    let k = unsafe { lanes::sixteen(&maker, (q * N) as u64, count, slots) };
+                    *made = k as u8;
+                });
+            let mut kept = 0;
+            for (q, &k) in made.iter().enumerate() {
+                out.copy_within(q * N..q * N + usize::from(k), kept);
+                kept += usize::from(k);
             }
+            out.truncate(kept);
             return;
         }
         #[cfg(not(target_arch = "x86_64"))]

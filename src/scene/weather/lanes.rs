@@ -22,11 +22,11 @@ pub(super) const LANES: usize = 4 * GROUPS;
 type Wide = [__m256d; GROUPS];
 
 /// Particles `first` … `first + 15` (those below `count`), as
-/// [`Maker::one`] makes each, onto `out` in order; the frustum's depths
+/// [`Maker::one`] makes each, into `out` in order; how many. The frustum's depths
 /// must be a range (far > near: otherwise every depth is the near one,
 /// made by the scalar code).
 #[target_feature(enable = "avx2")]
-pub(super) fn sixteen(m: &Maker, first: u64, count: u64, out: &mut Vec<Particle>) {
+pub(super) fn sixteen(m: &Maker, first: u64, count: u64, out: &mut [Particle; LANES]) -> usize {
     // The draws, by kind: [depth, x, y, diameter][lane].
     let mut u = [[0.0f64; LANES]; 4];
     for l in 0..LANES {
@@ -85,13 +85,18 @@ pub(super) fn sixteen(m: &Maker, first: u64, count: u64, out: &mut Vec<Particle>
     let [z, ez, ax, ay, bx, by, zm, r_px] = lanes;
     // `View::project`'s refusal, for either end.
     let seen = |z: f64| !z.is_nan() && z > 0.0;
+    let mut made = 0;
     for l in 0..LANES.min((count - first.min(count)) as usize) {
         if !seen(z[l]) || !seen(ez[l]) {
             continue;
         }
         let (a, b) = ((ax[l], ay[l]).into(), (bx[l], by[l]).into());
-        out.extend((m.weather).mark(m.view, (a, b), (zm[l], r_px[l]), m.atmosphere));
+        if let Some(p) = (m.weather).mark(m.view, (a, b), (zm[l], r_px[l]), m.atmosphere) {
+            out[made] = p;
+            made += 1;
+        }
     }
+    made
 }
 
 /// `DepthTable::depth` of shares `u` (each in [0, 1)).
