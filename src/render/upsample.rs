@@ -20,6 +20,8 @@ use std::sync::LazyLock;
 use half::slice::HalfFloatSliceExt;
 
 #[cfg(target_arch = "x86_64")]
+mod blend;
+#[cfg(target_arch = "x86_64")]
 mod gather;
 
 /// Linear values where the sRGB-encoded 8-bit value steps up.
@@ -289,9 +291,11 @@ impl Columns {
 }
 
 /// One plane's row blended across columns laid out by [`chunk_layout`]
-/// for factor `K` (checked by [`Columns::new`]).
+/// for factor `K` (checked by [`Columns::new`]); the chunks eight values
+/// at a time in AVX2 when `simd` ([`blend::chunks_avx2`]; only in
+/// [`upsample_row_avx2`]).
 #[inline(always)]
-fn blend_chunks<const K: usize>(plane: &[f32], value: &mut [f32], weight: &[f32]) {
+fn blend_chunks<const K: usize>(plane: &[f32], value: &mut [f32], weight: &[f32], simd: bool) {
     let (head, mid) = chunk_layout(K, value.len(), plane.len());
     let (first, rest) = value.split_at_mut(head);
     let (chunks, tail) = rest.split_at_mut(mid * K);
@@ -299,10 +303,21 @@ fn blend_chunks<const K: usize>(plane: &[f32], value: &mut [f32], weight: &[f32]
     for (v, w) in first.iter_mut().zip(weight) {
         *v = lerp(plane[0], plane[0], *w);
     }
-    let chunk_weights = weight[head..].chunks_exact(K);
-    for ((v, p), w) in chunks
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: only from `upsample_row_avx2`, on a CPU with AVX2.
+    #[allow(unsafe_code)]
+    let done = if simd {
+        unsafe { blend::chunks_avx2::<K>(plane, chunks, &weight[head..]) }
+    } else {
+        0
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let done = 0;
+    let _ = simd;
+    let chunk_weights = weight[head + done * K..].chunks_exact(K);
+    for ((v, p), w) in chunks[done * K..]
         .chunks_exact_mut(K)
-        .zip(plane.windows(2))
+        .zip(plane[done..].windows(2))
         .zip(chunk_weights)
     {
         let d = p[1] - p[0];
@@ -331,7 +346,11 @@ struct RowScratch {
     values: [Vec<f32>; 3],
 }
 
-/// One output row: the source rows `a` and `b` (RGBA texels) blended with
+/// Source rows as planes of linear values, one per colour channel
+/// ([`SourceRows`] converts each row once).
+type Planes<'a> = &'a [Vec<f32>; 3];
+
+/// One output row: the source rows `a` and `b` (planes) blended with
 /// weight `wy`, then across `columns`, encoded into `line` (RGBA8). The
 /// same f32 operations, in the same order, as the GPU sampler's bilinear
 /// filter: `p + (q − p) · w` vertically, then horizontally. `gather`: the
@@ -339,27 +358,24 @@ struct RowScratch {
 /// [`upsample_row_avx2`]).
 #[inline(always)]
 fn upsample_row<const N: usize>(
-    (a, b, wy): (&[f32], &[f32], f32),
+    (a, b, wy): (Planes<'_>, Planes<'_>, f32),
     columns: &Columns,
     scratch: &mut RowScratch,
     (buckets, gather): (&Buckets<N>, bool),
     line: &mut [u8],
 ) {
     let RowScratch { planes, values } = scratch;
-    for (c, plane) in planes.iter_mut().enumerate() {
-        for (o, (p, q)) in plane
-            .iter_mut()
-            .zip(a.chunks_exact(4).zip(b.chunks_exact(4)))
-        {
-            *o = p[c] + (q[c] - p[c]) * wy;
+    for ((plane, a), b) in planes.iter_mut().zip(a).zip(b) {
+        for ((o, p), q) in plane.iter_mut().zip(a).zip(b) {
+            *o = p + (q - p) * wy;
         }
     }
     for (plane, value) in planes.iter().zip(values.iter_mut()) {
         let weight = &columns.weight;
         if columns.factor == 2 {
-            blend_chunks::<2>(plane, value, weight);
+            blend_chunks::<2>(plane, value, weight, gather);
         } else if columns.factor == 4 {
-            blend_chunks::<4>(plane, value, weight);
+            blend_chunks::<4>(plane, value, weight, gather);
         } else {
             for (a, b, run) in &columns.runs {
                 let (p, q) = (plane[*a], plane[*b]);
@@ -393,7 +409,7 @@ fn upsample_row<const N: usize>(
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 fn upsample_row_avx2<const N: usize>(
-    rows: (&[f32], &[f32], f32),
+    rows: (Planes<'_>, Planes<'_>, f32),
     columns: &Columns,
     scratch: &mut RowScratch,
     buckets: &Buckets<N>,
@@ -459,37 +475,49 @@ impl Texels<'_> {
     }
 }
 
-/// The two source rows an output row blends, converted once each: the
-/// rows only move forward, so the second of one pair is often the first
-/// of the next.
+/// The two source rows an output row blends, converted once each into
+/// planes (the blends then run on whole vectors of one channel): the rows
+/// only move forward, so the second of one pair is often the first of
+/// the next.
 struct SourceRows {
     rows: [usize; 2],
-    data: [Vec<f32>; 2],
+    data: [[Vec<f32>; 3]; 2],
+    /// A row's texels (RGBA) as converted, before they are split.
+    texels: Vec<f32>,
     /// The exposure each converted row is multiplied by (1: none).
     gain: f32,
 }
 
 impl SourceRows {
     fn new(w: usize, gain: f32) -> Self {
+        let planes = || [vec![0.0; w], vec![0.0; w], vec![0.0; w]];
         Self {
             rows: [usize::MAX; 2],
-            data: [vec![0.0; w * 4], vec![0.0; w * 4]],
+            data: [planes(), planes()],
+            texels: vec![0.0; w * 4],
             gain,
         }
     }
 
     /// Row `r` of `texels` into slot `k`, exposed.
     fn load(&mut self, texels: &Texels<'_>, k: usize, r: usize) {
-        texels.row_into(r, &mut self.data[k]);
-        if self.gain != 1.0 {
-            let g = self.gain;
-            self.data[k].iter_mut().for_each(|v| *v *= g);
+        texels.row_into(r, &mut self.texels);
+        let g = self.gain;
+        let [red, green, blue] = &mut self.data[k];
+        let planes = red.iter_mut().zip(green.iter_mut()).zip(blue.iter_mut());
+        for (((r, g_), b), t) in planes.zip(self.texels.chunks_exact(4)) {
+            (*r, *g_, *b) = (t[0], t[1], t[2]);
+        }
+        if g != 1.0 {
+            for plane in &mut self.data[k] {
+                plane.iter_mut().for_each(|v| *v *= g);
+            }
         }
         self.rows[k] = r;
     }
 
     /// Rows `r0` and `r1` (r0 ≤ r1) of `texels`.
-    fn pair(&mut self, texels: &Texels<'_>, r0: usize, r1: usize) -> (&[f32], &[f32]) {
+    fn pair(&mut self, texels: &Texels<'_>, r0: usize, r1: usize) -> (Planes<'_>, Planes<'_>) {
         if self.rows[0] != r0 {
             if self.rows[1] == r0 {
                 self.rows.swap(0, 1);
@@ -582,7 +610,7 @@ fn upsample_with<const N: usize>(
 /// One output row through [`upsample_row_avx2`] when `simd`, else [`upsample_row`].
 #[inline(always)]
 fn upsample_line<const N: usize>(
-    pair: (&[f32], &[f32], f32),
+    pair: (Planes<'_>, Planes<'_>, f32),
     columns: &Columns,
     scratch: &mut RowScratch,
     (buckets, simd): (&Buckets<N>, bool),
