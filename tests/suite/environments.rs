@@ -407,11 +407,9 @@ fn sky_presets_parse_and_invalid_fields_are_named() {
     assert!(Preset::from_ron("(sky: Procedural(environment: Mars))").is_err());
 }
 
-#[test]
-fn random_environments_do_not_change_the_drones() {
-    let mut a = environment_preset(Sky::default(), W, H);
-    let scene_a = swarmshot::scene::build_frame(&a, 0).expect("frame");
-    a.sky = Sky::Random {
+/// A sky drawn at random among every named environment, its sun and clouds too.
+fn random_environments() -> Sky {
+    Sky::Random {
         choices: EnvironmentName::ALL
             .iter()
             .map(|&n| Sky::procedural(n))
@@ -421,7 +419,14 @@ fn random_environments_do_not_change_the_drones() {
         cloud_cover: Some((0.0, 1.0)),
         exposure_ev: None,
         sun_ev: None,
-    };
+    }
+}
+
+#[test]
+fn random_environments_do_not_change_the_drones() {
+    let mut a = environment_preset(Sky::default(), W, H);
+    let scene_a = swarmshot::scene::build_frame(&a, 0).expect("frame");
+    a.sky = random_environments();
     let scene_b = swarmshot::scene::build_frame(&a, 0).expect("frame");
     assert_eq!(scene_a.drones, scene_b.drones);
     assert_ne!(scene_a.environment, scene_b.environment);
@@ -434,21 +439,7 @@ fn a_frame_of_random_environments_is_the_same_made_alone_or_after_others() {
     // turn (its environment targets kept from frame to frame); each must be
     // the frame a fresh renderer makes alone: nothing of a frame before it
     // may show through (the environment's passes write every texel).
-    let mut preset = environment_preset(
-        Sky::Random {
-            choices: EnvironmentName::ALL
-                .iter()
-                .map(|&n| Sky::procedural(n))
-                .collect(),
-            azimuth_offset_deg: (0.0, 360.0),
-            sun_elevation_deg: Some((10.0, 60.0)),
-            cloud_cover: Some((0.0, 1.0)),
-            exposure_ev: None,
-            sun_ev: None,
-        },
-        W,
-        H,
-    );
+    let mut preset = environment_preset(random_environments(), W, H);
     preset.camera.x = swarmshot::preset::sweep::SweepRange {
         start: -0.5,
         end: 0.5,
