@@ -14,7 +14,7 @@ use std::arch::x86_64::{
     _mm256_storeu_si256, _mm256_sub_epi32,
 };
 
-use super::{BUCKETS_PER_UNIT, Buckets, FLOOR_MIN, NO_STEP};
+use super::srgb::{BUCKETS_PER_UNIT, Buckets, FLOOR_MIN, NO_STEP};
 
 /// The levels of the eight values at `x` ([`Buckets::encode`] per lane).
 #[cfg(target_arch = "x86_64")]
@@ -95,7 +95,8 @@ pub(super) fn encode_line_avx2<const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::{CLIP, EXPONENTIAL, SRGB, avx2};
+    use super::super::avx2;
+    use super::super::srgb::{CLIP, EXPONENTIAL, SRGB};
     use super::*;
 
     #[test]
