@@ -243,9 +243,8 @@ fn upsample_row_avx2<const N: usize>(
 /// Whether this CPU converts half floats in AVX2 registers ([`split::split_f16c`]).
 #[cfg(target_arch = "x86_64")]
 fn f16c() -> bool {
-    static F16C: LazyLock<bool> = LazyLock::new(|| {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c")
-    });
+    static F16C: LazyLock<bool> =
+        LazyLock::new(|| avx2() && std::arch::is_x86_feature_detected!("f16c"));
     *F16C
 }
 
@@ -333,37 +332,40 @@ impl SourceRows {
     /// Row `r` of `texels` into slot `k`, exposed.
     fn load(&mut self, texels: &Texels<'_>, k: usize, r: usize) {
         let g = self.gain;
-        let [red, green, blue] = &mut self.data[k];
         // Half floats straight into the planes where the CPU converts them
-        // in AVX2 registers; the rest of the row through `self.texels`.
+        // in AVX2 registers; otherwise the row through `self.texels`.
         #[cfg(target_arch = "x86_64")]
-        let done = match *texels {
-            Texels::F16 { bytes, stride } if f16c() => {
-                let src = &bytes[r * stride..r * stride + red.len() * 8];
-                // SAFETY: the CPU has AVX2 and F16C (`f16c`).
-                #[allow(unsafe_code)]
-                unsafe {
-                    split::split_f16c(src, [red, green, blue])
-                }
-            }
-            _ => 0,
-        };
-        #[cfg(not(target_arch = "x86_64"))]
-        let done = 0;
-        if done < red.len() {
-            texels.row_into(r, &mut self.texels);
-            let planes = red.iter_mut().zip(green.iter_mut()).zip(blue.iter_mut());
-            let texels = self.texels.chunks_exact(4);
-            for (((r, g_), b), t) in planes.zip(texels).skip(done) {
-                (*r, *g_, *b) = (t[0], t[1], t[2]);
-            }
+        if let Texels::F16 { bytes, stride } = *texels
+            && f16c()
+        {
+            let [red, green, blue] = &mut self.data[k];
+            let src = &bytes[r * stride..r * stride + red.len() * 8];
+            // SAFETY: the CPU has AVX2 and F16C (`f16c`).
+            #[allow(unsafe_code)]
+            unsafe {
+                split::split_f16c(src, [red, green, blue])
+            };
+        } else {
+            self.split_row(texels, r, k);
         }
+        #[cfg(not(target_arch = "x86_64"))]
+        self.split_row(texels, r, k);
         if g != 1.0 {
             for plane in &mut self.data[k] {
                 plane.iter_mut().for_each(|v| *v *= g);
             }
         }
         self.rows[k] = r;
+    }
+
+    /// Row `r` of `texels` into slot `k`'s planes through `self.texels`.
+    fn split_row(&mut self, texels: &Texels<'_>, r: usize, k: usize) {
+        texels.row_into(r, &mut self.texels);
+        let [red, green, blue] = &mut self.data[k];
+        let planes = red.iter_mut().zip(green.iter_mut()).zip(blue.iter_mut());
+        for (((r, g), b), t) in planes.zip(self.texels.chunks_exact(4)) {
+            (*r, *g, *b) = (t[0], t[1], t[2]);
+        }
     }
 
     /// Rows `r0` and `r1` (r0 ≤ r1) of `texels`.

@@ -1,6 +1,6 @@
 //! A reduced pass's half-float row (RGBA16F, little endian) converted and
 //! split into colour planes in one pass, four texels at a time in AVX2
-//! registers: F16C's conversion is exact, as the scalar one, so the planes
+//! registers (the last few of a row one at a time): F16C's conversion is exact, as the scalar one, so the planes
 //! hold the values [`super::Texels::row_into`] gives (checked by the tests
 //! of `upsample.rs`).
 
@@ -11,10 +11,10 @@ use std::arch::x86_64::{
 };
 
 /// The first three channels of the texels of `src` (8 bytes each) into
-/// `r`, `g` and `b`, as many whole groups of four as all four hold; how
-/// many texels it split.
+/// `r`, `g` and `b`, as many as all four hold: whole groups of four in
+/// registers, the last few one at a time.
 #[target_feature(enable = "avx2,f16c")]
-pub(super) fn split_f16c(src: &[u8], [r, g, b]: [&mut [f32]; 3]) -> usize {
+pub(super) fn split_f16c(src: &[u8], [r, g, b]: [&mut [f32]; 3]) {
     let n = (src.len() / 8).min(r.len()).min(g.len()).min(b.len());
     let whole = n - n % 4;
     for x in (0..whole).step_by(4) {
@@ -37,5 +37,8 @@ pub(super) fn split_f16c(src: &[u8], [r, g, b]: [&mut [f32]; 3]) -> usize {
             _mm_storeu_ps(b.as_mut_ptr().add(x), _mm_unpacklo_ps(ba0, ba1));
         }
     }
-    whole
+    let half = |at: usize| half::f16::from_le_bytes([src[at], src[at + 1]]).to_f32();
+    for x in whole..n {
+        (r[x], g[x], b[x]) = (half(x * 8), half(x * 8 + 2), half(x * 8 + 4));
+    }
 }
