@@ -3,9 +3,11 @@
 //! and textures baked, as the module docs of [`super`] describe.
 
 mod check;
+mod size;
 
 use super::*;
 use check::{Defect, check_accessor, check_primitive_accessors};
+pub(super) use size::expanded_size;
 
 pub(super) struct Flattener<'a> {
     pub(super) file: &'a Path,

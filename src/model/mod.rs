@@ -154,6 +154,12 @@ pub enum ModelError {
     Degenerate { file: PathBuf, span: f64 },
     #[error("model {}: the glTF reader failed on malformed data ({reason})", file.display())]
     Malformed { file: PathBuf, reason: String },
+    #[error("model {}: its scene expands to {vertices} vertices and {indices} triangle indices (each mesh as often as its nodes and instances place it), more than the {MAX_VERTICES} vertices or {MAX_INDICES} indices a model may have", file.display())]
+    TooLarge {
+        file: PathBuf,
+        vertices: u64,
+        indices: u64,
+    },
     #[error("model {}: the file has {nodes} nodes, more than the limit of {limit} node instances a model may draw", file.display())]
     TooManyNodes {
         file: PathBuf,
@@ -277,13 +283,21 @@ fn load_bytes_inner(
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(bytes).map_err(parse)?;
     check_external_files(&document, base_dir, file, policy)?;
     let buffers = load_buffers(&document, base_dir, blob, file, policy)?;
+    let size = flatten::expanded_size(&document, &buffers).unwrap_or_default();
+    if size.vertices > MAX_VERTICES as u64 || size.indices > MAX_INDICES as u64 {
+        return Err(ModelError::TooLarge {
+            file: file.to_owned(),
+            vertices: size.vertices,
+            indices: size.indices,
+        });
+    }
     let mut builder = Flattener {
         file,
         document: &document,
         base_dir,
         policy,
         buffers: &buffers,
-        vertices: Vec::new(),
+        vertices: Vec::with_capacity(size.vertices as usize),
         buckets: BTreeMap::new(),
         textures: Vec::new(),
         texture_slots: BTreeMap::new(),
@@ -600,8 +614,14 @@ const MAX_NODE_DEPTH: usize = 256;
 /// nodes to form trees, but a file whose nodes share children (a DAG) would
 /// expand exponentially with depth: it is refused once this many are visited.
 pub const MAX_NODE_VISITS: usize = 100_000;
-/// Expanded geometry beyond this many vertices is refused rather than exhausting memory.
-const MAX_VERTICES: usize = 50_000_000;
+/// The most vertices a model's scene may expand to (8 M: 512 MB of baked
+/// vertices), counted before anything is baked ([`flatten::expanded_size`]):
+/// far more than a drone's mesh needs at the sizes it is drawn (a scanned
+/// airframe has 1–2 M), and few enough that the baked model, its hull and
+/// its levels of detail fit in memory.
+const MAX_VERTICES: usize = 8_000_000;
+/// The most triangle indices a model's scene may expand to (16 M triangles).
+const MAX_INDICES: usize = 48_000_000;
 
 /// The KHR_texture_transform matrix `translation · rotation · scale` as a function on UVs.
 ///

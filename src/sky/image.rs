@@ -21,6 +21,8 @@ pub enum EnvironmentError {
         got_h: u32,
         want: u32,
     },
+    #[error("sky: the preset's {images} sky images take {} MiB once loaded (linear RGB floats, at most {MAX_SKY_SIDE} px on a side), more than the {} MiB sky images may hold; name fewer or smaller images", .bytes >> 20, MAX_SKY_MEMORY_BYTES >> 20)]
+    Memory { images: usize, bytes: u64 },
 }
 
 /// The largest sky image file read.
@@ -28,6 +30,17 @@ pub const MAX_SKY_FILE_BYTES: u64 = 1 << 30;
 
 /// Largest side of an uploaded sky image; larger images are downscaled on load.
 pub const MAX_SKY_SIDE: u32 = 4096;
+
+/// The most pixels a sky image (or cubemap face) may have, read from its
+/// header before it is decoded: the limit of every image a user names
+/// ([`crate::input::MAX_IMAGE_PIXELS`]; an 8K equirectangular image has 34 M).
+/// Decoding one at the limit holds at most about 2 GB at once.
+pub const MAX_SKY_PIXELS: u64 = crate::input::MAX_IMAGE_PIXELS;
+
+/// The most memory a preset's sky images may hold once loaded (linear RGB
+/// f32, each at most [`MAX_SKY_SIDE`] on a side: 96 MiB for a 4096 × 2048
+/// image), summed from their headers before any is decoded.
+pub const MAX_SKY_MEMORY_BYTES: u64 = 2 << 30;
 
 /// A decoded sky image: linear RGB, negative and non-finite values clamped to 0.
 #[derive(Clone, Debug)]
@@ -74,17 +87,22 @@ fn decode_bytes(
         file: file.to_owned(),
         reason,
     };
+    check_pixels(dimensions(std::io::Cursor::new(&bytes), file)?, file)?;
     let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
     if let Ok(format) = image::ImageFormat::from_path(file) {
         reader.set_format(format);
     }
-    let reader = reader
+    let mut reader = reader
         .with_guessed_format()
         .map_err(|e| err(e.to_string()))?;
     let hdr = matches!(
         reader.format(),
         Some(image::ImageFormat::Hdr | image::ImageFormat::OpenExr)
     );
+    let mut limits = image::Limits::default();
+    // RGBA f32 (16 bytes a pixel) is the most any format decodes to.
+    limits.max_alloc = Some(MAX_SKY_PIXELS.saturating_mul(16));
+    reader.limits(limits);
     let img = reader.decode().map_err(|e| err(e.to_string()))?;
     let mut rgb = img.to_rgb32f();
     if !hdr {
@@ -109,17 +127,100 @@ fn decode_bytes(
         return Err(err("image is empty".into()));
     }
     let rgb = if w.max(h) > MAX_SKY_SIDE {
-        let s = f64::from(MAX_SKY_SIDE) / f64::from(w.max(h));
-        let (nw, nh) = (
-            ((f64::from(w) * s) as u32).max(1),
-            ((f64::from(h) * s) as u32).max(1),
-        );
+        let (nw, nh) = loaded_size((w, h));
         image::imageops::resize(&rgb, nw, nh, image::imageops::FilterType::Triangle)
     } else {
         rgb
     };
     let (w, h) = rgb.dimensions();
     Ok((w, h, rgb.into_raw(), hdr))
+}
+
+/// The size an image of `w × h` pixels is kept at: downscaled to at most
+/// [`MAX_SKY_SIDE`] on its longer side.
+fn loaded_size((w, h): (u32, u32)) -> (u32, u32) {
+    if w.max(h) <= MAX_SKY_SIDE {
+        return (w, h);
+    }
+    let s = f64::from(MAX_SKY_SIDE) / f64::from(w.max(h));
+    (
+        ((f64::from(w) * s) as u32).max(1),
+        ((f64::from(h) * s) as u32).max(1),
+    )
+}
+
+/// An image's width and height from its header, read from `data` (the
+/// file's bytes or the open file): nothing is decoded.
+fn dimensions<R: std::io::BufRead + std::io::Seek>(
+    data: R,
+    file: &Path,
+) -> Result<(u32, u32), EnvironmentError> {
+    let err = |reason: String| EnvironmentError::Image {
+        file: file.to_owned(),
+        reason,
+    };
+    let mut reader = image::ImageReader::new(data);
+    if let Ok(format) = image::ImageFormat::from_path(file) {
+        reader.set_format(format);
+    }
+    (reader.with_guessed_format())
+        .map_err(|e| err(e.to_string()))?
+        .into_dimensions()
+        .map_err(|e| err(e.to_string()))
+}
+
+/// The memory `source`'s images take once loaded (RGB f32 at
+/// [`loaded_size`]), from their headers, each refused above
+/// [`MAX_SKY_PIXELS`]: nothing is decoded.
+fn loaded_bytes(source: &SkyImageSource) -> Result<u64, EnvironmentError> {
+    let bytes = |(w, h): (u32, u32)| u64::from(w) * u64::from(h) * 12;
+    let files: Vec<&PathBuf> = match source {
+        SkyImageSource::Equirect(file) => vec![file],
+        SkyImageSource::Cubemap {
+            px,
+            nx,
+            py,
+            ny,
+            pz,
+            nz,
+        } => vec![px, nx, py, ny, pz, nz],
+        SkyImageSource::Builtin(name) => {
+            // An unknown name is refused when the image is loaded.
+            let Some((file, data)) = super::builtin::sky(name) else {
+                return Ok(0);
+            };
+            let size = dimensions(std::io::Cursor::new(data), Path::new(file))?;
+            return Ok(bytes(loaded_size(size)));
+        }
+    };
+    let mut total = 0u64;
+    for file in files {
+        let (opened, _) = crate::input::open_input_file(file, MAX_SKY_FILE_BYTES).map_err(|e| {
+            EnvironmentError::Image {
+                file: file.clone(),
+                reason: e.to_string(),
+            }
+        })?;
+        let size = dimensions(std::io::BufReader::new(opened), file)?;
+        check_pixels(size, file)?;
+        total = total.saturating_add(bytes(loaded_size(size)));
+    }
+    Ok(total)
+}
+
+/// A sky image of more than [`MAX_SKY_PIXELS`] refused by name.
+fn check_pixels((w, h): (u32, u32), file: &Path) -> Result<(), EnvironmentError> {
+    let pixels = u64::from(w) * u64::from(h);
+    if pixels <= MAX_SKY_PIXELS {
+        return Ok(());
+    }
+    Err(EnvironmentError::Image {
+        file: file.to_owned(),
+        reason: format!(
+            "{w}×{h} is {pixels} pixels, more than the {MAX_SKY_PIXELS}-pixel limit for a sky \
+             image; it would be shown at most {MAX_SKY_SIDE} px wide: downscale it first"
+        ),
+    })
 }
 
 /// The pixels of an equirectangular source (a file or a built-in sky); `None` for a cubemap.
@@ -272,11 +373,22 @@ pub struct EnvironmentAssets {
 }
 
 impl EnvironmentAssets {
-    /// Decode every image the sky references (none for procedural and gradient skies).
+    /// Decode every image the sky references (none for procedural and
+    /// gradient skies), once their headers say they fit
+    /// [`MAX_SKY_PIXELS`] each and [`MAX_SKY_MEMORY_BYTES`] together.
     pub fn load(sky: &Sky) -> Result<Self, EnvironmentError> {
-        let images = sky
-            .image_sources()
-            .into_iter()
+        let sources = sky.image_sources();
+        let mut bytes = 0u64;
+        for source in &sources {
+            bytes = bytes.saturating_add(loaded_bytes(source)?);
+        }
+        if bytes > MAX_SKY_MEMORY_BYTES {
+            return Err(EnvironmentError::Memory {
+                images: sources.len(),
+                bytes,
+            });
+        }
+        let images = (sources.into_iter())
             .map(load_sky_image)
             .collect::<Result<_, _>>()?;
         Ok(Self { images })

@@ -251,36 +251,6 @@ fn error_of(preset: Preset) -> String {
     }
 }
 
-/// A PNG whose header says `w`×`h` (its pixel data is missing).
-fn png_header(w: u32, h: u32) -> Vec<u8> {
-    fn crc(bytes: &[u8]) -> u32 {
-        let mut c = 0xFFFF_FFFFu32;
-        for &b in bytes {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
-    let mut ihdr = b"IHDR".to_vec();
-    ihdr.extend(w.to_be_bytes());
-    ihdr.extend(h.to_be_bytes());
-    ihdr.extend([8, 2, 0, 0, 0]);
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    out.extend(13u32.to_be_bytes());
-    out.extend(&ihdr);
-    out.extend(crc(&ihdr).to_be_bytes());
-    out.extend(0u32.to_be_bytes());
-    out.extend(b"IDAT");
-    out.extend(crc(b"IDAT").to_be_bytes());
-    out
-}
-
 #[test]
 fn bad_plate_folders_and_files_are_refused_naming_them() {
     let tmp = tempfile::tempdir().expect("tmp");
@@ -306,7 +276,7 @@ fn bad_plate_folders_and_files_are_refused_naming_them() {
         ("tiny.png", Vec::new(), "smaller than the 64-pixel"),
         (
             "huge.png",
-            png_header(20_000, 20_000),
+            common::png_header(20_000, 20_000),
             "larger than the 12000-pixel",
         ),
     ];
@@ -670,7 +640,7 @@ fn truncated_and_oversized_plates_are_refused_naming_them() {
     // 9000×8000 is within the side limit but over the pixel budget, read from the header.
     let d = tmp.path().join("big");
     std::fs::create_dir_all(&d).expect("mkdir");
-    std::fs::write(d.join("big.png"), png_header(9_000, 8_000)).expect("write");
+    std::fs::write(d.join("big.png"), common::png_header(9_000, 8_000)).expect("write");
     let e = plate_error(&d).expect("refused");
     assert!(
         e.contains("big.png") && e.contains("9000×8000") && e.contains("64000000-pixel limit"),

@@ -648,43 +648,17 @@ fn yolo_values_out_of_range_and_bad_classes_are_named_with_file_and_line() {
     );
 }
 
-/// A PNG whose header says `w`×`h` (its pixel data is missing).
-fn png_header(w: u32, h: u32) -> Vec<u8> {
-    fn crc(bytes: &[u8]) -> u32 {
-        let mut c = 0xFFFF_FFFFu32;
-        for &b in bytes {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
-    let mut ihdr = b"IHDR".to_vec();
-    ihdr.extend(w.to_be_bytes());
-    ihdr.extend(h.to_be_bytes());
-    ihdr.extend([8, 2, 0, 0, 0]);
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    out.extend(13u32.to_be_bytes());
-    out.extend(&ihdr);
-    out.extend(crc(&ihdr).to_be_bytes());
-    out.extend(0u32.to_be_bytes());
-    out.extend(b"IDAT");
-    out.extend(crc(b"IDAT").to_be_bytes());
-    out
-}
-
 #[test]
 fn oversized_and_truncated_frames_are_refused_naming_the_file() {
     let tmp = tempfile::tempdir().expect("tmp");
     let (real, ds) = small_sides(tmp.path(), "0 0.5 0.5 0.1 0.1\n");
     // 20000×20000 (400 megapixels) from a header of a few dozen bytes: refused
     // before any pixel buffer, on either side.
-    std::fs::write(real.join("images/huge.png"), png_header(20_000, 20_000)).expect("png");
+    std::fs::write(
+        real.join("images/huge.png"),
+        common::png_header(20_000, 20_000),
+    )
+    .expect("png");
     let o = gap_run(&real, &ds, None);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -697,7 +671,7 @@ fn oversized_and_truncated_frames_are_refused_naming_the_file() {
     std::fs::remove_file(real.join("images/huge.png")).expect("rm");
     std::fs::write(
         ds.join("images/train/00000001.png"),
-        png_header(9_000, 8_000),
+        common::png_header(9_000, 8_000),
     )
     .expect("png");
     let o = gap_run(&real, &ds, None);

@@ -315,6 +315,116 @@ fn sky_images_and_presets_must_be_regular_files_and_check_loads_skies() {
 }
 
 #[test]
+fn sky_images_too_large_alone_or_together_are_refused_from_their_headers() {
+    use swarmshot::preset::Sky;
+    use swarmshot::sky::{EnvironmentAssets, EnvironmentError};
+    let tmp = tempfile::tempdir().expect("tmp");
+    let image = |name: &str, (w, h): (u32, u32)| {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, common::png_header(w, h)).expect("png");
+        format!("Image(source: Equirect({path:?}))")
+    };
+    let load = |text: String| EnvironmentAssets::load(&ron::from_str::<Sky>(&text).expect("sky"));
+    // 22 000 × 22 000 from a header of a few dozen bytes (1.9 GB as grey
+    // bytes, 5.8 GB as linear RGB floats): refused by name, not decoded.
+    let e = load(image("huge.png", (22_000, 22_000)))
+        .expect_err("huge")
+        .to_string();
+    assert!(
+        e.contains("huge.png") && e.contains("64000000-pixel limit"),
+        "{e}"
+    );
+    // 64 images of 4096 × 2048 (96 MiB each once loaded): refused together
+    // before any is decoded; 16 of them are within the budget, and go on to
+    // be decoded (these headers have no pixels, so that fails, naming one).
+    let choices: Vec<String> = (0..64)
+        .map(|i| image(&format!("s{i}.png"), (4096, 2048)))
+        .collect();
+    let random = |n: usize| format!("Random(choices: [{}])", choices[..n].join(", "));
+    let e = load(random(64)).expect_err("64 images");
+    assert!(
+        matches!(e, EnvironmentError::Memory { images: 64, .. }),
+        "{e:?}"
+    );
+    let text = e.to_string();
+    assert!(
+        text.contains("6144 MiB") && text.contains("2048 MiB"),
+        "{text}"
+    );
+    let e = load(random(16)).expect_err("no pixels");
+    assert!(matches!(e, EnvironmentError::Image { .. }), "{e:?}");
+}
+
+/// A mesh of `vertices` positions (a fan of triangles, so every position is
+/// used; `indices` u16 indices cycling over the first three when given)
+/// placed by `nodes` nodes: a GLB of a few kilobytes.
+fn instanced_mesh_glb(vertices: usize, indices: Option<usize>, nodes: usize) -> Vec<u8> {
+    let mut bin = common::f32_le(
+        &(0..vertices)
+            .flat_map(|i| {
+                let a = i as f32 * 0.01;
+                [a.cos(), a.sin(), 0.0]
+            })
+            .collect::<Vec<f32>>(),
+    );
+    let positions = bin.len();
+    let mut primitive = serde_json::json!({"attributes": {"POSITION": 0}, "mode": 6});
+    let mut accessors = vec![serde_json::json!({"bufferView": 0, "componentType": 5126,
+        "count": vertices, "type": "VEC3", "min": [-1.0, -1.0, 0.0], "max": [1.0, 1.0, 0.0]})];
+    let mut views =
+        vec![serde_json::json!({"buffer": 0, "byteOffset": 0, "byteLength": positions})];
+    if let Some(n) = indices {
+        bin.extend((0..n).flat_map(|i| ((i % 3) as u16).to_le_bytes()));
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": positions, "byteLength": 2 * n}));
+        accessors.push(serde_json::json!({"bufferView": 1, "componentType": 5123, "count": n, "type": "SCALAR"}));
+        primitive = serde_json::json!({"attributes": {"POSITION": 0}, "indices": 1});
+    }
+    let json = serde_json::json!({
+        "bufferViews": views,
+        "accessors": accessors,
+        "meshes": [{"name": "m", "primitives": [primitive]}],
+        "nodes": vec![serde_json::json!({"mesh": 0}); nodes],
+        "scenes": [{"nodes": (0..nodes).collect::<Vec<_>>()}],
+        "scene": 0
+    });
+    common::glb(&json, &bin)
+}
+
+#[test]
+fn a_small_file_that_places_a_mesh_too_often_is_refused_before_it_is_baked() {
+    // 9 000 nodes × 1 000 vertices: 9 M vertices (576 MB baked) from a 12 KB
+    // buffer; 90 000 nodes × 600 indices: 54 M indices. Each refused by name
+    // from the accessors' counts, before a vertex is allocated.
+    for (bytes, what) in [
+        (instanced_mesh_glb(1000, None, 9000), "9000000 vertices"),
+        (
+            instanced_mesh_glb(3, Some(600), 90_000),
+            "54000000 triangle indices",
+        ),
+    ] {
+        let start = Instant::now();
+        let e = model::load_bytes(&bytes, None, Path::new("many.glb"), "many").expect_err(what);
+        assert!(matches!(e, ModelError::TooLarge { .. }), "{e:?}");
+        let text = e.to_string();
+        assert!(text.contains("many.glb") && text.contains(what), "{text}");
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "{:?}",
+            start.elapsed()
+        );
+    }
+    // Under the limits the same file loads: 100 nodes × 1 000 vertices.
+    let m = model::load_bytes(
+        &instanced_mesh_glb(1000, None, 100),
+        None,
+        Path::new("few.glb"),
+        "few",
+    )
+    .expect("100 instances load");
+    assert_eq!(m.vertices.len(), 100_000);
+}
+
+#[test]
 fn a_node_graph_that_doubles_at_every_level_is_refused_not_expanded() {
     // Level i holds nodes a_i and b_i; both list a_{i+1} and b_{i+1} as
     // children, so the flattened scene would hold 2^40 triangles. 2 KB of JSON.
