@@ -255,3 +255,43 @@ pub fn jpeg_truncation(bytes: &[u8]) -> Option<String> {
         }
     }
 }
+
+/// `path` made absolute and free of links as far as it exists: the nearest existing
+/// ancestor canonicalised, the rest (which does not exist yet) appended with `.` and
+/// `..` resolved lexically, as `create_dir_all` would walk them.
+pub fn canonical_as_far_as_it_exists(path: &Path) -> std::io::Result<std::path::PathBuf> {
+    let path = if path.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        path
+    };
+    let mut rest = Vec::new();
+    let mut at = path;
+    loop {
+        match at.canonicalize() {
+            Ok(mut real) => {
+                for c in rest.iter().rev() {
+                    match c {
+                        std::path::Component::ParentDir => {
+                            real.pop();
+                        }
+                        std::path::Component::Normal(n) => real.push(n),
+                        _ => {}
+                    }
+                }
+                return Ok(real);
+            }
+            Err(e) => {
+                let mut comps = at.components();
+                let Some(last) = comps.next_back() else {
+                    return Err(e);
+                };
+                rest.push(last);
+                at = comps.as_path();
+                if at.as_os_str().is_empty() {
+                    at = Path::new(".");
+                }
+            }
+        }
+    }
+}

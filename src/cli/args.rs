@@ -173,6 +173,10 @@ pub(crate) struct FrameArgs {
     /// Draw the label boxes on the image (the image then differs from the batch's).
     #[arg(long)]
     pub(crate) overlay: bool,
+    /// Replace the files the frame writes where they exist (without it an
+    /// existing one is refused; the preset and the files it reads never are).
+    #[arg(long)]
+    pub(crate) overwrite: bool,
 }
 
 #[derive(Args)]

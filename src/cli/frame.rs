@@ -2,6 +2,7 @@
 //! batch writes for it.
 
 use swarmshot::pipeline::FramePipeline;
+use swarmshot::write::single;
 
 use super::args::FrameArgs;
 use super::console::print_warnings;
@@ -19,6 +20,10 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         swarmshot::write::single::check_image_name(out, pipeline.preset().output.image_format)
             .map_err(anyhow::Error::msg)?;
+        let files = single::lone_frame_files(out, &pipeline.preset().output.masks);
+        let mut inputs = vec![("the preset", preset.as_path())];
+        inputs.extend(pipeline.preset().input_paths());
+        single::check_lone_targets(out, &files, &inputs, args.overwrite)?;
         if index >= pipeline.frame_count() {
             anyhow::bail!(
                 "--index {index}: the preset has {} frames (0..{})",

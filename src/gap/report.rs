@@ -437,46 +437,6 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
     })
 }
 
-/// `path` made absolute and free of links as far as it exists: the nearest existing
-/// ancestor canonicalised, the rest (which does not exist yet) appended with `.` and
-/// `..` resolved lexically, as `create_dir_all` would walk them.
-fn canonical_as_far_as_it_exists(path: &Path) -> std::io::Result<PathBuf> {
-    let path = if path.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        path
-    };
-    let mut rest = Vec::new();
-    let mut at = path;
-    loop {
-        match at.canonicalize() {
-            Ok(mut real) => {
-                for c in rest.iter().rev() {
-                    match c {
-                        std::path::Component::ParentDir => {
-                            real.pop();
-                        }
-                        std::path::Component::Normal(n) => real.push(n),
-                        _ => {}
-                    }
-                }
-                return Ok(real);
-            }
-            Err(e) => {
-                let mut comps = at.components();
-                let Some(last) = comps.next_back() else {
-                    return Err(e);
-                };
-                rest.push(last);
-                at = comps.as_path();
-                if at.as_os_str().is_empty() {
-                    at = Path::new(".");
-                }
-            }
-        }
-    }
-}
-
 /// Refuses an output folder equal to or inside an input folder (`inputs`: the side's
 /// flag name and folder), comparing canonical paths; an `out` that does not exist yet is
 /// resolved through its nearest existing ancestor. A missing input folder is named first.
@@ -486,10 +446,11 @@ pub fn check_out(out: &Path, inputs: &[(&'static str, &Path)]) -> Result<(), Gap
             return Err(input(dir, "not a folder"));
         }
     }
-    let real_out = canonical_as_far_as_it_exists(out).map_err(|source| GapError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
+    let real_out =
+        crate::input::canonical_as_far_as_it_exists(out).map_err(|source| GapError::Io {
+            path: out.to_path_buf(),
+            source,
+        })?;
     for &(side, dir) in inputs {
         let Ok(real_in) = dir.canonicalize() else {
             continue;

@@ -259,21 +259,43 @@ impl Preset {
         Ok(preset)
     }
 
-    /// Model files resolved against the directory of the preset file.
+    /// The files and folders the preset reads ([`Preset::input_paths`])
+    /// resolved against the directory of the preset file.
     pub fn resolve_paths(&mut self, base_dir: &Path) {
-        self.sky.resolve_paths(base_dir);
-        if let Some(b) = &mut self.backplate
-            && b.folder.is_relative()
-        {
-            b.folder = base_dir.join(&b.folder);
-        }
-        for model in &mut self.models {
-            if let ModelSource::File(path) = &mut model.source
-                && path.is_relative()
-            {
+        for (_, path) in self.input_paths_mut() {
+            if path.is_relative() {
                 *path = base_dir.join(&*path);
             }
         }
+    }
+
+    /// Every file and folder the preset reads, each with the field that
+    /// names it: the sky's images, the backplate folder, the model files.
+    pub fn input_paths(&self) -> Vec<(&'static str, &Path)> {
+        let sky = self.sky.image_sources().into_iter();
+        let sky = sky.flat_map(|s| s.paths()).map(|p| ("sky", p));
+        let plates = self
+            .backplate
+            .iter()
+            .map(|b| ("backplate.folder", b.folder.as_path()));
+        let models = self.models.iter().filter_map(|m| match &m.source {
+            ModelSource::File(path) => Some(("models", path.as_path())),
+            _ => None,
+        });
+        sky.chain(plates).chain(models).collect()
+    }
+
+    fn input_paths_mut(&mut self) -> Vec<(&'static str, &mut PathBuf)> {
+        let sky = self.sky.image_paths_mut().into_iter().map(|p| ("sky", p));
+        let plates = self
+            .backplate
+            .iter_mut()
+            .map(|b| ("backplate.folder", &mut b.folder));
+        let models = self.models.iter_mut().filter_map(|m| match &mut m.source {
+            ModelSource::File(path) => Some(("models", path)),
+            _ => None,
+        });
+        sky.chain(plates).chain(models).collect()
     }
 
     /// Image size in pixels.

@@ -129,6 +129,22 @@ pub const BUILTIN_SKIES: [(&str, &str); 3] = [
 ];
 
 impl SkyImageSource {
+    /// The files it reads (none for a built-in sky).
+    pub fn paths(&self) -> Vec<&Path> {
+        match self {
+            Self::Equirect(p) => vec![p],
+            Self::Cubemap {
+                px,
+                nx,
+                py,
+                ny,
+                pz,
+                nz,
+            } => vec![px, nx, py, ny, pz, nz],
+            Self::Builtin(_) => Vec::new(),
+        }
+    }
+
     fn paths_mut(&mut self) -> Vec<&mut PathBuf> {
         match self {
             Self::Equirect(p) => vec![p],
@@ -174,19 +190,14 @@ impl Sky {
         out
     }
 
-    pub(super) fn resolve_paths(&mut self, base_dir: &Path) {
+    /// Every image file the sky names (its choices' too).
+    pub(super) fn image_paths_mut(&mut self) -> Vec<&mut PathBuf> {
         match self {
-            Sky::Image { source, .. } => {
-                for path in source.paths_mut() {
-                    if path.is_relative() {
-                        *path = base_dir.join(&*path);
-                    }
-                }
-            }
+            Sky::Image { source, .. } => source.paths_mut(),
             Sky::Random { choices, .. } => {
-                choices.iter_mut().for_each(|c| c.resolve_paths(base_dir))
+                choices.iter_mut().flat_map(Sky::image_paths_mut).collect()
             }
-            _ => {}
+            _ => Vec::new(),
         }
     }
 

@@ -174,30 +174,19 @@ fn dimensions<R: std::io::BufRead + std::io::Seek>(
 /// [`MAX_SKY_PIXELS`]: nothing is decoded.
 fn loaded_bytes(source: &SkyImageSource) -> Result<u64, EnvironmentError> {
     let bytes = |(w, h): (u32, u32)| u64::from(w) * u64::from(h) * 12;
-    let files: Vec<&PathBuf> = match source {
-        SkyImageSource::Equirect(file) => vec![file],
-        SkyImageSource::Cubemap {
-            px,
-            nx,
-            py,
-            ny,
-            pz,
-            nz,
-        } => vec![px, nx, py, ny, pz, nz],
-        SkyImageSource::Builtin(name) => {
-            // An unknown name is refused when the image is loaded.
-            let Some((file, data)) = super::builtin::sky(name) else {
-                return Ok(0);
-            };
-            let size = dimensions(std::io::Cursor::new(data), Path::new(file))?;
-            return Ok(bytes(loaded_size(size)));
-        }
-    };
+    if let SkyImageSource::Builtin(name) = source {
+        // An unknown name is refused when the image is loaded.
+        let Some((file, data)) = super::builtin::sky(name) else {
+            return Ok(0);
+        };
+        let size = dimensions(std::io::Cursor::new(data), Path::new(file))?;
+        return Ok(bytes(loaded_size(size)));
+    }
     let mut total = 0u64;
-    for file in files {
+    for file in source.paths() {
         let (opened, _) = crate::input::open_input_file(file, MAX_SKY_FILE_BYTES).map_err(|e| {
             EnvironmentError::Image {
-                file: file.clone(),
+                file: file.to_owned(),
                 reason: e.to_string(),
             }
         })?;

@@ -82,6 +82,32 @@ pub struct DatasetWriter {
     boxes_from: String,
 }
 
+/// Refuse a run whose output folder `root` holds a file or folder the
+/// preset reads ([`Preset::input_paths`]: a sky image, the backplate
+/// folder, a model) or lies inside a folder it reads: the run, or a later
+/// one continuing it, would read what was written instead of what the
+/// preset names. Compared as canonical paths (links resolved, `root` as far
+/// as it exists); an input that does not exist is left to the stage that
+/// reads it.
+fn check_inputs_outside(root: &Path, preset: &Preset) -> Result<(), OutputError> {
+    let out = crate::input::canonical_as_far_as_it_exists(root).map_err(super::io(root))?;
+    for (field, path) in preset.input_paths() {
+        let Ok(input) = path.canonicalize() else {
+            continue;
+        };
+        let inside = input.starts_with(&out);
+        if inside || (input.is_dir() && out.starts_with(&input)) {
+            return Err(OutputError::InputInside {
+                field,
+                input: path.to_owned(),
+                out: root.to_owned(),
+                out_inside: !inside,
+            });
+        }
+    }
+    Ok(())
+}
+
 impl DatasetWriter {
     /// Open `root` for `preset` (see [`Folder::open`]): a new run, the
     /// continuation of an earlier run of the same preset and frame count, or
@@ -92,6 +118,7 @@ impl DatasetWriter {
         model_names: Vec<String>,
         options: WriterOptions,
     ) -> Result<Self, OutputError> {
+        check_inputs_outside(root, preset)?;
         let lock = preset.to_ron();
         let labels_only = options.labels_only;
         let needed = needed_entries(preset, labels_only);

@@ -95,6 +95,18 @@ pub enum OutputError {
     )]
     Refused { path: PathBuf, reason: String },
     #[error(
+        "{field} {} is {}: a run never reads from the folder it writes (it, or a later run continuing it, would read what was written, not what the preset names); move the input elsewhere or choose another output folder",
+        input.display(),
+        if *.out_inside { format!("a folder that holds the output folder {}", out.display()) } else { format!("inside the output folder {}", out.display()) }
+    )]
+    InputInside {
+        field: &'static str,
+        input: PathBuf,
+        out: PathBuf,
+        /// The output folder lies inside the input (a folder), not the input inside it.
+        out_inside: bool,
+    },
+    #[error(
         "output folder {} is in use by {}: one run at a time writes a folder (it holds the lock on {}); wait for that run to end or stop it, then run again",
         path.display(),
         pid.map_or_else(|| "another swarmshot process".to_owned(), |p| format!("process {p}")),

@@ -74,6 +74,93 @@ pub fn check_image_name(out: &Path, format: ImageFormat) -> Result<(), ImageName
     })
 }
 
+/// The mask files' suffixes ([`beside`] the image), in the order written.
+const MASK_SUFFIXES: [&str; 4] = [".seg.txt", ".mask.png", ".depth.png", ".flow.png"];
+
+/// Every file [`write_lone_frame`] may write for `out` under `masks`, the
+/// image first.
+pub fn lone_frame_files(out: &Path, masks: &MaskOutputs) -> Vec<PathBuf> {
+    let asked = [masks.yolo_seg, masks.instance_png, masks.depth, masks.flow];
+    let mut files = vec![
+        out.to_owned(),
+        out.with_extension("txt"),
+        out.with_extension("json"),
+    ];
+    files.extend(
+        (MASK_SUFFIXES.iter().zip(asked))
+            .filter(|(_, on)| *on)
+            .map(|(suffix, _)| beside(out, suffix)),
+    );
+    files
+}
+
+/// A file the lone frame would write over something it must not replace.
+#[derive(Debug, thiserror::Error)]
+pub enum LoneTargetError {
+    #[error("--out {}: the frame would write {} over {what} {}, which the run reads; name another file", .out.display(), .target.display(), .input.display())]
+    Input {
+        out: PathBuf,
+        target: PathBuf,
+        what: &'static str,
+        input: PathBuf,
+    },
+    #[error("--out {}: {} exists; pass --overwrite to replace the files the frame writes ({}), or name another file", .out.display(), .target.display(), .files)]
+    Exists {
+        out: PathBuf,
+        target: PathBuf,
+        files: String,
+    },
+    #[error("--out {}: {} is not a regular file; name another file", .out.display(), .target.display())]
+    NotFile { out: PathBuf, target: PathBuf },
+}
+
+/// Refuse, before anything is made or written, to write `files` (what
+/// [`lone_frame_files`] lists for `out`) over what the run reads (`inputs`:
+/// the preset file and [`crate::preset::Preset::input_paths`], each with
+/// what it is; a target inside an input folder counts) — always — or over
+/// anything that exists unless `overwrite` (then only regular files, which
+/// are replaced). Paths compared canonical, links resolved.
+pub fn check_lone_targets(
+    out: &Path,
+    files: &[PathBuf],
+    inputs: &[(&'static str, &Path)],
+    overwrite: bool,
+) -> Result<(), LoneTargetError> {
+    let inputs: Vec<_> = (inputs.iter())
+        .filter_map(|&(what, p)| Some((what, p, p.canonicalize().ok()?)))
+        .collect();
+    for target in files {
+        if let Ok(real) = crate::input::canonical_as_far_as_it_exists(target)
+            && let Some(&(what, input, _)) = inputs.iter().find(|(_, _, i)| real.starts_with(i))
+        {
+            return Err(LoneTargetError::Input {
+                out: out.to_owned(),
+                target: target.clone(),
+                what,
+                input: input.to_owned(),
+            });
+        }
+        let Ok(meta) = std::fs::symlink_metadata(target) else {
+            continue;
+        };
+        if !meta.is_file() {
+            return Err(LoneTargetError::NotFile {
+                out: out.to_owned(),
+                target: target.clone(),
+            });
+        }
+        if !overwrite {
+            let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+            return Err(LoneTargetError::Exists {
+                out: out.to_owned(),
+                target: target.clone(),
+                files: names.join(", "),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// The file beside `out` that holds `suffix` (`f.jpg` → `f.seg.txt`).
 fn beside(out: &Path, suffix: &str) -> PathBuf {
     let stem = out
@@ -120,12 +207,12 @@ pub fn write_lone_frame(
             source: EncodeError::NoMasks(frame.scene.index),
         })?;
         let encoded = masks::encode(m, frame.labels, format.masks)?;
-        let named = [
-            (".seg.txt", encoded.yolo_seg),
-            (".mask.png", encoded.instance_png),
-            (".depth.png", encoded.depth_png),
-            (".flow.png", encoded.flow_png),
-        ];
+        let named = MASK_SUFFIXES.into_iter().zip([
+            encoded.yolo_seg,
+            encoded.instance_png,
+            encoded.depth_png,
+            encoded.flow_png,
+        ]);
         for (suffix, bytes) in named {
             if let Some(bytes) = bytes {
                 files.push((beside(out, suffix), bytes));
@@ -138,9 +225,10 @@ pub fn write_lone_frame(
     Ok(files.into_iter().map(|(p, _)| p).collect())
 }
 
-/// Write `bytes` to `path` atomically: a temporary file in the same folder,
-/// flushed to disk, then renamed over `path`. A crash leaves either the old
-/// file or the new one, never a torn one.
+/// Write `bytes` to `path` atomically: a temporary file in the same folder
+/// (created new: a link or file already at its name is not followed or
+/// truncated), flushed to disk, then renamed over `path`. A crash leaves
+/// either the old file or the new one, never a torn one.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     use std::io::Write;
     let dir = match path.parent() {
@@ -151,13 +239,14 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
         .file_name()
         .map_or_else(|| "swarmshot".into(), |n| n.to_string_lossy().into_owned());
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let mut file = std::fs::File::create_new(&tmp).map_err(super::io(&tmp))?;
     let result = (|| {
-        let mut file = std::fs::File::create(&tmp)?;
         file.write_all(bytes)?;
         file.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
     if result.is_err() {
+        // Only the temporary file this call created.
         let _ = std::fs::remove_file(&tmp);
     }
     result.map_err(super::io(path))

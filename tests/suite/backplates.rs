@@ -716,3 +716,51 @@ fn plates_and_sidecars_stay_in_their_folder_and_are_regular_files() {
     let e = plate_error(&d).expect("refused");
     assert!(e.contains("is not UTF-8"), "{e}");
 }
+
+#[test]
+fn a_run_never_writes_where_its_plates_are_read_from() {
+    // The plates' folder holding the output folder, and the output folder
+    // holding the plates (an earlier run's images named as plates): both
+    // refused by name before the output folder is made or touched.
+    let tmp = tempfile::tempdir().expect("tmp");
+    let plates = tmp.path().join("plates");
+    std::fs::create_dir(&plates).expect("mkdir");
+    for e in std::fs::read_dir(plates_dir()).expect("plates").flatten() {
+        if e.path()
+            .extension()
+            .is_some_and(|x| x == "jpg" || x == "png")
+        {
+            std::fs::copy(e.path(), plates.join(e.file_name())).expect("copy");
+        }
+    }
+    let preset = tmp.path().join("p.ron");
+    std::fs::write(&preset, plate_preset(&plates, (1, 2)).to_ron()).expect("preset");
+    for (out, needle) in [
+        (plates.join("out"), "a folder that holds the output folder"),
+        (tmp.path().to_owned(), "inside the output folder"),
+    ] {
+        let before: Vec<_> = std::fs::read_dir(tmp.path())
+            .expect("ls")
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+            .args(["batch", "--limit", "1", "--out"])
+            .arg(&out)
+            .arg(&preset)
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains("backplate.folder") && err.contains(needle),
+            "{err}"
+        );
+        let after: Vec<_> = std::fs::read_dir(tmp.path())
+            .expect("ls")
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert_eq!(before, after, "{out:?}: something was written");
+        assert!(!plates.join("out").exists());
+    }
+}

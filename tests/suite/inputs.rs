@@ -559,6 +559,87 @@ fn bad_command_line_values_are_named_errors_and_write_nothing() {
 }
 
 #[test]
+fn a_sky_image_inside_the_output_folder_is_refused_and_frame_never_writes_over_inputs_or_files() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let sky = dir.path().join("sky.png");
+    image::RgbImage::from_fn(64, 32, |x, y| image::Rgb([x as u8 * 4, y as u8 * 8, 200]))
+        .save(&sky)
+        .expect("sky");
+    let mut p = common::tiny_preset();
+    p.sky = swarmshot::preset::Sky::Image {
+        source: swarmshot::preset::SkyImageSource::Equirect(sky.clone()),
+        exposure_ev: 0.0,
+        rotation_deg: 0.0,
+        sun_elevation_deg: 40.0,
+        sun_azimuth_deg: 0.0,
+    };
+    let preset = write_preset(dir.path(), "p.json", &p);
+    // The batch into the folder that holds its sky image: refused, nothing written.
+    let o = swarmshot()
+        .arg("batch")
+        .arg(&preset)
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("sky.png") && err.contains("inside the output folder"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path()).expect("ls").count(),
+        2,
+        "{err}"
+    );
+    let frame = |out: &Path, overwrite: bool| {
+        let mut c = swarmshot();
+        c.arg("frame").arg(&preset).arg("--out").arg(out);
+        if overwrite {
+            c.arg("--overwrite");
+        }
+        c.output().expect("runs")
+    };
+    // `frame --out p.png` would write its record over the preset p.json, and
+    // `--out sky.png` its image over the sky: refused even with --overwrite.
+    let (preset_text, sky_bytes) = (
+        std::fs::read(&preset).expect("p"),
+        std::fs::read(&sky).expect("s"),
+    );
+    for (out, input) in [("p.png", "p.json"), ("sky.png", "sky.png")] {
+        let o = frame(&dir.path().join(out), true);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(input) && err.contains("which the run reads"),
+            "{err}"
+        );
+    }
+    assert_eq!(std::fs::read(&preset).expect("p"), preset_text);
+    assert_eq!(std::fs::read(&sky).expect("s"), sky_bytes);
+    assert_eq!(std::fs::read_dir(dir.path()).expect("ls").count(), 2);
+    // A user's notes beside the image are refused without --overwrite, replaced with it.
+    let notes = dir.path().join("x.txt");
+    std::fs::write(&notes, "user notes").expect("notes");
+    let o = frame(&dir.path().join("x.png"), false);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("x.txt") && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&notes).expect("notes"),
+        "user notes"
+    );
+    assert!(!dir.path().join("x.png").exists() && !dir.path().join("x.json").exists());
+    let o = frame(&dir.path().join("x.png"), true);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ne!(
+        std::fs::read_to_string(&notes).expect("labels"),
+        "user notes"
+    );
+}
+
+#[test]
 fn user_errors_print_one_line_and_never_a_backtrace() {
     let dir = tempfile::tempdir().expect("tempdir");
     let bad = dir.path().join("bad.ron");
