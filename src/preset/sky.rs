@@ -155,7 +155,7 @@ impl SkyImageSource {
                 ny,
                 pz,
                 nz,
-            } => vec![px, nx, py, ny, pz, nz],
+            } => [px, nx, py, ny, pz, nz].into(),
             Self::Builtin(_) => Vec::new(),
         }
     }

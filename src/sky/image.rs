@@ -253,19 +253,12 @@ pub fn load_sky_image(source: &SkyImageSource) -> Result<SkyImage, EnvironmentEr
                 brightest,
             })
         }
-        SkyImageSource::Cubemap {
-            px,
-            nx,
-            py,
-            ny,
-            pz,
-            nz,
-        } => {
+        SkyImageSource::Cubemap { .. } => {
             let names = ["px", "nx", "py", "ny", "pz", "nz"];
             let mut faces = Vec::with_capacity(6);
             let mut side = 0;
             let mut any_hdr = false;
-            for (i, path) in [px, nx, py, ny, pz, nz].into_iter().enumerate() {
+            for (i, path) in source.paths().into_iter().enumerate() {
                 let (w, h, rgb, hdr) = decode_rgb32f(path)?;
                 if i == 0 {
                     side = w;
@@ -273,7 +266,7 @@ pub fn load_sky_image(source: &SkyImageSource) -> Result<SkyImage, EnvironmentEr
                 if w != h || w != side {
                     return Err(EnvironmentError::CubemapFace {
                         face: names[i],
-                        file: path.clone(),
+                        file: path.to_owned(),
                         got_w: w,
                         got_h: h,
                         want: side,
