@@ -15,6 +15,13 @@ use crate::gap::PixelBox;
 pub const MAX_FRAME_BYTES: u64 = 64 << 20;
 /// The smallest frame side (one report tile, and a plate needs 64 px).
 pub const MIN_SIDE: u32 = 64;
+/// The most pixels of all the frames read together (each frame is held decoded until
+/// the plates are written): 1 000 megapixels, 3 GB of RGB, e.g. 480 frames of
+/// 1920 × 1080 or 120 of 3840 × 2160. Summed from the files' headers before any frame
+/// is decoded.
+pub const MAX_TOTAL_PIXELS: u64 = 1_000_000_000;
+/// The most frames a second taken from a video (`--video-fps`).
+pub const MAX_VIDEO_FPS: f64 = 1000.0;
 
 /// One real frame, decoded.
 #[derive(Debug)]
@@ -175,11 +182,8 @@ pub fn decode_video(
     } else {
         options.max_frames
     };
-    let fps = if options.video_fps.is_finite() && options.video_fps > 0.0 {
-        options.video_fps
-    } else {
-        2.0
-    };
+    // Checked before anything was written (`check_numbers`).
+    let fps = options.video_fps;
     let output = std::process::Command::new(ffmpeg)
         .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
         .arg(video)
@@ -197,39 +201,104 @@ pub fn decode_video(
     Ok(dir)
 }
 
-/// Decodes one frame file, naming a 0-byte or corrupt file.
+/// Decodes one frame file as `gap` does ([`crate::input::decode_image`]: a JPEG or
+/// PNG within [`crate::input::MAX_IMAGE_PIXELS`], read from its header before any
+/// pixel is allocated; a truncated JPEG refused), naming the file and the reason.
+/// Returns the frame and, for a JPEG, its header up to the first scan (the
+/// quantisation tables the quality estimate reads).
 pub fn decode(path: &Path) -> Result<(RgbImage, Option<Vec<u8>>), FitError> {
+    use crate::input::ImageError;
     let bytes = crate::input::read_input_file(path, MAX_FRAME_BYTES).map_err(io_err(path))?;
-    if bytes.is_empty() {
-        return Err(FitError::EmptyFile {
-            path: path.to_path_buf(),
-        });
-    }
-    let corrupt = |reason: String| FitError::CorruptImage {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let reader = image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
-        .with_guessed_format()
-        .map_err(|e| corrupt(e.to_string()))?;
-    if !matches!(
-        reader.format(),
-        Some(image::ImageFormat::Jpeg | image::ImageFormat::Png)
-    ) {
-        return Err(corrupt("not a JPEG or PNG image".into()));
-    }
-    let img = reader
-        .decode()
-        .map_err(|e| corrupt(e.to_string()))?
+    let img = crate::input::decode_image(&bytes, crate::input::MAX_IMAGE_PIXELS, u32::MAX)
+        .map_err(|e| match e {
+            ImageError::Truncated(_) | ImageError::Header(_) | ImageError::Decode(_) => {
+                FitError::CorruptImage {
+                    path: path.to_path_buf(),
+                    reason: e.to_string(),
+                }
+            }
+            _ => FitError::Image {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
+            },
+        })?
         .to_rgb8();
     let (w, h) = img.dimensions();
     if w.min(h) < MIN_SIDE {
-        return Err(corrupt(format!(
-            "{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"
-        )));
+        return Err(FitError::Image {
+            path: path.to_path_buf(),
+            reason: format!("{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"),
+        });
     }
-    let jpeg = bytes.starts_with(&[0xFF, 0xD8]).then_some(bytes);
+    let jpeg = bytes
+        .starts_with(&[0xFF, 0xD8])
+        .then(|| bytes[..jpeg_header_len(&bytes)].to_vec());
     Ok((img, jpeg))
+}
+
+/// The length of a JPEG's bytes before its first scan (start-of-scan marker FF DA), its
+/// markers followed by their segment lengths; all of it when there is none.
+fn jpeg_header_len(bytes: &[u8]) -> usize {
+    let n = bytes.len();
+    let mut i = 2;
+    while i + 4 <= n {
+        if bytes[i] != 0xFF {
+            return n;
+        }
+        match bytes[i + 1] {
+            0xFF => i += 1,
+            0xDA | 0xD9 => return i,
+            0x01 | 0xD0..=0xD7 => i += 2,
+            _ => i += 2 + (usize::from(bytes[i + 2]) << 8 | usize::from(bytes[i + 3])),
+        }
+    }
+    n
+}
+
+/// The width and height of a frame file read from its header alone (`None` when it
+/// cannot be read: decoding it then names the reason).
+fn header_size(path: &Path) -> Option<(u32, u32)> {
+    let (file, _) = crate::input::open_input_file(path, MAX_FRAME_BYTES).ok()?;
+    image::ImageReader::new(std::io::BufReader::new(file))
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
+}
+
+/// Refuses, from the files' headers before any frame is decoded, a frame over
+/// [`crate::input::MAX_IMAGE_PIXELS`] (by name) and frames that together hold more than
+/// [`MAX_TOTAL_PIXELS`] (naming how many frames fit).
+fn check_pixels(paths: &[PathBuf]) -> Result<(), FitError> {
+    let max_pixels = crate::input::MAX_IMAGE_PIXELS;
+    let mut pixels = 0u64;
+    for path in paths {
+        let Some((width, height)) = header_size(path) else {
+            continue;
+        };
+        let n = u64::from(width) * u64::from(height);
+        if n > max_pixels {
+            let e = crate::input::ImageError::Pixels {
+                width,
+                height,
+                max_pixels,
+            };
+            return Err(FitError::Image {
+                path: path.clone(),
+                reason: e.to_string(),
+            });
+        }
+        pixels += n;
+    }
+    if pixels <= MAX_TOTAL_PIXELS {
+        return Ok(());
+    }
+    let mean = (pixels / paths.len().max(1) as u64).max(1);
+    Err(FitError::TooManyPixels {
+        frames: paths.len(),
+        pixels,
+        fit: (MAX_TOTAL_PIXELS / mean) as usize,
+    })
 }
 
 /// Every frame under `dir` in name order (at most `max`, evenly spaced; 0: all), decoded,
@@ -266,6 +335,7 @@ pub fn read_folder(
             first,
         });
     }
+    check_pixels(&picked)?;
     let mut frames = Vec::with_capacity(picked.len());
     for (path, label) in picked.into_iter().zip(labels) {
         let (rgb, jpeg) = decode(&path)?;

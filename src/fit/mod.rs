@@ -94,8 +94,25 @@ pub enum FitError {
     EmptyFolder { path: PathBuf },
     #[error("{}: 0-byte file", path.display())]
     EmptyFile { path: PathBuf },
-    #[error("{}: corrupt image: cannot be decoded: {reason}", path.display())]
+    #[error("{}: corrupt image: {reason}", path.display())]
     CorruptImage { path: PathBuf, reason: String },
+    /// A frame refused for what it is (not a JPEG or PNG, too large or too small), as
+    /// `gap` refuses it.
+    #[error("{}: {reason}", path.display())]
+    Image { path: PathBuf, reason: String },
+    #[error(
+        "{frames} frames of {} megapixels in all are more than the {} megapixels fit holds in memory at once; pass --max-frames {fit} or fewer (or smaller frames)",
+        pixels / 1_000_000, input::MAX_TOTAL_PIXELS / 1_000_000
+    )]
+    TooManyPixels {
+        frames: usize,
+        pixels: u64,
+        fit: usize,
+    },
+    #[error("--hfov {0}: must be degrees within [1, {max}]", max = crate::preset::backplate::MAX_PLATE_HFOV_DEG)]
+    Hfov(f64),
+    #[error("--video-fps {0}: must be frames a second within (0, {max}]", max = input::MAX_VIDEO_FPS)]
+    VideoFps(f64),
     #[error("{}: line {line}: bad label: {reason}", path.display())]
     Label {
         path: PathBuf,
@@ -202,12 +219,27 @@ pub struct FitRecord {
     pub target_inside: usize,
 }
 
-/// Steps 1–4: read and check the footage (nothing written before it passes), measure
-/// it, write the plates, `footage.json` and the first fit (in memory).
-pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
+/// The numeric options in range, before anything is read or written.
+fn check_numbers(options: &FitOptions) -> Result<(), FitError> {
     if !(1..=plates::MAX_VIEWS).contains(&options.views) {
         return Err(FitError::Views(options.views));
     }
+    if let Some(v) = options.hfov_deg
+        && !crate::preset::backplate::hfov_ok(v)
+    {
+        return Err(FitError::Hfov(v));
+    }
+    let fps = options.video_fps;
+    if !(fps.is_finite() && fps > 0.0 && fps <= input::MAX_VIDEO_FPS) {
+        return Err(FitError::VideoFps(fps));
+    }
+    Ok(())
+}
+
+/// Steps 1–4: read and check the footage (nothing written before it passes), measure
+/// it, write the plates, `footage.json` and the first fit (in memory).
+pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
+    check_numbers(options)?;
     let source = input::check_source(options)?;
     let base = preset_out::load_base(&options.base)?;
     let (real_dir, frames) = match &source {

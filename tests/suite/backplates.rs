@@ -252,7 +252,7 @@ fn error_of(preset: Preset) -> String {
 }
 
 /// A PNG whose header says `w`×`h` (its pixel data is missing).
-fn png_header(w: u32, h: u32) -> Vec<u8> {
+pub(crate) fn png_header(w: u32, h: u32) -> Vec<u8> {
     fn crc(bytes: &[u8]) -> u32 {
         let mut c = 0xFFFF_FFFFu32;
         for &b in bytes {

@@ -455,6 +455,81 @@ fn bad_input_is_a_named_error_and_nothing_is_written() {
 }
 
 #[test]
+fn frames_are_decoded_within_budgets_as_gap_decodes_them() {
+    let dir = tmp("budgets");
+    let folder = |name: &str, files: &[(&str, &[u8])]| {
+        let d = dir.join(name);
+        std::fs::create_dir_all(&d).expect("dir");
+        for (n, bytes) in files {
+            std::fs::write(d.join(n), bytes).expect("write");
+        }
+        d
+    };
+    let ok = ["--unlabelled-ok"];
+    // A PNG whose header claims 22000×22000: refused by name, nothing allocated.
+    let huge = crate::backplates::png_header(22_000, 22_000);
+    let d = folder("huge", &[("f1.png", &huge), ("f2.png", &huge)]);
+    refuses(&d, &ok, None, "f1.png: 22000×22000 is 484000000 pixels");
+    // Frames each within the budget that together are not: refused before decoding,
+    // naming how many fit.
+    let big = crate::backplates::png_header(8_000, 8_000);
+    let names: Vec<String> = (0..16).map(|i| format!("f{i:02}.png")).collect();
+    let files: Vec<(&str, &[u8])> = names.iter().map(|n| (n.as_str(), &big[..])).collect();
+    let d = folder("many", &files);
+    refuses(&d, &ok, None, "16 frames of 1024 megapixels");
+    refuses(&d, &ok, None, "pass --max-frames 15 or fewer");
+    // A JPEG cut short: refused as gap refuses it.
+    let mut jpeg = Vec::new();
+    RgbImage::from_fn(128, 96, |x, y| Rgb([(x * 2) as u8, (y * 2) as u8, 90]))
+        .write_to(
+            &mut std::io::Cursor::new(&mut jpeg),
+            image::ImageFormat::Jpeg,
+        )
+        .expect("jpeg");
+    let d = folder("cut", &[("b.jpg", &jpeg[..jpeg.len() / 2])]);
+    refuses(&d, &ok, None, "b.jpg: corrupt image: truncated JPEG (");
+    // A 0-byte file and a frame too small are named without calling them undecodable.
+    let d = folder("zero", &[("z.png", b"")]);
+    refuses(&d, &ok, None, "z.png: is a 0-byte file, not a JPEG or PNG image");
+    let mut small = Vec::new();
+    RgbImage::new(200, 40)
+        .write_to(&mut std::io::Cursor::new(&mut small), image::ImageFormat::Png)
+        .expect("png");
+    let d = folder("small", &[("s.png", &small)]);
+    refuses(&d, &ok, None, "s.png: 200×40 is smaller than the 64 px");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn numeric_options_are_checked_before_anything_is_written() {
+    let dir = tmp("numbers");
+    let real = dir.join("real");
+    std::fs::create_dir_all(&real).expect("dir");
+    let frames = common::testdata("real/images");
+    std::fs::copy(frames.join("V_DRONE_010_f150.png"), real.join("c.png")).expect("copy");
+    std::fs::write(real.join("c.txt"), "").expect("label");
+    for v in ["nan", "inf", "1e9", "0.0001", "-30", "151"] {
+        let shown = v.parse::<f64>().expect("number");
+        refuses(
+            &real,
+            &[&format!("--hfov={v}")],
+            None,
+            &format!("--hfov {shown}: must be degrees within [1, 150]"),
+        );
+    }
+    for v in ["nan", "0", "-2", "1e9"] {
+        let shown = v.parse::<f64>().expect("number");
+        refuses(
+            &real,
+            &[&format!("--video-fps={v}")],
+            None,
+            &format!("--video-fps {shown}: must be frames a second within (0, 1000]"),
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn crop_views_keep_the_focal_length_and_the_horizon() {
     // Eight distinct crops besides the whole frame, each 80 % of it.
     let (w, h) = (640u32, 480u32);
