@@ -132,51 +132,17 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
     })
 }
 
-/// The output folder: missing or empty, or an earlier fit's with `overwrite` (its own
-/// files removed, others kept).
-pub fn prepare_out(out: &Path, overwrite: bool) -> Result<(), FitError> {
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        return Err(FitError::OutNotEmpty {
-            path: out.to_path_buf(),
-        });
-    }
-    let empty = std::fs::read_dir(out)
-        .map_err(io_err(out))?
-        .next()
-        .is_none();
-    if empty {
-        return Ok(());
-    }
-    let earlier_fit = out.join("fitted.ron").is_file() || out.join("footage.json").is_file();
-    if !(overwrite && earlier_fit) {
-        return Err(FitError::OutNotEmpty {
-            path: out.to_path_buf(),
-        });
-    }
-    for name in super::OUT_NAMES {
-        let p = out.join(name);
-        if p.is_dir() {
-            std::fs::remove_dir_all(&p).map_err(io_err(&p))?;
-        } else if p.exists() {
-            std::fs::remove_file(&p).map_err(io_err(&p))?;
-        }
-    }
-    Ok(())
-}
-
 /// Decodes `fps` frames a second of the video into `OUT/frames/` with ffmpeg (PNG,
-/// lossless), at most `max_frames` (0: 10 000).
+/// lossless), at most `max_frames` (0: 10 000). The folder is made below `out`'s handle
+/// without following a link, and checked to be the same folder before and after ffmpeg
+/// writes into it by path.
 pub fn decode_video(
     video: &Path,
     ffmpeg: &Path,
-    out: &Path,
+    out: &mut super::out::FitOut,
     options: &FitOptions,
 ) -> Result<PathBuf, FitError> {
-    let dir = out.join("frames");
-    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    let (dir, held) = out.dir_for_path("frames")?;
     let max = if options.max_frames == 0 {
         10_000
     } else {
@@ -198,6 +164,7 @@ pub fn decode_video(
             reason: String::from_utf8_lossy(&output.stderr).trim().to_string(),
         });
     }
+    out.check_same(&dir, &held)?;
     Ok(dir)
 }
 

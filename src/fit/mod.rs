@@ -26,6 +26,7 @@
 pub mod camera;
 pub mod drones;
 pub mod input;
+pub mod out;
 pub mod plates;
 pub mod preset_out;
 pub mod search;
@@ -148,6 +149,9 @@ pub enum FitError {
     Frames(#[from] crate::gap::GapError),
     #[error("--views {0}: must be 1 (the frame alone) to {max} (the frame and its crops)", max = plates::MAX_VIEWS)]
     Views(usize),
+    /// An entry of `--out` that fit will not overwrite, delete or write through.
+    #[error("--out: {} {why}", path.display())]
+    NotFits { path: PathBuf, why: String },
     #[error("{0}")]
     Other(String),
 }
@@ -159,36 +163,6 @@ pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FitError + '
     }
 }
 
-/// Writes `bytes` to `path` atomically through its folder's handle
-/// ([`crate::write::outdir::OutDir`]): a temporary file created beside it without
-/// following a link, renamed into place; a link or a non-file at `path` is refused.
-pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FitError> {
-    let refused = |reason: String| FitError::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(reason),
-    };
-    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
-        return Err(refused("is not a file path".into()));
-    };
-    let name = name
-        .to_str()
-        .ok_or_else(|| refused("has a name that is not UTF-8".into()))?;
-    crate::write::outdir::OutDir::create(dir)
-        .and_then(|mut out| out.write(name, bytes))
-        .map(|_| ())
-        .map_err(|e| refused(e.to_string()))
-}
-
-/// The names `fit` writes in its output folder (removed by `--overwrite`).
-pub const OUT_NAMES: [&str; 6] = [
-    "plates",
-    "rounds",
-    "frames",
-    "fitted.ron",
-    "footage.json",
-    "fit.json",
-];
-
 /// What was prepared before any rendering: the footage, the plates and the first fit.
 #[derive(Debug)]
 pub struct Prepared {
@@ -197,12 +171,23 @@ pub struct Prepared {
     pub real_dir: PathBuf,
     /// The output folder, as given.
     pub out: PathBuf,
+    /// The output folder, opened once: every file is written through it.
+    pub out_dir: std::sync::Mutex<out::FitOut>,
     pub footage: camera::Footage,
     pub plates: plates::PlateSummary,
     /// The base preset, its paths resolved.
     pub base: Preset,
     /// The first fit (round 1's preset), its backplate folder relative to `out`.
     pub fitted: preset_out::Fitted,
+}
+
+impl Prepared {
+    /// The output folder's handle (one writer at a time).
+    pub fn out_dir(&self) -> std::sync::MutexGuard<'_, out::FitOut> {
+        self.out_dir
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
 }
 
 /// The run's record, written to `OUT/fit.json`.
@@ -242,32 +227,28 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     check_numbers(options)?;
     let source = input::check_source(options)?;
     let base = preset_out::load_base(&options.base)?;
-    let (real_dir, frames) = match &source {
+    let (real_dir, frames, mut out) = match &source {
         input::Source::Folder(dir) => {
             let frames = input::read_folder(dir, options.max_frames, options.unlabelled_ok)?;
-            input::prepare_out(&options.out, options.overwrite)?;
-            (dir.clone(), frames)
+            let out = out::FitOut::open(&options.out, options.overwrite)?;
+            (dir.clone(), frames, out)
         }
         input::Source::Video { path, ffmpeg } => {
-            input::prepare_out(&options.out, options.overwrite)?;
-            let dir = input::decode_video(path, ffmpeg, &options.out, options)?;
+            let mut out = out::FitOut::open(&options.out, options.overwrite)?;
+            let dir = input::decode_video(path, ffmpeg, &mut out, options)?;
             let frames = input::read_folder(&dir, 0, true)?;
-            (dir, frames)
+            (dir, frames, out)
         }
     };
     let footage = camera::measure(&frames);
     let geometry = plates::PlateCamera::from_base(&base, &footage, options.hfov_deg);
-    std::fs::create_dir_all(&options.out).map_err(io_err(&options.out))?;
     let plates = if base.thermal.is_some() {
         plates::PlateSummary::default()
     } else {
-        plates::write_plates(
-            &frames,
-            &footage,
-            &geometry,
-            &options.out.join("plates"),
-            options.views,
-        )?
+        let dir = out.dir("plates")?;
+        let plates = plates::write_plates(&frames, &footage, &geometry, &dir, options.views)?;
+        out.verify()?;
+        plates
     };
     let centres = drones::CentreSpread::of(frames.iter().flat_map(|f| {
         let (w, h) = f.rgb.dimensions();
@@ -282,7 +263,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     drop(frames);
     let json =
         serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;
-    write_file(&options.out.join("footage.json"), json.as_bytes())?;
+    out.write("footage.json", json.as_bytes())?;
     let fitted = if base.thermal.is_some() {
         thermal::first_fit(&base, &footage)
     } else {
@@ -292,6 +273,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         options: options.clone(),
         real_dir,
         out: options.out.clone(),
+        out_dir: std::sync::Mutex::new(out),
         footage,
         plates,
         base,
@@ -360,8 +342,7 @@ pub fn finish(
     };
     header.push("Reports: rounds/NN/report.txt; the footage's figures: footage.json.".into());
     let text = preset_out::text(&preset, &header);
-    let fitted = prep.out.join("fitted.ron");
-    write_file(&fitted, text.as_bytes())?;
+    let fitted = prep.out_dir().write("fitted.ron", text.as_bytes())?;
     // The written file, as `swarmshot check` reads it.
     crate::pipeline::FramePipeline::open(&fitted)
         .map_err(|e| FitError::Other(format!("the fitted preset does not load: {e:#}")))?;
@@ -376,7 +357,7 @@ pub fn finish(
         best_round: best,
     };
     let json = serde_json::to_string_pretty(&record).map_err(|e| FitError::Other(e.to_string()))?;
-    write_file(&prep.out.join("fit.json"), json.as_bytes())?;
+    prep.out_dir().write("fit.json", json.as_bytes())?;
     Ok(Finished {
         fitted,
         record,
