@@ -311,3 +311,30 @@ fn plan_dataset(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_fits_own_names_are_its_own() {
+        assert!(is_temp(".fitted.ron.1234.tmp"));
+        assert!(!is_temp(".fitted.ron.tmp") && !is_temp("notes.1.tmp") && !is_temp("..1.tmp"));
+        let names: HashSet<&str> = [
+            "a.png",
+            "a.plate.ron",
+            "b.jpg",
+            "c__v1.jpg",
+            "c__v1.plate.ron",
+        ]
+        .into_iter()
+        .collect();
+        assert!(is_plate("a.png", &names) && is_plate("a.plate.ron", &names));
+        assert!(is_plate("c__v1.jpg", &names));
+        assert!(
+            !is_plate("b.jpg", &names),
+            "an image without its sidecar is not a plate"
+        );
+        assert!(is_round_file("hist_noise_sigma.png") && !is_round_file("notes.txt"));
+    }
+}
