@@ -100,6 +100,8 @@ pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
 pub enum ImageError {
     #[error("truncated JPEG ({0})")]
     Truncated(String),
+    #[error("is a 0-byte file, not a JPEG or PNG image")]
+    Empty,
     #[error("is not a JPEG or PNG image")]
     Format,
     #[error("cannot be read: {0}")]
@@ -132,6 +134,9 @@ pub fn decode_image(
     max_pixels: u64,
     max_side: u32,
 ) -> Result<image::DynamicImage, ImageError> {
+    if bytes.is_empty() {
+        return Err(ImageError::Empty);
+    }
     let reader = || {
         image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()

@@ -15,6 +15,13 @@ use crate::gap::PixelBox;
 pub const MAX_FRAME_BYTES: u64 = 64 << 20;
 /// The smallest frame side (one report tile, and a plate needs 64 px).
 pub const MIN_SIDE: u32 = 64;
+/// The most pixels of all the frames read together (each frame is held decoded until
+/// the plates are written): 2 000 megapixels, 6 GB of RGB, e.g. 960 frames of
+/// 1920 × 1080 or 240 of 3840 × 2160 (the default `--max-frames` 200 of 4K video
+/// fits). Summed from the files' headers before any frame is decoded.
+pub const MAX_TOTAL_PIXELS: u64 = 2_000_000_000;
+/// The most frames a second taken from a video (`--video-fps`).
+pub const MAX_VIDEO_FPS: f64 = 1000.0;
 
 /// One real frame, decoded.
 #[derive(Debug)]
@@ -125,61 +132,24 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
     })
 }
 
-/// The output folder: missing or empty, or an earlier fit's with `overwrite` (its own
-/// files removed, others kept).
-pub fn prepare_out(out: &Path, overwrite: bool) -> Result<(), FitError> {
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        return Err(FitError::OutNotEmpty {
-            path: out.to_path_buf(),
-        });
-    }
-    let empty = std::fs::read_dir(out)
-        .map_err(io_err(out))?
-        .next()
-        .is_none();
-    if empty {
-        return Ok(());
-    }
-    let earlier_fit = out.join("fitted.ron").is_file() || out.join("footage.json").is_file();
-    if !(overwrite && earlier_fit) {
-        return Err(FitError::OutNotEmpty {
-            path: out.to_path_buf(),
-        });
-    }
-    for name in super::OUT_NAMES {
-        let p = out.join(name);
-        if p.is_dir() {
-            std::fs::remove_dir_all(&p).map_err(io_err(&p))?;
-        } else if p.exists() {
-            std::fs::remove_file(&p).map_err(io_err(&p))?;
-        }
-    }
-    Ok(())
-}
-
 /// Decodes `fps` frames a second of the video into `OUT/frames/` with ffmpeg (PNG,
-/// lossless), at most `max_frames` (0: 10 000).
+/// lossless), at most `max_frames` (0: 10 000). The folder is made below `out`'s handle
+/// without following a link, and checked to be the same folder before and after ffmpeg
+/// writes into it by path.
 pub fn decode_video(
     video: &Path,
     ffmpeg: &Path,
-    out: &Path,
+    out: &mut super::out::FitOut,
     options: &FitOptions,
 ) -> Result<PathBuf, FitError> {
-    let dir = out.join("frames");
-    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    let (dir, held) = out.dir_for_path("frames")?;
     let max = if options.max_frames == 0 {
         10_000
     } else {
         options.max_frames
     };
-    let fps = if options.video_fps.is_finite() && options.video_fps > 0.0 {
-        options.video_fps
-    } else {
-        2.0
-    };
+    // Checked before anything was written (`check_numbers`).
+    let fps = options.video_fps;
     let output = std::process::Command::new(ffmpeg)
         .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
         .arg(video)
@@ -194,42 +164,108 @@ pub fn decode_video(
             reason: String::from_utf8_lossy(&output.stderr).trim().to_string(),
         });
     }
+    out.check_same(&dir, &held)?;
     Ok(dir)
 }
 
-/// Decodes one frame file, naming a 0-byte or corrupt file.
+/// Decodes one frame file as `gap` does ([`crate::input::decode_image`]: a JPEG or
+/// PNG within [`crate::input::MAX_IMAGE_PIXELS`], read from its header before any
+/// pixel is allocated; a truncated JPEG refused), naming the file and the reason.
+/// Returns the frame and, for a JPEG, its header up to the first scan (the
+/// quantisation tables the quality estimate reads).
 pub fn decode(path: &Path) -> Result<(RgbImage, Option<Vec<u8>>), FitError> {
+    use crate::input::ImageError;
     let bytes = crate::input::read_input_file(path, MAX_FRAME_BYTES).map_err(io_err(path))?;
-    if bytes.is_empty() {
-        return Err(FitError::EmptyFile {
-            path: path.to_path_buf(),
-        });
-    }
-    let corrupt = |reason: String| FitError::CorruptImage {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let reader = image::ImageReader::new(std::io::Cursor::new(bytes.as_slice()))
-        .with_guessed_format()
-        .map_err(|e| corrupt(e.to_string()))?;
-    if !matches!(
-        reader.format(),
-        Some(image::ImageFormat::Jpeg | image::ImageFormat::Png)
-    ) {
-        return Err(corrupt("not a JPEG or PNG image".into()));
-    }
-    let img = reader
-        .decode()
-        .map_err(|e| corrupt(e.to_string()))?
+    let img = crate::input::decode_image(&bytes, crate::input::MAX_IMAGE_PIXELS, u32::MAX)
+        .map_err(|e| match e {
+            ImageError::Truncated(_) | ImageError::Header(_) | ImageError::Decode(_) => {
+                FitError::CorruptImage {
+                    path: path.to_path_buf(),
+                    reason: e.to_string(),
+                }
+            }
+            _ => FitError::Image {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
+            },
+        })?
         .to_rgb8();
     let (w, h) = img.dimensions();
     if w.min(h) < MIN_SIDE {
-        return Err(corrupt(format!(
-            "{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"
-        )));
+        return Err(FitError::Image {
+            path: path.to_path_buf(),
+            reason: format!("{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"),
+        });
     }
-    let jpeg = bytes.starts_with(&[0xFF, 0xD8]).then_some(bytes);
+    let jpeg = bytes
+        .starts_with(&[0xFF, 0xD8])
+        .then(|| bytes[..jpeg_header_len(&bytes)].to_vec());
     Ok((img, jpeg))
+}
+
+/// The length of a JPEG's bytes before its first scan (start-of-scan marker FF DA), its
+/// markers followed by their segment lengths; all of it when there is none.
+fn jpeg_header_len(bytes: &[u8]) -> usize {
+    let n = bytes.len();
+    let mut i = 2;
+    while i + 4 <= n {
+        if bytes[i] != 0xFF {
+            return n;
+        }
+        match bytes[i + 1] {
+            0xFF => i += 1,
+            0xDA | 0xD9 => return i,
+            0x01 | 0xD0..=0xD7 => i += 2,
+            _ => i += 2 + (usize::from(bytes[i + 2]) << 8 | usize::from(bytes[i + 3])),
+        }
+    }
+    n
+}
+
+/// The width and height of a frame file read from its header alone (`None` when it
+/// cannot be read: decoding it then names the reason).
+fn header_size(path: &Path) -> Option<(u32, u32)> {
+    let (file, _) = crate::input::open_input_file(path, MAX_FRAME_BYTES).ok()?;
+    image::ImageReader::new(std::io::BufReader::new(file))
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
+}
+
+/// Refuses, from the files' headers before any frame is decoded, a frame over
+/// [`crate::input::MAX_IMAGE_PIXELS`] (by name) and frames that together hold more than
+/// [`MAX_TOTAL_PIXELS`] (naming how many frames fit).
+fn check_pixels(paths: &[PathBuf]) -> Result<(), FitError> {
+    let max_pixels = crate::input::MAX_IMAGE_PIXELS;
+    let mut pixels = 0u64;
+    for path in paths {
+        let Some((width, height)) = header_size(path) else {
+            continue;
+        };
+        let n = u64::from(width) * u64::from(height);
+        if n > max_pixels {
+            let e = crate::input::ImageError::Pixels {
+                width,
+                height,
+                max_pixels,
+            };
+            return Err(FitError::Image {
+                path: path.clone(),
+                reason: e.to_string(),
+            });
+        }
+        pixels += n;
+    }
+    if pixels <= MAX_TOTAL_PIXELS {
+        return Ok(());
+    }
+    let mean = (pixels / paths.len().max(1) as u64).max(1);
+    Err(FitError::TooManyPixels {
+        frames: paths.len(),
+        pixels,
+        fit: (MAX_TOTAL_PIXELS / mean) as usize,
+    })
 }
 
 /// Every frame under `dir` in name order (at most `max`, evenly spaced; 0: all), decoded,
@@ -266,6 +302,7 @@ pub fn read_folder(
             first,
         });
     }
+    check_pixels(&picked)?;
     let mut frames = Vec::with_capacity(picked.len());
     for (path, label) in picked.into_iter().zip(labels) {
         let (rgb, jpeg) = decode(&path)?;

@@ -26,6 +26,7 @@
 pub mod camera;
 pub mod drones;
 pub mod input;
+pub mod out;
 pub mod plates;
 pub mod preset_out;
 pub mod search;
@@ -94,8 +95,25 @@ pub enum FitError {
     EmptyFolder { path: PathBuf },
     #[error("{}: 0-byte file", path.display())]
     EmptyFile { path: PathBuf },
-    #[error("{}: corrupt image: cannot be decoded: {reason}", path.display())]
+    #[error("{}: corrupt image: {reason}", path.display())]
     CorruptImage { path: PathBuf, reason: String },
+    /// A frame refused for what it is (not a JPEG or PNG, too large or too small), as
+    /// `gap` refuses it.
+    #[error("{}: {reason}", path.display())]
+    Image { path: PathBuf, reason: String },
+    #[error(
+        "{frames} frames of {} megapixels in all are more than the {} megapixels fit holds in memory at once; pass --max-frames {fit} or fewer (or smaller frames)",
+        pixels / 1_000_000, input::MAX_TOTAL_PIXELS / 1_000_000
+    )]
+    TooManyPixels {
+        frames: usize,
+        pixels: u64,
+        fit: usize,
+    },
+    #[error("--hfov {0}: must be degrees within [1, {max}]", max = crate::preset::backplate::MAX_PLATE_HFOV_DEG)]
+    Hfov(f64),
+    #[error("--video-fps {0}: must be frames a second within (0, {max}]", max = input::MAX_VIDEO_FPS)]
+    VideoFps(f64),
     #[error("{}: line {line}: bad label: {reason}", path.display())]
     Label {
         path: PathBuf,
@@ -131,6 +149,9 @@ pub enum FitError {
     Frames(#[from] crate::gap::GapError),
     #[error("--views {0}: must be 1 (the frame alone) to {max} (the frame and its crops)", max = plates::MAX_VIEWS)]
     Views(usize),
+    /// An entry of `--out` that fit will not overwrite, delete or write through.
+    #[error("--out: {} {why}", path.display())]
+    NotFits { path: PathBuf, why: String },
     #[error("{0}")]
     Other(String),
 }
@@ -142,36 +163,6 @@ pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FitError + '
     }
 }
 
-/// Writes `bytes` to `path` atomically through its folder's handle
-/// ([`crate::write::outdir::OutDir`]): a temporary file created beside it without
-/// following a link, renamed into place; a link or a non-file at `path` is refused.
-pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FitError> {
-    let refused = |reason: String| FitError::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(reason),
-    };
-    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
-        return Err(refused("is not a file path".into()));
-    };
-    let name = name
-        .to_str()
-        .ok_or_else(|| refused("has a name that is not UTF-8".into()))?;
-    crate::write::outdir::OutDir::create(dir)
-        .and_then(|mut out| out.write(name, bytes))
-        .map(|_| ())
-        .map_err(|e| refused(e.to_string()))
-}
-
-/// The names `fit` writes in its output folder (removed by `--overwrite`).
-pub const OUT_NAMES: [&str; 6] = [
-    "plates",
-    "rounds",
-    "frames",
-    "fitted.ron",
-    "footage.json",
-    "fit.json",
-];
-
 /// What was prepared before any rendering: the footage, the plates and the first fit.
 #[derive(Debug)]
 pub struct Prepared {
@@ -180,12 +171,23 @@ pub struct Prepared {
     pub real_dir: PathBuf,
     /// The output folder, as given.
     pub out: PathBuf,
+    /// The output folder, opened once: every file is written through it.
+    pub out_dir: std::sync::Mutex<out::FitOut>,
     pub footage: camera::Footage,
     pub plates: plates::PlateSummary,
     /// The base preset, its paths resolved.
     pub base: Preset,
     /// The first fit (round 1's preset), its backplate folder relative to `out`.
     pub fitted: preset_out::Fitted,
+}
+
+impl Prepared {
+    /// The output folder's handle (one writer at a time).
+    pub fn out_dir(&self) -> std::sync::MutexGuard<'_, out::FitOut> {
+        self.out_dir
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
 }
 
 /// The run's record, written to `OUT/fit.json`.
@@ -202,40 +204,51 @@ pub struct FitRecord {
     pub target_inside: usize,
 }
 
-/// Steps 1–4: read and check the footage (nothing written before it passes), measure
-/// it, write the plates, `footage.json` and the first fit (in memory).
-pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
+/// The numeric options in range, before anything is read or written.
+fn check_numbers(options: &FitOptions) -> Result<(), FitError> {
     if !(1..=plates::MAX_VIEWS).contains(&options.views) {
         return Err(FitError::Views(options.views));
     }
+    if let Some(v) = options.hfov_deg
+        && !crate::preset::backplate::hfov_ok(v)
+    {
+        return Err(FitError::Hfov(v));
+    }
+    let fps = options.video_fps;
+    if !(fps.is_finite() && fps > 0.0 && fps <= input::MAX_VIDEO_FPS) {
+        return Err(FitError::VideoFps(fps));
+    }
+    Ok(())
+}
+
+/// Steps 1–4: read and check the footage (nothing written before it passes), measure
+/// it, write the plates, `footage.json` and the first fit (in memory).
+pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
+    check_numbers(options)?;
     let source = input::check_source(options)?;
     let base = preset_out::load_base(&options.base)?;
-    let (real_dir, frames) = match &source {
+    let (real_dir, frames, mut out) = match &source {
         input::Source::Folder(dir) => {
             let frames = input::read_folder(dir, options.max_frames, options.unlabelled_ok)?;
-            input::prepare_out(&options.out, options.overwrite)?;
-            (dir.clone(), frames)
+            let out = out::FitOut::open(&options.out, options.overwrite)?;
+            (dir.clone(), frames, out)
         }
         input::Source::Video { path, ffmpeg } => {
-            input::prepare_out(&options.out, options.overwrite)?;
-            let dir = input::decode_video(path, ffmpeg, &options.out, options)?;
+            let mut out = out::FitOut::open(&options.out, options.overwrite)?;
+            let dir = input::decode_video(path, ffmpeg, &mut out, options)?;
             let frames = input::read_folder(&dir, 0, true)?;
-            (dir, frames)
+            (dir, frames, out)
         }
     };
     let footage = camera::measure(&frames);
     let geometry = plates::PlateCamera::from_base(&base, &footage, options.hfov_deg);
-    std::fs::create_dir_all(&options.out).map_err(io_err(&options.out))?;
     let plates = if base.thermal.is_some() {
         plates::PlateSummary::default()
     } else {
-        plates::write_plates(
-            &frames,
-            &footage,
-            &geometry,
-            &options.out.join("plates"),
-            options.views,
-        )?
+        let dir = out.dir("plates")?;
+        let plates = plates::write_plates(&frames, &footage, &geometry, &dir, options.views)?;
+        out.verify()?;
+        plates
     };
     let centres = drones::CentreSpread::of(frames.iter().flat_map(|f| {
         let (w, h) = f.rgb.dimensions();
@@ -250,7 +263,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     drop(frames);
     let json =
         serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;
-    write_file(&options.out.join("footage.json"), json.as_bytes())?;
+    out.write("footage.json", json.as_bytes())?;
     let fitted = if base.thermal.is_some() {
         thermal::first_fit(&base, &footage)
     } else {
@@ -260,6 +273,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         options: options.clone(),
         real_dir,
         out: options.out.clone(),
+        out_dir: std::sync::Mutex::new(out),
         footage,
         plates,
         base,
@@ -328,8 +342,7 @@ pub fn finish(
     };
     header.push("Reports: rounds/NN/report.txt; the footage's figures: footage.json.".into());
     let text = preset_out::text(&preset, &header);
-    let fitted = prep.out.join("fitted.ron");
-    write_file(&fitted, text.as_bytes())?;
+    let fitted = prep.out_dir().write("fitted.ron", text.as_bytes())?;
     // The written file, as `swarmshot check` reads it.
     crate::pipeline::FramePipeline::open(&fitted)
         .map_err(|e| FitError::Other(format!("the fitted preset does not load: {e:#}")))?;
@@ -344,7 +357,7 @@ pub fn finish(
         best_round: best,
     };
     let json = serde_json::to_string_pretty(&record).map_err(|e| FitError::Other(e.to_string()))?;
-    write_file(&prep.out.join("fit.json"), json.as_bytes())?;
+    prep.out_dir().write("fit.json", json.as_bytes())?;
     Ok(Finished {
         fitted,
         record,

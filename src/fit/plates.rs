@@ -33,17 +33,16 @@
 //! The loader enlarges a crop back to the output size, which lowers its noise and widens
 //! its blur a little: the default is the frame alone.
 
-use std::path::Path;
-
 use image::RgbImage;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
+use super::FitError;
 use super::camera::Footage;
 use super::input::RealFrame;
-use super::{FitError, io_err, write_file};
 use crate::gap::PixelBox;
 use crate::preset::{ImageFormat, Preset};
+use crate::write::outdir::OutDir;
 
 /// The most views `--views` may ask per frame.
 pub const MAX_VIEWS: usize = 9;
@@ -593,27 +592,31 @@ fn plate_name(rel: &str, ext: &str) -> String {
 }
 
 /// Writes every frame's plates (`views` of each, at least 1: module docs) and their
-/// sidecars into `dir` (created).
+/// sidecars into the folder `dir` (opened once: each thread writes through its own
+/// handle on it, never through a link).
 pub fn write_plates(
     frames: &[RealFrame],
     footage: &Footage,
     camera: &PlateCamera,
-    dir: &Path,
+    dir: &OutDir,
     views: usize,
 ) -> Result<PlateSummary, FitError> {
     use rayon::prelude::*;
-    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let _ = footage;
     let records: Vec<Result<Vec<PlateRecord>, FitError>> = frames
         .par_iter()
-        .map(|f| {
-            let mut rgb = f.rgb.clone();
-            remove_drones(&mut rgb, &f.boxes, name_seed(&f.rel));
-            let horizon = estimate_horizon(&rgb);
-            (0..views.max(1))
-                .map(|k| write_view(dir, f, &rgb, horizon, camera, k))
-                .collect()
-        })
+        .map_init(
+            || dir.try_clone(),
+            |dir, f| {
+                let dir = dir.as_mut().map_err(|e| FitError::Other(e.to_string()))?;
+                let mut rgb = f.rgb.clone();
+                remove_drones(&mut rgb, &f.boxes, name_seed(&f.rel));
+                let horizon = estimate_horizon(&rgb);
+                (0..views.max(1))
+                    .map(|k| write_view(dir, f, &rgb, horizon, camera, k))
+                    .collect()
+            },
+        )
         .collect();
     let mut plates = Vec::new();
     for r in records {
@@ -629,7 +632,7 @@ pub fn write_plates(
 
 /// Writes view `k` of a frame's plate `rgb` (drones removed) and its sidecar.
 fn write_view(
-    dir: &Path,
+    dir: &mut OutDir,
     f: &RealFrame,
     rgb: &RgbImage,
     horizon: Option<f64>,
@@ -666,7 +669,11 @@ fn write_view(
         .collect();
     let bytes = crate::write::encode_image(&rgba, cw, ch, format)
         .map_err(|e| FitError::Other(format!("encoding plate {name}: {e}")))?;
-    write_file(&dir.join(&name), &bytes)?;
+    let save = |dir: &mut OutDir, name: &str, bytes: &[u8]| {
+        dir.write(name, bytes)
+            .map_err(|e| FitError::Other(e.to_string()))
+    };
+    save(dir, &name, &bytes)?;
     let horizon_text = match horizon {
         Some(r) => format!("Row({r})"),
         None => "Unknown".into(),
@@ -694,7 +701,7 @@ fn write_view(
         },
     );
     let stem = name.trim_end_matches(&format!(".{ext}"));
-    write_file(&dir.join(format!("{stem}.plate.ron")), sidecar.as_bytes())?;
+    save(dir, &format!("{stem}.plate.ron"), sidecar.as_bytes())?;
     Ok(PlateRecord {
         plate: name,
         source: f.rel.clone(),

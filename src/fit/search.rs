@@ -45,7 +45,7 @@ use serde::Serialize;
 
 use super::camera::{Footage, invert_noise, noise_after};
 use super::preset_out::{self, Fitted};
-use super::{FitError, Prepared, io_err, write_file};
+use super::{FitError, Prepared};
 use crate::gap::report::{GapOptions, Report, Summary};
 use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
 use crate::preset::camera_model::{CameraModel, Psf};
@@ -270,11 +270,16 @@ fn round(
     ctx: &GpuContext,
     cancel: &AtomicBool,
 ) -> Result<Report, FitError> {
-    let dir = prep.out.join("rounds").join(format!("{k:02}"));
-    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
-    write_file(&dir.join("preset.ron"), text.as_bytes())?;
-    let data = dir.join("dataset");
+    // Every folder made and opened below `--out`'s handle, never through a link; the
+    // batch writes the dataset by path, checked to lead to the folder opened before and
+    // after it runs.
+    let rel = format!("rounds/{k:02}");
+    let mut dir = prep.out_dir().dir(&rel)?;
+    let saved = |e: crate::write::OutputError| FitError::Other(e.to_string());
+    dir.write("preset.ron", text.as_bytes()).map_err(saved)?;
+    let (data, held) = prep.out_dir().dir_for_path(&format!("{rel}/dataset"))?;
     render(preset, prep.options.sample, &data, ctx, cancel)?;
+    prep.out_dir().check_same(&data, &held)?;
     let report = crate::gap::report::run(&GapOptions {
         real: prep.real_dir.clone(),
         synthetic: data,
@@ -282,7 +287,7 @@ fn round(
     })
     .map_err(|e| FitError::Other(format!("the gap report of round {k:02}: {e}")))?;
     report
-        .write(&dir)
+        .write_into(&mut dir)
         .map_err(|e| FitError::Other(format!("writing round {k:02}'s report: {e}")))?;
     Ok(report)
 }

@@ -647,6 +647,17 @@ impl Report {
         // Opened once; every file written relative to it, never through a link.
         let mut dir =
             crate::write::outdir::OutDir::create(out).map_err(|e| input(out, e.to_string()))?;
+        self.write_into(&mut dir)
+    }
+
+    /// Writes the files [`Report::write`] writes into the folder `dir` already opened
+    /// (relative to its handle, never through a link); returns the files written.
+    pub fn write_into(
+        &self,
+        dir: &mut crate::write::outdir::OutDir,
+    ) -> Result<Vec<PathBuf>, GapError> {
+        let out = dir.path().to_path_buf();
+        let out = out.as_path();
         let mut save = |name: &str, bytes: &[u8]| -> Result<PathBuf, GapError> {
             dir.write(name, bytes)
                 .map_err(|e| input(&out.join(name), e.to_string()))

@@ -455,6 +455,234 @@ fn bad_input_is_a_named_error_and_nothing_is_written() {
 }
 
 #[test]
+fn frames_are_decoded_within_budgets_as_gap_decodes_them() {
+    let dir = tmp("budgets");
+    let folder = |name: &str, files: &[(&str, &[u8])]| {
+        let d = dir.join(name);
+        std::fs::create_dir_all(&d).expect("dir");
+        for (n, bytes) in files {
+            std::fs::write(d.join(n), bytes).expect("write");
+        }
+        d
+    };
+    let ok = ["--unlabelled-ok"];
+    // A PNG whose header claims 22000×22000: refused by name, nothing allocated.
+    let huge = common::png_header(22_000, 22_000);
+    let d = folder("huge", &[("f1.png", &huge), ("f2.png", &huge)]);
+    refuses(&d, &ok, None, "f1.png: 22000×22000 is 484000000 pixels");
+    // Frames each within the budget that together are not: refused before decoding,
+    // naming how many fit.
+    let big = common::png_header(8_000, 8_000);
+    let names: Vec<String> = (0..32).map(|i| format!("f{i:02}.png")).collect();
+    let files: Vec<(&str, &[u8])> = names.iter().map(|n| (n.as_str(), &big[..])).collect();
+    let d = folder("many", &files);
+    refuses(&d, &ok, None, "32 frames of 2048 megapixels");
+    refuses(&d, &ok, None, "pass --max-frames 31 or fewer");
+    // A JPEG cut short: refused as gap refuses it.
+    let mut jpeg = Vec::new();
+    RgbImage::from_fn(128, 96, |x, y| Rgb([(x * 2) as u8, (y * 2) as u8, 90]))
+        .write_to(
+            &mut std::io::Cursor::new(&mut jpeg),
+            image::ImageFormat::Jpeg,
+        )
+        .expect("jpeg");
+    let d = folder("cut", &[("b.jpg", &jpeg[..jpeg.len() / 2])]);
+    refuses(&d, &ok, None, "b.jpg: corrupt image: truncated JPEG (");
+    // A 0-byte file and a frame too small are named without calling them undecodable.
+    let d = folder("zero", &[("z.png", b"")]);
+    refuses(
+        &d,
+        &ok,
+        None,
+        "z.png: is a 0-byte file, not a JPEG or PNG image",
+    );
+    let mut small = Vec::new();
+    RgbImage::new(200, 40)
+        .write_to(
+            &mut std::io::Cursor::new(&mut small),
+            image::ImageFormat::Png,
+        )
+        .expect("png");
+    let d = folder("small", &[("s.png", &small)]);
+    refuses(&d, &ok, None, "s.png: 200×40 is smaller than the 64 px");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn numeric_options_are_checked_before_anything_is_written() {
+    let dir = tmp("numbers");
+    let real = dir.join("real");
+    std::fs::create_dir_all(&real).expect("dir");
+    let frames = common::testdata("real/images");
+    std::fs::copy(frames.join("V_DRONE_010_f150.png"), real.join("c.png")).expect("copy");
+    std::fs::write(real.join("c.txt"), "").expect("label");
+    for v in ["nan", "inf", "1e9", "0.0001", "-30", "151"] {
+        let shown = v.parse::<f64>().expect("number");
+        refuses(
+            &real,
+            &[&format!("--hfov={v}")],
+            None,
+            &format!("--hfov {shown}: must be degrees within [1, 150]"),
+        );
+    }
+    for v in ["nan", "0", "-2", "1e9"] {
+        let shown = v.parse::<f64>().expect("number");
+        refuses(
+            &real,
+            &[&format!("--video-fps={v}")],
+            None,
+            &format!("--video-fps {shown}: must be frames a second within (0, 1000]"),
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A copy of the bundled real frames (images/ and labels/), `times` over.
+fn copy_real(to: &Path, times: usize) {
+    let real = common::testdata("real");
+    for sub in ["images", "labels"] {
+        std::fs::create_dir_all(to.join(sub)).expect("dir");
+        for e in std::fs::read_dir(real.join(sub)).expect("read") {
+            let p = e.expect("entry").path();
+            let name = p.file_name().expect("name").to_string_lossy().into_owned();
+            for k in 0..times {
+                std::fs::copy(&p, to.join(sub).join(format!("c{k}_{name}"))).expect("copy");
+            }
+        }
+    }
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|r| {
+            r.map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+#[test]
+fn overwrite_deletes_only_what_fit_wrote() {
+    let dir = tmp("overwrite");
+    let base = write_base(&dir);
+    let base = base.to_str().expect("utf-8");
+    let real = common::testdata("real");
+    let out = dir.join("out");
+    let args = ["--base", base, "--rounds", "0", "--overwrite"];
+    let o = fit(&real, &out, &args[..4]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plates = files_in(&out.join("plates"));
+    assert_eq!(plates.len(), 20, "{plates:?}");
+    // A plate of an earlier run whose frame is gone is fit's own: deleted.
+    std::fs::copy(
+        out.join("plates").join(&plates[0]),
+        out.join("plates/old.png"),
+    )
+    .expect("copy");
+    std::fs::write(out.join("plates/old.plate.ron"), "(hfov_deg: 60.0)").expect("write");
+    // The user's files: refused by name and kept, nothing deleted.
+    let outside = dir.join("outside");
+    std::fs::create_dir_all(&outside).expect("dir");
+    std::fs::write(outside.join("keep.txt"), "outside").expect("write");
+    for (rel, what) in [
+        ("rounds/NOTES.txt", "file"),
+        ("frames/frame_0001_mine.png", "file"),
+        ("plates/mine.png", "file"),
+        ("rounds/07", "link"),
+    ] {
+        let p = out.join(rel);
+        std::fs::create_dir_all(p.parent().expect("parent")).expect("dir");
+        match what {
+            "file" => std::fs::write(&p, "mine").expect("write"),
+            _ => std::os::unix::fs::symlink(&outside, &p).expect("symlink"),
+        }
+        let o = fit(&real, &out, &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{rel}: {err}");
+        assert!(
+            err.contains(&format!("{}", p.display())) && err.contains("move it away first"),
+            "{rel}: {err}"
+        );
+        assert!(out.join("fitted.ron").is_file() && out.join("plates/old.png").is_file());
+        assert_eq!(files_in(&outside), ["keep.txt"]);
+        match what {
+            "file" => std::fs::remove_file(&p).expect("rm"),
+            _ => std::fs::remove_file(&p).expect("unlink"),
+        }
+    }
+    // The rest of the user's files beside fit's: kept.
+    std::fs::write(out.join("notes.txt"), "mine").expect("write");
+    let o = fit(&real, &out, &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(out.join("notes.txt")).expect("kept"), b"mine");
+    assert_eq!(
+        files_in(&out.join("plates")),
+        plates,
+        "the stale plate deleted"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_folder_swapped_for_a_link_while_fit_writes_gets_nothing() {
+    let dir = tmp("swap");
+    let base = write_base(&dir);
+    let real = dir.join("real");
+    copy_real(&real, 3);
+    let evil = dir.join("evil");
+    std::fs::create_dir_all(&evil).expect("dir");
+    let out = dir.join("out");
+    let child = swarmshot()
+        .args(["fit", "--rounds", "0", "--views", "4", "--base"])
+        .arg(&base)
+        .arg("--real")
+        .arg(&real)
+        .arg("--out")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    // As soon as the plates' folder appears, it is swapped for a link to `evil`.
+    let plates = out.join("plates");
+    let start = std::time::Instant::now();
+    while !plates.is_dir() && start.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    std::fs::rename(&plates, out.join("plates.orig")).expect("move the plates away");
+    std::os::unix::fs::symlink(&evil, &plates).expect("symlink");
+    let o = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(files_in(&evil), Vec::<String>::new(), "{err}");
+    // The swap was seen (the plates were still being written) and named.
+    if !o.status.success() {
+        assert!(err.contains("was replaced"), "{err}");
+    }
+    // A link already standing where fit makes a folder is refused, not followed.
+    let out2 = dir.join("out2");
+    std::fs::create_dir_all(&out2).expect("dir");
+    std::fs::write(out2.join("footage.json"), "{}").expect("write");
+    std::os::unix::fs::symlink(&evil, out2.join("plates")).expect("symlink");
+    let o = fit(
+        &real,
+        &out2,
+        &[
+            "--rounds",
+            "0",
+            "--overwrite",
+            "--base",
+            base.to_str().expect("utf-8"),
+        ],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("plates"), "{err}");
+    assert_eq!(files_in(&evil), Vec::<String>::new(), "{err}");
+    assert!(out2.join("plates").is_symlink());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn crop_views_keep_the_focal_length_and_the_horizon() {
     // Eight distinct crops besides the whole frame, each 80 % of it.
     let (w, h) = (640u32, 480u32);

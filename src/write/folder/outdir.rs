@@ -34,6 +34,18 @@ impl OutDir {
         })
     }
 
+    /// A folder already opened as a [`Tree`] (e.g. one opened below another's handle).
+    pub fn from_tree(tree: Tree) -> Self {
+        Self { tree }
+    }
+
+    /// A second handle on the same folder (not on whatever its path names now).
+    pub fn try_clone(&self) -> Result<Self, OutputError> {
+        Ok(Self {
+            tree: self.tree.try_clone()?,
+        })
+    }
+
     /// The folder's path.
     pub fn path(&self) -> &Path {
         self.tree.root()

@@ -159,6 +159,15 @@ impl Tree {
         })
     }
 
+    /// A folder already opened (`fd`, e.g. from [`Tree::open_dir`]), named `root` in messages.
+    pub fn from_fd(root: PathBuf, fd: OwnedFd) -> Self {
+        Self {
+            root,
+            fd,
+            dirs: HashMap::new(),
+        }
+    }
+
     /// A second handle on the same root folder (not on whatever the path names now).
     pub fn try_clone(&self) -> Result<Self, OutputError> {
         Ok(Self {
@@ -426,6 +435,31 @@ impl Tree {
         }
         names.sort();
         Ok(names)
+    }
+
+    /// Every entry directly inside folder `rel` (none when `rel` is missing), each seen
+    /// without following it, sorted by name.
+    pub fn entries(&mut self, rel: &str) -> Result<Vec<(String, Entry)>, OutputError> {
+        let path = self.root.join(rel);
+        let Some(fd) = self.open_dir(rel)? else {
+            return Ok(Vec::new());
+        };
+        let dir = rustix::fs::Dir::read_from(&fd).map_err(errno_io(&path))?;
+        let mut out = Vec::new();
+        for entry in dir {
+            let entry = entry.map_err(errno_io(&path))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name == "." || name == ".." {
+                continue;
+            }
+            match rustix::fs::statat(&fd, entry.file_name(), AtFlags::SYMLINK_NOFOLLOW) {
+                Ok(st) => out.push((name, Entry::from_stat(&st))),
+                Err(Errno::NOENT) => {}
+                Err(e) => return Err(errno_io(&path.join(&name))(e)),
+            }
+        }
+        out.sort_by(|a, b| a.0.cmp(&b.0));
+        Ok(out)
     }
 
     /// Hard-link the file `rel` below this folder to `to` below the folder
