@@ -44,32 +44,11 @@ pub enum Source {
     Video { path: PathBuf, ffmpeg: PathBuf },
 }
 
-/// The absolute form of `p` without requiring it to exist: its longest existing
-/// ancestor canonicalised, the rest appended.
+/// The absolute form of `p` without requiring it to exist, links resolved as far as
+/// it exists ([`crate::input::canonical_as_far_as_it_exists`]; `p` itself when even
+/// the working folder cannot be read).
 pub fn absolute(p: &Path) -> PathBuf {
-    let p = if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        std::env::current_dir().unwrap_or_default().join(p)
-    };
-    let mut rest = Vec::new();
-    let mut cur = p.as_path();
-    loop {
-        if let Ok(c) = cur.canonicalize() {
-            let mut out = c;
-            for r in rest.iter().rev() {
-                out.push(r);
-            }
-            return out;
-        }
-        match (cur.parent(), cur.file_name()) {
-            (Some(parent), Some(name)) => {
-                rest.push(name.to_os_string());
-                cur = parent;
-            }
-            _ => return p,
-        }
-    }
+    crate::input::canonical_as_far_as_it_exists(p).unwrap_or_else(|_| p.to_path_buf())
 }
 
 /// `ffmpeg` on PATH, if any (an executable regular file).
