@@ -389,6 +389,8 @@ enum FileProblem {
 
 /// One shard file against its record: its (device, inode) when it matches,
 /// `None` when it is neither recorded nor there (a file of a dropped frame).
+/// Its size is compared first, from its entry, so a file of another size is
+/// refused without being read; only one of the recorded size is hashed.
 fn check_file(
     tree: &mut Tree,
     rel: &str,
@@ -409,6 +411,14 @@ fn check_file(
     }
     if !entry.is_file() {
         return Err(FileProblem::NotAFile);
+    }
+    // A size other than the record's is refused before the file is read:
+    // hashing a huge (or sparse) file would take as long as reading it.
+    if entry.len != record.len {
+        return Err(FileProblem::Length {
+            len: entry.len,
+            recorded: record.len,
+        });
     }
     let mut file = tree.open_file(rel, false)?;
     let (len, hash) = content_record(&mut file)?;
@@ -556,6 +566,27 @@ fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), StatsProblem
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shard_file_of_another_size_is_refused_unread() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let len = 64u64 << 30;
+        let file = std::fs::File::create(dir.path().join("manifest.jsonl")).expect("create");
+        // A sparse file: no disk used, but hashing it would read 64 GiB.
+        file.set_len(len).expect("set_len");
+        let mut tree = Tree::open(dir.path()).expect("tree");
+        let record = ContentRecord {
+            len: 10,
+            blake3: "0".repeat(64),
+        };
+        let start = std::time::Instant::now();
+        let got = check_file(&mut tree, "manifest.jsonl", Some(&record));
+        assert!(
+            matches!(got, Err(FileProblem::Length { len: l, recorded: 10 }) if l == len),
+            "{got:?}"
+        );
+        assert!(start.elapsed() < std::time::Duration::from_secs(2));
+    }
 
     #[test]
     fn counts_add_in_arrays_and_maps_and_other_numbers_are_refused() {
