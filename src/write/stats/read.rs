@@ -96,6 +96,64 @@ struct ManifestLabel {
     distance_m: f64,
 }
 
+/// How far (pixels) a box may reach past the image's edge and still be one
+/// swarmshot wrote: its boxes are clipped to the image and rounded to 1e-6
+/// px, so any more is a record it did not write.
+const BOX_EDGE_SLACK_PX: f64 = 0.5;
+
+/// Why `l` cannot be a label swarmshot wrote for a `w`×`h` image: its field
+/// and the reason (a box not finite, inverted or outside the image; a
+/// distance not finite or negative). A few comparisons, so the manifest's
+/// parse stays the cost of reading it.
+fn check_label(l: &ManifestLabel, w: u32, h: u32) -> Result<(), String> {
+    let [x0, y0, x1, y1] = l.bbox_xyxy;
+    let s = BOX_EDGE_SLACK_PX;
+    let (w, h) = (f64::from(w), f64::from(h));
+    // Written so that NaN fails each test.
+    if !(x0 >= -s && y0 >= -s && x1 <= w + s && y1 <= h + s) {
+        return Err(format!(
+            "bbox_xyxy {:?} is not within the {w}×{h} image",
+            l.bbox_xyxy
+        ));
+    }
+    if !(x0 <= x1 && y0 <= y1) {
+        return Err(format!(
+            "bbox_xyxy {:?} is inverted (x0 > x1 or y0 > y1)",
+            l.bbox_xyxy
+        ));
+    }
+    if !(l.distance_m.is_finite() && l.distance_m >= 0.0) {
+        return Err(format!(
+            "distance_m {} is not a finite distance ≥ 0",
+            l.distance_m
+        ));
+    }
+    Ok(())
+}
+
+/// Why `frame` cannot be a record swarmshot wrote: a camera of zero width or
+/// height, or a label [`check_label`] refuses, named by its field
+/// (`drones[3].label.bbox_xyxy …`).
+fn check_frame(frame: &ManifestFrame) -> Result<(), String> {
+    let (w, h) = (frame.camera.width, frame.camera.height);
+    if w == 0 || h == 0 {
+        return Err(format!(
+            "camera.width × camera.height is {w}×{h}: an image has at least one pixel"
+        ));
+    }
+    for (i, d) in frame.drones.iter().enumerate() {
+        if let Some(l) = &d.label {
+            check_label(l, w, h).map_err(|why| format!("drones[{i}].label.{why}"))?;
+        }
+    }
+    for (i, c) in frame.confusers.iter().enumerate() {
+        if let Some(l) = &c.label {
+            check_label(l, w, h).map_err(|why| format!("confusers[{i}].label.{why}"))?;
+        }
+    }
+    Ok(())
+}
+
 /// The fixed part of a frame's manifest record, bytes: camera, sequence,
 /// sweep, environment, weather and camera-model draws, index, seed and
 /// image path. A record holds under 4 KiB of these; 1 MiB leaves room for
@@ -192,9 +250,10 @@ fn read_capped_line(
 /// frame's poses and boxes) with the writer's own counting; `labels_only`
 /// and `boxes_from` from the folder and its locked preset. Refuses a
 /// folder without `manifest.jsonl` and `preset.lock.ron` by name, a lock
-/// larger than a preset may be, and a manifest line longer than any record
-/// of the preset can be ([`manifest_line_cap`]); the manifest is read a
-/// line at a time.
+/// larger than a preset may be, a manifest line longer than any record
+/// of the preset can be ([`manifest_line_cap`]) and a record whose values
+/// swarmshot cannot have written ([`check_frame`]), by line; the manifest
+/// is read a line at a time.
 pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
     let lock_path = dir.join("preset.lock.ron");
     let manifest_path = dir.join(crate::write::formats::manifest::FILE);
@@ -237,6 +296,7 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
             continue;
         }
         let frame: ManifestFrame = serde_json::from_slice(&line).map_err(|e| bad(e.to_string()))?;
+        check_frame(&frame).map_err(bad)?;
         let split = SplitName::ALL
             .into_iter()
             .find(|s| s.as_str() == frame.split)
@@ -320,6 +380,49 @@ mod tests {
         let err = read_dataset(dir.path()).expect_err("refused").to_string();
         assert!(err.contains("manifest.jsonl line 2"), "{err}");
         assert!(err.contains("longer than"), "{err}");
+    }
+
+    #[test]
+    fn values_swarmshot_cannot_write_are_refused_by_line_and_field() {
+        let cases = [
+            (
+                "[10.0,10.0,5.0,5.0]",
+                "8.5",
+                "drones[0].label.bbox_xyxy",
+                "inverted",
+            ),
+            (
+                "[-1e308,-1e308,1e308,1e308]",
+                "8.5",
+                "drones[0].label.bbox_xyxy",
+                "not within the 320×240 image",
+            ),
+            (
+                "[10.0,20.0,18.0,26.0]",
+                "-3.0",
+                "drones[0].label.distance_m",
+                "not a finite distance",
+            ),
+        ];
+        for (bbox, distance, field, why) in cases {
+            let bad = RECORD
+                .replace("[10.0,20.0,18.0,26.0]", bbox)
+                .replace("8.5", distance);
+            let dir = dataset(&format!("{RECORD}\n{bad}\n"));
+            let err = read_dataset(dir.path()).expect_err(bbox).to_string();
+            assert!(err.contains("manifest.jsonl line 2"), "{err}");
+            assert!(err.contains(field) && err.contains(why), "{err}");
+        }
+        let zero = RECORD.replace("\"width\":320,\"height\":240", "\"width\":0,\"height\":0");
+        let dir = dataset(&format!("{zero}\n"));
+        let err = read_dataset(dir.path()).expect_err("0×0").to_string();
+        assert!(
+            err.contains("line 1") && err.contains("camera.width × camera.height is 0×0"),
+            "{err}"
+        );
+        // A box on the image's edges is one swarmshot writes.
+        let edge = RECORD.replace("[10.0,20.0,18.0,26.0]", "[0.0,0.0,320.0,240.0]");
+        read_dataset(dataset(&format!("{edge}\n")).path()).expect("edge box");
     }
 
     #[test]
