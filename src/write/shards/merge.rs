@@ -451,15 +451,25 @@ pub enum LockProblem {
     Version,
 }
 
-/// The shard's locked preset, checked against its ledger's hash and
-/// against the text a batch of it would lock (so OUT's lock is the same bytes).
+/// The shard's locked preset, read within the preset size limit (it is read
+/// before the shard's files are checked against their records), checked
+/// against its ledger's hash and against the text a batch of it would lock
+/// (so OUT's lock is the same bytes).
 fn locked_preset(shard: &Path, hash: u64) -> Result<Preset, MergeError> {
     let path = shard.join("preset.lock.ron");
     let bad = |source: LockProblem| MergeError::Lock {
         path: path.clone(),
         source,
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.into()))?;
+    let bytes = crate::input::read_input_file(&path, crate::preset::MAX_PRESET_BYTES)
+        .map_err(|e| bad(e.into()))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        bad(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text ({e})"),
+        )
+        .into())
+    })?;
     if fnv1a64(text.as_bytes()) != hash {
         return Err(bad(LockProblem::Hash));
     }
@@ -566,6 +576,20 @@ fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), StatsProblem
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shard_lock_larger_than_a_preset_may_be_is_refused_unread() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = std::fs::File::create(dir.path().join("preset.lock.ron")).expect("create");
+        file.set_len(crate::preset::MAX_PRESET_BYTES + 1)
+            .expect("set_len");
+        let err = locked_preset(dir.path(), 0)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains("preset.lock.ron"), "{err}");
+        let limit = format!("{}-byte limit", crate::preset::MAX_PRESET_BYTES);
+        assert!(err.contains(&limit), "{err}");
+    }
 
     #[test]
     fn a_shard_file_of_another_size_is_refused_unread() {
