@@ -131,14 +131,15 @@ fn check_label(l: &ManifestLabel, w: u32, h: u32) -> Result<(), String> {
     Ok(())
 }
 
-/// Why `frame` cannot be a record swarmshot wrote: a camera of zero width or
-/// height, or a label [`check_label`] refuses, named by its field
+/// Why `frame` cannot be a record swarmshot wrote: a camera side outside
+/// the sides a preset may have (1 to [`crate::preset::MAX_IMAGE_SIDE`] px), or a label [`check_label`] refuses, named by its field
 /// (`drones[3].label.bbox_xyxy …`).
 fn check_frame(frame: &ManifestFrame) -> Result<(), String> {
     let (w, h) = (frame.camera.width, frame.camera.height);
-    if w == 0 || h == 0 {
+    let most = crate::preset::MAX_IMAGE_SIDE;
+    if !((1..=most).contains(&w) && (1..=most).contains(&h)) {
         return Err(format!(
-            "camera.width × camera.height is {w}×{h}: an image has at least one pixel"
+            "camera.width × camera.height is {w}×{h}: a preset's image sides are 1 to {most} px"
         ));
     }
     for (i, d) in frame.drones.iter().enumerate() {
@@ -418,6 +419,13 @@ mod tests {
         let err = read_dataset(dir.path()).expect_err("0×0").to_string();
         assert!(
             err.contains("line 1") && err.contains("camera.width × camera.height is 0×0"),
+            "{err}"
+        );
+        let huge = RECORD.replace("\"width\":320", "\"width\":4294967295");
+        let dir = dataset(&format!("{huge}\n"));
+        let err = read_dataset(dir.path()).expect_err("huge").to_string();
+        assert!(
+            err.contains("is 4294967295×240: a preset's image sides are 1 to 16384 px"),
             "{err}"
         );
         // A box on the image's edges is one swarmshot writes.
