@@ -91,7 +91,14 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
             ),
         ));
     }
-    if report.already_complete() {
+    if frames == 0 {
+        // A shard that holds no frame (more shards than frames): a valid,
+        // empty part for `merge`, not an earlier run found complete.
+        println!(
+            "wrote an empty dataset (this shard holds no frame) to {}",
+            report.out_dir.display()
+        );
+    } else if report.already_complete() {
         // Nothing was rendered: no rate to give.
         println!(
             "already complete: {} in {}; nothing rendered",

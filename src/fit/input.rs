@@ -271,7 +271,7 @@ pub fn read_folder(
     let labels: Vec<Option<PathBuf>> = picked
         .iter()
         .map(|p| crate::gap::folder::label_for(dir, p))
-        .collect();
+        .collect::<Result<_, _>>()?;
     let missing = labels.iter().filter(|l| l.is_none()).count();
     if missing > 0 && !unlabelled_ok {
         let first = picked[labels.iter().position(Option::is_none).unwrap_or(0)].clone();

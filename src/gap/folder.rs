@@ -68,8 +68,13 @@ pub(crate) fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(
 
 /// The label file of an image: under a sibling `labels/` folder (the last `images`
 /// component of its path below `root` replaced by `labels`), else beside it; `.txt`.
-pub(crate) fn label_for(root: &Path, image: &Path) -> Option<PathBuf> {
-    let rel = image.strip_prefix(root).ok()?;
+/// `None` when neither exists; something other than a file at the first name
+/// that exists (a FIFO, a folder, a device) is refused by name, looked at
+/// without being opened (opening a FIFO would block).
+pub(crate) fn label_for(root: &Path, image: &Path) -> Result<Option<PathBuf>, GapError> {
+    let Ok(rel) = image.strip_prefix(root) else {
+        return Ok(None);
+    };
     let comps: Vec<_> = rel.components().collect();
     let mut candidates = Vec::new();
     let root_is_images = root.file_name().is_some_and(|n| n == "images");
@@ -87,7 +92,18 @@ pub(crate) fn label_for(root: &Path, image: &Path) -> Option<PathBuf> {
         candidates.push(parent.join("labels").join(rel).with_extension("txt"));
     }
     candidates.push(image.with_extension("txt"));
-    candidates.into_iter().find(|p| p.is_file())
+    for p in candidates {
+        match std::fs::metadata(&p) {
+            Ok(meta) if meta.is_file() => return Ok(Some(p)),
+            Ok(meta) => {
+                let kind = crate::input::file_kind(&meta);
+                return Err(input(&p, format!("is {kind}, not a label file")));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(source) => return Err(GapError::Io { path: p, source }),
+        }
+    }
+    Ok(None)
 }
 
 /// YOLO rows `class cx cy w h` (normalised) → pixel boxes. At most
@@ -138,24 +154,28 @@ pub(crate) fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, 
         if !class_ok {
             return Err(bad(format!("class `{}` is not a whole number ≥ 0", f[0])));
         }
-        let mut v = [0f32; 4];
+        // Read as f64 and range-checked before the f32 they are kept as, so
+        // a number beyond f32's range (`1e300`) is named as out of range.
+        let mut wide = [0f64; 4];
         for (k, s) in f[1..].iter().enumerate() {
-            v[k] = s
-                .parse::<f32>()
+            wide[k] = s
+                .parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
                 .ok_or_else(|| bad(format!("`{s}` is not a number")))?;
         }
-        if v[2] < 0.0 || v[3] < 0.0 {
+        if wide[2] < 0.0 || wide[3] < 0.0 {
             return Err(bad("negative box width or height".into()));
         }
-        for (name, x) in ["cx", "cy", "w", "h"].iter().zip(v) {
-            if !(-YOLO_TOLERANCE..=1.0 + YOLO_TOLERANCE).contains(&x) {
+        let range = f64::from(-YOLO_TOLERANCE)..=f64::from(1.0 + YOLO_TOLERANCE);
+        for ((name, x), s) in ["cx", "cy", "w", "h"].iter().zip(wide).zip(&f[1..]) {
+            if !range.contains(&x) {
                 return Err(bad(format!(
-                    "{name} {x} is outside [0, 1]: YOLO values are fractions of the frame"
+                    "{name} {s} is outside [0, 1]: YOLO values are fractions of the frame"
                 )));
             }
         }
+        let v = wide.map(|x| x as f32);
         coverage += f64::from(v[2].min(1.0)) * f64::from(v[3].min(1.0));
         if coverage > MAX_BOX_COVERAGE {
             return Err(bad(format!(
@@ -178,5 +198,63 @@ pub(super) fn input(path: &Path, reason: impl Into<String>) -> GapError {
     GapError::Input {
         path: path.to_path_buf(),
         reason: reason.into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_value_beyond_f32_is_out_of_range_not_not_a_number() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("a.txt");
+        std::fs::write(&path, "0 1e300 0.5 0.1 0.1\n").expect("txt");
+        let err = read_labels(&path, 64, 64).expect_err("refused").to_string();
+        assert!(err.contains("cx 1e300 is outside [0, 1]"), "{err}");
+        std::fs::write(&path, "0 0.5 0.5 0.1 -1e300\n").expect("txt");
+        let err = read_labels(&path, 64, 64).expect_err("refused").to_string();
+        assert!(err.contains("negative box width or height"), "{err}");
+        std::fs::write(&path, "0 0.5 0.5 0.1 NaN\n").expect("txt");
+        let err = read_labels(&path, 64, 64).expect_err("refused").to_string();
+        assert!(err.contains("`NaN` is not a number"), "{err}");
+    }
+
+    #[test]
+    fn a_fifo_or_folder_at_a_label_name_is_refused_by_name() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let root = dir.path();
+        std::fs::create_dir_all(root.join("images")).expect("images");
+        std::fs::create_dir_all(root.join("labels")).expect("labels");
+        let image = root.join("images/a.png");
+        assert!(label_for(root, &image).expect("none").is_none());
+        // A folder at the label's name.
+        std::fs::create_dir(root.join("labels/a.txt")).expect("dir");
+        let err = label_for(root, &image).expect_err("folder").to_string();
+        assert!(
+            err.contains("labels/a.txt") && err.contains("a folder"),
+            "{err}"
+        );
+        std::fs::remove_dir(root.join("labels/a.txt")).expect("rmdir");
+        // A FIFO: named without being opened (an open would block).
+        rustix::fs::mknodat(
+            rustix::fs::CWD,
+            root.join("labels/a.txt").as_path(),
+            rustix::fs::FileType::Fifo,
+            rustix::fs::Mode::from_raw_mode(0o644),
+            0,
+        )
+        .expect("mkfifo");
+        let err = label_for(root, &image).expect_err("fifo").to_string();
+        assert!(
+            err.contains("labels/a.txt") && err.contains("FIFO"),
+            "{err}"
+        );
+        std::fs::remove_file(root.join("labels/a.txt")).expect("rm");
+        std::fs::write(root.join("labels/a.txt"), "").expect("txt");
+        assert_eq!(
+            label_for(root, &image).expect("file"),
+            Some(root.join("labels/a.txt"))
+        );
     }
 }

@@ -408,7 +408,7 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
         if w < 16 || h < 16 {
             return Err(input(&p, format!("{w}×{h} is smaller than one 16 px tile")));
         }
-        let boxes = match label_for(&root, &p) {
+        let boxes = match label_for(&root, &p)? {
             Some(lp) => {
                 labelled += 1;
                 read_labels(&lp, w, h)?

@@ -107,6 +107,17 @@ fn reason(text: &str, e: &ron::error::SpannedError, path: &[&Segment]) -> String
                 suggestion(found, expected, "variants")
             )
         }
+        Error::ExceededRecursionLimit => {
+            // The path is as deep as the nesting: its first field is enough.
+            let place = match path.first() {
+                Some(Segment::Map { key }) => format!(" in `{key}`"),
+                _ => String::new(),
+            };
+            let limit = ron::Options::default().recursion_limit.unwrap_or(128);
+            format!(
+                "the preset nests deeper than {limit} levels of brackets{place} (values inside values, e.g. a `Random` sky among a `Random` sky's choices); nest it less deeply"
+            )
+        }
         _ => match fraction_at(text, at.line, at.col) {
             // `1.5` where an integer goes: RON stops after `1` and asks for a comma.
             Some((start, number)) => {
@@ -223,6 +234,19 @@ fn byte_offset(text: &str, line: usize, col: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_preset_nested_too_deeply_says_so_in_its_terms() {
+        let depth = 100;
+        let sky = "Random(choices: [".repeat(depth) + "Gradient" + &"])".repeat(depth);
+        let e = crate::preset::Preset::from_ron(&format!("(sky: {sky})")).expect_err("too deep");
+        assert!(
+            e.reason
+                .starts_with("the preset nests deeper than 128 levels of brackets in `sky`"),
+            "{e}"
+        );
+        assert!(!e.reason.contains("recursion_limit"), "{e}");
+    }
 
     #[test]
     fn paths_name_fields_and_list_indices_but_not_variants() {

@@ -341,6 +341,12 @@ fn an_empty_shard_and_an_empty_split_are_warned_about_and_data_yaml_names_no_emp
         err.contains("warning: --shard 5/1000000: this shard holds no frame"),
         "{err}"
     );
+    // Said as what it is: an empty dataset written, not an earlier run found complete.
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        said.starts_with("wrote an empty dataset (this shard holds no frame) to "),
+        "{said}"
+    );
 
     // One frame: it lands in one split; the other two are warned about and
     // data.yaml names neither (val then points at the images there are).

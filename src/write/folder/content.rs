@@ -23,10 +23,7 @@ pub struct ContentRecord {
 /// recorded none: not a shard, or made by a swarmshot before records).
 pub fn content_records(root: &Path) -> Result<BTreeMap<String, ContentRecord>, OutputError> {
     let path = root.join(LEDGER);
-    let mut bytes = Vec::new();
-    open_checked(root, LEDGER, false)?
-        .read_to_end(&mut bytes)
-        .map_err(io(&path))?;
+    let bytes = super::ledger::read_ledger(open_checked(root, LEDGER, false)?, &path)?;
     let mut records = BTreeMap::new();
     for line in String::from_utf8_lossy(&bytes).lines() {
         if line.starts_with('=') {

@@ -5,6 +5,66 @@
 
 use super::*;
 
+/// The most bytes a ledger's header line takes (a run's frame count, preset
+/// hash, shard and `--every`: under 200).
+const LEDGER_HEADER_BYTES: u64 = 4 << 10;
+
+/// The most bytes a ledger holds for each frame its run makes: the frame's
+/// claims (its files' paths), its checkpoint (the append-only files'
+/// lengths, the counters and the statistics so far: a few KiB, more with
+/// many models, environments, resolutions or box counts), the same again
+/// for each time an interrupted frame was made again, and the run's share of
+/// the folder's claims and content records. 1 MiB a frame is far above
+/// what any run writes, so a larger file was not written by swarmshot.
+pub(super) const LEDGER_BYTES_PER_FRAME: u64 = 1 << 20;
+
+/// The whole ledger `file` (at `path`), read within the bound of its run: at
+/// most [`LEDGER_HEADER_BYTES`] plus [`LEDGER_BYTES_PER_FRAME`] for each frame
+/// the header's run makes, and one more (for a ledger whose header names no
+/// run, refused by its reader). A larger ledger is refused by name and size
+/// before it is read, so no ledger makes a read grow without end.
+pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputError> {
+    use std::io::BufRead;
+    let len = file.metadata().map_err(io(path))?.len();
+    let mut reader = std::io::BufReader::new(file);
+    let mut bytes = Vec::new();
+    (&mut reader)
+        .take(LEDGER_HEADER_BYTES)
+        .read_until(b'\n', &mut bytes)
+        .map_err(io(path))?;
+    let frames = std::str::from_utf8(&bytes)
+        .ok()
+        .and_then(|line| RunId::parse(line.trim_end()))
+        .map_or(0, |run| {
+            run.end()
+                .saturating_sub(run.start())
+                .div_ceil(run.every.max(1))
+        });
+    let cap = LEDGER_HEADER_BYTES.saturating_add(
+        frames
+            .saturating_add(1)
+            .saturating_mul(LEDGER_BYTES_PER_FRAME),
+    );
+    let too_large = |len: u64| OutputError::Ledger {
+        path: path.to_owned(),
+        reason: format!(
+            "it is {len} bytes, more than the {cap}-byte limit for the ledger of a {frames}-frame run ({LEDGER_BYTES_PER_FRAME} bytes a frame), so swarmshot did not write it"
+        ),
+    };
+    if len > cap {
+        return Err(too_large(len));
+    }
+    let rest = cap.saturating_sub(bytes.len() as u64).saturating_add(1);
+    reader
+        .take(rest)
+        .read_to_end(&mut bytes)
+        .map_err(io(path))?;
+    if bytes.len() as u64 > cap {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
 impl Folder {
     /// Append whole lines to the ledger; `sync` flushes them to disk first.
     fn ledger_append(&mut self, text: &str, sync: bool) -> Result<(), OutputError> {
@@ -72,10 +132,7 @@ impl Folder {
     /// `root` (absolute, or with a `..` component).
     pub(super) fn claims(root: &Path) -> Result<Vec<String>, OutputError> {
         let path = root.join(LEDGER);
-        let mut bytes = Vec::new();
-        open_checked(root, LEDGER, false)?
-            .read_to_end(&mut bytes)
-            .map_err(io(&path))?;
+        let bytes = read_ledger(open_checked(root, LEDGER, false)?, &path)?;
         Ok(String::from_utf8_lossy(&bytes)
             .lines()
             .filter_map(|line| line.strip_prefix('*').or_else(|| line.strip_prefix('+')))
@@ -137,6 +194,54 @@ impl Folder {
             for r in [temp_rel(&rel), rel] {
                 let _ = self.tree.remove_file(&r);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A folder whose ledger names a 2-frame run and is then made `len`
+    /// bytes long (a sparse file: no disk used).
+    fn ledger_of(len: u64) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let header =
+            "swarmshot-ledger 1 frames=2 preset=fnv1a64:0123456789abcdef\n*manifest.jsonl\n";
+        fs::write(dir.path().join(LEDGER), header).expect("ledger");
+        let file = fs::OpenOptions::new()
+            .write(true)
+            .open(dir.path().join(LEDGER))
+            .expect("open");
+        file.set_len(len.max(header.len() as u64)).expect("set_len");
+        dir
+    }
+
+    #[test]
+    fn a_ledger_larger_than_its_run_can_write_is_refused_unread() {
+        let cap = LEDGER_HEADER_BYTES + 3 * LEDGER_BYTES_PER_FRAME;
+        // Within the bound: read (no content records, one claim).
+        let dir = ledger_of(0);
+        assert!(content_records(dir.path()).expect("records").is_empty());
+        let claims = Folder::listed_files(dir.path()).expect("claims");
+        assert_eq!(claims.into_iter().collect::<Vec<_>>(), ["manifest.jsonl"]);
+        // 64 MiB for a 2-frame run: refused by every reader, naming the file.
+        let dir = ledger_of(64 << 20);
+        let errors = [
+            content_records(dir.path()).map(|_| ()),
+            Folder::listed_files(dir.path()).map(|_| ()),
+            read_run(dir.path()).map(|_| ()),
+        ];
+        for err in errors {
+            let err = err.expect_err("refused").to_string();
+            assert!(err.contains(".swarmshot-ledger"), "{err}");
+            assert!(
+                err.contains(&format!(
+                    "{} bytes, more than the {cap}-byte limit",
+                    64 << 20
+                )),
+                "{err}"
+            );
         }
     }
 }

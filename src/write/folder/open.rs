@@ -180,10 +180,7 @@ impl Folder {
         lock: FolderLock,
     ) -> Result<Self, OutputError> {
         let path = tree.root().join(LEDGER);
-        let mut bytes = Vec::new();
-        tree.open_file(LEDGER, false)?
-            .read_to_end(&mut bytes)
-            .map_err(io(&path))?;
+        let bytes = super::ledger::read_ledger(tree.open_file(LEDGER, false)?, &path)?;
         if scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
             let mut text = bytes[..scan.good_end].to_vec();
             for claim in &scan.later_claims {

@@ -22,10 +22,7 @@ impl Folder {
     /// exist and whose append-only files are long enough, and every claim.
     pub(super) fn scan(root: &Path) -> Result<LedgerScan, OutputError> {
         let path = root.join(LEDGER);
-        let mut bytes = Vec::new();
-        open_checked(root, LEDGER, false)?
-            .read_to_end(&mut bytes)
-            .map_err(io(&path))?;
+        let bytes = super::ledger::read_ledger(open_checked(root, LEDGER, false)?, &path)?;
         let mut tree = Tree::open(root)?;
         let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         let text = String::from_utf8_lossy(&bytes[..prefix_len]);

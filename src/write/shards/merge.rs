@@ -389,6 +389,8 @@ enum FileProblem {
 
 /// One shard file against its record: its (device, inode) when it matches,
 /// `None` when it is neither recorded nor there (a file of a dropped frame).
+/// Its size is compared first, from its entry, so a file of another size is
+/// refused without being read; only one of the recorded size is hashed.
 fn check_file(
     tree: &mut Tree,
     rel: &str,
@@ -409,6 +411,14 @@ fn check_file(
     }
     if !entry.is_file() {
         return Err(FileProblem::NotAFile);
+    }
+    // A size other than the record's is refused before the file is read:
+    // hashing a huge (or sparse) file would take as long as reading it.
+    if entry.len != record.len {
+        return Err(FileProblem::Length {
+            len: entry.len,
+            recorded: record.len,
+        });
     }
     let mut file = tree.open_file(rel, false)?;
     let (len, hash) = content_record(&mut file)?;
@@ -441,15 +451,25 @@ pub enum LockProblem {
     Version,
 }
 
-/// The shard's locked preset, checked against its ledger's hash and
-/// against the text a batch of it would lock (so OUT's lock is the same bytes).
+/// The shard's locked preset, read within the preset size limit (it is read
+/// before the shard's files are checked against their records), checked
+/// against its ledger's hash and against the text a batch of it would lock
+/// (so OUT's lock is the same bytes).
 fn locked_preset(shard: &Path, hash: u64) -> Result<Preset, MergeError> {
     let path = shard.join("preset.lock.ron");
     let bad = |source: LockProblem| MergeError::Lock {
         path: path.clone(),
         source,
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.into()))?;
+    let bytes = crate::input::read_input_file(&path, crate::preset::MAX_PRESET_BYTES)
+        .map_err(|e| bad(e.into()))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        bad(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text ({e})"),
+        )
+        .into())
+    })?;
     if fnv1a64(text.as_bytes()) != hash {
         return Err(bad(LockProblem::Hash));
     }
@@ -556,6 +576,41 @@ fn add_counts(sum: &mut Value, add: &Value, at: &str) -> Result<(), StatsProblem
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shard_lock_larger_than_a_preset_may_be_is_refused_unread() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = std::fs::File::create(dir.path().join("preset.lock.ron")).expect("create");
+        file.set_len(crate::preset::MAX_PRESET_BYTES + 1)
+            .expect("set_len");
+        let err = locked_preset(dir.path(), 0)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains("preset.lock.ron"), "{err}");
+        let limit = format!("{}-byte limit", crate::preset::MAX_PRESET_BYTES);
+        assert!(err.contains(&limit), "{err}");
+    }
+
+    #[test]
+    fn a_shard_file_of_another_size_is_refused_unread() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let len = 64u64 << 30;
+        let file = std::fs::File::create(dir.path().join("manifest.jsonl")).expect("create");
+        // A sparse file: no disk used, but hashing it would read 64 GiB.
+        file.set_len(len).expect("set_len");
+        let mut tree = Tree::open(dir.path()).expect("tree");
+        let record = ContentRecord {
+            len: 10,
+            blake3: "0".repeat(64),
+        };
+        let start = std::time::Instant::now();
+        let got = check_file(&mut tree, "manifest.jsonl", Some(&record));
+        assert!(
+            matches!(got, Err(FileProblem::Length { len: l, recorded: 10 }) if l == len),
+            "{got:?}"
+        );
+        assert!(start.elapsed() < std::time::Duration::from_secs(2));
+    }
 
     #[test]
     fn counts_add_in_arrays_and_maps_and_other_numbers_are_refused() {
