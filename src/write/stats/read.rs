@@ -296,7 +296,10 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
         if line.trim_ascii().is_empty() {
             continue;
         }
-        let frame: ManifestFrame = serde_json::from_slice(&line).map_err(|e| bad(e.to_string()))?;
+        // Checked as UTF-8 at once (vectorised), then parsed as text: faster than
+        // serde_json checking each string as it goes.
+        let text = std::str::from_utf8(&line).map_err(|e| bad(format!("not UTF-8 text ({e})")))?;
+        let frame: ManifestFrame = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
         check_frame(&frame).map_err(bad)?;
         let split = SplitName::ALL
             .into_iter()
