@@ -463,6 +463,78 @@ fn user_files_survive_with_and_without_overwrite() {
     assert_eq!(common::files_under(&out), expected);
 }
 
+#[test]
+fn a_user_file_at_a_frame_name_is_refused_not_replaced() {
+    // A file of the user's where a frame's image or label (or a plan's
+    // label) will be written: refused by name when the frame is claimed,
+    // with --overwrite, by a rendered run, a plan and --resume; never
+    // replaced, never listed in the ledger.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let p = preset();
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    // Frame `i`'s image and label, as the reference run wrote them.
+    let of = |i: u64| {
+        let stem = format!("{i:08}.");
+        let files = common::files_under(&reference);
+        let find = |top: &str| {
+            (files.iter())
+                .find(|f| f.starts_with(top) && f.to_string_lossy().contains(&stem))
+                .expect("frame file")
+                .to_string_lossy()
+                .into_owned()
+        };
+        (find("images"), find("labels"))
+    };
+    let (image0, label0) = of(0);
+    let plant = |out: &Path, rel: &str| {
+        let mine = out.join(rel);
+        std::fs::create_dir_all(mine.parent().expect("parent")).expect("mkdir");
+        std::fs::write(&mine, "precious").expect("write");
+    };
+    let untouched = |out: &Path, rel: &str, what: &str| {
+        assert_eq!(
+            std::fs::read_to_string(out.join(rel)).expect("kept"),
+            "precious",
+            "{what}"
+        );
+        let ledger = std::fs::read_to_string(out.join(".swarmshot-ledger")).unwrap_or_default();
+        assert!(!ledger.contains(rel), "{what}: claimed as ours:\n{ledger}");
+    };
+    for (name, rel, extra) in [
+        ("image", &image0, &["--overwrite"][..]),
+        ("label", &label0, &["--overwrite"][..]),
+        ("plan", &label0, &["--overwrite", "--labels-only"][..]),
+    ] {
+        let out = tmp.path().join(name);
+        plant(&out, rel);
+        let err = run_err(&file, &out, extra);
+        assert!(
+            err.contains(rel.as_str()) && err.contains("not written by swarmshot"),
+            "{name}: {err}"
+        );
+        untouched(&out, rel, name);
+    }
+    // A user file at frame 2's image: the run stops there with frames 0 and 1
+    // complete, --resume stops there too, and once the file is moved away
+    // --resume finishes the dataset the reference run made.
+    let out = tmp.path().join("resumed");
+    let (image2, _) = of(2);
+    plant(&out, &image2);
+    for extra in [&["--overwrite"][..], &["--resume"][..]] {
+        let err = run_err(&file, &out, extra);
+        assert!(
+            err.contains(image2.as_str()) && err.contains("not written by swarmshot"),
+            "{err}"
+        );
+        untouched(&out, &image2, "resume");
+    }
+    std::fs::remove_file(out.join(&image2)).expect("moved away");
+    run_ok(&file, &out, &["--resume"]);
+    assert_same_dataset(&reference, &out, "resumed after the user's file moved");
+}
+
 /// Frames in a dataset folder that also holds user files: images named by index.
 fn assert_dataset_frames(dir: &Path) -> usize {
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");

@@ -47,6 +47,24 @@ impl Folder {
         }
     }
 
+    /// Refuse an entry at `rel` unless the earlier run's ledger lists it: a
+    /// frame's files are claimed before they are written, so what stands at
+    /// their names must be checked first (a user's file there is refused,
+    /// not replaced and then listed as ours).
+    pub(super) fn check_earlier(&mut self, rel: &str) -> Result<(), OutputError> {
+        if self.owned.contains(rel) {
+            return Ok(());
+        }
+        match self.tree.lstat(rel)? {
+            None => Ok(()),
+            Some(m) if m.is_symlink() => Err(link_refused(self.root.join(rel))),
+            Some(_) => Err(refused(
+                self.root.join(rel),
+                "exists and was not written by swarmshot (it is not in .swarmshot-ledger)",
+            )),
+        }
+    }
+
     /// Write a whole file atomically: claim it, write a temporary file in the
     /// same folder, flush it to disk, rename it over `rel`.
     pub fn write_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {

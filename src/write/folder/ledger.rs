@@ -103,6 +103,11 @@ impl Folder {
 
     /// Record the files of the frame in flight (`+`) before they are created.
     pub fn claim_frame(&mut self, rels: &[String]) -> Result<(), OutputError> {
+        // What stands at the names first ([`Folder::check_earlier`]): a claim
+        // makes a file ours, for a failed frame's clean-up and a later --overwrite.
+        for rel in rels {
+            self.check_earlier(rel)?;
+        }
         let mut text = String::with_capacity(rels.iter().map(|r| r.len() + 2).sum());
         for r in rels {
             text.push('+');
