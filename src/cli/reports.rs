@@ -7,6 +7,8 @@ use super::args::{GapArgs, MergeArgs, StatsArgs};
 /// `swarmshot stats DIR`: the paper's Table 2 of a dataset or plan, and its histograms.
 pub(crate) fn stats(args: StatsArgs) -> anyhow::Result<()> {
     let (dir, plots, json) = (&args.dir, args.plots, args.json);
+    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
+    swarmshot::write::stats::check_plots_dir(dir, &plots)?;
     let stats = swarmshot::write::stats::read_dataset(dir)?;
     if json {
         println!("{}", serde_json::to_string_pretty(&stats)?);
@@ -23,7 +25,6 @@ pub(crate) fn stats(args: StatsArgs) -> anyhow::Result<()> {
     );
     println!("boxes: {}", stats.boxes_from);
     print!("{}", stats.table());
-    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
     for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
         println!("wrote {}", path.display());
     }

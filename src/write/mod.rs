@@ -63,6 +63,20 @@ pub fn image_rel_path(scene: &FrameScene, format: ImageFormat) -> String {
     )
 }
 
+/// The top-level folders of a dataset that hold its frames' files and
+/// annotations: what Ultralytics, pycocotools, MOT tools and `swarmshot gap`
+/// walk, so nothing else may be written into them.
+pub const DATA_FOLDERS: [&str; 8] = [
+    "images",
+    "labels",
+    "annotations",
+    "masks",
+    "depth",
+    "flow",
+    "mot",
+    "seg",
+];
+
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     #[error("{}: {source}", path.display())]

@@ -218,6 +218,29 @@ fn visible_plans_say_their_boxes_are_estimates() {
         let bytes = std::fs::read(tmp.path().join("plan/stats-plots").join(png)).expect(png);
         assert!(bytes.starts_with(b"\x89PNG"), "{png}");
     }
+    // Histograms inside the folders its readers walk (labels/ here) are
+    // refused before anything is written; beside them they are fine.
+    let inside = tmp.path().join("plan/labels/train/plots");
+    let out = swarmshot()
+        .arg("stats")
+        .arg(tmp.path().join("plan"))
+        .arg("--plots")
+        .arg(&inside)
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("inside the dataset's labels/"),
+        "{err}"
+    );
+    assert!(!inside.exists());
+    let beside = tmp.path().join("plan/my-plots");
+    let out = (swarmshot().arg("stats").arg(tmp.path().join("plan")))
+        .arg("--plots")
+        .arg(&beside)
+        .output()
+        .expect("run");
+    assert!(out.status.success() && beside.join("distance.png").is_file());
     // A folder that is not a dataset gets a named error.
     let out = swarmshot()
         .arg("stats")

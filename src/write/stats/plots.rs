@@ -3,6 +3,35 @@
 
 use super::{DISTANCE_BIN_M, DatasetStats, SIZE_BIN_PX, StatsError};
 
+/// Refuse a histogram folder `plots` that is, or lies inside, one of the
+/// `dataset`'s [`crate::write::DATA_FOLDERS`] (compared canonically, `plots`
+/// as far as it exists): its PNGs would be read as frames.
+pub fn check_plots_dir(
+    dataset: &std::path::Path,
+    plots: &std::path::Path,
+) -> Result<(), StatsError> {
+    let (Ok(dataset), Ok(real)) = (
+        dataset.canonicalize(),
+        crate::input::canonical_as_far_as_it_exists(plots),
+    ) else {
+        return Ok(());
+    };
+    let first = real
+        .strip_prefix(&dataset)
+        .ok()
+        .and_then(|rel| rel.iter().next());
+    match crate::write::DATA_FOLDERS
+        .iter()
+        .find(|f| first.is_some_and(|c| c == **f))
+    {
+        Some(folder) => Err(StatsError::PlotsInside {
+            plots: plots.to_owned(),
+            folder,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Draw the three histograms (training boxes per image, box size √(w·h),
 /// distance from the camera) as PNGs into `dir`; returns their paths. Text
 /// needs the DejaVu Sans font (Debian: fonts-dejavu-core); without it the

@@ -29,6 +29,11 @@ pub enum StatsError {
         line: u64,
         reason: String,
     },
+    #[error("--plots {}: inside the dataset's {folder}/, where its readers would take the histograms for frames; give a folder outside it (the default is DIR/stats-plots)", plots.display())]
+    PlotsInside {
+        plots: std::path::PathBuf,
+        folder: &'static str,
+    },
     #[error("{}: the locked preset cannot be read: {source}", path.display())]
     BadLock {
         path: std::path::PathBuf,
