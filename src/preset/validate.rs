@@ -344,7 +344,7 @@ impl Preset {
             format!("{} must be at least 1", self.repeats)
         });
         let frames = self.frame_count();
-        v.check(frames <= MAX_FRAMES, "frames", || format!("camera sweeps × plane sweeps × repeats = {frames} frames, more than the limit of {MAX_FRAMES}"));
+        v.check(frames <= MAX_FRAMES, "frames", || format!("camera sweeps × plane sweeps × repeats (× sequence steps) = {frames} frames, more than the limit of {MAX_FRAMES}"));
         self.sky.validate_into(v, "sky", false);
     }
 

@@ -27,7 +27,11 @@ impl OutDir {
                 });
             }
             Ok(_) => {}
-            Err(_) => std::fs::create_dir_all(path).map_err(io(path))?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                std::fs::create_dir_all(path).map_err(io(path))?
+            }
+            // A link loop, a folder that cannot be searched: said as it is.
+            Err(e) => return Err(io(path)(e)),
         }
         Ok(Self {
             tree: Tree::open(path)?,

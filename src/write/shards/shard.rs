@@ -127,7 +127,12 @@ impl Shard {
                 let slurm_count = match (var("SLURM_ARRAY_TASK_COUNT")?, max) {
                     (Some(c), _) => c,
                     (None, Some(max)) if max >= min => (max - min) / step + 1,
-                    (None, _) => {
+                    (None, Some(max)) => {
+                        return Err(ShardError::Inconsistent(format!(
+                            "SLURM_ARRAY_TASK_MAX={max} is below SLURM_ARRAY_TASK_MIN={min}"
+                        )));
+                    }
+                    (None, None) => {
                         return Err(ShardError::MissingSlurm(
                             "SLURM_ARRAY_TASK_COUNT (or SLURM_ARRAY_TASK_MAX)",
                         ));
@@ -266,6 +271,21 @@ mod tests {
         assert_eq!(
             Shard::parse("auto", env(&[("SLURM_ARRAY_TASK_ID", "1")])),
             Err(ShardError::MissingSlurm("SLURM_ARRAY_TASK_MIN"))
+        );
+        // A MAX below MIN is named as such, not as a missing count.
+        let e = Shard::parse(
+            "auto",
+            env(&[
+                ("SLURM_ARRAY_TASK_ID", "7"),
+                ("SLURM_ARRAY_TASK_MIN", "9"),
+                ("SLURM_ARRAY_TASK_MAX", "5"),
+            ]),
+        )
+        .expect_err("max below min");
+        assert!(
+            e.to_string()
+                .contains("MAX=5 is below SLURM_ARRAY_TASK_MIN=9"),
+            "{e}"
         );
         assert!(matches!(
             Shard::parse("auto", env(&[("SLURM_ARRAY_TASK_ID", "x")])),
