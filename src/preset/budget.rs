@@ -207,7 +207,9 @@ pub fn available_memory_bytes() -> Option<u64> {
 }
 
 /// Free bytes for an unprivileged user on the filesystem holding `path`
-/// (or its nearest existing ancestor), from `statvfs` (rustix).
+/// (or its nearest existing ancestor), from `statvfs` (rustix); `None` for a
+/// filesystem of no size (`/proc`, `/sys`: nothing to estimate against, and
+/// creating the folder says what is wrong).
 pub fn free_bytes(path: &Path) -> Option<u64> {
     let mut at = Some(path);
     while let Some(p) = at {
@@ -217,9 +219,23 @@ pub fn free_bytes(path: &Path) -> Option<u64> {
             p
         };
         if let Ok(s) = rustix::fs::statvfs(probe) {
-            return Some(s.f_bavail.saturating_mul(s.f_frsize));
+            return (s.f_blocks > 0).then(|| s.f_bavail.saturating_mul(s.f_frsize));
         }
         at = p.parent();
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_filesystem_of_no_size_has_no_free_bytes_to_estimate_against() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        assert!(free_bytes(&dir.path().join("not/yet")).is_some_and(|b| b > 0));
+        if Path::new("/proc/self").exists() {
+            assert_eq!(free_bytes(Path::new("/proc/self/x")), None);
+        }
+    }
 }
