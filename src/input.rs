@@ -127,8 +127,9 @@ pub enum ImageError {
 /// refused), a JPEG cut short is refused as truncated ([`jpeg_truncation`]),
 /// the width and height are read from the header and refused above
 /// `max_pixels` (or `max_side` on either side) before any pixel buffer is
-/// allocated, and the decoder runs under the same limits. The error is the
-/// reason alone; the caller names the file.
+/// allocated, and the decoder runs under the same limits; the image comes
+/// back turned upright by its EXIF orientation. The error is the reason
+/// alone; the caller names the file.
 pub fn decode_image(
     bytes: &[u8],
     max_pixels: u64,
@@ -176,8 +177,20 @@ pub fn decode_image(
     limits.max_image_height = Some(max_side);
     // 16-bit RGBA is 8 bytes a pixel, the most a JPEG or PNG decodes to.
     limits.max_alloc = Some(max_pixels.saturating_mul(8));
+    let mut limits_left = limits.clone();
     reader.limits(limits);
-    reader.decode().map_err(ImageError::Decode)
+    // As `ImageReader::decode`, and turned upright by the file's EXIF
+    // orientation: a camera's or phone's JPEG stored sideways is labelled
+    // (CVAT, Ultralytics) as it is shown, upright.
+    use image::ImageDecoder;
+    let mut decoder = reader.into_decoder().map_err(ImageError::Decode)?;
+    limits_left
+        .reserve(decoder.total_bytes())
+        .map_err(ImageError::Decode)?;
+    let orientation = decoder.orientation().map_err(ImageError::Decode)?;
+    let mut image = image::DynamicImage::from_decoder(decoder).map_err(ImageError::Decode)?;
+    image.apply_orientation(orientation);
+    Ok(image)
 }
 
 /// Why a JPEG's bytes are cut short, or `None` when its markers lead to an
@@ -298,5 +311,48 @@ pub fn canonical_as_far_as_it_exists(path: &Path) -> std::io::Result<std::path::
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A PNG of `img` whose EXIF orientation is `tag` (6: to be turned 90°
+    /// clockwise to be upright).
+    fn png_with_orientation(img: &image::RgbImage, tag: u16) -> Vec<u8> {
+        use image::ImageEncoder;
+        let mut exif = b"MM\0\x2a\0\0\0\x08\0\x01".to_vec();
+        exif.extend([0x01, 0x12, 0, 3, 0, 0, 0, 1]);
+        exif.extend(tag.to_be_bytes());
+        exif.extend([0, 0, 0, 0, 0, 0]);
+        let mut out = Vec::new();
+        let mut encoder = image::codecs::png::PngEncoder::new(&mut out);
+        encoder.set_exif_metadata(exif).expect("exif");
+        (encoder.write_image(
+            img,
+            img.width(),
+            img.height(),
+            image::ExtendedColorType::Rgb8,
+        ))
+        .expect("png");
+        out
+    }
+
+    #[test]
+    fn an_image_stored_sideways_is_decoded_upright() {
+        // 4 × 2 stored, orientation 6: shown (and labelled) 2 × 4, the stored
+        // top-left pixel at the top right.
+        let stored =
+            image::RgbImage::from_fn(4, 2, |x, y| image::Rgb([x as u8 * 60, y as u8 * 200, 7]));
+        let upright = decode_image(&png_with_orientation(&stored, 6), 1000, 1000)
+            .expect("decodes")
+            .to_rgb8();
+        assert_eq!(upright.dimensions(), (2, 4));
+        assert_eq!(upright.get_pixel(1, 0), stored.get_pixel(0, 0));
+        assert_eq!(upright.get_pixel(0, 3), stored.get_pixel(3, 1));
+        // Orientation 1 (as stored) leaves it as it is.
+        let same = decode_image(&png_with_orientation(&stored, 1), 1000, 1000).expect("decodes");
+        assert_eq!(same.to_rgb8(), stored);
     }
 }
