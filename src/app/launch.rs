@@ -42,15 +42,28 @@ pub fn read_preset(path: &Path) -> Result<Preset, OpenError> {
 /// [`read_preset`], and the file's text (Save edits it, keeping its comments).
 pub fn read_preset_text(path: &Path) -> Result<(Preset, String), OpenError> {
     let owned = || path.to_path_buf();
-    let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => OpenError::NotFound(owned()),
-        std::io::ErrorKind::PermissionDenied => OpenError::PermissionDenied(owned()),
-        std::io::ErrorKind::IsADirectory => OpenError::IsAFolder(owned()),
-        _ => OpenError::Read {
-            path: owned(),
-            source: e,
-        },
-    })?;
+    if path.is_dir() {
+        return Err(OpenError::IsAFolder(owned()));
+    }
+    // A regular file within the preset size limit, as every command reads one
+    // (a FIFO is refused unopened, /dev/zero unread).
+    let text = crate::input::read_input_file(path, crate::preset::MAX_PRESET_BYTES)
+        .and_then(|bytes| {
+            String::from_utf8(bytes).map_err(|e| {
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!("not UTF-8 text ({e})"),
+                )
+            })
+        })
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => OpenError::NotFound(owned()),
+            std::io::ErrorKind::PermissionDenied => OpenError::PermissionDenied(owned()),
+            _ => OpenError::Read {
+                path: owned(),
+                source: e,
+            },
+        })?;
     let preset = Preset::from_ron(&text).map_err(|source| OpenError::Parse {
         path: owned(),
         source,
@@ -67,7 +80,12 @@ pub fn read_preset_text(path: &Path) -> Result<(Preset, String), OpenError> {
 /// What an example preset is, from the comment it starts with (its first three lines
 /// joined); None when it starts with none.
 pub fn example_description(path: &Path) -> Option<String> {
-    let text = std::fs::read_to_string(path).ok()?;
+    use std::io::Read;
+    // Its start only, of a regular file.
+    let (file, _) = crate::input::open_input_file(path, crate::preset::MAX_PRESET_BYTES).ok()?;
+    let mut head = Vec::new();
+    file.take(4096).read_to_end(&mut head).ok()?;
+    let text = String::from_utf8_lossy(&head);
     let lines: Vec<&str> = text
         .lines()
         .map_while(|l| l.trim_start().strip_prefix("//"))
@@ -226,6 +244,22 @@ mod tests {
     use std::ffi::OsString;
 
     use super::device_select_would_print;
+
+    #[test]
+    fn a_preset_that_is_a_fifo_or_a_device_is_refused_unread() {
+        // The app's Open: a FIFO would block the read, /dev/zero never end.
+        let dir = tempfile::tempdir().expect("temp dir");
+        let fifo = dir.path().join("p.ron");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.expect("mkfifo runs").success());
+        let start = std::time::Instant::now();
+        for path in [fifo.as_path(), std::path::Path::new("/dev/zero")] {
+            let e = super::read_preset_text(path).expect_err("refused");
+            assert!(e.to_string().contains(&path.display().to_string()), "{e}");
+            assert!(super::example_description(path).is_none());
+        }
+        assert!(start.elapsed().as_secs() < 5, "{:?}", start.elapsed());
+    }
 
     fn env(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<OsString> {
         let pairs: Vec<(String, OsString)> = pairs
