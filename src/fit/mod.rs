@@ -230,6 +230,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     let (real_dir, frames, mut out) = match &source {
         input::Source::Folder(dir) => {
             let frames = input::read_folder(dir, options.max_frames, options.unlabelled_ok)?;
+            plates::check_names_apart(&frames, options.views)?;
             let out = out::FitOut::open(&options.out, options.overwrite)?;
             (dir.clone(), frames, out)
         }

@@ -591,6 +591,49 @@ fn plate_name(rel: &str, ext: &str) -> String {
     format!("{}.{ext}", stem.replace('/', "__"))
 }
 
+/// A frame's plate format: a lossless frame stays lossless (its noise and fine
+/// texture are the footage's), a JPEG's plates are JPEGs.
+fn plate_format(f: &RealFrame) -> ImageFormat {
+    match f.jpeg {
+        Some(_) => ImageFormat::Jpeg {
+            quality: PLATE_QUALITY,
+        },
+        None => ImageFormat::Png,
+    }
+}
+
+/// The file name of view `k` of frame `f`'s plate: [`plate_name`], and
+/// `__vK` before the extension for k ≥ 1.
+fn view_name(f: &RealFrame, k: usize) -> String {
+    let ext = plate_format(f).extension();
+    let whole = plate_name(&f.rel, ext);
+    match k {
+        0 => whole,
+        k => format!("{}__v{k}.{ext}", whole.trim_end_matches(&format!(".{ext}"))),
+    }
+}
+
+/// Two frames whose plates would take the same name (`b.jpg` and `b.jpeg`,
+/// `cam/a.png` and `cam__a.png`, a view of `e.png` and `e__v1.png`), named
+/// before anything is written (and again before the plates, for a video's
+/// frames): one would silently replace the other.
+pub fn check_names_apart(frames: &[RealFrame], views: usize) -> Result<(), FitError> {
+    let mut taken: std::collections::HashMap<String, &str> = std::collections::HashMap::new();
+    for f in frames {
+        for k in 0..views.max(1) {
+            if let Some(other) = taken.insert(view_name(f, k), &f.rel) {
+                return Err(FitError::Other(format!(
+                    "frames {} and {} would give plates of the same name ({}): rename one of them",
+                    crate::text::printable(other),
+                    crate::text::printable(&f.rel),
+                    crate::text::printable(&view_name(f, k)),
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Writes every frame's plates (`views` of each, at least 1: module docs) and their
 /// sidecars into the folder `dir` (opened once: each thread writes through its own
 /// handle on it, never through a link).
@@ -603,6 +646,7 @@ pub fn write_plates(
 ) -> Result<PlateSummary, FitError> {
     use rayon::prelude::*;
     let _ = footage;
+    check_names_apart(frames, views)?;
     let records: Vec<Result<Vec<PlateRecord>, FitError>> = frames
         .par_iter()
         .map_init(
@@ -649,20 +693,9 @@ fn write_view(
             view_horizon(horizon, h, y0, ch),
         ),
     };
-    // A lossless frame stays lossless: its noise and fine texture are the footage's.
-    let format = match f.jpeg {
-        Some(_) => ImageFormat::Jpeg {
-            quality: PLATE_QUALITY,
-        },
-        None => ImageFormat::Png,
-    };
+    let format = plate_format(f);
     let ext = format.extension();
-    let whole = plate_name(&f.rel, ext);
-    let stem = whole.trim_end_matches(&format!(".{ext}"));
-    let name = match k {
-        0 => whole.clone(),
-        k => format!("{stem}__v{k}.{ext}"),
-    };
+    let name = view_name(f, k);
     let rgba: Vec<u8> = view
         .pixels()
         .flat_map(|p| [p[0], p[1], p[2], 255])
@@ -686,7 +719,8 @@ fn write_view(
     };
     let sidecar = format!(
         "// swarmshot fit: {} with its {} labelled drone(s) removed{}.\n// hfov_deg: {}; horizon: {}{view_text}\n(hfov_deg: {hfov_deg}, horizon: {horizon_text})\n",
-        f.rel,
+        // One line of comment whatever the frame's name holds (a new line would end it).
+        crate::text::printable(&f.rel),
         f.boxes.len(),
         if f.labelled {
             ""

@@ -435,6 +435,22 @@ fn bad_input_is_a_named_error_and_nothing_is_written() {
         Some(&no_path),
         "no video decoder: install ffmpeg",
     );
+    // Frames whose plates would share a name: b.jpg and b.jpeg; with two views,
+    // view 1 of e.png and e__v1.png.
+    let same = dir.join("same-name");
+    std::fs::create_dir_all(&same).expect("dir");
+    for (from, to) in [
+        ("V_DRONE_001_f150.png", "e.png"),
+        ("V_DRONE_010_f150.png", "e__v1.png"),
+    ] {
+        std::fs::copy(real.join(from), same.join(to)).expect("copy");
+    }
+    refuses(
+        &same,
+        &["--unlabelled-ok", "--views", "2"],
+        None,
+        "would give plates of the same name (e__v1.png)",
+    );
     // Views out of range.
     refuses(&zero, &["--views", "0"], None, "--views 0: must be 1");
     refuses(&zero, &["--views", "10"], None, "--views 10: must be 1");
