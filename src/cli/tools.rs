@@ -9,6 +9,7 @@ use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::Preset;
 use swarmshot::render::GpuContext;
 use swarmshot::tools::{bench, gallery};
+use swarmshot::write::outdir::OutDir;
 
 use super::args::{AccuracyArgs, FramesArgs, GalleryArgs};
 
@@ -93,65 +94,62 @@ fn gallery_bench() -> anyhow::Result<()> {
     Ok(())
 }
 
-fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
-    let ctx = GpuContext::headless()?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
-    let path = out.join("models.png");
-    sheet
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
-    let sheet = swarmshot::tools::confuser_gallery::confuser_contact_sheet(&ctx, 160, 6)?;
-    let path = out.join("confusers.png");
-    sheet
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
-    for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
-        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
-        let path = out.join(format!("env-{}.jpg", name.as_str()));
-        image::DynamicImage::ImageRgba8(img)
-            .to_rgb8()
-            .save(&path)
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
-    }
-    for (name, rgba) in gallery::formation_frames(&ctx, width, height)? {
-        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
-        let path = out.join(format!("formation-{name}.jpg"));
-        image::DynamicImage::ImageRgba8(img)
-            .to_rgb8()
-            .save(&path)
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
-    }
-    let sequence = Preset::from_ron(include_str!("../../presets/formation_sequence.ron"))
-        .map_err(|e| anyhow::anyhow!("presets/formation_sequence.ron: {e}"))?;
-    let strip = gallery::sequence_strip(&ctx, &sequence, 5, width / 2, height / 2)?;
-    let path = out.join("sequence-strip.jpg");
-    image::DynamicImage::ImageRgba8(strip)
-        .to_rgb8()
-        .save(&path)
-        .with_context(|| format!("writing {}", path.display()))?;
+/// `img` encoded as `format` and written into `out` as `name` (atomically,
+/// never through a link: [`OutDir::write`]).
+fn save_into(
+    out: &mut OutDir,
+    name: &str,
+    img: &image::DynamicImage,
+    format: image::ImageFormat,
+) -> anyhow::Result<()> {
+    let mut bytes = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), format)
+        .with_context(|| format!("encoding {name}"))?;
+    let path = out.write(name, &bytes)?;
     println!("wrote {}", path.display());
     Ok(())
 }
 
+fn gallery_pictures(out: &Path, width: u32, height: u32) -> anyhow::Result<()> {
+    use image::{DynamicImage, ImageFormat};
+    let ctx = GpuContext::headless()?;
+    let mut out = OutDir::create(out)?;
+    let sheet = gallery::model_contact_sheet(&ctx, 256, 4)?;
+    save_into(&mut out, "models.png", &sheet.into(), ImageFormat::Png)?;
+    let sheet = swarmshot::tools::confuser_gallery::confuser_contact_sheet(&ctx, 160, 6)?;
+    save_into(&mut out, "confusers.png", &sheet.into(), ImageFormat::Png)?;
+    let frame = |rgba: Vec<u8>| -> anyhow::Result<DynamicImage> {
+        let img = image::RgbaImage::from_raw(width, height, rgba).context("frame size")?;
+        Ok(DynamicImage::ImageRgba8(img).to_rgb8().into())
+    };
+    for (name, rgba) in gallery::environment_frames(&ctx, width, height)? {
+        let name = format!("env-{}.jpg", name.as_str());
+        save_into(&mut out, &name, &frame(rgba)?, ImageFormat::Jpeg)?;
+    }
+    for (name, rgba) in gallery::formation_frames(&ctx, width, height)? {
+        let name = format!("formation-{name}.jpg");
+        save_into(&mut out, &name, &frame(rgba)?, ImageFormat::Jpeg)?;
+    }
+    let sequence = Preset::from_ron(include_str!("../../presets/formation_sequence.ron"))
+        .map_err(|e| anyhow::anyhow!("presets/formation_sequence.ron: {e}"))?;
+    let strip = gallery::sequence_strip(&ctx, &sequence, 5, width / 2, height / 2)?;
+    let strip = DynamicImage::ImageRgba8(strip).to_rgb8().into();
+    save_into(&mut out, "sequence-strip.jpg", &strip, ImageFormat::Jpeg)
+}
+
 /// `swarmshot assets`: the built-in models and confusers regenerated as GLB files.
 pub(crate) fn assets(dir: &Path) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    // Each file written atomically into the folder opened once, never through a link.
+    let mut out = OutDir::create(dir)?;
     for name in swarmshot::model::builtin::NAMES {
         let bytes = swarmshot::tools::assets::generate_glb(name).context("built-in generator")?;
-        let path = dir.join(format!("{name}.glb"));
-        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+        let path = out.write(&format!("{name}.glb"), &bytes)?;
         println!("wrote {} ({} bytes)", path.display(), bytes.len());
     }
     for name in swarmshot::model::confusers::NAMES {
         let bytes =
             swarmshot::tools::confusers::generate_glb(name).context("confuser generator")?;
-        let path = dir.join(format!("{name}.glb"));
-        std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+        let path = out.write(&format!("{name}.glb"), &bytes)?;
         println!("wrote {} ({} bytes)", path.display(), bytes.len());
     }
     Ok(())

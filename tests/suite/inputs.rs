@@ -640,6 +640,43 @@ fn a_sky_image_inside_the_output_folder_is_refused_and_frame_never_writes_over_i
 }
 
 #[test]
+fn assets_are_written_into_their_folder_never_through_a_link() {
+    // `swarmshot assets --dir D` writes the built-in models' GLBs into D, each
+    // file atomically; a link at one of their names is refused, not followed.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (models, outside) = (dir.path().join("models"), dir.path().join("outside.txt"));
+    std::fs::create_dir_all(&models).expect("mkdir");
+    std::fs::write(&outside, "mine").expect("write");
+    std::os::unix::fs::symlink(&outside, models.join("hexacopter.glb")).expect("link");
+    let o = swarmshot()
+        .arg("assets")
+        .arg("--dir")
+        .arg(&models)
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("hexacopter.glb") && err.contains("link"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&outside).expect("outside"), "mine");
+    std::fs::remove_file(models.join("hexacopter.glb")).expect("unlink");
+    let o = swarmshot()
+        .arg("assets")
+        .arg("--dir")
+        .arg(&models)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The same bytes as the models shipped in assets/models.
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/models/hexacopter.glb");
+    assert_eq!(
+        std::fs::read(models.join("hexacopter.glb")).expect("glb"),
+        std::fs::read(shipped).expect("shipped")
+    );
+}
+
+#[test]
 fn user_errors_print_one_line_and_never_a_backtrace() {
     let dir = tempfile::tempdir().expect("tempdir");
     let bad = dir.path().join("bad.ron");
