@@ -466,7 +466,7 @@ fn user_files_survive_with_and_without_overwrite() {
 #[test]
 fn a_user_file_at_a_frame_name_is_refused_not_replaced() {
     // A file of the user's where a frame's image or label (or a plan's
-    // label) will be written: refused by name when the frame is claimed,
+    // label) will be written: refused by name before anything is written,
     // with --overwrite, by a rendered run, a plan and --resume; never
     // replaced, never listed in the ledger.
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -516,20 +516,23 @@ fn a_user_file_at_a_frame_name_is_refused_not_replaced() {
         );
         untouched(&out, rel, name);
     }
-    // A user file at frame 2's image: the run stops there with frames 0 and 1
-    // complete, --resume stops there too, and once the file is moved away
-    // --resume finishes the dataset the reference run made.
+    // A run killed at frame 1's checkpoint, then a user file at frame 2's
+    // image: --resume refuses it before writing anything, and once the file
+    // is moved away finishes the dataset the reference run made.
     let out = tmp.path().join("resumed");
+    let (image1, _) = of(1);
+    let child = (batch_cmd(&file, &out, &[]).env("SWARMSHOT_STALL_AT", "checkpoint:1"))
+        .spawn()
+        .expect("spawn");
+    kill_when(child, "frame 1's checkpoint", || out.join(&image1).exists());
     let (image2, _) = of(2);
     plant(&out, &image2);
-    for extra in [&["--overwrite"][..], &["--resume"][..]] {
-        let err = run_err(&file, &out, extra);
-        assert!(
-            err.contains(image2.as_str()) && err.contains("not written by swarmshot"),
-            "{err}"
-        );
-        untouched(&out, &image2, "resume");
-    }
+    let err = run_err(&file, &out, &["--resume"]);
+    assert!(
+        err.contains(image2.as_str()) && err.contains("not written by swarmshot"),
+        "{err}"
+    );
+    untouched(&out, &image2, "resume");
     std::fs::remove_file(out.join(&image2)).expect("moved away");
     run_ok(&file, &out, &["--resume"]);
     assert_same_dataset(&reference, &out, "resumed after the user's file moved");

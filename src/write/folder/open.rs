@@ -48,6 +48,34 @@ fn preflight(
     Ok(())
 }
 
+/// Refuse a file in one of the dataset's folders (`needed` entries ending in
+/// `/`) named as a frame's files are (eight digits or more, then an
+/// extension) that `listed` (the earlier run's ledger) does not hold: a user's file there would stop the
+/// run at that frame ([`Folder::check_earlier`]); found now, before anything
+/// is written. One read of each folder.
+fn frame_names_free(
+    tree: &mut Tree,
+    needed: &[String],
+    listed: &HashSet<String>,
+) -> Result<(), OutputError> {
+    let frame_name = |name: &str| {
+        name.split_once('.')
+            .is_some_and(|(stem, _)| stem.len() >= 8 && stem.bytes().all(|b| b.is_ascii_digit()))
+    };
+    for dir in needed.iter().filter(|n| n.ends_with('/')) {
+        for name in tree.names(dir.trim_end_matches('/'))? {
+            let rel = format!("{dir}{name}");
+            if frame_name(&name) && !listed.contains(&rel) {
+                return Err(refused(
+                    tree.root().join(&rel),
+                    "exists and was not written by swarmshot (it is not in .swarmshot-ledger), at the name of a frame's file",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl Folder {
     /// Open `root` for a run: refuse what is not ours, delete the earlier
     /// run's files when `mode.overwrite`, and say where to start.
@@ -113,9 +141,13 @@ impl Folder {
                 every: mode.every.unwrap_or(1).max(1),
             };
             preflight(&mut tree, needed, &HashSet::new())?;
+            frame_names_free(&mut tree, needed, &HashSet::new())?;
             return Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run));
         };
         preflight(&mut tree, needed, &scan.owned)?;
+        // Every file the ledger lists: the checkpointed frames' too.
+        let listed: HashSet<String> = Self::listed_files(root)?.into_iter().collect();
+        frame_names_free(&mut tree, needed, &listed)?;
         let frames = frames.unwrap_or(scan.run.frames);
         let run = RunId {
             frames,

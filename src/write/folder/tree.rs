@@ -439,6 +439,25 @@ impl Tree {
 
     /// Every entry directly inside folder `rel` (none when `rel` is missing), each seen
     /// without following it, sorted by name.
+    /// The names in the folder `rel` below this one (none when it does not
+    /// exist), unsorted and not looked at: one read of the folder.
+    pub fn names(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+        let path = self.root.join(rel);
+        let Some(fd) = self.open_dir(rel)? else {
+            return Ok(Vec::new());
+        };
+        let dir = rustix::fs::Dir::read_from(&fd).map_err(errno_io(&path))?;
+        let mut out = Vec::new();
+        for entry in dir {
+            let entry = entry.map_err(errno_io(&path))?;
+            let name = entry.file_name().to_string_lossy();
+            if name != "." && name != ".." {
+                out.push(name.into_owned());
+            }
+        }
+        Ok(out)
+    }
+
     pub fn entries(&mut self, rel: &str) -> Result<Vec<(String, Entry)>, OutputError> {
         let path = self.root.join(rel);
         let Some(fd) = self.open_dir(rel)? else {
