@@ -50,9 +50,10 @@ fn preflight(
 
 /// Refuse a file in one of the dataset's folders (`needed` entries ending in
 /// `/`) named as a frame's files are (eight digits or more, then an
-/// extension) that `listed` (the earlier run's ledger) does not hold: a user's file there would stop the
-/// run at that frame ([`Folder::check_earlier`]); found now, before anything
-/// is written. One read of each folder.
+/// extension) that is not among the earlier run's frame files (`listed`, the
+/// ledger's claims): a user's file there would stop the run at that frame
+/// ([`Folder::check_earlier`]); found now, before anything is written. One
+/// read of each folder.
 fn frame_names_free(
     tree: &mut Tree,
     needed: &[String],
@@ -145,9 +146,7 @@ impl Folder {
             return Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run));
         };
         preflight(&mut tree, needed, &scan.owned)?;
-        // Every file the ledger lists: the checkpointed frames' too.
-        let listed: HashSet<String> = Self::listed_files(root)?.into_iter().collect();
-        frame_names_free(&mut tree, needed, &listed)?;
+        frame_names_free(&mut tree, needed, &scan.frame_files)?;
         let frames = frames.unwrap_or(scan.run.frames);
         let run = RunId {
             frames,

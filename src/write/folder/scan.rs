@@ -13,6 +13,8 @@ pub(super) struct LedgerScan {
     pub(super) checkpoint: Option<Checkpoint>,
     pub(super) done: bool,
     pub(super) owned: HashSet<String>,
+    /// Every frame file the ledger claims (`+` lines), checkpointed or not.
+    pub(super) frame_files: HashSet<String>,
     /// Claim lines after `good_end` (kept when the ledger is cut back).
     pub(super) later_claims: Vec<String>,
 }
@@ -41,6 +43,7 @@ impl Folder {
             checkpoint: None,
             done: false,
             owned: HashSet::new(),
+            frame_files: HashSet::new(),
             later_claims: Vec::new(),
         };
         // A finished run deleted its COCO parts: its checkpoints are not checked against files.
@@ -56,6 +59,7 @@ impl Folder {
                 scan.later_claims.push(line.to_owned());
             } else if let Some(rel) = line.strip_prefix('+') {
                 frame_files.push(rel.to_owned());
+                scan.frame_files.insert(rel.to_owned());
                 scan.later_claims.push(line.to_owned());
             } else if let Some(json) = line.strip_prefix('=') {
                 if broken {

@@ -413,68 +413,62 @@ impl Tree {
         .map_err(errno_io(&path))
     }
 
-    /// The names of the real folders (not links) directly inside folder
-    /// `rel`, sorted (none when `rel` is missing).
-    pub fn folders_in(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+    /// Folder `rel` below this one opened (`None` when it is missing), and
+    /// the names of its entries but `.` and `..`, as read: one read of it.
+    fn listing(
+        &mut self,
+        rel: &str,
+    ) -> Result<Option<(OwnedFd, Vec<std::ffi::CString>)>, OutputError> {
         let path = self.root.join(rel);
         let Some(fd) = self.open_dir(rel)? else {
-            return Ok(Vec::new());
+            return Ok(None);
         };
         let dir = rustix::fs::Dir::read_from(&fd).map_err(errno_io(&path))?;
         let mut names = Vec::new();
         for entry in dir {
             let entry = entry.map_err(errno_io(&path))?;
-            let name = entry.file_name().to_string_lossy().into_owned();
-            if name == "." || name == ".." {
-                continue;
-            }
-            let st = rustix::fs::statat(&fd, entry.file_name(), AtFlags::SYMLINK_NOFOLLOW);
-            if st.is_ok_and(|st| Entry::from_stat(&st).is_dir()) {
-                names.push(name);
+            let name = entry.file_name();
+            if name != c"." && name != c".." {
+                names.push(name.to_owned());
             }
         }
-        names.sort();
-        Ok(names)
+        Ok(Some((fd, names)))
+    }
+
+    /// The names of the real folders (not links) directly inside folder
+    /// `rel`, sorted (none when `rel` is missing).
+    pub fn folders_in(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+        let entries = self.entries(rel)?.into_iter();
+        Ok(entries
+            .filter(|(_, e)| e.is_dir())
+            .map(|(n, _)| n)
+            .collect())
+    }
+
+    /// The names in the folder `rel` below this one (none when it does not
+    /// exist), unsorted and not looked at.
+    pub fn names(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
+        let names = self.listing(rel)?.map_or_else(Vec::new, |(_, names)| names);
+        Ok(names
+            .iter()
+            .map(|n| n.to_string_lossy().into_owned())
+            .collect())
     }
 
     /// Every entry directly inside folder `rel` (none when `rel` is missing), each seen
     /// without following it, sorted by name.
-    /// The names in the folder `rel` below this one (none when it does not
-    /// exist), unsorted and not looked at: one read of the folder.
-    pub fn names(&mut self, rel: &str) -> Result<Vec<String>, OutputError> {
-        let path = self.root.join(rel);
-        let Some(fd) = self.open_dir(rel)? else {
-            return Ok(Vec::new());
-        };
-        let dir = rustix::fs::Dir::read_from(&fd).map_err(errno_io(&path))?;
-        let mut out = Vec::new();
-        for entry in dir {
-            let entry = entry.map_err(errno_io(&path))?;
-            let name = entry.file_name().to_string_lossy();
-            if name != "." && name != ".." {
-                out.push(name.into_owned());
-            }
-        }
-        Ok(out)
-    }
-
     pub fn entries(&mut self, rel: &str) -> Result<Vec<(String, Entry)>, OutputError> {
         let path = self.root.join(rel);
-        let Some(fd) = self.open_dir(rel)? else {
+        let Some((fd, names)) = self.listing(rel)? else {
             return Ok(Vec::new());
         };
-        let dir = rustix::fs::Dir::read_from(&fd).map_err(errno_io(&path))?;
         let mut out = Vec::new();
-        for entry in dir {
-            let entry = entry.map_err(errno_io(&path))?;
-            let name = entry.file_name().to_string_lossy().into_owned();
-            if name == "." || name == ".." {
-                continue;
-            }
-            match rustix::fs::statat(&fd, entry.file_name(), AtFlags::SYMLINK_NOFOLLOW) {
-                Ok(st) => out.push((name, Entry::from_stat(&st))),
+        for name in names {
+            let text = name.to_string_lossy().into_owned();
+            match rustix::fs::statat(&fd, name.as_c_str(), AtFlags::SYMLINK_NOFOLLOW) {
+                Ok(st) => out.push((text, Entry::from_stat(&st))),
                 Err(Errno::NOENT) => {}
-                Err(e) => return Err(errno_io(&path.join(&name))(e)),
+                Err(e) => return Err(errno_io(&path.join(&text))(e)),
             }
         }
         out.sort_by(|a, b| a.0.cmp(&b.0));
