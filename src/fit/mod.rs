@@ -237,6 +237,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         input::Source::Video { path, ffmpeg } => {
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
             let dir = input::decode_video(path, ffmpeg, &mut out, options)?;
+            // ffmpeg's `frame_NNNNN.png` names give plates of names apart.
             let frames = input::read_folder(&dir, 0, true)?;
             (dir, frames, out)
         }

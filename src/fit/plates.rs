@@ -615,8 +615,7 @@ fn view_name(f: &RealFrame, k: usize) -> String {
 
 /// Two frames whose plates would take the same name (`b.jpg` and `b.jpeg`,
 /// `cam/a.png` and `cam__a.png`, a view of `e.png` and `e__v1.png`), named
-/// before anything is written (and again before the plates, for a video's
-/// frames): one would silently replace the other.
+/// before anything is written: one would silently replace the other.
 pub fn check_names_apart(frames: &[RealFrame], views: usize) -> Result<(), FitError> {
     let mut taken: std::collections::HashMap<String, &str> = std::collections::HashMap::new();
     for f in frames {
@@ -646,7 +645,6 @@ pub fn write_plates(
 ) -> Result<PlateSummary, FitError> {
     use rayon::prelude::*;
     let _ = footage;
-    check_names_apart(frames, views)?;
     let records: Vec<Result<Vec<PlateRecord>, FitError>> = frames
         .par_iter()
         .map_init(
