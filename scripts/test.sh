@@ -3,7 +3,7 @@
 # the Slurm test on a one-node Slurm brought up here, and the headless build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh slurm-wlm munge
+scripts/setup.sh slurm-wlm munge ffmpeg
 . scripts/env.sh
 cargo fmt --all -- --check
 cargo clippy --locked --all-targets -- -D warnings
@@ -21,6 +21,8 @@ slurm_env=$(scripts/slurm_local.sh)   # (an assignment, so its failure stops the
 eval "$slurm_env"
 trap 'scripts/slurm_local.sh stop' EXIT
 export SWARMSHOT_REQUIRE_SLURM=1
+# fit from a video needs ffmpeg and ffprobe (tests/suite/fit_video.rs); installed above.
+export SWARMSHOT_REQUIRE_FFMPEG=1
 # The library, binaries and tests (the examples are compiled by clippy above; linking
 # twelve benchmark binaries here would only cost CI time; the crate has no doctests).
 cargo test --locked --no-fail-fast --lib --bins --tests

@@ -1,5 +1,5 @@
 //! The user's footage: a folder of frames with optional YOLO labels, or a video decoded
-//! by the `ffmpeg` program on PATH. Every problem is a named [`FitError`], found before
+//! by the `ffmpeg` program on PATH ([`super::video`]). Every problem is a named [`FitError`], found before
 //! anything is written. The folder rules are the domain-gap report's (`swarmshot gap`):
 //! images searched 8 levels deep in name order, labels in a sibling `labels/` (the last
 //! `images` component replaced) or beside the image as `NAME.txt`.
@@ -41,7 +41,10 @@ pub struct RealFrame {
 #[derive(Debug)]
 pub enum Source {
     Folder(PathBuf),
-    Video { path: PathBuf, ffmpeg: PathBuf },
+    Video {
+        path: PathBuf,
+        decoder: super::video::Decoder,
+    },
 }
 
 /// The absolute form of `p` without requiring it to exist, links resolved as far as
@@ -49,26 +52,6 @@ pub enum Source {
 /// the working folder cannot be read).
 pub fn absolute(p: &Path) -> PathBuf {
     crate::input::canonical_as_far_as_it_exists(p).unwrap_or_else(|_| p.to_path_buf())
-}
-
-/// `ffmpeg` on PATH, if any (an executable regular file).
-pub fn find_ffmpeg() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .map(|d| d.join("ffmpeg"))
-        .find(|p| is_executable(p))
-}
-
-fn is_executable(p: &Path) -> bool {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
-    }
-    #[cfg(not(unix))]
-    {
-        p.is_file()
-    }
 }
 
 /// What `--real` is, and `--out` not inside it; nothing is read or written yet.
@@ -97,7 +80,8 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
     if meta.len() == 0 {
         return Err(FitError::EmptyFile { path: real.clone() });
     }
-    let ffmpeg = find_ffmpeg().ok_or_else(|| FitError::NoVideoDecoder { path: real.clone() })?;
+    let decoder = super::video::Decoder::find()
+        .ok_or_else(|| FitError::NoVideoDecoder { path: real.clone() })?;
     if !options.unlabelled_ok {
         return Err(FitError::Unlabelled {
             count: 1,
@@ -107,44 +91,8 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
     }
     Ok(Source::Video {
         path: real.clone(),
-        ffmpeg,
+        decoder,
     })
-}
-
-/// Decodes `fps` frames a second of the video into `OUT/frames/` with ffmpeg (PNG,
-/// lossless), at most `max_frames` (0: 10 000). The folder is made below `out`'s handle
-/// without following a link, and checked to be the same folder before and after ffmpeg
-/// writes into it by path.
-pub fn decode_video(
-    video: &Path,
-    ffmpeg: &Path,
-    out: &mut super::out::FitOut,
-    options: &FitOptions,
-) -> Result<PathBuf, FitError> {
-    let (dir, held) = out.dir_for_path("frames")?;
-    let max = if options.max_frames == 0 {
-        10_000
-    } else {
-        options.max_frames
-    };
-    // Checked before anything was written (`check_numbers`).
-    let fps = options.video_fps;
-    let output = std::process::Command::new(ffmpeg)
-        .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
-        .arg(video)
-        .args(["-vf", &format!("fps={fps}"), "-frames:v", &max.to_string()])
-        .args(["-start_number", "0"])
-        .arg(dir.join("frame_%05d.png"))
-        .output()
-        .map_err(io_err(ffmpeg))?;
-    if !output.status.success() {
-        return Err(FitError::VideoDecode {
-            path: video.to_path_buf(),
-            reason: String::from_utf8_lossy(&output.stderr).trim().to_string(),
-        });
-    }
-    out.check_same(&dir, &held)?;
-    Ok(dir)
 }
 
 /// Decodes one frame file as `gap` does ([`crate::input::decode_image`]: a JPEG or

@@ -33,6 +33,7 @@ pub mod search;
 pub mod size_knots;
 pub mod sky;
 pub mod thermal;
+pub mod video;
 
 use std::path::{Path, PathBuf};
 
@@ -133,7 +134,7 @@ pub enum FitError {
     OutInsideReal { out: PathBuf, real: PathBuf },
     #[error("--out {}: not empty and not an earlier fit; choose an empty folder (or --overwrite an earlier fit's folder)", path.display())]
     OutNotEmpty { path: PathBuf },
-    #[error("--real {}: no video decoder: install ffmpeg (swarmshot decodes video with the ffmpeg program on PATH)", path.display())]
+    #[error("--real {}: no video decoder: install ffmpeg (swarmshot decodes video with the ffmpeg and ffprobe programs on PATH)", path.display())]
     NoVideoDecoder { path: PathBuf },
     #[error("--real {}: ffmpeg could not decode the video: {reason}", path.display())]
     VideoDecode { path: PathBuf, reason: String },
@@ -234,9 +235,11 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
             let out = out::FitOut::open(&options.out, options.overwrite)?;
             (dir.clone(), frames, out)
         }
-        input::Source::Video { path, ffmpeg } => {
+        input::Source::Video { path, decoder } => {
+            let probe = video::probe(path, decoder)?;
+            video::check_budget(path, &probe, options)?;
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
-            let dir = input::decode_video(path, ffmpeg, &mut out, options)?;
+            let dir = video::decode(path, decoder, &probe, &mut out, options)?;
             // ffmpeg's `frame_NNNNN.png` names give plates of names apart.
             let frames = input::read_folder(&dir, 0, true)?;
             (dir, frames, out)

@@ -28,6 +28,7 @@ mod extreme;
 mod fit;
 mod fit_swarm;
 mod fit_thermal;
+mod fit_video;
 mod flow;
 mod fuzz;
 mod gap;

@@ -1,0 +1,195 @@
+//! `swarmshot fit --real VIDEO`: ffprobe reads the video's frame size and duration first,
+//! so frames past fit's pixel budgets are refused before anything is written; ffmpeg then
+//! decodes the frames, which fit reads as a folder's. The tests make their videos with
+//! ffmpeg (lossless FFV1, so the decoded frames can be compared with their sources) and
+//! need it on PATH: `scripts/test.sh` installs it and sets SWARMSHOT_REQUIRE_FFMPEG=1,
+//! which makes a missing ffmpeg a failure; elsewhere the tests say they skipped.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn swarmshot() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("swarmshot-fitvideo-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("tmp dir");
+    d
+}
+
+/// Whether ffmpeg and ffprobe run; a failure instead of a skip under
+/// SWARMSHOT_REQUIRE_FFMPEG=1.
+fn have_ffmpeg() -> bool {
+    let runs = |p: &str| {
+        Command::new(p)
+            .arg("-version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    let found = runs("ffmpeg") && runs("ffprobe");
+    if !found {
+        assert!(
+            std::env::var("SWARMSHOT_REQUIRE_FFMPEG").as_deref() != Ok("1"),
+            "SWARMSHOT_REQUIRE_FFMPEG=1 but ffmpeg/ffprobe do not run (scripts/setup.sh ffmpeg installs them)"
+        );
+        eprintln!("\n*** SKIPPED a fit-from-video test: ffmpeg/ffprobe not on PATH.\n");
+    }
+    found
+}
+
+/// Runs ffmpeg with `args`, writing `out`.
+fn ffmpeg(args: &[&str], out: &Path) {
+    let o = Command::new("ffmpeg")
+        .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-y"])
+        .args(args)
+        .arg(out)
+        .output()
+        .expect("run ffmpeg");
+    assert!(
+        o.status.success(),
+        "ffmpeg: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn fit(video: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    swarmshot()
+        .args(["fit", "--real"])
+        .arg(video)
+        .arg("--out")
+        .arg(out)
+        .args(["--rounds", "0", "--unlabelled-ok"])
+        .args(extra)
+        .output()
+        .expect("run swarmshot fit")
+}
+
+fn rgb(path: &Path) -> image::RgbImage {
+    image::open(path).expect("decode").to_rgb8()
+}
+
+#[test]
+fn a_video_is_fitted_from_exactly_its_frames() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("lossless");
+    let real = common::testdata("real/images");
+    let mut sources: Vec<PathBuf> = std::fs::read_dir(&real)
+        .expect("real frames")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    sources.sort();
+    // 2 frames a second, lossless: `--video-fps 2` takes every frame once.
+    let video = dir.join("clip.mkv");
+    let pattern = format!("{}/*.png", real.display());
+    let input = ["-framerate", "2", "-pattern_type", "glob", "-i", &pattern];
+    ffmpeg(
+        &[&input[..], &["-c:v", "ffv1", "-pix_fmt", "bgr0"]].concat(),
+        &video,
+    );
+    let out = dir.join("fit");
+    let o = fit(&video, &out, &[]);
+    assert!(
+        o.status.success(),
+        "fit: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut decoded: Vec<PathBuf> = std::fs::read_dir(out.join("frames"))
+        .expect("frames/")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    decoded.sort();
+    assert_eq!(decoded.len(), sources.len(), "one frame each: {decoded:?}");
+    for (s, d) in sources.iter().zip(&decoded) {
+        assert!(
+            rgb(s) == rgb(d),
+            "{} decoded unlike {}",
+            d.display(),
+            s.display()
+        );
+    }
+    let plates = std::fs::read_dir(out.join("plates"))
+        .expect("plates/")
+        .count();
+    assert!(plates >= sources.len(), "{plates} plate files");
+    let footage: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("footage.json")).expect("footage.json"))
+            .expect("json");
+    assert_eq!(
+        footage["frames"].as_u64(),
+        Some(sources.len() as u64),
+        "{footage}"
+    );
+    assert!(out.join("fitted.ron").is_file());
+}
+
+#[test]
+fn a_video_past_the_pixel_budgets_is_refused_before_anything_is_written() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("budget");
+    // One frame of 8 200 × 8 200 (67 Mpx, past the 64 Mpx an image may have).
+    let huge = dir.join("huge.mkv");
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=gray:s=8200x8200:r=1:d=1",
+            "-c:v",
+            "ffv1",
+        ],
+        &huge,
+    );
+    // 100 s of 4 000 × 4 000 (one frame, but the container says 100 s: at 2 frames a
+    // second the decode may give 200 frames, 3 200 Mpx, past fit's 2 000).
+    let long = dir.join("long.mkv");
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=gray:s=4000x4000:r=0.01:d=100",
+            "-c:v",
+            "ffv1",
+        ],
+        &long,
+    );
+    for (video, what) in [
+        (&huge, "8200×8200 is 67240000 pixels"),
+        (&long, "pass --max-frames 125 or fewer"),
+    ] {
+        let out = dir.join("out");
+        let o = fit(video, &out, &[]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{what}: succeeded");
+        assert!(err.contains(what), "expected `{what}` in: {err}");
+        assert!(!out.exists(), "{what}: {} was written", out.display());
+    }
+}
+
+#[test]
+fn a_file_that_is_no_video_is_a_named_error_and_nothing_is_written() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("garbage");
+    let video = dir.join("clip.mp4");
+    std::fs::write(&video, b"\x00\x00\x00\x18ftypmp42 not a real video").expect("write");
+    let out = dir.join("out");
+    let o = fit(&video, &out, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("clip.mp4: ffmpeg could not decode the video"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
