@@ -17,6 +17,7 @@ use egui::{RichText, Ui};
 
 use super::job::{Job, JobSlot, Stage};
 use crate::fit::FitOptions;
+use crate::gap::folder::DroneClasses;
 use crate::render::GpuContext;
 
 /// What a finished fit shows.
@@ -50,6 +51,8 @@ pub struct FitPanel {
     pub rounds: usize,
     /// At most this many real frames (0: all).
     pub max_frames: usize,
+    /// The labels' classes that are drones, as typed (`all`, or ids such as `0,2`).
+    pub classes: String,
     pub unlabelled_ok: bool,
     pub overwrite: bool,
     job: JobSlot<FitDone>,
@@ -70,6 +73,7 @@ impl Default for FitPanel {
             sample: defaults.sample,
             rounds: defaults.rounds,
             max_frames: defaults.max_frames,
+            classes: defaults.classes.to_string(),
             unlabelled_ok: defaults.unlabelled_ok,
             overwrite: defaults.overwrite,
             job: JobSlot::default(),
@@ -206,6 +210,13 @@ impl FitPanel {
                     .on_hover_text("Drones in unlabelled frames stay in the plates, unlabelled");
             });
             ui.end_row();
+            ui.label("Drone classes");
+            ui.add(egui::TextEdit::singleline(&mut self.classes).desired_width(120.0))
+                .accessible_name("Drone classes")
+                .on_hover_text(
+                    "The labels' classes that are drones: all, or class ids such as 0,2 (rows of other classes, birds or aircraft, stay in the plates and are not measured)",
+                );
+            ui.end_row();
         });
     }
 
@@ -215,6 +226,8 @@ impl FitPanel {
             Some("name the folder of real frames".into())
         } else if self.out_dir.trim().is_empty() {
             Some("name the output folder".into())
+        } else if let Err(e) = DroneClasses::parse(&self.classes) {
+            Some(format!("drone classes: {e}"))
         } else if self.rounds > 0 && gpu.is_none() {
             Some("no wgpu device to render the rounds with (0 rounds work without)".into())
         } else {
@@ -231,6 +244,8 @@ impl FitPanel {
         options.max_frames = self.max_frames;
         options.unlabelled_ok = self.unlabelled_ok;
         options.overwrite = self.overwrite;
+        // A list that does not parse keeps the run from starting (`why_not`).
+        options.classes = DroneClasses::parse(&self.classes).unwrap_or_default();
         options
     }
 
@@ -296,5 +311,30 @@ fn done_ui(ui: &mut Ui, done: &FitDone, open: &mut Option<PathBuf>) {
         if let Some(table) = table {
             ui.label(RichText::new(super::gap_panel::plain(table)).monospace());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_drone_classes_field_is_read_and_a_bad_list_keeps_the_fit_from_starting() {
+        let mut panel = FitPanel {
+            real_dir: "real".into(),
+            out_dir: "out".into(),
+            rounds: 0,
+            ..FitPanel::default()
+        };
+        assert_eq!(panel.options().classes, DroneClasses::All);
+        panel.classes = "2, 0".into();
+        assert_eq!(panel.why_not(None), None);
+        assert_eq!(panel.options().classes, DroneClasses::Only(vec![0, 2]));
+        panel.classes = "bird".into();
+        let why = panel.why_not(None).expect("refused");
+        assert!(
+            why.contains("drone classes: `bird` is not a class id"),
+            "{why}"
+        );
     }
 }

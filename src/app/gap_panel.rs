@@ -17,6 +17,7 @@ use egui::{Color32, RichText, Ui};
 
 use super::job::{Job, JobSlot, Stage};
 
+use crate::gap::folder::DroneClasses;
 use crate::gap::report::cell;
 use crate::gap::{GapOptions, Report, run_report};
 use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
@@ -50,6 +51,8 @@ pub struct GapPanel {
     pub dataset_dir: String,
     /// At most this many frames per side (0: all).
     pub max_images: usize,
+    /// The real labels' classes that are drones, as typed (`all`, or ids such as `0,2`).
+    pub real_classes: String,
     job: JobSlot<Report>,
 }
 
@@ -63,6 +66,7 @@ impl Default for GapPanel {
             preset_frames: DEFAULT_PRESET_FRAMES,
             dataset_dir: String::new(),
             max_images: 200,
+            real_classes: "all".into(),
             job: JobSlot::default(),
         }
     }
@@ -203,6 +207,13 @@ impl GapPanel {
                 ui.label("frames per side (0: all; evenly spaced in name order)");
             });
             ui.end_row();
+            ui.label("Real drone classes");
+            ui.add(egui::TextEdit::singleline(&mut self.real_classes).desired_width(120.0))
+                .accessible_name("Real drone classes")
+                .on_hover_text(
+                    "The real labels' classes that are drones: all, or class ids such as 0,2 (rows of other classes, birds or aircraft, are not measured)",
+                );
+            ui.end_row();
         });
     }
 
@@ -210,6 +221,9 @@ impl GapPanel {
     fn why_not(&self, inputs: &GapInputs<'_>) -> Option<String> {
         if self.real_dir.trim().is_empty() {
             return Some("name the folder of real frames".into());
+        }
+        if let Err(e) = DroneClasses::parse(&self.real_classes) {
+            return Some(format!("real drone classes: {e}"));
         }
         match self.side {
             SyntheticSide::PresetFrames if inputs.preset.is_none() => {
@@ -229,6 +243,9 @@ impl GapPanel {
     fn start(&mut self, inputs: &GapInputs<'_>, ctx: egui::Context) {
         let real = PathBuf::from(self.real_dir.trim());
         let max_images = self.max_images;
+        let Ok(classes) = DroneClasses::parse(&self.real_classes) else {
+            return;
+        };
         let source = match self.side {
             SyntheticSide::PresetFrames => match (inputs.preset.clone(), inputs.gpu.cloned()) {
                 (Some(preset), Some(gpu)) => Source::Preset {
@@ -242,7 +259,7 @@ impl GapPanel {
         };
         self.job
             .start(Job::spawn("swarmshot gap", &ctx, move |stage, cancel| {
-                make_report(real, source, max_images, stage, cancel)
+                make_report(real, source, max_images, classes, stage, cancel)
             }));
     }
 }
@@ -291,6 +308,7 @@ fn make_report(
     real: PathBuf,
     source: Source,
     max_images: usize,
+    real_classes: DroneClasses,
     stage: &Stage,
     cancel: &AtomicBool,
 ) -> anyhow::Result<Report> {
@@ -326,9 +344,9 @@ fn make_report(
     };
     stage.set("measuring the real and the synthetic frames…");
     Ok(run_report(&GapOptions {
-        real,
-        synthetic,
         max_images,
+        real_classes,
+        ..GapOptions::new(real, synthetic)
     })?)
 }
 
@@ -383,5 +401,32 @@ fn report_ui(ui: &mut Ui, report: &Report) {
         for p in &report.proposals {
             ui.label(format!("• {}", plain(&p.text)));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bad_real_classes_list_keeps_the_report_from_starting() {
+        let inputs = GapInputs {
+            gpu: None,
+            preset: None,
+            out_dir: "",
+        };
+        let mut panel = GapPanel {
+            real_dir: "real".into(),
+            side: SyntheticSide::Dataset,
+            dataset_dir: "ds".into(),
+            ..GapPanel::default()
+        };
+        assert_eq!(panel.why_not(&inputs), None);
+        panel.real_classes = "0,x".into();
+        let why = panel.why_not(&inputs).expect("refused");
+        assert!(
+            why.contains("real drone classes: `x` is not a class id"),
+            "{why}"
+        );
     }
 }

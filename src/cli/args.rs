@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
+use swarmshot::gap::folder::DroneClasses;
 
 /// The most threads `--threads` accepts (encoder threads, or planning threads with --labels-only).
 pub(crate) const MAX_THREADS: usize = 256;
@@ -196,6 +197,19 @@ pub(crate) struct GapArgs {
     /// Print the report as JSON instead of the table.
     #[arg(long)]
     pub(crate) json: bool,
+    /// The real labels' classes that are drones: class ids (0,2) or all; rows of other
+    /// classes (birds, aircraft) are not measured.
+    #[arg(long, default_value = "all", value_parser = parse_classes)]
+    pub(crate) real_classes: DroneClasses,
+    /// The dataset's classes that are drones (default: its preset's models' classes, not
+    /// those of labelled confusers).
+    #[arg(long, value_parser = parse_classes)]
+    pub(crate) synthetic_classes: Option<DroneClasses>,
+}
+
+/// A `--…-classes` value: class ids separated by commas, or `all`.
+fn parse_classes(text: &str) -> Result<DroneClasses, String> {
+    DroneClasses::parse(text)
 }
 
 #[derive(Args)]
@@ -235,6 +249,10 @@ pub(crate) struct FitArgs {
     /// at shifted places (each with its own field of view and horizon).
     #[arg(long, default_value_t = 1)]
     pub(crate) views: usize,
+    /// The labels' classes that are drones: class ids (0,2) or all; rows of other classes
+    /// (birds, aircraft) stay in the plates and are not measured.
+    #[arg(long, default_value = "all", value_parser = parse_classes)]
+    pub(crate) classes: DroneClasses,
 }
 
 #[derive(Args)]

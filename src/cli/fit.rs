@@ -20,6 +20,7 @@ pub(crate) fn run(args: FitArgs) -> anyhow::Result<()> {
         hfov_deg: args.hfov,
         video_fps: args.video_fps,
         views: args.views,
+        classes: args.classes,
     };
     if options.sample == 0 {
         anyhow::bail!("--sample 0: a round needs at least 1 frame");

@@ -39,6 +39,8 @@ pub(crate) fn gap(args: GapArgs) -> anyhow::Result<()> {
         out,
         max_images,
         json,
+        real_classes,
+        synthetic_classes,
     } = args;
     // An --out inside --real or --synthetic is refused before measuring.
     if let Some(out) = &out {
@@ -48,6 +50,8 @@ pub(crate) fn gap(args: GapArgs) -> anyhow::Result<()> {
         real,
         synthetic,
         max_images,
+        real_classes,
+        synthetic_classes,
     })?;
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);

@@ -196,11 +196,12 @@ fn check_pixels(paths: &[PathBuf]) -> Result<(), FitError> {
 }
 
 /// Every frame under `dir` in name order (at most `max`, evenly spaced; 0: all), decoded,
-/// with its labels; refuses unlabelled frames unless `unlabelled_ok`.
+/// with its labels (the rows of `classes`); refuses unlabelled frames unless `unlabelled_ok`.
 pub fn read_folder(
     dir: &Path,
     max: usize,
     unlabelled_ok: bool,
+    classes: &crate::gap::folder::DroneClasses,
 ) -> Result<Vec<RealFrame>, FitError> {
     let mut images = Vec::new();
     crate::gap::folder::walk(dir, 0, &mut images)?;
@@ -234,7 +235,7 @@ pub fn read_folder(
     for (path, label) in picked.into_iter().zip(labels) {
         let (rgb, jpeg) = decode(&path)?;
         let boxes = match &label {
-            Some(l) => crate::gap::folder::read_labels(l, rgb.width(), rgb.height())?,
+            Some(l) => crate::gap::folder::read_labels(l, rgb.width(), rgb.height(), classes)?,
             None => Vec::new(),
         };
         let rel = path

@@ -67,6 +67,9 @@ pub struct FitOptions {
     /// Plates per frame: the frame, then crops ([`plates::view_crop`]); 1 to
     /// [`plates::MAX_VIEWS`].
     pub views: usize,
+    /// The real frames' label classes that are drones (removed from the plates and
+    /// measured); rows of other classes stay in the plates as they are.
+    pub classes: crate::gap::folder::DroneClasses,
 }
 
 impl FitOptions {
@@ -83,6 +86,7 @@ impl FitOptions {
             hfov_deg: None,
             video_fps: 2.0,
             views: 1,
+            classes: crate::gap::folder::DroneClasses::All,
         }
     }
 }
@@ -230,7 +234,12 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     let base = preset_out::load_base(&options.base)?;
     let (real_dir, frames, mut out) = match &source {
         input::Source::Folder(dir) => {
-            let frames = input::read_folder(dir, options.max_frames, options.unlabelled_ok)?;
+            let frames = input::read_folder(
+                dir,
+                options.max_frames,
+                options.unlabelled_ok,
+                &options.classes,
+            )?;
             plates::check_names_apart(&frames, options.views)?;
             let out = out::FitOut::open(&options.out, options.overwrite)?;
             (dir.clone(), frames, out)
@@ -241,7 +250,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
             let dir = video::decode(path, decoder, &probe, &mut out, options)?;
             // ffmpeg's `frame_NNNNN.png` names give plates of names apart.
-            let frames = input::read_folder(&dir, 0, true)?;
+            let frames = input::read_folder(&dir, 0, true, &options.classes)?;
             (dir, frames, out)
         }
     };

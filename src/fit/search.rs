@@ -281,9 +281,9 @@ fn round(
     render(preset, prep.options.sample, &data, ctx, cancel)?;
     prep.out_dir().check_same(&data, &held)?;
     let report = crate::gap::report::run(&GapOptions {
-        real: prep.real_dir.clone(),
-        synthetic: data,
         max_images: 0,
+        real_classes: prep.options.classes.clone(),
+        ..GapOptions::new(prep.real_dir.clone(), data)
     })
     .map_err(|e| FitError::Other(format!("the gap report of round {k:02}: {e}")))?;
     report

@@ -366,6 +366,7 @@ mod tests {
             dir: String::new(),
             root: Default::default(),
             images_found: 0,
+            drone_classes: "all".into(),
             labelled_frames: 0,
             frames: Vec::new(),
             thumbnails: Vec::new(),

@@ -21,6 +21,102 @@ pub const YOLO_TOLERANCE: f32 = 1e-3;
 /// frame's work; no frame of drones comes near it.
 pub const MAX_BOX_COVERAGE: f64 = 16.0;
 
+/// The YOLO classes whose rows a side's label files count as drones; rows of other
+/// classes (birds, aircraft, …) are checked like any row and then left out.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum DroneClasses {
+    /// Every row is a drone.
+    #[default]
+    All,
+    /// Only rows of these classes (sorted, each once).
+    Only(Vec<u64>),
+}
+
+/// The most class ids a `--classes` list may name.
+pub const MAX_LISTED_CLASSES: usize = 1024;
+
+impl DroneClasses {
+    /// `all`, or class ids separated by commas (`0,2`): whole numbers ≥ 0, at most
+    /// [`MAX_LISTED_CLASSES`]. The error says what is wrong, for the caller to name
+    /// its option.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("all") {
+            return Ok(Self::All);
+        }
+        let mut ids = Vec::new();
+        for part in text.split(',') {
+            let part = part.trim();
+            let id = part.parse::<u64>().map_err(|_| {
+                format!("`{part}` is not a class id (a whole number ≥ 0; a list: 0,2; or all)")
+            })?;
+            ids.push(id);
+            if ids.len() > MAX_LISTED_CLASSES {
+                return Err(format!("more than {MAX_LISTED_CLASSES} class ids"));
+            }
+        }
+        ids.sort_unstable();
+        ids.dedup();
+        Ok(Self::Only(ids))
+    }
+
+    /// Whether a row of `class` is a drone.
+    pub fn contains(&self, class: u64) -> bool {
+        match self {
+            Self::All => true,
+            Self::Only(ids) => ids.binary_search(&class).is_ok(),
+        }
+    }
+}
+
+impl std::fmt::Display for DroneClasses {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::All => f.write_str("all"),
+            Self::Only(ids) => {
+                let ids: Vec<String> = ids.iter().map(u64::to_string).collect();
+                f.write_str(&ids.join(","))
+            }
+        }
+    }
+}
+
+/// The classes of a swarmshot dataset's drones: the classes of its preset's models
+/// (read from its `preset.lock.ron`), not those its labelled confusers (birds, aircraft)
+/// add after them; every class when the folder has no lock (frames from elsewhere).
+pub fn dataset_drone_classes(dir: &Path) -> Result<DroneClasses, GapError> {
+    let lock = dir.join("preset.lock.ron");
+    if !lock.exists() {
+        return Ok(DroneClasses::All);
+    }
+    let bytes = crate::input::read_input_file(&lock, crate::preset::MAX_PRESET_BYTES).map_err(
+        |source| GapError::Io {
+            path: lock.clone(),
+            source,
+        },
+    )?;
+    let preset = std::str::from_utf8(&bytes)
+        .map_err(|e| e.to_string())
+        .and_then(|text| crate::preset::Preset::from_ron(text).map_err(|e| e.to_string()))
+        .map_err(|e| {
+            input(
+                &lock,
+                format!("not a preset swarmshot wrote ({e}); pass --synthetic-classes"),
+            )
+        })?;
+    let (names, of_model) = preset.classes();
+    let drones = of_model
+        .iter()
+        .take(preset.models.len())
+        .max()
+        .map_or(0, |m| m + 1);
+    Ok(if drones >= names.len() {
+        DroneClasses::All
+    } else {
+        DroneClasses::Only((0..drones as u64).collect())
+    })
+}
+
 /// A JPEG or PNG file name.
 pub(crate) fn is_image(p: &Path) -> bool {
     p.extension()
@@ -109,8 +205,14 @@ pub(crate) fn label_for(root: &Path, image: &Path) -> Result<Option<PathBuf>, Ga
 /// YOLO rows `class cx cy w h` (normalised) → pixel boxes. At most
 /// [`MAX_LABEL_LINES`] lines and [`MAX_LABEL_BYTES`]; the class a whole number ≥ 0, the
 /// four values finite and within [0, 1] (± [`YOLO_TOLERANCE`]); the boxes' summed area
-/// at most [`MAX_BOX_COVERAGE`] frames.
-pub(crate) fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, GapError> {
+/// at most [`MAX_BOX_COVERAGE`] frames. Only rows of `classes` become boxes (every row
+/// is checked).
+pub(crate) fn read_labels(
+    path: &Path,
+    w: u32,
+    h: u32,
+    classes: &DroneClasses,
+) -> Result<Vec<PixelBox>, GapError> {
     let bytes =
         crate::input::read_input_file(path, MAX_LABEL_BYTES).map_err(|source| GapError::Io {
             path: path.to_path_buf(),
@@ -148,12 +250,11 @@ pub(crate) fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, 
                 f.len()
             )));
         }
-        let class_ok = f[0]
+        let class = f[0]
             .parse::<f64>()
-            .is_ok_and(|c| c.is_finite() && c >= 0.0 && c.fract() == 0.0 && c <= 1e9);
-        if !class_ok {
-            return Err(bad(format!("class `{}` is not a whole number ≥ 0", f[0])));
-        }
+            .ok()
+            .filter(|c| c.is_finite() && *c >= 0.0 && c.fract() == 0.0 && *c <= 1e9)
+            .ok_or_else(|| bad(format!("class `{}` is not a whole number ≥ 0", f[0])))?;
         // Read as f64 and range-checked before the f32 they are kept as, so
         // a number beyond f32's range (`1e300`) is named as out of range.
         let mut wide = [0f64; 4];
@@ -176,6 +277,9 @@ pub(crate) fn read_labels(path: &Path, w: u32, h: u32) -> Result<Vec<PixelBox>, 
             }
         }
         let v = wide.map(|x| x as f32);
+        if !classes.contains(class as u64) {
+            continue;
+        }
         coverage += f64::from(v[2].min(1.0)) * f64::from(v[3].min(1.0));
         if coverage > MAX_BOX_COVERAGE {
             return Err(bad(format!(
@@ -206,17 +310,55 @@ mod tests {
     use super::*;
 
     #[test]
+    fn drone_classes_parse_and_pick_the_rows_of_their_classes() {
+        assert_eq!(DroneClasses::parse(" all "), Ok(DroneClasses::All));
+        let only = DroneClasses::parse("3, 0,3").expect("list");
+        assert_eq!(only, DroneClasses::Only(vec![0, 3]));
+        assert_eq!(only.to_string(), "0,3");
+        for bad in ["", "0,", "-1", "1.5", "x", "0;1"] {
+            let e = DroneClasses::parse(bad).expect_err(bad);
+            assert!(e.contains("is not a class id"), "{bad}: {e}");
+        }
+        let many = vec!["1"; MAX_LISTED_CLASSES + 1].join(",");
+        assert!(DroneClasses::parse(&many).is_err());
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("a.txt");
+        std::fs::write(
+            &path,
+            "0 0.5 0.5 0.5 0.5\n1 0.25 0.25 0.5 0.5\n3 0.75 0.75 0.5 0.5\n",
+        )
+        .expect("txt");
+        let centres = |classes: &DroneClasses| -> Vec<f32> {
+            let boxes = read_labels(&path, 64, 64, classes).expect("labels");
+            boxes.iter().map(|b| (b.x0 + b.x1) * 0.5).collect()
+        };
+        assert_eq!(centres(&DroneClasses::All), [32.0, 16.0, 48.0]);
+        assert_eq!(centres(&only), [32.0, 48.0]);
+        assert!(centres(&DroneClasses::Only(vec![7])).is_empty());
+        // A bad row of another class is still refused.
+        std::fs::write(&path, "0 0.5 0.5 0.5 0.5\n1 0.25 0.25 0.5\n").expect("txt");
+        let e = read_labels(&path, 64, 64, &only).expect_err("bad row");
+        assert!(e.to_string().contains("line 2"), "{e}");
+    }
+
+    #[test]
     fn a_value_beyond_f32_is_out_of_range_not_not_a_number() {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("a.txt");
         std::fs::write(&path, "0 1e300 0.5 0.1 0.1\n").expect("txt");
-        let err = read_labels(&path, 64, 64).expect_err("refused").to_string();
+        let err = read_labels(&path, 64, 64, &DroneClasses::All)
+            .expect_err("refused")
+            .to_string();
         assert!(err.contains("cx 1e300 is outside [0, 1]"), "{err}");
         std::fs::write(&path, "0 0.5 0.5 0.1 -1e300\n").expect("txt");
-        let err = read_labels(&path, 64, 64).expect_err("refused").to_string();
+        let err = read_labels(&path, 64, 64, &DroneClasses::All)
+            .expect_err("refused")
+            .to_string();
         assert!(err.contains("negative box width or height"), "{err}");
         std::fs::write(&path, "0 0.5 0.5 0.1 NaN\n").expect("txt");
-        let err = read_labels(&path, 64, 64).expect_err("refused").to_string();
+        let err = read_labels(&path, 64, 64, &DroneClasses::All)
+            .expect_err("refused")
+            .to_string();
         assert!(err.contains("`NaN` is not a number"), "{err}");
     }
 

@@ -23,8 +23,8 @@ use serde::Serialize;
 
 use super::behind::Behind;
 pub use super::error::GapError;
+use super::folder::{DroneClasses, input, label_for, read_labels, walk};
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
-use super::folder::{input, label_for, read_labels, walk};
 use super::table::percentile;
 pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt, iqr_distance};
 use super::{FrameStats, measure_frame};
@@ -46,6 +46,24 @@ pub struct GapOptions {
     pub synthetic: PathBuf,
     /// At most this many frames per side, evenly spaced in name order (0: all).
     pub max_images: usize,
+    /// The real frames' label classes that are drones.
+    pub real_classes: DroneClasses,
+    /// The dataset's label classes that are drones (`None`: its models' classes,
+    /// [`super::folder::dataset_drone_classes`]).
+    pub synthetic_classes: Option<DroneClasses>,
+}
+
+impl GapOptions {
+    /// Every real label row a drone, the dataset's drones by its preset, 200 frames a side.
+    pub fn new(real: impl Into<PathBuf>, synthetic: impl Into<PathBuf>) -> Self {
+        Self {
+            real: real.into(),
+            synthetic: synthetic.into(),
+            max_images: 200,
+            real_classes: DroneClasses::All,
+            synthetic_classes: None,
+        }
+    }
 }
 
 /// One side's frames and what was measured on them.
@@ -58,6 +76,8 @@ pub struct Side {
     pub root: PathBuf,
     /// Images found; `frames` holds the ones measured (`--max-images`).
     pub images_found: usize,
+    /// The label classes measured as drones (`all`, or ids such as `0,3`).
+    pub drone_classes: String,
     pub labelled_frames: usize,
     pub frames: Vec<FrameRecord>,
     /// The contact sheet's thumbnails of this side ([`super::sheet::picks`]; not written).
@@ -359,7 +379,12 @@ fn verdict(real: Option<Summary>, synthetic: Option<Summary>) -> &'static str {
 }
 
 /// Measures one side: every image under `dir` (sorted by path), at most `max` of them.
-fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError> {
+fn measure_side(
+    dir: &Path,
+    max: usize,
+    dataset: bool,
+    classes: &DroneClasses,
+) -> Result<Side, GapError> {
     if !dir.is_dir() {
         return Err(input(dir, "not a folder"));
     }
@@ -411,7 +436,7 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
         let boxes = match label_for(&root, &p)? {
             Some(lp) => {
                 labelled += 1;
-                read_labels(&lp, w, h)?
+                read_labels(&lp, w, h, classes)?
             }
             None => Vec::new(),
         };
@@ -431,6 +456,7 @@ fn measure_side(dir: &Path, max: usize, dataset: bool) -> Result<Side, GapError>
         dir: dir.display().to_string(),
         root: canonical,
         images_found: found,
+        drone_classes: classes.to_string(),
         labelled_frames: labelled,
         frames,
         thumbnails,
@@ -469,8 +495,12 @@ pub fn check_out(out: &Path, inputs: &[(&'static str, &Path)]) -> Result<(), Gap
 
 /// Measures both sides and builds the report (nothing is written).
 pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
-    let real = measure_side(&opts.real, opts.max_images, false)?;
-    let synthetic = measure_side(&opts.synthetic, opts.max_images, true)?;
+    let real = measure_side(&opts.real, opts.max_images, false, &opts.real_classes)?;
+    let synthetic_classes = match &opts.synthetic_classes {
+        Some(c) => c.clone(),
+        None => super::folder::dataset_drone_classes(&opts.synthetic)?,
+    };
+    let synthetic = measure_side(&opts.synthetic, opts.max_images, true, &synthetic_classes)?;
     let mut statistics = Vec::new();
     for s in stats() {
         let (r, y) = match s.kind {

@@ -86,7 +86,8 @@ fn the_camera_estimate_recovers_a_known_camera() {
     );
     let dir = tmp("known");
     render(known_camera_preset(read, psf, q), 6, &dir);
-    let frames = input::read_folder(&dir.join("images"), 0, false).expect("frames and labels");
+    let frames = input::read_folder(&dir.join("images"), 0, false, &Default::default())
+        .expect("frames and labels");
     assert_eq!(frames.len(), 6);
     assert!(frames.iter().all(|f| f.labelled));
     let footage = camera::measure(&frames);
@@ -199,7 +200,8 @@ fn drone_removal_fills_from_the_ring_and_leaves_no_drone() {
 #[test]
 fn drone_removal_on_the_bundled_real_frames() {
     let real = common::testdata("real");
-    let frames = input::read_folder(&real, 0, false).expect("the bundled frames");
+    let frames =
+        input::read_folder(&real, 0, false, &Default::default()).expect("the bundled frames");
     let mut checked = 0;
     let mut bad = Vec::new();
     for f in &frames {
@@ -794,4 +796,69 @@ fn views_write_a_plate_and_a_sidecar_per_crop() {
     let fitted = std::fs::read_to_string(out.join("fitted.ron")).expect("fitted");
     assert!(fitted.contains("as 30 plates, 3 views of each"), "{fitted}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn rows_of_other_classes_stay_in_the_plates_and_are_not_measured() {
+    let dir = tmp("classes");
+    let real = dir.join("real");
+    // The bundled frames, each label file with a second row of class 2 (a "bird").
+    let bird = (0.3f32, 0.3f32, 0.2f32, 0.2f32);
+    for sub in ["images", "labels"] {
+        std::fs::create_dir_all(real.join(sub)).expect("dir");
+        for e in std::fs::read_dir(common::testdata("real").join(sub)).expect("read") {
+            let p = e.expect("entry").path();
+            let to = real.join(sub).join(p.file_name().expect("name"));
+            std::fs::copy(&p, &to).expect("copy");
+            if sub == "labels" {
+                let mut text = std::fs::read_to_string(&to).expect("label");
+                text.push_str(&format!("2 {} {} {} {}\n", bird.0, bird.1, bird.2, bird.3));
+                std::fs::write(&to, text).expect("label");
+            }
+        }
+    }
+    let fit = |out: &Path, extra: &[&str]| -> serde_json::Value {
+        let o = swarmshot()
+            .args(["fit", "--rounds", "0", "--real"])
+            .arg(real.join("images"))
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .output()
+            .expect("run fit");
+        assert!(
+            o.status.success(),
+            "fit: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        serde_json::from_slice(&std::fs::read(out.join("footage.json")).expect("footage"))
+            .expect("json")
+    };
+    let (every, drones) = (dir.join("every"), dir.join("drones"));
+    assert_eq!(fit(&every, &[])["drones"], 20);
+    assert_eq!(fit(&drones, &["--classes", "0"])["drones"], 10);
+    // The bird's box: as in the frame with --classes 0, painted over without it.
+    let frame = "V_DRONE_001_f150.png";
+    let source = image::open(real.join("images").join(frame))
+        .expect("frame")
+        .to_rgb8();
+    let (w, h) = (source.width() as f32, source.height() as f32);
+    let x = ((bird.0 - bird.2 / 2.0) * w) as u32..((bird.0 + bird.2 / 2.0) * w) as u32;
+    let y = ((bird.1 - bird.3 / 2.0) * h) as u32..((bird.1 + bird.3 / 2.0) * h) as u32;
+    let same_in_box = |plate: &Path| {
+        let plate = image::open(plate.join("plates").join(frame))
+            .expect("plate")
+            .to_rgb8();
+        let differ = |(px, py): (u32, u32)| source.get_pixel(px, py) != plate.get_pixel(px, py);
+        !x.clone()
+            .flat_map(|px| y.clone().map(move |py| (px, py)))
+            .any(differ)
+    };
+    assert!(same_in_box(&drones), "--classes 0 painted over the bird");
+    assert!(
+        !same_in_box(&every),
+        "without --classes the bird's box was kept"
+    );
+    // A bad list is named with its option, nothing written.
+    refuses(&real.join("images"), &["--classes", "x"], None, "--classes");
 }

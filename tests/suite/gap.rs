@@ -914,3 +914,154 @@ fn the_contact_sheet_puts_real_left_and_synthetic_right() {
     assert_eq!(sheet::picks(16), [0, 2, 4, 6, 8, 10, 12, 14]);
     assert!(sheet::picks(0).is_empty());
 }
+
+/// The real frames with a second row of class 2 (a large "bird") in every label file.
+fn real_with_birds(dir: &Path) -> std::path::PathBuf {
+    let real = dir.join("real-birds");
+    for sub in ["images", "labels"] {
+        let from = common::testdata("real").join(sub);
+        std::fs::create_dir_all(real.join(sub)).expect("dir");
+        for e in std::fs::read_dir(&from).expect("read") {
+            let p = e.expect("entry").path();
+            let to = real.join(sub).join(p.file_name().expect("name"));
+            std::fs::copy(&p, &to).expect("copy");
+            if sub == "labels" {
+                let mut text = std::fs::read_to_string(&to).expect("label");
+                text.push_str("2 0.3 0.3 0.2 0.2\n");
+                std::fs::write(&to, text).expect("label");
+            }
+        }
+    }
+    real
+}
+
+/// A tiny dataset whose gulls are labelled as their own class ("bird", class 1).
+fn render_dataset_with_labelled_birds(dir: &Path) -> std::path::PathBuf {
+    let mut p = common::tiny_preset();
+    p.confusers = vec![
+        ron::from_str(
+            r#"(kind: Bird(Gull), count: (4, 4), distance_m: (6.0, 9.0), labelled_as: Some("bird"))"#,
+        )
+        .expect("confuser"),
+    ];
+    let preset = dir.join("birds.ron");
+    std::fs::write(&preset, p.to_ron()).expect("preset");
+    let ds = dir.join("ds-birds");
+    let o = swarmshot()
+        .arg("batch")
+        .arg(&preset)
+        .arg("--out")
+        .arg(&ds)
+        .args(["--limit", "4"])
+        .output()
+        .expect("run batch");
+    assert!(
+        o.status.success(),
+        "batch: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    ds
+}
+
+/// `gap --json` with `extra`; the report.
+fn gap_json(real: &Path, ds: &Path, extra: &[&str]) -> serde_json::Value {
+    let o = swarmshot()
+        .args(["gap", "--json", "--real"])
+        .arg(real)
+        .arg("--synthetic")
+        .arg(ds)
+        .args(extra)
+        .output()
+        .expect("run gap");
+    assert!(
+        o.status.success(),
+        "gap: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_slice(&o.stdout).expect("json")
+}
+
+/// A statistic's side of a report.
+fn side_stat(report: &serde_json::Value, key: &str, side: &str) -> serde_json::Value {
+    let stats = report["statistics"].as_array().expect("statistics");
+    stats.iter().find(|s| s["key"] == key).expect(key)[side].clone()
+}
+
+#[test]
+fn only_the_drone_classes_are_measured_on_each_side() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let real = real_with_birds(tmp.path());
+    let ds = render_dataset_with_labelled_birds(tmp.path());
+    let rows = |class: &str| -> usize {
+        let labels = walkdir(&ds.join("labels"));
+        let lines = labels.iter().flat_map(|p| {
+            let text = std::fs::read_to_string(p).expect("label");
+            text.lines().map(str::to_owned).collect::<Vec<_>>()
+        });
+        lines.filter(|l| l.split(' ').next() == Some(class)).count()
+    };
+    assert!(
+        rows("1") > 0,
+        "no bird was labelled: the test shows nothing"
+    );
+    let plain = gap_json(&common::testdata("real"), &ds, &[]);
+    let all = gap_json(&real, &ds, &["--synthetic-classes", "all"]);
+    let picked = gap_json(&real, &ds, &["--real-classes", "0"]);
+    // Real side: the bird rows are drones by default, left out with --real-classes 0,
+    // which then measures exactly what the labels without them measure.
+    let n = |r: &serde_json::Value, side| side_stat(r, "drone_core_px", side)["n"].clone();
+    assert_eq!(n(&all, "real"), 20);
+    assert_eq!(n(&picked, "real"), 10);
+    for key in [
+        "drone_core_px",
+        "drone_darker",
+        "noise_sigma",
+        "gradient_energy",
+    ] {
+        assert_eq!(
+            side_stat(&picked, key, "real"),
+            side_stat(&plain, key, "real"),
+            "{key}"
+        );
+    }
+    assert_eq!(picked["real"]["drone_classes"], "0");
+    // Synthetic side: by default the dataset's models' class (0) only, from its lock.
+    assert_eq!(picked["synthetic"]["drone_classes"], "0");
+    assert_eq!(all["synthetic"]["drone_classes"], "all");
+    let (drones, with_birds) = (n(&picked, "synthetic"), n(&all, "synthetic"));
+    let (drones, with_birds) = (drones.as_u64().expect("n"), with_birds.as_u64().expect("n"));
+    assert!(
+        drones > 0 && drones < with_birds,
+        "{drones} against {with_birds}"
+    );
+    assert!(with_birds as usize <= rows("0") + rows("1"));
+    // A bad list is named with its option.
+    let o = swarmshot()
+        .args(["gap", "--real"])
+        .arg(&real)
+        .arg("--synthetic")
+        .arg(&ds)
+        .args(["--real-classes", "0,bird"])
+        .output()
+        .expect("run gap");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("--real-classes") && err.contains("`bird` is not a class id"),
+        "{err}"
+    );
+}
+
+/// Every file below `dir`.
+fn walkdir(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).expect("read") {
+        let p = e.expect("entry").path();
+        if p.is_dir() {
+            out.extend(walkdir(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}

@@ -126,11 +126,10 @@ fn gap_window_time_against_the_library_call() {
         from_env("SWARMSHOT_GAP_SYNTHETIC"),
     );
     let t = Instant::now();
-    swarmshot::gap::run_report(&swarmshot::gap::GapOptions {
-        real: real.clone(),
-        synthetic: synthetic.clone(),
-        max_images: 200,
-    })
+    swarmshot::gap::run_report(&swarmshot::gap::GapOptions::new(
+        real.clone(),
+        synthetic.clone(),
+    ))
     .unwrap();
     let library = t.elapsed();
 
