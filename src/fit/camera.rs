@@ -139,6 +139,9 @@ pub struct Footage {
     pub jpeg_frames: usize,
     /// The frame size most frames have (ties: the larger area), the fitted resolution.
     pub size: (u32, u32),
+    /// How many frames have that size (fewer than `frames`: the footage mixes sizes,
+    /// perhaps cameras, and the fit is one camera's).
+    pub size_frames: usize,
     pub measured: Measured,
     pub estimate: CameraEstimate,
     pub per_frame: Vec<FrameFigures>,
@@ -253,12 +256,14 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             centre_depth: p.stats.centre_depth,
         })
         .collect();
+    let (size, size_frames) = common_size(frames);
     Footage {
         frames: frames.len(),
         labelled_frames: frames.iter().filter(|f| f.labelled).count(),
         drones: frames.iter().map(|f| f.boxes.len()).sum(),
         jpeg_frames: frames.iter().filter(|f| f.jpeg.is_some()).count(),
-        size: common_size(frames),
+        size,
+        size_frames,
         measured,
         estimate,
         per_frame,
@@ -271,8 +276,9 @@ fn to_u8(c: [f64; 3]) -> [u8; 3] {
     c.map(|v| v.round().clamp(0.0, 255.0) as u8)
 }
 
-/// The frame size most frames have; ties go to the larger area, then the wider.
-fn common_size(frames: &[RealFrame]) -> (u32, u32) {
+/// The frame size most frames have (ties go to the larger area, then the wider) and
+/// how many have it.
+fn common_size(frames: &[RealFrame]) -> ((u32, u32), usize) {
     let mut sizes: Vec<(u32, u32)> = frames.iter().map(|f| f.rgb.dimensions()).collect();
     sizes.sort_unstable();
     let mut best = ((0u32, 0u32), 0usize);
@@ -286,7 +292,7 @@ fn common_size(frames: &[RealFrame]) -> (u32, u32) {
         }
         i = j;
     }
-    best.0
+    best
 }
 
 /// The camera that writes the measured statistics (module docs): the read noise whose

@@ -49,10 +49,17 @@ pub fn sized_to(base: &Preset, footage: &Footage) -> (Preset, Vec<String>) {
         width: w,
         height: h,
     };
-    let note = format!(
-        "render.resolution {w}×{h}: the footage's frame size ({} frames)",
-        footage.frames
-    );
+    let note = if footage.size_frames < footage.frames {
+        format!(
+            "render.resolution {w}×{h}: the footage's most common frame size ({} of {} frames; the others differ: one camera's frames fit best)",
+            footage.size_frames, footage.frames
+        )
+    } else {
+        format!(
+            "render.resolution {w}×{h}: the footage's frame size ({} frames)",
+            footage.frames
+        )
+    };
     (p, vec![note])
 }
 

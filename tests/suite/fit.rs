@@ -862,3 +862,48 @@ fn rows_of_other_classes_stay_in_the_plates_and_are_not_measured() {
     // A bad list is named with its option, nothing written.
     refuses(&real.join("images"), &["--classes", "x"], None, "--classes");
 }
+
+#[test]
+fn footage_of_mixed_frame_sizes_is_fitted_to_the_common_one_and_says_so() {
+    let dir = tmp("mixed");
+    let real = dir.join("real");
+    std::fs::create_dir_all(&real).expect("dir");
+    let bundled = common::testdata("real/images");
+    let mut names: Vec<_> = std::fs::read_dir(&bundled)
+        .expect("read")
+        .map(|e| e.expect("entry").file_name())
+        .collect();
+    names.sort();
+    // Three frames at 640×512, two halved to 320×256; every label file empty.
+    for (i, name) in names.iter().take(5).enumerate() {
+        let img = image::open(bundled.join(name)).expect("frame").to_rgb8();
+        let img = if i < 3 {
+            img
+        } else {
+            image::imageops::resize(&img, 320, 256, image::imageops::FilterType::Triangle)
+        };
+        img.save(real.join(name)).expect("save");
+        let label = Path::new(name).with_extension("txt");
+        std::fs::write(real.join(label), "").expect("label");
+    }
+    let out = dir.join("out");
+    let o = swarmshot()
+        .args(["fit", "--rounds", "0", "--real"])
+        .arg(&real)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("run fit");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "fit: {err}");
+    assert!(err.contains("warning: 3 of 5 frames are 640×512"), "{err}");
+    let fitted = std::fs::read_to_string(out.join("fitted.ron")).expect("fitted");
+    assert!(
+        fitted.contains("width: 640") && fitted.contains("height: 512"),
+        "{fitted}"
+    );
+    assert!(
+        fitted.contains("most common frame size (3 of 5 frames"),
+        "{fitted}"
+    );
+}
