@@ -203,6 +203,8 @@ pub struct FitRecord {
     pub frames: usize,
     pub labelled_frames: usize,
     pub drones: usize,
+    /// The label classes taken as drones (`--classes`: `all`, or ids such as `0,3`).
+    pub drone_classes: String,
     pub rounds: Vec<search::RoundRecord>,
     /// The round whose preset is `fitted.ron` (`None` without rounds: the first fit).
     pub best_round: Option<usize>,
@@ -366,6 +368,7 @@ pub fn finish(
         frames: prep.footage.frames,
         labelled_frames: prep.footage.labelled_frames,
         drones: prep.footage.drones,
+        drone_classes: prep.options.classes.to_string(),
         target_inside: rounds.first().map_or(0, |r| r.applicable.saturating_sub(2)),
         rounds,
         best_round: best,

@@ -837,6 +837,10 @@ fn rows_of_other_classes_stay_in_the_plates_and_are_not_measured() {
     let (every, drones) = (dir.join("every"), dir.join("drones"));
     assert_eq!(fit(&every, &[])["drones"], 20);
     assert_eq!(fit(&drones, &["--classes", "0"])["drones"], 10);
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(drones.join("fit.json")).expect("fit.json"))
+            .expect("json");
+    assert_eq!(record["drone_classes"], "0");
     // The bird's box: as in the frame with --classes 0, painted over without it.
     let frame = "V_DRONE_001_f150.png";
     let source = image::open(real.join("images").join(frame))
