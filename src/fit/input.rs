@@ -161,29 +161,34 @@ fn header_size(path: &Path) -> Option<(u32, u32)> {
         .ok()
 }
 
+/// A frame's pixels, or its refusal by `path` past [`crate::input::MAX_IMAGE_PIXELS`].
+pub(super) fn frame_pixels(path: &Path, (width, height): (u32, u32)) -> Result<u64, FitError> {
+    let n = u64::from(width) * u64::from(height);
+    let max_pixels = crate::input::MAX_IMAGE_PIXELS;
+    if n <= max_pixels {
+        return Ok(n);
+    }
+    let e = crate::input::ImageError::Pixels {
+        width,
+        height,
+        max_pixels,
+    };
+    Err(FitError::Image {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })
+}
+
 /// Refuses, from the files' headers before any frame is decoded, a frame over
 /// [`crate::input::MAX_IMAGE_PIXELS`] (by name) and frames that together hold more than
 /// [`MAX_TOTAL_PIXELS`] (naming how many frames fit).
 fn check_pixels(paths: &[PathBuf]) -> Result<(), FitError> {
-    let max_pixels = crate::input::MAX_IMAGE_PIXELS;
     let mut pixels = 0u64;
     for path in paths {
-        let Some((width, height)) = header_size(path) else {
+        let Some(size) = header_size(path) else {
             continue;
         };
-        let n = u64::from(width) * u64::from(height);
-        if n > max_pixels {
-            let e = crate::input::ImageError::Pixels {
-                width,
-                height,
-                max_pixels,
-            };
-            return Err(FitError::Image {
-                path: path.clone(),
-                reason: e.to_string(),
-            });
-        }
-        pixels += n;
+        pixels += frame_pixels(path, size)?;
     }
     if pixels <= MAX_TOTAL_PIXELS {
         return Ok(());

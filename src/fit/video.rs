@@ -141,20 +141,7 @@ pub fn frames_bound(probe: &Probe, options: &FitOptions) -> usize {
 /// one frame over [`crate::input::MAX_IMAGE_PIXELS`], or the frames the decode can give
 /// over [`input::MAX_TOTAL_PIXELS`] together (naming how many fit).
 pub fn check_budget(video: &Path, probe: &Probe, options: &FitOptions) -> Result<(), FitError> {
-    let (width, height) = (probe.width, probe.height);
-    let each = u64::from(width) * u64::from(height);
-    let max_pixels = crate::input::MAX_IMAGE_PIXELS;
-    if each > max_pixels {
-        let e = crate::input::ImageError::Pixels {
-            width,
-            height,
-            max_pixels,
-        };
-        return Err(FitError::Image {
-            path: video.to_path_buf(),
-            reason: e.to_string(),
-        });
-    }
+    let each = input::frame_pixels(video, (probe.width, probe.height))?;
     let frames = frames_bound(probe, options);
     let pixels = each.saturating_mul(frames as u64);
     if pixels <= input::MAX_TOTAL_PIXELS {

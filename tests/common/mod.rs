@@ -28,6 +28,25 @@ pub fn testdata(rel: &str) -> PathBuf {
         .join(rel)
 }
 
+/// A copy of the bundled real frames (`tests/data/real`) in `to`, `row` (a YOLO line,
+/// e.g. a bird's) added to every label file; `to/images` holds the frames.
+pub fn real_frames_with_row(to: &Path, row: &str) {
+    for sub in ["images", "labels"] {
+        std::fs::create_dir_all(to.join(sub)).expect("dir");
+        for e in std::fs::read_dir(testdata("real").join(sub)).expect("read") {
+            let p = e.expect("entry").path();
+            let copy = to.join(sub).join(p.file_name().expect("name"));
+            std::fs::copy(&p, &copy).expect("copy");
+            if sub == "labels" {
+                let mut text = std::fs::read_to_string(&copy).expect("label");
+                text.push_str(row);
+                text.push('\n');
+                std::fs::write(&copy, text).expect("label");
+            }
+        }
+    }
+}
+
 /// A small, fast preset: 320×180 PNG, a few drones, a 2×1×2 sweep.
 pub fn tiny_preset() -> Preset {
     let mut p = Preset {

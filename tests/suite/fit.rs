@@ -804,19 +804,8 @@ fn rows_of_other_classes_stay_in_the_plates_and_are_not_measured() {
     let real = dir.join("real");
     // The bundled frames, each label file with a second row of class 2 (a "bird").
     let bird = (0.3f32, 0.3f32, 0.2f32, 0.2f32);
-    for sub in ["images", "labels"] {
-        std::fs::create_dir_all(real.join(sub)).expect("dir");
-        for e in std::fs::read_dir(common::testdata("real").join(sub)).expect("read") {
-            let p = e.expect("entry").path();
-            let to = real.join(sub).join(p.file_name().expect("name"));
-            std::fs::copy(&p, &to).expect("copy");
-            if sub == "labels" {
-                let mut text = std::fs::read_to_string(&to).expect("label");
-                text.push_str(&format!("2 {} {} {} {}\n", bird.0, bird.1, bird.2, bird.3));
-                std::fs::write(&to, text).expect("label");
-            }
-        }
-    }
+    let row = format!("2 {} {} {} {}", bird.0, bird.1, bird.2, bird.3);
+    common::real_frames_with_row(&real, &row);
     let fit = |out: &Path, extra: &[&str]| -> serde_json::Value {
         let o = swarmshot()
             .args(["fit", "--rounds", "0", "--real"])

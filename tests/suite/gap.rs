@@ -915,26 +915,6 @@ fn the_contact_sheet_puts_real_left_and_synthetic_right() {
     assert!(sheet::picks(0).is_empty());
 }
 
-/// The real frames with a second row of class 2 (a large "bird") in every label file.
-fn real_with_birds(dir: &Path) -> std::path::PathBuf {
-    let real = dir.join("real-birds");
-    for sub in ["images", "labels"] {
-        let from = common::testdata("real").join(sub);
-        std::fs::create_dir_all(real.join(sub)).expect("dir");
-        for e in std::fs::read_dir(&from).expect("read") {
-            let p = e.expect("entry").path();
-            let to = real.join(sub).join(p.file_name().expect("name"));
-            std::fs::copy(&p, &to).expect("copy");
-            if sub == "labels" {
-                let mut text = std::fs::read_to_string(&to).expect("label");
-                text.push_str("2 0.3 0.3 0.2 0.2\n");
-                std::fs::write(&to, text).expect("label");
-            }
-        }
-    }
-    real
-}
-
 /// A tiny dataset whose gulls are labelled as their own class ("bird", class 1).
 fn render_dataset_with_labelled_birds(dir: &Path) -> std::path::PathBuf {
     let mut p = common::tiny_preset();
@@ -990,7 +970,8 @@ fn side_stat(report: &serde_json::Value, key: &str, side: &str) -> serde_json::V
 #[test]
 fn only_the_drone_classes_are_measured_on_each_side() {
     let tmp = tempfile::tempdir().expect("tmp");
-    let real = real_with_birds(tmp.path());
+    let real = tmp.path().join("real-birds");
+    common::real_frames_with_row(&real, "2 0.3 0.3 0.2 0.2");
     let ds = render_dataset_with_labelled_birds(tmp.path());
     let rows = |class: &str| -> usize {
         let labels = walkdir(&ds.join("labels"));
