@@ -150,17 +150,18 @@ impl Shutter {
         }
     }
 
-    /// Where drone `i`'s pixels can be in the shuttered picture: where it
-    /// is drawn and where its rows reach.
+    /// Where drone `i`'s pixels can be in the shuttered picture: where its
+    /// rows take them (not where it was rendered: a fast pan moves it far).
     pub fn near(&self, i: usize) -> Option<PixelRect> {
         let s = self.shears.get(i)?.as_ref()?;
-        let reach = s.reach(self.camera.width, self.camera.height)?;
-        Some(PixelRect {
-            x0: reach.x0.min(s.rect.x0),
-            y0: reach.y0.min(s.rect.y0),
-            x1: reach.x1.max(s.rect.x1),
-            y1: reach.y1.max(s.rect.y1),
-        })
+        s.reach(self.camera.width, self.camera.height)
+    }
+
+    /// Where the rendered pixels of `rect` (drone `i`'s rendered visible
+    /// box) are in the shuttered picture: the rows and columns they reach.
+    pub fn moved(&self, i: usize, rect: PixelRect) -> Option<PixelRect> {
+        let s = self.shears.get(i)?.as_ref()?;
+        s.reach_of(rect, self.camera.width, self.camera.height)
     }
 
     /// Where row y's pixels take the drone-free background from: row y's
