@@ -36,7 +36,10 @@ impl FramePipeline {
         // The renderer drew the frame (and its background) at the drawn exposure.
         let draw = &draw.after_render();
         // The rolling shutter (issue 41): each row at its own time, first.
-        let shuttered = rolling::shuttered(shutter, scene.index, &frame.rgba, background)?;
+        let visible: Option<Vec<Option<PixelRect>>> = (measured.as_ref())
+            .map(|vis| vis.iter().map(|v| v.visible_box.map(pixel_rect)).collect());
+        let rendered = (frame.rgba.as_slice(), visible.as_deref());
+        let shuttered = rolling::shuttered(shutter, scene.index, rendered, background)?;
         let (rendered, background) = match &shuttered {
             Some((f, turned)) => (f.as_slice(), turned.as_deref().or(background)),
             None => (frame.rgba.as_slice(), background),
@@ -82,7 +85,14 @@ impl FramePipeline {
             });
             let background = lensed_background.as_deref().or(background);
             for (i, v) in vis.iter_mut().enumerate() {
-                let (Some((own, search)), Some(background)) = (near[i], background) else {
+                let Some(background) = background else {
+                    continue;
+                };
+                let Some((own, search)) = near[i] else {
+                    // Seen in the render, but its rows took it out of the picture.
+                    if shutter.is_some() && v.visible_box.is_some() {
+                        *v = camera_visibility(v, None);
+                    }
                     continue;
                 };
                 let others: Vec<PixelRect> = (near.iter().enumerate())
@@ -131,19 +141,13 @@ fn label_rects(
     frame_lens: Option<&lens::FrameLens>,
     (w, h): (u32, u32),
 ) -> Vec<Option<(PixelRect, PixelRect)>> {
-    let rect = |b: PixelBox| PixelRect {
-        x0: b.x0.floor().max(0.0) as u32,
-        y0: b.y0.floor().max(0.0) as u32,
-        x1: b.x1.ceil().max(0.0) as u32,
-        y1: b.y1.ceil().max(0.0) as u32,
-    };
     let finish = |i: usize, r: Option<PixelRect>| {
         let grown = streaks::grown(r, streak_of.get(i).copied().flatten(), (w, h));
         grown.map(|r| frame_lens.map_or(r, |l| lens::footprint(&l.geo, r)))
     };
     (vis.iter().enumerate())
         .map(|(i, v)| {
-            let own = v.visible_box.map(rect);
+            let own = v.visible_box.map(pixel_rect);
             let (own, search) = match shutter {
                 Some(s) => {
                     let moved = own.and_then(|o| s.moved(i, o));
@@ -154,6 +158,16 @@ fn label_rects(
             Some((finish(i, own)?, finish(i, search)?))
         })
         .collect()
+}
+
+/// The pixels a box covers, whole.
+fn pixel_rect(b: PixelBox) -> PixelRect {
+    PixelRect {
+        x0: b.x0.floor().max(0.0) as u32,
+        y0: b.y0.floor().max(0.0) as u32,
+        x1: b.x1.ceil().max(0.0) as u32,
+        y1: b.y1.ceil().max(0.0) as u32,
+    }
 }
 
 /// The smallest rect holding `a` and `b`.

@@ -303,6 +303,64 @@ fn under_a_fast_pan_each_drone_is_drawn_and_labelled_with_its_own_pixels() {
     assert!(checked >= 6, "{checked} drones checked");
 }
 
+/// 60 drones around a camera in their midst, looking down −Z with a 100°
+/// field (drones at the near plane, behind the camera, hiding each other),
+/// under a 0.1 s readout panning at −360 °/s, with masks.
+fn among_the_drones() -> Preset {
+    let mut p = common::tiny_preset();
+    p.placement = Placement::Randomized {
+        count: (60, 60),
+        count_distribution: Default::default(),
+        volume: swarmshot::preset::Volume::Box {
+            size_m: (6.0, 3.0, 6.0),
+        },
+        min_separation_m: 0.36,
+    };
+    p.camera.absolute = Some(swarmshot::preset::formation::AbsoluteCamera {
+        position_m: (0.0, 0.0, 0.0),
+        look_at_m: (0.0, 0.0, -1.0),
+    });
+    p.camera.fov_y_deg = 100.0;
+    p.render.msaa = 4;
+    p.labels.min_box_px = 0.0;
+    p.output.masks.instance_png = true;
+    p.camera_model = Some(CameraModel {
+        rolling_shutter: Some(RollingShutter {
+            readout_s: (0.1, 0.1),
+            yaw_rate_deg_s: (-360.0, -360.0),
+        }),
+        ..CameraModel::default()
+    });
+    p
+}
+
+#[test]
+fn among_the_drones_under_a_fast_pan_every_changed_pixel_is_a_labelled_drones() {
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(among_the_drones()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    for index in 0..3 {
+        let frame = make(&pipeline, &mut renderer, index);
+        let empty = (pipeline.make_scene(&mut renderer, drone_free(&frame.scene)))
+            .expect("drone-free frame");
+        let masks = frame.masks.as_ref().expect("masks");
+        let changed: Vec<u32> = (0..frame.rgba.len() as u32 / 4)
+            .filter(|&i| frame.rgba[i as usize * 4..][..3] != empty.rgba[i as usize * 4..][..3])
+            .collect();
+        let masked: Vec<u32> = masks.instance.iter().map(|&(i, _)| i).collect();
+        assert_eq!(
+            changed, masked,
+            "frame {index}: the masks are the changed pixels"
+        );
+        // Each label's count is its mask's: none is kept from the render.
+        for label in &frame.labels {
+            let vis = label.visibility.expect("measured");
+            let case = format!("frame {index}, drone {}", label.drone);
+            assert_eq!(vis.visible_pixels, masks.count(label.drone), "{case}");
+        }
+    }
+}
+
 /// The shuttered picture of `scene` with drone `keep` alone.
 fn alone_rgba(
     pipeline: &FramePipeline,
