@@ -19,6 +19,12 @@ use crate::scene::projection::{amodal_box_through, frame_lens, paper_aabb_box_th
 use crate::scene::{DronePose, FrameScene};
 use visibility::Visibility;
 
+/// The least share of the image's width (height) a kept box spans: YOLO
+/// writes sizes as shares with six decimals, so a narrower box would be
+/// written with size 0 (a box of no area). A box under it is filtered, in
+/// every format alike, whatever `labels.min_box_px` allows.
+pub const MIN_BOX_SHARE: f64 = 1e-6;
+
 /// One labelled drone.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct DroneLabel {
@@ -125,10 +131,8 @@ pub fn label_frame_with(
             BoxMethod::PaperAabb => Some(paper.clip(w, h)),
         };
         let big_enough = |b: &PixelBox| {
-            b.width() > 0.0
-                && b.height() > 0.0
-                && b.width() >= settings.min_box_px
-                && b.height() >= settings.min_box_px
+            b.width() >= settings.min_box_px.max(MIN_BOX_SHARE * w)
+                && b.height() >= settings.min_box_px.max(MIN_BOX_SHARE * h)
         };
         let visible_enough = !settings.needs_id_pass()
             || vis.is_some_and(|v| {

@@ -36,7 +36,10 @@ impl FramePipeline {
         // The renderer drew the frame (and its background) at the drawn exposure.
         let draw = &draw.after_render();
         // The rolling shutter (issue 41): each row at its own time, first.
-        let shuttered = rolling::shuttered(shutter, scene.index, &frame.rgba, background)?;
+        let visible: Option<Vec<Option<PixelRect>>> = (measured.as_ref())
+            .map(|vis| vis.iter().map(|v| v.visible_box.map(pixel_rect)).collect());
+        let rendered = (frame.rgba.as_slice(), visible.as_deref());
+        let shuttered = rolling::shuttered(shutter, scene.index, rendered, background)?;
         let (rendered, background) = match &shuttered {
             Some((f, turned)) => (f.as_slice(), turned.as_deref().or(background)),
             None => (frame.rgba.as_slice(), background),
@@ -66,27 +69,12 @@ impl FramePipeline {
                 // The rendered visibility stays, and so do the rendered masks.
                 *sets = None;
             }
-            let near: Vec<Option<PixelRect>> = vis
-                .iter()
-                .enumerate()
-                .map(|(i, v)| {
-                    let own = v.visible_box.map(|b| PixelRect {
-                        x0: b.x0.floor().max(0.0) as u32,
-                        y0: b.y0.floor().max(0.0) as u32,
-                        x1: b.x1.ceil().max(0.0) as u32,
-                        y1: b.y1.ceil().max(0.0) as u32,
-                    });
-                    // Under a rolling shutter, where its rows took it.
-                    let own = own.and_then(|o| shutter.and_then(|s| s.near(i)).or(Some(o)));
-                    let grown = streaks::grown(own, streaks.get(i).copied().flatten(), (w, h));
-                    grown.map(|r| lens.as_ref().map_or(r, |l| lens::footprint(&l.geo, r)))
-                })
-                .collect();
+            let near = label_rects(vis, shutter, &streaks, lens.as_ref(), (w, h));
             // Through a lens, the drone-free background is resampled where the labels read it.
             let reach = draw.reach_px(w, h) * 2;
             let lensed_background = (lens.as_ref().zip(background)).map(|(l, b)| {
                 let areas: Vec<PixelRect> = (near.iter().flatten())
-                    .map(|r| PixelRect {
+                    .map(|&(_, r)| PixelRect {
                         x0: r.x0.saturating_sub(reach),
                         y0: r.y0.saturating_sub(reach),
                         x1: r.x1.saturating_add(reach),
@@ -97,12 +85,19 @@ impl FramePipeline {
             });
             let background = lensed_background.as_deref().or(background);
             for (i, v) in vis.iter_mut().enumerate() {
-                let (Some(own), Some(background)) = (near[i], background) else {
+                let Some(background) = background else {
+                    continue;
+                };
+                let Some((own, search)) = near[i] else {
+                    // Seen in the render, but its rows took it out of the picture.
+                    if shutter.is_some() && v.visible_box.is_some() {
+                        *v = camera_visibility(v, None);
+                    }
                     continue;
                 };
                 let others: Vec<PixelRect> = (near.iter().enumerate())
                     .filter(|&(j, _)| j != i)
-                    .filter_map(|(_, r)| *r)
+                    .filter_map(|(_, r)| r.map(|(own, _)| own))
                     .collect();
                 let mut set = sets.as_mut().and_then(|s| s.get_mut(i));
                 let changed = sensor::changed_pixels_each(
@@ -110,7 +105,7 @@ impl FramePipeline {
                     background,
                     (w, h),
                     draw,
-                    (own, &others),
+                    (own, search, &others),
                     &mut |x, y| {
                         if let Some(set) = set.as_mut() {
                             set.push((x, y));
@@ -130,6 +125,58 @@ impl FramePipeline {
             })?;
         }
         Ok(rgba)
+    }
+}
+
+/// Per measured drone, where its changed pixels are measured from and
+/// looked for in the picture (`None`: not visible in the render): its
+/// rendered visible box, and under a rolling shutter that box moved by its
+/// rows (the pixels claimed against the other drones) and where its drawn
+/// rect's rows go (the search: a neighbour's pixels its difference holds
+/// move with it); swept by its streak, then through the lens.
+fn label_rects(
+    vis: &[Visibility],
+    shutter: Option<&rolling::Shutter>,
+    streak_of: &[Option<sensor::motion::Streak>],
+    frame_lens: Option<&lens::FrameLens>,
+    (w, h): (u32, u32),
+) -> Vec<Option<(PixelRect, PixelRect)>> {
+    let finish = |i: usize, r: Option<PixelRect>| {
+        let grown = streaks::grown(r, streak_of.get(i).copied().flatten(), (w, h));
+        grown.map(|r| frame_lens.map_or(r, |l| lens::footprint(&l.geo, r)))
+    };
+    (vis.iter().enumerate())
+        .map(|(i, v)| {
+            let own = v.visible_box.map(pixel_rect);
+            let (own, search) = match shutter {
+                Some(s) => {
+                    let moved = own.and_then(|o| s.moved(i, o));
+                    (moved, moved.map(|m| s.near(i).map_or(m, |n| union(m, n))))
+                }
+                None => (own, own),
+            };
+            Some((finish(i, own)?, finish(i, search)?))
+        })
+        .collect()
+}
+
+/// The pixels a box covers, whole.
+fn pixel_rect(b: PixelBox) -> PixelRect {
+    PixelRect {
+        x0: b.x0.floor().max(0.0) as u32,
+        y0: b.y0.floor().max(0.0) as u32,
+        x1: b.x1.ceil().max(0.0) as u32,
+        y1: b.y1.ceil().max(0.0) as u32,
+    }
+}
+
+/// The smallest rect holding `a` and `b`.
+fn union(a: PixelRect, b: PixelRect) -> PixelRect {
+    PixelRect {
+        x0: a.x0.min(b.x0),
+        y0: a.y0.min(b.y0),
+        x1: a.x1.max(b.x1),
+        y1: a.y1.max(b.y1),
     }
 }
 

@@ -150,17 +150,18 @@ impl Shutter {
         }
     }
 
-    /// Where drone `i`'s pixels can be in the shuttered picture: where it
-    /// is drawn and where its rows reach.
+    /// Where drone `i`'s pixels can be in the shuttered picture: where its
+    /// rows take them (not where it was rendered: a fast pan moves it far).
     pub fn near(&self, i: usize) -> Option<PixelRect> {
         let s = self.shears.get(i)?.as_ref()?;
-        let reach = s.reach(self.camera.width, self.camera.height)?;
-        Some(PixelRect {
-            x0: reach.x0.min(s.rect.x0),
-            y0: reach.y0.min(s.rect.y0),
-            x1: reach.x1.max(s.rect.x1),
-            y1: reach.y1.max(s.rect.y1),
-        })
+        s.reach(self.camera.width, self.camera.height)
+    }
+
+    /// Where the rendered pixels of `rect` (drone `i`'s rendered visible
+    /// box) are in the shuttered picture: the rows and columns they reach.
+    pub fn moved(&self, i: usize, rect: PixelRect) -> Option<PixelRect> {
+        let s = self.shears.get(i)?.as_ref()?;
+        s.reach_of(rect, self.camera.width, self.camera.height)
     }
 
     /// Where row y's pixels take the drone-free background from: row y's
@@ -189,10 +190,31 @@ impl Shutter {
 
     /// The shuttered picture of `frame` over the shuttered drone-free frame,
     /// and that drone-free frame when it is not `background` itself (the
-    /// camera turns). All RGBA8.
-    pub fn apply(&self, frame: &[u8], background: &[u8]) -> Shuttered {
+    /// camera turns). All RGBA8. With `visible` (each drone's rendered
+    /// visible box, when measured), a drone's pixels are taken from its
+    /// visible box alone, and a drone that shows none is not moved: the
+    /// pixels of a drone in front, which its drawn rect also holds, stay
+    /// with that drone instead of being drawn again where this one goes.
+    pub fn apply(
+        &self,
+        frame: &[u8],
+        background: &[u8],
+        visible: Option<&[Option<PixelRect>]>,
+    ) -> Shuttered {
         let size = (self.camera.width, self.camera.height);
-        let shears: Vec<Shear> = self.shears.iter().flatten().cloned().collect();
+        let shears: Vec<Shear> = (self.shears.iter().enumerate())
+            .filter_map(|(i, s)| {
+                let s = s.as_ref()?;
+                let Some(visible) = visible else {
+                    return Some(s.clone());
+                };
+                let rect = meet(s.rect, visible.get(i).copied().flatten()?)?;
+                Some(Shear {
+                    rect,
+                    shift_px: s.shift_px.clone(),
+                })
+            })
+            .collect();
         if self.clock.yaw_rad_s == 0.0 {
             return (shear(frame, background, background, size, &shears), None);
         }
@@ -238,13 +260,25 @@ impl Shutter {
 /// The shuttered picture and, when the camera turns, its drone-free frame.
 pub type Shuttered = (Picture, Option<Picture>);
 
+/// The pixels both `a` and `b` hold; `None` when none.
+fn meet(a: PixelRect, b: PixelRect) -> Option<PixelRect> {
+    let r = PixelRect {
+        x0: a.x0.max(b.x0),
+        y0: a.y0.max(b.y0),
+        x1: a.x1.min(b.x1),
+        y1: a.y1.min(b.y1),
+    };
+    (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
+}
+
 /// Frame `index`'s rendered `frame` and drone-free `background` under
-/// `shutter` ([`Shutter::apply`]); `None` without a shutter. The shutter
-/// needs the drone-free background: an error names it when not cached.
+/// `shutter` ([`Shutter::apply`], with each drone's rendered `visible` box
+/// when measured); `None` without a shutter. The shutter needs the
+/// drone-free background: an error names it when not cached.
 pub(super) fn shuttered(
     shutter: Option<&Shutter>,
     index: u64,
-    frame: &[u8],
+    (frame, visible): (&[u8], Option<&[Option<PixelRect>]>),
     background: Option<&[u8]>,
 ) -> Result<Option<Shuttered>, super::PipelineError> {
     let Some(s) = shutter else {
@@ -254,7 +288,7 @@ pub(super) fn shuttered(
         index,
         reason: "rolling shutter: the drone-free background is not cached".into(),
     })?;
-    Ok(Some(s.apply(frame, background)))
+    Ok(Some(s.apply(frame, background, visible)))
 }
 
 /// The flow from `frames.0` to `frames.1` (each scene with its shutter,

@@ -107,6 +107,17 @@ fn reason(text: &str, e: &ron::error::SpannedError, path: &[&Segment]) -> String
                 suggestion(found, expected, "variants")
             )
         }
+        // `Custom(1920, 1080)` where the fields are named: RON asks for a raw identifier.
+        Error::SuggestRawIdentifier(found) if !found.starts_with(char::is_alphabetic) => {
+            let place = match dotted(path) {
+                path if path.is_empty() => String::new(),
+                path => format!(" in `{path}`"),
+            };
+            format!(
+                "`{}`{place} where a field's name goes: this value's fields are written by name, `name: value` (e.g. `Custom(width: 1920, height: 1080)`)",
+                crate::text::printable(found)
+            )
+        }
         Error::ExceededRecursionLimit => {
             // The path is as deep as the nesting: its first field is enough.
             let place = match path.first() {

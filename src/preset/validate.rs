@@ -172,7 +172,9 @@ impl Preset {
         }
         for (i, m) in self.models.iter().enumerate() {
             v.positive(&format!("models[{i}].size_m"), m.size_m, "metres");
-            v.check(m.size_m <= 1000.0, &format!("models[{i}].size_m"), || {
+            // NaN is named once, by `positive`.
+            let within = m.size_m.is_nan() || m.size_m <= 1000.0;
+            v.check(within, &format!("models[{i}].size_m"), || {
                 format!("{} m is larger than the 1000 m limit", m.size_m)
             });
             v.check(

@@ -533,19 +533,22 @@ pub fn changed_pixels(
         background,
         size,
         draw,
-        (near, others),
+        (near, near, others),
         &mut |_, _| {},
     )
 }
 
 /// [`changed_pixels`], calling `each(x, y)` for every pixel it counts (row
 /// by row): the drone's visible pixel set through the camera (for masks).
+/// The pixels are searched within `search` (grown by the reach), which holds
+/// `near` (a rolling shutter's drone reaches further than its visible box:
+/// `search` is where its drawn rect's rows go, `near` where its visible box's do).
 pub fn changed_pixels_each(
     frame: &[u8],
     background: &[u8],
     (width, height): (u32, u32),
     draw: &CameraDraw,
-    (near, others): (PixelRect, &[PixelRect]),
+    (near, search, others): (PixelRect, PixelRect, &[PixelRect]),
     each: &mut dyn FnMut(u32, u32),
 ) -> Option<(PixelRect, u64)> {
     let reach = draw.reach_px(width, height);
@@ -555,7 +558,7 @@ pub fn changed_pixels_each(
         x1: r.x1.saturating_add(by).min(width),
         y1: r.y1.saturating_add(by).min(height),
     };
-    let area = grow(near, reach);
+    let area = grow(search, reach);
     if area.x0 >= area.x1 || area.y0 >= area.y1 {
         return None;
     }

@@ -44,7 +44,14 @@ impl Shear {
     /// (y − shift) falls in its rect (one more for the bilinear tap), and
     /// its columns moved by those rows' shifts; `None` if none.
     pub fn reach(&self, width: u32, height: u32) -> Option<PixelRect> {
-        let (lo, hi) = (f64::from(self.rect.y0) - 1.0, f64::from(self.rect.y1) + 1.0);
+        self.reach_of(self.rect, width, height)
+    }
+
+    /// The output pixels that the rendered pixels of `rect` (a part of the
+    /// drone's rect, e.g. its visible box) reach under the drone's shifts,
+    /// as [`Self::reach`]; `None` if none.
+    pub fn reach_of(&self, rect: PixelRect, width: u32, height: u32) -> Option<PixelRect> {
+        let (lo, hi) = (f64::from(rect.y0) - 1.0, f64::from(rect.y1) + 1.0);
         let mut rows = (u32::MAX, 0u32);
         let mut cols = (f64::INFINITY, f64::NEG_INFINITY);
         for (y, &(sx, sy)) in (0..height).zip(&self.shift_px) {
@@ -57,8 +64,8 @@ impl Shear {
         if rows.0 >= rows.1 {
             return None;
         }
-        let x0 = (f64::from(self.rect.x0) + cols.0 - 1.0).floor().max(0.0);
-        let x1 = (f64::from(self.rect.x1) + cols.1 + 1.0).ceil().max(0.0);
+        let x0 = (f64::from(rect.x0) + cols.0 - 1.0).floor().max(0.0);
+        let x1 = (f64::from(rect.x1) + cols.1 + 1.0).ceil().max(0.0);
         Some(PixelRect {
             x0: (x0.min(f64::from(width))) as u32,
             y0: rows.0,
@@ -196,11 +203,12 @@ pub fn shear_over(
         let Some(reach) = s.reach(width, height) else {
             continue;
         };
-        let region = union(reach, s.rect, width, height);
+        // Only where its rows take it: its rendered rect shows the turned
+        // drone-free frame, and claiming it would hide a drone moved there.
         if let Some(diff) = Difference::of(frame, background, width, height, s.rect, &[]) {
-            draw_shear(out, width, (s, &diff), region, &owned);
+            draw_shear(out, width, (s, &diff), reach, &owned);
         }
-        owned.push(region);
+        owned.push(reach);
     }
 }
 
@@ -237,16 +245,6 @@ fn draw_shear(
                 }
             }
         }
-    }
-}
-
-/// The smallest rect holding `a` and `b`, clamped to the image.
-fn union(a: PixelRect, b: PixelRect, width: u32, height: u32) -> PixelRect {
-    PixelRect {
-        x0: a.x0.min(b.x0).min(width),
-        y0: a.y0.min(b.y0).min(height),
-        x1: a.x1.max(b.x1).min(width),
-        y1: a.y1.max(b.y1).min(height),
     }
 }
 

@@ -236,6 +236,40 @@ fn drones_crossing_the_near_plane_or_behind_the_camera() {
     );
 }
 
+/// Amodal labels of `drone` alone, seen from the origin down −Z, with no
+/// `min_box_px`: its label and the frame's YOLO text.
+fn amodal_alone(drone: DronePose) -> (swarmshot::annotate::DroneLabel, String) {
+    let p = common::tiny_preset();
+    let maker = FramePipeline::new(p.clone()).expect("models");
+    let scene = scene_with(&p, DVec3::ZERO, DVec3::new(0.0, 0.0, -1.0), vec![drone]);
+    let settings = LabelSettings {
+        box_method: BoxMethod::Amodal,
+        min_box_px: 0.0,
+        ..Default::default()
+    };
+    let labels = label_frame(&scene, &maker.assets().geometry, &[0], &settings, None);
+    assert_eq!(labels.len(), 1);
+    let text = swarmshot::write::formats::yolo::label_text(&scene, &labels);
+    (labels[0].clone(), text)
+}
+
+#[test]
+fn a_box_under_yolos_six_decimals_is_filtered_not_written_with_size_zero() {
+    // A 1 µm drone 5 m away: about 4e-5 px wide, 1e-7 of the 320-px side.
+    let (speck, text) = amodal_alone(drone(DVec3::new(0.0, 0.0, -5.0), 1e-6));
+    assert!(speck.amodal.width() > 0.0 && speck.amodal.width() < 1e-3);
+    assert_ne!(speck.status, LabelStatus::Kept, "{:?}", speck.amodal);
+    assert!(text.is_empty(), "no YOLO row: {text}");
+    // Ten times wider than a millionth of each side: kept, with a size.
+    let (small, text) = amodal_alone(drone(DVec3::new(0.0, 0.0, -5.0), 1e-3));
+    assert!(small.amodal.width() > 320.0 * 1e-5 && small.amodal.height() > 180.0 * 1e-5);
+    assert_eq!(small.status, LabelStatus::Kept, "{:?}", small.amodal);
+    let row: Vec<f64> = (text.split_whitespace().skip(1))
+        .map(|v| v.parse().expect("number"))
+        .collect();
+    assert!(row.len() == 4 && row[2] > 0.0 && row[3] > 0.0, "{text}");
+}
+
 #[test]
 fn one_pixel_drone_and_frame_filling_drone() {
     let ctx = common::gpu();

@@ -204,3 +204,36 @@ fn a_lens_with_depth_or_flow_maps_is_refused_by_its_field() {
         assert!(others.iter().all(|e| e.field != "camera_model.lens"));
     }
 }
+
+#[test]
+fn the_manifest_records_the_written_pictures_focal_length_through_a_lens() {
+    // A barrel lens zooms in: the written picture's focal length is not K's.
+    let p = lens_preset(Some(barrel(-0.3)));
+    let scene = swarmshot::scene::build_frame(&p, 0).expect("frame");
+    let names = ["quad_x".to_string()];
+    let line = swarmshot::write::manifest_line(&scene, &[], "x.png", &names, &[]);
+    let record: serde_json::Value = serde_json::from_str(&line).expect("json");
+    let lens = &record["camera_model"]["lens"];
+    let focal = lens["focal_px"].as_f64().expect("lens.focal_px");
+    let k = |r: usize, c: usize| record["camera"]["K"][r][c].as_f64().expect("K");
+    let (fx, cx, cy) = (k(0, 0), k(0, 2), k(1, 2));
+    assert!((focal - fx).abs() > 1.0, "{focal} vs K's {fx}");
+    // K's pinhole, the recorded coefficients and focal_px put a rendered
+    // point where the lens puts it in the written picture.
+    let c = |name: &str| lens[name].as_f64().expect("coefficient");
+    let (k1, k2, k3, p1, p2) = (c("k1"), c("k2"), c("k3"), c("p1"), c("p2"));
+    let geo = swarmshot::scene::projection::frame_lens(&scene).expect("a lens");
+    for (u, v) in [(3.0, 5.0), (cx, cy), (200.0, 150.0), (239.0, 159.0)] {
+        let (x, y) = ((u - cx) / fx, (v - cy) / fx);
+        let r2 = x * x + y * y;
+        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+        let yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+        let (wu, wv) = geo.forward((u, v));
+        let (du, dv) = (cx + focal * xd - wu, cy + focal * yd - wv);
+        assert!(
+            du.abs() < 1e-3 && dv.abs() < 1e-3,
+            "({u}, {v}): off by ({du}, {dv})"
+        );
+    }
+}

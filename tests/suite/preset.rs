@@ -206,3 +206,24 @@ fn a_count_range_upside_down_says_so_in_words() {
     *count = (1, 0);
     assert_rejected(&p, "placement.count", "minimum 1 is more than maximum 0");
 }
+
+#[test]
+fn positional_fields_and_a_nan_size_are_named_plainly() {
+    let e = Preset::from_ron("(render: (resolution: Custom(321, 241)))").expect_err("positional");
+    assert!(
+        e.reason
+            .contains("`321` in `render.resolution` where a field's name goes"),
+        "{}",
+        e.reason
+    );
+    assert!(!e.reason.contains("raw identifier"), "{}", e.reason);
+    let mut p = Preset::default();
+    p.models[0].size_m = f64::NAN;
+    let errors = p.validate().expect_err("a NaN size");
+    let on_size: Vec<&str> = (errors.iter())
+        .filter(|e| e.field == "models[0].size_m")
+        .map(|e| e.message.as_str())
+        .collect();
+    assert_eq!(on_size.len(), 1, "{on_size:?}");
+    assert!(on_size[0].contains("finite number > 0"), "{on_size:?}");
+}

@@ -17,6 +17,7 @@ use swarmshot::preset::sweep::SweepRange;
 use swarmshot::preset::{BoxMethod, Motion, Placement, Preset, SequenceSpec};
 use swarmshot::render::Renderer;
 use swarmshot::scene::{FrameScene, build_frame, build_frame_at};
+use swarmshot::sensor::PixelRect;
 
 /// The MOT tests' wedge crossing a fixed camera sideways (`count` drones,
 /// 320×180), a neutral camera model with a rolling shutter of `readout_s`
@@ -226,6 +227,149 @@ fn labels_are_the_pixels_changed_against_the_drone_free_frame_under_the_shutter(
         kept += 1;
     }
     assert!(kept >= 2, "{kept} drones seen");
+}
+
+/// `scene` with every drone but `keep` shrunk to nothing: the same
+/// indices, motion and shutter, only drone `keep` drawn.
+fn alone(scene: &FrameScene, keep: usize) -> FrameScene {
+    let mut s = scene.clone();
+    for (i, d) in s.drones.iter_mut().enumerate() {
+        if i != keep {
+            d.size_m = 1e-30;
+        }
+    }
+    s
+}
+
+/// Whether `a` grown by a pixel meets `b`.
+fn touch(a: PixelRect, b: PixelRect) -> bool {
+    a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1
+}
+
+#[test]
+fn under_a_fast_pan_each_drone_is_drawn_and_labelled_with_its_own_pixels() {
+    let ctx = common::gpu();
+    // The fastest pan and readout validation accepts: a drone's rows move
+    // tens of pixels from where it was rendered.
+    let mut p = preset(4, Some((0.1, 360.0)));
+    p.models[0].size_m = 0.8;
+    let pipeline = FramePipeline::new(p).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    let mut checked = 0;
+    for index in 0..5 {
+        let frame = make(&pipeline, &mut renderer, index);
+        let scene = &frame.scene;
+        let w = scene.camera.width;
+        let empty = (pipeline.make_scene(&mut renderer, drone_free(scene))).expect("drone-free");
+        // Each drone's own pixels: the frame with it alone against the drone-free one.
+        let alone: Vec<Vec<u8>> = (0..scene.drones.len())
+            .map(|i| alone_rgba(&pipeline, &mut renderer, scene, i))
+            .collect();
+        let own: Vec<Option<(PixelRect, u64)>> = (alone.iter())
+            .map(|a| common::changed_box(a, &empty.rgba, w))
+            .collect();
+        for label in &frame.labels {
+            let Some((mine, n)) = own[label.drone] else {
+                continue;
+            };
+            let apart = (own.iter().enumerate())
+                .filter(|&(j, _)| j != label.drone)
+                .all(|(_, o)| o.is_none_or(|(r, _)| !touch(mine, r)));
+            if !apart {
+                continue;
+            }
+            let case = format!("frame {index}, drone {}", label.drone);
+            // Drawn: the full frame shows the same pixels there.
+            let crop = |rgba: &[u8]| -> Vec<u8> {
+                (mine.y0..mine.y1)
+                    .flat_map(|y| (mine.x0..mine.x1).map(move |x| ((y * w + x) * 4) as usize))
+                    .flat_map(|i| rgba[i..i + 3].to_vec())
+                    .collect()
+            };
+            let drawn = crop(&frame.rgba) == crop(&alone[label.drone]);
+            assert!(drawn, "{case}: not drawn as alone");
+            // Labelled with its own pixels, no neighbour's.
+            let vis = label.visibility.expect("measured");
+            let vb = vis.visible_box.expect(&case);
+            assert_eq!(
+                [vb.x0, vb.y0, vb.x1, vb.y1],
+                [mine.x0, mine.y0, mine.x1, mine.y1].map(f64::from),
+                "{case}"
+            );
+            assert_eq!(vis.visible_pixels, n, "{case}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "{checked} drones checked");
+}
+
+/// 60 drones around a camera in their midst, looking down −Z with a 100°
+/// field (drones at the near plane, behind the camera, hiding each other),
+/// under a 0.1 s readout panning at −360 °/s, with masks.
+fn among_the_drones() -> Preset {
+    let mut p = common::tiny_preset();
+    p.placement = Placement::Randomized {
+        count: (60, 60),
+        count_distribution: Default::default(),
+        volume: swarmshot::preset::Volume::Box {
+            size_m: (6.0, 3.0, 6.0),
+        },
+        min_separation_m: 0.36,
+    };
+    p.camera.absolute = Some(swarmshot::preset::formation::AbsoluteCamera {
+        position_m: (0.0, 0.0, 0.0),
+        look_at_m: (0.0, 0.0, -1.0),
+    });
+    p.camera.fov_y_deg = 100.0;
+    p.render.msaa = 4;
+    p.labels.min_box_px = 0.0;
+    p.output.masks.instance_png = true;
+    p.camera_model = Some(CameraModel {
+        rolling_shutter: Some(RollingShutter {
+            readout_s: (0.1, 0.1),
+            yaw_rate_deg_s: (-360.0, -360.0),
+        }),
+        ..CameraModel::default()
+    });
+    p
+}
+
+#[test]
+fn among_the_drones_under_a_fast_pan_every_changed_pixel_is_a_labelled_drones() {
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(among_the_drones()).expect("pipeline");
+    let mut renderer = pipeline.renderer(&ctx);
+    for index in 0..3 {
+        let frame = make(&pipeline, &mut renderer, index);
+        let empty = (pipeline.make_scene(&mut renderer, drone_free(&frame.scene)))
+            .expect("drone-free frame");
+        let masks = frame.masks.as_ref().expect("masks");
+        let changed: Vec<u32> = (0..frame.rgba.len() as u32 / 4)
+            .filter(|&i| frame.rgba[i as usize * 4..][..3] != empty.rgba[i as usize * 4..][..3])
+            .collect();
+        let masked: Vec<u32> = masks.instance.iter().map(|&(i, _)| i).collect();
+        assert_eq!(
+            changed, masked,
+            "frame {index}: the masks are the changed pixels"
+        );
+        // Each label's count is its mask's: none is kept from the render.
+        for label in &frame.labels {
+            let vis = label.visibility.expect("measured");
+            let case = format!("frame {index}, drone {}", label.drone);
+            assert_eq!(vis.visible_pixels, masks.count(label.drone), "{case}");
+        }
+    }
+}
+
+/// The shuttered picture of `scene` with drone `keep` alone.
+fn alone_rgba(
+    pipeline: &FramePipeline,
+    renderer: &mut Renderer,
+    scene: &FrameScene,
+    keep: usize,
+) -> Vec<u8> {
+    let f = pipeline.make_scene(renderer, alone(scene, keep));
+    f.expect("alone").rgba
 }
 
 #[test]

@@ -140,7 +140,7 @@ pub fn write_manifest_line(
     frame::write_camera(&mut j, scene);
     if let Some(c) = &scene.camera_model {
         j.raw(b",\"camera_model\":");
-        frame::write_camera_model(&mut j, c);
+        frame::write_camera_model(&mut j, scene, c);
     }
     if !scene.confusers.is_empty() {
         j.raw(b",\"confusers\":[");

@@ -69,7 +69,8 @@ pub fn encode(
 /// `class x1 y1 x2 y2 …`, the vertices of the largest outer contour of the
 /// drone's visible pixels (imageproc's border following, the centres of
 /// the boundary pixels), normalised to the image size. A mask whose
-/// contour has fewer than three points (one or two pixels) gets its box's corners.
+/// largest contour has fewer than three points (its largest piece is one or
+/// two pixels) gets its whole box's corners.
 pub fn yolo_seg_text(masks: &FrameMasks, labels: &[DroneLabel]) -> Vec<u8> {
     use super::json::{decimal, fixed6};
     let (w, h) = (f64::from(masks.width), f64::from(masks.height));

@@ -94,8 +94,34 @@ pub(crate) fn write_sweep(j: &mut Json<'_>, scene: &FrameScene) {
 }
 
 /// The camera model's draws of the frame (issue 21), keys in byte order.
-pub(super) fn write_camera_model(j: &mut Json<'_>, c: &crate::sensor::CameraDraw) {
-    write_draw_group(j, &c.record());
+/// A lens's record also holds `focal_px`: the written picture's focal
+/// length (its principal point is `K`'s), which maps a point to the written
+/// pixels with the coefficients.
+pub(super) fn write_camera_model(
+    j: &mut Json<'_>,
+    scene: &FrameScene,
+    c: &crate::sensor::CameraDraw,
+) {
+    let mut record = c.record();
+    if c.lens.is_some() {
+        let written = crate::scene::projection::frame_lens(scene);
+        let focal = written.map_or(scene.camera.focal_px(), |g| g.focal_out);
+        add_lens_focal(&mut record, focal);
+    }
+    write_draw_group(j, &record);
+}
+
+/// `focal_px` added to the `lens` group of a camera model's `record`.
+fn add_lens_focal(record: &mut [(&'static str, crate::sensor::DrawValue)], focal_px: f64) {
+    use crate::sensor::DrawValue::{Group, Real};
+    for (key, value) in record.iter_mut() {
+        if *key == "lens"
+            && let Group(g) = value
+        {
+            g.push(("focal_px", Real(focal_px)));
+            g.sort_by_key(|(k, _)| *k);
+        }
+    }
 }
 
 /// `,"weather":{…}`: the frame's weather draws, keys in byte order.
