@@ -201,6 +201,27 @@ fn check_pixels(paths: &[PathBuf]) -> Result<(), FitError> {
     })
 }
 
+/// Refuses, before anything is written, a video whose frames would pass fit's budgets:
+/// one frame over [`crate::input::MAX_IMAGE_PIXELS`], or the frames the decode can give
+/// over [`MAX_TOTAL_PIXELS`] together (naming how many fit).
+pub fn check_video_pixels(
+    video: &Path,
+    probe: &super::video::Probe,
+    options: &FitOptions,
+) -> Result<(), FitError> {
+    let each = frame_pixels(video, (probe.width, probe.height))?;
+    let frames = super::video::frames_bound(probe, options);
+    let pixels = each.saturating_mul(frames as u64);
+    if pixels <= MAX_TOTAL_PIXELS {
+        return Ok(());
+    }
+    Err(FitError::TooManyPixels {
+        frames,
+        pixels,
+        fit: (MAX_TOTAL_PIXELS / each.max(1)) as usize,
+    })
+}
+
 /// Every frame under `dir` in name order (at most `max`, evenly spaced; 0: all), decoded,
 /// with its labels (the rows of `classes`); refuses unlabelled frames unless `unlabelled_ok`.
 pub fn read_folder(
@@ -259,4 +280,38 @@ pub fn read_folder(
         });
     }
     Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(max_frames: usize, video_fps: f64) -> FitOptions {
+        FitOptions {
+            max_frames,
+            video_fps,
+            ..FitOptions::new("real", "out")
+        }
+    }
+
+    #[test]
+    fn frames_past_the_budgets_are_refused_naming_how_many_fit() {
+        let v = Path::new("clip.mp4");
+        let eight_k = crate::fit::video::Probe {
+            width: 7680,
+            height: 4320,
+            duration_s: None,
+        };
+        let e = check_video_pixels(v, &eight_k, &options(200, 2.0)).expect_err("8K × 200");
+        assert!(matches!(e, FitError::TooManyPixels { fit: 60, .. }), "{e}");
+        assert!(e.to_string().contains("--max-frames 60"), "{e}");
+        check_video_pixels(v, &eight_k, &options(60, 2.0)).expect("8K × 60 fits");
+        let huge = crate::fit::video::Probe {
+            width: 20_000,
+            height: 20_000,
+            duration_s: Some(1.0),
+        };
+        let e = check_video_pixels(v, &huge, &options(1, 2.0)).expect_err("400 Mpx");
+        assert!(e.to_string().starts_with("clip.mp4: "), "{e}");
+    }
 }

@@ -248,7 +248,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         }
         input::Source::Video { path, decoder } => {
             let probe = video::probe(path, decoder)?;
-            video::check_budget(path, &probe, options)?;
+            input::check_video_pixels(path, &probe, options)?;
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
             let dir = video::decode(path, decoder, &probe, &mut out, options)?;
             // ffmpeg's `frame_NNNNN.png` names give plates of names apart.

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{FitError, FitOptions, input, io_err};
+use super::{FitError, FitOptions, io_err};
 
 /// The most frames decoded when `--max-frames` is 0.
 pub const MAX_VIDEO_FRAMES: usize = 10_000;
@@ -137,23 +137,6 @@ pub fn frames_bound(probe: &Probe, options: &FitOptions) -> usize {
     }
 }
 
-/// Refuses, before anything is written, a video whose frames would pass fit's budgets:
-/// one frame over [`crate::input::MAX_IMAGE_PIXELS`], or the frames the decode can give
-/// over [`input::MAX_TOTAL_PIXELS`] together (naming how many fit).
-pub fn check_budget(video: &Path, probe: &Probe, options: &FitOptions) -> Result<(), FitError> {
-    let each = input::frame_pixels(video, (probe.width, probe.height))?;
-    let frames = frames_bound(probe, options);
-    let pixels = each.saturating_mul(frames as u64);
-    if pixels <= input::MAX_TOTAL_PIXELS {
-        return Ok(());
-    }
-    Err(FitError::TooManyPixels {
-        frames,
-        pixels,
-        fit: (input::MAX_TOTAL_PIXELS / each.max(1)) as usize,
-    })
-}
-
 /// Decodes `fps` frames a second of the video into `OUT/frames/` with ffmpeg (PNG,
 /// lossless), at most [`frames_bound`]. The folder is made below `out`'s handle
 /// without following a link, and checked to be the same folder before and after ffmpeg
@@ -230,26 +213,5 @@ mod tests {
             frames_bound(&probe(None), &options(0, 2.0)),
             MAX_VIDEO_FRAMES
         );
-    }
-
-    #[test]
-    fn frames_past_the_budgets_are_refused_naming_how_many_fit() {
-        let v = Path::new("clip.mp4");
-        let eight_k = Probe {
-            width: 7680,
-            height: 4320,
-            duration_s: None,
-        };
-        let e = check_budget(v, &eight_k, &options(200, 2.0)).expect_err("8K × 200");
-        assert!(matches!(e, FitError::TooManyPixels { fit: 60, .. }), "{e}");
-        assert!(e.to_string().contains("--max-frames 60"), "{e}");
-        check_budget(v, &eight_k, &options(60, 2.0)).expect("8K × 60 fits");
-        let huge = Probe {
-            width: 20_000,
-            height: 20_000,
-            duration_s: Some(1.0),
-        };
-        let e = check_budget(v, &huge, &options(1, 2.0)).expect_err("400 Mpx");
-        assert!(e.to_string().starts_with("clip.mp4: "), "{e}");
     }
 }
