@@ -538,6 +538,37 @@ fn a_user_file_at_a_frame_name_is_refused_not_replaced() {
     assert_same_dataset(&reference, &out, "resumed after the user's file moved");
 }
 
+#[test]
+fn an_overwrite_killed_while_deleting_never_leaves_a_finished_looking_run() {
+    // `--overwrite` deletes the earlier run's files, then its ledger. Killed
+    // in between, the folder held the old ledger with every checkpoint and
+    // its done mark: the same command without --overwrite said "already
+    // complete" over a folder whose files were gone. The ledger now forgets
+    // the run's progress before the first file is deleted.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let out = tmp.path().join("out");
+    run_ok(&file, &out, &[]);
+    let child = batch_cmd(&file, &out, &["--overwrite"])
+        .env("SWARMSHOT_STALL_AT", "overwrite:deleting")
+        .spawn()
+        .expect("spawn");
+    kill_when(child, "the first file deleted", || {
+        !out.join("preset.lock.ron").exists()
+    });
+    let ledger = std::fs::read_to_string(out.join(".swarmshot-ledger")).expect("ledger");
+    assert!(
+        !ledger.contains("!done") && !ledger.contains("\n="),
+        "a half-deleted run still looks finished:\n{ledger}"
+    );
+    run_ok(&file, &out, &[]);
+    assert_same_dataset(&reference, &out, "the run after a killed --overwrite");
+}
+
 /// Frames in a dataset folder that also holds user files: images named by index.
 fn assert_dataset_frames(dir: &Path) -> usize {
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");

@@ -243,9 +243,10 @@ impl Folder {
     ///
     /// Every listed entry is first looked at without following links: a
     /// link anywhere on a listed path (the entry itself or a folder above
-    /// it) refuses the whole deletion before anything is deleted. Then each
-    /// file is deleted relative to its folder's handle (`unlinkat`), so a
-    /// folder swapped for a link in between is never walked through.
+    /// it) refuses the whole deletion before anything is deleted. Then the
+    /// ledger forgets the run's progress ([`Folder::forget_progress`]), and
+    /// each file is deleted relative to its folder's handle (`unlinkat`), so
+    /// a folder swapped for a link in between is never walked through.
     fn delete_run(tree: &mut Tree) -> Result<(), OutputError> {
         let root = tree.root().to_owned();
         let claims = Self::claims(&root)?;
@@ -262,6 +263,7 @@ impl Folder {
                 }
             }
         }
+        Self::forget_progress(tree)?;
         let mut dirs = Vec::new();
         for rel in &claims {
             if let Some(dir) = rel.strip_suffix('/') {
@@ -271,6 +273,7 @@ impl Folder {
             for r in [rel.clone(), temp_rel(rel)] {
                 tree.remove_file(&r)?;
             }
+            stall_if_asked("overwrite:deleting");
         }
         for dir in dirs.iter().rev() {
             // Not empty: it holds files swarmshot did not write; keep them.
@@ -278,6 +281,26 @@ impl Folder {
         }
         tree.remove_file(LEDGER)?;
         Ok(())
+    }
+}
+
+impl Folder {
+    /// Rewrite the ledger (atomically) as its header and its claims alone,
+    /// before `--overwrite` deletes anything: a deletion cut short (a kill,
+    /// a file that cannot be deleted) leaves a run with no checkpoint and no
+    /// done mark, which the next run starts again from its first frame,
+    /// never a run that looks finished while its files are gone.
+    fn forget_progress(tree: &mut Tree) -> Result<(), OutputError> {
+        let path = tree.root().join(LEDGER);
+        let bytes = super::ledger::read_ledger(tree.open_file(LEDGER, false)?, &path)?;
+        let whole = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let mut text = Vec::with_capacity(whole);
+        for (i, line) in bytes[..whole].split_inclusive(|&b| b == b'\n').enumerate() {
+            if i == 0 || line.starts_with(b"*") || line.starts_with(b"+") {
+                text.extend_from_slice(line);
+            }
+        }
+        write_new_then_rename(tree, LEDGER, &text, true)
     }
 }
 

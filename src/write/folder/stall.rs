@@ -11,7 +11,8 @@ use std::path::PathBuf;
 /// path relative to the dataset folder, the batch sleeps after that file's
 /// temporary copy is written and before it is renamed into place; set to
 /// `checkpoint:N`, after frame N's files and records are written and before
-/// its checkpoint. A test kills the process there. With
+/// its checkpoint; set to `overwrite:deleting`, after the first file
+/// `--overwrite` deletes. A test kills the process there. With
 /// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
 /// path exists (a barrier: tests/suite/output_trust.rs runs a second batch
 /// meanwhile), and says it has stopped by creating that path with
