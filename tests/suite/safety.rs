@@ -569,6 +569,58 @@ fn an_overwrite_killed_while_deleting_never_leaves_a_finished_looking_run() {
     assert_same_dataset(&reference, &out, "the run after a killed --overwrite");
 }
 
+#[test]
+fn a_checkpoint_changed_after_it_was_written_is_not_trusted() {
+    // A checkpoint was trusted when its JSON parsed: a digit changed in the
+    // ledger of a killed run (a flipped bit, an edit) made the resume skip
+    // frames, cut the manifest inside a line, or number COCO ids wrong, and
+    // end with status 0. Each checkpoint now carries its JSON's hash; a
+    // changed one (and every one after it) is not trusted, and the resume
+    // makes those frames again.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let p = preset();
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let edits: [(&str, fn(&str) -> String); 2] = [
+        ("next 10 -> 12", |l| {
+            l.replace("\"next\":10,", "\"next\":12,")
+        }),
+        ("a manifest length one less", |l| {
+            let (head, rest) = l
+                .split_once("\"manifest.jsonl\":")
+                .expect("manifest length");
+            let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+            let less = digits.parse::<u64>().expect("length") - 1;
+            format!("{head}\"manifest.jsonl\":{less}{}", &rest[digits.len()..])
+        }),
+    ];
+    for (what, edit) in edits {
+        let out = tmp.path().join(what.replace(' ', "_"));
+        let child = batch_cmd(&file, &out, &[])
+            .env("SWARMSHOT_STALL_AT", "checkpoint:10")
+            .spawn()
+            .expect("spawn");
+        let manifest = out.join("manifest.jsonl");
+        kill_when(child, "before checkpoint 10", || {
+            std::fs::read_to_string(&manifest).is_ok_and(|m| m.lines().count() == 11)
+        });
+        let path = out.join(".swarmshot-ledger");
+        let ledger = std::fs::read_to_string(&path).expect("ledger");
+        let mut lines: Vec<String> = ledger.lines().map(str::to_owned).collect();
+        let last = lines
+            .iter()
+            .rposition(|l| l.starts_with('='))
+            .expect("checkpoint");
+        let changed = edit(&lines[last]);
+        assert_ne!(changed, lines[last], "{what}: the edit changed nothing");
+        lines[last] = changed;
+        std::fs::write(&path, lines.join("\n") + "\n").expect("edit the ledger");
+        run_ok(&file, &out, &["--resume"]);
+        assert_same_dataset(&reference, &out, what);
+    }
+}
+
 /// Frames in a dataset folder that also holds user files: images named by index.
 fn assert_dataset_frames(dir: &Path) -> usize {
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");

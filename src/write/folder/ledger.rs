@@ -65,6 +65,28 @@ pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputErro
     Ok(bytes)
 }
 
+/// A checkpoint's ledger line: `=`, its JSON, a tab and the FNV-1a 64 hash
+/// of the JSON (serde_json writes no raw tab), so a line changed after it was
+/// written (a flipped bit, an edit) is told from one swarmshot wrote.
+fn checkpoint_line(json: &str) -> String {
+    format!("={json}\tfnv1a64:{:016x}\n", fnv1a64(json.as_bytes()))
+}
+
+/// The checkpoint a ledger line holds after its `=`: `None` when its hash
+/// does not match its JSON or the JSON is not a checkpoint. A line without
+/// a hash (written by a swarmshot before the hash) is read as it was.
+pub(super) fn parse_checkpoint(text: &str) -> Option<Checkpoint> {
+    let json = match text.rsplit_once('\t') {
+        Some((json, sum)) => {
+            let hex = sum.strip_prefix("fnv1a64:")?;
+            let hash = u64::from_str_radix(hex, 16).ok()?;
+            (hex.len() == 16 && hash == fnv1a64(json.as_bytes())).then_some(json)?
+        }
+        None => text,
+    };
+    serde_json::from_str(json).ok()
+}
+
 impl Folder {
     /// Append whole lines to the ledger; `sync` flushes them to disk first.
     fn ledger_append(&mut self, text: &str, sync: bool) -> Result<(), OutputError> {
@@ -158,7 +180,7 @@ impl Folder {
         // A folder swapped for a link (or moved) since it was opened stops the
         // run here: the frame's files went into the folder that was opened.
         self.tree.verify()?;
-        self.ledger_append(&format!("={json}\n"), false)?;
+        self.ledger_append(&checkpoint_line(&json), false)?;
         self.frame_claims.clear();
         Ok(())
     }
