@@ -570,6 +570,50 @@ fn an_overwrite_killed_while_deleting_never_leaves_a_finished_looking_run() {
 }
 
 #[test]
+fn a_finished_run_missing_files_is_not_called_complete() {
+    // A finished run's files deleted or cut after it ended: the same command
+    // said "already complete" and wrote nothing. It now names what changed
+    // and writes nothing; --overwrite makes the run again.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let out = tmp.path().join("out");
+    run_ok(&file, &out, &[]);
+    let image = common::files_under(&out.join("images/train"))
+        .into_iter()
+        .next()
+        .expect("a train image");
+    let image = Path::new("images/train").join(image);
+    std::fs::remove_file(out.join(&image)).expect("delete an image");
+    std::fs::remove_file(out.join("stats.json")).expect("delete stats");
+    let manifest = std::fs::OpenOptions::new()
+        .write(true)
+        .open(out.join("manifest.jsonl"))
+        .expect("manifest");
+    manifest.set_len(100).expect("cut the manifest");
+    for extra in [&[][..], &["--resume"][..]] {
+        let err = run_err(&file, &out, extra);
+        assert!(
+            err.contains("finished run")
+                && err.contains(&format!("{} is missing", image.display()))
+                && err.contains("stats.json is missing")
+                && err.contains("manifest.jsonl is 100 bytes")
+                && err.contains("--overwrite"),
+            "{err}"
+        );
+    }
+    run_ok(&file, &out, &["--overwrite"]);
+    assert_same_dataset(&reference, &out, "made again with --overwrite");
+    // An intact finished run is still complete, and says so.
+    let o = run(&file, &out, &[]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("already complete"));
+}
+
+#[test]
 fn a_checkpoint_changed_after_it_was_written_is_not_trusted() {
     // A checkpoint was trusted when its JSON parsed: a digit changed in the
     // ledger of a killed run (a flipped bit, an edit) made the resume skip

@@ -77,6 +77,52 @@ fn frame_names_free(
     Ok(())
 }
 
+/// The most problems a refusal of a changed finished run names.
+const MAX_PROBLEMS_NAMED: usize = 10;
+
+/// A finished run's files as it left them, before it is called complete:
+/// every file its ledger claims (working files aside: they are deleted when
+/// the run ends) is still there as a regular file, and each append-only
+/// file (the manifest) has the length its last checkpoint gives. Files are
+/// looked at, not read.
+fn finished_files_intact(tree: &mut Tree, scan: &LedgerScan) -> Result<(), OutputError> {
+    let mut claimed: Vec<&String> = scan
+        .owned
+        .union(&scan.frame_files)
+        .filter(|r| !r.ends_with('/') && !is_working_file(r) && r.as_str() != LEDGER)
+        .collect();
+    claimed.sort();
+    let mut problems = Vec::new();
+    for rel in claimed {
+        match tree.lstat(rel)? {
+            None => problems.push(format!("{rel} is missing")),
+            Some(e) if !e.is_file() => problems.push(format!("{rel} is not a regular file")),
+            Some(_) => {}
+        }
+    }
+    let appended = scan.checkpoint.iter().flat_map(|cp| cp.files.iter());
+    for (rel, &len) in appended.filter(|(r, _)| !is_working_file(r)) {
+        if let Some(e) = tree.lstat(rel)?.filter(|e| e.is_file() && e.len != len) {
+            problems.push(format!(
+                "{rel} is {} bytes, {len} when the run ended",
+                e.len
+            ));
+        }
+    }
+    if problems.is_empty() {
+        return Ok(());
+    }
+    if problems.len() > MAX_PROBLEMS_NAMED {
+        let more = problems.len() - MAX_PROBLEMS_NAMED;
+        problems.truncate(MAX_PROBLEMS_NAMED);
+        problems.push(format!("and {more} more"));
+    }
+    Err(OutputError::FinishedChanged {
+        path: tree.root().to_owned(),
+        problems,
+    })
+}
+
 impl Folder {
     /// Open `root` for a run: refuse what is not ours, delete the earlier
     /// run's files when `mode.overwrite`, and say where to start.
@@ -155,6 +201,9 @@ impl Folder {
             every: mode.every.unwrap_or(scan.run.every).max(1),
         };
         if scan.run == run && !mode.overwrite {
+            if scan.done {
+                finished_files_intact(&mut tree, &scan)?;
+            }
             let folder = Self::continue_from(tree, &scan, lock)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
