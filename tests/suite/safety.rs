@@ -665,6 +665,65 @@ fn a_checkpoint_changed_after_it_was_written_is_not_trusted() {
     }
 }
 
+#[test]
+fn a_frame_killed_while_writing_keeps_the_earlier_files_whole() {
+    // `swarmshot frame` wrote and renamed its files one at a time: killed
+    // between two, the folder held some files of the new frame beside some
+    // of the old, and a `.NAME.PID.tmp` nothing removed. Every file is now
+    // written to its temporary name first, then all are renamed; the next
+    // frame there removes a killed one's temporary files.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.output.masks.instance_png = true;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let frame = |dir: &Path, index: &str| {
+        let mut cmd = Command::new(BIN);
+        cmd.arg("frame")
+            .arg(&file)
+            .args(["--index", index, "--out", "f.jpg", "--overwrite"])
+            .current_dir(dir)
+            .env("RUST_BACKTRACE", "0")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        cmd
+    };
+    let run_frame = |dir: &Path, index: &str| {
+        let o = frame(dir, index).output().expect("frame");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let names = ["f.jpg", "f.txt", "f.json", "f.mask.png"];
+    let contents = |dir: &Path| names.map(|n| std::fs::read(dir.join(n)).expect("a frame file"));
+    let (one, two) = (tmp.path().join("one"), tmp.path().join("two"));
+    for (dir, index) in [(&one, "1"), (&two, "2")] {
+        std::fs::create_dir(dir).expect("mkdir");
+        run_frame(dir, index);
+    }
+    let (frame_one, frame_two) = (contents(&one), contents(&two));
+    // A temporary file of a process that cannot exist (above Linux's pid_max).
+    std::fs::write(one.join(".f.txt.4294967295.tmp"), "stale").expect("stale temp");
+    let child = frame(&one, "2")
+        .env("SWARMSHOT_STALL_AT", "frame:staged")
+        .spawn()
+        .expect("spawn");
+    let pid = child.id();
+    kill_when(child, "every file staged", || {
+        names
+            .iter()
+            .all(|n| one.join(format!(".{n}.{pid}.tmp")).exists())
+    });
+    assert!(
+        contents(&one) == frame_one,
+        "a killed frame changed the earlier frame's files"
+    );
+    run_frame(&one, "2");
+    assert!(contents(&one) == frame_two, "frame 2 made after the kill");
+    let left: Vec<PathBuf> = common::files_under(&one)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
 /// Frames in a dataset folder that also holds user files: images named by index.
 fn assert_dataset_frames(dir: &Path) -> usize {
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");

@@ -70,7 +70,7 @@ use std::path::{Path, PathBuf};
 
 use super::shards::shard::Shard;
 use super::{DatasetStats, OutputError, io};
-use stall::stall_if_asked;
+pub(crate) use stall::stall_if_asked;
 use tree::{Tree, hard_link_refused, link_refused};
 
 mod append;
