@@ -613,6 +613,9 @@ fn a_finished_run_missing_files_is_not_called_complete() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("already complete"));
 }
 
+/// A change made to a ledger line.
+type LineEdit = fn(&str) -> String;
+
 #[test]
 fn a_checkpoint_changed_after_it_was_written_is_not_trusted() {
     // A checkpoint was trusted when its JSON parsed: a digit changed in the
@@ -626,7 +629,7 @@ fn a_checkpoint_changed_after_it_was_written_is_not_trusted() {
     let file = common::preset_file(tmp.path(), &p, "p.ron");
     let reference = tmp.path().join("reference");
     run_ok(&file, &reference, &[]);
-    let edits: [(&str, fn(&str) -> String); 2] = [
+    let edits: [(&str, LineEdit); 2] = [
         ("next 10 -> 12", |l| {
             l.replace("\"next\":10,", "\"next\":12,")
         }),
