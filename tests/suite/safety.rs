@@ -727,6 +727,36 @@ fn a_frame_killed_while_writing_keeps_the_earlier_files_whole() {
     assert!(left.is_empty(), "temporary files left: {left:?}");
 }
 
+#[test]
+fn a_finished_run_whose_checkpoint_changed_is_made_again_not_cut() {
+    // A finished run's checkpoints are not checked against its files (its
+    // COCO parts are gone). With a checkpoint changed, the done mark was not
+    // trusted but the checkpoints before it were: the rerun cut the manifest
+    // back, then failed on a missing COCO part ("is missing but the ledger
+    // says it held N bytes"). Such a run is now no longer taken as finished,
+    // its checkpoints are checked against its files, and the rerun makes it
+    // again, byte for byte.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let out = tmp.path().join("out");
+    run_ok(&file, &out, &[]);
+    let path = out.join(".swarmshot-ledger");
+    let ledger = std::fs::read_to_string(&path).expect("ledger");
+    let mut lines: Vec<String> = ledger.lines().map(str::to_owned).collect();
+    let last = lines
+        .iter()
+        .rposition(|l| l.starts_with('='))
+        .expect("checkpoint");
+    lines[last] = lines[last].replacen("={", "={\"x\":0,", 1);
+    std::fs::write(&path, lines.join("\n") + "\n").expect("edit the ledger");
+    run_ok(&file, &out, &[]);
+    assert_same_dataset(&reference, &out, "a finished run whose checkpoint changed");
+}
+
 /// Frames in a dataset folder that also holds user files: images named by index.
 fn assert_dataset_frames(dir: &Path) -> usize {
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");
