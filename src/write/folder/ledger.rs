@@ -245,6 +245,38 @@ mod tests {
     }
 
     #[test]
+    fn a_checkpoint_line_changed_after_it_was_written_is_not_read() {
+        let checkpoint = Checkpoint {
+            next: 12,
+            ..Checkpoint::default()
+        };
+        let json = serde_json::to_string(&checkpoint).expect("json");
+        let line = checkpoint_line(&json);
+        let text = line
+            .trim_end()
+            .strip_prefix('=')
+            .expect("a checkpoint line");
+        assert_eq!(parse_checkpoint(text).map(|c| c.next), Some(12));
+        let changed = text.replace("\"next\":12", "\"next\":13");
+        assert!(parse_checkpoint(&changed).is_none(), "{changed}");
+        // Written by a swarmshot before the hash: read as it was.
+        assert_eq!(parse_checkpoint(&json).map(|c| c.next), Some(12));
+        let cut = &text[..text.len() - 1];
+        assert!(parse_checkpoint(cut).is_none(), "{cut}");
+    }
+
+    #[test]
+    fn a_ledger_cut_inside_its_header_says_so() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        fs::write(dir.path().join(LEDGER), "swarmshot-ledger 1 fr").expect("ledger");
+        let err = read_run(dir.path()).expect_err("refused").to_string();
+        assert!(err.contains("21 bytes and no whole line"), "{err}");
+        fs::write(dir.path().join(LEDGER), "").expect("ledger");
+        let err = read_run(dir.path()).expect_err("refused").to_string();
+        assert!(err.contains("it is empty"), "{err}");
+    }
+
+    #[test]
     fn a_ledger_larger_than_its_run_can_write_is_refused_unread() {
         let cap = LEDGER_HEADER_BYTES + 3 * LEDGER_BYTES_PER_FRAME;
         // Within the bound: read (no content records, one claim).

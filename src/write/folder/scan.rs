@@ -26,6 +26,15 @@ impl Folder {
         let path = root.join(LEDGER);
         let bytes = super::ledger::read_ledger(open_checked(root, LEDGER, false)?, &path)?;
         let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        if prefix_len == 0 && !bytes.is_empty() {
+            return Err(OutputError::Ledger {
+                path,
+                reason: format!(
+                    "it holds {} bytes and no whole line: its header is cut short",
+                    bytes.len()
+                ),
+            });
+        }
         let text = String::from_utf8_lossy(&bytes[..prefix_len]);
         // A finished run deleted its COCO parts: its checkpoints are not checked against files.
         let finished = text.trim_end().ends_with("\n!done");
