@@ -11,7 +11,8 @@ use swarmshot::write::shard::Shard;
 
 use super::args::{BatchArgs, MAX_THREADS};
 use super::console::{
-    frames_and_boxes, frames_bar, print_empty_splits, print_warnings, stop_on_signals, stopped,
+    frames_and_boxes, frames_bar, print_empty_splits, print_warnings, shell_word, stop_on_signals,
+    stopped,
 };
 use super::gpu::{device_check, with_gpu_starting};
 
@@ -86,8 +87,8 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
             bar.length().unwrap_or(0),
             &format!(
                 "swarmshot batch {} --out {}{shard} --resume",
-                preset.display(),
-                report.out_dir.display()
+                shell_word(preset),
+                shell_word(&report.out_dir)
             ),
         ));
     }

@@ -63,9 +63,36 @@ pub(crate) fn stopped(done: u64, total: u64, resume: &str) -> anyhow::Error {
     )
 }
 
+/// `path` as one shell word, for a command printed to be pasted: as it is
+/// when it holds only characters no shell treats specially, else in single
+/// quotes (a `'` in it written `'\''`).
+pub(crate) fn shell_word(path: &std::path::Path) -> String {
+    let text = path.to_string_lossy();
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_./@%+=:,-".contains(c);
+    if !text.is_empty() && text.chars().all(plain) {
+        return text.into_owned();
+    }
+    format!("'{}'", text.replace('\'', "'\\''"))
+}
+
 /// A warning for each split that gets no frame ([`swarmshot::pipeline::check::empty_splits`]).
 pub(crate) fn print_empty_splits(preset: &Preset, frames: u64, out: &mut dyn std::io::Write) {
     for w in swarmshot::pipeline::check::empty_splits(preset, frames) {
         let _ = writeln!(out, "warning: {w}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shell_word;
+    use std::path::Path;
+
+    #[test]
+    fn printed_paths_paste_as_one_word() {
+        assert_eq!(shell_word(Path::new("out/ds-1")), "out/ds-1");
+        assert_eq!(shell_word(Path::new("my data/ds")), "'my data/ds'");
+        assert_eq!(shell_word(Path::new("it's")), "'it'\\''s'");
+        assert_eq!(shell_word(Path::new("$HOME")), "'$HOME'");
+        assert_eq!(shell_word(Path::new("")), "''");
     }
 }

@@ -4,7 +4,9 @@
 use swarmshot::pipeline::FramePipeline;
 
 use super::args::{BatchArgs, MAX_THREADS};
-use super::console::{frames_and_boxes, frames_bar, print_warnings, stop_on_signals, stopped};
+use super::console::{
+    frames_and_boxes, frames_bar, print_warnings, shell_word, stop_on_signals, stopped,
+};
 
 /// `batch --labels-only`: the plan, from geometry alone.
 pub(crate) fn run(args: BatchArgs) -> anyhow::Result<()> {
@@ -43,8 +45,8 @@ pub(crate) fn run(args: BatchArgs) -> anyhow::Result<()> {
             bar.length().unwrap_or(0),
             &format!(
                 "swarmshot batch {} --out {} --labels-only --resume",
-                preset.display(),
-                report.out_dir.display()
+                shell_word(preset),
+                shell_word(&report.out_dir)
             ),
         ));
     }

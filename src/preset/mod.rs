@@ -44,6 +44,7 @@ mod sky;
 pub mod sweep;
 pub mod thermal;
 pub mod weather;
+mod written;
 
 pub use crate::text::{printable, short_number};
 pub use camera::{CameraSweep, PlaneSweep};
@@ -63,6 +64,7 @@ pub use formation::{
 };
 use validate::Validator;
 pub use validate::{DeviceLimits, MAX_COUNT_SPAN, MAX_FRAME_MEMORY_BYTES, QUEUED_FRAMES};
+pub use written::WrittenPaths;
 
 use sweep::{SweepError, SweepRange};
 
@@ -126,6 +128,11 @@ pub struct Preset {
     /// Rain or snow in front of the camera (issue 41; docs/realism.md, "Weather"). Off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub weather: Option<weather::Weather>,
+    /// The paths the preset reads as its file wrote them, kept when
+    /// [`Preset::resolve_paths`] resolves them (for [`Preset::lock_text`]);
+    /// never in RON, and not compared.
+    #[serde(skip)]
+    pub written_paths: WrittenPaths,
 }
 
 impl Default for Preset {
@@ -153,6 +160,7 @@ impl Default for Preset {
             backplate: None,
             thermal: None,
             weather: None,
+            written_paths: WrittenPaths::default(),
         }
     }
 }
@@ -257,16 +265,6 @@ impl Preset {
         let mut preset = Self::load(path)?;
         preset.resolve_paths(path.parent().unwrap_or(Path::new(".")));
         Ok(preset)
-    }
-
-    /// The files and folders the preset reads ([`Preset::input_paths`])
-    /// resolved against the directory of the preset file.
-    pub fn resolve_paths(&mut self, base_dir: &Path) {
-        for (_, path) in self.input_paths_mut() {
-            if path.is_relative() {
-                *path = base_dir.join(&*path);
-            }
-        }
     }
 
     /// Every file and folder the preset reads, each with the field that

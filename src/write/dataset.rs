@@ -119,7 +119,8 @@ impl DatasetWriter {
         options: WriterOptions,
     ) -> Result<Self, OutputError> {
         check_inputs_outside(root, preset)?;
-        let lock = preset.to_ron();
+        // The preset's paths as its file wrote them: the same lock wherever it was run from.
+        let lock = preset.lock_text();
         let labels_only = options.labels_only;
         let needed = needed_entries(preset, labels_only);
         // Every entry is checked before anything is written or rendered: a

@@ -133,6 +133,15 @@ pub enum OutputError {
     },
     #[error("{}: the ledger cannot be read: {reason}", path.display())]
     Ledger { path: PathBuf, reason: String },
+    #[error(
+        "output folder {} holds a finished run whose files changed after it ended ({}), so it is not complete; nothing was written; pass --overwrite to make the run again (files swarmshot did not write are kept)",
+        path.display(),
+        problems.join("; ")
+    )]
+    FinishedChanged {
+        path: PathBuf,
+        problems: Vec<String>,
+    },
     #[error("frame {got} came before frame {expected}: frames are written in index order")]
     OutOfOrder { expected: u64, got: u64 },
     #[error("{}: {reason}", path.display())]

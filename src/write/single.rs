@@ -3,7 +3,8 @@
 //! instead of in a dataset folder: the image, its YOLO labels (`.txt`), its
 //! manifest record (`.json`), and what `output.masks` asks for (YOLO
 //! segmentation labels `.seg.txt`, instance PNG `.mask.png`, depth PNG
-//! `.depth.png`). Each file is written atomically; the COCO RLE lives only
+//! `.depth.png`). Every file is written to a temporary name first, then all are
+//! renamed into place (a kill while writing leaves the earlier files whole); the COCO RLE lives only
 //! in a dataset's COCO files.
 
 use std::path::{Path, PathBuf};
@@ -219,18 +220,46 @@ pub fn write_lone_frame(
             }
         }
     }
-    for (path, bytes) in &files {
-        write_atomic(path, bytes)?;
-    }
+    remove_stale_temps(&files);
+    stage_then_rename(&files)?;
     Ok(files.into_iter().map(|(p, _)| p).collect())
 }
 
-/// Write `bytes` to `path` atomically: a temporary file in the same folder
-/// (created new: a link or file already at its name is not followed or
-/// truncated), flushed to disk, then renamed over `path`. A crash leaves
-/// either the old file or the new one, never a torn one.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    use std::io::Write;
+/// Write every file to a temporary name first, then rename them into place
+/// one after another: a kill or an error while the files are written leaves
+/// the files at those names as they were (a kill, also temporary files, which
+/// the next `frame` there removes), never some of the new frame's files
+/// beside some of the old one's, but for the instants between the renames.
+fn stage_then_rename(files: &[(PathBuf, Vec<u8>)]) -> Result<(), OutputError> {
+    let mut staged: Vec<PathBuf> = Vec::with_capacity(files.len());
+    for (path, bytes) in files {
+        match stage(path, bytes) {
+            Ok(tmp) => staged.push(tmp),
+            Err(e) => {
+                remove_all(&staged);
+                return Err(e);
+            }
+        }
+    }
+    super::folder::stall_if_asked("frame:staged");
+    for (i, ((path, _), tmp)) in files.iter().zip(&staged).enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            remove_all(&staged[i..]);
+            return Err(super::io(path)(e));
+        }
+    }
+    Ok(())
+}
+
+/// Only temporary files this process created.
+fn remove_all(temps: &[PathBuf]) {
+    for tmp in temps {
+        let _ = std::fs::remove_file(tmp);
+    }
+}
+
+/// The folder `path` is in (`.` for a bare name) and its file name.
+fn dir_and_name(path: &Path) -> (&Path, String) {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -238,16 +267,54 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     let name = path
         .file_name()
         .map_or_else(|| "swarmshot".into(), |n| n.to_string_lossy().into_owned());
+    (dir, name)
+}
+
+/// `bytes` in a new temporary file beside `path` (`.NAME.PID.tmp`, created
+/// new: a link or file already at its name is not followed or truncated),
+/// flushed to disk. Returns its path.
+fn stage(path: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
+    use std::io::Write;
+    let (dir, name) = dir_and_name(path);
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     let mut file = std::fs::File::create_new(&tmp).map_err(super::io(&tmp))?;
-    let result = (|| {
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        // Only the temporary file this call created.
+    if let Err(e) = file.write_all(bytes).and_then(|()| file.sync_all()) {
         let _ = std::fs::remove_file(&tmp);
+        return Err(super::io(&tmp)(e));
     }
-    result.map_err(super::io(path))
+    Ok(tmp)
+}
+
+/// Remove the temporary files an earlier `frame` killed while writing these
+/// files left (`.NAME.PID.tmp` for each of their names, a regular file, of a
+/// process no longer running). On systems without `/proc` every process is
+/// taken as running, so nothing is removed.
+fn remove_stale_temps(files: &[(PathBuf, Vec<u8>)]) {
+    for (path, _) in files {
+        let (dir, name) = dir_and_name(path);
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            continue;
+        };
+        let prefix = format!(".{name}.");
+        for entry in entries.flatten() {
+            let file_name = entry.file_name();
+            let Some(pid) = file_name
+                .to_str()
+                .and_then(|n| n.strip_prefix(&prefix)?.strip_suffix(".tmp"))
+                .and_then(|pid| pid.parse::<u32>().ok())
+            else {
+                continue;
+            };
+            let regular = entry.file_type().is_ok_and(|t| t.is_file());
+            if regular && !process_running(pid) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+}
+
+/// Whether process `pid` runs (Linux: `/proc/PID` exists); elsewhere every
+/// process is taken as running.
+fn process_running(pid: u32) -> bool {
+    !cfg!(target_os = "linux") || Path::new("/proc").join(pid.to_string()).exists()
 }

@@ -538,6 +538,225 @@ fn a_user_file_at_a_frame_name_is_refused_not_replaced() {
     assert_same_dataset(&reference, &out, "resumed after the user's file moved");
 }
 
+#[test]
+fn an_overwrite_killed_while_deleting_never_leaves_a_finished_looking_run() {
+    // `--overwrite` deletes the earlier run's files, then its ledger. Killed
+    // in between, the folder held the old ledger with every checkpoint and
+    // its done mark: the same command without --overwrite said "already
+    // complete" over a folder whose files were gone. The ledger now forgets
+    // the run's progress before the first file is deleted.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let out = tmp.path().join("out");
+    run_ok(&file, &out, &[]);
+    let child = batch_cmd(&file, &out, &["--overwrite"])
+        .env("SWARMSHOT_STALL_AT", "overwrite:deleting")
+        .spawn()
+        .expect("spawn");
+    kill_when(child, "the first file deleted", || {
+        !out.join("preset.lock.ron").exists()
+    });
+    let ledger = std::fs::read_to_string(out.join(".swarmshot-ledger")).expect("ledger");
+    assert!(
+        !ledger.contains("!done") && !ledger.contains("\n="),
+        "a half-deleted run still looks finished:\n{ledger}"
+    );
+    run_ok(&file, &out, &[]);
+    assert_same_dataset(&reference, &out, "the run after a killed --overwrite");
+}
+
+#[test]
+fn a_finished_run_missing_files_is_not_called_complete() {
+    // A finished run's files deleted or cut after it ended: the same command
+    // said "already complete" and wrote nothing. It now names what changed
+    // and writes nothing; --overwrite makes the run again.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let out = tmp.path().join("out");
+    run_ok(&file, &out, &[]);
+    let image = common::files_under(&out.join("images/train"))
+        .into_iter()
+        .next()
+        .expect("a train image");
+    let image = Path::new("images/train").join(image);
+    std::fs::remove_file(out.join(&image)).expect("delete an image");
+    std::fs::remove_file(out.join("stats.json")).expect("delete stats");
+    let manifest = std::fs::OpenOptions::new()
+        .write(true)
+        .open(out.join("manifest.jsonl"))
+        .expect("manifest");
+    manifest.set_len(100).expect("cut the manifest");
+    for extra in [&[][..], &["--resume"][..]] {
+        let err = run_err(&file, &out, extra);
+        assert!(
+            err.contains("finished run")
+                && err.contains(&format!("{} is missing", image.display()))
+                && err.contains("stats.json is missing")
+                && err.contains("manifest.jsonl is 100 bytes")
+                && err.contains("--overwrite"),
+            "{err}"
+        );
+    }
+    run_ok(&file, &out, &["--overwrite"]);
+    assert_same_dataset(&reference, &out, "made again with --overwrite");
+    // An intact finished run is still complete, and says so.
+    let o = run(&file, &out, &[]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("already complete"));
+}
+
+/// A change made to a ledger line.
+type LineEdit = fn(&str) -> String;
+
+#[test]
+fn a_checkpoint_changed_after_it_was_written_is_not_trusted() {
+    // A checkpoint was trusted when its JSON parsed: a digit changed in the
+    // ledger of a killed run (a flipped bit, an edit) made the resume skip
+    // frames, cut the manifest inside a line, or number COCO ids wrong, and
+    // end with status 0. Each checkpoint now carries its JSON's hash; a
+    // changed one (and every one after it) is not trusted, and the resume
+    // makes those frames again.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let p = preset();
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let edits: [(&str, LineEdit); 2] = [
+        ("next 10 -> 12", |l| {
+            l.replace("\"next\":10,", "\"next\":12,")
+        }),
+        ("a manifest length one less", |l| {
+            let (head, rest) = l
+                .split_once("\"manifest.jsonl\":")
+                .expect("manifest length");
+            let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+            let less = digits.parse::<u64>().expect("length") - 1;
+            format!("{head}\"manifest.jsonl\":{less}{}", &rest[digits.len()..])
+        }),
+    ];
+    for (what, edit) in edits {
+        let out = tmp.path().join(what.replace(' ', "_"));
+        let child = batch_cmd(&file, &out, &[])
+            .env("SWARMSHOT_STALL_AT", "checkpoint:10")
+            .spawn()
+            .expect("spawn");
+        let manifest = out.join("manifest.jsonl");
+        kill_when(child, "before checkpoint 10", || {
+            std::fs::read_to_string(&manifest).is_ok_and(|m| m.lines().count() == 11)
+        });
+        let path = out.join(".swarmshot-ledger");
+        let ledger = std::fs::read_to_string(&path).expect("ledger");
+        let mut lines: Vec<String> = ledger.lines().map(str::to_owned).collect();
+        let last = lines
+            .iter()
+            .rposition(|l| l.starts_with('='))
+            .expect("checkpoint");
+        let changed = edit(&lines[last]);
+        assert_ne!(changed, lines[last], "{what}: the edit changed nothing");
+        lines[last] = changed;
+        std::fs::write(&path, lines.join("\n") + "\n").expect("edit the ledger");
+        run_ok(&file, &out, &["--resume"]);
+        assert_same_dataset(&reference, &out, what);
+    }
+}
+
+#[test]
+fn a_frame_killed_while_writing_keeps_the_earlier_files_whole() {
+    // `swarmshot frame` wrote and renamed its files one at a time: killed
+    // between two, the folder held some files of the new frame beside some
+    // of the old, and a `.NAME.PID.tmp` nothing removed. Every file is now
+    // written to its temporary name first, then all are renamed; the next
+    // frame there removes a killed one's temporary files.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.output.masks.instance_png = true;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let frame = |dir: &Path, index: &str| {
+        let mut cmd = Command::new(BIN);
+        cmd.arg("frame")
+            .arg(&file)
+            .args(["--index", index, "--out", "f.jpg", "--overwrite"])
+            .current_dir(dir)
+            .env("RUST_BACKTRACE", "0")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        cmd
+    };
+    let run_frame = |dir: &Path, index: &str| {
+        let o = frame(dir, index).output().expect("frame");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let names = ["f.jpg", "f.txt", "f.json", "f.mask.png"];
+    let contents = |dir: &Path| names.map(|n| std::fs::read(dir.join(n)).expect("a frame file"));
+    let (one, two) = (tmp.path().join("one"), tmp.path().join("two"));
+    for (dir, index) in [(&one, "1"), (&two, "2")] {
+        std::fs::create_dir(dir).expect("mkdir");
+        run_frame(dir, index);
+    }
+    let (frame_one, frame_two) = (contents(&one), contents(&two));
+    // A temporary file of a process that cannot exist (above Linux's pid_max).
+    std::fs::write(one.join(".f.txt.4294967295.tmp"), "stale").expect("stale temp");
+    let child = frame(&one, "2")
+        .env("SWARMSHOT_STALL_AT", "frame:staged")
+        .spawn()
+        .expect("spawn");
+    let pid = child.id();
+    kill_when(child, "every file staged", || {
+        names
+            .iter()
+            .all(|n| one.join(format!(".{n}.{pid}.tmp")).exists())
+    });
+    assert!(
+        contents(&one) == frame_one,
+        "a killed frame changed the earlier frame's files"
+    );
+    run_frame(&one, "2");
+    assert!(contents(&one) == frame_two, "frame 2 made after the kill");
+    let left: Vec<PathBuf> = common::files_under(&one)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
+#[test]
+fn a_finished_run_whose_checkpoint_changed_is_made_again_not_cut() {
+    // A finished run's checkpoints are not checked against its files (its
+    // COCO parts are gone). With a checkpoint changed, the done mark was not
+    // trusted but the checkpoints before it were: the rerun cut the manifest
+    // back, then failed on a missing COCO part ("is missing but the ledger
+    // says it held N bytes"). Such a run is now no longer taken as finished,
+    // its checkpoints are checked against its files, and the rerun makes it
+    // again, byte for byte.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(tmp.path(), &p, "p.ron");
+    let reference = tmp.path().join("reference");
+    run_ok(&file, &reference, &[]);
+    let out = tmp.path().join("out");
+    run_ok(&file, &out, &[]);
+    let path = out.join(".swarmshot-ledger");
+    let ledger = std::fs::read_to_string(&path).expect("ledger");
+    let mut lines: Vec<String> = ledger.lines().map(str::to_owned).collect();
+    let last = lines
+        .iter()
+        .rposition(|l| l.starts_with('='))
+        .expect("checkpoint");
+    lines[last] = lines[last].replacen("={", "={\"x\":0,", 1);
+    std::fs::write(&path, lines.join("\n") + "\n").expect("edit the ledger");
+    run_ok(&file, &out, &[]);
+    assert_same_dataset(&reference, &out, "a finished run whose checkpoint changed");
+}
+
 /// Frames in a dataset folder that also holds user files: images named by index.
 fn assert_dataset_frames(dir: &Path) -> usize {
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).expect("manifest");

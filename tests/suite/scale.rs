@@ -434,6 +434,69 @@ fn a_killed_merge_or_shard_continues_to_the_same_bytes() {
 }
 
 #[test]
+fn a_preset_named_from_any_folder_locks_the_same_run() {
+    // A model's relative path was locked as resolved against the preset's
+    // folder as the command line named it (`presets/../m/cf2.glb`,
+    // `/abs/presets/../m/cf2.glb`): the lock's bytes and the run's hash
+    // depended on the folder the command ran in, so shards made from two
+    // folders were refused by merge, and a resume from another folder was
+    // refused as "a different preset". The lock now holds the path as the
+    // preset file wrote it.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let root = std::fs::canonicalize(tmp.path()).expect("canonical");
+    std::fs::create_dir_all(root.join("m")).expect("mkdir");
+    std::fs::create_dir_all(root.join("presets")).expect("mkdir");
+    let model = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/uav/crazyflie2_cf2/cf2.glb"
+    );
+    std::fs::copy(model, root.join("m/cf2.glb")).expect("copy the model");
+    let mut p = preset();
+    p.models[0].source = swarmshot::preset::ModelSource::File(PathBuf::from("../m/cf2.glb"));
+    let file = common::preset_file(&root.join("presets"), &p, "p.ron");
+    let single = root.join("single");
+    batch(&file, &single, &[]);
+    let lock = std::fs::read_to_string(single.join("preset.lock.ron")).expect("lock");
+    assert!(lock.contains("File(\"../m/cf2.glb\")"), "{lock}");
+    let in_folder = |cwd: &Path, args: &[&str]| {
+        let o = command(&args.iter().map(os).collect::<Vec<_>>())
+            .current_dir(cwd)
+            .output()
+            .expect("run swarmshot");
+        assert!(
+            o.status.success(),
+            "swarmshot {args:?} in {} failed:\n{}",
+            cwd.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    in_folder(
+        &root,
+        &[
+            "batch",
+            "presets/p.ron",
+            "--out",
+            "s/shard-0",
+            "--shard",
+            "0/2",
+        ],
+    );
+    in_folder(
+        &root.join("presets"),
+        &["batch", "p.ron", "--out", "../s/shard-1", "--shard", "1/2"],
+    );
+    let parts = [root.join("s/shard-0"), root.join("s/shard-1")];
+    let merged = root.join("merged");
+    ok(&merge_args(&merged, &parts));
+    assert_same_dataset(&single, &merged, "shards made from two folders");
+    // The finished single run, named from another folder, is the same run.
+    in_folder(
+        &root.join("m"),
+        &["batch", "../presets/p.ron", "--out", "../single"],
+    );
+}
+
+#[test]
 fn a_copied_dataset_names_only_paths_that_resolve() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let file = common::preset_file(tmp.path(), &common::sequence_preset(), "p.ron");

@@ -65,6 +65,28 @@ pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputErro
     Ok(bytes)
 }
 
+/// A checkpoint's ledger line: `=`, its JSON, a tab and the FNV-1a 64 hash
+/// of the JSON (serde_json writes no raw tab), so a line changed after it was
+/// written (a flipped bit, an edit) is told from one swarmshot wrote.
+fn checkpoint_line(json: &str) -> String {
+    format!("={json}\tfnv1a64:{:016x}\n", fnv1a64(json.as_bytes()))
+}
+
+/// The checkpoint a ledger line holds after its `=`: `None` when its hash
+/// does not match its JSON or the JSON is not a checkpoint. A line without
+/// a hash (written by a swarmshot before the hash) is read as it was.
+pub(super) fn parse_checkpoint(text: &str) -> Option<Checkpoint> {
+    let json = match text.rsplit_once('\t') {
+        Some((json, sum)) => {
+            let hex = sum.strip_prefix("fnv1a64:")?;
+            let hash = u64::from_str_radix(hex, 16).ok()?;
+            (hex.len() == 16 && hash == fnv1a64(json.as_bytes())).then_some(json)?
+        }
+        None => text,
+    };
+    serde_json::from_str(json).ok()
+}
+
 impl Folder {
     /// Append whole lines to the ledger; `sync` flushes them to disk first.
     fn ledger_append(&mut self, text: &str, sync: bool) -> Result<(), OutputError> {
@@ -158,7 +180,7 @@ impl Folder {
         // A folder swapped for a link (or moved) since it was opened stops the
         // run here: the frame's files went into the folder that was opened.
         self.tree.verify()?;
-        self.ledger_append(&format!("={json}\n"), false)?;
+        self.ledger_append(&checkpoint_line(&json), false)?;
         self.frame_claims.clear();
         Ok(())
     }
@@ -220,6 +242,38 @@ mod tests {
             .expect("open");
         file.set_len(len.max(header.len() as u64)).expect("set_len");
         dir
+    }
+
+    #[test]
+    fn a_checkpoint_line_changed_after_it_was_written_is_not_read() {
+        let checkpoint = Checkpoint {
+            next: 12,
+            ..Checkpoint::default()
+        };
+        let json = serde_json::to_string(&checkpoint).expect("json");
+        let line = checkpoint_line(&json);
+        let text = line
+            .trim_end()
+            .strip_prefix('=')
+            .expect("a checkpoint line");
+        assert_eq!(parse_checkpoint(text).map(|c| c.next), Some(12));
+        let changed = text.replace("\"next\":12", "\"next\":13");
+        assert!(parse_checkpoint(&changed).is_none(), "{changed}");
+        // Written by a swarmshot before the hash: read as it was.
+        assert_eq!(parse_checkpoint(&json).map(|c| c.next), Some(12));
+        let cut = &text[..text.len() - 1];
+        assert!(parse_checkpoint(cut).is_none(), "{cut}");
+    }
+
+    #[test]
+    fn a_ledger_cut_inside_its_header_says_so() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        fs::write(dir.path().join(LEDGER), "swarmshot-ledger 1 fr").expect("ledger");
+        let err = read_run(dir.path()).expect_err("refused").to_string();
+        assert!(err.contains("21 bytes and no whole line"), "{err}");
+        fs::write(dir.path().join(LEDGER), "").expect("ledger");
+        let err = read_run(dir.path()).expect_err("refused").to_string();
+        assert!(err.contains("it is empty"), "{err}");
     }
 
     #[test]

@@ -11,7 +11,7 @@
 //! swarmshot-ledger 1 frames=120 preset=fnv1a64:0123456789abcdef   header: the run
 //! *preset.lock.ron            a dataset file or folder (`/` at the end) this run made
 //! +images/train/00000000.png  a file of the frame in flight
-//! ={"next":1,...}             checkpoint: frames below `next` are complete
+//! ={"next":1,...}<TAB>fnv1a64:…  checkpoint: frames below `next` are complete (with its JSON's hash)
 //! %1817 blake3:… preset.lock.ron  a shard's content record (written just before !done)
 //! !done                       COCO, data.yaml and stats.json are written
 //! ```
@@ -22,7 +22,9 @@
 //! labels and manifest line; it records the length of every append-only file
 //! (manifest, COCO record parts) and the writers' counters, so a resumed run
 //! cuts those files back to the last complete frame and carries on from there
-//! exactly as an uninterrupted run would have.
+//! exactly as an uninterrupted run would have. A checkpoint whose hash does
+//! not match its JSON was changed after it was written: neither it nor any
+//! checkpoint after it is trusted.
 //!
 //! # One writer
 //!
@@ -68,7 +70,7 @@ use std::path::{Path, PathBuf};
 
 use super::shards::shard::Shard;
 use super::{DatasetStats, OutputError, io};
-use stall::stall_if_asked;
+pub(crate) use stall::stall_if_asked;
 use tree::{Tree, hard_link_refused, link_refused};
 
 mod append;

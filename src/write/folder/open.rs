@@ -77,6 +77,52 @@ fn frame_names_free(
     Ok(())
 }
 
+/// The most problems a refusal of a changed finished run names.
+const MAX_PROBLEMS_NAMED: usize = 10;
+
+/// A finished run's files as it left them, before it is called complete:
+/// every file its ledger claims (working files aside: they are deleted when
+/// the run ends) is still there as a regular file, and each append-only
+/// file (the manifest) has the length its last checkpoint gives. Files are
+/// looked at, not read.
+fn finished_files_intact(tree: &mut Tree, scan: &LedgerScan) -> Result<(), OutputError> {
+    let mut claimed: Vec<&String> = scan
+        .owned
+        .union(&scan.frame_files)
+        .filter(|r| !r.ends_with('/') && !is_working_file(r) && r.as_str() != LEDGER)
+        .collect();
+    claimed.sort();
+    let mut problems = Vec::new();
+    for rel in claimed {
+        match tree.lstat(rel)? {
+            None => problems.push(format!("{rel} is missing")),
+            Some(e) if !e.is_file() => problems.push(format!("{rel} is not a regular file")),
+            Some(_) => {}
+        }
+    }
+    let appended = scan.checkpoint.iter().flat_map(|cp| cp.files.iter());
+    for (rel, &len) in appended.filter(|(r, _)| !is_working_file(r)) {
+        if let Some(e) = tree.lstat(rel)?.filter(|e| e.is_file() && e.len != len) {
+            problems.push(format!(
+                "{rel} is {} bytes, {len} when the run ended",
+                e.len
+            ));
+        }
+    }
+    if problems.is_empty() {
+        return Ok(());
+    }
+    if problems.len() > MAX_PROBLEMS_NAMED {
+        let more = problems.len() - MAX_PROBLEMS_NAMED;
+        problems.truncate(MAX_PROBLEMS_NAMED);
+        problems.push(format!("and {more} more"));
+    }
+    Err(OutputError::FinishedChanged {
+        path: tree.root().to_owned(),
+        problems,
+    })
+}
+
 impl Folder {
     /// Open `root` for a run: refuse what is not ours, delete the earlier
     /// run's files when `mode.overwrite`, and say where to start.
@@ -155,6 +201,9 @@ impl Folder {
             every: mode.every.unwrap_or(scan.run.every).max(1),
         };
         if scan.run == run && !mode.overwrite {
+            if scan.done {
+                finished_files_intact(&mut tree, &scan)?;
+            }
             let folder = Self::continue_from(tree, &scan, lock)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
@@ -243,9 +292,10 @@ impl Folder {
     ///
     /// Every listed entry is first looked at without following links: a
     /// link anywhere on a listed path (the entry itself or a folder above
-    /// it) refuses the whole deletion before anything is deleted. Then each
-    /// file is deleted relative to its folder's handle (`unlinkat`), so a
-    /// folder swapped for a link in between is never walked through.
+    /// it) refuses the whole deletion before anything is deleted. Then the
+    /// ledger forgets the run's progress ([`Folder::forget_progress`]), and
+    /// each file is deleted relative to its folder's handle (`unlinkat`), so
+    /// a folder swapped for a link in between is never walked through.
     fn delete_run(tree: &mut Tree) -> Result<(), OutputError> {
         let root = tree.root().to_owned();
         let claims = Self::claims(&root)?;
@@ -262,6 +312,7 @@ impl Folder {
                 }
             }
         }
+        Self::forget_progress(tree)?;
         let mut dirs = Vec::new();
         for rel in &claims {
             if let Some(dir) = rel.strip_suffix('/') {
@@ -271,6 +322,7 @@ impl Folder {
             for r in [rel.clone(), temp_rel(rel)] {
                 tree.remove_file(&r)?;
             }
+            stall_if_asked("overwrite:deleting");
         }
         for dir in dirs.iter().rev() {
             // Not empty: it holds files swarmshot did not write; keep them.
@@ -278,6 +330,26 @@ impl Folder {
         }
         tree.remove_file(LEDGER)?;
         Ok(())
+    }
+}
+
+impl Folder {
+    /// Rewrite the ledger (atomically) as its header and its claims alone,
+    /// before `--overwrite` deletes anything: a deletion cut short (a kill,
+    /// a file that cannot be deleted) leaves a run with no checkpoint and no
+    /// done mark, which the next run starts again from its first frame,
+    /// never a run that looks finished while its files are gone.
+    fn forget_progress(tree: &mut Tree) -> Result<(), OutputError> {
+        let path = tree.root().join(LEDGER);
+        let bytes = super::ledger::read_ledger(tree.open_file(LEDGER, false)?, &path)?;
+        let whole = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let mut text = Vec::with_capacity(whole);
+        for (i, line) in bytes[..whole].split_inclusive(|&b| b == b'\n').enumerate() {
+            if i == 0 || line.starts_with(b"*") || line.starts_with(b"+") {
+                text.extend_from_slice(line);
+            }
+        }
+        write_new_then_rename(tree, LEDGER, &text, true)
     }
 }
 

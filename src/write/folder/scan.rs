@@ -25,9 +25,40 @@ impl Folder {
     pub(super) fn scan(root: &Path) -> Result<LedgerScan, OutputError> {
         let path = root.join(LEDGER);
         let bytes = super::ledger::read_ledger(open_checked(root, LEDGER, false)?, &path)?;
-        let mut tree = Tree::open(root)?;
         let prefix_len = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        if prefix_len == 0 && !bytes.is_empty() {
+            return Err(OutputError::Ledger {
+                path,
+                reason: format!(
+                    "it holds {} bytes and no whole line: its header is cut short",
+                    bytes.len()
+                ),
+            });
+        }
         let text = String::from_utf8_lossy(&bytes[..prefix_len]);
+        // A finished run deleted its COCO parts: its checkpoints are not checked against files.
+        let finished = text.trim_end().ends_with("\n!done");
+        let scan = Self::scan_text(root, &text, prefix_len, finished)?;
+        if finished && !scan.done {
+            // Its done mark is not trusted (a checkpoint before it changed
+            // after it was written): it is not a finished run, so its
+            // checkpoints are checked against its files after all.
+            return Self::scan_text(root, &text, prefix_len, false);
+        }
+        Ok(scan)
+    }
+
+    /// [`Folder::scan`] of the ledger's whole lines `text` (its first
+    /// `prefix_len` bytes); `finished`: the ledger ends with the done mark,
+    /// and checkpoints are not checked against files.
+    fn scan_text(
+        root: &Path,
+        text: &str,
+        prefix_len: usize,
+        finished: bool,
+    ) -> Result<LedgerScan, OutputError> {
+        let path = root.join(LEDGER);
+        let mut tree = Tree::open(root)?;
         let corrupt = |reason: &str| OutputError::Ledger {
             path: path.clone(),
             reason: reason.into(),
@@ -46,8 +77,6 @@ impl Folder {
             frame_files: HashSet::new(),
             later_claims: Vec::new(),
         };
-        // A finished run deleted its COCO parts: its checkpoints are not checked against files.
-        let finished = text.trim_end().ends_with("\n!done");
         let mut offset = header.len();
         let mut frame_files: Vec<String> = Vec::new();
         let mut broken = false;
@@ -65,7 +94,9 @@ impl Folder {
                 if broken {
                     continue;
                 }
-                let Ok(cp) = serde_json::from_str::<Checkpoint>(json) else {
+                // A line changed after it was written (its hash differs) is
+                // not trusted, nor any checkpoint after it.
+                let Some(cp) = super::ledger::parse_checkpoint(json) else {
                     broken = true;
                     continue;
                 };

@@ -11,14 +11,17 @@ use std::path::PathBuf;
 /// path relative to the dataset folder, the batch sleeps after that file's
 /// temporary copy is written and before it is renamed into place; set to
 /// `checkpoint:N`, after frame N's files and records are written and before
-/// its checkpoint. A test kills the process there. With
+/// its checkpoint; set to `overwrite:deleting`, after the first file
+/// `--overwrite` deletes; set to `frame:staged`, after `swarmshot frame` has
+/// written every file's temporary copy and before it renames the first. A
+/// test kills the process there. With
 /// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that
 /// path exists (a barrier: tests/suite/output_trust.rs runs a second batch
 /// meanwhile), and says it has stopped by creating that path with
 /// `.stalled` added. Only with the `test-hooks` feature, which `cargo test` turns on
 /// (Cargo.toml); shipped builds have no such hook.
 #[cfg(feature = "test-hooks")]
-pub(super) fn stall_if_asked(point: &str) {
+pub(crate) fn stall_if_asked(point: &str) {
     static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
     let at = AT.get_or_init(|| std::env::var("SWARMSHOT_STALL_AT").ok());
     if at.as_deref() == Some(point) {
@@ -40,4 +43,4 @@ pub(super) fn stall_if_asked(point: &str) {
 
 /// Without `test-hooks` (every shipped build) there is no fault injection.
 #[cfg(not(feature = "test-hooks"))]
-pub(super) fn stall_if_asked(_point: &str) {}
+pub(crate) fn stall_if_asked(_point: &str) {}
