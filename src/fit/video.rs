@@ -137,8 +137,8 @@ pub fn frames_bound(probe: &Probe, options: &FitOptions) -> usize {
     }
 }
 
-/// Decodes `fps` frames a second of the video into `OUT/frames/` with ffmpeg (PNG,
-/// lossless), at most [`frames_bound`]. The folder is made below `out`'s handle
+/// Decodes `fps` frames a second of the video's first video stream (the one [`probe`]
+/// measured) into `OUT/frames/` with ffmpeg (PNG, lossless), at most [`frames_bound`]. The folder is made below `out`'s handle
 /// without following a link, and checked to be the same folder before and after ffmpeg
 /// writes into it by path.
 pub fn decode(
@@ -155,6 +155,9 @@ pub fn decode(
     let output = std::process::Command::new(&decoder.ffmpeg)
         .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
         .arg(video)
+        // The stream ffprobe measured (`v:0`): left to choose, ffmpeg takes the video
+        // stream of the most pixels, which the budgets never saw.
+        .args(["-map", "0:v:0"])
         .args([
             "-vf",
             &format!("fps={fps}"),

@@ -193,3 +193,52 @@ fn a_file_that_is_no_video_is_a_named_error_and_nothing_is_written() {
     );
     assert!(!out.exists());
 }
+
+/// The frames of `dir`, sorted.
+fn frame_files(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("frames")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn ffmpeg_decodes_the_stream_ffprobe_measured_not_a_larger_one() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("streams");
+    // Stream 0 is 128², stream 1 is 3 000²: ffmpeg alone picks the larger one (its
+    // pixels outweigh the first stream's default flag), which the pixel budgets (read
+    // from stream 0) never saw.
+    let video = dir.join("two.mkv");
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=gray:s=128x128:r=2:d=1",
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=gray:s=3000x3000:r=2:d=1",
+            "-map",
+            "0",
+            "-map",
+            "1",
+            "-c:v",
+            "ffv1",
+        ],
+        &video,
+    );
+    let out = dir.join("out");
+    let o = fit(&video, &out, &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames = frame_files(&out.join("frames"));
+    assert!(!frames.is_empty());
+    for f in frames {
+        assert_eq!(rgb(&f).dimensions(), (128, 128), "{}", f.display());
+    }
+}
