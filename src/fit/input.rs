@@ -118,13 +118,7 @@ pub fn decode(path: &Path) -> Result<(RgbImage, Option<Vec<u8>>), FitError> {
             },
         })?
         .to_rgb8();
-    let (w, h) = img.dimensions();
-    if w.min(h) < MIN_SIDE {
-        return Err(FitError::Image {
-            path: path.to_path_buf(),
-            reason: format!("{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"),
-        });
-    }
+    check_min_side(path, img.dimensions())?;
     let jpeg = bytes
         .starts_with(&[0xFF, 0xD8])
         .then(|| bytes[..jpeg_header_len(&bytes)].to_vec());
@@ -201,14 +195,26 @@ fn check_pixels(paths: &[PathBuf]) -> Result<(), FitError> {
     })
 }
 
+/// A frame's refusal by `path` when a side is under [`MIN_SIDE`].
+fn check_min_side(path: &Path, (w, h): (u32, u32)) -> Result<(), FitError> {
+    if w.min(h) >= MIN_SIDE {
+        return Ok(());
+    }
+    Err(FitError::Image {
+        path: path.to_path_buf(),
+        reason: format!("{w}×{h} is smaller than the {MIN_SIDE} px a frame needs"),
+    })
+}
+
 /// Refuses, before anything is written, a video whose frames would pass fit's budgets:
-/// one frame over [`crate::input::MAX_IMAGE_PIXELS`], or the frames the decode can give
-/// over [`MAX_TOTAL_PIXELS`] together (naming how many fit).
+/// a frame under [`MIN_SIDE`] a side or over [`crate::input::MAX_IMAGE_PIXELS`], or the
+/// frames the decode can give over [`MAX_TOTAL_PIXELS`] together (naming how many fit).
 pub fn check_video_pixels(
     video: &Path,
     probe: &super::video::Probe,
     options: &FitOptions,
 ) -> Result<(), FitError> {
+    check_min_side(video, (probe.width, probe.height))?;
     let each = frame_pixels(video, (probe.width, probe.height))?;
     let frames = super::video::frames_bound(probe, options);
     let pixels = each.saturating_mul(frames as u64);

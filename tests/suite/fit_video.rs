@@ -242,3 +242,32 @@ fn ffmpeg_decodes_the_stream_ffprobe_measured_not_a_larger_one() {
         assert_eq!(rgb(&f).dimensions(), (128, 128), "{}", f.display());
     }
 }
+
+#[test]
+fn a_video_of_frames_too_small_is_refused_naming_it_before_anything_is_written() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("tiny");
+    let video = dir.join("tiny.mkv");
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=gray:s=32x48:r=2:d=1",
+            "-c:v",
+            "ffv1",
+        ],
+        &video,
+    );
+    let out = dir.join("out");
+    let o = fit(&video, &out, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("tiny.mkv: 32×48 is smaller than the 64 px a frame needs"),
+        "{err}"
+    );
+    assert!(!out.exists(), "{} was written", out.display());
+}
