@@ -278,7 +278,7 @@ fn to_u8(c: [f64; 3]) -> [u8; 3] {
 
 /// The frame size most frames have (ties go to the larger area, then the wider) and
 /// how many have it.
-fn common_size(frames: &[RealFrame]) -> ((u32, u32), usize) {
+pub(super) fn common_size(frames: &[RealFrame]) -> ((u32, u32), usize) {
     let mut sizes: Vec<(u32, u32)> = frames.iter().map(|f| f.rgb.dimensions()).collect();
     sizes.sort_unstable();
     let mut best = ((0u32, 0u32), 0usize);

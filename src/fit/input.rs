@@ -18,8 +18,9 @@ pub const MAX_FRAME_BYTES: u64 = 64 << 20;
 pub const MIN_SIDE: u32 = 64;
 /// The most pixels of all the frames read together (each frame is held decoded until
 /// the plates are written): 2 000 megapixels, 6 GB of RGB, e.g. 960 frames of
-/// 1920 × 1080 or 240 of 3840 × 2160 (the default `--max-frames` 200 of 4K video
-/// fits). Summed from the files' headers before any frame is decoded.
+/// 1920 × 1080 or 240 of 3840 × 2160. Summed from the files' headers before any frame
+/// is decoded. (The plates' own budget, [`super::plates::check_plate_budget`], is
+/// tighter for large frames: 64 plates of 4K.)
 pub const MAX_TOTAL_PIXELS: u64 = 2_000_000_000;
 /// The most frames a second taken from a video (`--video-fps`).
 pub const MAX_VIDEO_FPS: f64 = 1000.0;

@@ -115,6 +115,17 @@ pub enum FitError {
         pixels: u64,
         fit: usize,
     },
+    #[error(
+        "{frames} frames × {views} views would give plates at {width}×{height} that the fitted preset cannot load (at most {} plates, {} MiB resampled to the frame size); pass --max-frames {fit} or fewer (or fewer --views)",
+        crate::sky::plates::MAX_PLATES, crate::sky::plates::MAX_PLATE_MEMORY_BYTES >> 20
+    )]
+    TooManyPlates {
+        frames: usize,
+        views: usize,
+        width: u32,
+        height: u32,
+        fit: usize,
+    },
     #[error("--hfov {0}: must be degrees within [1, {max}]", max = crate::preset::backplate::MAX_PLATE_HFOV_DEG)]
     Hfov(f64),
     #[error("--video-fps {0}: must be frames a second within (0, {max}]", max = input::MAX_VIDEO_FPS)]
@@ -243,12 +254,21 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
                 &options.classes,
             )?;
             plates::check_names_apart(&frames, options.views)?;
+            if base.thermal.is_none() {
+                let size = camera::common_size(&frames).0;
+                plates::check_plate_budget(frames.len(), options.views, size)?;
+            }
             let out = out::FitOut::open(&options.out, options.overwrite)?;
             (dir.clone(), frames, out)
         }
         input::Source::Video { path, decoder } => {
             let probe = video::probe(path, decoder)?;
             input::check_video_pixels(path, &probe, options)?;
+            if base.thermal.is_none() {
+                let frames = video::frames_bound(&probe, options);
+                let size = (probe.width, probe.height);
+                plates::check_plate_budget(frames, options.views, size)?;
+            }
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
             let dir = video::decode(path, decoder, &probe, &mut out, options)?;
             // ffmpeg's `frame_NNNNN.png` names give plates of names apart.

@@ -613,6 +613,28 @@ fn view_name(f: &RealFrame, k: usize) -> String {
     }
 }
 
+/// Refuses, before any plate is written, plates the fitted preset could not load
+/// ([`crate::sky::plates`]): `frames` × `views` plates past [`crate::sky::plates::MAX_PLATES`],
+/// or past [`crate::sky::plates::MAX_PLATE_MEMORY_BYTES`] resampled to `size` (the fitted
+/// resolution, RGBA), naming how many `--max-frames` fit.
+pub fn check_plate_budget(frames: usize, views: usize, size: (u32, u32)) -> Result<(), FitError> {
+    use crate::sky::plates::{MAX_PLATE_MEMORY_BYTES, MAX_PLATES};
+    let views = views.max(1);
+    let per_plate = (u64::from(size.0) * u64::from(size.1) * 4).max(1);
+    let by_memory = MAX_PLATE_MEMORY_BYTES / (per_plate * views as u64);
+    let fit = (MAX_PLATES / views).min(usize::try_from(by_memory).unwrap_or(usize::MAX));
+    if frames <= fit {
+        return Ok(());
+    }
+    Err(FitError::TooManyPlates {
+        frames,
+        views,
+        width: size.0,
+        height: size.1,
+        fit,
+    })
+}
+
 /// Two frames whose plates would take the same name (`b.jpg` and `b.jpeg`,
 /// `cam/a.png` and `cam__a.png`, a view of `e.png` and `e__v1.png`), named
 /// before anything is written: one would silently replace the other.
@@ -783,4 +805,27 @@ pub fn region_stats(
         (sq / n - mean * mean).max(0.0).sqrt(),
         (hp / m.max(1) as f64).sqrt(),
     )
+}
+
+#[cfg(test)]
+mod budget_tests {
+    use super::*;
+
+    #[test]
+    fn plates_the_fitted_preset_could_not_load_are_refused_naming_how_many_fit() {
+        // 4K: 33 MB a plate resampled, 64 fit in the loader's 2 GiB.
+        check_plate_budget(64, 1, (3840, 2160)).expect("64 fit");
+        let e = check_plate_budget(200, 1, (3840, 2160)).expect_err("200 4K plates");
+        assert!(matches!(e, FitError::TooManyPlates { fit: 64, .. }), "{e}");
+        assert!(e.to_string().contains("--max-frames 64 or fewer"), "{e}");
+        // Small frames: the loader's plate count (4096) bounds frames × views.
+        check_plate_budget(4096, 1, (64, 64)).expect("4096 fit");
+        let e = check_plate_budget(10_000, 1, (64, 64)).expect_err("10 000 plates");
+        assert!(
+            matches!(e, FitError::TooManyPlates { fit: 4096, .. }),
+            "{e}"
+        );
+        let e = check_plate_budget(500, 9, (64, 64)).expect_err("4 500 plates");
+        assert!(matches!(e, FitError::TooManyPlates { fit: 455, .. }), "{e}");
+    }
 }

@@ -271,3 +271,31 @@ fn a_video_of_frames_too_small_is_refused_naming_it_before_anything_is_written()
     );
     assert!(!out.exists(), "{} was written", out.display());
 }
+
+#[test]
+fn plates_the_fitted_preset_could_not_load_are_refused_before_anything_is_written() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("plates");
+    // 100 s of 640 × 512: at 2 frames a second 200 frames, × 9 views 1 800 plates
+    // of 1.3 MB resampled, past the 2 GiB the plate loader takes (182 frames fit).
+    let video = dir.join("long.mkv");
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            "color=c=gray:s=640x512:r=0.01:d=100",
+            "-c:v",
+            "ffv1",
+        ],
+        &video,
+    );
+    let out = dir.join("out");
+    let o = fit(&video, &out, &["--views", "9"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("pass --max-frames 182 or fewer"), "{err}");
+    assert!(!out.exists(), "{} was written", out.display());
+}
