@@ -176,7 +176,21 @@ pub fn decode(
         });
     }
     out.check_same(&dir, &held)?;
+    check_some_frame(video, &dir)?;
     Ok(dir)
+}
+
+/// Refuses, naming the video, a decode that gave no frame (a still image given as a
+/// video, a stream without frames): the frames folder's own error would name `OUT`.
+fn check_some_frame(video: &Path, dir: &Path) -> Result<(), FitError> {
+    let mut entries = std::fs::read_dir(dir).map_err(io_err(dir))?;
+    if entries.next().is_some() {
+        return Ok(());
+    }
+    Err(FitError::VideoDecode {
+        path: video.to_path_buf(),
+        reason: "ffmpeg gave no frame (a still image, or a video stream without frames)".into(),
+    })
 }
 
 #[cfg(test)]

@@ -299,3 +299,25 @@ fn plates_the_fitted_preset_could_not_load_are_refused_before_anything_is_writte
     assert!(err.contains("pass --max-frames 182 or fewer"), "{err}");
     assert!(!out.exists(), "{} was written", out.display());
 }
+
+#[test]
+fn an_image_given_as_a_video_is_named_as_giving_no_frame() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("still");
+    let video = dir.join("clip.mp4");
+    // A PNG under a video's name: ffmpeg reads it, and its fps filter gives no frame.
+    image::RgbImage::from_pixel(256, 256, image::Rgb([90, 120, 200]))
+        .save_with_format(&video, image::ImageFormat::Png)
+        .expect("write png");
+    let out = dir.join("out");
+    let o = fit(&video, &out, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("--real ")
+            && err.contains("clip.mp4: ffmpeg could not decode the video: ffmpeg gave no frame"),
+        "{err}"
+    );
+}
