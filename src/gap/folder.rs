@@ -86,7 +86,7 @@ impl std::fmt::Display for DroneClasses {
 /// add after them; every class when the folder has no lock (frames from elsewhere).
 pub fn dataset_drone_classes(dir: &Path) -> Result<DroneClasses, GapError> {
     let lock = dir.join("preset.lock.ron");
-    if !lock.exists() {
+    if lock_absent(&lock)? {
         return Ok(DroneClasses::All);
     }
     let bytes = crate::input::read_input_file(&lock, crate::preset::MAX_PRESET_BYTES).map_err(
@@ -115,6 +115,21 @@ pub fn dataset_drone_classes(dir: &Path) -> Result<DroneClasses, GapError> {
     } else {
         DroneClasses::Only((0..drones as u64).collect())
     })
+}
+
+/// Whether a dataset has no `preset.lock.ron` at all; a link to nothing is refused (it
+/// is no "frames from elsewhere": every class would silently count as a drone).
+fn lock_absent(lock: &Path) -> Result<bool, GapError> {
+    if std::fs::symlink_metadata(lock).is_err() {
+        return Ok(true);
+    }
+    if lock.exists() {
+        return Ok(false);
+    }
+    Err(input(
+        lock,
+        "a link to a file that does not exist; pass --synthetic-classes",
+    ))
 }
 
 /// A JPEG or PNG file name.
@@ -308,6 +323,28 @@ pub(super) fn input(path: &Path, reason: impl Into<String>) -> GapError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(unix)]
+    #[test]
+    fn a_dataset_lock_linked_to_nothing_is_refused_not_read_as_no_lock() {
+        let dir = std::env::temp_dir().join(format!("swarmshot-lock-link-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        assert_eq!(
+            dataset_drone_classes(&dir).expect("no lock"),
+            DroneClasses::All
+        );
+        std::os::unix::fs::symlink(dir.join("gone.ron"), dir.join("preset.lock.ron"))
+            .expect("link");
+        let e = dataset_drone_classes(&dir).expect_err("a link to nothing");
+        assert!(e.to_string().contains("preset.lock.ron"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("a link to a file that does not exist"),
+            "{e}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn drone_classes_parse_and_pick_the_rows_of_their_classes() {
