@@ -270,9 +270,10 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
                 plates::check_plate_budget(frames, options.views, size)?;
             }
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
-            let dir = video::decode(path, decoder, &probe, &mut out, options)?;
             // ffmpeg's `frame_NNNNN.png` names give plates of names apart.
-            let frames = input::read_folder(&dir, 0, true, &options.classes)?;
+            let decoded = video::decode(path, decoder, &probe, &mut out, options)
+                .and_then(|dir| Ok((input::read_folder(&dir, 0, true, &options.classes)?, dir)));
+            let (frames, dir) = decoded.inspect_err(|_| out.discard_frames())?;
             (dir, frames, out)
         }
     };

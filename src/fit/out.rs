@@ -212,6 +212,26 @@ impl FitOut {
     pub fn verify(&self) -> Result<(), FitError> {
         self.tree.verify().map_err(out_err)
     }
+
+    /// Deletes the frames a video's decode wrote into `frames/` (ffmpeg's
+    /// `frame_NNNNN.png` names only, any other entry left) and the folder when
+    /// that empties it: a fit refused after the decode leaves `--out` as it found
+    /// it (made empty, or emptied by `--overwrite`). Best effort: the refusal
+    /// that called it is what the user sees.
+    pub fn discard_frames(&mut self) {
+        let Ok(entries) = self.tree.entries("frames") else {
+            return;
+        };
+        for (name, entry) in &entries {
+            let n = name
+                .strip_prefix("frame_")
+                .and_then(|n| n.strip_suffix(".png"));
+            if entry.is_file() && n.is_some_and(|n| n.len() >= 5 && digits(n)) {
+                let _ = self.tree.remove_file(&format!("frames/{name}"));
+            }
+        }
+        let _ = self.tree.remove_dir_if_empty("frames");
+    }
 }
 
 /// Adds fit's own files below folder `rel` (`plates`, `frames` or `rounds`) to `plan`,

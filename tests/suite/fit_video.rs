@@ -320,4 +320,9 @@ fn an_image_given_as_a_video_is_named_as_giving_no_frame() {
             && err.contains("clip.mp4: ffmpeg could not decode the video: ffmpeg gave no frame"),
         "{err}"
     );
+    // The decode's folder is taken away again: `--out` is left empty, so the next run
+    // into it is not refused as "not empty and not an earlier fit".
+    assert!(!out.join("frames").exists(), "OUT/frames/ left behind");
+    let left: Vec<_> = std::fs::read_dir(&out).expect("out").collect();
+    assert!(left.is_empty(), "{left:?}");
 }
