@@ -302,6 +302,27 @@ mod tests {
     }
 
     #[test]
+    fn the_frame_bound_takes_the_duration_when_it_is_shorter() {
+        let probe = |d| crate::fit::video::Probe {
+            width: 10,
+            height: 10,
+            duration_s: d,
+        };
+        assert_eq!(
+            crate::fit::video::frames_bound(&probe(Some(3.0)), &options(200, 2.0)),
+            7
+        );
+        assert_eq!(
+            crate::fit::video::frames_bound(&probe(Some(1e9)), &options(200, 2.0)),
+            200
+        );
+        assert_eq!(
+            crate::fit::video::frames_bound(&probe(None), &options(0, 2.0)),
+            crate::fit::video::MAX_VIDEO_FRAMES
+        );
+    }
+
+    #[test]
     fn frames_past_the_budgets_are_refused_naming_how_many_fit() {
         let v = Path::new("clip.mp4");
         let eight_k = crate::fit::video::Probe {

@@ -197,14 +197,6 @@ fn check_some_frame(video: &Path, dir: &Path) -> Result<(), FitError> {
 mod tests {
     use super::*;
 
-    fn options(max_frames: usize, video_fps: f64) -> FitOptions {
-        FitOptions {
-            max_frames,
-            video_fps,
-            ..FitOptions::new("real", "out")
-        }
-    }
-
     #[test]
     fn probe_lines_are_read_and_a_missing_size_is_named() {
         let p = parse_probe("width=1920\nheight=1080\nduration=12.5\n").expect("probe");
@@ -215,20 +207,5 @@ mod tests {
             let e = parse_probe(bad).expect_err(bad);
             assert!(e.contains("no video stream"), "{bad}: {e}");
         }
-    }
-
-    #[test]
-    fn the_frame_bound_takes_the_duration_when_it_is_shorter() {
-        let probe = |d| Probe {
-            width: 10,
-            height: 10,
-            duration_s: d,
-        };
-        assert_eq!(frames_bound(&probe(Some(3.0)), &options(200, 2.0)), 7);
-        assert_eq!(frames_bound(&probe(Some(1e9)), &options(200, 2.0)), 200);
-        assert_eq!(
-            frames_bound(&probe(None), &options(0, 2.0)),
-            MAX_VIDEO_FRAMES
-        );
     }
 }

@@ -151,7 +151,7 @@ fn label_rects(
             let (own, search) = match shutter {
                 Some(s) => {
                     let moved = own.and_then(|o| s.moved(i, o));
-                    (moved, moved.map(|m| s.near(i).map_or(m, |n| union(m, n))))
+                    (moved, moved.map(|m| s.near(i).map_or(m, |n| m.union(n))))
                 }
                 None => (own, own),
             };
@@ -167,16 +167,6 @@ fn pixel_rect(b: PixelBox) -> PixelRect {
         y0: b.y0.floor().max(0.0) as u32,
         x1: b.x1.ceil().max(0.0) as u32,
         y1: b.y1.ceil().max(0.0) as u32,
-    }
-}
-
-/// The smallest rect holding `a` and `b`.
-fn union(a: PixelRect, b: PixelRect) -> PixelRect {
-    PixelRect {
-        x0: a.x0.min(b.x0),
-        y0: a.y0.min(b.y0),
-        x1: a.x1.max(b.x1),
-        y1: a.y1.max(b.y1),
     }
 }
 

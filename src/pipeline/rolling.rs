@@ -208,7 +208,7 @@ impl Shutter {
                 let Some(visible) = visible else {
                     return Some(s.clone());
                 };
-                let rect = meet(s.rect, visible.get(i).copied().flatten()?)?;
+                let rect = s.rect.meet(visible.get(i).copied().flatten()?)?;
                 Some(Shear {
                     rect,
                     shift_px: s.shift_px.clone(),
@@ -259,17 +259,6 @@ impl Shutter {
 
 /// The shuttered picture and, when the camera turns, its drone-free frame.
 pub type Shuttered = (Picture, Option<Picture>);
-
-/// The pixels both `a` and `b` hold; `None` when none.
-fn meet(a: PixelRect, b: PixelRect) -> Option<PixelRect> {
-    let r = PixelRect {
-        x0: a.x0.max(b.x0),
-        y0: a.y0.max(b.y0),
-        x1: a.x1.min(b.x1),
-        y1: a.y1.min(b.y1),
-    };
-    (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
-}
 
 /// Frame `index`'s rendered `frame` and drone-free `background` under
 /// `shutter` ([`Shutter::apply`], with each drone's rendered `visible` box

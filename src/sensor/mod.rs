@@ -510,6 +510,29 @@ pub struct PixelRect {
     pub y1: u32,
 }
 
+impl PixelRect {
+    /// The smallest rect holding `self` and `o`.
+    pub fn union(self, o: Self) -> Self {
+        Self {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+
+    /// The pixels both `self` and `o` hold; `None` when none.
+    pub fn meet(self, o: Self) -> Option<Self> {
+        let r = Self {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        };
+        (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
+    }
+}
+
 /// What a drone shows through the camera: the box and number of pixels
 /// where the noise-free camera image of `frame` differs by at least one
 /// 8-bit level (any channel) from that of `background` (the same frame
