@@ -323,6 +323,22 @@ mod tests {
     }
 
     #[test]
+    fn a_long_video_is_sampled_slower_so_its_frames_span_it() {
+        use crate::fit::video::sample_fps;
+        let probe = |d| crate::fit::video::Probe {
+            width: 10,
+            height: 10,
+            duration_s: d,
+        };
+        // 200 frames at 2 a second cover 100 s: a 1 000 s video is taken at 0.2 a second.
+        assert_eq!(sample_fps(&probe(Some(1000.0)), &options(200, 2.0)), 0.2);
+        assert_eq!(sample_fps(&probe(Some(100.0)), &options(200, 2.0)), 2.0);
+        assert_eq!(sample_fps(&probe(Some(30.0)), &options(200, 2.0)), 2.0);
+        assert_eq!(sample_fps(&probe(None), &options(200, 2.0)), 2.0);
+        assert_eq!(sample_fps(&probe(Some(50_000.0)), &options(0, 2.0)), 0.2);
+    }
+
+    #[test]
     fn frames_past_the_budgets_are_refused_naming_how_many_fit() {
         let v = Path::new("clip.mp4");
         let eight_k = crate::fit::video::Probe {

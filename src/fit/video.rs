@@ -117,13 +117,29 @@ pub fn parse_probe(text: &str) -> Result<Probe, String> {
     }
 }
 
+/// The most frames taken from a video: `--max-frames` (0: [`MAX_VIDEO_FRAMES`]).
+fn max_frames(options: &FitOptions) -> usize {
+    match options.max_frames {
+        0 => MAX_VIDEO_FRAMES,
+        n => n,
+    }
+}
+
+/// The frames a second decoded: `--video-fps`, or fewer when the video is longer than
+/// its frames at that rate would cover (its duration known), so that the frames taken
+/// are spread over the whole video, as a folder's frames are spread over its names.
+pub fn sample_fps(probe: &Probe, options: &FitOptions) -> f64 {
+    let max = max_frames(options) as f64;
+    match probe.duration_s {
+        Some(d) if d * options.video_fps > max => max / d,
+        _ => options.video_fps,
+    }
+}
+
 /// The most frames the decode can give: `--max-frames` (0: [`MAX_VIDEO_FRAMES`]), fewer
 /// when the duration says so (`fps` a second, one more for the first frame's rounding).
 pub fn frames_bound(probe: &Probe, options: &FitOptions) -> usize {
-    let max = match options.max_frames {
-        0 => MAX_VIDEO_FRAMES,
-        n => n,
-    };
+    let max = max_frames(options);
     match probe.duration_s {
         Some(d) => {
             let by_time = (d * options.video_fps).ceil() + 1.0;
@@ -137,8 +153,9 @@ pub fn frames_bound(probe: &Probe, options: &FitOptions) -> usize {
     }
 }
 
-/// Decodes `fps` frames a second of the video's first video stream (the one [`probe`]
-/// measured) into `OUT/frames/` with ffmpeg (PNG, lossless), at most [`frames_bound`]. The folder is made below `out`'s handle
+/// Decodes [`sample_fps`] frames a second of the video's first video stream (the one
+/// [`probe`] measured) into `OUT/frames/` with ffmpeg (PNG, lossless), at most
+/// [`frames_bound`]. The folder is made below `out`'s handle
 /// without following a link, and checked to be the same folder before and after ffmpeg
 /// writes into it by path.
 pub fn decode(
@@ -150,8 +167,8 @@ pub fn decode(
 ) -> Result<PathBuf, FitError> {
     let (dir, held) = out.dir_for_path("frames")?;
     let frames = frames_bound(probe, options);
-    // Checked before anything was written (`check_numbers`).
-    let fps = options.video_fps;
+    // `--video-fps` was checked before anything was written (`check_numbers`).
+    let fps = sample_fps(probe, options);
     let output = std::process::Command::new(&decoder.ffmpeg)
         .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
         .arg(video)

@@ -68,6 +68,26 @@ fn fit(video: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
         .expect("run swarmshot fit")
 }
 
+/// The bundled real frames (PNG), in name order.
+fn real_pngs() -> Vec<PathBuf> {
+    let real = common::testdata("real/images");
+    let mut sources = frame_files(&real);
+    sources.retain(|p| p.extension().is_some_and(|e| e == "png"));
+    sources
+}
+
+/// The bundled real frames as a lossless 2 fps FFV1 clip in `dir`.
+fn lossless_clip(dir: &Path) -> PathBuf {
+    let video = dir.join("clip.mkv");
+    let pattern = format!("{}/*.png", common::testdata("real/images").display());
+    let input = ["-framerate", "2", "-pattern_type", "glob", "-i", &pattern];
+    ffmpeg(
+        &[&input[..], &["-c:v", "ffv1", "-pix_fmt", "bgr0"]].concat(),
+        &video,
+    );
+    video
+}
+
 fn rgb(path: &Path) -> image::RgbImage {
     image::open(path).expect("decode").to_rgb8()
 }
@@ -78,21 +98,9 @@ fn a_video_is_fitted_from_exactly_its_frames() {
         return;
     }
     let dir = tmp("lossless");
-    let real = common::testdata("real/images");
-    let mut sources: Vec<PathBuf> = std::fs::read_dir(&real)
-        .expect("real frames")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "png"))
-        .collect();
-    sources.sort();
+    let sources = real_pngs();
     // 2 frames a second, lossless: `--video-fps 2` takes every frame once.
-    let video = dir.join("clip.mkv");
-    let pattern = format!("{}/*.png", real.display());
-    let input = ["-framerate", "2", "-pattern_type", "glob", "-i", &pattern];
-    ffmpeg(
-        &[&input[..], &["-c:v", "ffv1", "-pix_fmt", "bgr0"]].concat(),
-        &video,
-    );
+    let video = lossless_clip(&dir);
     let out = dir.join("fit");
     let o = fit(&video, &out, &[]);
     assert!(
@@ -100,11 +108,7 @@ fn a_video_is_fitted_from_exactly_its_frames() {
         "fit: {}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let mut decoded: Vec<PathBuf> = std::fs::read_dir(out.join("frames"))
-        .expect("frames/")
-        .map(|e| e.expect("entry").path())
-        .collect();
-    decoded.sort();
+    let decoded = frame_files(&out.join("frames"));
     assert_eq!(decoded.len(), sources.len(), "one frame each: {decoded:?}");
     for (s, d) in sources.iter().zip(&decoded) {
         assert!(
@@ -127,6 +131,31 @@ fn a_video_is_fitted_from_exactly_its_frames() {
         "{footage}"
     );
     assert!(out.join("fitted.ron").is_file());
+}
+
+#[test]
+fn a_video_longer_than_its_frames_cover_is_sampled_over_its_whole_length() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("spread");
+    let sources = real_pngs();
+    let video = lossless_clip(&dir);
+    // 10 frames at 2 a second (5 s); 5 frames at `--video-fps 2` would cover the first
+    // 2.5 s: they are taken 1 s apart instead, frames 0, 2, 4, 6 and 8.
+    let out = dir.join("fit");
+    let o = fit(&video, &out, &["--max-frames", "5"]);
+    assert!(
+        o.status.success(),
+        "fit: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let decoded = frame_files(&out.join("frames"));
+    assert_eq!(decoded.len(), 5, "{decoded:?}");
+    for (k, d) in decoded.iter().enumerate() {
+        let s = &sources[2 * k];
+        assert!(rgb(s) == rgb(d), "{} is not {}", d.display(), s.display());
+    }
 }
 
 #[test]
