@@ -266,10 +266,11 @@ pub fn read_folder(
     }
     check_pixels(&picked)?;
     let mut frames = Vec::with_capacity(picked.len());
+    let mut rows = crate::gap::folder::ClassTally::default();
     for (path, label) in picked.into_iter().zip(labels) {
         let (rgb, jpeg) = decode(&path)?;
         let boxes = match &label {
-            Some(l) => crate::gap::folder::read_labels(l, rgb.width(), rgb.height(), classes)?,
+            Some(l) => crate::gap::folder::read_labels(l, rgb.dimensions(), classes, &mut rows)?,
             None => Vec::new(),
         };
         let rel = path
@@ -286,6 +287,8 @@ pub fn read_folder(
             jpeg,
         });
     }
+    rows.check(classes)
+        .map_err(|reason| FitError::Other(format!("--classes {classes}: {reason}")))?;
     Ok(frames)
 }
 

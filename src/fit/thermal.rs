@@ -363,13 +363,8 @@ mod tests {
 
     fn side() -> Side {
         Side {
-            dir: String::new(),
-            root: Default::default(),
-            images_found: 0,
             drone_classes: "all".into(),
-            labelled_frames: 0,
-            frames: Vec::new(),
-            thumbnails: Vec::new(),
+            ..Side::default()
         }
     }
 

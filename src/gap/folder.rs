@@ -81,6 +81,51 @@ impl std::fmt::Display for DroneClasses {
     }
 }
 
+/// How many label rows of a side's files were of the drone classes and of others (the
+/// first [`TALLY_CLASSES`] other classes kept, for the error that names them).
+#[derive(Clone, Debug, Default)]
+pub struct ClassTally {
+    pub drone_rows: usize,
+    pub other_rows: usize,
+    pub other_classes: std::collections::BTreeSet<u64>,
+}
+
+/// The most other classes a [`ClassTally`] keeps.
+const TALLY_CLASSES: usize = 8;
+
+impl ClassTally {
+    fn count(&mut self, class: u64, drone: bool) {
+        if drone {
+            self.drone_rows += 1;
+            return;
+        }
+        self.other_rows += 1;
+        if self.other_classes.len() < TALLY_CLASSES {
+            self.other_classes.insert(class);
+        }
+    }
+
+    /// Refuses a class list that matched none of the rows read while rows of other
+    /// classes were there (a list naming the wrong ids measures no drone at all). The
+    /// reason is for the caller to name its option.
+    pub fn check(&self, classes: &DroneClasses) -> Result<(), String> {
+        if self.drone_rows > 0 || self.other_rows == 0 || *classes == DroneClasses::All {
+            return Ok(());
+        }
+        let seen: Vec<String> = self.other_classes.iter().map(u64::to_string).collect();
+        let more = if self.other_classes.len() == TALLY_CLASSES {
+            ", …"
+        } else {
+            ""
+        };
+        Err(format!(
+            "none of the {} label rows read is of these classes (the rows' classes: {}{more}): give the classes that are drones",
+            self.other_rows,
+            seen.join(", ")
+        ))
+    }
+}
+
 /// The classes of a swarmshot dataset's drones: the classes of its preset's models
 /// (read from its `preset.lock.ron`), not those its labelled confusers (birds, aircraft)
 /// add after them; every class when the folder has no lock (frames from elsewhere).
@@ -221,12 +266,12 @@ pub(crate) fn label_for(root: &Path, image: &Path) -> Result<Option<PathBuf>, Ga
 /// [`MAX_LABEL_LINES`] lines and [`MAX_LABEL_BYTES`]; the class a whole number ≥ 0, the
 /// four values finite and within [0, 1] (± [`YOLO_TOLERANCE`]); the boxes' summed area
 /// at most [`MAX_BOX_COVERAGE`] frames. Only rows of `classes` become boxes (every row
-/// is checked).
+/// is checked), each row counted in `tally`.
 pub(crate) fn read_labels(
     path: &Path,
-    w: u32,
-    h: u32,
+    (w, h): (u32, u32),
     classes: &DroneClasses,
+    tally: &mut ClassTally,
 ) -> Result<Vec<PixelBox>, GapError> {
     let bytes =
         crate::input::read_input_file(path, MAX_LABEL_BYTES).map_err(|source| GapError::Io {
@@ -292,7 +337,9 @@ pub(crate) fn read_labels(
             }
         }
         let v = wide.map(|x| x as f32);
-        if !classes.contains(class as u64) {
+        let drone = classes.contains(class as u64);
+        tally.count(class as u64, drone);
+        if !drone {
             continue;
         }
         coverage += f64::from(v[2].min(1.0)) * f64::from(v[3].min(1.0));
@@ -366,15 +413,34 @@ mod tests {
         )
         .expect("txt");
         let centres = |classes: &DroneClasses| -> Vec<f32> {
-            let boxes = read_labels(&path, 64, 64, classes).expect("labels");
+            let boxes =
+                read_labels(&path, (64, 64), classes, &mut ClassTally::default()).expect("labels");
             boxes.iter().map(|b| (b.x0 + b.x1) * 0.5).collect()
         };
         assert_eq!(centres(&DroneClasses::All), [32.0, 16.0, 48.0]);
         assert_eq!(centres(&only), [32.0, 48.0]);
         assert!(centres(&DroneClasses::Only(vec![7])).is_empty());
+        // A list matching none of the rows is refused, naming the rows' classes.
+        let mut tally = ClassTally::default();
+        read_labels(&path, (64, 64), &DroneClasses::Only(vec![7]), &mut tally).expect("labels");
+        let e = tally
+            .check(&DroneClasses::Only(vec![7]))
+            .expect_err("no row of class 7");
+        assert!(
+            e.contains("none of the 3 label rows") && e.contains("classes: 0, 1, 3)"),
+            "{e}"
+        );
+        let mut tally = ClassTally::default();
+        read_labels(&path, (64, 64), &only, &mut tally).expect("labels");
+        assert_eq!((tally.drone_rows, tally.other_rows), (2, 1));
+        tally.check(&only).expect("rows of class 0 and 3 were read");
+        ClassTally::default()
+            .check(&only)
+            .expect("no rows at all: nothing to say");
         // A bad row of another class is still refused.
         std::fs::write(&path, "0 0.5 0.5 0.5 0.5\n1 0.25 0.25 0.5\n").expect("txt");
-        let e = read_labels(&path, 64, 64, &only).expect_err("bad row");
+        let e =
+            read_labels(&path, (64, 64), &only, &mut ClassTally::default()).expect_err("bad row");
         assert!(e.to_string().contains("line 2"), "{e}");
     }
 
@@ -383,19 +449,34 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("a.txt");
         std::fs::write(&path, "0 1e300 0.5 0.1 0.1\n").expect("txt");
-        let err = read_labels(&path, 64, 64, &DroneClasses::All)
-            .expect_err("refused")
-            .to_string();
+        let err = read_labels(
+            &path,
+            (64, 64),
+            &DroneClasses::All,
+            &mut ClassTally::default(),
+        )
+        .expect_err("refused")
+        .to_string();
         assert!(err.contains("cx 1e300 is outside [0, 1]"), "{err}");
         std::fs::write(&path, "0 0.5 0.5 0.1 -1e300\n").expect("txt");
-        let err = read_labels(&path, 64, 64, &DroneClasses::All)
-            .expect_err("refused")
-            .to_string();
+        let err = read_labels(
+            &path,
+            (64, 64),
+            &DroneClasses::All,
+            &mut ClassTally::default(),
+        )
+        .expect_err("refused")
+        .to_string();
         assert!(err.contains("negative box width or height"), "{err}");
         std::fs::write(&path, "0 0.5 0.5 0.1 NaN\n").expect("txt");
-        let err = read_labels(&path, 64, 64, &DroneClasses::All)
-            .expect_err("refused")
-            .to_string();
+        let err = read_labels(
+            &path,
+            (64, 64),
+            &DroneClasses::All,
+            &mut ClassTally::default(),
+        )
+        .expect_err("refused")
+        .to_string();
         assert!(err.contains("`NaN` is not a number"), "{err}");
     }
 

@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use super::behind::Behind;
 pub use super::error::GapError;
-use super::folder::{DroneClasses, input, label_for, read_labels, walk};
+use super::folder::{ClassTally, DroneClasses, input, label_for, read_labels, walk};
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
 use super::table::percentile;
 pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt, iqr_distance};
@@ -67,7 +67,7 @@ impl GapOptions {
 }
 
 /// One side's frames and what was measured on them.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct Side {
     /// The folder as given.
     pub dir: String,
@@ -79,6 +79,9 @@ pub struct Side {
     /// The label classes measured as drones (`all`, or ids such as `0,3`).
     pub drone_classes: String,
     pub labelled_frames: usize,
+    /// The label rows read, of the drone classes and of others.
+    #[serde(skip)]
+    pub rows: ClassTally,
     pub frames: Vec<FrameRecord>,
     /// The contact sheet's thumbnails of this side ([`super::sheet::picks`]; not written).
     #[serde(skip)]
@@ -418,6 +421,7 @@ fn measure_side(
     };
     let mut frames = Vec::with_capacity(picked.len());
     let mut labelled = 0;
+    let mut rows = ClassTally::default();
     let shown = super::sheet::picks(picked.len());
     let mut thumbnails = Vec::with_capacity(shown.len());
     for (i, p) in picked.into_iter().enumerate() {
@@ -436,7 +440,7 @@ fn measure_side(
         let boxes = match label_for(&root, &p)? {
             Some(lp) => {
                 labelled += 1;
-                read_labels(&lp, w, h, classes)?
+                read_labels(&lp, (w, h), classes, &mut rows)?
             }
             None => Vec::new(),
         };
@@ -458,6 +462,7 @@ fn measure_side(
         images_found: found,
         drone_classes: classes.to_string(),
         labelled_frames: labelled,
+        rows,
         frames,
         thumbnails,
     })
@@ -493,14 +498,24 @@ pub fn check_out(out: &Path, inputs: &[(&'static str, &Path)]) -> Result<(), Gap
     Ok(())
 }
 
+/// Refuses a side whose label rows are all of classes other than the `flag`'s list.
+fn check_classes(side: &Side, flag: &str, classes: &DroneClasses) -> Result<(), GapError> {
+    (side.rows.check(classes))
+        .map_err(|reason| input(Path::new(&side.dir), format!("{flag} {classes}: {reason}")))
+}
+
 /// Measures both sides and builds the report (nothing is written).
 pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
     let real = measure_side(&opts.real, opts.max_images, false, &opts.real_classes)?;
+    check_classes(&real, "--real-classes", &opts.real_classes)?;
     let synthetic_classes = match &opts.synthetic_classes {
         Some(c) => c.clone(),
         None => super::folder::dataset_drone_classes(&opts.synthetic)?,
     };
     let synthetic = measure_side(&opts.synthetic, opts.max_images, true, &synthetic_classes)?;
+    if let Some(given) = &opts.synthetic_classes {
+        check_classes(&synthetic, "--synthetic-classes", given)?;
+    }
     let mut statistics = Vec::new();
     for s in stats() {
         let (r, y) = match s.kind {

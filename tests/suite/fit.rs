@@ -852,8 +852,15 @@ fn rows_of_other_classes_stay_in_the_plates_and_are_not_measured() {
         !same_in_box(&every),
         "without --classes the bird's box was kept"
     );
-    // A bad list is named with its option, nothing written.
+    // A bad list is named with its option, nothing written; so is a list that matches
+    // none of the rows.
     refuses(&real.join("images"), &["--classes", "x"], None, "--classes");
+    refuses(
+        &real.join("images"),
+        &["--classes", "5,7"],
+        None,
+        "--classes 5,7: none of the 20 label rows read is of these classes (the rows' classes: 0, 2)",
+    );
 }
 
 #[test]

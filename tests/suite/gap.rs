@@ -1031,6 +1031,30 @@ fn only_the_drone_classes_are_measured_on_each_side() {
         err.contains("--real-classes") && err.contains("`bird` is not a class id"),
         "{err}"
     );
+    // A list that matches none of a side's rows is refused, naming the rows' classes.
+    let refused = |flag: &str, list: &str| -> String {
+        let o = swarmshot()
+            .args(["gap", "--real"])
+            .arg(&real)
+            .arg("--synthetic")
+            .arg(&ds)
+            .args([flag, list])
+            .output()
+            .expect("run gap");
+        assert!(!o.status.success(), "{flag} {list}: accepted");
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = refused("--real-classes", "7");
+    assert!(
+        err.contains("--real-classes 7: none of the 20 label rows read is of these classes (the rows' classes: 0, 2)"),
+        "{err}"
+    );
+    let err = refused("--synthetic-classes", "5,9");
+    assert!(
+        err.contains("--synthetic-classes 5,9: none of the")
+            && err.contains("(the rows' classes: 0, 1)"),
+        "{err}"
+    );
 }
 
 /// Every file below `dir`.
