@@ -31,6 +31,8 @@ pub struct FitDone {
     pub after: Option<String>,
     /// The round whose preset is `fitted.ron` (`None`: no rounds, the first fit).
     pub best_round: Option<usize>,
+    /// What `swarmshot fit` prints as warnings ([`crate::fit::Prepared::warnings`]).
+    pub warnings: Vec<String>,
 }
 
 /// The window's state.
@@ -278,6 +280,7 @@ fn run_fit(
         before: done.before,
         after: done.after,
         best_round: done.record.best_round,
+        warnings: prep.warnings(),
     })
 }
 
@@ -295,6 +298,9 @@ fn done_ui(ui: &mut Ui, done: &FitDone, open: &mut Option<PathBuf>) {
             *open = Some(done.fitted.clone());
         }
     });
+    for warning in &done.warnings {
+        ui.colored_label(ui.visuals().warn_fg_color, format!("warning: {warning}"));
+    }
     let after = match done.best_round {
         Some(round) => format!("After: the fitted preset (round {round:02})"),
         None => "After: no rounds were rendered (the first fit, unmeasured)".into(),

@@ -37,17 +37,8 @@ pub(crate) fn run(args: FitArgs) -> anyhow::Result<()> {
         prep.plates.plates.len(),
         options.out.join("plates").display()
     );
-    if f.size_frames < f.frames {
-        eprintln!(
-            "warning: {} of {} frames are {}×{} and the others of other sizes: the fit is one camera's (that size's); fit each camera's frames on their own",
-            f.size_frames, f.frames, f.size.0, f.size.1
-        );
-    }
-    if prep.plates.unlabelled > 0 {
-        eprintln!(
-            "warning: {} frames have no labels (--unlabelled-ok): any drone in them stays in its plate, unlabelled",
-            prep.plates.unlabelled
-        );
+    for warning in prep.warnings() {
+        eprintln!("warning: {warning}");
     }
     let ctx = if options.rounds > 0 {
         Some(GpuContext::headless()?)

@@ -204,6 +204,27 @@ impl Prepared {
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
+
+    /// What the user is told before trusting the fit (the CLI prints each as a warning,
+    /// the app shows them with the result): footage of mixed frame sizes, and frames
+    /// without labels whose drones stay in the plates.
+    pub fn warnings(&self) -> Vec<String> {
+        let (f, mut out) = (&self.footage, Vec::new());
+        if f.size_frames < f.frames {
+            out.push(format!(
+                "{} of {} frames are {}×{} and the others of other sizes: the fit is one camera's (that size's); fit each camera's frames on their own",
+                f.size_frames, f.frames, f.size.0, f.size.1
+            ));
+        }
+        let unlabelled = self.plates.unlabelled / self.plates.views.max(1);
+        if unlabelled > 0 {
+            out.push(format!(
+                "{unlabelled} of {} frames have no labels (--unlabelled-ok): any drone in them stays in its plates, unlabelled",
+                f.frames
+            ));
+        }
+        out
+    }
 }
 
 /// The run's record, written to `OUT/fit.json`.

@@ -874,7 +874,8 @@ fn footage_of_mixed_frame_sizes_is_fitted_to_the_common_one_and_says_so() {
         .map(|e| e.expect("entry").file_name())
         .collect();
     names.sort();
-    // Three frames at 640×512, two halved to 320×256; every label file empty.
+    // Three frames at 640×512, two halved to 320×256; every label file empty but the
+    // last frame's, which is missing.
     for (i, name) in names.iter().take(5).enumerate() {
         let img = image::open(bundled.join(name)).expect("frame").to_rgb8();
         let img = if i < 3 {
@@ -884,11 +885,21 @@ fn footage_of_mixed_frame_sizes_is_fitted_to_the_common_one_and_says_so() {
         };
         img.save(real.join(name)).expect("save");
         let label = Path::new(name).with_extension("txt");
-        std::fs::write(real.join(label), "").expect("label");
+        if i < 4 {
+            std::fs::write(real.join(label), "").expect("label");
+        }
     }
     let out = dir.join("out");
     let o = swarmshot()
-        .args(["fit", "--rounds", "0", "--real"])
+        .args([
+            "fit",
+            "--rounds",
+            "0",
+            "--unlabelled-ok",
+            "--views",
+            "2",
+            "--real",
+        ])
         .arg(&real)
         .arg("--out")
         .arg(&out)
@@ -897,6 +908,11 @@ fn footage_of_mixed_frame_sizes_is_fitted_to_the_common_one_and_says_so() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "fit: {err}");
     assert!(err.contains("warning: 3 of 5 frames are 640×512"), "{err}");
+    // Frames, not plates (two a frame).
+    assert!(
+        err.contains("warning: 1 of 5 frames have no labels"),
+        "{err}"
+    );
     let fitted = std::fs::read_to_string(out.join("fitted.ron")).expect("fitted");
     assert!(
         fitted.contains("width: 640") && fitted.contains("height: 512"),
