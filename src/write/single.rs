@@ -287,34 +287,60 @@ fn stage(path: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
 
 /// Remove the temporary files an earlier `frame` killed while writing these
 /// files left (`.NAME.PID.tmp` for each of their names, a regular file, of a
-/// process no longer running). On systems without `/proc` every process is
-/// taken as running, so nothing is removed.
+/// process no longer running), listing each folder the files go to once. On
+/// systems without `/proc` every process is taken as running, so nothing is
+/// removed.
 fn remove_stale_temps(files: &[(PathBuf, Vec<u8>)]) {
+    let mut names: std::collections::BTreeMap<&Path, Vec<String>> = Default::default();
     for (path, _) in files {
         let (dir, name) = dir_and_name(path);
+        names.entry(dir).or_default().push(name);
+    }
+    for (dir, names) in names {
         let Ok(entries) = std::fs::read_dir(dir) else {
             continue;
         };
-        let prefix = format!(".{name}.");
         for entry in entries.flatten() {
-            let file_name = entry.file_name();
-            let Some(pid) = file_name
-                .to_str()
-                .and_then(|n| n.strip_prefix(&prefix)?.strip_suffix(".tmp"))
-                .and_then(|pid| pid.parse::<u32>().ok())
-            else {
-                continue;
-            };
-            let regular = entry.file_type().is_ok_and(|t| t.is_file());
-            if regular && !process_running(pid) {
+            let stale = (entry.file_name().to_str())
+                .and_then(|n| stale_temp_pid(n, &names))
+                .is_some_and(|pid| !process_running(pid));
+            if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
                 let _ = std::fs::remove_file(entry.path());
             }
         }
     }
 }
 
+/// The process id of `file_name` when it is `.NAME.PID.tmp` for one of `names`.
+fn stale_temp_pid(file_name: &str, names: &[String]) -> Option<u32> {
+    let rest = file_name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let (name, pid) = rest.rsplit_once('.')?;
+    names.iter().any(|n| n == name).then(|| pid.parse().ok())?
+}
+
 /// Whether process `pid` runs (Linux: `/proc/PID` exists); elsewhere every
 /// process is taken as running.
 fn process_running(pid: u32) -> bool {
     !cfg!(target_os = "linux") || Path::new("/proc").join(pid.to_string()).exists()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn only_temporary_names_of_the_frame_files_are_read_as_stale() {
+        let names = ["f.txt".to_owned(), "f.jpg".to_owned()];
+        let pid = |n: &str| super::stale_temp_pid(n, &names);
+        assert_eq!(pid(".f.txt.4242.tmp"), Some(4242));
+        assert_eq!(pid(".f.jpg.7.tmp"), Some(7));
+        for kept in [
+            ".f.json.7.tmp",
+            ".f.txt.notes.tmp",
+            "f.txt.7.tmp",
+            ".f.txt.7",
+            ".f.txt.tmp",
+            ".g.f.txt.7.tmp",
+        ] {
+            assert_eq!(pid(kept), None, "{kept}");
+        }
+    }
 }
