@@ -448,35 +448,17 @@ mod tests {
     fn a_value_beyond_f32_is_out_of_range_not_not_a_number() {
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("a.txt");
-        std::fs::write(&path, "0 1e300 0.5 0.1 0.1\n").expect("txt");
-        let err = read_labels(
-            &path,
-            (64, 64),
-            &DroneClasses::All,
-            &mut ClassTally::default(),
-        )
-        .expect_err("refused")
-        .to_string();
+        let refused = |row: &str| -> String {
+            std::fs::write(&path, row).expect("txt");
+            let mut tally = ClassTally::default();
+            (read_labels(&path, (64, 64), &DroneClasses::All, &mut tally).expect_err(row))
+                .to_string()
+        };
+        let err = refused("0 1e300 0.5 0.1 0.1\n");
         assert!(err.contains("cx 1e300 is outside [0, 1]"), "{err}");
-        std::fs::write(&path, "0 0.5 0.5 0.1 -1e300\n").expect("txt");
-        let err = read_labels(
-            &path,
-            (64, 64),
-            &DroneClasses::All,
-            &mut ClassTally::default(),
-        )
-        .expect_err("refused")
-        .to_string();
+        let err = refused("0 0.5 0.5 0.1 -1e300\n");
         assert!(err.contains("negative box width or height"), "{err}");
-        std::fs::write(&path, "0 0.5 0.5 0.1 NaN\n").expect("txt");
-        let err = read_labels(
-            &path,
-            (64, 64),
-            &DroneClasses::All,
-            &mut ClassTally::default(),
-        )
-        .expect_err("refused")
-        .to_string();
+        let err = refused("0 0.5 0.5 0.1 NaN\n");
         assert!(err.contains("`NaN` is not a number"), "{err}");
     }
 
