@@ -386,8 +386,12 @@ impl DatasetWriter {
                 copied += 1;
             }
         }
+        let mut reader = merge::ShardReader {
+            tree: &mut shard,
+            checked,
+        };
         for format in &mut self.formats {
-            format.merge_shard(&mut self.folder, dir)?;
+            format.merge_shard(&mut self.folder, &mut reader)?;
         }
         self.checkpoint(end, stats.clone())?;
         Ok((linked, copied))
