@@ -32,7 +32,7 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
             );
         }
         // Opened before the frame is made: every file is written into this folder.
-        let dir = single::LoneDir::open(out)?;
+        let dir = single::LoneDir::open(out, args.overwrite)?;
         print_warnings(&pipeline);
         Ok((pipeline, dir))
     })?;

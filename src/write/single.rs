@@ -179,11 +179,14 @@ fn beside(out: &Path, suffix: &str) -> PathBuf {
 pub struct LoneDir {
     out: PathBuf,
     tree: Tree,
+    /// `--overwrite`: files at the frame's names are replaced; without it a
+    /// file that appears there while the frame is made is kept and refused.
+    overwrite: bool,
 }
 
 impl LoneDir {
     /// Open the folder `out` is in (`.` for a bare name).
-    pub fn open(out: &Path) -> Result<Self, OutputError> {
+    pub fn open(out: &Path, overwrite: bool) -> Result<Self, OutputError> {
         if out.file_name().and_then(|n| n.to_str()).is_none() {
             return Err(OutputError::Refused {
                 path: out.to_owned(),
@@ -194,6 +197,7 @@ impl LoneDir {
         Ok(Self {
             out: out.to_owned(),
             tree: Tree::open(dir)?,
+            overwrite,
         })
     }
 
@@ -256,7 +260,7 @@ pub fn write_lone_frame(
         }
     }
     remove_stale_temps(&mut dir.tree, &files);
-    stage_then_rename(&mut dir.tree, &files)?;
+    stage_then_rename(&mut dir.tree, &files, dir.overwrite)?;
     Ok(files.into_iter().map(|(p, _)| p).collect())
 }
 
@@ -265,7 +269,11 @@ pub fn write_lone_frame(
 /// the files at those names as they were (a kill, also temporary files, which
 /// the next `frame` there removes), never some of the new frame's files
 /// beside some of the old one's, but for the instants between the renames.
-fn stage_then_rename(dir: &mut Tree, files: &[(PathBuf, Vec<u8>)]) -> Result<(), OutputError> {
+fn stage_then_rename(
+    dir: &mut Tree,
+    files: &[(PathBuf, Vec<u8>)],
+    overwrite: bool,
+) -> Result<(), OutputError> {
     let mut staged: Vec<String> = Vec::with_capacity(files.len());
     for (path, bytes) in files {
         match stage(dir, path, bytes) {
@@ -277,13 +285,45 @@ fn stage_then_rename(dir: &mut Tree, files: &[(PathBuf, Vec<u8>)]) -> Result<(),
         }
     }
     super::folder::stall_if_asked("frame:staged");
+    // Without --overwrite, a name taken while the frame was made stops it
+    // before any file is put in place (and [`place`] refuses one taken later).
+    if let Some((path, _)) = (files.iter())
+        .find(|(path, _)| !overwrite && dir.lstat(&LoneDir::name(path)).is_ok_and(|e| e.is_some()))
+    {
+        remove_all(dir, &staged);
+        return Err(taken(path));
+    }
     for (i, ((path, _), tmp)) in files.iter().zip(&staged).enumerate() {
-        if let Err(e) = dir.rename(tmp, &LoneDir::name(path)) {
+        if let Err(e) = place(dir, tmp, path, overwrite) {
             remove_all(dir, &staged[i..]);
             return Err(e);
         }
     }
     Ok(())
+}
+
+/// Put the staged file `tmp` at `path`'s name: renamed over what is there
+/// with `overwrite`; otherwise hard-linked to the name, which fails on a
+/// name taken meanwhile (a rename would replace it), then unlinked (renamed
+/// on a file system without hard links).
+fn place(dir: &mut Tree, tmp: &str, path: &Path, overwrite: bool) -> Result<(), OutputError> {
+    let name = LoneDir::name(path);
+    if overwrite {
+        return dir.rename(tmp, &name);
+    }
+    match dir.link_within(tmp, &name) {
+        Ok(()) => dir.remove_file(tmp).map(|_| ()),
+        Err(_) if dir.lstat(&name)?.is_some() => Err(taken(path)),
+        Err(_) => dir.rename(tmp, &name),
+    }
+}
+
+/// The refusal of a frame file's name taken while the frame was made (without `--overwrite`).
+fn taken(path: &Path) -> OutputError {
+    OutputError::Refused {
+        path: path.to_owned(),
+        reason: "appeared while the frame was made; pass --overwrite to replace it".into(),
+    }
 }
 
 /// Only temporary files this process created.

@@ -373,3 +373,52 @@ fn stats_never_writes_its_default_plots_through_a_link_in_the_dataset() {
     ok(&[os("stats"), plan.as_os_str()]);
     assert!(plan.join("stats-plots/box_size.png").is_file());
 }
+
+#[test]
+fn a_file_that_appears_while_a_frame_is_made_is_kept_without_overwrite() {
+    // Without --overwrite, `frame` checked that its names were free before
+    // making the frame, then renamed its files into place: a file written at
+    // one of those names meanwhile (seconds for a large frame) was replaced.
+    // Each file is now hard-linked to its name, which fails on a taken one.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path());
+    let out = tmp.path().join("f.png");
+    let barrier = tmp.path().join("go");
+    let child = swarmshot()
+        .arg("frame")
+        .arg(&file)
+        .args(["--index", "1", "--out"])
+        .arg(&out)
+        .env("SWARMSHOT_STALL_AT", "frame:writing")
+        .env("SWARMSHOT_STALL_UNTIL", &barrier)
+        .spawn()
+        .expect("spawn");
+    let stalled = tmp.path().join("go.stalled");
+    let start = Instant::now();
+    while !stalled.exists() {
+        assert!(start.elapsed() < Duration::from_secs(120), "never stalled");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::fs::write(tmp.path().join("f.json"), "mine").expect("write");
+    std::fs::write(&barrier, "").expect("barrier");
+    let o = child.wait_with_output().expect("frame");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success(),
+        "the frame replaced a file without --overwrite"
+    );
+    assert!(
+        e.contains("f.json") && e.contains("appeared while the frame was made"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("f.json")).expect("read"),
+        "mine"
+    );
+    assert!(!out.exists(), "the frame put some of its files in place");
+    let temps: Vec<PathBuf> = common::files_under(tmp.path())
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(temps.is_empty(), "temporary files left: {temps:?}");
+}
