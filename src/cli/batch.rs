@@ -55,11 +55,12 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         let frames = frames_of_run(&pipeline, &options);
         if frames == 0 {
+            let all = pipeline.frame_count();
             eprintln!(
                 "warning: --shard {}/{}: this shard holds no frame of the {} there are (more shards than frames); it writes an empty dataset",
                 options.shard.map_or(0, |s| s.index),
                 options.shard.map_or(1, |s| s.count),
-                pipeline.frame_count()
+                options.limit.map_or(all, |limit| limit.min(all))
             );
         }
         print_empty_splits(pipeline.preset(), frames, &mut std::io::stderr());

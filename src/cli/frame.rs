@@ -12,7 +12,7 @@ use super::gpu::{device_check, with_gpu_starting};
 /// labels, manifest record, and the masks `output.masks` asks for), beside `out`.
 pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
     let (preset, index, out) = (&args.preset, args.index, &args.out);
-    let (pipeline, ctx) = with_gpu_starting(|| {
+    let ((pipeline, mut dir), ctx) = with_gpu_starting(|| {
         let pipeline = FramePipeline::open(preset)?;
         pipeline
             .preset()
@@ -31,8 +31,10 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
                 pipeline.frame_count()
             );
         }
+        // Opened before the frame is made: every file is written into this folder.
+        let dir = single::LoneDir::open(out, args.overwrite)?;
         print_warnings(&pipeline);
-        Ok(pipeline)
+        Ok((pipeline, dir))
     })?;
     device_check(&pipeline, &ctx)?;
     let mut renderer = pipeline.renderer(&ctx);
@@ -42,7 +44,7 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
         swarmshot::annotate::overlay::draw_overlay(&mut frame.rgba, w, h, &frame.labels);
     }
     let written = swarmshot::write::single::write_lone_frame(
-        out,
+        &mut dir,
         &swarmshot::write::single::LoneFrame {
             scene: &frame.scene,
             labels: &frame.labels,

@@ -6,14 +6,17 @@ use super::args::{GapArgs, MergeArgs, StatsArgs};
 
 /// `swarmshot stats DIR`: the paper's Table 2 of a dataset or plan, and its histograms.
 pub(crate) fn stats(args: StatsArgs) -> anyhow::Result<()> {
-    let (dir, plots, json) = (&args.dir, args.plots, args.json);
-    let plots = plots.unwrap_or_else(|| dir.join("stats-plots"));
-    swarmshot::write::stats::check_plots_dir(dir, &plots)?;
+    use swarmshot::write::stats::{DEFAULT_PLOTS, check_plots_dir, open_plots_dir};
+    let (dir, plots_arg, json) = (&args.dir, args.plots, args.json);
+    let plots = (plots_arg.clone()).unwrap_or_else(|| dir.join(DEFAULT_PLOTS));
+    check_plots_dir(dir, &plots)?;
     let stats = swarmshot::write::stats::read_dataset(dir)?;
     if json {
         println!("{}", serde_json::to_string_pretty(&stats)?);
         return Ok(());
     }
+    // Opened before the table is printed: a folder that cannot take the PNGs stops it.
+    let mut out = open_plots_dir(dir, plots_arg.as_deref())?;
     println!(
         "{} ({})",
         dir.display(),
@@ -25,7 +28,7 @@ pub(crate) fn stats(args: StatsArgs) -> anyhow::Result<()> {
     );
     println!("boxes: {}", stats.boxes_from);
     print!("{}", stats.table());
-    for path in swarmshot::write::stats::write_histograms(&stats, &plots)? {
+    for path in swarmshot::write::stats::write_histograms(&stats, &mut out)? {
         println!("wrote {}", path.display());
     }
     Ok(())

@@ -17,6 +17,16 @@ pub enum GapError {
         input: PathBuf,
         same: bool,
     },
+    #[error(
+        "--real {} is {relation} --synthetic {}: the report would measure the dataset's own frames as the footage it is compared with; give a folder of real frames outside the dataset",
+        real.display(),
+        synthetic.display()
+    )]
+    SidesOverlap {
+        real: PathBuf,
+        synthetic: PathBuf,
+        relation: &'static str,
+    },
     #[error("{}: {reason}", path.display())]
     Input { path: PathBuf, reason: String },
     #[error("{}: line {line}: {reason}", path.display())]

@@ -504,8 +504,32 @@ fn check_classes(side: &Side, flag: &str, classes: &DroneClasses) -> Result<(), 
         .map_err(|reason| input(Path::new(&side.dir), format!("{flag} {classes}: {reason}")))
 }
 
+/// Refuses `--real` and `--synthetic` that are one folder or one inside the
+/// other (compared canonically): the report would measure the dataset's
+/// own frames as the footage it is compared with.
+pub fn check_sides(real: &Path, synthetic: &Path) -> Result<(), GapError> {
+    let (Ok(r), Ok(s)) = (real.canonicalize(), synthetic.canonicalize()) else {
+        return Ok(());
+    };
+    if r.starts_with(&s) || s.starts_with(&r) {
+        return Err(GapError::SidesOverlap {
+            real: real.to_path_buf(),
+            synthetic: synthetic.to_path_buf(),
+            relation: if r == s {
+                "the same folder as"
+            } else if r.starts_with(&s) {
+                "inside"
+            } else {
+                "a folder holding"
+            },
+        });
+    }
+    Ok(())
+}
+
 /// Measures both sides and builds the report (nothing is written).
 pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
+    check_sides(&opts.real, &opts.synthetic)?;
     let real = measure_side(&opts.real, opts.max_images, false, &opts.real_classes)?;
     check_classes(&real, "--real-classes", &opts.real_classes)?;
     let synthetic_classes = match &opts.synthetic_classes {

@@ -108,6 +108,34 @@ fn check_inputs_outside(root: &Path, preset: &Preset) -> Result<(), OutputError>
     Ok(())
 }
 
+/// Refuse an output folder `root` that is, or lies inside, one of the
+/// [`super::DATA_FOLDERS`] of another swarmshot dataset (a folder above it
+/// holding a [`super::folder::LEDGER`]; compared canonically, `root` as far
+/// as it exists): that dataset's readers (Ultralytics reads `images/`
+/// recursively, `merge` and `--resume` check its frame folders) would take
+/// this run's files for its frames.
+fn check_outside_other_datasets(root: &Path) -> Result<(), OutputError> {
+    let out = crate::input::canonical_as_far_as_it_exists(root).map_err(super::io(root))?;
+    for above in out.ancestors().skip(1) {
+        let Some(folder) = out.strip_prefix(above).ok().and_then(|r| r.iter().next()) else {
+            continue;
+        };
+        let data = super::DATA_FOLDERS.iter().find(|f| folder == **f);
+        if let Some(data) = data
+            && std::fs::symlink_metadata(above.join(super::folder::LEDGER)).is_ok()
+        {
+            return Err(OutputError::Refused {
+                path: root.to_owned(),
+                reason: format!(
+                    "is inside the {data}/ folder of the swarmshot dataset {}, whose readers would take this run's files for its frames",
+                    above.display()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 impl DatasetWriter {
     /// Open `root` for `preset` (see [`Folder::open`]): a new run, the
     /// continuation of an earlier run of the same preset and frame count, or
@@ -119,6 +147,7 @@ impl DatasetWriter {
         options: WriterOptions,
     ) -> Result<Self, OutputError> {
         check_inputs_outside(root, preset)?;
+        check_outside_other_datasets(root)?;
         // The preset's paths as its file wrote them: the same lock wherever it was run from.
         let lock = preset.lock_text();
         let labels_only = options.labels_only;
@@ -386,8 +415,12 @@ impl DatasetWriter {
                 copied += 1;
             }
         }
+        let mut reader = merge::ShardReader {
+            tree: &mut shard,
+            checked,
+        };
         for format in &mut self.formats {
-            format.merge_shard(&mut self.folder, dir)?;
+            format.merge_shard(&mut self.folder, &mut reader)?;
         }
         self.checkpoint(end, stats.clone())?;
         Ok((linked, copied))

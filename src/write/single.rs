@@ -5,10 +5,13 @@
 //! segmentation labels `.seg.txt`, instance PNG `.mask.png`, depth PNG
 //! `.depth.png`). Every file is written to a temporary name first, then all are
 //! renamed into place (a kill while writing leaves the earlier files whole); the COCO RLE lives only
-//! in a dataset's COCO files.
+//! in a dataset's COCO files. The folder they go into is opened once, before the frame
+//! is made ([`LoneDir`]), and every file is written relative to that handle: a folder
+//! moved away or replaced by a link meanwhile cannot redirect a write.
 
 use std::path::{Path, PathBuf};
 
+use super::folder::tree::Tree;
 use super::formats::{masks, yolo};
 use super::{
     EncodeError, OutputError, encode_grey_image, encode_image, image_rel_path, manifest_line,
@@ -170,13 +173,49 @@ fn beside(out: &Path, suffix: &str) -> PathBuf {
     out.with_file_name(format!("{stem}{suffix}"))
 }
 
-/// Write `frame`'s files: the image at `out`, the rest beside it. Returns
-/// every path written, the image first.
+/// The folder holding `--out`, opened once before the frame is made (see the
+/// module docs): a missing folder, or a file name that is not UTF-8 text, is
+/// refused then, by name.
+pub struct LoneDir {
+    out: PathBuf,
+    tree: Tree,
+    /// `--overwrite`: files at the frame's names are replaced; without it a
+    /// file that appears there while the frame is made is kept and refused.
+    overwrite: bool,
+}
+
+impl LoneDir {
+    /// Open the folder `out` is in (`.` for a bare name).
+    pub fn open(out: &Path, overwrite: bool) -> Result<Self, OutputError> {
+        if out.file_name().and_then(|n| n.to_str()).is_none() {
+            return Err(OutputError::Refused {
+                path: out.to_owned(),
+                reason: "its file name is not UTF-8 text".into(),
+            });
+        }
+        let (dir, _) = dir_and_name(out);
+        Ok(Self {
+            out: out.to_owned(),
+            tree: Tree::open(dir)?,
+            overwrite,
+        })
+    }
+
+    /// `path`'s name in the folder (each file is beside `out`).
+    fn name(path: &Path) -> String {
+        dir_and_name(path).1
+    }
+}
+
+/// Write `frame`'s files into `dir`: the image at its `out`, the rest beside
+/// it. Returns every path written, the image first.
 pub fn write_lone_frame(
-    out: &Path,
+    dir: &mut LoneDir,
     frame: &LoneFrame<'_>,
     format: &LoneFormat<'_>,
 ) -> Result<Vec<PathBuf>, OutputError> {
+    super::folder::stall_if_asked("frame:writing");
+    let out = dir.out.as_path();
     let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
     let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     files.push((
@@ -220,8 +259,8 @@ pub fn write_lone_frame(
             }
         }
     }
-    remove_stale_temps(&files);
-    stage_then_rename(&files)?;
+    remove_stale_temps(&mut dir.tree, &files);
+    stage_then_rename(&mut dir.tree, &files, dir.overwrite)?;
     Ok(files.into_iter().map(|(p, _)| p).collect())
 }
 
@@ -230,31 +269,67 @@ pub fn write_lone_frame(
 /// the files at those names as they were (a kill, also temporary files, which
 /// the next `frame` there removes), never some of the new frame's files
 /// beside some of the old one's, but for the instants between the renames.
-fn stage_then_rename(files: &[(PathBuf, Vec<u8>)]) -> Result<(), OutputError> {
-    let mut staged: Vec<PathBuf> = Vec::with_capacity(files.len());
+fn stage_then_rename(
+    dir: &mut Tree,
+    files: &[(PathBuf, Vec<u8>)],
+    overwrite: bool,
+) -> Result<(), OutputError> {
+    let mut staged: Vec<String> = Vec::with_capacity(files.len());
     for (path, bytes) in files {
-        match stage(path, bytes) {
+        match stage(dir, path, bytes) {
             Ok(tmp) => staged.push(tmp),
             Err(e) => {
-                remove_all(&staged);
+                remove_all(dir, &staged);
                 return Err(e);
             }
         }
     }
     super::folder::stall_if_asked("frame:staged");
+    // Without --overwrite, a name taken while the frame was made stops it
+    // before any file is put in place (and [`place`] refuses one taken later).
+    if let Some((path, _)) = (files.iter())
+        .find(|(path, _)| !overwrite && dir.lstat(&LoneDir::name(path)).is_ok_and(|e| e.is_some()))
+    {
+        remove_all(dir, &staged);
+        return Err(taken(path));
+    }
     for (i, ((path, _), tmp)) in files.iter().zip(&staged).enumerate() {
-        if let Err(e) = std::fs::rename(tmp, path) {
-            remove_all(&staged[i..]);
-            return Err(super::io(path)(e));
+        if let Err(e) = place(dir, tmp, path, overwrite) {
+            remove_all(dir, &staged[i..]);
+            return Err(e);
         }
     }
     Ok(())
 }
 
+/// Put the staged file `tmp` at `path`'s name: renamed over what is there
+/// with `overwrite`; otherwise hard-linked to the name, which fails on a
+/// name taken meanwhile (a rename would replace it), then unlinked (renamed
+/// on a file system without hard links).
+fn place(dir: &mut Tree, tmp: &str, path: &Path, overwrite: bool) -> Result<(), OutputError> {
+    let name = LoneDir::name(path);
+    if overwrite {
+        return dir.rename(tmp, &name);
+    }
+    match dir.link_within(tmp, &name) {
+        Ok(()) => dir.remove_file(tmp).map(|_| ()),
+        Err(_) if dir.lstat(&name)?.is_some() => Err(taken(path)),
+        Err(_) => dir.rename(tmp, &name),
+    }
+}
+
+/// The refusal of a frame file's name taken while the frame was made (without `--overwrite`).
+fn taken(path: &Path) -> OutputError {
+    OutputError::Refused {
+        path: path.to_owned(),
+        reason: "appeared while the frame was made; pass --overwrite to replace it".into(),
+    }
+}
+
 /// Only temporary files this process created.
-fn remove_all(temps: &[PathBuf]) {
+fn remove_all(dir: &mut Tree, temps: &[String]) {
     for tmp in temps {
-        let _ = std::fs::remove_file(tmp);
+        let _ = dir.remove_file(tmp);
     }
 }
 
@@ -270,77 +345,52 @@ fn dir_and_name(path: &Path) -> (&Path, String) {
     (dir, name)
 }
 
-/// `bytes` in a new temporary file beside `path` (`.NAME.PID.tmp`, created
-/// new: a link or file already at its name is not followed or truncated),
-/// flushed to disk. Returns its path.
-fn stage(path: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
+/// The temporary name of `name` for this process: `.NAME.PID.tmp`.
+fn temp_name(name: &str) -> String {
+    format!(".{name}.{}.tmp", std::process::id())
+}
+
+/// `bytes` in a new temporary file beside `path` in `dir` (`.NAME.PID.tmp`,
+/// created new: a link or file already at its name is not followed or
+/// truncated), flushed to disk. Returns its name.
+fn stage(dir: &mut Tree, path: &Path, bytes: &[u8]) -> Result<String, OutputError> {
     use std::io::Write;
-    let (dir, name) = dir_and_name(path);
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let mut file = std::fs::File::create_new(&tmp).map_err(super::io(&tmp))?;
+    let tmp = temp_name(&LoneDir::name(path));
+    let mut file = dir.create_new(&tmp, false)?;
     if let Err(e) = file.write_all(bytes).and_then(|()| file.sync_all()) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(super::io(&tmp)(e));
+        let _ = dir.remove_file(&tmp);
+        return Err(super::io(&dir.root().join(&tmp))(e));
     }
     Ok(tmp)
 }
 
 /// Remove the temporary files an earlier `frame` killed while writing these
 /// files left (`.NAME.PID.tmp` for each of their names, a regular file, of a
-/// process no longer running), listing each folder the files go to once. On
-/// systems without `/proc` every process is taken as running, so nothing is
-/// removed.
-fn remove_stale_temps(files: &[(PathBuf, Vec<u8>)]) {
-    let mut names: std::collections::BTreeMap<&Path, Vec<String>> = Default::default();
+/// process no longer running). On systems without `/proc` every process is
+/// taken as running, so nothing is removed.
+fn remove_stale_temps(dir: &mut Tree, files: &[(PathBuf, Vec<u8>)]) {
+    let Ok(entries) = dir.entries("") else {
+        return;
+    };
     for (path, _) in files {
-        let (dir, name) = dir_and_name(path);
-        names.entry(dir).or_default().push(name);
-    }
-    for (dir, names) in names {
-        let Ok(entries) = std::fs::read_dir(dir) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            let stale = (entry.file_name().to_str())
-                .and_then(|n| stale_temp_pid(n, &names))
-                .is_some_and(|pid| !process_running(pid));
-            if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
-                let _ = std::fs::remove_file(entry.path());
+        let prefix = format!(".{}.", LoneDir::name(path));
+        for (name, entry) in &entries {
+            let Some(pid) = name
+                .strip_prefix(&prefix)
+                .and_then(|rest| rest.strip_suffix(".tmp"))
+                .and_then(|pid| pid.parse::<u32>().ok())
+            else {
+                continue;
+            };
+            if entry.is_file() && !process_running(pid) {
+                let _ = dir.remove_file(name);
             }
         }
     }
-}
-
-/// The process id of `file_name` when it is `.NAME.PID.tmp` for one of `names`.
-fn stale_temp_pid(file_name: &str, names: &[String]) -> Option<u32> {
-    let rest = file_name.strip_prefix('.')?.strip_suffix(".tmp")?;
-    let (name, pid) = rest.rsplit_once('.')?;
-    names.iter().any(|n| n == name).then(|| pid.parse().ok())?
 }
 
 /// Whether process `pid` runs (Linux: `/proc/PID` exists); elsewhere every
 /// process is taken as running.
 fn process_running(pid: u32) -> bool {
     !cfg!(target_os = "linux") || Path::new("/proc").join(pid.to_string()).exists()
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn only_temporary_names_of_the_frame_files_are_read_as_stale() {
-        let names = ["f.txt".to_owned(), "f.jpg".to_owned()];
-        let pid = |n: &str| super::stale_temp_pid(n, &names);
-        assert_eq!(pid(".f.txt.4242.tmp"), Some(4242));
-        assert_eq!(pid(".f.jpg.7.tmp"), Some(7));
-        for kept in [
-            ".f.json.7.tmp",
-            ".f.txt.notes.tmp",
-            "f.txt.7.tmp",
-            ".f.txt.7",
-            ".f.txt.tmp",
-            ".g.f.txt.7.tmp",
-        ] {
-            assert_eq!(pid(kept), None, "{kept}");
-        }
-    }
 }

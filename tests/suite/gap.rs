@@ -460,11 +460,14 @@ fn gap_cli_refuses_bad_input_before_writing() {
     assert!(!out.exists(), "nothing may be written on bad input");
     // A folder that is not a dataset is refused as such.
     std::fs::write(real.join("labels/a.txt"), "0 0.5 0.5 0.1 0.1\n").expect("txt");
+    let notes = tmp.path().join("notes");
+    std::fs::create_dir(&notes).expect("dir");
+    std::fs::write(notes.join("a.txt"), "0 0.5 0.5 0.1 0.1\n").expect("txt");
     let o = swarmshot()
         .args(["gap", "--real"])
         .arg(&real)
         .arg("--synthetic")
-        .arg(real.join("labels"))
+        .arg(&notes)
         .output()
         .expect("run");
     assert!(!o.status.success());

@@ -45,6 +45,7 @@ mod gui_trial;
 mod hostile;
 mod impostors;
 mod inputs;
+mod io_audit;
 mod lens;
 mod lod;
 mod masks;

@@ -229,8 +229,9 @@ fn sixteen_bit_frames_are_the_gain_controls_levels_times_257_as_grey_png() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("t.png");
     let pipe = FramePipeline::new(p.clone()).expect("pipeline");
+    let mut lone = swarmshot::write::single::LoneDir::open(&out, false).expect("folder");
     let written = swarmshot::write::single::write_lone_frame(
-        &out,
+        &mut lone,
         &swarmshot::write::single::LoneFrame {
             scene: &b.scene,
             labels: &b.labels,

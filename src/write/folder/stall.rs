@@ -12,7 +12,8 @@ use std::path::PathBuf;
 /// temporary copy is written and before it is renamed into place; set to
 /// `checkpoint:N`, after frame N's files and records are written and before
 /// its checkpoint; set to `overwrite:deleting`, after the first file
-/// `--overwrite` deletes; set to `frame:staged`, after `swarmshot frame` has
+/// `--overwrite` deletes; set to `frame:writing`, after `swarmshot frame` has
+/// made its frame and before it writes a file; set to `frame:staged`, after `swarmshot frame` has
 /// written every file's temporary copy and before it renames the first. A
 /// test kills the process there. With
 /// `SWARMSHOT_STALL_UNTIL` set to a path as well, it waits only until that

@@ -5,7 +5,6 @@
 //! deleted once the whole dataset is written.
 
 use std::io::{BufRead, Write};
-use std::path::Path;
 
 use serde_json::json;
 
@@ -14,6 +13,7 @@ use super::{DatasetInfo, FormatWriter, FrameRecord};
 use crate::annotate::LabelStatus;
 use crate::scene::SplitName;
 use crate::write::folder::AppendFile;
+use crate::write::shards::merge::ShardReader;
 use crate::write::{Checkpoint, Folder, OutputError};
 
 struct Parts {
@@ -390,14 +390,19 @@ impl FormatWriter for CocoWriter {
     /// The shard's records follow, as they are, but for the annotation ids:
     /// numbered on from this split's last one, as a single run numbers them
     /// (image, video and track ids are global already).
-    fn merge_shard(&mut self, _folder: &mut Folder, shard: &Path) -> Result<(), OutputError> {
+    fn merge_shard(
+        &mut self,
+        _folder: &mut Folder,
+        shard: &mut ShardReader<'_>,
+    ) -> Result<(), OutputError> {
         for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
-            let path = shard.join(format!("annotations/instances_{}.json", split.as_str()));
+            let rel = format!("annotations/instances_{}.json", split.as_str());
+            let path = shard.path(&rel);
             let bad = |reason: String| OutputError::Shard {
                 path: path.clone(),
                 reason,
             };
-            let file = std::fs::File::open(&path).map_err(crate::write::io(&path))?;
+            let file = shard.open(&rel)?;
             let mut section = "";
             for (n, line) in std::io::BufReader::new(file).lines().enumerate() {
                 let line = line.map_err(crate::write::io(&path))?;

@@ -22,6 +22,7 @@ use super::{FormatWriter, FrameRecord};
 use crate::annotate::DroneLabel;
 use crate::scene::FrameScene;
 use crate::write::folder::AppendFile;
+use crate::write::shards::merge::ShardReader;
 use crate::write::{Checkpoint, Folder, OutputError};
 
 /// File name of the manifest in the dataset folder.
@@ -78,10 +79,14 @@ impl FormatWriter for ManifestWriter {
     fn merge_shard(
         &mut self,
         _folder: &mut Folder,
-        shard: &std::path::Path,
+        shard: &mut ShardReader<'_>,
     ) -> Result<(), OutputError> {
-        let path = shard.join(FILE);
-        let bytes = std::fs::read(&path).map_err(crate::write::io(&path))?;
+        use std::io::Read;
+        let path = shard.path(FILE);
+        let mut bytes = Vec::new();
+        (shard.open(FILE)?)
+            .read_to_end(&mut bytes)
+            .map_err(crate::write::io(&path))?;
         if !bytes.is_empty() && !bytes.ends_with(b"\n") {
             return Err(OutputError::Shard {
                 path,

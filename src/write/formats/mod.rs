@@ -16,12 +16,11 @@ pub mod masks;
 pub mod mot;
 pub mod yolo;
 
-use std::path::Path;
-
 use super::{Checkpoint, Folder, OutputError};
 use crate::annotate::DroneLabel;
 use crate::preset::{ImageFormat, LabelFormat, Preset};
 use crate::scene::FrameScene;
+use crate::write::shards::merge::ShardReader;
 
 pub use manifest::manifest_line;
 
@@ -224,7 +223,11 @@ pub trait FormatWriter: Send {
     /// frames follow the frames written so far). Per-frame files (images,
     /// label files) are linked by [`super::DatasetWriter::merge_shard`]; a format
     /// with records in shared files (manifest, COCO) appends them here.
-    fn merge_shard(&mut self, _folder: &mut Folder, _shard: &Path) -> Result<(), OutputError> {
+    fn merge_shard(
+        &mut self,
+        _folder: &mut Folder,
+        _shard: &mut ShardReader<'_>,
+    ) -> Result<(), OutputError> {
         Ok(())
     }
 }

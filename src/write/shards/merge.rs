@@ -11,7 +11,7 @@
 //! system), manifest lines and COCO records appended as they are, COCO
 //! annotation ids numbered on, statistics added. A killed merge run again
 //! continues after the last complete shard. Nothing is written into a shard:
-//! an output folder inside a shard is refused.
+//! an output folder inside a shard, or holding one, is refused.
 //!
 //! Before anything is written, every file of every shard is checked against
 //! the content record (size and BLAKE3 hash) its ledger got when the shard
@@ -76,10 +76,16 @@ pub enum MergeError {
     },
     #[error(
         "{} missing: every shard 0/{count} … {}/{count} of the run is needed",
-        if missing.len() > 1 { format!("shards {} are", missing.join(", ")) } else { format!("shard {} is", missing.join(", ")) },
+        missing_list(missing, *more),
         count - 1
     )]
-    Missing { missing: Vec<String>, count: u64 },
+    Missing {
+        /// The first [`MISSING_SHOWN`] missing shards.
+        missing: Vec<String>,
+        /// How many more are missing.
+        more: u64,
+        count: u64,
+    },
     #[error("{}: the shard ranges do not tile the frames ({reason})", path.display())]
     Ranges { path: PathBuf, reason: String },
     #[error("{}: {source}", path.display())]
@@ -92,6 +98,12 @@ pub enum MergeError {
         shard.display()
     )]
     OutInShard { path: PathBuf, shard: PathBuf },
+    #[error(
+        "{}: shard {} is inside the output folder, where merge would write the merged dataset's folders into it; choose an output folder that holds no shard",
+        path.display(),
+        shard.display()
+    )]
+    ShardInOut { path: PathBuf, shard: PathBuf },
     #[error(
         "{}: shard files differ from what its ledger recorded when the shard finished, so nothing was merged:\n  {}\nrun that shard again with `swarmshot batch … --shard K/N --overwrite`, or restore the files",
         path.display(),
@@ -110,6 +122,16 @@ pub enum MergeError {
     Stats { path: PathBuf, source: StatsProblem },
     #[error(transparent)]
     Output(#[from] OutputError),
+}
+
+/// "shard 2/3 is", "shards 1/9, 2/9 are", "shards 1/9, … 20/9 and 5 more are".
+fn missing_list(missing: &[String], more: u64) -> String {
+    let list = missing.join(", ");
+    match (missing.len(), more) {
+        (1, 0) => format!("shard {list} is"),
+        (_, 0) => format!("shards {list} are"),
+        _ => format!("shards {list} and {more} more are"),
+    }
 }
 
 struct ShardDir {
@@ -163,19 +185,7 @@ pub fn merge(
     let count = dirs[0].run.shard.count;
     let (frames, preset_hash) = (dirs[0].frames, dirs[0].preset_hash);
     check_ranges(&dirs, count, frames)?;
-    let out_abs = resolved(out);
-    for d in &dirs {
-        let shard_abs = std::fs::canonicalize(&d.path).map_err(crate::write::io(&d.path))?;
-        if out_abs == shard_abs {
-            return Err(MergeError::OutIsShard { path: out.into() });
-        }
-        if out_abs.starts_with(&shard_abs) {
-            return Err(MergeError::OutInShard {
-                path: out.into(),
-                shard: d.path.clone(),
-            });
-        }
-    }
+    check_out_apart(out, &dirs)?;
     let preset = locked_preset(&dirs[0].path, preset_hash)?;
     // Every shard checked before anything is written.
     let checked: Vec<CheckedShard> = dirs
@@ -215,7 +225,7 @@ pub fn merge(
             report.shards_before += 1;
             continue;
         }
-        let stats = add_stats(writer.stats(), &d.path)?;
+        let stats = add_stats(writer.stats(), &d.path, checked)?;
         let (linked, copied) =
             writer.merge_shard(&d.path, d.run.start, d.run.end, &stats, checked, copy)?;
         report.linked += linked;
@@ -257,14 +267,26 @@ fn read_shards(shards: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
     Ok(dirs)
 }
 
+/// Most missing shards named in one refusal.
+const MISSING_SHOWN: usize = 20;
+
 /// Every shard `0..count` present, their ranges following one another up to `frames`.
 fn check_ranges(dirs: &[ShardDir], count: u64, frames: u64) -> Result<(), MergeError> {
-    let missing: Vec<String> = (0..count)
-        .filter(|k| !dirs.iter().any(|d| d.run.shard.index == *k))
-        .map(|k| format!("{k}/{count}"))
-        .collect();
-    if !missing.is_empty() {
-        return Err(MergeError::Missing { missing, count });
+    // `dirs` are sorted by index and hold no index twice, so the missing ones
+    // are counted, not listed: N comes from a ledger and may be 10^11.
+    let given = dirs.iter().filter(|d| d.run.shard.index < count).count() as u64;
+    if given < count {
+        let missing: Vec<String> = (0..count)
+            .filter(|k| !dirs.iter().any(|d| d.run.shard.index == *k))
+            .take(MISSING_SHOWN)
+            .map(|k| format!("{k}/{count}"))
+            .collect();
+        let more = count - given - missing.len() as u64;
+        return Err(MergeError::Missing {
+            missing,
+            more,
+            count,
+        });
     }
     let mut next = 0;
     for d in dirs {
@@ -284,6 +306,26 @@ fn check_ranges(dirs: &[ShardDir], count: u64, frames: u64) -> Result<(), MergeE
             path: dirs[dirs.len() - 1].path.clone(),
             reason: format!("the last shard ends at frame {next}, the run has {frames}"),
         });
+    }
+    Ok(())
+}
+
+/// Refuse an output folder that is a shard, lies inside one or holds one
+/// (compared with every link resolved): merge writes into no shard.
+fn check_out_apart(out: &Path, dirs: &[ShardDir]) -> Result<(), MergeError> {
+    let out_abs = resolved(out);
+    for d in dirs {
+        let shard_abs = std::fs::canonicalize(&d.path).map_err(crate::write::io(&d.path))?;
+        if out_abs == shard_abs {
+            return Err(MergeError::OutIsShard { path: out.into() });
+        }
+        let (path, shard) = (out.to_owned(), d.path.clone());
+        if out_abs.starts_with(&shard_abs) {
+            return Err(MergeError::OutInShard { path, shard });
+        }
+        if shard_abs.starts_with(&out_abs) {
+            return Err(MergeError::ShardInOut { path, shard });
+        }
     }
     Ok(())
 }
@@ -313,6 +355,34 @@ fn resolved(path: &Path) -> PathBuf {
 pub struct CheckedShard {
     /// Path relative to the shard → (device, inode) when it was checked.
     pub files: BTreeMap<String, (u64, u64)>,
+}
+
+/// A checked shard's files opened to read their records (manifest lines,
+/// COCO records): through the shard's folder handle, never through a link,
+/// and only the file that was checked (the same device and inode).
+pub struct ShardReader<'a> {
+    pub tree: &'a mut Tree,
+    pub checked: &'a CheckedShard,
+}
+
+impl ShardReader<'_> {
+    /// The shard's path of `rel`, for messages.
+    pub fn path(&self, rel: &str) -> PathBuf {
+        self.tree.root().join(rel)
+    }
+
+    /// Open the shard's file `rel` to read, refused unless it is the file
+    /// whose content was checked.
+    pub fn open(&mut self, rel: &str) -> Result<std::fs::File, OutputError> {
+        let file = self.tree.open_file(rel, false)?;
+        match (Tree::identity(&file), self.checked.files.get(rel)) {
+            (Some(now), Some(seen)) if now == *seen => Ok(file),
+            _ => Err(OutputError::Shard {
+                path: self.path(rel),
+                reason: "was replaced after its content was checked".into(),
+            }),
+        }
+    }
 }
 
 /// Most problems listed in one refusal.
@@ -480,16 +550,29 @@ fn locked_preset(shard: &Path, hash: u64) -> Result<Preset, MergeError> {
     Ok(preset)
 }
 
-/// `so_far` plus the shard's `stats.json`: every count added (numbers in
-/// arrays and maps alike), so fields added to the statistics later are
-/// carried without a change here, as long as they are counts.
-fn add_stats(so_far: &DatasetStats, shard: &Path) -> Result<DatasetStats, MergeError> {
+/// `so_far` plus the shard's `stats.json` (the file that was `checked`):
+/// every count added (numbers in arrays and maps alike), so fields added to
+/// the statistics later are carried without a change here, as long as they
+/// are counts.
+fn add_stats(
+    so_far: &DatasetStats,
+    shard: &Path,
+    checked: &CheckedShard,
+) -> Result<DatasetStats, MergeError> {
+    use std::io::Read;
     let path = shard.join("stats.json");
     let bad = |source: StatsProblem| MergeError::Stats {
         path: path.clone(),
         source,
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.into()))?;
+    let mut tree = Tree::open(shard)?;
+    let mut file = ShardReader {
+        tree: &mut tree,
+        checked,
+    }
+    .open("stats.json")?;
+    let mut text = String::new();
+    file.read_to_string(&mut text).map_err(|e| bad(e.into()))?;
     let theirs: Value = serde_json::from_str(&text).map_err(|e| bad(e.into()))?;
     let mut sum = serde_json::to_value(so_far).map_err(|e| bad(e.into()))?;
     add_counts(&mut sum, &theirs, "").map_err(bad)?;

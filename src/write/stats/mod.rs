@@ -24,7 +24,7 @@ mod read;
 mod table;
 
 pub(crate) use plots::font;
-pub use plots::{check_plots_dir, write_histograms};
+pub use plots::{DEFAULT_PLOTS, check_plots_dir, open_plots_dir, write_histograms};
 pub use read::{StatsError, read_dataset};
 
 /// Size classes by √(w·h): small below this, pixels.

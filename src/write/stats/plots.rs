@@ -2,14 +2,26 @@
 //! and distance from the camera, as PNGs written into a report folder.
 
 use super::{DISTANCE_BIN_M, DatasetStats, SIZE_BIN_PX, StatsError};
+use crate::write::OutputError;
+use crate::write::folder::outdir::OutDir;
+use crate::write::folder::tree::Tree;
 
-/// Refuse a histogram folder `plots` that is, or lies inside, one of the
-/// `dataset`'s [`crate::write::DATA_FOLDERS`] (compared canonically, `plots`
-/// as far as it exists): its PNGs would be read as frames.
+/// The histograms' folder inside the dataset when `--plots` is not given.
+pub const DEFAULT_PLOTS: &str = "stats-plots";
+
+/// Refuse a histogram folder `plots` that exists and is not a folder, or
+/// that is, or lies inside, one of the `dataset`'s
+/// [`crate::write::DATA_FOLDERS`] (compared canonically, `plots` as far as
+/// it exists): its PNGs would be read as frames.
 pub fn check_plots_dir(
     dataset: &std::path::Path,
     plots: &std::path::Path,
 ) -> Result<(), StatsError> {
+    if std::fs::metadata(plots).is_ok_and(|m| !m.is_dir()) {
+        return Err(StatsError::PlotsNotAFolder {
+            plots: plots.to_owned(),
+        });
+    }
     let (Ok(dataset), Ok(real)) = (
         dataset.canonicalize(),
         crate::input::canonical_as_far_as_it_exists(plots),
@@ -32,19 +44,38 @@ pub fn check_plots_dir(
     }
 }
 
+/// The folder the histograms go into, opened once: `plots` as the user
+/// named it (created when missing), or by default `stats-plots` made and
+/// opened below the dataset's handle without following a link (a link put
+/// there, e.g. in a dataset someone else packed, would send the PNGs to
+/// wherever it points).
+pub fn open_plots_dir(
+    dataset: &std::path::Path,
+    plots: Option<&std::path::Path>,
+) -> Result<OutDir, StatsError> {
+    if let Some(plots) = plots {
+        return Ok(OutDir::create(plots)?);
+    }
+    let mut tree = Tree::open(dataset)?;
+    tree.mkdir(DEFAULT_PLOTS)?;
+    let fd = (tree.open_dir(DEFAULT_PLOTS)?).ok_or_else(|| OutputError::Refused {
+        path: dataset.join(DEFAULT_PLOTS),
+        reason: "was removed while swarmshot made it".into(),
+    })?;
+    Ok(OutDir::from_tree(Tree::from_fd(
+        dataset.join(DEFAULT_PLOTS),
+        fd,
+    )))
+}
+
 /// Draw the three histograms (training boxes per image, box size √(w·h),
-/// distance from the camera) as PNGs into `dir`; returns their paths. Text
+/// distance from the camera) as PNGs into `out`; returns their paths. Text
 /// needs the DejaVu Sans font (Debian: fonts-dejavu-core); without it the
 /// bars are drawn unlabelled.
 pub fn write_histograms(
     stats: &DatasetStats,
-    dir: &std::path::Path,
+    out: &mut OutDir,
 ) -> Result<Vec<std::path::PathBuf>, StatsError> {
-    let mut out =
-        crate::write::folder::outdir::OutDir::create(dir).map_err(|e| StatsError::Io {
-            path: dir.to_owned(),
-            source: std::io::Error::other(e.to_string()),
-        })?;
     let per_frame: Vec<u64> = {
         let max = stats
             .boxes_per_frame
@@ -88,17 +119,12 @@ pub fn write_histograms(
     let font = font();
     let mut written = Vec::new();
     for (file, title, counts, width, unit) in plots {
-        let path = dir.join(file);
         let png =
             draw_histogram(title, &counts, width, unit, font).map_err(|e| StatsError::Io {
-                path: path.clone(),
+                path: out.path().join(file),
                 source: std::io::Error::other(e.to_string()),
             })?;
-        let path = out.write(file, &png).map_err(|e| StatsError::Io {
-            path,
-            source: std::io::Error::other(e.to_string()),
-        })?;
-        written.push(path);
+        written.push(out.write(file, &png)?);
     }
     Ok(written)
 }

@@ -34,6 +34,10 @@ pub enum StatsError {
         plots: std::path::PathBuf,
         folder: &'static str,
     },
+    #[error("--plots {}: exists and is not a folder; give a folder for the histograms (the default is DIR/stats-plots)", plots.display())]
+    PlotsNotAFolder { plots: std::path::PathBuf },
+    #[error(transparent)]
+    Write(#[from] crate::write::OutputError),
     #[error("{}: the locked preset cannot be read: {source}", path.display())]
     BadLock {
         path: std::path::PathBuf,
