@@ -114,7 +114,7 @@ fn check_inputs_outside(root: &Path, preset: &Preset) -> Result<(), OutputError>
 /// as it exists): that dataset's readers (Ultralytics reads `images/`
 /// recursively, `merge` and `--resume` check its frame folders) would take
 /// this run's files for its frames.
-fn check_outside_other_datasets(root: &Path) -> Result<(), OutputError> {
+pub(crate) fn check_outside_other_datasets(root: &Path) -> Result<(), OutputError> {
     let out = crate::input::canonical_as_far_as_it_exists(root).map_err(super::io(root))?;
     for above in out.ancestors().skip(1) {
         let Some(folder) = out.strip_prefix(above).ok().and_then(|r| r.iter().next()) else {

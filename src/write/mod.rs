@@ -160,6 +160,18 @@ pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_
     }
 }
 
+/// As [`io`], for a path looked at through a link: a link to nothing is named as such
+/// (the system says "No such file or directory" of a name that is there).
+pub(crate) fn io_following(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+    move |source| match std::fs::read_link(path) {
+        Ok(target) if source.kind() == std::io::ErrorKind::NotFound => OutputError::Refused {
+            path: path.to_owned(),
+            reason: format!("is a link to {}, which does not exist", target.display()),
+        },
+        _ => io(path)(source),
+    }
+}
+
 /// Round to a fixed number of decimals so files do not depend on the last ulp.
 pub(crate) fn r6(x: f64) -> f64 {
     (x * 1e6).round() / 1e6

@@ -194,6 +194,7 @@ impl LoneDir {
             });
         }
         let (dir, _) = dir_and_name(out);
+        super::dataset::check_outside_other_datasets(dir)?;
         Ok(Self {
             out: out.to_owned(),
             tree: Tree::open(dir)?,

@@ -293,6 +293,21 @@ fn a_batch_or_merge_into_another_datasets_frame_folders_is_refused() {
         );
         assert_eq!(common::files_under(&ds), before, "{inside}: DS changed");
     }
+    // `frame` too: its files in DS/labels/train would be read as one of DS's frames.
+    let out = ds.join("labels/train/f.png");
+    let e = err(&[
+        os("frame"),
+        file.as_os_str(),
+        os("--index"),
+        os("1"),
+        os("--out"),
+        out.as_os_str(),
+    ]);
+    assert!(
+        e.contains("is inside the labels/ folder of the swarmshot dataset"),
+        "{e}"
+    );
+    assert_eq!(common::files_under(&ds), before, "frame: DS changed");
     batch(&file, &ds.join("notes"), &["--labels-only"]);
 }
 
@@ -421,4 +436,29 @@ fn a_file_that_appears_while_a_frame_is_made_is_kept_without_overwrite() {
         .filter(|p| p.to_string_lossy().ends_with(".tmp"))
         .collect();
     assert!(temps.is_empty(), "temporary files left: {temps:?}");
+}
+
+#[test]
+fn an_output_folder_that_is_a_link_to_nothing_is_named_as_such() {
+    // `batch --out L` and `stats --plots L` with L a link to a path that does not
+    // exist said only "L: No such file or directory" (of a name that is there);
+    // the link is now named with where it points, and nothing is made there.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path());
+    let gone = tmp.path().join("gone");
+    let link = tmp.path().join("link");
+    std::os::unix::fs::symlink(&gone, &link).expect("symlink");
+    let named = format!("is a link to {}, which does not exist", gone.display());
+    let e = err(&[os("batch"), file.as_os_str(), os("--out"), link.as_os_str()]);
+    assert!(e.contains(&named), "{e}");
+    let plan = tmp.path().join("plan");
+    batch(&file, &plan, &["--labels-only"]);
+    let e = err(&[
+        os("stats"),
+        plan.as_os_str(),
+        os("--plots"),
+        link.as_os_str(),
+    ]);
+    assert!(e.contains(&named), "{e}");
+    assert!(!gone.exists(), "made the link's target");
 }

@@ -146,7 +146,7 @@ impl Folder {
             None => fs::create_dir_all(root).map_err(io(root))?,
             Some(_) => {
                 // The folder the user named may itself be a link; what is inside may not.
-                let m = fs::metadata(root).map_err(io(root))?;
+                let m = fs::metadata(root).map_err(crate::write::io_following(root))?;
                 if !m.is_dir() {
                     return Err(refused(root.to_owned(), "is not a folder"));
                 }

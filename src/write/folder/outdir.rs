@@ -27,11 +27,14 @@ impl OutDir {
                 });
             }
             Ok(_) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            Err(e)
+                if e.kind() == std::io::ErrorKind::NotFound
+                    && std::fs::symlink_metadata(path).is_err() =>
+            {
                 std::fs::create_dir_all(path).map_err(io(path))?
             }
-            // A link loop, a folder that cannot be searched: said as it is.
-            Err(e) => return Err(io(path)(e)),
+            // A link to nothing, a link loop, a folder that cannot be searched: said as it is.
+            Err(e) => return Err(crate::write::io_following(path)(e)),
         }
         Ok(Self {
             tree: Tree::open(path)?,
