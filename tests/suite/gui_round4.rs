@@ -44,14 +44,16 @@ fn settled_app(dir: &Path) -> Harness<'static, SwarmshotApp> {
 
 /// The gap window set to compare the bundled real frames with themselves (they
 /// have images/ and labels/, so they read as a dataset too): no rendering.
-fn start_gap_report(h: &mut Harness<'static, SwarmshotApp>) {
+/// Starts a report of the bundled real frames against `dataset` (a copy of them: gap
+/// refuses a folder compared with itself).
+fn start_gap_report(h: &mut Harness<'static, SwarmshotApp>, dataset: &Path) {
     h.get_by_label("Domain gap").click();
     h.run_steps(2);
     {
         let gap = h.state_mut().gap_panel_mut();
         gap.real_dir = real_frames().display().to_string();
         gap.side = swarmshot::app::gap_panel::SyntheticSide::Dataset;
-        gap.dataset_dir = real_frames().display().to_string();
+        gap.dataset_dir = dataset.display().to_string();
         gap.max_images = 0;
     }
     h.step();
@@ -67,7 +69,9 @@ fn the_window_is_idle_while_a_gap_report_runs() {
     h.get_by_role_and_label(Role::Button, "Play").click();
     h.step();
     assert!(h.state().is_playing());
-    start_gap_report(&mut h);
+    let copy = dir.path().join("real-copy");
+    crate::common::real_frames_with_row(&copy, ""); // the frames and labels as they are
+    start_gap_report(&mut h, &copy);
     assert!(h.state().gap_panel().is_running());
     // Starting the report paused playback: no preview renders compete with it.
     assert!(!h.state().is_playing());
