@@ -81,21 +81,40 @@ impl FormatWriter for ManifestWriter {
         _folder: &mut Folder,
         shard: &mut ShardReader<'_>,
     ) -> Result<(), OutputError> {
-        use std::io::Read;
+        use std::io::{Read, Seek, SeekFrom};
         let path = shard.path(FILE);
-        let mut bytes = Vec::new();
-        (shard.open(FILE)?)
-            .read_to_end(&mut bytes)
+        let mut file = shard.open(FILE)?;
+        // The last byte first: a torn line refuses the shard before any is appended.
+        let mut last = [b'\n'];
+        let end = file
+            .seek(SeekFrom::End(0))
             .map_err(crate::write::io(&path))?;
-        if !bytes.is_empty() && !bytes.ends_with(b"\n") {
+        if end > 0 {
+            file.seek(SeekFrom::End(-1))
+                .and_then(|_| file.read_exact(&mut last))
+                .and_then(|()| file.rewind())
+                .map_err(crate::write::io(&path))?;
+        }
+        if last != [b'\n'] {
             return Err(OutputError::Shard {
                 path,
                 reason: "ends in a torn line; is the shard finished?".into(),
             });
         }
-        self.out.append(&bytes)
+        // Copied in chunks: a shard's manifest may be gigabytes.
+        let mut chunk = vec![0u8; MERGE_CHUNK];
+        loop {
+            let n = file.read(&mut chunk).map_err(crate::write::io(&path))?;
+            if n == 0 {
+                return Ok(());
+            }
+            self.out.append(&chunk[..n])?;
+        }
     }
 }
+
+/// The bytes of a shard's manifest read at a time by [`ManifestWriter::merge_shard`].
+const MERGE_CHUNK: usize = 4 << 20;
 
 /// One manifest line: the frame's index, seed, split, sweep values,
 /// environment, camera (K, R, t) and every drone's model, pose and label.
