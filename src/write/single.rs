@@ -194,6 +194,12 @@ impl LoneDir {
             });
         }
         let (dir, _) = dir_and_name(out);
+        if std::fs::symlink_metadata(dir).is_err() {
+            return Err(OutputError::Refused {
+                path: out.to_owned(),
+                reason: format!("its folder {} does not exist", dir.display()),
+            });
+        }
         super::dataset::check_outside_other_datasets(dir)?;
         Ok(Self {
             out: out.to_owned(),
