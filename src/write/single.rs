@@ -195,9 +195,10 @@ impl LoneDir {
         }
         let (dir, _) = dir_and_name(out);
         if std::fs::symlink_metadata(dir).is_err() {
-            return Err(OutputError::Refused {
+            let reason = format!("its folder {} does not exist", dir.display());
+            return Err(OutputError::Io {
                 path: out.to_owned(),
-                reason: format!("its folder {} does not exist", dir.display()),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, reason),
             });
         }
         super::dataset::check_outside_other_datasets(dir)?;
