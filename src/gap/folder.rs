@@ -88,6 +88,8 @@ pub struct ClassTally {
     pub drone_rows: usize,
     pub other_rows: usize,
     pub other_classes: std::collections::BTreeSet<u64>,
+    /// Rows of other classes than those kept were read.
+    pub more_classes: bool,
 }
 
 /// The most other classes a [`ClassTally`] keeps.
@@ -102,6 +104,8 @@ impl ClassTally {
         self.other_rows += 1;
         if self.other_classes.len() < TALLY_CLASSES {
             self.other_classes.insert(class);
+        } else if !self.other_classes.contains(&class) {
+            self.more_classes = true;
         }
     }
 
@@ -113,11 +117,7 @@ impl ClassTally {
             return Ok(());
         }
         let seen: Vec<String> = self.other_classes.iter().map(u64::to_string).collect();
-        let more = if self.other_classes.len() == TALLY_CLASSES {
-            ", …"
-        } else {
-            ""
-        };
+        let more = if self.more_classes { ", …" } else { "" };
         Err(format!(
             "none of the {} label rows read is of these classes (the rows' classes: {}{more}): give the classes that are drones",
             self.other_rows,
