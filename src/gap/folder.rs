@@ -437,6 +437,14 @@ mod tests {
         ClassTally::default()
             .check(&only)
             .expect("no rows at all: nothing to say");
+        // Eight other classes are listed; a ninth is said as "…".
+        let mut tally = ClassTally::default();
+        (10..18).for_each(|c| tally.count(c, false));
+        let e = tally.check(&only).expect_err("eight classes");
+        assert!(e.contains("14, 15, 16, 17)"), "{e}");
+        tally.count(99, false);
+        let e = tally.check(&only).expect_err("nine classes");
+        assert!(e.contains("16, 17, …)"), "{e}");
         // A bad row of another class is still refused.
         std::fs::write(&path, "0 0.5 0.5 0.5 0.5\n1 0.25 0.25 0.5\n").expect("txt");
         let e =
