@@ -6,44 +6,16 @@
 use crate::common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use swarmshot::preset::Preset;
 
-const BIN: &str = env!("CARGO_BIN_EXE_swarmshot");
+use common::cli::{BIN, err, ok, run};
 
+/// `swarmshot` with no arguments yet, as [`common::cli::command`] makes it.
 fn swarmshot() -> Command {
-    let mut cmd = Command::new(BIN);
-    cmd.env("RUST_BACKTRACE", "0")
-        .env_remove("SLURM_ARRAY_TASK_ID")
-        .env_remove("JOB_COMPLETION_INDEX")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    cmd
-}
-
-fn run(args: &[&std::ffi::OsStr]) -> Output {
-    swarmshot().args(args).output().expect("run swarmshot")
-}
-
-fn ok(args: &[&std::ffi::OsStr]) -> String {
-    let o = run(args);
-    assert!(
-        o.status.success(),
-        "swarmshot {args:?} failed:\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn err(args: &[&std::ffi::OsStr]) -> String {
-    let o = run(args);
-    assert!(!o.status.success(), "swarmshot {args:?} should have failed");
-    let e = String::from_utf8_lossy(&o.stderr).into_owned();
-    assert!(e.contains("error: "), "not a named error: {e}");
-    e
+    common::cli::command::<&str>(&[])
 }
 
 fn os<S: AsRef<std::ffi::OsStr> + ?Sized>(s: &S) -> &std::ffi::OsStr {
@@ -56,7 +28,7 @@ fn preset_file(dir: &Path) -> PathBuf {
     common::preset_file(dir, &p, "p.ron")
 }
 
-/// `batch PRESET --out OUT EXTRA…`; returns its standard error.
+/// `batch PRESET --out OUT EXTRA…`; returns what it printed.
 fn batch(preset: &Path, out: &Path, extra: &[&str]) -> String {
     let mut args = vec![
         os("batch"),
@@ -66,6 +38,18 @@ fn batch(preset: &Path, out: &Path, extra: &[&str]) -> String {
     ];
     args.extend(extra.iter().map(os));
     ok(&args)
+}
+
+/// `frame PRESET --index 1 --out OUT`, which must fail; returns its standard error.
+fn frame_refused(preset: &Path, out: &Path) -> String {
+    err(&[
+        os("frame"),
+        preset.as_os_str(),
+        os("--index"),
+        os("1"),
+        os("--out"),
+        out.as_os_str(),
+    ])
 }
 
 #[test]
@@ -197,14 +181,7 @@ fn a_frame_writes_into_the_folder_it_opened_even_when_it_is_swapped_for_a_link()
         "the frame's files belong in the folder it opened"
     );
     // A folder that does not exist is named before anything is made.
-    let e = err(&[
-        os("frame"),
-        file.as_os_str(),
-        os("--index"),
-        os("1"),
-        os("--out"),
-        tmp.path().join("nowhere/f.png").as_os_str(),
-    ]);
+    let e = frame_refused(&file, &tmp.path().join("nowhere/f.png"));
     assert!(
         e.contains("f.png: its folder") && e.contains("nowhere does not exist"),
         "{e}"
@@ -298,14 +275,7 @@ fn a_batch_or_merge_into_another_datasets_frame_folders_is_refused() {
     }
     // `frame` too: its files in DS/labels/train would be read as one of DS's frames.
     let out = ds.join("labels/train/f.png");
-    let e = err(&[
-        os("frame"),
-        file.as_os_str(),
-        os("--index"),
-        os("1"),
-        os("--out"),
-        out.as_os_str(),
-    ]);
+    let e = frame_refused(&file, &out);
     assert!(
         e.contains("is inside the labels/ folder of the swarmshot dataset"),
         "{e}"

@@ -538,6 +538,18 @@ fn a_user_file_at_a_frame_name_is_refused_not_replaced() {
     assert_same_dataset(&reference, &out, "resumed after the user's file moved");
 }
 
+/// The 2-repeat preset written to `dir/p.ron` and run to its end twice, into
+/// `dir/reference` (left alone) and `dir/out` (the run a test damages).
+fn two_finished_runs(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let mut p = preset();
+    p.repeats = 2;
+    let file = common::preset_file(dir, &p, "p.ron");
+    let (reference, out) = (dir.join("reference"), dir.join("out"));
+    run_ok(&file, &reference, &[]);
+    run_ok(&file, &out, &[]);
+    (file, reference, out)
+}
+
 #[test]
 fn an_overwrite_killed_while_deleting_never_leaves_a_finished_looking_run() {
     // `--overwrite` deletes the earlier run's files, then its ledger. Killed
@@ -546,13 +558,7 @@ fn an_overwrite_killed_while_deleting_never_leaves_a_finished_looking_run() {
     // complete" over a folder whose files were gone. The ledger now forgets
     // the run's progress before the first file is deleted.
     let tmp = tempfile::tempdir().expect("tempdir");
-    let mut p = preset();
-    p.repeats = 2;
-    let file = common::preset_file(tmp.path(), &p, "p.ron");
-    let reference = tmp.path().join("reference");
-    run_ok(&file, &reference, &[]);
-    let out = tmp.path().join("out");
-    run_ok(&file, &out, &[]);
+    let (file, reference, out) = two_finished_runs(tmp.path());
     let child = batch_cmd(&file, &out, &["--overwrite"])
         .env("SWARMSHOT_STALL_AT", "overwrite:deleting")
         .spawn()
@@ -575,13 +581,7 @@ fn a_finished_run_missing_files_is_not_called_complete() {
     // said "already complete" and wrote nothing. It now names what changed
     // and writes nothing; --overwrite makes the run again.
     let tmp = tempfile::tempdir().expect("tempdir");
-    let mut p = preset();
-    p.repeats = 2;
-    let file = common::preset_file(tmp.path(), &p, "p.ron");
-    let reference = tmp.path().join("reference");
-    run_ok(&file, &reference, &[]);
-    let out = tmp.path().join("out");
-    run_ok(&file, &out, &[]);
+    let (file, reference, out) = two_finished_runs(tmp.path());
     let image = common::files_under(&out.join("images/train"))
         .into_iter()
         .next()
@@ -737,13 +737,7 @@ fn a_finished_run_whose_checkpoint_changed_is_made_again_not_cut() {
     // its checkpoints are checked against its files, and the rerun makes it
     // again, byte for byte.
     let tmp = tempfile::tempdir().expect("tempdir");
-    let mut p = preset();
-    p.repeats = 2;
-    let file = common::preset_file(tmp.path(), &p, "p.ron");
-    let reference = tmp.path().join("reference");
-    run_ok(&file, &reference, &[]);
-    let out = tmp.path().join("out");
-    run_ok(&file, &out, &[]);
+    let (file, reference, out) = two_finished_runs(tmp.path());
     let path = out.join(".swarmshot-ledger");
     let ledger = std::fs::read_to_string(&path).expect("ledger");
     let mut lines: Vec<String> = ledger.lines().map(str::to_owned).collect();
