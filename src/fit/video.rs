@@ -37,7 +37,8 @@ impl Decoder {
 pub struct Probe {
     pub width: u32,
     pub height: u32,
-    /// Seconds, when the container states it.
+    /// Seconds: stated by the stream or the container (the shorter), else counted
+    /// from its packets and frame rate; `None` when none of them says.
     pub duration_s: Option<f64>,
 }
 
@@ -61,24 +62,48 @@ fn is_executable(p: &Path) -> bool {
     }
 }
 
-/// The frame size and duration of `video`'s first video stream, read by ffprobe.
+/// The frame size and duration of `video`'s first video stream, read by ffprobe:
+/// the shorter of the stream's and the container's durations where both are stated
+/// (a container can claim far more than its stream holds), and where neither is, the
+/// stream's packets counted (the file read once, nothing decoded) over its frame rate.
 pub fn probe(video: &Path, decoder: &Decoder) -> Result<Probe, FitError> {
+    let entries = "stream=width,height,duration:format=duration";
+    let mut probe = parse_probe(&ffprobe(video, decoder, &[], entries)?)
+        .map_err(|reason| decode_err(video, reason))?;
+    if probe.duration_s.is_none() {
+        let entries = "stream=nb_read_packets,avg_frame_rate,r_frame_rate";
+        probe.duration_s = parse_counted(&ffprobe(video, decoder, &["-count_packets"], entries)?);
+    }
+    Ok(probe)
+}
+
+fn decode_err(video: &Path, reason: String) -> FitError {
+    FitError::VideoDecode {
+        path: video.to_path_buf(),
+        reason,
+    }
+}
+
+/// ffprobe's answer (`flat` lines, at most [`MAX_PROBE_OUTPUT`] bytes) for `entries`
+/// of `video`'s first video stream.
+fn ffprobe(
+    video: &Path,
+    decoder: &Decoder,
+    extra: &[&str],
+    entries: &str,
+) -> Result<String, FitError> {
     let output = std::process::Command::new(&decoder.ffprobe)
         .args(["-v", "error", "-select_streams", "v:0"])
-        .args(["-show_entries", "stream=width,height:format=duration"])
-        .args(["-of", "default=noprint_wrappers=1"])
+        .args(extra)
+        .args(["-show_entries", entries, "-of", "flat"])
         .arg(video)
         .stdin(std::process::Stdio::null())
         .output()
         .map_err(io_err(&decoder.ffprobe))?;
-    let decode_err = |reason: String| FitError::VideoDecode {
-        path: video.to_path_buf(),
-        reason,
-    };
     if !output.status.success() {
-        return Err(decode_err(bounded_text(&output.stderr)));
+        return Err(decode_err(video, bounded_text(&output.stderr)));
     }
-    parse_probe(&bounded_text(&output.stdout)).map_err(decode_err)
+    Ok(bounded_text(&output.stdout))
 }
 
 /// At most [`MAX_PROBE_OUTPUT`] bytes of a program's output, as text.
@@ -87,22 +112,36 @@ fn bounded_text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(&bytes[..n]).trim().to_string()
 }
 
-/// ffprobe's `key=value` lines: `width`, `height` (required, ≥ 1) and `duration`
-/// (seconds; `N/A` or absent when the container does not say).
+/// ffprobe's `flat` lines as (key, value) pairs, quotes taken off the values; the
+/// first stream's keys lose their `streams.stream.0.` prefix.
+fn flat_entries(text: &str) -> impl Iterator<Item = (&str, &str)> {
+    text.lines().filter_map(|line| {
+        let (key, value) = line.trim().split_once('=')?;
+        let key = key.strip_prefix("streams.stream.0.").unwrap_or(key);
+        Some((key, value.trim_matches('"')))
+    })
+}
+
+/// A non-negative, finite number of seconds (`N/A` and the like: `None`).
+fn seconds(value: &str) -> Option<f64> {
+    value
+        .parse::<f64>()
+        .ok()
+        .filter(|d| d.is_finite() && *d >= 0.0)
+}
+
+/// ffprobe's `flat` answer: `width`, `height` (required, ≥ 1) and the stream's and the
+/// container's `duration` (seconds; `N/A` or absent when not stated), the shorter kept.
 pub fn parse_probe(text: &str) -> Result<Probe, String> {
-    let (mut width, mut height, mut duration_s) = (None, None, None);
-    for line in text.lines() {
-        let Some((key, value)) = line.trim().split_once('=') else {
-            continue;
-        };
+    let (mut width, mut height, mut duration_s) = (None, None, None::<f64>);
+    for (key, value) in flat_entries(text) {
         match key {
             "width" => width = value.parse::<u32>().ok().filter(|&w| w > 0),
             "height" => height = value.parse::<u32>().ok().filter(|&h| h > 0),
-            "duration" => {
-                duration_s = value
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|d| d.is_finite() && *d >= 0.0)
+            "duration" | "format.duration" => {
+                if let Some(d) = seconds(value) {
+                    duration_s = Some(duration_s.map_or(d, |known| known.min(d)));
+                }
             }
             _ => {}
         }
@@ -115,6 +154,27 @@ pub fn parse_probe(text: &str) -> Result<Probe, String> {
         }),
         _ => Err("no video stream with a frame size".into()),
     }
+}
+
+/// A duration from ffprobe's `-count_packets` answer: `nb_read_packets` over the
+/// stream's `avg_frame_rate` (else `r_frame_rate`), a `num/den` fraction; `None`
+/// when the count or both rates are missing or zero.
+pub fn parse_counted(text: &str) -> Option<f64> {
+    let (mut packets, mut avg, mut r) = (None, None, None);
+    let rate = |value: &str| {
+        let (num, den) = value.split_once('/')?;
+        let (num, den) = (num.parse::<f64>().ok()?, den.parse::<f64>().ok()?);
+        Some(num / den).filter(|f| f.is_finite() && *f > 0.0)
+    };
+    for (key, value) in flat_entries(text) {
+        match key {
+            "nb_read_packets" => packets = value.parse::<u64>().ok().filter(|&n| n > 0),
+            "avg_frame_rate" => avg = rate(value),
+            "r_frame_rate" => r = rate(value),
+            _ => {}
+        }
+    }
+    Some(packets? as f64 / avg.or(r)?).filter(|d| d.is_finite())
 }
 
 /// The most frames taken from a video: `--max-frames` (0: [`MAX_VIDEO_FRAMES`]).
@@ -187,10 +247,7 @@ pub fn decode(
         .output()
         .map_err(io_err(&decoder.ffmpeg))?;
     if !output.status.success() {
-        return Err(FitError::VideoDecode {
-            path: video.to_path_buf(),
-            reason: bounded_text(&output.stderr),
-        });
+        return Err(decode_err(video, bounded_text(&output.stderr)));
     }
     out.check_same(&dir, &held)?;
     check_some_frame(video, &dir)?;
@@ -204,10 +261,10 @@ fn check_some_frame(video: &Path, dir: &Path) -> Result<(), FitError> {
     if entries.next().is_some() {
         return Ok(());
     }
-    Err(FitError::VideoDecode {
-        path: video.to_path_buf(),
-        reason: "ffmpeg gave no frame (a still image, or a video stream without frames)".into(),
-    })
+    Err(decode_err(
+        video,
+        "ffmpeg gave no frame (a still image, or a video stream without frames)".into(),
+    ))
 }
 
 #[cfg(test)]
@@ -216,13 +273,52 @@ mod tests {
 
     #[test]
     fn probe_lines_are_read_and_a_missing_size_is_named() {
-        let p = parse_probe("width=1920\nheight=1080\nduration=12.5\n").expect("probe");
+        let text = "streams.stream.0.width=1920\nstreams.stream.0.height=1080\n\
+                    streams.stream.0.duration=\"12.5\"\nformat.duration=\"12.5\"\n";
+        let p = parse_probe(text).expect("probe");
         assert_eq!((p.width, p.height, p.duration_s), (1920, 1080, Some(12.5)));
-        let p = parse_probe("width=640\nheight=512\nduration=N/A").expect("probe");
-        assert_eq!(p.duration_s, None);
-        for bad in ["", "duration=3", "width=0\nheight=10", "width=x\nheight=10"] {
+        let text = "streams.stream.0.width=640\nstreams.stream.0.height=512\n\
+                    streams.stream.0.duration=\"N/A\"\nformat.duration=\"N/A\"";
+        assert_eq!(parse_probe(text).expect("probe").duration_s, None);
+        for bad in [
+            "",
+            "format.duration=\"3\"",
+            "streams.stream.0.width=0\nstreams.stream.0.height=10",
+            "streams.stream.0.width=x\nstreams.stream.0.height=10",
+        ] {
             let e = parse_probe(bad).expect_err(bad);
             assert!(e.contains("no video stream"), "{bad}: {e}");
         }
+    }
+
+    /// A container that claims more than its stream holds: the stream's duration;
+    /// only one of them stated: that one.
+    #[test]
+    fn the_shorter_of_the_streams_and_the_containers_durations_is_kept() {
+        let size = "streams.stream.0.width=64\nstreams.stream.0.height=48\n";
+        let both = format!("{size}streams.stream.0.duration=\"3.0\"\nformat.duration=\"3600\"");
+        assert_eq!(parse_probe(&both).expect("probe").duration_s, Some(3.0));
+        let stream = format!("{size}streams.stream.0.duration=\"4.5\"\nformat.duration=\"N/A\"");
+        assert_eq!(parse_probe(&stream).expect("probe").duration_s, Some(4.5));
+        let format = format!("{size}streams.stream.0.duration=\"N/A\"\nformat.duration=\"7\"");
+        assert_eq!(parse_probe(&format).expect("probe").duration_s, Some(7.0));
+    }
+
+    /// Counted packets over the average frame rate, else the base rate; nothing
+    /// when either is missing or zero.
+    #[test]
+    fn a_duration_is_counted_from_packets_and_frame_rate() {
+        let line = |k: &str, v: &str| format!("streams.stream.0.{k}=\"{v}\"\n");
+        let text = line("r_frame_rate", "25/1") + &line("avg_frame_rate", "10/1");
+        let counted =
+            |t: &str| parse_counted(&(t.to_string() + "streams.stream.0.nb_read_packets=\"30\""));
+        assert_eq!(counted(&text), Some(3.0));
+        let text = line("r_frame_rate", "30000/1001") + &line("avg_frame_rate", "0/0");
+        assert!((counted(&text).expect("counted") - 1.001).abs() < 1e-9);
+        assert_eq!(
+            counted(&(line("r_frame_rate", "0/0") + &line("avg_frame_rate", "0/0"))),
+            None
+        );
+        assert_eq!(parse_counted(&line("avg_frame_rate", "10/1")), None);
     }
 }

@@ -158,6 +158,48 @@ fn a_video_longer_than_its_frames_cover_is_sampled_over_its_whole_length() {
     }
 }
 
+/// A raw MJPEG stream states no duration (neither stream nor container): it is counted
+/// from the stream's packets (10) over its frame rate (25 a second), so the frames are
+/// still spread over the whole stream.
+#[test]
+fn a_stream_without_a_stated_duration_is_sampled_over_its_counted_length() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("counted");
+    let pattern = format!("{}/*.png", common::testdata("real/images").display());
+    let video = dir.join("clip.mjpeg");
+    let input = ["-framerate", "25", "-pattern_type", "glob", "-i", &pattern];
+    ffmpeg(
+        &[&input[..], &["-c:v", "mjpeg", "-f", "mjpeg"]].concat(),
+        &video,
+    );
+    // Every frame of the stream, as the same decoder gives it.
+    let every = dir.join("every");
+    std::fs::create_dir_all(&every).expect("every/");
+    ffmpeg(
+        &["-i", video.to_str().expect("utf-8"), "-start_number", "0"],
+        &every.join("f_%03d.png"),
+    );
+    let sources = frame_files(&every);
+    assert_eq!(sources.len(), 10, "{sources:?}");
+    // 5 frames at `--video-fps 25` would be the first five; over the counted 0.4 s
+    // they are frames 0, 2, 4, 6 and 8.
+    let out = dir.join("fit");
+    let o = fit(&video, &out, &["--max-frames", "5", "--video-fps", "25"]);
+    assert!(
+        o.status.success(),
+        "fit: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let decoded = frame_files(&out.join("frames"));
+    assert_eq!(decoded.len(), 5, "{decoded:?}");
+    for (k, d) in decoded.iter().enumerate() {
+        let s = &sources[2 * k];
+        assert!(rgb(s) == rgb(d), "{} is not {}", d.display(), s.display());
+    }
+}
+
 #[test]
 fn a_video_past_the_pixel_budgets_is_refused_before_anything_is_written() {
     if !have_ffmpeg() {
