@@ -9,6 +9,7 @@ use super::prompt::{Answer, Replace};
 use super::runner::{BatchOutcome, BatchRun};
 use super::{Command, SwarmshotApp, keys, preset_text, problems, read_preset_text};
 use crate::preset::{ModelSource, ModelSpec, Preset};
+use crate::write::folder::outdir::OutDir;
 
 impl SwarmshotApp {
     pub(super) fn apply(&mut self, command: Command, ctx: &egui::Context) {
@@ -239,10 +240,16 @@ impl SwarmshotApp {
 
     /// Write the preset; false (with a notice) when it could not be written.
     pub(super) fn save_to(&mut self, path: &Path) -> bool {
+        let preset = self.preset_for(path);
         // The file's own text with the changed fields rewritten: comments and order kept.
-        let text = preset_text::save_text(self.session.saved_text.as_deref(), &self.session.preset);
-        match std::fs::write(path, &text) {
+        let text = preset_text::save_text(self.session.saved_text.as_deref(), &preset);
+        match write_preset_file(path, &text) {
             Ok(()) => {
+                if preset != self.session.preset {
+                    // Its paths read from the new folder: undo cannot bring back the old ones.
+                    self.session.preset = preset;
+                    self.history.clear();
+                }
                 self.session.preset_path = Some(path.to_owned());
                 self.session.saved = Some(self.session.preset.clone());
                 self.session.saved_text = Some(text);
@@ -254,6 +261,18 @@ impl SwarmshotApp {
                 false
             }
         }
+    }
+
+    /// The preset as written to `path`: saved into another folder, each relative path
+    /// it reads (models, sky images, backplates) rewritten to name the same file from there.
+    fn preset_for(&self, path: &Path) -> Preset {
+        let mut preset = self.session.preset.clone();
+        let (from, to) = (self.preset_dir(), folder_of(path));
+        let canonical = |d: &Path| std::fs::canonicalize(d).unwrap_or_else(|_| d.to_owned());
+        if canonical(&from) != canonical(&to) {
+            preset.rebase_relative_paths(|p| super::paths::for_preset(&from.join(p), &to));
+        }
+        preset
     }
 
     /// `swarmshot merge` on a background thread: shard folders into the output folder.
@@ -301,6 +320,11 @@ impl SwarmshotApp {
             ));
             return;
         }
+        if self.merge.is_some() {
+            // One writer at a time: a batch beside a merge would share its folder.
+            self.notices.push(MERGING.into());
+            return;
+        }
         let Some((gpu, _)) = &self.gpu else {
             self.notices.push("cannot generate: no wgpu device".into());
             return;
@@ -328,6 +352,10 @@ impl SwarmshotApp {
         }
     }
 }
+
+/// Why Generate waits while Merge runs.
+pub(super) const MERGING: &str =
+    "cannot generate: a merge is writing into the output folder; wait until it ends";
 
 /// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
 pub(super) type BatchInputs = (
@@ -381,4 +409,26 @@ impl SwarmshotApp {
         let frame_keys = focused.is_none() || focused == self.frame_slider;
         keys::shortcuts(ctx, ctx.text_edit_focused(), frame_keys)
     }
+}
+
+/// The folder a file is in ("." for a bare name).
+fn folder_of(path: &Path) -> PathBuf {
+    path.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .map_or_else(|| PathBuf::from("."), Path::to_owned)
+}
+
+/// `text` written as the preset file `path` atomically, as the command line writes its
+/// reports ([`OutDir::write`]): a temporary file in the same folder, flushed, renamed over
+/// the old file, so a failure or a kill leaves the old file whole; never through a link.
+fn write_preset_file(path: &Path, text: &str) -> Result<(), String> {
+    let dir = folder_of(path);
+    if !dir.is_dir() {
+        return Err(format!("{} is not a folder", dir.display()));
+    }
+    let name = (path.file_name().and_then(|n| n.to_str())).ok_or("not a UTF-8 file name")?;
+    let mut out = OutDir::create(&dir).map_err(|e| e.to_string())?;
+    out.write(name, text.as_bytes())
+        .map(drop)
+        .map_err(|e| e.to_string())
 }

@@ -1,0 +1,177 @@
+//! The app under hostile inputs and edits (an audit): a batch failure says each cause
+//! once; Generate waits while a merge writes into the output folder; Save replaces the
+//! preset file atomically and never through a link; Save As into another folder keeps
+//! the files the preset reads. Rendering through the wgpu renderer (lavapipe on CI).
+#![cfg(feature = "app")]
+#![allow(clippy::unwrap_used)]
+
+use std::os::unix::fs::MetadataExt;
+use std::path::Path;
+
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use swarmshot::app::runner::BatchError;
+use swarmshot::app::{Command, SwarmshotApp};
+use swarmshot::preset::ModelSource;
+
+use crate::app_common;
+use app_common::{GPU, harness, wait_for};
+
+/// 3 frames at 96×64.
+const TINY: &str = r#"(
+    name: "tiny",
+    seed: 11,
+    placement: Structured(x_count: 2, y_count: 1, z_count: 1, load_factor: 3.0),
+    camera: (z: (start: 1.0, end: 2.0, step: 0.5)),
+    render: (resolution: Custom(width: 96, height: 64), msaa: 1),
+    output: (image_format: Png, label_formats: [Yolo], split: (train: 1.0, val: 0.0, test: 0.0)),
+)"#;
+
+/// The app on `preset` (written as `dir/tiny.ron`) once its first preview is on screen.
+fn settled(dir: &Path, preset: &str) -> Harness<'static, SwarmshotApp> {
+    let path = dir.join("tiny.ron");
+    std::fs::write(&path, preset).unwrap();
+    let mut h = harness(Some(path));
+    wait_for(&mut h, "the first preview", |app| app.preview_is_current());
+    h
+}
+
+fn command(h: &mut Harness<'static, SwarmshotApp>, command: Command) {
+    let ctx = h.ctx.clone();
+    h.state_mut().command(command, &ctx);
+}
+
+#[test]
+fn a_batch_failure_names_each_cause_once() {
+    // A missing model: the model error's message already quotes its source.
+    let missing = swarmshot::model::ModelError::Io {
+        file: "/x/nope.glb".into(),
+        source: std::io::Error::from(std::io::ErrorKind::NotFound),
+    };
+    let shown = BatchError::Failed(anyhow::Error::from(missing)).to_string();
+    assert_eq!(
+        shown.matches("not found").count(),
+        1,
+        "the cause is said once: {shown}"
+    );
+    assert!(
+        shown.starts_with("cannot read model /x/nope.glb"),
+        "{shown}"
+    );
+}
+
+#[test]
+fn generate_waits_while_a_merge_writes_into_the_output_folder() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    let out = dir.path().join("merged");
+    let session = h.state_mut().session_mut();
+    session.out_dir = out.display().to_string();
+    session.merge_shards = dir.path().join("shard-1").display().to_string();
+    h.run_steps(2);
+    // Merge, then Generate before the merge's thread has answered: two writers in one folder.
+    command(&mut h, Command::Merge);
+    command(&mut h, Command::Generate);
+    assert!(!h.state().batch_running(), "no batch beside the merge");
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(notice.contains("a merge is writing"), "{notice}");
+    wait_for(&mut h, "the merge's answer", |app| {
+        app.merge_outcome().is_some()
+    });
+    assert!(!out.exists(), "the refused merge wrote nothing");
+}
+
+#[test]
+fn save_replaces_the_preset_file_atomically_and_never_through_a_link() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    let path = dir.path().join("tiny.ron");
+    let before = std::fs::metadata(&path).unwrap().ino();
+    h.state_mut().session_mut().preset.seed = 12;
+    h.run_steps(2);
+    command(&mut h, Command::Save);
+    h.run_steps(2);
+    // A new file renamed over the old one (a failed or killed write leaves the old whole).
+    assert_ne!(std::fs::metadata(&path).unwrap().ino(), before);
+    assert!(std::fs::read_to_string(&path).unwrap().contains("seed: 12"));
+    assert!(!h.state().session().is_dirty());
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["tiny.ron"], "no temporary file is left");
+
+    // A preset file that is a link to a file elsewhere is refused by name, not written through.
+    let elsewhere = tempfile::tempdir().unwrap();
+    let target = elsewhere.path().join("real.ron");
+    std::fs::write(&target, TINY).unwrap();
+    let link = dir.path().join("link.ron");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    command(&mut h, Command::OpenPath(link.clone()));
+    h.run_steps(2);
+    h.state_mut().session_mut().preset.seed = 13;
+    h.run_steps(2);
+    command(&mut h, Command::Save);
+    h.run_steps(2);
+    assert_eq!(std::fs::read_to_string(&target).unwrap(), TINY);
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(
+        notice.contains("link.ron") && notice.contains("symbolic link"),
+        "{notice}"
+    );
+    assert!(h.state().session().is_dirty(), "the edit is still unsaved");
+}
+
+#[test]
+fn save_as_into_another_folder_keeps_the_model_the_preset_reads() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/models/bird_sparrow_0.glb");
+    std::fs::copy(&model, dir.path().join("m.glb")).unwrap();
+    let preset = TINY.replace(
+        "seed: 11,",
+        "seed: 11, models: [(source: File(\"m.glb\"), size_m: 0.5, class: \"uav\")],",
+    );
+    let mut h = settled(dir.path(), &preset);
+    assert_eq!(h.state().preview_error(), None);
+    let ctx = h.ctx.clone();
+    h.state_mut()
+        .use_file_dialogs(swarmshot::app::files::DialogBackend::Builtin, &ctx);
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    let copy = other.join("copy.ron");
+    command(&mut h, Command::SaveAs);
+    h.run_steps(2);
+    h.get_by_label("File name").focus();
+    h.run_steps(1);
+    h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::A]);
+    h.get_by_label("File name")
+        .type_text(&copy.display().to_string());
+    h.run_steps(2);
+    h.get_all_by_role_and_label(Role::Button, "Save")
+        .max_by(|a, b| a.rect().top().total_cmp(&b.rect().top()))
+        .unwrap()
+        .click();
+    wait_for(&mut h, "the copy's preview", |app| {
+        app.session().preset_path.as_deref() == Some(copy.as_path()) && app.preview_is_current()
+    });
+    assert_eq!(
+        h.state().preview_error(),
+        None,
+        "the copy still finds m.glb"
+    );
+    // The file read on its own (as `swarmshot batch` reads it) names the same model.
+    let mut saved = swarmshot::preset::Preset::load(&copy).unwrap();
+    saved.resolve_paths(&other);
+    let ModelSource::File(read) = &saved.models[0].source else {
+        panic!("{:?}", saved.models[0].source)
+    };
+    assert!(read.is_file(), "{} exists", read.display());
+    assert_eq!(
+        read.canonicalize().unwrap(),
+        dir.path().join("m.glb").canonicalize().unwrap()
+    );
+}
