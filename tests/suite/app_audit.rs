@@ -1,19 +1,23 @@
 //! The app under hostile inputs and edits (an audit): a batch failure says each cause
 //! once; Generate waits while a merge writes into the output folder; Save replaces the
 //! preset file atomically and never through a link; Save As into another folder keeps
-//! the files the preset reads. Rendering through the wgpu renderer (lavapipe on CI).
+//! the files the preset reads; the preview's boxes are the batch's labels through a
+//! camera model. Rendering through the wgpu renderer (lavapipe on CI).
 #![cfg(feature = "app")]
 #![allow(clippy::unwrap_used)]
 
 use std::os::unix::fs::MetadataExt;
 use std::path::Path;
+use std::sync::Arc;
 
 use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+use swarmshot::app::preview::{PreviewKey, PreviewRenderer, PreviewRequest, PreviewView};
 use swarmshot::app::runner::BatchError;
 use swarmshot::app::{Command, SwarmshotApp};
-use swarmshot::preset::ModelSource;
+use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::{ModelSource, Preset, Resolution};
 
 use crate::app_common;
 use app_common::{GPU, harness, wait_for};
@@ -174,4 +178,54 @@ fn save_as_into_another_folder_keeps_the_model_the_preset_reads() {
         read.canonicalize().unwrap(),
         dir.path().join("m.glb").canonicalize().unwrap()
     );
+}
+
+/// The shipped `preset` at 160×96.
+fn small_shipped(name: &str) -> Preset {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("presets")
+        .join(name);
+    let mut preset = Preset::load(&path).unwrap();
+    preset.resolve_paths(path.parent().unwrap());
+    preset.render.resolution = Resolution::Custom {
+        width: 160,
+        height: 96,
+    };
+    preset
+}
+
+#[test]
+fn the_preview_boxes_are_the_batch_labels_through_a_camera_model() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let ctx = crate::common::gpu();
+    // Blur and noise; a lens; a rolling shutter: the batch measures visibility in the
+    // finished picture (and a lens moves the boxes).
+    for name in [
+        "realistic.ron",
+        "lens_distortion.ron",
+        "rolling_shutter.ron",
+    ] {
+        let preset = small_shipped(name);
+        let pipeline = FramePipeline::new(preset.clone()).unwrap();
+        let mut batch = pipeline.renderer(&ctx);
+        let mut preview = PreviewRenderer::new(ctx.clone());
+        for frame in 0..2 {
+            let made = pipeline.make(&mut batch, frame).unwrap();
+            let views = [PreviewView::ThroughCamera, PreviewView::Camera];
+            for (size_px, view) in [[160, 96], [80, 48]].into_iter().zip(views) {
+                let key = PreviewKey {
+                    generation: 0,
+                    frame,
+                    size_px,
+                    view,
+                };
+                let preset = Arc::new(preset.clone());
+                let shown = preview.picture(&PreviewRequest { key, preset }).unwrap();
+                assert_eq!(shown.labels, made.labels, "{name} frame {frame} {view:?}");
+                if size_px == [160, 96] {
+                    assert!(shown.rgba == made.rgba, "{name} frame {frame}: pixels");
+                }
+            }
+        }
+    }
 }
