@@ -225,6 +225,8 @@ impl PreviewRenderer {
                 side,
             });
         }
+        // A rendered frame's work budget, as the batch checks it before it renders.
+        (preset.check_render_budget()).map_err(|e| PipelineError::Invalid(vec![e]))?;
         let loaded = self.load(preset)?;
         let scene = loaded.pipeline.scene(key.frame)?;
         let (camera, inspect) = view_camera(preset, &scene, key.view, width, height);

@@ -229,3 +229,45 @@ fn the_preview_boxes_are_the_batch_labels_through_a_camera_model() {
         }
     }
 }
+
+/// 200 000 drones a frame (twice the render budget), boxes from the geometry alone: a
+/// labels-only batch may plan it, a rendered one refuses it.
+const OVER_BUDGET: &str = r#"(
+    name: "over",
+    seed: 7,
+    placement: Structured(x_count: 100, y_count: 100, z_count: 20, load_factor: 4.0),
+    camera: (z: (start: 1.0, end: 1.0, step: 0.5)),
+    render: (resolution: Custom(width: 96, height: 64), msaa: 1),
+    labels: (box_method: Amodal),
+)"#;
+
+#[test]
+fn a_preset_over_the_render_budget_is_a_problem_and_is_not_previewed() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let preset = Arc::new(Preset::from_ron(OVER_BUDGET).unwrap());
+    let key = PreviewKey {
+        generation: 0,
+        frame: 0,
+        size_px: [96, 64],
+        view: PreviewView::Camera,
+    };
+    let mut preview = PreviewRenderer::new(crate::common::gpu());
+    let refused = preview.picture(&PreviewRequest { key, preset }).err();
+    let refused = refused.map(|e| e.to_string()).unwrap_or_default();
+    assert!(refused.contains("work budget"), "{refused}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("over.ron");
+    std::fs::write(&path, OVER_BUDGET).unwrap();
+    let mut h = harness(Some(path));
+    h.run_steps(3);
+    let errors = h.state().errors();
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.field == "placement" && e.message.contains("work budget")),
+        "{errors:?}"
+    );
+    command(&mut h, Command::Generate);
+    assert!(!h.state().batch_running());
+}
