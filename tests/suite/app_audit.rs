@@ -15,12 +15,12 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use swarmshot::app::preview::{PreviewKey, PreviewRenderer, PreviewRequest, PreviewView};
 use swarmshot::app::runner::BatchError;
-use swarmshot::app::{Command, SwarmshotApp};
+use swarmshot::app::{Command, StartOptions, SwarmshotApp};
 use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::{ModelSource, Preset, Resolution};
 
 use crate::app_common;
-use app_common::{GPU, harness, wait_for};
+use app_common::{GPU, MemoryStorage, harness, harness_with, wait_for};
 
 /// 3 frames at 96×64.
 const TINY: &str = r#"(
@@ -270,4 +270,33 @@ fn a_preset_over_the_render_budget_is_a_problem_and_is_not_previewed() {
     );
     command(&mut h, Command::Generate);
     assert!(!h.state().batch_running());
+}
+
+#[test]
+fn a_restored_session_whose_file_is_now_broken_says_so_and_never_saves_over_it() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    let mut storage = MemoryStorage::default();
+    eframe::App::save(h.state_mut(), &mut storage);
+    drop(h);
+    // Between sessions the file is edited by hand, with a typo.
+    let path = dir.path().join("tiny.ron");
+    let edited = TINY.replace("seed: 11,", "seed: 12,,");
+    std::fs::write(&path, &edited).unwrap();
+    let storage: &'static MemoryStorage = Box::leak(Box::new(storage));
+    let options = StartOptions {
+        preset: None,
+        restore_session: true,
+    };
+    let mut h = harness_with(options, Some(storage), [1400.0, 880.0]);
+    h.run_steps(3);
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(notice.contains(&path.display().to_string()), "{notice}");
+    // Shown unsaved and tied to no file: Save asks for one, the hand edit stays.
+    assert!(h.state().session().is_dirty());
+    assert_eq!(h.state().session().preset_path, None);
+    command(&mut h, Command::Save);
+    h.run_steps(2);
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), edited);
 }
