@@ -240,6 +240,13 @@ impl SwarmshotApp {
 
     /// Write the preset; false (with a notice) when it could not be written.
     pub(super) fn save_to(&mut self, path: &Path) -> bool {
+        if let Some(field) = self.reads(path) {
+            self.notices.push(format!(
+                "cannot save preset {}: the preset reads that file ({field}); choose another name",
+                path.display()
+            ));
+            return false;
+        }
         let preset = self.preset_for(path);
         // The file's own text with the changed fields rewritten: comments and order kept.
         let text = preset_text::save_text(self.session.saved_text.as_deref(), &preset);
@@ -261,6 +268,15 @@ impl SwarmshotApp {
                 false
             }
         }
+    }
+
+    /// The field naming `path` among the files the preset reads (a model, a sky image),
+    /// if it is one of them.
+    fn reads(&self, path: &Path) -> Option<&'static str> {
+        let path = std::fs::canonicalize(path).ok()?;
+        (self.resolved.input_paths().into_iter())
+            .find(|(_, read)| std::fs::canonicalize(read).is_ok_and(|r| r == path))
+            .map(|(field, _)| field)
     }
 
     /// The preset as written to `path`: saved into another folder, each relative path

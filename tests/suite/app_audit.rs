@@ -129,36 +129,71 @@ fn save_replaces_the_preset_file_atomically_and_never_through_a_link() {
     assert!(h.state().session().is_dirty(), "the edit is still unsaved");
 }
 
-#[test]
-fn save_as_into_another_folder_keeps_the_model_the_preset_reads() {
-    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = tempfile::tempdir().unwrap();
-    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/models/bird_sparrow_0.glb");
-    std::fs::copy(&model, dir.path().join("m.glb")).unwrap();
-    let preset = TINY.replace(
-        "seed: 11,",
-        "seed: 11, models: [(source: File(\"m.glb\"), size_m: 0.5, class: \"uav\")],",
-    );
-    let mut h = settled(dir.path(), &preset);
-    assert_eq!(h.state().preview_error(), None);
+/// Save As `name` through the in-app browser, replacing a file there when asked.
+fn save_as(h: &mut Harness<'static, SwarmshotApp>, name: &str) {
     let ctx = h.ctx.clone();
     h.state_mut()
         .use_file_dialogs(swarmshot::app::files::DialogBackend::Builtin, &ctx);
-    let other = dir.path().join("other");
-    std::fs::create_dir(&other).unwrap();
-    let copy = other.join("copy.ron");
-    command(&mut h, Command::SaveAs);
+    command(h, Command::SaveAs);
     h.run_steps(2);
     h.get_by_label("File name").focus();
     h.run_steps(1);
     h.key_combination_modifiers(egui::Modifiers::COMMAND, &[egui::Key::A]);
-    h.get_by_label("File name")
-        .type_text(&copy.display().to_string());
+    h.get_by_label("File name").type_text(name);
     h.run_steps(2);
-    h.get_all_by_role_and_label(Role::Button, "Save")
-        .max_by(|a, b| a.rect().top().total_cmp(&b.rect().top()))
-        .unwrap()
-        .click();
+    for action in ["Save", "Replace"] {
+        let button = h.query_all_by_role_and_label(Role::Button, action);
+        if let Some(button) = button.max_by(|a, b| a.rect().top().total_cmp(&b.rect().top())) {
+            button.click();
+            h.run_steps(2);
+        }
+    }
+}
+
+/// TINY drawing the model `m.glb` beside it (a copy of a bundled one) in `dir`.
+fn with_model(dir: &Path) -> String {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/models/bird_sparrow_0.glb");
+    std::fs::copy(&model, dir.join("m.glb")).unwrap();
+    TINY.replace(
+        "seed: 11,",
+        "seed: 11, models: [(source: File(\"m.glb\"), size_m: 0.5, class: \"uav\")],",
+    )
+}
+
+#[test]
+fn save_as_over_a_file_the_preset_reads_is_refused() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let preset = with_model(dir.path());
+    let mut h = settled(dir.path(), &preset);
+    let before = std::fs::read(dir.path().join("m.glb")).unwrap();
+    save_as(&mut h, "m.glb");
+    assert_eq!(std::fs::read(dir.path().join("m.glb")).unwrap(), before);
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(
+        notice.contains("the preset reads that file (models)"),
+        "{notice}"
+    );
+    assert!(
+        h.state()
+            .session()
+            .preset_path
+            .as_deref()
+            .is_some_and(|p| p.ends_with("tiny.ron"))
+    );
+}
+
+#[test]
+fn save_as_into_another_folder_keeps_the_model_the_preset_reads() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let preset = with_model(dir.path());
+    let mut h = settled(dir.path(), &preset);
+    assert_eq!(h.state().preview_error(), None);
+    let other = dir.path().join("other");
+    std::fs::create_dir(&other).unwrap();
+    let copy = other.join("copy.ron");
+    save_as(&mut h, &copy.display().to_string());
     wait_for(&mut h, "the copy's preview", |app| {
         app.session().preset_path.as_deref() == Some(copy.as_path()) && app.preview_is_current()
     });
