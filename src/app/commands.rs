@@ -443,8 +443,21 @@ fn write_preset_file(path: &Path, text: &str) -> Result<(), String> {
         return Err(format!("{} is not a folder", dir.display()));
     }
     let name = (path.file_name().and_then(|n| n.to_str())).ok_or("not a UTF-8 file name")?;
+    // The old file's permissions carry over; a read-only one stays as it is.
+    let old = std::fs::symlink_metadata(path).ok().filter(|m| m.is_file());
+    let permissions = old.map(|m| m.permissions());
+    if permissions
+        .as_ref()
+        .is_some_and(std::fs::Permissions::readonly)
+    {
+        return Err("the file is read-only".into());
+    }
     let mut out = OutDir::create(&dir).map_err(|e| e.to_string())?;
-    out.write(name, text.as_bytes())
-        .map(drop)
-        .map_err(|e| e.to_string())
+    let written = out
+        .write(name, text.as_bytes())
+        .map_err(|e| e.to_string())?;
+    match permissions {
+        Some(p) => std::fs::set_permissions(written, p).map_err(|e| e.to_string()),
+        None => Ok(()),
+    }
 }

@@ -108,6 +108,29 @@ fn save_replaces_the_preset_file_atomically_and_never_through_a_link() {
         .collect();
     assert_eq!(names, ["tiny.ron"], "no temporary file is left");
 
+    // Its permissions carry over; a read-only preset is not replaced.
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600)).unwrap();
+    h.state_mut().session_mut().preset.seed = 14;
+    h.run_steps(2);
+    command(&mut h, Command::Save);
+    h.run_steps(2);
+    let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o600);
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
+    h.state_mut().session_mut().preset.seed = 15;
+    h.run_steps(2);
+    command(&mut h, Command::Save);
+    h.run_steps(2);
+    assert!(std::fs::read_to_string(&path).unwrap().contains("seed: 14"));
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(
+        notice.contains("tiny.ron") && notice.contains("read-only"),
+        "{notice}"
+    );
+    let session = h.state_mut().session_mut();
+    session.saved = Some(session.preset.clone()); // (Open without the unsaved-changes prompt)
+
     // A preset file that is a link to a file elsewhere is refused by name, not written through.
     let elsewhere = tempfile::tempdir().unwrap();
     let target = elsewhere.path().join("real.ron");
