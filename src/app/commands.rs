@@ -28,7 +28,10 @@ impl SwarmshotApp {
             Command::SaveAs => self.open_dialog(FilePurpose::SavePreset, ctx),
             Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
             Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
-            Command::BrowseFolder(purpose) if !locked => self.open_dialog(purpose, ctx),
+            // The Domain gap and Fit windows' folders are theirs, not the batch's.
+            Command::BrowseFolder(purpose) if !locked || !purpose.edits_preset() => {
+                self.open_dialog(purpose, ctx)
+            }
             Command::Generate if !locked => self.generate(ctx),
             Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
             Command::Quit => self.guard(Replace::Close, ctx),
@@ -71,6 +74,10 @@ impl SwarmshotApp {
             Command::FirstFrame => self.session.frame = 0,
             Command::LastFrame => {
                 self.session.frame = self.resolved.frame_count().saturating_sub(1)
+            }
+            // Another preset (a shortcut, or a finished fit's) waits for the batch: said so.
+            Command::New | Command::Open | Command::OpenPath(_) | Command::OpenExample(_) => {
+                self.notices.push(BATCH_RUNNING.into())
             }
             // Preset edits while a batch runs are ignored: the widgets are disabled anyway.
             _ => {}
@@ -368,6 +375,10 @@ impl SwarmshotApp {
         }
     }
 }
+
+/// Why another preset does not open while a batch runs.
+pub(super) const BATCH_RUNNING: &str = "a batch is running: another preset opens once it ends \
+     (or is cancelled); a finished fit's preset stays under Open fitted preset";
 
 /// Why Generate waits while Merge runs.
 pub(super) const MERGING: &str =

@@ -358,3 +358,29 @@ fn a_restored_session_whose_file_is_now_broken_says_so_and_never_saves_over_it()
     h.run_steps(2);
     assert_eq!(std::fs::read_to_string(&path).unwrap(), edited);
 }
+
+#[test]
+fn while_a_batch_runs_another_preset_is_refused_in_words_and_the_fit_folders_browse() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    let ctx = h.ctx.clone();
+    h.state_mut()
+        .use_file_dialogs(swarmshot::app::files::DialogBackend::Builtin, &ctx);
+    h.state_mut().session_mut().out_dir = dir.path().join("out").display().to_string();
+    h.run_steps(2);
+    command(&mut h, Command::Generate);
+    assert!(h.state().batch_running());
+    // A finished fit opens its preset this way: while the batch runs it is said, not dropped.
+    command(&mut h, Command::OpenPath(dir.path().join("fitted.ron")));
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(notice.contains("a batch is running"), "{notice}");
+    // The Fit window's Browse… is its own folder's: it opens.
+    let fit_real = Command::BrowseFolder(swarmshot::app::files::FilePurpose::FitRealFrames);
+    command(&mut h, fit_real);
+    assert!(
+        h.state().file_browser().is_some(),
+        "the folder dialog opened"
+    );
+    wait_for(&mut h, "the batch", |app| !app.batch_running());
+}
