@@ -384,3 +384,34 @@ fn while_a_batch_runs_another_preset_is_refused_in_words_and_the_fit_folders_bro
     );
     wait_for(&mut h, "the batch", |app| !app.batch_running());
 }
+
+#[test]
+fn a_repeated_failure_is_shown_once_and_the_messages_stay_few() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    // Ctrl+S held on a preset that cannot be saved: one message, not one per key repeat.
+    use std::os::unix::fs::PermissionsExt;
+    let path = dir.path().join("tiny.ron");
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o444)).unwrap();
+    h.state_mut().session_mut().preset.seed = 12;
+    h.run_steps(2);
+    for _ in 0..20 {
+        command(&mut h, Command::Save);
+        h.step();
+    }
+    assert_eq!(h.state().notices().len(), 1, "{:?}", h.state().notices());
+    // Twenty different failures: the newest few are shown.
+    let session = h.state_mut().session_mut();
+    session.saved = Some(session.preset.clone()); // (Open without the unsaved-changes prompt)
+    for i in 0..20 {
+        command(
+            &mut h,
+            Command::OpenPath(dir.path().join(format!("gone-{i}.ron"))),
+        );
+        h.step();
+    }
+    let notices = h.state().notices();
+    assert!(notices.len() <= 6, "{notices:?}");
+    assert!(notices.last().unwrap().contains("gone-19.ron"));
+}
