@@ -21,7 +21,7 @@ impl SwarmshotApp {
             Command::OpenExample(path) if !locked => self.guard(Replace::Example(path), ctx),
             Command::Save => match self.session.preset_path.clone() {
                 Some(path) => {
-                    self.save_to(&path);
+                    self.save_in_place(&path);
                 }
                 None => self.apply(Command::SaveAs, ctx),
             },
@@ -139,7 +139,7 @@ impl SwarmshotApp {
         match answer {
             Answer::Save => match self.session.preset_path.clone() {
                 Some(path) => {
-                    if self.save_to(&path) {
+                    if self.save_in_place(&path) {
                         self.replace(replace, ctx);
                     }
                 }
@@ -243,6 +243,24 @@ impl SwarmshotApp {
             FilePurpose::FitOutput => self.fit.out_dir = path.display().to_string(),
             _ => {}
         }
+    }
+
+    /// Save over the preset's own file, unless the file changed on disk since it was read
+    /// or saved here (an edit made elsewhere is not overwritten unseen: Save As… asks).
+    fn save_in_place(&mut self, path: &Path) -> bool {
+        let on_disk = crate::input::read_input_file(path, crate::preset::MAX_PRESET_BYTES);
+        let known = self.session.saved_text.as_deref().map(str::as_bytes);
+        if let (Ok(bytes), Some(known)) = (on_disk, known)
+            && bytes != known
+        {
+            self.notices.push(format!(
+                "cannot save preset {}: it changed on disk since it was opened or saved here; \
+                 Save As… replaces it (after asking), or open it again to see the change",
+                path.display()
+            ));
+            return false;
+        }
+        self.save_to(path)
     }
 
     /// Write the preset; false (with a notice) when it could not be written.

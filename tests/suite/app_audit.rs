@@ -415,3 +415,22 @@ fn a_repeated_failure_is_shown_once_and_the_messages_stay_few() {
     assert!(notices.len() <= 6, "{notices:?}");
     assert!(notices.last().unwrap().contains("gone-19.ron"));
 }
+
+#[test]
+fn save_does_not_overwrite_an_edit_made_elsewhere() {
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    let path = dir.path().join("tiny.ron");
+    // Another editor changes the file while the app has it open.
+    let elsewhere = TINY.replace("seed: 11,", "seed: 99, // set by hand");
+    std::fs::write(&path, &elsewhere).unwrap();
+    h.state_mut().session_mut().preset.seed = 12;
+    h.run_steps(2);
+    command(&mut h, Command::Save);
+    h.run_steps(2);
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), elsewhere);
+    let notice = h.state().notices().last().cloned().unwrap_or_default();
+    assert!(notice.contains("changed on disk"), "{notice}");
+    assert!(h.state().session().is_dirty());
+}
