@@ -1,8 +1,12 @@
 //! The app under hostile inputs and edits (an audit): a batch failure says each cause
 //! once; Generate waits while a merge writes into the output folder; Save replaces the
-//! preset file atomically and never through a link; Save As into another folder keeps
-//! the files the preset reads; the preview's boxes are the batch's labels through a
-//! camera model. Rendering through the wgpu renderer (lavapipe on CI).
+//! preset file atomically, keeps its permissions, leaves a read-only file, a file edited
+//! elsewhere and a file the preset reads, and never writes through a link; Save As into
+//! another folder keeps the files the preset reads; the preview's boxes are the batch's
+//! labels through a camera model; a preset over the render budget is a problem; a restored
+//! session whose file broke says so; while a batch runs another preset is refused in
+//! words; a repeated message is shown once. Rendering through the wgpu renderer (lavapipe
+//! on CI).
 #![cfg(feature = "app")]
 #![allow(clippy::unwrap_used)]
 
