@@ -159,6 +159,22 @@ fn confusable(c: char) -> char {
     }
 }
 
+/// An error and its causes on one line, `: ` between them, each cause left out when the
+/// line already says it (an error whose message includes its source's), as the command
+/// line and the app's windows print a failure.
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(&text) {
+            line = format!("{line}: {text}");
+        }
+    }
+    line
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

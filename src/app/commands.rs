@@ -9,6 +9,7 @@ use super::prompt::{Answer, Replace};
 use super::runner::{BatchOutcome, BatchRun};
 use super::{Command, SwarmshotApp, keys, preset_text, problems, read_preset_text};
 use crate::preset::{ModelSource, ModelSpec, Preset};
+use crate::write::folder::outdir::OutDir;
 
 impl SwarmshotApp {
     pub(super) fn apply(&mut self, command: Command, ctx: &egui::Context) {
@@ -20,14 +21,17 @@ impl SwarmshotApp {
             Command::OpenExample(path) if !locked => self.guard(Replace::Example(path), ctx),
             Command::Save => match self.session.preset_path.clone() {
                 Some(path) => {
-                    self.save_to(&path);
+                    self.save_in_place(&path);
                 }
                 None => self.apply(Command::SaveAs, ctx),
             },
             Command::SaveAs => self.open_dialog(FilePurpose::SavePreset, ctx),
             Command::AddGltf if !locked => self.open_dialog(FilePurpose::AddModel, ctx),
             Command::BrowseOutDir if !locked => self.open_dialog(FilePurpose::OutputFolder, ctx),
-            Command::BrowseFolder(purpose) if !locked => self.open_dialog(purpose, ctx),
+            // The Domain gap and Fit windows' folders are theirs, not the batch's.
+            Command::BrowseFolder(purpose) if !locked || !purpose.edits_preset() => {
+                self.open_dialog(purpose, ctx)
+            }
             Command::Generate if !locked => self.generate(ctx),
             Command::Merge if !locked && self.merge.is_none() => self.start_merge(ctx),
             Command::Quit => self.guard(Replace::Close, ctx),
@@ -70,6 +74,10 @@ impl SwarmshotApp {
             Command::FirstFrame => self.session.frame = 0,
             Command::LastFrame => {
                 self.session.frame = self.resolved.frame_count().saturating_sub(1)
+            }
+            // Another preset (a shortcut, or a finished fit's) waits for the batch: said so.
+            Command::New | Command::Open | Command::OpenPath(_) | Command::OpenExample(_) => {
+                self.notices.push(BATCH_RUNNING.into())
             }
             // Preset edits while a batch runs are ignored: the widgets are disabled anyway.
             _ => {}
@@ -131,7 +139,7 @@ impl SwarmshotApp {
         match answer {
             Answer::Save => match self.session.preset_path.clone() {
                 Some(path) => {
-                    if self.save_to(&path) {
+                    if self.save_in_place(&path) {
                         self.replace(replace, ctx);
                     }
                 }
@@ -237,12 +245,43 @@ impl SwarmshotApp {
         }
     }
 
+    /// Save over the preset's own file, unless the file changed on disk since it was read
+    /// or saved here (an edit made elsewhere is not overwritten unseen: Save As… asks).
+    fn save_in_place(&mut self, path: &Path) -> bool {
+        let on_disk = crate::input::read_input_file(path, crate::preset::MAX_PRESET_BYTES);
+        let known = self.session.saved_text.as_deref().map(str::as_bytes);
+        if let (Ok(bytes), Some(known)) = (on_disk, known)
+            && bytes != known
+        {
+            self.notices.push(format!(
+                "cannot save preset {}: it changed on disk since it was opened or saved here; \
+                 Save As… replaces it (after asking), or open it again to see the change",
+                path.display()
+            ));
+            return false;
+        }
+        self.save_to(path)
+    }
+
     /// Write the preset; false (with a notice) when it could not be written.
     pub(super) fn save_to(&mut self, path: &Path) -> bool {
+        if let Some(field) = self.reads(path) {
+            self.notices.push(format!(
+                "cannot save preset {}: the preset reads that file ({field}); choose another name",
+                path.display()
+            ));
+            return false;
+        }
+        let preset = self.preset_for(path);
         // The file's own text with the changed fields rewritten: comments and order kept.
-        let text = preset_text::save_text(self.session.saved_text.as_deref(), &self.session.preset);
-        match std::fs::write(path, &text) {
+        let text = preset_text::save_text(self.session.saved_text.as_deref(), &preset);
+        match write_preset_file(path, &text) {
             Ok(()) => {
+                if preset != self.session.preset {
+                    // Its paths read from the new folder: undo cannot bring back the old ones.
+                    self.session.preset = preset;
+                    self.history.clear();
+                }
                 self.session.preset_path = Some(path.to_owned());
                 self.session.saved = Some(self.session.preset.clone());
                 self.session.saved_text = Some(text);
@@ -254,6 +293,27 @@ impl SwarmshotApp {
                 false
             }
         }
+    }
+
+    /// The field naming `path` among the files the preset reads (a model, a sky image),
+    /// if it is one of them.
+    fn reads(&self, path: &Path) -> Option<&'static str> {
+        let path = std::fs::canonicalize(path).ok()?;
+        (self.resolved.input_paths().into_iter())
+            .find(|(_, read)| std::fs::canonicalize(read).is_ok_and(|r| r == path))
+            .map(|(field, _)| field)
+    }
+
+    /// The preset as written to `path`: saved into another folder, each relative path
+    /// it reads (models, sky images, backplates) rewritten to name the same file from there.
+    fn preset_for(&self, path: &Path) -> Preset {
+        let mut preset = self.session.preset.clone();
+        let (from, to) = (self.preset_dir(), folder_of(path));
+        let canonical = |d: &Path| std::fs::canonicalize(d).unwrap_or_else(|_| d.to_owned());
+        if canonical(&from) != canonical(&to) {
+            preset.rebase_relative_paths(|p| super::paths::for_preset(&from.join(p), &to));
+        }
+        preset
     }
 
     /// `swarmshot merge` on a background thread: shard folders into the output folder.
@@ -301,6 +361,11 @@ impl SwarmshotApp {
             ));
             return;
         }
+        if self.merge.is_some() {
+            // One writer at a time: a batch beside a merge would share its folder.
+            self.notices.push(MERGING.into());
+            return;
+        }
         let Some((gpu, _)) = &self.gpu else {
             self.notices.push("cannot generate: no wgpu device".into());
             return;
@@ -328,6 +393,14 @@ impl SwarmshotApp {
         }
     }
 }
+
+/// Why another preset does not open while a batch runs.
+pub(super) const BATCH_RUNNING: &str = "a batch is running: another preset opens once it ends \
+     (or is cancelled); a finished fit's preset stays under Open fitted preset";
+
+/// Why Generate waits while Merge runs.
+pub(super) const MERGING: &str =
+    "cannot generate: a merge is writing into the output folder; wait until it ends";
 
 /// What a Generate was asked to do; see [`SwarmshotApp::forget_stale_failure`].
 pub(super) type BatchInputs = (
@@ -380,5 +453,40 @@ impl SwarmshotApp {
         let focused = ctx.memory(|m| m.focused());
         let frame_keys = focused.is_none() || focused == self.frame_slider;
         keys::shortcuts(ctx, ctx.text_edit_focused(), frame_keys)
+    }
+}
+
+/// The folder a file is in ("." for a bare name).
+fn folder_of(path: &Path) -> PathBuf {
+    path.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .map_or_else(|| PathBuf::from("."), Path::to_owned)
+}
+
+/// `text` written as the preset file `path` atomically, as the command line writes its
+/// reports ([`OutDir::write`]): a temporary file in the same folder, flushed, renamed over
+/// the old file, so a failure or a kill leaves the old file whole; never through a link.
+fn write_preset_file(path: &Path, text: &str) -> Result<(), String> {
+    let dir = folder_of(path);
+    if !dir.is_dir() {
+        return Err(format!("{} is not a folder", dir.display()));
+    }
+    let name = (path.file_name().and_then(|n| n.to_str())).ok_or("not a UTF-8 file name")?;
+    // The old file's permissions carry over; a read-only one stays as it is.
+    let old = std::fs::symlink_metadata(path).ok().filter(|m| m.is_file());
+    let permissions = old.map(|m| m.permissions());
+    if permissions
+        .as_ref()
+        .is_some_and(std::fs::Permissions::readonly)
+    {
+        return Err("the file is read-only".into());
+    }
+    let mut out = OutDir::create(&dir).map_err(|e| e.to_string())?;
+    let written = out
+        .write(name, text.as_bytes())
+        .map_err(|e| e.to_string())?;
+    match permissions {
+        Some(p) => std::fs::set_permissions(written, p).map_err(|e| e.to_string()),
+        None => Ok(()),
     }
 }

@@ -31,6 +31,10 @@ impl SwarmshotApp {
         self.errors = crate::pipeline::check::validate(&self.session.preset)
             .err()
             .unwrap_or_default();
+        // The app renders every frame it makes (it has no labels-only batch): a frame
+        // over the render budget is a problem here, as `swarmshot batch` refuses it.
+        self.errors
+            .extend(self.session.preset.check_render_budget().err());
         let mut resolved = self.session.preset.clone();
         let base = self
             .session

@@ -74,6 +74,14 @@ enum Kind {
 }
 
 impl FilePurpose {
+    /// Whether the chosen path goes into the preset (not a window's own folder).
+    pub fn edits_preset(self) -> bool {
+        !matches!(
+            self,
+            Self::RealFrames | Self::FitRealFrames | Self::FitOutput
+        )
+    }
+
     pub fn title(self) -> &'static str {
         match self {
             Self::OpenPreset => "Open preset",

@@ -55,8 +55,9 @@ pub enum JobError {
     },
     #[error("the job's thread stopped without a result")]
     Lost,
-    /// The library call failed or was cancelled: its error, as the window shows it.
-    #[error("{0}")]
+    /// The library call failed or was cancelled: its error and causes, as the window
+    /// shows it (each cause once, as the command line prints it).
+    #[error("{}", crate::text::one_line(.0))]
     Failed(#[from] anyhow::Error),
 }
 

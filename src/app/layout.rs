@@ -9,6 +9,9 @@ use super::{
     example_description, example_presets, problems, realism_panels, thermal_panel, weather_panel,
 };
 
+/// The most messages the top bar shows (the newest).
+const MAX_NOTICES: usize = 6;
+
 impl SwarmshotApp {
     pub(super) fn menu_ui(&mut self, ui: &mut Ui, commands: &mut Vec<Command>) {
         let locked = self.batch.is_some();
@@ -90,6 +93,11 @@ impl SwarmshotApp {
                 ui.label(RichText::new("• unsaved changes").color(ui.visuals().warn_fg_color));
             }
         });
+        // The same message again (a held Ctrl+S on a read-only file) is shown once, and
+        // only the newest few: the top bar never grows past the window.
+        self.notices.dedup();
+        let old = self.notices.len().saturating_sub(MAX_NOTICES);
+        self.notices.drain(..old);
         let mut dismiss = None;
         for (i, notice) in self.notices.iter().enumerate() {
             ui.horizontal(|ui| {

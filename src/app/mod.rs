@@ -373,11 +373,8 @@ fn start_session(
         && options.preset.is_none()
         && !session.is_dirty()
         && let Some(path) = session.preset_path.clone()
-        && let Ok((preset, text)) = read_preset_text(&path)
     {
-        let frame = session.frame;
-        session.load(preset, path, text);
-        session.frame = frame;
+        reread_session_file(&mut session, path, notices);
     }
     if let Some(path) = &options.preset {
         match read_preset_text(path) {
@@ -386,6 +383,27 @@ fn start_session(
         }
     }
     session
+}
+
+/// The restored session's preset read again from its file. A file that cannot be read
+/// now (gone, or edited into something that is not a preset) is named in a notice, and
+/// the session's preset is shown unsaved and untied from it: Save asks for a file (and
+/// before replacing one), so the file's new text is never overwritten unseen.
+fn reread_session_file(session: &mut Session, path: PathBuf, notices: &mut Vec<String>) {
+    match read_preset_text(&path) {
+        Ok((preset, text)) => {
+            let frame = session.frame;
+            session.load(preset, path, text);
+            session.frame = frame;
+        }
+        Err(e) => {
+            notices.push(format!(
+                "{e}; showing the preset of the last session, not saved to any file"
+            ));
+            session.preset_path = None;
+            session.saved = None;
+        }
+    }
 }
 
 /// The preview thread on the window's wgpu device (`gpu`), or a notice why

@@ -225,17 +225,24 @@ impl PreviewRenderer {
                 side,
             });
         }
+        // A rendered frame's work budget, as the batch checks it before it renders.
+        (preset.check_render_budget()).map_err(|e| PipelineError::Invalid(vec![e]))?;
         let loaded = self.load(preset)?;
         let scene = loaded.pipeline.scene(key.frame)?;
-        // The exact labels the batch writes (visibility measured when the preset needs it).
-        let labels = (loaded.pipeline).labels(&mut loaded.renderer, &scene)?;
         let (camera, inspect) = view_camera(preset, &scene, key.view, width, height);
         let mut drawn = scene.clone();
         drawn.camera = camera;
         if key.view != PreviewView::ThroughCamera {
             drawn.camera_model = None;
         }
+        // Drawn as the batch draws the frame: its labels are the batch's.
+        let is_the_frame = camera == scene.camera && drawn.camera_model == scene.camera_model;
         let made = (loaded.pipeline).make_scene(&mut loaded.renderer, drawn)?;
+        let labels = if is_the_frame {
+            made.labels
+        } else {
+            exact_labels(loaded, preset, &scene)?
+        };
         Ok(PreviewPicture {
             rgba: made.rgba,
             scene,
@@ -301,6 +308,24 @@ impl PreviewRenderer {
         };
         Ok(self.loaded.insert(loaded))
     }
+}
+
+/// The labels the batch writes for `scene` (at the output's size). Through a camera model
+/// (blur, a lens, a rolling shutter), under weather and in the thermal picture the batch
+/// measures each drone's visibility in the finished picture, so they come from the frame
+/// made as the batch makes it; otherwise from the visibility pass alone (no picture).
+fn exact_labels(
+    loaded: &mut Loaded,
+    preset: &Preset,
+    scene: &FrameScene,
+) -> Result<Vec<DroneLabel>, PictureError> {
+    let Loaded { pipeline, renderer } = loaded;
+    if scene.camera_model.is_none() && scene.weather.is_none() && preset.thermal.is_none() {
+        return Ok(pipeline.labels(renderer, scene)?);
+    }
+    let frame = pipeline.make_scene(renderer, scene.clone())?;
+    renderer.recycle(frame.rgba, frame.painted);
+    Ok(frame.labels)
 }
 
 /// The camera a preview of `view` draws with: the frame's own camera at the

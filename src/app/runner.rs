@@ -77,8 +77,9 @@ pub enum BatchOutcome {
 /// Why a batch did not finish.
 #[derive(Debug, thiserror::Error)]
 pub enum BatchError {
-    /// The pipeline or the batch failed: the error chain, outermost first.
-    #[error("{0:#}")]
+    /// The pipeline or the batch failed: the error chain, outermost first, each
+    /// cause once (as the command line prints it).
+    #[error("{}", crate::text::one_line(.0))]
     Failed(anyhow::Error),
     #[error("the batch thread stopped without a result")]
     Lost,

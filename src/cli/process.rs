@@ -43,7 +43,10 @@ pub(crate) fn exit_code(result: anyhow::Result<()>) -> ExitCode {
         Err(e) => {
             // `{:#}`: the message and its causes on one line, never a backtrace
             // (RUST_BACKTRACE is for bugs, not for a user's typo).
-            eprintln!("error: {}", swarmshot::text::for_terminal(&one_line(&e)));
+            eprintln!(
+                "error: {}",
+                swarmshot::text::for_terminal(&swarmshot::text::one_line(&e))
+            );
             ExitCode::FAILURE
         }
     }
@@ -67,19 +70,4 @@ fn more_lavapipe_threads() {
     unsafe {
         std::env::set_var("LP_NUM_THREADS", (cores + 2).to_string());
     }
-}
-
-/// The error and its causes on one line, each cause added only when the
-/// message does not already quote it (typed errors often include their source).
-fn one_line(e: &anyhow::Error) -> String {
-    let mut line = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if line.is_empty() {
-            line = text;
-        } else if !line.contains(&text) {
-            line = format!("{line}: {text}");
-        }
-    }
-    line
 }

@@ -47,6 +47,16 @@ impl Preset {
         self.written_paths = written;
     }
 
+    /// Each relative path the preset reads replaced with `rebase` of it (the app's Save
+    /// As into another folder: the same files, read from the new file's folder).
+    pub fn rebase_relative_paths(&mut self, mut rebase: impl FnMut(&Path) -> PathBuf) {
+        for (_, path) in self.input_paths_mut() {
+            if path.is_relative() {
+                *path = rebase(path);
+            }
+        }
+    }
+
     /// The text of a run's `preset.lock.ron`, whose hash names the run:
     /// [`Preset::to_ron`] with each path the preset reads as the preset's
     /// file wrote it, so the lock is the same bytes whether the preset was

@@ -12,6 +12,7 @@ mod common;
 #[path = "../common/app.rs"]
 mod app_common;
 
+mod app_audit;
 mod architecture;
 mod backplates;
 mod batch;

@@ -52,6 +52,8 @@ impl SwarmshotApp {
                 "Fix the {} listed under Problems first",
                 problems::count_problems(self.errors.len())
             ))
+        } else if self.merge.is_some() {
+            Some("A merge is writing into the output folder; wait until it ends".into())
         } else if self.gpu.is_none() {
             Some("No wgpu device: the app started without the wgpu renderer".into())
         } else if self.session.out_dir.trim().is_empty() {
