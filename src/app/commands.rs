@@ -173,7 +173,7 @@ impl SwarmshotApp {
                 (self.preset_dir(), name)
             }
             FilePurpose::OutputFolder => {
-                let out = PathBuf::from(self.session.out_dir.trim());
+                let out = super::paths::typed(&self.session.out_dir);
                 let start = if out.is_dir() {
                     out
                 } else {
@@ -195,7 +195,7 @@ impl SwarmshotApp {
                     FilePurpose::FitRealFrames => &self.fit.real_dir,
                     _ => &self.fit.out_dir,
                 };
-                let named = PathBuf::from(named.trim());
+                let named = super::paths::typed(named);
                 let start = [Some(named.as_path()), named.parent()]
                     .into_iter()
                     .flatten()
@@ -213,6 +213,15 @@ impl SwarmshotApp {
     /// A dialog returned a path.
     pub(super) fn chosen(&mut self, choice: FileChoice, ctx: &egui::Context) {
         let FileChoice { purpose, path } = choice;
+        // Paths the app keeps as text or writes into a preset must read back as the same
+        // file: a name that is not UTF-8 would be stored as another one.
+        if purpose != FilePurpose::OpenPreset && path.to_str().is_none() {
+            self.notices.push(format!(
+                "cannot use {}: its name is not UTF-8 text; rename it or choose another",
+                path.display()
+            ));
+            return;
+        }
         match purpose {
             FilePurpose::OpenPreset => self.apply(Command::OpenPath(path), ctx),
             FilePurpose::SavePreset => {
@@ -319,7 +328,7 @@ impl SwarmshotApp {
     /// `swarmshot merge` on a background thread: shard folders into the output folder.
     pub(super) fn start_merge(&mut self, ctx: &egui::Context) {
         let shards = self.merge_shard_dirs();
-        let out = PathBuf::from(self.session.out_dir.trim());
+        let out = super::paths::typed(&self.session.out_dir);
         let overwrite = self.session.overwrite;
         let (tx, rx) = crossbeam_channel::bounded(1);
         let wake = ctx.clone();

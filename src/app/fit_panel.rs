@@ -239,8 +239,9 @@ impl FitPanel {
 
     /// The options the window's fields name.
     pub fn options(&self) -> FitOptions {
-        let mut options = FitOptions::new(self.real_dir.trim(), self.out_dir.trim());
-        options.base = PathBuf::from(self.base.trim());
+        let typed = super::paths::typed;
+        let mut options = FitOptions::new(typed(&self.real_dir), typed(&self.out_dir));
+        options.base = typed(&self.base);
         options.sample = self.sample.max(1);
         options.rounds = self.rounds;
         options.max_frames = self.max_frames;

@@ -241,7 +241,7 @@ impl GapPanel {
 
     /// Start the report on its own thread.
     fn start(&mut self, inputs: &GapInputs<'_>, ctx: egui::Context) {
-        let real = PathBuf::from(self.real_dir.trim());
+        let real = super::paths::typed(&self.real_dir);
         let max_images = self.max_images;
         let Ok(classes) = DroneClasses::parse(&self.real_classes) else {
             return;
@@ -255,7 +255,7 @@ impl GapPanel {
                 },
                 _ => return,
             },
-            SyntheticSide::Dataset => Source::Dataset(PathBuf::from(self.dataset_dir.trim())),
+            SyntheticSide::Dataset => Source::Dataset(super::paths::typed(&self.dataset_dir)),
         };
         self.job
             .start(Job::spawn("swarmshot gap", &ctx, move |stage, cancel| {

@@ -82,9 +82,35 @@ pub fn for_preset(chosen: &Path, base: &Path) -> PathBuf {
     relative_to(&absolute(chosen), &absolute(base))
 }
 
+/// A folder typed into one of the app's fields, as a shell would read it: trimmed, and
+/// a leading `~` (alone or before `/`) standing for the home folder, so `~/data` is not a
+/// folder named `~` in the working folder.
+pub fn typed(text: &str) -> PathBuf {
+    let text = text.trim();
+    let rest = match text.strip_prefix('~') {
+        Some("") => Some(""),
+        Some(rest) => rest.strip_prefix('/'),
+        None => None,
+    };
+    match (rest, dirs::home_dir()) {
+        (Some(rest), Some(home)) => home.join(rest),
+        _ => PathBuf::from(text),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_typed_tilde_is_the_home_folder() {
+        let home = dirs::home_dir().expect("a home folder");
+        assert_eq!(typed(" ~/data "), home.join("data"));
+        assert_eq!(typed("~"), home);
+        assert_eq!(typed("~user/data"), Path::new("~user/data"));
+        assert_eq!(typed("a/~/b"), Path::new("a/~/b"));
+        assert_eq!(typed(" out "), Path::new("out"));
+    }
 
     #[test]
     fn lexical_removes_dots_and_name_parent_pairs() {

@@ -23,6 +23,16 @@ impl SwarmshotApp {
         self.apply(command, ctx);
     }
 
+    /// Take `path` as a dialog's answer for `purpose`, as if the user chose it.
+    pub fn choose(
+        &mut self,
+        purpose: files::FilePurpose,
+        path: std::path::PathBuf,
+        ctx: &egui::Context,
+    ) {
+        self.chosen(files::FileChoice { purpose, path }, ctx);
+    }
+
     /// Use this kind of file dialog from now on (tests pin the in-app browser).
     pub fn use_file_dialogs(&mut self, backend: DialogBackend, ctx: &egui::Context) {
         let ctx = ctx.clone();

@@ -5,8 +5,9 @@
 //! another folder keeps the files the preset reads; the preview's boxes are the batch's
 //! labels through a camera model; a preset over the render budget is a problem; a restored
 //! session whose file broke says so; while a batch runs another preset is refused in
-//! words; a repeated message is shown once. Rendering through the wgpu renderer (lavapipe
-//! on CI).
+//! words; a repeated message is shown once; a folder typed as `~/…` is in the home folder,
+//! and a chosen folder whose name is not UTF-8 is refused, not stored as another name.
+//! Rendering through the wgpu renderer (lavapipe on CI).
 #![cfg(feature = "app")]
 #![allow(clippy::unwrap_used)]
 
@@ -437,4 +438,29 @@ fn save_does_not_overwrite_an_edit_made_elsewhere() {
     let notice = h.state().notices().last().cloned().unwrap_or_default();
     assert!(notice.contains("changed on disk"), "{notice}");
     assert!(h.state().session().is_dirty());
+}
+
+/// A typed `~/…` output folder is the home folder's (a shell's reading), not a folder named
+/// `~` in the working folder; a folder a dialog answers whose name is not UTF-8 is refused
+/// in words, and the field keeps what it had (its text would name another folder).
+#[test]
+fn a_typed_tilde_is_home_and_a_non_utf8_folder_is_refused() {
+    use std::os::unix::ffi::OsStrExt;
+    use swarmshot::app::files::FilePurpose;
+    let _gpu = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = settled(dir.path(), TINY);
+    h.state_mut().session_mut().out_dir = " ~/swarmshot-data ".into();
+    let home = dirs::home_dir().unwrap();
+    assert_eq!(
+        h.state().batch_options().out_dir,
+        home.join("swarmshot-data")
+    );
+    let odd = dir.path().join(std::ffi::OsStr::from_bytes(b"caf\xe9"));
+    std::fs::create_dir(&odd).unwrap();
+    let ctx = h.ctx.clone();
+    h.state_mut().choose(FilePurpose::OutputFolder, odd, &ctx);
+    assert_eq!(h.state().session().out_dir, " ~/swarmshot-data ");
+    let notices = h.state().notices().join("\n");
+    assert!(notices.contains("is not UTF-8 text"), "{notices}");
 }

@@ -241,7 +241,7 @@ impl SwarmshotApp {
             overwrite: self.session.overwrite,
             shard: self.batch_shard(),
             every: self.batch_every(),
-            ..BatchOptions::new(self.session.out_dir.trim())
+            ..BatchOptions::new(crate::app::paths::typed(&self.session.out_dir))
         }
     }
 
