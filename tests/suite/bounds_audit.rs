@@ -73,6 +73,34 @@ fn within(args: &[&std::ffi::OsStr], limit: Duration) -> (bool, String) {
     (out.status.success(), text)
 }
 
+/// A Gaussian PSF of σ 64 px on a 16384 × 9000 frame convolved each pixel
+/// with 770 taps: over two minutes a frame. Refused by `check` at once,
+/// naming the field; the same σ on a 1920 × 1080 frame stays allowed.
+#[test]
+fn a_psf_past_its_work_budget_on_the_frame_is_refused_by_name() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let big = "Custom(width: 16384, height: 9000)";
+    for (psf, field) in [
+        (
+            "Gaussian(sigma_px: (0.0, 64.0))",
+            "camera_model.psf.sigma_px",
+        ),
+        (
+            "Disc(radius_px: (64.0, 64.0))",
+            "camera_model.psf.radius_px",
+        ),
+    ] {
+        let extra = format!("    camera_model: Some((psf: {psf})),\n");
+        let path = write(dir.path(), "wide.ron", &preset(big, &[], &extra));
+        let e = err(&[Path::new("check"), path.as_path()]);
+        assert!(e.contains(field) && e.contains("work budget"), "{e}");
+        assert!(e.contains("16384×9000"), "{e}");
+    }
+    let extra = "    camera_model: Some((psf: Gaussian(sigma_px: (64.0, 64.0)))),\n";
+    let path = write(dir.path(), "hd.ron", &preset("FullHd", &[], extra));
+    ok(&[Path::new("check"), path.as_path()]);
+}
+
 /// A tree line's crowns were each compared with every point of its band:
 /// 64 bands 360° wide at up to 20 km took about a second a frame (2 minutes
 /// for `check`'s sample, where one frame renders in 3 s). A point now looks
