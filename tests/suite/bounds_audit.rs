@@ -101,6 +101,30 @@ fn a_psf_past_its_work_budget_on_the_frame_is_refused_by_name() {
     ok(&[Path::new("check"), path.as_path()]);
 }
 
+/// `check` sampled frames by their drones alone: 15 drones and 16 000
+/// confusers a frame had it estimate 200 frames (3.2 million objects, 30 s
+/// in a release build). Confusers count now: a frame past the sample's
+/// objects skips the estimate, as a frame of too many drones does.
+#[test]
+fn check_samples_frames_by_their_drones_and_confusers() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let entry = "        (kind: Bird(Gull), count: (500, 500), distance_m: (20.0, 200.0)),\n";
+    let extra = format!("    confusers: [\n{}    ],\n", entry.repeat(32));
+    let replace = [
+        ("count: (1, 15)", "count: (190000, 190000)"),
+        ("(8.0, 4.0, 8.0)", "(9000.0, 9000.0, 9000.0)"),
+    ];
+    let path = write(dir.path(), "flock.ron", &preset("FullHd", &replace, &extra));
+    let (_, text) = within(
+        &["check".as_ref(), path.as_os_str()],
+        Duration::from_secs(60),
+    );
+    assert!(
+        text.contains("estimate skipped: a frame holds up to 206000 drones and confusers"),
+        "{text}"
+    );
+}
+
 /// A tree line's crowns were each compared with every point of its band:
 /// 64 bands 360° wide at up to 20 km took about a second a frame (2 minutes
 /// for `check`'s sample, where one frame renders in 3 s). A point now looks
