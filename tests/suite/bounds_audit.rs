@@ -145,3 +145,37 @@ fn kilometres_of_tree_lines_are_checked_in_seconds() {
     assert!(success, "{text}");
     assert!(text.contains("estimated from the first 4 frames"), "{text}");
 }
+
+/// 3000 drones of 3 m around a close camera cover the picture hundreds of
+/// times over: 10 000 of them drew for two minutes before the visibility's
+/// budget refused the frame. The fill budget refuses it from the scene's
+/// geometry, before anything is drawn or written.
+#[test]
+fn drones_covering_the_picture_past_the_fill_budget_are_refused_before_drawing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let replace = [
+        ("count: (1, 15)", "count: (3000, 3000)"),
+        ("size_m: 0.35", "size_m: 3.0"),
+        ("min_separation_m: 0.7", "min_separation_m: 0.0"),
+        (
+            "z: (start: 0.8, end: 1.2, step: 0.4)",
+            "z: (start: 0.1, end: 0.1, step: 0.0)",
+        ),
+    ];
+    let res = "Custom(width: 320, height: 180)";
+    let path = write(dir.path(), "wall.ron", &preset(res, &replace, ""));
+    let out = dir.path().join("f.png");
+    let args = [
+        "frame".as_ref(),
+        path.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    let (success, text) = within(&args, Duration::from_secs(30));
+    assert!(!success, "{text}");
+    assert!(
+        text.contains("error: frame 0: placement:") && text.contains("work budget"),
+        "{text}"
+    );
+    assert!(!out.exists());
+}
