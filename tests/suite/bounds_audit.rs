@@ -179,3 +179,44 @@ fn drones_covering_the_picture_past_the_fill_budget_are_refused_before_drawing()
     );
     assert!(!out.exists());
 }
+
+/// Eight 2 m drones crossing a 1920 × 1080 frame close to the camera with a
+/// one-second shutter: the blur sampled each swept pixel 512 times, 2·10⁹
+/// samples (69 s for 20 such drones, over 2 minutes at 4K). Now a named
+/// error before the blur.
+#[test]
+fn motion_blur_past_its_work_budget_is_a_named_error() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let replace = [
+        ("count: (1, 15)", "count: (8, 8)"),
+        ("size_m: 0.35", "size_m: 2.0"),
+        ("min_separation_m: 0.7", "min_separation_m: 0.0"),
+        (
+            "z: (start: 0.8, end: 1.2, step: 0.4)",
+            "z: (start: 0.15, end: 0.15, step: 0.0)",
+        ),
+    ];
+    let extra = "    sequence: (
+        steps: 1,
+        motion: (translate_m: (40.0, 0.0, 0.0)),
+        camera: Fixed,
+        frame_rate: 1,
+    ),
+    camera_model: Some((exposure_time_s: (1.0, 1.0))),
+";
+    let path = write(dir.path(), "streak.ron", &preset("FullHd", &replace, extra));
+    let out = dir.path().join("f.png");
+    let args = [
+        "frame".as_ref(),
+        path.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    let (success, text) = within(&args, Duration::from_secs(60));
+    assert!(!success, "{text}");
+    assert!(
+        text.contains("camera_model.exposure_time_s") && text.contains("work budget"),
+        "{text}"
+    );
+    assert!(!out.exists());
+}
