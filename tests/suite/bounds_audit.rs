@@ -220,3 +220,34 @@ fn motion_blur_past_its_work_budget_is_a_named_error() {
     );
     assert!(!out.exists());
 }
+
+/// `--makers` had no limit: each maker renders with its own renderer, and
+/// 108 makers of the quickstart died with `wgpu error: Out of Memory` (a
+/// panic). Past 64, or past what the memory holds for that many frames,
+/// the batch is refused before the output folder is made.
+#[test]
+fn too_many_makers_are_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("ds");
+    let small = "Custom(width: 320, height: 180)";
+    let path = write(dir.path(), "small.ron", &preset(small, &[], ""));
+    let batch = |path: &Path, makers: &str| {
+        let args = [Path::new("batch"), path, Path::new("--out"), out.as_path()];
+        err(&[&args[..], &[Path::new("--makers"), Path::new(makers)]].concat())
+    };
+    let e = batch(&path, "1000");
+    assert!(e.contains("--makers 1000: at most 64 makers"), "{e}");
+    // 60 frames of 16384 × 9000 at once: about 7.7 GiB each.
+    let big = "Custom(width: 16384, height: 9000)";
+    let path = write(
+        dir.path(),
+        "big.ron",
+        &preset(big, &[("repeats: 1", "repeats: 16")], ""),
+    );
+    let e = batch(&path, "60");
+    assert!(
+        e.contains("--makers 60: each maker renders its own frame"),
+        "{e}"
+    );
+    assert!(!out.exists());
+}
