@@ -10,6 +10,10 @@ use swarmshot::gap::folder::DroneClasses;
 /// The most threads `--threads` accepts (encoder threads, or planning threads with --labels-only).
 pub(crate) const MAX_THREADS: usize = 256;
 
+/// The most makers `--makers` accepts (frames made at once, each with its
+/// own renderer); the memory they need is checked too (`batch.rs`).
+pub(crate) const MAX_MAKERS: usize = 64;
+
 #[derive(Parser)]
 #[command(
     name = "swarmshot",
@@ -113,7 +117,7 @@ pub(crate) struct BatchArgs {
     /// Image encoder threads (default: one per spare core).
     #[arg(long, default_value_t = 0)]
     pub(crate) threads: usize,
-    /// Frames made at once, each by its own renderer (default: 1 when frames share a background; when every frame draws a new one, 2 on a software rasteriser and 3/4 of the cores, at most 12, on a GPU).
+    /// Frames made at once, each by its own renderer (default: 1 when frames share a background; when every frame draws a new one, 2 on a software rasteriser and 3/4 of the cores, at most 12, on a GPU); at most 64, and no more than the memory holds (each maker needs a frame's memory).
     #[arg(long, default_value_t = 0)]
     pub(crate) makers: usize,
     /// Print each stage's share of the time at the end.

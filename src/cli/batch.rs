@@ -9,7 +9,7 @@ use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::budget::human_bytes;
 use swarmshot::write::shard::Shard;
 
-use super::args::{BatchArgs, MAX_THREADS};
+use super::args::{BatchArgs, MAX_MAKERS, MAX_THREADS};
 use super::console::{
     frames_and_boxes, frames_bar, print_empty_splits, print_warnings, shell_word, stop_on_signals,
     stopped,
@@ -63,6 +63,7 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
                 options.limit.map_or(all, |limit| limit.min(all))
             );
         }
+        check_makers(pipeline.preset(), options.makers, frames)?;
         print_empty_splits(pipeline.preset(), frames, &mut std::io::stderr());
         if !options.resume {
             check_free_space(&pipeline, &options.out_dir, frames)?;
@@ -140,6 +141,40 @@ fn frames_of_run(pipeline: &FramePipeline, options: &BatchOptions) -> u64 {
         }
         None => count,
     }
+}
+
+/// Refuse, before anything is written, more makers than [`MAX_MAKERS`], or
+/// more than the memory holds: each maker renders with its own renderer,
+/// so `makers` (at most the run's frames) need that many frames' memory
+/// ([`swarmshot::preset::Preset::frame_memory_bytes`]) within three quarters
+/// of what is free, as one frame does.
+fn check_makers(
+    preset: &swarmshot::preset::Preset,
+    makers: usize,
+    frames: u64,
+) -> anyhow::Result<()> {
+    if makers > MAX_MAKERS {
+        anyhow::bail!(
+            "--makers {makers}: at most {MAX_MAKERS} makers (each renders its frames with its own renderer; 0: the default)"
+        );
+    }
+    let at_once = (makers as u64).min(frames);
+    let (Some(per), Some(free)) = (
+        preset.frame_memory_bytes(),
+        swarmshot::preset::budget::available_memory_bytes(),
+    ) else {
+        return Ok(());
+    };
+    let (needed, usable) = (per.saturating_mul(at_once), free / 4 * 3);
+    if at_once > 1 && needed > usable {
+        anyhow::bail!(
+            "--makers {makers}: each maker renders its own frame (about {} at this resolution), so {at_once} of them need {}, more than the {} a run may use (three quarters of the free memory); use fewer makers",
+            human_bytes(per as f64),
+            human_bytes(needed as f64),
+            human_bytes(usable as f64),
+        );
+    }
+    Ok(())
 }
 
 /// Refuse, before anything is written, a run whose estimated size is

@@ -93,8 +93,8 @@ fn print_estimate(pipeline: &FramePipeline) -> anyhow::Result<f64> {
     let sample = preset.check_sample_frames();
     if sample == 0 && pipeline.frame_count() > 0 {
         println!(
-            "estimate skipped: a frame holds up to {} drones, more than the {} drones `check` samples",
-            preset.max_drones_per_frame(),
+            "estimate skipped: a frame holds up to {} drones and confusers, more than the {} `check` samples",
+            preset.max_objects_per_frame(),
             swarmshot::preset::budget::CHECK_SAMPLE_DRONES
         );
     }

@@ -55,6 +55,7 @@ impl FramePipeline {
                 reason: "motion blur: the drone-free background is not cached".into(),
             })?;
             let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
+            smear_budget(&list, (w, h), scene.index)?;
             Some(sensor::motion::smear(rendered, background, (w, h), &list))
         } else {
             None
@@ -200,4 +201,24 @@ pub(super) fn camera_visibility(
         visible_pixels: count,
         unoccluded_pixels: unoccluded.max(count),
     }
+}
+
+/// The motion blur's work within its budget ([`sensor::motion::MAX_SMEAR_SAMPLES`]),
+/// checked before the blur runs: a frame past it is an error, not minutes of work.
+fn smear_budget(
+    list: &[sensor::motion::Streak],
+    (w, h): (u32, u32),
+    index: u64,
+) -> Result<(), PipelineError> {
+    let samples = sensor::motion::smear_samples(list, w, h);
+    let most = sensor::motion::MAX_SMEAR_SAMPLES;
+    if samples <= most {
+        return Ok(());
+    }
+    Err(PipelineError::Budget {
+        index,
+        reason: format!(
+            "camera_model.exposure_time_s: the drones' streaks need {samples} samples of motion blur, more than the {most} a frame may (its work budget); shorten the exposure, or make the drones slower, smaller or farther"
+        ),
+    })
 }

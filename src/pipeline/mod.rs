@@ -18,6 +18,7 @@ pub mod batch;
 mod camera;
 pub mod check;
 mod lens;
+mod overdraw;
 pub mod plan;
 mod rolling;
 mod sink;
@@ -65,6 +66,9 @@ pub enum PipelineError {
     Render { index: u64, source: RenderError },
     #[error("frame {index}: the camera model's first compression failed: {reason}")]
     Camera { index: u64, reason: String },
+    /// The frame's work would pass a budget (named in `reason`).
+    #[error("frame {index}: {reason}")]
+    Budget { index: u64, reason: String },
 }
 
 fn list(errors: &[FieldError]) -> String {
@@ -508,6 +512,7 @@ impl FramePipeline {
         renderer: &mut Renderer,
         scene: FrameScene,
     ) -> Result<Frame, PipelineError> {
+        overdraw::check(&scene, &self.estimate_labels(&scene))?;
         let index = scene.index;
         let render_error = |source| PipelineError::Render { index, source };
         let masks_on = self.preset.output.masks.any();

@@ -10,8 +10,8 @@ use super::*;
 /// (`batch --labels-only`) take up to [`MAX_DRONES_PER_FRAME`].
 pub const MAX_RENDERED_DRONES_PER_FRAME: u64 = 100_000;
 
-/// `check` estimates boxes from the first frames whose drones add up to at
-/// most this many (at least one frame when a frame holds fewer).
+/// `check` estimates boxes from the first frames whose objects (drones and
+/// confusers) add up to at most this many (none when a frame holds more).
 pub const CHECK_SAMPLE_DRONES: u64 = 200_000;
 
 /// Bytes per pixel of an image, measured on the quickstart preset's frames
@@ -141,10 +141,10 @@ impl Preset {
     }
 
     /// How many of the first frames `check` samples for its estimate: as
-    /// many as fit in [`CHECK_SAMPLE_DRONES`] drones (at most 200, and none
-    /// when a single frame holds more).
+    /// many as fit in [`CHECK_SAMPLE_DRONES`] objects, drones and confusers
+    /// (at most 200, and none when a single frame holds more).
     pub fn check_sample_frames(&self) -> u64 {
-        let per_frame = self.max_drones_per_frame().max(1);
+        let per_frame = self.max_objects_per_frame().max(1);
         (CHECK_SAMPLE_DRONES / per_frame)
             .min(200)
             .min(self.frame_count())

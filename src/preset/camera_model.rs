@@ -123,6 +123,12 @@ pub enum Psf {
 
 /// The largest PSF size accepted (pixels): beyond it a frame is a flat smear.
 pub const MAX_PSF_PX: f64 = 64.0;
+/// The most PSF taps a frame may sum: the kernel's taps per pixel (a
+/// Gaussian's 2·(2⌈3σ⌉ + 1), separable; a disc's 2⌊r⌋ + 1 rows of prefix
+/// sums) times the output's pixels, at the range's widest. About 10 to 25 s
+/// on two cores; σ 64 px fits up to 13 megapixels, a 16384 × 9000 frame
+/// takes σ up to 5 px.
+pub const MAX_PSF_WORK: f64 = 1e10;
 /// The smallest `sensor_scale` accepted: below it (1e-300 made a 1 × 1 sensor) the
 /// frame is a flat grey with no drone left to label.
 pub const MIN_SENSOR_SCALE: f64 = 0.05;
@@ -158,6 +164,7 @@ impl CameraModel {
                 range(v, "psf.radius_px", *radius_px, 0.0, MAX_PSF_PX);
             }
         }
+        self.psf.check_work(preset.image_size(), v);
         range(v, "vignetting", self.vignetting, 0.0, 1.0);
         range(v, "ca_red_scale", self.ca_red_scale, 0.9, 1.1);
         range(v, "ca_blue_scale", self.ca_blue_scale, 0.9, 1.1);
@@ -228,6 +235,38 @@ impl CameraModel {
                 || "needs output.image_format Jpeg (the preset writes PNG)".into(),
             );
         }
+    }
+}
+
+impl Psf {
+    /// Taps summed per output pixel at the range's widest (0: no PSF).
+    fn taps_per_pixel(&self) -> f64 {
+        match *self {
+            Self::None => 0.0,
+            Self::Gaussian { sigma_px } => 2.0 * (2.0 * (3.0 * sigma_px.1).ceil() + 1.0),
+            Self::Disc { radius_px } => 2.0 * radius_px.1.floor() + 1.0,
+        }
+    }
+
+    /// The PSF's work on a `w`×`h` frame within [`MAX_PSF_WORK`].
+    fn check_work(&self, (w, h): (u32, u32), v: &mut Validator) {
+        let taps = self.taps_per_pixel();
+        let pixels = f64::from(w) * f64::from(h);
+        let work = taps * pixels;
+        if !work.is_finite() || work <= MAX_PSF_WORK {
+            return;
+        }
+        let (field, value) = match self {
+            Self::Gaussian { sigma_px } => ("camera_model.psf.sigma_px", sigma_px.1),
+            Self::Disc { radius_px } => ("camera_model.psf.radius_px", radius_px.1),
+            Self::None => return,
+        };
+        v.push(
+            field,
+            format!(
+                "{value} px on {w}×{h} sums {taps} taps for each of {pixels} pixels, {work:.2e} in all, more than the {MAX_PSF_WORK:.0e} a frame may (the camera model's work budget); lower it or the resolution"
+            ),
+        );
     }
 }
 

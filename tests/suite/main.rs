@@ -17,6 +17,7 @@ mod architecture;
 mod backplates;
 mod batch;
 mod bounded;
+mod bounds_audit;
 mod camera_model;
 mod camera_motion;
 mod camera_stiff;
