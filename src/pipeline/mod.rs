@@ -512,7 +512,9 @@ impl FramePipeline {
         renderer: &mut Renderer,
         scene: FrameScene,
     ) -> Result<Frame, PipelineError> {
-        overdraw::check(&scene, &self.estimate_labels(&scene))?;
+        if overdraw::may_exceed(&scene) {
+            overdraw::check(&scene, &self.estimate_labels(&scene))?;
+        }
         let index = scene.index;
         let render_error = |source| PipelineError::Render { index, source };
         let masks_on = self.preset.output.masks.any();

@@ -28,6 +28,13 @@ fn covered_pixels(label: &DroneLabel, (w, h): (f64, f64)) -> f64 {
     }
 }
 
+/// Whether `scene` can exceed the budget at all: each box clipped to the
+/// picture covers it at most once, so [`MAX_DRONE_OVERDRAW`] objects or
+/// fewer never do, and their labels need not be estimated (most frames).
+pub(super) fn may_exceed(scene: &FrameScene) -> bool {
+    scene.drones.len() as f64 > MAX_DRONE_OVERDRAW
+}
+
 /// The scene's drones, by their estimated `labels`, within
 /// [`MAX_DRONE_OVERDRAW`], or an error naming `placement` with how far
 /// over they are.
