@@ -230,7 +230,7 @@ const CELL: f64 = 16.0;
 
 /// Which boxes touch each [`CELL`]-px cell of a frame: the indices of each
 /// cell's boxes, cell after cell (row by row), in index order.
-struct CellGrid {
+pub(crate) struct CellGrid {
     columns: usize,
     rows: usize,
     /// Where each cell's indices begin in `indices` (one more entry than cells).
@@ -239,7 +239,7 @@ struct CellGrid {
 }
 
 impl CellGrid {
-    fn new(boxes: &[Option<PixelBox>], (width, height): (u32, u32)) -> Self {
+    pub(crate) fn new(boxes: &[Option<PixelBox>], (width, height): (u32, u32)) -> Self {
         let columns = (f64::from(width.max(1)) / CELL).ceil() as usize;
         let rows = (f64::from(height.max(1)) / CELL).ceil() as usize;
         let mut grid = Self {
@@ -269,7 +269,7 @@ impl CellGrid {
     }
 
     /// The cells a box touches (clamped to the grid), row by row.
-    fn cells_of(&self, b: &PixelBox) -> impl Iterator<Item = usize> + use<> {
+    pub(crate) fn cells_of(&self, b: &PixelBox) -> impl Iterator<Item = usize> + use<> {
         let clamp = |v: f64, n: usize| ((v / CELL).floor().max(0.0) as usize).min(n - 1);
         let (cx0, cx1) = (clamp(b.x0, self.columns), clamp(b.x1, self.columns));
         let (cy0, cy1) = (clamp(b.y0, self.rows), clamp(b.y1, self.rows));
@@ -278,7 +278,7 @@ impl CellGrid {
     }
 
     /// The indices of the boxes touching `cell`.
-    fn near(&self, cell: usize) -> &[u32] {
+    pub(crate) fn near(&self, cell: usize) -> &[u32] {
         &self.indices[self.starts[cell] as usize..self.starts[cell + 1] as usize]
     }
 }
