@@ -100,14 +100,16 @@ fn print_estimate(pipeline: &FramePipeline) -> anyhow::Result<f64> {
     }
     let mut stats = swarmshot::write::DatasetStats::default();
     let started = std::time::Instant::now();
+    let mut over_fill = false;
     for i in 0..sample {
         let scene = pipeline.scene(i)?;
-        stats.add(
-            &scene,
-            &pipeline.estimate_labels(&scene),
-            pipeline.model_names(),
-            pipeline.classes(),
-        );
+        let labels = pipeline.estimate_labels(&scene);
+        // The first frame a rendered batch would stop at: said now, not hours into a run.
+        if !over_fill && let Err(e) = pipeline.check_fill(&scene, &labels) {
+            println!("warning: {e}; a rendered batch stops at this frame");
+            over_fill = true;
+        }
+        stats.add(&scene, &labels, pipeline.model_names(), pipeline.classes());
         // Progress when the estimate takes more than a second.
         if started.elapsed().as_secs_f64() > 1.0 {
             eprint!("\restimating boxes: frame {}/{sample}", i + 1);

@@ -428,6 +428,18 @@ impl FramePipeline {
         )
     }
 
+    /// Whether `scene`, with its estimated `labels` ([`Self::estimate_labels`]),
+    /// is within a rendered frame's fill budget (`overdraw`): the error
+    /// [`Self::make_scene`] stops a frame with, told from geometry alone
+    /// (`check` asks it of the frames it samples).
+    pub fn check_fill(
+        &self,
+        scene: &FrameScene,
+        labels: &[DroneLabel],
+    ) -> Result<(), PipelineError> {
+        overdraw::check(scene, labels)
+    }
+
     /// Scene and estimated labels of frame `index`, without rendering
     /// (see [`FramePipeline::estimate_labels`]).
     pub fn plan(&self, index: u64) -> Result<(FrameScene, Vec<DroneLabel>), FrameError> {

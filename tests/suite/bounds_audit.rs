@@ -183,6 +183,37 @@ fn drones_covering_the_picture_past_the_fill_budget_are_refused_before_drawing()
     assert!(!out.exists());
 }
 
+/// `check` tells the first sampled frame past the fill budget (from geometry,
+/// as the batch does before drawing it), where a batch would stop hours in.
+#[test]
+fn check_names_the_first_frame_past_the_fill_budget() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let replace = [
+        ("count: (1, 15)", "count: (3000, 3000)"),
+        ("size_m: 0.35", "size_m: 3.0"),
+        ("min_separation_m: 0.7", "min_separation_m: 0.0"),
+        (
+            "z: (start: 0.8, end: 1.2, step: 0.4)",
+            "z: (start: 0.1, end: 0.1, step: 0.0)",
+        ),
+    ];
+    let res = "Custom(width: 320, height: 180)";
+    let path = write(dir.path(), "wall.ron", &preset(res, &replace, ""));
+    // Both frames (CameraY −0.3 and 0.3) are over it: the first is named, once.
+    let (success, text) = within(
+        &["check".as_ref(), path.as_os_str()],
+        Duration::from_secs(30),
+    );
+    assert!(success, "{text}");
+    let warned: Vec<&str> = text.lines().filter(|l| l.contains("work budget")).collect();
+    assert_eq!(warned.len(), 1, "{text}");
+    assert!(
+        warned[0].starts_with("warning: frame 0: placement:")
+            && warned[0].ends_with("a rendered batch stops at this frame"),
+        "{text}"
+    );
+}
+
 /// Eight 2 m drones crossing a 1920 × 1080 frame close to the camera with a
 /// one-second shutter: the blur sampled each swept pixel 512 times, 2·10⁹
 /// samples (69 s for 20 such drones, over 2 minutes at 4K). Now a named
