@@ -149,6 +149,22 @@ fn kilometres_of_tree_lines_are_checked_in_seconds() {
     );
 }
 
+/// `dir/wall.ron`: 3000 drones of 3 m around a camera 0.1 volume radii from
+/// the centre, 320×180, two frames (CameraY −0.3 and 0.3).
+fn wall_of_drones(dir: &Path) -> PathBuf {
+    let replace = [
+        ("count: (1, 15)", "count: (3000, 3000)"),
+        ("size_m: 0.35", "size_m: 3.0"),
+        ("min_separation_m: 0.7", "min_separation_m: 0.0"),
+        (
+            "z: (start: 0.8, end: 1.2, step: 0.4)",
+            "z: (start: 0.1, end: 0.1, step: 0.0)",
+        ),
+    ];
+    let res = "Custom(width: 320, height: 180)";
+    write(dir, "wall.ron", &preset(res, &replace, ""))
+}
+
 /// 3000 drones of 3 m around a close camera cover the picture hundreds of
 /// times over: 10 000 of them drew for two minutes before the visibility's
 /// budget refused the frame. The fill budget refuses it from the scene's
@@ -156,31 +172,28 @@ fn kilometres_of_tree_lines_are_checked_in_seconds() {
 #[test]
 fn drones_covering_the_picture_past_the_fill_budget_are_refused_before_drawing() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let replace = [
-        ("count: (1, 15)", "count: (3000, 3000)"),
-        ("size_m: 0.35", "size_m: 3.0"),
-        ("min_separation_m: 0.7", "min_separation_m: 0.0"),
-        (
-            "z: (start: 0.8, end: 1.2, step: 0.4)",
-            "z: (start: 0.1, end: 0.1, step: 0.0)",
-        ),
-    ];
-    let res = "Custom(width: 320, height: 180)";
-    let path = write(dir.path(), "wall.ron", &preset(res, &replace, ""));
-    let out = dir.path().join("f.png");
-    let args = [
-        "frame".as_ref(),
-        path.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ];
-    let (success, text) = within(&args, Duration::from_secs(30));
-    assert!(!success, "{text}");
+    let path = wall_of_drones(dir.path());
+    let text = frame_refused(dir.path(), &path, Duration::from_secs(30));
     assert!(
         text.contains("error: frame 0: placement:") && text.contains("work budget"),
         "{text}"
     );
-    assert!(!out.exists());
+}
+
+/// `swarmshot frame PRESET --out DIR/f.png`, failed within `limit` with
+/// nothing written: what it said.
+fn frame_refused(dir: &Path, preset: &Path, limit: Duration) -> String {
+    let out = dir.join("f.png");
+    let args = [
+        "frame".as_ref(),
+        preset.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    let (success, text) = within(&args, limit);
+    assert!(!success, "{text}");
+    assert!(!out.exists(), "{text}");
+    text
 }
 
 /// `check` tells the first sampled frame past the fill budget (from geometry,
@@ -188,18 +201,8 @@ fn drones_covering_the_picture_past_the_fill_budget_are_refused_before_drawing()
 #[test]
 fn check_names_the_first_frame_past_the_fill_budget() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let replace = [
-        ("count: (1, 15)", "count: (3000, 3000)"),
-        ("size_m: 0.35", "size_m: 3.0"),
-        ("min_separation_m: 0.7", "min_separation_m: 0.0"),
-        (
-            "z: (start: 0.8, end: 1.2, step: 0.4)",
-            "z: (start: 0.1, end: 0.1, step: 0.0)",
-        ),
-    ];
-    let res = "Custom(width: 320, height: 180)";
-    let path = write(dir.path(), "wall.ron", &preset(res, &replace, ""));
-    // Both frames (CameraY −0.3 and 0.3) are over it: the first is named, once.
+    let path = wall_of_drones(dir.path());
+    // Both frames are over it: the first is named, once.
     let (success, text) = within(
         &["check".as_ref(), path.as_os_str()],
         Duration::from_secs(30),
@@ -239,20 +242,11 @@ fn motion_blur_past_its_work_budget_is_a_named_error() {
     camera_model: Some((exposure_time_s: (1.0, 1.0))),
 ";
     let path = write(dir.path(), "streak.ron", &preset("FullHd", &replace, extra));
-    let out = dir.path().join("f.png");
-    let args = [
-        "frame".as_ref(),
-        path.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ];
-    let (success, text) = within(&args, Duration::from_secs(60));
-    assert!(!success, "{text}");
+    let text = frame_refused(dir.path(), &path, Duration::from_secs(60));
     assert!(
         text.contains("camera_model.exposure_time_s") && text.contains("work budget"),
         "{text}"
     );
-    assert!(!out.exists());
 }
 
 /// `--makers` had no limit: each maker renders with its own renderer, and

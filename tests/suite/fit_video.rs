@@ -144,7 +144,13 @@ fn a_video_longer_than_its_frames_cover_is_sampled_over_its_whole_length() {
     // 10 frames at 2 a second (5 s); 5 frames at `--video-fps 2` would cover the first
     // 2.5 s: they are taken 1 s apart instead, frames 0, 2, 4, 6 and 8.
     let out = dir.join("fit");
-    let o = fit(&video, &out, &["--max-frames", "5"]);
+    fits_every_other_frame(&video, &out, &["--max-frames", "5"], &sources);
+}
+
+/// Fits `video` into `out` with `extra` options and asserts its decoded frames are
+/// `sources` 0, 2, 4, 6 and 8.
+fn fits_every_other_frame(video: &Path, out: &Path, extra: &[&str], sources: &[PathBuf]) {
+    let o = fit(video, out, extra);
     assert!(
         o.status.success(),
         "fit: {}",
@@ -186,18 +192,8 @@ fn a_stream_without_a_stated_duration_is_sampled_over_its_counted_length() {
     // 5 frames at `--video-fps 25` would be the first five; over the counted 0.4 s
     // they are frames 0, 2, 4, 6 and 8.
     let out = dir.join("fit");
-    let o = fit(&video, &out, &["--max-frames", "5", "--video-fps", "25"]);
-    assert!(
-        o.status.success(),
-        "fit: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let decoded = frame_files(&out.join("frames"));
-    assert_eq!(decoded.len(), 5, "{decoded:?}");
-    for (k, d) in decoded.iter().enumerate() {
-        let s = &sources[2 * k];
-        assert!(rgb(s) == rgb(d), "{} is not {}", d.display(), s.display());
-    }
+    let extra = ["--max-frames", "5", "--video-fps", "25"];
+    fits_every_other_frame(&video, &out, &extra, &sources);
 }
 
 #[test]
