@@ -50,3 +50,20 @@ pub fn err<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> String {
     assert!(e.contains("error: "), "not a named error: {e}");
     e
 }
+
+/// An argument as the command line takes it (a `&str`, a `Path`, an `OsStr`).
+pub fn os<S: AsRef<std::ffi::OsStr> + ?Sized>(s: &S) -> &std::ffi::OsStr {
+    s.as_ref()
+}
+
+/// `swarmshot batch PRESET --out OUT EXTRA…`, which must succeed; what it printed.
+pub fn batch(preset: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        os("batch"),
+        preset.as_os_str(),
+        os("--out"),
+        out.as_os_str(),
+    ];
+    args.extend(extra.iter().map(os));
+    ok(&args)
+}

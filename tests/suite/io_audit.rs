@@ -11,33 +11,17 @@ use std::time::{Duration, Instant};
 
 use swarmshot::preset::Preset;
 
-use common::cli::{BIN, err, ok, run};
+use common::cli::{BIN, batch, err, ok, os, run};
 
 /// `swarmshot` with no arguments yet, as [`common::cli::command`] makes it.
 fn swarmshot() -> Command {
     common::cli::command::<&str>(&[])
 }
 
-fn os<S: AsRef<std::ffi::OsStr> + ?Sized>(s: &S) -> &std::ffi::OsStr {
-    s.as_ref()
-}
-
 /// `tiny_preset` (8 frames at 320×180) written as `dir/p.ron`.
 fn preset_file(dir: &Path) -> PathBuf {
     let p: Preset = common::tiny_preset();
     common::preset_file(dir, &p, "p.ron")
-}
-
-/// `batch PRESET --out OUT EXTRA…`; returns what it printed.
-fn batch(preset: &Path, out: &Path, extra: &[&str]) -> String {
-    let mut args = vec![
-        os("batch"),
-        preset.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-    ];
-    args.extend(extra.iter().map(os));
-    ok(&args)
 }
 
 /// `frame PRESET --index 1 --out OUT`, which must fail; returns its standard error.

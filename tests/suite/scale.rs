@@ -5,6 +5,7 @@
 //! Every command runs as a child process, as a user runs it (renders on lavapipe).
 
 use crate::common;
+use common::cli::{batch, os};
 
 use std::collections::BTreeSet;
 use std::os::unix::fs::MetadataExt;
@@ -55,22 +56,6 @@ fn err(args: &[&std::ffi::OsStr]) -> String {
     let e = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(e.contains("error: "), "not a named error: {e}");
     e
-}
-
-fn os<S: AsRef<std::ffi::OsStr> + ?Sized>(s: &S) -> &std::ffi::OsStr {
-    s.as_ref()
-}
-
-fn batch(preset: &Path, out: &Path, extra: &[&str]) -> Vec<PathBuf> {
-    let mut args = vec![
-        os("batch"),
-        preset.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-    ];
-    args.extend(extra.iter().map(os));
-    ok(&args);
-    vec![out.to_owned()]
 }
 
 fn merge_args<'a>(out: &'a Path, shards: &'a [PathBuf]) -> Vec<&'a std::ffi::OsStr> {
