@@ -100,14 +100,14 @@ fn print_estimate(pipeline: &FramePipeline) -> anyhow::Result<f64> {
     }
     let mut stats = swarmshot::write::DatasetStats::default();
     let started = std::time::Instant::now();
-    let mut over_fill = false;
+    let mut over_budget = false;
     for i in 0..sample {
         let scene = pipeline.scene(i)?;
         let labels = pipeline.estimate_labels(&scene);
         // The first frame a rendered batch would stop at: said now, not hours into a run.
-        if !over_fill && let Err(e) = pipeline.check_fill(&scene, &labels) {
+        if !over_budget && let Err(e) = pipeline.check_budgets(&scene, &labels) {
             println!("warning: {e}; a rendered batch stops at this frame");
-            over_fill = true;
+            over_budget = true;
         }
         stats.add(&scene, &labels, pipeline.model_names(), pipeline.classes());
         // Progress when the estimate takes more than a second.

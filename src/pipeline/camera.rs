@@ -203,6 +203,29 @@ pub(super) fn camera_visibility(
     }
 }
 
+impl FramePipeline {
+    /// Whether `scene`'s motion blur stays within its work budget
+    /// ([`smear_budget`]), from geometry alone: its streaks as
+    /// [`Self::through_camera`] makes them (moved by a rolling shutter),
+    /// before anything is drawn.
+    pub(super) fn check_blur(&self, scene: &FrameScene) -> Result<(), PipelineError> {
+        let Some(draw) = &scene.camera_model else {
+            return Ok(());
+        };
+        let draw = draw.after_render();
+        let mut streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, &draw);
+        if !streaks.iter().flatten().any(|s| s.moves()) {
+            return Ok(());
+        }
+        if let Some(s) = rolling::Shutter::of(&self.preset, &self.assets.geometry, scene)? {
+            s.move_streaks(&mut streaks);
+        }
+        let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        smear_budget(&list, (w, h), scene.index)
+    }
+}
+
 /// The motion blur's work within its budget ([`sensor::motion::MAX_SMEAR_SAMPLES`]),
 /// checked before the blur runs: a frame past it is an error, not minutes of work.
 fn smear_budget(

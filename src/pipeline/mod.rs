@@ -429,15 +429,17 @@ impl FramePipeline {
     }
 
     /// Whether `scene`, with its estimated `labels` ([`Self::estimate_labels`]),
-    /// is within a rendered frame's fill budget (`overdraw`): the error
-    /// [`Self::make_scene`] stops a frame with, told from geometry alone
-    /// (`check` asks it of the frames it samples).
-    pub fn check_fill(
+    /// is within a rendered frame's work budgets: its fill (`overdraw`) and
+    /// its motion blur's samples. The errors [`Self::make_scene`] stops a
+    /// frame with, told from geometry alone (`check` asks it of the frames
+    /// it samples).
+    pub fn check_budgets(
         &self,
         scene: &FrameScene,
         labels: &[DroneLabel],
     ) -> Result<(), PipelineError> {
-        overdraw::check(scene, labels)
+        overdraw::check(scene, labels)?;
+        self.check_blur(scene)
     }
 
     /// Scene and estimated labels of frame `index`, without rendering

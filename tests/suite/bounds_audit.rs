@@ -203,27 +203,36 @@ fn check_names_the_first_frame_past_the_fill_budget() {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = wall_of_drones(dir.path());
     // Both frames are over it: the first is named, once.
-    let (success, text) = within(
-        &["check".as_ref(), path.as_os_str()],
-        Duration::from_secs(30),
-    );
-    assert!(success, "{text}");
-    let warned: Vec<&str> = text.lines().filter(|l| l.contains("work budget")).collect();
-    assert_eq!(warned.len(), 1, "{text}");
+    let warned = budget_warnings(&path);
+    assert_eq!(warned.len(), 1, "{warned:?}");
     assert!(
-        warned[0].starts_with("warning: frame 0: placement:")
-            && warned[0].ends_with("a rendered batch stops at this frame"),
-        "{text}"
+        warned[0].starts_with("warning: frame 0: placement:"),
+        "{warned:?}"
     );
 }
 
-/// Eight 2 m drones crossing a 1920 × 1080 frame close to the camera with a
-/// one-second shutter: the blur sampled each swept pixel 512 times, 2·10⁹
-/// samples (69 s for 20 such drones, over 2 minutes at 4K). Now a named
-/// error before the blur.
-#[test]
-fn motion_blur_past_its_work_budget_is_a_named_error() {
-    let dir = tempfile::tempdir().expect("temp dir");
+/// `swarmshot check PRESET` succeeded within 30 s: its lines that warn of
+/// a frame past a work budget, each of which must say the batch stops there.
+fn budget_warnings(preset: &Path) -> Vec<String> {
+    let (success, text) = within(
+        &["check".as_ref(), preset.as_os_str()],
+        Duration::from_secs(30),
+    );
+    assert!(success, "{text}");
+    let warned: Vec<String> = (text.lines())
+        .filter(|l| l.contains("work budget"))
+        .map(str::to_owned)
+        .collect();
+    assert!(
+        (warned.iter()).all(|l| l.ends_with("a rendered batch stops at this frame")),
+        "{text}"
+    );
+    warned
+}
+
+/// `dir/streak.ron`: eight 2 m drones crossing a 1920 × 1080 frame close to
+/// the camera with a one-second shutter (a one-step sequence).
+fn streaking_drones(dir: &Path) -> PathBuf {
     let replace = [
         ("count: (1, 15)", "count: (8, 8)"),
         ("size_m: 0.35", "size_m: 2.0"),
@@ -231,6 +240,11 @@ fn motion_blur_past_its_work_budget_is_a_named_error() {
         (
             "z: (start: 0.8, end: 1.2, step: 0.4)",
             "z: (start: 0.15, end: 0.15, step: 0.0)",
+        ),
+        // Two sequences: all for training, so `check` finds no split empty.
+        (
+            "image_format: Png",
+            "image_format: Png, split: (train: 1.0, val: 0.0, test: 0.0)",
         ),
     ];
     let extra = "    sequence: (
@@ -241,11 +255,34 @@ fn motion_blur_past_its_work_budget_is_a_named_error() {
     ),
     camera_model: Some((exposure_time_s: (1.0, 1.0))),
 ";
-    let path = write(dir.path(), "streak.ron", &preset("FullHd", &replace, extra));
+    write(dir, "streak.ron", &preset("FullHd", &replace, extra))
+}
+
+/// The streaking drones: the blur sampled each swept pixel 512 times,
+/// 2·10⁹ samples (69 s for 20 such drones, over 2 minutes at 4K). Now a
+/// named error before the blur.
+#[test]
+fn motion_blur_past_its_work_budget_is_a_named_error() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = streaking_drones(dir.path());
     let text = frame_refused(dir.path(), &path, Duration::from_secs(60));
     assert!(
         text.contains("camera_model.exposure_time_s") && text.contains("work budget"),
         "{text}"
+    );
+}
+
+/// `check` tells the first frame past the blur budget from the streaks'
+/// geometry, as it does the fill budget.
+#[test]
+fn check_names_the_first_frame_past_the_blur_budget() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let warned = budget_warnings(&streaking_drones(dir.path()));
+    assert!(!warned.is_empty(), "no frame named");
+    assert!(
+        warned[0].starts_with("warning: frame ")
+            && warned[0].contains("camera_model.exposure_time_s"),
+        "{warned:?}"
     );
 }
 
