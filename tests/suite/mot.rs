@@ -12,43 +12,17 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
-use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{
-    AttitudeRanges, Formation, FormationShape, LabelFormat, Motion, Placement, Preset,
-    SequenceCamera, SequenceSpec,
-};
+use swarmshot::preset::{Placement, Preset};
 
+/// The shared sequence preset with five drones a wedge, banking as they turn.
 fn sequence_preset() -> Preset {
-    let mut p = common::tiny_preset();
-    p.name = "mot".into();
-    p.placement = Placement::Formation(Formation {
-        shape: FormationShape::Wedge {
-            half_angle_deg: 40.0,
-        },
-        count: 5,
-        spacing: 4.0,
-        heading_deg: (-30.0, 30.0),
-        position_jitter: 0.1,
-        attitude_jitter: AttitudeRanges::zero(),
-        min_separation: 1.0,
-    });
-    p.camera.y = SweepRange::fixed(0.3);
-    p.camera.z = SweepRange::fixed(1.4);
-    p.plane.ry = SweepRange::fixed(0.0);
-    p.repeats = 3;
-    p.labels.min_box_px = 0.0;
-    p.output.label_formats = vec![LabelFormat::Yolo, LabelFormat::Coco];
-    p.sequence = Some(SequenceSpec {
-        steps: 4,
-        motion: Motion {
-            translate_m: (1.0, 0.5, -2.0),
-            turn_deg: 20.0,
-            bank_deg: 15.0,
-            ..Motion::default()
-        },
-        camera: SequenceCamera::Fixed,
-        frame_rate: 10,
-    });
+    let mut p = common::sequence_preset();
+    if let Placement::Formation(f) = &mut p.placement {
+        f.count = 5;
+    }
+    if let Some(seq) = &mut p.sequence {
+        seq.motion.bank_deg = 15.0;
+    }
     p
 }
 
