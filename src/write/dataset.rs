@@ -489,8 +489,9 @@ fn plan_readme(preset: &Preset) -> String {
     let visible = if preset.labels.needs_id_pass() {
         "This preset asks for Visible boxes or visibility filters, which need pixels: here every\n\
          box is the AMODAL box within the image and no visibility filter ran, so these labels are\n\
-         an ESTIMATE (stats.json: \"visible_boxes\": \"estimated\"). A rendered run's boxes are\n\
-         tighter on partly hidden drones, and filtered drones are missing from it.\n"
+         an ESTIMATE (stats.json: \"boxes_from\": \"Visible ESTIMATED by Amodal boxes …\"). A\n\
+         rendered run's boxes are tighter on partly hidden drones, and filtered drones are missing\n\
+         from it.\n"
     } else {
         "The preset's boxes (Amodal or PaperAabb) come from geometry alone: every label line,\n\
          COCO box and manifest box here is exactly what the rendered batch writes.\n"

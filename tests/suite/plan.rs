@@ -205,6 +205,12 @@ fn visible_plans_say_their_boxes_are_estimates() {
         "{}",
         stats.boxes_from
     );
+    // PLAN.txt points at the field of stats.json that says so.
+    let readme = read(tmp.path().join("plan/PLAN.txt"));
+    assert!(
+        readme.contains("stats.json: \"boxes_from\": \"Visible ESTIMATED"),
+        "{readme}"
+    );
     let out = swarmshot()
         .arg("stats")
         .arg(tmp.path().join("plan"))
