@@ -23,7 +23,9 @@
 //!   a backticked span) uses a subcommand and flags that the test build's
 //!   `swarmshot SUBCOMMAND --help` lists;
 //! - a `cargo test --test NAME FILTER` names a test target that exists, and
-//!   for the suite a filter that is part of a test's `module::fn` path.
+//!   for the suite a filter that is part of a test's `module::fn` path;
+//! - an example run as `--example NAME` or `target/release/examples/NAME`
+//!   is examples/NAME.rs.
 //!
 //! Every failure names the doc, its line and what is missing.
 
@@ -395,6 +397,38 @@ fn check_paths(root: &Path, doc: &Doc) -> Vec<String> {
             for path in words(text).filter_map(repo_path) {
                 if !root.join(path).exists() && !is_pattern(path) {
                     failures.push(doc.at(line, format!("`{path}` does not exist")));
+                }
+            }
+        }
+    }
+    failures
+}
+
+/// The example programs a code text builds or runs: `--example NAME` and
+/// `target/PROFILE/examples/NAME`.
+fn example_names(text: &str) -> Vec<&str> {
+    let words: Vec<&str> = words(text).collect();
+    let mut out = Vec::new();
+    for (i, word) in words.iter().enumerate() {
+        let built = word.trim_start_matches("./").starts_with("target/");
+        if *word == "--example" {
+            out.extend(words.get(i + 1).copied());
+        } else if let Some((_, name)) = word.split_once("/examples/").filter(|_| built) {
+            out.push(name);
+        }
+    }
+    out
+}
+
+fn check_examples(root: &Path, doc: &Doc) -> Vec<String> {
+    let mut failures = Vec::new();
+    for line in &doc.lines {
+        for text in code_texts(line) {
+            for name in example_names(text) {
+                let source = Path::new("examples").join(name).with_extension("rs");
+                if !root.join(&source).exists() {
+                    failures
+                        .push(doc.at(line, format!("example `{name}`: no {}", source.display())));
                 }
             }
         }
@@ -958,6 +992,7 @@ fn lies_in(root: &Path, docs: &[Doc], doc: &Doc, code: &Code, cli: &mut Cli) -> 
     let mut failures = check_links(root, docs, doc);
     failures.extend(check_sections(docs, doc));
     failures.extend(check_paths(root, doc));
+    failures.extend(check_examples(root, doc));
     failures.extend(check_tests(code, doc));
     failures.extend(check_items(code, doc));
     failures.extend(check_commands(cli, doc));
@@ -986,7 +1021,7 @@ fn the_docs_name_only_what_exists() {
 const PLANTED: &str = r#"# Planted
 [Conventions](conventions.md#camera), `src/cli/args.rs:12`, `presets/sim2real/*.ron`, `OUT/rounds/NN/`, docs/reliability.md, "Durability".
 Test: `the_docs_name_only_what_exists`, `docs_truth::the_docs_name_only_what_exists`, `swarmshot::gap::run_report`.
-`swarmshot batch presets/quickstart.ron --out DIR --limit 2`, `swarmshot bench accuracy --frames 2`, `cargo test --test suite docs_truth:: -- --nocapture`
+`swarmshot batch presets/quickstart.ron --out DIR --limit 2`, `swarmshot bench accuracy --frames 2`, `cargo test --test suite docs_truth:: -- --nocapture`, `cargo run --release --example preview_bench`
 [gone](no-such.md)
 [moved](conventions.md#no-such-heading)
 see docs/realism.md, "No such section"
@@ -1000,6 +1035,7 @@ swarmshot no-such-command x
 swarmshot bench no-such-bench
 cargo test --test suite no_such_module::
 cargo test --test no_such_target
+target/release/examples/no_such_bench presets/quickstart.ron
 ```
 "#;
 
@@ -1030,6 +1066,7 @@ fn a_planted_lie_of_each_kind_is_caught_by_its_line() {
         (15, "swarmshot bench no-such-bench"),
         (16, "no_such_module::"),
         (17, "--test no_such_target"),
+        (18, "example `no_such_bench`"),
     ];
     for (line, what) in expected {
         let at = format!("docs/planted.md:{line}: ");
