@@ -154,10 +154,12 @@ impl DatasetWriter {
         let needed = needed_entries(preset, labels_only);
         // Every entry is checked before anything is written or rendered: a
         // link or a file swarmshot did not write is refused now, not after hours.
-        let run_text = if labels_only {
-            format!("{lock}{PLAN_MARK}")
+        let plan_text = format!("{lock}{PLAN_MARK}");
+        let (run_text, twin) = if labels_only {
+            (plan_text, (fnv1a64(lock.as_bytes()), "a rendered run"))
         } else {
-            lock.clone()
+            let plan = fnv1a64(plan_text.as_bytes());
+            (lock.clone(), (plan, "a labels-only plan"))
         };
         let (mut folder, start, run) = Folder::open(
             root,
@@ -172,6 +174,7 @@ impl DatasetWriter {
                 }),
                 every: options.every,
                 fresh_frames: preset.frame_count(),
+                twin: Some(twin),
             },
             &needed,
         )?;
