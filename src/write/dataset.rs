@@ -154,10 +154,12 @@ impl DatasetWriter {
         let needed = needed_entries(preset, labels_only);
         // Every entry is checked before anything is written or rendered: a
         // link or a file swarmshot did not write is refused now, not after hours.
-        let run_text = if labels_only {
-            format!("{lock}{PLAN_MARK}")
+        let plan_text = format!("{lock}{PLAN_MARK}");
+        let (run_text, twin) = if labels_only {
+            (plan_text, (fnv1a64(lock.as_bytes()), "a rendered run"))
         } else {
-            lock.clone()
+            let plan = fnv1a64(plan_text.as_bytes());
+            (lock.clone(), (plan, "a labels-only plan"))
         };
         let (mut folder, start, run) = Folder::open(
             root,
@@ -172,6 +174,7 @@ impl DatasetWriter {
                 }),
                 every: options.every,
                 fresh_frames: preset.frame_count(),
+                twin: Some(twin),
             },
             &needed,
         )?;
@@ -489,8 +492,9 @@ fn plan_readme(preset: &Preset) -> String {
     let visible = if preset.labels.needs_id_pass() {
         "This preset asks for Visible boxes or visibility filters, which need pixels: here every\n\
          box is the AMODAL box within the image and no visibility filter ran, so these labels are\n\
-         an ESTIMATE (stats.json: \"visible_boxes\": \"estimated\"). A rendered run's boxes are\n\
-         tighter on partly hidden drones, and filtered drones are missing from it.\n"
+         an ESTIMATE (stats.json: \"boxes_from\": \"Visible ESTIMATED by Amodal boxes …\"). A\n\
+         rendered run's boxes are tighter on partly hidden drones, and filtered drones are missing\n\
+         from it.\n"
     } else {
         "The preset's boxes (Amodal or PaperAabb) come from geometry alone: every label line,\n\
          COCO box and manifest box here is exactly what the rendered batch writes.\n"

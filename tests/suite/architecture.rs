@@ -39,7 +39,7 @@ struct Import {
 
 /// The source with comments, string and char literals turned into spaces
 /// (new lines kept, so line numbers hold).
-fn strip(src: &str) -> String {
+pub(super) fn strip(src: &str) -> String {
     let c: Vec<char> = src.chars().collect();
     let mut out = String::with_capacity(src.len());
     let mut i = 0;

@@ -158,7 +158,17 @@ fn amodal_plan_is_the_rendered_batch_without_images() {
         |_| {},
     )
     .expect_err("a plan folder is not a rendered run");
-    assert!(format!("{err:#}").contains("different preset"), "{err:#}");
+    let named = "holds a labels-only plan of this preset (a labels-only plan and a rendered run never continue each other)";
+    assert!(format!("{err:#}").contains(named), "{err:#}");
+    let err = run_plan(
+        &pipeline,
+        &PlanOptions::new(&rendered),
+        &AtomicBool::new(false),
+        |_| {},
+    )
+    .expect_err("a rendered folder is not a plan");
+    let named = "holds a rendered run of this preset";
+    assert!(format!("{err:#}").contains(named), "{err:#}");
 
     // `swarmshot stats` reads the same numbers back from the manifest.
     for dir in [&rendered, &planned] {
@@ -204,6 +214,12 @@ fn visible_plans_say_their_boxes_are_estimates() {
         stats.boxes_from.contains("ESTIMATED"),
         "{}",
         stats.boxes_from
+    );
+    // PLAN.txt points at the field of stats.json that says so.
+    let readme = read(tmp.path().join("plan/PLAN.txt"));
+    assert!(
+        readme.contains("stats.json: \"boxes_from\": \"Visible ESTIMATED"),
+        "{readme}"
     );
     let out = swarmshot()
         .arg("stats")

@@ -128,6 +128,11 @@ pub struct OpenMode {
     /// The frame count a new run makes when `frames` is `None` (a `--resume`
     /// that finds no earlier run: one killed before its ledger existed).
     pub fresh_frames: u64,
+    /// The hash this preset's run has in the other mode (a labels-only plan
+    /// for a rendered run, and the other way round), and what such a run is
+    /// called: an earlier run of that hash is refused by that name, not as
+    /// another preset (the two never continue each other).
+    pub twin: Option<(u64, &'static str)>,
 }
 
 /// Where an opened folder starts.

@@ -218,7 +218,7 @@ impl Folder {
             return Ok((folder, start, run));
         }
         if !mode.overwrite {
-            let what = other_run(&scan.run, &run);
+            let what = other_run(&scan.run, &run, mode.twin);
             return Err(OutputError::OtherRun {
                 path: root.to_owned(),
                 what,
@@ -355,8 +355,12 @@ impl Folder {
 
 /// What the earlier run in the folder is, against this run, for the
 /// refusal's message: the first difference found, with the flag that makes it.
-fn other_run(earlier: &RunId, run: &RunId) -> String {
-    if earlier.preset_hash != run.preset_hash {
+fn other_run(earlier: &RunId, run: &RunId, twin: Option<(u64, &str)>) -> String {
+    if let Some((_, name)) = twin.filter(|(hash, _)| *hash == earlier.preset_hash) {
+        format!(
+            "{name} of this preset (a labels-only plan and a rendered run never continue each other)"
+        )
+    } else if earlier.preset_hash != run.preset_hash {
         "a run of a different preset (its preset.lock.ron differs)".to_owned()
     } else if earlier.every != run.every {
         format!(
