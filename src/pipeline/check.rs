@@ -154,11 +154,15 @@ pub fn summary(preset: &Preset) -> Summary {
 
 /// A warning for each split that gets no frame of the first `frames`
 /// (counted for presets whose frames draw their split one by one; grouped
-/// splits warn in [`warnings`]). Exact in O(100) whatever the count.
+/// splits warn in [`warnings`]). Exact in O(100) whatever the count. None
+/// where those frames are refused by [`run_split_error`], which says it.
 pub fn empty_splits(preset: &Preset, frames: u64) -> Vec<String> {
     let Some(counts) = crate::scene::split::frame_split_counts(preset, frames, u64::MAX) else {
         return Vec::new();
     };
+    if run_split_error(preset, frames, 1).is_some() {
+        return Vec::new();
+    }
     let s = &preset.output.split;
     let mut out = Vec::new();
     for ((name, n), share) in ["train", "val", "test"]

@@ -405,6 +405,13 @@ fn too_few_groups_for_the_run_is_a_named_error() {
             && err.contains("--limit 11 or more"),
         "{err}"
     );
+    // The error alone, not first the warnings of the splits it names.
+    let (ok, err, _) = run(&p, &["--limit", "3"]);
+    assert!(
+        !ok && err.contains("this run's 3 frames hold 1 sequence"),
+        "{err}"
+    );
+    assert!(!err.contains("warning: output.split"), "{err}");
     let (ok, err, _) = run(&p, &["--limit", "10"]);
     assert!(
         !ok && err.contains("this run's 10 frames hold 2 sequences"),
