@@ -72,6 +72,12 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
         }
         return Ok(Source::Folder(real.clone()));
     }
+    if let Some(reason) = crate::gap::folder::description_file(real) {
+        return Err(FitError::Other(format!(
+            "--real {}: {reason}",
+            real.display()
+        )));
+    }
     if crate::gap::folder::is_image(real) {
         return Err(FitError::Other(format!(
             "--real {}: a single image; give the folder that holds the frames (or a video file)",

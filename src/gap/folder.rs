@@ -184,6 +184,33 @@ pub(crate) fn is_image(p: &Path) -> bool {
         .is_some_and(|e| matches!(e.to_ascii_lowercase().as_str(), "jpg" | "jpeg" | "png"))
 }
 
+/// What a dataset's description file given where a folder of frames belongs is, and
+/// where the frames are, by its extension: an Ultralytics `data.yaml` is what a YOLO
+/// user passes to everything else. `None` for any other file.
+pub(crate) fn description_file(p: &Path) -> Option<String> {
+    let ext = p.extension()?.to_str()?.to_ascii_lowercase();
+    let kind = match ext.as_str() {
+        "yaml" | "yml" => "a dataset description (Ultralytics' data.yaml)",
+        "txt" => "a text file (a list of frames, or labels)",
+        "json" => "a JSON file (COCO annotations)",
+        "xml" => "an XML file (VOC or CVAT annotations)",
+        _ => return None,
+    };
+    let folder = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.display().to_string(),
+        _ => ".".into(),
+    };
+    Some(format!(
+        "{kind}, not footage: give the folder that holds the frames, e.g. the dataset's root {folder} (images/ and labels/ in it) or one split's images/train"
+    ))
+}
+
+/// The refusal of a `--real` (or `--synthetic`) that is not a folder.
+pub(crate) fn not_a_folder(p: &Path) -> GapError {
+    let described = p.is_file().then(|| description_file(p)).flatten();
+    input(p, described.unwrap_or_else(|| "not a folder".into()))
+}
+
 /// Whether `dir` holds a gap report (`report.json` and `report.txt`): its
 /// histogram PNGs are gap's own output, not frames.
 fn is_report_folder(dir: &Path) -> bool {
@@ -431,6 +458,10 @@ fn read_label_text(path: &Path) -> Result<String, GapError> {
             path: path.to_path_buf(),
             source,
         })?;
+    // Windows Notepad's "Unicode" is UTF-16, which starts with its byte-order mark.
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        return Err(input(path, "is UTF-16 text: save it as UTF-8"));
+    }
     let text = String::from_utf8(bytes).map_err(|e| {
         input(
             path,
@@ -695,7 +726,8 @@ mod tests {
         }
     }
 
-    /// Windows and old Mac editors: a byte-order mark, CRLF and lone CR line ends.
+    /// Windows and old Mac editors: a byte-order mark, CRLF and lone CR line ends are
+    /// read; UTF-16 is named.
     #[test]
     fn a_byte_order_mark_and_cr_line_ends_are_read() {
         let want = [[40.0, 40.0, 60.0, 60.0], [0.0, 0.0, 10.0, 10.0]];
@@ -706,6 +738,8 @@ mod tests {
         ] {
             assert_boxes(boxes_of(text).expect("read"), &want);
         }
+        let e = boxes_of(b"\xff\xfe0\x00 \x000\x00").expect_err("UTF-16");
+        assert!(e.contains("is UTF-16 text: save it as UTF-8"), "{e}");
         // A lone CR counts lines as the editor shows them.
         let e = boxes_of(b"0 0.5 0.5 0.2 0.2\r0 0.5 0.5 0.2\r").expect_err("short row");
         assert!(e.contains("line 2"), "{e}");

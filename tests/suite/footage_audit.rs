@@ -220,3 +220,55 @@ fn ultralytics_label_variants_are_read_as_boxes() {
         );
     }
 }
+
+/// `--real data.yaml`, as Ultralytics takes a dataset: named as a description, with
+/// the folder to give instead, by `fit` (not tried as a video, not "unlabelled") and
+/// `gap`; nothing written.
+#[test]
+fn a_dataset_yaml_given_as_footage_names_the_folder_to_give() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let root = dir.path().join("set");
+    ultralytics(&root);
+    let yaml = root.join("data.yaml");
+    let out = dir.path().join("out");
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/realistic.ron");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+            .args(args)
+            .output()
+            .expect("run");
+        assert!(!o.status.success());
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let fit = run(&[
+        "fit".as_ref(),
+        "--real".as_ref(),
+        yaml.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--base".as_ref(),
+        base.as_os_str(),
+        "--rounds".as_ref(),
+        "0".as_ref(),
+    ]);
+    let synthetic = dir.path().join("synthetic");
+    frame(&synthetic.join("images/s.png"));
+    let gap = run(&[
+        "gap".as_ref(),
+        "--real".as_ref(),
+        yaml.as_os_str(),
+        "--synthetic".as_ref(),
+        synthetic.as_os_str(),
+    ]);
+    for e in [fit, gap] {
+        assert!(
+            e.contains("data.yaml: a dataset description") && e.contains("not footage"),
+            "{e}"
+        );
+        assert!(
+            e.contains(&format!("the dataset's root {}", root.display())),
+            "{e}"
+        );
+    }
+    assert!(!out.exists());
+}
