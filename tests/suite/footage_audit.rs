@@ -272,3 +272,28 @@ fn a_dataset_yaml_given_as_footage_names_the_folder_to_give() {
     }
     assert!(!out.exists());
 }
+
+/// Frames many times wider than high (a panorama strip) would give plates past the
+/// 150° a plate may span: refused before anything is written, where the fitted preset
+/// used to be written and then fail to load.
+#[test]
+fn frames_too_wide_for_a_plate_are_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let real = dir.path().join("real");
+    std::fs::create_dir_all(&real).expect("dir");
+    RgbImage::from_pixel(2000, 64, Rgb([170, 180, 200]))
+        .save(real.join("strip.png"))
+        .expect("png");
+    label(&real.join("strip.txt"), "");
+    let out = dir.path().join("out");
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/realistic.ron");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_swarmshot"))
+        .args(["fit", "--rounds", "0", "--real"])
+        .args([&real, Path::new("--out"), &out, Path::new("--base"), &base])
+        .output()
+        .expect("run");
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("past the 150° a plate may have"), "{e}");
+    assert!(!out.exists(), "{e}");
+}
