@@ -207,9 +207,28 @@ pub(crate) fn description_file(p: &Path) -> Option<String> {
 
 /// The refusal of a `--real` (or `--synthetic`) that is not a folder.
 pub(crate) fn not_a_folder(p: &Path) -> GapError {
-    let described = p.is_file().then(|| description_file(p)).flatten();
+    let described = p.is_file().then(|| what_file(p)).flatten();
     input(p, described.unwrap_or_else(|| "not a folder".into()))
 }
+
+/// What a file given where a folder of frames belongs is, when its name says.
+fn what_file(p: &Path) -> Option<String> {
+    if is_image(p) {
+        return Some("a single image, not a folder: give the folder that holds the frames".into());
+    }
+    let ext = p.extension()?.to_str()?.to_ascii_lowercase();
+    if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
+        return Some(
+            "a video, not a folder: the report reads frames; take them out first (ffmpeg -i VIDEO -vf fps=2 FRAMES/%05d.png), or fit to the video with swarmshot fit".into(),
+        );
+    }
+    description_file(p)
+}
+
+/// The extensions of the video files footage comes in.
+const VIDEO_EXTENSIONS: [&str; 9] = [
+    "mp4", "avi", "mov", "mkv", "m4v", "mpg", "mpeg", "ts", "webm",
+];
 
 /// Whether `dir` holds a gap report (`report.json` and `report.txt`): its
 /// histogram PNGs are gap's own output, not frames.

@@ -223,7 +223,7 @@ fn ultralytics_label_variants_are_read_as_boxes() {
 
 /// `--real data.yaml`, as Ultralytics takes a dataset: named as a description, with
 /// the folder to give instead, by `fit` (not tried as a video, not "unlabelled") and
-/// `gap`; nothing written.
+/// `gap`; nothing written. `gap` given a video or a single frame says which.
 #[test]
 fn a_dataset_yaml_given_as_footage_names_the_folder_to_give() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -271,6 +271,20 @@ fn a_dataset_yaml_given_as_footage_names_the_folder_to_give() {
         );
     }
     assert!(!out.exists());
+    // gap given a video or one frame says so.
+    let video = dir.path().join("clip.MP4");
+    std::fs::write(&video, "a video").expect("mp4");
+    let one = root.join("images/train/a.png");
+    for (real, says) in [(&video, "a video, not a folder"), (&one, "a single image")] {
+        let e = run(&[
+            "gap".as_ref(),
+            "--real".as_ref(),
+            real.as_os_str(),
+            "--synthetic".as_ref(),
+            synthetic.as_os_str(),
+        ]);
+        assert!(e.contains(says), "{e}");
+    }
 }
 
 /// Frames many times wider than high (a panorama strip) would give plates past the
