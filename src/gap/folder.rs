@@ -513,6 +513,7 @@ fn parse_row(fields: &[&str]) -> Result<(u64, [f64; 4]), String> {
         .filter(|c| c.is_finite() && *c >= 0.0 && c.fract() == 0.0 && *c <= 1e9)
         .ok_or_else(|| format!("class `{}` is not a whole number ≥ 0", fields[0]))?;
     let values = &fields[1..];
+    check_no_track_id(values)?;
     let b = match values.len() {
         4 => yolo_box(values)?,
         5 => {
@@ -532,6 +533,22 @@ fn parse_row(fields: &[&str]) -> Result<(u64, [f64; 4]), String> {
         }
     };
     Ok((class as u64, b))
+}
+
+/// Refuses a tracker's row (`class cx cy w h [confidence] id`, as Ultralytics' `track`
+/// saves it) by its id: a whole number past 1 where a box ends in a confidence or a
+/// polygon in a y (read as either, it would be out of range for a confusing reason).
+fn check_no_track_id(values: &[&str]) -> Result<(), String> {
+    let (5 | 6) = values.len() else {
+        return Ok(());
+    };
+    let last = values[values.len() - 1];
+    match last.parse::<f64>() {
+        Ok(id) if id > 1.0 && id.fract() == 0.0 => Err(format!(
+            "the last value `{last}` is a whole number past 1: a tracker's id column? A label row is `class cx cy w h` (a prediction's: a confidence after it); drop the id"
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// A finite number (read as f64 and range-checked before any narrowing, so a number
@@ -780,6 +797,8 @@ mod tests {
         }
         for (row, says) in [
             ("0 0.5 0.5", "found 3 fields"),
+            ("0 0.5 0.5 0.2 0.4 17", "a tracker's id column?"),
+            ("0 0.5 0.5 0.2 0.4 0.9 3", "a tracker's id column?"),
             ("0 0.5 0.5 0.2 0.4 1.5", "confidence 1.5 is outside [0, 1]"),
             ("0 0.4 0.3 0.6 1.5 0.5 0.7", "y 1.5 is outside [0, 1]"),
             ("0 0.4 0.3 0.6 x 0.5 0.7", "`x` is not a number"),
