@@ -216,13 +216,18 @@ fn what_file(p: &Path) -> Option<String> {
     if is_image(p) {
         return Some("a single image, not a folder: give the folder that holds the frames".into());
     }
-    let ext = p.extension()?.to_str()?.to_ascii_lowercase();
-    if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
+    if is_video(p) {
         return Some(
             "a video, not a folder: the report reads frames; take them out first (ffmpeg -i VIDEO -vf fps=2 FRAMES/%05d.png), or fit to the video with swarmshot fit".into(),
         );
     }
     description_file(p)
+}
+
+/// Whether a file's name is a video's.
+fn is_video(p: &Path) -> bool {
+    (p.extension().and_then(|e| e.to_str()))
+        .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
 }
 
 /// The extensions of the video files footage comes in.
@@ -271,11 +276,19 @@ pub(crate) fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(
         root: dir,
         walked: std::collections::HashSet::new(),
         unread: None,
+        video: None,
     };
     walk_once(dir, depth, out, &mut state)?;
-    match state.unread {
-        Some(p) if out.is_empty() => Err(unread(&p)),
-        _ => Ok(()),
+    if !out.is_empty() {
+        return Ok(());
+    }
+    match (state.unread, state.video) {
+        (Some(p), _) => Err(unread(&p)),
+        (None, Some(v)) => Err(input(
+            &v,
+            "a video in a folder without frames: give the video itself as --real to swarmshot fit, or take its frames out first (ffmpeg -i VIDEO -vf fps=2 FRAMES/%05d.png)",
+        )),
+        (None, None) => Ok(()),
     }
 }
 
@@ -286,6 +299,8 @@ struct Walk<'a> {
     walked: std::collections::HashSet<PathBuf>,
     /// The first image in a format not read that was skipped.
     unread: Option<PathBuf>,
+    /// The first video file seen (named when the folder has no frame at all).
+    video: Option<PathBuf>,
 }
 
 fn walk_once(
@@ -324,6 +339,8 @@ fn walk_once(
                 return Err(unread(&p));
             }
             unread_here.get_or_insert(p);
+        } else if meta.is_file() && is_video(&p) {
+            state.video.get_or_insert(p);
         }
     }
     match unread_here {

@@ -178,6 +178,20 @@ fn a_frame_in_a_format_not_read_is_named_not_skipped() {
     refused(dir.path(), "seq/b.bmp");
 }
 
+/// A folder of videos (Drone-vs-Bird's layout) names one, and the way to give it.
+#[test]
+fn a_folder_of_videos_names_one_and_how_to_give_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    label(&dir.path().join("clips/v1.MP4"), "a video");
+    label(&dir.path().join("clips/v1.txt"), "0 2 10 10 5 5 drone");
+    let e = read(dir.path()).expect_err("no frame");
+    assert!(
+        e.contains("clips/v1.MP4: a video in a folder without frames")
+            && e.contains("give the video itself as --real"),
+        "{e}"
+    );
+}
+
 /// A picture in another format away from the frames (a dataset's `assets/demo.gif`)
 /// is no frame: skipped.
 #[test]
