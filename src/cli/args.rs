@@ -186,7 +186,9 @@ pub(crate) struct FrameArgs {
 
 #[derive(Args)]
 pub(crate) struct GapArgs {
-    /// Folder of real frames (JPEG/PNG; YOLO labels in a sibling labels/ or beside them).
+    /// Folder of real frames (JPEG/PNG, searched 8 levels deep; YOLO labels found as
+    /// Ultralytics finds them, images/ → labels/, or beside each frame; boxes, predictions,
+    /// segmentation polygons and oriented boxes; docs/realism.md).
     #[arg(long)]
     pub(crate) real: PathBuf,
     /// A swarmshot dataset folder (`swarmshot batch --out`).
@@ -218,8 +220,10 @@ fn parse_classes(text: &str) -> Result<DroneClasses, String> {
 
 #[derive(Args)]
 pub(crate) struct FitArgs {
-    /// A folder of real frames (JPEG/PNG; YOLO labels in a sibling labels/ or
-    /// beside them), or a video file (decoded by ffmpeg from PATH).
+    /// A folder of real frames (JPEG/PNG, searched 8 levels deep; YOLO labels found as
+    /// Ultralytics finds them, images/ → labels/, or beside each frame; boxes, predictions,
+    /// segmentation polygons and oriented boxes; docs/realism.md), or a video file
+    /// (decoded by ffmpeg from PATH).
     #[arg(long)]
     pub(crate) real: PathBuf,
     /// Output folder: plates/, fitted.ron, footage.json, fit.json, rounds/NN/.

@@ -1,9 +1,9 @@
 //! The user's footage: a folder of frames with optional YOLO labels, or a video decoded
 //! by the `ffmpeg` program on PATH ([`super::video`]). Every problem is a named
 //! [`FitError`], found before anything is written. The folder rules are the domain-gap
-//! report's (`swarmshot gap`): images searched 8 levels deep in name order, labels in a
-//! sibling `labels/` (the last `images` component replaced) or beside the image as
-//! `NAME.txt`.
+//! report's ([`crate::gap::folder`]): images searched 8 levels deep in name order, links
+//! followed, labels found as Ultralytics finds them (the last `images` folder of the
+//! frame's path replaced by `labels`) or beside the image as `NAME.txt`.
 
 use std::path::{Path, PathBuf};
 
@@ -71,6 +71,12 @@ pub fn check_source(options: &FitOptions) -> Result<Source, FitError> {
             });
         }
         return Ok(Source::Folder(real.clone()));
+    }
+    if let Some(reason) = crate::gap::folder::description_file(real) {
+        return Err(FitError::Other(format!(
+            "--real {}: {reason}",
+            real.display()
+        )));
     }
     if crate::gap::folder::is_image(real) {
         return Err(FitError::Other(format!(

@@ -278,6 +278,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
             if base.thermal.is_none() {
                 let size = camera::common_size(&frames).0;
                 plates::check_plate_budget(frames.len(), options.views, size)?;
+                plates::check_plate_hfov(&base, size, options.hfov_deg)?;
             }
             let out = out::FitOut::open(&options.out, options.overwrite)?;
             (dir.clone(), frames, out)
@@ -289,6 +290,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
                 let frames = video::frames_bound(&probe, options);
                 let size = (probe.width, probe.height);
                 plates::check_plate_budget(frames, options.views, size)?;
+                plates::check_plate_hfov(&base, size, options.hfov_deg)?;
             }
             let mut out = out::FitOut::open(&options.out, options.overwrite)?;
             // ffmpeg's `frame_NNNNN.png` names give plates of names apart.

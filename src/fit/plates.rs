@@ -106,25 +106,49 @@ pub struct PlateCamera {
     pub elevation_deg: (f64, f64),
 }
 
+/// The plates' horizontal field of view and where it comes from: `--hfov`, else the
+/// base preset's `backplate.hfov_deg`, else its `camera.fov_y_deg` at the frames' aspect.
+fn plate_hfov(base: &Preset, (w, h): (u32, u32), hfov: Option<f64>) -> (f64, String) {
+    match (hfov, &base.backplate) {
+        (Some(v), _) => (v, "--hfov".to_string()),
+        (None, Some(b)) => (b.hfov_deg, "the base preset's backplate.hfov_deg".into()),
+        (None, None) => {
+            let aspect = f64::from(w.max(1)) / f64::from(h.max(1));
+            let fy = base.camera.fov_y_deg.to_radians();
+            let hf = 2.0 * ((fy * 0.5).tan() * aspect).atan();
+            (
+                hf.to_degrees(),
+                format!(
+                    "the base preset's camera.fov_y_deg {} at the footage's {w}×{h} aspect (not measured: give --hfov when you know the lens)",
+                    base.camera.fov_y_deg
+                ),
+            )
+        }
+    }
+}
+
+/// Refuses, before anything is written, frames of `size` whose plates would take a
+/// horizontal field of view no plate can have (a panorama strip many times wider than
+/// high, at the base preset's vertical field of view): the fitted preset would not load.
+pub fn check_plate_hfov(
+    base: &Preset,
+    size: (u32, u32),
+    hfov: Option<f64>,
+) -> Result<(), FitError> {
+    let (hfov_deg, source) = plate_hfov(base, size, hfov);
+    if crate::preset::backplate::hfov_ok((hfov_deg * 1000.0).round() / 1000.0) {
+        return Ok(());
+    }
+    Err(FitError::Other(format!(
+        "the plates' horizontal field of view would be {hfov_deg:.1}° ({source}), past the {}° a plate may have: give --hfov (the lens's, within [1, {}]) or frames nearer 16:9",
+        crate::preset::backplate::MAX_PLATE_HFOV_DEG,
+        crate::preset::backplate::MAX_PLATE_HFOV_DEG
+    )))
+}
+
 impl PlateCamera {
     pub fn from_base(base: &Preset, footage: &Footage, hfov: Option<f64>) -> Self {
-        let (w, h) = footage.size;
-        let aspect = f64::from(w.max(1)) / f64::from(h.max(1));
-        let (hfov_deg, hfov_source) = match (hfov, &base.backplate) {
-            (Some(v), _) => (v, "--hfov".to_string()),
-            (None, Some(b)) => (b.hfov_deg, "the base preset's backplate.hfov_deg".into()),
-            (None, None) => {
-                let fy = base.camera.fov_y_deg.to_radians();
-                let hf = 2.0 * ((fy * 0.5).tan() * aspect).atan();
-                (
-                    hf.to_degrees(),
-                    format!(
-                        "the base preset's camera.fov_y_deg {} at the footage's {w}×{h} aspect (not measured: give --hfov when you know the lens)",
-                        base.camera.fov_y_deg
-                    ),
-                )
-            }
-        };
+        let (hfov_deg, hfov_source) = plate_hfov(base, footage.size, hfov);
         let elevation_deg = base
             .camera
             .observer
@@ -810,6 +834,23 @@ pub fn region_stats(
 #[cfg(test)]
 mod budget_tests {
     use super::*;
+
+    /// A panorama strip at the base's vertical field of view would need a plate wider
+    /// than 150°: refused, unless `--hfov` says the lens's.
+    #[test]
+    fn frames_too_wide_for_a_plate_are_refused_unless_hfov_is_given() {
+        let mut base = Preset::default();
+        base.backplate = None;
+        base.camera.fov_y_deg = 50.0;
+        check_plate_hfov(&base, (1920, 1080), None).expect("16:9");
+        let e = check_plate_hfov(&base, (2000, 64), None).expect_err("31:1");
+        let e = e.to_string();
+        assert!(
+            e.contains("would be 172.1°") && e.contains("2000×64") && e.contains("give --hfov"),
+            "{e}"
+        );
+        check_plate_hfov(&base, (2000, 64), Some(120.0)).expect("--hfov");
+    }
 
     #[test]
     fn plates_the_fitted_preset_could_not_load_are_refused_naming_how_many_fit() {

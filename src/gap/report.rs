@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use super::behind::Behind;
 pub use super::error::GapError;
-use super::folder::{ClassTally, DroneClasses, input, label_for, read_labels, walk};
+use super::folder::{ClassTally, DroneClasses, input, label_for, not_a_folder, read_labels, walk};
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
 use super::table::percentile;
 pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt, iqr_distance};
@@ -389,7 +389,7 @@ fn measure_side(
     classes: &DroneClasses,
 ) -> Result<Side, GapError> {
     if !dir.is_dir() {
-        return Err(input(dir, "not a folder"));
+        return Err(not_a_folder(dir));
     }
     let canonical = dir.canonicalize().map_err(|source| GapError::Io {
         path: dir.to_path_buf(),
@@ -474,7 +474,7 @@ fn measure_side(
 pub fn check_out(out: &Path, inputs: &[(&'static str, &Path)]) -> Result<(), GapError> {
     for &(_, dir) in inputs {
         if !dir.is_dir() {
-            return Err(input(dir, "not a folder"));
+            return Err(not_a_folder(dir));
         }
     }
     let real_out =

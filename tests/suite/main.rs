@@ -33,6 +33,7 @@ mod fit_swarm;
 mod fit_thermal;
 mod fit_video;
 mod flow;
+mod footage_audit;
 mod fuzz;
 mod gap;
 mod gap_overlay;
