@@ -84,12 +84,14 @@ fn small(mut p: Preset, width: u32, height: u32) -> Preset {
 }
 
 /// presets/flow_sequence.ron's wedge (a sequence, instance masks, depth
-/// and optical flow; the procedural sky, so the upsampling) at 192×108
-/// through presets/realistic.ron's camera (exposure, PSF, aberration,
-/// vignetting, saturation, sensor grid, noise, sharpening, JPEG) with
-/// presets/rolling_shutter.ron's readout, in presets/rain.ron's rain.
+/// and optical flow) at 192×108 under presets/realistic.ron's procedural
+/// skies (shaded at a reduced size and upsampled on the CPU) through its
+/// camera (exposure, PSF, aberration, vignetting, saturation, sensor grid,
+/// noise, sharpening, JPEG) with presets/rolling_shutter.ron's readout, in
+/// presets/rain.ron's rain.
 fn sequence_preset() -> Preset {
     let mut p = small(shipped("flow_sequence.ron"), 192, 108);
+    p.sky = shipped("realistic.ron").sky;
     let mut camera = camera_model_of("realistic.ron");
     camera.rolling_shutter = camera_model_of("rolling_shutter.ron").rolling_shutter;
     p.camera_model = Some(camera);
@@ -97,11 +99,12 @@ fn sequence_preset() -> Preset {
     p
 }
 
-/// presets/lens_distortion.ron at 192×108 through presets/realistic.ron's
-/// camera and its own lens (the lens cannot be combined with the rolling
-/// shutter), in presets/snow.ron's snow.
+/// presets/lens_distortion.ron at 192×108 under presets/realistic.ron's
+/// skies, through its camera and the preset's own lens (a lens cannot be
+/// combined with the rolling shutter), in presets/snow.ron's snow.
 fn lens_preset() -> Preset {
     let mut p = small(shipped("lens_distortion.ron"), 192, 108);
+    p.sky = shipped("realistic.ron").sky;
     let mut camera = camera_model_of("realistic.ron");
     camera.lens = camera_model_of("lens_distortion.ron").lens;
     p.camera_model = Some(camera);
@@ -185,6 +188,58 @@ fn a_distorting_lens_in_snow_is_the_same_on_every_machine() {
 #[test]
 fn the_thermal_camera_in_rain_is_the_same_on_every_machine() {
     same_bytes_on_every_machine(&thermal_preset(), 2);
+}
+
+/// The MOT tests' sequence (a fixed camera: its frames share the sky)
+/// under a procedural sky and an exposure drawn per frame: the same
+/// background under a new exposure in every frame.
+fn same_sky_new_exposures() -> Preset {
+    let mut p = common::sequence_preset();
+    p.sky = swarmshot::preset::Sky::procedural(swarmshot::preset::EnvironmentName::Daytime);
+    p.camera_model = Some(swarmshot::preset::camera_model::CameraModel {
+        exposure_ev: (-1.5, 0.0),
+        ..Default::default()
+    });
+    p.output.split.train = 1.0;
+    p.output.split.val = 0.0;
+    p.output.split.test = 0.0;
+    p
+}
+
+#[test]
+fn a_frame_after_others_with_the_same_sky_is_the_frame_made_alone() {
+    // The renderer kept a procedural sky's (or a backplate's) pixels
+    // unexposed once it met the same background again and exposed the kept
+    // 8-bit copy by a table: quantised twice, where a frame made alone (or
+    // by another maker) was drawn at its exposure: frame 1 of a batch
+    // differed from `swarmshot frame --index 1`.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = common::preset_file(tmp.path(), &same_sky_new_exposures(), "p.ron");
+    let out = tmp.path().join("ds");
+    common::cli::batch(&file, &out, &["--limit", "3", "--makers", "1"]);
+    let images = common::files_under(&out.join("images"));
+    for index in 1..3u64 {
+        let name = format!("{index:08}.png");
+        let in_batch = images
+            .iter()
+            .find(|f| f.file_name().is_some_and(|n| n == name.as_str()))
+            .unwrap_or_else(|| panic!("no {name} in {images:?}"));
+        let alone = tmp.path().join(format!("alone{index}.png"));
+        let index_arg = index.to_string();
+        common::cli::ok(&[
+            os("frame"),
+            file.as_os_str(),
+            os("--index"),
+            os(&index_arg),
+            os("--out"),
+            alone.as_os_str(),
+        ]);
+        let read = |p: &Path| std::fs::read(p).expect("read image");
+        assert!(
+            read(&out.join("images").join(in_batch)) == read(&alone),
+            "frame {index}: the batch's image is not the frame made alone"
+        );
+    }
 }
 
 /// Where `file`'s test code starts: its `#[cfg(test)]` module (test code
