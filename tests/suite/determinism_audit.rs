@@ -7,7 +7,9 @@
 //! (`RAYON_NUM_THREADS`), one lavapipe rasteriser thread (`LP_NUM_THREADS`),
 //! and more frames made at once (`--makers`); every file must be the same
 //! bytes. A kernel whose SIMD build differs from its scalar build, or a
-//! parallel reduction that depends on its split, fails here.
+//! parallel reduction that depends on its split, fails here; so does a
+//! frame whose bytes depend on the frames its maker made before it (it
+//! must be the frame `swarmshot frame` makes alone).
 
 use crate::common;
 
