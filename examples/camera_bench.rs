@@ -8,7 +8,7 @@
 //! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads;
 //! `CAMERA_BENCH_STAGES=1` times `apply` with the typical draw's stages switched on one
 //! after another (the per-stage breakdown; `=N` stops after N lines, for a profiler);
-//! `SWARMSHOT_CAMERA_SIMD=avx2` or `=base` caps the sweep's SIMD build.
+//! `SWARMSHOT_SIMD=avx2` or `=base` caps the sweep's SIMD build.
 
 use swarmshot::preset::camera_model::CameraModel;
 use swarmshot::sensor::{self, CameraDraw, PsfDraw};

@@ -252,8 +252,9 @@ impl BackgroundFlow {
     /// time in AVX2 lanes where the CPU has them: the same numbers.
     pub fn row_sources(&self, y: f64, xs: &[f64], out: &mut [(f64, f64)]) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2 (checked above).
+        if crate::sensor::simd::avx2() {
+            // SAFETY: the CPU has AVX2 (checked by `avx2`, which
+            // `SWARMSHOT_SIMD=base` caps).
             #[allow(unsafe_code)]
             unsafe {
                 return self.row_sources_avx2(y, xs, out);

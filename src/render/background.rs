@@ -57,8 +57,6 @@ pub(super) struct BackgroundCache {
     /// A background kept before the camera's exposure, with its key without
     /// the exposure (see `Backgrounds::draw_exposed`).
     unexposed: Option<(Vec<u8>, Vec<u8>)>,
-    /// The exposure-free key of the background drawn last.
-    last_base_key: Option<Vec<u8>>,
     /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
     /// Per upload tile (`tiles::UPLOAD_TILE` pixels square), row by row: whether `texture` still
@@ -110,7 +108,6 @@ impl BackgroundCache {
             generation: 0,
             readback: Readback::new(device, "background readback", width, height),
             unexposed: None,
-            last_base_key: None,
             environment_readback: None,
             stale: Vec::new(),
         }
@@ -127,7 +124,6 @@ impl BackgroundCache {
     pub(super) fn forget(&mut self) {
         self.key = None;
         self.unexposed = None;
-        self.last_base_key = None;
         self.stale.clear();
     }
 
@@ -255,7 +251,6 @@ impl Backgrounds {
             };
             self.draw_exposed(with, cache, scene, uniforms, exposure)?;
         }
-        cache.last_base_key = Some(base_key);
         // The texture takes the background without the scenery (the region
         // passes draw the scenery themselves): where it does not hold it
         // yet (stale tiles), from a copy kept for it, uploaded where the
@@ -273,13 +268,11 @@ impl Backgrounds {
 
     /// Draw `cache`'s background for `scene` at exposure `gain`.
     /// The CPU-made pictures (procedural environments, magnified image skies,
-    /// backplates) are drawn at the exposure, at no cost of their own, while
-    /// the background changes from frame to frame; once the same background
-    /// (`base_key`) comes back under another exposure, it is drawn unexposed
-    /// and kept, and later exposures re-expose that copy with a table (a
-    /// static sky or plate under an exposure range is not redrawn each
-    /// frame). The sky shader's background is always drawn unexposed, kept,
-    /// and exposed by the table.
+    /// backplates) are drawn at the exposure, at no cost of their own, every
+    /// time their exposure changes (the same bytes however many frames
+    /// came before). The sky shader's background is always drawn unexposed,
+    /// kept, and exposed by the table (a static gradient sky under an
+    /// exposure range is drawn once).
     fn draw_exposed(
         &mut self,
         with: &mut BackgroundInputs<'_>,
@@ -302,8 +295,14 @@ impl Backgrounds {
             (None, None) if SkyGpu::is_procedural(&scene.sky) => Source::Reduced(None),
             (None, None) => Source::Shader,
         };
-        let repeated = cache.last_base_key.as_deref() == Some(base_key);
-        let keep = gain != 1.0 && (repeated || matches!(source, Source::Shader));
+        // Only the sky shader's background is kept unexposed and exposed by
+        // the table, on its first frame as on the later ones. A picture made
+        // on the CPU (a procedural environment, an image sky, a backplate) is
+        // always drawn at the exposure, quantised once: exposing a kept 8-bit
+        // copy instead quantises twice, so a frame's pixels depended on
+        // whether its maker had drawn the same background before (on the
+        // frames before it, the number of makers, a frame made alone).
+        let keep = gain != 1.0 && matches!(source, Source::Shader);
         let draw_gain = if keep { 1.0 } else { gain };
         match source {
             Source::Plate(plate) => draw_plate_background(with.plates, cache, plate, draw_gain)?,

@@ -13,7 +13,6 @@
 //! (docs/benchmarks.md states how many pixels).
 
 use std::ops::Range;
-use std::sync::LazyLock;
 
 use half::slice::HalfFloatSliceExt;
 
@@ -240,23 +239,18 @@ fn upsample_row_avx2<const N: usize>(
     upsample_row(rows, columns, scratch, (buckets, true), line);
 }
 
-/// Whether this CPU converts half floats in AVX2 registers ([`split::split_f16c`]).
+/// Whether this process converts half floats in AVX2 registers
+/// ([`split::split_f16c`]): `sensor::simd::f16c`, which `SWARMSHOT_SIMD=base` caps.
 #[cfg(target_arch = "x86_64")]
 fn f16c() -> bool {
-    static F16C: LazyLock<bool> =
-        LazyLock::new(|| avx2() && std::arch::is_x86_feature_detected!("f16c"));
-    *F16C
+    crate::sensor::simd::f16c()
 }
 
-/// Whether this CPU runs [`upsample_row_avx2`].
+/// Whether this process runs [`upsample_row_avx2`]: the crate's one SIMD
+/// level (`sensor::simd::avx2`, which `SWARMSHOT_SIMD=base` caps), so that
+/// a capped run shows the bytes a CPU without AVX2 makes.
 fn avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        static AVX2: LazyLock<bool> = LazyLock::new(|| std::arch::is_x86_feature_detected!("avx2"));
-        *AVX2
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
+    crate::sensor::simd::avx2()
 }
 
 /// A reduced pass's texels (RGBA, linear), read a row at a time.

@@ -24,6 +24,7 @@ mod camera_stiff;
 mod cli;
 mod clutter;
 mod confusers;
+mod determinism_audit;
 mod docs_truth;
 mod encode;
 mod environments;

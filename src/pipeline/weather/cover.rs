@@ -108,7 +108,7 @@ pub(super) struct Transmit<'a> {
 }
 
 /// Whether this CPU draws in lanes (AVX2; `sensor::simd::simd_level`,
-/// which `SWARMSHOT_CAMERA_SIMD=base` caps).
+/// which `SWARMSHOT_SIMD=base` caps).
 pub(super) fn lanes_here() -> bool {
     #[cfg(target_arch = "x86_64")]
     return crate::sensor::simd::simd_level() >= 1;

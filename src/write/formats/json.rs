@@ -640,6 +640,24 @@ mod tests {
     }
 
     #[test]
+    fn a_field_of_view_a_bit_apart_writes_the_same_manifest_line() {
+        // A backplate's field of view comes from libm's `atan`, whose last
+        // bit may differ between machines; it was written unrounded.
+        use crate::write::formats::manifest;
+        let (mut scene, labels, names, classes) = varied_frames().swap_remove(0);
+        let line = |scene: &crate::scene::FrameScene| {
+            let mut line = Vec::new();
+            manifest::write_manifest_line(&mut line, scene, &labels, "a.png", &names, &classes);
+            String::from_utf8(line).expect("utf-8")
+        };
+        scene.camera.fov_y_deg = 40.915_670_839_718_985;
+        let a = line(&scene);
+        scene.camera.fov_y_deg = scene.camera.fov_y_deg.next_up();
+        assert_eq!(a, line(&scene));
+        assert!(a.contains("\"fov_y_deg\":40.91567084,"), "{a}");
+    }
+
+    #[test]
     fn manifest_coco_and_yolo_records_are_the_serde_and_std_bytes() {
         use crate::write::formats::{coco, manifest, yolo};
         let mut texts = crate::write::FrameTexts::default();

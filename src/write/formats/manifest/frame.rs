@@ -27,8 +27,10 @@ pub(super) fn write_camera(j: &mut Json<'_>, scene: &FrameScene) {
     matrix(j, cam.k());
     j.raw(b",\"R\":");
     matrix(j, cam.camera_from_world);
+    // Rounded as the other measures: a backplate's field of view comes
+    // from libm's `atan`, whose last bit may differ between machines.
     j.raw(b",\"fov_y_deg\":");
-    j.f64(cam.fov_y_deg);
+    j.rounded(cam.fov_y_deg, Decimals::Nine);
     j.raw(b",\"height\":");
     j.u64(cam.height.into());
     if look {

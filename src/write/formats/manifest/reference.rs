@@ -217,7 +217,7 @@ pub fn manifest_line(
         camera: CameraRecord {
             K: rows(cam.k()),
             R: rows(cam.camera_from_world),
-            fov_y_deg: cam.fov_y_deg,
+            fov_y_deg: r9(cam.fov_y_deg),
             height: cam.height,
             look_at_m: look.then(|| scene.look_at.to_array().map(r9)),
             mode: look.then_some(if scene.camera_absolute {
