@@ -252,7 +252,7 @@ impl BackgroundFlow {
     /// time in AVX2 lanes where the CPU has them: the same numbers.
     pub fn row_sources(&self, y: f64, xs: &[f64], out: &mut [(f64, f64)]) {
         #[cfg(target_arch = "x86_64")]
-        if crate::sensor::simd::avx2() {
+        if crate::simd::avx2() {
             // SAFETY: the CPU has AVX2 (checked by `avx2`, which
             // `SWARMSHOT_SIMD=base` caps).
             #[allow(unsafe_code)]

@@ -240,17 +240,17 @@ fn upsample_row_avx2<const N: usize>(
 }
 
 /// Whether this process converts half floats in AVX2 registers
-/// ([`split::split_f16c`]): `sensor::simd::f16c`, which `SWARMSHOT_SIMD=base` caps.
+/// ([`split::split_f16c`]): `simd::f16c`, which `SWARMSHOT_SIMD=base` caps.
 #[cfg(target_arch = "x86_64")]
 fn f16c() -> bool {
-    crate::sensor::simd::f16c()
+    crate::simd::f16c()
 }
 
 /// Whether this process runs [`upsample_row_avx2`]: the crate's one SIMD
-/// level (`sensor::simd::avx2`, which `SWARMSHOT_SIMD=base` caps), so that
+/// level (`simd::avx2`, which `SWARMSHOT_SIMD=base` caps), so that
 /// a capped run shows the bytes a CPU without AVX2 makes.
 fn avx2() -> bool {
-    crate::sensor::simd::avx2()
+    crate::simd::avx2()
 }
 
 /// A reduced pass's texels (RGBA, linear), read a row at a time.

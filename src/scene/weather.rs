@@ -138,7 +138,7 @@ impl FrameWeather {
         out: &mut Vec<Particle>,
     ) {
         #[cfg(target_arch = "x86_64")]
-        let lanes = crate::sensor::simd::simd_level() >= 1;
+        let lanes = crate::simd::simd_level() >= 1;
         #[cfg(not(target_arch = "x86_64"))]
         let lanes = false;
         self.particles_made(camera, atmosphere, out, lanes);

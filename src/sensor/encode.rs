@@ -126,7 +126,7 @@ pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], simd: b
 #[inline(always)]
 pub(super) fn encode_line(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
-    if super::simd::simd_level() >= 1 {
+    if crate::simd::simd_level() >= 1 {
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {

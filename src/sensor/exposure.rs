@@ -72,7 +72,7 @@ pub(super) fn luts(draw: &CameraDraw) -> [[f32; 256]; 3] {
 #[inline(always)]
 pub(super) fn decode_row(lut: &[f32; 256], row: &[u8], c: usize, first: i64, out: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
-    if super::simd::simd_level() >= 1 {
+    if crate::simd::simd_level() >= 1 {
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {

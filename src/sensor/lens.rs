@@ -249,7 +249,7 @@ impl LensGeometry {
     /// four chains of dependent divisions.
     fn inverse_n4(&self, d: [(f64, f64); 4]) -> [(f64, f64); 4] {
         #[cfg(target_arch = "x86_64")]
-        if super::simd::simd_level() >= 1 {
+        if crate::simd::simd_level() >= 1 {
             // SAFETY: the CPU has AVX2 (checked by `simd_level`).
             #[allow(unsafe_code)]
             if let Some(p) = unsafe { self.inverse_n4_avx2(d) } {

@@ -61,7 +61,6 @@ mod reference;
 pub mod rolling;
 mod saturation;
 mod sharpen;
-pub(crate) mod simd;
 mod sweep;
 pub mod thermal;
 mod vignette;

@@ -19,7 +19,7 @@ impl PixelStage for Saturation {
     fn band(&self, _x0: i64, _width: usize) -> RowFn<'_> {
         let s = self.0;
         Box::new(move |_y, [r, g, b]| {
-            super::simd::widest(
+            crate::simd::widest(
                 #[inline(always)]
                 || {
                     for ((r, g), b) in r.iter_mut().zip(g.iter_mut()).zip(b.iter_mut()) {

@@ -18,7 +18,7 @@
 //! Every read is clamped to the image (not to the band or window), so any
 //! band, any window and any thread count give exactly the bytes of the
 //! whole frame. The band is compiled for AVX-512 and AVX2 as well as for
-//! the baseline ([`super::simd`]); the unit tests compare the builds, and
+//! the baseline ([`crate::simd`]); the unit tests compare the builds, and
 //! the test reference ([`super::reference`], planes of f32, stage after
 //! stage) with the sweep, byte for byte.
 
@@ -107,7 +107,7 @@ pub(super) fn develop(
                 start,
                 end: (start + band).min(y1),
             };
-            super::simd::widest(
+            crate::simd::widest(
                 #[inline(always)]
                 || chain.band(cols, rows, out),
             );
@@ -316,9 +316,9 @@ impl<'c, 'a> Linear<'c, 'a> {
 #[cfg(test)]
 mod tests {
     use super::super::reference::tests::draws;
-    #[cfg(target_arch = "x86_64")]
-    use super::super::simd;
     use super::{Chain, Span};
+    #[cfg(target_arch = "x86_64")]
+    use crate::simd;
 
     /// Every SIMD build of the band this CPU can run gives the baseline
     /// build's bytes, so a frame is the same on machines with and without

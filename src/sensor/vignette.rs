@@ -33,7 +33,7 @@ impl PixelStage for Vignette {
         let mut factor = vec![0f32; width];
         let strength = self.strength as f32;
         Box::new(move |y, vals| {
-            super::simd::widest(
+            crate::simd::widest(
                 #[inline(always)]
                 || {
                     let dy2 = radius2(y, self.centre.1, self.corner2);

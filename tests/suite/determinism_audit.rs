@@ -272,9 +272,9 @@ fn only_the_one_simd_level_detects_cpu_features() {
     // The upsampling (AVX2, F16C) and the optical flow's background rows
     // (AVX2) asked the CPU themselves, so `SWARMSHOT_SIMD=base` left them
     // vectorised and the tests above could not compare their builds. Every
-    // dispatch now asks `sensor::simd`, the one place that detects features.
+    // dispatch now asks `crate::simd` (src/simd.rs), the one place that detects features.
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let allowed = src.join("sensor/simd.rs");
+    let allowed = src.join("simd.rs");
     let offenders: Vec<String> = sources(&src)
         .into_iter()
         .filter(|f| *f != allowed)
@@ -291,7 +291,7 @@ fn only_the_one_simd_level_detects_cpu_features() {
         .collect();
     assert!(
         offenders.is_empty(),
-        "these detect CPU features themselves instead of asking sensor::simd \
+        "these detect CPU features themselves instead of asking crate::simd \
          (SWARMSHOT_SIMD cannot cap them): {offenders:?}"
     );
 }

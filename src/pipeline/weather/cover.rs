@@ -107,11 +107,11 @@ pub(super) struct Transmit<'a> {
     pub(super) lanes: bool,
 }
 
-/// Whether this CPU draws in lanes (AVX2; `sensor::simd::simd_level`,
+/// Whether this CPU draws in lanes (AVX2; `simd::simd_level`,
 /// which `SWARMSHOT_SIMD=base` caps).
 pub(super) fn lanes_here() -> bool {
     #[cfg(target_arch = "x86_64")]
-    return crate::sensor::simd::simd_level() >= 1;
+    return crate::simd::simd_level() >= 1;
     #[cfg(not(target_arch = "x86_64"))]
     false
 }

@@ -6,13 +6,13 @@
 
 /// Row `t.len()` pixels of RGBA8 `dst` from `src` (or from `dst` itself)
 /// under transmittances `t` towards `level`: eight pixels at once in AVX2
-/// where the CPU runs it (`sensor::simd::simd_level`, which
+/// where the CPU runs it (`simd::simd_level`, which
 /// `SWARMSHOT_SIMD=base` caps), the rest by [`resolve_scalar`]:
 /// the same IEEE operations lane by lane, so the same bytes.
 pub(super) fn resolve(dst: &mut [u8], src: Option<&[u8]>, t: &[f32], level: f32) {
     let n = t.len();
     #[cfg(target_arch = "x86_64")]
-    let done = if crate::sensor::simd::simd_level() >= 1 {
+    let done = if crate::simd::simd_level() >= 1 {
         let wide = n / 8 * 8;
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]

@@ -31,7 +31,7 @@ pub(super) fn remap_row(
     let n = rows.covered(x0, row.len() / 4);
     let row = &mut row[..n * 4];
     #[cfg(target_arch = "x86_64")]
-    if super::super::simd::simd_level() >= 1 && src.len() / 4 >= w as usize * h as usize {
+    if crate::simd::simd_level() >= 1 && src.len() / 4 >= w as usize * h as usize {
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {
@@ -48,7 +48,7 @@ pub(super) fn remap_row(
 /// kernel where the CPU has it, else the scalar one (the same bytes).
 pub(super) fn remap_taps(src: &[u8], w: usize, taps: &[Tap], row: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
-    if super::super::simd::simd_level() >= 1 {
+    if crate::simd::simd_level() >= 1 {
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {

@@ -81,7 +81,7 @@ pub(super) fn row_taps(rows: &Rows, x0: u32, y: u32, (w, h): (u32, u32), out: &m
     let n = rows.covered(x0, out.len());
     let out = &mut out[..n];
     #[cfg(target_arch = "x86_64")]
-    if super::super::simd::simd_level() >= 1 {
+    if crate::simd::simd_level() >= 1 {
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {

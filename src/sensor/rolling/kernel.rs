@@ -99,7 +99,7 @@ impl Row<'_> {
         out: &mut [u8],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if crate::sensor::simd::simd_level() >= 1 {
+        if crate::simd::simd_level() >= 1 {
             // SAFETY: the CPU has AVX2 (checked by `simd_level`).
             #[allow(unsafe_code)]
             unsafe {

@@ -77,17 +77,17 @@ pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percen
 pub use sky_plane::{View, sky_plane};
 
 /// Whether to run the AVX-512 builds: the crate's one SIMD level
-/// ([`super::simd::simd_level`], which `SWARMSHOT_SIMD=avx2` caps).
+/// ([`crate::simd::simd_level`], which `SWARMSHOT_SIMD=avx2` caps).
 #[cfg(target_arch = "x86_64")]
 fn avx512() -> bool {
-    super::simd::simd_level() >= 2
+    crate::simd::simd_level() >= 2
 }
 
 /// Whether to run the AVX2 builds: the crate's one SIMD level
-/// ([`super::simd::simd_level`], which `SWARMSHOT_SIMD=base` caps).
+/// ([`crate::simd::simd_level`], which `SWARMSHOT_SIMD=base` caps).
 #[cfg(target_arch = "x86_64")]
 fn avx2() -> bool {
-    super::simd::simd_level() >= 1
+    crate::simd::simd_level() >= 1
 }
 
 /// The buffers the thermal camera reuses from frame to frame.

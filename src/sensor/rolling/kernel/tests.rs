@@ -4,7 +4,7 @@ use super::*;
 /// 0 elsewhere).
 fn segment_simd(row: &Row, start: (i32, i32), step: (i32, i32), out: &mut [u8]) -> usize {
     #[cfg(target_arch = "x86_64")]
-    if crate::sensor::simd::simd_level() >= 1 {
+    if crate::simd::simd_level() >= 1 {
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
         unsafe {

@@ -1,6 +1,6 @@
 //! Which SIMD build of every vectorised kernel this process runs, and the
 //! camera sweep's dispatch to it. This is the one place that answers "which
-//! SIMD level may I use": the camera's row sweep ([`super::sweep`]) and its
+//! SIMD level may I use": the camera's row sweep ([`crate::sensor`]'s `sweep`) and its
 //! registered per-pixel stages ([`widest`]), the lens, rolling-shutter,
 //! thermal and weather kernels, the renderer's upsampling and the optical
 //! flow's background rows all ask [`simd_level`]. Each build performs the
@@ -84,7 +84,7 @@ pub(crate) fn cpu_simd_level() -> u8 {
 /// `#[inline(always)]`: otherwise it may stay a baseline function that the
 /// wider builds merely call (measured: the band twice as slow).
 #[inline(always)]
-pub(super) fn widest<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) fn widest<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     {
         if simd_level() >= 2 {
@@ -112,7 +112,7 @@ pub(super) fn widest<R>(f: impl FnOnce() -> R) -> R {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
 #[inline(never)]
-pub(super) fn on_avx512<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) fn on_avx512<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
@@ -120,7 +120,7 @@ pub(super) fn on_avx512<R>(f: impl FnOnce() -> R) -> R {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-pub(super) fn on_avx2<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) fn on_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
