@@ -312,6 +312,7 @@ pub fn run_batch(
             shard: options.shard,
             every: Some(every),
             labels_only: false,
+            merge: false,
         },
     )?;
     let run = RunSpan {

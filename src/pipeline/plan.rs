@@ -244,6 +244,7 @@ pub fn run_plan(
             labels_only: true,
             shard: None,
             every: None,
+            merge: false,
         },
     )?;
     let first = writer.next_frame();

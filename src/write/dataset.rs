@@ -42,6 +42,8 @@ pub struct WriterOptions {
     /// run); its frame files are not flushed to disk one by one (see
     /// [`DatasetWriter::write_plan_frames`]).
     pub labels_only: bool,
+    /// A `swarmshot merge`: a refusal names no batch flags.
+    pub merge: bool,
 }
 
 /// What a labels-only plan appends to the locked preset's text before
@@ -175,6 +177,8 @@ impl DatasetWriter {
                 every: options.every,
                 fresh_frames: preset.frame_count(),
                 twin: Some(twin),
+                labels_only,
+                merge: options.merge,
             },
             &needed,
         )?;

@@ -90,10 +90,17 @@ pub enum OutputError {
     )]
     NotEmpty { path: PathBuf },
     #[error(
-        "output folder {} holds {what}; choose another folder, or pass --overwrite to delete that run's own files (files swarmshot did not write are kept) and start again",
-        path.display()
+        "output folder {} holds {what}; {}choose another folder, or pass --overwrite to delete that run's own files (files swarmshot did not write are kept) and start again",
+        path.display(),
+        resume_with.as_ref().map_or_else(String::new, |flags| format!("to continue it, run the batch with {flags}; or "))
     )]
-    OtherRun { path: PathBuf, what: String },
+    OtherRun {
+        path: PathBuf,
+        what: String,
+        /// The flags that continue the earlier run, when only flags keep
+        /// this run from it (a batch of the same preset; never a merge).
+        resume_with: Option<String>,
+    },
     #[error(
         "nothing to resume in {}: it holds no swarmshot run (no .swarmshot-ledger); run without --resume",
         path.display()

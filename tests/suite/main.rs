@@ -67,6 +67,7 @@ mod realism;
 mod regions;
 mod rolling_shutter;
 mod rotors;
+mod runs_audit;
 mod safety;
 mod scale;
 mod shaders;

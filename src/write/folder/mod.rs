@@ -133,6 +133,11 @@ pub struct OpenMode {
     /// called: an earlier run of that hash is refused by that name, not as
     /// another preset (the two never continue each other).
     pub twin: Option<(u64, &'static str)>,
+    /// This run is a labels-only plan.
+    pub labels_only: bool,
+    /// This run is a merge, which continues only with the same command: its
+    /// refusal of another run names no batch flags.
+    pub merge: bool,
 }
 
 /// Where an opened folder starts.

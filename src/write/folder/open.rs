@@ -222,6 +222,7 @@ impl Folder {
             return Err(OutputError::OtherRun {
                 path: root.to_owned(),
                 what,
+                resume_with: resume_flags(&scan.run, &run, &mode),
             });
         }
         Self::delete_run(&mut tree)?;
@@ -353,6 +354,41 @@ impl Folder {
     }
 }
 
+/// The batch flags that continue `earlier` when it is a run of this preset
+/// (as a plan or rendered) and only flags keep this run from it: `--resume`
+/// keeps the earlier run's frame count (`--limit`) and step (`--every`), so
+/// only the mode and the shard need naming. `None` for another preset and
+/// for a merge. Without it a user who left out `--shard 1/2` or
+/// `--labels-only` was told only to pass `--overwrite`, which deletes the
+/// run they meant to continue.
+fn resume_flags(earlier: &RunId, run: &RunId, mode: &OpenMode) -> Option<String> {
+    let twin = mode
+        .twin
+        .is_some_and(|(hash, _)| hash == earlier.preset_hash);
+    if mode.merge || !(twin || earlier.preset_hash == run.preset_hash) {
+        return None;
+    }
+    // A twin is a run of the other mode.
+    let plan = mode.labels_only != twin;
+    let mut flags = "--resume".to_owned();
+    if plan {
+        flags.push_str(" --labels-only");
+    }
+    if let Some(s) = earlier.shard {
+        flags.push_str(&format!(" --shard {}", s.shard));
+    }
+    let without: Vec<&str> = [
+        (!plan && mode.labels_only, "--labels-only"),
+        (earlier.shard.is_none() && mode.shard.is_some(), "--shard"),
+        (true, "--limit"),
+        (!plan, "--every"),
+    ]
+    .into_iter()
+    .filter_map(|(left_out, flag)| left_out.then_some(flag))
+    .collect();
+    Some(format!("{flags} (no {})", without.join(", no ")))
+}
+
 /// What the earlier run in the folder is, against this run, for the
 /// refusal's message: the first difference found, with the flag that makes it.
 fn other_run(earlier: &RunId, run: &RunId, twin: Option<(u64, &str)>) -> String {
@@ -364,7 +400,7 @@ fn other_run(earlier: &RunId, run: &RunId, twin: Option<(u64, &str)>) -> String 
         "a run of a different preset (its preset.lock.ron differs)".to_owned()
     } else if earlier.every != run.every {
         format!(
-            "a run of this preset with {}, and this run makes {} (--every differs; --resume without --every continues the earlier trial)",
+            "a run of this preset with {}, and this run makes {} (--every differs)",
             earlier.describe(),
             run.describe()
         )

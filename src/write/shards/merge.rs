@@ -203,6 +203,7 @@ pub fn merge(
             shard: None,
             every: Some(1),
             labels_only: false,
+            merge: true,
         },
     )?;
     let resumed_at = writer.next_frame();
