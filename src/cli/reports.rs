@@ -75,6 +75,21 @@ pub(crate) fn merge(args: MergeArgs) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
     let r = swarmshot::write::merge::merge(out, &args.shards, args.overwrite, args.copy)?;
     let s = &r.stats;
+    // Every shard was already in OUT (a finished merge, or a finished batch
+    // of the same run): nothing was joined now, so nothing is called merged.
+    if r.shards_before == r.shards {
+        println!(
+            "already complete: {} holds all {} frames of these {} shards' run ({} train / {} val / {} test), {} boxes; nothing merged",
+            out.display(),
+            s.frames,
+            r.shards,
+            s.frames_per_split[0],
+            s.frames_per_split[1],
+            s.frames_per_split[2],
+            s.boxes,
+        );
+        return Ok(());
+    }
     let before = if r.shards_before > 0 {
         format!(
             " ({} joined by an earlier, interrupted merge)",

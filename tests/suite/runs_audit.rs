@@ -112,3 +112,38 @@ fn a_run_refused_for_a_missing_flag_names_the_flags_that_continue_it() {
         shard.as_os_str(),
     ]);
 }
+
+/// `merge` again into a folder that already holds the whole run (a finished
+/// merge, or a finished batch of the same preset) joins nothing and says so:
+/// it used to report the shards "joined by an earlier, interrupted merge".
+#[test]
+fn merge_into_a_folder_that_holds_the_whole_run_says_already_complete() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = common::preset_file(tmp.path(), &jpeg_preset(1), "p.ron");
+    let shards: Vec<_> = (0..2)
+        .map(|k| {
+            let dir = tmp.path().join(format!("shard{k}"));
+            batch(&preset, &dir, &["--shard", &format!("{k}/2")]);
+            dir
+        })
+        .collect();
+    let (merged, whole) = (tmp.path().join("merged"), tmp.path().join("whole"));
+    batch(&preset, &whole, &[]);
+    let merge = |out: &Path| {
+        let mut args = vec![os("merge"), out.as_os_str()];
+        args.extend(shards.iter().map(|s| s.as_os_str()));
+        ok(&args)
+    };
+    assert!(merge(&merged).contains("merged 2 shards into"));
+    for out in [&merged, &whole] {
+        let before = listing(out);
+        let said = merge(out);
+        assert!(
+            said.contains("already complete:") && said.contains("nothing merged"),
+            "{said}"
+        );
+        assert!(!said.contains("interrupted"), "{said}");
+        assert_eq!(listing(out), before, "{said}");
+    }
+    common::assert_same_dataset(&whole, &merged, "merge and batch");
+}
