@@ -263,7 +263,7 @@ fn check_every(options: &BatchOptions, preset: &crate::preset::Preset) -> anyhow
     match options.every {
         Some(0) => anyhow::bail!("--every 0: the step between frames must be at least 1"),
         Some(k) if k > 1 && options.shard.is_some() => anyhow::bail!(
-            "--every {k} with --shard: a trial of every {k}th frame runs in one process; leave out one of them"
+            "--every {k} with --shard: a trial (one frame in {k}) runs in one process; leave out one of them"
         ),
         Some(k) if k > 1 && preset.sequence.is_some() => anyhow::bail!(
             "--every {k}: the preset makes sequences (sequence), whose frames follow one another; use --limit for a trial"
