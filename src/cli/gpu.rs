@@ -10,8 +10,8 @@ pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow
     let limits = swarmshot::preset::DeviceLimits {
         max_texture_side: ctx.max_texture_side,
         max_buffer_bytes: ctx.device.limits().max_buffer_size,
-        // A frame may use three quarters of what is free; the rest is the encoders' and the system's.
-        memory_bytes: available_memory_bytes().map(|b| b / 4 * 3),
+        // Three quarters of what is free, within the process's `ulimit -v`/`-d`.
+        memory_bytes: swarmshot::preset::budget::usable_memory_bytes(),
     };
     pipeline.preset().check_limits(&limits).map_err(|errors| {
         let list: Vec<String> = errors.iter().map(|e| format!("  - {e}")).collect();
@@ -21,14 +21,6 @@ pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow
             list.join("\n")
         )
     })
-}
-
-/// `MemAvailable` from /proc/meminfo (Linux), in bytes.
-fn available_memory_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
 }
 
 /// `open` (the preset, its models, hulls and levels of detail) with the GPU
@@ -46,6 +38,20 @@ pub(crate) fn with_gpu_starting<T>(
         let ctx = gpu
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-        Ok((opened?, ctx?))
+        Ok((opened?, ctx.map_err(under_address_space_limit)?))
     })
+}
+
+/// A GPU that fails to start under an address-space limit names the limit
+/// first: lavapipe maps over a gigabyte as it starts, and under `ulimit -v
+/// 262144` it reported "no GPU adapter found: install Mesa's software Vulkan
+/// driver", which sent the user after a driver that was there.
+fn under_address_space_limit(e: swarmshot::render::RenderError) -> anyhow::Error {
+    let Some(limit) = swarmshot::preset::budget::address_space_limit_bytes() else {
+        return e.into();
+    };
+    anyhow::Error::new(e).context(format!(
+        "the GPU could not start within this process's address-space limit of {} MiB (`ulimit -v` or `ulimit -d`; lavapipe alone maps over 1 GiB as it starts): raise the limit (or the job's memory request)",
+        limit >> 20
+    ))
 }
