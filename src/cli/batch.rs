@@ -46,6 +46,7 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
             options.encoder_threads
         );
     }
+    super::process::check_open_files()?;
     let ((pipeline, frames), ctx) = with_gpu_starting(|| {
         let pipeline = FramePipeline::open(preset)?;
         print_warnings(&pipeline);
