@@ -1,0 +1,118 @@
+//! The resource limits a cluster job or a locked-down machine runs under
+//! (the limits audit): address space (`ulimit -v`) and open files
+//! (`ulimit -n`). Each limit applies to the child alone, set by `bash -c
+//! 'ulimit …; exec swarmshot …'`; each test fails without its fix.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use swarmshot::preset::{Preset, Resolution};
+
+use common::cli::BIN;
+
+/// `swarmshot ARGS…` under the shell limits `limits` (such as `ulimit -v 2097152`),
+/// no core dump written if it aborts.
+fn under_limits(limits: &str, args: &[&std::ffi::OsStr]) -> Output {
+    Command::new("bash")
+        .arg("-c")
+        .arg(format!("ulimit -c 0; {limits}; exec \"$0\" \"$@\""))
+        .arg(BIN)
+        .args(args)
+        .env("RUST_BACKTRACE", "0")
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX")
+        .stdin(Stdio::null())
+        .output()
+        .expect("run bash")
+}
+
+/// `batch PRESET --out OUT --limit 2` under `limits`.
+fn batch_under(limits: &str, preset: &Path, out: &Path) -> Output {
+    let args = [
+        "batch".as_ref(),
+        preset.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--limit".as_ref(),
+        "2".as_ref(),
+    ];
+    under_limits(limits, &args)
+}
+
+/// `tiny_preset` at `width`×`height` with MSAA `msaa`, written as `dir/p.ron`.
+fn preset_file(dir: &Path, width: u32, height: u32, msaa: u32) -> PathBuf {
+    let mut p: Preset = common::tiny_preset();
+    p.render.resolution = Resolution::Custom { width, height };
+    p.render.msaa = msaa;
+    common::preset_file(dir, &p, "p.ron")
+}
+
+/// Asserts a refusal: exit code 1 (not an abort's signal), an `error:`
+/// holding every piece of `says`, and no output folder.
+fn assert_refused(o: &Output, says: &[&str], out: &Path) {
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "not a refusal: {:?}\n{e}",
+        o.status
+    );
+    let error = &e[e.find("error: ").unwrap_or_else(|| panic!("no error: {e}"))..];
+    for s in says {
+        assert!(error.contains(s), "{s:?} not in {error}");
+    }
+    assert!(!out.exists(), "a refused run created its output folder");
+}
+
+#[test]
+fn a_frame_past_the_address_space_limit_is_refused_before_anything_is_written() {
+    // A 5120×2880 MSAA 4 frame (about 1.5 GiB by the estimate) under a
+    // 2 GiB address-space limit: the memory check read only MemAvailable,
+    // so the batch made its folder and ledger, then aborted mid-frame with
+    // "memory allocation of 58982400 bytes failed" (SIGABRT, a core dump).
+    // The check now counts the address space left under `ulimit -v`.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_file(tmp.path(), 5120, 2880, 4);
+    let out = tmp.path().join("out");
+    let o = batch_under("ulimit -v 2097152", &preset, &out);
+    assert_refused(&o, &["memory per frame", "ulimit -v"], &out);
+}
+
+#[test]
+fn a_gpu_that_cannot_start_under_an_address_space_limit_names_the_limit() {
+    // Under 256 MiB lavapipe cannot load, and the error said "no GPU adapter
+    // found: install Mesa's software Vulkan driver", a driver that was there.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_file(tmp.path(), 320, 180, 1);
+    let out = tmp.path().join("out");
+    let o = batch_under("ulimit -v 262144", &preset, &out);
+    assert_refused(&o, &["address-space limit of 256 MiB", "ulimit -v"], &out);
+}
+
+#[test]
+fn a_low_soft_open_file_limit_is_raised_to_the_hard_one() {
+    // `ulimit -Sn 24` (the hard limit left high): the batch failed with
+    // "Too many open files" after its folder was made; it now raises its
+    // soft limit, as any process may, and runs.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_file(tmp.path(), 320, 180, 1);
+    let out = tmp.path().join("out");
+    let o = batch_under("ulimit -Sn 24", &preset, &out);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(out.join("stats.json").is_file());
+}
+
+#[test]
+fn an_open_file_limit_too_low_to_run_is_refused_before_anything_is_written() {
+    // `ulimit -n 24` (soft and hard): the batch made its folder and ledger,
+    // then failed writing frame 0 with EMFILE. It is now refused first,
+    // naming the limit and what to raise it to.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_file(tmp.path(), 320, 180, 1);
+    let out = tmp.path().join("out");
+    let o = batch_under("ulimit -n 24", &preset, &out);
+    assert_refused(&o, &["open-file limit is 24", "ulimit -n 64"], &out);
+}
