@@ -46,7 +46,7 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
             options.encoder_threads
         );
     }
-    super::process::check_open_files()?;
+    super::process::check_open_files("batch")?;
     let ((pipeline, frames), ctx) = with_gpu_starting(|| {
         let pipeline = FramePipeline::open(preset)?;
         print_warnings(&pipeline);

@@ -28,12 +28,13 @@ pub(crate) fn start() {
 /// The soft open-file limit `start` raises to, when the hard limit allows:
 /// a batch keeps about 30 files open at once on 2 cores (the ledger, the
 /// lock, the manifest, six COCO parts, lavapipe's, and each encoder's image
-/// and label files), and `merge` one shard's at a time.
+/// and label files), a merge about 40 for 3 shards.
 const WANTED_OPEN_FILES: u64 = 4096;
 
-/// The fewest open files a batch is started with: under it the run would
-/// fail mid-frame with EMFILE (`ulimit -n 24` did, after its output folder
-/// and ledger were made), so it is refused before anything is written.
+/// The fewest open files a batch or a merge is started with: under it the
+/// run would fail midway with EMFILE (a batch under `ulimit -n 24` did after
+/// its output folder and ledger were made, a merge of 3 shards under 32 after
+/// its folder), so it is refused before anything is written.
 pub(crate) const MIN_OPEN_FILES: u64 = 64;
 
 /// Raise the soft open-file limit (`ulimit -Sn`, 1024 by default, lower on
@@ -61,13 +62,13 @@ fn raise_open_file_limit() {
     }
 }
 
-/// Refuse, before anything is written, a batch whose open-file limit
-/// (after [`raise_open_file_limit`]) is under [`MIN_OPEN_FILES`].
-pub(crate) fn check_open_files() -> anyhow::Result<()> {
+/// Refuse, before anything is written, a `command` (`batch`, `merge`) whose
+/// open-file limit (after [`raise_open_file_limit`]) is under [`MIN_OPEN_FILES`].
+pub(crate) fn check_open_files(command: &str) -> anyhow::Result<()> {
     let limit = rustix::process::getrlimit(rustix::process::Resource::Nofile);
     match limit.current {
         Some(n) if n < MIN_OPEN_FILES => anyhow::bail!(
-            "the open-file limit is {n} (`ulimit -n`, hard limit {}), but a batch needs at least {MIN_OPEN_FILES} files open at once (its ledger, labels and images in flight); raise it with `ulimit -n {MIN_OPEN_FILES}` or ask for it in the job script",
+            "the open-file limit is {n} (`ulimit -n`, hard limit {}), but a {command} needs at least {MIN_OPEN_FILES} files open at once (its ledger, labels and images in flight); raise it with `ulimit -n {MIN_OPEN_FILES}` or ask for it in the job script",
             limit
                 .maximum
                 .map_or_else(|| "unlimited".to_string(), |m| m.to_string())

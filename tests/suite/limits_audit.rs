@@ -116,3 +116,36 @@ fn an_open_file_limit_too_low_to_run_is_refused_before_anything_is_written() {
     let o = batch_under("ulimit -n 24", &preset, &out);
     assert_refused(&o, &["open-file limit is 24", "ulimit -n 64"], &out);
 }
+
+#[test]
+fn a_merge_under_a_low_open_file_limit_is_refused_before_anything_is_written() {
+    // `merge` of two good shards under `ulimit -n 8` said the shards' files
+    // "differ from what its ledger recorded … run that shard again", every
+    // file having failed to open with EMFILE; under 24 it failed after
+    // making its output folder. It is now refused first, naming the limit.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_file(tmp.path(), 320, 180, 1);
+    let shards: Vec<PathBuf> = (0..2).map(|k| tmp.path().join(format!("s{k}"))).collect();
+    for (k, shard) in shards.iter().enumerate() {
+        common::cli::batch(
+            &preset,
+            shard,
+            &["--limit", "4", "--shard", &format!("{k}/2")],
+        );
+    }
+    let out = tmp.path().join("merged");
+    for limit in ["ulimit -n 8", "ulimit -n 24"] {
+        let args = [
+            "merge".as_ref(),
+            out.as_os_str(),
+            shards[0].as_os_str(),
+            shards[1].as_os_str(),
+        ];
+        let o = under_limits(limit, &args);
+        assert_refused(
+            &o,
+            &["open-file limit is", "a merge needs", "ulimit -n 64"],
+            &out,
+        );
+    }
+}
