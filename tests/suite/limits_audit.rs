@@ -149,3 +149,21 @@ fn a_merge_under_a_low_open_file_limit_is_refused_before_anything_is_written() {
         );
     }
 }
+
+#[test]
+fn sighup_sigusr1_and_sigxcpu_stop_a_batch_cleanly_and_resume_byte_identical() {
+    // SIGHUP (the terminal or SSH session closed), SIGUSR1 (Slurm's
+    // `--signal=USR1@T` before the time limit) and SIGXCPU (`ulimit -t`'s
+    // soft limit) killed the batch mid-frame by their default action, with
+    // no line saying what stopped it. They now stop it as SIGTERM does.
+    for (signal, says) in [
+        ("HUP", "stopped by SIGHUP after"),
+        ("USR1", "stopped by SIGUSR1 after"),
+        (
+            "XCPU",
+            "stopped by SIGXCPU (the CPU-time limit, `ulimit -t`) after",
+        ),
+    ] {
+        crate::output_trust::stops_cleanly_and_resumes(signal, says);
+    }
+}
