@@ -8,7 +8,7 @@ use crate::common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-use swarmshot::preset::{Preset, Resolution};
+use swarmshot::preset::{ModelSource, ModelSpec, Preset, Resolution};
 
 use common::cli::BIN;
 
@@ -166,4 +166,42 @@ fn sighup_sigusr1_and_sigxcpu_stop_a_batch_cleanly_and_resume_byte_identical() {
     ] {
         crate::output_trust::stops_cleanly_and_resumes(signal, says);
     }
+}
+
+/// A one-triangle .gltf whose mesh hangs at the end of a chain of `depth`
+/// nodes, each the only child of the one before.
+fn node_chain_gltf(depth: usize) -> String {
+    let mut nodes: Vec<String> = (1..depth)
+        .map(|i| format!("{{\"children\":[{i}]}}"))
+        .collect();
+    nodes.push("{\"mesh\":0}".into());
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":6}}],
+"buffers":[{{"byteLength":44,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="}}]}}"#,
+        nodes.join(",")
+    )
+}
+
+#[test]
+fn a_deep_gltf_node_chain_loads_on_a_small_stack() {
+    // 250 nested nodes (the reader allows 256) were walked by recursion, and
+    // under `ulimit -s 256` `check` died: "thread 'main' has overflowed its
+    // stack", SIGABRT. The walk now keeps its own stack.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    std::fs::write(tmp.path().join("chain.gltf"), node_chain_gltf(250)).expect("write gltf");
+    let mut p: Preset = common::tiny_preset();
+    p.models = vec![ModelSpec {
+        source: ModelSource::File("chain.gltf".into()),
+        size_m: 0.35,
+        class: "uav".into(),
+        ..ModelSpec::default()
+    }];
+    let preset = common::preset_file(tmp.path(), &p, "p.ron");
+    let o = under_limits("ulimit -s 256", &["check".as_ref(), preset.as_os_str()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{:?}\n{e}", o.status);
 }
