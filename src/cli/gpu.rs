@@ -32,12 +32,25 @@ pub(crate) fn with_gpu_starting<T>(
     open: impl FnOnce() -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, GpuContext)> {
     std::thread::scope(|scope| {
-        let gpu = scope.spawn(GpuContext::headless);
+        // A thread the system refuses (`ulimit -u`) only loses the overlap:
+        // the context then starts after `open` (`Scope::spawn` panicked).
+        let gpu = std::thread::Builder::new()
+            .spawn_scoped(scope, GpuContext::headless)
+            .ok();
         let opened = open();
-        // A panic there is the main thread's, as it was before the thread.
-        let ctx = gpu
-            .join()
-            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        let ctx = match gpu {
+            // A panic there is the main thread's, as it was before the thread.
+            Some(gpu) => gpu
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            None => {
+                let opened = opened?;
+                return Ok((
+                    opened,
+                    GpuContext::headless().map_err(under_address_space_limit)?,
+                ));
+            }
+        };
         Ok((opened?, ctx.map_err(under_address_space_limit)?))
     })
 }

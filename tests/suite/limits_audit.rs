@@ -205,3 +205,62 @@ fn a_deep_gltf_node_chain_loads_on_a_small_stack() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{:?}\n{e}", o.status);
 }
+
+/// `ulimit -u` binds only an unprivileged user, so as root the child runs
+/// as `nobody` (setpriv, util-linux); `None` where that cannot be done.
+fn as_nobody() -> Option<&'static str> {
+    let root = rustix::process::geteuid().is_root();
+    let setpriv = Command::new("setpriv").arg("--version").output();
+    (root && setpriv.is_ok_and(|o| o.status.success()))
+        .then_some("setpriv --reuid=65534 --regid=65534 --clear-groups")
+}
+
+#[test]
+fn a_thread_limit_is_a_named_error_and_the_dataset_resumes() {
+    // Under `ulimit -u 8` the batch panicked ("failed to spawn thread: …
+    // Resource temporarily unavailable", `Scope::spawn`); under 1 to 3 the
+    // GPU's and the sky's helper threads did. Helper threads now fall back
+    // to the calling thread, and the batch's own threads are a named error
+    // whose dataset `--resume` completes byte-identically.
+    let Some(nobody) = as_nobody() else {
+        eprintln!("skipped: needs root and setpriv to run a child under ulimit -u");
+        return;
+    };
+    let tmp = tempfile::tempdir().expect("tempdir");
+    // `nobody` writes the output folders here.
+    std::fs::set_permissions(
+        tmp.path(),
+        std::os::unix::fs::PermissionsExt::from_mode(0o777),
+    )
+    .expect("chmod");
+    let preset = preset_file(tmp.path(), 320, 180, 1);
+    let reference = tmp.path().join("ref");
+    common::cli::batch(&preset, &reference, &["--limit", "2"]);
+    for limit in [1, 8] {
+        let out = tmp.path().join(format!("u{limit}"));
+        let o = Command::new("bash")
+            .arg("-c")
+            .arg(format!(
+                "exec {nobody} bash -c 'ulimit -c 0; ulimit -u {limit}; exec \"$0\" \"$@\"' \"$0\" \"$@\""
+            ))
+            .arg(BIN)
+            .args(["batch".as_ref(), preset.as_os_str(), "--out".as_ref(), out.as_os_str()])
+            .args(["--limit", "2"])
+            .env("RUST_BACKTRACE", "0")
+            .stdin(Stdio::null())
+            .output()
+            .expect("run bash");
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            o.status.code(),
+            Some(1),
+            "ulimit -u {limit}: {:?}\n{e}",
+            o.status
+        );
+        assert!(e.contains("error: ") && !e.contains("panicked"), "{e}");
+        if out.exists() {
+            common::cli::batch(&preset, &out, &["--limit", "2", "--resume"]);
+            common::assert_same_dataset(&reference, &out, "resumed after the thread limit");
+        }
+    }
+}
