@@ -46,6 +46,7 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
             options.encoder_threads
         );
     }
+    super::process::check_open_files("batch")?;
     let ((pipeline, frames), ctx) = with_gpu_starting(|| {
         let pipeline = FramePipeline::open(preset)?;
         print_warnings(&pipeline);
@@ -161,14 +162,14 @@ fn check_makers(
     let at_once = (makers as u64).min(frames);
     let (Some(per), Some(free)) = (
         preset.frame_memory_bytes(),
-        swarmshot::preset::budget::available_memory_bytes(),
+        swarmshot::preset::budget::usable_memory_bytes(),
     ) else {
         return Ok(());
     };
-    let (needed, usable) = (per.saturating_mul(at_once), free / 4 * 3);
+    let (needed, usable) = (per.saturating_mul(at_once), free);
     if at_once > 1 && needed > usable {
         anyhow::bail!(
-            "--makers {makers}: each maker renders its own frame (about {} at this resolution), so {at_once} of them need {}, more than the {} a run may use (three quarters of the free memory); use fewer makers",
+            "--makers {makers}: each maker renders its own frame (about {} at this resolution), so {at_once} of them need {}, more than the {} a run may use (three quarters of the free memory, within the process's `ulimit -v` and `ulimit -d`); use fewer makers",
             human_bytes(per as f64),
             human_bytes(needed as f64),
             human_bytes(usable as f64),

@@ -1,8 +1,8 @@
 //! What the frame-making commands print and how they stop: the preset's
 //! warnings, the progress bar, a finished run's counts, and the clean stop on
-//! SIGINT/SIGTERM with the command that continues it.
+//! SIGINT/SIGTERM (and SIGHUP, SIGUSR1, SIGXCPU) with the command that continues it.
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -41,14 +41,30 @@ pub(crate) fn frames_and_boxes(s: &swarmshot::write::DatasetStats) -> String {
     )
 }
 
-/// A flag set by the first SIGINT or SIGTERM: the batch stops between frames
-/// (docs/reliability.md, "Clean stop"); a second signal ends the process at once.
+/// The signals that stop a run cleanly. Beside Ctrl-C and `kill`: SIGHUP
+/// (the terminal or SSH session closed), SIGUSR1 (Slurm's `--signal=USR1@T`
+/// warning before the time limit) and SIGXCPU (the soft `ulimit -t` CPU
+/// limit). Their default action ended the process mid-frame, with no line
+/// saying what stopped it or how to continue.
+const STOP_SIGNALS: [std::ffi::c_int; 5] = {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM, SIGUSR1, SIGXCPU};
+    [SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU]
+};
+
+/// The signal that last asked for a stop (0: none), for [`stopped`]'s message.
+static STOP_SIGNAL: std::sync::LazyLock<std::sync::Arc<AtomicUsize>> =
+    std::sync::LazyLock::new(|| std::sync::Arc::new(AtomicUsize::new(0)));
+
+/// A flag set by the first of [`STOP_SIGNALS`]: the batch stops between
+/// frames (docs/reliability.md, "Clean stop"); a second signal ends the
+/// process at once.
 pub(crate) fn stop_on_signals() -> anyhow::Result<std::sync::Arc<AtomicBool>> {
-    use signal_hook::consts::{SIGINT, SIGTERM};
     let flag = std::sync::Arc::new(AtomicBool::new(false));
-    for signal in [SIGINT, SIGTERM] {
+    for signal in STOP_SIGNALS {
         // Registered first, so it sees the flag as the earlier signal left it.
         signal_hook::flag::register_conditional_shutdown(signal, 1, flag.clone())
+            .context("installing the signal handler")?;
+        signal_hook::flag::register_usize(signal, STOP_SIGNAL.clone(), signal as usize)
             .context("installing the signal handler")?;
         signal_hook::flag::register(signal, flag.clone())
             .context("installing the signal handler")?;
@@ -56,11 +72,24 @@ pub(crate) fn stop_on_signals() -> anyhow::Result<std::sync::Arc<AtomicBool>> {
     Ok(flag)
 }
 
-/// The refusal after a clean stop: what is complete and how to continue.
+/// The refusal after a clean stop: what stopped it, what is complete and how to continue.
 pub(crate) fn stopped(done: u64, total: u64, resume: &str) -> anyhow::Error {
     anyhow::anyhow!(
-        "stopped by SIGINT/SIGTERM after {done} of {total} frames: every frame before it is complete and checkpointed, nothing half-written is left; continue with: {resume}"
+        "stopped by {} after {done} of {total} frames: every frame before it is complete and checkpointed, nothing half-written is left; continue with: {resume}",
+        stop_signal_name()
     )
+}
+
+/// The name of the signal that stopped the run; Ctrl-C and `kill` keep
+/// the one name they always had.
+fn stop_signal_name() -> &'static str {
+    use signal_hook::consts::{SIGHUP, SIGUSR1, SIGXCPU};
+    match STOP_SIGNAL.load(Ordering::SeqCst) as std::ffi::c_int {
+        SIGHUP => "SIGHUP",
+        SIGUSR1 => "SIGUSR1",
+        SIGXCPU => "SIGXCPU (the CPU-time limit, `ulimit -t`)",
+        _ => "SIGINT/SIGTERM",
+    }
 }
 
 /// `path` as one shell word, for a command printed to be pasted: as it is

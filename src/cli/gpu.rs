@@ -10,8 +10,8 @@ pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow
     let limits = swarmshot::preset::DeviceLimits {
         max_texture_side: ctx.max_texture_side,
         max_buffer_bytes: ctx.device.limits().max_buffer_size,
-        // A frame may use three quarters of what is free; the rest is the encoders' and the system's.
-        memory_bytes: available_memory_bytes().map(|b| b / 4 * 3),
+        // Three quarters of what is free, within the process's `ulimit -v`/`-d`.
+        memory_bytes: swarmshot::preset::budget::usable_memory_bytes(),
     };
     pipeline.preset().check_limits(&limits).map_err(|errors| {
         let list: Vec<String> = errors.iter().map(|e| format!("  - {e}")).collect();
@@ -23,14 +23,6 @@ pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow
     })
 }
 
-/// `MemAvailable` from /proc/meminfo (Linux), in bytes.
-fn available_memory_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
-}
-
 /// `open` (the preset, its models, hulls and levels of detail) with the GPU
 /// context starting on a second thread meanwhile: the instance and device
 /// (a sixth of a cached start-up on lavapipe) no longer wait for the
@@ -40,12 +32,39 @@ pub(crate) fn with_gpu_starting<T>(
     open: impl FnOnce() -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, GpuContext)> {
     std::thread::scope(|scope| {
-        let gpu = scope.spawn(GpuContext::headless);
+        // A thread the system refuses (`ulimit -u`) only loses the overlap:
+        // the context then starts after `open` (`Scope::spawn` panicked).
+        let gpu = std::thread::Builder::new()
+            .spawn_scoped(scope, GpuContext::headless)
+            .ok();
         let opened = open();
-        // A panic there is the main thread's, as it was before the thread.
-        let ctx = gpu
-            .join()
-            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-        Ok((opened?, ctx?))
+        let ctx = match gpu {
+            // A panic there is the main thread's, as it was before the thread.
+            Some(gpu) => gpu
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            None => {
+                let opened = opened?;
+                return Ok((
+                    opened,
+                    GpuContext::headless().map_err(under_address_space_limit)?,
+                ));
+            }
+        };
+        Ok((opened?, ctx.map_err(under_address_space_limit)?))
     })
+}
+
+/// A GPU that fails to start under an address-space limit names the limit
+/// first: lavapipe maps over a gigabyte as it starts, and under `ulimit -v
+/// 262144` it reported "no GPU adapter found: install Mesa's software Vulkan
+/// driver", which sent the user after a driver that was there.
+fn under_address_space_limit(e: swarmshot::render::RenderError) -> anyhow::Error {
+    let Some(limit) = swarmshot::preset::budget::address_space_limit_bytes() else {
+        return e.into();
+    };
+    anyhow::Error::new(e).context(format!(
+        "the GPU could not start within this process's address-space limit of {} MiB (`ulimit -v` or `ulimit -d`; lavapipe alone maps over 1 GiB as it starts): raise the limit (or the job's memory request)",
+        limit >> 20
+    ))
 }

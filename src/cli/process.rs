@@ -15,6 +15,7 @@ pub(crate) fn start() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     more_lavapipe_threads();
+    raise_open_file_limit();
     // A panic the glTF loader catches becomes its typed error; nothing else is printed for it.
     let default_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
@@ -22,6 +23,58 @@ pub(crate) fn start() {
             default_hook(info);
         }
     }));
+}
+
+/// The soft open-file limit `start` raises to, when the hard limit allows:
+/// a batch keeps about 30 files open at once on 2 cores (the ledger, the
+/// lock, the manifest, six COCO parts, lavapipe's, and each encoder's image
+/// and label files), a merge about 40 for 3 shards.
+const WANTED_OPEN_FILES: u64 = 4096;
+
+/// The fewest open files a batch or a merge is started with: under it the
+/// run would fail midway with EMFILE (a batch under `ulimit -n 24` did after
+/// its output folder and ledger were made, a merge of 3 shards under 32 after
+/// its folder), so it is refused before anything is written.
+pub(crate) const MIN_OPEN_FILES: u64 = 64;
+
+/// Raise the soft open-file limit (`ulimit -Sn`, 1024 by default, lower on
+/// some cluster nodes) towards the hard one, as a process may without
+/// privilege: what the job's limits allow is used instead of failing on a
+/// soft default. Nothing is said if it cannot: [`check_open_files`] names
+/// the limit when it is too low to run.
+fn raise_open_file_limit() {
+    use rustix::process::{Resource, Rlimit, getrlimit, setrlimit};
+    let limit = getrlimit(Resource::Nofile);
+    let Some(current) = limit.current else {
+        return;
+    };
+    // `None` is unlimited; Linux still caps it (fs.nr_open), so ask for a number.
+    let wanted = limit
+        .maximum
+        .map_or(WANTED_OPEN_FILES, |m| m.min(WANTED_OPEN_FILES));
+    if current < wanted {
+        let raised = Rlimit {
+            current: Some(wanted),
+            maximum: limit.maximum,
+        };
+        // A refusal leaves the limit as it was; check_open_files judges it.
+        let _ = setrlimit(Resource::Nofile, raised);
+    }
+}
+
+/// Refuse, before anything is written, a `command` (`batch`, `merge`) whose
+/// open-file limit (after [`raise_open_file_limit`]) is under [`MIN_OPEN_FILES`].
+pub(crate) fn check_open_files(command: &str) -> anyhow::Result<()> {
+    let limit = rustix::process::getrlimit(rustix::process::Resource::Nofile);
+    match limit.current {
+        Some(n) if n < MIN_OPEN_FILES => anyhow::bail!(
+            "the open-file limit is {n} (`ulimit -n`, hard limit {}), but a {command} needs at least {MIN_OPEN_FILES} files open at once (its ledger, labels and images in flight); raise it with `ulimit -n {MIN_OPEN_FILES}` or ask for it in the job script",
+            limit
+                .maximum
+                .map_or_else(|| "unlimited".to_string(), |m| m.to_string())
+        ),
+        _ => Ok(()),
+    }
 }
 
 /// Quiet the headless Vulkan loader's start-up messages: called by `main`

@@ -72,6 +72,7 @@ pub(crate) fn gap(args: GapArgs) -> anyhow::Result<()> {
 /// `swarmshot merge OUT SHARD…`: the shards of one run joined into its dataset.
 pub(crate) fn merge(args: MergeArgs) -> anyhow::Result<()> {
     let out = &args.out;
+    super::process::check_open_files("merge")?;
     let t = std::time::Instant::now();
     let r = swarmshot::write::merge::merge(out, &args.shards, args.overwrite, args.copy)?;
     let s = &r.stats;

@@ -38,12 +38,33 @@ fn node_label(node: &gltf::Node<'_>) -> String {
 }
 
 impl Flattener<'_> {
+    /// `root` and the nodes under it, in document order (each node before
+    /// its children, children in the order listed), from an explicit stack:
+    /// a recursion of [`MAX_NODE_DEPTH`] calls overflowed a 256 KiB main
+    /// stack (`ulimit -s 256`), an abort no error can report.
     pub(super) fn node(
+        &mut self,
+        root: &gltf::Node<'_>,
+        parent: DMat4,
+        depth: usize,
+    ) -> Result<(), ModelError> {
+        let mut stack = vec![(root.clone(), parent, depth)];
+        while let Some((node, parent, depth)) = stack.pop() {
+            let world = self.one_node(&node, parent, depth)?;
+            let children: Vec<_> = node.children().collect();
+            stack.extend(children.into_iter().rev().map(|c| (c, world, depth + 1)));
+        }
+        Ok(())
+    }
+
+    /// One node's meshes, placed by `parent` times its own transform;
+    /// returns that world transform, its children's parent.
+    fn one_node(
         &mut self,
         node: &gltf::Node<'_>,
         parent: DMat4,
         depth: usize,
-    ) -> Result<(), ModelError> {
+    ) -> Result<DMat4, ModelError> {
         if depth > MAX_NODE_DEPTH {
             return Err(ModelError::Malformed {
                 file: self.file.to_owned(),
@@ -83,10 +104,7 @@ impl Flattener<'_> {
                 None => self.mesh(&mesh, world)?,
             }
         }
-        for child in node.children() {
-            self.node(&child, world, depth + 1)?;
-        }
-        Ok(())
+        Ok(world)
     }
 
     /// The per-instance transforms of an `EXT_mesh_gpu_instancing` node, if it has them.

@@ -234,6 +234,17 @@ struct MakersResult {
     busy: Duration,
 }
 
+impl MakersResult {
+    /// No maker ran (the run ended before any started).
+    fn none() -> Self {
+        MakersResult {
+            result: Ok(()),
+            cancelled: false,
+            busy: Duration::ZERO,
+        }
+    }
+}
+
 /// The frame span a run asks its writer for: one past the last frame index
 /// of the first `limit` frames of every `every`th of `count` (all with no
 /// limit), or None (the locked run's own) when resuming without a limit.
@@ -443,7 +454,7 @@ fn run_stages(
     std::thread::scope(|s| {
         for _ in 0..threads {
             let (rx, tx, recycle) = (encode_rx.clone(), to_sink.clone(), recycle_tx.clone());
-            s.spawn(move || {
+            let started = spawn(s, "an encoder", move || {
                 for frame in rx {
                     let key = frame.scene.index;
                     let (item, pixels) = encode_frame(pipeline, encoder, frame);
@@ -454,37 +465,73 @@ fn run_stages(
                     }
                 }
             });
+            // Returning drops the channels: the encoders started end.
+            if let Err(e) = started {
+                return (Err(e), MakersResult::none());
+            }
         }
         drop((to_sink, encode_rx));
-        let sink = s.spawn(move || {
+        let sink = spawn(s, "the writer", move || {
             let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
-            let end = write_in_order(sink_rx, (run.first, run.every), cancel, failed, |index, e: Encoded| {
-                encode += e.encode;
-                let t = Instant::now();
-                if let Err(err) = writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref()) {
-                    writer.rollback();
-                    return Err(anyhow::Error::from(err).context(format!(
+            let end = write_in_order(
+                sink_rx,
+                (run.first, run.every),
+                cancel,
+                failed,
+                |index, e: Encoded| {
+                    encode += e.encode;
+                    let t = Instant::now();
+                    if let Err(err) =
+                        writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref())
+                    {
+                        writer.rollback();
+                        return Err(anyhow::Error::from(err).context(format!(
                         "writing frame {index} failed; the frames before it are complete, and the same command with --resume continues from it"
                     )));
-                }
-                write += t.elapsed();
-                on_progress(Progress {
-                    done: (index + run.every - run.start) / run.every,
-                    total: run.total.saturating_sub(run.start).div_ceil(run.every),
-                    elapsed: run.started.elapsed(),
-                });
-                Ok(())
-            });
-            end.map(|end| SinkResult { writer, encode, write, end })
-        });
-        let makers: Vec<_> = (0..makers)
-            .map(|_| {
-                let (to_encode, recycled) = (to_encode.clone(), recycle_rx.clone());
-                s.spawn(move || stages.make_frames(&to_encode, &recycled))
+                    }
+                    write += t.elapsed();
+                    on_progress(Progress {
+                        done: (index + run.every - run.start) / run.every,
+                        total: run.total.saturating_sub(run.start).div_ceil(run.every),
+                        elapsed: run.started.elapsed(),
+                    });
+                    Ok(())
+                },
+            );
+            end.map(|end| SinkResult {
+                writer,
+                encode,
+                write,
+                end,
             })
-            .collect();
+        });
+        let sink = match sink {
+            Ok(sink) => sink,
+            Err(e) => return (Err(e), MakersResult::none()),
+        };
+        let mut started = Vec::new();
+        let mut not_started = None;
+        for _ in 0..makers {
+            let (to_encode, recycled) = (to_encode.clone(), recycle_rx.clone());
+            match spawn(s, "a frame maker", move || {
+                stages.make_frames(&to_encode, &recycled)
+            }) {
+                Ok(maker) => started.push(maker),
+                Err(e) => {
+                    // The makers started finish their frames; the run then ends with this error.
+                    stop_making.store(true, Ordering::SeqCst);
+                    not_started = Some(e);
+                    break;
+                }
+            }
+        }
         drop(to_encode);
-        let makers = join_makers(makers);
+        let mut makers = join_makers(started);
+        if let Some(e) = not_started
+            && makers.result.is_ok()
+        {
+            makers.result = Err(e);
+        }
         let sink = sink
             .join()
             .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
@@ -603,12 +650,24 @@ impl MakerStages<'_> {
 }
 
 /// Join the makers: the first error, whether any was cancelled, their busy time.
+/// Start `what`'s thread in `scope`; a thread the system refuses (`ulimit
+/// -u`, a cgroup's pids.max) is an error naming the limit, where
+/// `Scope::spawn` panicked ("failed to spawn thread: … Resource temporarily
+/// unavailable").
+fn spawn<'scope, T: Send + 'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    what: &str,
+    f: impl FnOnce() -> T + Send + 'scope,
+) -> anyhow::Result<std::thread::ScopedJoinHandle<'scope, T>> {
+    std::thread::Builder::new().spawn_scoped(scope, f).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot start {what} thread: {e} (the process's thread limit, `ulimit -u` or the job's task limit, is reached); lower --makers and --threads, or raise the limit; the frames written are complete, and the same command with --resume continues"
+        )
+    })
+}
+
 fn join_makers(makers: Vec<std::thread::ScopedJoinHandle<'_, MakerEnd>>) -> MakersResult {
-    let mut joint = MakersResult {
-        result: Ok(()),
-        cancelled: false,
-        busy: Duration::ZERO,
-    };
+    let mut joint = MakersResult::none();
     for maker in makers {
         let end = maker.join().unwrap_or_else(|_| MakerEnd {
             result: Err(anyhow::anyhow!("a frame maker thread panicked")),

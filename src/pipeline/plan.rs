@@ -93,7 +93,7 @@ pub enum PlanRefused {
         free: u64,
     },
     #[error(
-        "placement: a labels-only plan holds up to {objects} drones and confusers at once ({} per frame) and needs about {} of memory for them, but {} is available (three quarters of MemAvailable); lower the count per frame",
+        "placement: a labels-only plan holds up to {objects} drones and confusers at once ({} per frame) and needs about {} of memory for them, but {} is available (three quarters of MemAvailable, within the process's `ulimit -v` and `ulimit -d`); lower the count per frame",
         shape.objects_per_frame,
         human_bytes(*needed),
         human_bytes(*available)
@@ -228,10 +228,7 @@ pub fn run_plan(
         pipeline.preset(),
         &shape,
         (&options.out_dir, frames.unwrap_or(count)),
-        (
-            free_disk,
-            crate::preset::budget::available_memory_bytes().map(|b| b / 4 * 3),
-        ),
+        (free_disk, crate::preset::budget::usable_memory_bytes()),
     )?;
     let writer = DatasetWriter::open(
         &options.out_dir,

@@ -206,6 +206,59 @@ pub fn available_memory_bytes() -> Option<u64> {
     kib.checked_mul(1024)
 }
 
+/// The bytes of memory a run may use: three quarters of `MemAvailable` (the
+/// rest is the encoders' and the system's), and no more than the address
+/// space this process may still map under its `RLIMIT_AS` and `RLIMIT_DATA`
+/// (`ulimit -v`, `ulimit -d`, a cluster job's memory limit): an allocation
+/// past those fails, and Rust aborts the process on a failed allocation, so
+/// a frame that does not fit must be refused before it starts. `None` when
+/// nothing is known.
+pub fn usable_memory_bytes() -> Option<u64> {
+    let free = available_memory_bytes().map(|b| b / 4 * 3);
+    [free, address_space_left_bytes()]
+        .into_iter()
+        .flatten()
+        .min()
+}
+
+/// The address space this process may still map: the least of its
+/// `RLIMIT_AS` less `VmSize` and its `RLIMIT_DATA` less `VmData` (Linux's
+/// /proc/self/status), or `None` when neither limit is set.
+pub fn address_space_left_bytes() -> Option<u64> {
+    use rustix::process::Resource;
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let left = |resource, field| {
+        let limit = rustix::process::getrlimit(resource).current?;
+        Some(limit.saturating_sub(status_kib(&status, field).unwrap_or(0).saturating_mul(1024)))
+    };
+    [
+        left(Resource::As, "VmSize:"),
+        left(Resource::Data, "VmData:"),
+    ]
+    .into_iter()
+    .flatten()
+    .min()
+}
+
+/// The least of the process's `RLIMIT_AS` and `RLIMIT_DATA` (`ulimit -v`,
+/// `ulimit -d`), in bytes; `None` when neither is set.
+pub fn address_space_limit_bytes() -> Option<u64> {
+    use rustix::process::{Resource, getrlimit};
+    [
+        getrlimit(Resource::As).current,
+        getrlimit(Resource::Data).current,
+    ]
+    .into_iter()
+    .flatten()
+    .min()
+}
+
+/// The value in KiB of a `/proc/self/status` line such as `VmSize:  123 kB`.
+fn status_kib(status: &str, field: &str) -> Option<u64> {
+    let line = status.lines().find(|l| l.starts_with(field))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
 /// Free bytes for an unprivileged user on the filesystem holding `path`
 /// (or its nearest existing ancestor), from `statvfs` (rustix); `None` for a
 /// filesystem of no size (`/proc`, `/sys`: nothing to estimate against, and

@@ -22,7 +22,8 @@ pub struct DeviceLimits {
     pub max_texture_side: u32,
     /// `max_buffer_size`.
     pub max_buffer_bytes: u64,
-    /// Memory one frame may use (the CLI passes ¾ of `MemAvailable`), if known.
+    /// Memory one frame may use (the CLI passes ¾ of `MemAvailable`, within
+    /// the process's `ulimit -v` and `ulimit -d`: [`super::budget::usable_memory_bytes`]), if known.
     pub memory_bytes: Option<u64>,
 }
 
@@ -447,7 +448,7 @@ impl Preset {
         if let (Some(available), Some(needed)) = (limits.memory_bytes, self.frame_memory_bytes()) {
             v.check(needed <= available, "render.resolution", || {
                 format!(
-                    "{w}×{h} with MSAA {} needs about {} of memory per frame, but only {} is available",
+                    "{w}×{h} with MSAA {} needs about {} of memory per frame, but only {} is available (three quarters of the free memory, within the process's `ulimit -v` and `ulimit -d`)",
                     self.render.msaa,
                     gib(needed),
                     gib(available)

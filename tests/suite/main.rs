@@ -52,6 +52,7 @@ mod impostors;
 mod inputs;
 mod io_audit;
 mod lens;
+mod limits_audit;
 mod lod;
 mod masks;
 mod models;

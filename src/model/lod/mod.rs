@@ -163,8 +163,14 @@ fn build_lods_on(model: &CpuModel, threads: usize) -> Result<Vec<Lod>, LodError>
     // number of threads).
     let queue = Queue::default();
     let (mut lods, errors) = std::thread::scope(|s| {
+        // A worker the system refuses (`ulimit -u`) is one fewer; this thread
+        // bounds what is left (`Scope::spawn` panicked).
         let workers: Vec<_> = (1..threads)
-            .map(|_| s.spawn(|| bound_levels(&queue, &positions, &full_surface)))
+            .filter_map(|_| {
+                std::thread::Builder::new()
+                    .spawn_scoped(s, || bound_levels(&queue, &positions, &full_surface))
+                    .ok()
+            })
             .collect();
         let lods = {
             // Workers stop waiting however this ends (a panic included).

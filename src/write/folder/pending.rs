@@ -100,17 +100,26 @@ impl Folder {
         };
         let parts: Vec<&[(String, Range<usize>)]> = pending.files.chunks(per.max(1)).collect();
         let results: Vec<Result<Vec<usize>, OutputError>> = std::thread::scope(|s| {
+            // A part whose thread the system refuses (`ulimit -u`) is created
+            // on this thread, in its turn (`Scope::spawn` panicked).
             let others: Vec<_> = parts[1..]
                 .iter()
-                .map(|part| s.spawn(move || create(part)))
+                .map(|part| {
+                    std::thread::Builder::new()
+                        .spawn_scoped(s, move || create(part))
+                        .map_err(|_| part)
+                })
                 .collect();
             let mut results = vec![create(parts[0])];
             for handle in others {
-                results.push(handle.join().unwrap_or_else(|_| {
-                    Err(io(root)(std::io::Error::other(
-                        "a thread creating label files panicked",
-                    )))
-                }));
+                results.push(match handle {
+                    Ok(handle) => handle.join().unwrap_or_else(|_| {
+                        Err(io(root)(std::io::Error::other(
+                            "a thread creating label files panicked",
+                        )))
+                    }),
+                    Err(part) => create(part),
+                });
             }
             results
         });

@@ -114,6 +114,14 @@ pub enum MergeError {
         problems: Vec<String>,
     },
     #[error(
+        "{}: cannot be read to check it against its shard's ledger, so nothing was merged: {source}",
+        path.display()
+    )]
+    Unreadable {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(
         "{}: it holds a run stopped at frame {next}, which is not where a shard starts; choose another folder, or pass --overwrite",
         path.display()
     )]
@@ -416,6 +424,15 @@ fn check_shard(root: &Path) -> Result<CheckedShard, MergeError> {
                 files.insert(rel.clone(), id);
             }
             Ok(None) => {}
+            // A file that could not be read was not checked: under `ulimit -n 8`
+            // every file failed with EMFILE and a good shard was called changed,
+            // "run that shard again". The read error is the cause, named alone.
+            Err(FileProblem::Read(source)) => {
+                return Err(MergeError::Unreadable {
+                    path: root.join(rel),
+                    source,
+                });
+            }
             Err(problem) => problems.push((rel.clone(), problem.to_string())),
         }
     }
