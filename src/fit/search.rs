@@ -256,7 +256,9 @@ fn render(
     let report = run_batch(&pipeline, &options, ctx, cancel, |_| {})
         .map_err(|e| FitError::Other(format!("rendering {}: {e:#}", dir.display())))?;
     if report.cancelled {
-        return Err(FitError::Other("stopped by SIGINT/SIGTERM".into()));
+        return Err(FitError::Other(
+            "stopped by a signal (SIGINT, SIGTERM, SIGHUP, SIGUSR1 or SIGXCPU)".into(),
+        ));
     }
     Ok(())
 }

@@ -401,28 +401,11 @@ fn run_stages(
     options: &BatchOptions,
     ctx: &GpuContext,
     cancel: &AtomicBool,
-    mut writer: DatasetWriter,
+    writer: DatasetWriter,
     run: RunSpan,
-    mut on_progress: impl FnMut(Progress) + Send,
+    on_progress: impl FnMut(Progress) + Send,
 ) -> (anyhow::Result<SinkResult>, MakersResult) {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let makers = if options.makers != 0 {
-        options.makers
-    } else {
-        default_makers(
-            ctx.adapter_info.device_type,
-            cores,
-            backgrounds_change(pipeline, &run),
-        )
-    }
-    .min(usize::try_from(run.left()).unwrap_or(usize::MAX))
-    .max(1);
-    let format = pipeline.preset().output.image_format;
-    let threads = if options.encoder_threads == 0 {
-        cores.saturating_sub(1).max(1)
-    } else {
-        options.encoder_threads
-    };
+    let (makers, threads) = stage_sizes(pipeline, options, ctx, &run);
     let failed = &AtomicBool::new(false);
     let next_index = &AtomicU64::new(run.first);
     let stop_making = &AtomicBool::new(false);
@@ -437,6 +420,7 @@ fn run_stages(
     // One encoder for all threads: JPEG frames over the same background
     // share its unpainted tiles (write/encode/jpeg/).
     // The thermal camera's grey frames as one-channel JPEG.
+    let format = pipeline.preset().output.image_format;
     let encoder = &match pipeline.preset().thermal {
         Some(_) => ImageEncoder::grey(format),
         None => ImageEncoder::new(format),
@@ -455,15 +439,7 @@ fn run_stages(
         for _ in 0..threads {
             let (rx, tx, recycle) = (encode_rx.clone(), to_sink.clone(), recycle_tx.clone());
             let started = spawn(s, "an encoder", move || {
-                for frame in rx {
-                    let key = frame.scene.index;
-                    let (item, pixels) = encode_frame(pipeline, encoder, frame);
-                    // The pixels go back to a maker for a later frame (dropped when none waits).
-                    let _ = recycle.try_send(pixels);
-                    if tx.send(Keyed { key, item }).is_err() {
-                        break;
-                    }
-                }
+                encode_frames(pipeline, encoder, rx, tx, recycle);
             });
             // Returning drops the channels: the encoders started end.
             if let Err(e) = started {
@@ -472,71 +448,145 @@ fn run_stages(
         }
         drop((to_sink, encode_rx));
         let sink = spawn(s, "the writer", move || {
-            let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
-            let end = write_in_order(
-                sink_rx,
-                (run.first, run.every),
-                cancel,
-                failed,
-                |index, e: Encoded| {
-                    encode += e.encode;
-                    let t = Instant::now();
-                    if let Err(err) =
-                        writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref())
-                    {
-                        writer.rollback();
-                        return Err(anyhow::Error::from(err).context(format!(
-                        "writing frame {index} failed; the frames before it are complete, and the same command with --resume continues from it"
-                    )));
-                    }
-                    write += t.elapsed();
-                    on_progress(Progress {
-                        done: (index + run.every - run.start) / run.every,
-                        total: run.total.saturating_sub(run.start).div_ceil(run.every),
-                        elapsed: run.started.elapsed(),
-                    });
-                    Ok(())
-                },
-            );
-            end.map(|end| SinkResult {
-                writer,
-                encode,
-                write,
-                end,
-            })
+            write_frames(writer, sink_rx, &run, (cancel, failed), on_progress)
         });
         let sink = match sink {
             Ok(sink) => sink,
             Err(e) => return (Err(e), MakersResult::none()),
         };
-        let mut started = Vec::new();
-        let mut not_started = None;
-        for _ in 0..makers {
-            let (to_encode, recycled) = (to_encode.clone(), recycle_rx.clone());
-            match spawn(s, "a frame maker", move || {
-                stages.make_frames(&to_encode, &recycled)
-            }) {
-                Ok(maker) => started.push(maker),
-                Err(e) => {
-                    // The makers started finish their frames; the run then ends with this error.
-                    stop_making.store(true, Ordering::SeqCst);
-                    not_started = Some(e);
-                    break;
-                }
-            }
-        }
-        drop(to_encode);
-        let mut makers = join_makers(started);
-        if let Some(e) = not_started
-            && makers.result.is_ok()
-        {
-            makers.result = Err(e);
-        }
+        let makers = start_makers(s, makers, stages, to_encode, recycle_rx);
         let sink = sink
             .join()
             .unwrap_or_else(|_| Err(anyhow::anyhow!("the writer thread panicked")));
         (sink, makers)
     })
+}
+
+/// How many frame makers and encoder threads a run uses: the options' own,
+/// else the defaults for this device and machine (makers never more than
+/// the frames left).
+fn stage_sizes(
+    pipeline: &FramePipeline,
+    options: &BatchOptions,
+    ctx: &GpuContext,
+    run: &RunSpan,
+) -> (usize, usize) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let makers = if options.makers != 0 {
+        options.makers
+    } else {
+        default_makers(
+            ctx.adapter_info.device_type,
+            cores,
+            backgrounds_change(pipeline, run),
+        )
+    }
+    .min(usize::try_from(run.left()).unwrap_or(usize::MAX))
+    .max(1);
+    let threads = if options.encoder_threads == 0 {
+        cores.saturating_sub(1).max(1)
+    } else {
+        options.encoder_threads
+    };
+    (makers, threads)
+}
+
+/// An encoder thread: each frame from `rx` encoded to the sink, its pixels
+/// back to a maker for a later frame (dropped when none waits).
+fn encode_frames(
+    pipeline: &FramePipeline,
+    encoder: &ImageEncoder,
+    rx: crossbeam_channel::Receiver<Frame>,
+    tx: crossbeam_channel::Sender<Keyed<Encoded>>,
+    recycle: crossbeam_channel::Sender<(Vec<u8>, Painted)>,
+) {
+    for frame in rx {
+        let key = frame.scene.index;
+        let (item, pixels) = encode_frame(pipeline, encoder, frame);
+        let _ = recycle.try_send(pixels);
+        if tx.send(Keyed { key, item }).is_err() {
+            break;
+        }
+    }
+}
+
+/// The writer thread: the encoded frames written in frame order, progress
+/// told after each; the first write error rolls the run back to its last
+/// complete frame and ends it.
+fn write_frames(
+    mut writer: DatasetWriter,
+    rx: crossbeam_channel::Receiver<Keyed<Encoded>>,
+    run: &RunSpan,
+    (cancel, failed): (&AtomicBool, &AtomicBool),
+    mut on_progress: impl FnMut(Progress),
+) -> anyhow::Result<SinkResult> {
+    let (mut encode, mut write) = (Duration::ZERO, Duration::ZERO);
+    let end = write_in_order(
+        rx,
+        (run.first, run.every),
+        cancel,
+        failed,
+        |index, e: Encoded| {
+            encode += e.encode;
+            let t = Instant::now();
+            if let Err(err) =
+                writer.write_frame_with(&e.scene, &e.labels, &e.bytes, e.masks.as_ref())
+            {
+                writer.rollback();
+                return Err(anyhow::Error::from(err).context(format!(
+                "writing frame {index} failed; the frames before it are complete, and the same command with --resume continues from it"
+            )));
+            }
+            write += t.elapsed();
+            on_progress(Progress {
+                done: (index + run.every - run.start) / run.every,
+                total: run.total.saturating_sub(run.start).div_ceil(run.every),
+                elapsed: run.started.elapsed(),
+            });
+            Ok(())
+        },
+    );
+    end.map(|end| SinkResult {
+        writer,
+        encode,
+        write,
+        end,
+    })
+}
+
+/// Start `makers` frame makers and wait for them. A maker that cannot be
+/// started (the thread limit) stops the others after their frames, and the
+/// run ends with that error.
+fn start_makers<'scope, 'env>(
+    s: &'scope std::thread::Scope<'scope, 'env>,
+    makers: usize,
+    stages: &'scope MakerStages<'env>,
+    to_encode: crossbeam_channel::Sender<Frame>,
+    recycle_rx: crossbeam_channel::Receiver<(Vec<u8>, Painted)>,
+) -> MakersResult {
+    let mut started = Vec::new();
+    let mut not_started = None;
+    for _ in 0..makers {
+        let (to_encode, recycled) = (to_encode.clone(), recycle_rx.clone());
+        match spawn(s, "a frame maker", move || {
+            stages.make_frames(&to_encode, &recycled)
+        }) {
+            Ok(maker) => started.push(maker),
+            Err(e) => {
+                stages.stop_making.store(true, Ordering::SeqCst);
+                not_started = Some(e);
+                break;
+            }
+        }
+    }
+    drop(to_encode);
+    let mut joint = join_makers(started);
+    if let Some(e) = not_started
+        && joint.result.is_ok()
+    {
+        joint.result = Err(e);
+    }
+    joint
 }
 
 /// Encode one frame's image (and masks): the sink's item, and the pixel
