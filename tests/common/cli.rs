@@ -58,12 +58,21 @@ pub fn os<S: AsRef<std::ffi::OsStr> + ?Sized>(s: &S) -> &std::ffi::OsStr {
 
 /// `swarmshot batch PRESET --out OUT EXTRA…`, which must succeed; what it printed.
 pub fn batch(preset: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> String {
+    ok(&batch_args(preset, out, extra))
+}
+
+/// The arguments `batch PRESET --out OUT EXTRA…`.
+pub fn batch_args<'a>(
+    preset: &'a std::path::Path,
+    out: &'a std::path::Path,
+    extra: &[&'a str],
+) -> Vec<&'a std::ffi::OsStr> {
     let mut args = vec![
         os("batch"),
         preset.as_os_str(),
         os("--out"),
         out.as_os_str(),
     ];
-    args.extend(extra.iter().map(os));
-    ok(&args)
+    args.extend(extra.iter().map(|s| os(*s)));
+    args
 }

@@ -7,7 +7,7 @@ use crate::common;
 
 use std::path::Path;
 
-use common::cli::{batch, err, jpeg_preset, ok, os};
+use common::cli::{batch, batch_args, err, jpeg_preset, ok, os};
 
 /// Every entry under `dir` with its size and modification time (the lock
 /// file, which a refused run may take and give back, aside).
@@ -32,14 +32,7 @@ fn listing(dir: &Path) -> Vec<(String, u64, std::time::SystemTime)> {
 /// after checking that nothing under OUT changed.
 fn refused(preset: &Path, out: &Path, extra: &[&str]) -> String {
     let before = listing(out);
-    let mut args = vec![
-        os("batch"),
-        preset.as_os_str(),
-        os("--out"),
-        out.as_os_str(),
-    ];
-    args.extend(extra.iter().map(os));
-    let e = err(&args);
+    let e = err(&batch_args(preset, out, extra));
     assert_eq!(listing(out), before, "the refusal changed the folder: {e}");
     e
 }
