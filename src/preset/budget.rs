@@ -201,9 +201,7 @@ impl Preset {
 /// `MemAvailable` from /proc/meminfo (Linux), in bytes; `None` elsewhere.
 pub fn available_memory_bytes() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
+    proc_kib(&text, "MemAvailable:")?.checked_mul(1024)
 }
 
 /// The bytes of memory a run may use: three quarters of `MemAvailable` (the
@@ -229,7 +227,7 @@ pub fn address_space_left_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     let left = |resource, field| {
         let limit = rustix::process::getrlimit(resource).current?;
-        Some(limit.saturating_sub(status_kib(&status, field).unwrap_or(0).saturating_mul(1024)))
+        Some(limit.saturating_sub(proc_kib(&status, field).unwrap_or(0).saturating_mul(1024)))
     };
     [
         left(Resource::As, "VmSize:"),
@@ -253,8 +251,9 @@ pub fn address_space_limit_bytes() -> Option<u64> {
     .min()
 }
 
-/// The value in KiB of a `/proc/self/status` line such as `VmSize:  123 kB`.
-fn status_kib(status: &str, field: &str) -> Option<u64> {
+/// The value in KiB of a `/proc/meminfo` or `/proc/self/status` line such as
+/// `VmSize:  123 kB`.
+fn proc_kib(status: &str, field: &str) -> Option<u64> {
     let line = status.lines().find(|l| l.starts_with(field))?;
     line.split_whitespace().nth(1)?.parse().ok()
 }

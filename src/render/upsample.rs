@@ -239,20 +239,6 @@ fn upsample_row_avx2<const N: usize>(
     upsample_row(rows, columns, scratch, (buckets, true), line);
 }
 
-/// Whether this process converts half floats in AVX2 registers
-/// ([`split::split_f16c`]): `simd::f16c`, which `SWARMSHOT_SIMD=base` caps.
-#[cfg(target_arch = "x86_64")]
-fn f16c() -> bool {
-    crate::simd::f16c()
-}
-
-/// Whether this process runs [`upsample_row_avx2`]: the crate's one SIMD
-/// level (`simd::avx2`, which `SWARMSHOT_SIMD=base` caps), so that
-/// a capped run shows the bytes a CPU without AVX2 makes.
-fn avx2() -> bool {
-    crate::simd::avx2()
-}
-
 /// A reduced pass's texels (RGBA, linear), read a row at a time.
 #[derive(Clone, Copy)]
 pub(super) enum Texels<'a> {
@@ -330,7 +316,7 @@ impl SourceRows {
         // in AVX2 registers; otherwise the row through `self.texels`.
         #[cfg(target_arch = "x86_64")]
         if let Texels::F16 { bytes, stride } = *texels
-            && f16c()
+            && crate::simd::f16c()
         {
             let [red, green, blue] = &mut self.data[k];
             let src = &bytes[r * stride..r * stride + red.len() * 8];
@@ -397,9 +383,23 @@ pub(super) fn upsample_reduced(
 ) {
     let sizes = (size, frame);
     match tone {
-        Tone::Clip => upsample_with(texels, sizes, centre, (&**CLIP, gain), rgba, avx2()),
+        Tone::Clip => upsample_with(
+            texels,
+            sizes,
+            centre,
+            (&**CLIP, gain),
+            rgba,
+            crate::simd::avx2(),
+        ),
         Tone::Exponential => {
-            upsample_with(texels, sizes, centre, (&**EXPONENTIAL, 1.0), rgba, avx2());
+            upsample_with(
+                texels,
+                sizes,
+                centre,
+                (&**EXPONENTIAL, 1.0),
+                rgba,
+                crate::simd::avx2(),
+            );
             if gain != 1.0 {
                 expose(rgba, gain);
             }
@@ -597,7 +597,7 @@ mod tests {
             let half = texels(size.0 as usize * size.1 as usize * 4, k as u64 + 7);
             let mut want = Vec::new();
             upsample_reference(&half, size, frame, centre, &mut want);
-            for simd in [false, avx2()] {
+            for simd in [false, crate::simd::avx2()] {
                 let mut got = Vec::new();
                 upsample_with(
                     Texels::F32(&half),

@@ -95,13 +95,12 @@ pub(super) fn encode_line_avx2<const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::avx2;
     use super::super::srgb::{CLIP, EXPONENTIAL, SRGB};
     use super::*;
 
     #[test]
     fn the_gathered_encode_is_the_scalar_encode() {
-        if !avx2() {
+        if !crate::simd::avx2() {
             return;
         }
         fn check<const N: usize>(b: &Buckets<N>, thresholds: &[f32]) {
