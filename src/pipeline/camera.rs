@@ -46,10 +46,7 @@ impl FramePipeline {
             None => (frame.rgba.as_slice(), background),
         };
         // Motion blur (sequences): each drone smeared along its streak next.
-        let mut streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
-        if let Some(s) = shutter {
-            s.move_streaks(&mut streaks);
-        }
+        let streaks = self.frame_streaks(scene, draw, shutter);
         let blurred = if streaks.iter().flatten().any(|s| s.moves()) {
             let background = background.ok_or_else(|| PipelineError::Camera {
                 index: scene.index,
@@ -127,6 +124,38 @@ impl FramePipeline {
         }
         Ok(rgba)
     }
+
+    /// Each drone's streak under `draw` (the draw after rendering), moved
+    /// by a rolling `shutter`: what the motion blur smears.
+    fn frame_streaks(
+        &self,
+        scene: &FrameScene,
+        draw: &CameraDraw,
+        shutter: Option<&rolling::Shutter>,
+    ) -> Vec<Option<sensor::motion::Streak>> {
+        let mut streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, draw);
+        if let Some(s) = shutter {
+            s.move_streaks(&mut streaks);
+        }
+        streaks
+    }
+
+    /// Whether `scene`'s motion blur stays within its work budget
+    /// ([`smear_budget`]), from geometry alone, before anything is drawn:
+    /// its streaks as [`Self::through_camera`] makes them.
+    pub(super) fn check_blur(&self, scene: &FrameScene) -> Result<(), PipelineError> {
+        let Some(draw) = &scene.camera_model else {
+            return Ok(());
+        };
+        let shutter = rolling::Shutter::of(&self.preset, &self.assets.geometry, scene)?;
+        let streaks = self.frame_streaks(scene, &draw.after_render(), shutter.as_ref());
+        let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
+        smear_budget(
+            &list,
+            (scene.camera.width, scene.camera.height),
+            scene.index,
+        )
+    }
 }
 
 /// Per measured drone, where its changed pixels are measured from and
@@ -200,29 +229,6 @@ pub(super) fn camera_visibility(
         }),
         visible_pixels: count,
         unoccluded_pixels: unoccluded.max(count),
-    }
-}
-
-impl FramePipeline {
-    /// Whether `scene`'s motion blur stays within its work budget
-    /// ([`smear_budget`]), from geometry alone: its streaks as
-    /// [`Self::through_camera`] makes them (moved by a rolling shutter),
-    /// before anything is drawn.
-    pub(super) fn check_blur(&self, scene: &FrameScene) -> Result<(), PipelineError> {
-        let Some(draw) = &scene.camera_model else {
-            return Ok(());
-        };
-        let draw = draw.after_render();
-        let mut streaks = streaks::streaks(&self.preset, &self.assets.geometry, scene, &draw);
-        if !streaks.iter().flatten().any(|s| s.moves()) {
-            return Ok(());
-        }
-        if let Some(s) = rolling::Shutter::of(&self.preset, &self.assets.geometry, scene)? {
-            s.move_streaks(&mut streaks);
-        }
-        let list: Vec<sensor::motion::Streak> = streaks.iter().flatten().copied().collect();
-        let (w, h) = (scene.camera.width, scene.camera.height);
-        smear_budget(&list, (w, h), scene.index)
     }
 }
 
