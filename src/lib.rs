@@ -9,7 +9,7 @@
 //! every caller — the batch, the `frame` command, the desktop app's preview,
 //! the benchmarks and the gallery — makes frames through it. Imports run one
 //! way, each layer importing only those before it (`tests/suite/architecture.rs`
-//! checks it): input, seed, simd, text → preset → sky, model, sensor → scene →
+//! checks it): input, seed, simd, text, threads → preset → sky, model, sensor → scene →
 //! render → annotate → write → pipeline, gap → fit → tools, app → cli (the
 //! binary: `main.rs` and `cli/`). See docs/architecture.md.
 
@@ -29,5 +29,6 @@ pub mod sensor;
 pub(crate) mod simd;
 pub mod sky;
 pub mod text;
+pub mod threads;
 pub mod tools;
 pub mod write;

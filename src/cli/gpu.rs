@@ -32,26 +32,15 @@ pub(crate) fn with_gpu_starting<T>(
     open: impl FnOnce() -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, GpuContext)> {
     std::thread::scope(|scope| {
-        // A thread the system refuses (`ulimit -u`) only loses the overlap:
-        // the context then starts after `open` (`Scope::spawn` panicked).
-        let gpu = std::thread::Builder::new()
-            .spawn_scoped(scope, GpuContext::headless)
-            .ok();
-        let opened = open();
-        let ctx = match gpu {
-            // A panic there is the main thread's, as it was before the thread.
-            Some(gpu) => gpu
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
-            None => {
-                let opened = opened?;
-                return Ok((
-                    opened,
-                    GpuContext::headless().map_err(under_address_space_limit)?,
-                ));
-            }
-        };
-        Ok((opened?, ctx.map_err(under_address_space_limit)?))
+        // A thread the system refuses only loses the overlap: the context
+        // then starts after `open`, and not when `open` failed.
+        let gpu = swarmshot::threads::spawn_or_defer(scope, GpuContext::headless);
+        let opened = open()?;
+        // A panic there is the main thread's, as it was before the thread.
+        let ctx = gpu
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        Ok((opened, ctx.map_err(under_address_space_limit)?))
     })
 }
 

@@ -112,16 +112,12 @@ impl Assets {
             .collect();
         // The sky's images decode on a second thread while the models load
         // and their levels are built; the models' errors still come first.
-        // A thread the system refuses (`ulimit -u`) only loses the overlap:
-        // the sky then loads after the models (`Scope::spawn` panicked).
+        // A thread the system refuses only loses the overlap: the sky then
+        // loads after the models.
         let (models, sky) = std::thread::scope(|s| {
-            let load_sky = || EnvironmentAssets::load(&preset.sky);
-            let sky = std::thread::Builder::new().spawn_scoped(s, load_sky).ok();
+            let sky = crate::threads::spawn_or_defer(s, || EnvironmentAssets::load(&preset.sky));
             let models = load_models(preset, &sources);
-            let sky = match sky {
-                Some(sky) => sky.join().unwrap_or_else(|p| std::panic::resume_unwind(p)),
-                None => load_sky(),
-            };
+            let sky = sky.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
             (models, sky)
         });
         let (models, lods) = models?;

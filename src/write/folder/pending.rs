@@ -100,26 +100,19 @@ impl Folder {
         };
         let parts: Vec<&[(String, Range<usize>)]> = pending.files.chunks(per.max(1)).collect();
         let results: Vec<Result<Vec<usize>, OutputError>> = std::thread::scope(|s| {
-            // A part whose thread the system refuses (`ulimit -u`) is created
-            // on this thread, in its turn (`Scope::spawn` panicked).
+            // A part whose thread the system refuses is created on this
+            // thread, in its turn.
             let others: Vec<_> = parts[1..]
                 .iter()
-                .map(|part| {
-                    std::thread::Builder::new()
-                        .spawn_scoped(s, move || create(part))
-                        .map_err(|_| part)
-                })
+                .map(|part| crate::threads::spawn_or_defer(s, move || create(part)))
                 .collect();
             let mut results = vec![create(parts[0])];
-            for handle in others {
-                results.push(match handle {
-                    Ok(handle) => handle.join().unwrap_or_else(|_| {
-                        Err(io(root)(std::io::Error::other(
-                            "a thread creating label files panicked",
-                        )))
-                    }),
-                    Err(part) => create(part),
-                });
+            for task in others {
+                results.push(task.join().unwrap_or_else(|_| {
+                    Err(io(root)(std::io::Error::other(
+                        "a thread creating label files panicked",
+                    )))
+                }));
             }
             results
         });
