@@ -71,6 +71,22 @@ pub fn read_input_file(path: &Path, max_bytes: u64) -> std::io::Result<Vec<u8>> 
     Ok(bytes)
 }
 
+/// Feed the content of a file the user named to `hasher`, opened and
+/// bounded as [`read_input_file`] reads it, in bounded memory (the run's
+/// record of what it read: `pipeline::inputs`). Returns its length.
+pub fn hash_input_file(
+    path: &Path,
+    max_bytes: u64,
+    hasher: &mut blake3::Hasher,
+) -> std::io::Result<u64> {
+    let (file, _) = open_input_file(path, max_bytes)?;
+    let len = std::io::copy(&mut file.take(max_bytes.saturating_add(1)), hasher)?;
+    if len > max_bytes {
+        return Err(too_large(len, max_bytes));
+    }
+    Ok(len)
+}
+
 /// What a file that is not a regular file is, for messages.
 pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
     #[cfg(unix)]

@@ -382,6 +382,53 @@ fn parents(document: &gltf::Document) -> Vec<Option<usize>> {
     parents
 }
 
+/// Every URI of `document`'s buffers and images (`data:` ones too), each
+/// with what it is and its index: buffers first, in the document's order.
+fn uris(document: &gltf::Document) -> impl Iterator<Item = (&'static str, usize, &str)> {
+    let buffer_uris = document.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(uri) => Some(("buffer", b.index(), uri)),
+        gltf::buffer::Source::Bin => None,
+    });
+    let image_uris = document.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some(("image", i.index(), uri)),
+        gltf::image::Source::View { .. } => None,
+    });
+    buffer_uris.chain(image_uris)
+}
+
+/// Feed the files the model at `path` is read from to `hasher`: the
+/// .gltf/.glb and each external buffer or image its URIs name, in the
+/// document's order. Called for a model that has loaded, so its URIs were
+/// checked against its policy; each file is read within the loader's bound.
+pub fn hash_sources(
+    path: &Path,
+    policy: UriPolicy,
+    hasher: &mut blake3::Hasher,
+) -> Result<(), ModelError> {
+    let io_err = |file: &Path| {
+        let file = file.to_owned();
+        move |source| ModelError::Io { file, source }
+    };
+    let bytes = crate::input::read_input_file(path, MAX_MODEL_FILE_BYTES).map_err(io_err(path))?;
+    hasher.update(&(bytes.len() as u64).to_le_bytes());
+    hasher.update(&bytes);
+    let parse = |e: gltf::Error| ModelError::Parse {
+        file: path.to_owned(),
+        reason: e.to_string(),
+    };
+    let document = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(parse)?
+        .document;
+    for (_, _, uri) in uris(&document) {
+        if let Ok(uri::Target::File(file)) = uri::resolve(uri, path.parent(), policy) {
+            let len = crate::input::hash_input_file(&file, MAX_MODEL_FILE_BYTES, hasher)
+                .map_err(io_err(&file))?;
+            hasher.update(&len.to_le_bytes());
+        }
+    }
+    Ok(())
+}
+
 /// Every buffer and image a .gltf names by a file URI must lie in the
 /// model's folder (unless `policy` allows more) and be a regular file of at
 /// most [`MAX_MODEL_FILE_BYTES`], checked before anything is read (a URI
@@ -392,15 +439,7 @@ fn check_external_files(
     file: &Path,
     policy: UriPolicy,
 ) -> Result<(), ModelError> {
-    let buffer_uris = document.buffers().filter_map(|b| match b.source() {
-        gltf::buffer::Source::Uri(uri) => Some(("buffer", b.index(), uri)),
-        gltf::buffer::Source::Bin => None,
-    });
-    let image_uris = document.images().filter_map(|i| match i.source() {
-        gltf::image::Source::Uri { uri, .. } => Some(("image", i.index(), uri)),
-        gltf::image::Source::View { .. } => None,
-    });
-    for (what, index, uri) in buffer_uris.chain(image_uris) {
+    for (what, index, uri) in uris(document) {
         let err = |problem: String| ModelError::Buffer {
             file: file.to_owned(),
             reason: format!("{what} {index} (URI \"{}\"): {problem}", short_uri(uri)),

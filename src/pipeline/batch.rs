@@ -303,7 +303,7 @@ pub fn run_batch(
         (None, true) => crate::write::folder::read_run(&options.out_dir)
             .ok()
             .flatten()
-            .map_or(1, |(run, _)| run.every),
+            .map_or(1, |earlier| earlier.run.every),
         (every, _) => every.unwrap_or(1).max(1),
     };
     // A run that keeps groups whole and holds too few, before the folder is touched.
@@ -324,6 +324,7 @@ pub fn run_batch(
             every: Some(every),
             labels_only: false,
             merge: false,
+            inputs: super::inputs::input_records(preset)?,
         },
     )?;
     let run = RunSpan {

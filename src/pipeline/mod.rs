@@ -17,6 +17,7 @@
 pub mod batch;
 mod camera;
 pub mod check;
+pub mod inputs;
 mod lens;
 mod overdraw;
 pub mod plan;

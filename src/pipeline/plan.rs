@@ -242,6 +242,7 @@ pub fn run_plan(
             shard: None,
             every: None,
             merge: false,
+            inputs: super::inputs::input_records(pipeline.preset())?,
         },
     )?;
     let first = writer.next_frame();

@@ -78,6 +78,17 @@ fn decode_rgb32f(file: &Path) -> Result<(u32, u32, Vec<f32>, bool), EnvironmentE
     decode_bytes(bytes, file)
 }
 
+/// Feed the bytes of the sky image `file` to `hasher`, read within the
+/// loader's bound.
+pub fn hash_sky_image(file: &Path, hasher: &mut blake3::Hasher) -> Result<(), EnvironmentError> {
+    crate::input::hash_input_file(file, MAX_SKY_FILE_BYTES, hasher)
+        .map(|_| ())
+        .map_err(|e| EnvironmentError::Image {
+            file: file.to_owned(),
+            reason: e.to_string(),
+        })
+}
+
 /// Decode an image's bytes (`file` names it in errors and hints its format).
 fn decode_bytes(
     bytes: Vec<u8>,

@@ -37,7 +37,8 @@ mod styles;
 pub use crate::preset::EnvironmentName;
 use crate::preset::{DEFAULT_HORIZON, DEFAULT_ZENITH, Sky};
 pub use image::{
-    EnvironmentAssets, EnvironmentError, MAX_SKY_SIDE, SkyImage, SkyImageKind, load_sky_image,
+    EnvironmentAssets, EnvironmentError, MAX_SKY_SIDE, SkyImage, SkyImageKind, hash_sky_image,
+    load_sky_image,
 };
 pub use preetham::{
     HAZE_TABLE, Lighting, Preetham, SKY_EXPOSURE, gradient_lighting, procedural_lighting,

@@ -209,12 +209,41 @@ pub fn plate_files(folder: &Path) -> Result<Vec<PathBuf>, PlateError> {
     Ok(files)
 }
 
+/// Where the sidecar of `plate` would be: `NAME.plate.ron` beside it.
+fn sidecar_path(plate: &Path) -> PathBuf {
+    let stem = plate.file_stem().unwrap_or_default().to_string_lossy();
+    plate.with_file_name(format!("{stem}.plate.ron"))
+}
+
+/// Feed the plates of `folder` to `hasher`: each plate's name and bytes,
+/// then its sidecar's when it has one, in file-name order. Called for a
+/// folder whose plates have loaded; each file is read within its bound.
+pub fn hash_folder(folder: &Path, hasher: &mut blake3::Hasher) -> Result<(), PlateError> {
+    for plate in plate_files(folder)? {
+        let sidecar = sidecar_path(&plate);
+        let with_sidecar = std::fs::symlink_metadata(&sidecar).is_ok();
+        let files = [(plate, MAX_PLATE_FILE_BYTES), (sidecar, MAX_SIDECAR_BYTES)];
+        for (file, max) in files.into_iter().take(1 + usize::from(with_sidecar)) {
+            let name = file.file_name().unwrap_or_default().as_encoded_bytes();
+            hasher.update(&(name.len() as u64).to_le_bytes());
+            hasher.update(name);
+            let len = crate::input::hash_input_file(&file, max, hasher).map_err(|e| {
+                PlateError::File {
+                    file: file.clone(),
+                    reason: e.to_string(),
+                }
+            })?;
+            hasher.update(&len.to_le_bytes());
+        }
+    }
+    Ok(())
+}
+
 /// The sidecar of `plate`, if there is one: checked like a plate
 /// ([`check_entry`]) before it is opened, so a link to a file elsewhere is
 /// refused without reading (or quoting) that file.
 fn read_sidecar(plate: &Path, real_folder: &Path) -> Result<Sidecar, PlateError> {
-    let stem = plate.file_stem().unwrap_or_default().to_string_lossy();
-    let path = plate.with_file_name(format!("{stem}.plate.ron"));
+    let path = sidecar_path(plate);
     let err = |reason: String| PlateError::File {
         file: path.clone(),
         reason,

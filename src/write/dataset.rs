@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use super::folder::{fnv1a64, tree};
+use super::folder::{InputRecord, fnv1a64, tree};
 use super::formats::{
     self, DatasetInfo, FormatWriter, FrameRecord, FrameTexts, TextContext, masks,
 };
@@ -23,7 +23,7 @@ use crate::scene::{FrameScene, SplitName};
 const LOCK_FILE: &str = "preset.lock.ron";
 
 /// How [`DatasetWriter::open`] treats the folder.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct WriterOptions {
     /// Frames this run makes; `None` (with `resume`) takes the locked run's count.
     pub frames: Option<u64>,
@@ -44,6 +44,9 @@ pub struct WriterOptions {
     pub labels_only: bool,
     /// A `swarmshot merge`: a refusal names no batch flags.
     pub merge: bool,
+    /// What the preset's input files hold (`pipeline::inputs`): recorded by
+    /// a new run, compared by a continued one.
+    pub inputs: Vec<InputRecord>,
 }
 
 /// What a labels-only plan appends to the locked preset's text before
@@ -181,6 +184,7 @@ impl DatasetWriter {
                 merge: options.merge,
             },
             &needed,
+            &options.inputs,
         )?;
         let (mut checkpoint, done) = match start {
             Start::Fresh => (Checkpoint::default(), false),

@@ -149,6 +149,19 @@ pub enum OutputError {
         path: PathBuf,
         problems: Vec<String>,
     },
+    #[error(
+        "output folder {} holds a run made from other input files: {} changed since it began (a model with the buffers and images it names, a backplate folder with every plate and sidecar){}; nothing was written; restore them, or pass --overwrite to make the run again from the files as they are now",
+        path.display(),
+        changed.join("; "),
+        if *merge { " (the shards were made from the files as they were)" } else { ", and continuing it would mix frames of both" }
+    )]
+    InputsChanged {
+        path: PathBuf,
+        /// Each input whose content differs, as [`folder::changed_inputs`] names it.
+        changed: Vec<String>,
+        /// A `swarmshot merge` found it.
+        merge: bool,
+    },
     #[error("frame {got} came before frame {expected}: frames are written in index order")]
     OutOfOrder { expected: u64, got: u64 },
     #[error("{}: {reason}", path.display())]

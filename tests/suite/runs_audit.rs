@@ -1,13 +1,16 @@
 //! Sequences of runs in one folder with different flags (`batch` with
 //! `--resume`, `--shard`, `--labels-only`, `--limit`, `--every`, and `merge`):
 //! a refusal changes nothing on disk and names the command that continues
-//! the earlier run, not only `--overwrite`, which deletes it.
+//! the earlier run, not only `--overwrite`, which deletes it; a run is
+//! continued, run again or merged only from the input files it began with.
 
 use crate::common;
 
 use std::path::Path;
 
 use common::cli::{batch, batch_args, err, jpeg_preset, ok, os};
+use swarmshot::preset::ModelSource;
+use swarmshot::preset::backplate::Backplate;
 
 /// Every entry under `dir` with its size and modification time (the lock
 /// file, which a refused run may take and give back, aside).
@@ -139,4 +142,135 @@ fn merge_into_a_folder_that_holds_the_whole_run_says_already_complete() {
         assert_eq!(listing(out), before, "{said}");
     }
     common::assert_same_dataset(&whole, &merged, "merge and batch");
+}
+
+/// A preset drawing `dir/BoxTextured.gltf`, a copy of the Khronos sample
+/// whose buffer and texture are files beside it.
+fn preset_with_model_files(dir: &Path) -> std::path::PathBuf {
+    let model = dir.join("model");
+    std::fs::create_dir(&model).expect("mkdir");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gltf/BoxTextured/glTF");
+    for f in ["BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"] {
+        std::fs::copy(sample.join(f), model.join(f)).expect("copy the model");
+    }
+    let mut p = jpeg_preset(1);
+    p.models[0].source = ModelSource::File(model.join("BoxTextured.gltf"));
+    common::preset_file(dir, &p, "model.ron")
+}
+
+/// A run killed at its second frame's checkpoint.
+fn killed_at_frame_1(preset: &Path, out: &Path, barrier: &Path) {
+    let mut child = common::cli::command(&batch_args(preset, out, &[]))
+        .env("SWARMSHOT_STALL_AT", "checkpoint:1")
+        .env("SWARMSHOT_STALL_UNTIL", barrier)
+        .spawn()
+        .expect("spawn");
+    let stalled = barrier.with_extension("stalled");
+    let start = std::time::Instant::now();
+    while !stalled.exists() {
+        assert!(start.elapsed().as_secs() < 120, "never stalled");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().expect("kill -9");
+    child.wait().expect("reaped");
+}
+
+/// A model file, one its URIs name, or a backplate replaced between a kill
+/// and `--resume` (or before a run again or a merge) made a dataset of both:
+/// the run identity was the locked preset, which holds only paths. The
+/// ledger records what the inputs held, and a run from other content is
+/// refused, changing nothing, naming the input.
+#[test]
+fn a_run_is_continued_only_from_the_input_files_it_began_with() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_with_model_files(tmp.path());
+    let texture = tmp.path().join("model/CesiumLogoFlat.png");
+    let original = std::fs::read(&texture).expect("texture");
+    let other_png =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/images/V_DRONE_001_f150.png");
+    let swap_texture = || std::fs::copy(&other_png, &texture).expect("swap the texture");
+    let restore = || std::fs::write(&texture, &original).expect("restore the texture");
+
+    // Killed, the texture swapped, then --resume: refused.
+    let out = tmp.path().join("out");
+    killed_at_frame_1(&preset, &out, &tmp.path().join("go"));
+    swap_texture();
+    let e = refused(&preset, &out, &["--resume"]);
+    assert!(
+        e.contains("made from other input files")
+            && e.contains("models ")
+            && e.contains("BoxTextured.gltf")
+            && e.contains("continuing it would mix frames of both"),
+        "{e}"
+    );
+    // The files as they were: it finishes as one run does.
+    restore();
+    batch(&preset, &out, &["--resume"]);
+    let whole = tmp.path().join("whole");
+    batch(&preset, &whole, &[]);
+    common::assert_same_dataset(&whole, &out, "resumed and whole");
+
+    // A finished run, run again from another buffer: refused; --overwrite remakes it.
+    let buffer = tmp.path().join("model/BoxTextured0.bin");
+    let mut bytes = std::fs::read(&buffer).expect("buffer");
+    bytes.push(0);
+    std::fs::write(&buffer, bytes).expect("change the buffer");
+    let e = refused(&preset, &whole, &[]);
+    assert!(
+        e.contains("BoxTextured.gltf") && e.contains("--overwrite"),
+        "{e}"
+    );
+    batch(&preset, &whole, &["--overwrite"]);
+    batch(&preset, &whole, &[]);
+
+    // Shards made from different files are not merged.
+    let shard = |k: u32| {
+        let dir = tmp.path().join(format!("shard{k}"));
+        batch(&preset, &dir, &["--shard", &format!("{k}/2")]);
+        dir
+    };
+    let first = shard(0);
+    swap_texture();
+    let second = shard(1);
+    let merged = tmp.path().join("merged");
+    let e = err(&[
+        os("merge"),
+        merged.as_os_str(),
+        first.as_os_str(),
+        second.as_os_str(),
+    ]);
+    assert!(
+        e.contains("made from other input files") && e.contains("BoxTextured.gltf"),
+        "{e}"
+    );
+    assert!(!merged.join("manifest.jsonl").exists(), "{e}");
+}
+
+/// A backplate added to the folder between a kill and `--resume` changes
+/// the plates a frame draws from: refused like a changed model.
+#[test]
+fn a_backplate_folder_changed_under_a_run_is_refused() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let plates = tmp.path().join("plates");
+    std::fs::create_dir(&plates).expect("mkdir");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/plates");
+    for f in ["V_DRONE_010.jpg", "V_DRONE_010.plate.ron"] {
+        std::fs::copy(data.join(f), plates.join(f)).expect("copy a plate");
+    }
+    let mut p = jpeg_preset(1);
+    p.backplate = Some(Backplate {
+        folder: plates.clone(),
+        ..Default::default()
+    });
+    let preset = common::preset_file(tmp.path(), &p, "plates.ron");
+    let out = tmp.path().join("out");
+    killed_at_frame_1(&preset, &out, &tmp.path().join("go"));
+    std::fs::copy(data.join("V_DRONE_050.jpg"), plates.join("V_DRONE_050.jpg")).expect("add");
+    let e = refused(&preset, &out, &["--resume"]);
+    assert!(
+        e.contains("backplate.folder") && e.contains("made from other input files"),
+        "{e}"
+    );
+    std::fs::remove_file(plates.join("V_DRONE_050.jpg")).expect("remove");
+    batch(&preset, &out, &["--resume"]);
 }

@@ -303,4 +303,52 @@ mod tests {
             );
         }
     }
+
+    #[test]
+    fn inputs_are_read_back_as_written_and_compared_by_content() {
+        let record = |field: &str, byte: char, path: &str| InputRecord {
+            field: field.into(),
+            blake3: byte.to_string().repeat(64),
+            path: path.into(),
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let run = RunId {
+            frames: 4,
+            preset_hash: 1,
+            shard: None,
+            every: 1,
+        };
+        let written = [
+            record("models", 'a', "m dir/m.glb"),
+            record("sky", 'b', "s.hdr"),
+        ];
+        let text: String = std::iter::once(run.header())
+            .chain(written.iter().map(InputRecord::line))
+            .collect();
+        fs::write(dir.path().join(LEDGER), text).expect("ledger");
+        let read = read_run(dir.path()).expect("read").expect("a run").inputs;
+        assert_eq!(read, written);
+        // The same content at other paths (a shard made elsewhere) matches.
+        let moved = [
+            record("models", 'a', "/x/m.glb"),
+            record("sky", 'b', "/x/s.hdr"),
+        ];
+        assert!(changed_inputs(&read, &moved).is_empty());
+        let changed = [
+            record("models", 'a', "m dir/m.glb"),
+            record("sky", 'c', "s.hdr"),
+        ];
+        assert_eq!(changed_inputs(&read, &changed), ["sky s.hdr"]);
+        assert_eq!(changed_inputs(&read, &changed[..1]).len(), 1);
+        // A ledger written before the record holds none: nothing to compare.
+        assert!(changed_inputs(&[], &changed).is_empty());
+        // A malformed record is named.
+        fs::write(
+            dir.path().join(LEDGER),
+            run.header() + "^sky blake3:zz s.hdr\n",
+        )
+        .expect("ledger");
+        let err = read_run(dir.path()).expect_err("refused").to_string();
+        assert!(err.contains("malformed input record"), "{err}");
+    }
 }

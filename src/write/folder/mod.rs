@@ -9,6 +9,7 @@
 //!
 //! ```text
 //! swarmshot-ledger 1 frames=120 preset=fnv1a64:0123456789abcdef   header: the run
+//! ^models blake3:… models/m.glb  an input the run read (written with the header)
 //! *preset.lock.ron            a dataset file or folder (`/` at the end) this run made
 //! +images/train/00000000.png  a file of the frame in flight
 //! ={"next":1,...}<TAB>fnv1a64:…  checkpoint: frames below `next` are complete (with its JSON's hash)
@@ -90,7 +91,9 @@ pub mod tree;
 pub use append::AppendFile;
 pub use content::{ContentRecord, content_record, content_records};
 pub use lock::FolderLock;
-pub use run::{RunId, ShardPlan, ShardRun, fnv1a64, read_run};
+pub use run::{
+    EarlierRun, InputRecord, RunId, ShardPlan, ShardRun, changed_inputs, fnv1a64, read_run,
+};
 use scan::LedgerScan;
 
 /// File name of the ledger in the dataset folder.

@@ -138,6 +138,7 @@ impl Folder {
         frames: Option<u64>,
         mode: OpenMode,
         needed: &[String],
+        inputs: &[InputRecord],
     ) -> Result<(Self, Start, RunId), OutputError> {
         if mode.overwrite && mode.resume {
             return Err(OutputError::Conflict);
@@ -189,7 +190,7 @@ impl Folder {
             };
             preflight(&mut tree, needed, &HashSet::new())?;
             frame_names_free(&mut tree, needed, &HashSet::new())?;
-            return Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run));
+            return Ok((Self::fresh(tree, run, lock, inputs)?, Start::Fresh, run));
         };
         preflight(&mut tree, needed, &scan.owned)?;
         frame_names_free(&mut tree, needed, &scan.frame_files)?;
@@ -201,6 +202,14 @@ impl Folder {
             every: mode.every.unwrap_or(scan.run.every).max(1),
         };
         if scan.run == run && !mode.overwrite {
+            let changed = changed_inputs(&scan.inputs, inputs);
+            if !changed.is_empty() {
+                return Err(OutputError::InputsChanged {
+                    path: root.to_owned(),
+                    changed,
+                    merge: mode.merge,
+                });
+            }
             if scan.done {
                 finished_files_intact(&mut tree, &scan)?;
             }
@@ -226,18 +235,25 @@ impl Folder {
             });
         }
         Self::delete_run(&mut tree)?;
-        Ok((Self::fresh(tree, run, lock)?, Start::Fresh, run))
+        Ok((Self::fresh(tree, run, lock, inputs)?, Start::Fresh, run))
     }
 
-    /// A new ledger holding only the header.
-    fn fresh(mut tree: Tree, run: RunId, lock: FolderLock) -> Result<Self, OutputError> {
+    /// A new ledger holding only the header and the run's inputs.
+    fn fresh(
+        mut tree: Tree,
+        run: RunId,
+        lock: FolderLock,
+        inputs: &[InputRecord],
+    ) -> Result<Self, OutputError> {
         if tree.lstat(LEDGER)?.is_some() {
             return Err(refused(
                 tree.root().join(LEDGER),
                 "exists although no earlier run was found; remove it by hand",
             ));
         }
-        write_new_then_rename(&mut tree, LEDGER, run.header().as_bytes(), false)?;
+        let mut head = run.header();
+        head.extend(inputs.iter().map(InputRecord::line));
+        write_new_then_rename(&mut tree, LEDGER, head.as_bytes(), false)?;
         let ledger = tree.open_file(LEDGER, true)?;
         Ok(Self {
             root: tree.root().to_owned(),

@@ -1,4 +1,5 @@
-//! What a run is ([`RunId`]): the ledger's header line, written and read.
+//! What a run is ([`RunId`]): the ledger's header line, written and read;
+//! and what it read ([`InputRecord`]): the records after the header.
 
 use super::*;
 
@@ -131,13 +132,88 @@ impl RunId {
     }
 }
 
+/// One file or folder the run's preset reads (`Preset::input_paths`), as
+/// the run recorded it in its ledger (`^FIELD blake3:HEX PATH`, after the
+/// header): a run is continued, finished again or merged only from inputs
+/// of the same content, so a model, sky or plate replaced between a kill
+/// and `--resume` cannot leave a dataset made of both.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InputRecord {
+    /// The preset field naming it (`models`, `sky`, `backplate.folder`).
+    pub field: String,
+    /// BLAKE3 of its content, hex (a model with the files its URIs name; a
+    /// backplate folder with every plate and sidecar and their names).
+    pub blake3: String,
+    /// Its path as this run named it, for messages (never compared: shards
+    /// made on other machines read the same files at other paths).
+    pub path: String,
+}
+
+impl InputRecord {
+    /// Its ledger line.
+    pub(super) fn line(&self) -> String {
+        let path = crate::text::printable(&self.path);
+        format!("^{} blake3:{} {path}\n", self.field, self.blake3)
+    }
+
+    /// The record a ledger line holds after its `^`.
+    pub(super) fn parse(text: &str) -> Option<Self> {
+        let (field, rest) = text.split_once(' ')?;
+        let (hash, path) = rest.split_once(' ')?;
+        let blake3 = hash.strip_prefix("blake3:")?;
+        let hex = blake3.len() == 64 && blake3.bytes().all(|b| b.is_ascii_hexdigit());
+        (hex && !field.is_empty()).then(|| Self {
+            field: field.to_owned(),
+            blake3: blake3.to_owned(),
+            path: path.to_owned(),
+        })
+    }
+}
+
+/// How the inputs `now` differ from those an earlier run recorded, one
+/// phrase each; empty when they match or `earlier` recorded none (a ledger
+/// written before the record).
+pub fn changed_inputs(earlier: &[InputRecord], now: &[InputRecord]) -> Vec<String> {
+    if earlier.is_empty() {
+        return Vec::new();
+    }
+    if earlier.len() != now.len() {
+        return vec![format!(
+            "the preset reads {} files or folders, the run read {}",
+            now.len(),
+            earlier.len()
+        )];
+    }
+    (earlier.iter().zip(now))
+        .filter(|(e, n)| e.field != n.field || e.blake3 != n.blake3)
+        .map(|(e, n)| match e.path == n.path {
+            true => format!("{} {}", n.field, n.path),
+            false => format!("{} {} (the run read {})", n.field, n.path, e.path),
+        })
+        .collect()
+}
+
+/// What a folder's ledger says of the run that wrote it.
+#[derive(Clone, Debug)]
+pub struct EarlierRun {
+    pub run: RunId,
+    /// The run finished (its done mark is trusted).
+    pub done: bool,
+    /// What it recorded of its inputs (none: a ledger written before the record).
+    pub inputs: Vec<InputRecord>,
+}
+
 /// What the ledger of `root` says the run is (`None`: no ledger).
-pub fn read_run(root: &Path) -> Result<Option<(RunId, bool)>, OutputError> {
+pub fn read_run(root: &Path) -> Result<Option<EarlierRun>, OutputError> {
     if lstat(&root.join(LEDGER))?.is_none() {
         return Ok(None);
     }
     let scan = Folder::scan(root)?;
-    Ok(Some((scan.run, scan.done)))
+    Ok(Some(EarlierRun {
+        run: scan.run,
+        done: scan.done,
+        inputs: scan.inputs,
+    }))
 }
 
 /// FNV-1a, 64 bit: a stable hash of the locked preset's text.

@@ -6,6 +6,9 @@ use super::*;
 /// What a ledger says, read from disk.
 pub(super) struct LedgerScan {
     pub(super) run: RunId,
+    /// The inputs the run recorded (the `^` lines after the header; none in
+    /// a ledger written before the record).
+    pub(super) inputs: Vec<InputRecord>,
     /// Valid bytes: everything up to the last complete line.
     pub(super) prefix_len: usize,
     /// Byte offset just after the last trusted checkpoint (or the header).
@@ -67,17 +70,28 @@ impl Folder {
         let header = lines.next().ok_or_else(|| corrupt("it is empty"))?;
         let run = RunId::parse(header.trim_end())
             .ok_or_else(|| corrupt("its first line is not a swarmshot-ledger 1 header"))?;
+        // The inputs' records, written with the header, belong to it.
+        let mut inputs = Vec::new();
+        let mut offset = header.len();
+        let mut lines = lines.peekable();
+        while let Some(line) = lines.next_if(|l| l.starts_with('^')) {
+            offset += line.len();
+            let record = line.trim_end_matches('\n');
+            inputs.push(InputRecord::parse(&record[1..]).ok_or_else(|| {
+                corrupt(&format!("it holds a malformed input record {record:?}"))
+            })?);
+        }
         let mut scan = LedgerScan {
             run,
+            inputs,
             prefix_len,
-            good_end: header.len(),
+            good_end: offset,
             checkpoint: None,
             done: false,
             owned: HashSet::new(),
             frame_files: HashSet::new(),
             later_claims: Vec::new(),
         };
-        let mut offset = header.len();
         let mut frame_files: Vec<String> = Vec::new();
         let mut broken = false;
         for line in lines {

@@ -29,8 +29,8 @@ use std::collections::BTreeMap;
 use crate::preset::Preset;
 use crate::write::folder::tree::Tree;
 use crate::write::folder::{
-    ContentRecord, Folder, LEDGER, content_record, content_records, fnv1a64, is_working_file,
-    read_run,
+    ContentRecord, EarlierRun, Folder, InputRecord, LEDGER, changed_inputs, content_record,
+    content_records, fnv1a64, is_working_file, read_run,
 };
 use crate::write::{DatasetStats, DatasetWriter, OutputError, ShardRun, WriterOptions};
 
@@ -147,6 +147,8 @@ struct ShardDir {
     run: ShardRun,
     frames: u64,
     preset_hash: u64,
+    /// What its run recorded of its inputs (none: made before the record).
+    inputs: Vec<InputRecord>,
 }
 
 /// Merge the finished shards `shards` into `out` (created if missing;
@@ -161,6 +163,8 @@ pub fn merge(
 ) -> Result<MergeReport, MergeError> {
     let mut dirs = read_shards(shards)?;
     let first = dirs.first().ok_or(MergeError::NoShards)?;
+    // Shards made before the inputs' record hold none, and are not compared.
+    let recorded = dirs.iter().find(|d| !d.inputs.is_empty()).unwrap_or(first);
     for d in &dirs[1..] {
         let what = if d.preset_hash != first.preset_hash {
             "their preset.lock.ron differ".to_owned()
@@ -171,6 +175,15 @@ pub fn merge(
                 "cut in {} and {} shards",
                 first.run.shard.count, d.run.shard.count
             )
+        } else if let changed = changed_inputs(&recorded.inputs, &d.inputs)
+            && !d.inputs.is_empty()
+            && !changed.is_empty()
+        {
+            let (a, b) = (recorded.path.display(), d.path.display());
+            format!(
+                "made from other input files: {} (in {b}, against {a})",
+                changed.join("; ")
+            )
         } else {
             continue;
         };
@@ -180,6 +193,7 @@ pub fn merge(
             what,
         });
     }
+    let inputs = recorded.inputs.clone();
     dirs.sort_by_key(|d| d.run.shard.index);
     for w in dirs.windows(2) {
         if w[0].run.shard.index == w[1].run.shard.index {
@@ -212,6 +226,7 @@ pub fn merge(
             every: Some(1),
             labels_only: false,
             merge: true,
+            inputs,
         },
     )?;
     let resumed_at = writer.next_frame();
@@ -252,7 +267,7 @@ fn read_shards(shards: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
             path: path.clone(),
             reason: reason.into(),
         };
-        let Some((run, done)) = read_run(path)? else {
+        let Some(EarlierRun { run, done, inputs }) = read_run(path)? else {
             return Err(not(&format!("it holds no swarmshot run (no {LEDGER})")));
         };
         let Some(shard) = run.shard else {
@@ -271,6 +286,7 @@ fn read_shards(shards: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
             run: shard,
             frames: run.frames,
             preset_hash: run.preset_hash,
+            inputs,
         });
     }
     Ok(dirs)
