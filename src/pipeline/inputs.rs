@@ -8,15 +8,27 @@ use std::path::Path;
 
 use super::PipelineError;
 use crate::model::{self, UriPolicy};
-use crate::preset::{ModelSource, Preset};
-use crate::write::folder::InputRecord;
+use crate::preset::{FieldError, ModelSource, Preset};
+use crate::write::folder::{InputRecord, MAX_INPUT_RECORDS};
 
-/// The records of every input of `preset`, in [`Preset::input_paths`]
-/// order. Called after the pipeline loaded them, so each exists and passed
-/// its loader's checks; each file is read again within its loader's bound,
-/// in bounded memory.
+/// The records of every input of `preset`, each file or folder once, in
+/// [`Preset::input_paths`] order. Called after the pipeline loaded them, so
+/// each exists and passed its loader's checks; each file is read again
+/// within its loader's bound, in bounded memory.
 pub fn input_records(preset: &Preset) -> Result<Vec<InputRecord>, PipelineError> {
-    (preset.input_paths().into_iter())
+    let mut inputs = preset.input_paths();
+    let mut seen = std::collections::HashSet::new();
+    inputs.retain(|input| seen.insert(*input));
+    if inputs.len() > MAX_INPUT_RECORDS {
+        return Err(PipelineError::Invalid(vec![FieldError {
+            field: inputs[MAX_INPUT_RECORDS].0.to_owned(),
+            message: format!(
+                "the preset names {} model files, sky images and backplate folders, more than the {MAX_INPUT_RECORDS} a run records in its ledger",
+                inputs.len()
+            ),
+        }]));
+    }
+    (inputs.into_iter())
         .map(|(field, path)| {
             let mut hasher = blake3::Hasher::new();
             match field {
@@ -24,11 +36,11 @@ pub fn input_records(preset: &Preset) -> Result<Vec<InputRecord>, PipelineError>
                 "backplate.folder" => crate::sky::plates::hash_folder(path, &mut hasher)?,
                 _ => crate::sky::hash_sky_image(path, &mut hasher)?,
             }
-            Ok(InputRecord {
-                field: field.to_owned(),
-                blake3: hasher.finalize().to_hex().to_string(),
-                path: path.display().to_string(),
-            })
+            Ok(InputRecord::new(
+                field,
+                hasher.finalize().to_hex().to_string(),
+                path,
+            ))
         })
         .collect()
 }
@@ -39,5 +51,31 @@ fn uri_policy(preset: &Preset, path: &Path) -> UriPolicy {
         (preset.models.iter()).find(|m| matches!(&m.source, ModelSource::File(p) if p == path));
     UriPolicy {
         allow_outside_folder: spec.is_some_and(|m| m.allow_uris_outside_folder),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::preset::ModelSpec;
+
+    #[test]
+    fn each_input_is_recorded_once_and_too_many_are_refused_before_any_is_read() {
+        let mut preset = Preset::default();
+        let spec = preset.models[0].clone();
+        let file = |i: usize| ModelSpec {
+            source: ModelSource::File(format!("missing/m{i}.glb").into()),
+            ..spec.clone()
+        };
+        preset.models = (0..=MAX_INPUT_RECORDS).map(file).collect();
+        let err = input_records(&preset).expect_err("refused").to_string();
+        assert!(
+            err.contains("models: the preset names 4097 model files") && err.contains("4096"),
+            "{err}"
+        );
+        // The same file named again is one input (here read, and missing).
+        preset.models = vec![file(0); MAX_INPUT_RECORDS + 1];
+        let err = input_records(&preset).expect_err("missing").to_string();
+        assert!(err.contains("missing/m0.glb"), "{err}");
     }
 }

@@ -18,10 +18,13 @@ const LEDGER_HEADER_BYTES: u64 = 4 << 10;
 /// what any run writes, so a larger file was not written by swarmshot.
 pub(super) const LEDGER_BYTES_PER_FRAME: u64 = 1 << 20;
 
+/// The most bytes a ledger's input records take (`^` lines after the header).
+const LEDGER_INPUTS_BYTES: u64 = run::MAX_INPUT_RECORDS as u64 * run::INPUT_RECORD_BYTES;
+
 /// The whole ledger `file` (at `path`), read within the bound of its run: at
-/// most [`LEDGER_HEADER_BYTES`] plus [`LEDGER_BYTES_PER_FRAME`] for each frame
-/// the header's run makes, and one more (for a ledger whose header names no
-/// run, refused by its reader). A larger ledger is refused by name and size
+/// most [`LEDGER_HEADER_BYTES`] and [`LEDGER_INPUTS_BYTES`] plus
+/// [`LEDGER_BYTES_PER_FRAME`] for each frame the header's run makes, and one
+/// more (for a ledger whose header names no run, refused by its reader). A larger ledger is refused by name and size
 /// before it is read, so no ledger makes a read grow without end.
 pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputError> {
     use std::io::BufRead;
@@ -40,7 +43,7 @@ pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputErro
                 .saturating_sub(run.start())
                 .div_ceil(run.every.max(1))
         });
-    let cap = LEDGER_HEADER_BYTES.saturating_add(
+    let cap = (LEDGER_HEADER_BYTES + LEDGER_INPUTS_BYTES).saturating_add(
         frames
             .saturating_add(1)
             .saturating_mul(LEDGER_BYTES_PER_FRAME),
@@ -278,7 +281,7 @@ mod tests {
 
     #[test]
     fn a_ledger_larger_than_its_run_can_write_is_refused_unread() {
-        let cap = LEDGER_HEADER_BYTES + 3 * LEDGER_BYTES_PER_FRAME;
+        let cap = LEDGER_HEADER_BYTES + LEDGER_INPUTS_BYTES + 3 * LEDGER_BYTES_PER_FRAME;
         // Within the bound: read (no content records, one claim).
         let dir = ledger_of(0);
         assert!(content_records(dir.path()).expect("records").is_empty());
@@ -342,6 +345,10 @@ mod tests {
         assert_eq!(changed_inputs(&read, &changed[..1]).len(), 1);
         // A ledger written before the record holds none: nothing to compare.
         assert!(changed_inputs(&[], &changed).is_empty());
+        // A record's path is cut for its line's bound (a newline escaped).
+        let long = InputRecord::new("models", "a".repeat(64), Path::new(&"\n".repeat(900)));
+        assert!(long.line().len() as u64 <= run::INPUT_RECORD_BYTES);
+        assert_eq!(long.line().matches('\n').count(), 1, "{}", long.line());
         // A malformed record is named.
         fs::write(
             dir.path().join(LEDGER),

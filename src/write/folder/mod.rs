@@ -92,7 +92,8 @@ pub use append::AppendFile;
 pub use content::{ContentRecord, content_record, content_records};
 pub use lock::FolderLock;
 pub use run::{
-    EarlierRun, InputRecord, RunId, ShardPlan, ShardRun, changed_inputs, fnv1a64, read_run,
+    EarlierRun, InputRecord, MAX_INPUT_RECORDS, RunId, ShardPlan, ShardRun, changed_inputs,
+    fnv1a64, read_run,
 };
 use scan::LedgerScan;
 

@@ -149,11 +149,34 @@ pub struct InputRecord {
     pub path: String,
 }
 
+/// The most inputs a run records (each model file, sky image and backplate
+/// folder once); a preset naming more is refused.
+pub const MAX_INPUT_RECORDS: usize = 4096;
+
+/// The most characters of an input's path a record keeps (it is for messages).
+const RECORD_PATH_CHARS: usize = 240;
+
+/// The most bytes an input record's line takes: its field, hash and path
+/// (each path character at most a 10-byte escape).
+pub(super) const INPUT_RECORD_BYTES: u64 = 128 + 10 * RECORD_PATH_CHARS as u64;
+
 impl InputRecord {
+    /// The record of the input `field` at `path` whose content hashed to `blake3`.
+    pub fn new(field: &str, blake3: String, path: &Path) -> Self {
+        let path = crate::text::printable(&path.to_string_lossy());
+        Self {
+            field: field.to_owned(),
+            blake3,
+            path: match path.char_indices().nth(RECORD_PATH_CHARS) {
+                Some((end, _)) => format!("{}…", &path[..end]),
+                None => path,
+            },
+        }
+    }
+
     /// Its ledger line.
     pub(super) fn line(&self) -> String {
-        let path = crate::text::printable(&self.path);
-        format!("^{} blake3:{} {path}\n", self.field, self.blake3)
+        format!("^{} blake3:{} {}\n", self.field, self.blake3, self.path)
     }
 
     /// The record a ledger line holds after its `^`.
