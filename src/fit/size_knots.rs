@@ -8,7 +8,7 @@
 //! uniform `size_px` range the first time), each inner knot's px × the real cores'
 //! decile ÷ the synthetic cores' decile at its quantile (within ×5 or ÷5; the core grows
 //! with the apparent size, so the quantiles map onto each other), the ends × their
-//! neighbour's ratio; then px made non-falling, `size_px` set to the ends and the volume
+//! neighbour's ratio; then px made non-falling (a falling run pooled to its mean: [`non_falling`]), `size_px` set to the ends and the volume
 //! scaled with the nearest distance as the visible fit does. Without `size_px` (a
 //! distance range) the visible fit's [`adjust_size`] moves the distances.
 
@@ -81,16 +81,15 @@ pub fn adjust(preset: &mut Preset, report: &Report, changes: &mut Vec<String>) {
 }
 
 /// The knots at [`QUANTILES`]: the px `now` gives at each quantile × the real ÷ the
-/// synthetic cores' decile there (sorted `real` and `syn`, `syn` not empty), made
-/// non-falling within [0.5, `max_px`] (module docs).
+/// synthetic cores' decile there (sorted `real` and `syn`, `syn` not empty), within
+/// [0.5, `max_px`], made non-falling by pooling (module docs).
 fn moved_knots(
     now: impl Fn(f64) -> f64,
     real: &[f64],
     syn: &[f64],
     max_px: f64,
 ) -> Vec<(f64, f64)> {
-    let mut floor: f64 = 0.5;
-    (QUANTILES.iter())
+    let wanted: Vec<f64> = (QUANTILES.iter())
         .map(|&q| {
             let d = q.clamp(0.1, 0.9);
             let (r, s) = (
@@ -102,9 +101,39 @@ fn moved_knots(
             } else {
                 MAX_RATIO
             };
-            floor = r3((now(q) * k).max(floor).min(max_px.max(floor)));
-            (q, floor)
+            (now(q) * k).clamp(0.5, max_px.max(0.5))
         })
+        .collect();
+    (QUANTILES.iter().zip(non_falling(&wanted)))
+        .map(|(&q, px)| (q, r3(px)))
+        .collect()
+}
+
+/// The non-falling sequence nearest `v` (least squares): each run of values that
+/// falls is replaced by its mean (pool adjacent violators). Raising a knot to its
+/// lower neighbour instead kept the small end from shrinking whenever one decile
+/// asked for it and the decile below did not: at one apparent size the cores spread
+/// with the drone's attitude, so neighbouring deciles can ask for opposite moves.
+fn non_falling(v: &[f64]) -> Vec<f64> {
+    // (mean, count) of each pooled block.
+    let mut blocks: Vec<(f64, usize)> = Vec::with_capacity(v.len());
+    for &x in v {
+        let mut block = (x, 1);
+        while let Some(&(mean, n)) = blocks.last() {
+            if mean <= block.0 {
+                break;
+            }
+            blocks.pop();
+            let total = n + block.1;
+            block = (
+                (mean * n as f64 + block.0 * block.1 as f64) / total as f64,
+                total,
+            );
+        }
+        blocks.push(block);
+    }
+    (blocks.into_iter())
+        .flat_map(|(mean, n)| std::iter::repeat_n(mean, n))
         .collect()
 }
 
@@ -141,6 +170,13 @@ mod tests {
     /// 40–90 px; log-uniform within each): from a uniform 16–70 px range, four rounds of the decile rule bring the
     /// synthetic cores' share under 6 px within 4 points and their median within 5 % of
     /// the real ones (simulated cores; rendering frames would take minutes).
+    #[test]
+    fn falling_runs_are_pooled_to_their_mean() {
+        assert_eq!(non_falling(&[1.0, 3.0, 2.0, 4.0]), [1.0, 2.5, 2.5, 4.0]);
+        assert_eq!(non_falling(&[5.0, 1.0, 0.0]), [2.0, 2.0, 2.0]);
+        assert_eq!(non_falling(&[1.0, 2.0, 2.0]), [1.0, 2.0, 2.0]);
+    }
+
     #[test]
     fn the_deciles_recover_a_two_population_mix() {
         let truth = [(0.0, 6.0), (0.2, 20.0), (0.25, 40.0), (1.0, 90.0)];
