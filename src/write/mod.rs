@@ -150,10 +150,12 @@ pub enum OutputError {
         problems: Vec<String>,
     },
     #[error(
-        "output folder {} holds a run made from other input files: {} changed since it began (a model with the buffers and images it names, a backplate folder with every plate and sidecar){}; nothing was written; restore them, or pass --overwrite to make the run again from the files as they are now",
+        "output folder {} holds a run made from other input files{}: {} (a model with the buffers and images it names, a backplate folder with every plate and sidecar){}; nothing was written; {}",
         path.display(),
+        if *merge { " than the shards" } else { "" },
         changed.join("; "),
-        if *merge { " (the shards were made from the files as they were)" } else { ", and continuing it would mix frames of both" }
+        if *merge { " differ" } else { " changed since it began, and continuing it would mix frames of both" },
+        if *merge { "merge into another folder, or pass --overwrite to replace that run with the shards" } else { "restore them, or pass --overwrite to make the run again from the files as they are now" }
     )]
     InputsChanged {
         path: PathBuf,

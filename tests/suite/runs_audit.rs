@@ -244,6 +244,21 @@ fn a_run_is_continued_only_from_the_input_files_it_began_with() {
         "{e}"
     );
     assert!(!merged.join("manifest.jsonl").exists(), "{e}");
+    // Shards of one content merged into a run made from another: refused.
+    std::fs::remove_dir_all(&first).expect("rm");
+    let first = shard(0);
+    let before = listing(&whole);
+    let e = err(&[
+        os("merge"),
+        whole.as_os_str(),
+        first.as_os_str(),
+        second.as_os_str(),
+    ]);
+    assert!(
+        e.contains("made from other input files than the shards") && e.contains("--overwrite"),
+        "{e}"
+    );
+    assert_eq!(listing(&whole), before, "{e}");
 }
 
 /// A backplate added to the folder between a kill and `--resume` changes
