@@ -160,8 +160,13 @@ fn preset_with_model_files(dir: &Path) -> std::path::PathBuf {
 
 /// A run killed at its second frame's checkpoint.
 fn killed_at_frame_1(preset: &Path, out: &Path, barrier: &Path) {
-    let mut child = common::cli::command(&batch_args(preset, out, &[]))
-        .env("SWARMSHOT_STALL_AT", "checkpoint:1")
+    killed_at(preset, out, barrier, "checkpoint:1", &[]);
+}
+
+/// A run (`batch … EXTRA`) killed at the test hook's `point`; `barrier` is new.
+fn killed_at(preset: &Path, out: &Path, barrier: &Path, point: &str, extra: &[&str]) {
+    let mut child = common::cli::command(&batch_args(preset, out, extra))
+        .env("SWARMSHOT_STALL_AT", point)
         .env("SWARMSHOT_STALL_UNTIL", barrier)
         .spawn()
         .expect("spawn");
@@ -288,4 +293,43 @@ fn a_backplate_folder_changed_under_a_run_is_refused() {
     );
     std::fs::remove_file(plates.join("V_DRONE_050.jpg")).expect("remove");
     batch(&preset, &out, &["--resume"]);
+}
+
+/// A ledger that records no inputs (written by a swarmshot before the
+/// record) is continued as before, and records them from then on.
+#[test]
+fn a_run_whose_ledger_records_no_inputs_records_them_when_continued() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let preset = preset_with_model_files(tmp.path());
+    let out = tmp.path().join("out");
+    killed_at_frame_1(&preset, &out, &tmp.path().join("go1"));
+    let ledger = out.join(".swarmshot-ledger");
+    let text = std::fs::read_to_string(&ledger).expect("ledger");
+    let old: String = (text.split_inclusive('\n'))
+        .filter(|line| !line.starts_with('^'))
+        .collect();
+    assert!(old.len() < text.len(), "no records in {text}");
+    std::fs::write(&ledger, old).expect("an older ledger");
+    killed_at(
+        &preset,
+        &out,
+        &tmp.path().join("go2"),
+        "checkpoint:2",
+        &["--resume"],
+    );
+    let text = std::fs::read_to_string(&ledger).expect("ledger");
+    let second = text.lines().nth(1).unwrap_or_default();
+    assert!(second.starts_with("^models blake3:"), "{text}");
+    let texture = tmp.path().join("model/CesiumLogoFlat.png");
+    let original = std::fs::read(&texture).expect("texture");
+    let other_png =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/images/V_DRONE_001_f150.png");
+    std::fs::copy(other_png, &texture).expect("swap the texture");
+    let e = refused(&preset, &out, &["--resume"]);
+    assert!(e.contains("made from other input files"), "{e}");
+    std::fs::write(&texture, original).expect("restore");
+    batch(&preset, &out, &["--resume"]);
+    let whole = tmp.path().join("whole");
+    batch(&preset, &whole, &[]);
+    common::assert_same_dataset(&whole, &out, "resumed and whole");
 }

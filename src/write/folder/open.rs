@@ -213,7 +213,7 @@ impl Folder {
             if scan.done {
                 finished_files_intact(&mut tree, &scan)?;
             }
-            let folder = Self::continue_from(tree, &scan, lock)?;
+            let folder = Self::continue_from(tree, &scan, lock, inputs)?;
             let start = match scan.checkpoint {
                 Some(checkpoint) => Start::Resume {
                     checkpoint: Box::new(checkpoint),
@@ -270,16 +270,25 @@ impl Folder {
     }
 
     /// Cut the ledger back to its last trusted checkpoint (keeping every
-    /// claim after it) and open it to append.
+    /// claim after it) and open it to append. An unfinished run whose
+    /// ledger records no inputs (written before the record, or left by an
+    /// interrupted `--overwrite`) records `inputs` from here on, so the rest
+    /// of it is continued only from them.
     fn continue_from(
         mut tree: Tree,
         scan: &LedgerScan,
         lock: FolderLock,
+        inputs: &[InputRecord],
     ) -> Result<Self, OutputError> {
         let path = tree.root().join(LEDGER);
         let bytes = super::ledger::read_ledger(tree.open_file(LEDGER, false)?, &path)?;
-        if scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
-            let mut text = bytes[..scan.good_end].to_vec();
+        let record = scan.inputs.is_empty() && !scan.done && !inputs.is_empty();
+        if record || scan.good_end != bytes.len() || scan.prefix_len != bytes.len() {
+            let mut text = bytes[..scan.head_len].to_vec();
+            if record {
+                text.extend(inputs.iter().flat_map(|r| r.line().into_bytes()));
+            }
+            text.extend_from_slice(&bytes[scan.head_len..scan.good_end]);
             for claim in &scan.later_claims {
                 text.extend_from_slice(claim.as_bytes());
                 text.push(b'\n');

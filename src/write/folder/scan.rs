@@ -9,6 +9,8 @@ pub(super) struct LedgerScan {
     /// The inputs the run recorded (the `^` lines after the header; none in
     /// a ledger written before the record).
     pub(super) inputs: Vec<InputRecord>,
+    /// Bytes of the header and the input records.
+    pub(super) head_len: usize,
     /// Valid bytes: everything up to the last complete line.
     pub(super) prefix_len: usize,
     /// Byte offset just after the last trusted checkpoint (or the header).
@@ -84,6 +86,7 @@ impl Folder {
         let mut scan = LedgerScan {
             run,
             inputs,
+            head_len: offset,
             prefix_len,
             good_end: offset,
             checkpoint: None,
