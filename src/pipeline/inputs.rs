@@ -4,24 +4,22 @@
 //! finished again or merged from files that changed since it began is
 //! refused before anything is written (docs/reliability.md).
 
-use std::path::Path;
-
 use super::PipelineError;
 use crate::model::{self, UriPolicy};
-use crate::preset::{FieldError, ModelSource, Preset};
+use crate::preset::{FieldError, Input, Preset};
 use crate::write::folder::{InputRecord, MAX_INPUT_RECORDS};
 
 /// The records of every input of `preset`, each file or folder once, in
-/// [`Preset::input_paths`] order. Called after the pipeline loaded them, so
+/// [`Preset::inputs`] order. Called after the pipeline loaded them, so
 /// each exists and passed its loader's checks; each file is read again
 /// within its loader's bound, in bounded memory.
 pub fn input_records(preset: &Preset) -> Result<Vec<InputRecord>, PipelineError> {
-    let mut inputs = preset.input_paths();
+    let mut inputs = preset.inputs();
     let mut seen = std::collections::HashSet::new();
-    inputs.retain(|input| seen.insert(*input));
+    inputs.retain(|input| seen.insert((input.field(), input.path())));
     if inputs.len() > MAX_INPUT_RECORDS {
         return Err(PipelineError::Invalid(vec![FieldError {
-            field: inputs[MAX_INPUT_RECORDS].0.to_owned(),
+            field: inputs[MAX_INPUT_RECORDS].field().to_owned(),
             message: format!(
                 "the preset names {} model files, sky images and backplate folders, more than the {MAX_INPUT_RECORDS} a run records in its ledger",
                 inputs.len()
@@ -29,35 +27,28 @@ pub fn input_records(preset: &Preset) -> Result<Vec<InputRecord>, PipelineError>
         }]));
     }
     (inputs.into_iter())
-        .map(|(field, path)| {
+        .map(|input| {
             let mut hasher = blake3::Hasher::new();
-            match field {
-                "models" => model::hash_sources(path, uri_policy(preset, path), &mut hasher)?,
-                "backplate.folder" => crate::sky::plates::hash_folder(path, &mut hasher)?,
-                _ => crate::sky::hash_sky_image(path, &mut hasher)?,
+            match input {
+                Input::Model(spec, path) => {
+                    let policy = UriPolicy {
+                        allow_outside_folder: spec.allow_uris_outside_folder,
+                    };
+                    model::hash_sources(path, policy, &mut hasher)?;
+                }
+                Input::Backplate(path) => crate::sky::plates::hash_folder(path, &mut hasher)?,
+                Input::Sky(path) => crate::sky::hash_sky_image(path, &mut hasher)?,
             }
-            Ok(InputRecord::new(
-                field,
-                hasher.finalize().to_hex().to_string(),
-                path,
-            ))
+            let hash = hasher.finalize().to_hex().to_string();
+            Ok(InputRecord::new(input.field(), hash, input.path()))
         })
         .collect()
-}
-
-/// The URI policy the preset gives the model file at `path`.
-fn uri_policy(preset: &Preset, path: &Path) -> UriPolicy {
-    let spec =
-        (preset.models.iter()).find(|m| matches!(&m.source, ModelSource::File(p) if p == path));
-    UriPolicy {
-        allow_outside_folder: spec.is_some_and(|m| m.allow_uris_outside_folder),
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::preset::ModelSpec;
+    use crate::preset::{ModelSource, ModelSpec};
 
     #[test]
     fn each_input_is_recorded_once_and_too_many_are_refused_before_any_is_read() {

@@ -135,6 +135,34 @@ pub struct Preset {
     pub written_paths: WrittenPaths,
 }
 
+/// A file or folder a preset reads ([`Preset::inputs`]).
+#[derive(Clone, Copy, Debug)]
+pub enum Input<'a> {
+    /// A sky image.
+    Sky(&'a Path),
+    /// The backplate folder.
+    Backplate(&'a Path),
+    /// A model file, with the entry that names it.
+    Model(&'a ModelSpec, &'a Path),
+}
+
+impl<'a> Input<'a> {
+    /// The preset field that names it.
+    pub fn field(&self) -> &'static str {
+        match self {
+            Input::Sky(_) => "sky",
+            Input::Backplate(_) => "backplate.folder",
+            Input::Model(..) => "models",
+        }
+    }
+
+    pub fn path(&self) -> &'a Path {
+        match *self {
+            Input::Sky(path) | Input::Backplate(path) | Input::Model(_, path) => path,
+        }
+    }
+}
+
 impl Default for Preset {
     fn default() -> Self {
         Self {
@@ -267,20 +295,24 @@ impl Preset {
         Ok(preset)
     }
 
-    /// Every file and folder the preset reads, each with the field that
-    /// names it: the sky's images, the backplate folder, the model files.
-    pub fn input_paths(&self) -> Vec<(&'static str, &Path)> {
+    /// Every file and folder the preset reads: the sky's images, the
+    /// backplate folder, the model files.
+    pub fn inputs(&self) -> Vec<Input<'_>> {
         let sky = self.sky.image_sources().into_iter();
-        let sky = sky.flat_map(|s| s.paths()).map(|p| ("sky", p));
-        let plates = self
-            .backplate
-            .iter()
-            .map(|b| ("backplate.folder", b.folder.as_path()));
+        let sky = sky.flat_map(|s| s.paths()).map(Input::Sky);
+        let plates = (self.backplate.iter()).map(|b| Input::Backplate(&b.folder));
         let models = self.models.iter().filter_map(|m| match &m.source {
-            ModelSource::File(path) => Some(("models", path.as_path())),
+            ModelSource::File(path) => Some(Input::Model(m, path)),
             _ => None,
         });
         sky.chain(plates).chain(models).collect()
+    }
+
+    /// [`Preset::inputs`], each with the field that names it.
+    pub fn input_paths(&self) -> Vec<(&'static str, &Path)> {
+        (self.inputs().into_iter())
+            .map(|input| (input.field(), input.path()))
+            .collect()
     }
 
     fn input_paths_mut(&mut self) -> Vec<(&'static str, &mut PathBuf)> {

@@ -10,7 +10,7 @@ use std::process::{Command, Output, Stdio};
 
 use swarmshot::preset::{ModelSource, ModelSpec, Preset, Resolution};
 
-use common::cli::BIN;
+use common::cli::{BIN, batch_args};
 
 /// `swarmshot ARGS…` under the shell limits `limits` (such as `ulimit -v 2097152`),
 /// no core dump written if it aborts.
@@ -30,15 +30,7 @@ fn under_limits(limits: &str, args: &[&std::ffi::OsStr]) -> Output {
 
 /// `batch PRESET --out OUT --limit 2` under `limits`.
 fn batch_under(limits: &str, preset: &Path, out: &Path) -> Output {
-    let args = [
-        "batch".as_ref(),
-        preset.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--limit".as_ref(),
-        "2".as_ref(),
-    ];
-    under_limits(limits, &args)
+    under_limits(limits, &batch_args(preset, out, &["--limit", "2"]))
 }
 
 /// `tiny_preset` at `width`×`height` with MSAA `msaa`, written as `dir/p.ron`.

@@ -158,6 +158,13 @@ fn preset_with_model_files(dir: &Path) -> std::path::PathBuf {
     common::preset_file(dir, &p, "model.ron")
 }
 
+/// Replace the PNG `texture` by another (a bundled real frame).
+fn swap_for_another_png(texture: &Path) {
+    let other =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/images/V_DRONE_001_f150.png");
+    std::fs::copy(other, texture).expect("swap the texture");
+}
+
 /// A run killed at its second frame's checkpoint.
 fn killed_at_frame_1(preset: &Path, out: &Path, barrier: &Path) {
     killed_at(preset, out, barrier, "checkpoint:1", &[]);
@@ -191,9 +198,7 @@ fn a_run_is_continued_only_from_the_input_files_it_began_with() {
     let preset = preset_with_model_files(tmp.path());
     let texture = tmp.path().join("model/CesiumLogoFlat.png");
     let original = std::fs::read(&texture).expect("texture");
-    let other_png =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/images/V_DRONE_001_f150.png");
-    let swap_texture = || std::fs::copy(&other_png, &texture).expect("swap the texture");
+    let swap_texture = || swap_for_another_png(&texture);
     let restore = || std::fs::write(&texture, &original).expect("restore the texture");
 
     // Killed, the texture swapped, then --resume: refused.
@@ -237,13 +242,16 @@ fn a_run_is_continued_only_from_the_input_files_it_began_with() {
     let first = shard(0);
     swap_texture();
     let second = shard(1);
+    let merge = |out: &Path, first: &Path| {
+        err(&[
+            os("merge"),
+            out.as_os_str(),
+            first.as_os_str(),
+            second.as_os_str(),
+        ])
+    };
     let merged = tmp.path().join("merged");
-    let e = err(&[
-        os("merge"),
-        merged.as_os_str(),
-        first.as_os_str(),
-        second.as_os_str(),
-    ]);
+    let e = merge(&merged, &first);
     assert!(
         e.contains("made from other input files") && e.contains("BoxTextured.gltf"),
         "{e}"
@@ -253,12 +261,7 @@ fn a_run_is_continued_only_from_the_input_files_it_began_with() {
     std::fs::remove_dir_all(&first).expect("rm");
     let first = shard(0);
     let before = listing(&whole);
-    let e = err(&[
-        os("merge"),
-        whole.as_os_str(),
-        first.as_os_str(),
-        second.as_os_str(),
-    ]);
+    let e = merge(&whole, &first);
     assert!(
         e.contains("made from other input files than the shards") && e.contains("--overwrite"),
         "{e}"
@@ -322,9 +325,7 @@ fn a_run_whose_ledger_records_no_inputs_records_them_when_continued() {
     assert!(second.starts_with("^models blake3:"), "{text}");
     let texture = tmp.path().join("model/CesiumLogoFlat.png");
     let original = std::fs::read(&texture).expect("texture");
-    let other_png =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real/images/V_DRONE_001_f150.png");
-    std::fs::copy(other_png, &texture).expect("swap the texture");
+    swap_for_another_png(&texture);
     let e = refused(&preset, &out, &["--resume"]);
     assert!(e.contains("made from other input files"), "{e}");
     std::fs::write(&texture, original).expect("restore");
