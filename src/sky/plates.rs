@@ -221,9 +221,11 @@ fn sidecar_path(plate: &Path) -> PathBuf {
 pub fn hash_folder(folder: &Path, hasher: &mut blake3::Hasher) -> Result<(), PlateError> {
     for plate in plate_files(folder)? {
         let sidecar = sidecar_path(&plate);
-        let with_sidecar = std::fs::symlink_metadata(&sidecar).is_ok();
-        let files = [(plate, MAX_PLATE_FILE_BYTES), (sidecar, MAX_SIDECAR_BYTES)];
-        for (file, max) in files.into_iter().take(1 + usize::from(with_sidecar)) {
+        let mut files = vec![(plate, MAX_PLATE_FILE_BYTES)];
+        if std::fs::symlink_metadata(&sidecar).is_ok() {
+            files.push((sidecar, MAX_SIDECAR_BYTES));
+        }
+        for (file, max) in files {
             let name = file.file_name().unwrap_or_default().as_encoded_bytes();
             hasher.update(&(name.len() as u64).to_le_bytes());
             hasher.update(name);
