@@ -10,7 +10,7 @@ use egui::{DragValue, Ui};
 use super::panels::{Form, Words};
 use super::realism_panels::section_checkbox;
 use crate::preset::Preset;
-use crate::preset::thermal::{Signature, Thermal};
+use crate::preset::thermal::{Signature, Texture, Thermal};
 
 /// Thermal camera: scene temperatures, objects' signatures, the camera's noise, blur and gain.
 pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
@@ -39,6 +39,7 @@ pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     }
     Words::of("thermal.agc_percentiles").range(ui, form, &mut t.agc_percentiles, 0.1);
     bits_row(ui, form, &mut t.bits);
+    texture_rows(ui, form, &mut t.texture);
     signature_rows(ui, form, "thermal.drone", &mut t.drone);
     part_rows(ui, form, DRONE_PARTS, &mut t.drone);
     signature_rows(ui, form, "thermal.bird", &mut t.bird);
@@ -82,6 +83,27 @@ fn part_rows(ui: &mut Ui, form: &mut Form<'_>, paths: [&'static str; 3], s: &mut
             }
         });
         form.messages(ui, &[&words.path]);
+    }
+}
+
+/// The background's temperature texture: off (absent), or its RMS, slope and size
+/// (ticking it sets the default: 2 K, slope 3, half the frame's height).
+fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>) {
+    let words = Words::of("thermal.texture");
+    let mut on = texture.is_some();
+    if words.checkbox(ui, &mut on).changed() {
+        *texture = on.then(Texture::default);
+    }
+    form.messages(ui, &[&words.path]);
+    let Some(x) = texture else {
+        return;
+    };
+    for (path, value, speed) in [
+        ("thermal.texture.rms_k", &mut x.rms_k, 0.05),
+        ("thermal.texture.slope", &mut x.slope, 0.05),
+        ("thermal.texture.size", &mut x.size, 0.01),
+    ] {
+        Words::of(path).number(ui, form, value, speed);
     }
 }
 

@@ -87,6 +87,9 @@ pub struct FrameFigures {
     /// The narcissus' depth (grey frames; [`crate::gap::capture::centre_depth`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub centre_depth: Option<f32>,
+    /// The background's texture ([`crate::gap::measure::background_texture`]; levels).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub background_texture: Option<f32>,
 }
 
 /// The footage's statistics, summarised over its frames and drones.
@@ -254,6 +257,7 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             block_steps: p.stats.block_steps,
             edge_lines: p.stats.edge_lines,
             centre_depth: p.stats.centre_depth,
+            background_texture: p.stats.background_texture,
         })
         .collect();
     let (size, size_frames) = common_size(frames);

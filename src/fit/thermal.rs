@@ -37,10 +37,14 @@
 //!   largest gain; the rounds move the depth × real / synthetic centre depth
 //!   ([`adjust_narcissus`]).
 //!
-//! Not fitted (stated in docs/realism.md): the gradient energy, Canny share and
-//! background texture (the scene's structure: the gain control stretches the frame's
-//! span to 0–255 whatever `agc_max_gain` allows, so no camera value moves them), the
-//! sky's and the ground's temperatures.
+//! - **background texture** (`thermal.texture`): the first fit adds one when the base
+//!   has none, its RMS the footage's median background texture in kelvin at the gain
+//!   control's largest gain ([`texture_fit`]); the rounds move the RMS × real /
+//!   synthetic background texture (at most ×2 or ÷2 a round; [`adjust_texture`]). Its
+//!   spectral slope stays the base's (or the default's).
+//!
+//! Not fitted (stated in docs/realism.md): the gradient energy and Canny share (they
+//! follow the texture and the noise), the sky's and the ground's temperatures.
 
 use super::camera::Footage;
 use super::preset_out::{Fitted, sized_to};
@@ -66,6 +70,7 @@ pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
     }
     capture_fit(&mut p, footage, &mut notes);
     narcissus_fit(&mut p, footage, &mut notes);
+    texture_fit(&mut p, footage, &mut notes);
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),
@@ -175,6 +180,94 @@ fn narcissus_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         t.agc_max_gain
     ));
     t.narcissus = Some(n);
+}
+
+/// The first fit's background texture (module docs): the base's texture (its slope and
+/// size) at the RMS the footage's median background texture asks; none when the base
+/// has none or the footage has no background to measure.
+fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
+    let Some(t) = p.thermal.as_mut().filter(|t| t.texture.is_some()) else {
+        return;
+    };
+    let mut levels: Vec<f64> = (footage.per_frame.iter())
+        .filter_map(|f| f.background_texture.map(f64::from))
+        .collect();
+    if levels.is_empty() {
+        return;
+    }
+    levels.sort_by(f64::total_cmp);
+    let m = levels[levels.len() / 2];
+    let Some(mut x) = t.texture else {
+        return;
+    };
+    let unit = unit_texture_levels(&x, footage.size);
+    x.rms_k = r3(m / (t.agc_max_gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
+    notes.push(format!(
+        "thermal.texture rms_k {} K, slope {}, size {}: the footage's background texture {m:.2} levels (median over {} frames), at the gain control's largest gain of {} levels a kelvin, a texture of 1 K reading {unit:.3} levels a kelvin",
+        x.rms_k,
+        x.slope,
+        x.size,
+        levels.len(),
+        t.agc_max_gain
+    ));
+    t.texture = Some(x);
+}
+
+/// Seeds of the fields [`unit_texture_levels`] measures.
+const UNIT_SEEDS: [u64; 4] = [1, 2, 3, 4];
+
+/// The background texture (the report's statistic, levels) of `x`'s field at 1 K RMS
+/// and 1 level a kelvin on a `w`×`h` frame, the mean over [`UNIT_SEEDS`]: what the first
+/// fit divides the footage's by. Measured at 16 levels a kelvin about level 128, so the
+/// 8-bit grid does not round it away.
+fn unit_texture_levels(x: &crate::preset::thermal::Texture, (w, h): (u32, u32)) -> f64 {
+    use crate::sensor::thermal::texture::{Anchor, add};
+    const GAIN: f32 = 16.0;
+    let unit = crate::preset::thermal::Texture { rms_k: 1.0, ..*x };
+    let (w, h) = (w.clamp(16, 4096), h.clamp(16, 4096));
+    let levels: Vec<f64> = (UNIT_SEEDS.iter())
+        .filter_map(|&seed| {
+            let mut plane = vec![0f32; w as usize * h as usize];
+            add(
+                &unit,
+                GAIN,
+                Anchor {
+                    seed,
+                    origin: (0.0, 0.0),
+                },
+                (w, h),
+                &mut plane,
+            );
+            let grey = image::GrayImage::from_fn(w, h, |x, y| {
+                let v = plane[(y * w + x) as usize];
+                image::Luma([(128.0 + v).round().clamp(0.0, 255.0) as u8])
+            });
+            let g540 = crate::gap::measure::gray_at_540(&grey);
+            crate::gap::measure::background_texture(&g540, &[], h as usize, None)
+        })
+        .map(|t| f64::from(t) / f64::from(GAIN))
+        .collect();
+    levels.iter().sum::<f64>() / levels.len().max(1) as f64
+}
+
+/// The texture's RMS × real / synthetic background texture (at most ×2 or ÷2 a round)
+/// when it lies outside and the preset has one.
+fn adjust_texture(
+    t: &mut crate::preset::thermal::Thermal,
+    report: &Report,
+    changes: &mut Vec<String>,
+) {
+    let Some(x) = t.texture.as_mut() else {
+        return;
+    };
+    let Some((k, why)) = ratio(report, "background_texture", 2.0) else {
+        return;
+    };
+    let r2 = r3(x.rms_k * k).min(crate::preset::thermal::MAX_TEXTURE_K);
+    if r2 != x.rms_k {
+        changes.push(format!("thermal.texture rms_k {} → {r2} ({why})", x.rms_k));
+        x.rms_k = r2;
+    }
 }
 
 /// The narcissus' depth × real / synthetic centre depth (at most ×2 or ÷2 a round)
@@ -351,6 +444,7 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
     }
     adjust_prior(&mut t, report, &mut changes);
     adjust_narcissus(&mut t, report, &mut changes);
+    adjust_texture(&mut t, report, &mut changes);
     preset.thermal = Some(t);
     super::size_knots::adjust(preset, report, &mut changes);
     changes
@@ -590,5 +684,75 @@ mod tests {
             &row_report("centre_depth", &real, &centre_depths(None, 0..16)),
         );
         assert_eq!(depth(&q), None);
+    }
+    /// Background textures of frames of a texture of `rms_k` (slope 3, size 0.5; seeds
+    /// `seeds`) at 4 levels a kelvin about level 100, rounded to 8 bits, measured as the
+    /// report does.
+    fn texture_levels(rms_k: f64, seeds: std::ops::Range<u64>) -> Vec<f64> {
+        use crate::sensor::thermal::texture::{Anchor, add};
+        let x = crate::preset::thermal::Texture {
+            rms_k,
+            slope: 3.0,
+            size: 0.5,
+        };
+        let (w, h) = (160u32, 128u32);
+        seeds
+            .filter_map(|seed| {
+                let mut plane = vec![0f32; (w * h) as usize];
+                add(
+                    &x,
+                    4.0,
+                    Anchor {
+                        seed,
+                        origin: (0.0, 0.0),
+                    },
+                    (w, h),
+                    &mut plane,
+                );
+                let grey = image::GrayImage::from_fn(w, h, |x, y| {
+                    let v = 100.0 + plane[(y * w + x) as usize];
+                    image::Luma([v.round().clamp(0.0, 255.0) as u8])
+                });
+                let g540 = crate::gap::measure::gray_at_540(&grey);
+                crate::gap::measure::background_texture(&g540, &[], h as usize, None).map(f64::from)
+            })
+            .collect()
+    }
+
+    /// Frames with a 3 K texture: the first fit's unit estimate lands within 20 % of it,
+    /// the rounds from 1 K recover it within 15 %; a preset without a texture gets none.
+    #[test]
+    fn the_fit_recovers_a_known_texture_rms() {
+        let real = texture_levels(3.0, 0..16);
+        let mut sorted = real.clone();
+        sorted.sort_by(f64::total_cmp);
+        let x = crate::preset::thermal::Texture {
+            rms_k: 1.0,
+            slope: 3.0,
+            size: 0.5,
+        };
+        let first = sorted[sorted.len() / 2] / (4.0 * unit_texture_levels(&x, (160, 128)));
+        assert!(
+            (first / 3.0 - 1.0).abs() <= 0.2,
+            "first estimate {first} K for 3"
+        );
+        let rms = |p: &Preset| p.thermal.as_ref().and_then(|t| t.texture).map(|x| x.rms_k);
+        let mut p = thermal_preset(0.05);
+        p.thermal.as_mut().expect("thermal").texture = Some(x);
+        let mut log = Vec::new();
+        for round in 0..5 {
+            let seeds = 100 * (round + 1)..100 * (round + 1) + 16;
+            let syn = texture_levels(rms(&p).expect("kept"), seeds);
+            log.extend(adjust(
+                &mut p,
+                &row_report("background_texture", &real, &syn),
+            ));
+        }
+        let r = rms(&p).expect("kept");
+        assert!((r / 3.0 - 1.0).abs() <= 0.15, "RMS {r} K for 3: {log:?}");
+        let mut q = thermal_preset(0.05);
+        let syn = texture_levels(0.0, 0..16);
+        adjust(&mut q, &row_report("background_texture", &real, &syn));
+        assert_eq!(rms(&q), None);
     }
 }

@@ -407,10 +407,15 @@ pub fn saturation_hue(rgb: [f32; 3]) -> (f32, f32) {
 
 /// The frame's luminance scaled to 540 px high (Triangle filter), as 8-bit grey.
 pub fn scaled_gray(l: &Luma) -> GrayImage {
-    let g = l.to_gray();
+    gray_at_540(&l.to_gray())
+}
+
+/// A grey image scaled to 540 px high (Triangle filter), as the gradient statistics see it.
+pub fn gray_at_540(g: &GrayImage) -> GrayImage {
     let h = GRADIENT_HEIGHT_PX;
-    let w = ((l.width as f64 * f64::from(h) / l.height.max(1) as f64).round() as u32).max(1);
-    image::imageops::resize(&g, w, h, image::imageops::FilterType::Triangle)
+    let w = ((f64::from(g.width()) * f64::from(h) / f64::from(g.height().max(1))).round() as u32)
+        .max(1);
+    image::imageops::resize(g, w, h, image::imageops::FilterType::Triangle)
 }
 
 /// The background's texture: the median, over the 16 px tiles of the frame scaled to

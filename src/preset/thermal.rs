@@ -169,6 +169,63 @@ pub struct Thermal {
     /// none, not written to preset.lock.ron.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub narcissus: Option<Narcissus>,
+    /// The scene's temperature texture: a fractal field over the background
+    /// (cloud and air structure, scenery), the same wherever the camera
+    /// looks (`sensor::thermal::texture`). Absent (the default): none, not
+    /// written to preset.lock.ron.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub texture: Option<Texture>,
+}
+
+/// The background's temperature texture: Gaussian fractal noise whose
+/// power falls as 1/f^`slope` with the spatial frequency f, from two pixels
+/// to the frame's size, tied to the sky (a turned camera sees it moved).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Texture {
+    /// The field's RMS over a frame, kelvin.
+    pub rms_k: f64,
+    /// The power spectrum's exponent: 2 puts the same power in every octave,
+    /// more puts it in the large features, less in the fine.
+    pub slope: f64,
+    /// The largest features' size, a share of the frame's height (the
+    /// coarsest octave's control points that far apart).
+    pub size: f64,
+}
+
+impl Default for Texture {
+    fn default() -> Self {
+        Self {
+            rms_k: 2.0,
+            slope: 3.0,
+            size: 0.5,
+        }
+    }
+}
+
+/// The largest texture RMS, kelvin.
+pub const MAX_TEXTURE_K: f64 = 50.0;
+
+impl Texture {
+    fn validate_into(&self, v: &mut Validator) {
+        let (k, s) = (self.rms_k, self.slope);
+        v.check(
+            k.is_finite() && (0.0..=MAX_TEXTURE_K).contains(&k),
+            "thermal.texture.rms_k",
+            || format!("{k} must be kelvin in [0, {MAX_TEXTURE_K}]"),
+        );
+        v.check(
+            s.is_finite() && (0.0..=6.0).contains(&s),
+            "thermal.texture.slope",
+            || format!("{s} must be a spectral exponent in [0, 6]"),
+        );
+        let z = self.size;
+        v.check(
+            z.is_finite() && (0.001..=4.0).contains(&z),
+            "thermal.texture.size",
+            || format!("{z} must be a share of the frame's height in [0.001, 4]"),
+        );
+    }
 }
 
 /// The narcissus of a cooled thermal camera: the detector sees its own cold
@@ -295,6 +352,7 @@ impl Default for Thermal {
             bits: 8,
             capture: None,
             narcissus: None,
+            texture: None,
         }
     }
 }
@@ -363,6 +421,9 @@ impl Thermal {
         }
         if let Some(n) = &self.narcissus {
             n.validate_into(v);
+        }
+        if let Some(x) = &self.texture {
+            x.validate_into(v);
         }
         let (lo, hi) = self.agc_percentiles;
         v.check(

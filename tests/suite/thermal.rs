@@ -4,8 +4,8 @@
 //! horizon, the gain control's range, labels equal to the visible render's,
 //! determinism, 16-bit grey PNG frames, rain and snow in the radiance with
 //! labels against the drone-free radiance under the same particles, the
-//! recording's capture chain and the optics' narcissus changing the picture
-//! and not the labels
+//! recording's capture chain, the optics' narcissus and the background's
+//! texture changing the picture and not the labels
 //! (lavapipe).
 
 use crate::common;
@@ -613,5 +613,44 @@ fn the_capture_chain_changes_the_picture_not_the_labels() {
             }
             assert_eq!(b[..3], [want as u8; 3], "({x}, {y})");
         }
+    }
+}
+
+/// The mean absolute difference of grey levels 4 px apart along the rows.
+fn roughness(f: &Frame) -> f64 {
+    let w = f.scene.camera.width as usize;
+    let grey: Vec<f64> = f.rgba.iter().step_by(4).map(|&v| f64::from(v)).collect();
+    let pairs = grey
+        .chunks_exact(w)
+        .flat_map(|r| r.windows(5).map(|p| (p[4] - p[0]).abs()));
+    let (sum, n) = pairs.fold((0.0, 0.0), |(s, n), d| (s + d, n + 1.0));
+    sum / n
+}
+
+#[test]
+fn the_background_texture_changes_the_picture_not_the_labels() {
+    let plain = thermal_preset();
+    let mut textured = plain.clone();
+    textured.thermal.as_mut().expect("thermal").texture =
+        Some(swarmshot::preset::thermal::Texture {
+            rms_k: 3.0,
+            ..Default::default()
+        });
+    let boxes = |f: &Frame| -> Vec<_> {
+        (f.labels.iter())
+            .map(|l| (l.drone, l.bbox, l.status, l.visibility))
+            .collect()
+    };
+    for index in [1, 3] {
+        let (a, b) = (make(&plain, index), make(&textured, index));
+        assert!(!a.labels.is_empty(), "frame {index} shows a drone");
+        assert_eq!(boxes(&b), boxes(&a), "frame {index}: labels unchanged");
+        let (ra, rb) = (roughness(&a), roughness(&b));
+        assert!(rb > 1.5 * ra, "frame {index}: roughness {ra:.3} → {rb:.3}");
+        assert_eq!(
+            b.rgba,
+            make(&textured, index).rgba,
+            "frame {index}: the same bytes"
+        );
     }
 }

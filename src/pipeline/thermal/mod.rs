@@ -62,6 +62,30 @@ fn view(cam: &Camera) -> View {
     }
 }
 
+/// Salt of the texture's seed (under the environment's pattern seed).
+const TEXTURE_SALT: u64 = 0x5448_4552_4D54_4558; // "THERMTEX"
+
+/// Where the frame's picture lies on its environment's texture field: the
+/// view axis' azimuth (less the environment's turn, so the field turns with
+/// the environment) and elevation, times the focal length, less the
+/// principal point; x grows as the camera turns towards its right.
+fn texture_anchor(scene: &FrameScene) -> thermal::texture::Anchor {
+    let cam = &scene.camera;
+    let r = cam.camera_from_world;
+    let (right, forward) = (r.row(0), r.row(2));
+    let az = forward.x.atan2(forward.z);
+    let el = forward.y.clamp(-1.0, 1.0).asin();
+    // d(forward)/d(azimuth): the camera's right turns it one way or the other.
+    let turn = right.x * az.cos() - right.z * az.sin();
+    let az = az - scene.environment.azimuth_offset_deg.to_radians();
+    let (f, c) = (cam.focal_px(), cam.principal_point());
+    let seed = u64::from(scene.environment.pattern_seed);
+    thermal::texture::Anchor {
+        seed: crate::seed::mix64(seed ^ TEXTURE_SALT),
+        origin: (turn.signum() * f * az - c.x, -f * el - c.y),
+    }
+}
+
 impl FramePipeline {
     /// Frame `scene`'s thermal picture (RGBA8 grey into `out`, and the
     /// 16-bit grey levels with `bits: 16`) from its drone-free visible
@@ -123,6 +147,11 @@ impl FramePipeline {
         scratch: &mut Scratch,
     ) {
         thermal::sky_plane(t, sky, &view(&scene.camera), background, scratch);
+        if let Some(x) = &t.texture {
+            let per_k = thermal::radiance_per_kelvin(t.air_k);
+            let size = (scene.camera.width, scene.camera.height);
+            thermal::texture::add(x, per_k, texture_anchor(scene), size, &mut scratch.plane);
+        }
         let signatures = self.signatures(t, scene);
         let msaa = self.preset.render.msaa.max(1);
         let all = hits.as_deref().unwrap_or_default();
@@ -321,7 +350,51 @@ impl Spot {
 
 #[cfg(test)]
 mod tests {
-    use super::is_cold;
+    use super::{is_cold, texture_anchor};
+    use glam::{DMat3, DVec3};
+
+    /// A turn of the camera moves its window on the texture's lattice by the focal
+    /// length times the angle: right and up as the picture's x and −y.
+    #[test]
+    fn a_turned_camera_sees_the_texture_moved_by_its_turn() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+        let preset = crate::preset::Preset::open(&path).expect("preset");
+        let pipe = super::FramePipeline::new(preset).expect("pipeline");
+        let scene = pipe.scene(3).expect("scene");
+        let f = scene.camera.focal_px();
+        let a = texture_anchor(&scene);
+        let delta = 0.01;
+        let r = scene.camera.camera_from_world;
+        let (right, forward) = (r.row(0), r.row(2));
+        let turned = |axis: DVec3, angle: f64| {
+            let mut s = scene.clone();
+            s.camera.camera_from_world = r * DMat3::from_axis_angle(axis, angle).transpose();
+            s
+        };
+        // About the world's up: towards the camera's right for one sign of the angle.
+        let yawed = turned(DVec3::Y, delta);
+        let new_forward = yawed.camera.camera_from_world.row(2);
+        let towards_right = new_forward.dot(right).signum();
+        let b = texture_anchor(&yawed);
+        let moved = (b.origin.0 - a.origin.0) * towards_right;
+        assert!(
+            (moved / (f * delta) - 1.0).abs() < 0.02,
+            "{moved} px for {}",
+            f * delta
+        );
+        assert!((b.origin.1 - a.origin.1).abs() < 0.02 * f * delta);
+        // About the camera's right, upwards: the window moves up (−y) by f·δ.
+        let pitched = turned(right.normalize(), delta);
+        let up = pitched.camera.camera_from_world.row(2).y - forward.y;
+        let c = texture_anchor(&pitched);
+        let moved = (c.origin.1 - a.origin.1) * -up.signum();
+        assert!(
+            (moved / (f * delta) - 1.0).abs() < 0.05,
+            "{moved} px for {}",
+            f * delta
+        );
+        assert_eq!(a.seed, texture_anchor(&scene).seed);
+    }
 
     #[test]
     fn the_cold_draw_takes_its_share_of_the_objects() {

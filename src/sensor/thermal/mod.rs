@@ -9,7 +9,8 @@
 //! `ε(e) = 1 − (1 − ε_z)^(1/sin e)` (the sky's path length grows as
 //! 1/sin e), its radiance `ε(e)·B(T_air)`: coldest at the zenith, the air's
 //! at the horizon. [`sky_plane`] composes the background's radiance from
-//! the rays and the visible background's colours; the pipeline adds the
+//! the rays and the visible background's colours, [`texture`] the scene's
+//! temperature texture when the preset has one; the pipeline adds the
 //! objects (`pipeline::thermal`); [`develop_into`] is the camera: a
 //! Gaussian blur of σ px, then per pixel the fixed pattern (from the preset
 //! seed alone: the same in every frame) and the temporal noise (NETD; the
@@ -72,6 +73,7 @@ pub mod capture;
 mod develop;
 mod narcissus;
 mod sky_plane;
+pub mod texture;
 
 pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
 pub use sky_plane::{View, sky_plane};
