@@ -37,11 +37,13 @@
 //!   largest gain; the rounds move the depth × real / synthetic centre depth
 //!   ([`adjust_narcissus`]).
 //!
-//! - **background texture** (`thermal.texture`): the first fit adds one when the base
-//!   has none, its RMS the footage's median background texture in kelvin at the gain
-//!   control's largest gain ([`texture_fit`]); the rounds move the RMS × real /
-//!   synthetic background texture (at most ×2 or ÷2 a round; [`adjust_texture`]). Its
-//!   spectral slope stays the base's (or the default's).
+//! - **background texture** (`thermal.texture`, when the base has one): the first fit
+//!   sets its RMS to the footage's median background texture over the gain control's
+//!   largest gain and what 1 K of the base's texture reads ([`texture_fit`]); the rounds
+//!   move the RMS × real / synthetic background texture (at most ×2 or ÷2 a round;
+//!   [`adjust_texture`]). Its slope and size stay the base's. A base without one gets
+//!   none (on the Anti-UAV footage a texture took the gradient energy into range and the
+//!   noise out of it: docs/realism.md).
 //!
 //! Not fitted (stated in docs/realism.md): the gradient energy and Canny share (they
 //! follow the texture and the noise), the sky's and the ground's temperatures.
