@@ -104,9 +104,6 @@ fn capture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         .iter()
         .filter_map(|f| f.edge_lines)
         .collect();
-    let steps: Vec<f64> = (footage.per_frame.iter())
-        .filter_map(|f| f.block_steps.map(f64::from))
-        .collect();
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         (!v.is_empty()).then(|| v[v.len() / 2])
@@ -134,13 +131,12 @@ fn capture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
             found = true;
         }
     }
-    if let Some(m) = median(steps.clone())
+    if let Some((m, frames)) = footage_median(footage, |f| f.block_steps)
         && m > PRIOR_MIN_STEPS
         && c.prior_dc_step == 0.0
     {
         notes.push(format!(
-            "the footage's block steps {m:.2} levels (median over {} frames) show an earlier 8×8 compression, not modelled: a base with thermal.capture.prior_dc_step set has it fitted",
-            steps.len()
+            "the footage's block steps {m:.2} levels (median over {frames} frames) show an earlier 8×8 compression, not modelled: a base with thermal.capture.prior_dc_step set has it fitted"
         ));
     }
     if found {
@@ -159,14 +155,9 @@ fn narcissus_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
     let Some(t) = p.thermal.as_mut().filter(|t| t.narcissus.is_none()) else {
         return;
     };
-    let mut depths: Vec<f64> = (footage.per_frame.iter())
-        .filter_map(|f| f.centre_depth.map(f64::from))
-        .collect();
-    if depths.is_empty() {
+    let Some((m, frames)) = footage_median(footage, |f| f.centre_depth) else {
         return;
-    }
-    depths.sort_by(f64::total_cmp);
-    let m = depths[depths.len() / 2];
+    };
     if m >= -NARCISSUS_MIN_LEVELS {
         return;
     }
@@ -178,28 +169,37 @@ fn narcissus_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         "thermal.narcissus depth_k {} K, radius {}: the footage's centre reads {m:.1} levels against the ring about it (median over {} frames), at the gain control's largest gain of {} levels a kelvin",
         n.depth_k,
         n.radius,
-        depths.len(),
+        frames,
         t.agc_max_gain
     ));
     t.narcissus = Some(n);
+}
+
+/// The median over the footage's frames of a per-frame figure, and how many frames have it.
+fn footage_median(
+    footage: &Footage,
+    figure: impl Fn(&super::camera::FrameFigures) -> Option<f32>,
+) -> Option<(f64, usize)> {
+    let mut v: Vec<f64> = footage
+        .per_frame
+        .iter()
+        .filter_map(|f| figure(f).map(f64::from))
+        .collect();
+    v.sort_by(f64::total_cmp);
+    (!v.is_empty()).then(|| (v[v.len() / 2], v.len()))
 }
 
 /// The first fit's background texture (module docs): the base's texture (its slope and
 /// size) at the RMS the footage's median background texture asks; none when the base
 /// has none or the footage has no background to measure.
 fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
-    let Some(t) = p.thermal.as_mut().filter(|t| t.texture.is_some()) else {
+    let Some(t) = p.thermal.as_mut() else {
         return;
     };
-    let mut levels: Vec<f64> = (footage.per_frame.iter())
-        .filter_map(|f| f.background_texture.map(f64::from))
-        .collect();
-    if levels.is_empty() {
-        return;
-    }
-    levels.sort_by(f64::total_cmp);
-    let m = levels[levels.len() / 2];
     let Some(mut x) = t.texture else {
+        return;
+    };
+    let Some((m, frames)) = footage_median(footage, |f| f.background_texture) else {
         return;
     };
     let unit = unit_texture_levels(&x, footage.size);
@@ -209,7 +209,7 @@ fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         x.rms_k,
         x.slope,
         x.size,
-        levels.len(),
+        frames,
         t.agc_max_gain
     ));
     t.texture = Some(x);
