@@ -218,38 +218,43 @@ fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
 /// Seeds of the fields [`unit_texture_levels`] measures.
 const UNIT_SEEDS: [u64; 4] = [1, 2, 3, 4];
 
-/// The background texture (the report's statistic, levels) of `x`'s field at 1 K RMS
+/// The background texture (levels, the report's statistic) of `x`'s field at 1 K RMS
 /// and 1 level a kelvin on a `w`×`h` frame, the mean over [`UNIT_SEEDS`]: what the first
 /// fit divides the footage's by. Measured at 16 levels a kelvin about level 128, so the
 /// 8-bit grid does not round it away.
 fn unit_texture_levels(x: &crate::preset::thermal::Texture, (w, h): (u32, u32)) -> f64 {
-    use crate::sensor::thermal::texture::{Anchor, add};
     const GAIN: f32 = 16.0;
     let unit = crate::preset::thermal::Texture { rms_k: 1.0, ..*x };
-    let (w, h) = (w.clamp(16, 4096), h.clamp(16, 4096));
+    let size = (w.clamp(16, 4096), h.clamp(16, 4096));
     let levels: Vec<f64> = (UNIT_SEEDS.iter())
-        .filter_map(|&seed| {
-            let mut plane = vec![0f32; w as usize * h as usize];
-            add(
-                &unit,
-                GAIN,
-                Anchor {
-                    seed,
-                    origin: (0.0, 0.0),
-                },
-                (w, h),
-                &mut plane,
-            );
-            let grey = image::GrayImage::from_fn(w, h, |x, y| {
-                let v = plane[(y * w + x) as usize];
-                image::Luma([(128.0 + v).round().clamp(0.0, 255.0) as u8])
-            });
-            let g540 = crate::gap::measure::gray_at_540(&grey);
-            crate::gap::measure::background_texture(&g540, &[], h as usize, None)
-        })
-        .map(|t| f64::from(t) / f64::from(GAIN))
+        .filter_map(|&seed| texture_reading(&unit, (GAIN, 128.0), seed, size))
+        .map(|t| t / f64::from(GAIN))
         .collect();
     levels.iter().sum::<f64>() / levels.len().max(1) as f64
+}
+
+/// The background texture (levels, as the report measures it) of one field of `x` with
+/// seed `seed`, at `gain` levels a kelvin about level `base`, on a `w`×`h` frame rounded
+/// to 8 bits.
+fn texture_reading(
+    x: &crate::preset::thermal::Texture,
+    (gain, base): (f32, f32),
+    seed: u64,
+    (w, h): (u32, u32),
+) -> Option<f64> {
+    use crate::sensor::thermal::texture::{Anchor, add};
+    let mut plane = vec![0f32; w as usize * h as usize];
+    let anchor = Anchor {
+        seed,
+        origin: (0.0, 0.0),
+    };
+    add(x, gain, anchor, (w, h), &mut plane);
+    let grey = image::GrayImage::from_fn(w, h, |x, y| {
+        let v = base + plane[(y * w + x) as usize];
+        image::Luma([v.round().clamp(0.0, 255.0) as u8])
+    });
+    let g540 = crate::gap::measure::gray_at_540(&grey);
+    crate::gap::measure::background_texture(&g540, &[], h as usize, None).map(f64::from)
 }
 
 /// The texture's RMS × real / synthetic background texture (at most ×2 or ÷2 a round)
@@ -691,34 +696,12 @@ mod tests {
     /// `seeds`) at 4 levels a kelvin about level 100, rounded to 8 bits, measured as the
     /// report does.
     fn texture_levels(rms_k: f64, seeds: std::ops::Range<u64>) -> Vec<f64> {
-        use crate::sensor::thermal::texture::{Anchor, add};
         let x = crate::preset::thermal::Texture {
             rms_k,
             slope: 3.0,
             size: 0.5,
         };
-        let (w, h) = (160u32, 128u32);
-        seeds
-            .filter_map(|seed| {
-                let mut plane = vec![0f32; (w * h) as usize];
-                add(
-                    &x,
-                    4.0,
-                    Anchor {
-                        seed,
-                        origin: (0.0, 0.0),
-                    },
-                    (w, h),
-                    &mut plane,
-                );
-                let grey = image::GrayImage::from_fn(w, h, |x, y| {
-                    let v = 100.0 + plane[(y * w + x) as usize];
-                    image::Luma([v.round().clamp(0.0, 255.0) as u8])
-                });
-                let g540 = crate::gap::measure::gray_at_540(&grey);
-                crate::gap::measure::background_texture(&g540, &[], h as usize, None).map(f64::from)
-            })
-            .collect()
+        (seeds.filter_map(|seed| texture_reading(&x, (4.0, 100.0), seed, (160, 128)))).collect()
     }
 
     /// Frames with a 3 K texture: the first fit's unit estimate lands within 20 % of it,
