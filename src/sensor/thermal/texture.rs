@@ -56,12 +56,12 @@ pub fn add(x: &Texture, per_k: f32, anchor: Anchor, (w, h): (u32, u32), plane: &
         let &(cx, cy) = needed.last().expect("one at least");
         needed.push((coarser(cx), coarser(cy)));
     }
-    let mut grid = Grid::zeros(needed[needed.len() - 1]);
-    for (k, level) in (FINEST..=top).rev().enumerate() {
-        if k > 0 {
-            grid = grid.refine_to(needed[(level - FINEST) as usize]);
-        }
-        grid.add_noise(anchor.seed, level, sigmas[(level - FINEST) as usize]);
+    let at = |level: u32| (level - FINEST) as usize;
+    let mut grid = Grid::zeros(needed[at(top)]);
+    grid.add_noise(anchor.seed, top, sigmas[at(top)]);
+    for level in (FINEST..top).rev() {
+        grid = grid.refine_to(needed[at(level)]);
+        grid.add_noise(anchor.seed, level, sigmas[at(level)]);
     }
     let gain = per_k * x.rms_k as f32;
     evaluate(&grid, (&columns, &rows), gain, &mut plane[..w * h]);
@@ -135,7 +135,9 @@ impl Grid {
     fn refine_to(&self, (xs, ys): (Span, Span)) -> Grid {
         let (w, h) = (len(xs), len(ys));
         let gw = self.width();
-        // Coarse rows ys.0 / 2 − 1 … those the refined rows read, refined along.
+        // Coarse rows ys.0 / 2 − 1 … those the refined rows read, refined along (when
+        // ys.0 is odd its first refined row reads from ys.0 / 2 on, and the row before,
+        // which may lie outside this grid, is clamped to its first and never read).
         let first_row = ys.0.div_euclid(2) - 1;
         let rows = (ys.1.div_euclid(2) + 1 - first_row + 1) as usize;
         let mut across = vec![0f32; rows * w];
