@@ -371,10 +371,14 @@ pub(super) const ACCENT_RED: Material = Material {
 /// A closed symmetric NACA-00xx section (relative thickness `t`), leading edge at `le`.
 fn airfoil_ring(le: Vec3, chord: f32, chord_dir: Vec3, thickness_dir: Vec3, t: f32) -> Vec<Vec3> {
     const STATIONS: [f32; 8] = [0.0, 0.03, 0.1, 0.22, 0.38, 0.56, 0.76, 1.0];
+    // Powers as plain products (what `powi` computes at run time): a release build folds
+    // `powi` of the constant stations at compile time, rounded once, which moved the
+    // built-in models by a unit in the last place from the shipped GLBs.
     let half = |x: f32| {
+        let x2 = x * x;
         5.0 * t
-            * (0.2969 * x.sqrt() - 0.1260 * x - 0.3516 * x * x + 0.2843 * x.powi(3)
-                - 0.1036 * x.powi(4))
+            * (0.2969 * x.sqrt() - 0.1260 * x - 0.3516 * x * x + 0.2843 * (x2 * x)
+                - 0.1036 * (x2 * x2))
     };
     let point = |x: f32, y: f32| le + chord_dir * (x * chord) + thickness_dir * (y * chord);
     let mut ring = Vec::new();
