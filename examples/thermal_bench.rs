@@ -5,7 +5,7 @@
 //! radiance plane, then developed (blur, fixed pattern and noise, gain
 //! control) to 8-bit RGBA and to 16-bit grey, and the capture chain
 //! (`thermal.capture`) on the 8-bit frame, and the background's texture
-//! (`thermal.texture` at its default) added to the plane, a new window of
+//! (`thermal.texture` at its default, and as a Gaussian field) added to the plane, a new window of
 //! the field each run; the median wall time of 30
 //! runs after 3 warm-ups and their mean CPU time (all threads, from /proc;
 //! `support/timing.rs`). The drones' pixels (a few thousand) are left out.
@@ -80,19 +80,27 @@ fn main() {
         ..Default::default()
     };
     let chain = median_ms(|| thermal::capture::apply(&capture, (w, h), &mut out8));
-    // The texture (`thermal.texture`, off in the preset) at its default, a window 3 px
-    // further along the lattice each run.
+    // The texture (`thermal.texture`, off in the preset) at its default (sharpness 3)
+    // and as a Gaussian field (sharpness 0), a window 3 px further along the lattice
+    // each run.
     let texture = swarmshot::preset::thermal::Texture::default();
+    let gaussian = swarmshot::preset::thermal::Texture {
+        sharpness: 0.0,
+        ..texture
+    };
     let per_k = thermal::radiance_per_kelvin(t.air_k);
     let mut along = 0.0;
-    let textured = median_ms(|| {
-        along += 3.0;
-        let anchor = thermal::texture::Anchor {
-            seed: 7,
-            origin: (along, -40.0),
-        };
-        thermal::texture::add(&texture, per_k, anchor, (w, h), &mut scratch.plane);
-    });
+    let mut field = |x: &swarmshot::preset::thermal::Texture| {
+        median_ms(|| {
+            along += 3.0;
+            let anchor = thermal::texture::Anchor {
+                seed: 7,
+                origin: (along, -40.0),
+            };
+            thermal::texture::add(x, per_k, anchor, (w, h), &mut scratch.plane);
+        })
+    };
+    let (gaussian, textured) = (field(&gaussian), field(&texture));
     println!("threads {}", rayon::current_num_threads());
     println!("(median wall, mean CPU) ms a frame");
     println!(
@@ -110,6 +118,10 @@ fn main() {
     println!(
         "capture chain on the 8-bit frame: {:.2}, {:.2}",
         chain.0, chain.1
+    );
+    println!(
+        "texture 1920x1080, Gaussian: {:.2}, {:.2}",
+        gaussian.0, gaussian.1
     );
     println!("texture 1920x1080: {:.2}, {:.2}", textured.0, textured.1);
 }

@@ -87,7 +87,7 @@ fn part_rows(ui: &mut Ui, form: &mut Form<'_>, paths: [&'static str; 3], s: &mut
 }
 
 /// The background's temperature texture: off (absent), or its RMS, slope and size
-/// (ticking it sets the default: 2 K, slope 3, half the frame's height).
+/// (ticking it sets the default: 2 K, slope 3, half the frame's height, sharpness 3).
 fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>) {
     let words = Words::of("thermal.texture");
     let mut on = texture.is_some();
@@ -102,6 +102,7 @@ fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>)
         ("thermal.texture.rms_k", &mut x.rms_k, 0.05),
         ("thermal.texture.slope", &mut x.slope, 0.05),
         ("thermal.texture.size", &mut x.size, 0.01),
+        ("thermal.texture.sharpness", &mut x.sharpness, 0.05),
     ] {
         Words::of(path).number(ui, form, value, speed);
     }

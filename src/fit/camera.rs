@@ -87,9 +87,10 @@ pub struct FrameFigures {
     /// The narcissus' depth (grey frames; [`crate::gap::capture::centre_depth`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub centre_depth: Option<f32>,
-    /// The background's texture ([`crate::gap::measure::background_texture`]; levels).
+    /// The gradient energy ([`crate::gap::measure::gradient_energy`]; levels a pixel at
+    /// 540 px high).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub background_texture: Option<f32>,
+    pub gradient_energy: Option<f32>,
 }
 
 /// The footage's statistics, summarised over its frames and drones.
@@ -257,7 +258,7 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             block_steps: p.stats.block_steps,
             edge_lines: p.stats.edge_lines,
             centre_depth: p.stats.centre_depth,
-            background_texture: p.stats.background_texture,
+            gradient_energy: Some(p.stats.gradient_energy),
         })
         .collect();
     let (size, size_frames) = common_size(frames);

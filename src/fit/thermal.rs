@@ -38,15 +38,16 @@
 //!   ([`adjust_narcissus`]).
 //!
 //! - **background texture** (`thermal.texture`, when the base has one): the first fit
-//!   sets its RMS to the footage's median background texture over the gain control's
+//!   sets its RMS to the footage's median gradient energy over the gain control's
 //!   largest gain and what 1 K of the base's texture reads ([`texture_fit`]); the rounds
-//!   move the RMS × real / synthetic background texture (at most ×2 or ÷2 a round;
-//!   [`adjust_texture`]). Its slope and size stay the base's. A base without one gets
-//!   none (on the Anti-UAV footage a texture took the gradient energy into range and the
-//!   noise out of it: docs/realism.md).
+//!   move the RMS × real / synthetic gradient energy (at most ×2 or ÷2 a round;
+//!   [`adjust_texture`]). Its slope, size and sharpness stay the base's. The gradient
+//!   energy, not the median tile σ: a sharp texture's plateaus put a frame's median tile
+//!   on a plateau or a front by chance, where a frame's mean gradient grows with the RMS.
+//!   A base without one gets none.
 //!
-//! Not fitted (stated in docs/realism.md): the gradient energy and Canny share (they
-//! follow the texture and the noise), the sky's and the ground's temperatures.
+//! Not fitted (stated in docs/realism.md): the Canny share (it follows the texture and
+//! the noise), the sky's and the ground's temperatures.
 
 use super::camera::Footage;
 use super::preset_out::{Fitted, sized_to};
@@ -189,9 +190,10 @@ fn footage_median(
     (!v.is_empty()).then(|| (v[v.len() / 2], v.len()))
 }
 
-/// The first fit's background texture (module docs): the base's texture (its slope and
-/// size) at the RMS the footage's median background texture asks; none when the base
-/// has none or the footage has no background to measure.
+/// The first fit's background texture (module docs): the base's texture at the RMS the
+/// footage's median gradient energy asks; none when the base has none (the rounds add one
+/// when the frames lack structure the footage has: [`adjust_texture`]) or the footage has
+/// no frame to measure.
 fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
     let Some(t) = p.thermal.as_mut() else {
         return;
@@ -199,16 +201,17 @@ fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
     let Some(mut x) = t.texture else {
         return;
     };
-    let Some((m, frames)) = footage_median(footage, |f| f.background_texture) else {
+    let Some((m, frames)) = footage_median(footage, |f| f.gradient_energy) else {
         return;
     };
     let unit = unit_texture_levels(&x, footage.size);
     x.rms_k = r3(m / (t.agc_max_gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
     notes.push(format!(
-        "thermal.texture rms_k {} K, slope {}, size {}: the footage's background texture {m:.2} levels (median over {} frames), at the gain control's largest gain of {} levels a kelvin, a texture of 1 K reading {unit:.3} levels a kelvin",
+        "thermal.texture rms_k {} K, slope {}, size {}, sharpness {}: the footage's gradient energy {m:.3} levels a pixel (median over {} frames), at the gain control's largest gain of {} levels a kelvin, a texture of 1 K reading {unit:.4} levels a pixel a kelvin",
         x.rms_k,
         x.slope,
         x.size,
+        x.sharpness,
         frames,
         t.agc_max_gain
     ));
@@ -216,10 +219,10 @@ fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
 }
 
 /// Seeds of the fields [`unit_texture_levels`] measures.
-const UNIT_SEEDS: [u64; 4] = [1, 2, 3, 4];
+const UNIT_SEEDS: [u64; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
 
-/// The background texture (levels, the report's statistic) of `x`'s field at 1 K RMS
-/// and 1 level a kelvin on a `w`×`h` frame, the mean over [`UNIT_SEEDS`]: what the first
+/// The gradient energy (levels a pixel, the report's statistic) of `x`'s field at 1 K
+/// RMS and 1 level a kelvin on a `w`×`h` frame, the mean over [`UNIT_SEEDS`]: what the first
 /// fit divides the footage's by. Measured at 16 levels a kelvin about level 128, so the
 /// 8-bit grid does not round it away.
 fn unit_texture_levels(x: &crate::preset::thermal::Texture, (w, h): (u32, u32)) -> f64 {
@@ -233,9 +236,9 @@ fn unit_texture_levels(x: &crate::preset::thermal::Texture, (w, h): (u32, u32)) 
     levels.iter().sum::<f64>() / levels.len().max(1) as f64
 }
 
-/// The background texture (levels, as the report measures it) of one field of `x` with
-/// seed `seed`, at `gain` levels a kelvin about level `base`, on a `w`×`h` frame rounded
-/// to 8 bits.
+/// The gradient energy (levels a pixel, as the report measures it) of one field of `x`
+/// with seed `seed`, at `gain` levels a kelvin about level `base`, on a `w`×`h` frame
+/// rounded to 8 bits.
 fn texture_reading(
     x: &crate::preset::thermal::Texture,
     (gain, base): (f32, f32),
@@ -254,20 +257,37 @@ fn texture_reading(
         image::Luma([v.round().clamp(0.0, 255.0) as u8])
     });
     let g540 = crate::gap::measure::gray_at_540(&grey);
-    crate::gap::measure::background_texture(&g540, &[], h as usize, None).map(f64::from)
+    Some(f64::from(crate::gap::measure::gradient_energy(&g540, None)))
 }
 
-/// The texture's RMS × real / synthetic background texture (at most ×2 or ÷2 a round)
-/// when it lies outside and the preset has one.
+/// The texture's RMS × real / synthetic gradient energy (at most ×2 or ÷2 a round)
+/// when that lies outside. A preset without a texture gets the default one when the
+/// gradient energy is below, at the RMS whose gradient energy makes up the gap in
+/// quadrature (independent structures' gradients add so), √(real² − synthetic²) over the
+/// gain control's largest gain and what 1 K of it reads at the frame's size.
 fn adjust_texture(
     t: &mut crate::preset::thermal::Thermal,
     report: &Report,
+    size: (u32, u32),
     changes: &mut Vec<String>,
 ) {
     let Some(x) = t.texture.as_mut() else {
+        let Some(("below", real, m)) = stat(report, "gradient_energy") else {
+            return;
+        };
+        let mut x = crate::preset::thermal::Texture::default();
+        let gap = (real * real - m * m).max(0.0).sqrt();
+        let unit = unit_texture_levels(&x, size);
+        x.rms_k =
+            r3(gap / (t.agc_max_gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
+        changes.push(format!(
+            "thermal.texture added: rms_k {} K, slope {}, size {}, sharpness {} (gradient_energy {m:.3} below the real {real:.3}: the gap in quadrature {gap:.3} levels a pixel, at {} levels a kelvin, 1 K reading {unit:.4})",
+            x.rms_k, x.slope, x.size, x.sharpness, t.agc_max_gain
+        ));
+        t.texture = Some(x);
         return;
     };
-    let Some((k, why)) = ratio(report, "background_texture", 2.0) else {
+    let Some((k, why)) = ratio(report, "gradient_energy", 2.0) else {
         return;
     };
     let r2 = r3(x.rms_k * k).min(crate::preset::thermal::MAX_TEXTURE_K);
@@ -451,7 +471,12 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
     }
     adjust_prior(&mut t, report, &mut changes);
     adjust_narcissus(&mut t, report, &mut changes);
-    adjust_texture(&mut t, report, &mut changes);
+    adjust_texture(
+        &mut t,
+        report,
+        preset.render.resolution.size(),
+        &mut changes,
+    );
     preset.thermal = Some(t);
     super::size_knots::adjust(preset, report, &mut changes);
     changes
@@ -692,20 +717,20 @@ mod tests {
         );
         assert_eq!(depth(&q), None);
     }
-    /// Background textures of frames of a texture of `rms_k` (slope 3, size 0.5; seeds
+    /// Gradient energies of frames of a texture of `rms_k` (the default shape; seeds
     /// `seeds`) at 4 levels a kelvin about level 100, rounded to 8 bits, measured as the
     /// report does.
     fn texture_levels(rms_k: f64, seeds: std::ops::Range<u64>) -> Vec<f64> {
         let x = crate::preset::thermal::Texture {
             rms_k,
-            slope: 3.0,
-            size: 0.5,
+            ..Default::default()
         };
         (seeds.filter_map(|seed| texture_reading(&x, (4.0, 100.0), seed, (160, 128)))).collect()
     }
 
     /// Frames with a 3 K texture: the first fit's unit estimate lands within 20 % of it,
-    /// the rounds from 1 K recover it within 15 %; a preset without a texture gets none.
+    /// the rounds from 1 K recover it within 15 %; a preset without a texture gets one
+    /// within 20 % when its frames read none, and none when they read as much.
     #[test]
     fn the_fit_recovers_a_known_texture_rms() {
         let real = texture_levels(3.0, 0..16);
@@ -713,8 +738,7 @@ mod tests {
         sorted.sort_by(f64::total_cmp);
         let x = crate::preset::thermal::Texture {
             rms_k: 1.0,
-            slope: 3.0,
-            size: 0.5,
+            ..Default::default()
         };
         let first = sorted[sorted.len() / 2] / (4.0 * unit_texture_levels(&x, (160, 128)));
         assert!(
@@ -728,16 +752,24 @@ mod tests {
         for round in 0..5 {
             let seeds = 100 * (round + 1)..100 * (round + 1) + 16;
             let syn = texture_levels(rms(&p).expect("kept"), seeds);
-            log.extend(adjust(
-                &mut p,
-                &row_report("background_texture", &real, &syn),
-            ));
+            log.extend(adjust(&mut p, &row_report("gradient_energy", &real, &syn)));
         }
         let r = rms(&p).expect("kept");
         assert!((r / 3.0 - 1.0).abs() <= 0.15, "RMS {r} K for 3: {log:?}");
+        // A preset without one gets the default shape when the gradient energy is below,
+        // at the RMS of the gap in quadrature (here all of it: flat frames read 0)...
         let mut q = thermal_preset(0.05);
-        let syn = texture_levels(0.0, 0..16);
-        adjust(&mut q, &row_report("background_texture", &real, &syn));
+        q.render.resolution = crate::preset::Resolution::Custom {
+            width: 160,
+            height: 128,
+        };
+        let flat = texture_levels(0.0, 0..16);
+        adjust(&mut q, &row_report("gradient_energy", &real, &flat));
+        let added = rms(&q).expect("added");
+        assert!((added / 3.0 - 1.0).abs() <= 0.2, "added {added} K for 3");
+        // ...and none when it is inside.
+        let mut q = thermal_preset(0.05);
+        adjust(&mut q, &row_report("gradient_energy", &real, &real));
         assert_eq!(rms(&q), None);
     }
 }

@@ -191,6 +191,10 @@ pub struct Texture {
     /// The largest features' size, a share of the frame's height (the
     /// coarsest octave's control points that far apart).
     pub size: f64,
+    /// How abruptly the field steps between warmer and colder patches: 0 a
+    /// Gaussian field; more soft-clips it (s·g through a tanh-like clip) into
+    /// plateaus joined by fronts, as cloud and scenery are; its RMS stays `rms_k`.
+    pub sharpness: f64,
 }
 
 impl Default for Texture {
@@ -199,12 +203,15 @@ impl Default for Texture {
             rms_k: 2.0,
             slope: 3.0,
             size: 0.5,
+            sharpness: 3.0,
         }
     }
 }
 
 /// The largest texture RMS, kelvin.
 pub const MAX_TEXTURE_K: f64 = 50.0;
+/// The largest texture sharpness (past it the clip is a step at every zero).
+pub const MAX_SHARPNESS: f64 = 20.0;
 
 impl Texture {
     fn validate_into(&self, v: &mut Validator) {
@@ -224,6 +231,12 @@ impl Texture {
             z.is_finite() && (0.001..=4.0).contains(&z),
             "thermal.texture.size",
             || format!("{z} must be a share of the frame's height in [0.001, 4]"),
+        );
+        let c = self.sharpness;
+        v.check(
+            c.is_finite() && (0.0..=MAX_SHARPNESS).contains(&c),
+            "thermal.texture.sharpness",
+            || format!("{c} must be in [0, {MAX_SHARPNESS}] (0: a Gaussian field)"),
         );
     }
 }

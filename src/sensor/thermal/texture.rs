@@ -20,6 +20,13 @@
 //! falls as 1/f^slope. The octaves' σ are set so the field's RMS is
 //! `rms_k` (a B-spline surface over points of σ has a variance of
 //! (151/315)² σ² averaged over positions).
+//!
+//! With a `sharpness` s > 0 the unit field g goes through a soft clip,
+//! `clip(s·g)` (a rational tanh that reaches ±1 at ±3 with zero slope),
+//! scaled back to RMS 1: the values gather on two plateaus, warmer and
+//! colder, joined by steep fronts, as cloud and scenery are patches of
+//! near-even temperature with edges, where a Gaussian field's curvature at
+//! every scale reads as noise (docs/realism.md, "Thermal camera").
 
 use rayon::prelude::*;
 
@@ -60,11 +67,66 @@ pub fn add(x: &Texture, per_k: f32, anchor: Anchor, (w, h): (u32, u32), plane: &
     let mut grid = Grid::zeros(needed[at(top)]);
     grid.add_noise(anchor.seed, top, sigmas[at(top)]);
     for level in (FINEST..top).rev() {
-        grid = grid.refine_to(needed[at(level)]);
+        let finer = grid.refine_to(needed[at(level)]);
+        give(std::mem::replace(&mut grid, finer).values);
         grid.add_noise(anchor.seed, level, sigmas[at(level)]);
     }
     let gain = per_k * x.rms_k as f32;
-    evaluate(&grid, (&columns, &rows), gain, &mut plane[..w * h]);
+    let shape = Shape::of(x.sharpness);
+    evaluate(&grid, (&columns, &rows), (gain, shape), &mut plane[..w * h]);
+    give(grid.values);
+}
+
+/// How a unit field value becomes the texture's: as it is, or soft-clipped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Shape {
+    Linear,
+    /// `clip(scale · g) × norm`, `norm` making the result's RMS 1 for a unit
+    /// Gaussian g.
+    Clipped {
+        scale: f32,
+        norm: f32,
+    },
+}
+
+impl Shape {
+    fn of(sharpness: f64) -> Self {
+        if sharpness.is_finite() && sharpness > 0.0 {
+            let norm = 1.0 / clipped_rms(sharpness);
+            Shape::Clipped {
+                scale: sharpness as f32,
+                norm: norm as f32,
+            }
+        } else {
+            Shape::Linear
+        }
+    }
+}
+
+/// The soft clip: x(27 + x²)/(27 + 9x²) on [−3, 3] (tanh's Padé form: slope 1 at 0,
+/// ±1 with slope 0 at ±3), ±1 beyond.
+#[inline(always)]
+fn clip(x: f32) -> f32 {
+    let x = x.clamp(-3.0, 3.0);
+    let x2 = x * x;
+    x * (27.0 + x2) / (27.0 + 9.0 * x2)
+}
+
+/// RMS of `clip(s·g)` for a unit Gaussian g: Simpson's rule over ±8 σ in f64 (the same
+/// clip), the density's exponential of whole-step arguments.
+fn clipped_rms(s: f64) -> f64 {
+    const STEPS: usize = 1600;
+    let h = 16.0 / STEPS as f64;
+    let f = |i: usize| {
+        let g = -8.0 + h * i as f64;
+        let c = f64::from(clip((s * g) as f32));
+        c * c * (-0.5 * g * g).exp()
+    };
+    let inner: f64 = (1..STEPS)
+        .map(|i| if i % 2 == 1 { 4.0 } else { 2.0 } * f(i))
+        .sum();
+    let integral = h / 3.0 * (f(0) + inner + f(STEPS));
+    (integral / (2.0 * std::f64::consts::PI).sqrt()).sqrt()
 }
 
 /// The coarsest level: its points `size_px` apart, to the nearest octave.
@@ -105,7 +167,7 @@ impl Grid {
         Self {
             xs,
             ys,
-            values: vec![0.0; n],
+            values: take(n),
         }
     }
 
@@ -140,13 +202,13 @@ impl Grid {
         // which may lie outside this grid, is clamped to its first and never read).
         let first_row = ys.0.div_euclid(2) - 1;
         let rows = (ys.1.div_euclid(2) + 1 - first_row + 1) as usize;
-        let mut across = vec![0f32; rows * w];
+        let mut across = take(rows * w);
         (across.par_chunks_mut(w).enumerate()).for_each(|(r, out)| {
             let row = (first_row + r as i64 - self.ys.0).clamp(0, len(self.ys) as i64 - 1);
             let p = &self.values[row as usize * gw..][..gw];
             refine_into(p, xs.0 - 2 * self.xs.0, out);
         });
-        let mut values = vec![0f32; w * h];
+        let mut values = take(w * h);
         (values.par_chunks_mut(w).enumerate()).for_each(|(j, out)| {
             let k = ys.0 + j as i64;
             let i = (k.div_euclid(2) - first_row) as usize;
@@ -157,6 +219,7 @@ impl Grid {
                 refine_even(out, row(i - 1), row(i), row(i + 1));
             }
         });
+        give(across);
         Grid { xs, ys, values }
     }
 }
@@ -271,10 +334,15 @@ impl Taps {
 
 /// The finest grid evaluated at the pixel centres, × `gain`, added to `plane`:
 /// along the rows into one line per grid row, then down the columns.
-fn evaluate(grid: &Grid, (columns, rows): (&Taps, &Taps), gain: f32, plane: &mut [f32]) {
+fn evaluate(
+    grid: &Grid,
+    (columns, rows): (&Taps, &Taps),
+    (gain, shape): (f32, Shape),
+    plane: &mut [f32],
+) {
     let w = columns.n;
     let gw = grid.width();
-    let mut across = vec![0f32; len(grid.ys) * w];
+    let mut across = take(len(grid.ys) * w);
     let from = [0, 1].map(|p| (columns.first[p] - grid.xs.0) as usize);
     (across.par_chunks_mut(w).zip(grid.values.par_chunks(gw))).for_each(|(out, line)| {
         along_row(out, line, from, &columns.weights);
@@ -282,7 +350,45 @@ fn evaluate(grid: &Grid, (columns, rows): (&Taps, &Taps), gain: f32, plane: &mut
     (plane.par_chunks_mut(w).enumerate()).for_each(|(y, out)| {
         let (r, k) = ((rows.first(y) - grid.ys.0) as usize, rows.weights[y % 2]);
         let line = |d: usize| &across[(r + d) * w..(r + d + 1) * w];
-        down_row(out, [line(0), line(1), line(2), line(3)], k, gain);
+        let lines = [line(0), line(1), line(2), line(3)];
+        match shape {
+            Shape::Linear => down_row(out, lines, k, gain),
+            Shape::Clipped { scale, norm } => down_row_clipped(out, lines, k, scale, gain * norm),
+        }
+    });
+    give(across);
+}
+
+thread_local! {
+    /// The field's buffers, kept on the calling thread from frame to frame: a 1080p
+    /// field's levels and lines take about 8 MB, and fresh ones cost the kernel's page
+    /// faults and zeroing every frame.
+    static POOL: std::cell::RefCell<Vec<Vec<f32>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A buffer of `n` zeros: the pool's smallest that holds them, else its largest.
+fn take(n: usize) -> Vec<f32> {
+    let kept = POOL.with(|p| {
+        let mut p = p.borrow_mut();
+        let fits = (0..p.len()).filter(|&i| p[i].capacity() >= n);
+        let pick = fits
+            .min_by_key(|&i| p[i].capacity())
+            .or_else(|| (0..p.len()).max_by_key(|&i| p[i].capacity()))?;
+        Some(p.swap_remove(pick))
+    });
+    let mut v = kept.unwrap_or_default();
+    v.clear();
+    v.resize(n, 0.0);
+    v
+}
+
+/// Returns a buffer to the pool (at most four are kept).
+fn give(v: Vec<f32>) {
+    POOL.with(|p| {
+        let mut p = p.borrow_mut();
+        if p.len() < 4 {
+            p.push(v);
+        }
     });
 }
 
@@ -311,6 +417,17 @@ simd_fn! {
     }
 }
 
+simd_fn! {
+    /// [`down_row`] through the soft clip: `clip(scale · v) × gain` added to `out`.
+    fn down_row_clipped(out: &mut [f32], lines: [&[f32]; 4], k: [f32; 4], scale: f32, gain: f32) {
+        let [a, b, c, d] = lines;
+        for ((((o, a), b), c), d) in out.iter_mut().zip(a).zip(b).zip(c).zip(d) {
+            let v = a * k[0] + b * k[1] + c * k[2] + d * k[3];
+            *o += clip(v * scale) * gain;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,11 +438,13 @@ mod tests {
         plane
     }
 
+    /// A Gaussian field (sharpness 0) of RMS 1.
     fn texture(slope: f64, size: f64) -> Texture {
         Texture {
             rms_k: 1.0,
             slope,
             size,
+            sharpness: 0.0,
         }
     }
 
@@ -345,6 +464,57 @@ mod tests {
             let rms = ms.sqrt();
             assert!((0.8..1.2).contains(&rms), "{x:?}: RMS {rms}");
         }
+    }
+
+    /// The clip's RMS for a unit Gaussian: the clip's slope at small values (s·σ), and
+    /// about 1 when nearly every value is clipped.
+    #[test]
+    fn the_clipped_rms_matches_its_limits() {
+        let small = clipped_rms(0.01);
+        assert!((small / 0.01 - 1.0).abs() < 1e-3, "{small}");
+        let large = clipped_rms(20.0);
+        assert!((0.97..=1.0).contains(&large), "{large}");
+        assert!(clipped_rms(1.0) < clipped_rms(3.0));
+    }
+
+    /// A sharp field keeps its RMS and gathers on two plateaus: its values' kurtosis
+    /// (a Gaussian's 3) falls below 2 at sharpness 3, where the Gaussian field's stays
+    /// near 3; so its gradients gather on fronts: more of its pixels are nearly flat.
+    #[test]
+    fn a_sharp_field_keeps_its_rms_and_steps_between_plateaus() {
+        let (w, h) = (256u32, 256u32);
+        let moments = |x: &Texture| {
+            let (mut m2, mut m4, mut flat, mut n) = (0.0, 0.0, 0usize, 0usize);
+            for seed in 0..12u64 {
+                let f = field(x, (0.0, 0.0), seed, (w, h));
+                for (i, v) in f.iter().enumerate() {
+                    let v = f64::from(*v);
+                    (m2, m4, n) = (m2 + v * v, m4 + v.powi(4), n + 1);
+                    if i % w as usize + 1 < w as usize && (f[i + 1] - f[i]).abs() < 0.005 {
+                        flat += 1;
+                    }
+                }
+            }
+            let (m2, m4) = (m2 / n as f64, m4 / n as f64);
+            (m2.sqrt(), m4 / (m2 * m2), flat as f64 / n as f64)
+        };
+        let gaussian = texture(3.0, 0.5);
+        let sharp = Texture {
+            sharpness: 3.0,
+            ..gaussian
+        };
+        let (rms_g, kurt_g, flat_g) = moments(&gaussian);
+        let (rms_s, kurt_s, flat_s) = moments(&sharp);
+        assert!((0.8..1.2).contains(&rms_s), "sharp RMS {rms_s}");
+        assert!(
+            (2.4..3.6).contains(&kurt_g),
+            "Gaussian kurtosis {kurt_g} (RMS {rms_g})"
+        );
+        assert!(kurt_s < 2.0, "sharp kurtosis {kurt_s}");
+        assert!(
+            flat_s > 1.3 * flat_g,
+            "nearly flat steps {flat_s} against {flat_g}"
+        );
     }
 
     /// The mean squared difference of pixels `lag` apart along rows and columns.
