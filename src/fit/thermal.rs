@@ -37,14 +37,15 @@
 //!   largest gain; the rounds move the depth × real / synthetic centre depth
 //!   ([`adjust_narcissus`]).
 //!
-//! - **background texture** (`thermal.texture`, when the base has one): the first fit
+//! - **background texture** (`thermal.texture`): with one in the base the first fit
 //!   sets its RMS to the footage's median gradient energy over the gain control's
-//!   largest gain and what 1 K of the base's texture reads ([`texture_fit`]); the rounds
-//!   move the RMS × real / synthetic gradient energy (at most ×2 or ÷2 a round;
-//!   [`adjust_texture`]). Its slope, size and sharpness stay the base's. The gradient
-//!   energy, not the median tile σ: a sharp texture's plateaus put a frame's median tile
-//!   on a plateau or a front by chance, where a frame's mean gradient grows with the RMS.
-//!   A base without one gets none.
+//!   largest gain and what 1 K of the base's texture reads ([`texture_fit`]); a round
+//!   whose gradient energy is below the real range adds the default texture to a preset
+//!   without one, at the RMS of the gap in quadrature; the rounds move the RMS × real /
+//!   synthetic gradient energy (at most ×2 or ÷2 a round; [`adjust_texture`]). Its
+//!   slope, size and sharpness stay as they are. The gradient energy, not the median
+//!   tile σ: a sharp texture's plateaus put a frame's median tile on a plateau or a front
+//!   by chance, where a frame's mean gradient grows with the RMS.
 //!
 //! Not fitted (stated in docs/realism.md): the Canny share (it follows the texture and
 //! the noise), the sky's and the ground's temperatures.
