@@ -205,8 +205,7 @@ fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
     let Some((m, frames)) = footage_median(footage, |f| f.gradient_energy) else {
         return;
     };
-    let unit = unit_texture_levels(&x, footage.size);
-    x.rms_k = r3(m / (t.agc_max_gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
+    let unit = set_texture_rms(&mut x, m, t.agc_max_gain, footage.size);
     notes.push(format!(
         "thermal.texture rms_k {} K, slope {}, size {}, sharpness {}: the footage's gradient energy {m:.3} levels a pixel (median over {} frames), at the gain control's largest gain of {} levels a kelvin, a texture of 1 K reading {unit:.4} levels a pixel a kelvin",
         x.rms_k,
@@ -217,6 +216,19 @@ fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         t.agc_max_gain
     ));
     t.texture = Some(x);
+}
+
+/// Sets `x`'s RMS to the one whose gradient energy reads `levels` a pixel at `gain` levels
+/// a kelvin on a `size` frame; returns what 1 K of it reads a kelvin ([`unit_texture_levels`]).
+fn set_texture_rms(
+    x: &mut crate::preset::thermal::Texture,
+    levels: f64,
+    gain: f64,
+    size: (u32, u32),
+) -> f64 {
+    let unit = unit_texture_levels(x, size);
+    x.rms_k = r3(levels / (gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
+    unit
 }
 
 /// Seeds of the fields [`unit_texture_levels`] measures.
@@ -230,11 +242,10 @@ fn unit_texture_levels(x: &crate::preset::thermal::Texture, (w, h): (u32, u32)) 
     const GAIN: f32 = 16.0;
     let unit = crate::preset::thermal::Texture { rms_k: 1.0, ..*x };
     let size = (w.clamp(16, 4096), h.clamp(16, 4096));
-    let levels: Vec<f64> = (UNIT_SEEDS.iter())
-        .filter_map(|&seed| texture_reading(&unit, (GAIN, 128.0), seed, size))
-        .map(|t| t / f64::from(GAIN))
-        .collect();
-    levels.iter().sum::<f64>() / levels.len().max(1) as f64
+    let total: f64 = (UNIT_SEEDS.iter())
+        .map(|&seed| texture_reading(&unit, (GAIN, 128.0), seed, size) / f64::from(GAIN))
+        .sum();
+    total / UNIT_SEEDS.len() as f64
 }
 
 /// The gradient energy (levels a pixel, as the report measures it) of one field of `x`
@@ -245,7 +256,7 @@ fn texture_reading(
     (gain, base): (f32, f32),
     seed: u64,
     (w, h): (u32, u32),
-) -> Option<f64> {
+) -> f64 {
     use crate::sensor::thermal::texture::{Anchor, add};
     let mut plane = vec![0f32; w as usize * h as usize];
     let anchor = Anchor {
@@ -258,7 +269,7 @@ fn texture_reading(
         image::Luma([v.round().clamp(0.0, 255.0) as u8])
     });
     let g540 = crate::gap::measure::gray_at_540(&grey);
-    Some(f64::from(crate::gap::measure::gradient_energy(&g540, None)))
+    f64::from(crate::gap::measure::gradient_energy(&g540, None))
 }
 
 /// The texture's RMS × real / synthetic gradient energy (at most ×2 or ÷2 a round)
@@ -278,9 +289,7 @@ fn adjust_texture(
         };
         let mut x = crate::preset::thermal::Texture::default();
         let gap = (real * real - m * m).max(0.0).sqrt();
-        let unit = unit_texture_levels(&x, size);
-        x.rms_k =
-            r3(gap / (t.agc_max_gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
+        let unit = set_texture_rms(&mut x, gap, t.agc_max_gain, size);
         changes.push(format!(
             "thermal.texture added: rms_k {} K, slope {}, size {}, sharpness {} (gradient_energy {m:.3} below the real {real:.3}: the gap in quadrature {gap:.3} levels a pixel, at {} levels a kelvin, 1 K reading {unit:.4})",
             x.rms_k, x.slope, x.size, x.sharpness, t.agc_max_gain
@@ -726,7 +735,7 @@ mod tests {
             rms_k,
             ..Default::default()
         };
-        (seeds.filter_map(|seed| texture_reading(&x, (4.0, 100.0), seed, (160, 128)))).collect()
+        (seeds.map(|seed| texture_reading(&x, (4.0, 100.0), seed, (160, 128)))).collect()
     }
 
     /// Frames with a 3 K texture: the first fit's unit estimate lands within 20 % of it,
