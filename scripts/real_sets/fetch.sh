@@ -25,6 +25,11 @@
 #                the video's author's: keep them outside the repository.
 #   phantom-yt   the same copy: its 43 frames `fotoNNNNN.jpg` of a DJI Phantom 4 flying against
 #                blue sky, clouds and palm tops, 1280x720, another YouTube video (same terms).
+#   svanstrom-ir  DroneDetectionThesis/Drone-detection-dataset (CC0 1.0; Svanström et al., Data in
+#                Brief 2021), its infrared half: 2 frames of each of the 157 IR_DRONE videos
+#                (FLIR Breach PTQ-136, 320x256, white-hot, 30 fps; sky, trees, ground, buildings)
+#                with the dataset's hand-drawn boxes from IR_DRONE_NNN_LABELS.mat. The labels
+#                need `pip install mcos-decoder` (MATLAB groundTruth objects).
 #   drone-vs-bird  wosdetc/challenge annotations; the videos are released only on request
 #                (data usage agreement, wosdetc@googlegroups.com): put them in $DVB_VIDEOS.
 #   nps-drones   mwaseema/Drone-Detection re-annotation of the NPS-Drones clips; the videos are
@@ -35,14 +40,15 @@
 # directory (a bare snapshot is enough) and no clone is made:
 #   ANTI_UAV_GIT_DIR=/work/.mirror/ZhaoJ9014+Anti-UAV/repo scripts/real_sets/fetch.sh /work/realsets anti-uav-ir
 # (KAGGLE_UAV_GIT_DIR likewise for mi-drone-yt and phantom-yt, LABEL_MASTER_GIT_DIR for
-# uavswarm-topdown.) That is how /work/realsets/anti-uav-ir, mi-drone-yt, phantom-yt and
-# uavswarm-topdown were built (2026, from snapshots of the repositories);
+# uavswarm-topdown, SVANSTROM_GIT_DIR for svanstrom-ir.) That is how /work/realsets/anti-uav-ir,
+# mi-drone-yt, phantom-yt, uavswarm-topdown and svanstrom-ir were built (2026, from snapshots
+# of the repositories);
 # the uavswarm, drone-vs-bird and nps-drones converters were tested on the annotation files
 # only (their frames could not be fetched here). Files a snapshot lacks (git objects of 4 MiB
 # and more are left out of stored snapshots) are reported and skipped.
 #
-# Needs: git, python3 (standard library), and for video frames an ffmpeg binary ($FFMPEG,
-# PATH, or `pip install imageio-ffmpeg`).
+# Needs: git, python3 (standard library), for video frames an ffmpeg binary ($FFMPEG, PATH,
+# or `pip install imageio-ffmpeg`), and for svanstrom-ir `pip install mcos-decoder`.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -50,7 +56,7 @@ to_yolo=(python3 "$here/to_yolo.py")
 [ $# -ge 1 ] || { sed -n '2,4p' "$0" >&2; exit 2; }
 out="$1"; shift
 sets=("$@")
-[ ${#sets[@]} -gt 0 ] || sets=(anti-uav-ir mi-drone-yt phantom-yt uavswarm-topdown uavswarm)
+[ ${#sets[@]} -gt 0 ] || sets=(anti-uav-ir mi-drone-yt phantom-yt uavswarm-topdown svanstrom-ir uavswarm)
 mkdir -p "$out/src"
 
 # clone URL COMMIT VAR: prints a git dir holding COMMIT (the one named by $VAR when set).
@@ -151,6 +157,21 @@ uavswarm_topdown() {
   done
 }
 
+# Two frames of each IR_DRONE video, spread evenly over the frames that have a box.
+svanstrom_ir() {
+  local at=442d0c6750708cc221636f7a1fd31cbd8cb0aeb8
+  local g; g=$(clone https://github.com/DroneDetectionThesis/Drone-detection-dataset "$at" SVANSTROM_GIT_DIR)
+  local tmp="$out/src/svanstrom-ir"; rm -rf "$tmp"; mkdir -p "$tmp"; fresh svanstrom-ir
+  git --git-dir="$g" ls-tree --name-only "$at" Data/Video_IR/ | grep '/IR_DRONE_[0-9]*\.mp4$' | while read -r p; do
+    local v; v=$(basename "$p" .mp4)
+    show "$g" "$at" "$p" "$tmp/$v.mp4" || continue
+    show "$g" "$at" "Data/Video_IR/${v}_LABELS.mat" "$tmp/$v.mat" || continue
+    "${to_yolo[@]}" svanstrom --video "$tmp/$v.mp4" --mat "$tmp/$v.mat" --out "$out/svanstrom-ir" \
+      --prefix "svir_${v#IR_DRONE_}" --count 2
+  done
+  show "$g" "$at" LICENSE "$out/svanstrom-ir/LICENSE" || true
+}
+
 drone_vs_bird() {
   [ -n "${DVB_VIDEOS:-}" ] || { echo "fetch: drone-vs-bird needs \$DVB_VIDEOS (videos are released on request)" >&2; return 1; }
   local g; g=$(clone https://github.com/wosdetc/challenge b1d64c32776bb12d0c5387f0fd5575adb0c27a73 DVB_GIT_DIR)
@@ -183,8 +204,9 @@ for s in "${sets[@]}"; do
     phantom-yt) phantom_yt ;;
     uavswarm) uavswarm ;;
     uavswarm-topdown) uavswarm_topdown ;;
+    svanstrom-ir) svanstrom_ir ;;
     drone-vs-bird) drone_vs_bird ;;
     nps-drones) nps_drones ;;
-    *) echo "fetch: unknown set $s (anti-uav-ir, mi-drone-yt, phantom-yt, uavswarm, uavswarm-topdown, drone-vs-bird, nps-drones)" >&2; exit 2 ;;
+    *) echo "fetch: unknown set $s (anti-uav-ir, mi-drone-yt, phantom-yt, uavswarm, uavswarm-topdown, svanstrom-ir, drone-vs-bird, nps-drones)" >&2; exit 2 ;;
   esac
 done

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Convert public drone-detection annotations to the YOLO layout `swarmshot gap` reads.
 
-Standard library only (video needs an ffmpeg binary). Every sub-command writes
+Standard library only (video needs an ffmpeg binary, the `svanstrom` labels the mcos-decoder
+package). Every sub-command writes
 
     OUT/images/<prefix>_<frame>.<jpg|png>     the real frame (JPEG or PNG bytes copied
                                               unchanged, the extension following the bytes;
@@ -31,6 +32,11 @@ Sub-commands (the formats of the sets in docs/real-sets.md):
   nps           a video + NPS-Drones rows `frame,n,x1,y1,x2,y2[,x1,y1,x2,y2...]`
                 (the re-annotation in github.com/mwaseema/Drone-Detection)
                   to_yolo.py nps --video V --ann T --out OUT --prefix P --count N
+  svanstrom     a video + its `_LABELS.mat` (MATLAB groundTruth, one drone box per frame) of the
+                CC0 drone detection dataset of Svanström et al.; needs `pip install mcos-decoder`.
+                MATLAB's boxes are in spatial coordinates (pixel 1 centred on 1.0): moved by
+                -0.5 px to the pixel-edge coordinates of YOLO
+                  to_yolo.py svanstrom --video V --mat M --out OUT --prefix P --count N
   voc           images + Pascal VOC XML (Det-Fly, MAV-VID, DUT-Anti-UAV); objects whose
                 name is in --names (default: drone,uav,UAV,Drone) become class 0
                   to_yolo.py voc --images DIR --xml DIR --out OUT [--prefix P]
@@ -150,7 +156,8 @@ def decode_frame(video, n):
     """Frame n (0-based) of a video as PNG bytes, decoded losslessly."""
     cmd = [ffmpeg_exe(), "-loglevel", "error", "-i", str(video), "-vf", f"select=eq(n\\,{n})",
            "-vframes", "1", "-f", "image2pipe", "-vcodec", "png", "-"]
-    res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, check=False)
+    res = subprocess.run(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         check=False)
     if res.returncode != 0 or not res.stdout:
         raise ConvertError(f"{video}: frame {n} could not be decoded: {res.stderr.decode()[-300:]}")
     return res.stdout
@@ -232,6 +239,19 @@ def parse_nps(text):
             continue
         frame, n = int(f[0]), int(f[1])
         out[frame] = [tuple(map(float, f[2 + 4 * k:6 + 4 * k])) for k in range(n)]
+    return out
+
+
+def read_svanstrom_mat(path):
+    """{frame: [box]} from a Svanström `_LABELS.mat` (0-based frames, pixel-edge coordinates)."""
+    try:
+        import mcos_decoder  # the groundTruth objects are MATLAB MCOS: no stdlib reader
+    except ImportError:
+        raise ConvertError("the svanstrom labels need the mcos-decoder package: pip install mcos-decoder")
+    out = {}
+    for i, b in enumerate(mcos_decoder.load_groundtruth(str(path))):
+        ok = b is not None and len(b) == 4 and b[2] > 0 and b[3] > 0
+        out[i] = [(b[0] - 0.5, b[1] - 0.5, b[0] - 0.5 + b[2], b[1] - 0.5 + b[3])] if ok else []
     return out
 
 
@@ -327,6 +347,8 @@ def main(argv=None):
     p.add_argument("--ann", required=True)
     p = common(sub.add_parser("nps"), video=True)
     p.add_argument("--ann", required=True)
+    p = common(sub.add_parser("svanstrom"), video=True)
+    p.add_argument("--mat", required=True)
     p = common(sub.add_parser("voc"))
     p.add_argument("--images", required=True)
     p.add_argument("--xml", required=True)
@@ -340,6 +362,8 @@ def main(argv=None):
             cmd_mot(args)
         elif args.cmd == "voc":
             cmd_voc(args)
+        elif args.cmd == "svanstrom":
+            from_video(args, read_svanstrom_mat(args.mat))
         else:
             readers = {"xywh-video": ("gt", parse_xywh_rows), "antiuav-json": ("json", parse_antiuav_json),
                        "dvb": ("ann", parse_dvb), "nps": ("ann", parse_nps)}
