@@ -42,18 +42,25 @@
 //!   largest gain and what 1 K of the base's texture reads ([`texture_fit`]); a round
 //!   whose gradient energy is below the real range adds the default texture to a preset
 //!   without one, at the RMS of the gap in quadrature; the rounds move the RMS × real /
-//!   synthetic gradient energy (at most ×2 or ÷2 a round; [`adjust_texture`]). Its
-//!   slope, size and sharpness stay as they are. The gradient energy, not the median
-//!   tile σ: a sharp texture's plateaus put a frame's median tile on a plateau or a front
-//!   by chance, where a frame's mean gradient grows with the RMS.
+//!   synthetic gradient energy (at most ×2 or ÷2 a round; [`adjust_texture`]) and its
+//!   sharpness × √(real / synthetic Canny edge share) (at most ×2 or ÷2 a round, within
+//!   [`texture::FITTED_SHARPNESS`]): at one gradient energy a sharper field puts its
+//!   change into more fronts. Its slope and size stay as they are (all in [`texture`]). The
+//!   gradient energy, not the median tile σ: a sharp texture's plateaus put a frame's
+//!   median tile on a plateau or a front by chance, where a frame's mean gradient grows
+//!   with the RMS.
 //!
-//! Not fitted (stated in docs/realism.md): the Canny share (it follows the texture and
-//! the noise), the sky's and the ground's temperatures.
+//! Not fitted (stated in docs/realism.md): the Canny share of a preset without a texture
+//! (it follows the noise), the sky's and the ground's temperatures, the line of sight's
+//! elevation.
 
 use super::camera::Footage;
 use super::preset_out::{Fitted, sized_to};
 use crate::gap::report::{Report, Summary};
 use crate::preset::{ImageFormat, Preset};
+use texture::{adjust_texture, texture_fit};
+
+mod texture;
 
 /// The first fit of a thermal base (module docs), with one note per value.
 pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
@@ -189,122 +196,6 @@ fn footage_median(
         .collect();
     v.sort_by(f64::total_cmp);
     (!v.is_empty()).then(|| (v[v.len() / 2], v.len()))
-}
-
-/// The first fit's background texture (module docs): the base's texture at the RMS the
-/// footage's median gradient energy asks; none when the base has none (the rounds add one
-/// when the frames lack structure the footage has: [`adjust_texture`]) or the footage has
-/// no frame to measure.
-fn texture_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
-    let Some(t) = p.thermal.as_mut() else {
-        return;
-    };
-    let Some(mut x) = t.texture else {
-        return;
-    };
-    let Some((m, frames)) = footage_median(footage, |f| f.gradient_energy) else {
-        return;
-    };
-    let unit = set_texture_rms(&mut x, m, t.agc_max_gain, footage.size);
-    notes.push(format!(
-        "thermal.texture rms_k {} K, slope {}, size {}, sharpness {}: the footage's gradient energy {m:.3} levels a pixel (median over {} frames), at the gain control's largest gain of {} levels a kelvin, a texture of 1 K reading {unit:.4} levels a pixel a kelvin",
-        x.rms_k,
-        x.slope,
-        x.size,
-        x.sharpness,
-        frames,
-        t.agc_max_gain
-    ));
-    t.texture = Some(x);
-}
-
-/// Sets `x`'s RMS to the one whose gradient energy reads `levels` a pixel at `gain` levels
-/// a kelvin on a `size` frame; returns what 1 K of it reads a kelvin ([`unit_texture_levels`]).
-fn set_texture_rms(
-    x: &mut crate::preset::thermal::Texture,
-    levels: f64,
-    gain: f64,
-    size: (u32, u32),
-) -> f64 {
-    let unit = unit_texture_levels(x, size);
-    x.rms_k = r3(levels / (gain * unit).max(1e-6)).min(crate::preset::thermal::MAX_TEXTURE_K);
-    unit
-}
-
-/// Seeds of the fields [`unit_texture_levels`] measures.
-const UNIT_SEEDS: [u64; 8] = [1, 2, 3, 4, 5, 6, 7, 8];
-
-/// The gradient energy (levels a pixel, the report's statistic) of `x`'s field at 1 K
-/// RMS and 1 level a kelvin on a `w`×`h` frame, the mean over [`UNIT_SEEDS`]: what the first
-/// fit divides the footage's by. Measured at 16 levels a kelvin about level 128, so the
-/// 8-bit grid does not round it away.
-fn unit_texture_levels(x: &crate::preset::thermal::Texture, (w, h): (u32, u32)) -> f64 {
-    const GAIN: f32 = 16.0;
-    let unit = crate::preset::thermal::Texture { rms_k: 1.0, ..*x };
-    let size = (w.clamp(16, 4096), h.clamp(16, 4096));
-    let total: f64 = (UNIT_SEEDS.iter())
-        .map(|&seed| texture_reading(&unit, (GAIN, 128.0), seed, size) / f64::from(GAIN))
-        .sum();
-    total / UNIT_SEEDS.len() as f64
-}
-
-/// The gradient energy (levels a pixel, as the report measures it) of one field of `x`
-/// with seed `seed`, at `gain` levels a kelvin about level `base`, on a `w`×`h` frame
-/// rounded to 8 bits.
-fn texture_reading(
-    x: &crate::preset::thermal::Texture,
-    (gain, base): (f32, f32),
-    seed: u64,
-    (w, h): (u32, u32),
-) -> f64 {
-    use crate::sensor::thermal::texture::{Anchor, add};
-    let mut plane = vec![0f32; w as usize * h as usize];
-    let anchor = Anchor {
-        seed,
-        origin: (0.0, 0.0),
-    };
-    add(x, gain, anchor, (w, h), &mut plane);
-    let grey = image::GrayImage::from_fn(w, h, |x, y| {
-        let v = base + plane[(y * w + x) as usize];
-        image::Luma([v.round().clamp(0.0, 255.0) as u8])
-    });
-    let g540 = crate::gap::measure::gray_at_540(&grey);
-    f64::from(crate::gap::measure::gradient_energy(&g540, None))
-}
-
-/// The texture's RMS × real / synthetic gradient energy (at most ×2 or ÷2 a round)
-/// when that lies outside. A preset without a texture gets the default one when the
-/// gradient energy is below, at the RMS whose gradient energy makes up the gap in
-/// quadrature (independent structures' gradients add so), √(real² − synthetic²) over the
-/// gain control's largest gain and what 1 K of it reads at the frame's size.
-fn adjust_texture(
-    t: &mut crate::preset::thermal::Thermal,
-    report: &Report,
-    size: (u32, u32),
-    changes: &mut Vec<String>,
-) {
-    let Some(x) = t.texture.as_mut() else {
-        let Some(("below", real, m)) = stat(report, "gradient_energy") else {
-            return;
-        };
-        let mut x = crate::preset::thermal::Texture::default();
-        let gap = (real * real - m * m).max(0.0).sqrt();
-        let unit = set_texture_rms(&mut x, gap, t.agc_max_gain, size);
-        changes.push(format!(
-            "thermal.texture added: rms_k {} K, slope {}, size {}, sharpness {} (gradient_energy {m:.3} below the real {real:.3}: the gap in quadrature {gap:.3} levels a pixel, at {} levels a kelvin, 1 K reading {unit:.4})",
-            x.rms_k, x.slope, x.size, x.sharpness, t.agc_max_gain
-        ));
-        t.texture = Some(x);
-        return;
-    };
-    let Some((k, why)) = ratio(report, "gradient_energy", 2.0) else {
-        return;
-    };
-    let r2 = r3(x.rms_k * k).min(crate::preset::thermal::MAX_TEXTURE_K);
-    if r2 != x.rms_k {
-        changes.push(format!("thermal.texture rms_k {} → {r2} ({why})", x.rms_k));
-        x.rms_k = r2;
-    }
 }
 
 /// The narcissus' depth × real / synthetic centre depth (at most ×2 or ÷2 a round)
@@ -533,7 +424,7 @@ mod tests {
         }
     }
 
-    fn thermal_preset(cold_share: f64) -> Preset {
+    pub(super) fn thermal_preset(cold_share: f64) -> Preset {
         let mut p = Preset::load(std::path::Path::new("presets/thermal.ron")).expect("preset");
         p.thermal.as_mut().expect("thermal").drone.cold_share = cold_share;
         p
@@ -580,7 +471,7 @@ mod tests {
     }
 
     /// A report whose only row is the frame statistic `key` of `real` and `syn` frames.
-    fn row_report(key: &'static str, real: &[f64], syn: &[f64]) -> Report {
+    pub(super) fn row_report(key: &'static str, real: &[f64], syn: &[f64]) -> Report {
         let (r, s) = (
             crate::gap::report::distribution(real),
             crate::gap::report::distribution(syn),
@@ -726,60 +617,5 @@ mod tests {
             &row_report("centre_depth", &real, &centre_depths(None, 0..16)),
         );
         assert_eq!(depth(&q), None);
-    }
-    /// Gradient energies of frames of a texture of `rms_k` (the default shape; seeds
-    /// `seeds`) at 4 levels a kelvin about level 100, rounded to 8 bits, measured as the
-    /// report does.
-    fn texture_levels(rms_k: f64, seeds: std::ops::Range<u64>) -> Vec<f64> {
-        let x = crate::preset::thermal::Texture {
-            rms_k,
-            ..Default::default()
-        };
-        (seeds.map(|seed| texture_reading(&x, (4.0, 100.0), seed, (160, 128)))).collect()
-    }
-
-    /// Frames with a 3 K texture: the first fit's unit estimate lands within 20 % of it,
-    /// the rounds from 1 K recover it within 15 %; a preset without a texture gets one
-    /// within 20 % when its frames read none, and none when they read as much.
-    #[test]
-    fn the_fit_recovers_a_known_texture_rms() {
-        let real = texture_levels(3.0, 0..16);
-        let mut sorted = real.clone();
-        sorted.sort_by(f64::total_cmp);
-        let x = crate::preset::thermal::Texture {
-            rms_k: 1.0,
-            ..Default::default()
-        };
-        let first = sorted[sorted.len() / 2] / (4.0 * unit_texture_levels(&x, (160, 128)));
-        assert!(
-            (first / 3.0 - 1.0).abs() <= 0.2,
-            "first estimate {first} K for 3"
-        );
-        let rms = |p: &Preset| p.thermal.as_ref().and_then(|t| t.texture).map(|x| x.rms_k);
-        let mut p = thermal_preset(0.05);
-        p.thermal.as_mut().expect("thermal").texture = Some(x);
-        let mut log = Vec::new();
-        for round in 0..5 {
-            let seeds = 100 * (round + 1)..100 * (round + 1) + 16;
-            let syn = texture_levels(rms(&p).expect("kept"), seeds);
-            log.extend(adjust(&mut p, &row_report("gradient_energy", &real, &syn)));
-        }
-        let r = rms(&p).expect("kept");
-        assert!((r / 3.0 - 1.0).abs() <= 0.15, "RMS {r} K for 3: {log:?}");
-        // A preset without one gets the default shape when the gradient energy is below,
-        // at the RMS of the gap in quadrature (here all of it: flat frames read 0)...
-        let mut q = thermal_preset(0.05);
-        q.render.resolution = crate::preset::Resolution::Custom {
-            width: 160,
-            height: 128,
-        };
-        let flat = texture_levels(0.0, 0..16);
-        adjust(&mut q, &row_report("gradient_energy", &real, &flat));
-        let added = rms(&q).expect("added");
-        assert!((added / 3.0 - 1.0).abs() <= 0.2, "added {added} K for 3");
-        // ...and none when it is inside.
-        let mut q = thermal_preset(0.05);
-        adjust(&mut q, &row_report("gradient_energy", &real, &real));
-        assert_eq!(rms(&q), None);
     }
 }
