@@ -619,6 +619,7 @@ mod tests {
                 counted: true,
             }],
             proposals: Vec::new(),
+            real_halves: None,
         }
     }
 

@@ -421,6 +421,7 @@ mod tests {
                 counted: true,
             }],
             proposals: Vec::new(),
+            real_halves: None,
         }
     }
 
@@ -503,6 +504,7 @@ mod tests {
                 counted: false,
             }],
             proposals: Vec::new(),
+            real_halves: None,
         }
     }
 

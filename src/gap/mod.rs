@@ -53,6 +53,7 @@ pub mod behind;
 pub mod capture;
 mod error;
 pub mod folder;
+pub mod halves;
 mod histogram;
 pub mod jpeg_quality;
 pub mod measure;

@@ -25,6 +25,7 @@ use super::behind::Behind;
 pub use super::error::GapError;
 use super::folder::{ClassTally, DroneClasses, input, label_for, not_a_folder, read_labels, walk};
 pub use super::folder::{MAX_BOX_COVERAGE, MAX_LABEL_BYTES, MAX_LABEL_LINES, YOLO_TOLERANCE};
+use super::halves::{Agreement, RealHalves, Split};
 use super::table::percentile;
 pub use super::table::{FEW_REAL_VALUES, Proposal, StatRow, Summary, cell, fmt, iqr_distance};
 use super::{FrameStats, measure_frame};
@@ -102,6 +103,8 @@ pub struct Report {
     pub synthetic: Side,
     pub statistics: Vec<StatRow>,
     pub proposals: Vec<Proposal>,
+    /// The real frames against themselves ([`super::halves`]; `None` with too few).
+    pub real_halves: Option<RealHalves>,
 }
 
 /// Whether a drone counts for a share (`None`: it has no say).
@@ -540,13 +543,27 @@ pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
     if let Some(given) = &opts.synthetic_classes {
         check_classes(&synthetic, "--synthetic-classes", given)?;
     }
+    let statistics = compare(&real, &synthetic);
+    let proposals = super::propose::propose(&statistics);
+    let real_halves = RealHalves::of(real.frames.len(), |first| halves_agree(&real, first));
+    Ok(Report {
+        real,
+        synthetic,
+        statistics,
+        proposals,
+        real_halves,
+    })
+}
+
+/// Every statistic of `synthetic` against the range of `real`.
+fn compare(real: &Side, synthetic: &Side) -> Vec<StatRow> {
     let mut statistics = Vec::new();
     for s in stats() {
         let (r, y) = match s.kind {
-            Kind::Share(g) => (share(&flags(&real, g)), share(&flags(&synthetic, g))),
+            Kind::Share(g) => (share(&flags(real, g)), share(&flags(synthetic, g))),
             ref k => (
-                distribution(&values(&real, k)),
-                distribution(&values(&synthetic, k)),
+                distribution(&values(real, k)),
+                distribution(&values(synthetic, k)),
             ),
         };
         statistics.push(StatRow {
@@ -565,13 +582,28 @@ pub fn run(opts: &GapOptions) -> Result<Report, GapError> {
             counted: s.counted,
         });
     }
-    let proposals = super::propose::propose(&statistics);
-    Ok(Report {
-        real,
-        synthetic,
-        statistics,
-        proposals,
-    })
+    statistics
+}
+
+/// The two halves of `real`'s frames that `first` makes, each against the other's range.
+fn halves_agree(real: &Side, first: Split) -> Agreement {
+    let part = |keep: bool| Side {
+        frames: (real.frames.iter().enumerate())
+            .filter(|(i, _)| first(*i) == keep)
+            .map(|(_, f)| f.clone())
+            .collect(),
+        ..Side::default()
+    };
+    let (a, b) = (part(true), part(false));
+    Agreement([inside(&compare(&a, &b)), inside(&compare(&b, &a))])
+}
+
+/// How many counted statistics are inside, of those with a value on both sides.
+fn inside(statistics: &[StatRow]) -> (usize, usize) {
+    let counted = statistics.iter().filter(|r| r.counted);
+    let applicable: Vec<&StatRow> = counted.filter(|r| r.iqr_distance.is_some()).collect();
+    let inside = applicable.iter().filter(|r| r.verdict == "inside").count();
+    (inside, applicable.len())
 }
 
 impl Report {
@@ -594,10 +626,7 @@ impl Report {
 
     /// How many counted statistics are inside, of those with a value on both sides.
     pub fn inside(&self) -> (usize, usize) {
-        let counted = self.statistics.iter().filter(|r| r.counted);
-        let applicable: Vec<&StatRow> = counted.filter(|r| r.iqr_distance.is_some()).collect();
-        let inside = applicable.iter().filter(|r| r.verdict == "inside").count();
-        (inside, applicable.len())
+        inside(&self.statistics)
     }
 
     /// The side-by-side table, as printed.
@@ -654,6 +683,9 @@ impl Report {
         s += &format!(
             "counted statistics inside: {inside} of {applicable} (those with a value on both sides)\n"
         );
+        if let Some(h) = &self.real_halves {
+            s += &h.line();
+        }
         s += "\nnot counted (measured for fitting):\n";
         for r in self.statistics.iter().filter(|r| !r.counted) {
             s += &row(r);
@@ -762,6 +794,50 @@ impl Report {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A side of `n` frames whose brightness is `level(i)` and whose gradient energy and
+    /// Canny share spread alike in every part of it.
+    fn side_of(n: usize, level: impl Fn(usize) -> f32) -> Side {
+        let frames = (0..n)
+            .map(|i| FrameRecord {
+                file: format!("{i:04}.png"),
+                stats: FrameStats {
+                    mean_brightness: level(i),
+                    gradient_energy: 1.0 + (i % 3) as f32 * 0.1,
+                    canny_edge_share: 0.01 + (i % 3) as f32 * 0.001,
+                    ..FrameStats::default()
+                },
+            })
+            .collect();
+        Side {
+            frames,
+            ..Side::default()
+        }
+    }
+
+    /// Footage that turns darker halfway (two occasions): its alternate halves agree on
+    /// every statistic, its first and second halves not on the brightness, either way;
+    /// footage alike all along agrees both ways.
+    #[test]
+    fn halves_of_footage_that_changes_along_it_disagree() {
+        let agree = |real: &Side| {
+            RealHalves::of(real.frames.len(), |first| halves_agree(real, first)).expect("enough")
+        };
+        let h = agree(&side_of(
+            40,
+            |i| if i < 20 { 60.0 } else { 140.0 } + (i % 5) as f32,
+        ));
+        let Agreement([(a, n), (b, m)]) = h.alternate;
+        assert_eq!((a, b), (n, m), "alternate halves: {h:?}");
+        assert!(
+            n >= 3,
+            "brightness, gradient energy and Canny share counted: {h:?}"
+        );
+        let Agreement([(c, p), (d, q)]) = h.first_second;
+        assert_eq!((c + 1, d + 1), (p, q), "first against second: {h:?}");
+        let even = agree(&side_of(40, |i| 100.0 + (i % 5) as f32));
+        assert_eq!(even.first_second, even.alternate);
+    }
 
     #[test]
     fn quartiles_interpolate_and_shares_bracket() {
