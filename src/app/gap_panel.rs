@@ -395,6 +395,9 @@ fn report_ui(ui: &mut Ui, report: &Report) {
     if let Some(note) = report.few_real_values() {
         ui.label(RichText::new(plain(&note)).color(Color32::from_rgb(220, 150, 40)));
     }
+    if let Some(halves) = &report.real_halves {
+        ui.weak(plain(halves.line().trim_end()));
+    }
     if !report.proposals.is_empty() {
         ui.add_space(4.0);
         ui.strong("Proposed ranges");
