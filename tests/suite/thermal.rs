@@ -654,3 +654,87 @@ fn the_background_texture_changes_the_picture_not_the_labels() {
         );
     }
 }
+
+/// A thermal preset with backplates draws the plate's levels as the scene (src/sensor/thermal/plate_plane.rs):
+/// with the camera's own noise, pattern, shading and blur off, every background pixel away
+/// from the drones is the plate's level plus one offset (the gain control's middle), and
+/// the drones read warm on it.
+#[test]
+fn thermal_backplates_draw_the_plates_levels_and_the_drones_warm_on_them() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let name = "antiuav2020_v7_f000281.png";
+    std::fs::copy(
+        common::testdata("real-anti-uav-ir/images").join(name),
+        tmp.path().join(name),
+    )
+    .expect("plate");
+    let plate = image::open(tmp.path().join(name))
+        .expect("decodes")
+        .to_luma8();
+    let mut p = thermal_preset();
+    p.render.resolution = Resolution::Custom {
+        width: 640,
+        height: 512,
+    };
+    p.backplate = Some(swarmshot::preset::backplate::Backplate {
+        folder: tmp.path().to_owned(),
+        hfov_deg: 10.0,
+        flip: false,
+        ..Default::default()
+    });
+    let t = p.thermal.as_mut().expect("thermal");
+    (t.netd_mk, t.fixed_pattern_mk, t.shading_k, t.blur_px) = (0.0, 0.0, 0.0, 0.0);
+    let f = make(&p, 0);
+    assert!(!f.labels.is_empty(), "a drone is drawn");
+    let near = |x: u32, y: u32| {
+        (f.labels.iter()).any(|l| {
+            let b = l.bbox;
+            f64::from(x) > b.x0 - 8.0
+                && f64::from(x) < b.x1 + 8.0
+                && f64::from(y) > b.y0 - 8.0
+                && f64::from(y) < b.y1 + 8.0
+        })
+    };
+    let mut pairs: Vec<(i32, i32)> = Vec::new();
+    for y in 0..512 {
+        for x in 0..640 {
+            if !near(x, y) {
+                pairs.push((
+                    i32::from(plate.get_pixel(x, y)[0]),
+                    grey_at(&f, x, y) as i32,
+                ));
+            }
+        }
+    }
+    let mut diffs: Vec<i32> = pairs.iter().map(|(a, b)| b - a).collect();
+    diffs.sort_unstable();
+    let offset = diffs[diffs.len() / 2];
+    // Pixels the offset takes past 0 or 255 clip there.
+    let inner: Vec<i32> = (pairs.iter())
+        .filter(|(a, _)| (1..255).contains(&(a + offset)))
+        .map(|(a, b)| b - a - offset)
+        .collect();
+    let within = inner.iter().filter(|d| d.abs() <= 1).count();
+    assert!(
+        within as f64 >= 0.98 * inner.len() as f64 && inner.len() * 2 > pairs.len(),
+        "{within} of {} background pixels within a level of the plate + {offset}",
+        inner.len()
+    );
+    for l in &f.labels {
+        let (cx, cy) = (
+            ((l.bbox.x0 + l.bbox.x1) / 2.0) as u32,
+            ((l.bbox.y0 + l.bbox.y1) / 2.0) as u32,
+        );
+        let peak = (cy.saturating_sub(2)..(cy + 3).min(512))
+            .flat_map(|y| (cx.saturating_sub(2)..(cx + 3).min(640)).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                grey_at(&f, x, y) - f64::from(plate.get_pixel(x, y)[0]) - f64::from(offset)
+            })
+            .fold(f64::MIN, f64::max);
+        assert!(
+            peak > 10.0,
+            "drone {:?}: {peak:.1} levels over the plate",
+            l.bbox
+        );
+    }
+}

@@ -7,7 +7,9 @@
 //! - the background from the camera's rays and the drone-free visible
 //!   background ([`crate::sensor::thermal::sky_plane`]: the ground below
 //!   the horizon, the clear sky by elevation above it, turned towards the
-//!   clouds' or the scenery's radiance by the pixel's colour);
+//!   clouds' or the scenery's radiance by the pixel's colour); with
+//!   backplates, from the drawn plate's levels instead
+//!   ([`crate::sensor::thermal::plate_plane`]: a thermal camera's own frames);
 //! - every pixel the id pass gives a drone or confuser (its samples' share
 //!   of the pixel): the object's skin and warm spots ([`parts`]: one
 //!   Gaussian about its projected centre, σ a share of its half box, or
@@ -146,7 +148,12 @@ impl FramePipeline {
         (hits, measured): (&mut Option<Vec<PixelHit>>, &mut Option<Vec<Visibility>>),
         scratch: &mut Scratch,
     ) {
-        thermal::sky_plane(t, sky, &view(&scene.camera), background, scratch);
+        if self.preset.backplate.is_some() {
+            let size = (scene.camera.width, scene.camera.height);
+            thermal::plate_plane(t, size, background, scratch);
+        } else {
+            thermal::sky_plane(t, sky, &view(&scene.camera), background, scratch);
+        }
         if let Some(x) = &t.texture {
             let per_k = thermal::radiance_per_kelvin(t.air_k);
             let size = (scene.camera.width, scene.camera.height);

@@ -72,10 +72,12 @@ macro_rules! simd_fn {
 pub mod capture;
 mod develop;
 mod narcissus;
+mod plate_plane;
 mod sky_plane;
 pub mod texture;
 
 pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
+pub use plate_plane::plate_plane;
 pub use sky_plane::{View, sky_plane};
 
 /// Whether to run the AVX-512 builds: the crate's one SIMD level
