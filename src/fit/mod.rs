@@ -18,8 +18,9 @@
 //! 5. [`search`] closes the loop: renders a sample with the batch's pipeline into
 //!    `OUT/rounds/NN/`, runs the gap report against the footage, adjusts, repeats.
 //!
-//! A thermal base preset (`thermal:` set) skips the plates (step 3) and fits the thermal
-//! camera's values instead of the visible camera model ([`thermal`]).
+//! A thermal base preset (`thermal:` set) fits the thermal camera's values instead of the
+//! visible camera model ([`thermal`]) and skips the plates (step 3) unless it has a
+//! `backplate` ([`plated`]: then the plates are its thermal scene).
 //!
 //! Same inputs, same outputs, byte for byte (no clock, no thread count in any file).
 
@@ -275,7 +276,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
                 &options.classes,
             )?;
             plates::check_names_apart(&frames, options.views)?;
-            if base.thermal.is_none() {
+            if plated(&base) {
                 let size = camera::common_size(&frames).0;
                 plates::check_plate_budget(frames.len(), options.views, size)?;
                 plates::check_plate_hfov(&base, size, options.hfov_deg)?;
@@ -286,7 +287,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         input::Source::Video { path, decoder } => {
             let probe = video::probe(path, decoder)?;
             input::check_video_pixels(path, &probe, options)?;
-            if base.thermal.is_none() {
+            if plated(&base) {
                 let frames = video::frames_bound(&probe, options);
                 let size = (probe.width, probe.height);
                 plates::check_plate_budget(frames, options.views, size)?;
@@ -302,7 +303,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     };
     let footage = camera::measure(&frames);
     let geometry = plates::PlateCamera::from_base(&base, &footage, options.hfov_deg);
-    let plates = if base.thermal.is_some() {
+    let plates = if !plated(&base) {
         plates::PlateSummary::default()
     } else {
         let dir = out.dir("plates")?;
@@ -325,7 +326,8 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         serde_json::to_string_pretty(&footage).map_err(|e| FitError::Other(e.to_string()))?;
     out.write("footage.json", json.as_bytes())?;
     let fitted = if base.thermal.is_some() {
-        thermal::first_fit(&base, &footage)
+        let with = plated(&base).then_some((&plates, &geometry));
+        thermal::first_fit(&base, &footage, with)
     } else {
         preset_out::first_fit(&base, &footage, &plates, &geometry, centres)
     };
@@ -339,6 +341,13 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
         base,
         fitted,
     })
+}
+
+/// Whether the fit writes plates of the footage: always for a visible base; for a thermal
+/// base when it has a `backplate` (its folder is replaced by the plates; without one a
+/// thermal preset draws its modelled sky, ground and texture).
+fn plated(base: &Preset) -> bool {
+    base.thermal.is_none() || base.backplate.is_some()
 }
 
 /// What a finished fit gives back for printing.

@@ -72,47 +72,7 @@ pub fn first_fit(
     centres: Option<CentreSpread>,
 ) -> Fitted {
     let (mut p, mut notes) = sized_to(base, footage);
-    // Plates: the footage itself.
-    let known = plates
-        .plates
-        .iter()
-        .filter(|p| p.horizon_row.is_some())
-        .count();
-    let sun = base.backplate.as_ref();
-    p.backplate = Some(Backplate {
-        folder: PathBuf::from("plates"),
-        hfov_deg: camera.hfov_deg,
-        horizon: PlateHorizon::Unknown,
-        elevation_deg: camera.elevation_deg,
-        sun_elevation_deg: sun.map_or((20.0, 60.0), |b| b.sun_elevation_deg),
-        sun_azimuth_deg: sun.map_or((-180.0, 180.0), |b| b.sun_azimuth_deg),
-        flip: true,
-    });
-    let views = match plates.views {
-        0 | 1 => String::new(),
-        v => format!(
-            " as {} plates, {v} views of each (the frame and its crops)",
-            plates.plates.len()
-        ),
-    };
-    notes.push(format!(
-        "backplate: the footage's {} frames with their labelled drones removed (plates/){views}; hfov_deg {} from {}; horizon per plate in its .plate.ron: estimated on {known}, unknown on {} (elevation_deg {:?} from the base observer)",
-        plates.plates.len() / plates.views.max(1),
-        camera.hfov_deg,
-        camera.hfov_source,
-        plates.plates.len() - known,
-        camera.elevation_deg
-    ));
-    if plates.unlabelled > 0 {
-        notes.push(format!(
-            "WARNING: {} plates come from frames without labels (--unlabelled-ok): drones in them were not removed and stay unlabelled in every frame drawn over them",
-            plates.unlabelled
-        ));
-    }
-    // The plates show the footage's own scenery: no procedural clutter over it.
-    if p.clutter.take().is_some() {
-        notes.push("clutter: off (the plates hold the footage's own scenery)".into());
-    }
+    set_plates(&mut p, plates, camera, &mut notes);
     // The drones: how many, how large, how near (from the real drones).
     super::drones::first_fit(&mut p, footage, centres, &mut notes);
     // The camera model: the plates carry the footage's exposure, colour, noise, blur.
@@ -176,4 +136,55 @@ pub fn text(preset: &Preset, header: &[String]) -> String {
     s += &preset.to_ron();
     s += "\n";
     s
+}
+
+/// `p`'s backplate: the footage's own frames (the plates written), the camera as fitted;
+/// procedural clutter off (the plates hold the footage's scenery).
+pub fn set_plates(
+    p: &mut Preset,
+    plates: &PlateSummary,
+    camera: &PlateCamera,
+    notes: &mut Vec<String>,
+) {
+    // Plates: the footage itself.
+    let known = plates
+        .plates
+        .iter()
+        .filter(|p| p.horizon_row.is_some())
+        .count();
+    let sun = (p.backplate.as_ref()).map(|b| (b.sun_elevation_deg, b.sun_azimuth_deg));
+    p.backplate = Some(Backplate {
+        folder: PathBuf::from("plates"),
+        hfov_deg: camera.hfov_deg,
+        horizon: PlateHorizon::Unknown,
+        elevation_deg: camera.elevation_deg,
+        sun_elevation_deg: sun.map_or((20.0, 60.0), |s| s.0),
+        sun_azimuth_deg: sun.map_or((-180.0, 180.0), |s| s.1),
+        flip: true,
+    });
+    let views = match plates.views {
+        0 | 1 => String::new(),
+        v => format!(
+            " as {} plates, {v} views of each (the frame and its crops)",
+            plates.plates.len()
+        ),
+    };
+    notes.push(format!(
+        "backplate: the footage's {} frames with their labelled drones removed (plates/){views}; hfov_deg {} from {}; horizon per plate in its .plate.ron: estimated on {known}, unknown on {} (elevation_deg {:?} from the base observer)",
+        plates.plates.len() / plates.views.max(1),
+        camera.hfov_deg,
+        camera.hfov_source,
+        plates.plates.len() - known,
+        camera.elevation_deg
+    ));
+    if plates.unlabelled > 0 {
+        notes.push(format!(
+            "WARNING: {} plates come from frames without labels (--unlabelled-ok): drones in them were not removed and stay unlabelled in every frame drawn over them",
+            plates.unlabelled
+        ));
+    }
+    // The plates show the footage's own scenery: no procedural clutter over it.
+    if p.clutter.take().is_some() {
+        notes.push("clutter: off (the plates hold the footage's own scenery)".into());
+    }
 }

@@ -55,6 +55,7 @@
 //! elevation.
 
 use super::camera::Footage;
+use super::plates::{PlateCamera, PlateSummary};
 use super::preset_out::{Fitted, sized_to};
 use crate::gap::report::{Report, Summary};
 use crate::preset::{ImageFormat, Preset};
@@ -62,8 +63,13 @@ use texture::{adjust_texture, texture_fit};
 
 mod texture;
 
-/// The first fit of a thermal base (module docs), with one note per value.
-pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
+/// The first fit of a thermal base (module docs), with one note per value; with `plates`
+/// (a base with a backplate) the footage's own frames are the scene ([`plates_fit`]).
+pub fn first_fit(
+    base: &Preset,
+    footage: &Footage,
+    plates: Option<(&PlateSummary, &PlateCamera)>,
+) -> Fitted {
     let (mut p, mut notes) = sized_to(base, footage);
     match (footage.estimate.jpeg_quality, footage.measured.jpeg_quality) {
         (Some(_), Some(q)) => {
@@ -79,14 +85,40 @@ pub fn first_fit(base: &Preset, footage: &Footage) -> Fitted {
             notes.push("output PNG: the footage is PNG".into());
         }
     }
-    capture_fit(&mut p, footage, &mut notes);
-    narcissus_fit(&mut p, footage, &mut notes);
-    texture_fit(&mut p, footage, &mut notes);
+    if let Some((plates, camera)) = plates {
+        plates_fit(&mut p, plates, camera, &mut notes);
+    } else {
+        capture_fit(&mut p, footage, &mut notes);
+        narcissus_fit(&mut p, footage, &mut notes);
+        texture_fit(&mut p, footage, &mut notes);
+    }
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),
     );
     Fitted { preset: p, notes }
+}
+
+/// The footage's drone-free frames as the thermal scene (`backplate`; the plates' levels
+/// through the inverse of the gain control, `sensor::thermal::plate_plane`): they carry the
+/// camera's noise, fixed pattern, shading, blur, narcissus, border lines and the scene's
+/// structure, so those start at none (the rounds add noise or blur only where the report
+/// asks) and no capture chain, narcissus or texture is fitted.
+fn plates_fit(
+    p: &mut Preset,
+    plates: &PlateSummary,
+    camera: &PlateCamera,
+    notes: &mut Vec<String>,
+) {
+    super::preset_out::set_plates(p, plates, camera, notes);
+    if let Some(t) = p.thermal.as_mut() {
+        (t.netd_mk, t.fixed_pattern_mk, t.shading_k, t.blur_px) = (0.0, 0.0, 0.0, 0.0);
+        (t.capture, t.narcissus, t.texture) = (None, None, None);
+    }
+    notes.push(
+        "thermal over the plates: netd_mk, fixed_pattern_mk, shading_k and blur_px 0, no capture chain, narcissus or texture (the plates carry the camera's and the scene's)"
+            .into(),
+    );
 }
 
 /// A border line's smallest offset from the line 8 further in (levels, the median over
@@ -372,12 +404,15 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
     }
     adjust_prior(&mut t, report, &mut changes);
     adjust_narcissus(&mut t, report, &mut changes);
-    adjust_texture(
-        &mut t,
-        report,
-        preset.render.resolution.size(),
-        &mut changes,
-    );
+    // Over plates the scene's structure is the footage's own: no texture is added or moved.
+    if preset.backplate.is_none() {
+        adjust_texture(
+            &mut t,
+            report,
+            preset.render.resolution.size(),
+            &mut changes,
+        );
+    }
     preset.thermal = Some(t);
     super::size_knots::adjust(preset, report, &mut changes);
     changes

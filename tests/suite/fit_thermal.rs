@@ -2,7 +2,8 @@
 //! with a known thermal camera, the fit (through the library, as the CLI runs it) recovers
 //! the camera's NETD and blur starting from presets/thermal.ron's; no plates are written;
 //! the first fit finds the border lines and the narcissus of frames rendered with them,
-//! and none in frames without.
+//! and none in frames without; a base with a backplate is fitted over plates of the
+//! footage.
 
 use crate::common;
 
@@ -150,5 +151,57 @@ fn the_first_fit_finds_the_capture_chains_border_lines() {
     // half of the truth's 8 K (the rounds fit it: src/fit/thermal.rs's tests).
     let n = t.narcissus.expect("a narcissus fitted");
     assert!((n.depth_k - 8.0).abs() <= 4.0, "{n:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A thermal base with a `backplate` is fitted over the footage's own frames: plates are
+/// written (one a frame, drones removed), `fitted.ron`'s backplate is them, and the
+/// camera's noise, pattern, shading and blur start at none, with no capture chain,
+/// narcissus or texture (the plates carry them). Without a backplate no plate is written.
+#[test]
+fn a_thermal_base_with_a_backplate_is_fitted_over_the_footages_own_frames() {
+    let dir = tmp("plates");
+    let real = common::testdata("real-anti-uav-ir");
+    let mut base = shipped();
+    base.backplate = Some(swarmshot::preset::backplate::Backplate {
+        folder: common::testdata("plates"),
+        hfov_deg: 10.0,
+        ..Default::default()
+    });
+    let base_path = dir.join("base.ron");
+    std::fs::create_dir_all(&dir).expect("dir");
+    std::fs::write(&base_path, base.to_ron()).expect("base");
+    let mut fit = swarmshot::fit::FitOptions::new(&real, dir.join("fit"));
+    fit.base = base_path;
+    let prep = swarmshot::fit::prepare(&fit).expect("a thermal base with plates");
+    let p = &prep.fitted.preset;
+    let b = p.backplate.as_ref().expect("the plates as its backplate");
+    assert_eq!(b.folder, Path::new("plates"));
+    assert_eq!(b.hfov_deg, 10.0);
+    let t = p.thermal.as_ref().expect("thermal");
+    assert_eq!(
+        (t.netd_mk, t.fixed_pattern_mk, t.shading_k, t.blur_px),
+        (0.0, 0.0, 0.0, 0.0)
+    );
+    assert!(t.capture.is_none() && t.narcissus.is_none() && t.texture.is_none());
+    let pngs = |d: &Path| {
+        std::fs::read_dir(d).map_or(0, |r| {
+            r.filter(|e| {
+                e.as_ref().is_ok_and(|e| {
+                    let n = e.file_name();
+                    let n = n.to_string_lossy();
+                    n.ends_with(".png") || n.ends_with(".jpg")
+                })
+            })
+            .count()
+        })
+    };
+    assert_eq!(pngs(&dir.join("fit/plates")), 4, "one plate a frame");
+    // Without a backplate the thermal fit writes none.
+    let mut plain = swarmshot::fit::FitOptions::new(&real, dir.join("fit2"));
+    plain.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    let prep = swarmshot::fit::prepare(&plain).expect("the plain thermal base");
+    assert!(prep.fitted.preset.backplate.is_none());
+    assert_eq!(pngs(&dir.join("fit2/plates")), 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
