@@ -1,7 +1,8 @@
 //! `swarmshot fit` with a thermal base preset (`thermal:` set): the thermal camera's own
-//! values fitted to grey infrared footage, without plates (a thermal frame is composed
-//! from the id pass, not drawn over a photograph) and without the visible camera model
-//! (a thermal preset cannot carry one).
+//! values fitted to grey infrared footage, without the visible camera model (a thermal
+//! preset cannot carry one). The scene is modelled (sky, ground, texture: a thermal frame
+//! is composed from the id pass), or with a `backplate` in the base the footage's own
+//! frames ([`plates_fit`]: plates as the visible fit writes them, read as radiance).
 //!
 //! The first fit ([`first_fit`]) takes the footage's frame size and its JPEG quality (the
 //! output format's; PNG footage gives PNG frames); the drones and the thermal values
