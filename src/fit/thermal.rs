@@ -103,8 +103,9 @@ pub fn first_fit(
 /// The footage's drone-free frames as the thermal scene (`backplate`; the plates' levels
 /// through the inverse of the gain control, `sensor::thermal::plate_plane`): they carry the
 /// camera's noise, fixed pattern, shading, blur, narcissus, border lines and the scene's
-/// structure, so those start at none (the rounds add noise or blur only where the report
-/// asks) and no capture chain, narcissus or texture is fitted.
+/// structure, so those start at none and no capture chain, narcissus or texture is
+/// fitted. The rounds can add blur (in quadrature) but not noise: the noise rule scales
+/// the preset's own, which stays 0.
 fn plates_fit(
     p: &mut Preset,
     plates: &PlateSummary,

@@ -5,7 +5,8 @@
 //! radiance, so a plate whose levels the gain control spans again at that gain comes back
 //! at the same steps (the gain control then places its middle at `agc_mid_level`). The
 //! plate already holds its camera's noise, blur and shading: a preset with plates keeps
-//! `netd_mk`, `fixed_pattern_mk` and `blur_px` small (`swarmshot fit` fits them down).
+//! `netd_mk`, `fixed_pattern_mk`, `shading_k` and `blur_px` small (`swarmshot fit` starts
+//! them at 0).
 
 use rayon::prelude::*;
 
