@@ -362,8 +362,9 @@ pub fn share(flags: &[bool]) -> Option<Summary> {
         n,
         k,
         share: p,
-        low: (centre - half).max(0.0),
-        high: (centre + half).min(1.0),
+        // The interval holds its own share; rounding must not lift 0 of n above 0.
+        low: (centre - half).clamp(0.0, p),
+        high: (centre + half).clamp(p, 1.0),
     })
 }
 
@@ -865,6 +866,30 @@ mod tests {
             "inside"
         );
         assert_eq!(verdict(distribution(&[1.0, 2.0, 3.0]), None), "n/a");
+    }
+
+    /// None of the real drones and none of the synthetic ones: the same share, inside
+    /// (the interval's bound at 0 of n once rounded to 2e-19, and 0 of 70 read "below").
+    #[test]
+    fn shares_of_none_and_of_all_are_inside_each_other() {
+        for n in [1, 70, 152, 1000] {
+            let Some(Summary::Share { low, high, .. }) = share(&vec![false; n]) else {
+                panic!("no share")
+            };
+            assert_eq!(low, 0.0, "0 of {n}: {low}");
+            assert!(high > 0.0, "0 of {n}: {high}");
+            let Some(Summary::Share { low, high, .. }) = share(&vec![true; n]) else {
+                panic!("no share")
+            };
+            assert_eq!(high, 1.0, "{n} of {n}: {high}");
+            assert!(low < 1.0, "{n} of {n}: {low}");
+        }
+        for value in [false, true] {
+            assert_eq!(
+                verdict(share(&[value; 152]), share(&[value; 70])),
+                "inside"
+            );
+        }
     }
 
     #[test]
