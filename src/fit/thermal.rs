@@ -15,7 +15,10 @@
 //! - **flat-sky noise σ**: the temporal noise and the fixed pattern are both white in the
 //!   2×2 high-pass, so the measured σ is proportional to `netd_mk` and `fixed_pattern_mk`
 //!   together: both × real / synthetic (at most ×4 or ÷4 a round);
-//! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median;
+//! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median; over
+//!   plates (which hold the footage's blur: `blur_px` blurs only what is drawn on them)
+//!   by the small drones' edge width instead; with the blur not moved and those edges
+//!   outside, the drone's warm spot's size `spot_share` ([`edges`]);
 //! - **mean brightness**: `agc_mid_level` += real − synthetic (levels);
 //! - **peak contrast of 3–6 px drones**: the drone's `skin_k` and `spot_k` (and its
 //!   parts' `motor_k` and `battery_k` when set) × real / synthetic (at most ×2 or ÷2 a
@@ -62,6 +65,7 @@ use crate::gap::report::{Report, Summary};
 use crate::preset::{ImageFormat, Preset};
 use texture::{adjust_texture, texture_fit};
 
+mod edges;
 mod texture;
 
 /// The first fit of a thermal base (module docs), with one note per value; with `plates`
@@ -104,8 +108,8 @@ pub fn first_fit(
 /// through the inverse of the gain control, `sensor::thermal::plate_plane`): they carry the
 /// camera's noise, fixed pattern, shading, blur, narcissus, border lines and the scene's
 /// structure, so those start at none and no capture chain, narcissus or texture is
-/// fitted. The rounds can add blur (in quadrature) but not noise: the noise rule scales
-/// the preset's own, which stays 0.
+/// fitted. The rounds can add blur (on what is drawn: the drones' edges, [`edges`]) but
+/// not noise: the noise rule scales the preset's own, which stays 0.
 fn plates_fit(
     p: &mut Preset,
     plates: &PlateSummary,
@@ -350,21 +354,7 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
         ));
         (t.netd_mk, t.fixed_pattern_mk) = (n2, f2);
     }
-    if let Some((v, real, m)) = stat(report, "blur_sigma_px")
-        && outside(v)
-    {
-        let b2 = r3((real * real - m * m + t.blur_px * t.blur_px)
-            .max(0.0)
-            .sqrt()
-            .min(8.0));
-        if b2 != t.blur_px {
-            changes.push(format!(
-                "thermal.blur_px {} → {b2} (blur σ {m:.3} {v} the real {real:.3}, in quadrature)",
-                t.blur_px
-            ));
-            t.blur_px = b2;
-        }
-    }
+    edges::adjust_blur(&mut t, report, preset.backplate.is_some(), &mut changes);
     if let Some((v, real, m)) = stat(report, "mean_brightness")
         && outside(v)
     {

@@ -885,10 +885,7 @@ mod tests {
             assert!(low < 1.0, "{n} of {n}: {low}");
         }
         for value in [false, true] {
-            assert_eq!(
-                verdict(share(&[value; 152]), share(&[value; 70])),
-                "inside"
-            );
+            assert_eq!(verdict(share(&[value; 152]), share(&[value; 70])), "inside");
         }
     }
 

@@ -9,7 +9,9 @@
 //!   the horizon, the clear sky by elevation above it, turned towards the
 //!   clouds' or the scenery's radiance by the pixel's colour); with
 //!   backplates, from the drawn plate's levels instead
-//!   ([`crate::sensor::thermal::plate_plane`]: a thermal camera's own frames);
+//!   ([`crate::sensor::thermal::plate_plane`]: a thermal camera's own frames,
+//!   already through its optics, so the camera's blur then takes only what
+//!   is drawn over them: [`crate::sensor::thermal::blur_drawn`]);
 //! - every pixel the id pass gives a drone or confuser (its samples' share
 //!   of the pixel): the object's skin and warm spots ([`parts`]: one
 //!   Gaussian about its projected centre, σ a share of its half box, or
@@ -118,13 +120,26 @@ impl FramePipeline {
         // Every byte is written below.
         out.resize(w as usize * h as usize * 4, 0);
         let mut grey16 = (t.bits == 16).then(|| vec![0u16; w as usize * h as usize]);
+        // Over a plate the optics blur what is drawn on it, not the plate again.
+        let over_plate = self.preset.backplate.is_some() && t.blur_px > 0.0;
+        let camera = if over_plate {
+            &Thermal {
+                blur_px: 0.0,
+                ..t.clone()
+            }
+        } else {
+            t
+        };
         SCRATCH.with_borrow_mut(|scratch| {
             self.radiance_into(t, scene, (background, &sky), (hits, measured), scratch);
+            if over_plate {
+                thermal::blur_drawn(t.blur_px as f32, (w, h), scratch);
+            }
             let to = match grey16.as_mut() {
                 Some(g) => Developed::Grey16(g),
                 None => Developed::Rgba8(&mut out),
             };
-            thermal::develop_into(t, (w, h), (pattern, key), scratch, to);
+            thermal::develop_into(camera, (w, h), (pattern, key), scratch, to);
         });
         if let Some(c) = &t.capture {
             thermal::capture::apply(c, (w, h), &mut out);

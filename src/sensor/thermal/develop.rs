@@ -172,13 +172,18 @@ fn kernel(sigma: f32) -> Option<Vec<f32>> {
     if sigma <= 0.0 {
         return None;
     }
-    let r = (3.0 * sigma).ceil() as isize;
+    let r = kernel_radius(sigma) as isize;
     let mut k: Vec<f32> = (-r..=r)
         .map(|d| (-(d * d) as f32 / (2.0 * sigma * sigma)).exp())
         .collect();
     let sum: f32 = k.iter().sum();
     k.iter_mut().for_each(|v| *v /= sum);
     Some(k)
+}
+
+/// The blur kernel's half width for σ `sigma` > 0: ⌈3σ⌉ px.
+pub(super) fn kernel_radius(sigma: f32) -> usize {
+    (3.0 * sigma).ceil() as usize
 }
 
 thread_local! {

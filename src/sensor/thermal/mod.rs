@@ -77,7 +77,7 @@ mod sky_plane;
 pub mod texture;
 
 pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
-pub use plate_plane::plate_plane;
+pub use plate_plane::{blur_drawn, plate_plane};
 pub use sky_plane::{View, sky_plane};
 
 /// Whether to run the AVX-512 builds: the crate's one SIMD level
@@ -101,6 +101,9 @@ pub struct Scratch {
     pub plane: Vec<f32>,
     /// The blur's output, swapped with `plane` once developed.
     rows: Vec<f32>,
+    /// The plate's radiance as [`plate_plane`] made it, kept (when the
+    /// camera blurs) so [`blur_drawn`] blurs only what is drawn over it.
+    plate: Vec<f32>,
     /// The columns' ray slopes, then their squares.
     slopes: Vec<f32>,
 }

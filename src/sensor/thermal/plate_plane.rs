@@ -5,14 +5,16 @@
 //! radiance, so a plate whose levels the gain control spans again at that gain comes back
 //! at the same steps (the gain control then places its middle at `agc_mid_level`). The
 //! plate already holds its camera's noise, blur and shading: a preset with plates keeps
-//! `netd_mk`, `fixed_pattern_mk`, `shading_k` and `blur_px` small (`swarmshot fit` starts
-//! them at 0).
+//! `netd_mk`, `fixed_pattern_mk` and `shading_k` small (`swarmshot fit` starts them at 0),
+//! and its `blur_px` blurs only what is drawn over the plate ([`blur_drawn`]): the drones,
+//! confusers, texture and weather pass the optics once, as the plate did.
 
 use rayon::prelude::*;
 
 use crate::preset::thermal::Thermal;
 
-use super::{Scratch, radiance, radiance_per_kelvin};
+use super::develop::kernel_radius;
+use super::{Scratch, blur, radiance, radiance_per_kelvin};
 
 /// The background's radiance at every pixel into `scratch.plane` (row-major, `w`×`h`)
 /// from the level (Rec. 601 luma; a grey plate's grey) of the drone-free `rgba` (pixels
@@ -31,4 +33,118 @@ pub fn plate_plane(t: &Thermal, (w, h): (u32, u32), rgba: &[u8], scratch: &mut S
             *o = air + (v - mid) * per_level;
         }
     });
+    scratch.plate.clear();
+    if t.blur_px > 0.0 {
+        scratch.plate.extend_from_slice(plane);
+    }
+}
+
+/// The optics' blur of σ `sigma` px on what is drawn over the plate: `scratch.plane`
+/// becomes the plate [`plate_plane`] kept + the blurred difference, so pixels farther than
+/// the kernel from anything drawn keep the plate's value exactly. The same sums as blurring
+/// the whole difference plane (its kernel is truncated at ⌈3σ⌉, edges clamped), over the
+/// box of the drawn pixels grown by the kernel only. Without a kept plate (σ 0 when it was
+/// made) nothing changes.
+pub fn blur_drawn(sigma: f32, (w, h): (u32, u32), scratch: &mut Scratch) {
+    let (w, h) = (w as usize, h as usize);
+    let Scratch { plane, plate, .. } = scratch;
+    if sigma <= 0.0 || plate.len() != w * h || plane.len() != w * h {
+        return;
+    }
+    // The drawn pixels' box (x0, y0, x1, y1), exclusive ends.
+    let mut drawn = (usize::MAX, usize::MAX, 0, 0);
+    for (y, (row, base)) in plane.chunks_exact(w).zip(plate.chunks_exact(w)).enumerate() {
+        let mut xs = (row.iter().zip(base).enumerate()).filter(|(_, (a, b))| a != b);
+        if let Some((first, _)) = xs.next() {
+            let last = xs.last().map_or(first, |(x, _)| x);
+            drawn = (
+                drawn.0.min(first),
+                drawn.1.min(y),
+                drawn.2.max(last + 1),
+                y + 1,
+            );
+        }
+    }
+    if drawn.0 >= drawn.2 {
+        return;
+    }
+    let r = kernel_radius(sigma);
+    let (x0, y0) = (drawn.0.saturating_sub(r), drawn.1.saturating_sub(r));
+    let (x1, y1) = ((drawn.2 + r).min(w), (drawn.3 + r).min(h));
+    let bw = x1 - x0;
+    let mut diff: Vec<f32> = (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| y * w + x))
+        .map(|i| plane[i] - plate[i])
+        .collect();
+    blur(&mut diff, (bw, y1 - y0), sigma);
+    for (k, d) in diff.into_iter().enumerate() {
+        let i = (y0 + k / bw) * w + x0 + k % bw;
+        plane[i] = plate[i] + d;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 64×48 plate with a sharp vertical step at x = 20 and a drawn 3×3 blob at (44, 30):
+    /// after [`blur_drawn`] the step is as sharp as the plate's, every pixel farther than
+    /// the kernel from the blob is the plate's to the bit, and the rest is the plate plus
+    /// the whole difference plane blurred.
+    #[test]
+    fn the_blur_takes_what_is_drawn_and_leaves_the_plate() {
+        let (w, h) = (64u32, 48u32);
+        let t = Thermal {
+            blur_px: 1.3,
+            ..Thermal::default()
+        };
+        let rgba: Vec<u8> = (0..w * h)
+            .flat_map(|i| {
+                let v = if i % w < 20 { 60 } else { 180 };
+                [v, v, v, 255]
+            })
+            .collect();
+        let mut scratch = Scratch::default();
+        plate_plane(&t, (w, h), &rgba, &mut scratch);
+        let plate = scratch.plane.clone();
+        let at = |x: u32, y: u32| (y * w + x) as usize;
+        for y in 29..32 {
+            for x in 43..46 {
+                scratch.plane[at(x, y)] += 5.0;
+            }
+        }
+        let mut diff: Vec<f32> = (scratch.plane.iter().zip(&plate))
+            .map(|(a, b)| a - b)
+            .collect();
+        blur(&mut diff, (w as usize, h as usize), 1.3);
+        blur_drawn(1.3, (w, h), &mut scratch);
+        let r = kernel_radius(1.3) as u32;
+        for y in 0..h {
+            for x in 0..w {
+                let (got, i) = (scratch.plane[at(x, y)], at(x, y));
+                if x + r < 43 || x > 45 + r || y + r < 29 || y > 31 + r {
+                    assert_eq!(got.to_bits(), plate[i].to_bits(), "({x}, {y})");
+                } else {
+                    assert_eq!(got.to_bits(), (plate[i] + diff[i]).to_bits(), "({x}, {y})");
+                }
+            }
+        }
+        assert_eq!(scratch.plane[at(19, 5)], plate[at(19, 5)]);
+        assert_eq!(scratch.plane[at(20, 5)], plate[at(20, 5)]);
+        let centre = scratch.plane[at(44, 30)] - plate[at(44, 30)];
+        assert!(centre > 0.5 && centre < 5.0, "the blob spread: {centre}");
+        // The blob's total is kept (the kernel is normalised, the blob far from the edges).
+        let total: f32 = (scratch.plane.iter().zip(&plate)).map(|(a, b)| a - b).sum();
+        assert!((total - 45.0).abs() < 1e-3, "{total}");
+        // No blur: no plate kept, nothing changes.
+        let t0 = Thermal {
+            blur_px: 0.0,
+            ..Thermal::default()
+        };
+        plate_plane(&t0, (w, h), &rgba, &mut scratch);
+        scratch.plane[at(44, 30)] += 5.0;
+        let before = scratch.plane.clone();
+        blur_drawn(1.3, (w, h), &mut scratch);
+        assert_eq!(scratch.plane, before);
+    }
 }
