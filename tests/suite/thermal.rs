@@ -659,31 +659,109 @@ fn the_background_texture_changes_the_picture_not_the_labels() {
 /// with the camera's own noise, pattern, shading and blur off, every background pixel away
 /// from the drones is the plate's level plus one offset (the gain control's middle), and
 /// the drones read warm on it.
-#[test]
-fn thermal_backplates_draw_the_plates_levels_and_the_drones_warm_on_them() {
-    let tmp = tempfile::tempdir().expect("tmp");
+/// The thermal preset over one 640×512 Anti-UAV frame as its only plate (copied into
+/// `dir`), no noise, pattern or shading, the optics' blur `blur_px`; and the plate's grey.
+fn plated(dir: &std::path::Path, blur_px: f64) -> (Preset, image::GrayImage) {
     let name = "antiuav2020_v7_f000281.png";
     std::fs::copy(
         common::testdata("real-anti-uav-ir/images").join(name),
-        tmp.path().join(name),
+        dir.join(name),
     )
     .expect("plate");
-    let plate = image::open(tmp.path().join(name))
-        .expect("decodes")
-        .to_luma8();
+    let plate = image::open(dir.join(name)).expect("decodes").to_luma8();
     let mut p = thermal_preset();
     p.render.resolution = Resolution::Custom {
         width: 640,
         height: 512,
     };
     p.backplate = Some(swarmshot::preset::backplate::Backplate {
-        folder: tmp.path().to_owned(),
+        folder: dir.to_owned(),
         hfov_deg: 10.0,
         flip: false,
         ..Default::default()
     });
     let t = p.thermal.as_mut().expect("thermal");
-    (t.netd_mk, t.fixed_pattern_mk, t.shading_k, t.blur_px) = (0.0, 0.0, 0.0, 0.0);
+    (t.netd_mk, t.fixed_pattern_mk, t.shading_k, t.blur_px) = (0.0, 0.0, 0.0, blur_px);
+    (p, plate)
+}
+
+/// Over a plate the optics' blur takes the drones, not the plate (which went through its
+/// own camera's optics): 8 px and more from every box, the frame with a blur of 1.5 px
+/// is the frame without one (up to one offset: the gain control sees the drones'
+/// spread), and each drone's peak over the plate is lower, spread around it.
+#[test]
+fn over_a_thermal_plate_the_blur_takes_the_drones_only() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let (sharp, _) = plated(tmp.path(), 0.0);
+    let (blurred, plate) = plated(tmp.path(), 1.5);
+    let (a, b) = (make(&sharp, 0), make(&blurred, 0));
+    assert!(
+        !a.labels.is_empty() && a.labels == b.labels,
+        "the same drones, the same labels"
+    );
+    let near = |x: u32, y: u32| {
+        (a.labels.iter()).any(|l| {
+            let bb = l.bbox;
+            f64::from(x) > bb.x0 - 8.0
+                && f64::from(x) < bb.x1 + 8.0
+                && f64::from(y) > bb.y0 - 8.0
+                && f64::from(y) < bb.y1 + 8.0
+        })
+    };
+    let far: Vec<(u32, u32)> = (0..512)
+        .flat_map(|y| (0..640).map(move |x| (x, y)))
+        .filter(|&(x, y)| !near(x, y))
+        .collect();
+    let mut diffs: Vec<i32> = (far.iter())
+        .map(|&(x, y)| grey_at(&b, x, y) as i32 - grey_at(&a, x, y) as i32)
+        .collect();
+    diffs.sort_unstable();
+    let offset = diffs[diffs.len() / 2];
+    let same = (far.iter())
+        .filter(|&&(x, y)| {
+            let level = grey_at(&a, x, y) as i32 + offset;
+            !(1..255).contains(&level) || grey_at(&b, x, y) as i32 == level
+        })
+        .count();
+    assert!(
+        same as f64 >= 0.995 * far.len() as f64,
+        "{same} of {} pixels far from the drones the same (+{offset})",
+        far.len()
+    );
+    // Blurring the whole frame would change the plate's own fine structure.
+    let whole = image::imageops::blur(&plate, 1.5);
+    let moved = (far.iter())
+        .filter(|&&(x, y)| whole.get_pixel(x, y)[0] != plate.get_pixel(x, y)[0])
+        .count();
+    assert!(
+        moved * 20 > far.len(),
+        "the plate has structure a blur would change: {moved}"
+    );
+    for l in &a.labels {
+        let (cx, cy) = (
+            ((l.bbox.x0 + l.bbox.x1) / 2.0) as u32,
+            ((l.bbox.y0 + l.bbox.y1) / 2.0) as u32,
+        );
+        let peak = |f: &Frame, off: i32| {
+            (cy.saturating_sub(3)..(cy + 4).min(512))
+                .flat_map(|y| (cx.saturating_sub(3)..(cx + 4).min(640)).map(move |x| (x, y)))
+                .map(|(x, y)| grey_at(f, x, y) - f64::from(off))
+                .fold(f64::MIN, f64::max)
+        };
+        assert!(
+            peak(&b, offset) < peak(&a, 0),
+            "drone {:?}: the blur lowers its peak ({} against {})",
+            l.bbox,
+            peak(&b, offset),
+            peak(&a, 0)
+        );
+    }
+}
+
+#[test]
+fn thermal_backplates_draw_the_plates_levels_and_the_drones_warm_on_them() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let (p, plate) = plated(tmp.path(), 0.0);
     let f = make(&p, 0);
     assert!(!f.labels.is_empty(), "a drone is drawn");
     let near = |x: u32, y: u32| {
