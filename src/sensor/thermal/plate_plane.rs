@@ -54,9 +54,8 @@ pub fn blur_drawn(sigma: f32, (w, h): (u32, u32), scratch: &mut Scratch) {
     // The drawn pixels' box (x0, y0, x1, y1), exclusive ends.
     let mut drawn = (usize::MAX, usize::MAX, 0, 0);
     for (y, (row, base)) in plane.chunks_exact(w).zip(plate.chunks_exact(w)).enumerate() {
-        let mut xs = (row.iter().zip(base).enumerate()).filter(|(_, (a, b))| a != b);
-        if let Some((first, _)) = xs.next() {
-            let last = xs.last().map_or(first, |(x, _)| x);
+        let differs = |x: &usize| row[*x] != base[*x];
+        if let (Some(first), Some(last)) = ((0..w).find(differs), (0..w).rfind(differs)) {
             drawn = (
                 drawn.0.min(first),
                 drawn.1.min(y),
