@@ -17,8 +17,8 @@
 //!   together: both × real / synthetic (at most ×4 or ÷4 a round);
 //! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median; over
 //!   plates (which hold the footage's blur: `blur_px` blurs only what is drawn on them)
-//!   by the small drones' edge width instead; with the blur not moved and those edges
-//!   outside, the drone's warm spot's size `spot_share` ([`edges`]);
+//!   by the small drones' edge width instead, and with the blur at 0 and those edges
+//!   still too wide, the drone's warm spot's size `spot_share` ([`edges`]);
 //! - **mean brightness**: `agc_mid_level` += real − synthetic (levels);
 //! - **peak contrast of 3–6 px drones**: the drone's `skin_k` and `spot_k` (and its
 //!   parts' `motor_k` and `battery_k` when set) × real / synthetic (at most ×2 or ÷2 a

@@ -7,14 +7,18 @@
 //!   drones' edge width instead: a Gaussian's 90→10 % edge is [`EDGE_PER_SIGMA`] σ wide,
 //!   and a blur of σ widens an edge w to √(w² + (1.687 σ)²), so σ² moves by
 //!   (real² − synthetic²) / 1.687².
-//! - **The warm spot's size**: with the blur not moved this round (or at 0 over plates)
-//!   and the small drones' edges still outside the real range, `spot_share` × (synthetic /
-//!   real edge width)⁴ (within ×2 or ÷2 a round, within [`SPOT_SHARE`]). One Gaussian spot
+//! - **The warm spot's size** (over plates): with the blur at 0 and the small drones' edges
+//!   still wider than the real range, `spot_share` × (synthetic / real edge width)⁴ (within
+//!   ×2 a round, within [`SPOT_SHARE`]). One Gaussian spot
 //!   is as wide at its edge as 0.81 × its core (√ of the pixels over half its peak); a
 //!   broader spot on the same hull is cut off by the hull's edge, a flatter top with a
 //!   sharper fall. Measured over the svanstrom-ir plates (docs/realism.md): 0.45 → 0.9 →
 //!   1.8 took the edge width 2.88 → 2.44 → 2.22 px (d log w / d log share ≈ 0.24, hence
 //!   the 4th power). A drone with parts (`motor_k` / `battery_k`) has no spot: unchanged.
+//!   Not in a modelled scene: there the blur statistic reads the texture's fronts (blur σ
+//!   1.3 px against the footage's 0.8 on svanstrom-ir, `blur_px` driven to 0), the drones'
+//!   edges then fall short and a spot rule narrowed the spot to make up for the blur; tried
+//!   on the six splits of docs/realism.md it moved on two and both lost a statistic.
 
 use super::{outside, r3, stat};
 use crate::gap::report::Report;
@@ -65,16 +69,15 @@ pub(super) fn adjust_blur(
         return;
     };
     let d = &mut t.drone;
-    if d.has_parts() || real <= 0.0 || m <= 0.0 || (over_plates && v == "below") {
+    if !over_plates || v != "above" || d.has_parts() || real <= 0.0 {
         return;
     }
-    let k = (m / real).powi(4).clamp(0.5, 2.0);
+    let k = (m / real).powi(4).min(2.0);
     let s2 = r3((d.spot_share * k).clamp(SPOT_SHARE.0, SPOT_SHARE.1));
     if s2 != d.spot_share {
         changes.push(format!(
-            "thermal.drone spot_share {} → {s2} (small drones' edge width {m:.3} px {v} the real {real:.3}: a {} spot)",
-            d.spot_share,
-            if k > 1.0 { "broader, flatter" } else { "narrower" }
+            "thermal.drone spot_share {} → {s2} (small drones' edge width {m:.3} px {v} the real {real:.3} with no blur to take away: a broader, flatter spot)",
+            d.spot_share
         ));
         d.spot_share = s2;
     }
@@ -134,10 +137,10 @@ mod tests {
         assert_eq!((t.blur_px, t.drone.spot_share), (0.0, 0.45));
     }
 
-    /// A modelled scene: the scene's blur σ sets the blur; with it inside, edges out of
-    /// range move the spot either way, within its limits; a drone with parts has none.
+    /// A modelled scene: the scene's blur σ sets the blur, the drones' edges move nothing
+    /// (module docs); over plates a spot at its limit or a drone with parts stays.
     #[test]
-    fn a_modelled_scene_fits_the_blur_to_the_scene_and_the_spot_to_the_drones() {
+    fn a_modelled_scene_fits_the_blur_to_the_scene_and_leaves_the_spot() {
         let mut changes = Vec::new();
         let both = report((&REAL_EDGES, &[3.0]), (&SCENE_BLUR, &[1.2]));
         let mut t = thermal(1.0, 0.45);
@@ -145,20 +148,21 @@ mod tests {
         assert_eq!(t.drone.spot_share, 0.45);
         assert_eq!(t.blur_px, r3((0.64f64 - 1.44 + 1.0).sqrt()));
         let wide = report((&REAL_EDGES, &[2.5, 2.6, 2.7]), (&SCENE_BLUR, &[0.8]));
-        let mut t = thermal(1.0, 0.45);
-        adjust_blur(&mut t, &wide, false, &mut changes);
-        let k = (2.6f64 / 2.25).powi(4);
-        assert_eq!((t.blur_px, t.drone.spot_share), (1.0, r3(0.45 * k)));
         let narrow = report((&REAL_EDGES, &[1.0]), (&SCENE_BLUR, &[0.8]));
-        let mut t = thermal(1.0, 0.06);
-        adjust_blur(&mut t, &narrow, false, &mut changes);
+        for r in [&wide, &narrow] {
+            let mut t = thermal(1.0, 0.45);
+            adjust_blur(&mut t, r, false, &mut changes);
+            assert_eq!((t.blur_px, t.drone.spot_share), (1.0, 0.45));
+        }
+        let mut t = thermal(0.0, 3.9);
+        adjust_blur(&mut t, &wide, true, &mut changes);
         assert_eq!(
-            t.drone.spot_share, SPOT_SHARE.0,
-            "÷2 at most, not under the limit"
+            t.drone.spot_share, SPOT_SHARE.1,
+            "×2 at most, not past the limit"
         );
-        let mut t = thermal(1.0, 0.45);
+        let mut t = thermal(0.0, 0.45);
         t.drone.motor_k = Some(20.0);
-        adjust_blur(&mut t, &wide, false, &mut changes);
+        adjust_blur(&mut t, &wide, true, &mut changes);
         assert_eq!(t.drone.spot_share, 0.45);
     }
 }
