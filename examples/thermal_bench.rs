@@ -6,7 +6,8 @@
 //! control) to 8-bit RGBA and to 16-bit grey, and the capture chain
 //! (`thermal.capture`) on the 8-bit frame, and the background's texture
 //! (`thermal.texture` at its default, and as a Gaussian field) added to the plane, a new window of
-//! the field each run; the median wall time of 30
+//! the field each run, and a backplate's plane (`plate_plane`) alone and with the optics'
+//! blur on 15 drawn 12×12 px drones scattered over it (`blur_drawn`); the median wall time of 30
 //! runs after 3 warm-ups and their mean CPU time (all threads, from /proc;
 //! `support/timing.rs`). The drones' pixels (a few thousand) are left out.
 //!
@@ -101,6 +102,26 @@ fn main() {
         })
     };
     let (gaussian, textured) = (field(&gaussian), field(&texture));
+    // A backplate: its plane alone (no blur: no plate kept), and with the blur on 15
+    // drones drawn over it (the plate kept, the drawn box found and blurred).
+    let sharp = swarmshot::preset::thermal::Thermal {
+        blur_px: 0.0,
+        ..t.clone()
+    };
+    let plate = median_ms(|| thermal::plate_plane(&sharp, (w, h), &rgba, &mut scratch));
+    let drones = median_ms(|| {
+        thermal::plate_plane(&t, (w, h), &rgba, &mut scratch);
+        for k in 0..15usize {
+            let (x0, y0) = (97 + k * 113, 61 + (k * 211) % 900);
+            for y in y0..y0 + 12 {
+                let row = y * w as usize;
+                scratch.plane[row + x0..row + x0 + 12]
+                    .iter_mut()
+                    .for_each(|v| *v += 2.0);
+            }
+        }
+        thermal::blur_drawn(t.blur_px as f32, (w, h), &mut scratch);
+    });
     println!("threads {}", rayon::current_num_threads());
     println!("(median wall, mean CPU) ms a frame");
     println!(
@@ -124,4 +145,9 @@ fn main() {
         gaussian.0, gaussian.1
     );
     println!("texture 1920x1080: {:.2}, {:.2}", textured.0, textured.1);
+    println!("plate 1920x1080: {:.2}, {:.2}", plate.0, plate.1);
+    println!(
+        "plate + 15 drones + the blur on them: {:.2}, {:.2}",
+        drones.0, drones.1
+    );
 }

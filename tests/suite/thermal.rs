@@ -659,6 +659,17 @@ fn the_background_texture_changes_the_picture_not_the_labels() {
 /// with the camera's own noise, pattern, shading and blur off, every background pixel away
 /// from the drones is the plate's level plus one offset (the gain control's middle), and
 /// the drones read warm on it.
+/// Whether pixel (x, y) lies within 8 px of a box of `f`'s labels.
+fn near_a_box(f: &Frame, x: u32, y: u32) -> bool {
+    (f.labels.iter()).any(|l| {
+        let b = l.bbox;
+        f64::from(x) > b.x0 - 8.0
+            && f64::from(x) < b.x1 + 8.0
+            && f64::from(y) > b.y0 - 8.0
+            && f64::from(y) < b.y1 + 8.0
+    })
+}
+
 /// The thermal preset over one 640×512 Anti-UAV frame as its only plate (copied into
 /// `dir`), no noise, pattern or shading, the optics' blur `blur_px`; and the plate's grey.
 fn plated(dir: &std::path::Path, blur_px: f64) -> (Preset, image::GrayImage) {
@@ -699,15 +710,7 @@ fn over_a_thermal_plate_the_blur_takes_the_drones_only() {
         !a.labels.is_empty() && a.labels == b.labels,
         "the same drones, the same labels"
     );
-    let near = |x: u32, y: u32| {
-        (a.labels.iter()).any(|l| {
-            let bb = l.bbox;
-            f64::from(x) > bb.x0 - 8.0
-                && f64::from(x) < bb.x1 + 8.0
-                && f64::from(y) > bb.y0 - 8.0
-                && f64::from(y) < bb.y1 + 8.0
-        })
-    };
+    let near = |x: u32, y: u32| near_a_box(&a, x, y);
     let far: Vec<(u32, u32)> = (0..512)
         .flat_map(|y| (0..640).map(move |x| (x, y)))
         .filter(|&(x, y)| !near(x, y))
@@ -764,15 +767,7 @@ fn thermal_backplates_draw_the_plates_levels_and_the_drones_warm_on_them() {
     let (p, plate) = plated(tmp.path(), 0.0);
     let f = make(&p, 0);
     assert!(!f.labels.is_empty(), "a drone is drawn");
-    let near = |x: u32, y: u32| {
-        (f.labels.iter()).any(|l| {
-            let b = l.bbox;
-            f64::from(x) > b.x0 - 8.0
-                && f64::from(x) < b.x1 + 8.0
-                && f64::from(y) > b.y0 - 8.0
-                && f64::from(y) < b.y1 + 8.0
-        })
-    };
+    let near = |x: u32, y: u32| near_a_box(&f, x, y);
     let mut pairs: Vec<(i32, i32)> = Vec::new();
     for y in 0..512 {
         for x in 0..640 {

@@ -305,6 +305,23 @@ fn blur_taps<'a>(taps: impl Iterator<Item = (f32, &'a [f32])> + Clone, dst: &mut
     }
 }
 
+/// The development's blur alone (σ `sigma` px, edges clamped) in place on `plane`
+/// (`w`×`h`): bands of rows on rayon's threads, `spare` taking the output and swapped in.
+/// The same sums as [`blur`].
+pub(super) fn blur_banded(
+    plane: &mut Vec<f32>,
+    dims: (usize, usize),
+    sigma: f32,
+    spare: &mut Vec<f32>,
+) {
+    let silent = Noise {
+        key: Key::new(0),
+        sigma: 0.0,
+        pattern: &[],
+    };
+    blur_and_noise(plane, dims, sigma, &silent, spare);
+}
+
 /// A separable Gaussian blur of σ `sigma` px, truncated at ±⌈3σ⌉ (edges clamped).
 pub fn blur(plane: &mut [f32], (w, h): (usize, usize), sigma: f32) {
     let Some(k) = kernel(sigma).filter(|_| w > 0 && h > 0) else {

@@ -104,6 +104,8 @@ pub struct Scratch {
     /// The plate's radiance as [`plate_plane`] made it, kept (when the
     /// camera blurs) so [`blur_drawn`] blurs only what is drawn over it.
     plate: Vec<f32>,
+    /// [`blur_drawn`]'s difference from the plate over the rows drawn on.
+    drawn: Vec<f32>,
     /// The columns' ray slopes, then their squares.
     slopes: Vec<f32>,
 }

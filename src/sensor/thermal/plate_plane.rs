@@ -13,8 +13,8 @@ use rayon::prelude::*;
 
 use crate::preset::thermal::Thermal;
 
-use super::develop::kernel_radius;
-use super::{Scratch, blur, radiance, radiance_per_kelvin};
+use super::develop::{blur_banded, kernel_radius};
+use super::{Scratch, radiance, radiance_per_kelvin};
 
 /// The background's radiance at every pixel into `scratch.plane` (row-major, `w`×`h`)
 /// from the level (Rec. 601 luma; a grey plate's grey) of the drone-free `rgba` (pixels
@@ -41,49 +41,39 @@ pub fn plate_plane(t: &Thermal, (w, h): (u32, u32), rgba: &[u8], scratch: &mut S
 
 /// The optics' blur of σ `sigma` px on what is drawn over the plate: `scratch.plane`
 /// becomes the plate [`plate_plane`] kept + the blurred difference, so pixels farther than
-/// the kernel from anything drawn keep the plate's value exactly. The same sums as blurring
-/// the whole difference plane (its kernel is truncated at ⌈3σ⌉, edges clamped), over the
-/// box of the drawn pixels grown by the kernel only. Without a kept plate (σ 0 when it was
-/// made) nothing changes.
+/// the kernel from anything drawn keep the plate's value exactly. The difference is
+/// blurred as the development blurs (bands of rows on rayon's threads; the same sums as
+/// blurring the whole difference plane, its kernel truncated at ⌈3σ⌉, edges clamped) over
+/// the rows drawn on, grown by the kernel. Without a kept plate (σ 0 when it was made)
+/// nothing changes.
 pub fn blur_drawn(sigma: f32, (w, h): (u32, u32), scratch: &mut Scratch) {
     let (w, h) = (w as usize, h as usize);
-    let Scratch { plane, plate, .. } = scratch;
-    if sigma <= 0.0 || plate.len() != w * h || plane.len() != w * h {
+    let Scratch {
+        plane,
+        plate,
+        drawn,
+        rows,
+        ..
+    } = scratch;
+    if sigma <= 0.0 || w == 0 || plate.len() != w * h || plane.len() != w * h {
         return;
     }
-    // The drawn pixels' box (x0, y0, x1, y1), exclusive ends.
-    let mut drawn = (usize::MAX, usize::MAX, 0, 0);
-    for (y, (row, base)) in plane.chunks_exact(w).zip(plate.chunks_exact(w)).enumerate() {
-        let differs = |x: &usize| row[*x] != base[*x];
-        if let (Some(first), Some(last)) = ((0..w).find(differs), (0..w).rfind(differs)) {
-            drawn = (
-                drawn.0.min(first),
-                drawn.1.min(y),
-                drawn.2.max(last + 1),
-                y + 1,
-            );
-        }
-    }
-    if drawn.0 >= drawn.2 {
+    let differs = |y: &usize| plane[y * w..(y + 1) * w] != plate[y * w..(y + 1) * w];
+    let (Some(first), Some(last)) = ((0..h).find(differs), (0..h).rfind(differs)) else {
         return;
-    }
+    };
     let r = kernel_radius(sigma);
-    let (x0, y0) = (drawn.0.saturating_sub(r), drawn.1.saturating_sub(r));
-    let (x1, y1) = ((drawn.2 + r).min(w), (drawn.3 + r).min(h));
-    let bw = x1 - x0;
-    let mut diff: Vec<f32> = (y0..y1)
-        .flat_map(|y| (x0..x1).map(move |x| y * w + x))
-        .map(|i| plane[i] - plate[i])
-        .collect();
-    blur(&mut diff, (bw, y1 - y0), sigma);
-    for (k, d) in diff.into_iter().enumerate() {
-        let i = (y0 + k / bw) * w + x0 + k % bw;
-        plane[i] = plate[i] + d;
-    }
+    let band = first.saturating_sub(r) * w..(last + 1 + r).min(h) * w;
+    let (plane, plate) = (&mut plane[band.clone()], &plate[band.clone()]);
+    drawn.clear();
+    drawn.par_extend((plane.par_iter().zip(plate)).map(|(a, b)| a - b));
+    blur_banded(drawn, (w, band.len() / w), sigma, rows);
+    (plane.par_iter_mut().zip(plate).zip(&drawn[..])).for_each(|((o, b), d)| *o = b + d);
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::blur;
     use super::*;
 
     /// A 64×48 plate with a sharp vertical step at x = 20 and a drawn 3×3 blob at (44, 30):
