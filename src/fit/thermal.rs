@@ -14,7 +14,9 @@
 //!
 //! - **flat-sky noise σ**: the temporal noise and the fixed pattern are both white in the
 //!   2×2 high-pass, so the measured σ is proportional to `netd_mk` and `fixed_pattern_mk`
-//!   together: both × real / synthetic (at most ×4 or ÷4 a round);
+//!   together: both × real / synthetic (at most ×4 or ÷4 a round); a preset with none
+//!   (over plates both start at 0) whose frames read below the footage gets `netd_mk` from
+//!   the gap in quadrature at the gain control's largest gain ([`add_noise`]);
 //! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median; over
 //!   plates (which hold the footage's blur: `blur_px` blurs only what is drawn on them)
 //!   by the small drones' edge width instead, and with the blur at 0 and those edges
@@ -108,8 +110,8 @@ pub fn first_fit(
 /// through the inverse of the gain control, `sensor::thermal::plate_plane`): they carry the
 /// camera's noise, fixed pattern, shading, blur, narcissus, border lines and the scene's
 /// structure, so those start at none and no capture chain, narcissus or texture is
-/// fitted. The rounds can add blur (on what is drawn: the drones' edges, [`edges`]) but
-/// not noise: the noise rule scales the preset's own, which stays 0.
+/// fitted. The rounds can add blur (on what is drawn: the drones' edges, [`edges`]) and,
+/// where the plates read cleaner than the footage, noise ([`add_noise`]).
 fn plates_fit(
     p: &mut Preset,
     plates: &PlateSummary,
@@ -339,6 +341,25 @@ fn ratio(report: &Report, key: &str, limit: f64) -> Option<(f64, String)> {
     })
 }
 
+/// Noise for a preset without any (`netd_mk` and `fixed_pattern_mk` 0, as over plates)
+/// whose frames read less than the footage: `netd_mk` the gap in quadrature, √(real² −
+/// synthetic²) levels, at the gain control's largest gain (`agc_max_gain` levels a kelvin,
+/// where plates sit); the note, or None when it does not apply (the ratio rule then scales
+/// what there is).
+fn add_noise(t: &mut crate::preset::thermal::Thermal, report: &Report) -> Option<String> {
+    let (v, real, m) = stat(report, "noise_sigma")?;
+    if v != "below" || t.netd_mk != 0.0 || t.fixed_pattern_mk != 0.0 || t.agc_max_gain <= 0.0 {
+        return None;
+    }
+    let gap = (real * real - m.max(0.0).powi(2)).max(0.0).sqrt();
+    let n2 = r3(1000.0 * gap / t.agc_max_gain);
+    t.netd_mk = n2;
+    Some(format!(
+        "thermal.netd_mk 0 → {n2} (noise σ {m:.3} below the real {real:.3}: the gap {gap:.3} levels in quadrature at the gain control's largest gain, {} levels a kelvin)",
+        t.agc_max_gain
+    ))
+}
+
 /// Moves a thermal `preset` toward the footage after a round's `report` (module docs);
 /// returns what it changed, in words.
 pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
@@ -346,7 +367,9 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
     let Some(mut t) = preset.thermal.clone() else {
         return changes;
     };
-    if let Some((k, why)) = ratio(report, "noise_sigma", 4.0) {
+    if let Some(note) = add_noise(&mut t, report) {
+        changes.push(note);
+    } else if let Some((k, why)) = ratio(report, "noise_sigma", 4.0) {
         let (n2, f2) = (r3(t.netd_mk * k), r3(t.fixed_pattern_mk * k));
         changes.push(format!(
             "thermal.netd_mk {} → {n2}, fixed_pattern_mk {} → {f2} ({why})",
@@ -450,6 +473,38 @@ mod tests {
             proposals: Vec::new(),
             real_halves: None,
         }
+    }
+
+    /// Frames cleaner than the footage with no noise in the preset (over plates) get the
+    /// gap in quadrature as NETD at the largest gain; with noise the ratio rule scales it;
+    /// frames as noisy as the footage change nothing.
+    #[test]
+    fn plates_cleaner_than_the_footage_get_the_noise_gap() {
+        let clean = row_report("noise_sigma", &[0.4, 0.5, 0.6], &[0.3]);
+        let mut p = thermal_preset(0.0);
+        let t = p.thermal.as_mut().expect("thermal");
+        (t.netd_mk, t.fixed_pattern_mk, t.agc_max_gain) = (0.0, 0.0, 4.0);
+        let changes = adjust(&mut p, &clean);
+        let t = p.thermal.as_ref().expect("thermal");
+        assert_eq!(
+            t.netd_mk, 100.0,
+            "√(0.5² − 0.3²) = 0.4 levels at 4 a kelvin: {changes:?}"
+        );
+        assert_eq!(t.fixed_pattern_mk, 0.0);
+        let mut q = thermal_preset(0.0);
+        let t = q.thermal.as_mut().expect("thermal");
+        (t.netd_mk, t.fixed_pattern_mk) = (30.0, 10.0);
+        adjust(&mut q, &clean);
+        let t = q.thermal.as_ref().expect("thermal");
+        assert_eq!(
+            (t.netd_mk, t.fixed_pattern_mk),
+            (r3(30.0 * 0.5 / 0.3), r3(10.0 * 0.5 / 0.3))
+        );
+        let mut r = thermal_preset(0.0);
+        let t = r.thermal.as_mut().expect("thermal");
+        (t.netd_mk, t.fixed_pattern_mk) = (0.0, 0.0);
+        adjust(&mut r, &row_report("noise_sigma", &[0.4, 0.5, 0.6], &[0.5]));
+        assert_eq!(r.thermal.as_ref().expect("thermal").netd_mk, 0.0);
     }
 
     pub(super) fn thermal_preset(cold_share: f64) -> Preset {
