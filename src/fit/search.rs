@@ -16,8 +16,8 @@
 //!   ([`super::camera::invert_noise`]) says brings the total to the real median;
 //! - **blur σ**: the PSF σ changed in quadrature by the gap to the real median; when the
 //!   blur is inside but the small drones' **edge width** is not, the PSF moves by the
-//!   edge-width gap / 1.687 (a Gaussian's 90→10 % width per σ), in quadrature, but grows
-//!   no further than keeps the blur σ within the real upper quartile (footage whose
+//!   edge-width gap / `EDGE_PER_SIGMA` (1.687, a Gaussian's 90→10 % width per σ), in
+//!   quadrature, but grows no further than keeps the blur σ within the real upper quartile (footage whose
 //!   scenery is sharper than its drones keeps its sharp scenery); the PSF
 //!   blurs the plates too, so when the gradient energy or the high-pass RMS falls below
 //!   the real (and the blur is not below) it is halved first;
@@ -48,6 +48,7 @@ use serde::Serialize;
 use super::camera::{Footage, invert_noise, noise_after};
 use super::preset_out::{self, Fitted};
 use super::{FitError, Prepared};
+use crate::gap::measure::EDGE_PER_SIGMA;
 use crate::gap::report::{GapOptions, Report, Summary};
 use crate::pipeline::{BatchOptions, FramePipeline, run_batch};
 use crate::preset::camera_model::{CameraModel, Psf};
@@ -178,7 +179,7 @@ pub fn adjust(preset: &mut Preset, report: &Report, footage: &Footage) -> Vec<St
                 .and_then(|r| r.real)
                 .map_or(t, |r| range(&r).1);
             let room = (real_hi * real_hi - m * m).max(0.0);
-            let want = s * s + (te * te - me * me) / (1.687 * 1.687);
+            let want = s * s + (te * te - me * me) / (EDGE_PER_SIGMA * EDGE_PER_SIGMA);
             s2 = want.min(s * s + room).max(0.0).sqrt();
             why = format!(
                 "small drones' edge width {me:.2} {ve} the real {te:.2}; the plates' blur σ {m:.3} may reach the real {real_hi:.3}"

@@ -27,6 +27,9 @@ pub const GRADIENT_HEIGHT_PX: u32 = 540;
 /// 20 and 40 are gradients of 2.5 and 5 levels per pixel.
 pub const CANNY_LOW: f32 = 20.0;
 pub const CANNY_HIGH: f32 = 40.0;
+/// A Gaussian profile's 90→10 % edge width (the small drones' edge width statistic) over
+/// its σ: √(2 ln 10) − √(2 ln (10/9)). A blur of σ widens an edge w to √(w² + (this · σ)²).
+pub const EDGE_PER_SIGMA: f64 = 1.687;
 /// An edge profile must rise by at least this many levels to count for the blur estimate.
 pub const BLUR_MIN_CONTRAST: f32 = 24.0;
 /// Longest half-profile walked from an edge's steepest step (pixels).

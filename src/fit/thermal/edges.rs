@@ -21,11 +21,9 @@
 //!   on the six splits of docs/realism.md it moved on two and both lost a statistic.
 
 use super::{outside, r3, stat};
+use crate::gap::measure::EDGE_PER_SIGMA;
 use crate::gap::report::Report;
 use crate::preset::thermal::Thermal;
-
-/// 90→10 % edge width of a Gaussian profile over its σ: √(2 ln 10) − √(2 ln (10/9)).
-pub const EDGE_PER_SIGMA: f64 = 1.687;
 
 /// Limits of the fitted warm spot's σ as a share of the half box.
 pub const SPOT_SHARE: (f64, f64) = (0.05, 4.0);
