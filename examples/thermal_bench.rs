@@ -19,7 +19,7 @@ mod timing;
 
 use glam::{Vec2, Vec3};
 use swarmshot::preset::Preset;
-use swarmshot::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
+use swarmshot::sensor::thermal::{self, Developed, Gain, Scratch, SkyTable, View};
 use timing::median_ms;
 
 fn main() {
@@ -63,13 +63,27 @@ fn main() {
         thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
         seed += 1;
         let to = Developed::Rgba8(&mut out8);
-        thermal::develop_into(&t, (w, h), (&pattern, seed), &mut scratch, to);
+        thermal::develop_into(
+            &t,
+            (w, h),
+            (&pattern, seed),
+            Gain::Automatic,
+            &mut scratch,
+            to,
+        );
     });
     let dev16 = median_ms(|| {
         thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
         seed += 1;
         let to = Developed::Grey16(&mut out16);
-        thermal::develop_into(&t, (w, h), (&pattern, seed), &mut scratch, to);
+        thermal::develop_into(
+            &t,
+            (w, h),
+            (&pattern, seed),
+            Gain::Automatic,
+            &mut scratch,
+            to,
+        );
     });
     // The capture chain alone (`thermal.capture`, off in the preset) on the 8-bit frame:
     // an earlier compression and three border lines, as the fitted Anti-UAV presets have.

@@ -21,7 +21,9 @@
 //!   plates (which hold the footage's blur: `blur_px` blurs only what is drawn on them)
 //!   by the small drones' edge width instead, and with the blur at 0 and those edges
 //!   still too wide, the drone's warm spot's size `spot_share` ([`edges`]);
-//! - **mean brightness**: `agc_mid_level` += real − synthetic (levels);
+//! - **mean brightness**: `agc_mid_level` += real − synthetic (levels); not over plates,
+//!   whose frames are developed with the plates' own gain (`sensor::thermal::plate_gain`:
+//!   the plates' levels come back as they are, the middle level moves nothing);
 //! - **peak contrast of 3–6 px drones**: the drone's `skin_k` and `spot_k` (and its
 //!   parts' `motor_k` and `battery_k` when set) × real / synthetic (at most ×2 or ÷2 a
 //!   round);
@@ -378,8 +380,10 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
         (t.netd_mk, t.fixed_pattern_mk) = (n2, f2);
     }
     edges::adjust_blur(&mut t, report, preset.backplate.is_some(), &mut changes);
+    // Over plates the levels are the plates' own (`plate_gain`): the middle level moves nothing.
     if let Some((v, real, m)) = stat(report, "mean_brightness")
         && outside(v)
+        && preset.backplate.is_none()
     {
         let l2 = r3((t.agc_mid_level + real - m).clamp(1.0, 254.0));
         changes.push(format!(

@@ -147,12 +147,15 @@ pub struct Thermal {
     /// The optics' blur, Gaussian σ in pixels (0: none).
     pub blur_px: f64,
     /// Automatic gain control: these percentiles of the frame span levels 0
-    /// to 255, unless that takes more than `agc_max_gain`.
+    /// to 255, unless that takes more than `agc_max_gain`. Over a backplate
+    /// the frame keeps the plate's own gain (its levels come back as they
+    /// are, what is drawn over it at `agc_max_gain`): unused there.
     pub agc_percentiles: (f64, f64),
     /// The gain control's largest gain, 8-bit levels per kelvin (at the
     /// air's temperature): a low-contrast scene stays low in contrast.
     pub agc_max_gain: f64,
-    /// The level the middle of the percentiles' span maps to.
+    /// The level the middle of the percentiles' span maps to (over a
+    /// backplate, the plate level that stands for the air's temperature).
     pub agc_mid_level: f64,
     /// Bits per pixel of the written frames: 8, or 16 (grey PNG, the gain
     /// control's levels × 257; needs `output.image_format: Png`). 8 is not

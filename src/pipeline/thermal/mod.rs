@@ -10,8 +10,10 @@
 //!   clouds' or the scenery's radiance by the pixel's colour); with
 //!   backplates, from the drawn plate's levels instead
 //!   ([`crate::sensor::thermal::plate_plane`]: a thermal camera's own frames,
-//!   already through its optics, so the camera's blur then takes only what
-//!   is drawn over them: [`crate::sensor::thermal::blur_drawn`]);
+//!   already through its optics and its gain control, so the camera's blur
+//!   then takes only what is drawn over them,
+//!   [`crate::sensor::thermal::blur_drawn`], and the frame is developed with
+//!   the plate's own gain, [`crate::sensor::thermal::plate_gain`]);
 //! - every pixel the id pass gives a drone or confuser (its samples' share
 //!   of the pixel): the object's skin and warm spots ([`parts`]: one
 //!   Gaussian about its projected centre, σ a share of its half box, or
@@ -42,7 +44,7 @@ use crate::preset::thermal::{Signature, Thermal};
 use crate::render::Renderer;
 use crate::scene::FrameScene;
 use crate::scene::camera::Camera;
-use crate::sensor::thermal::{self, Developed, Scratch, SkyTable, View};
+use crate::sensor::thermal::{self, Developed, Gain, Scratch, SkyTable, View};
 
 use super::{FramePipeline, PipelineError, weather};
 
@@ -139,7 +141,11 @@ impl FramePipeline {
                 Some(g) => Developed::Grey16(g),
                 None => Developed::Rgba8(&mut out),
             };
-            thermal::develop_into(camera, (w, h), (pattern, key), scratch, to);
+            let gain = match self.preset.backplate {
+                Some(_) => thermal::plate_gain(t),
+                None => Gain::Automatic,
+            };
+            thermal::develop_into(camera, (w, h), (pattern, key), gain, scratch, to);
         });
         if let Some(c) = &t.capture {
             thermal::capture::apply(c, (w, h), &mut out);

@@ -4,7 +4,9 @@
 //! [`crate::sensor::noise`] under the frame's key), then a linear gain that
 //! maps the frame's low and high percentiles to levels 0 and 255, capped at
 //! `agc_max_gain` levels per kelvin, their middle at `agc_mid_level`; out as
-//! 8-bit grey RGBA or 16-bit grey (the same gain × 257).
+//! 8-bit grey RGBA or 16-bit grey (the same gain × 257). Over a backplate
+//! the gain is the plate's own ([`Gain::Fixed`], `plate_gain`): its camera's
+//! gain control set its levels, with the drone in view, when it was taken.
 //!
 //! Three passes over the frame, each in bands of rows on rayon's threads:
 //! the blur (a band's rows and the kernel's halo through the row pass into
@@ -39,6 +41,21 @@ pub enum Developed<'a> {
     Grey16(&'a mut [u16]),
 }
 
+/// How the developed levels follow the radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Gain {
+    /// The gain control: the frame's `agc_percentiles` to levels 0 and 255, at most
+    /// `agc_max_gain` levels per kelvin, their middle at `agc_mid_level`.
+    Automatic,
+    /// level = radiance · `scale` + `offset`, whatever the frame holds.
+    Fixed {
+        /// Levels per radiance unit.
+        scale: f32,
+        /// The level of radiance 0.
+        offset: f32,
+    },
+}
+
 /// Rows per band handed to a thread (the blur's row pass also runs on the
 /// kernel's halo of rows above and below each band: fewer, taller bands
 /// repeat fewer rows).
@@ -59,17 +76,25 @@ pub fn develop(
         ..Scratch::default()
     };
     let to = Developed::Rgba8(&mut out);
-    develop_into(t, dims, (pattern, noise_seed), &mut scratch, to);
+    develop_into(
+        t,
+        dims,
+        (pattern, noise_seed),
+        Gain::Automatic,
+        &mut scratch,
+        to,
+    );
     plane.copy_from_slice(&scratch.plane);
     out
 }
 
 /// [`develop`] on `scratch.plane` into `out` (as long as the plane, × 4
-/// for RGBA8), the row pass's plane kept in `scratch`.
+/// for RGBA8) through `gain`, the row pass's plane kept in `scratch`.
 pub fn develop_into(
     t: &Thermal,
     (w, h): (u32, u32),
     (pattern, noise_seed): (&[f32], u64),
+    gain_by: Gain,
     scratch: &mut Scratch,
     out: Developed<'_>,
 ) {
@@ -82,10 +107,15 @@ pub fn develop_into(
     let dims = (w as usize, h as usize);
     let Scratch { plane, rows, .. } = scratch;
     let extremes = blur_and_noise(plane, dims, t.blur_px as f32, &noise, rows);
-    let (lo, hi) = percentiles_within(plane, extremes, t.agc_percentiles);
-    let cap = t.agc_max_gain as f32 / per_kelvin;
-    let scale = (255.0 / (hi - lo).max(1e-6)).min(cap);
-    let offset = t.agc_mid_level as f32 - (lo + hi) * 0.5 * scale;
+    let (scale, offset) = match gain_by {
+        Gain::Fixed { scale, offset } => (scale, offset),
+        Gain::Automatic => {
+            let (lo, hi) = percentiles_within(plane, extremes, t.agc_percentiles);
+            let cap = t.agc_max_gain as f32 / per_kelvin;
+            let scale = (255.0 / (hi - lo).max(1e-6)).min(cap);
+            (scale, t.agc_mid_level as f32 - (lo + hi) * 0.5 * scale)
+        }
+    };
     gain(plane, w as usize, (scale, offset), out);
 }
 
@@ -646,7 +676,15 @@ mod tests {
             };
             let mut grey = vec![0u16; w * h];
             let to = Developed::Grey16(&mut grey);
-            develop_into(&t, (w as u32, h as u32), (&pattern, 77), &mut scratch, to);
+            let gain = Gain::Automatic;
+            develop_into(
+                &t,
+                (w as u32, h as u32),
+                (&pattern, 77),
+                gain,
+                &mut scratch,
+                to,
+            );
             for (g, px) in grey.iter().zip(fused.chunks_exact(4)) {
                 assert!(
                     (f32::from(*g) / 257.0 - f32::from(px[0])).abs() <= 0.5,

@@ -76,8 +76,8 @@ mod plate_plane;
 mod sky_plane;
 pub mod texture;
 
-pub use develop::{Developed, blur, develop, develop_into, grey16_to_rgba, percentiles};
-pub use plate_plane::{blur_drawn, plate_plane};
+pub use develop::{Developed, Gain, blur, develop, develop_into, grey16_to_rgba, percentiles};
+pub use plate_plane::{blur_drawn, plate_gain, plate_plane};
 pub use sky_plane::{View, sky_plane};
 
 /// Whether to run the AVX-512 builds: the crate's one SIMD level

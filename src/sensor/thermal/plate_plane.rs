@@ -1,10 +1,12 @@
 //! The thermal picture's background from a thermal backplate (docs/realism.md, "Thermal
 //! camera"): a grey frame of the user's own camera, drones removed, stands for the scene's
 //! radiance. Its level v becomes the radiance `L(air) + (v − agc_mid_level) · dL/dT(air) /
-//! agc_max_gain`: the inverse of the gain control at its largest gain about the air's
-//! radiance, so a plate whose levels the gain control spans again at that gain comes back
-//! at the same steps (the gain control then places its middle at `agc_mid_level`). The
-//! plate already holds its camera's noise, blur and shading: a preset with plates keeps
+//! agc_max_gain`: the inverse of [`plate_gain`], the fixed gain a frame over a plate is
+//! developed with, so the plate's pixels come back at their own levels. The plate's camera
+//! set those levels with its gain control, with the drone in view; a second gain control
+//! on the composed frame would move them by what swarmshot draws (a hot drone's pixels
+//! raising the high percentile dims and flattens the plate). What is drawn over the plate
+//! reads `agc_max_gain` levels per kelvin about the air. The plate already holds its camera's noise, blur and shading: a preset with plates keeps
 //! `netd_mk`, `fixed_pattern_mk` and `shading_k` small (`swarmshot fit` starts them at 0),
 //! and its `blur_px` blurs only what is drawn over the plate ([`blur_drawn`]): the drones,
 //! confusers, texture and weather pass the optics once, as the plate did.
@@ -13,7 +15,7 @@ use rayon::prelude::*;
 
 use crate::preset::thermal::Thermal;
 
-use super::develop::{blur_banded, kernel_radius};
+use super::develop::{Gain, blur_banded, kernel_radius};
 use super::{Scratch, radiance, radiance_per_kelvin};
 
 /// The background's radiance at every pixel into `scratch.plane` (row-major, `w`×`h`)
@@ -22,7 +24,7 @@ use super::{Scratch, radiance, radiance_per_kelvin};
 pub fn plate_plane(t: &Thermal, (w, h): (u32, u32), rgba: &[u8], scratch: &mut Scratch) {
     let n = w as usize * h as usize;
     let air = radiance(t.air_k);
-    let per_level = radiance_per_kelvin(t.air_k) / t.agc_max_gain as f32;
+    let per_level = per_level(t);
     let mid = t.agc_mid_level as f32;
     let plane = &mut scratch.plane;
     plane.clear();
@@ -37,6 +39,22 @@ pub fn plate_plane(t: &Thermal, (w, h): (u32, u32), rgba: &[u8], scratch: &mut S
     if t.blur_px > 0.0 {
         scratch.plate.extend_from_slice(plane);
     }
+}
+
+/// The gain a frame over a plate is developed with: the inverse of [`plate_plane`]'s
+/// mapping, so a plate level v comes back as v, and radiance drawn over it at
+/// `agc_max_gain` levels per kelvin of the air.
+pub fn plate_gain(t: &Thermal) -> Gain {
+    let scale = 1.0 / per_level(t);
+    Gain::Fixed {
+        scale,
+        offset: t.agc_mid_level as f32 - radiance(t.air_k) * scale,
+    }
+}
+
+/// Radiance per plate level: the air's per kelvin over the largest gain.
+fn per_level(t: &Thermal) -> f32 {
+    radiance_per_kelvin(t.air_k) / t.agc_max_gain as f32
 }
 
 /// The optics' blur of σ `sigma` px on what is drawn over the plate: `scratch.plane`
@@ -73,8 +91,61 @@ pub fn blur_drawn(sigma: f32, (w, h): (u32, u32), scratch: &mut Scratch) {
 
 #[cfg(test)]
 mod tests {
-    use super::super::blur;
+    use super::super::{Developed, blur, develop_into};
     use super::*;
+
+    /// A plate holding every level, developed with [`plate_gain`] and no noise, comes back
+    /// level for level whatever the gain control's settings, and a pixel 1 K warmer than
+    /// the air's radiance reads `agc_max_gain` levels above the plate's level there.
+    #[test]
+    fn over_a_plate_the_levels_come_back_and_a_kelvin_reads_the_largest_gain() {
+        let (w, h) = (256u32, 2u32);
+        let rgba: Vec<u8> = (0..w * h)
+            .flat_map(|i| [(i % w) as u8; 3].into_iter().chain([255]))
+            .collect();
+        for (air_k, agc_max_gain, agc_mid_level) in [
+            (288.0, 4.0, 110.0),
+            (260.0, 12.5, 40.0),
+            (305.0, 1.0, 250.0),
+        ] {
+            let t = Thermal {
+                air_k,
+                agc_max_gain,
+                agc_mid_level,
+                netd_mk: 0.0,
+                fixed_pattern_mk: 0.0,
+                blur_px: 0.0,
+                ..Thermal::default()
+            };
+            let mut scratch = Scratch::default();
+            plate_plane(&t, (w, h), &rgba, &mut scratch);
+            // The second row's level 100 pixel 1 K warmer (a radiance step at the air's slope).
+            scratch.plane[(w + 100) as usize] += radiance_per_kelvin(air_k);
+            let pattern = vec![0.0; (w * h) as usize];
+            let mut out = vec![0u8; (w * h * 4) as usize];
+            develop_into(
+                &t,
+                (w, h),
+                (&pattern, 1),
+                plate_gain(&t),
+                &mut scratch,
+                Developed::Rgba8(&mut out),
+            );
+            for (i, (got, want)) in out.chunks_exact(4).zip(rgba.chunks_exact(4)).enumerate() {
+                if i != (w + 100) as usize {
+                    assert_eq!(
+                        got[0], want[0],
+                        "pixel {i} at air {air_k} K, gain {agc_max_gain}, mid {agc_mid_level}"
+                    );
+                }
+            }
+            let warm = f64::from(out[((w + 100) * 4) as usize]);
+            assert!(
+                (warm - (100.0 + agc_max_gain).min(255.0)).abs() <= 1.0,
+                "{warm} for 1 K at {agc_max_gain} levels/K"
+            );
+        }
+    }
 
     /// A 64×48 plate with a sharp vertical step at x = 20 and a drawn 3×3 blob at (44, 30):
     /// after [`blur_drawn`] the step is as sharp as the plate's, every pixel farther than
