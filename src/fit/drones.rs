@@ -162,13 +162,21 @@ pub fn first_fit(
             "camera.observer: the base preset's (no labelled drone to size the drones from)".into(),
         );
     }
-    if centres.is_some() && observer.size_px.is_some() {
-        observer.azimuth_deg = (0.0, 0.0);
-    }
     p.camera.observer = Some(observer);
-    if let Some(note) = fit_volume(p, centres) {
-        notes.push(note);
+    spread(p, centres, notes);
+}
+
+/// The volume the drones spread over ([`fit_volume`]) with the observer's azimuth at 0,
+/// so the volume's x is the frame's width, when the footage's `centres` and the
+/// observer's `size_px` are known.
+pub fn spread(p: &mut Preset, centres: Option<CentreSpread>, notes: &mut Vec<String>) {
+    if let Some(o) = p.camera.observer.as_mut()
+        && centres.is_some()
+        && o.size_px.is_some()
+    {
+        o.azimuth_deg = (0.0, 0.0);
     }
+    notes.extend(fit_volume(p, centres));
 }
 
 /// Every model at one span, the median of the base's (module docs); `None` when they
@@ -208,7 +216,7 @@ pub fn count_draw(counts: impl Iterator<Item = usize>) -> Option<((u32, u32), Co
 }
 
 /// `placement.count` from the real frames' drone counts (randomized placement only).
-fn fit_count(p: &mut Preset, footage: &Footage) -> Option<String> {
+pub fn fit_count(p: &mut Preset, footage: &Footage) -> Option<String> {
     let labelled = || footage.per_frame.iter().filter(|f| f.labelled);
     let ((lo, hi), draw) = count_draw(labelled().map(|f| f.drones))?;
     let Placement::Randomized {

@@ -327,7 +327,7 @@ pub fn prepare(options: &FitOptions) -> Result<Prepared, FitError> {
     out.write("footage.json", json.as_bytes())?;
     let fitted = if base.thermal.is_some() {
         let with = plated(&base).then_some((&plates, &geometry));
-        thermal::first_fit(&base, &footage, with)
+        thermal::first_fit(&base, &footage, with, centres)
     } else {
         preset_out::first_fit(&base, &footage, &plates, &geometry, centres)
     };

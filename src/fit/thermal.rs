@@ -4,8 +4,11 @@
 //! is composed from the id pass), or with a `backplate` in the base the footage's own
 //! frames ([`plates_fit`]: plates as the visible fit writes them, read as radiance).
 //!
-//! The first fit ([`first_fit`]) takes the footage's frame size and its JPEG quality (the
-//! output format's; PNG footage gives PNG frames); the drones and the thermal values
+//! The first fit ([`first_fit`]) takes the footage's frame size, its JPEG quality (the
+//! output format's; PNG footage gives PNG frames), its drones per labelled frame
+//! (`placement.count`) and the volume that spreads them over the frame as the real boxes
+//! spread, at the base's apparent sizes (`placement.volume`, the observer's azimuth 0),
+//! as the visible fit takes them; the drones and the thermal values
 //! start at the base preset's (the visible fit's first sizing is calibrated on visible
 //! renders, so the rounds size a thermal preset's drones).
 //!
@@ -63,6 +66,7 @@
 //! elevation.
 
 use super::camera::Footage;
+use super::drones::{self, CentreSpread};
 use super::plates::{PlateCamera, PlateSummary};
 use super::preset_out::{Fitted, sized_to};
 use crate::gap::report::{Report, Summary};
@@ -73,11 +77,13 @@ mod edges;
 mod texture;
 
 /// The first fit of a thermal base (module docs), with one note per value; with `plates`
-/// (a base with a backplate) the footage's own frames are the scene ([`plates_fit`]).
+/// (a base with a backplate) the footage's own frames are the scene ([`plates_fit`]);
+/// `centres`: the real boxes' spread over the frame.
 pub fn first_fit(
     base: &Preset,
     footage: &Footage,
     plates: Option<(&PlateSummary, &PlateCamera)>,
+    centres: Option<CentreSpread>,
 ) -> Fitted {
     let (mut p, mut notes) = sized_to(base, footage);
     match (footage.estimate.jpeg_quality, footage.measured.jpeg_quality) {
@@ -94,6 +100,7 @@ pub fn first_fit(
             notes.push("output PNG: the footage is PNG".into());
         }
     }
+    notes.extend(drones::fit_count(&mut p, footage));
     if let Some((plates, camera)) = plates {
         plates_fit(&mut p, plates, camera, &mut notes);
     } else {
@@ -101,6 +108,7 @@ pub fn first_fit(
         narcissus_fit(&mut p, footage, &mut notes);
         texture_fit(&mut p, footage, &mut notes);
     }
+    drones::spread(&mut p, centres, &mut notes);
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),

@@ -205,3 +205,67 @@ fn a_thermal_base_with_a_backplate_is_fitted_over_the_footages_own_frames() {
     assert_eq!(pngs(&dir.join("fit2/plates")), 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The thermal first fit takes the footage's drones per frame (`placement.count`) and
+/// spreads them over the frame as the footage's boxes spread (`placement.volume`, the
+/// observer's azimuth 0), as the visible fit does: 320×256 footage of two drones a frame
+/// close together, fitted from presets/thermal.ron (one or two drones in a 6 m box,
+/// which at its apparent sizes spreads them wider than such a frame), gives a preset
+/// whose frames hold their two drones.
+#[test]
+fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
+    use swarmshot::preset::{Placement, Volume};
+    let dir = tmp("count");
+    let real = dir.join("real");
+    let mut truth = shipped();
+    truth.seed = 80;
+    truth.confusers.clear();
+    // A smaller frame than the base's 640×512: at the same apparent sizes the base's box
+    // spans twice the share of it.
+    truth.render.resolution = swarmshot::preset::Resolution::Custom {
+        width: 320,
+        height: 256,
+    };
+    truth.placement = Placement::Randomized {
+        count: (2, 2),
+        count_distribution: Default::default(),
+        volume: Volume::Box {
+            size_m: (1.5, 1.0, 1.5),
+        },
+        min_separation_m: 0.5,
+    };
+    let ctx = common::gpu();
+    let mut options = BatchOptions::new(&real);
+    options.limit = Some(12);
+    let pipeline = FramePipeline::new(truth).expect("valid preset");
+    run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
+    let mut fit = swarmshot::fit::FitOptions::new(&real, dir.join("fit"));
+    fit.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    let prep = swarmshot::fit::prepare(&fit).expect("the thermal base is accepted");
+    let mut p = prep.fitted.preset.clone();
+    let Placement::Randomized { count, .. } = &p.placement else {
+        panic!("randomized placement: {:?}", p.placement);
+    };
+    assert_eq!(*count, (2, 2), "{}", prep.fitted.notes.join("\n"));
+    let observer = p.camera.observer.as_ref().expect("an observer");
+    assert_eq!(observer.azimuth_deg, (0.0, 0.0));
+    // The fitted preset's frames hold their drones (the base's 6 m box loses some).
+    p.confusers.clear();
+    let out = dir.join("fitted");
+    let mut options = BatchOptions::new(&out);
+    options.limit = Some(12);
+    let pipeline = FramePipeline::new(p).expect("the fitted preset is valid");
+    run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
+    let labels = out.join("labels");
+    let labelled: usize = (common::files_under(&labels).iter())
+        .filter(|f| f.extension().is_some_and(|e| e == "txt"))
+        .map(|f| {
+            std::fs::read_to_string(labels.join(f))
+                .expect("labels")
+                .lines()
+                .count()
+        })
+        .sum();
+    assert!(labelled >= 22, "{labelled} of 24 drones labelled");
+    let _ = std::fs::remove_dir_all(&dir);
+}
