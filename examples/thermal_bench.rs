@@ -59,31 +59,18 @@ fn main() {
     let mut out16 = vec![0u16; (w * h) as usize];
     let background = median_ms(|| thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch));
     let mut seed = 0;
+    const AUTO: Gain = Gain::Automatic;
     let dev8 = median_ms(|| {
         thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
         seed += 1;
         let to = Developed::Rgba8(&mut out8);
-        thermal::develop_into(
-            &t,
-            (w, h),
-            (&pattern, seed),
-            Gain::Automatic,
-            &mut scratch,
-            to,
-        );
+        thermal::develop_into(&t, (w, h), (&pattern, seed), AUTO, &mut scratch, to);
     });
     let dev16 = median_ms(|| {
         thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
         seed += 1;
         let to = Developed::Grey16(&mut out16);
-        thermal::develop_into(
-            &t,
-            (w, h),
-            (&pattern, seed),
-            Gain::Automatic,
-            &mut scratch,
-            to,
-        );
+        thermal::develop_into(&t, (w, h), (&pattern, seed), AUTO, &mut scratch, to);
     });
     // The capture chain alone (`thermal.capture`, off in the preset) on the 8-bit frame:
     // an earlier compression and three border lines, as the fitted Anti-UAV presets have.
