@@ -225,4 +225,29 @@ pub fn observer_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     }
     let size = Words::of("camera.observer.size_px");
     optional_range(ui, form, &mut o.size_px, (3.0, 6.0), &size, 0.05);
+    centre_at_ui(ui, form, &mut o.centre_at);
+}
+
+/// `camera.observer.centre_at`: on/off, then its x and y as shares of the frame.
+fn centre_at_ui(ui: &mut Ui, form: &mut Form<'_>, at: &mut Option<(f64, f64)>) {
+    let words = Words::of("camera.observer.centre_at");
+    let mut on = at.is_some();
+    if words.checkbox(ui, &mut on).changed() {
+        *at = on.then_some((0.5, 0.5));
+    }
+    if let Some((x, y)) = at {
+        ui.horizontal(|ui| {
+            for (value, axis) in [(x, "x"), (y, "y")] {
+                ui.add(
+                    egui::DragValue::new(value)
+                        .speed(0.005)
+                        .range(0.0..=1.0)
+                        .prefix(format!("{axis} ")),
+                )
+                .accessible_name(format!("{} {axis}", words.label))
+                .on_hover_text(words.tooltip);
+            }
+        });
+    }
+    form.messages(ui, &[&words.path]);
 }

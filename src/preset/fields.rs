@@ -154,6 +154,7 @@ pub const FIELDS: &[Field] = &[
     f("camera.observer.distance_m", "Observer distance", " m", "Distance from the camera to the volume's centre in metres, drawn per frame"),
     f("camera.observer.size_px", "Observer apparent size", " px", "Instead of Observer distance: the largest model's size at the volume's centre in pixels, drawn per frame"),
     f("camera.observer.size_px_knots", "Observer size knots", " px", "With Observer apparent size: (quantile, px) pairs the size is drawn from (geometric between knots) instead of uniformly"),
+    f("camera.observer.centre_at", "Observer centre at", "", "Where the volume's centre appears: x and y as shares of the frame's width and height from its top-left corner (0.5, 0.5: the centre); the line of sight stays, the camera moves sideways"),
     // Scene rotation.
     f("plane.rx", "PlaneRX", "°", "rotation of the whole swarm about world x, degrees"),
     f("plane.ry", "PlaneRY", "°", "rotation of the whole swarm about world y, degrees"),

@@ -19,7 +19,8 @@ pub struct ObserverCamera {
     pub elevation_deg: (f64, f64),
     /// Azimuth A of the line of sight, degrees, drawn uniformly within (min, max).
     pub azimuth_deg: (f64, f64),
-    /// Distance D from the camera to the volume's centre, metres, drawn uniformly within (min, max).
+    /// Distance D from the camera to the volume's centre (its depth along the line of
+    /// sight with `centre_at`), metres, drawn uniformly within (min, max).
     pub distance_m: (f64, f64),
     /// Instead of `distance_m`: the drawn apparent size s of the largest model
     /// at the volume's centre in pixels, and D = f·size_m / s (f the focal length in pixels).
@@ -32,6 +33,13 @@ pub struct ObserverCamera {
     /// `size_px`'s ends. Absent: uniform within `size_px`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub size_px_knots: Option<Vec<(f64, f64)>>,
+    /// Where the volume's centre appears in the frame: (x, y) as shares of the width
+    /// and height from the top-left corner, each within [0, 1]. The line of sight keeps
+    /// its elevation and azimuth (and a backplate's horizon its row); the camera moves
+    /// sideways so the centre lies at depth D on the ray through that point. Absent:
+    /// the frame's centre.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centre_at: Option<(f64, f64)>,
 }
 
 impl Default for ObserverCamera {
@@ -42,6 +50,7 @@ impl Default for ObserverCamera {
             distance_m: (300.0, 1500.0),
             size_px: None,
             size_px_knots: None,
+            centre_at: None,
         }
     }
 }
@@ -71,6 +80,13 @@ impl ObserverCamera {
                 lo.is_finite() && hi.is_finite() && lo >= 0.1 && lo <= hi && hi <= 1e5,
                 "camera.observer.size_px",
                 || format!("({lo}, {hi}) must be pixels with 0.1 ≤ min ≤ max ≤ 1e5"),
+            );
+        }
+        if let Some((x, y)) = self.centre_at {
+            v.check(
+                (0.0..=1.0).contains(&x) && (0.0..=1.0).contains(&y),
+                "camera.observer.centre_at",
+                || format!("({x}, {y}) must be shares of the frame within [0, 1]"),
             );
         }
         if let Some(knots) = &self.size_px_knots {

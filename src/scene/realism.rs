@@ -3,11 +3,12 @@
 //! visibility, the drones' looks, the observer camera's pose. All are absent
 //! (and draw nothing) unless the preset asks for them.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use super::math::look_at_cv;
 use crate::preset::Preset;
 use crate::preset::appearance::{Appearance, DroneColor};
 use crate::preset::observer::ObserverCamera;
@@ -134,7 +135,9 @@ pub fn drone_looks(
 }
 
 /// The observer camera's pose for frame `draw_index`: (camera centre, point looked at).
-/// Draw order: elevation, azimuth, distance (or apparent size).
+/// Draw order: elevation, azimuth, distance (or apparent size). With `centre_at` the
+/// volume's centre (the origin) lies at depth D on the ray through that point of the
+/// frame and the camera looks along the same line of sight.
 pub fn observer_pose(
     observer: &ObserverCamera,
     preset: &Preset,
@@ -157,7 +160,20 @@ pub fn observer_pose(
         elevation.sin(),
         elevation.cos() * azimuth.cos(),
     );
-    (-line_of_sight * distance_m, DVec3::ZERO)
+    let Some((x, y)) = observer.centre_at else {
+        return (-line_of_sight * distance_m, DVec3::ZERO);
+    };
+    // The ray through (x, y) with unit depth along the line of sight, from the camera's
+    // axes (rows of camera_from_world: right, down, forward).
+    let axes = look_at_cv(DVec3::ZERO, line_of_sight).unwrap_or(DMat3::IDENTITY);
+    let (w, h) = preset.image_size();
+    let (dx, dy) = (
+        (x - 0.5) * f64::from(w) / focal_px,
+        (y - 0.5) * f64::from(h) / focal_px,
+    );
+    let ray = line_of_sight + axes.row(0) * dx + axes.row(1) * dy;
+    let eye = -ray * distance_m;
+    (eye, eye + line_of_sight * distance_m)
 }
 
 /// Auto-exposure (`camera_model.auto_exposure`): the metered EV of `scene`,

@@ -246,6 +246,56 @@ fn observer_camera_puts_the_horizon_low_and_drones_at_the_asked_size() {
     assert!(under_6 > 0.7, "{under_6}");
 }
 
+/// `camera.observer.centre_at` puts the volume's centre at that point of the frame, at
+/// the drawn depth, along the same line of sight: frame for frame the camera turns as
+/// without it (so the horizon keeps its row), the centre projects to (x·W, y·H) and lies
+/// as deep as before (the same apparent size). A share outside [0, 1] is refused, named.
+#[test]
+fn observer_centre_at_puts_the_volume_centre_there_on_the_same_line_of_sight() {
+    let plain = observer_preset();
+    let mut moved = observer_preset();
+    moved.camera.observer.as_mut().expect("observer").centre_at = Some((0.2, 0.7));
+    moved.validate().expect("valid");
+    let (w, h) = moved.image_size();
+    let a = FramePipeline::new(plain).expect("pipeline");
+    let b = FramePipeline::new(moved.clone()).expect("pipeline");
+    for i in [0, 7, 23] {
+        let (ca, cb) = (
+            a.plan(i).expect("plan").0.camera,
+            b.plan(i).expect("plan").0.camera,
+        );
+        assert!(
+            ca.camera_from_world
+                .abs_diff_eq(cb.camera_from_world, 1e-12),
+            "frame {i}: the same rotation"
+        );
+        let (pa, pb) = (
+            ca.camera_from_world_point(DVec3::ZERO),
+            cb.camera_from_world_point(DVec3::ZERO),
+        );
+        let px = cb.project_camera_point(pb).expect("in front");
+        assert!(
+            (px.x - 0.2 * f64::from(w)).abs() < 1e-6 && (px.y - 0.7 * f64::from(h)).abs() < 1e-6,
+            "frame {i}: the centre at {px}"
+        );
+        assert!(
+            (pb.z - pa.z).abs() < 1e-9 * pa.z,
+            "frame {i}: depth {} vs {}",
+            pb.z,
+            pa.z
+        );
+    }
+    let mut bad = moved;
+    bad.camera.observer.as_mut().expect("observer").centre_at = Some((1.5, 0.5));
+    let errors = bad.validate().expect_err("outside the frame");
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.field == "camera.observer.centre_at"),
+        "{errors:?}"
+    );
+}
+
 #[test]
 fn observer_distance_range_is_kept_and_the_paper_sweep_is_untouched_without_it() {
     let mut p = observer_preset();
@@ -255,6 +305,7 @@ fn observer_distance_range_is_kept_and_the_paper_sweep_is_untouched_without_it()
         distance_m: (400.0, 900.0),
         size_px: None,
         size_px_knots: None,
+        centre_at: None,
     });
     let pipeline = FramePipeline::new(p.clone()).expect("pipeline");
     for i in 0..20 {
