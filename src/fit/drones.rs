@@ -72,8 +72,6 @@ pub const MIN_CENTRES: usize = 8;
 pub struct CentreSpread {
     pub x: f64,
     pub y: f64,
-    /// The centres' median x and y, as shares of the frame.
-    pub median: (f64, f64),
     /// Drones it was taken from.
     pub n: usize,
 }
@@ -92,11 +90,9 @@ impl CentreSpread {
             v.sort_by(f64::total_cmp);
             gap::percentile(v, 0.95) - gap::percentile(v, 0.05)
         };
-        let (x, y) = (span(&mut xs), span(&mut ys));
         Some(Self {
-            x,
-            y,
-            median: (gap::percentile(&xs, 0.5), gap::percentile(&ys, 0.5)),
+            x: span(&mut xs),
+            y: span(&mut ys),
             n: xs.len(),
         })
     }
@@ -168,31 +164,6 @@ pub fn first_fit(
     }
     p.camera.observer = Some(observer);
     spread(p, centres, notes);
-}
-
-/// The least distance of the footage's median box centre from the frame's centre (as
-/// a share of the frame's width or height) that [`aim`] moves the volume's centre for.
-pub const AIM_MIN_SHARE: f64 = 0.02;
-
-/// `camera.observer.centre_at` at the footage's median box centre when it lies at least
-/// [`AIM_MIN_SHARE`] from the frame's centre (an observer with `size_px` only: its depth
-/// is what sizes the drones).
-pub fn aim(p: &mut Preset, centres: Option<CentreSpread>, notes: &mut Vec<String>) {
-    let (Some(c), Some(o)) = (centres, p.camera.observer.as_mut()) else {
-        return;
-    };
-    let (x, y) = (
-        r3(c.median.0.clamp(0.0, 1.0)),
-        r3(c.median.1.clamp(0.0, 1.0)),
-    );
-    if o.size_px.is_none() || ((x - 0.5).abs() < AIM_MIN_SHARE && (y - 0.5).abs() < AIM_MIN_SHARE) {
-        return;
-    }
-    o.centre_at = Some((x, y));
-    notes.push(format!(
-        "camera.observer.centre_at ({x}, {y}): the footage's median box centre ({} drones), where the volume's centre is drawn",
-        c.n
-    ));
 }
 
 /// The volume the drones spread over ([`fit_volume`]) with the observer's azimuth at 0,

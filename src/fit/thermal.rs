@@ -8,8 +8,7 @@
 //! output format's; PNG footage gives PNG frames), its drones per labelled frame
 //! (`placement.count`) and the volume that spreads them over the frame as the real boxes
 //! spread, at the base's apparent sizes (`placement.volume`, the observer's azimuth 0),
-//! as the visible fit takes them, and where their median box centre lies
-//! (`camera.observer.centre_at`, [`drones::aim`]); the drones and the thermal values
+//! as the visible fit takes them; the drones and the thermal values
 //! start at the base preset's (the visible fit's first sizing is calibrated on visible
 //! renders, so the rounds size a thermal preset's drones).
 //!
@@ -110,7 +109,6 @@ pub fn first_fit(
         texture_fit(&mut p, footage, &mut notes);
     }
     drones::spread(&mut p, centres, &mut notes);
-    drones::aim(&mut p, centres, &mut notes);
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),
