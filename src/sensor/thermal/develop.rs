@@ -89,7 +89,7 @@ pub fn develop(
 }
 
 /// [`develop`] on `scratch.plane` into `out` (as long as the plane, × 4
-/// for RGBA8) through `gain`, the row pass's plane kept in `scratch`.
+/// for RGBA8) through `gain_by`, the row pass's plane kept in `scratch`.
 pub fn develop_into(
     t: &Thermal,
     (w, h): (u32, u32),
