@@ -122,15 +122,21 @@ impl FramePipeline {
         // Every byte is written below.
         out.resize(w as usize * h as usize * 4, 0);
         let mut grey16 = (t.bits == 16).then(|| vec![0u16; w as usize * h as usize]);
-        // Over a plate the optics blur what is drawn on it, not the plate again.
-        let over_plate = self.preset.backplate.is_some() && t.blur_px > 0.0;
-        let camera = if over_plate {
+        // Over a plate the optics blur what is drawn on it, not the plate again
+        // (`blur_drawn`, nothing at σ 0), and the frame keeps the plate's own gain.
+        let over_plate = self.preset.backplate.is_some();
+        let camera = if over_plate && t.blur_px > 0.0 {
             &Thermal {
                 blur_px: 0.0,
                 ..t.clone()
             }
         } else {
             t
+        };
+        let gain = if over_plate {
+            thermal::plate_gain(t)
+        } else {
+            Gain::Automatic
         };
         SCRATCH.with_borrow_mut(|scratch| {
             self.radiance_into(t, scene, (background, &sky), (hits, measured), scratch);
@@ -140,10 +146,6 @@ impl FramePipeline {
             let to = match grey16.as_mut() {
                 Some(g) => Developed::Grey16(g),
                 None => Developed::Rgba8(&mut out),
-            };
-            let gain = match self.preset.backplate {
-                Some(_) => thermal::plate_gain(t),
-                None => Gain::Automatic,
             };
             thermal::develop_into(camera, (w, h), (pattern, key), gain, scratch, to);
         });

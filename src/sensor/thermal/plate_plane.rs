@@ -6,9 +6,10 @@
 //! set those levels with its gain control, with the drone in view; a second gain control
 //! on the composed frame would move them by what swarmshot draws (a hot drone's pixels
 //! raising the high percentile dims and flattens the plate). What is drawn over the plate
-//! reads `agc_max_gain` levels per kelvin about the air. The plate already holds its camera's noise, blur and shading: a preset with plates keeps
-//! `netd_mk`, `fixed_pattern_mk` and `shading_k` small (`swarmshot fit` starts them at 0),
-//! and its `blur_px` blurs only what is drawn over the plate ([`blur_drawn`]): the drones,
+//! reads `agc_max_gain` levels per kelvin about the air. The plate already holds its
+//! camera's noise, blur and shading: a preset with plates keeps `netd_mk`,
+//! `fixed_pattern_mk` and `shading_k` small (`swarmshot fit` starts them at 0), and its
+//! `blur_px` blurs only what is drawn over the plate ([`blur_drawn`]): the drones,
 //! confusers, texture and weather pass the optics once, as the plate did.
 
 use rayon::prelude::*;
