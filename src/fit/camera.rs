@@ -87,6 +87,9 @@ pub struct FrameFigures {
     /// The narcissus' depth (grey frames; [`crate::gap::capture::centre_depth`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub centre_depth: Option<f32>,
+    /// The horizon (grey frames; [`crate::gap::horizon::horizon`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub horizon: Option<crate::gap::horizon::Horizon>,
     /// The gradient energy ([`crate::gap::measure::gradient_energy`]; levels a pixel at
     /// 540 px high).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -258,6 +261,7 @@ pub fn measure(frames: &[RealFrame]) -> Footage {
             block_steps: p.stats.block_steps,
             edge_lines: p.stats.edge_lines,
             centre_depth: p.stats.centre_depth,
+            horizon: p.stats.horizon,
             gradient_energy: Some(p.stats.gradient_energy),
         })
         .collect();

@@ -61,9 +61,15 @@
 //!   median tile on a plateau or a front by chance, where a frame's mean gradient grows
 //!   with the RMS.
 //!
+//! - **horizon** (modelled scene; [`horizon`]): the first fit sets the line of sight's
+//!   elevation range from the rows where the footage's horizons lie (or, when fewer than
+//!   half its frames show one, keeps the ground out of frame); the rounds move it by the
+//!   horizon rows' gap and `ground_k` by the vertical gradient's at the gain control's
+//!   largest gain. A round that moves the ground adds no texture.
+//!
 //! Not fitted (stated in docs/realism.md): the Canny share of a preset without a texture
-//! (it follows the noise), the sky's and the ground's temperatures, the line of sight's
-//! elevation.
+//! (it follows the noise), the sky's and the clouds' temperatures, where the texture lies
+//! (over the whole background, sky and ground alike).
 
 use super::camera::Footage;
 use super::drones::{self, CentreSpread};
@@ -74,6 +80,7 @@ use crate::preset::{ImageFormat, Preset};
 use texture::{adjust_texture, texture_fit};
 
 mod edges;
+mod horizon;
 mod texture;
 
 /// The first fit of a thermal base (module docs), with one note per value; with `plates`
@@ -107,6 +114,7 @@ pub fn first_fit(
         capture_fit(&mut p, footage, &mut notes);
         narcissus_fit(&mut p, footage, &mut notes);
         texture_fit(&mut p, footage, &mut notes);
+        horizon::elevation_fit(&mut p, footage, &mut notes);
     }
     drones::spread(&mut p, centres, &mut notes);
     notes.push(
@@ -432,15 +440,15 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
     adjust_prior(&mut t, report, &mut changes);
     adjust_narcissus(&mut t, report, &mut changes);
     // Over plates the scene's structure is the footage's own: no texture is added or moved.
+    // A round that moves the ground adds no texture: the horizon's step is structure too.
     if preset.backplate.is_none() {
-        adjust_texture(
-            &mut t,
-            report,
-            preset.render.resolution.size(),
-            &mut changes,
-        );
+        let ground = t.ground_k;
+        horizon::adjust_ground(&mut t, report, &mut changes);
+        let (size, may_add) = (preset.render.resolution.size(), t.ground_k == ground);
+        adjust_texture(&mut t, report, size, may_add, &mut changes);
     }
     preset.thermal = Some(t);
+    horizon::adjust_elevation(preset, report, &mut changes);
     super::size_knots::adjust(preset, report, &mut changes);
     changes
 }

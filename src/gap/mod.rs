@@ -46,6 +46,8 @@
 //!
 //! - **background texture**: the median, over the 16 px tiles of the frame at 540 px high
 //!   that lie 8 px or more from every box, of each tile's luminance standard deviation.
+//! - on grey frames, the **horizon** ([`horizon`]): the row where the mean level steps
+//!   across the whole width, and the step (frames that show one).
 //! - per drone, the **box size** √(w·h) of its label, and **what lies behind it** (sky,
 //!   vegetation, ground, building: [`behind`]'s rules on its ring).
 
@@ -55,6 +57,7 @@ mod error;
 pub mod folder;
 pub mod halves;
 mod histogram;
+pub mod horizon;
 pub mod jpeg_quality;
 pub mod measure;
 pub mod overlay;
@@ -111,6 +114,9 @@ pub struct FrameStats {
     /// disc's median level less the ring's, levels.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub centre_depth: Option<f32>,
+    /// The horizon of a grey frame ([`horizon::horizon`]; absent when it shows none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub horizon: Option<horizon::Horizon>,
     /// Stroke pixels of a burnt-in overlay ([`overlay`]) left out of every statistic
     /// (absent when the frame has none).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -188,5 +194,6 @@ pub fn measure_frame(rgb: &RgbImage, boxes: &[PixelBox], jpeg_bytes: Option<&[u8
         centre_depth: grey
             .then(|| capture::centre_depth(&l, boxes, mask))
             .flatten(),
+        horizon: grey.then(|| horizon::horizon(&l, mask)).flatten(),
     }
 }

@@ -278,6 +278,20 @@ fn fitting_stats() -> Vec<Stat> {
         },
         Stat {
             counted: false,
+            key: "horizon_row",
+            name: "horizon row (share of the height; frames with one)",
+            unit: "",
+            kind: Frame(|f| f.horizon.map(|h| f64::from(h.row))),
+        },
+        Stat {
+            counted: false,
+            key: "horizon_step",
+            name: "horizon step: the band below − above",
+            unit: "levels",
+            kind: Frame(|f| f.horizon.map(|h| f64::from(h.step))),
+        },
+        Stat {
+            counted: false,
             key: "drone_box_px",
             name: "drone box size √(w·h)",
             unit: "px",

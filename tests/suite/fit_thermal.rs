@@ -269,3 +269,55 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
     assert!(labelled >= 22, "{labelled} of 24 drones labelled");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The thermal first fit looks where the footage looks (src/fit/thermal/horizon.rs):
+/// footage whose line of sight is 1–2° above a warm ground shows its horizon in every
+/// frame, and the fitted elevation range puts the modelled horizon there; footage looking
+/// 8–12° up shows none, and the fitted range keeps the ground out of frame.
+#[test]
+fn the_thermal_first_fit_puts_the_horizon_where_the_footage_has_it() {
+    let ctx = common::gpu();
+    for (name, truth_deg) in [("low", (1.0, 2.0)), ("high", (8.0, 12.0))] {
+        let dir = tmp(&format!("horizon-{name}"));
+        let real = dir.join("real");
+        let mut truth = shipped();
+        truth.seed = 81;
+        truth.confusers.clear();
+        truth.render.resolution = swarmshot::preset::Resolution::Custom {
+            width: 320,
+            height: 256,
+        };
+        truth.thermal.as_mut().expect("thermal").ground_k = 305.0;
+        truth
+            .camera
+            .observer
+            .as_mut()
+            .expect("observer")
+            .elevation_deg = truth_deg;
+        let mut options = BatchOptions::new(&real);
+        options.limit = Some(12);
+        let pipeline = FramePipeline::new(truth).expect("valid preset");
+        run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
+        let mut fit = swarmshot::fit::FitOptions::new(&real, dir.join("fit"));
+        fit.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+        let prep = swarmshot::fit::prepare(&fit).expect("the thermal base is accepted");
+        let p = &prep.fitted.preset;
+        let (lo, hi) = p.camera.observer.as_ref().expect("observer").elevation_deg;
+        let notes = prep.fitted.notes.join("\n");
+        if name == "low" {
+            // The scenery stands on the horizon, so the rows read a little high: within
+            // 0.5° of the truth's ends.
+            assert!(
+                (lo - 1.0).abs() < 0.5 && (hi - 2.0).abs() < 0.5 && lo < hi,
+                "({lo}, {hi}) fitted for (1, 2)\n{notes}"
+            );
+        } else {
+            // The horizon under the frame: at least half the 8° field up.
+            assert!(
+                lo >= 4.0 && hi > lo,
+                "({lo}, {hi}) fitted for (8, 12)\n{notes}"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -109,10 +109,11 @@ pub(super) fn adjust_texture(
     t: &mut crate::preset::thermal::Thermal,
     report: &Report,
     size: (u32, u32),
+    may_add: bool,
     changes: &mut Vec<String>,
 ) {
     let Some(x) = t.texture.as_mut() else {
-        let Some(("below", real, m)) = stat(report, "gradient_energy") else {
+        let Some(("below", real, m)) = stat(report, "gradient_energy").filter(|_| may_add) else {
             return;
         };
         let mut x = crate::preset::thermal::Texture::default();
