@@ -103,6 +103,18 @@ fn main() {
         })
     };
     let (gaussian, textured) = (field(&gaussian), field(&texture));
+    // On the ground alone (`ground_only`): the background's ground share, then the field
+    // times it.
+    let mut share = Vec::new();
+    let on_ground = median_ms(|| {
+        along += 3.0;
+        let anchor = thermal::texture::Anchor {
+            seed: 7,
+            origin: (along, -40.0),
+        };
+        thermal::ground_share(t.clear_saturation as f32, &view, &rgba, &mut share);
+        thermal::texture::add_on(&texture, per_k, anchor, (w, h), &share, &mut scratch.plane);
+    });
     // A backplate: its plane alone (no blur: no plate kept), and with the blur on 15
     // drones drawn over it (the plate kept, the drawn box found and blurred).
     let sharp = swarmshot::preset::thermal::Thermal {
@@ -146,6 +158,10 @@ fn main() {
         gaussian.0, gaussian.1
     );
     println!("texture 1920x1080: {:.2}, {:.2}", textured.0, textured.1);
+    println!(
+        "texture 1920x1080 on the ground only: {:.2}, {:.2}",
+        on_ground.0, on_ground.1
+    );
     println!("plate 1920x1080: {:.2}, {:.2}", plate.0, plate.1);
     println!(
         "plate + 15 drones + the blur on them: {:.2}, {:.2}",

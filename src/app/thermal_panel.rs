@@ -86,8 +86,9 @@ fn part_rows(ui: &mut Ui, form: &mut Form<'_>, paths: [&'static str; 3], s: &mut
     }
 }
 
-/// The background's temperature texture: off (absent), or its RMS, slope and size
-/// (ticking it sets the default: 2 K, slope 3, half the frame's height, sharpness 3).
+/// The background's temperature texture: off (absent), or its RMS, slope, size,
+/// sharpness and whether it lies on the ground alone (ticking it sets the default: 2 K,
+/// slope 3, half the frame's height, sharpness 3, the whole background).
 fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>) {
     let words = Words::of("thermal.texture");
     let mut on = texture.is_some();
@@ -106,6 +107,9 @@ fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>)
     ] {
         Words::of(path).number(ui, form, value, speed);
     }
+    let ground = Words::of("thermal.texture.ground_only");
+    ground.checkbox(ui, &mut x.ground_only);
+    form.messages(ui, &[&ground.path]);
 }
 
 /// Bits per written pixel: 8, or 16 (grey PNG; validation's message on

@@ -445,7 +445,11 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
         let ground = t.ground_k;
         horizon::adjust_ground(&mut t, report, &mut changes);
         let (size, may_add) = (preset.render.resolution.size(), t.ground_k == ground);
+        let had = t.texture.is_some();
         adjust_texture(&mut t, report, size, may_add, &mut changes);
+        if !had {
+            horizon::texture_on_ground(&mut t, report, &mut changes);
+        }
     }
     preset.thermal = Some(t);
     horizon::adjust_elevation(preset, report, &mut changes);

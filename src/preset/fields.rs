@@ -230,6 +230,7 @@ pub const FIELDS: &[Field] = &[
     f("thermal.texture.slope", "Texture slope", "", "Its power spectrum's exponent: 2 the same power in every octave, more in the large features, less in the fine"),
     f("thermal.texture.size", "Texture size", "", "The largest features' size, a share of the frame's height"),
     f("thermal.texture.sharpness", "Texture sharpness", "", "How abruptly it steps between warmer and colder patches: 0 a Gaussian field, 3 plateaus joined by fronts, as cloud and scenery"),
+    f("thermal.texture.ground_only", "Texture on the ground only", "", "Only on the ground and the scenery, the sky left smooth (needs a modelled scene, no backplate)"),
     f("thermal.drone", "Drone signature", "", "The thermal look of the preset's drones: skin and warm spot"),
     f("thermal.drone.skin_k", "Drone skin", " K", "Skin temperature above the air's, kelvin"),
     f("thermal.drone.emissivity", "Drone emissivity", "", "Skin emissivity (0–1); the rest reflects what lies behind"),

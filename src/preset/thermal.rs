@@ -198,6 +198,13 @@ pub struct Texture {
     /// Gaussian field; more soft-clips it (s·g through a tanh-like clip) into
     /// plateaus joined by fronts, as cloud and scenery are; its RMS stays `rms_k`.
     pub sharpness: f64,
+    /// Only on the ground and the scenery, each pixel by its share of them (the
+    /// background's own: all below the horizon, scenery by its colour), the sky
+    /// left as smooth as the sky's gradient and clouds draw it. Needs a
+    /// modelled scene (no backplate). False (the default): over the whole
+    /// background; not written to preset.lock.ron.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub ground_only: bool,
 }
 
 impl Default for Texture {
@@ -207,6 +214,7 @@ impl Default for Texture {
             slope: 3.0,
             size: 0.5,
             sharpness: 3.0,
+            ground_only: false,
         }
     }
 }

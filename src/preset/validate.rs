@@ -114,6 +114,12 @@ impl Preset {
             v.check(t.bits != 16 || png, "thermal.bits", || {
                 "16-bit frames are grey PNG: set output.image_format to Png".into()
             });
+            let ground_only = t.texture.as_ref().is_some_and(|x| x.ground_only);
+            v.check(
+                !ground_only || self.backplate.is_none(),
+                "thermal.texture.ground_only",
+                || "needs a modelled scene: over a backplate there is no ground to find".into(),
+            );
         }
         if let Some(w) = &self.weather {
             w.validate_into(&mut v);

@@ -790,3 +790,51 @@ fn thermal_backplates_draw_the_plates_levels_and_the_drones_warm_on_them() {
         );
     }
 }
+
+/// A texture on the ground alone (`thermal.texture.ground_only`) leaves the sky's radiance
+/// as it was, bit for bit, and textures the ground under the horizon as the whole-frame
+/// texture does; over a backplate there is no ground to find, and the preset says so.
+#[test]
+fn a_texture_on_the_ground_alone_leaves_the_sky_as_it_was() {
+    let mut p = thermal_preset();
+    p.camera.observer.as_mut().expect("observer").elevation_deg = (1.0, 1.0);
+    p.thermal.as_mut().expect("thermal").ground_k = 300.0;
+    let with = |ground_only: Option<bool>| {
+        let mut p = p.clone();
+        p.thermal.as_mut().expect("thermal").texture =
+            ground_only.map(|ground_only| swarmshot::preset::thermal::Texture {
+                rms_k: 3.0,
+                ground_only,
+                ..Default::default()
+            });
+        let ctx = common::gpu();
+        let pipe = FramePipeline::new(p).expect("pipeline");
+        let mut r = pipe.renderer(&ctx);
+        let mut scene = pipe.scene(2).expect("scene");
+        scene.drones.clear();
+        pipe.thermal_radiance(&mut r, &scene).expect("radiance").expect("thermal")
+    };
+    let (plain, ground, whole) = (with(None), with(Some(true)), with(Some(false)));
+    let w = 320;
+    // The horizon at 1° up lies at row 128 + tan 1° / tan 4° × 128 ≈ 160.
+    let rows = |plane: &[f32], r: std::ops::Range<usize>| plane[r.start * w..r.end * w].to_vec();
+    let moved = |a: &[f32], b: &[f32]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+    let sky = 0..100;
+    assert_eq!(rows(&ground, sky.clone()), rows(&plain, sky.clone()));
+    assert!(moved(&rows(&whole, sky.clone()), &rows(&plain, sky)) > 95 * 100 * w / 100);
+    let below = 180..256;
+    let n = below.len() * w;
+    assert_eq!(rows(&ground, below.clone()), rows(&whole, below.clone()));
+    assert!(moved(&rows(&ground, below.clone()), &rows(&plain, below)) > 95 * n / 100);
+    let mut q = p.clone();
+    q.thermal.as_mut().expect("thermal").texture = Some(swarmshot::preset::thermal::Texture {
+        ground_only: true,
+        ..Default::default()
+    });
+    q.backplate = Some(swarmshot::preset::backplate::Backplate::default());
+    let errors = q.validate().expect_err("ground_only over a backplate");
+    assert!(
+        errors.iter().any(|e| e.field == "thermal.texture.ground_only"),
+        "{errors:?}"
+    );
+}

@@ -22,6 +22,10 @@
 //!   gradient, not the horizon's own step: the step is the scenery's edge (on
 //!   svanstrom-ir a hot tree line under a dark band the camera's processing draws), where
 //!   the thirds weigh the ground as a whole against the sky.
+//! - **Texture** ([`texture_on_ground`]): when most of the footage's frames show a
+//!   horizon, a texture the rounds add lies on the ground and the scenery alone
+//!   (`thermal.texture.ground_only`): such footage's sky is smooth and its structure
+//!   the scenery's.
 
 use super::super::camera::Footage;
 use super::{outside, r3, stat};
@@ -147,6 +151,22 @@ pub fn adjust_elevation(p: &mut Preset, report: &Report, changes: &mut Vec<Strin
             o.elevation_deg
         ));
         o.elevation_deg = moved;
+    }
+}
+
+/// A texture just added lies on the ground alone (`ground_only`) when most of the
+/// footage's frames show a horizon (module docs).
+pub fn texture_on_ground(
+    t: &mut crate::preset::thermal::Thermal,
+    report: &Report,
+    changes: &mut Vec<String>,
+) {
+    if let Some(x) = t.texture.as_mut().filter(|_| horizons(report, false)) {
+        x.ground_only = true;
+        changes.push(
+            "thermal.texture.ground_only true (most of the footage's frames show a horizon: the structure is the ground's and the scenery's, the sky stays smooth)"
+                .into(),
+        );
     }
 }
 

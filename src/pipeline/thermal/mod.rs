@@ -180,7 +180,21 @@ impl FramePipeline {
         if let Some(x) = &t.texture {
             let per_k = thermal::radiance_per_kelvin(t.air_k);
             let size = (scene.camera.width, scene.camera.height);
-            thermal::texture::add(x, per_k, texture_anchor(scene), size, &mut scratch.plane);
+            let anchor = texture_anchor(scene);
+            if x.ground_only {
+                let mut share = std::mem::take(&mut scratch.share);
+                let clear_saturation = t.clear_saturation as f32;
+                thermal::ground_share(
+                    clear_saturation,
+                    &view(&scene.camera),
+                    background,
+                    &mut share,
+                );
+                thermal::texture::add_on(x, per_k, anchor, size, &share, &mut scratch.plane);
+                scratch.share = share;
+            } else {
+                thermal::texture::add(x, per_k, anchor, size, &mut scratch.plane);
+            }
         }
         let signatures = self.signatures(t, scene);
         let msaa = self.preset.render.msaa.max(1);

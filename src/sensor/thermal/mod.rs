@@ -78,7 +78,7 @@ pub mod texture;
 
 pub use develop::{Developed, Gain, blur, develop, develop_into, grey16_to_rgba, percentiles};
 pub use plate_plane::{blur_drawn, plate_gain, plate_plane};
-pub use sky_plane::{View, sky_plane};
+pub use sky_plane::{View, ground_share, sky_plane};
 
 /// Whether to run the AVX-512 builds: the crate's one SIMD level
 /// ([`crate::simd::simd_level`], which `SWARMSHOT_SIMD=avx2` caps).
@@ -108,6 +108,8 @@ pub struct Scratch {
     drawn: Vec<f32>,
     /// The columns' ray slopes, then their squares.
     slopes: Vec<f32>,
+    /// The background's share of ground ([`ground_share`]) for a texture on the ground.
+    pub share: Vec<f32>,
 }
 
 /// The band's edges, metres.

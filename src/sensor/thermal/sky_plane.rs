@@ -79,6 +79,46 @@ pub fn sky_plane(t: &Thermal, sky: &SkyTable, view: &View, rgba: &[u8], scratch:
     });
 }
 
+/// Each pixel's share of ground and scenery in the background [`sky_plane`] draws
+/// (into `out`, row-major): 1 where the ray points below the horizon (the same
+/// sin(elevation) as the background's, so the same pixels), above it the share that
+/// [`Colour::mix`] gives the ground's radiance (a pixel coloured but not blue, less
+/// its greyness); 0 for clear sky, cloud, and pixels `rgba` lacks above the horizon.
+pub fn ground_share(clear_saturation: f32, view: &View, rgba: &[u8], out: &mut Vec<f32>) {
+    let (w, h) = (view.width as usize, view.height as usize);
+    let (up, f, c) = (view.up, view.focal_px, view.principal);
+    out.clear();
+    out.resize(w * h, 0.0);
+    (out.par_chunks_mut(w.max(1)).enumerate()).for_each(|(y, row)| {
+        let vy = (y as f32 + 0.5 - c.y) / f;
+        let (up_y_vy, vy2) = (up.y * vy, vy * vy);
+        for (x, o) in row.iter_mut().enumerate() {
+            let vx = (x as f32 + 0.5 - c.x) / f;
+            let s = (up.x * vx + up_y_vy + up.z) / (vx * vx + vy2 + 1.0).sqrt();
+            *o = if s < 0.0 {
+                1.0
+            } else {
+                let i = (y * w + x) * 4;
+                rgba.get(i..i + 3)
+                    .map_or(0.0, |px| scenery(px, clear_saturation))
+            };
+        }
+    });
+}
+
+/// The share of ground's radiance [`Colour::mix`] gives a pixel of colour `px` above
+/// the horizon.
+#[inline(always)]
+fn scenery(px: &[u8], clear_saturation: f32) -> f32 {
+    let (r, g, b) = (f32::from(px[0]), f32::from(px[1]), f32::from(px[2]));
+    let (max, min) = (r.max(g).max(b), r.min(g).min(b));
+    if b >= max {
+        return 0.0;
+    }
+    let sat = if max > 0.0 { (max - min) / max } else { 0.0 };
+    1.0 - (1.0 - sat / clear_saturation).clamp(0.0, 1.0)
+}
+
 /// One row's rays: the world's up and the row's share of the sums.
 struct Ray {
     up: Vec3,
@@ -283,6 +323,68 @@ mod tests {
         let ground_rows = want.chunks_exact(w as usize);
         let ground_rows = ground_rows.filter(|row| row.iter().all(|&v| v == sky.ground));
         assert!((5..30).contains(&ground_rows.count()));
+    }
+
+    /// The ground's share is 1 exactly where the background is the ground's radiance
+    /// (below the horizon, saturated scenery), 0 on blue sky and cloud, and the share of
+    /// the ground's radiance a greyish scenery pixel takes between.
+    #[test]
+    fn the_ground_share_is_where_the_background_takes_the_grounds_radiance() {
+        let t = Thermal {
+            cloud_k: 300.0,
+            ..Thermal::default()
+        };
+        let sky = SkyTable::new(&t);
+        let (w, h) = (300u32, 100u32);
+        let view = View {
+            width: w,
+            height: h,
+            up: Vec3::new(0.2, -0.95, 0.24).normalize(),
+            focal_px: 150.0,
+            principal: Vec2::new(150.0, 20.0),
+        };
+        // Blue sky; a green block (scenery), a grey block (cloud) and a greyish green
+        // block (scenery half cloud) high in the frame; the last rows missing.
+        let px = |x: u32, y: u32| -> [u8; 4] {
+            match (x, y) {
+                (0..60, 0..12) => [40, 160, 50, 255],
+                (100..160, 0..12) => [150, 150, 150, 255],
+                (200..260, 0..12) => [140, 160, 130, 255],
+                _ => [90, 140, 230, 255],
+            }
+        };
+        let rgba: Vec<u8> = (0..h - 3)
+            .flat_map(|y| (0..w).flat_map(move |x| px(x, y)))
+            .collect();
+        let mut scratch = Scratch::default();
+        sky_plane(&t, &sky, &view, &rgba, &mut scratch);
+        let mut share = Vec::new();
+        ground_share(t.clear_saturation as f32, &view, &rgba, &mut share);
+        assert_eq!(share.len(), scratch.plane.len());
+        let (mut ones, mut zeros, mut between) = (0, 0, 0);
+        for (i, (&s, &v)) in share.iter().zip(&scratch.plane).enumerate() {
+            match s {
+                1.0 => {
+                    assert_eq!(v, sky.ground, "pixel {i}");
+                    ones += 1;
+                }
+                0.0 => {
+                    assert_ne!(v, sky.ground, "pixel {i}");
+                    zeros += 1;
+                }
+                s => {
+                    // ground + (cloud − ground) · greyness, the cloud warmer than any sky.
+                    let want = sky.ground + (sky.cloud - sky.ground) * (1.0 - s);
+                    assert!(s > 0.0 && s < 1.0, "pixel {i}: {s}");
+                    assert!((v - want).abs() <= 1e-5 * want, "pixel {i}: {v} for {want}");
+                    between += 1;
+                }
+            }
+        }
+        assert!(
+            ones > 1000 && zeros > 10_000 && between > 100,
+            "{ones} {zeros} {between}"
+        );
     }
 
     #[test]

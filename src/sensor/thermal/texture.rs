@@ -48,6 +48,37 @@ const SPLINE_VARIANCE_1D: f64 = 151.0 / 315.0;
 /// The finest level: control points 2 px apart.
 const FINEST: u32 = 1;
 
+/// Adds the texture to `plane` (`w`×`h`, row-major; `per_k` radiance units a kelvin)
+/// times each pixel's `share` (0–1, the same size; `x.ground_only`: the background's
+/// share of ground and scenery, [`super::ground_share`]).
+pub fn add_on(
+    x: &Texture,
+    per_k: f32,
+    anchor: Anchor,
+    (w, h): (u32, u32),
+    share: &[f32],
+    plane: &mut [f32],
+) {
+    let n = w as usize * h as usize;
+    if n == 0 || plane.len() < n || share.len() < n || x.rms_k <= 0.0 {
+        return;
+    }
+    let mut field = take(n);
+    add(x, per_k, anchor, (w, h), &mut field);
+    (plane[..n].par_chunks_mut(w as usize))
+        .zip(
+            field
+                .par_chunks(w as usize)
+                .zip(share.par_chunks(w as usize)),
+        )
+        .for_each(|(out, (f, s))| {
+            for ((o, f), s) in out.iter_mut().zip(f).zip(s) {
+                *o += f * s;
+            }
+        });
+    give(field);
+}
+
 /// Adds the texture to `plane` (`w`×`h`, row-major; `per_k` radiance units a kelvin).
 pub fn add(x: &Texture, per_k: f32, anchor: Anchor, (w, h): (u32, u32), plane: &mut [f32]) {
     let (w, h) = (w as usize, h as usize);
@@ -445,6 +476,7 @@ mod tests {
             slope,
             size,
             sharpness: 0.0,
+            ground_only: false,
         }
     }
 
@@ -569,6 +601,28 @@ mod tests {
         // Another seed, another field; the same call, the same bits.
         assert_ne!(a, field(&x, (100.0, -40.0), 8, (w, h)));
         assert_eq!(a, field(&x, (100.0, -40.0), 7, (w, h)));
+    }
+
+    /// On a share the texture is the whole field times it, pixel by pixel: all of it
+    /// at 1, none at 0.
+    #[test]
+    fn on_a_share_the_texture_is_the_field_times_it() {
+        let x = Texture::default();
+        let (w, h) = (40u32, 24u32);
+        let whole = field(&x, (3.0, 5.0), 9, (w, h));
+        let share: Vec<f32> = (0..w * h)
+            .map(|i| [0.0, 1.0, 0.25][(i % 3) as usize])
+            .collect();
+        let mut plane = vec![7.0f32; (w * h) as usize];
+        let anchor = Anchor {
+            seed: 9,
+            origin: (3.0, 5.0),
+        };
+        add_on(&x, 1.0, anchor, (w, h), &share, &mut plane);
+        for ((p, f), s) in plane.iter().zip(&whole).zip(&share) {
+            assert_eq!(*p, 7.0 + f * s);
+        }
+        assert!(whole.iter().any(|&f| f.abs() > 0.5));
     }
 
     #[test]
