@@ -27,6 +27,33 @@ fn shipped() -> Preset {
     Preset::load(&path).expect("presets/thermal.ron loads")
 }
 
+/// The shipped preset at 320×256 without its birds, another seed: a smaller frame than
+/// the base's 640×512, so at the same apparent sizes the base's box spans twice the share
+/// of it.
+fn small_truth(seed: u64) -> Preset {
+    let mut truth = shipped();
+    truth.seed = seed;
+    truth.confusers.clear();
+    truth.render.resolution = swarmshot::preset::Resolution::Custom {
+        width: 320,
+        height: 256,
+    };
+    truth
+}
+
+/// 12 frames of `truth` into `real`; then the first fit of them from presets/thermal.ron
+/// (fitted into `fit`).
+fn first_fit_of(truth: Preset, real: &Path, fit: &Path) -> swarmshot::fit::Prepared {
+    let ctx = common::gpu();
+    let mut options = BatchOptions::new(real);
+    options.limit = Some(12);
+    let pipeline = FramePipeline::new(truth).expect("valid preset");
+    run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
+    let mut fit = swarmshot::fit::FitOptions::new(real, fit);
+    fit.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
+    swarmshot::fit::prepare(&fit).expect("the thermal base is accepted")
+}
+
 /// The shipped preset with the known camera: NETD and fixed pattern × `k` (the fit moves
 /// them together: both are white in the noise statistic), blur σ `blur` px, another seed.
 fn known(k: f64, blur: f64) -> Preset {
@@ -217,15 +244,7 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
     use swarmshot::preset::{Placement, Volume};
     let dir = tmp("count");
     let real = dir.join("real");
-    let mut truth = shipped();
-    truth.seed = 80;
-    truth.confusers.clear();
-    // A smaller frame than the base's 640×512: at the same apparent sizes the base's box
-    // spans twice the share of it.
-    truth.render.resolution = swarmshot::preset::Resolution::Custom {
-        width: 320,
-        height: 256,
-    };
+    let mut truth = small_truth(80);
     truth.placement = Placement::Randomized {
         count: (2, 2),
         count_distribution: Default::default(),
@@ -234,14 +253,7 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
         },
         min_separation_m: 0.5,
     };
-    let ctx = common::gpu();
-    let mut options = BatchOptions::new(&real);
-    options.limit = Some(12);
-    let pipeline = FramePipeline::new(truth).expect("valid preset");
-    run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
-    let mut fit = swarmshot::fit::FitOptions::new(&real, dir.join("fit"));
-    fit.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
-    let prep = swarmshot::fit::prepare(&fit).expect("the thermal base is accepted");
+    let prep = first_fit_of(truth, &real, &dir.join("fit"));
     let mut p = prep.fitted.preset.clone();
     let Placement::Randomized { count, .. } = &p.placement else {
         panic!("randomized placement: {:?}", p.placement);
@@ -255,6 +267,7 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
     let mut options = BatchOptions::new(&out);
     options.limit = Some(12);
     let pipeline = FramePipeline::new(p).expect("the fitted preset is valid");
+    let ctx = common::gpu();
     run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
     let labels = out.join("labels");
     let labelled: usize = (common::files_under(&labels).iter())
@@ -276,17 +289,10 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
 /// 8–12° up shows none, and the fitted range keeps the ground out of frame.
 #[test]
 fn the_thermal_first_fit_puts_the_horizon_where_the_footage_has_it() {
-    let ctx = common::gpu();
     for (name, truth_deg) in [("low", (1.0, 2.0)), ("high", (8.0, 12.0))] {
         let dir = tmp(&format!("horizon-{name}"));
         let real = dir.join("real");
-        let mut truth = shipped();
-        truth.seed = 81;
-        truth.confusers.clear();
-        truth.render.resolution = swarmshot::preset::Resolution::Custom {
-            width: 320,
-            height: 256,
-        };
+        let mut truth = small_truth(81);
         truth.thermal.as_mut().expect("thermal").ground_k = 305.0;
         truth
             .camera
@@ -294,13 +300,7 @@ fn the_thermal_first_fit_puts_the_horizon_where_the_footage_has_it() {
             .as_mut()
             .expect("observer")
             .elevation_deg = truth_deg;
-        let mut options = BatchOptions::new(&real);
-        options.limit = Some(12);
-        let pipeline = FramePipeline::new(truth).expect("valid preset");
-        run_batch(&pipeline, &options, &ctx, &AtomicBool::new(false), |_| {}).expect("batch");
-        let mut fit = swarmshot::fit::FitOptions::new(&real, dir.join("fit"));
-        fit.base = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/thermal.ron");
-        let prep = swarmshot::fit::prepare(&fit).expect("the thermal base is accepted");
+        let prep = first_fit_of(truth, &real, &dir.join("fit"));
         let p = &prep.fitted.preset;
         let (lo, hi) = p.camera.observer.as_ref().expect("observer").elevation_deg;
         let notes = prep.fitted.notes.join("\n");

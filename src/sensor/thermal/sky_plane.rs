@@ -297,13 +297,9 @@ mod tests {
         plane
     }
 
-    #[test]
-    fn the_banded_background_is_the_pixel_by_pixel_one() {
-        let t = Thermal::default();
-        let sky = SkyTable::new(&t);
-        // Rolled and pitched so the horizon crosses the frame at a slant
-        // and the last rows lie wholly below it; wider than a run, and the
-        // last rows missing from the picture.
+    /// A 300×100 view rolled and pitched so the horizon crosses the frame at a slant and
+    /// the last rows lie wholly below it (wider than a run).
+    fn slanted() -> ((u32, u32), View) {
         let (w, h) = (300u32, 100u32);
         let view = View {
             width: w,
@@ -312,6 +308,15 @@ mod tests {
             focal_px: 150.0,
             principal: Vec2::new(150.0, 20.0),
         };
+        ((w, h), view)
+    }
+
+    #[test]
+    fn the_banded_background_is_the_pixel_by_pixel_one() {
+        let t = Thermal::default();
+        let sky = SkyTable::new(&t);
+        // The last rows missing from the picture.
+        let ((w, h), view) = slanted();
         let rgba: Vec<u8> = (0..w * (h - 3) * 4)
             .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
             .collect();
@@ -335,14 +340,7 @@ mod tests {
             ..Thermal::default()
         };
         let sky = SkyTable::new(&t);
-        let (w, h) = (300u32, 100u32);
-        let view = View {
-            width: w,
-            height: h,
-            up: Vec3::new(0.2, -0.95, 0.24).normalize(),
-            focal_px: 150.0,
-            principal: Vec2::new(150.0, 20.0),
-        };
+        let ((w, h), view) = slanted();
         // Blue sky; a green block (scenery), a grey block (cloud) and a greyish green
         // block (scenery half cloud) high in the frame; the last rows missing.
         let px = |x: u32, y: u32| -> [u8; 4] {
