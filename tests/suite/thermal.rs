@@ -812,7 +812,9 @@ fn a_texture_on_the_ground_alone_leaves_the_sky_as_it_was() {
         let mut r = pipe.renderer(&ctx);
         let mut scene = pipe.scene(2).expect("scene");
         scene.drones.clear();
-        pipe.thermal_radiance(&mut r, &scene).expect("radiance").expect("thermal")
+        pipe.thermal_radiance(&mut r, &scene)
+            .expect("radiance")
+            .expect("thermal")
     };
     let (plain, ground, whole) = (with(None), with(Some(true)), with(Some(false)));
     let w = 320;
@@ -834,7 +836,9 @@ fn a_texture_on_the_ground_alone_leaves_the_sky_as_it_was() {
     q.backplate = Some(swarmshot::preset::backplate::Backplate::default());
     let errors = q.validate().expect_err("ground_only over a backplate");
     assert!(
-        errors.iter().any(|e| e.field == "thermal.texture.ground_only"),
+        errors
+            .iter()
+            .any(|e| e.field == "thermal.texture.ground_only"),
         "{errors:?}"
     );
 }
