@@ -115,6 +115,9 @@ fn main() {
         thermal::ground_share(t.clear_saturation as f32, &view, &rgba, &mut share);
         thermal::texture::add_on(&texture, per_k, anchor, (w, h), &share, &mut scratch.plane);
     });
+    let share_ms = median_ms(|| {
+        thermal::ground_share(t.clear_saturation as f32, &view, &rgba, &mut share);
+    });
     // A backplate: its plane alone (no blur: no plate kept), and with the blur on 15
     // drones drawn over it (the plate kept, the drawn box found and blurred).
     let sharp = swarmshot::preset::thermal::Thermal {
@@ -161,6 +164,10 @@ fn main() {
     println!(
         "texture 1920x1080 on the ground only: {:.2}, {:.2}",
         on_ground.0, on_ground.1
+    );
+    println!(
+        "of which the ground share: {:.2}, {:.2}",
+        share_ms.0, share_ms.1
     );
     println!("plate 1920x1080: {:.2}, {:.2}", plate.0, plate.1);
     println!(

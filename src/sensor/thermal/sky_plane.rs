@@ -84,39 +84,69 @@ pub fn sky_plane(t: &Thermal, sky: &SkyTable, view: &View, rgba: &[u8], scratch:
 /// sin(elevation) as the background's, so the same pixels), above it the share that
 /// [`Colour::mix`] gives the ground's radiance (a pixel coloured but not blue, less
 /// its greyness); 0 for clear sky, cloud, and pixels `rgba` lacks above the horizon.
+/// Rows in bands on rayon's threads; a row wholly below the horizon is filled.
 pub fn ground_share(clear_saturation: f32, view: &View, rgba: &[u8], out: &mut Vec<f32>) {
     let (w, h) = (view.width as usize, view.height as usize);
-    let (up, f, c) = (view.up, view.focal_px, view.principal);
+    let (f, c) = (view.focal_px, view.principal);
+    let vx: Vec<f32> = (0..w).map(|x| (x as f32 + 0.5 - c.x) / f).collect();
+    let vx2: Vec<f32> = vx.iter().map(|v| v * v).collect();
     out.clear();
     out.resize(w * h, 0.0);
-    (out.par_chunks_mut(w.max(1)).enumerate()).for_each(|(y, row)| {
-        let vy = (y as f32 + 0.5 - c.y) / f;
-        let (up_y_vy, vy2) = (up.y * vy, vy * vy);
-        for (x, o) in row.iter_mut().enumerate() {
-            let vx = (x as f32 + 0.5 - c.x) / f;
-            let s = (up.x * vx + up_y_vy + up.z) / (vx * vx + vy2 + 1.0).sqrt();
-            *o = if s < 0.0 {
-                1.0
-            } else {
-                let i = (y * w + x) * 4;
-                rgba.get(i..i + 3)
-                    .map_or(0.0, |px| scenery(px, clear_saturation))
+    (out.par_chunks_mut(BAND_ROWS * w.max(1)).enumerate()).for_each(|(b, band)| {
+        for (j, row_out) in band.chunks_exact_mut(w).enumerate() {
+            let y = b * BAND_ROWS + j;
+            let vy = (y as f32 + 0.5 - c.y) / f;
+            let ray = Ray {
+                up: view.up,
+                up_y_vy: view.up.y * vy,
+                vy2: vy * vy,
             };
+            if ray.below_horizon(&vx) {
+                row_out.fill(1.0);
+                continue;
+            }
+            let row = &rgba[(y * w * 4).min(rgba.len())..((y + 1) * w * 4).min(rgba.len())];
+            share_row(clear_saturation, (&vx, &vx2), &ray, row, row_out);
         }
     });
 }
 
+simd_fn! {
+    /// One row's [`ground_share`]: a pixel's share from its colour (`rgba`, the row's
+    /// pixels the picture has: none above the horizon past them), 1 where its ray's
+    /// sin(elevation) is below 0.
+    fn share_row(
+        clear_saturation: f32,
+        slopes: (&[f32], &[f32]),
+        ray: &Ray,
+        rgba: &[u8],
+        out: &mut [f32],
+    ) {
+        let (vx, vx2) = slopes;
+        let below = |vx: f32, vx2: f32| {
+            (ray.up.x * vx + ray.up_y_vy + ray.up.z) / (vx2 + ray.vy2 + 1.0).sqrt() < 0.0
+        };
+        let have = (rgba.len() / 4).min(out.len());
+        let (seen, past) = out.split_at_mut(have);
+        for (((o, &v), &v2), px) in seen.iter_mut().zip(vx).zip(vx2).zip(rgba.chunks_exact(4)) {
+            let share = scenery(px, clear_saturation);
+            *o = if below(v, v2) { 1.0 } else { share };
+        }
+        for ((o, &v), &v2) in past.iter_mut().zip(&vx[have..]).zip(&vx2[have..]) {
+            *o = if below(v, v2) { 1.0 } else { 0.0 };
+        }
+    }
+}
+
 /// The share of ground's radiance [`Colour::mix`] gives a pixel of colour `px` above
-/// the horizon.
+/// the horizon (no branch: a row of them vectorises).
 #[inline(always)]
 fn scenery(px: &[u8], clear_saturation: f32) -> f32 {
     let (r, g, b) = (f32::from(px[0]), f32::from(px[1]), f32::from(px[2]));
     let (max, min) = (r.max(g).max(b), r.min(g).min(b));
-    if b >= max {
-        return 0.0;
-    }
     let sat = if max > 0.0 { (max - min) / max } else { 0.0 };
-    1.0 - (1.0 - sat / clear_saturation).clamp(0.0, 1.0)
+    let coloured = 1.0 - (1.0 - sat / clear_saturation).clamp(0.0, 1.0);
+    if b >= max { 0.0 } else { coloured }
 }
 
 /// One row's rays: the world's up and the row's share of the sums.

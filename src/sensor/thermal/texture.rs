@@ -50,7 +50,8 @@ const FINEST: u32 = 1;
 
 /// Adds the texture to `plane` (`w`×`h`, row-major; `per_k` radiance units a kelvin)
 /// times each pixel's `share` (0–1, the same size; `x.ground_only`: the background's
-/// share of ground and scenery, [`super::ground_share`]).
+/// share of ground and scenery, [`super::ground_share`]): the field's value at a pixel
+/// times its share, in the one pass that evaluates it.
 pub fn add_on(
     x: &Texture,
     per_k: f32,
@@ -59,28 +60,25 @@ pub fn add_on(
     share: &[f32],
     plane: &mut [f32],
 ) {
-    let n = w as usize * h as usize;
-    if n == 0 || plane.len() < n || share.len() < n || x.rms_k <= 0.0 {
-        return;
+    if share.len() >= w as usize * h as usize {
+        add_with(x, per_k, anchor, (w, h), Some(share), plane);
     }
-    let mut field = take(n);
-    add(x, per_k, anchor, (w, h), &mut field);
-    (plane[..n].par_chunks_mut(w as usize))
-        .zip(
-            field
-                .par_chunks(w as usize)
-                .zip(share.par_chunks(w as usize)),
-        )
-        .for_each(|(out, (f, s))| {
-            for ((o, f), s) in out.iter_mut().zip(f).zip(s) {
-                *o += f * s;
-            }
-        });
-    give(field);
 }
 
 /// Adds the texture to `plane` (`w`×`h`, row-major; `per_k` radiance units a kelvin).
-pub fn add(x: &Texture, per_k: f32, anchor: Anchor, (w, h): (u32, u32), plane: &mut [f32]) {
+pub fn add(x: &Texture, per_k: f32, anchor: Anchor, dims: (u32, u32), plane: &mut [f32]) {
+    add_with(x, per_k, anchor, dims, None, plane);
+}
+
+/// [`add`], each pixel's value times its `share` when given.
+fn add_with(
+    x: &Texture,
+    per_k: f32,
+    anchor: Anchor,
+    (w, h): (u32, u32),
+    share: Option<&[f32]>,
+    plane: &mut [f32],
+) {
     let (w, h) = (w as usize, h as usize);
     if w == 0 || h == 0 || plane.len() < w * h || x.rms_k <= 0.0 {
         return;
@@ -104,7 +102,14 @@ pub fn add(x: &Texture, per_k: f32, anchor: Anchor, (w, h): (u32, u32), plane: &
     }
     let gain = per_k * x.rms_k as f32;
     let shape = Shape::of(x.sharpness);
-    evaluate(&grid, (&columns, &rows), (gain, shape), &mut plane[..w * h]);
+    let share = share.map(|s| &s[..w * h]);
+    evaluate(
+        &grid,
+        (&columns, &rows),
+        (gain, shape),
+        share,
+        &mut plane[..w * h],
+    );
     give(grid.values);
 }
 
@@ -369,6 +374,7 @@ fn evaluate(
     grid: &Grid,
     (columns, rows): (&Taps, &Taps),
     (gain, shape): (f32, Shape),
+    share: Option<&[f32]>,
     plane: &mut [f32],
 ) {
     let w = columns.n;
@@ -382,9 +388,16 @@ fn evaluate(
         let (r, k) = ((rows.first(y) - grid.ys.0) as usize, rows.weights[y % 2]);
         let line = |d: usize| &across[(r + d) * w..(r + d + 1) * w];
         let lines = [line(0), line(1), line(2), line(3)];
-        match shape {
-            Shape::Linear => down_row(out, lines, k, gain),
-            Shape::Clipped { scale, norm } => down_row_clipped(out, lines, k, scale, gain * norm),
+        let on = share.map(|s| &s[y * w..(y + 1) * w]);
+        match (shape, on) {
+            (Shape::Linear, None) => down_row(out, lines, k, gain),
+            (Shape::Clipped { scale, norm }, None) => {
+                down_row_clipped(out, lines, k, scale, gain * norm);
+            }
+            (Shape::Linear, Some(on)) => down_row_on(out, lines, k, gain, on),
+            (Shape::Clipped { scale, norm }, Some(on)) => {
+                down_row_clipped_on(out, lines, k, (scale, gain * norm), on);
+            }
         }
     });
     give(across);
@@ -455,6 +468,34 @@ simd_fn! {
         for ((((o, a), b), c), d) in out.iter_mut().zip(a).zip(b).zip(c).zip(d) {
             let v = a * k[0] + b * k[1] + c * k[2] + d * k[3];
             *o += clip(v * scale) * gain;
+        }
+    }
+}
+
+simd_fn! {
+    /// [`down_row`] times each pixel's share `on`.
+    fn down_row_on(out: &mut [f32], lines: [&[f32]; 4], k: [f32; 4], gain: f32, on: &[f32]) {
+        let [a, b, c, d] = lines;
+        for (((((o, a), b), c), d), s) in out.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(on) {
+            let v = a * k[0] + b * k[1] + c * k[2] + d * k[3];
+            *o += v * gain * s;
+        }
+    }
+}
+
+simd_fn! {
+    /// [`down_row_clipped`] times each pixel's share `on`.
+    fn down_row_clipped_on(
+        out: &mut [f32],
+        lines: [&[f32]; 4],
+        k: [f32; 4],
+        scale_gain: (f32, f32),
+        on: &[f32],
+    ) {
+        let ((scale, gain), [a, b, c, d]) = (scale_gain, lines);
+        for (((((o, a), b), c), d), s) in out.iter_mut().zip(a).zip(b).zip(c).zip(d).zip(on) {
+            let v = a * k[0] + b * k[1] + c * k[2] + d * k[3];
+            *o += clip(v * scale) * gain * s;
         }
     }
 }
@@ -607,22 +648,23 @@ mod tests {
     /// at 1, none at 0.
     #[test]
     fn on_a_share_the_texture_is_the_field_times_it() {
-        let x = Texture::default();
         let (w, h) = (40u32, 24u32);
-        let whole = field(&x, (3.0, 5.0), 9, (w, h));
         let share: Vec<f32> = (0..w * h)
             .map(|i| [0.0, 1.0, 0.25][(i % 3) as usize])
             .collect();
-        let mut plane = vec![7.0f32; (w * h) as usize];
-        let anchor = Anchor {
-            seed: 9,
-            origin: (3.0, 5.0),
-        };
-        add_on(&x, 1.0, anchor, (w, h), &share, &mut plane);
-        for ((p, f), s) in plane.iter().zip(&whole).zip(&share) {
-            assert_eq!(*p, 7.0 + f * s);
+        for x in [Texture::default(), texture(3.0, 0.5)] {
+            let whole = field(&x, (3.0, 5.0), 9, (w, h));
+            let mut plane = vec![7.0f32; (w * h) as usize];
+            let anchor = Anchor {
+                seed: 9,
+                origin: (3.0, 5.0),
+            };
+            add_on(&x, 1.0, anchor, (w, h), &share, &mut plane);
+            for ((p, f), s) in plane.iter().zip(&whole).zip(&share) {
+                assert_eq!(*p, 7.0 + f * s, "sharpness {}", x.sharpness);
+            }
+            assert!(whole.iter().any(|&f| f.abs() > 0.5));
         }
-        assert!(whole.iter().any(|&f| f.abs() > 0.5));
     }
 
     #[test]
