@@ -65,11 +65,12 @@
 //!   elevation range from the rows where the footage's horizons lie (or, when fewer than
 //!   half its frames show one, keeps the ground out of frame); the rounds move it by the
 //!   horizon rows' gap and `ground_k` by the vertical gradient's at the gain control's
-//!   largest gain. A round that moves the ground adds no texture.
+//!   largest gain. A round that moves the ground adds no texture, and a texture added
+//!   while most of the footage's frames show a horizon lies on the ground alone
+//!   (`thermal.texture.ground_only`).
 //!
 //! Not fitted (stated in docs/realism.md): the Canny share of a preset without a texture
-//! (it follows the noise), the sky's and the clouds' temperatures, where the texture lies
-//! (over the whole background, sky and ground alike).
+//! (it follows the noise), the sky's and the clouds' temperatures.
 
 use super::camera::Footage;
 use super::drones::{self, CentreSpread};
