@@ -65,11 +65,7 @@ pub fn sky_plane(t: &Thermal, sky: &SkyTable, view: &View, rgba: &[u8], scratch:
             let y = b * BAND_ROWS + j;
             let vy = (y as f32 + 0.5 - c.y) / f;
             let row = &rgba[(y * w * 4).min(rgba.len())..((y + 1) * w * 4).min(rgba.len())];
-            let ray = Ray {
-                up: view.up,
-                up_y_vy: view.up.y * vy,
-                vy2: vy * vy,
-            };
+            let ray = Ray::row(view.up, vy);
             if ray.below_horizon(vx) {
                 out.fill(sky.clear(-1.0));
             } else {
@@ -96,11 +92,7 @@ pub fn ground_share(clear_saturation: f32, view: &View, rgba: &[u8], out: &mut V
         for (j, row_out) in band.chunks_exact_mut(w).enumerate() {
             let y = b * BAND_ROWS + j;
             let vy = (y as f32 + 0.5 - c.y) / f;
-            let ray = Ray {
-                up: view.up,
-                up_y_vy: view.up.y * vy,
-                vy2: vy * vy,
-            };
+            let ray = Ray::row(view.up, vy);
             if ray.below_horizon(&vx) {
                 row_out.fill(1.0);
                 continue;
@@ -142,11 +134,18 @@ simd_fn! {
 /// the horizon (no branch: a row of them vectorises).
 #[inline(always)]
 fn scenery(px: &[u8], clear_saturation: f32) -> f32 {
+    let (grey, blue) = colour_class(px, clear_saturation);
+    if blue { 0.0 } else { 1.0 - grey }
+}
+
+/// A visible pixel's greyness (1 − HSV saturation / `clear_saturation`, within 0–1: how
+/// much of it is cloud) and whether it is blue (sky) rather than coloured (scenery).
+#[inline(always)]
+fn colour_class(px: &[u8], clear_saturation: f32) -> (f32, bool) {
     let (r, g, b) = (f32::from(px[0]), f32::from(px[1]), f32::from(px[2]));
     let (max, min) = (r.max(g).max(b), r.min(g).min(b));
     let sat = if max > 0.0 { (max - min) / max } else { 0.0 };
-    let coloured = 1.0 - (1.0 - sat / clear_saturation).clamp(0.0, 1.0);
-    if b >= max { 0.0 } else { coloured }
+    ((1.0 - sat / clear_saturation).clamp(0.0, 1.0), b >= max)
 }
 
 /// One row's rays: the world's up and the row's share of the sums.
@@ -157,6 +156,16 @@ struct Ray {
 }
 
 impl Ray {
+    /// The rays of the row whose vertical slope is `vy`, the world's up `up`.
+    #[inline(always)]
+    fn row(up: Vec3, vy: f32) -> Self {
+        Self {
+            up,
+            up_y_vy: up.y * vy,
+            vy2: vy * vy,
+        }
+    }
+
     /// Whether every ray of the row with these column slopes `vx` points
     /// below the horizon (its sin(elevation)'s numerator, which is monotonic
     /// in vx, under a margin at both ends: no pixel's quotient rounds to
@@ -283,11 +292,8 @@ impl Colour {
     /// sin(elevation) `s` and clear-sky radiance `clear`.
     #[inline(always)]
     fn mix(&self, px: &[u8], s: f32, clear: f32) -> f32 {
-        let (r, g, b) = (f32::from(px[0]), f32::from(px[1]), f32::from(px[2]));
-        let (max, min) = (r.max(g).max(b), r.min(g).min(b));
-        let sat = if max > 0.0 { (max - min) / max } else { 0.0 };
-        let grey = (1.0 - sat / self.clear_saturation).clamp(0.0, 1.0);
-        let clear_or_scenery = if b >= max { clear } else { self.ground };
+        let (grey, blue) = colour_class(px, self.clear_saturation);
+        let clear_or_scenery = if blue { clear } else { self.ground };
         let cloud = self.cloud.max(clear);
         let mixed = clear_or_scenery + (cloud - clear_or_scenery) * grey;
         if s >= 0.0 { mixed } else { clear }
@@ -453,11 +459,7 @@ mod tests {
                 let (mut proven, mut runs) = (0, 0);
                 for y in (0..2000).map(|y| y as f32 * 0.54 - 540.0) {
                     let vy = (y + 0.5) / focal;
-                    let ray = Ray {
-                        up,
-                        up_y_vy: up.y * vy,
-                        vy2: vy * vy,
-                    };
+                    let ray = Ray::row(up, vy);
                     for run in vx.chunks(RUN) {
                         runs += 1;
                         let Some(k) = ray.run_index((run[0], run[run.len() - 1])) else {
