@@ -21,7 +21,10 @@
 //!   centres do ([`CentreSpread`]: their 5th–95th percentile, which a uniform spread
 //!   covers over [`CENTRE_SPAN`] of its width), at the look-at point's nearest distance,
 //!   the observer's azimuth fixed at 0 so the volume's x is the frame's width (without
-//!   enough labelled drones: a cube). The minimum separation is scaled into it.
+//!   enough labelled drones: a cube). The minimum separation is scaled into it;
+//! - `camera.observer.centre_at` ([`aim`], the thermal fit of a modelled scene): the real
+//!   boxes' median centre, where the volume's centre is drawn, when it lies at least
+//!   [`AIM_MIN_SHARE`] from the frame's centre.
 //!
 //! **After a round** ([`adjust`]):
 //! - drone core size or the share under 6 px outside: the ends of `size_px` scaled by the
@@ -72,6 +75,8 @@ pub const MIN_CENTRES: usize = 8;
 pub struct CentreSpread {
     pub x: f64,
     pub y: f64,
+    /// The centres' median x and y, as shares of the frame.
+    pub median: (f64, f64),
     /// Drones it was taken from.
     pub n: usize,
 }
@@ -90,9 +95,11 @@ impl CentreSpread {
             v.sort_by(f64::total_cmp);
             gap::percentile(v, 0.95) - gap::percentile(v, 0.05)
         };
+        let (x, y) = (span(&mut xs), span(&mut ys));
         Some(Self {
-            x: span(&mut xs),
-            y: span(&mut ys),
+            x,
+            y,
+            median: (gap::percentile(&xs, 0.5), gap::percentile(&ys, 0.5)),
             n: xs.len(),
         })
     }
@@ -164,6 +171,31 @@ pub fn first_fit(
     }
     p.camera.observer = Some(observer);
     spread(p, centres, notes);
+}
+
+/// The least distance of the footage's median box centre from the frame's centre (as
+/// a share of the frame's width or height) that [`aim`] moves the volume's centre for.
+pub const AIM_MIN_SHARE: f64 = 0.02;
+
+/// `camera.observer.centre_at` at the footage's median box centre when it lies at least
+/// [`AIM_MIN_SHARE`] from the frame's centre (an observer with `size_px` only: its depth
+/// is what sizes the drones).
+pub fn aim(p: &mut Preset, centres: Option<CentreSpread>, notes: &mut Vec<String>) {
+    let (Some(c), Some(o)) = (centres, p.camera.observer.as_mut()) else {
+        return;
+    };
+    let (x, y) = (
+        r3(c.median.0.clamp(0.0, 1.0)),
+        r3(c.median.1.clamp(0.0, 1.0)),
+    );
+    if o.size_px.is_none() || ((x - 0.5).abs() < AIM_MIN_SHARE && (y - 0.5).abs() < AIM_MIN_SHARE) {
+        return;
+    }
+    o.centre_at = Some((x, y));
+    notes.push(format!(
+        "camera.observer.centre_at ({x}, {y}): the footage's median box centre ({} drones), where the volume's centre is drawn",
+        c.n
+    ));
 }
 
 /// The volume the drones spread over ([`fit_volume`]) with the observer's azimuth at 0,

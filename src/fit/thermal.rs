@@ -8,7 +8,10 @@
 //! output format's; PNG footage gives PNG frames), its drones per labelled frame
 //! (`placement.count`) and the volume that spreads them over the frame as the real boxes
 //! spread, at the base's apparent sizes (`placement.volume`, the observer's azimuth 0),
-//! as the visible fit takes them; the drones and the thermal values
+//! as the visible fit takes them, and in a modelled scene where their median box centre
+//! lies (`camera.observer.centre_at`, [`drones::aim`]: over plates a drone's background is
+//! its own plate's about where its drone was, which one centre for all plates does not
+//! give); the drones and the thermal values
 //! start at the base preset's (the visible fit's first sizing is calibrated on visible
 //! renders, so the rounds size a thermal preset's drones).
 //!
@@ -118,6 +121,9 @@ pub fn first_fit(
         horizon::elevation_fit(&mut p, footage, &mut notes);
     }
     drones::spread(&mut p, centres, &mut notes);
+    if plates.is_none() {
+        drones::aim(&mut p, centres, &mut notes);
+    }
     notes.push(
         "thermal and the drones: the base preset's values to start; the rounds below move the noise, blur, level, the drones' temperature and size to the footage's"
             .into(),
@@ -379,14 +385,14 @@ fn add_noise(t: &mut crate::preset::thermal::Thermal, report: &Report) -> Option
     ))
 }
 
-/// Moves a thermal `preset` toward the footage after a round's `report` (module docs);
-/// returns what it changed, in words.
-pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
-    let mut changes = Vec::new();
-    let Some(mut t) = preset.thermal.clone() else {
-        return changes;
-    };
-    if let Some(note) = add_noise(&mut t, report) {
+/// The noise σ as white noise: [`add_noise`] to a preset without any, else `netd_mk` and
+/// `fixed_pattern_mk` × real / synthetic σ (at most ×4 or ÷4).
+fn white_noise(
+    t: &mut crate::preset::thermal::Thermal,
+    report: &Report,
+    changes: &mut Vec<String>,
+) {
+    if let Some(note) = add_noise(t, report) {
         changes.push(note);
     } else if let Some((k, why)) = ratio(report, "noise_sigma", 4.0) {
         let (n2, f2) = (r3(t.netd_mk * k), r3(t.fixed_pattern_mk * k));
@@ -396,6 +402,16 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
         ));
         (t.netd_mk, t.fixed_pattern_mk) = (n2, f2);
     }
+}
+
+/// Moves a thermal `preset` toward the footage after a round's `report` (module docs);
+/// returns what it changed, in words.
+pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
+    let mut changes = Vec::new();
+    let Some(mut t) = preset.thermal.clone() else {
+        return changes;
+    };
+    white_noise(&mut t, report, &mut changes);
     edges::adjust_blur(&mut t, report, preset.backplate.is_some(), &mut changes);
     // Over plates the levels are the plates' own (`plate_gain`): the middle level moves nothing.
     if let Some((v, real, m)) = stat(report, "mean_brightness")

@@ -233,18 +233,22 @@ fn a_thermal_base_with_a_backplate_is_fitted_over_the_footages_own_frames() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The thermal first fit takes the footage's drones per frame (`placement.count`) and
+/// The thermal first fit takes the footage's drones per frame (`placement.count`),
 /// spreads them over the frame as the footage's boxes spread (`placement.volume`, the
-/// observer's azimuth 0), as the visible fit does: 320×256 footage of two drones a frame
-/// close together, fitted from presets/thermal.ron (one or two drones in a 6 m box,
-/// which at its apparent sizes spreads them wider than such a frame), gives a preset
-/// whose frames hold their two drones.
+/// observer's azimuth 0), as the visible fit does, and in a modelled scene puts the
+/// volume's centre where their median box centre is (`camera.observer.centre_at`):
+/// 320×256 footage of two drones a frame close together in the upper part of the frame,
+/// fitted from presets/thermal.ron (one or two drones in a 6 m box, which at its
+/// apparent sizes spreads them wider than such a frame), gives a preset whose frames hold
+/// their two drones, centred where the footage's are.
 #[test]
 fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
     use swarmshot::preset::{Placement, Volume};
     let dir = tmp("count");
     let real = dir.join("real");
     let mut truth = small_truth(80);
+    // The drones in the upper part of the frame.
+    truth.camera.observer.as_mut().expect("observer").centre_at = Some((0.5, 0.3));
     truth.placement = Placement::Randomized {
         count: (2, 2),
         count_distribution: Default::default(),
@@ -261,6 +265,13 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
     assert_eq!(*count, (2, 2), "{}", prep.fitted.notes.join("\n"));
     let observer = p.camera.observer.as_ref().expect("an observer");
     assert_eq!(observer.azimuth_deg, (0.0, 0.0));
+    let (x, y) = observer
+        .centre_at
+        .expect("the volume's centre where the boxes are");
+    assert!(
+        (x - 0.5).abs() < 0.06 && (y - 0.3).abs() < 0.06,
+        "({x}, {y})"
+    );
     // The fitted preset's frames hold their drones (the base's 6 m box loses some).
     p.confusers.clear();
     let out = dir.join("fitted");
