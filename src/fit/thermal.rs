@@ -22,7 +22,10 @@
 //!   2×2 high-pass, so the measured σ is proportional to `netd_mk` and `fixed_pattern_mk`
 //!   together: both × real / synthetic (at most ×4 or ÷4 a round); a preset with none
 //!   (over plates both start at 0) whose frames read below the footage gets `netd_mk` from
-//!   the gap in quadrature at the gain control's largest gain ([`add_noise`]);
+//!   the gap in quadrature at the gain control's largest gain ([`add_noise`]); in a
+//!   modelled scene, footage whose high-pass RMS is at least twice its σ (a low-rate
+//!   codec's sparse noise) gets stronger noise under the capture chain's earlier AC step
+//!   instead, the two fitted to its σ and RMS ([`codec`]);
 //! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median; over
 //!   plates (which hold the footage's blur: `blur_px` blurs only what is drawn on them)
 //!   by the small drones' edge width instead, and with the blur at 0 and those edges
@@ -83,6 +86,7 @@ use crate::gap::report::{Report, Summary};
 use crate::preset::{ImageFormat, Preset};
 use texture::{adjust_texture, texture_fit};
 
+mod codec;
 mod edges;
 mod horizon;
 mod texture;
@@ -411,7 +415,10 @@ pub fn adjust(preset: &mut Preset, report: &Report) -> Vec<String> {
     let Some(mut t) = preset.thermal.clone() else {
         return changes;
     };
-    white_noise(&mut t, report, &mut changes);
+    // Over plates the plates carry the footage's noise as its codec left it.
+    if !(preset.backplate.is_none() && codec::adjust(&mut t, report, &mut changes)) {
+        white_noise(&mut t, report, &mut changes);
+    }
     edges::adjust_blur(&mut t, report, preset.backplate.is_some(), &mut changes);
     // Over plates the levels are the plates' own (`plate_gain`): the middle level moves nothing.
     if let Some((v, real, m)) = stat(report, "mean_brightness")
