@@ -82,6 +82,30 @@ fn main() {
         ..Default::default()
     };
     let chain = median_ms(|| thermal::capture::apply(&capture, (w, h), &mut out8));
+    // The earlier compression over a low-rate codec's sparse noise, as the thermal fit
+    // draws it (a fitted svanstrom-ir preset's noise, NETD 283 mK and a fixed pattern of
+    // 412 mK, under an AC step of 9.7; src/fit/thermal/codec.rs): a fresh noisy frame each
+    // run (copied in, the copy's own time taken off).
+    let loud = swarmshot::preset::thermal::Thermal {
+        netd_mk: 283.0,
+        fixed_pattern_mk: 412.0,
+        ..t.clone()
+    };
+    let loud_pattern = thermal::fixed_pattern(&loud, 4141, w, h);
+    thermal::sky_plane(&loud, &sky, &view, &rgba, &mut scratch);
+    let to = Developed::Rgba8(&mut out8);
+    thermal::develop_into(&loud, (w, h), (&loud_pattern, 1), AUTO, &mut scratch, to);
+    let fresh = out8.clone();
+    let sparse = swarmshot::preset::thermal::Capture {
+        prior_ac_step: 9.7,
+        ..Default::default()
+    };
+    let copy = median_ms(|| out8.copy_from_slice(&fresh));
+    let codec = median_ms(|| {
+        out8.copy_from_slice(&fresh);
+        thermal::capture::apply(&sparse, (w, h), &mut out8);
+    });
+    let codec = (codec.0 - copy.0, codec.1 - copy.1);
     // The texture (`thermal.texture`, off in the preset) at its default (sharpness 3)
     // and as a Gaussian field (sharpness 0), a window 3 px further along the lattice
     // each run.
@@ -155,6 +179,10 @@ fn main() {
     println!(
         "capture chain on the 8-bit frame: {:.2}, {:.2}",
         chain.0, chain.1
+    );
+    println!(
+        "earlier compression over sparse codec noise (AC step 9.7): {:.2}, {:.2}",
+        codec.0, codec.1
     );
     println!(
         "texture 1920x1080, Gaussian: {:.2}, {:.2}",

@@ -10,7 +10,7 @@ use egui::{DragValue, Ui};
 use super::panels::{Form, Words};
 use super::realism_panels::section_checkbox;
 use crate::preset::Preset;
-use crate::preset::thermal::{Signature, Texture, Thermal};
+use crate::preset::thermal::{Capture, Narcissus, Signature, Texture, Thermal};
 
 /// Thermal camera: scene temperatures, objects' signatures, the camera's noise, blur and gain.
 pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
@@ -40,6 +40,8 @@ pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     Words::of("thermal.agc_percentiles").range(ui, form, &mut t.agc_percentiles, 0.1);
     bits_row(ui, form, &mut t.bits);
     texture_rows(ui, form, &mut t.texture);
+    narcissus_rows(ui, form, &mut t.narcissus);
+    capture_rows(ui, form, &mut t.capture);
     signature_rows(ui, form, "thermal.drone", &mut t.drone);
     part_rows(ui, form, DRONE_PARTS, &mut t.drone);
     signature_rows(ui, form, "thermal.bird", &mut t.bird);
@@ -110,6 +112,69 @@ fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>)
     let ground = Words::of("thermal.texture.ground_only");
     ground.checkbox(ui, &mut x.ground_only);
     form.messages(ui, &[&ground.path]);
+}
+
+/// The optics' narcissus: off (absent), or its depth and radius (ticking it sets a 4 K
+/// dark centre of the default radius).
+fn narcissus_rows(ui: &mut Ui, form: &mut Form<'_>, narcissus: &mut Option<Narcissus>) {
+    let words = Words::of("thermal.narcissus");
+    let mut on = narcissus.is_some();
+    if words.checkbox(ui, &mut on).changed() {
+        *narcissus = on.then(|| Narcissus {
+            depth_k: TYPICAL_NARCISSUS_K,
+            ..Narcissus::default()
+        });
+    }
+    form.messages(ui, &[&words.path]);
+    let Some(n) = narcissus else {
+        return;
+    };
+    Words::of("thermal.narcissus.depth_k").number(ui, form, &mut n.depth_k, 0.1);
+    Words::of("thermal.narcissus.radius").number(ui, form, &mut n.radius, 0.01);
+}
+
+/// The depth a ticked narcissus starts at, kelvin.
+const TYPICAL_NARCISSUS_K: f64 = 4.0;
+/// The DC step a ticked capture chain starts at: MPEG-2's 8-bit DC precision.
+const TYPICAL_PRIOR_DC_STEP: f64 = 8.0;
+
+/// The recording's capture chain: off (absent), or the earlier compression's steps and
+/// each edge's border lines as the preset has them (ticking it sets a DC step of 8, the
+/// other coefficients kept, no border lines; the fit sets the lines from footage).
+fn capture_rows(ui: &mut Ui, form: &mut Form<'_>, capture: &mut Option<Capture>) {
+    let words = Words::of("thermal.capture");
+    let mut on = capture.is_some();
+    if words.checkbox(ui, &mut on).changed() {
+        *capture = on.then(|| Capture {
+            prior_dc_step: TYPICAL_PRIOR_DC_STEP,
+            ..Capture::default()
+        });
+    }
+    form.messages(ui, &[&words.path]);
+    let Some(c) = capture else {
+        return;
+    };
+    Words::of("thermal.capture.prior_dc_step").number(ui, form, &mut c.prior_dc_step, 0.1);
+    Words::of("thermal.capture.prior_ac_step").number(ui, form, &mut c.prior_ac_step, 0.1);
+    for (path, lines) in [
+        ("thermal.capture.top_rows", &mut c.top_rows),
+        ("thermal.capture.bottom_rows", &mut c.bottom_rows),
+        ("thermal.capture.left_columns", &mut c.left_columns),
+        ("thermal.capture.right_columns", &mut c.right_columns),
+    ] {
+        if lines.is_empty() {
+            continue;
+        }
+        let words = Words::of(path);
+        ui.horizontal(|ui| {
+            ui.label(&words.label).on_hover_text(words.tooltip);
+            for v in lines.iter_mut() {
+                ui.add(DragValue::new(v).speed(0.5).suffix(words.unit))
+                    .on_hover_text(words.tooltip);
+            }
+        });
+        form.messages(ui, &[&words.path]);
+    }
 }
 
 /// Bits per written pixel: 8, or 16 (grey PNG; validation's message on
