@@ -92,13 +92,7 @@ fn part_rows(ui: &mut Ui, form: &mut Form<'_>, paths: [&'static str; 3], s: &mut
 /// sharpness and whether it lies on the ground alone (ticking it sets the default: 2 K,
 /// slope 3, half the frame's height, sharpness 3, the whole background).
 fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>) {
-    let words = Words::of("thermal.texture");
-    let mut on = texture.is_some();
-    if words.checkbox(ui, &mut on).changed() {
-        *texture = on.then(Texture::default);
-    }
-    form.messages(ui, &[&words.path]);
-    let Some(x) = texture else {
+    let Some(x) = optional(ui, form, "thermal.texture", texture, Texture::default) else {
         return;
     };
     for (path, value, speed) in [
@@ -114,19 +108,32 @@ fn texture_rows(ui: &mut Ui, form: &mut Form<'_>, texture: &mut Option<Texture>)
     form.messages(ui, &[&ground.path]);
 }
 
+/// An optional part's checkbox (unticked: absent; ticking it sets `typical()`) and its
+/// messages; the part while it is on.
+fn optional<'a, T>(
+    ui: &mut Ui,
+    form: &mut Form<'_>,
+    path: &'static str,
+    part: &'a mut Option<T>,
+    typical: impl FnOnce() -> T,
+) -> Option<&'a mut T> {
+    let words = Words::of(path);
+    let mut on = part.is_some();
+    if words.checkbox(ui, &mut on).changed() {
+        *part = on.then(typical);
+    }
+    form.messages(ui, &[&words.path]);
+    part.as_mut()
+}
+
 /// The optics' narcissus: off (absent), or its depth and radius (ticking it sets a 4 K
 /// dark centre of the default radius).
 fn narcissus_rows(ui: &mut Ui, form: &mut Form<'_>, narcissus: &mut Option<Narcissus>) {
-    let words = Words::of("thermal.narcissus");
-    let mut on = narcissus.is_some();
-    if words.checkbox(ui, &mut on).changed() {
-        *narcissus = on.then(|| Narcissus {
-            depth_k: TYPICAL_NARCISSUS_K,
-            ..Narcissus::default()
-        });
-    }
-    form.messages(ui, &[&words.path]);
-    let Some(n) = narcissus else {
+    let typical = || Narcissus {
+        depth_k: TYPICAL_NARCISSUS_K,
+        ..Narcissus::default()
+    };
+    let Some(n) = optional(ui, form, "thermal.narcissus", narcissus, typical) else {
         return;
     };
     Words::of("thermal.narcissus.depth_k").number(ui, form, &mut n.depth_k, 0.1);
@@ -142,16 +149,11 @@ const TYPICAL_PRIOR_DC_STEP: f64 = 8.0;
 /// each edge's border lines as the preset has them (ticking it sets a DC step of 8, the
 /// other coefficients kept, no border lines; the fit sets the lines from footage).
 fn capture_rows(ui: &mut Ui, form: &mut Form<'_>, capture: &mut Option<Capture>) {
-    let words = Words::of("thermal.capture");
-    let mut on = capture.is_some();
-    if words.checkbox(ui, &mut on).changed() {
-        *capture = on.then(|| Capture {
-            prior_dc_step: TYPICAL_PRIOR_DC_STEP,
-            ..Capture::default()
-        });
-    }
-    form.messages(ui, &[&words.path]);
-    let Some(c) = capture else {
+    let typical = || Capture {
+        prior_dc_step: TYPICAL_PRIOR_DC_STEP,
+        ..Capture::default()
+    };
+    let Some(c) = optional(ui, form, "thermal.capture", capture, typical) else {
         return;
     };
     Words::of("thermal.capture.prior_dc_step").number(ui, form, &mut c.prior_dc_step, 0.1);
