@@ -5,7 +5,8 @@
 //! radiance plane, then developed (blur, fixed pattern and noise, gain
 //! control) to 8-bit RGBA and to 16-bit grey, and the capture chain
 //! (`thermal.capture`) on the 8-bit frame, and the background's texture
-//! (`thermal.texture` at its default, and as a Gaussian field) added to the plane, a new window of
+//! (`thermal.texture` at its default, and as a Gaussian field) added to the plane, the detail
+//! enhancement (`thermal.detail`) on it, a new window of
 //! the field each run, and a backplate's plane (`plate_plane`) alone and with the optics'
 //! blur on 15 drawn 12×12 px drones scattered over it (`blur_drawn`); the median wall time of 30
 //! runs after 3 warm-ups and their mean CPU time (all threads, from /proc;
@@ -106,6 +107,27 @@ fn main() {
         thermal::capture::apply(&sparse, (w, h), &mut out8);
     });
     let codec = (codec.0 - copy.0, codec.1 - copy.1);
+    // The detail enhancement (`thermal.detail`, off in the preset) on the developed scene's
+    // plane at gain 2 and the default reach: a fresh copy of the plane each run (the copy's
+    // own time taken off).
+    thermal::sky_plane(&t, &sky, &view, &rgba, &mut scratch);
+    let scene = scratch.plane.clone();
+    let enhance = swarmshot::preset::thermal::Detail {
+        gain: 2.0,
+        ..Default::default()
+    };
+    let mut buffers = thermal::detail::Buffers::default();
+    let copy = median_ms(|| scratch.plane.copy_from_slice(&scene));
+    let detail = median_ms(|| {
+        scratch.plane.copy_from_slice(&scene);
+        thermal::detail::enhance(
+            &enhance,
+            &mut scratch.plane,
+            (w as usize, h as usize),
+            &mut buffers,
+        );
+    });
+    let detail = (detail.0 - copy.0, detail.1 - copy.1);
     // The texture (`thermal.texture`, off in the preset) at its default (sharpness 3)
     // and as a Gaussian field (sharpness 0), a window 3 px further along the lattice
     // each run.
@@ -183,6 +205,10 @@ fn main() {
     println!(
         "earlier compression over sparse codec noise (AC step 9.7): {:.2}, {:.2}",
         codec.0, codec.1
+    );
+    println!(
+        "detail enhancement (gain 2, reach 0.15): {:.2}, {:.2}",
+        detail.0, detail.1
     );
     println!(
         "texture 1920x1080, Gaussian: {:.2}, {:.2}",

@@ -10,7 +10,7 @@ use egui::{DragValue, Ui};
 use super::panels::{Form, Words};
 use super::realism_panels::section_checkbox;
 use crate::preset::Preset;
-use crate::preset::thermal::{Capture, Narcissus, Signature, Texture, Thermal};
+use crate::preset::thermal::{Capture, Detail, Narcissus, Signature, Texture, Thermal};
 
 /// Thermal camera: scene temperatures, objects' signatures, the camera's noise, blur and gain.
 pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
@@ -41,6 +41,7 @@ pub fn thermal_ui(ui: &mut Ui, preset: &mut Preset, form: &mut Form<'_>) {
     bits_row(ui, form, &mut t.bits);
     texture_rows(ui, form, &mut t.texture);
     narcissus_rows(ui, form, &mut t.narcissus);
+    detail_rows(ui, form, &mut t.detail);
     capture_rows(ui, form, &mut t.capture);
     signature_rows(ui, form, "thermal.drone", &mut t.drone);
     part_rows(ui, form, DRONE_PARTS, &mut t.drone);
@@ -138,6 +139,16 @@ fn narcissus_rows(ui: &mut Ui, form: &mut Form<'_>, narcissus: &mut Option<Narci
     };
     Words::of("thermal.narcissus.depth_k").number(ui, form, &mut n.depth_k, 0.1);
     Words::of("thermal.narcissus.radius").number(ui, form, &mut n.radius, 0.01);
+}
+
+/// The camera's detail enhancement: off (absent), or its gain and reach (ticking it sets
+/// the defaults: gain 1, a reach of 0.15 of the height).
+fn detail_rows(ui: &mut Ui, form: &mut Form<'_>, detail: &mut Option<Detail>) {
+    let Some(d) = optional(ui, form, "thermal.detail", detail, Detail::default) else {
+        return;
+    };
+    Words::of("thermal.detail.gain").number(ui, form, &mut d.gain, 0.05);
+    Words::of("thermal.detail.size").number(ui, form, &mut d.size, 0.01);
 }
 
 /// The depth a ticked narcissus starts at, kelvin.

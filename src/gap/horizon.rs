@@ -15,13 +15,22 @@ pub const MIN_STEP: f32 = 12.0;
 /// Stripes of columns that must each step the same way.
 pub const STRIPES: usize = 4;
 
-/// A frame's horizon: its row as a share of the height (from the top) and the step, the
-/// mean level of the band below less the band above (positive: the ground reads brighter).
+/// A frame's horizon: its row as a share of the height (from the top), the step, the
+/// mean level of the band below less the band above (positive: the ground reads
+/// brighter), and the halo: the darkest band between the horizon and a band
+/// [`HALO_REACH`] of the height higher, less that band (negative: a dark band over the
+/// horizon, as a camera's detail enhancement draws over a warm tree line, or over the
+/// trees when the horizon found is their foot; 0 for a sky warming towards the horizon; `None` when the higher band lies out of the frame).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Horizon {
     pub row: f32,
     pub step: f32,
+    pub halo: Option<f32>,
 }
+
+/// How far above the horizon's band (a share of the height) the halo's reference band
+/// lies: past the reach of a camera's detail enhancement, within a typical frame's sky.
+pub const HALO_REACH: f64 = 0.25;
 
 /// The rows each side of a horizon that its step compares: a 32nd of the height, at
 /// least 4.
@@ -58,9 +67,21 @@ pub fn horizon(l: &Luma, overlay: Option<OverlayMask>) -> Option<Horizon> {
             .filter_map(|yy| step_at(s, yy, k))
             .any(|v| v * step.signum() >= 0.5 * step.abs())
     };
+    let far = (HALO_REACH * h as f64).round() as usize;
+    let halo = (y >= lo + far + k)
+        .then(|| {
+            let reference = mean(&whole[y - far - k..y - far])?;
+            let darkest = (y - far..=y)
+                .filter_map(|b| mean(&whole[b - k..b]))
+                .min_by(f64::total_cmp)?;
+            Some(darkest - reference)
+        })
+        .flatten();
+    let tenth = |v: f64| ((v * 10.0).round() / 10.0) as f32;
     stripes.iter().all(agrees).then(|| Horizon {
         row: ((y as f64 / h as f64) * 1000.0).round() as f32 / 1000.0,
-        step: ((step * 10.0).round() / 10.0) as f32,
+        step: tenth(step),
+        halo: halo.map(tenth),
     })
 }
 
@@ -83,11 +104,13 @@ fn row_sums(
 /// The mean of rows `y..y + k` less that of rows `y − k..y` (`None` when either holds no
 /// pixel).
 fn step_at(rows: &[(f64, usize)], y: usize, k: usize) -> Option<f64> {
-    let mean = |r: &[(f64, usize)]| {
-        let (s, n) = r.iter().fold((0.0, 0), |(a, m), &(s, n)| (a + s, m + n));
-        (n > 0).then(|| s / n as f64)
-    };
     Some(mean(&rows[y..y + k])? - mean(&rows[y - k..y])?)
+}
+
+/// The mean level of `rows`' pixels (`None` when they hold none).
+fn mean(rows: &[(f64, usize)]) -> Option<f64> {
+    let (s, n) = rows.iter().fold((0.0, 0), |(a, m), &(s, n)| (a + s, m + n));
+    (n > 0).then(|| s / n as f64)
 }
 
 #[cfg(test)]
@@ -116,12 +139,27 @@ mod tests {
         let hz = horizon(&l, None).expect("a horizon");
         assert!((hz.row - 182.0 / 256.0).abs() < 0.002, "{hz:?}");
         assert!((hz.step - 60.4).abs() < 0.5, "{hz:?}");
+        // The sky warms 0.05 levels a row: no band is darker than the one a quarter
+        // of the height higher.
+        assert_eq!(hz.halo, Some(0.0), "{hz:?}");
+        // A dark band of 30 levels over the 10 rows above the horizon.
+        let mut banded = frame(320, 256, 60.0, |_| 182);
+        banded.y[172 * 320..182 * 320]
+            .iter_mut()
+            .for_each(|v| *v -= 30.0);
+        let hz = horizon(&banded, None).expect("a horizon");
+        let halo = hz.halo.expect("a quarter of the height of sky above");
+        assert!((halo + 30.0 - 64.0 * 0.05).abs() < 0.2, "{hz:?}");
         let dark = frame(320, 256, -40.0, |_| 100);
         let hz = horizon(&dark, None).expect("a darker ground");
         assert!(
             (hz.row - 100.0 / 256.0).abs() < 0.002 && hz.step < -39.0,
             "{hz:?}"
         );
+        // 70 rows of sky hold no band a quarter of the height (64 rows) above the
+        // horizon's 8 rows and under the top margin's 12.
+        let low = horizon(&frame(320, 256, -40.0, |_| 70), None).expect("a horizon");
+        assert_eq!(low.halo, None);
     }
 
     #[test]

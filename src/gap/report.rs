@@ -292,6 +292,13 @@ fn fitting_stats() -> Vec<Stat> {
         },
         Stat {
             counted: false,
+            key: "horizon_halo",
+            name: "horizon halo: the band above − a quarter height higher",
+            unit: "levels",
+            kind: Frame(|f| f.horizon.and_then(|h| h.halo).map(f64::from)),
+        },
+        Stat {
+            counted: false,
             key: "drone_box_px",
             name: "drone box size √(w·h)",
             unit: "px",

@@ -172,6 +172,12 @@ pub struct Thermal {
     /// none, not written to preset.lock.ron.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub narcissus: Option<Narcissus>,
+    /// The camera's detail enhancement: each pixel's difference from its
+    /// neighbourhood's mean raised, the warm edges' dark halos it draws
+    /// (`sensor::thermal::detail`). Absent (the default): none, not written
+    /// to preset.lock.ron.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detail: Option<Detail>,
     /// The scene's temperature texture: a fractal field over the background
     /// (cloud and air structure, scenery), the same wherever the camera
     /// looks (`sensor::thermal::texture`). Absent (the default): none, not
@@ -292,6 +298,48 @@ impl Narcissus {
     }
 }
 
+/// A thermal camera's detail enhancement (a large-kernel unsharp mask, as
+/// the digital detail enhancement of thermal cores): the radiance `v`
+/// becomes `v + gain · (v − base)`, `base` the mean of `v` under a tent of
+/// half-width `size` × the frame's height. Below a warm tree line the
+/// sky's band reads darker, a warm drone's surroundings too.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Detail {
+    /// How much the difference from the neighbourhood is raised (0: not).
+    pub gain: f64,
+    /// The neighbourhood's reach: the tent's half-width, a share of the frame's height.
+    pub size: f64,
+}
+
+impl Default for Detail {
+    fn default() -> Self {
+        Self {
+            gain: 1.0,
+            size: 0.15,
+        }
+    }
+}
+
+/// The largest detail gain.
+pub const MAX_DETAIL_GAIN: f64 = 20.0;
+
+impl Detail {
+    fn validate_into(&self, v: &mut Validator) {
+        let (g, s) = (self.gain, self.size);
+        v.check(
+            g.is_finite() && (0.0..=MAX_DETAIL_GAIN).contains(&g),
+            "thermal.detail.gain",
+            || format!("{g} must be in [0, {MAX_DETAIL_GAIN}]"),
+        );
+        v.check(
+            s.is_finite() && (0.01..=1.0).contains(&s),
+            "thermal.detail.size",
+            || format!("{s} must be a share of the frame's height in [0.01, 1]"),
+        );
+    }
+}
+
 /// The capture chain of a recorded thermal video between the camera's 8-bit
 /// frame and the written file: an earlier lossy compression (8×8 DCT
 /// quantisation, as an MPEG or JPEG recorder's), then the border lines the
@@ -376,6 +424,7 @@ impl Default for Thermal {
             bits: 8,
             capture: None,
             narcissus: None,
+            detail: None,
             texture: None,
         }
     }
@@ -445,6 +494,9 @@ impl Thermal {
         }
         if let Some(n) = &self.narcissus {
             n.validate_into(v);
+        }
+        if let Some(d) = &self.detail {
+            d.validate_into(v);
         }
         if let Some(x) = &self.texture {
             x.validate_into(v);

@@ -120,6 +120,11 @@ impl Preset {
                 "thermal.texture.ground_only",
                 || "needs a modelled scene: over a backplate there is no ground to find".into(),
             );
+            v.check(
+                t.detail.is_none() || self.backplate.is_none(),
+                "thermal.detail",
+                || "needs a modelled scene: the plates hold their own camera's enhancement".into(),
+            );
         }
         if let Some(w) = &self.weather {
             w.validate_into(&mut v);

@@ -1288,11 +1288,15 @@ fn thermal_bits_and_parts_reach_the_preset_and_16_without_png_is_a_problem() {
     let drone = h.state().session().preset.thermal.clone().unwrap().drone;
     assert_eq!((drone.motor_k, drone.battery_k), (Some(30.0), None));
     assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());
-    // The narcissus and the capture chain (what a fitted preset carries): off by default,
-    // ticking sets a typical value, and their rows edit the preset.
+    // The narcissus, the detail enhancement and the capture chain (what a fitted preset
+    // carries): off by default, ticking sets a typical value, and their rows edit the preset.
     let t = h.state().session().preset.thermal.clone().unwrap();
-    assert!(t.narcissus.is_none() && t.capture.is_none());
+    assert!(t.narcissus.is_none() && t.capture.is_none() && t.detail.is_none());
     h.get_by_label("Narcissus").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Detail enhancement").click_accesskit();
+    h.run_steps(3);
+    h.get_by_label("Detail gain").set_value_accesskit(2.5);
     h.run_steps(3);
     h.get_by_label("Capture chain").click_accesskit();
     h.run_steps(3);
@@ -1301,6 +1305,8 @@ fn thermal_bits_and_parts_reach_the_preset_and_16_without_png_is_a_problem() {
     h.run_steps(3);
     let t = h.state().session().preset.thermal.clone().unwrap();
     assert_eq!(t.narcissus.map(|n| n.depth_k), Some(4.0));
+    let d = t.detail.expect("a detail enhancement");
+    assert_eq!((d.gain, d.size), (2.5, 0.15));
     let c = t.capture.expect("a capture chain");
     assert_eq!((c.prior_dc_step, c.prior_ac_step), (8.0, 9.5));
     assert!(h.state().errors().is_empty(), "{:?}", h.state().errors());

@@ -578,7 +578,17 @@ fn the_capture_chain_changes_the_picture_not_the_labels() {
                 ..Default::default()
             });
         let dark = make(&dark, index);
+        let mut sharp = p.clone();
+        sharp.thermal.as_mut().expect("thermal").detail =
+            Some(swarmshot::preset::thermal::Detail::default());
+        let sharp = make(&sharp, index);
         assert!(!plain.labels.is_empty(), "frame {index} shows a drone");
+        assert_eq!(
+            boxes(&sharp),
+            boxes(&plain),
+            "frame {index}: detail enhancement, labels unchanged"
+        );
+        assert_ne!(sharp.rgba, plain.rgba, "the detail enhancement shows");
         assert_eq!(
             boxes(&both),
             boxes(&plain),
@@ -840,5 +850,31 @@ fn a_texture_on_the_ground_alone_leaves_the_sky_as_it_was() {
             .iter()
             .any(|e| e.field == "thermal.texture.ground_only"),
         "{errors:?}"
+    );
+}
+
+/// A detail enhancement's bad values and one over a backplate (whose plates hold their own
+/// camera's) are named by their fields before anything is made.
+#[test]
+fn the_detail_enhancements_values_and_place_are_checked() {
+    let fields = |p: &Preset| -> Vec<String> {
+        (p.validate().err().unwrap_or_default().iter())
+            .map(|e| e.field.clone())
+            .collect()
+    };
+    let mut p = thermal_preset();
+    let detail = |gain, size| Some(swarmshot::preset::thermal::Detail { gain, size });
+    p.thermal.as_mut().expect("thermal").detail = detail(2.0, 0.15);
+    assert_eq!(fields(&p), Vec::<String>::new());
+    p.thermal.as_mut().expect("thermal").detail = detail(-1.0, 0.0);
+    assert_eq!(fields(&p), ["thermal.detail.gain", "thermal.detail.size"]);
+    p.thermal.as_mut().expect("thermal").detail = detail(f64::NAN, 0.15);
+    assert_eq!(fields(&p), ["thermal.detail.gain"]);
+    p.thermal.as_mut().expect("thermal").detail = detail(1.0, 0.15);
+    p.backplate = Some(swarmshot::preset::backplate::Backplate::default());
+    assert!(
+        fields(&p).contains(&"thermal.detail".to_string()),
+        "{:?}",
+        fields(&p)
     );
 }

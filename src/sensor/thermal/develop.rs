@@ -3,7 +3,9 @@
 //! fixed pattern and the temporal noise (NETD; the deviates of
 //! [`crate::sensor::noise`] under the frame's key), then a linear gain that
 //! maps the frame's low and high percentiles to levels 0 and 255, capped at
-//! `agc_max_gain` levels per kelvin, their middle at `agc_mid_level`; out as
+//! `agc_max_gain` levels per kelvin, their middle at `agc_mid_level`, the
+//! detail enhancement (`thermal.detail`, [`super::detail`]) when the preset
+//! has one, on the frame the gain control measured; out as
 //! 8-bit grey RGBA or 16-bit grey (the same gain × 257). Over a backplate
 //! the gain is the plate's own ([`Gain::Fixed`], `plate_gain`): its camera's
 //! gain control set its levels, with the drone in view, when it was taken.
@@ -105,7 +107,12 @@ pub fn develop_into(
         pattern,
     };
     let dims = (w as usize, h as usize);
-    let Scratch { plane, rows, .. } = scratch;
+    let Scratch {
+        plane,
+        rows,
+        detail,
+        ..
+    } = scratch;
     let extremes = blur_and_noise(plane, dims, t.blur_px as f32, &noise, rows);
     let (scale, offset) = match gain_by {
         Gain::Fixed { scale, offset } => (scale, offset),
@@ -116,6 +123,9 @@ pub fn develop_into(
             (scale, t.agc_mid_level as f32 - (lo + hi) * 0.5 * scale)
         }
     };
+    if let Some(d) = &t.detail {
+        super::detail::enhance(d, plane, dims, detail);
+    }
     gain(plane, w as usize, (scale, offset), out);
 }
 
@@ -566,6 +576,63 @@ mod tests {
                 .all(|p| p[0] == p[1] && p[1] == p[2] && p[3] == 255)
         );
         assert!(grey.windows(2).all(|g| g[0] <= g[1]));
+    }
+
+    /// The enhancement works on the frame the gain control measured: far from the edge the
+    /// levels are the same with it or without, next to the edge each side moves by half
+    /// the step times its gain.
+    #[test]
+    fn the_detail_enhancement_keeps_the_gain_controls_levels() {
+        let t = Thermal {
+            netd_mk: 0.0,
+            fixed_pattern_mk: 0.0,
+            shading_k: 0.0,
+            blur_px: 0.0,
+            agc_percentiles: (0.0, 100.0),
+            agc_max_gain: 8.0,
+            agc_mid_level: 128.0,
+            ..Thermal::default()
+        };
+        let (w, h, edge) = (64, 256, 160);
+        let (sky, ground) = (radiance(t.air_k - 10.0), radiance(t.air_k));
+        let plane: Vec<f32> = (0..w * h)
+            .map(|i| if i / w < edge { sky } else { ground })
+            .collect();
+        let grey = |t: &Thermal| -> Vec<u8> {
+            let out = develop(
+                t,
+                &mut plane.clone(),
+                (w as u32, h as u32),
+                &vec![0.0; w * h],
+                7,
+            );
+            out.chunks_exact(4).map(|p| p[0]).collect()
+        };
+        let plain = grey(&t);
+        let sharp = grey(&Thermal {
+            detail: Some(crate::preset::thermal::Detail {
+                gain: 1.0,
+                size: 0.1,
+            }),
+            ..t.clone()
+        });
+        let at = |g: &[u8], y: usize| i32::from(g[y * w + w / 2]);
+        let step = at(&plain, edge) - at(&plain, edge - 1);
+        assert!(
+            (75..=85).contains(&step),
+            "{step} levels for 10 K at 8 levels/K"
+        );
+        for y in (0..edge - 40).chain(edge + 40..h) {
+            assert!((at(&sharp, y) - at(&plain, y)).abs() <= 1, "row {y}");
+        }
+        let (above, below) = (
+            at(&sharp, edge - 1) - at(&plain, edge - 1),
+            at(&sharp, edge) - at(&plain, edge),
+        );
+        assert!(
+            (above + step / 2).abs() <= 3 && (below - step / 2).abs() <= 3,
+            "{above} {below}"
+        );
     }
 
     #[test]

@@ -17,7 +17,8 @@
 //! deviates of [`super::noise`] under the frame's key), then a linear gain
 //! that maps the frame's low and high percentiles to levels 0 and 255,
 //! capped at `agc_max_gain` levels per kelvin, their middle at
-//! `agc_mid_level`. The per-pixel loops run built for AVX-512 or AVX2
+//! `agc_mid_level`, and when the preset asks the detail enhancement
+//! ([`detail`]) on the frame the gain control measured. The per-pixel loops run built for AVX-512 or AVX2
 //! where the CPU has it (`simd_fn!`: the same operations, so the same bits)
 //! and in bands of rows on rayon's threads. [`capture`] is the recording's
 //! chain after the camera (an earlier compression, border lines), off
@@ -70,6 +71,7 @@ macro_rules! simd_fn {
 }
 
 pub mod capture;
+pub mod detail;
 mod develop;
 mod narcissus;
 mod plate_plane;
@@ -110,6 +112,8 @@ pub struct Scratch {
     slopes: Vec<f32>,
     /// The background's share of ground ([`ground_share`]) for a texture on the ground.
     pub share: Vec<f32>,
+    /// The detail enhancement's base ([`detail`]).
+    detail: detail::Buffers,
 }
 
 /// The band's edges, metres.
