@@ -76,7 +76,9 @@
 //!   (`thermal.texture.ground_only`).
 //!
 //! Not fitted (stated in docs/realism.md): the Canny share of a preset without a texture
-//! (it follows the noise), the sky's and the clouds' temperatures.
+//! (it follows the noise), the sky's and the clouds' temperatures, the detail enhancement
+//! (`thermal.detail`: a base's is kept; the gap's horizon halo row shows the dark band it
+//! draws against the footage's).
 
 use super::camera::Footage;
 use super::drones::{self, CentreSpread};

@@ -4,10 +4,10 @@
 //! height, as a thermal core's digital detail enhancement raises the local
 //! contrast its gain control would flatten. Beside a warm edge (a tree
 //! line, a drone) the colder side reads colder still: the dark band above
-//! a warm horizon. It runs after the gain control has taken its levels
-//! from the frame, so the frame's levels stay where the gain control put
-//! them and what it raises (the noise with the scene) clips at 0 and 255;
-//! it changes no label (labels are the id pass's).
+//! a warm horizon. It runs on the composed radiance plane before the
+//! optics' blur and the noise (so `netd_mk` stays the noise the frames
+//! show), and the gain control measures the enhanced frame, as a camera's
+//! does; it changes no label (labels are the id pass's).
 //!
 //! The base is made at a coarser resolution, as smooth as it is: the
 //! plane's means over cells of side `c` = ⌊reach / [`CELLS_PER_REACH`]⌋ px
@@ -243,7 +243,7 @@ mod tests {
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
             let mut p = plane.clone();
-            pool.unwrap()
+            pool.expect("a thread pool")
                 .install(|| enhance(&d, &mut p, (w, h), &mut Buffers::default()));
             p.iter().map(|v| v.to_bits()).collect::<Vec<u32>>()
         };

@@ -1,11 +1,11 @@
 //! The thermal camera's chain on a composed radiance plane (docs/realism.md,
-//! "Thermal camera"): the optics' Gaussian blur of σ px, then per pixel the
-//! fixed pattern and the temporal noise (NETD; the deviates of
-//! [`crate::sensor::noise`] under the frame's key), then a linear gain that
-//! maps the frame's low and high percentiles to levels 0 and 255, capped at
-//! `agc_max_gain` levels per kelvin, their middle at `agc_mid_level`, the
-//! detail enhancement (`thermal.detail`, [`super::detail`]) when the preset
-//! has one, on the frame the gain control measured; out as
+//! "Thermal camera"): the detail enhancement when the preset has one
+//! (`thermal.detail`, [`super::detail`]), the optics' Gaussian blur of σ px,
+//! then per pixel the fixed pattern and the temporal noise (NETD; the
+//! deviates of [`crate::sensor::noise`] under the frame's key), then a
+//! linear gain that maps the frame's low and high percentiles to levels 0
+//! and 255, capped at `agc_max_gain` levels per kelvin, their middle at
+//! `agc_mid_level`; out as
 //! 8-bit grey RGBA or 16-bit grey (the same gain × 257). Over a backplate
 //! the gain is the plate's own ([`Gain::Fixed`], `plate_gain`): its camera's
 //! gain control set its levels, with the drone in view, when it was taken.
@@ -113,6 +113,9 @@ pub fn develop_into(
         detail,
         ..
     } = scratch;
+    if let Some(d) = &t.detail {
+        super::detail::enhance(d, plane, dims, detail);
+    }
     let extremes = blur_and_noise(plane, dims, t.blur_px as f32, &noise, rows);
     let (scale, offset) = match gain_by {
         Gain::Fixed { scale, offset } => (scale, offset),
@@ -123,9 +126,6 @@ pub fn develop_into(
             (scale, t.agc_mid_level as f32 - (lo + hi) * 0.5 * scale)
         }
     };
-    if let Some(d) = &t.detail {
-        super::detail::enhance(d, plane, dims, detail);
-    }
     gain(plane, w as usize, (scale, offset), out);
 }
 
@@ -554,17 +554,25 @@ mod tests {
     use super::super::radiance;
     use super::*;
 
-    #[test]
-    fn gain_control_maps_the_percentiles_to_the_full_range() {
-        let t = Thermal {
+    /// The camera without noise, pattern, shading or blur, its gain control spanning the
+    /// frame's extremes.
+    fn noiseless() -> Thermal {
+        Thermal {
             netd_mk: 0.0,
             fixed_pattern_mk: 0.0,
             shading_k: 0.0,
             blur_px: 0.0,
             agc_percentiles: (0.0, 100.0),
+            ..Thermal::default()
+        }
+    }
+
+    #[test]
+    fn gain_control_maps_the_percentiles_to_the_full_range() {
+        let t = Thermal {
             agc_max_gain: 1e4,
             agc_mid_level: 127.5,
-            ..Thermal::default()
+            ..noiseless()
         };
         let mut plane: Vec<f32> = (0..1000).map(|i| 5.0 + i as f32 * 0.001).collect();
         let pattern = vec![0.0; plane.len()];
@@ -578,20 +586,15 @@ mod tests {
         assert!(grey.windows(2).all(|g| g[0] <= g[1]));
     }
 
-    /// The enhancement works on the frame the gain control measured: far from the edge the
-    /// levels are the same with it or without, next to the edge each side moves by half
-    /// the step times its gain.
+    /// At the gain control's largest gain the enhancement leaves the levels far from an
+    /// edge as they were (its overshoots widen the span evenly about the middle); next
+    /// to the edge each side moves by half the step times its gain.
     #[test]
     fn the_detail_enhancement_keeps_the_gain_controls_levels() {
         let t = Thermal {
-            netd_mk: 0.0,
-            fixed_pattern_mk: 0.0,
-            shading_k: 0.0,
-            blur_px: 0.0,
-            agc_percentiles: (0.0, 100.0),
             agc_max_gain: 8.0,
             agc_mid_level: 128.0,
-            ..Thermal::default()
+            ..noiseless()
         };
         let (w, h, edge) = (64, 256, 160);
         let (sky, ground) = (radiance(t.air_k - 10.0), radiance(t.air_k));
@@ -637,14 +640,7 @@ mod tests {
 
     #[test]
     fn gain_control_keeps_a_low_contrast_scene_low() {
-        let t = Thermal {
-            netd_mk: 0.0,
-            fixed_pattern_mk: 0.0,
-            shading_k: 0.0,
-            blur_px: 0.0,
-            agc_percentiles: (0.0, 100.0),
-            ..Thermal::default()
-        };
+        let t = noiseless();
         // A scene spanning one kelvin around the air's temperature.
         let (a, b) = (radiance(t.air_k - 0.5), radiance(t.air_k + 0.5));
         let mut plane: Vec<f32> = (0..100).map(|i| a + (b - a) * i as f32 / 99.0).collect();

@@ -11,14 +11,14 @@
 //! at the horizon. [`sky_plane`] composes the background's radiance from
 //! the rays and the visible background's colours, [`texture`] the scene's
 //! temperature texture when the preset has one; the pipeline adds the
-//! objects (`pipeline::thermal`); [`develop_into`] is the camera: a
-//! Gaussian blur of σ px, then per pixel the fixed pattern (from the preset
+//! objects (`pipeline::thermal`); [`develop_into`] is the camera: the
+//! detail enhancement ([`detail`]) when the preset asks, a Gaussian blur of
+//! σ px, then per pixel the fixed pattern (from the preset
 //! seed alone: the same in every frame) and the temporal noise (NETD; the
 //! deviates of [`super::noise`] under the frame's key), then a linear gain
 //! that maps the frame's low and high percentiles to levels 0 and 255,
 //! capped at `agc_max_gain` levels per kelvin, their middle at
-//! `agc_mid_level`, and when the preset asks the detail enhancement
-//! ([`detail`]) on the frame the gain control measured. The per-pixel loops run built for AVX-512 or AVX2
+//! `agc_mid_level`. The per-pixel loops run built for AVX-512 or AVX2
 //! where the CPU has it (`simd_fn!`: the same operations, so the same bits)
 //! and in bands of rows on rayon's threads. [`capture`] is the recording's
 //! chain after the camera (an earlier compression, border lines), off
