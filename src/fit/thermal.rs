@@ -75,10 +75,12 @@
 //!   while most of the footage's frames show a horizon lies on the ground alone
 //!   (`thermal.texture.ground_only`).
 //!
+//! - **detail enhancement** (`thermal.detail`, modelled scene; [`horizon`]): the first fit
+//!   adds one at gain 1 when most of the footage's frames show a horizon with a deep dark
+//!   band over it (the gap's horizon halo); the rounds keep it as it is.
+//!
 //! Not fitted (stated in docs/realism.md): the Canny share of a preset without a texture
-//! (it follows the noise), the sky's and the clouds' temperatures, the detail enhancement
-//! (`thermal.detail`: a base's is kept; the gap's horizon halo row shows the dark band it
-//! draws against the footage's).
+//! (it follows the noise), the sky's and the clouds' temperatures.
 
 use super::camera::Footage;
 use super::drones::{self, CentreSpread};
@@ -125,6 +127,7 @@ pub fn first_fit(
         narcissus_fit(&mut p, footage, &mut notes);
         texture_fit(&mut p, footage, &mut notes);
         horizon::elevation_fit(&mut p, footage, &mut notes);
+        horizon::detail_fit(&mut p, footage, &mut notes);
     }
     drones::spread(&mut p, centres, &mut notes);
     if plates.is_none() {

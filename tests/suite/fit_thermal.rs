@@ -297,14 +297,26 @@ fn the_thermal_first_fit_takes_the_footages_count_and_spread() {
 /// The thermal first fit looks where the footage looks (src/fit/thermal/horizon.rs):
 /// footage whose line of sight is 1–2° above a warm ground shows its horizon in every
 /// frame, and the fitted elevation range puts the modelled horizon there; footage looking
-/// 8–12° up shows none, and the fitted range keeps the ground out of frame.
+/// 8–12° up shows none, and the fitted range keeps the ground out of frame. Footage whose
+/// camera draws a dark band over the warm ground's horizon (a detail enhancement of gain 3)
+/// gets the detail enhancement at gain 1; the same footage without it, none.
 #[test]
 fn the_thermal_first_fit_puts_the_horizon_where_the_footage_has_it() {
-    for (name, truth_deg) in [("low", (1.0, 2.0)), ("high", (8.0, 12.0))] {
+    let cases = [
+        ("low", (1.0, 2.0), None),
+        ("enhanced", (1.0, 2.0), Some(3.0)),
+        ("high", (8.0, 12.0), None),
+    ];
+    for (name, truth_deg, gain) in cases {
         let dir = tmp(&format!("horizon-{name}"));
         let real = dir.join("real");
         let mut truth = small_truth(81);
         truth.thermal.as_mut().expect("thermal").ground_k = 305.0;
+        truth.thermal.as_mut().expect("thermal").detail =
+            gain.map(|gain| swarmshot::preset::thermal::Detail {
+                gain,
+                ..Default::default()
+            });
         truth
             .camera
             .observer
@@ -315,6 +327,12 @@ fn the_thermal_first_fit_puts_the_horizon_where_the_footage_has_it() {
         let p = &prep.fitted.preset;
         let (lo, hi) = p.camera.observer.as_ref().expect("observer").elevation_deg;
         let notes = prep.fitted.notes.join("\n");
+        let detail = p.thermal.as_ref().expect("thermal").detail;
+        assert_eq!(
+            detail.map(|d| d.gain),
+            gain.map(|_| 1.0),
+            "{name}: the first fit's detail enhancement\n{notes}"
+        );
         if name == "low" {
             // The scenery stands on the horizon, so the rows read a little high: within
             // 0.5° of the truth's ends.
@@ -322,7 +340,7 @@ fn the_thermal_first_fit_puts_the_horizon_where_the_footage_has_it() {
                 (lo - 1.0).abs() < 0.5 && (hi - 2.0).abs() < 0.5 && lo < hi,
                 "({lo}, {hi}) fitted for (1, 2)\n{notes}"
             );
-        } else {
+        } else if name == "high" {
             // The horizon under the frame: at least half the 8° field up.
             assert!(
                 lo >= 4.0 && hi > lo,

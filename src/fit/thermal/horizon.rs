@@ -22,6 +22,12 @@
 //!   gradient, not the horizon's own step: the step is the scenery's edge (on
 //!   svanstrom-ir a hot tree line under a dark band the camera's processing draws), where
 //!   the thirds weigh the ground as a whole against the sky.
+//! - **Detail enhancement, first fit** ([`detail_fit`]): when at least half the footage's
+//!   frames show a horizon and their median halo (the darkest band over it against the sky
+//!   a quarter of the height higher) is at most [`DEEP_HALO`], `thermal.detail` at gain
+//!   [`FITTED_DETAIL_GAIN`] and the default reach: the dark band a camera's detail
+//!   enhancement draws over a warm tree line. The rounds do not move it (a rule that did
+//!   made the fit worse: docs/realism.md, "The dark band").
 //! - **Texture** ([`texture_on_ground`]): when most of the footage's frames show a
 //!   horizon, a texture the rounds add lies on the ground and the scenery alone
 //!   (`thermal.texture.ground_only`): such footage's sky is smooth and its structure
@@ -31,6 +37,7 @@ use super::super::camera::Footage;
 use super::{outside, r3, stat};
 use crate::gap::report::{Report, Summary};
 use crate::preset::Preset;
+use crate::preset::thermal::Detail;
 
 /// How far (degrees) above the frame's lower edge a frame without a horizon puts it:
 /// the modelled scenery stands a little above the horizon.
@@ -102,6 +109,50 @@ pub fn elevation_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>)
             o.elevation_deg
         ));
     }
+}
+
+/// The footage's median horizon halo (levels) at or below which the first fit adds the
+/// detail enhancement: twice the least horizon step, a band no sky warming towards the
+/// horizon draws.
+pub const DEEP_HALO: f64 = -2.0 * crate::gap::horizon::MIN_STEP as f64;
+/// The gain the first fit gives it (docs/realism.md, "The dark band": more moved the
+/// drones' contrast out on `svanstrom-ir`).
+pub const FITTED_DETAIL_GAIN: f64 = 1.0;
+
+/// The first fit's detail enhancement (module docs): gain [`FITTED_DETAIL_GAIN`] at the
+/// default reach when at least half the footage's frames show a horizon and their median
+/// halo is at or below [`DEEP_HALO`]; a base's own is kept, and nothing over a backplate.
+pub fn detail_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
+    let Some(t) = p.thermal.as_mut().filter(|t| t.detail.is_none()) else {
+        return;
+    };
+    if p.backplate.is_some() {
+        return;
+    }
+    let frames = footage.per_frame.len();
+    let horizons: Vec<_> = footage.per_frame.iter().filter_map(|f| f.horizon).collect();
+    let halos: Vec<f64> = horizons
+        .iter()
+        .filter_map(|h| h.halo.map(f64::from))
+        .collect();
+    let Some(q) = super::super::camera::quartiles(&halos) else {
+        return;
+    };
+    if 2 * horizons.len() < frames || q.median > DEEP_HALO {
+        return;
+    }
+    let d = Detail {
+        gain: FITTED_DETAIL_GAIN,
+        ..Detail::default()
+    };
+    t.detail = Some(d);
+    notes.push(format!(
+        "thermal.detail gain {}, size {}: the footage's horizon halo {:.1} levels (median over {} of {frames} frames; at most {DEEP_HALO}): the dark band a camera's detail enhancement draws over warm edges",
+        d.gain,
+        d.size,
+        q.median,
+        halos.len()
+    ));
 }
 
 /// The median horizon row of the footage's frames that show one.
