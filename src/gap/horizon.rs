@@ -20,7 +20,8 @@ pub const STRIPES: usize = 4;
 /// brighter), and the halo: the darkest band between the horizon and a band
 /// [`HALO_REACH`] of the height higher, less that band (negative: a dark band over the
 /// horizon, as a camera's detail enhancement draws over a warm tree line, or over the
-/// trees when the horizon found is their foot; 0 for a sky warming towards the horizon; `None` when the higher band lies out of the frame).
+/// trees when the horizon found is their foot; 0 for a sky warming towards the horizon;
+/// `None` when the higher band lies out of the frame).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Horizon {
     pub row: f32,

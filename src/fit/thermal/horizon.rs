@@ -130,15 +130,13 @@ pub fn detail_fit(p: &mut Preset, footage: &Footage, notes: &mut Vec<String>) {
         return;
     }
     let frames = footage.per_frame.len();
-    let horizons: Vec<_> = footage.per_frame.iter().filter_map(|f| f.horizon).collect();
-    let halos: Vec<f64> = horizons
-        .iter()
-        .filter_map(|h| h.halo.map(f64::from))
-        .collect();
+    let horizons = footage.per_frame.iter().filter_map(|f| f.horizon);
+    let with = horizons.clone().count();
+    let halos: Vec<f64> = horizons.filter_map(|h| h.halo.map(f64::from)).collect();
     let Some(q) = super::super::camera::quartiles(&halos) else {
         return;
     };
-    if 2 * horizons.len() < frames || q.median > DEEP_HALO {
+    if 2 * with < frames || q.median > DEEP_HALO {
         return;
     }
     let d = Detail {
