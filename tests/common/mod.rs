@@ -21,6 +21,39 @@ pub fn gpu() -> GpuContext {
     }
 }
 
+/// A path that does not exist yet inside a fresh temporary folder, which is removed (with
+/// whatever was written under the path) when this is dropped: a test's output folder that
+/// a failing or passing run alike leaves nothing of.
+pub struct Scratch {
+    _root: tempfile::TempDir,
+    path: PathBuf,
+}
+
+impl Scratch {
+    /// A fresh folder whose name starts `swarmshot-{name}-`, and `name` inside it.
+    pub fn new(name: &str) -> Self {
+        let root = tempfile::Builder::new()
+            .prefix(&format!("swarmshot-{name}-"))
+            .tempdir()
+            .expect("a temporary folder");
+        let path = root.path().join(name);
+        Self { _root: root, path }
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.path
+    }
+}
+
 /// Path into tests/data, the bundled third-party files (see tests/data/README.md).
 pub fn testdata(rel: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

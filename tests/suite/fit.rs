@@ -21,10 +21,8 @@ fn swarmshot() -> Command {
     Command::new(env!("CARGO_BIN_EXE_swarmshot"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("swarmshot-fit-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+fn tmp(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("fit-{name}"))
 }
 
 /// A small scene with sky, buildings and a tree line (edges for the blur estimate)

@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::sync::atomic::AtomicBool;
 
@@ -13,10 +13,8 @@ use swarmshot::fit::drones::CentreSpread;
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::Preset;
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("swarmshot-fitswarm-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+fn tmp(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("fitswarm-{name}"))
 }
 
 /// Drones a frame in the footage.

@@ -7,19 +7,14 @@
 
 use crate::common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use swarmshot::pipeline::{BatchOptions, FramePipeline, run_batch};
 use swarmshot::preset::Preset;
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "swarmshot-fit-thermal-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+fn tmp(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("fit-thermal-{name}"))
 }
 
 fn shipped() -> Preset {

@@ -14,10 +14,9 @@ fn swarmshot() -> Command {
     Command::new(env!("CARGO_BIN_EXE_swarmshot"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("swarmshot-fitvideo-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("tmp dir");
+fn tmp(name: &str) -> common::Scratch {
+    let d = common::Scratch::new(&format!("fitvideo-{name}"));
+    std::fs::create_dir(&*d).expect("tmp dir");
     d
 }
 
