@@ -257,10 +257,13 @@ fn compress_block(b: &Block32, steps: Steps, d: &Dct) -> [[u32; N]; N] {
         }
     } else {
         let back = inverse(&c, (rows, cols), d);
-        for (out, row) in levels.iter_mut().zip(&back) {
-            for (g, v) in out.iter_mut().zip(row) {
-                *g = level(round(v + 128.0));
-            }
+        // Flat: the 64 levels as one loop of lanes.
+        for (g, v) in levels
+            .as_flattened_mut()
+            .iter_mut()
+            .zip(back.as_flattened())
+        {
+            *g = level(round(v + 128.0));
         }
     }
     levels
@@ -426,6 +429,21 @@ fn nonzero(c: &Block, computed: u8) -> (u8, u8) {
     (rows, cols)
 }
 
+/// `body` once for each row index `$i` in 0..8, written out: a loop over
+/// the rows whose body works on a whole row would be vectorised across
+/// the rows instead (gathers and scatters), not along each row.
+macro_rules! each_row {
+    (|$i:ident| $body:block) => {
+        each_row!(@ $i $body 0 1 2 3 4 5 6 7)
+    };
+    (@ $i:ident $body:block $($n:literal)*) => {
+        $({
+            let $i: usize = $n;
+            $body
+        })*
+    };
+}
+
 /// `Dᵀ·C·D` over the rows `rows` and columns `cols` of `c` alone (the
 /// others ±0), each value the plain loops' but for the sign of a zero.
 #[inline(always)]
@@ -435,26 +453,29 @@ fn inverse(c: &Block, (rows, cols): (u8, u8), d: &Dct) -> Block {
     while todo != 0 {
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
-        for (ti, dti) in t.iter_mut().zip(&d.dt) {
-            let s = dti[k];
-            for (v, x) in ti.iter_mut().zip(&c[k]) {
-                *v += s * x;
-            }
-        }
+        each_row!(|i| {
+            add_product64(&mut t[i], d.d[k][i], &c[k]);
+        });
     }
     let mut out = [[0.0; N]; N];
     let mut todo = cols;
     while todo != 0 {
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
-        for (oi, ti) in out.iter_mut().zip(&t) {
-            let s = ti[k];
-            for (v, x) in oi.iter_mut().zip(&d.d[k]) {
-                *v += s * x;
-            }
-        }
+        each_row!(|i| {
+            add_product64(&mut out[i], t[i][k], &d.d[k]);
+        });
     }
     out
+}
+
+/// `acc += s·x`, lane by lane (one product, then the sum: no fused
+/// multiply-add).
+#[inline(always)]
+fn add_product64(acc: &mut [f64; N], s: f64, x: &[f64; N]) {
+    for (v, x) in acc.iter_mut().zip(x) {
+        *v += s * x;
+    }
 }
 
 /// A whole `x` clamped to 0–255, as an integer: the low bits of
