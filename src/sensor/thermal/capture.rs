@@ -42,6 +42,21 @@ use crate::preset::thermal::Capture;
 /// A block's side, pixels.
 const N: usize = 8;
 
+/// `body` once for each row index `$i` in 0..8, written out: a loop over
+/// the rows whose body works on a whole row would be vectorised across
+/// the rows instead (gathers and scatters), not along each row.
+macro_rules! each_row {
+    (|$i:ident| $body:block) => {
+        each_row!(@ $i $body 0 1 2 3 4 5 6 7)
+    };
+    (@ $i:ident $body:block $($n:literal)*) => {
+        $({
+            let $i: usize = $n;
+            $body
+        })*
+    };
+}
+
 /// The chain on the RGBA8 grey frame `rgba` of `w`×`h` pixels (R = G = B):
 /// the earlier compression, then the border lines.
 pub fn apply(c: &Capture, (w, h): (u32, u32), rgba: &mut [u8]) {
@@ -61,12 +76,13 @@ type Block = [[f64; N]; N];
 /// An 8×8 block in f32: levels − 128, or estimated coefficients.
 type Block32 = [[f32; N]; N];
 
-/// The orthonormal 8-point DCT-II matrix `D[u][x]`, its transpose, and D
-/// rounded to f32 (for the estimate).
+/// The orthonormal 8-point DCT-II matrix `D[u][x]`, its transpose, and
+/// both rounded to f32 (for the estimate).
 struct Dct {
     d: Block,
     dt: Block,
     d32: Block32,
+    dt32: Block32,
 }
 
 fn dct() -> &'static Dct {
@@ -86,16 +102,19 @@ fn dct() -> &'static Dct {
         }
         let dt = std::array::from_fn(|i| std::array::from_fn(|j| d[j][i]));
         let d32 = d.map(|row| row.map(|v| v as f32));
-        Dct { d, dt, d32 }
+        let dt32 = dt.map(|row| row.map(|v| v as f32));
+        Dct { d, dt, d32, dt32 }
     })
 }
 
 /// The most an estimated coefficient ([`estimate`]) may be from the plain
 /// loops' f64 value, with room to spare. It is below 2·10⁻³: the levels −
-/// 128 are at most 128, so a pass's f32 sums are at most 2 × 256 (the even
-/// and odd sums, whole) and 2 × 724, each of a few products and sums with
-/// a rounding error of 2⁻²⁴ of its size, and D's f32 entries are within
-/// 2⁻²⁴ of its own (lib test: the largest seen is below a quarter of this).
+/// 128 are at most 128, so the first pass's f32 sums are at most √2 × 256
+/// (the even and odd sums, whole, times half a row of D) and the second's
+/// at most 1024 (the block's norm), each of at most 16 products and sums
+/// with a rounding error of 2⁻²⁴ of its size, and D's f32 entries are
+/// within 2⁻²⁴ of its own (lib test: the largest seen is below a quarter
+/// of this).
 const ESTIMATE_ERROR: f64 = 1.0 / 64.0;
 
 /// The quantiser's steps, and the magnitude below which an estimated AC
@@ -269,35 +288,32 @@ fn compress_block(b: &Block32, steps: Steps, d: &Dct) -> [[u32; N]; N] {
     levels
 }
 
-/// The block's DCT `D·B·Dᵀ` in f32, transposed (`[v][u]` holds coefficient
-/// (u, v)): each 1-D pass by the even/odd split on rows of eight, the
-/// block's columns, then those of its transpose.
+/// The block's DCT `D·B·Dᵀ` in f32 (`[u][v]` holds coefficient (u, v)):
+/// `D·B` by the even/odd split on the block's columns, then each of its
+/// rows times `Dᵀ` (the sum over k in ascending order, no transpose).
 #[inline(always)]
 fn estimate(b: &Block32, d: &Dct) -> Block32 {
     let t = columns_dct(b, d);
-    let mut tt = [[0.0; N]; N];
-    for (i, row) in t.iter().enumerate() {
-        for (j, v) in row.iter().enumerate() {
-            tt[j][i] = *v;
+    let mut x = [[0.0; N]; N];
+    each_row!(|u| {
+        for (s, dtk) in t[u].iter().zip(&d.dt32) {
+            add_product(&mut x[u], *s, dtk);
         }
-    }
-    columns_dct(&tt, d)
+    });
+    x
 }
 
 /// The rows u of the DCT with an estimated AC coefficient of magnitude
-/// `zero_below` or more, as bits, from [`estimate`]'s transposed block.
+/// `zero_below` or more, as bits, from [`estimate`]'s block.
 #[inline(always)]
-fn candidate_rows(mut xt: Block32, zero_below: f32) -> u8 {
-    xt[0][0] = 0.0; // the DC
-    let mut over = [0u32; N];
-    for row in &xt {
-        for (o, x) in over.iter_mut().zip(row) {
-            *o |= u32::from(x.abs() >= zero_below);
-        }
-    }
-    over.iter()
-        .enumerate()
-        .fold(0, |m, (u, &o)| m | ((o as u8) << u))
+fn candidate_rows(mut x: Block32, zero_below: f32) -> u8 {
+    x[0][0] = 0.0; // the DC
+    let mut rows = 0;
+    each_row!(|u| {
+        let over = x[u].iter().fold(false, |o, v| o | (v.abs() >= zero_below));
+        rows |= u8::from(over) << u;
+    });
+    rows
 }
 
 /// `D·B` in f32 by the even/odd split of B's rows (D's even rows are
@@ -427,21 +443,6 @@ fn nonzero(c: &Block, computed: u8) -> (u8, u8) {
         rows |= u8::from(m != 0) << u;
     }
     (rows, cols)
-}
-
-/// `body` once for each row index `$i` in 0..8, written out: a loop over
-/// the rows whose body works on a whole row would be vectorised across
-/// the rows instead (gathers and scatters), not along each row.
-macro_rules! each_row {
-    (|$i:ident| $body:block) => {
-        each_row!(@ $i $body 0 1 2 3 4 5 6 7)
-    };
-    (@ $i:ident $body:block $($n:literal)*) => {
-        $({
-            let $i: usize = $n;
-            $body
-        })*
-    };
 }
 
 /// `Dᵀ·C·D` over the rows `rows` and columns `cols` of `c` alone (the
@@ -735,6 +736,47 @@ mod tests {
         }
     }
 
+    /// A `w`×`h` RGBA grey frame of a low-rate codec's sparse noise: a
+    /// slope with a level of noise and, at one pixel in 16, a spike of up
+    /// to ±40 levels (a block keeps an AC row or two, rarely more).
+    fn sparse_noise(w: usize, h: usize) -> Vec<u8> {
+        let mut out = frame(w, h);
+        for (i, p) in out.chunks_exact_mut(4).enumerate() {
+            let bits = crate::seed::mix64(i as u64 ^ 0x5EED);
+            let spike = if bits.is_multiple_of(16) {
+                (bits >> 8) % 81
+            } else {
+                40
+            };
+            let g = (i64::from(p[0]) + spike as i64 - 40).clamp(0, 255) as u8;
+            p[..3].fill(g);
+        }
+        out
+    }
+
+    #[test]
+    fn sparse_noise_gives_the_plain_loops_bytes_on_any_threads() {
+        let (w, h) = (203, 117);
+        let base = sparse_noise(w, h);
+        for (dc, ac) in [(0.0, 9.7), (16.0, 4.0), (8.0, 20.0)] {
+            let c = Capture {
+                prior_dc_step: dc,
+                prior_ac_step: ac,
+                ..Capture::default()
+            };
+            let mut plain = base.clone();
+            plain_compression(dc, ac, (w, h), &mut plain);
+            assert_ne!(plain, base, "steps {dc} / {ac}: the frame changed");
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+                let mut f = base.clone();
+                pool.expect("a thread pool")
+                    .install(|| apply(&c, (w as u32, h as u32), &mut f));
+                assert_eq!(f, plain, "steps {dc} / {ac}, {threads} threads");
+            }
+        }
+    }
+
     #[test]
     fn level_is_the_clamped_cast() {
         for x in (-300..600).map(f64::from) {
@@ -802,10 +844,10 @@ mod tests {
         for k in 0..4000 {
             let b = test_block(k);
             let exact = plain_dct(&b.map(|row| row.map(f64::from)));
-            let xt = estimate(&b, dct());
-            for (u, row) in exact.iter().enumerate() {
-                for (v, x) in row.iter().enumerate() {
-                    worst = worst.max((f64::from(xt[v][u]) - x).abs());
+            let estimated = estimate(&b, dct());
+            for (row, est) in exact.iter().zip(&estimated) {
+                for (x, e) in row.iter().zip(est) {
+                    worst = worst.max((f64::from(*e) - x).abs());
                 }
             }
         }
