@@ -29,7 +29,8 @@
 //! - **blur σ**: `blur_px` changed in quadrature by the gap to the real median; over
 //!   plates (which hold the footage's blur: `blur_px` blurs only what is drawn on them)
 //!   by the small drones' edge width instead, and with the blur at 0 and those edges
-//!   still too wide, the drone's warm spot's size `spot_share` ([`edges`]);
+//!   still too wide, the drone's warm spot's size `spot_share` (over plates) or half its
+//!   heat moved into the skin (a modelled scene) ([`edges`]);
 //! - **mean brightness**: `agc_mid_level` += real − synthetic (levels); not over plates,
 //!   whose frames are developed with the plates' own gain (`sensor::thermal::plate_gain`:
 //!   the plates' levels come back as they are, the middle level moves nothing);

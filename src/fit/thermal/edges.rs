@@ -7,6 +7,14 @@
 //!   0.60 px with `blur_px` 0, inside the footage's 0.58–1.01), so a blur the scene's
 //!   edges allow can still be too much for the drones' (a fitted 0.53 px: 3.49 px edges
 //!   against 2.41; at 0, 2.94 and the small drones' peak contrast inside).
+//! - **The warm spot's heat** (modelled scene): with the blur at 0 and the small drones'
+//!   edges still wider than the real range, half the spot's `spot_k` moves into `skin_k`
+//!   each round ([`flatten_spot`]; the centre's temperature kept, the peak contrast rule
+//!   then scales both). The edge width walks out from the drone's peak: under a warm spot
+//!   over a cooler skin it crosses the skin's plateau before the hull, a drone warm all
+//!   over falls at its hull (svanstrom-ir's small drones are flat-topped, most clipped at
+//!   255). On the odd-fitted modelled preset all the heat in the skin took the edges from
+//!   3.30 to 2.60 px against the held-out 2.03–2.87.
 //! - **Over plates**: the plates went through the footage's optics, and `blur_px` blurs
 //!   only what is drawn over them (`sensor::thermal::blur_drawn`), so it follows the small
 //!   drones' edge width instead: a Gaussian's 90→10 % edge is [`EDGE_PER_SIGMA`] σ wide,
@@ -28,7 +36,7 @@
 use super::{outside, r3, stat};
 use crate::gap::measure::EDGE_PER_SIGMA;
 use crate::gap::report::Report;
-use crate::preset::thermal::Thermal;
+use crate::preset::thermal::{Signature, Thermal};
 
 /// Limits of the fitted warm spot's σ as a share of the half box.
 pub const SPOT_SHARE: (f64, f64) = (0.05, 4.0);
@@ -83,7 +91,11 @@ pub(super) fn adjust_blur(
         return;
     };
     let d = &mut t.drone;
-    if !over_plates || v != "above" || d.has_parts() || real <= 0.0 {
+    if v != "above" || d.has_parts() || real <= 0.0 {
+        return;
+    }
+    if !over_plates {
+        flatten_spot(d, (m, real), changes);
         return;
     }
     let k = (m / real).powi(4).min(2.0);
@@ -95,6 +107,22 @@ pub(super) fn adjust_blur(
         ));
         d.spot_share = s2;
     }
+}
+
+/// A modelled scene's drones whose edges stay wider than the real range with no blur to
+/// take away: half the warm spot's heat moved into the skin, the centre's temperature
+/// (skin + spot) kept, so the drone's top is flatter and falls at its hull.
+fn flatten_spot(d: &mut Signature, (m, real): (f64, f64), changes: &mut Vec<String>) {
+    if d.spot_k <= 0.0 {
+        return;
+    }
+    let moved = 0.5 * d.spot_k;
+    let (s2, p2) = (r3(d.skin_k + moved), r3(d.spot_k - moved));
+    changes.push(format!(
+        "thermal.drone skin_k {} → {s2}, spot_k {} → {p2} (small drones' edge width {m:.3} px above the real {real:.3} with no blur to take away: half the spot's heat into the skin, a flatter top)",
+        d.skin_k, d.spot_k
+    ));
+    (d.skin_k, d.spot_k) = (s2, p2);
 }
 
 #[cfg(test)]
@@ -152,8 +180,9 @@ mod tests {
     }
 
     /// A modelled scene: the scene's blur σ sets the blur; with it inside, drones' edges
-    /// too wide take blur away (as over plates) and too narrow add none; the spot stays
-    /// (module docs); over plates a spot at its limit or a drone with parts stays.
+    /// too wide take blur away (as over plates), then move the spot's heat into the skin,
+    /// and too narrow add none; the spot's size stays (module docs); over plates a spot at
+    /// its limit or a drone with parts stays.
     #[test]
     fn a_modelled_scene_fits_the_blur_to_the_scene_and_leaves_the_spot() {
         let mut changes = Vec::new();
@@ -168,8 +197,18 @@ mod tests {
         let s = 1.0 - (2.6f64.powi(2) - 2.25f64.powi(2)) / EDGE_PER_SIGMA.powi(2);
         assert_eq!((t.blur_px, t.drone.spot_share), (r3(s.sqrt()), 0.45));
         let mut t = thermal(0.0, 0.45);
+        let centre = t.drone.skin_k + t.drone.spot_k;
         adjust_blur(&mut t, &wide, false, &mut changes);
         assert_eq!((t.blur_px, t.drone.spot_share), (0.0, 0.45), "no spot rule");
+        // With no blur to take away, half the spot's heat goes into the skin.
+        assert_eq!(t.drone.spot_k, r3(0.5 * Thermal::default().drone.spot_k));
+        assert!((t.drone.skin_k + t.drone.spot_k - centre).abs() < 2e-3);
+        assert!(changes.last().is_some_and(|c| c.contains("flatter top")));
+        let mut p = thermal(0.0, 0.45);
+        p.drone.motor_k = Some(20.0);
+        let parts = p.drone;
+        adjust_blur(&mut p, &wide, false, &mut changes);
+        assert_eq!(p.drone, parts, "a drone with parts keeps its heat");
         let narrow = report((&REAL_EDGES, &[1.0]), (&SCENE_BLUR, &[0.8]));
         let mut t = thermal(1.0, 0.45);
         adjust_blur(&mut t, &narrow, false, &mut changes);
