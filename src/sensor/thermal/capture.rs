@@ -367,11 +367,15 @@ fn difference(a: &[f32; N], b: &[f32; N]) -> [f32; N] {
     r
 }
 
-/// `acc += s·x`, lane by lane.
+/// `acc += s·x`, lane by lane (one product, then the sum: no fused
+/// multiply-add), in f32 (the estimate) or f64 (the plain loops' sums).
 #[inline(always)]
-fn add_product(acc: &mut [f32; N], s: f32, x: &[f32; N]) {
+fn add_product<T>(acc: &mut [T; N], s: T, x: &[T; N])
+where
+    T: Copy + std::ops::Mul<Output = T> + std::ops::AddAssign,
+{
     for (v, x) in acc.iter_mut().zip(x) {
-        *v += s * x;
+        *v += s * *x;
     }
 }
 
@@ -455,7 +459,7 @@ fn inverse(c: &Block, (rows, cols): (u8, u8), d: &Dct) -> Block {
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
         each_row!(|i| {
-            add_product64(&mut t[i], d.d[k][i], &c[k]);
+            add_product(&mut t[i], d.d[k][i], &c[k]);
         });
     }
     let mut out = [[0.0; N]; N];
@@ -464,19 +468,10 @@ fn inverse(c: &Block, (rows, cols): (u8, u8), d: &Dct) -> Block {
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
         each_row!(|i| {
-            add_product64(&mut out[i], t[i][k], &d.d[k]);
+            add_product(&mut out[i], t[i][k], &d.d[k]);
         });
     }
     out
-}
-
-/// `acc += s·x`, lane by lane (one product, then the sum: no fused
-/// multiply-add).
-#[inline(always)]
-fn add_product64(acc: &mut [f64; N], s: f64, x: &[f64; N]) {
-    for (v, x) in acc.iter_mut().zip(x) {
-        *v += s * x;
-    }
 }
 
 /// A whole `x` clamped to 0–255, as an integer: the low bits of
