@@ -113,11 +113,11 @@ pub(super) fn adjust_blur(
 /// take away: half the warm spot's heat moved into the skin, the centre's temperature
 /// (skin + spot) kept, so the drone's top is flatter and falls at its hull.
 fn flatten_spot(d: &mut Signature, (m, real): (f64, f64), changes: &mut Vec<String>) {
-    if d.spot_k <= 0.0 {
-        return;
-    }
     let moved = 0.5 * d.spot_k;
     let (s2, p2) = (r3(d.skin_k + moved), r3(d.spot_k - moved));
+    if (s2, p2) == (d.skin_k, d.spot_k) {
+        return;
+    }
     changes.push(format!(
         "thermal.drone skin_k {} → {s2}, spot_k {} → {p2} (small drones' edge width {m:.3} px above the real {real:.3} with no blur to take away: half the spot's heat into the skin, a flatter top)",
         d.skin_k, d.spot_k
@@ -184,7 +184,7 @@ mod tests {
     /// and too narrow add none; the spot's size stays (module docs); over plates a spot at
     /// its limit or a drone with parts stays.
     #[test]
-    fn a_modelled_scene_fits_the_blur_to_the_scene_and_leaves_the_spot() {
+    fn a_modelled_scene_fits_the_blur_to_the_scene_then_flattens_the_spot() {
         let mut changes = Vec::new();
         let both = report((&REAL_EDGES, &[3.0]), (&SCENE_BLUR, &[1.2]));
         let mut t = thermal(1.0, 0.45);
@@ -204,6 +204,12 @@ mod tests {
         assert_eq!(t.drone.spot_k, r3(0.5 * Thermal::default().drone.spot_k));
         assert!((t.drone.skin_k + t.drone.spot_k - centre).abs() < 2e-3);
         assert!(changes.last().is_some_and(|c| c.contains("flatter top")));
+        // A drone without a warm spot has no heat to move: no change.
+        let mut q = thermal(0.0, 0.45);
+        q.drone.spot_k = 0.0;
+        let (before, n) = (q.drone, changes.len());
+        adjust_blur(&mut q, &wide, false, &mut changes);
+        assert_eq!((q.drone, changes.len()), (before, n));
         let mut p = thermal(0.0, 0.45);
         p.drone.motor_k = Some(20.0);
         let parts = p.drone;
