@@ -132,7 +132,9 @@ impl Run {
             };
             let prepared = Prepared::within(p, *bounds, layer);
             for k in strips {
-                self.items[self.next[k] as usize] = prepared;
+                let at = self.next[k] as usize;
+                self.items[at] = prepared;
+                prefetch_slot(&self.items, at + AHEAD);
                 self.next[k] += 1;
             }
         }
@@ -142,6 +144,29 @@ impl Run {
         let (a, b) = (self.starts[k] as usize, self.starts[k + 1] as usize);
         &self.items[a..b]
     }
+}
+
+/// How many slots ahead of the one it fills [`Run::fill`] asks for a
+/// strip's next slots: the strips' slots fill as many streams at once,
+/// more than the hardware follows, and each slot's first store would
+/// otherwise wait for its line (the items from the frame before long
+/// gone from the cache).
+const AHEAD: usize = 3;
+
+/// Ask the cache for slot `at` of `items` (nothing past its end; a hint only).
+#[inline]
+fn prefetch_slot(items: &[Prepared], at: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(slot) = items.get(at) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: a prefetch reads nothing and never faults.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(std::ptr::from_ref(slot).cast())
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (items, at);
 }
 
 thread_local! {
@@ -209,13 +234,19 @@ fn transmit<'a, R>(
 /// a drone (what the frame, not the drone-free frame, sees there).
 fn near_at_drones(t: &mut Transmit, layer: &DepthLayer) {
     let w = t.width as usize;
-    for (y, l) in t.rows.clone().zip(0usize..) {
-        let row = l * w;
-        for (x0, depths) in layer.drone_cells(y) {
-            for (x, d) in (x0 as usize..w).zip(depths) {
-                if *d < f32::INFINITY {
-                    t.all[row + x] = t.near[row + x];
-                }
+    let rows = (t.all.chunks_mut(w)).zip(t.near.chunks(w));
+    for (y, (all, near)) in t.rows.clone().zip(rows) {
+        near_in_row((all, near), y, layer);
+    }
+}
+
+/// Row `y`'s `all` set to its `near` at the pixels where `layer` holds a drone.
+fn near_in_row((all, near): (&mut [f32], &[f32]), y: u32, layer: &DepthLayer) {
+    for (x0, depths) in layer.drone_cells(y) {
+        let x0 = (x0 as usize).min(all.len());
+        for ((a, n), d) in all[x0..].iter_mut().zip(&near[x0..]).zip(depths) {
+            if *d < f32::INFINITY {
+                *a = *n;
             }
         }
     }
@@ -252,14 +283,15 @@ fn composite(
                 }
                 return;
             };
-            let rows = clear.chunks_mut(row).zip(background.chunks(row));
-            for ((c, b), t) in rows.zip(t.all.chunks(w as usize)) {
-                resolve::resolve(c, Some(b), t, level);
-            }
-            near_at_drones(t, layer);
-            let rows = rgba.chunks_mut(row).zip(background.chunks(row));
-            for (((px, b), c), t) in rows.zip(clear.chunks(row)).zip(t.all.chunks(w as usize)) {
-                resolve::resolve_over(px, (b, c), t, level);
+            // Row by row, so the second pass finds the row's background,
+            // drone-free row and transmittances still in the cache.
+            let rows = (rgba.chunks_mut(row).zip(clear.chunks_mut(row)))
+                .zip(background.chunks(row))
+                .zip(t.all.chunks_mut(w as usize).zip(t.near.chunks(w as usize)));
+            for (y, (((px, c), b), (all, near))) in t.rows.clone().zip(rows) {
+                resolve::resolve(c, Some(b), all, level);
+                near_in_row((all, near), y, layer);
+                resolve::resolve_over(px, (b, c), all, level);
             }
         })
     };

@@ -27,6 +27,9 @@ pub(super) fn draw_avx2(t: &mut Transmit, p: &Prepared) {
     let width = t.width as usize;
     let narrow = x1 - x0 <= NARROW;
     let consts = Consts::of(p);
+    if x1 - x0 <= 8 {
+        return one_chunk_rows(t, p, &consts);
+    }
     for y in y0.max(t.rows.start)..y1.min(t.rows.end) {
         let row = (y - t.rows.start) as usize * width;
         let py = y as f32 + 0.5;
@@ -50,6 +53,74 @@ pub(super) fn draw_avx2(t: &mut Transmit, p: &Prepared) {
             let pya = _mm256_set1_ps(py - p.a[1]);
             each_chunk(t.all, row, cols, |x| consts.coverage(p, x, pya));
         }
+    }
+}
+
+/// A particle at most eight columns wide: over its bounds' columns, one
+/// chunk a row, two rows at a time (independent work for the core to
+/// overlap), each row's coverage as [`draw_avx2`]'s narrow rows.
+#[target_feature(enable = "avx2")]
+fn one_chunk_rows(t: &mut Transmit, p: &Prepared, consts: &Consts) {
+    let [x0, y0, x1, y1] = p.bounds;
+    let width = t.width as usize;
+    let step = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+    let lanes_in = _mm256_cmp_ps::<_CMP_LT_OQ>(step, _mm256_set1_ps((x1 - x0) as f32));
+    let centres = _mm256_add_ps(
+        _mm256_add_ps(_mm256_set1_ps(x0 as f32), step),
+        _mm256_set1_ps(0.5),
+    );
+    let cover = |y: u32| {
+        let from_a = (y as f32 + 0.5) - p.a[1];
+        if p.inner.0 < from_a && from_a < p.inner.1 {
+            let centre = p.a[0] + from_a * p.slope;
+            consts.inner(centres, centre).1
+        } else {
+            consts.coverage(p, centres, _mm256_set1_ps(from_a)).1
+        }
+    };
+    let factor = |c: __m256| {
+        let skip = _mm256_cmp_ps::<_CMP_LE_OQ>(c, _mm256_setzero_ps());
+        let keep = _mm256_andnot_ps(skip, lanes_in);
+        let f = _mm256_sub_ps(consts.one, _mm256_mul_ps(consts.alpha, c));
+        _mm256_blendv_ps(consts.one, f, keep)
+    };
+    let at = |y: u32| (y - t.rows.start) as usize * width + x0 as usize;
+    let (ys, ye) = (y0.max(t.rows.start), y1.min(t.rows.end));
+    let mut y = ys;
+    while y + 1 < ye {
+        let (f0, f1) = (factor(cover(y)), factor(cover(y + 1)));
+        times(t.all, at(y), f0);
+        times(t.all, at(y + 1), f1);
+        y += 2;
+    }
+    if y < ye {
+        times(t.all, at(y), factor(cover(y)));
+    }
+}
+
+/// `all[at..at + 8]` times the lanes' factors `f` (1 where nothing covers),
+/// or as many as `all` holds past `at`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn times(all: &mut [f32], at: usize, f: __m256) {
+    let Some(chunk) = all.get_mut(at..at + 8) else {
+        let mut fs = [0.0f32; 8];
+        // SAFETY: `fs` holds 8 floats.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm256_storeu_ps(fs.as_mut_ptr(), f)
+        };
+        let from = at.min(all.len());
+        for (v, f) in all[from..].iter_mut().zip(fs) {
+            *v *= f;
+        }
+        return;
+    };
+    // SAFETY: `chunk` holds 8 floats.
+    #[allow(unsafe_code)]
+    unsafe {
+        let v = _mm256_loadu_ps(chunk.as_ptr());
+        _mm256_storeu_ps(chunk.as_mut_ptr(), _mm256_mul_ps(v, f));
     }
 }
 
