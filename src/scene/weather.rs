@@ -153,7 +153,6 @@ impl FrameWeather {
         out: &mut Vec<Particle>,
         lanes: bool,
     ) {
-        out.clear();
         let f = camera.focal_px();
         let (sx, sy) = (
             0.5 * f64::from(camera.width) / f,
@@ -185,6 +184,9 @@ impl FrameWeather {
             // particles at the head of its slots, then moved up in order.
             const N: usize = lanes::LANES;
             let calls = count.div_ceil(N as u64) as usize;
+            // Slots kept from the frame before are overwritten as made, not
+            // cleared first: only the particles each call makes are read.
+            out.truncate(calls * N);
             out.resize(calls * N, Particle::NONE);
             let mut made = vec![0u8; calls];
             (out.as_chunks_mut::<N>().0.par_iter_mut())
@@ -207,6 +209,7 @@ impl FrameWeather {
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = lanes;
+        out.clear();
         out.par_extend((0..count).into_par_iter().filter_map(|i| maker.one(i)));
     }
 
