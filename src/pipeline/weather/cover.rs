@@ -173,18 +173,37 @@ pub(super) fn draw(t: &mut Transmit, p: &Prepared, layer: Option<&DepthLayer>) {
     }
 }
 
-/// The pixels particle `p` may cover: its path's box grown by its radius
-/// and a pixel, within the `w × h` picture (x0, y0, x1, y1).
+/// The pixels particle `p` may cover, within the `w × h` picture (x0, y0,
+/// x1, y1): those whose centres lie within its reach ([`margin`]) of its
+/// path's box, past which every [`coverage`] is 0 (the same pixels
+/// multiplied, by the same factors, as over any larger box).
 #[inline]
 pub(super) fn bounds(p: &Particle, (w, h): (u32, u32)) -> (u32, u32, u32, u32) {
-    let r = p.radius_px;
+    let m = margin(p);
     let (ax, ay, bx, by) = (p.a[0], p.a[1], p.b[0], p.b[1]);
+    // Pixel x's centre x + ½ above lo: x ≥ ⌊lo + ½⌋; below hi: x < ⌈hi − ½⌉.
     (
-        floor_within(ax.min(bx) - r - 1.0, w),
-        floor_within(ay.min(by) - r - 1.0, h),
-        ceil_within(ax.max(bx) + r + 1.0, w),
-        ceil_within(ay.max(by) + r + 1.0, h),
+        floor_within(ax.min(bx) - m + 0.5, w),
+        floor_within(ay.min(by) - m + 0.5, h),
+        ceil_within(ax.max(bx) + m - 0.5, w),
+        ceil_within(ay.max(by) + m - 0.5, h),
     )
+}
+
+/// How far past its path's box, along either axis, a pixel centre can lie
+/// under `p`, plus [`SLACK`]. A streak (or a still disc): within r + ½ of
+/// its path. A flake: within r + ½ across its path and, past its ends,
+/// within its disc of r or, where the disc is under half a pixel deep, ½
+/// along and under r + ½ across: √(¼ + (r + ½)²) from an end at most.
+#[inline]
+fn margin(p: &Particle) -> f32 {
+    let rho = p.radius_px + 0.5;
+    let reach = if p.solid {
+        (0.25 + rho * rho).sqrt()
+    } else {
+        rho
+    };
+    reach + SLACK
 }
 
 /// The columns of `x0..x1` whose pixel centres on the row at `py` can lie
@@ -385,17 +404,22 @@ mod tests {
             .collect()
     }
 
-    /// Over each row of each particle's bounds: the pixels its coverage
-    /// reaches and the pixels [`reach`] evaluates.
+    /// Over the whole picture: the pixels a particle's coverage reaches
+    /// that [`reach`] on the rows of its [`bounds`] leaves out (so any
+    /// outside its bounds), the pixels it evaluates, and those covered.
     fn reached_and_covered(p: &Particle, size: (u32, u32)) -> (usize, usize, usize) {
         let q = Prepared::of(p, size, None);
         let [x0, y0, x1, y1] = q.bounds;
         let (mut missed, mut evaluated, mut covered) = (0, 0, 0);
-        for y in y0..y1 {
+        for y in 0..size.1 {
             let py = y as f32 + 0.5;
-            let (xs, xe) = reach(&q, py, (x0, x1));
+            let (xs, xe) = if (y0..y1).contains(&y) {
+                reach(&q, py, (x0, x1))
+            } else {
+                (0, 0)
+            };
             evaluated += xe.saturating_sub(xs) as usize;
-            for x in x0..x1 {
+            for x in 0..size.0 {
                 if coverage(&q, (x as f32 + 0.5, py)) > 0.0 {
                     covered += 1;
                     missed += usize::from(x < xs || x >= xe);
@@ -406,7 +430,7 @@ mod tests {
     }
 
     #[test]
-    fn reach_holds_every_pixel_a_particle_covers() {
+    fn bounds_and_reach_hold_every_pixel_a_particle_covers() {
         for p in particles(4000) {
             let (missed, _, _) = reached_and_covered(&p, (64, 64));
             assert_eq!(missed, 0, "{p:?}");

@@ -4,13 +4,16 @@
 //! with the constant second and `clamp` as `min(1, max(0, x))` keep the
 //! scalar's NaN and zero results), so the same factors and the same bytes.
 //! Lanes past a row's last column, or where the coverage is not above 0,
-//! multiply nothing.
+//! multiply by exactly 1 (every lane is stored whole: a masked store costs
+//! tens of cycles on AMD's cores).
 //!
 //! A narrow particle ([`NARROW`] columns or fewer) is evaluated over its
 //! bounds' columns on every row: outside the columns [`super::reach`] (or
 //! the inner rows' band) gives, its coverage is not above 0, so the same
 //! pixels are multiplied, by the same factors, without solving each row's
-//! interval.
+//! interval. Most of rain's and snow's particles are far and small (their
+//! bounds four to six columns wide): those at most eight wide take one
+//! chunk a row, those at most four two rows a chunk.
 
 use std::arch::x86_64::*;
 
@@ -27,6 +30,9 @@ pub(super) fn draw_avx2(t: &mut Transmit, p: &Prepared) {
     let width = t.width as usize;
     let narrow = x1 - x0 <= NARROW;
     let consts = Consts::of(p);
+    if x1 - x0 <= 4 {
+        return two_rows_a_chunk(t, p, &consts);
+    }
     if x1 - x0 <= 8 {
         return one_chunk_rows(t, p, &consts);
     }
@@ -98,6 +104,92 @@ fn one_chunk_rows(t: &mut Transmit, p: &Prepared, consts: &Consts) {
     }
 }
 
+/// A particle at most four columns wide: over its bounds' columns, two
+/// rows a chunk (lanes 0–3 a row, 4–7 the next), each lane's coverage
+/// as [`draw_avx2`]'s narrow rows give its pixel (an inner row's or any
+/// other's, row by row).
+#[target_feature(enable = "avx2")]
+fn two_rows_a_chunk(t: &mut Transmit, p: &Prepared, consts: &Consts) {
+    let [x0, y0, x1, y1] = p.bounds;
+    let width = t.width as usize;
+    let col = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 0.0, 1.0, 2.0, 3.0);
+    let next = _mm256_setr_ps(0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0);
+    let in_cols = _mm256_cmp_ps::<_CMP_LT_OQ>(col, _mm256_set1_ps((x1 - x0) as f32));
+    let centres = _mm256_add_ps(
+        _mm256_add_ps(_mm256_set1_ps(x0 as f32), col),
+        _mm256_set1_ps(0.5),
+    );
+    let inner_row = |from_a: f32| p.inner.0 < from_a && from_a < p.inner.1;
+    let at = |y: u32| (y - t.rows.start) as usize * width + x0 as usize;
+    let (ys, ye) = (y0.max(t.rows.start), y1.min(t.rows.end));
+    let mut y = ys;
+    while y < ye {
+        let two = y + 1 < ye;
+        // Each lane's (y as f32 + ½) − a's y: its row's integer, exact.
+        let rows = _mm256_add_ps(_mm256_set1_ps(y as f32), next);
+        let from_a = _mm256_sub_ps(
+            _mm256_add_ps(rows, _mm256_set1_ps(0.5)),
+            _mm256_set1_ps(p.a[1]),
+        );
+        let inner = |from_a: __m256| {
+            let centre = _mm256_add_ps(
+                _mm256_set1_ps(p.a[0]),
+                _mm256_mul_ps(from_a, _mm256_set1_ps(p.slope)),
+            );
+            consts.inner_at(centres, centre).1
+        };
+        let (i0, i1) = (
+            inner_row((y as f32 + 0.5) - p.a[1]),
+            two && inner_row(((y + 1) as f32 + 0.5) - p.a[1]),
+        );
+        let c = match (i0, i1) {
+            (true, true) => inner(from_a),
+            (false, false) => consts.coverage(p, centres, from_a).1,
+            _ => {
+                let upper = _mm256_cmp_ps::<_CMP_EQ_OQ>(next, consts.one);
+                let (lo, hi) = (consts.coverage(p, centres, from_a).1, inner(from_a));
+                let (lo, hi) = if i0 { (hi, lo) } else { (lo, hi) };
+                _mm256_blendv_ps(lo, hi, upper)
+            }
+        };
+        let skip = _mm256_cmp_ps::<_CMP_LE_OQ>(c, _mm256_setzero_ps());
+        let keep = _mm256_andnot_ps(skip, in_cols);
+        let f = _mm256_sub_ps(consts.one, _mm256_mul_ps(consts.alpha, c));
+        let f = _mm256_blendv_ps(consts.one, f, keep);
+        times4(t.all, at(y), _mm256_castps256_ps128(f));
+        if two {
+            times4(t.all, at(y + 1), _mm256_extractf128_ps::<1>(f));
+        }
+        y += 2;
+    }
+}
+
+/// `all[at..at + 4]` times the lanes' factors `f`, or as many as `all`
+/// holds past `at`.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn times4(all: &mut [f32], at: usize, f: __m128) {
+    let Some(chunk) = all.get_mut(at..at + 4) else {
+        let mut fs = [0.0f32; 4];
+        // SAFETY: `fs` holds 4 floats.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm_storeu_ps(fs.as_mut_ptr(), f)
+        };
+        let from = at.min(all.len());
+        for (v, f) in all[from..].iter_mut().zip(fs) {
+            *v *= f;
+        }
+        return;
+    };
+    // SAFETY: `chunk` holds 4 floats.
+    #[allow(unsafe_code)]
+    unsafe {
+        let v = _mm_loadu_ps(chunk.as_ptr());
+        _mm_storeu_ps(chunk.as_mut_ptr(), _mm_mul_ps(v, f));
+    }
+}
+
 /// `all[at..at + 8]` times the lanes' factors `f` (1 where nothing covers),
 /// or as many as `all` holds past `at`.
 #[target_feature(enable = "avx2")]
@@ -153,9 +245,8 @@ fn each_chunk(
         let one = _mm256_set1_ps(1.0);
         let f = _mm256_sub_ps(one, _mm256_mul_ps(alpha, c));
         // Lanes not kept multiply by exactly 1 (the same bits: the
-        // transmittances are never signalling NaNs), so all eight are
-        // stored whole: a masked store (what selecting the old value can
-        // compile to) costs tens of cycles on AMD's cores.
+        // transmittances are never signalling NaNs), not select the old
+        // value: that compiles to a masked store.
         let f = _mm256_blendv_ps(one, f, keep);
         // SAFETY: `chunk` holds 8 floats.
         #[allow(unsafe_code)]
@@ -237,7 +328,14 @@ impl Consts {
     #[target_feature(enable = "avx2")]
     #[inline]
     fn inner(&self, px: __m256, centre: f32) -> (__m256, __m256) {
-        let off = abs(_mm256_sub_ps(px, _mm256_set1_ps(centre)));
+        self.inner_at(px, _mm256_set1_ps(centre))
+    }
+
+    /// [`Consts::inner`] with each lane's own centre (its row's).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn inner_at(&self, px: __m256, centre: __m256) -> (__m256, __m256) {
+        let off = abs(_mm256_sub_ps(px, centre));
         let c = _mm256_sub_ps(self.rh, _mm256_mul_ps(self.k, off));
         (self.alpha, _mm256_min_ps(c, self.one))
     }
