@@ -95,12 +95,12 @@ fn one_chunk_rows(t: &mut Transmit, p: &Prepared, consts: &Consts) {
     let mut y = ys;
     while y + 1 < ye {
         let (f0, f1) = (factor(cover(y)), factor(cover(y + 1)));
-        times(t.all, at(y), f0);
-        times(t.all, at(y + 1), f1);
+        times(t.all, at(y), lanes::<_, 8>(f0));
+        times(t.all, at(y + 1), lanes::<_, 8>(f1));
         y += 2;
     }
     if y < ye {
-        times(t.all, at(y), factor(cover(y)));
+        times(t.all, at(y), lanes::<_, 8>(factor(cover(y))));
     }
 }
 
@@ -156,63 +156,42 @@ fn two_rows_a_chunk(t: &mut Transmit, p: &Prepared, consts: &Consts) {
         let keep = _mm256_andnot_ps(skip, in_cols);
         let f = _mm256_sub_ps(consts.one, _mm256_mul_ps(consts.alpha, c));
         let f = _mm256_blendv_ps(consts.one, f, keep);
-        times4(t.all, at(y), _mm256_castps256_ps128(f));
+        times(t.all, at(y), lanes::<_, 4>(_mm256_castps256_ps128(f)));
         if two {
-            times4(t.all, at(y + 1), _mm256_extractf128_ps::<1>(f));
+            times(
+                t.all,
+                at(y + 1),
+                lanes::<_, 4>(_mm256_extractf128_ps::<1>(f)),
+            );
         }
         y += 2;
     }
 }
 
-/// `all[at..at + 4]` times the lanes' factors `f`, or as many as `all`
-/// holds past `at`.
+/// `all[at..at + N]` times the lanes' factors `fs` (1 where nothing
+/// covers), or as many as `all` holds past `at`: a whole chunk in one
+/// vector multiply (a loop of a fixed count).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn times4(all: &mut [f32], at: usize, f: __m128) {
-    let Some(chunk) = all.get_mut(at..at + 4) else {
-        let mut fs = [0.0f32; 4];
-        // SAFETY: `fs` holds 4 floats.
-        #[allow(unsafe_code)]
-        unsafe {
-            _mm_storeu_ps(fs.as_mut_ptr(), f)
-        };
-        let from = at.min(all.len());
-        for (v, f) in all[from..].iter_mut().zip(fs) {
-            *v *= f;
-        }
-        return;
+fn times<const N: usize>(all: &mut [f32], at: usize, fs: [f32; N]) {
+    let from = at.min(all.len());
+    let chunk = match all.get_mut(at..at + N) {
+        Some(chunk) => chunk,
+        None => &mut all[from..],
     };
-    // SAFETY: `chunk` holds 4 floats.
-    #[allow(unsafe_code)]
-    unsafe {
-        let v = _mm_loadu_ps(chunk.as_ptr());
-        _mm_storeu_ps(chunk.as_mut_ptr(), _mm_mul_ps(v, f));
+    for (v, f) in chunk.iter_mut().zip(fs) {
+        *v *= f;
     }
 }
 
-/// `all[at..at + 8]` times the lanes' factors `f` (1 where nothing covers),
-/// or as many as `all` holds past `at`.
-#[target_feature(enable = "avx2")]
+/// A register's lanes, in order (`V` an `__m128` or `__m256`: `N` floats).
 #[inline]
-fn times(all: &mut [f32], at: usize, f: __m256) {
-    let Some(chunk) = all.get_mut(at..at + 8) else {
-        let mut fs = [0.0f32; 8];
-        // SAFETY: `fs` holds 8 floats.
-        #[allow(unsafe_code)]
-        unsafe {
-            _mm256_storeu_ps(fs.as_mut_ptr(), f)
-        };
-        let from = at.min(all.len());
-        for (v, f) in all[from..].iter_mut().zip(fs) {
-            *v *= f;
-        }
-        return;
-    };
-    // SAFETY: `chunk` holds 8 floats.
+fn lanes<V: Copy, const N: usize>(v: V) -> [f32; N] {
+    const { assert!(size_of::<V>() == N * size_of::<f32>()) };
+    // SAFETY: `V` is `N` floats, lane 0 first (its size checked above).
     #[allow(unsafe_code)]
     unsafe {
-        let v = _mm256_loadu_ps(chunk.as_ptr());
-        _mm256_storeu_ps(chunk.as_mut_ptr(), _mm256_mul_ps(v, f));
+        std::mem::transmute_copy(&v)
     }
 }
 
