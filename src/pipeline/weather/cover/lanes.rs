@@ -84,12 +84,7 @@ fn one_chunk_rows(t: &mut Transmit, p: &Prepared, consts: &Consts) {
             consts.coverage(p, centres, _mm256_set1_ps(from_a)).1
         }
     };
-    let factor = |c: __m256| {
-        let skip = _mm256_cmp_ps::<_CMP_LE_OQ>(c, _mm256_setzero_ps());
-        let keep = _mm256_andnot_ps(skip, lanes_in);
-        let f = _mm256_sub_ps(consts.one, _mm256_mul_ps(consts.alpha, c));
-        _mm256_blendv_ps(consts.one, f, keep)
-    };
+    let factor = |c: __m256| factor(consts.alpha, c, lanes_in);
     let at = |y: u32| (y - t.rows.start) as usize * width + x0 as usize;
     let (ys, ye) = (y0.max(t.rows.start), y1.min(t.rows.end));
     let mut y = ys;
@@ -152,10 +147,7 @@ fn two_rows_a_chunk(t: &mut Transmit, p: &Prepared, consts: &Consts) {
                 _mm256_blendv_ps(lo, hi, upper)
             }
         };
-        let skip = _mm256_cmp_ps::<_CMP_LE_OQ>(c, _mm256_setzero_ps());
-        let keep = _mm256_andnot_ps(skip, in_cols);
-        let f = _mm256_sub_ps(consts.one, _mm256_mul_ps(consts.alpha, c));
-        let f = _mm256_blendv_ps(consts.one, f, keep);
+        let f = factor(consts.alpha, c, in_cols);
         times(t.all, at(y), lanes::<_, 4>(_mm256_castps256_ps128(f)));
         if two {
             times(
@@ -166,6 +158,20 @@ fn two_rows_a_chunk(t: &mut Transmit, p: &Prepared, consts: &Consts) {
         }
         y += 2;
     }
+}
+
+/// Each lane's factor 1 − `alpha` × `c` where it is in `lanes_in` and its
+/// coverage `c` is above 0 (or NaN, as the scalar multiplies), else exactly
+/// 1: the same bits once multiplied (the transmittances are never
+/// signalling NaNs), where selecting the old value compiles to a masked
+/// store.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn factor(alpha: __m256, c: __m256, lanes_in: __m256) -> __m256 {
+    let skip = _mm256_cmp_ps::<_CMP_LE_OQ>(c, _mm256_setzero_ps());
+    let keep = _mm256_andnot_ps(skip, lanes_in);
+    let one = _mm256_set1_ps(1.0);
+    _mm256_blendv_ps(one, _mm256_sub_ps(one, _mm256_mul_ps(alpha, c)), keep)
 }
 
 /// `all[at..at + N]` times the lanes' factors `fs` (1 where nothing
@@ -219,14 +225,7 @@ fn each_chunk(
             tail(&mut all[at..row + xe as usize], alpha, c);
             return;
         };
-        let skip = _mm256_cmp_ps::<_CMP_LE_OQ>(c, _mm256_setzero_ps());
-        let keep = _mm256_andnot_ps(skip, lanes_in);
-        let one = _mm256_set1_ps(1.0);
-        let f = _mm256_sub_ps(one, _mm256_mul_ps(alpha, c));
-        // Lanes not kept multiply by exactly 1 (the same bits: the
-        // transmittances are never signalling NaNs), not select the old
-        // value: that compiles to a masked store.
-        let f = _mm256_blendv_ps(one, f, keep);
+        let f = factor(alpha, c, lanes_in);
         // SAFETY: `chunk` holds 8 floats.
         #[allow(unsafe_code)]
         unsafe {
