@@ -98,10 +98,7 @@ pub fn example_description(path: &Path) -> Option<String> {
 
 /// The example presets shipped in the repository's presets/ folder.
 pub fn example_presets() -> Vec<PathBuf> {
-    let dirs = [
-        PathBuf::from("presets"),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("presets"),
-    ];
+    let dirs = crate::preset::shipped::dirs();
     let Some(dir) = dirs.iter().find(|d| d.is_dir()) else {
         return Vec::new();
     };

@@ -229,9 +229,10 @@ pub(crate) struct FitArgs {
     /// Output folder: plates/, fitted.ron, footage.json, fit.json, rounds/NN/.
     #[arg(long)]
     pub(crate) out: PathBuf,
-    /// The preset the fit starts from.
-    #[arg(long, default_value = "presets/realistic.ron")]
-    pub(crate) base: PathBuf,
+    /// The preset the fit starts from [default: presets/realistic.ron, from the
+    /// working folder or else from the repository swarmshot was built from].
+    #[arg(long)]
+    pub(crate) base: Option<PathBuf>,
     /// Frames rendered per round.
     #[arg(long, default_value_t = 64)]
     pub(crate) sample: u64,

@@ -11,7 +11,7 @@ pub(crate) fn run(args: FitArgs) -> anyhow::Result<()> {
     let options = swarmshot::fit::FitOptions {
         real: args.real,
         out: args.out,
-        base: args.base,
+        base: args.base.unwrap_or_else(swarmshot::fit::default_base),
         sample: args.sample,
         rounds: args.rounds,
         unlabelled_ok: args.unlabelled_ok,

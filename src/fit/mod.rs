@@ -49,7 +49,7 @@ pub struct FitOptions {
     pub real: PathBuf,
     /// The output folder (created; must be empty or missing unless `overwrite`).
     pub out: PathBuf,
-    /// The base preset (default `presets/realistic.ron`).
+    /// The base preset (default: [`default_base`]).
     pub base: PathBuf,
     /// Frames rendered per round.
     pub sample: u64,
@@ -73,12 +73,20 @@ pub struct FitOptions {
     pub classes: crate::gap::folder::DroneClasses,
 }
 
+/// The base preset without `--base`: the shipped `realistic.ron`
+/// ([`crate::preset::shipped`]), or its relative path when it is nowhere to be
+/// found (the fit then names it as a file it cannot read).
+pub fn default_base() -> PathBuf {
+    crate::preset::shipped::find("realistic.ron")
+        .unwrap_or_else(|| PathBuf::from("presets/realistic.ron"))
+}
+
 impl FitOptions {
     pub fn new(real: impl Into<PathBuf>, out: impl Into<PathBuf>) -> Self {
         Self {
             real: real.into(),
             out: out.into(),
-            base: PathBuf::from("presets/realistic.ron"),
+            base: default_base(),
             sample: 64,
             rounds: 4,
             unlabelled_ok: false,

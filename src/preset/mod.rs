@@ -40,6 +40,7 @@ mod placement;
 mod render;
 pub mod rolling_shutter;
 mod ron_error;
+pub mod shipped;
 mod sky;
 pub mod sweep;
 pub mod thermal;

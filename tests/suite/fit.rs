@@ -579,6 +579,30 @@ fn files_in(dir: &Path) -> Vec<String> {
     names
 }
 
+/// Without `--base` the fit starts from the shipped `presets/realistic.ron`
+/// wherever it is run from, not only in the repository's folder: from a
+/// folder that holds no `presets/`, the base is the repository's copy.
+#[test]
+fn without_base_the_shipped_realistic_preset_is_found_from_any_folder() {
+    let dir = tmp("default-base");
+    let elsewhere = dir.join("work");
+    std::fs::create_dir_all(&elsewhere).expect("dir");
+    let o = swarmshot()
+        .current_dir(&elsewhere)
+        .args(["fit", "--rounds", "0", "--real"])
+        .arg(common::testdata("real"))
+        .arg("--out")
+        .arg("fit")
+        .output()
+        .expect("run swarmshot");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let fitted = std::fs::read_to_string(elsewhere.join("fit/fitted.ron")).expect("fitted.ron");
+    let notes = std::fs::read_to_string(elsewhere.join("fit/fit.json")).expect("fit.json");
+    assert!(notes.contains("presets/realistic.ron"), "{notes}");
+    assert!(fitted.contains("backplate"), "{fitted}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn overwrite_deletes_only_what_fit_wrote() {
     let dir = tmp("overwrite");
