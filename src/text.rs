@@ -1,11 +1,17 @@
 //! Text a user typed, made safe to print and checked for limits: control
 //! characters escaped, long numbers shortened, names bounded, and class
-//! names that differ only by case, spaces or look-alike letters found.
+//! names that differ only by case, spaces or look-alike letters found; and
+//! counts printed with their noun in its number.
 //! Beneath every module that prints a user's text (the preset's field
 //! errors, the model loader's URIs, the command line); imports nothing of
 //! the project.
 
 use std::fmt::Write as _;
+
+/// `n` and the noun in its number: "1 frame", "2 frames".
+pub fn plural(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
 
 /// The longest class or preset name, in characters.
 pub const MAX_NAME_CHARS: usize = 64;
@@ -178,6 +184,13 @@ pub fn one_line(e: &anyhow::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn counts_take_the_noun_in_their_number() {
+        assert_eq!(plural(1, "frame", "frames"), "1 frame");
+        assert_eq!(plural(0, "frame", "frames"), "0 frames");
+        assert_eq!(plural(2, "box", "boxes"), "2 boxes");
+    }
 
     #[test]
     fn control_characters_are_escaped() {

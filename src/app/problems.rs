@@ -22,12 +22,7 @@ pub const COLLAPSED_SECTIONS: [&str; 7] = [
 
 /// "1 problem", "3 problems".
 pub fn count_problems(n: usize) -> String {
-    plural(n, "problem", "problems")
-}
-
-/// `n` and the noun in its number: "1 frame", "2 frames".
-pub fn plural(n: usize, one: &str, many: &str) -> String {
-    format!("{n} {}", if n == 1 { one } else { many })
+    crate::text::plural(n as u64, "problem", "problems")
 }
 
 /// The list; returns the field whose link was clicked.

@@ -28,13 +28,14 @@ pub(crate) fn frames_bar(total: u64) -> anyhow::Result<ProgressBar> {
 
 /// "N frames (train / val / test), B boxes (small / medium / large)" of a finished run.
 pub(crate) fn frames_and_boxes(s: &swarmshot::write::DatasetStats) -> String {
+    use swarmshot::text::plural;
     format!(
-        "{} frames ({} train / {} val / {} test), {} boxes (small {} / medium {} / large {})",
-        s.frames,
+        "{} ({} train / {} val / {} test), {} (small {} / medium {} / large {})",
+        plural(s.frames, "frame", "frames"),
         s.frames_per_split[0],
         s.frames_per_split[1],
         s.frames_per_split[2],
-        s.boxes,
+        plural(s.boxes, "box", "boxes"),
         s.small,
         s.medium,
         s.large,

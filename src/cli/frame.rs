@@ -64,15 +64,20 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
     let beside: Vec<String> = (written.iter().skip(1))
         .map(|p| p.display().to_string())
         .collect();
+    use swarmshot::text::plural;
     println!(
-        "frame {index} ({} split): {} drones{}, {} boxes -> {} (+ {})",
+        "frame {index} ({} split): {}{}, {} -> {} (+ {})",
         frame.scene.split.as_str(),
-        frame.scene.drone_count(),
+        plural(frame.scene.drone_count() as u64, "drone", "drones"),
         match frame.scene.confusers.len() {
             0 => String::new(),
-            n => format!(" and {n} confusers"),
+            n => format!(" and {}", plural(n as u64, "confuser", "confusers")),
         },
-        frame.labels.iter().filter(|l| l.is_kept()).count(),
+        plural(
+            frame.labels.iter().filter(|l| l.is_kept()).count() as u64,
+            "box",
+            "boxes"
+        ),
         out.display(),
         beside.join(", ")
     );
