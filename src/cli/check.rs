@@ -60,9 +60,9 @@ pub(crate) fn check(path: &Path) -> anyhow::Result<()> {
     let drones_per_frame = print_estimate(&pipeline)?;
     let disk = preset.disk_estimate(pipeline.frame_count(), drones_per_frame);
     println!(
-        "disk: about {} for {} frames ({} images, {} labels, {} ledger; typical sizes measured on the quickstart, docs/reliability.md)",
+        "disk: about {} for {} ({} images, {} labels, {} ledger; typical sizes measured on the quickstart, docs/reliability.md)",
         human_bytes(disk.total_bytes()),
-        disk.frames,
+        swarmshot::text::plural(disk.frames, "frame", "frames"),
         human_bytes(disk.image_bytes),
         human_bytes(disk.label_bytes),
         human_bytes(disk.ledger_bytes),

@@ -76,8 +76,9 @@ pub(crate) fn stop_on_signals() -> anyhow::Result<std::sync::Arc<AtomicBool>> {
 /// The refusal after a clean stop: what stopped it, what is complete and how to continue.
 pub(crate) fn stopped(done: u64, total: u64, resume: &str) -> anyhow::Error {
     anyhow::anyhow!(
-        "stopped by {} after {done} of {total} frames: every frame before it is complete and checkpointed, nothing half-written is left; continue with: {resume}",
-        stop_signal_name()
+        "stopped by {} after {done} of {}: every frame before it is complete and checkpointed, nothing half-written is left; continue with: {resume}",
+        stop_signal_name(),
+        swarmshot::text::plural(total, "frame", "frames")
     )
 }
 

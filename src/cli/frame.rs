@@ -25,10 +25,11 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
         inputs.extend(pipeline.preset().input_paths());
         single::check_lone_targets(out, &files, &inputs, args.overwrite)?;
         if index >= pipeline.frame_count() {
+            let n = pipeline.frame_count();
             anyhow::bail!(
-                "--index {index}: the preset has {} frames (0..{})",
-                pipeline.frame_count(),
-                pipeline.frame_count()
+                "--index {index}: the preset has {} (indices 0 to {})",
+                swarmshot::text::plural(n, "frame", "frames"),
+                n.saturating_sub(1)
             );
         }
         // Opened before the frame is made: every file is written into this folder.
