@@ -28,14 +28,14 @@ pub(crate) fn run(args: FitArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let prep = swarmshot::fit::prepare(&options)?;
     let f = &prep.footage;
-    let n = |n: usize, one, many| swarmshot::text::plural(n as u64, one, many);
+    let count = |n: usize, one, many| swarmshot::text::plural(n as u64, one, many);
     eprintln!(
         "read {} ({} labelled, {}) in {:.1} s; {} in {}",
-        n(f.frames, "frame", "frames"),
+        count(f.frames, "frame", "frames"),
         f.labelled_frames,
-        n(f.drones, "drone", "drones"),
+        count(f.drones, "drone", "drones"),
         started.elapsed().as_secs_f64(),
-        n(prep.plates.plates.len(), "plate", "plates"),
+        count(prep.plates.plates.len(), "plate", "plates"),
         options.out.join("plates").display()
     );
     for warning in prep.warnings() {

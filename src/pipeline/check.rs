@@ -215,13 +215,8 @@ pub fn run_split_error(preset: &Preset, end: u64, every: u64) -> Option<String> 
     }
     let held: u64 = run.group_counts.iter().sum();
     let plural = |n: u64, what: &str| {
-        if n == 1 {
-            format!("{n} {what}")
-        } else if what.ends_with('s') {
-            format!("{n} {what}es")
-        } else {
-            format!("{n} {what}s")
-        }
+        let many = if what.ends_with('s') { "es" } else { "s" };
+        crate::text::plural(n, what, &format!("{what}{many}"))
     };
     let mut listed = Vec::new();
     for (name, groups) in names.iter().zip(&run.groups) {
