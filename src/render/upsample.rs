@@ -178,11 +178,11 @@ type Planes<'a> = &'a [Vec<f32>; 3];
 /// encode in AVX2 gathers ([`gather::encode_line_avx2`]; only in
 /// [`upsample_row_avx2`]).
 #[inline(always)]
-fn upsample_row<const N: usize>(
+fn upsample_row(
     (a, b, wy): (Planes<'_>, Planes<'_>, f32),
     columns: &Columns,
     scratch: &mut RowScratch,
-    (buckets, gather): (&Buckets<N>, bool),
+    (buckets, gather): (&Buckets, bool),
     line: &mut [u8],
 ) {
     let RowScratch { planes, values } = scratch;
@@ -229,11 +229,11 @@ fn upsample_row<const N: usize>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
-fn upsample_row_avx2<const N: usize>(
+fn upsample_row_avx2(
     rows: (Planes<'_>, Planes<'_>, f32),
     columns: &Columns,
     scratch: &mut RowScratch,
-    buckets: &Buckets<N>,
+    buckets: &Buckets,
     line: &mut [u8],
 ) {
     upsample_row(rows, columns, scratch, (buckets, true), line);
@@ -416,11 +416,11 @@ const BAND_ROWS: usize = 64;
 /// `simd`, in bands of [`BAND_ROWS`] rows on rayon's threads: each row's
 /// bytes depend only on its own two source rows, so the bands give the
 /// bytes of one pass over the rows.
-fn upsample_with<const N: usize>(
+fn upsample_with(
     texels: Texels<'_>,
     (size, frame): ((u32, u32), (u32, u32)),
     centre: (f32, f32),
-    (buckets, gain): (&Buckets<N>, f32),
+    (buckets, gain): (&Buckets, f32),
     rgba: &mut Vec<u8>,
     simd: bool,
 ) {
@@ -455,11 +455,11 @@ fn upsample_with<const N: usize>(
 
 /// One output row through [`upsample_row_avx2`] when `simd`, else [`upsample_row`].
 #[inline(always)]
-fn upsample_line<const N: usize>(
+fn upsample_line(
     pair: (Planes<'_>, Planes<'_>, f32),
     columns: &Columns,
     scratch: &mut RowScratch,
-    (buckets, simd): (&Buckets<N>, bool),
+    (buckets, simd): (&Buckets, bool),
     line: &mut [u8],
 ) {
     #[cfg(target_arch = "x86_64")]

@@ -7,39 +7,38 @@
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
-    __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_and_si256, _mm256_castps_si256,
-    _mm256_cmpgt_epi32, _mm256_cvttps_epi32, _mm256_floor_ps, _mm256_i32gather_epi32,
-    _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_mul_ps, _mm256_or_si256,
-    _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_slli_epi32, _mm256_srli_epi32,
-    _mm256_storeu_si256, _mm256_sub_epi32,
+    __m256i, _mm256_add_epi32, _mm256_and_si256, _mm256_castps_si256, _mm256_cmpgt_epi32,
+    _mm256_i32gather_epi32, _mm256_loadu_ps, _mm256_max_epi32, _mm256_max_ps, _mm256_min_ps,
+    _mm256_or_si256, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_setzero_si256,
+    _mm256_slli_epi32, _mm256_srli_epi32, _mm256_storeu_si256, _mm256_sub_epi32,
 };
 
-use super::srgb::{BUCKETS_PER_UNIT, Buckets, FLOOR_MIN, NO_STEP};
+use super::srgb::{BUCKET_SHIFT, BUCKETS, Buckets, FIRST_BUCKET, NO_STEP, STEP_MASK};
 
 /// The levels of the eight values at `x` ([`Buckets::encode`] per lane).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn encode8<const N: usize>(buckets: &Buckets<N>, x: &[f32; 8]) -> __m256i {
+fn encode8(buckets: &Buckets, x: &[f32; 8]) -> __m256i {
     // SAFETY: `x` holds eight f32; every gathered index is masked to
-    // [0, N), inside `buckets.packed`.
+    // [0, BUCKETS), inside `buckets.packed`.
     #[allow(unsafe_code)]
     unsafe {
         let x = _mm256_loadu_ps(x.as_ptr());
-        // max(x, 0) returns 0 for NaN (the second operand), as f32::max.
+        // max(x, 0) returns 0 for NaN and for −0 (the second operand), as
+        // the scalar encode's `max(0.0) + 0.0`.
         let x = _mm256_max_ps(x, _mm256_setzero_ps());
-        let x = _mm256_add_ps(
-            _mm256_min_ps(x, _mm256_set1_ps(buckets.top)),
-            _mm256_setzero_ps(),
+        let bits = _mm256_castps_si256(_mm256_min_ps(x, _mm256_set1_ps(buckets.top)));
+        let index = _mm256_max_epi32(
+            _mm256_sub_epi32(
+                _mm256_srli_epi32::<{ BUCKET_SHIFT as i32 }>(bits),
+                _mm256_set1_epi32(FIRST_BUCKET as i32),
+            ),
+            _mm256_setzero_si256(),
         );
-        let bucket = _mm256_floor_ps(_mm256_mul_ps(x, _mm256_set1_ps(BUCKETS_PER_UNIT)));
-        let index = _mm256_and_si256(_mm256_cvttps_epi32(bucket), _mm256_set1_epi32(N as i32 - 1));
+        let index = _mm256_and_si256(index, _mm256_set1_epi32(BUCKETS as i32 - 1));
         let packed = _mm256_i32gather_epi32::<4>(buckets.packed.as_ptr().cast(), index);
-        let floor = _mm256_max_ps(
-            _mm256_mul_ps(bucket, _mm256_set1_ps(1.0 / BUCKETS_PER_UNIT)),
-            _mm256_set1_ps(FLOOR_MIN),
-        );
-        let above = _mm256_sub_epi32(_mm256_castps_si256(x), _mm256_castps_si256(floor));
+        let above = _mm256_and_si256(bits, _mm256_set1_epi32(STEP_MASK as i32));
         let step = _mm256_and_si256(packed, _mm256_set1_epi32(NO_STEP as i32));
         // −1 where the value lies below the bucket's threshold.
         let below = _mm256_cmpgt_epi32(step, above);
@@ -52,9 +51,9 @@ fn encode8<const N: usize>(buckets: &Buckets<N>, x: &[f32; 8]) -> __m256i {
 /// through `buckets`: eight pixels at a time, the rest one at a time.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub(super) fn encode_line_avx2<const N: usize>(
+pub(super) fn encode_line_avx2(
     [r, g, b]: [&[f32]; 3],
-    buckets: &Buckets<N>,
+    buckets: &Buckets,
     line: &mut [u8],
 ) {
     let n = (line.len() / 4).min(r.len()).min(g.len()).min(b.len());
@@ -103,7 +102,7 @@ mod tests {
         if !crate::simd::avx2() {
             return;
         }
-        fn check<const N: usize>(b: &Buckets<N>, thresholds: &[f32]) {
+        fn check(b: &Buckets, thresholds: &[f32]) {
             let mut x: Vec<f32> = thresholds
                 .iter()
                 .flat_map(|&t| [t.next_down(), t, t.next_up()])

@@ -93,58 +93,64 @@ impl SrgbTable {
     }
 }
 
-/// Buckets per unit of the encoded value: bucket `i` = ⌊x · 4096⌋.
-pub(super) const BUCKETS_PER_UNIT: f32 = 4096.0;
+/// Mantissa bits of a bucket: bucket `i` holds the f32 values whose bit
+/// patterns share their top bits `(bits >> 16) = i + [`FIRST_BUCKET`]`, i.e.
+/// 2⁷ buckets per octave, each 1/128 of its octave's low end or less wide.
+pub(super) const BUCKET_SHIFT: u32 = 16;
+
+/// The bucket of 2⁻¹³ (the least bucket's floor, [`FLOOR_MIN`]): its top bits.
+pub(super) const FIRST_BUCKET: u32 = FLOOR_MIN.to_bits() >> BUCKET_SHIFT;
+
+/// Buckets in a table: 2⁻¹³ up to 8 (16 octaves of 128), above every `top`.
+pub(super) const BUCKETS: usize = 2048;
 
 /// An exact threshold encode folded so that it vectorises: per bucket of
-/// width 1/4096 of the values `x` in [0, `top`], the level at its low end
-/// and the one threshold that can lie inside it, packed in one word so that
-/// a value costs one table read (one gather a vector, not two): the level
-/// in the top 8 bits, and in the low 24 the threshold's distance in f32
-/// steps above the bucket's floor ([`bucket_floor_bits`]). The level of `x`
-/// is the level at the low end, plus one when `x` lies that many steps or
-/// more above the floor: for values ≥ 0 the order of f32 bit patterns is
-/// the order of the values, so this is `x ≥ threshold`. Thresholds are never
-/// closer than a bucket: the tightest, in the sRGB curve's linear toe, are
-/// 1/(255 · 12.92) = 3.0e-4 apart (checked when built, as is that every
-/// distance fits 24 bits). `N`, a power of two above `top` · 4096, lets a
-/// masked index go without a bounds check.
-pub(super) struct Buckets<const N: usize> {
-    pub(super) packed: [u32; N],
+/// values `x` in [0, `top`] (buckets by the top bits of the f32 bit pattern,
+/// [`BUCKET_SHIFT`]), the level at its low end and the one threshold that can
+/// lie inside it, packed in one word so that a value costs one read of an
+/// 8 KiB table (one gather a vector, not two): the level in the top 8 bits,
+/// and in the low 24 the threshold's distance in f32 steps above the
+/// bucket's floor (below 2¹⁶). The level of `x` is the level at the low end,
+/// plus one when `x` lies that many steps or more above the floor: for
+/// values ≥ 0 the order of f32 bit patterns is the order of the values, so
+/// this is `x ≥ threshold`, and the distance is the low 16 bits of `x`.
+/// Thresholds are never closer than a bucket: buckets are at most 1/128 =
+/// 0.78 % of their values wide, and the closest thresholds relative to their
+/// value, sRGB's top levels, are 2.4 / (k + 14) ≥ 0.89 % apart (checked when
+/// built). Values below 2⁻¹³ share bucket 0, which no threshold reaches (the
+/// least, sRGB level 1, is 1.5e-4: checked when built), so they encode 0.
+pub(super) struct Buckets {
+    pub(super) packed: [u32; BUCKETS],
     pub(super) top: f32,
 }
 
 /// The low 24 bits of a packed bucket with no threshold inside: more f32
-/// steps than any bucket holds (at most 2²³, see [`bucket_floor_bits`]).
+/// steps than any bucket holds (2¹⁶).
 pub(super) const NO_STEP: u32 = 0x00ff_ffff;
 
-/// The bit pattern of the floor of bucket `i` (given as an f32, exact):
-/// its low end i / 4096 (exact in f32), but never below 2⁻¹³, so that bucket 0 ([0, 2⁻¹²)) spans 2²³ f32
-/// steps above its floor as every other bucket does at most; values below
-/// the floor lie below any threshold (the least, sRGB level 1, is 1.5e-4,
-/// above 2⁻¹³ = 1.2e-4: checked when built).
-#[inline(always)]
-fn bucket_floor_bits(i: f32) -> u32 {
-    (i * (1.0 / BUCKETS_PER_UNIT)).max(FLOOR_MIN).to_bits()
-}
+/// The low bits of a value's pattern: its f32 steps above its bucket's floor.
+pub(super) const STEP_MASK: u32 = (1 << BUCKET_SHIFT) - 1;
 
-/// 2⁻¹³: the least bucket floor ([`bucket_floor_bits`]).
+/// 2⁻¹³: the least bucket floor.
 pub(super) const FLOOR_MIN: f32 = 1.0 / 8192.0;
 
-impl<const N: usize> Buckets<N> {
+impl Buckets {
     /// The buckets of `thresholds` (`thresholds[k]`: the least value of
     /// level k; `thresholds[0]` unused), over [0, `top`].
     fn new(thresholds: &[f32; 256], top: f32) -> Box<Self> {
         let mut b = Box::new(Self {
-            packed: [NO_STEP; N],
+            packed: [NO_STEP; BUCKETS],
             top,
         });
         let t = &thresholds[1..];
-        assert!(t[0] > FLOOR_MIN, "a threshold below the least floor");
-        for i in 0..=((top * BUCKETS_PER_UNIT) as usize).min(N - 1) {
+        assert!(t[0] >= FLOOR_MIN.next_up(), "a threshold in the least bucket");
+        let last = (top.to_bits() >> BUCKET_SHIFT) - FIRST_BUCKET;
+        assert!((last as usize) < BUCKETS, "a top above the table");
+        for i in 0..=last {
+            let floor = (i + FIRST_BUCKET) << BUCKET_SHIFT;
             let (lo, hi) = (
-                i as f32 / BUCKETS_PER_UNIT,
-                (i + 1) as f32 / BUCKETS_PER_UNIT,
+                f32::from_bits(floor),
+                f32::from_bits(floor + (1 << BUCKET_SHIFT)),
             );
             let k = t.iter().take_while(|&&v| v <= lo).count();
             assert!(
@@ -152,11 +158,11 @@ impl<const N: usize> Buckets<N> {
                 "two thresholds in one bucket"
             );
             let steps = match t.get(k) {
-                Some(&v) if v < hi => v.to_bits() - bucket_floor_bits(i as f32),
+                Some(&v) if v < hi => v.to_bits() - floor,
                 _ => NO_STEP,
             };
-            assert!(k < 256 && steps <= NO_STEP, "a bucket that does not pack");
-            b.packed[i] = (k as u32) << 24 | steps;
+            assert!(k < 256, "a bucket that does not pack");
+            b.packed[i as usize] = (k as u32) << 24 | steps;
         }
         b
     }
@@ -165,27 +171,22 @@ impl<const N: usize> Buckets<N> {
     /// the level of `top`.
     #[inline(always)]
     pub(super) fn encode(&self, x: f32) -> u32 {
-        // ⌊x · 4096⌋ through the mantissa of 2²³ + ⌊…⌋: no saturating cast,
-        // which LLVM makes one lane at a time. `+ 0.0` turns a −0 into +0
-        // (its bits are compared below).
-        const TWO23: f32 = 8_388_608.0;
-        let x = x.max(0.0).min(self.top) + 0.0;
-        let bucket = (x * BUCKETS_PER_UNIT).floor();
-        let i = (bucket + TWO23).to_bits() - TWO23.to_bits();
-        let packed = self.packed[i as usize & (N - 1)];
-        let above = x.to_bits() as i32 - bucket_floor_bits(bucket) as i32;
-        (packed >> 24) + u32::from(above >= (packed & NO_STEP) as i32)
+        // `+ 0.0` turns a −0 into +0 (whose bits are those of bucket 0).
+        let bits = (x.max(0.0).min(self.top) + 0.0).to_bits();
+        let i = (bits >> BUCKET_SHIFT).saturating_sub(FIRST_BUCKET);
+        let packed = self.packed[i as usize & (BUCKETS - 1)];
+        (packed >> 24) + u32::from(bits & STEP_MASK >= packed & NO_STEP)
     }
 }
 
 /// Linear values in [0, 1] → sRGB 8-bit ([`SrgbTable::encode`] exactly).
-pub(super) static CLIP: LazyLock<Box<Buckets<8192>>> =
+pub(super) static CLIP: LazyLock<Box<Buckets>> =
     LazyLock::new(|| Buckets::new(&SRGB.thresholds, 1.0));
 
 /// Radiance x ≥ 0 → the sRGB 8-bit code of 1 − e^(−x): the thresholds
 /// −ln(1 − t) of [`SrgbTable`]'s thresholds t, in f64 rounded to f32 (the
 /// top one is 4.7, so [0, 7] covers every level).
-pub(super) static EXPONENTIAL: LazyLock<Box<Buckets<32768>>> = LazyLock::new(|| {
+pub(super) static EXPONENTIAL: LazyLock<Box<Buckets>> = LazyLock::new(|| {
     let mut thresholds = SRGB.thresholds;
     for t in &mut thresholds[1..] {
         *t = (-(1.0 - f64::from(*t)).ln()) as f32;
