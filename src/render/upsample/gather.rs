@@ -51,11 +51,7 @@ fn encode8(buckets: &Buckets, x: &[f32; 8]) -> __m256i {
 /// through `buckets`: eight pixels at a time, the rest one at a time.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub(super) fn encode_line_avx2(
-    [r, g, b]: [&[f32]; 3],
-    buckets: &Buckets,
-    line: &mut [u8],
-) {
+pub(super) fn encode_line_avx2([r, g, b]: [&[f32]; 3], buckets: &Buckets, line: &mut [u8]) {
     let n = (line.len() / 4).min(r.len()).min(g.len()).min(b.len());
     let whole = n - n % 8;
     // Eight values of each plane as one load (not eight checked scalar reads).

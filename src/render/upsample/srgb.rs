@@ -143,7 +143,10 @@ impl Buckets {
             top,
         });
         let t = &thresholds[1..];
-        assert!(t[0] >= FLOOR_MIN.next_up(), "a threshold in the least bucket");
+        assert!(
+            t[0] >= FLOOR_MIN.next_up(),
+            "a threshold in the least bucket"
+        );
         let last = (top.to_bits() >> BUCKET_SHIFT) - FIRST_BUCKET;
         assert!((last as usize) < BUCKETS, "a top above the table");
         for i in 0..=last {
