@@ -1,6 +1,7 @@
 //! A hostile-input and data-safety audit of `merge`, `stats`, `frame`,
-//! `gap` and `batch`'s paths (the twenty-first session): each test fails
-//! without its fix. Every command runs as a child process, as a user runs it
+//! `gap` and `batch`'s paths (the twenty-first session, and the
+//! thirty-eighth's: an empty manifest, a file of the user's at the lock's
+//! name): each test fails without its fix. Every command runs as a child process, as a user runs it
 //! (renders on lavapipe).
 
 use crate::common;
@@ -11,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use swarmshot::preset::Preset;
 
-use common::cli::{BIN, batch, err, ok, os, run};
+use common::cli::{BIN, batch, batch_args, err, ok, os, run};
 
 /// `swarmshot` with no arguments yet, as [`common::cli::command`] makes it.
 fn swarmshot() -> Command {
@@ -418,4 +419,45 @@ fn an_output_folder_that_is_a_link_to_nothing_is_named_as_such() {
     ]);
     assert!(e.contains(&named), "{e}");
     assert!(!gone.exists(), "made the link's target");
+}
+
+#[test]
+fn stats_of_a_run_stopped_before_its_first_frame_reports_no_frames() {
+    // A batch killed before its first frame leaves an empty manifest.jsonl;
+    // `stats` drew its histograms from no bins and panicked (exit 101). The
+    // report and its plots are those of a dataset of no frames.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path());
+    let plan = tmp.path().join("plan");
+    batch(&file, &plan, &["--labels-only", "--limit", "2"]);
+    for manifest in ["", "  \n\n"] {
+        std::fs::write(plan.join("manifest.jsonl"), manifest).expect("manifest");
+        let said = ok(&[os("stats"), plan.as_os_str()]);
+        assert!(said.contains("| images | 0 |"), "{said}");
+        assert!(plan.join("stats-plots/box_size.png").is_file());
+    }
+}
+
+#[test]
+fn a_users_file_at_the_lock_name_is_refused_not_overwritten_and_deleted() {
+    // The folder lock opened `.swarmshot-lock` for writing whatever stood
+    // there: a user's file of that name was overwritten with the process
+    // id and deleted when the run ended (even a run then refused). Only a
+    // killed run's lock file (empty, or its process id) is taken over.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path());
+    let out = tmp.path().join("out");
+    std::fs::create_dir(&out).expect("mkdir");
+    let lock = out.join(".swarmshot-lock");
+    std::fs::write(&lock, "my notes\n").expect("write");
+    let e = err(&batch_args(&file, &out, &["--labels-only", "--overwrite"]));
+    assert!(
+        e.contains(".swarmshot-lock") && e.contains("not swarmshot's lock file"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&lock).expect("kept"), b"my notes\n");
+    // What a killed run leaves (its process id) is taken over, and gone at the end.
+    std::fs::write(&lock, "4242\n").expect("write");
+    batch(&file, &out, &["--labels-only", "--overwrite"]);
+    assert!(!lock.exists());
 }

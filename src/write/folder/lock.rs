@@ -80,6 +80,12 @@ impl FolderLock {
             if seen.nlink() != 1 {
                 return Err(hard_link_refused(path, seen.nlink()));
             }
+            if !holds_a_pid(&file) {
+                return Err(refused(
+                    path,
+                    "is not swarmshot's lock file (a run's holds only its process id), so it is not taken over",
+                ));
+            }
             let pid = format!("{}\n", std::process::id());
             file.set_len(0)
                 .and_then(|()| file.write_all_at(pid.as_bytes(), 0))
@@ -111,6 +117,18 @@ impl Drop for FolderLock {
             let _ = self.tree.remove_file(LOCK);
         }
     }
+}
+
+/// Whether `file` is empty or holds what a run writes into its lock file,
+/// a process id and a line end: what a killed run leaves is taken over, a
+/// file of anyone else's at that name is not overwritten and deleted.
+fn holds_a_pid(file: &File) -> bool {
+    let mut text = Vec::new();
+    if file.take(33).read_to_end(&mut text).is_err() || text.len() > 32 {
+        return false;
+    }
+    let digits = text.strip_suffix(b"\n").unwrap_or(&text);
+    digits.is_empty() == text.is_empty() && digits.iter().all(u8::is_ascii_digit)
 }
 
 /// The lock call failed because the file system has no locks, not because of a holder.

@@ -89,8 +89,13 @@ pub fn write_histograms(
         }
         v
     };
+    // Up to the last bin with a count (the first bin of an all-zero
+    // histogram; none of an empty one, a dataset of no frames).
     let trim = |v: &[u64]| {
-        let end = v.iter().rposition(|&n| n > 0).map_or(1, |i| i + 1);
+        let end = v
+            .iter()
+            .rposition(|&n| n > 0)
+            .map_or(v.len().min(1), |i| i + 1);
         v[..end].to_vec()
     };
     let plots = [
