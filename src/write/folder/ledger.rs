@@ -35,14 +35,14 @@ pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputErro
         .take(LEDGER_HEADER_BYTES)
         .read_until(b'\n', &mut bytes)
         .map_err(io(path))?;
-    let frames = std::str::from_utf8(&bytes)
+    let run = std::str::from_utf8(&bytes)
         .ok()
-        .and_then(|line| RunId::parse(line.trim_end()))
-        .map_or(0, |run| {
-            run.end()
-                .saturating_sub(run.start())
-                .div_ceil(run.every.max(1))
-        });
+        .and_then(|line| RunId::parse(line.trim_end()));
+    let frames = run.as_ref().map_or(0, |run| {
+        run.end()
+            .saturating_sub(run.start())
+            .div_ceil(run.every.max(1))
+    });
     let cap = (LEDGER_HEADER_BYTES + LEDGER_INPUTS_BYTES).saturating_add(
         frames
             .saturating_add(1)
@@ -50,9 +50,14 @@ pub(super) fn read_ledger(file: File, path: &Path) -> Result<Vec<u8>, OutputErro
     );
     let too_large = |len: u64| OutputError::Ledger {
         path: path.to_owned(),
-        reason: format!(
-            "it is {len} bytes, more than the {cap}-byte limit for the ledger of a {frames}-frame run ({LEDGER_BYTES_PER_FRAME} bytes a frame), so swarmshot did not write it"
-        ),
+        reason: match run {
+            Some(_) => format!(
+                "it is {len} bytes, more than the {cap}-byte limit for the ledger of a {frames}-frame run ({LEDGER_BYTES_PER_FRAME} bytes a frame), so swarmshot did not write it"
+            ),
+            None => format!(
+                "its first line is not a header swarmshot writes (`swarmshot-ledger 1 frames=N preset=…`, with a frame count no preset exceeds and a shard range inside it), and it is {len} bytes, more than a ledger without one may hold ({cap} bytes)"
+            ),
+        },
     };
     if len > cap {
         return Err(too_large(len));
@@ -304,6 +309,42 @@ mod tests {
                 )),
                 "{err}"
             );
+        }
+    }
+
+    #[test]
+    fn a_forged_header_does_not_lift_the_bound() {
+        // A header naming 2^64 − 1 frames (or a shard past its run's end)
+        // set the bound the rest was read within: a sparse 1 GiB ledger
+        // was read whole (a 9 GiB one until memory ran out). Such a header
+        // is no run's, so the ledger is refused unread, saying why.
+        for header in [
+            "swarmshot-ledger 1 frames=18446744073709551615 preset=fnv1a64:0123456789abcdef\n",
+            "swarmshot-ledger 1 frames=200000000 preset=fnv1a64:0123456789abcdef\n",
+            "swarmshot-ledger 1 frames=6 preset=fnv1a64:0123456789abcdef shard=0/2 range=0..18446744073709551615\n",
+            "swarmshot-ledger 1 frames=6 preset=fnv1a64:0123456789abcdef shard=2/2 range=3..6\n",
+        ] {
+            assert!(RunId::parse(header.trim_end()).is_none(), "{header}");
+            let dir = tempfile::tempdir().expect("temp dir");
+            let path = dir.path().join(LEDGER);
+            fs::write(&path, header).expect("ledger");
+            let file = fs::OpenOptions::new()
+                .write(true)
+                .open(&path)
+                .expect("open");
+            file.set_len(1 << 30).expect("set_len");
+            let err = Folder::listed_files(dir.path())
+                .expect_err("refused")
+                .to_string();
+            assert!(err.contains("not a header swarmshot writes"), "{err}");
+        }
+        // The headers runs write still parse.
+        for header in [
+            "swarmshot-ledger 1 frames=100000000 preset=fnv1a64:0123456789abcdef",
+            "swarmshot-ledger 1 frames=6 preset=fnv1a64:0123456789abcdef shard=1/2 range=3..6",
+            "swarmshot-ledger 1 frames=15 preset=fnv1a64:0123456789abcdef every=3",
+        ] {
+            assert!(RunId::parse(header).is_some(), "{header}");
         }
     }
 

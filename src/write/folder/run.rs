@@ -106,7 +106,14 @@ impl RunId {
                 k
             }
         };
-        Some(Self {
+        // What no run writes: more frames than any preset makes, a shard
+        // past its run's end or outside its count (a forged header would
+        // otherwise set the bound the ledger is read within).
+        let plausible = frames <= crate::preset::MAX_FRAMES
+            && shard.as_ref().is_none_or(|s| {
+                s.start <= s.end && s.end <= frames && s.shard.index < s.shard.count
+            });
+        plausible.then_some(Self {
             frames,
             preset_hash,
             shard,
