@@ -68,14 +68,19 @@ pub fn short_number(x: f64) -> String {
     format!("{x:.3e}")
 }
 
-/// Shorten any run of more than 15 digits in `message` (a number echoed
-/// from the input) to its first digits and its length.
+/// Shorten any run of more than 15 digits in `message` that stands as a
+/// number (a number echoed from the input) to its first digits and its
+/// length. A run inside a name (after or before a letter, `/` or `_`: a
+/// path such as `runs/run20241204123456789012/x`) is kept whole, or the
+/// message would name a file that is not there.
 pub fn shorten_digit_runs(message: &str) -> String {
     const MAX_DIGITS: usize = 15;
+    let in_name = |c: Option<char>| c.is_some_and(|c| c.is_alphabetic() || c == '/' || c == '_');
     let mut out = String::with_capacity(message.len().min(4096));
     let mut run = String::new();
-    let flush = |run: &mut String, out: &mut String| {
-        if run.len() > MAX_DIGITS {
+    let mut before = None;
+    let flush = |run: &mut String, out: &mut String, around: [Option<char>; 2]| {
+        if run.len() > MAX_DIGITS && !around.into_iter().any(in_name) {
             let _ = write!(out, "{}…({} digits)", &run[..6], run.len());
         } else {
             out.push_str(run);
@@ -85,12 +90,15 @@ pub fn shorten_digit_runs(message: &str) -> String {
     for c in message.chars() {
         if c.is_ascii_digit() {
             run.push(c);
-        } else {
-            flush(&mut run, &mut out);
-            out.push(c);
+            continue;
         }
+        if !run.is_empty() {
+            flush(&mut run, &mut out, [before, Some(c)]);
+        }
+        before = Some(c);
+        out.push(c);
     }
-    flush(&mut run, &mut out);
+    flush(&mut run, &mut out, [before, None]);
     out
 }
 
@@ -207,6 +215,15 @@ mod tests {
         let long = format!("value {} here", "9".repeat(300));
         let s = shorten_digit_runs(&long);
         assert!(s.len() < 40 && s.contains("300 digits"), "{s}");
+        // A run in a name is kept: the message must name the real file.
+        for path in [
+            "S/run20241204123456789012 is not a dataset",
+            "/tmp/x/12345678901234567890123/y: missing",
+            "frame_00000000000000000001.png",
+        ] {
+            assert_eq!(shorten_digit_runs(path), path);
+        }
+        assert!(shorten_digit_runs("size_m: -1000000000000000000000.5").contains("(22 digits)"));
     }
 
     #[test]

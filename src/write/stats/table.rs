@@ -17,9 +17,9 @@ impl DatasetStats {
             .iter()
             .map(|(r, n)| {
                 if self.resolutions.len() == 1 {
-                    r.clone()
+                    cell(r)
                 } else {
-                    format!("{r} ({n})")
+                    format!("{} ({n})", cell(r))
                 }
             })
             .collect();
@@ -51,6 +51,7 @@ impl DatasetStats {
                 if frames { "---|" } else { "" }
             );
             for (name, b) in map {
+                let name = cell(name);
                 let [sm, me, la] = b.shares_percent();
                 let images = if frames {
                     format!("{} | ", b.frames)
@@ -75,5 +76,30 @@ impl DatasetStats {
             section("hard negative (manifest only)", &self.per_negative, false);
         }
         s
+    }
+}
+
+/// A name read from the dataset as a table cell: no escape byte reaches the
+/// terminal, and no line end or `|` breaks the table.
+fn cell(text: &str) -> String {
+    crate::text::printable(text).replace('|', "\\|")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_name_from_the_manifest_cannot_break_the_table_or_reach_the_terminal() {
+        let mut stats = DatasetStats::default();
+        let name = "a\nb|c\u{1b}[31m";
+        stats.per_model.insert(name.into(), Breakdown::default());
+        let table = stats.table();
+        assert!(!table.contains('\u{1b}'), "{table}");
+        let row = table
+            .lines()
+            .find(|l| l.starts_with("| a"))
+            .expect("the model's row");
+        assert!(row.starts_with("| a\\u{a}b\\|c\\u{1b}[31m | "), "{row}");
     }
 }
