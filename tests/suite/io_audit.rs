@@ -436,6 +436,25 @@ fn stats_of_a_run_stopped_before_its_first_frame_reports_no_frames() {
         assert!(said.contains("| images | 0 |"), "{said}");
         assert!(plan.join("stats-plots/box_size.png").is_file());
     }
+    // A manifest that is a folder is named as such, not as missing.
+    std::fs::remove_file(plan.join("manifest.jsonl")).expect("rm");
+    std::fs::create_dir(plan.join("manifest.jsonl")).expect("mkdir");
+    let e = err(&[os("stats"), plan.as_os_str()]);
+    assert!(e.contains("manifest.jsonl is not a regular file"), "{e}");
+}
+
+#[test]
+fn a_shard_folder_that_is_not_there_is_named_as_missing() {
+    // `merge OUT MISSING` said MISSING "holds no swarmshot run", and a
+    // shard that is a file gave "Not a directory (os error 20)".
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let out = tmp.path().join("out");
+    let missing = tmp.path().join("s0");
+    let e = err(&[os("merge"), out.as_os_str(), missing.as_os_str()]);
+    assert!(e.contains("s0") && e.contains("does not exist"), "{e}");
+    std::fs::write(&missing, "x").expect("write");
+    let e = err(&[os("merge"), out.as_os_str(), missing.as_os_str()]);
+    assert!(e.contains("s0") && e.contains("is not a folder"), "{e}");
 }
 
 #[test]

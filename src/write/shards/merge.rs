@@ -267,6 +267,13 @@ fn read_shards(shards: &[PathBuf]) -> Result<Vec<ShardDir>, MergeError> {
             path: path.clone(),
             reason: reason.into(),
         };
+        match std::fs::metadata(path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(not("it does not exist"));
+            }
+            Ok(m) if !m.is_dir() => return Err(not("it is not a folder")),
+            _ => {}
+        }
         let Some(EarlierRun { run, done, inputs }) = read_run(path)? else {
             return Err(not(&format!("it holds no swarmshot run (no {LEDGER})")));
         };

@@ -11,12 +11,12 @@ use super::{BoxFacts, DatasetStats, FrameFacts};
 #[derive(Debug, thiserror::Error)]
 pub enum StatsError {
     #[error(
-        "{} is not a swarmshot dataset: it has no {missing} (give the folder `swarmshot batch --out` wrote)",
+        "{} is not a swarmshot dataset: {reason} (give the folder `swarmshot batch --out` wrote)",
         path.display()
     )]
     NotADataset {
         path: std::path::PathBuf,
-        missing: &'static str,
+        reason: String,
     },
     #[error("{}: {source}", path.display())]
     Io {
@@ -271,12 +271,17 @@ pub fn read_dataset(dir: &std::path::Path) -> Result<DatasetStats, StatsError> {
         (&manifest_path, "manifest.jsonl"),
         (&lock_path, "preset.lock.ron"),
     ] {
-        if !path.is_file() {
-            return Err(StatsError::NotADataset {
-                path: dir.to_owned(),
-                missing,
-            });
-        }
+        let reason = match std::fs::metadata(path) {
+            Err(_) => format!("it has no {missing}"),
+            Ok(m) if !m.is_file() => {
+                format!("its {missing} is not a regular file (a folder, a device or a pipe)")
+            }
+            Ok(_) => continue,
+        };
+        return Err(StatsError::NotADataset {
+            path: dir.to_owned(),
+            reason,
+        });
     }
     let io = |source| StatsError::Io {
         path: manifest_path.clone(),
