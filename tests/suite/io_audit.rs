@@ -475,6 +475,12 @@ fn a_users_file_at_the_lock_name_is_refused_not_overwritten_and_deleted() {
         "{e}"
     );
     assert_eq!(std::fs::read(&lock).expect("kept"), b"my notes\n");
+    // A folder there is named as such (it was "Is a directory (os error 21)").
+    std::fs::remove_file(&lock).expect("rm");
+    std::fs::create_dir(&lock).expect("mkdir");
+    let e = err(&batch_args(&file, &out, &["--labels-only", "--overwrite"]));
+    assert!(e.contains(".swarmshot-lock: is not a regular file"), "{e}");
+    std::fs::remove_dir(&lock).expect("rmdir");
     // What a killed run leaves (its process id) is taken over, and gone at the end.
     std::fs::write(&lock, "4242\n").expect("write");
     batch(&file, &out, &["--labels-only", "--overwrite"]);

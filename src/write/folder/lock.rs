@@ -39,6 +39,7 @@ impl FolderLock {
             )
             .map_err(|e| match e {
                 rustix::io::Errno::LOOP => link_refused(path.clone()),
+                rustix::io::Errno::ISDIR => refused(path.clone(), "is not a regular file"),
                 e => io(&path)(e.into()),
             })?;
             let file = File::from(fd);
