@@ -486,3 +486,48 @@ fn a_users_file_at_the_lock_name_is_refused_not_overwritten_and_deleted() {
     batch(&file, &out, &["--labels-only", "--overwrite"]);
     assert!(!lock.exists());
 }
+
+#[test]
+fn a_huge_shard_stats_file_is_refused_before_it_is_parsed() {
+    // A shard's stats.json of 70 MB (its content record forged to match)
+    // took 840 MB to parse into values. Over 16 MiB it is refused unread.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path());
+    let parts = [tmp.path().join("s0"), tmp.path().join("s1")];
+    for (k, part) in parts.iter().enumerate() {
+        batch(&file, part, &["--limit", "4", "--shard", &format!("{k}/2")]);
+    }
+    // Valid JSON of 17 MiB, and the ledger's record of stats.json made to match.
+    let big = format!("{{\"pad\": \"{}\"}}", "x".repeat(17 << 20));
+    std::fs::write(parts[0].join("stats.json"), &big).expect("write");
+    let ledger = parts[0].join(".swarmshot-ledger");
+    let text = std::fs::read_to_string(&ledger).expect("ledger");
+    let record = format!(
+        "%{} blake3:{} stats.json",
+        big.len(),
+        blake3::hash(big.as_bytes()).to_hex()
+    );
+    let forged: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.starts_with('%') && l.ends_with(" stats.json") {
+                record.clone()
+            } else {
+                l.to_owned()
+            }
+        })
+        .collect();
+    assert!(forged.contains(&record), "no record of stats.json:\n{text}");
+    std::fs::write(&ledger, forged.join("\n") + "\n").expect("ledger");
+    let out = tmp.path().join("out");
+    let e = err(&[
+        os("merge"),
+        out.as_os_str(),
+        parts[0].as_os_str(),
+        parts[1].as_os_str(),
+    ]);
+    assert!(
+        e.contains("stats.json") && e.contains("larger than any stats.json a run writes"),
+        "{e}"
+    );
+}

@@ -613,12 +613,25 @@ fn add_stats(
     }
     .open("stats.json")?;
     let mut text = String::new();
-    file.read_to_string(&mut text).map_err(|e| bad(e.into()))?;
+    (&mut file)
+        .take(STATS_JSON_MAX_BYTES + 1)
+        .read_to_string(&mut text)
+        .map_err(|e| bad(e.into()))?;
+    if text.len() as u64 > STATS_JSON_MAX_BYTES {
+        return Err(bad(StatsProblem::TooLarge));
+    }
     let theirs: Value = serde_json::from_str(&text).map_err(|e| bad(e.into()))?;
     let mut sum = serde_json::to_value(so_far).map_err(|e| bad(e.into()))?;
     add_counts(&mut sum, &theirs, "").map_err(bad)?;
     serde_json::from_value(sum).map_err(|e| bad(e.into()))
 }
+
+/// The largest shard `stats.json` a merge reads. A run's is a few KiB to a
+/// few hundred (its histograms' bins and its breakdowns' names are bounded
+/// by its preset); parsed into JSON values a file takes about twelve times
+/// its size, so a larger one (its content record forged to match) is
+/// refused before it is parsed.
+const STATS_JSON_MAX_BYTES: u64 = 16 << 20;
 
 /// Why a shard's `stats.json` cannot be added to the sum.
 #[derive(Debug, thiserror::Error)]
@@ -627,6 +640,8 @@ pub enum StatsProblem {
     Read(#[from] std::io::Error),
     #[error("{0}")]
     Json(#[from] serde_json::Error),
+    #[error("it is larger than any stats.json a run writes ({} MiB)", STATS_JSON_MAX_BYTES >> 20)]
+    TooLarge,
     #[error("{at} is not a count ({sum} + {add})")]
     NotACount { at: String, sum: Value, add: Value },
     #[error("{at} overflows")]
