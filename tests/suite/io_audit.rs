@@ -531,3 +531,27 @@ fn a_huge_shard_stats_file_is_refused_before_it_is_parsed() {
         "{e}"
     );
 }
+
+#[test]
+fn a_ledger_whose_checkpoint_lies_past_its_runs_end_is_refused() {
+    // The header's frame count edited below the last checkpoint (frames=2
+    // under a checkpoint at frame 8): `--resume` said "already complete"
+    // and marked the folder done with the frames past that end in it.
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let file = preset_file(tmp.path());
+    let plan = tmp.path().join("plan");
+    batch(&file, &plan, &["--labels-only"]);
+    let ledger = plan.join(".swarmshot-ledger");
+    let text = std::fs::read_to_string(&ledger).expect("ledger");
+    let (header, rest) = text.split_once('\n').expect("a header");
+    assert!(header.contains(" frames=8 "), "{header}");
+    let edited = header.replace(" frames=8 ", " frames=2 ");
+    std::fs::write(&ledger, format!("{edited}\n{rest}")).expect("ledger");
+    let before = common::files_under(&plan);
+    let e = err(&batch_args(&file, &plan, &["--labels-only", "--resume"]));
+    assert!(
+        e.contains(".swarmshot-ledger") && e.contains("past the end of its run (2 frames)"),
+        "{e}"
+    );
+    assert_eq!(common::files_under(&plan), before, "changed the folder");
+}

@@ -48,6 +48,28 @@ fn preflight(
     Ok(())
 }
 
+/// Refuse a ledger whose last checkpoint lies past the end of the run its
+/// header names (its frame count edited, or the checkpoint): continued, the
+/// run would be marked done with the frames past that end, or a count of
+/// frames it never wrote. A run's last frame's successor lies at most a
+/// step (`--every`) past its end.
+fn past_its_end(root: &Path, scan: &LedgerScan) -> Result<(), OutputError> {
+    let Some(next) = scan.checkpoint.as_ref().map(|c| c.next) else {
+        return Ok(());
+    };
+    let end = scan.run.end();
+    if next < end.saturating_add(scan.run.every.max(1)) {
+        return Ok(());
+    }
+    Err(OutputError::Ledger {
+        path: root.join(LEDGER),
+        reason: format!(
+            "its last checkpoint is at frame {next}, past the end of its run ({}), so it was changed after swarmshot wrote it; nothing was written; pass --overwrite to make the run again (files swarmshot did not write are kept)",
+            scan.run.describe()
+        ),
+    })
+}
+
 /// Refuse a file in one of the dataset's folders (`needed` entries ending in
 /// `/`) named as a frame's files are (eight digits or more, then an
 /// extension) that is not among the earlier run's frame files (`listed`, the
@@ -202,6 +224,7 @@ impl Folder {
             every: mode.every.unwrap_or(scan.run.every).max(1),
         };
         if scan.run == run && !mode.overwrite {
+            past_its_end(root, &scan)?;
             let changed = changed_inputs(&scan.inputs, inputs);
             if !changed.is_empty() {
                 return Err(OutputError::InputsChanged {
