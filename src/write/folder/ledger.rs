@@ -282,6 +282,10 @@ mod tests {
         fs::write(dir.path().join(LEDGER), "").expect("ledger");
         let err = read_run(dir.path()).expect_err("refused").to_string();
         assert!(err.contains("it is empty"), "{err}");
+        assert!(
+            err.contains("choose another folder, or clear this one by hand"),
+            "{err}"
+        );
     }
 
     #[test]

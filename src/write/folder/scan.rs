@@ -69,9 +69,15 @@ impl Folder {
             reason: reason.into(),
         };
         let mut lines = text.split_inclusive('\n');
-        let header = lines.next().ok_or_else(|| corrupt("it is empty"))?;
-        let run = RunId::parse(header.trim_end())
-            .ok_or_else(|| corrupt("its first line is not a swarmshot-ledger 1 header"))?;
+        // Without its header a ledger tells nothing (not even which files
+        // are swarmshot's, which --overwrite would delete): say what to do.
+        const WAY: &str = "; which of the folder's files swarmshot wrote is not known, so nothing was written: choose another folder, or clear this one by hand";
+        let header = (lines.next()).ok_or_else(|| corrupt(&format!("it is empty{WAY}")))?;
+        let run = RunId::parse(header.trim_end()).ok_or_else(|| {
+            corrupt(&format!(
+                "its first line is not a swarmshot-ledger 1 header{WAY}"
+            ))
+        })?;
         // The inputs' records, written with the header, belong to it.
         let mut inputs = Vec::new();
         let mut offset = header.len();
