@@ -69,15 +69,8 @@ impl Folder {
             reason: reason.into(),
         };
         let mut lines = text.split_inclusive('\n');
-        // Without its header a ledger tells nothing (not even which files
-        // are swarmshot's, which --overwrite would delete): say what to do.
-        const WAY: &str = "; which of the folder's files swarmshot wrote is not known, so nothing was written: choose another folder, or clear this one by hand";
-        let header = (lines.next()).ok_or_else(|| corrupt(&format!("it is empty{WAY}")))?;
-        let run = RunId::parse(header.trim_end()).ok_or_else(|| {
-            corrupt(&format!(
-                "its first line is not a swarmshot-ledger 1 header{WAY}"
-            ))
-        })?;
+        let header = lines.next().unwrap_or_default();
+        let run = header_run(header).map_err(|reason| corrupt(&reason))?;
         // The inputs' records, written with the header, belong to it.
         let mut inputs = Vec::new();
         let mut offset = header.len();
@@ -180,4 +173,16 @@ impl Folder {
         scan.owned.extend(frame_files);
         Ok(scan)
     }
+}
+
+/// The run a ledger's first line names, or why there is none. Without its
+/// header a ledger tells nothing, not even which files are swarmshot's (what
+/// `--overwrite` would delete), so the refusal says what to do.
+fn header_run(header: &str) -> Result<RunId, String> {
+    const WAY: &str = "which of the folder's files swarmshot wrote is not known, so nothing was written: choose another folder, or clear this one by hand";
+    if header.is_empty() {
+        return Err(format!("it is empty; {WAY}"));
+    }
+    RunId::parse(header.trim_end())
+        .ok_or_else(|| format!("its first line is not a swarmshot-ledger 1 header; {WAY}"))
 }
