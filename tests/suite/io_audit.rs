@@ -25,6 +25,17 @@ fn preset_file(dir: &Path) -> PathBuf {
     common::preset_file(dir, &p, "p.ron")
 }
 
+/// The first 4 frames of `preset` as two shards, into `parts[0]` and `parts[1]`.
+fn two_shards(preset: &Path, parts: &[PathBuf]) {
+    for (k, part) in parts.iter().enumerate() {
+        batch(
+            preset,
+            part,
+            &["--limit", "4", "--shard", &format!("{k}/2")],
+        );
+    }
+}
+
 /// `frame PRESET --index 1 --out OUT`, which must fail; returns its standard error.
 fn frame_refused(preset: &Path, out: &Path) -> String {
     err(&[
@@ -87,9 +98,7 @@ fn merge_never_writes_into_a_shard_inside_its_output_folder() {
     let file = preset_file(tmp.path());
     let out = tmp.path().join("out");
     let parts = [out.join("labels"), out.join("s1")];
-    for (k, part) in parts.iter().enumerate() {
-        batch(&file, part, &["--limit", "4", "--shard", &format!("{k}/2")]);
-    }
+    two_shards(&file, &parts);
     let before = common::files_under(&parts[0]);
     let e = err(&[
         os("merge"),
@@ -279,9 +288,7 @@ fn a_shard_file_replaced_while_merge_runs_is_not_joined() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let file = preset_file(tmp.path());
     let parts: Vec<PathBuf> = (0..2).map(|k| tmp.path().join(format!("s{k}"))).collect();
-    for (k, part) in parts.iter().enumerate() {
-        batch(&file, part, &["--limit", "4", "--shard", &format!("{k}/2")]);
-    }
+    two_shards(&file, &parts);
     let out = tmp.path().join("merged");
     let barrier = tmp.path().join("go");
     // Stopped after shard 0's records, before its checkpoint (frames 0..2).
@@ -494,9 +501,7 @@ fn a_huge_shard_stats_file_is_refused_before_it_is_parsed() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let file = preset_file(tmp.path());
     let parts = [tmp.path().join("s0"), tmp.path().join("s1")];
-    for (k, part) in parts.iter().enumerate() {
-        batch(&file, part, &["--limit", "4", "--shard", &format!("{k}/2")]);
-    }
+    two_shards(&file, &parts);
     // Valid JSON of 17 MiB, and the ledger's record of stats.json made to match.
     let big = format!("{{\"pad\": \"{}\"}}", "x".repeat(17 << 20));
     std::fs::write(parts[0].join("stats.json"), &big).expect("write");
