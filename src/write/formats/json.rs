@@ -48,27 +48,22 @@ impl Json<'_> {
     /// shortest form is the decimal n / 10^k itself: written from the
     /// integer n without a float printer. Anything else takes [`Json::f64`].
     pub fn rounded(&mut self, x: f64, k: Decimals) {
-        let scale = k.scale();
-        let y = x * scale;
+        let y = x * k.scale();
         // ≥ 1e-5 · 10^k, and below 2^51: the float's spacing is under half of 10^-k.
-        let Some(n) = round_below_2_51(y).filter(|n| n.unsigned_abs() as f64 >= scale * 1e-5)
-        else {
-            self.f64(y.round() / scale);
+        let Some(n) = round_below_2_51(y).filter(|n| n.unsigned_abs() >= k.fixed_from()) else {
+            self.f64(y.round() / k.scale());
             return;
         };
         let u = n.unsigned_abs();
-        // Digits written in place after '0's (the numbers are ≤ 19 bytes long:
-        // sign, ten digits, point, six; or four digits, point, twelve), then
-        // cut back: no copy through a stack buffer, whose small stores a
-        // wide load would wait for.
+        // Digits written in place as whole words over a zeroed tail (the
+        // numbers are ≤ 19 bytes long: sign, ten digits, point, six; or
+        // four digits, point, twelve), then cut back: no copy through a
+        // stack buffer, whose small stores a wide load would wait for.
         let len = self.out.len();
-        self.out.resize(len + 32, b'0');
+        self.out.resize(len + 32, 0);
         let buf = &mut self.out[len..];
-        let mut at = 0;
-        if n < 0 {
-            buf[0] = b'-';
-            at = 1;
-        }
+        let mut at = usize::from(n < 0);
+        buf[0] = b'-';
         // Constant divisors: multiplications, not divisions.
         let (int, frac) = match k {
             Decimals::Six => (u / 1_000_000, u % 1_000_000),
@@ -79,26 +74,23 @@ impl Json<'_> {
         buf[at] = b'.';
         at += 1;
         if frac == 0 {
-            // The zero after the point: buf is all zeros there.
+            buf[at] = b'0';
             at += 1;
         } else {
-            let start = at;
-            // Six digits at a time (10^6 < 2^32): no division by a variable.
+            // Six digits at a time (10^6 < 2^32); the last run's trailing
+            // zeros cut off.
             let (hi, lo) = ((frac / 1_000_000) as u32, (frac % 1_000_000) as u32);
-            match k {
-                Decimals::Six => six_digits(&mut buf[at..], lo),
-                Decimals::Nine => {
-                    three_digits(&mut buf[at..], hi);
-                    six_digits(&mut buf[at + 3..], lo);
-                }
-                Decimals::Twelve => {
-                    six_digits(&mut buf[at..], hi);
-                    six_digits(&mut buf[at + 6..], lo);
-                }
-            }
-            at += k as usize;
-            while at > start && buf[at - 1] == b'0' {
-                at -= 1;
+            let (head, head_len) = match k {
+                Decimals::Six => (0, 0),
+                Decimals::Nine => (three_digit_word(hi), 3),
+                Decimals::Twelve => (six_digit_word(hi), 6),
+            };
+            if lo == 0 {
+                at += put_trimmed(&mut buf[at..], head, head_len);
+            } else {
+                buf[at..at + 8].copy_from_slice(&head.to_le_bytes());
+                at += head_len;
+                at += put_trimmed(&mut buf[at..], six_digit_word(lo), 6);
             }
         }
         self.out.truncate(len + at);
@@ -163,55 +155,92 @@ impl Decimals {
             Self::Twelve => 1e12,
         }
     }
+
+    /// The least integer n with `n as f64 ≥ 1e-5 · 10^k` (serde_json writes
+    /// n / 10^k in fixed notation from there on).
+    fn fixed_from(self) -> u64 {
+        const fn least_at_or_above(c: f64) -> u64 {
+            let t = c as u64;
+            if (t as f64) < c { t + 1 } else { t }
+        }
+        const SIX: u64 = least_at_or_above(1e6 * 1e-5);
+        const NINE: u64 = least_at_or_above(1e9 * 1e-5);
+        const TWELVE: u64 = least_at_or_above(1e12 * 1e-5);
+        match self {
+            Self::Six => SIX,
+            Self::Nine => NINE,
+            Self::Twelve => TWELVE,
+        }
+    }
 }
 
-/// "00" … "99".
-const PAIRS: [u8; 200] = {
-    let mut t = [0u8; 200];
+/// "00" … "99", each as the little-endian word of its two ASCII digits.
+const PAIRS: [u16; 100] = {
+    let mut t = [0u16; 100];
     let mut i = 0;
     while i < 100 {
-        t[2 * i] = b'0' + (i / 10) as u8;
-        t[2 * i + 1] = b'0' + (i % 10) as u8;
+        t[i] = (b'0' + (i / 10) as u8) as u16 | ((b'0' + (i % 10) as u8) as u16) << 8;
         i += 1;
     }
     t
 };
 
-fn two_digits(buf: &mut [u8], v: u32) {
-    let i = 2 * (v as usize % 100);
-    buf[..2].copy_from_slice(&PAIRS[i..i + 2]);
+/// `v` < 100 as two ASCII digits, first digit in the low byte.
+fn pair(v: u32) -> u64 {
+    u64::from(PAIRS[v as usize % 100])
 }
 
-/// `v` < 1000 as exactly three digits.
-fn three_digits(buf: &mut [u8], v: u32) {
-    buf[0] = b'0' + (v / 100 % 10) as u8;
-    two_digits(&mut buf[1..], v % 100);
+/// `v` < 1000 as three ASCII digits in the low bytes of a word, first digit lowest.
+fn three_digit_word(v: u32) -> u64 {
+    u64::from(b'0' + (v / 100 % 10) as u8) | pair(v % 100) << 8
+}
+
+/// `v` < 10^6 as six ASCII digits in the low bytes of a word, first digit lowest.
+fn six_digit_word(v: u32) -> u64 {
+    pair(v / 10_000) | pair(v / 100 % 100) << 16 | pair(v % 100) << 32
+}
+
+/// The first `digits` (≤ 8) bytes of `word` less its trailing '0's (at
+/// least one digit is not '0'), written as a whole word at the start of
+/// `buf` (at least 8 long); returns how many count.
+fn put_trimmed(buf: &mut [u8], word: u64, digits: usize) -> usize {
+    let ascii_zeros = 0x3030_3030_3030_3030u64 >> (64 - 8 * digits);
+    // The digits' values, the last one in the top byte: a zero byte for each '0'.
+    let values = (word ^ ascii_zeros) << (64 - 8 * digits);
+    buf[..8].copy_from_slice(&word.to_le_bytes());
+    digits - (values.leading_zeros() / 8) as usize
 }
 
 /// `v` < 10^6 as exactly six digits.
 fn six_digits(buf: &mut [u8], v: u32) {
-    two_digits(buf, v / 10_000);
-    two_digits(&mut buf[2..], v / 100 % 100);
-    two_digits(&mut buf[4..], v % 100);
+    buf[..6].copy_from_slice(&six_digit_word(v).to_le_bytes()[..6]);
 }
 
-/// `v` in decimal at the start of `buf` (at least as long as `v`'s
-/// digits), written in place from its last digit; returns its length.
-fn integer_digits(buf: &mut [u8], mut v: u64) -> usize {
+/// `v` in decimal at the start of `buf` (at least 8 longer than `v`'s
+/// digits); returns its length. Below 10^4 (nearly every number of the
+/// records) one word of four digits, shifted past its leading zeros.
+fn integer_digits(buf: &mut [u8], v: u64) -> usize {
+    if v < 10_000 {
+        let len = 1 + usize::from(v >= 10) + usize::from(v >= 100) + usize::from(v >= 1000);
+        let v = v as u32;
+        let word = pair(v / 100) | pair(v % 100) << 16;
+        buf[..8].copy_from_slice(&(word >> (8 * (4 - len))).to_le_bytes());
+        return len;
+    }
     let mut len = 1;
     let mut rest = v;
     while rest >= 10 {
         rest /= 10;
         len += 1;
     }
-    let mut at = len;
+    let (mut at, mut v) = (len, v);
     while v >= 100 {
         at -= 2;
-        two_digits(&mut buf[at..], (v % 100) as u32);
+        buf[at..at + 2].copy_from_slice(&PAIRS[(v % 100) as usize].to_le_bytes());
         v /= 100;
     }
     if v >= 10 {
-        two_digits(buf, v as u32);
+        buf[..2].copy_from_slice(&PAIRS[v as usize].to_le_bytes());
     } else {
         buf[0] = b'0' + v as u8;
     }

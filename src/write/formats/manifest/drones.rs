@@ -115,9 +115,17 @@ fn write_look(j: &mut Json<'_>, look: &crate::scene::realism::DroneLook) {
 
 pub(crate) fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
     j.raw(b"{\"amodal_xyxy\":");
+    let amodal = j.out.len();
     write_xyxy(j, &l.amodal);
+    let amodal = amodal..j.out.len();
     j.raw(b",\"bbox_xyxy\":");
-    write_xyxy(j, &l.bbox);
+    if bits(&l.bbox) == bits(&l.amodal) {
+        // The training box is the amodal one (Amodal boxes, whole in the
+        // image): the same numbers, so the same bytes.
+        j.out.extend_from_within(amodal);
+    } else {
+        write_xyxy(j, &l.bbox);
+    }
     j.raw(b",\"distance_m\":");
     j.rounded(l.distance_m, Decimals::Six);
     j.raw(b",\"paper_aabb_xyxy\":");
@@ -153,6 +161,11 @@ pub(crate) fn write_label(j: &mut Json<'_>, l: &DroneLabel) {
 /// A box's corners `[x0,y0,x1,y1]`, each rounded to 1e-6 px (`box_xyxy`).
 fn write_xyxy(j: &mut Json<'_>, b: &crate::annotate::PixelBox) {
     j.rounded_all(&[b.x0, b.y0, b.x1, b.y1], Decimals::Six);
+}
+
+/// A box's corners' bit patterns (equal patterns write equal bytes).
+fn bits(b: &crate::annotate::PixelBox) -> [u64; 4] {
+    [b.x0, b.y0, b.x1, b.y1].map(f64::to_bits)
 }
 
 /// A label status as serde writes it (`rename_all = "lowercase"`).
