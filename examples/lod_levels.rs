@@ -1,4 +1,5 @@
-//! Prints each built-in model's levels of detail: triangles, error bound, build time.
+//! Prints each built-in model's levels of detail (triangles, error bound, build time) and
+//! the time of its exact convex hull (what `src/model/hull_cache.rs` keeps between runs).
 //! Run: `cargo run --release --example lod_levels [FILE.glb ...]`.
 #![allow(clippy::unwrap_used)]
 use std::path::Path;
@@ -22,5 +23,19 @@ fn main() {
             .map(|l| format!("{} ({:.4})", l.triangle_count(), l.error))
             .collect();
         println!("{}: built in {ms:.0} ms: {}", m.name, levels.join(", "));
+        let mut seen = std::collections::HashSet::new();
+        let points: Vec<glam::DVec3> = (m.indices.iter())
+            .map(|&i| m.vertices[i as usize].position)
+            .filter(|p| seen.insert(p.map(f32::to_bits)))
+            .map(|p| glam::DVec3::from(p.map(f64::from)))
+            .collect();
+        let t = Instant::now();
+        let hull = swarmshot::model::convex_hull_vertices(&points);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        println!(
+            "  hull: {} of {} positions in {ms:.1} ms",
+            hull.len(),
+            points.len()
+        );
     }
 }

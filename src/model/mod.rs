@@ -23,6 +23,7 @@ pub mod builtin;
 pub mod confusers;
 mod flatten;
 mod hull;
+pub mod hull_cache;
 pub mod impostor;
 pub mod impostor_cache;
 pub mod lod;
@@ -751,7 +752,7 @@ fn finish(
         v.position = p.as_vec3().to_array();
     }
     let used: Vec<DVec3> = unique_used_positions(&vertices, &indices);
-    let hull = convex_hull_vertices(&used);
+    let hull = hull_cache::cached_hull(&used);
     Ok(CpuModel {
         name: name.to_string(),
         vertices,
