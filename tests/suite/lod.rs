@@ -132,3 +132,45 @@ fn small_drones_are_drawn_coarser_within_a_pixel_of_the_full_mesh() {
     }
     assert!(compared >= 20, "only {compared} boxes compared");
 }
+
+/// What a run builds for a model and keeps between runs (levels of detail,
+/// convex hull: `model::lod_cache`, `model::hull_cache`) never changes its
+/// outputs: a batch with the cache off, with a cold one (which it fills)
+/// and with that one warm writes the same dataset.
+#[test]
+fn a_batch_writes_the_same_dataset_with_the_cache_off_cold_and_warm() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let file = common::preset_file(dir.path(), &preset(0.5), "lod.ron");
+    let cache = dir.path().join("cache");
+    let run = |out: &str, cache_dir: &std::ffi::OsStr| {
+        let out = dir.path().join(out);
+        let args = common::cli::batch_args(&file, &out, &["--limit", "3"]);
+        let o = common::cli::command(&args)
+            .env("SWARMSHOT_CACHE_DIR", cache_dir)
+            .output()
+            .expect("run swarmshot");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    let off = run("off", "off".as_ref());
+    let cold = run("cold", cache.as_os_str());
+    let kinds: Vec<String> = std::fs::read_dir(cache.join("lod"))
+        .expect("the cold run fills the cache")
+        .map(|e| {
+            e.expect("entry")
+                .path()
+                .extension()
+                .map(|x| x.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        })
+        .collect();
+    for kind in ["lod", "hull"] {
+        assert!(
+            kinds.iter().any(|k| k == kind),
+            "no .{kind} file in {kinds:?}"
+        );
+    }
+    let warm = run("warm", cache.as_os_str());
+    common::assert_same_dataset(&off, &cold, "a cold cache");
+    common::assert_same_dataset(&off, &warm, "a warm cache");
+}
