@@ -131,11 +131,10 @@ pub fn decode(bytes: &[u8], key: &[u8; 32], points: &[DVec3]) -> Option<Vec<DVec
 fn read(file: &Path, key: &[u8; 32], points: &[DVec3]) -> Option<Vec<DVec3>> {
     // No hull has more vertices than the points: a larger file is not ours.
     let limit = 8 + 32 + 4 + points.len() as u64 * 24 + 32;
-    let meta = std::fs::metadata(file).ok()?;
-    if !meta.is_file() || meta.len() > limit {
-        return None;
-    }
-    decode(&std::fs::read(file).ok()?, key, points)
+    // A regular file of at most `limit` bytes, opened without blocking (a
+    // FIFO swapped in at the name neither blocks nor is read).
+    let bytes = crate::input::read_input_file(file, limit).ok()?;
+    decode(&bytes, key, points)
 }
 
 #[cfg(test)]
@@ -214,6 +213,17 @@ mod tests {
             decode(&std::fs::read(&file).expect("rewritten"), &k, &points),
             Some(computed)
         );
+        // A FIFO at the name is not opened for reading (it would block): computed over.
+        std::fs::remove_file(&file).expect("remove");
+        rustix::fs::mknodat(
+            rustix::fs::CWD,
+            &file,
+            rustix::fs::FileType::Fifo,
+            rustix::fs::Mode::from_raw_mode(0o644),
+            0,
+        )
+        .expect("mkfifo");
+        assert_eq!(cached_hull_in(Some(dir.path()), &points).len(), hull.len());
         let mut moved = points.clone();
         moved[0].x += 0.5;
         assert_ne!(key(&moved), k);

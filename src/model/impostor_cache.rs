@@ -130,9 +130,8 @@ pub fn decode(bytes: &[u8], key: &[u8; 32], model: &CpuModel) -> Option<Impostor
 
 /// The impostor in `file` when it is a valid cache file for `model`.
 fn read(file: &Path, key: &[u8; 32], model: &CpuModel) -> Option<Impostor> {
-    let meta = std::fs::metadata(file).ok()?;
-    if !meta.is_file() || meta.len() != file_len() as u64 {
-        return None;
-    }
-    decode(&std::fs::read(file).ok()?, key, model)
+    // A regular file no longer than ours, opened without blocking (a FIFO
+    // swapped in at the name neither blocks nor is read).
+    let bytes = crate::input::read_input_file(file, file_len() as u64).ok()?;
+    decode(&bytes, key, model)
 }

@@ -225,11 +225,10 @@ fn read(file: &Path, key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>> {
     // No level has more indices or draws than the model: a larger file is not ours.
     let per_level = model.indices.len() as u64 * 4 + model.draws.len() as u64 * 12 + 12;
     let limit = 1024 + lod::MAX_LEVELS as u64 * per_level;
-    let meta = std::fs::metadata(file).ok()?;
-    if !meta.is_file() || meta.len() > limit {
-        return None;
-    }
-    decode(&std::fs::read(file).ok()?, key, model)
+    // A regular file of at most `limit` bytes, opened without blocking (a
+    // FIFO swapped in at the name neither blocks nor is read).
+    let bytes = crate::input::read_input_file(file, limit).ok()?;
+    decode(&bytes, key, model)
 }
 
 /// Write `bytes` to `file` in `dir`: a temporary file beside it, then a rename.
