@@ -560,3 +560,39 @@ fn a_ledger_whose_checkpoint_lies_past_its_runs_end_is_refused() {
     );
     assert_eq!(common::files_under(&plan), before, "changed the folder");
 }
+
+/// A model cache pointed at the output folder (or an output folder inside
+/// the cache) is refused before anything is written, naming the variable:
+/// loading the models would have put the cache's files in the folder, and
+/// every run after would have found it not empty.
+#[test]
+fn a_batch_whose_output_folder_holds_the_model_cache_is_refused_before_writing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let preset = preset_file(dir.path());
+    let cache = dir.path().join("cache");
+    for out in [cache.clone(), cache.join("lod").join("set")] {
+        let o = swarmshot()
+            .args(batch_args(&preset, &out, &[]))
+            .env("SWARMSHOT_CACHE_DIR", &cache)
+            .output()
+            .expect("run swarmshot");
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{}: {e}", out.display());
+        assert!(
+            e.contains("SWARMSHOT_CACHE_DIR") && e.contains("model cache"),
+            "{e}"
+        );
+        assert!(
+            !cache.exists(),
+            "{}: the cache folder was written",
+            out.display()
+        );
+    }
+    // The same folders with the cache elsewhere are fine.
+    let o = swarmshot()
+        .args(batch_args(&preset, &cache, &["--limit", "1"]))
+        .env("SWARMSHOT_CACHE_DIR", dir.path().join("elsewhere"))
+        .output()
+        .expect("run swarmshot");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
