@@ -33,32 +33,6 @@ pub(crate) fn run(args: BatchArgs) -> anyhow::Result<()> {
     batch(&args, options)
 }
 
-/// Refuse an output folder that holds the model cache or lies inside it
-/// (`SWARMSHOT_CACHE_DIR` pointed at `--out`): loading the models would put
-/// the cache's files among the dataset's, and the folder, then not empty,
-/// would be refused on every run.
-fn check_cache_apart(out_dir: &std::path::Path) -> anyhow::Result<()> {
-    let Some(cache) = swarmshot::model::lod_cache::cache_dir() else {
-        return Ok(());
-    };
-    let canonical = swarmshot::input::canonical_as_far_as_it_exists;
-    let (Ok(cache), Ok(out)) = (canonical(&cache), canonical(out_dir)) else {
-        return Ok(());
-    };
-    if !(cache.starts_with(&out) || out.starts_with(&cache)) {
-        return Ok(());
-    }
-    let set_by = match std::env::var_os(swarmshot::model::lod_cache::CACHE_ENV) {
-        Some(_) => "SWARMSHOT_CACHE_DIR",
-        None => "the user's cache folder",
-    };
-    anyhow::bail!(
-        "--out {}: the model cache {} (from {set_by}) would lie inside the output folder or hold it; choose another output folder, or set SWARMSHOT_CACHE_DIR to another folder (or to off)",
-        out_dir.display(),
-        cache.display()
-    )
-}
-
 /// The run: refused before anything is written when it cannot be made, then
 /// every frame through [`run_batch`] with a progress bar, stopped cleanly on a signal.
 fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
@@ -73,7 +47,8 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
         );
     }
     super::process::check_open_files("batch")?;
-    check_cache_apart(&options.out_dir)?;
+    // Before the models load and fill the cache (`run_batch` checks again, for the app).
+    swarmshot::pipeline::check_cache_apart(&options.out_dir)?;
     let ((pipeline, frames), ctx) = with_gpu_starting(|| {
         let pipeline = FramePipeline::open(preset)?;
         print_warnings(&pipeline);

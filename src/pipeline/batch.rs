@@ -283,6 +283,33 @@ fn check_every(options: &BatchOptions, preset: &crate::preset::Preset) -> anyhow
     }
 }
 
+/// Refuse an output folder that holds the model cache or lies inside it
+/// (`SWARMSHOT_CACHE_DIR` pointed at `--out`): loading the models would put
+/// the cache's files among the dataset's, and the folder, then not empty,
+/// would be refused on every run. [`run_batch`] checks it; the command line
+/// also before it loads the models.
+pub fn check_cache_apart(out_dir: &std::path::Path) -> anyhow::Result<()> {
+    let Some(cache) = crate::model::lod_cache::cache_dir() else {
+        return Ok(());
+    };
+    let canonical = crate::input::canonical_as_far_as_it_exists;
+    let (Ok(cache), Ok(out)) = (canonical(&cache), canonical(out_dir)) else {
+        return Ok(());
+    };
+    if !(cache.starts_with(&out) || out.starts_with(&cache)) {
+        return Ok(());
+    }
+    let set_by = match std::env::var_os(crate::model::lod_cache::CACHE_ENV) {
+        Some(_) => "SWARMSHOT_CACHE_DIR",
+        None => "the user's cache folder",
+    };
+    anyhow::bail!(
+        "output folder {}: the model cache {} (from {set_by}) would lie inside it or hold it; choose another output folder, or set SWARMSHOT_CACHE_DIR to another folder (or to off)",
+        out_dir.display(),
+        cache.display()
+    )
+}
+
 /// Run a batch. `cancel` may be set from another thread at any time.
 pub fn run_batch(
     pipeline: &FramePipeline,
@@ -297,6 +324,7 @@ pub fn run_batch(
         .check_render_budget()
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     check_every(options, preset)?;
+    check_cache_apart(&options.out_dir)?;
     let count = pipeline.frame_count();
     // Only --resume takes the earlier trial's step; a new run says its own.
     let every = match (options.every, options.resume) {

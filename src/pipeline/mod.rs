@@ -47,7 +47,7 @@ use crate::scene::{FrameError, FrameScene, MAX_DRAWS, build_frame, build_frame_d
 use crate::sensor::CameraDraw;
 use crate::sky::{EnvironmentAssets, EnvironmentError};
 
-pub use batch::{BatchOptions, BatchReport, Progress, run_batch};
+pub use batch::{BatchOptions, BatchReport, Progress, check_cache_apart, run_batch};
 pub use plan::{PlanOptions, PlanReport, run_plan};
 
 /// Why a pipeline could not be built or a frame not made.
