@@ -23,12 +23,7 @@ fn main() {
             .map(|l| format!("{} ({:.4})", l.triangle_count(), l.error))
             .collect();
         println!("{}: built in {ms:.0} ms: {}", m.name, levels.join(", "));
-        let mut seen = std::collections::HashSet::new();
-        let points: Vec<glam::DVec3> = (m.indices.iter())
-            .map(|&i| m.vertices[i as usize].position)
-            .filter(|p| seen.insert(p.map(f32::to_bits)))
-            .map(|p| glam::DVec3::from(p.map(f64::from)))
-            .collect();
+        let points = swarmshot::model::unique_used_positions(&m.vertices, &m.indices);
         let t = Instant::now();
         let hull = swarmshot::model::convex_hull_vertices(&points);
         let ms = t.elapsed().as_secs_f64() * 1e3;

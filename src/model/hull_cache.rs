@@ -146,12 +146,7 @@ mod tests {
     fn cloud(name: &str) -> Vec<DVec3> {
         let bytes = crate::model::builtin::glb(name).expect("built-in");
         let model = crate::model::load_bytes(bytes, None, Path::new(name), name).expect("loads");
-        let mut seen = HashSet::new();
-        (model.indices.iter())
-            .map(|&i| model.vertices[i as usize].position)
-            .filter(|p| seen.insert(p.map(f32::to_bits)))
-            .map(|p| DVec3::from(p.map(f64::from)))
-            .collect()
+        crate::model::unique_used_positions(&model.vertices, &model.indices)
     }
 
     /// A miss computes the hull and writes the file; a hit reads back

@@ -766,7 +766,9 @@ fn finish(
     })
 }
 
-fn unique_used_positions(vertices: &[Vertex], indices: &[u32]) -> Vec<DVec3> {
+/// Each position the triangles `indices` use, once, in first-use order:
+/// what a model's convex hull is made of.
+pub fn unique_used_positions(vertices: &[Vertex], indices: &[u32]) -> Vec<DVec3> {
     let mut seen = std::collections::HashSet::new();
     let mut out = Vec::new();
     for &i in indices {
