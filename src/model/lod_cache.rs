@@ -1,8 +1,11 @@
-//! The levels of detail of a model, kept on disk between runs: building
-//! them ([`super::lod::build_lods`]: meshoptimizer plus a sampled Hausdorff
-//! bound per level) costs a preset with a detailed glTF model about 0.3 s
-//! of CPU at start-up (9 434 triangles; ≈ 3 s before the bound's
-//! shortcuts), reading them back a few ms.
+//! The levels of detail of a model and the error bounds found so far, kept
+//! on disk between runs: building the levels ([`super::lod::build_lods`],
+//! meshoptimizer) costs a preset with a detailed glTF model about 75 ms of
+//! CPU at start-up (9 434 triangles), their sampled Hausdorff bounds about
+//! 230 ms more when every one is needed, reading them back a few ms. The
+//! file is written when the levels are built and again after each pick
+//! that found new bounds ([`LodChain::on_bound`]), so a later run finds
+//! what the runs before it needed.
 //!
 //! The cache folder is `$SWARMSHOT_CACHE_DIR/lod` when that variable is
 //! set (empty or `off`: no cache at all, nothing read or written), else
@@ -17,10 +20,11 @@
 //! Files are written atomically (a temporary file in the folder, then a
 //! rename) and read defensively: the magic, the key, the length and a
 //! BLAKE3 checksum of the contents must match, and every level must be
-//! whole triangles of in-range indices and draw ranges of the model; a file
+//! whole triangles of in-range indices and draw ranges of the model, each
+//! coarser than the one before, each bound positive or not yet found; a file
 //! failing any check is ignored and rebuilt over. The cache never changes
-//! the levels: a hit returns exactly what a build returns (tested), so the
-//! outputs are the same with or without it. Failing to write (read-only
+//! the levels: a hit returns exactly what a build returns, and the bounds a
+//! build finds (tested), so the outputs are the same with or without it. Failing to write (read-only
 //! home, full disk) only costs the next run the build.
 //!
 //! The same folder holds the baked impostors ([`super::impostor_cache`],
@@ -28,35 +32,43 @@
 
 use std::path::{Path, PathBuf};
 
-use super::lod::{self, Lod, LodError};
+use super::lod::{self, Lod, LodChain, LodError};
 use super::{CpuModel, DrawRange};
 
 /// The variable that moves the cache folder (or turns it off: empty or `off`).
 pub const CACHE_ENV: &str = "SWARMSHOT_CACHE_DIR";
 
 /// Format of the files (bumped when the layout or the levels' recipe changes).
-const MAGIC: &[u8; 8] = b"SWLOD\x00\x00\x01";
+const MAGIC: &[u8; 8] = b"SWLOD\x00\x00\x02";
 
 /// The model's levels of detail: read from the cache folder when a valid
-/// file for this model is there, else built and written there.
-pub fn cached_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+/// file for this model is there, else built and written there; bounds
+/// found later are written there too.
+pub fn cached_lods(model: &CpuModel) -> Result<LodChain, LodError> {
     cached_lods_in(cache_dir().as_deref(), model)
 }
 
 /// [`cached_lods`] with an explicit folder (`None`: build, no cache).
-pub fn cached_lods_in(dir: Option<&Path>, model: &CpuModel) -> Result<Vec<Lod>, LodError> {
+pub fn cached_lods_in(dir: Option<&Path>, model: &CpuModel) -> Result<LodChain, LodError> {
     let Some(dir) = dir else {
         return lod::build_lods(model);
     };
     let key = key(model);
     let file = dir.join(file_name(&key));
-    if let Some(lods) = read(&file, &key, model) {
-        return Ok(lods);
-    }
-    let lods = lod::build_lods(model)?;
-    // A cache that cannot be written costs the next run the build, nothing else.
-    let _ = write(dir, &file, &encode(&key, &lods, model));
-    Ok(lods)
+    let chain = match read(&file, &key, model) {
+        Some((levels, errors)) => LodChain::new(levels, &errors, lod::positions(model)),
+        None => {
+            let chain = lod::build_lods(model)?;
+            // A cache that cannot be written costs the next run the build, nothing else.
+            let _ = write(dir, &file, &encode(&key, &chain, &model.draws));
+            chain
+        }
+    };
+    let (dir, draws) = (dir.to_owned(), model.draws.clone());
+    chain.on_bound(Box::new(move |chain| {
+        let _ = write(&dir, &file, &encode(&key, chain, &draws));
+    }));
+    Ok(chain)
 }
 
 /// The cache folder, from [`CACHE_ENV`] or the user's cache folder.
@@ -105,24 +117,27 @@ pub(super) fn hash_geometry(h: &mut blake3::Hasher, model: &CpuModel) {
     }
 }
 
-/// The file's bytes: magic, key, the levels after level 0 (each: error,
-/// index count, indices, draw count, draws as (source draw, start, end)),
-/// then the BLAKE3 hash of all that.
-pub fn encode(key: &[u8; 32], lods: &[Lod], model: &CpuModel) -> Vec<u8> {
+/// The file's bytes: magic, key, the levels after level 0 (each: error
+/// bound, NaN when not found yet, index count, indices, draw count, draws
+/// as (source draw, start, end)), then the BLAKE3 hash of all that.
+/// `draws` are the model's.
+pub fn encode(key: &[u8; 32], chain: &LodChain, draws: &[DrawRange]) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(key);
-    let rest = lods.get(1..).unwrap_or_default();
+    let errors = chain.known_errors();
+    let rest = chain.levels().iter().zip(&errors).skip(1);
     out.extend_from_slice(&(rest.len() as u32).to_le_bytes());
-    for l in rest {
-        out.extend_from_slice(&l.error.to_le_bytes());
+    for (l, error) in rest {
+        // A bound that failed to compute (infinite) is looked for again.
+        let error = error.filter(|e| e.is_finite()).unwrap_or(f32::NAN);
+        out.extend_from_slice(&error.to_le_bytes());
         out.extend_from_slice(&(l.indices.len() as u32).to_le_bytes());
         out.extend_from_slice(bytemuck::cast_slice(&l.indices));
         out.extend_from_slice(&(l.draws.len() as u32).to_le_bytes());
         for d in &l.draws {
             // The model's draw range this one simplifies (same texture and flags).
-            let source = model
-                .draws
+            let source = draws
                 .iter()
                 .position(|m| same_look(m, d))
                 .unwrap_or(usize::MAX);
@@ -143,8 +158,13 @@ fn same_look(a: &DrawRange, b: &DrawRange) -> bool {
         && a.alpha_blend == b.alpha_blend
 }
 
-/// The levels in `bytes` for `model`, or `None` when anything is off.
-pub fn decode(bytes: &[u8], key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>> {
+/// The levels in `bytes` for `model` and their bounds found so far, or
+/// `None` when anything is off.
+pub fn decode(
+    bytes: &[u8],
+    key: &[u8; 32],
+    model: &CpuModel,
+) -> Option<(Vec<Lod>, Vec<Option<f32>>)> {
     let (body, sum) = bytes.split_at_checked(bytes.len().checked_sub(32)?)?;
     if blake3::hash(body).as_bytes() != sum {
         return None;
@@ -156,8 +176,8 @@ pub fn decode(bytes: &[u8], key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>
     let mut lods = vec![Lod {
         indices: model.indices.clone(),
         draws: model.draws.clone(),
-        error: 0.0,
     }];
+    let mut errors = vec![Some(0.0)];
     for _ in 0..r.u32()? {
         let error = f32::from_le_bytes(r.take(4)?.try_into().ok()?);
         let n = r.u32()? as usize;
@@ -175,22 +195,21 @@ pub fn decode(bytes: &[u8], key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>
                 ..source.clone()
             });
         }
-        let level = Lod {
-            indices,
-            draws,
-            error,
-        };
-        if !plausible(&level, model, lods.last()?) {
+        let level = Lod { indices, draws };
+        let error = (!error.is_nan()).then_some(error);
+        if !plausible(&level, error, model, lods.last()?) || lods.len() > lod::MAX_CANDIDATES {
             return None;
         }
         lods.push(level);
+        errors.push(error);
     }
-    r.0.is_empty().then_some(lods)
+    r.0.is_empty().then_some((lods, errors))
 }
 
 /// A level read back is whole triangles of in-range indices, its draw
-/// ranges tile its indices in order, and it is coarser than the level before.
-fn plausible(level: &Lod, model: &CpuModel, finer: &Lod) -> bool {
+/// ranges tile its indices in order, it is coarser than the level before,
+/// and its bound, when found, is positive and finite.
+fn plausible(level: &Lod, error: Option<f32>, model: &CpuModel, finer: &Lod) -> bool {
     let vertices = model.vertices.len();
     let mut at = 0u32;
     let tiles = level.draws.iter().all(|d| {
@@ -201,8 +220,7 @@ fn plausible(level: &Lod, model: &CpuModel, finer: &Lod) -> bool {
     tiles
         && at as usize == level.indices.len()
         && level.indices.iter().all(|&i| (i as usize) < vertices)
-        && level.error.is_finite()
-        && level.error > finer.error
+        && error.is_none_or(|e| e.is_finite() && e > 0.0)
         && level.triangle_count() < finer.triangle_count()
 }
 
@@ -220,11 +238,15 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// The levels in `file` when it is a valid cache file for `model`.
-fn read(file: &Path, key: &[u8; 32], model: &CpuModel) -> Option<Vec<Lod>> {
+/// The levels and bounds in `file` when it is a valid cache file for `model`.
+fn read(
+    file: &Path,
+    key: &[u8; 32],
+    model: &CpuModel,
+) -> Option<(Vec<Lod>, Vec<Option<f32>>)> {
     // No level has more indices or draws than the model: a larger file is not ours.
     let per_level = model.indices.len() as u64 * 4 + model.draws.len() as u64 * 12 + 12;
-    let limit = 1024 + lod::MAX_LEVELS as u64 * per_level;
+    let limit = 1024 + lod::MAX_CANDIDATES as u64 * per_level;
     // A regular file of at most `limit` bytes, opened without blocking (a
     // FIFO swapped in at the name neither blocks nor is read).
     let bytes = crate::input::read_input_file(file, limit).ok()?;
@@ -260,26 +282,37 @@ mod tests {
         crate::model::load_bytes(bytes, None, Path::new(name), name).expect("loads")
     }
 
+    /// What a chain holds: its levels and the bounds found so far.
+    fn state(chain: &LodChain) -> (Vec<Lod>, Vec<Option<f32>>) {
+        (chain.levels().to_vec(), chain.known_errors())
+    }
+
     /// A miss builds and writes the file; the file then gives exactly the
-    /// built levels (read alone, without building), for every built-in.
+    /// built levels and bounds (read alone, without building), for every
+    /// built-in; bounds a pick finds are written back and read by the next run.
     #[test]
-    fn a_cache_hit_gives_the_built_levels() {
+    fn a_cache_hit_gives_the_built_levels_and_the_bounds_found() {
         let dir = tempfile::tempdir().expect("temp dir");
         let mut levels = 0;
         for name in NAMES {
             let model = builtin(name);
             let built = lod::build_lods(&model).expect("builds");
-            levels += built.len() - 1;
+            levels += built.levels().len() - 1;
             let first = cached_lods_in(Some(dir.path()), &model).expect("first run");
-            assert_eq!(first, built, "{name}");
+            assert_eq!(state(&first), state(&built), "{name}");
             let file = dir.path().join(file_name(&key(&model)));
-            let bytes = std::fs::read(&file).expect("the cache file is written");
-            let read_back = decode(&bytes, &key(&model), &model).expect("a valid file");
-            assert_eq!(read_back, built, "{name}");
-            assert_eq!(
-                cached_lods_in(Some(dir.path()), &model).expect("hit"),
-                built
-            );
+            let read_back = |what: &str| {
+                let bytes = std::fs::read(&file).expect("the cache file is written");
+                decode(&bytes, &key(&model), &model).unwrap_or_else(|| panic!("{name}: {what}"))
+            };
+            assert_eq!(read_back("built"), state(&built), "{name}");
+            // A near drone's pick bounds every level: written back.
+            first.pick(1e6, 0.5);
+            built.bound_all();
+            assert!(built.known_errors().iter().all(Option::is_some));
+            assert_eq!(read_back("bounded"), state(&built), "{name}");
+            let hit = cached_lods_in(Some(dir.path()), &model).expect("hit");
+            assert_eq!(state(&hit), state(&built), "{name}");
         }
         assert!(levels > NAMES.len(), "simplified levels to cache: {levels}");
         // Only the cache files, no temporary left behind.
@@ -302,34 +335,36 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let model = builtin(NAMES[0]);
         let built = lod::build_lods(&model).expect("builds");
-        assert!(built.len() > 2, "{} levels", built.len());
+        assert!(built.levels().len() > 2, "{} levels", built.levels().len());
         let k = key(&model);
         let file = dir.path().join(file_name(&k));
-        let good = encode(&k, &built, &model);
-        assert_eq!(decode(&good, &k, &model).as_ref(), Some(&built));
+        let good = encode(&k, &built, &model.draws);
+        assert_eq!(decode(&good, &k, &model), Some(state(&built)));
         // A flipped byte anywhere fails the checksum (or the magic / key).
         for at in [0, 9, 45, good.len() / 2, good.len() - 1] {
             let mut bad = good.clone();
             bad[at] ^= 0x10;
             assert_eq!(decode(&bad, &k, &model), None, "byte {at}");
             std::fs::write(&file, &bad).expect("write");
-            assert_eq!(
-                cached_lods_in(Some(dir.path()), &model).expect("rebuilt"),
-                built
-            );
+            let rebuilt = cached_lods_in(Some(dir.path()), &model).expect("rebuilt");
+            assert_eq!(state(&rebuilt), state(&built));
             assert_eq!(std::fs::read(&file).expect("rewritten"), good, "byte {at}");
         }
-        // Truncated, empty, and a well-formed file whose indices leave the model.
+        // Truncated, empty, and well-formed files whose indices leave the
+        // model or whose bound is not positive.
         assert_eq!(decode(&good[..good.len() - 40], &k, &model), None);
         assert_eq!(decode(&[], &k, &model), None);
-        let mut foreign = built.clone();
-        foreign[1].indices[0] = model.vertices.len() as u32;
-        assert_eq!(decode(&encode(&k, &foreign, &model), &k, &model), None);
-        std::fs::write(&file, encode(&k, &foreign, &model)).expect("write");
-        assert_eq!(
-            cached_lods_in(Some(dir.path()), &model).expect("rebuilt"),
-            built
-        );
+        let (mut levels, errors) = state(&built);
+        levels[1].indices[0] = model.vertices.len() as u32;
+        let foreign = LodChain::new(levels, &errors, Vec::new());
+        assert_eq!(decode(&encode(&k, &foreign, &model.draws), &k, &model), None);
+        std::fs::write(&file, encode(&k, &foreign, &model.draws)).expect("write");
+        let rebuilt = cached_lods_in(Some(dir.path()), &model).expect("rebuilt");
+        assert_eq!(state(&rebuilt), state(&built));
+        let (levels, mut errors) = state(&built);
+        errors[1] = Some(-1.0);
+        let negative = LodChain::new(levels, &errors, Vec::new());
+        assert_eq!(decode(&encode(&k, &negative, &model.draws), &k, &model), None);
         // Another key (another model) does not read this file.
         let mut moved = model.clone();
         moved.vertices[0].position[0] += 0.5;

@@ -35,7 +35,7 @@ use anyhow::Context as _;
 use crate::annotate::masks::FrameMasks;
 use crate::annotate::visibility::{PixelHit, Visibility};
 use crate::annotate::{DroneLabel, label_frame};
-use crate::model::lod::Lod;
+use crate::model::lod::LodChain;
 use crate::model::{self, CpuModel, ModelError};
 use crate::preset::{
     BoxMethod, FieldError, ImageFormat, LabelSettings, ModelSource, ModelSpec, Preset,
@@ -89,8 +89,9 @@ pub struct Assets {
     /// The confusers' built-in models after the preset's (`preset::confusers::model_slots`).
     confuser_slots: Vec<String>,
     pub models: Vec<CpuModel>,
-    /// Each model's levels of detail (finest first), built once at load.
-    pub lods: Vec<Vec<Lod>>,
+    /// Each model's levels of detail (finest first), built once at load,
+    /// their bounds found as picks need them.
+    pub lods: Vec<Arc<LodChain>>,
     pub geometry: Vec<LabelGeometry>,
     pub sky: EnvironmentAssets,
     /// The backplates (`preset.backplate`), resampled to the output size; empty without one.
@@ -200,7 +201,7 @@ pub fn load_model(source: &ModelSource) -> Result<CpuModel, ModelError> {
 fn load_models(
     preset: &Preset,
     sources: &[ModelSource],
-) -> Result<(Vec<CpuModel>, Vec<Vec<Lod>>), PipelineError> {
+) -> Result<(Vec<CpuModel>, Vec<Arc<LodChain>>), PipelineError> {
     let models = (preset.models.iter().map(load_model_spec))
         .chain(sources[preset.models.len()..].iter().map(load_model))
         .collect::<Result<Vec<_>, _>>()?;
@@ -229,15 +230,17 @@ pub fn load_model_spec(spec: &ModelSpec) -> Result<CpuModel, ModelError> {
 
 /// The levels of detail of a loaded model. A built-in model's are built
 /// once per process and shared (they never change).
-fn load_lods(source: &ModelSource, model: &CpuModel) -> Result<Vec<Lod>, ModelError> {
+fn load_lods(source: &ModelSource, model: &CpuModel) -> Result<Arc<LodChain>, ModelError> {
     use std::collections::HashMap;
     use std::sync::{Mutex, OnceLock};
-    static BUILTIN: OnceLock<Mutex<HashMap<String, Vec<Lod>>>> = OnceLock::new();
+    static BUILTIN: OnceLock<Mutex<HashMap<String, Arc<LodChain>>>> = OnceLock::new();
     let build = || {
-        crate::model::lod_cache::cached_lods(model).map_err(|e| ModelError::Parse {
-            file: PathBuf::from(&model.name),
-            reason: e.to_string(),
-        })
+        crate::model::lod_cache::cached_lods(model)
+            .map(Arc::new)
+            .map_err(|e| ModelError::Parse {
+                file: PathBuf::from(&model.name),
+                reason: e.to_string(),
+            })
     };
     let ModelSource::Builtin(name) = source else {
         return build();

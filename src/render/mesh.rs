@@ -16,7 +16,9 @@ use super::gpu::{PipelineDesc, PipelineFactory, Program, depth_test};
 use super::impostor::GpuImpostor;
 use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, material};
 use crate::model::impostor::Impostor;
-use crate::model::lod::Lod;
+use std::sync::Arc;
+
+use crate::model::lod::LodChain;
 use crate::model::{CpuModel, Vertex};
 use crate::scene::FrameScene;
 use crate::scene::projection::LabelGeometry;
@@ -56,13 +58,13 @@ pub(super) struct GpuMesh {
     indices: wgpu::Buffer,
     /// Levels of detail, finest first (see [`crate::model::lod`]).
     levels: Vec<GpuLevel>,
+    /// The levels' chain, which picks a drone's level (`None`: full detail).
+    chain: Option<Arc<LodChain>>,
     textures: Vec<wgpu::BindGroup>,
 }
 
 /// One level of detail of a [`GpuMesh`].
 struct GpuLevel {
-    /// Bound of the silhouette error, in model units (0 for level 0).
-    error: f32,
     draws: Vec<GpuDraw>,
 }
 
@@ -145,7 +147,7 @@ fn upload_meshes(
     (device, queue): (&wgpu::Device, &wgpu::Queue),
     material_bgl: &wgpu::BindGroupLayout,
     models: &[CpuModel],
-    lods: &[Vec<Lod>],
+    lods: &[Arc<LodChain>],
 ) -> (Vec<GpuMesh>, [bool; Surface::COUNT]) {
     let meshes = models
         .iter()
@@ -159,14 +161,13 @@ fn upload_meshes(
                 surface: Surface::from_draw(d),
             };
             let mut levels = vec![GpuLevel {
-                error: 0.0,
                 draws: m.draws.iter().map(|d| gpu_draw(d, 0)).collect(),
             }];
-            for lod in lods.get(k).map_or(&[][..], |l| l.get(1..).unwrap_or(&[])) {
+            let chain = lods.get(k);
+            for lod in chain.map_or(&[][..], |c| c.levels().get(1..).unwrap_or(&[])) {
                 let base = indices.len() as u32;
                 indices.extend_from_slice(&lod.indices);
                 levels.push(GpuLevel {
-                    error: lod.error,
                     draws: lod.draws.iter().map(|d| gpu_draw(d, base)).collect(),
                 });
             }
@@ -182,6 +183,7 @@ fn upload_meshes(
                     usage: wgpu::BufferUsages::INDEX,
                 }),
                 levels,
+                chain: chain.cloned(),
                 textures: m
                     .textures
                     .iter()
@@ -207,7 +209,7 @@ impl Drones {
         (factory, queue): (&PipelineFactory, &wgpu::Queue),
         frame_layout: &wgpu::BindGroupLayout,
         models: &[CpuModel],
-        lods: &[Vec<Lod>],
+        lods: &[Arc<LodChain>],
         max_error_px: f64,
     ) -> Self {
         let device = factory.device();
@@ -292,7 +294,10 @@ impl Drones {
         let Some(mesh) = self.meshes.get(d.model) else {
             return 0;
         };
-        if self.lod_error_px <= 0.0 || mesh.levels.len() < 2 {
+        let Some(chain) = (mesh.chain.as_ref()).filter(|_| self.lod_error_px > 0.0) else {
+            return 0;
+        };
+        if mesh.levels.len() < 2 {
             return 0;
         }
         let cam = &scene.camera;
@@ -301,11 +306,8 @@ impl Drones {
             return 0;
         }
         let px_per_unit = d.size_m * cam.focal_px() / nearest;
-        // The coarsest level within the budget (errors grow with the level).
-        mesh.levels
-            .iter()
-            .rposition(|l| f64::from(l.error) * px_per_unit <= self.lod_error_px)
-            .unwrap_or(0)
+        // The coarsest level within the budget.
+        chain.pick(px_per_unit, self.lod_error_px)
     }
 
     /// Drones drawn per level of detail, over the drones of `scene`.

@@ -54,7 +54,7 @@ use mesh::DronePipelines;
 use glam::{DMat4, Mat4};
 
 use crate::model::CpuModel;
-use crate::model::lod::Lod;
+use crate::model::lod::LodChain;
 use crate::scene::FrameScene;
 use crate::sky::{EnvironmentAssets, Lighting};
 use mesh::Drones;
@@ -394,7 +394,7 @@ impl Renderer {
     pub fn with_lods(
         ctx: &GpuContext,
         models: &[CpuModel],
-        lods: &[Vec<Lod>],
+        lods: &[std::sync::Arc<LodChain>],
         max_error_px: f64,
     ) -> Self {
         let device = ctx.device.clone();

@@ -4,11 +4,10 @@
 //! [`build_lods`] runs once per model at load. Level 0 is the model's own
 //! mesh; each further level asks meshoptimizer (the `meshopt` crate) for 70 %
 //! of the triangles of the level before, simplifying every draw range apart
-//! so each triangle keeps its texture, and the levels that [`pick`] would
-//! never choose (more triangles than a coarser level of no larger error) are
-//! dropped once their error bounds are known. Levels are index buffers into the model's
-//! one vertex buffer, so the GPU keeps a single vertex buffer per model and
-//! a level is an index range plus its draw ranges.
+//! so each triangle keeps its texture. Levels are index buffers into the
+//! model's one vertex buffer, so the GPU keeps a single vertex buffer per
+//! model and a level is an index range plus its draw ranges. Each level's
+//! error bound is found the first time a pick needs it ([`LodChain`]).
 //!
 //! **Errors.** meshoptimizer reports `result_error`, the square root of the
 //! largest quadric error of its collapses: for each collapsed vertex, the
@@ -22,18 +21,18 @@
 //! the largest span, since models are normalised to a span of 1). It is an
 //! estimate, not a bound: on the built-in models the silhouette error of a
 //! level measured up to 12× its `result_error` (pruned rotors, flattened
-//! thin parts). So [`Lod::error`] is not meshoptimizer's number but an upper
+//! thin parts). So [`LodChain::error`] is not meshoptimizer's number but an upper
 //! bound of the symmetric Hausdorff distance between the level's surface and
 //! the full mesh's, computed by sampling (see `hausdorff::one_sided_worst`). An
 //! orthographic projection moves no two points further apart than they are,
 //! so the silhouettes of the two surfaces are at most `error · size_m ·
 //! pixels_per_metre` pixels apart (Hausdorff distance, either direction);
-//! [`pick`] keeps that within the budget. The tests measure it on rasterised
+//! [`LodChain::pick`] keeps that within the budget. The tests measure it on rasterised
 //! silhouettes ([`SilhouetteFrame::error_px`]).
 //!
-//! Here: the levels and [`pick`]; `hausdorff`: the error bound and the
-//! surface BVH it queries; `queue`: the levels handed to the bounding
-//! threads; `silhouette`: the tests' silhouette metric.
+//! Here: the levels; `chain`: their bounds and the pick; `hausdorff`: the
+//! error bound and the surface BVH it queries; `silhouette`: the tests'
+//! silhouette metric.
 
 use std::collections::BTreeMap;
 use std::mem::size_of;
@@ -43,26 +42,22 @@ use meshopt::{SimplifyOptions, SimplifyVertex, VertexDataAdapter};
 
 use crate::model::{CpuModel, DrawRange, Vertex};
 
+mod chain;
 mod hausdorff;
-mod queue;
 mod silhouette;
 
+pub use chain::{LodChain, OnBound};
 use hausdorff::{Surface, hausdorff_bound};
-use queue::{FinishOnDrop, Queue};
 pub use silhouette::SilhouetteFrame;
 
-/// One level of detail: an index buffer into the model's own vertex buffer.
+/// One level of detail: an index buffer into the model's own vertex buffer
+/// (its error bound is its [`LodChain`]'s).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lod {
     /// Triangle list into `CpuModel::vertices`, grouped like `draws`.
     pub indices: Vec<u32>,
     /// The index ranges of `indices` and the texture each is drawn with.
     pub draws: Vec<DrawRange>,
-    /// Upper bound of the Hausdorff distance between this level's surface and
-    /// the full mesh's, in model units (fractions of the model's largest
-    /// span); 0 for level 0. Times `size_m · pixels_per_metre` it bounds the
-    /// silhouette error in pixels.
-    pub error: f32,
 }
 
 impl Lod {
@@ -102,10 +97,8 @@ pub enum LodError {
 pub const MIN_TRIANGLES: usize = 48;
 /// A level that keeps more than this fraction of the previous level's triangles is not made.
 const MIN_PROGRESS: f64 = 0.9;
-/// At most this many levels (level 0 included).
-pub(crate) const MAX_LEVELS: usize = 16;
-/// At most this many simplified levels are made (each needs its error bound).
-const MAX_CANDIDATES: usize = 24;
+/// At most this many simplified levels are made.
+pub(crate) const MAX_CANDIDATES: usize = 24;
 /// Each candidate level asks meshoptimizer for this fraction of the
 /// triangles of the one before. Halving left gaps where one step jumps from
 /// a few hundredths of the span to a fifth (quad_x: 378 triangles at 0.024,
@@ -115,32 +108,23 @@ const LEVEL_STEP: f64 = 0.7;
 
 /// The recipe of [`build_lods`], bumped whenever what it builds changes,
 /// so that [`super::lod_cache`] never returns levels of an older recipe.
-const RECIPE: u32 = 1;
+const RECIPE: u32 = 2;
 
 /// Everything besides the model that decides the levels (for the cache's key).
 pub(crate) fn settings() -> String {
     format!(
-        "recipe {RECIPE}; min {MIN_TRIANGLES}, progress {MIN_PROGRESS}, levels {MAX_LEVELS}, \
+        "recipe {RECIPE}; min {MIN_TRIANGLES}, progress {MIN_PROGRESS}, \
          candidates {MAX_CANDIDATES}, step {LEVEL_STEP}; meshopt 0.7, absolute+permissive+prune"
     )
 }
 
-/// Build the LOD chain of a model: level 0 is the model's own mesh (error 0),
-/// each further level has at most [`MIN_PROGRESS`] of the triangles of the one
-/// before and a larger error bound.
-pub fn build_lods(model: &CpuModel) -> Result<Vec<Lod>, LodError> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    build_lods_on(model, threads)
-}
-
-/// [`build_lods`] on `threads` threads (the same levels on any number).
-fn build_lods_on(model: &CpuModel, threads: usize) -> Result<Vec<Lod>, LodError> {
+/// Build the LOD chain of a model: level 0 is the model's own mesh, each
+/// further level has at most [`MIN_PROGRESS`] of the triangles of the one
+/// before. The bounds of the levels of at most [`EAGER_SHARE`] of the
+/// model's triangles are found on a second thread as the simplifier makes
+/// them; the finer levels' when a pick first needs them.
+pub fn build_lods(model: &CpuModel) -> Result<LodChain, LodError> {
     validate(model)?;
-    let full = Lod {
-        indices: model.indices.clone(),
-        draws: model.draws.clone(),
-        error: 0.0,
-    };
     let adapter = VertexDataAdapter::new(
         bytemuck::cast_slice(&model.vertices),
         size_of::<Vertex>(),
@@ -150,66 +134,71 @@ fn build_lods_on(model: &CpuModel, threads: usize) -> Result<Vec<Lod>, LodError>
         model: model.name.clone(),
         reason: e.to_string(),
     })?;
-    let locks = vertex_flags(model);
-    let positions: Vec<DVec3> = model
-        .vertices
-        .iter()
-        .map(|v| DVec3::from(v.position.map(f64::from)))
-        .collect();
-    let full_surface = Surface::new(&positions, &model.indices);
-    // Each level's error bound on its own, on the other cores while the
-    // simplifier makes the next levels, then on every core (a level's bound
-    // does not depend on the others, so the result is the same on any
-    // number of threads).
-    let queue = Queue::default();
-    let (mut lods, errors) = std::thread::scope(|s| {
-        // A worker the system refuses (`ulimit -u`) is one fewer; this thread
-        // bounds what is left (`Scope::spawn` panicked).
-        let workers: Vec<_> = (1..threads)
-            .filter_map(|_| {
-                std::thread::Builder::new()
-                    .spawn_scoped(s, || bound_levels(&queue, &positions, &full_surface))
-                    .ok()
+    let positions = positions(model);
+    let eager = (model.triangle_count() as f64 * EAGER_SHARE) as usize;
+    let (levels, bounded) = std::thread::scope(|s| {
+        let (send, take) = std::sync::mpsc::channel::<(usize, Vec<u32>)>();
+        // The full mesh's surface first, then each level as it comes. A
+        // thread the system refuses (`ulimit -u`) only leaves every bound
+        // to the picks.
+        let worker = std::thread::Builder::new()
+            .spawn_scoped(s, || {
+                let full = Surface::new(&positions, &model.indices);
+                let errors: Vec<(usize, f32)> = (take.into_iter())
+                    .map(|(k, indices)| {
+                        let level = Surface::new(&positions, &indices);
+                        (k, hausdorff_bound(&full, &level) as f32)
+                    })
+                    .collect();
+                (full, errors)
             })
-            .collect();
-        let lods = {
-            // Workers stop waiting however this ends (a panic included).
-            let _finish = FinishOnDrop(&queue);
-            candidates(model, &adapter, &locks, full, &queue)
-        };
-        let mut errors = bound_levels(&queue, &positions, &full_surface);
-        for w in workers {
-            errors.extend(w.join().unwrap_or_default());
-        }
-        (lods, errors)
+            .ok();
+        let levels = candidates(model, &adapter, &vertex_flags(model), |k, level| {
+            if worker.is_some() && level.triangle_count() <= eager {
+                let _ = send.send((k, level.indices.clone()));
+            }
+        });
+        drop(send);
+        (levels, worker.and_then(|w| w.join().ok()))
     });
-    let mut bounded = vec![false; lods.len()];
-    for (k, error) in errors {
-        if let Some(level) = lods.get_mut(k) {
-            level.error = error;
-            bounded[k] = true;
-        }
+    let Some((full, found)) = bounded else {
+        return Ok(LodChain::new(levels, &[], positions));
+    };
+    let mut errors = vec![None; levels.len()];
+    for (k, error) in found {
+        errors[k] = Some(error);
     }
-    if bounded.iter().skip(1).any(|b| !b) {
-        // A worker panicked: keep only the full mesh rather than trust a missing bound.
-        lods.truncate(1);
-    }
-    Ok(keep_useful(lods))
+    Ok(LodChain::new(levels, &errors, positions).with_full(full))
 }
 
-/// The candidate levels after `full`, each with [`LEVEL_STEP`] of the
-/// triangles of the one before, down to a few dozen; each is handed to
-/// `queue` as soon as it is made. `keep_useful` drops the ones `pick` would
-/// never choose once their error bounds are known.
+/// The levels of at most this share of the model's triangles are bounded as
+/// they are made: every drone small enough for the coarse levels needs their
+/// bounds, and they are cheap (the 9 434-triangle Crazyflie: 43 of the 230 ms
+/// of CPU all its bounds take).
+const EAGER_SHARE: f64 = 0.125;
+
+/// The model's vertex positions, in double precision (what the bounds measure).
+pub(crate) fn positions(model: &CpuModel) -> Vec<DVec3> {
+    (model.vertices.iter())
+        .map(|v| DVec3::from(v.position.map(f64::from)))
+        .collect()
+}
+
+/// The model's own mesh, then levels with [`LEVEL_STEP`] of the triangles
+/// of the one before, down to a few dozen, each handed to `made` (with its
+/// number) as it is made. A level some coarser one matches in error is
+/// kept: [`LodChain::pick`] never chooses it.
 fn candidates(
     model: &CpuModel,
     adapter: &VertexDataAdapter<'_>,
     locks: &[SimplifyVertex],
-    full: Lod,
-    queue: &Queue,
+    mut made: impl FnMut(usize, &Lod),
 ) -> Vec<Lod> {
     let total = model.triangle_count();
-    let mut lods = vec![full];
+    let mut lods = vec![Lod {
+        indices: model.indices.clone(),
+        draws: model.draws.clone(),
+    }];
     let mut previous = total;
     while lods.len() <= MAX_CANDIDATES && previous > MIN_TRIANGLES {
         let fraction = (previous as f64 * LEVEL_STEP).floor() / total as f64;
@@ -219,50 +208,10 @@ fn candidates(
             break;
         }
         previous = count;
-        queue.push(level.indices.clone());
+        made(lods.len(), &level);
         lods.push(level);
     }
     lods
-}
-
-/// Error bounds of the levels this thread takes from `queue`: (level, bound).
-fn bound_levels(queue: &Queue, positions: &[DVec3], full: &Surface) -> Vec<(usize, f32)> {
-    let mut out = Vec::new();
-    while let Some((k, indices)) = queue.take() {
-        let surface = Surface::new(positions, &indices);
-        out.push((k, hausdorff_bound(full, &surface) as f32));
-    }
-    out
-}
-
-/// From levels ordered finest first (level 0 the full mesh), the ones
-/// [`pick`] can use well: each coarser level has fewer triangles (by
-/// [`MIN_PROGRESS`] at least) and a larger error than the one before — a
-/// level with more triangles than a coarser one of no larger error is never
-/// the best choice — and at most [`MAX_LEVELS`] of them.
-fn keep_useful(lods: Vec<Lod>) -> Vec<Lod> {
-    // Walking from the coarsest, keep the levels whose error is below every
-    // coarser one's (the Pareto front of triangles against error).
-    let mut front: Vec<Lod> = Vec::new();
-    for level in lods.into_iter().rev() {
-        if front
-            .last()
-            .is_none_or(|coarser| level.error < coarser.error)
-        {
-            front.push(level);
-        }
-    }
-    front.reverse();
-    let mut kept: Vec<Lod> = Vec::new();
-    for level in front {
-        let enough = kept.last().is_none_or(|finer| {
-            level.triangle_count() as f64 <= MIN_PROGRESS * finer.triangle_count() as f64
-        });
-        if enough && kept.len() < MAX_LEVELS {
-            kept.push(level);
-        }
-    }
-    kept
 }
 
 /// Every draw range simplified to `fraction` of its triangles.
@@ -292,11 +241,7 @@ fn simplify_level(
             ..draw.clone()
         });
     }
-    Lod {
-        indices,
-        draws,
-        error: f32::INFINITY,
-    }
+    Lod { indices, draws }
 }
 
 /// Per-vertex simplifier flags. A position used by more than one draw range
@@ -389,23 +334,6 @@ fn validate(model: &CpuModel) -> Result<(), LodError> {
         });
     }
     Ok(())
-}
-
-/// The coarsest level whose error, scaled to pixels, is at most `max_error_px`:
-/// the largest `k` with `lods[k].error · size_m · pixels_per_metre ≤ max_error_px`
-/// (0 when none is, or for non-finite or negative input).
-///
-/// `pixels_per_metre` is the camera's focal length in pixels over the depth;
-/// pass the depth of the drone's nearest point (centre distance minus
-/// `size_m·√3/2`) so the bound holds over the whole drone.
-pub fn pick(lods: &[Lod], size_m: f64, pixels_per_metre: f64, max_error_px: f64) -> usize {
-    let px_per_unit = size_m * pixels_per_metre;
-    if !(px_per_unit.is_finite() && px_per_unit >= 0.0 && max_error_px.is_finite()) {
-        return 0;
-    }
-    lods.iter()
-        .rposition(|l| f64::from(l.error) * px_per_unit <= max_error_px)
-        .unwrap_or(0)
 }
 
 #[cfg(test)]

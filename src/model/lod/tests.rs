@@ -31,10 +31,12 @@ fn random_rotation(rng: &mut impl Rng) -> DMat3 {
 fn levels_shrink_share_the_vertex_buffer_and_keep_textures() {
     for name in BUILTIN_NAMES {
         let model = builtin(name);
-        let lods = build_lods(&model).expect("builds");
+        let chain = build_lods(&model).expect("builds");
+        chain.bound_all();
+        let lods = chain.levels();
         assert_eq!(lods[0].indices, model.indices, "{name}");
         assert_eq!(lods[0].draws, model.draws, "{name}");
-        assert_eq!(lods[0].error, 0.0, "{name}");
+        assert_eq!(chain.error(0), 0.0, "{name}");
         assert!(lods.len() >= 4, "{name}: only {} levels", lods.len());
         let last = lods.last().expect("levels");
         assert!(
@@ -42,17 +44,19 @@ fn levels_shrink_share_the_vertex_buffer_and_keep_textures() {
             "{name}: coarsest level has {} triangles",
             last.triangle_count()
         );
-        for pair in lods.windows(2) {
+        for (k, pair) in lods.windows(2).enumerate() {
             let (finer, coarser) = (&pair[0], &pair[1]);
             assert!(
                 (coarser.triangle_count() as f64) <= MIN_PROGRESS * finer.triangle_count() as f64,
                 "{name}"
             );
-            assert!(coarser.error.is_finite() && coarser.error > 0.0, "{name}");
-            // A coarser level of no larger error would make the finer one useless.
-            assert!(coarser.error > finer.error, "{name}");
+            let error = chain.error(k + 1);
+            assert!(error.is_finite() && error > 0.0, "{name}: level {}", k + 1);
         }
-        for lod in &lods {
+        // The coarsest level is the least faithful.
+        let coarsest = chain.error(lods.len() - 1);
+        assert!((1..lods.len()).all(|k| chain.error(k) <= coarsest), "{name}");
+        for lod in lods {
             assert!(lod.indices.len().is_multiple_of(3) && !lod.indices.is_empty());
             assert!(
                 lod.indices
@@ -96,7 +100,8 @@ fn each_draw_range_keeps_its_own_vertices() {
         },
     ];
     let range_of = |i: u32| model.indices[..half as usize].contains(&i);
-    let lods = build_lods(&model).expect("builds");
+    let chain = build_lods(&model).expect("builds");
+    let lods = chain.levels();
     assert!(lods.len() >= 3);
     for lod in &lods[1..] {
         for d in &lod.draws {
@@ -109,47 +114,91 @@ fn each_draw_range_keeps_its_own_vertices() {
     }
 }
 
-#[test]
-fn only_levels_pick_can_use_are_kept() {
-    let level = |triangles: usize, error: f32| Lod {
-        indices: vec![0; triangles * 3],
+/// A chain of one-triangle levels with the given bounds (all known).
+fn known_chain(errors: &[f32]) -> LodChain {
+    let level = Lod {
+        indices: vec![0, 1, 2],
         draws: Vec::new(),
-        error,
     };
-    let counts = |lods: &[Lod]| lods.iter().map(Lod::triangle_count).collect::<Vec<_>>();
-    // 300 is dominated by 200 (fewer triangles, smaller error); 190 keeps
-    // more than 90 % of 200's triangles; 20 is the coarsest.
-    let kept = keep_useful(vec![
-        level(1000, 0.0),
-        level(500, 0.01),
-        level(300, 0.05),
-        level(200, 0.04),
-        level(190, 0.06),
-        level(20, 0.3),
-    ]);
-    assert_eq!(counts(&kept), [1000, 500, 200, 20]);
-    // Never more than MAX_LEVELS.
-    let many: Vec<Lod> = (0..40)
-        .map(|k| level(10_000 >> (k / 4).min(12), k as f32 / 100.0))
-        .collect();
-    assert!(keep_useful(many).len() <= MAX_LEVELS);
+    let known: Vec<Option<f32>> = errors.iter().copied().map(Some).collect();
+    LodChain::new(vec![level; errors.len()], &known, vec![DVec3::ZERO; 3])
 }
 
 #[test]
-fn building_is_deterministic() {
-    for name in ["hexacopter", "fixed_wing"] {
+fn building_is_deterministic_and_bounds_do_not_depend_on_when_they_are_found() {
+    for name in ["hexacopter", "fixed_wing", "octocopter"] {
         let model = builtin(name);
-        let once = build_lods(&model);
-        assert_eq!(once, build_lods(&model), "{name}");
-        // The same levels and bounds on any number of threads.
-        for threads in [1, 2, 5] {
-            assert_eq!(
-                once,
-                build_lods_on(&model, threads),
-                "{name}, {threads} threads"
-            );
+        let once = build_lods(&model).expect("builds");
+        let again = build_lods(&model).expect("builds");
+        assert_eq!(once.levels(), again.levels(), "{name}");
+        // Bounded while building (the coarse levels), or later by picks in
+        // another order, or all on every core: the same bounds.
+        let eager = once.known_errors();
+        assert!(eager.iter().skip(1).any(Option::is_some), "{name}: {eager:?}");
+        let late = LodChain::new(once.levels().to_vec(), &[], positions(&model));
+        for px in [1.0, 300.0, 20.0, 5_000.0] {
+            late.pick(px, 0.5);
+        }
+        once.bound_all();
+        again.bound_all();
+        late.bound_all();
+        let all = once.known_errors();
+        assert!(all.iter().all(Option::is_some), "{name}");
+        assert_eq!(all, again.known_errors(), "{name}");
+        assert_eq!(all, late.known_errors(), "{name}");
+        for (k, e) in eager.iter().enumerate() {
+            assert!(e.is_none() || *e == all[k], "{name}: level {k}");
         }
     }
+}
+
+/// A pick bounds only the levels it passes, from the coarsest: a drone that
+/// a coarse level serves never pays for the fine levels' bounds, and the
+/// level picked is the one a chain with every bound known picks.
+#[test]
+fn a_pick_bounds_only_the_levels_it_passes() {
+    let cf2 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/uav/crazyflie2_cf2/cf2.glb");
+    let model = crate::model::load_file(&cf2).expect("cf2 loads");
+    let built = build_lods(&model).expect("builds");
+    let levels = built.levels().to_vec();
+    let lazy = LodChain::new(levels.clone(), &[], positions(&model));
+    let full = LodChain::new(levels.clone(), &[], positions(&model));
+    full.bound_all();
+    // 12 px per model unit: a 0.35 m drone 40 m away.
+    let k = lazy.pick(12.0, 0.5);
+    assert_eq!(k, full.pick(12.0, 0.5));
+    assert!(k > 1, "level {k}");
+    let known = lazy.known_errors();
+    assert!(known[k..].iter().all(Option::is_some), "{known:?}");
+    assert!(known[1..k].iter().all(Option::is_none), "{known:?}");
+    // The levels eagerly bounded while building are the coarse ones.
+    let eager = built.known_errors();
+    let first = 1 + eager[1..].iter().position(Option::is_some).expect("some bounded");
+    assert!(eager[first..].iter().all(Option::is_some), "{eager:?}");
+    assert!(levels[first].triangle_count() as f64 <= model.triangle_count() as f64 * EAGER_SHARE);
+    for px in [0.5, 3.0, 12.0, 40.0, 150.0, 600.0, 3_000.0, 1e5] {
+        assert_eq!(lazy.pick(px, 0.5), full.pick(px, 0.5), "{px} px a unit");
+    }
+}
+
+/// The hook runs once after a pick that found bounds, not after one that did not.
+#[test]
+fn the_hook_hears_of_new_bounds_once() {
+    let model = builtin("octocopter");
+    let levels = build_lods(&model).expect("builds").levels().to_vec();
+    let chain = LodChain::new(levels, &[], positions(&model));
+    let calls = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let seen = calls.clone();
+    chain.on_bound(Box::new(move |_| {
+        seen.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }));
+    let count = || calls.load(std::sync::atomic::Ordering::Relaxed);
+    chain.pick(2.0, 0.5);
+    assert_eq!(count(), 1);
+    chain.pick(2.0, 0.5);
+    assert_eq!(count(), 1);
+    chain.pick(1e6, 0.5);
+    assert_eq!(count(), 2);
 }
 
 /// The plain walk of [`one_sided_worst`], as it was before its shortcuts
@@ -195,7 +244,7 @@ fn plain_one_sided_worst(from: &Surface, to: &Surface, start: f64) -> f64 {
     worst
 }
 
-/// The candidate levels of `model` (before `keep_useful`), with the positions.
+/// The levels of `model`, with the positions.
 fn candidate_levels(model: &CpuModel) -> (Vec<Lod>, Vec<DVec3>) {
     let adapter = VertexDataAdapter::new(
         bytemuck::cast_slice(&model.vertices),
@@ -203,34 +252,27 @@ fn candidate_levels(model: &CpuModel) -> (Vec<Lod>, Vec<DVec3>) {
         0,
     )
     .expect("adapter");
-    let full = Lod {
-        indices: model.indices.clone(),
-        draws: model.draws.clone(),
-        error: 0.0,
-    };
-    let queue = Queue::default();
-    let levels = candidates(model, &adapter, &vertex_flags(model), full, &queue);
-    let positions = (model.vertices.iter())
-        .map(|v| DVec3::from(v.position.map(f64::from)))
-        .collect();
-    (levels, positions)
+    let levels = candidates(model, &adapter, &vertex_flags(model), |_, _| {});
+    (levels, positions(model))
 }
 
 /// The shortcuts of `one_sided_worst` (corners once, hints, pieces within
 /// the corner distance skipped) change no bound by a single bit: on every
 /// candidate level of every built-in model and of the 9 434-triangle
-/// Crazyflie of the start-up benchmark, both directions, and so the kept
-/// levels are the ones the plain walk gives.
+/// Crazyflie of the start-up benchmark, both directions, and so the chain's
+/// bounds are the ones the plain walk gives.
 #[test]
 fn shortcut_bounds_equal_the_plain_walk_bit_for_bit() {
     let mut models: Vec<CpuModel> = BUILTIN_NAMES.iter().map(|n| builtin(n)).collect();
     let cf2 = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/uav/crazyflie2_cf2/cf2.glb");
     models.push(crate::model::load_file(&cf2).expect("cf2 loads"));
     for model in &models {
-        let (mut levels, positions) = candidate_levels(model);
+        let (levels, positions) = candidate_levels(model);
         assert!(levels.len() > 3, "{}", model.name);
+        let chain = build_lods(model).expect("builds");
+        assert_eq!(chain.levels(), levels.as_slice(), "{}", model.name);
         let full = Surface::new(&positions, &model.indices);
-        for level in levels.iter_mut().skip(1) {
+        for (k, level) in levels.iter().enumerate().skip(1) {
             let surface = Surface::new(&positions, &level.indices);
             let there = plain_one_sided_worst(&full, &surface, 0.0);
             let back = plain_one_sided_worst(&surface, &full, there);
@@ -248,45 +290,38 @@ fn shortcut_bounds_equal_the_plain_walk_bit_for_bit() {
                 model.name,
                 level.triangle_count()
             );
-            level.error = sampled_bound(back) as f32;
+            assert_eq!(
+                chain.error(k).to_bits(),
+                (sampled_bound(back) as f32).to_bits(),
+                "{}: level {k}",
+                model.name
+            );
         }
-        assert_eq!(
-            build_lods(model).expect("builds"),
-            keep_useful(levels),
-            "{}",
-            model.name
-        );
     }
 }
 
 #[test]
 fn pick_takes_the_coarsest_level_within_the_budget() {
-    let level = |error: f32| Lod {
-        indices: vec![0, 1, 2],
-        draws: Vec::new(),
-        error,
-    };
     // Errors exact in binary, so the comparisons have no rounding.
-    let lods = [
-        level(0.0),
-        level(1.0 / 1024.0),
-        level(1.0 / 128.0),
-        level(1.0 / 8.0),
-    ];
+    let chain = known_chain(&[0.0, 1.0 / 1024.0, 1.0 / 128.0, 1.0 / 8.0]);
     // 0.5 m at 100 px/m: 50 px per model unit; level 2 is 0.39 px, level 3 6.25 px.
-    assert_eq!(pick(&lods, 0.5, 100.0, 0.5), 2);
-    assert_eq!(pick(&lods, 0.5, 4.0, 0.5), 3);
-    assert_eq!(pick(&lods, 0.5, 10_000.0, 0.5), 0);
+    assert_eq!(chain.pick(50.0, 0.5), 2);
+    assert_eq!(chain.pick(2.0, 0.5), 3);
+    assert_eq!(chain.pick(5_000.0, 0.5), 0);
     // Exactly on the budget is within it.
-    assert_eq!(pick(&lods, 0.5, 1024.0, 0.5), 1);
-    assert_eq!(pick(&lods, f64::NAN, 10.0, 0.5), 0);
-    assert_eq!(pick(&lods, 0.5, f64::INFINITY, 0.5), 0);
-    assert_eq!(pick(&lods, 0.5, -1.0, 0.5), 0);
-    assert_eq!(pick(&lods, 0.5, 10.0, f64::NAN), 0);
-    assert_eq!(pick(&[], 0.5, 10.0, 0.5), 0);
-    // A coarser level with a smaller error than a finer one is still the coarsest that fits.
-    let odd = [level(0.0), level(1.0 / 16.0), level(1.0 / 64.0)];
-    assert_eq!(pick(&odd, 1.0, 20.0, 0.5), 2);
+    assert_eq!(chain.pick(512.0, 0.5), 1);
+    assert_eq!(chain.pick(f64::NAN, 0.5), 0);
+    assert_eq!(chain.pick(f64::INFINITY, 0.5), 0);
+    assert_eq!(chain.pick(-1.0, 0.5), 0);
+    assert_eq!(chain.pick(10.0, f64::NAN), 0);
+    assert_eq!(known_chain(&[]).pick(10.0, 0.5), 0);
+    // A coarser level with a smaller error than a finer one is the coarsest
+    // that fits; a finer level that a coarser one matches is never picked.
+    let odd = known_chain(&[0.0, 1.0 / 16.0, 1.0 / 64.0]);
+    assert_eq!(odd.pick(20.0, 0.5), 2);
+    let matched = known_chain(&[0.0, 1.0 / 64.0, 1.0 / 64.0, 1.0 / 4.0]);
+    assert_eq!(matched.pick(32.0, 0.5), 2);
+    assert_eq!(matched.pick(2.0, 0.5), 3);
 }
 
 #[test]
@@ -349,7 +384,8 @@ fn picked_level_is_within_half_a_pixel_of_the_full_silhouette() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
     for name in BUILTIN_NAMES {
         let model = builtin(name);
-        let lods = build_lods(&model).expect("builds");
+        let chain = build_lods(&model).expect("builds");
+        let lods = chain.levels();
         for (size_px, views) in [
             (4.0, 24),
             (8.0, 24),
@@ -358,7 +394,7 @@ fn picked_level_is_within_half_a_pixel_of_the_full_silhouette() {
             (64.0, 6),
             (128.0, 3),
         ] {
-            let k = pick(&lods, 1.0, size_px, 0.5);
+            let k = chain.pick(size_px, 0.5);
             if size_px <= 4.0 {
                 assert!(k > 0, "{name}: no LOD used at {size_px} px");
             }
@@ -378,10 +414,11 @@ fn coarsest_level_would_break_the_budget() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
     for name in BUILTIN_NAMES {
         let model = builtin(name);
-        let lods = build_lods(&model).expect("builds");
+        let chain = build_lods(&model).expect("builds");
+        let lods = chain.levels();
         let last = lods.last().expect("levels");
-        let size_px = 4.0 / f64::from(last.error);
-        assert!(pick(&lods, 1.0, size_px, 0.5) < lods.len() - 1);
+        let size_px = 4.0 / f64::from(chain.error(lods.len() - 1));
+        assert!(chain.pick(size_px, 0.5) < lods.len() - 1);
         let worst = (0..8)
             .map(|_| {
                 let frame = SilhouetteFrame::new(&model, random_rotation(&mut rng), size_px, 8);
