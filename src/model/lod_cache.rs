@@ -239,11 +239,7 @@ impl<'a> Reader<'a> {
 }
 
 /// The levels and bounds in `file` when it is a valid cache file for `model`.
-fn read(
-    file: &Path,
-    key: &[u8; 32],
-    model: &CpuModel,
-) -> Option<(Vec<Lod>, Vec<Option<f32>>)> {
+fn read(file: &Path, key: &[u8; 32], model: &CpuModel) -> Option<(Vec<Lod>, Vec<Option<f32>>)> {
     // No level has more indices or draws than the model: a larger file is not ours.
     let per_level = model.indices.len() as u64 * 4 + model.draws.len() as u64 * 12 + 12;
     let limit = 1024 + lod::MAX_CANDIDATES as u64 * per_level;
@@ -357,14 +353,20 @@ mod tests {
         let (mut levels, errors) = state(&built);
         levels[1].indices[0] = model.vertices.len() as u32;
         let foreign = LodChain::new(levels, &errors, Vec::new());
-        assert_eq!(decode(&encode(&k, &foreign, &model.draws), &k, &model), None);
+        assert_eq!(
+            decode(&encode(&k, &foreign, &model.draws), &k, &model),
+            None
+        );
         std::fs::write(&file, encode(&k, &foreign, &model.draws)).expect("write");
         let rebuilt = cached_lods_in(Some(dir.path()), &model).expect("rebuilt");
         assert_eq!(state(&rebuilt), state(&built));
         let (levels, mut errors) = state(&built);
         errors[1] = Some(-1.0);
         let negative = LodChain::new(levels, &errors, Vec::new());
-        assert_eq!(decode(&encode(&k, &negative, &model.draws), &k, &model), None);
+        assert_eq!(
+            decode(&encode(&k, &negative, &model.draws), &k, &model),
+            None
+        );
         // Another key (another model) does not read this file.
         let mut moved = model.clone();
         moved.vertices[0].position[0] += 0.5;

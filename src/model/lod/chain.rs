@@ -96,13 +96,13 @@ impl LodChain {
         };
         *cell.get_or_init(|| {
             self.fresh.store(true, Ordering::Relaxed);
-            std::panic::catch_unwind(AssertUnwindSafe(|| self.compute(k)))
-                .unwrap_or(f32::INFINITY)
+            std::panic::catch_unwind(AssertUnwindSafe(|| self.compute(k))).unwrap_or(f32::INFINITY)
         })
     }
 
     fn compute(&self, k: usize) -> f32 {
-        let full = (self.full).get_or_init(|| Surface::new(&self.positions, &self.levels[0].indices));
+        let full =
+            (self.full).get_or_init(|| Surface::new(&self.positions, &self.levels[0].indices));
         let level = Surface::new(&self.positions, &self.levels[k].indices);
         hausdorff_bound(full, &level) as f32
     }

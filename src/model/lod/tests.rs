@@ -55,7 +55,10 @@ fn levels_shrink_share_the_vertex_buffer_and_keep_textures() {
         }
         // The coarsest level is the least faithful.
         let coarsest = chain.error(lods.len() - 1);
-        assert!((1..lods.len()).all(|k| chain.error(k) <= coarsest), "{name}");
+        assert!(
+            (1..lods.len()).all(|k| chain.error(k) <= coarsest),
+            "{name}"
+        );
         for lod in lods {
             assert!(lod.indices.len().is_multiple_of(3) && !lod.indices.is_empty());
             assert!(
@@ -134,7 +137,10 @@ fn building_is_deterministic_and_bounds_do_not_depend_on_when_they_are_found() {
         // Bounded while building (the coarse levels), or later by picks in
         // another order, or all on every core: the same bounds.
         let eager = once.known_errors();
-        assert!(eager.iter().skip(1).any(Option::is_some), "{name}: {eager:?}");
+        assert!(
+            eager.iter().skip(1).any(Option::is_some),
+            "{name}: {eager:?}"
+        );
         let late = LodChain::new(once.levels().to_vec(), &[], positions(&model));
         for px in [1.0, 300.0, 20.0, 5_000.0] {
             late.pick(px, 0.5);
@@ -173,7 +179,10 @@ fn a_pick_bounds_only_the_levels_it_passes() {
     assert!(known[1..k].iter().all(Option::is_none), "{known:?}");
     // The levels eagerly bounded while building are the coarse ones.
     let eager = built.known_errors();
-    let first = 1 + eager[1..].iter().position(Option::is_some).expect("some bounded");
+    let first = 1 + eager[1..]
+        .iter()
+        .position(Option::is_some)
+        .expect("some bounded");
     assert!(eager[first..].iter().all(Option::is_some), "{eager:?}");
     assert!(levels[first].triangle_count() as f64 <= model.triangle_count() as f64 * EAGER_SHARE);
     for px in [0.5, 3.0, 12.0, 40.0, 150.0, 600.0, 3_000.0, 1e5] {
