@@ -21,7 +21,8 @@
 //! rename) and read defensively: the magic, the key, the length and a
 //! BLAKE3 checksum of the contents must match, and every level must be
 //! whole triangles of in-range indices and draw ranges of the model, each
-//! coarser than the one before, each bound positive or not yet found; a file
+//! coarser than the one before, each bound in the range a model's bounds
+//! fall in (from the sampling's slack to a few spans) or not yet found; a file
 //! failing any check is ignored and rebuilt over. The cache never changes
 //! the levels: a hit returns exactly what a build returns, and the bounds a
 //! build finds (tested), so the outputs are the same with or without it. Failing to write (read-only
@@ -208,7 +209,7 @@ pub fn decode(
 
 /// A level read back is whole triangles of in-range indices, its draw
 /// ranges tile its indices in order, it is coarser than the level before,
-/// and its bound, when found, is positive and finite.
+/// and its bound, when found, lies in the range every bound of a model does.
 fn plausible(level: &Lod, error: Option<f32>, model: &CpuModel, finer: &Lod) -> bool {
     let vertices = model.vertices.len();
     let mut at = 0u32;
@@ -220,7 +221,7 @@ fn plausible(level: &Lod, error: Option<f32>, model: &CpuModel, finer: &Lod) -> 
     tiles
         && at as usize == level.indices.len()
         && level.indices.iter().all(|&i| (i as usize) < vertices)
-        && error.is_none_or(|e| e.is_finite() && e > 0.0)
+        && error.is_none_or(lod::plausible_error)
         && level.triangle_count() < finer.triangle_count()
 }
 
@@ -265,7 +266,40 @@ pub(super) fn write(dir: &Path, file: &Path, bytes: &[u8]) -> std::io::Result<()
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    remove_stale_temporaries(dir, &name);
     result
+}
+
+/// A temporary file this old is a killed write's (a write takes milliseconds).
+const STALE: std::time::Duration = std::time::Duration::from_secs(600);
+
+/// Remove the temporary files of `name` ([`write`]'s `.NAME.PID.N.tmp`)
+/// that a process killed between creating and renaming them left, once
+/// they are [`STALE`]: regular files only, nothing else in the folder.
+fn remove_stale_temporaries(dir: &Path, name: &str) {
+    let prefix = format!(".{name}.");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten().take(10_000) {
+        let file_name = entry.file_name();
+        let Some(n) = file_name.to_str() else {
+            continue;
+        };
+        let stale = entry
+            .metadata()
+            .ok()
+            .filter(|m| m.is_file())
+            .is_some_and(|m| {
+                m.modified()
+                    .ok()
+                    .and_then(|t| t.elapsed().ok())
+                    .is_some_and(|age| age > STALE)
+            });
+        if n.starts_with(&prefix) && n.ends_with(".tmp") && stale {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 #[cfg(test)]
@@ -322,6 +356,36 @@ mod tests {
                 .iter()
                 .all(|n| n.ends_with(".lod") && !n.starts_with('.'))
         );
+    }
+
+    /// A temporary file a killed write left is removed by a later write
+    /// of the same file once it is old; a fresh one, another file's and
+    /// anything not named like one stay.
+    #[test]
+    fn a_killed_writes_temporary_file_is_removed_once_stale() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("ab.lod");
+        let old = std::time::SystemTime::now() - 2 * STALE;
+        let place = |n: &str, stale: bool| {
+            let path = dir.path().join(n);
+            std::fs::write(&path, b"partial").expect("write");
+            if stale {
+                let f = std::fs::File::options()
+                    .write(true)
+                    .open(&path)
+                    .expect("open");
+                f.set_modified(old).expect("age it");
+            }
+            path
+        };
+        let killed = place(".ab.lod.4242.0.tmp", true);
+        let fresh = place(".ab.lod.4243.0.tmp", false);
+        let other = place(".cd.lod.4242.0.tmp", true);
+        let user = place("ab.lod.notes", true);
+        write(dir.path(), &file, b"levels").expect("write");
+        assert_eq!(std::fs::read(&file).expect("written"), b"levels");
+        assert!(!killed.exists());
+        assert!(fresh.exists() && other.exists() && user.exists());
     }
 
     /// A corrupted, truncated or foreign file is ignored and rebuilt over;

@@ -407,6 +407,15 @@ pub(super) fn bisect_longest_edge([a, b, c]: [DVec3; 3]) -> [[DVec3; 3]; 2] {
     [[p, m, o], [m, q, o]]
 }
 
+/// Whether `e` can be a bound this module computed for two surfaces inside
+/// a unit-span box: at least the slack δ ([`ABSOLUTE_SLACK`]: the bound of
+/// two equal surfaces) and at most the bound of twice the box's diagonal
+/// (a sampled distance is at most that diagonal plus a piece's radius).
+pub(super) fn plausible_bound(e: f32) -> bool {
+    let most = sampled_bound(2.0 * 3f64.sqrt());
+    (f64::from(e) >= ABSOLUTE_SLACK) && f64::from(e) <= most
+}
+
 /// The Hausdorff bound that a largest sampled distance `w` stands for.
 pub(super) fn sampled_bound(w: f64) -> f64 {
     (1.0 + RELATIVE_SLACK) * w + ABSOLUTE_SLACK

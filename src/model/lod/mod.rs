@@ -177,6 +177,12 @@ pub fn build_lods(model: &CpuModel) -> Result<LodChain, LodError> {
 /// of CPU all its bounds take).
 const EAGER_SHARE: f64 = 0.125;
 
+/// Whether `error` can be a level's bound for a model (normalised to a unit
+/// span): what a cache file's bound is checked against.
+pub(crate) fn plausible_error(error: f32) -> bool {
+    hausdorff::plausible_bound(error)
+}
+
 /// The model's vertex positions, in double precision (what the bounds measure).
 pub(crate) fn positions(model: &CpuModel) -> Vec<DVec3> {
     (model.vertices.iter())
