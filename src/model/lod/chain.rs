@@ -160,7 +160,10 @@ impl LodChain {
     }
 
     fn tell(&self) {
-        if self.fresh.swap(false, Ordering::Relaxed)
+        // A load first: the makers' picks of every drone share the flag's
+        // cache line, which a swap on each would write.
+        if self.fresh.load(Ordering::Relaxed)
+            && self.fresh.swap(false, Ordering::Relaxed)
             && let Some(hook) = self.on_bound.get()
         {
             hook(self);
