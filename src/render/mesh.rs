@@ -9,6 +9,7 @@
 //! model's level count + the direction's index.
 
 use std::ops::Range;
+use std::sync::Arc;
 
 use wgpu::util::DeviceExt;
 
@@ -16,8 +17,6 @@ use super::gpu::{PipelineDesc, PipelineFactory, Program, depth_test};
 use super::impostor::GpuImpostor;
 use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, material};
 use crate::model::impostor::Impostor;
-use std::sync::Arc;
-
 use crate::model::lod::LodChain;
 use crate::model::{CpuModel, Vertex};
 use crate::scene::FrameScene;
