@@ -25,8 +25,9 @@
 //! fall in (from the sampling's slack to a few spans) or not yet found; a file
 //! failing any check is ignored and rebuilt over. The cache never changes
 //! the levels: a hit returns exactly what a build returns, and the bounds a
-//! build finds (tested), so the outputs are the same with or without it. Failing to write (read-only
-//! home, full disk) only costs the next run the build.
+//! build finds (tested), so the outputs are the same with or without it.
+//! Failing to write (read-only home, full disk) only costs the next run the
+//! build.
 //!
 //! The same folder holds the baked impostors ([`super::impostor_cache`],
 //! `.imp` files), with the same rules.
