@@ -57,8 +57,7 @@ pub fn cached_hull_in(dir: Option<&Path>, points: &[DVec3]) -> Vec<DVec3> {
 
 /// The file name of a key.
 pub fn file_name(key: &[u8; 32]) -> String {
-    let hex: String = key.iter().map(|b| format!("{b:02x}")).collect();
-    format!("{hex}.hull")
+    lod_cache::keyed_name(key, "hull")
 }
 
 /// What the hull is computed from: the format, the crate version and the points.

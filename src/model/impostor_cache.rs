@@ -48,8 +48,7 @@ pub fn cached_bake_in(dir: Option<&Path>, model: &CpuModel) -> Impostor {
 
 /// The file name of a key.
 pub fn file_name(key: &[u8; 32]) -> String {
-    let hex: String = key.iter().map(|b| format!("{b:02x}")).collect();
-    format!("{hex}.imp")
+    lod_cache::keyed_name(key, "imp")
 }
 
 /// What the bake is computed from: the format, the crate version, the

@@ -84,8 +84,13 @@ pub fn cache_dir() -> Option<PathBuf> {
 
 /// The file name of a key.
 pub fn file_name(key: &[u8; 32]) -> String {
+    keyed_name(key, "lod")
+}
+
+/// A cache file's name: its key in hex, then `.ext` (the levels', hulls' and impostors' files).
+pub(super) fn keyed_name(key: &[u8; 32], ext: &str) -> String {
     let hex: String = key.iter().map(|b| format!("{b:02x}")).collect();
-    format!("{hex}.lod")
+    format!("{hex}.{ext}")
 }
 
 /// What the levels are computed from: the crate version, the simplifier's

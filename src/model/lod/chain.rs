@@ -13,12 +13,12 @@
 
 use std::panic::AssertUnwindSafe;
 use std::sync::OnceLock;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use glam::DVec3;
 
 use super::Lod;
-use super::hausdorff::{Surface, hausdorff_bound};
+use super::hausdorff::{Surface, level_bound};
 
 /// What is told of bounds found since the last time: the cache's write.
 pub type OnBound = Box<dyn Fn(&LodChain) + Send + Sync>;
@@ -103,8 +103,7 @@ impl LodChain {
     fn compute(&self, k: usize) -> f32 {
         let full =
             (self.full).get_or_init(|| Surface::new(&self.positions, &self.levels[0].indices));
-        let level = Surface::new(&self.positions, &self.levels[k].indices);
-        hausdorff_bound(full, &level) as f32
+        level_bound(full, &self.positions, &self.levels[k].indices)
     }
 
     /// The bounds found so far (`None`: not yet).
@@ -114,7 +113,7 @@ impl LodChain {
 
     /// Every level's bound, found on every core.
     pub fn bound_all(&self) {
-        let next = std::sync::atomic::AtomicUsize::new(1);
+        let next = AtomicUsize::new(1);
         let work = || {
             loop {
                 let k = next.fetch_add(1, Ordering::Relaxed);

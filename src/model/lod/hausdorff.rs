@@ -416,6 +416,12 @@ pub(super) fn plausible_bound(e: f32) -> bool {
     (f64::from(e) >= ABSOLUTE_SLACK) && f64::from(e) <= most
 }
 
+/// The error bound of the level `indices` over `positions` against the full
+/// mesh's surface `full` (as stored: single precision).
+pub(super) fn level_bound(full: &Surface, positions: &[DVec3], indices: &[u32]) -> f32 {
+    hausdorff_bound(full, &Surface::new(positions, indices)) as f32
+}
+
 /// The Hausdorff bound that a largest sampled distance `w` stands for.
 pub(super) fn sampled_bound(w: f64) -> f64 {
     (1.0 + RELATIVE_SLACK) * w + ABSOLUTE_SLACK

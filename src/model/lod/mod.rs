@@ -47,7 +47,7 @@ mod hausdorff;
 mod silhouette;
 
 pub use chain::{LodChain, OnBound};
-use hausdorff::{Surface, hausdorff_bound};
+use hausdorff::{Surface, level_bound};
 pub use silhouette::SilhouetteFrame;
 
 /// One level of detail: an index buffer into the model's own vertex buffer
@@ -145,10 +145,7 @@ pub fn build_lods(model: &CpuModel) -> Result<LodChain, LodError> {
             .spawn_scoped(s, || {
                 let full = Surface::new(&positions, &model.indices);
                 let errors: Vec<(usize, f32)> = (take.into_iter())
-                    .map(|(k, indices)| {
-                        let level = Surface::new(&positions, &indices);
-                        (k, hausdorff_bound(&full, &level) as f32)
-                    })
+                    .map(|(k, indices)| (k, level_bound(&full, &positions, &indices)))
                     .collect();
                 (full, errors)
             })

@@ -5,7 +5,9 @@ use std::path::Path;
 use glam::{DMat3, DQuat};
 use rand::{Rng, SeedableRng};
 
-use super::hausdorff::{MAX_DEPTH, bisect_longest_edge, one_sided_worst, sampled_bound};
+use super::hausdorff::{
+    MAX_DEPTH, bisect_longest_edge, hausdorff_bound, one_sided_worst, sampled_bound,
+};
 use super::*;
 use crate::model::builtin::{NAMES as BUILTIN_NAMES, glb as builtin_glb};
 
