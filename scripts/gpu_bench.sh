@@ -4,34 +4,37 @@
 #   scripts/gpu_bench.sh OUTDIR [BINARY]
 # BINARY defaults to target/release/swarmshot (build it where cargo reaches the
 # crates, copy it over). Prints and writes OUTDIR/gpu_bench.txt; each batch's
-# "wrote … on ADAPTER" line names the adapter it ran on.
+# "wrote … on ADAPTER" line names the adapter it ran on, its "per frame" line
+# the makers' and encoders' busy time (--timings), and bash's time its wall,
+# user and system seconds. Datasets go to /dev/shm when there is one.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:?usage: scripts/gpu_bench.sh OUTDIR [BINARY]}
 bin=$(realpath "${2:-target/release/swarmshot}")
 mkdir -p "$out"
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+scratch=$(mktemp -d -p "$([ -d /dev/shm ] && echo /dev/shm || echo "$work")")
+trap 'rm -rf "$work" "$scratch"' EXIT
 export SWARMSHOT_CACHE_DIR="$work/cache"
 TIMEFORMAT='  %R s wall, %U s user, %S s sys'
 
-# One batch into a fresh folder: its summary line and its times.
+# One batch into a fresh folder: its summary lines and its times.
 batch() {
-    local name=$1
-    shift
-    echo "== $name"
-    { time "$bin" batch "$@" --out "$work/ds" --overwrite 2>&1 | grep -E "^(wrote|error)"; } 2>&1
-    rm -rf "$work/ds"
+    echo "== $*"
+    { time "$bin" batch "$@" --out "$scratch/ds" --overwrite --timings 2>&1 | grep -E "^(wrote|error|per frame)"; } 2>&1
+    rm -rf "$scratch/ds"
 }
 
 {
     nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>/dev/null || echo "no nvidia-smi"
     echo "cores: $(nproc)"
-    batch "quickstart.ron, 108 frames (warms the caches)" presets/quickstart.ron
-    for makers in 6 12 16; do
-        batch "synthswarm_table2.ron, 600 frames, --makers $makers" presets/synthswarm_table2.ron --limit 600 --makers "$makers"
+    batch presets/quickstart.ron
+    for makers in 6 12 16 24; do
+        batch presets/synthswarm_table2.ron --limit 1200 --makers "$makers"
     done
+    batch presets/synthswarm_table2.ron --limit 1200 --makers 16 --threads 16
+    batch presets/synthswarm_table2.ron --limit 2400 --makers 16
     for makers in 12 16; do
-        batch "realistic.ron, 300 frames, --makers $makers" presets/realistic.ron --limit 300 --makers "$makers"
+        batch presets/realistic.ron --limit 600 --makers "$makers"
     done
 } 2>&1 | tee "$out/gpu_bench.txt"
