@@ -16,7 +16,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::gpu::{PipelineDesc, PipelineFactory, clear_pass, color_target};
+use super::gpu::{PipelineDesc, PipelineFactory, color_target, covering_pass};
 use super::plate::Plates;
 use super::readback::{self, Readback};
 use super::regions::Rect;
@@ -339,7 +339,8 @@ impl Backgrounds {
         });
         {
             let pipeline = self.sky.get(with.factory, with.sky);
-            let mut pass = clear_pass(&mut encoder, "background pass", &cache.view);
+            // Not cleared: the sky's full-screen triangle writes every pixel.
+            let mut pass = covering_pass(&mut encoder, "background pass", &cache.view);
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, with.frame_group, &[]);
             pass.set_bind_group(1, with.sky.bind_group_for(&scene.sky), &[]);

@@ -302,7 +302,8 @@ pub(super) fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTar
 }
 
 /// A render pass drawing into `view` alone, cleared to black first and
-/// stored (the background and reduced sky passes).
+/// stored (the procedural environment's quarter-resolution pass, whose
+/// polygons need not cover every texel the next pass samples).
 pub(super) fn clear_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     label: &str,

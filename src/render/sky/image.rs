@@ -85,7 +85,9 @@ impl SkyGpu {
         let Some((group, _)) = self.images.get(*image) else {
             return;
         };
-        let mut pass = crate::render::gpu::clear_pass(encoder, "image sky pass", view);
+        // Not cleared: the full-screen triangle writes every texel (no
+        // blending, no discard), so a clear would be a fill for nothing.
+        let mut pass = crate::render::gpu::covering_pass(encoder, "image sky pass", view);
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, with.frame_group, &[]);
         // The image's own group: its placeholder stands for the target being drawn.
