@@ -66,8 +66,8 @@ pub const DEFAULT_MAKERS: usize = 1;
 pub const DEFAULT_MAKERS_NEW_BACKGROUNDS: usize = 2;
 
 /// The most makers chosen by default on a hardware GPU (docs/benchmarks.md,
-/// "On a GPU"): on an H100 with 16 cores, `synthswarm_table2.ron` made 37.7
-/// frames/s with the CPU machine's 2 makers, 89.7 with 6 and 156 with 12.
+/// "On a GPU"): on an H200 with 16 cores, `synthswarm_table2.ron` made
+/// 427–498 frames/s with 6 makers, 580–636 with 12, and no more with 16 or 24.
 pub const MAX_DEFAULT_MAKERS_GPU: usize = 12;
 
 /// Makers when the user names none. On a software rasteriser (lavapipe) the
