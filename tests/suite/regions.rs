@@ -3,7 +3,8 @@
 //! hardware resolve), and visibility identical to a reduction over the whole
 //! frame. Over a gradient sky, a procedural environment, an image sky, MSAA
 //! 1× and 4×, drones cut by the image border and by the near plane, and no
-//! drones; and the background is drawn once for frames that share it.
+//! drones; the background is drawn once for frames that share it, and a
+//! sky drawn over the last one (not cleared first) leaves nothing of it.
 
 use crate::common;
 
@@ -175,6 +176,38 @@ fn frames_that_share_a_camera_pose_draw_the_background_once() {
         2,
         "another fov is another background"
     );
+}
+
+/// The sky passes draw over their last frame's texels without clearing
+/// them (one full-screen triangle writes every one): frames of a moving
+/// camera, gradient or image sky, each equal the frame a fresh renderer
+/// makes alone. (A sky shader that discarded texels where the view turned
+/// away, as the camera sweeps, fails this; checked by hand.)
+#[test]
+fn sky_passes_drawn_over_the_last_frame_leave_nothing_of_it() {
+    let ctx = common::gpu();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let request = RenderRequest {
+        msaa: 4,
+        color: true,
+        visibility: false,
+    };
+    for sky in [Preset::default().sky, image_sky(dir.path())] {
+        let mut p = preset(sky, 4);
+        p.repeats = 1;
+        p.camera.x = SweepRange::new(-0.6, 0.6, 0.4); // four poses, a new sky each
+        let pipeline = FramePipeline::new(p).expect("preset");
+        let mut after_others = pipeline.renderer(&ctx);
+        for index in 0..pipeline.frame_count() {
+            let scene = pipeline.scene(index).expect("scene");
+            let got = after_others.render_frame(&scene, &request).expect("render");
+            let alone = (pipeline.renderer(&ctx))
+                .render_frame(&scene, &request)
+                .expect("render");
+            assert!(got.rgba == alone.rgba, "frame {index}");
+        }
+        assert_eq!(after_others.background_draws(), pipeline.frame_count());
+    }
 }
 
 /// A frame buffer handed back to the renderer is reused: over the same
