@@ -35,10 +35,11 @@ batch() {
         batch presets/synthswarm_table2.ron --limit 1200 --makers "$makers"
     done
     batch presets/synthswarm_table2.ron --limit 1200 --makers 16 --threads 16
-    # The GPU's load through the longest run (its SMs' busy share a second).
+    # The GPU's load through the longest run (its SMs' busy share a second);
+    # bounded in time, so a batch that stops the script cannot leave it running.
     dmon=
     if command -v nvidia-smi > /dev/null; then
-        nvidia-smi dmon -s u -d 1 > "$out/dmon.txt" 2>&1 &
+        timeout 600 nvidia-smi dmon -s u -d 1 > "$out/dmon.txt" 2>&1 &
         dmon=$!
     fi
     batch presets/synthswarm_table2.ron --limit 2400 --makers 16
