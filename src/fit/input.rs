@@ -316,6 +316,7 @@ mod tests {
             width: 10,
             height: 10,
             duration_s: d,
+            still: false,
         };
         assert_eq!(
             crate::fit::video::frames_bound(&probe(Some(3.0)), &options(200, 2.0)),
@@ -338,6 +339,7 @@ mod tests {
             width: 10,
             height: 10,
             duration_s: d,
+            still: false,
         };
         // 200 frames at 2 a second cover 100 s: a 1 000 s video is taken at 0.2 a second.
         assert_eq!(sample_fps(&probe(Some(1000.0)), &options(200, 2.0)), 0.2);
@@ -354,6 +356,7 @@ mod tests {
             width: 7680,
             height: 4320,
             duration_s: None,
+            still: false,
         };
         let e = check_video_pixels(v, &eight_k, &options(200, 2.0)).expect_err("8K × 200");
         assert!(matches!(e, FitError::TooManyPixels { fit: 60, .. }), "{e}");
@@ -363,6 +366,7 @@ mod tests {
             width: 20_000,
             height: 20_000,
             duration_s: Some(1.0),
+            still: false,
         };
         let e = check_video_pixels(v, &huge, &options(1, 2.0)).expect_err("400 Mpx");
         assert!(e.to_string().starts_with("clip.mp4: "), "{e}");

@@ -40,6 +40,8 @@ pub struct Probe {
     /// Seconds: stated by the stream or the container (the shorter), else counted
     /// from its packets and frame rate; `None` when none of them says.
     pub duration_s: Option<f64>,
+    /// ffmpeg read it as a picture (its `image2` or an `*_pipe` demuxer), not a video.
+    pub still: bool,
 }
 
 /// An executable regular file named `name` in a folder of PATH.
@@ -67,7 +69,7 @@ fn is_executable(p: &Path) -> bool {
 /// (a container can claim far more than its stream holds), and where neither is, the
 /// stream's packets counted (the file read once, nothing decoded) over its frame rate.
 pub fn probe(video: &Path, decoder: &Decoder) -> Result<Probe, FitError> {
-    let entries = "stream=width,height,duration:format=duration";
+    let entries = "stream=width,height,duration:format=duration,format_name";
     let mut probe = parse_probe(&ffprobe(video, decoder, &[], entries)?)
         .map_err(|reason| decode_err(video, reason))?;
     if probe.duration_s.is_none() {
@@ -131,11 +133,14 @@ fn seconds(value: &str) -> Option<f64> {
 }
 
 /// ffprobe's `flat` answer: `width`, `height` (required, ≥ 1) and the stream's and the
-/// container's `duration` (seconds; `N/A` or absent when not stated), the shorter kept.
+/// container's `duration` (seconds; `N/A` or absent when not stated), the shorter kept;
+/// the container's `format_name`, which tells a picture from a video.
 pub fn parse_probe(text: &str) -> Result<Probe, String> {
     let (mut width, mut height, mut duration_s) = (None, None, None::<f64>);
+    let mut still = false;
     for (key, value) in flat_entries(text) {
         match key {
+            "format.format_name" => still = value == "image2" || value.ends_with("_pipe"),
             "width" => width = value.parse::<u32>().ok().filter(|&w| w > 0),
             "height" => height = value.parse::<u32>().ok().filter(|&h| h > 0),
             "duration" | "format.duration" => {
@@ -151,6 +156,7 @@ pub fn parse_probe(text: &str) -> Result<Probe, String> {
             width,
             height,
             duration_s,
+            still,
         }),
         _ => Err("no video stream with a frame size".into()),
     }
@@ -217,7 +223,12 @@ pub fn frames_bound(probe: &Probe, options: &FitOptions) -> usize {
 /// [`probe`] measured) into `OUT/frames/` with ffmpeg (PNG, lossless), at most
 /// [`frames_bound`]. The folder is made below `out`'s handle
 /// without following a link, and checked to be the same folder before and after ffmpeg
-/// writes into it by path.
+/// writes into it by path. A clip shorter than about half a sampling interval (ffmpeg
+/// 5.1 at 2 a second: 0.2 s of 30 fps) gets no frame from ffmpeg's `fps` filter, which
+/// rounds its frames away; then the decode runs again with `eof_action=pass`, which
+/// passes the clip's last frame through. Only then, and not for a picture given as a
+/// video (refused as giving no frame): on longer clips that option can add a frame at
+/// the end (1.1 s of 30 fps gives 3 frames, not 2).
 pub fn decode(
     video: &Path,
     decoder: &Decoder,
@@ -226,9 +237,40 @@ pub fn decode(
     options: &FitOptions,
 ) -> Result<PathBuf, FitError> {
     let (dir, held) = out.dir_for_path("frames")?;
-    let frames = frames_bound(probe, options);
     // `--video-fps` was checked before anything was written (`check_numbers`).
     let fps = sample_fps(probe, options);
+    let sampling = Sampling {
+        frames: frames_bound(probe, options),
+        filter: format!("fps={fps}"),
+    };
+    run_ffmpeg(video, decoder, &sampling, &dir)?;
+    out.check_same(&dir, &held)?;
+    if is_empty(&dir)? && !probe.still {
+        let kept = Sampling {
+            filter: format!("fps={fps}:eof_action=pass"),
+            ..sampling
+        };
+        run_ffmpeg(video, decoder, &kept, &dir)?;
+        out.check_same(&dir, &held)?;
+    }
+    check_some_frame(video, &dir)?;
+    Ok(dir)
+}
+
+/// How the decode samples the video: the `-vf` filter and the most frames it writes.
+struct Sampling {
+    frames: usize,
+    filter: String,
+}
+
+/// ffmpeg decoding `video`'s first video stream through `sampling` into `dir`'s
+/// numbered PNGs; its failure names the video with ffmpeg's own (bounded) words.
+fn run_ffmpeg(
+    video: &Path,
+    decoder: &Decoder,
+    sampling: &Sampling,
+    dir: &Path,
+) -> Result<(), FitError> {
     let output = std::process::Command::new(&decoder.ffmpeg)
         .args(["-nostdin", "-hide_banner", "-loglevel", "error", "-i"])
         .arg(video)
@@ -237,9 +279,9 @@ pub fn decode(
         .args(["-map", "0:v:0"])
         .args([
             "-vf",
-            &format!("fps={fps}"),
+            &sampling.filter,
             "-frames:v",
-            &frames.to_string(),
+            &sampling.frames.to_string(),
         ])
         .args(["-start_number", "0"])
         .arg(dir.join("frame_%05d.png"))
@@ -249,16 +291,18 @@ pub fn decode(
     if !output.status.success() {
         return Err(decode_err(video, bounded_text(&output.stderr)));
     }
-    out.check_same(&dir, &held)?;
-    check_some_frame(video, &dir)?;
-    Ok(dir)
+    Ok(())
+}
+
+fn is_empty(dir: &Path) -> Result<bool, FitError> {
+    let mut entries = std::fs::read_dir(dir).map_err(io_err(dir))?;
+    Ok(entries.next().is_none())
 }
 
 /// Refuses, naming the video, a decode that gave no frame (a still image given as a
 /// video, a stream without frames): the frames folder's own error would name `OUT`.
 fn check_some_frame(video: &Path, dir: &Path) -> Result<(), FitError> {
-    let mut entries = std::fs::read_dir(dir).map_err(io_err(dir))?;
-    if entries.next().is_some() {
+    if !is_empty(dir)? {
         return Ok(());
     }
     Err(decode_err(
@@ -280,6 +324,12 @@ mod tests {
         let text = "streams.stream.0.width=640\nstreams.stream.0.height=512\n\
                     streams.stream.0.duration=\"N/A\"\nformat.duration=\"N/A\"";
         assert_eq!(parse_probe(text).expect("probe").duration_s, None);
+        let still = |format: &str| {
+            let text = format!("{text}\nformat.format_name=\"{format}\"");
+            parse_probe(&text).expect("probe").still
+        };
+        assert!(still("png_pipe") && still("jpeg_pipe") && still("image2"));
+        assert!(!still("mov,mp4,m4a,3gp,3g2,mj2") && !still("matroska,webm"));
         for bad in [
             "",
             "format.duration=\"3\"",

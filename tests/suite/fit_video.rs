@@ -260,6 +260,41 @@ fn a_file_that_is_no_video_is_a_named_error_and_nothing_is_written() {
     assert!(!out.exists());
 }
 
+#[test]
+fn a_clip_shorter_than_a_sampling_interval_gives_its_last_frame() {
+    if !have_ffmpeg() {
+        return;
+    }
+    let dir = tmp("short");
+    // Three frames of 30 fps (0.1 s), red, green, blue: at 2 frames a second ffmpeg's
+    // `fps` filter alone rounds them all away.
+    let video = dir.join("short.mkv");
+    let colour = |c: &str| format!("color=c={c}:s=96x96:r=30:d=0.0334");
+    ffmpeg(
+        &[
+            "-f",
+            "lavfi",
+            "-i",
+            &format!(
+                "{}[a];{}[b];{}[c];[a][b][c]concat=n=3",
+                colour("red"),
+                colour("green"),
+                colour("blue")
+            ),
+            "-c:v",
+            "ffv1",
+        ],
+        &video,
+    );
+    let out = dir.join("out");
+    let o = fit(&video, &out, &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames = frame_files(&out.join("frames"));
+    assert_eq!(frames.len(), 1, "{frames:?}");
+    let px = *rgb(&frames[0]).get_pixel(48, 48);
+    assert!(px[2] > 240 && px[0] < 16 && px[1] < 16, "{px:?}");
+}
+
 /// The frames of `dir`, sorted.
 fn frame_files(dir: &Path) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
