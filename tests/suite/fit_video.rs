@@ -55,6 +55,11 @@ fn ffmpeg(args: &[&str], out: &Path) {
     );
 }
 
+/// A lossless FFV1 clip at `out` of ffmpeg's generated `source` (a lavfi filter graph).
+fn lavfi_ffv1(source: &str, out: &Path) {
+    ffmpeg(&["-f", "lavfi", "-i", source, "-c:v", "ffv1"], out);
+}
+
 fn fit(video: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     swarmshot()
         .args(["fit", "--real"])
@@ -203,31 +208,11 @@ fn a_video_past_the_pixel_budgets_is_refused_before_anything_is_written() {
     let dir = tmp("budget");
     // One frame of 8 200 × 8 200 (67 Mpx, past the 64 Mpx an image may have).
     let huge = dir.join("huge.mkv");
-    ffmpeg(
-        &[
-            "-f",
-            "lavfi",
-            "-i",
-            "color=c=gray:s=8200x8200:r=1:d=1",
-            "-c:v",
-            "ffv1",
-        ],
-        &huge,
-    );
+    lavfi_ffv1("color=c=gray:s=8200x8200:r=1:d=1", &huge);
     // 100 s of 4 000 × 4 000 (one frame, but the container says 100 s: at 2 frames a
     // second the decode may give 200 frames, 3 200 Mpx, past fit's 2 000).
     let long = dir.join("long.mkv");
-    ffmpeg(
-        &[
-            "-f",
-            "lavfi",
-            "-i",
-            "color=c=gray:s=4000x4000:r=0.01:d=100",
-            "-c:v",
-            "ffv1",
-        ],
-        &long,
-    );
+    lavfi_ffv1("color=c=gray:s=4000x4000:r=0.01:d=100", &long);
     for (video, what) in [
         (&huge, "8200×8200 is 67240000 pixels"),
         (&long, "pass --max-frames 125 or fewer"),
@@ -270,22 +255,13 @@ fn a_clip_shorter_than_a_sampling_interval_gives_its_last_frame() {
     // `fps` filter alone rounds them all away.
     let video = dir.join("short.mkv");
     let colour = |c: &str| format!("color=c={c}:s=96x96:r=30:d=0.0334");
-    ffmpeg(
-        &[
-            "-f",
-            "lavfi",
-            "-i",
-            &format!(
-                "{}[a];{}[b];{}[c];[a][b][c]concat=n=3",
-                colour("red"),
-                colour("green"),
-                colour("blue")
-            ),
-            "-c:v",
-            "ffv1",
-        ],
-        &video,
+    let graph = format!(
+        "{}[a];{}[b];{}[c];[a][b][c]concat=n=3",
+        colour("red"),
+        colour("green"),
+        colour("blue")
     );
+    lavfi_ffv1(&graph, &video);
     let out = dir.join("out");
     let o = fit(&video, &out, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -351,17 +327,7 @@ fn a_video_of_frames_too_small_is_refused_naming_it_before_anything_is_written()
     }
     let dir = tmp("tiny");
     let video = dir.join("tiny.mkv");
-    ffmpeg(
-        &[
-            "-f",
-            "lavfi",
-            "-i",
-            "color=c=gray:s=32x48:r=2:d=1",
-            "-c:v",
-            "ffv1",
-        ],
-        &video,
-    );
+    lavfi_ffv1("color=c=gray:s=32x48:r=2:d=1", &video);
     let out = dir.join("out");
     let o = fit(&video, &out, &[]);
     let err = String::from_utf8_lossy(&o.stderr);
@@ -382,17 +348,7 @@ fn plates_the_fitted_preset_could_not_load_are_refused_before_anything_is_writte
     // 100 s of 640 × 512: at 2 frames a second 200 frames, × 9 views 1 800 plates
     // of 1.3 MB resampled, past the 2 GiB the plate loader takes (182 frames fit).
     let video = dir.join("long.mkv");
-    ffmpeg(
-        &[
-            "-f",
-            "lavfi",
-            "-i",
-            "color=c=gray:s=640x512:r=0.01:d=100",
-            "-c:v",
-            "ffv1",
-        ],
-        &video,
-    );
+    lavfi_ffv1("color=c=gray:s=640x512:r=0.01:d=100", &video);
     let out = dir.join("out");
     let o = fit(&video, &out, &["--views", "9"]);
     let err = String::from_utf8_lossy(&o.stderr);
