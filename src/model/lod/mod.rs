@@ -170,12 +170,9 @@ pub fn build_lods(model: &CpuModel) -> Result<LodChain, LodError> {
 
 /// The levels of at most this share of the model's triangles are bounded as
 /// they are made: every drone small enough for the coarse levels needs their
-/// bounds, and the second thread finds them within the simplifier's own time
-/// (the 9 434-triangle Crazyflie: its levels of 1 582 triangles and fewer,
-/// about 60 of the 230 ms of CPU all its bounds take, against 75 ms of
-/// simplifying). An eighth left out the level of 1 582, which a first frame
-/// of 13-px drones then bounded on its maker, 17–20 ms before its first draw.
-const EAGER_SHARE: f64 = 0.2;
+/// bounds, and they are cheap (the 9 434-triangle Crazyflie: 43 of the 230 ms
+/// of CPU all its bounds take).
+const EAGER_SHARE: f64 = 0.125;
 
 /// Whether `error` can be a level's bound for a model (normalised to a unit
 /// span): what a cache file's bound is checked against.
