@@ -465,6 +465,8 @@ fn run_stages(
         in_flight,
     };
     std::thread::scope(|s| {
+        // A thread the system refuses leaves the bounds to the first frame's maker.
+        let _ = std::thread::Builder::new().spawn_scoped(s, || pipeline.bound_picks_of(run.first));
         for _ in 0..threads {
             let (rx, tx, recycle) = (encode_rx.clone(), to_sink.clone(), recycle_tx.clone());
             let started = spawn(s, "an encoder", move || {

@@ -395,6 +395,24 @@ impl FramePipeline {
         })
     }
 
+    /// The level-of-detail bounds frame `index`'s drones will need, found now
+    /// ([`crate::render::bound_picks`]): a batch finds its first frame's on a
+    /// thread while it sets up, where a first run's maker would find them
+    /// before its first draw.
+    pub fn bound_picks_of(&self, index: u64) {
+        let Ok(scene) = self.scene(index) else {
+            return;
+        };
+        let render = &self.preset.render;
+        let impostor_below_px = render.impostor_below_px.map_or(0.0, f64::from);
+        crate::render::bound_picks(
+            &scene,
+            &self.assets.lods,
+            render.lod_error_px,
+            impostor_below_px,
+        );
+    }
+
     /// A renderer holding this pipeline's models and sky images on `ctx`'s device.
     pub fn renderer(&self, ctx: &GpuContext) -> Renderer {
         let mut renderer = Renderer::with_lods(

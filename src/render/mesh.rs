@@ -19,8 +19,9 @@ use super::{DEPTH_FORMAT, INSTANCE_ATTRS, InstanceRaw, material};
 use crate::model::impostor::Impostor;
 use crate::model::lod::LodChain;
 use crate::model::{CpuModel, Vertex};
-use crate::scene::FrameScene;
+use crate::scene::camera::Camera;
 use crate::scene::projection::LabelGeometry;
+use crate::scene::{DronePose, FrameScene};
 
 /// The drones' part of the frame: what every pass that draws drones (the
 /// full-frame path's, the region passes, the id passes) draws them with.
@@ -264,15 +265,11 @@ impl Drones {
         let impostor = self.impostors.get(d.model)?.as_ref()?;
         let levels = self.meshes.get(d.model)?.levels.len();
         let cam = &scene.camera;
-        let centre = cam.camera_from_world_point(d.position);
-        if centre.z - d.size_m * 0.5 * 3f64.sqrt() <= cam.near_m {
-            return None;
-        }
-        let size_px = d.size_m * cam.focal_px() / centre.z;
-        if size_px.is_nan() || size_px >= self.impostor_below_px {
+        if impostor_size_px(cam, d)? >= self.impostor_below_px {
             return None;
         }
         // The camera (the origin) seen from the drone, in model space.
+        let centre = cam.camera_from_world_point(d.position);
         let rotation = cam.camera_from_world * glam::DMat3::from_quat(d.rotation);
         Some(levels + impostor.nearest(rotation.transpose() * -centre))
     }
@@ -299,12 +296,9 @@ impl Drones {
         if mesh.levels.len() < 2 {
             return 0;
         }
-        let cam = &scene.camera;
-        let nearest = cam.camera_from_world_point(d.position).z - d.size_m * 0.5 * 3f64.sqrt();
-        if nearest.is_nan() || nearest <= cam.near_m {
+        let Some(px_per_unit) = lod_scale(&scene.camera, d) else {
             return 0;
-        }
-        let px_per_unit = d.size_m * cam.focal_px() / nearest;
+        };
         // The coarsest level within the budget.
         chain.pick(px_per_unit, self.lod_error_px)
     }
@@ -501,6 +495,56 @@ impl Drones {
                 pass.set_bind_group(1, bind_group, &[]);
                 pass.draw_indexed(draw.indices.clone(), 0, range.clone());
             }
+        }
+    }
+}
+
+/// Drone `d`'s size in pixels over the depth of its centre, what the impostor
+/// threshold is compared with; `None` when any part of it may be at or behind
+/// the camera plane, or for NaN.
+fn impostor_size_px(cam: &Camera, d: &DronePose) -> Option<f64> {
+    let centre = cam.camera_from_world_point(d.position);
+    if centre.z - d.size_m * 0.5 * 3f64.sqrt() <= cam.near_m {
+        return None;
+    }
+    Some(d.size_m * cam.focal_px() / centre.z).filter(|px| !px.is_nan())
+}
+
+/// What a level-of-detail pick scales its levels' errors by for drone `d`:
+/// its size in pixels over the depth of its nearest possible point; `None`
+/// (level 0) when any part of it may be at or behind the camera plane.
+fn lod_scale(cam: &Camera, d: &DronePose) -> Option<f64> {
+    let nearest = cam.camera_from_world_point(d.position).z - d.size_m * 0.5 * 3f64.sqrt();
+    if nearest.is_nan() || nearest <= cam.near_m {
+        return None;
+    }
+    Some(d.size_m * cam.focal_px() / nearest)
+}
+
+/// The picks a renderer drawing `scene` will make (each model's chain in
+/// `chains`, `lod_error_px` and `impostor_below_px` as the renderer's), made
+/// ahead of it: the bounds they pass are found here, each once (the picks'
+/// levels do not depend on who finds them), so that a thread can find them
+/// while a batch sets up. A first run's chains come with only their coarse
+/// levels bounded (docs/benchmarks.md, "Start-up").
+pub fn bound_picks(
+    scene: &FrameScene,
+    chains: &[Arc<LodChain>],
+    lod_error_px: f64,
+    impostor_below_px: f64,
+) {
+    if lod_error_px <= 0.0 {
+        return;
+    }
+    let cam = &scene.camera;
+    for d in &scene.drones {
+        let Some(chain) = chains.get(d.model).filter(|c| c.levels().len() >= 2) else {
+            continue;
+        };
+        let impostor = impostor_below_px > 0.0
+            && impostor_size_px(cam, d).is_some_and(|px| px < impostor_below_px);
+        if let (false, Some(scale)) = (impostor, lod_scale(cam, d)) {
+            chain.pick(scale, lod_error_px);
         }
     }
 }

@@ -50,6 +50,7 @@ pub(crate) use gpu::{PipelineDesc, PipelineFactory};
 pub(crate) use gpu::{texture_entry, uniform_entry};
 pub use ids::{MAX_DRONES, PixelHit};
 use mesh::DronePipelines;
+pub use mesh::bound_picks;
 
 use glam::{DMat4, Mat4};
 

@@ -174,3 +174,46 @@ fn a_batch_writes_the_same_dataset_with_the_cache_off_cold_and_warm() {
     common::assert_same_dataset(&off, &cold, "a cold cache");
     common::assert_same_dataset(&off, &warm, "a warm cache");
 }
+
+/// A batch finds its first frame's level-of-detail bounds on a thread while it
+/// sets up (`render::bound_picks`): those must be every bound the renderer's
+/// own picks then pass, or the first frame's maker still finds some itself.
+/// The peer scene with its camera moved in, so that drones from a few to
+/// hundreds of pixels pick levels all along the chain.
+#[test]
+fn the_bounds_found_ahead_are_all_the_renderers_picks_need() {
+    use std::sync::Arc;
+    let peer = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/bench/peer.ron");
+    let mut preset = Preset::open(&peer).expect("peer.ron");
+    preset.camera.z = SweepRange::fixed(0.3);
+    let pipeline = FramePipeline::new(preset).expect("pipeline");
+    let lod_error_px = pipeline.preset().render.lod_error_px;
+    let model = swarmshot::model::load_file(&common::testdata("uav/crazyflie2_cf2/cf2.glb"))
+        .expect("cf2.glb");
+    let ctx = common::gpu();
+    let found = |k: &[Option<f32>]| k.iter().filter(|e| e.is_some()).count();
+    let mut beyond_built = 0;
+    for index in 0..4 {
+        let scene = pipeline.scene(index).expect("scene");
+        // A chain as a first run builds it: only its coarse levels bounded.
+        let chain = Arc::new(swarmshot::model::lod::build_lods(&model).expect("levels"));
+        let built = found(&chain.known_errors());
+        let chains = std::slice::from_ref(&chain);
+        swarmshot::render::bound_picks(&scene, chains, lod_error_px, 0.0);
+        let ahead = chain.known_errors();
+        beyond_built += found(&ahead) - built;
+        let drones = std::slice::from_ref(&model);
+        let renderer = swarmshot::render::Renderer::with_lods(&ctx, drones, chains, lod_error_px);
+        let levels = renderer.level_histogram(&scene);
+        assert!(levels.len() > 2, "frame {index}: {levels:?}");
+        assert_eq!(
+            chain.known_errors(),
+            ahead,
+            "frame {index}: the renderer found more bounds"
+        );
+    }
+    assert!(
+        beyond_built > 0,
+        "no frame needed a level beyond those bounded as built"
+    );
+}
