@@ -7,6 +7,9 @@
 //! and make frames (scene → render → labels); a pool of encoder threads turns
 //! pixels into JPEG/PNG bytes; one sink thread
 //! writes each frame's image, labels and manifest line in index order.
+//! Beside them, while the makers build their renderers, one short thread
+//! finds the level-of-detail bounds the first frame's drones will need
+//! ([`FramePipeline::bound_picks_of`]).
 //! A frame does not depend on which maker made it or on what that maker
 //! made before, so the output is the same for any number of makers.
 //! Cancelling stops making frames and writing them (frames made but not yet
