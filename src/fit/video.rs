@@ -239,36 +239,25 @@ pub fn decode(
     let (dir, held) = out.dir_for_path("frames")?;
     // `--video-fps` was checked before anything was written (`check_numbers`).
     let fps = sample_fps(probe, options);
-    let sampling = Sampling {
-        frames: frames_bound(probe, options),
-        filter: format!("fps={fps}"),
-    };
-    run_ffmpeg(video, decoder, &sampling, &dir)?;
+    let frames = frames_bound(probe, options);
+    run_ffmpeg(video, decoder, (&format!("fps={fps}"), frames), &dir)?;
     out.check_same(&dir, &held)?;
     if is_empty(&dir)? && !probe.still {
-        let kept = Sampling {
-            filter: format!("fps={fps}:eof_action=pass"),
-            ..sampling
-        };
-        run_ffmpeg(video, decoder, &kept, &dir)?;
+        let filter = format!("fps={fps}:eof_action=pass");
+        run_ffmpeg(video, decoder, (&filter, frames), &dir)?;
         out.check_same(&dir, &held)?;
     }
     check_some_frame(video, &dir)?;
     Ok(dir)
 }
 
-/// How the decode samples the video: the `-vf` filter and the most frames it writes.
-struct Sampling {
-    frames: usize,
-    filter: String,
-}
-
-/// ffmpeg decoding `video`'s first video stream through `sampling` into `dir`'s
-/// numbered PNGs; its failure names the video with ffmpeg's own (bounded) words.
+/// ffmpeg decoding `video`'s first video stream through the `-vf` `filter` into
+/// `dir`'s numbered PNGs, at most `frames`; its failure names the video with
+/// ffmpeg's own (bounded) words.
 fn run_ffmpeg(
     video: &Path,
     decoder: &Decoder,
-    sampling: &Sampling,
+    (filter, frames): (&str, usize),
     dir: &Path,
 ) -> Result<(), FitError> {
     let output = std::process::Command::new(&decoder.ffmpeg)
@@ -277,12 +266,7 @@ fn run_ffmpeg(
         // The stream ffprobe measured (`v:0`): left to choose, ffmpeg takes the video
         // stream of the most pixels, which the budgets never saw.
         .args(["-map", "0:v:0"])
-        .args([
-            "-vf",
-            &sampling.filter,
-            "-frames:v",
-            &sampling.frames.to_string(),
-        ])
+        .args(["-vf", filter, "-frames:v", &frames.to_string()])
         .args(["-start_number", "0"])
         .arg(dir.join("frame_%05d.png"))
         .stdin(std::process::Stdio::null())

@@ -258,16 +258,13 @@ impl Drones {
     /// its projected size is under the threshold, the model's level count +
     /// the direction (in model space) nearest the camera's.
     fn impostor_level(&self, scene: &FrameScene, i: usize) -> Option<usize> {
-        if self.impostor_below_px <= 0.0 {
+        let d = &scene.drones[i];
+        let cam = &scene.camera;
+        if !drawn_as_impostor(cam, d, self.impostor_below_px) {
             return None;
         }
-        let d = &scene.drones[i];
         let impostor = self.impostors.get(d.model)?.as_ref()?;
         let levels = self.meshes.get(d.model)?.levels.len();
-        let cam = &scene.camera;
-        if impostor_size_px(cam, d)? >= self.impostor_below_px {
-            return None;
-        }
         // The camera (the origin) seen from the drone, in model space.
         let centre = cam.camera_from_world_point(d.position);
         let rotation = cam.camera_from_world * glam::DMat3::from_quat(d.rotation);
@@ -296,11 +293,7 @@ impl Drones {
         if mesh.levels.len() < 2 {
             return 0;
         }
-        let Some(px_per_unit) = lod_scale(&scene.camera, d) else {
-            return 0;
-        };
-        // The coarsest level within the budget.
-        chain.pick(px_per_unit, self.lod_error_px)
+        pick_level(chain, &scene.camera, d, self.lod_error_px)
     }
 
     /// Drones drawn per level of detail, over the drones of `scene`.
@@ -499,26 +492,31 @@ impl Drones {
     }
 }
 
-/// Drone `d`'s size in pixels over the depth of its centre, what the impostor
-/// threshold is compared with; `None` when any part of it may be at or behind
-/// the camera plane, or for NaN.
-fn impostor_size_px(cam: &Camera, d: &DronePose) -> Option<f64> {
+/// Whether drone `d` is small enough to be drawn as its model's impostor
+/// (`below_px`, 0 for none): its size in pixels over the depth of its centre,
+/// with all of it in front of the camera plane.
+fn drawn_as_impostor(cam: &Camera, d: &DronePose, below_px: f64) -> bool {
+    if below_px <= 0.0 {
+        return false;
+    }
     let centre = cam.camera_from_world_point(d.position);
     if centre.z - d.size_m * 0.5 * 3f64.sqrt() <= cam.near_m {
-        return None;
+        return false;
     }
-    Some(d.size_m * cam.focal_px() / centre.z).filter(|px| !px.is_nan())
+    // NaN compares false: drawn as a mesh.
+    d.size_m * cam.focal_px() / centre.z < below_px
 }
 
-/// What a level-of-detail pick scales its levels' errors by for drone `d`:
-/// its size in pixels over the depth of its nearest possible point; `None`
-/// (level 0) when any part of it may be at or behind the camera plane.
-fn lod_scale(cam: &Camera, d: &DronePose) -> Option<f64> {
+/// The level of `chain` drone `d` is drawn with: the coarsest whose error,
+/// scaled by the drone's size over the depth of its nearest possible point,
+/// is within `lod_error_px` (level 0 when any part of the drone may be at or
+/// behind the camera plane). Finds the bounds it passes.
+fn pick_level(chain: &LodChain, cam: &Camera, d: &DronePose, lod_error_px: f64) -> usize {
     let nearest = cam.camera_from_world_point(d.position).z - d.size_m * 0.5 * 3f64.sqrt();
     if nearest.is_nan() || nearest <= cam.near_m {
-        return None;
+        return 0;
     }
-    Some(d.size_m * cam.focal_px() / nearest)
+    chain.pick(d.size_m * cam.focal_px() / nearest, lod_error_px)
 }
 
 /// The picks a renderer drawing `scene` will make (each model's chain in
@@ -541,10 +539,8 @@ pub fn bound_picks(
         let Some(chain) = chains.get(d.model).filter(|c| c.levels().len() >= 2) else {
             continue;
         };
-        let impostor = impostor_below_px > 0.0
-            && impostor_size_px(cam, d).is_some_and(|px| px < impostor_below_px);
-        if let (false, Some(scale)) = (impostor, lod_scale(cam, d)) {
-            chain.pick(scale, lod_error_px);
+        if !drawn_as_impostor(cam, d, impostor_below_px) {
+            pick_level(chain, cam, d, lod_error_px);
         }
     }
 }

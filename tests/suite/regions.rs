@@ -17,6 +17,13 @@ use swarmshot::preset::{
 use swarmshot::render::{RenderRequest, Renderer};
 use swarmshot::scene::FrameScene;
 
+/// The frame's colour alone, with MSAA 4 (the sky and background tests).
+const COLOUR_MSAA4: RenderRequest = RenderRequest {
+    msaa: 4,
+    color: true,
+    visibility: false,
+};
+
 fn preset(sky: Sky, msaa: u32) -> Preset {
     let mut p = Preset::default();
     p.seed = 5;
@@ -157,11 +164,7 @@ fn frames_that_share_a_camera_pose_draw_the_background_once() {
     let ctx = common::gpu();
     let pipeline = FramePipeline::new(preset(Preset::default().sky, 4)).expect("preset");
     let mut renderer = pipeline.renderer(&ctx);
-    let request = RenderRequest {
-        msaa: 4,
-        color: true,
-        visibility: false,
-    };
+    let request = COLOUR_MSAA4;
     // repeats = 3: frames 0..3 share the camera pose and the sky.
     for index in 0..3 {
         let scene = pipeline.scene(index).expect("scene");
@@ -187,11 +190,7 @@ fn frames_that_share_a_camera_pose_draw_the_background_once() {
 fn sky_passes_drawn_over_the_last_frame_leave_nothing_of_it() {
     let ctx = common::gpu();
     let dir = tempfile::tempdir().expect("tempdir");
-    let request = RenderRequest {
-        msaa: 4,
-        color: true,
-        visibility: false,
-    };
+    let request = COLOUR_MSAA4;
     for sky in [Preset::default().sky, image_sky(dir.path())] {
         let mut p = preset(sky, 4);
         p.repeats = 1;
@@ -287,11 +286,7 @@ fn ramp_sky(dir: &std::path::Path, (w, h): (u32, u32)) -> Sky {
 fn a_reduced_image_sky_shows_what_the_full_resolution_one_shows() {
     let ctx = common::gpu();
     let dir = tempfile::tempdir().expect("tempdir");
-    let request = RenderRequest {
-        msaa: 4,
-        color: true,
-        visibility: false,
-    };
+    let request = COLOUR_MSAA4;
     let frame = |sky: Sky| {
         let mut p = preset(sky, 4);
         p.camera.fov_y_deg = 60.0;
