@@ -54,7 +54,7 @@ fn fs_main(in: SkyOut) -> @location(0) vec4<f32> {
         let uv = in.position.xy / (2.0 * k.zw);
         col = textureSampleLevel(env_half, env_half_sampler, uv, 0.0).rgb;
     } else if (env.far_params.w > 1.5) {
-        // Drawn at reduced resolution by fs_image (render/sky.rs, `image_scale`).
+        // Shaded at reduced resolution on the CPU (render/sky/equirect.rs; `image_scale`).
         let uv = in.position.xy / (2.0 * k.zw);
         col = image_tone(textureSampleLevel(env_half, env_half_sampler, uv, 0.0).rgb);
     } else {
@@ -98,18 +98,4 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
         return vec4<f32>(upper.rgb + sun_disc(dir) * upper.a, 1.0);
     }
     return vec4<f32>(procedural_sky(dir), 1.0);
-}
-
-// An equirect image sky drawn at reduced resolution: its exposed values
-// before the tone map (kept finite in half floats). The frame's background
-// is their bilinear upsampling on the CPU, then the tone map and the sRGB
-// encode (render/upsample.rs), as the full-resolution pass does per pixel.
-@fragment
-fn fs_image(in: SkyOut) -> @location(0) vec4<f32> {
-    let k = frame.intrinsics;
-    // env.far_params.w: full-resolution pixels per pass pixel, per axis.
-    let p = in.position.xy * env.far_params.w;
-    let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
-    let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
-    return vec4<f32>(clamp(image_radiance(dir), vec3<f32>(0.0), vec3<f32>(60000.0)), 1.0);
 }

@@ -59,6 +59,8 @@ pub(super) struct BackgroundCache {
     unexposed: Option<(Vec<u8>, Vec<u8>)>,
     /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
+    /// An image sky's reduced pass (RGBA `f32`), kept for its memory.
+    image_texels: Vec<f32>,
     /// Per upload tile (`tiles::UPLOAD_TILE` pixels square), row by row: whether `texture` still
     /// lacks that part of `rgba`. A background made on the CPU (upsampled
     /// environment or image sky, backplate) is uploaded only where the
@@ -109,6 +111,7 @@ impl BackgroundCache {
             readback: Readback::new(device, "background readback", width, height),
             unexposed: None,
             environment_readback: None,
+            image_texels: Vec::new(),
             stale: Vec::new(),
         }
     }
@@ -387,11 +390,12 @@ fn background_key(
 }
 
 /// A procedural environment (`image` None) or an image sky magnified
-/// enough (`image`: the sky, drawn at the scale its uniforms hold, see
-/// [`super::sky::SkyGpu::image_scale`]) as the background: its pass
-/// drawn at reduced resolution, read back, upsampled and sRGB-encoded on
-/// the CPU ([`super::upsample`]) and uploaded as the background texture
-/// (no full-frame sky pass, no full-frame readback).
+/// enough (`image`: the sky, shaded at the scale its uniforms hold, see
+/// [`super::sky::SkyGpu::image_scale`]) as the background: its pass at
+/// reduced resolution (the environment's drawn and read back, the image's
+/// shaded on the CPU), upsampled and sRGB-encoded on the CPU
+/// ([`super::upsample`]) and uploaded as the background texture where the
+/// regions need it (no full-frame sky pass, no full-frame readback).
 fn draw_reduced_background(
     with: &mut BackgroundInputs<'_>,
     cache: &mut BackgroundCache,
@@ -399,31 +403,54 @@ fn draw_reduced_background(
     image: Option<&FrameSky>,
     gain: f32,
 ) -> Result<(), RenderError> {
+    let frame = (cache.width, cache.height);
+    // Any previous background is overwritten from here on.
+    cache.renew();
+    let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
+    match image {
+        Some(sky) => {
+            let tone = if with.sky.image_is_hdr(sky) {
+                Tone::Exponential
+            } else {
+                Tone::Clip
+            };
+            let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
+            let texels = &mut cache.image_texels;
+            let Some(size) = with.sky.shade_image(sky, camera, frame, texels) else {
+                return Err(ReadbackError::NoTarget("the image sky's pass").into());
+            };
+            upsample_reduced(Texels::F32(texels), size, frame, centre, (tone, gain), &mut cache.rgba);
+        }
+        None => draw_environment(with, cache, uniforms, gain)?,
+    }
+    cache.mark_stale();
+    Ok(())
+}
+
+/// The procedural environment's passes drawn, read back and upsampled
+/// into `cache.rgba` (see [`draw_reduced_background`]).
+fn draw_environment(
+    with: &mut BackgroundInputs<'_>,
+    cache: &mut BackgroundCache,
+    uniforms: &FrameUniforms,
+    gain: f32,
+) -> Result<(), RenderError> {
     let device = with.factory.device();
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("environment background"),
     });
     let frame = (cache.width, cache.height);
-    // Any previous background is overwritten from here on.
-    cache.renew();
     let passes = super::sky::SkyPassContext {
         factory: with.factory,
         frame_group: with.frame_group,
     };
-    let tone = match image {
-        Some(sky) if with.sky.image_is_hdr(sky) => Tone::Exponential,
-        _ => Tone::Clip,
-    };
-    match image {
-        Some(image) => with.sky.encode_image(&passes, &mut encoder, frame, image),
-        None => with.sky.encode_environment(
-            &passes,
-            &mut encoder,
-            frame,
-            super::horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, frame),
-        ),
-    }
-    let Some((texture, (w, h))) = with.sky.reduced_target(image.is_some()) else {
+    with.sky.encode_environment(
+        &passes,
+        &mut encoder,
+        frame,
+        super::horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, frame),
+    );
+    let Some((texture, (w, h))) = with.sky.environment_target() else {
         return Err(ReadbackError::NoTarget("the environment pass").into());
     };
     // RGBA16F: 8 bytes a texel, rows padded to the copy alignment.
@@ -474,10 +501,8 @@ fn draw_reduced_background(
             bytes,
             stride: row as usize,
         };
-        upsample_reduced(texels, (w, h), frame, centre, (tone, gain), rgba);
-    })?;
-    cache.mark_stale();
-    Ok(())
+        upsample_reduced(texels, (w, h), frame, centre, (Tone::Clip, gain), rgba);
+    })
 }
 
 /// A backplate as the background, exposed by `gain`: its pixels written

@@ -656,7 +656,9 @@ impl Renderer {
             sky: &scene.sky,
             horizon: horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, size),
         };
-        self.sky.encode_reduced(&with, encoder, size, &frame_sky);
+        let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
+        self.sky
+            .encode_reduced((&with, &self.queue), encoder, size, (&frame_sky, camera));
         let ranges = self.upload_instances(scene, &|_| true);
         self.counts.color += 1;
         let p = self.pipelines(msaa);

@@ -242,8 +242,8 @@ fn upsample_row_avx2(
 /// A reduced pass's texels (RGBA, linear), read a row at a time.
 #[derive(Clone, Copy)]
 pub(super) enum Texels<'a> {
-    /// `f32` values, rows one after the other (the tests' texels).
-    #[cfg(test)]
+    /// `f32` values, rows one after the other (an image sky's pass, shaded
+    /// on the CPU; the tests' texels).
     F32(&'a [f32]),
     /// Half floats as the pass's RGBA16F readback holds them (little
     /// endian), rows `stride` bytes apart: converted a row at a time as the
@@ -255,7 +255,6 @@ impl Texels<'_> {
     /// Whether there are `h` rows of `w` texels.
     fn holds(&self, w: usize, h: usize) -> bool {
         match *self {
-            #[cfg(test)]
             Self::F32(v) => v.len() >= w * h * 4,
             Self::F16 { bytes, stride } => {
                 h == 0 || (stride >= w * 8 && bytes.len() >= (h - 1) * stride + w * 8)
@@ -267,7 +266,6 @@ impl Texels<'_> {
     fn row_into(&self, r: usize, out: &mut [f32]) {
         let n = out.len();
         match *self {
-            #[cfg(test)]
             Self::F32(v) => out.copy_from_slice(&v[r * n..(r + 1) * n]),
             Self::F16 { bytes, stride } => {
                 let src = &bytes[r * stride..r * stride + n * 2];

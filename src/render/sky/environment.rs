@@ -215,8 +215,7 @@ pub(super) fn reduced_texture(
     (texture, view)
 }
 
-/// The pipeline of a reduced pass (`fragment`: `fs_environment` or
-/// `fs_image`) into an RGBA16F target, with its override `constants`;
+/// The pipeline of a reduced pass (`fragment`: `fs_environment`) into an RGBA16F target, with its override `constants`;
 /// `polygon`: drawn over given triangles, else one full-screen triangle.
 pub(super) fn environment_pipeline(
     with: &SkyPassContext<'_>,

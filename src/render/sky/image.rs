@@ -1,9 +1,12 @@
 //! An image sky's reduced pass: the scale at which an equirect image is
-//! drawn (where it is magnified enough), the pass into its target, and the
-//! group with which the sky pass samples that target.
+//! drawn (where it is magnified enough), the pass (shaded on the CPU,
+//! `equirect`) and, for the full-frame path, its target and the group with
+//! which the sky pass samples it.
 
-use super::environment::{environment_pipeline, reduced_texture};
-use super::{SkyGpu, SkyPassContext, make_bind_group};
+use half::slice::HalfFloatSliceExt;
+
+use super::equirect::{Equirect, ReducedView};
+use super::{SkyGpu, make_bind_group};
 use crate::sky::{FrameSky, SkyImageKind};
 
 impl SkyGpu {
@@ -56,43 +59,90 @@ impl SkyGpu {
         (self.written.mode[0] > 1.5 && scale > 1.5).then_some(scale as u32)
     }
 
-    /// Draw the image sky `sky` (uniforms just written, with its scale: see
-    /// [`SkyGpu::image_scale`]) into the image pass's target for a
-    /// `width`×`height` frame.
-    pub(in crate::render) fn encode_image(
-        &mut self,
-        with: &SkyPassContext<'_>,
-        encoder: &mut wgpu::CommandEncoder,
-        (width, height): (u32, u32),
+    /// The image sky `sky`'s reduced pass (uniforms just written, with its
+    /// scale: see [`SkyGpu::image_scale`]) for a `frame`-sized frame seen
+    /// through `world_from_camera` and `intrinsics`, shaded on the CPU
+    /// (`equirect::shade`) into `texels` (RGBA `f32`); its size, or `None`
+    /// when the sky is not drawn reduced.
+    pub(in crate::render) fn shade_image(
+        &self,
         sky: &FrameSky,
+        (world_from_camera, intrinsics): (&[[f32; 4]; 4], [f32; 4]),
+        frame: (u32, u32),
+        texels: &mut Vec<f32>,
+    ) -> Option<(u32, u32)> {
+        let scale = self.written_image_scale()?;
+        let FrameSky::Image { image, .. } = sky else {
+            return None;
+        };
+        let SkyImageKind::Equirect { width, height, rgb } = &self.images.get(*image)?.1.kind
+        else {
+            return None;
+        };
+        let image = Equirect {
+            rgb,
+            width: *width,
+            height: *height,
+        };
+        let view = ReducedView {
+            world_from_camera: glam::Mat3::from_mat4(glam::Mat4::from_cols_array_2d(
+                world_from_camera,
+            )),
+            intrinsics,
+            scale: scale as f32,
+            rotation: self.written.mode[3],
+            exposure: self.written.mode[1],
+        };
+        let size = ((frame.0 / scale).max(1), (frame.1 / scale).max(1));
+        super::equirect::shade(image, &view, size, texels);
+        Some(size)
+    }
+
+    /// The full-frame path's image pass: the image sky `sky`'s reduced pass
+    /// ([`SkyGpu::shade_image`]) written into its target (RGBA16F), which
+    /// the sky pass then samples.
+    pub(in crate::render) fn upload_image(
+        &mut self,
+        (device, queue): (&wgpu::Device, &wgpu::Queue),
+        sky: &FrameSky,
+        camera: (&[[f32; 4]; 4], [f32; 4]),
+        frame: (u32, u32),
     ) {
-        let device = with.factory.device();
-        let Some(scale) = self.written_image_scale() else {
+        let mut texels = Vec::new();
+        let Some(size) = self.shade_image(sky, camera, frame, &mut texels) else {
             return;
         };
-        let size = ((width / scale).max(1), (height / scale).max(1));
         if self.image_target.as_ref().is_none_or(|t| t.2 != size) {
-            let (texture, view) = reduced_texture(device, "image sky (reduced resolution)", size);
+            let texture = crate::render::gpu::texture_2d(
+                device,
+                "image sky (reduced resolution)",
+                size,
+                (wgpu::TextureFormat::Rgba16Float, 1),
+                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            );
+            let view = texture.create_view(&Default::default());
             self.image_target = Some((texture, view, size));
             self.upsampled = None;
         }
-        let pipeline = self.image_pipeline.get_or_insert_with(|| {
-            environment_pipeline(with, &self.program, &[], false, "fs_image")
-        });
-        let (Some((_, view, _)), FrameSky::Image { image, .. }) = (&self.image_target, sky) else {
+        let Some((texture, _, _)) = &self.image_target else {
             return;
         };
-        let Some((group, _)) = self.images.get(*image) else {
-            return;
-        };
-        // Not cleared: the full-screen triangle writes every texel (no
-        // blending, no discard), so a clear would be a fill for nothing.
-        let mut pass = crate::render::gpu::covering_pass(encoder, "image sky pass", view);
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, with.frame_group, &[]);
-        // The image's own group: its placeholder stands for the target being drawn.
-        pass.set_bind_group(1, group, &[]);
-        pass.draw(0..3, 0..1);
+        let mut half = vec![half::f16::ZERO; texels.len()];
+        half.convert_from_f32_slice(&texels);
+        queue.write_texture(
+            texture.as_image_copy(),
+            bytemuck::cast_slice(&half),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size.0 * 8),
+                rows_per_image: Some(size.1),
+            },
+            wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 1,
+            },
+        );
     }
 
     /// Make the group with which the full-frame path's sky pass samples the

@@ -52,11 +52,9 @@ pub(super) struct SkyGpu {
     /// The quarter-resolution target of the sky above the silhouettes and
     /// the group that samples it (the half-resolution pass).
     quarter: Option<ReducedTarget>,
-    /// An image sky's reduced-resolution target (see [`SkyGpu::image_scale`])
-    /// and its size.
+    /// An image sky's reduced pass written for the full-frame path's sky
+    /// pass (see [`SkyGpu::upload_image`]), and its size.
     image_target: Option<(wgpu::Texture, wgpu::TextureView, (u32, u32))>,
-    /// The pipeline of `fs_image`, built on first use.
-    image_pipeline: Option<wgpu::RenderPipeline>,
     /// The group of image `.0` that samples the image pass's target (the
     /// full-frame path's sky pass, [`SkyGpu::prepare_upsampled`]).
     upsampled: Option<(usize, wgpu::BindGroup)>,
@@ -148,7 +146,6 @@ impl SkyGpu {
             half: None,
             quarter: None,
             image_target: None,
-            image_pipeline: None,
             upsampled: None,
             image_views: Vec::new(),
             images: Vec::new(),
@@ -170,30 +167,27 @@ impl SkyGpu {
     /// The full-frame path's reduced pass for `sky` (uniforms just
     /// written), if it has one: the procedural environment's, or the image
     /// pass's when the image is drawn reduced; the sky pass then samples it.
-    /// `horizon`: the frame's, for the environment's parts.
+    /// `horizon`: the frame's, for the environment's parts; `camera`: its
+    /// world-from-camera matrix and intrinsics, for the image pass.
     pub(super) fn encode_reduced(
         &mut self,
-        with: &SkyPassContext<'_>,
+        (with, queue): (&SkyPassContext<'_>, &wgpu::Queue),
         encoder: &mut wgpu::CommandEncoder,
         size: (u32, u32),
-        frame_sky: &FrameSkyDraw<'_>,
+        (frame_sky, camera): (&FrameSkyDraw<'_>, (&[[f32; 4]; 4], [f32; 4])),
     ) {
         let sky = frame_sky.sky;
+        let device = with.factory.device();
         if Self::is_procedural(sky) {
             self.encode_environment(with, encoder, size, frame_sky.horizon);
         } else if self.written_image_scale().is_some() {
-            self.encode_image(with, encoder, size, sky);
-            self.prepare_upsampled(with.factory.device(), sky);
+            self.upload_image((device, queue), sky, camera, size);
+            self.prepare_upsampled(device, sky);
         }
     }
 
-    /// The target of the image pass (`image`) or of the environment pass
-    /// (RGBA16F, linear) and its size.
-    pub(super) fn reduced_target(&self, image: bool) -> Option<(&wgpu::Texture, (u32, u32))> {
-        if image {
-            let (texture, _, size) = self.image_target.as_ref()?;
-            return Some((texture, *size));
-        }
+    /// The target of the environment pass (RGBA16F, linear) and its size.
+    pub(super) fn environment_target(&self) -> Option<(&wgpu::Texture, (u32, u32))> {
         let t = self.half.as_ref()?;
         Some((&t.texture, (t.width, t.height)))
     }
@@ -289,6 +283,7 @@ impl SkyGpu {
 }
 
 mod environment;
+mod equirect;
 mod image;
 mod uniforms;
 mod upload;
