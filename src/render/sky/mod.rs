@@ -58,7 +58,9 @@ pub(super) struct SkyGpu {
     /// The group of image `.0` that samples the image pass's target (the
     /// full-frame path's sky pass, [`SkyGpu::prepare_upsampled`]).
     upsampled: Option<(usize, wgpu::BindGroup)>,
-    /// Per uploaded image: its bind group and CPU summary (for lighting).
+    /// Per uploaded image: its bind group and CPU summary (for lighting;
+    /// an equirect's texels as its half-float texture holds them, for the
+    /// CPU's image pass).
     images: Vec<(wgpu::BindGroup, SkyImage)>,
     /// Per uploaded image: its equirect texture's view (`None` for cube maps),
     /// for the group that samples the image pass's target.

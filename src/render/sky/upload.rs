@@ -5,7 +5,7 @@ use half::slice::HalfFloatSliceExt;
 use wgpu::util::DeviceExt;
 
 use super::SkyGpu;
-use crate::sky::{EnvironmentAssets, SkyImageKind};
+use crate::sky::{EnvironmentAssets, SkyImage, SkyImageKind};
 
 /// RGB texels as RGBA half floats (alpha 1), rounded to nearest as
 /// `f16::from_f32`; converted a row of texels at a time by the `half`
@@ -25,6 +25,23 @@ pub(super) fn f16_rgba(rgb: &[f32]) -> Vec<half::f16> {
     out
 }
 
+/// The RGB values of `rgba` (half floats, alpha dropped) as `f32`: the
+/// texels a half-float texture of `rgb` holds, for the CPU's image pass
+/// (`equirect`) to sample the very values the GPU's sky pass samples.
+fn rounded_rgb(rgba: &[half::f16]) -> Vec<f32> {
+    const CHUNK: usize = 1024;
+    let mut out = Vec::with_capacity(rgba.len() / 4 * 3);
+    let mut values = [0f32; CHUNK * 4];
+    for chunk in rgba.chunks(CHUNK * 4) {
+        let values = &mut values[..chunk.len()];
+        chunk.convert_to_f32_slice(values);
+        for texel in values.chunks_exact(4) {
+            out.extend_from_slice(&texel[..3]);
+        }
+    }
+    out
+}
+
 impl SkyGpu {
     pub(super) fn texture(
         device: &wgpu::Device,
@@ -34,6 +51,17 @@ impl SkyGpu {
         height: u32,
         layers: u32,
         rgb: &[f32],
+    ) -> wgpu::Texture {
+        Self::half_texture(device, queue, label, (width, height, layers), &f16_rgba(rgb))
+    }
+
+    /// A `width`×`height`×`layers` RGBA16F texture of `rgba`.
+    fn half_texture(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        label: &str,
+        (width, height, layers): (u32, u32, u32),
+        rgba: &[half::f16],
     ) -> wgpu::Texture {
         device.create_texture_with_data(
             queue,
@@ -52,7 +80,7 @@ impl SkyGpu {
                 view_formats: &[],
             },
             wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(&f16_rgba(rgb)),
+            bytemuck::cast_slice(rgba),
         )
     }
 
@@ -87,14 +115,23 @@ impl SkyGpu {
         for (i, image) in assets.images.iter().enumerate() {
             let label = format!("sky image {i}");
             let mut equirect = None;
+            let mut kept = None;
             let group = match &image.kind {
                 SkyImageKind::Equirect { width, height, rgb }
                     if (*width).max(*height) <= max_side =>
                 {
-                    let view = Self::texture(device, queue, &label, *width, *height, 1, rgb)
+                    let rgba = f16_rgba(rgb);
+                    let size = (*width, *height, 1);
+                    let view = Self::half_texture(device, queue, &label, size, &rgba)
                         .create_view(&Default::default());
                     let group = self.bind_group(device, &label, &view, &self.placeholder_cube);
                     equirect = Some(view);
+                    // Kept as the texture holds them, for the CPU's image pass.
+                    kept = Some(SkyImageKind::Equirect {
+                        width: *width,
+                        height: *height,
+                        rgb: rounded_rgb(&rgba),
+                    });
                     group
                 }
                 SkyImageKind::Cubemap { side, faces } if *side <= max_side => {
@@ -109,7 +146,18 @@ impl SkyGpu {
                 // Larger than the adapter allows (EnvironmentAssets already caps at 4096).
                 _ => self.default_group.clone(),
             };
-            self.images.push((group, image.clone()));
+            let image = match kept {
+                Some(kind) => SkyImage {
+                    source: image.source.clone(),
+                    kind,
+                    hdr: image.hdr,
+                    mean_upper: image.mean_upper,
+                    mean_lower: image.mean_lower,
+                    brightest: image.brightest,
+                },
+                None => image.clone(),
+            };
+            self.images.push((group, image));
             self.image_views.push(equirect);
         }
     }
