@@ -419,7 +419,14 @@ fn draw_reduced_background(
             let Some(size) = with.sky.shade_image(sky, camera, frame, texels) else {
                 return Err(ReadbackError::NoTarget("the image sky's pass").into());
             };
-            upsample_reduced(Texels::F32(texels), size, frame, centre, (tone, gain), &mut cache.rgba);
+            upsample_reduced(
+                Texels::F32(texels),
+                size,
+                frame,
+                centre,
+                (tone, gain),
+                &mut cache.rgba,
+            );
         }
         None => draw_environment(with, cache, uniforms, gain)?,
     }

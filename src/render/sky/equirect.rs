@@ -59,22 +59,20 @@ pub(super) fn shade(image: Equirect<'_>, view: &ReducedView, size: (u32, u32), o
     // The image turns by +rotation: rays turn by −rotation into its frame
     // (`rotate_y(dir, −rotation)` in environment.wgsl).
     let into_image = Mat3::from_rotation_y(-view.rotation) * view.world_from_camera;
-    out.par_chunks_mut(w * 4)
-        .enumerate()
-        .for_each_init(
-            || Row::new(w),
-            |row, (j, texels)| {
-                // The same operations in every build (simd.rs): the same values.
-                crate::simd::widest(
-                    #[inline(always)]
-                    || {
-                        row.rays(&into_image, view, j);
-                        row.coordinates((iw as f32, ih as f32));
-                        row.sample(image, view.exposure, texels);
-                    },
-                )
-            },
-        );
+    out.par_chunks_mut(w * 4).enumerate().for_each_init(
+        || Row::new(w),
+        |row, (j, texels)| {
+            // The same operations in every build (simd.rs): the same values.
+            crate::simd::widest(
+                #[inline(always)]
+                || {
+                    row.rays(&into_image, view, j);
+                    row.coordinates((iw as f32, ih as f32));
+                    row.sample(image, view.exposure, texels);
+                },
+            )
+        },
+    );
 }
 
 /// One row's scratch: per pass pixel its ray (image frame, not
@@ -156,9 +154,9 @@ impl Row {
         let rest = self.x[done..].iter().zip(&self.y[done..]);
         for ((&tx, &ty), px) in rest.zip(texels[done * 4..].chunks_exact_mut(4)) {
             let taps = Taps::at(image, (tx, ty));
-            for k in 0..3 {
+            for (k, value) in px[..3].iter_mut().enumerate() {
                 let texels = taps.texels.map(|t| image.rgb[t as usize + k]);
-                px[k] = blend(texels, (taps.wx, taps.wy), exposure);
+                *value = blend(texels, (taps.wx, taps.wy), exposure);
             }
             px[3] = 1.0;
         }
@@ -200,6 +198,7 @@ impl Taps {
 /// orders them) with weights `(wx, wy)`, times `exposure`, clamped to
 /// [0, [`MAX_RADIANCE`]] (a NaN to 0).
 #[inline(always)]
+#[allow(clippy::manual_clamp, reason = "a NaN gives 0, as the GPU pass did")]
 fn blend([a, b, c, d]: [f32; 4], (wx, wy): (f32, f32), exposure: f32) -> f32 {
     let top = a + (b - a) * wx;
     let bottom = c + (d - c) * wx;
@@ -227,10 +226,9 @@ fn atan2(y: f32, x: f32) -> f32 {
     let reduce = a > 0.414_213_57;
     let t = if reduce { (a - 1.0) / (a + 1.0) } else { a };
     let z = t * t;
-    let p = (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1)
-        * z
-        * t
-        + t;
+    let p =
+        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t
+            + t;
     let r = if reduce { p + FRAC_PI_4 } else { p };
     let r = if ay > ax { FRAC_PI_2 - r } else { r };
     let r = if x < 0.0 { PI - r } else { r };
@@ -356,9 +354,11 @@ mod tests {
             height: ih,
         };
         let mut coords: Vec<(f32, f32)> = Vec::new();
-        for (i, x) in [-1.0f32, -0.5, -1e-7, 0.0, 0.3, 17.5, 35.999_996, 36.0, 36.5, 37.0]
-            .into_iter()
-            .enumerate()
+        for (i, x) in [
+            -1.0f32, -0.5, -1e-7, 0.0, 0.3, 17.5, 35.999_996, 36.0, 36.5, 37.0,
+        ]
+        .into_iter()
+        .enumerate()
         {
             for y in [-1.0f32, -0.25, 0.0, 9.75, 17.999_998, 18.0, 18.5, 19.0] {
                 coords.push((x, y + i as f32 * 1e-3));
@@ -378,7 +378,13 @@ mod tests {
         for ((&x, &y), px) in tx.iter().zip(&ty).zip(got.chunks(4)) {
             let taps = Taps::at(image, (x, y));
             let want: Vec<u32> = (0..3)
-                .map(|k| blend(taps.texels.map(|t| rgb[t as usize + k]), (taps.wx, taps.wy), 1.25))
+                .map(|k| {
+                    blend(
+                        taps.texels.map(|t| rgb[t as usize + k]),
+                        (taps.wx, taps.wy),
+                        1.25,
+                    )
+                })
                 .map(f32::to_bits)
                 .collect();
             let bits: Vec<u32> = px[..3].iter().map(|v| v.to_bits()).collect();

@@ -75,8 +75,7 @@ impl SkyGpu {
         let FrameSky::Image { image, .. } = sky else {
             return None;
         };
-        let SkyImageKind::Equirect { width, height, rgb } = &self.images.get(*image)?.1.kind
-        else {
+        let SkyImageKind::Equirect { width, height, rgb } = &self.images.get(*image)?.1.kind else {
             return None;
         };
         let image = Equirect {

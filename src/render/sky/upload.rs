@@ -52,7 +52,13 @@ impl SkyGpu {
         layers: u32,
         rgb: &[f32],
     ) -> wgpu::Texture {
-        Self::half_texture(device, queue, label, (width, height, layers), &f16_rgba(rgb))
+        Self::half_texture(
+            device,
+            queue,
+            label,
+            (width, height, layers),
+            &f16_rgba(rgb),
+        )
     }
 
     /// A `width`×`height`×`layers` RGBA16F texture of `rgba`.

@@ -5,11 +5,11 @@
 //! the same values (checked by the tests of `equirect.rs`).
 
 use std::arch::x86_64::{
-    __m256, __m256i, _mm256_add_epi32, _mm256_add_ps, _mm256_blendv_epi8, _mm256_cmpeq_epi32,
-    _mm256_cmpgt_epi32, _mm256_cmp_ps, _mm256_cvtepi32_ps, _mm256_cvttps_epi32,
-    _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_max_epi32, _mm256_max_ps, _mm256_min_epi32,
-    _mm256_min_ps, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps,
-    _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps, _CMP_GT_OQ,
+    __m256, __m256i, _CMP_GT_OQ, _mm256_add_epi32, _mm256_add_ps, _mm256_blendv_epi8,
+    _mm256_castps_si256, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi32, _mm256_cvtepi32_ps,
+    _mm256_cvttps_epi32, _mm256_i32gather_ps, _mm256_loadu_ps, _mm256_max_epi32, _mm256_max_ps,
+    _mm256_min_epi32, _mm256_min_ps, _mm256_mul_ps, _mm256_mullo_epi32, _mm256_set1_epi32,
+    _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps,
 };
 
 use super::{Equirect, MAX_RADIANCE};
@@ -21,7 +21,7 @@ fn floor8(x: __m256) -> (__m256, __m256i) {
     let t = _mm256_cvttps_epi32(x);
     let tf = _mm256_cvtepi32_ps(t);
     // All ones (−1) where the truncation lies above x.
-    let above = std::arch::x86_64::_mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(tf, x));
+    let above = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(tf, x));
     let i = _mm256_add_epi32(t, above);
     (_mm256_cvtepi32_ps(i), i)
 }
