@@ -192,6 +192,21 @@ fn the_thermal_camera_in_rain_is_the_same_on_every_machine() {
     same_bytes_on_every_machine(&thermal_preset(), 2);
 }
 
+/// presets/bench/peer_moving.ron (a camera that moves every frame under a
+/// 1024×512 HDR sky) at 192×108 and 8°: the sky magnified enough to be
+/// shaded at half the resolution on the CPU (render/sky/equirect.rs, its
+/// samples gathered in AVX2) and upsampled.
+fn reduced_sky_preset() -> Preset {
+    let mut p = small(shipped("bench/peer_moving.ron"), 192, 108);
+    p.camera.fov_y_deg = 8.0;
+    p
+}
+
+#[test]
+fn an_image_sky_shaded_on_the_cpu_is_the_same_on_every_machine() {
+    same_bytes_on_every_machine(&reduced_sky_preset(), 3);
+}
+
 /// The MOT tests' sequence (a fixed camera: its frames share the sky)
 /// under a procedural sky and an exposure drawn per frame: the same
 /// background under a new exposure in every frame.
