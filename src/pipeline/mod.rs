@@ -536,6 +536,10 @@ impl FramePipeline {
         let weather = scene.weather.is_some() && together;
         renderer
             .set_pixel_hits(masks_on || thermal || ((weather || lensed) && labels.needs_id_pass()));
+        // Only the thermal camera, weather and the camera model read the
+        // drone-free background after the render: else a frame may take it.
+        let reads_background = thermal || scene.weather.is_some() || scene.camera_model.is_some();
+        renderer.set_lend_backgrounds(!reads_background);
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
             color: true,

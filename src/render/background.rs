@@ -61,6 +61,14 @@ pub(super) struct BackgroundCache {
     environment_readback: Option<wgpu::Buffer>,
     /// An image sky's reduced pass (RGBA `f32`), kept for its memory.
     image_texels: Vec<f32>,
+    /// Backgrounds drawn in a row for this cache's frames (0: the last
+    /// frame found its background here): from the second, a frame may take
+    /// the pixels ([`BackgroundCache::lend`]).
+    drawn_in_a_row: u32,
+    /// The key of a background whose pixels a frame took: drawn again, it
+    /// is kept (a camera that stopped moving draws its background twice,
+    /// not every frame).
+    lent: Option<Vec<u8>>,
     /// Per upload tile (`tiles::UPLOAD_TILE` pixels square), row by row: whether `texture` still
     /// lacks that part of `rgba`. A background made on the CPU (upsampled
     /// environment or image sky, backplate) is uploaded only where the
@@ -112,6 +120,8 @@ impl BackgroundCache {
             unexposed: None,
             environment_readback: None,
             image_texels: Vec::new(),
+            drawn_in_a_row: 0,
+            lent: None,
             stale: Vec::new(),
         }
     }
@@ -146,6 +156,24 @@ impl BackgroundCache {
         for part in take_stale_tiles(&mut self.stale, size, rects) {
             write_part(queue, &self.texture, source, self.width, &part);
         }
+    }
+
+    /// Whether a frame that paints over the background may take its pixels
+    /// ([`BackgroundCache::lend`]) instead of a copy: when they were drawn
+    /// for this frame and the frame before drew its own too (a camera that
+    /// moves every frame).
+    pub(super) fn lendable(&self) -> bool {
+        self.drawn_in_a_row >= 2 && self.key.is_some()
+    }
+
+    /// The background's pixels, taken by a frame ([`BackgroundCache::lendable`]):
+    /// the cache then holds no background (`replacement`'s memory, its
+    /// contents stale; the next frame draws again).
+    pub(super) fn lend(&mut self, replacement: Vec<u8>) -> Vec<u8> {
+        self.lent = self.key.take();
+        self.generation = 0;
+        self.stale.clear();
+        std::mem::replace(&mut self.rgba, replacement)
     }
 
     /// A fresh generation for what the cache now holds.
@@ -236,8 +264,13 @@ impl Backgrounds {
         key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
         key.extend_from_slice(&gain.to_le_bytes());
         if cache.key.as_ref() == Some(&key) {
+            cache.drawn_in_a_row = 0;
             return Ok(());
         }
+        cache.drawn_in_a_row = match cache.lent.take() {
+            Some(lent) if lent == key => 0,
+            _ => cache.drawn_in_a_row.saturating_add(1),
+        };
         cache.key = None;
         let kept = (cache.unexposed.as_ref()).filter(|(k, _)| gain != 1.0 && *k == base_key);
         if let Some((_, pixels)) = kept {

@@ -299,7 +299,7 @@ impl Renderer {
     /// unoccluded counts need a layer pass ([`ids::shows_front`]).
     fn collect(
         &mut self,
-        state: &RegionState,
+        state: &mut RegionState,
         t: usize,
         plan: &FramePlan,
         submitted: wgpu::SubmissionIndex,
@@ -307,19 +307,17 @@ impl Renderer {
     ) -> Result<Collected, RenderError> {
         let request = &plan.request;
         let width = request.size_px.0;
-        let target = &state.targets[t];
         let (mut rgba, painted) = if request.color {
+            let cache = &mut state.targets[t].background;
             let painted = Painted {
-                background: target.background.generation,
+                background: cache.generation,
                 rects: plan.passes[0].rects.clone(),
             };
-            (
-                self.frame_buffer(&target.background.rgba, painted.background, width),
-                painted,
-            )
+            (self.frame_pixels(cache, width), painted)
         } else {
             (Vec::new(), Painted::default())
         };
+        let target = &state.targets[t];
         let hits = request.visibility && self.keep_pixel_hits;
         let mut ids = IdCollect::new(plan.overlapping.len(), request.msaa, hits);
         // Without reads (no drone in view) no drone needs a layer.

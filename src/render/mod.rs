@@ -318,6 +318,8 @@ pub struct Renderer {
     use_regions: bool,
     /// Keep each visible pixel's drones ([`RenderedFrame::pixel_hits`]) when measuring visibility.
     keep_pixel_hits: bool,
+    /// Whether a frame may take its background's pixels ([`Renderer::set_lend_backgrounds`]).
+    lend_backgrounds: bool,
     counts: PassCounts,
     /// Frame buffers handed back by the caller ([`Renderer::recycle`]), reused
     /// for the next frames' pixels: a fresh 4K frame (35 MB) is page-faulted
@@ -441,6 +443,7 @@ impl Renderer {
             regions: None,
             use_regions: true,
             keep_pixel_hits: false,
+            lend_backgrounds: false,
             counts: PassCounts::default(),
             spare: Vec::new(),
             spare_limit: 2,
@@ -473,6 +476,28 @@ impl Renderer {
     pub fn keep_spares(&mut self, n: usize) {
         self.spare_limit = n;
         self.spare.truncate(n);
+    }
+
+    /// Let a frame's buffer take its background's own memory instead of a
+    /// copy (8 MB at 1080p), where the background was drawn for that frame
+    /// and the one before drew its own too (a camera that moves every frame,
+    /// a new environment every frame). The renderer then no longer holds
+    /// that background: [`Renderer::background_pixels`] gives `None` for
+    /// such a frame, so a caller that reads them leaves this off (the
+    /// default). The pixels are the same either way.
+    pub fn set_lend_backgrounds(&mut self, on: bool) {
+        self.lend_backgrounds = on;
+    }
+
+    /// A buffer holding the background `cache` holds for this frame: its
+    /// own pixels where it lends them ([`Renderer::set_lend_backgrounds`]),
+    /// else [`Renderer::frame_buffer`]'s copy.
+    fn frame_pixels(&mut self, cache: &mut background::BackgroundCache, width: u32) -> Vec<u8> {
+        if self.lend_backgrounds && cache.lendable() {
+            let spare = self.spare.pop().map(|(b, _)| b).unwrap_or_default();
+            return cache.lend(spare);
+        }
+        self.frame_buffer(&cache.rgba, cache.generation, width)
     }
 
     /// A buffer holding `background` (generation `generation`, rows of

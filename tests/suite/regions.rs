@@ -249,6 +249,42 @@ fn recycled_frame_buffers_make_the_same_frames() {
     assert_eq!(reusing.background_draws(), 2);
 }
 
+/// A frame may take its background's pixels instead of a copy
+/// (`set_lend_backgrounds`) when the background was drawn for it and the
+/// frame before drew its own too: the same frames as copies, over recycled
+/// buffers too, and the renderer then holds no background for that frame.
+/// A camera that stops after moving draws its background once more (the
+/// frame after a lent one), not on every frame.
+#[test]
+fn frames_that_take_their_backgrounds_pixels_are_the_frames_copied() {
+    let ctx = common::gpu();
+    let pipeline = FramePipeline::new(preset(Preset::default().sky, 4)).expect("preset");
+    let mut copying = pipeline.renderer(&ctx);
+    let mut lending = pipeline.renderer(&ctx);
+    lending.set_lend_backgrounds(true);
+    // Frames 0..4 widen the view frame by frame (a new background each),
+    // then it stays: frames 4..8 share one background.
+    for index in 0..8 {
+        let mut scene = pipeline.scene(0).expect("scene");
+        scene.camera.fov_y_deg = 40.0 + index.min(4) as f64;
+        let want = copying.render_frame(&scene, &COLOUR_MSAA4).expect("render");
+        let got = lending.render_frame(&scene, &COLOUR_MSAA4).expect("render");
+        assert!(got.rgba == want.rgba, "frame {index}");
+        assert!(copying.background_pixels(&want.painted).is_some());
+        // Lent from the second new background in a row: frames 1..=4.
+        let lent = (1..=4).contains(&index);
+        assert_eq!(
+            lending.background_pixels(&got.painted).is_none(),
+            lent,
+            "frame {index}"
+        );
+        copying.recycle(want.rgba, want.painted);
+        lending.recycle(got.rgba, got.painted);
+    }
+    assert_eq!(copying.background_draws(), 5);
+    assert_eq!(lending.background_draws(), 6);
+}
+
 /// An equirect `.hdr` of `w`×`h` texels whose value falls linearly with the
 /// polar angle: texel row r holds 0.2 + 1.6 · (r + ½) / h in every channel,
 /// so the image's bilinear interpolation is the same function of the view
