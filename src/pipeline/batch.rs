@@ -692,6 +692,8 @@ impl MakerStages<'_> {
     ) -> MakerEnd {
         let mut renderer = self.pipeline.renderer(self.ctx);
         renderer.keep_spares(self.in_flight);
+        // A maker reads nothing of its renderer but each frame's pixels.
+        renderer.set_lend_backgrounds(!self.pipeline.reads_backgrounds());
         let mut busy = Duration::ZERO;
         let end = |result, cancelled, busy| MakerEnd {
             result,

@@ -518,6 +518,16 @@ impl FramePipeline {
         self.make_scene(renderer, scene)
     }
 
+    /// Whether a frame of this preset reads its drone-free background
+    /// ([`Renderer::background_pixels`]) after the render: the thermal
+    /// camera, weather and the camera model do. A caller that reads nothing
+    /// of the renderer but each frame (a batch) may let frames take their
+    /// backgrounds' pixels where this is false ([`Renderer::set_lend_backgrounds`]).
+    pub fn reads_backgrounds(&self) -> bool {
+        let p = &self.preset;
+        p.thermal.is_some() || p.weather.is_some() || p.camera_model.is_some()
+    }
+
     /// What the render keeps besides the picture, and whether the labels
     /// keep the visibility of its pass. One pass draws the drones for both
     /// the picture and the visibility, unless a supersampled measurement
@@ -536,10 +546,6 @@ impl FramePipeline {
         let weather = scene.weather.is_some() && together;
         renderer
             .set_pixel_hits(masks_on || thermal || ((weather || lensed) && labels.needs_id_pass()));
-        // Only the thermal camera, weather and the camera model read the
-        // drone-free background after the render: else a frame may take it.
-        let reads_background = thermal || scene.weather.is_some() || scene.camera_model.is_some();
-        renderer.set_lend_backgrounds(!reads_background);
         let request = RenderRequest {
             msaa: self.preset.render.msaa,
             color: true,

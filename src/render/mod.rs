@@ -484,7 +484,8 @@ impl Renderer {
     /// a new environment every frame). The renderer then no longer holds
     /// that background: [`Renderer::background_pixels`] gives `None` for
     /// such a frame, so a caller that reads them leaves this off (the
-    /// default). The pixels are the same either way.
+    /// default; a batch's makers turn it on where the preset's frames do
+    /// not read them). The pixels are the same either way.
     pub fn set_lend_backgrounds(&mut self, on: bool) {
         self.lend_backgrounds = on;
     }
