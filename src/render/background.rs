@@ -163,7 +163,7 @@ impl BackgroundCache {
     /// for this frame and the frame before drew its own too (a camera that
     /// moves every frame).
     pub(super) fn lendable(&self) -> bool {
-        self.drawn_in_a_row >= 2 && self.key.is_some()
+        self.drawn_in_a_row >= 2
     }
 
     /// The background's pixels, taken by a frame ([`BackgroundCache::lendable`]):

@@ -50,10 +50,11 @@ const MAX_RADIANCE: f32 = 60_000.0;
 pub(super) fn shade(image: Equirect<'_>, view: &ReducedView, size: (u32, u32), out: &mut Vec<f32>) {
     use rayon::prelude::*;
     let (w, h) = (size.0 as usize, size.1 as usize);
-    out.clear();
+    // Every value is written below (no clearing pass over the old contents).
     out.resize(w * h * 4, 0.0);
     let (iw, ih) = (image.width as usize, image.height as usize);
     if w == 0 || iw == 0 || ih == 0 || image.rgb.len() < iw * ih * 3 {
+        out.fill(0.0);
         return;
     }
     // The image turns by +rotation: rays turn by −rotation into its frame
