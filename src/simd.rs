@@ -9,6 +9,8 @@
 //! bytes; `SWARMSHOT_SIMD` caps the level so that the whole binary can be run
 //! as a narrower CPU runs it (`tests/suite/determinism_audit.rs` compares).
 
+pub(crate) mod math;
+
 /// The variable that caps [`simd_level`]: `base`, `avx2` or `avx512`.
 pub const SIMD_ENV: &str = "SWARMSHOT_SIMD";
 

@@ -59,8 +59,9 @@ pub(super) struct BackgroundCache {
     unexposed: Option<(Vec<u8>, Vec<u8>)>,
     /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
-    /// An image sky's reduced pass (RGBA `f32`), kept for its memory.
-    image_texels: Vec<f32>,
+    /// A reduced pass shaded on the CPU (an image sky's, or a procedural
+    /// environment's on a CPU adapter; RGBA `f32`), kept for its memory.
+    reduced_texels: Vec<f32>,
     /// Backgrounds drawn in a row for this cache's frames (0: the last
     /// frame found its background here): from the second, a frame may take
     /// the pixels ([`BackgroundCache::lend`]).
@@ -119,7 +120,7 @@ impl BackgroundCache {
             readback: Readback::new(device, "background readback", width, height),
             unexposed: None,
             environment_readback: None,
-            image_texels: Vec::new(),
+            reduced_texels: Vec::new(),
             drawn_in_a_row: 0,
             lent: None,
             stale: Vec::new(),
@@ -448,7 +449,7 @@ fn draw_reduced_background(
                 Tone::Clip
             };
             let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
-            let texels = &mut cache.image_texels;
+            let texels = &mut cache.reduced_texels;
             let Some(size) = with.sky.shade_image(sky, camera, frame, texels) else {
                 return Err(ReadbackError::NoTarget("the image sky's pass").into());
             };
@@ -475,11 +476,30 @@ fn draw_environment(
     uniforms: &FrameUniforms,
     gain: f32,
 ) -> Result<(), RenderError> {
+    let frame = (cache.width, cache.height);
+    let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
+    if with.sky.shades_environment_on_cpu() {
+        let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
+        let sun = glam::Vec4::from(uniforms.sun_dir_world).truncate();
+        let texels = &mut cache.reduced_texels;
+        let Some(size) = with.sky.shade_environment(camera, sun, frame, texels) else {
+            return Err(ReadbackError::NoTarget("the environment pass").into());
+        };
+        let texels = Texels::F32(texels);
+        upsample_reduced(
+            texels,
+            size,
+            frame,
+            centre,
+            (Tone::Clip, gain),
+            &mut cache.rgba,
+        );
+        return Ok(());
+    }
     let device = with.factory.device();
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("environment background"),
     });
-    let frame = (cache.width, cache.height);
     let passes = super::sky::SkyPassContext {
         factory: with.factory,
         frame_group: with.frame_group,
@@ -534,7 +554,6 @@ fn draw_environment(
         },
     );
     let submitted = with.queue.submit([encoder.finish()]);
-    let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
     let rgba = &mut cache.rgba;
     readback::read_mapped(device, submitted, buffer, len, |bytes| {
         let texels = Texels::F16 {

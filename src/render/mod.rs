@@ -420,7 +420,10 @@ impl Renderer {
                 resource: frame_buffer.as_entire_binding(),
             }],
         });
-        let sky = sky::SkyGpu::new(&factory, &ctx.queue, ctx.shared.clone(), &frame_layout);
+        // A CPU rasteriser's environment passes cost more than shading
+        // them on the CPU directly (sky/procedural.rs).
+        let cpu = ctx.adapter_info.device_type == wgpu::DeviceType::Cpu;
+        let sky = sky::SkyGpu::new(&factory, &ctx.queue, ctx.shared.clone(), &frame_layout, cpu);
         let drones = Drones::new(
             (&factory, &ctx.queue),
             &frame_layout,
@@ -681,6 +684,7 @@ impl Renderer {
         let frame_sky = sky::FrameSkyDraw {
             sky: &scene.sky,
             horizon: horizon::Horizon::of(&uniforms.world_from_camera, uniforms.intrinsics, size),
+            sun: glam::Vec4::from(uniforms.sun_dir_world).truncate(),
         };
         let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
         self.sky

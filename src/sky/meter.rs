@@ -22,10 +22,13 @@
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
 
+use crate::simd::math::fract;
+
+use super::noise::{fbm, silhouette_height, step, vnoise};
 use super::{
-    EnvironmentStyle, FrameEnvironment, FrameSky, Ground, Preetham, SKY_EXPOSURE, Silhouette,
-    SkyImage, SkyImageKind, gradient_lighting, linear_to_srgb, preetham::smoothstep,
-    procedural_lighting, tone_map,
+    EnvironmentStyle, FrameEnvironment, FrameSky, Ground, Preetham, SKY_EXPOSURE, SkyImage,
+    SkyImageKind, gradient_lighting, linear_to_srgb, preetham::smoothstep, procedural_lighting,
+    tone_map,
 };
 
 /// The grid of rays the meter samples: columns and rows over the frame.
@@ -385,7 +388,7 @@ impl Procedural {
             let across = (p.x - 30.0).abs();
             if across < 3.5 {
                 albedo = Vec3::new(0.05, 0.05, 0.055);
-                if across < 0.12 && (p.y / 12.0).fract() < 0.5 {
+                if across < 0.12 && fract(p.y / 12.0) < 0.5 {
                     albedo = Vec3::splat(0.6);
                 }
             }
@@ -402,78 +405,6 @@ impl Procedural {
         let fog = 1.0 - (-t / self.fog_m).exp();
         lit.lerp(haze, fog)
     }
-}
-
-/// environment.wgsl's `silhouette_height`: the angular height (rad) of a
-/// silhouette of `kind` at azimuth `c` (unit xz), −1 for none.
-fn silhouette_height(kind: Silhouette, height: f32, c: Vec2, seed: Vec2) -> f32 {
-    match kind {
-        Silhouette::None => -1.0,
-        Silhouette::Hills => height * (0.3 + 0.7 * fbm(c * 2.5 + seed, 3)),
-        Silhouette::Mountains => {
-            let r = ridged(c * 3.0 + seed, 5);
-            height * (0.1 + 0.9 * r * r) * (0.6 + 0.4 * vnoise(c * 1.3 + Vec2::new(seed.y, seed.x)))
-        }
-        Silhouette::Skyline => {
-            let az = c.x.atan2(c.y);
-            let block = (az * 90.0 / std::f32::consts::TAU * 4.0).floor();
-            let h = 0.25 + 0.75 * hash12(Vec2::new(block, seed.x));
-            let town = smoothstep(0.42, 0.5, vnoise(c * 2.0 + seed));
-            height * h * town + height * 0.08
-        }
-        Silhouette::TreeLine => height * (0.55 + 0.45 * fbm(c * 90.0 + seed, 2)),
-    }
-}
-
-fn fract(v: f32) -> f32 {
-    v - v.floor()
-}
-
-fn hash12(p: Vec2) -> f32 {
-    let mut p3 = Vec3::new(
-        fract(p.x * 0.1031),
-        fract(p.y * 0.1031),
-        fract(p.x * 0.1031),
-    );
-    let d = p3.dot(Vec3::new(p3.y, p3.z, p3.x) + 33.33);
-    p3 += d;
-    fract((p3.x + p3.y) * p3.z)
-}
-
-fn vnoise(p: Vec2) -> f32 {
-    let i = p.floor();
-    let f = p - i;
-    let u = f * f * (Vec2::splat(3.0) - 2.0 * f);
-    let a = hash12(i);
-    let b = hash12(i + Vec2::new(1.0, 0.0));
-    let c = hash12(i + Vec2::new(0.0, 1.0));
-    let d = hash12(i + Vec2::new(1.0, 1.0));
-    let lerp = |x: f32, y: f32, t: f32| x + (y - x) * t;
-    lerp(lerp(a, b, u.x), lerp(c, d, u.x), u.y)
-}
-
-fn fbm(p: Vec2, octaves: i32) -> f32 {
-    let (mut sum, mut amp, mut q) = (0.0, 0.5, p);
-    for _ in 0..octaves {
-        sum += amp * vnoise(q);
-        q = q * 2.02 + Vec2::new(17.1, 9.3);
-        amp *= 0.5;
-    }
-    sum
-}
-
-fn ridged(p: Vec2, octaves: i32) -> f32 {
-    let (mut sum, mut amp, mut q) = (0.0, 0.5, p);
-    for _ in 0..octaves {
-        sum += amp * (1.0 - (2.0 * vnoise(q) - 1.0).abs());
-        q = q * 2.07 + Vec2::new(3.7, 1.3);
-        amp *= 0.5;
-    }
-    sum
-}
-
-fn step(edge: f32, x: f32) -> f32 {
-    if x < edge { 0.0 } else { 1.0 }
 }
 
 #[cfg(test)]

@@ -30,6 +30,7 @@ use serde::Serialize;
 mod builtin;
 mod image;
 pub mod meter;
+pub(crate) mod noise;
 pub mod plates;
 mod preetham;
 mod styles;

@@ -5,6 +5,7 @@
 
 use wgpu::util::DeviceExt;
 
+use super::procedural::{self, Procedural};
 use super::{SkyGpu, SkyPassContext, make_bind_group};
 use crate::render::gpu::{PipelineDesc, Program};
 use crate::render::horizon::Horizon;
@@ -108,6 +109,60 @@ impl SkyGpu {
         }
     }
 
+    /// The procedural environment of the uniforms just written, shaded on
+    /// the CPU (`procedural::shade`) for a `frame`-sized frame seen through
+    /// `camera` (world-from-camera matrix and intrinsics) with the sun
+    /// toward `sun`, into `texels` (the half-resolution pass, RGBA `f32`);
+    /// its size. `None` when this adapter draws the environment itself or
+    /// the sky is not procedural.
+    pub(in crate::render) fn shade_environment(
+        &mut self,
+        (world_from_camera, intrinsics): (&[[f32; 4]; 4], [f32; 4]),
+        sun: glam::Vec3,
+        frame: (u32, u32),
+        texels: &mut Vec<f32>,
+    ) -> Option<(u32, u32)> {
+        let passes = self.cpu_environment.as_mut()?;
+        if self.written.mode[0] != 1.0 {
+            return None;
+        }
+        let env = Procedural::new(&self.written, sun);
+        let view = procedural::View {
+            world_from_camera: glam::Mat3::from_mat4(glam::Mat4::from_cols_array_2d(
+                world_from_camera,
+            )),
+            intrinsics,
+        };
+        Some(procedural::shade(&env, &view, frame, passes, texels))
+    }
+
+    /// Whether this adapter's procedural environments are shaded on the
+    /// CPU ([`SkyGpu::shade_environment`]).
+    pub(in crate::render) fn shades_environment_on_cpu(&self) -> bool {
+        self.cpu_environment.is_some()
+    }
+
+    /// The full-frame path's environment shaded on the CPU
+    /// ([`SkyGpu::shade_environment`]) and written into the half-resolution
+    /// target that the sky pass samples.
+    pub(super) fn upload_environment(
+        &mut self,
+        (device, queue): (&wgpu::Device, &wgpu::Queue),
+        camera: (&[[f32; 4]; 4], [f32; 4]),
+        sun: glam::Vec3,
+        frame: (u32, u32),
+    ) {
+        let mut texels = Vec::new();
+        let Some(size) = self.shade_environment(camera, sun, frame, &mut texels) else {
+            return;
+        };
+        self.ensure_target(device, HALF_SCALE, frame);
+        let Some(half) = &self.half else {
+            return;
+        };
+        super::upload::write_half_floats(queue, &half.texture, size, &texels);
+    }
+
     /// The environment target of `scale` (full-resolution pixels per pixel:
     /// [`HALF_SCALE`] or [`QUARTER_SCALE`]) for a `width`×`height` frame,
     /// (re)made when its size changes; its size.
@@ -209,7 +264,8 @@ pub(super) fn reduced_texture(
         (wgpu::TextureFormat::Rgba16Float, 1),
         wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST,
     );
     let view = texture.create_view(&Default::default());
     (texture, view)

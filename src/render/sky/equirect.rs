@@ -10,7 +10,9 @@
 //! plain `f32` arithmetic (no FMA, no driver's approximations), so they are
 //! the same on every machine and adapter.
 
-use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+use std::f32::consts::{PI, TAU};
+
+use crate::simd::math::{atan2, floor};
 
 use glam::{Mat3, Vec3};
 
@@ -207,57 +209,9 @@ fn blend([a, b, c, d]: [f32; 4], (wx, wy): (f32, f32), exposure: f32) -> f32 {
     value.max(0.0).min(MAX_RADIANCE)
 }
 
-/// The largest integer at most `x` (|x| < 2³¹; NaN gives 0): a truncation
-/// and a compare, where `f32::floor` is a library call on the x86-64
-/// baseline (no SSE4.1), which keeps a loop from vectorising.
-#[inline(always)]
-fn floor(x: f32) -> f32 {
-    let t = x as i32 as f32;
-    if t > x { t - 1.0 } else { t }
-}
-
-/// The arc tangent of `y / x` in (−π, π] (0 for the origin), within a few
-/// units in the last place: Cephes' `atanf` polynomial after reducing the
-/// ratio to [0, tan π/8]. Branch-free (selects), so a loop of it vectorises.
-#[inline(always)]
-fn atan2(y: f32, x: f32) -> f32 {
-    let (ax, ay) = (x.abs(), y.abs());
-    let (lo, hi) = (ax.min(ay), ax.max(ay));
-    let a = if hi > 0.0 { lo / hi } else { 0.0 };
-    let reduce = a > 0.414_213_57;
-    let t = if reduce { (a - 1.0) / (a + 1.0) } else { a };
-    let z = t * t;
-    let p =
-        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t
-            + t;
-    let r = if reduce { p + FRAC_PI_4 } else { p };
-    let r = if ay > ax { FRAC_PI_2 - r } else { r };
-    let r = if x < 0.0 { PI - r } else { r };
-    if y < 0.0 { -r } else { r }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_arc_tangent_is_within_a_few_units_in_the_last_place() {
-        let mut worst = 0f64;
-        for i in 0..=720 {
-            for r in [1e-6f32, 0.3, 1.0, 7.0, 1e6] {
-                let angle = i as f32 / 720.0 * TAU - PI;
-                let (y, x) = (r * angle.sin(), r * angle.cos());
-                let want = f64::from(y).atan2(f64::from(x));
-                let got = f64::from(atan2(y, x));
-                worst = worst.max((got - want).abs());
-            }
-        }
-        assert!(worst < 5e-7, "worst error {worst:e} rad");
-        assert_eq!(atan2(0.0, 0.0), 0.0);
-        assert_eq!(atan2(0.0, -1.0), PI);
-        assert_eq!(atan2(1.0, 0.0), FRAC_PI_2);
-        assert_eq!(atan2(-1.0, 0.0), -FRAC_PI_2);
-    }
 
     /// An image whose texels differ everywhere (a smooth field in x and y).
     fn field(w: u32, h: u32) -> Vec<f32> {

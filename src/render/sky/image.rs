@@ -3,8 +3,6 @@
 //! `equirect`) and, for the full-frame path, its target and the group with
 //! which the sky pass samples it.
 
-use half::slice::HalfFloatSliceExt;
-
 use super::equirect::{Equirect, ReducedView};
 use super::{SkyGpu, make_bind_group};
 use crate::sky::{FrameSky, SkyImageKind};
@@ -126,22 +124,7 @@ impl SkyGpu {
         let Some((texture, _, _)) = &self.image_target else {
             return;
         };
-        let mut half = vec![half::f16::ZERO; texels.len()];
-        half.convert_from_f32_slice(&texels);
-        queue.write_texture(
-            texture.as_image_copy(),
-            bytemuck::cast_slice(&half),
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(size.0 * 8),
-                rows_per_image: Some(size.1),
-            },
-            wgpu::Extent3d {
-                width: size.0,
-                height: size.1,
-                depth_or_array_layers: 1,
-            },
-        );
+        super::upload::write_half_floats(queue, texture, size, &texels);
     }
 
     /// Make the group with which the full-frame path's sky pass samples the

@@ -30,10 +30,13 @@ pub(super) struct SkyPassContext<'a> {
     pub frame_group: &'a wgpu::BindGroup,
 }
 
-/// The sky a frame shows and its horizon (for the environment's parts).
+/// The sky a frame shows, its horizon (for the environment's parts) and
+/// its sun.
 pub(super) struct FrameSkyDraw<'a> {
     pub sky: &'a FrameSky,
     pub horizon: Horizon,
+    /// Toward the sun (world frame, unit).
+    pub sun: Vec3,
 }
 
 pub(super) struct SkyGpu {
@@ -77,6 +80,10 @@ pub(super) struct SkyGpu {
     shared: super::context::SharedPipelines,
     /// The uniforms last written (part of the background cache key).
     written: EnvUniforms,
+    /// Whether the procedural environment is shaded on the CPU
+    /// (`procedural`: the adapter is itself a CPU rasteriser), and that
+    /// pass's memory.
+    cpu_environment: Option<procedural::Passes>,
 }
 
 impl SkyGpu {
@@ -86,6 +93,7 @@ impl SkyGpu {
         queue: &wgpu::Queue,
         shared: super::context::SharedPipelines,
         frame_layout: &wgpu::BindGroupLayout,
+        cpu_environment: bool,
     ) -> Self {
         let device = factory.device();
         let texture = |binding, view_dimension| texture_entry(binding, true, view_dimension, false);
@@ -158,6 +166,7 @@ impl SkyGpu {
             pipelines: Vec::new(),
             shared,
             written: EnvUniforms::default(),
+            cpu_environment: cpu_environment.then(Default::default),
         }
     }
 
@@ -180,7 +189,9 @@ impl SkyGpu {
     ) {
         let sky = frame_sky.sky;
         let device = with.factory.device();
-        if Self::is_procedural(sky) {
+        if Self::is_procedural(sky) && self.cpu_environment.is_some() {
+            self.upload_environment((device, queue), camera, frame_sky.sun, size);
+        } else if Self::is_procedural(sky) {
             self.encode_environment(with, encoder, size, frame_sky.horizon);
         } else if self.written_image_scale().is_some() {
             self.upload_image((device, queue), sky, camera, size);
@@ -287,6 +298,7 @@ impl SkyGpu {
 mod environment;
 mod equirect;
 mod image;
+mod procedural;
 mod uniforms;
 mod upload;
 

@@ -208,3 +208,29 @@ pub(super) fn make_bind_group(
         ],
     })
 }
+
+/// `texels` (RGBA `f32`, `size` texels) written into `texture` (RGBA16F)
+/// as half floats.
+pub(super) fn write_half_floats(
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    size: (u32, u32),
+    texels: &[f32],
+) {
+    let mut half = vec![half::f16::ZERO; texels.len()];
+    half.convert_from_f32_slice(texels);
+    queue.write_texture(
+        texture.as_image_copy(),
+        bytemuck::cast_slice(&half),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(size.0 * 8),
+            rows_per_image: Some(size.1),
+        },
+        wgpu::Extent3d {
+            width: size.0,
+            height: size.1,
+            depth_or_array_layers: 1,
+        },
+    );
+}

@@ -1,0 +1,647 @@
+//! environment.wgsl's procedural environment per ray, on the CPU: the
+//! frame's constants read from the uniforms the GPU passes get
+//! ([`Procedural`]), and a part's pixels shaded in loops over their rays
+//! ([`Part`]), each specialised for the frame's kinds (ground, silhouettes,
+//! clouds) outside the loop, as the GPU's pipelines are by their override
+//! constants, so that the loop body is straight-line code that vectorises.
+
+use glam::{Vec2, Vec3};
+
+use super::super::uniforms::EnvUniforms;
+use crate::simd::math::{acos, asin, exp, floor, fract, small_uint, smoothstep};
+use crate::sky::noise::{fbm, silhouette_height, silhouette_of, step, vnoise};
+use crate::sky::{HAZE_TABLE, Silhouette};
+
+/// A frame's procedural environment: its uniforms as the shader reads
+/// them, and the products of them that are the same for every pixel.
+pub(in crate::render::sky) struct Procedural<'a> {
+    /// `haze_table`: handed to each loop as an argument of its own (a
+    /// table read through the struct might alias the loop's outputs, for
+    /// all the compiler knows, and the loop would not vectorise).
+    table: &'a Table,
+    /// Radiance → display scale (`mode.y`).
+    k: f32,
+    sun: Vec3,
+    sun_color: Vec3,
+    cover: f32,
+    perez: [Vec3; 5],
+    sky_k: Vec3,
+    light: Vec3,
+    ambient: Vec3,
+    seed: Vec2,
+    ground: u8,
+    ground_albedo: [Vec3; 2],
+    /// The ground's light (sun and sky) and fog distance scale (m).
+    ground_light: Vec3,
+    fog_m: f32,
+    far: (Silhouette, f32),
+    near: (Silhouette, f32),
+    snow_caps: bool,
+    far_shade: Vec3,
+    snow_shade: Vec3,
+    near_shade: Vec3,
+    far_haze: f32,
+    near_haze: f32,
+    /// The sine of the elevation above which no silhouette reaches (−2: none).
+    upper: f32,
+}
+
+/// The horizon haze's table (`Preetham::haze_table`).
+type Table = [[f32; 4]; HAZE_TABLE];
+
+fn rgb(v: [f32; 4]) -> Vec3 {
+    Vec3::new(v[0], v[1], v[2])
+}
+
+impl<'a> Procedural<'a> {
+    /// The environment of uniforms `u` (a procedural one: `mode.x` 1) with
+    /// the sun toward `sun` (world frame, unit).
+    pub(in crate::render::sky) fn new(u: &'a EnvUniforms, sun: Vec3) -> Self {
+        let (light, ambient) = (rgb(u.light), rgb(u.ambient));
+        let sun_up = sun.y.max(0.0);
+        let atmosphere = u.near[3] > 0.5;
+        Self {
+            table: &u.haze_table,
+            k: u.mode[1],
+            sun,
+            sun_color: rgb(u.sun_color),
+            cover: u.sun_color[3],
+            perez: std::array::from_fn(|i| rgb(u.perez[i])),
+            sky_k: rgb(u.sky_k),
+            light,
+            ambient,
+            seed: Vec2::new(u.pattern[0], u.pattern[1]),
+            ground: u.pattern[2].round().clamp(0.0, 3.0) as u8,
+            ground_albedo: [rgb(u.ground_a), rgb(u.ground_b)],
+            ground_light: light * sun_up + ambient,
+            fog_m: u.zenith_yxy[3],
+            far: (silhouette_of(u.pattern[3]), u.far[3]),
+            near: (silhouette_of(u.far_params[1]), u.far_params[2]),
+            snow_caps: u.far_params[0] > 0.5,
+            far_shade: rgb(u.far) * (light * sun_up * 0.6 + ambient * 0.8),
+            snow_shade: Vec3::new(0.85, 0.87, 0.9) * (light * sun_up * 0.5 + ambient),
+            near_shade: rgb(u.near) * (light * sun_up * 0.5 + ambient * 0.7),
+            far_haze: if atmosphere { u.ground_a[3] } else { 0.55 },
+            near_haze: if atmosphere { u.ground_b[3] } else { 0.25 },
+            upper: u.band[1],
+        }
+    }
+
+    /// The sine of the elevation above which a sky pixel is the upper
+    /// sky's (no silhouette reaches it); −2 when there is no silhouette.
+    pub(super) fn upper_line(&self) -> f32 {
+        self.upper
+    }
+
+    /// `preetham`: the Preetham radiance of ray `dir`, clamped at the horizon.
+    #[inline(always)]
+    fn preetham(&self, dir: Vec3) -> Vec3 {
+        let d = Vec3::new(dir.x, dir.y.max(0.001), dir.z);
+        let d = d * (1.0 / d.dot(d).sqrt());
+        let cos_gamma = d.dot(self.sun).clamp(-1.0, 1.0);
+        let [a, b, c, dd, e] = self.perez;
+        let f_theta = 1.0 / d.y.max(0.01);
+        let f = Vec3::new(
+            1.0 + a.x * exp(b.x * f_theta),
+            1.0 + a.y * exp(b.y * f_theta),
+            1.0 + a.z * exp(b.z * f_theta),
+        );
+        let gamma = acos(cos_gamma);
+        let c2 = cos_gamma * cos_gamma;
+        let g = Vec3::new(
+            1.0 + c.x * exp(dd.x * gamma) + e.x * c2,
+            1.0 + c.y * exp(dd.y * gamma) + e.y * c2,
+            1.0 + c.z * exp(dd.z * gamma) + e.z * c2,
+        );
+        let yxy = self.sky_k * f * g;
+        yxy_to_rgb(yxy)
+    }
+
+    /// `horizon_haze`: the tone-mapped sky just above level in the
+    /// azimuth of `az_c` (unit xz), interpolated in the frame's table.
+    #[inline(always)]
+    fn haze(&self, table: &Table, az_c: Vec2) -> Vec3 {
+        let d = Vec3::new(az_c.x, 0.02, az_c.y) * 0.999_800_1;
+        let cos_gamma = d.dot(self.sun).clamp(-1.0, 1.0);
+        let half = HAZE_TABLE / 2;
+        let t = (0.5 - 0.5 * cos_gamma.abs()).max(0.0).sqrt()
+            * ((half - 1) as f32 * std::f32::consts::SQRT_2);
+        let k = floor(t).min((half - 2) as f32);
+        let i = small_uint(k) as usize + if cos_gamma >= 0.0 { 0 } else { half };
+        // In bounds (i ≤ HAZE_TABLE − 2); the mask lets the compiler see it.
+        let (lo, hi) = (table[i % HAZE_TABLE], table[(i + 1) % HAZE_TABLE]);
+        let w = t - k;
+        mix(rgb(lo), rgb(hi), w).max(Vec3::ZERO)
+    }
+
+    /// `upper_sky`: the Preetham sky and (with `CLOUDS`) the cloud layer
+    /// of ray `dir`, and the share of the sun disc the clouds leave.
+    #[inline(always)]
+    fn upper_sky<const CLOUDS: bool>(&self, dir: Vec3, haze: Vec3) -> (Vec3, f32) {
+        let col = tone_map(self.preetham(dir) * self.k);
+        if !CLOUDS {
+            return (col, 1.0);
+        }
+        let sun = self.sun;
+        let uv = Vec2::new(dir.x, dir.z) / (dir.y + 0.05) * 0.9 + self.seed;
+        let threshold = mix1(0.72, 0.22, self.cover);
+        let coarse = fbm(uv, 2);
+        // The GPU skips the finer octaves where they cannot reach the
+        // threshold; here every pixel takes them, and keeps them where it would.
+        let fine = coarse + 0.25 * fbm(uv * 4.0804 + Vec2::new(70.2, 37.5), 3);
+        let n = if coarse + 0.25 > threshold {
+            fine
+        } else {
+            coarse
+        };
+        let density = smoothstep(threshold, threshold + 0.2, n);
+        let toward_sun = fbm(uv + Vec2::new(sun.x, sun.z) * 0.12, 2);
+        let self_shadow = (1.0 - (toward_sun - n) * 2.5).clamp(0.45, 1.15);
+        let s = dir.dot(sun).max(0.0);
+        let s4 = (s * s) * (s * s);
+        let silver = s4 * s4 * s4;
+        let cloud = (self.ambient * 0.85 + self.light * 0.5 * (0.6 + silver))
+            * self_shadow
+            * (1.0 - 0.35 * density);
+        let fade = smoothstep(0.0, 0.1, dir.y);
+        let cloud_far = mix(haze, cloud, smoothstep(0.0, 0.3, dir.y) * 0.7 + 0.3);
+        let f = density * fade * 0.95;
+        (mix(col, cloud_far.min(Vec3::ONE), f), 1.0 - f)
+    }
+
+    /// `sun_disc`: the sun disc's light in direction `dir`.
+    #[inline(always)]
+    fn sun_disc(&self, dir: Vec3) -> Vec3 {
+        self.sun_color * (smoothstep(0.99996, 0.99999, dir.dot(self.sun)) * 3.0)
+    }
+
+    /// The ground side of `procedural_sky` for ray `dir` (below the
+    /// horizon) with ground kind `GROUND` (2 water, 3 road, else plain).
+    #[inline(always)]
+    fn ground<const GROUND: u8>(&self, table: &Table, dir: Vec3) -> Vec3 {
+        let haze = self.haze(table, azimuth(dir));
+        let t = 60.0 / (-dir.y).max(1e-4);
+        let p = Vec2::new(dir.x, dir.z) * t + self.seed * 37.0;
+        let [ga, gb] = self.ground_albedo;
+        let mut albedo = mix(ga, gb, fbm(p * 0.01, 4));
+        let fields = vnoise(p * 0.003);
+        albedo *= 0.8 + 0.4 * step(0.5, fields);
+        if GROUND == 3 {
+            // A straight country road with a dashed centre line.
+            let across = (p.x - 30.0).abs();
+            let line = across < 0.12 && fract(p.y / 12.0) < 0.5;
+            let road = if line {
+                Vec3::splat(0.6)
+            } else {
+                Vec3::new(0.05, 0.05, 0.055)
+            };
+            albedo = if across < 3.5 { road } else { albedo };
+        }
+        let mut lit = albedo * self.ground_light;
+        if GROUND == 2 {
+            // Water: the sky reflected with Fresnel, ripples and a sun glint.
+            let q = p * 0.35;
+            let ripple = (Vec2::new(vnoise(q), vnoise(q + 7.0)) - 0.5) * 0.06;
+            let r = Vec3::new(dir.x + ripple.x, -dir.y, dir.z + ripple.y);
+            let r = r * (1.0 / r.dot(r).sqrt());
+            let reflected = tone_map(self.preetham(r) * self.k);
+            let m = 1.0 - (-dir.y).min(1.0);
+            let fresnel = 0.02 + 0.98 * (m * m * m * m * m);
+            let glint = pow300(r.dot(self.sun).max(0.0)) * self.light * 2.0;
+            lit = mix(albedo * self.ambient, reflected, fresnel) + glint;
+        }
+        let fog = 1.0 - exp(-t / self.fog_m);
+        mix(lit, haze, fog)
+    }
+
+    /// The sky side below the band's top (`procedural_sky`, `ENV_PART` 1)
+    /// for ray `dir`, under silhouettes `far_h` and `near_h` high (rad).
+    #[inline(always)]
+    fn band<const CLOUDS: bool>(
+        &self,
+        table: &Table,
+        dir: Vec3,
+        (far_h, near_h): (f32, f32),
+    ) -> Vec3 {
+        let haze = self.haze(table, azimuth(dir));
+        let (upper, clear) = self.upper_sky::<CLOUDS>(dir, haze);
+        let mut col = upper + self.sun_disc(dir) * clear;
+        let elevation = asin(dir.y.clamp(-1.0, 1.0));
+        let snow = smoothstep(0.6, 0.75, elevation / far_h.max(1e-4));
+        let capped = self.snow_caps && elevation > far_h * 0.6;
+        let far = if capped {
+            mix(self.far_shade, self.snow_shade, snow)
+        } else {
+            self.far_shade
+        };
+        col = if elevation < far_h {
+            mix(far, haze, self.far_haze)
+        } else {
+            col
+        };
+        if elevation < near_h {
+            mix(self.near_shade, haze, self.near_haze)
+        } else {
+            col
+        }
+    }
+}
+
+/// A part of a row's pixels: their rays, and what they are shaded (RGBA).
+pub(super) struct Part {
+    rays: Rays,
+    out: [Vec<f32>; 4],
+    /// The silhouettes' heights (far, near) of the band's pixels.
+    heights: [Vec<f32>; 2],
+}
+
+/// Pixels' indices in their row and their rays.
+struct Rays {
+    index: Vec<u32>,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    len: usize,
+}
+
+impl Part {
+    pub(super) fn new(w: usize) -> Self {
+        let v = || vec![0.0; w];
+        Self {
+            rays: Rays {
+                index: vec![0; w],
+                x: v(),
+                y: v(),
+                z: v(),
+                len: 0,
+            },
+            out: [v(), v(), v(), v()],
+            heights: [v(), v()],
+        }
+    }
+
+    /// The row's pixels whose ray's height `y` passes `keep`, gathered
+    /// (a branch-free compaction: every pixel is written, kept or not).
+    #[inline(always)]
+    pub(super) fn gather(&mut self, x: &[f32], y: &[f32], z: &[f32], keep: impl Fn(f32) -> bool) {
+        let r = &mut self.rays;
+        let mut n = 0;
+        let w = x.len().min(y.len()).min(z.len()).min(r.index.len());
+        for i in 0..w {
+            r.index[n] = i as u32;
+            (r.x[n], r.y[n], r.z[n]) = (x[i], y[i], z[i]);
+            n += usize::from(keep(y[i]));
+        }
+        r.len = n;
+    }
+
+    /// The part's pixels' RGBA written at their places in `texels`.
+    #[inline(always)]
+    pub(super) fn scatter(&self, texels: &mut [f32]) {
+        let [r, g, b, a] = &self.out;
+        for k in 0..self.rays.len {
+            let i = self.rays.index[k] as usize * 4;
+            if let Some(px) = texels.get_mut(i..i + 4) {
+                px.copy_from_slice(&[r[k], g[k], b[k], a[k]]);
+            }
+        }
+    }
+
+    /// Each ray below the horizon taken level (the quarter pass's margin).
+    #[inline(always)]
+    pub(super) fn level(&mut self) {
+        let r = &mut self.rays;
+        let n = r.len;
+        let rays = r.x[..n].iter_mut().zip(&mut r.y[..n]).zip(&mut r.z[..n]);
+        for ((x, y), z) in rays {
+            let flat = Vec3::new(*x + 1e-6, 0.0, *z);
+            let flat = flat * (1.0 / flat.dot(flat).sqrt());
+            let below = *y < 0.0;
+            *x = if below { flat.x } else { *x };
+            *z = if below { flat.z } else { *z };
+            *y = if below { 0.0 } else { *y };
+        }
+    }
+
+    /// The rays' `upper_sky` (RGB and the sun disc's share).
+    #[inline(always)]
+    pub(super) fn upper_sky(&mut self, env: &Procedural) {
+        if env.cover > 0.001 {
+            each(
+                env,
+                &self.rays,
+                NONE,
+                &mut self.out,
+                #[inline(always)]
+                |d, _, t| {
+                    let (c, a) = env.upper_sky::<true>(d, env.haze(t, azimuth(d)));
+                    [c.x, c.y, c.z, a]
+                },
+            );
+        } else {
+            each(
+                env,
+                &self.rays,
+                NONE,
+                &mut self.out,
+                #[inline(always)]
+                |d, _, t| {
+                    let (c, a) = env.upper_sky::<false>(d, env.haze(t, azimuth(d)));
+                    [c.x, c.y, c.z, a]
+                },
+            );
+        }
+    }
+
+    /// The rays' ground.
+    #[inline(always)]
+    pub(super) fn ground(&mut self, env: &Procedural) {
+        let (rays, out) = (&self.rays, &mut self.out);
+        match env.ground {
+            2 => each(
+                env,
+                rays,
+                NONE,
+                out,
+                #[inline(always)]
+                |d, _, t| opaque(env.ground::<2>(t, d)),
+            ),
+            3 => each(
+                env,
+                rays,
+                NONE,
+                out,
+                #[inline(always)]
+                |d, _, t| opaque(env.ground::<3>(t, d)),
+            ),
+            _ => each(
+                env,
+                rays,
+                NONE,
+                out,
+                #[inline(always)]
+                |d, _, t| opaque(env.ground::<0>(t, d)),
+            ),
+        }
+    }
+
+    /// The rays' band: the silhouettes' heights first, then the sky and
+    /// silhouettes over it.
+    #[inline(always)]
+    pub(super) fn band(&mut self, env: &Procedural) {
+        let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
+        let n = self.rays.len;
+        let (x, z) = (&self.rays.x[..n], &self.rays.z[..n]);
+        for ((kind, height), (heights, seed)) in [env.far, env.near]
+            .into_iter()
+            .zip(self.heights.iter_mut().zip(seeds))
+        {
+            silhouettes(kind, height, seed, (x, z), &mut heights[..n]);
+        }
+        let [far, near] = &self.heights;
+        let (rays, out) = (&self.rays, &mut self.out);
+        if env.cover > 0.001 {
+            each(
+                env,
+                rays,
+                [far, near],
+                out,
+                #[inline(always)]
+                |d, [f, n], t| opaque(env.band::<true>(t, d, (f, n))),
+            );
+        } else {
+            each(
+                env,
+                rays,
+                [far, near],
+                out,
+                #[inline(always)]
+                |d, [f, n], t| opaque(env.band::<false>(t, d, (f, n))),
+            );
+        }
+    }
+
+    /// The upper sky's pixels of half-resolution row `j`: the quarter
+    /// pass's RGBA interpolated at each (a clamping bilinear sample at the
+    /// full-resolution position over the quarter's scale, as the GPU's
+    /// sampler takes it), plus the sun disc times its share.
+    #[inline(always)]
+    pub(super) fn interpolate(
+        &mut self,
+        env: &Procedural,
+        (quarter, (qw, qh)): (&[f32], (u32, u32)),
+        j: usize,
+    ) {
+        let (qw, qh) = (qw as usize, qh as usize);
+        let (r0, r1, wy) = tap(j, qh.saturating_sub(1));
+        let row = |r: usize| quarter.get(r * qw * 4..(r + 1) * qw * 4).unwrap_or(&[]);
+        let (row0, row1) = (row(r0), row(r1));
+        if row0.is_empty() || row1.is_empty() {
+            return;
+        }
+        #[inline(always)]
+        fn texel(row: &[f32], c: usize) -> glam::Vec4 {
+            glam::Vec4::from_slice(&row[c * 4..c * 4 + 4])
+        }
+        let r = &self.rays;
+        let [or, og, ob, oa] = &mut self.out;
+        for k in 0..r.len {
+            let (c0, c1, wx) = tap(r.index[k] as usize, qw - 1);
+            let top = texel(row0, c0) + (texel(row0, c1) - texel(row0, c0)) * wx;
+            let bottom = texel(row1, c0) + (texel(row1, c1) - texel(row1, c0)) * wx;
+            let v = top + (bottom - top) * wy;
+            let d = Vec3::new(r.x[k], r.y[k], r.z[k]);
+            let c = v.truncate() + env.sun_disc(d) * v.w;
+            (or[k], og[k], ob[k], oa[k]) = (c.x, c.y, c.z, 1.0);
+        }
+    }
+}
+
+/// Where half-resolution pixel `i` samples the quarter pass along one
+/// axis: its two texels (clamped to `last`) and the second's weight. The
+/// pixel's centre, `(i + ½)·2` full-resolution pixels, is texel `i/2 − ¼`.
+#[inline(always)]
+fn tap(i: usize, last: usize) -> (usize, usize, f32) {
+    let t = i as f32 * 0.5 - 0.25;
+    let t0 = crate::simd::math::floor(t);
+    let c0 = (t0.max(0.0) as usize).min(last);
+    let c1 = ((t0 + 1.0).max(0.0) as usize).min(last);
+    (c0, c1, t - t0)
+}
+
+#[inline(always)]
+fn opaque(c: Vec3) -> [f32; 4] {
+    [c.x, c.y, c.z, 1.0]
+}
+
+/// No per-pixel inputs besides the ray.
+const NONE: [&[f32]; 2] = [&[], &[]];
+
+/// `shade(ray, inputs)` for each of `rays` (with its values of `inputs`;
+/// an empty input reads as the ray's x), into `out`.
+#[inline(always)]
+fn each<'a>(
+    env: &Procedural,
+    rays: &'a Rays,
+    inputs: [&'a [f32]; 2],
+    out: &mut [Vec<f32>; 4],
+    shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
+) {
+    let n = rays.len;
+    let [r, g, b, a] = out;
+    let (x, y, z) = (&rays.x[..n], &rays.y[..n], &rays.z[..n]);
+    let [i0, i1] = inputs.map(|v| v.get(..n).unwrap_or(x));
+    let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
+    lanes(x, y, z, i0, i1, env.table, r, g, b, a, shade);
+}
+
+/// [`each`]'s loop over slices of one length, compiled for the CPU's
+/// widest SIMD level in a function of its own that is never inlined: its
+/// slice arguments keep their no-alias marks, so the loop vectorises (the
+/// haze table's gathers included) without checks at run time.
+#[inline(always)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "separate slices keep their no-alias marks"
+)]
+fn lanes(
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    i0: &[f32],
+    i1: &[f32],
+    table: &Table,
+    r: &mut [f32],
+    g: &mut [f32],
+    b: &mut [f32],
+    a: &mut [f32],
+    shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
+) {
+    macro_rules! build {
+        ($name:ident $(, $features:literal)?) => {
+            #[allow(clippy::too_many_arguments, reason = "as `lanes`")]
+            #[inline(never)]
+            $(#[target_feature(enable = $features)])?
+            fn $name(
+                x: &[f32],
+                y: &[f32],
+                z: &[f32],
+                i0: &[f32],
+                i1: &[f32],
+                table: &Table,
+                r: &mut [f32],
+                g: &mut [f32],
+                b: &mut [f32],
+                a: &mut [f32],
+                shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
+            ) {
+                let n = x.len();
+                let (y, z, i0, i1) = (&y[..n], &z[..n], &i0[..n], &i1[..n]);
+                let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
+                for k in 0..n {
+                    let c = shade(Vec3::new(x[k], y[k], z[k]), [i0[k], i1[k]], table);
+                    (r[k], g[k], b[k], a[k]) = (c[0], c[1], c[2], c[3]);
+                }
+            }
+        };
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        build!(avx512, "avx512f,avx512bw,avx512dq,avx512vl");
+        build!(avx2, "avx2");
+        match crate::simd::simd_level() {
+            // SAFETY: the CPU has these features (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            2 => return unsafe { avx512(x, y, z, i0, i1, table, r, g, b, a, shade) },
+            // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+            #[allow(unsafe_code)]
+            1 => return unsafe { avx2(x, y, z, i0, i1, table, r, g, b, a, shade) },
+            _ => {}
+        }
+    }
+    build!(base);
+    base(x, y, z, i0, i1, table, r, g, b, a, shade)
+}
+
+/// The heights of silhouette `kind` (`height` rad high) at rays `(x, z)`
+/// into `out`, one loop per kind.
+#[inline(always)]
+fn silhouettes(
+    kind: Silhouette,
+    height: f32,
+    seed: Vec2,
+    (x, z): (&[f32], &[f32]),
+    out: &mut [f32],
+) {
+    #[inline(always)]
+    fn fill(out: &mut [f32], x: &[f32], z: &[f32], f: impl Fn(Vec2) -> f32) {
+        let n = out.len();
+        let (x, z) = (&x[..n], &z[..n]);
+        for k in 0..n {
+            out[k] = f(azimuth(Vec3::new(x[k], 0.0, z[k])));
+        }
+    }
+    let at = |kind| {
+        #[inline(always)]
+        move |c| silhouette_height(kind, height, c, seed)
+    };
+    match kind {
+        Silhouette::None => out.fill(-1.0),
+        Silhouette::Hills => fill(out, x, z, at(Silhouette::Hills)),
+        Silhouette::Mountains => fill(out, x, z, at(Silhouette::Mountains)),
+        Silhouette::Skyline => fill(out, x, z, at(Silhouette::Skyline)),
+        Silhouette::TreeLine => fill(out, x, z, at(Silhouette::TreeLine)),
+    }
+}
+
+/// `azimuth`: the unit xz direction of the ray's azimuth.
+#[inline(always)]
+fn azimuth(dir: Vec3) -> Vec2 {
+    let c = Vec2::new(dir.x + 1e-6, dir.z);
+    c * (1.0 / c.dot(c).sqrt())
+}
+
+/// WGSL's `mix`: `a·(1 − t) + b·t`.
+#[inline(always)]
+fn mix(a: Vec3, b: Vec3, t: f32) -> Vec3 {
+    a * (1.0 - t) + b * t
+}
+
+#[inline(always)]
+fn mix1(a: f32, b: f32, t: f32) -> f32 {
+    a * (1.0 - t) + b * t
+}
+
+#[inline(always)]
+fn tone_map(x: Vec3) -> Vec3 {
+    Vec3::new(1.0 - exp(-x.x), 1.0 - exp(-x.y), 1.0 - exp(-x.z))
+}
+
+/// `yxy_to_rgb`: CIE Yxy to linear sRGB, clamped at 0.
+#[inline(always)]
+fn yxy_to_rgb(yxy: Vec3) -> Vec3 {
+    let (y, cx) = (yxy.x, yxy.y);
+    let cy = yxy.z.max(1e-4);
+    let x = cx / cy * y;
+    let z = (1.0 - cx - cy) / cy * y;
+    Vec3::new(
+        3.2406 * x - 1.5372 * y - 0.4986 * z,
+        -0.9689 * x + 1.8758 * y + 0.0415 * z,
+        0.0557 * x - 0.2040 * y + 1.0570 * z,
+    )
+    .max(Vec3::ZERO)
+}
+
+/// x³⁰⁰ by squaring (x in [0, 1]).
+#[inline(always)]
+fn pow300(x: f32) -> f32 {
+    let x2 = x * x;
+    let x4 = x2 * x2;
+    let x8 = x4 * x4;
+    let x16 = x8 * x8;
+    let x32 = x16 * x16;
+    let x64 = x32 * x32;
+    let x128 = x64 * x64;
+    let x256 = x128 * x128;
+    x256 * x32 * x8 * x4
+}
