@@ -6,7 +6,7 @@
 use wgpu::util::DeviceExt;
 
 use super::procedural::{self, Procedural};
-use super::{SkyGpu, SkyPassContext, make_bind_group};
+use super::{HALF_SCALE, QUARTER_SCALE, SkyGpu, SkyPassContext, make_bind_group};
 use crate::render::gpu::{PipelineDesc, Program};
 use crate::render::horizon::Horizon;
 
@@ -19,13 +19,6 @@ pub(super) struct ReducedTarget {
     /// Samples `view` as `env_half`.
     pub(super) group: wgpu::BindGroup,
 }
-
-/// Full-resolution pixels per environment-pass pixel, per axis.
-pub(super) const HALF_SCALE: u32 = 2;
-
-/// Full-resolution pixels per pixel of the pass of the sky above the
-/// silhouettes (smooth: the Preetham sky and the clouds), per axis.
-pub(super) const QUARTER_SCALE: u32 = 4;
 
 impl SkyGpu {
     /// Draw the procedural environment of the uniforms just written into the

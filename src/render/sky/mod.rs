@@ -23,6 +23,13 @@ use super::horizon::Horizon;
 
 use crate::sky::{self, FrameEnvironment, FrameSky, Lighting, SkyImage, SkyImageKind};
 
+/// Full-resolution pixels per environment-pass pixel, per axis.
+pub(super) const HALF_SCALE: u32 = 2;
+
+/// Full-resolution pixels per pixel of the pass of the sky above the
+/// silhouettes (smooth: the Preetham sky and the clouds), per axis.
+pub(super) const QUARTER_SCALE: u32 = 4;
+
 /// What the sky's reduced passes are drawn with besides the sky's own
 /// things: the renderer's pipeline maker and the frame uniforms' group.
 pub(super) struct SkyPassContext<'a> {

@@ -22,8 +22,8 @@ mod shading;
 pub(super) use shading::Procedural;
 
 /// Full-resolution pixels per pixel of the half- and quarter-resolution passes.
-const HALF: u32 = super::environment::HALF_SCALE;
-const QUARTER: u32 = super::environment::QUARTER_SCALE;
+const HALF: u32 = super::HALF_SCALE;
+const QUARTER: u32 = super::QUARTER_SCALE;
 
 /// What the passes look through: the camera's rotation (world from
 /// camera) and intrinsics `[fx, fy, cx, cy]` (full-resolution pixels).

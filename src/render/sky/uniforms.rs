@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::environment::{HALF_SCALE, QUARTER_SCALE};
+use super::{HALF_SCALE, QUARTER_SCALE};
 use crate::sky::meter::{FAR_SILHOUETTE_M, NEAR_SILHOUETTE_M};
 use crate::sky::{self, EnvironmentName, FrameEnvironment, HAZE_TABLE, Lighting, Preetham};
 
