@@ -63,9 +63,9 @@ pub const DEFAULT_MAKERS: usize = 1;
 
 /// Makers by default when each frame draws a new background (camera, sky,
 /// environment, sun, backplate or scenery change from frame to frame): one
-/// maker's environment pass, readback and CPU upsampling then overlap the
-/// other's rendering (release, 2 cores: `synthswarm_table2.ron` 0.76× the
-/// wall time of one maker, `realistic.ron` 0.85×; docs/benchmarks.md).
+/// maker's environment and CPU upsampling then overlap the other's
+/// rendering (release, 2 cores, `realistic.ron`: one maker takes 1.06× the
+/// wall time of two; `synthswarm_table2.ron` 0.95×; docs/benchmarks.md).
 pub const DEFAULT_MAKERS_NEW_BACKGROUNDS: usize = 2;
 
 /// The most makers chosen by default on a hardware GPU (docs/benchmarks.md,

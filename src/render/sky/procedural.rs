@@ -61,28 +61,38 @@ pub(super) fn shade(
     let [fx, fy, ..] = view.intrinsics;
     let reach = 9.0 / fx.abs().min(fy.abs()).max(1e-6);
     let needed = env.upper_line().max(0.0) - reach;
-    let qw = quarter_size.0 as usize;
-    quarter.par_chunks_mut(qw * 4).enumerate().for_each_init(
-        || Row::new(qw),
-        |row, (j, texels)| {
-            crate::simd::widest(
-                #[inline(always)]
-                || row.quarter(env, view, j, needed, texels),
-            )
-        },
+    by_rows(
+        quarter,
+        quarter_size.0 as usize,
+        #[inline(always)]
+        |row, j, texels| row.quarter(env, view, j, needed, texels),
     );
     let quarter = (&passes.quarter[..], quarter_size);
-    let hw = half_size.0 as usize;
-    half.par_chunks_mut(hw * 4).enumerate().for_each_init(
-        || Row::new(hw),
-        |row, (j, texels)| {
-            crate::simd::widest(
-                #[inline(always)]
-                || row.half(env, view, j, quarter, texels),
-            )
-        },
+    by_rows(
+        half,
+        half_size.0 as usize,
+        #[inline(always)]
+        |row, j, texels| row.half(env, view, j, quarter, texels),
     );
     half_size
+}
+
+/// `shade(row, j, texels)` for each row `j` of `w` RGBA texels of `texels`,
+/// in parallel on rayon's threads (each row's values depend only on its
+/// index), compiled for the CPU's widest SIMD level.
+fn by_rows(texels: &mut [f32], w: usize, shade: impl Fn(&mut Row, usize, &mut [f32]) + Sync) {
+    texels
+        .par_chunks_mut(w.max(1) * 4)
+        .enumerate()
+        .for_each_init(
+            || Row::new(w),
+            |row, (j, texels)| {
+                crate::simd::widest(
+                    #[inline(always)]
+                    || shade(row, j, texels),
+                )
+            },
+        );
 }
 
 /// One row's scratch: per pixel its ray, then the pixels of one part
@@ -138,14 +148,9 @@ impl Row {
     ) {
         self.rays(view, QUARTER as f32, j);
         texels.fill(0.0);
+        let rays = (&self.x[..], &self.y[..], &self.z[..]);
         let part = &mut self.part;
-        part.gather(
-            &self.x,
-            &self.y,
-            &self.z,
-            #[inline(always)]
-            |y| y > needed,
-        );
+        part.gather(rays, |y| y > needed);
         part.level();
         part.upper_sky(env);
         part.scatter(texels);
@@ -165,32 +170,15 @@ impl Row {
     ) {
         self.rays(view, HALF as f32, j);
         let upper = env.upper_line();
+        let rays = (&self.x[..], &self.y[..], &self.z[..]);
         let part = &mut self.part;
-        part.gather(
-            &self.x,
-            &self.y,
-            &self.z,
-            #[inline(always)]
-            |y| y < 0.0,
-        );
+        part.gather(rays, |y| y < 0.0);
         part.ground(env);
         part.scatter(texels);
-        part.gather(
-            &self.x,
-            &self.y,
-            &self.z,
-            #[inline(always)]
-            |y| y >= 0.0 && y <= upper,
-        );
+        part.gather(rays, |y| y >= 0.0 && y <= upper);
         part.band(env);
         part.scatter(texels);
-        part.gather(
-            &self.x,
-            &self.y,
-            &self.z,
-            #[inline(always)]
-            |y| y >= 0.0 && y > upper,
-        );
+        part.gather(rays, |y| y >= 0.0 && y > upper);
         part.interpolate(env, quarter, j);
         part.scatter(texels);
     }

@@ -283,7 +283,11 @@ impl Part {
     /// The row's pixels whose ray's height `y` passes `keep`, gathered
     /// (a branch-free compaction: every pixel is written, kept or not).
     #[inline(always)]
-    pub(super) fn gather(&mut self, x: &[f32], y: &[f32], z: &[f32], keep: impl Fn(f32) -> bool) {
+    pub(super) fn gather(
+        &mut self,
+        (x, y, z): (&[f32], &[f32], &[f32]),
+        keep: impl Fn(f32) -> bool,
+    ) {
         let r = &mut self.rays;
         let mut n = 0;
         let w = x.len().min(y.len()).min(z.len()).min(r.index.len());
@@ -326,30 +330,24 @@ impl Part {
     /// The rays' `upper_sky` (RGB and the sun disc's share).
     #[inline(always)]
     pub(super) fn upper_sky(&mut self, env: &Procedural) {
+        #[inline(always)]
+        fn with<const CLOUDS: bool>(part: &mut Part, env: &Procedural) {
+            each(
+                env,
+                &part.rays,
+                NONE,
+                &mut part.out,
+                #[inline(always)]
+                |d, _, t| {
+                    let (c, a) = env.upper_sky::<CLOUDS>(d, env.haze(t, azimuth(d)));
+                    [c.x, c.y, c.z, a]
+                },
+            );
+        }
         if env.cover > 0.001 {
-            each(
-                env,
-                &self.rays,
-                NONE,
-                &mut self.out,
-                #[inline(always)]
-                |d, _, t| {
-                    let (c, a) = env.upper_sky::<true>(d, env.haze(t, azimuth(d)));
-                    [c.x, c.y, c.z, a]
-                },
-            );
+            with::<true>(self, env);
         } else {
-            each(
-                env,
-                &self.rays,
-                NONE,
-                &mut self.out,
-                #[inline(always)]
-                |d, _, t| {
-                    let (c, a) = env.upper_sky::<false>(d, env.haze(t, azimuth(d)));
-                    [c.x, c.y, c.z, a]
-                },
-            );
+            with::<false>(self, env);
         }
     }
 
@@ -492,76 +490,58 @@ fn each<'a>(
     let (x, y, z) = (&rays.x[..n], &rays.y[..n], &rays.z[..n]);
     let [i0, i1] = inputs.map(|v| v.get(..n).unwrap_or(x));
     let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
-    lanes(x, y, z, i0, i1, env.table, r, g, b, a, shade);
+    let table = env.table;
+    #[cfg(target_arch = "x86_64")]
+    match crate::simd::simd_level() {
+        // SAFETY: the CPU has these features (checked by `simd_level`).
+        #[allow(unsafe_code)]
+        2 => return unsafe { lanes_avx512(x, y, z, i0, i1, table, r, g, b, a, shade) },
+        // SAFETY: the CPU has AVX2 (checked by `simd_level`).
+        #[allow(unsafe_code)]
+        1 => return unsafe { lanes_avx2(x, y, z, i0, i1, table, r, g, b, a, shade) },
+        _ => {}
+    }
+    lanes_base(x, y, z, i0, i1, table, r, g, b, a, shade)
 }
 
-/// [`each`]'s loop over slices of one length, compiled for the CPU's
-/// widest SIMD level in a function of its own that is never inlined: its
-/// slice arguments keep their no-alias marks, so the loop vectorises (the
-/// haze table's gathers included) without checks at run time.
-#[inline(always)]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "separate slices keep their no-alias marks"
-)]
-fn lanes(
-    x: &[f32],
-    y: &[f32],
-    z: &[f32],
-    i0: &[f32],
-    i1: &[f32],
-    table: &Table,
-    r: &mut [f32],
-    g: &mut [f32],
-    b: &mut [f32],
-    a: &mut [f32],
-    shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
-) {
-    macro_rules! build {
-        ($name:ident $(, $features:literal)?) => {
-            #[allow(clippy::too_many_arguments, reason = "as `lanes`")]
-            #[inline(never)]
-            $(#[target_feature(enable = $features)])?
-            fn $name(
-                x: &[f32],
-                y: &[f32],
-                z: &[f32],
-                i0: &[f32],
-                i1: &[f32],
-                table: &Table,
-                r: &mut [f32],
-                g: &mut [f32],
-                b: &mut [f32],
-                a: &mut [f32],
-                shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
-            ) {
-                let n = x.len();
-                let (y, z, i0, i1) = (&y[..n], &z[..n], &i0[..n], &i1[..n]);
-                let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
-                for k in 0..n {
-                    let c = shade(Vec3::new(x[k], y[k], z[k]), [i0[k], i1[k]], table);
-                    (r[k], g[k], b[k], a[k]) = (c[0], c[1], c[2], c[3]);
-                }
+/// [`each`]'s loop over slices of one length, built for each SIMD level in
+/// a function of its own that is never inlined: its slice arguments keep
+/// their no-alias marks, so the loop vectorises (the haze table's gathers
+/// included) without checks at run time.
+macro_rules! lanes {
+    ($name:ident $(, $features:literal)?) => {
+        #[allow(clippy::too_many_arguments, reason = "separate slices keep their no-alias marks")]
+        #[inline(never)]
+        $(#[target_feature(enable = $features)])?
+        fn $name(
+            x: &[f32],
+            y: &[f32],
+            z: &[f32],
+            i0: &[f32],
+            i1: &[f32],
+            table: &Table,
+            r: &mut [f32],
+            g: &mut [f32],
+            b: &mut [f32],
+            a: &mut [f32],
+            shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
+        ) {
+            let n = x.len();
+            let (y, z, i0, i1) = (&y[..n], &z[..n], &i0[..n], &i1[..n]);
+            let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
+            for k in 0..n {
+                let c = shade(Vec3::new(x[k], y[k], z[k]), [i0[k], i1[k]], table);
+                (r[k], g[k], b[k], a[k]) = (c[0], c[1], c[2], c[3]);
             }
-        };
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        build!(avx512, "avx512f,avx512bw,avx512dq,avx512vl");
-        build!(avx2, "avx2");
-        match crate::simd::simd_level() {
-            // SAFETY: the CPU has these features (checked by `simd_level`).
-            #[allow(unsafe_code)]
-            2 => return unsafe { avx512(x, y, z, i0, i1, table, r, g, b, a, shade) },
-            // SAFETY: the CPU has AVX2 (checked by `simd_level`).
-            #[allow(unsafe_code)]
-            1 => return unsafe { avx2(x, y, z, i0, i1, table, r, g, b, a, shade) },
-            _ => {}
         }
-    }
-    build!(base);
-    base(x, y, z, i0, i1, table, r, g, b, a, shade)
+    };
 }
+
+lanes!(lanes_base);
+#[cfg(target_arch = "x86_64")]
+lanes!(lanes_avx2, "avx2");
+#[cfg(target_arch = "x86_64")]
+lanes!(lanes_avx512, "avx512f,avx512bw,avx512dq,avx512vl");
 
 /// The heights of silhouette `kind` (`height` rad high) at rays `(x, z)`
 /// into `out`, one loop per kind.
