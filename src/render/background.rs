@@ -426,10 +426,11 @@ fn background_key(
 /// A procedural environment (`image` None) or an image sky magnified
 /// enough (`image`: the sky, shaded at the scale its uniforms hold, see
 /// [`super::sky::SkyGpu::image_scale`]) as the background: its pass at
-/// reduced resolution (the environment's drawn and read back, the image's
-/// shaded on the CPU), upsampled and sRGB-encoded on the CPU
-/// ([`super::upsample`]) and uploaded as the background texture where the
-/// regions need it (no full-frame sky pass, no full-frame readback).
+/// reduced resolution (the image's, and the environment's on a CPU adapter,
+/// shaded on the CPU; else the environment's drawn and read back),
+/// upsampled and sRGB-encoded on the CPU ([`super::upsample`]) and uploaded
+/// as the background texture where the regions need it (no full-frame sky
+/// pass, no full-frame readback).
 fn draw_reduced_background(
     with: &mut BackgroundInputs<'_>,
     cache: &mut BackgroundCache,
@@ -440,27 +441,37 @@ fn draw_reduced_background(
     let frame = (cache.width, cache.height);
     // Any previous background is overwritten from here on.
     cache.renew();
-    let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-    match image {
+    let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
+    let texels = &mut cache.reduced_texels;
+    // The pass shaded on the CPU: its size and tone.
+    let shaded = match image {
         Some(sky) => {
             let tone = if with.sky.image_is_hdr(sky) {
                 Tone::Exponential
             } else {
                 Tone::Clip
             };
-            let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
-            let texels = &mut cache.reduced_texels;
-            let Some(size) = with.sky.shade_image(sky, camera, frame, texels) else {
-                return Err(ReadbackError::NoTarget("the image sky's pass").into());
-            };
-            upsample_reduced(
-                Texels::F32(texels),
-                size,
-                frame,
-                centre,
-                (tone, gain),
-                &mut cache.rgba,
-            );
+            let size = with.sky.shade_image(sky, camera, frame, texels);
+            Some((
+                size.ok_or(ReadbackError::NoTarget("the image sky's pass"))?,
+                tone,
+            ))
+        }
+        None if with.sky.shades_environment_on_cpu() => {
+            let sun = glam::Vec4::from(uniforms.sun_dir_world).truncate();
+            let size = with.sky.shade_environment(camera, sun, frame, texels);
+            Some((
+                size.ok_or(ReadbackError::NoTarget("the environment pass"))?,
+                Tone::Clip,
+            ))
+        }
+        None => None,
+    };
+    match shaded {
+        Some((size, tone)) => {
+            let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
+            let texels = Texels::F32(texels);
+            upsample_reduced(texels, size, frame, centre, (tone, gain), &mut cache.rgba);
         }
         None => draw_environment(with, cache, uniforms, gain)?,
     }
@@ -468,8 +479,8 @@ fn draw_reduced_background(
     Ok(())
 }
 
-/// The procedural environment's passes drawn, read back and upsampled
-/// into `cache.rgba` (see [`draw_reduced_background`]).
+/// The procedural environment's passes drawn by the GPU, read back and
+/// upsampled into `cache.rgba` (see [`draw_reduced_background`]).
 fn draw_environment(
     with: &mut BackgroundInputs<'_>,
     cache: &mut BackgroundCache,
@@ -478,24 +489,6 @@ fn draw_environment(
 ) -> Result<(), RenderError> {
     let frame = (cache.width, cache.height);
     let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-    if with.sky.shades_environment_on_cpu() {
-        let camera = (&uniforms.world_from_camera, uniforms.intrinsics);
-        let sun = glam::Vec4::from(uniforms.sun_dir_world).truncate();
-        let texels = &mut cache.reduced_texels;
-        let Some(size) = with.sky.shade_environment(camera, sun, frame, texels) else {
-            return Err(ReadbackError::NoTarget("the environment pass").into());
-        };
-        let texels = Texels::F32(texels);
-        upsample_reduced(
-            texels,
-            size,
-            frame,
-            centre,
-            (Tone::Clip, gain),
-            &mut cache.rgba,
-        );
-        return Ok(());
-    }
     let device = with.factory.device();
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("environment background"),

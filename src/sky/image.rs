@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::preetham::smoothstep;
 use super::{Lighting, tone_map};
 use crate::preset::{Sky, SkyImageSource};
+use crate::simd::math::smoothstep;
 
 #[derive(Debug, thiserror::Error)]
 pub enum EnvironmentError {

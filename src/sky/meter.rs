@@ -22,13 +22,12 @@
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
 
-use crate::simd::math::fract;
+use crate::simd::math::{fract, smoothstep};
 
 use super::noise::{fbm, silhouette_height, step, vnoise};
 use super::{
     EnvironmentStyle, FrameEnvironment, FrameSky, Ground, Preetham, SKY_EXPOSURE, SkyImage,
-    SkyImageKind, gradient_lighting, linear_to_srgb, preetham::smoothstep, procedural_lighting,
-    tone_map,
+    SkyImageKind, gradient_lighting, linear_to_srgb, procedural_lighting, tone_map,
 };
 
 /// The grid of rays the meter samples: columns and rows over the frame.

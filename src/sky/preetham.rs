@@ -4,6 +4,7 @@
 use glam::Vec3;
 
 use super::{EnvironmentStyle, FrameEnvironment};
+use crate::simd::math::smoothstep;
 
 /// Preetham's sky model for one turbidity and sun: Perez coefficients A–E for
 /// (Y, x, y) and the zenith's (Y in kcd/m², x, y).
@@ -152,11 +153,6 @@ impl Preetham {
         let twilight = smoothstep(-0.1, 0.05, self.sun.y);
         yxy_to_rgb(yxy[0] * twilight, yxy[1], yxy[2])
     }
-}
-
-pub(super) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 /// Entries of [`Preetham::haze_table`] (`HAZE_TABLE` in environment.wgsl).

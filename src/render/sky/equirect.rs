@@ -14,7 +14,7 @@ use std::f32::consts::{PI, TAU};
 
 use crate::simd::math::{atan2, floor};
 
-use glam::{Mat3, Vec3};
+use glam::Mat3;
 
 #[cfg(target_arch = "x86_64")]
 mod gather;
@@ -99,19 +99,8 @@ impl Row {
     /// each pass pixel's centre times the scale.
     #[inline(always)]
     fn rays(&mut self, m: &Mat3, view: &ReducedView, j: usize) {
-        let [fx, fy, cx, cy] = view.intrinsics;
-        let py = (j as f32 + 0.5) * view.scale;
-        let base = m.y_axis * ((py - cy) / fy) + m.z_axis;
-        let across = m.x_axis;
-        for (i, ((x, y), z)) in (self.x.iter_mut())
-            .zip(&mut self.y)
-            .zip(&mut self.z)
-            .enumerate()
-        {
-            let px = (i as f32 + 0.5) * view.scale;
-            let d: Vec3 = across * ((px - cx) / fx) + base;
-            (*x, *y, *z) = (d.x, d.y, d.z);
-        }
+        let rays = (&mut self.x[..], &mut self.y[..], &mut self.z[..]);
+        super::row_rays(m, view.intrinsics, (view.scale, j), rays);
     }
 
     /// The rays as texel coordinates of `image` (`u · width − ½`,

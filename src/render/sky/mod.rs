@@ -302,6 +302,26 @@ impl SkyGpu {
     }
 }
 
+/// Row `j`'s rays of a reduced pass of `scale` full-resolution pixels a
+/// pixel, turned by `m` (camera to world, or to an image's frame), not
+/// normalised: through the full-resolution position of each pixel's centre
+/// (`p` in `fs_environment`), intrinsics `[fx, fy, cx, cy]`.
+#[inline(always)]
+fn row_rays(
+    m: &glam::Mat3,
+    [fx, fy, cx, cy]: [f32; 4],
+    (scale, j): (f32, usize),
+    (x, y, z): (&mut [f32], &mut [f32], &mut [f32]),
+) {
+    let py = (j as f32 + 0.5) * scale;
+    let base = m.y_axis * ((py - cy) / fy) + m.z_axis;
+    for (i, ((x, y), z)) in x.iter_mut().zip(y).zip(z).enumerate() {
+        let px = (i as f32 + 0.5) * scale;
+        let d: Vec3 = m.x_axis * ((px - cx) / fx) + base;
+        (*x, *y, *z) = (d.x, d.y, d.z);
+    }
+}
+
 mod environment;
 mod equirect;
 mod image;

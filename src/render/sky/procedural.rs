@@ -115,21 +115,13 @@ impl Row {
     }
 
     /// Row `j`'s unit rays of a pass of `scale` full-resolution pixels
-    /// per pixel: through each pixel's centre times the scale (`p` in
-    /// `fs_environment`).
+    /// per pixel ([`super::row_rays`], normalised).
     #[inline(always)]
     fn rays(&mut self, view: &View, scale: f32, j: usize) {
-        let m = &view.world_from_camera;
-        let [fx, fy, cx, cy] = view.intrinsics;
-        let py = (j as f32 + 0.5) * scale;
-        let base = m.y_axis * ((py - cy) / fy) + m.z_axis;
-        for (i, ((x, y), z)) in (self.x.iter_mut())
-            .zip(&mut self.y)
-            .zip(&mut self.z)
-            .enumerate()
-        {
-            let px = (i as f32 + 0.5) * scale;
-            let d: Vec3 = m.x_axis * ((px - cx) / fx) + base;
+        let rays = (&mut self.x[..], &mut self.y[..], &mut self.z[..]);
+        super::row_rays(&view.world_from_camera, view.intrinsics, (scale, j), rays);
+        for ((x, y), z) in self.x.iter_mut().zip(&mut self.y).zip(&mut self.z) {
+            let d = Vec3::new(*x, *y, *z);
             let d = d * (1.0 / d.dot(d).sqrt());
             (*x, *y, *z) = (d.x, d.y, d.z);
         }
@@ -178,7 +170,9 @@ impl Row {
         part.gather(rays, |y| y >= 0.0 && y <= upper);
         part.band(env);
         part.scatter(texels);
-        part.gather(rays, |y| y >= 0.0 && y > upper);
+        // `y > upper` written so that a ray that is not a number lands here:
+        // every texel is written, none kept from the frame before.
+        part.gather(rays, |y| !(y < 0.0 || y <= upper));
         part.interpolate(env, quarter, j);
         part.scatter(texels);
     }

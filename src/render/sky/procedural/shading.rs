@@ -93,6 +93,11 @@ impl<'a> Procedural<'a> {
         self.upper
     }
 
+    /// Whether the sky has a cloud layer (`upper_sky`'s test).
+    fn clouds(&self) -> bool {
+        self.cover > 0.001
+    }
+
     /// `preetham`: the Preetham radiance of ray `dir`, clamped at the horizon.
     #[inline(always)]
     fn preetham(&self, dir: Vec3) -> Vec3 {
@@ -344,7 +349,7 @@ impl Part {
                 },
             );
         }
-        if env.cover > 0.001 {
+        if env.clouds() {
             with::<true>(self, env);
         } else {
             with::<false>(self, env);
@@ -354,32 +359,21 @@ impl Part {
     /// The rays' ground.
     #[inline(always)]
     pub(super) fn ground(&mut self, env: &Procedural) {
-        let (rays, out) = (&self.rays, &mut self.out);
+        #[inline(always)]
+        fn with<const GROUND: u8>(part: &mut Part, env: &Procedural) {
+            each(
+                env,
+                &part.rays,
+                NONE,
+                &mut part.out,
+                #[inline(always)]
+                |d, _, t| opaque(env.ground::<GROUND>(t, d)),
+            );
+        }
         match env.ground {
-            2 => each(
-                env,
-                rays,
-                NONE,
-                out,
-                #[inline(always)]
-                |d, _, t| opaque(env.ground::<2>(t, d)),
-            ),
-            3 => each(
-                env,
-                rays,
-                NONE,
-                out,
-                #[inline(always)]
-                |d, _, t| opaque(env.ground::<3>(t, d)),
-            ),
-            _ => each(
-                env,
-                rays,
-                NONE,
-                out,
-                #[inline(always)]
-                |d, _, t| opaque(env.ground::<0>(t, d)),
-            ),
+            2 => with::<2>(self, env),
+            3 => with::<3>(self, env),
+            _ => with::<0>(self, env),
         }
     }
 
@@ -387,6 +381,18 @@ impl Part {
     /// silhouettes over it.
     #[inline(always)]
     pub(super) fn band(&mut self, env: &Procedural) {
+        #[inline(always)]
+        fn with<const CLOUDS: bool>(part: &mut Part, env: &Procedural) {
+            let [far, near] = &part.heights;
+            each(
+                env,
+                &part.rays,
+                [far, near],
+                &mut part.out,
+                #[inline(always)]
+                |d, [f, n], t| opaque(env.band::<CLOUDS>(t, d, (f, n))),
+            );
+        }
         let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
         let n = self.rays.len;
         let (x, z) = (&self.rays.x[..n], &self.rays.z[..n]);
@@ -396,26 +402,10 @@ impl Part {
         {
             silhouettes(kind, height, seed, (x, z), &mut heights[..n]);
         }
-        let [far, near] = &self.heights;
-        let (rays, out) = (&self.rays, &mut self.out);
-        if env.cover > 0.001 {
-            each(
-                env,
-                rays,
-                [far, near],
-                out,
-                #[inline(always)]
-                |d, [f, n], t| opaque(env.band::<true>(t, d, (f, n))),
-            );
+        if env.clouds() {
+            with::<true>(self, env);
         } else {
-            each(
-                env,
-                rays,
-                [far, near],
-                out,
-                #[inline(always)]
-                |d, [f, n], t| opaque(env.band::<false>(t, d, (f, n))),
-            );
+            with::<false>(self, env);
         }
     }
 
