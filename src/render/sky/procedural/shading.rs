@@ -294,25 +294,29 @@ impl Part {
         keep: impl Fn(f32) -> bool,
     ) {
         let r = &mut self.rays;
-        let mut n = 0;
         let w = x.len().min(y.len()).min(z.len()).min(r.index.len());
-        for i in 0..w {
-            r.index[n] = i as u32;
-            (r.x[n], r.y[n], r.z[n]) = (x[i], y[i], z[i]);
-            n += usize::from(keep(y[i]));
-        }
-        r.len = n;
+        r.len = compact(
+            (&x[..w], &y[..w], &z[..w]),
+            keep,
+            &mut r.index[..w],
+            [&mut r.x[..w], &mut r.y[..w], &mut r.z[..w]],
+        );
     }
 
     /// The part's pixels' RGBA written at their places in `texels`.
     #[inline(always)]
     pub(super) fn scatter(&self, texels: &mut [f32]) {
+        let n = self.rays.len;
         let [r, g, b, a] = &self.out;
-        for k in 0..self.rays.len {
-            let i = self.rays.index[k] as usize * 4;
-            if let Some(px) = texels.get_mut(i..i + 4) {
-                px.copy_from_slice(&[r[k], g[k], b[k], a[k]]);
-            }
+        let (r, g, b, a) = (&r[..n], &g[..n], &b[..n], &a[..n]);
+        let texels: &mut [[f32; 4]] = bytemuck::cast_slice_mut(texels);
+        let Some(last) = texels.len().checked_sub(1) else {
+            return;
+        };
+        for (k, &i) in self.rays.index[..n].iter().enumerate() {
+            // Indices are the row's own (below its length); the clamp only
+            // spares the loop a bounds check.
+            texels[(i as usize).min(last)] = [r[k], g[k], b[k], a[k]];
         }
     }
 
@@ -443,6 +447,38 @@ impl Part {
             (or[k], og[k], ob[k], oa[k]) = (c.x, c.y, c.z, 1.0);
         }
     }
+}
+
+/// The pixels `i` of rays `(x, y, z)` whose `y` passes `keep`, their
+/// indices and rays written to the front of `index` and `to` (all of the
+/// rays' length), in order; how many. Branch-free: every pixel is written
+/// at the next free place, which moves on only when it is kept.
+#[inline(always)]
+fn compact(
+    (x, y, z): (&[f32], &[f32], &[f32]),
+    keep: impl Fn(f32) -> bool,
+    index: &mut [u32],
+    to: [&mut [f32]; 3],
+) -> usize {
+    let w = index.len();
+    let [tx, ty, tz] = to;
+    let (x, y, z, tx, ty, tz) = (
+        &x[..w],
+        &y[..w],
+        &z[..w],
+        &mut tx[..w],
+        &mut ty[..w],
+        &mut tz[..w],
+    );
+    let mut n = 0;
+    for i in 0..w {
+        // `n ≤ i < w`: the clamp changes nothing, and spares the bounds checks.
+        let at = n.min(w - 1);
+        index[at] = i as u32;
+        (tx[at], ty[at], tz[at]) = (x[i], y[i], z[i]);
+        n += usize::from(keep(y[i]));
+    }
+    n
 }
 
 /// Where half-resolution pixel `i` samples the quarter pass along one
