@@ -60,8 +60,9 @@ pub(super) struct BackgroundCache {
     /// Readback of the procedural environment pass (grown as needed).
     environment_readback: Option<wgpu::Buffer>,
     /// A reduced pass shaded on the CPU (an image sky's, or a procedural
-    /// environment's on a CPU adapter; RGBA `f32`), kept for its memory.
-    reduced_texels: Vec<f32>,
+    /// environment's on a CPU adapter; red, green and blue planes), kept
+    /// for its memory.
+    reduced_texels: [Vec<f32>; 3],
     /// Backgrounds drawn in a row for this cache's frames (0: the last
     /// frame found its background here): from the second, a frame may take
     /// the pixels ([`BackgroundCache::lend`]).
@@ -120,7 +121,7 @@ impl BackgroundCache {
             readback: Readback::new(device, "background readback", width, height),
             unexposed: None,
             environment_readback: None,
-            reduced_texels: Vec::new(),
+            reduced_texels: Default::default(),
             drawn_in_a_row: 0,
             lent: None,
             stale: Vec::new(),
@@ -470,7 +471,7 @@ fn draw_reduced_background(
     match shaded {
         Some((size, tone)) => {
             let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-            let texels = Texels::F32(texels);
+            let texels = Texels::Planes(texels);
             upsample_reduced(texels, size, frame, centre, (tone, gain), &mut cache.rgba);
         }
         None => draw_environment(with, cache, uniforms, gain)?,

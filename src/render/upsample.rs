@@ -242,9 +242,10 @@ fn upsample_row_avx2(
 /// A reduced pass's texels (RGBA, linear), read a row at a time.
 #[derive(Clone, Copy)]
 pub(super) enum Texels<'a> {
-    /// `f32` values, rows one after the other (an image sky's pass, shaded
-    /// on the CPU; the tests' texels).
-    F32(&'a [f32]),
+    /// Red, green and blue planes of `f32` values, rows one after the
+    /// other (a pass shaded on the CPU: the procedural environment's on a
+    /// CPU adapter, an image sky's), alpha 1.
+    Planes(&'a [Vec<f32>; 3]),
     /// Half floats as the pass's RGBA16F readback holds them (little
     /// endian), rows `stride` bytes apart: converted a row at a time as the
     /// upsampling reaches it, with no frame-sized `f32` copy.
@@ -255,29 +256,24 @@ impl Texels<'_> {
     /// Whether there are `h` rows of `w` texels.
     fn holds(&self, w: usize, h: usize) -> bool {
         match *self {
-            Self::F32(v) => v.len() >= w * h * 4,
+            Self::Planes(planes) => planes.iter().all(|p| p.len() >= w * h),
             Self::F16 { bytes, stride } => {
                 h == 0 || (stride >= w * 8 && bytes.len() >= (h - 1) * stride + w * 8)
             }
         }
     }
+}
 
-    /// Row `r` (`out.len()` values) into `out`.
-    fn row_into(&self, r: usize, out: &mut [f32]) {
-        let n = out.len();
-        match *self {
-            Self::F32(v) => out.copy_from_slice(&v[r * n..(r + 1) * n]),
-            Self::F16 { bytes, stride } => {
-                let src = &bytes[r * stride..r * stride + n * 2];
-                // In whole rows (vectorised where the CPU converts half floats).
-                match bytemuck::try_cast_slice::<u8, half::f16>(src) {
-                    Ok(row) if cfg!(target_endian = "little") => row.convert_to_f32_slice(out),
-                    _ => {
-                        for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
-                            *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
-                        }
-                    }
-                }
+/// Row `r` of half floats `bytes` (rows `stride` bytes apart; `out.len()`
+/// values) into `out`.
+fn f16_row_into((bytes, stride): (&[u8], usize), r: usize, out: &mut [f32]) {
+    let src = &bytes[r * stride..r * stride + out.len() * 2];
+    // In whole rows (vectorised where the CPU converts half floats).
+    match bytemuck::try_cast_slice::<u8, half::f16>(src) {
+        Ok(row) if cfg!(target_endian = "little") => row.convert_to_f32_slice(out),
+        _ => {
+            for (v, b) in out.iter_mut().zip(src.chunks_exact(2)) {
+                *v = half::f16::from_le_bytes([b[0], b[1]]).to_f32();
             }
         }
     }
@@ -290,7 +286,7 @@ impl Texels<'_> {
 struct SourceRows {
     rows: [usize; 2],
     data: [[Vec<f32>; 3]; 2],
-    /// A row's texels (RGBA) as converted, before they are split.
+    /// A row's half-float texels (RGBA) as converted, before they are split.
     texels: Vec<f32>,
     /// The exposure each converted row is multiplied by (1: none).
     gain: f32,
@@ -310,24 +306,15 @@ impl SourceRows {
     /// Row `r` of `texels` into slot `k`, exposed.
     fn load(&mut self, texels: &Texels<'_>, k: usize, r: usize) {
         let g = self.gain;
-        // Half floats straight into the planes where the CPU converts them
-        // in AVX2 registers; otherwise the row through `self.texels`.
-        #[cfg(target_arch = "x86_64")]
-        if let Texels::F16 { bytes, stride } = *texels
-            && crate::simd::f16c()
-        {
-            let [red, green, blue] = &mut self.data[k];
-            let src = &bytes[r * stride..r * stride + red.len() * 8];
-            // SAFETY: the CPU has AVX2 and F16C (`f16c`).
-            #[allow(unsafe_code)]
-            unsafe {
-                split::split_f16c(src, [red, green, blue])
-            };
-        } else {
-            self.split_row(texels, r, k);
+        match *texels {
+            Texels::Planes(planes) => {
+                for (to, from) in self.data[k].iter_mut().zip(planes) {
+                    let w = to.len();
+                    to.copy_from_slice(&from[r * w..(r + 1) * w]);
+                }
+            }
+            Texels::F16 { bytes, stride } => self.split_f16((bytes, stride), r, k),
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        self.split_row(texels, r, k);
         if g != 1.0 {
             for plane in &mut self.data[k] {
                 plane.iter_mut().for_each(|v| *v *= g);
@@ -336,9 +323,22 @@ impl SourceRows {
         self.rows[k] = r;
     }
 
-    /// Row `r` of `texels` into slot `k`'s planes through `self.texels`.
-    fn split_row(&mut self, texels: &Texels<'_>, r: usize, k: usize) {
-        texels.row_into(r, &mut self.texels);
+    /// Row `r` of half floats `bytes` (rows `stride` bytes apart) into slot
+    /// `k`'s planes: straight into them where the CPU converts half floats
+    /// in AVX2 registers, otherwise through `self.texels`.
+    fn split_f16(&mut self, (bytes, stride): (&[u8], usize), r: usize, k: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::f16c() {
+            let [red, green, blue] = &mut self.data[k];
+            let src = &bytes[r * stride..r * stride + red.len() * 8];
+            // SAFETY: the CPU has AVX2 and F16C (`f16c`).
+            #[allow(unsafe_code)]
+            unsafe {
+                split::split_f16c(src, [red, green, blue])
+            };
+            return;
+        }
+        f16_row_into((bytes, stride), r, &mut self.texels);
         let [red, green, blue] = &mut self.data[k];
         let planes = red.iter_mut().zip(green.iter_mut()).zip(blue.iter_mut());
         for (((r, g), b), t) in planes.zip(self.texels.chunks_exact(4)) {
@@ -526,7 +526,7 @@ mod tests {
         let mut upsample = |half: &[f32], gain: f32| {
             let (size, frame, centre) = ((2, 1), (4, 2), (2.0, 1.0));
             upsample_reduced(
-                Texels::F32(half),
+                Texels::Planes(&planes(half)),
                 size,
                 frame,
                 centre,
@@ -551,6 +551,11 @@ mod tests {
             rgba.chunks_exact(4)
                 .all(|p| p[1] == 0 && p[2] == 0 && p[3] == 255)
         );
+    }
+
+    /// RGBA texels as the red, green and blue planes of a pass shaded on the CPU.
+    fn planes(rgba: &[f32]) -> [Vec<f32>; 3] {
+        [0, 1, 2].map(|c| rgba.iter().skip(c).step_by(4).copied().collect())
     }
 
     /// Random linear RGBA texels with edge cases: negative, above 1, ±∞, NaN.
@@ -598,7 +603,7 @@ mod tests {
             for simd in [false, crate::simd::avx2()] {
                 let mut got = Vec::new();
                 upsample_with(
-                    Texels::F32(&half),
+                    Texels::Planes(&planes(&half)),
                     (size, frame),
                     centre,
                     (&**CLIP, 1.0),
@@ -645,7 +650,7 @@ mod tests {
         for tone in [Tone::Clip, Tone::Exponential] {
             let (mut want, mut got) = (Vec::new(), Vec::new());
             upsample_reduced(
-                Texels::F32(&exact),
+                Texels::Planes(&planes(&exact)),
                 size,
                 frame,
                 centre,
@@ -673,7 +678,7 @@ mod tests {
     fn a_short_source_gives_a_black_frame_not_a_panic() {
         let mut rgba = vec![9; 3];
         upsample_reduced(
-            Texels::F32(&[0.5; 4]),
+            Texels::Planes(&planes(&[0.5; 4])),
             (2, 2),
             (4, 4),
             (2.0, 2.0),

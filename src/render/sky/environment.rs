@@ -105,15 +105,15 @@ impl SkyGpu {
     /// The procedural environment of the uniforms just written, shaded on
     /// the CPU (`procedural::shade`) for a `frame`-sized frame seen through
     /// `camera` (world-from-camera matrix and intrinsics) with the sun
-    /// toward `sun`, into `texels` (the half-resolution pass, RGBA `f32`);
-    /// its size. `None` when this adapter draws the environment itself or
+    /// toward `sun`, into `texels` (the half-resolution pass's red, green
+    /// and blue planes); its size. `None` when this adapter draws the environment itself or
     /// the sky is not procedural.
     pub(in crate::render) fn shade_environment(
         &mut self,
         (world_from_camera, intrinsics): (&[[f32; 4]; 4], [f32; 4]),
         sun: glam::Vec3,
         frame: (u32, u32),
-        texels: &mut Vec<f32>,
+        texels: &mut [Vec<f32>; 3],
     ) -> Option<(u32, u32)> {
         let passes = self.cpu_environment.as_mut()?;
         if self.written.mode[0] != 1.0 {
@@ -145,7 +145,7 @@ impl SkyGpu {
         sun: glam::Vec3,
         frame: (u32, u32),
     ) {
-        let mut texels = Vec::new();
+        let mut texels = Default::default();
         let Some(size) = self.shade_environment(camera, sun, frame, &mut texels) else {
             return;
         };

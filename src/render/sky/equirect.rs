@@ -45,35 +45,37 @@ pub(super) struct ReducedView {
 /// finite in half floats; kept so the tone map sees the same range).
 const MAX_RADIANCE: f32 = 60_000.0;
 
-/// `image` shaded for `view` at `size` (pass pixels) into `out`: RGBA `f32`
-/// texels, rows one after the other, alpha 1. Rows in parallel on rayon's
-/// threads (each row's values depend only on its own index). An image with
-/// no texels, or fewer than its size says, gives zeros.
-pub(super) fn shade(image: Equirect<'_>, view: &ReducedView, size: (u32, u32), out: &mut Vec<f32>) {
-    use rayon::prelude::*;
+/// `image` shaded for `view` at `size` (pass pixels) into `out`: red,
+/// green and blue `f32` planes, rows one after the other (alpha 1). Rows in
+/// parallel (each row's values depend only on its own index). An image
+/// with no texels, or fewer than its size says, gives zeros.
+pub(super) fn shade(
+    image: Equirect<'_>,
+    view: &ReducedView,
+    size: (u32, u32),
+    out: &mut [Vec<f32>; 3],
+) {
     let (w, h) = (size.0 as usize, size.1 as usize);
     // Every value is written below (no clearing pass over the old contents).
-    out.resize(w * h * 4, 0.0);
+    out.iter_mut().for_each(|p| p.resize(w * h, 0.0));
     let (iw, ih) = (image.width as usize, image.height as usize);
     if w == 0 || iw == 0 || ih == 0 || image.rgb.len() < iw * ih * 3 {
-        out.fill(0.0);
+        out.iter_mut().for_each(|p| p.fill(0.0));
         return;
     }
     // The image turns by +rotation: rays turn by −rotation into its frame
     // (`rotate_y(dir, −rotation)` in environment.wgsl).
     let into_image = Mat3::from_rotation_y(-view.rotation) * view.world_from_camera;
-    out.par_chunks_mut(w * 4).enumerate().for_each_init(
+    // The same operations in every build (simd.rs): the same values.
+    super::plane_rows(
+        out.each_mut().map(|p| &mut p[..]),
+        w,
         || Row::new(w),
-        |row, (j, texels)| {
-            // The same operations in every build (simd.rs): the same values.
-            crate::simd::widest(
-                #[inline(always)]
-                || {
-                    row.rays(&into_image, view, j);
-                    row.coordinates((iw as f32, ih as f32));
-                    row.sample(image, view.exposure, texels);
-                },
-            )
+        #[inline(always)]
+        |row, j, rgb| {
+            row.rays(&into_image, view, j);
+            row.coordinates((iw as f32, ih as f32));
+            row.sample(image, view.exposure, rgb);
         },
     );
 }
@@ -124,33 +126,39 @@ impl Row {
 
     /// Each pixel's bilinear sample of `image` at its texel coordinates
     /// (columns repeat, rows clamp to the edge, as the GPU's sampler did),
-    /// times `exposure`, clamped to [0, [`MAX_RADIANCE`]], into `texels`
-    /// (RGBA): eight pixels at a time in AVX2 where the CPU has it
-    /// ([`gather::sample8`], the same operations on the same values).
+    /// times `exposure`, clamped to [0, [`MAX_RADIANCE`]], into the row's
+    /// red, green and blue planes `rgb`: eight pixels at a time in AVX2
+    /// where the CPU has it ([`gather::sample8`], the same operations on the
+    /// same values).
     #[inline(always)]
-    fn sample(&self, image: Equirect<'_>, exposure: f32, texels: &mut [f32]) {
+    fn sample(&self, image: Equirect<'_>, exposure: f32, mut rgb: [&mut [f32]; 3]) {
+        let n = self
+            .x
+            .len()
+            .min(self.y.len())
+            .min(rgb.iter().map(|p| p.len()).min().unwrap_or(0));
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
         if crate::simd::avx2() {
-            let eights = self.x.chunks_exact(8).zip(self.y.chunks_exact(8));
-            for ((tx, ty), px) in eights.zip(texels.chunks_exact_mut(32)) {
+            while done + 8 <= n {
+                let at = done..done + 8;
+                let coordinates = (&self.x[at.clone()], &self.y[at.clone()]);
+                let px = rgb.each_mut().map(|p| &mut p[at.clone()]);
                 // SAFETY: the CPU has AVX2 (checked above); `shade` checked
                 // that `image` holds its texels.
                 #[allow(unsafe_code)]
                 unsafe {
-                    gather::sample8(image, exposure, (tx, ty), px);
+                    gather::sample8(image, exposure, coordinates, px);
                 }
                 done += 8;
             }
         }
-        let rest = self.x[done..].iter().zip(&self.y[done..]);
-        for ((&tx, &ty), px) in rest.zip(texels[done * 4..].chunks_exact_mut(4)) {
-            let taps = Taps::at(image, (tx, ty));
-            for (k, value) in px[..3].iter_mut().enumerate() {
+        for i in done..n {
+            let taps = Taps::at(image, (self.x[i], self.y[i]));
+            for (k, plane) in rgb.iter_mut().enumerate() {
                 let texels = taps.texels.map(|t| image.rgb[t as usize + k]);
-                *value = blend(texels, (taps.wx, taps.wy), exposure);
+                plane[i] = blend(texels, (taps.wx, taps.wy), exposure);
             }
-            px[3] = 1.0;
         }
     }
 }
@@ -264,18 +272,18 @@ mod tests {
             exposure: 1.5,
         };
         let size = (80, 60);
-        let mut out = Vec::new();
+        let mut out = Default::default();
         shade(image, &view, size, &mut out);
-        assert_eq!(out.len(), 80 * 60 * 4);
+        assert!(out.iter().all(|p| p.len() == 80 * 60));
         let mut worst = 0f64;
         for j in 0..size.1 {
             for i in 0..size.0 {
                 let want = reference(image, &view, (i, j));
-                let got = &out[((j * size.0 + i) * 4) as usize..][..4];
-                for k in 0..3 {
-                    worst = worst.max((f64::from(got[k]) - want[k]).abs() / want[k].abs().max(1.0));
+                let at = (j * size.0 + i) as usize;
+                for (plane, want) in out.iter().zip(want) {
+                    let got = f64::from(plane[at]);
+                    worst = worst.max((got - want).abs() / want.abs().max(1.0));
                 }
-                assert_eq!(got[3], 1.0);
             }
         }
         // Measured 1.1e-5: a thousandth of an 8-bit level.
@@ -311,15 +319,16 @@ mod tests {
         coords.extend((0..200).map(|i| (i as f32 * 0.187 - 1.0, i as f32 * 0.0999 - 1.0)));
         coords.truncate(coords.len() / 8 * 8);
         let (tx, ty): (Vec<f32>, Vec<f32>) = coords.into_iter().unzip();
-        let mut got = vec![0.0; tx.len() * 4];
-        for ((x, y), px) in tx.chunks(8).zip(ty.chunks(8)).zip(got.chunks_mut(32)) {
+        let mut got = [(); 3].map(|_| vec![0.0f32; tx.len()]);
+        for (k, (x, y)) in tx.chunks(8).zip(ty.chunks(8)).enumerate() {
+            let px = got.each_mut().map(|p| &mut p[k * 8..k * 8 + 8]);
             // SAFETY: the CPU has AVX2 (checked above).
             #[allow(unsafe_code)]
             unsafe {
                 gather::sample8(image, 1.25, (x, y), px)
             };
         }
-        for ((&x, &y), px) in tx.iter().zip(&ty).zip(got.chunks(4)) {
+        for (i, (&x, &y)) in tx.iter().zip(&ty).enumerate() {
             let taps = Taps::at(image, (x, y));
             let want: Vec<u32> = (0..3)
                 .map(|k| {
@@ -331,9 +340,8 @@ mod tests {
                 })
                 .map(f32::to_bits)
                 .collect();
-            let bits: Vec<u32> = px[..3].iter().map(|v| v.to_bits()).collect();
+            let bits: Vec<u32> = got.iter().map(|p| p[i].to_bits()).collect();
             assert_eq!(bits, want, "at ({x}, {y})");
-            assert_eq!(px[3], 1.0);
         }
     }
 
@@ -352,8 +360,11 @@ mod tests {
             width: 2,
             height: 1,
         };
-        let mut out = vec![7.0];
+        let mut out = [vec![7.0], vec![], vec![7.0; 99]];
         shade(image, &view, (4, 4), &mut out);
-        assert!(out.len() == 64 && out.iter().all(|&v| v == 0.0));
+        assert!(
+            out.iter()
+                .all(|p| p.len() == 16 && p.iter().all(|&v| v == 0.0))
+        );
     }
 }

@@ -67,7 +67,7 @@ impl SkyGpu {
         sky: &FrameSky,
         (world_from_camera, intrinsics): (&[[f32; 4]; 4], [f32; 4]),
         frame: (u32, u32),
-        texels: &mut Vec<f32>,
+        texels: &mut [Vec<f32>; 3],
     ) -> Option<(u32, u32)> {
         let scale = self.written_image_scale()?;
         let FrameSky::Image { image, .. } = sky else {
@@ -105,7 +105,7 @@ impl SkyGpu {
         camera: (&[[f32; 4]; 4], [f32; 4]),
         frame: (u32, u32),
     ) {
-        let mut texels = Vec::new();
+        let mut texels = Default::default();
         let Some(size) = self.shade_image(sky, camera, frame, &mut texels) else {
             return;
         };

@@ -322,6 +322,34 @@ fn row_rays(
     }
 }
 
+/// `f(scratch, j, row j of each plane)` for each row `j` of `w` values of
+/// `planes` (all of one size: a pass shaded on the CPU), in parallel on
+/// rayon's threads, each with its own `scratch` from `init` (a row's values
+/// depend only on its index), compiled for the CPU's widest SIMD level:
+/// `f` must be marked `#[inline(always)]` ([`crate::simd::widest`]).
+fn plane_rows<const N: usize, S>(
+    planes: [&mut [f32]; N],
+    w: usize,
+    init: impl Fn() -> S + Sync + Send,
+    f: impl Fn(&mut S, usize, [&mut [f32]; N]) + Sync + Send,
+) {
+    use rayon::prelude::*;
+    let w = w.max(1);
+    let mut planes = planes.map(|p| p.chunks_exact_mut(w));
+    let h = planes.iter().map(ExactSizeIterator::len).min().unwrap_or(0);
+    let rows: Vec<[&mut [f32]; N]> = (0..h)
+        .map(|_| planes.each_mut().map(|p| p.next().unwrap_or_default()))
+        .collect();
+    rows.into_par_iter()
+        .enumerate()
+        .for_each_init(init, |scratch, (j, row)| {
+            crate::simd::widest(
+                #[inline(always)]
+                || f(scratch, j, row),
+            )
+        });
+}
+
 mod environment;
 mod equirect;
 mod image;

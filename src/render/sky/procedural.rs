@@ -14,12 +14,12 @@
 //! the maths of [`crate::simd::math`]: the same values on every machine. A
 //! GPU keeps its own passes (environment.rs).
 
-use glam::{Mat3, Vec3};
-use rayon::prelude::*;
+use glam::Mat3;
 
 mod shading;
 
 pub(super) use shading::Procedural;
+use shading::{Rgba, Row};
 
 /// Full-resolution pixels per pixel of the half- and quarter-resolution passes.
 const HALF: u32 = super::HALF_SCALE;
@@ -36,25 +36,30 @@ pub(super) struct View {
 /// The passes' memory, kept from frame to frame.
 #[derive(Default)]
 pub(in crate::render) struct Passes {
-    /// The quarter-resolution pass (RGB and the sun disc's share, `upper_sky`).
-    quarter: Vec<f32>,
+    /// The quarter-resolution pass's planes (RGB and the sun disc's share,
+    /// `upper_sky`).
+    quarter: [Vec<f32>; 4],
 }
 
 /// The environment `env` for a `frame`-sized frame seen through `view`,
-/// into `half`: RGBA `f32` texels of the half-resolution pass, rows one
-/// after the other, alpha 1; its size (`⌈width/2⌉ × ⌈height/2⌉`).
+/// into `half`: the half-resolution pass's red, green and blue planes
+/// (linear, rows one after the other; alpha 1); its size (`⌈width/2⌉ ×
+/// ⌈height/2⌉`).
 pub(super) fn shade(
     env: &Procedural,
     view: &View,
     frame: (u32, u32),
     passes: &mut Passes,
-    half: &mut Vec<f32>,
+    half: &mut [Vec<f32>; 3],
 ) -> (u32, u32) {
     let quarter_size = (frame.0.div_ceil(QUARTER), frame.1.div_ceil(QUARTER));
     let half_size = (frame.0.div_ceil(HALF), frame.1.div_ceil(HALF));
-    let quarter = &mut passes.quarter;
-    quarter.resize(quarter_size.0 as usize * quarter_size.1 as usize * 4, 0.0);
-    half.resize(half_size.0 as usize * half_size.1 as usize * 4, 0.0);
+    let area = |(w, h): (u32, u32)| w as usize * h as usize;
+    passes
+        .quarter
+        .iter_mut()
+        .for_each(|p| p.resize(area(quarter_size), 0.0));
+    half.iter_mut().for_each(|p| p.resize(area(half_size), 0.0));
     // Quarter texels a half-resolution upper pixel may sample: their centres
     // lie within 1.5 quarter texels (6 full-resolution pixels) of its own,
     // so their rays at most ≈ 8.5 / f below it.
@@ -62,118 +67,97 @@ pub(super) fn shade(
     let reach = 9.0 / fx.abs().min(fy.abs()).max(1e-6);
     let needed = env.upper_line().max(0.0) - reach;
     by_rows(
-        quarter,
+        passes.quarter.each_mut().map(|p| &mut p[..]),
         quarter_size.0 as usize,
         #[inline(always)]
-        |row, j, texels| row.quarter(env, view, j, needed, texels),
+        |scratch, j, out| quarter_row(&mut scratch.row, env, view, (j, needed), out),
     );
-    let quarter = (&passes.quarter[..], quarter_size);
+    let quarter = (&passes.quarter, quarter_size);
     by_rows(
-        half,
+        half.each_mut().map(|p| &mut p[..]),
         half_size.0 as usize,
         #[inline(always)]
-        |row, j, texels| row.half(env, view, j, quarter, texels),
+        |scratch, j, [r, g, b]| {
+            let Scratch { row, alpha } = scratch;
+            half_row(row, env, view, (j, quarter), [r, g, b, alpha])
+        },
     );
     half_size
 }
 
-/// `shade(row, j, texels)` for each row `j` of `w` RGBA texels of `texels`,
-/// in parallel on rayon's threads (each row's values depend only on its
-/// index), compiled for the CPU's widest SIMD level.
-fn by_rows(texels: &mut [f32], w: usize, shade: impl Fn(&mut Row, usize, &mut [f32]) + Sync) {
-    texels
-        .par_chunks_mut(w.max(1) * 4)
-        .enumerate()
-        .for_each_init(
-            || Row::new(w),
-            |row, (j, texels)| {
-                crate::simd::widest(
-                    #[inline(always)]
-                    || shade(row, j, texels),
-                )
-            },
-        );
+/// A row's scratch on one thread: its rays and parts, and a plane for the
+/// values a pass does not keep (the half pass's alpha).
+struct Scratch {
+    row: Row,
+    alpha: Vec<f32>,
 }
 
-/// One row's scratch: per pixel its ray, then the pixels of one part
-/// (their indices and rays, gathered), and what they are shaded.
-struct Row {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-    part: shading::Part,
+/// `shade(scratch, j, row j of each plane)` for each row `j` of `w` values
+/// of `planes` ([`super::plane_rows`], a [`Scratch`] per thread).
+#[inline(always)]
+fn by_rows<const N: usize>(
+    planes: [&mut [f32]; N],
+    w: usize,
+    shade: impl Fn(&mut Scratch, usize, [&mut [f32]; N]) + Sync + Send,
+) {
+    let scratch = || Scratch {
+        row: Row::new(w.max(1)),
+        alpha: vec![0.0; w.max(1)],
+    };
+    super::plane_rows(planes, w, scratch, shade);
 }
 
-impl Row {
-    fn new(w: usize) -> Self {
-        Self {
-            x: vec![0.0; w],
-            y: vec![0.0; w],
-            z: vec![0.0; w],
-            part: shading::Part::new(w),
-        }
-    }
+/// Row `j`'s unit rays of a pass of `scale` full-resolution pixels per
+/// pixel ([`super::row_rays`], normalised).
+#[inline(always)]
+fn rays(row: &mut Row, view: &View, scale: f32, j: usize) {
+    super::row_rays(
+        &view.world_from_camera,
+        view.intrinsics,
+        (scale, j),
+        row.rays_mut(),
+    );
+    row.normalise();
+}
 
-    /// Row `j`'s unit rays of a pass of `scale` full-resolution pixels
-    /// per pixel ([`super::row_rays`], normalised).
-    #[inline(always)]
-    fn rays(&mut self, view: &View, scale: f32, j: usize) {
-        let rays = (&mut self.x[..], &mut self.y[..], &mut self.z[..]);
-        super::row_rays(&view.world_from_camera, view.intrinsics, (scale, j), rays);
-        for ((x, y), z) in self.x.iter_mut().zip(&mut self.y).zip(&mut self.z) {
-            let d = Vec3::new(*x, *y, *z);
-            let d = d * (1.0 / d.dot(d).sqrt());
-            (*x, *y, *z) = (d.x, d.y, d.z);
-        }
+/// Quarter-resolution row `j`: `upper_sky` where a ray is above `needed`
+/// (the rays below the horizon taken level), zeros elsewhere.
+#[inline(always)]
+fn quarter_row(
+    row: &mut Row,
+    env: &Procedural,
+    view: &View,
+    (j, needed): (usize, f32),
+    mut out: Rgba<'_>,
+) {
+    rays(row, view, QUARTER as f32, j);
+    for plane in &mut out {
+        plane.fill(0.0);
     }
+    row.select(|y| y > needed);
+    row.level();
+    row.upper_sky(env, out);
+}
 
-    /// Quarter-resolution row `j`: `upper_sky` where a ray is above
-    /// `needed` (the rays below the horizon taken level), zeros elsewhere.
-    #[inline(always)]
-    fn quarter(
-        &mut self,
-        env: &Procedural,
-        view: &View,
-        j: usize,
-        needed: f32,
-        texels: &mut [f32],
-    ) {
-        self.rays(view, QUARTER as f32, j);
-        texels.fill(0.0);
-        let rays = (&self.x[..], &self.y[..], &self.z[..]);
-        let part = &mut self.part;
-        part.gather(rays, |y| y > needed);
-        part.level();
-        part.upper_sky(env);
-        part.scatter(texels);
-    }
-
-    /// Half-resolution row `j`: each pixel shaded by its part — the
-    /// ground, the band of the silhouettes, or the sky above it
-    /// (interpolated from the quarter pass, plus the sun disc).
-    #[inline(always)]
-    fn half(
-        &mut self,
-        env: &Procedural,
-        view: &View,
-        j: usize,
-        quarter: (&[f32], (u32, u32)),
-        texels: &mut [f32],
-    ) {
-        self.rays(view, HALF as f32, j);
-        let upper = env.upper_line();
-        let rays = (&self.x[..], &self.y[..], &self.z[..]);
-        let part = &mut self.part;
-        part.gather(rays, |y| y < 0.0);
-        part.ground(env);
-        part.scatter(texels);
-        part.gather(rays, |y| y >= 0.0 && y <= upper);
-        part.band(env);
-        part.scatter(texels);
-        // `y > upper` written so that a ray that is not a number lands here:
-        // every texel is written, none kept from the frame before.
-        part.gather(rays, |y| !(y < 0.0 || y <= upper));
-        part.interpolate(env, quarter, j);
-        part.scatter(texels);
-    }
+/// Half-resolution row `j`: each pixel shaded by its part — the ground,
+/// the band of the silhouettes, or the sky above it (interpolated from the
+/// quarter pass, plus the sun disc).
+#[inline(always)]
+fn half_row(
+    row: &mut Row,
+    env: &Procedural,
+    view: &View,
+    (j, quarter): (usize, (&[Vec<f32>; 4], (u32, u32))),
+    [r, g, b, a]: Rgba<'_>,
+) {
+    rays(row, view, HALF as f32, j);
+    let upper = env.upper_line();
+    row.select(|y| y < 0.0);
+    row.ground(env, [r, g, b, a]);
+    row.select(|y| y >= 0.0 && y <= upper);
+    row.band(env, [r, g, b, a]);
+    // `y > upper` written so that a ray that is not a number lands here:
+    // every pixel is shaded, none kept from the frame before.
+    row.select(|y| !(y < 0.0 || y <= upper));
+    row.interpolate(env, quarter, j, [r, g, b, a]);
 }

@@ -209,16 +209,18 @@ pub(super) fn make_bind_group(
     })
 }
 
-/// `texels` (RGBA `f32`, `size` texels) written into `texture` (RGBA16F)
-/// as half floats.
+/// `planes` (red, green and blue `f32` planes of `size` texels) written
+/// into `texture` (RGBA16F) as half floats, alpha 1.
 pub(super) fn write_half_floats(
     queue: &wgpu::Queue,
     texture: &wgpu::Texture,
     size: (u32, u32),
-    texels: &[f32],
+    [r, g, b]: &[Vec<f32>; 3],
 ) {
+    let rgba = r.iter().zip(g).zip(b);
+    let texels: Vec<f32> = rgba.flat_map(|((r, g), b)| [*r, *g, *b, 1.0]).collect();
     let mut half = vec![half::f16::ZERO; texels.len()];
-    half.convert_from_f32_slice(texels);
+    half.convert_from_f32_slice(&texels);
     queue.write_texture(
         texture.as_image_copy(),
         bytemuck::cast_slice(&half),

@@ -27,7 +27,8 @@ fn floor8(x: __m256) -> (__m256, __m256i) {
 }
 
 /// The eight pixels at texel coordinates `tx`, `ty` (eight each) sampled as
-/// [`super::Taps::at`] and [`super::blend`] do, into `px` (32 values, RGBA).
+/// [`super::Taps::at`] and [`super::blend`] do, into `px` (red, green and
+/// blue: eight values each).
 /// `image.rgb` must hold `width × height` RGB texels (`shade` checks it),
 /// fewer than 2³¹ values (sky images are at most 4096 texels a side).
 #[target_feature(enable = "avx2")]
@@ -35,9 +36,9 @@ pub(super) fn sample8(
     image: Equirect<'_>,
     exposure: f32,
     (tx, ty): (&[f32], &[f32]),
-    px: &mut [f32],
+    px: [&mut [f32]; 3],
 ) {
-    assert!(tx.len() >= 8 && ty.len() >= 8 && px.len() >= 32);
+    assert!(tx.len() >= 8 && ty.len() >= 8 && px.iter().all(|p| p.len() >= 8));
     assert!(image.rgb.len() >= image.width as usize * image.height as usize * 3);
     assert!(image.rgb.len() < i32::MAX as usize);
     let (iw, ih) = (image.width as i32, image.height as i32);
@@ -64,8 +65,7 @@ pub(super) fn sample8(
     };
     let taps = [at(r0, c0), at(r0, c1), at(r1, c0), at(r1, c1)];
     let (exposure, top) = (_mm256_set1_ps(exposure), _mm256_set1_ps(MAX_RADIANCE));
-    let mut channels = [[0f32; 8]; 3];
-    for (k, channel) in channels.iter_mut().enumerate() {
+    for (k, channel) in px.into_iter().enumerate() {
         let base = image.rgb[k..].as_ptr();
         // SAFETY: every offset is (r · width + c) · 3 with r, c clamped
         // into the image, so offset + k lies inside `image.rgb`.
@@ -79,13 +79,10 @@ pub(super) fn sample8(
         );
         // max(value, 0) is 0 for a NaN (the second operand), as `f32::max`.
         let value = _mm256_min_ps(_mm256_max_ps(value, _mm256_setzero_ps()), top);
-        // SAFETY: `channel` holds eight values.
+        // SAFETY: `channel` holds eight values (asserted above).
         #[allow(unsafe_code)]
         unsafe {
             _mm256_storeu_ps(channel.as_mut_ptr(), value)
         };
-    }
-    for (i, p) in px[..32].chunks_exact_mut(4).enumerate() {
-        p.copy_from_slice(&[channels[0][i], channels[1][i], channels[2][i], 1.0]);
     }
 }

@@ -1,9 +1,11 @@
 //! environment.wgsl's procedural environment per ray, on the CPU: the
 //! frame's constants read from the uniforms the GPU passes get
-//! ([`Procedural`]), and a part's pixels shaded in loops over their rays
-//! ([`Part`]), each specialised for the frame's kinds (ground, silhouettes,
+//! ([`Procedural`]), and a part of a row's pixels shaded in loops over its
+//! runs of rays ([`Row`]), each specialised for the frame's kinds (ground, silhouettes,
 //! clouds) outside the loop, as the GPU's pipelines are by their override
 //! constants, so that the loop body is straight-line code that vectorises.
+
+use std::ops::Range;
 
 use glam::{Vec2, Vec3};
 
@@ -252,100 +254,97 @@ impl<'a> Procedural<'a> {
     }
 }
 
-/// A part of a row's pixels: their rays, and what they are shaded (RGBA).
-pub(super) struct Part {
-    rays: Rays,
-    out: [Vec<f32>; 4],
+/// One row of a pass: its pixels' rays and the runs of them that make the
+/// part being shaded. A part is shaded over its runs in place, into the
+/// pass's RGBA planes ([`Rgba`]), so no pixel is gathered, scattered or
+/// interleaved: the parts of a row are a few runs each (where a ray's
+/// height crosses a bound).
+pub(super) struct Row {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    /// The part's pixels: ranges of the row, in order.
+    runs: Vec<Range<usize>>,
     /// The silhouettes' heights (far, near) of the band's pixels.
     heights: [Vec<f32>; 2],
 }
 
-/// Pixels' indices in their row and their rays.
-struct Rays {
-    index: Vec<u32>,
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-    len: usize,
-}
+/// A row's RGBA planes, each the row's length.
+pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
 
-impl Part {
+impl Row {
     pub(super) fn new(w: usize) -> Self {
         let v = || vec![0.0; w];
         Self {
-            rays: Rays {
-                index: vec![0; w],
-                x: v(),
-                y: v(),
-                z: v(),
-                len: 0,
-            },
-            out: [v(), v(), v(), v()],
+            x: v(),
+            y: v(),
+            z: v(),
+            runs: Vec::new(),
             heights: [v(), v()],
         }
     }
 
-    /// The row's pixels whose ray's height `y` passes `keep`, gathered
-    /// (a branch-free compaction: every pixel is written, kept or not).
-    #[inline(always)]
-    pub(super) fn gather(
-        &mut self,
-        (x, y, z): (&[f32], &[f32], &[f32]),
-        keep: impl Fn(f32) -> bool,
-    ) {
-        let r = &mut self.rays;
-        let w = x.len().min(y.len()).min(z.len()).min(r.index.len());
-        r.len = compact(
-            (&x[..w], &y[..w], &z[..w]),
-            keep,
-            &mut r.index[..w],
-            [&mut r.x[..w], &mut r.y[..w], &mut r.z[..w]],
-        );
+    /// The row's rays, to be written (then made unit by [`Row::normalise`]).
+    pub(super) fn rays_mut(&mut self) -> (&mut [f32], &mut [f32], &mut [f32]) {
+        (&mut self.x, &mut self.y, &mut self.z)
     }
 
-    /// The part's pixels' RGBA written at their places in `texels`.
+    /// Each ray made unit.
     #[inline(always)]
-    pub(super) fn scatter(&self, texels: &mut [f32]) {
-        let n = self.rays.len;
-        let [r, g, b, a] = &self.out;
-        let (r, g, b, a) = (&r[..n], &g[..n], &b[..n], &a[..n]);
-        let texels: &mut [[f32; 4]] = bytemuck::cast_slice_mut(texels);
-        let Some(last) = texels.len().checked_sub(1) else {
-            return;
-        };
-        for (k, &i) in self.rays.index[..n].iter().enumerate() {
-            // Indices are the row's own (below its length); the clamp only
-            // spares the loop a bounds check.
-            texels[(i as usize).min(last)] = [r[k], g[k], b[k], a[k]];
+    pub(super) fn normalise(&mut self) {
+        for ((x, y), z) in self.x.iter_mut().zip(&mut self.y).zip(&mut self.z) {
+            let d = Vec3::new(*x, *y, *z);
+            let d = d * (1.0 / d.dot(d).sqrt());
+            (*x, *y, *z) = (d.x, d.y, d.z);
         }
     }
 
-    /// Each ray below the horizon taken level (the quarter pass's margin).
+    /// The part: the pixels whose ray's height `y` passes `keep`.
+    #[inline(always)]
+    pub(super) fn select(&mut self, keep: impl Fn(f32) -> bool) {
+        self.runs.clear();
+        let mut start = None;
+        for (i, &y) in self.y.iter().enumerate() {
+            match (keep(y), start) {
+                (true, None) => start = Some(i),
+                (false, Some(s)) => {
+                    self.runs.push(s..i);
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(s) = start {
+            self.runs.push(s..self.y.len());
+        }
+    }
+
+    /// Each of the part's rays below the horizon taken level (the quarter
+    /// pass's margin).
     #[inline(always)]
     pub(super) fn level(&mut self) {
-        let r = &mut self.rays;
-        let n = r.len;
-        let rays = r.x[..n].iter_mut().zip(&mut r.y[..n]).zip(&mut r.z[..n]);
-        for ((x, y), z) in rays {
-            let flat = Vec3::new(*x + 1e-6, 0.0, *z);
-            let flat = flat * (1.0 / flat.dot(flat).sqrt());
-            let below = *y < 0.0;
-            *x = if below { flat.x } else { *x };
-            *z = if below { flat.z } else { *z };
-            *y = if below { 0.0 } else { *y };
+        for run in &self.runs {
+            let x = &mut self.x[run.clone()];
+            let (y, z) = (&mut self.y[run.clone()], &mut self.z[run.clone()]);
+            for ((x, y), z) in x.iter_mut().zip(y).zip(z) {
+                let flat = Vec3::new(*x + 1e-6, 0.0, *z);
+                let flat = flat * (1.0 / flat.dot(flat).sqrt());
+                let below = *y < 0.0;
+                *x = if below { flat.x } else { *x };
+                *z = if below { flat.z } else { *z };
+                *y = if below { 0.0 } else { *y };
+            }
         }
     }
 
-    /// The rays' `upper_sky` (RGB and the sun disc's share).
+    /// The part's `upper_sky` (RGB and the sun disc's share).
     #[inline(always)]
-    pub(super) fn upper_sky(&mut self, env: &Procedural) {
+    pub(super) fn upper_sky(&self, env: &Procedural, out: Rgba<'_>) {
         #[inline(always)]
-        fn with<const CLOUDS: bool>(part: &mut Part, env: &Procedural) {
-            each(
+        fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, out: Rgba<'_>) {
+            row.each(
                 env,
-                &part.rays,
-                NONE,
-                &mut part.out,
+                (Inputs::None, out),
                 #[inline(always)]
                 |d, _, t| {
                     let (c, a) = env.upper_sky::<CLOUDS>(d, env.haze(t, azimuth(d)));
@@ -354,131 +353,135 @@ impl Part {
             );
         }
         if env.clouds() {
-            with::<true>(self, env);
+            with::<true>(self, env, out);
         } else {
-            with::<false>(self, env);
+            with::<false>(self, env, out);
         }
     }
 
-    /// The rays' ground.
+    /// The part's ground.
     #[inline(always)]
-    pub(super) fn ground(&mut self, env: &Procedural) {
+    pub(super) fn ground(&self, env: &Procedural, out: Rgba<'_>) {
         #[inline(always)]
-        fn with<const GROUND: u8>(part: &mut Part, env: &Procedural) {
-            each(
+        fn with<const GROUND: u8>(row: &Row, env: &Procedural, out: Rgba<'_>) {
+            row.each(
                 env,
-                &part.rays,
-                NONE,
-                &mut part.out,
+                (Inputs::None, out),
                 #[inline(always)]
                 |d, _, t| opaque(env.ground::<GROUND>(t, d)),
             );
         }
         match env.ground {
-            2 => with::<2>(self, env),
-            3 => with::<3>(self, env),
-            _ => with::<0>(self, env),
+            2 => with::<2>(self, env, out),
+            3 => with::<3>(self, env, out),
+            _ => with::<0>(self, env, out),
         }
     }
 
-    /// The rays' band: the silhouettes' heights first, then the sky and
+    /// The part's band: the silhouettes' heights first, then the sky and
     /// silhouettes over it.
     #[inline(always)]
-    pub(super) fn band(&mut self, env: &Procedural) {
+    pub(super) fn band(&mut self, env: &Procedural, out: Rgba<'_>) {
         #[inline(always)]
-        fn with<const CLOUDS: bool>(part: &mut Part, env: &Procedural) {
-            let [far, near] = &part.heights;
-            each(
+        fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, out: Rgba<'_>) {
+            row.each(
                 env,
-                &part.rays,
-                [far, near],
-                &mut part.out,
+                (Inputs::Heights, out),
                 #[inline(always)]
                 |d, [f, n], t| opaque(env.band::<CLOUDS>(t, d, (f, n))),
             );
         }
         let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
-        let n = self.rays.len;
-        let (x, z) = (&self.rays.x[..n], &self.rays.z[..n]);
-        for ((kind, height), (heights, seed)) in [env.far, env.near]
-            .into_iter()
-            .zip(self.heights.iter_mut().zip(seeds))
-        {
-            silhouettes(kind, height, seed, (x, z), &mut heights[..n]);
+        for run in &self.runs {
+            let (x, z) = (&self.x[run.clone()], &self.z[run.clone()]);
+            for ((kind, height), (heights, seed)) in [env.far, env.near]
+                .into_iter()
+                .zip(self.heights.iter_mut().zip(seeds))
+            {
+                silhouettes(kind, height, seed, (x, z), &mut heights[run.clone()]);
+            }
         }
         if env.clouds() {
-            with::<true>(self, env);
+            with::<true>(self, env, out);
         } else {
-            with::<false>(self, env);
+            with::<false>(self, env, out);
         }
     }
 
     /// The upper sky's pixels of half-resolution row `j`: the quarter
-    /// pass's RGBA interpolated at each (a clamping bilinear sample at the
-    /// full-resolution position over the quarter's scale, as the GPU's
-    /// sampler takes it), plus the sun disc times its share.
+    /// pass's RGBA (`quarter`: its planes and size) interpolated at each (a
+    /// clamping bilinear sample at the full-resolution position over the
+    /// quarter's scale, as the GPU's sampler takes it), plus the sun disc
+    /// times its share.
     #[inline(always)]
     pub(super) fn interpolate(
-        &mut self,
+        &self,
         env: &Procedural,
-        (quarter, (qw, qh)): (&[f32], (u32, u32)),
+        (quarter, (qw, qh)): (&[Vec<f32>; 4], (u32, u32)),
         j: usize,
+        [or, og, ob, oa]: Rgba<'_>,
     ) {
         let (qw, qh) = (qw as usize, qh as usize);
         let (r0, r1, wy) = tap(j, qh.saturating_sub(1));
-        let row = |r: usize| quarter.get(r * qw * 4..(r + 1) * qw * 4).unwrap_or(&[]);
+        let row = |r: usize| {
+            quarter
+                .each_ref()
+                .map(|p| p.get(r * qw..(r + 1) * qw).unwrap_or(&[]))
+        };
         let (row0, row1) = (row(r0), row(r1));
-        if row0.is_empty() || row1.is_empty() {
+        if row0.iter().chain(&row1).any(|p| p.is_empty()) {
             return;
         }
         #[inline(always)]
-        fn texel(row: &[f32], c: usize) -> glam::Vec4 {
-            glam::Vec4::from_slice(&row[c * 4..c * 4 + 4])
+        fn texel(row: &[&[f32]; 4], c: usize) -> glam::Vec4 {
+            glam::Vec4::new(row[0][c], row[1][c], row[2][c], row[3][c])
         }
-        let r = &self.rays;
-        let [or, og, ob, oa] = &mut self.out;
-        for k in 0..r.len {
-            let (c0, c1, wx) = tap(r.index[k] as usize, qw - 1);
-            let top = texel(row0, c0) + (texel(row0, c1) - texel(row0, c0)) * wx;
-            let bottom = texel(row1, c0) + (texel(row1, c1) - texel(row1, c0)) * wx;
+        for i in self.runs.iter().flat_map(Clone::clone) {
+            let (c0, c1, wx) = tap(i, qw - 1);
+            let top = texel(&row0, c0) + (texel(&row0, c1) - texel(&row0, c0)) * wx;
+            let bottom = texel(&row1, c0) + (texel(&row1, c1) - texel(&row1, c0)) * wx;
             let v = top + (bottom - top) * wy;
-            let d = Vec3::new(r.x[k], r.y[k], r.z[k]);
+            let d = Vec3::new(self.x[i], self.y[i], self.z[i]);
             let c = v.truncate() + env.sun_disc(d) * v.w;
-            (or[k], og[k], ob[k], oa[k]) = (c.x, c.y, c.z, 1.0);
+            (or[i], og[i], ob[i], oa[i]) = (c.x, c.y, c.z, 1.0);
+        }
+    }
+
+    /// `shade(ray, inputs, haze table)` for each of the part's pixels (with
+    /// its values of `inputs`), into its place in `out`, run by run.
+    #[inline(always)]
+    fn each(
+        &self,
+        env: &Procedural,
+        (inputs, [r, g, b, a]): (Inputs, Rgba<'_>),
+        shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4] + Copy,
+    ) {
+        let [far, near] = &self.heights;
+        for run in &self.runs {
+            let (x, y) = (&self.x[run.clone()], &self.y[run.clone()]);
+            let z = &self.z[run.clone()];
+            let read = match inputs {
+                Inputs::None => [x, x],
+                Inputs::Heights => [&far[run.clone()], &near[run.clone()]],
+            };
+            let out = [
+                &mut r[run.clone()],
+                &mut g[run.clone()],
+                &mut b[run.clone()],
+                &mut a[run.clone()],
+            ];
+            lanes(env.table, (x, y, z), read, out, shade);
         }
     }
 }
 
-/// The pixels `i` of rays `(x, y, z)` whose `y` passes `keep`, their
-/// indices and rays written to the front of `index` and `to` (all of the
-/// rays' length), in order; how many. Branch-free: every pixel is written
-/// at the next free place, which moves on only when it is kept.
-#[inline(always)]
-fn compact(
-    (x, y, z): (&[f32], &[f32], &[f32]),
-    keep: impl Fn(f32) -> bool,
-    index: &mut [u32],
-    to: [&mut [f32]; 3],
-) -> usize {
-    let w = index.len();
-    let [tx, ty, tz] = to;
-    let (x, y, z, tx, ty, tz) = (
-        &x[..w],
-        &y[..w],
-        &z[..w],
-        &mut tx[..w],
-        &mut ty[..w],
-        &mut tz[..w],
-    );
-    let mut n = 0;
-    for i in 0..w {
-        // `n ≤ i < w`: the clamp changes nothing, and spares the bounds checks.
-        let at = n.min(w - 1);
-        index[at] = i as u32;
-        (tx[at], ty[at], tz[at]) = (x[i], y[i], z[i]);
-        n += usize::from(keep(y[i]));
-    }
-    n
+/// What a part's shading reads per pixel besides its ray.
+#[derive(Clone, Copy)]
+enum Inputs {
+    /// Nothing (the loop is handed the ray's x, unread).
+    None,
+    /// The silhouettes' heights (far, near).
+    Heights,
 }
 
 /// Where half-resolution pixel `i` samples the quarter pass along one
@@ -498,25 +501,16 @@ fn opaque(c: Vec3) -> [f32; 4] {
     [c.x, c.y, c.z, 1.0]
 }
 
-/// No per-pixel inputs besides the ray.
-const NONE: [&[f32]; 2] = [&[], &[]];
-
-/// `shade(ray, inputs)` for each of `rays` (with its values of `inputs`;
-/// an empty input reads as the ray's x), into `out`.
+/// `shade` over rays `(x, y, z)` and per-pixel `inputs` (all of one
+/// length) into `out`, in the build of the widest SIMD level this process runs.
 #[inline(always)]
-fn each<'a>(
-    env: &Procedural,
-    rays: &'a Rays,
-    inputs: [&'a [f32]; 2],
-    out: &mut [Vec<f32>; 4],
+fn lanes(
+    table: &Table,
+    (x, y, z): (&[f32], &[f32], &[f32]),
+    [i0, i1]: [&[f32]; 2],
+    [r, g, b, a]: [&mut [f32]; 4],
     shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
 ) {
-    let n = rays.len;
-    let [r, g, b, a] = out;
-    let (x, y, z) = (&rays.x[..n], &rays.y[..n], &rays.z[..n]);
-    let [i0, i1] = inputs.map(|v| v.get(..n).unwrap_or(x));
-    let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
-    let table = env.table;
     #[cfg(target_arch = "x86_64")]
     match crate::simd::simd_level() {
         // SAFETY: the CPU has these features (checked by `simd_level`).
@@ -530,7 +524,7 @@ fn each<'a>(
     lanes_base(x, y, z, i0, i1, table, r, g, b, a, shade)
 }
 
-/// [`each`]'s loop over slices of one length, built for each SIMD level in
+/// [`lanes`]' loop over slices of one length, built for each SIMD level in
 /// a function of its own that is never inlined: its slice arguments keep
 /// their no-alias marks, so the loop vectorises (the haze table's gathers
 /// included) without checks at run time.
