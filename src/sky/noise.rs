@@ -8,7 +8,7 @@
 use glam::Vec2;
 
 use super::Silhouette;
-use crate::simd::math::{atan2, floor, fract, smoothstep};
+use crate::simd::math::{atan2, fract, smoothstep};
 
 #[inline(always)]
 pub(crate) fn hash12(p: Vec2) -> f32 {
@@ -21,7 +21,7 @@ pub(crate) fn hash12(p: Vec2) -> f32 {
 
 #[inline(always)]
 pub(crate) fn vnoise(p: Vec2) -> f32 {
-    let (ix, iy) = (floor(p.x), floor(p.y));
+    let (ix, iy) = (p.x.floor(), p.y.floor());
     let (fx, fy) = (p.x - ix, p.y - iy);
     let (ux, uy) = (fx * fx * (3.0 - 2.0 * fx), fy * fy * (3.0 - 2.0 * fy));
     let a = hash12(Vec2::new(ix, iy));
@@ -100,7 +100,7 @@ pub(crate) fn silhouette_height(kind: Silhouette, height: f32, c: Vec2, seed: Ve
         }
         Silhouette::Skyline => {
             let az = atan2(c.x, c.y);
-            let block = floor(az * 90.0 / std::f32::consts::TAU * 4.0);
+            let block = (az * 90.0 / std::f32::consts::TAU * 4.0).floor();
             let h = 0.25 + 0.75 * hash12(Vec2::new(block, seed.x));
             let town = smoothstep(0.42, 0.5, vnoise(c * 2.0 + seed));
             height * h * town + height * 0.08

@@ -12,7 +12,7 @@
 
 use std::f32::consts::{PI, TAU};
 
-use crate::simd::math::{atan2, floor};
+use crate::simd::math::atan2;
 
 use glam::Mat3;
 
@@ -178,7 +178,7 @@ impl Taps {
     #[inline(always)]
     fn at(image: Equirect<'_>, (tx, ty): (f32, f32)) -> Self {
         let (iw, ih) = (image.width as i32, image.height as i32);
-        let (x0, y0) = (floor(tx), floor(ty));
+        let (x0, y0) = (tx.floor(), ty.floor());
         // x0 in [−1, iw]: −1 is the last column, iw the first.
         let c0 = (x0 as i32).clamp(-1, iw - 1);
         let c0 = if c0 < 0 { iw - 1 } else { c0 };

@@ -14,7 +14,7 @@ use std::arch::x86_64::{
 
 use super::{Equirect, MAX_RADIANCE};
 
-/// [`super::floor`] in each lane: the truncation, less one where it lies
+/// `f32::floor` in each lane: the truncation, less one where it lies
 /// above `x` (`x` finite, |x| < 2³¹: [`super::Row::coordinates`] keeps it so).
 #[target_feature(enable = "avx2")]
 fn floor8(x: __m256) -> (__m256, __m256i) {

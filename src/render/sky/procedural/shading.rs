@@ -10,7 +10,7 @@ use std::ops::Range;
 use glam::{Vec2, Vec3};
 
 use super::super::uniforms::EnvUniforms;
-use crate::simd::math::{acos, asin, exp, floor, fract, small_uint, smoothstep};
+use crate::simd::math::{acos, asin, exp, fract, small_uint, smoothstep};
 use crate::sky::noise::{fbm, silhouette_height, silhouette_of, step, vnoise};
 use crate::sky::{HAZE_TABLE, Silhouette};
 
@@ -133,7 +133,7 @@ impl<'a> Procedural<'a> {
         let half = HAZE_TABLE / 2;
         let t = (0.5 - 0.5 * cos_gamma.abs()).max(0.0).sqrt()
             * ((half - 1) as f32 * std::f32::consts::SQRT_2);
-        let k = floor(t).min((half - 2) as f32);
+        let k = t.floor().min((half - 2) as f32);
         let i = small_uint(k) as usize + if cos_gamma >= 0.0 { 0 } else { half };
         // In bounds (i ≤ HAZE_TABLE − 2); the mask lets the compiler see it.
         let (lo, hi) = (table[i % HAZE_TABLE], table[(i + 1) % HAZE_TABLE]);
@@ -490,7 +490,7 @@ enum Inputs {
 #[inline(always)]
 fn tap(i: usize, last: usize) -> (usize, usize, f32) {
     let t = i as f32 * 0.5 - 0.25;
-    let t0 = crate::simd::math::floor(t);
+    let t0 = t.floor();
     let c0 = (t0.max(0.0) as usize).min(last);
     let c1 = ((t0 + 1.0).max(0.0) as usize).min(last);
     (c0, c1, t - t0)
