@@ -19,7 +19,7 @@ use glam::Mat3;
 mod shading;
 
 pub(super) use shading::Procedural;
-use shading::{Rgba, Row};
+use shading::{Part, Rgba, Row};
 
 /// Full-resolution pixels per pixel of the half- and quarter-resolution passes.
 const HALF: u32 = super::HALF_SCALE;
@@ -134,7 +134,14 @@ fn quarter_row(
     for plane in &mut out {
         plane.fill(0.0);
     }
-    row.select(|y| y > needed);
+    // The quarter shades only the sky above `needed`.
+    row.split(|y| {
+        if y > needed {
+            Part::Upper
+        } else {
+            Part::Ground
+        }
+    });
     row.level();
     row.upper_sky(env, out);
 }
@@ -152,12 +159,18 @@ fn half_row(
 ) {
     rays(row, view, HALF as f32, j);
     let upper = env.upper_line();
-    row.select(|y| y < 0.0);
+    // A ray that is not a number lands in the upper sky: every pixel is
+    // shaded, none kept from the frame before.
+    row.split(|y| {
+        if y < 0.0 {
+            Part::Ground
+        } else if y <= upper {
+            Part::Band
+        } else {
+            Part::Upper
+        }
+    });
     row.ground(env, [r, g, b, a]);
-    row.select(|y| y >= 0.0 && y <= upper);
     row.band(env, [r, g, b, a]);
-    // `y > upper` written so that a ray that is not a number lands here:
-    // every pixel is shaded, none kept from the frame before.
-    row.select(|y| !(y < 0.0 || y <= upper));
     row.interpolate(env, quarter, j, [r, g, b, a]);
 }

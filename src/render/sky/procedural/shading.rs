@@ -254,23 +254,32 @@ impl<'a> Procedural<'a> {
     }
 }
 
-/// One row of a pass: its pixels' rays and the runs of them that make the
-/// part being shaded. A part is shaded over its runs in place, into the
-/// pass's RGBA planes ([`Rgba`]), so no pixel is gathered, scattered or
-/// interleaved: the parts of a row are a few runs each (where a ray's
-/// height crosses a bound).
+/// One row of a pass: its pixels' rays and the runs of them that make each
+/// part. A part is shaded over its runs in place, into the pass's RGBA
+/// planes ([`Rgba`]), so no pixel is gathered, scattered or interleaved:
+/// the parts of a row are a few runs each (where a ray's height crosses a
+/// bound).
 pub(super) struct Row {
     x: Vec<f32>,
     y: Vec<f32>,
     z: Vec<f32>,
-    /// The part's pixels: ranges of the row, in order.
-    runs: Vec<Range<usize>>,
+    /// Each [`Part`]'s pixels: ranges of the row, in order.
+    runs: [Vec<Range<usize>>; 3],
     /// The silhouettes' heights (far, near) of the band's pixels.
     heights: [Vec<f32>; 2],
 }
 
 /// A row's RGBA planes, each the row's length.
 pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
+
+/// The parts of a pass's pixels, by their ray's height: the ground, the
+/// silhouettes' band, and the sky above it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Part {
+    Ground = 0,
+    Band = 1,
+    Upper = 2,
+}
 
 impl Row {
     pub(super) fn new(w: usize) -> Self {
@@ -279,7 +288,7 @@ impl Row {
             x: v(),
             y: v(),
             z: v(),
-            runs: Vec::new(),
+            runs: Default::default(),
             heights: [v(), v()],
         }
     }
@@ -299,31 +308,30 @@ impl Row {
         }
     }
 
-    /// The part: the pixels whose ray's height `y` passes `keep`.
+    /// The row's pixels split into their parts by their ray's height `y`
+    /// (`part_of(y)`), in one pass.
     #[inline(always)]
-    pub(super) fn select(&mut self, keep: impl Fn(f32) -> bool) {
-        self.runs.clear();
-        let mut start = None;
-        for (i, &y) in self.y.iter().enumerate() {
-            match (keep(y), start) {
-                (true, None) => start = Some(i),
-                (false, Some(s)) => {
-                    self.runs.push(s..i);
-                    start = None;
-                }
-                _ => {}
+    pub(super) fn split(&mut self, part_of: impl Fn(f32) -> Part) {
+        self.runs.iter_mut().for_each(Vec::clear);
+        let Some(&first) = self.y.first() else {
+            return;
+        };
+        let (mut part, mut start) = (part_of(first), 0);
+        for (i, &y) in self.y.iter().enumerate().skip(1) {
+            let p = part_of(y);
+            if p != part {
+                self.runs[part as usize].push(start..i);
+                (part, start) = (p, i);
             }
         }
-        if let Some(s) = start {
-            self.runs.push(s..self.y.len());
-        }
+        self.runs[part as usize].push(start..self.y.len());
     }
 
-    /// Each of the part's rays below the horizon taken level (the quarter
-    /// pass's margin).
+    /// Each of the upper sky's rays below the horizon taken level (the
+    /// quarter pass's margin).
     #[inline(always)]
     pub(super) fn level(&mut self) {
-        for run in &self.runs {
+        for run in &self.runs[Part::Upper as usize] {
             let x = &mut self.x[run.clone()];
             let (y, z) = (&mut self.y[run.clone()], &mut self.z[run.clone()]);
             for ((x, y), z) in x.iter_mut().zip(y).zip(z) {
@@ -344,7 +352,7 @@ impl Row {
         fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, out: Rgba<'_>) {
             row.each(
                 env,
-                (Inputs::None, out),
+                (Part::Upper, out),
                 #[inline(always)]
                 |d, _, t| {
                     let (c, a) = env.upper_sky::<CLOUDS>(d, env.haze(t, azimuth(d)));
@@ -366,7 +374,7 @@ impl Row {
         fn with<const GROUND: u8>(row: &Row, env: &Procedural, out: Rgba<'_>) {
             row.each(
                 env,
-                (Inputs::None, out),
+                (Part::Ground, out),
                 #[inline(always)]
                 |d, _, t| opaque(env.ground::<GROUND>(t, d)),
             );
@@ -386,13 +394,13 @@ impl Row {
         fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, out: Rgba<'_>) {
             row.each(
                 env,
-                (Inputs::Heights, out),
+                (Part::Band, out),
                 #[inline(always)]
                 |d, [f, n], t| opaque(env.band::<CLOUDS>(t, d, (f, n))),
             );
         }
         let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
-        for run in &self.runs {
+        for run in &self.runs[Part::Band as usize] {
             let (x, z) = (&self.x[run.clone()], &self.z[run.clone()]);
             for ((kind, height), (heights, seed)) in [env.far, env.near]
                 .into_iter()
@@ -436,7 +444,10 @@ impl Row {
         fn texel(row: &[&[f32]; 4], c: usize) -> glam::Vec4 {
             glam::Vec4::new(row[0][c], row[1][c], row[2][c], row[3][c])
         }
-        for i in self.runs.iter().flat_map(Clone::clone) {
+        for i in self.runs[Part::Upper as usize]
+            .iter()
+            .flat_map(Clone::clone)
+        {
             let (c0, c1, wx) = tap(i, qw - 1);
             let top = texel(&row0, c0) + (texel(&row0, c1) - texel(&row0, c0)) * wx;
             let bottom = texel(&row1, c0) + (texel(&row1, c1) - texel(&row1, c0)) * wx;
@@ -447,22 +458,23 @@ impl Row {
         }
     }
 
-    /// `shade(ray, inputs, haze table)` for each of the part's pixels (with
-    /// its values of `inputs`), into its place in `out`, run by run.
+    /// `shade(ray, inputs, haze table)` for each of `part`'s pixels (the
+    /// band's with its silhouettes' heights as inputs), into its place in
+    /// `out`, run by run.
     #[inline(always)]
     fn each(
         &self,
         env: &Procedural,
-        (inputs, [r, g, b, a]): (Inputs, Rgba<'_>),
+        (part, [r, g, b, a]): (Part, Rgba<'_>),
         shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4] + Copy,
     ) {
         let [far, near] = &self.heights;
-        for run in &self.runs {
+        for run in &self.runs[part as usize] {
             let (x, y) = (&self.x[run.clone()], &self.y[run.clone()]);
             let z = &self.z[run.clone()];
-            let read = match inputs {
-                Inputs::None => [x, x],
-                Inputs::Heights => [&far[run.clone()], &near[run.clone()]],
+            let read = match part {
+                Part::Band => [&far[run.clone()], &near[run.clone()]],
+                Part::Ground | Part::Upper => [x, x],
             };
             let out = [
                 &mut r[run.clone()],
@@ -473,15 +485,6 @@ impl Row {
             lanes(env.table, (x, y, z), read, out, shade);
         }
     }
-}
-
-/// What a part's shading reads per pixel besides its ray.
-#[derive(Clone, Copy)]
-enum Inputs {
-    /// Nothing (the loop is handed the ray's x, unread).
-    None,
-    /// The silhouettes' heights (far, near).
-    Heights,
 }
 
 /// Where half-resolution pixel `i` samples the quarter pass along one
