@@ -19,7 +19,7 @@ use glam::Mat3;
 mod shading;
 
 pub(super) use shading::Procedural;
-use shading::{Part, Rgba, Row};
+use shading::{Part, Quarter, Rgba, Row};
 
 /// Full-resolution pixels per pixel of the half- and quarter-resolution passes.
 const HALF: u32 = super::HALF_SCALE;
@@ -154,7 +154,7 @@ fn half_row(
     row: &mut Row,
     env: &Procedural,
     view: &View,
-    (j, quarter): (usize, (&[Vec<f32>; 4], (u32, u32))),
+    (j, quarter): (usize, Quarter<'_>),
     [r, g, b, a]: Rgba<'_>,
 ) {
     rays(row, view, HALF as f32, j);

@@ -272,6 +272,9 @@ pub(super) struct Row {
 /// A row's RGBA planes, each the row's length.
 pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
 
+/// The quarter-resolution pass: its RGBA planes and size.
+pub(super) type Quarter<'a> = (&'a [Vec<f32>; 4], (u32, u32));
+
 /// The parts of a pass's pixels, by their ray's height: the ground, the
 /// silhouettes' band, and the sky above it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -425,7 +428,7 @@ impl Row {
     pub(super) fn interpolate(
         &self,
         env: &Procedural,
-        (quarter, (qw, qh)): (&[Vec<f32>; 4], (u32, u32)),
+        (quarter, (qw, qh)): Quarter<'_>,
         j: usize,
         [or, og, ob, oa]: Rgba<'_>,
     ) {
