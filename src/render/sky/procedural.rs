@@ -36,8 +36,10 @@ pub(super) struct View {
 /// The passes' memory, kept from frame to frame.
 #[derive(Default)]
 pub(in crate::render) struct Passes {
-    /// The quarter-resolution pass's planes (RGB and the sun disc's share,
-    /// `upper_sky`).
+    /// The quarter-resolution pass (RGB and the sun disc's share,
+    /// `upper_sky`), each row widened to the half pass's width as the
+    /// sampler interpolates across ([`shading::widen`]): what the half
+    /// pass's upper sky blends down.
     quarter: [Vec<f32>; 4],
 }
 
@@ -55,10 +57,11 @@ pub(super) fn shade(
     let quarter_size = (frame.0.div_ceil(QUARTER), frame.1.div_ceil(QUARTER));
     let half_size = (frame.0.div_ceil(HALF), frame.1.div_ceil(HALF));
     let area = |(w, h): (u32, u32)| w as usize * h as usize;
+    let widened = (half_size.0, quarter_size.1);
     passes
         .quarter
         .iter_mut()
-        .for_each(|p| p.resize(area(quarter_size), 0.0));
+        .for_each(|p| p.resize(area(widened), 0.0));
     half.iter_mut().for_each(|p| p.resize(area(half_size), 0.0));
     // Quarter texels a half-resolution upper pixel may sample: their centres
     // lie within 1.5 quarter texels (6 full-resolution pixels) of its own,
@@ -66,45 +69,48 @@ pub(super) fn shade(
     let [fx, fy, ..] = view.intrinsics;
     let reach = 9.0 / fx.abs().min(fy.abs()).max(1e-6);
     let needed = env.upper_line().max(0.0) - reach;
+    let (qw, hw) = (quarter_size.0 as usize, half_size.0 as usize);
     by_rows(
         passes.quarter.each_mut().map(|p| &mut p[..]),
-        quarter_size.0 as usize,
+        (hw, qw),
         #[inline(always)]
-        |scratch, j, out| quarter_row(&mut scratch.row, env, view, (j, needed), out),
+        |scratch, j, out| quarter_row(scratch, env, view, (j, needed), out),
     );
-    let quarter = (&passes.quarter, quarter_size);
+    let quarter = (&passes.quarter, widened);
     by_rows(
         half.each_mut().map(|p| &mut p[..]),
-        half_size.0 as usize,
+        (hw, hw),
         #[inline(always)]
         |scratch, j, [r, g, b]| {
-            let Scratch { row, alpha } = scratch;
-            half_row(row, env, view, (j, quarter), [r, g, b, alpha])
+            let Scratch { row, spare } = scratch;
+            half_row(row, env, view, (j, quarter), [r, g, b, &mut spare[3]])
         },
     );
     half_size
 }
 
-/// A row's scratch on one thread: its rays and parts, and a plane for the
-/// values a pass does not keep (the half pass's alpha).
+/// A row's scratch on one thread: its rays and parts, and RGBA planes of
+/// its width (the quarter pass's row before it is widened; the half pass's
+/// alpha, which it does not keep).
 struct Scratch {
     row: Row,
-    alpha: Vec<f32>,
+    spare: [Vec<f32>; 4],
 }
 
-/// `shade(scratch, j, row j of each plane)` for each row `j` of `w` values
-/// of `planes` ([`super::plane_rows`], a [`Scratch`] per thread).
+/// `shade(scratch, j, row j of each plane)` for each row `j` of `plane_w`
+/// values of `planes` ([`super::plane_rows`], a [`Scratch`] of `row_w`
+/// pixels per thread).
 #[inline(always)]
 fn by_rows<const N: usize>(
     planes: [&mut [f32]; N],
-    w: usize,
+    (plane_w, row_w): (usize, usize),
     shade: impl Fn(&mut Scratch, usize, [&mut [f32]; N]) + Sync + Send,
 ) {
     let scratch = || Scratch {
-        row: Row::new(w.max(1)),
-        alpha: vec![0.0; w.max(1)],
+        row: Row::new(row_w.max(1)),
+        spare: [(); 4].map(|_| vec![0.0; row_w.max(1)]),
     };
-    super::plane_rows(planes, w, scratch, shade);
+    super::plane_rows(planes, plane_w, scratch, shade);
 }
 
 /// Row `j`'s unit rays of a pass of `scale` full-resolution pixels per
@@ -121,17 +127,19 @@ fn rays(row: &mut Row, view: &View, scale: f32, j: usize) {
 }
 
 /// Quarter-resolution row `j`: `upper_sky` where a ray is above `needed`
-/// (the rays below the horizon taken level), zeros elsewhere.
+/// (the rays below the horizon taken level), zeros elsewhere; widened
+/// into `out` (the half pass's width).
 #[inline(always)]
 fn quarter_row(
-    row: &mut Row,
+    scratch: &mut Scratch,
     env: &Procedural,
     view: &View,
     (j, needed): (usize, f32),
-    mut out: Rgba<'_>,
+    out: Rgba<'_>,
 ) {
+    let Scratch { row, spare } = scratch;
     rays(row, view, QUARTER as f32, j);
-    for plane in &mut out {
+    for plane in spare.iter_mut() {
         plane.fill(0.0);
     }
     // The quarter shades only the sky above `needed`.
@@ -143,7 +151,10 @@ fn quarter_row(
         }
     });
     row.level();
-    row.upper_sky(env, out);
+    row.upper_sky(env, spare.each_mut().map(|p| &mut p[..]));
+    for (quarter, widened) in spare.iter().zip(out) {
+        shading::widen(quarter, widened);
+    }
 }
 
 /// Half-resolution row `j`: each pixel shaded by its part — the ground,

@@ -272,7 +272,8 @@ pub(super) struct Row {
 /// A row's RGBA planes, each the row's length.
 pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
 
-/// The quarter-resolution pass: its RGBA planes and size.
+/// The quarter-resolution pass, its rows widened to the half pass's width
+/// ([`widen`]): its RGBA planes and their size.
 pub(super) type Quarter<'a> = (&'a [Vec<f32>; 4], (u32, u32));
 
 /// The parts of a pass's pixels, by their ray's height: the ground, the
@@ -357,7 +358,7 @@ impl Row {
                 env,
                 (Part::Upper, out),
                 #[inline(always)]
-                |d, _, t| {
+                |d, _, t, _| {
                     let (c, a) = env.upper_sky::<CLOUDS>(d, env.haze(t, azimuth(d)));
                     [c.x, c.y, c.z, a]
                 },
@@ -379,7 +380,7 @@ impl Row {
                 env,
                 (Part::Ground, out),
                 #[inline(always)]
-                |d, _, t| opaque(env.ground::<GROUND>(t, d)),
+                |d, _, t, _| opaque(env.ground::<GROUND>(t, d)),
             );
         }
         match env.ground {
@@ -399,7 +400,7 @@ impl Row {
                 env,
                 (Part::Band, out),
                 #[inline(always)]
-                |d, [f, n], t| opaque(env.band::<CLOUDS>(t, d, (f, n))),
+                |d, [f, n], t, _| opaque(env.band::<CLOUDS>(t, d, (f, n))),
             );
         }
         let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
@@ -420,45 +421,47 @@ impl Row {
     }
 
     /// The upper sky's pixels of half-resolution row `j`: the quarter
-    /// pass's RGBA (`quarter`: its planes and size) interpolated at each (a
-    /// clamping bilinear sample at the full-resolution position over the
-    /// quarter's scale, as the GPU's sampler takes it), plus the sun disc
-    /// times its share.
+    /// pass's RGBA (`quarter`: its rows widened, [`widen`]) blended down
+    /// between its two rows at the pixel (a clamping bilinear sample at the
+    /// full-resolution position over the quarter's scale, as the GPU's
+    /// sampler takes it), plus the sun disc times its share.
     #[inline(always)]
     pub(super) fn interpolate(
         &self,
         env: &Procedural,
         (quarter, (qw, qh)): Quarter<'_>,
         j: usize,
-        [or, og, ob, oa]: Rgba<'_>,
+        mut out: Rgba<'_>,
     ) {
-        let (qw, qh) = (qw as usize, qh as usize);
-        let (r0, r1, wy) = tap(j, qh.saturating_sub(1));
+        let qw = qw as usize;
+        let (r0, r1, wy) = tap(j, (qh as usize).saturating_sub(1));
         let row = |r: usize| {
             quarter
                 .each_ref()
                 .map(|p| p.get(r * qw..(r + 1) * qw).unwrap_or(&[]))
         };
-        let (row0, row1) = (row(r0), row(r1));
-        if row0.iter().chain(&row1).any(|p| p.is_empty()) {
+        let (top, bottom) = (row(r0), row(r1));
+        if top.iter().chain(&bottom).any(|p| p.len() < self.y.len()) {
             return;
         }
-        #[inline(always)]
-        fn texel(row: &[&[f32]; 4], c: usize) -> glam::Vec4 {
-            glam::Vec4::new(row[0][c], row[1][c], row[2][c], row[3][c])
+        for run in &self.runs[Part::Upper as usize] {
+            for ((out, top), bottom) in out.iter_mut().zip(top).zip(bottom) {
+                let out = &mut out[run.clone()];
+                let (top, bottom) = (&top[run.clone()], &bottom[run.clone()]);
+                for ((v, t), b) in out.iter_mut().zip(top).zip(bottom) {
+                    *v = t + (b - t) * wy;
+                }
+            }
         }
-        for i in self.runs[Part::Upper as usize]
-            .iter()
-            .flat_map(Clone::clone)
-        {
-            let (c0, c1, wx) = tap(i, qw - 1);
-            let top = texel(&row0, c0) + (texel(&row0, c1) - texel(&row0, c0)) * wx;
-            let bottom = texel(&row1, c0) + (texel(&row1, c1) - texel(&row1, c0)) * wx;
-            let v = top + (bottom - top) * wy;
-            let d = Vec3::new(self.x[i], self.y[i], self.z[i]);
-            let c = v.truncate() + env.sun_disc(d) * v.w;
-            (or[i], og[i], ob[i], oa[i]) = (c.x, c.y, c.z, 1.0);
-        }
+        self.each(
+            env,
+            (Part::Upper, out),
+            #[inline(always)]
+            |d, _, _, [r, g, b, share]| {
+                let c = Vec3::new(r, g, b) + env.sun_disc(d) * share;
+                [c.x, c.y, c.z, 1.0]
+            },
+        );
     }
 
     /// `shade(ray, inputs, haze table)` for each of `part`'s pixels (the
@@ -469,7 +472,7 @@ impl Row {
         &self,
         env: &Procedural,
         (part, [r, g, b, a]): (Part, Rgba<'_>),
-        shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4] + Copy,
+        shade: impl Fn(Vec3, [f32; 2], &Table, [f32; 4]) -> [f32; 4] + Copy,
     ) {
         let [far, near] = &self.heights;
         for run in &self.runs[part as usize] {
@@ -487,6 +490,31 @@ impl Row {
             ];
             lanes(env.table, (x, y, z), read, out, shade);
         }
+    }
+}
+
+/// A quarter-resolution row (one channel) widened to the half pass's
+/// `out.len()` pixels: each pixel's bilinear sample across at its centre
+/// ([`tap`]), `q[c0] + (q[c1] − q[c0])·wx`. Inside the row a pixel `2m`
+/// samples texels `m − 1` and `m` at ¾, a pixel `2m + 1` texels `m` and
+/// `m + 1` at ¼ (what `tap` gives, exactly), so that loop runs without a
+/// tap per pixel; the edges take [`tap`]'s clamps.
+#[inline(always)]
+pub(super) fn widen(q: &[f32], out: &mut [f32]) {
+    let Some(last) = q.len().checked_sub(1) else {
+        out.fill(0.0);
+        return;
+    };
+    // The pixels 2 ≤ i < 2·last, in pairs.
+    let inner = 2.min(out.len())..(2 * last).min(out.len()).max(2.min(out.len()));
+    let end = inner.start + (inner.len() - inner.len() % 2);
+    for (pair, t) in out[inner.start..end].chunks_exact_mut(2).zip(q.windows(3)) {
+        pair[0] = t[0] + (t[1] - t[0]) * 0.75;
+        pair[1] = t[1] + (t[2] - t[1]) * 0.25;
+    }
+    for i in (0..inner.start).chain(end..out.len()) {
+        let (c0, c1, wx) = tap(i, last);
+        out[i] = q[c0] + (q[c1] - q[c0]) * wx;
     }
 }
 
@@ -515,7 +543,7 @@ fn lanes(
     (x, y, z): (&[f32], &[f32], &[f32]),
     [i0, i1]: [&[f32]; 2],
     [r, g, b, a]: [&mut [f32]; 4],
-    shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
+    shade: impl Fn(Vec3, [f32; 2], &Table, [f32; 4]) -> [f32; 4],
 ) {
     #[cfg(target_arch = "x86_64")]
     match crate::simd::simd_level() {
@@ -550,13 +578,14 @@ macro_rules! lanes {
             g: &mut [f32],
             b: &mut [f32],
             a: &mut [f32],
-            shade: impl Fn(Vec3, [f32; 2], &Table) -> [f32; 4],
+            shade: impl Fn(Vec3, [f32; 2], &Table, [f32; 4]) -> [f32; 4],
         ) {
             let n = x.len();
             let (y, z, i0, i1) = (&y[..n], &z[..n], &i0[..n], &i1[..n]);
             let (r, g, b, a) = (&mut r[..n], &mut g[..n], &mut b[..n], &mut a[..n]);
             for k in 0..n {
-                let c = shade(Vec3::new(x[k], y[k], z[k]), [i0[k], i1[k]], table);
+                let was = [r[k], g[k], b[k], a[k]];
+                let c = shade(Vec3::new(x[k], y[k], z[k]), [i0[k], i1[k]], table, was);
                 (r[k], g[k], b[k], a[k]) = (c[0], c[1], c[2], c[3]);
             }
         }
@@ -650,4 +679,42 @@ fn pow300(x: f32) -> f32 {
     let x128 = x64 * x64;
     let x256 = x128 * x128;
     x256 * x32 * x8 * x4
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{tap, widen};
+
+    /// `widen` gives, bit for bit, each pixel's sample at its own [`tap`]
+    /// (the edges' clamps included), over rows of any length, with values
+    /// that are not numbers or not finite among them.
+    #[test]
+    fn a_widened_row_is_each_pixels_own_sample() {
+        for qw in [1usize, 2, 3, 4, 7, 480] {
+            let q: Vec<f32> = (0..qw)
+                .map(|c| match c % 7 {
+                    3 => f32::NAN,
+                    5 => f32::INFINITY,
+                    _ => (c as f32 * 0.37).sin() * 3.0,
+                })
+                .collect();
+            for n in [1, 2, 3, 2 * qw - 1, 2 * qw, 2 * qw + 1, 2 * qw + 4] {
+                let mut got = vec![-7.0; n];
+                widen(&q, &mut got);
+                for (i, got) in got.iter().enumerate() {
+                    let (c0, c1, wx) = tap(i, qw - 1);
+                    let want = q[c0] + (q[c1] - q[c0]) * wx;
+                    // Bit for bit, but for which not-a-number.
+                    let same = got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan());
+                    assert!(
+                        same,
+                        "{qw} texels, {n} pixels, pixel {i}: {got} against {want}"
+                    );
+                }
+            }
+        }
+        let mut out = vec![5.0; 3];
+        widen(&[], &mut out);
+        assert_eq!(out, [0.0; 3]);
+    }
 }
