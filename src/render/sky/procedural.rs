@@ -8,11 +8,12 @@
 //!
 //! On lavapipe the passes cost a frame more CPU than everything else it
 //! does (rasterising the parts' polygons, shading under lane masks, the
-//! half-float target, its copy and readback). Here each row's pixels are
-//! sorted into the three parts and each part shaded over its own pixels
-//! ([`shading`]) in loops that vectorise to the CPU's widest registers, with
-//! the maths of [`crate::simd::math`]: the same values on every machine. A
-//! GPU keeps its own passes (environment.rs).
+//! half-float target, its copy and readback). Here each row is split into
+//! the runs of its three parts and each part shaded over its runs in place
+//! ([`shading`]), into colour planes the upsampling reads as they are, in
+//! loops that vectorise to the CPU's widest registers, with the maths of
+//! [`crate::simd::math`]: the same values on every machine. A GPU keeps its
+//! own passes (environment.rs).
 
 use glam::Mat3;
 
