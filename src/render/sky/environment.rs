@@ -106,8 +106,8 @@ impl SkyGpu {
     /// the CPU (`procedural::shade`) for a `frame`-sized frame seen through
     /// `camera` (world-from-camera matrix and intrinsics) with the sun
     /// toward `sun`, into `texels` (the half-resolution pass's red, green
-    /// and blue planes); its size. `None` when this adapter draws the environment itself or
-    /// the sky is not procedural.
+    /// and blue planes); its size. `None` when this adapter draws the
+    /// environment itself or the sky is not procedural.
     pub(in crate::render) fn shade_environment(
         &mut self,
         (world_from_camera, intrinsics): (&[[f32; 4]; 4], [f32; 4]),

@@ -505,14 +505,16 @@ pub(super) fn widen(q: &[f32], out: &mut [f32]) {
         out.fill(0.0);
         return;
     };
-    // The pixels 2 ≤ i < 2·last, in pairs.
-    let inner = 2.min(out.len())..(2 * last).min(out.len()).max(2.min(out.len()));
-    let end = inner.start + (inner.len() - inner.len() % 2);
-    for (pair, t) in out[inner.start..end].chunks_exact_mut(2).zip(q.windows(3)) {
+    // The pixels 2 ≤ i < 2·last, in pairs (the pass's last pixel may lie
+    // past them, on its own).
+    let n = out.len();
+    let start = n.min(2);
+    let end = ((2 * last).min(n) & !1).max(start);
+    for (pair, t) in out[start..end].chunks_exact_mut(2).zip(q.windows(3)) {
         pair[0] = t[0] + (t[1] - t[0]) * 0.75;
         pair[1] = t[1] + (t[2] - t[1]) * 0.25;
     }
-    for i in (0..inner.start).chain(end..out.len()) {
+    for i in (0..start).chain(end..n) {
         let (c0, c1, wx) = tap(i, last);
         out[i] = q[c0] + (q[c1] - q[c0]) * wx;
     }
