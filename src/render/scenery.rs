@@ -913,7 +913,11 @@ mod tests {
                 layer
             };
             let base = paint(0);
-            assert!(base.covered_pixels() > 200, "{} pixels", base.covered_pixels());
+            assert!(
+                base.covered_pixels() > 200,
+                "{} pixels",
+                base.covered_pixels()
+            );
             for build in 1..=crate::simd::cpu_simd_level() {
                 assert!(paint(build) == base, "build {build}, {samples} samples");
             }
