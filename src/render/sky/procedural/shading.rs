@@ -223,16 +223,22 @@ impl<'a> Procedural<'a> {
 
     /// The sky side below the band's top (`procedural_sky`, `ENV_PART` 1)
     /// for ray `dir`, under silhouettes `far_h` and `near_h` high (rad).
+    /// Without `SKY` the sky behind the silhouettes is left out: the
+    /// colour of a ray below either silhouette's height, which never shows it.
     #[inline(always)]
-    fn band<const CLOUDS: bool>(
+    fn band<const CLOUDS: bool, const SKY: bool>(
         &self,
         table: &Table,
         dir: Vec3,
         (far_h, near_h): (f32, f32),
     ) -> Vec3 {
         let haze = self.haze(table, azimuth(dir));
-        let (upper, clear) = self.upper_sky::<CLOUDS>(dir, haze);
-        let mut col = upper + self.sun_disc(dir) * clear;
+        let mut col = if SKY {
+            let (upper, clear) = self.upper_sky::<CLOUDS>(dir, haze);
+            upper + self.sun_disc(dir) * clear
+        } else {
+            Vec3::ZERO
+        };
         let elevation = asin(dir.y.clamp(-1.0, 1.0));
         let snow = smoothstep(0.6, 0.75, elevation / far_h.max(1e-4));
         let capped = self.snow_caps && elevation > far_h * 0.6;
@@ -267,7 +273,15 @@ pub(super) struct Row {
     runs: [Vec<Range<usize>>; 3],
     /// The silhouettes' heights (far, near) of the band's pixels.
     heights: [Vec<f32>; 2],
+    /// The band's pixels under a silhouette, in runs ([`Row::split_hidden`]).
+    hidden: Vec<Range<usize>>,
+    /// Per pixel: whether a band pixel lies under a silhouette.
+    mask: Vec<bool>,
 }
+
+/// The fewest pixels in a run of the band that is shaded without its sky:
+/// shorter stretches stay in their run, whose loop runs on vector lanes.
+const HIDDEN_RUN: usize = 16;
 
 /// A row's RGBA planes, each the row's length.
 pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
@@ -294,6 +308,8 @@ impl Row {
             z: v(),
             runs: Default::default(),
             heights: [v(), v()],
+            hidden: Vec::new(),
+            mask: vec![false; w],
         }
     }
 
@@ -393,14 +409,21 @@ impl Row {
     /// The part's band: the silhouettes' heights first, then the sky and
     /// silhouettes over it.
     #[inline(always)]
-    pub(super) fn band(&mut self, env: &Procedural, out: Rgba<'_>) {
+    pub(super) fn band(&mut self, env: &Procedural, [r, g, b, a]: Rgba<'_>) {
         #[inline(always)]
-        fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, out: Rgba<'_>) {
-            row.each(
+        fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, [r, g, b, a]: Rgba<'_>) {
+            let runs = &row.runs[Part::Band as usize];
+            row.each_in(
                 env,
-                (Part::Band, out),
+                (runs, Part::Band, [&mut *r, &mut *g, &mut *b, &mut *a]),
                 #[inline(always)]
-                |d, [f, n], t, _| opaque(env.band::<CLOUDS>(t, d, (f, n))),
+                |d, [f, n], t, _| opaque(env.band::<CLOUDS, true>(t, d, (f, n))),
+            );
+            row.each_in(
+                env,
+                (&row.hidden, Part::Band, [r, g, b, a]),
+                #[inline(always)]
+                |d, [f, n], t, _| opaque(env.band::<CLOUDS, false>(t, d, (f, n))),
             );
         }
         let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
@@ -413,11 +436,61 @@ impl Row {
                 silhouettes(kind, height, seed, (x, z), &mut heights[run.clone()]);
             }
         }
+        self.split_hidden();
         if env.clouds() {
-            with::<true>(self, env, out);
+            with::<true>(self, env, [r, g, b, a]);
         } else {
-            with::<false>(self, env, out);
+            with::<false>(self, env, [r, g, b, a]);
         }
+    }
+
+    /// The band's runs of at least [`HIDDEN_RUN`] pixels whose rays lie
+    /// below the far or the near silhouette's height (`band`'s tests, on
+    /// the same values) moved to `hidden`: their sky is never shown, so it
+    /// is not shaded. The band keeps the rest.
+    #[inline(always)]
+    fn split_hidden(&mut self) {
+        let [far, near] = &self.heights;
+        for run in &self.runs[Part::Band as usize] {
+            let y = &self.y[run.clone()];
+            let (far, near) = (&far[run.clone()], &near[run.clone()]);
+            for (((m, y), f), n) in self.mask[run.clone()].iter_mut().zip(y).zip(far).zip(near) {
+                let elevation = asin(y.clamp(-1.0, 1.0));
+                *m = elevation < *f || elevation < *n;
+            }
+        }
+        let band = std::mem::take(&mut self.runs[Part::Band as usize]);
+        self.hidden.clear();
+        let mut shown: Vec<Range<usize>> = Vec::with_capacity(band.len());
+        let keep = |r: Range<usize>, to: &mut Vec<Range<usize>>| match to.last_mut() {
+            Some(last) if last.end == r.start => last.end = r.end,
+            _ => to.push(r),
+        };
+        for run in band {
+            let mut start = run.start;
+            let mut k = run.start;
+            while k < run.end {
+                if !self.mask[k] {
+                    k += 1;
+                    continue;
+                }
+                let first = k;
+                while k < run.end && self.mask[k] {
+                    k += 1;
+                }
+                if k - first >= HIDDEN_RUN {
+                    if start < first {
+                        keep(start..first, &mut shown);
+                    }
+                    self.hidden.push(first..k);
+                    start = k;
+                }
+            }
+            if start < run.end {
+                keep(start..run.end, &mut shown);
+            }
+        }
+        self.runs[Part::Band as usize] = shown;
     }
 
     /// The upper sky's pixels of half-resolution row `j`: the quarter
@@ -471,11 +544,22 @@ impl Row {
     fn each(
         &self,
         env: &Procedural,
-        (part, [r, g, b, a]): (Part, Rgba<'_>),
+        (part, out): (Part, Rgba<'_>),
+        shade: impl Fn(Vec3, [f32; 2], &Table, [f32; 4]) -> [f32; 4] + Copy,
+    ) {
+        self.each_in(env, (&self.runs[part as usize], part, out), shade);
+    }
+
+    /// [`Row::each`] over `runs` (pixels of `part`).
+    #[inline(always)]
+    fn each_in(
+        &self,
+        env: &Procedural,
+        (runs, part, [r, g, b, a]): (&[Range<usize>], Part, Rgba<'_>),
         shade: impl Fn(Vec3, [f32; 2], &Table, [f32; 4]) -> [f32; 4] + Copy,
     ) {
         let [far, near] = &self.heights;
-        for run in &self.runs[part as usize] {
+        for run in runs {
             let (x, y) = (&self.x[run.clone()], &self.y[run.clone()]);
             let z = &self.z[run.clone()];
             let read = match part {
@@ -685,7 +769,85 @@ fn pow300(x: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    use super::{HIDDEN_RUN, Part, Procedural, Row, opaque};
     use super::{tap, widen};
+    use crate::render::sky::uniforms::EnvUniforms;
+    use crate::sky::{EnvironmentName, FrameEnvironment};
+    use glam::Vec3;
+
+    /// The band shaded with its hidden runs split off ([`Row::split_hidden`])
+    /// is, bit for bit, the band shaded whole: every environment with
+    /// silhouettes, with and without clouds, over rows that cross their
+    /// tops at many slopes; and some runs were hidden.
+    #[test]
+    fn the_band_without_its_hidden_sky_is_the_whole_band() {
+        let (w, mut hidden) = (480usize, 0usize);
+        for (n, name) in EnvironmentName::ALL.into_iter().enumerate() {
+            for cover in [0.0, 0.7] {
+                let frame = FrameEnvironment {
+                    choice: 0,
+                    sun_elevation_deg: 25.0,
+                    sun_azimuth_deg: 40.0 * n as f64,
+                    azimuth_offset_deg: 0.0,
+                    cloud_cover: cover,
+                    turbidity: 3.0,
+                    pattern_seed: 7 + n as u32,
+                    exposure_offset_ev: 0.0,
+                    sun_offset_ev: 0.0,
+                };
+                let sun = Vec3::new(0.6, 0.42, 0.68).normalize();
+                let (u, _) = EnvUniforms::procedural(name, (1.0, 1.0), &frame, sun, None);
+                let env = Procedural::new(&u, sun);
+                if env.upper_line() <= 0.0 {
+                    continue;
+                }
+                for tilt in [0.002f32, 0.01, 0.03, 0.06] {
+                    let mut row = Row::new(w);
+                    let (x, y, z) = row.rays_mut();
+                    for k in 0..w {
+                        let az = k as f32 * 0.013 + n as f32;
+                        (x[k], y[k], z[k]) =
+                            (az.cos(), tilt * k as f32 / w as f32 * 6.0 - 0.01, az.sin());
+                    }
+                    row.normalise();
+                    let upper = env.upper_line();
+                    row.split(|y| {
+                        if y < 0.0 {
+                            Part::Ground
+                        } else if y <= upper {
+                            Part::Band
+                        } else {
+                            Part::Upper
+                        }
+                    });
+                    let band: Vec<usize> = row.runs[Part::Band as usize]
+                        .iter()
+                        .flat_map(|r| r.clone())
+                        .collect();
+                    let mut planes = [(); 4].map(|_| vec![f32::NAN; w]);
+                    row.band(&env, planes.each_mut().map(|p| &mut p[..]));
+                    hidden += row.hidden.iter().map(|r| r.len()).sum::<usize>();
+                    assert!(row.hidden.iter().all(|r| r.len() >= HIDDEN_RUN));
+                    for k in band {
+                        let d = Vec3::new(row.x[k], row.y[k], row.z[k]);
+                        let h = (row.heights[0][k], row.heights[1][k]);
+                        let want = if env.clouds() {
+                            opaque(env.band::<true, true>(env.table, d, h))
+                        } else {
+                            opaque(env.band::<false, true>(env.table, d, h))
+                        };
+                        let got = planes.each_ref().map(|p| p[k]);
+                        assert_eq!(
+                            got.map(f32::to_bits),
+                            want.map(f32::to_bits),
+                            "{name:?}, cover {cover}, pixel {k}"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(hidden > 1000, "{hidden} hidden pixels");
+    }
 
     /// `widen` gives, bit for bit, each pixel's sample at its own [`tap`]
     /// (the edges' clamps included), over rows of any length, with values
