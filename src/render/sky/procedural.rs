@@ -171,17 +171,7 @@ fn half_row(
 ) {
     rays(row, view, HALF as f32, j);
     let upper = env.upper_line();
-    // A ray that is not a number lands in the upper sky: every pixel is
-    // shaded, none kept from the frame before.
-    row.split(|y| {
-        if y < 0.0 {
-            Part::Ground
-        } else if y <= upper {
-            Part::Band
-        } else {
-            Part::Upper
-        }
-    });
+    row.split(|y| Part::of_half(y, upper));
     row.ground(env, [r, g, b, a]);
     row.band(env, [r, g, b, a]);
     row.interpolate(env, quarter, j, [r, g, b, a]);

@@ -299,6 +299,23 @@ pub(super) enum Part {
     Upper = 2,
 }
 
+impl Part {
+    /// The part of a half-resolution pixel whose ray's height is `y`, under
+    /// the environment's `upper` line ([`Procedural::upper_line`]). A ray
+    /// that is not a number lands in the upper sky: every pixel is shaded,
+    /// none kept from the frame before.
+    #[inline(always)]
+    pub(super) fn of_half(y: f32, upper: f32) -> Self {
+        if y < 0.0 {
+            Self::Ground
+        } else if y <= upper {
+            Self::Band
+        } else {
+            Self::Upper
+        }
+    }
+}
+
 impl Row {
     pub(super) fn new(w: usize) -> Self {
         let v = || vec![0.0; w];
@@ -811,15 +828,7 @@ mod tests {
                     }
                     row.normalise();
                     let upper = env.upper_line();
-                    row.split(|y| {
-                        if y < 0.0 {
-                            Part::Ground
-                        } else if y <= upper {
-                            Part::Band
-                        } else {
-                            Part::Upper
-                        }
-                    });
+                    row.split(|y| Part::of_half(y, upper));
                     let band: Vec<usize> = row.runs[Part::Band as usize]
                         .iter()
                         .flat_map(|r| r.clone())
