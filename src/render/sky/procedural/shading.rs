@@ -277,6 +277,9 @@ pub(super) struct Row {
     hidden: Vec<Range<usize>>,
     /// Per pixel: whether a band pixel lies under a silhouette.
     mask: Vec<bool>,
+    /// The band's runs as [`Row::split_hidden`] rebuilds them (their
+    /// memory kept from row to row).
+    shown: Vec<Range<usize>>,
 }
 
 /// The fewest pixels in a run of the band that is shaded without its sky:
@@ -327,6 +330,7 @@ impl Row {
             heights: [v(), v()],
             hidden: Vec::new(),
             mask: vec![false; w],
+            shown: Vec::new(),
         }
     }
 
@@ -476,14 +480,15 @@ impl Row {
                 *m = elevation < *f || elevation < *n;
             }
         }
-        let band = std::mem::take(&mut self.runs[Part::Band as usize]);
+        let mut band = std::mem::take(&mut self.runs[Part::Band as usize]);
+        let mut shown = std::mem::take(&mut self.shown);
         self.hidden.clear();
-        let mut shown: Vec<Range<usize>> = Vec::with_capacity(band.len());
+        shown.clear();
         let keep = |r: Range<usize>, to: &mut Vec<Range<usize>>| match to.last_mut() {
             Some(last) if last.end == r.start => last.end = r.end,
             _ => to.push(r),
         };
-        for run in band {
+        for run in band.drain(..) {
             let mut start = run.start;
             let mut k = run.start;
             while k < run.end {
@@ -508,6 +513,7 @@ impl Row {
             }
         }
         self.runs[Part::Band as usize] = shown;
+        self.shown = band;
     }
 
     /// The upper sky's pixels of half-resolution row `j`: the quarter
