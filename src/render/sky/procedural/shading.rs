@@ -484,32 +484,23 @@ impl Row {
         let mut shown = std::mem::take(&mut self.shown);
         self.hidden.clear();
         shown.clear();
-        let keep = |r: Range<usize>, to: &mut Vec<Range<usize>>| match to.last_mut() {
-            Some(last) if last.end == r.start => last.end = r.end,
-            _ => to.push(r),
-        };
+        // The band's runs are maximal (parts lie between them), so the pieces
+        // they leave never touch one another.
         for run in band.drain(..) {
-            let mut start = run.start;
-            let mut k = run.start;
-            while k < run.end {
-                if !self.mask[k] {
-                    k += 1;
-                    continue;
-                }
-                let first = k;
-                while k < run.end && self.mask[k] {
-                    k += 1;
-                }
-                if k - first >= HIDDEN_RUN {
-                    if start < first {
-                        keep(start..first, &mut shown);
+            let (mut start, mut at) = (run.start, run.start);
+            for stretch in self.mask[run.clone()].chunk_by(|a, b| a == b) {
+                let end = at + stretch.len();
+                if stretch[0] && stretch.len() >= HIDDEN_RUN {
+                    if start < at {
+                        shown.push(start..at);
                     }
-                    self.hidden.push(first..k);
-                    start = k;
+                    self.hidden.push(at..end);
+                    start = end;
                 }
+                at = end;
             }
             if start < run.end {
-                keep(start..run.end, &mut shown);
+                shown.push(start..run.end);
             }
         }
         self.runs[Part::Band as usize] = shown;
