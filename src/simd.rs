@@ -126,6 +126,29 @@ pub(crate) fn on_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// `f()` in the build of SIMD `level` (0 the baseline, 1 AVX2, 2 AVX-512;
+/// at most the CPU's widest): for tests that compare a kernel's builds.
+#[cfg(test)]
+pub(crate) fn in_build<R>(level: u8, f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    {
+        assert!(
+            level <= cpu_simd_level(),
+            "this CPU has no SIMD level {level}"
+        );
+        // SAFETY: the CPU runs builds up to `cpu_simd_level` (asserted above).
+        #[allow(unsafe_code)]
+        match level {
+            1 => return unsafe { on_avx2(f) },
+            2 => return unsafe { on_avx512(f) },
+            _ => {}
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    assert_eq!(level, 0, "no SIMD builds off x86-64");
+    f()
+}
+
 #[cfg(test)]
 mod tests {
     use super::cap_of;

@@ -899,17 +899,11 @@ mod tests {
                 let mut layer = ClutterLayer::default();
                 let (camera, offsets) = (&scene.camera, sample_offsets(samples));
                 layer.reset(camera.width, camera.height, samples);
-                let mut f = || paint_shapes(camera, &light, (primitives, offsets), &mut layer);
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: the CPU runs builds up to `cpu_simd_level` (checked by the caller).
-                #[allow(unsafe_code)]
-                match build {
-                    1 => unsafe { crate::simd::on_avx2(f) },
-                    2 => unsafe { crate::simd::on_avx512(f) },
-                    _ => f(),
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                f();
+                crate::simd::in_build(
+                    build,
+                    #[inline(always)]
+                    || paint_shapes(camera, &light, (primitives, offsets), &mut layer),
+                );
                 layer
             };
             let base = paint(0);
@@ -918,6 +912,7 @@ mod tests {
                 "{} pixels",
                 base.covered_pixels()
             );
+            #[cfg(target_arch = "x86_64")]
             for build in 1..=crate::simd::cpu_simd_level() {
                 assert!(paint(build) == base, "build {build}, {samples} samples");
             }

@@ -348,21 +348,11 @@ mod tests {
                 #[cfg(target_arch = "x86_64")]
                 for level in 1..=simd::cpu_simd_level() {
                     let mut out = vec![0u8; len];
-                    // SAFETY: the CPU runs builds up to `cpu_simd_level`.
-                    #[allow(unsafe_code)]
-                    unsafe {
-                        if level == 1 {
-                            simd::on_avx2(
-                                #[inline(always)]
-                                || chain.band(cols, rows, &mut out),
-                            )
-                        } else {
-                            simd::on_avx512(
-                                #[inline(always)]
-                                || chain.band(cols, rows, &mut out),
-                            )
-                        }
-                    };
+                    simd::in_build(
+                        level,
+                        #[inline(always)]
+                        || chain.band(cols, rows, &mut out),
+                    );
                     assert!(out == base, "SIMD level {level}, draw {n}, noisy {noisy}");
                     builds += 1;
                 }
