@@ -17,7 +17,8 @@ use crate::sensor::{self, CameraDraw, PixelRect};
 use super::{FramePipeline, PipelineError, lens, rolling, streaks};
 
 impl FramePipeline {
-    /// The rendered frame through the camera model `draw` (a new buffer),
+    /// The rendered frame through the camera model `draw` (written into
+    /// `rgba`, a recycled buffer whose old bytes never show),
     /// and each measured drone's visibility as the camera shows it: the
     /// pixels where the drone changes the noise-free camera image by at
     /// least one 8-bit level against the drone-free background under the
@@ -29,7 +30,7 @@ impl FramePipeline {
         (background, shutter): (Option<&[u8]>, Option<&rolling::Shutter>),
         scene: &FrameScene,
         draw: &CameraDraw,
-        frame: &RenderedFrame,
+        (frame, mut rgba): (&RenderedFrame, Vec<u8>),
         measured: &mut Option<Vec<Visibility>>,
         sets: &mut Option<Vec<Vec<(u32, u32)>>>,
     ) -> Result<Vec<u8>, PipelineError> {
@@ -113,7 +114,7 @@ impl FramePipeline {
                 *v = camera_visibility(v, changed);
             }
         }
-        let mut rgba = sensor::apply(source, w, h, draw);
+        sensor::apply_into((source, w, h), draw, &mut rgba);
         if let Some(quality) = draw.recompress_quality {
             rgba = crate::write::jpeg_round_trip(&rgba, w, h, quality).map_err(|e| {
                 PipelineError::Camera {

@@ -614,6 +614,8 @@ impl FramePipeline {
             (None, None) => (frame.rgba, frame.painted),
             (Some(draw), None) => {
                 let mut sets = masks.as_ref().map(|_| vec![Vec::new(); n]);
+                // A recycled buffer, not fresh pages, for the camera's picture.
+                let out = renderer.spare_buffer();
                 let background = match &clear {
                     Some(clear) => clear.as_deref(),
                     None => renderer.background_pixels(&frame.painted),
@@ -628,7 +630,7 @@ impl FramePipeline {
                     (background, shutter.as_ref()),
                     &scene,
                     draw,
-                    &frame,
+                    (&frame, out),
                     &mut measured,
                     &mut sets,
                 )?;

@@ -115,13 +115,22 @@ impl Span {
 /// size, alpha kept (rows in bands on rayon's threads; the noise keyed on
 /// absolute pixel indices).
 pub fn apply(rgba: &[u8], width: u32, height: u32, draw: &CameraDraw) -> Vec<u8> {
+    let mut out = Vec::new();
+    apply_into((rgba, width, height), draw, &mut out);
+    out
+}
+
+/// [`apply`] into `out`, resized to the frame: every byte is written, so a
+/// recycled buffer (the renderer's spare) gives the same bytes as a new one
+/// without a new one's fresh pages.
+pub fn apply_into((rgba, width, height): (&[u8], u32, u32), draw: &CameraDraw, out: &mut Vec<u8>) {
     let whole = PixelRect {
         x0: 0,
         y0: 0,
         x1: width,
         y1: height,
     };
-    develop(rgba, width, height, draw, whole, true)
+    develop_into((rgba, width, height), draw, whole, true, out);
 }
 
 /// The pixels of `out` (RGBA8, row by row) of the `width`×`height` frame
@@ -136,6 +145,19 @@ pub fn develop(
     out: PixelRect,
     noisy: bool,
 ) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    develop_into((rgba, width, height), draw, out, noisy, &mut bytes);
+    bytes
+}
+
+/// [`develop`] into `bytes` (resized; every byte written).
+fn develop_into(
+    (rgba, width, height): (&[u8], u32, u32),
+    draw: &CameraDraw,
+    out: PixelRect,
+    noisy: bool,
+    bytes: &mut Vec<u8>,
+) {
     let clamped = PixelRect {
         x0: out.x0.min(width),
         y0: out.y0.min(height),
@@ -144,7 +166,8 @@ pub fn develop(
     };
     let empty = clamped.x0 >= clamped.x1 || clamped.y0 >= clamped.y1;
     if empty || rgba.len() < (width as usize) * (height as usize) * 4 {
-        return Vec::new();
+        bytes.clear();
+        return;
     }
     if draw.sharpen > 0.0 {
         // The image processor's last step reads one pixel around each.
@@ -154,10 +177,12 @@ pub fn develop(
             x1: (clamped.x1 + 1).min(width),
             y1: (clamped.y1 + 1).min(height),
         };
-        let px = sweep::develop(rgba, width, height, draw, grown, noisy);
-        return sharpen::sharpen(&px, grown, clamped, draw.sharpen);
+        let mut px = Vec::new();
+        sweep::develop_into((rgba, width, height), draw, grown, noisy, &mut px);
+        *bytes = sharpen::sharpen(&px, grown, clamped, draw.sharpen);
+        return;
     }
-    sweep::develop(rgba, width, height, draw, clamped, noisy)
+    sweep::develop_into((rgba, width, height), draw, clamped, noisy, bytes);
 }
 
 /// The camera parameters of one frame, drawn from the preset's ranges.

@@ -400,7 +400,7 @@ fn sensor_noise(planes: &mut [Plane; 3], s: Win, sensor_w: u64, draw: &CameraDra
 
 #[cfg(test)]
 pub(super) mod tests {
-    use super::super::{CameraDraw, PixelRect, PsfDraw, apply, draw, sweep};
+    use super::super::{CameraDraw, PixelRect, PsfDraw, apply, apply_into, draw, sweep};
     use super::develop_planes;
 
     fn neutral() -> CameraDraw {
@@ -412,6 +412,29 @@ pub(super) mod tests {
         let (w, h) = (37u32, 11u32);
         let rgba: Vec<u8> = (0..w * h * 4).map(|i| (i * 7 % 256) as u8).collect();
         assert_eq!(apply(&rgba, w, h, &neutral()), rgba);
+    }
+
+    /// A recycled buffer's old bytes never show: the chain written over a
+    /// dirty buffer, shorter or longer than the frame, gives a new buffer's
+    /// bytes for every draw (the sharpening's too).
+    #[test]
+    fn a_recycled_buffer_gives_a_new_ones_bytes() {
+        let (w, h) = (61u32, 29u32);
+        let rgba: Vec<u8> = (0..w * h * 4).map(|i| (i * 13 % 251) as u8).collect();
+        let mut all = draws();
+        all.push(CameraDraw {
+            sharpen: 0.8,
+            ..all[all.len() - 1]
+        });
+        for (n, d) in all.iter().enumerate() {
+            let fresh = apply(&rgba, w, h, d);
+            assert_eq!(fresh.len(), rgba.len(), "draw {n}");
+            for len in [0, fresh.len() / 3, fresh.len(), fresh.len() * 2] {
+                let mut out = vec![0xA5u8; len];
+                apply_into((&rgba, w, h), d, &mut out);
+                assert!(out == fresh, "draw {n}, a dirty buffer of {len} bytes");
+            }
+        }
     }
 
     /// Draws that between them switch every stage on, alone and together,

@@ -74,6 +74,7 @@ fn band_rows(rows: i64, radius: i64) -> i64 {
 
 /// The RGBA8 bytes of window `out` (inside the image, non-empty) of the
 /// `width`×`height` frame `rgba` through `draw`, with or without noise.
+#[cfg(test)]
 pub(super) fn develop(
     rgba: &[u8],
     width: u32,
@@ -82,6 +83,20 @@ pub(super) fn develop(
     out: PixelRect,
     noisy: bool,
 ) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    develop_into((rgba, width, height), draw, out, noisy, &mut bytes);
+    bytes
+}
+
+/// [`develop`] into `bytes`, resized to the window: every byte is written,
+/// so a recycled buffer's old contents never show.
+pub(super) fn develop_into(
+    (rgba, width, height): (&[u8], u32, u32),
+    draw: &CameraDraw,
+    out: PixelRect,
+    noisy: bool,
+    bytes: &mut Vec<u8>,
+) {
     let chain = Chain::new(rgba, width, height, draw, noisy);
     let cols = Span {
         start: i64::from(out.x0),
@@ -89,13 +104,15 @@ pub(super) fn develop(
     };
     let (y0, y1) = (i64::from(out.y0), i64::from(out.y1));
     let ow = cols.len();
-    let mut bytes = vec![0u8; ow * (y1 - y0) as usize * 4];
+    let len = ow * (y1 - y0) as usize * 4;
+    bytes.truncate(len);
+    bytes.resize(len, 0);
     if chain.is_identity() {
         for (r, line) in bytes.chunks_exact_mut(ow * 4).enumerate() {
             let start = ((y0 as usize + r) * width as usize + cols.start as usize) * 4;
             line.copy_from_slice(&rgba[start..start + ow * 4]);
         }
-        return bytes;
+        return;
     }
     let band = band_rows(y1 - y0, chain.kernel.radius());
     bytes
@@ -112,7 +129,6 @@ pub(super) fn develop(
                 || chain.band(cols, rows, out),
             );
         });
-    bytes
 }
 
 impl<'a> Chain<'a> {
