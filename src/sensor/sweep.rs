@@ -105,7 +105,6 @@ pub(super) fn develop_into(
     let (y0, y1) = (i64::from(out.y0), i64::from(out.y1));
     let ow = cols.len();
     let len = ow * (y1 - y0) as usize * 4;
-    bytes.truncate(len);
     bytes.resize(len, 0);
     if chain.is_identity() {
         for (r, line) in bytes.chunks_exact_mut(ow * 4).enumerate() {
