@@ -48,8 +48,15 @@ pub(super) struct BackgroundCache {
     pub(super) rgba: Vec<u8>,
     /// `rgba` before the scenery was composited into it: what `texture`
     /// takes (the region passes draw the scenery themselves); empty when
-    /// the frame has no scenery or the texture holds all of it already.
+    /// the frame has no scenery, the texture holds all of it already, or
+    /// the background is drawn anew frame after frame (see `unkept`).
     plain: Vec<u8>,
+    /// Stale tiles (see `stale`) left without their pixels before the
+    /// scenery: `plain` was not kept, the background being drawn anew frame
+    /// after frame ([`Backgrounds::update`]). A frame that finds this
+    /// background again draws it anew (a camera that stopped moving draws
+    /// its background twice).
+    unkept: bool,
     /// Generation of the cached background (see [`super::Painted`]); 0: none.
     pub(super) generation: u64,
     /// Full-frame readback of the drawn sky.
@@ -117,6 +124,7 @@ impl BackgroundCache {
             key: None,
             rgba: Vec::new(),
             plain: Vec::new(),
+            unkept: false,
             generation: 0,
             readback: Readback::new(device, "background readback", width, height),
             unexposed: None,
@@ -173,6 +181,7 @@ impl BackgroundCache {
     /// contents stale; the next frame draws again).
     pub(super) fn lend(&mut self, replacement: Vec<u8>) -> Vec<u8> {
         self.lent = self.key.take();
+        self.unkept = false;
         self.generation = 0;
         self.stale.clear();
         std::mem::replace(&mut self.rgba, replacement)
@@ -245,15 +254,15 @@ pub(super) struct Backgrounds {
 impl Backgrounds {
     /// Make `cache` hold `scene`'s background (with the scenery layer of key
     /// `scenery`, when the frame has one, composited from `layer`), drawing
-    /// it with `part` only when its key changed.
-    pub(super) fn update(
+    /// it only when its key changed. `under`: the rects the frame's passes
+    /// read it under.
+    pub(super) fn update<'r>(
         &mut self,
         with: &mut BackgroundInputs<'_>,
         cache: &mut BackgroundCache,
-        scene: &FrameScene,
-        uniforms: &FrameUniforms,
-        scenery: Option<u64>,
-        layer: Option<&ClutterLayer>,
+        (scene, uniforms): (&FrameScene, &FrameUniforms),
+        (scenery, layer): (Option<u64>, Option<&ClutterLayer>),
+        under: impl IntoIterator<Item = &'r Rect>,
     ) -> Result<(), RenderError> {
         let size = (cache.width, cache.height);
         // What the background shows, before the camera's exposure and the scenery.
@@ -265,12 +274,14 @@ impl Backgrounds {
         let mut key = base_key.clone();
         key.extend(scenery.iter().flat_map(|k| k.to_le_bytes()));
         key.extend_from_slice(&gain.to_le_bytes());
-        if cache.key.as_ref() == Some(&key) {
+        let found = cache.key.as_ref() == Some(&key);
+        if found && !cache.unkept {
             cache.drawn_in_a_row = 0;
             return Ok(());
         }
         cache.drawn_in_a_row = match cache.lent.take() {
             Some(lent) if lent == key => 0,
+            _ if found => 0,
             _ => cache.drawn_in_a_row.saturating_add(1),
         };
         cache.key = None;
@@ -292,10 +303,16 @@ impl Backgrounds {
         // The texture takes the background without the scenery (the region
         // passes draw the scenery themselves): where it does not hold it
         // yet (stale tiles), from a copy kept for it, uploaded where the
-        // regions need it, not the whole frame.
+        // regions need it, not the whole frame. A background drawn anew
+        // frame after frame (a moving camera's) keeps no copy: what this
+        // frame's regions read is uploaded now, before the scenery.
         cache.plain.clear();
+        cache.unkept = false;
         if let Some(layer) = layer {
-            if !cache.stale.is_empty() {
+            if cache.lendable() {
+                cache.upload_under(with.queue, under);
+                cache.unkept = cache.stale.contains(&true);
+            } else if !cache.stale.is_empty() {
                 cache.plain.extend_from_slice(&cache.rgba);
             }
             scenery::composite(layer, &mut cache.rgba);

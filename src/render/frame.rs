@@ -206,7 +206,8 @@ impl Renderer {
 
     /// A frame in three steps: its plan (CPU only), the encoded passes,
     /// and what they read back collected into pixels and visibility. The
-    /// background comes first, from the cache or drawn anew.
+    /// background, from the cache or drawn anew, comes after the plan,
+    /// whose regions tell where the passes read it.
     fn render_regions(
         &mut self,
         state: &mut RegionState,
@@ -219,20 +220,6 @@ impl Renderer {
         let p = (state.passes).pipelines_for(&self.factory, &self.drones, msaa);
         let t = self.frame_targets(state, width, height, msaa);
         let scenery = scenery::prepare(&mut state.scenery, &self.factory, scene, &uniforms, msaa);
-        if request.color {
-            let layer = (state.scenery.as_ref())
-                .and_then(|g| g.layer())
-                .map(|(_, l)| l);
-            let mut with = BackgroundInputs {
-                factory: &self.factory,
-                queue: &self.queue,
-                frame_group: &self.frame_bind_group,
-                sky: &mut self.sky,
-                plates: &self.plates,
-            };
-            let cache = &mut state.targets[t].background;
-            (state.backgrounds).update(&mut with, cache, scene, &uniforms, scenery, layer)?;
-        }
         let (boxes, rects) = regions::drone_rects(scene, self.drones.geometry());
         let depths = regions::drone_depths(scene, self.drones.geometry());
         let request = PlanRequest {
@@ -252,10 +239,21 @@ impl Renderer {
             FramePlan::new(request, &boxes, &rects, &depths)?
         };
         let under = || plan.passes.iter().flat_map(|p| &p.rects);
-        if plan.request.color {
-            state.targets[t]
-                .background
-                .upload_under(&self.queue, under());
+        if request.color {
+            let layer = (state.scenery.as_ref())
+                .and_then(|g| g.layer())
+                .map(|(_, l)| l);
+            let mut with = BackgroundInputs {
+                factory: &self.factory,
+                queue: &self.queue,
+                frame_group: &self.frame_bind_group,
+                sky: &mut self.sky,
+                plates: &self.plates,
+            };
+            let cache = &mut state.targets[t].background;
+            let frame = (scene, &uniforms);
+            (state.backgrounds).update(&mut with, cache, frame, (scenery, layer), under())?;
+            cache.upload_under(&self.queue, under());
         }
         if let Some(gpu) = state.scenery.as_mut() {
             gpu.upload_under(&self.queue, under());

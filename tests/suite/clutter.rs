@@ -193,6 +193,70 @@ fn cluttered_frames_are_deterministic_and_differ_from_bare_ones() {
     assert!(drawn.poles >= 2 && drawn.primitives.len() > 100);
 }
 
+/// Over a background made on the CPU (a procedural environment) the
+/// texture takes its pixels without the scenery tile by tile, where the
+/// regions read them. While the camera moves (a new background every
+/// frame) no copy without the scenery is kept: each frame's regions are
+/// uploaded before the scenery is drawn in. When the camera stops, the
+/// next frame's regions (other drones, other places) must not be uploaded
+/// from the pixels with the scenery: the background is drawn once more.
+/// Every frame equals the same frame made alone, with or without the
+/// frames taking their backgrounds' pixels.
+#[test]
+fn a_camera_that_stops_after_moving_gets_the_background_without_scenery() {
+    let ctx = common::gpu();
+    let mut p = cluttered();
+    p.placement = Placement::Randomized {
+        count: (12, 12),
+        count_distribution: Default::default(),
+        volume: swarmshot::preset::Volume::Box {
+            size_m: (12.0, 6.0, 8.0),
+        },
+        min_separation_m: 0.7,
+    };
+    p.sky = swarmshot::preset::Sky::Procedural {
+        environment: swarmshot::preset::EnvironmentName::BeautifulPasture,
+        sun_elevation_deg: None,
+        sun_azimuth_deg: None,
+        turbidity: None,
+        cloud_cover: Some(0.6),
+        seed: Some(3),
+        exposure_ev: 0.0,
+        sun_ev: 0.0,
+    };
+    let pipeline = FramePipeline::new(p).expect("preset");
+    let request = RenderRequest {
+        msaa: 4,
+        color: true,
+        visibility: false,
+    };
+    // Frames 0..3 widen the view (a new background each), frames 3..7 keep
+    // it with other drones in other places (each frame's drones under the
+    // camera, sky and scenery of frame 0).
+    let first = pipeline.scene(0).expect("scene");
+    let scene = |index: u64| {
+        let mut scene = pipeline.scene(index).expect("scene");
+        (scene.camera, scene.sky, scene.clutter) =
+            (first.camera.clone(), first.sky.clone(), first.clutter.clone());
+        scene.camera.fov_y_deg += index.min(3) as f64;
+        scene
+    };
+    for lend in [false, true] {
+        let mut renderer = pipeline.renderer(&ctx);
+        renderer.set_lend_backgrounds(lend);
+        for index in 0..7 {
+            let got = renderer.render_frame(&scene(index), &request).expect("render");
+            let alone = (pipeline.renderer(&ctx))
+                .render_frame(&scene(index), &request)
+                .expect("render");
+            assert!(got.rgba == alone.rgba, "frame {index}, lending {lend}");
+            renderer.recycle(got.rgba, got.painted);
+        }
+        // One background a pose, and the stopped camera's once more.
+        assert_eq!(renderer.background_draws(), 5, "lending {lend}");
+    }
+}
+
 #[test]
 fn clutter_off_or_empty_leaves_the_frame_untouched() {
     let ctx = common::gpu();
