@@ -236,8 +236,11 @@ fn a_camera_that_stops_after_moving_gets_the_background_without_scenery() {
     let first = pipeline.scene(0).expect("scene");
     let scene = |index: u64| {
         let mut scene = pipeline.scene(index).expect("scene");
-        (scene.camera, scene.sky, scene.clutter) =
-            (first.camera.clone(), first.sky.clone(), first.clutter.clone());
+        (scene.camera, scene.sky, scene.clutter) = (
+            first.camera.clone(),
+            first.sky.clone(),
+            first.clutter.clone(),
+        );
         scene.camera.fov_y_deg += index.min(3) as f64;
         scene
     };
@@ -245,7 +248,9 @@ fn a_camera_that_stops_after_moving_gets_the_background_without_scenery() {
         let mut renderer = pipeline.renderer(&ctx);
         renderer.set_lend_backgrounds(lend);
         for index in 0..7 {
-            let got = renderer.render_frame(&scene(index), &request).expect("render");
+            let got = renderer
+                .render_frame(&scene(index), &request)
+                .expect("render");
             let alone = (pipeline.renderer(&ctx))
                 .render_frame(&scene(index), &request)
                 .expect("render");
