@@ -108,6 +108,21 @@ pub fn tiny_preset() -> Preset {
     p
 }
 
+/// A procedural environment (the pasture, clouds 0.6, seed 3): a background
+/// the renderer shades on the CPU (lavapipe) and uploads tile by tile.
+pub fn procedural_sky() -> swarmshot::preset::Sky {
+    swarmshot::preset::Sky::Procedural {
+        environment: swarmshot::preset::EnvironmentName::BeautifulPasture,
+        sun_elevation_deg: None,
+        sun_azimuth_deg: None,
+        turbidity: None,
+        cloud_cover: Some(0.6),
+        seed: Some(3),
+        exposure_ev: 0.0,
+        sun_ev: 0.0,
+    }
+}
+
 /// One drone (a 1×1×1 grid) at `camera_z` (the CameraZ sweep value), seen
 /// at 240×160 with MSAA 4 from two camera heights, labelled by its visible box.
 pub fn single_drone_preset(camera_z: f64) -> Preset {

@@ -214,16 +214,7 @@ fn a_camera_that_stops_after_moving_gets_the_background_without_scenery() {
         },
         min_separation_m: 0.7,
     };
-    p.sky = swarmshot::preset::Sky::Procedural {
-        environment: swarmshot::preset::EnvironmentName::BeautifulPasture,
-        sun_elevation_deg: None,
-        sun_azimuth_deg: None,
-        turbidity: None,
-        cloud_cover: Some(0.6),
-        seed: Some(3),
-        exposure_ev: 0.0,
-        sun_ev: 0.0,
-    };
+    p.sky = common::procedural_sky();
     let pipeline = FramePipeline::new(p).expect("preset");
     let request = RenderRequest {
         msaa: 4,
@@ -236,11 +227,7 @@ fn a_camera_that_stops_after_moving_gets_the_background_without_scenery() {
     let first = pipeline.scene(0).expect("scene");
     let scene = |index: u64| {
         let mut scene = pipeline.scene(index).expect("scene");
-        (scene.camera, scene.sky, scene.clutter) = (
-            first.camera.clone(),
-            first.sky.clone(),
-            first.clutter.clone(),
-        );
+        (scene.camera, scene.sky, scene.clutter) = (first.camera, first.sky, first.clutter.clone());
         scene.camera.fov_y_deg += index.min(3) as f64;
         scene
     };

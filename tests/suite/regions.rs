@@ -11,9 +11,7 @@ use crate::common;
 use glam::DVec3;
 use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::sweep::SweepRange;
-use swarmshot::preset::{
-    EnvironmentName, Placement, Preset, Resolution, Sky, SkyImageSource, Volume,
-};
+use swarmshot::preset::{Placement, Preset, Resolution, Sky, SkyImageSource, Volume};
 use swarmshot::render::{RenderRequest, Renderer};
 use swarmshot::scene::FrameScene;
 
@@ -98,19 +96,7 @@ fn regions_equal_full_frames_over_skies_msaa_and_edges() {
     let dir = tempfile::tempdir().expect("tempdir");
     let skies = [
         ("gradient", Preset::default().sky),
-        (
-            "procedural",
-            Sky::Procedural {
-                environment: EnvironmentName::BeautifulPasture,
-                sun_elevation_deg: None,
-                sun_azimuth_deg: None,
-                turbidity: None,
-                cloud_cover: Some(0.6),
-                seed: Some(3),
-                exposure_ev: 0.0,
-                sun_ev: 0.0,
-            },
-        ),
+        ("procedural", common::procedural_sky()),
         ("image", image_sky(dir.path())),
     ];
     let (mut truncated, mut drones) = (0, 0);
