@@ -152,11 +152,7 @@ impl BackgroundCache {
 
     /// Write into the texture the stale tiles (see `stale`) under `rects`,
     /// each row of tiles in runs, from the background without the scenery.
-    pub(super) fn upload_under<'r>(
-        &mut self,
-        queue: &wgpu::Queue,
-        rects: impl IntoIterator<Item = &'r Rect>,
-    ) {
+    fn upload_under<'r>(&mut self, queue: &wgpu::Queue, rects: impl IntoIterator<Item = &'r Rect>) {
         let size = (self.width, self.height);
         let source = if self.plain.is_empty() {
             &self.rgba
@@ -254,8 +250,8 @@ pub(super) struct Backgrounds {
 impl Backgrounds {
     /// Make `cache` hold `scene`'s background (with the scenery layer of key
     /// `scenery`, when the frame has one, composited from `layer`), drawing
-    /// it only when its key changed. `under`: the rects the frame's passes
-    /// read it under.
+    /// it only when its key changed, and the texture hold it under `under`
+    /// (the rects the frame's passes read it under).
     pub(super) fn update<'r>(
         &mut self,
         with: &mut BackgroundInputs<'_>,
@@ -277,6 +273,7 @@ impl Backgrounds {
         let found = cache.key.as_ref() == Some(&key);
         if found && !cache.unkept {
             cache.drawn_in_a_row = 0;
+            cache.upload_under(with.queue, under);
             return Ok(());
         }
         cache.drawn_in_a_row = match cache.lent.take() {
@@ -301,19 +298,21 @@ impl Backgrounds {
             self.draw_exposed(with, cache, scene, uniforms, exposure)?;
         }
         // The texture takes the background without the scenery (the region
-        // passes draw the scenery themselves): where it does not hold it
-        // yet (stale tiles), from a copy kept for it, uploaded where the
-        // regions need it, not the whole frame. A background drawn anew
-        // frame after frame (a moving camera's) keeps no copy: what this
-        // frame's regions read is uploaded now, before the scenery.
+        // passes draw the scenery themselves), only where the regions read
+        // it, not the whole frame: this frame's regions now, before the
+        // scenery; the other stale tiles later, from a copy kept for them. A
+        // background drawn anew frame after frame (a moving camera's) keeps
+        // no copy.
         cache.plain.clear();
+        cache.upload_under(with.queue, under);
         cache.unkept = false;
         if let Some(layer) = layer {
-            if cache.lendable() {
-                cache.upload_under(with.queue, under);
-                cache.unkept = cache.stale.contains(&true);
-            } else if !cache.stale.is_empty() {
-                cache.plain.extend_from_slice(&cache.rgba);
+            if cache.stale.contains(&true) {
+                if cache.lendable() {
+                    cache.unkept = true;
+                } else {
+                    cache.plain.extend_from_slice(&cache.rgba);
+                }
             }
             scenery::composite(layer, &mut cache.rgba);
         }

@@ -253,7 +253,6 @@ impl Renderer {
             let cache = &mut state.targets[t].background;
             let frame = (scene, &uniforms);
             (state.backgrounds).update(&mut with, cache, frame, (scenery, layer), under())?;
-            cache.upload_under(&self.queue, under());
         }
         if let Some(gpu) = state.scenery.as_mut() {
             gpu.upload_under(&self.queue, under());
