@@ -209,8 +209,19 @@ impl SceneryLight {
     }
 }
 
-/// The shape in pixels: a convex polygon and its reversed-Z depth, or `None` when behind the camera.
-fn project(camera: &Camera, shape: &Shape) -> Option<(Vec<DVec2>, f64)> {
+/// A shape's projection: the convex polygon in pixels, and the buffers
+/// clipping a polygon works in, kept from shape to shape (no allocation a
+/// shape).
+#[derive(Default)]
+struct Projected {
+    poly: Vec<DVec2>,
+    cam: Vec<DVec3>,
+    kept: Vec<DVec3>,
+}
+
+/// The shape in pixels into `out.poly` (a convex polygon) and its reversed-Z
+/// depth, or `None` when behind the camera.
+fn project(camera: &Camera, shape: &Shape, out: &mut Projected) -> Option<f64> {
     let z_min = camera.near_m.max(0.05);
     let f = camera.focal_px();
     let c = camera.principal_point();
@@ -248,19 +259,17 @@ fn project(camera: &Camera, shape: &Shape) -> Option<(Vec<DVec2>, f64)> {
             } else {
                 DVec2::X
             };
-            let depth = camera.near_m / pa.z.min(pb.z);
-            Some((
-                vec![ua + n * wa, ub + n * wb, ub - n * wb, ua - n * wa],
-                depth,
-            ))
+            out.poly.clear();
+            out.poly
+                .extend([ua + n * wa, ub + n * wb, ub - n * wb, ua - n * wa]);
+            Some(camera.near_m / pa.z.min(pb.z))
         }
         Shape::Polygon(points) => {
-            let cam: Vec<DVec3> = points
-                .iter()
-                .map(|p| camera.camera_from_world_point(*p))
-                .collect();
+            let Projected { poly, cam, kept } = out;
+            cam.clear();
+            cam.extend(points.iter().map(|p| camera.camera_from_world_point(*p)));
             // Sutherland–Hodgman against z = z_min.
-            let mut kept = Vec::with_capacity(cam.len() + 2);
+            kept.clear();
             for (i, &p) in cam.iter().enumerate() {
                 let q = cam[(i + 1) % cam.len()];
                 if p.z >= z_min {
@@ -274,10 +283,9 @@ fn project(camera: &Camera, shape: &Shape) -> Option<(Vec<DVec2>, f64)> {
                 return None;
             }
             let near_z = kept.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-            Some((
-                kept.into_iter().map(to_px).collect(),
-                camera.near_m / near_z,
-            ))
+            poly.clear();
+            poly.extend(kept.iter().map(|&p| to_px(p)));
+            Some(camera.near_m / near_z)
         }
     }
 }
@@ -329,14 +337,16 @@ fn paint_shapes(
     let mut written = 0u64;
     let mut edges = Vec::new();
     let mut rows = RowSpans::default();
+    let mut projected = Projected::default();
     for p in primitives {
         if written > budget {
             layer.truncated = true;
             break;
         }
-        let Some((poly, depth)) = project(camera, &p.shape) else {
+        let Some(depth) = project(camera, &p.shape, &mut projected) else {
             continue;
         };
+        let poly = &projected.poly;
         let area: f64 = (0..poly.len())
             .map(|i| poly[i].perp_dot(poly[(i + 1) % poly.len()]))
             .sum();
@@ -358,7 +368,7 @@ fn paint_shapes(
         // work is the rows and the pixels covered, not the bounding box.
         // A pixel is painted once with the mask of the samples covering it:
         // the shape's depth and colour are the same for all of them.
-        Edge::of(&poly, &mut edges);
+        Edge::of(poly, &mut edges);
         rows.find(&edges, offsets, (y0, y1));
         let mut spans = [(0usize, 0usize, 0u8); 4];
         for (k, (lefts, rights)) in rows.left.iter().zip(&rows.right).enumerate() {
