@@ -167,9 +167,9 @@ struct RowScratch {
     values: [Vec<f32>; 3],
 }
 
-/// Source rows as planes of linear values, one per colour channel
-/// ([`SourceRows`] converts each row once).
-type Planes<'a> = &'a [Vec<f32>; 3];
+/// A source row as planes of linear values, one per colour channel
+/// ([`SourceRows`] converts each row once, or borrows it).
+type Planes<'a> = [&'a [f32]; 3];
 
 /// One output row: the source rows `a` and `b` (planes) blended with
 /// weight `wy`, then across `columns`, encoded into `line` (RGBA8). The
@@ -284,6 +284,8 @@ fn f16_row_into((bytes, stride): (&[u8], usize), r: usize, out: &mut [f32]) {
 /// only move forward, so the second of one pair is often the first of
 /// the next.
 struct SourceRows {
+    /// Texels a row.
+    width: usize,
     rows: [usize; 2],
     data: [[Vec<f32>; 3]; 2],
     /// A row's half-float texels (RGBA) as converted, before they are split.
@@ -293,14 +295,21 @@ struct SourceRows {
 }
 
 impl SourceRows {
-    fn new(w: usize, gain: f32) -> Self {
-        let planes = || [vec![0.0; w], vec![0.0; w], vec![0.0; w]];
-        Self {
+    /// Rows of `w` texels of `texels`, exposed by `gain`: slots for two
+    /// converted rows unless the rows are borrowed ([`Self::borrowed`]).
+    fn new(w: usize, gain: f32, texels: &Texels<'_>) -> Self {
+        let mut rows = Self {
+            width: w,
             rows: [usize::MAX; 2],
-            data: [planes(), planes()],
-            texels: vec![0.0; w * 4],
+            data: Default::default(),
+            texels: Vec::new(),
             gain,
+        };
+        if rows.borrowed(texels).is_none() {
+            let planes = || [vec![0.0; w], vec![0.0; w], vec![0.0; w]];
+            rows.data = [planes(), planes()];
         }
+        rows
     }
 
     /// Row `r` of `texels` into slot `k`, exposed.
@@ -338,6 +347,7 @@ impl SourceRows {
             };
             return;
         }
+        self.texels.resize(self.width * 4, 0.0);
         f16_row_into((bytes, stride), r, &mut self.texels);
         let [red, green, blue] = &mut self.data[k];
         let planes = red.iter_mut().zip(green.iter_mut()).zip(blue.iter_mut());
@@ -346,8 +356,19 @@ impl SourceRows {
         }
     }
 
-    /// Rows `r0` and `r1` (r0 ≤ r1) of `texels`.
-    fn pair(&mut self, texels: &Texels<'_>, r0: usize, r1: usize) -> (Planes<'_>, Planes<'_>) {
+    /// Rows `r0` and `r1` (r0 ≤ r1) of `texels`: borrowed where they are
+    /// planes already and need no exposure, else converted into the slots.
+    fn pair<'s>(
+        &'s mut self,
+        texels: &Texels<'s>,
+        r0: usize,
+        r1: usize,
+    ) -> (Planes<'s>, Planes<'s>) {
+        if let Some(planes) = self.borrowed(texels) {
+            let w = self.width;
+            let row = |r: usize| planes.each_ref().map(|p| &p[r * w..(r + 1) * w]);
+            return (row(r0), row(r1));
+        }
         if self.rows[0] != r0 {
             if self.rows[1] == r0 {
                 self.rows.swap(0, 1);
@@ -360,7 +381,16 @@ impl SourceRows {
             self.load(texels, 1, r1);
         }
         let [a, b] = &self.data;
-        (a, if r1 == r0 { a } else { b })
+        let b = if r1 == r0 { a } else { b };
+        (a.each_ref().map(|p| &p[..]), b.each_ref().map(|p| &p[..]))
+    }
+
+    /// `texels`' planes when the rows can be read in place (no exposure).
+    fn borrowed<'t>(&self, texels: &Texels<'t>) -> Option<&'t [Vec<f32>; 3]> {
+        match *texels {
+            Texels::Planes(planes) if self.gain == 1.0 => Some(planes),
+            _ => None,
+        }
     }
 }
 
@@ -434,7 +464,7 @@ fn upsample_with(
     let rows = taps(frame.1, size.1, centre.1);
     let stride = frame.0 as usize * 4;
     let band = |(rows, lines): (&[(usize, usize, f32)], &mut [u8])| {
-        let mut source = SourceRows::new(w, gain);
+        let mut source = SourceRows::new(w, gain, &texels);
         let plane = vec![0f32; w];
         let value = vec![0f32; frame.0 as usize];
         let mut scratch = RowScratch {
