@@ -24,6 +24,9 @@ use super::masks::FrameMasks;
 use crate::model::CpuModel;
 use crate::scene::camera::Camera;
 use crate::scene::{DronePose, FrameScene};
+use row::{Row, Setup};
+
+mod row;
 
 /// Under a rolling shutter: the camera and drone d's pose at image row y's
 /// time (`None`: the drone is not known then).
@@ -282,6 +285,7 @@ impl Tile {
         // Camera-frame vertices and their pixel positions (the camera's
         // `project_camera_point`, its focal length worked out once, not per vertex).
         let (f, c) = (cam.focal_px(), cam.principal_point());
+        let simd = crate::simd::avx2();
         points.clear();
         points.extend(mesh.positions.iter().map(|&v| {
             let local = v * drone.size_m;
@@ -300,7 +304,7 @@ impl Tile {
             };
             // Most triangles of a small drone hold no pixel centre: done before any sum.
             if let Some(box_) = pixel_box([a, b, c], (x0, y0, x1, y1)) {
-                self.triangle([(a.pixel, a.z), (b.pixel, b.z), (c.pixel, c.z)], box_);
+                self.triangle([(a.pixel, a.z), (b.pixel, b.z), (c.pixel, c.z)], box_, simd);
             }
         }
     }
@@ -309,7 +313,8 @@ impl Tile {
     /// (either winding) among the pixels `box_` (x0, y0, x1, y1; exclusive
     /// ends; those whose centres its bounding box holds, within the tile);
     /// 1/z is linear in screen space.
-    fn triangle(&mut self, v: [(DVec2, f64); 3], box_: (u32, u32, u32, u32)) {
+    /// Its rows in AVX2 registers where `simd` (the CPU has AVX2; the same bits).
+    fn triangle(&mut self, v: [(DVec2, f64); 3], box_: (u32, u32, u32, u32), simd: bool) {
         let [(a, za), (b, zb), (c, zc)] = v;
         let (px0, py0, px1, py1) = box_;
         let area = (b - a).perp_dot(c - a);
@@ -324,43 +329,34 @@ impl Tile {
         // weights are ≥ 0 and sum to 1 within a few ulps; the margin is far
         // wider), so a pixel already as near as that keeps its depth unread.
         let nearest = za.min(zb).min(zc) * (1.0 - 1e-9);
+        let setup = Setup {
+            a,
+            b,
+            c,
+            z: [za, zb, zc],
+            area,
+            nearest,
+        };
         for py in py0..py1 {
             let cy = f64::from(py) + 0.5;
-            let (sx0, sx1) = if spans {
+            let columns = if spans {
                 row_span([a, b, c], cy, (px0, px1))
             } else {
                 (px0, px1)
             };
-            let row = ((py - self.y0) * self.w) as usize;
-            for px in sx0..sx1 {
-                let at = row + (px - self.x0) as usize;
-                if nearest >= self.z[at] {
-                    continue;
-                }
-                let p = DVec2::new(f64::from(px) + 0.5, cy);
-                let (na, nb) = ((c - b).perp_dot(p - b), (a - c).perp_dot(p - c));
-                // The weights na / area and nb / area below 0 told by the
-                // signs, before dividing: the centres a span's margin holds
-                // outside the triangle skip the divisions. (Not a bit moves:
-                // the corners are pixel positions, so a non-zero na or nb
-                // is far above the quotient's underflow.)
-                if (na < 0.0 && area > 0.0) || (na > 0.0 && area < 0.0) {
-                    continue;
-                }
-                if (nb < 0.0 && area > 0.0) || (nb > 0.0 && area < 0.0) {
-                    continue;
-                }
-                let wa = na / area;
-                let wb = nb / area;
-                let wc = 1.0 - wa - wb;
-                if wa < 0.0 || wb < 0.0 || wc < 0.0 {
-                    continue;
-                }
-                let z = 1.0 / (wa / za + wb / zb + wc / zc);
-                if z < self.z[at] {
-                    self.z[at] = z;
-                }
-            }
+            let at = ((py - self.y0) * self.w) as usize;
+            let depths = &mut self.z[at..at + self.w as usize];
+            let x0 = self.x0;
+            row::walk_with(
+                &setup,
+                Row {
+                    depths,
+                    cy,
+                    x0,
+                    columns,
+                },
+                simd,
+            );
         }
     }
 
@@ -593,10 +589,15 @@ mod tests {
     impl Tile {
         /// Draw one triangle as [`Tile::raster`] does.
         fn draw(&mut self, v: [(DVec2, f64); 3]) {
+            self.draw_with(v, crate::simd::avx2());
+        }
+
+        /// [`Self::draw`], its rows in AVX2 registers where `simd`.
+        fn draw_with(&mut self, v: [(DVec2, f64); 3], simd: bool) {
             let (x0, y0) = (self.x0 as i32, self.y0 as i32);
             let rect = (x0, y0, x0 + self.w as i32, y0 + self.h as i32);
             if let Some(box_) = pixel_box(v.map(|(p, z)| Point::new(p, z)), rect) {
-                self.triangle(v, box_);
+                self.triangle(v, box_, simd);
             }
         }
     }
@@ -676,6 +677,8 @@ mod tests {
             z: vec![f64::INFINITY; (w * h) as usize],
         };
         let (mut fast, mut slow) = (tile(61, 47), tile(61, 47));
+        // The rows one centre at a time, and in AVX2 registers where the CPU has them.
+        let mut scalar = tile(61, 47);
         let mut covered = 0;
         for k in 0..3000 {
             let scale = [0.7, 4.0, 30.0, 90.0][k % 4];
@@ -690,14 +693,12 @@ mod tests {
             };
             let v = [corner(), corner(), corner()];
             fast.draw(v);
+            scalar.draw_with(v, false);
             whole_box(&mut slow, v);
-            assert!(
-                fast.z
-                    .iter()
-                    .zip(&slow.z)
-                    .all(|(f, s)| f.to_bits() == s.to_bits()),
-                "triangle {k}: {v:?}"
-            );
+            let same =
+                |t: &Tile| (t.z.iter().zip(&slow.z)).all(|(f, s)| f.to_bits() == s.to_bits());
+            assert!(same(&fast), "triangle {k}: {v:?}");
+            assert!(same(&scalar), "triangle {k}, one centre at a time: {v:?}");
             covered = fast.z.iter().filter(|z| z.is_finite()).count();
         }
         assert!(covered > 2000, "the triangles cover the tile: {covered}");
