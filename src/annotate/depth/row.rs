@@ -107,34 +107,14 @@ fn walk_avx2(t: &Setup, row: Row<'_>) {
         _mm256_set_epi64x, _mm256_set_pd, _mm256_set1_epi64x, _mm256_set1_pd, _mm256_setzero_pd,
         _mm256_sub_pd,
     };
-    let Setup {
-        a,
-        b,
-        c,
-        z: [za, zb, zc],
-        area,
-        nearest,
-    } = *t;
-    let Row {
-        depths,
-        cy,
-        x0,
-        columns: (sx0, sx1),
-    } = row;
+    let (sx0, sx1) = row.columns;
     let n = sx1.saturating_sub(sx0) as usize;
-    let first = sx0.wrapping_sub(x0) as usize;
-    if n == 0 || first + n > depths.len() {
-        walk(
-            t,
-            Row {
-                depths,
-                cy,
-                x0,
-                columns: (sx0, sx1),
-            },
-        );
-        return;
+    let first = sx0.wrapping_sub(row.x0) as usize;
+    if n == 0 || first + n > row.depths.len() {
+        return walk(t, row);
     }
+    let (Setup { a, b, c, .. }, [za, zb, zc]) = (*t, t.z);
+    let (area, nearest, cy, depths) = (t.area, t.nearest, row.cy, row.depths);
     // The products that do not move along the row: (c − b).x · (p − b).y
     // and (a − c).x · (p − c).y, the same values `perp_dot` forms.
     let (cb, ac) = (c - b, a - c);
