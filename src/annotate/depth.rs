@@ -339,21 +339,20 @@ impl Tile {
         };
         for py in py0..py1 {
             let cy = f64::from(py) + 0.5;
-            let columns = if spans {
+            let (sx0, sx1) = if spans {
                 row_span([a, b, c], cy, (px0, px1))
             } else {
                 (px0, px1)
             };
-            let at = ((py - self.y0) * self.w) as usize;
-            let depths = &mut self.z[at..at + self.w as usize];
-            let x0 = self.x0;
+            let start = ((py - self.y0) * self.w) as usize;
+            let (from, to) = ((sx0 - self.x0) as usize, (sx1 - self.x0) as usize);
+            let depths = &mut self.z[start + from..start + to];
             row::walk_with(
                 &setup,
                 Row {
                     depths,
                     cy,
-                    x0,
-                    columns,
+                    first: sx0,
                 },
                 simd,
             );

@@ -20,13 +20,12 @@ pub(super) struct Setup {
     pub nearest: f64,
 }
 
-/// The centres `columns` (start, end; the tile's columns from `x0`) of
-/// the row whose centres lie at y = `cy`, `depths` that row of the tile.
+/// The centres of a row to walk: those at y = `cy` of the columns from
+/// `first` on, `depths` their depths in the tile (one a column).
 pub(super) struct Row<'a> {
     pub depths: &'a mut [f64],
     pub cy: f64,
-    pub x0: u32,
-    pub columns: (u32, u32),
+    pub first: u32,
 }
 
 /// [`walk`] in AVX2 registers where `simd` (the CPU has AVX2).
@@ -57,15 +56,9 @@ pub(super) fn walk(t: &Setup, row: Row<'_>) {
         area,
         nearest,
     } = *t;
-    let Row {
-        depths,
-        cy,
-        x0,
-        columns: (sx0, sx1),
-    } = row;
-    for px in sx0..sx1 {
-        let at = (px - x0) as usize;
-        if nearest >= depths[at] {
+    let Row { depths, cy, first } = row;
+    for (px, depth) in (first..).zip(depths.iter_mut()) {
+        if nearest >= *depth {
             continue;
         }
         let p = DVec2::new(f64::from(px) + 0.5, cy);
@@ -88,8 +81,8 @@ pub(super) fn walk(t: &Setup, row: Row<'_>) {
             continue;
         }
         let z = 1.0 / (wa / za + wb / zb + wc / zc);
-        if z < depths[at] {
-            depths[at] = z;
+        if z < *depth {
+            *depth = z;
         }
     }
 }
@@ -107,14 +100,10 @@ fn walk_avx2(t: &Setup, row: Row<'_>) {
         _mm256_set_epi64x, _mm256_set_pd, _mm256_set1_epi64x, _mm256_set1_pd, _mm256_setzero_pd,
         _mm256_sub_pd,
     };
-    let (sx0, sx1) = row.columns;
-    let n = sx1.saturating_sub(sx0) as usize;
-    let first = sx0.wrapping_sub(row.x0) as usize;
-    if n == 0 || first + n > row.depths.len() {
-        return walk(t, row);
-    }
     let (Setup { a, b, c, .. }, [za, zb, zc]) = (*t, t.z);
-    let (area, nearest, cy, depths) = (t.area, t.nearest, row.cy, row.depths);
+    let (area, nearest) = (t.area, t.nearest);
+    let Row { depths, cy, first } = row;
+    let n = depths.len();
     // The products that do not move along the row: (c − b).x · (p − b).y
     // and (a − c).x · (p − c).y, the same values `perp_dot` forms.
     let (cb, ac) = (c - b, a - c);
@@ -127,11 +116,11 @@ fn walk_avx2(t: &Setup, row: Row<'_>) {
     for k in (0..n).step_by(4) {
         // SAFETY: lanes past the row's end are masked off in the load and
         // the store (a masked lane is neither read nor written); the first
-        // lane lies inside `depths` (checked above).
+        // lane lies inside `depths` (k < n).
         #[allow(unsafe_code)]
         unsafe {
             let live = _mm256_cmpgt_epi64(_mm256_set1_epi64x((n - k) as i64), lane_index);
-            let at = depths.as_mut_ptr().add(first + k);
+            let at = depths.as_mut_ptr().add(k);
             let old = _mm256_maskload_pd(at, live);
             // Lanes whose depth is not already as near as the triangle gets.
             let open = _mm256_andnot_pd(
@@ -141,8 +130,8 @@ fn walk_avx2(t: &Setup, row: Row<'_>) {
             if _mm256_movemask_pd(open) == 0 {
                 continue;
             }
-            // f64::from(px) + 0.5, px = sx0 + k + lane: whole numbers, exact.
-            let px = _mm256_add_pd(splat(f64::from(sx0) + k as f64), steps);
+            // f64::from(px) + 0.5, px = first + k + lane: whole numbers, exact.
+            let px = _mm256_add_pd(splat(f64::from(first) + k as f64), steps);
             let x = _mm256_add_pd(px, splat(0.5));
             let na = _mm256_sub_pd(
                 splat(fixed_a),
