@@ -36,11 +36,14 @@ pub type RowPose<'a> = dyn Fn(usize, u32) -> Option<(Camera, DronePose)> + 'a;
 /// raster: the same triangles, corners in the same order, as the model's
 /// index list (an index past its vertices stays past these positions), so
 /// the raster gives the bits the model's own vertices give. quad_x: 1 848
-/// vertices at 424 positions.
+/// vertices at 424 positions. Each triangle keeps whether its material is
+/// double-sided: the raster culls the back faces of the others, as the
+/// renderer does (glTF; src/render/mesh.rs).
 #[derive(Clone, Debug, Default)]
 pub struct DepthMesh {
     positions: Vec<DVec3>,
     triangles: Vec<[u32; 3]>,
+    double_sided: Vec<bool>,
 }
 
 impl DepthMesh {
@@ -59,9 +62,18 @@ impl DepthMesh {
         let triangles = (model.indices.chunks_exact(3))
             .map(|t| [corner(t[0]), corner(t[1]), corner(t[2])])
             .collect();
+        // A triangle is double-sided when the draw range holding its first
+        // index is (none holds it: single-sided, the glTF default).
+        let double_sided = (0..model.indices.len() / 3)
+            .map(|t| {
+                let first = (3 * t) as u32;
+                (model.draws.iter()).any(|d| d.double_sided && d.indices.contains(&first))
+            })
+            .collect();
         Self {
             positions,
             triangles,
+            double_sided,
         }
     }
 }
@@ -256,6 +268,15 @@ fn pixel_box(v: [Point; 3], rect: (i32, i32, i32, i32)) -> Option<(u32, u32, u32
     (px0 < px1 && py0 < py1).then_some((px0 as u32, py0 as u32, px1 as u32, py1 as u32))
 }
 
+/// Whether a triangle on screen (pixel y down) turns its back to the
+/// camera: clockwise as the viewer sees it, the face the renderer culls
+/// (front faces counter-clockwise, `wgpu::FrontFace::Ccw`), as the impostor
+/// baker tells it (src/model/impostor.rs). Edge-on triangles are not
+/// culled here (they cover no centre).
+fn back_facing([a, b, c]: [DVec2; 3]) -> bool {
+    (b - a).perp_dot(c - a) > 0.0
+}
+
 /// The fewest box columns for which a triangle's rows are walked within
 /// their spans ([`row_span`]) rather than whole: below it, working out the
 /// span costs more than the centres it skips (the quickstart's depth maps
@@ -296,16 +317,20 @@ impl Tile {
         let (x0, y0) = (self.x0 as i32, rows.0.max(self.y0) as i32);
         let x1 = x0 + self.w as i32;
         let y1 = (rows.1.min(self.y0 + self.h) as i32).max(y0);
-        for tri in &mesh.triangles {
+        for (tri, &both) in mesh.triangles.iter().zip(&mesh.double_sided) {
             let corner = |i: u32| points.get(i as usize).copied().flatten();
             let (Some(a), Some(b), Some(c)) = (corner(tri[0]), corner(tri[1]), corner(tri[2]))
             else {
                 continue;
             };
             // Most triangles of a small drone hold no pixel centre: done before any sum.
-            if let Some(box_) = pixel_box([a, b, c], (x0, y0, x1, y1)) {
-                self.triangle([(a.pixel, a.z), (b.pixel, b.z), (c.pixel, c.z)], box_, simd);
+            let Some(box_) = pixel_box([a, b, c], (x0, y0, x1, y1)) else {
+                continue;
+            };
+            if !both && back_facing([a.pixel, b.pixel, c.pixel]) {
+                continue;
             }
+            self.triangle([(a.pixel, a.z), (b.pixel, b.z), (c.pixel, c.z)], box_, simd);
         }
     }
 
@@ -410,8 +435,9 @@ mod tests {
     }
 
     /// The code before the nearest-first order, the sign tests and the
-    /// shared buffers (commit 794ea63), verbatim but for names: the reference.
-    /// It fills the same `Tile` (whose `at` did not change) with the old raster.
+    /// shared buffers (commit 794ea63), verbatim but for names and the
+    /// renderer's culling of single-sided back faces: the reference. It
+    /// fills the same `Tile` (whose `at` did not change) with the old raster.
     mod before {
         use crate::annotate::masks::FrameMasks;
         use crate::model::CpuModel;
@@ -517,12 +543,18 @@ mod tests {
                         .then(|| (DVec2::new(f * p.x / p.z + c.x, f * p.y / p.z + c.y), p.z))
                 })
                 .collect();
-            for tri in model.indices.chunks_exact(3) {
+            for (t, tri) in model.indices.chunks_exact(3).enumerate() {
                 let corner = |i: u32| points.get(i as usize).copied().flatten();
                 if let (Some(a), Some(b), Some(c)) =
                     (corner(tri[0]), corner(tri[1]), corner(tri[2]))
                 {
-                    triangle(&mut tile, [a, b, c]);
+                    // Added to that code: the renderer's culling of single-sided back faces.
+                    let first = 3 * t as u32;
+                    let both =
+                        (model.draws.iter()).any(|d| d.double_sided && d.indices.contains(&first));
+                    if both || (b.0 - a.0).perp_dot(c.0 - a.0) <= 0.0 {
+                        triangle(&mut tile, [a, b, c]);
+                    }
                 }
             }
             tile
@@ -665,6 +697,118 @@ mod tests {
     }
 
     #[test]
+    fn culling_keeps_the_depth_of_closed_meshes_and_drops_back_faces() {
+        // The builtin drones are closed: a ray meets a front face before any
+        // back face, so culling the back faces keeps the depth of all but a
+        // few silhouette centres (where rounding puts a centre in a back face
+        // and out of the front faces beside it). Culling the front faces
+        // instead would give the far side's depth almost everywhere.
+        use crate::pipeline::FramePipeline;
+        use crate::preset::Preset;
+        let preset =
+            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
+        let pipeline = FramePipeline::new(preset).expect("pipeline");
+        let assets = pipeline.assets();
+        let culled: Vec<DepthMesh> = assets.models.iter().map(DepthMesh::new).collect();
+        assert!(culled.iter().all(|m| m.double_sided.iter().all(|&d| !d)));
+        let both: Vec<DepthMesh> = (culled.iter())
+            .map(|m| DepthMesh {
+                double_sided: vec![true; m.triangles.len()],
+                ..m.clone()
+            })
+            .collect();
+        let (mut pixels, mut same) = (0, 0);
+        for index in (0..pipeline.frame_count()).step_by(9) {
+            let scene = pipeline.scene(index).expect("scene");
+            let cam = &scene.camera;
+            let sets: Vec<Vec<(u32, u32)>> = (scene.drones.iter())
+                .map(|d| {
+                    let Some(b) = crate::annotate::amodal_box(cam, d, &assets.geometry[d.model])
+                    else {
+                        return Vec::new();
+                    };
+                    let b = b.clip(f64::from(cam.width), f64::from(cam.height));
+                    let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
+                    let (x1, y1) = (b.x1.ceil() as u32, b.y1.ceil() as u32);
+                    (y0..y1)
+                        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                        .collect()
+                })
+                .collect();
+            let masks = FrameMasks::from_sets(cam.width, cam.height, &sets);
+            let a = depth_m_of_meshes(&scene, &culled, &masks);
+            let b = depth_m_of_meshes(&scene, &both, &masks);
+            pixels += a.len();
+            same += a
+                .iter()
+                .zip(&b)
+                .filter(|(a, b)| a.to_bits() == b.to_bits())
+                .count();
+        }
+        assert!(pixels > 50_000, "{pixels} pixels");
+        let share = same as f64 / pixels as f64;
+        eprintln!("culled depth = both sides' at {same} of {pixels} pixels");
+        assert!(share > 0.999, "{same} of {pixels}");
+    }
+
+    #[test]
+    fn single_sided_back_faces_are_culled_and_double_sided_ones_kept() {
+        // A plate turned 30° about y (its depth varies across the frame),
+        // wound front-on (counter-clockwise as the camera sees it) or back-on.
+        use crate::pipeline::FramePipeline;
+        use crate::preset::Preset;
+        use crate::scene::camera::Camera;
+        use glam::{DMat3, DQuat};
+        let preset =
+            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
+        let mut scene = (FramePipeline::new(preset).expect("pipeline"))
+            .scene(0)
+            .expect("scene");
+        scene.camera = Camera {
+            width: 160,
+            height: 120,
+            fov_y_deg: 60.0,
+            position: DVec3::ZERO,
+            camera_from_world: DMat3::IDENTITY,
+            near_m: 0.01,
+        };
+        let mut plate = scene.drones[0].clone();
+        (plate.model, plate.position, plate.size_m) = (0, DVec3::new(0.0, 0.0, 10.0), 3.0);
+        plate.rotation = DQuat::from_rotation_y(30f64.to_radians());
+        scene.drones = vec![plate];
+        let positions: Vec<DVec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(x, y)| DVec3::new(x, y, 0.0))
+            .to_vec();
+        // Camera y points down: (-1,-1) → (1,-1) → (1,1) turns clockwise on screen.
+        let back = vec![[0, 1, 2], [0, 2, 3]];
+        let front = vec![[0, 2, 1], [0, 3, 2]];
+        let mesh = |triangles: Vec<[u32; 3]>, both: bool| DepthMesh {
+            positions: positions.clone(),
+            double_sided: vec![both; triangles.len()],
+            triangles,
+        };
+        let set: Vec<(u32, u32)> = (50..70)
+            .flat_map(|y| (70..90).map(move |x| (x, y)))
+            .collect();
+        let masks = FrameMasks::from_sets(160, 120, &[set]);
+        let depth = |m: DepthMesh| depth_m_of_meshes(&scene, &[m], &masks);
+        let surface = depth(mesh(front.clone(), false));
+        let spread = |d: &[f64]| {
+            let (lo, hi) = d
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(l, h), &z| (l.min(z), h.max(z)));
+            hi - lo
+        };
+        assert!(spread(&surface) > 0.1, "the turned plate's depth varies");
+        assert_eq!(depth(mesh(front, true)), surface);
+        // The other winding: the same surface, rounded in its corners' order.
+        let near = |a: &[f64]| a.iter().zip(&surface).all(|(a, b)| (a - b).abs() < 1e-9);
+        assert!(near(&depth(mesh(back.clone(), true))));
+        // Culled: every pixel falls back to the drone's centre.
+        assert!(depth(mesh(back, false)).iter().all(|&z| z == 10.0));
+    }
+
+    #[test]
     fn row_spans_give_the_bits_of_the_whole_box_walk() {
         // Random triangles (thin, large, tiny, on pixel centres, off the tile) on one tile.
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(22);
@@ -770,6 +914,7 @@ mod tests {
                 .map(|(x, y)| DVec3::new(x, y, 0.0))
                 .to_vec(),
             triangles: vec![[0, 1, 2], [0, 2, 3]],
+            double_sided: vec![true; 2],
         };
         let sets = vec![
             (40..80)
