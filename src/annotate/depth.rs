@@ -633,41 +633,53 @@ mod tests {
         }
     }
 
+    /// The quickstart's pipeline (1–15 drones a frame, at many distances).
+    fn quickstart() -> crate::pipeline::FramePipeline {
+        let preset = crate::preset::Preset::from_ron(include_str!("../../presets/quickstart.ron"))
+            .expect("quickstart");
+        crate::pipeline::FramePipeline::new(preset).expect("pipeline")
+    }
+
+    /// Each drone's mask as its whole amodal box; with `off_box`, one pixel
+    /// two off the box as well (neither covered nor next to a covered one).
+    fn box_sets(
+        scene: &FrameScene,
+        assets: &crate::pipeline::Assets,
+        off_box: bool,
+    ) -> Vec<Vec<(u32, u32)>> {
+        let cam = &scene.camera;
+        (scene.drones.iter())
+            .map(|d| {
+                let Some(b) = crate::annotate::amodal_box(cam, d, &assets.geometry[d.model]) else {
+                    return Vec::new();
+                };
+                let b = b.clip(f64::from(cam.width), f64::from(cam.height));
+                let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
+                let (x1, y1) = (b.x1.ceil() as u32, b.y1.ceil() as u32);
+                let mut set: Vec<(u32, u32)> = (y0..y1)
+                    .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+                    .collect();
+                if off_box && x1 + 2 < cam.width {
+                    set.push((x1 + 1, y0));
+                }
+                set
+            })
+            .collect()
+    }
+
     #[test]
     fn depth_maps_have_the_bits_of_the_code_before() {
         // Quickstart scenes (1–15 drones, some a few pixels across, some hundreds)
         // with each drone's mask its whole amodal box and a few pixels off it,
         // so the covered centres, the 8-neighbour fallback and the drone's
         // centre all occur; drones overlap, so the instance image splits them.
-        use crate::pipeline::FramePipeline;
-        use crate::preset::Preset;
-        let preset =
-            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
-        let pipeline = FramePipeline::new(preset).expect("pipeline");
+        let pipeline = quickstart();
         let assets = pipeline.assets();
         let (mut pixels, mut surface, mut centre) = (0, 0, 0);
         for index in (0..pipeline.frame_count()).step_by(5) {
             let scene = pipeline.scene(index).expect("scene");
             let cam = &scene.camera;
-            let sets: Vec<Vec<(u32, u32)>> = (scene.drones.iter())
-                .map(|d| {
-                    let Some(b) = crate::annotate::amodal_box(cam, d, &assets.geometry[d.model])
-                    else {
-                        return Vec::new();
-                    };
-                    let b = b.clip(f64::from(cam.width), f64::from(cam.height));
-                    let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
-                    let (x1, y1) = (b.x1.ceil() as u32, b.y1.ceil() as u32);
-                    let mut set: Vec<(u32, u32)> = (y0..y1)
-                        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-                        .collect();
-                    // A pixel two off the box: neither covered nor next to a covered one.
-                    if x1 + 2 < cam.width {
-                        set.push((x1 + 1, y0));
-                    }
-                    set
-                })
-                .collect();
+            let sets = box_sets(&scene, assets, true);
             let mut masks = FrameMasks::from_sets(cam.width, cam.height, &sets);
             let new = depth_m(&scene, &assets.models, &masks);
             let old = before::depth_m(&scene, &assets.models, &masks);
@@ -703,11 +715,7 @@ mod tests {
         // few silhouette centres (where rounding puts a centre in a back face
         // and out of the front faces beside it). Culling the front faces
         // instead would give the far side's depth almost everywhere.
-        use crate::pipeline::FramePipeline;
-        use crate::preset::Preset;
-        let preset =
-            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
-        let pipeline = FramePipeline::new(preset).expect("pipeline");
+        let pipeline = quickstart();
         let assets = pipeline.assets();
         let culled: Vec<DepthMesh> = assets.models.iter().map(DepthMesh::new).collect();
         assert!(culled.iter().all(|m| m.double_sided.iter().all(|&d| !d)));
@@ -721,20 +729,7 @@ mod tests {
         for index in (0..pipeline.frame_count()).step_by(9) {
             let scene = pipeline.scene(index).expect("scene");
             let cam = &scene.camera;
-            let sets: Vec<Vec<(u32, u32)>> = (scene.drones.iter())
-                .map(|d| {
-                    let Some(b) = crate::annotate::amodal_box(cam, d, &assets.geometry[d.model])
-                    else {
-                        return Vec::new();
-                    };
-                    let b = b.clip(f64::from(cam.width), f64::from(cam.height));
-                    let (x0, y0) = (b.x0.floor() as u32, b.y0.floor() as u32);
-                    let (x1, y1) = (b.x1.ceil() as u32, b.y1.ceil() as u32);
-                    (y0..y1)
-                        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-                        .collect()
-                })
-                .collect();
+            let sets = box_sets(&scene, assets, false);
             let masks = FrameMasks::from_sets(cam.width, cam.height, &sets);
             let a = depth_m_of_meshes(&scene, &culled, &masks);
             let b = depth_m_of_meshes(&scene, &both, &masks);
@@ -751,34 +746,42 @@ mod tests {
         assert!(share > 0.999, "{same} of {pixels}");
     }
 
-    #[test]
-    fn single_sided_back_faces_are_culled_and_double_sided_ones_kept() {
-        // A plate turned 30° about y (its depth varies across the frame),
-        // wound front-on (counter-clockwise as the camera sees it) or back-on.
-        use crate::pipeline::FramePipeline;
-        use crate::preset::Preset;
+    /// A quickstart scene seen by a 160×120 camera at the origin looking
+    /// down +z, its one drone (model 0, size 3 m) 10 m ahead, unturned.
+    fn plate_scene() -> (FrameScene, DronePose) {
         use crate::scene::camera::Camera;
-        use glam::{DMat3, DQuat};
-        let preset =
-            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
-        let mut scene = (FramePipeline::new(preset).expect("pipeline"))
-            .scene(0)
-            .expect("scene");
+        let mut scene = quickstart().scene(0).expect("scene");
         scene.camera = Camera {
             width: 160,
             height: 120,
             fov_y_deg: 60.0,
             position: DVec3::ZERO,
-            camera_from_world: DMat3::IDENTITY,
+            camera_from_world: glam::DMat3::IDENTITY,
             near_m: 0.01,
         };
         let mut plate = scene.drones[0].clone();
-        (plate.model, plate.position, plate.size_m) = (0, DVec3::new(0.0, 0.0, 10.0), 3.0);
+        (plate.model, plate.position, plate.rotation, plate.size_m) =
+            (0, DVec3::new(0.0, 0.0, 10.0), glam::DQuat::IDENTITY, 3.0);
+        scene.drones = vec![plate.clone()];
+        (scene, plate)
+    }
+
+    /// A square plate's corners in its model's plane z = 0.
+    fn plate_corners() -> Vec<DVec3> {
+        [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(x, y)| DVec3::new(x, y, 0.0))
+            .to_vec()
+    }
+
+    #[test]
+    fn single_sided_back_faces_are_culled_and_double_sided_ones_kept() {
+        // A plate turned 30° about y (its depth varies across the frame),
+        // wound front-on (counter-clockwise as the camera sees it) or back-on.
+        use glam::DQuat;
+        let (mut scene, mut plate) = plate_scene();
         plate.rotation = DQuat::from_rotation_y(30f64.to_radians());
         scene.drones = vec![plate];
-        let positions: Vec<DVec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-            .map(|(x, y)| DVec3::new(x, y, 0.0))
-            .to_vec();
+        let positions = plate_corners();
         // Camera y points down: (-1,-1) → (1,-1) → (1,1) turns clockwise on screen.
         let back = vec![[0, 1, 2], [0, 2, 3]];
         let front = vec![[0, 2, 1], [0, 3, 2]];
@@ -887,32 +890,9 @@ mod tests {
         // A 6 m plate facing the camera (over the whole mask), receding 1 cm per row's time: every
         // covered pixel of row y is 10 + 0.01·y m away. With each row at
         // the frame's own pose, the global map's bits.
-        use crate::pipeline::FramePipeline;
-        use crate::preset::Preset;
-        use crate::scene::camera::Camera;
-        use glam::{DMat3, DQuat};
-        let preset =
-            Preset::from_ron(include_str!("../../presets/quickstart.ron")).expect("quickstart");
-        let mut scene = FramePipeline::new(preset)
-            .expect("pipeline")
-            .scene(0)
-            .expect("scene");
-        scene.camera = Camera {
-            width: 160,
-            height: 120,
-            fov_y_deg: 60.0,
-            position: DVec3::ZERO,
-            camera_from_world: DMat3::IDENTITY,
-            near_m: 0.01,
-        };
-        let mut plate = scene.drones[0].clone();
-        (plate.model, plate.position, plate.rotation, plate.size_m) =
-            (0, DVec3::new(0.0, 0.0, 10.0), DQuat::IDENTITY, 3.0);
-        scene.drones = vec![plate.clone()];
+        let (scene, plate) = plate_scene();
         let mesh = DepthMesh {
-            positions: [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                .map(|(x, y)| DVec3::new(x, y, 0.0))
-                .to_vec(),
+            positions: plate_corners(),
             triangles: vec![[0, 1, 2], [0, 2, 3]],
             double_sided: vec![true; 2],
         };
