@@ -5,8 +5,8 @@
 //! one literal and distance-1 copies of up to 258 bytes, each run of a
 //! pixel value repeated along a row (a drone's span in the instance image)
 //! its first pixel and distance-2 copies (one fixed-Huffman DEFLATE block,
-//! RFC 1951 §3.2.6), the Adler-32 of a zero run in closed form. A library encoder (the `png` crate, any compression level) has to
-//! walk all 4 MB of a 1080p frame: about 6–9 ms, against well under 1 ms
+//! RFC 1951 §3.2.6), the Adler-32 of a zero run in closed form. A library
+//! encoder (the `png` crate, any compression level) has to walk all 4 MB of a 1080p frame: about 6–9 ms, against well under 1 ms
 //! here. Any PNG reader reads it; the tests decode it with `image`.
 
 /// PNG bytes of a `width`×`height` 16-bit grey image that is 0 except at
@@ -28,8 +28,9 @@ pub fn grey16(width: u32, height: u32, pixels: &[(u32, u16)]) -> Vec<u8> {
         if u64::from(i) >= pixel_count {
             break;
         }
+        // Past the check above, width ≥ 1.
         if i < row_first || i - row_first >= width {
-            y = i / width.max(1);
+            y = i / width;
             row_first = y * width;
         }
         let x = i - row_first;
