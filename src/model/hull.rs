@@ -18,10 +18,14 @@
 
 use glam::DVec3;
 
+/// Clouds of at most this many points are their own hull (a cube's corners:
+/// nothing to drop that would repay the exact hull's cost).
+pub const KEPT_AS_IS: usize = 8;
+
 /// The vertices of the convex hull of `points`; if the hull is degenerate
 /// (flat or collinear geometry) every point is kept, which gives the same box.
 pub fn convex_hull_vertices(points: &[DVec3]) -> Vec<DVec3> {
-    if points.len() <= 8 {
+    if points.len() <= KEPT_AS_IS {
         return points.to_vec();
     }
     // Should the filtered run fail where the full one would not (it should
@@ -30,6 +34,22 @@ pub fn convex_hull_vertices(points: &[DVec3]) -> Vec<DVec3> {
         return hull;
     }
     exact_hull(points).unwrap_or_else(|| points.to_vec())
+}
+
+/// Point `p` as `chull` hands it back: `chull` works on each coordinate
+/// divided by `f64::EPSILON` and truncated to a whole number (a big
+/// integer), and returns that number times `f64::EPSILON`. Coordinates of
+/// magnitude 1 or more come back as they were; smaller ones lose the bits
+/// below `f64::EPSILON` (and −0 becomes 0), so a hull vertex need not be
+/// bit for bit one of the points it came from.
+pub fn as_chull_returns(p: DVec3) -> DVec3 {
+    p.to_array()
+        .map(|c| {
+            let t = (c / f64::EPSILON).trunc() * f64::EPSILON;
+            // A whole number of zero is +0 whatever the sign it came from.
+            if t == 0.0 { 0.0 } else { t }
+        })
+        .into()
 }
 
 /// `chull`'s hull vertices (in input order), or `None` when it finds the

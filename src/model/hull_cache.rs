@@ -10,7 +10,8 @@
 //! format's magic, the crate's version and the points' bytes (everything the
 //! hull is computed from). The file holds the hull's vertices in order, then
 //! a BLAKE3 checksum. A file is used only when its length, checksum, magic
-//! and key check out and every vertex is one of the points; anything else is
+//! and key check out and every vertex is one of the points (or one as
+//! `chull` returns it: [`hull::as_chull_returns`]); anything else is
 //! ignored and computed over. A hit returns exactly the vertices the run that
 //! wrote it computed (tested); which of the points lying on a face without
 //! being corners `chull` keeps varies from run to run, and no label or pixel
@@ -26,8 +27,11 @@ use super::{hull, lod_cache};
 /// Format of the files (bumped when the layout or the hull's recipe changes).
 const MAGIC: &[u8; 8] = b"SWHUL\x00\x00\x01";
 
-/// Below this many points the hull costs less than reading a file.
-const MIN_POINTS_TO_CACHE: usize = 256;
+/// Below this many points the hull is the points themselves
+/// ([`hull::KEPT_AS_IS`]). Every larger cloud is worth a file: `chull` takes
+/// 2–3 ms of one core on a confuser's 90-point pose (a bird's wings at one
+/// phase of their beat), a hit well under a tenth of that.
+const MIN_POINTS_TO_CACHE: usize = hull::KEPT_AS_IS + 1;
 
 /// The vertices of the convex hull of `points` ([`hull::convex_hull_vertices`]):
 /// read from the cache folder ([`lod_cache::cache_dir`]) when a valid file
@@ -116,8 +120,10 @@ pub fn decode(bytes: &[u8], key: &[u8; 32], points: &[DVec3]) -> Option<Vec<DVec
             DVec3::new(f(0), f(8), f(16))
         })
         .collect();
+    // A vertex is one of the points, or one as `chull` returns it.
     let known: HashSet<[u64; 3]> = points
         .iter()
+        .flat_map(|&p| [p, hull::as_chull_returns(p)])
         .map(|p| p.to_array().map(f64::to_bits))
         .collect();
     let ours = vertices
@@ -146,6 +152,29 @@ mod tests {
         let bytes = crate::model::builtin::glb(name).expect("built-in");
         let model = crate::model::load_bytes(bytes, None, Path::new(name), name).expect("loads");
         crate::model::unique_used_positions(&model.vertices, &model.indices)
+    }
+
+    /// Every built-in drone's and confuser's hull, written once, is read
+    /// back: its file decodes to the vertices the miss computed.
+    #[test]
+    fn every_built_in_hull_is_read_back() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let models = (crate::model::builtin::NAMES.iter())
+            .map(|n| (*n, crate::model::builtin::glb(n)))
+            .chain(
+                (crate::model::confusers::NAMES.iter())
+                    .map(|n| (*n, crate::model::confusers::glb(n))),
+            );
+        for (name, bytes) in models {
+            let bytes = bytes.expect("built-in");
+            let model =
+                crate::model::load_bytes(bytes, None, Path::new(name), name).expect("loads");
+            let points = crate::model::unique_used_positions(&model.vertices, &model.indices);
+            let first = cached_hull_in(Some(dir.path()), &points);
+            let file = dir.path().join(file_name(&key(&points)));
+            let bytes = std::fs::read(&file).expect("the cache file is written");
+            assert_eq!(decode(&bytes, &key(&points), &points), Some(first), "{name}");
+        }
     }
 
     /// A miss computes the hull and writes the file; a hit reads back

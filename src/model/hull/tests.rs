@@ -241,3 +241,31 @@ fn grid_cubes_keep_their_unfiltered_hull() {
         assert_same_as_unfiltered(&format!("grid shell {side}"), &shell);
     }
 }
+
+/// `as_chull_returns` is what `chull` hands back: every corner of a cloud
+/// whose small coordinates carry bits below `f64::EPSILON` is one of the
+/// points so rounded, and some corner is not bit for bit any point.
+#[test]
+fn chull_returns_points_as_as_chull_returns_says() {
+    let tiny = [1.095_142_088_125_555_8e-9, -3.0e-20, -0.0, 7.3e-17];
+    let mut points = Vec::new();
+    for (i, &t) in tiny.iter().enumerate() {
+        let s = 0.1 + i as f64 * 0.037;
+        points.extend([
+            DVec3::new(t, s, -s),
+            DVec3::new(s, t, s * 0.5),
+            DVec3::new(-s, -s * 0.7, t),
+        ]);
+    }
+    points.extend([DVec3::ZERO, DVec3::splat(0.3)]);
+    let hull = exact_hull(&points).expect("a solid hull");
+    let rounded: Vec<DVec3> = points.iter().map(|&p| as_chull_returns(p)).collect();
+    let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
+    for v in &hull {
+        assert!(rounded.iter().any(|r| bits(r) == bits(v)), "{v:?}");
+    }
+    assert!(
+        hull.iter().any(|v| points.iter().all(|p| bits(p) != bits(v))),
+        "some corner comes back rounded"
+    );
+}
