@@ -173,7 +173,11 @@ mod tests {
             let first = cached_hull_in(Some(dir.path()), &points);
             let file = dir.path().join(file_name(&key(&points)));
             let bytes = std::fs::read(&file).expect("the cache file is written");
-            assert_eq!(decode(&bytes, &key(&points), &points), Some(first), "{name}");
+            assert_eq!(
+                decode(&bytes, &key(&points), &points),
+                Some(first),
+                "{name}"
+            );
         }
     }
 

@@ -299,7 +299,7 @@ pub fn rasterize_with(scene: &FrameScene, samples: u32, light: &SceneryLight) ->
 
 /// [`rasterize_with`] into `layer`, its buffers reused (a new frame's
 /// layer needs no fresh memory).
-fn rasterize_into(
+pub fn rasterize_into(
     scene: &FrameScene,
     samples: u32,
     light: &SceneryLight,

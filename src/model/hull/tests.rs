@@ -265,7 +265,8 @@ fn chull_returns_points_as_as_chull_returns_says() {
         assert!(rounded.iter().any(|r| bits(r) == bits(v)), "{v:?}");
     }
     assert!(
-        hull.iter().any(|v| points.iter().all(|p| bits(p) != bits(v))),
+        hull.iter()
+            .any(|v| points.iter().all(|p| bits(p) != bits(v))),
         "some corner comes back rounded"
     );
 }
