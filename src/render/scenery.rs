@@ -312,19 +312,26 @@ pub fn rasterize_into(
     let Some(clutter) = &scene.clutter else {
         return;
     };
+    let shapes = (&clutter.primitives[..], offsets);
     // Compiled for the CPU's widest SIMD (the same values in every build):
     // the span and paint loops vectorise (a fifth less time than the
-    // baseline build on `presets/bench/realistic_cluttered.ron`).
-    crate::simd::widest(
-        #[inline(always)]
-        || paint_shapes(camera, light, (&clutter.primitives, offsets), layer),
-    );
+    // baseline build on `presets/bench/realistic_cluttered.ron`), and the
+    // span ends round with SSE4.1's one instruction each, which the
+    // baseline build lacks (it would call libm a sample: [`span_ends`]).
+    if crate::simd::avx2() {
+        crate::simd::widest(
+            #[inline(always)]
+            || paint_shapes::<true>(camera, light, shapes, layer),
+        );
+    } else {
+        paint_shapes::<false>(camera, light, shapes, layer);
+    }
 }
 
 /// `primitives` seen by `camera`, lit by `light`, painted into `layer`
-/// one after another with the sample `offsets`.
+/// one after another with the sample `offsets`; `NATIVE`: see [`span_ends`].
 #[inline(always)]
-fn paint_shapes(
+fn paint_shapes<const NATIVE: bool>(
     camera: &Camera,
     light: &SceneryLight,
     (primitives, offsets): (&[Primitive], &[(f64, f64)]),
@@ -382,8 +389,8 @@ fn paint_shapes(
                 if left > right {
                     continue;
                 }
-                let xa = ceil(left - ox).max(0.0);
-                let xb = floor(right - ox).min(f64::from(width) - 1.0);
+                let (xa, xb) = span_ends::<NATIVE>(left - ox, right - ox);
+                let (xa, xb) = (xa.max(0.0), xb.min(f64::from(width) - 1.0));
                 if xa > xb {
                     continue;
                 }
@@ -413,6 +420,21 @@ fn paint(c: &mut [u8; 4], d: &mut f32, bits: u8, depth: f32, rgb: &[u8; 3]) {
 fn paint_run(colors: &mut [[u8; 4]], depths: &mut [f32], bits: u8, depth: f32, rgb: &[u8; 3]) {
     for (c, d) in colors.iter_mut().zip(depths.iter_mut()) {
         paint(c, d, bits, depth, rgb);
+    }
+}
+
+/// A sample row's first and last sample columns before their clamps to
+/// the frame: `left.ceil()` and `right.floor()`, by `f64`'s own rounding
+/// (`NATIVE`, for builds with SSE4.1's `roundsd`) or by [`ceil`] and
+/// [`floor`]. The two differ only past 2⁶³ in magnitude (a shape reaching
+/// that far), where the clamps after them leave a span that holds no
+/// column either way: the same spans.
+#[inline(always)]
+fn span_ends<const NATIVE: bool>(left: f64, right: f64) -> (f64, f64) {
+    if NATIVE {
+        (left.ceil(), right.floor())
+    } else {
+        (ceil(left), floor(right))
     }
 }
 
@@ -862,6 +884,62 @@ mod tests {
         scene
     }
 
+    /// The span ends rounded by `f64` and by the baseline build's
+    /// emulation paint the same layer, on shapes thin and wide, on integer
+    /// and sample rows, and reaching past 2⁶³ pixels.
+    #[test]
+    fn both_roundings_of_the_span_ends_paint_the_same_layer() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mut scene = scene_with(Shape::Polygon(Vec::new()));
+        scene.camera.width = 48;
+        scene.camera.height = 40;
+        let mut shapes = Vec::new();
+        for case in 0..400 {
+            let reach = [0.5, 3.0, 1e4, 1e19][case % 4];
+            let mut point = || {
+                let mut c = || rng.random_range(-reach..reach);
+                DVec3::new(c(), c(), rng.random_range(0.5..4.0))
+            };
+            let shape = if case % 3 == 0 {
+                Shape::Segment {
+                    a: point(),
+                    b: point(),
+                    radius_a_m: rng.random_range(0.001..0.3),
+                    radius_b_m: rng.random_range(0.001..0.3),
+                }
+            } else {
+                Shape::Polygon((0..3 + case % 2).map(|_| point()).collect())
+            };
+            shapes.push(Primitive {
+                shape,
+                albedo: [rng.random_range(0.0..1.0); 3],
+                sun_facing: 0.5,
+            });
+        }
+        let light = SceneryLight::default();
+        let mut painted = 0;
+        for samples in [1, 4] {
+            let offsets = sample_offsets(samples);
+            // Each shape alone: none hides another's edges.
+            for shape in shapes.chunks(1) {
+                let (mut native, mut emulated) = (ClutterLayer::default(), ClutterLayer::default());
+                native.reset(48, 40, samples);
+                emulated.reset(48, 40, samples);
+                let camera = &scene.camera;
+                paint_shapes::<true>(camera, &light, (shape, offsets), &mut native);
+                paint_shapes::<false>(camera, &light, (shape, offsets), &mut emulated);
+                painted += usize::from(native.covered_pixels() > 0);
+                assert!(
+                    native == emulated,
+                    "{samples} samples, {:?}",
+                    shape[0].shape
+                );
+            }
+        }
+        assert!(painted > 200, "{painted} shapes painted");
+    }
+
     /// Every edge at every sample row, in edge order: the walk
     /// [`RowSpans::find`] replaced (commit 9000fe7), the reference.
     fn row_spans_reference(edges: &[Edge], ys: &[f64; 4]) -> ([f64; 4], [f64; 4]) {
@@ -1060,7 +1138,15 @@ mod tests {
                 crate::simd::in_build(
                     build,
                     #[inline(always)]
-                    || paint_shapes(camera, &light, (primitives, offsets), &mut layer),
+                    || {
+                        // As `rasterize_into` runs each build.
+                        let shapes = (&primitives[..], offsets);
+                        if build == 0 {
+                            paint_shapes::<false>(camera, &light, shapes, &mut layer);
+                        } else {
+                            paint_shapes::<true>(camera, &light, shapes, &mut layer);
+                        }
+                    },
                 );
                 layer
             };
