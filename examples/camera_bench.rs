@@ -1,6 +1,7 @@
 //! The camera model's cost per frame (src/sensor/), on the CPU alone: a
-//! 1920×1080 picture through `sensor::apply_into` (a recycled picture) with a typical draw (every
-//! stage on) and with noise alone; median of 30 runs after 3 warm-ups.
+//! 1920×1080 picture through `sensor::apply_into` (a recycled picture) with
+//! a typical draw (every stage on) and with noise alone; median of 30 runs
+//! after 3 warm-ups.
 //! (The sweep's bytes are checked against the plane-by-plane reference by
 //! the unit tests in src/sensor/reference.rs.)
 //!

@@ -6,8 +6,9 @@
 //! pixel value repeated along a row (a drone's span in the instance image)
 //! its first pixel and distance-2 copies (one fixed-Huffman DEFLATE block,
 //! RFC 1951 §3.2.6), the Adler-32 of a zero run in closed form. A library
-//! encoder (the `png` crate, any compression level) has to walk all 4 MB of a 1080p frame: about 6–9 ms, against well under 1 ms
-//! here. Any PNG reader reads it; the tests decode it with `image`.
+//! encoder (the `png` crate, any compression level) has to walk all 4 MB of
+//! a 1080p frame: about 6–9 ms, against well under 1 ms here. Any PNG
+//! reader reads it; the tests decode it with `image`.
 
 /// PNG bytes of a `width`×`height` 16-bit grey image that is 0 except at
 /// `pixels`: (row-major index `y · width + x`, value), ascending, no
