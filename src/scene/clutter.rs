@@ -173,14 +173,70 @@ fn tree_lines(spec: &TreeLines, f: &Frame, rng: &mut ChaCha8Rng, out: &mut Vec<P
                 (ground - DVec3::Y, ground + DVec3::Y * top)
             })
             .collect();
-        let facing = f.facing(-f.forward) * 0.5;
-        out.extend(tops.windows(2).map(|w| Primitive {
-            shape: Shape::Polygon(vec![w[0].0, w[1].0, w[1].1, w[0].1]),
+        let look = Primitive {
+            shape: Shape::Polygon(Vec::new()),
             albedo,
-            sun_facing: facing,
-        }));
+            sun_facing: f.facing(-f.forward) * 0.5,
+        };
+        let step_px = step / (distance * f.pixel_rad);
+        let strips = ((BAND_CHUNK_PX / step_px) as usize).max(1);
+        band_shapes(&tops, strips, &look, out);
     }
     n
+}
+
+/// How wide (pixels) the pieces of a tree line's body are: see [`band_shapes`].
+const BAND_CHUNK_PX: f64 = 12.0;
+
+/// A tree line's shapes from its `(foot, top)` points along the band, the
+/// strips between them taken `strips` at a time (about [`BAND_CHUNK_PX`]
+/// pixels): one body up to the lowest of their tops, and over it each
+/// strip's cap up to its own two. Together they cover what a polygon a
+/// strip covers, but the raster's cost is per shape row, and a body's row
+/// is one where the strips' were `strips` (a tree line's strips are 1.5
+/// pixels wide at most distances). The strips under a body share its depth
+/// and colour (the nearest of theirs), which differ from strip to strip by
+/// the change in distance across a few metres of band. `strips` = 1: a
+/// polygon a strip.
+pub fn band_shapes(
+    tops: &[(DVec3, DVec3)],
+    strips: usize,
+    look: &Primitive,
+    out: &mut Vec<Primitive>,
+) {
+    let with = |points: Vec<DVec3>| Primitive {
+        shape: Shape::Polygon(points),
+        ..look.clone()
+    };
+    let last = tops.len().saturating_sub(1);
+    for start in (0..last).step_by(strips.max(1)) {
+        let chunk = &tops[start..=(start + strips).min(last)];
+        if let [(a, b), (c, d)] = chunk {
+            out.push(with(vec![*a, *c, *d, *b]));
+            continue;
+        }
+        // The cut: the same height over the ground at every point (its
+        // feet are level), the lowest top's.
+        let low = chunk
+            .iter()
+            .map(|(a, b)| b.y - a.y)
+            .fold(f64::INFINITY, f64::min);
+        let cut: Vec<DVec3> = chunk
+            .iter()
+            .map(|(a, b)| a.lerp(*b, low / (b.y - a.y)))
+            .collect();
+        out.push(with(
+            chunk
+                .iter()
+                .map(|p| p.0)
+                .chain(cut.iter().rev().copied())
+                .collect(),
+        ));
+        out.extend(
+            (chunk.windows(2).zip(cut.windows(2)))
+                .map(|(top, foot)| with(vec![foot[0], foot[1], top[1].1, top[0].1])),
+        );
+    }
 }
 
 /// The highest crown over point `s` of a band (at least `floor`): crowns
