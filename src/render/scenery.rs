@@ -50,10 +50,52 @@ pub struct ClutterLayer {
     pub depth: Vec<f32>,
     /// The shapes covered the frame more than [`MAX_OVERDRAW`] times over and the rest were left out.
     pub truncated: bool,
-    /// Per row: the columns `[start, end)` any shape touched (empty when
-    /// start ≥ end). Only these are cleared for the next raster and
-    /// composited: the scenery covers a small part of most frames.
-    touched: Vec<(u32, u32)>,
+    /// Where shapes touched the layer. Only there is it cleared for the
+    /// next raster and composited: the scenery covers a small part of most
+    /// frames.
+    touched: Touched,
+}
+
+/// Per row, the runs of columns a raster touched: a bit per chunk of the
+/// row (64 chunks across it, 30 columns at 1920), so that clearing and
+/// compositing skip the gaps between shapes (trees apart, a wire crossing
+/// the frame), not only the columns left and right of all of them.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Touched {
+    /// Columns a chunk (the width over 64, rounded up; at least 1).
+    chunk: usize,
+    rows: Vec<u64>,
+}
+
+impl Touched {
+    fn new(width: u32, height: u32) -> Self {
+        Self {
+            chunk: (width as usize).div_ceil(64).max(1),
+            rows: vec![0; height as usize],
+        }
+    }
+
+    /// Columns `[start, end)` of row `y` touched (`start < end ≤ width`).
+    #[inline(always)]
+    fn mark(&mut self, y: u32, start: usize, end: usize) {
+        let (first, last) = (start / self.chunk, (end - 1) / self.chunk);
+        // last < 64: end ≤ width ≤ 64 chunks.
+        self.rows[y as usize] |= (u64::MAX >> (63 - last)) & (u64::MAX << first);
+    }
+
+    /// Row `y`'s touched runs of columns `[a, b)`, within `width`.
+    fn runs(&self, y: usize, width: usize) -> impl Iterator<Item = (usize, usize)> + use<> {
+        let (mut bits, chunk) = (self.rows[y], self.chunk);
+        std::iter::from_fn(move || {
+            if bits == 0 {
+                return None;
+            }
+            let first = bits.trailing_zeros() as usize;
+            let end = first + (bits >> first).trailing_ones() as usize;
+            bits &= u64::MAX.checked_shl(end as u32).unwrap_or(0);
+            Some((first * chunk, (end * chunk).min(width)))
+        })
+    }
 }
 
 /// How many rows ahead of the one it paints a shape's raster prefetches
@@ -71,25 +113,23 @@ impl ClutterLayer {
         let reused = (self.width, self.height) == (width, height)
             && self.color.len() == pixels
             && self.depth.len() == pixels
-            && self.touched.len() == height as usize;
+            && self.touched.rows.len() == height as usize;
         if reused {
-            // Outside the rows' touched columns the layer is still empty.
-            for (y, span) in self.touched.iter_mut().enumerate() {
-                if span.0 < span.1 {
-                    let row = y * width as usize;
-                    let (a, b) = (row + span.0 as usize, row + span.1 as usize);
-                    self.color[a..b].fill([0; 4]);
-                    self.depth[a..b].fill(0.0);
+            // Outside the rows' touched runs the layer is still empty.
+            let w = width as usize;
+            for y in 0..height as usize {
+                for (a, b) in self.touched.runs(y, w) {
+                    self.color[y * w + a..y * w + b].fill([0; 4]);
+                    self.depth[y * w + a..y * w + b].fill(0.0);
                 }
-                *span = (u32::MAX, 0);
+                self.touched.rows[y] = 0;
             }
         } else {
             self.color.clear();
             self.color.resize(pixels, [0; 4]);
             self.depth.clear();
             self.depth.resize(pixels, 0.0);
-            self.touched.clear();
-            self.touched.resize(height as usize, (u32::MAX, 0));
+            self.touched = Touched::new(width, height);
         }
         self.width = width;
         self.height = height;
@@ -116,8 +156,7 @@ impl ClutterLayer {
         if spans.is_empty() {
             return;
         }
-        let touched = &mut self.touched[y as usize];
-        *touched = (touched.0.min(start as u32), touched.1.max(end as u32));
+        self.touched.mark(y, start, end);
         let row = (y * self.width) as usize;
         let colors = &mut self.color[row + start..row + end];
         let depths = &mut self.depth[row + start..row + end];
@@ -580,11 +619,10 @@ pub(super) fn composite(layer: &ClutterLayer, rgba: &mut [u8]) {
 #[inline(always)]
 fn composite_with(layer: &ClutterLayer, rgba: &mut [u8], n: u32, half_up: impl Fn(u32) -> u32) {
     let width = layer.width as usize;
-    for (y, &(start, end)) in layer.touched.iter().enumerate() {
-        if start >= end {
-            continue;
-        }
-        let (a, b) = (y * width + start as usize, y * width + end as usize);
+    for (y, (start, end)) in (0..layer.height as usize)
+        .flat_map(|y| layer.touched.runs(y, width).map(move |run| (y, run)))
+    {
+        let (a, b) = (y * width + start, y * width + end);
         let Some(row) = rgba.get_mut(a * 4..b * 4) else {
             continue;
         };
@@ -1068,7 +1106,10 @@ mod tests {
                 let v = (i * 73 % 256) as u8;
                 *c = [v, v.wrapping_mul(3), 255 - v, (i % (1 << n)) as u8];
             }
-            layer.touched.fill((0, w));
+            layer
+                .touched
+                .rows
+                .fill(u64::MAX >> (64 - w.div_ceil(layer.touched.chunk as u32)));
             let sky: Vec<u8> = (0..w * h * 4).map(|i| (i * 29 % 256) as u8).collect();
             let mut rgba = sky.clone();
             composite(&layer, &mut rgba);
@@ -1160,6 +1201,63 @@ mod tests {
             for build in 1..=crate::simd::cpu_simd_level() {
                 assert!(paint(build) == base, "build {build}, {samples} samples");
             }
+        }
+    }
+
+    /// The touched runs are the marked columns' chunks, joined where they
+    /// meet, apart where a chunk between them is untouched.
+    #[test]
+    fn touched_runs_are_the_marked_columns_chunks() {
+        let mut t = Touched::new(1920, 2);
+        assert_eq!(t.chunk, 30);
+        t.mark(0, 5, 6); // chunk 0
+        t.mark(0, 59, 61); // chunks 1 and 2
+        t.mark(0, 100, 101); // chunk 3: joins the run before
+        t.mark(0, 1900, 1920); // chunk 63, the last
+        let runs: Vec<_> = t.runs(0, 1920).collect();
+        assert_eq!(runs, [(0, 120), (1890, 1920)]);
+        assert_eq!(t.runs(1, 1920).count(), 0);
+        t.mark(1, 0, 1920);
+        assert_eq!(t.runs(1, 1920).collect::<Vec<_>>(), [(0, 1920)]);
+        // A width that is not a whole number of chunks: the last run stops at it.
+        let mut t = Touched::new(100, 1);
+        t.mark(0, 98, 100);
+        assert_eq!(t.runs(0, 100).collect::<Vec<_>>(), [(98, 100)]);
+    }
+
+    /// A layer rasterised after others is the layer rasterised alone: the
+    /// last raster's touched runs are cleared, and nothing else was painted.
+    #[test]
+    fn a_reused_layer_is_the_layer_made_anew() {
+        let shapes = [
+            // A thin wire across the frame, a square, a segment off to one side.
+            Shape::Segment {
+                a: DVec3::new(-9.0, -0.5, 2.0),
+                b: DVec3::new(9.0, 0.4, 2.0),
+                radius_a_m: 0.01,
+                radius_b_m: 0.01,
+            },
+            Shape::Polygon(vec![
+                DVec3::new(-0.5, -0.5, 2.0),
+                DVec3::new(0.5, -0.5, 2.0),
+                DVec3::new(0.5, 0.5, 2.0),
+                DVec3::new(-0.5, 0.5, 2.0),
+            ]),
+            Shape::Segment {
+                a: DVec3::new(1.2, -2.0, 2.0),
+                b: DVec3::new(1.5, 2.0, 2.0),
+                radius_a_m: 0.05,
+                radius_b_m: 0.02,
+            },
+        ];
+        let light = SceneryLight::default();
+        let mut layer = ClutterLayer::default();
+        for (i, shape) in shapes.iter().chain(&shapes).enumerate() {
+            let mut scene = scene_with(shape.clone());
+            (scene.camera.width, scene.camera.height) = (203, 61);
+            rasterize_into(&scene, 4, &light, &mut layer);
+            assert!(layer.covered_pixels() > 20, "shape {i}");
+            assert!(layer == rasterize_with(&scene, 4, &light), "shape {i}");
         }
     }
 
