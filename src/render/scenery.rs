@@ -57,20 +57,25 @@ pub struct ClutterLayer {
 }
 
 /// Per row, the runs of columns a raster touched: a bit per chunk of the
-/// row (64 chunks across it, 30 columns at 1920), so that clearing and
+/// row (at most 64 chunks across it, 32 columns at 1920), so that clearing and
 /// compositing skip the gaps between shapes (trees apart, a wire crossing
 /// the frame), not only the columns left and right of all of them.
 #[derive(Clone, Debug, Default, PartialEq)]
 struct Touched {
-    /// Columns a chunk (the width over 64, rounded up; at least 1).
-    chunk: usize,
+    /// Columns a chunk: 2 to this power, the least that takes the row in
+    /// 64 chunks (a shift a row, not a division).
+    shift: u32,
     rows: Vec<u64>,
 }
 
 impl Touched {
     fn new(width: u32, height: u32) -> Self {
         Self {
-            chunk: (width as usize).div_ceil(64).max(1),
+            shift: (width as usize)
+                .div_ceil(64)
+                .max(1)
+                .next_power_of_two()
+                .trailing_zeros(),
             rows: vec![0; height as usize],
         }
     }
@@ -78,14 +83,14 @@ impl Touched {
     /// Columns `[start, end)` of row `y` touched (`start < end ≤ width`).
     #[inline(always)]
     fn mark(&mut self, y: u32, start: usize, end: usize) {
-        let (first, last) = (start / self.chunk, (end - 1) / self.chunk);
+        let (first, last) = (start >> self.shift, (end - 1) >> self.shift);
         // last < 64: end ≤ width ≤ 64 chunks.
         self.rows[y as usize] |= (u64::MAX >> (63 - last)) & (u64::MAX << first);
     }
 
     /// Row `y`'s touched runs of columns `[a, b)`, within `width`.
     fn runs(&self, y: usize, width: usize) -> impl Iterator<Item = (usize, usize)> + use<> {
-        let (mut bits, chunk) = (self.rows[y], self.chunk);
+        let (mut bits, shift) = (self.rows[y], self.shift);
         std::iter::from_fn(move || {
             if bits == 0 {
                 return None;
@@ -93,7 +98,7 @@ impl Touched {
             let first = bits.trailing_zeros() as usize;
             let end = first + (bits >> first).trailing_ones() as usize;
             bits &= u64::MAX.checked_shl(end as u32).unwrap_or(0);
-            Some((first * chunk, (end * chunk).min(width)))
+            Some((first << shift, (end << shift).min(width)))
         })
     }
 }
@@ -1109,7 +1114,7 @@ mod tests {
             layer
                 .touched
                 .rows
-                .fill(u64::MAX >> (64 - w.div_ceil(layer.touched.chunk as u32)));
+                .fill(u64::MAX >> (64 - w.div_ceil(1 << layer.touched.shift)));
             let sky: Vec<u8> = (0..w * h * 4).map(|i| (i * 29 % 256) as u8).collect();
             let mut rgba = sky.clone();
             composite(&layer, &mut rgba);
@@ -1209,13 +1214,14 @@ mod tests {
     #[test]
     fn touched_runs_are_the_marked_columns_chunks() {
         let mut t = Touched::new(1920, 2);
-        assert_eq!(t.chunk, 30);
+        assert_eq!(1 << t.shift, 32);
         t.mark(0, 5, 6); // chunk 0
-        t.mark(0, 59, 61); // chunks 1 and 2
+        t.mark(0, 63, 65); // chunks 1 and 2
         t.mark(0, 100, 101); // chunk 3: joins the run before
-        t.mark(0, 1900, 1920); // chunk 63, the last
+        t.mark(0, 1900, 1920); // chunk 59, the last
+        t.mark(0, 1800, 1801); // chunk 56: 57 and 58 between stay untouched
         let runs: Vec<_> = t.runs(0, 1920).collect();
-        assert_eq!(runs, [(0, 120), (1890, 1920)]);
+        assert_eq!(runs, [(0, 128), (1792, 1824), (1888, 1920)]);
         assert_eq!(t.runs(1, 1920).count(), 0);
         t.mark(1, 0, 1920);
         assert_eq!(t.runs(1, 1920).collect::<Vec<_>>(), [(0, 1920)]);
