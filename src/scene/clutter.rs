@@ -27,7 +27,8 @@ pub enum Shape {
         radius_a_m: f64,
         radius_b_m: f64,
     },
-    /// A planar convex polygon (world points in order): walls, roofs, canopy.
+    /// A convex polygon (world points in order), planar or nearly: walls,
+    /// roofs, canopy, a tree line's body (its feet on an arc about the camera).
     Polygon(Vec<DVec3>),
 }
 
