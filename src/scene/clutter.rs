@@ -174,14 +174,10 @@ fn tree_lines(spec: &TreeLines, f: &Frame, rng: &mut ChaCha8Rng, out: &mut Vec<P
                 (ground - DVec3::Y, ground + DVec3::Y * top)
             })
             .collect();
-        let look = Primitive {
-            shape: Shape::Polygon(Vec::new()),
-            albedo,
-            sun_facing: f.facing(-f.forward) * 0.5,
-        };
+        let look = (albedo, f.facing(-f.forward) * 0.5);
         let step_px = step / (distance * f.pixel_rad);
         let strips = ((BAND_CHUNK_PX / step_px) as usize).max(1);
-        band_shapes(&tops, strips, &look, out);
+        band_shapes(&tops, strips, look, out);
     }
     n
 }
@@ -198,16 +194,17 @@ const BAND_CHUNK_PX: f64 = 12.0;
 /// pixels wide at most distances). The strips under a body share its depth
 /// and colour (the nearest of theirs), which differ from strip to strip by
 /// the change in distance across a few metres of band. `strips` = 1: a
-/// polygon a strip.
+/// polygon a strip. Every shape has the band's albedo and sun term.
 pub fn band_shapes(
     tops: &[(DVec3, DVec3)],
     strips: usize,
-    look: &Primitive,
+    (albedo, sun_facing): ([f32; 3], f32),
     out: &mut Vec<Primitive>,
 ) {
     let with = |points: Vec<DVec3>| Primitive {
         shape: Shape::Polygon(points),
-        ..look.clone()
+        albedo,
+        sun_facing,
     };
     let last = tops.len().saturating_sub(1);
     for start in (0..last).step_by(strips.max(1)) {

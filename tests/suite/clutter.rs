@@ -554,11 +554,7 @@ fn a_tree_lines_bodies_and_caps_cover_what_its_strips_cover() {
             near_m: 0.1,
         };
         let tops = tree_line_points(&scene.camera);
-        let look = Primitive {
-            shape: Shape::Polygon(Vec::new()),
-            albedo: [0.03, 0.05, 0.02],
-            sun_facing: 0.5,
-        };
+        let look = ([0.03, 0.05, 0.02], 0.5);
         let light = scenery::SceneryLight {
             sun: [1.0; 3],
             ambient: [0.3; 3],
@@ -568,7 +564,7 @@ fn a_tree_lines_bodies_and_caps_cover_what_its_strips_cover() {
         };
         let layer = |strips: usize| {
             let mut shapes = Vec::new();
-            band_shapes(&tops, strips, &look, &mut shapes);
+            band_shapes(&tops, strips, look, &mut shapes);
             let mut s = scene.clone();
             s.clutter = Some(FrameClutter::from_primitives(shapes));
             scenery::rasterize_with(&s, 4, &light)
