@@ -9,6 +9,7 @@
 //! (docs/benchmarks.md, "The camera model"). `RAYON_NUM_THREADS` sets the threads;
 //! `CAMERA_BENCH_STAGES=1` times `apply` with the typical draw's stages switched on one
 //! after another (the per-stage breakdown; `=N` stops after N lines, for a profiler);
+//! `CAMERA_BENCH_CASE=TEXT` runs only the draws whose name contains TEXT;
 //! `SWARMSHOT_SIMD=avx2` or `=base` caps the sweep's SIMD build.
 
 use swarmshot::preset::camera_model::CameraModel;
@@ -81,7 +82,9 @@ fn main() {
         "camera model, {w}×{h}, {} rayon threads, median of 30 (ms)",
         rayon::current_num_threads()
     );
-    for (name, draw) in cases {
+    // CAMERA_BENCH_CASE=TEXT: only the draws whose name contains TEXT (for a profiler).
+    let only = std::env::var("CAMERA_BENCH_CASE").unwrap_or_default();
+    for (name, draw) in cases.into_iter().filter(|(n, _)| n.contains(&only)) {
         let now = apply_ms(&rgba, (w, h), &draw);
         println!("  {name}: {now:.2}");
     }

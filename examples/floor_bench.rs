@@ -15,6 +15,8 @@
 //! Run: `cargo run --release --example floor_bench -- PRESET [N] [SCRATCH]`
 //! (N defaults to 100, SCRATCH, the batch's folder, to a new folder in the
 //! system's temporary folder; /dev/shm keeps the disk out). Unix only.
+//! `FLOOR_BENCH_MAKERS=N` runs the batch with N makers (`--makers N`; unset:
+//! the default for this machine), to compare makers side by side.
 #![allow(clippy::unwrap_used)]
 
 use std::path::{Path, PathBuf};
@@ -41,9 +43,14 @@ fn cpu_seconds(clock: libc::clockid_t) -> f64 {
 /// The process's CPU seconds over a batch of `limit` frames into `out`.
 #[cfg(unix)]
 fn batch_cpu(pipeline: &FramePipeline, ctx: &GpuContext, out: &Path, limit: u64) -> f64 {
+    let makers = std::env::var("FLOOR_BENCH_MAKERS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0);
     let options = BatchOptions {
         limit: Some(limit),
         overwrite: true,
+        makers,
         ..BatchOptions::new(out)
     };
     let before = cpu_seconds(libc::CLOCK_PROCESS_CPUTIME_ID);

@@ -117,7 +117,7 @@ pub(crate) struct BatchArgs {
     /// Image encoder threads (default: one per spare core).
     #[arg(long, default_value_t = 0)]
     pub(crate) threads: usize,
-    /// Frames made at once, each by its own renderer (default: 1 when frames share a background; when every frame draws a new one, 2 on a software rasteriser and 3/4 of the cores, at most 12, on a GPU); at most 64, and no more than the memory holds (each maker needs a frame's memory).
+    /// Frames made at once, each by its own renderer (default: 1 when frames share a background; when every frame draws a new one, 2 on a software rasteriser with more than 2 cores and 3/4 of the cores, at most 12, on a GPU); at most 64, and no more than the memory holds (each maker needs a frame's memory).
     #[arg(long, default_value_t = 0)]
     pub(crate) makers: usize,
     /// Print each stage's share of the time at the end.

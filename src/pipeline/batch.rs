@@ -62,11 +62,18 @@ pub struct BatchOptions {
 pub const DEFAULT_MAKERS: usize = 1;
 
 /// Makers by default when each frame draws a new background (camera, sky,
-/// environment, sun, backplate or scenery change from frame to frame): one
-/// maker's environment and CPU upsampling then overlap the other's
-/// rendering (release, 2 cores, `realistic.ron`: one maker takes 1.06× the
-/// wall time of two; `synthswarm_table2.ron` 0.95×; docs/benchmarks.md).
+/// environment, sun, backplate or scenery change from frame to frame) on a
+/// software rasteriser with more than two cores, and the fewest on a
+/// hardware GPU: one maker's environment and CPU upsampling then overlap
+/// the other's rendering. On two cores a second maker only contends with
+/// lavapipe for them (release, 2 cores: one maker takes 0.91–1.04× the wall
+/// time and 0.84–0.95× the CPU of two on twelve such presets;
+/// docs/benchmarks.md, "Defaults these figures chose").
 pub const DEFAULT_MAKERS_NEW_BACKGROUNDS: usize = 2;
+
+/// The most cores on which a software rasteriser gets one maker even when
+/// every frame draws a new background (see [`DEFAULT_MAKERS_NEW_BACKGROUNDS`]).
+const FEW_CORES: usize = 2;
 
 /// The most makers chosen by default on a hardware GPU (docs/benchmarks.md,
 /// "On a GPU"): on an H200 with 16 cores, `synthswarm_table2.ron` made
@@ -75,13 +82,14 @@ pub const MAX_DEFAULT_MAKERS_GPU: usize = 12;
 
 /// Makers when the user names none. On a software rasteriser (lavapipe) the
 /// makers share the cores with it, so one maker, or two when each frame draws
-/// a new background. On a hardware GPU the makers' CPU work (background
+/// a new background and there are more than [`FEW_CORES`] cores. On a hardware GPU the makers' CPU work (background
 /// upsampling, scenery, the camera stage, labels) is what limits a run whose
 /// backgrounds change, so three quarters of the cores make frames (at most
 /// [`MAX_DEFAULT_MAKERS_GPU`]); the encoders keep their own threads.
 pub fn default_makers(device: wgpu::DeviceType, cores: usize, new_backgrounds: bool) -> usize {
     match (device, new_backgrounds) {
         (_, false) => DEFAULT_MAKERS,
+        (wgpu::DeviceType::Cpu, true) if cores <= FEW_CORES => DEFAULT_MAKERS,
         (wgpu::DeviceType::Cpu, true) => DEFAULT_MAKERS_NEW_BACKGROUNDS,
         (_, true) => (cores * 3 / 4).clamp(DEFAULT_MAKERS_NEW_BACKGROUNDS, MAX_DEFAULT_MAKERS_GPU),
     }
@@ -805,10 +813,14 @@ mod tests {
     #[test]
     fn a_hardware_gpu_gets_more_makers_only_when_backgrounds_change() {
         use wgpu::DeviceType::{Cpu, DiscreteGpu, IntegratedGpu};
-        // lavapipe on the 2-core machine: as measured there.
+        // lavapipe on the 2-core machine: one maker, as measured there; two
+        // where more cores leave room for a second one's work.
         assert_eq!(default_makers(Cpu, 2, false), 1);
-        assert_eq!(default_makers(Cpu, 2, true), 2);
+        assert_eq!(default_makers(Cpu, 2, true), 1);
+        assert_eq!(default_makers(Cpu, 1, true), 1);
+        assert_eq!(default_makers(Cpu, 4, true), 2);
         assert_eq!(default_makers(Cpu, 64, true), 2);
+        assert_eq!(default_makers(Cpu, 64, false), 1);
         // A GPU: shared backgrounds keep one maker; new ones take 3/4 of the cores.
         assert_eq!(default_makers(DiscreteGpu, 16, false), 1);
         assert_eq!(default_makers(DiscreteGpu, 16, true), 12);
