@@ -23,7 +23,7 @@ use super::regions::Rect;
 use super::scenery::{self, ClutterLayer};
 use super::sky::SkyGpu;
 use super::tiles::{take_stale_tiles, upload_tiles, write_part};
-use super::upsample::{Texels, Tone, upsample_reduced};
+use super::upsample::{Texels, Tone, upsample_parts, upsample_reduced};
 use super::{COLOR_FORMAT, FrameUniforms, ReadbackError, RenderError};
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
@@ -44,8 +44,9 @@ pub(super) struct BackgroundCache {
     pub(super) group: wgpu::BindGroup,
     /// What the cached background was drawn from (see `background_key`).
     key: Option<Vec<u8>>,
-    /// The drone-free frame (RGBA8, sRGB-encoded, scenery included).
-    pub(super) rgba: Vec<u8>,
+    /// The drone-free frame (RGBA8, sRGB-encoded, scenery included); while
+    /// `pending`, only its parts under the regions so far.
+    rgba: Vec<u8>,
     /// `rgba` before the scenery was composited into it: what `texture`
     /// takes (the region passes draw the scenery themselves); empty when
     /// the frame has no scenery, the texture holds all of it already, or
@@ -85,6 +86,19 @@ pub(super) struct BackgroundCache {
     /// needs it ([`BackgroundCache::upload_under`]); empty when the
     /// texture holds the whole background.
     stale: Vec<bool>,
+    /// A reduced pass shaded on the CPU not yet upsampled but for the parts
+    /// its frame's regions read: the rest is upsampled once the frame's
+    /// passes are submitted, while the GPU draws them ([`Self::finish`]).
+    pending: Option<Pending>,
+}
+
+/// What [`BackgroundCache::finish`] upsamples `reduced_texels` with: the
+/// pass's size, the camera's principal point, the tone and exposure.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    size: (u32, u32),
+    centre: (f32, f32),
+    tone: (Tone, f32),
 }
 
 impl BackgroundCache {
@@ -133,6 +147,7 @@ impl BackgroundCache {
             drawn_in_a_row: 0,
             lent: None,
             stale: Vec::new(),
+            pending: None,
         }
     }
 
@@ -145,6 +160,7 @@ impl BackgroundCache {
     /// Drop the cached background (the sky images or plates changed): the
     /// next frame draws it again.
     pub(super) fn forget(&mut self) {
+        self.finish();
         self.key = None;
         self.unexposed = None;
         self.stale.clear();
@@ -152,16 +168,48 @@ impl BackgroundCache {
 
     /// Write into the texture the stale tiles (see `stale`) under `rects`,
     /// each row of tiles in runs, from the background without the scenery.
+    /// While the upsampling is pending, those tiles are upsampled first.
     fn upload_under<'r>(&mut self, queue: &wgpu::Queue, rects: impl IntoIterator<Item = &'r Rect>) {
         let size = (self.width, self.height);
+        let parts = take_stale_tiles(&mut self.stale, size, rects);
+        if let Some(p) = self.pending {
+            let texels = &self.reduced_texels;
+            upsample_parts(
+                texels,
+                (p.size, size),
+                p.centre,
+                p.tone,
+                &parts,
+                &mut self.rgba,
+            );
+        }
         let source = if self.plain.is_empty() {
             &self.rgba
         } else {
             &self.plain
         };
-        for part in take_stale_tiles(&mut self.stale, size, rects) {
-            write_part(queue, &self.texture, source, self.width, &part);
+        for part in &parts {
+            write_part(queue, &self.texture, source, self.width, part);
         }
+    }
+
+    /// Upsample the rest of a pending background ([`Self::pending`]): `rgba`
+    /// then holds all of it (the parts made before get the same bytes).
+    pub(super) fn finish(&mut self) {
+        if let Some(p) = self.pending.take() {
+            let texels = Texels::Planes(&self.reduced_texels);
+            let frame = (self.width, self.height);
+            upsample_reduced(texels, p.size, frame, p.centre, p.tone, &mut self.rgba);
+        }
+    }
+
+    /// The drone-free frame; whole, once [`Self::finish`] has run.
+    pub(super) fn pixels(&self) -> &[u8] {
+        debug_assert!(
+            self.pending.is_none(),
+            "a background read before it was finished"
+        );
+        &self.rgba
     }
 
     /// Whether a frame that paints over the background may take its pixels
@@ -176,6 +224,7 @@ impl BackgroundCache {
     /// the cache then holds no background (`replacement`'s memory, its
     /// contents stale; the next frame draws again).
     pub(super) fn lend(&mut self, replacement: Vec<u8>) -> Vec<u8> {
+        self.finish();
         self.lent = self.key.take();
         self.unkept = false;
         self.generation = 0;
@@ -260,6 +309,8 @@ impl Backgrounds {
         (scenery, layer): (Option<u64>, Option<&ClutterLayer>),
         under: impl IntoIterator<Item = &'r Rect>,
     ) -> Result<(), RenderError> {
+        // A background left pending by a frame that failed before its passes.
+        cache.finish();
         let size = (cache.width, cache.height);
         // What the background shows, before the camera's exposure and the scenery.
         let base_key = match &scene.backplate {
@@ -307,6 +358,8 @@ impl Backgrounds {
         cache.upload_under(with.queue, under);
         cache.unkept = false;
         if let Some(layer) = layer {
+            // The scenery is composited over the whole background.
+            cache.finish();
             if cache.stale.contains(&true) {
                 if cache.lendable() {
                     cache.unkept = true;
@@ -486,9 +539,17 @@ fn draw_reduced_background(
     };
     match shaded {
         Some((size, tone)) => {
+            // Upsampled where the frame's regions read it when they are
+            // uploaded, the rest once its passes are submitted.
             let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
-            let texels = Texels::Planes(texels);
-            upsample_reduced(texels, size, frame, centre, (tone, gain), &mut cache.rgba);
+            cache
+                .rgba
+                .resize(frame.0 as usize * frame.1 as usize * 4, 0);
+            cache.pending = Some(Pending {
+                size,
+                centre,
+                tone: (tone, gain),
+            });
         }
         None => draw_environment(with, cache, uniforms, gain)?,
     }

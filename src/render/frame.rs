@@ -269,6 +269,8 @@ impl Renderer {
             self.counts.ids += plan.passes.len() as u64;
         }
         let submitted = self.queue.submit([encoder.finish()]);
+        // The rest of a background drawn on the CPU, while the GPU draws.
+        state.targets[t].background.finish();
         let may_hide = |j, i| regions::may_hide(&depths, j, i);
         let front: Option<FrontCheck<'_>> = deferred.then_some((&rects[..], &may_hide));
         let (mut frame, mut ids, alone) = self.collect(state, t, &plan, submitted, front)?;
@@ -415,7 +417,7 @@ impl Renderer {
             .iter()
             .map(|t| &t.background)
             .find(|b| b.generation == painted.background)
-            .map(|b| b.rgba.as_slice())
+            .map(|b| b.pixels())
     }
 
     /// How many times the background was drawn (cache misses), for tests and benchmarks.

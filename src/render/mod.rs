@@ -497,11 +497,12 @@ impl Renderer {
     /// own pixels where it lends them ([`Renderer::set_lend_backgrounds`]),
     /// else [`Renderer::frame_buffer`]'s copy.
     fn frame_pixels(&mut self, cache: &mut background::BackgroundCache, width: u32) -> Vec<u8> {
+        cache.finish();
         if self.lend_backgrounds && cache.lendable() {
             let spare = self.spare.pop().map(|(b, _)| b).unwrap_or_default();
             return cache.lend(spare);
         }
-        self.frame_buffer(&cache.rgba, cache.generation, width)
+        self.frame_buffer(cache.pixels(), cache.generation, width)
     }
 
     /// A buffer holding `background` (generation `generation`, rows of
