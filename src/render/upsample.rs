@@ -16,16 +16,16 @@ use std::ops::Range;
 
 use half::slice::HalfFloatSliceExt;
 
-use super::regions::Rect;
-
 #[cfg(target_arch = "x86_64")]
 mod blend;
 #[cfg(target_arch = "x86_64")]
 mod gather;
+mod parts;
 #[cfg(target_arch = "x86_64")]
 mod split;
 mod srgb;
 
+pub(super) use parts::upsample_parts;
 pub(super) use srgb::expose;
 use srgb::{Buckets, CLIP, EXPONENTIAL};
 #[cfg(test)]
@@ -437,107 +437,6 @@ pub(super) fn upsample_reduced(
     }
 }
 
-/// The pixels of `parts` (each inside the frame) of what
-/// [`upsample_reduced`] makes of `planes` (a pass shaded on the CPU),
-/// written at their places in `rgba` (the frame's RGBA8, already its size):
-/// a part's row by the rows' f32 operations in their order, over the source
-/// columns it reads (the two source rows blended, then across its own
-/// columns) and encoded as a row is, so with the same bytes (tested). What
-/// the regions of a frame read, made before the rest of the frame is
-/// upsampled ([`super::background`]).
-pub(super) fn upsample_parts(
-    planes: &[Vec<f32>; 3],
-    (size, frame): ((u32, u32), (u32, u32)),
-    centre: (f32, f32),
-    (tone, gain): (Tone, f32),
-    parts: &[Rect],
-    rgba: &mut [u8],
-) {
-    let (w, h) = (size.0 as usize, size.1 as usize);
-    let stride = frame.0 as usize * 4;
-    // The byte range of each of a part's rows in `rgba`.
-    let lines = move |part: Rect| {
-        (part.y0 as usize..part.y1 as usize)
-            .map(move |y| y * stride + part.x0 as usize * 4..y * stride + part.x1 as usize * 4)
-    };
-    if w == 0 || h == 0 || !Texels::Planes(planes).holds(w, h) || frame.0 == 0 {
-        // Black, as the whole upsampling of a source too short for its size.
-        parts
-            .iter()
-            .flat_map(|&p| lines(p))
-            .for_each(|l| rgba[l].fill(0));
-        return;
-    }
-    // As `upsample_reduced`: Clip scales the texels as they are read, the
-    // exponential tone exposes the encoded levels by the table.
-    let (buckets, scale) = match tone {
-        Tone::Clip => (&**CLIP, gain),
-        Tone::Exponential => (&**EXPONENTIAL, 1.0),
-    };
-    let exposed = (tone == Tone::Exponential && gain != 1.0).then(|| srgb::exposure_table(gain));
-    let (cols, rows) = (
-        taps(frame.0, size.0, centre.0),
-        taps(frame.1, size.1, centre.1),
-    );
-    let (mut source, mut values): ([Vec<f32>; 3], [Vec<f32>; 3]) = Default::default();
-    for part in parts.iter().filter(|p| p.x0 < p.x1) {
-        let window = &cols[part.x0 as usize..part.x1 as usize];
-        // The source columns the window reads: the taps only move forward.
-        let first = window[0].0;
-        let n = window[window.len() - 1].1 + 1 - first;
-        for (y, line) in (part.y0 as usize..).zip(lines(*part)) {
-            let (r0, r1, wy) = rows[y];
-            for c in 0..3 {
-                let (top, bottom) = (
-                    &planes[c][r0 * w + first..][..n],
-                    &planes[c][r1 * w + first..][..n],
-                );
-                let texel = |v: f32| if scale != 1.0 { v * scale } else { v };
-                source[c].clear();
-                source[c].extend(top.iter().zip(bottom).map(|(&p, &q)| {
-                    let (p, q) = (texel(p), texel(q));
-                    p + (q - p) * wy
-                }));
-                let across = &source[c];
-                values[c].clear();
-                values[c].extend(window.iter().map(|&(a, b, wx)| {
-                    let (p, q) = (across[a - first], across[b - first]);
-                    p + (q - p) * wx
-                }));
-            }
-            let line = &mut rgba[line];
-            encode_values(&values, buckets, line);
-            if let Some(table) = &exposed {
-                for px in line.chunks_exact_mut(4) {
-                    for v in &mut px[..3] {
-                        *v = table[usize::from(*v)];
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Linear values (three planes) encoded into `line` (RGBA8, alpha 255),
-/// by AVX2 gathers where the CPU has them (the same bytes).
-fn encode_values(values: &[Vec<f32>; 3], buckets: &Buckets, line: &mut [u8]) {
-    let [r, g, b] = values;
-    #[cfg(target_arch = "x86_64")]
-    if crate::simd::avx2() {
-        // SAFETY: the CPU has AVX2 (checked by `avx2`).
-        #[allow(unsafe_code)]
-        unsafe {
-            gather::encode_line_avx2([r, g, b], buckets, line);
-        }
-        return;
-    }
-    for (((px, r), g), b) in line.chunks_exact_mut(4).zip(r).zip(g).zip(b) {
-        let word =
-            buckets.encode(*r) | buckets.encode(*g) << 8 | buckets.encode(*b) << 16 | 0xff00_0000;
-        px.copy_from_slice(&word.to_le_bytes());
-    }
-}
-
 /// Output rows per band of [`upsample_with`]: the bands are upsampled on
 /// rayon's threads, each with its own source rows and scratch (a band's
 /// first row converts up to two source rows again).
@@ -687,12 +586,12 @@ mod tests {
     }
 
     /// RGBA texels as the red, green and blue planes of a pass shaded on the CPU.
-    fn planes(rgba: &[f32]) -> [Vec<f32>; 3] {
+    pub(super) fn planes(rgba: &[f32]) -> [Vec<f32>; 3] {
         [0, 1, 2].map(|c| rgba.iter().skip(c).step_by(4).copied().collect())
     }
 
     /// Random linear RGBA texels with edge cases: negative, above 1, ±∞, NaN.
-    fn texels(n: usize, seed: u64) -> Vec<f32> {
+    pub(super) fn texels(n: usize, seed: u64) -> Vec<f32> {
         let mut s = seed | 1;
         let mut next = move || {
             s ^= s << 13;
@@ -805,105 +704,6 @@ mod tests {
         let mut black = Vec::new();
         upsample_reduced(short, size, frame, centre, (Tone::Clip, 1.0), &mut black);
         assert!(black.iter().all(|&b| b == 0));
-    }
-
-    #[test]
-    fn a_part_has_the_bytes_of_the_whole_upsampling() {
-        // Exact 2× and 4×, a layout of neither, off-centre; both tones,
-        // exposed and not; parts at the edges, inside, one pixel, a row.
-        let cases = [
-            ((96, 54), (192, 108), (96.0, 54.0)),
-            ((48, 27), (192, 108), (96.0, 54.0)),
-            ((30, 17), (100, 60), (50.0, 30.0)),
-            ((50, 30), (100, 60), (47.0, 33.0)),
-        ];
-        let mut compared = 0;
-        for (k, &(size, frame, centre)) in cases.iter().enumerate() {
-            let texels = planes(&texels(size.0 as usize * size.1 as usize * 4, k as u64 + 3));
-            let (fw, fh) = frame;
-            let parts = [
-                Rect {
-                    x0: 0,
-                    y0: 0,
-                    x1: 7,
-                    y1: 5,
-                },
-                Rect {
-                    x0: fw - 9,
-                    y0: fh - 3,
-                    x1: fw,
-                    y1: fh,
-                },
-                Rect {
-                    x0: 13,
-                    y0: 17,
-                    x1: 64,
-                    y1: 29,
-                },
-                Rect {
-                    x0: 5,
-                    y0: 6,
-                    x1: 6,
-                    y1: 7,
-                },
-                Rect {
-                    x0: 0,
-                    y0: 31,
-                    x1: fw,
-                    y1: 32,
-                },
-            ];
-            for tone in [
-                (Tone::Clip, 1.0),
-                (Tone::Clip, 0.7),
-                (Tone::Exponential, 1.0),
-                (Tone::Exponential, 1.3),
-            ] {
-                let mut whole = Vec::new();
-                upsample_reduced(
-                    Texels::Planes(&texels),
-                    size,
-                    frame,
-                    centre,
-                    tone,
-                    &mut whole,
-                );
-                let mut got = vec![0x5A; whole.len()];
-                upsample_parts(&texels, (size, frame), centre, tone, &parts, &mut got);
-                for p in &parts {
-                    for y in p.y0..p.y1 {
-                        let row = (y * fw) as usize * 4;
-                        let span = row + p.x0 as usize * 4..row + p.x1 as usize * 4;
-                        assert!(
-                            got[span.clone()] == whole[span],
-                            "case {k}, {tone:?}, row {y} of {p:?}"
-                        );
-                        compared += 1;
-                    }
-                }
-                // Nothing outside the parts is written.
-                assert_eq!(got[(40 * fw as usize + fw as usize - 1) * 4], 0x5A);
-            }
-        }
-        assert_eq!(compared, 4 * 4 * 22, "rows compared");
-        // A source too short for its size: black, as the whole upsampling.
-        let mut got = vec![9; 64];
-        let short = planes(&[0.5; 4]);
-        upsample_parts(
-            &short,
-            ((2, 2), (4, 4)),
-            (2.0, 2.0),
-            (Tone::Clip, 1.0),
-            &[Rect {
-                x0: 1,
-                y0: 1,
-                x1: 3,
-                y1: 2,
-            }],
-            &mut got,
-        );
-        assert_eq!(&got[20..28], &[0; 8]);
-        assert_eq!(got[16], 9);
     }
 
     #[test]
