@@ -210,9 +210,17 @@ fn upsample_row(
         }
     }
     let [r, g, b] = &*values;
+    encode_values([r, g, b], buckets, line, gather);
+}
+
+/// Three planes of linear values encoded into `line` (RGBA8, alpha 255):
+/// eight pixels a gather when `gather` (only where the CPU has AVX2), else
+/// one at a time; the same bytes.
+#[inline(always)]
+fn encode_values([r, g, b]: [&[f32]; 3], buckets: &Buckets, line: &mut [u8], gather: bool) {
     #[cfg(target_arch = "x86_64")]
     if gather {
-        // SAFETY: only from `upsample_row_avx2`, on a CPU with AVX2.
+        // SAFETY: callers pass `gather` only on a CPU with AVX2.
         #[allow(unsafe_code)]
         unsafe {
             gather::encode_line_avx2([r, g, b], buckets, line);

@@ -4,8 +4,8 @@
 //! it is upsampled (`render/background.rs`: the rest while the GPU draws
 //! the frame's passes).
 
-use super::srgb::{self, Buckets, CLIP, EXPONENTIAL};
-use super::{Texels, Tone, taps};
+use super::srgb::{self, CLIP, EXPONENTIAL};
+use super::{Texels, Tone, encode_values, taps};
 use crate::render::regions::Rect;
 
 /// The pixels of `parts` (each inside the frame) of what
@@ -77,7 +77,8 @@ pub(in crate::render) fn upsample_parts(
                 }));
             }
             let line = &mut rgba[line];
-            encode_values(&values, buckets, line);
+            let [r, g, b] = &values;
+            encode_values([r, g, b], buckets, line, crate::simd::avx2());
             if let Some(table) = &exposed {
                 for px in line.chunks_exact_mut(4) {
                     for v in &mut px[..3] {
@@ -86,26 +87,6 @@ pub(in crate::render) fn upsample_parts(
                 }
             }
         }
-    }
-}
-
-/// Linear values (three planes) encoded into `line` (RGBA8, alpha 255),
-/// by AVX2 gathers where the CPU has them (the same bytes).
-fn encode_values(values: &[Vec<f32>; 3], buckets: &Buckets, line: &mut [u8]) {
-    let [r, g, b] = values;
-    #[cfg(target_arch = "x86_64")]
-    if crate::simd::avx2() {
-        // SAFETY: the CPU has AVX2 (checked by `avx2`).
-        #[allow(unsafe_code)]
-        unsafe {
-            super::gather::encode_line_avx2([r, g, b], buckets, line);
-        }
-        return;
-    }
-    for (((px, r), g), b) in line.chunks_exact_mut(4).zip(r).zip(g).zip(b) {
-        let word =
-            buckets.encode(*r) | buckets.encode(*g) << 8 | buckets.encode(*b) << 16 | 0xff00_0000;
-        px.copy_from_slice(&word.to_le_bytes());
     }
 }
 
