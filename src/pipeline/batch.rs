@@ -82,8 +82,8 @@ pub const MAX_DEFAULT_MAKERS_GPU: usize = 12;
 
 /// Makers when the user names none. On a software rasteriser (lavapipe) the
 /// makers share the cores with it, so one maker, or two when each frame draws
-/// a new background and there are more than [`FEW_CORES`] cores. On a hardware GPU the makers' CPU work (background
-/// upsampling, scenery, the camera stage, labels) is what limits a run whose
+/// a new background and there are more than [`FEW_CORES`] cores. On a
+/// hardware GPU the makers' CPU work (background upsampling, scenery, the camera stage, labels) is what limits a run whose
 /// backgrounds change, so three quarters of the cores make frames (at most
 /// [`MAX_DEFAULT_MAKERS_GPU`]); the encoders keep their own threads.
 pub fn default_makers(device: wgpu::DeviceType, cores: usize, new_backgrounds: bool) -> usize {

@@ -224,7 +224,10 @@ impl BackgroundCache {
     /// the cache then holds no background (`replacement`'s memory, its
     /// contents stale; the next frame draws again).
     pub(super) fn lend(&mut self, replacement: Vec<u8>) -> Vec<u8> {
-        self.finish();
+        debug_assert!(
+            self.pending.is_none(),
+            "a background lent before it was finished"
+        );
         self.lent = self.key.take();
         self.unkept = false;
         self.generation = 0;

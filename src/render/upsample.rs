@@ -59,6 +59,20 @@ pub(super) enum Tone {
     Exponential,
 }
 
+impl Tone {
+    /// How the upsampling applies exposure `gain` in this tone: the buckets
+    /// it encodes through, the scale the texels take as they are read, and
+    /// the gain the encoded levels are exposed by afterwards (1: none).
+    /// Clipped values are scaled before the blend (it is linear); the
+    /// exponential tone's levels are exposed by the table ([`expose`]).
+    fn encoding(self, gain: f32) -> (&'static Buckets, f32, f32) {
+        match self {
+            Self::Clip => (&**CLIP, gain, 1.0),
+            Self::Exponential => (&**EXPONENTIAL, 1.0, gain),
+        }
+    }
+}
+
 /// Where one output row's pixels sample the source: per column the
 /// second texel's weight ([`taps`]), and the columns in runs that share
 /// their two texels (`(first texel, second texel, columns)`: the taps only
@@ -419,29 +433,11 @@ pub(super) fn upsample_reduced(
     (tone, gain): (Tone, f32),
     rgba: &mut Vec<u8>,
 ) {
-    let sizes = (size, frame);
-    match tone {
-        Tone::Clip => upsample_with(
-            texels,
-            sizes,
-            centre,
-            (&**CLIP, gain),
-            rgba,
-            crate::simd::avx2(),
-        ),
-        Tone::Exponential => {
-            upsample_with(
-                texels,
-                sizes,
-                centre,
-                (&**EXPONENTIAL, 1.0),
-                rgba,
-                crate::simd::avx2(),
-            );
-            if gain != 1.0 {
-                expose(rgba, gain);
-            }
-        }
+    let (buckets, scale, exposure) = tone.encoding(gain);
+    let simd = crate::simd::avx2();
+    upsample_with(texels, (size, frame), centre, (buckets, scale), rgba, simd);
+    if exposure != 1.0 {
+        expose(rgba, exposure);
     }
 }
 
@@ -621,21 +617,27 @@ mod tests {
             .collect()
     }
 
+    /// A source size, a frame size and the camera's principal point.
+    pub(super) type Layout = ((u32, u32), (u32, u32), (f32, f32));
+
+    /// Source and frame sizes and principal points the upsampling is tested
+    /// on: exact 2× (even and odd), 4×, a layout of neither, off-centre, and
+    /// tiny frames; the first three over several bands (a band's first row
+    /// reloads its source rows).
+    pub(super) const LAYOUTS: [Layout; 8] = [
+        ((96, 54), (192, 108), (96.0, 54.0)),
+        ((48, 27), (192, 108), (96.0, 54.0)),
+        ((321, 240), (641, 479), (320.5, 239.5)),
+        ((30, 17), (100, 60), (50.0, 30.0)),
+        ((50, 30), (100, 60), (47.0, 33.0)),
+        ((1, 1), (1, 1), (0.5, 0.5)),
+        ((4, 3), (7, 5), (3.5, 2.5)),
+        ((3, 2), (4, 3), (2.0, 1.5)),
+    ];
+
     #[test]
     fn the_row_kernels_give_the_reference_bytes() {
-        // Exact 2× (even and odd), not 2×, off-centre, and tiny frames; the
-        // first three over several bands (a band's first row reloads its
-        // source rows).
-        let cases = [
-            ((96, 54), (192, 108), (96.0, 54.0)),
-            ((48, 27), (192, 108), (96.0, 54.0)),
-            ((321, 240), (641, 479), (320.5, 239.5)),
-            ((30, 17), (100, 60), (50.0, 30.0)),
-            ((50, 30), (100, 60), (47.0, 33.0)),
-            ((1, 1), (1, 1), (0.5, 0.5)),
-            ((4, 3), (7, 5), (3.5, 2.5)),
-            ((3, 2), (4, 3), (2.0, 1.5)),
-        ];
+        let cases = LAYOUTS;
         for (k, &(size, frame, centre)) in cases.iter().enumerate() {
             let half = texels(size.0 as usize * size.1 as usize * 4, k as u64 + 7);
             let mut want = Vec::new();

@@ -4,7 +4,7 @@
 //! it is upsampled (`render/background.rs`: the rest while the GPU draws
 //! the frame's passes).
 
-use super::srgb::{self, CLIP, EXPONENTIAL};
+use super::srgb;
 use super::{Texels, Tone, encode_values, taps};
 use crate::render::regions::Rect;
 
@@ -39,13 +39,8 @@ pub(in crate::render) fn upsample_parts(
             .for_each(|l| rgba[l].fill(0));
         return;
     }
-    // As `upsample_reduced`: Clip scales the texels as they are read, the
-    // exponential tone exposes the encoded levels by the table.
-    let (buckets, scale) = match tone {
-        Tone::Clip => (&**CLIP, gain),
-        Tone::Exponential => (&**EXPONENTIAL, 1.0),
-    };
-    let exposed = (tone == Tone::Exponential && gain != 1.0).then(|| srgb::exposure_table(gain));
+    let (buckets, scale, exposure) = tone.encoding(gain);
+    let exposed = (exposure != 1.0).then(|| srgb::exposure_table(exposure));
     let (cols, rows) = (
         taps(frame.0, size.0, centre.0),
         taps(frame.1, size.1, centre.1),
@@ -80,11 +75,7 @@ pub(in crate::render) fn upsample_parts(
             let [r, g, b] = &values;
             encode_values([r, g, b], buckets, line, crate::simd::avx2());
             if let Some(table) = &exposed {
-                for px in line.chunks_exact_mut(4) {
-                    for v in &mut px[..3] {
-                        *v = table[usize::from(*v)];
-                    }
-                }
+                srgb::expose_with(table, line);
             }
         }
     }
@@ -92,20 +83,16 @@ pub(in crate::render) fn upsample_parts(
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{planes, texels};
+    use super::super::tests::{LAYOUTS, planes, texels};
     use super::super::upsample_reduced;
     use super::*;
 
     #[test]
     fn a_part_has_the_bytes_of_the_whole_upsampling() {
-        // Exact 2× and 4×, a layout of neither, off-centre; both tones,
-        // exposed and not; parts at the edges, inside, one pixel, a row.
-        let cases = [
-            ((96, 54), (192, 108), (96.0, 54.0)),
-            ((48, 27), (192, 108), (96.0, 54.0)),
-            ((30, 17), (100, 60), (50.0, 30.0)),
-            ((50, 30), (100, 60), (47.0, 33.0)),
-        ];
+        // The layouts frames of 100 px and more (exact 2× and 4×, a layout
+        // of neither, off-centre); both tones, exposed and not; parts at the
+        // edges, inside, one pixel, a row.
+        let cases = &LAYOUTS[..5];
         let mut compared = 0;
         for (k, &(size, frame, centre)) in cases.iter().enumerate() {
             let texels = planes(&texels(size.0 as usize * size.1 as usize * 4, k as u64 + 3));
@@ -174,7 +161,7 @@ mod tests {
                 assert_eq!(got[(40 * fw as usize + fw as usize - 1) * 4], 0x5A);
             }
         }
-        assert_eq!(compared, 4 * 4 * 22, "rows compared");
+        assert_eq!(compared, 5 * 4 * 22, "rows compared");
         // A source too short for its size: black, as the whole upsampling.
         let mut got = vec![9; 64];
         let short = planes(&[0.5; 4]);

@@ -67,13 +67,17 @@ pub(in crate::render) fn exposure_table(gain: f32) -> [u8; 256] {
 pub(in crate::render) fn expose(rgba: &mut [u8], gain: f32) {
     use rayon::prelude::*;
     let table = exposure_table(gain);
-    rgba.par_chunks_mut(4 * 8192).for_each(|chunk| {
-        for px in chunk.chunks_exact_mut(4) {
-            px[0] = table[usize::from(px[0])];
-            px[1] = table[usize::from(px[1])];
-            px[2] = table[usize::from(px[2])];
-        }
-    });
+    rgba.par_chunks_mut(4 * 8192)
+        .for_each(|chunk| expose_with(&table, chunk));
+}
+
+/// `rgba`'s colour bytes through `table` ([`exposure_table`]), alpha kept.
+pub(super) fn expose_with(table: &[u8; 256], rgba: &mut [u8]) {
+    for px in rgba.chunks_exact_mut(4) {
+        px[0] = table[usize::from(px[0])];
+        px[1] = table[usize::from(px[1])];
+        px[2] = table[usize::from(px[2])];
+    }
 }
 
 /// Linear `x` sRGB-encoded and rounded to 8 bits (clamped to [0, 1], NaN → 0),
