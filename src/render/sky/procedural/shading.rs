@@ -277,6 +277,8 @@ pub(super) struct Row {
     hidden: Vec<Range<usize>>,
     /// Per pixel: whether a band pixel lies under a silhouette.
     mask: Vec<bool>,
+    /// Per pixel: its [`Part`] ([`Row::split`]).
+    parts: Vec<u8>,
     /// The band's runs as [`Row::split_hidden`] rebuilds them (their
     /// memory kept from row to row).
     shown: Vec<Range<usize>>,
@@ -285,6 +287,9 @@ pub(super) struct Row {
 /// The fewest pixels in a run of the band that is shaded without its sky:
 /// shorter stretches stay in their run, whose loop runs on vector lanes.
 const HIDDEN_RUN: usize = 16;
+
+/// The pixels [`Row::split`] checks at once for a change of part.
+const SAME_RUN: usize = 64;
 
 /// A row's RGBA planes, each the row's length.
 pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
@@ -330,6 +335,7 @@ impl Row {
             heights: [v(), v()],
             hidden: Vec::new(),
             mask: vec![false; w],
+            parts: Vec::new(),
             shown: Vec::new(),
         }
     }
@@ -350,22 +356,38 @@ impl Row {
     }
 
     /// The row's pixels split into their parts by their ray's height `y`
-    /// (`part_of(y)`), in one pass.
+    /// (`part_of(y)`): each pixel's part first, in a loop that vectorises,
+    /// then the runs, a chunk of [`SAME_RUN`] pixels at a time where they
+    /// all continue the run (a row crosses a bound a few times at most).
     #[inline(always)]
     pub(super) fn split(&mut self, part_of: impl Fn(f32) -> Part) {
         self.runs.iter_mut().for_each(Vec::clear);
-        let Some(&first) = self.y.first() else {
+        let n = self.y.len();
+        self.parts.resize(n, 0);
+        for (p, &y) in self.parts.iter_mut().zip(&self.y) {
+            *p = part_of(y) as u8;
+        }
+        let Some(&first) = self.parts.first() else {
             return;
         };
-        let (mut part, mut start) = (part_of(first), 0);
-        for (i, &y) in self.y.iter().enumerate().skip(1) {
-            let p = part_of(y);
-            if p != part {
-                self.runs[part as usize].push(start..i);
-                (part, start) = (p, i);
+        let (mut part, mut start, mut i) = (first, 0, 1);
+        while i < n {
+            let end = (i + SAME_RUN).min(n);
+            // Zero where every part in the chunk is the run's (no early exit: it vectorises).
+            let other = self.parts[i..end].iter().fold(0, |acc, &p| acc | (p ^ part));
+            if other == 0 {
+                i = end;
+                continue;
             }
+            for (k, &p) in self.parts[i..end].iter().enumerate() {
+                if p != part {
+                    self.runs[usize::from(part)].push(start..i + k);
+                    (part, start) = (p, i + k);
+                }
+            }
+            i = end;
         }
-        self.runs[part as usize].push(start..self.y.len());
+        self.runs[usize::from(part)].push(start..n);
     }
 
     /// Each of the upper sky's rays below the horizon taken level (the
