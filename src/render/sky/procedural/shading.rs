@@ -374,7 +374,9 @@ impl Row {
         while i < n {
             let end = (i + SAME_RUN).min(n);
             // Zero where every part in the chunk is the run's (no early exit: it vectorises).
-            let other = self.parts[i..end].iter().fold(0, |acc, &p| acc | (p ^ part));
+            let other = self.parts[i..end]
+                .iter()
+                .fold(0, |acc, &p| acc | (p ^ part));
             if other == 0 {
                 i = end;
                 continue;
@@ -880,6 +882,42 @@ mod tests {
     /// `widen` gives, bit for bit, each pixel's sample at its own [`tap`]
     /// (the edges' clamps included), over rows of any length, with values
     /// that are not numbers or not finite among them.
+    /// A row's runs ([`Row::split`]) are its pixels' parts, one by one:
+    /// rows of every length around the chunk, with parts that change
+    /// inside a chunk, at its edges, on every pixel, never, and at NaN.
+    #[test]
+    fn a_rows_runs_are_its_pixels_parts() {
+        let upper = 0.3;
+        let shapes: [fn(usize) -> f32; 5] = [
+            |i| (i as f32 - 70.0) * 0.01,
+            |i| if i % 2 == 0 { -0.1 } else { 0.5 },
+            |i| if i / 64 % 2 == 0 { 0.1 } else { 0.9 },
+            |i| if i == 100 { f32::NAN } else { 0.2 },
+            |_| 0.7,
+        ];
+        for w in [1, 2, 63, 64, 65, 130, 200] {
+            for shape in shapes {
+                let mut row = Row::new(w);
+                let ys: Vec<f32> = (0..w).map(shape).collect();
+                row.rays_mut().1.copy_from_slice(&ys);
+                row.split(|y| Part::of_half(y, upper));
+                let mut part = vec![None; w];
+                for (p, runs) in row.runs.iter().enumerate() {
+                    for window in runs.windows(2) {
+                        assert!(window[0].end < window[1].start, "runs apart and in order");
+                    }
+                    for i in runs.iter().flat_map(Clone::clone) {
+                        assert_eq!(part[i].replace(p), None, "pixel {i} in two runs");
+                    }
+                }
+                for (i, y) in ys.iter().enumerate() {
+                    let want = Part::of_half(*y, upper) as usize;
+                    assert_eq!(part[i], Some(want), "w {w}, pixel {i}, y {y}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn a_widened_row_is_each_pixels_own_sample() {
         for qw in [1usize, 2, 3, 4, 7, 480] {
