@@ -879,9 +879,6 @@ mod tests {
         assert!(hidden > 1000, "{hidden} hidden pixels");
     }
 
-    /// `widen` gives, bit for bit, each pixel's sample at its own [`tap`]
-    /// (the edges' clamps included), over rows of any length, with values
-    /// that are not numbers or not finite among them.
     /// A row's runs ([`Row::split`]) are its pixels' parts, one by one:
     /// rows of every length around the chunk, with parts that change
     /// inside a chunk, at its edges, on every pixel, never, and at NaN.
@@ -918,6 +915,9 @@ mod tests {
         }
     }
 
+    /// `widen` gives, bit for bit, each pixel's sample at its own [`tap`]
+    /// (the edges' clamps included), over rows of any length, with values
+    /// that are not numbers or not finite among them.
     #[test]
     fn a_widened_row_is_each_pixels_own_sample() {
         for qw in [1usize, 2, 3, 4, 7, 480] {
