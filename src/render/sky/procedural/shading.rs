@@ -370,24 +370,19 @@ impl Row {
         let Some(&first) = self.parts.first() else {
             return;
         };
-        let (mut part, mut start, mut i) = (first, 0, 1);
-        while i < n {
-            let end = (i + SAME_RUN).min(n);
+        let (mut part, mut start) = (first, 0);
+        for i in (1..n).step_by(SAME_RUN) {
+            let chunk = &self.parts[i..(i + SAME_RUN).min(n)];
             // Zero where every part in the chunk is the run's (no early exit: it vectorises).
-            let other = self.parts[i..end]
-                .iter()
-                .fold(0, |acc, &p| acc | (p ^ part));
-            if other == 0 {
-                i = end;
+            if chunk.iter().fold(0, |acc, &p| acc | (p ^ part)) == 0 {
                 continue;
             }
-            for (k, &p) in self.parts[i..end].iter().enumerate() {
+            for (k, &p) in chunk.iter().enumerate() {
                 if p != part {
                     self.runs[usize::from(part)].push(start..i + k);
                     (part, start) = (p, i + k);
                 }
             }
-            i = end;
         }
         self.runs[usize::from(part)].push(start..n);
     }
