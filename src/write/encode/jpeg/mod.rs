@@ -18,6 +18,14 @@
 //! and compresses only the tiles a frame painted (and tiles it has not seen
 //! clean yet): on the quickstart, a few percent of the image.
 //!
+//! The tiles a frame lacks are compressed in bands of MCU rows of about
+//! [`BAND_PX`] pixels (any cut along tile boundaries gives the same
+//! segments), and the encoder gives way to other threads between bands: a
+//! whole 1080p frame is ~4 ms of one core, and a batch's encoder, woken by
+//! the frame maker it then displaces, would otherwise keep the maker off its
+//! core for all of it while the kernel leaves the other core idle
+//! (docs/benchmarks.md, "Moving against fixed").
+//!
 //! The output is the same bytes whichever tiles were reused, and the same as
 //! [`compress`] of the whole frame: deterministic, on every machine (the
 //! accurate integer DCT gives the same coefficients on its SIMD and C paths).
@@ -135,6 +143,10 @@ pub struct Unchanged<'a> {
     pub changed: &'a [Area],
 }
 
+/// Pixels per band of a frame's compression (about 0.3 ms of one core),
+/// between which the encoder yields ([`JpegEncoder::encode`]).
+pub const BAND_PX: u64 = 1 << 17;
+
 /// Backgrounds whose tiles are kept (a batch moves through its camera poses
 /// in order; frames in flight span at most a few).
 const KEPT_BACKGROUNDS: usize = 4;
@@ -147,6 +159,8 @@ pub struct JpegEncoder {
     grey: bool,
     /// Tile size bounds in pixels ([`Grid::sized`]); the defaults but in tests.
     tile_px: (u32, u32),
+    /// Pixels per band ([`BAND_PX`]; smaller in tests).
+    band_px: u64,
     kept: Mutex<Vec<Arc<Tiles>>>,
 }
 
@@ -166,6 +180,7 @@ impl JpegEncoder {
             quality,
             grey: false,
             tile_px: (TILE_PX, MIN_TILE_PX),
+            band_px: BAND_PX,
             kept: Mutex::new(Vec::new()),
         }
     }
@@ -185,7 +200,9 @@ impl JpegEncoder {
 
     /// Encode a frame; with `unchanged`, tiles outside its changed areas
     /// are taken from earlier frames over the same background when known.
-    /// The bytes are those of [`compress`] either way.
+    /// The bytes are those of [`compress`] either way. The missing tiles are
+    /// compressed band by band ([`plan`]), with a yield to the threads
+    /// waiting for this core between bands.
     pub fn encode(
         &self,
         rgba: &[u8],
@@ -195,49 +212,37 @@ impl JpegEncoder {
     ) -> Result<Vec<u8>, JpegError> {
         check(rgba, width, height)?;
         let grid = self.grid(width, height);
-        let whole = (self.quality, self.grey);
-        let Some(unchanged) = unchanged.filter(|u| u.background != 0 && !self.grey) else {
-            return compress_grid(rgba, &grid, whole);
-        };
-        let tiles = self.tiles(unchanged.background, grid);
-        let mut painted = vec![false; grid.len()];
-        for area in unchanged.changed {
-            grid.mark(area, &mut painted);
+        if self.grey {
+            return compress_grid(rgba, &grid, (self.quality, true));
         }
+        let reuse = unchanged.filter(|u| u.background != 0).map(|u| {
+            let mut painted = vec![false; grid.len()];
+            for area in u.changed {
+                grid.mark(area, &mut painted);
+            }
+            (self.tiles(u.background, grid), painted)
+        });
         // Tiles to compress: painted ones, and clean ones not yet kept.
-        let mut segments: Vec<Option<Arc<[u8]>>> = {
-            let kept = tiles
-                .segments
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner);
-            kept.iter()
-                .zip(&painted)
-                .map(|(s, &p)| if p { None } else { s.clone() })
-                .collect()
+        let (mut segments, mut header) = match &reuse {
+            Some((tiles, painted)) => {
+                let kept = lock(&tiles.segments);
+                let have = kept.iter().zip(painted);
+                let have = have.map(|(s, &p)| if p { None } else { s.clone() });
+                (have.collect(), lock(&tiles.header).clone())
+            }
+            None => (vec![None; grid.len()], None),
         };
-        let mut header = tiles
-            .header
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone();
         let mut compressor = None;
-        for piece in plan(&grid, &segments) {
+        let pieces = plan(&grid, &segments, self.band_px);
+        for (k, piece) in pieces.iter().enumerate() {
+            if k > 0 {
+                std::thread::yield_now();
+            }
             let c = match &mut compressor {
                 Some(c) => c,
                 None => compressor.insert(tj::Compressor::new(self.quality, grid.blocks, false)?),
             };
-            let jpeg = match &piece.crop {
-                Some((x, y)) => {
-                    let stride = width as usize * 4;
-                    let at = y.start as usize * stride + x.start as usize * 4;
-                    c.compress(&rgba[at..], x.len() as u32, stride, y.len() as u32)?
-                }
-                None => {
-                    let stack = stack_tiles(rgba, &grid, &piece.tiles);
-                    let h = piece.tiles.len() as u32 * grid.mcu;
-                    c.compress(&stack, grid.tile_px(), grid.tile_px() as usize * 4, h)?
-                }
-            };
+            let jpeg = compress_piece(c, rgba, &grid, piece)?;
             let scan = Scan::parse(&jpeg)?;
             if scan.segments.len() != piece.tiles.len() {
                 return Err(JpegError::Segments {
@@ -248,45 +253,27 @@ impl JpegEncoder {
             if header.is_none() {
                 header = Some(scan.header_for(&jpeg, width, height)?.into());
             }
-            let mut kept = tiles
-                .segments
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner);
+            let mut kept = reuse.as_ref().map(|(t, p)| (lock(&t.segments), p));
             for (&i, range) in piece.tiles.iter().zip(scan.segments) {
                 let segment: Arc<[u8]> = jpeg[range].into();
-                if !painted[i] {
+                if let Some((kept, painted)) = &mut kept
+                    && !painted[i]
+                {
                     kept[i] = Some(segment.clone());
                 }
                 segments[i] = Some(segment);
             }
         }
         let header = header.ok_or(JpegError::Unexpected("no header was made"))?;
-        tiles
-            .header
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .get_or_insert_with(|| header.clone());
-        let size = header.len()
-            + segments
-                .iter()
-                .flatten()
-                .map(|s| s.len() + 2)
-                .sum::<usize>();
-        let mut out = Vec::with_capacity(size);
-        out.extend_from_slice(&header);
-        for (i, segment) in segments.iter().enumerate() {
-            if i > 0 {
-                out.extend_from_slice(&[0xFF, 0xD0 + ((i - 1) % 8) as u8]);
-            }
-            out.extend_from_slice(segment.as_deref().unwrap_or_default());
+        if let Some((tiles, _)) = &reuse {
+            lock(&tiles.header).get_or_insert_with(|| header.clone());
         }
-        out.extend_from_slice(&[0xFF, 0xD9]);
-        Ok(out)
+        Ok(splice(&header, &segments))
     }
 
     /// The kept tiles of `background` at this grid (made empty when new).
     fn tiles(&self, background: u64, grid: Grid) -> Arc<Tiles> {
-        let mut kept = self.kept.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut kept = lock(&self.kept);
         if let Some(t) = kept
             .iter()
             .find(|t| t.background == background && t.grid == grid)
@@ -305,6 +292,52 @@ impl JpegEncoder {
         kept.push(tiles.clone());
         tiles
     }
+}
+
+/// `m` locked, poisoned or not (the tiles are plain bytes, never left half-written).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// One compression of [`plan`]: a crop of the frame, or its tiles stacked.
+fn compress_piece(
+    c: &mut tj::Compressor,
+    rgba: &[u8],
+    grid: &Grid,
+    piece: &plan::Piece,
+) -> Result<Vec<u8>, JpegError> {
+    match &piece.crop {
+        Some((x, y)) => {
+            let stride = grid.width as usize * 4;
+            let at = y.start as usize * stride + x.start as usize * 4;
+            c.compress(&rgba[at..], x.len() as u32, stride, y.len() as u32)
+        }
+        None => {
+            let stack = stack_tiles(rgba, grid, &piece.tiles);
+            let h = piece.tiles.len() as u32 * grid.mcu;
+            c.compress(&stack, grid.tile_px(), grid.tile_px() as usize * 4, h)
+        }
+    }
+}
+
+/// The JPEG of `header` and every tile's segment, restart markers between.
+fn splice(header: &[u8], segments: &[Option<Arc<[u8]>>]) -> Vec<u8> {
+    let size = header.len()
+        + segments
+            .iter()
+            .flatten()
+            .map(|s| s.len() + 2)
+            .sum::<usize>();
+    let mut out = Vec::with_capacity(size);
+    out.extend_from_slice(header);
+    for (i, segment) in segments.iter().enumerate() {
+        if i > 0 {
+            out.extend_from_slice(&[0xFF, 0xD0 + ((i - 1) % 8) as u8]);
+        }
+        out.extend_from_slice(segment.as_deref().unwrap_or_default());
+    }
+    out.extend_from_slice(&[0xFF, 0xD9]);
+    out
 }
 
 #[cfg(test)]
@@ -438,8 +471,9 @@ mod tests {
                 1..5,
             ),
             tile_px in proptest::sample::select(vec![(8u32, 8u32), (32, 16), (48, 16), (256, 64)]),
+            band_px in proptest::sample::select(vec![1u64, 2000, BAND_PX]),
         ) {
-            let encoder = JpegEncoder { tile_px, ..JpegEncoder::new(quality) };
+            let encoder = JpegEncoder { tile_px, band_px, ..JpegEncoder::new(quality) };
             let grid = encoder.grid(width, height);
             let background = picture(width, height, 9, &[]);
             for (k, blobs) in frames.iter().enumerate() {
@@ -464,6 +498,48 @@ mod tests {
                     .encode(&rgba, width, height, Some(Unchanged { background: 3, changed: &changed }))
                     .unwrap();
                 proptest::prop_assert!(reused == compress_grid(&rgba, &grid, (quality, false)).unwrap());
+            }
+        }
+    }
+
+    #[test]
+    fn a_frame_compressed_in_bands_is_the_whole_compress() {
+        // 1920×1080 at q85: 68 MCU rows of 16 px, so BAND_PX makes 17
+        // bands of 4 rows (the last one cut by the image's edge);
+        // bands of one row each and a 4:4:4 quality as well. With and
+        // without a background to keep tiles of, and again once every tile
+        // is kept.
+        let (width, height) = (1920, 1080);
+        let rgba = picture(width, height, 5, &[(300, 200, 420, 260)]);
+        for (quality, band_px) in [(85, BAND_PX), (85, 1), (95, BAND_PX)] {
+            let encoder = JpegEncoder {
+                band_px,
+                ..JpegEncoder::new(quality)
+            };
+            let grid = encoder.grid(width, height);
+            let pieces = plan(&grid, &vec![None; grid.len()], band_px);
+            let rows = |p: &plan::Piece| p.crop.as_ref().map_or(0, |(_, y)| y.len() as u64);
+            assert!(pieces.len() > 1, "q{quality}: one piece");
+            assert!(
+                pieces
+                    .iter()
+                    .all(|p| rows(p) * u64::from(width) <= band_px.max(16 * 1920)),
+                "q{quality}: a band over {band_px} px"
+            );
+            let tiles: Vec<usize> = pieces.iter().flat_map(|p| p.tiles.clone()).collect();
+            assert_eq!(tiles, (0..grid.len()).collect::<Vec<_>>());
+            let whole = compress(&rgba, width, height, quality).unwrap();
+            let changed = areas(&[(300, 200, 420, 260)]);
+            let unchanged = Unchanged {
+                background: 11,
+                changed: &changed,
+            };
+            for frame in [None, Some(unchanged), Some(unchanged)] {
+                let banded = encoder.encode(&rgba, width, height, frame).unwrap();
+                assert!(
+                    banded == whole,
+                    "q{quality}, {band_px} px bands: bytes differ"
+                );
             }
         }
     }

@@ -1,6 +1,7 @@
 //! The compressions that make the tiles a frame lacks: runs of wholly
-//! missing MCU rows and edge tiles as crops of the frame, every other missing
-//! tile stacked into one narrow image.
+//! missing MCU rows as crops of the frame in bands of about `band_px`
+//! pixels, edge tiles as crops, every other missing tile stacked into one
+//! narrow image.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -19,11 +20,14 @@ pub(super) struct Piece {
 const MAX_STACK: usize = 2048;
 
 /// The compressions that make the tiles `have` lacks: runs of wholly
-/// missing MCU rows straight from the frame; tiles cut by the image's edge
-/// (their dummy blocks depend on where that edge is) as crops that reach
-/// it; every other missing tile stacked.
-pub(super) fn plan(grid: &Grid, have: &[Option<Arc<[u8]>>]) -> Vec<Piece> {
+/// missing MCU rows straight from the frame, cut into bands of whole MCU
+/// rows of at most `band_px` pixels (at least one row); tiles cut by the
+/// image's edge (their dummy blocks depend on where that edge is) as crops
+/// that reach it; every other missing tile stacked.
+pub(super) fn plan(grid: &Grid, have: &[Option<Arc<[u8]>>], band_px: u64) -> Vec<Piece> {
     let (cols, rows) = (grid.cols as usize, grid.rows as usize);
+    let row_px = u64::from(grid.width) * u64::from(grid.mcu);
+    let band_rows = usize::try_from(band_px / row_px.max(1)).map_or(rows, |n| n.max(1));
     let row_missing = |r: usize| have[r * cols..(r + 1) * cols].iter().all(Option::is_none);
     let mut pieces = Vec::new();
     let mut stacked = Vec::new();
@@ -31,6 +35,7 @@ pub(super) fn plan(grid: &Grid, have: &[Option<Arc<[u8]>>]) -> Vec<Piece> {
     while r < rows {
         if row_missing(r) {
             let end = (r..rows).find(|&e| !row_missing(e)).unwrap_or(rows);
+            let end = end.min(r.saturating_add(band_rows));
             let y = r as u32 * grid.mcu..(end as u32 * grid.mcu).min(grid.height);
             pieces.push(Piece {
                 tiles: (r * cols..end * cols).collect(),
