@@ -34,8 +34,9 @@ pub(super) fn plan(grid: &Grid, have: &[Option<Arc<[u8]>>], band_px: u64) -> Vec
     let mut r = 0;
     while r < rows {
         if row_missing(r) {
-            let end = (r..rows).find(|&e| !row_missing(e)).unwrap_or(rows);
-            let end = end.min(r.saturating_add(band_rows));
+            // The run's rows up to one band's worth (never read past it).
+            let limit = rows.min(r.saturating_add(band_rows));
+            let end = (r..limit).find(|&e| !row_missing(e)).unwrap_or(limit);
             let y = r as u32 * grid.mcu..(end as u32 * grid.mcu).min(grid.height);
             pieces.push(Piece {
                 tiles: (r * cols..end * cols).collect(),
