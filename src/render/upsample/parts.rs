@@ -4,8 +4,10 @@
 //! it is upsampled (`render/background.rs`: the rest while the GPU draws
 //! the frame's passes).
 
+use std::ops::Range;
+
 use super::srgb;
-use super::{Texels, Tone, encode_values, taps};
+use super::{Columns, Texels, Tone, encode_values, taps};
 use crate::render::regions::Rect;
 
 /// The pixels of `parts` (each inside the frame) of what
@@ -13,9 +15,10 @@ use crate::render::regions::Rect;
 /// written at their places in `rgba` (the frame's RGBA8, already its size):
 /// a part's row by the rows' f32 operations in their order, over the source
 /// columns it reads (the two source rows blended, then across its own
-/// columns) and encoded as a row is, so with the same bytes (tested). What
-/// the regions of a frame read, made before the rest of the frame is
-/// upsampled ([`super::background`]).
+/// columns, in AVX2 registers where the whole rows are) and encoded as a
+/// row is, so with the same bytes (tested). What the regions of a frame
+/// read, made before the rest of the frame is upsampled
+/// ([`super::background`]).
 pub(in crate::render) fn upsample_parts(
     planes: &[Vec<f32>; 3],
     (size, frame): ((u32, u32), (u32, u32)),
@@ -41,44 +44,180 @@ pub(in crate::render) fn upsample_parts(
     }
     let (buckets, scale, exposure) = tone.encoding(gain);
     let exposed = (exposure != 1.0).then(|| srgb::exposure_table(exposure));
-    let (cols, rows) = (
-        taps(frame.0, size.0, centre.0),
-        taps(frame.1, size.1, centre.1),
-    );
-    let (mut source, mut values): ([Vec<f32>; 3], [Vec<f32>; 3]) = Default::default();
+    let across = Across {
+        taps: taps(frame.0, size.0, centre.0),
+        columns: Columns::new(frame.0, size.0, centre.0),
+        source: w,
+    };
+    let rows = taps(frame.1, size.1, centre.1);
+    let simd = crate::simd::avx2();
+    let mut scratch = Scratch::default();
     for part in parts.iter().filter(|p| p.x0 < p.x1) {
-        let window = &cols[part.x0 as usize..part.x1 as usize];
-        // The source columns the window reads: the taps only move forward.
-        let first = window[0].0;
-        let n = window[window.len() - 1].1 + 1 - first;
+        let window = part.x0 as usize..part.x1 as usize;
         for (y, line) in (part.y0 as usize..).zip(lines(*part)) {
             let (r0, r1, wy) = rows[y];
-            for c in 0..3 {
-                let (top, bottom) = (
-                    &planes[c][r0 * w + first..][..n],
-                    &planes[c][r1 * w + first..][..n],
-                );
-                let texel = |v: f32| if scale != 1.0 { v * scale } else { v };
-                source[c].clear();
-                source[c].extend(top.iter().zip(bottom).map(|(&p, &q)| {
-                    let (p, q) = (texel(p), texel(q));
-                    p + (q - p) * wy
-                }));
-                let across = &source[c];
-                values[c].clear();
-                values[c].extend(window.iter().map(|&(a, b, wx)| {
-                    let (p, q) = (across[a - first], across[b - first]);
-                    p + (q - p) * wx
-                }));
-            }
+            let rows = planes
+                .each_ref()
+                .map(|p| (&p[r0 * w..][..w], &p[r1 * w..][..w]));
+            part_row(
+                (rows, wy, scale),
+                &across,
+                window.clone(),
+                &mut scratch,
+                simd,
+            );
             let line = &mut rgba[line];
-            let [r, g, b] = &values;
-            encode_values([r, g, b], buckets, line, crate::simd::avx2());
+            let [r, g, b] = &scratch.values;
+            encode_values([r, g, b], buckets, line, simd);
             if let Some(table) = &exposed {
                 srgb::expose_with(table, line);
             }
         }
     }
+}
+
+/// How an output row samples across: each column's two texels and weight,
+/// and the same as the whole rows' layout (their chunks of an exact 2× or 4×).
+struct Across {
+    taps: Vec<(usize, usize, f32)>,
+    columns: Columns,
+    /// Source texels a row.
+    source: usize,
+}
+
+/// A part's row: the two source rows blended over the columns it reads,
+/// then its own columns' values, per channel.
+#[derive(Default)]
+struct Scratch {
+    source: [Vec<f32>; 3],
+    values: [Vec<f32>; 3],
+}
+
+/// The two source rows of each channel, the vertical weight, and the scale
+/// the texels take as they are read (1: none).
+type RowPair<'a> = ([(&'a [f32], &'a [f32]); 3], f32, f32);
+
+/// The values of one output row's columns `window` into `scratch.values`:
+/// [`part_row_in`], built for AVX2 when `simd`.
+fn part_row(
+    rows: RowPair<'_>,
+    across: &Across,
+    window: Range<usize>,
+    scratch: &mut Scratch,
+    simd: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if simd {
+        // SAFETY: callers pass `simd` only on a CPU with AVX2 (`avx2`).
+        #[allow(unsafe_code)]
+        unsafe {
+            part_row_avx2(rows, across, window, scratch);
+        }
+        return;
+    }
+    let _ = simd;
+    part_row_in(rows, across, window, scratch, false);
+}
+
+/// [`part_row_in`] built for AVX2 (the same operations: the same values).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn part_row_avx2(rows: RowPair<'_>, across: &Across, window: Range<usize>, scratch: &mut Scratch) {
+    part_row_in(rows, across, window, scratch, true);
+}
+
+/// The whole rows' operations on a window of them: the source rows blended
+/// (`p + (q − p) · wy`, the texels scaled first) over the source columns the
+/// window reads, then across (`p + (q − p) · wx`), the chunks of an exact
+/// layout eight values at a time when `chunks` ([`super::blend::chunks_avx2`]).
+#[inline(always)]
+fn part_row_in(
+    (rows, wy, scale): RowPair<'_>,
+    across: &Across,
+    window: Range<usize>,
+    Scratch { source, values }: &mut Scratch,
+    chunks: bool,
+) {
+    // The source columns the window reads: the taps only move forward.
+    let first = across.taps[window.start].0;
+    let reads = first..across.taps[window.end - 1].1 + 1;
+    for (c, (top, bottom)) in rows.into_iter().enumerate() {
+        let (source, value) = (&mut source[c], &mut values[c]);
+        source.resize(reads.len(), 0.0);
+        for ((o, &p), &q) in source
+            .iter_mut()
+            .zip(&top[reads.clone()])
+            .zip(&bottom[reads.clone()])
+        {
+            let (p, q) = if scale != 1.0 {
+                (p * scale, q * scale)
+            } else {
+                (p, q)
+            };
+            *o = p + (q - p) * wy;
+        }
+        value.resize(window.len(), 0.0);
+        let (x0, x1) = (window.start, window.end);
+        let done = if chunks {
+            chunked((source, first), across, x0..x1, value)
+        } else {
+            x0..x0
+        };
+        for x in (x0..done.start).chain(done.end..x1) {
+            let (a, b, wx) = across.taps[x];
+            let (p, q) = (source[a - first], source[b - first]);
+            value[x - x0] = p + (q - p) * wx;
+        }
+    }
+}
+
+/// The columns of `window` in whole chunks of the rows' exact 2× or 4×
+/// layout ([`super::chunk_layout`]), blended across in AVX2 registers as
+/// the whole rows' chunks are ([`super::blend::chunks_avx2`]) into `value`
+/// (the window's values; `source`: the blended source columns from
+/// `first`): which columns it blended (from the window's start: none).
+/// Only from [`part_row_avx2`].
+#[inline(always)]
+fn chunked(
+    (source, first): (&[f32], usize),
+    across: &Across,
+    window: Range<usize>,
+    value: &mut [f32],
+) -> Range<usize> {
+    let none = window.start..window.start;
+    let k = across.columns.factor;
+    if k == 0 {
+        return none;
+    }
+    let (head, mid) = super::chunk_layout(k, across.taps.len(), across.source);
+    // The window's first whole chunk, and the chunks it holds from there.
+    let from = head + window.start.saturating_sub(head).div_ceil(k) * k;
+    let (c0, c1) = (
+        (from - head) / k,
+        mid.min(window.end.saturating_sub(head) / k),
+    );
+    if c1 <= c0 {
+        return none;
+    }
+    let span = from..from + (c1 - c0) * k;
+    let (plane, weight) = (&source[c0 - first..], &across.columns.weight[span.clone()]);
+    let out = &mut value[span.start - window.start..span.end - window.start];
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: only from `part_row_avx2`, on a CPU with AVX2.
+    #[allow(unsafe_code)]
+    let done = unsafe {
+        match k {
+            2 => super::blend::chunks_avx2::<2>(plane, out, weight),
+            _ => super::blend::chunks_avx2::<4>(plane, out, weight),
+        }
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let done = {
+        let _ = (plane, weight, out);
+        0
+    };
+    from..from + done * k
 }
 
 #[cfg(test)]
@@ -91,7 +230,7 @@ mod tests {
     fn a_part_has_the_bytes_of_the_whole_upsampling() {
         // The layouts frames of 100 px and more (exact 2× and 4×, a layout
         // of neither, off-centre); both tones, exposed and not; parts at the
-        // edges, inside, one pixel, a row.
+        // edges, inside, one pixel, a row, a tile.
         let cases = &LAYOUTS[..5];
         let mut compared = 0;
         for (k, &(size, frame, centre)) in cases.iter().enumerate() {
@@ -128,6 +267,14 @@ mod tests {
                     x1: fw,
                     y1: 32,
                 },
+                // Tile-aligned, as the background's upload tiles (their
+                // whole chunks blended in AVX2 registers).
+                Rect {
+                    x0: 32,
+                    y0: 40,
+                    x1: 96,
+                    y1: 44,
+                },
             ];
             for tone in [
                 (Tone::Clip, 1.0),
@@ -161,7 +308,7 @@ mod tests {
                 assert_eq!(got[(40 * fw as usize + fw as usize - 1) * 4], 0x5A);
             }
         }
-        assert_eq!(compared, 5 * 4 * 22, "rows compared");
+        assert_eq!(compared, 5 * 4 * 26, "rows compared");
         // A source too short for its size: black, as the whole upsampling.
         let mut got = vec![9; 64];
         let short = planes(&[0.5; 4]);
