@@ -56,11 +56,11 @@ pub(in crate::render) fn upsample_parts(
         let window = part.x0 as usize..part.x1 as usize;
         for (y, line) in (part.y0 as usize..).zip(lines(*part)) {
             let (r0, r1, wy) = rows[y];
-            let rows = planes
+            let pair = planes
                 .each_ref()
                 .map(|p| (&p[r0 * w..][..w], &p[r1 * w..][..w]));
             part_row(
-                (rows, wy, scale),
+                (pair, wy, scale),
                 &across,
                 window.clone(),
                 &mut scratch,
