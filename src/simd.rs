@@ -60,6 +60,14 @@ pub(crate) fn avx2() -> bool {
     simd_level() >= 1
 }
 
+/// Whether AVX-512 kernels that also permute bytes with VBMI may run
+/// ([`simd_level`] 2 and the CPU has AVX-512 VBMI).
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn vbmi() -> bool {
+    static VBMI: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    simd_level() >= 2 && *VBMI.get_or_init(|| std::arch::is_x86_feature_detected!("avx512vbmi"))
+}
+
 /// Whether AVX2 kernels that also convert half floats with F16C may run
 /// ([`avx2`] and the CPU has F16C, which every AVX2 CPU has in practice).
 #[cfg(target_arch = "x86_64")]

@@ -6,6 +6,9 @@
 
 use std::sync::OnceLock;
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+
 /// Entries of the encoding table: linear [0, 1] in steps of 1/65535.
 const ENCODE_STEPS: usize = 65_536;
 
@@ -120,18 +123,20 @@ pub(super) fn encode_row(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], simd: b
     }
 }
 
-/// One row of RGBA8 from the three linear rows (see [`encode_row`]), in
-/// its AVX2 build where the CPU has it ([`encode_line_avx2`]: eight-lane
-/// gathers), also inside the AVX-512 band.
+/// One row of RGBA8 from the three linear rows (see [`encode_row`]): in
+/// AVX-512 registers where the CPU has them ([`avx512`]: permutes, no
+/// gather), else in AVX2 ([`encode_line_avx2`]: eight-lane gathers).
 #[inline(always)]
 pub(super) fn encode_line(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
-    if crate::simd::simd_level() >= 1 {
+    match crate::simd::simd_level() {
+        // SAFETY: the CPU has AVX-512 F and BW (checked by `simd_level`).
+        #[allow(unsafe_code)]
+        2.. => unsafe { return avx512::encode_line_avx512(vals, src, line) },
         // SAFETY: the CPU has AVX2 (checked by `simd_level`).
         #[allow(unsafe_code)]
-        unsafe {
-            return encode_line_avx2(vals, src, line);
-        }
+        1 => unsafe { return encode_line_avx2(vals, src, line) },
+        _ => {}
     }
     encode_row(vals, src, line, false);
 }
@@ -261,36 +266,59 @@ mod tests {
         }
     }
 
+    /// Rows that hold every index's value and the halves between them,
+    /// values past both ends and the odd ones, in a length that leaves a
+    /// tail; and their source pixels.
+    #[cfg(target_arch = "x86_64")]
+    fn every_index() -> ([Vec<f32>; 3], Vec<u8>) {
+        let mut l: Vec<f32> = (-2_000..=67_600)
+            .flat_map(|k| [k as f32 / 65_535.0, (k as f32 + 0.5) / 65_535.0])
+            .collect();
+        l.extend([
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e30,
+            -1e30,
+            1e-40,
+        ]);
+        l.push(0.5);
+        let n = l.len();
+        let (g, b): (Vec<f32>, Vec<f32>) = (
+            l.iter().rev().copied().collect(),
+            l.iter().map(|v| v * 0.7).collect(),
+        );
+        let src: Vec<u8> = (0..n * 4).map(|i| (i * 37 % 251) as u8).collect();
+        ([l, g, b], src)
+    }
+
     #[test]
     fn the_gathered_line_is_the_scalar_line() {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
-            // Every index's value and the halves between them, past both
-            // ends, and the odd values; a length that leaves a tail.
-            let mut l: Vec<f32> = (-2_000..=67_600)
-                .flat_map(|k| [k as f32 / 65_535.0, (k as f32 + 0.5) / 65_535.0])
-                .collect();
-            l.extend([
-                -0.0,
-                f32::NAN,
-                f32::INFINITY,
-                f32::NEG_INFINITY,
-                1e30,
-                -1e30,
-                1e-40,
-            ]);
-            l.push(0.5);
-            let n = l.len();
-            let (g, b): (Vec<f32>, Vec<f32>) = (
-                l.iter().rev().copied().collect(),
-                l.iter().map(|v| v * 0.7).collect(),
-            );
-            let src: Vec<u8> = (0..n * 4).map(|i| (i * 37 % 251) as u8).collect();
-            let (mut simd, mut scalar) = (vec![0u8; n * 4], vec![0u8; n * 4]);
+            let ([l, g, b], src) = every_index();
+            let (mut simd, mut scalar) = (vec![0u8; src.len()], vec![0u8; src.len()]);
             // SAFETY: the CPU has AVX2 (checked above).
             #[allow(unsafe_code)]
             unsafe {
                 encode_line_avx2([&l, &g, &b], &src, &mut simd);
+            }
+            encode_row([&l, &g, &b], &src, &mut scalar, false);
+            assert_eq!(simd, scalar);
+        }
+    }
+
+    #[test]
+    fn the_permuted_line_is_the_scalar_line() {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::cpu_simd_level() >= 2 {
+            let ([l, g, b], src) = every_index();
+            let (mut simd, mut scalar) = (vec![0u8; src.len()], vec![0u8; src.len()]);
+            // SAFETY: the CPU has AVX-512 F and BW (checked above).
+            #[allow(unsafe_code)]
+            unsafe {
+                avx512::encode_line_avx512([&l, &g, &b], &src, &mut simd);
             }
             encode_row([&l, &g, &b], &src, &mut scalar, false);
             assert_eq!(simd, scalar);
