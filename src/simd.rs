@@ -60,12 +60,17 @@ pub(crate) fn avx2() -> bool {
     simd_level() >= 1
 }
 
-/// Whether AVX-512 kernels that also permute bytes with VBMI may run
-/// ([`simd_level`] 2 and the CPU has AVX-512 VBMI).
+/// Whether AVX-512 kernels that also use Ice Lake's extensions may run:
+/// [`simd_level`] 2 and the CPU has VBMI (byte permutes) and VNNI (byte dot
+/// products), as Intel's AVX-512 CPUs since Ice Lake and AMD's since Zen 4.
 #[cfg(target_arch = "x86_64")]
-pub(crate) fn vbmi() -> bool {
-    static VBMI: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    simd_level() >= 2 && *VBMI.get_or_init(|| std::arch::is_x86_feature_detected!("avx512vbmi"))
+pub(crate) fn avx512_icl() -> bool {
+    static ICL: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    simd_level() >= 2
+        && *ICL.get_or_init(|| {
+            std::arch::is_x86_feature_detected!("avx512vbmi")
+                && std::arch::is_x86_feature_detected!("avx512vnni")
+        })
 }
 
 /// Whether AVX2 kernels that also convert half floats with F16C may run

@@ -85,9 +85,9 @@ pub(super) fn luts(draw: &CameraDraw) -> [[f32; 256]; 3] {
 #[inline(always)]
 pub(super) fn decode_row(lut: &Lut, row: &[u8], c: usize, first: i64, out: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
-    if crate::simd::vbmi() {
+    if crate::simd::avx512_icl() {
         let (inside, start) = decode_edges(&lut.values, row, c, first, out);
-        // SAFETY: the CPU has AVX-512 F, BW and VBMI (checked by `vbmi`).
+        // SAFETY: the CPU has AVX-512 F, BW and VBMI (checked by `avx512_icl`).
         #[allow(unsafe_code)]
         unsafe {
             return avx512::decode_avx512((&lut.values, &lut.planes), &row[start..], c, inside);

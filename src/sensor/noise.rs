@@ -15,6 +15,8 @@
 //! loop of 32-bit integer and f32 operations that the compiler vectorises
 //! ([`deviates`]): no table, so no look-ups.
 
+mod avx512;
+
 /// The sensor's last step on its pixels: the full well and Poisson–Gaussian
 /// noise ([`add`]), or, without noise, the clipping to [0, 1] alone.
 pub(super) struct Sensor {
@@ -91,9 +93,18 @@ impl Key {
 /// The standard normal deviates of sensor pixels `first`, `first + 1`, …
 /// (as many as `out[0]` is long) for channels 0, 1, 2 into `out[c]`: per
 /// channel one loop over the pixels (counters 3·pixel + c, stride 3) of
-/// 32-bit integer and f32 operations, which vectorises.
+/// 32-bit integer and f32 operations, which vectorises (in AVX-512 with
+/// VNNI where the CPU has them: [`avx512`]).
 #[inline(always)]
 pub fn deviates(key: Key, first: u64, out: [&mut [f32]; 3]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::simd::avx512_icl() {
+        // SAFETY: the CPU has AVX-512 F, BW and VNNI (checked by `avx512_icl`).
+        #[allow(unsafe_code)]
+        unsafe {
+            return avx512::deviates_avx512(key, first, out);
+        }
+    }
     let base = (first as u32).wrapping_mul(3);
     for (c, d) in out.into_iter().enumerate() {
         let mut counter = base.wrapping_add(c as u32);
