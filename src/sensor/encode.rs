@@ -155,12 +155,7 @@ fn encode_line_avx2(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
     };
     let buckets = encode_buckets();
     let [r, g, b] = vals;
-    let n = (line.len() / 4)
-        .min(src.len() / 4)
-        .min(r.len())
-        .min(g.len())
-        .min(b.len());
-    let whole = n - n % 8;
+    let (n, whole) = line_blocks(vals, src, line, 8);
     let (r8, g8, b8) = (
         r[..whole].as_chunks::<8>().0,
         g[..whole].as_chunks::<8>().0,
@@ -185,12 +180,26 @@ fn encode_line_avx2(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
             _mm256_storeu_si256(px.as_mut_ptr().cast::<__m256i>(), word);
         }
     }
-    encode_row(
-        [&r[whole..n], &g[whole..n], &b[whole..n]],
-        &src[whole * 4..n * 4],
-        &mut line[whole * 4..n * 4],
-        true,
-    );
+    encode_tail(vals, src, line, whole..n);
+}
+
+/// The pixels of a line that its three rows and its source all hold, and
+/// how many of them make whole blocks of `lanes`.
+#[inline(always)]
+fn line_blocks(vals: [&[f32]; 3], src: &[u8], line: &[u8], lanes: usize) -> (usize, usize) {
+    let n = (line.len() / 4)
+        .min(src.len() / 4)
+        .min(vals.iter().map(|v| v.len()).min().unwrap_or(0));
+    (n, n - n % lanes)
+}
+
+/// The line's pixels `tail` one at a time ([`encode_row`]), after a SIMD
+/// encode's whole blocks.
+#[inline(always)]
+fn encode_tail(vals: [&[f32]; 3], src: &[u8], line: &mut [u8], tail: std::ops::Range<usize>) {
+    let [r, g, b] = vals.map(|v| &v[tail.clone()]);
+    let bytes = tail.start * 4..tail.end * 4;
+    encode_row([r, g, b], &src[bytes.clone()], &mut line[bytes], true);
 }
 
 /// The codes of eight linear values, one a 32-bit lane: [`encode_index_simd`]

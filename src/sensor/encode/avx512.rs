@@ -222,19 +222,14 @@ impl Regs {
 
 /// [`super::encode_row`] for AVX-512: sixteen pixels at a time
 /// ([`Regs::codes`]), the alpha taken from the source's words; the tail
-/// through [`super::encode_row`]. The same bytes.
+/// through [`super::encode_tail`]. The same bytes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512bw")]
 #[inline(never)]
 pub(super) fn encode_line_avx512(vals: [&[f32]; 3], src: &[u8], line: &mut [u8]) {
     let regs = Regs::load(segments());
     let [r, g, b] = vals;
-    let n = (line.len() / 4)
-        .min(src.len() / 4)
-        .min(r.len())
-        .min(g.len())
-        .min(b.len());
-    let whole = n - n % 16;
+    let (n, whole) = super::line_blocks(vals, src, line, 16);
     let (r16, g16, b16) = (
         r[..whole].as_chunks::<16>().0,
         g[..whole].as_chunks::<16>().0,
@@ -259,10 +254,5 @@ pub(super) fn encode_line_avx512(vals: [&[f32]; 3], src: &[u8], line: &mut [u8])
             _mm512_storeu_si512(px.as_mut_ptr().cast(), word);
         }
     }
-    super::encode_row(
-        [&r[whole..n], &g[whole..n], &b[whole..n]],
-        &src[whole * 4..n * 4],
-        &mut line[whole * 4..n * 4],
-        true,
-    );
+    super::encode_tail(vals, src, line, whole..n);
 }
