@@ -16,18 +16,21 @@ const ENCODE_STEPS: usize = 65_536;
 pub(super) fn encode_table() -> &'static [u8] {
     static T: OnceLock<Vec<u8>> = OnceLock::new();
     T.get_or_init(|| {
-        (0..ENCODE_STEPS)
-            .map(|i| {
-                let l = i as f64 / (ENCODE_STEPS - 1) as f64;
-                let c = if l <= 0.003_130_8 {
-                    12.92 * l
-                } else {
-                    1.055 * l.powf(1.0 / 2.4) - 0.055
-                };
-                (c * 255.0).round().clamp(0.0, 255.0) as u8
-            })
+        (0..ENCODE_STEPS as u32)
+            .map(|i| level(i).round().clamp(0.0, 255.0) as u8)
             .collect()
     })
+}
+
+/// The sRGB level of encode-table index `i` before rounding (0 to 255).
+fn level(i: u32) -> f64 {
+    let l = f64::from(i) / (ENCODE_STEPS - 1) as f64;
+    let c = if l <= 0.003_130_8 {
+        12.92 * l
+    } else {
+        1.055 * l.powf(1.0 / 2.4) - 0.055
+    };
+    c * 255.0
 }
 
 #[inline]

@@ -1,6 +1,6 @@
 //! The encode of a finished row ([`super::encode_line`]) in AVX-512
 //! registers, without a gather: sixteen values a channel at a time, each
-//! value's code first estimated from a line over its index's half octave
+//! value's code first estimated by a quadratic over its index's octave
 //! and then settled by one threshold, both read by in-register permutes.
 //! Gathers are the AVX2 encode's cost (two thirds of its samples wait on
 //! them); the bytes are the same, checked for every index when the tables
@@ -24,7 +24,7 @@ use std::arch::x86_64::{
 };
 use std::sync::OnceLock;
 
-use super::{ENCODE_STEPS, encode_table};
+use super::{ENCODE_STEPS, encode_table, level};
 
 /// The octaves of the index range: 1 to 65 535 as an f32 (index 0 in the first).
 const OCTAVES: usize = 16;
@@ -70,39 +70,24 @@ impl Segments {
     }
 }
 
-/// The unrounded level of index `i`: `encode_table`'s value before rounding.
-fn level(i: u32) -> f64 {
-    let l = f64::from(i) / (ENCODE_STEPS - 1) as f64;
-    let c = if l <= 0.003_130_8 {
-        12.92 * l
-    } else {
-        1.055 * l.powf(1.0 / 2.4) - 0.055
-    };
-    c * 255.0
-}
-
 /// The quadratic `[c0, c1, c2]` through the levels of the indices `m` (an
-/// octave's, in order) at their first, middle and last offsets, its `c0`
-/// moved to the middle of their spread about it; fewer points, a line or
-/// their mean.
+/// octave's, in order: the first at offset 0) at their first, middle and
+/// last offsets, its `c0` moved to the middle of their spread about it;
+/// fewer points, a line or their mean.
 fn fit(m: &[u32]) -> [f64; 3] {
     let pts: Vec<(f64, f64)> = m
         .iter()
         .map(|&i| (f64::from(octave(i).1), level(i)))
         .collect();
     let (first, mid, last) = (pts[0], pts[pts.len() / 2], pts[pts.len() - 1]);
-    let mut c = if mid.0 > first.0 && last.0 > mid.0 {
-        // Newton's divided differences, expanded about t = 0 (first.0 = 0).
-        let d1 = (mid.1 - first.1) / (mid.0 - first.0);
-        let d2 = ((last.1 - mid.1) / (last.0 - mid.0) - d1) / (last.0 - first.0);
-        [
-            first.1 - d1 * first.0 + d2 * first.0 * mid.0,
-            d1 - d2 * (first.0 + mid.0),
-            d2,
-        ]
-    } else if last.0 > first.0 {
-        let d1 = (last.1 - first.1) / (last.0 - first.0);
-        [first.1 - d1 * first.0, d1, 0.0]
+    debug_assert_eq!(first.0, 0.0, "an octave starts at its floor");
+    let mut c = if mid.0 > 0.0 && last.0 > mid.0 {
+        // Newton's divided differences, expanded about t = 0.
+        let d1 = (mid.1 - first.1) / mid.0;
+        let d2 = ((last.1 - mid.1) / (last.0 - mid.0) - d1) / last.0;
+        [first.1, d1 - d2 * mid.0, d2]
+    } else if last.0 > 0.0 {
+        [first.1, (last.1 - first.1) / last.0, 0.0]
     } else {
         [0.0; 3]
     };

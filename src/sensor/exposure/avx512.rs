@@ -37,17 +37,22 @@ const fn pixel_at(p: usize) -> usize {
 /// The byte permute that picks channel `c` of pixels [`pixel_at`] out of
 /// two registers of 32 pixels (`4·(pixel mod 32) + c`), and the mask of the
 /// bytes taken from the second pair (pixels 32 to 63).
-fn picker(c: usize) -> ([u8; 64], u64) {
-    let mut mask = 0u64;
-    let index = std::array::from_fn(|p| {
+const fn picker(c: usize) -> ([u8; 64], u64) {
+    let (mut index, mut mask) = ([0u8; 64], 0u64);
+    let mut p = 0;
+    while p < 64 {
         let px = pixel_at(p);
         if px >= 32 {
             mask |= 1 << p;
         }
-        (4 * (px % 32) + c) as u8
-    });
+        index[p] = (4 * (px % 32) + c) as u8;
+        p += 1;
+    }
     (index, mask)
 }
+
+/// [`picker`] of each channel, made at compile time.
+const PICKERS: [([u8; 64], u64); 4] = [picker(0), picker(1), picker(2), picker(3)];
 
 /// Channel `c` of the RGBA8 pixels `px` through `lut` (whose planes are
 /// `planes`) into `out`, one value a pixel (`px` at least `4·out.len()`
@@ -63,7 +68,7 @@ pub(super) fn decode_avx512(
 ) {
     let n = out.len().min(px.len() / 4);
     let whole = n - n % 64;
-    let (index, second) = picker(c);
+    let (index, second) = PICKERS[c];
     // SAFETY: every load and store is 64 bytes inside its slice (a block's
     // 256 source bytes, a plane's 256 bytes, a block's 64 values), unaligned.
     #[allow(unsafe_code)]

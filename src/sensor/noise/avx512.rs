@@ -55,15 +55,11 @@ pub(super) fn deviates_avx512(key: Key, first: u64, out: [&mut [f32]; 3]) {
 #[target_feature(enable = "avx512f")]
 #[inline]
 fn hash(x: __m512i) -> __m512i {
-    let shift_xor = |x: __m512i, n: u32| match n {
-        16 => _mm512_xor_si512(x, _mm512_srli_epi32::<16>(x)),
-        _ => _mm512_xor_si512(x, _mm512_srli_epi32::<15>(x)),
-    };
-    let x = shift_xor(x, 16);
+    let x = _mm512_xor_si512(x, _mm512_srli_epi32::<16>(x));
     let x = _mm512_mullo_epi32(x, _mm512_set1_epi32(0x21f0_aaad));
-    let x = shift_xor(x, 15);
+    let x = _mm512_xor_si512(x, _mm512_srli_epi32::<15>(x));
     let x = _mm512_mullo_epi32(x, _mm512_set1_epi32(0x735a_2d97));
-    shift_xor(x, 15)
+    _mm512_xor_si512(x, _mm512_srli_epi32::<15>(x))
 }
 
 /// [`deviate`] in each lane: the bytes' sum by one dot product with ones,
