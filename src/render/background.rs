@@ -23,7 +23,9 @@ use super::regions::Rect;
 use super::scenery::{self, ClutterLayer};
 use super::sky::SkyGpu;
 use super::tiles::{take_stale_tiles, upload_tiles, write_part};
-use super::upsample::{Texels, Tone, upsample_parts, upsample_reduced};
+use super::upsample::{
+    Texels, Tone, encode_source, upsample_levels, upsample_parts, upsample_reduced,
+};
 use super::{COLOR_FORMAT, FrameUniforms, ReadbackError, RenderError};
 use crate::scene::FrameScene;
 use crate::scene::backplate::FramePlate;
@@ -71,6 +73,9 @@ pub(super) struct BackgroundCache {
     /// environment's on a CPU adapter; red, green and blue planes), kept
     /// for its memory.
     reduced_texels: [Vec<f32>; 3],
+    /// The reduced pass sRGB-encoded at its own resolution (RGBA8), what the
+    /// upsampling interpolates ([`super::upsample`]).
+    reduced_levels: Vec<u8>,
     /// Backgrounds drawn in a row for this cache's frames (0: the last
     /// frame found its background here): from the second, a frame may take
     /// the pixels ([`BackgroundCache::lend`]).
@@ -92,13 +97,12 @@ pub(super) struct BackgroundCache {
     pending: Option<Pending>,
 }
 
-/// What [`BackgroundCache::finish`] upsamples `reduced_texels` with: the
-/// pass's size, the camera's principal point, the tone and exposure.
+/// What [`BackgroundCache::finish`] upsamples `reduced_levels` with: the
+/// pass's size and the camera's principal point.
 #[derive(Clone, Copy, Debug)]
 struct Pending {
     size: (u32, u32),
     centre: (f32, f32),
-    tone: (Tone, f32),
 }
 
 impl BackgroundCache {
@@ -144,6 +148,7 @@ impl BackgroundCache {
             unexposed: None,
             environment_readback: None,
             reduced_texels: Default::default(),
+            reduced_levels: Vec::new(),
             drawn_in_a_row: 0,
             lent: None,
             stale: Vec::new(),
@@ -173,15 +178,8 @@ impl BackgroundCache {
         let size = (self.width, self.height);
         let parts = take_stale_tiles(&mut self.stale, size, rects);
         if let Some(p) = self.pending {
-            let texels = &self.reduced_texels;
-            upsample_parts(
-                texels,
-                (p.size, size),
-                p.centre,
-                p.tone,
-                &parts,
-                &mut self.rgba,
-            );
+            let levels = &self.reduced_levels;
+            upsample_parts(levels, (p.size, size), p.centre, &parts, &mut self.rgba);
         }
         let source = if self.plain.is_empty() {
             &self.rgba
@@ -197,9 +195,9 @@ impl BackgroundCache {
     /// then holds all of it (the parts made before get the same bytes).
     pub(super) fn finish(&mut self) {
         if let Some(p) = self.pending.take() {
-            let texels = Texels::Planes(&self.reduced_texels);
             let frame = (self.width, self.height);
-            upsample_reduced(texels, p.size, frame, p.centre, p.tone, &mut self.rgba);
+            let levels = &self.reduced_levels;
+            upsample_levels(levels, p.size, (frame, p.centre), &mut self.rgba);
         }
     }
 
@@ -542,17 +540,16 @@ fn draw_reduced_background(
     };
     match shaded {
         Some((size, tone)) => {
-            // Upsampled where the frame's regions read it when they are
-            // uploaded, the rest once its passes are submitted.
+            // Encoded now; upsampled where the frame's regions read it when
+            // they are uploaded, the rest once its passes are submitted.
+            let source = (size.0 as usize, size.1 as usize);
+            let texels = Texels::Planes(&cache.reduced_texels);
+            encode_source(&texels, source, (tone, gain), &mut cache.reduced_levels);
             let centre = (uniforms.intrinsics[2], uniforms.intrinsics[3]);
             cache
                 .rgba
                 .resize(frame.0 as usize * frame.1 as usize * 4, 0);
-            cache.pending = Some(Pending {
-                size,
-                centre,
-                tone: (tone, gain),
-            });
+            cache.pending = Some(Pending { size, centre });
         }
         None => draw_environment(with, cache, uniforms, gain)?,
     }
@@ -628,13 +625,14 @@ fn draw_environment(
         },
     );
     let submitted = with.queue.submit([encoder.finish()]);
-    let rgba = &mut cache.rgba;
+    let (levels, rgba) = (&mut cache.reduced_levels, &mut cache.rgba);
     readback::read_mapped(device, submitted, buffer, len, |bytes| {
         let texels = Texels::F16 {
             bytes,
             stride: row as usize,
         };
-        upsample_reduced(texels, (w, h), frame, centre, (Tone::Clip, gain), rgba);
+        let tone = (Tone::Clip, gain);
+        upsample_reduced(texels, (w, h), (frame, centre), tone, levels, rgba);
     })
 }
 

@@ -1,6 +1,9 @@
 //! Region rendering equals full-frame rendering: every pixel within one 8-bit
-//! level of the full-frame path (`render_rgba`: the whole sky redrawn, the
-//! hardware resolve), and visibility identical to a reduction over the whole
+//! level of the frame drawn whole, and of the full-frame path (`render_rgba`:
+//! the whole sky redrawn, the hardware resolve) over a sky it draws alike
+//! (a sky pass shaded at a reduced size is interpolated there by the GPU's
+//! sampler in light, by the frame path in sRGB levels: within their measured
+//! difference), and visibility identical to a reduction over the whole
 //! frame. Over a gradient sky, a procedural environment, an image sky, MSAA
 //! 1× and 4×, drones cut by the image border and by the near plane, and no
 //! drones; the background is drawn once for frames that share it, and a
@@ -63,18 +66,46 @@ fn image_sky(dir: &std::path::Path) -> Sky {
     }
 }
 
-fn assert_close(a: &[u8], b: &[u8], what: &str) {
-    assert_eq!(a.len(), b.len(), "{what}");
-    let worst = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| x.abs_diff(*y))
-        .max()
-        .unwrap_or(0);
-    assert!(worst <= 1, "{what}: a pixel differs by {worst} levels");
+/// How far two frames may differ: the greatest difference of a value and
+/// the mean difference, in 8-bit levels.
+#[derive(Clone, Copy)]
+struct Tolerance {
+    worst: u8,
+    mean: f64,
 }
 
-fn check(renderer: &mut Renderer, scene: &FrameScene, msaa: u32, what: &str) {
+/// Frames drawn alike: one level at most (rounding and the resolve).
+const ALIKE: Tolerance = Tolerance {
+    worst: 1,
+    mean: 1.0,
+};
+
+/// A sky pass at a reduced size interpolated in light against in levels:
+/// they differ where the pass has sharp edges (its own error against every
+/// pixel is up to 60 levels there, 0.5 on average: docs/environments.md,
+/// "How far the upsampling lies from every pixel").
+const INTERPOLATED: Tolerance = Tolerance {
+    worst: 64,
+    mean: 0.5,
+};
+
+fn assert_close(a: &[u8], b: &[u8], what: &str, tolerance: Tolerance) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    let diffs = || a.iter().zip(b).map(|(x, y)| x.abs_diff(*y));
+    let worst = diffs().max().unwrap_or(0);
+    let mean = diffs().map(f64::from).sum::<f64>() / a.len().max(1) as f64;
+    assert!(
+        worst <= tolerance.worst && mean <= tolerance.mean,
+        "{what}: a pixel differs by {worst} levels, {mean:.3} on average"
+    );
+}
+
+fn check(
+    renderer: &mut Renderer,
+    scene: &FrameScene,
+    msaa: u32,
+    (what, full_path): (&str, Tolerance),
+) {
     let request = RenderRequest {
         msaa,
         color: true,
@@ -82,11 +113,12 @@ fn check(renderer: &mut Renderer, scene: &FrameScene, msaa: u32, what: &str) {
     };
     let regions = renderer.render_frame(scene, &request).expect("regions");
     let full = renderer.render_rgba(scene, msaa).expect("full frame");
-    assert_close(&regions.rgba, &full, what);
+    assert_close(&regions.rgba, &full, what, full_path);
     renderer.set_regions(false);
     let whole = renderer.render_frame(scene, &request).expect("whole frame");
     renderer.set_regions(true);
-    assert_close(&whole.rgba, &full, what);
+    assert_close(&whole.rgba, &full, what, full_path);
+    assert_close(&regions.rgba, &whole.rgba, what, ALIKE);
     assert_eq!(regions.visibility, whole.visibility, "{what}: visibility");
 }
 
@@ -95,12 +127,12 @@ fn regions_equal_full_frames_over_skies_msaa_and_edges() {
     let ctx = common::gpu();
     let dir = tempfile::tempdir().expect("tempdir");
     let skies = [
-        ("gradient", Preset::default().sky),
-        ("procedural", common::procedural_sky()),
-        ("image", image_sky(dir.path())),
+        ("gradient", Preset::default().sky, ALIKE),
+        ("procedural", common::procedural_sky(), INTERPOLATED),
+        ("image", image_sky(dir.path()), INTERPOLATED),
     ];
     let (mut truncated, mut drones) = (0, 0);
-    for (name, sky) in skies {
+    for (name, sky, full_path) in skies {
         for msaa in [1, 4] {
             let pipeline = FramePipeline::new(preset(sky.clone(), msaa)).expect("preset");
             let mut renderer = pipeline.renderer(&ctx);
@@ -113,7 +145,7 @@ fn regions_equal_full_frames_over_skies_msaa_and_edges() {
                     &mut renderer,
                     &scene,
                     msaa,
-                    &format!("{name}, msaa {msaa}, frame {index}"),
+                    (&format!("{name}, msaa {msaa}, frame {index}"), full_path),
                 );
             }
             // No drones: the background alone.
@@ -123,7 +155,7 @@ fn regions_equal_full_frames_over_skies_msaa_and_edges() {
                 &mut renderer,
                 &empty,
                 msaa,
-                &format!("{name}, msaa {msaa}, no drones"),
+                (&format!("{name}, msaa {msaa}, no drones"), full_path),
             );
             // A drone crossing the near plane, filling much of the frame.
             let mut close = pipeline.scene(1).expect("scene");
@@ -135,7 +167,7 @@ fn regions_equal_full_frames_over_skies_msaa_and_edges() {
                 &mut renderer,
                 &close,
                 msaa,
-                &format!("{name}, msaa {msaa}, near plane"),
+                (&format!("{name}, msaa {msaa}, near plane"), full_path),
             );
         }
     }

@@ -362,4 +362,6 @@ use uniforms::EnvUniforms;
 use upload::make_bind_group;
 
 #[cfg(test)]
+mod fidelity;
+#[cfg(test)]
 mod tests;
