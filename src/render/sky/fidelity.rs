@@ -70,12 +70,12 @@ fn linear(planes: &[Vec<f32>; 3], size: (u32, u32)) -> [Vec<f32>; 3] {
 /// `reduced` (planes of `size` texels) upsampled to the frame through
 /// `tone`, and interpolated in linear light ([`linear`]), each against
 /// `full` (planes of the frame's size) encoded: the mean and greatest
-/// difference in levels of each.
+/// difference in levels of each, printed after `what`.
 fn compare(
-    reduced: &[Vec<f32>; 3],
-    size: (u32, u32),
+    (reduced, size): (&[Vec<f32>; 3], (u32, u32)),
     full: &[Vec<f32>; 3],
     tone: Tone,
+    what: &str,
 ) -> [(f64, u8); 2] {
     let centre = (FRAME.0 as f32 / 2.0, FRAME.1 as f32 / 2.0);
     let (mut levels, mut up, mut truth, mut lin) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -92,16 +92,26 @@ fn compare(
     encode_source(&Texels::Planes(full), frame, (tone, 1.0), &mut truth);
     let blended = linear(reduced, size);
     encode_source(&Texels::Planes(&blended), frame, (tone, 1.0), &mut lin);
-    [error(&up, &truth), error(&lin, &truth)]
+    let errors = [error(&up, &truth), error(&lin, &truth)];
+    eprintln!(
+        "{what}: levels interpolated {:?}, light {:?}",
+        errors[0], errors[1]
+    );
+    errors
 }
 
-/// The greatest of `errors`' means and maxima, each method's.
-fn worst(errors: &[[(f64, u8); 2]]) -> [(f64, u8); 2] {
-    [0, 1].map(|k| {
+/// The worst of `errors` (each method's mean and greatest difference per
+/// view): the levels' mean below one level and within 1.25× the light's.
+fn assert_near(errors: &[[(f64, u8); 2]]) {
+    let [levels, light] = [0, 1].map(|k| {
         errors
             .iter()
             .fold((0.0f64, 0u8), |(m, x), e| (m.max(e[k].0), x.max(e[k].1)))
-    })
+    });
+    assert!(
+        levels.0 < 1.0 && levels.0 < light.0 * 1.25,
+        "{levels:?} against {light:?}"
+    );
 }
 
 #[test]
@@ -136,18 +146,14 @@ fn an_upsampled_environment_stays_within_a_level_of_its_full_resolution() {
             procedural::shade(&env, &view(2.0), double, &mut passes, &mut full),
             FRAME
         );
-        let e = compare(&half, size, &full, Tone::Clip);
-        eprintln!(
-            "{name:?}: levels interpolated {:?}, linear light {:?}",
-            e[0], e[1]
-        );
-        errors.push(e);
+        errors.push(compare(
+            (&half, size),
+            &full,
+            Tone::Clip,
+            &format!("{name:?}"),
+        ));
     }
-    let [levels, light] = worst(&errors);
-    assert!(
-        levels.0 < 1.0 && levels.0 < light.0 * 1.25,
-        "{levels:?} against {light:?}"
-    );
+    assert_near(&errors);
 }
 
 #[test]
@@ -182,17 +188,9 @@ fn an_upsampled_hdr_sky_stays_within_a_level_of_its_full_resolution() {
         for scale in [2, 4] {
             let size = (FRAME.0 / scale, FRAME.1 / scale);
             equirect::shade(image(), &view(scale), size, &mut reduced);
-            let e = compare(&reduced, size, &full, Tone::Exponential);
-            eprintln!(
-                "pitch {pitch}, yaw {yaw}, {scale}×: levels {:?}, light {:?}",
-                e[0], e[1]
-            );
-            errors.push(e);
+            let what = format!("pitch {pitch}, yaw {yaw}, {scale}×");
+            errors.push(compare((&reduced, size), &full, Tone::Exponential, &what));
         }
     }
-    let [levels, light] = worst(&errors);
-    assert!(
-        levels.0 < 1.0 && levels.0 < light.0 * 1.25,
-        "{levels:?} against {light:?}"
-    );
+    assert_near(&errors);
 }
