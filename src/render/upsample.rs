@@ -113,11 +113,7 @@ pub(super) fn upsample_reduced(
     rgba: &mut Vec<u8>,
 ) {
     let source = (size.0 as usize, size.1 as usize);
-    if !texels.holds(source.0, source.1) {
-        levels.clear();
-    } else {
-        encode_source(&texels, source, tone, levels);
-    }
+    encode_source(&texels, source, tone, levels);
     upsample_levels(levels, size, (frame, centre), rgba);
 }
 

@@ -13,7 +13,8 @@ const BAND_ROWS: usize = 16;
 /// rows of `size.0` texels) through `tone` at exposure `gain`: the display
 /// values times `gain` are encoded. With [`Tone::Clip`] the texels are scaled
 /// as they are read; after [`Tone::Exponential`] the levels are exposed by
-/// the table ([`srgb::expose_with`]). A source too short for its size is black.
+/// the table ([`srgb::expose_with`]). A source too short for its size gives
+/// no levels (whose upsampling is black).
 pub(in crate::render) fn encode_source(
     texels: &Texels<'_>,
     size: (usize, usize),
@@ -23,10 +24,10 @@ pub(in crate::render) fn encode_source(
     use rayon::prelude::*;
     let (w, h) = size;
     levels.clear();
-    levels.resize(w * h * 4, 0);
     if w == 0 || !texels.holds(w, h) {
         return;
     }
+    levels.resize(w * h * 4, 0);
     let (buckets, scale, exposure) = tone.encoding(gain);
     let exposed = (exposure != 1.0).then(|| srgb::exposure_table(exposure));
     let simd = crate::simd::avx2();
