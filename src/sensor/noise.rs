@@ -13,8 +13,11 @@
 //!
 //! The deviates of a run of pixels are computed channel by channel in one
 //! loop of 32-bit integer and f32 operations that the compiler vectorises
-//! ([`deviates`]): no table, so no look-ups.
+//! ([`deviates`]): no table, so no look-ups; in AVX2 and AVX-512
+//! registers where the CPU has them ([`avx2`], [`avx512`]), the same
+//! deviates.
 
+mod avx2;
 mod avx512;
 
 /// The sensor's last step on its pixels: the full well and Poisson–Gaussian
@@ -93,8 +96,9 @@ impl Key {
 /// The standard normal deviates of sensor pixels `first`, `first + 1`, …
 /// (as many as `out[0]` is long) for channels 0, 1, 2 into `out[c]`: per
 /// channel one loop over the pixels (counters 3·pixel + c, stride 3) of
-/// 32-bit integer and f32 operations, which vectorises (in AVX-512 with
-/// VNNI where the CPU has them: [`avx512`]).
+/// 32-bit integer and f32 operations: in AVX-512 with VNNI where the CPU
+/// has them ([`avx512`]), else in AVX2 where it has that ([`avx2`]), else
+/// in whatever the compiler makes of [`deviates_from`].
 #[inline(always)]
 pub fn deviates(key: Key, first: u64, out: [&mut [f32]; 3]) {
     #[cfg(target_arch = "x86_64")]
@@ -105,13 +109,27 @@ pub fn deviates(key: Key, first: u64, out: [&mut [f32]; 3]) {
             return avx512::deviates_avx512(key, first, out);
         }
     }
+    #[cfg(target_arch = "x86_64")]
+    if crate::simd::avx2() {
+        // SAFETY: the CPU has AVX2 (checked by `avx2`).
+        #[allow(unsafe_code)]
+        unsafe {
+            return avx2::deviates_avx2(key, first, out);
+        }
+    }
     let base = (first as u32).wrapping_mul(3);
     for (c, d) in out.into_iter().enumerate() {
-        let mut counter = base.wrapping_add(c as u32);
-        for o in d.iter_mut() {
-            *o = deviate(key.bits(counter));
-            counter = counter.wrapping_add(3);
-        }
+        deviates_from(key, base.wrapping_add(c as u32), d);
+    }
+}
+
+/// The deviates of counters `counter`, `counter + 3`, … into `out`, one at
+/// a time (a channel's run, or the tail a SIMD build leaves).
+#[inline(always)]
+fn deviates_from(key: Key, mut counter: u32, out: &mut [f32]) {
+    for o in out {
+        *o = deviate(key.bits(counter));
+        counter = counter.wrapping_add(3);
     }
 }
 
@@ -230,6 +248,63 @@ mod tests {
                 / n as f64;
             assert!(c01.abs() < 0.01 && c12.abs() < 0.01, "{c01} {c12}");
         }
+    }
+
+    /// Every SIMD build of the deviates this CPU runs gives each pixel's
+    /// scalar deviate, bit for bit: keys with high bits set, runs that leave
+    /// tails, and counters that wrap at 2³².
+    #[test]
+    fn the_vector_deviates_are_the_scalar_deviates() {
+        #[cfg(target_arch = "x86_64")]
+        let builds: [(&str, bool, fn(Key, u64, [&mut [f32]; 3])); 2] = [
+            ("AVX2", crate::simd::avx2(), |key, first, out| {
+                // SAFETY: run only where the CPU has AVX2 (checked above).
+                #[allow(unsafe_code)]
+                unsafe {
+                    avx2::deviates_avx2(key, first, out);
+                }
+            }),
+            ("AVX-512", crate::simd::avx512_icl(), |key, first, out| {
+                // SAFETY: run only where the CPU has AVX-512 F, BW and VNNI.
+                #[allow(unsafe_code)]
+                unsafe {
+                    avx512::deviates_avx512(key, first, out);
+                }
+            }),
+        ];
+        #[cfg(not(target_arch = "x86_64"))]
+        let builds: [(&str, bool, fn(Key, u64, [&mut [f32]; 3])); 0] = [];
+        let mut compared = 0;
+        for (name, _, build) in builds.into_iter().filter(|b| b.1) {
+            for (seed, first, n) in [
+                (0x0123_4567_89ab_cdef_u64, 0u64, 1000usize),
+                (u64::MAX, 7, 37),
+                (0x8000_0001_ffff_fffe, (1u64 << 32) / 3 - 200, 517),
+                (42, 1_431_655_700, 64),
+                (9, 3, 5),
+            ] {
+                let key = Key::new(seed);
+                let mut simd: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+                let [a, b, c] = &mut simd;
+                build(key, first, [a, b, c]);
+                for (ch, row) in simd.iter().enumerate() {
+                    for (i, v) in row.iter().enumerate() {
+                        let counter = (first as u32)
+                            .wrapping_add(i as u32)
+                            .wrapping_mul(3)
+                            .wrapping_add(ch as u32);
+                        let want = deviate(key.bits(counter));
+                        assert_eq!(
+                            v.to_bits(),
+                            want.to_bits(),
+                            "{name}: seed {seed:x}, pixel {i}, channel {ch}"
+                        );
+                    }
+                }
+            }
+            compared += 1;
+        }
+        eprintln!("{compared} SIMD builds compared with the scalar deviates");
     }
 
     /// A run of pixels gets the deviates of the same pixels made one at a time.

@@ -13,7 +13,7 @@ use std::arch::x86_64::{
     _mm512_setzero_si512, _mm512_srli_epi32, _mm512_storeu_ps, _mm512_sub_ps, _mm512_xor_si512,
 };
 
-use super::{A_T, B_T, Key, deviate};
+use super::{A_T, B_T, Key, deviates_from};
 
 /// [`super::deviates`] for AVX-512 with VNNI.
 #[cfg(target_arch = "x86_64")]
@@ -42,11 +42,7 @@ pub(super) fn deviates_avx512(key: Key, first: u64, out: [&mut [f32]; 3]) {
                 product = _mm512_add_epi32(product, stride);
             }
         }
-        let mut counter = counter.wrapping_add(3 * whole as u32);
-        for o in &mut d[whole..] {
-            *o = deviate(key.bits(counter));
-            counter = counter.wrapping_add(3);
-        }
+        deviates_from(key, counter.wrapping_add(3 * whole as u32), &mut d[whole..]);
     }
 }
 
@@ -75,47 +71,4 @@ fn stretch(bits: __m512i) -> std::arch::x86_64::__m512 {
         t,
         _mm512_add_ps(_mm512_set1_ps(A_T), _mm512_mul_ps(_mm512_set1_ps(B_T), tt)),
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::Key;
-
-    #[test]
-    fn the_vector_deviates_are_the_scalar_deviates() {
-        #[cfg(target_arch = "x86_64")]
-        if crate::simd::avx512_icl() {
-            // Keys with high bits set, runs that leave tails, and counters
-            // that wrap at 2³².
-            for (seed, first, n) in [
-                (0x0123_4567_89ab_cdef_u64, 0u64, 1000usize),
-                (u64::MAX, 7, 37),
-                (0x8000_0001_ffff_fffe, (1u64 << 32) / 3 - 200, 517),
-                (42, 1_431_655_700, 64),
-            ] {
-                let key = Key::new(seed);
-                let mut simd: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; n]);
-                let [a, b, c] = &mut simd;
-                // SAFETY: the CPU has AVX-512 F, BW and VNNI (checked above).
-                #[allow(unsafe_code)]
-                unsafe {
-                    super::deviates_avx512(key, first, [a, b, c]);
-                }
-                for (ch, row) in simd.iter().enumerate() {
-                    for (i, v) in row.iter().enumerate() {
-                        let counter = (first as u32)
-                            .wrapping_add(i as u32)
-                            .wrapping_mul(3)
-                            .wrapping_add(ch as u32);
-                        let want = super::super::deviate(key.bits(counter));
-                        assert_eq!(
-                            v.to_bits(),
-                            want.to_bits(),
-                            "seed {seed:x}, pixel {i}, channel {ch}"
-                        );
-                    }
-                }
-            }
-        }
-    }
 }
