@@ -200,6 +200,10 @@ impl Renderer {
             resolve: state.passes.resolve_layout(),
         };
         let targets = FrameTargets::new(&self.device, (width, height), msaa, layouts);
+        #[cfg(test)]
+        if super::targets::GARBAGE.get() {
+            targets.fill_with_garbage(&self.device, &self.queue);
+        }
         state.targets.push(targets);
         state.targets.len() - 1
     }

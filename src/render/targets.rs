@@ -123,6 +123,60 @@ impl FrameTargets {
     }
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Tests: targets made on this thread are first filled with values no
+    /// pass writes ([`FrameTargets::fill_with_garbage`]), as a stale target
+    /// or uncleared memory may hold.
+    pub(super) static GARBAGE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+#[cfg(test)]
+impl FrameTargets {
+    /// Colour, ids and depth cleared to values no pass writes: a frame that
+    /// read a texel no pass of its own wrote would show them.
+    pub(super) fn fill_with_garbage(&self, device: &wgpu::Device, queue: &wgpu::Queue) {
+        let ops = |r: f64, g: f64| wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color {
+                r,
+                g,
+                b: 0.6,
+                a: 0.3,
+            }),
+            store: wgpu::StoreOp::Store,
+        };
+        let attachment = |view, ops| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops,
+            })
+        };
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("garbage"),
+            color_attachments: &[
+                self.color_view()
+                    .and_then(|view| attachment(view, ops(0.9, 0.1))),
+                attachment(self.ids.view(), ops(7.0, 0.0)),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.37),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        queue.submit([encoder.finish()]);
+    }
+}
+
 /// The compact target the resolves write (MSAA only): a pass's rects packed
 /// in shelves ([`super::regions::pack_shelves`]) as wide as the
 /// frame and as tall as they need, the resolved colour here and the id
@@ -165,6 +219,68 @@ impl Atlas {
         }
         if with_ids {
             ids.ensure_atlas(device, (width, self.rows));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::pipeline::FramePipeline;
+    use crate::preset::Preset;
+
+    /// The frame's targets are never cleared (wgpu zeroes them once, before
+    /// their first use): every texel a frame reads, one of its own passes
+    /// wrote, whatever the frames before left there. So targets that
+    /// start out holding values no pass writes give the same pixels, labels
+    /// and masks, with and without MSAA, drones close and far, clutter in
+    /// front of them and a full-frame id image (the occlusion counts).
+    #[test]
+    fn frames_never_read_what_their_passes_did_not_write() {
+        let ctx = crate::render::GpuContext::headless()
+            .unwrap_or_else(|e| panic!("rendering tests need a GPU adapter (lavapipe): {e}"));
+        for msaa in [4, 1] {
+            let preset = Preset::from_ron(&format!(
+                r#"(
+                seed: 11,
+                placement: Randomized(count: (3, 6), volume: Box(size_m: (6.0, 3.0, 20.0)), min_separation_m: 0.7),
+                camera: (z: (start: 0.6, end: 0.6, step: 0.0)),
+                repeats: 3,
+                sky: Procedural(environment: Daytime),
+                render: (resolution: Custom(width: 192, height: 108), msaa: {msaa}),
+                labels: (box_method: Visible, min_visible_fraction: 0.2),
+                output: (masks: (coco_rle: true, instance_png: true)),
+                clutter: Some((trees: (count: (2, 2), distance_m: (8.0, 12.0), height_m: (6.0, 8.0), branch_levels: 3))),
+            )"#
+            ))
+            .expect("preset");
+            let pipeline = FramePipeline::new(preset).expect("pipeline");
+            let make = |garbage: bool| {
+                std::thread::scope(|s| {
+                    s.spawn(|| {
+                        super::GARBAGE.set(garbage);
+                        let mut renderer = pipeline.renderer(&ctx);
+                        (0..pipeline.frame_count())
+                            .map(|i| {
+                                let f = pipeline.make(&mut renderer, i).expect("frame");
+                                (f.rgba, f.labels, f.masks)
+                            })
+                            .collect::<Vec<_>>()
+                    })
+                    .join()
+                    .expect("renderer thread")
+                })
+            };
+            let (clean, garbage) = (make(false), make(true));
+            assert_eq!(clean.len(), 3);
+            assert!(
+                clean.iter().any(|(_, labels, _)| !labels.is_empty()),
+                "MSAA {msaa}: no drone labelled"
+            );
+            for (i, (a, b)) in clean.iter().zip(&garbage).enumerate() {
+                assert!(a.0 == b.0, "MSAA {msaa}, frame {i}: pixels differ");
+                assert_eq!(a.1, b.1, "MSAA {msaa}, frame {i}: labels differ");
+                assert_eq!(a.2, b.2, "MSAA {msaa}, frame {i}: masks differ");
+            }
         }
     }
 }
