@@ -255,8 +255,10 @@ mod tests {
     /// tails, and counters that wrap at 2³².
     #[test]
     fn the_vector_deviates_are_the_scalar_deviates() {
+        /// A build's name, whether this CPU runs it, and the build.
+        type Build = (&'static str, bool, fn(Key, u64, [&mut [f32]; 3]));
         #[cfg(target_arch = "x86_64")]
-        let builds: [(&str, bool, fn(Key, u64, [&mut [f32]; 3])); 2] = [
+        let builds: [Build; 2] = [
             ("AVX2", crate::simd::avx2(), |key, first, out| {
                 // SAFETY: run only where the CPU has AVX2 (checked above).
                 #[allow(unsafe_code)]
@@ -273,7 +275,7 @@ mod tests {
             }),
         ];
         #[cfg(not(target_arch = "x86_64"))]
-        let builds: [(&str, bool, fn(Key, u64, [&mut [f32]; 3])); 0] = [];
+        let builds: [Build; 0] = [];
         let mut compared = 0;
         for (name, _, build) in builds.into_iter().filter(|b| b.1) {
             for (seed, first, n) in [
