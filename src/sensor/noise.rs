@@ -260,14 +260,14 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         let builds: [Build; 2] = [
             ("AVX2", crate::simd::avx2(), |key, first, out| {
-                // SAFETY: run only where the CPU has AVX2 (checked above).
+                // SAFETY: called only where `avx2()` holds (the filter below).
                 #[allow(unsafe_code)]
                 unsafe {
                     avx2::deviates_avx2(key, first, out);
                 }
             }),
             ("AVX-512", crate::simd::avx512_icl(), |key, first, out| {
-                // SAFETY: run only where the CPU has AVX-512 F, BW and VNNI.
+                // SAFETY: called only where `avx512_icl()` holds (the filter below).
                 #[allow(unsafe_code)]
                 unsafe {
                     avx512::deviates_avx512(key, first, out);

@@ -26,19 +26,21 @@ const LANES: usize = 8;
 #[inline(never)]
 pub(super) fn deviates_avx2(key: Key, first: u64, out: [&mut [f32]; 3]) {
     let base = (first as u32).wrapping_mul(3);
+    let steps = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+    let (k0, k1) = (
+        _mm256_set1_epi32(key.k0 as i32),
+        _mm256_set1_epi32(key.k1 as i32),
+    );
+    let stride = _mm256_set1_epi32(key.k0.wrapping_mul(3 * LANES as u32) as i32);
     for (c, d) in out.into_iter().enumerate() {
         let counter = base.wrapping_add(c as u32);
         let whole = d.len() - d.len() % LANES;
         let (blocks, tail) = d.split_at_mut(whole);
-        let steps = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
-        let k0 = _mm256_set1_epi32(key.k0 as i32);
-        let k1 = _mm256_set1_epi32(key.k1 as i32);
         // counter·k₀ in each lane, advanced by eight counters' worth.
         let mut product = _mm256_mullo_epi32(
             _mm256_add_epi32(_mm256_set1_epi32(counter as i32), steps),
             k0,
         );
-        let stride = _mm256_set1_epi32(key.k0.wrapping_mul(3 * LANES as u32) as i32);
         for block in blocks.as_chunks_mut::<LANES>().0 {
             let bits = hash(_mm256_xor_si256(product, k1));
             // SAFETY: `block` holds eight f32, written unaligned.
