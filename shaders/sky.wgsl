@@ -71,6 +71,15 @@ fn vs_environment(@location(0) ndc: vec2<f32>) -> SkyOut {
     return out;
 }
 
+// The height of a ray (the sine of its elevation) below which the ground is
+// shaded in the quarter-resolution pass (twice as far below: interpolated
+// from it in the half-resolution pass): a quarter texel's ray lies within
+// ≈ 8.5 / f of those of the half pixels that sample it (`reach` in
+// render/sky/procedural.rs). `k`: the frame's intrinsics.
+fn lower_line(k: vec4<f32>) -> f32 {
+    return -9.0 / max(min(abs(k.x), abs(k.y)), 1e-6);
+}
+
 // The procedural environment pass: each pixel stands for far_params.w ×
 // far_params.w full-resolution pixels (band.z × band.z in the quarter-
 // resolution pass, ENV_PART 4).
@@ -80,10 +89,15 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
     let p = in.position.xy * select(env.far_params.w, env.band.z, ENV_PART > 3.5);
     let ray_cam = vec3<f32>((p.x - k.z) / k.x, (p.y - k.w) / k.y, 1.0);
     let dir = normalize((frame.world_from_camera * vec4<f32>(ray_cam, 0.0)).xyz);
+    let lower = lower_line(k);
     if (ENV_PART > 3.5) {
-        // Every pixel of the polygon, past the band's line too: the half-
-        // resolution pass interpolates between them. Rays below the horizon
-        // (its margin) are taken level.
+        // The ground below the lower line (the ground side's polygon).
+        if (dir.y < lower) {
+            return vec4<f32>(procedural_sky(dir), 1.0);
+        }
+        // Every pixel of the sky's polygon, past the band's line too: the
+        // half-resolution pass interpolates between them. Rays below the
+        // horizon (its margin) are taken level.
         let d = select(dir, normalize(vec3<f32>(dir.x, 0.0, dir.z) + vec3<f32>(1e-6, 0.0, 0.0)), dir.y < 0.0);
         return upper_sky(d, horizon_haze(azimuth(d)));
     }
@@ -91,11 +105,15 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
     if (!in_part(dir)) {
         discard;
     }
+    let quarter = p / (env.band.z * vec2<f32>(textureDimensions(env_half)));
     if (ENV_PART > 2.5) {
         // The quarter-resolution pass's upper sky, interpolated at this pixel.
-        let quarter = p / (env.band.z * vec2<f32>(textureDimensions(env_half)));
         let upper = textureSampleLevel(env_half, env_half_sampler, quarter, 0.0);
         return vec4<f32>(upper.rgb + sun_disc(dir) * upper.a, 1.0);
+    }
+    if (ENV_PART > 1.5 && dir.y < 2.0 * lower) {
+        // The quarter-resolution pass's ground, interpolated at this pixel.
+        return vec4<f32>(textureSampleLevel(env_half, env_half_sampler, quarter, 0.0).rgb, 1.0);
     }
     return vec4<f32>(procedural_sky(dir), 1.0);
 }

@@ -24,8 +24,9 @@ impl SkyGpu {
     /// Draw the procedural environment of the uniforms just written into the
     /// half-resolution target (resized to the frame's `width`×`height` as
     /// needed), in the parts of render/horizon.rs for the frame's `horizon`.
-    /// The sky above the silhouettes' band is drawn first at a quarter of
-    /// the resolution; the half-resolution pass interpolates it there.
+    /// The sky above the silhouettes' band and the ground are drawn first at
+    /// a quarter of the resolution; the half-resolution pass interpolates
+    /// the sky above the band and the ground below its lower line there.
     pub(in crate::render) fn encode_environment(
         &mut self,
         with: &SkyPassContext<'_>,
@@ -37,11 +38,11 @@ impl SkyGpu {
         let band_top = self.written.band[0];
         let half = self.ensure_target(device, HALF_SCALE, frame);
         let draws = horizon.parts(band_top, half, HALF_SCALE as f32);
-        let upper = draws.iter().any(|(part, _)| *part == 3).then(|| {
+        let upper = draws.iter().any(|(part, _)| *part >= 2).then(|| {
             let quarter = self.ensure_target(device, QUARTER_SCALE, frame);
             let parts = horizon.parts(band_top, quarter, QUARTER_SCALE as f32);
-            let polygon = parts.into_iter().find(|(part, _)| *part == 3);
-            (4, polygon.map_or_else(Vec::new, |(_, t)| t))
+            let polygons = parts.into_iter().filter(|(part, _)| *part >= 2);
+            (4, polygons.flat_map(|(_, t)| t).collect::<Vec<_>>())
         });
         let upper_pipeline = upper
             .as_ref()
@@ -195,11 +196,11 @@ impl SkyGpu {
     /// The environment pipeline of the written environment's ground and
     /// silhouette kinds for draw `part` (0: whole, 1: the sky up to the
     /// silhouettes' band top, 2: ground side, 3: the sky above the band,
-    /// 4: the quarter-resolution pass's sky above the band), built on first
+    /// 4: the quarter-resolution pass's sky above the band and ground), built on first
     /// use; its index in `self.pipelines`. A part is built only for the
-    /// kinds it draws (the others are -1, never read): the ground side for
-    /// its ground, the band for its silhouettes, the sky above the band for
-    /// none. Environments that share them share the part's pipeline: each
+    /// kinds it draws (the others are -1, never read): the ground side and
+    /// the quarter-resolution pass for their ground, the band for its
+    /// silhouettes, the sky above the band for none. Environments that share them share the part's pipeline: each
     /// pipeline costs lavapipe tens of milliseconds of shader compilation.
     fn environment_pipeline(&mut self, with: &SkyPassContext<'_>, part: u32) -> usize {
         let (ground, far, near) = (
@@ -210,7 +211,7 @@ impl SkyGpu {
         let kinds = match part {
             0 => [ground, far, near],
             1 => [-1.0, far, near],
-            2 => [ground, -1.0, -1.0],
+            2 | 4 => [ground, -1.0, -1.0],
             _ => [-1.0; 3],
         };
         let key = [kinds[0], kinds[1], kinds[2], part as f32].map(f32::to_bits);

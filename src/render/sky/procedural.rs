@@ -1,9 +1,10 @@
 //! The procedural environment's reduced passes on the CPU, for an adapter
 //! that is itself a CPU rasteriser (lavapipe): what `fs_environment` in
 //! shaders/sky.wgsl draws, in the same layout — the sky above the
-//! silhouettes' band at a quarter of the resolution per axis, everything
-//! else at half, the upper sky's half-resolution pixels interpolated from
-//! the quarter's with the sun disc added — for the background's upsampling
+//! silhouettes' band and the ground below the horizon's margin at a quarter
+//! of the resolution per axis, everything else at half, those parts'
+//! half-resolution pixels interpolated from the quarter's (the sky's with
+//! the sun disc added) — for the background's upsampling
 //! (render/upsample.rs) to interpolate.
 //!
 //! On lavapipe the passes cost a frame more CPU than everything else it
@@ -64,18 +65,18 @@ pub(super) fn shade(
         .iter_mut()
         .for_each(|p| p.resize(area(widened), 0.0));
     half.iter_mut().for_each(|p| p.resize(area(half_size), 0.0));
-    // Quarter texels a half-resolution upper pixel may sample: their centres
-    // lie within 1.5 quarter texels (6 full-resolution pixels) of its own,
-    // so their rays at most ≈ 8.5 / f below it.
-    let [fx, fy, ..] = view.intrinsics;
-    let reach = 9.0 / fx.abs().min(fy.abs()).max(1e-6);
+    let reach = reach(view);
+    // Upper sky above `needed`, ground below `-reach` (rays within `reach`
+    // of an interpolated half pixel's, below `-2 reach`): nothing between.
     let needed = env.upper_line().max(0.0) - reach;
+    #[cfg(test)]
+    let reach = if EVERY_GROUND_PIXEL.get() { f32::INFINITY } else { reach };
     let (qw, hw) = (quarter_size.0 as usize, half_size.0 as usize);
     by_rows(
         passes.quarter.each_mut().map(|p| &mut p[..]),
         (hw, qw),
         #[inline(always)]
-        |scratch, j, out| quarter_row(scratch, env, view, (j, needed), out),
+        |scratch, j, out| quarter_row(scratch, env, view, (j, (-reach, needed)), out),
     );
     let quarter = (&passes.quarter, widened);
     by_rows(
@@ -84,10 +85,28 @@ pub(super) fn shade(
         #[inline(always)]
         |scratch, j, [r, g, b]| {
             let Scratch { row, spare } = scratch;
-            half_row(row, env, view, (j, quarter), [r, g, b, &mut spare[3]])
+            let lower = -2.0 * reach;
+            half_row(row, env, view, (j, lower, quarter), [r, g, b, &mut spare[3]])
         },
     );
     half_size
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Tests: [`shade`] on this thread shades the ground at every
+    /// half-resolution pixel, none interpolated (a reference).
+    pub(super) static EVERY_GROUND_PIXEL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// How far (the sine of the elevation) below or above a half-resolution
+/// pixel's ray the rays of the quarter texels it samples may lie: their
+/// centres lie within 1.5 quarter texels (6 full-resolution pixels) of its
+/// own, so their rays at most ≈ 8.5 / f from it. `lower_line` in
+/// shaders/sky.wgsl.
+fn reach(view: &View) -> f32 {
+    let [fx, fy, ..] = view.intrinsics;
+    9.0 / fx.abs().min(fy.abs()).max(1e-6)
 }
 
 /// A row's scratch on one thread: its rays and parts, and RGBA planes of
@@ -128,14 +147,14 @@ fn rays(row: &mut Row, view: &View, scale: f32, j: usize) {
 }
 
 /// Quarter-resolution row `j`: `upper_sky` where a ray is above `needed`
-/// (the rays below the horizon taken level), zeros elsewhere; widened
-/// into `out` (the half pass's width).
+/// (the rays below the horizon taken level), the ground where it is below
+/// `lower`, zeros between; widened into `out` (the half pass's width).
 #[inline(always)]
 fn quarter_row(
     scratch: &mut Scratch,
     env: &Procedural,
     view: &View,
-    (j, needed): (usize, f32),
+    (j, (lower, needed)): (usize, (f32, f32)),
     out: Rgba<'_>,
 ) {
     let Scratch { row, spare } = scratch;
@@ -143,35 +162,39 @@ fn quarter_row(
     for plane in spare.iter_mut() {
         plane.fill(0.0);
     }
-    // The quarter shades only the sky above `needed`.
+    // No half pixel samples the texels between (`Band` here: not shaded).
     row.split(|y| {
         if y > needed {
             Part::Upper
-        } else {
+        } else if y < lower {
             Part::Ground
+        } else {
+            Part::Band
         }
     });
     row.level();
     row.upper_sky(env, spare.each_mut().map(|p| &mut p[..]));
+    row.ground(env, spare.each_mut().map(|p| &mut p[..]));
     for (quarter, widened) in spare.iter().zip(out) {
         shading::widen(quarter, widened);
     }
 }
 
-/// Half-resolution row `j`: each pixel shaded by its part — the ground,
-/// the band of the silhouettes, or the sky above it (interpolated from the
-/// quarter pass, plus the sun disc).
+/// Half-resolution row `j`: each pixel shaded by its part — the ground
+/// (below `lower` interpolated from the quarter pass), the band of the
+/// silhouettes, or the sky above it (interpolated from the quarter pass,
+/// plus the sun disc).
 #[inline(always)]
 fn half_row(
     row: &mut Row,
     env: &Procedural,
     view: &View,
-    (j, quarter): (usize, Quarter<'_>),
+    (j, lower, quarter): (usize, f32, Quarter<'_>),
     [r, g, b, a]: Rgba<'_>,
 ) {
     rays(row, view, HALF as f32, j);
     let upper = env.upper_line();
-    row.split(|y| Part::of_half(y, upper));
+    row.split(|y| Part::of_half(y, (lower, upper)));
     row.ground(env, [r, g, b, a]);
     row.band(env, [r, g, b, a]);
     row.interpolate(env, quarter, j, [r, g, b, a]);

@@ -53,7 +53,7 @@ fn images_are_drawn_reduced_only_where_a_pass_pixel_spans_at_most_half_a_texel()
 /// The batch's makers each have a renderer: on a GPU, the environment pass's
 /// pipelines are built once for the device, not once per renderer, and a
 /// part is built for the kinds it draws only, so the sky above the band is
-/// one pipeline (and the quarter pass's another) for every environment.
+/// one pipeline for every environment (the quarter pass one for each ground).
 #[test]
 fn renderers_of_one_device_share_the_environment_pipelines() {
     use crate::pipeline::FramePipeline;
@@ -95,15 +95,19 @@ fn renderers_of_one_device_share_the_environment_pipelines() {
         "the second renderer built pipelines of its own"
     );
     assert!(first == second, "the renderers drew different pixels");
-    // The sky above the band (parts 3 and 4) is built for no kind at all.
+    // The sky above the band (part 3) is built for no kind at all; the
+    // quarter pass (part 4) for the grounds of the ground side (part 2).
     let none = (-1.0f32).to_bits();
-    for key in keys.iter().filter(|k| f32::from_bits(k[3]) >= 3.0) {
-        assert_eq!(key[..3], [none; 3], "{key:?}");
-    }
-    assert_eq!(
-        keys.iter().filter(|k| f32::from_bits(k[3]) >= 3.0).count(),
-        2
-    );
+    let of_part = |part: f32| keys.iter().filter(move |k| f32::from_bits(k[3]) == part);
+    assert_eq!(of_part(3.0).collect::<Vec<_>>(), [&[none, none, none, 3f32.to_bits()]]);
+    let grounds = |part| {
+        let mut g: Vec<u32> = of_part(part).map(|k| k[0]).collect();
+        g.sort_unstable();
+        g
+    };
+    assert!(of_part(4.0).all(|k| k[1..3] == [none; 2] && k[0] != none), "{keys:?}");
+    assert_eq!(grounds(4.0), grounds(2.0), "{keys:?}");
+    assert!(!grounds(4.0).is_empty());
 }
 
 /// The slice conversion of sky texels rounds as `f16::from_f32` does, value

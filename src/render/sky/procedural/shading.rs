@@ -270,7 +270,7 @@ pub(super) struct Row {
     y: Vec<f32>,
     z: Vec<f32>,
     /// Each [`Part`]'s pixels: ranges of the row, in order.
-    runs: [Vec<Range<usize>>; 3],
+    runs: [Vec<Range<usize>>; 4],
     /// The silhouettes' heights (far, near) of the band's pixels.
     heights: [Vec<f32>; 2],
     /// The band's pixels under a silhouette, in runs ([`Row::split_hidden`]).
@@ -299,22 +299,28 @@ pub(super) type Rgba<'a> = [&'a mut [f32]; 4];
 pub(super) type Quarter<'a> = (&'a [Vec<f32>; 4], (u32, u32));
 
 /// The parts of a pass's pixels, by their ray's height: the ground, the
-/// silhouettes' band, and the sky above it.
+/// silhouettes' band, the sky above it, and the ground below the horizon's
+/// margin, which the half pass interpolates from the quarter pass as it
+/// does the sky above the band.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub(super) enum Part {
     Ground = 0,
     Band = 1,
     Upper = 2,
+    Lower = 3,
 }
 
 impl Part {
-    /// The part of a half-resolution pixel whose ray's height is `y`, under
-    /// the environment's `upper` line ([`Procedural::upper_line`]). A ray
-    /// that is not a number lands in the upper sky: every pixel is shaded,
-    /// none kept from the frame before.
+    /// The part of a half-resolution pixel whose ray's height is `y`, between
+    /// the `lower` line (below it the ground is the quarter pass's,
+    /// interpolated) and the environment's `upper` line
+    /// ([`Procedural::upper_line`]). A ray that is not a number lands in the
+    /// upper sky: every pixel is shaded, none kept from the frame before.
     #[inline(always)]
-    pub(super) fn of_half(y: f32, upper: f32) -> Self {
-        if y < 0.0 {
+    pub(super) fn of_half(y: f32, (lower, upper): (f32, f32)) -> Self {
+        if y < lower {
+            Self::Lower
+        } else if y < 0.0 {
             Self::Ground
         } else if y <= upper {
             Self::Band
@@ -526,11 +532,12 @@ impl Row {
         self.shown = band;
     }
 
-    /// The upper sky's pixels of half-resolution row `j`: the quarter
-    /// pass's RGBA (`quarter`: its rows widened, [`widen`]) blended down
-    /// between its two rows at the pixel (a clamping bilinear sample at the
-    /// full-resolution position over the quarter's scale, as the GPU's
-    /// sampler takes it), plus the sun disc times its share.
+    /// The upper sky's and the lower ground's pixels of half-resolution row
+    /// `j`: the quarter pass's RGBA (`quarter`: its rows widened, [`widen`])
+    /// blended down between its two rows at the pixel (a clamping bilinear
+    /// sample at the full-resolution position over the quarter's scale, as
+    /// the GPU's sampler takes it), plus, in the sky, the sun disc times its
+    /// share.
     #[inline(always)]
     pub(super) fn interpolate(
         &self,
@@ -550,7 +557,8 @@ impl Row {
         if top.iter().chain(&bottom).any(|p| p.len() < self.y.len()) {
             return;
         }
-        for run in &self.runs[Part::Upper as usize] {
+        let [.., upper, lower] = &self.runs;
+        for run in upper.iter().chain(lower) {
             for ((out, top), bottom) in out.iter_mut().zip(top).zip(bottom) {
                 let out = &mut out[run.clone()];
                 let (top, bottom) = (&top[run.clone()], &bottom[run.clone()]);
@@ -597,7 +605,7 @@ impl Row {
             let z = &self.z[run.clone()];
             let read = match part {
                 Part::Band => [&far[run.clone()], &near[run.clone()]],
-                Part::Ground | Part::Upper => [x, x],
+                Part::Ground | Part::Upper | Part::Lower => [x, x],
             };
             let out = [
                 &mut r[run.clone()],
@@ -844,7 +852,7 @@ mod tests {
                     }
                     row.normalise();
                     let upper = env.upper_line();
-                    row.split(|y| Part::of_half(y, upper));
+                    row.split(|y| Part::of_half(y, (f32::NEG_INFINITY, upper)));
                     let band: Vec<usize> = row.runs[Part::Band as usize]
                         .iter()
                         .flat_map(|r| r.clone())
@@ -879,7 +887,7 @@ mod tests {
     /// inside a chunk, at its edges, on every pixel, never, and at NaN.
     #[test]
     fn a_rows_runs_are_its_pixels_parts() {
-        let upper = 0.3;
+        let lines = (-0.05, 0.3);
         let shapes: [fn(usize) -> f32; 5] = [
             |i| (i as f32 - 70.0) * 0.01,
             |i| if i % 2 == 0 { -0.1 } else { 0.5 },
@@ -892,7 +900,7 @@ mod tests {
                 let mut row = Row::new(w);
                 let ys: Vec<f32> = (0..w).map(shape).collect();
                 row.rays_mut().1.copy_from_slice(&ys);
-                row.split(|y| Part::of_half(y, upper));
+                row.split(|y| Part::of_half(y, lines));
                 let mut part = vec![None; w];
                 for (p, runs) in row.runs.iter().enumerate() {
                     for window in runs.windows(2) {
@@ -903,7 +911,7 @@ mod tests {
                     }
                 }
                 for (i, y) in ys.iter().enumerate() {
-                    let want = Part::of_half(*y, upper) as usize;
+                    let want = Part::of_half(*y, lines) as usize;
                     assert_eq!(part[i], Some(want), "w {w}, pixel {i}, y {y}");
                 }
             }
