@@ -70,7 +70,11 @@ pub(super) fn shade(
     // of an interpolated half pixel's, below `-2 reach`): nothing between.
     let needed = env.upper_line().max(0.0) - reach;
     #[cfg(test)]
-    let reach = if EVERY_GROUND_PIXEL.get() { f32::INFINITY } else { reach };
+    let reach = if EVERY_GROUND_PIXEL.get() {
+        f32::INFINITY
+    } else {
+        reach
+    };
     let (qw, hw) = (quarter_size.0 as usize, half_size.0 as usize);
     by_rows(
         passes.quarter.each_mut().map(|p| &mut p[..]),
@@ -86,7 +90,13 @@ pub(super) fn shade(
         |scratch, j, [r, g, b]| {
             let Scratch { row, spare } = scratch;
             let lower = -2.0 * reach;
-            half_row(row, env, view, (j, lower, quarter), [r, g, b, &mut spare[3]])
+            half_row(
+                row,
+                env,
+                view,
+                (j, lower, quarter),
+                [r, g, b, &mut spare[3]],
+            )
         },
     );
     half_size

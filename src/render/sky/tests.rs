@@ -99,13 +99,19 @@ fn renderers_of_one_device_share_the_environment_pipelines() {
     // quarter pass (part 4) for the grounds of the ground side (part 2).
     let none = (-1.0f32).to_bits();
     let of_part = |part: f32| keys.iter().filter(move |k| f32::from_bits(k[3]) == part);
-    assert_eq!(of_part(3.0).collect::<Vec<_>>(), [&[none, none, none, 3f32.to_bits()]]);
+    assert_eq!(
+        of_part(3.0).collect::<Vec<_>>(),
+        [&[none, none, none, 3f32.to_bits()]]
+    );
     let grounds = |part| {
         let mut g: Vec<u32> = of_part(part).map(|k| k[0]).collect();
         g.sort_unstable();
         g
     };
-    assert!(of_part(4.0).all(|k| k[1..3] == [none; 2] && k[0] != none), "{keys:?}");
+    assert!(
+        of_part(4.0).all(|k| k[1..3] == [none; 2] && k[0] != none),
+        "{keys:?}"
+    );
     assert_eq!(grounds(4.0), grounds(2.0), "{keys:?}");
     assert!(!grounds(4.0).is_empty());
 }
