@@ -245,6 +245,38 @@ fn azimuth(dir: vec3<f32>) -> vec2<f32> {
     return normalize(vec2<f32>(dir.x, dir.z) + vec2<f32>(1e-6, 0.0));
 }
 
+// The silhouettes (far, then near) over `sky`, the sky behind them in ray
+// `dir` (unit; at or above the horizon).
+fn silhouettes_over(sky: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let sun = frame.sun_dir_world.xyz;
+    let light = env.light.rgb;
+    let ambient = env.ambient.rgb;
+    let seed = env.pattern.xy;
+    let az_c = azimuth(dir);
+    let haze = horizon_haze(az_c);
+    let elevation = asin(clamp(dir.y, -1.0, 1.0));
+    var col = sky;
+    // Far silhouette (hills, mountains, skyline), then the near tree line.
+    let far_kind = select(env.pattern.w, ENV_FAR, ENV_FAR >= 0.0);
+    let far_h = silhouette_height(far_kind, env.far.w, az_c, seed * 0.01);
+    if (elevation < far_h) {
+        let shade = env.far.rgb * (light * max(sun.y, 0.0) * 0.6 + ambient * 0.8);
+        var c = shade;
+        if (env.far_params.x > 0.5 && elevation > far_h * 0.6) {
+            let snow = vec3<f32>(0.85, 0.87, 0.9) * (light * max(sun.y, 0.0) * 0.5 + ambient);
+            c = mix(c, snow, smoothstep(0.6, 0.75, elevation / max(far_h, 1e-4)));
+        }
+        // With an atmosphere (near.w = 1): the haze of its distance (ground_a.w).
+        col = mix(c, haze, select(0.55, env.ground_a.w, env.near.w > 0.5));
+    }
+    let near_kind = select(env.far_params.y, ENV_NEAR, ENV_NEAR >= 0.0);
+    let near_h = silhouette_height(near_kind, env.far_params.z, az_c, seed * 0.013 + vec2<f32>(5.0, 3.0));
+    if (elevation < near_h) {
+        col = mix(env.near.rgb * (light * max(sun.y, 0.0) * 0.5 + ambient * 0.7), haze, select(0.25, env.ground_b.w, env.near.w > 0.5));
+    }
+    return col;
+}
+
 fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
     let k = env.mode.y;
     let sun = frame.sun_dir_world.xyz;
@@ -253,29 +285,10 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
     let seed = env.pattern.xy;
     let az_c = azimuth(dir);
     let haze = horizon_haze(az_c);
-    let elevation = asin(clamp(dir.y, -1.0, 1.0));
     var col: vec3<f32>;
     if (select((dir.y >= 0.0), (ENV_PART < 1.5), (ENV_PART > 0.5))) {
         let upper = upper_sky(dir, haze);
-        col = upper.rgb + sun_disc(dir) * upper.a;
-        // Far silhouette (hills, mountains, skyline), then the near tree line.
-        let far_kind = select(env.pattern.w, ENV_FAR, ENV_FAR >= 0.0);
-        let far_h = silhouette_height(far_kind, env.far.w, az_c, seed * 0.01);
-        if (elevation < far_h) {
-            let shade = env.far.rgb * (light * max(sun.y, 0.0) * 0.6 + ambient * 0.8);
-            var c = shade;
-            if (env.far_params.x > 0.5 && elevation > far_h * 0.6) {
-                let snow = vec3<f32>(0.85, 0.87, 0.9) * (light * max(sun.y, 0.0) * 0.5 + ambient);
-                c = mix(c, snow, smoothstep(0.6, 0.75, elevation / max(far_h, 1e-4)));
-            }
-            // With an atmosphere (near.w = 1): the haze of its distance (ground_a.w).
-            col = mix(c, haze, select(0.55, env.ground_a.w, env.near.w > 0.5));
-        }
-        let near_kind = select(env.far_params.y, ENV_NEAR, ENV_NEAR >= 0.0);
-        let near_h = silhouette_height(near_kind, env.far_params.z, az_c, seed * 0.013 + vec2<f32>(5.0, 3.0));
-        if (elevation < near_h) {
-            col = mix(env.near.rgb * (light * max(sun.y, 0.0) * 0.5 + ambient * 0.7), haze, select(0.25, env.ground_b.w, env.near.w > 0.5));
-        }
+        col = silhouettes_over(upper.rgb + sun_disc(dir) * upper.a, dir);
     } else {
         // Ground plane 60 m below the camera.
         let t = 60.0 / max(-dir.y, 1e-4);

@@ -95,8 +95,8 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
         if (dir.y < lower) {
             return vec4<f32>(procedural_sky(dir), 1.0);
         }
-        // Every pixel of the sky's polygon, past the band's line too: the
-        // half-resolution pass interpolates between them. Rays below the
+        // Every pixel of the sky's polygons (above the band and the band's):
+        // the half-resolution pass interpolates between them. Rays below the
         // horizon (its margin) are taken level.
         let d = select(dir, normalize(vec3<f32>(dir.x, 0.0, dir.z) + vec3<f32>(1e-6, 0.0, 0.0)), dir.y < 0.0);
         return upper_sky(d, horizon_haze(azimuth(d)));
@@ -111,7 +111,13 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
         let upper = textureSampleLevel(env_half, env_half_sampler, quarter, 0.0);
         return vec4<f32>(upper.rgb + sun_disc(dir) * upper.a, 1.0);
     }
-    if (ENV_PART > 1.5 && dir.y < 2.0 * lower) {
+    if (ENV_PART > 0.5 && ENV_PART < 1.5) {
+        // The band: its silhouettes over the quarter-resolution pass's sky,
+        // interpolated at this pixel, and the sun disc.
+        let sky = textureSampleLevel(env_half, env_half_sampler, quarter, 0.0);
+        return vec4<f32>(silhouettes_over(sky.rgb + sun_disc(dir) * sky.a, dir), 1.0);
+    }
+    if (dir.y < 2.0 * lower) {
         // The quarter-resolution pass's ground, interpolated at this pixel.
         return vec4<f32>(textureSampleLevel(env_half, env_half_sampler, quarter, 0.0).rgb, 1.0);
     }

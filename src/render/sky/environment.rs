@@ -24,9 +24,9 @@ impl SkyGpu {
     /// Draw the procedural environment of the uniforms just written into the
     /// half-resolution target (resized to the frame's `width`×`height` as
     /// needed), in the parts of render/horizon.rs for the frame's `horizon`.
-    /// The sky above the silhouettes' band and the ground are drawn first at
-    /// a quarter of the resolution; the half-resolution pass interpolates
-    /// the sky above the band and the ground below its lower line there.
+    /// The sky and the ground are drawn first at a quarter of the
+    /// resolution; the half-resolution pass interpolates the sky (behind
+    /// the band's silhouettes too) and the ground below its lower line there.
     pub(in crate::render) fn encode_environment(
         &mut self,
         with: &SkyPassContext<'_>,
@@ -38,10 +38,10 @@ impl SkyGpu {
         let band_top = self.written.band[0];
         let half = self.ensure_target(device, HALF_SCALE, frame);
         let draws = horizon.parts(band_top, half, HALF_SCALE as f32);
-        let upper = draws.iter().any(|(part, _)| *part >= 2).then(|| {
+        let upper = draws.iter().any(|(part, _)| *part >= 1).then(|| {
             let quarter = self.ensure_target(device, QUARTER_SCALE, frame);
             let parts = horizon.parts(band_top, quarter, QUARTER_SCALE as f32);
-            let polygons = parts.into_iter().filter(|(part, _)| *part >= 2);
+            let polygons = parts.into_iter().filter(|(part, _)| *part >= 1);
             (4, polygons.flat_map(|(_, t)| t).collect::<Vec<_>>())
         });
         let upper_pipeline = upper
@@ -196,7 +196,7 @@ impl SkyGpu {
     /// The environment pipeline of the written environment's ground and
     /// silhouette kinds for draw `part` (0: whole, 1: the sky up to the
     /// silhouettes' band top, 2: ground side, 3: the sky above the band,
-    /// 4: the quarter-resolution pass's sky above the band and ground), built on first
+    /// 4: the quarter-resolution pass's sky and ground), built on first
     /// use; its index in `self.pipelines`. A part is built only for the
     /// kinds it draws (the others are -1, never read): the ground side and
     /// the quarter-resolution pass for their ground, the band for its

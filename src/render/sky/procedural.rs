@@ -66,9 +66,10 @@ pub(super) fn shade(
         .for_each(|p| p.resize(area(widened), 0.0));
     half.iter_mut().for_each(|p| p.resize(area(half_size), 0.0));
     let reach = reach(view);
-    // Upper sky above `needed`, ground below `-reach` (rays within `reach`
-    // of an interpolated half pixel's, below `-2 reach`): nothing between.
-    let needed = env.upper_line().max(0.0) - reach;
+    // The sky above `-reach` (the band's too, whose pixels lie above the
+    // horizon), the ground below it (rays within `reach` of an interpolated
+    // half pixel's, below `-2 reach`).
+    let needed = -reach;
     #[cfg(test)]
     let reach = if EVERY_GROUND_PIXEL.get() {
         f32::INFINITY
@@ -206,6 +207,6 @@ fn half_row(
     let upper = env.upper_line();
     row.split(|y| Part::of_half(y, (lower, upper)));
     row.ground(env, [r, g, b, a]);
+    row.interpolate(env, quarter, j, [&mut *r, &mut *g, &mut *b, &mut *a]);
     row.band(env, [r, g, b, a]);
-    row.interpolate(env, quarter, j, [r, g, b, a]);
 }

@@ -222,23 +222,14 @@ impl<'a> Procedural<'a> {
     }
 
     /// The sky side below the band's top (`procedural_sky`, `ENV_PART` 1)
-    /// for ray `dir`, under silhouettes `far_h` and `near_h` high (rad).
-    /// Without `SKY` the sky behind the silhouettes is left out: the
-    /// colour of a ray below either silhouette's height, which never shows it.
+    /// for ray `dir`, under silhouettes `far_h` and `near_h` high (rad),
+    /// over `sky`, the sky behind them (the quarter pass's, interpolated,
+    /// with the sun disc). A ray below either silhouette's height never
+    /// shows the sky: there `sky` may be anything.
     #[inline(always)]
-    fn band<const CLOUDS: bool, const SKY: bool>(
-        &self,
-        table: &Table,
-        dir: Vec3,
-        (far_h, near_h): (f32, f32),
-    ) -> Vec3 {
+    fn band_over(&self, table: &Table, dir: Vec3, (far_h, near_h): (f32, f32), sky: Vec3) -> Vec3 {
         let haze = self.haze(table, azimuth(dir));
-        let mut col = if SKY {
-            let (upper, clear) = self.upper_sky::<CLOUDS>(dir, haze);
-            upper + self.sun_disc(dir) * clear
-        } else {
-            Vec3::ZERO
-        };
+        let mut col = sky;
         let elevation = asin(dir.y.clamp(-1.0, 1.0));
         let snow = smoothstep(0.6, 0.75, elevation / far_h.max(1e-4));
         let capped = self.snow_caps && elevation > far_h * 0.6;
@@ -452,26 +443,11 @@ impl Row {
         }
     }
 
-    /// The part's band: the silhouettes' heights first, then the sky and
-    /// silhouettes over it.
+    /// The part's band over the sky in `out` (the quarter pass's, blended
+    /// down: [`Row::interpolate`]): the silhouettes' heights first, then
+    /// the sky with its sun disc and the silhouettes over it.
     #[inline(always)]
     pub(super) fn band(&mut self, env: &Procedural, [r, g, b, a]: Rgba<'_>) {
-        #[inline(always)]
-        fn with<const CLOUDS: bool>(row: &Row, env: &Procedural, [r, g, b, a]: Rgba<'_>) {
-            let runs = &row.runs[Part::Band as usize];
-            row.each_in(
-                env,
-                (runs, Part::Band, [&mut *r, &mut *g, &mut *b, &mut *a]),
-                #[inline(always)]
-                |d, [f, n], t, _| opaque(env.band::<CLOUDS, true>(t, d, (f, n))),
-            );
-            row.each_in(
-                env,
-                (&row.hidden, Part::Band, [r, g, b, a]),
-                #[inline(always)]
-                |d, [f, n], t, _| opaque(env.band::<CLOUDS, false>(t, d, (f, n))),
-            );
-        }
         let seeds = [env.seed * 0.01, env.seed * 0.013 + Vec2::new(5.0, 3.0)];
         for run in &self.runs[Part::Band as usize] {
             let (x, z) = (&self.x[run.clone()], &self.z[run.clone()]);
@@ -483,11 +459,22 @@ impl Row {
             }
         }
         self.split_hidden();
-        if env.clouds() {
-            with::<true>(self, env, [r, g, b, a]);
-        } else {
-            with::<false>(self, env, [r, g, b, a]);
-        }
+        let runs = &self.runs[Part::Band as usize];
+        self.each_in(
+            env,
+            (runs, Part::Band, [&mut *r, &mut *g, &mut *b, &mut *a]),
+            #[inline(always)]
+            |d, [f, n], t, [r, g, b, share]| {
+                let sky = Vec3::new(r, g, b) + env.sun_disc(d) * share;
+                opaque(env.band_over(t, d, (f, n), sky))
+            },
+        );
+        self.each_in(
+            env,
+            (&self.hidden, Part::Band, [r, g, b, a]),
+            #[inline(always)]
+            |d, [f, n], t, _| opaque(env.band_over(t, d, (f, n), Vec3::ZERO)),
+        );
     }
 
     /// The band's runs of at least [`HIDDEN_RUN`] pixels whose rays lie
@@ -532,12 +519,13 @@ impl Row {
         self.shown = band;
     }
 
-    /// The upper sky's and the lower ground's pixels of half-resolution row
-    /// `j`: the quarter pass's RGBA (`quarter`: its rows widened, [`widen`])
-    /// blended down between its two rows at the pixel (a clamping bilinear
-    /// sample at the full-resolution position over the quarter's scale, as
-    /// the GPU's sampler takes it), plus, in the sky, the sun disc times its
-    /// share.
+    /// The upper sky's, the band's and the lower ground's pixels of
+    /// half-resolution row `j`: the quarter pass's RGBA (`quarter`: its rows
+    /// widened, [`widen`]) blended down between its two rows at the pixel (a
+    /// clamping bilinear sample at the full-resolution position over the
+    /// quarter's scale, as the GPU's sampler takes it), plus, in the upper
+    /// sky, the sun disc times its share (the band adds its own:
+    /// [`Row::band`]).
     #[inline(always)]
     pub(super) fn interpolate(
         &self,
@@ -557,8 +545,8 @@ impl Row {
         if top.iter().chain(&bottom).any(|p| p.len() < self.y.len()) {
             return;
         }
-        let [.., upper, lower] = &self.runs;
-        for run in upper.iter().chain(lower) {
+        let [_, band, upper, lower] = &self.runs;
+        for run in upper.iter().chain(lower).chain(band) {
             for ((out, top), bottom) in out.iter_mut().zip(top).zip(bottom) {
                 let out = &mut out[run.clone()];
                 let (top, bottom) = (&top[run.clone()], &bottom[run.clone()]);
@@ -817,7 +805,8 @@ mod tests {
     use glam::Vec3;
 
     /// The band shaded with its hidden runs split off ([`Row::split_hidden`])
-    /// is, bit for bit, the band shaded whole: every environment with
+    /// is, bit for bit, the band shaded whole over the sky behind it (the
+    /// planes' values, with the sun disc): every environment with
     /// silhouettes, with and without clouds, over rows that cross their
     /// tops at many slopes; and some runs were hidden.
     #[test]
@@ -857,18 +846,20 @@ mod tests {
                         .iter()
                         .flat_map(|r| r.clone())
                         .collect();
-                    let mut planes = [(); 4].map(|_| vec![f32::NAN; w]);
+                    // A sky behind the band (RGB and the sun's share), as the
+                    // quarter pass's blended down would be.
+                    let sky = |k: usize, c: usize| ((k * 7 + c * 3) % 11) as f32 * 0.09;
+                    let mut planes: [Vec<f32>; 4] =
+                        std::array::from_fn(|c| (0..w).map(|k| sky(k, c)).collect());
                     row.band(&env, planes.each_mut().map(|p| &mut p[..]));
                     hidden += row.hidden.iter().map(|r| r.len()).sum::<usize>();
                     assert!(row.hidden.iter().all(|r| r.len() >= HIDDEN_RUN));
                     for k in band {
                         let d = Vec3::new(row.x[k], row.y[k], row.z[k]);
                         let h = (row.heights[0][k], row.heights[1][k]);
-                        let want = if env.clouds() {
-                            opaque(env.band::<true, true>(env.table, d, h))
-                        } else {
-                            opaque(env.band::<false, true>(env.table, d, h))
-                        };
+                        let behind = Vec3::new(sky(k, 0), sky(k, 1), sky(k, 2))
+                            + env.sun_disc(d) * sky(k, 3);
+                        let want = opaque(env.band_over(env.table, d, h, behind));
                         let got = planes.each_ref().map(|p| p[k]);
                         assert_eq!(
                             got.map(f32::to_bits),
