@@ -1,10 +1,10 @@
 //! The procedural environment's reduced passes on the CPU, for an adapter
 //! that is itself a CPU rasteriser (lavapipe): what `fs_environment` in
-//! shaders/sky.wgsl draws, in the same layout — the sky above the
-//! silhouettes' band and the ground below the horizon's margin at a quarter
-//! of the resolution per axis, everything else at half, those parts'
-//! half-resolution pixels interpolated from the quarter's (the sky's with
-//! the sun disc added) — for the background's upsampling
+//! shaders/sky.wgsl draws, in the same layout — the sky (behind the
+//! silhouettes' band too) and the ground below the horizon's margin at a
+//! quarter of the resolution per axis, interpolated at half, where the sun
+//! disc and the band's silhouettes are drawn over the sky and the ground
+//! near the horizon is shaded — for the background's upsampling
 //! (render/upsample.rs) to interpolate.
 //!
 //! On lavapipe the passes cost a frame more CPU than everything else it
@@ -65,11 +65,10 @@ pub(super) fn shade(
         .iter_mut()
         .for_each(|p| p.resize(area(widened), 0.0));
     half.iter_mut().for_each(|p| p.resize(area(half_size), 0.0));
+    // The quarter pass shades the sky above `-reach` and the ground below
+    // it: the texels that the half pass interpolates sample, the sky's at
+    // and above the horizon and the ground's below `-2 reach`.
     let reach = reach(view);
-    // The sky above `-reach` (the band's too, whose pixels lie above the
-    // horizon), the ground below it (rays within `reach` of an interpolated
-    // half pixel's, below `-2 reach`).
-    let needed = -reach;
     #[cfg(test)]
     let reach = if EVERY_GROUND_PIXEL.get() {
         f32::INFINITY
@@ -81,7 +80,7 @@ pub(super) fn shade(
         passes.quarter.each_mut().map(|p| &mut p[..]),
         (hw, qw),
         #[inline(always)]
-        |scratch, j, out| quarter_row(scratch, env, view, (j, (-reach, needed)), out),
+        |scratch, j, out| quarter_row(scratch, env, view, (j, -reach), out),
     );
     let quarter = (&passes.quarter, widened);
     by_rows(
@@ -157,32 +156,21 @@ fn rays(row: &mut Row, view: &View, scale: f32, j: usize) {
     row.normalise();
 }
 
-/// Quarter-resolution row `j`: `upper_sky` where a ray is above `needed`
-/// (the rays below the horizon taken level), the ground where it is below
-/// `lower`, zeros between; widened into `out` (the half pass's width).
+/// Quarter-resolution row `j`: the ground where a ray is below `lower`,
+/// `upper_sky` elsewhere (the rays below the horizon taken level); widened
+/// into `out` (the half pass's width).
 #[inline(always)]
 fn quarter_row(
     scratch: &mut Scratch,
     env: &Procedural,
     view: &View,
-    (j, (lower, needed)): (usize, (f32, f32)),
+    (j, lower): (usize, f32),
     out: Rgba<'_>,
 ) {
     let Scratch { row, spare } = scratch;
     rays(row, view, QUARTER as f32, j);
-    for plane in spare.iter_mut() {
-        plane.fill(0.0);
-    }
-    // No half pixel samples the texels between (`Band` here: not shaded).
-    row.split(|y| {
-        if y > needed {
-            Part::Upper
-        } else if y < lower {
-            Part::Ground
-        } else {
-            Part::Band
-        }
-    });
+    // Every texel is one part's or the other's: all of `spare` is written.
+    row.split(|y| if y < lower { Part::Ground } else { Part::Upper });
     row.level();
     row.upper_sky(env, spare.each_mut().map(|p| &mut p[..]));
     row.ground(env, spare.each_mut().map(|p| &mut p[..]));
@@ -193,8 +181,8 @@ fn quarter_row(
 
 /// Half-resolution row `j`: each pixel shaded by its part — the ground
 /// (below `lower` interpolated from the quarter pass), the band of the
-/// silhouettes, or the sky above it (interpolated from the quarter pass,
-/// plus the sun disc).
+/// silhouettes (over the sky interpolated from the quarter pass), or the
+/// sky above it (interpolated, plus the sun disc).
 #[inline(always)]
 fn half_row(
     row: &mut Row,
