@@ -246,14 +246,13 @@ fn azimuth(dir: vec3<f32>) -> vec2<f32> {
 }
 
 // The silhouettes (far, then near) over `sky`, the sky behind them in ray
-// `dir` (unit; at or above the horizon).
-fn silhouettes_over(sky: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+// `dir` (unit; at or above the horizon), whose azimuth is `az_c` and
+// horizon haze `haze`.
+fn silhouettes_over(sky: vec3<f32>, dir: vec3<f32>, az_c: vec2<f32>, haze: vec3<f32>) -> vec3<f32> {
     let sun = frame.sun_dir_world.xyz;
     let light = env.light.rgb;
     let ambient = env.ambient.rgb;
     let seed = env.pattern.xy;
-    let az_c = azimuth(dir);
-    let haze = horizon_haze(az_c);
     let elevation = asin(clamp(dir.y, -1.0, 1.0));
     var col = sky;
     // Far silhouette (hills, mountains, skyline), then the near tree line.
@@ -288,7 +287,7 @@ fn procedural_sky(dir: vec3<f32>) -> vec3<f32> {
     var col: vec3<f32>;
     if (select((dir.y >= 0.0), (ENV_PART < 1.5), (ENV_PART > 0.5))) {
         let upper = upper_sky(dir, haze);
-        col = silhouettes_over(upper.rgb + sun_disc(dir) * upper.a, dir);
+        col = silhouettes_over(upper.rgb + sun_disc(dir) * upper.a, dir, az_c, haze);
     } else {
         // Ground plane 60 m below the camera.
         let t = 60.0 / max(-dir.y, 1e-4);

@@ -115,7 +115,9 @@ fn fs_environment(in: SkyOut) -> @location(0) vec4<f32> {
         // The band: its silhouettes over the quarter-resolution pass's sky,
         // interpolated at this pixel, and the sun disc.
         let sky = textureSampleLevel(env_half, env_half_sampler, quarter, 0.0);
-        return vec4<f32>(silhouettes_over(sky.rgb + sun_disc(dir) * sky.a, dir), 1.0);
+        let az_c = azimuth(dir);
+        let col = silhouettes_over(sky.rgb + sun_disc(dir) * sky.a, dir, az_c, horizon_haze(az_c));
+        return vec4<f32>(col, 1.0);
     }
     if (dir.y < 2.0 * lower) {
         // The quarter-resolution pass's ground, interpolated at this pixel.
