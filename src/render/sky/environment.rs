@@ -38,20 +38,24 @@ impl SkyGpu {
         let band_top = self.written.band[0];
         let half = self.ensure_target(device, HALF_SCALE, frame);
         let draws = horizon.parts(band_top, half, HALF_SCALE as f32);
-        let upper = draws.iter().any(|(part, _)| *part >= 1).then(|| {
+        // Every part samples the quarter-resolution pass: it is drawn first,
+        // over all the parts' polygons at its own scale.
+        let quarter_pass = (!draws.is_empty()).then(|| {
             let quarter = self.ensure_target(device, QUARTER_SCALE, frame);
             let parts = horizon.parts(band_top, quarter, QUARTER_SCALE as f32);
-            let polygons = parts.into_iter().filter(|(part, _)| *part >= 1);
-            (4, polygons.flat_map(|(_, t)| t).collect::<Vec<_>>())
+            (
+                4,
+                parts.into_iter().flat_map(|(_, t)| t).collect::<Vec<_>>(),
+            )
         });
-        let upper_pipeline = upper
+        let quarter_pipeline = quarter_pass
             .as_ref()
             .map(|(part, _)| self.environment_pipeline(with, *part));
         let pipelines: Vec<usize> = draws
             .iter()
             .map(|(part, _)| self.environment_pipeline(with, *part))
             .collect();
-        let vertices: Vec<[f32; 2]> = upper
+        let vertices: Vec<[f32; 2]> = quarter_pass
             .iter()
             .chain(&draws)
             .flat_map(|(_, t)| t.iter().copied())
@@ -80,7 +84,7 @@ impl SkyGpu {
         // itself); the half-resolution pass samples the quarter's.
         let mut group = &self.default_group;
         if let (Some((_, triangles)), Some(pipeline), Some(quarter)) =
-            (&upper, upper_pipeline, &self.quarter)
+            (&quarter_pass, quarter_pipeline, &self.quarter)
         {
             let mut pass = crate::render::gpu::clear_pass(
                 encoder,
@@ -200,8 +204,9 @@ impl SkyGpu {
     /// use; its index in `self.pipelines`. A part is built only for the
     /// kinds it draws (the others are -1, never read): the ground side and
     /// the quarter-resolution pass for their ground, the band for its
-    /// silhouettes, the sky above the band for none. Environments that share them share the part's pipeline: each
-    /// pipeline costs lavapipe tens of milliseconds of shader compilation.
+    /// silhouettes, the sky above the band for none. Environments that
+    /// share them share the part's pipeline: each pipeline costs lavapipe
+    /// tens of milliseconds of shader compilation.
     fn environment_pipeline(&mut self, with: &SkyPassContext<'_>, part: u32) -> usize {
         let (ground, far, near) = (
             self.written.pattern[2],

@@ -142,8 +142,8 @@ fn an_upsampled_environment_stays_within_a_level_of_its_full_resolution() {
         let size = procedural::shade(&env, &view(1.0), FRAME, &mut passes, &mut half);
         // A frame twice as large: its half-resolution pass is this frame's pixels.
         let double = (FRAME.0 * 2, FRAME.1 * 2);
-        // Its ground shaded at every pixel (the sky above the band still at
-        // its quarter: this frame's half).
+        // Its ground shaded at every pixel (its sky still at its quarter:
+        // this frame's half).
         procedural::EVERY_GROUND_PIXEL.set(true);
         let reference = procedural::shade(&env, &view(2.0), double, &mut passes, &mut full);
         procedural::EVERY_GROUND_PIXEL.set(false);

@@ -82,14 +82,13 @@ pub(super) fn shade(
         #[inline(always)]
         |scratch, j, out| quarter_row(scratch, env, view, (j, -reach), out),
     );
-    let quarter = (&passes.quarter, widened);
+    let (quarter, lower) = ((&passes.quarter, widened), -2.0 * reach);
     by_rows(
         half.each_mut().map(|p| &mut p[..]),
         (hw, hw),
         #[inline(always)]
         |scratch, j, [r, g, b]| {
             let Scratch { row, spare } = scratch;
-            let lower = -2.0 * reach;
             half_row(
                 row,
                 env,
