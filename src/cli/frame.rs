@@ -38,7 +38,7 @@ pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
         Ok((pipeline, dir))
     })?;
     device_check(&pipeline, &ctx)?;
-    let mut renderer = pipeline.renderer(&ctx);
+    let mut renderer = pipeline.frame_renderer(&ctx);
     let mut frame = pipeline.make(&mut renderer, index)?;
     let (w, h) = (frame.scene.camera.width, frame.scene.camera.height);
     if args.overlay {

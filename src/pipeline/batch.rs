@@ -698,7 +698,7 @@ impl MakerStages<'_> {
         to_encode: &crossbeam_channel::Sender<Frame>,
         recycled: &crossbeam_channel::Receiver<(Vec<u8>, Painted)>,
     ) -> MakerEnd {
-        let mut renderer = self.pipeline.renderer(self.ctx);
+        let mut renderer = self.pipeline.frame_renderer(self.ctx);
         renderer.keep_spares(self.in_flight);
         // A maker reads nothing of its renderer but each frame's pixels.
         renderer.set_lend_backgrounds(!self.pipeline.reads_backgrounds());

@@ -415,12 +415,26 @@ impl FramePipeline {
 
     /// A renderer holding this pipeline's models and sky images on `ctx`'s device.
     pub fn renderer(&self, ctx: &GpuContext) -> Renderer {
+        self.renderer_with(ctx, false)
+    }
+
+    /// [`FramePipeline::renderer`] for making this preset's frames: its
+    /// frame targets made and first used before the sky is uploaded
+    /// ([`Renderer::prepare_targets`]), so the device zeroes them meanwhile.
+    pub fn frame_renderer(&self, ctx: &GpuContext) -> Renderer {
+        self.renderer_with(ctx, true)
+    }
+
+    fn renderer_with(&self, ctx: &GpuContext, prepared: bool) -> Renderer {
         let mut renderer = Renderer::with_lods(
             ctx,
             &self.assets.models,
             &self.assets.lods,
             self.preset.render.lod_error_px,
         );
+        if prepared {
+            renderer.prepare_targets(self.preset.image_size(), self.preset.render.msaa);
+        }
         if let Some(px) = self.preset.render.impostor_below_px {
             renderer.set_impostors(self.assets.impostors(), f64::from(px));
         }

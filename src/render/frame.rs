@@ -149,6 +149,43 @@ impl RegionState {
 }
 
 impl Renderer {
+    /// Make the targets that frames of `width`×`height` pixels and `msaa`
+    /// samples draw into, and submit their first use now: the device zeroes
+    /// a texture before it is first used (faulting in some 100 MB at 1080p
+    /// with MSAA 4), and on a CPU device that work then runs on the driver's
+    /// threads while the caller goes on (uploading the sky, making the first
+    /// scene) instead of before the first frame's passes. Frames are the
+    /// same either way. A size the device cannot draw is left to the frame
+    /// to report.
+    pub fn prepare_targets(&mut self, (width, height): (u32, u32), msaa: u32) {
+        if self.check_size(width, height).is_err() {
+            return;
+        }
+        let mut state = match self.regions.take() {
+            Some(s) => s,
+            None => RegionState::new(&self.factory, self.backend),
+        };
+        let t = self.frame_targets(&mut state, width, height, msaa.max(1));
+        let target = &state.targets[t];
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("targets' first use"),
+            });
+        let views = super::gpu::PassViews {
+            color: target.color_view(),
+            ids: target.ids.view(),
+            depth: &target.depth,
+        };
+        drop(super::gpu::load_pass(
+            &mut encoder,
+            "targets' first use",
+            views,
+        ));
+        self.queue.submit([encoder.finish()]);
+        self.regions = Some(state);
+    }
+
     /// Render `scene` region by region: the picture (equal to a full-frame
     /// render of the same meshes within one 8-bit level) and/or each drone's
     /// visibility, measured from the colour pass's own samples.
@@ -427,5 +464,15 @@ impl Renderer {
     /// How many times the background was drawn (cache misses), for tests and benchmarks.
     pub fn background_draws(&self) -> u64 {
         self.regions.as_ref().map_or(0, |s| s.backgrounds.draws)
+    }
+
+    /// The frame targets held (width, height, samples), least recently used first.
+    #[cfg(test)]
+    pub(super) fn target_shapes(&self) -> Vec<(u32, u32, u32)> {
+        let targets = self.regions.as_ref().map_or(&[][..], |s| &s.targets[..]);
+        targets
+            .iter()
+            .map(|t| (t.width, t.height, t.msaa))
+            .collect()
     }
 }

@@ -228,6 +228,43 @@ mod tests {
     use crate::pipeline::FramePipeline;
     use crate::preset::Preset;
 
+    /// A renderer whose targets were made and first used before its sky was
+    /// uploaded (`FramePipeline::frame_renderer`, the batch's) holds the
+    /// preset's targets before its first frame, makes no others for it, and
+    /// makes the same frames as one that makes them at its first frame.
+    #[test]
+    fn prepared_targets_make_the_same_frames() {
+        let ctx = crate::render::GpuContext::headless()
+            .unwrap_or_else(|e| panic!("rendering tests need a GPU adapter (lavapipe): {e}"));
+        let preset = Preset::from_ron(
+            r#"(
+            seed: 3,
+            placement: Randomized(count: (4, 7), volume: Box(size_m: (6.0, 3.0, 20.0)), min_separation_m: 0.7),
+            camera: (z: (start: 0.6, end: 0.6, step: 0.0)),
+            repeats: 3,
+            sky: Procedural(environment: Daytime),
+            render: (resolution: Custom(width: 200, height: 120), msaa: 4),
+            labels: (box_method: Visible, min_visible_fraction: 0.2),
+        )"#,
+        )
+        .expect("preset");
+        let pipeline = FramePipeline::new(preset).expect("pipeline");
+        let mut plain = pipeline.renderer(&ctx);
+        let mut prepared = pipeline.frame_renderer(&ctx);
+        assert!(plain.target_shapes().is_empty());
+        assert_eq!(prepared.target_shapes(), [(200, 120, 4)]);
+        let mut labelled = false;
+        for i in 0..pipeline.frame_count() {
+            let a = pipeline.make(&mut plain, i).expect("frame");
+            let b = pipeline.make(&mut prepared, i).expect("frame");
+            assert!(a.rgba == b.rgba, "frame {i}: pixels differ");
+            assert_eq!(a.labels, b.labels, "frame {i}: labels differ");
+            labelled |= !a.labels.is_empty();
+        }
+        assert!(labelled, "no drone labelled");
+        assert_eq!(prepared.target_shapes(), [(200, 120, 4)]);
+    }
+
     /// The frame's targets are never cleared (wgpu zeroes them once, before
     /// their first use): every texel a frame reads, one of its own passes
     /// wrote, whatever the frames before left there. So targets that
