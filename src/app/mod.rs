@@ -286,6 +286,7 @@ impl SwarmshotApp {
                 adapter_info: rs.adapter.get_info(),
                 max_texture_side: rs.device.limits().max_texture_dimension_2d,
                 shared: Default::default(),
+                prepared: Default::default(),
             };
             (ctx, rs.clone())
         });

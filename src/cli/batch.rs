@@ -49,8 +49,8 @@ fn batch(args: &BatchArgs, options: BatchOptions) -> anyhow::Result<()> {
     super::process::check_open_files("batch")?;
     // Before the models load and fill the cache (`run_batch` checks again, for the app).
     swarmshot::pipeline::check_cache_apart(&options.out_dir)?;
-    let ((pipeline, frames), ctx) = with_gpu_starting(|| {
-        let pipeline = FramePipeline::open(preset)?;
+    let ((pipeline, frames), ctx) = with_gpu_starting(|parsed| {
+        let pipeline = FramePipeline::open_then(preset, parsed)?;
         print_warnings(&pipeline);
         pipeline
             .preset()

@@ -12,8 +12,8 @@ use super::gpu::{device_check, with_gpu_starting};
 /// labels, manifest record, and the masks `output.masks` asks for), beside `out`.
 pub(crate) fn run(args: FrameArgs) -> anyhow::Result<()> {
     let (preset, index, out) = (&args.preset, args.index, &args.out);
-    let ((pipeline, mut dir), ctx) = with_gpu_starting(|| {
-        let pipeline = FramePipeline::open(preset)?;
+    let ((pipeline, mut dir), ctx) = with_gpu_starting(|parsed| {
+        let pipeline = FramePipeline::open_then(preset, parsed)?;
         pipeline
             .preset()
             .check_render_budget()

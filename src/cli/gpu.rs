@@ -3,39 +3,73 @@
 //! the adapter cannot make.
 
 use swarmshot::pipeline::FramePipeline;
+use swarmshot::preset::Preset;
 use swarmshot::render::GpuContext;
 
-/// Refuse what the adapter cannot do before anything is written; print the preset's warnings.
-pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow::Result<()> {
-    let limits = swarmshot::preset::DeviceLimits {
+/// What `ctx` can do, and the memory a frame may use.
+fn device_limits(ctx: &GpuContext) -> swarmshot::preset::DeviceLimits {
+    swarmshot::preset::DeviceLimits {
         max_texture_side: ctx.max_texture_side,
         max_buffer_bytes: ctx.device.limits().max_buffer_size,
         // Three quarters of what is free, within the process's `ulimit -v`/`-d`.
         memory_bytes: swarmshot::preset::budget::usable_memory_bytes(),
-    };
-    pipeline.preset().check_limits(&limits).map_err(|errors| {
-        let list: Vec<String> = errors.iter().map(|e| format!("  - {e}")).collect();
-        anyhow::anyhow!(
-            "the preset asks more than {} can do:\n{}",
-            ctx.describe(),
-            list.join("\n")
-        )
-    })
+    }
+}
+
+/// Refuse what the adapter cannot do before anything is written; print the preset's warnings.
+pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow::Result<()> {
+    pipeline
+        .preset()
+        .check_limits(&device_limits(ctx))
+        .map_err(|errors| {
+            let list: Vec<String> = errors.iter().map(|e| format!("  - {e}")).collect();
+            anyhow::anyhow!(
+                "the preset asks more than {} can do:\n{}",
+                ctx.describe(),
+                list.join("\n")
+            )
+        })
 }
 
 /// `open` (the preset, its models, hulls and levels of detail) with the GPU
 /// context starting on a second thread meanwhile: the instance and device
 /// (a sixth of a cached start-up on lavapipe) no longer wait for the
-/// single-threaded loading. `open`'s error comes first, as when the context
-/// was made after it: a bad preset reports the preset, not the GPU.
+/// single-threaded loading. `open` hands the preset to the callback it is
+/// given as soon as it is read; the context then makes that preset's frame
+/// targets (when the device and memory can hold them) and has the device
+/// zero them while the models load ([`GpuContext::prepare_frame_targets`]).
+/// `open`'s error comes first, as when the context was made after it: a bad
+/// preset reports the preset, not the GPU.
 pub(crate) fn with_gpu_starting<T>(
-    open: impl FnOnce() -> anyhow::Result<T>,
+    open: impl FnOnce(&dyn Fn(&Preset)) -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, GpuContext)> {
+    let (shape_tx, shape_rx) = crossbeam_channel::bounded::<((u32, u32), u32)>(1);
     std::thread::scope(|scope| {
         // A thread the system refuses only loses the overlap: the context
         // then starts after `open`, and not when `open` failed.
-        let gpu = swarmshot::threads::spawn_or_defer(scope, GpuContext::headless);
-        let opened = open()?;
+        let gpu = swarmshot::threads::spawn_or_defer(scope, move || {
+            let ctx = GpuContext::headless()?;
+            if let Ok((size, msaa)) = shape_rx.recv() {
+                ctx.prepare_frame_targets(size, msaa);
+            }
+            Ok(ctx)
+        });
+        let parsed = |preset: &Preset| {
+            // The memory a frame needs is checked here; the texture side
+            // against the device by `prepare_frame_targets`.
+            let limits = swarmshot::preset::DeviceLimits {
+                max_texture_side: u32::MAX,
+                max_buffer_bytes: u64::MAX,
+                memory_bytes: swarmshot::preset::budget::usable_memory_bytes(),
+            };
+            if preset.check_limits(&limits).is_ok() {
+                let _ = shape_tx.try_send((preset.image_size(), preset.render.msaa));
+            }
+        };
+        let opened = open(&parsed);
+        // The context's thread waits for a shape only while `open` runs.
+        drop(shape_tx);
+        let opened = opened?;
         // A panic there is the main thread's, as it was before the thread.
         let ctx = gpu
             .join()

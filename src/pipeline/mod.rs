@@ -296,7 +296,14 @@ impl FramePipeline {
     /// pipeline; an invalid field or a model or sky that cannot be loaded is
     /// named with the preset file.
     pub fn open(path: &Path) -> anyhow::Result<Self> {
+        Self::open_then(path, |_| {})
+    }
+
+    /// [`FramePipeline::open`], handing the preset to `parsed` once it is
+    /// read and checked, before its models and images load.
+    pub fn open_then(path: &Path, parsed: impl FnOnce(&Preset)) -> anyhow::Result<Self> {
         let preset = Preset::open(path)?;
+        parsed(&preset);
         Self::new(preset).with_context(|| format!("preset {}", path.display()))
     }
 

@@ -3,6 +3,7 @@
 use std::sync::{Arc, Mutex};
 
 use super::RenderError;
+use super::shared::SharedPipelines;
 
 /// Turn off Mesa's Vulkan device-select layer for a process that opens no window.
 ///
@@ -42,20 +43,33 @@ pub struct GpuContext {
     /// Pipelines the device's renderers share (the batch's makers each
     /// have one): each is compiled once per device.
     pub shared: SharedPipelines,
+    /// Frame targets made before any renderer ([`GpuContext::prepare_frame_targets`]).
+    pub prepared: PreparedTargets,
 }
 
-/// The environment pass's pipelines, by their key (the kinds they are
-/// built for and the part), shared by every renderer of one device: their
-/// shader compiles are the largest part of a short run's CPU on lavapipe,
-/// and wgpu's bind group layouts are deduplicated by their entries, so a
-/// pipeline one renderer built binds the groups of another.
+/// Frame targets made ahead, for the first renderer that draws frames of
+/// their size and sample count. At most one set is held: a renderer that
+/// makes targets of another shape releases it.
 #[derive(Clone, Default)]
-pub struct SharedPipelines {
-    pub(crate) environment: Arc<Mutex<EnvironmentPipelines>>,
-}
+pub struct PreparedTargets(Arc<Mutex<Option<super::targets::FrameTargets>>>);
 
-/// Environment pipelines by key (see `SkyGpu::environment_pipeline`).
-pub(crate) type EnvironmentPipelines = Vec<([u32; 4], wgpu::RenderPipeline)>;
+impl PreparedTargets {
+    /// The targets of `size` and `msaa` samples, if held; any others are released.
+    pub(super) fn take(&self, size: (u32, u32), msaa: u32) -> Option<super::targets::FrameTargets> {
+        let mut held = self
+            .0
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        held.take()
+            .filter(|t| (t.width, t.height, t.msaa) == (size.0, size.1, msaa))
+    }
+
+    /// Whether a set of targets is held (for tests).
+    #[cfg(test)]
+    pub(super) fn is_held(&self) -> bool {
+        self.0.lock().is_ok_and(|held| held.is_some())
+    }
+}
 
 impl GpuContext {
     /// Open a headless adapter; honours `WGPU_BACKEND` (vulkan, gl, …). Fails
@@ -94,7 +108,26 @@ impl GpuContext {
             adapter_info: adapter.get_info(),
             max_texture_side: limits.max_texture_dimension_2d,
             shared: SharedPipelines::default(),
+            prepared: PreparedTargets::default(),
         })
+    }
+
+    /// Make the targets frames of `size` pixels and `msaa` samples draw
+    /// into and submit their first use, before any renderer exists (see
+    /// [`super::Renderer::prepare_targets`]): a command that starts its
+    /// context beside the preset's loading has the device zero them
+    /// meanwhile, and its first renderer takes them. A size the device
+    /// cannot draw is left alone (the preset's checks report it). The
+    /// caller has checked that the frame fits in memory.
+    pub fn prepare_frame_targets(&self, (width, height): (u32, u32), msaa: u32) {
+        let side = 1..=self.max_texture_side;
+        if !side.contains(&width) || !side.contains(&height) || !matches!(msaa, 1 | 4) {
+            return;
+        }
+        let targets =
+            super::frame::first_used_targets((&self.device, &self.queue), (width, height), msaa);
+        let mut held = (self.prepared.0.lock()).unwrap_or_else(|poisoned| poisoned.into_inner());
+        *held = Some(targets);
     }
 
     /// "lavapipe (Vulkan)" and the like, for logs and reports.

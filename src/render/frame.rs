@@ -122,6 +122,43 @@ pub(super) struct RegionState {
 /// Target sets kept at once (e.g. a frame size and its id-pass size).
 const MAX_TARGETS: usize = 2;
 
+/// Frame targets of `size` and `msaa` samples with their first use
+/// submitted (see [`Renderer::prepare_targets`]), made without a renderer.
+pub(super) fn first_used_targets(
+    (device, queue): (&wgpu::Device, &wgpu::Queue),
+    size: (u32, u32),
+    msaa: u32,
+) -> FrameTargets {
+    let factory = PipelineFactory::new(device);
+    let (background, resolve) = passes::target_layouts(&factory);
+    let layouts = TargetLayouts {
+        background: &background,
+        resolve: &resolve,
+    };
+    let targets = FrameTargets::new(device, size, msaa, layouts);
+    submit_first_use(device, queue, &targets);
+    targets
+}
+
+/// Submit a pass that loads and stores `targets`' colour, ids and depth and
+/// draws nothing: wgpu zeroes them first, as before any first use.
+fn submit_first_use(device: &wgpu::Device, queue: &wgpu::Queue, targets: &FrameTargets) {
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("targets' first use"),
+    });
+    let views = super::gpu::PassViews {
+        color: targets.color_view(),
+        ids: targets.ids.view(),
+        depth: &targets.depth,
+    };
+    drop(super::gpu::load_pass(
+        &mut encoder,
+        "targets' first use",
+        views,
+    ));
+    queue.submit([encoder.finish()]);
+}
+
 impl RegionState {
     /// The parts of `factory`'s device, on `backend`.
     pub(super) fn new(factory: &PipelineFactory, backend: wgpu::Backend) -> Self {
@@ -150,13 +187,16 @@ impl RegionState {
 
 impl Renderer {
     /// Make the targets that frames of `width`×`height` pixels and `msaa`
-    /// samples draw into, and submit their first use now: the device zeroes
-    /// a texture before it is first used (faulting in some 100 MB at 1080p
-    /// with MSAA 4), and on a CPU device that work then runs on the driver's
-    /// threads while the caller goes on (uploading the sky, making the first
-    /// scene) instead of before the first frame's passes. Frames are the
-    /// same either way. A size the device cannot draw is left to the frame
-    /// to report.
+    /// samples draw into (or take those the context made ahead,
+    /// [`GpuContext::prepare_frame_targets`]), and submit their first use
+    /// now: the device zeroes a texture before it is first used (faulting
+    /// in some 100 MB at 1080p with MSAA 4), and on a CPU device that work
+    /// then runs on the driver's threads while the caller goes on
+    /// (uploading the sky, making the first scene) instead of before the
+    /// first frame's passes. Frames are the same either way. A size the
+    /// device cannot draw is left to the frame to report.
+    ///
+    /// [`GpuContext::prepare_frame_targets`]: super::GpuContext::prepare_frame_targets
     pub fn prepare_targets(&mut self, (width, height): (u32, u32), msaa: u32) {
         if self.check_size(width, height).is_err() {
             return;
@@ -166,23 +206,7 @@ impl Renderer {
             None => RegionState::new(&self.factory, self.backend),
         };
         let t = self.frame_targets(&mut state, width, height, msaa.max(1));
-        let target = &state.targets[t];
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("targets' first use"),
-            });
-        let views = super::gpu::PassViews {
-            color: target.color_view(),
-            ids: target.ids.view(),
-            depth: &target.depth,
-        };
-        drop(super::gpu::load_pass(
-            &mut encoder,
-            "targets' first use",
-            views,
-        ));
-        self.queue.submit([encoder.finish()]);
+        submit_first_use(&self.device, &self.queue, &state.targets[t]);
         self.regions = Some(state);
     }
 
@@ -231,6 +255,10 @@ impl Renderer {
         }
         if state.targets.len() >= MAX_TARGETS {
             state.targets.remove(0);
+        }
+        if let Some(targets) = self.prepared.take((width, height), msaa) {
+            state.targets.push(targets);
+            return state.targets.len() - 1;
         }
         let layouts = TargetLayouts {
             background: state.passes.background_layout(),

@@ -16,7 +16,10 @@
 //! reads), the encoded passes and the collected readback (`readback.rs`,
 //! `ids.rs`). The parts import one way: the frame composes the others; the
 //! wgpu descriptors they share are in the leaf `gpu.rs`, the upload tiles in
-//! `tiles.rs`. [`Renderer::encode`] draws a whole [`FrameScene`] into any
+//! `tiles.rs`, what a device's renderers share (the environment pipelines)
+//! in the leaf `shared.rs`; the context (`context.rs`) may make a preset's
+//! frame targets before any renderer, for its first renderer to take
+//! ([`GpuContext::prepare_frame_targets`]). [`Renderer::encode`] draws a whole [`FrameScene`] into any
 //! colour view of the right size; [`Renderer::render_rgba`] is that
 //! full-frame path offscreen (the reference the region path is tested against).
 
@@ -36,13 +39,14 @@ mod plate;
 mod readback;
 pub mod regions;
 pub mod scenery;
+mod shared;
 mod sky;
 mod targets;
 mod tiles;
 mod upsample;
 pub mod visibility;
 
-pub use context::{GpuContext, SharedPipelines, quiet_headless_vulkan};
+pub use context::{GpuContext, PreparedTargets, quiet_headless_vulkan};
 pub use frame::{Painted, RenderRequest, RenderedFrame};
 /// The pipeline maker, shared with the desktop app's flat paint.
 pub(crate) use gpu::{PipelineDesc, PipelineFactory};
@@ -51,6 +55,7 @@ pub(crate) use gpu::{texture_entry, uniform_entry};
 pub use ids::{MAX_DRONES, PixelHit};
 use mesh::DronePipelines;
 pub use mesh::bound_picks;
+pub use shared::SharedPipelines;
 
 use glam::{DMat4, Mat4};
 
@@ -328,6 +333,8 @@ pub struct Renderer {
     spare_limit: usize,
     /// The photographic backgrounds frames may name ([`Renderer::set_backplates`]).
     plates: plate::Plates,
+    /// Targets the context made ahead, taken by the first frame of their shape.
+    prepared: PreparedTargets,
 }
 
 /// The full-frame path's pipelines for one sample count.
@@ -451,6 +458,7 @@ impl Renderer {
             spare: Vec::new(),
             spare_limit: 2,
             plates: plate::Plates::default(),
+            prepared: ctx.prepared.clone(),
         }
     }
 

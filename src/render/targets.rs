@@ -231,7 +231,9 @@ mod tests {
     /// A renderer whose targets were made and first used before its sky was
     /// uploaded (`FramePipeline::frame_renderer`, the batch's) holds the
     /// preset's targets before its first frame, makes no others for it, and
-    /// makes the same frames as one that makes them at its first frame.
+    /// makes the same frames as one that makes them at its first frame; so
+    /// does one taking the targets its context made ahead
+    /// (`GpuContext::prepare_frame_targets`).
     #[test]
     fn prepared_targets_make_the_same_frames() {
         let ctx = crate::render::GpuContext::headless()
@@ -263,6 +265,24 @@ mod tests {
         }
         assert!(labelled, "no drone labelled");
         assert_eq!(prepared.target_shapes(), [(200, 120, 4)]);
+        // Made ahead by the context: taken by the first frame of their
+        // shape, the same frames again; another shape releases them.
+        ctx.prepare_frame_targets((200, 120), 4);
+        assert!(ctx.prepared.is_held());
+        let mut taking = pipeline.renderer(&ctx);
+        let first = pipeline.make(&mut taking, 0).expect("frame");
+        assert!(!ctx.prepared.is_held());
+        assert_eq!(taking.target_shapes(), [(200, 120, 4)]);
+        assert!(first.rgba == pipeline.make(&mut plain, 0).expect("frame").rgba);
+        ctx.prepare_frame_targets((64, 48), 1);
+        assert!(ctx.prepared.is_held());
+        pipeline
+            .make(&mut pipeline.renderer(&ctx), 1)
+            .expect("frame");
+        assert!(!ctx.prepared.is_held());
+        // A size the device cannot draw is not made.
+        ctx.prepare_frame_targets((ctx.max_texture_side + 1, 8), 4);
+        assert!(!ctx.prepared.is_held());
     }
 
     /// The frame's targets are never cleared (wgpu zeroes them once, before

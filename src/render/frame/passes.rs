@@ -40,10 +40,10 @@ pub(super) struct RegionPasses {
 impl RegionPasses {
     pub(super) fn new(factory: &PipelineFactory) -> Self {
         let [_, _, (_, regions_src), (_, resolve_src), ..] = crate::render::shader_sources();
+        let (background_layout, resolve_layout) = target_layouts(factory);
         Self {
-            background_layout: texture_layout(factory, "region background layout", false, 1),
-            // The resolve's inputs: the multisampled colour and id targets.
-            resolve_layout: texture_layout(factory, "region resolve layout", true, 2),
+            background_layout,
+            resolve_layout,
             regions_module: factory.shader("regions.wgsl", regions_src),
             resolve_module: factory.shader("resolve.wgsl", resolve_src),
             pipelines: Vec::new(),
@@ -66,6 +66,18 @@ impl RegionPasses {
     pub(super) fn has_id_readback(&self) -> bool {
         self.id_readback
     }
+}
+
+/// How the frame targets are bound: their background (the passes' "clear")
+/// and the resolves' inputs, the multisampled colour and id targets. Bind
+/// group layouts are the same whoever makes them (wgpu keeps one of each).
+pub(super) fn target_layouts(
+    factory: &PipelineFactory,
+) -> (wgpu::BindGroupLayout, wgpu::BindGroupLayout) {
+    (
+        texture_layout(factory, "region background layout", false, 1),
+        texture_layout(factory, "region resolve layout", true, 2),
+    )
 }
 
 /// What the region passes draw with that the renderer owns: its device,

@@ -82,9 +82,9 @@ pub(super) struct SkyGpu {
     /// The pipelines of `fs_environment`, one per environment's kinds
     /// (ground, far and near silhouette: see `ENV_GROUND` in
     /// environment.wgsl), built on first use.
-    pipelines: super::context::EnvironmentPipelines,
+    pipelines: super::shared::EnvironmentPipelines,
     /// The device's environment pipelines, which `pipelines` copies from.
-    shared: super::context::SharedPipelines,
+    shared: super::shared::SharedPipelines,
     /// The uniforms last written (part of the background cache key).
     written: EnvUniforms,
     /// Whether the procedural environment is shaded on the CPU
@@ -98,7 +98,7 @@ impl SkyGpu {
     pub(super) fn new(
         factory: &PipelineFactory,
         queue: &wgpu::Queue,
-        shared: super::context::SharedPipelines,
+        shared: super::shared::SharedPipelines,
         frame_layout: &wgpu::BindGroupLayout,
         cpu_environment: bool,
     ) -> Self {
