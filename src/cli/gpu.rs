@@ -43,32 +43,27 @@ pub(crate) fn device_check(pipeline: &FramePipeline, ctx: &GpuContext) -> anyhow
 pub(crate) fn with_gpu_starting<T>(
     open: impl FnOnce(&dyn Fn(&Preset)) -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, GpuContext)> {
-    let (shape_tx, shape_rx) = crossbeam_channel::bounded::<((u32, u32), u32)>(1);
+    let (preset_tx, preset_rx) = crossbeam_channel::bounded::<Box<Preset>>(1);
     std::thread::scope(|scope| {
         // A thread the system refuses only loses the overlap: the context
         // then starts after `open`, and not when `open` failed.
         let gpu = swarmshot::threads::spawn_or_defer(scope, move || {
             let ctx = GpuContext::headless()?;
-            if let Ok((size, msaa)) = shape_rx.recv() {
-                ctx.prepare_frame_targets(size, msaa);
+            // Only a frame the device and the memory can hold (what
+            // `device_check` later requires of the preset).
+            if let Ok(preset) = preset_rx.recv()
+                && preset.check_limits(&device_limits(&ctx)).is_ok()
+            {
+                ctx.prepare_frame_targets(preset.image_size(), preset.render.msaa);
             }
             Ok(ctx)
         });
         let parsed = |preset: &Preset| {
-            // The memory a frame needs is checked here; the texture side
-            // against the device by `prepare_frame_targets`.
-            let limits = swarmshot::preset::DeviceLimits {
-                max_texture_side: u32::MAX,
-                max_buffer_bytes: u64::MAX,
-                memory_bytes: swarmshot::preset::budget::usable_memory_bytes(),
-            };
-            if preset.check_limits(&limits).is_ok() {
-                let _ = shape_tx.try_send((preset.image_size(), preset.render.msaa));
-            }
+            let _ = preset_tx.try_send(Box::new(preset.clone()));
         };
         let opened = open(&parsed);
-        // The context's thread waits for a shape only while `open` runs.
-        drop(shape_tx);
+        // The context's thread waits for the preset only while `open` runs.
+        drop(preset_tx);
         let opened = opened?;
         // A panic there is the main thread's, as it was before the thread.
         let ctx = gpu
