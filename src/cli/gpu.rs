@@ -2,6 +2,8 @@
 //! context started beside the preset's loading, and the refusal of a preset
 //! the adapter cannot make.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use swarmshot::pipeline::FramePipeline;
 use swarmshot::preset::Preset;
 use swarmshot::render::GpuContext;
@@ -44,6 +46,9 @@ pub(crate) fn with_gpu_starting<T>(
     open: impl FnOnce(&dyn Fn(&Preset)) -> anyhow::Result<T>,
 ) -> anyhow::Result<(T, GpuContext)> {
     let (preset_tx, preset_rx) = crossbeam_channel::bounded::<Box<Preset>>(1);
+    // Set when `open` fails: a preset refused before the context is up
+    // gets no targets (its error is not kept waiting for them).
+    let failed = &AtomicBool::new(false);
     std::thread::scope(|scope| {
         // A thread the system refuses only loses the overlap: the context
         // then starts after `open`, and not when `open` failed.
@@ -52,6 +57,7 @@ pub(crate) fn with_gpu_starting<T>(
             // Only a frame the device and the memory can hold (what
             // `device_check` later requires of the preset).
             if let Ok(preset) = preset_rx.recv()
+                && !failed.load(Ordering::Relaxed)
                 && preset.check_limits(&device_limits(&ctx)).is_ok()
             {
                 ctx.prepare_frame_targets(preset.image_size(), preset.render.msaa);
@@ -62,6 +68,7 @@ pub(crate) fn with_gpu_starting<T>(
             let _ = preset_tx.try_send(Box::new(preset.clone()));
         };
         let opened = open(&parsed);
+        failed.store(opened.is_err(), Ordering::Relaxed);
         // The context's thread waits for the preset only while `open` runs.
         drop(preset_tx);
         let opened = opened?;
