@@ -123,7 +123,7 @@ pub(super) struct RegionState {
 const MAX_TARGETS: usize = 2;
 
 /// Frame targets of `size` and `msaa` samples with their first use
-/// submitted (see [`Renderer::prepare_targets`]), made without a renderer.
+/// submitted ([`made_targets`]), made without a renderer.
 pub(super) fn first_used_targets(
     (device, queue): (&wgpu::Device, &wgpu::Queue),
     size: (u32, u32),
@@ -135,14 +135,22 @@ pub(super) fn first_used_targets(
         background: &background,
         resolve: &resolve,
     };
-    let targets = FrameTargets::new(device, size, msaa, layouts);
-    submit_first_use(device, queue, &targets);
-    targets
+    made_targets((device, queue), size, msaa, layouts)
 }
 
-/// Submit a pass that loads and stores `targets`' colour, ids and depth and
-/// draws nothing: wgpu zeroes them first, as before any first use.
-fn submit_first_use(device: &wgpu::Device, queue: &wgpu::Queue, targets: &FrameTargets) {
+/// New frame targets with their first use submitted at once: a pass that
+/// loads and stores their colour, ids and depth and draws nothing, which
+/// wgpu precedes by zeroing them (faulting in some 100 MB at 1080p with
+/// MSAA 4). On a CPU device that work then runs on the driver's threads
+/// while the caller goes on, not before the first frame's passes; frames
+/// are the same either way.
+fn made_targets(
+    (device, queue): (&wgpu::Device, &wgpu::Queue),
+    size: (u32, u32),
+    msaa: u32,
+    layouts: TargetLayouts<'_>,
+) -> FrameTargets {
+    let targets = FrameTargets::new(device, size, msaa, layouts);
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("targets' first use"),
     });
@@ -157,6 +165,7 @@ fn submit_first_use(device: &wgpu::Device, queue: &wgpu::Queue, targets: &FrameT
         views,
     ));
     queue.submit([encoder.finish()]);
+    targets
 }
 
 impl RegionState {
@@ -187,14 +196,11 @@ impl RegionState {
 
 impl Renderer {
     /// Make the targets that frames of `width`×`height` pixels and `msaa`
-    /// samples draw into (or take those the context made ahead,
-    /// [`GpuContext::prepare_frame_targets`]), and submit their first use
-    /// now: the device zeroes a texture before it is first used (faulting
-    /// in some 100 MB at 1080p with MSAA 4), and on a CPU device that work
-    /// then runs on the driver's threads while the caller goes on
-    /// (uploading the sky, making the first scene) instead of before the
-    /// first frame's passes. Frames are the same either way. A size the
-    /// device cannot draw is left to the frame to report.
+    /// samples draw into now (or take those the context made ahead,
+    /// [`GpuContext::prepare_frame_targets`]), so that the device zeroes
+    /// them while the caller goes on (uploading the sky, making the first
+    /// scene): see [`made_targets`]. A size the device cannot draw is left
+    /// to the frame to report.
     ///
     /// [`GpuContext::prepare_frame_targets`]: super::GpuContext::prepare_frame_targets
     pub fn prepare_targets(&mut self, (width, height): (u32, u32), msaa: u32) {
@@ -205,8 +211,7 @@ impl Renderer {
             Some(s) => s,
             None => RegionState::new(&self.factory, self.backend),
         };
-        let t = self.frame_targets(&mut state, width, height, msaa.max(1));
-        submit_first_use(&self.device, &self.queue, &state.targets[t]);
+        self.frame_targets(&mut state, width, height, msaa.max(1));
         self.regions = Some(state);
     }
 
@@ -264,7 +269,7 @@ impl Renderer {
             background: state.passes.background_layout(),
             resolve: state.passes.resolve_layout(),
         };
-        let targets = FrameTargets::new(&self.device, (width, height), msaa, layouts);
+        let targets = made_targets((&self.device, &self.queue), (width, height), msaa, layouts);
         #[cfg(test)]
         if super::targets::GARBAGE.get() {
             targets.fill_with_garbage(&self.device, &self.queue);
