@@ -227,17 +227,22 @@ fn sigkill_at_any_point_then_resume_is_byte_identical() {
         assert_same_dataset(&reference, &out, "killed before a checkpoint");
     }
 
-    // During COCO writing: instances_train.json is in place, instances_val.json
-    // is being written.
+    // During COCO writing (the splits' files are written side by side, then
+    // renamed in turn): instances_train.json is in place, instances_val.json
+    // is written under its temporary name, not yet renamed.
     {
         let out = tmp.path().join("killed-in-coco");
+        let barrier = tmp.path().join("coco-barrier");
         let child = batch_cmd(&file, &out, &[])
             .env("SWARMSHOT_STALL_AT", "annotations/instances_val.json")
+            .env("SWARMSHOT_STALL_UNTIL", &barrier)
             .spawn()
             .expect("spawn");
-        let marker = out.join("annotations/.instances_val.json.tmp");
-        kill_when(child, "during COCO writing", || marker.exists());
+        let stalled = barrier.with_extension("stalled");
+        kill_when(child, "during COCO writing", || stalled.exists());
         assert!(out.join("annotations/instances_train.json").exists());
+        assert!(out.join("annotations/.instances_val.json.tmp").exists());
+        assert!(!out.join("annotations/instances_val.json").exists());
         assert!(!out.join("stats.json").exists());
         run_ok(&file, &out, &["--resume"]);
         assert_same_dataset(&reference, &out, "killed during COCO writing");

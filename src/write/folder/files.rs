@@ -104,13 +104,7 @@ impl Folder {
         let path = self.root.join(rel);
         let tmp_rel = self.clear_temp(rel)?;
         let file = self.tree.create_new(&tmp_rel, false)?;
-        let written = (|| {
-            let mut w = std::io::BufWriter::new(&file);
-            fill(&mut w)?;
-            w.flush()?;
-            drop(w);
-            file.sync_all()
-        })();
+        let written = fill_and_flush(&file, fill);
         stall_if_asked(rel);
         let result = written
             .map_err(io(&path))
@@ -119,6 +113,65 @@ impl Folder {
             let _ = self.tree.remove_file(&tmp_rel);
         }
         result
+    }
+
+    /// [`Folder::write_file_with`] for several files at once: their names
+    /// claimed (one ledger flush) and their temporary files made here, each
+    /// filled and flushed on a thread of its own (the disk writes them out
+    /// together instead of one after another), then renamed into place in
+    /// order once every one is written. On an error, every temporary file
+    /// not yet renamed is removed.
+    pub fn write_files_with<F>(&mut self, files: Vec<(String, F)>) -> Result<(), OutputError>
+    where
+        F: FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()> + Send,
+    {
+        for (rel, _) in &files {
+            if let Some((dir, _)) = rel.rsplit_once('/') {
+                self.ensure_dir(dir)?;
+            }
+            self.check_target(rel)?;
+        }
+        let new: Vec<&str> = (files.iter().map(|(rel, _)| rel.as_str()))
+            .filter(|rel| !self.is_ours(rel))
+            .collect();
+        self.claim(&new)?;
+        let (mut names, mut slots) = (Vec::new(), Vec::new());
+        for (rel, fill) in files {
+            let made = (self.clear_temp(&rel))
+                .and_then(|tmp| Ok((self.tree.create_new(&tmp, false)?, tmp)));
+            let (file, tmp_rel) = match made {
+                Ok(made) => made,
+                Err(e) => return Err(self.remove_temps(names.iter().map(|(_, t)| t), e)),
+            };
+            names.push((rel, tmp_rel));
+            slots.push(std::sync::Mutex::new(Some((file, fill))));
+        }
+        let written = fill_on_threads(&slots);
+        let failed =
+            (written.into_iter().zip(&names)).find_map(|(r, (rel, _))| r.err().map(|e| (rel, e)));
+        if let Some((rel, e)) = failed {
+            let e = io(&self.root.join(rel))(e);
+            return Err(self.remove_temps(names.iter().map(|(_, t)| t), e));
+        }
+        for (k, (rel, tmp_rel)) in names.iter().enumerate() {
+            stall_if_asked(rel);
+            if let Err(e) = self.tree.rename(tmp_rel, rel) {
+                return Err(self.remove_temps(names[k..].iter().map(|(_, t)| t), e));
+            }
+        }
+        Ok(())
+    }
+
+    /// Remove the temporary files `temps` after `error`, which is returned.
+    fn remove_temps<'a>(
+        &mut self,
+        temps: impl Iterator<Item = &'a String>,
+        error: OutputError,
+    ) -> OutputError {
+        for tmp in temps {
+            let _ = self.tree.remove_file(tmp);
+        }
+        error
     }
 
     /// The temporary name `rel` is written under, cleared of a temporary file
@@ -185,6 +238,45 @@ impl Folder {
     }
 }
 
+/// `file` filled by `fill` through a buffer, then flushed to disk.
+fn fill_and_flush(
+    file: &File,
+    fill: impl FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    let mut w = std::io::BufWriter::new(file);
+    fill(&mut w)?;
+    w.flush()?;
+    drop(w);
+    file.sync_all()
+}
+
+/// Each slot's file filled and flushed ([`fill_and_flush`]) on a thread of
+/// its own, or here where the system refuses one; the results in order.
+fn fill_on_threads<F>(slots: &[std::sync::Mutex<Option<(File, F)>>]) -> Vec<std::io::Result<()>>
+where
+    F: FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()> + Send,
+{
+    let run = |slot: &std::sync::Mutex<Option<(File, F)>>| {
+        let taken = slot.lock().ok().and_then(|mut s| s.take());
+        taken.map_or(Ok(()), |(file, fill)| fill_and_flush(&file, fill))
+    };
+    std::thread::scope(|s| {
+        let jobs: Vec<_> = (slots.iter())
+            .map(|slot| {
+                std::thread::Builder::new()
+                    .spawn_scoped(s, move || run(slot))
+                    .ok()
+            })
+            .collect();
+        (slots.iter().zip(jobs))
+            .map(|(slot, job)| match job {
+                Some(job) => job.join().unwrap_or_else(|p| std::panic::resume_unwind(p)),
+                None => run(slot),
+            })
+            .collect()
+    })
+}
+
 /// Write `rel` (a new name, or one this run owns) through a temporary file and a rename.
 pub(super) fn write_new_then_rename(
     tree: &mut Tree,
@@ -210,4 +302,54 @@ pub(super) fn write_new_then_rename(
         let _ = tree.remove_file(&tmp);
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder(root: &Path) -> Folder {
+        let mode = OpenMode {
+            fresh_frames: 1,
+            ..OpenMode::default()
+        };
+        Folder::open(root, 1, Some(1), mode, &[], &[])
+            .expect("open")
+            .0
+    }
+
+    type Fill = Box<dyn FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()> + Send>;
+
+    fn files(fail: Option<usize>) -> Vec<(String, Fill)> {
+        (0..3)
+            .map(|k| {
+                let fill: Fill = Box::new(move |out: &mut std::io::BufWriter<&File>| {
+                    if fail == Some(k) {
+                        return Err(std::io::Error::other("refused"));
+                    }
+                    write!(out, "file {k}")
+                });
+                (format!("end/f{k}.json"), fill)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn several_files_are_written_side_by_side_or_none_is() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let mut f = folder(dir.path());
+        f.write_files_with(files(None)).expect("written");
+        for k in 0..3 {
+            let text = fs::read_to_string(dir.path().join(format!("end/f{k}.json")));
+            assert_eq!(text.expect("read"), format!("file {k}"));
+        }
+        let other = tempfile::tempdir().expect("temp dir");
+        let mut f = folder(other.path());
+        let err = f.write_files_with(files(Some(1))).expect_err("refused");
+        assert!(err.to_string().contains("f1.json"), "{err}");
+        let left: Vec<_> = fs::read_dir(other.path().join("end"))
+            .expect("end")
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
+    }
 }

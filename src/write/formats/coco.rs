@@ -364,27 +364,32 @@ impl FormatWriter for CocoWriter {
         } else {
             json!({"description": "swarmshot synthetic UAV swarm dataset", "version": env!("CARGO_PKG_VERSION")})
         };
-        for (split, part) in SplitName::ALL.into_iter().zip(&mut self.parts) {
-            let rel = format!("annotations/instances_{}.json", split.as_str());
-            folder.write_file_with(&rel, |out| {
-                write!(
-                    out,
-                    "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {},\n",
-                    serde_json::Value::from(categories.clone())
-                )?;
-                if let Some(videos) = &mut part.videos {
-                    writeln!(out, "\"videos\": [")?;
-                    videos.copy_to(out)?;
-                    write!(out, "\n],\n")?;
-                }
-                writeln!(out, "\"images\": [")?;
-                part.images.copy_to(out)?;
-                write!(out, "\n],\n\"annotations\": [\n")?;
-                part.annotations.copy_to(out)?;
-                writeln!(out, "\n]}}")
-            })?;
-        }
-        Ok(())
+        let categories = serde_json::Value::from(categories);
+        let (head, categories) = (&head, &categories);
+        // The three splits' files assembled and flushed side by side.
+        let files = (SplitName::ALL.into_iter().zip(&mut self.parts))
+            .map(|(split, part)| {
+                let rel = format!("annotations/instances_{}.json", split.as_str());
+                let fill = move |out: &mut std::io::BufWriter<&std::fs::File>| {
+                    write!(
+                        out,
+                        "{{\"info\": {head},\n\"licenses\": [],\n\"categories\": {categories},\n",
+                    )?;
+                    if let Some(videos) = &mut part.videos {
+                        writeln!(out, "\"videos\": [")?;
+                        videos.copy_to(out)?;
+                        write!(out, "\n],\n")?;
+                    }
+                    writeln!(out, "\"images\": [")?;
+                    part.images.copy_to(out)?;
+                    write!(out, "\n],\n\"annotations\": [\n")?;
+                    part.annotations.copy_to(out)?;
+                    writeln!(out, "\n]}}")
+                };
+                (rel, fill)
+            })
+            .collect();
+        folder.write_files_with(files)
     }
 
     /// The shard's records follow, as they are, but for the annotation ids:
