@@ -68,7 +68,8 @@ impl Folder {
     /// Write a whole file atomically: claim it, write a temporary file in the
     /// same folder, flush it to disk, rename it over `rel`.
     pub fn write_file(&mut self, rel: &str, bytes: &[u8]) -> Result<(), OutputError> {
-        self.write_file_with(rel, |w| w.write_all(bytes))
+        let fill = |w: &mut std::io::BufWriter<&File>| w.write_all(bytes);
+        self.write_files_with(vec![(rel.to_owned(), fill)])
     }
 
     /// A frame file of a labels-only plan (already claimed with
@@ -88,39 +89,12 @@ impl Folder {
         Ok(())
     }
 
-    /// [`Folder::write_file`] with the contents streamed by `fill`.
-    pub fn write_file_with(
-        &mut self,
-        rel: &str,
-        fill: impl FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()>,
-    ) -> Result<(), OutputError> {
-        if let Some((dir, _)) = rel.rsplit_once('/') {
-            self.ensure_dir(dir)?;
-        }
-        self.check_target(rel)?;
-        if !self.is_ours(rel) {
-            self.claim(&[rel])?;
-        }
-        let path = self.root.join(rel);
-        let tmp_rel = self.clear_temp(rel)?;
-        let file = self.tree.create_new(&tmp_rel, false)?;
-        let written = fill_and_flush(&file, fill);
-        stall_if_asked(rel);
-        let result = written
-            .map_err(io(&path))
-            .and_then(|()| self.tree.rename(&tmp_rel, rel));
-        if result.is_err() {
-            let _ = self.tree.remove_file(&tmp_rel);
-        }
-        result
-    }
-
-    /// [`Folder::write_file_with`] for several files at once: their names
-    /// claimed (one ledger flush) and their temporary files made here, each
-    /// filled and flushed on a thread of its own (the disk writes them out
-    /// together instead of one after another), then renamed into place in
-    /// order once every one is written. On an error, every temporary file
-    /// not yet renamed is removed.
+    /// Whole files written atomically, each streamed by its `fill`: their
+    /// names claimed (one ledger flush) and their temporary files made here,
+    /// each filled and flushed to disk on a thread of its own but the last,
+    /// filled here (the disk writes them out together instead of one after
+    /// another), then renamed over their names in order once every one is
+    /// written. On an error, every temporary file not yet renamed is removed.
     pub fn write_files_with<F>(&mut self, files: Vec<(String, F)>) -> Result<(), OutputError>
     where
         F: FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()> + Send,
@@ -250,8 +224,9 @@ fn fill_and_flush(
     file.sync_all()
 }
 
-/// Each slot's file filled and flushed ([`fill_and_flush`]) on a thread of
-/// its own, or here where the system refuses one; the results in order.
+/// Each slot's file filled and flushed ([`fill_and_flush`]): the last here,
+/// the others each on a thread of its own where the system grants one
+/// ([`crate::threads::spawn_or_defer`]); the results in order.
 fn fill_on_threads<F>(slots: &[std::sync::Mutex<Option<(File, F)>>]) -> Vec<std::io::Result<()>>
 where
     F: FnOnce(&mut std::io::BufWriter<&File>) -> std::io::Result<()> + Send,
@@ -260,19 +235,17 @@ where
         let taken = slot.lock().ok().and_then(|mut s| s.take());
         taken.map_or(Ok(()), |(file, fill)| fill_and_flush(&file, fill))
     };
+    let Some((last, others)) = slots.split_last() else {
+        return Vec::new();
+    };
     std::thread::scope(|s| {
-        let jobs: Vec<_> = (slots.iter())
-            .map(|slot| {
-                std::thread::Builder::new()
-                    .spawn_scoped(s, move || run(slot))
-                    .ok()
-            })
+        let jobs: Vec<_> = (others.iter())
+            .map(|slot| crate::threads::spawn_or_defer(s, move || run(slot)))
             .collect();
-        (slots.iter().zip(jobs))
-            .map(|(slot, job)| match job {
-                Some(job) => job.join().unwrap_or_else(|p| std::panic::resume_unwind(p)),
-                None => run(slot),
-            })
+        let last = run(last);
+        (jobs.into_iter())
+            .map(|job| job.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .chain([last])
             .collect()
     })
 }
