@@ -6,7 +6,27 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh slurm-wlm munge ffmpeg
 . scripts/env.sh
 cargo fmt --all -- --check
-cargo clippy --locked --all-targets -- -D warnings
+# Lints and the test build in one pass: clippy-driver compiles our crate's targets (cargo runs
+# it in place of rustc for the workspace only, as `cargo clippy` does, with its `-D warnings`),
+# so the dependencies are compiled once, for the tests, instead of also being checked for a
+# separate `cargo clippy --all-targets` (docs/benchmarks.md, "The test build").
+export RUSTC_WORKSPACE_WRAPPER="$(rustc --print sysroot)/bin/clippy-driver"
+export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
+# The wrapper must deny what clippy warns of: a file whose one fault is a clippy warning (a
+# `vec!` that could be an array) compiles without CLIPPY_ARGS and fails with it, or the pass
+# below would let warnings through.
+canary=$(mktemp -d)
+printf 'fn main() { let v = vec![1]; println!("{}", v.len()); }\n' > "$canary/canary.rs"
+compile_canary() {
+  "$RUSTC_WORKSPACE_WRAPPER" rustc "$canary/canary.rs" --edition 2024 --emit=metadata \
+    -o "$canary/canary.rmeta" 2>/dev/null
+}
+if ! CLIPPY_ARGS= compile_canary || compile_canary; then
+  echo "test.sh: clippy-driver does not deny clippy's warnings through CLIPPY_ARGS" >&2
+  exit 1
+fi
+rm -rf "$canary"
+cargo test --locked --no-run --all-targets
 cargo clippy --locked --all-targets --no-default-features -- -D warnings
 # The built-in models must pass the Khronos glTF validator (npm's gltf-validator).
 if command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1; then
@@ -23,8 +43,7 @@ trap 'scripts/slurm_local.sh stop' EXIT
 export SWARMSHOT_REQUIRE_SLURM=1
 # fit from a video needs ffmpeg and ffprobe (tests/suite/fit_video.rs); installed above.
 export SWARMSHOT_REQUIRE_FFMPEG=1
-# The library, binaries and tests (the examples are compiled by clippy above; linking
-# twelve benchmark binaries here would only cost CI time; the crate has no doctests).
+# The library, binaries and tests, as built above (the crate has no doctests).
 cargo test --locked --no-fail-fast --lib --bins --tests
 # The headless CLI (no egui, eframe, winit, rfd, zbus, open; docs/scale.md): clippy has compiled
 # and linted it above (--no-default-features); its dependency tree must hold none of the app's crates.

@@ -44,8 +44,8 @@ fn shipped_presets_load_and_validate() {
             }
         }
     }
-    // 11 in presets/, 11 in bench/, 4 in sim2real/: a folder the walk missed fails here.
-    assert!(n >= 26, "{n} presets");
+    // 19 in presets/, 15 in bench/, 4 in sim2real/: a folder the walk missed fails here.
+    assert!(n >= 38, "{n} presets");
     // The sim-to-real presets are the shipped ones at the real footage's size.
     let sim2real = root.join("sim2real/realistic_640x512.ron");
     let preset = Preset::load(&sim2real).unwrap_or_else(|e| panic!("{e}"));
