@@ -10,7 +10,8 @@ cargo fmt --all -- --check
 # it in place of rustc for the workspace only, as `cargo clippy` does, with its `-D warnings`),
 # so the dependencies are compiled once, for the tests, instead of also being checked for a
 # separate `cargo clippy --all-targets` (docs/benchmarks.md, "The test build").
-export RUSTC_WORKSPACE_WRAPPER="$(rustc --print sysroot)/bin/clippy-driver"
+# clippy-driver beside cargo-clippy, where `cargo clippy` finds it.
+export RUSTC_WORKSPACE_WRAPPER="$(dirname "$(command -v cargo-clippy)")/clippy-driver"
 export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
 # The wrapper must deny what clippy warns of: a file whose one fault is a clippy warning (a
 # `vec!` that could be an array) compiles without CLIPPY_ARGS and fails with it, or the pass
