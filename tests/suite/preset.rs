@@ -52,6 +52,20 @@ fn shipped_presets_load_and_validate() {
     assert_eq!(preset.image_size(), (640, 512));
 }
 
+/// The bench preset that times `realistic.ron` without its camera model is that preset,
+/// its camera model and name aside: an edit of one that the other misses fails here.
+#[test]
+fn realistic_no_camera_is_realistic_without_its_camera_model() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("presets");
+    let load = |p: &str| Preset::load(&root.join(p)).unwrap_or_else(|e| panic!("{e}"));
+    let mut realistic = load("realistic.ron");
+    let bench = load("bench/realistic_no_camera.ron");
+    assert!(realistic.camera_model.is_some() && bench.camera_model.is_none());
+    realistic.camera_model = None;
+    realistic.name.clone_from(&bench.name);
+    assert_eq!(realistic, bench);
+}
+
 #[test]
 fn quickstart_is_paper_like() {
     let p = Preset::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("presets/quickstart.ron"))
